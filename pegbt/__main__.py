@@ -1,0 +1,5 @@
+"""`python -m pegbt` is the `pegbt` command."""
+
+from pegbt.cli import main
+
+raise SystemExit(main())

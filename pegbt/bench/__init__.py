@@ -1,0 +1,36 @@
+"""Every benchmark behind `pegbt bench NAME`: one registry, one output format.
+
+A benchmark is a function `run() -> dict[str, float | int | str]` in its own module. It measures its
+baselines in the same process as the thing under test, so that ratios hold on a noisy machine, and
+reports medians. Register it in `BENCHMARKS` as `name: "module:function"`; modules load only when run.
+"""
+
+from __future__ import annotations
+
+import importlib
+from collections.abc import Callable
+
+from pegbt.errors import PegbtError
+
+Figures = dict[str, float | int | str]
+
+BENCHMARKS: dict[str, str] = {}
+
+
+def benchmark_names() -> list[str]:
+    """Names of all registered benchmarks, sorted."""
+    return sorted(BENCHMARKS)
+
+
+def load_benchmark(name: str) -> Callable[[], Figures]:
+    """The `run` function of benchmark NAME; a `PegbtError` naming the choices if it is unknown."""
+    if name not in BENCHMARKS:
+        known = ", ".join(benchmark_names()) or "none registered"
+        raise PegbtError(f"unknown benchmark {name!r}; known: {known}", field="NAME")
+    module_name, function_name = BENCHMARKS[name].split(":")
+    return getattr(importlib.import_module(module_name), function_name)
+
+
+def run_benchmark(name: str) -> Figures:
+    """Run benchmark NAME and return its figures."""
+    return load_benchmark(name)()

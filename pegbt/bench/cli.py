@@ -1,0 +1,44 @@
+"""`pegbt bench NAME... [--json]`: run benchmarks and print their figures."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+
+from pegbt.bench import Figures, benchmark_names, run_benchmark
+
+
+def add_commands(subparsers: argparse._SubParsersAction) -> None:
+    parser = subparsers.add_parser(
+        "bench",
+        help="run benchmarks and print their figures",
+        description="Run benchmarks. Each prints `name: value` lines, or one JSON object with --json "
+        "(keyed by benchmark when several are named). Without NAME, list the benchmarks.",
+    )
+    parser.add_argument("names", nargs="*", metavar="NAME", help="benchmark(s) to run")
+    parser.add_argument("--json", action="store_true", help="print one JSON object")
+    parser.set_defaults(handler=_bench)
+
+
+def _format_value(value: float | int | str) -> str:
+    if isinstance(value, float) and math.isfinite(value):
+        return f"{value:.6g}"
+    return str(value)
+
+
+def _bench(args: argparse.Namespace) -> int:
+    if not args.names:
+        print("\n".join(benchmark_names()) or "no benchmarks registered")
+        return 0
+    results: dict[str, Figures] = {name: run_benchmark(name) for name in args.names}
+    if args.json:
+        payload = results[args.names[0]] if len(args.names) == 1 else results
+        print(json.dumps(payload, sort_keys=False))
+    else:
+        for name, figures in results.items():
+            if len(results) > 1:
+                print(f"# {name}")
+            for key, value in figures.items():
+                print(f"{key}: {_format_value(value)}")
+    return 0

@@ -1,0 +1,1 @@
+"""Motion skills: dVRK PSM kinematics, inverse kinematics and trajectory planning."""

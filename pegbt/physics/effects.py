@@ -1,0 +1,89 @@
+"""Cable effects between a commanded joint and the physical joint, as plain data.
+
+An `Effect` names one physical phenomenon on one joint with its parameters, in the same form as the
+sim-to-real report (`{"effect": "coupling", "joint": "q5", "params": {"source": "q6", "k": 0.21}}`):
+
+- `offset` {value}: physical = command + value (rad or m).
+- `scale` {value}: physical = value × command.
+- `coupling` {source, k}: physical += k × the source joint's command (cables routed past each other).
+- `backlash` {half_width}: play; the output stays until the input has moved half_width past it.
+- `lag` {tau}: first-order response with time constant tau (s).
+- `delay` {seconds}: pure transport delay of the command.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+from pegbt.errors import PegbtError
+
+JOINT_NAMES: tuple[str, ...] = ("q1", "q2", "q3", "q4", "q5", "q6")
+
+# Parameters each effect kind takes; `source` is a joint name, the rest are floats.
+EFFECT_KINDS: dict[str, tuple[str, ...]] = {
+    "offset": ("value",),
+    "scale": ("value",),
+    "coupling": ("source", "k"),
+    "backlash": ("half_width",),
+    "lag": ("tau",),
+    "delay": ("seconds",),
+}
+
+_NON_NEGATIVE = {("backlash", "half_width"), ("lag", "tau"), ("delay", "seconds")}
+
+
+def joint_index(name: str | int) -> int:
+    """0-based index of a joint given as `q1`..`q6` or as an index."""
+    if isinstance(name, int) and 0 <= name < len(JOINT_NAMES):
+        return name
+    if isinstance(name, str) and name in JOINT_NAMES:
+        return JOINT_NAMES.index(name)
+    raise PegbtError(f"unknown joint {name!r}; expected one of {', '.join(JOINT_NAMES)}", field="joint")
+
+
+@dataclass(frozen=True)
+class Effect:
+    """One cable effect on one joint."""
+
+    effect: str
+    joint: str
+    params: Mapping[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        if self.effect not in EFFECT_KINDS:
+            raise PegbtError(
+                f"unknown effect {self.effect!r}; expected one of {', '.join(EFFECT_KINDS)}", field="effect"
+            )
+        joint_index(self.joint)
+        expected = set(EFFECT_KINDS[self.effect])
+        if set(self.params) != expected:
+            raise PegbtError(
+                f"{self.effect} on {self.joint} takes parameters {sorted(expected)}, got {sorted(self.params)}",
+                field="params",
+            )
+        for name, value in self.params.items():
+            if name == "source":
+                if joint_index(value) == joint_index(self.joint):
+                    raise PegbtError(f"coupling on {self.joint} cannot take itself as source", field="source")
+                continue
+            if not isinstance(value, (int, float)) or value != value or abs(value) == float("inf"):
+                raise PegbtError(f"{self.effect}.{name} on {self.joint} must be a finite number", field=name)
+            if (self.effect, name) in _NON_NEGATIVE and value < 0:
+                raise PegbtError(f"{self.effect}.{name} on {self.joint} must be >= 0, got {value}", field=name)
+
+    @property
+    def index(self) -> int:
+        return joint_index(self.joint)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"effect": self.effect, "joint": self.joint, "params": dict(self.params)}
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any]) -> "Effect":
+        """Read an effect from its report / preset form; extra keys (ci, text, ...) are ignored."""
+        try:
+            return cls(str(data["effect"]), str(data["joint"]), dict(data.get("params", {})))
+        except KeyError as missing:
+            raise PegbtError(f"effect entry lacks {missing.args[0]!r}", field=str(missing.args[0])) from None

@@ -1,0 +1,90 @@
+"""The shared arm-physics model: each effect does what its definition says."""
+
+import numpy as np
+import pytest
+
+from pegbt.errors import PegbtError
+from pegbt.physics import ArmPhysics, Effect
+
+
+def _commands(n: int = 400) -> np.ndarray:
+    q = np.zeros((n, 6))
+    q[:, 4] = 0.5 * np.sin(np.linspace(0, 4 * np.pi, n))
+    q[:, 5] = 0.3 * np.cos(np.linspace(0, 6 * np.pi, n))
+    return q
+
+
+def test_ideal_arm_reproduces_the_command():
+    q = _commands()
+    assert np.array_equal(ArmPhysics().simulate(q), q)
+
+
+def test_offset_scale_and_coupling_form_the_static_map():
+    model = ArmPhysics([
+        Effect("offset", "q4", {"value": 0.2}),
+        Effect("scale", "q5", {"value": 0.9}),
+        Effect("coupling", "q5", {"source": "q6", "k": 0.25}),
+    ])
+    q = _commands()
+    out = model.simulate(q)
+    assert np.allclose(out[:, 3], q[:, 3] + 0.2)
+    assert np.allclose(out[:, 4], 0.9 * q[:, 4] + 0.25 * q[:, 5])
+    assert np.allclose(out[:, 5], q[:, 5])
+
+
+def test_backlash_holds_until_the_input_moves_past_the_play():
+    model = ArmPhysics([Effect("backlash", "q5", {"half_width": 0.1})])
+    q = np.zeros((5, 6))
+    q[:, 4] = [0.0, 0.05, 0.3, 0.25, 0.1]
+    out = model.simulate(q)[:, 4]
+    assert np.allclose(out, [0.0, 0.0, 0.2, 0.2, 0.2])
+
+
+def test_lag_settles_with_its_time_constant():
+    model = ArmPhysics([Effect("lag", "q6", {"tau": 0.1})])
+    t = np.arange(0, 1.0, 0.01)
+    q = np.zeros((len(t), 6))
+    q[1:, 5] = 1.0
+    out = model.simulate(q, t)[:, 5]
+    assert out[10] == pytest.approx(1 - np.exp(-1.0), abs=1e-9)  # ten 10 ms intervals = one tau
+    assert np.allclose(model.simulate(q)[:, 5], q[:, 5])  # settled set-points: no lag left
+
+
+def test_stepping_matches_replaying_a_stream():
+    model = ArmPhysics.load("dvrk-real", "PSM1")
+    t = np.arange(300) * 0.01
+    q = _commands(300)
+    first = model.reset(q[0], time=0.0)
+    stepped = np.array([first] + [model.step(q[n], 0.01) for n in range(1, 300)])
+    assert np.allclose(stepped, model.simulate(q, t), atol=1e-12)
+
+
+def test_delay_shifts_the_command_in_time():
+    model = ArmPhysics([Effect("delay", "q1", {"seconds": 0.05})])
+    t = np.arange(200) * 0.01
+    q = np.zeros((200, 6))
+    q[:, 0] = np.linspace(0, 1, 200)
+    out = model.simulate(q, t)
+    assert out[100, 0] == pytest.approx(q[95, 0])
+
+
+@pytest.mark.parametrize(
+    "effect, joint, params, field",
+    [
+        ("friction", "q1", {}, "effect"),
+        ("offset", "q9", {"value": 1.0}, "joint"),
+        ("offset", "q1", {"val": 1.0}, "params"),
+        ("backlash", "q5", {"half_width": -0.1}, "half_width"),
+        ("coupling", "q5", {"source": "q5", "k": 0.1}, "source"),
+        ("lag", "q5", {"tau": float("nan")}, "tau"),
+    ],
+)
+def test_bad_effects_are_refused_with_the_field_named(effect, joint, params, field):
+    with pytest.raises(PegbtError) as raised:
+        Effect(effect, joint, params)
+    assert raised.value.field == field
+
+
+def test_unknown_preset_names_the_known_ones():
+    with pytest.raises(PegbtError, match="dvrk-real"):
+        ArmPhysics.load("no-such-preset")
