@@ -16,3 +16,11 @@ def test_batches_keep_their_shape():
     T = forward_kinematics(q)
     assert T.shape == (4, 3, 4, 4)
     assert np.allclose(T[2, 1], forward_kinematics(q[2, 1]))
+
+
+def test_arm_limits_name_the_joint_that_is_out():
+    from pegbt.motion.limits import arm_settings
+
+    problems = arm_settings("PSM1").joint_violations([0, 0, 0.30, 0, 0, float("nan")])
+    assert len(problems) == 2
+    assert problems[0].startswith("q3 (insertion)") and "q6 (wrist_yaw) is nan" == problems[1]
