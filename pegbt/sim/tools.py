@@ -28,9 +28,15 @@ class ToolState:
     jaw: float
     shaft: Matrix
 
-    @property
-    def tip_position(self) -> Matrix:
-        return self.tip[:3, 3]
+    @classmethod
+    def from_link_frames(cls, frames: list[Matrix], jaw: float, arm_to_board: Matrix) -> ToolState:
+        """The tool state from an arm's 8 link frames in its base frame (`pegbt.motion.kinematics.link_frames`).
+
+        The remote centre is the base origin; the shaft ends where the insertion joint's frame (the
+        third, index 2) ends, at the wrist pitch axis; the tip is the last frame.
+        """
+        shaft = np.array([arm_to_board[:3, 3], arm_to_board[:3, :3] @ frames[2][:3, 3] + arm_to_board[:3, 3]])
+        return cls(tip=arm_to_board @ frames[-1], jaw=float(jaw), shaft=shaft)
 
     def jaw_hinge(self, tool: ToolGeometry) -> Matrix:
         """(3,) the wrist yaw axis, where the jaws hinge: `jaw_length` back up the tool from the tip."""
