@@ -17,6 +17,7 @@ from pegbt.sim.events import Event
 from pegbt.sim.geometry import Matrix, yaw_of
 from pegbt.sim.tools import ToolState, tool_pointing_down
 from pegbt.sim.world import World
+from pegbt.workcell import ARMS
 
 LIFT_MARGIN = 0.004  # the block's bottom clears the peg tops by this much when carried
 PLACE_DEPTH = 0.003  # a block is released with its bottom this far down the goal peg
@@ -113,7 +114,7 @@ class Driver:
         self.world = world
         self.step = step
         self.speed = speed
-        self.poses = {arm: parked(world, arm) for arm in ("PSM1", "PSM2")}
+        self.poses = {arm: parked(world, arm) for arm in ARMS}
 
     def tool(self, arm: str, frame: Keyframe) -> ToolState:
         cell = self.world.cell
