@@ -1,0 +1,67 @@
+"""What the world needs to know about each arm's instrument at one instant.
+
+The endpoint computes a `ToolState` per arm every step from the PHYSICAL joints (forward kinematics,
+then the arm-to-board transform of the work cell), so the world reacts to where the tool really is,
+not where the encoders say it is.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from pegbt.sim.geometry import Matrix
+from pegbt.workcell import ToolGeometry
+
+
+@dataclass(frozen=True)
+class ToolState:
+    """One instrument in the board frame (metres).
+
+    `tip`: 4×4 tool-tip pose (the tool-tip frame of `pegbt.motion.kinematics`: z back up the tool, x the
+    jaw-closing direction, y the jaw hinge). `jaw`: jaw opening angle (rad). `shaft`: (2, 3) the shaft's
+    two ends, the remote centre of motion and the wrist pitch axis.
+    """
+
+    tip: Matrix
+    jaw: float
+    shaft: Matrix
+
+    @classmethod
+    def from_link_frames(cls, frames: list[Matrix], jaw: float, arm_to_board: Matrix) -> ToolState:
+        """The tool state from an arm's 8 link frames in its base frame (`pegbt.motion.kinematics.link_frames`).
+
+        The remote centre is the base origin; the shaft ends where the insertion joint's frame (the
+        third, index 2) ends, at the wrist pitch axis; the tip is the last frame.
+        """
+        shaft = np.array([arm_to_board[:3, 3], arm_to_board[:3, :3] @ frames[2][:3, 3] + arm_to_board[:3, 3]])
+        return cls(tip=arm_to_board @ frames[-1], jaw=float(jaw), shaft=shaft)
+
+    def jaw_hinge(self, tool: ToolGeometry) -> Matrix:
+        """(3,) the wrist yaw axis, where the jaws hinge: `jaw_length` back up the tool from the tip."""
+        return self.tip[:3, 3] + tool.jaw_length * self.tip[:3, 2]
+
+    def segments(self, tool: ToolGeometry) -> tuple[Matrix, Matrix, Matrix]:
+        """Start points (3, 3), end points (3, 3) and radii (3,) of shaft, wrist and jaw, for collisions."""
+        hinge = self.jaw_hinge(tool)
+        starts = np.array([self.shaft[0], self.shaft[1], hinge])
+        ends = np.array([self.shaft[1], hinge, self.tip[:3, 3]])
+        return starts, ends, np.array([tool.shaft_radius, tool.wrist_radius, tool.jaw_radius])
+
+
+def tool_pointing_down(position: Matrix, yaw: float, jaw: float, remote_centre: Matrix, tool: ToolGeometry) -> ToolState:
+    """A tool whose jaw points straight down into the board at `position`, jaws closing along `yaw`.
+
+    For scripted scenes and benchmarks: the shaft runs from the arm's remote centre to a wrist placed
+    `wrist_length` from the jaw hinge towards it, as an unbent wrist would put it.
+    """
+    position = np.asarray(position, dtype=float)
+    x = np.array([np.cos(yaw), np.sin(yaw), 0.0])
+    z = np.array([0.0, 0.0, -1.0])  # back up the tool: "up" is -z on the board
+    tip = np.eye(4)
+    tip[:3, 0], tip[:3, 1], tip[:3, 2], tip[:3, 3] = x, np.cross(z, x), z, position
+    hinge = position + tool.jaw_length * z
+    towards_centre = (remote_centre - hinge) / np.linalg.norm(remote_centre - hinge)
+    wrist = hinge + tool.wrist_length * towards_centre
+    return ToolState(tip=tip, jaw=float(jaw), shaft=np.array([remote_centre, wrist], dtype=float))

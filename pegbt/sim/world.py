@@ -1,0 +1,386 @@
+"""The world the arms act in: a pegboard, six FLS blocks, and geometry that decides what happens.
+
+The endpoint calls `World.update(time, tools)` every simulation step with each arm's tool state (from
+its physical joints). Nothing is scripted: a closing jaw grips a block only if it straddles one of the
+block's walls; a gripped block moves rigidly with the jaw; lifting it clears its peg only if the hole
+stays around the peg all the way up; a released block lands on a peg only if its hole is over one
+within the clearance, and otherwise drops onto the board (or off it). Every such outcome, every
+collision and every injected fault is appended to `World.events`, the ground truth of a trial.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from itertools import combinations
+
+import numpy as np
+
+from pegbt.sim.blocks import Block
+from pegbt.sim.events import Event, EventLog
+from pegbt.sim.faults import WorldFaults
+from pegbt.sim.geometry import Matrix, boxes_overlap, pose, segment_distances, yaw_of, yaw_rotation
+from pegbt.sim.tools import ToolState
+from pegbt.workcell import Workcell, invert_rigid, workcell
+
+_LOST_BELOW_BOARD = 0.1  # where a block that left the workspace lies: on the floor, 10 cm below the board
+
+
+@dataclass(frozen=True)
+class WorldConfig:
+    """Tolerances of the world's physics (metres, radians)."""
+
+    jaw_closed_below: float = 0.25  # a jaw closing past this angle grips (it meets a 2 mm wall at 0.21)
+    jaw_open_above: float = 0.35  # a gripping jaw opening past this angle lets go
+    grasp_wall_tolerance: float = 0.0005  # the jaw tip may miss the wall's radial span by this much
+    grasp_edge_margin: float = 0.001  # and must stay this far inside the ends of the flat edge
+    grasp_min_bite: float = 0.001  # the jaw tip must reach this far below the block's top face
+    grasp_max_tilt: float = math.radians(30)  # between the tool's axis and the block's
+    grasp_max_misalignment: float = math.radians(30)  # between the jaw-closing axis and the wall's normal
+    grasp_search_radius: float = 0.015  # a closing jaw this near a block's centre is a grasp attempt
+    handover_pull_apart: float = 0.003  # two grips disagreeing by more than this: the later one slips
+    peg_slack: float = 0.0  # extra clearance allowed between hole and peg before the block catches
+    board_press_tolerance: float = 0.0005  # a held block pushed this far into the board is a collision
+    initial_yaw_spread: float = math.pi / 3  # initial yaws are drawn from ± this
+
+
+class World:
+    """Pegboard, blocks and ground-truth events; deterministic for a given seed and tool history."""
+
+    def __init__(
+        self,
+        seed: int = 0,
+        *,
+        cell: Workcell | None = None,
+        config: WorldConfig = WorldConfig(),
+        faults: WorldFaults = WorldFaults(),
+    ) -> None:
+        self.cell = cell or workcell()
+        self.config = config
+        self.faults = faults
+        self.seed = seed
+        layout_seed, fault_seed = np.random.SeedSequence(seed).spawn(2)
+        self._rng = np.random.default_rng(fault_seed)
+        self.events = EventLog()
+        self.time = 0.0
+        self.tools: dict[str, ToolState] = {}
+        self._closed: dict[str, bool] = {}
+        self._contacts: set[tuple[str, str, int, int]] = set()
+        self._attempts = 0
+        self._next_slip = 0
+        pegs, board = self.cell.pegs, self.cell.board
+        self._peg_tops = pegs.tops
+        self._peg_feet = np.column_stack([pegs.positions, np.full(len(pegs.positions), board.surface_z)])
+        self._peg_low = self._peg_tops - [pegs.radius, pegs.radius, 0.0]  # bounding boxes of the pegs
+        self._peg_high = self._peg_feet + [pegs.radius, pegs.radius, 0.0]
+        self._clearance = self.cell.block.hole_radius - pegs.radius + config.peg_slack
+        layout = np.random.default_rng(layout_seed)
+        self.blocks: list[Block] = []
+        for index, peg in enumerate(pegs.left_group):
+            block = Block(index, np.eye(4), peg)
+            self._rest_on_peg(block, peg, layout.uniform(-config.initial_yaw_spread, config.initial_yaw_spread))
+            self.blocks.append(block)
+
+    # ----------------------------------------------------------------------------------------- queries
+
+    def block_poses(self) -> Matrix:
+        """(6, 4, 4) pose of every block in the board frame."""
+        return np.array([block.pose for block in self.blocks])
+
+    def held_by(self, arm: str) -> int | None:
+        """Index of the block `arm` grips, if any."""
+        return next((block.index for block in self.blocks if arm in block.grips), None)
+
+    def jaw_stop(self, arm: str) -> float | None:
+        """The jaw angle at which the gripped block's wall stops `arm`'s jaw (None when it grips nothing).
+
+        The endpoint may hold the physical jaw there, as a real jaw closing on a block would.
+        """
+        if self.held_by(arm) is None:
+            return None
+        wall = self.cell.block.edge_distance - self.cell.block.hole_radius
+        return 2.0 * math.asin(min(1.0, wall / 2.0 / self.cell.tool.jaw_length))
+
+    def snapshot(self) -> dict[str, object]:
+        """JSON-ready state of the world: time and every block."""
+        return {"time": self.time, "blocks": [block.to_dict() for block in self.blocks]}
+
+    # ------------------------------------------------------------------------------------------ update
+
+    def update(self, time: float, tools: Mapping[str, ToolState]) -> list[Event]:
+        """Advance to `time` (s) with each arm's tool state; returns the events of this step."""
+        start = len(self.events)
+        elapsed = max(0.0, time - self.time)
+        self.time = time
+        self.tools.update(tools)
+        for block in self.blocks:
+            if block.grips:
+                self._carry(block)
+        for arm in sorted(tools):
+            self._follow_jaw(arm, tools[arm])
+        self._inject_slips(elapsed)
+        self._detect_contacts()
+        return self.events.since(start)
+
+    def _log(self, kind: str, arm: str | None = None, block: int | None = None, peg: int | None = None, detail: str = "") -> None:
+        self.events.append(Event(self.time, kind, arm, block, peg, detail))
+
+    # ----------------------------------------------------------------------------------- jaw and grips
+
+    def _follow_jaw(self, arm: str, tool: ToolState) -> None:
+        closed = self._closed.get(arm)
+        if closed is None:  # first sight of this arm: its jaw state, without a transition
+            self._closed[arm] = tool.jaw < self.config.jaw_closed_below
+        elif not closed and tool.jaw < self.config.jaw_closed_below:
+            self._closed[arm] = True
+            self._try_grasp(arm, tool)
+        elif closed and tool.jaw > self.config.jaw_open_above:
+            self._closed[arm] = False
+            for block in self.blocks:
+                if arm in block.grips:
+                    del block.grips[arm]
+                    self._log("release", arm, block.index, block.peg)
+                    if not block.grips:
+                        self._settle(block, arm, deliberate=True)
+
+    def _try_grasp(self, arm: str, tool: ToolState) -> None:
+        attempt = self._attempts
+        self._attempts += 1
+        best: tuple[float, Block, str | None, int] | None = None
+        for block in self.blocks:
+            if block.lost or arm in block.grips:
+                continue
+            local = invert_rigid(block.pose) @ tool.tip
+            distance = float(np.linalg.norm(local[:3, 3] + [0.0, 0.0, self.cell.block.height / 2]))
+            if distance > self.config.grasp_search_radius:
+                continue
+            problem, edge = self._grip_problem(local)
+            candidate = (int(problem is not None), distance)
+            if best is None or candidate < (int(best[2] is not None), best[0]):
+                best = (distance, block, problem, edge)
+        if best is None:
+            return  # closing in the air: not a grasp attempt
+        _, block, problem, edge = best
+        if problem is not None:
+            self._log("grasp_miss", arm, block.index, block.peg, problem)
+            return
+        if attempt in self.faults.miss_attempts or (
+            self.faults.miss_probability > 0 and self._rng.random() < self.faults.miss_probability
+        ):
+            self._log("fault", arm, block.index, block.peg, f"grasp miss injected (attempt {attempt})")
+            self._log("grasp_miss", arm, block.index, block.peg, "injected fault")
+            return
+        giver = next(iter(block.grips), None)
+        block.grips[arm] = invert_rigid(tool.tip) @ block.pose
+        detail = f"edge {edge}" + (f", handover from {giver}" if giver else "")
+        self._log("grasp", arm, block.index, block.peg, detail)
+
+    def _grip_problem(self, local: Matrix) -> tuple[str | None, int]:
+        """Why a jaw at `local` (tip pose in the block frame) would not grip the block, and which edge.
+
+        The jaw grips when its tip lies on the wall between hole and a flat edge (within tolerance),
+        its closing axis crosses that wall, the tool stands roughly along the block's axis and the
+        tip bites below the top face.
+        """
+        model, config = self.cell.block, self.config
+        rotation, tip = local[:3, :3], local[:3, 3]
+        tilt = math.degrees(math.acos(max(-1.0, min(1.0, -rotation[2, 2]))))  # tool z is up, block z down
+        alignment = np.abs(model.edge_normals @ rotation[:2, 0])
+        edge = int(np.argmax(alignment))
+        if tilt > math.degrees(config.grasp_max_tilt):
+            return f"tool tilted {tilt:.0f}° from the block's axis", edge
+        if alignment[edge] < math.cos(config.grasp_max_misalignment):
+            return "jaws do not close across a wall", edge
+        normal = model.edge_normals[edge]
+        radial = float(tip[:2] @ normal)
+        along = float(tip[:2] @ [-normal[1], normal[0]])
+        off_wall = max(model.hole_radius - radial, radial - model.edge_distance, 0.0)
+        if off_wall > config.grasp_wall_tolerance:
+            return f"jaw {off_wall * 1000:.1f} mm off the wall", edge
+        if abs(along) > model.edge_half_length - config.grasp_edge_margin:
+            return "jaw beyond the end of the wall", edge
+        if tip[2] > 0.0:
+            return "jaw below the block", edge
+        if tip[2] + model.height < config.grasp_min_bite:
+            return "jaw above the block", edge
+        return None, edge
+
+    def _slip(self, arm: str, block: Block, detail: str) -> None:
+        """`arm`'s grip on `block` is lost without its jaw opening."""
+        del block.grips[arm]
+        self._log("slip", arm, block.index, block.peg, detail)
+        if not block.grips:
+            self._settle(block, arm, deliberate=False)
+
+    def _inject_slips(self, elapsed: float) -> None:
+        slips = self.faults.slips
+        while self._next_slip < len(slips) and slips[self._next_slip].time <= self.time:
+            scheduled = slips[self._next_slip]
+            self._next_slip += 1
+            arms = [scheduled.arm] if scheduled.arm else sorted(self.tools)
+            held = [(arm, self.held_by(arm)) for arm in arms if self.held_by(arm) is not None]
+            if not held:
+                self._log("fault", scheduled.arm, detail=f"slip scheduled at {scheduled.time:g} s: nothing held")
+                continue
+            arm, index = held[0]
+            self._log("fault", arm, index, self.blocks[index].peg, f"slip injected (scheduled at {scheduled.time:g} s)")
+            self._slip(arm, self.blocks[index], "injected fault")
+        if self.faults.slip_rate <= 0 or elapsed <= 0:
+            return
+        chance = -math.expm1(-self.faults.slip_rate * elapsed)
+        for arm in sorted(self.tools):
+            index = self.held_by(arm)
+            if index is not None and self._rng.random() < chance:
+                self._log("fault", arm, index, self.blocks[index].peg, "slip injected (random)")
+                self._slip(arm, self.blocks[index], "injected fault")
+
+    # ------------------------------------------------------------------------------ blocks among pegs
+
+    def _carry(self, block: Block) -> None:
+        """Move a gripped block with its first holder; a second grip that disagrees too much slips."""
+        holders = list(block.grips)
+        carried = self.tools[holders[0]].tip @ block.grips[holders[0]]
+        for other in holders[1:]:
+            pulled = self.tools[other].tip @ block.grips[other]
+            if np.linalg.norm(pulled[:3, 3] - carried[:3, 3]) > self.config.handover_pull_apart:
+                self._slip(other, block, f"pulled out of the jaw by {holders[0]}")
+        block.pose = carried
+        self._check_pegs(block)
+
+    def _hole_axis(self, block: Block) -> tuple[Matrix, Matrix]:
+        """Board-frame points where the hole's axis leaves the bottom and the top face."""
+        bottom = block.pose[:3, 3]
+        return bottom, bottom - self.cell.block.height * block.pose[:3, 2]
+
+    def _pegs_in_block_frame(self, block: Block) -> Matrix:
+        """(12, 2) where each peg's axis crosses the block's bottom plane, in block x, y."""
+        bottom = block.pose[:3, 3]
+        feet = np.column_stack([self.cell.pegs.positions, np.full(len(self._peg_tops), bottom[2])])
+        return ((feet - bottom) @ block.pose[:3, :3])[:, :2]
+
+    def _in_footprint(self, points: Matrix) -> Matrix:
+        """Which (n, 2) block-frame peg positions touch the block's solid outline."""
+        normals, offsets = self.cell.block.outline_planes
+        return (points @ normals.T - offsets).max(axis=1) <= self.cell.pegs.radius
+
+    def _check_pegs(self, block: Block) -> None:
+        """A carried block must keep its hole around the peg it is threaded on, and hit no other peg."""
+        bottom, top = self._hole_axis(block)
+        peg_top_z = self.cell.pegs.top_z
+        if block.peg is not None:
+            peg = block.peg
+            if bottom[2] < peg_top_z:  # the whole block is above the peg top (z points down)
+                self._log("lift", "+".join(block.grips), block.index, peg, f"cleared peg {peg}")
+                block.peg = None
+                return
+            span = bottom[2] - top[2]
+            if span < self.cell.block.height / 2:  # tipped more than 60° while around the peg
+                self._knock_loose(block, peg, f"caught on peg {peg}: block tipped over")
+                return
+            low = min(bottom[2], self.cell.board.surface_z)
+            high = max(top[2], peg_top_z)
+            points = [bottom + (bottom[2] - z) / span * (top - bottom) for z in (low, high)]
+            offset = max(float(np.linalg.norm(p[:2] - self.cell.pegs.positions[peg])) for p in points)
+            if offset > self._clearance:
+                self._knock_loose(block, peg, f"caught on peg {peg}: hole {offset * 1000:.1f} mm off its axis")
+            return
+        if bottom[2] <= peg_top_z:
+            return  # above every peg
+        local = self._pegs_in_block_frame(block)
+        radial = np.linalg.norm(local, axis=1)
+        entering = np.flatnonzero(radial <= self._clearance)
+        if len(entering):
+            block.peg = int(entering[0])
+            return
+        struck = np.flatnonzero(self._in_footprint(local))
+        if len(struck):
+            peg = int(struck[0])
+            self._knock_loose(block, peg, f"struck peg {peg}")
+
+    def _knock_loose(self, block: Block, peg: int, detail: str) -> None:
+        """A peg stops a carried block: the contact tears it out of every jaw and it falls."""
+        holders = "+".join(block.grips)
+        self._log("collision", holders, block.index, peg, f"block-peg: {detail}")
+        block.grips.clear()
+        self._settle(block, holders, deliberate=False)
+
+    def _settle(self, block: Block, arm: str, deliberate: bool) -> None:
+        """Let a block no jaw holds fall: onto a peg through its hole, else onto the board or off it."""
+        yaw = yaw_of(block.pose)
+        peg = block.peg
+        if peg is None:
+            offsets = np.linalg.norm(self.cell.pegs.positions - block.pose[:2, 3], axis=1)
+            peg = int(np.argmin(offsets)) if offsets.min() <= self._clearance else None
+        if peg is not None:
+            self._rest_on_peg(block, peg, yaw)
+            if deliberate:
+                self._log("place", arm, block.index, peg)
+            else:
+                self._log("drop", arm, block.index, peg, f"onto peg {peg}")
+            return
+        xy = block.pose[:2, 3].copy()
+        detail = ""
+        struck = np.flatnonzero(self._in_footprint(self._pegs_in_block_frame(block)))
+        if len(struck):  # it lands on a peg's top and tips off it, away from the peg
+            foot = self.cell.pegs.positions[struck[0]]
+            away = xy - foot
+            away = away / np.linalg.norm(away) if np.linalg.norm(away) > 1e-9 else np.array([1.0, 0.0])
+            xy = foot + away * (self.cell.block.corner_distance + self.cell.pegs.radius)
+            detail = f" off the top of peg {struck[0]}"
+        board = self.cell.board
+        if board.contains_xy(*xy):
+            block.pose = pose([xy[0], xy[1], board.surface_z], yaw_rotation(yaw))
+            self._log("drop", arm, block.index, None, f"onto the board{detail}")
+        else:
+            block.lost = True
+            block.pose = pose([xy[0], xy[1], board.surface_z + _LOST_BELOW_BOARD], yaw_rotation(yaw))
+            self._log("drop", arm, block.index, None, f"off the workspace{detail}")
+
+    def _rest_on_peg(self, block: Block, peg: int, yaw: float) -> None:
+        """Seat a block on a peg, on top of any blocks already resting there."""
+        below = sum(1 for other in self.blocks if other is not block and other.peg == peg and not other.grips)
+        x, y = self.cell.pegs.positions[peg]
+        z = self.cell.board.surface_z - below * self.cell.block.height
+        block.pose = pose([x, y, z], yaw_rotation(yaw))
+        block.peg = peg
+
+    # ------------------------------------------------------------------------------------- collisions
+
+    def _detect_contacts(self) -> None:
+        """Log each contact when it begins: tool-peg, tool-tool, shaft-shaft, block-board."""
+        current: set[tuple[str, str, int, int]] = set()
+        segments = {arm: self._tool_segments(state) for arm, state in sorted(self.tools.items())}
+        for arm, (starts, ends, radii, low, high) in segments.items():
+            pairs = np.nonzero(boxes_overlap(low[:, None], high[:, None], self._peg_low[None], self._peg_high[None]))
+            if pairs[0].size:
+                seg, peg = pairs
+                gaps = segment_distances(starts[seg], ends[seg], self._peg_tops[peg], self._peg_feet[peg])
+                for touched in np.unique(peg[gaps < radii[seg] + self.cell.pegs.radius]):
+                    current.add(("tool-peg", arm, -1, int(touched)))
+        for (arm_a, a), (arm_b, b) in combinations(segments.items(), 2):
+            first, second = np.nonzero(boxes_overlap(a[3][:, None], a[4][:, None], b[3][None], b[4][None]))
+            if not first.size:
+                continue
+            touching = segment_distances(a[0][first], a[1][first], b[0][second], b[1][second]) < a[2][first] + b[2][second]
+            shafts = (first == 0) & (second == 0)
+            pair = f"{arm_a}+{arm_b}"
+            if (touching & shafts).any():
+                current.add(("shaft-shaft", pair, -1, -1))
+            if (touching & ~shafts).any():
+                current.add(("tool-tool", pair, -1, -1))
+        surface = self.cell.board.surface_z + self.config.board_press_tolerance
+        for block in self.blocks:
+            if block.grips and block.pose[2, 3] > surface:
+                current.add(("block-board", "+".join(block.grips), block.index, -1))
+        for kind, arm, block_index, peg in sorted(current - self._contacts):
+            block_or_none = None if block_index < 0 else block_index
+            peg_or_none = None if peg < 0 else peg
+            self._log("collision", arm, block_or_none, peg_or_none, kind)
+        self._contacts = current
+
+    def _tool_segments(self, state: ToolState) -> tuple[Matrix, Matrix, Matrix, Matrix, Matrix]:
+        """Shaft, wrist and jaw segments: starts, ends, radii, and each one's bounding box (low, high)."""
+        starts, ends, radii = state.segments(self.cell.tool)
+        reach = radii[:, None]
+        return starts, ends, radii, np.minimum(starts, ends) - reach, np.maximum(starts, ends) + reach

@@ -1,0 +1,164 @@
+"""Grasp, lift, transfer, place and handover in the simulated world, decided by geometry alone."""
+
+import numpy as np
+import pytest
+
+from pegbt.sim.scripted import (
+    Driver,
+    Keyframe,
+    grasp_candidate_facing,
+    grasp_keyframes,
+    lifted,
+    place_keyframes,
+    transfer_keyframes,
+)
+from pegbt.sim.world import World
+
+
+def kinds(events):
+    return [event.kind for event in events]
+
+
+def test_blocks_start_on_the_left_pegs_at_a_yaw_set_by_the_seed():
+    first, again, other = World(seed=3), World(seed=3), World(seed=4)
+    assert [block.peg for block in first.blocks] == [0, 1, 2, 3, 4, 5]
+    assert np.array_equal(first.block_poses(), again.block_poses())
+    assert not np.allclose(first.block_poses(), other.block_poses())
+    for block in first.blocks:
+        assert np.allclose(block.pose[:2, 3], first.cell.pegs.positions[block.peg])
+        assert block.pose[2, 3] == pytest.approx(first.cell.board.surface_z)
+
+
+def test_a_scripted_transfer_moves_block_1_from_peg_1_to_peg_7():
+    world = World(seed=1)
+    driver = Driver(world)
+    candidate = grasp_candidate_facing(world, 1, "PSM1")
+    events = driver.play({"PSM1": transfer_keyframes(world, 1, 7, candidate)})
+    assert kinds(events) == ["grasp", "lift", "release", "place"]
+    assert all(event.arm == "PSM1" and event.block == 1 for event in events)
+    assert [events[0].peg, events[1].peg, events[3].peg] == [1, 1, 7]
+    block = world.blocks[1]
+    assert block.state == "on_peg" and block.peg == 7
+    assert np.allclose(block.pose[:2, 3], world.cell.pegs.positions[7])
+    assert list(world.events) == events
+
+
+def test_a_grasp_3_mm_off_the_wall_misses_and_1_mm_off_holds():
+    world = World(seed=1)
+    driver = Driver(world)
+    candidate = grasp_candidate_facing(world, 1, "PSM1")
+    outward = np.append(world.blocks[1].pose[:2, :2] @ world.cell.block.edge_normals[candidate // 2], 0.0)
+    events = driver.play({"PSM1": grasp_keyframes(world, 1, candidate, error=0.003 * outward)})
+    assert kinds(events) == ["grasp_miss"]
+    expected = world.cell.block.grasp_radial + 0.003 - world.cell.block.edge_distance
+    assert events[0].detail == f"jaw {expected * 1000:.1f} mm off the wall"
+    events = driver.play({"PSM1": [lifted(world, driver.at("PSM1"))]})
+    assert world.blocks[1].state == "on_peg" and world.held_by("PSM1") is None
+
+    events = driver.play({"PSM1": grasp_keyframes(world, 1, candidate, error=0.001 * outward)})
+    assert kinds(events) == ["grasp"] and world.held_by("PSM1") == 1
+
+
+def test_lifting_sideways_catches_the_block_on_its_peg():
+    world = World(seed=2)
+    driver = Driver(world)
+    candidate = grasp_candidate_facing(world, 1, "PSM1")
+    grasp = grasp_keyframes(world, 1, candidate)
+    driver.play({"PSM1": grasp})
+    diagonal = lifted(world, grasp[-1])
+    diagonal = type(diagonal)(diagonal.position + [0.006, 0.0, 0.0], diagonal.yaw, diagonal.jaw)
+    events = driver.play({"PSM1": [diagonal]})
+    assert kinds(events)[:2] == ["collision", "drop"]
+    assert events[0].detail.startswith("block-peg: caught on peg 1")
+    assert events[1].peg == 1  # it falls back down its peg
+    assert world.blocks[1].state == "on_peg" and world.held_by("PSM1") is None
+
+
+def _carry_block_1(world, driver):
+    candidate = grasp_candidate_facing(world, 1, "PSM1")
+    grasp = grasp_keyframes(world, 1, candidate)
+    driver.play({"PSM1": [*grasp, lifted(world, grasp[-1])]})
+
+
+def test_a_block_lowered_within_the_clearance_is_placed():
+    world = World(seed=1)
+    driver = Driver(world)
+    _carry_block_1(world, driver)
+    clearance = world.cell.block.hole_radius - world.cell.pegs.radius
+    error = np.array([0.0, 0.75 * clearance])
+    events = driver.play({"PSM1": place_keyframes(world, 1, 7, driver.at("PSM1"), error=error)})
+    assert kinds(events) == ["release", "place"] and events[-1].peg == 7
+    assert np.allclose(world.blocks[1].pose[:2, 3], world.cell.pegs.positions[7])
+
+
+def test_a_block_lowered_beyond_the_clearance_strikes_the_peg_and_drops():
+    world = World(seed=1)
+    driver = Driver(world)
+    _carry_block_1(world, driver)
+    clearance = world.cell.block.hole_radius - world.cell.pegs.radius
+    error = np.array([0.0, 1.5 * clearance])
+    events = driver.play({"PSM1": place_keyframes(world, 1, 7, driver.at("PSM1"), error=error)})
+    assert kinds(events)[:2] == ["collision", "drop"] and events[0].detail == "block-peg: struck peg 7"
+    assert world.blocks[1].state == "on_board" and world.held_by("PSM1") is None
+
+
+def test_a_block_released_over_a_peg_top_off_the_clearance_tips_off_and_can_be_picked_again():
+    world = World(seed=1)
+    driver = Driver(world)
+    _carry_block_1(world, driver)
+    clearance = world.cell.block.hole_radius - world.cell.pegs.radius
+    above, *_ = place_keyframes(world, 1, 7, driver.at("PSM1"), error=np.array([0.0, 1.5 * clearance]))
+    opened = type(above)(above.position, above.yaw, world.cell.motion.jaw_open)
+    events = driver.play({"PSM1": [above, opened]})
+    assert kinds(events) == ["release", "drop"] and events[-1].detail == "onto the board off the top of peg 7"
+    block = world.blocks[1]
+    assert block.state == "on_board"
+    assert np.linalg.norm(block.pose[:2, 3] - world.cell.pegs.positions[7]) > world.cell.block.corner_distance
+
+    candidate = grasp_candidate_facing(world, 1, "PSM1")
+    events = driver.play({"PSM1": transfer_keyframes(world, 1, 7, candidate)})
+    assert kinds(events) == ["grasp", "release", "place"] and world.blocks[1].peg == 7
+
+
+def test_a_block_released_beyond_the_board_is_lost():
+    world = World(seed=1)
+    driver = Driver(world)
+    _carry_block_1(world, driver)
+    beyond = world.cell.board.extent_x[1] + 0.02 - world.cell.pegs.positions[7][0]
+    events = driver.play({"PSM1": place_keyframes(world, 1, 7, driver.at("PSM1"), error=np.array([beyond, 0.0]))})
+    assert kinds(events)[-2:] == ["release", "drop"] and events[-1].detail == "off the workspace"
+    assert world.blocks[1].state == "lost"
+
+
+def test_a_handover_leaves_the_block_with_the_receiver():
+    world = World(seed=5)
+    driver = Driver(world)
+    grasp = grasp_keyframes(world, 1, grasp_candidate_facing(world, 1, "PSM2"))
+    driver.play({"PSM2": [*grasp, lifted(world, grasp[-1])]})
+    holding = driver.at("PSM2")
+    tip_from_block = holding.position[:2] - world.blocks[1].pose[:2, 3]
+    meeting = np.append(world.cell.handover_point_xy() + tip_from_block, holding.position[2])
+    driver.play({"PSM2": [Keyframe(meeting, holding.yaw, holding.jaw)]})
+    assert world.held_by("PSM2") == 1
+
+    events = driver.play({"PSM1": grasp_keyframes(world, 1, grasp_candidate_facing(world, 1, "PSM1"))})
+    assert kinds(events) == ["grasp"] and events[0].detail.endswith("handover from PSM2")
+    jaw_open = world.cell.motion.jaw_open
+    events = driver.play({"PSM2": [Keyframe(meeting, holding.yaw, jaw_open), Keyframe(meeting - [0, 0, 0.01], holding.yaw, jaw_open)]})
+    assert kinds(events) == ["release"] and events[0].arm == "PSM2"
+    assert world.blocks[1].state == "held" and world.held_by("PSM1") == 1
+
+    events = driver.play({"PSM1": [lifted(world, driver.at("PSM1")), *place_keyframes(world, 1, 7, driver.at("PSM1"))]})
+    assert kinds(events) == ["release", "place"] and events[-1].arm == "PSM1" and events[-1].peg == 7
+
+
+def test_a_second_grip_pulled_away_slips_and_the_first_keeps_the_block():
+    world = World(seed=5)
+    driver = Driver(world)
+    grasp = grasp_keyframes(world, 1, grasp_candidate_facing(world, 1, "PSM2"))
+    driver.play({"PSM2": [*grasp, lifted(world, grasp[-1])]})
+    driver.play({"PSM1": grasp_keyframes(world, 1, grasp_candidate_facing(world, 1, "PSM1"))})
+    away = driver.at("PSM1")
+    events = driver.play({"PSM1": [Keyframe(away.position + [0.01, 0, 0], away.yaw, away.jaw)]})
+    assert kinds(events) == ["slip"] and events[0].arm == "PSM1" and "pulled out of the jaw by PSM2" in events[0].detail
+    assert world.held_by("PSM2") == 1 and world.held_by("PSM1") is None
