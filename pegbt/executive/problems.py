@@ -25,7 +25,7 @@ class Problems:
     def add(self, message: str, mark: Mark | None, *, path: str | None = None, field: str | None = None) -> None:
         """Record one problem at `mark`; `path` is the node's path in the tree, `field` the offending key."""
         text = f"{path}: {message}" if path else message
-        identity = (mark, field, text)
+        identity = (mark, field, message)  # not the path: a subtree used twice has one fault, in one place
         if identity in self._seen:
             return
         self._seen.add(identity)

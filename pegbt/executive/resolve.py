@@ -138,6 +138,8 @@ class Resolver:
               mark: Mark) -> str:
         if "name" in fields:
             name = self._substitute(fields["name"].value, scope, fields["name"].mark)
+            if isinstance(name, Unbound):
+                name = fields["name"].value  # checked on its own: keep `${arg}` in the name
             if isinstance(name, str) and name and "/" not in name:
                 if name in siblings:
                     self.problems.add(f"duplicate name {name!r} among siblings (first at line {siblings[name].line})",
@@ -162,7 +164,7 @@ class Resolver:
                     self.problems.add(f"missing required parameter {param.name!r} ({param.doc})", mark, path=path, field=param.name)
                 params[param.name] = None if param.required else param.default
                 continue
-            raw = self._substitute(fields[param.name].plain(), scope, fields[param.name].mark)
+            raw = self._substitute(fields[param.name].plain(), scope, fields[param.name].mark, path)
             value, problem = param.check(raw)
             if problem:
                 self.problems.add(f"parameter {param.name!r} should be {problem}; found {describe(raw)}", marks[param.name],
@@ -237,7 +239,8 @@ class Resolver:
             return None
         self.instantiated.add(use)
         args = self._arguments(definition, fields.get("args"), scope, loc.mark, where)
-        shown_args = " ".join(str(value) for value in args.values() if not isinstance(value, (Unbound, dict, list)))
+        given = fields["args"].value if fields.get("args") is not None and fields["args"].is_map else {}
+        shown_args = " ".join(str(args[arg]) for arg in given if arg in args and isinstance(args[arg], (str, int, float)))
         name = self._name(f"{use} {shown_args}".strip(), fields, marks, scope, siblings, loc.mark)
         path = f"{scope.path}/{name}"
         namespace = self._namespace(fields.get("namespace"), name, scope, loc.mark, path)
@@ -268,6 +271,7 @@ class Resolver:
             checked, problem = check_type(raw, arg.type)
             if problem:
                 self.problems.add(f"argument {arg_name!r} should be {problem}; found {describe(raw)}", value.mark, path=where, field=arg_name)
+                checked = Unbound(arg_name)  # reported once here, not again wherever the subtree uses it
             values[arg_name] = checked
         for arg in definition.args.values():
             if arg.name not in values:
@@ -277,7 +281,7 @@ class Resolver:
                     values[arg.name] = Unbound(arg.name)
                 else:
                     values[arg.name] = arg.default
-        return values
+        return {name: values[name] for name in definition.args}
 
     def _namespace(self, field: Located | None, name: str, scope: Scope, mark: Mark, path: str) -> str:
         local = _NAMESPACE_CHARS.sub("_", name).strip("_") or "subtree"
@@ -298,30 +302,37 @@ class Resolver:
 
     # -- arguments -----------------------------------------------------------------------------------------
 
-    def _substitute(self, value: Any, scope: Scope, mark: Mark) -> Any:
-        """`value` with `${arg}` references to the enclosing subtree's arguments replaced."""
+    def _substitute(self, value: Any, scope: Scope, mark: Mark, path: str | None = None) -> Any:
+        """`value` with `${arg}` references to the enclosing subtree's arguments replaced (problems reported at `path`)."""
+        path = path or scope.path or "/"
         if isinstance(value, list):
-            return [self._substitute(item, scope, mark) for item in value]
+            return [self._substitute(item, scope, mark, path) for item in value]
         if isinstance(value, dict):
-            return {key: self._substitute(item, scope, mark) for key, item in value.items()}
+            return {key: self._substitute(item, scope, mark, path) for key, item in value.items()}
         if not isinstance(value, str) or "${" not in value:
             return value
         whole = _ARG_PATTERN.fullmatch(value)
         if whole:
-            return self._argument(whole.group(1), scope, mark, value)
-        return _ARG_PATTERN.sub(lambda match: self._text(self._argument(match.group(1), scope, mark, match.group(0))), value)
+            return self._argument(whole.group(1), scope, mark, path)
+        unbound: list[Unbound] = []
 
-    def _argument(self, name: str, scope: Scope, mark: Mark, written: str) -> Any:
-        where = scope.path or "/"
+        def replace(match: re.Match[str]) -> str:
+            argument = self._argument(match.group(1), scope, mark, path)
+            if isinstance(argument, Unbound):
+                unbound.append(argument)
+                return match.group(0)
+            return str(argument)
+
+        text = _ARG_PATTERN.sub(replace, value)
+        return unbound[0] if unbound else text  # a text with an unknown part cannot be checked either
+
+    def _argument(self, name: str, scope: Scope, mark: Mark, path: str) -> Any:
+        """The argument's value; `Unbound` (which every check accepts) when it has none or does not exist."""
         if scope.args is None:
-            self.problems.add(f"{written} refers to a subtree argument, but this node is not inside a subtree", mark, path=where)
-            return written
-        if name not in scope.args:
+            self.problems.add(f"${{{name}}} refers to a subtree argument, but this node is not inside a subtree", mark, path=path)
+        elif name not in scope.args:
             self.problems.add(f"unknown subtree argument {name!r}{did_you_mean(name, scope.args)}; declared: "
-                              f"{', '.join(scope.args) or 'none'}", mark, path=where)
-            return written
-        return scope.args[name]
-
-    @staticmethod
-    def _text(value: Any) -> str:
-        return "${" + value.arg + "}" if isinstance(value, Unbound) else str(value)
+                              f"{', '.join(scope.args) or 'none'}", mark, path=path)
+        else:
+            return scope.args[name]
+        return Unbound(name)

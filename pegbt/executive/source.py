@@ -191,4 +191,6 @@ class _Converter:
             return self.scalars.construct_object(node, deep=True)
         except (yaml.YAMLError, ValueError, TypeError, OverflowError) as error:
             problem = getattr(error, "problem", None) or str(error)
+            if "could not determine a constructor" in problem:
+                problem = f"YAML tag {node.tag!r} is not supported"
             raise PegbtError(f"bad YAML value: {problem}", file=self.name, line=mark.line, column=mark.column) from None
