@@ -86,12 +86,11 @@ class Resolver:
             )
             return None
         declared = node_type.params if node_type else behaviour.params
-        child_fields = node_type.child_fields if node_type else ()
-        self._unknown_fields(type_name, fields, field_marks, declared, child_fields, scope)
         if node_type is not None and node_type.shape == "subtree":
             return self._subtree(loc, fields, field_marks, scope, siblings)
         name = self._name(type_name, fields, field_marks, scope, siblings, loc.mark)
         path = f"{scope.path}/{name}"
+        self._unknown_fields(type_name, fields, field_marks, declared, node_type.child_fields if node_type else (), path)
         params = self._params(declared, fields, field_marks, scope, loc.mark, path)
         spec = NodeSpec(type_name, name, params, loc.mark, path, scope.namespace)
         spec.keys = self._keys(declared, params, fields, field_marks, scope.namespace, behaviour, loc.mark)
@@ -125,13 +124,13 @@ class Resolver:
         return type_name, body.value, body.key_marks
 
     def _unknown_fields(self, type_name: str, fields: dict[str, Located], marks: dict[str, Mark], declared: tuple[Param, ...],
-                        child_fields: tuple[str, ...], scope: Scope) -> None:
+                        child_fields: tuple[str, ...], path: str) -> None:
         allowed = ("name",) + child_fields + tuple(param.name for param in declared)
         for key in fields:
             if key not in allowed:
                 self.problems.add(
                     f"{type_name} has no field {key!r}{did_you_mean(key, allowed)}; expected {', '.join(allowed)}",
-                    marks[key], path=scope.path or "/", field=key,
+                    marks[key], path=path, field=key,
                 )
 
     def _name(self, default: str, fields: dict[str, Located], marks: dict[str, Mark], scope: Scope, siblings: dict[str, Mark],
@@ -243,6 +242,7 @@ class Resolver:
         shown_args = " ".join(str(args[arg]) for arg in given if arg in args and isinstance(args[arg], (str, int, float)))
         name = self._name(f"{use} {shown_args}".strip(), fields, marks, scope, siblings, loc.mark)
         path = f"{scope.path}/{name}"
+        self._unknown_fields("subtree", fields, marks, NODE_TYPES["subtree"].params, (), path)
         namespace = self._namespace(fields.get("namespace"), name, scope, loc.mark, path)
         instance = NodeSpec("subtree", name, {"use": use, "args": args, "namespace": namespace}, loc.mark, path, namespace,
                             subtree=f"{use}({', '.join(f'{k}={v!r}' for k, v in args.items())})")

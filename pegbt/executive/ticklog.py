@@ -13,6 +13,8 @@ Records (one JSON object per line, flushed as written so that a crash loses noth
 - `crash`: an exception escaped a tick (`error`, `traceback`).
 - `end`: `outcome` (`success`, `failure`, `timeout`, `interrupted`, `crash`), `ticks`, `t`.
 
+A node that finishes with the same status on consecutive ticks (a condition that keeps failing, a
+retried leaf failing again) is one transition: the log records changes, not every evaluation.
 Status changes inside one tick are kept: `tick_logged` sees each node as py_trees yields it, so a
 `recover` whose main child fails, recovers and restarts within one tick logs the failure too. Cheap by
 construction: statuses are compared by identity, blackboard entries by identity (then equality), and
