@@ -129,3 +129,31 @@ def test_usage_errors_exit_2(argv, capsys):
     with pytest.raises(SystemExit) as raised:
         main(argv)
     assert raised.value.code == 2
+
+
+def test_ctrl_c_halts_a_running_tree_and_the_log_records_it(tmp_path):
+    import json
+    import signal
+    import time
+
+    tree = tmp_path / "long.yaml"
+    tree.write_text("tree: {sequence: [{log: {message: started}}, {wait: {name: long wait, seconds: 60}}]}\n")
+    log = tmp_path / "long.jsonl"
+    env = dict(os.environ, PYTHONPATH=str(REPO))
+    process = subprocess.Popen([sys.executable, "-m", "pegbt", "run", str(tree), "--log", str(log)], stdout=subprocess.PIPE,
+                               stderr=subprocess.PIPE, text=True, env=env)
+    try:
+        deadline = time.monotonic() + 60
+        while not (log.exists() and len(log.read_text().splitlines()) >= 2) and time.monotonic() < deadline:
+            time.sleep(0.05)
+        process.send_signal(signal.SIGINT)
+        out, err = process.communicate(timeout=60)
+    finally:
+        process.kill()
+    assert process.returncode == 1, err
+    assert "Traceback" not in err
+    assert "HALTED   /sequence/long wait  (waiting 60 s)" in out
+    records = [json.loads(line) for line in log.read_text().splitlines()]
+    assert records[-2]["type"] == "halt" and records[-2]["reason"] == "interrupt"
+    assert [2, "RUNNING", "INVALID", "waiting 60 s"] in records[-2]["changes"]
+    assert records[-1]["outcome"] == "interrupted"

@@ -4,7 +4,7 @@ Records (one JSON object per line, flushed as written so that a crash loses noth
 
 - `header`: format version, pegbt version, tree file, start time (wall clock, ISO 8601), the clock's
   kind, initial blackboard, and `nodes`: id, parent, path, name, type, py_trees class, source
-  `file:line:column`, blackboard keys read and written, subtree instance.
+  `file:line:column`, parameters, blackboard keys read and written, subtree instance.
 - `tick`: `n` (tick number from 1), `t` (executive-clock seconds since the start), `dt_us` (wall
   cost of the tick, for profiling), `changes` as `[id, from, to, feedback]` and `bb` as
   `{key: compact value}` (`bb_unset` lists deleted keys).
@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import datetime
 import json
+import operator
 from collections.abc import Callable
 from pathlib import Path
 from typing import IO, Any
@@ -35,11 +36,14 @@ from pegbt import __version__
 from pegbt.executive.build import BuiltTree
 from pegbt.executive.compact import compact
 from pegbt.executive.conditions import comparison
+from pegbt.executive.params import BlackboardRef
 
 FORMAT = "pegbt-ticklog"
 FORMAT_VERSION = 1
 _MISSING = object()
 _same = comparison("==")
+_ENCODER = json.JSONEncoder(separators=(",", ":"))
+_status_of = operator.attrgetter("status")
 
 Record = dict[str, Any]
 
@@ -57,6 +61,7 @@ def node_table(built: BuiltTree) -> list[Record]:
             "type": spec.type,
             "class": type(node.behaviour).__name__,
             "source": str(spec.mark),
+            "params": {name: str(value) if isinstance(value, BlackboardRef) else compact(value) for name, value in spec.params.items()},
             "reads": sorted({use.key for use in spec.keys if use.access == "read"}),
             "writes": sorted({use.key for use in spec.keys if use.access == "write"}),
             "subtree": spec.subtree,
@@ -70,7 +75,7 @@ class TickLogWriter:
     def __init__(self, path: Path | str, built: BuiltTree, *, clock_kind: str, listeners: list[Callable[[Record], None]] = ()) -> None:
         self.path = Path(path)
         self.path.parent.mkdir(parents=True, exist_ok=True)
-        self._file: IO[str] = self.path.open("w", encoding="utf-8")
+        self._file: IO[bytes] = self.path.open("wb", buffering=0)  # unbuffered: each record is one write, nothing held back
         self._root = built.root
         self._behaviours = [node.behaviour for node in built.nodes]
         self._index = {behaviour: index for index, behaviour in enumerate(self._behaviours)}
@@ -91,14 +96,13 @@ class TickLogWriter:
         })
 
     def _write(self, record: Record) -> None:
-        self._file.write(json.dumps(record, separators=(",", ":")) + "\n")
-        self._file.flush()
+        self._file.write((_ENCODER.encode(record) + "\n").encode("utf-8"))
         for listener in self._listeners:
             listener(record)
 
     def tick_logged(self) -> None:
         """Tick the tree once, noting each node's status as py_trees reports it during the tick."""
-        index, previous, changes = self._index, self._status, self._changes
+        index, previous, changes = self._index, self._status, self._changes  # `previous` is updated in place
         for node in self._root.tick():
             i = index[node]
             status = node.status
@@ -109,12 +113,13 @@ class TickLogWriter:
     def _status_changes(self) -> list[list[Any]]:
         """Changes noted during the tick, then those of nodes that changed without being ticked (halted)."""
         changes, self._changes = self._changes, []
+        current = list(map(_status_of, self._behaviours))
         previous = self._status
-        for index, behaviour in enumerate(self._behaviours):
-            status = behaviour.status
-            if status is not previous[index]:
-                changes.append([index, previous[index].value, status.value, behaviour.feedback_message])
-                previous[index] = status
+        if current != previous:  # compares by identity first: cheap when nothing was halted
+            for index, (before, after) in enumerate(zip(previous, current)):
+                if before is not after:
+                    changes.append([index, before.value, after.value, self._behaviours[index].feedback_message])
+            self._status = current
         return changes
 
     def _blackboard_changes(self) -> tuple[dict[str, Any], list[str]]:
