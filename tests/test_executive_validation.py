@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import pytest
 
 from executive_helpers import write_tree
@@ -180,3 +182,12 @@ def test_keys_are_checked_per_namespace(tmp_path):
 def test_the_real_trees_are_valid():
     for path in ("trees/example.yaml", "trees/shared/transfer.yaml"):
         assert check_tree(path) == []
+
+
+def test_the_readme_example_is_a_valid_tree(tmp_path):
+    readme = (Path(__file__).resolve().parents[1] / "README.md").read_text()
+    example = readme.split("## Behaviour trees")[1].split("```yaml\n")[1].split("```")[0]
+    (tmp_path / "shared").mkdir()
+    write_tree(tmp_path, "subtrees: {}\n", "shared/grasps.yaml")
+    errors = check_tree(write_tree(tmp_path, example))
+    assert errors == [], [str(error) for error in errors]
