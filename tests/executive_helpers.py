@@ -77,3 +77,32 @@ if REGISTRY.get("test_motion") is None:
 
 def motion_class() -> type:
     return REGISTRY.get("test_motion").factory
+
+
+class Counter:
+    """A stand-in resource: counts uses, remembers being closed."""
+
+    instances: list[Counter] = []
+
+    def __init__(self, clock: object) -> None:
+        self.clock = clock
+        self.uses = 0
+        self.closed = False
+        Counter.instances.append(self)
+
+    def close(self) -> None:
+        self.closed = True
+
+
+if REGISTRY.get("test_counting") is None:
+
+    @behaviour("test_counting", "uses the `counter` resource once, writes `step` + 1 to `uses`, then succeeds",
+               reads=("step",), writes=("uses",), resources=("counter",))
+    class TestCounting(Leaf):
+        def setup(self, **kwargs: object) -> None:
+            self.counter = self.context.resource("counter", Counter)
+
+        def update(self) -> Status:
+            self.counter.uses += 1
+            self.write("uses", self.read("step") + self.counter.uses)
+            return Status.SUCCESS

@@ -157,3 +157,22 @@ def test_ctrl_c_halts_a_running_tree_and_the_log_records_it(tmp_path):
     assert records[-2]["type"] == "halt" and records[-2]["reason"] == "interrupt"
     assert [2, "RUNNING", "INVALID", "waiting 60 s"] in records[-2]["changes"]
     assert records[-1]["outcome"] == "interrupted"
+
+
+def test_run_provides_declared_resources_and_closes_them(tmp_path, monkeypatch, capsys):
+    from executive_helpers import Counter
+    from pegbt.executive import providers
+
+    tree = tmp_path / "uses.yaml"
+    tree.write_text("tree:\n  sequence: [{test_counting: {name: count}}]\nblackboard: {step: 41}\n")
+    argv = ["run", str(tree), "--clock", "manual", "--quiet", "--log", str(tmp_path / "uses.jsonl")]
+    assert main(argv) == 2
+    assert f"no provider for resource 'counter' (needed by /sequence/count at {tree}:2:14)" in capsys.readouterr().err
+    monkeypatch.setitem(providers.RESOURCE_PROVIDERS, "counter", "executive_helpers:Counter")
+    Counter.instances.clear()
+    assert main(argv) == 0
+    (counter,) = Counter.instances
+    assert counter.uses == 1 and counter.closed and counter.clock.__class__.__name__ == "ManualClock"
+    assert '"bb":{"/step":41,"/uses":42}' in (tmp_path / "uses.jsonl").read_text()
+    assert main(["run", str(tree), "--clock", "sundial"]) == 2
+    assert "unknown clock 'sundial'; known: wall, manual" in capsys.readouterr().err

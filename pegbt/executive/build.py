@@ -77,13 +77,3 @@ def _leaf(spec: NodeSpec, context: RunContext, registry: BehaviourRegistry) -> B
         raise TypeError(f"behaviour {spec.type!r} factory returned {type(behaviour).__name__}, not a py_trees Behaviour")
     return behaviour
 
-
-def missing_resources(root: NodeSpec, context: RunContext, registry: BehaviourRegistry = REGISTRY) -> list[str]:
-    """`resource 'arms' (needed by /path at FILE:LINE)` for each resource a leaf declares and the context lacks."""
-    missing = []
-    for node in root.walk():
-        spec = registry.get(node.type)
-        for resource in spec.resources if spec is not None else ():
-            if resource not in context.resources:
-                missing.append(f"resource {resource!r} (needed by {node.path} at {node.mark})")
-    return missing

@@ -18,7 +18,7 @@ from pathlib import Path
 from typing import Any
 
 from pegbt.errors import PegbtError
-from pegbt.executive.params import TYPE_NAMES, REQUIRED, check_type, is_valid_key, type_name
+from pegbt.executive.params import REQUIRED, TYPE_NAMES, check_type, is_valid_key
 from pegbt.executive.problems import Problems, did_you_mean
 from pegbt.executive.source import Located, Mark, read_yaml_file
 
@@ -228,8 +228,3 @@ def _kind(value: Located) -> str:
         return "a list"
     return f"{value.value!r} ({type(value.value).__name__})" if value.value is not None else "nothing"
 
-
-def describe_arg(arg: ArgSpec) -> str:
-    """`arm: str (required)`: one line for schemas and error messages."""
-    default = "required" if arg.default is REQUIRED else f"default {arg.default!r}"
-    return f"{arg.name}: {type_name(arg.type)} ({default})"

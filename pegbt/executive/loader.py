@@ -11,7 +11,7 @@ from pathlib import Path
 from typing import Any
 
 from pegbt.errors import PegbtError
-from pegbt.executive.build import BuiltTree, build_tree, missing_resources
+from pegbt.executive.build import BuiltTree, build_tree
 from pegbt.executive.context import RunContext
 from pegbt.executive.document import TreeDocument, load_document
 from pegbt.executive.keys import check_keys
@@ -45,11 +45,14 @@ class LoadedTree:
         built.source = str(self.document.path)
         return built
 
-    def require_resources(self, context: RunContext, registry: BehaviourRegistry = REGISTRY) -> None:
-        """Raise a `PegbtError` naming every resource the tree's leaves declare and `context` lacks."""
-        missing = missing_resources(self.root, context, registry) if self.root else []
-        if missing:
-            raise PegbtError("this run lacks " + "; ".join(missing), file=self.document.path)
+    def resource_users(self, registry: BehaviourRegistry = REGISTRY) -> dict[str, str]:
+        """Each resource the tree's leaves declare, with the first node that needs it (`/path at FILE:LINE:COL`)."""
+        users: dict[str, str] = {}
+        for node in self.root.walk() if self.root else ():
+            spec = registry.get(node.type)
+            for name in spec.resources if spec is not None else ():
+                users.setdefault(name, f"{node.path} at {node.mark}")
+        return users
 
 
 def _validate(path: Path, registry: BehaviourRegistry) -> tuple[LoadedTree, Problems]:

@@ -40,9 +40,6 @@ class NodeType:
     def child_fields(self) -> tuple[str, ...]:
         return {"composite": ("children",), "decorator": ("child",), "recover": ("main", "recovery"), "subtree": ()}[self.shape]
 
-    def param(self, name: str) -> Param | None:
-        return next((param for param in self.params if param.name == name), None)
-
 
 def _memory(default: bool) -> Param:
     return Param("memory", bool, "resume at the running child (true) or restart from the first child every tick (false)", default=default)

@@ -44,9 +44,6 @@ class Problems:
     def __bool__(self) -> bool:
         return bool(self._errors)
 
-    def __len__(self) -> int:
-        return len(self._errors)
-
     def raise_if_any(self) -> None:
         """Raise all recorded problems at once, in file and line order."""
         if self._errors:

@@ -54,9 +54,6 @@ class BehaviourSpec:
     writes: tuple[str, ...] = ()
     resources: tuple[str, ...] = ()
 
-    def param(self, name: str) -> Param | None:
-        return next((param for param in self.params if param.name == name), None)
-
 
 @dataclass(frozen=True)
 class LeafSetup:
