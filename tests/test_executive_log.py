@@ -237,3 +237,10 @@ def datetime_of(text: str) -> float:
     import datetime
 
     return datetime.datetime.fromisoformat(text).timestamp()
+
+
+def test_a_failing_setup_is_logged_as_a_crash(tmp_path):
+    with pytest.raises(PegbtError, match="provides no resource 'counter'"):
+        run_logged(tmp_path, "blackboard: {step: 1}\ntree: {test_counting: {name: count}}")
+    crash, halt, end = records(tmp_path / "run.jsonl")[-3:]
+    assert crash["n"] == 0 and "PegbtError" in crash["error"] and end["outcome"] == "crash"

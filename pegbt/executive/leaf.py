@@ -37,7 +37,11 @@ def _root_key(key: str) -> str:
 
 
 class Leaf(py_trees.behaviour.Behaviour):
-    """A py_trees behaviour built from a tree file's leaf node."""
+    """A py_trees behaviour built from a tree file's leaf node.
+
+    Attributes: `context` (the run's clock and resources), `params` (checked parameter values),
+    `blackboard` (its client), `setup_info` (the whole `LeafSetup`: spec, namespace, ...).
+    """
 
     def __init__(self, setup: LeafSetup) -> None:
         super().__init__(name=setup.name)

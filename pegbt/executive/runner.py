@@ -39,13 +39,13 @@ def set_initial_blackboard(built: BuiltTree) -> None:
 def run(built: BuiltTree, *, period: float, timeout: float | None = None, log: TickLogWriter | None = None) -> RunResult:
     """Set up and tick `built` every `period` seconds of its context's clock; see the module docstring for how it ends."""
     clock = built.context.clock
-    set_initial_blackboard(built)
-    built.root.setup_with_descendants()
     root = built.root
     start = clock.now()
     ticks = 0
     outcome = "interrupted"
     try:
+        set_initial_blackboard(built)
+        root.setup_with_descendants()  # behaviours acquire their resources here; a failure is logged as a crash
         while True:
             ticks += 1
             tick_start = clock.now()
