@@ -13,6 +13,7 @@ Records (one JSON object per line, flushed as written so that a crash loses noth
 - `crash`: an exception escaped a tick (`error`, `traceback`).
 - `end`: `outcome` (`success`, `failure`, `timeout`, `interrupted`, `crash`), `ticks`, `t`.
 
+A blackboard value changed in place (the same object mutated) is not seen: behaviours write new values.
 A node that finishes with the same status on consecutive ticks (a condition that keeps failing, a
 retried leaf failing again) is one transition: the log records changes, not every evaluation.
 Status changes inside one tick are kept: `tick_logged` sees each node as py_trees yields it, so a
@@ -44,6 +45,7 @@ _MISSING = object()
 _same = comparison("==")
 _ENCODER = json.JSONEncoder(separators=(",", ":"))
 _status_of = operator.attrgetter("status")
+_NAME = {status: status.value for status in py_trees.common.Status}  # Enum.value is a slow descriptor
 
 Record = dict[str, Any]
 
@@ -102,12 +104,12 @@ class TickLogWriter:
 
     def tick_logged(self) -> None:
         """Tick the tree once, noting each node's status as py_trees reports it during the tick."""
-        index, previous, changes = self._index, self._status, self._changes  # `previous` is updated in place
+        index, previous, changes, name = self._index, self._status, self._changes, _NAME  # `previous` is updated in place
         for node in self._root.tick():
             i = index[node]
             status = node.status
             if status is not previous[i]:
-                changes.append([i, previous[i].value, status.value, node.feedback_message])
+                changes.append([i, name[previous[i]], name[status], node.feedback_message])
                 previous[i] = status
 
     def _status_changes(self) -> list[list[Any]]:
@@ -118,7 +120,7 @@ class TickLogWriter:
         if current != previous:  # compares by identity first: cheap when nothing was halted
             for index, (before, after) in enumerate(zip(previous, current)):
                 if before is not after:
-                    changes.append([index, before.value, after.value, self._behaviours[index].feedback_message])
+                    changes.append([index, _NAME[before], _NAME[after], self._behaviours[index].feedback_message])
             self._status = current
         return changes
 
