@@ -244,3 +244,23 @@ def test_a_failing_setup_is_logged_as_a_crash(tmp_path):
         run_logged(tmp_path, "blackboard: {step: 1}\ntree: {test_counting: {name: count}}")
     crash, halt, end = records(tmp_path / "run.jsonl")[-3:]
     assert crash["n"] == 0 and "PegbtError" in crash["error"] and end["outcome"] == "crash"
+
+
+def test_why_shows_a_guard_that_stopped_holding_and_the_child_it_halted(tmp_path):
+    result, path = run_logged(tmp_path, """
+    blackboard: {safe: true}
+    tree:
+      parallel:
+        policy: one
+        children:
+          - guard: {name: while safe, key: safe, child: {wait: {name: move, seconds: 5}}}
+          - sequence:
+              - wait: {seconds: 0.1}
+              - set_blackboard: {name: collision, key: safe, value: false}
+              - wait: {seconds: 5}
+    """)
+    assert result.outcome == "failure"
+    text = why(read_tick_log(path))
+    assert "while safe (guard) failed at t=0.200 s, tick 3: guard: /safe == True no longer holds (value False)  <- failed here" in text
+    assert "blackboard it reads: /safe=false" in text
+    assert "halted child: /parallel/while safe/move (waiting 5 s)" in text

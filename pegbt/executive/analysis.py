@@ -170,9 +170,9 @@ def _origin_details(timeline: _Timeline, failure: Transition, indent: str, lines
         shown = ", ".join(f"{key}={json.dumps(values[key]) if key in values else '<unset>'}" for key in node["reads"])
         lines.append(f"{indent}  blackboard it reads: {shown}")
     for child in log.children(failure.node):
-        last = timeline.last_before(child, failure.seq + 2)
-        if last is not None and last.before == "RUNNING" and last.after == "INVALID" and last.seq >= failure.seq - 1:
-            lines.append(f"{indent}  halted child: {log.nodes[child]['path']} ({last.feedback or 'no feedback'})")
+        for change in timeline.by_node[child]:
+            if change.n == failure.n and change.before == "RUNNING" and change.after == "INVALID":
+                lines.append(f"{indent}  halted child: {log.nodes[child]['path']} ({change.feedback or 'no feedback'})")
 
 
 def _recoveries(timeline: _Timeline) -> list[str]:
