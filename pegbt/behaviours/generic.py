@@ -1,0 +1,128 @@
+"""Generic leaves for trees that run without a robot: wait, set / check blackboard, log, scripted.
+
+Where py_trees has the behaviour (`SetBlackboardVariable`, `CheckBlackboardVariableValue`,
+`StatusQueue`) the factory builds it (or a minimal subclass); `wait` and `log` are `Leaf`s because they need the executive's
+clock and parameters read from the blackboard.
+"""
+
+from __future__ import annotations
+
+import logging
+from typing import Any
+
+import py_trees
+from py_trees.common import Status
+
+from pegbt.executive.conditions import OPERATORS, comparison
+from pegbt.executive.leaf import Leaf
+from pegbt.executive.params import BlackboardRef, Param
+from pegbt.executive.registry import LeafSetup, behaviour
+
+TREE_LOG = logging.getLogger("pegbt.tree")
+_STATUSES = {"success": Status.SUCCESS, "failure": Status.FAILURE, "running": Status.RUNNING}
+
+
+@behaviour(
+    "wait",
+    "run for `seconds` of the executive's clock, then succeed",
+    params=(Param("seconds", float, "how long, s", minimum=0.0, blackboard=True),),
+)
+class Wait(Leaf):
+    """Running until the clock has advanced `seconds` since the node started."""
+
+    def initialise(self) -> None:
+        seconds = float(self.param("seconds"))
+        self.end = self.context.clock.now() + seconds
+        self.feedback_message = f"waiting {seconds:g} s"
+
+    def update(self) -> Status:
+        return Status.SUCCESS if self.context.clock.now() >= self.end else Status.RUNNING
+
+
+@behaviour(
+    "set_blackboard",
+    "write `value` (or the value of another key, `$key`) to blackboard `key`, then succeed",
+    params=(
+        Param("key", str, "key to write", key="write"),
+        Param("value", Any, "value to write; `$other` copies key `other`", blackboard=True),
+    ),
+)
+def set_blackboard(setup: LeafSetup) -> py_trees.behaviour.Behaviour:
+    value = setup.params["value"]
+    if isinstance(value, BlackboardRef):
+        source = py_trees.blackboard.Client(name=f"{setup.name} (source)", namespace=setup.namespace)
+        source.register_key(key=value.key.split(".", 1)[0], access=py_trees.common.Access.READ)
+        ref_key = value.key
+        value = lambda: source.get(ref_key)  # noqa: E731  # py_trees calls it on every tick
+    return py_trees.behaviours.SetBlackboardVariable(
+        name=setup.name, variable_name=setup.absolute_key(setup.params["key"]), variable_value=value, overwrite=True
+    )
+
+
+@behaviour(
+    "check_blackboard",
+    "succeed if blackboard `key` compares true with `value` (`op`), fail otherwise or if it is unset",
+    params=(
+        Param("key", str, "key to test", key="read"),
+        Param("op", str, "comparison", default="==", choices=tuple(OPERATORS)),
+        Param("value", Any, "value compared with", default=True),
+    ),
+)
+def check_blackboard(setup: LeafSetup) -> py_trees.behaviour.Behaviour:
+    check = py_trees.common.ComparisonExpression(
+        variable=setup.absolute_key(setup.params["key"]), value=setup.params["value"], operator=comparison(setup.params["op"])
+    )
+    return py_trees.behaviours.CheckBlackboardVariableValue(name=setup.name, check=check)
+
+
+@behaviour(
+    "log",
+    "log `message` (and `value`, e.g. `$key`) to the run's output and the tick log, then succeed",
+    params=(
+        Param("message", str, "text to log"),
+        Param("value", Any, "optional value appended to the message; `$key` shows a blackboard value", default=None, blackboard=True),
+        Param("level", str, "log level", default="info", choices=("debug", "info", "warning", "error")),
+    ),
+)
+class Log(Leaf):
+    """Logs once per tick and succeeds; the message is also its feedback message."""
+
+    def update(self) -> Status:
+        message = self.param("message")
+        if self.params["value"] is not None:
+            try:
+                message = f"{message} {self.param('value')!r}"
+            except KeyError:
+                message = f"{message} <{self.params['value']} unset>"
+        self.feedback_message = message
+        TREE_LOG.log(logging.getLevelName(self.params["level"].upper()), "%s", message)
+        return Status.SUCCESS
+
+
+class ScriptedOutcomes(py_trees.behaviours.StatusQueue):
+    """py_trees' `StatusQueue` with a feedback message on failure, so logs say why it "failed"."""
+
+    def __init__(self, name: str, queue: list[Status], eventually: Status | None, message: str) -> None:
+        super().__init__(name=name, queue=queue, eventually=eventually)
+        self.message = message
+
+    def update(self) -> Status:
+        status = super().update()
+        self.feedback_message = self.message if status == Status.FAILURE else ""
+        return status
+
+
+@behaviour(
+    "scripted",
+    "return the given outcomes one per tick, across retries (for testing recovery logic)",
+    params=(
+        Param("outcomes", list[str], "outcomes in order", choices=tuple(_STATUSES), minimum=1),
+        Param("then", str, "after the list: repeat the last outcome, or start the list again",
+              default="last", choices=("last", "cycle")),
+        Param("message", str, "feedback message when the outcome is failure (why it failed)", default=""),
+    ),
+)
+def scripted(setup: LeafSetup) -> py_trees.behaviour.Behaviour:
+    queue = [_STATUSES[outcome] for outcome in setup.params["outcomes"]]
+    eventually = queue[-1] if setup.params["then"] == "last" else None
+    return ScriptedOutcomes(setup.name, queue, eventually, setup.params["message"])

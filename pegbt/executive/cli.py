@@ -1,0 +1,161 @@
+"""`pegbt tree check|show|schema`, `pegbt run` and `pegbt log summary|why|replay|export`."""
+
+from __future__ import annotations
+
+import argparse
+import datetime
+import sys
+from pathlib import Path
+
+from pegbt.errors import PegbtError
+
+
+def add_commands(subparsers: argparse._SubParsersAction) -> None:
+    tree = subparsers.add_parser("tree", help="check, show and describe YAML behaviour trees")
+    tree_commands = tree.add_subparsers(dest="tree_command", metavar="COMMAND", required=True)
+    check = tree_commands.add_parser("check", help="validate tree files without running them; all errors, each FILE:LINE:COLUMN")
+    check.add_argument("files", nargs="+", metavar="FILE")
+    check.set_defaults(handler=_tree_check)
+    show = tree_commands.add_parser("show", help="print a tree (ASCII), or write Graphviz with --dot")
+    show.add_argument("file", metavar="FILE")
+    show.add_argument("--dot", metavar="OUT", help="write the tree as a Graphviz .dot file")
+    show.set_defaults(handler=_tree_show)
+    schema = tree_commands.add_parser("schema", help="list every node type and behaviour with its parameters")
+    schema.set_defaults(handler=_tree_schema)
+
+    run = subparsers.add_parser("run", help="run a behaviour tree until it succeeds, fails or times out; writes a tick log")
+    run.add_argument("tree", metavar="TREE")
+    run.add_argument("--period", type=float, default=0.02, metavar="S", help="tick period, s (default 0.02)")
+    run.add_argument("--timeout", type=float, default=None, metavar="S", help="halt the tree after S seconds")
+    run.add_argument("--log", metavar="FILE", help="tick log path (default runs/TREE-DATE-TIME.jsonl)")
+    run.add_argument("--clock", default="wall", metavar="NAME",
+                     help="wall (default): real time; manual: time that advances one period per tick, without sleeping; "
+                     "others as registered in pegbt/executive/providers.py")
+    run.add_argument("--quiet", action="store_true", help="no progress lines")
+    run.set_defaults(handler=_run)
+
+    log = subparsers.add_parser("log", help="analyse tick logs written by `pegbt run`")
+    log_commands = log.add_subparsers(dest="log_command", metavar="COMMAND", required=True)
+    summary = log_commands.add_parser("summary", help="outcome, duration, ticks, per-node counts, slowest leaves")
+    summary.add_argument("log", metavar="LOG")
+    summary.set_defaults(handler=_log_summary)
+    why = log_commands.add_parser("why", help="causal chain from the root's failure to the leaf failures; recoveries")
+    why.add_argument("log", metavar="LOG")
+    why.set_defaults(handler=_log_why)
+    replay = log_commands.add_parser("replay", help="every node's status at one tick or time")
+    replay.add_argument("log", metavar="LOG")
+    moment = replay.add_mutually_exclusive_group(required=True)
+    moment.add_argument("--tick", type=int, metavar="N")
+    moment.add_argument("--time", type=float, metavar="T", help="seconds since the start (executive clock)")
+    replay.set_defaults(handler=_log_replay)
+    export = log_commands.add_parser("export", help="convert a tick log to Groot2's .btlog (BehaviorTree.CPP FileLogger2)")
+    export.add_argument("log", metavar="LOG")
+    export.add_argument("out", metavar="OUT", help="the .btlog file to write")
+    export.set_defaults(handler=_log_export)
+
+
+def _tree_check(args: argparse.Namespace) -> int:
+    from pegbt.executive.loader import check_tree
+
+    failed = 0
+    for file in args.files:
+        errors = check_tree(file)
+        for error in errors:
+            print(error, file=sys.stderr)
+        if errors:
+            failed += 1
+            print(f"{file}: {len(errors)} error(s)", file=sys.stderr)
+        else:
+            print(f"{file}: ok")
+    return 2 if failed else 0
+
+
+def _tree_show(args: argparse.Namespace) -> int:
+    import py_trees
+
+    from pegbt.executive.loader import load_tree
+
+    built = load_tree(args.file).build()
+    if args.dot:
+        Path(args.dot).write_text(py_trees.display.dot_tree(built.root).to_string(), encoding="utf-8")
+        print(f"wrote {args.dot}")
+    else:
+        print(py_trees.display.ascii_tree(built.root), end="")
+    return 0
+
+
+def _tree_schema(args: argparse.Namespace) -> int:
+    from pegbt.executive.schema import schema_text
+
+    print(schema_text())
+    return 0
+
+
+def _default_log_path(tree: str) -> Path:
+    stamp = datetime.datetime.now().strftime("%Y%m%d-%H%M%S")
+    return Path("runs") / f"{Path(tree).stem}-{stamp}.jsonl"
+
+
+def _run(args: argparse.Namespace) -> int:
+    from pegbt.executive.analysis import result_table
+    from pegbt.executive.context import RunContext
+    from pegbt.executive.loader import load_tree
+    from pegbt.executive.logfile import read_tick_log
+    from pegbt.executive.progress import ProgressPrinter
+    from pegbt.executive.providers import close_resources, make_clock, provide_resources
+    from pegbt.executive.runner import run
+    from pegbt.executive.ticklog import TickLogWriter
+
+    if args.period <= 0 or (args.timeout is not None and args.timeout <= 0):
+        raise PegbtError("must be positive", field="--period" if args.period <= 0 else "--timeout")
+    loaded = load_tree(args.tree)
+    clock = make_clock(args.clock)
+    resources = provide_resources(loaded.resource_users(), clock)
+    try:
+        built = loaded.build(RunContext(clock=clock, resources=resources))
+        log_path = Path(args.log) if args.log else _default_log_path(args.tree)
+        listeners = [] if args.quiet else [ProgressPrinter(built)]
+        try:
+            writer = TickLogWriter(log_path, built, clock_kind=args.clock, listeners=listeners)
+        except OSError as error:
+            raise PegbtError(f"cannot write the tick log: {error.strerror}", file=log_path) from None
+        print(f"running {args.tree} (period {args.period:g} s, {args.clock} clock); tick log {log_path}")
+        result = run(built, period=args.period, timeout=args.timeout, log=writer)
+    finally:
+        close_resources(resources)
+    print(result_table(read_tick_log(log_path)))
+    print(f"tick log: {log_path}")
+    return 0 if result.outcome == "success" else 1
+
+
+def _log_summary(args: argparse.Namespace) -> int:
+    from pegbt.executive.analysis import summary
+    from pegbt.executive.logfile import read_tick_log
+
+    print(summary(read_tick_log(args.log)))
+    return 0
+
+
+def _log_why(args: argparse.Namespace) -> int:
+    from pegbt.executive.analysis import why
+    from pegbt.executive.logfile import read_tick_log
+
+    print(why(read_tick_log(args.log)))
+    return 0
+
+
+def _log_replay(args: argparse.Namespace) -> int:
+    from pegbt.executive.analysis import replay
+    from pegbt.executive.logfile import read_tick_log
+
+    print(replay(read_tick_log(args.log), tick=args.tick, time=args.time))
+    return 0
+
+
+def _log_export(args: argparse.Namespace) -> int:
+    from pegbt.executive.btlog import export_btlog
+    from pegbt.executive.logfile import read_tick_log
+
+    count = export_btlog(read_tick_log(args.log), Path(args.out))
+    print(f"wrote {args.out} ({count} transitions)")
+    return 0

@@ -1,0 +1,54 @@
+"""The one source of time for the executive, so that a tree can run in wall time or simulated time.
+
+Everything in the executive that measures or lets time pass (the runner's tick period, the `timeout`
+decorator, the `wait` leaf, tick-log timestamps) asks a `Clock`, never `time` directly. A simulator in
+lockstep provides its own clock whose `wait` advances the simulation; `WallClock` sleeps; `ManualClock`
+only counts, for tests and benchmarks that must not depend on the machine's speed.
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Protocol, runtime_checkable
+
+
+@runtime_checkable
+class Clock(Protocol):
+    """Time as the tree sees it."""
+
+    def now(self) -> float:
+        """Seconds since an arbitrary, fixed origin; never decreases."""
+        ...
+
+    def wait(self, seconds: float) -> None:
+        """Let `seconds` of this clock's time pass (sleep for a wall clock, step a simulator for a sim clock)."""
+        ...
+
+
+class WallClock:
+    """Monotonic wall time; `wait` sleeps."""
+
+    def now(self) -> float:
+        return time.monotonic()
+
+    def wait(self, seconds: float) -> None:
+        if seconds > 0:
+            time.sleep(seconds)
+
+
+class ManualClock:
+    """Time that moves only when `wait` (or `advance`) is called: deterministic runs without a simulator."""
+
+    def __init__(self, start: float = 0.0) -> None:
+        self._now = float(start)
+
+    def now(self) -> float:
+        return self._now
+
+    def wait(self, seconds: float) -> None:
+        self.advance(seconds)
+
+    def advance(self, seconds: float) -> None:
+        """Move time forward by `seconds` (negative values are ignored: time never runs backwards)."""
+        if seconds > 0:
+            self._now += seconds

@@ -1,0 +1,230 @@
+"""Tree files and what they include: the top-level structure, subtree definitions and include cycles.
+
+A tree file is a mapping with these keys (all optional, but a file must have `tree` or `subtrees`):
+
+- `doc`: a description.
+- `include`: a list of tree files (paths relative to this file) whose subtree definitions this file uses.
+- `blackboard`: initial blackboard values, `key: value`, set before the first tick.
+- `subtrees`: definitions, `NAME: {doc, args: {ARG: TYPE | {type, default, doc}}, tree: NODE}`.
+- `tree`: the root node.
+
+Only the subtree definitions of an included file are used (its own `tree` and `blackboard` are not).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from pegbt.errors import PegbtError
+from pegbt.executive.params import REQUIRED, TYPE_NAMES, check_type, is_valid_key
+from pegbt.executive.problems import Problems, did_you_mean
+from pegbt.executive.source import Located, Mark, read_yaml_file
+
+TOP_LEVEL_KEYS = ("doc", "include", "blackboard", "subtrees", "tree")
+SUBTREE_KEYS = ("doc", "args", "tree")
+ARG_KEYS = ("type", "default", "doc")
+
+
+@dataclass(frozen=True)
+class ArgSpec:
+    """A declared subtree argument."""
+
+    name: str
+    type: Any
+    default: Any
+    doc: str
+    mark: Mark
+
+
+@dataclass(frozen=True)
+class SubtreeDef:
+    """A subtree definition: arguments and body, instantiated by `subtree: {use: NAME, args: ...}`."""
+
+    name: str
+    doc: str
+    args: dict[str, ArgSpec]
+    body: Located
+    mark: Mark
+
+
+@dataclass
+class TreeDocument:
+    """A tree file with everything it includes."""
+
+    path: Path
+    doc: str = ""
+    tree: Located | None = None
+    blackboard: dict[str, Located] = field(default_factory=dict)
+    subtrees: dict[str, SubtreeDef] = field(default_factory=dict)
+    own_subtrees: list[str] = field(default_factory=list)
+    files: list[Path] = field(default_factory=list)
+
+
+def load_document(path: Path, problems: Problems) -> TreeDocument:
+    """Read `path` and its includes, recording every problem in `problems` (nothing is raised)."""
+    loader = _DocumentLoader(problems)
+    return loader.load(Path(path), stack=())
+
+
+class _DocumentLoader:
+    def __init__(self, problems: Problems) -> None:
+        self.problems = problems
+        self.cache: dict[Path, TreeDocument] = {}
+        self.defined_at: dict[str, Mark] = {}
+
+    def load(self, path: Path, stack: tuple[Path, ...]) -> TreeDocument:
+        resolved = path.resolve()
+        if resolved in self.cache:
+            return self.cache[resolved]
+        document = TreeDocument(path=path, files=[path])
+        self.cache[resolved] = document
+        try:
+            root = read_yaml_file(path)
+        except PegbtError as error:
+            self.problems.add_error(error)
+            return document
+        if root is None:
+            self.problems.add("the file is empty; expected a mapping with `tree:` and/or `subtrees:`", Mark(str(path), 1, 1))
+            return document
+        if not root.is_map:
+            self.problems.add(f"expected a mapping with keys {', '.join(TOP_LEVEL_KEYS)}; found {_kind(root)}", root.mark)
+            return document
+        for key, value in root.value.items():
+            if key not in TOP_LEVEL_KEYS:
+                self.problems.add(
+                    f"unknown top-level key {key!r}{did_you_mean(key, TOP_LEVEL_KEYS)}; expected {', '.join(TOP_LEVEL_KEYS)}",
+                    root.key_marks[key],
+                    field=key,
+                )
+        if "tree" not in root.value and "subtrees" not in root.value:
+            self.problems.add("nothing to run or share: expected `tree:` and/or `subtrees:`", root.mark)
+        document.doc = self._text(root, "doc")
+        document.tree = root.value.get("tree")
+        document.blackboard = self._blackboard(root.value.get("blackboard"))
+        for include_path, mark in self._includes(root.value.get("include"), path):
+            self._include(document, include_path, mark, stack + (path.resolve(),))
+        for subtree in self._subtrees(root.value.get("subtrees")):
+            first = self.defined_at.get(subtree.name)
+            if first is not None and first != subtree.mark:
+                self.problems.add(f"subtree {subtree.name!r} is already defined at {first}", subtree.mark, field=subtree.name)
+                continue
+            self.defined_at[subtree.name] = subtree.mark
+            document.subtrees[subtree.name] = subtree
+            document.own_subtrees.append(subtree.name)
+        return document
+
+    def _include(self, document: TreeDocument, path: Path, mark: Mark, stack: tuple[Path, ...]) -> None:
+        resolved = path.resolve()
+        if resolved in stack:
+            chain = " -> ".join(p.name for p in stack[stack.index(resolved):] + (resolved,))
+            self.problems.add(f"include cycle: {chain}", mark, field="include")
+            return
+        if not path.is_file():
+            self.problems.add(f"included file {str(path)!r} not found", mark, field="include")
+            return
+        included = self.load(path, stack)
+        for name, subtree in included.subtrees.items():
+            document.subtrees.setdefault(name, subtree)
+        document.files.extend(p for p in included.files if p not in document.files)
+
+    def _text(self, root: Located, key: str) -> str:
+        value = root.value.get(key)
+        if value is None:
+            return ""
+        if not isinstance(value.value, str):
+            self.problems.add(f"expected a string; found {_kind(value)}", value.mark, field=key)
+            return ""
+        return value.value
+
+    def _includes(self, value: Located | None, path: Path) -> list[tuple[Path, Mark]]:
+        if value is None:
+            return []
+        items = value.value if value.is_list else [value]
+        found = []
+        for item in items:
+            if not isinstance(item.value, str) or not item.value:
+                self.problems.add(f"expected a file path; found {_kind(item)}", item.mark, field="include")
+                continue
+            found.append((path.parent / item.value, item.mark))
+        return found
+
+    def _blackboard(self, value: Located | None) -> dict[str, Located]:
+        if value is None:
+            return {}
+        if not value.is_map:
+            self.problems.add(f"expected a mapping of blackboard keys to initial values; found {_kind(value)}", value.mark, field="blackboard")
+            return {}
+        values = {}
+        for key, item in value.value.items():
+            if not is_valid_key(key) or "." in key:
+                self.problems.add("not a blackboard key name (letters, digits, _, and / for namespaces)", value.key_marks[key], field=key)
+                continue
+            values[key if key.startswith("/") else "/" + key] = item
+        return values
+
+    def _subtrees(self, value: Located | None) -> list[SubtreeDef]:
+        if value is None:
+            return []
+        if not value.is_map:
+            self.problems.add(f"expected a mapping of subtree names to definitions; found {_kind(value)}", value.mark, field="subtrees")
+            return []
+        definitions = []
+        for name, body in value.value.items():
+            mark = value.key_marks[name]
+            if not body.is_map:
+                self.problems.add(f"expected a mapping with keys {', '.join(SUBTREE_KEYS)}; found {_kind(body)}", body.mark, field=name)
+                continue
+            for key in body.value:
+                if key not in SUBTREE_KEYS:
+                    self.problems.add(
+                        f"unknown key {key!r} in subtree {name!r}{did_you_mean(key, SUBTREE_KEYS)}; expected {', '.join(SUBTREE_KEYS)}",
+                        body.key_marks[key],
+                        field=key,
+                    )
+            if "tree" not in body.value:
+                self.problems.add(f"subtree {name!r} has no `tree:`", mark, field=name)
+                continue
+            definitions.append(SubtreeDef(name, self._text(body, "doc"), self._args(body.value.get("args"), name), body.value["tree"], mark))
+        return definitions
+
+    def _args(self, value: Located | None, subtree: str) -> dict[str, ArgSpec]:
+        if value is None:
+            return {}
+        if not value.is_map:
+            self.problems.add(f"expected a mapping of argument names to types; found {_kind(value)}", value.mark, field="args")
+            return {}
+        args = {}
+        for name, declaration in value.value.items():
+            mark = value.key_marks[name]
+            fields = declaration.value if declaration.is_map else {"type": declaration}
+            for key in fields:
+                if key not in ARG_KEYS:
+                    self.problems.add(f"unknown key {key!r}{did_you_mean(key, ARG_KEYS)}; expected {', '.join(ARG_KEYS)}",
+                                      declaration.key_marks[key], field=key)
+            type_value = fields.get("type")
+            kind_name = type_value.value if type_value is not None else "any"
+            if not isinstance(kind_name, str) or kind_name not in TYPE_NAMES:
+                where = type_value.mark if type_value is not None else mark
+                self.problems.add(f"unknown argument type {kind_name!r}{did_you_mean(str(kind_name), TYPE_NAMES)}; expected one of "
+                                  f"{', '.join(TYPE_NAMES)}", where, field=name)
+                continue
+            kind = TYPE_NAMES[kind_name]
+            default = fields["default"].plain() if "default" in fields else REQUIRED
+            if default is not REQUIRED and default is not None:
+                default, problem = check_type(default, kind)
+                if problem:
+                    self.problems.add(f"default of argument {name!r} should be {problem}", fields["default"].mark, field=name)
+            doc = fields["doc"].value if "doc" in fields and isinstance(fields["doc"].value, str) else ""
+            args[name] = ArgSpec(name, kind, default, doc, mark)
+        return args
+
+
+def _kind(value: Located) -> str:
+    if value.is_map:
+        return "a mapping"
+    if value.is_list:
+        return "a list"
+    return f"{value.value!r} ({type(value.value).__name__})" if value.value is not None else "nothing"
+

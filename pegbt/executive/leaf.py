@@ -1,0 +1,71 @@
+"""`Leaf`: the base class for pegbt's leaf behaviours (a plain py_trees `Behaviour` with typed parameters).
+
+A leaf gets one `LeafSetup`. Its blackboard client lives in the node's namespace (a subtree instance
+gets its own) and has access to exactly the keys the behaviour declared, the keys its key-parameters
+name and the keys its `$key` parameters reference. Follow py_trees' conventions: keep `__init__` light,
+acquire resources in `setup()` through `self.context.resource(...)`, and in `terminate(new_status)`
+stop anything still in motion when `new_status` is `INVALID` (the node was halted).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import py_trees
+
+from pegbt.executive.params import BlackboardRef
+from pegbt.executive.registry import LeafSetup
+
+
+def leaf_keys(setup: LeafSetup) -> tuple[set[str], set[str]]:
+    """(keys read, keys written) by a leaf, relative to its namespace, as the validator also computes them."""
+    reads = set(setup.spec.reads)
+    writes = set(setup.spec.writes)
+    for param in setup.spec.params:
+        value = setup.params.get(param.name)
+        if isinstance(value, BlackboardRef):
+            reads.add(value.key)
+        elif param.key == "read" and isinstance(value, str):
+            reads.add(value)
+        elif param.key == "write" and isinstance(value, str):
+            writes.add(value)
+    return reads, writes
+
+
+def _root_key(key: str) -> str:
+    return key.split(".", 1)[0]
+
+
+class Leaf(py_trees.behaviour.Behaviour):
+    """A py_trees behaviour built from a tree file's leaf node.
+
+    Attributes: `context` (the run's clock and resources), `params` (checked parameter values),
+    `blackboard` (its client), `setup_info` (the whole `LeafSetup`: spec, namespace, ...).
+    """
+
+    def __init__(self, setup: LeafSetup) -> None:
+        super().__init__(name=setup.name)
+        self.setup_info = setup
+        self.context = setup.context
+        self.params = setup.params
+        self.blackboard = self.attach_blackboard_client(name=setup.name, namespace=setup.namespace)
+        reads, writes = leaf_keys(setup)
+        for key in reads - writes:
+            self.blackboard.register_key(key=_root_key(key), access=py_trees.common.Access.READ)
+        for key in writes:
+            self.blackboard.register_key(key=_root_key(key), access=py_trees.common.Access.WRITE)
+
+    def param(self, name: str) -> Any:
+        """The parameter's value; a `$key` parameter is read from the blackboard now (KeyError if unset)."""
+        value = self.params[name]
+        if isinstance(value, BlackboardRef):
+            return self.blackboard.get(value.key)
+        return value
+
+    def read(self, key: str) -> Any:
+        """A declared blackboard key's value (KeyError if nothing wrote it yet)."""
+        return self.blackboard.get(key)
+
+    def write(self, key: str, value: Any) -> None:
+        """Write a declared blackboard key."""
+        self.blackboard.set(key, value, overwrite=True)

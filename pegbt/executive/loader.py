@@ -1,0 +1,83 @@
+"""The executive's front door: load a tree file, validate all of it, and build it.
+
+`check_tree` returns every problem in a file (and its includes) without building anything;
+`load_tree` raises them all at once as `PegbtErrors`; `build` turns the result into py_trees.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from pegbt.errors import PegbtError
+from pegbt.executive.build import BuiltTree, build_tree
+from pegbt.executive.context import RunContext
+from pegbt.executive.document import TreeDocument, load_document
+from pegbt.executive.keys import check_keys
+from pegbt.executive.problems import Problems
+from pegbt.executive.registry import REGISTRY, BehaviourRegistry
+from pegbt.executive.resolve import Resolver
+from pegbt.executive.spec import NodeSpec
+
+
+@dataclass
+class LoadedTree:
+    """A validated tree file: the document, the root `NodeSpec` (None for a file of subtrees only)."""
+
+    document: TreeDocument
+    root: NodeSpec | None
+
+    @property
+    def initial_blackboard(self) -> dict[str, Any]:
+        return {key: value.plain() for key, value in self.document.blackboard.items()}
+
+    def node_count(self) -> int:
+        return sum(1 for _ in self.root.walk()) if self.root else 0
+
+    def build(self, context: RunContext | None = None, registry: BehaviourRegistry = REGISTRY) -> BuiltTree:
+        """The py_trees tree; a `PegbtError` if the file has no `tree:` or the context lacks a declared resource."""
+        context = context or RunContext()
+        if self.root is None:
+            raise PegbtError("this file has no `tree:` to build (it only defines subtrees)", file=self.document.path)
+        built = build_tree(self.root, context, registry)
+        built.initial_blackboard = self.initial_blackboard
+        built.source = str(self.document.path)
+        return built
+
+    def resource_users(self, registry: BehaviourRegistry = REGISTRY) -> dict[str, str]:
+        """Each resource the tree's leaves declare, with the first node that needs it (`/path at FILE:LINE:COL`)."""
+        users: dict[str, str] = {}
+        for node in self.root.walk() if self.root else ():
+            spec = registry.get(node.type)
+            for name in spec.resources if spec is not None else ():
+                users.setdefault(name, f"{node.path} at {node.mark}")
+        return users
+
+
+def _validate(path: Path, registry: BehaviourRegistry) -> tuple[LoadedTree, Problems]:
+    problems = Problems()
+    document = load_document(Path(path), problems)
+    resolver = Resolver(document, problems, registry)
+    root = resolver.resolve_tree()
+    resolver.check_unused_subtrees()
+    if root is not None:
+        check_keys(root, set(document.blackboard), problems)
+    return LoadedTree(document, root), problems
+
+
+def check_tree(path: str | Path, registry: BehaviourRegistry = REGISTRY) -> list[PegbtError]:
+    """Every problem in the tree file at `path` and the files it includes, in file and line order."""
+    _, problems = _validate(Path(path), registry)
+    try:
+        problems.raise_if_any()
+    except PegbtError as error:
+        return list(getattr(error, "errors", [error]))
+    return []
+
+
+def load_tree(path: str | Path, registry: BehaviourRegistry = REGISTRY) -> LoadedTree:
+    """Load and validate a tree file; raises `PegbtError` / `PegbtErrors` listing every problem."""
+    loaded, problems = _validate(Path(path), registry)
+    problems.raise_if_any()
+    return loaded

@@ -1,0 +1,143 @@
+"""Typed, documented parameters of tree nodes, and references to blackboard keys.
+
+A node's parameters are declared once as `Param`s; the validator checks every value written in a tree
+against them (type, choices, required, unknown names) and the schema command prints them. A parameter
+declared `blackboard=True` may be written `$key`: the behaviour then reads that key when it runs
+(`$$text` is the literal string `$text`). A parameter declared `key="read"` / `key="write"` names a
+blackboard key itself (e.g. `set_blackboard`'s `key`), so the validator knows what the node touches.
+"""
+
+from __future__ import annotations
+
+import re
+import typing
+from dataclasses import dataclass
+from typing import Any, Literal
+
+REQUIRED: Any = type("Required", (), {"__repr__": lambda self: "REQUIRED"})()
+TYPE_NAMES: dict[str, Any] = {"str": str, "int": int, "float": float, "bool": bool, "list": list, "dict": dict, "any": Any}
+_KEY_PATTERN = re.compile(r"^/?[A-Za-z_][A-Za-z0-9_]*(/[A-Za-z_][A-Za-z0-9_]*)*(\.[A-Za-z_][A-Za-z0-9_]*)*$")
+
+
+@dataclass(frozen=True)
+class BlackboardRef:
+    """A parameter value to be read from the blackboard when the node runs (`$key` in a tree file)."""
+
+    key: str
+
+    def __str__(self) -> str:
+        return f"${self.key}"
+
+
+@dataclass(frozen=True)
+class Unbound:
+    """A subtree argument without a value: a subtree definition checked on its own accepts it anywhere."""
+
+    arg: str
+
+
+def type_name(kind: Any) -> str:
+    """`float`, `list[float]`, `any`: how a type is written in the schema and in error messages."""
+    if kind is Any:
+        return "any"
+    origin = typing.get_origin(kind)
+    if origin is not None:
+        return f"{origin.__name__}[{', '.join(type_name(arg) for arg in typing.get_args(kind))}]"
+    return kind.__name__
+
+
+def is_valid_key(key: object) -> bool:
+    """Blackboard key syntax: names of letters, digits and `_`, `/` for namespaces, `.` for attributes."""
+    return isinstance(key, str) and bool(_KEY_PATTERN.match(key))
+
+
+def check_type(value: Any, kind: Any) -> tuple[Any, str | None]:
+    """`(value converted to kind, None)` or `(value, what was expected)`; ints are accepted as floats."""
+    if kind is Any or isinstance(value, Unbound):
+        return value, None
+    origin = typing.get_origin(kind)
+    if origin is list:
+        if not isinstance(value, list):
+            return value, f"a list of {type_name(typing.get_args(kind)[0])}"
+        converted = []
+        for index, item in enumerate(value):
+            item_value, problem = check_type(item, typing.get_args(kind)[0])
+            if problem:
+                return value, f"item {index} to be {problem}"
+            converted.append(item_value)
+        return converted, None
+    if kind is float and isinstance(value, int) and not isinstance(value, bool):
+        return float(value), None
+    if kind in (int, float) and isinstance(value, bool):
+        return value, _article(type_name(kind))
+    if not isinstance(value, kind):
+        return value, _article(type_name(kind))
+    return value, None
+
+
+def _article(name: str) -> str:
+    return f"an {name}" if name[0] in "aeiou" else f"a {name}"
+
+
+def describe(value: Any) -> str:
+    """A short account of a value for error messages: `'abc' (str)`."""
+    shown = repr(value)
+    if len(shown) > 40:
+        shown = shown[:37] + "..."
+    return f"{shown} ({type(value).__name__})"
+
+
+@dataclass(frozen=True)
+class Param:
+    """One parameter of a node type or behaviour.
+
+    Attributes:
+        name: the field name in the tree file.
+        type: `str`, `int`, `float`, `bool`, `list`, `dict`, `typing.Any` or `list[X]`.
+        doc: one line for `pegbt tree schema`.
+        default: the value when the field is absent; `REQUIRED` (the default) makes it mandatory.
+        choices: allowed values (for lists: allowed items).
+        blackboard: the value may be `$key`, read from the blackboard each time the node asks for it.
+        key: the value is itself a blackboard key that the node reads or writes.
+        minimum: smallest allowed number (`int` / `float`) or length (`list`).
+    """
+
+    name: str
+    type: Any
+    doc: str
+    default: Any = REQUIRED
+    choices: tuple[Any, ...] = ()
+    blackboard: bool = False
+    key: Literal["read", "write"] | None = None
+    minimum: float | None = None
+
+    @property
+    def required(self) -> bool:
+        return self.default is REQUIRED
+
+    def check(self, value: Any) -> tuple[Any, str | None]:
+        """`(checked value, None)` or `(value, what was expected)`; `$key` becomes a `BlackboardRef`."""
+        if isinstance(value, str) and value.startswith("$"):
+            if value.startswith("$$"):
+                value = value[1:]
+            elif not self.blackboard:
+                return value, f"a literal {type_name(self.type)}; this parameter does not take blackboard references ($key)"
+            elif not is_valid_key(value[1:]):
+                return value, "a blackboard reference `$name` (letters, digits, _, / and .)"
+            else:
+                return BlackboardRef(value[1:]), None
+        checked, problem = check_type(value, self.type)
+        if problem:
+            return value, problem
+        if self.key is not None and not isinstance(checked, Unbound) and not is_valid_key(checked):
+            return value, "a blackboard key name (letters, digits, _, / for namespaces, . for attributes)"
+        if self.minimum is not None and isinstance(checked, (int, float)) and checked < self.minimum:
+            return value, f"a number >= {self.minimum:g}"
+        if self.minimum is not None and isinstance(checked, list) and len(checked) < self.minimum:
+            return value, f"a list of at least {self.minimum:g} item(s)"
+        if self.choices and not isinstance(checked, Unbound):
+            items = checked if isinstance(checked, list) else [checked]
+            for item in items:
+                if item not in self.choices:
+                    return value, "one of " + ", ".join(repr(choice) for choice in self.choices)
+        return checked, None

@@ -1,0 +1,84 @@
+"""The runner: tick a built tree at a fixed period of the executive's clock until it finishes.
+
+It stops on success, failure, a timeout (halting the tree) or Ctrl-C (halting the tree: every running
+behaviour gets `terminate(INVALID)`, so a behaviour that started a motion stops it). With a tick log,
+each of these ends up in the log; an exception escaping a behaviour is logged as a crash and re-raised.
+"""
+
+from __future__ import annotations
+
+import time
+import traceback
+from dataclasses import dataclass
+
+import py_trees
+from py_trees.common import Status
+
+from pegbt.executive.build import BuiltTree
+from pegbt.executive.ticklog import TickLogWriter
+
+
+@dataclass(frozen=True)
+class RunResult:
+    """How a run ended: `outcome` is success, failure, timeout or interrupted."""
+
+    outcome: str
+    ticks: int
+    duration: float
+
+
+def set_initial_blackboard(built: BuiltTree) -> None:
+    """Write the tree file's `blackboard:` values before the first tick."""
+    if built.initial_blackboard:
+        writer = py_trees.blackboard.Client(name="initial blackboard")
+        for key, value in built.initial_blackboard.items():
+            writer.register_key(key=key, access=py_trees.common.Access.WRITE)
+            writer.set(key, value, overwrite=True)
+
+
+def run(built: BuiltTree, *, period: float, timeout: float | None = None, log: TickLogWriter | None = None) -> RunResult:
+    """Set up and tick `built` every `period` seconds of its context's clock; see the module docstring for how it ends."""
+    clock = built.context.clock
+    root = built.root
+    start = clock.now()
+    ticks = 0
+    outcome = "interrupted"
+    try:
+        set_initial_blackboard(built)
+        root.setup_with_descendants()  # behaviours acquire their resources here; a failure is logged as a crash
+        while True:
+            ticks += 1
+            tick_start = clock.now()
+            wall = time.perf_counter()
+            if log is None:
+                root.tick_once()
+            else:
+                log.tick_logged()
+                log.tick(ticks, tick_start - start, time.perf_counter() - wall)
+            if root.status in (Status.SUCCESS, Status.FAILURE):
+                outcome = root.status.value.lower()
+                break
+            if timeout is not None and clock.now() - start >= timeout:
+                outcome = "timeout"
+                _halt(root, log, ticks, clock.now() - start, "timeout")
+                break
+            clock.wait(tick_start + period - clock.now())
+    except KeyboardInterrupt:
+        _halt(root, log, ticks, clock.now() - start, "interrupt")
+    except Exception as error:
+        outcome = "crash"
+        if log is not None:
+            log.crash(ticks, clock.now() - start, error, traceback.format_exc())
+        _halt(root, log, ticks, clock.now() - start, "crash")
+        raise
+    finally:
+        if log is not None:
+            log.end(ticks, clock.now() - start, outcome)
+            log.close()
+    return RunResult(outcome, ticks, clock.now() - start)
+
+
+def _halt(root: py_trees.behaviour.Behaviour, log: TickLogWriter | None, ticks: int, t: float, reason: str) -> None:
+    root.stop(Status.INVALID)
+    if log is not None:
+        log.halt(ticks, t, reason)
