@@ -14,7 +14,9 @@ from pegbt.errors import PegbtError
 
 Figures = dict[str, float | int | str]
 
-BENCHMARKS: dict[str, str] = {}
+BENCHMARKS: dict[str, str] = {
+    "calibration": "pegbt.bench.calibration:run",
+}
 
 
 def benchmark_names() -> list[str]:
