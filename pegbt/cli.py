@@ -16,6 +16,7 @@ from pegbt.errors import PegbtError
 COMMAND_MODULES: tuple[str, ...] = (
     "pegbt.bench.cli",
     "pegbt.executive.cli",
+    "pegbt.calibration.cli",
 )
 
 

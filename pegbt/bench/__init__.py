@@ -17,6 +17,7 @@ Figures = dict[str, float | int | str]
 BENCHMARKS: dict[str, str] = {
     "world": "pegbt.bench.world:run",
     "executive": "pegbt.bench.executive:run",
+    "calibration": "pegbt.bench.calibration:run",
 }
 
 

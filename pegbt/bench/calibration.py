@@ -1,0 +1,100 @@
+"""`pegbt bench calibration`: the three calibration models on the real dVRK recordings, in one process.
+
+- Split: train on the first 70 % of each recording, score the rest.
+- Cross: train on all of one recording, score all of the other recording of the same arm (a later
+  set-up, re-homed: its offsets differ).
+- `train_s_MODEL`: seconds to fit on the ~2800 samples of `random_smooth_new1_PSM1`.
+- `compensate_us_MODEL`: median microseconds of one compensated 10 ms step (Alg. 1 included) along a
+  streamed trajectory through held-out set-points of grey1_PSM1.
+Tip errors are means in mm through forward kinematics; joint RMSE in rad. The closed-loop simulator
+figures (`tip_err_mm_uncompensated/compensated`) need the simulator endpoint and are not measured here.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import time
+from pathlib import Path
+
+import numpy as np
+
+from pegbt.bench import Figures
+from pegbt.calibration.base import CalibrationModel, new_model
+from pegbt.calibration.compensation import Compensator
+from pegbt.calibration.evaluation import evaluate
+from pegbt.calibration.recording import Recording, load_recording
+from pegbt.errors import PegbtError
+
+DATA = Path(os.environ.get("PEGBT_DVRK_DATA", Path(__file__).resolve().parents[3] / "shared" / "data" / "dvrk"))
+PAIRS = (("grey1_PSM1", "new1_PSM1"), ("grey2_PSM2", "new2_PSM2"))  # (paper-era set-up, later set-up)
+KINDS = ("lstm", "physics", "hybrid")
+WRIST = ("q4", "q5", "q6")
+# The reference paper's repository: mean tip error on peg-transfer motion (for comparison only).
+PAPER_TIP_MM = {"uncompensated": 4.13, "lstm": 1.87}
+
+
+def _recording(name: str) -> Recording:
+    path = DATA / f"random_smooth_{name}"
+    if not path.exists():
+        raise PegbtError("real dVRK recordings not found (set PEGBT_DVRK_DATA)", file=path)
+    return load_recording(path)
+
+
+def _arm(recording: Recording) -> str:
+    assert recording.arm is not None, "the dVRK folders end in their arm's name"
+    return recording.arm
+
+
+def _score(figures: Figures, prefix: str, model: CalibrationModel, test: Recording, start: int) -> None:
+    scores = evaluate(model, test, start)
+    figures[f"{prefix}.uncompensated.tip_mm"] = scores["tip_err_mm_mean_uncompensated"]
+    figures[f"{prefix}.{model.kind}.tip_mm"] = scores["tip_err_mm_mean"]
+    for joint in WRIST:
+        figures[f"{prefix}.uncompensated.{joint}_rmse"] = scores["joint_rmse_uncompensated"][joint]
+        figures[f"{prefix}.{model.kind}.{joint}_rmse"] = scores["joint_rmse"][joint]
+
+
+def _compensate_us(model: CalibrationModel, recording: Recording) -> float:
+    """Median time of one streamed 10 ms step between held-out set-points, 0.5 s apart."""
+    points = recording.q_cmd[recording.head(0.7) :][:40]
+    stream = np.concatenate([np.linspace(a, b, 50, endpoint=False) for a, b in zip(points[:-1], points[1:])])
+    compensator = Compensator(model)
+    compensator.reset(stream[0])
+    times = []
+    for q_desired in stream:
+        start = time.perf_counter()
+        compensator.step(q_desired)
+        times.append(time.perf_counter() - start)
+    return 1e6 * float(np.median(times))
+
+
+def _summarise(figures: Figures, split: str, recordings: list[str]) -> None:
+    for kind in ("uncompensated", *KINDS):
+        values = [float(figures[f"{split}.{name}.{kind}.tip_mm"]) for name in recordings]
+        figures[f"{split}.mean.{kind}.tip_mm"] = float(np.mean(values))
+
+
+def run() -> Figures:
+    logging.getLogger("pegbt.calibration").setLevel(logging.ERROR)  # clamps are counted, not printed here
+    figures: Figures = {f"reference_paper.{k}.tip_mm": v for k, v in PAPER_TIP_MM.items()}
+    recordings = {name: _recording(name) for pair in PAIRS for name in pair}
+    train_s: dict[str, float] = {}
+    for name, recording in recordings.items():
+        n_train = recording.head(0.7)
+        for kind in KINDS:
+            model = new_model(kind, _arm(recording)).fit(recording.slice(0, n_train))
+            _score(figures, f"split.{name}", model, recording, n_train)
+            if name == "grey1_PSM1":
+                figures[f"compensate_us_{kind}"] = _compensate_us(model, recording)
+    for train, test in (pair for pair in PAIRS for pair in (pair, pair[::-1])):
+        for kind in KINDS:
+            start = time.perf_counter()
+            model = new_model(kind, _arm(recordings[train])).fit(recordings[train])
+            if train == "new1_PSM1":
+                train_s[kind] = time.perf_counter() - start  # all 2794 samples
+            _score(figures, f"cross.{train}->{test}", model, recordings[test], 0)
+    _summarise(figures, "split", list(recordings))
+    for kind in KINDS:
+        figures[f"train_s_{kind}"] = train_s[kind]
+    return figures

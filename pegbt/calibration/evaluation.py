@@ -1,0 +1,52 @@
+"""How well a model predicts the physical joints it was not trained on, in joint space and at the tool tip.
+
+The model sees every command of the recording (commands are known, so the history before the test
+part is legitimate), and is scored on samples [start, end) against the measured joints. The same
+figures for the raw commands (no model: q_phy ≈ q_cmd) are the uncompensated baseline. Tip error is the
+distance between the tool tips that forward kinematics puts at the measured and the predicted joints.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from pegbt.calibration.base import CalibrationModel
+from pegbt.calibration.recording import Recording, check_arm
+from pegbt.errors import PegbtError
+from pegbt.motion.kinematics import tip_position
+from pegbt.physics import JOINT_NAMES
+
+
+def joint_rmse(predicted: NDArray[np.float64], measured: NDArray[np.float64]) -> dict[str, float]:
+    rmse = np.sqrt(np.mean((predicted - measured) ** 2, axis=0))
+    return {name: float(value) for name, value in zip(JOINT_NAMES, rmse)}
+
+
+def tip_error_mm(predicted: NDArray[np.float64], measured: NDArray[np.float64]) -> NDArray[np.float64]:
+    return 1000.0 * np.linalg.norm(tip_position(predicted) - tip_position(measured), axis=-1)
+
+
+def evaluate(model: CalibrationModel, recording: Recording, start: int = 0) -> dict[str, Any]:
+    """Held-out scores of `model` on samples start.. of `recording` (the `--json` form of `calibrate eval`)."""
+    check_arm(recording, model.arm, f"the {model.kind} model")
+    if not 0 <= start < len(recording):
+        raise PegbtError(f"no samples to score from sample {start} of {len(recording)}", file=recording.path)
+    predicted = model.predict(recording.q_cmd)[start:]
+    measured, commanded = recording.q_phy[start:], recording.q_cmd[start:]
+    tip, tip_raw = tip_error_mm(predicted, measured), tip_error_mm(commanded, measured)
+    return {
+        "model": model.kind,
+        "arm": model.arm,
+        "recording": str(recording.path),
+        "samples": len(measured),
+        "first_sample": start,
+        "joint_rmse": joint_rmse(predicted, measured),
+        "joint_rmse_uncompensated": joint_rmse(commanded, measured),
+        "tip_err_mm_mean": float(tip.mean()),
+        "tip_err_mm_mean_uncompensated": float(tip_raw.mean()),
+        "tip_err_mm_median": float(np.median(tip)),
+        "tip_err_mm_max": float(tip.max()),
+    }

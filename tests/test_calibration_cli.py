@@ -1,0 +1,91 @@
+"""`pegbt calibrate train|eval`, the recording layout, and the real dVRK recordings."""
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from calibration_helpers import synthetic, write
+
+from pegbt.calibration.base import CalibrationModel, new_model
+from pegbt.calibration.evaluation import evaluate
+from pegbt.calibration.recording import RecordingWriter, load_recording
+from pegbt.errors import PegbtError
+
+
+def _pegbt(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "pegbt", *map(str, args)], capture_output=True, text=True, timeout=120)
+
+
+def test_train_then_eval_on_a_written_recording(tmp_path):
+    folder = write(synthetic(300, noise=0.001), tmp_path / "rec_PSM1")
+    out = tmp_path / "model.json"
+    trained = _pegbt("calibrate", "train", folder, "--arm", "PSM1", "--model", "physics", "--out", out)
+    assert trained.returncode == 0, trained.stderr
+    assert "held-out samples" in trained.stdout
+    assert json.loads(out.read_text())["heldout"]["samples"] == 90
+    scored = _pegbt("calibrate", "eval", out, folder, "--json", "--from-fraction", "0.7")
+    assert scored.returncode == 0, scored.stderr
+    scores = json.loads(scored.stdout)
+    assert set(scores["joint_rmse"]) == {"q1", "q2", "q3", "q4", "q5", "q6"}
+    assert set(scores["joint_rmse_uncompensated"]) == set(scores["joint_rmse"])
+    assert scores["tip_err_mm_mean"] < 0.2 * scores["tip_err_mm_mean_uncompensated"]
+    assert scores["joint_rmse"]["q5"] < 0.01 < scores["joint_rmse_uncompensated"]["q5"]
+
+
+def test_bad_input_is_one_line_and_status_2(tmp_path):
+    folder = write(synthetic(300, arm="PSM2"), tmp_path / "rec")
+    wrong_arm = _pegbt("calibrate", "train", folder, "--arm", "PSM1", "--model", "physics", "--out", tmp_path / "m.json")
+    assert wrong_arm.returncode == 2 and "recording is of PSM2" in wrong_arm.stderr
+    assert len(wrong_arm.stderr.strip().splitlines()) == 1 and not (tmp_path / "m.json").exists()
+    q_phy = np.load(folder / "q_phy.npy")
+    q_phy[17, 4] = np.nan
+    np.save(folder / "q_phy.npy", q_phy)
+    broken = _pegbt("calibrate", "train", folder, "--arm", "PSM2", "--model", "hybrid", "--out", tmp_path / "m.json")
+    assert broken.returncode == 2 and "q_phy.npy:18: non-finite value" in broken.stderr
+    missing = _pegbt("calibrate", "eval", tmp_path / "nothing.json", folder)
+    assert missing.returncode == 2 and "cannot read model file" in missing.stderr
+
+
+def test_recordings_are_checked_when_loaded(tmp_path):
+    folder = write(synthetic(120), tmp_path / "rec")
+    np.save(folder / "q_cmd.npy", np.zeros((120, 7)))
+    with pytest.raises(PegbtError, match="N×6"):
+        load_recording(folder)
+    np.save(folder / "q_cmd.npy", np.zeros((119, 6)))
+    with pytest.raises(PegbtError, match="differ in length"):
+        load_recording(folder)
+    with pytest.raises(PegbtError, match="not a recording folder"):
+        load_recording(tmp_path / "absent")
+
+
+def test_the_writer_writes_what_the_loader_reads(tmp_path):
+    writer = RecordingWriter(tmp_path / "collected", "PSM2")
+    writer.add(np.zeros(6), np.ones(6), 0.0)
+    writer.add(np.ones(6), np.zeros(6), 0.4)
+    with pytest.raises(PegbtError, match="time must increase"):
+        writer.add(np.ones(6), np.zeros(6), 0.4)
+    recording = load_recording(writer.close())
+    assert recording.arm == "PSM2" and len(recording) == 2
+    assert np.array_equal(recording.t_stamp, [0.0, 0.4]) and np.array_equal(recording.q_phy[0], np.ones(6))
+
+
+@pytest.mark.parametrize("kind", ["physics", "hybrid"])
+def test_on_real_data_the_model_reduces_the_held_out_wrist_error(kind, dvrk_data):
+    recording = load_recording(dvrk_data / "random_smooth_grey1_PSM1")
+    n_train = recording.head(0.7)
+    model = new_model(kind, "PSM1").fit(recording.slice(0, n_train))
+    scores = evaluate(model, recording, start=n_train)
+    for joint in ("q4", "q5", "q6"):
+        assert scores["joint_rmse"][joint] < 0.6 * scores["joint_rmse_uncompensated"][joint]
+    assert scores["tip_err_mm_mean"] < 0.5 * scores["tip_err_mm_mean_uncompensated"]
+
+
+def test_the_stored_skill_models_load_for_their_arms():
+    from pegbt.calibration.compensation import skill_model_path
+
+    for arm in ("PSM1", "PSM2"):
+        model = CalibrationModel.load(skill_model_path(arm), arm=arm)
+        assert model.kind == "hybrid" and model.metadata is not None
+        assert "grey" in model.metadata.training["recording"]
