@@ -30,6 +30,8 @@ class BoardSettings:
     model_points: int = 30000
     voxels: tuple[float, ...] = (0.005, 0.003, 0.002)  # the capture is thinned to these, coarse to fine,
     distances: tuple[float, ...] = (0.015, 0.004, 0.001)  # and matched within these distances
+    outlier_radius: float = 0.005  # a thinned point with fewer neighbours than this within this radius is wild
+    outlier_neighbours: int = 4
     tukey_k: float = 0.003  # robust kernel width: blocks and noise beyond it barely pull
     max_iterations: int = 30
     quality_distance: float = 0.001  # fitness and RMSE are measured with this correspondence distance
@@ -82,6 +84,8 @@ class PegboardRegistration:
         points = checked_points(cloud)
         settings = self.settings
         thinned = to_open3d(points).voxel_down_sample(settings.voxels[-1])  # the legacy grid is ~4× faster
+        # wild points each fill a voxel of their own: unremoved, a few percent of them would outnumber the board
+        thinned, _ = thinned.remove_radius_outlier(settings.outlier_neighbours, settings.outlier_radius)
         source = o3d.t.geometry.PointCloud.from_legacy(thinned)
         result = _registration.multi_scale_icp(
             source,
