@@ -16,6 +16,7 @@ Figures = dict[str, float | int | str]
 
 BENCHMARKS: dict[str, str] = {
     "world": "pegbt.bench.world:run",
+    "perception": "pegbt.bench.perception:run",
 }
 
 

@@ -3,7 +3,10 @@
 Each block offers six grasps, two per flat edge on the wall between hole and edge (`Workcell.block`).
 An arm keeps those whose gripper yaw lies within ±70° and that its inverse kinematics can reach (the
 caller's `reachable` predicate), then takes the one farthest from the block's peg, so the jaw never
-works behind the peg. A handover receiver instead takes the candidate nearest to itself.
+works behind the peg. A block resting centred on its peg leaves all six at the same distance (within
+`PEG_DISTANCE_TIE`); then the one nearest to the arm wins, the same intent: the jaw works on the arm's
+side of the peg and the tool never reaches over it. A handover receiver takes the candidate nearest to
+itself.
 
 Gripper yaw is the angle of the jaw-closing axis (tool x) about the arm's base z. The jaws are
 symmetric, so a grasp and the same grasp turned by 180° are one: each candidate is expressed at the
@@ -25,6 +28,7 @@ from pegbt.workcell import Workcell, workcell
 
 Reachable = Callable[[NDArray[np.float64]], ArrayLike]  # (n, 4, 4) tip poses in the arm frame -> (n,) bool
 YAW_WINDOW = math.radians(70.0)
+PEG_DISTANCE_TIE = 0.0005  # candidates this close to the farthest one from the peg count as equally far
 
 
 @dataclass(frozen=True)
@@ -94,7 +98,8 @@ def select_grasp(
     cell: Workcell | None = None,
     yaw_window: float = YAW_WINDOW,
 ) -> Grasp | None:
-    """The paper's grasp of a located block: feasible, and farthest (in x, y) from the block's peg.
+    """The paper's grasp of a located block: feasible, and farthest (in x, y) from the block's peg,
+    ties going to the candidate nearest to the arm (its remote centre, in x, y).
 
     For a block lying on the board, "its peg" is the nearest one. None if no candidate is feasible.
     """
@@ -104,7 +109,11 @@ def select_grasp(
     pegs = cell.pegs.positions
     peg = block.peg if block.peg is not None else int(np.argmin(np.linalg.norm(pegs - block.position[:2], axis=1)))
     options = feasible_grasps(grasp_options(block.pose, arm, cell), reachable, yaw_window)
-    return max(options, key=lambda option: np.linalg.norm(option.board_position[:2] - pegs[peg]), default=None)
+    if not options:
+        return None
+    from_peg = np.array([np.linalg.norm(option.board_position[:2] - pegs[peg]) for option in options])
+    farthest = [option for option, distance in zip(options, from_peg) if distance >= from_peg.max() - PEG_DISTANCE_TIE]
+    return _nearest_to_arm(farthest, arm, cell)
 
 
 def select_receiver_grasp(
@@ -118,6 +127,10 @@ def select_receiver_grasp(
     """A handover receiver's grasp of the block held at `block_pose`: feasible, and nearest to the
     receiver (its remote centre, in x, y). None if no candidate is feasible."""
     cell = cell or workcell()
+    return _nearest_to_arm(feasible_grasps(grasp_options(block_pose, arm, cell), reachable, yaw_window), arm, cell)
+
+
+def _nearest_to_arm(options: list[Grasp], arm: str, cell: Workcell) -> Grasp | None:
+    """The option nearest (in x, y) to `arm`'s remote centre, or None if there are none."""
     centre = cell.remote_centre(arm)[:2]
-    options = feasible_grasps(grasp_options(block_pose, arm, cell), reachable, yaw_window)
     return min(options, key=lambda option: np.linalg.norm(option.board_position[:2] - centre), default=None)
