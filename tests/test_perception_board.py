@@ -30,6 +30,16 @@ def peg_top_error(cell, board_from_camera):
     return np.linalg.norm(tops @ error[:3, :3].T + error[:3, 3] - tops, axis=1).max()
 
 
+@pytest.fixture(scope="module")
+def registration():
+    return PegboardRegistration()
+
+
+@pytest.fixture(scope="module")
+def board(registration, cloud):
+    return registration.fit(cloud)
+
+
 @pytest.mark.parametrize(
     "rotation_deg, translation_mm",
     [((2.0, 0.0, 0.0), (3.0, 0.0, 0.0)), ((0.0, -1.5, 2.0), (0.0, -3.0, 2.0)), ((-1.0, 1.0, -2.5), (-2.0, 2.0, -3.0))],
@@ -48,8 +58,7 @@ def test_a_perturbed_extrinsic_is_corrected_to_a_tenth_of_a_millimetre(world, cl
     assert board.fitness > 0.7
 
 
-def test_all_twelve_pegs_are_found_where_they_stand(world, cloud):
-    board = PegboardRegistration().fit(cloud)
+def test_all_twelve_pegs_are_found_where_they_stand(world, board):
     assert board.ok, board.reason
     assert np.all(board.peg_points >= 50)
     assert np.abs(board.peg_tops - world.cell.pegs.tops).max() < 0.0002
@@ -72,18 +81,29 @@ def test_a_depth_noise_burst_fails_the_board_registration_explicitly(world):
         (np.array([[0.0, 0.0, np.inf]]), "cloud[0]"),
     ],
 )
-def test_bad_clouds_raise_a_pegbt_error_naming_the_field(cloud, bad, field):
+def test_bad_clouds_raise_a_pegbt_error_naming_the_field(registration, board, bad, field):
     with pytest.raises(PegbtError) as raised:
-        PegboardRegistration().fit(bad)
+        registration.fit(bad)
     assert raised.value.field == field
-    board = PegboardRegistration().fit(cloud)
     with pytest.raises(PegbtError) as raised:
         locate_blocks(bad, board)
     assert raised.value.field == field
 
 
-def test_nan_points_are_refused_even_in_an_otherwise_good_capture(cloud):
+def test_nan_points_are_refused_even_in_an_otherwise_good_capture(registration, cloud):
     spoiled = cloud.copy()
     spoiled[1234, 2] = math.nan
     with pytest.raises(PegbtError, match="not finite"):
-        PegboardRegistration().fit(spoiled)
+        registration.fit(spoiled)
+
+
+def test_a_cloud_that_does_not_show_the_board_is_a_failed_registration_not_a_crash(registration):
+    rng = np.random.default_rng(0)
+    scattered = rng.normal(0.0, 0.2, (500, 3))  # wild points only: nothing survives thinning
+    far_wall = np.column_stack([rng.uniform(-0.3, 0.3, 20000), rng.uniform(-0.3, 0.3, 20000), np.full(20000, 2.0)])
+    for cloud, reason in ((scattered, "not a view of the board"), (far_wall, "fits only 0%")):
+        board = registration.fit(cloud)
+        assert not board.ok and reason in board.reason
+        with pytest.raises(PegbtError, match="board registration failed") as raised:
+            locate_blocks(cloud, board)
+        assert raised.value.field == "board"

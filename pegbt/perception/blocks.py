@@ -19,6 +19,7 @@ import numpy as np
 import open3d as o3d
 from numpy.typing import ArrayLike, NDArray
 
+from pegbt.errors import PegbtError
 from pegbt.perception.board import BoardEstimate
 from pegbt.perception.cloud import Points, to_open3d
 from pegbt.perception.models import block_model
@@ -79,7 +80,12 @@ class BlockLocator:
         self._model = block_model(self.cell, settings.model_points)
 
     def locate(self, cloud: ArrayLike, board: BoardEstimate) -> list[BlockEstimate]:
-        """Every block in a camera-frame capture (N, 3, metres), given the registered board."""
+        """Every block in a camera-frame capture (N, 3, metres), given the registered board.
+
+        `PegbtError` if the board's registration failed: positions from it would be guesses.
+        """
+        if not board.ok:
+            raise PegbtError(f"the board registration failed ({board.reason}); register it again", field="board")
         board_points = board.to_board(cloud)
         peg_xy = board.peg_tops[:, :2]
         segments = block_segments(board_points, peg_xy, self.cell, self.settings.segment)

@@ -10,6 +10,7 @@ found in the height band between the resting blocks' tops and the pegs' tops, wh
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -32,6 +33,7 @@ class BoardSettings:
     distances: tuple[float, ...] = (0.015, 0.004, 0.001)  # and matched within these distances
     outlier_radius: float = 0.005  # a thinned point with fewer neighbours than this within this radius is wild
     outlier_neighbours: int = 4
+    min_points: int = 500  # a view of the board leaves about 7000 after thinning
     tukey_k: float = 0.003  # robust kernel width: blocks and noise beyond it barely pull
     max_iterations: int = 30
     quality_distance: float = 0.001  # fitness and RMSE are measured with this correspondence distance
@@ -86,6 +88,8 @@ class PegboardRegistration:
         thinned = to_open3d(points).voxel_down_sample(settings.voxels[-1])  # the legacy grid is ~4× faster
         # wild points each fill a voxel of their own: unremoved, a few percent of them would outnumber the board
         thinned, _ = thinned.remove_radius_outlier(settings.outlier_neighbours, settings.outlier_radius)
+        if len(thinned.points) < settings.min_points:
+            return self._unregistered(f"only {len(thinned.points)} points left after thinning: not a view of the board")
         source = o3d.t.geometry.PointCloud.from_legacy(thinned)
         result = _registration.multi_scale_icp(
             source,
@@ -111,6 +115,11 @@ class PegboardRegistration:
             ok=not reason,
             reason=reason,
         )
+
+    def _unregistered(self, reason: str) -> BoardEstimate:
+        """A failed registration: the nominal extrinsics and modelled pegs, marked untrustworthy."""
+        pegs = self.cell.pegs.tops
+        return BoardEstimate(self.nominal_board_from_camera.copy(), pegs.copy(), np.zeros(len(pegs), np.int64), 0.0, math.inf, False, reason)
 
     def _find_pegs(self, board_points: Points) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
         """Each peg's top from the points in the pegs-only height band near its modelled axis."""
