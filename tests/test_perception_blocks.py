@@ -8,7 +8,8 @@ import pytest
 from pegbt.perception.blocks import block_on_peg, locate_blocks, wrap_symmetric
 from pegbt.perception.board import PegboardRegistration
 from pegbt.sim.camera import CameraFaults, DepthCamera, NoiseBurst
-from pegbt.sim.geometry import yaw_of
+from pegbt.perception.segment import SegmentSettings
+from pegbt.sim.geometry import pose, yaw_of, yaw_rotation
 from pegbt.sim.scripted import Driver, Keyframe, grasp_candidate_facing, grasp_keyframes, lifted, parked, transfer_keyframes
 from pegbt.sim.world import World
 
@@ -105,3 +106,40 @@ def test_the_default_burst_fails_every_block(board):
     world = World(seed=8)
     estimates = locate_blocks(DepthCamera(seed=8, faults=CameraFaults(bursts=(NoiseBurst(0.0, 1.0),))).capture(world), board)
     assert estimates and not any(estimate.ok for estimate in estimates)
+
+
+def test_a_block_that_tipped_off_a_peg_top_is_found_beside_that_peg(board):
+    world = World(seed=9)
+    driver = Driver(world)
+    grasp = grasp_keyframes(world, 3, grasp_candidate_facing(world, 3, "PSM1"))
+    up = lifted(world, grasp[-1])
+    offset = world.blocks[3].pose[:2, 3] - grasp[-1].position[:2]  # from the jaw to the block's centre
+    miss = world.cell.pegs.positions[6] + [0.0, 0.004] - offset  # the hole lands 4 mm off peg 6's axis
+    over = Keyframe(np.array([miss[0], miss[1], up.position[2]]), up.yaw, up.jaw)
+    events = driver.play({"PSM1": [*grasp, up, over, Keyframe(over.position, over.yaw, world.cell.motion.jaw_open)]})
+    driver.play({"PSM1": [parked(world, "PSM1")]})
+    assert events[-1].kind == "drop" and "off the top of peg 6" in events[-1].detail
+
+    estimates = locate_blocks(DepthCamera(seed=9).capture(world), board)
+
+    dropped = [estimate for estimate in estimates if estimate.peg is None]
+    assert len(dropped) == 1 and dropped[0].ok, dropped
+    assert errors(dropped[0], world.blocks[3])[0] < POSITION_TOLERANCE
+    assert block_on_peg(estimates, 6) is None
+
+
+def test_blocks_touching_across_neighbouring_pegs_are_told_apart(board):
+    world = World(seed=0)
+    for index, yaw_deg in ((0, 58.0), (2, 2.0)):  # corners pointing at each other across 17.7 mm
+        world.blocks[index].pose = pose(world.blocks[index].pose[:3, 3], yaw_rotation(math.radians(yaw_deg)))
+    corners = [block.pose[:2, :2] @ world.cell.block.outline.T + block.pose[:2, 3:] for block in world.blocks[0:3:2]]
+    gap = np.linalg.norm(corners[0].T[:, None] - corners[1].T[None], axis=2).min()
+    assert gap < SegmentSettings().cluster_distance  # one cluster to DBSCAN: only the split can separate them
+
+    estimates = locate_blocks(DepthCamera(seed=0).capture(world), board)
+
+    for block in world.blocks:
+        estimate = block_on_peg(estimates, block.peg)
+        assert estimate is not None and estimate.ok
+        position_error, yaw_error = errors(estimate, block)
+        assert position_error < POSITION_TOLERANCE and yaw_error < YAW_TOLERANCE

@@ -27,7 +27,7 @@ class SegmentSettings:
     cluster_distance: float = 0.0015  # DBSCAN's neighbourhood radius
     cluster_min_points: int = 8  # DBSCAN's core-point neighbourhood size
     min_points: int = 150  # a smaller cluster is not a block (a whole one has about 1000 at 0.7 mm)
-    wide_margin: float = 0.002  # a cluster reaching this far beyond a block's corner holds more than one
+    wide_margin: float = 0.002  # a cluster this much wider than a block holds more than one
 
 
 def block_segments(board_points: Points, peg_xy: Points, cell: Workcell, settings: SegmentSettings) -> list[Points]:
@@ -48,13 +48,20 @@ def block_segments(board_points: Points, peg_xy: Points, cell: Workcell, setting
     segments: list[Points] = []
     for label in range(labels.max() + 1):
         cluster = points[labels == label]
-        reach = np.linalg.norm(cluster[:, :2] - cluster[:, :2].mean(axis=0), axis=1).max()
-        if reach > block.corner_distance + settings.wide_margin:
+        if xy_span(cluster) > 2 * block.corner_distance + settings.wide_margin:
             segments += _split_by_nearest_peg(cluster, peg_xy)
         else:
             segments.append(cluster)
     segments = [segment for segment in segments if len(segment) >= settings.min_points]
     return sorted(segments, key=len, reverse=True)
+
+
+def xy_span(points: Points) -> float:
+    """Width of `points` in x, y: the distance from the point farthest from their centroid to the point
+    farthest from it (the diameter, or close to it, in linear time)."""
+    xy = points[:, :2]
+    extreme = xy[np.argmax(np.linalg.norm(xy - xy.mean(axis=0), axis=1))]
+    return float(np.linalg.norm(xy - extreme, axis=1).max())
 
 
 def _split_by_nearest_peg(cluster: Points, peg_xy: Points) -> list[Points]:
