@@ -8,7 +8,7 @@ import pytest
 from pegbt.errors import PegbtError
 from pegbt.perception.blocks import BlockEstimate, block_on_peg, locate_blocks
 from pegbt.perception.board import PegboardRegistration
-from pegbt.perception.grasp import PEG_DISTANCE_TIE, YAW_WINDOW, grasp_options, select_grasp, select_receiver_grasp
+from pegbt.perception.grasp import PEG_DISTANCE_TIE, YAW_WINDOW, GraspSelector, grasp_options, select_grasp
 from pegbt.sim.camera import DepthCamera
 from pegbt.sim.scripted import Driver, Keyframe, carry_height, lifted
 from pegbt.workcell import workcell
@@ -89,7 +89,7 @@ def test_candidates_outside_the_yaw_window_are_never_chosen():
     grasp = select_grasp(block, "PSM1", everywhere)
     assert grasp is not None and abs(grasp.yaw) <= YAW_WINDOW
     assert grasp.candidate != farthest.candidate
-    assert select_grasp(block, "PSM1", everywhere, yaw_window=math.radians(1.0)) is None
+    assert GraspSelector("PSM1", everywhere, yaw_window=math.radians(1.0)).pick(block) is None
 
 
 def test_the_reachability_predicate_is_respected_and_sees_arm_frame_poses_in_the_window():
@@ -112,7 +112,7 @@ def test_the_reachability_predicate_is_respected_and_sees_arm_frame_poses_in_the
 def test_a_handover_receiver_takes_the_candidate_nearest_to_itself():
     held = estimate_at(CELL.handover_point_xy(), -0.4, None).pose
     for receiver in ("PSM1", "PSM2"):
-        grasp = select_receiver_grasp(held, receiver, everywhere)
+        grasp = GraspSelector(receiver, everywhere).receive(held)
         centre = CELL.remote_centre(receiver)[:2]
         feasible = [option for option in grasp_options(held, receiver) if abs(option.yaw) <= YAW_WINDOW]
         distances = [np.linalg.norm(option.board_position[:2] - centre) for option in feasible]

@@ -38,7 +38,7 @@ def _perturbation(rng: np.random.Generator) -> np.ndarray:
 def run() -> Figures:
     from pegbt.perception.blocks import BlockLocator, wrap_symmetric
     from pegbt.perception.board import PegboardRegistration
-    from pegbt.perception.grasp import select_grasp
+    from pegbt.perception.grasp import GraspSelector
     from pegbt.sim.camera import DepthCamera
     from pegbt.sim.geometry import yaw_of
     from pegbt.sim.world import World
@@ -46,7 +46,7 @@ def run() -> Figures:
     def everywhere(poses: np.ndarray) -> np.ndarray:
         return np.ones(len(poses), dtype=bool)
 
-    locator = BlockLocator()
+    locator, selector = BlockLocator(), GraspSelector("PSM1", everywhere)
     rng = np.random.default_rng(0)
     board_ms, block_ms, position_errors, yaw_errors = [], [], [], []
     expected = located = grasped = failed = boards_failed = 0
@@ -63,7 +63,7 @@ def run() -> Figures:
             cloud = camera.capture(world)
             start = time.perf_counter()
             estimates = locator.locate(cloud, board)
-            grasps = [select_grasp(estimate, "PSM1", everywhere) for estimate in estimates if estimate.ok]
+            grasps = [selector.pick(estimate) for estimate in estimates if estimate.ok]
             elapsed = (time.perf_counter() - start) * 1e3
             block_ms.append(elapsed / max(1, len(estimates)))
             expected += len(world.blocks)

@@ -74,63 +74,61 @@ def grasp_options(block_pose: ArrayLike, arm: str, cell: Workcell | None = None)
     return options
 
 
-def feasible_grasps(
-    options: list[Grasp], reachable: Reachable, yaw_window: float = YAW_WINDOW
-) -> list[Grasp]:
-    """The options within the yaw window that `reachable` accepts (it sees only those in the window)."""
-    in_window = [option for option in options if abs(option.yaw) <= yaw_window]
-    if not in_window:
-        return []
-    accepted = np.asarray(reachable(np.array([option.pose for option in in_window])))
-    if accepted.shape != (len(in_window),) or accepted.dtype != bool:
-        raise PegbtError(
-            f"expected one bool per pose ({len(in_window)}), got {accepted.dtype} of shape {accepted.shape}",
-            field="reachable",
-        )
-    return [option for option, ok in zip(in_window, accepted) if ok]
+class GraspSelector:
+    """One arm's grasp choices: its IK predicate and yaw window, set once, applied to every block.
 
-
-def select_grasp(
-    block: BlockEstimate,
-    arm: str,
-    reachable: Reachable,
-    *,
-    cell: Workcell | None = None,
-    yaw_window: float = YAW_WINDOW,
-) -> Grasp | None:
-    """The paper's grasp of a located block: feasible, and farthest (in x, y) from the block's peg,
-    ties going to the candidate nearest to the arm (its remote centre, in x, y).
-
-    For a block lying on the board, "its peg" is the nearest one. None if no candidate is feasible.
+    `reachable((n, 4, 4) tip poses in the arm frame) -> (n,) bool` is called once per choice with the
+    options inside the yaw window.
     """
-    if not block.ok:
-        raise PegbtError(f"the block's pose is not trustworthy ({block.reason})", field="block")
-    cell = cell or workcell()
-    pegs = cell.pegs.positions
-    peg = block.peg if block.peg is not None else int(np.argmin(np.linalg.norm(pegs - block.position[:2], axis=1)))
-    options = feasible_grasps(grasp_options(block.pose, arm, cell), reachable, yaw_window)
-    if not options:
-        return None
-    from_peg = np.array([np.linalg.norm(option.board_position[:2] - pegs[peg]) for option in options])
-    farthest = [option for option, distance in zip(options, from_peg) if distance >= from_peg.max() - PEG_DISTANCE_TIE]
-    return _nearest_to_arm(farthest, arm, cell)
+
+    def __init__(
+        self, arm: str, reachable: Reachable, cell: Workcell | None = None, yaw_window: float = YAW_WINDOW
+    ) -> None:
+        self.cell = cell or workcell()
+        self.arm = arm
+        self.reachable = reachable
+        self.yaw_window = yaw_window
+        self._centre = self.cell.remote_centre(arm)[:2]
+
+    def feasible(self, block_pose: ArrayLike) -> list[Grasp]:
+        """The options of a block at `block_pose` within the yaw window that the arm can reach."""
+        in_window = [option for option in grasp_options(block_pose, self.arm, self.cell) if abs(option.yaw) <= self.yaw_window]
+        if not in_window:
+            return []
+        accepted = np.asarray(self.reachable(np.array([option.pose for option in in_window])))
+        if accepted.shape != (len(in_window),) or accepted.dtype != bool:
+            raise PegbtError(
+                f"expected one bool per pose ({len(in_window)}), got {accepted.dtype} of shape {accepted.shape}",
+                field="reachable",
+            )
+        return [option for option, ok in zip(in_window, accepted) if ok]
+
+    def pick(self, block: BlockEstimate) -> Grasp | None:
+        """The paper's grasp of a located block: feasible, and farthest (in x, y) from the block's peg,
+        ties going to the candidate nearest to the arm (its remote centre, in x, y).
+
+        For a block lying on the board, "its peg" is the nearest one. None if no candidate is feasible.
+        """
+        if not block.ok:
+            raise PegbtError(f"the block's pose is not trustworthy ({block.reason})", field="block")
+        pegs = self.cell.pegs.positions
+        peg = block.peg if block.peg is not None else int(np.argmin(np.linalg.norm(pegs - block.position[:2], axis=1)))
+        options = self.feasible(block.pose)
+        if not options:
+            return None
+        from_peg = np.array([np.linalg.norm(option.board_position[:2] - pegs[peg]) for option in options])
+        return self._nearest([option for option, d in zip(options, from_peg) if d >= from_peg.max() - PEG_DISTANCE_TIE])
+
+    def receive(self, block_pose: ArrayLike) -> Grasp | None:
+        """A handover receiver's grasp of the block held at `block_pose` (4×4, board frame): feasible,
+        and nearest to the receiver. None if no candidate is feasible."""
+        return self._nearest(self.feasible(block_pose))
+
+    def _nearest(self, options: list[Grasp]) -> Grasp | None:
+        """The option nearest (in x, y) to the arm's remote centre, or None if there are none."""
+        return min(options, key=lambda option: np.linalg.norm(option.board_position[:2] - self._centre), default=None)
 
 
-def select_receiver_grasp(
-    block_pose: ArrayLike,
-    arm: str,
-    reachable: Reachable,
-    *,
-    cell: Workcell | None = None,
-    yaw_window: float = YAW_WINDOW,
-) -> Grasp | None:
-    """A handover receiver's grasp of the block held at `block_pose`: feasible, and nearest to the
-    receiver (its remote centre, in x, y). None if no candidate is feasible."""
-    cell = cell or workcell()
-    return _nearest_to_arm(feasible_grasps(grasp_options(block_pose, arm, cell), reachable, yaw_window), arm, cell)
-
-
-def _nearest_to_arm(options: list[Grasp], arm: str, cell: Workcell) -> Grasp | None:
-    """The option nearest (in x, y) to `arm`'s remote centre, or None if there are none."""
-    centre = cell.remote_centre(arm)[:2]
-    return min(options, key=lambda option: np.linalg.norm(option.board_position[:2] - centre), default=None)
+def select_grasp(block: BlockEstimate, arm: str, reachable: Reachable, cell: Workcell | None = None) -> Grasp | None:
+    """`GraspSelector(arm, reachable, cell).pick(block)`: the paper's grasp, with the default yaw window."""
+    return GraspSelector(arm, reachable, cell).pick(block)
