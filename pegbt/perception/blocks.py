@@ -1,0 +1,197 @@
+"""Locate every block in a capture: segment, register the block model by ICP, judge the fit.
+
+Each segment is registered with Open3D's point-to-plane ICP against the block model, with
+correspondence distances shrinking from a few millimetres to half a millimetre (the paper's
+coarse-to-fine schedule). ICP starts from a guess made from the segment itself: the hole on the peg's
+axis (or the top face's centre for a block off the pegs), the top face's height, and the yaw of the
+top face's three-fold shape. The block is three-fold symmetric, so yaw is reported modulo 120°; the six
+grasp candidates share that symmetry. A fit that explains too few points, or leaves the block tilted,
+is reported as a failure with its reason, never passed on as a pose.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from functools import lru_cache
+
+import numpy as np
+import open3d as o3d
+from numpy.typing import ArrayLike, NDArray
+
+from pegbt.errors import PegbtError
+from pegbt.perception.board import BoardEstimate
+from pegbt.perception.cloud import Points, to_open3d
+from pegbt.perception.models import block_model
+from pegbt.perception.segment import SegmentSettings, block_segments
+from pegbt.workcell import Workcell, invert_rigid, workcell
+
+_registration = o3d.pipelines.registration
+SYMMETRY = 2 * math.pi / 3  # the block looks the same turned by 120°
+
+
+@dataclass(frozen=True)
+class BlockSettings:
+    """Tunables of block registration (metres, radians)."""
+
+    model_points: int = 4000
+    distances: tuple[float, ...] = (0.004, 0.002, 0.001, 0.0005)
+    max_iterations: int = 30
+    quality_distance: float = 0.001  # fitness and RMSE are measured with this correspondence distance
+    min_fitness: float = 0.85
+    max_points: int = 2500  # a whole block shows about 1000–1300 points at the segmentation's grid
+    max_rmse: float = 0.0005
+    max_tilt: float = math.radians(8.0)  # blocks lie flat, on a peg or on the board
+    top_face_depth: float = 0.001  # points this close to the highest belong to the top face
+    on_peg_tolerance: float = 0.0005  # beyond the hole's clearance around a peg
+    segment: SegmentSettings = field(default_factory=SegmentSettings)
+
+
+@dataclass(frozen=True)
+class BlockEstimate:
+    """One block found in a capture, in the board frame.
+
+    `position`: centre of the bottom face, on the hole's axis; `yaw` about board z, in [-60°, 60°);
+    `peg`: the peg through its hole, or None for a block lying on the board. `ok` False (with a `reason`)
+    means a block-sized object was seen but its pose is not trustworthy: re-capture, do not grasp.
+    """
+
+    position: NDArray[np.float64]
+    yaw: float
+    peg: int | None
+    fitness: float
+    rmse: float
+    points: int
+    ok: bool
+    reason: str
+
+    @property
+    def pose(self) -> NDArray[np.float64]:
+        """4×4 pose in the board frame, lying flat at `yaw`."""
+        return flat_pose(self.position, self.yaw)
+
+
+class BlockLocator:
+    """Finds blocks in captures; holds the sampled block model so it is built once."""
+
+    def __init__(self, cell: Workcell | None = None, settings: BlockSettings = BlockSettings()) -> None:
+        self.cell = cell or workcell()
+        self.settings = settings
+        self._model = block_model(self.cell, settings.model_points)
+
+    def locate(self, cloud: ArrayLike, board: BoardEstimate) -> list[BlockEstimate]:
+        """Every block in a camera-frame capture (N, 3, metres), given the registered board.
+
+        `PegbtError` if the board's registration failed: positions from it would be guesses.
+        """
+        if not board.ok:
+            raise PegbtError(f"the board registration failed ({board.reason}); register it again", field="board")
+        board_points = board.to_board(cloud)
+        peg_xy = board.peg_tops[:, :2]
+        segments = block_segments(board_points, peg_xy, self.cell, self.settings.segment)
+        return [self.register(segment, peg_xy) for segment in segments]
+
+    def register(self, segment: Points, peg_xy: Points) -> BlockEstimate:
+        """The block whose visible surface is `segment` (board frame)."""
+        settings = self.settings
+        if len(segment) > settings.max_points:
+            return self._failure(segment, peg_xy, f"{len(segment)} points are too many for one block")
+        source = to_open3d(segment)
+        T = invert_rigid(self.initial_pose(segment, peg_xy))  # ICP moves the segment into the block frame
+        for distance in settings.distances:
+            T = _registration.registration_icp(
+                source,
+                self._model,
+                distance,
+                T,
+                _registration.TransformationEstimationPointToPlane(),
+                _registration.ICPConvergenceCriteria(max_iteration=settings.max_iterations),
+            ).transformation
+        quality = _registration.evaluate_registration(source, self._model, settings.quality_distance, T)
+        pose = invert_rigid(T)
+        position, yaw = pose[:3, 3], wrap_symmetric(math.atan2(pose[1, 0], pose[0, 0]))
+        tilt = math.acos(min(1.0, pose[2, 2]))
+        reason = ""
+        if quality.fitness < settings.min_fitness:
+            reason = f"block model fits only {quality.fitness:.0%} of {len(segment)} points"
+        elif quality.inlier_rmse > settings.max_rmse:
+            reason = f"block fit RMSE {quality.inlier_rmse * 1000:.2f} mm"
+        elif tilt > settings.max_tilt:
+            reason = f"block tilted {math.degrees(tilt):.0f}°"
+        return BlockEstimate(
+            position=position,
+            yaw=yaw,
+            peg=self._peg_through_hole(position, peg_xy),
+            fitness=float(quality.fitness),
+            rmse=float(quality.inlier_rmse),
+            points=len(segment),
+            ok=not reason,
+            reason=reason,
+        )
+
+    def _failure(self, segment: Points, peg_xy: Points, reason: str) -> BlockEstimate:
+        """A segment that cannot be a block seen clearly, reported where it lies."""
+        centre = segment.mean(axis=0)
+        peg = self._peg_through_hole(centre, peg_xy)
+        return BlockEstimate(centre, 0.0, peg, 0.0, math.inf, len(segment), False, reason)
+
+    def initial_pose(self, segment: Points, peg_xy: Points) -> NDArray[np.float64]:
+        """ICP's starting block pose: centre, height and yaw read off the segment's top face."""
+        model, settings = self.cell.block, self.settings
+        top_z = segment[:, 2].min()
+        top = segment[segment[:, 2] < top_z + settings.top_face_depth]
+        centre = top[:, :2].mean(axis=0)
+        nearest = int(np.argmin(np.linalg.norm(peg_xy - centre, axis=1)))
+        if np.linalg.norm(peg_xy[nearest] - centre) < model.hole_radius:
+            centre = peg_xy[nearest]  # a peg's shadow on the top face biases the centroid; the peg does not
+        z = float(np.median(top[:, 2])) + model.height
+        return flat_pose([centre[0], centre[1], z], three_fold_yaw(top[:, :2] - centre, model.edge_directions[0]))
+
+    def _peg_through_hole(self, position: Points, peg_xy: Points) -> int | None:
+        """The peg within the hole's clearance of the block's axis, if any."""
+        clearance = self.cell.block.hole_radius - self.cell.pegs.radius + self.settings.on_peg_tolerance
+        offsets = np.linalg.norm(peg_xy - position[:2], axis=1)
+        nearest = int(np.argmin(offsets))
+        return nearest if offsets[nearest] <= clearance else None
+
+
+@lru_cache(maxsize=1)
+def _default_locator() -> BlockLocator:
+    return BlockLocator()
+
+
+def locate_blocks(cloud: ArrayLike, board: BoardEstimate) -> list[BlockEstimate]:
+    """Every block in a camera-frame capture of the default work cell, given the board registered once
+    per trial (a `BlockLocator` serves another work cell or other settings)."""
+    return _default_locator().locate(cloud, board)
+
+
+def block_on_peg(estimates: list[BlockEstimate], peg: int) -> BlockEstimate | None:
+    """The block found on `peg` (a trustworthy one first), or None: the peg is empty as far as we see."""
+    on_peg = [estimate for estimate in estimates if estimate.peg == peg]
+    return max(on_peg, key=lambda estimate: (estimate.ok, estimate.fitness), default=None)
+
+
+def flat_pose(position: ArrayLike, yaw: float) -> NDArray[np.float64]:
+    """A 4×4 pose at `position`, turned by `yaw` about board z."""
+    c, s = math.cos(yaw), math.sin(yaw)
+    T = np.eye(4)
+    T[:2, :2] = [[c, -s], [s, c]]
+    T[:3, 3] = position
+    return T
+
+
+def wrap_symmetric(yaw: float) -> float:
+    """`yaw` modulo the block's 120° symmetry, in [-60°, 60°)."""
+    return (yaw + SYMMETRY / 2) % SYMMETRY - SYMMETRY / 2
+
+
+def three_fold_yaw(xy: Points, edge_direction: float) -> float:
+    """Yaw (modulo 120°) of a three-fold shape's points about its centre, from their third harmonic.
+
+    The shape's far points (its corners, weighted by r³) sit at edge_direction + 60° + k·120° turned
+    by the yaw, so the phase of Σ r³·e^{3iθ} is 3·(edge_direction + 60° + yaw).
+    """
+    radius = np.linalg.norm(xy, axis=1)
+    harmonic = np.sum(radius**3 * np.exp(3j * np.arctan2(xy[:, 1], xy[:, 0])))
+    return wrap_symmetric(float(np.angle(harmonic)) / 3 - edge_direction - math.pi / 3)

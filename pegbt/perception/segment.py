@@ -1,0 +1,70 @@
+"""Cut a registered capture into one point set per block: off the board plane, off the pegs, clustered.
+
+In the board frame the plane is known (z = surface), so removing it is a height threshold; the pegs'
+shafts are removed inside a radius halfway between peg and hole wall (the paper's inner annulus). What
+remains is blocks (and anything else above the board). Open3D's DBSCAN clusters it over the whole board,
+so a block that fell off its peg is found as readily as one on a peg; a cluster too wide for one block
+(blocks touching across neighbouring pegs) is split by nearest peg, the paper's per-peg crop.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from pegbt.perception.cloud import Points, to_open3d
+from pegbt.workcell import Workcell
+
+
+@dataclass(frozen=True)
+class SegmentSettings:
+    """Tunables of the segmentation (metres)."""
+
+    plane_margin: float = 0.0012  # points this far above the board still count as board (4σ of the noise)
+    max_height: float = 0.045  # points higher above the board than this (three blocks) are not blocks
+    voxel: float = 0.0007  # the raised points are thinned to this grid before clustering
+    cluster_distance: float = 0.0015  # DBSCAN's neighbourhood radius
+    cluster_min_points: int = 8  # DBSCAN's core-point neighbourhood size
+    min_points: int = 150  # a smaller cluster is not a block (a whole one has about 1000 at 0.7 mm)
+    wide_margin: float = 0.002  # a cluster this much wider than a block holds more than one
+
+
+def block_segments(board_points: Points, peg_xy: Points, cell: Workcell, settings: SegmentSettings) -> list[Points]:
+    """Point sets (board frame), each one block's visible surface, largest first.
+
+    `board_points`: the capture in the board frame; `peg_xy` (12, 2): where the pegs stand.
+    """
+    surface, block = cell.board.surface_z, cell.block
+    z = board_points[:, 2]
+    raised = board_points[(z < surface - settings.plane_margin) & (z > surface - settings.max_height)]
+    peg_distance = np.linalg.norm(raised[:, None, :2] - peg_xy[None], axis=2)
+    off_pegs = peg_distance.min(axis=1) > (cell.pegs.radius + block.hole_radius) / 2
+    thinned = to_open3d(raised[off_pegs]).voxel_down_sample(settings.voxel)
+    points = np.asarray(thinned.points)
+    if len(points) < settings.min_points:
+        return []
+    labels = np.asarray(thinned.cluster_dbscan(settings.cluster_distance, settings.cluster_min_points))
+    segments: list[Points] = []
+    for label in range(labels.max() + 1):
+        cluster = points[labels == label]
+        if xy_span(cluster) > 2 * block.corner_distance + settings.wide_margin:
+            segments += _split_by_nearest_peg(cluster, peg_xy)
+        else:
+            segments.append(cluster)
+    segments = [segment for segment in segments if len(segment) >= settings.min_points]
+    return sorted(segments, key=len, reverse=True)
+
+
+def xy_span(points: Points) -> float:
+    """Width of `points` in x, y: the distance from the point farthest from their centroid to the point
+    farthest from it (the diameter, or close to it, in linear time)."""
+    xy = points[:, :2]
+    extreme = xy[np.argmax(np.linalg.norm(xy - xy.mean(axis=0), axis=1))]
+    return float(np.linalg.norm(xy - extreme, axis=1).max())
+
+
+def _split_by_nearest_peg(cluster: Points, peg_xy: Points) -> list[Points]:
+    """`cluster` cut into the parts nearest to each peg (each peg's Voronoi cell)."""
+    nearest = np.argmin(np.linalg.norm(cluster[:, None, :2] - peg_xy[None], axis=2), axis=1)
+    return [cluster[nearest == peg] for peg in np.unique(nearest)]

@@ -1,0 +1,145 @@
+"""Block location: every block to half a millimetre and two degrees, dropped blocks, empty pegs, noise bursts."""
+
+import math
+
+import numpy as np
+import pytest
+
+from pegbt.perception.blocks import block_on_peg, locate_blocks, wrap_symmetric
+from pegbt.perception.board import PegboardRegistration
+from pegbt.sim.camera import CameraFaults, DepthCamera, NoiseBurst
+from pegbt.perception.segment import SegmentSettings
+from pegbt.sim.geometry import pose, yaw_of, yaw_rotation
+from pegbt.sim.scripted import Driver, Keyframe, grasp_candidate_facing, grasp_keyframes, lifted, parked, transfer_keyframes
+from pegbt.sim.world import World
+
+POSITION_TOLERANCE = 0.0005
+YAW_TOLERANCE = math.radians(2.0)
+
+
+@pytest.fixture(scope="module")
+def board():
+    """The board registered once, as a trial does, from a capture of the starting scene."""
+    board = PegboardRegistration().fit(DepthCamera(seed=99).capture(World(seed=0)))
+    assert board.ok, board.reason
+    return board
+
+
+def errors(estimate, block):
+    """Position error (m) and yaw error modulo 120° (rad) of an estimate against the world's block."""
+    return (
+        float(np.linalg.norm(estimate.position - block.pose[:3, 3])),
+        abs(wrap_symmetric(estimate.yaw - yaw_of(block.pose))),
+    )
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2, 3])
+def test_all_six_blocks_are_located_on_their_pegs(board, seed):
+    world = World(seed=seed)
+    estimates = locate_blocks(DepthCamera(seed=seed).capture(world), board)
+    assert len(estimates) == 6
+    for block in world.blocks:
+        estimate = block_on_peg(estimates, block.peg)
+        assert estimate is not None and estimate.ok, (block.index, estimate)
+        position_error, yaw_error = errors(estimate, block)
+        assert position_error < POSITION_TOLERANCE, block.index
+        assert yaw_error < YAW_TOLERANCE, block.index
+        assert -math.pi / 3 <= estimate.yaw < math.pi / 3
+        assert estimate.fitness > 0.9
+
+
+def test_a_block_dropped_on_the_board_is_found_off_the_pegs(board):
+    world = World(seed=5)
+    driver = Driver(world)
+    grasp = grasp_keyframes(world, 2, grasp_candidate_facing(world, 2, "PSM1"))
+    up = lifted(world, grasp[-1])
+    away = Keyframe(np.array([0.110, 0.065, up.position[2]]), up.yaw, up.jaw)
+    opened = Keyframe(away.position, away.yaw, world.cell.motion.jaw_open)
+    events = driver.play({"PSM1": [*grasp, up, away, opened]})
+    driver.play({"PSM1": [parked(world, "PSM1")]})
+    assert [event.kind for event in events][-1] == "drop" and world.blocks[2].state == "on_board"
+
+    estimates = locate_blocks(DepthCamera(seed=5).capture(world), board)
+
+    dropped = [estimate for estimate in estimates if estimate.peg is None]
+    assert len(dropped) == 1 and dropped[0].ok, dropped
+    position_error, yaw_error = errors(dropped[0], world.blocks[2])
+    assert position_error < POSITION_TOLERANCE and yaw_error < YAW_TOLERANCE
+    assert block_on_peg(estimates, 2) is None
+    assert sorted(estimate.peg for estimate in estimates if estimate.peg is not None) == [0, 1, 3, 4, 5]
+
+
+def test_a_block_moved_away_leaves_its_peg_reported_empty(board):
+    world = World(seed=6)
+    driver = Driver(world)
+    driver.play({"PSM1": transfer_keyframes(world, 1, 7, grasp_candidate_facing(world, 1, "PSM1"))})
+    driver.play({"PSM1": [parked(world, "PSM1")]})
+
+    estimates = locate_blocks(DepthCamera(seed=6).capture(world), board)
+
+    assert block_on_peg(estimates, 1) is None
+    moved = block_on_peg(estimates, 7)
+    assert moved is not None and moved.ok
+    assert errors(moved, world.blocks[1])[0] < POSITION_TOLERANCE
+    assert len(estimates) == 6
+
+
+@pytest.mark.parametrize(
+    "burst",
+    [NoiseBurst(0.0, 1.0), NoiseBurst(0.0, 1.0, sigma=0.001), NoiseBurst(0.0, 1.0, sigma=0.0006, outliers=0.02)],
+    ids=["default", "1mm", "0.6mm"],
+)
+def test_a_noise_burst_gives_a_correct_pose_or_an_explicit_failure(board, burst):
+    world = World(seed=7)
+    estimates = locate_blocks(DepthCamera(seed=7, faults=CameraFaults(bursts=(burst,))).capture(world), board)
+    assert estimates, "a burst must not make the blocks vanish silently"
+    for estimate in estimates:
+        if not estimate.ok:
+            assert estimate.reason
+            continue
+        nearest = min(world.blocks, key=lambda block: np.linalg.norm(block.pose[:2, 3] - estimate.position[:2]))
+        position_error, yaw_error = errors(estimate, nearest)
+        assert position_error < POSITION_TOLERANCE and yaw_error < YAW_TOLERANCE, estimate
+
+
+def test_the_default_burst_fails_every_block(board):
+    world = World(seed=8)
+    estimates = locate_blocks(DepthCamera(seed=8, faults=CameraFaults(bursts=(NoiseBurst(0.0, 1.0),))).capture(world), board)
+    assert estimates and not any(estimate.ok for estimate in estimates)
+
+
+def test_a_block_that_tipped_off_a_peg_top_is_found_beside_that_peg(board):
+    world = World(seed=9)
+    driver = Driver(world)
+    grasp = grasp_keyframes(world, 3, grasp_candidate_facing(world, 3, "PSM1"))
+    up = lifted(world, grasp[-1])
+    offset = world.blocks[3].pose[:2, 3] - grasp[-1].position[:2]  # from the jaw to the block's centre
+    miss = world.cell.pegs.positions[6] + [0.0, 0.004] - offset  # the hole lands 4 mm off peg 6's axis
+    over = Keyframe(np.array([miss[0], miss[1], up.position[2]]), up.yaw, up.jaw)
+    events = driver.play({"PSM1": [*grasp, up, over, Keyframe(over.position, over.yaw, world.cell.motion.jaw_open)]})
+    driver.play({"PSM1": [parked(world, "PSM1")]})
+    assert events[-1].kind == "drop" and "off the top of peg 6" in events[-1].detail
+
+    estimates = locate_blocks(DepthCamera(seed=9).capture(world), board)
+
+    dropped = [estimate for estimate in estimates if estimate.peg is None]
+    assert len(dropped) == 1 and dropped[0].ok, dropped
+    assert errors(dropped[0], world.blocks[3])[0] < POSITION_TOLERANCE
+    assert block_on_peg(estimates, 6) is None
+
+
+def test_blocks_touching_across_neighbouring_pegs_are_told_apart(board):
+    world = World(seed=0)
+    for index, yaw_deg in ((0, 58.0), (2, 2.0)):  # corners pointing at each other across 17.7 mm
+        world.blocks[index].pose = pose(world.blocks[index].pose[:3, 3], yaw_rotation(math.radians(yaw_deg)))
+    corners = [block.pose[:2, :2] @ world.cell.block.outline.T + block.pose[:2, 3:] for block in world.blocks[0:3:2]]
+    gap = np.linalg.norm(corners[0].T[:, None] - corners[1].T[None], axis=2).min()
+    assert gap < SegmentSettings().cluster_distance  # one cluster to DBSCAN: only the split can separate them
+
+    estimates = locate_blocks(DepthCamera(seed=0).capture(world), board)
+
+    for block in world.blocks:
+        estimate = block_on_peg(estimates, block.peg)
+        assert estimate is not None and estimate.ok
+        position_error, yaw_error = errors(estimate, block)
+        assert position_error < POSITION_TOLERANCE and yaw_error < YAW_TOLERANCE
