@@ -152,7 +152,7 @@ class _Axis:
     def servo_jp(self, q: ArrayLike) -> None:
         """Stream one set-point for the next control period; it must be within velocity limits of the last."""
         q = np.asarray(q, dtype=float).reshape(-1)
-        what = f"{self._servo.key} {np.round(q, 5).tolist()}"
+        what = f"set-point {np.round(q, 5).tolist()}"
         guards.refuse_if(self._problems(q), what, self._servo.key)
         guards.refuse_if(self._step_problems(q, self._servo_reference()), what, self._servo.key)
         self._arm.send(self._servo, codec.encode_joint_state(self._arm.clock.now(), q, names=self._names))
@@ -167,14 +167,14 @@ class _Axis:
 
     def move_goal(self, goal: ArrayLike) -> MotionHandle:
         goal = np.asarray(goal, dtype=float).reshape(-1)
-        what = f"{self._move.key} {np.round(goal, 5).tolist()}"
+        what = f"goal {np.round(goal, 5).tolist()}"
         guards.refuse_if(self._problems(goal), what, self._move.key)
         return self._start(self._move, codec.encode_joint_state(self._arm.clock.now(), goal, names=self._names), what)
 
     def _start(self, outlet: Outlet, payload: bytes, what: str) -> MotionHandle:
         sent_at = self._arm.clock.now()
         tag = self._arm.send(outlet, payload)
-        return MotionHandle(self, tag.id, sent_at, what)
+        return MotionHandle(self, tag.command_id(outlet.key), sent_at, what)
 
     def hold(self) -> None:
         self.servo_jp(self.setpoint_js.position)
@@ -198,7 +198,9 @@ class ArmClient(_Axis):
         clock: Clock | None = None,
         liveness_timeout: float = 0.2,
         settings: ArmSettings | None = None,
+        cartesian: bool = False,
     ) -> None:
+        """`cartesian=True` also subscribes to `measured_cp` (the endpoint computes it only for listeners)."""
         self.link = link
         self.name = arm
         self.keys = ArmKeys(arm, link.namespace)
@@ -212,7 +214,7 @@ class ArmClient(_Axis):
         )
         self._error: Inlet[str] = link.inlet(self.keys.error, codec.decode_string, self._on_error)
         self._fiducial: Inlet[JointSample] = link.inlet(self.keys.fiducial_js, codec.decode_joint_state)
-        self._cartesian = link.inlet(self.keys.measured_cp, codec.decode_pose_stamped)
+        self._cartesian = link.inlet(self.keys.measured_cp, codec.decode_pose_stamped) if cartesian else None
         self._trajectory = link.outlet(self.keys.follow_jt)
         self._state_command = link.outlet(self.keys.state_command)
         super().__init__(
@@ -296,6 +298,8 @@ class ArmClient(_Axis):
     @property
     def measured_cp(self) -> NDArray[np.float64]:
         """Tool-tip pose (4×4) in the arm's base frame, from the measured joints."""
+        if self._cartesian is None:
+            raise PegbtError(f"{self.name}: measured_cp needs ArmClient(..., cartesian=True)", field=self.keys.measured_cp)
         return self.read(self._cartesian)[1]
 
     @property
@@ -311,14 +315,14 @@ class ArmClient(_Axis):
         if not hasattr(target, "q"):
             return self.move_goal(target)
         key = self.keys.follow_jt
-        guards.refuse_if(guards.trajectory_problems(target, self.settings), f"trajectory on {key}", key)
+        guards.refuse_if(guards.trajectory_problems(target, self.settings), "trajectory", key)
         start = np.asarray(target.q, dtype=float)[0]
         lead = max(float(np.asarray(target.t, dtype=float)[0]), self.settings.control_period)
         guards.refuse_if(
-            guards.step_problems(start, self.setpoint_js.position, self.settings, lead), f"trajectory start on {key}", key
+            guards.step_problems(start, self.setpoint_js.position, self.settings, lead), "trajectory start", key
         )
         payload = codec.encode_trajectory(self.clock.now(), target, ARM_JOINT_NAMES)
-        return self._start(self._trajectory, payload, f"trajectory on {key}")
+        return self._start(self._trajectory, payload, "trajectory")
 
     def state_command(self, command: str) -> None:
         """CRTK state command: enable, disable, home or unhome."""

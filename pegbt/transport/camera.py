@@ -88,8 +88,9 @@ class CameraClient:
         requested_at = self.clock.now()
         with self._lock:
             tag = self._trigger.put(codec.encode_empty())
-            handle = CaptureHandle(tag.id, requested_at)
-            self._pending[tag.id] = handle
+            request_id = tag.command_id(self.keys.trigger)
+            handle = CaptureHandle(request_id, requested_at)
+            self._pending[request_id] = handle
         return handle
 
     def capture(self) -> NDArray[np.float32]:
