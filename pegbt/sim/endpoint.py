@@ -74,6 +74,8 @@ class _Outbox:
         self._realtime = realtime  # real time: express, and drop stale stream messages rather than block
         self._outlets: dict[str, Outlet] = {}
         self._delayed: list[tuple[float, int, str, bytes, str, str]] = []
+        self._last: dict[str, tuple[bytes, str, str]] = {}
+        self.inject = True  # off while publishing the initial state: every key starts with one message
         self._last_due: dict[str, float] = {}
         self._order = itertools.count()
 
@@ -89,7 +91,10 @@ class _Outbox:
         return self.outlet(key).matched
 
     def send(self, now: float, key: str, payload: bytes, cause: str = "", outcome: str = "") -> None:
-        identity = f"{now:.6f}|{cause}|{outcome}"
+        identity = f"{now:.6f}|{cause.partition(':')[2]}|{outcome}"  # without the sender's random name
+        if not self.inject:
+            self._put(key, payload, cause, outcome)
+            return
         if self._faults.lost(key, identity):
             self._log(now, "fault", fault="loss", key=key)
             return
@@ -100,12 +105,21 @@ class _Outbox:
             heapq.heappush(self._delayed, (due, next(self._order), key, payload, cause, outcome))
             self._log(now, "fault", fault="latency", key=key, seconds=round(due - now, 6))
             return
+        self._put(key, payload, cause, outcome)
+
+    def _put(self, key: str, payload: bytes, cause: str, outcome: str) -> None:
         self.outlet(key).put(payload, cause, outcome)
+        self._last[key] = (payload, cause, outcome)
 
     def release(self, now: float) -> None:
         while self._delayed and self._delayed[0][0] <= now + 1e-9:
             _, _, key, payload, cause, outcome = heapq.heappop(self._delayed)
-            self.outlet(key).put(payload, cause, outcome)
+            self._put(key, payload, cause, outcome)
+
+    def repeat(self, keys: set[str]) -> None:
+        """Put the last message sent on each of `keys` again, unchanged (same stamp, same values)."""
+        for key in keys & self._last.keys():
+            self.outlet(key).put(*self._last[key])
 
     def close(self) -> None:
         for outlet in self._outlets.values():
@@ -194,8 +208,10 @@ class SimEndpoint:
         """Serve until stopped ("stopped") or until an injected crash ("crashed")."""
         self.log.record(self.elapsed, "start", mode="lockstep" if self.config.lockstep else "realtime",
                         physics=self.config.physics, arms=list(self.arms))
+        self._outbox.inject = False
         self._publish_operating_states()
         self._publish_state()
+        self._outbox.inject = True
         next_tick = time.time() + self.period
         last_beat = time.monotonic()
         while not self._stop.is_set():
@@ -211,8 +227,7 @@ class SimEndpoint:
                 return "crashed"
             if self.config.lockstep:
                 if time.monotonic() - last_beat >= self.config.heartbeat:
-                    self._publish_operating_states()  # idle but alive; and late joiners get the state
-                    self._publish_state()
+                    self._send_heartbeat()
                     last_beat = time.monotonic()
                 continue
             if time.time() >= next_tick:
@@ -309,14 +324,16 @@ class SimEndpoint:
 
     # ------------------------------------------------------------------ commands
     def _command(self, arm: str, key: str, payload: bytes, tag: Tag | None) -> None:
-        command_id = tag.command_id(key) if tag is not None else f"untagged:{key}:{next(self._untagged)}"
+        number = tag.seq if tag is not None else next(self._untagged)
+        command_id = tag.command_id(key) if tag is not None else f"untagged:{key}:{number}"
         now = self.now()
-        if self.faults.lost(key, command_id):
-            self.log.record(self.elapsed, "fault", fault="loss", key=key, command=command_id)
+        identity = str(number)  # not the sender's random name: the same script draws the same faults
+        if self.faults.lost(key, identity):
+            self.log.record(self.elapsed, "fault", fault="loss", key=key, command=number)
             return
-        delay = self.faults.delay(key, command_id)
+        delay = self.faults.delay(key, identity)
         if delay > 0:
-            self.log.record(self.elapsed, "fault", fault="latency", key=key, command=command_id, seconds=round(delay, 6))
+            self.log.record(self.elapsed, "fault", fault="latency", key=key, command=number, seconds=round(delay, 6))
             heapq.heappush(self._delayed_commands, (now + delay, next(self._order), (arm, key, payload, command_id)))
             return
         self._apply(arm, key, payload, command_id)
@@ -413,6 +430,16 @@ class SimEndpoint:
                 pose = codec.encode_pose_stamped(now, forward_kinematics(arm.joints.encoder), f"{name}_base")
                 self._outbox.send(now, keys.measured_cp, pose)
             self._publish_setpoints(name)
+
+    def _send_heartbeat(self) -> None:
+        """Re-send what each arm last sent, unchanged: an idle lockstep endpoint is alive, and late joiners
+        see its state; faults are not drawn again, so what a client sees stays deterministic."""
+        self._outbox.repeat({
+            key
+            for keys in self.keys.values()
+            for key in (keys.measured_js, keys.setpoint_js, keys.fiducial_js, keys.jaw_measured_js,
+                        keys.jaw_setpoint_js, keys.operating_state)
+        })
 
     def _capture(self, command_id: str) -> None:
         assert self.camera is not None

@@ -155,15 +155,16 @@ class _Axis:
         what = f"set-point {np.round(q, 5).tolist()}"
         guards.refuse_if(self._problems(q), what, self._servo.key)
         guards.refuse_if(self._step_problems(q, self._servo_reference()), what, self._servo.key)
-        self._arm.send(self._servo, codec.encode_joint_state(self._arm.clock.now(), q, names=self._names))
-        self._last_servo = (time.monotonic(), q)
+        stamp = self._arm.clock.now()
+        self._arm.send(self._servo, codec.encode_joint_state(stamp, q, names=self._names))
+        self._last_servo = (stamp, q)
 
     def _servo_reference(self) -> NDArray[np.float64]:
-        """Where the endpoint's set-point is: our last servo command if newer than its last report."""
-        setpoint = self._arm.read_received(self._setpoint)
-        if self._last_servo is not None and self._last_servo[0] > setpoint.received_at:
+        """Where the endpoint's set-point is: our last servo command, unless a later set-point was reported."""
+        setpoint = self.setpoint_js
+        if self._last_servo is not None and self._last_servo[0] > setpoint.stamp:
             return self._last_servo[1]
-        return setpoint.value.position
+        return setpoint.position
 
     def move_goal(self, goal: ArrayLike) -> MotionHandle:
         goal = np.asarray(goal, dtype=float).reshape(-1)
