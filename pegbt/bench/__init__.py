@@ -14,7 +14,10 @@ from pegbt.errors import PegbtError
 
 Figures = dict[str, float | int | str]
 
-BENCHMARKS: dict[str, str] = {}
+BENCHMARKS: dict[str, str] = {
+    "transport": "pegbt.bench.transport:run",
+    "sim": "pegbt.bench.sim:run",
+}
 
 
 def benchmark_names() -> list[str]:

@@ -319,7 +319,7 @@ class SimEndpoint:
 
     @staticmethod
     def _reply(query: zenoh.Query, answer: dict) -> None:
-        query.reply(query.key_expr, json.dumps(answer))
+        query.reply(query.key_expr, json.dumps(answer), express=True)
         query.drop()
 
     # ------------------------------------------------------------------ commands
@@ -362,8 +362,10 @@ class SimEndpoint:
             transitions = [Transition(command_id, "refused", error.message)]
         self._publish_transitions(arm_name, key, transitions)
         refused = any(t.outcome == "refused" and t.command_id == command_id for t in transitions)
-        if not refused and key in (keys.servo_jp, keys.jaw_servo_jp):
-            self._publish_setpoints(arm_name)
+        if not refused and key == keys.servo_jp:
+            self._publish_setpoint(arm_name, jaw=False)
+        elif not refused and key == keys.jaw_servo_jp:
+            self._publish_setpoint(arm_name, jaw=True)
 
     def _publish_transitions(self, arm_name: str, key: str, transitions: list[Transition]) -> None:
         keys, now = self.keys[arm_name], self.now()
@@ -412,10 +414,12 @@ class SimEndpoint:
         for name in self.arms:
             self._publish_operating_state(name)
 
-    def _publish_setpoints(self, name: str) -> None:
+    def _publish_setpoint(self, name: str, jaw: bool) -> None:
         arm, keys, now = self.arms[name], self.keys[name], self.now()
-        self._outbox.send(now, keys.setpoint_js, codec.encode_joint_state(now, arm.joints.setpoint, names=ARM_JOINT_NAMES))
-        self._outbox.send(now, keys.jaw_setpoint_js, codec.encode_joint_state(now, arm.jaw.setpoint, names=JAW_JOINT_NAMES))
+        if jaw:
+            self._outbox.send(now, keys.jaw_setpoint_js, codec.encode_joint_state(now, arm.jaw.setpoint, names=JAW_JOINT_NAMES))
+        else:
+            self._outbox.send(now, keys.setpoint_js, codec.encode_joint_state(now, arm.joints.setpoint, names=ARM_JOINT_NAMES))
 
     def _publish_state(self) -> None:
         now = self.time
@@ -429,7 +433,8 @@ class SimEndpoint:
             if self._outbox.listened(keys.measured_cp):  # forward kinematics and a pose cost: only when asked
                 pose = codec.encode_pose_stamped(now, forward_kinematics(arm.joints.encoder), f"{name}_base")
                 self._outbox.send(now, keys.measured_cp, pose)
-            self._publish_setpoints(name)
+            self._publish_setpoint(name, jaw=False)
+            self._publish_setpoint(name, jaw=True)
 
     def _send_heartbeat(self) -> None:
         """Re-send what each arm last sent, unchanged: an idle lockstep endpoint is alive, and late joiners

@@ -85,7 +85,7 @@ class SimClock:
                 raise PegbtError(f"simulator published {inlet.key} #{seq} but it never arrived", field=inlet.key)
 
     def _query(self, key: str, request: dict) -> dict:
-        replies = list(self._link.session.get(key, payload=json.dumps(request), timeout=self._reply_timeout))
+        replies = list(self._link.session.get(key, payload=json.dumps(request), timeout=self._reply_timeout, express=True))
         if not replies:
             raise PegbtError(f"no simulator answers on {key} (is `pegbt sim` running and reachable?)", field=key)
         reply = replies[0]
