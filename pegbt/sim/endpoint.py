@@ -29,7 +29,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 import zenoh
 
 from pegbt.errors import PegbtError
@@ -175,9 +174,14 @@ class SimEndpoint:
         self._declare()
 
     # ------------------------------------------------------------------ zenoh wiring
+    @staticmethod
+    def _arm_command_keys(keys: ArmKeys) -> tuple[str, ...]:
+        return (keys.servo_jp, keys.move_jp, keys.follow_jt, keys.state_command, keys.jaw_servo_jp, keys.jaw_move_jp)
+
     def _declare(self) -> None:
+        self._command_keys = {key for keys in self.keys.values() for key in self._arm_command_keys(keys)}
         for name, keys in self.keys.items():
-            for key in (keys.servo_jp, keys.move_jp, keys.follow_jt, keys.state_command, keys.jaw_servo_jp, keys.jaw_move_jp):
+            for key in self._arm_command_keys(keys):
                 self._declarations.append(
                     self.session.declare_subscriber(key, lambda sample, k=key, a=name: self._enqueue_command(a, k, sample))
                 )
@@ -186,6 +190,7 @@ class SimEndpoint:
                 self._outbox.outlet(key)
         if self.camera is not None:
             self._outbox.outlet(self.camera_keys.points)
+            self._command_keys.add(self.camera_keys.trigger)
             self._declarations.append(
                 self.session.declare_subscriber(self.camera_keys.trigger, lambda sample: self._enqueue_command("", self.camera_keys.trigger, sample))
             )
@@ -284,7 +289,7 @@ class SimEndpoint:
 
     def _await_commands(self, source: str, sent: Mapping[str, int]) -> None:
         """Handle every command `source` sent before asking to step (zenoh orders keys independently)."""
-        ours = {key for key in sent if self._subscribed(key)}
+        ours = set(sent) & self._command_keys
         deadline = time.monotonic() + BARRIER_TIMEOUT
         while True:
             with self._received_lock:
@@ -310,12 +315,6 @@ class SimEndpoint:
             self._inbox.put(item)
         else:
             self._handle(item)
-
-    def _subscribed(self, key: str) -> bool:
-        command_keys = {self.camera_keys.trigger}
-        for keys in self.keys.values():
-            command_keys |= {keys.servo_jp, keys.move_jp, keys.follow_jt, keys.state_command, keys.jaw_servo_jp, keys.jaw_move_jp}
-        return key in command_keys
 
     @staticmethod
     def _reply(query: zenoh.Query, answer: dict) -> None:
