@@ -17,6 +17,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "pegbt.bench.cli",
     "pegbt.executive.cli",
     "pegbt.calibration.cli",
+    "pegbt.sim.cli",
 )
 
 

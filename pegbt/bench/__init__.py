@@ -19,6 +19,8 @@ BENCHMARKS: dict[str, str] = {
     "executive": "pegbt.bench.executive:run",
     "calibration": "pegbt.bench.calibration:run",
     "perception": "pegbt.bench.perception:run",
+    "transport": "pegbt.bench.transport:run",
+    "sim": "pegbt.bench.sim:run",
 }
 
 

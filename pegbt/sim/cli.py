@@ -1,0 +1,67 @@
+"""`pegbt sim`: run the simulator endpoint until interrupted (or until an injected crash)."""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import os
+import signal
+import sys
+from pathlib import Path
+
+from pegbt.transport.session import DEFAULT_ENDPOINT
+
+CRASH_EXIT_STATUS = 3
+
+
+def add_commands(subparsers: argparse._SubParsersAction) -> None:
+    parser = subparsers.add_parser(
+        "sim",
+        help="run the simulator endpoint (two PSMs over CRTK topics on zenoh)",
+        description="Serve two simulated PSMs over zenoh with dVRK CRTK topic names and CDR payloads. "
+        f"Listens on {DEFAULT_ENDPOINT} (peer mode, no scouting) unless told otherwise.",
+    )
+    parser.add_argument("--listen", action="append", metavar="ENDPOINT", help=f"zenoh listen endpoint (default {DEFAULT_ENDPOINT}; repeatable)")
+    parser.add_argument("--connect", action="append", default=[], metavar="ENDPOINT", help="zenoh endpoint to connect to (a router, a bridge; repeatable)")
+    parser.add_argument("--namespace", default="", help="key prefix, e.g. lab2 for lab2/PSM1/measured_js")
+    parser.add_argument("--physics", default="ideal", help="cable physics: ideal, dvrk-real, or a preset/report JSON file")
+    parser.add_argument("--lockstep", action="store_true", help="advance time only when a client's SimClock steps it")
+    parser.add_argument("--faults", type=Path, metavar="YAML", help="fault plan (loss, latency, crash, scheduled faults)")
+    parser.add_argument("--seed", type=int, help="seed for injected faults (overrides the plan's)")
+    parser.add_argument("--loss", type=float, metavar="P", help="probability of losing each stream message")
+    parser.add_argument("--latency", type=float, metavar="S", help="extra latency of stream messages (s)")
+    parser.add_argument("--crash-at", type=float, metavar="T", help="crash the endpoint at simulated time T (s)")
+    parser.add_argument("--log", type=Path, metavar="JSONL", help="append the simulator's log (faults, events) here")
+    parser.set_defaults(handler=_sim)
+
+
+def _sim(args: argparse.Namespace) -> int:
+    from pegbt.errors import PegbtError
+    from pegbt.sim.endpoint import EndpointConfig, SimEndpoint
+    from pegbt.sim.fault_plan import FaultPlan
+    from pegbt.transport.session import endpoint_settings, open_session
+
+    plan = FaultPlan.load(args.faults) if args.faults else FaultPlan()
+    overrides = {"seed": args.seed, "loss_probability": args.loss, "latency": args.latency, "crash_at": args.crash_at}
+    for name, value in overrides.items():
+        if value is not None and (value < 0 or (name == "loss_probability" and value > 1)):
+            raise PegbtError(f"--{name.replace('_probability', '').replace('_', '-')} out of range: {value}", field=name)
+    plan = dataclasses.replace(plan, **{k: v for k, v in overrides.items() if v is not None})
+    config = EndpointConfig(physics=args.physics, lockstep=args.lockstep, namespace=args.namespace, faults=plan, log_path=args.log)
+    listen = args.listen or [DEFAULT_ENDPOINT]
+    session = open_session(endpoint_settings(listen, args.connect))
+    endpoint = SimEndpoint(session, config)
+    signal.signal(signal.SIGTERM, lambda *_: endpoint.stop())
+    mode = "lockstep" if args.lockstep else "real time"
+    print(f"pegbt sim: serving {', '.join(endpoint.arms)} on {', '.join(listen)} ({mode}, physics {args.physics})", flush=True)
+    try:
+        outcome = endpoint.run()
+    except KeyboardInterrupt:
+        outcome = "stopped"
+    if outcome == "crashed":
+        print(f"pegbt sim: injected crash at t={endpoint.elapsed:.3f} s", file=sys.stderr, flush=True)
+        endpoint.log.close()
+        os._exit(CRASH_EXIT_STATUS)  # die like a crash: no orderly goodbye to the peers
+    endpoint.close()
+    session.close()
+    return 0

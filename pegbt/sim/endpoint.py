@@ -1,0 +1,460 @@
+"""The simulator endpoint: two PSMs (and optionally a world and a camera) behind CRTK topics over zenoh.
+
+One thread owns all simulator state and runs a loop fed by an inbox. Zenoh callbacks only enqueue:
+commands, camera triggers and clock queries. Commands are applied as they arrive (a `servo_jp` is
+echoed on `setpoint_js` at once); time advances in control ticks of 10 ms:
+
+- real time: a tick every 10 ms of wall time, stamps in epoch seconds; state published every tick.
+- lockstep: ticks only when a client's `SimClock` asks (`sim/step`), stamps in simulated seconds from 0.
+  Before stepping, the endpoint waits until it holds every command that client sent (the request
+  carries its per-key counts); the reply carries the endpoint's own counts, so the client can wait for
+  everything published on the way. the state is re-sent every 50 ms of wall time while idle, so
+  liveness checks hold and late joiners see it.
+
+Each command's fate goes out tagged with the command's id: `operating_state` (accepted, done, aborted)
+or `error` (refused, with the reason). Faults (loss, latency, crash, scheduled plug-in faults) are
+injected per `FaultPlan` and logged with their time in the `SimLog`.
+"""
+
+from __future__ import annotations
+
+import heapq
+import itertools
+import json
+import queue
+import threading
+import time
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import zenoh
+
+from pegbt.errors import PegbtError
+from pegbt.motion.kinematics import forward_kinematics
+from pegbt.motion.limits import arm_settings
+from pegbt.physics import ArmPhysics
+from pegbt.sim.arm import DEFAULT_JOINTS, DEFAULT_SERVO_TAU, SimArm, Transition
+from pegbt.sim.fault_plan import FaultInjector, FaultPlan
+from pegbt.sim.log import SimLog
+from pegbt.sim.plugins import DepthCamera, FaultTarget, SimWorld, tool_state
+from pegbt.transport import codec
+from pegbt.transport.arm import ARM_JOINT_NAMES, JAW_JOINT_NAMES
+from pegbt.transport.keys import ArmKeys, CameraKeys, SimKeys
+from pegbt.transport.sequencing import Outlet, Source, Tag
+
+MAX_STEPS_PER_REQUEST = 1_000_000
+STATE_REFRESH = 1.0  # s of simulated time between unprompted operating_state messages
+BARRIER_TIMEOUT = 5.0  # s to wait for a stepping client's commands to arrive
+
+
+@dataclass(frozen=True)
+class EndpointConfig:
+    arms: tuple[str, ...] = ("PSM1", "PSM2")
+    physics: str = "ideal"  # preset name or a JSON file (preset or sim-to-real report)
+    lockstep: bool = False
+    namespace: str = ""
+    faults: FaultPlan = field(default_factory=FaultPlan)
+    log_path: Path | None = None
+    initial_joints: Mapping[str, tuple[float, ...]] = field(default_factory=dict)
+    servo_tau: float = DEFAULT_SERVO_TAU
+    heartbeat: float = 0.05  # s of wall time between re-sends of the state while a lockstep endpoint idles
+
+
+class _Outbox:
+    """Publishes tagged messages, losing or delaying them as the fault plan says (delays keep per-key order)."""
+
+    def __init__(self, session: zenoh.Session, source: Source, faults: FaultInjector, log: Callable[..., None], realtime: bool) -> None:
+        self._session = session
+        self._source = source
+        self._faults = faults
+        self._log = log
+        self._realtime = realtime  # real time: express, and drop stale stream messages rather than block
+        self._outlets: dict[str, Outlet] = {}
+        self._delayed: list[tuple[float, int, str, bytes, str, str]] = []
+        self._last: dict[str, tuple[bytes, str, str]] = {}
+        self.inject = True  # off while publishing the initial state: every key starts with one message
+        self._last_due: dict[str, float] = {}
+        self._order = itertools.count()
+
+    def outlet(self, key: str) -> Outlet:
+        if key not in self._outlets:
+            self._outlets[key] = Outlet(
+                self._session, key, self._source, drop_when_congested=self._realtime, express=self._realtime
+            )
+        return self._outlets[key]
+
+    def listened(self, key: str) -> bool:
+        """Whether anyone subscribes to `key`: nothing is encoded or sent for nobody."""
+        return self.outlet(key).matched
+
+    def send(self, now: float, key: str, payload: bytes, cause: str = "", outcome: str = "") -> None:
+        identity = f"{now:.6f}|{cause.partition(':')[2]}|{outcome}"  # without the sender's random name
+        if not self.inject:
+            self._put(key, payload, cause, outcome)
+            return
+        if self._faults.lost(key, identity):
+            self._log(now, "fault", fault="loss", key=key)
+            return
+        delay = self._faults.delay(key, identity)
+        if delay > 0:
+            due = max(now + delay, self._last_due.get(key, 0.0))
+            self._last_due[key] = due
+            heapq.heappush(self._delayed, (due, next(self._order), key, payload, cause, outcome))
+            self._log(now, "fault", fault="latency", key=key, seconds=round(due - now, 6))
+            return
+        self._put(key, payload, cause, outcome)
+
+    def _put(self, key: str, payload: bytes, cause: str, outcome: str) -> None:
+        self.outlet(key).put(payload, cause, outcome)
+        self._last[key] = (payload, cause, outcome)
+
+    def release(self, now: float) -> None:
+        while self._delayed and self._delayed[0][0] <= now + 1e-9:
+            _, _, key, payload, cause, outcome = heapq.heappop(self._delayed)
+            self._put(key, payload, cause, outcome)
+
+    def repeat(self, keys: set[str]) -> None:
+        """Put the last message sent on each of `keys` again, unchanged (same stamp, same values)."""
+        for key in keys & self._last.keys():
+            self.outlet(key).put(*self._last[key])
+
+    def close(self) -> None:
+        for outlet in self._outlets.values():
+            outlet.close()
+
+
+class SimEndpoint:
+    """The simulator behind zenoh. `run()` serves until `stop()` or an injected crash."""
+
+    def __init__(
+        self,
+        session: zenoh.Session,
+        config: EndpointConfig = EndpointConfig(),
+        *,
+        world: SimWorld | None = None,
+        camera: DepthCamera | None = None,
+    ) -> None:
+        self.session = session
+        self.config = config
+        self.world = world
+        self.camera = camera
+        self.arms = {
+            name: SimArm(
+                name,
+                arm_settings(name),
+                ArmPhysics.load(config.physics, name),
+                q0=config.initial_joints.get(name, DEFAULT_JOINTS),
+                servo_tau=config.servo_tau,
+            )
+            for name in config.arms
+        }
+        self.period = next(iter(self.arms.values())).period
+        self.keys = {name: ArmKeys(name, config.namespace) for name in config.arms}
+        self.sim_keys = SimKeys(config.namespace)
+        self.camera_keys = CameraKeys(namespace=config.namespace)
+        self.start_time = 0.0 if config.lockstep else time.time()
+        self.time = self.start_time
+        self.source = Source()
+        self.faults = FaultInjector(config.faults)
+        events = Outlet(session, self.sim_keys.events, self.source)
+        self.log = SimLog(config.log_path, lambda line: events.put(codec.encode_string(line)))
+        self._events_outlet = events
+        self._outbox = _Outbox(session, self.source, self.faults, self.log.record, realtime=not config.lockstep)
+        self._inbox: queue.Queue[tuple] = queue.Queue()
+        self._received: dict[str, dict[str, int]] = {}
+        self._received_lock = threading.Lock()
+        self._delayed_commands: list[tuple[float, int, tuple]] = []
+        self._order = itertools.count()
+        self._untagged = itertools.count(1)
+        self._last_state_refresh = self.time
+        self._stop = threading.Event()
+        self._declarations: list[Any] = []
+        self._declare()
+
+    # ------------------------------------------------------------------ zenoh wiring
+    @staticmethod
+    def _arm_command_keys(keys: ArmKeys) -> tuple[str, ...]:
+        return (keys.servo_jp, keys.move_jp, keys.follow_jt, keys.state_command, keys.jaw_servo_jp, keys.jaw_move_jp)
+
+    def _declare(self) -> None:
+        self._command_keys = {key for keys in self.keys.values() for key in self._arm_command_keys(keys)}
+        for name, keys in self.keys.items():
+            for key in self._arm_command_keys(keys):
+                self._declarations.append(
+                    self.session.declare_subscriber(key, lambda sample, k=key, a=name: self._enqueue_command(a, k, sample))
+                )
+            for key in (keys.measured_js, keys.setpoint_js, keys.fiducial_js, keys.measured_cp, keys.jaw_measured_js,
+                        keys.jaw_setpoint_js, keys.operating_state, keys.error):
+                self._outbox.outlet(key)
+        if self.camera is not None:
+            self._outbox.outlet(self.camera_keys.points)
+            self._command_keys.add(self.camera_keys.trigger)
+            self._declarations.append(
+                self.session.declare_subscriber(self.camera_keys.trigger, lambda sample: self._enqueue_command("", self.camera_keys.trigger, sample))
+            )
+        self._declarations.append(self.session.declare_queryable(self.sim_keys.clock, lambda q: self._inbox.put(("clock", q))))
+        self._declarations.append(self.session.declare_queryable(self.sim_keys.step, lambda q: self._inbox.put(("step", q))))
+
+    def _enqueue_command(self, arm: str, key: str, sample: zenoh.Sample) -> None:
+        tag = Tag.decode(sample.attachment)
+        self._inbox.put(("command", arm, key, sample.payload.to_bytes(), tag))
+        if tag is not None:  # counted after queueing, so a satisfied barrier means the command is queued
+            with self._received_lock:
+                counts = self._received.setdefault(tag.source, {})
+                counts[key] = max(counts.get(key, 0), tag.seq)
+
+    # ------------------------------------------------------------------ the loop
+    def stop(self) -> None:
+        self._stop.set()
+
+    def run(self) -> str:
+        """Serve until stopped ("stopped") or until an injected crash ("crashed")."""
+        self.log.record(self.elapsed, "start", mode="lockstep" if self.config.lockstep else "realtime",
+                        physics=self.config.physics, arms=list(self.arms))
+        self._outbox.inject = False
+        self._publish_operating_states()
+        self._publish_state()
+        self._outbox.inject = True
+        next_tick = time.time() + self.period
+        last_beat = time.monotonic()
+        while not self._stop.is_set():
+            if self.config.lockstep:
+                timeout = max(0.0, self.config.heartbeat - (time.monotonic() - last_beat))
+            else:
+                timeout = max(0.0, next_tick - time.time())
+            try:
+                self._handle(self._inbox.get(timeout=timeout))
+            except queue.Empty:
+                pass
+            if self.faults.crashed:
+                return "crashed"
+            if self.config.lockstep:
+                if time.monotonic() - last_beat >= self.config.heartbeat:
+                    self._send_heartbeat()
+                    last_beat = time.monotonic()
+                continue
+            if time.time() >= next_tick:
+                if time.time() - next_tick > 10 * self.period:  # fell far behind (machine busy): skip, don't burst
+                    next_tick = time.time()
+                self.time = next_tick
+                self._tick()
+                self._publish_state()
+                next_tick += self.period
+        return "stopped"
+
+    @property
+    def elapsed(self) -> float:
+        """Simulated seconds since start (fault times are given in these)."""
+        return self.time - self.start_time
+
+    def now(self) -> float:
+        """Stamp for something happening between ticks."""
+        return self.time if self.config.lockstep else max(self.time, time.time())
+
+    def _handle(self, item: tuple) -> None:
+        kind = item[0]
+        if kind == "command":
+            self._command(*item[1:])
+        elif kind == "clock":
+            self._reply(item[1], {"mode": "lockstep" if self.config.lockstep else "realtime", "period": self.period, "time": self.now()})
+        elif kind == "step":
+            self._step(item[1])
+
+    # ------------------------------------------------------------------ lockstep
+    def _step(self, query: zenoh.Query) -> None:
+        try:
+            request = json.loads(query.payload.to_bytes()) if query.payload is not None else {}
+            steps = int(request.get("steps", 1))
+            if not self.config.lockstep:
+                raise PegbtError("the simulator runs in real time; sim/step needs --lockstep", field="steps")
+            if not 0 < steps <= MAX_STEPS_PER_REQUEST:
+                raise PegbtError(f"steps must be in 1..{MAX_STEPS_PER_REQUEST}, got {steps}", field="steps")
+            self._await_commands(str(request.get("source", "")), request.get("sent", {}))
+        except (PegbtError, ValueError, TypeError) as error:
+            query.reply_err(str(error))
+            query.drop()
+            return
+        for _ in range(steps):
+            if self.faults.crashed:
+                break
+            self.time = self.start_time + round((self.elapsed + self.period) / self.period) * self.period
+            self._tick()
+        if self.faults.crashed:
+            query.drop()
+            return
+        self._publish_state()
+        self._reply(query, {"time": self.time, "source": self.source.name, "sent": self.source.counts()})
+
+    def _await_commands(self, source: str, sent: Mapping[str, int]) -> None:
+        """Handle every command `source` sent before asking to step (zenoh orders keys independently)."""
+        ours = set(sent) & self._command_keys
+        deadline = time.monotonic() + BARRIER_TIMEOUT
+        while True:
+            with self._received_lock:
+                counts = dict(self._received.get(source, {}))
+            if all(counts.get(key, 0) >= int(sent[key]) for key in ours):
+                break
+            if time.monotonic() > deadline:
+                raise PegbtError(f"commands from {source} never arrived: wanted {sent}, have {counts}", field="sent")
+            try:
+                item = self._inbox.get(timeout=0.001)
+            except queue.Empty:
+                continue
+            self._defer_or_handle(item)
+        while True:  # everything counted is queued: drain it
+            try:
+                item = self._inbox.get_nowait()
+            except queue.Empty:
+                break
+            self._defer_or_handle(item)
+
+    def _defer_or_handle(self, item: tuple) -> None:
+        if item[0] == "step":  # another client's step waits its turn
+            self._inbox.put(item)
+        else:
+            self._handle(item)
+
+    @staticmethod
+    def _reply(query: zenoh.Query, answer: dict) -> None:
+        query.reply(query.key_expr, json.dumps(answer), express=True)
+        query.drop()
+
+    # ------------------------------------------------------------------ commands
+    def _command(self, arm: str, key: str, payload: bytes, tag: Tag | None) -> None:
+        number = tag.seq if tag is not None else next(self._untagged)
+        command_id = tag.command_id(key) if tag is not None else f"untagged:{key}:{number}"
+        now = self.now()
+        identity = str(number)  # not the sender's random name: the same script draws the same faults
+        if self.faults.lost(key, identity):
+            self.log.record(self.elapsed, "fault", fault="loss", key=key, command=number)
+            return
+        delay = self.faults.delay(key, identity)
+        if delay > 0:
+            self.log.record(self.elapsed, "fault", fault="latency", key=key, command=number, seconds=round(delay, 6))
+            heapq.heappush(self._delayed_commands, (now + delay, next(self._order), (arm, key, payload, command_id)))
+            return
+        self._apply(arm, key, payload, command_id)
+
+    def _apply(self, arm_name: str, key: str, payload: bytes, command_id: str) -> None:
+        if key == self.camera_keys.trigger:
+            self._capture(command_id)
+            return
+        arm, keys = self.arms[arm_name], self.keys[arm_name]
+        try:
+            if key == keys.follow_jt:
+                _, trajectory = codec.decode_trajectory(payload)
+                transitions = arm.follow_jt(trajectory.t, trajectory.q, trajectory.qd, command_id)
+            elif key == keys.state_command:
+                transitions = arm.state_command(codec.decode_string_stamped(payload)[1], command_id)
+            else:
+                position = codec.decode_joint_state(payload).position
+                handler = {
+                    keys.servo_jp: arm.servo_jp,
+                    keys.move_jp: arm.move_jp,
+                    keys.jaw_servo_jp: arm.jaw_servo_jp,
+                    keys.jaw_move_jp: arm.jaw_move_jp,
+                }[key]
+                transitions = handler(position, command_id)
+        except PegbtError as error:
+            transitions = [Transition(command_id, "refused", error.message)]
+        self._publish_transitions(arm_name, key, transitions)
+        refused = any(t.outcome == "refused" and t.command_id == command_id for t in transitions)
+        if not refused and key == keys.servo_jp:
+            self._publish_setpoint(arm_name, jaw=False)
+        elif not refused and key == keys.jaw_servo_jp:
+            self._publish_setpoint(arm_name, jaw=True)
+
+    def _publish_transitions(self, arm_name: str, key: str, transitions: list[Transition]) -> None:
+        keys, now = self.keys[arm_name], self.now()
+        for transition in transitions:
+            if transition.outcome == "refused":
+                text = f"{key} refused: {transition.text}"
+                self.log.record(self.elapsed, "refused", arm=arm_name, key=key, command=transition.command_id, reason=transition.text)
+                self._outbox.send(now, keys.error, codec.encode_string(text), transition.command_id, "refused")
+            else:
+                self._publish_operating_state(arm_name, transition.command_id, transition.outcome)
+
+    # ------------------------------------------------------------------ ticks
+    def _tick(self) -> None:
+        while self._delayed_commands and self._delayed_commands[0][0] <= self.time + 1e-9:
+            self._apply(*heapq.heappop(self._delayed_commands)[2])
+        for fault in self.faults.due(self.elapsed):
+            target = self.world if fault.target == "world" else self.camera
+            accepted = isinstance(target, FaultTarget)
+            if accepted:
+                target.inject_fault(fault.kind, fault.params, self.time)
+            self.log.record(self.elapsed, "fault", fault=fault.kind, target=fault.target, params=dict(fault.params), delivered=accepted)
+        for name, arm in self.arms.items():
+            for transition in arm.advance(self.period):
+                self._publish_operating_state(name, transition.command_id, transition.outcome)
+        if self.world is not None:
+            tools = {
+                name: tool_state(arm.physical, float(arm.jaw.encoder[0]), self.world.board_from_base(name))
+                for name, arm in self.arms.items()
+            }
+            for event in self.world.update(self.time, tools):
+                self.log.record_event(self.elapsed, event)
+        if self.time - self._last_state_refresh >= STATE_REFRESH - 1e-9:
+            self._publish_operating_states()
+        self._outbox.release(self.time)
+        if self.faults.crash_due(self.elapsed):
+            self.log.record(self.elapsed, "fault", fault="crash")
+
+    # ------------------------------------------------------------------ publishing
+    def _publish_operating_state(self, name: str, cause: str = "", outcome: str = "") -> None:
+        arm = self.arms[name]
+        state = codec.OperatingState(self.now(), arm.state, arm.is_homed, arm.is_busy)
+        self._outbox.send(self.now(), self.keys[name].operating_state, codec.encode_operating_state(state), cause, outcome)
+
+    def _publish_operating_states(self) -> None:
+        self._last_state_refresh = self.time
+        for name in self.arms:
+            self._publish_operating_state(name)
+
+    def _publish_setpoint(self, name: str, jaw: bool) -> None:
+        arm, keys, now = self.arms[name], self.keys[name], self.now()
+        if jaw:
+            self._outbox.send(now, keys.jaw_setpoint_js, codec.encode_joint_state(now, arm.jaw.setpoint, names=JAW_JOINT_NAMES))
+        else:
+            self._outbox.send(now, keys.setpoint_js, codec.encode_joint_state(now, arm.joints.setpoint, names=ARM_JOINT_NAMES))
+
+    def _publish_state(self) -> None:
+        now = self.time
+        for name, arm in self.arms.items():
+            keys = self.keys[name]
+            measured = codec.encode_joint_state(now, arm.joints.encoder, arm.joints.velocity, names=ARM_JOINT_NAMES)
+            jaw = codec.encode_joint_state(now, arm.jaw.encoder, arm.jaw.velocity, names=JAW_JOINT_NAMES)
+            self._outbox.send(now, keys.measured_js, measured)
+            self._outbox.send(now, keys.jaw_measured_js, jaw)
+            self._outbox.send(now, keys.fiducial_js, codec.encode_joint_state(now, arm.physical, names=ARM_JOINT_NAMES))
+            if self._outbox.listened(keys.measured_cp):  # forward kinematics and a pose cost: only when asked
+                pose = codec.encode_pose_stamped(now, forward_kinematics(arm.joints.encoder), f"{name}_base")
+                self._outbox.send(now, keys.measured_cp, pose)
+            self._publish_setpoint(name, jaw=False)
+            self._publish_setpoint(name, jaw=True)
+
+    def _send_heartbeat(self) -> None:
+        """Re-send what each arm last sent, unchanged: an idle lockstep endpoint is alive, and late joiners
+        see its state; faults are not drawn again, so what a client sees stays deterministic."""
+        self._outbox.repeat({
+            key
+            for keys in self.keys.values()
+            for key in (keys.measured_js, keys.setpoint_js, keys.fiducial_js, keys.jaw_measured_js,
+                        keys.jaw_setpoint_js, keys.operating_state)
+        })
+
+    def _capture(self, command_id: str) -> None:
+        assert self.camera is not None
+        now = self.now()
+        points = self.camera.capture(now)
+        self._outbox.send(now, self.camera_keys.points, codec.encode_point_cloud(now, points), command_id, "done")
+
+    # ------------------------------------------------------------------ shutdown
+    def close(self) -> None:
+        for declaration in self._declarations:
+            declaration.undeclare()
+        self._outbox.close()
+        self._events_outlet.close()
+        self.log.close()

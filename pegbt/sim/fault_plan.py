@@ -1,0 +1,179 @@
+"""Fault injection by configuration: message loss and latency, an endpoint crash, and scheduled faults
+handed to the world or camera plug-ins (slips, missed grasps, depth-noise bursts).
+
+Loss and latency are drawn from a seeded generator keyed by the message itself (its key and stamp,
+or a command's sequence number), so a lockstep run with the same seed injects the same faults.
+Every injected fault is written to the simulator's log with its time.
+
+    seed: 7
+    loss:    {probability: 0.05, topics: [servo_jp, measured_js]}
+    latency: {seconds: 0.02, jitter: 0.005, topics: [setpoint_js]}
+    crash:   {at: 30.0}
+    scheduled:
+      - {at: 12.0, target: world, kind: slip, params: {arm: PSM1}}
+"""
+
+from __future__ import annotations
+
+import hashlib
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from pegbt.errors import PegbtError
+
+# Streams lose and lag messages by default; events (operating_state, error) and move commands only if listed.
+STREAM_TOPICS = ("measured_js", "setpoint_js", "fiducial_js", "measured_cp", "servo_jp")
+TARGETS = ("world", "camera")
+
+
+@dataclass(frozen=True)
+class ScheduledFault:
+    at: float
+    target: str
+    kind: str
+    params: Mapping[str, Any] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class FaultPlan:
+    seed: int = 0
+    loss_probability: float = 0.0
+    loss_topics: tuple[str, ...] = STREAM_TOPICS
+    latency: float = 0.0
+    jitter: float = 0.0
+    latency_topics: tuple[str, ...] = STREAM_TOPICS
+    crash_at: float | None = None
+    scheduled: tuple[ScheduledFault, ...] = ()
+
+    @classmethod
+    def load(cls, path: Path) -> "FaultPlan":
+        try:
+            text = path.read_text(encoding="utf-8")
+        except OSError as error:
+            raise PegbtError(f"cannot read fault plan: {error}", file=path) from None
+        try:
+            node = yaml.compose(text, Loader=yaml.SafeLoader)
+        except yaml.YAMLError as error:
+            mark = getattr(error, "problem_mark", None)
+            line, column = (mark.line + 1, mark.column + 1) if mark else (None, None)
+            raise PegbtError(f"not valid YAML: {getattr(error, 'problem', error)}", file=path, line=line, column=column) from None
+        return _PlanReader(path).plan(node)
+
+
+class _PlanReader:
+    """Reads a fault plan from a YAML node tree, so each error names its line, column and field."""
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+
+    def fail(self, node: yaml.Node, field_name: str, message: str) -> PegbtError:
+        return PegbtError(message, file=self.path, line=node.start_mark.line + 1, column=node.start_mark.column + 1, field=field_name)
+
+    def mapping(self, node: yaml.Node | None, field_name: str, allowed: tuple[str, ...]) -> dict[str, yaml.Node]:
+        if node is None:
+            return {}
+        if not isinstance(node, yaml.MappingNode):
+            raise self.fail(node, field_name, "expected a mapping")
+        items = {}
+        for key, value in node.value:
+            if key.value not in allowed:
+                raise self.fail(key, f"{field_name}.{key.value}".lstrip("."), f"unknown field; expected one of {', '.join(allowed)}")
+            items[key.value] = value
+        return items
+
+    def number(self, node: yaml.Node, field_name: str, low: float = 0.0, high: float = float("inf")) -> float:
+        try:
+            value = float(yaml.safe_load(yaml.serialize(node)))
+        except (TypeError, ValueError):
+            raise self.fail(node, field_name, "expected a number") from None
+        if not low <= value <= high:
+            raise self.fail(node, field_name, f"expected a number in [{low}, {high}], got {value}")
+        return value
+
+    def topics(self, node: yaml.Node | None, field_name: str) -> tuple[str, ...]:
+        if node is None:
+            return STREAM_TOPICS
+        if not isinstance(node, yaml.SequenceNode) or not all(isinstance(item, yaml.ScalarNode) for item in node.value):
+            raise self.fail(node, field_name, "expected a list of topic names")
+        return tuple(item.value.strip("/") for item in node.value)
+
+    def plan(self, root: yaml.Node | None) -> FaultPlan:
+        top = self.mapping(root, "", ("seed", "loss", "latency", "crash", "scheduled"))
+        loss = self.mapping(top.get("loss"), "loss", ("probability", "topics"))
+        latency = self.mapping(top.get("latency"), "latency", ("seconds", "jitter", "topics"))
+        crash = self.mapping(top.get("crash"), "crash", ("at",))
+        return FaultPlan(
+            seed=int(self.number(top["seed"], "seed")) if "seed" in top else 0,
+            loss_probability=self.number(loss["probability"], "loss.probability", high=1.0) if "probability" in loss else 0.0,
+            loss_topics=self.topics(loss.get("topics"), "loss.topics"),
+            latency=self.number(latency["seconds"], "latency.seconds") if "seconds" in latency else 0.0,
+            jitter=self.number(latency["jitter"], "latency.jitter") if "jitter" in latency else 0.0,
+            latency_topics=self.topics(latency.get("topics"), "latency.topics"),
+            crash_at=self.number(crash["at"], "crash.at") if "at" in crash else None,
+            scheduled=self.scheduled(top.get("scheduled")),
+        )
+
+    def scheduled(self, node: yaml.Node | None) -> tuple[ScheduledFault, ...]:
+        if node is None:
+            return ()
+        if not isinstance(node, yaml.SequenceNode):
+            raise self.fail(node, "scheduled", "expected a list of faults")
+        faults = []
+        for index, item in enumerate(node.value):
+            name = f"scheduled[{index}]"
+            entry = self.mapping(item, name, ("at", "target", "kind", "params"))
+            for required in ("at", "target", "kind"):
+                if required not in entry:
+                    raise self.fail(item, f"{name}.{required}", "missing")
+            target = entry["target"].value
+            if target not in TARGETS:
+                raise self.fail(entry["target"], f"{name}.target", f"expected one of {', '.join(TARGETS)}")
+            params = yaml.safe_load(yaml.serialize(entry["params"])) if "params" in entry else {}
+            if not isinstance(params, dict):
+                raise self.fail(entry["params"], f"{name}.params", "expected a mapping")
+            faults.append(ScheduledFault(self.number(entry["at"], f"{name}.at"), target, entry["kind"].value, params))
+        return tuple(sorted(faults, key=lambda fault: fault.at))
+
+
+def _matches(key: str, topics: tuple[str, ...]) -> bool:
+    return any(key == topic or key.endswith("/" + topic) for topic in topics)
+
+
+def _uniform(seed: int, *parts: object) -> float:
+    """A uniform number in [0, 1) fixed by the seed and the message's identity (not by call order)."""
+    digest = hashlib.blake2b(f"{seed}|{'|'.join(map(str, parts))}".encode(), digest_size=8).digest()
+    return int.from_bytes(digest, "little") / 2**64
+
+
+class FaultInjector:
+    """Decides, per message, whether it is lost and how late it is; tracks the schedule."""
+
+    def __init__(self, plan: FaultPlan) -> None:
+        self.plan = plan
+        self._pending = list(plan.scheduled)
+        self.crashed = False
+
+    def lost(self, key: str, identity: str) -> bool:
+        plan = self.plan
+        return plan.loss_probability > 0 and _matches(key, plan.loss_topics) and _uniform(plan.seed, "loss", key, identity) < plan.loss_probability
+
+    def delay(self, key: str, identity: str) -> float:
+        plan = self.plan
+        if plan.latency <= 0 and plan.jitter <= 0 or not _matches(key, plan.latency_topics):
+            return 0.0
+        return plan.latency + plan.jitter * _uniform(plan.seed, "latency", key, identity)
+
+    def due(self, elapsed: float) -> list[ScheduledFault]:
+        """Scheduled faults whose time has come (each returned once)."""
+        ready = [fault for fault in self._pending if fault.at <= elapsed + 1e-9]
+        self._pending = self._pending[len(ready) :]
+        return ready
+
+    def crash_due(self, elapsed: float) -> bool:
+        if self.plan.crash_at is not None and not self.crashed and elapsed >= self.plan.crash_at - 1e-9:
+            self.crashed = True
+        return self.crashed

@@ -1,0 +1,69 @@
+"""`pegbt sim` as a child process on a free loopback port: for tests and benchmarks that need the
+endpoint in another process, as it is in use."""
+
+from __future__ import annotations
+
+import os
+import socket
+import subprocess
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+
+from pegbt.errors import PegbtError
+
+STARTUP_TIMEOUT = 30.0
+
+
+def free_port() -> int:
+    """A TCP port on 127.0.0.1 that nothing listens on right now."""
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as probe:
+        probe.bind(("127.0.0.1", 0))
+        return probe.getsockname()[1]
+
+
+class SimProcess:
+    """A `pegbt sim` child listening on a free port; `endpoint` is where clients connect."""
+
+    def __init__(self, args: Sequence[str] = (), port: int | None = None) -> None:
+        self.port = port or free_port()
+        self.endpoint = f"tcp/127.0.0.1:{self.port}"
+        root = Path(__file__).resolve().parents[2]
+        env = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [str(root), os.environ.get("PYTHONPATH")]))}
+        self.process = subprocess.Popen(
+            [sys.executable, "-m", "pegbt", "sim", "--listen", self.endpoint, *args],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+            env=env,
+        )
+        line = self.process.stdout.readline() if self.process.stdout else ""
+        if not line.startswith("pegbt sim: serving"):
+            self.process.kill()
+            _, err = self.process.communicate(timeout=STARTUP_TIMEOUT)
+            raise PegbtError(f"pegbt sim did not start: {line.strip()} {err.strip()}", field="sim")
+
+    def kill(self) -> None:
+        """SIGKILL: the endpoint vanishes without a word, as a crashed one does."""
+        self.process.kill()
+        self.process.wait(timeout=STARTUP_TIMEOUT)
+
+    def wait(self, timeout: float) -> int:
+        return self.process.wait(timeout=timeout)
+
+    def stop(self) -> None:
+        if self.process.poll() is None:
+            self.process.terminate()
+            try:
+                self.process.wait(timeout=5)
+            except subprocess.TimeoutExpired:
+                self.kill()
+        for stream in (self.process.stdout, self.process.stderr):
+            if stream is not None:
+                stream.close()
+
+    def __enter__(self) -> "SimProcess":
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.stop()

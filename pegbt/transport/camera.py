@@ -1,0 +1,98 @@
+"""`CameraClient`: point clouds from a depth camera on `camera/depth/points` (sensor_msgs/PointCloud2).
+
+`capture_async()` asks for a cloud (a trigger message the simulator answers; a streaming real camera
+ignores it) and returns a handle that a later tick polls; `capture()` blocks for it. The cloud that
+answers is the one tagged with the trigger's id, or for an untagged camera the first one stamped at
+or after the request.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+
+import numpy as np
+from numpy.typing import NDArray
+
+from pegbt.transport import codec
+from pegbt.transport.arm import EndpointSilent
+from pegbt.transport.clock import Clock, WallClock
+from pegbt.transport.keys import CameraKeys
+from pegbt.transport.link import Link
+from pegbt.transport.sequencing import Received
+
+Cloud = tuple[float, NDArray[np.float32]]
+
+
+class CaptureHandle:
+    """A requested point cloud: `ready` in a later tick, then `points` ((N, 3) float32, metres, camera frame)."""
+
+    def __init__(self, request_id: str, requested_at: float) -> None:
+        self.request_id = request_id
+        self.requested_at = requested_at
+        self.stamp: float | None = None
+        self._points: NDArray[np.float32] | None = None
+        self._arrived = threading.Event()
+
+    def fulfil(self, stamp: float, points: NDArray[np.float32]) -> None:
+        self.stamp, self._points = stamp, points
+        self._arrived.set()
+
+    @property
+    def ready(self) -> bool:
+        return self._arrived.is_set()
+
+    def result(self, timeout: float) -> NDArray[np.float32]:
+        """The cloud, waiting up to `timeout` seconds; `EndpointSilent` if none came."""
+        if not self._arrived.wait(timeout):
+            raise EndpointSilent(f"no point cloud answered capture {self.request_id} within {timeout} s", field="camera")
+        assert self._points is not None
+        return self._points
+
+    @property
+    def points(self) -> NDArray[np.float32]:
+        return self.result(0.0)
+
+
+class CameraClient:
+    """A depth camera on the link."""
+
+    def __init__(self, link: Link, name: str = "camera", *, clock: Clock | None = None, timeout: float = 2.0) -> None:
+        self.keys = CameraKeys(name, link.namespace)
+        self.clock: Clock = clock or WallClock()
+        self.timeout = timeout
+        self._pending: dict[str, CaptureHandle] = {}
+        self._lock = threading.Lock()
+        self._trigger = link.outlet(self.keys.trigger)
+        self._points = link.inlet(self.keys.points, codec.decode_point_cloud, self._on_cloud)
+
+    def _on_cloud(self, received: Received[Cloud]) -> None:
+        stamp, points = received.value
+        with self._lock:
+            if received.tag is not None and received.tag.cause:
+                answered = [self._pending.pop(received.tag.cause)] if received.tag.cause in self._pending else []
+            else:
+                answered = [h for h in self._pending.values() if h.requested_at <= stamp]
+                for handle in answered:
+                    del self._pending[handle.request_id]
+        for handle in answered:
+            handle.fulfil(stamp, points)
+
+    def capture_async(self) -> CaptureHandle:
+        """Request a cloud now; poll the handle's `ready` in later ticks."""
+        deadline = time.monotonic() + self.timeout
+        while not self._trigger.matched:  # a freshly opened session takes a moment to see the camera
+            if time.monotonic() > deadline:
+                raise EndpointSilent(f"no camera listens on {self.keys.trigger}; capture not sent", field=self.keys.trigger)
+            time.sleep(0.005)
+        requested_at = self.clock.now()
+        with self._lock:
+            tag = self._trigger.put(codec.encode_empty())
+            request_id = tag.command_id(self.keys.trigger)
+            handle = CaptureHandle(request_id, requested_at)
+            self._pending[request_id] = handle
+        return handle
+
+    def capture(self) -> NDArray[np.float32]:
+        """A fresh cloud, blocking until it arrives (at most `timeout` seconds)."""
+        return self.capture_async().result(self.timeout)

@@ -1,0 +1,94 @@
+"""Clocks for the executive: `now()` and `wait(seconds)`.
+
+`WallClock` is real time (a real dVRK, or the simulator in real-time mode). `SimClock` drives the
+simulator in lockstep: `wait()` asks it to advance by that much simulated time and returns once the
+simulator has done so and everything it published on the way has arrived here, so runs are
+deterministic and faster than real time, with every timestamp in simulated time.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+from typing import Protocol
+
+from pegbt.errors import PegbtError
+from pegbt.transport.keys import SimKeys
+from pegbt.transport.link import Link
+
+
+class Clock(Protocol):
+    """What the executive needs of time."""
+
+    def now(self) -> float: ...
+
+    def wait(self, seconds: float) -> None: ...
+
+
+class WallClock:
+    """Real time: seconds since the epoch, as ROS stamps are."""
+
+    def now(self) -> float:
+        return time.time()
+
+    def wait(self, seconds: float) -> None:
+        if seconds > 0:
+            time.sleep(seconds)
+
+
+class SimClock:
+    """The simulator's clock, as seen by one client process.
+
+    In lockstep mode `wait(s)` advances the simulator by whole control periods (carrying the remainder
+    over, so many short waits add up exactly) and blocks until it has; in real-time mode it sleeps.
+    """
+
+    def __init__(self, link: Link, *, reply_timeout: float = 10.0) -> None:
+        self._link = link
+        self._keys = SimKeys(link.namespace)
+        self._reply_timeout = reply_timeout
+        info = self._query(self._keys.clock, {})
+        self.mode: str = info["mode"]
+        self.period: float = info["period"]
+        self._time: float = info["time"]
+        self._target = self._time
+
+    @property
+    def lockstep(self) -> bool:
+        return self.mode == "lockstep"
+
+    def now(self) -> float:
+        return self._time if self.lockstep else time.time()
+
+    def wait(self, seconds: float) -> None:
+        if not math.isfinite(seconds) or seconds < 0:
+            raise PegbtError(f"wait needs a finite duration >= 0, got {seconds}", field="seconds")
+        if not self.lockstep:
+            time.sleep(seconds)
+            return
+        self._target += seconds
+        steps = math.floor((self._target - self._time) / self.period + 1e-9)
+        if steps <= 0:
+            return
+        request = {"steps": steps, "source": self._link.source.name, "sent": self._link.source.counts()}
+        reply = self._query(self._keys.step, request)
+        self._time = reply["time"]
+        self._await_published(reply["source"], reply["sent"])
+
+    def _await_published(self, source: str, sent: dict[str, int]) -> None:
+        """Barrier: wait until every inlet of this link holds what the simulator sent on its key."""
+        deadline = time.monotonic() + self._reply_timeout
+        for inlet in self._link.inlets:
+            seq = sent.get(inlet.key, 0)
+            if seq and not inlet.wait_for(source, seq, max(0.0, deadline - time.monotonic())):
+                raise PegbtError(f"simulator published {inlet.key} #{seq} but it never arrived", field=inlet.key)
+
+    def _query(self, key: str, request: dict) -> dict:
+        replies = list(self._link.session.get(key, payload=json.dumps(request), timeout=self._reply_timeout, express=True))
+        if not replies:
+            raise PegbtError(f"no simulator answers on {key} (is `pegbt sim` running and reachable?)", field=key)
+        reply = replies[0]
+        if reply.ok is None:
+            raise PegbtError(f"simulator refused {key}: {reply.err.payload.to_string()}", field=key)
+        return json.loads(reply.ok.payload.to_bytes())

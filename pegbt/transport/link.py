@@ -1,0 +1,63 @@
+"""A `Link`: one zenoh session as the clients of a process share it.
+
+It bundles the session, the key namespace, this process's message `Source`, and every `Inlet` the
+clients opened, so a lockstep `SimClock` can wait for exactly what the simulator sent before answering.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from typing import TypeVar
+
+import zenoh
+
+from pegbt.transport.sequencing import Inlet, Outlet, Received, Source
+from pegbt.transport.session import DEFAULT_ENDPOINT, client_settings, open_session
+
+T = TypeVar("T")
+
+
+class Link:
+    """A session plus namespace, message source and the inlets opened through it."""
+
+    def __init__(self, session: zenoh.Session, namespace: str = "", *, owns_session: bool = False) -> None:
+        self.session = session
+        self.namespace = namespace
+        self.source = Source()
+        self.inlets: list[Inlet] = []
+        self._outlets: list[Outlet] = []
+        self._owns_session = owns_session
+
+    def inlet(
+        self, key: str, decode: Callable[[bytes], T], on_message: Callable[[Received[T]], None] | None = None
+    ) -> Inlet[T]:
+        inlet = Inlet(self.session, key, decode, on_message)
+        self.inlets.append(inlet)
+        return inlet
+
+    def outlet(self, key: str) -> Outlet:
+        outlet = Outlet(self.session, key, self.source)
+        self._outlets.append(outlet)
+        return outlet
+
+    def close(self) -> None:
+        """Undeclare everything opened here; close the session if this link opened it."""
+        for inlet in self.inlets:
+            inlet.close()
+        for outlet in self._outlets:
+            outlet.close()
+        self.inlets.clear()
+        self._outlets.clear()
+        if self._owns_session:
+            self.session.close()
+
+    def __enter__(self) -> "Link":
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def connect(endpoints: Sequence[str] = (DEFAULT_ENDPOINT,), namespace: str = "", mode: str = "peer") -> Link:
+    """Open a client session to `endpoints` (loopback port 7447 by default) and wrap it in a `Link`."""
+    return Link(open_session(client_settings(endpoints, mode)), namespace, owns_session=True)
