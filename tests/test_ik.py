@@ -58,7 +58,7 @@ def test_out_of_limit_pose_is_refused_naming_the_limit():
     assert solution.ok.tolist() == [False, True]
     assert solution.problems(0)[0].startswith("q3 (insertion) = 0.2600 outside [0.0800, 0.2450]")
     assert solution.problems(1) == []
-    with pytest.raises(PegbtError, match=r"grasp waypoint is not reachable by PSM1: q3 \(insertion\)"):
+    with pytest.raises(PegbtError, match=r"grasp waypoint: not reachable by PSM1: q3 \(insertion\)"):
         solve_ik(forward_kinematics(q[0]), PSM1, what="grasp waypoint")
 
 

@@ -157,7 +157,7 @@ def solve_ik(pose: ArrayLike, settings: ArmSettings, *, what: str = "pose") -> N
     solution = inverse_kinematics(pose, settings)
     if not solution.ok:
         raise PegbtError(
-            f"{what} is not reachable by {settings.name}: " + "; ".join(solution.problems()), field=what
+            f"not reachable by {settings.name}: " + "; ".join(solution.problems()), field=what
         )
     return solution.q
 

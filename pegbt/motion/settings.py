@@ -16,11 +16,12 @@ from pegbt.errors import PegbtError
 from pegbt.motion.limits import SKILLS_DIR
 
 MOTION_SETTINGS = SKILLS_DIR / "motion.yaml"
+SIGNED = {"meeting_offset_board_y", "jaw_closed"}  # settings that may be zero or negative
 
 
 @dataclass(frozen=True)
-class TransferHeights:
-    """Where the tip goes relative to the pegs, along the peg axis (m)."""
+class TransferSettings:
+    """Where the tip goes relative to the pegs, along the peg axis (m), and the jaw angles (rad)."""
 
     block_top_below_peg_top: float
     grasp_depth: float
@@ -29,6 +30,8 @@ class TransferHeights:
     drop_height_above_peg_top: float
     channel_clear_above_peg_top: float
     channel_tolerance: float
+    jaw_open: float
+    jaw_closed: float
 
 
 @dataclass(frozen=True)
@@ -55,7 +58,7 @@ class HandoverSettings:
 
 @dataclass(frozen=True)
 class MotionSettings:
-    transfer: TransferHeights
+    transfer: TransferSettings
     sqp: SqpSettings
     handover: HandoverSettings
 
@@ -72,7 +75,7 @@ def _section(document: dict, name: str, kind: type, path: Path) -> object:
         wanted = int if field.type == "int" else float
         if isinstance(value, bool) or not isinstance(value, (int, float)) or (wanted is int and not isinstance(value, int)):
             raise PegbtError(f"expected a number ({wanted.__name__}), got {value!r}", file=path, field=f"{name}.{field.name}")
-        if not value > 0 and field.name != "meeting_offset_board_y":
+        if not value > 0 and field.name not in SIGNED:
             raise PegbtError(f"must be positive, got {value!r}", file=path, field=f"{name}.{field.name}")
         values[field.name] = wanted(value)
     return kind(**values)
@@ -94,7 +97,7 @@ def motion_settings(path: Path = MOTION_SETTINGS) -> MotionSettings:
             column=None if mark is None else mark.column + 1,
         ) from None
     return MotionSettings(
-        transfer=_section(document, "transfer", TransferHeights, path),
+        transfer=_section(document, "transfer", TransferSettings, path),
         sqp=_section(document, "sqp", SqpSettings, path),
         handover=_section(document, "handover", HandoverSettings, path),
     )

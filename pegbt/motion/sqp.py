@@ -244,7 +244,7 @@ class SqpRefiner:
                 u=np.concatenate([hi, channel_hi.ravel()]),
             )
             self._solver.warm_start(x=x)
-            x = self._solver.solve().x
+            x = self._solver.solve(raise_error=False).x
             self.solves += 1
             if not self._acceptable(x, h, coefficients, lo, hi, channel_lo, channel_hi):
                 return None

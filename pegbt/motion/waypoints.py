@@ -15,7 +15,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from pegbt.errors import PegbtError
 from pegbt.motion.channel import Channel
-from pegbt.motion.settings import TransferHeights, motion_settings
+from pegbt.motion.settings import TransferSettings, motion_settings
 
 WAYPOINT_NAMES = ("grasp", "lifted above the start peg", "above the goal peg", "lowered onto the goal peg")
 
@@ -69,7 +69,7 @@ def transfer_waypoints(
     pick_yaw: float = 0.0,
     place_yaw: float = 0.0,
     up: ArrayLike = (0.0, 0.0, 1.0),
-    heights: TransferHeights | None = None,
+    heights: TransferSettings | None = None,
 ) -> TransferWaypoints:
     """Waypoints moving a block from the peg whose top centre is `pick_peg_top` to `place_peg_top`
     (arm frame, m). The tip grasps at `pick_offset` from the pick peg's axis and places with
