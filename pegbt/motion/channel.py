@@ -8,6 +8,7 @@ leaves the peg); `tolerance` is how far off the line the tip may be.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -32,6 +33,7 @@ class Channel:
         object.__setattr__(self, "point", point)
         object.__setattr__(self, "axis", axis / norm)
 
+    @cached_property
     def normals(self) -> NDArray[np.float64]:
         """Two unit vectors (2, 3) perpendicular to the axis and to each other."""
         helper = np.array([1.0, 0.0, 0.0]) if abs(self.axis[0]) < 0.9 else np.array([0.0, 1.0, 0.0])

@@ -41,6 +41,7 @@ class SqpSettings:
     knots: int
     max_iterations: int
     horizon_probes: int
+    horizon_step: float
     eps: float
     max_solver_iterations: int
 

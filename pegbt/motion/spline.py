@@ -17,10 +17,10 @@ from pegbt.motion.jacobian import jacobian
 from pegbt.motion.limits import ArmSettings
 from pegbt.motion.trajectory import HermitePath, segment_extremes
 
-_GRID_POINTS = 40  # log-spaced candidate durations per segment before bisection
-_BISECTIONS = 12
+_GRID_POINTS = 16  # log-spaced candidate durations per segment before bisection
+_BISECTIONS = 11  # each halves the gap between grid points (a factor 1.6): 0.03 % at the end
 _LONGEST_SEGMENT = 20.0  # s
-_MAGNITUDE_GRID = 9
+_MAGNITUDE_GRID = 7
 _REFINEMENTS = 4
 
 
@@ -71,22 +71,23 @@ def plan_spline(
     with np.errstate(divide="ignore"):
         top_speed = np.min(settings.planner_velocity / np.abs(directions), axis=1)  # per middle waypoint
     low, high = np.zeros(2), top_speed
-    zero = np.zeros((1, 6))
+    g = _MAGNITUDE_GRID
     best = (np.inf, 0.0, 0.0, (np.inf,) * 3)
     for _ in range(_REFINEMENTS):
-        s1 = np.linspace(low[0], high[0], _MAGNITUDE_GRID)
-        s2 = np.linspace(low[1], high[1], _MAGNITUDE_GRID)
+        s1 = np.linspace(low[0], high[0], g)
+        s2 = np.linspace(low[1], high[1], g)
         v1, v2 = s1[:, None] * directions[0], s2[:, None] * directions[1]
-        first = shortest_segment_times(np.broadcast_to(delta[0], v1.shape), np.broadcast_to(zero, v1.shape), v1, settings)
-        last = shortest_segment_times(np.broadcast_to(delta[2], v2.shape), v2, np.broadcast_to(zero, v2.shape), settings)
-        pairs_from = np.repeat(v1, _MAGNITUDE_GRID, axis=0)
-        pairs_to = np.tile(v2, (_MAGNITUDE_GRID, 1))
-        middle = shortest_segment_times(np.broadcast_to(delta[1], pairs_from.shape), pairs_from, pairs_to, settings)
-        total = first[:, None] + middle.reshape(_MAGNITUDE_GRID, _MAGNITUDE_GRID) + last[None, :]
+        # One batch: first segments (rest → v1), last (v2 → rest), middle (every v1 → v2 pair).
+        starts = np.concatenate([np.zeros((g, 6)), v2, np.repeat(v1, g, axis=0)])
+        ends = np.concatenate([v1, np.zeros((g, 6)), np.tile(v2, (g, 1))])
+        deltas = np.concatenate([np.repeat(delta[[0]], g, axis=0), np.repeat(delta[[2]], g, axis=0), np.repeat(delta[[1]], g * g, axis=0)])
+        durations = shortest_segment_times(deltas, starts, ends, settings)
+        first, last, middle = durations[:g], durations[g : 2 * g], durations[2 * g :].reshape(g, g)
+        total = first[:, None] + middle + last[None, :]
         i, j = np.unravel_index(np.argmin(total), total.shape)
         if total[i, j] < best[0]:
-            best = (total[i, j], s1[i], s2[j], (first[i], middle[i * _MAGNITUDE_GRID + j], last[j]))
-        step = (high - low) / (_MAGNITUDE_GRID - 1)
+            best = (total[i, j], s1[i], s2[j], (first[i], middle[i, j], last[j]))
+        step = (high - low) / (g - 1)
         low = np.maximum(np.array([best[1], best[2]]) - step, 0.0)
         high = np.minimum(np.array([best[1], best[2]]) + step, top_speed)
     if not np.isfinite(best[0]):

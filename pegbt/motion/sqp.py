@@ -1,27 +1,29 @@
 """SQP refinement of a transfer (the paper's second stage), solved with OSQP.
 
-The horizon T is split into K steps of h = T/K with a constant acceleration per step, so the joint
-path is piecewise quadratic and C1, velocities are exact at the knots and linear in between. The
-decision variables per knot k are the position q_k, the velocity v_k and the acceleration a_k of the
-step that follows (a_K = 0). The QP minimises the sum of squared acceleration changes (the discrete
-jerk, each joint relative to its acceleration limit) subject to
-- the dynamics q_{k+1} = q_k + h·v_k + h²/2·a_k and v_{k+1} = v_k + h·a_k;
+The path is a uniform quadratic B-spline over the horizon T = S·h: S segments, S+2 control points c_i
+per joint. Its velocity is linear between the knots with values (c_{i+1} − c_i)/h there, and its
+acceleration is constant per segment, (c_{i+2} − 2c_{i+1} + c_i)/h², so velocity and acceleration
+limits on the control points hold *everywhere* on the path, and the path (inside the convex hull of its
+control points) stays inside the joint limits. Doubled control points at each end start and stop at
+rest. The decision variables are the control points only, which keeps the QP small.
+
+The QP minimises the squared jumps of acceleration between segments (the discrete jerk, each joint
+relative to its acceleration limit, from rest to rest) subject to
 - the start and goal configurations, at rest; joint, velocity and acceleration limits;
 - the channel, linearised with the Jacobian at the previous iterate: while the block is on a peg, the
-  tip and its velocity stay on the peg axis (within the tolerance) and the tool stays upright; the knot
-  where the block leaves the start peg, every later knot in transit, and the knot where it reaches the
-  goal peg are above the clearing height; no knot on a peg goes below the grasp or drop point.
+  control points keep the tip on the peg axis (within the tolerance) and the tool upright; the control
+  point where the block leaves the start peg, every later one in transit, and the one where it reaches
+  the goal peg are above the clearing height; none on a peg goes below the grasp or drop point.
 The channel is re-linearised until the true tip positions meet it (sequential QP).
 
-Variables are scaled per joint and per horizon, q̌ = q/(a_max·h²), v̌ = v/(a_max·h), ǎ = a/a_max, so
-the dynamics rows have constant coefficients (1, ½) and the acceleration bounds are ±1 whatever the
-horizon; the cost matrix never changes. Between solves only the channel rows' coefficients and the
-bounds change, never the sparsity, so one `osqp.OSQP` object is set up per planner and updated:
-fresh set-ups are 5-20x slower.
+Variables are scaled per joint and per horizon, č = c/(a_max·h²): the acceleration rows are then
+č_{i+2} − 2č_{i+1} + č_i ∈ [−1, 1] whatever the horizon, and the cost matrix never changes. Between
+solves only the channel rows' coefficients and the bounds change, never the sparsity, so one
+`osqp.OSQP` object is set up per planner and updated: fresh set-ups are 5-20x slower.
 
-The horizon is shortened by bisection until the QP becomes infeasible (or does not converge within
-the iteration cap); every feasible solution is also played as fast as its limits allow (exact uniform
-time scaling), which lowers the top of the bisection for free.
+The horizon is shortened by a fixed fraction until the QP is infeasible (or does not converge within
+the iteration cap), then bisected; every feasible solution is also played as fast as its limits allow
+(exact uniform time scaling), which shortens it for free.
 """
 
 from __future__ import annotations
@@ -32,25 +34,25 @@ import scipy.sparse as sparse
 from numpy.typing import NDArray
 
 from pegbt.motion.channel import Channel
-from pegbt.motion.jacobian import jacobian
-from pegbt.motion.kinematics import forward_kinematics, tip_position
+from pegbt.motion.jacobian import cross, jacobian_from_frames
+from pegbt.motion.kinematics import link_frames, tip_position
 from pegbt.motion.limits import ArmSettings
 from pegbt.motion.settings import SqpSettings
 from pegbt.motion.trajectory import HermitePath, fit_to_limits
 
 N = 6  # joints
-STRIDE = 3 * N  # variables per knot: q̌, v̌, ǎ
-CHANNEL_ROWS = 7  # per knot: lateral position (2), lateral velocity (2), height, tool tilt (2)
+CHANNEL_ROWS = 5  # per control point: lateral position (2), height, tool tilt (2)
 CHANNEL_UNIT = 1e-3  # channel rows are written in millimetres and milliradians, so their bounds are O(1)
-INSIDE_TOLERANCE = 0.5  # fraction of the channel tolerance the knots may use (the rest is for between knots)
-HEIGHT_SLACK = 1e-5  # m a knot may end below a clearing height
+INSIDE_TOLERANCE = 0.5  # fraction of the channel tolerance the control points may use
+HEIGHT_SLACK = 1e-5  # m the path may end below a clearing height
 MAX_TILT = np.sin(np.radians(2.0))  # the tool may lean this far from the peg axis while the block is on it
-# OSQP's own tolerance is absolute and shared by every row; ADMM closes the last hundredth of a
-# millimetre slowly. An iterate is accepted when its violations are physically negligible: this much
-# of an acceleration or velocity limit (uniform retiming removes it exactly afterwards), of the step's
-# a_max·h² in the dynamics, and of a millimetre or milliradian in the channel rows.
 FIRST_SOLVE_ITERATIONS = 4  # times the iteration cap, for the first (must-succeed) horizon
-ACCEPTED_VIOLATION = {"limits": 0.02, "dynamics": 0.01, "channel": 0.05}
+FIRST_STRETCHES = (1.1, 1.4, 1.8)  # horizons tried first, relative to the spline's duration
+# OSQP's tolerance is absolute and shared by every row, and ADMM closes the last hundredth of a
+# millimetre slowly. An iterate is accepted when its violations are physically negligible: this much
+# of a velocity or acceleration limit (the exact retiming afterwards removes it) and of a millimetre or
+# milliradian in the channel rows.
+ACCEPTED_VIOLATION = {"limits": 0.02, "channel": 0.05}
 
 
 class _FixedPattern:
@@ -60,6 +62,7 @@ class _FixedPattern:
     the compressed-column order OSQP stores, so they can be passed to `OSQP.update`."""
 
     def __init__(self, rows: NDArray[np.int64], cols: NDArray[np.int64], shape: tuple[int, int]) -> None:
+        self._rows, self._cols = rows, cols
         keys, self._inverse = np.unique(cols * shape[0] + rows, return_inverse=True)
         self._count = len(keys)
         self.indices = keys % shape[0]
@@ -69,8 +72,27 @@ class _FixedPattern:
     def data(self, values: NDArray[np.float64]) -> NDArray[np.float64]:
         return np.bincount(self._inverse, weights=values, minlength=self._count)
 
+    def product(self, values: NDArray[np.float64], x: NDArray[np.float64]) -> NDArray[np.float64]:
+        """The matrix with entry `values` times the vector `x`, without building the matrix."""
+        return np.bincount(self._rows, weights=values * x[self._cols], minlength=self.shape[0])
+
     def matrix(self, values: NDArray[np.float64]) -> sparse.csc_matrix:
         return sparse.csc_matrix((self.data(values), self.indices, self.indptr), shape=self.shape)
+
+
+def _differences(count: int, order: int) -> sparse.csr_matrix:
+    """The `order`-th forward difference operator on `count` points, ((count − order) × count)."""
+    D = sparse.identity(count, format="csr")
+    for _ in range(order):
+        D = D[1:] - D[:-1]
+    return D
+
+
+def _b_spline_path(control: NDArray[np.float64], h: float) -> HermitePath:
+    """The quadratic B-spline of `control` points (S+2, 6) with knot spacing `h`, as cubic Hermite
+    segments (each exactly quadratic): knots at the midpoints of consecutive control points."""
+    times = h * np.arange(len(control) - 1)
+    return HermitePath(times, 0.5 * (control[1:] + control[:-1]), np.diff(control, axis=0) / h)
 
 
 class SqpRefiner:
@@ -79,14 +101,16 @@ class SqpRefiner:
     def __init__(self, settings: ArmSettings, sqp: SqpSettings) -> None:
         self.settings = settings
         self.sqp = sqp
-        K = self.knots = sqp.knots
-        self.n = STRIDE * (K + 1)
+        self.segments = sqp.knots
+        self.points = sqp.knots + 2  # control points
+        self.knots = sqp.knots + 1  # path knots, midpoints of consecutive control points
+        self.n = N * self.points
         self._build_pattern()
         self._solver = osqp.OSQP()
         self._solver.setup(
             self._jerk_cost(),
             np.zeros(self.n),
-            self._A.matrix(self._constraint_values(1.0, np.ones((K + 1, CHANNEL_ROWS, N)))),
+            self._A.matrix(self._constraint_values(np.ones((self.knots, CHANNEL_ROWS, N)))),
             -np.ones(self._rows),
             np.ones(self._rows),
             eps_abs=sqp.eps,
@@ -100,124 +124,113 @@ class SqpRefiner:
 
     # --- fixed structure ------------------------------------------------------------------------
     def _build_pattern(self) -> None:
-        K, n = self.knots, self.n
-        step, joint = (a.ravel() for a in np.meshgrid(np.arange(K), np.arange(N), indexing="ij"))
-        q0, v0, a0 = STRIDE * step + joint, STRIDE * step + N + joint, STRIDE * step + 2 * N + joint
-        q1, v1 = q0 + STRIDE, v0 + STRIDE
-        rows, cols = [np.arange(n)], [np.arange(n)]  # identity: joint, velocity, acceleration bounds
-        position = n + 2 * (N * step + joint)  # q̌1 − q̌0 − v̌0 − ǎ0/2 = 0
-        rows.append(np.repeat(position, 4))
-        cols.append(np.stack([q1, q0, v0, a0], axis=1).ravel())
-        rows.append(np.repeat(position + 1, 3))  # v̌1 − v̌0 − ǎ0 = 0
-        cols.append(np.stack([v1, v0, a0], axis=1).ravel())
-        self._channel_base = n + 2 * K * N
-        knot = np.arange(K + 1)
-        for r, offset in enumerate((0, 0, N, N, 0, 0, 0)):  # position rows act on q̌, velocity rows on v̌
-            rows.append(np.repeat(self._channel_base + CHANNEL_ROWS * knot + r, N))
-            cols.append((STRIDE * knot[:, None] + offset + np.arange(N)).ravel())
-        self._rows = self._channel_base + CHANNEL_ROWS * (K + 1)
-        self._A = _FixedPattern(np.concatenate(rows), np.concatenate(cols), (self._rows, n))
-        self._dynamics_values = np.concatenate([np.tile([1.0, -1.0, -1.0, -0.5], K * N), np.tile([1.0, -1.0, -1.0], K * N)])
+        """Rows: identity (joint limits), velocity, acceleration, then the channel rows per point.
+        The velocity and acceleration rows act on each joint separately (Kronecker with I₆)."""
+        self._limit_rows = sparse.vstack(
+            [sparse.identity(self.n), sparse.kron(_differences(self.points, 1), sparse.identity(N)),
+             sparse.kron(_differences(self.points, 2), sparse.identity(N))],
+            format="coo",
+        )
+        limit_count = self._limit_rows.shape[0]
+        # Channel rows act on the path's knots, each the midpoint of two consecutive control points.
+        knot = np.arange(self.knots)
+        channel_rows = limit_count + CHANNEL_ROWS * knot[:, None] + np.arange(CHANNEL_ROWS)  # (knots, 5)
+        both = N * np.stack([knot, knot + 1], axis=1)[:, :, None] + np.arange(N)  # (knots, 2, 6)
+        rows = np.concatenate([self._limit_rows.row, np.repeat(channel_rows.ravel(), 2 * N)])
+        cols = np.concatenate(
+            [self._limit_rows.col, np.broadcast_to(both[:, None], (self.knots, CHANNEL_ROWS, 2, N)).ravel()]
+        )
+        self._channel_base = limit_count
+        self._rows = limit_count + CHANNEL_ROWS * self.knots
+        self._A = _FixedPattern(rows, cols, (self._rows, self.n))
 
     def _jerk_cost(self) -> sparse.csc_matrix:
-        """Σ (ǎ_{k+1} − ǎ_k)² over every step, starting from rest (ǎ_{−1} = 0), upper triangle."""
-        K = self.knots
-        a = STRIDE * np.arange(K + 1)[:, None] + 2 * N + np.arange(N)  # (K+1, N) acceleration indices
-        difference = sparse.lil_matrix(((K + 1) * N, self.n))
-        for k in range(K + 1):
-            for j in range(N):
-                difference[k * N + j, a[k, j]] = 1.0
-                if k > 0:
-                    difference[k * N + j, a[k - 1, j]] = -1.0
-        difference = difference.tocsr()
-        return sparse.triu(2.0 * difference.T @ difference, format="csc")
+        """Σ of squared acceleration jumps between segments, from rest and back to rest, upper triangle."""
+        accelerations = _differences(self.points, 2)  # one row per segment
+        zero = sparse.csr_matrix((1, self.points))
+        jumps = _differences(self.segments + 2, 1) @ sparse.vstack([zero, accelerations, zero])
+        jerk = sparse.kron(jumps, sparse.identity(N))
+        return sparse.triu(2.0 * jerk.T @ jerk, format="csc")
 
-    def _constraint_values(self, h: float, channel: NDArray[np.float64]) -> NDArray[np.float64]:
-        return np.concatenate([np.ones(self.n), self._dynamics_values, channel.transpose(1, 0, 2).ravel()])
+    def _constraint_values(self, channel: NDArray[np.float64]) -> NDArray[np.float64]:
+        """All values of A; `channel` (knots, 5, 6) are the rows' coefficients on a knot's position,
+        half of which falls on each of its two control points."""
+        halves = np.broadcast_to(0.5 * channel[:, :, None, :], channel.shape[:2] + (2, N))
+        return np.concatenate([self._limit_rows.data, halves.ravel()])
 
     # --- scaling ------------------------------------------------------------------------------------
-    def _scales(self, h: float) -> NDArray[np.float64]:
-        """Physical value per scaled unit of every variable of one knot (q, v, a)."""
-        a = self.settings.planner_acceleration
-        return np.concatenate([a * h * h, a * h, a])
-
-    def _to_scaled(self, path: HermitePath, h: float) -> NDArray[np.float64]:
-        times = np.linspace(path.times[0], path.times[-1], self.knots + 1)
-        q, v, _ = path.evaluate(times)
-        a = np.zeros_like(v)
-        a[:-1] = np.diff(v, axis=0) / h
-        return (np.concatenate([q, v, a], axis=1) / self._scales(h)).ravel()
+    def _scale(self, h: float) -> NDArray[np.float64]:
+        """Radians (metres) per scaled unit of each joint's control points."""
+        return self.settings.planner_acceleration * h * h
 
     # --- one linearisation --------------------------------------------------------------------------
     def _channel_rows(
-        self, q: NDArray[np.float64], h: float, phases: tuple[int, int], pick: Channel, place: Channel
+        self, c: NDArray[np.float64], h: float, phases: tuple[int, int], pick: Channel, place: Channel
     ) -> tuple[NDArray, NDArray, NDArray]:
-        """Channel coefficients (K+1, 7, 6) on the scaled variables, linearised at knot positions `q`
-        (physical), and their bounds (K+1, 7)."""
-        K = self.knots
+        """Channel coefficients (knots, 5, 6) on a knot's scaled position, linearised at the knots of
+        control points `c` (physical), and the rows' bounds (knots, 5)."""
         lift, lower = phases
-        pose, J = forward_kinematics(q), jacobian(q)
+        c = 0.5 * (c[1:] + c[:-1])  # the knots
+        frames = link_frames(c)
+        pose, J = frames[-1], jacobian_from_frames(frames)
         tip, tool, Jp, Jw = pose[:, :3, 3], pose[:, :3, 2], J[:, :3], J[:, 3:]
-        on_place = np.arange(K + 1) >= lower
-        on_peg = (np.arange(K + 1) <= lift) | on_place
+        index = np.arange(self.knots)
+        on_place = index >= lower
+        on_peg = (index <= lift) | on_place
         point = np.where(on_place[:, None], place.point, pick.point)
-        normals = np.where(on_place[:, None, None], place.normals(), pick.normals())  # (K+1, 2, 3)
-        lateral = np.einsum("kic,kcj->kij", normals, Jp) / CHANNEL_UNIT
-        vertical = np.einsum("c,kcj->kj", pick.axis, Jp) / CHANNEL_UNIT
+        normals = np.where(on_place[:, None, None], place.normals, pick.normals)  # (points, 2, 3)
+        lateral = np.einsum("kic,kcj->kij", normals, Jp)
+        vertical = np.einsum("c,kcj->kj", pick.axis, Jp)
         # The tool axis turns by ω×axis: its lateral components change by (axis × n)·ω.
-        tilt = np.einsum("kic,kcj->kij", np.cross(tool[:, None, :], normals), Jw) / CHANNEL_UNIT
-        physical = np.concatenate([lateral, lateral, vertical[:, None], tilt], axis=1)
+        tilt = np.einsum("kic,kcj->kij", cross(tool[:, None, :], normals), Jw)
+        physical = np.concatenate([lateral, vertical[:, None], tilt], axis=1) / CHANNEL_UNIT
         # A row is c·q + (value at q̄ − c·q̄): the constant goes into the bounds.
-        base = np.einsum("krj,kj->kr", physical, q)
+        base = np.einsum("krj,kj->kr", physical, c)
         base[:, 0:2] -= np.einsum("kic,kc->ki", normals, tip - point) / CHANNEL_UNIT
-        base[:, 2:4] = 0.0  # velocity rows are linear, not affine
-        base[:, 4] -= (tip - point) @ pick.axis / CHANNEL_UNIT
-        base[:, 5:7] -= np.einsum("kic,kc->ki", normals, tool) / CHANNEL_UNIT
-        required = np.zeros(K + 1)  # never below the grasp or drop point while on a peg
+        base[:, 2] -= (tip - point) @ pick.axis / CHANNEL_UNIT
+        base[:, 3:5] -= np.einsum("kic,kc->ki", normals, tool) / CHANNEL_UNIT
+        required = np.zeros(self.knots)  # never below the grasp or drop point while on a peg
         required[lift + 1 : lower] = max(pick.clear, place.clear + float((place.point - pick.point) @ pick.axis))
         required[lift] = pick.clear
         required[lower] = place.clear
-        tolerance = INSIDE_TOLERANCE * pick.tolerance / CHANNEL_UNIT
-        tilt_allowed = MAX_TILT / CHANNEL_UNIT
-        allowed = np.array([tolerance, tolerance, 0.0, 0.0, np.inf, tilt_allowed, tilt_allowed])
-        lo = np.full((K + 1, CHANNEL_ROWS), -np.inf)
-        hi = np.full((K + 1, CHANNEL_ROWS), np.inf)
+        tolerance = INSIDE_TOLERANCE * pick.tolerance / CHANNEL_UNIT / np.sqrt(2)  # per lateral direction
+        allowed = np.array([tolerance, tolerance, np.inf, MAX_TILT / CHANNEL_UNIT, MAX_TILT / CHANNEL_UNIT])
+        lo = np.full((self.knots, CHANNEL_ROWS), -np.inf)
+        hi = np.full((self.knots, CHANNEL_ROWS), np.inf)
         lo[on_peg] = base[on_peg] - allowed
         hi[on_peg] = base[on_peg] + allowed
-        lo[:, 4] = base[:, 4] + required / CHANNEL_UNIT
-        hi[:, 4] = np.inf
-        scale = self._scales(h)
-        coefficients = physical * np.where(np.arange(CHANNEL_ROWS)[:, None] // 2 == 1, scale[N : 2 * N], scale[:N])
-        return coefficients, lo, hi
+        lo[:, 2] = base[:, 2] + required / CHANNEL_UNIT
+        hi[:, 2] = np.inf
+        return physical * self._scale(h), lo, hi
 
     def _bounds(self, h: float, start: NDArray, goal: NDArray) -> tuple[NDArray, NDArray]:
-        """Bounds of the identity (joint, velocity, acceleration) and dynamics rows, scaled."""
-        s, K = self.settings, self.knots
-        scale = self._scales(h)
-        lo = np.tile(np.concatenate([s.lower, -s.planner_velocity, -s.planner_acceleration]) / scale, K + 1)
-        hi = np.tile(np.concatenate([s.upper, s.planner_velocity, s.planner_acceleration]) / scale, K + 1)
-        lo[:STRIDE - N] = hi[:STRIDE - N] = np.concatenate([start / scale[:N], np.zeros(N)])
-        lo[-STRIDE:] = hi[-STRIDE:] = np.concatenate([goal / scale[:N], np.zeros(2 * N)])
-        zeros = np.zeros(2 * K * N)
-        return np.concatenate([lo, zeros]), np.concatenate([hi, zeros])
+        """Bounds of the identity (joint limits, fixed ends), velocity and acceleration rows, scaled."""
+        s, scale = self.settings, self._scale(h)
+        lo = np.tile(s.lower / scale, self.points)
+        hi = np.tile(s.upper / scale, self.points)
+        lo[: 2 * N] = hi[: 2 * N] = np.tile(start / scale, 2)
+        lo[-2 * N :] = hi[-2 * N :] = np.tile(goal / scale, 2)
+        velocity = np.tile(s.planner_velocity * h / scale, self.points - 1)
+        acceleration = np.ones(N * (self.points - 2))
+        return np.concatenate([lo, -velocity, -acceleration]), np.concatenate([hi, velocity, acceleration])
 
-    def _acceptable(
-        self, x: NDArray, h: float, coefficients: NDArray, lo: NDArray, hi: NDArray, channel_lo: NDArray, channel_hi: NDArray
-    ) -> bool:
+    def _acceptable(self, x: NDArray, coefficients: NDArray, lo: NDArray, hi: NDArray) -> bool:
         if not np.all(np.isfinite(x)):
             return False
-        A = self._A.matrix(self._constraint_values(h, coefficients))
-        values = A @ x
-        violation = np.maximum(np.concatenate([lo, channel_lo.ravel()]) - values, 0.0)
-        violation += np.maximum(values - np.concatenate([hi, channel_hi.ravel()]), 0.0)
+        values = self._A.product(self._constraint_values(coefficients), x)
+        violation = np.maximum(lo - values, 0.0) + np.maximum(values - hi, 0.0)
+        # Velocity rows relative to their bound; acceleration rows are already relative (bound 1).
+        velocity = slice(self.n, self.n + N * (self.points - 1))
+        acceleration = slice(velocity.stop, self._channel_base)
         return bool(
-            violation[: self.n].max() <= ACCEPTED_VIOLATION["limits"]
-            and violation[self.n : self._channel_base].max() <= ACCEPTED_VIOLATION["dynamics"]
+            np.max(violation[velocity] / hi[velocity]) <= ACCEPTED_VIOLATION["limits"]
+            and violation[acceleration].max() <= ACCEPTED_VIOLATION["limits"]
             and violation[self._channel_base :].max() <= ACCEPTED_VIOLATION["channel"]
         )
 
-    def _channel_met(self, q: NDArray[np.float64], phases: tuple[int, int], pick: Channel, place: Channel) -> bool:
-        tip = tip_position(q)
+    def _channel_met(self, path: HermitePath, phases: tuple[int, int], pick: Channel, place: Channel) -> bool:
+        """The true tips at the path's knots meet the channel."""
+        tip = tip_position(path.positions)
         lift, lower = phases
         slack = 1.2 * INSIDE_TOLERANCE  # the linearisation may be off by a little at convergence
         return bool(
@@ -227,33 +240,33 @@ class SqpRefiner:
             and place.height(tip[lower]) >= place.clear - HEIGHT_SLACK
         )
 
-    def _solve(self, path: HermitePath, phases: tuple[int, int], pick: Channel, place: Channel) -> HermitePath | None:
-        """The QP at `path`'s horizon, warm-started from it and re-linearised until the channel holds;
-        None if it is infeasible or does not converge."""
-        K = self.knots
-        h = path.duration / K
-        scale = self._scales(h)
-        x = self._to_scaled(path, h)
-        lo, hi = self._bounds(h, path.positions[0], path.positions[-1])
+    def _solve(
+        self, control: NDArray, T: float, phases: tuple[int, int], pick: Channel, place: Channel
+    ) -> tuple[HermitePath, NDArray] | None:
+        """The path for horizon `T` and its control points, warm-started from `control` (physical)
+        and re-linearised until the channel holds; None if it is infeasible or does not converge."""
+        h = T / self.segments
+        scale = self._scale(h)
+        start, goal = control[0], control[-1]
+        limits_lo, limits_hi = self._bounds(h, start, goal)
+        x = (control / scale).ravel()
         for _ in range(self.sqp.max_iterations):
-            q = x.reshape(K + 1, STRIDE)[:, :N] * scale[:N]
-            coefficients, channel_lo, channel_hi = self._channel_rows(q, h, phases, pick, place)
-            self._solver.update(
-                Ax=self._A.data(self._constraint_values(h, coefficients)),
-                l=np.concatenate([lo, channel_lo.ravel()]),
-                u=np.concatenate([hi, channel_hi.ravel()]),
-            )
+            coefficients, channel_lo, channel_hi = self._channel_rows(x.reshape(-1, N) * scale, h, phases, pick, place)
+            lo = np.concatenate([limits_lo, channel_lo.ravel()])
+            hi = np.concatenate([limits_hi, channel_hi.ravel()])
+            self._solver.update(Ax=self._A.data(self._constraint_values(coefficients)), l=lo, u=hi)
             self._solver.warm_start(x=x)
             x = self._solver.solve(raise_error=False).x
             self.solves += 1
-            if not self._acceptable(x, h, coefficients, lo, hi, channel_lo, channel_hi):
+            if not self._acceptable(x, coefficients, lo, hi):
                 return None
-            knots = x.reshape(K + 1, STRIDE) * scale
-            # OSQP meets equalities only to its tolerance: pin the fixed ends exactly.
-            knots[0, :N], knots[-1, :N] = path.positions[0], path.positions[-1]
-            knots[0, N : 2 * N] = knots[-1, N : 2 * N] = 0.0
-            if self._channel_met(knots[:, :N], phases, pick, place):
-                return HermitePath(np.linspace(0.0, path.duration, K + 1), knots[:, :N], knots[:, N : 2 * N])
+            # OSQP meets bounds only to its tolerance: pin the fixed ends and clip to the joint limits
+            # exactly (the path stays in the convex hull of its control points).
+            control = np.clip(x.reshape(-1, N) * scale, self.settings.lower, self.settings.upper)
+            control[:2], control[-2:] = start, goal
+            path = _b_spline_path(control, h)
+            if self._channel_met(path, phases, pick, place):
+                return path, control
         return None
 
     def _fastest(self, path: HermitePath) -> HermitePath:
@@ -262,38 +275,39 @@ class SqpRefiner:
 
     # --- horizon ------------------------------------------------------------------------------------
     def refine(self, warm: HermitePath, pick: Channel, place: Channel) -> HermitePath | None:
-        """The shortest channel-respecting path found, warm-started from `warm`; None if not even
-        `warm`'s horizon (or a little more) admits one."""
-        K = self.knots
-        guess = HermitePath(warm.times - warm.times[0], warm.positions, warm.velocities)
-        tip = tip_position(guess.evaluate(np.linspace(0.0, guess.duration, K + 1))[0])
+        """The shortest channel-respecting path found, warm-started from `warm`; None if not even a
+        horizon somewhat longer than `warm`'s admits one."""
+        # Control points on the warm path at the times they sit nearest to, ends doubled; the phases
+        # (the knots where the block leaves the start peg and reaches the goal peg) come from it.
+        times = np.clip((np.arange(self.points) - 0.5) / self.segments, 0.0, 1.0) * warm.duration
+        control = warm.evaluate(warm.times[0] + times)[0]
+        control[:2], control[-2:] = warm.positions[0], warm.positions[-1]
+        tip = tip_position(0.5 * (control[1:] + control[:-1]))
         lift = int(np.argmax(pick.height(tip) >= pick.clear))
-        lower = int(K - np.argmax(place.height(tip)[::-1] >= place.clear))
-        phases = (max(lift, 1), min(max(lower, lift + 1), K - 1))
-        # The first horizon must succeed, so it may take longer; probes below it are capped.
+        lower = int(self.knots - 1 - np.argmax(place.height(tip)[::-1] >= place.clear))
+        phases = (max(lift, 1), min(max(lower, lift + 1), self.knots - 2))
+        # The first horizon must succeed, so it starts with some slack and may take longer; the
+        # shorter ones after it are capped.
         self._solver.update_settings(max_iter=FIRST_SOLVE_ITERATIONS * self.sqp.max_solver_iterations)
-        best = None
-        for stretch in (1.0, 1.25, 1.6):
-            best = self._solve(guess.retimed(stretch), phases, pick, place)
-            if best is not None:
+        found = None
+        for stretch in FIRST_STRETCHES:
+            found = self._solve(control, stretch * warm.duration, phases, pick, place)
+            if found is not None:
                 break
         self._solver.update_settings(max_iter=self.sqp.max_solver_iterations)
-        if best is None:
+        if found is None:
             return None
-        best = self._fastest(best)
-        low = _rest_to_rest_lower_bound(best.positions[-1] - best.positions[0], self.settings)
+        # Shorten the horizon by a fixed fraction until the QP is infeasible, then bisect. Control
+        # points are positions, so the best one so far warm-starts any horizon as it is.
+        best, control = self._fastest(found[0]), found[1]
+        low = 0.0
         for _ in range(self.sqp.horizon_probes):
-            trial = 0.5 * (low + best.duration)
-            found = self._solve(best.retimed(trial / best.duration), phases, pick, place)
+            trial = (1 - self.sqp.horizon_step) * best.duration if low == 0.0 else 0.5 * (low + best.duration)
+            found = self._solve(control, trial, phases, pick, place)
             if found is None:
                 low = trial
+                if best.duration - low < 0.5 * self.sqp.horizon_step * best.duration:
+                    break
             else:
-                best = self._fastest(found)
+                best, control = self._fastest(found[0]), found[1]
         return best
-
-
-def _rest_to_rest_lower_bound(delta: NDArray[np.float64], settings: ArmSettings) -> float:
-    """No path between two configurations is faster than each joint's bang-bang rest-to-rest move."""
-    v, a = settings.planner_velocity, settings.planner_acceleration
-    d = np.abs(delta)
-    return float(np.max(np.where(d <= v * v / a, 2 * np.sqrt(d / a), d / v + v / a)))
