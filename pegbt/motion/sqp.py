@@ -88,6 +88,14 @@ def _differences(count: int, order: int) -> sparse.csr_matrix:
     return D
 
 
+def _sample_weights(segments: int) -> NDArray[np.float64]:
+    """Weights (2S+1, 3) of the quadratic B-spline at its knots and segment midpoints, in order, on
+    control points i, i+1, i+2 with i = sample // 2: a knot is the midpoint of two control points, a
+    segment's middle is (c_i + 6·c_{i+1} + c_{i+2})/8. The last knot (i = S − 1) uses the last two."""
+    weights = np.tile([[0.5, 0.5, 0.0], [0.125, 0.75, 0.125]], (segments, 1))
+    return np.vstack([weights, [[0.0, 0.5, 0.5]]])
+
+
 def _b_spline_path(control: NDArray[np.float64], h: float) -> HermitePath:
     """The quadratic B-spline of `control` points (S+2, 6) with knot spacing `h`, as cubic Hermite
     segments (each exactly quadratic): knots at the midpoints of consecutive control points."""
@@ -103,8 +111,13 @@ class SqpRefiner:
         self.sqp = sqp
         self.segments = sqp.knots
         self.points = sqp.knots + 2  # control points
-        self.knots = sqp.knots + 1  # path knots, midpoints of consecutive control points
-        self.n = N * self.points
+        # The channel is held at the knots and halfway along every segment: each such sample of the
+        # path is a fixed combination of three consecutive control points.
+        self._samples = _sample_weights(self.segments)  # (2S+1, 3), on control points i, i+1, i+2
+        self.knots = len(self._samples)
+        self._first = np.minimum(np.arange(self.knots) // 2, self.segments - 1)  # i of each sample
+        self.n_control = N * self.points
+        self.n = self.n_control + N * self.segments  # control points, then each segment's acceleration
         self._build_pattern()
         self._solver = osqp.OSQP()
         self._solver.setup(
@@ -124,21 +137,27 @@ class SqpRefiner:
 
     # --- fixed structure ------------------------------------------------------------------------
     def _build_pattern(self) -> None:
-        """Rows: identity (joint limits), velocity, acceleration, then the channel rows per point.
-        The velocity and acceleration rows act on each joint separately (Kronecker with I₆)."""
+        """Rows: identity (joint and acceleration limits), velocity, the definition of each segment's
+        acceleration (an equality: ADMM handles bounds on variables far better than on differences),
+        then the channel rows per knot. Joints never mix except in the channel rows."""
+        eye = sparse.identity(N)
+        no_acceleration = sparse.csr_matrix((N * (self.points - 1), N * self.segments))
         self._limit_rows = sparse.vstack(
-            [sparse.identity(self.n), sparse.kron(_differences(self.points, 1), sparse.identity(N)),
-             sparse.kron(_differences(self.points, 2), sparse.identity(N))],
+            [
+                sparse.identity(self.n),
+                sparse.hstack([sparse.kron(_differences(self.points, 1), eye), no_acceleration]),
+                sparse.hstack([sparse.kron(_differences(self.points, 2), eye), -sparse.identity(N * self.segments)]),
+            ],
             format="coo",
         )
         limit_count = self._limit_rows.shape[0]
-        # Channel rows act on the path's knots, each the midpoint of two consecutive control points.
-        knot = np.arange(self.knots)
-        channel_rows = limit_count + CHANNEL_ROWS * knot[:, None] + np.arange(CHANNEL_ROWS)  # (knots, 5)
-        both = N * np.stack([knot, knot + 1], axis=1)[:, :, None] + np.arange(N)  # (knots, 2, 6)
-        rows = np.concatenate([self._limit_rows.row, np.repeat(channel_rows.ravel(), 2 * N)])
+        # Channel rows act on path samples, each a combination of three consecutive control points.
+        sample = np.arange(self.knots)
+        channel_rows = limit_count + CHANNEL_ROWS * sample[:, None] + np.arange(CHANNEL_ROWS)  # (samples, 5)
+        three = N * (self._first[:, None] + np.arange(3))[:, :, None] + np.arange(N)  # (samples, 3, 6)
+        rows = np.concatenate([self._limit_rows.row, np.repeat(channel_rows.ravel(), 3 * N)])
         cols = np.concatenate(
-            [self._limit_rows.col, np.broadcast_to(both[:, None], (self.knots, CHANNEL_ROWS, 2, N)).ravel()]
+            [self._limit_rows.col, np.broadcast_to(three[:, None], (self.knots, CHANNEL_ROWS, 3, N)).ravel()]
         )
         self._channel_base = limit_count
         self._rows = limit_count + CHANNEL_ROWS * self.knots
@@ -146,17 +165,16 @@ class SqpRefiner:
 
     def _jerk_cost(self) -> sparse.csc_matrix:
         """Σ of squared acceleration jumps between segments, from rest and back to rest, upper triangle."""
-        accelerations = _differences(self.points, 2)  # one row per segment
-        zero = sparse.csr_matrix((1, self.points))
-        jumps = _differences(self.segments + 2, 1) @ sparse.vstack([zero, accelerations, zero])
-        jerk = sparse.kron(jumps, sparse.identity(N))
+        zero = sparse.csr_matrix((1, self.segments))
+        jumps = _differences(self.segments + 2, 1) @ sparse.vstack([zero, sparse.identity(self.segments), zero])
+        jerk = sparse.hstack([sparse.csr_matrix(((self.segments + 1) * N, self.n_control)), sparse.kron(jumps, sparse.identity(N))])
         return sparse.triu(2.0 * jerk.T @ jerk, format="csc")
 
     def _constraint_values(self, channel: NDArray[np.float64]) -> NDArray[np.float64]:
-        """All values of A; `channel` (knots, 5, 6) are the rows' coefficients on a knot's position,
-        half of which falls on each of its two control points."""
-        halves = np.broadcast_to(0.5 * channel[:, :, None, :], channel.shape[:2] + (2, N))
-        return np.concatenate([self._limit_rows.data, halves.ravel()])
+        """All values of A; `channel` (samples, 5, 6) are the rows' coefficients on a path sample's
+        position, shared out over its three control points by the sample's weights."""
+        shares = channel[:, :, None, :] * self._samples[:, None, :, None]
+        return np.concatenate([self._limit_rows.data, shares.ravel()])
 
     # --- scaling ------------------------------------------------------------------------------------
     def _scale(self, h: float) -> NDArray[np.float64]:
@@ -167,10 +185,10 @@ class SqpRefiner:
     def _channel_rows(
         self, c: NDArray[np.float64], h: float, phases: tuple[int, int], pick: Channel, place: Channel
     ) -> tuple[NDArray, NDArray, NDArray]:
-        """Channel coefficients (knots, 5, 6) on a knot's scaled position, linearised at the knots of
-        control points `c` (physical), and the rows' bounds (knots, 5)."""
+        """Channel coefficients (samples, 5, 6) on a path sample's scaled position, linearised at the
+        samples of control points `c` (physical), and the rows' bounds (samples, 5)."""
         lift, lower = phases
-        c = 0.5 * (c[1:] + c[:-1])  # the knots
+        c = self._sample(c)
         frames = link_frames(c)
         pose, J = frames[-1], jacobian_from_frames(frames)
         tip, tool, Jp, Jw = pose[:, :3, 3], pose[:, :3, 2], J[:, :3], J[:, 3:]
@@ -210,27 +228,35 @@ class SqpRefiner:
         hi = np.tile(s.upper / scale, self.points)
         lo[: 2 * N] = hi[: 2 * N] = np.tile(start / scale, 2)
         lo[-2 * N :] = hi[-2 * N :] = np.tile(goal / scale, 2)
+        acceleration = np.ones(N * self.segments)
         velocity = np.tile(s.planner_velocity * h / scale, self.points - 1)
-        acceleration = np.ones(N * (self.points - 2))
-        return np.concatenate([lo, -velocity, -acceleration]), np.concatenate([hi, velocity, acceleration])
+        definition = np.zeros(N * self.segments)
+        return (
+            np.concatenate([lo, -acceleration, -velocity, definition]),
+            np.concatenate([hi, acceleration, velocity, definition]),
+        )
 
     def _acceptable(self, x: NDArray, coefficients: NDArray, lo: NDArray, hi: NDArray) -> bool:
         if not np.all(np.isfinite(x)):
             return False
         values = self._A.product(self._constraint_values(coefficients), x)
         violation = np.maximum(lo - values, 0.0) + np.maximum(values - hi, 0.0)
-        # Velocity rows relative to their bound; acceleration rows are already relative (bound 1).
+        # Velocity rows relative to their bound; accelerations are already relative (bound 1).
         velocity = slice(self.n, self.n + N * (self.points - 1))
-        acceleration = slice(velocity.stop, self._channel_base)
         return bool(
             np.max(violation[velocity] / hi[velocity]) <= ACCEPTED_VIOLATION["limits"]
-            and violation[acceleration].max() <= ACCEPTED_VIOLATION["limits"]
+            and violation[self.n_control : self.n].max() <= ACCEPTED_VIOLATION["limits"]
+            and violation[velocity.stop : self._channel_base].max() <= ACCEPTED_VIOLATION["limits"]
             and violation[self._channel_base :].max() <= ACCEPTED_VIOLATION["channel"]
         )
 
-    def _channel_met(self, path: HermitePath, phases: tuple[int, int], pick: Channel, place: Channel) -> bool:
-        """The true tips at the path's knots meet the channel."""
-        tip = tip_position(path.positions)
+    def _sample(self, control: NDArray[np.float64]) -> NDArray[np.float64]:
+        """The path at its samples (knots and segment midpoints), from control points (S+2, 6)."""
+        return np.einsum("ki,kij->kj", self._samples, control[self._first[:, None] + np.arange(3)])
+
+    def _channel_met(self, control: NDArray, phases: tuple[int, int], pick: Channel, place: Channel) -> bool:
+        """The true tips at the path's samples meet the channel."""
+        tip = tip_position(self._sample(control))
         lift, lower = phases
         slack = 1.2 * INSIDE_TOLERANCE  # the linearisation may be off by a little at convergence
         return bool(
@@ -249,9 +275,10 @@ class SqpRefiner:
         scale = self._scale(h)
         start, goal = control[0], control[-1]
         limits_lo, limits_hi = self._bounds(h, start, goal)
-        x = (control / scale).ravel()
+        scaled = control / scale
+        x = np.concatenate([scaled.ravel(), (scaled[2:] - 2 * scaled[1:-1] + scaled[:-2]).ravel()])
         for _ in range(self.sqp.max_iterations):
-            coefficients, channel_lo, channel_hi = self._channel_rows(x.reshape(-1, N) * scale, h, phases, pick, place)
+            coefficients, channel_lo, channel_hi = self._channel_rows(x[: self.n_control].reshape(-1, N) * scale, h, phases, pick, place)
             lo = np.concatenate([limits_lo, channel_lo.ravel()])
             hi = np.concatenate([limits_hi, channel_hi.ravel()])
             self._solver.update(Ax=self._A.data(self._constraint_values(coefficients)), l=lo, u=hi)
@@ -262,11 +289,10 @@ class SqpRefiner:
                 return None
             # OSQP meets bounds only to its tolerance: pin the fixed ends and clip to the joint limits
             # exactly (the path stays in the convex hull of its control points).
-            control = np.clip(x.reshape(-1, N) * scale, self.settings.lower, self.settings.upper)
+            control = np.clip(x[: self.n_control].reshape(-1, N) * scale, self.settings.lower, self.settings.upper)
             control[:2], control[-2:] = start, goal
-            path = _b_spline_path(control, h)
-            if self._channel_met(path, phases, pick, place):
-                return path, control
+            if self._channel_met(control, phases, pick, place):
+                return _b_spline_path(control, h), control
         return None
 
     def _fastest(self, path: HermitePath) -> HermitePath:
@@ -282,7 +308,7 @@ class SqpRefiner:
         times = np.clip((np.arange(self.points) - 0.5) / self.segments, 0.0, 1.0) * warm.duration
         control = warm.evaluate(warm.times[0] + times)[0]
         control[:2], control[-2:] = warm.positions[0], warm.positions[-1]
-        tip = tip_position(0.5 * (control[1:] + control[:-1]))
+        tip = tip_position(self._sample(control))
         lift = int(np.argmax(pick.height(tip) >= pick.clear))
         lower = int(self.knots - 1 - np.argmax(place.height(tip)[::-1] >= place.clear))
         phases = (max(lift, 1), min(max(lower, lift + 1), self.knots - 2))
