@@ -38,7 +38,7 @@ class TransferSettings:
 class SqpSettings:
     """Discretisation and solver knobs of the SQP refinement."""
 
-    knots: int
+    segments: int
     max_iterations: int
     horizon_probes: int
     horizon_step: float

@@ -2,27 +2,30 @@
 
 The path is a uniform quadratic B-spline over the horizon T = S·h: S segments, S+2 control points c_i
 per joint. Its velocity is linear between the knots with values (c_{i+1} − c_i)/h there, and its
-acceleration is constant per segment, (c_{i+2} − 2c_{i+1} + c_i)/h², so velocity and acceleration
-limits on the control points hold *everywhere* on the path, and the path (inside the convex hull of its
-control points) stays inside the joint limits. Doubled control points at each end start and stop at
-rest. The decision variables are the control points only, which keeps the QP small.
+acceleration is constant per segment, a_i = (c_{i+2} − 2c_{i+1} + c_i)/h², so velocity and
+acceleration limits on the control points hold *everywhere* on the path, and the path (inside the
+convex hull of its control points) stays inside the joint limits. Doubled control points at each end
+start and stop at rest. The decision variables are the control points and the segment accelerations,
+tied by equality rows (ADMM converges much faster on bounds of variables than on bounds of differences).
 
 The QP minimises the squared jumps of acceleration between segments (the discrete jerk, each joint
 relative to its acceleration limit, from rest to rest) subject to
 - the start and goal configurations, at rest; joint, velocity and acceleration limits;
-- the channel, linearised with the Jacobian at the previous iterate: while the block is on a peg, the
-  control points keep the tip on the peg axis (within the tolerance) and the tool upright; the control
-  point where the block leaves the start peg, every later one in transit, and the one where it reaches
-  the goal peg are above the clearing height; none on a peg goes below the grasp or drop point.
+- the channel, linearised with the Jacobian at the previous iterate and imposed at every knot and
+  segment middle (each a fixed combination of three control points): while the block is on a peg, the
+  tip stays on the peg axis (within the tolerance) and the tool upright; the sample where the block
+  leaves the start peg, every later one in transit, and the one where it reaches the goal peg are above
+  the clearing height; none on a peg goes below the grasp or drop point.
 The channel is re-linearised until the true tip positions meet it (sequential QP).
 
-Variables are scaled per joint and per horizon, č = c/(a_max·h²): the acceleration rows are then
-č_{i+2} − 2č_{i+1} + č_i ∈ [−1, 1] whatever the horizon, and the cost matrix never changes. Between
-solves only the channel rows' coefficients and the bounds change, never the sparsity, so one
-`osqp.OSQP` object is set up per planner and updated: fresh set-ups are 5-20x slower.
+Variables are scaled per joint and per horizon, č = c/(a_max·h²), ǎ = a/a_max: the acceleration
+bounds are then ±1 and the acceleration definitions have constant coefficients whatever the horizon,
+and the cost matrix never changes. Between solves only the channel rows' coefficients and the bounds
+change, never the sparsity, so one `osqp.OSQP` object is set up per planner and updated: fresh set-ups
+are 5-20x slower.
 
-The horizon is shortened by a fixed fraction until the QP is infeasible (or does not converge within
-the iteration cap), then bisected; every feasible solution is also played as fast as its limits allow
+The horizon is shortened by a fixed fraction until the QP is infeasible (or not solved within the
+iteration cap), then bisected; every feasible solution is also played as fast as its limits allow
 (exact uniform time scaling), which shortens it for free.
 """
 
@@ -41,9 +44,9 @@ from pegbt.motion.settings import SqpSettings
 from pegbt.motion.trajectory import HermitePath, fit_to_limits
 
 N = 6  # joints
-CHANNEL_ROWS = 5  # per control point: lateral position (2), height, tool tilt (2)
+CHANNEL_ROWS = 5  # per path sample: lateral position (2), height, tool tilt (2)
 CHANNEL_UNIT = 1e-3  # channel rows are written in millimetres and milliradians, so their bounds are O(1)
-INSIDE_TOLERANCE = 0.5  # fraction of the channel tolerance the control points may use
+INSIDE_TOLERANCE = 0.5  # fraction of the channel tolerance the samples may use (the rest: between them)
 HEIGHT_SLACK = 1e-5  # m the path may end below a clearing height
 MAX_TILT = np.sin(np.radians(2.0))  # the tool may lean this far from the peg axis while the block is on it
 FIRST_SOLVE_ITERATIONS = 4  # times the iteration cap, for the first (must-succeed) horizon
@@ -109,13 +112,13 @@ class SqpRefiner:
     def __init__(self, settings: ArmSettings, sqp: SqpSettings) -> None:
         self.settings = settings
         self.sqp = sqp
-        self.segments = sqp.knots
-        self.points = sqp.knots + 2  # control points
+        self.segments = sqp.segments
+        self.points = sqp.segments + 2  # control points
         # The channel is held at the knots and halfway along every segment: each such sample of the
         # path is a fixed combination of three consecutive control points.
-        self._samples = _sample_weights(self.segments)  # (2S+1, 3), on control points i, i+1, i+2
-        self.knots = len(self._samples)
-        self._first = np.minimum(np.arange(self.knots) // 2, self.segments - 1)  # i of each sample
+        self._weights = _sample_weights(self.segments)  # (2S+1, 3), on control points i, i+1, i+2
+        self.sample_count = len(self._weights)
+        self._first = np.minimum(np.arange(self.sample_count) // 2, self.segments - 1)  # i of each sample
         self.n_control = N * self.points
         self.n = self.n_control + N * self.segments  # control points, then each segment's acceleration
         self._build_pattern()
@@ -123,7 +126,7 @@ class SqpRefiner:
         self._solver.setup(
             self._jerk_cost(),
             np.zeros(self.n),
-            self._A.matrix(self._constraint_values(np.ones((self.knots, CHANNEL_ROWS, N)))),
+            self._A.matrix(self._constraint_values(np.ones((self.sample_count, CHANNEL_ROWS, N)))),
             -np.ones(self._rows),
             np.ones(self._rows),
             eps_abs=sqp.eps,
@@ -152,15 +155,15 @@ class SqpRefiner:
         )
         limit_count = self._limit_rows.shape[0]
         # Channel rows act on path samples, each a combination of three consecutive control points.
-        sample = np.arange(self.knots)
+        sample = np.arange(self.sample_count)
         channel_rows = limit_count + CHANNEL_ROWS * sample[:, None] + np.arange(CHANNEL_ROWS)  # (samples, 5)
         three = N * (self._first[:, None] + np.arange(3))[:, :, None] + np.arange(N)  # (samples, 3, 6)
         rows = np.concatenate([self._limit_rows.row, np.repeat(channel_rows.ravel(), 3 * N)])
         cols = np.concatenate(
-            [self._limit_rows.col, np.broadcast_to(three[:, None], (self.knots, CHANNEL_ROWS, 3, N)).ravel()]
+            [self._limit_rows.col, np.broadcast_to(three[:, None], (self.sample_count, CHANNEL_ROWS, 3, N)).ravel()]
         )
         self._channel_base = limit_count
-        self._rows = limit_count + CHANNEL_ROWS * self.knots
+        self._rows = limit_count + CHANNEL_ROWS * self.sample_count
         self._A = _FixedPattern(rows, cols, (self._rows, self.n))
 
     def _jerk_cost(self) -> sparse.csc_matrix:
@@ -173,7 +176,7 @@ class SqpRefiner:
     def _constraint_values(self, channel: NDArray[np.float64]) -> NDArray[np.float64]:
         """All values of A; `channel` (samples, 5, 6) are the rows' coefficients on a path sample's
         position, shared out over its three control points by the sample's weights."""
-        shares = channel[:, :, None, :] * self._samples[:, None, :, None]
+        shares = channel[:, :, None, :] * self._weights[:, None, :, None]
         return np.concatenate([self._limit_rows.data, shares.ravel()])
 
     # --- scaling ------------------------------------------------------------------------------------
@@ -192,7 +195,7 @@ class SqpRefiner:
         frames = link_frames(c)
         pose, J = frames[-1], jacobian_from_frames(frames)
         tip, tool, Jp, Jw = pose[:, :3, 3], pose[:, :3, 2], J[:, :3], J[:, 3:]
-        index = np.arange(self.knots)
+        index = np.arange(self.sample_count)
         on_place = index >= lower
         on_peg = (index <= lift) | on_place
         point = np.where(on_place[:, None], place.point, pick.point)
@@ -207,14 +210,14 @@ class SqpRefiner:
         base[:, 0:2] -= np.einsum("kic,kc->ki", normals, tip - point) / CHANNEL_UNIT
         base[:, 2] -= (tip - point) @ pick.axis / CHANNEL_UNIT
         base[:, 3:5] -= np.einsum("kic,kc->ki", normals, tool) / CHANNEL_UNIT
-        required = np.zeros(self.knots)  # never below the grasp or drop point while on a peg
+        required = np.zeros(self.sample_count)  # never below the grasp or drop point while on a peg
         required[lift + 1 : lower] = max(pick.clear, place.clear + float((place.point - pick.point) @ pick.axis))
         required[lift] = pick.clear
         required[lower] = place.clear
         tolerance = INSIDE_TOLERANCE * pick.tolerance / CHANNEL_UNIT / np.sqrt(2)  # per lateral direction
         allowed = np.array([tolerance, tolerance, np.inf, MAX_TILT / CHANNEL_UNIT, MAX_TILT / CHANNEL_UNIT])
-        lo = np.full((self.knots, CHANNEL_ROWS), -np.inf)
-        hi = np.full((self.knots, CHANNEL_ROWS), np.inf)
+        lo = np.full((self.sample_count, CHANNEL_ROWS), -np.inf)
+        hi = np.full((self.sample_count, CHANNEL_ROWS), np.inf)
         lo[on_peg] = base[on_peg] - allowed
         hi[on_peg] = base[on_peg] + allowed
         lo[:, 2] = base[:, 2] + required / CHANNEL_UNIT
@@ -252,7 +255,7 @@ class SqpRefiner:
 
     def _sample(self, control: NDArray[np.float64]) -> NDArray[np.float64]:
         """The path at its samples (knots and segment midpoints), from control points (S+2, 6)."""
-        return np.einsum("ki,kij->kj", self._samples, control[self._first[:, None] + np.arange(3)])
+        return np.einsum("ki,kij->kj", self._weights, control[self._first[:, None] + np.arange(3)])
 
     def _channel_met(self, control: NDArray, phases: tuple[int, int], pick: Channel, place: Channel) -> bool:
         """The true tips at the path's samples meet the channel."""
@@ -304,14 +307,14 @@ class SqpRefiner:
         """The shortest channel-respecting path found, warm-started from `warm`; None if not even a
         horizon somewhat longer than `warm`'s admits one."""
         # Control points on the warm path at the times they sit nearest to, ends doubled; the phases
-        # (the knots where the block leaves the start peg and reaches the goal peg) come from it.
+        # (the samples where the block leaves the start peg and reaches the goal peg) come from it.
         times = np.clip((np.arange(self.points) - 0.5) / self.segments, 0.0, 1.0) * warm.duration
         control = warm.evaluate(warm.times[0] + times)[0]
         control[:2], control[-2:] = warm.positions[0], warm.positions[-1]
         tip = tip_position(self._sample(control))
         lift = int(np.argmax(pick.height(tip) >= pick.clear))
-        lower = int(self.knots - 1 - np.argmax(place.height(tip)[::-1] >= place.clear))
-        phases = (max(lift, 1), min(max(lower, lift + 1), self.knots - 2))
+        lower = int(self.sample_count - 1 - np.argmax(place.height(tip)[::-1] >= place.clear))
+        phases = (max(lift, 1), min(max(lower, lift + 1), self.sample_count - 2))
         # The first horizon must succeed, so it starts with some slack and may take longer; the
         # shorter ones after it are capped.
         self._solver.update_settings(max_iter=FIRST_SOLVE_ITERATIONS * self.sqp.max_solver_iterations)
