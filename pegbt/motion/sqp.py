@@ -137,6 +137,7 @@ class SqpRefiner:
             verbose=False,
         )
         self.solves = 0  # QPs solved so far (for benchmarks)
+        self._linearised: tuple | None = None
 
     # --- fixed structure ------------------------------------------------------------------------
     def _build_pattern(self) -> None:
@@ -185,13 +186,18 @@ class SqpRefiner:
         return self.settings.planner_acceleration * h * h
 
     # --- one linearisation --------------------------------------------------------------------------
-    def _channel_rows(
-        self, c: NDArray[np.float64], h: float, phases: tuple[int, int], pick: Channel, place: Channel
-    ) -> tuple[NDArray, NDArray, NDArray]:
-        """Channel coefficients (samples, 5, 6) on a path sample's scaled position, linearised at the
-        samples of control points `c` (physical), and the rows' bounds (samples, 5)."""
+    def _linearise(
+        self, control: NDArray[np.float64], phases: tuple[int, int], pick: Channel, place: Channel
+    ) -> tuple[NDArray, NDArray, NDArray, NDArray]:
+        """Channel coefficients (samples, 5, 6) on a path sample's physical position, linearised at
+        the samples of `control` points, the rows' bounds (samples, 5), and the tips there (samples, 3).
+        The last result is kept: a probe starts from the previous probe's solution, whose
+        linearisation (and tips, already computed for its channel check) it reuses."""
+        key = (control.tobytes(), phases, id(pick), id(place))
+        if self._linearised is not None and self._linearised[0] == key:
+            return self._linearised[1]
         lift, lower = phases
-        c = self._sample(c)
+        c = self._sample(control)
         frames = link_frames(c)
         pose, J = frames[-1], jacobian_from_frames(frames)
         tip, tool, Jp, Jw = pose[:, :3, 3], pose[:, :3, 2], J[:, :3], J[:, 3:]
@@ -222,7 +228,9 @@ class SqpRefiner:
         hi[on_peg] = base[on_peg] + allowed
         lo[:, 2] = base[:, 2] + required / CHANNEL_UNIT
         hi[:, 2] = np.inf
-        return physical * self._scale(h), lo, hi
+        result = (physical, lo, hi, tip)
+        self._linearised = (key, result)
+        return result
 
     def _bounds(self, h: float, start: NDArray, goal: NDArray) -> tuple[NDArray, NDArray]:
         """Bounds of the identity (joint limits, fixed ends), velocity and acceleration rows, scaled."""
@@ -257,9 +265,8 @@ class SqpRefiner:
         """The path at its samples (knots and segment midpoints), from control points (S+2, 6)."""
         return np.einsum("ki,kij->kj", self._weights, control[self._first[:, None] + np.arange(3)])
 
-    def _channel_met(self, control: NDArray, phases: tuple[int, int], pick: Channel, place: Channel) -> bool:
+    def _channel_met(self, tip: NDArray, phases: tuple[int, int], pick: Channel, place: Channel) -> bool:
         """The true tips at the path's samples meet the channel."""
-        tip = tip_position(self._sample(control))
         lift, lower = phases
         slack = 1.2 * INSIDE_TOLERANCE  # the linearisation may be off by a little at convergence
         return bool(
@@ -280,8 +287,9 @@ class SqpRefiner:
         limits_lo, limits_hi = self._bounds(h, start, goal)
         scaled = control / scale
         x = np.concatenate([scaled.ravel(), (scaled[2:] - 2 * scaled[1:-1] + scaled[:-2]).ravel()])
+        physical, channel_lo, channel_hi, _ = self._linearise(control, phases, pick, place)
         for _ in range(self.sqp.max_iterations):
-            coefficients, channel_lo, channel_hi = self._channel_rows(x[: self.n_control].reshape(-1, N) * scale, h, phases, pick, place)
+            coefficients = physical * scale
             lo = np.concatenate([limits_lo, channel_lo.ravel()])
             hi = np.concatenate([limits_hi, channel_hi.ravel()])
             self._solver.update(Ax=self._A.data(self._constraint_values(coefficients)), l=lo, u=hi)
@@ -294,7 +302,8 @@ class SqpRefiner:
             # exactly (the path stays in the convex hull of its control points).
             control = np.clip(x[: self.n_control].reshape(-1, N) * scale, self.settings.lower, self.settings.upper)
             control[:2], control[-2:] = start, goal
-            if self._channel_met(control, phases, pick, place):
+            physical, channel_lo, channel_hi, tip = self._linearise(control, phases, pick, place)
+            if self._channel_met(tip, phases, pick, place):
                 return _b_spline_path(control, h), control
         return None
 
@@ -311,10 +320,7 @@ class SqpRefiner:
         times = np.clip((np.arange(self.points) - 0.5) / self.segments, 0.0, 1.0) * warm.duration
         control = warm.evaluate(warm.times[0] + times)[0]
         control[:2], control[-2:] = warm.positions[0], warm.positions[-1]
-        tip = tip_position(self._sample(control))
-        lift = int(np.argmax(pick.height(tip) >= pick.clear))
-        lower = int(self.sample_count - 1 - np.argmax(place.height(tip)[::-1] >= place.clear))
-        phases = (max(lift, 1), min(max(lower, lift + 1), self.sample_count - 2))
+        phases = self._phases(tip_position(self._sample(control)), pick, place)
         # The first horizon must succeed, so it starts with some slack and may take longer; the
         # shorter ones after it are capped.
         self._solver.update_settings(max_iter=FIRST_SOLVE_ITERATIONS * self.sqp.max_solver_iterations)
@@ -340,3 +346,10 @@ class SqpRefiner:
             else:
                 best, control = self._fastest(found[0]), found[1]
         return best
+
+    def _phases(self, tip: NDArray, pick: Channel, place: Channel) -> tuple[int, int]:
+        """The samples where the block leaves the start peg and reaches the goal peg, for tips at the
+        samples of the warm start."""
+        lift = int(np.argmax(pick.height(tip) >= pick.clear))
+        lower = int(self.sample_count - 1 - np.argmax(place.height(tip)[::-1] >= place.clear))
+        return max(lift, 1), min(max(lower, lift + 1), self.sample_count - 2)
