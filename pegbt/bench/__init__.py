@@ -21,6 +21,7 @@ BENCHMARKS: dict[str, str] = {
     "perception": "pegbt.bench.perception:run",
     "transport": "pegbt.bench.transport:run",
     "sim": "pegbt.bench.sim:run",
+    "motion": "pegbt.bench.motion:run",
 }
 
 

@@ -48,6 +48,17 @@ class ArmSettings:
                 problems.append(f"q{i + 1} ({JOINT_NAMES[i]}) = {value:.4f} outside [{low:.4f}, {high:.4f}]")
         return problems
 
+    def require_within(self, q: ArrayLike, what: str) -> NDArray[np.float64]:
+        """`q` as a float array if it is inside the joint limits; else a `PegbtError` naming `what` and
+        the violated limit."""
+        q = np.asarray(q, dtype=float)
+        if q.shape != (6,):
+            raise PegbtError(f"expected 6 joint values, got shape {q.shape}", field=what)
+        problems = self.joint_violations(q)
+        if problems:
+            raise PegbtError(f"outside the joint limits of {self.name}: " + "; ".join(problems), field=what)
+        return q
+
 
 def _vector(data: dict, key: str, path: Path, arm: str) -> NDArray[np.float64]:
     value = np.asarray(data[key], dtype=float)
@@ -83,6 +94,9 @@ def arm_settings(arm: str, path: Path = PSM_SETTINGS) -> ArmSettings:
         )
     except KeyError as missing:
         raise PegbtError(f"missing setting {missing.args[0]!r}", file=path, field=f"arms.{arm}") from None
+    for key, value in (("planner.velocity", settings.planner_velocity), ("planner.acceleration", settings.planner_acceleration)):
+        if np.any(value <= 0):
+            raise PegbtError(f"planner limits must be positive, got {value.tolist()}", file=path, field=f"arms.{arm}.{key}")
     if np.any(settings.lower >= settings.upper):
         raise PegbtError("every lower joint limit must be below its upper limit", file=path, field=f"arms.{arm}.joint_limits")
     return settings

@@ -1,0 +1,51 @@
+"""The peg channel: while the block's hole is on a peg, the tip must move along the peg's axis.
+
+A channel is the line through `point` (the tip's position when the block sits on the peg) along the
+unit `axis` (the peg's "up"), for heights below `clear` (m above `point` along the axis, where the block
+leaves the peg); `tolerance` is how far off the line the tip may be.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import cached_property
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from pegbt.errors import PegbtError
+
+
+@dataclass(frozen=True)
+class Channel:
+    point: NDArray[np.float64]
+    axis: NDArray[np.float64]
+    clear: float
+    tolerance: float
+
+    def __post_init__(self) -> None:
+        point, axis = np.asarray(self.point, dtype=float), np.asarray(self.axis, dtype=float)
+        if point.shape != (3,) or axis.shape != (3,) or not np.all(np.isfinite(point)) or not np.isfinite(axis).all():
+            raise PegbtError("a channel needs a finite point and axis of 3 values", field="channel")
+        norm = np.linalg.norm(axis)
+        if norm == 0:
+            raise PegbtError("the channel axis is zero", field="channel.axis")
+        object.__setattr__(self, "point", point)
+        object.__setattr__(self, "axis", axis / norm)
+
+    @cached_property
+    def normals(self) -> NDArray[np.float64]:
+        """Two unit vectors (2, 3) perpendicular to the axis and to each other."""
+        helper = np.array([1.0, 0.0, 0.0]) if abs(self.axis[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+        first = np.cross(self.axis, helper)
+        first /= np.linalg.norm(first)
+        return np.stack([first, np.cross(self.axis, first)])
+
+    def height(self, tip: ArrayLike) -> NDArray[np.float64]:
+        """Height (...) of tip positions (..., 3) above `point` along the axis."""
+        return (np.asarray(tip) - self.point) @ self.axis
+
+    def distance(self, tip: ArrayLike) -> NDArray[np.float64]:
+        """Distance (...) of tip positions (..., 3) from the channel's line."""
+        offset = np.asarray(tip) - self.point
+        return np.linalg.norm(offset - np.multiply.outer(offset @ self.axis, self.axis), axis=-1)

@@ -1,0 +1,96 @@
+"""Every sampled trajectory is checked before it may be streamed: joint, velocity and acceleration
+limits, the peg channel, and C1 continuity (no jump in position or velocity between set-points)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from pegbt.errors import PegbtError
+from pegbt.motion.channel import Channel
+from pegbt.motion.kinematics import tip_position
+from pegbt.motion.limits import JOINT_NAMES, ArmSettings
+from pegbt.motion.trajectory import Trajectory
+
+RELATIVE_SLACK = 1e-6  # rounding allowed on velocity and acceleration limits
+ABSOLUTE_SLACK = 1e-9
+
+
+def _joint(i: int) -> str:
+    return f"q{i + 1} ({JOINT_NAMES[i]})"
+
+
+def _limit_problems(trajectory: Trajectory, settings: ArmSettings) -> list[str]:
+    problems = []
+    t, q, qd, qdd = trajectory.t, trajectory.q, trajectory.qd, trajectory.qdd
+    for name, values, low, high in (
+        ("position", q, settings.lower - ABSOLUTE_SLACK, settings.upper + ABSOLUTE_SLACK),
+        ("velocity", qd, -settings.planner_velocity * (1 + RELATIVE_SLACK), settings.planner_velocity * (1 + RELATIVE_SLACK)),
+        ("acceleration", qdd, -settings.planner_acceleration * (1 + RELATIVE_SLACK), settings.planner_acceleration * (1 + RELATIVE_SLACK)),
+    ):
+        bad = ~((values >= low) & (values <= high))  # also catches NaN
+        for j in np.flatnonzero(bad.any(axis=0)):
+            k = int(np.argmax(bad[:, j]))
+            problems.append(f"{_joint(j)} {name} {values[k, j]:.4g} at t={t[k]:.2f} s outside [{low[j]:.4g}, {high[j]:.4g}]")
+    return problems
+
+
+def _continuity_problems(trajectory: Trajectory, settings: ArmSettings) -> list[str]:
+    problems = []
+    t, q, qd = trajectory.t, trajectory.q, trajectory.qd
+    dt = np.diff(t)
+    if np.any(np.abs(dt - settings.control_period) > 1e-9):
+        problems.append(f"set-points are not {settings.control_period * 1000:g} ms apart")
+    if np.any(np.abs(qd[0]) > ABSOLUTE_SLACK) or np.any(np.abs(qd[-1]) > ABSOLUTE_SLACK):
+        problems.append("does not start and end at rest")
+    a = settings.planner_acceleration * (1 + RELATIVE_SLACK)
+    # With |q̈| ≤ a, velocity moves at most a·dt per step and position departs from the trapezoid of the
+    # velocities by at most a·dt²/4: anything more is a jump.
+    velocity_jump = np.abs(np.diff(qd, axis=0)) > a * dt[:, None] + ABSOLUTE_SLACK
+    position_jump = np.abs(np.diff(q, axis=0) - dt[:, None] * (qd[1:] + qd[:-1]) / 2) > a * dt[:, None] ** 2 / 4 + ABSOLUTE_SLACK
+    for kind, jumps in (("velocity", velocity_jump), ("position", position_jump)):
+        for j in np.flatnonzero(jumps.any(axis=0)):
+            problems.append(f"{_joint(j)} {kind} jumps at t={t[int(np.argmax(jumps[:, j]))]:.2f} s")
+    return problems
+
+
+def _channel_problems(tips: np.ndarray, channel: Channel, leaving: bool) -> list[str]:
+    heights = channel.height(tips)
+    above = heights >= channel.clear
+    if not above.any():
+        return [f"the block never clears the {'start' if leaving else 'goal'} peg"]
+    on_peg = np.arange(len(tips)) < int(np.argmax(above)) if leaving else np.arange(len(tips)) > len(tips) - 1 - int(np.argmax(above[::-1]))
+    distance = channel.distance(tips[on_peg])
+    if distance.size and distance.max() > channel.tolerance:
+        peg = "start" if leaving else "goal"
+        return [f"leaves the {peg} peg's axis by {distance.max() * 1000:.2f} mm (channel tolerance {channel.tolerance * 1000:.2f} mm)"]
+    return []
+
+
+def trajectory_problems(
+    trajectory: Trajectory, settings: ArmSettings, *, leaving: Channel | None = None, arriving: Channel | None = None
+) -> list[str]:
+    """Everything wrong with `trajectory` for `settings`' arm; `leaving`/`arriving` are the channels the
+    tip must follow from the start until the block clears it, and from entering it to the end."""
+    problems = _limit_problems(trajectory, settings) + _continuity_problems(trajectory, settings)
+    if leaving is not None or arriving is not None:
+        tips = tip_position(trajectory.q)
+        if leaving is not None:
+            problems += _channel_problems(tips, leaving, leaving=True)
+        if arriving is not None:
+            problems += _channel_problems(tips, arriving, leaving=False)
+    return problems
+
+
+def check_trajectory(
+    trajectory: Trajectory,
+    settings: ArmSettings,
+    *,
+    leaving: Channel | None = None,
+    arriving: Channel | None = None,
+    what: str = "trajectory",
+) -> Trajectory:
+    """`trajectory` if it passes every check, else a `PegbtError` naming `what` and each violation."""
+    problems = trajectory_problems(trajectory, settings, leaving=leaving, arriving=arriving)
+    if problems:
+        raise PegbtError(f"{what} for {settings.name} fails its checks: " + "; ".join(problems), field=what)
+    return trajectory

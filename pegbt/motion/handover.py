@@ -1,0 +1,160 @@
+"""Handing a block from one arm (the giver) to the other (the receiver), as in the reference setup.
+
+The giver brings the block to the meeting point while the receiver waits, open, above its own grasp on
+the same block; the receiver descends and closes; the giver opens and rises before the receiver leaves.
+Both arms' poses are built in the board frame and planned in each arm's base frame; every phase is
+checked so that the two tools (shafts and jaws, as segments) never come closer than the minimum
+distance.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from pegbt.errors import PegbtError
+from pegbt.motion.cubic import joint_move
+from pegbt.motion.ik import solve_ik
+from pegbt.motion.kinematics import link_frames
+from pegbt.motion.limits import ArmSettings
+from pegbt.motion.settings import MotionSettings, motion_settings
+from pegbt.motion.trajectory import Trajectory
+from pegbt.motion.waypoints import tool_down_rotation
+
+WRIST_FRAME = 4  # link frame at the end of the shaft (wrist pitch axis)
+
+
+@dataclass(frozen=True)
+class HandoverPhase:
+    """Moves played together (arm name → trajectory; an arm not named holds still), then jaw commands
+    (arm name → jaw angle, rad) once both moves have ended."""
+
+    name: str
+    moves: dict[str, Trajectory]
+    jaws: dict[str, float]
+
+
+@dataclass(frozen=True)
+class HandoverPlan:
+    phases: tuple[HandoverPhase, ...]
+    closest_tools: float  # m: the smallest distance between the two tools over the whole plan
+
+
+def handover_meeting_point(peg_tops_board: ArrayLike, motion: MotionSettings | None = None) -> NDArray[np.float64]:
+    """The giver's tip position at the handover, board frame: the mean of the given peg tops (the
+    reference uses pegs 3, 6 and 9), shifted in board y, raised above the transfer height."""
+    motion = motion or motion_settings()
+    tops = np.asarray(peg_tops_board, dtype=float).reshape(-1, 3)
+    point = tops.mean(axis=0)
+    point[1] += motion.handover.meeting_offset_board_y
+    point[2] -= motion.transfer.transfer_height_above_peg_top + motion.handover.meeting_above_transfer  # board z is down
+    return point
+
+
+def _segment_distance(p0: NDArray, p1: NDArray, q0: NDArray, q1: NDArray) -> NDArray[np.float64]:
+    """Closest distance (...) between segments p0–p1 and q0–q1 (..., 3)."""
+    d1, d2, r = p1 - p0, q1 - q0, p0 - q0
+    a, e = np.sum(d1 * d1, -1), np.sum(d2 * d2, -1)
+    b, c, f = np.sum(d1 * d2, -1), np.sum(d1 * r, -1), np.sum(d2 * r, -1)
+    denominator = a * e - b * b
+    with np.errstate(divide="ignore", invalid="ignore"):
+        s = np.clip(np.where(denominator > 1e-15, (b * f - c * e) / denominator, 0.0), 0.0, 1.0)
+        t = (b * s + f) / e
+        s = np.where(t < 0, np.clip(-c / a, 0, 1), np.where(t > 1, np.clip((b - c) / a, 0, 1), s))
+        t = np.clip(t, 0.0, 1.0)
+    return np.linalg.norm(p0 + d1 * s[..., None] - (q0 + d2 * t[..., None]), axis=-1)
+
+
+def tool_segments(q: ArrayLike, board_from_arm: NDArray[np.float64]) -> tuple[NDArray, NDArray, NDArray]:
+    """Remote centre, wrist and tip (..., 3) of an arm at joints `q`, in the board frame."""
+    frames = link_frames(q)
+    points = [np.zeros(np.shape(q)[:-1] + (3,)), frames[WRIST_FRAME][..., :3, 3], frames[-1][..., :3, 3]]
+    return tuple(p @ board_from_arm[:3, :3].T + board_from_arm[:3, 3] for p in points)
+
+
+def tool_distance(q_a: ArrayLike, a_from_board: ArrayLike, q_b: ArrayLike, b_from_board: ArrayLike) -> NDArray[np.float64]:
+    """Smallest distance (...) between two arms' tools (shaft and wrist-to-tip segments) at joints
+    `q_a`, `q_b` (..., 6), given each arm's transform from the board frame."""
+    rcm_a, wrist_a, tip_a = tool_segments(q_a, np.linalg.inv(np.asarray(a_from_board, dtype=float)))
+    rcm_b, wrist_b, tip_b = tool_segments(q_b, np.linalg.inv(np.asarray(b_from_board, dtype=float)))
+    pairs = [
+        _segment_distance(a0, a1, b0, b1)
+        for a0, a1 in ((rcm_a, wrist_a), (wrist_a, tip_a))
+        for b0, b1 in ((rcm_b, wrist_b), (wrist_b, tip_b))
+    ]
+    return np.min(np.stack(pairs), axis=0)
+
+
+def _pose_in_arm(position_board: NDArray, yaw: float, arm_from_board: NDArray, up_board: NDArray) -> NDArray:
+    pose = np.eye(4)
+    pose[:3, :3] = tool_down_rotation(yaw, arm_from_board[:3, :3] @ up_board)
+    pose[:3, 3] = arm_from_board[:3, :3] @ position_board + arm_from_board[:3, 3]
+    return pose
+
+
+def plan_handover(
+    giver: ArmSettings,
+    receiver: ArmSettings,
+    giver_q: ArrayLike,
+    receiver_q: ArrayLike,
+    meeting_point: ArrayLike,
+    giver_from_board: ArrayLike,
+    receiver_from_board: ArrayLike,
+    receiver_offset: ArrayLike,
+    *,
+    giver_yaw: float = 0.0,
+    receiver_yaw: float = 0.0,
+    up_board: ArrayLike = (0.0, 0.0, -1.0),
+    motion: MotionSettings | None = None,
+) -> HandoverPlan:
+    """The handover from the giver (holding the block, at joints `giver_q`) to the receiver (at
+    `receiver_q`, jaw open). The giver's tip goes to `meeting_point` (board frame, m); the receiver
+    grasps at `receiver_offset` (board frame, m) from the giver's grasp point. Yaws are each tool's
+    rotation about the pegs' axis in its own arm frame. A `PegbtError` names an unreachable pose or
+    the phase in which the tools come too close."""
+    motion = motion or motion_settings()
+    settings = motion.handover
+    up = np.asarray(up_board, dtype=float) / np.linalg.norm(up_board)
+    meet = np.asarray(meeting_point, dtype=float)
+    grasp = meet + np.asarray(receiver_offset, dtype=float)
+    T_giver, T_receiver = np.asarray(giver_from_board, dtype=float), np.asarray(receiver_from_board, dtype=float)
+
+    def ik(arm: ArmSettings, position: NDArray, yaw: float, T: NDArray, what: str) -> NDArray:
+        return solve_ik(_pose_in_arm(position, yaw, T, up), arm, what=f"handover {what}")
+
+    q_meet = ik(giver, meet, giver_yaw, T_giver, "meeting pose (giver)")
+    q_wait = ik(receiver, grasp + settings.receiver_wait_above * up, receiver_yaw, T_receiver, "waiting pose (receiver)")
+    q_grasp = ik(receiver, grasp, receiver_yaw, T_receiver, "grasp (receiver)")
+    q_clear = ik(giver, meet + settings.giver_retreat * up, giver_yaw, T_giver, "retreat (giver)")
+    jaw_open, jaw_closed = motion.transfer.jaw_open, motion.transfer.jaw_closed
+    phases = (
+        HandoverPhase(
+            "meet",
+            {giver.name: joint_move(giver_q, q_meet, giver), receiver.name: joint_move(receiver_q, q_wait, receiver)},
+            {receiver.name: jaw_open},
+        ),
+        HandoverPhase("receiver descends", {receiver.name: joint_move(q_wait, q_grasp, receiver)}, {receiver.name: jaw_closed}),
+        HandoverPhase("giver releases", {}, {giver.name: jaw_open}),
+        HandoverPhase("giver rises", {giver.name: joint_move(q_meet, q_clear, giver)}, {}),
+    )
+    positions = {giver.name: np.asarray(giver_q, dtype=float), receiver.name: np.asarray(receiver_q, dtype=float)}
+    closest = np.inf
+    for phase in phases:
+        steps = max((len(t) for t in phase.moves.values()), default=1)
+        paths = {}
+        for arm, start in positions.items():
+            move = phase.moves.get(arm)
+            q = np.repeat(start[None], steps, axis=0) if move is None else move.q
+            paths[arm] = np.concatenate([q, np.repeat(q[-1:], steps - len(q), axis=0)])
+            positions[arm] = paths[arm][-1]
+        distance = float(tool_distance(paths[giver.name], T_giver, paths[receiver.name], T_receiver).min())
+        if distance < settings.min_tool_distance:
+            raise PegbtError(
+                f"the tools come within {distance * 1000:.1f} mm of each other during '{phase.name}' "
+                f"(minimum {settings.min_tool_distance * 1000:.1f} mm)",
+                field="handover",
+            )
+        closest = min(closest, distance)
+    return HandoverPlan(phases, closest)

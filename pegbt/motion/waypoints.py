@@ -1,0 +1,108 @@
+"""Cartesian waypoints of one transfer, in the arm's base frame, from the pick and place peg positions.
+
+Four poses (the paper's transfer): grasp the block on the start peg, lift it clear above that peg,
+move above the goal peg, lower it onto the goal peg. Plus the approach pose just above the grasp, and
+the two channels the block must follow while it is on a peg. Heights come from `skills/motion.yaml`;
+peg positions come from the caller (the workcell), so this module knows no board geometry.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from pegbt.errors import PegbtError
+from pegbt.motion.channel import Channel
+from pegbt.motion.settings import TransferSettings, motion_settings
+
+WAYPOINT_NAMES = ("grasp", "lifted above the start peg", "above the goal peg", "lowered onto the goal peg")
+
+
+@dataclass(frozen=True)
+class TransferWaypoints:
+    """`poses` (4, 4, 4) in the order of `WAYPOINT_NAMES`; `approach` (4, 4) just above the grasp."""
+
+    poses: NDArray[np.float64]
+    approach: NDArray[np.float64]
+    pick: Channel
+    place: Channel
+
+
+def tool_down_rotation(yaw: float, up: ArrayLike = (0.0, 0.0, 1.0)) -> NDArray[np.float64]:
+    """Tip orientation with the tool along −`up` (straight down into the board) and `yaw` about `up`.
+
+    With `up` = z this is a plain rotation about z (the PSM's R = I points the tool down)."""
+    up = np.asarray(up, dtype=float)
+    up = up / np.linalg.norm(up)
+    c, s = np.cos(yaw), np.sin(yaw)
+    yaw_rotation = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    # The smallest rotation taking z onto `up` (Rodrigues), for boards that are not level.
+    z = np.array([0.0, 0.0, 1.0])
+    v, cos_angle = np.cross(z, up), float(z @ up)
+    skew = np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
+    tilt = np.eye(3) + skew + skew @ skew / (1.0 + cos_angle)
+    return tilt @ yaw_rotation
+
+
+def _pose(rotation: NDArray[np.float64], position: NDArray[np.float64]) -> NDArray[np.float64]:
+    pose = np.eye(4)
+    pose[:3, :3] = rotation
+    pose[:3, 3] = position
+    return pose
+
+
+def _vector(value: ArrayLike, what: str) -> NDArray[np.float64]:
+    vector = np.asarray(value, dtype=float)
+    if vector.shape != (3,) or not np.all(np.isfinite(vector)):
+        raise PegbtError(f"expected 3 finite numbers (m, arm frame), got {value!r}", field=what)
+    return vector
+
+
+def transfer_waypoints(
+    pick_peg_top: ArrayLike,
+    place_peg_top: ArrayLike,
+    *,
+    pick_offset: ArrayLike = (0.0, 0.0, 0.0),
+    place_offset: ArrayLike = (0.0, 0.0, 0.0),
+    pick_yaw: float = 0.0,
+    place_yaw: float = 0.0,
+    up: ArrayLike = (0.0, 0.0, 1.0),
+    heights: TransferSettings | None = None,
+) -> TransferWaypoints:
+    """Waypoints moving a block from the peg whose top centre is `pick_peg_top` to `place_peg_top`
+    (arm frame, m). The tip grasps at `pick_offset` from the pick peg's axis and places with
+    `place_offset` from the place peg's axis (the grasp's offset from the block centre), with gripper
+    yaws `pick_yaw` and `place_yaw` (rad) about `up`, the pegs' axis direction."""
+    heights = heights or motion_settings().transfer
+    up = _vector(up, "up")
+    if np.linalg.norm(up) == 0:
+        raise PegbtError("the up direction is zero", field="up")
+    up = up / np.linalg.norm(up)
+
+    def lateral(offset: ArrayLike, what: str) -> NDArray[np.float64]:
+        offset = _vector(offset, what)
+        return offset - (offset @ up) * up
+
+    pick = _vector(pick_peg_top, "pick_peg_top") + lateral(pick_offset, "pick_offset")
+    place = _vector(place_peg_top, "place_peg_top") + lateral(place_offset, "place_offset")
+    block_top = -heights.block_top_below_peg_top
+    grasp = pick + (block_top - heights.grasp_depth) * up
+    dropped = place + heights.drop_height_above_peg_top * up
+    pick_rotation, place_rotation = tool_down_rotation(pick_yaw, up), tool_down_rotation(place_yaw, up)
+    poses = np.stack(
+        [
+            _pose(pick_rotation, grasp),
+            _pose(pick_rotation, pick + heights.transfer_height_above_peg_top * up),
+            _pose(place_rotation, place + heights.transfer_height_above_peg_top * up),
+            _pose(place_rotation, dropped),
+        ]
+    )
+    clear = heights.channel_clear_above_peg_top
+    return TransferWaypoints(
+        poses=poses,
+        approach=_pose(pick_rotation, pick + (block_top + heights.approach_above_block) * up),
+        pick=Channel(grasp, up, clear - (block_top - heights.grasp_depth), heights.channel_tolerance),
+        place=Channel(dropped, up, clear - heights.drop_height_above_peg_top, heights.channel_tolerance),
+    )

@@ -1,0 +1,156 @@
+"""Transfer planning on the reference pegboard: spline, SQP refinement, checks, baselines, bad input."""
+
+import numpy as np
+import pytest
+import yaml
+
+from pegbt.errors import PegbtError
+from pegbt.motion import reference
+from pegbt.motion.checks import check_trajectory, trajectory_problems
+from pegbt.motion.cubic import joint_move, rest_to_rest_path
+from pegbt.motion.jacobian import jacobian
+from pegbt.motion.kinematics import forward_kinematics, tip_position
+from pegbt.motion.limits import PSM_SETTINGS, arm_settings
+from pegbt.motion.settings import MOTION_SETTINGS, motion_settings
+from pegbt.motion.trajectory import HermitePath, Trajectory, concatenate
+from pegbt.motion.transfer import TransferPlanner, cubic_transfer, joint_waypoints
+from pegbt.motion.waypoints import transfer_waypoints
+
+PSM1 = arm_settings("PSM1")
+
+
+def _waypoints(pick, place, arm="PSM1", **kwargs):
+    tops = reference.peg_tops(arm)
+    return transfer_waypoints(tops[pick], tops[place], up=reference.up(arm), **kwargs)
+
+
+@pytest.fixture(scope="module")
+def planner():
+    return TransferPlanner(PSM1)
+
+
+@pytest.fixture(scope="module")
+def plan(planner):
+    return planner.plan(_waypoints(1, 7, pick_offset=(0.0, 0.004, 0.0), pick_yaw=0.3, place_yaw=-0.2))
+
+
+def test_transfer_goes_from_the_grasp_to_the_place_pose_within_every_check(plan):
+    waypoints = _waypoints(1, 7, pick_offset=(0.0, 0.004, 0.0), pick_yaw=0.3, place_yaw=-0.2)
+    trajectory = plan.trajectory
+    assert np.allclose(np.diff(trajectory.t), PSM1.control_period)
+    assert np.allclose(forward_kinematics(trajectory.q[0]), waypoints.poses[0], atol=1e-9)
+    assert np.allclose(forward_kinematics(trajectory.q[-1]), waypoints.poses[3], atol=1e-9)
+    assert trajectory_problems(trajectory, PSM1, leaving=waypoints.pick, arriving=waypoints.place) == []
+    # Independently of the checker: the tip stays within the tolerance of the start peg's axis until
+    # the block has cleared it, and the block does clear it.
+    tips = tip_position(trajectory.q)
+    heights = waypoints.pick.height(tips)
+    cleared = int(np.argmax(heights >= waypoints.pick.clear))
+    assert cleared > 0
+    assert waypoints.pick.distance(tips[:cleared]).max() <= waypoints.pick.tolerance
+
+
+def test_refined_transfer_beats_the_spline_and_the_cubic_baseline(plan):
+    cubic = cubic_transfer(_waypoints(1, 7, pick_offset=(0.0, 0.004, 0.0), pick_yaw=0.3, place_yaw=-0.2), PSM1)
+    assert plan.refined
+    assert plan.trajectory.duration < plan.spline.duration < cubic.duration
+
+
+def test_spline_passes_the_middle_waypoints_moving_along_the_peg_axis(planner):
+    waypoints = _waypoints(0, 6)
+    spline = planner.spline(waypoints)
+    up = waypoints.pick.axis
+    for index, sign in ((1, 1.0), (2, -1.0)):
+        twist = jacobian(spline.positions[index]) @ spline.velocities[index]
+        speed = np.linalg.norm(twist[:3])
+        assert speed > 0.01
+        assert np.allclose(twist[:3] / speed, sign * up, atol=1e-9) and np.allclose(twist[3:], 0, atol=1e-9)
+
+
+def test_spline_segments_are_as_short_as_the_limits_allow(planner):
+    spline = planner.spline(_waypoints(0, 6))
+    assert check_trajectory(spline.sample(PSM1.control_period), PSM1) is not None
+    faster = spline.retimed(0.97).sample(PSM1.control_period)
+    assert any("outside" in problem for problem in trajectory_problems(faster, PSM1))
+
+
+def test_rest_to_rest_cubic_hits_a_limit_exactly_and_stops_at_each_waypoint():
+    q = joint_waypoints(_waypoints(2, 9), PSM1)
+    path = rest_to_rest_path(q, PSM1)
+    assert np.all(path.velocities == 0)
+    trajectory = path.sample(PSM1.control_period)
+    assert trajectory_problems(trajectory, PSM1) == []
+    peak = np.max(np.abs(path.retimed(1.0).evaluate(np.linspace(0, path.duration, 20001))[2]) / PSM1.planner_acceleration)
+    assert peak == pytest.approx(1.0, rel=1e-3)
+
+
+def test_joint_move_is_checked_and_continuous():
+    start = np.array([0.1, 0.0, 0.12, 0.0, 0.0, 0.0])
+    goal = np.array([-0.3, 0.2, 0.18, 0.5, -0.4, 0.3])
+    move = joint_move(start, goal, PSM1)
+    assert np.allclose(move.q[0], start) and np.allclose(move.q[-1], goal)
+    assert trajectory_problems(move, PSM1) == []
+    back = joint_move(goal, start, PSM1)
+    both = concatenate([move, back])
+    assert len(both) == len(move) + len(back) - 1 and trajectory_problems(both, PSM1) == []
+
+
+def test_checker_names_velocity_channel_and_continuity_violations():
+    waypoints = _waypoints(3, 8)
+    q = joint_waypoints(waypoints, PSM1)
+    # Straight from the grasp to the place pose in joint space: drags the block across the peg.
+    direct = joint_move(q[0], q[3], PSM1)
+    problems = trajectory_problems(direct, PSM1, leaving=waypoints.pick, arriving=waypoints.place)
+    assert any("start peg's axis" in p or "never clears the start peg" in p for p in problems)
+    too_fast = HermitePath(np.array([0.0, 0.1]), q[[0, 3]], np.zeros((2, 6))).sample(PSM1.control_period)
+    problems = trajectory_problems(too_fast, PSM1)
+    assert any(p.startswith("q1 (yaw) velocity") for p in problems)
+    assert any("acceleration" in p for p in problems)
+    jumpy = Trajectory(direct.t, direct.q.copy(), direct.qd, direct.qdd)
+    jumpy.q[len(jumpy) // 2 :, 2] += 0.002
+    assert any(p.startswith("q3 (insertion) position jumps") for p in trajectory_problems(jumpy, PSM1))
+    with pytest.raises(PegbtError, match="transfer for PSM1 fails its checks"):
+        check_trajectory(direct, PSM1, leaving=waypoints.pick, what="transfer")
+
+
+def test_unreachable_waypoint_is_refused_naming_it_and_the_limit(planner):
+    far = reference.peg_tops("PSM1")[7] + np.array([0.0, 0.0, -0.2])  # 20 cm below the board
+    waypoints = transfer_waypoints(reference.peg_tops("PSM1")[1], far)
+    with pytest.raises(PegbtError, match=r"transfer waypoint 2 \(above the goal peg\): not reachable by PSM1: q3 \(insertion\)"):
+        planner.plan(waypoints)
+
+
+def test_nan_peg_position_is_refused():
+    with pytest.raises(PegbtError, match="place_peg_top"):
+        transfer_waypoints(reference.peg_tops("PSM1")[1], [0.1, float("nan"), -0.15])
+
+
+def test_non_positive_planner_limit_is_refused(tmp_path):
+    document = yaml.safe_load(PSM_SETTINGS.read_text())
+    document["defaults"]["planner"]["acceleration"][2] = 0.0
+    document["arms"]["PSM1"]["planner"] = document["defaults"]["planner"]
+    path = tmp_path / "psm.yaml"
+    path.write_text(yaml.safe_dump(document))
+    with pytest.raises(PegbtError, match=r"arms.PSM1.planner.acceleration"):
+        arm_settings("PSM1", path)
+
+
+def test_motion_settings_name_a_bad_field(tmp_path):
+    text = MOTION_SETTINGS.read_text().replace("grasp_depth: 0.0045", "grasp_depth: -1")
+    path = tmp_path / "motion.yaml"
+    path.write_text(text)
+    with pytest.raises(PegbtError, match=r"transfer.grasp_depth: must be positive"):
+        motion_settings(path)
+
+
+def test_the_planner_updates_its_osqp_problem_instead_of_setting_up_new_ones(planner, monkeypatch):
+    import osqp
+
+    solves_before = planner.refiner.solves
+
+    def no_setup(*args, **kwargs):
+        raise AssertionError("a new OSQP problem was set up")
+
+    monkeypatch.setattr(osqp.OSQP, "setup", no_setup)
+    assert planner.plan(_waypoints(5, 11)).refined
+    assert planner.refiner.solves > solves_before
