@@ -7,7 +7,7 @@ import pytest
 from py_trees.common import Status
 
 from executive_helpers import build_text, motion_class, node, tick_statuses
-from pegbt.executive.clock import ManualClock
+from pegbt.clock import ManualClock
 from pegbt.executive.guard import BlackboardGuard
 from pegbt.executive.recover import Recover
 from pegbt.executive.timeout import ClockTimeout

@@ -18,7 +18,7 @@ import time
 from pathlib import Path
 
 from pegbt.bench import Figures
-from pegbt.executive.clock import ManualClock
+from pegbt.clock import ManualClock
 from pegbt.executive.context import RunContext
 from pegbt.executive.loader import load_tree
 from pegbt.executive.runner import set_initial_blackboard

@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 from typing import Any, TypeVar
 
 from pegbt.errors import PegbtError
-from pegbt.executive.clock import Clock, WallClock
+from pegbt.clock import Clock, WallClock
 
 T = TypeVar("T")
 

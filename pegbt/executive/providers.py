@@ -13,11 +13,11 @@ from collections.abc import Mapping
 from typing import Any
 
 from pegbt.errors import PegbtError
-from pegbt.executive.clock import Clock
+from pegbt.clock import Clock
 
 CLOCKS: dict[str, str] = {
-    "wall": "pegbt.executive.clock:WallClock",
-    "manual": "pegbt.executive.clock:ManualClock",
+    "wall": "pegbt.clock:WallClock",
+    "manual": "pegbt.clock:ManualClock",
 }
 RESOURCE_PROVIDERS: dict[str, str] = {}
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 import py_trees
 from py_trees.common import Status
 
-from pegbt.executive.clock import Clock
+from pegbt.clock import Clock
 
 
 class ClockTimeout(py_trees.decorators.Timeout):

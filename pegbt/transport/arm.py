@@ -21,7 +21,7 @@ from numpy.typing import ArrayLike, NDArray
 from pegbt.errors import PegbtError
 from pegbt.motion.limits import ArmSettings, arm_settings
 from pegbt.transport import codec, guards
-from pegbt.transport.clock import Clock, WallClock
+from pegbt.clock import Clock, WallClock
 from pegbt.transport.codec import JointSample, OperatingState
 from pegbt.transport.keys import ArmKeys
 from pegbt.transport.link import Link

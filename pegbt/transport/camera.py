@@ -16,7 +16,7 @@ from numpy.typing import NDArray
 
 from pegbt.transport import codec
 from pegbt.transport.arm import EndpointSilent
-from pegbt.transport.clock import Clock, WallClock
+from pegbt.clock import Clock, WallClock
 from pegbt.transport.keys import CameraKeys
 from pegbt.transport.link import Link
 from pegbt.transport.sequencing import Received

@@ -1,7 +1,6 @@
-"""Clocks for the executive: `now()` and `wait(seconds)`.
+"""`SimClock`: simulated time for the executive (the `pegbt.clock.Clock` protocol).
 
-`WallClock` is real time (a real dVRK, or the simulator in real-time mode). `SimClock` drives the
-simulator in lockstep: `wait()` asks it to advance by that much simulated time and returns once the
+It drives the simulator in lockstep: `wait()` asks it to advance by that much simulated time and returns once the
 simulator has done so and everything it published on the way has arrived here, so runs are
 deterministic and faster than real time, with every timestamp in simulated time.
 """
@@ -11,30 +10,11 @@ from __future__ import annotations
 import json
 import math
 import time
-from typing import Protocol
 
+from pegbt.clock import Clock, WallClock
 from pegbt.errors import PegbtError
 from pegbt.transport.keys import SimKeys
 from pegbt.transport.link import Link
-
-
-class Clock(Protocol):
-    """What the executive needs of time."""
-
-    def now(self) -> float: ...
-
-    def wait(self, seconds: float) -> None: ...
-
-
-class WallClock:
-    """Real time: seconds since the epoch, as ROS stamps are."""
-
-    def now(self) -> float:
-        return time.time()
-
-    def wait(self, seconds: float) -> None:
-        if seconds > 0:
-            time.sleep(seconds)
 
 
 class SimClock:

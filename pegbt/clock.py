@@ -1,6 +1,6 @@
-"""The one source of time for the executive, so that a tree can run in wall time or simulated time.
+"""The one source of time, so that a tree can run in wall time or simulated time.
 
-Everything in the executive that measures or lets time pass (the runner's tick period, the `timeout`
+Everything in the executive and the transport that measures or lets time pass (the runner's tick period, the `timeout`
 decorator, the `wait` leaf, tick-log timestamps) asks a `Clock`, never `time` directly. A simulator in
 lockstep provides its own clock whose `wait` advances the simulation; `WallClock` sleeps; `ManualClock`
 only counts, for tests and benchmarks that must not depend on the machine's speed.
@@ -26,10 +26,10 @@ class Clock(Protocol):
 
 
 class WallClock:
-    """Monotonic wall time; `wait` sleeps."""
+    """Real time in seconds since the epoch, as ROS stamps are (a real dVRK, or the simulator in real time)."""
 
     def now(self) -> float:
-        return time.monotonic()
+        return time.time()
 
     def wait(self, seconds: float) -> None:
         if seconds > 0:
