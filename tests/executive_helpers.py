@@ -84,8 +84,9 @@ class Counter:
 
     instances: list[Counter] = []
 
-    def __init__(self, clock: object) -> None:
-        self.clock = clock
+    def __init__(self, setup: object) -> None:
+        self.clock = setup.clock
+        self.options = setup.options
         self.uses = 0
         self.closed = False
         Counter.instances.append(self)

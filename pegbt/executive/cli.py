@@ -7,7 +7,7 @@ import datetime
 import sys
 from pathlib import Path
 
-from pegbt.errors import PegbtError
+from pegbt.executive.providers import RUN_OPTIONS
 
 
 def add_commands(subparsers: argparse._SubParsersAction) -> None:
@@ -28,10 +28,14 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
     run.add_argument("--period", type=float, default=0.02, metavar="S", help="tick period, s (default 0.02)")
     run.add_argument("--timeout", type=float, default=None, metavar="S", help="halt the tree after S seconds")
     run.add_argument("--log", metavar="FILE", help="tick log path (default runs/TREE-DATE-TIME.jsonl)")
-    run.add_argument("--clock", default="wall", metavar="NAME",
+    run.add_argument("--clock", default=None, metavar="NAME",
                      help="wall (default): real time; manual: time that advances one period per tick, without sleeping; "
-                     "others as registered in pegbt/executive/providers.py")
+                     "others as registered in pegbt/executive/providers.py; a resource that is a time source "
+                     "(a simulator in lockstep) supplies its own")
     run.add_argument("--quiet", action="store_true", help="no progress lines")
+    for option in RUN_OPTIONS.values():
+        run.add_argument(f"--{option.name}", dest=f"option_{option.name}", type=option.type, default=option.default,
+                         choices=option.choices or None, help=f"{option.help} (default {option.default})")
     run.set_defaults(handler=_run)
 
     log = subparsers.add_parser("log", help="analyse tick logs written by `pegbt run`")
@@ -98,34 +102,18 @@ def _default_log_path(tree: str) -> Path:
 
 def _run(args: argparse.Namespace) -> int:
     from pegbt.executive.analysis import result_table
-    from pegbt.executive.context import RunContext
-    from pegbt.executive.loader import load_tree
     from pegbt.executive.logfile import read_tick_log
-    from pegbt.executive.progress import ProgressPrinter
-    from pegbt.executive.providers import close_resources, make_clock, provide_resources
-    from pegbt.executive.runner import run
-    from pegbt.executive.ticklog import TickLogWriter
+    from pegbt.executive.session import run_tree_file
 
-    if args.period <= 0 or (args.timeout is not None and args.timeout <= 0):
-        raise PegbtError("must be positive", field="--period" if args.period <= 0 else "--timeout")
-    loaded = load_tree(args.tree)
-    clock = make_clock(args.clock)
-    resources = provide_resources(loaded.resource_users(), clock)
-    try:
-        built = loaded.build(RunContext(clock=clock, resources=resources))
-        log_path = Path(args.log) if args.log else _default_log_path(args.tree)
-        listeners = [] if args.quiet else [ProgressPrinter(built)]
-        try:
-            writer = TickLogWriter(log_path, built, clock_kind=args.clock, listeners=listeners)
-        except OSError as error:
-            raise PegbtError(f"cannot write the tick log: {error.strerror}", file=log_path) from None
-        print(f"running {args.tree} (period {args.period:g} s, {args.clock} clock); tick log {log_path}")
-        result = run(built, period=args.period, timeout=args.timeout, log=writer)
-    finally:
-        close_resources(resources)
+    options = {name: getattr(args, f"option_{name}") for name in RUN_OPTIONS}
+    log_path = Path(args.log) if args.log else _default_log_path(args.tree)
+    output = run_tree_file(args.tree, log_path, options=options, clock=args.clock, period=args.period,
+                           timeout=args.timeout, quiet=args.quiet)
     print(result_table(read_tick_log(log_path)))
+    for report in output.reports.values():
+        print(report)
     print(f"tick log: {log_path}")
-    return 0 if result.outcome == "success" else 1
+    return 0 if output.ok else 1
 
 
 def _log_summary(args: argparse.Namespace) -> int:

@@ -1,25 +1,73 @@
-"""Where `pegbt run` gets its clock and the resources a tree's behaviours declare.
+"""Where `pegbt run` gets its clock, the resources a tree's behaviours declare, and the options they read.
 
-Later packages register here instead of editing the run command: a clock by name (`--clock NAME`),
-and a resource provider per resource name (e.g. `"arms": "pegbt.transport.arms:connect"`). A provider
-is called once per run with the run's clock and returns the resource; if the resource has a `close()`
-method, the run calls it at the end. Providers are imported only when a tree needs them.
+Later packages register here instead of editing the run command:
+
+- `RESOURCE_PROVIDERS`: a provider per resource name (`"robot": "pegbt.behaviours.robot:provide_robot"`).
+  A provider is called once per run with a `ProviderSetup` (the run's options and clock) and returns
+  the resource. Providers are imported only when a tree needs them.
+- `RUN_OPTIONS`: the options providers read; `pegbt run` offers each as `--NAME` and hands every
+  provider all of them (a provider ignores those it does not know).
+- `CLOCKS`: clocks by name, for `--clock`.
+
+A resource may take part in the run beyond serving its behaviours (each is optional, found by name):
+
+- `run_clock`: a resource that is itself the time source (a simulator in lockstep) supplies the run's clock;
+- `progress()`: returns a tick-log listener that shows progress (used unless the run is quiet);
+- `report()`: a result printed after the run, while the resource is still open; a result whose `ok` is
+  False makes the run exit non-zero;
+- `close()`: called at the end of the run, always.
 """
 
 from __future__ import annotations
 
 import importlib
 from collections.abc import Mapping
+from dataclasses import dataclass, field
 from typing import Any
 
-from pegbt.errors import PegbtError
 from pegbt.clock import Clock
+from pegbt.errors import PegbtError
 
 CLOCKS: dict[str, str] = {
     "wall": "pegbt.clock:WallClock",
     "manual": "pegbt.clock:ManualClock",
 }
-RESOURCE_PROVIDERS: dict[str, str] = {}
+RESOURCE_PROVIDERS: dict[str, str] = {
+    "robot": "pegbt.behaviours.robot:provide_robot",
+    "skills": "pegbt.behaviours.skills:provide_skills",
+}
+
+
+@dataclass(frozen=True)
+class RunOption:
+    """An option of `pegbt run` (`--NAME VALUE`) that providers read."""
+
+    name: str
+    help: str
+    default: Any = None
+    type: type = str
+    choices: tuple[Any, ...] = ()
+
+
+RUN_OPTIONS: dict[str, RunOption] = {
+    option.name: option
+    for option in (
+        RunOption("endpoint", "robot: `auto` starts the embedded simulator (lockstep, dvrk-real physics); "
+                  "or the zenoh address of a running simulator or robot, e.g. tcp/127.0.0.1:7447", "auto"),
+        RunOption("condition", "skills: uncalibrated (cubic motion), calibrated (cubic + compensation), "
+                  "optimized (spline + SQP + compensation)", "optimized",
+                  choices=("uncalibrated", "calibrated", "optimized")),
+        RunOption("seed", "robot: seed of the embedded simulator's world", 0, type=int),
+    )
+}
+
+
+@dataclass(frozen=True)
+class ProviderSetup:
+    """What a provider receives: the run's options (every `RUN_OPTIONS` name, defaults filled in) and clock."""
+
+    clock: Clock
+    options: Mapping[str, Any] = field(default_factory=dict)
 
 
 def _load(target: str) -> Any:
@@ -34,18 +82,57 @@ def make_clock(name: str) -> Clock:
     return _load(CLOCKS[name])()
 
 
-def provide_resources(users: Mapping[str, str], clock: Clock) -> dict[str, Any]:
-    """One instance of each resource in `users` (name -> who needs it); a `PegbtError` for any without a provider."""
+def run_options(given: Mapping[str, Any] | None = None) -> dict[str, Any]:
+    """Every registered option: the given values, defaults for the rest; a `PegbtError` for an unknown or invalid one."""
+    given = dict(given or {})
+    unknown = sorted(set(given) - set(RUN_OPTIONS))
+    if unknown:
+        raise PegbtError(f"unknown run option {unknown[0]!r}; known: {', '.join(RUN_OPTIONS)}", field=unknown[0])
+    options = {}
+    for name, option in RUN_OPTIONS.items():
+        value = given.get(name, option.default)
+        if value is not None and option.choices and value not in option.choices:
+            raise PegbtError(f"{value!r} is not one of {', '.join(map(str, option.choices))}", field=f"--{name}")
+        options[name] = value
+    return options
+
+
+def provide_resources(users: Mapping[str, str], setup: ProviderSetup) -> dict[str, Any]:
+    """One instance of each resource in `users` (name -> who needs it); a `PegbtError` for any without a provider.
+
+    If a provider fails, the resources already provided are closed before the error propagates.
+    """
     missing = [f"{name!r} (needed by {user})" for name, user in sorted(users.items()) if name not in RESOURCE_PROVIDERS]
     if missing:
         raise PegbtError(f"no provider for resource {'; '.join(missing)}; providers are registered in "
                          "pegbt/executive/providers.py", field="resources")
-    return {name: _load(RESOURCE_PROVIDERS[name])(clock) for name in sorted(users)}
+    resources: dict[str, Any] = {}
+    try:
+        for name in sorted(users):
+            resources[name] = _load(RESOURCE_PROVIDERS[name])(setup)
+    except BaseException:
+        close_resources(resources)
+        raise
+    return resources
 
 
-def close_resources(resources: dict[str, Any]) -> None:
-    """Call `close()` on each resource that has one."""
-    for resource in resources.values():
+def resource_clock(resources: Mapping[str, Any], requested: str | None) -> tuple[Clock | None, str]:
+    """The clock a resource supplies (and its name), if one does; a `PegbtError` if `--clock` asked for another."""
+    supplied = [(name, resource.run_clock) for name, resource in sorted(resources.items()) if isinstance(getattr(resource, "run_clock", None), Clock)]
+    if len(supplied) > 1:
+        raise PegbtError(f"resources {', '.join(name for name, _ in supplied)} each supply a clock", field="resources")
+    if not supplied:
+        return None, requested or "wall"
+    name, clock = supplied[0]
+    if requested is not None:
+        raise PegbtError(f"resource {name!r} supplies the run's clock ({type(clock).__name__}); drop --clock {requested}",
+                         field="--clock")
+    return clock, f"{name} ({type(clock).__name__})"
+
+
+def close_resources(resources: Mapping[str, Any]) -> None:
+    """Call `close()` on each resource that has one (in reverse order of provision)."""
+    for resource in reversed(list(resources.values())):
         close = getattr(resource, "close", None)
         if callable(close):
             close()

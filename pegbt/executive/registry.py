@@ -36,6 +36,11 @@ from pegbt.executive.params import Param
 
 BEHAVIOUR_MODULES: tuple[str, ...] = (
     "pegbt.behaviours.generic",
+    "pegbt.behaviours.sense",
+    "pegbt.behaviours.grasping",
+    "pegbt.behaviours.motion",
+    "pegbt.behaviours.placing",
+    "pegbt.behaviours.bookkeeping",
 )
 
 Factory = Callable[["LeafSetup"], py_trees.behaviour.Behaviour]

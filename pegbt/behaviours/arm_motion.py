@@ -1,0 +1,100 @@
+"""`ArmMotion`: one arm's motions under the run's condition: plan, pre-compensate every row, send, and
+remember where the arm is meant to be.
+
+Plans are made in *desired* joints (where the tool should physically be). With a calibration model every
+row of a planned trajectory is pre-compensated (the paper's Alg. 1, one 10 ms step at a time) before the
+trajectory is sent, so the arm receives the commands that land it on the plan; without one the plan is
+sent as it is. The next plan starts where the last one was meant to end (`desired`), not at the encoders,
+which read the compensated command.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from pegbt.calibration.compensation import Compensator
+from pegbt.errors import PegbtError
+from pegbt.motion.cubic import rest_to_rest_path
+from pegbt.motion.limits import ArmSettings
+from pegbt.motion.trajectory import Trajectory
+from pegbt.motion.transfer import TransferPlanner, cubic_transfer
+from pegbt.motion.waypoints import TransferWaypoints
+from pegbt.transport import ArmClient, MotionHandle
+
+
+@dataclass(frozen=True)
+class SentMotion:
+    """A trajectory on its way: what was planned, what was sent, and its handle."""
+
+    planned: Trajectory
+    sent: Trajectory
+    handle: MotionHandle
+
+
+class ArmMotion:
+    """Plans and sends one arm's motions; `planner` (SQP) and `compensator` are None when the condition has none."""
+
+    def __init__(self, settings: ArmSettings, *, planner: TransferPlanner | None = None,
+                 compensator: Compensator | None = None) -> None:
+        self.settings = settings
+        self.planner = planner
+        self.compensator = compensator
+        self.desired: NDArray[np.float64] | None = None
+        self.active: SentMotion | None = None
+
+    def start_from(self, arm: ArmClient) -> NDArray[np.float64]:
+        """Where the next plan starts: where the last one ended, or (first use) the arm's set-point now."""
+        if self.desired is None:
+            self.desired = np.array(arm.setpoint_js.position, dtype=float)
+            if self.compensator is not None:
+                self.compensator.reset(self.desired)
+        return self.desired.copy()
+
+    # ------------------------------------------------------------------ planning
+    def transfer(self, waypoints: TransferWaypoints) -> Trajectory:
+        """The transfer through `waypoints`: SQP-refined spline if this arm has a planner, else rest-to-rest cubics."""
+        if self.planner is not None:
+            return self.planner.plan(waypoints).trajectory
+        return cubic_transfer(waypoints, self.settings)
+
+    def through(self, start: ArrayLike, joints: list[NDArray[np.float64]], names: list[str]) -> Trajectory:
+        """Rest-to-rest cubics from `start` through joint `joints` (each stop named for errors)."""
+        path = rest_to_rest_path([np.asarray(start, dtype=float), *joints], self.settings, ["start", *names])
+        return path.sample(self.settings.control_period)
+
+    # ------------------------------------------------------------------ execution
+    def commands(self, planned: Trajectory) -> Trajectory:
+        """The trajectory to send for `planned`: every row pre-compensated, or `planned` itself."""
+        if self.compensator is None:
+            return planned
+        q = np.array([self.compensator.step(row) for row in planned.q])
+        qd = np.gradient(q, planned.t, axis=0)
+        qd[[0, -1]] = 0.0
+        return Trajectory(planned.t, q, qd, np.gradient(qd, planned.t, axis=0))
+
+    def send(self, arm: ArmClient, planned: Trajectory) -> MotionHandle:
+        """Send `planned` (compensated) to `arm`; afterwards the arm is meant to be at its last row."""
+        start = self.start_from(arm)
+        if np.max(np.abs(planned.q[0] - start)) > 1e-6:
+            raise PegbtError(f"{arm.name}: the plan starts {np.round(planned.q[0] - start, 4).tolist()} away from "
+                             "where the last motion ended", field="trajectory")
+        sent = self.commands(planned)
+        handle = arm.move_jp(sent)
+        self.active = SentMotion(planned, sent, handle)
+        self.desired = planned.q[-1].copy()
+        return handle
+
+    def stop(self, arm: ArmClient) -> None:
+        """Stop the active motion where it is; the arm is then meant to be at the planned row it was sent for."""
+        active, self.active = self.active, None
+        if active is None or not active.handle.busy:
+            return
+        active.handle.stop()
+        held = np.asarray(arm.setpoint_js.position, dtype=float)
+        row = int(np.argmin(np.max(np.abs(active.sent.q - held), axis=1)))
+        self.desired = active.planned.q[row].copy()
+        if self.compensator is not None:
+            self.compensator.reset(held)

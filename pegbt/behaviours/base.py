@@ -1,0 +1,155 @@
+"""Base classes of the peg-transfer leaves: resources, failures with reasons, and non-blocking motions.
+
+A `RobotLeaf` fetches the `robot` and `skills` resources in `setup()`. Anything a user or the world
+can cause (an unreachable pose, a refused command, a silent endpoint, a poor fit) arrives as a
+`PegbtError`; the leaf then fails with the error's text as its feedback message, so the tick log and
+`pegbt log why` say why. Other exceptions are bugs and crash the run.
+
+A `MotionLeaf` starts its motions in `initialise` (one per arm or jaw, planned and sent at once), polls
+them in `update` and, when halted, stops whatever still moves in `terminate`. It never blocks a tick.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable
+from dataclasses import dataclass
+
+from py_trees.common import Status
+
+from pegbt.behaviours.arm_motion import ArmMotion
+from pegbt.behaviours.robot import Robot
+from pegbt.behaviours.skills import Skills
+from pegbt.errors import PegbtError
+from pegbt.executive.leaf import Leaf
+from pegbt.executive.params import Param
+from pegbt.transport import ArmClient, MotionHandle
+from pegbt.workcell import ARMS
+
+log = logging.getLogger("pegbt.behaviours")
+RESOURCES = ("robot", "skills")
+
+
+def arm_param(doc: str = "which arm") -> Param:
+    return Param("arm", str, doc, choices=ARMS)
+
+
+def peg_param(name: str, doc: str) -> Param:
+    return Param(name, int, doc, choices=tuple(range(12)), blackboard=True)
+
+
+def key_param(name: str, access: str, doc: str) -> Param:
+    """A parameter naming the blackboard key where a leaf reads or writes `name` (default: `name` itself,
+    in the leaf's namespace; shared subtrees use per-arm keys such as `/PSM1/grasp`)."""
+    return Param(name, str, f"key {'read' if access == 'read' else 'written'}: {doc}", default=name, key=access)
+
+
+class RobotLeaf(Leaf):
+    """A leaf using the robot and the skills; `PegbtError`s from `act()` fail it with their reason."""
+
+    def setup(self, **kwargs: object) -> None:
+        self.robot = self.context.resource("robot", Robot)
+        self.skills = self.context.resource("skills", Skills)
+
+    def client(self, arm: str | None = None) -> ArmClient:
+        return self.robot.arm(arm or self.param("arm"))
+
+    def motion(self, arm: str | None = None) -> ArmMotion:
+        return self.skills.arm(arm or self.param("arm"))
+
+    def get(self, name: str) -> object:
+        """The value of the blackboard key named by key parameter `name`."""
+        return self.read(self.params[name])
+
+    def put(self, name: str, value: object) -> None:
+        """Write the blackboard key named by key parameter `name`."""
+        self.write(self.params[name], value)
+
+    def fail(self, reason: str) -> Status:
+        self.feedback_message = reason
+        return Status.FAILURE
+
+    def update(self) -> Status:
+        try:
+            return self.act()
+        except PegbtError as error:
+            return self.fail(str(error))
+
+    def act(self) -> Status:
+        """One tick's work (instant leaves do everything here)."""
+        raise NotImplementedError
+
+
+@dataclass
+class Running:
+    """A motion this leaf started: what it is, its handle, how to stop it."""
+
+    what: str
+    handle: MotionHandle
+    stop: Callable[[], None]
+
+
+class MotionLeaf(RobotLeaf):
+    """A leaf whose work is motions: `begin()` starts them with `move`/`move_jaw`; `done()` judges the result."""
+
+    def initialise(self) -> None:
+        self.running: list[Running] = []
+        self.problem: str | None = None
+        self.feedback_message = ""
+        try:
+            self.begin()
+        except PegbtError as error:
+            self.problem = str(error)
+            self.halt_motions()
+
+    def begin(self) -> None:
+        raise NotImplementedError
+
+    def move(self, arm: str, trajectory: object, what: str) -> None:
+        """Send a planned arm trajectory (compensated by the condition's skills)."""
+        client, motion = self.client(arm), self.motion(arm)
+        handle = motion.send(client, trajectory)
+        self.running.append(Running(what, handle, lambda: motion.stop(client)))
+
+    def move_jaw(self, arm: str, angle: float, what: str) -> None:
+        handle = self.client(arm).jaw.move_jp(angle)
+        self.running.append(Running(what, handle, handle.stop))
+
+    def act(self) -> Status:
+        if self.problem is not None:
+            return self.fail(self.problem)
+        for motion in self.running:
+            if motion.handle.failed:
+                self.halt_motions()
+                return self.fail(f"{motion.what}: {motion.handle.error}")
+        if any(motion.handle.busy for motion in self.running):
+            return self.watch()
+        return self.done()
+
+    def watch(self) -> Status:
+        """Called each tick while motions run; a subclass may fail early (a slipping block)."""
+        return Status.RUNNING
+
+    def done(self) -> Status:
+        """Called once every motion finished; SUCCESS unless a subclass checks otherwise."""
+        return Status.SUCCESS
+
+    def update(self) -> Status:
+        status = super().update()
+        if status == Status.FAILURE:
+            self.halt_motions()
+        return status
+
+    def terminate(self, new_status: Status) -> None:
+        if new_status == Status.INVALID:
+            self.halt_motions()
+
+    def halt_motions(self) -> None:
+        """Stop every motion still running; an unreachable endpoint is logged (there is nothing left to stop)."""
+        for motion in getattr(self, "running", []):
+            try:
+                if motion.handle.busy:
+                    motion.stop()
+            except PegbtError as error:
+                log.warning("%s: could not stop %s: %s", self.name, motion.what, error)
+        self.running = []

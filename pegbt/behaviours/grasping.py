@@ -1,0 +1,108 @@
+"""Grasping: choose the grasp of a located block, approach it with the jaw open, close and check the hold.
+
+Whether the jaw holds a block is read from the jaw's own encoder: a jaw closing on a block stops at the
+block's wall, one closing on nothing goes all the way.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from py_trees.common import Status
+
+from pegbt.behaviours.base import RESOURCES, MotionLeaf, RobotLeaf, arm_param, key_param, peg_param
+from pegbt.behaviours.motion import above_pegs_first
+from pegbt.behaviours.poses import transfer_for
+from pegbt.executive.params import Param
+from pegbt.executive.registry import behaviour
+from pegbt.motion.ik import solve_ik
+from pegbt.perception.blocks import BlockEstimate, block_on_peg
+
+HELD_ABOVE = 0.0  # rad: a closed jaw that stopped above this angle holds something (closed is -15°, a block stops it at +12°)
+
+
+def held_param() -> Param:
+    return Param("held_above", float, "a closed jaw stopped above this angle (rad) holds a block", default=HELD_ABOVE)
+
+
+@behaviour(
+    "select_grasp",
+    "choose `arm`'s grasp of the block on peg `peg` from `/blocks` (or, with `dropped`, of a block lying off "
+    "the pegs, nearest to that peg); writes `block` and `grasp`",
+    params=(
+        arm_param(),
+        peg_param("peg", "peg the block should be on"),
+        Param("dropped", bool, "if the peg is empty, take the block lying on the board nearest to it", default=False),
+        key_param("block", "write", "the block chosen (perception's estimate)"),
+        key_param("grasp", "write", "the grasp chosen (tip pose in the arm frame)"),
+    ),
+    reads=("/blocks", "/board"),
+    resources=RESOURCES,
+)
+class SelectGrasp(RobotLeaf):
+    def act(self) -> Status:
+        arm, peg = self.param("arm"), int(self.param("peg"))
+        blocks: list[BlockEstimate] = self.read("/blocks")
+        block = block_on_peg(blocks, peg)
+        if block is None and self.param("dropped"):
+            loose = [b for b in blocks if b.ok and b.peg is None]
+            target = self.skills.cell.pegs.positions[peg]
+            block = min(loose, key=lambda b: float(np.linalg.norm(b.position[:2] - target)), default=None)
+        if block is None:
+            return self.fail(f"no block seen on peg {peg}" + (" nor on the board" if self.param("dropped") else ""))
+        where = f"peg {peg}" if block.peg is not None else f"the board at {np.round(block.position[:2] * 1000, 1).tolist()} mm"
+        if not block.ok:
+            return self.fail(f"the block on {where} is not located reliably: {block.reason}")
+        grasp = self.skills.selectors[arm].pick(block)
+        if grasp is None:
+            return self.fail(f"no grasp of the block on {where} is within {arm}'s yaw window and reach")
+        self.put("block", block)
+        self.put("grasp", grasp)
+        self.feedback_message = (f"{arm} grasps the block on {where} at candidate {grasp.candidate}, "
+                                 f"yaw {math.degrees(grasp.yaw):.0f}°")
+        return Status.SUCCESS
+
+
+@behaviour(
+    "approach",
+    "move `arm` over its chosen grasp at the transfer height and down onto it, opening the jaw on the way",
+    params=(arm_param(), key_param("grasp", "read", "the chosen grasp"), key_param("block", "read", "the block to grasp")),
+    reads=("/board",),
+    resources=RESOURCES,
+)
+class Approach(MotionLeaf):
+    def begin(self) -> None:
+        arm = self.param("arm")
+        motion, cell = self.motion(arm), self.skills.cell
+        waypoints = transfer_for(cell, self.skills.motion, arm, self.read("/board"), self.get("block"), self.get("grasp"))
+        start = motion.start_from(self.client(arm))
+        stops = above_pegs_first(cell, self.skills.motion, arm, start, motion.settings)
+        names = [f"above the grasp {i}" for i in range(len(stops))] + ["over the grasp", "just above the block", "grasp"]
+        poses = [waypoints.poses[1], waypoints.approach, waypoints.poses[0]]
+        joints = stops + [solve_ik(pose, motion.settings, what=name) for pose, name in zip(poses, names[-3:])]
+        trajectory = motion.through(start, joints, names[: len(joints)])
+        self.move(arm, trajectory, f"{arm} approach")
+        self.move_jaw(arm, self.skills.motion.transfer.jaw_open, f"{arm} jaw opening")
+        self.feedback_message = f"approaching in {trajectory.duration:.2f} s"
+
+
+@behaviour(
+    "grasp",
+    "close `arm`'s jaw and check from the jaw's encoder that it stopped on a block; writes `holding`",
+    params=(arm_param(), held_param(), key_param("holding", "write", "whether the jaw holds a block")),
+    resources=RESOURCES,
+)
+class CloseOnBlock(MotionLeaf):
+    def begin(self) -> None:
+        self.move_jaw(self.param("arm"), self.skills.motion.transfer.jaw_closed, f"{self.param('arm')} jaw closing")
+
+    def done(self) -> Status:
+        arm = self.param("arm")
+        angle = float(self.client(arm).jaw.measured_js.position[0])
+        holding = angle > self.param("held_above")
+        self.put("holding", holding)
+        if not holding:
+            return self.fail(f"{arm}'s jaw closed to {math.degrees(angle):.0f}° on nothing: no block between the jaws")
+        self.feedback_message = f"{arm} holds a block (jaw stopped at {math.degrees(angle):.0f}°)"
+        return Status.SUCCESS

@@ -1,0 +1,87 @@
+"""Arm motions between the grasp and the placement: the transfer itself (lift, carry, lower onto the goal
+peg) and parking an arm out of the camera's view.
+
+Every motion that starts low among the pegs first rises straight up to the transfer height, so a tool
+never sweeps sideways through pegs and blocks.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numpy.typing import NDArray
+from py_trees.common import Status
+
+from pegbt.behaviours.base import RESOURCES, MotionLeaf, arm_param, key_param, peg_param
+from pegbt.behaviours.poses import height_above_pegs, tool_pose, transfer_for, up_in_arm
+from pegbt.executive.params import Param
+from pegbt.executive.registry import behaviour
+from pegbt.motion.ik import solve_ik
+from pegbt.motion.kinematics import forward_kinematics
+from pegbt.motion.limits import ArmSettings
+from pegbt.motion.settings import MotionSettings
+from pegbt.workcell import Workcell
+
+LOW = 0.001  # m: a tip more than this below the transfer height rises before moving sideways
+
+
+def above_pegs_first(cell: Workcell, motion: MotionSettings, arm: str, start: NDArray[np.float64],
+                     settings: ArmSettings) -> list[NDArray[np.float64]]:
+    """[joints straight above `start` at the transfer height] if the tip is low among the pegs, else []."""
+    tip = forward_kinematics(start)
+    rise = motion.transfer.transfer_height_above_peg_top - height_above_pegs(cell, arm, tip[:3, 3])
+    if rise <= LOW:
+        return []
+    above = tip.copy()
+    above[:3, 3] += rise * up_in_arm(cell, arm)
+    return [solve_ik(above, settings, what="straight above the tool")]
+
+
+@behaviour(
+    "transfer",
+    "lift the held block off its peg, carry it over peg `place` and lower it onto the peg (one trajectory: "
+    "SQP-optimised or rest-to-rest cubics, as the condition says); fails at once if the block slips from "
+    "the jaw; writes the plan's duration to `plan_s`",
+    params=(arm_param(), peg_param("place", "goal peg"),
+            Param("held_above", float, "a jaw closing past this angle (rad) has lost its block", default=0.0),
+            key_param("grasp", "read", "the grasp holding the block"), key_param("block", "read", "the block held"),
+            key_param("plan_s", "write", "the planned transfer's duration, s")),
+    reads=("/board",),
+    resources=RESOURCES,
+)
+class Transfer(MotionLeaf):
+    def begin(self) -> None:
+        arm, place = self.param("arm"), int(self.param("place"))
+        waypoints = transfer_for(self.skills.cell, self.skills.motion, arm, self.read("/board"), self.get("block"),
+                                 self.get("grasp"), place)
+        trajectory = self.motion(arm).transfer(waypoints)
+        self.put("plan_s", round(trajectory.duration, 3))
+        self.move(arm, trajectory, f"{arm} transfer to peg {place}")
+        self.feedback_message = f"transfer to peg {place} planned in {trajectory.duration:.2f} s ({self.skills.condition})"
+
+    def watch(self) -> Status:
+        arm = self.param("arm")
+        angle = float(self.client(arm).jaw.measured_js.position[0])
+        if angle <= self.param("held_above"):
+            return self.fail(f"the block slipped from {arm}'s jaw (jaw at {math.degrees(angle):.0f}°) during the transfer")
+        return Status.RUNNING
+
+
+@behaviour(
+    "park",
+    "move `arm` out of the camera's view: rise to the transfer height if low, then to its home pose (tool down)",
+    params=(arm_param(),),
+    resources=RESOURCES,
+)
+class Park(MotionLeaf):
+    def begin(self) -> None:
+        arm = self.param("arm")
+        motion, cell = self.motion(arm), self.skills.cell
+        start = motion.start_from(self.client(arm))
+        home = tool_pose(motion.settings.home_tip, 0.0, up_in_arm(cell, arm))
+        joints = above_pegs_first(cell, self.skills.motion, arm, start, motion.settings)
+        joints.append(solve_ik(home, motion.settings, what=f"{arm} home pose"))
+        trajectory = motion.through(start, joints, [f"stop {i}" for i in range(len(joints) - 1)] + ["home"])
+        self.move(arm, trajectory, f"{arm} parking")
+        self.feedback_message = f"parking in {trajectory.duration:.2f} s"

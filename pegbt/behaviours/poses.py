@@ -1,0 +1,79 @@
+"""From what perception saw (board frame) to where an arm's tool goes (that arm's base frame).
+
+The board frame has z pointing down into the board; each arm's frame has z up. Peg tops come from the
+registered board when there is one (measured), else from the work cell (modelled). A block lying on the
+board, off every peg, is treated as if it sat on a peg at its own position: its top is at the same
+height, and it is lifted the same way.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from pegbt.motion.settings import MotionSettings
+from pegbt.motion.waypoints import TransferWaypoints, tool_down_rotation, transfer_waypoints
+from pegbt.perception.blocks import BlockEstimate
+from pegbt.perception.board import BoardEstimate
+from pegbt.perception.grasp import Grasp
+from pegbt.workcell import Workcell
+
+UP_BOARD = np.array([0.0, 0.0, -1.0])
+
+
+def peg_top_board(cell: Workcell, board: BoardEstimate | None, peg: int) -> NDArray[np.float64]:
+    """Top centre of `peg` in the board frame: measured if the board was registered, else modelled."""
+    return (board.peg_tops[peg] if board is not None and board.ok else cell.pegs.tops[peg]).astype(float).copy()
+
+
+def block_axis_top(cell: Workcell, board: BoardEstimate | None, block: BlockEstimate) -> NDArray[np.float64]:
+    """Where the block's axis crosses the peg-top height, board frame: its peg's top, or above it on the board."""
+    if block.peg is not None:
+        return peg_top_board(cell, board, block.peg)
+    return np.array([block.position[0], block.position[1], cell.pegs.top_z])
+
+
+def to_arm(cell: Workcell, arm: str, point_board: ArrayLike) -> NDArray[np.float64]:
+    T = cell.board_to_arm(arm)
+    return T[:3, :3] @ np.asarray(point_board, dtype=float) + T[:3, 3]
+
+
+def up_in_arm(cell: Workcell, arm: str) -> NDArray[np.float64]:
+    """The pegs' axis, away from the board, in `arm`'s frame."""
+    return cell.board_to_arm(arm)[:3, :3] @ UP_BOARD
+
+
+def yaw_about(rotation: NDArray[np.float64], up: NDArray[np.float64]) -> float:
+    """The yaw with `tool_down_rotation(yaw, up) == rotation` for a tool pointing down along `up`."""
+    untilted = tool_down_rotation(0.0, up).T @ rotation
+    return math.atan2(untilted[1, 0], untilted[0, 0])
+
+
+def tool_pose(position: ArrayLike, yaw: float, up: NDArray[np.float64]) -> NDArray[np.float64]:
+    """A tip pose at `position` (arm frame), tool pointing down along −`up`, turned by `yaw`."""
+    pose = np.eye(4)
+    pose[:3, :3] = tool_down_rotation(yaw, up)
+    pose[:3, 3] = position
+    return pose
+
+
+def transfer_for(cell: Workcell, motion: MotionSettings, arm: str, board: BoardEstimate | None,
+                 block: BlockEstimate, grasp: Grasp, place_peg: int | None = None) -> TransferWaypoints:
+    """The transfer of `block`, held at `grasp`, onto `place_peg`: the block keeps its yaw, so the tool
+    keeps its yaw and its offset from the block's axis. Without `place_peg`, only the pick side (grasp,
+    approach, lifted) is meaningful: the block would be put back where it is."""
+    up = up_in_arm(cell, arm)
+    pick_top = to_arm(cell, arm, block_axis_top(cell, board, block))
+    offset = grasp.position - pick_top
+    yaw = yaw_about(grasp.pose[:3, :3], up)
+    place_top = pick_top if place_peg is None else to_arm(cell, arm, peg_top_board(cell, board, place_peg))
+    return transfer_waypoints(pick_top, place_top, pick_offset=offset, place_offset=offset, pick_yaw=yaw,
+                              place_yaw=yaw, up=up, heights=motion.transfer)
+
+
+def height_above_pegs(cell: Workcell, arm: str, tip_arm: ArrayLike) -> float:
+    """How far a tip (arm frame) is above the peg tops, along the pegs' axis."""
+    tip_board = cell.arm_to_board(arm)[:3, :3] @ np.asarray(tip_arm, dtype=float) + cell.arm_to_board(arm)[:3, 3]
+    return float((tip_board[2] - cell.pegs.top_z) * UP_BOARD[2])

@@ -1,0 +1,122 @@
+"""The `robot` resource: both PSMs and the depth camera over one zenoh link, and the run's clock.
+
+`--endpoint auto` starts the embedded simulator (`pegbt sim --lockstep --physics dvrk-real`) as a child
+process on a free loopback port; an address connects to a simulator or a robot already running there.
+A simulator answers `sim/clock`: its `SimClock` becomes the run's clock (lockstep: time advances only when
+the executive waits) and its ground-truth events are collected for the trial's judge. Anything else is a
+robot, run on the wall clock and judged by what the executive believes.
+"""
+
+from __future__ import annotations
+
+import json
+import threading
+from typing import Any
+
+from pegbt.clock import Clock, WallClock
+from pegbt.errors import PegbtError
+from pegbt.executive.providers import ProviderSetup
+from pegbt.sim.process import SimProcess
+from pegbt.transport import ArmClient, CameraClient, Link, SimClock, connect
+from pegbt.transport.codec import decode_string
+from pegbt.transport.keys import SimKeys
+from pegbt.behaviours.trial import Trial
+
+ARMS = ("PSM1", "PSM2")
+SIMULATOR_ARGS = ("--lockstep", "--physics", "dvrk-real")
+PROBE_TIMEOUT = 2.0  # s to wait for a simulator to answer `sim/clock`
+READY_TIMEOUT = 5.0  # s to wait for each arm's first state
+# Liveness: a lockstep simulator re-sends its state every 50 ms of wall time; a busy machine can delay
+# that, so the simulator gets more slack than a real arm streaming at 100 Hz.
+LIVENESS = {"simulator": 1.0, "robot": 0.2}
+
+
+class TruthFeed:
+    """The simulator's ground truth as it happens: every entry of `sim/events` (faults and world events)."""
+
+    def __init__(self, link: Link) -> None:
+        self._entries: list[dict[str, Any]] = []
+        self._lock = threading.Lock()
+        link.inlet(SimKeys(link.namespace).events, decode_string, self._on_entry)
+
+    def _on_entry(self, received: Any) -> None:
+        entry = json.loads(received.value)
+        with self._lock:
+            self._entries.append(entry)
+
+    def entries(self) -> list[dict[str, Any]]:
+        """Every entry so far, in the order the simulator logged them."""
+        with self._lock:
+            return list(self._entries)
+
+
+class Robot:
+    """Arms, camera and clock of one run; `trial` records the transfers for the judge."""
+
+    def __init__(self, link: Link, clock: Clock, *, simulator: SimProcess | None = None, lockstep: bool = False,
+                 truth: TruthFeed | None = None, endpoint: str = "") -> None:
+        self.link = link
+        self.run_clock = clock
+        self.simulator = simulator
+        self.lockstep = lockstep
+        self.truth = truth
+        self.endpoint = endpoint
+        liveness = LIVENESS["simulator" if truth is not None else "robot"]
+        self.arms = {name: ArmClient(link, name, clock=clock, liveness_timeout=liveness) for name in ARMS}
+        self.camera = CameraClient(link, clock=clock)
+        self.trial = Trial(clock, truth)
+
+    def arm(self, name: str) -> ArmClient:
+        if name not in self.arms:
+            raise PegbtError(f"unknown arm {name!r}; known: {', '.join(self.arms)}", field="arm")
+        return self.arms[name]
+
+    def wait_until_ready(self) -> None:
+        for arm in self.arms.values():
+            arm.wait_until_ready(READY_TIMEOUT)
+
+    def report(self) -> Any:
+        """The judged trial (None when the tree moved no block)."""
+        return self.trial.result() if self.trial.transfers else None
+
+    def progress(self) -> Any:
+        return self.trial.progress_listener()
+
+    def close(self) -> None:
+        self.link.close()
+        if self.simulator is not None:
+            self.simulator.stop()
+
+
+def _probe_simulator(link: Link) -> SimClock | None:
+    """The simulator's clock if a simulator answers at the other end of `link`, else None (a robot)."""
+    try:
+        return SimClock(link, reply_timeout=PROBE_TIMEOUT)
+    except PegbtError:
+        return None
+
+
+def connect_robot(endpoint: str, seed: int = 0) -> Robot:
+    """A `Robot` on `endpoint` (`auto`: a fresh embedded simulator seeded with `seed`)."""
+    simulator = SimProcess([*SIMULATOR_ARGS, "--seed", str(seed)]) if endpoint == "auto" else None
+    try:
+        link = connect([simulator.endpoint if simulator else endpoint])
+        try:
+            sim_clock = _probe_simulator(link)
+            truth = TruthFeed(link) if sim_clock is not None else None
+            robot = Robot(link, sim_clock or WallClock(), simulator=simulator, truth=truth,
+                          lockstep=bool(sim_clock and sim_clock.lockstep), endpoint=endpoint)
+            robot.wait_until_ready()
+        except BaseException:
+            link.close()
+            raise
+    except BaseException:
+        if simulator is not None:
+            simulator.stop()
+        raise
+    return robot
+
+
+def provide_robot(setup: ProviderSetup) -> Robot:
+    """The `robot` resource for `pegbt run` (options `endpoint` and `seed`)."""
+    return connect_robot(str(setup.options.get("endpoint") or "auto"), int(setup.options.get("seed") or 0))

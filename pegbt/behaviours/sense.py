@@ -1,0 +1,83 @@
+"""Sensing: capture a point cloud, register the pegboard (once per trial), find the blocks.
+
+The capture is asynchronous: requested in `initialise`, collected by a later tick. Registration and
+block search run on the cloud on the blackboard; their results go back to the blackboard (`/board`,
+`/blocks`) with a summary as feedback, so a tick log shows what was seen.
+"""
+
+from __future__ import annotations
+
+import time
+
+from py_trees.common import Status
+
+from pegbt.behaviours.base import RESOURCES, RobotLeaf
+from pegbt.errors import PegbtError
+from pegbt.executive.registry import behaviour
+
+
+@behaviour(
+    "capture",
+    "request a point cloud from the depth camera and wait for it; writes it to `/cloud`",
+    writes=("/cloud",),
+    resources=RESOURCES,
+)
+class Capture(RobotLeaf):
+    def initialise(self) -> None:
+        self.handle = None
+        self.problem = ""
+        try:
+            self.handle = self.robot.camera.capture_async()
+        except PegbtError as error:  # no camera listening: the leaf fails in `act`
+            self.problem = str(error)
+        self.deadline = time.monotonic() + self.robot.camera.timeout
+        self.feedback_message = "capturing"
+
+    def act(self) -> Status:
+        if self.problem:
+            return self.fail(self.problem)
+        if not self.handle.ready:
+            if time.monotonic() > self.deadline:
+                return self.fail(f"no point cloud within {self.robot.camera.timeout:g} s of the capture request")
+            return Status.RUNNING
+        points = self.handle.points
+        self.write("/cloud", points)
+        self.feedback_message = f"{len(points)} points"
+        return Status.SUCCESS
+
+
+@behaviour(
+    "register_board",
+    "register the pegboard model to `/cloud` (refines the camera's extrinsics, finds the pegs); writes `/board` "
+    "and sets `/board_registered`",
+    reads=("/cloud",),
+    writes=("/board", "/board_registered"),
+    resources=RESOURCES,
+)
+class RegisterBoard(RobotLeaf):
+    def act(self) -> Status:
+        board = self.skills.registration.fit(self.read("/cloud"))
+        if not board.ok:
+            return self.fail(f"pegboard registration failed: {board.reason}")
+        self.write("/board", board)
+        self.write("/board_registered", True)
+        self.feedback_message = f"board registered: fitness {board.fitness:.2f}, RMSE {board.rmse * 1000:.2f} mm"
+        return Status.SUCCESS
+
+
+@behaviour(
+    "find_blocks",
+    "segment and register every block in `/cloud` on the registered `/board`; writes `/blocks`",
+    reads=("/cloud", "/board"),
+    writes=("/blocks",),
+    resources=RESOURCES,
+)
+class FindBlocks(RobotLeaf):
+    def act(self) -> Status:
+        blocks = self.skills.locator.locate(self.read("/cloud"), self.read("/board"))
+        self.write("/blocks", blocks)
+        where = ", ".join("board" if block.peg is None else str(block.peg) for block in blocks if block.ok)
+        doubtful = [block.reason for block in blocks if not block.ok]
+        self.feedback_message = f"{len(blocks)} block(s); trustworthy on pegs: {where or 'none'}" + (
+            f"; doubtful: {'; '.join(doubtful)}" if doubtful else "")
+        return Status.SUCCESS

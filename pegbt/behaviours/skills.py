@@ -1,0 +1,93 @@
+"""The `skills` resource: motion, calibration and perception as the run's condition asks for them.
+
+Conditions, as in the reference paper's experiments:
+
+- `uncalibrated`: rest-to-rest cubic motions, commands sent as planned;
+- `calibrated`: the same motions, every commanded row pre-compensated by the arm's calibration model;
+- `optimized`: transfers planned as the paper's spline refined by SQP, pre-compensated.
+
+Calibration models are read from a directory (`--calibration`, by default the simulator's models for
+`--endpoint auto` and `skills/calibration/` otherwise): per arm the first of `ARM-hybrid.json`,
+`ARM-physics.json`, `ARM-lstm.json` found. Models are per set-up: a model fitted on one robot (or on the
+simulator) does not fit another.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+
+from pegbt.behaviours.arm_motion import ArmMotion
+from pegbt.calibration.base import CalibrationModel
+from pegbt.calibration.compensation import CALIBRATION_DIR, Compensator
+from pegbt.errors import PegbtError
+from pegbt.executive.providers import ProviderSetup
+from pegbt.motion.ik import inverse_kinematics
+from pegbt.motion.limits import arm_settings
+from pegbt.motion.settings import MotionSettings, motion_settings
+from pegbt.motion.transfer import TransferPlanner
+from pegbt.perception.blocks import BlockLocator
+from pegbt.perception.board import PegboardRegistration
+from pegbt.perception.grasp import GraspSelector
+from pegbt.workcell import ARMS, Workcell, workcell
+
+CONDITIONS = ("uncalibrated", "calibrated", "optimized")
+SIMULATOR_CALIBRATION_DIR = CALIBRATION_DIR / "sim-dvrk-real"
+MODEL_PREFERENCE = ("hybrid", "physics", "lstm")
+
+
+def calibration_model(directory: Path, arm: str) -> CalibrationModel:
+    """The preferred calibration model of `arm` in `directory`; a `PegbtError` if there is none."""
+    for kind in MODEL_PREFERENCE:
+        path = directory / f"{arm}-{kind}.json"
+        if path.exists():
+            return CalibrationModel.load(path, arm=arm)
+    names = ", ".join(f"{arm}-{kind}.json" for kind in MODEL_PREFERENCE)
+    raise PegbtError(f"no calibration model for {arm} (looked for {names})", file=directory, field="--calibration")
+
+
+class Skills:
+    """Per-arm motion under one condition, the work cell, and the perception pipeline's state."""
+
+    def __init__(self, condition: str, calibration: Path | None = None, cell: Workcell | None = None,
+                 motion: MotionSettings | None = None) -> None:
+        if condition not in CONDITIONS:
+            raise PegbtError(f"unknown condition {condition!r}; known: {', '.join(CONDITIONS)}", field="--condition")
+        self.condition = condition
+        self.cell = cell or workcell()
+        self.motion = motion or motion_settings()
+        self.arms: dict[str, ArmMotion] = {}
+        for arm in ARMS:
+            settings = arm_settings(arm)
+            compensator = None
+            if condition != "uncalibrated":
+                compensator = Compensator(calibration_model(calibration or CALIBRATION_DIR, arm), settings=settings)
+            planner = TransferPlanner(settings, self.motion) if condition == "optimized" else None
+            self.arms[arm] = ArmMotion(settings, planner=planner, compensator=compensator)
+        self.registration = PegboardRegistration(self.cell)
+        self.locator = BlockLocator(self.cell)
+        self.selectors = {arm: GraspSelector(arm, self._reachable(arm), self.cell) for arm in ARMS}
+
+    def _reachable(self, arm: str):
+        settings = arm_settings(arm)
+
+        def reachable(poses: NDArray[np.float64]) -> NDArray[np.bool_]:
+            return np.asarray(inverse_kinematics(poses, settings).ok, dtype=bool).reshape(len(poses))
+
+        return reachable
+
+    def arm(self, name: str) -> ArmMotion:
+        if name not in self.arms:
+            raise PegbtError(f"unknown arm {name!r}; known: {', '.join(self.arms)}", field="arm")
+        return self.arms[name]
+
+
+def provide_skills(setup: ProviderSetup) -> Skills:
+    """The `skills` resource for `pegbt run` (options `condition`, `calibration`, `endpoint`)."""
+    options = setup.options
+    directory = options.get("calibration")
+    if directory is None:
+        directory = SIMULATOR_CALIBRATION_DIR if options.get("endpoint", "auto") == "auto" else CALIBRATION_DIR
+    return Skills(str(options.get("condition") or "optimized"), Path(directory))

@@ -1,0 +1,200 @@
+"""A trial's transfers, and their judgement: by the simulator's ground truth when there is one, else by
+what the executive believes.
+
+Leaves `begin_transfer` and `finish_transfer` record each transfer (arm(s), pick peg, place peg, start,
+end, the executive's verdict). The judge then reads the simulator's events: a transfer succeeded when a
+block lifted off its pick peg during the transfer was placed (released onto a peg) on its place peg by
+the transfer's end (plus a moment to settle); its time runs from its start to that placement. Arm-arm
+collisions (tool-tool, shaft-shaft) are counted apart from other contacts (tool-peg, block-peg, block-board).
+"""
+
+from __future__ import annotations
+
+import io
+from dataclasses import dataclass, field
+from typing import Any, Callable
+
+from rich.console import Console
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.table import Table
+
+from pegbt.clock import Clock
+
+ARM_ARM_CONTACTS = ("tool-tool", "shaft-shaft")
+GRACE = 0.5  # s after a transfer's end in which its placement still counts (the block settles)
+
+
+@dataclass
+class TransferRecord:
+    """One transfer as the executive ran it."""
+
+    index: int
+    arms: str
+    pick: int
+    place: int
+    started: float
+    ended: float | None = None
+    outcome: str = "running"  # the executive's verdict: placed, skipped, failed (running: never finished)
+    note: str = ""
+
+
+@dataclass(frozen=True)
+class TransferOutcome:
+    """One transfer as judged: whether its block reached the place peg, and how long it took."""
+
+    index: int
+    arms: str
+    pick: int
+    place: int
+    succeeded: bool
+    seconds: float | None
+    note: str
+
+
+@dataclass(frozen=True)
+class TrialResult:
+    """The judged trial: per-transfer outcomes and the paper's figures."""
+
+    judged_by: str
+    transfers: tuple[TransferOutcome, ...]
+    trial_time_s: float
+    arm_arm_collisions: int
+    other_contacts: int
+    events: dict[str, int] = field(default_factory=dict)
+
+    @property
+    def attempted(self) -> int:
+        return len(self.transfers)
+
+    @property
+    def succeeded(self) -> int:
+        return sum(outcome.succeeded for outcome in self.transfers)
+
+    @property
+    def transfer_times(self) -> list[float]:
+        return [outcome.seconds for outcome in self.transfers if outcome.succeeded and outcome.seconds is not None]
+
+    @property
+    def mean_transfer_time_s(self) -> float | None:
+        times = self.transfer_times
+        return sum(times) / len(times) if times else None
+
+    @property
+    def ok(self) -> bool:
+        return self.attempted > 0 and self.succeeded == self.attempted
+
+    def as_dict(self) -> dict[str, Any]:
+        """The figures as plain data (for `pegbt eval` and JSON)."""
+        return {
+            "judged_by": self.judged_by,
+            "transfers_attempted": self.attempted,
+            "transfers_succeeded": self.succeeded,
+            "transfer_times_s": self.transfer_times,
+            "mean_transfer_time_s": self.mean_transfer_time_s,
+            "trial_time_s": self.trial_time_s,
+            "arm_arm_collisions": self.arm_arm_collisions,
+            "other_contacts": self.other_contacts,
+            "events": dict(self.events),
+            "transfers": [outcome.__dict__ for outcome in self.transfers],
+        }
+
+    def __rich__(self) -> Table:
+        table = Table(title=f"peg transfer, judged by {self.judged_by}", title_justify="left")
+        for column in ("#", "arms", "pick → place", "result", "time s", "note"):
+            table.add_column(column, justify="right" if column in ("#", "time s") else "left")
+        for outcome in self.transfers:
+            seconds = "" if outcome.seconds is None else f"{outcome.seconds:.2f}"
+            table.add_row(str(outcome.index), outcome.arms, f"{outcome.pick} → {outcome.place}",
+                          "ok" if outcome.succeeded else "FAILED", seconds, outcome.note)
+        mean = self.mean_transfer_time_s
+        table.caption = (
+            f"transfers {self.succeeded}/{self.attempted} succeeded; mean transfer time "
+            f"{'-' if mean is None else f'{mean:.2f} s'}; trial time {self.trial_time_s:.2f} s; "
+            f"arm-arm collisions {self.arm_arm_collisions}; other contacts {self.other_contacts}"
+        )
+        table.caption_justify = "left"
+        return table
+
+    def __str__(self) -> str:
+        buffer = io.StringIO()
+        Console(file=buffer, width=110, color_system=None).print(self)
+        return buffer.getvalue().rstrip()
+
+
+class Trial:
+    """The transfers of one run, recorded as leaves run them; `result()` judges them."""
+
+    def __init__(self, clock: Clock, truth: Any | None = None) -> None:
+        self.clock = clock
+        self.truth = truth
+        self.started = clock.now()
+        self.transfers: list[TransferRecord] = []
+
+    def begin(self, arms: str, pick: int, place: int) -> TransferRecord:
+        record = TransferRecord(len(self.transfers) + 1, arms, pick, place, self.clock.now())
+        self.transfers.append(record)
+        return record
+
+    def finish(self, index: int, outcome: str, note: str = "") -> TransferRecord:
+        record = self.transfers[index - 1]
+        record.ended, record.outcome, record.note = self.clock.now(), outcome, note
+        return record
+
+    def result(self) -> TrialResult:
+        trial_time = self.clock.now() - self.started
+        if self.truth is None:
+            return TrialResult("the executive's beliefs (no simulator ground truth)", tuple(self._believed()), trial_time, 0, 0)
+        entries = self.truth.entries()
+        kinds: dict[str, int] = {}
+        arm_arm = other = 0
+        for entry in entries:
+            kinds[entry["kind"]] = kinds.get(entry["kind"], 0) + 1
+            if entry["kind"] == "collision":
+                if entry.get("detail") in ARM_ARM_CONTACTS:
+                    arm_arm += 1
+                else:
+                    other += 1
+        return TrialResult("the simulator's ground truth", tuple(self._judged(entries)), trial_time, arm_arm, other, kinds)
+
+    def _believed(self) -> list[TransferOutcome]:
+        return [
+            TransferOutcome(record.index, record.arms, record.pick, record.place, record.outcome == "placed",
+                            None if record.ended is None else record.ended - record.started, record.note or record.outcome)
+            for record in self.transfers
+        ]
+
+    def _judged(self, entries: list[dict[str, Any]]) -> list[TransferOutcome]:
+        outcomes = []
+        for record in self.transfers:
+            until = (record.ended if record.ended is not None else self.clock.now()) + GRACE
+            lifted = {entry["block"] for entry in entries if entry["kind"] == "lift" and entry.get("peg") == record.pick
+                      and record.started <= entry["time"] <= until}
+            placed = [entry for entry in entries if entry["kind"] == "place" and entry.get("peg") == record.place
+                      and entry.get("block") in lifted and record.started <= entry["time"] <= until]
+            if placed:
+                seconds = placed[0]["time"] - record.started
+                outcomes.append(TransferOutcome(record.index, record.arms, record.pick, record.place, True, seconds, record.note))
+            else:
+                why = record.note or ("no block lifted off the pick peg" if not lifted else "not placed on the place peg")
+                outcomes.append(TransferOutcome(record.index, record.arms, record.pick, record.place, False, None, why))
+        return outcomes
+
+    def progress_listener(self) -> Callable[[dict[str, Any]], None]:
+        """A tick-log listener drawing a progress bar of finished transfers (total: the tree's `begin_transfer` leaves)."""
+        progress = Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn())
+        state: dict[str, Any] = {}
+
+        def listen(record: dict[str, Any]) -> None:
+            if record["type"] == "header":
+                total = sum(1 for node in record["nodes"] if node["type"] == "begin_transfer")
+                state["task"] = progress.add_task("transfers", total=total or None)
+                progress.start()
+            elif record["type"] == "end":
+                progress.stop()
+            elif "task" in state:
+                done = sum(1 for transfer in self.transfers if transfer.ended is not None)
+                current = next((t for t in reversed(self.transfers) if t.ended is None), None)
+                label = f"transfers ({current.arms} {current.pick}→{current.place})" if current else "transfers"
+                progress.update(state["task"], completed=done, description=label)
+
+        return listen

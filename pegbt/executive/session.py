@@ -1,0 +1,80 @@
+"""One run of a tree file, from loading to the resources' reports: what `pegbt run` does, callable from code.
+
+`run_tree_file` loads and checks the tree, provides its resources (with the run's options), takes the
+clock a resource supplies (else the one asked for), builds, runs with a tick log, collects each
+resource's `report()` while the resources are still open, and closes them whatever happens.
+"""
+
+from __future__ import annotations
+
+import sys
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import IO, Any
+
+from pegbt.errors import PegbtError
+from pegbt.executive.context import RunContext
+from pegbt.executive.loader import load_tree
+from pegbt.executive.progress import ProgressPrinter
+from pegbt.executive.providers import (
+    ProviderSetup,
+    close_resources,
+    make_clock,
+    provide_resources,
+    resource_clock,
+    run_options,
+)
+from pegbt.executive.runner import RunResult, run
+from pegbt.executive.ticklog import TickLogWriter
+
+
+@dataclass
+class RunOutput:
+    """How the run ended, each resource's report (by resource name) and where the tick log is."""
+
+    result: RunResult
+    log_path: Path
+    reports: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def ok(self) -> bool:
+        """The tree succeeded and no report says otherwise."""
+        return self.result.outcome == "success" and all(getattr(report, "ok", True) for report in self.reports.values())
+
+
+def run_tree_file(
+    tree: str | Path,
+    log_path: str | Path,
+    *,
+    options: Mapping[str, Any] | None = None,
+    clock: str | None = None,
+    period: float = 0.02,
+    timeout: float | None = None,
+    quiet: bool = True,
+    out: IO[str] = sys.stdout,
+) -> RunOutput:
+    """Run the tree file `tree` once; see the module docstring. `quiet=False` prints progress to `out`."""
+    if period <= 0 or (timeout is not None and timeout <= 0):
+        raise PegbtError("must be positive", field="--period" if period <= 0 else "--timeout")
+    log_path = Path(log_path)
+    loaded = load_tree(tree)
+    setup = ProviderSetup(clock=make_clock(clock or "wall"), options=run_options(options))
+    resources = provide_resources(loaded.resource_users(), setup)
+    try:
+        supplied, clock_kind = resource_clock(resources, clock)
+        built = loaded.build(RunContext(clock=supplied or setup.clock, resources=resources))
+        listeners = [] if quiet else [ProgressPrinter(built, out)]
+        if not quiet:
+            listeners += [resource.progress() for resource in resources.values() if callable(getattr(resource, "progress", None))]
+        try:
+            writer = TickLogWriter(log_path, built, clock_kind=clock_kind, listeners=listeners)
+        except OSError as error:
+            raise PegbtError(f"cannot write the tick log: {error.strerror}", file=log_path) from None
+        if not quiet:
+            print(f"running {tree} (period {period:g} s, {clock_kind} clock); tick log {log_path}", file=out)
+        result = run(built, period=period, timeout=timeout, log=writer)
+        reports = {name: resource.report() for name, resource in resources.items() if callable(getattr(resource, "report", None))}
+    finally:
+        close_resources(resources)
+    return RunOutput(result, log_path, reports)
