@@ -3,14 +3,12 @@
 `--endpoint auto` starts the embedded simulator (`pegbt sim --lockstep --physics dvrk-real`) as a child
 process on a free loopback port; an address connects to a simulator or a robot already running there.
 A simulator answers `sim/clock`: its `SimClock` becomes the run's clock (lockstep: time advances only when
-the executive waits) and its ground-truth events are collected for the trial's judge. Anything else is a
+the executive waits) and its ground truth (`sim/truth`) judges the trial. Anything else is a
 robot, run on the wall clock and judged by what the executive believes.
 """
 
 from __future__ import annotations
 
-import json
-import threading
 from typing import Any
 
 from pegbt.clock import Clock, WallClock
@@ -18,8 +16,7 @@ from pegbt.errors import PegbtError
 from pegbt.executive.providers import ProviderSetup
 from pegbt.sim.process import SimProcess
 from pegbt.transport import ArmClient, CameraClient, Link, SimClock, connect
-from pegbt.transport.codec import decode_string
-from pegbt.transport.keys import SimKeys
+from pegbt.sim.truth import ask_truth
 from pegbt.behaviours.trial import Trial
 
 ARMS = ("PSM1", "PSM2")
@@ -31,30 +28,22 @@ READY_TIMEOUT = 5.0  # s to wait for each arm's first state
 LIVENESS = {"simulator": 1.0, "robot": 0.2}
 
 
-class TruthFeed:
-    """The simulator's ground truth as it happens: every entry of `sim/events` (faults and world events)."""
+class SimulatorTruth:
+    """The simulator's ground truth, for the judge only (behaviours know the world through camera and arms)."""
 
     def __init__(self, link: Link) -> None:
-        self._entries: list[dict[str, Any]] = []
-        self._lock = threading.Lock()
-        link.inlet(SimKeys(link.namespace).events, decode_string, self._on_entry)
-
-    def _on_entry(self, received: Any) -> None:
-        entry = json.loads(received.value)
-        with self._lock:
-            self._entries.append(entry)
+        self._link = link
 
     def entries(self) -> list[dict[str, Any]]:
-        """Every entry so far, in the order the simulator logged them."""
-        with self._lock:
-            return list(self._entries)
+        """Every entry of the simulator's log so far (world events and injected faults), in order."""
+        return ask_truth(self._link).log
 
 
 class Robot:
     """Arms, camera and clock of one run; `trial` records the transfers for the judge."""
 
     def __init__(self, link: Link, clock: Clock, *, simulator: SimProcess | None = None, lockstep: bool = False,
-                 truth: TruthFeed | None = None, endpoint: str = "") -> None:
+                 truth: SimulatorTruth | None = None, endpoint: str = "") -> None:
         self.link = link
         self.run_clock = clock
         self.simulator = simulator
@@ -103,7 +92,7 @@ def connect_robot(endpoint: str, seed: int = 0) -> Robot:
         link = connect([simulator.endpoint if simulator else endpoint])
         try:
             sim_clock = _probe_simulator(link)
-            truth = TruthFeed(link) if sim_clock is not None else None
+            truth = SimulatorTruth(link) if sim_clock is not None else None
             robot = Robot(link, sim_clock or WallClock(), simulator=simulator, truth=truth,
                           lockstep=bool(sim_clock and sim_clock.lockstep), endpoint=endpoint)
             robot.wait_until_ready()
