@@ -10,6 +10,7 @@ which read the compensated command.
 
 from __future__ import annotations
 
+import logging
 from dataclasses import dataclass
 
 import numpy as np
@@ -23,6 +24,8 @@ from pegbt.motion.trajectory import Trajectory
 from pegbt.motion.transfer import TransferPlanner, cubic_transfer
 from pegbt.motion.waypoints import TransferWaypoints
 from pegbt.transport import ArmClient, MotionHandle
+
+log = logging.getLogger("pegbt.behaviours")
 
 
 @dataclass(frozen=True)
@@ -44,6 +47,7 @@ class ArmMotion:
         self.compensator = compensator
         self.desired: NDArray[np.float64] | None = None
         self.active: SentMotion | None = None
+        self.fallbacks = 0  # optimised plans that fell back to cubics
 
     def start_from(self, arm: ArmClient) -> NDArray[np.float64]:
         """Where the next plan starts: where the last one ended, or (first use) the arm's set-point now."""
@@ -55,9 +59,15 @@ class ArmMotion:
 
     # ------------------------------------------------------------------ planning
     def transfer(self, waypoints: TransferWaypoints) -> Trajectory:
-        """The transfer through `waypoints`: SQP-refined spline if this arm has a planner, else rest-to-rest cubics."""
+        """The transfer through `waypoints`: SQP-refined spline if this arm has a planner (falling back, with
+        a warning, to rest-to-rest cubics if neither the refined path nor the spline passes the checks),
+        else rest-to-rest cubics."""
         if self.planner is not None:
-            return self.planner.plan(waypoints).trajectory
+            try:
+                return self.planner.plan(waypoints).trajectory
+            except PegbtError as error:
+                self.fallbacks += 1
+                log.warning("%s: optimised plan rejected (%s); using rest-to-rest cubics", self.settings.name, error)
         return cubic_transfer(waypoints, self.settings)
 
     def through(self, start: ArrayLike, joints: list[NDArray[np.float64]], names: list[str]) -> Trajectory:

@@ -96,6 +96,7 @@ class MotionLeaf(RobotLeaf):
         self.running: list[Running] = []
         self.problem: str | None = None
         self.feedback_message = ""
+        self.expected_end = self.wake_at = None
         try:
             self.begin()
         except PegbtError as error:
@@ -110,10 +111,19 @@ class MotionLeaf(RobotLeaf):
         client, motion = self.client(arm), self.motion(arm)
         handle = motion.send(client, trajectory)
         self.running.append(Running(what, handle, lambda: motion.stop(client)))
+        self._expect(trajectory.duration)
 
     def move_jaw(self, arm: str, angle: float, what: str) -> None:
-        handle = self.client(arm).jaw.move_jp(angle)
+        jaw = self.client(arm).jaw
+        seconds = abs(angle - float(jaw.setpoint_js.position[0])) / self.motion(arm).settings.jaw_velocity
+        handle = jaw.move_jp(angle)
         self.running.append(Running(what, handle, handle.stop))
+        self._expect(seconds)
+
+    def _expect(self, seconds: float) -> None:
+        """Note that a motion of `seconds` started: the runner need not tick this leaf before it ends."""
+        end = self.context.clock.now() + seconds
+        self.expected_end = end if self.expected_end is None else max(self.expected_end, end)
 
     def act(self) -> Status:
         if self.problem is not None:
@@ -123,11 +133,15 @@ class MotionLeaf(RobotLeaf):
                 self.halt_motions()
                 return self.fail(f"{motion.what}: {motion.handle.error}")
         if any(motion.handle.busy for motion in self.running):
+            ahead = self.expected_end is not None and self.context.clock.now() < self.expected_end
+            self.wake_at = self.expected_end if ahead else None
             return self.watch()
+        self.wake_at = None
         return self.done()
 
     def watch(self) -> Status:
-        """Called each tick while motions run; a subclass may fail early (a slipping block)."""
+        """Called on ticks while motions run; a subclass may fail early (a slipping block) and may ask to be
+        ticked sooner by lowering `wake_at`."""
         return Status.RUNNING
 
     def done(self) -> Status:

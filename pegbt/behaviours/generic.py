@@ -33,6 +33,7 @@ class Wait(Leaf):
     def initialise(self) -> None:
         seconds = float(self.param("seconds"))
         self.end = self.context.clock.now() + seconds
+        self.wake_at = self.end  # the runner need not tick before then
         self.feedback_message = f"waiting {seconds:g} s"
 
     def update(self) -> Status:

@@ -13,10 +13,11 @@ from py_trees.common import Status
 
 from pegbt.behaviours.base import RESOURCES, MotionLeaf, RobotLeaf, arm_param, key_param, peg_param
 from pegbt.behaviours.motion import above_pegs_first
-from pegbt.behaviours.poses import transfer_for
+from pegbt.behaviours.poses import approach_for, transfer_for
 from pegbt.executive.params import Param
 from pegbt.executive.registry import behaviour
 from pegbt.motion.ik import solve_ik
+from pegbt.motion.kinematics import forward_kinematics
 from pegbt.perception.blocks import BlockEstimate, block_on_peg
 
 HELD_ABOVE = 0.0  # rad: a closed jaw that stopped above this angle holds something (closed is -15°, a block stops it at +12°)
@@ -72,16 +73,23 @@ class SelectGrasp(RobotLeaf):
     resources=RESOURCES,
 )
 class Approach(MotionLeaf):
+    """With a planner (optimized), a tool low among the pegs approaches along an SQP-refined spline that
+    keeps the final descent on the block's axis; otherwise by rest-to-rest cubics, stopping above the grasp
+    and just above the block so the descent stays straight."""
+
     def begin(self) -> None:
         arm = self.param("arm")
         motion, cell = self.motion(arm), self.skills.cell
         waypoints = transfer_for(cell, self.skills.motion, arm, self.read("/board"), self.get("block"), self.get("grasp"))
         start = motion.start_from(self.client(arm))
         stops = above_pegs_first(cell, self.skills.motion, arm, start, motion.settings)
-        names = [f"above the grasp {i}" for i in range(len(stops))] + ["over the grasp", "just above the block", "grasp"]
-        poses = [waypoints.poses[1], waypoints.approach, waypoints.poses[0]]
-        joints = stops + [solve_ik(pose, motion.settings, what=name) for pose, name in zip(poses, names[-3:])]
-        trajectory = motion.through(start, joints, names[: len(joints)])
+        if motion.planner is not None and stops:
+            trajectory = motion.transfer(approach_for(cell, self.skills.motion, arm, forward_kinematics(start), waypoints))
+        else:
+            names = [f"above the grasp {i}" for i in range(len(stops))] + ["over the grasp", "just above the block", "grasp"]
+            poses = [waypoints.poses[1], waypoints.approach, waypoints.poses[0]]
+            joints = stops + [solve_ik(pose, motion.settings, what=name) for pose, name in zip(poses, names[-3:])]
+            trajectory = motion.through(start, joints, names[: len(joints)])
         self.move(arm, trajectory, f"{arm} approach")
         self.move_jaw(arm, self.skills.motion.transfer.jaw_open, f"{arm} jaw opening")
         self.feedback_message = f"approaching in {trajectory.duration:.2f} s"

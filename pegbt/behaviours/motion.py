@@ -24,6 +24,7 @@ from pegbt.motion.settings import MotionSettings
 from pegbt.workcell import Workcell
 
 LOW = 0.001  # m: a tip more than this below the transfer height rises before moving sideways
+SLIP_CHECK = 0.1  # s: how often a transfer looks at the jaw for a slipping block
 
 
 def above_pegs_first(cell: Workcell, motion: MotionSettings, arm: str, start: NDArray[np.float64],
@@ -65,6 +66,8 @@ class Transfer(MotionLeaf):
         angle = float(self.client(arm).jaw.measured_js.position[0])
         if angle <= self.param("held_above"):
             return self.fail(f"the block slipped from {arm}'s jaw (jaw at {math.degrees(angle):.0f}°) during the transfer")
+        if self.wake_at is not None:
+            self.wake_at = min(self.wake_at, self.context.clock.now() + SLIP_CHECK)
         return Status.RUNNING
 
 

@@ -13,6 +13,7 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from pegbt.motion.channel import Channel
 from pegbt.motion.settings import MotionSettings
 from pegbt.motion.waypoints import TransferWaypoints, tool_down_rotation, transfer_waypoints
 from pegbt.perception.blocks import BlockEstimate
@@ -21,6 +22,8 @@ from pegbt.perception.grasp import Grasp
 from pegbt.workcell import Workcell
 
 UP_BOARD = np.array([0.0, 0.0, -1.0])
+APPROACH_CLEAR_ABOVE_PEG_TOP = 0.002  # m: an approaching jaw is on the block's axis from this high down
+ALREADY_CLEAR = 0.001  # m: a channel whose clearing height lies this far below its start constrains nothing
 
 
 def peg_top_board(cell: Workcell, board: BoardEstimate | None, peg: int) -> NDArray[np.float64]:
@@ -77,3 +80,23 @@ def height_above_pegs(cell: Workcell, arm: str, tip_arm: ArrayLike) -> float:
     """How far a tip (arm frame) is above the peg tops, along the pegs' axis."""
     tip_board = cell.arm_to_board(arm)[:3, :3] @ np.asarray(tip_arm, dtype=float) + cell.arm_to_board(arm)[:3, 3]
     return float((tip_board[2] - cell.pegs.top_z) * UP_BOARD[2])
+
+
+def approach_for(cell: Workcell, motion: MotionSettings, arm: str, start: NDArray[np.float64],
+                 pick: TransferWaypoints) -> TransferWaypoints:
+    """The approach from a tool at `start` (tip pose, arm frame; low among the pegs, having just let go of
+    a block) to the grasp of `pick`, shaped like a transfer so the same planner serves: rise straight up
+    to the transfer height, move over the grasp, descend onto it along the block's axis. The descent is
+    a channel from just above the peg tops down: the open jaw comes down around the block's wall."""
+    heights = motion.transfer
+    up = up_in_arm(cell, arm)
+    risen = start.copy()
+    risen[:3, 3] += (heights.transfer_height_above_peg_top - height_above_pegs(cell, arm, start[:3, 3])) * up
+    grasp = pick.poses[0][:3, 3]
+    descent = heights.block_top_below_peg_top + heights.grasp_depth + APPROACH_CLEAR_ABOVE_PEG_TOP
+    return TransferWaypoints(
+        poses=np.stack([start, risen, pick.poses[1], pick.poses[0]]),
+        approach=pick.approach,
+        pick=Channel(start[:3, 3], up, -ALREADY_CLEAR, heights.channel_tolerance),  # free to move at once
+        place=Channel(grasp, up, descent, heights.channel_tolerance),
+    )

@@ -3,10 +3,17 @@
 It stops on success, failure, a timeout (halting the tree) or Ctrl-C (halting the tree: every running
 behaviour gets `terminate(INVALID)`, so a behaviour that started a motion stops it). With a tick log,
 each of these ends up in the log; an exception escaping a behaviour is logged as a crash and re-raised.
+
+Waking up: a running node may say when it next needs a tick by setting `wake_at` (a time on the run's
+clock; `math.inf`: only when something else changes, e.g. a blackboard wait). When every running leaf
+has such a hint, the runner lets the clock run to the earliest one (in whole periods) instead of
+ticking every period: a trajectory of 1.5 s is one wait, not 75. Running nodes that are not leaves (a
+timeout) constrain the wait with their own hints. Without hints the runner ticks every period.
 """
 
 from __future__ import annotations
 
+import math
 import time
 import traceback
 from dataclasses import dataclass
@@ -62,7 +69,10 @@ def run(built: BuiltTree, *, period: float, timeout: float | None = None, log: T
                 outcome = "timeout"
                 _halt(root, log, ticks, clock.now() - start, "timeout")
                 break
-            clock.wait(tick_start + period - clock.now())
+            wake = next_wake(built, tick_start, period)
+            if timeout is not None:
+                wake = min(wake, start + timeout)
+            clock.wait(max(tick_start + period, wake) - clock.now())
     except KeyboardInterrupt:
         _halt(root, log, ticks, clock.now() - start, "interrupt")
     except Exception as error:
@@ -76,6 +86,26 @@ def run(built: BuiltTree, *, period: float, timeout: float | None = None, log: T
             log.end(ticks, clock.now() - start, outcome)
             log.close()
     return RunResult(outcome, ticks, clock.now() - start)
+
+
+def next_wake(built: BuiltTree, now: float, period: float) -> float:
+    """When the tree next needs a tick: the earliest `wake_at` of its running nodes, rounded up to whole
+    periods after `now`, if every running leaf gave one; else one period after `now`."""
+    hints = []
+    for node in built.nodes:
+        behaviour = node.behaviour
+        if behaviour.status is not Status.RUNNING:
+            continue
+        hint = getattr(behaviour, "wake_at", None)
+        if hint is None:
+            if not node.spec.children:
+                return now + period
+            continue
+        hints.append(hint)
+    earliest = min(hints, default=math.inf)
+    if not math.isfinite(earliest) or earliest <= now + period:
+        return now + period
+    return now + period * math.ceil((earliest - now) / period - 1e-9)
 
 
 def _halt(root: py_trees.behaviour.Behaviour, log: TickLogWriter | None, ticks: int, t: float, reason: str) -> None:

@@ -21,6 +21,7 @@ class ClockTimeout(py_trees.decorators.Timeout):
 
     def initialise(self) -> None:
         self.finish_time = self.clock.now() + self.duration
+        self.wake_at = self.finish_time  # the runner must tick by then, whatever the child says
         self.feedback_message = ""
 
     def update(self) -> Status:
