@@ -11,12 +11,14 @@ collisions (tool-tool, shaft-shaft) are counted apart from other contacts (tool-
 from __future__ import annotations
 
 import io
+import time
 from dataclasses import dataclass, field
 from typing import Any, Callable
 
-from rich.console import Console
+from rich.console import Console, Group
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
+from rich.text import Text
 
 from pegbt.clock import Clock
 
@@ -58,6 +60,7 @@ class TrialResult:
     judged_by: str
     transfers: tuple[TransferOutcome, ...]
     trial_time_s: float
+    wall_time_s: float
     arm_arm_collisions: int
     other_contacts: int
     events: dict[str, int] = field(default_factory=dict)
@@ -92,13 +95,23 @@ class TrialResult:
             "transfer_times_s": self.transfer_times,
             "mean_transfer_time_s": self.mean_transfer_time_s,
             "trial_time_s": self.trial_time_s,
+            "wall_time_s": self.wall_time_s,
             "arm_arm_collisions": self.arm_arm_collisions,
             "other_contacts": self.other_contacts,
             "events": dict(self.events),
             "transfers": [outcome.__dict__ for outcome in self.transfers],
         }
 
-    def __rich__(self) -> Table:
+    def summary(self) -> str:
+        mean = self.mean_transfer_time_s
+        return (
+            f"transfers {self.succeeded}/{self.attempted} succeeded; mean transfer time "
+            f"{'-' if mean is None else f'{mean:.2f} s'}; trial time {self.trial_time_s:.2f} s "
+            f"({self.wall_time_s:.2f} s of wall time); arm-arm collisions {self.arm_arm_collisions}; "
+            f"other contacts {self.other_contacts}"
+        )
+
+    def __rich__(self) -> Group:
         table = Table(title=f"peg transfer, judged by {self.judged_by}", title_justify="left")
         for column in ("#", "arms", "pick → place", "result", "time s", "note"):
             table.add_column(column, justify="right" if column in ("#", "time s") else "left")
@@ -106,18 +119,11 @@ class TrialResult:
             seconds = "" if outcome.seconds is None else f"{outcome.seconds:.2f}"
             table.add_row(str(outcome.index), outcome.arms, f"{outcome.pick} → {outcome.place}",
                           "ok" if outcome.succeeded else "FAILED", seconds, outcome.note)
-        mean = self.mean_transfer_time_s
-        table.caption = (
-            f"transfers {self.succeeded}/{self.attempted} succeeded; mean transfer time "
-            f"{'-' if mean is None else f'{mean:.2f} s'}; trial time {self.trial_time_s:.2f} s; "
-            f"arm-arm collisions {self.arm_arm_collisions}; other contacts {self.other_contacts}"
-        )
-        table.caption_justify = "left"
-        return table
+        return Group(table, Text(self.summary()))
 
     def __str__(self) -> str:
         buffer = io.StringIO()
-        Console(file=buffer, width=110, color_system=None).print(self)
+        Console(file=buffer, width=120, color_system=None).print(self)
         return buffer.getvalue().rstrip()
 
 
@@ -128,6 +134,7 @@ class Trial:
         self.clock = clock
         self.truth = truth
         self.started = clock.now()
+        self.wall_started = time.perf_counter()
         self.transfers: list[TransferRecord] = []
 
     def begin(self, arms: str, pick: int, place: int) -> TransferRecord:
@@ -141,9 +148,10 @@ class Trial:
         return record
 
     def result(self) -> TrialResult:
-        trial_time = self.clock.now() - self.started
+        trial_time, wall_time = self.clock.now() - self.started, time.perf_counter() - self.wall_started
         if self.truth is None:
-            return TrialResult("the executive's beliefs (no simulator ground truth)", tuple(self._believed()), trial_time, 0, 0)
+            return TrialResult("the executive's beliefs (no simulator ground truth)", tuple(self._believed()), trial_time,
+                               wall_time, 0, 0)
         entries = self.truth.entries()
         kinds: dict[str, int] = {}
         arm_arm = other = 0
@@ -154,7 +162,8 @@ class Trial:
                     arm_arm += 1
                 else:
                     other += 1
-        return TrialResult("the simulator's ground truth", tuple(self._judged(entries)), trial_time, arm_arm, other, kinds)
+        return TrialResult("the simulator's ground truth", tuple(self._judged(entries)), trial_time, wall_time, arm_arm,
+                           other, kinds)
 
     def _believed(self) -> list[TransferOutcome]:
         return [

@@ -109,9 +109,13 @@ def _run(args: argparse.Namespace) -> int:
     log_path = Path(args.log) if args.log else _default_log_path(args.tree)
     output = run_tree_file(args.tree, log_path, options=options, clock=args.clock, period=args.period,
                            timeout=args.timeout, quiet=args.quiet)
-    print(result_table(read_tick_log(log_path)))
-    for report in output.reports.values():
-        print(report)
+    reports = list(output.reports.values())
+    if reports:  # a resource that judges the run says more than the per-node table
+        print(f"outcome: {output.result.outcome} in {output.result.duration:.3f} s, {output.result.ticks} ticks")
+        for report in reports:
+            print(report)
+    else:
+        print(result_table(read_tick_log(log_path)))
     print(f"tick log: {log_path}")
     return 0 if output.ok else 1
 

@@ -41,6 +41,7 @@ BEHAVIOUR_MODULES: tuple[str, ...] = (
     "pegbt.behaviours.motion",
     "pegbt.behaviours.placing",
     "pegbt.behaviours.bookkeeping",
+    "pegbt.behaviours.calibration",
 )
 
 Factory = Callable[["LeafSetup"], py_trees.behaviour.Behaviour]

@@ -35,7 +35,7 @@ class RunOutput:
 
     result: RunResult
     log_path: Path
-    reports: dict[str, Any] = field(default_factory=dict)
+    reports: dict[str, Any] = field(default_factory=dict)  # only resources that had something to report
 
     @property
     def ok(self) -> bool:
@@ -75,6 +75,7 @@ def run_tree_file(
             print(f"running {tree} (period {period:g} s, {clock_kind} clock); tick log {log_path}", file=out)
         result = run(built, period=period, timeout=timeout, log=writer)
         reports = {name: resource.report() for name, resource in resources.items() if callable(getattr(resource, "report", None))}
+        reports = {name: report for name, report in reports.items() if report is not None}
     finally:
         close_resources(resources)
     return RunOutput(result, log_path, reports)
