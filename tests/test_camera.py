@@ -2,9 +2,11 @@
 
 import numpy as np
 import pytest
+from world_helpers import block_points, in_board
 
 from pegbt.errors import PegbtError
-from pegbt.sim.camera import CameraFaults, DepthCamera, NoiseBurst
+from pegbt.sim.camera import DepthCamera
+from pegbt.sim.faults import CameraFaults, NoiseBurst
 from pegbt.sim.scripted import Driver, grasp_candidate_facing, grasp_keyframes, parked, transfer_keyframes
 from pegbt.sim.world import World
 
@@ -21,40 +23,24 @@ def clean_camera():
     return DepthCamera(depth_noise=0.0)
 
 
-def in_board(world, cloud):
-    T = world.cell.camera.board_from_camera
-    return cloud.astype(float) @ T[:3, :3].T + T[:3, 3]
-
-
-def block_points(world, board_points, block):
-    """Points on `block`'s surface, in the block frame."""
-    local = (board_points - block.pose[:3, 3]) @ block.pose[:3, :3]
-    normals, offsets = world.cell.block.outline_planes
-    inside = (local[:, :2] @ normals.T - offsets).max(axis=1) < 0.0005
-    radial = np.linalg.norm(local[:, :2], axis=1)
-    height = world.cell.block.height
-    on = inside & (radial > world.cell.block.hole_radius - 0.0005) & (local[:, 2] > -height - 0.0005) & (local[:, 2] < -0.0005)
-    return local[on]
-
-
 def test_a_capture_shows_all_12_pegs_and_6_blocks_where_the_world_has_them(world):
     cloud = DepthCamera(seed=0).capture(world)
     assert cloud.dtype == np.float32 and cloud.ndim == 2 and cloud.shape[1] == 3
     assert 0.4 < np.median(cloud[:, 2]) < 0.7  # camera frame: depth along z, about half a metre
-    points = in_board(world, cloud)
+    points = in_board(world.cell, cloud)
     for peg in range(12):
         assert np.sum(np.linalg.norm(points - world.cell.pegs.top(peg), axis=1) < 0.002) >= 30, peg
     for block in world.blocks:
-        assert len(block_points(world, points, block)) >= 1000, block.index
+        assert len(block_points(world.cell, points, block.pose)) >= 1000, block.index
 
 
 def test_a_moved_block_is_seen_at_its_new_peg():
     world = World(seed=2)
     Driver(world).play({"PSM1": transfer_keyframes(world, 1, 7, grasp_candidate_facing(world, 1, "PSM1"))})
     Driver(world).play({"PSM1": [parked(world, "PSM1")]})
-    points = in_board(world, DepthCamera(seed=0).capture(world))
+    points = in_board(world.cell, DepthCamera(seed=0).capture(world))
     assert world.blocks[1].peg == 7
-    assert len(block_points(world, points, world.blocks[1])) >= 1000
+    assert len(block_points(world.cell, points, world.blocks[1].pose)) >= 1000
     # nothing block-shaped is left around peg 1: only its peg, the board and the neighbours' edges
     near_peg_1 = np.linalg.norm(points[:, :2] - world.cell.pegs.positions[1], axis=1) < 0.005
     raised = points[:, 2] < world.cell.board.surface_z - 0.002
@@ -63,12 +49,12 @@ def test_a_moved_block_is_seen_at_its_new_peg():
 
 
 def test_faces_turned_away_and_the_board_behind_blocks_are_not_seen(world, clean_camera):
-    points = in_board(world, clean_camera.capture(world))
+    points = in_board(world.cell, clean_camera.capture(world))
     camera_at = world.cell.camera.board_from_camera[:3, 3]
     model = world.cell.block
     normals, offsets = model.outline_planes
     for block in world.blocks:
-        local = block_points(world, points, block)
+        local = block_points(world.cell, points, block.pose)
         below_top = local[:, 2] > -model.height + 1e-5
         wall = (np.abs((local[:, :2] @ normals.T - offsets).max(axis=1)) < 1e-5) & below_top
         facing = normals[np.argmax(local[:, :2] @ normals.T - offsets, axis=1)]
@@ -109,8 +95,8 @@ def test_a_tool_gripping_a_block_hides_part_of_it():
     facing_camera = int(np.argmax((candidates[:, :2] @ arms.blocks[2].pose[:2, :2].T)[:, 1]))  # nearest +y
     driver.play({"PSM2": grasp_keyframes(arms, 2, facing_camera)})
     assert arms.held_by("PSM2") == 2
-    seen_with = block_points(arms, in_board(arms, DepthCamera(seed=0).capture(arms)), arms.blocks[2])
-    seen_without = block_points(arms, in_board(arms, DepthCamera(seed=0, include_arms=False).capture(arms)), arms.blocks[2])
+    seen_with = block_points(arms.cell, in_board(arms.cell, DepthCamera(seed=0).capture(arms)), arms.blocks[2].pose)
+    seen_without = block_points(arms.cell, in_board(arms.cell, DepthCamera(seed=0, include_arms=False).capture(arms)), arms.blocks[2].pose)
     assert len(seen_with) < 0.9 * len(seen_without)
 
 

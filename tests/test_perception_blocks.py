@@ -7,7 +7,8 @@ import pytest
 
 from pegbt.perception.blocks import block_on_peg, locate_blocks, wrap_symmetric
 from pegbt.perception.board import PegboardRegistration
-from pegbt.sim.camera import CameraFaults, DepthCamera, NoiseBurst
+from pegbt.sim.camera import DepthCamera
+from pegbt.sim.faults import CameraFaults, NoiseBurst
 from pegbt.perception.segment import SegmentSettings
 from pegbt.sim.geometry import pose, yaw_of, yaw_rotation
 from pegbt.sim.scripted import Driver, Keyframe, grasp_candidate_facing, grasp_keyframes, lifted, parked, transfer_keyframes

@@ -9,7 +9,8 @@ from scipy.spatial.transform import Rotation
 from pegbt.errors import PegbtError
 from pegbt.perception.blocks import locate_blocks
 from pegbt.perception.board import PegboardRegistration
-from pegbt.sim.camera import CameraFaults, DepthCamera, NoiseBurst
+from pegbt.sim.camera import DepthCamera
+from pegbt.sim.faults import CameraFaults, NoiseBurst
 from pegbt.sim.world import World
 
 

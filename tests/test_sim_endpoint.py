@@ -19,8 +19,8 @@ TICK = 0.01
 
 @pytest.fixture(scope="module")
 def lockstep():
-    """One lockstep simulator with the dvrk-real cable physics, and a client link, clock and both arms."""
-    with SimProcess(["--lockstep", "--physics", "dvrk-real"]) as sim:
+    """One lockstep simulator of the arms alone with the dvrk-real cable physics, and a client link, clock and both arms."""
+    with SimProcess(["--lockstep", "--physics", "dvrk-real", "--no-world"]) as sim:
         link = connect([sim.endpoint])
         clock = SimClock(link)
         arms = {name: ArmClient(link, name, clock=clock) for name in ("PSM1", "PSM2")}

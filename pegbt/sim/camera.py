@@ -9,67 +9,18 @@ world's event log.
 
 from __future__ import annotations
 
-import math
-from collections.abc import Mapping
-from dataclasses import dataclass
-from pathlib import Path
-from typing import Any
-
 import numpy as np
 import open3d as o3d
 
 from pegbt.errors import PegbtError
 from pegbt.sim.events import Event
+from pegbt.sim.faults import CameraFaults, NoiseBurst
 from pegbt.sim.geometry import Matrix
 from pegbt.sim.meshes import Mesh, block_mesh, cylinder_mesh, merge, static_scene_mesh, transformed
 from pegbt.sim.world import World
 from pegbt.workcell import Workcell, workcell
 
 ROI_MARGIN_PX = 8
-
-
-@dataclass(frozen=True)
-class NoiseBurst:
-    """From `start` for `duration` seconds, depth noise of `sigma` and a fraction of wild points."""
-
-    start: float
-    duration: float
-    sigma: float = 0.003
-    outliers: float = 0.05  # fraction of points thrown anywhere between 0.8 and 1.2 × their depth
-
-    def active(self, time: float) -> bool:
-        return self.start <= time < self.start + self.duration
-
-
-@dataclass(frozen=True)
-class CameraFaults:
-    bursts: tuple[NoiseBurst, ...] = ()
-    burst_probability: float = 0.0  # chance that any one capture is a burst
-    random_burst: NoiseBurst = NoiseBurst(0.0, 0.0)  # its sigma and outliers apply to random bursts
-
-    @classmethod
-    def from_mapping(cls, data: Mapping[str, Any], source: Path | str | None = None) -> CameraFaults:
-        """Faults from configuration: `bursts: [{start, duration, sigma?, outliers?}]`, `burst_probability`."""
-        unknown = set(data) - {"bursts", "burst_probability"}
-        if unknown:
-            raise PegbtError("unknown camera fault setting", file=source, field=f"camera_faults.{sorted(unknown)[0]}")
-        bursts = []
-        for index, entry in enumerate(data.get("bursts", [])):
-            field = f"camera_faults.bursts[{index}]"
-            if not isinstance(entry, dict) or not {"start", "duration"} <= set(entry) <= {"start", "duration", "sigma", "outliers"}:
-                raise PegbtError("expected {start, duration, sigma?, outliers?}", file=source, field=field)
-            values = {key: entry[key] for key in entry}
-            if not all(_is_number(value) and value >= 0 for value in values.values()) or values.get("outliers", 0) > 1:
-                raise PegbtError(f"expected non-negative numbers (outliers at most 1), got {entry!r}", file=source, field=field)
-            bursts.append(NoiseBurst(**{key: float(value) for key, value in values.items()}))
-        probability = data.get("burst_probability", 0.0)
-        if not _is_number(probability) or not 0.0 <= probability <= 1.0:
-            raise PegbtError(f"expected a number in [0, 1], got {probability!r}", file=source, field="camera_faults.burst_probability")
-        return cls(bursts=tuple(bursts), burst_probability=float(probability))
-
-
-def _is_number(value: object) -> bool:
-    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
 
 
 class DepthCamera:

@@ -8,8 +8,14 @@ import os
 import signal
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from pegbt.transport.session import DEFAULT_ENDPOINT
+
+if TYPE_CHECKING:
+    from pegbt.sim.camera import DepthCamera
+    from pegbt.sim.fault_plan import FaultPlan
+    from pegbt.sim.world import World
 
 CRASH_EXIT_STATUS = 3
 
@@ -17,8 +23,9 @@ CRASH_EXIT_STATUS = 3
 def add_commands(subparsers: argparse._SubParsersAction) -> None:
     parser = subparsers.add_parser(
         "sim",
-        help="run the simulator endpoint (two PSMs over CRTK topics on zenoh)",
-        description="Serve two simulated PSMs over zenoh with dVRK CRTK topic names and CDR payloads. "
+        help="run the simulator endpoint (two PSMs, the pegboard world and a depth camera over zenoh)",
+        description="Serve two simulated PSMs, the FLS pegboard world they act in and its depth camera over zenoh, "
+        "with dVRK CRTK topic names and CDR payloads. "
         f"Listens on {DEFAULT_ENDPOINT} (peer mode, no scouting) unless told otherwise.",
     )
     parser.add_argument("--listen", action="append", metavar="ENDPOINT", help=f"zenoh listen endpoint (default {DEFAULT_ENDPOINT}; repeatable)")
@@ -26,12 +33,14 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--namespace", default="", help="key prefix, e.g. lab2 for lab2/PSM1/measured_js")
     parser.add_argument("--physics", default="ideal", help="cable physics: ideal, dvrk-real, or a preset/report JSON file")
     parser.add_argument("--lockstep", action="store_true", help="advance time only when a client's SimClock steps it")
-    parser.add_argument("--faults", type=Path, metavar="YAML", help="fault plan (loss, latency, crash, scheduled faults)")
-    parser.add_argument("--seed", type=int, help="seed for injected faults (overrides the plan's)")
+    parser.add_argument("--world", action=argparse.BooleanOptionalAction, default=True,
+                        help="simulate the pegboard, blocks and depth camera (default); --no-world: arms only")
+    parser.add_argument("--faults", type=Path, metavar="YAML", help="fault plan (loss, latency, crash, world and camera faults)")
+    parser.add_argument("--seed", type=int, help="seed of the block layout, depth noise and injected faults (default: the plan's, else 0)")
     parser.add_argument("--loss", type=float, metavar="P", help="probability of losing each stream message")
     parser.add_argument("--latency", type=float, metavar="S", help="extra latency of stream messages (s)")
     parser.add_argument("--crash-at", type=float, metavar="T", help="crash the endpoint at simulated time T (s)")
-    parser.add_argument("--log", type=Path, metavar="JSONL", help="append the simulator's log (faults, events) here")
+    parser.add_argument("--log", type=Path, metavar="JSONL", help="append the simulator's log (world events, faults) here")
     parser.set_defaults(handler=_sim)
 
 
@@ -48,12 +57,14 @@ def _sim(args: argparse.Namespace) -> int:
             raise PegbtError(f"--{name.replace('_probability', '').replace('_', '-')} out of range: {value}", field=name)
     plan = dataclasses.replace(plan, **{k: v for k, v in overrides.items() if v is not None})
     config = EndpointConfig(physics=args.physics, lockstep=args.lockstep, namespace=args.namespace, faults=plan, log_path=args.log)
+    world, camera = _world(plan) if args.world else (None, None)
     listen = args.listen or [DEFAULT_ENDPOINT]
     session = open_session(endpoint_settings(listen, args.connect))
-    endpoint = SimEndpoint(session, config)
+    endpoint = SimEndpoint(session, config, world=world, camera=camera)
     signal.signal(signal.SIGTERM, lambda *_: endpoint.stop())
     mode = "lockstep" if args.lockstep else "real time"
-    print(f"pegbt sim: serving {', '.join(endpoint.arms)} on {', '.join(listen)} ({mode}, physics {args.physics})", flush=True)
+    scene = f"world and camera, seed {plan.seed}" if world is not None else "no world"
+    print(f"pegbt sim: serving {', '.join(endpoint.arms)} on {', '.join(listen)} ({mode}, physics {args.physics}, {scene})", flush=True)
     try:
         outcome = endpoint.run()
     except KeyboardInterrupt:
@@ -65,3 +76,11 @@ def _sim(args: argparse.Namespace) -> int:
     endpoint.close()
     session.close()
     return 0
+
+
+def _world(plan: FaultPlan) -> tuple[World, DepthCamera]:
+    """The pegboard world and its camera, seeded and faulted as the plan says."""
+    from pegbt.sim.camera import DepthCamera
+    from pegbt.sim.world import World
+
+    return World(plan.seed, faults=plan.world), DepthCamera(seed=plan.seed, faults=plan.camera)

@@ -1,4 +1,5 @@
-"""The simulator endpoint: two PSMs (and optionally a world and a camera) behind CRTK topics over zenoh.
+"""The simulator endpoint: two PSMs, the pegboard world they act in and its depth camera, behind CRTK
+topics over zenoh.
 
 One thread owns all simulator state and runs a loop fed by an inbox. Zenoh callbacks only enqueue:
 commands, camera triggers and clock queries. Commands are applied as they arrive (a `servo_jp` is
@@ -11,9 +12,14 @@ echoed on `setpoint_js` at once); time advances in control ticks of 10 ms:
   everything published on the way. the state is re-sent every 50 ms of wall time while idle, so
   liveness checks hold and late joiners see it.
 
+Each tick the world sees every tool where its *physical* joints put it (forward kinematics of the
+cable physics' output, in the board frame); a jaw gripping a block stops at the block's wall, and its
+`jaw/measured_js` says so. World events go to the `SimLog` (the `--log` file and `sim/events`); the
+`sim/truth` query answers with block states and the log so far, for a judge, never for behaviours.
+
 Each command's fate goes out tagged with the command's id: `operating_state` (accepted, done, aborted)
-or `error` (refused, with the reason). Faults (loss, latency, crash, scheduled plug-in faults) are
-injected per `FaultPlan` and logged with their time in the `SimLog`.
+or `error` (refused, with the reason). Message loss, latency and a crash are injected per `FaultPlan`
+(the world and camera inject their own faults) and logged with their time.
 """
 
 from __future__ import annotations
@@ -32,13 +38,14 @@ from typing import Any
 import zenoh
 
 from pegbt.errors import PegbtError
-from pegbt.motion.kinematics import forward_kinematics
+from pegbt.motion.kinematics import forward_kinematics, link_frames
 from pegbt.motion.limits import arm_settings
 from pegbt.physics import ArmPhysics
 from pegbt.sim.arm import DEFAULT_JOINTS, DEFAULT_SERVO_TAU, SimArm, Transition
 from pegbt.sim.fault_plan import FaultInjector, FaultPlan
 from pegbt.sim.log import SimLog
-from pegbt.sim.plugins import DepthCamera, FaultTarget, SimWorld, tool_state
+from pegbt.sim.plugins import SimCamera, SimWorld
+from pegbt.sim.tools import ToolState
 from pegbt.transport import codec
 from pegbt.transport.arm import ARM_JOINT_NAMES, JAW_JOINT_NAMES
 from pegbt.transport.keys import ArmKeys, CameraKeys, SimKeys
@@ -134,8 +141,10 @@ class SimEndpoint:
         config: EndpointConfig = EndpointConfig(),
         *,
         world: SimWorld | None = None,
-        camera: DepthCamera | None = None,
+        camera: SimCamera | None = None,
     ) -> None:
+        if camera is not None and world is None:
+            raise PegbtError("a camera needs a world to look at", field="camera")
         self.session = session
         self.config = config
         self.world = world
@@ -150,6 +159,8 @@ class SimEndpoint:
             )
             for name in config.arms
         }
+        self._arm_to_board = {name: world.cell.arm_to_board(name) for name in self.arms} if world else {}
+        self._events_logged = 0  # world events already in the log
         self.period = next(iter(self.arms.values())).period
         self.keys = {name: ArmKeys(name, config.namespace) for name in config.arms}
         self.sim_keys = SimKeys(config.namespace)
@@ -196,6 +207,7 @@ class SimEndpoint:
             )
         self._declarations.append(self.session.declare_queryable(self.sim_keys.clock, lambda q: self._inbox.put(("clock", q))))
         self._declarations.append(self.session.declare_queryable(self.sim_keys.step, lambda q: self._inbox.put(("step", q))))
+        self._declarations.append(self.session.declare_queryable(self.sim_keys.truth, lambda q: self._inbox.put(("truth", q))))
 
     def _enqueue_command(self, arm: str, key: str, sample: zenoh.Sample) -> None:
         tag = Tag.decode(sample.attachment)
@@ -213,6 +225,8 @@ class SimEndpoint:
         """Serve until stopped ("stopped") or until an injected crash ("crashed")."""
         self.log.record(self.elapsed, "start", mode="lockstep" if self.config.lockstep else "realtime",
                         physics=self.config.physics, arms=list(self.arms))
+        if self.world is not None:
+            self._update_world()
         self._outbox.inject = False
         self._publish_operating_states()
         self._publish_state()
@@ -261,6 +275,8 @@ class SimEndpoint:
             self._reply(item[1], {"mode": "lockstep" if self.config.lockstep else "realtime", "period": self.period, "time": self.now()})
         elif kind == "step":
             self._step(item[1])
+        elif kind == "truth":
+            self._answer_truth(item[1])
 
     # ------------------------------------------------------------------ lockstep
     def _step(self, query: zenoh.Query) -> None:
@@ -317,9 +333,25 @@ class SimEndpoint:
             self._handle(item)
 
     @staticmethod
-    def _reply(query: zenoh.Query, answer: dict) -> None:
-        query.reply(query.key_expr, json.dumps(answer), express=True)
+    def _reply(query: zenoh.Query, answer: dict | str) -> None:
+        query.reply(query.key_expr, answer if isinstance(answer, str) else json.dumps(answer), express=True)
         query.drop()
+
+    def _answer_truth(self, query: zenoh.Query) -> None:
+        """Block states and the log from the asked index on: the judge's view, JSON."""
+        try:
+            request = json.loads(query.payload.to_bytes()) if query.payload is not None else {}
+            since = int(request.get("since", 0))
+            if since < 0:
+                raise ValueError(f"since must be >= 0, got {since}")
+        except (ValueError, TypeError, AttributeError) as error:
+            query.reply_err(str(error))
+            query.drop()
+            return
+        blocks = json.dumps(self.world.snapshot()["blocks"] if self.world is not None else [])
+        lines = self.log.lines
+        log = ",".join(lines[since:])
+        self._reply(query, f'{{"time": {self.elapsed!r}, "blocks": {blocks}, "log": [{log}], "next": {len(lines)}}}')
 
     # ------------------------------------------------------------------ commands
     def _command(self, arm: str, key: str, payload: bytes, tag: Tag | None) -> None:
@@ -380,27 +412,36 @@ class SimEndpoint:
     def _tick(self) -> None:
         while self._delayed_commands and self._delayed_commands[0][0] <= self.time + 1e-9:
             self._apply(*heapq.heappop(self._delayed_commands)[2])
-        for fault in self.faults.due(self.elapsed):
-            target = self.world if fault.target == "world" else self.camera
-            accepted = isinstance(target, FaultTarget)
-            if accepted:
-                target.inject_fault(fault.kind, fault.params, self.time)
-            self.log.record(self.elapsed, "fault", fault=fault.kind, target=fault.target, params=dict(fault.params), delivered=accepted)
         for name, arm in self.arms.items():
             for transition in arm.advance(self.period):
                 self._publish_operating_state(name, transition.command_id, transition.outcome)
         if self.world is not None:
-            tools = {
-                name: tool_state(arm.physical, float(arm.jaw.encoder[0]), self.world.board_from_base(name))
-                for name, arm in self.arms.items()
-            }
-            for event in self.world.update(self.time, tools):
-                self.log.record_event(self.elapsed, event)
+            self._update_world()
         if self.time - self._last_state_refresh >= STATE_REFRESH - 1e-9:
             self._publish_operating_states()
         self._outbox.release(self.time)
         if self.faults.crash_due(self.elapsed):
             self.log.record(self.elapsed, "fault", fault="crash")
+
+    def _update_world(self) -> None:
+        """Move the world with each tool where its physical joints put it; a gripped block stops the jaw."""
+        assert self.world is not None
+        tools = {
+            name: ToolState.from_link_frames(link_frames(arm.physical), float(arm.jaw.encoder[0]), self._arm_to_board[name])
+            for name, arm in self.arms.items()
+        }
+        self.world.update(self.elapsed, tools)
+        for name, arm in self.arms.items():
+            arm.jaw.stop_at(self.world.jaw_stop(name))
+        self._log_world_events()
+
+    def _log_world_events(self) -> None:
+        """Put the world's new events (from a step, or a capture's noise burst) in the simulator's log."""
+        assert self.world is not None
+        events = self.world.events
+        for event in events.since(self._events_logged):
+            self.log.record_event(event)
+        self._events_logged = len(events)
 
     # ------------------------------------------------------------------ publishing
     def _publish_operating_state(self, name: str, cause: str = "", outcome: str = "") -> None:
@@ -446,9 +487,10 @@ class SimEndpoint:
         })
 
     def _capture(self, command_id: str) -> None:
-        assert self.camera is not None
+        assert self.camera is not None and self.world is not None
         now = self.now()
-        points = self.camera.capture(now)
+        points = self.camera.capture(self.world, self.elapsed)
+        self._log_world_events()
         self._outbox.send(now, self.camera_keys.points, codec.encode_point_cloud(now, points), command_id, "done")
 
     # ------------------------------------------------------------------ shutdown

@@ -1,41 +1,35 @@
-"""Fault injection by configuration: message loss and latency, an endpoint crash, and scheduled faults
-handed to the world or camera plug-ins (slips, missed grasps, depth-noise bursts).
+"""Fault injection by configuration: message loss and latency and an endpoint crash (the endpoint's),
+slips and missed grasps (the world's, `WorldFaults`) and depth-noise bursts (the camera's, `CameraFaults`).
 
 Loss and latency are drawn from a seeded generator keyed by the message itself (its key and stamp,
-or a command's sequence number), so a lockstep run with the same seed injects the same faults.
-Every injected fault is written to the simulator's log with its time.
+or a command's sequence number), so a lockstep run with the same seed injects the same faults; the
+world and camera draw theirs from the same seed. Times are simulated seconds since the start. Every
+injected fault is written to the simulator's log with its time.
 
     seed: 7
     loss:    {probability: 0.05, topics: [servo_jp, measured_js]}
     latency: {seconds: 0.02, jitter: 0.005, topics: [setpoint_js]}
     crash:   {at: 30.0}
-    scheduled:
-      - {at: 12.0, target: world, kind: slip, params: {arm: PSM1}}
+    world:   {slips: [{time: 12.0, arm: PSM1}], miss_attempts: [0], slip_rate: 0.0, miss_probability: 0.0}
+    camera:  {bursts: [{start: 5.0, duration: 1.0, sigma: 0.003}], burst_probability: 0.0}
 """
 
 from __future__ import annotations
 
 import hashlib
-from collections.abc import Mapping
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TypeVar
 
 import yaml
 
 from pegbt.errors import PegbtError
+from pegbt.sim.faults import CameraFaults, WorldFaults
 
 # Streams lose and lag messages by default; events (operating_state, error) and move commands only if listed.
 STREAM_TOPICS = ("measured_js", "setpoint_js", "fiducial_js", "measured_cp", "servo_jp")
-TARGETS = ("world", "camera")
-
-
-@dataclass(frozen=True)
-class ScheduledFault:
-    at: float
-    target: str
-    kind: str
-    params: Mapping[str, Any] = field(default_factory=dict)
+T = TypeVar("T")
 
 
 @dataclass(frozen=True)
@@ -47,7 +41,8 @@ class FaultPlan:
     jitter: float = 0.0
     latency_topics: tuple[str, ...] = STREAM_TOPICS
     crash_at: float | None = None
-    scheduled: tuple[ScheduledFault, ...] = ()
+    world: WorldFaults = field(default_factory=WorldFaults)
+    camera: CameraFaults = field(default_factory=CameraFaults)
 
     @classmethod
     def load(cls, path: Path) -> "FaultPlan":
@@ -102,7 +97,7 @@ class _PlanReader:
         return tuple(item.value.strip("/") for item in node.value)
 
     def plan(self, root: yaml.Node | None) -> FaultPlan:
-        top = self.mapping(root, "", ("seed", "loss", "latency", "crash", "scheduled"))
+        top = self.mapping(root, "", ("seed", "loss", "latency", "crash", "world", "camera"))
         loss = self.mapping(top.get("loss"), "loss", ("probability", "topics"))
         latency = self.mapping(top.get("latency"), "latency", ("seconds", "jitter", "topics"))
         crash = self.mapping(top.get("crash"), "crash", ("at",))
@@ -114,29 +109,35 @@ class _PlanReader:
             jitter=self.number(latency["jitter"], "latency.jitter") if "jitter" in latency else 0.0,
             latency_topics=self.topics(latency.get("topics"), "latency.topics"),
             crash_at=self.number(crash["at"], "crash.at") if "at" in crash else None,
-            scheduled=self.scheduled(top.get("scheduled")),
+            world=self.section(top.get("world"), "world", WorldFaults.from_mapping, WorldFaults()),
+            camera=self.section(top.get("camera"), "camera", CameraFaults.from_mapping, CameraFaults()),
         )
 
-    def scheduled(self, node: yaml.Node | None) -> tuple[ScheduledFault, ...]:
+    def section(self, node: yaml.Node | None, name: str, read: Callable[..., T], default: T) -> T:
+        """A world or camera section, read by that part's own `from_mapping`; errors point at the field."""
         if node is None:
-            return ()
-        if not isinstance(node, yaml.SequenceNode):
-            raise self.fail(node, "scheduled", "expected a list of faults")
-        faults = []
-        for index, item in enumerate(node.value):
-            name = f"scheduled[{index}]"
-            entry = self.mapping(item, name, ("at", "target", "kind", "params"))
-            for required in ("at", "target", "kind"):
-                if required not in entry:
-                    raise self.fail(item, f"{name}.{required}", "missing")
-            target = entry["target"].value
-            if target not in TARGETS:
-                raise self.fail(entry["target"], f"{name}.target", f"expected one of {', '.join(TARGETS)}")
-            params = yaml.safe_load(yaml.serialize(entry["params"])) if "params" in entry else {}
-            if not isinstance(params, dict):
-                raise self.fail(entry["params"], f"{name}.params", "expected a mapping")
-            faults.append(ScheduledFault(self.number(entry["at"], f"{name}.at"), target, entry["kind"].value, params))
-        return tuple(sorted(faults, key=lambda fault: fault.at))
+            return default
+        data = yaml.safe_load(yaml.serialize(node))
+        if not isinstance(data, dict):
+            raise self.fail(node, name, "expected a mapping")
+        try:
+            return read(data, self.path, prefix=name)
+        except PegbtError as error:
+            raise self.fail(_locate(node, (error.field or name).split(".")[1:]), error.field or name, error.message) from None
+
+
+def _locate(node: yaml.Node, path: list[str]) -> yaml.Node:
+    """The deepest node along a dotted field path such as `slips[0].time` (as far as it exists)."""
+    for part in path:
+        key, _, index = part.partition("[")
+        children = {k.value: v for k, v in node.value} if isinstance(node, yaml.MappingNode) else {}
+        if key not in children:
+            return node
+        node = children[key]
+        index = index.rstrip("]")
+        if index.isdigit() and isinstance(node, yaml.SequenceNode) and int(index) < len(node.value):
+            node = node.value[int(index)]
+    return node
 
 
 def _matches(key: str, topics: tuple[str, ...]) -> bool:
@@ -150,11 +151,10 @@ def _uniform(seed: int, *parts: object) -> float:
 
 
 class FaultInjector:
-    """Decides, per message, whether it is lost and how late it is; tracks the schedule."""
+    """Decides, per message, whether it is lost and how late it is, and when the endpoint crashes."""
 
     def __init__(self, plan: FaultPlan) -> None:
         self.plan = plan
-        self._pending = list(plan.scheduled)
         self.crashed = False
 
     def lost(self, key: str, identity: str) -> bool:
@@ -166,12 +166,6 @@ class FaultInjector:
         if plan.latency <= 0 and plan.jitter <= 0 or not _matches(key, plan.latency_topics):
             return 0.0
         return plan.latency + plan.jitter * _uniform(plan.seed, "latency", key, identity)
-
-    def due(self, elapsed: float) -> list[ScheduledFault]:
-        """Scheduled faults whose time has come (each returned once)."""
-        ready = [fault for fault in self._pending if fault.at <= elapsed + 1e-9]
-        self._pending = self._pending[len(ready) :]
-        return ready
 
     def crash_due(self, elapsed: float) -> bool:
         if self.plan.crash_at is not None and not self.crashed and elapsed >= self.plan.crash_at - 1e-9:

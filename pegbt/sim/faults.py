@@ -1,4 +1,5 @@
-"""Faults the world can inject, by configuration: slips from the jaw and grasps that miss.
+"""Faults the world and its camera can inject, by configuration: slips from the jaw, grasps that miss,
+bursts of depth noise.
 
 Each is either scheduled (a slip at a given time, the n-th grasp attempt missing) or drawn with a
 probability from the world's seeded generator, so a faulty run is as reproducible as a clean one.
@@ -33,11 +34,12 @@ class WorldFaults:
     miss_probability: float = 0.0  # of any grasp that would have held
 
     @classmethod
-    def from_mapping(cls, data: Mapping[str, Any], source: Path | str | None = None) -> WorldFaults:
-        """Faults from a configuration mapping (keys as the fields; slips as [{time, arm}])."""
+    def from_mapping(cls, data: Mapping[str, Any], source: Path | str | None = None, prefix: str = "faults") -> WorldFaults:
+        """Faults from a configuration mapping (keys as the fields; slips as [{time, arm}]); errors name
+        the field under `prefix`."""
 
         def fail(name: str, message: str) -> PegbtError:
-            return PegbtError(message, file=source, field=f"faults.{name}")
+            return PegbtError(message, file=source, field=f"{prefix}.{name}")
 
         def probability(name: str, upper: float) -> float:
             value = data.get(name, 0.0)
@@ -66,3 +68,48 @@ class WorldFaults:
             miss_attempts=frozenset(attempts),
             miss_probability=probability("miss_probability", 1.0),
         )
+
+
+@dataclass(frozen=True)
+class NoiseBurst:
+    """From `start` for `duration` seconds, depth noise of `sigma` and a fraction of wild points."""
+
+    start: float
+    duration: float
+    sigma: float = 0.003
+    outliers: float = 0.05  # fraction of points thrown anywhere between 0.8 and 1.2 × their depth
+
+    def active(self, time: float) -> bool:
+        return self.start <= time < self.start + self.duration
+
+
+@dataclass(frozen=True)
+class CameraFaults:
+    bursts: tuple[NoiseBurst, ...] = ()
+    burst_probability: float = 0.0  # chance that any one capture is a burst
+    random_burst: NoiseBurst = NoiseBurst(0.0, 0.0)  # its sigma and outliers apply to random bursts
+
+    @classmethod
+    def from_mapping(cls, data: Mapping[str, Any], source: Path | str | None = None, prefix: str = "camera_faults") -> CameraFaults:
+        """Faults from configuration: `bursts: [{start, duration, sigma?, outliers?}]`, `burst_probability`;
+        errors name the field under `prefix`."""
+        unknown = set(data) - {"bursts", "burst_probability"}
+        if unknown:
+            raise PegbtError("unknown camera fault setting", file=source, field=f"{prefix}.{sorted(unknown)[0]}")
+        bursts = []
+        for index, entry in enumerate(data.get("bursts", [])):
+            field = f"{prefix}.bursts[{index}]"
+            if not isinstance(entry, dict) or not {"start", "duration"} <= set(entry) <= {"start", "duration", "sigma", "outliers"}:
+                raise PegbtError("expected {start, duration, sigma?, outliers?}", file=source, field=field)
+            values = {key: entry[key] for key in entry}
+            if not all(_is_number(value) and value >= 0 for value in values.values()) or values.get("outliers", 0) > 1:
+                raise PegbtError(f"expected non-negative numbers (outliers at most 1), got {entry!r}", file=source, field=field)
+            bursts.append(NoiseBurst(**{key: float(value) for key, value in values.items()}))
+        probability = data.get("burst_probability", 0.0)
+        if not _is_number(probability) or not 0.0 <= probability <= 1.0:
+            raise PegbtError(f"expected a number in [0, 1], got {probability!r}", file=source, field=f"{prefix}.burst_probability")
+        return cls(bursts=tuple(bursts), burst_probability=float(probability))
+
+
+def _is_number(value: object) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)

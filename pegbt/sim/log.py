@@ -8,31 +8,35 @@ executive believes.
 from __future__ import annotations
 
 import json
-from collections.abc import Callable, Mapping
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
+
+from pegbt.sim.events import Event
 
 
 class SimLog:
     def __init__(self, path: Path | None = None, publish: Callable[[str], None] | None = None) -> None:
-        self.entries: list[dict[str, Any]] = []
+        self.lines: list[str] = []  # each entry as one line of JSON
         self._file = None if path is None else open(path, "a", encoding="utf-8")
         self._publish = publish
 
+    @property
+    def entries(self) -> list[dict[str, Any]]:
+        return [json.loads(line) for line in self.lines]
+
     def record(self, time: float, kind: str, **details: Any) -> None:
-        entry = {"time": round(time, 6), "kind": kind, **details}
-        self.entries.append(entry)
-        line = json.dumps(entry, default=_plain)
+        line = json.dumps({"time": round(time, 6), "kind": kind, **details}, default=_plain)
+        self.lines.append(line)
         if self._file is not None:
             self._file.write(line + "\n")
             self._file.flush()
         if self._publish is not None:
             self._publish(line)
 
-    def record_event(self, time: float, event: Mapping[str, Any]) -> None:
-        """A world event; its own `kind` (grasp, drop, place, collision...) is kept."""
-        details = dict(event)
-        self.record(time, str(details.pop("kind", "world_event")), **details)
+    def record_event(self, event: Event) -> None:
+        """A world event, at its own time and with its own kind (grasp, drop, place, collision, ...)."""
+        self.record(event.time, event.kind, arm=event.arm, block=event.block, peg=event.peg, detail=event.detail)
 
     def close(self) -> None:
         if self._file is not None:

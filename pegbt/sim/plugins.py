@@ -1,67 +1,46 @@
-"""What the endpoint needs of a world and a camera: small protocols, so the pegboard world and the depth
-camera (written elsewhere) plug in without the endpoint knowing their insides.
+"""What the endpoint needs of a world and a camera: `pegbt.sim.world.World` and
+`pegbt.sim.camera.DepthCamera` satisfy these protocols, and the endpoint knows nothing else of them.
 
 Each control tick the endpoint hands the world one `ToolState` per arm, computed from the *physical*
-joints (after the cable physics), and publishes whatever ground-truth events the world returns. A
-world or camera that also has `inject_fault` receives the scheduled faults aimed at it (a slip, a
-missed grasp, a burst of depth noise) at their time.
+joints (after the cable physics), publishes the events the world appended to its log, and holds each
+jaw where the world says a gripped block stops it.
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
-from typing import Any, Protocol, runtime_checkable
+from typing import Protocol
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import NDArray
 
-from pegbt.motion.kinematics import link_frames
-
-WRIST_FRAME = 3  # link frame at the wrist-pitch axis: the end of the shaft
-
-
-@dataclass(frozen=True)
-class ToolState:
-    """One arm's tool, in the board frame: tip pose (4×4), jaw angle (rad), shaft from RCM to wrist (2×3)."""
-
-    tip: NDArray[np.float64]
-    jaw: float
-    shaft: NDArray[np.float64]
+from pegbt.sim.events import Event, EventLog
+from pegbt.sim.tools import ToolState
+from pegbt.workcell import Workcell
 
 
 class SimWorld(Protocol):
-    """The pegboard and blocks."""
+    """The pegboard and blocks, in the work cell's board frame; times are simulated seconds from 0."""
 
-    def board_from_base(self, arm: str) -> NDArray[np.float64]:
-        """4×4 transform from the arm's base (RCM) frame to the board frame."""
+    cell: Workcell
+    events: EventLog
+
+    def update(self, time: float, tools: Mapping[str, ToolState]) -> Sequence[Event]:
+        """Advance to `time` with the tools where they are; the new events are also appended to `events`."""
         ...
 
-    def update(self, time: float, tools: Mapping[str, ToolState]) -> Sequence[Mapping[str, Any]]:
-        """Advance to `time` with the tools where they are; return ground-truth events (JSON-able dicts)."""
+    def jaw_stop(self, arm: str) -> float | None:
+        """The angle below which a gripped block stops `arm`'s jaw; None when it grips nothing."""
+        ...
+
+    def snapshot(self) -> dict[str, object]:
+        """JSON-ready ground truth: time and every block (state, peg, holders, pose)."""
         ...
 
 
-class DepthCamera(Protocol):
+class SimCamera(Protocol):
     """A depth camera looking at the world."""
 
-    def capture(self, time: float) -> NDArray[np.float32]:
-        """(N, 3) points in metres, camera frame, as seen at `time`."""
+    def capture(self, world: SimWorld, time: float | None = None) -> NDArray[np.float32]:
+        """(N, 3) points in metres, camera frame, as the world is at `time`."""
         ...
-
-
-@runtime_checkable
-class FaultTarget(Protocol):
-    """A plug-in that accepts scheduled faults."""
-
-    def inject_fault(self, kind: str, params: Mapping[str, Any], time: float) -> None: ...
-
-
-def tool_state(physical_joints: ArrayLike, jaw: float, board_from_base: ArrayLike) -> ToolState:
-    """The tool of an arm at `physical_joints`, expressed in the board frame."""
-    frames = link_frames(physical_joints)
-    to_board = np.asarray(board_from_base, dtype=float)
-    tip = to_board @ frames[-1]
-    wrist = to_board @ frames[WRIST_FRAME][:, 3]
-    rcm = to_board[:, 3]
-    return ToolState(tip=tip, jaw=float(jaw), shaft=np.stack([rcm[:3], wrist[:3]]))

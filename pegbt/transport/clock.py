@@ -7,7 +7,6 @@ deterministic and faster than real time, with every timestamp in simulated time.
 
 from __future__ import annotations
 
-import json
 import math
 import time
 
@@ -28,7 +27,7 @@ class SimClock:
         self._link = link
         self._keys = SimKeys(link.namespace)
         self._reply_timeout = reply_timeout
-        info = self._query(self._keys.clock, {})
+        info = link.query(self._keys.clock, {}, reply_timeout)
         self.mode: str = info["mode"]
         self.period: float = info["period"]
         self._time: float = info["time"]
@@ -52,7 +51,7 @@ class SimClock:
         if steps <= 0:
             return
         request = {"steps": steps, "source": self._link.source.name, "sent": self._link.source.counts()}
-        reply = self._query(self._keys.step, request)
+        reply = self._link.query(self._keys.step, request, self._reply_timeout)
         self._time = reply["time"]
         self._await_published(reply["source"], reply["sent"])
 
@@ -63,12 +62,3 @@ class SimClock:
             seq = sent.get(inlet.key, 0)
             if seq and not inlet.wait_for(source, seq, max(0.0, deadline - time.monotonic())):
                 raise PegbtError(f"simulator published {inlet.key} #{seq} but it never arrived", field=inlet.key)
-
-    def _query(self, key: str, request: dict) -> dict:
-        replies = list(self._link.session.get(key, payload=json.dumps(request), timeout=self._reply_timeout, express=True))
-        if not replies:
-            raise PegbtError(f"no simulator answers on {key} (is `pegbt sim` running and reachable?)", field=key)
-        reply = replies[0]
-        if reply.ok is None:
-            raise PegbtError(f"simulator refused {key}: {reply.err.payload.to_string()}", field=key)
-        return json.loads(reply.ok.payload.to_bytes())

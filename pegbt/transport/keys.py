@@ -102,7 +102,7 @@ class CameraKeys:
 
 @dataclass(frozen=True)
 class SimKeys:
-    """The simulator's own keys: its clock (lockstep stepping) and its ground-truth event log."""
+    """The simulator's own keys: its clock (lockstep stepping), its log stream and its ground truth."""
 
     namespace: str = ""
 
@@ -117,3 +117,8 @@ class SimKeys:
     @property
     def events(self) -> str:
         return scoped(self.namespace, "sim/events")
+
+    @property
+    def truth(self) -> str:
+        """Block states and the log so far, for the judge of a trial (never for behaviours)."""
+        return scoped(self.namespace, "sim/truth")

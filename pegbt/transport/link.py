@@ -6,11 +6,13 @@ clients opened, so a lockstep `SimClock` can wait for exactly what the simulator
 
 from __future__ import annotations
 
+import json
 from collections.abc import Callable, Sequence
-from typing import TypeVar
+from typing import Any, TypeVar
 
 import zenoh
 
+from pegbt.errors import PegbtError
 from pegbt.transport.sequencing import Inlet, Outlet, Received, Source
 from pegbt.transport.session import DEFAULT_ENDPOINT, client_settings, open_session
 
@@ -39,6 +41,16 @@ class Link:
         outlet = Outlet(self.session, key, self.source)
         self._outlets.append(outlet)
         return outlet
+
+    def query(self, key: str, request: dict[str, Any], timeout: float) -> dict[str, Any]:
+        """Ask the simulator's JSON queryable `key`; its answer, or a `PegbtError` if none or a refusal."""
+        replies = list(self.session.get(key, payload=json.dumps(request), timeout=timeout, express=True))
+        if not replies:
+            raise PegbtError(f"no simulator answers on {key} (is `pegbt sim` running and reachable?)", field=key)
+        reply = replies[0]
+        if reply.ok is None:
+            raise PegbtError(f"simulator refused {key}: {reply.err.payload.to_string()}", field=key)
+        return json.loads(reply.ok.payload.to_bytes())
 
     def close(self) -> None:
         """Undeclare everything opened here; close the session if this link opened it."""

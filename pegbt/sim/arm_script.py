@@ -1,0 +1,128 @@
+"""Scripted transfers for whole arms over the transport: the world's tool keyframes (`pegbt.sim.scripted`)
+turned into joint motions by the closed-form IK, for tests and benchmarks that drive the simulator as an
+executive would (a joint goal to the start, then joint trajectories for straight tool moves and jaw
+moves), without any behaviour tree.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from pegbt.errors import PegbtError
+from pegbt.motion.ik import IKSolution, inverse_kinematics
+from pegbt.motion.limits import arm_settings
+from pegbt.sim.scripted import Driver, Keyframe, grasp_candidate_facing, interpolate, parked, transfer_keyframes
+from pegbt.sim.tools import tool_pointing_down
+from pegbt.sim.world import World
+from pegbt.transport.arm import ArmClient, MotionHandle
+from pegbt.transport.codec import Trajectory
+from pegbt.workcell import Workcell
+
+
+@dataclass(frozen=True)
+class ArmMotion:
+    """One command: a joint goal, a joint trajectory, or a jaw angle (exactly one is set)."""
+
+    goal: NDArray[np.float64] | None = None
+    trajectory: Trajectory | None = None
+    jaw: float | None = None
+
+
+def keyframe_joints(cell: Workcell, arm: str, frames: list[Keyframe]) -> NDArray[np.float64]:
+    """Joints (n, 6) putting `arm`'s tool at each keyframe (vertical, jaws closing along its yaw).
+
+    The jaw is symmetric, so a yaw and its opposite grip alike: all frames turn by π if that keeps the
+    roll nearer zero for the first one, so a path never flips its roll halfway.
+    """
+    settings = arm_settings(arm)
+    to_arm, centre = cell.board_to_arm(arm), cell.remote_centre(arm)
+
+    def solve(turn: float) -> IKSolution:
+        poses = [to_arm @ tool_pointing_down(f.position, f.yaw + turn, f.jaw, centre, cell.tool).tip for f in frames]
+        return inverse_kinematics(np.array(poses), settings)
+
+    solutions = [solve(0.0), solve(math.pi)]
+    usable = [s for s in solutions if s.ok.all()]
+    if not usable:
+        first_failure = int(np.argmin(solutions[0].ok))
+        raise PegbtError(f"{arm} cannot reach the scripted path: {'; '.join(solutions[0].problems(first_failure))}", field=arm)
+    return min(usable, key=lambda s: abs(s.q[0, 3])).q
+
+
+def joint_motions(cell: Workcell, arm: str, keyframes: list[Keyframe], step: float, speed: float) -> list[ArmMotion]:
+    """A joint goal to the first keyframe and its jaw angle, then each straight move as a joint trajectory
+    sampled every `step` seconds at `speed` (m/s), and each jaw change as a jaw move."""
+    joints = keyframe_joints(cell, arm, keyframes)
+    motions = [ArmMotion(goal=joints[0]), ArmMotion(jaw=keyframes[0].jaw)]
+    for start, end in zip(keyframes, keyframes[1:]):
+        if not np.allclose(start.position, end.position) or start.yaw != end.yaw:
+            frames = list(interpolate([start, end], step, speed))
+            q = keyframe_joints(cell, arm, frames)
+            motions.append(ArmMotion(trajectory=Trajectory(step * np.arange(1, len(q) + 1), q)))
+        if end.jaw != start.jaw:
+            motions.append(ArmMotion(jaw=end.jaw))
+    return motions
+
+
+def descending_motions(world: World, arm: str, keyframes: list[Keyframe], step: float, speed: float) -> list[ArmMotion]:
+    """`keyframes` as joint motions, reached straight down from `arm`'s parking height (clear of the pegs)."""
+    first = keyframes[0]
+    above = Keyframe(np.append(first.position[:2], parked(world, arm).position[2]), first.yaw, first.jaw)
+    return joint_motions(world.cell, arm, [above, *keyframes], step, speed)
+
+
+def transfer_motions(world: World, arm: str, block: int, goal_peg: int, step: float, speed: float) -> list[ArmMotion]:
+    """`arm` moves `block` onto `goal_peg` as `world` stands now: down from its parking height above the
+    block, the scripted transfer (`transfer_keyframes`), straight up again and back to its park."""
+    keyframes = transfer_keyframes(world, block, goal_peg, grasp_candidate_facing(world, block, arm))
+    park, last = parked(world, arm), keyframes[-1]
+    rise = Keyframe(np.append(last.position[:2], park.position[2]), last.yaw, last.jaw)
+    motions = descending_motions(world, arm, [*keyframes, rise], step, speed)
+    return motions + [ArmMotion(goal=keyframe_joints(world.cell, arm, [park])[0])]
+
+
+def scripted_trial(
+    world: World, transfers: list[tuple[str, int, int]], step: float, speed: float
+) -> list[tuple[str, list[ArmMotion]]]:
+    """Each (arm, start peg, goal peg) transfer as that arm's motions, in order; `world` (a copy of the
+    simulator's, same seed) plays them out on the way, so each transfer finds its block where the last left it."""
+    driver = Driver(world, step=step, speed=speed)
+    trial = []
+    for arm, start_peg, goal_peg in transfers:
+        block = next(b.index for b in world.blocks if b.peg == start_peg and b.state == "on_peg")
+        trial.append((arm, transfer_motions(world, arm, block, goal_peg, step, speed)))
+        driver.play({arm: transfer_keyframes(world, block, goal_peg, grasp_candidate_facing(world, block, arm))})
+        driver.play({arm: [parked(world, arm)]})
+    return trial
+
+
+class MotionPlayer:
+    """Plays one arm's motions in order through its `ArmClient`; `poll()` once per tick."""
+
+    def __init__(self, client: ArmClient, motions: list[ArmMotion] | None = None) -> None:
+        self.client = client
+        self.pending: list[ArmMotion] = list(motions or [])
+        self._handle: MotionHandle | None = None
+
+    def extend(self, motions: list[ArmMotion]) -> None:
+        self.pending.extend(motions)
+
+    def poll(self) -> bool:
+        """Start the next motion once the last is done; False when all are done. A failed motion raises."""
+        if self._handle is not None:
+            if self._handle.busy:
+                return True
+            if self._handle.failed:
+                raise PegbtError(f"{self.client.name}: {self._handle.error}", field=self.client.name)
+        if not self.pending:
+            return False
+        motion = self.pending.pop(0)
+        if motion.jaw is not None:
+            self._handle = self.client.jaw.move_jp(motion.jaw)
+        else:
+            self._handle = self.client.move_jp(motion.goal if motion.trajectory is None else motion.trajectory)
+        return True
