@@ -12,20 +12,13 @@ import numpy as np
 from py_trees.common import Status
 
 from pegbt.behaviours.base import RESOURCES, MotionLeaf, RobotLeaf, arm_param, key_param, peg_param
-from pegbt.behaviours.motion import above_pegs_first
+from pegbt.behaviours.motion import above_pegs_first, held_param
 from pegbt.behaviours.poses import approach_for, transfer_for
 from pegbt.executive.params import Param
 from pegbt.executive.registry import behaviour
 from pegbt.motion.ik import solve_ik
 from pegbt.motion.kinematics import forward_kinematics
 from pegbt.perception.blocks import BlockEstimate, block_on_peg
-
-HELD_ABOVE = 0.0  # rad: a closed jaw that stopped above this angle holds something (closed is -15°, a block stops it at +12°)
-
-
-def held_param() -> Param:
-    return Param("held_above", float, "a closed jaw stopped above this angle (rad) holds a block", default=HELD_ABOVE)
-
 
 @behaviour(
     "select_grasp",

@@ -21,8 +21,10 @@ from pegbt.motion.ik import solve_ik
 from pegbt.motion.kinematics import forward_kinematics
 from pegbt.motion.limits import ArmSettings
 from pegbt.motion.settings import MotionSettings
+from pegbt.motion.waypoints import TransferWaypoints
 from pegbt.workcell import Workcell
 
+HELD_ABOVE = 0.0  # rad: closed is -15°; a block stops a closing jaw at about +12°
 LOW = 0.001  # m: a tip more than this below the transfer height rises before moving sideways
 SLIP_CHECK = 0.1  # s: how often a transfer looks at the jaw for a slipping block
 
@@ -39,36 +41,70 @@ def above_pegs_first(cell: Workcell, motion: MotionSettings, arm: str, start: ND
     return [solve_ik(above, settings, what="straight above the tool")]
 
 
-@behaviour(
-    "transfer",
-    "lift the held block off its peg, carry it over peg `place` and lower it onto the peg (one trajectory: "
-    "SQP-optimised or rest-to-rest cubics, as the condition says); fails at once if the block slips from "
-    "the jaw; writes the plan's duration to `plan_s`",
-    params=(arm_param(), peg_param("place", "goal peg"),
-            Param("held_above", float, "a jaw closing past this angle (rad) has lost its block", default=0.0),
-            key_param("grasp", "read", "the grasp holding the block"), key_param("block", "read", "the block held"),
-            key_param("plan_s", "write", "the planned transfer's duration, s")),
-    reads=("/board",),
-    resources=RESOURCES,
-)
-class Transfer(MotionLeaf):
+class CarryLeaf(MotionLeaf):
+    """A motion carrying a held block: planned through `waypoints()` as the condition says, and failed at
+    once, with the arm stopped, if the jaw closes past `held_above` (the block slipped out)."""
+
+    def waypoints(self) -> TransferWaypoints:
+        raise NotImplementedError
+
     def begin(self) -> None:
-        arm, place = self.param("arm"), int(self.param("place"))
-        waypoints = transfer_for(self.skills.cell, self.skills.motion, arm, self.read("/board"), self.get("block"),
-                                 self.get("grasp"), place)
-        trajectory = self.motion(arm).transfer(waypoints)
+        arm = self.param("arm")
+        trajectory = self.motion(arm).transfer(self.waypoints())
         self.put("plan_s", round(trajectory.duration, 3))
-        self.move(arm, trajectory, f"{arm} transfer to peg {place}")
-        self.feedback_message = f"transfer to peg {place} planned in {trajectory.duration:.2f} s ({self.skills.condition})"
+        self.move(arm, trajectory, f"{arm} {self.name}")
+        self.feedback_message = f"planned in {trajectory.duration:.2f} s ({self.skills.condition})"
 
     def watch(self) -> Status:
         arm = self.param("arm")
         angle = float(self.client(arm).jaw.measured_js.position[0])
         if angle <= self.param("held_above"):
-            return self.fail(f"the block slipped from {arm}'s jaw (jaw at {math.degrees(angle):.0f}°) during the transfer")
+            return self.fail(f"the block slipped from {arm}'s jaw (jaw at {math.degrees(angle):.0f}°) during {self.name}")
         if self.wake_at is not None:
             self.wake_at = min(self.wake_at, self.context.clock.now() + SLIP_CHECK)
         return Status.RUNNING
+
+
+def held_param() -> Param:
+    return Param("held_above", float, "a closed jaw stopped above this angle (rad) holds a block; one closing past it "
+                 "has lost its block", default=HELD_ABOVE)
+
+
+def carry_params(*extra: Param) -> tuple[Param, ...]:
+    return (arm_param(), *extra, held_param(), key_param("plan_s", "write", "the planned motion's duration, s"))
+
+
+@behaviour(
+    "transfer",
+    "lift the held block off its peg, carry it over peg `place` and lower it onto the peg (one trajectory: "
+    "SQP-optimised or rest-to-rest cubics, as the condition says); fails at once if the block slips from "
+    "the jaw; writes the plan's duration to `plan_s`",
+    params=carry_params(peg_param("place", "goal peg"), key_param("grasp", "read", "the grasp holding the block"),
+                        key_param("block", "read", "the block held")),
+    reads=("/board",),
+    resources=RESOURCES,
+)
+class Transfer(CarryLeaf):
+    def waypoints(self) -> TransferWaypoints:
+        return transfer_for(self.skills.cell, self.skills.motion, self.param("arm"), self.read("/board"), self.get("block"),
+                            self.get("grasp"), int(self.param("place")))
+
+
+@behaviour(
+    "rise",
+    "move `arm` straight up along the pegs' axis by `height` metres (a giver letting go, a tool backing off)",
+    params=(arm_param(), Param("height", float, "how far, m", minimum=0.0)),
+    resources=RESOURCES,
+)
+class Rise(MotionLeaf):
+    def begin(self) -> None:
+        arm = self.param("arm")
+        motion = self.motion(arm)
+        start = motion.start_from(self.client(arm))
+        target = forward_kinematics(start)
+        target[:3, 3] += self.param("height") * up_in_arm(self.skills.cell, arm)
+        trajectory = motion.through(start, [solve_ik(target, motion.settings, what="risen")], ["risen"])
+        self.move(arm, trajectory, f"{arm} rising")
 
 
 @behaviour(

@@ -24,6 +24,7 @@ from pegbt.workcell import Workcell
 UP_BOARD = np.array([0.0, 0.0, -1.0])
 APPROACH_CLEAR_ABOVE_PEG_TOP = 0.002  # m: an approaching jaw is on the block's axis from this high down
 ALREADY_CLEAR = 0.001  # m: a channel whose clearing height lies this far below its start constrains nothing
+HANDOVER_ARRIVAL = 0.005  # m: a carry to or from the handover point passes this far above the grasp there
 
 
 def peg_top_board(cell: Workcell, board: BoardEstimate | None, peg: int) -> NDArray[np.float64]:
@@ -100,3 +101,37 @@ def approach_for(cell: Workcell, motion: MotionSettings, arm: str, start: NDArra
         pick=Channel(start[:3, 3], up, -ALREADY_CLEAR, heights.channel_tolerance),  # free to move at once
         place=Channel(grasp, up, descent, heights.channel_tolerance),
     )
+
+
+def _free_channel(point: NDArray[np.float64], up: NDArray[np.float64], tolerance: float) -> Channel:
+    """A channel that constrains nothing: the block is in the air there, not on a peg."""
+    return Channel(point, up, -ALREADY_CLEAR, tolerance)
+
+
+def to_handover(cell: Workcell, motion: MotionSettings, arm: str, board: BoardEstimate | None, block: BlockEstimate,
+                grasp: Grasp, meeting: NDArray[np.float64]) -> TransferWaypoints:
+    """The giver's carry: lift the block off its peg as in a transfer, then over to the `meeting` tip pose
+    (arm frame), arriving from `HANDOVER_ARRIVAL` above it."""
+    pick = transfer_for(cell, motion, arm, board, block, grasp)
+    up = up_in_arm(cell, arm)
+    above = meeting.copy()
+    above[:3, 3] += HANDOVER_ARRIVAL * up
+    tolerance = motion.transfer.channel_tolerance
+    return TransferWaypoints(np.stack([pick.poses[0], pick.poses[1], above, meeting]), pick.approach, pick.pick,
+                             _free_channel(meeting[:3, 3], up, tolerance))
+
+
+def from_handover(cell: Workcell, motion: MotionSettings, arm: str, board: BoardEstimate | None, grasp: Grasp,
+                  block_pose: NDArray[np.float64], place_peg: int) -> TransferWaypoints:
+    """The receiver's carry: from its grasp of the block held in the air (`block_pose`, board frame), up
+    `HANDOVER_ARRIVAL`, over peg `place_peg` and down onto it, the block keeping its yaw."""
+    up = up_in_arm(cell, arm)
+    axis = to_arm(cell, arm, block_pose[:3, 3])
+    yaw = yaw_about(grasp.pose[:3, :3], up)
+    place_top = to_arm(cell, arm, peg_top_board(cell, board, place_peg))
+    place = transfer_waypoints(place_top, place_top, pick_offset=grasp.position - axis, place_offset=grasp.position - axis,
+                               pick_yaw=yaw, place_yaw=yaw, up=up, heights=motion.transfer)
+    lifted = grasp.pose.copy()
+    lifted[:3, 3] += HANDOVER_ARRIVAL * up
+    return TransferWaypoints(np.stack([grasp.pose, lifted, place.poses[2], place.poses[3]]), place.approach,
+                             _free_channel(grasp.position, up, motion.transfer.channel_tolerance), place.place)

@@ -40,6 +40,7 @@ BEHAVIOUR_MODULES: tuple[str, ...] = (
     "pegbt.behaviours.grasping",
     "pegbt.behaviours.motion",
     "pegbt.behaviours.placing",
+    "pegbt.behaviours.handover",
     "pegbt.behaviours.bookkeeping",
     "pegbt.behaviours.calibration",
 )

@@ -6,9 +6,10 @@ each of these ends up in the log; an exception escaping a behaviour is logged as
 
 Waking up: a running node may say when it next needs a tick by setting `wake_at` (a time on the run's
 clock; `math.inf`: only when something else changes, e.g. a blackboard wait). When every running leaf
-has such a hint, the runner lets the clock run to the earliest one (in whole periods) instead of
-ticking every period: a trajectory of 1.5 s is one wait, not 75. Running nodes that are not leaves (a
-timeout) constrain the wait with their own hints. Without hints the runner ticks every period.
+has such a hint and the tick wrote nothing to the blackboard, the runner lets the clock run to the
+earliest hint (in whole periods) instead of ticking every period: a trajectory of 1.5 s is one wait,
+not 75. Running nodes that are not leaves (a timeout) constrain the wait with their own hints. Without
+hints the runner ticks every period.
 """
 
 from __future__ import annotations
@@ -57,6 +58,7 @@ def run(built: BuiltTree, *, period: float, timeout: float | None = None, log: T
             ticks += 1
             tick_start = clock.now()
             wall = time.perf_counter()
+            before = dict(py_trees.blackboard.Blackboard.storage)
             if log is None:
                 root.tick_once()
             else:
@@ -69,7 +71,7 @@ def run(built: BuiltTree, *, period: float, timeout: float | None = None, log: T
                 outcome = "timeout"
                 _halt(root, log, ticks, clock.now() - start, "timeout")
                 break
-            wake = next_wake(built, tick_start, period)
+            wake = tick_start + period if _changed(before) else next_wake(built, tick_start, period)
             if timeout is not None:
                 wake = min(wake, start + timeout)
             clock.wait(max(tick_start + period, wake) - clock.now())
@@ -86,6 +88,12 @@ def run(built: BuiltTree, *, period: float, timeout: float | None = None, log: T
             log.end(ticks, clock.now() - start, outcome)
             log.close()
     return RunResult(outcome, ticks, clock.now() - start)
+
+
+def _changed(before: dict) -> bool:
+    """Whether the tick wrote the blackboard (a new value or key): a waiting node may now go on."""
+    after = py_trees.blackboard.Blackboard.storage
+    return len(after) != len(before) or any(before.get(key, before) is not value for key, value in after.items())
 
 
 def next_wake(built: BuiltTree, now: float, period: float) -> float:

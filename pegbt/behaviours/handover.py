@@ -1,0 +1,132 @@
+"""Handing a block from one arm (the giver) to the other (the receiver), as in the reference setup.
+
+The giver carries the block to the meeting point (the mean of pegs 3, 6 and 9, shifted and raised as
+`skills/motion.yaml` says, tool yaw 0); the receiver waits open above its own grasp of the block there,
+descends and closes; the giver opens and rises; the receiver carries the block to its goal peg. The two
+arms never call each other: each step is a leaf, and the trees synchronise them through blackboard keys
+(`set_blackboard` on one side, `wait_blackboard` on the other).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from py_trees.common import Status
+
+from pegbt.behaviours.base import RESOURCES, MotionLeaf, RobotLeaf, arm_param, key_param, peg_param
+from pegbt.behaviours.motion import CarryLeaf, above_pegs_first, carry_params
+from pegbt.behaviours.poses import from_handover, to_arm, to_handover, tool_pose, up_in_arm
+from pegbt.executive.params import Param
+from pegbt.executive.registry import behaviour
+from pegbt.motion.handover import handover_meeting_point
+from pegbt.motion.ik import solve_ik
+from pegbt.motion.waypoints import TransferWaypoints
+from pegbt.perception.grasp import Grasp
+from pegbt.workcell import ARMS, invert_rigid
+
+
+@behaviour(
+    "handover_poses",
+    "where the handover happens: the giver's tip pose at the meeting point, the pose the block it holds will "
+    "have there, and the receiver's grasp of it (nearest the receiver, on another wall than the giver's jaw)",
+    params=(
+        arm_param("the giver"),
+        Param("receiver", str, "the receiver", choices=ARMS),
+        key_param("grasp", "read", "the giver's grasp"),
+        key_param("block", "read", "the block the giver holds (as perceived on its peg)"),
+        key_param("meeting", "write", "the giver's tip pose at the meeting point (giver frame)"),
+        key_param("block_pose", "write", "the block's pose at the meeting point (board frame)"),
+        key_param("receiver_grasp", "write", "the receiver's grasp of the block there"),
+    ),
+    resources=RESOURCES,
+)
+class HandoverPoses(RobotLeaf):
+    def act(self) -> Status:
+        giver, receiver = self.param("arm"), self.param("receiver")
+        if giver == receiver:
+            return self.fail(f"{giver} cannot hand a block to itself")
+        cell, motion = self.skills.cell, self.skills.motion
+        grasp: Grasp = self.get("grasp")
+        point = handover_meeting_point(cell.pegs.tops[list(cell.handover.pegs)], motion)
+        meeting = tool_pose(to_arm(cell, giver, point), 0.0, up_in_arm(cell, giver))
+        tip_board = cell.arm_to_board(giver) @ grasp.pose
+        block_pose = cell.arm_to_board(giver) @ meeting @ invert_rigid(tip_board) @ self.get("block").pose
+        giver_edge = cell.block.grasp_candidates.edge[grasp.candidate]
+        options = [option for option in self.skills.selectors[receiver].feasible(block_pose)
+                   if cell.block.grasp_candidates.edge[option.candidate] != giver_edge]
+        centre = cell.remote_centre(receiver)[:2]
+        taken = min(options, key=lambda option: float(np.linalg.norm(option.board_position[:2] - centre)), default=None)
+        if taken is None:
+            return self.fail(f"{receiver} can reach no grasp of the block at the meeting point apart from {giver}'s wall")
+        self.put("meeting", meeting)
+        self.put("block_pose", block_pose)
+        self.put("receiver_grasp", taken)
+        self.feedback_message = (f"meeting at {np.round(point * 1000, 1).tolist()} mm (board); {receiver} takes "
+                                 f"candidate {taken.candidate}, yaw {math.degrees(taken.yaw):.0f}°")
+        return Status.SUCCESS
+
+
+@behaviour(
+    "carry_to_handover",
+    "lift the block held by `arm` (the giver) off its peg and carry it to the meeting pose; fails at once "
+    "if the block slips",
+    params=carry_params(key_param("grasp", "read", "the giver's grasp"), key_param("block", "read", "the block held"),
+                        key_param("meeting", "read", "the giver's tip pose at the meeting point")),
+    reads=("/board",),
+    resources=RESOURCES,
+)
+class CarryToHandover(CarryLeaf):
+    def waypoints(self) -> TransferWaypoints:
+        return to_handover(self.skills.cell, self.skills.motion, self.param("arm"), self.read("/board"), self.get("block"),
+                           self.get("grasp"), self.get("meeting"))
+
+
+@behaviour(
+    "go_to_handover",
+    "move `arm` (the receiver) to wait, jaw open, straight above its grasp of the block at the meeting point",
+    params=(arm_param(), key_param("grasp", "read", "the receiver's grasp at the meeting point")),
+    resources=RESOURCES,
+)
+class GoToHandover(MotionLeaf):
+    def begin(self) -> None:
+        arm = self.param("arm")
+        motion, cell = self.motion(arm), self.skills.cell
+        start = motion.start_from(self.client(arm))
+        wait = self.get("grasp").pose.copy()
+        wait[:3, 3] += self.skills.motion.handover.receiver_wait_above * up_in_arm(cell, arm)
+        stops = above_pegs_first(cell, self.skills.motion, arm, start, motion.settings)
+        joints = stops + [solve_ik(wait, motion.settings, what="waiting above the handover grasp")]
+        trajectory = motion.through(start, joints, [f"stop {i}" for i in range(len(stops))] + ["waiting pose"])
+        self.move(arm, trajectory, f"{arm} going to the handover")
+        self.move_jaw(arm, self.skills.motion.transfer.jaw_open, f"{arm} jaw opening")
+
+
+@behaviour(
+    "descend_to_grasp",
+    "move `arm` straight down onto its grasp (the receiver taking the block at the meeting point)",
+    params=(arm_param(), key_param("grasp", "read", "the grasp to descend onto")),
+    resources=RESOURCES,
+)
+class DescendToGrasp(MotionLeaf):
+    def begin(self) -> None:
+        arm = self.param("arm")
+        motion = self.motion(arm)
+        start = motion.start_from(self.client(arm))
+        target = solve_ik(self.get("grasp").pose, motion.settings, what="the handover grasp")
+        self.move(arm, motion.through(start, [target], ["grasp"]), f"{arm} descending onto the grasp")
+
+
+@behaviour(
+    "carry_from_handover",
+    "carry the block that `arm` (the receiver) took at the meeting point over peg `place` and lower it onto "
+    "the peg; fails at once if the block slips",
+    params=carry_params(peg_param("place", "goal peg"), key_param("grasp", "read", "the receiver's grasp"),
+                        key_param("block_pose", "read", "the block's pose at the meeting point (board frame)")),
+    reads=("/board",),
+    resources=RESOURCES,
+)
+class CarryFromHandover(CarryLeaf):
+    def waypoints(self) -> TransferWaypoints:
+        return from_handover(self.skills.cell, self.skills.motion, self.param("arm"), self.read("/board"), self.get("grasp"),
+                             self.get("block_pose"), int(self.param("place")))
