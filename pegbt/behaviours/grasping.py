@@ -66,9 +66,10 @@ class SelectGrasp(RobotLeaf):
     resources=RESOURCES,
 )
 class Approach(MotionLeaf):
-    """With a planner (optimized), a tool low among the pegs approaches along an SQP-refined spline that
-    keeps the final descent on the block's axis; otherwise by rest-to-rest cubics, stopping above the grasp
-    and just above the block so the descent stays straight."""
+    """From low among the pegs (having just placed a block) with a planner (optimized): along an
+    SQP-refined spline that rises, moves over and keeps the final descent on the block's axis. Otherwise
+    (no planner, or from high up, where the cubics are as quick): rest-to-rest cubics, rising first if
+    low, stopping above the grasp and just above the block so the descent stays straight."""
 
     def begin(self) -> None:
         arm = self.param("arm")

@@ -87,18 +87,20 @@ def approach_for(cell: Workcell, motion: MotionSettings, arm: str, start: NDArra
                  pick: TransferWaypoints) -> TransferWaypoints:
     """The approach from a tool at `start` (tip pose, arm frame; low among the pegs, having just let go of
     a block) to the grasp of `pick`, shaped like a transfer so the same planner serves: rise straight up
-    to the transfer height, move over the grasp, descend onto it along the block's axis. The descent is
-    a channel from just above the peg tops down: the open jaw comes down around the block's wall."""
+    to the transfer height (at least `HANDOVER_ARRIVAL`), move over the grasp, descend onto it along the
+    block's axis. The descent is a channel from just above the peg tops down: the open jaw comes down
+    around the block's wall."""
     heights = motion.transfer
     up = up_in_arm(cell, arm)
+    rise = max(heights.transfer_height_above_peg_top - height_above_pegs(cell, arm, start[:3, 3]), HANDOVER_ARRIVAL)
     risen = start.copy()
-    risen[:3, 3] += (heights.transfer_height_above_peg_top - height_above_pegs(cell, arm, start[:3, 3])) * up
+    risen[:3, 3] += rise * up
     grasp = pick.poses[0][:3, 3]
     descent = heights.block_top_below_peg_top + heights.grasp_depth + APPROACH_CLEAR_ABOVE_PEG_TOP
     return TransferWaypoints(
         poses=np.stack([start, risen, pick.poses[1], pick.poses[0]]),
         approach=pick.approach,
-        pick=Channel(start[:3, 3], up, -ALREADY_CLEAR, heights.channel_tolerance),  # free to move at once
+        pick=_free_channel(start[:3, 3], up, heights.channel_tolerance),
         place=Channel(grasp, up, descent, heights.channel_tolerance),
     )
 
