@@ -11,6 +11,7 @@ collisions (tool-tool, shaft-shaft) are counted apart from other contacts (tool-
 from __future__ import annotations
 
 import io
+import math
 import time
 from dataclasses import dataclass, field
 from typing import Any, Callable
@@ -49,7 +50,8 @@ class TransferOutcome:
     pick: int
     place: int
     succeeded: bool
-    seconds: float | None
+    started: float
+    seconds: float | None  # from its start to its block's placement
     note: str
 
 
@@ -75,12 +77,20 @@ class TrialResult:
 
     @property
     def transfer_times(self) -> list[float]:
+        """Each successful transfer's own time, from its start to its block's placement."""
         return [outcome.seconds for outcome in self.transfers if outcome.succeeded and outcome.seconds is not None]
 
     @property
     def mean_transfer_time_s(self) -> float | None:
-        times = self.transfer_times
-        return sum(times) / len(times) if times else None
+        """Time spent transferring per successful transfer: the union of their start-to-placement intervals
+        (transfers that overlap, two arms at once or a pipelined handover, count their shared time once)
+        over their number. For one arm at a time it is the mean of the transfer times."""
+        intervals = sorted((o.started, o.started + o.seconds) for o in self.transfers if o.succeeded and o.seconds is not None)
+        busy, reach = 0.0, -math.inf
+        for start, end in intervals:
+            busy += max(0.0, end - max(start, reach))
+            reach = max(reach, end)
+        return busy / len(intervals) if intervals else None
 
     @property
     def ok(self) -> bool:
@@ -106,9 +116,9 @@ class TrialResult:
         mean = self.mean_transfer_time_s
         return (
             f"transfers {self.succeeded}/{self.attempted} succeeded; mean transfer time "
-            f"{'-' if mean is None else f'{mean:.2f} s'}; trial time {self.trial_time_s:.2f} s "
-            f"({self.wall_time_s:.2f} s of wall time); arm-arm collisions {self.arm_arm_collisions}; "
-            f"other contacts {self.other_contacts}"
+            f"{'-' if mean is None else f'{mean:.2f} s'} (time transferring / transfers)\n"
+            f"trial time {self.trial_time_s:.2f} s ({self.wall_time_s:.2f} s of wall time); "
+            f"arm-arm collisions {self.arm_arm_collisions}; other contacts {self.other_contacts}"
         )
 
     def __rich__(self) -> Group:
@@ -167,7 +177,7 @@ class Trial:
 
     def _believed(self) -> list[TransferOutcome]:
         return [
-            TransferOutcome(record.index, record.arms, record.pick, record.place, record.outcome == "placed",
+            TransferOutcome(record.index, record.arms, record.pick, record.place, record.outcome == "placed", record.started,
                             None if record.ended is None else record.ended - record.started, record.note or record.outcome)
             for record in self.transfers
         ]
@@ -182,10 +192,12 @@ class Trial:
                       and entry.get("block") in lifted and record.started <= entry["time"] <= until]
             if placed:
                 seconds = placed[0]["time"] - record.started
-                outcomes.append(TransferOutcome(record.index, record.arms, record.pick, record.place, True, seconds, record.note))
+                outcomes.append(TransferOutcome(record.index, record.arms, record.pick, record.place, True, record.started,
+                                                seconds, record.note))
             else:
                 why = record.note or ("no block lifted off the pick peg" if not lifted else "not placed on the place peg")
-                outcomes.append(TransferOutcome(record.index, record.arms, record.pick, record.place, False, None, why))
+                outcomes.append(TransferOutcome(record.index, record.arms, record.pick, record.place, False, record.started,
+                                                None, why))
         return outcomes
 
     def progress_listener(self) -> Callable[[dict[str, Any]], None]:
