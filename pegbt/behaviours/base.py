@@ -1,9 +1,11 @@
 """Base classes of the peg-transfer leaves: resources, failures with reasons, and non-blocking motions.
 
-A `RobotLeaf` fetches the `robot` and `skills` resources in `setup()`. Anything a user or the world
-can cause (an unreachable pose, a refused command, a silent endpoint, a poor fit) arrives as a
-`PegbtError`; the leaf then fails with the error's text as its feedback message, so the tick log and
-`pegbt log why` say why. Other exceptions are bugs and crash the run.
+A `RobotLeaf` fetches the `robot` and `skills` resources in `setup()`. Anything the world or a user
+can cause (an unreachable pose, a refused command, a poor fit) arrives as a `PegbtError`; the leaf
+then fails with the error's text as its feedback message, so the tick log and `pegbt log why` say why.
+An endpoint that went silent is different: no recovery in a tree can bring it back, so `EndpointSilent`
+propagates, and the runner halts the tree (every motion told to stop), logs the cause and ends the
+run. Other exceptions are bugs and crash the run the same way.
 
 A `MotionLeaf` starts its motions in `initialise` (one per arm or jaw, planned and sent at once), polls
 them in `update` and, when halted, stops whatever still moves in `terminate`. It never blocks a tick.
@@ -23,7 +25,7 @@ from pegbt.behaviours.skills import Skills
 from pegbt.errors import PegbtError
 from pegbt.executive.leaf import Leaf
 from pegbt.executive.params import Param
-from pegbt.transport import ArmClient, MotionHandle
+from pegbt.transport import ArmClient, EndpointSilent, MotionHandle
 from pegbt.workcell import ARMS
 
 log = logging.getLogger("pegbt.behaviours")
@@ -72,6 +74,8 @@ class RobotLeaf(Leaf):
     def update(self) -> Status:
         try:
             return self.act()
+        except EndpointSilent:
+            raise
         except PegbtError as error:
             return self.fail(str(error))
 
@@ -99,6 +103,8 @@ class MotionLeaf(RobotLeaf):
         self.expected_end = self.wake_at = None
         try:
             self.begin()
+        except EndpointSilent:
+            raise
         except PegbtError as error:
             self.problem = str(error)
             self.halt_motions()

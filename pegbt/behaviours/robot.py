@@ -34,9 +34,12 @@ class SimulatorTruth:
     def __init__(self, link: Link) -> None:
         self._link = link
 
-    def entries(self) -> list[dict[str, Any]]:
-        """Every entry of the simulator's log so far (world events and injected faults), in order."""
-        return ask_truth(self._link).log
+    def entries(self, clock: Clock) -> list[dict[str, Any]]:
+        """Every entry of the simulator's log so far (world events, injected faults), in order, each `time`
+        on `clock` (the simulator logs seconds since it started)."""
+        truth = ask_truth(self._link)
+        offset = clock.now() - truth.time
+        return [{**entry, "time": entry["time"] + offset} for entry in truth.log]
 
 
 class Robot:

@@ -14,6 +14,7 @@ from py_trees.common import Status
 from pegbt.behaviours.base import RESOURCES, RobotLeaf
 from pegbt.errors import PegbtError
 from pegbt.executive.registry import behaviour
+from pegbt.transport import EndpointSilent
 
 
 @behaviour(
@@ -28,7 +29,9 @@ class Capture(RobotLeaf):
         self.problem = ""
         try:
             self.handle = self.robot.camera.capture_async()
-        except PegbtError as error:  # no camera listening: the leaf fails in `act`
+        except EndpointSilent:
+            raise
+        except PegbtError as error:
             self.problem = str(error)
         self.deadline = time.monotonic() + self.robot.camera.timeout
         self.feedback_message = "capturing"

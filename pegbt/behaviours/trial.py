@@ -162,7 +162,7 @@ class Trial:
         if self.truth is None:
             return TrialResult("the executive's beliefs (no simulator ground truth)", tuple(self._believed()), trial_time,
                                wall_time, 0, 0)
-        entries = self.truth.entries()
+        entries = [entry for entry in self.truth.entries(self.clock) if entry["time"] >= self.started]
         kinds: dict[str, int] = {}
         arm_arm = other = 0
         for entry in entries:

@@ -272,7 +272,8 @@ class SimEndpoint:
         if kind == "command":
             self._command(*item[1:])
         elif kind == "clock":
-            self._reply(item[1], {"mode": "lockstep" if self.config.lockstep else "realtime", "period": self.period, "time": self.now()})
+            self._reply(item[1], {"mode": "lockstep" if self.config.lockstep else "realtime", "period": self.period, "time": self.now(),
+                                  "source": self.source.name, "sent": self.source.counts()})
         elif kind == "step":
             self._step(item[1])
         elif kind == "truth":

@@ -32,6 +32,9 @@ class SimClock:
         self.period: float = info["period"]
         self._time: float = info["time"]
         self._target = self._time
+        # What the simulator had sent before this client came: a barrier never waits for those (an earlier
+        # client's camera capture, say, was never meant for this one).
+        self._before: dict[str, int] = info.get("sent", {}) if info.get("source") else {}
 
     @property
     def lockstep(self) -> bool:
@@ -60,5 +63,5 @@ class SimClock:
         deadline = time.monotonic() + self._reply_timeout
         for inlet in self._link.inlets:
             seq = sent.get(inlet.key, 0)
-            if seq and not inlet.wait_for(source, seq, max(0.0, deadline - time.monotonic())):
+            if seq > self._before.get(inlet.key, 0) and not inlet.wait_for(source, seq, max(0.0, deadline - time.monotonic())):
                 raise PegbtError(f"simulator published {inlet.key} #{seq} but it never arrived", field=inlet.key)
