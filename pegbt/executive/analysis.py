@@ -142,15 +142,30 @@ def why(log: TickLog) -> str:
     return "\n".join(lines)
 
 
-def _explain(timeline: _Timeline, failure: Transition, depth: int, lines: list[str]) -> None:
-    log = timeline.log
-    node = log.nodes[failure.node]
+def _causes(timeline: _Timeline, failure: Transition) -> list[Transition]:
+    """The children's failures that made `failure` happen (their latest change, since the node started)."""
     start = timeline.started_before(failure.node, failure.seq)
     causes = []
-    for child in log.children(failure.node):
+    for child in timeline.log.children(failure.node):
         last = timeline.last_before(child, failure.seq)
         if last is not None and last.after == "FAILURE" and last.seq > start:
             causes.append(last)
+    return causes
+
+
+def _origin(timeline: _Timeline, failure: Transition) -> Transition:
+    """The first node down the causal chain of `failure` that failed on its own (with its own reason)."""
+    causes = _causes(timeline, failure)
+    while causes:
+        failure = causes[0]
+        causes = _causes(timeline, failure)
+    return failure
+
+
+def _explain(timeline: _Timeline, failure: Transition, depth: int, lines: list[str]) -> None:
+    log = timeline.log
+    node = log.nodes[failure.node]
+    causes = _causes(timeline, failure)
     indent = "  " * depth
     origin = "" if causes else "  <- failed here"
     feedback = f": {failure.feedback}" if failure.feedback else ""
@@ -188,7 +203,11 @@ def _recoveries(timeline: _Timeline) -> list[str]:
             tried = next((c for c in timeline.by_node[recovery] if c.seq > change.seq and c.after in ("SUCCESS", "FAILURE")), None)
             if tried is None or timeline.last_before(main, tried.seq) is not change:
                 continue  # no recovery answered this failure (none left, or the run stopped)
-            lines.append(f"  {node['path']}: main failed at t={change.t:.3f} s ({change.feedback or 'no feedback'}); "
+            origin = _origin(timeline, change)
+            reason = origin.feedback or "no feedback"
+            if origin is not change:
+                reason = f"{log.nodes[origin.node]['name']}: {reason}"
+            lines.append(f"  {node['path']}: main failed at t={change.t:.3f} s ({reason}); "
                          f"recovery {tried.after.lower()} at t={tried.t:.3f} s; {_verdict(timeline, main, tried)}")
     return (["recoveries:"] + lines) if lines else ["recoveries: none ran"]
 

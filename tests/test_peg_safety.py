@@ -1,0 +1,83 @@
+"""Stopping safely: a halted motion stops its arm, a vanished endpoint ends the run with its cause, and a
+block that is not where perception says fails the trial with the reason, all against the embedded simulator."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from pegbt.behaviours.skills import SIMULATOR_CALIBRATION_DIR
+from pegbt.executive.session import run_tree_file
+from pegbt.motion.kinematics import forward_kinematics
+from pegbt.motion.limits import arm_settings
+from pegbt.sim.process import SimProcess
+from pegbt.transport import ArmClient, SimClock, connect
+
+REPO = Path(__file__).resolve().parents[1]
+SIMULATOR = ["--lockstep", "--physics", "dvrk-real"]
+
+
+def pegbt(*args: str, timeout: float = 120) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "pegbt", *args], capture_output=True, text=True, cwd=REPO, timeout=timeout)
+
+
+def test_halting_a_running_motion_stops_the_arm(tmp_path):
+    tree = tmp_path / "halt.yaml"
+    tree.write_text("tree:\n  timeout:\n    seconds: 0.7\n    child:\n      park: {name: park, arm: PSM1}\n")
+    with SimProcess([*SIMULATOR, "--no-world"]) as sim:
+        output = run_tree_file(tree, tmp_path / "halt.jsonl", options={"endpoint": sim.endpoint, "condition": "uncalibrated"})
+        assert output.result.outcome == "failure"
+        with connect([sim.endpoint]) as link:
+            clock = SimClock(link)
+            arm = ArmClient(link, "PSM1", clock=clock)
+            arm.wait_until_ready()
+            held = arm.setpoint_js.position.copy()
+            clock.wait(1.0)
+            assert np.allclose(arm.setpoint_js.position, held) and not arm.operating_state.is_busy
+            tip = forward_kinematics(held)[:3, 3]
+    home, start = arm_settings("PSM1").home_tip, forward_kinematics(np.array([0, 0, 0.12, 0, 0, 0.0]))[:3, 3]
+    assert np.linalg.norm(tip - home) > 0.005 and np.linalg.norm(tip - start) > 0.005  # stopped on the way
+    records = [json.loads(line) for line in (tmp_path / "halt.jsonl").read_text().splitlines()]
+    halted = [change for record in records if record["type"] == "tick" for change in record["changes"]
+              if change[1] == "RUNNING" and change[2] == "INVALID"]
+    assert halted and "parking" in halted[0][3]
+
+
+def test_an_endpoint_that_dies_mid_trial_ends_the_run_with_its_cause(tmp_path):
+    log = tmp_path / "crash.jsonl"
+    with SimProcess([*SIMULATOR, "--crash-at", "6"]) as sim:
+        run = pegbt("run", "trees/unilateral.yaml", "--endpoint", sim.endpoint, "--calibration", str(SIMULATOR_CALIBRATION_DIR),
+                    "--log", str(log), "--quiet")
+    assert run.returncode != 0 and "Traceback" not in run.stderr
+    assert "pegbt: error:" in run.stderr and "sim/step" in run.stderr
+    why = pegbt("log", "why", str(log))
+    assert why.returncode == 0
+    assert "outcome: crash" in why.stdout and "no simulator answers on sim/step" in why.stdout
+    assert "halted: crash" in why.stdout  # the motion under way was told to stop
+
+
+def test_a_block_not_where_perception_says_fails_the_trial_with_the_reason(tmp_path):
+    faults = tmp_path / "faults.yaml"
+    faults.write_text("world: {miss_probability: 1.0}\n")
+    tree = tmp_path / "one.yaml"
+    tree.write_text(
+        f"include: [{REPO / 'trees' / 'shared' / 'one_transfer.yaml'}, {REPO / 'trees' / 'shared' / 'sense.yaml'}]\n"
+        "blackboard: {/policy/skip_failed_blocks: false}\n"
+        "tree:\n  sequence:\n"
+        "    - subtree: {use: clear_view}\n"
+        "    - subtree: {use: transfer_block, args: {arm: PSM1, pick: 1, place: 7, regrasps: 1}}\n"
+    )
+    log = tmp_path / "miss.jsonl"
+    with SimProcess([*SIMULATOR, "--faults", str(faults)]) as sim:
+        run = pegbt("run", str(tree), "--endpoint", sim.endpoint, "--calibration", str(SIMULATOR_CALIBRATION_DIR),
+                    "--log", str(log), "--quiet")
+    assert run.returncode == 1 and "Traceback" not in run.stderr
+    assert "transfers 0/1 succeeded" in run.stdout and "gave up after 1 recoveries" in run.stdout
+    why = pegbt("log", "why", str(log)).stdout
+    assert "outcome: failure" in why and "policy says skip it" in why
+    assert "jaw closed to" in why and "on nothing" in why  # the pick's reason, as the recoveries saw it
