@@ -165,7 +165,7 @@ def test_run_provides_declared_resources_and_closes_them(tmp_path, monkeypatch, 
 
     tree = tmp_path / "uses.yaml"
     tree.write_text("tree:\n  sequence: [{test_counting: {name: count}}]\nblackboard: {step: 41}\n")
-    argv = ["run", str(tree), "--clock", "manual", "--quiet", "--log", str(tmp_path / "uses.jsonl")]
+    argv = ["run", str(tree), "--clock", "manual", "--quiet", "--log", str(tmp_path / "uses.jsonl"), "--seed", "7"]
     assert main(argv) == 2
     assert f"no provider for resource 'counter' (needed by /sequence/count at {tree}:2:14)" in capsys.readouterr().err
     monkeypatch.setitem(providers.RESOURCE_PROVIDERS, "counter", "executive_helpers:Counter")
@@ -173,6 +173,7 @@ def test_run_provides_declared_resources_and_closes_them(tmp_path, monkeypatch, 
     assert main(argv) == 0
     (counter,) = Counter.instances
     assert counter.uses == 1 and counter.closed and counter.clock.__class__.__name__ == "ManualClock"
+    assert counter.options["seed"] == 7 and counter.options["condition"] == "optimized"  # every run option, defaults filled
     assert '"bb":{"/step":41,"/uses":42}' in (tmp_path / "uses.jsonl").read_text()
     assert main(["run", str(tree), "--clock", "sundial"]) == 2
     assert "unknown clock 'sundial'; known: wall, manual" in capsys.readouterr().err

@@ -88,9 +88,15 @@ def _probe_simulator(link: Link) -> SimClock | None:
         return None
 
 
-def connect_robot(endpoint: str, seed: int = 0) -> Robot:
-    """A `Robot` on `endpoint` (`auto`: a fresh embedded simulator seeded with `seed`)."""
-    simulator = SimProcess([*SIMULATOR_ARGS, "--seed", str(seed)]) if endpoint == "auto" else None
+def connect_robot(endpoint: str, seed: int = 0, faults: str | None = None) -> Robot:
+    """A `Robot` on `endpoint` (`auto`: a fresh embedded simulator seeded with `seed`, injecting the fault
+    plan `faults` if given)."""
+    if faults is not None and endpoint != "auto":
+        raise PegbtError("a fault plan is for the embedded simulator (--endpoint auto); give it to `pegbt sim --faults` "
+                         "when you start the simulator yourself", field="--faults")
+    simulator = None
+    if endpoint == "auto":
+        simulator = SimProcess([*SIMULATOR_ARGS, "--seed", str(seed), *(["--faults", faults] if faults else [])])
     try:
         link = connect([simulator.endpoint if simulator else endpoint])
         try:
@@ -110,5 +116,6 @@ def connect_robot(endpoint: str, seed: int = 0) -> Robot:
 
 
 def provide_robot(setup: ProviderSetup) -> Robot:
-    """The `robot` resource for `pegbt run` (options `endpoint` and `seed`)."""
-    return connect_robot(str(setup.options.get("endpoint") or "auto"), int(setup.options.get("seed") or 0))
+    """The `robot` resource for `pegbt run` (options `endpoint`, `seed` and `faults`)."""
+    options = setup.options
+    return connect_robot(str(options.get("endpoint") or "auto"), int(options.get("seed") or 0), options.get("faults"))

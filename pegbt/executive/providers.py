@@ -58,6 +58,7 @@ RUN_OPTIONS: dict[str, RunOption] = {
                   "optimized (spline + SQP + compensation)", "optimized",
                   choices=("uncalibrated", "calibrated", "optimized")),
         RunOption("seed", "robot: seed of the embedded simulator's world", 0, type=int),
+        RunOption("faults", "robot: fault plan (YAML) for the embedded simulator to inject (see `pegbt sim --faults`)"),
         RunOption("calibration", "skills: directory of calibration models (default: the simulator's for "
                   "--endpoint auto, else skills/calibration)"),
     )
