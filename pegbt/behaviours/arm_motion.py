@@ -50,11 +50,16 @@ class ArmMotion:
         self.fallbacks = 0  # optimised plans that fell back to cubics
 
     def start_from(self, arm: ArmClient) -> NDArray[np.float64]:
-        """Where the next plan starts: where the last one ended, or (first use) the arm's set-point now."""
+        """Where the next plan starts: where the last one ended, or (first use) where the arm is now: its
+        set-point, or with a calibration model, where the model says that set-point puts the tool (so the
+        first compensated command continues from the set-point instead of jumping)."""
         if self.desired is None:
-            self.desired = np.array(arm.setpoint_js.position, dtype=float)
+            setpoint = np.array(arm.setpoint_js.position, dtype=float)
+            self.desired = setpoint
             if self.compensator is not None:
-                self.compensator.reset(self.desired)
+                self.compensator.reset(setpoint)
+                self.desired = self.settings.require_within(
+                    self.compensator.model.forward(setpoint, self.compensator.state), f"{arm.name} as the model sees it")
         return self.desired.copy()
 
     # ------------------------------------------------------------------ planning
