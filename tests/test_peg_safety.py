@@ -61,9 +61,10 @@ def test_an_endpoint_that_dies_mid_trial_ends_the_run_with_its_cause(tmp_path):
     assert "halted: crash" in why.stdout  # the motion under way was told to stop
 
 
-def test_a_block_not_where_perception_says_fails_the_trial_with_the_reason(tmp_path):
+def one_transfer(tmp_path: Path, world_faults: str, log: Path) -> subprocess.CompletedProcess:
+    """Transfer 1 → 7 with PSM1 (one recovery allowed, no skipping) on a simulator injecting `world_faults`."""
     faults = tmp_path / "faults.yaml"
-    faults.write_text("world: {miss_probability: 1.0}\n")
+    faults.write_text(f"world: {world_faults}\n")
     tree = tmp_path / "one.yaml"
     tree.write_text(
         f"include: [{REPO / 'trees' / 'shared' / 'one_transfer.yaml'}, {REPO / 'trees' / 'shared' / 'sense.yaml'}]\n"
@@ -72,10 +73,23 @@ def test_a_block_not_where_perception_says_fails_the_trial_with_the_reason(tmp_p
         "    - subtree: {use: clear_view}\n"
         "    - subtree: {use: transfer_block, args: {arm: PSM1, pick: 1, place: 7, regrasps: 1}}\n"
     )
-    log = tmp_path / "miss.jsonl"
     with SimProcess([*SIMULATOR, "--faults", str(faults)]) as sim:
-        run = pegbt("run", str(tree), "--endpoint", sim.endpoint, "--calibration", str(SIMULATOR_CALIBRATION_DIR),
-                    "--log", str(log), "--quiet")
+        return pegbt("run", str(tree), "--endpoint", sim.endpoint, "--calibration", str(SIMULATOR_CALIBRATION_DIR),
+                     "--log", str(log), "--quiet")
+
+
+def test_a_block_that_slips_from_the_jaw_is_found_and_moved_again(tmp_path):
+    log = tmp_path / "slip.jsonl"
+    run = one_transfer(tmp_path, "{slips: [{time: 5.2, arm: PSM1}]}", log)
+    assert run.returncode == 0, run.stdout + run.stderr
+    assert "transfers 1/1 succeeded" in run.stdout
+    why = pegbt("log", "why", str(log)).stdout
+    assert "the block slipped from PSM1's jaw" in why and "it helped" in why
+
+
+def test_a_block_not_where_perception_says_fails_the_trial_with_the_reason(tmp_path):
+    log = tmp_path / "miss.jsonl"
+    run = one_transfer(tmp_path, "{miss_probability: 1.0}", log)
     assert run.returncode == 1 and "Traceback" not in run.stderr
     assert "transfers 0/1 succeeded" in run.stdout and "gave up after 1 recoveries" in run.stdout
     why = pegbt("log", "why", str(log)).stdout
