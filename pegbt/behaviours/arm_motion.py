@@ -19,6 +19,7 @@ from numpy.typing import ArrayLike, NDArray
 from pegbt.calibration.compensation import Compensator
 from pegbt.errors import PegbtError
 from pegbt.motion.cubic import rest_to_rest_path
+from pegbt.motion.kinematics import tip_position
 from pegbt.motion.limits import ArmSettings
 from pegbt.motion.trajectory import Trajectory
 from pegbt.motion.transfer import TransferPlanner, cubic_transfer
@@ -48,6 +49,8 @@ class ArmMotion:
         self.desired: NDArray[np.float64] | None = None
         self.active: SentMotion | None = None
         self.fallbacks = 0  # optimised plans that fell back to cubics
+        self.plans = 0  # trajectories sent
+        self.tip_path = 0.0  # m: length of the planned tool-tip paths sent
 
     def start_from(self, arm: ArmClient) -> NDArray[np.float64]:
         """Where the next plan starts: where the last one ended, or (first use) where the arm is now: its
@@ -100,6 +103,8 @@ class ArmMotion:
         handle = arm.move_jp(sent)
         self.active = SentMotion(planned, sent, handle)
         self.desired = planned.q[-1].copy()
+        self.plans += 1
+        self.tip_path += float(np.linalg.norm(np.diff(tip_position(planned.q), axis=0), axis=1).sum())
         return handle
 
     def stop(self, arm: ArmClient) -> None:

@@ -1,5 +1,6 @@
 """Arm motions between the grasp and the placement: the transfer itself (lift, carry, lower onto the goal
-peg) and parking an arm out of the camera's view.
+peg; `CarryLeaf` is the base of every motion that carries a block), rising straight up, and parking an
+arm out of the camera's view.
 
 Every motion that starts low among the pegs first rises straight up to the transfer height, so a tool
 never sweeps sideways through pegs and blocks.

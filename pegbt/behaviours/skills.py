@@ -14,6 +14,7 @@ simulator) does not fit another.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -82,6 +83,34 @@ class Skills:
         if name not in self.arms:
             raise PegbtError(f"unknown arm {name!r}; known: {', '.join(self.arms)}", field="arm")
         return self.arms[name]
+
+    def report(self) -> "SkillsReport | None":
+        """How the motions went (None if nothing moved): trajectories sent, fallbacks, planned tool-tip paths."""
+        if not any(motion.plans for motion in self.arms.values()):
+            return None
+        return SkillsReport(self.condition, {name: motion.plans for name, motion in self.arms.items()},
+                            {name: motion.fallbacks for name, motion in self.arms.items()},
+                            {name: motion.tip_path for name, motion in self.arms.items()})
+
+
+@dataclass(frozen=True)
+class SkillsReport:
+    """Per arm: trajectories sent, optimised plans that fell back to cubics, length of the planned tool-tip path (m)."""
+
+    condition: str
+    plans: dict[str, int]
+    fallbacks: dict[str, int]
+    tip_path_m: dict[str, float]
+
+    def as_dict(self) -> dict[str, object]:
+        return {"condition": self.condition, "plans": dict(self.plans), "fallbacks": dict(self.fallbacks),
+                "tip_path_m": dict(self.tip_path_m)}
+
+    def __str__(self) -> str:
+        arms = "; ".join(f"{arm} {self.plans[arm]} trajectories, planned tool-tip path {self.tip_path_m[arm]:.2f} m"
+                         + (f", {self.fallbacks[arm]} optimised plan(s) fell back to cubics" if self.fallbacks[arm] else "")
+                         for arm in self.plans)
+        return f"motion ({self.condition}): {arms}"
 
 
 def provide_skills(setup: ProviderSetup) -> Skills:
