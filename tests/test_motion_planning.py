@@ -6,10 +6,11 @@ import yaml
 
 from pegbt.errors import PegbtError
 from pegbt.motion import reference
+from pegbt.motion.channel import Upright
 from pegbt.motion.checks import check_trajectory, trajectory_problems
 from pegbt.motion.cubic import joint_move, rest_to_rest_path
 from pegbt.motion.jacobian import jacobian
-from pegbt.motion.kinematics import forward_kinematics, tip_position
+from pegbt.motion.kinematics import forward_kinematics
 from pegbt.motion.limits import PSM_SETTINGS, arm_settings
 from pegbt.motion.settings import MOTION_SETTINGS, motion_settings
 from pegbt.motion.trajectory import HermitePath, Trajectory, concatenate
@@ -40,14 +41,17 @@ def test_transfer_goes_from_the_grasp_to_the_place_pose_within_every_check(plan)
     assert np.allclose(np.diff(trajectory.t), PSM1.control_period)
     assert np.allclose(forward_kinematics(trajectory.q[0]), waypoints.poses[0], atol=1e-9)
     assert np.allclose(forward_kinematics(trajectory.q[-1]), waypoints.poses[3], atol=1e-9)
-    assert trajectory_problems(trajectory, PSM1, leaving=waypoints.pick, arriving=waypoints.place) == []
+    assert trajectory_problems(trajectory, PSM1, leaving=waypoints.pick, arriving=waypoints.place, upright=waypoints.upright) == []
     # Independently of the checker: the tip stays within the tolerance of the start peg's axis until
-    # the block has cleared it, and the block does clear it.
-    tips = tip_position(trajectory.q)
+    # the block has cleared it, and the block does clear it; the tool never leans more than 2°.
+    poses = forward_kinematics(trajectory.q)
+    tips = poses[:, :3, 3]
     heights = waypoints.pick.height(tips)
     cleared = int(np.argmax(heights >= waypoints.pick.clear))
     assert cleared > 0
     assert waypoints.pick.distance(tips[:cleared]).max() <= waypoints.pick.tolerance
+    up = waypoints.pick.axis
+    assert np.degrees(np.arccos(poses[:, :3, 2] @ up)).max() <= 2.0 + 1e-6
 
 
 def test_refined_transfer_beats_the_spline_and_the_cubic_baseline(plan):
@@ -111,6 +115,19 @@ def test_checker_names_velocity_channel_and_continuity_violations():
     assert any(p.startswith("q3 (insertion) position jumps") for p in trajectory_problems(jumpy, PSM1))
     with pytest.raises(PegbtError, match="transfer for PSM1 fails its checks"):
         check_trajectory(direct, PSM1, leaving=waypoints.pick, what="transfer")
+
+
+def test_checker_names_a_tool_leaning_beyond_the_upright_limit():
+    waypoints = _waypoints(3, 8)
+    q = joint_waypoints(waypoints, PSM1)
+    leaning = q[1].copy()
+    leaning[5] += np.radians(3.0)  # wrist yaw: the jaws lean 3° at the end of the move
+    move = joint_move(q[1], leaning, PSM1)
+    assert trajectory_problems(move, PSM1, upright=waypoints.upright)[0].startswith("the tool leans 3.0")
+    assert trajectory_problems(move, PSM1, upright=Upright(waypoints.upright.axis, np.radians(3.5))) == []
+    assert trajectory_problems(move, PSM1) == []  # without the limit nothing else is wrong
+    with pytest.raises(PegbtError, match="upright.max_tilt"):
+        Upright(waypoints.upright.axis, 2.0)
 
 
 def test_unreachable_waypoint_is_refused_naming_it_and_the_limit(planner):

@@ -66,7 +66,7 @@ class TransferPlanner:
         reach or neither the refined path nor the spline passes the checks (limits, channel, C1)."""
         joints = joint_waypoints(waypoints, self.settings)
         spline = self.spline(waypoints, joints)
-        refined = self.refiner.refine(spline, waypoints.pick, waypoints.place)
+        refined = self.refiner.refine(spline, waypoints.pick, waypoints.place, waypoints.upright)
         # If the SQP finds nothing, the spline itself may still keep the channel: the checks decide.
         path = spline if refined is None else fit_to_limits(refined, self.settings.planner_velocity, self.settings.planner_acceleration)
         trajectory = check_trajectory(
@@ -74,6 +74,7 @@ class TransferPlanner:
             self.settings,
             leaving=waypoints.pick,
             arriving=waypoints.place,
+            upright=waypoints.upright,
             what="transfer",
         )
         return TransferPlan(trajectory, path, spline, joints, refined is not None)

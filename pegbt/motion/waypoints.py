@@ -14,7 +14,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from pegbt.errors import PegbtError
-from pegbt.motion.channel import Channel
+from pegbt.motion.channel import Channel, Upright
 from pegbt.motion.settings import TransferSettings, motion_settings
 
 WAYPOINT_NAMES = ("grasp", "lifted above the start peg", "above the goal peg", "lowered onto the goal peg")
@@ -22,12 +22,14 @@ WAYPOINT_NAMES = ("grasp", "lifted above the start peg", "above the goal peg", "
 
 @dataclass(frozen=True)
 class TransferWaypoints:
-    """`poses` (4, 4, 4) in the order of `WAYPOINT_NAMES`; `approach` (4, 4) just above the grasp."""
+    """`poses` (4, 4, 4) in the order of `WAYPOINT_NAMES`; `approach` (4, 4) just above the grasp; the
+    channels of the pick and place pegs; how upright the tool stays while it carries the block."""
 
     poses: NDArray[np.float64]
     approach: NDArray[np.float64]
     pick: Channel
     place: Channel
+    upright: Upright
 
 
 def tool_down_rotation(yaw: float, up: ArrayLike = (0.0, 0.0, 1.0)) -> NDArray[np.float64]:
@@ -105,4 +107,5 @@ def transfer_waypoints(
         approach=_pose(pick_rotation, pick + (block_top + heights.approach_above_block) * up),
         pick=Channel(grasp, up, clear - (block_top - heights.grasp_depth), heights.channel_tolerance),
         place=Channel(dropped, up, clear - heights.drop_height_above_peg_top, heights.channel_tolerance),
+        upright=Upright(up, heights.upright_tilt),
     )
