@@ -13,7 +13,8 @@ from pegbt.motion.jacobian import jacobian
 from pegbt.motion.kinematics import forward_kinematics
 from pegbt.motion.limits import PSM_SETTINGS, arm_settings
 from pegbt.motion.settings import MOTION_SETTINGS, motion_settings
-from pegbt.motion.trajectory import HermitePath, Trajectory, concatenate
+from pegbt.motion.spline import shortest_segment_times
+from pegbt.motion.trajectory import HermitePath, Trajectory, concatenate, segment_extremes
 from pegbt.motion.transfer import TransferPlanner, cubic_transfer, joint_waypoints
 from pegbt.motion.waypoints import transfer_waypoints
 
@@ -171,3 +172,26 @@ def test_the_planner_updates_its_osqp_problem_instead_of_setting_up_new_ones(pla
     monkeypatch.setattr(osqp.OSQP, "setup", no_setup)
     assert planner.plan(_waypoints(5, 11)).refined
     assert planner.refiner.solves > solves_before
+
+
+def test_shortest_segment_times_match_a_dense_scan_and_the_rest_to_rest_formulas():
+    rng = np.random.default_rng(3)
+    count = 30
+    delta = rng.uniform(-0.3, 0.3, (count, 6)) * PSM1.planner_velocity
+    v0, v1 = rng.uniform(-0.3, 0.3, (2, count, 6)) * PSM1.planner_velocity
+    shortest = shortest_segment_times(delta, v0, v1, PSM1)
+    # The first duration on a fine grid at which every limit holds (feasibility is not monotone).
+    grid = np.linspace(PSM1.control_period, 3.0, 20001)
+    peak_v, peak_a = segment_extremes(delta[:, None], v0[:, None], v1[:, None], grid[None, :, None])
+    ok = np.all((peak_v <= PSM1.planner_velocity * (1 + 1e-9)) & (peak_a <= PSM1.planner_acceleration * (1 + 1e-9)), axis=-1)
+    found = ok.any(axis=1)
+    assert found.sum() >= count // 2  # the others overshoot their limits at every duration up to 3 s
+    assert np.allclose(shortest[found], grid[np.argmax(ok[found], axis=1)], atol=grid[1] - grid[0])
+    assert np.all(shortest[~found] > grid[-1])
+    # Rest to rest: 6Δ/T² = a_max when the acceleration binds, 1.5Δ/T = v_max when the velocity does.
+    rest = np.zeros((2, 6))
+    far = np.array([[0.1, 0, 0, 0, 0, 0], [10.0, 0, 0, 0, 0, 0]])
+    times = shortest_segment_times(far, rest, rest, PSM1)
+    v, a = PSM1.planner_velocity[0], PSM1.planner_acceleration[0]
+    assert times[0] == pytest.approx(np.sqrt(6 * 0.1 / a), rel=1e-9)  # closed form
+    assert times[1] == pytest.approx(1.5 * 10.0 / v, rel=3e-4)  # bisected to 0.03 %
