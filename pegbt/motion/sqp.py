@@ -48,7 +48,7 @@ from pegbt.motion.jacobian import cross, jacobian_from_frames
 from pegbt.motion.kinematics import link_frames, tip_position
 from pegbt.motion.limits import ArmSettings
 from pegbt.motion.settings import SqpSettings
-from pegbt.motion.trajectory import HermitePath, fit_to_limits
+from pegbt.motion.trajectory import HermitePath, Trajectory, fit_to_limits
 
 N = 6  # joints
 CHANNEL_ROWS = 5  # per path sample: lateral position (2), height, tool tilt (2)
@@ -191,10 +191,11 @@ class SqpRefiner:
 
     # --- one linearisation --------------------------------------------------------------------------
     def _linearise(
-        self, control: NDArray[np.float64], phases: tuple[int, int], pick: Channel, place: Channel, upright: Upright
+        self, control: NDArray[np.float64], phases: tuple[int, int], pick: Channel, place: Channel, upright: Upright, floor: float
     ) -> tuple[NDArray, NDArray, NDArray]:
         """Channel coefficients (samples, 5, 6) on the change of a path sample's physical position,
-        linearised at the samples of `control` points, and the bounds (samples, 5) on those changes."""
+        linearised at the samples of `control` points, and the bounds (samples, 5) on those changes;
+        `floor` is the lowest height above `pick.point` of the samples in transit."""
         lift, lower = phases
         c = self._sample(control)
         frames = link_frames(c)
@@ -206,17 +207,17 @@ class SqpRefiner:
         point = np.where(on_place[:, None], place.point, pick.point)
         normals = np.where(on_place[:, None, None], place.normals, pick.normals)  # (samples, 2, 3)
         lateral = np.einsum("kic,kcj->kij", normals, Jp)
-        vertical = np.einsum("c,kcj->kj", pick.axis, Jp)
+        vertical = np.einsum("c,kcj->kj", place.axis, Jp)
         # The tool axis turns by ω×axis: its components across the upright axis change by (axis × n)·ω.
         tilt = np.einsum("kic,kcj->kij", cross(tool[:, None, :], upright.normals), Jw)
         physical = np.concatenate([lateral, vertical[:, None], tilt], axis=1) / CHANNEL_UNIT
         # Each row's value at the linearisation point: the bounds on its change are what is left.
         value = np.empty((self.sample_count, CHANNEL_ROWS))
         value[:, 0:2] = np.einsum("kic,kc->ki", normals, tip - point)
-        value[:, 2] = (tip - point) @ pick.axis
+        value[:, 2] = (tip - point) @ place.axis
         value[:, 3:5] = tool @ upright.normals.T
         required = np.zeros(self.sample_count)  # never below the grasp or drop point while on a peg
-        required[lift + 1 : lower] = max(pick.clear, place.clear + float((place.point - pick.point) @ pick.axis))
+        required[lift + 1 : lower] = floor
         required[lift] = pick.clear
         required[lower] = place.clear
         lateral_allowed = INSIDE_TOLERANCE * pick.tolerance / np.sqrt(2)  # per direction: inside the circle
@@ -254,22 +255,33 @@ class SqpRefiner:
         return np.einsum("ki,kij->kj", self._weights, control[self._first[:, None] + np.arange(3)])
 
     # --- the refinement ----------------------------------------------------------------------------
-    def refine(self, warm: HermitePath, pick: Channel, place: Channel, upright: Upright) -> HermitePath | None:
-        """The fastest path found that passes the trajectory checks (limits, channels, upright tool)
-        once retimed to the limits, warm-started from `warm`; None if the linearisations run out first."""
+    def refine(
+        self, warm: HermitePath, pick: Channel | None, place: Channel, upright: Upright
+    ) -> tuple[HermitePath, Trajectory] | None:
+        """The fastest path found, retimed to the limits, and its trajectory sampled at the control
+        period, which has passed the trajectory checks (limits, channels, upright tool); warm-started
+        from `warm`. No `pick` channel: the block starts in the air (after a handover). None if the
+        linearisations run out first."""
         # Control points on the warm path at the times they sit nearest to, ends doubled; the phases
         # (the samples where the block leaves the start peg and reaches the goal peg) come from it.
         h = warm.duration / self.segments
         times = np.clip((np.arange(self.points) - 0.5) / self.segments, 0.0, 1.0) * warm.duration
         control = warm.evaluate(warm.times[0] + times)[0]
         control[:2], control[-2:] = warm.positions[0], warm.positions[-1]
-        phases = self._phases(tip_position(self._sample(control)), pick, place)
+        tips = tip_position(self._sample(control))
+        phases = self._phases(tips, pick, place)
+        # In transit the block stays above the goal peg's clearing height, and above the start peg's.
+        floor = place.clear + float((place.point - tips[0]) @ place.axis)
+        if pick is None:  # only the start sample is "on" the start: it stays where it is
+            leaving = Channel(tips[0], place.axis, 0.0, place.tolerance)
+        else:
+            leaving, floor = pick, max(pick.clear, floor)
         scale = self._scale(h)
         acceleration = _accelerations(control / scale)
         slow_down = float(np.max(np.abs(acceleration)))
         start, goal = control[0], control[-1]
         for _ in range(self.sqp.max_iterations):
-            physical, channel_lo, channel_hi = self._linearise(control, phases, pick, place, upright)
+            physical, channel_lo, channel_hi = self._linearise(control, phases, leaving, place, upright, floor)
             limits_lo, limits_hi = self._bounds(h, control / scale, slow_down)
             self._solver.update(
                 Ax=self._A.data(self._constraint_values(physical * scale)),
@@ -289,16 +301,17 @@ class SqpRefiner:
             path = fit_to_limits(_b_spline_path(control, h), self.settings.planner_velocity, self.settings.planner_acceleration, speed_up=True)
             trajectory = path.sample(self.settings.control_period)
             if not trajectory_problems(trajectory, self.settings, leaving=pick, arriving=place, upright=upright):
-                return path
+                return path, trajectory
         return None
 
-    def _phases(self, tip: NDArray, pick: Channel, place: Channel) -> tuple[int, int]:
-        """The samples where the block leaves the start peg and reaches the goal peg, for tips at the
-        samples of the warm start; the block leaves the start peg one sample later than on the warm
-        start, as the fastest paths spend a larger share of their time lifting than the spline does."""
-        lift = int(np.argmax(pick.height(tip) >= pick.clear)) + LIFT_LATER
+    def _phases(self, tip: NDArray, pick: Channel | None, place: Channel) -> tuple[int, int]:
+        """The samples where the block leaves the start peg (0 without one) and reaches the goal peg,
+        for tips at the samples of the warm start; the block leaves the start peg one sample later
+        than on the warm start, as the fastest paths spend a larger share of their time lifting than
+        the spline does."""
+        lift = 0 if pick is None else max(int(np.argmax(pick.height(tip) >= pick.clear)) + LIFT_LATER, 1)
         lower = int(self.sample_count - 1 - np.argmax(place.height(tip)[::-1] >= place.clear))
-        return max(lift, 1), min(max(lower, lift + 1), self.sample_count - 2)
+        return lift, min(max(lower, lift + 1), self.sample_count - 2)
 
 
 def _accelerations(scaled: NDArray[np.float64]) -> NDArray[np.float64]:
