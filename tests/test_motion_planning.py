@@ -16,7 +16,7 @@ from pegbt.motion.settings import MOTION_SETTINGS, motion_settings
 from pegbt.motion.spline import shortest_segment_times
 from pegbt.motion.trajectory import HermitePath, Trajectory, concatenate, segment_extremes
 from pegbt.motion.transfer import TransferPlanner, cubic_transfer, joint_waypoints
-from pegbt.motion.waypoints import transfer_waypoints
+from pegbt.motion.waypoints import placement_waypoints, transfer_waypoints
 
 PSM1 = arm_settings("PSM1")
 
@@ -138,9 +138,11 @@ def test_unreachable_waypoint_is_refused_naming_it_and_the_limit(planner):
         planner.plan(waypoints)
 
 
-def test_nan_peg_position_is_refused():
+def test_nan_peg_position_and_a_malformed_placement_start_are_refused():
     with pytest.raises(PegbtError, match="place_peg_top"):
         transfer_waypoints(reference.peg_tops("PSM1")[1], [0.1, float("nan"), -0.15])
+    with pytest.raises(PegbtError, match="start"):
+        placement_waypoints(np.eye(3), reference.peg_tops("PSM1")[1])
 
 
 def test_non_positive_planner_limit_is_refused(tmp_path):
