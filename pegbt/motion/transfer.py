@@ -10,7 +10,6 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from pegbt.errors import PegbtError
 from pegbt.motion.checks import check_trajectory
 from pegbt.motion.cubic import rest_to_rest_path
 from pegbt.motion.ik import solve_ik
