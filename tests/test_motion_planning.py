@@ -6,15 +6,17 @@ import yaml
 
 from pegbt.errors import PegbtError
 from pegbt.motion import reference
+from pegbt.motion.channel import Upright
 from pegbt.motion.checks import check_trajectory, trajectory_problems
 from pegbt.motion.cubic import joint_move, rest_to_rest_path
 from pegbt.motion.jacobian import jacobian
-from pegbt.motion.kinematics import forward_kinematics, tip_position
+from pegbt.motion.kinematics import forward_kinematics
 from pegbt.motion.limits import PSM_SETTINGS, arm_settings
 from pegbt.motion.settings import MOTION_SETTINGS, motion_settings
-from pegbt.motion.trajectory import HermitePath, Trajectory, concatenate
+from pegbt.motion.spline import shortest_segment_times
+from pegbt.motion.trajectory import HermitePath, Trajectory, concatenate, segment_extremes
 from pegbt.motion.transfer import TransferPlanner, cubic_transfer, joint_waypoints
-from pegbt.motion.waypoints import transfer_waypoints
+from pegbt.motion.waypoints import placement_waypoints, transfer_waypoints
 
 PSM1 = arm_settings("PSM1")
 
@@ -40,14 +42,17 @@ def test_transfer_goes_from_the_grasp_to_the_place_pose_within_every_check(plan)
     assert np.allclose(np.diff(trajectory.t), PSM1.control_period)
     assert np.allclose(forward_kinematics(trajectory.q[0]), waypoints.poses[0], atol=1e-9)
     assert np.allclose(forward_kinematics(trajectory.q[-1]), waypoints.poses[3], atol=1e-9)
-    assert trajectory_problems(trajectory, PSM1, leaving=waypoints.pick, arriving=waypoints.place) == []
+    assert trajectory_problems(trajectory, PSM1, leaving=waypoints.pick, arriving=waypoints.place, upright=waypoints.upright) == []
     # Independently of the checker: the tip stays within the tolerance of the start peg's axis until
-    # the block has cleared it, and the block does clear it.
-    tips = tip_position(trajectory.q)
+    # the block has cleared it, and the block does clear it; the tool never leans more than 2°.
+    poses = forward_kinematics(trajectory.q)
+    tips = poses[:, :3, 3]
     heights = waypoints.pick.height(tips)
     cleared = int(np.argmax(heights >= waypoints.pick.clear))
     assert cleared > 0
     assert waypoints.pick.distance(tips[:cleared]).max() <= waypoints.pick.tolerance
+    up = waypoints.pick.axis
+    assert np.degrees(np.arccos(poses[:, :3, 2] @ up)).max() <= 2.0 + 1e-6
 
 
 def test_refined_transfer_beats_the_spline_and_the_cubic_baseline(plan):
@@ -113,6 +118,19 @@ def test_checker_names_velocity_channel_and_continuity_violations():
         check_trajectory(direct, PSM1, leaving=waypoints.pick, what="transfer")
 
 
+def test_checker_names_a_tool_leaning_beyond_the_upright_limit():
+    waypoints = _waypoints(3, 8)
+    q = joint_waypoints(waypoints, PSM1)
+    leaning = q[1].copy()
+    leaning[5] += np.radians(3.0)  # wrist yaw: the jaws lean 3° at the end of the move
+    move = joint_move(q[1], leaning, PSM1)
+    assert trajectory_problems(move, PSM1, upright=waypoints.upright)[0].startswith("the tool leans 3.0")
+    assert trajectory_problems(move, PSM1, upright=Upright(waypoints.upright.axis, np.radians(3.5))) == []
+    assert trajectory_problems(move, PSM1) == []  # without the limit nothing else is wrong
+    with pytest.raises(PegbtError, match="upright.max_tilt"):
+        Upright(waypoints.upright.axis, 2.0)
+
+
 def test_unreachable_waypoint_is_refused_naming_it_and_the_limit(planner):
     far = reference.peg_tops("PSM1")[7] + np.array([0.0, 0.0, -0.2])  # 20 cm below the board
     waypoints = transfer_waypoints(reference.peg_tops("PSM1")[1], far)
@@ -120,9 +138,11 @@ def test_unreachable_waypoint_is_refused_naming_it_and_the_limit(planner):
         planner.plan(waypoints)
 
 
-def test_nan_peg_position_is_refused():
+def test_nan_peg_position_and_a_malformed_placement_start_are_refused():
     with pytest.raises(PegbtError, match="place_peg_top"):
         transfer_waypoints(reference.peg_tops("PSM1")[1], [0.1, float("nan"), -0.15])
+    with pytest.raises(PegbtError, match="start"):
+        placement_waypoints(np.eye(3), reference.peg_tops("PSM1")[1])
 
 
 def test_non_positive_planner_limit_is_refused(tmp_path):
@@ -154,3 +174,26 @@ def test_the_planner_updates_its_osqp_problem_instead_of_setting_up_new_ones(pla
     monkeypatch.setattr(osqp.OSQP, "setup", no_setup)
     assert planner.plan(_waypoints(5, 11)).refined
     assert planner.refiner.solves > solves_before
+
+
+def test_shortest_segment_times_match_a_dense_scan_and_the_rest_to_rest_formulas():
+    rng = np.random.default_rng(3)
+    count = 30
+    delta = rng.uniform(-0.3, 0.3, (count, 6)) * PSM1.planner_velocity
+    v0, v1 = rng.uniform(-0.3, 0.3, (2, count, 6)) * PSM1.planner_velocity
+    shortest = shortest_segment_times(delta, v0, v1, PSM1)
+    # The first duration on a fine grid at which every limit holds (feasibility is not monotone).
+    grid = np.linspace(PSM1.control_period, 3.0, 20001)
+    peak_v, peak_a = segment_extremes(delta[:, None], v0[:, None], v1[:, None], grid[None, :, None])
+    ok = np.all((peak_v <= PSM1.planner_velocity * (1 + 1e-9)) & (peak_a <= PSM1.planner_acceleration * (1 + 1e-9)), axis=-1)
+    found = ok.any(axis=1)
+    assert found.sum() >= count // 2  # the others overshoot their limits at every duration up to 3 s
+    assert np.allclose(shortest[found], grid[np.argmax(ok[found], axis=1)], atol=grid[1] - grid[0])
+    assert np.all(shortest[~found] > grid[-1])
+    # Rest to rest: 6Δ/T² = a_max when the acceleration binds, 1.5Δ/T = v_max when the velocity does.
+    rest = np.zeros((2, 6))
+    far = np.array([[0.1, 0, 0, 0, 0, 0], [10.0, 0, 0, 0, 0, 0]])
+    times = shortest_segment_times(far, rest, rest, PSM1)
+    v, a = PSM1.planner_velocity[0], PSM1.planner_acceleration[0]
+    assert times[0] == pytest.approx(np.sqrt(6 * 0.1 / a), rel=1e-9)  # closed form
+    assert times[1] == pytest.approx(1.5 * 10.0 / v, rel=3e-4)  # bisected to 0.03 %

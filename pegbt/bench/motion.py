@@ -3,7 +3,11 @@
 IK: the closed-form solver on one pose and per pose in a batch of 10 000, against a numerical IK
 (scipy.optimize.least_squares on the pose error, from the home configuration), all in this process.
 
-Planning: the twelve unilateral transfers of the reference setup (PSM1). Durations are compared with
+Planning: the twelve unilateral transfers of the reference setup, planned by each arm (24 plans; times
+and ratios are medians over all of them). Planning time is also given relative to a fixed workload
+timed right after each plan in this process, one numerical scipy IK (below), so that the figure holds
+on a busy machine and compares across versions of the planner.
+Durations are compared with
 - `toppra`, the time-optimal timing of *our own path* under the same velocity and acceleration limits:
   the same geometric path, so the same waypoints and the same channel (`..._vs_optimal`);
 - `toppra` on the path of the paper's spline (Alg. 2), i.e. the best timing the paper's path allows
@@ -112,51 +116,66 @@ def _ruckig_duration(start: np.ndarray, goal: np.ndarray, settings: ArmSettings)
     return float(trajectory.duration)
 
 
-def _planning_figures(settings: ArmSettings) -> Figures:
+def _transfer_figures(settings: ArmSettings) -> dict[str, list]:
+    """Per-transfer figures of one arm's twelve unilateral transfers."""
     setup_start = time.perf_counter()
     planner = TransferPlanner(settings)
     setup = time.perf_counter() - setup_start
     tops, up = reference.peg_tops(settings.name), reference.up(settings.name)
     transfers = [transfer_waypoints(tops[a], tops[b], up=up) for a, b in reference.UNILATERAL_ORDER]
     planner.plan(transfers[0])  # warm-up: imports and first factorisation
-    plan_times, ours, splines, optimal, optimal_spline, no_channel, cubic, refined = ([] for _ in range(8))
-    solves_before = planner.refiner.solves
+    keys = ("plan", "baseline", "ours", "splines", "optimal", "optimal_spline", "no_channel", "cubic", "refined")
+    figures: dict[str, list] = {key: [] for key in keys}
+    figures["setup"], solves_before = [setup], planner.refiner.solves
     for waypoints in transfers:
         start = time.perf_counter()
         plan = planner.plan(waypoints)
-        plan_times.append(time.perf_counter() - start)
-        refined.append(plan.refined)
+        figures["plan"].append(time.perf_counter() - start)
+        start = time.perf_counter()
+        _scipy_ik(waypoints.poses[0], settings)
+        figures["baseline"].append(time.perf_counter() - start)
+        figures["refined"].append(plan.refined)
         trajectory = plan.trajectory
-        ours.append(trajectory.duration)
-        splines.append(plan.spline.duration)
-        optimal.append(_toppra_duration(trajectory.q, trajectory.t, settings))
+        figures["ours"].append(trajectory.duration)
+        figures["splines"].append(plan.spline.duration)
+        figures["optimal"].append(_toppra_duration(trajectory.q, trajectory.t, settings))
         spline = plan.spline.sample(settings.control_period)
-        optimal_spline.append(_toppra_duration(spline.q, spline.t, settings))
-        no_channel.append(_ruckig_duration(plan.joints[0], plan.joints[3], settings))
-        cubic.append(cubic_transfer(waypoints, settings).duration)
-    ours_arr = np.asarray(ours)
+        figures["optimal_spline"].append(_toppra_duration(spline.q, spline.t, settings))
+        figures["no_channel"].append(_ruckig_duration(plan.joints[0], plan.joints[3], settings))
+        figures["cubic"].append(cubic_transfer(waypoints, settings).duration)
+    figures["solves"] = [planner.refiner.solves - solves_before]
+    return figures
 
-    def ratios(baseline: list[float]) -> np.ndarray:
-        return ours_arr / np.asarray(baseline)
 
+def _planning_figures(arms: list[ArmSettings]) -> Figures:
+    per_arm = [_transfer_figures(settings) for settings in arms]
+    figures = {key: np.concatenate([np.asarray(arm[key]) for arm in per_arm]) for key in per_arm[0]}
+    ours = figures["ours"]
+
+    def ratios(baseline: str) -> np.ndarray:
+        return ours / figures[baseline]
+
+    plan_ms = figures["plan"] * 1000
     return {
-        "plan_ms_median": float(np.median(plan_times)) * 1000,
-        "plan_ms_max": float(np.max(plan_times)) * 1000,
-        "plan_setup_ms": setup * 1000,
-        "qp_solves_per_plan": (planner.refiner.solves - solves_before) / len(transfers),
-        "transfers_refined": f"{sum(refined)}/{len(refined)}",
-        "transfer_s_median": float(np.median(ours_arr)),
-        "spline_s_median": float(np.median(splines)),
-        "cubic_s_median": float(np.median(cubic)),
-        "traj_time_ratio_vs_optimal": float(np.median(ratios(optimal))),
-        "traj_time_ratio_vs_optimal_per_transfer": " ".join(f"{r:.3f}" for r in ratios(optimal)),
-        "traj_time_ratio_vs_optimal_spline_path": float(np.median(ratios(optimal_spline))),
-        "traj_time_ratio_vs_ruckig_no_channel": float(np.median(ratios(no_channel))),
-        "traj_time_ratio_vs_cubic": float(np.median(ratios(cubic))),
-        "traj_time_ratio_vs_cubic_per_transfer": " ".join(f"{r:.3f}" for r in ratios(cubic)),
+        "plan_ms_median": float(np.median(plan_ms)),
+        "plan_ms_p90": float(np.percentile(plan_ms, 90)),
+        "plan_ms_max": float(np.max(plan_ms)),
+        "plan_over_scipy_ik_median": float(np.median(figures["plan"] / figures["baseline"])),
+        "plan_setup_ms": float(np.median(figures["setup"])) * 1000,
+        "qp_solves_per_plan": float(np.sum(figures["solves"])) / len(ours),
+        "transfers_refined": f"{int(np.sum(figures['refined']))}/{len(ours)}",
+        "transfer_s_median": float(np.median(ours)),
+        "spline_s_median": float(np.median(figures["splines"])),
+        "cubic_s_median": float(np.median(figures["cubic"])),
+        "traj_time_ratio_vs_optimal": float(np.median(ratios("optimal"))),
+        "traj_time_ratio_vs_optimal_max": float(np.max(ratios("optimal"))),
+        "traj_time_ratio_vs_optimal_per_transfer": " ".join(f"{r:.3f}" for r in ratios("optimal")),
+        "traj_time_ratio_vs_optimal_spline_path": float(np.median(ratios("optimal_spline"))),
+        "traj_time_ratio_vs_ruckig_no_channel": float(np.median(ratios("no_channel"))),
+        "traj_time_ratio_vs_cubic": float(np.median(ratios("cubic"))),
+        "traj_time_ratio_vs_cubic_per_transfer": " ".join(f"{r:.3f}" for r in ratios("cubic")),
     }
 
 
 def run() -> Figures:
-    settings = arm_settings("PSM1")
-    return {**_ik_figures(settings), **_planning_figures(settings)}
+    return {**_ik_figures(arm_settings("PSM1")), **_planning_figures([arm_settings("PSM1"), arm_settings("PSM2")])}

@@ -1,4 +1,6 @@
-"""The peg channel: while the block's hole is on a peg, the tip must move along the peg's axis.
+"""The peg channel: while the block's hole is on a peg, the tip must move along the peg's axis; and the
+upright limit: while the tool carries the block, it stays close to the pegs' axis so the block hangs
+straight.
 
 A channel is the line through `point` (the tip's position when the block sits on the peg) along the
 unit `axis` (the peg's "up"), for heights below `clear` (m above `point` along the axis, where the block
@@ -14,6 +16,14 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from pegbt.errors import PegbtError
+
+
+def perpendiculars(axis: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Two unit vectors (2, 3) perpendicular to the unit `axis` and to each other."""
+    helper = np.array([1.0, 0.0, 0.0]) if abs(axis[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    first = np.cross(axis, helper)
+    first /= np.linalg.norm(first)
+    return np.stack([first, np.cross(axis, first)])
 
 
 @dataclass(frozen=True)
@@ -36,10 +46,7 @@ class Channel:
     @cached_property
     def normals(self) -> NDArray[np.float64]:
         """Two unit vectors (2, 3) perpendicular to the axis and to each other."""
-        helper = np.array([1.0, 0.0, 0.0]) if abs(self.axis[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
-        first = np.cross(self.axis, helper)
-        first /= np.linalg.norm(first)
-        return np.stack([first, np.cross(self.axis, first)])
+        return perpendiculars(self.axis)
 
     def height(self, tip: ArrayLike) -> NDArray[np.float64]:
         """Height (...) of tip positions (..., 3) above `point` along the axis."""
@@ -49,3 +56,28 @@ class Channel:
         """Distance (...) of tip positions (..., 3) from the channel's line."""
         offset = np.asarray(tip) - self.point
         return np.linalg.norm(offset - np.multiply.outer(offset @ self.axis, self.axis), axis=-1)
+
+
+@dataclass(frozen=True)
+class Upright:
+    """The tool's axis may lean at most `max_tilt` (rad) away from the unit `axis` (the pegs' "up")."""
+
+    axis: NDArray[np.float64]
+    max_tilt: float
+
+    def __post_init__(self) -> None:
+        axis = np.asarray(self.axis, dtype=float)
+        if axis.shape != (3,) or not np.all(np.isfinite(axis)) or np.linalg.norm(axis) == 0:
+            raise PegbtError("the upright axis needs 3 finite values, not all zero", field="upright.axis")
+        if not 0 < self.max_tilt < np.pi / 2:
+            raise PegbtError(f"the upright tilt limit must lie in (0, π/2) rad, got {self.max_tilt!r}", field="upright.max_tilt")
+        object.__setattr__(self, "axis", axis / np.linalg.norm(axis))
+
+    @cached_property
+    def normals(self) -> NDArray[np.float64]:
+        """Two unit vectors (2, 3) perpendicular to the axis and to each other."""
+        return perpendiculars(self.axis)
+
+    def tilt(self, tool_axes: ArrayLike) -> NDArray[np.float64]:
+        """Angle (...) between tool axes (..., 3), unit vectors pointing back up the tool, and `axis`."""
+        return np.arccos(np.clip(np.asarray(tool_axes) @ self.axis, -1.0, 1.0))

@@ -1,13 +1,14 @@
 """Every sampled trajectory is checked before it may be streamed: joint, velocity and acceleration
-limits, the peg channel, and C1 continuity (no jump in position or velocity between set-points)."""
+limits, the peg channel, the upright tool while it carries a block, and C1 continuity (no jump in
+position or velocity between set-points)."""
 
 from __future__ import annotations
 
 import numpy as np
 
 from pegbt.errors import PegbtError
-from pegbt.motion.channel import Channel
-from pegbt.motion.kinematics import tip_position
+from pegbt.motion.channel import Channel, Upright
+from pegbt.motion.kinematics import forward_kinematics
 from pegbt.motion.limits import JOINT_NAMES, ArmSettings
 from pegbt.motion.trajectory import Trajectory
 
@@ -66,18 +67,35 @@ def _channel_problems(tips: np.ndarray, channel: Channel, leaving: bool) -> list
     return []
 
 
+def _upright_problems(t: np.ndarray, tool_axes: np.ndarray, upright: Upright) -> list[str]:
+    tilt = upright.tilt(tool_axes)
+    worst = int(np.argmax(tilt))
+    if tilt[worst] > upright.max_tilt + ABSOLUTE_SLACK:
+        return [f"the tool leans {np.degrees(tilt[worst]):.2f}° from the pegs' axis at t={t[worst]:.2f} s (upright limit {np.degrees(upright.max_tilt):.2f}°)"]
+    return []
+
+
 def trajectory_problems(
-    trajectory: Trajectory, settings: ArmSettings, *, leaving: Channel | None = None, arriving: Channel | None = None
+    trajectory: Trajectory,
+    settings: ArmSettings,
+    *,
+    leaving: Channel | None = None,
+    arriving: Channel | None = None,
+    upright: Upright | None = None,
 ) -> list[str]:
     """Everything wrong with `trajectory` for `settings`' arm; `leaving`/`arriving` are the channels the
-    tip must follow from the start until the block clears it, and from entering it to the end."""
+    tip must follow from the start until the block clears it, and from entering it to the end;
+    `upright` is how far the tool may lean, all along, while it carries the block."""
     problems = _limit_problems(trajectory, settings) + _continuity_problems(trajectory, settings)
-    if leaving is not None or arriving is not None:
-        tips = tip_position(trajectory.q)
+    if leaving is not None or arriving is not None or upright is not None:
+        poses = forward_kinematics(trajectory.q)
+        tips = poses[:, :3, 3]
         if leaving is not None:
             problems += _channel_problems(tips, leaving, leaving=True)
         if arriving is not None:
             problems += _channel_problems(tips, arriving, leaving=False)
+        if upright is not None:
+            problems += _upright_problems(trajectory.t, poses[:, :3, 2], upright)
     return problems
 
 
@@ -87,10 +105,11 @@ def check_trajectory(
     *,
     leaving: Channel | None = None,
     arriving: Channel | None = None,
+    upright: Upright | None = None,
     what: str = "trajectory",
 ) -> Trajectory:
     """`trajectory` if it passes every check, else a `PegbtError` naming `what` and each violation."""
-    problems = trajectory_problems(trajectory, settings, leaving=leaving, arriving=arriving)
+    problems = trajectory_problems(trajectory, settings, leaving=leaving, arriving=arriving, upright=upright)
     if problems:
         raise PegbtError(f"{what} for {settings.name} fails its checks: " + "; ".join(problems), field=what)
     return trajectory

@@ -1,10 +1,11 @@
 """Handing a block from one arm (the giver) to the other (the receiver), as in the reference setup.
 
 The giver brings the block to the meeting point while the receiver waits, open, above its own grasp on
-the same block; the receiver descends and closes; the giver opens and rises before the receiver leaves.
-Both arms' poses are built in the board frame and planned in each arm's base frame; every phase is
-checked so that the two tools (shafts and jaws, as segments) never come closer than the minimum
-distance.
+the same block; the receiver descends and closes; the giver opens and rises before the receiver leaves;
+the receiver then places the block on its goal peg, planned like a transfer (the refined SQP path,
+lowered onto the peg along its axis, the tool upright) that starts in the air. Both arms' poses are
+built in the board frame and planned in each arm's base frame; every phase is checked so that the two
+tools (shafts and jaws, as segments) never come closer than the minimum distance.
 """
 
 from __future__ import annotations
@@ -21,7 +22,8 @@ from pegbt.motion.kinematics import link_frames
 from pegbt.motion.limits import ArmSettings
 from pegbt.motion.settings import MotionSettings, motion_settings
 from pegbt.motion.trajectory import Trajectory
-from pegbt.motion.waypoints import tool_down_rotation
+from pegbt.motion.transfer import TransferPlanner
+from pegbt.motion.waypoints import placement_waypoints, tool_down_rotation
 
 WRIST_FRAME = 4  # link frame at the end of the shaft (wrist pitch axis)
 
@@ -96,26 +98,30 @@ def _pose_in_arm(position_board: NDArray, yaw: float, arm_from_board: NDArray, u
 
 def plan_handover(
     giver: ArmSettings,
-    receiver: ArmSettings,
+    receiver: TransferPlanner,
     giver_q: ArrayLike,
     receiver_q: ArrayLike,
     meeting_point: ArrayLike,
     giver_from_board: ArrayLike,
     receiver_from_board: ArrayLike,
     receiver_offset: ArrayLike,
+    place_peg_top: ArrayLike,
     *,
+    place_offset: ArrayLike = (0.0, 0.0, 0.0),
     giver_yaw: float = 0.0,
     receiver_yaw: float = 0.0,
     up_board: ArrayLike = (0.0, 0.0, -1.0),
     motion: MotionSettings | None = None,
 ) -> HandoverPlan:
-    """The handover from the giver (holding the block, at joints `giver_q`) to the receiver (at
-    `receiver_q`, jaw open). The giver's tip goes to `meeting_point` (board frame, m); the receiver
+    """The handover from the giver (holding the block, at joints `giver_q`) to the receiver (the
+    receiving arm's transfer planner; at `receiver_q`, jaw open), which then places the block on the
+    peg whose top centre is `place_peg_top` with its tip `place_offset` from the peg's axis (board
+    frame, m), keeping its yaw. The giver's tip goes to `meeting_point` (board frame, m); the receiver
     grasps at `receiver_offset` (board frame, m) from the giver's grasp point. Yaws are each tool's
-    rotation about the pegs' axis in its own arm frame. A `PegbtError` names an unreachable pose or
-    the phase in which the tools come too close."""
+    rotation about the pegs' axis in its own arm frame. A `PegbtError` names an unreachable pose, a
+    placement that fails its checks, or the phase in which the tools come too close."""
     motion = motion or motion_settings()
-    settings = motion.handover
+    settings, taker = motion.handover, receiver.settings
     up = np.asarray(up_board, dtype=float) / np.linalg.norm(up_board)
     meet = np.asarray(meeting_point, dtype=float)
     grasp = meet + np.asarray(receiver_offset, dtype=float)
@@ -125,36 +131,55 @@ def plan_handover(
         return solve_ik(_pose_in_arm(position, yaw, T, up), arm, what=f"handover {what}")
 
     q_meet = ik(giver, meet, giver_yaw, T_giver, "meeting pose (giver)")
-    q_wait = ik(receiver, grasp + settings.receiver_wait_above * up, receiver_yaw, T_receiver, "waiting pose (receiver)")
-    q_grasp = ik(receiver, grasp, receiver_yaw, T_receiver, "grasp (receiver)")
+    q_wait = ik(taker, grasp + settings.receiver_wait_above * up, receiver_yaw, T_receiver, "waiting pose (receiver)")
+    q_grasp = ik(taker, grasp, receiver_yaw, T_receiver, "grasp (receiver)")
     q_clear = ik(giver, meet + settings.giver_retreat * up, giver_yaw, T_giver, "retreat (giver)")
+    placement = receiver.plan(
+        placement_waypoints(
+            _pose_in_arm(grasp, receiver_yaw, T_receiver, up),
+            T_receiver[:3, :3] @ np.asarray(place_peg_top, dtype=float) + T_receiver[:3, 3],
+            place_offset=T_receiver[:3, :3] @ np.asarray(place_offset, dtype=float),
+            place_yaw=receiver_yaw,
+            up=T_receiver[:3, :3] @ up,
+            heights=motion.transfer,
+        )
+    )
     jaw_open, jaw_closed = motion.transfer.jaw_open, motion.transfer.jaw_closed
     phases = (
         HandoverPhase(
             "meet",
-            {giver.name: joint_move(giver_q, q_meet, giver), receiver.name: joint_move(receiver_q, q_wait, receiver)},
-            {receiver.name: jaw_open},
+            {giver.name: joint_move(giver_q, q_meet, giver), taker.name: joint_move(receiver_q, q_wait, taker)},
+            {taker.name: jaw_open},
         ),
-        HandoverPhase("receiver descends", {receiver.name: joint_move(q_wait, q_grasp, receiver)}, {receiver.name: jaw_closed}),
+        HandoverPhase("receiver descends", {taker.name: joint_move(q_wait, q_grasp, taker)}, {taker.name: jaw_closed}),
         HandoverPhase("giver releases", {}, {giver.name: jaw_open}),
         HandoverPhase("giver rises", {giver.name: joint_move(q_meet, q_clear, giver)}, {}),
+        HandoverPhase("receiver places", {taker.name: placement.trajectory}, {taker.name: jaw_open}),
     )
-    positions = {giver.name: np.asarray(giver_q, dtype=float), receiver.name: np.asarray(receiver_q, dtype=float)}
+    return HandoverPlan(phases, _closest_tools(phases, {giver.name: giver_q, taker.name: receiver_q}, T_giver, T_receiver, settings.min_tool_distance))
+
+
+def _closest_tools(
+    phases: tuple[HandoverPhase, ...], start: dict[str, ArrayLike], T_giver: NDArray, T_receiver: NDArray, minimum: float
+) -> float:
+    """The smallest distance between the two tools over all phases (giver first in `start`); a
+    `PegbtError` names the first phase in which it falls below `minimum`."""
+    positions = {arm: np.asarray(q, dtype=float) for arm, q in start.items()}
+    giver, receiver = positions
     closest = np.inf
     for phase in phases:
         steps = max((len(t) for t in phase.moves.values()), default=1)
         paths = {}
-        for arm, start in positions.items():
+        for arm, held in positions.items():
             move = phase.moves.get(arm)
-            q = np.repeat(start[None], steps, axis=0) if move is None else move.q
+            q = np.repeat(held[None], steps, axis=0) if move is None else move.q
             paths[arm] = np.concatenate([q, np.repeat(q[-1:], steps - len(q), axis=0)])
             positions[arm] = paths[arm][-1]
-        distance = float(tool_distance(paths[giver.name], T_giver, paths[receiver.name], T_receiver).min())
-        if distance < settings.min_tool_distance:
+        distance = float(tool_distance(paths[giver], T_giver, paths[receiver], T_receiver).min())
+        if distance < minimum:
             raise PegbtError(
-                f"the tools come within {distance * 1000:.1f} mm of each other during '{phase.name}' "
-                f"(minimum {settings.min_tool_distance * 1000:.1f} mm)",
+                f"the tools come within {distance * 1000:.1f} mm of each other during '{phase.name}' (minimum {minimum * 1000:.1f} mm)",
                 field="handover",
             )
         closest = min(closest, distance)
-    return HandoverPlan(phases, closest)
+    return closest

@@ -30,6 +30,7 @@ class TransferSettings:
     drop_height_above_peg_top: float
     channel_clear_above_peg_top: float
     channel_tolerance: float
+    upright_tilt: float
     jaw_open: float
     jaw_closed: float
 
@@ -40,9 +41,10 @@ class SqpSettings:
 
     segments: int
     max_iterations: int
-    horizon_probes: int
-    horizon_step: float
+    step_limit: tuple[float, ...]
+    jerk_weight: float
     eps: float
+    rho: float
     max_solver_iterations: int
 
 
@@ -64,6 +66,14 @@ class MotionSettings:
     handover: HandoverSettings
 
 
+def _number(value: object, wanted: type, signed: bool, path: Path, field: str) -> float | int:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or (wanted is int and not isinstance(value, int)):
+        raise PegbtError(f"expected a number ({wanted.__name__}), got {value!r}", file=path, field=field)
+    if not value > 0 and not signed:
+        raise PegbtError(f"must be positive, got {value!r}", file=path, field=field)
+    return wanted(value)
+
+
 def _section(document: dict, name: str, kind: type, path: Path) -> object:
     data = document.get(name) if isinstance(document, dict) else None
     if not isinstance(data, dict):
@@ -72,13 +82,13 @@ def _section(document: dict, name: str, kind: type, path: Path) -> object:
     for field in fields(kind):
         if field.name not in data:
             raise PegbtError("missing setting", file=path, field=f"{name}.{field.name}")
-        value = data[field.name]
-        wanted = int if field.type == "int" else float
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or (wanted is int and not isinstance(value, int)):
-            raise PegbtError(f"expected a number ({wanted.__name__}), got {value!r}", file=path, field=f"{name}.{field.name}")
-        if not value > 0 and field.name not in SIGNED:
-            raise PegbtError(f"must be positive, got {value!r}", file=path, field=f"{name}.{field.name}")
-        values[field.name] = wanted(value)
+        value, where, signed = data[field.name], f"{name}.{field.name}", field.name in SIGNED
+        if field.type == "tuple[float, ...]":  # one value per joint
+            if not isinstance(value, list) or len(value) != 6:
+                raise PegbtError(f"expected 6 numbers (one per joint), got {value!r}", file=path, field=where)
+            values[field.name] = tuple(_number(v, float, signed, path, f"{where}[{i}]") for i, v in enumerate(value))
+        else:
+            values[field.name] = _number(value, int if field.type == "int" else float, signed, path, where)
     return kind(**values)
 
 

@@ -9,6 +9,8 @@ limits allow; the magnitudes are chosen, by a coarse-to-fine grid over both, to 
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -17,8 +19,8 @@ from pegbt.motion.jacobian import jacobian
 from pegbt.motion.limits import ArmSettings
 from pegbt.motion.trajectory import HermitePath, segment_extremes
 
-_GRID_POINTS = 16  # log-spaced candidate durations per segment before bisection
-_BISECTIONS = 11  # each halves the gap between grid points (a factor 1.6): 0.03 % at the end
+_GRID_POINTS = 16  # log-spaced durations tried where a velocity limit binds, before bisection
+_BISECTIONS = 11  # each halves the gap between grid points (a factor 1.6 at most): 0.03 % at the end
 _LONGEST_SEGMENT = 20.0  # s
 _MAGNITUDE_GRID = 7
 _REFINEMENTS = 4
@@ -37,24 +39,49 @@ def shortest_segment_times(
     delta: NDArray[np.float64], v0: NDArray[np.float64], v1: NDArray[np.float64], settings: ArmSettings
 ) -> NDArray[np.float64]:
     """Shortest duration (N,) of each cubic Hermite segment (rows of the (N, 6) arrays) within the
-    planner's velocity and acceleration limits; inf where no duration works."""
-    vmax, amax = settings.planner_velocity, settings.planner_acceleration
+    planner's velocity and acceleration limits, and at least one control period; inf where none works.
 
-    def feasible(h: NDArray[np.float64]) -> NDArray[np.bool_]:
-        peak_v, peak_a = segment_extremes(delta, v0, v1, h[..., None])
+    The acceleration of a cubic is linear, so it peaks at an end, where it is (±6Δ − k·h)/h² with
+    k = 4v0 + 2v1 (start) or 2v0 + 4v1 (end). Each |6Δ − k·h| ≤ a_max·h² fails exactly between the
+    roots of a quadratic in h, so the shortest duration meeting the acceleration limits is the control
+    period or the upper end of one of those gaps, whichever comes first outside all of them. Velocity
+    limits rarely bind; where one does there, a grid and bisection above it find the shortest."""
+    vmax, amax = settings.planner_velocity, settings.planner_acceleration
+    six_delta, start, end = 6 * delta, 4 * v0 + 2 * v1, 2 * v0 + 4 * v1
+    gap_low, gap_high = [], []
+    for p, q in ((start, -six_delta), (end, -six_delta), (-start, six_delta), (-end, six_delta)):
+        discriminant = p * p - 4 * amax * q
+        root = np.sqrt(np.maximum(discriminant, 0.0))
+        gap_low.append(np.where(discriminant > 0, (-p - root) / (2 * amax), 0.0))
+        gap_high.append(np.where(discriminant > 0, (-p + root) / (2 * amax), 0.0))
+    low, high = np.concatenate(gap_low, axis=1), np.concatenate(gap_high, axis=1)  # (N, 24) gaps
+    candidates = np.concatenate([np.full((len(delta), 1), settings.control_period), np.maximum(high, settings.control_period)], axis=1)
+    inside = (low[:, None, :] < candidates[:, :, None]) & (candidates[:, :, None] < high[:, None, :])
+    shortest = np.min(np.where(inside.any(axis=2), np.inf, candidates), axis=1)
+
+    def feasible(h: NDArray[np.float64], rows: NDArray[np.int64]) -> NDArray[np.bool_]:
+        peak_v, peak_a = segment_extremes(delta[rows], v0[rows], v1[rows], h[..., None])
         return np.all((peak_v <= vmax * (1 + 1e-9)) & (peak_a <= amax * (1 + 1e-9)), axis=-1)
 
-    grid = np.geomspace(settings.control_period, _LONGEST_SEGMENT, _GRID_POINTS)
-    ok = feasible(np.broadcast_to(grid[:, None], (_GRID_POINTS, len(delta))))
+    slow = np.flatnonzero(~feasible(shortest, np.arange(len(delta))))
+    if slow.size:
+        shortest[slow] = _shortest_above(shortest[slow], lambda h: feasible(h, slow))
+    return shortest
+
+
+def _shortest_above(low: NDArray[np.float64], feasible: Callable[[NDArray[np.float64]], NDArray[np.bool_]]) -> NDArray[np.float64]:
+    """The shortest feasible durations above the infeasible `low` ones: the first feasible point of a
+    log grid up to the longest segment, bisected against the point before it; inf where none is."""
+    grid = np.geomspace(low, _LONGEST_SEGMENT, _GRID_POINTS)  # (points, rows)
+    ok = feasible(grid)
     first = np.argmax(ok, axis=0)
-    found = ok[first, np.arange(len(delta))]
-    high = grid[first]
-    low = np.where(first > 0, grid[np.maximum(first - 1, 0)], high)
+    columns = np.arange(len(low))
+    found = ok[first, columns]
+    high, low = grid[first, columns], grid[np.maximum(first - 1, 0), columns]
     for _ in range(_BISECTIONS):
         middle = 0.5 * (low + high)
         good = feasible(middle)
-        high = np.where(good, middle, high)
-        low = np.where(good, low, middle)
+        high, low = np.where(good, middle, high), np.where(good, low, middle)
     return np.where(found, high, np.inf)
 
 

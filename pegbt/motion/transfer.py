@@ -10,7 +10,6 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from pegbt.errors import PegbtError
 from pegbt.motion.checks import check_trajectory
 from pegbt.motion.cubic import rest_to_rest_path
 from pegbt.motion.ik import solve_ik
@@ -18,7 +17,7 @@ from pegbt.motion.limits import ArmSettings
 from pegbt.motion.settings import MotionSettings, motion_settings
 from pegbt.motion.spline import joint_direction, plan_spline
 from pegbt.motion.sqp import SqpRefiner
-from pegbt.motion.trajectory import HermitePath, Trajectory, fit_to_limits
+from pegbt.motion.trajectory import HermitePath, Trajectory
 from pegbt.motion.waypoints import WAYPOINT_NAMES, TransferWaypoints
 
 
@@ -58,22 +57,25 @@ class TransferPlanner:
     def spline(self, waypoints: TransferWaypoints, joints: NDArray[np.float64] | None = None) -> HermitePath:
         """The paper's Alg. 2 spline through the waypoints (the SQP's warm start)."""
         q = joint_waypoints(waypoints, self.settings) if joints is None else joints
-        up = waypoints.pick.axis
+        up = waypoints.upright.axis
         return plan_spline(q, joint_direction(q[1], up), joint_direction(q[2], -up), self.settings)
 
     def plan(self, waypoints: TransferWaypoints) -> TransferPlan:
         """The refined, checked transfer; a `PegbtError` (and no trajectory) if the waypoints are out of
-        reach or neither the refined path nor the spline passes the checks (limits, channel, C1)."""
+        reach or neither the refined path nor the spline passes the checks (limits, channels, upright
+        tool, C1)."""
         joints = joint_waypoints(waypoints, self.settings)
         spline = self.spline(waypoints, joints)
-        refined = self.refiner.refine(spline, waypoints.pick, waypoints.place)
+        refined = self.refiner.refine(spline, waypoints.pick, waypoints.place, waypoints.upright)
+        if refined is not None:  # its trajectory has passed the checks
+            return TransferPlan(refined[1], refined[0], spline, joints, True)
         # If the SQP finds nothing, the spline itself may still keep the channel: the checks decide.
-        path = spline if refined is None else fit_to_limits(refined, self.settings.planner_velocity, self.settings.planner_acceleration)
         trajectory = check_trajectory(
-            path.sample(self.settings.control_period),
+            spline.sample(self.settings.control_period),
             self.settings,
             leaving=waypoints.pick,
             arriving=waypoints.place,
+            upright=waypoints.upright,
             what="transfer",
         )
-        return TransferPlan(trajectory, path, spline, joints, refined is not None)
+        return TransferPlan(trajectory, spline, spline, joints, False)

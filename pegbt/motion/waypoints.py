@@ -2,8 +2,10 @@
 
 Four poses (the paper's transfer): grasp the block on the start peg, lift it clear above that peg,
 move above the goal peg, lower it onto the goal peg. Plus the approach pose just above the grasp, and
-the two channels the block must follow while it is on a peg. Heights come from `skills/motion.yaml`;
-peg positions come from the caller (the workcell), so this module knows no board geometry.
+the two channels the block must follow while it is on a peg. A placement (after a handover) starts
+with the block in the air instead: no start peg, no channel to leave. Heights come from
+`skills/motion.yaml`; peg positions come from the caller (the workcell), so this module knows no
+board geometry.
 """
 
 from __future__ import annotations
@@ -14,7 +16,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from pegbt.errors import PegbtError
-from pegbt.motion.channel import Channel
+from pegbt.motion.channel import Channel, Upright
 from pegbt.motion.settings import TransferSettings, motion_settings
 
 WAYPOINT_NAMES = ("grasp", "lifted above the start peg", "above the goal peg", "lowered onto the goal peg")
@@ -22,12 +24,15 @@ WAYPOINT_NAMES = ("grasp", "lifted above the start peg", "above the goal peg", "
 
 @dataclass(frozen=True)
 class TransferWaypoints:
-    """`poses` (4, 4, 4) in the order of `WAYPOINT_NAMES`; `approach` (4, 4) just above the grasp."""
+    """`poses` (4, 4, 4) in the order of `WAYPOINT_NAMES`; `approach` (4, 4) just above the grasp; the
+    channels of the pick and place pegs; how upright the tool stays while it carries the block. A
+    placement has no `approach` and no `pick` channel, and its first two poses are both the start."""
 
     poses: NDArray[np.float64]
-    approach: NDArray[np.float64]
-    pick: Channel
+    approach: NDArray[np.float64] | None
+    pick: Channel | None
     place: Channel
+    upright: Upright
 
 
 def tool_down_rotation(yaw: float, up: ArrayLike = (0.0, 0.0, 1.0)) -> NDArray[np.float64]:
@@ -60,6 +65,30 @@ def _vector(value: ArrayLike, what: str) -> NDArray[np.float64]:
     return vector
 
 
+def _unit_up(up: ArrayLike) -> NDArray[np.float64]:
+    up = _vector(up, "up")
+    if np.linalg.norm(up) == 0:
+        raise PegbtError("the up direction is zero", field="up")
+    return up / np.linalg.norm(up)
+
+
+def _lateral(offset: ArrayLike, up: NDArray[np.float64], what: str) -> NDArray[np.float64]:
+    """`offset` without its component along `up`."""
+    offset = _vector(offset, what)
+    return offset - (offset @ up) * up
+
+
+def _placing(
+    place_peg_top: ArrayLike, place_offset: ArrayLike, place_yaw: float, up: NDArray[np.float64], heights: TransferSettings
+) -> tuple[NDArray[np.float64], NDArray[np.float64], Channel]:
+    """The poses above the goal peg and lowered onto it, and the goal peg's channel."""
+    place = _vector(place_peg_top, "place_peg_top") + _lateral(place_offset, up, "place_offset")
+    dropped = place + heights.drop_height_above_peg_top * up
+    rotation = tool_down_rotation(place_yaw, up)
+    channel = Channel(dropped, up, heights.channel_clear_above_peg_top - heights.drop_height_above_peg_top, heights.channel_tolerance)
+    return _pose(rotation, place + heights.transfer_height_above_peg_top * up), _pose(rotation, dropped), channel
+
+
 def transfer_waypoints(
     pick_peg_top: ArrayLike,
     place_peg_top: ArrayLike,
@@ -76,33 +105,41 @@ def transfer_waypoints(
     `place_offset` from the place peg's axis (the grasp's offset from the block centre), with gripper
     yaws `pick_yaw` and `place_yaw` (rad) about `up`, the pegs' axis direction."""
     heights = heights or motion_settings().transfer
-    up = _vector(up, "up")
-    if np.linalg.norm(up) == 0:
-        raise PegbtError("the up direction is zero", field="up")
-    up = up / np.linalg.norm(up)
-
-    def lateral(offset: ArrayLike, what: str) -> NDArray[np.float64]:
-        offset = _vector(offset, what)
-        return offset - (offset @ up) * up
-
-    pick = _vector(pick_peg_top, "pick_peg_top") + lateral(pick_offset, "pick_offset")
-    place = _vector(place_peg_top, "place_peg_top") + lateral(place_offset, "place_offset")
+    up = _unit_up(up)
+    pick = _vector(pick_peg_top, "pick_peg_top") + _lateral(pick_offset, up, "pick_offset")
+    above, dropped, place = _placing(place_peg_top, place_offset, place_yaw, up, heights)
     block_top = -heights.block_top_below_peg_top
     grasp = pick + (block_top - heights.grasp_depth) * up
-    dropped = place + heights.drop_height_above_peg_top * up
-    pick_rotation, place_rotation = tool_down_rotation(pick_yaw, up), tool_down_rotation(place_yaw, up)
-    poses = np.stack(
-        [
-            _pose(pick_rotation, grasp),
-            _pose(pick_rotation, pick + heights.transfer_height_above_peg_top * up),
-            _pose(place_rotation, place + heights.transfer_height_above_peg_top * up),
-            _pose(place_rotation, dropped),
-        ]
-    )
+    pick_rotation = tool_down_rotation(pick_yaw, up)
+    poses = np.stack([_pose(pick_rotation, grasp), _pose(pick_rotation, pick + heights.transfer_height_above_peg_top * up), above, dropped])
     clear = heights.channel_clear_above_peg_top
     return TransferWaypoints(
         poses=poses,
         approach=_pose(pick_rotation, pick + (block_top + heights.approach_above_block) * up),
         pick=Channel(grasp, up, clear - (block_top - heights.grasp_depth), heights.channel_tolerance),
-        place=Channel(dropped, up, clear - heights.drop_height_above_peg_top, heights.channel_tolerance),
+        place=place,
+        upright=Upright(up, heights.upright_tilt),
+    )
+
+
+def placement_waypoints(
+    start: ArrayLike,
+    place_peg_top: ArrayLike,
+    *,
+    place_offset: ArrayLike = (0.0, 0.0, 0.0),
+    place_yaw: float = 0.0,
+    up: ArrayLike = (0.0, 0.0, 1.0),
+    heights: TransferSettings | None = None,
+) -> TransferWaypoints:
+    """Waypoints placing a block held in the air with the tip at pose `start` (4, 4; arm frame, e.g.
+    the receiver's grasp after a handover) onto the peg whose top centre is `place_peg_top`, lowered
+    along its axis as in a transfer. The block is already clear: the lifted pose is the start itself."""
+    heights = heights or motion_settings().transfer
+    start = np.asarray(start, dtype=float)
+    if start.shape != (4, 4) or not np.all(np.isfinite(start)):
+        raise PegbtError(f"expected a finite 4x4 pose, got shape {start.shape}", field="start")
+    up = _unit_up(up)
+    above, dropped, place = _placing(place_peg_top, place_offset, place_yaw, up, heights)
+    return TransferWaypoints(
+        poses=np.stack([start, start, above, dropped]), approach=None, pick=None, place=place, upright=Upright(up, heights.upright_tilt)
     )
