@@ -31,11 +31,17 @@ log = logging.getLogger("pegbt.behaviours")
 
 @dataclass(frozen=True)
 class SentMotion:
-    """A trajectory on its way: what was planned, what was sent, and its handle."""
+    """A trajectory on its way: what was planned, what was sent, its handle, and when it was sent."""
 
     planned: Trajectory
     sent: Trajectory
     handle: MotionHandle
+    sent_at: float
+
+    def joints_at(self, times: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Planned joints (len(times), 6) at clock `times`; before the start and after the end, its ends."""
+        rows = np.rint((times - self.sent_at) / self.planned.period).astype(int)
+        return self.planned.q[np.clip(rows, 0, len(self.planned) - 1)]
 
 
 class ArmMotion:
@@ -93,6 +99,14 @@ class ArmMotion:
         qd[[0, -1]] = 0.0
         return Trajectory(planned.t, q, qd, np.gradient(qd, planned.t, axis=0))
 
+    def joints_at(self, times: NDArray[np.float64], resting: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Where this arm is meant to be at clock `times`: along its motion, or at rest where the last one
+        ended (`resting`, the arm's set-point, if it has not moved in this run)."""
+        if self.active is not None:
+            return self.active.joints_at(times)
+        at = resting if self.desired is None else self.desired
+        return np.repeat(np.asarray(at, dtype=float)[None], len(times), axis=0)
+
     def send(self, arm: ArmClient, planned: Trajectory) -> MotionHandle:
         """Send `planned` (compensated) to `arm`; afterwards the arm is meant to be at its last row."""
         start = self.start_from(arm)
@@ -101,7 +115,7 @@ class ArmMotion:
                              "where the last motion ended", field="trajectory")
         sent = self.commands(planned)
         handle = arm.move_jp(sent)
-        self.active = SentMotion(planned, sent, handle)
+        self.active = SentMotion(planned, sent, handle, arm.clock.now())
         self.desired = planned.q[-1].copy()
         self.plans += 1
         self.tip_path += float(np.linalg.norm(np.diff(tip_position(planned.q), axis=0), axis=1).sum())

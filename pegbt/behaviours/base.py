@@ -9,6 +9,9 @@ run. Other exceptions are bugs and crash the run the same way.
 
 A `MotionLeaf` starts its motions in `initialise` (one per arm or jaw, planned and sent at once), polls
 them in `update` and, when halted, stops whatever still moves in `terminate`. It never blocks a tick.
+Before an arm motion is sent, it is checked against where the other arm is meant to be at the same
+times (moving or at rest): if the tools would come closer than `keep_apart`, nothing is sent and the
+leaf waits, planning again a little later, until the way is clear (or fails after `BLOCKED_PATIENCE`).
 """
 
 from __future__ import annotations
@@ -25,11 +28,19 @@ from pegbt.behaviours.skills import Skills
 from pegbt.errors import PegbtError
 from pegbt.executive.leaf import Leaf
 from pegbt.executive.params import Param
+from pegbt.motion.trajectory import Trajectory
 from pegbt.transport import ArmClient, EndpointSilent, MotionHandle
 from pegbt.workcell import ARMS
 
 log = logging.getLogger("pegbt.behaviours")
 RESOURCES = ("robot", "skills")
+KEEP_APART = 0.010  # m between the two tools' axes (shafts and wrist-to-tip segments): shafts are 8.4 mm thick
+BLOCKED_RETRY = 0.1  # s between attempts of a motion that would come too close to the other arm
+BLOCKED_PATIENCE = 15.0  # s a motion waits for the other arm to clear its way before the leaf fails
+
+
+class Blocked(Exception):
+    """A motion not sent because it would bring the arms too close; the leaf waits and tries again."""
 
 
 def arm_param(doc: str = "which arm") -> Param:
@@ -38,6 +49,11 @@ def arm_param(doc: str = "which arm") -> Param:
 
 def peg_param(name: str, doc: str) -> Param:
     return Param(name, int, doc, choices=tuple(range(12)), blackboard=True)
+
+
+def keep_apart_param(default: float = KEEP_APART) -> Param:
+    return Param("keep_apart", float, "m: an arm motion waits until it keeps the tools this far apart (0: no check, "
+                 "for the handover, where the tools meet on purpose)", default=default, minimum=0.0)
 
 
 def key_param(name: str, access: str, doc: str) -> Param:
@@ -101,8 +117,19 @@ class MotionLeaf(RobotLeaf):
         self.problem: str | None = None
         self.feedback_message = ""
         self.expected_end = self.wake_at = None
+        self.blocked_since: float | None = None
+        self._start()
+
+    def _start(self) -> None:
+        """Plan and send (`begin`); a motion that would come too close to the other arm leaves the leaf waiting."""
         try:
             self.begin()
+            self.blocked_since = None
+        except Blocked as blocked:
+            now = self.context.clock.now()
+            self.blocked_since = now if self.blocked_since is None else self.blocked_since
+            self.feedback_message = f"waiting: {blocked}"
+            self.wake_at = now + BLOCKED_RETRY
         except EndpointSilent:
             raise
         except PegbtError as error:
@@ -112,9 +139,17 @@ class MotionLeaf(RobotLeaf):
     def begin(self) -> None:
         raise NotImplementedError
 
-    def move(self, arm: str, trajectory: object, what: str) -> None:
-        """Send a planned arm trajectory (compensated by the condition's skills)."""
+    def move(self, arm: str, trajectory: Trajectory, what: str) -> None:
+        """Send a planned arm trajectory (compensated by the condition's skills), unless it would bring the
+        tools closer than `keep_apart` (then `Blocked`: nothing is sent)."""
         client, motion = self.client(arm), self.motion(arm)
+        keep_apart = float(self.params.get("keep_apart", 0.0))
+        if keep_apart > 0:
+            others = {name: other.setpoint_js.position for name, other in self.robot.arms.items() if name != arm}
+            gap = self.skills.clearance(arm, trajectory, self.context.clock.now(), others)
+            if gap < keep_apart:
+                raise Blocked(f"{what} would bring the tools within {gap * 1000:.1f} mm of each other "
+                              f"(keep apart {keep_apart * 1000:.0f} mm)")
         handle = motion.send(client, trajectory)
         self.running.append(Running(what, handle, lambda: motion.stop(client)))
         self._expect(trajectory.duration)
@@ -134,6 +169,13 @@ class MotionLeaf(RobotLeaf):
     def act(self) -> Status:
         if self.problem is not None:
             return self.fail(self.problem)
+        if self.blocked_since is not None:
+            now = self.context.clock.now()
+            if now - self.blocked_since > BLOCKED_PATIENCE:
+                return self.fail(f"gave up after {BLOCKED_PATIENCE:g} s {self.feedback_message}")
+            if now >= self.wake_at - 1e-9:
+                self._start()
+            return Status.RUNNING if self.problem is None else self.fail(self.problem)
         for motion in self.running:
             if motion.handle.failed:
                 self.halt_motions()

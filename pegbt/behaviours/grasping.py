@@ -11,7 +11,7 @@ import math
 import numpy as np
 from py_trees.common import Status
 
-from pegbt.behaviours.base import RESOURCES, MotionLeaf, RobotLeaf, arm_param, key_param, peg_param
+from pegbt.behaviours.base import RESOURCES, MotionLeaf, RobotLeaf, arm_param, keep_apart_param, key_param, peg_param
 from pegbt.behaviours.motion import above_pegs_first, held_param
 from pegbt.behaviours.poses import approach_for, transfer_for
 from pegbt.executive.params import Param
@@ -61,7 +61,8 @@ class SelectGrasp(RobotLeaf):
 @behaviour(
     "approach",
     "move `arm` over its chosen grasp at the transfer height and down onto it, opening the jaw on the way",
-    params=(arm_param(), key_param("grasp", "read", "the chosen grasp"), key_param("block", "read", "the block to grasp")),
+    params=(arm_param(), key_param("grasp", "read", "the chosen grasp"), key_param("block", "read", "the block to grasp"),
+            keep_apart_param()),
     reads=("/board",),
     resources=RESOURCES,
 )

@@ -2,8 +2,9 @@
 
 The giver carries the block to the meeting point (the mean of pegs 3, 6 and 9, shifted and raised as
 `skills/motion.yaml` says, tool yaw 0); the receiver waits open above its own grasp of the block there,
-descends and closes; the giver opens and rises; the receiver carries the block to its goal peg. The two
-arms never call each other: each step is a leaf, and the trees synchronise them through blackboard keys
+descends and closes; the giver opens and rises; the receiver carries the block to its goal peg. The tools meet on purpose
+here, so these leaves do not keep the arms apart (`keep_apart` 0); the protocol does. The two arms
+never call each other: each step is a leaf, and the trees synchronise them through blackboard keys
 (`set_blackboard` on one side, `wait_blackboard` on the other).
 """
 
@@ -14,7 +15,7 @@ import math
 import numpy as np
 from py_trees.common import Status
 
-from pegbt.behaviours.base import RESOURCES, MotionLeaf, RobotLeaf, arm_param, key_param, peg_param
+from pegbt.behaviours.base import RESOURCES, MotionLeaf, RobotLeaf, arm_param, keep_apart_param, key_param, peg_param
 from pegbt.behaviours.motion import CarryLeaf, above_pegs_first, carry_params
 from pegbt.behaviours.poses import from_handover, to_arm, to_handover, tool_pose, up_in_arm
 from pegbt.executive.params import Param
@@ -72,7 +73,7 @@ class HandoverPoses(RobotLeaf):
     "lift the block held by `arm` (the giver) off its peg and carry it to the meeting pose; fails at once "
     "if the block slips",
     params=carry_params(key_param("grasp", "read", "the giver's grasp"), key_param("block", "read", "the block held"),
-                        key_param("meeting", "read", "the giver's tip pose at the meeting point")),
+                        key_param("meeting", "read", "the giver's tip pose at the meeting point"), keep_apart=keep_apart_param(0.0)),
     reads=("/board",),
     resources=RESOURCES,
 )
@@ -85,7 +86,7 @@ class CarryToHandover(CarryLeaf):
 @behaviour(
     "go_to_handover",
     "move `arm` (the receiver) to wait, jaw open, straight above its grasp of the block at the meeting point",
-    params=(arm_param(), key_param("grasp", "read", "the receiver's grasp at the meeting point")),
+    params=(arm_param(), key_param("grasp", "read", "the receiver's grasp at the meeting point"), keep_apart_param(0.0)),
     resources=RESOURCES,
 )
 class GoToHandover(MotionLeaf):
@@ -105,7 +106,7 @@ class GoToHandover(MotionLeaf):
 @behaviour(
     "descend_to_grasp",
     "move `arm` straight down onto its grasp (the receiver taking the block at the meeting point)",
-    params=(arm_param(), key_param("grasp", "read", "the grasp to descend onto")),
+    params=(arm_param(), key_param("grasp", "read", "the grasp to descend onto"), keep_apart_param(0.0)),
     resources=RESOURCES,
 )
 class DescendToGrasp(MotionLeaf):
@@ -122,7 +123,8 @@ class DescendToGrasp(MotionLeaf):
     "carry the block that `arm` (the receiver) took at the meeting point over peg `place` and lower it onto "
     "the peg; fails at once if the block slips",
     params=carry_params(peg_param("place", "goal peg"), key_param("grasp", "read", "the receiver's grasp"),
-                        key_param("block_pose", "read", "the block's pose at the meeting point (board frame)")),
+                        key_param("block_pose", "read", "the block's pose at the meeting point (board frame)"),
+                        keep_apart=keep_apart_param(0.0)),
     reads=("/board",),
     resources=RESOURCES,
 )

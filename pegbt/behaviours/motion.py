@@ -14,7 +14,7 @@ import numpy as np
 from numpy.typing import NDArray
 from py_trees.common import Status
 
-from pegbt.behaviours.base import RESOURCES, MotionLeaf, arm_param, key_param, peg_param
+from pegbt.behaviours.base import RESOURCES, MotionLeaf, arm_param, keep_apart_param, key_param, peg_param
 from pegbt.behaviours.poses import height_above_pegs, tool_pose, transfer_for, up_in_arm
 from pegbt.executive.params import Param
 from pegbt.executive.registry import behaviour
@@ -71,8 +71,8 @@ def held_param() -> Param:
                  "has lost its block", default=HELD_ABOVE)
 
 
-def carry_params(*extra: Param) -> tuple[Param, ...]:
-    return (arm_param(), *extra, held_param(), key_param("plan_s", "write", "the planned motion's duration, s"))
+def carry_params(*extra: Param, keep_apart: Param = keep_apart_param()) -> tuple[Param, ...]:
+    return (arm_param(), *extra, held_param(), key_param("plan_s", "write", "the planned motion's duration, s"), keep_apart)
 
 
 @behaviour(
@@ -94,7 +94,7 @@ class Transfer(CarryLeaf):
 @behaviour(
     "rise",
     "move `arm` straight up along the pegs' axis by `height` metres (a giver letting go, a tool backing off)",
-    params=(arm_param(), Param("height", float, "how far, m", minimum=0.0)),
+    params=(arm_param(), Param("height", float, "how far, m", minimum=0.0), keep_apart_param()),
     resources=RESOURCES,
 )
 class Rise(MotionLeaf):
@@ -111,7 +111,7 @@ class Rise(MotionLeaf):
 @behaviour(
     "park",
     "move `arm` out of the camera's view: rise to the transfer height if low, then to its home pose (tool down)",
-    params=(arm_param(),),
+    params=(arm_param(), keep_apart_param()),
     resources=RESOURCES,
 )
 class Park(MotionLeaf):

@@ -15,7 +15,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from pegbt.motion.channel import Channel
 from pegbt.motion.settings import MotionSettings
-from pegbt.motion.waypoints import TransferWaypoints, tool_down_rotation, transfer_waypoints
+from pegbt.motion.waypoints import TransferWaypoints, placement_waypoints, tool_down_rotation, transfer_waypoints
 from pegbt.perception.blocks import BlockEstimate
 from pegbt.perception.board import BoardEstimate
 from pegbt.perception.grasp import Grasp
@@ -24,7 +24,8 @@ from pegbt.workcell import Workcell
 UP_BOARD = np.array([0.0, 0.0, -1.0])
 APPROACH_CLEAR_ABOVE_PEG_TOP = 0.002  # m: an approaching jaw is on the block's axis from this high down
 ALREADY_CLEAR = 0.001  # m: a channel whose clearing height lies this far below its start constrains nothing
-HANDOVER_ARRIVAL = 0.005  # m: a carry to or from the handover point passes this far above the grasp there
+HANDOVER_ARRIVAL = 0.005  # m: a carry to the handover point arrives from this far above it
+MIN_RISE = 0.005  # m: an approach rises at least this much before it moves over
 
 
 def peg_top_board(cell: Workcell, board: BoardEstimate | None, peg: int) -> NDArray[np.float64]:
@@ -87,12 +88,12 @@ def approach_for(cell: Workcell, motion: MotionSettings, arm: str, start: NDArra
                  pick: TransferWaypoints) -> TransferWaypoints:
     """The approach from a tool at `start` (tip pose, arm frame; low among the pegs, having just let go of
     a block) to the grasp of `pick`, shaped like a transfer so the same planner serves: rise straight up
-    to the transfer height (at least `HANDOVER_ARRIVAL`), move over the grasp, descend onto it along the
+    to the transfer height (at least `MIN_RISE`), move over the grasp, descend onto it along the
     block's axis. The descent is a channel from just above the peg tops down: the open jaw comes down
     around the block's wall."""
     heights = motion.transfer
     up = up_in_arm(cell, arm)
-    rise = max(heights.transfer_height_above_peg_top - height_above_pegs(cell, arm, start[:3, 3]), HANDOVER_ARRIVAL)
+    rise = max(heights.transfer_height_above_peg_top - height_above_pegs(cell, arm, start[:3, 3]), MIN_RISE)
     risen = start.copy()
     risen[:3, 3] += rise * up
     grasp = pick.poses[0][:3, 3]
@@ -100,8 +101,9 @@ def approach_for(cell: Workcell, motion: MotionSettings, arm: str, start: NDArra
     return TransferWaypoints(
         poses=np.stack([start, risen, pick.poses[1], pick.poses[0]]),
         approach=pick.approach,
-        pick=_free_channel(start[:3, 3], up, heights.channel_tolerance),
+        pick=None,  # nothing is held: the tool is free to leave
         place=Channel(grasp, up, descent, heights.channel_tolerance),
+        upright=pick.upright,
     )
 
 
@@ -120,20 +122,14 @@ def to_handover(cell: Workcell, motion: MotionSettings, arm: str, board: BoardEs
     above[:3, 3] += HANDOVER_ARRIVAL * up
     tolerance = motion.transfer.channel_tolerance
     return TransferWaypoints(np.stack([pick.poses[0], pick.poses[1], above, meeting]), pick.approach, pick.pick,
-                             _free_channel(meeting[:3, 3], up, tolerance))
+                             _free_channel(meeting[:3, 3], up, tolerance), pick.upright)
 
 
 def from_handover(cell: Workcell, motion: MotionSettings, arm: str, board: BoardEstimate | None, grasp: Grasp,
                   block_pose: NDArray[np.float64], place_peg: int) -> TransferWaypoints:
-    """The receiver's carry: from its grasp of the block held in the air (`block_pose`, board frame), up
-    `HANDOVER_ARRIVAL`, over peg `place_peg` and down onto it, the block keeping its yaw."""
+    """The receiver's placement: from its grasp of the block held in the air (`block_pose`, board frame)
+    over peg `place_peg` and down onto it, the block keeping its yaw."""
     up = up_in_arm(cell, arm)
-    axis = to_arm(cell, arm, block_pose[:3, 3])
-    yaw = yaw_about(grasp.pose[:3, :3], up)
-    place_top = to_arm(cell, arm, peg_top_board(cell, board, place_peg))
-    place = transfer_waypoints(place_top, place_top, pick_offset=grasp.position - axis, place_offset=grasp.position - axis,
-                               pick_yaw=yaw, place_yaw=yaw, up=up, heights=motion.transfer)
-    lifted = grasp.pose.copy()
-    lifted[:3, 3] += HANDOVER_ARRIVAL * up
-    return TransferWaypoints(np.stack([grasp.pose, lifted, place.poses[2], place.poses[3]]), place.approach,
-                             _free_channel(grasp.position, up, motion.transfer.channel_tolerance), place.place)
+    offset = grasp.position - to_arm(cell, arm, block_pose[:3, 3])
+    return placement_waypoints(grasp.pose, to_arm(cell, arm, peg_top_board(cell, board, place_peg)), place_offset=offset,
+                               place_yaw=yaw_about(grasp.pose[:3, :3], up), up=up, heights=motion.transfer)

@@ -25,9 +25,11 @@ from pegbt.calibration.base import CalibrationModel
 from pegbt.calibration.compensation import CALIBRATION_DIR, Compensator
 from pegbt.errors import PegbtError
 from pegbt.executive.providers import ProviderSetup
+from pegbt.motion.handover import tool_distance
 from pegbt.motion.ik import inverse_kinematics
 from pegbt.motion.limits import arm_settings
 from pegbt.motion.settings import MotionSettings, motion_settings
+from pegbt.motion.trajectory import Trajectory
 from pegbt.motion.transfer import TransferPlanner
 from pegbt.perception.blocks import BlockLocator
 from pegbt.perception.board import PegboardRegistration
@@ -37,6 +39,7 @@ from pegbt.workcell import ARMS, Workcell, workcell
 CONDITIONS = ("uncalibrated", "calibrated", "optimized")
 SIMULATOR_CALIBRATION_DIR = CALIBRATION_DIR / "sim-dvrk-real"
 MODEL_PREFERENCE = ("hybrid", "physics", "lstm")
+CLEARANCE_STRIDE = 3  # check every third 10 ms row: tools move well under a millimetre in 30 ms
 
 
 def calibration_model(directory: Path, arm: str) -> CalibrationModel:
@@ -83,6 +86,20 @@ class Skills:
         if name not in self.arms:
             raise PegbtError(f"unknown arm {name!r}; known: {', '.join(self.arms)}", field="arm")
         return self.arms[name]
+
+    def clearance(self, arm: str, planned: Trajectory, start: float, others: dict[str, NDArray[np.float64]]) -> float:
+        """Closest distance (m) between `arm`'s tool along `planned` (starting at clock time `start`) and
+        each other arm's tool where it is meant to be at the same times (along its own motion, or at rest:
+        `others` gives each other arm's set-point in case it has not moved yet). Tools are their shafts and
+        wrist-to-tip segments, as `pegbt.motion.handover.tool_distance` measures them."""
+        rows = planned.q[::CLEARANCE_STRIDE]
+        times = start + planned.t[::CLEARANCE_STRIDE]
+        closest = np.inf
+        for other, resting in others.items():
+            theirs = self.arms[other].joints_at(times, resting)
+            distance = tool_distance(rows, self.cell.board_to_arm(arm), theirs, self.cell.board_to_arm(other))
+            closest = min(closest, float(distance.min()))
+        return closest
 
     def report(self) -> "SkillsReport | None":
         """How the motions went (None if nothing moved): trajectories sent, fallbacks, planned tool-tip paths."""
