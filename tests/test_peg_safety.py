@@ -68,7 +68,7 @@ def one_transfer(tmp_path: Path, world_faults: str, log: Path) -> subprocess.Com
     tree = tmp_path / "one.yaml"
     tree.write_text(
         f"include: [{REPO / 'trees' / 'shared' / 'one_transfer.yaml'}, {REPO / 'trees' / 'shared' / 'sense.yaml'}]\n"
-        "blackboard: {/policy/skip_failed_blocks: false}\n"
+        "blackboard: {/policy/skip_failed_blocks: false, /PSM1/may_carry: true}\n"
         "tree:\n  sequence:\n"
         "    - subtree: {use: clear_view}\n"
         "    - subtree: {use: transfer_block, args: {arm: PSM1, pick: 1, place: 7, regrasps: 1}}\n"
