@@ -12,6 +12,9 @@ them in `update` and, when halted, stops whatever still moves in `terminate`. It
 Before an arm motion is sent, it is checked against where the other arm is meant to be at the same
 times (moving or at rest): if the tools would come closer than `keep_apart`, nothing is sent and the
 leaf waits, planning again a little later, until the way is clear (or fails after `BLOCKED_PATIENCE`).
+Two arms can block each other, each resting in the other's way; then the one that is not carrying a
+block and started waiting last steps back: it withdraws its tool along its own shaft (insertion only,
+which takes the tool away from everything), and plans again from there.
 """
 
 from __future__ import annotations
@@ -37,6 +40,7 @@ RESOURCES = ("robot", "skills")
 KEEP_APART = 0.010  # m between the two tools' axes (shafts and wrist-to-tip segments): shafts are 8.4 mm thick
 BLOCKED_RETRY = 0.1  # s between attempts of a motion that would come too close to the other arm
 BLOCKED_PATIENCE = 15.0  # s a motion waits for the other arm to clear its way before the leaf fails
+STEP_BACK = 0.03  # m of insertion an arm gives up to let the other arm past
 
 
 class Blocked(Exception):
@@ -112,22 +116,28 @@ class Running:
 class MotionLeaf(RobotLeaf):
     """A leaf whose work is motions: `begin()` starts them with `move`/`move_jaw`; `done()` judges the result."""
 
+    may_step_back = True  # False for motions that carry a block: withdrawing would drag it off its peg
+
     def initialise(self) -> None:
         self.running: list[Running] = []
         self.problem: str | None = None
         self.feedback_message = ""
         self.expected_end = self.wake_at = None
         self.blocked_since: float | None = None
+        self.stepping_back: Running | None = None
+        self.stepped_back = False
         self._start()
 
     def _start(self) -> None:
         """Plan and send (`begin`); a motion that would come too close to the other arm leaves the leaf waiting."""
+        arm = self.param("arm")
         try:
             self.begin()
-            self.blocked_since = None
+            self.blocked_since = self.skills.waiting[arm] = None
         except Blocked as blocked:
             now = self.context.clock.now()
-            self.blocked_since = now if self.blocked_since is None else self.blocked_since
+            if self.blocked_since is None:
+                self.blocked_since = self.skills.waiting[arm] = now
             self.feedback_message = f"waiting: {blocked}"
             self.wake_at = now + BLOCKED_RETRY
         except EndpointSilent:
@@ -135,6 +145,44 @@ class MotionLeaf(RobotLeaf):
         except PegbtError as error:
             self.problem = str(error)
             self.halt_motions()
+
+    def _wait_for_the_way(self) -> Status:
+        """A tick while blocked by the other arm: step back if both arms wait on each other, try again, give up."""
+        now = self.context.clock.now()
+        if self.stepping_back is not None:
+            if self.stepping_back.handle.failed:
+                return self.fail(f"{self.stepping_back.what}: {self.stepping_back.handle.error}")
+            if self.stepping_back.handle.busy:
+                return Status.RUNNING
+            self.stepping_back = None
+        elif self._should_step_back():
+            self._step_back()
+            return Status.RUNNING
+        if now - self.blocked_since > BLOCKED_PATIENCE:
+            return self.fail(f"gave up after {BLOCKED_PATIENCE:g} s {self.feedback_message}")
+        if now >= self.wake_at - 1e-9:
+            self._start()
+        return Status.RUNNING if self.problem is None else self.fail(self.problem)
+
+    def _should_step_back(self) -> bool:
+        """This arm gives way when the other arm waits too, and waited first (or as long)."""
+        if not self.may_step_back or self.stepped_back:
+            return False
+        others = [since for arm, since in self.skills.waiting.items() if arm != self.param("arm") and since is not None]
+        return bool(others) and min(others) <= self.blocked_since
+
+    def _step_back(self) -> None:
+        """Withdraw the tool along its shaft by `STEP_BACK` (insertion only: away from everything around it)."""
+        arm = self.param("arm")
+        client, motion = self.client(arm), self.motion(arm)
+        start = motion.start_from(client)
+        target = start.copy()
+        target[2] = max(motion.settings.lower[2], start[2] - STEP_BACK)
+        handle = motion.send(client, motion.through(start, [target], ["stepped back"]))
+        self.stepping_back = Running(f"{arm} stepping back for the other arm", handle, lambda: motion.stop(client))
+        self.running.append(self.stepping_back)
+        self.stepped_back = True
+        self.feedback_message = f"{arm} steps back along its shaft: both arms were waiting for each other"
 
     def begin(self) -> None:
         raise NotImplementedError
@@ -170,12 +218,7 @@ class MotionLeaf(RobotLeaf):
         if self.problem is not None:
             return self.fail(self.problem)
         if self.blocked_since is not None:
-            now = self.context.clock.now()
-            if now - self.blocked_since > BLOCKED_PATIENCE:
-                return self.fail(f"gave up after {BLOCKED_PATIENCE:g} s {self.feedback_message}")
-            if now >= self.wake_at - 1e-9:
-                self._start()
-            return Status.RUNNING if self.problem is None else self.fail(self.problem)
+            return self._wait_for_the_way()
         for motion in self.running:
             if motion.handle.failed:
                 self.halt_motions()
@@ -203,6 +246,8 @@ class MotionLeaf(RobotLeaf):
         return status
 
     def terminate(self, new_status: Status) -> None:
+        if getattr(self, "blocked_since", None) is not None:
+            self.skills.waiting[self.param("arm")] = None
         if new_status == Status.INVALID:
             self.halt_motions()
 

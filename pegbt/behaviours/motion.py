@@ -46,6 +46,8 @@ class CarryLeaf(MotionLeaf):
     """A motion carrying a held block: planned through `waypoints()` as the condition says, and failed at
     once, with the arm stopped, if the jaw closes past `held_above` (the block slipped out)."""
 
+    may_step_back = False
+
     def waypoints(self) -> TransferWaypoints:
         raise NotImplementedError
 

@@ -73,6 +73,7 @@ class Skills:
         self.registration = PegboardRegistration(self.cell)
         self.locator = BlockLocator(self.cell)
         self.selectors = {arm: GraspSelector(arm, self._reachable(arm), self.cell) for arm in ARMS}
+        self.waiting: dict[str, float | None] = dict.fromkeys(ARMS)  # since when each arm waits for the other
 
     def _reachable(self, arm: str):
         settings = arm_settings(arm)
