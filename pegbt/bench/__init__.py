@@ -14,7 +14,9 @@ from pegbt.errors import PegbtError
 
 Figures = dict[str, float | int | str]
 
-BENCHMARKS: dict[str, str] = {}
+BENCHMARKS: dict[str, str] = {
+    "sim2real": "pegbt.bench.sim2real:run",
+}
 
 
 def benchmark_names() -> list[str]:
