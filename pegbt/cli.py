@@ -15,6 +15,7 @@ from pegbt.errors import PegbtError
 
 COMMAND_MODULES: tuple[str, ...] = (
     "pegbt.bench.cli",
+    "pegbt.sim2real.cli",
 )
 
 

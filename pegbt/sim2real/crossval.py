@@ -27,19 +27,47 @@ class BlockedGrams:
     """Per-block Gram matrices of a column bank M (N, m) and targets Y (N, J)."""
 
     def __init__(self, columns: Array, targets: Array, n_blocks: int = N_BLOCKS, n_folds: int = N_FOLDS) -> None:
+        self._storage = columns
+        self.columns = columns
+        self.targets = targets
         self.edges = block_edges(len(columns), n_blocks)
-        self.gram = np.stack([columns[a:b].T @ columns[a:b] for a, b in zip(self.edges[:-1], self.edges[1:])])
-        self.rhs = np.stack([columns[a:b].T @ targets[a:b] for a, b in zip(self.edges[:-1], self.edges[1:])])
-        self.yy = np.stack([(targets[a:b] ** 2).sum(0) for a, b in zip(self.edges[:-1], self.edges[1:])])
+        pairs = list(zip(self.edges[:-1], self.edges[1:]))
+        self.gram = np.stack([columns[a:b].T @ columns[a:b] for a, b in pairs])
+        self.rhs = np.stack([columns[a:b].T @ targets[a:b] for a, b in pairs])
+        self.yy = np.stack([(targets[a:b] ** 2).sum(0) for a, b in pairs])
         self.fold_of_block = np.repeat(np.arange(n_folds), n_blocks // n_folds)
         self.n_folds = n_folds
-        self._fold_gram = np.stack([self.gram[self.fold_of_block == f].sum(0) for f in range(n_folds)])
-        self._fold_rhs = np.stack([self.rhs[self.fold_of_block == f].sum(0) for f in range(n_folds)])
-        self._fold_yy = np.stack([self.yy[self.fold_of_block == f].sum(0) for f in range(n_folds)])
+        self._derive()
+
+    def _derive(self) -> None:
+        """Fold and total sums of the per-block terms, and the column scales used in solves."""
+        in_fold = [self.fold_of_block == f for f in range(self.n_folds)]
+        self._fold_gram = np.stack([self.gram[mask].sum(0) for mask in in_fold])
+        self._fold_rhs = np.stack([self.rhs[mask].sum(0) for mask in in_fold])
+        self._fold_yy = np.stack([self.yy[mask].sum(0) for mask in in_fold])
         self.total_gram = self.gram.sum(0)
         self.total_rhs = self.rhs.sum(0)
-        self.total_yy = self.yy.sum(0)
         self._scale = np.sqrt(np.maximum(np.diag(self.total_gram), 1e-300))
+
+    def add_column(self, column: Array) -> int:
+        """Append a column (a width refined between grid values) to the bank; returns its index."""
+        pairs = list(zip(self.edges[:-1], self.edges[1:]))
+        m = self.gram.shape[1]
+        cross = np.stack([self.columns[a:b].T @ column[a:b] for a, b in pairs])  # (B, m)
+        gram = np.empty((len(pairs), m + 1, m + 1))
+        gram[:, :m, :m] = self.gram
+        gram[:, :m, m] = gram[:, m, :m] = cross
+        gram[:, m, m] = [column[a:b] @ column[a:b] for a, b in pairs]
+        self.gram = gram
+        self.rhs = np.concatenate([self.rhs, np.stack([column[a:b] @ self.targets[a:b] for a, b in pairs])[:, None]], 1)
+        if m == self._storage.shape[1]:  # grow the column store geometrically, not one copy per column
+            grown = np.empty((len(column), 2 * m))
+            grown[:, :m] = self._storage
+            self._storage = grown
+        self._storage[:, m] = column
+        self.columns = self._storage[:, : m + 1]
+        self._derive()
+        return m
 
     def fold_ranges(self) -> list[tuple[int, int]]:
         """Sample ranges [start, stop) of the held-out segment of each fold."""

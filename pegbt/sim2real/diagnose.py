@@ -139,7 +139,7 @@ def choose_effects(q_cmd: Array, t: Array | None, residual: Array, base: ArmPhys
     for _ in range(SELECTION_ROUNDS):
         columns, candidates = build_columns(q_cmd, t, drivers)
         grams = BlockedGrams(columns, residual)
-        selections, hypotheses = select(grams, columns, residual, candidates, unidentifiable)
+        selections, hypotheses = select(grams, t, candidates, unidentifiable)
         updated = base_drivers.copy()
         for selection in selections:
             free = selection.free_columns()

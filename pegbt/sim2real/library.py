@@ -47,6 +47,7 @@ class Candidate:
     source: int
     columns: NDArray[np.int64]
     widths: Array
+    signal: Array  # what a width column is computed from: the source's command, or the joint's driver
 
     @property
     def key(self) -> tuple[str, int, int]:
@@ -105,35 +106,33 @@ def build_columns(q_cmd: Array, t: Array | None, drivers: Array) -> tuple[Array,
     """
     n_joints = q_cmd.shape[1]
     blocks: list[Array] = [np.ones((len(q_cmd), 1)), q_cmd]
-    groups: dict[tuple[str, int], tuple[NDArray[np.int64], Array]] = {}
+    groups: dict[tuple[str, int], tuple[NDArray[np.int64], Array, Array]] = {}
     start = 1 + n_joints
 
-    def add(kind: str, joint: int, widths: Array, columns: Array) -> None:
+    def add(kind: str, joint: int, widths: Array, signal: Array) -> None:
         nonlocal start
-        blocks.append(columns)
-        groups[(kind, joint)] = (np.arange(start, start + len(widths)), widths)
+        blocks.append(np.column_stack([width_column(kind, signal, t, w) for w in widths]) if kind in ("lag", "delay")
+                      else play_grid(signal, widths) - signal[:, None])
+        groups[(kind, joint)] = (np.arange(start, start + len(widths)), widths, signal)
         start += len(widths)
 
     for s in range(n_joints):
-        widths = play_widths(q_cmd[:, s])
-        add("hysteresis", s, widths, play_grid(q_cmd[:, s], widths) - q_cmd[:, s, None])
+        add("hysteresis", s, play_widths(q_cmd[:, s]), q_cmd[:, s])
     for j in range(n_joints):
         driver = drivers[:, j]
         if np.array_equal(driver, q_cmd[:, j]):
             groups[("backlash", j)] = groups[("hysteresis", j)]
         else:
-            widths = play_widths(driver)
-            add("backlash", j, widths, play_grid(driver, widths) - driver[:, None])
+            add("backlash", j, play_widths(driver), driver)
         if t is not None:
-            taus = time_widths(t)
-            add("lag", j, taus, np.column_stack([lag_column(driver, t, tau) for tau in taus]))
-            add("delay", j, taus, np.column_stack([delay_column(driver, t, d) for d in taus]))
+            add("lag", j, time_widths(t), driver)
+            add("delay", j, time_widths(t), driver)
     none = np.array([np.nan])
     candidates: list[Candidate] = []
     for j in range(n_joints):
-        candidates.append(Candidate("offset", j, j, np.array([0]), none))
-        candidates.append(Candidate("scale", j, j, np.array([1 + j]), none))
-        candidates += [Candidate("coupling", j, s, np.array([1 + s]), none) for s in range(n_joints) if s != j]
+        candidates.append(Candidate("offset", j, j, np.array([0]), none, q_cmd[:, j]))
+        candidates.append(Candidate("scale", j, j, np.array([1 + j]), none, q_cmd[:, j]))
+        candidates += [Candidate("coupling", j, s, np.array([1 + s]), none, q_cmd[:, s]) for s in range(n_joints) if s != j]
         candidates += [Candidate("hysteresis", j, s, *groups[("hysteresis", s)]) for s in range(n_joints) if s != j]
         kinds = ("backlash", "lag", "delay") if t is not None else ("backlash",)
         candidates += [Candidate(kind, j, j, *groups[(kind, j)]) for kind in kinds]

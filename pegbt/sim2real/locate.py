@@ -144,13 +144,13 @@ def _regimes(j: int, r: Array, q_cmd: Array, motion: _Motion) -> list[Regime]:
     found: list[Regime | None] = []
     for k, other in enumerate(JOINT_NAMES):
         found.append(_compare(r, motion.after_reversal[:, k], f"just after {other} reverses"))
-        found.append(_compare(r, motion.direction[:, k] > 0, f"while {other} rises (vs falls or rests)"))
+        found.append(_compare(r, motion.direction[:, k] > 0, f"while {other} rises (against falls and rests)"))
     fast = motion.speed[:, j] > np.percentile(motion.speed[:, j], 67)
-    found.append(_compare(r, fast, f"{name} moving fast (top third of its speeds)"))
+    found.append(_compare(r, fast, f"when {name} moves fast (top third of its speeds)"))
     high = q_cmd[:, j] > np.percentile(q_cmd[:, j], 67)
     low = q_cmd[:, j] < np.percentile(q_cmd[:, j], 33)
-    found.append(_compare(r, high, f"{name} commanded high (top third of its range)"))
-    found.append(_compare(r, low, f"{name} commanded low (bottom third of its range)"))
-    found.append(_compare(r, motion.others_moving[:, j], f"the other joints moving more than usual"))
+    found.append(_compare(r, high, f"when {name} is commanded high (top third of its range)"))
+    found.append(_compare(r, low, f"when {name} is commanded low (bottom third of its range)"))
+    found.append(_compare(r, motion.others_moving[:, j], "when the other joints move more than usual"))
     notable = [regime for regime in found if regime is not None and regime.strength >= NOTABLE]
     return sorted(notable, key=lambda regime: -regime.strength)[:MAX_REGIMES]

@@ -19,11 +19,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
+from scipy.optimize import minimize_scalar
 
 from pegbt.physics import JOINT_NAMES, ArmPhysics
 from pegbt.physics.kernels import play_grid
 from pegbt.sim2real.crossval import BlockedGrams
-from pegbt.sim2real.library import DRIVEN_KINDS, Candidate
+from pegbt.sim2real.library import DRIVEN_KINDS, Candidate, width_column
 from pegbt.sim2real.significance import shift_pvalue, t_pvalue
 
 Array = NDArray[np.float64]
@@ -34,30 +35,23 @@ MAX_EFFECTS_PER_JOINT = 6
 MIN_REVERSALS = 3
 REVERSAL_TRAVEL = 0.02  # a reversal counts when the command comes back by this fraction of its range
 COLLINEAR = 0.98
-AMBIGUOUS_GAIN = 0.9  # a rival within this fraction of the winner's gain, with a near-identical column
-AMBIGUOUS_CORRELATION = 0.9
+AMBIGUOUS_GAIN = 0.9  # a rival explaining this fraction of the winner's gain, not beaten in every fold
+WIDTH_SEARCH_RATIO = 1.8  # a chosen width is refined within [w / r, w · r] of its grid value
 TRIES_PER_STEP = 5  # when the best candidate fails a guard, the next ones (by held-out gain) may pass
 
 
 @dataclass(frozen=True)
 class Chosen:
-    """A selected candidate at one width of its grid, with the evidence for it."""
+    """A selected candidate (its bank column and width), with the evidence for it."""
 
     candidate: Candidate
-    width_index: int
+    column: int
+    width: float
     explains: float  # held-out SSE removed, as a fraction of the joint's error before
     pvalue: float
     fold_gains: tuple[float, ...]
     rival: str | None = None  # a different explanation the data could not tell apart
     fixed: bool = False  # enters with coefficient 1 (full backlash, lag, delay act at unit gain)
-
-    @property
-    def column(self) -> int:
-        return int(self.candidate.columns[self.width_index])
-
-    @property
-    def width(self) -> float:
-        return float(self.candidate.widths[self.width_index])
 
 
 @dataclass
@@ -142,8 +136,7 @@ def hypotheses_count(candidates: list[Candidate], excluded: frozenset[tuple[str,
 def select_joint(
     joint: int,
     grams: BlockedGrams,
-    columns: Array,
-    target: Array,
+    t: Array | None,
     candidates: list[Candidate],
     excluded: frozenset[tuple[str, int, int]],
     level: float,
@@ -151,56 +144,52 @@ def select_joint(
     """Forward selection for one joint (see the module docstring for the rules)."""
     result = JointSelection(joint)
     pool = [c for c in candidates if c.joint == joint and c.kind != "offset" and c.key not in excluded]
+    target = grams.targets[:, joint]
     before = float(grams.cv_sse(joint, np.array([], dtype=np.int64)).sum())
     if before <= 0:
         result.stopped = "no error left to explain"
         return result
-    folds = grams.fold_ranges()
     current = grams.cv_sse(joint, np.array(result.free_columns()))
     while pool and len(result.chosen) < MAX_EFFECTS_PER_JOINT:
         free, fixed = result.free_columns(), result.fixed_columns()
-        options: list[tuple[Candidate, int, bool]] = []
-        sse_parts = []
-        for unit_gain in (False, True):
-            batch = [(c, g, unit_gain) for c in pool if unit_gain in _gains_allowed(c) for g in range(len(c.columns))]
-            if not batch:
-                continue
-            extra = np.array([[int(c.columns[g])] for c, g, _ in batch])
-            trial_free = np.array([free] * len(batch))
-            trial_fixed = np.array([fixed] * len(batch), dtype=np.int64).reshape(len(batch), len(fixed))
-            if unit_gain:
-                sse_parts.append(grams.cv_sse_many(joint, trial_free, np.hstack([trial_fixed, extra])))
-            else:
-                sse_parts.append(grams.cv_sse_many(joint, np.hstack([trial_free, extra]), trial_fixed))
-            options += batch
-        sse = np.vstack(sse_parts)
+        options, sse = _score_options(grams, joint, pool, free, fixed)
         gain = (current.sum() - sse.sum(1)) / max(float(current.sum()), 1e-300)
-        residual = target - columns[:, fixed].sum(1) - columns[:, free] @ grams.fit(joint, np.array(free), np.array(fixed, dtype=np.int64))
-        accepted = None
-        for rank, index in enumerate(_best_per_candidate(options, gain)[:TRIES_PER_STEP]):
+        residual = _residual(grams, joint, free, fixed)
+        shortlist = _best_per_candidate(options, gain)[:TRIES_PER_STEP]
+        refined: dict[int, tuple[int, float]] = {}  # option → (bank column, width) between grid values
+        for index in shortlist:
             cand, g, unit_gain = options[index]
-            fold_gains = current - sse[index]
+            if cand.has_width and gain[index] >= MIN_GAIN:
+                width = _refine_width(cand, float(cand.widths[g]), residual, t, unit_gain)
+                column = grams.add_column(width_column(cand.kind, cand.signal, t, width))
+                refined[index] = column, width
+                trial_free, trial_fixed = (free, fixed + [column]) if unit_gain else (free + [column], fixed)
+                sse[index] = grams.cv_sse(joint, np.array(trial_free), np.array(trial_fixed, dtype=np.int64))
+                gain[index] = (current.sum() - sse[index].sum()) / max(float(current.sum()), 1e-300)
+        shortlist.sort(key=lambda index: -gain[index])
+        accepted = None
+        for rank, index in enumerate(shortlist):
+            cand, g, unit_gain = options[index]
             if gain[index] < MIN_GAIN:
                 reason = f"gains only {100 * max(gain[index], 0):.2f} % held out"
-            elif (fold_gains <= 0).any():
+            elif (current - sse[index] <= 0).any():
                 reason = "does not gain in every fold"
             else:
-                _, pvalue = shift_pvalue(residual, columns[:, cand.columns], folds)
+                pvalue = shift_pvalue(residual, grams.columns[:, cand.columns])
                 if pvalue <= level:
-                    accepted = index, pvalue, fold_gains
+                    accepted = index, pvalue
                     break
                 reason = f"p = {pvalue:.2g} above the corrected level {level:.2g}"
             if rank == 0:
                 result.stopped = f"best remaining candidate {cand.label} {reason}"
-            if gain[index] < MIN_GAIN:
-                break
         if accepted is None:
             break
-        index, pvalue, fold_gains = accepted
+        index, pvalue = accepted
         cand, g, unit_gain = options[index]
-        rival = _rival(options, gain, index, columns)
-        result.chosen.append(Chosen(cand, g, float((current.sum() - sse[index].sum()) / before), pvalue,
-                                    tuple(float(x) for x in fold_gains), rival, unit_gain))
+        column, width = refined.get(index, (int(cand.columns[g]), float(cand.widths[g])))
+        result.chosen.append(Chosen(cand, column, width, float((current.sum() - sse[index].sum()) / before), pvalue,
+                                    tuple(float(x) for x in current - sse[index]), _rival(options, sse, gain, index),
+                                    unit_gain))
         result.stopped = ""
         current = sse[index]
         pool = [c for c in pool if c.key != cand.key]
@@ -212,8 +201,53 @@ def select_joint(
     offset_gain = float(gains.sum() / max(float(without.sum()), 1e-300))
     if pvalue <= level and (gains > 0).all() and offset_gain >= MIN_GAIN:
         offset = next(c for c in candidates if c.joint == joint and c.kind == "offset")
-        result.offset = Chosen(offset, 0, float(gains.sum() / before), pvalue, tuple(float(x) for x in gains))
+        result.offset = Chosen(offset, 0, float("nan"), float(gains.sum() / before), pvalue,
+                               tuple(float(x) for x in gains))
     return result
+
+
+def _score_options(grams: BlockedGrams, joint: int, pool: list[Candidate], free: list[int], fixed: list[int]
+                   ) -> tuple[list[tuple[Candidate, int, bool]], Array]:
+    """Every (candidate, grid width, unit gain?) added to the current model, and its held-out SSE per fold."""
+    options: list[tuple[Candidate, int, bool]] = []
+    parts = []
+    for unit_gain in (False, True):
+        batch = [(c, g, unit_gain) for c in pool if unit_gain in _gains_allowed(c) for g in range(len(c.columns))]
+        if not batch:
+            continue
+        extra = np.array([[int(c.columns[g])] for c, g, _ in batch])
+        trial_free = np.array([free] * len(batch))
+        trial_fixed = np.array([fixed] * len(batch), dtype=np.int64).reshape(len(batch), len(fixed))
+        if unit_gain:
+            parts.append(grams.cv_sse_many(joint, trial_free, np.hstack([trial_fixed, extra])))
+        else:
+            parts.append(grams.cv_sse_many(joint, np.hstack([trial_free, extra]), trial_fixed))
+        options += batch
+    return options, np.vstack(parts)
+
+
+def _residual(grams: BlockedGrams, joint: int, free: list[int], fixed: list[int]) -> Array:
+    """In-sample residual of the current model (fixed columns at coefficient 1)."""
+    beta = grams.fit(joint, np.array(free), np.array(fixed, dtype=np.int64))
+    return grams.targets[:, joint] - grams.columns[:, fixed].sum(1) - grams.columns[:, free] @ beta
+
+
+def _refine_width(candidate: Candidate, width: float, residual: Array, t: Array | None, unit_gain: bool) -> float:
+    """The width between grid values that best explains the current residual (so that a grid step
+    is not mistaken for a second effect)."""
+    e = residual - residual.mean()
+
+    def sse(log_width: float) -> float:
+        column = width_column(candidate.kind, candidate.signal, t, float(np.exp(log_width)))
+        column = column - column.mean()
+        if unit_gain:
+            return float(((e - column) ** 2).sum())
+        return float(e @ e - (column @ e) ** 2 / max(float(column @ column), 1e-300))
+
+    span = np.log(WIDTH_SEARCH_RATIO)
+    centre = np.log(width)
+    found = minimize_scalar(sse, bounds=(centre - span, centre + span), method="bounded", options={"xatol": 0.01})
+    return float(np.exp(found.x)) if found.fun <= sse(centre) else width
 
 
 def _gains_allowed(candidate: Candidate) -> tuple[bool, ...]:
@@ -235,24 +269,21 @@ def _best_per_candidate(options: list[tuple[Candidate, int, bool]], gain: Array)
     return order
 
 
-def _rival(options: list[tuple[Candidate, int, bool]], gain: Array, best: int, columns: Array) -> str | None:
-    """A different candidate that explains almost as much with an almost identical column, if any."""
-    winner, g, _ = options[best]
-    column = columns[:, winner.columns[g]]
+def _rival(options: list[tuple[Candidate, int, bool]], sse: Array, gain: Array, best: int) -> str | None:
+    """A different candidate explaining almost as much that the winner does not beat in every fold."""
+    winner = options[best][0]
     for index in _best_per_candidate(options, gain)[:8]:
-        other, h, _ = options[index]
+        other = options[index][0]
         if other.key == winner.key or gain[index] < AMBIGUOUS_GAIN * gain[best]:
             continue
-        r = np.corrcoef(column, columns[:, other.columns[h]])[0, 1]
-        if abs(r) > AMBIGUOUS_CORRELATION:
+        if not (sse[best] < sse[index]).all():
             return other.label
     return None
 
 
 def select(
     grams: BlockedGrams,
-    columns: Array,
-    targets: Array,
+    t: Array | None,
     candidates: list[Candidate],
     unidentifiable: Unidentifiable,
     alpha: float = ALPHA,
@@ -260,7 +291,7 @@ def select(
     """Selections for every joint at the Bonferroni level over all joints × effects, and that m."""
     hypotheses = hypotheses_count(candidates, unidentifiable.keys)
     selections = [
-        select_joint(j, grams, columns, targets[:, j], candidates, unidentifiable.keys, alpha / hypotheses)
-        for j in range(targets.shape[1])
+        select_joint(j, grams, t, candidates, unidentifiable.keys, alpha / hypotheses)
+        for j in range(grams.targets.shape[1])
     ]
     return selections, hypotheses

@@ -1,11 +1,14 @@
-"""Guards against false discoveries: circular-shift nulls, block jackknife, block bootstrap.
+"""Guards against false discoveries: effective-sample-size tests, block jackknife, block bootstrap.
 
-A candidate regressor that is smooth in time will line up with smooth (autocorrelated) noise by
-chance far more often than an F-test assumes. The circular-shift null keeps both series' own
-autocorrelation and breaks only their alignment: shift the residual by τ (wrapping around), score the
-candidate exactly as for real, and see how often a shifted residual does as well. All shifts are
-scored at once with FFT cross-correlations, per held-out fold and per width on the grid, so the null
-distribution covers the same "best width" search the real statistic made.
+A candidate regressor that is smooth in time lines up with smooth (autocorrelated) noise by chance
+far more often than an F-test assumes. Its correlation with the residual is therefore tested with
+Student's t on N_eff − 2 degrees of freedom, where N_eff = 1 / var(r) comes from Bartlett's formula
+var(r) = (1 + 2 Σ_k ρ_e(k) ρ_φ(k)) / N: the autocorrelations of the noise (the residual with the
+candidate's best fit removed, so a real effect does not inflate its own null) and of the candidate,
+summed over the lags where the noise is still correlated. This is the circular-shift null computed
+analytically: the mean square of the correlations over all circular shifts is exactly that sum, and
+the truncation drops the lags where it is pure estimation noise. Counting shifted correlations alone
+cannot resolve the small p-values a Bonferroni level asks for in short recordings.
 """
 
 from __future__ import annotations
@@ -16,60 +19,53 @@ from scipy import stats
 
 Array = NDArray[np.float64]
 
-MIN_SHIFT_FRACTION = 0.1  # shifts closer than this to zero (either way) would keep the signal aligned
-TAIL_EXCEEDANCES = 10
-TAIL_FRACTION = 0.1
+CORRELATED = 0.2  # the noise counts as correlated until its autocorrelation first drops below this
+LAG_HORIZON = 10  # Bartlett's sum runs to this many times that correlation length
 
 
-def heldout_gain_all_shifts(residual: Array, columns: Array, fold_ranges: list[tuple[int, int]]) -> Array:
-    """Held-out gain fraction of regressing the residual on each column, for every circular shift.
+def autocorrelation(x: Array) -> Array:
+    """Circular sample autocorrelation of each column of x (N, ...), lag 0 first."""
+    x = x - x.mean(0)
+    power = np.abs(np.fft.rfft(x, axis=0)) ** 2
+    acf = np.fft.irfft(power, n=len(x), axis=0)
+    return acf / np.maximum(acf[:1], 1e-300)
 
-    For each shift τ and column g, the coefficient is fitted on the training folds of the shifted
-    residual and scored on each held-out fold; the gains are summed over folds and divided by the
-    residual energy. Returns (n_shifts, G); row 0 is the unshifted (observed) statistic.
+
+def effective_samples(noise: Array, columns: Array) -> Array:
+    """N_eff of the correlation between the noise (N,) and each column (N, G), by Bartlett's formula.
+
+    The noise's autocorrelation enters twice: as measured (to the lag where it is still correlated,
+    ×LAG_HORIZON) and as an AR(1) model with its lag-1 value; the larger variance is kept, because a
+    sum of noisy sample autocorrelations can undershoot and make the test overconfident.
+    """
+    n = len(noise)
+    rho_noise = autocorrelation(noise)
+    below = np.flatnonzero(rho_noise < CORRELATED)
+    horizon = int(min(n // 2, LAG_HORIZON * max(1, below[0] if below.size else n)))
+    rho_columns = autocorrelation(columns)[1 : horizon + 1]
+    lags = np.arange(1, horizon + 1)
+    modelled = np.clip(rho_noise[1], 0.0, 0.999) ** lags
+    measured = (rho_noise[1 : horizon + 1, None] * rho_columns).sum(0)
+    variance = (1 + 2 * np.maximum(measured, (modelled[:, None] * rho_columns).sum(0))) / n
+    return np.clip(1.0 / np.maximum(variance, 1e-300), 3.0, float(n))
+
+
+def shift_pvalue(residual: Array, columns: Array) -> float:
+    """p-value that the residual is associated with any of a candidate's columns (one per width).
+
+    Each column's correlation gets a t-test on its effective sample size; the smallest p-value is
+    Bonferroni-corrected over the columns.
     """
     e = residual - residual.mean()
     phi = columns - columns.mean(0)
-    n = len(e)
-    spectrum = np.fft.rfft(e)
-    cross = np.empty((len(fold_ranges), n, phi.shape[1]))
-    energy = np.empty((len(fold_ranges), phi.shape[1]))
-    for f, (a, b) in enumerate(fold_ranges):
-        masked = np.zeros_like(phi)
-        masked[a:b] = phi[a:b]
-        # sum_t masked(t) e(t + τ) for every τ: a circular cross-correlation.
-        cross[f] = np.fft.irfft(np.conj(np.fft.rfft(masked, axis=0)) * spectrum[:, None], n=n, axis=0)
-        energy[f] = (phi[a:b] ** 2).sum(0)
-    total_cross = cross.sum(0)
-    total_energy = energy.sum(0)
-    gain = np.zeros((n, phi.shape[1]))
-    for f in range(len(fold_ranges)):
-        train_energy = np.maximum(total_energy - energy[f], 1e-300)
-        theta = (total_cross - cross[f]) / train_energy
-        gain += 2 * theta * cross[f] - theta**2 * energy[f]
-    return gain / max(float(e @ e), 1e-300)
-
-
-def shift_pvalue(residual: Array, columns: Array, fold_ranges: list[tuple[int, int]]) -> tuple[float, float]:
-    """(observed statistic, p-value) of the best-width candidate against its circular-shift null.
-
-    The p-value is the fraction of shifts that score at least as well. When fewer than
-    `TAIL_EXCEEDANCES` do, counting cannot resolve it (a short recording has few shifts, and the
-    Bonferroni level is small), so the upper tail of the null is modelled as exponential beyond its
-    90th percentile (a generalised Pareto tail of shape 0, heavier than a normal one: conservative).
-    """
-    scores = heldout_gain_all_shifts(residual, columns, fold_ranges).max(axis=1)
-    n = len(scores)
-    lo = int(np.ceil(MIN_SHIFT_FRACTION * n))
-    null = scores[lo : n - lo + 1]
-    observed = float(scores[0])
-    exceed = int((null >= observed).sum())
-    if exceed >= TAIL_EXCEEDANCES:
-        return observed, (1 + exceed) / (1 + len(null))
-    threshold = float(np.quantile(null, 1 - TAIL_FRACTION))
-    excess = null[null > threshold] - threshold
-    scale = float(excess.mean()) if excess.size else 1e-300
-    return observed, TAIL_FRACTION * float(np.exp(-(observed - threshold) / max(scale, 1e-300)))
+    energy = np.maximum((phi**2).sum(0), 1e-300)
+    r = (phi.T @ e) / np.sqrt(energy * max(float(e @ e), 1e-300))
+    best = int(np.argmax(np.abs(r)))
+    noise = e - phi[:, best] * (phi[:, best] @ e) / energy[best]
+    n_eff = effective_samples(noise, phi)
+    r = np.clip(r, -0.999999, 0.999999)
+    t = np.abs(r) * np.sqrt((n_eff - 2) / (1 - r**2))
+    return float(min(1.0, columns.shape[1] * float((2 * stats.t.sf(t, n_eff - 2)).min())))
 
 
 def t_pvalue(estimate: float, standard_error: float, dof: int) -> float:
@@ -80,14 +76,9 @@ def t_pvalue(estimate: float, standard_error: float, dof: int) -> float:
 
 
 def correlation_length(residual: Array) -> int:
-    """Samples until the residual's autocorrelation first drops below 0.2 (the bootstrap block length)."""
-    e = residual - residual.mean()
-    n = len(e)
-    spectrum = np.abs(np.fft.rfft(e, 2 * n)) ** 2
-    acf = np.fft.irfft(spectrum)[:n]
-    acf = acf / max(float(acf[0]), 1e-300)
-    below = np.flatnonzero(acf < 0.2)
-    return int(below[0]) if below.size else n
+    """Samples until the residual's autocorrelation first drops below CORRELATED (bootstrap block length)."""
+    below = np.flatnonzero(autocorrelation(residual) < CORRELATED)
+    return int(below[0]) if below.size else len(residual)
 
 
 def block_bootstrap_indices(n: int, block: int, rng: np.random.Generator) -> NDArray[np.int64]:
