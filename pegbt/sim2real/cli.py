@@ -1,4 +1,4 @@
-"""`pegbt sim2real diagnose` and `pegbt sim2real synth`."""
+"""`pegbt sim2real diagnose`, `pegbt sim2real synth` and `pegbt sim2real preset`."""
 
 from __future__ import annotations
 
@@ -45,6 +45,17 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
     synth.add_argument("--snr", type=float, help="SNR of the concealed effect (default: drawn per family)")
     synth.set_defaults(handler=_synth)
 
+    preset = commands.add_parser(
+        "preset",
+        help="identify a physics preset (one model per arm) from recordings",
+        description="Diagnose each arm's recording against the ideal arm and write the identified models as a "
+        "preset that `ArmPhysics.load` and `pegbt sim --physics` read.",
+    )
+    preset.add_argument("out", metavar="OUT.json")
+    preset.add_argument("--from", dest="sources", action="append", required=True, metavar="ARM=RECORDING",
+                        help="an arm and its recording, e.g. PSM1=../shared/data/dvrk/random_smooth_grey1_PSM1")
+    preset.set_defaults(handler=_preset)
+
 
 def _diagnose(args: argparse.Namespace) -> int:
     from pegbt.sim2real.diagnose import diagnose
@@ -67,6 +78,15 @@ def _diagnose(args: argparse.Namespace) -> int:
         print(f"  {statement}")
     if args.out:
         print(f"report: {args.out}/report.md")
+    return 0
+
+
+def _preset(args: argparse.Namespace) -> int:
+    from pegbt.sim2real.preset import parse_sources, write_preset
+
+    sources = parse_sources(args.sources)
+    command = "pegbt sim2real preset " + " ".join([args.out] + [f"--from {pair}" for pair in args.sources])
+    print(f"preset: {write_preset(args.out, sources, command)}")
     return 0
 
 

@@ -23,7 +23,7 @@ from numpy.typing import NDArray
 from scipy.optimize import minimize_scalar
 
 from pegbt.physics import JOINT_NAMES, ArmPhysics, Effect
-from pegbt.sim2real.library import DRIVEN_KINDS, WIDTH_KINDS, play_widths, width_column
+from pegbt.sim2real.library import DRIVEN_KINDS, WIDTH_KINDS, play_widths, width_bounds, width_column
 from pegbt.sim2real.significance import block_bootstrap_indices, correlation_length
 
 Array = NDArray[np.float64]
@@ -143,10 +143,12 @@ def _refine_width(fit: JointFit, i: int, q_cmd: Array, t: Array | None, target: 
         free, fixed = JointFit(fit.joint, fit.intercept, terms, fit.intercept_value).columns(q_cmd, t, base_driver)
         return _least_squares(free[rows], (target - fixed)[rows])[1]
 
-    centre = np.log(term.width)
-    span = np.log(WIDTH_SEARCH_RATIO)
-    found = minimize_scalar(sse, bounds=(centre - span, centre + span), method="bounded", options={"xatol": 0.01})
-    return float(np.exp(found.x)) if found.fun <= sse(centre) else term.width
+    signal = fit.driver(q_cmd, base_driver) if term.kind in DRIVEN_KINDS else q_cmd[:, term.source]
+    lo, hi = width_bounds(term.kind, signal, t)
+    lo, hi = min(lo, term.width), max(hi, term.width)  # a width given from outside the grid stays reachable
+    bounds = (np.log(max(term.width / WIDTH_SEARCH_RATIO, lo)), np.log(min(term.width * WIDTH_SEARCH_RATIO, hi)))
+    found = minimize_scalar(sse, bounds=bounds, method="bounded", options={"xatol": 0.01})
+    return float(np.exp(found.x)) if found.fun <= sse(np.log(term.width)) else term.width
 
 
 def heldout_sse(structure: JointFit, q_cmd: Array, t: Array | None, target: Array, base_driver: Array,

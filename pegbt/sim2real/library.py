@@ -78,6 +78,13 @@ def time_widths(t: Array, size: int = GRID_SIZE) -> Array:
     return np.geomspace(0.2 * dt, max(longest, dt), size)
 
 
+def width_bounds(kind: str, signal: Array, t: Array | None) -> tuple[float, float]:
+    """The widths a candidate may take: its grid's span (a play wider than a quarter of the motion acts
+    like a scale change, not play)."""
+    grid = play_widths(signal) if kind in ("hysteresis", "backlash") else time_widths(t)
+    return float(grid[0]), float(grid[-1])
+
+
 def play_column(command: Array, half_width: float) -> Array:
     return play_grid(command, half_width)[:, 0] - command
 

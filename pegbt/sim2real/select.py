@@ -24,7 +24,7 @@ from scipy.optimize import minimize_scalar
 from pegbt.physics import JOINT_NAMES, ArmPhysics
 from pegbt.physics.kernels import play_grid
 from pegbt.sim2real.crossval import BlockedGrams
-from pegbt.sim2real.library import DRIVEN_KINDS, Candidate, width_column
+from pegbt.sim2real.library import DRIVEN_KINDS, Candidate, width_bounds, width_column
 from pegbt.sim2real.significance import shift_pvalue, t_pvalue
 
 Array = NDArray[np.float64]
@@ -244,10 +244,10 @@ def _refine_width(candidate: Candidate, width: float, residual: Array, t: Array 
             return float(((e - column) ** 2).sum())
         return float(e @ e - (column @ e) ** 2 / max(float(column @ column), 1e-300))
 
-    span = np.log(WIDTH_SEARCH_RATIO)
-    centre = np.log(width)
-    found = minimize_scalar(sse, bounds=(centre - span, centre + span), method="bounded", options={"xatol": 0.01})
-    return float(np.exp(found.x)) if found.fun <= sse(centre) else width
+    lo, hi = width_bounds(candidate.kind, candidate.signal, t)
+    bounds = (np.log(max(width / WIDTH_SEARCH_RATIO, lo)), np.log(min(width * WIDTH_SEARCH_RATIO, hi)))
+    found = minimize_scalar(sse, bounds=bounds, method="bounded", options={"xatol": 0.01})
+    return float(np.exp(found.x)) if found.fun <= sse(np.log(width)) else width
 
 
 def _gains_allowed(candidate: Candidate) -> tuple[bool, ...]:
