@@ -16,6 +16,7 @@ Figures = dict[str, float | int | str]
 
 BENCHMARKS: dict[str, str] = {
     "sim2real": "pegbt.bench.sim2real:run",
+    "sim2real-real": "pegbt.bench.sim2real_real:run",
 }
 
 
