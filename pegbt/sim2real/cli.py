@@ -27,6 +27,8 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
     diagnose.add_argument("--arm", choices=("PSM1", "PSM2"), help="arm for presets (default: from the recording's name)")
     diagnose.add_argument("--out", metavar="DIR", help="write report.json, report.md and PNG plots here")
     diagnose.add_argument("--json", action="store_true", help="print report.json to standard output")
+    diagnose.add_argument("--compare", metavar="REPORT.json",
+                          help="an earlier report (e.g. the same arm after re-homing): say what agrees and what differs")
     diagnose.add_argument("--bootstrap", type=int, default=100, metavar="N", help="bootstrap resamples for intervals")
     diagnose.set_defaults(handler=_diagnose)
 
@@ -60,11 +62,13 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
 def _diagnose(args: argparse.Namespace) -> int:
     from pegbt.sim2real.diagnose import diagnose
     from pegbt.sim2real.recording import load_recording
-    from pegbt.sim2real.report import report_dict, write_report
+    from pegbt.sim2real.report import read_named_effects, report_dict, write_report
 
     recording = load_recording(args.recording)
+    if args.compare:
+        read_named_effects(args.compare)  # refuse a bad report before the work, not after it
     diagnosis = diagnose(recording, args.sim, args.arm, n_bootstrap=max(0, args.bootstrap))
-    report = write_report(diagnosis, args.out) if args.out else report_dict(diagnosis)
+    report = write_report(diagnosis, args.out, args.compare) if args.out else report_dict(diagnosis, args.compare)
     if args.json:
         print(json.dumps(report, indent=2))
         return 0
@@ -76,6 +80,10 @@ def _diagnose(args: argparse.Namespace) -> int:
         print(f"  {effect['effect']} on {effect['joint']}: {effect['text']}")
     for statement in report["not_identifiable"]:
         print(f"  {statement}")
+    if "comparison" in report:
+        differences = report["comparison"]["differences"]
+        print(f"compared with {args.compare}: {100 * report['comparison']['agreement']:.0f} % of kinds agree; "
+              f"{len(differences)} parameter(s) differ" + (f", e.g. {differences[0]}" if differences else ""))
     if args.out:
         print(f"report: {args.out}/report.md")
     return 0

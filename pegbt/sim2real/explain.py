@@ -45,7 +45,8 @@ def effect_sentence(effect: Effect, base_value: float | None = None) -> str:
 
 
 def rival_sentence(label: str, rival: str) -> str:
-    return f"{label} or {rival}: these data cannot tell them apart (both columns nearly identical); kept {label}"
+    return (f"{label} or {rival}: not separable with these data (they explain nearly as much and neither wins in "
+            f"every held-out segment); the model keeps {label}")
 
 
 def remaining_sentence(joint: str, rmse_after: float, rmse_before: float, where: str | None) -> str:

@@ -11,7 +11,9 @@ import json
 from pathlib import Path
 from typing import Any
 
-from pegbt.physics import JOINT_NAMES
+from pegbt.errors import PegbtError
+from pegbt.physics import JOINT_NAMES, Effect
+from pegbt.sim2real.compare import compare
 from pegbt.sim2real.crossval import N_FOLDS
 from pegbt.sim2real.diagnose import Diagnosis
 from pegbt.sim2real.explain import unit
@@ -23,10 +25,28 @@ HELDOUT_METHOD = (
 )
 
 
-def report_dict(diagnosis: Diagnosis) -> dict[str, Any]:
+def read_named_effects(path: str | Path) -> list[Effect]:
+    """The effects an earlier report named (to compare two diagnoses of the same arm)."""
+    try:
+        return [Effect.from_dict(entry) for entry in json.loads(Path(path).read_text())["effects"]]
+    except (OSError, ValueError, KeyError, TypeError) as error:
+        raise PegbtError(f"not a sim2real report: {error}", file=path) from None
+    except PegbtError as error:
+        raise PegbtError(error.message, file=path, field=error.field) from None
+
+
+def report_dict(diagnosis: Diagnosis, compared_with: str | Path | None = None) -> dict[str, Any]:
+    """The report; with `compared_with` (an earlier report, e.g. of the same arm after re-homing), also
+    which kinds of effect both name and which parameters differ."""
     recording = diagnosis.recording
     times = recording.times
-    return {
+    comparison = None
+    if compared_with is not None:
+        names = ("this", str(compared_with))
+        comparison = compare([e.effect for e in diagnosis.effects], read_named_effects(compared_with), names)
+        comparison = {"report": str(compared_with), **{k.replace(f"only_{names[1]}", "only_other"): v
+                                                       for k, v in comparison.items()}}
+    report = {
         "recording": str(recording.path),
         "samples": recording.n,
         "sampling": {"mode": diagnosis.sampling.mode, "reason": diagnosis.sampling.reason},
@@ -53,6 +73,9 @@ def report_dict(diagnosis: Diagnosis) -> dict[str, Any]:
         "remaining": diagnosis.remaining(),
         "model": {"base": diagnosis.sim, "effects": [effect.to_dict() for effect in diagnosis.physics.effects]},
     }
+    if comparison is not None:
+        report["comparison"] = comparison
+    return report
 
 
 def _number(value: float) -> str:
@@ -92,21 +115,26 @@ def report_markdown(report: dict[str, Any], plots: list[str]) -> str:
         lines.append(f"| {q} ({report['units'][q]}) | {_number(fit['heldout_rmse_before'][q])} | "
                      f"{_number(fit['heldout_rmse_after'][q])} |")
     lines += ["", "## What remains", ""] + [f"- {text}" for text in report["remaining"]]
+    if "comparison" in report:
+        c = report["comparison"]
+        lines += ["", f"## Compared with `{c['report']}`", "",
+                  f"- Same kinds of effect ({100 * c['agreement']:.0f} % of all named): {', '.join(c['shared']) or 'none'}.",
+                  f"- Only here: {', '.join(c['only_this']) or 'none'}; only there: {', '.join(c['only_other']) or 'none'}.",
+                  "- Parameters that differ by more than 25 % (offsets move when an arm is re-homed): "
+                  + ("; ".join(c["differences"]) or "none") + "."]
     if plots:
         lines += ["", "## Plots", ""] + [f"![{Path(p).stem}]({Path(p).name})" for p in plots]
     return "\n".join(lines) + "\n"
 
 
-def write_report(diagnosis: Diagnosis, out: str | Path, with_plots: bool = True) -> dict[str, Any]:
+def write_report(diagnosis: Diagnosis, out: str | Path, compared_with: str | Path | None = None) -> dict[str, Any]:
     """Write report.json, report.md and the plots into `out`; return the report dictionary."""
+    report = report_dict(diagnosis, compared_with)
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    report = report_dict(diagnosis)
-    plots: list[str] = []
-    if with_plots:
-        from pegbt.sim2real.plots import write_plots
+    from pegbt.sim2real.plots import write_plots
 
-        plots = write_plots(diagnosis, out)
+    plots = write_plots(diagnosis, out)
     (out / "report.json").write_text(json.dumps(report, indent=2) + "\n")
     (out / "report.md").write_text(report_markdown(report, plots))
     return report

@@ -1,16 +1,21 @@
 """Choose which effects are missing: forward selection by blocked cross-validation, with guards.
 
 Per joint, starting from an intercept (a nuisance term, so that no other test is confounded by a
-constant error), the candidate (at its best width) that most reduces the held-out error is added if
+constant error), every candidate is scored at every width of its grid by its held-out error (backlash,
+lag and delay at unit gain, as the physics has them; backlash also with a free gain, for play of which
+only part reaches the joint). The best few have their widths refined between grid values (so that a
+grid step is not mistaken for a second effect) and the best of them that passes all guards is added:
 
 1. it reduces held-out error by at least `MIN_GAIN` of what is left,
 2. it reduces it in *every* fold (an effect that is real holds everywhere the data excite it),
-3. it beats the circular-shift null at the Bonferroni level α / m, where m counts every candidate test
-   over all joints × effects (the whole family of hypotheses the tool could have named).
+3. its association with the residual passes an effective-sample-size t-test (robust to autocorrelated
+   noise, see `significance`) at the Bonferroni level α / m, where m counts every candidate over all
+   joints × effects (the whole family of hypotheses the tool could have named).
 
 The intercept itself is named an `offset` only if its delete-one-block jackknife t-test passes the same
 level and it too gains in every fold. Candidates the data cannot test (a joint that never reverses,
-two commands that move together, lag and delay on settled set-points) are set aside with the reason.
+two commands that move together, lag and delay on settled set-points) are set aside with the reason;
+a rival that explains nearly as much and is not beaten in every fold is reported as not separable.
 """
 
 from __future__ import annotations
