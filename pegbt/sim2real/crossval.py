@@ -69,6 +69,10 @@ class BlockedGrams:
         self._derive()
         return m
 
+    def fold_energy(self, column: int) -> Array:
+        """Sum of squares of one column within each held-out fold (n_folds,)."""
+        return self._fold_gram[:, column, column].copy()
+
     def fold_ranges(self) -> list[tuple[int, int]]:
         """Sample ranges [start, stop) of the held-out segment of each fold."""
         ranges = []

@@ -32,7 +32,7 @@ from pegbt.physics.kernels import delay_series, lag_series, play_grid
 Array = NDArray[np.float64]
 
 GRID_SIZE = 12
-PLAY_RANGE = (2e-3, 0.25)  # half-widths, as fractions of the source command's range
+PLAY_RANGE = (5e-4, 0.25)  # half-widths, as fractions of the source command's range
 TIME_RANGE_S = 1.0  # longest lag and delay searched
 WIDTH_KINDS = ("hysteresis", "backlash", "lag", "delay")
 DRIVEN_KINDS = ("backlash", "lag", "delay")  # act on the joint's driver, not on a raw command

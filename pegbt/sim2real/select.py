@@ -7,7 +7,8 @@ only part reaches the joint). The best few have their widths refined between gri
 grid step is not mistaken for a second effect) and the best of them that passes all guards is added:
 
 1. it reduces held-out error by at least `MIN_GAIN` of what is left,
-2. it reduces it in *every* fold (an effect that is real holds everywhere the data excite it),
+2. it reduces it in *every* fold that excites it (an effect that is real holds everywhere the data
+   excite it; a fold where its column hardly moves cannot show it), and in at least two,
 3. its association with the residual passes an effective-sample-size t-test (robust to autocorrelated
    noise, see `significance`) at the Bonferroni level α / m, where m counts every candidate over all
    joints × effects (the whole family of hypotheses the tool could have named).
@@ -42,6 +43,7 @@ REVERSAL_TRAVEL = 0.02  # a reversal counts when the command comes back by this 
 COLLINEAR = 0.98
 AMBIGUOUS_GAIN = 0.9  # a rival explaining this fraction of the winner's gain, not beaten in every fold
 WIDTH_SEARCH_RATIO = 1.8  # a chosen width is refined within [w / r, w · r] of its grid value
+EXCITED = 0.05  # a fold excites a candidate when its column's energy there is this fraction of the mean
 TRIES_PER_STEP = 5  # when the best candidate fails a guard, the next ones (by held-out gain) may pass
 
 
@@ -177,8 +179,9 @@ def select_joint(
             cand, g, unit_gain = options[index]
             if gain[index] < MIN_GAIN:
                 reason = f"gains only {100 * max(gain[index], 0):.2f} % held out"
-            elif (current - sse[index] <= 0).any():
-                reason = "does not gain in every fold"
+            elif not _gains_where_excited(grams, refined.get(index, (int(cand.columns[g]), 0.0))[0],
+                                          current - sse[index]):
+                reason = "does not gain in every fold that excites it"
             else:
                 pvalue = shift_pvalue(residual, grams.columns[:, cand.columns])
                 if pvalue <= level:
@@ -253,6 +256,14 @@ def _refine_width(candidate: Candidate, width: float, residual: Array, t: Array 
     bounds = (np.log(max(width / WIDTH_SEARCH_RATIO, lo)), np.log(min(width * WIDTH_SEARCH_RATIO, hi)))
     found = minimize_scalar(sse, bounds=bounds, method="bounded", options={"xatol": 0.01})
     return float(np.exp(found.x)) if found.fun <= sse(np.log(width)) else width
+
+
+def _gains_where_excited(grams: BlockedGrams, column: int, fold_gains: Array) -> bool:
+    """Gain in every held-out fold where the candidate's column moves at all (an effect excited only
+    by a few fast moves or reversals cannot show in a segment without any), and in at least two."""
+    energy = grams.fold_energy(column)
+    excited = energy >= EXCITED * energy.mean()
+    return bool(excited.sum() >= 2 and (fold_gains[excited] > 0).all())
 
 
 def _gains_allowed(candidate: Candidate) -> tuple[bool, ...]:
