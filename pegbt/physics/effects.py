@@ -83,6 +83,14 @@ class Effect:
     def index(self) -> int:
         return joint_index(self.joint)
 
+    @property
+    def slot(self) -> tuple[str, str, str, float]:
+        """What the effect occupies in a model: one offset, scale, backlash, lag, delay per joint, one
+        coupling per source, and one hysteresis per source and play width (several widths from the same
+        drive add up to a hysteresis loop of any shape, as in a Prandtl–Ishlinskii operator)."""
+        width = float(self.params["half_width"]) if self.effect == "hysteresis" else 0.0
+        return (self.effect, self.joint, str(self.params.get("source", "")), width)
+
     def to_dict(self) -> dict[str, Any]:
         return {"effect": self.effect, "joint": self.joint, "params": dict(self.params)}
 

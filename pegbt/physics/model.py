@@ -41,13 +41,11 @@ class ArmPhysics:
         self.tau = np.zeros(N_JOINTS)
         self.delay = np.zeros(N_JOINTS)
         self.hysteresis: list[tuple[int, int, float, float]] = []  # (joint, source, half_width, k)
-        seen: set[tuple[str, str, str]] = set()
+        seen: set[tuple[str, str, str, float]] = set()
         for effect in self.effects:
-            source = str(effect.params.get("source", ""))
-            key = (effect.effect, effect.joint, source)
-            if key in seen:
+            if effect.slot in seen:
                 raise PegbtError(f"{effect.effect} on {effect.joint} given twice", field=effect.joint)
-            seen.add(key)
+            seen.add(effect.slot)
             self._apply(effect)
         self._state: NDArray[np.float64] | None = None  # backlash output
         self._drive_play: NDArray[np.float64] = np.zeros(len(self.hysteresis))  # play state of each hysteresis

@@ -37,7 +37,7 @@ def effect_sentence(effect: Effect, base_value: float | None = None) -> str:
                     f"{p['half_width']:.3g} {u} in its drive of which only k = {p['k']:.2f} reaches the joint "
                     "(hysteresis)")
         return (f"{j} shifts by up to ±{shift:.3g} {u} depending on which way {s} last moved: play of "
-                f"half-width {p['half_width']:.3g} rad in the {s} drive shows in {j} with k = {p['k']:.3g} "
+                f"half-width {p['half_width']:.3g} {unit(s)} in the {s} drive shows in {j} with k = {p['k']:.3g} "
                 "(hysteresis through coupled cables)")
     if kind == "lag":
         return f"{j} trails its command like a first-order system with time constant {p['tau'] * 1e3:.0f} ms: lag"

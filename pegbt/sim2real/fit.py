@@ -281,15 +281,9 @@ def to_effects(fit: JointFit, base: ArmPhysics) -> tuple[list[Effect], list[Effe
             changed.append(Effect("lag", name, {"tau": float(term.width)}))
         else:
             changed.append(Effect("delay", name, {"seconds": float(base.delay[j] + term.width)}))
-    replaced = {_slot(effect) for effect in changed}
-    kept = [effect for effect in base.effects if effect.index == j and _slot(effect) not in replaced]
+    replaced = {effect.slot for effect in changed}
+    kept = [effect for effect in base.effects if effect.index == j and effect.slot not in replaced]
     return kept + changed, changed
-
-
-def _slot(effect: Effect) -> tuple[str, str, str]:
-    """What an effect occupies in the model: one offset, scale, backlash, lag, delay per joint; one
-    coupling or hysteresis per source."""
-    return (effect.effect, effect.joint, str(effect.params.get("source", "")))
 
 
 def merged_physics(fits: list[JointFit], base: ArmPhysics) -> ArmPhysics:

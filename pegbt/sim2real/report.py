@@ -82,6 +82,10 @@ def _number(value: float) -> str:
     return f"{value:.4g}"
 
 
+def _pvalue(value: float) -> str:
+    return "< 1e-16" if value < 1e-16 else f"= {value:.2g}"
+
+
 def report_markdown(report: dict[str, Any], plots: list[str]) -> str:
     lines = [f"# Sim-to-real diagnosis of `{report['recording']}`", ""]
     lines += [f"- {report['samples']} samples; {report['sampling']['reason']}.",
@@ -105,7 +109,7 @@ def report_markdown(report: dict[str, Any], plots: list[str]) -> str:
         params = ", ".join(f"{k} = {v}" if isinstance(v, str) else f"{k} = {_number(v)}" for k, v in e["params"].items())
         ci = ", ".join(f"{k} ∈ [{_number(lo)}, {_number(hi)}]" for k, (lo, hi) in e["ci"].items())
         lines.append(f"- **{e['effect']} on {e['joint']}** ({params}; 95 % CI {ci or 'n/a'}; explains "
-                     f"{100 * e['explains']:.1f} % of the joint's error; p = {e['p_value']:.2g}): {e['text']}.")
+                     f"{100 * e['explains']:.1f} % of the joint's error; p {_pvalue(e['p_value'])}): {e['text']}.")
     if report["not_identifiable"]:
         lines += ["", "## Not identifiable from these data", ""]
         lines += [f"- {statement}" for statement in report["not_identifiable"]]
