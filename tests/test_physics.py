@@ -159,7 +159,7 @@ def test_a_sim2real_report_loads_its_whole_model(tmp_path):
 def test_hysteresis_of_several_widths_from_one_drive_adds_up_but_a_repeat_is_refused():
     loop = [Effect("hysteresis", "q5", {"source": "q6", "half_width": w, "k": 0.2}) for w in (0.02, 0.1)]
     q = _commands()
-    both = ArmPhysics(loop).simulate(q)[:, 4]
-    assert np.allclose(both, ArmPhysics(loop[:1]).simulate(q)[:, 4] + ArmPhysics(loop[1:]).simulate(q)[:, 4])
+    shift = [ArmPhysics(effects).simulate(q)[:, 4] - q[:, 4] for effects in (loop, loop[:1], loop[1:])]
+    assert np.allclose(shift[0], shift[1] + shift[2])
     with pytest.raises(PegbtError, match="given twice"):
         ArmPhysics([loop[0], loop[0]])
