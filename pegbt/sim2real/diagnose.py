@@ -79,10 +79,8 @@ class Diagnosis:
     def remaining(self) -> list[str]:
         after_located = locate(self.residual_after, self.recording.q_cmd, self.recording.times, self.sampling.is_stream)
         before, after = self.rmse_before(), self.rmse_after()
-        return [
-            remaining_sentence(m.joint, after[m.joint], before[m.joint], m.regimes[0].regime if m.regimes else None)
-            for m in after_located
-        ]
+        unit = "s" if self.recording.t is not None else "samples"
+        return [remaining_sentence(m, after[m.joint], before[m.joint], unit) for m in after_located]
 
 
 def guess_arm(path: Path) -> str:

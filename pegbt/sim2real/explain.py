@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from pegbt.physics import Effect
+from pegbt.sim2real.locate import JointMismatch
 
 UNITS = {"q3": "m"}
 
@@ -49,8 +50,20 @@ def rival_sentence(label: str, rival: str) -> str:
             f"every held-out segment); the model keeps {label}")
 
 
-def remaining_sentence(joint: str, rmse_after: float, rmse_before: float, where: str | None) -> str:
-    u = unit(joint)
-    left = 100 * (rmse_after / rmse_before) ** 2 if rmse_before > 0 else 0.0
-    text = f"{joint}: {rmse_after:.3g} {u} RMSE remains held out ({left:.0f} % of the squared error before)"
-    return f"{text}; it concentrates {where}" if where else text
+NOTABLE_WINDOW = 0.1  # a window holding this share of what remains is worth naming
+
+
+def remaining_sentence(left: JointMismatch, rmse_after: float, rmse_before: float, time_unit: str) -> str:
+    """What the model leaves unexplained on one joint, and where it concentrates."""
+    joint = left.joint
+    share = 100 * (rmse_after / rmse_before) ** 2 if rmse_before > 0 else 0.0
+    text = f"{joint}: {rmse_after:.3g} {unit(joint)} RMSE remains held out ({share:.0f} % of the squared error before)"
+    where = []
+    if left.windows and left.windows[0][2] >= NOTABLE_WINDOW:
+        t0, t1, part = left.windows[0]
+        where.append(f"{100 * part:.0f} % of it in {t0:.4g}–{t1:.4g} {time_unit}")
+    larger = [regime for regime in left.regimes if regime.rmse_in > regime.rmse_out]
+    if larger:
+        regime = larger[0]
+        where.append(f"it is largest {regime.regime} (RMSE {regime.rmse_in:.3g} there against {regime.rmse_out:.3g})")
+    return "; ".join([text] + where)
