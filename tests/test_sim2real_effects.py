@@ -93,3 +93,13 @@ def test_a_partial_model_is_asked_only_for_what_it_still_lacks(tmp_path):
     effects = [Effect("coupling", "q5", {"source": "q6", "k": 0.2}), Effect("offset", "q5", {"value": -0.1})]
     _, named = _named(recording_with(effects, seed=6), sim=str(preset))
     assert set(named) == {("offset", "q5", None)}
+
+
+def test_identify_returns_the_whole_model_for_calibration():
+    from pegbt.sim2real import identify
+
+    effects = [Effect("offset", "q4", {"value": 0.2}), Effect("coupling", "q6", {"source": "q5", "k": 0.15})]
+    recording = recording_with(effects, seed=7)
+    model = ArmPhysics(identify(recording.q_cmd, recording.q_phy, recording.t))
+    error = recording.q_phy - model.simulate(recording.q_cmd, recording.t)
+    assert (error**2).mean() ** 0.5 < 0.0025  # only the 2 mrad noise is left

@@ -85,6 +85,7 @@ def run() -> dict[str, float | int | str]:
         "false_discovery_rate": float(np.mean(list(null_named.values()))),
         "param_error_median": float(np.median(param_errors)),
         "oracle_gain_fraction": float(np.median(oracle)),
+        "oracle_gain_fraction_p10": float(np.percentile(oracle, 10)),
         "min_detectable_snr": detection_threshold(SNR_LEVELS, rates),
     }
     figures.update({f"naming_accuracy_{family}": value for family, value in per_family.items()})

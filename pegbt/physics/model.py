@@ -181,11 +181,6 @@ class ArmPhysics:
         delayed = [delay_series(q_cmd, t, float(self.delay[j])) for j in range(N_JOINTS)]
         return apply_lag(apply_play(self._with_hysteresis(delayed), self.half_width), t, self.tau)
 
-    def play_input(self, q_cmd: ArrayLike) -> NDArray[np.float64]:
-        """What each joint's backlash sees for settled commands (N, 6): static map plus hysteresis."""
-        q_cmd = np.asarray(q_cmd, dtype=float)
-        return self._with_hysteresis([q_cmd] * N_JOINTS)
-
     def _with_hysteresis(self, seen_by: list[NDArray[np.float64]]) -> NDArray[np.float64]:
         """Static targets (N, 6) from the commands each joint sees, plus the hysteresis terms."""
         static = np.column_stack([self.static_map(seen_by[j])[:, j] for j in range(N_JOINTS)])

@@ -21,7 +21,7 @@ from pegbt.sim2real.explain import effect_sentence, remaining_sentence, rival_se
 from pegbt.sim2real.fit import JointFit, Term, bootstrap, fit_joint, merged_physics, settle_backlash, to_effects
 from pegbt.sim2real.library import build_columns
 from pegbt.sim2real.locate import JointMismatch, locate
-from pegbt.sim2real.recording import Recording, Sampling
+from pegbt.sim2real.recording import Recording, Sampling, validate
 from pegbt.sim2real.select import JointSelection, find_unidentifiable, select
 
 Array = NDArray[np.float64]
@@ -211,6 +211,7 @@ def identify(q_cmd: Array, q_phy: Array, t: Array | None = None, base: str | Pat
 
     `t=None` treats samples as settled set-points. This is the entry point calibration can reuse.
     """
-    recording = Recording(Path("<arrays>"), np.asarray(q_cmd, float), np.asarray(q_phy, float),
-                          None if t is None else np.asarray(t, float))
-    return list(diagnose(recording, base, arm, n_bootstrap=0).physics.effects)
+    q_cmd, q_phy = np.asarray(q_cmd, float), np.asarray(q_phy, float)
+    t = None if t is None else np.asarray(t, float)
+    validate(q_cmd, q_phy, t, Path("<arrays>"))
+    return list(diagnose(Recording(Path("<arrays>"), q_cmd, q_phy, t), base, arm, n_bootstrap=0).physics.effects)

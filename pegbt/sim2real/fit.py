@@ -16,7 +16,7 @@ model the recording was diagnosed against.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -60,7 +60,6 @@ class JointFit:
     intercept: bool
     terms: list[Term]
     intercept_value: float = 0.0
-    samples: list["JointFit"] = field(default_factory=list)
 
     def driver(self, q_cmd: Array, base_driver: Array) -> Array:
         """The joint's static target: the base model's plus this fit's scale and couplings."""

@@ -117,9 +117,6 @@ def _read_folder(folder: Path) -> tuple[Array, Array, Array | None]:
     q_cmd = _load_npy(folder / "q_cmd.npy")
     q_phy = _load_npy(folder / "q_phy.npy")
     t = _load_npy(folder / "t_stamp.npy").reshape(-1) if (folder / "t_stamp.npy").is_file() else None
-    for name, array in (("q_cmd.npy", q_cmd), ("q_phy.npy", q_phy)):
-        if array.ndim != 2 or array.shape[1] != N_JOINTS:
-            raise PegbtError(f"expected an N×{N_JOINTS} array of joints, got shape {array.shape}", file=folder / name)
     return q_cmd, q_phy, t
 
 
@@ -153,6 +150,9 @@ def _read_csv(path: Path) -> tuple[Array, Array, Array]:
 
 def validate(q_cmd: Array, q_phy: Array, t: Array | None, where: Path) -> None:
     """Refuse recordings that cannot be analysed, saying what is wrong with them."""
+    for name, array in (("q_cmd", q_cmd), ("q_phy", q_phy)):
+        if array.ndim != 2 or array.shape[1] != N_JOINTS:
+            raise PegbtError(f"expected an N×{N_JOINTS} array of joints, got shape {array.shape}", file=where, field=name)
     if len(q_cmd) != len(q_phy):
         raise PegbtError(f"different lengths: {len(q_cmd)} commanded samples but {len(q_phy)} measured", file=where)
     if t is not None and len(t) != len(q_cmd):
