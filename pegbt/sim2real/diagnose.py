@@ -22,7 +22,7 @@ from pegbt.sim2real.fit import JointFit, Term, bootstrap, fit_joint, merged_phys
 from pegbt.sim2real.library import build_columns
 from pegbt.sim2real.locate import JointMismatch, locate
 from pegbt.sim2real.recording import Recording, Sampling, validate
-from pegbt.sim2real.select import JointSelection, find_unidentifiable, select
+from pegbt.sim2real.select import JointSelection, Unidentifiable, find_unidentifiable, select
 
 Array = NDArray[np.float64]
 
@@ -129,8 +129,8 @@ def crossval_predict(structures: list[JointFit], base: ArmPhysics, recording: Re
 SELECTION_ROUNDS = 2
 
 
-def choose_effects(q_cmd: Array, t: Array | None, residual: Array, base: ArmPhysics, unidentifiable,
-                   ) -> tuple[list[JointSelection], int, BlockedGrams]:
+def choose_effects(q_cmd: Array, t: Array | None, residual: Array, base: ArmPhysics,
+                   unidentifiable: Unidentifiable) -> tuple[list[JointSelection], int, BlockedGrams]:
     """Selection, repeated once with each joint's driver updated by the scale and couplings it found."""
     base_drivers = base.static_map(q_cmd)
     drivers = base_drivers
