@@ -151,7 +151,6 @@ def select_joint(
     """Forward selection for one joint (see the module docstring for the rules)."""
     result = JointSelection(joint)
     pool = [c for c in candidates if c.joint == joint and c.kind != "offset" and c.key not in excluded]
-    target = grams.targets[:, joint]
     before = float(grams.cv_sse(joint, np.array([], dtype=np.int64)).sum())
     if before <= 0:
         result.stopped = "no error left to explain"
