@@ -9,7 +9,7 @@ import numpy as np
 from pegbt.physics import JOINT_NAMES, Effect
 from pegbt.sim2real.diagnose import Diagnosis, crossval_predict, structure_from_effects
 from pegbt.sim2real.fit import fit_joint
-from pegbt.sim2real.synth import Synthetic
+from pegbt.sim2real.synth import Synthetic, effect_label
 
 
 def effect_key(effect: Effect) -> tuple[str, str, str]:
@@ -29,7 +29,7 @@ def relative_errors(truth: Effect, named: Effect) -> list[float]:
 
 @dataclass(frozen=True)
 class Score:
-    found: list[bool]  # per true effect: named with the right kind, joint (and source)
+    found: dict[str, bool]  # by true effect's label: named with the right kind, joint (and source)
     false_names: int  # named effects absent from the truth
     named: int
     param_errors: list[float]
@@ -39,7 +39,7 @@ class Score:
 def score(synthetic: Synthetic, diagnosis: Diagnosis) -> Score:
     named = {effect_key(e.effect): e.effect for e in diagnosis.effects}
     truth = {effect_key(e): e for e in synthetic.effects}
-    found = [key in named for key in truth]
+    found = {effect_label(effect): key in named for key, effect in truth.items()}
     errors = [err for key, effect in truth.items() if key in named for err in relative_errors(effect, named[key])]
     false_names = sum(1 for key in named if key not in truth)
     return Score(found, false_names, len(named), errors, _oracle_fraction(synthetic, diagnosis))

@@ -42,18 +42,26 @@ MASKING_RATIO = 10.0  # a masking effect's RMS over the concealed one's
 MAX_BACKLASH_FRACTION = 0.15  # of the joint's range: more play than this and the joint hardly moves
 
 
+def effect_label(effect: Effect) -> str:
+    """`kind joint[ source]`: which effect, where, driven by what (its parameters aside)."""
+    source = effect.params.get("source")
+    return f"{effect.effect} {effect.joint}" + (f" {source}" if source else "")
+
+
 @dataclass
 class Synthetic:
     recording: Recording
     effects: list[Effect]
-    snr: dict[str, float]
+    snr: dict[str, float]  # by effect label
+    concealed: list[str]  # labels of the effects hidden on purpose (a masking effect is not one)
     noise: dict
     family: str
     seed: int
 
     def truth(self) -> dict:
         return {"family": self.family, "seed": self.seed, "effects": [e.to_dict() for e in self.effects],
-                "snr": self.snr, "noise": self.noise, "sampling": self.recording.sampling.mode}
+                "snr": self.snr, "concealed": self.concealed, "noise": self.noise,
+                "sampling": self.recording.sampling.mode}
 
 
 def smooth_commands(rng: np.random.Generator, t: Array, hold_s: Array) -> Array:
@@ -170,12 +178,14 @@ def generate(family: str, seed: int, seconds: float = 30.0, rate_hz: float = 100
     sigma = NOISE_SIGMA.copy()
     effects: list[Effect] = []
     snrs: dict[str, float] = {}
+    concealed: list[str] = []
 
     def conceal(kind: str, where: int, source: int, low: float, high: float) -> Effect:
         effect = plausible_effect(kind, where, source, q_cmd, rng)
         level = snr if snr is not None else float(rng.uniform(low, high))
         sigma[where] = _contribution(effect, q_cmd, stream_t) / level
-        snrs[f"{effect.effect} {effect.joint}"] = level
+        snrs[effect_label(effect)] = level
+        concealed.append(effect_label(effect))
         return effect
 
     if family == "weak":
@@ -189,7 +199,7 @@ def generate(family: str, seed: int, seconds: float = 30.0, rate_hz: float = 100
         hidden = conceal(small, where, source if small in ("coupling", "hysteresis") else where, 1.0, 2.0)
         masking = sized_effect(big, joint, other if big == "coupling" else joint,
                                MASKING_RATIO * _contribution(hidden, q_cmd, stream_t), q_cmd, stream_t, rng)
-        snrs[f"{masking.effect} {masking.joint}"] = float(_contribution(masking, q_cmd, stream_t) / sigma[joint])
+        snrs[effect_label(masking)] = float(_contribution(masking, q_cmd, stream_t) / sigma[joint])
         effects += [masking, hidden]
     elif family == "regime":
         kind = _pick(rng, ("backlash", "hysteresis", "lag", "delay") if sampling == "stream" else ("backlash", "hysteresis"))
@@ -205,7 +215,7 @@ def generate(family: str, seed: int, seconds: float = 30.0, rate_hz: float = 100
     noise = _noise(rng, len(t), noise_kind) * sigma
     q_phy = ArmPhysics(effects).simulate(q_cmd, stream_t) + noise
     recording = Recording(Path(f"<synth {family} {seed}>"), q_cmd, q_phy, t)
-    return Synthetic(recording, effects, snrs,
+    return Synthetic(recording, effects, snrs, concealed,
                      {"kind": noise_kind, "sigma": sigma.tolist(), "rho": AR1_RHO if noise_kind == "ar1" else 0.0},
                      family, seed)
 
