@@ -18,6 +18,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "pegbt.executive.cli",
     "pegbt.calibration.cli",
     "pegbt.sim.cli",
+    "pegbt.sim2real.cli",
 )
 
 

@@ -131,25 +131,24 @@ def test_a_newer_command_aborts_the_running_motion_and_stop_holds(lockstep):
 def test_dvrk_real_shows_backlash_and_q5_q6_coupling_in_fiducial_js(lockstep):
     _, clock, arms = lockstep
     psm2 = arms["PSM2"]
-    physics = ArmPhysics.load("dvrk-real", "PSM2")
-    half_width, k56 = physics.half_width[4], physics.coupling[4, 5]
-    assert half_width > 0.02 and k56 > 0.05  # the preset has the effects this test looks for
+    wrist = [(0.8, 0.9), (0.4, -0.6), (0.1, -0.6), (-0.3, -0.6), (0.1, -0.6), (0.1, 0.8)]
+    commands = np.array([[0.0, 0.0, 0.15, 0.0, q5, q6] for q5, q6 in wrist])
 
-    def settle_at(q5: float, q6: float) -> tuple[float, float]:
-        assert finish(clock, psm2.move_jp([0.0, 0.0, 0.15, 0.0, q5, q6])) is MotionStatus.DONE
+    def settle_at(q: np.ndarray) -> tuple[float, float]:
+        assert finish(clock, psm2.move_jp(q)) is MotionStatus.DONE
         return psm2.measured_js.position[4], psm2.fiducial_js.position[4]
 
-    settle_at(0.4, -0.6)
-    encoder_above, from_above = settle_at(0.1, -0.6)
-    settle_at(-0.3, -0.6)
-    encoder_below, from_below = settle_at(0.1, -0.6)
-    assert encoder_above == pytest.approx(0.1, abs=1e-6) and encoder_below == pytest.approx(0.1, abs=1e-6)
-    assert from_above - from_below == pytest.approx(2 * half_width, abs=2e-3)  # play: the encoders never see it
+    settled = np.array([settle_at(q) for q in commands])
+    assert np.allclose(settled[:, 0], commands[:, 4], atol=1e-6)  # the encoders never see the cables
 
-    _, coupled = settle_at(0.1, 0.8)  # q5 held; only q6 moves, and drags the physical q5 along
-    assert coupled - from_below == pytest.approx(k56 * 1.4, abs=2e-3)
-    expected = physics.static_map([0.0, 0.0, 0.15, 0.0, 0.1, 0.8])[4] - half_width
-    assert coupled == pytest.approx(expected, abs=2e-3)
+    # The same set-points replayed through the preset (the first, large move takes up all play).
+    path = np.concatenate([np.linspace(a, b, 60) for a, b in zip(commands[:-1], commands[1:])])
+    expected = ArmPhysics.load("dvrk-real", "PSM2").simulate(path)[59::60, 4]
+    assert np.allclose(settled[1:, 1], expected, atol=2e-3)
+
+    from_above, from_below, q6_moved = settled[2, 1], settled[4, 1], settled[5, 1]
+    assert from_above - from_below > 0.03  # hysteresis: same command, different physical q5
+    assert abs(q6_moved - from_below) > 0.03  # coupling: only q6 moved, yet the physical q5 did too
 
 
 def test_capture_without_a_camera_fails_clearly(lockstep):

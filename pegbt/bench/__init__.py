@@ -22,6 +22,8 @@ BENCHMARKS: dict[str, str] = {
     "transport": "pegbt.bench.transport:run",
     "sim": "pegbt.bench.sim:run",
     "motion": "pegbt.bench.motion:run",
+    "sim2real": "pegbt.bench.sim2real:run",
+    "sim2real-real": "pegbt.bench.sim2real_real:run",
 }
 
 

@@ -9,6 +9,11 @@ sim-to-real report (`{"effect": "coupling", "joint": "q5", "params": {"source": 
 - `backlash` {half_width}: play; the output stays until the input has moved half_width past it.
 - `lag` {tau}: first-order response with time constant tau (s).
 - `delay` {seconds}: pure transport delay of the command.
+- `hysteresis` {source, half_width, k}: physical += k × (play(x, half_width) − x), x the source's
+  command: play in one joint's drive that shows, scaled by k, in this joint. With source = the joint
+  itself, x is the joint's static target (the input its backlash sees) and k ≠ 1 is play of which only
+  part reaches the joint (k = 1 is backlash). Found on the real dVRK wrist, where q6's cable play moves
+  q5 about as much as q6.
 """
 
 from __future__ import annotations
@@ -29,9 +34,10 @@ EFFECT_KINDS: dict[str, tuple[str, ...]] = {
     "backlash": ("half_width",),
     "lag": ("tau",),
     "delay": ("seconds",),
+    "hysteresis": ("source", "half_width", "k"),
 }
 
-_NON_NEGATIVE = {("backlash", "half_width"), ("lag", "tau"), ("delay", "seconds")}
+_NON_NEGATIVE = {("backlash", "half_width"), ("lag", "tau"), ("delay", "seconds"), ("hysteresis", "half_width")}
 
 
 def joint_index(name: str | int) -> int:
@@ -65,7 +71,7 @@ class Effect:
             )
         for name, value in self.params.items():
             if name == "source":
-                if joint_index(value) == joint_index(self.joint):
+                if self.effect == "coupling" and joint_index(value) == joint_index(self.joint):
                     raise PegbtError(f"coupling on {self.joint} cannot take itself as source", field="source")
                 continue
             if not isinstance(value, (int, float)) or value != value or abs(value) == float("inf"):
@@ -76,6 +82,14 @@ class Effect:
     @property
     def index(self) -> int:
         return joint_index(self.joint)
+
+    @property
+    def slot(self) -> tuple[str, str, str, float]:
+        """What the effect occupies in a model: one offset, scale, backlash, lag, delay per joint, one
+        coupling per source, and one hysteresis per source and play width (several widths from the same
+        drive add up to a hysteresis loop of any shape, as in a Prandtl–Ishlinskii operator)."""
+        width = float(self.params["half_width"]) if self.effect == "hysteresis" else 0.0
+        return (self.effect, self.joint, str(self.params.get("source", "")), width)
 
     def to_dict(self) -> dict[str, Any]:
         return {"effect": self.effect, "joint": self.joint, "params": dict(self.params)}

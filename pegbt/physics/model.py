@@ -1,8 +1,10 @@
 """`ArmPhysics`: the physical joints of one PSM as a function of its command history.
 
 Per joint, in this order: delay the command, map it statically (scale, coupling from other joints'
-commands, offset), pass it through backlash (play), then through a first-order lag. The static map is
-vectorised; backlash and lag carry state, so they run sample by sample.
+commands, offset), add hysteresis (play in a drive: another joint's command, or for a joint's own
+hysteresis its static target, the same input its backlash sees), pass it through backlash (play),
+then through a first-order lag. The static map is vectorised; play and lag carry state, so `step()` runs
+them sample by sample while `simulate()` uses the run-wise kernels of `pegbt.physics.kernels`.
 
 Two ways to run it: `step()` at the control period (the simulator endpoint), and `simulate()` over a
 whole recording, either as a time stream or as settled set-points (`t=None`: lag and delay have died
@@ -21,6 +23,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from pegbt.errors import PegbtError
 from pegbt.physics.effects import JOINT_NAMES, Effect, joint_index
+from pegbt.physics.kernels import apply_lag, apply_play, delay_series, play_grid
 
 N_JOINTS = len(JOINT_NAMES)
 PRESET_DIR = Path(__file__).parent / "presets"
@@ -37,15 +40,15 @@ class ArmPhysics:
         self.half_width = np.zeros(N_JOINTS)
         self.tau = np.zeros(N_JOINTS)
         self.delay = np.zeros(N_JOINTS)
-        seen: set[tuple[str, str, str]] = set()
+        self.hysteresis: list[tuple[int, int, float, float]] = []  # (joint, source, half_width, k)
+        seen: set[tuple[str, str, str, float]] = set()
         for effect in self.effects:
-            source = str(effect.params.get("source", ""))
-            key = (effect.effect, effect.joint, source)
-            if key in seen:
+            if effect.slot in seen:
                 raise PegbtError(f"{effect.effect} on {effect.joint} given twice", field=effect.joint)
-            seen.add(key)
+            seen.add(effect.slot)
             self._apply(effect)
         self._state: NDArray[np.float64] | None = None  # backlash output
+        self._drive_play: NDArray[np.float64] = np.zeros(len(self.hysteresis))  # play state of each hysteresis
         self._output: NDArray[np.float64] | None = None  # lag output
         self._history: deque[tuple[float, NDArray[np.float64]]] = deque()
         self._time = 0.0
@@ -64,6 +67,8 @@ class ArmPhysics:
             self.tau[j] = p["tau"]
         elif effect.effect == "delay":
             self.delay[j] = p["seconds"]
+        elif effect.effect == "hysteresis":
+            self.hysteresis.append((j, joint_index(p["source"]), float(p["half_width"]), float(p["k"])))
 
     # ----------------------------------------------------------------- construction helpers
     @classmethod
@@ -74,8 +79,9 @@ class ArmPhysics:
     def load(cls, source: str | Path, arm: str = "PSM1") -> "ArmPhysics":
         """Effects for `arm` from a preset name (`ideal`, `dvrk-real`) or a JSON file.
 
-        A file may be a preset (`{"arms": {"PSM1": [effects...]}}`) or a sim-to-real report
-        (`{"effects": [...]}`, which applies to whichever arm it is loaded for).
+        A file may be a preset (`{"arms": {"PSM1": [effects...]}}`) or a sim-to-real report, which
+        applies to whichever arm it is loaded for: its `model.effects` (the whole identified model,
+        including the physics it was diagnosed against) or else its `effects`.
         """
         path = Path(source)
         if not path.suffix and not path.exists():
@@ -92,6 +98,8 @@ class ArmPhysics:
             if arm not in arms:
                 raise PegbtError(f"no physics for arm {arm!r}; the file has {sorted(arms)}", file=path, field="arms")
             entries = arms[arm]
+        elif isinstance(data, dict) and isinstance(data.get("model"), dict) and "effects" in data["model"]:
+            entries = data["model"]["effects"]
         elif isinstance(data, dict) and "effects" in data:
             entries = data["effects"]
         else:
@@ -107,7 +115,7 @@ class ArmPhysics:
 
     # ----------------------------------------------------------------- the physics
     def static_map(self, q_cmd: ArrayLike) -> NDArray[np.float64]:
-        """Scale, coupling and offset applied to commands (..., 6): the settled physical joints without play."""
+        """Scale, coupling and offset applied to commands (..., 6): the settled joints without any play."""
         q_cmd = np.asarray(q_cmd, dtype=float)
         return self.scale * q_cmd + q_cmd @ self.coupling.T + self.offset
 
@@ -115,6 +123,7 @@ class ArmPhysics:
         """Settle the arm at command `q_cmd` (no play taken up) and return its physical joints."""
         q_cmd = np.asarray(q_cmd, dtype=float).copy()
         self._state = self.static_map(q_cmd)
+        self._drive_play = np.array([self._drive(j, s, q_cmd, self._state) for j, s, _, _ in self.hysteresis])
         self._output = self._state.copy()
         self._time = time
         self._history = deque([(time, q_cmd)])
@@ -131,6 +140,11 @@ class ArmPhysics:
         target = self.static_map(delayed)
         if target.ndim == 2:  # row j is the map of the command joint j sees; keep joint j of it
             target = np.diagonal(target).copy()
+        static = target.copy()
+        for n, (j, source, half_width, k) in enumerate(self.hysteresis):
+            seen = self._drive(j, source, delayed[j] if delayed.ndim == 2 else delayed, static)
+            self._drive_play[n] = np.clip(self._drive_play[n], seen - half_width, seen + half_width)
+            target[j] += k * (self._drive_play[n] - seen)
         self._state = _play(self._state, target, self.half_width)
         alpha = np.where(self.tau > 0, 1.0 - np.exp(-dt / np.maximum(self.tau, 1e-12)), 1.0)
         self._output = self._output + alpha * (self._state - self._output)
@@ -162,47 +176,26 @@ class ArmPhysics:
         if q_cmd.ndim != 2 or q_cmd.shape[1] != N_JOINTS:
             raise PegbtError(f"commands must be N×{N_JOINTS}, got shape {q_cmd.shape}", field="q_cmd")
         if t is None:
-            return apply_play(self.static_map(q_cmd), self.half_width)
+            return apply_play(self._with_hysteresis([q_cmd] * N_JOINTS), self.half_width)
         t = np.asarray(t, dtype=float)
-        delayed = [
-            np.column_stack([np.interp(t - self.delay[j], t, q_cmd[:, k]) for k in range(N_JOINTS)])
-            if self.delay[j] > 0
-            else q_cmd
-            for j in range(N_JOINTS)
-        ]
-        target = np.column_stack([self.static_map(delayed[j])[:, j] for j in range(N_JOINTS)])
-        played = apply_play(target, self.half_width)
-        return apply_lag(played, t, self.tau)
+        delayed = [delay_series(q_cmd, t, float(self.delay[j])) for j in range(N_JOINTS)]
+        return apply_lag(apply_play(self._with_hysteresis(delayed), self.half_width), t, self.tau)
+
+    def _with_hysteresis(self, seen_by: list[NDArray[np.float64]]) -> NDArray[np.float64]:
+        """Static targets (N, 6) from the commands each joint sees, plus the hysteresis terms."""
+        static = np.column_stack([self.static_map(seen_by[j])[:, j] for j in range(N_JOINTS)])
+        target = static.copy()
+        for j, source, half_width, k in self.hysteresis:
+            seen = self._drive(j, source, seen_by[j], static)
+            target[:, j] += k * (play_grid(seen, half_width)[:, 0] - seen)
+        return target
+
+    @staticmethod
+    def _drive(joint: int, source: int, commands: NDArray[np.float64], static: NDArray[np.float64]) -> NDArray[np.float64]:
+        """The input of a hysteresis: the source's command, or the joint's own static target."""
+        return static[..., joint] if source == joint else commands[..., source]
 
 
 def _play(state: NDArray[np.float64], target: NDArray[np.float64], half_width: NDArray[np.float64]) -> NDArray[np.float64]:
     """One step of the play operator: move the output only as far as the input has pushed it."""
     return np.clip(state, target - half_width, target + half_width)
-
-
-def apply_play(u: NDArray[np.float64], half_width: ArrayLike, initial: ArrayLike | None = None) -> NDArray[np.float64]:
-    """Backlash (play) along a sequence u (N, J), per-column half widths; starts centred unless `initial`."""
-    half_width = np.broadcast_to(np.asarray(half_width, dtype=float), u.shape[1:])
-    if not half_width.any():
-        return u.copy()
-    out = np.empty_like(u)
-    state = u[0].copy() if initial is None else np.asarray(initial, dtype=float).copy()
-    for n in range(len(u)):
-        state = _play(state, u[n], half_width)
-        out[n] = state
-    return out
-
-
-def apply_lag(u: NDArray[np.float64], t: NDArray[np.float64], tau: ArrayLike) -> NDArray[np.float64]:
-    """First-order lag along a sequence u (N, J) sampled at times t, per-column time constants."""
-    tau = np.broadcast_to(np.asarray(tau, dtype=float), u.shape[1:])
-    if not tau.any():
-        return u.copy()
-    dt = np.diff(t, prepend=t[0])
-    alpha = np.where(tau > 0, 1.0 - np.exp(-dt[:, None] / np.maximum(tau, 1e-12)), 1.0)
-    out = np.empty_like(u)
-    y = u[0].copy()
-    for n in range(len(u)):
-        y = y + alpha[n] * (u[n] - y)
-        out[n] = y
-    return out

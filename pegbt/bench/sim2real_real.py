@@ -1,0 +1,94 @@
+"""`pegbt bench sim2real-real`: the real dVRK recordings, diagnosed and held out, against two baselines.
+
+Each recording is split in time: the first 70 % trains, the last 30 % is held out. The diagnosis runs
+on the training part only; its merged physics model then replays the whole command sequence (so its
+play state at the split comes from the commands, as the baselines' command windows do) and is scored
+on the held-out part, next to a linear regression on the last five commands and the reference paper's
+5-step LSTM (torch, one thread, at most 15 s of training), all in this process. Also: whether the two
+recordings of each arm name the same kinds of effect, and which parameters differ.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from pathlib import Path
+
+import numpy as np
+
+from pegbt.errors import PegbtError
+from pegbt.physics import JOINT_NAMES
+from pegbt.sim2real.baselines import linear_window, lstm_window
+from pegbt.sim2real.compare import compare
+from pegbt.sim2real.diagnose import diagnose
+from pegbt.sim2real.recording import load_recording
+
+RECORDINGS = ("random_smooth_grey1_PSM1", "random_smooth_grey2_PSM2", "random_smooth_new1_PSM1",
+              "random_smooth_new2_PSM2")
+SAME_ARM = {"PSM1": ("random_smooth_grey1_PSM1", "random_smooth_new1_PSM1"),
+            "PSM2": ("random_smooth_grey2_PSM2", "random_smooth_new2_PSM2")}
+TRAIN_FRACTION = 0.7
+WRIST = ("q4", "q5", "q6")
+# Raw q_phy − q_cmd RMSE of the wrist joints as tabulated in ../shared/data/dvrk/README.md (Table I data).
+README_RAW = {
+    "random_smooth_grey1_PSM1": (0.261, 0.152, 0.166), "random_smooth_grey2_PSM2": (0.156, 0.164, 0.206),
+    "random_smooth_new1_PSM1": (0.071, 0.035, 0.125), "random_smooth_new2_PSM2": (0.104, 0.033, 0.127),
+}
+
+
+def data_dir() -> Path:
+    folder = Path(os.environ.get("PEGBT_DVRK_DATA", Path(__file__).resolve().parents[3] / "shared" / "data" / "dvrk"))
+    if not (folder / RECORDINGS[0] / "q_cmd.npy").exists():
+        raise PegbtError("real dVRK recordings not found (set PEGBT_DVRK_DATA)", file=folder)
+    return folder
+
+
+def _rmse(error: np.ndarray) -> np.ndarray:
+    return np.sqrt((error**2).mean(0))
+
+
+def run() -> dict[str, float | int | str]:
+    folder = data_dir()
+    figures: dict[str, float | int | str] = {}
+    wrist = {method: [] for method in ("raw", "sim2real", "linear", "lstm")}
+    seconds = {method: 0.0 for method in ("sim2real", "linear", "lstm")}
+    effects = {}
+    for name in RECORDINGS:
+        recording = load_recording(folder / name)
+        train = int(TRAIN_FRACTION * recording.n)
+        q_cmd, q_phy = recording.q_cmd, recording.q_phy
+        t = recording.t if recording.sampling.is_stream else None
+        start = time.perf_counter()
+        physics = diagnose(recording.slice(0, train), n_bootstrap=0).physics
+        predictions = {"raw": q_cmd, "sim2real": physics.simulate(q_cmd, t)}
+        seconds["sim2real"] += time.perf_counter() - start
+        start = time.perf_counter()
+        predictions["linear"] = linear_window(q_cmd, q_phy, train)
+        seconds["linear"] += time.perf_counter() - start
+        start = time.perf_counter()
+        predictions["lstm"] = lstm_window(q_cmd, q_phy, train)
+        seconds["lstm"] += time.perf_counter() - start
+        short = name.replace("random_smooth_", "")
+        for method, predicted in predictions.items():
+            rmse = _rmse(q_phy[train:] - predicted[train:])
+            for j, joint in enumerate(JOINT_NAMES):
+                figures[f"{short}_{joint}_{method}"] = float(rmse[j])
+            wrist[method] += [float(rmse[JOINT_NAMES.index(q)]) for q in WRIST]
+        for joint, raw in zip(WRIST, README_RAW[name]):
+            figures[f"{short}_{joint}_readme_raw"] = raw
+        effects[name] = diagnose(recording, n_bootstrap=0).effects
+    for method, values in wrist.items():
+        figures[f"wrist_heldout_rmse_median_{method}"] = float(np.median(values))
+        figures[f"wrist_heldout_rmse_max_{method}"] = float(np.max(values))
+    for method, spent in seconds.items():
+        figures[f"fit_seconds_{method}"] = spent
+    for arm, (first, second) in SAME_ARM.items():
+        names = (first.replace("random_smooth_", ""), second.replace("random_smooth_", ""))
+        wrist_effects = [[e.effect for e in effects[r] if e.effect.joint in WRIST] for r in (first, second)]
+        agreement = compare(wrist_effects[0], wrist_effects[1], names)
+        figures[f"{arm}_wrist_kind_agreement"] = float(agreement["agreement"])
+        figures[f"{arm}_wrist_shared"] = "; ".join(agreement["shared"])
+        figures[f"{arm}_wrist_only_{names[0]}"] = "; ".join(agreement[f"only_{names[0]}"]) or "none"
+        figures[f"{arm}_wrist_only_{names[1]}"] = "; ".join(agreement[f"only_{names[1]}"]) or "none"
+        figures[f"{arm}_wrist_parameters_differ"] = "; ".join(agreement["differences"]) or "none"
+    return figures

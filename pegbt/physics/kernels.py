@@ -1,0 +1,111 @@
+"""Fast sequence kernels for the stateful cable effects: play (backlash), first-order lag, delay.
+
+Play is a sequential operator, but on a run where the input moves one way it has a closed form: while
+the input rises the output is `max(output before the run, input − h)` (and `min(…, input + h)` while it
+falls). So only the run boundaries are visited one by one; every sample inside a run is filled in one
+vectorised step, for a whole grid of half-widths at once (what width searches need).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.signal import lfilter
+
+Array = NDArray[np.float64]
+
+
+def play_grid(u: ArrayLike, half_widths: ArrayLike, initial: ArrayLike | None = None) -> Array:
+    """Play operator on one input sequence u (N,) for each half-width in a grid (G,): output (N, G).
+
+    The output starts at `initial` (default: centred on u[0]) clipped into the play band.
+    """
+    u = np.asarray(u, dtype=float)
+    h = np.atleast_1d(np.asarray(half_widths, dtype=float))
+    start = np.full(h.shape, u[0]) if initial is None else np.broadcast_to(np.asarray(initial, float), h.shape)
+    out = np.empty((len(u), len(h)))
+    out[0] = np.clip(start, u[0] - h, u[0] + h)
+    if len(u) == 1:
+        return out
+    step = np.sign(np.diff(u))
+    nonzero = np.flatnonzero(step)
+    if nonzero.size == 0:
+        out[1:] = out[0]
+        return out
+    # Steps that do not move belong to the run before them (either direction describes them).
+    carried = step[nonzero][np.maximum(np.searchsorted(nonzero, np.arange(len(step)), side="right") - 1, 0)]
+    rising = carried > 0
+    starts = np.flatnonzero(np.r_[True, rising[1:] != rising[:-1]])
+    ends = np.r_[starts[1:], len(rising)] - 1
+    before = np.empty((len(starts), len(h)))
+    state = out[0].copy()
+    for r, (end, up) in enumerate(zip(ends, rising[starts])):
+        before[r] = state
+        state = np.maximum(state, u[end + 1] - h) if up else np.minimum(state, u[end + 1] + h)
+    run_of_step = np.repeat(np.arange(len(starts)), ends - starts + 1)
+    held = before[run_of_step]
+    following = u[1:, None]
+    out[1:] = np.where(rising[:, None], np.maximum(held, following - h), np.minimum(held, following + h))
+    return out
+
+
+def apply_play(u: ArrayLike, half_width: ArrayLike, initial: ArrayLike | None = None) -> Array:
+    """Backlash (play) along a sequence u (N, J) with per-column half widths; starts centred unless `initial`."""
+    u = np.asarray(u, dtype=float)
+    half_width = np.broadcast_to(np.asarray(half_width, dtype=float), u.shape[1:])
+    out = u.copy()
+    starts = u[0] if initial is None else np.broadcast_to(np.asarray(initial, float), u.shape[1:])
+    for j in np.flatnonzero(half_width):
+        out[:, j] = play_grid(u[:, j], half_width[j], starts[j])[:, 0]
+    return out
+
+
+def is_uniform(t: ArrayLike, tolerance: float = 1e-6) -> bool:
+    """Whether the sample times are evenly spaced (then filters run as linear recursions in C)."""
+    dt = np.diff(np.asarray(t, dtype=float))
+    return bool(dt.size == 0 or np.ptp(dt) <= tolerance * max(float(np.mean(dt)), 1e-12))
+
+
+def lag_series(u: ArrayLike, t: ArrayLike, tau: float) -> Array:
+    """First-order lag y' = (u − y)/tau of one sequence u (N,) sampled at times t, starting settled at u[0].
+
+    Each interval holds the input at its end value (the controller's zero-order hold), so the discrete
+    step is exact for any spacing of samples.
+    """
+    u = np.asarray(u, dtype=float)
+    if tau <= 0 or len(u) < 2:
+        return u.copy()
+    t = np.asarray(t, dtype=float)
+    if is_uniform(t):
+        alpha = 1.0 - np.exp(-float(t[1] - t[0]) / tau)
+        y, _ = lfilter([alpha], [1.0, alpha - 1.0], u, zi=[(1.0 - alpha) * u[0]])
+        return np.asarray(y)
+    alphas = (1.0 - np.exp(-np.diff(t) / tau)).tolist()
+    values = u.tolist()
+    y = [values[0]]
+    last = values[0]
+    for alpha, value in zip(alphas, values[1:]):
+        last += alpha * (value - last)
+        y.append(last)
+    return np.asarray(y)
+
+
+def apply_lag(u: ArrayLike, t: ArrayLike, tau: ArrayLike) -> Array:
+    """First-order lag along a sequence u (N, J) sampled at times t, per-column time constants."""
+    u = np.asarray(u, dtype=float)
+    tau = np.broadcast_to(np.asarray(tau, dtype=float), u.shape[1:])
+    out = u.copy()
+    for j in np.flatnonzero(tau > 0):
+        out[:, j] = lag_series(u[:, j], t, float(tau[j]))
+    return out
+
+
+def delay_series(u: ArrayLike, t: ArrayLike, seconds: float) -> Array:
+    """The sequence u (N, ...) as seen `seconds` later: u(t − seconds), held at u[0] before the start."""
+    u = np.asarray(u, dtype=float)
+    if seconds <= 0:
+        return u.copy()
+    t = np.asarray(t, dtype=float)
+    flat = u.reshape(len(u), -1)
+    shifted = np.column_stack([np.interp(t - seconds, t, flat[:, k]) for k in range(flat.shape[1])])
+    return shifted.reshape(u.shape)

@@ -1,0 +1,107 @@
+"""`pegbt sim2real diagnose`, `pegbt sim2real synth` and `pegbt sim2real preset`."""
+
+from __future__ import annotations
+
+import argparse
+import json
+
+
+def add_commands(subparsers: argparse._SubParsersAction) -> None:
+    parser = subparsers.add_parser(
+        "sim2real",
+        help="find, name and fit the physics a simulator leaves out",
+        description="Locate where recordings and the simulator's arm physics disagree, name the missing effects, "
+        "fit them, and prove it on synthetic recordings with concealed effects.",
+    )
+    commands = parser.add_subparsers(dest="sim2real_command", metavar="COMMAND", required=True)
+
+    diagnose = commands.add_parser(
+        "diagnose",
+        help="diagnose a recording against the simulator's arm physics",
+        description="RECORDING is a folder with q_cmd.npy, q_phy.npy and optional t_stamp.npy (the dVRK dataset "
+        "layout) or a CSV with columns t,q1_cmd..q6_cmd,q1_meas..q6_meas.",
+    )
+    diagnose.add_argument("recording", metavar="RECORDING")
+    diagnose.add_argument("--sim", default="ideal", metavar="ideal|PRESET|REPORT.json",
+                          help="physics to replay the commands through (default: ideal)")
+    diagnose.add_argument("--arm", choices=("PSM1", "PSM2"), help="arm for presets (default: from the recording's name)")
+    diagnose.add_argument("--out", metavar="DIR", help="write report.json, report.md and PNG plots here")
+    diagnose.add_argument("--json", action="store_true", help="print report.json to standard output")
+    diagnose.add_argument("--compare", metavar="REPORT.json",
+                          help="an earlier report (e.g. the same arm after re-homing): say what agrees and what differs")
+    diagnose.add_argument("--bootstrap", type=int, default=100, metavar="N", help="bootstrap resamples for intervals")
+    diagnose.set_defaults(handler=_diagnose)
+
+    synth = commands.add_parser(
+        "synth",
+        help="make a recording with concealed effects and its ground truth",
+        description="Writes OUTDIR/recording/ (what diagnose reads) and OUTDIR/truth.json (what it never reads).",
+    )
+    synth.add_argument("outdir", metavar="OUTDIR")
+    synth.add_argument("--family", default="weak",
+                       help="weak, masked, regime, coupled, null-white or null-ar1 (default: weak)")
+    synth.add_argument("--seed", type=int, default=0)
+    synth.add_argument("--seconds", type=float, default=30.0)
+    synth.add_argument("--rate", type=float, default=100.0, metavar="HZ", help="stream rate (default 100 Hz)")
+    synth.add_argument("--sampling", default="stream", choices=("stream", "setpoints"))
+    synth.add_argument("--snr", type=float, help="SNR of the concealed effect (default: drawn per family)")
+    synth.set_defaults(handler=_synth)
+
+    preset = commands.add_parser(
+        "preset",
+        help="identify a physics preset (one model per arm) from recordings",
+        description="Diagnose each arm's recording against the ideal arm and write the identified models as a "
+        "preset that `ArmPhysics.load` and `pegbt sim --physics` read.",
+    )
+    preset.add_argument("out", metavar="OUT.json")
+    preset.add_argument("--from", dest="sources", action="append", required=True, metavar="ARM=RECORDING",
+                        help="an arm and its recording, e.g. PSM1=../shared/data/dvrk/random_smooth_grey1_PSM1")
+    preset.set_defaults(handler=_preset)
+
+
+def _diagnose(args: argparse.Namespace) -> int:
+    from pegbt.sim2real.diagnose import diagnose
+    from pegbt.sim2real.recording import load_recording
+    from pegbt.sim2real.report import read_named_effects, report_dict, write_report
+
+    recording = load_recording(args.recording)
+    if args.compare:
+        read_named_effects(args.compare)  # refuse a bad report before the work, not after it
+    diagnosis = diagnose(recording, args.sim, args.arm, n_bootstrap=max(0, args.bootstrap))
+    report = write_report(diagnosis, args.out, args.compare) if args.out else report_dict(diagnosis, args.compare)
+    if args.json:
+        print(json.dumps(report, indent=2))
+        return 0
+    print(f"{recording.path}: {recording.n} samples; {recording.sampling.reason}")
+    print(f"simulator physics: {diagnosis.sim} ({diagnosis.arm})")
+    before, after = report["fit"]["heldout_rmse_before"], report["fit"]["heldout_rmse_after"]
+    print("held-out RMSE before → after: " + ", ".join(f"{q} {before[q]:.4g} → {after[q]:.4g}" for q in before))
+    for effect in report["effects"]:
+        print(f"  {effect['effect']} on {effect['joint']}: {effect['text']}")
+    for statement in report["not_identifiable"]:
+        print(f"  {statement}")
+    if "comparison" in report:
+        differences = report["comparison"]["differences"]
+        print(f"compared with {args.compare}: {100 * report['comparison']['agreement']:.0f} % of kinds agree; "
+              f"{len(differences)} parameter(s) differ" + (f", e.g. {differences[0]}" if differences else ""))
+    if args.out:
+        print(f"report: {args.out}/report.md")
+    return 0
+
+
+def _preset(args: argparse.Namespace) -> int:
+    from pegbt.sim2real.preset import parse_sources, write_preset
+
+    sources = parse_sources(args.sources)
+    command = "pegbt sim2real preset " + " ".join([args.out] + [f"--from {pair}" for pair in args.sources])
+    print(f"preset: {write_preset(args.out, sources, command)}")
+    return 0
+
+
+def _synth(args: argparse.Namespace) -> int:
+    from pegbt.sim2real.synth import generate, write_synthetic
+
+    synthetic = generate(args.family, args.seed, args.seconds, args.rate, args.sampling, args.snr)
+    folder, truth = write_synthetic(synthetic, args.outdir)
+    print(f"recording: {folder}\ntruth: {truth}")
+    return 0

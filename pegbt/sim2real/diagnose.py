@@ -1,0 +1,217 @@
+"""Diagnose a recording against the simulator's arm physics: locate, explain, fit, and score held out.
+
+The recording's commands are replayed through `pegbt.physics.ArmPhysics` (the model the simulator
+endpoint runs, ideal unless told otherwise), the residual real − sim is located, the missing effects
+are chosen by `select`, fitted by `fit`, and merged into the model. The held-out RMSE after is measured
+by re-fitting the chosen effects on the training folds and replaying the *merged physics model* (not
+the linearised fit) over each held-out segment, so the figure is what the simulator would reproduce.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+
+from pegbt.physics import JOINT_NAMES, ArmPhysics, Effect
+from pegbt.sim2real.crossval import BlockedGrams
+from pegbt.sim2real.explain import effect_sentence, remaining_sentence, rival_sentence
+from pegbt.sim2real.fit import JointFit, Term, bootstrap, fit_joint, merged_physics, settle_backlash, to_effects
+from pegbt.sim2real.library import build_columns
+from pegbt.sim2real.locate import JointMismatch, locate
+from pegbt.sim2real.recording import Recording, Sampling, validate
+from pegbt.sim2real.select import JointSelection, Unidentifiable, find_unidentifiable, select
+
+Array = NDArray[np.float64]
+
+N_BOOTSTRAP = 100
+
+
+@dataclass(frozen=True)
+class NamedEffect:
+    """An effect the diagnosis names, with its evidence and a sentence for a person."""
+
+    effect: Effect
+    ci: dict[str, tuple[float, float]]
+    explains: float
+    pvalue: float
+    text: str
+
+    def to_dict(self) -> dict:
+        return {**self.effect.to_dict(), "ci": {k: list(v) for k, v in self.ci.items()}, "explains": self.explains,
+                "p_value": self.pvalue, "text": self.text}
+
+
+@dataclass
+class Diagnosis:
+    recording: Recording
+    sim: str
+    arm: str
+    sampling: Sampling
+    base: ArmPhysics
+    simulated: Array
+    mismatch: list[JointMismatch]
+    selections: list[JointSelection]
+    fits: list[JointFit]
+    effects: list[NamedEffect]
+    physics: ArmPhysics
+    heldout_prediction: Array
+    fold_ranges: list[tuple[int, int]]
+    not_identifiable: list[str]
+    hypotheses: int
+
+    @property
+    def residual_before(self) -> Array:
+        return self.recording.q_phy - self.simulated
+
+    @property
+    def residual_after(self) -> Array:
+        return self.recording.q_phy - self.heldout_prediction
+
+    def rmse_before(self) -> dict[str, float]:
+        return dict(zip(JOINT_NAMES, np.sqrt((self.residual_before**2).mean(0)).tolist()))
+
+    def rmse_after(self) -> dict[str, float]:
+        return dict(zip(JOINT_NAMES, np.sqrt((self.residual_after**2).mean(0)).tolist()))
+
+    def remaining(self) -> list[str]:
+        after_located = locate(self.residual_after, self.recording.q_cmd, self.recording.times, self.sampling.is_stream)
+        before, after = self.rmse_before(), self.rmse_after()
+        unit = "s" if self.recording.t is not None else "samples"
+        return [remaining_sentence(m, after[m.joint], before[m.joint], unit) for m in after_located]
+
+
+def guess_arm(path: Path) -> str:
+    """PSM2 when the recording's name says so, else PSM1 (presets differ per arm)."""
+    return "PSM2" if "PSM2" in str(path).upper() else "PSM1"
+
+
+def structure_of(selection: JointSelection) -> JointFit:
+    terms = [Term(c.candidate.kind, c.candidate.source, c.width, coef=1.0 if c.fixed else 0.0, fixed=c.fixed)
+             for c in selection.chosen]
+    return JointFit(selection.joint, selection.offset is not None, terms)
+
+
+def structure_from_effects(effects: list[Effect]) -> list[JointFit]:
+    """The fit structure that a known list of effects would need (the oracle in benchmarks)."""
+    structures = [JointFit(j, False, []) for j in range(len(JOINT_NAMES))]
+    for effect in effects:
+        fit, p, j = structures[effect.index], effect.params, effect.index
+        source = JOINT_NAMES.index(p["source"]) if "source" in p else j
+        if effect.effect == "offset":
+            fit.intercept = True
+        elif effect.effect in ("scale", "coupling"):
+            fit.terms.append(Term(effect.effect, source))
+        elif effect.effect == "hysteresis":
+            fit.terms.append(Term("backlash" if source == j else "hysteresis", source, p["half_width"]))
+        else:
+            width = p[{"backlash": "half_width", "lag": "tau", "delay": "seconds"}[effect.effect]]
+            fit.terms.append(Term(effect.effect, j, width, coef=1.0, fixed=True))
+    return structures
+
+
+def crossval_predict(structures: list[JointFit], base: ArmPhysics, recording: Recording, t: Array | None,
+                     residual: Array, fold_ranges: list[tuple[int, int]]) -> Array:
+    """Held-out predictions of the merged physics: coefficients refitted without each segment in turn."""
+    prediction = np.empty_like(recording.q_phy)
+    drivers = base.static_map(recording.q_cmd)
+    for a, b in fold_ranges:
+        rows = np.ones(recording.n, dtype=bool)
+        rows[a:b] = False
+        fits = [fit_joint(s, recording.q_cmd, t, residual[:, s.joint], drivers[:, s.joint], rows, refine=False)
+                for s in structures]
+        prediction[a:b] = merged_physics(fits, base).simulate(recording.q_cmd, t)[a:b]
+    return prediction
+
+
+SELECTION_ROUNDS = 2
+
+
+def choose_effects(q_cmd: Array, t: Array | None, residual: Array, base: ArmPhysics,
+                   unidentifiable: Unidentifiable) -> tuple[list[JointSelection], int, BlockedGrams]:
+    """Selection, repeated once with each joint's driver updated by the scale and couplings it found."""
+    base_drivers = base.static_map(q_cmd)
+    drivers = base_drivers
+    for _ in range(SELECTION_ROUNDS):
+        columns, candidates = build_columns(q_cmd, t, drivers)
+        grams = BlockedGrams(columns, residual)
+        selections, hypotheses = select(grams, t, candidates, unidentifiable)
+        updated = base_drivers.copy()
+        for selection in selections:
+            free = selection.free_columns()
+            beta = grams.fit(selection.joint, np.array(free), np.array(selection.fixed_columns(), dtype=np.int64))
+            for column, b in zip(free[1:], beta[1:]):
+                if 1 <= column <= q_cmd.shape[1]:  # a command column: scale or coupling
+                    updated[:, selection.joint] += b * columns[:, column]
+        if np.array_equal(updated, drivers):
+            break
+        drivers = updated
+    return selections, hypotheses, grams
+
+
+def diagnose(recording: Recording, sim: str | Path = "ideal", arm: str | None = None,
+             n_bootstrap: int = N_BOOTSTRAP, seed: int = 0) -> Diagnosis:
+    """Locate, explain and fit the mismatch between a recording and the simulator's physics."""
+    arm = arm or guess_arm(recording.path)
+    base = ArmPhysics.load(sim, arm)
+    sampling = recording.sampling
+    t = recording.t if sampling.is_stream else None
+    q_cmd = recording.q_cmd
+    simulated = base.simulate(q_cmd, t)
+    residual = recording.q_phy - simulated
+    mismatch = locate(residual, q_cmd, recording.times, sampling.is_stream)
+    unidentifiable = find_unidentifiable(q_cmd, sampling.is_stream, base)
+    selections, hypotheses, grams = choose_effects(q_cmd, t, residual, base, unidentifiable)
+    folds = grams.fold_ranges()
+    drivers = base.static_map(q_cmd)
+    fits = []
+    for s in selections:
+        fit = fit_joint(structure_of(s), q_cmd, t, residual[:, s.joint], drivers[:, s.joint])
+        fits.append(settle_backlash(fit, q_cmd, t, residual[:, s.joint], drivers[:, s.joint], folds))
+    rng = np.random.default_rng(seed)
+    effects: list[NamedEffect] = []
+    statements = list(unidentifiable.statements)
+    for selection, fit in zip(selections, fits):
+        target, driver = residual[:, fit.joint], drivers[:, fit.joint]
+        fitted_anything = fit.intercept or fit.terms
+        samples = bootstrap(fit, q_cmd, t, target, driver, n_bootstrap, rng) if n_bootstrap and fitted_anything else []
+        evidence = ([selection.offset] if selection.offset else []) + selection.chosen
+        changed = to_effects(fit, base)[1]
+        sampled = [to_effects(sample, base)[1] for sample in samples]
+        for position, (effect, chosen) in enumerate(zip(changed, evidence)):
+            ci = _intervals(effect, [s[position] for s in sampled])
+            base_value = float(base.offset[effect.index]) if effect.effect == "offset" else None
+            effects.append(NamedEffect(effect, ci, chosen.explains, chosen.pvalue, effect_sentence(effect, base_value)))
+            if chosen.rival:
+                statements.append(rival_sentence(chosen.candidate.label, chosen.rival))
+    physics = merged_physics(fits, base)
+    heldout = crossval_predict(fits, base, recording, t, residual, folds)
+    return Diagnosis(recording, str(sim), arm, sampling, base, simulated, mismatch, selections, fits, effects,
+                     physics, heldout, folds, statements, hypotheses)
+
+
+def _intervals(effect: Effect, samples: list[Effect]) -> dict[str, tuple[float, float]]:
+    """95 % bootstrap intervals of each numeric parameter (over resamples that named the same kind)."""
+    ci = {}
+    for name, value in effect.params.items():
+        if name == "source":
+            continue
+        values = [s.params[name] for s in samples if s.effect == effect.effect and name in s.params]
+        if len(values) >= 10:
+            lo, hi = np.percentile(values, [2.5, 97.5])
+            ci[name] = (float(min(lo, value)), float(max(hi, value)))
+    return ci
+
+
+def identify(q_cmd: Array, q_phy: Array, t: Array | None = None, base: str | Path = "ideal",
+             arm: str = "PSM1") -> list[Effect]:
+    """The whole arm-physics model (base plus what the data add) fitted to commanded vs measured joints.
+
+    `t=None` treats samples as settled set-points. This is the entry point calibration can reuse.
+    """
+    q_cmd, q_phy = np.asarray(q_cmd, float), np.asarray(q_phy, float)
+    t = None if t is None else np.asarray(t, float)
+    validate(q_cmd, q_phy, t, Path("<arrays>"))
+    return list(diagnose(Recording(Path("<arrays>"), q_cmd, q_phy, t), base, arm, n_bootstrap=0).physics.effects)

@@ -1,0 +1,156 @@
+"""Locate a mismatch: per joint, how large, where in time, and in which motion regime.
+
+The regimes are the signatures of the candidate physics, measured without fitting anything: error that
+rises just after a joint reverses (play), a bias that flips with a joint's direction of motion
+(hysteresis, backlash), error that grows with speed (lag, delay), a bias that drifts with the joint's
+position (scale), and error that appears when *other* joints move (coupling).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from pegbt.physics import JOINT_NAMES
+from pegbt.physics.kernels import play_grid
+
+Array = NDArray[np.float64]
+
+WINDOW_FRACTION = 0.02  # width of the moving window that finds where error concentrates
+WINDOW_THRESHOLD = 2.0  # a window is kept where the local mean square exceeds this × the joint's
+MAX_WINDOWS = 5
+MAX_REGIMES = 5
+AFTER_REVERSAL_S = 0.3  # streams: how long "just after a reversal" lasts
+AFTER_REVERSAL_SAMPLES = 2  # set-points: how many samples
+NOTABLE = 0.2  # report a regime when it changes the RMSE by 20 % or shifts the bias by 20 % of the RMSE
+
+
+@dataclass(frozen=True)
+class Regime:
+    """Error inside a motion regime against outside it."""
+
+    regime: str
+    fraction: float
+    rmse_in: float
+    rmse_out: float
+    bias_in: float
+    bias_out: float
+
+    @property
+    def strength(self) -> float:
+        ratio = abs(np.log(max(self.rmse_in, 1e-300) / max(self.rmse_out, 1e-300)))
+        scale = max(np.hypot(self.rmse_in, self.rmse_out), 1e-300)
+        return float(max(ratio, abs(self.bias_in - self.bias_out) / scale))
+
+    def to_dict(self) -> dict[str, float | str]:
+        return {"regime": self.regime, "fraction": self.fraction, "rmse_in": self.rmse_in,
+                "rmse_out": self.rmse_out, "bias_in": self.bias_in, "bias_out": self.bias_out}
+
+
+@dataclass(frozen=True)
+class JointMismatch:
+    joint: str
+    rmse: float
+    bias: float
+    share: float
+    windows: list[tuple[float, float, float]]  # (t0, t1, share of this joint's squared error)
+    regimes: list[Regime]
+
+    def to_dict(self) -> dict:
+        return {"joint": self.joint, "rmse": self.rmse, "bias": self.bias, "share": self.share,
+                "windows": [[t0, t1] for t0, t1, _ in self.windows],
+                "window_shares": [share for _, _, share in self.windows],
+                "regimes": [regime.to_dict() for regime in self.regimes]}
+
+
+def locate(residual: Array, q_cmd: Array, times: Array, is_stream: bool) -> list[JointMismatch]:
+    """Per-joint size, windows and regimes of the residual (real − sim)."""
+    mse = (residual**2).mean(0)
+    total = float(mse.sum()) or 1.0
+    motion = _motion(q_cmd, times, is_stream)
+    return [
+        JointMismatch(
+            JOINT_NAMES[j], float(np.sqrt(mse[j])), float(residual[:, j].mean()), float(mse[j] / total),
+            _windows(residual[:, j], times), _regimes(j, residual[:, j], q_cmd, motion),
+        )
+        for j in range(residual.shape[1])
+    ]
+
+
+def _windows(r: Array, times: Array) -> list[tuple[float, float, float]]:
+    """Stretches where the local mean square error exceeds the joint's by WINDOW_THRESHOLD."""
+    n = len(r)
+    width = max(3, int(WINDOW_FRACTION * n))
+    energy = r**2
+    total = float(energy.sum())
+    if total == 0:
+        return []
+    local = np.convolve(energy, np.ones(width) / width, mode="same")
+    hot = local > WINDOW_THRESHOLD * energy.mean()
+    edges = np.flatnonzero(np.diff(np.r_[0, hot.astype(int), 0]))
+    runs = [[a, b] for a, b in zip(edges[::2], edges[1::2])]
+    merged: list[list[int]] = []
+    for run in runs:
+        if merged and run[0] - merged[-1][1] < width:
+            merged[-1][1] = run[1]
+        else:
+            merged.append(run)
+    found = [(float(times[a]), float(times[b - 1]), float(energy[a:b].sum() / total)) for a, b in merged]
+    return sorted(found, key=lambda w: -w[2])[:MAX_WINDOWS]
+
+
+@dataclass(frozen=True)
+class _Motion:
+    direction: Array  # (N, J) +1 rising, -1 falling, 0 still (per step into the sample)
+    after_reversal: Array  # (N, J) bool
+    speed: Array  # (N, J)
+    others_moving: Array  # (N, J) bool: the other joints move more than usual
+
+
+def _motion(q_cmd: Array, times: Array, is_stream: bool) -> _Motion:
+    n, joints = q_cmd.shape
+    step = np.diff(q_cmd, axis=0, prepend=q_cmd[:1])
+    dt = np.diff(times, prepend=times[0] - (times[1] - times[0]))
+    span = np.maximum(np.ptp(q_cmd, axis=0), 1e-12)
+    direction = np.zeros((n, joints))
+    after = np.zeros((n, joints), dtype=bool)
+    hold = max(1, int(round(AFTER_REVERSAL_S / float(np.median(dt))))) if is_stream else AFTER_REVERSAL_SAMPLES
+    for j in range(joints):
+        path = play_grid(q_cmd[:, j], 0.005 * span[j])[:, 0]  # ignores dithering below 1 % of the range
+        moves = np.sign(np.diff(path, prepend=path[0]))
+        last_move = np.maximum.accumulate(np.where(moves != 0, np.arange(n), 0))
+        carried = moves[last_move]
+        direction[:, j] = carried
+        reversals = np.flatnonzero((carried[1:] * carried[:-1]) < 0) + 1
+        for start in reversals:
+            after[start : start + hold, j] = True
+    speed = np.abs(step) / np.maximum(dt, 1e-12)[:, None]
+    relative = np.abs(step) / span
+    others = relative.sum(1, keepdims=True) - relative
+    return _Motion(direction, after, speed, others > np.median(others, axis=0))
+
+
+def _compare(r: Array, inside: Array, label: str) -> Regime | None:
+    if inside.sum() < 5 or (~inside).sum() < 5:
+        return None
+    return Regime(label, float(inside.mean()), float(np.sqrt((r[inside] ** 2).mean())),
+                  float(np.sqrt((r[~inside] ** 2).mean())), float(r[inside].mean()), float(r[~inside].mean()))
+
+
+def _regimes(j: int, r: Array, q_cmd: Array, motion: _Motion) -> list[Regime]:
+    name = JOINT_NAMES[j]
+    found: list[Regime | None] = []
+    for k, other in enumerate(JOINT_NAMES):
+        found.append(_compare(r, motion.after_reversal[:, k], f"just after {other} reverses"))
+        found.append(_compare(r, motion.direction[:, k] > 0, f"while {other} rises (against falls and rests)"))
+    fast = motion.speed[:, j] > np.percentile(motion.speed[:, j], 67)
+    found.append(_compare(r, fast, f"when {name} moves fast (top third of its speeds)"))
+    high = q_cmd[:, j] > np.percentile(q_cmd[:, j], 67)
+    low = q_cmd[:, j] < np.percentile(q_cmd[:, j], 33)
+    found.append(_compare(r, high, f"when {name} is commanded high (top third of its range)"))
+    found.append(_compare(r, low, f"when {name} is commanded low (bottom third of its range)"))
+    found.append(_compare(r, motion.others_moving[:, j], "when the other joints move more than usual"))
+    notable = [regime for regime in found if regime is not None and regime.strength >= NOTABLE]
+    return sorted(notable, key=lambda regime: -regime.strength)[:MAX_REGIMES]

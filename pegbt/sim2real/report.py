@@ -1,0 +1,144 @@
+"""The diagnosis as `report.json` (for tools, and for `ArmPhysics.load`) and `report.md` (for a person).
+
+`report.json["model"]["effects"]` is the whole identified model (the physics diagnosed against, with
+what was found merged in), so `pegbt sim --physics DIR/report.json` simulates it directly;
+`report.json["effects"]` lists only what this diagnosis named, each with its evidence and a sentence.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+from pegbt.errors import PegbtError
+from pegbt.physics import JOINT_NAMES, Effect
+from pegbt.sim2real.compare import compare
+from pegbt.sim2real.crossval import N_FOLDS
+from pegbt.sim2real.diagnose import Diagnosis
+from pegbt.sim2real.explain import unit
+from pegbt.sim2real.select import ALPHA
+
+HELDOUT_METHOD = (
+    f"blocked cross-validation: {N_FOLDS} contiguous held-out segments; effects and widths chosen on the whole "
+    "recording, coefficients refitted without each segment, then the merged physics model replayed over it"
+)
+
+
+def read_named_effects(path: str | Path) -> list[Effect]:
+    """The effects an earlier report named (to compare two diagnoses of the same arm)."""
+    try:
+        return [Effect.from_dict(entry) for entry in json.loads(Path(path).read_text())["effects"]]
+    except (OSError, ValueError, KeyError, TypeError) as error:
+        raise PegbtError(f"not a sim2real report: {error}", file=path) from None
+    except PegbtError as error:
+        raise PegbtError(error.message, file=path, field=error.field) from None
+
+
+def report_dict(diagnosis: Diagnosis, compared_with: str | Path | None = None) -> dict[str, Any]:
+    """The report; with `compared_with` (an earlier report, e.g. of the same arm after re-homing), also
+    which kinds of effect both name and which parameters differ."""
+    recording = diagnosis.recording
+    times = recording.times
+    comparison = None
+    if compared_with is not None:
+        names = ("this", str(compared_with))
+        comparison = compare([e.effect for e in diagnosis.effects], read_named_effects(compared_with), names)
+        comparison = {"report": str(compared_with), **{k.replace(f"only_{names[1]}", "only_other"): v
+                                                       for k, v in comparison.items()}}
+    report = {
+        "recording": str(recording.path),
+        "samples": recording.n,
+        "sampling": {"mode": diagnosis.sampling.mode, "reason": diagnosis.sampling.reason},
+        "time_unit": "s" if recording.t is not None else "sample",
+        "sim": diagnosis.sim,
+        "arm": diagnosis.arm,
+        "joints": list(JOINT_NAMES),
+        "units": {q: unit(q) for q in JOINT_NAMES},
+        "mismatch": [m.to_dict() for m in diagnosis.mismatch],
+        "effects": [e.to_dict() for e in diagnosis.effects],
+        "not_identifiable": list(diagnosis.not_identifiable),
+        "selection": {
+            "alpha": ALPHA,
+            "hypotheses": diagnosis.hypotheses,
+            "level": ALPHA / diagnosis.hypotheses,
+            "stopped": {JOINT_NAMES[s.joint]: s.stopped for s in diagnosis.selections},
+        },
+        "fit": {
+            "heldout_rmse_before": diagnosis.rmse_before(),
+            "heldout_rmse_after": diagnosis.rmse_after(),
+            "method": HELDOUT_METHOD,
+            "folds": [[float(times[a]), float(times[b - 1])] for a, b in diagnosis.fold_ranges],
+        },
+        "remaining": diagnosis.remaining(),
+        "model": {"base": diagnosis.sim, "effects": [effect.to_dict() for effect in diagnosis.physics.effects]},
+    }
+    if comparison is not None:
+        report["comparison"] = comparison
+    return report
+
+
+def _number(value: float) -> str:
+    return f"{value:.4g}"
+
+
+def _pvalue(value: float) -> str:
+    return "< 1e-16" if value < 1e-16 else f"= {value:.2g}"
+
+
+def report_markdown(report: dict[str, Any], plots: list[str]) -> str:
+    lines = [f"# Sim-to-real diagnosis of `{report['recording']}`", ""]
+    lines += [f"- {report['samples']} samples; {report['sampling']['reason']}.",
+              f"- Simulator physics: `{report['sim']}` (arm {report['arm']}).",
+              f"- Effects chosen by blocked cross-validation; each must gain in every held-out fold and beat "
+              f"circularly shifted data at α = {report['selection']['alpha']} / {report['selection']['hypotheses']} "
+              f"tests (joints × effects, Bonferroni).", ""]
+    lines += ["## Where the mismatch is", "", "| joint | RMSE | bias | share | windows | strongest regimes |",
+              "|---|---|---|---|---|---|"]
+    for m in report["mismatch"]:
+        windows = ", ".join(f"{a:.4g}–{b:.4g}" for a, b in m["windows"][:3]) or "spread evenly"
+        regimes = "; ".join(
+            f"{r['regime']}: RMSE {_number(r['rmse_in'])} vs {_number(r['rmse_out'])}, bias {_number(r['bias_in'])} "
+            f"vs {_number(r['bias_out'])}" for r in m["regimes"][:2]) or "none stands out"
+        lines.append(f"| {m['joint']} | {_number(m['rmse'])} | {_number(m['bias'])} | {100 * m['share']:.1f} % | "
+                     f"{windows} | {regimes} |")
+    lines += ["", "## What the simulator left out", ""]
+    if not report["effects"]:
+        lines.append("Nothing: no candidate effect passed the tests.")
+    for e in report["effects"]:
+        params = ", ".join(f"{k} = {v}" if isinstance(v, str) else f"{k} = {_number(v)}" for k, v in e["params"].items())
+        ci = ", ".join(f"{k} ∈ [{_number(lo)}, {_number(hi)}]" for k, (lo, hi) in e["ci"].items())
+        lines.append(f"- **{e['effect']} on {e['joint']}** ({params}; 95 % CI {ci or 'n/a'}; explains "
+                     f"{100 * e['explains']:.1f} % of the joint's error; p {_pvalue(e['p_value'])}): {e['text']}.")
+    if report["not_identifiable"]:
+        lines += ["", "## Not identifiable from these data", ""]
+        lines += [f"- {statement}" for statement in report["not_identifiable"]]
+    fit = report["fit"]
+    lines += ["", "## Held-out fit", "", f"{fit['method']}.", "", "| joint | before | after |", "|---|---|---|"]
+    for q in report["joints"]:
+        lines.append(f"| {q} ({report['units'][q]}) | {_number(fit['heldout_rmse_before'][q])} | "
+                     f"{_number(fit['heldout_rmse_after'][q])} |")
+    lines += ["", "## What remains", ""] + [f"- {text}" for text in report["remaining"]]
+    if "comparison" in report:
+        c = report["comparison"]
+        lines += ["", f"## Compared with `{c['report']}`", "",
+                  f"- Same kinds of effect ({100 * c['agreement']:.0f} % of all named): {', '.join(c['shared']) or 'none'}.",
+                  f"- Only here: {', '.join(c['only_this']) or 'none'}; only there: {', '.join(c['only_other']) or 'none'}.",
+                  "- Parameters that differ by more than 25 % (offsets move when an arm is re-homed): "
+                  + ("; ".join(c["differences"]) or "none") + "."]
+    if plots:
+        lines += ["", "## Plots", ""] + [f"![{Path(p).stem}]({Path(p).name})" for p in plots]
+    return "\n".join(lines) + "\n"
+
+
+def write_report(diagnosis: Diagnosis, out: str | Path, compared_with: str | Path | None = None) -> dict[str, Any]:
+    """Write report.json, report.md and the plots into `out`; return the report dictionary."""
+    report = report_dict(diagnosis, compared_with)
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    from pegbt.sim2real.plots import write_plots
+
+    plots = write_plots(diagnosis, out)
+    (out / "report.json").write_text(json.dumps(report, indent=2) + "\n")
+    (out / "report.md").write_text(report_markdown(report, plots))
+    return report

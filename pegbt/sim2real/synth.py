@@ -1,0 +1,243 @@
+"""Recordings with concealed effects and a ground truth the diagnosis never sees.
+
+A ground-truth arm (`pegbt.physics.ArmPhysics` with hidden effects) follows random smooth commands,
+and measurement noise (white, or AR(1) with ρ = 0.9) is added. Each effect's size is set by its SNR:
+the RMS of what it changes in the joint (its mean removed, except for an offset) over the noise σ.
+
+Families (how the effect is concealed):
+- `weak`: one effect at or below the noise level;
+- `masked`: a small effect next to a much larger one on the same or another joint;
+- `regime`: play driven by a joint that reverses only a few times, or lag/delay that only fast moves
+  (a handful among slow ones) reveal;
+- `coupled`: an effect on one joint driven by another joint's command (coupling, hysteresis);
+- `null-white`, `null-ar1`: negative controls with no effect at all.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.interpolate import PchipInterpolator
+from scipy.optimize import brentq
+
+from pegbt.errors import PegbtError
+from pegbt.physics import JOINT_NAMES, ArmPhysics, Effect
+from pegbt.sim2real.recording import Recording, write_recording
+
+Array = NDArray[np.float64]
+
+FAMILIES = ("weak", "masked", "regime", "coupled", "null-white", "null-ar1")
+CENTRE = np.array([0.0, 0.0, 0.17, 0.0, 0.0, 0.0])
+AMPLITUDE = np.array([0.5, 0.4, 0.05, 1.0, 0.7, 0.7])
+NOISE_SIGMA = np.array([0.002, 0.002, 0.0001, 0.003, 0.003, 0.003])
+AR1_RHO = 0.9
+SETPOINT_INTERVAL_S = 0.8
+KINDS = ("offset", "scale", "coupling", "backlash", "hysteresis", "lag", "delay")
+SETTLED_KINDS = ("offset", "scale", "coupling", "backlash", "hysteresis")
+MASKING_RATIO = 10.0  # a masking effect's RMS over the concealed one's
+MAX_BACKLASH_FRACTION = 0.15  # of the joint's range: more play than this and the joint hardly moves
+
+
+def effect_label(effect: Effect) -> str:
+    """`kind joint[ source]`: which effect, where, driven by what (its parameters aside)."""
+    source = effect.params.get("source")
+    return f"{effect.effect} {effect.joint}" + (f" {source}" if source else "")
+
+
+@dataclass
+class Synthetic:
+    recording: Recording
+    effects: list[Effect]
+    snr: dict[str, float]  # by effect label
+    concealed: list[str]  # labels of the effects hidden on purpose (a masking effect is not one)
+    noise: dict
+    family: str
+    seed: int
+
+    def truth(self) -> dict:
+        return {"family": self.family, "seed": self.seed, "effects": [e.to_dict() for e in self.effects],
+                "snr": self.snr, "concealed": self.concealed, "noise": self.noise,
+                "sampling": self.recording.sampling.mode}
+
+
+def smooth_commands(rng: np.random.Generator, t: Array, hold_s: Array) -> Array:
+    """Random smooth joint commands: monotone cubic through random waypoints `hold_s` seconds apart."""
+    q = np.empty((len(t), len(JOINT_NAMES)))
+    for j in range(len(JOINT_NAMES)):
+        knots = np.arange(t[0], t[-1] + 2 * hold_s[j], hold_s[j]) + rng.uniform(-0.3, 0.3) * hold_s[j]
+        values = CENTRE[j] + AMPLITUDE[j] * rng.uniform(-1, 1, len(knots))
+        q[:, j] = PchipInterpolator(knots, values)(t)
+    return q
+
+
+def few_fast_moves(rng: np.random.Generator, t: Array, joint: int, moves: int = 4) -> Array:
+    """A command that drifts slowly but jumps quickly (in 0.15 s) a few times: lag shows only there."""
+    slow = CENTRE[joint] + 0.3 * AMPLITUDE[joint] * np.sin(2 * np.pi * t / (t[-1] - t[0]) + rng.uniform(0, 6))
+    steps = np.zeros_like(t)
+    level = 0.0
+    for start in np.sort(rng.uniform(t[0] + 1, t[-1] - 1, moves)):
+        target = rng.choice([-1, 1]) * 0.6 * AMPLITUDE[joint]
+        ramp = np.clip((t - start) / 0.15, 0, 1)
+        steps = steps + (target - level) * ramp
+        level = target
+    return slow + steps
+
+
+def _contribution(effect: Effect, q_cmd: Array, t: Array | None) -> float:
+    """RMS of what the effect changes in its joint (its mean removed, except for an offset)."""
+    change = ArmPhysics([effect]).simulate(q_cmd, t)[:, effect.index] - q_cmd[:, effect.index]
+    return float(np.sqrt((change**2).mean())) if effect.effect == "offset" else float(change.std())
+
+
+def _unit_ratio(joint: int, source: int) -> float:
+    """How a rad-sized coefficient scales between joints of different units (q3 is in metres)."""
+    metres = {2}
+    return (0.01 if joint in metres else 1.0) / (0.01 if source in metres else 1.0)
+
+
+def plausible_effect(kind: str, joint: int, source: int, q_cmd: Array, rng: np.random.Generator) -> Effect:
+    """An effect with parameters in the range a cable-driven arm shows (sign at random)."""
+    name, src = JOINT_NAMES[joint], JOINT_NAMES[source]
+    sign = float(rng.choice([-1.0, 1.0]))
+    size = 0.01 if joint == 2 else 1.0  # q3 moves in metres
+    if kind == "offset":
+        return Effect("offset", name, {"value": sign * size * rng.uniform(0.01, 0.2)})
+    if kind == "scale":
+        return Effect("scale", name, {"value": 1.0 + sign * rng.uniform(0.02, 0.2)})
+    if kind == "coupling":
+        return Effect("coupling", name, {"source": src, "k": sign * _unit_ratio(joint, source) * rng.uniform(0.02, 0.3)})
+    if kind == "backlash":
+        return Effect("backlash", name, {"half_width": size * rng.uniform(0.005, 0.05)})
+    if kind == "hysteresis":
+        half_width = float(rng.uniform(0.03, 0.1) * np.ptp(q_cmd[:, source]))
+        return Effect("hysteresis", name, {"source": src, "half_width": half_width,
+                                           "k": sign * _unit_ratio(joint, source) * rng.uniform(0.1, 0.8)})
+    if kind == "lag":
+        return Effect("lag", name, {"tau": rng.uniform(0.02, 0.1)})
+    return Effect("delay", name, {"seconds": rng.uniform(0.01, 0.05)})
+
+
+def sized_effect(kind: str, joint: int, source: int, target: float, q_cmd: Array, t: Array | None,
+                 rng: np.random.Generator) -> Effect:
+    """An effect of `kind` whose contribution has RMS `target` (for masking effects of a chosen size)."""
+    shape = plausible_effect(kind, joint, source, q_cmd, rng)
+    if kind in ("offset", "scale", "coupling", "hysteresis"):
+        ratio = target / _contribution(shape, q_cmd, t)
+        params = dict(shape.params)
+        if kind == "scale":
+            params["value"] = 1.0 + (params["value"] - 1.0) * ratio
+        else:
+            params["value" if kind == "offset" else "k"] *= ratio
+        return Effect(kind, shape.joint, params)
+    width = {"backlash": "half_width", "lag": "tau", "delay": "seconds"}[kind]
+    upper = MAX_BACKLASH_FRACTION * float(np.ptp(q_cmd[:, joint])) if kind == "backlash" else 0.5
+
+    def excess(value: float) -> float:
+        return _contribution(Effect(kind, shape.joint, {width: value}), q_cmd, t) - target
+
+    if excess(upper) < 0:
+        return Effect(kind, shape.joint, {width: upper})
+    return Effect(kind, shape.joint, {width: float(brentq(excess, upper * 1e-7, upper, xtol=upper * 1e-9))})
+
+
+def _pick(rng: np.random.Generator, options) -> str:
+    return str(options[int(rng.integers(len(options)))])
+
+
+def zigzag(rng: np.random.Generator, t: Array, joint: int, reversals: int) -> Array:
+    """A smooth command that reverses exactly `reversals` times, between alternating high and low values."""
+    knots = np.linspace(t[0], t[-1], reversals + 2)
+    values = CENTRE[joint] + AMPLITUDE[joint] * rng.uniform(0.3, 1.0, len(knots)) * (-1.0) ** np.arange(len(knots))
+    return PchipInterpolator(knots, values)(t)
+
+
+def generate(family: str, seed: int, seconds: float = 30.0, rate_hz: float = 100.0, sampling: str = "stream",
+             snr: float | None = None) -> Synthetic:
+    """One synthetic recording of `family`, reproducible from `seed`.
+
+    The concealed effect has parameters in a plausible physical range; its SNR (drawn per family, or
+    `snr`) then sets the noise σ of its joint. Masking effects are sized `MASKING_RATIO`× the concealed one.
+    """
+    if family not in FAMILIES:
+        raise PegbtError(f"unknown family {family!r}; known: {', '.join(FAMILIES)}", field="family")
+    if sampling not in ("stream", "setpoints"):
+        raise PegbtError(f"unknown sampling {sampling!r}; expected stream or setpoints", field="sampling")
+    rng = np.random.default_rng(seed)
+    interval = 1.0 / rate_hz if sampling == "stream" else SETPOINT_INTERVAL_S
+    t = np.arange(0.0, seconds, interval)
+    hold = rng.uniform(0.8, 2.0, len(JOINT_NAMES)) if sampling == "stream" else rng.uniform(2.5, 5.0, len(JOINT_NAMES))
+    q_cmd = smooth_commands(rng, t, hold)
+    stream_t = t if sampling == "stream" else None
+    kinds = KINDS if sampling == "stream" else SETTLED_KINDS
+    joint = int(rng.integers(len(JOINT_NAMES)))
+    other = int((joint + rng.integers(1, len(JOINT_NAMES))) % len(JOINT_NAMES))
+    sigma = NOISE_SIGMA.copy()
+    effects: list[Effect] = []
+    snrs: dict[str, float] = {}
+    concealed: list[str] = []
+
+    def conceal(kind: str, where: int, source: int, low: float, high: float) -> Effect:
+        effect = plausible_effect(kind, where, source, q_cmd, rng)
+        level = snr if snr is not None else float(rng.uniform(low, high))
+        sigma[where] = _contribution(effect, q_cmd, stream_t) / level
+        snrs[effect_label(effect)] = level
+        concealed.append(effect_label(effect))
+        return effect
+
+    if family == "weak":
+        kind = _pick(rng, kinds)
+        effects.append(conceal(kind, joint, other if kind in ("coupling", "hysteresis") else joint, 0.5, 1.0))
+    elif family == "masked":
+        big = _pick(rng, ("offset", "scale", "coupling", "backlash"))
+        small = _pick(rng, [k for k in kinds if k != big])
+        where = joint if rng.random() < 0.5 else other
+        source = int((where + 1 + rng.integers(len(JOINT_NAMES) - 1)) % len(JOINT_NAMES))
+        hidden = conceal(small, where, source if small in ("coupling", "hysteresis") else where, 1.0, 2.0)
+        masking = sized_effect(big, joint, other if big == "coupling" else joint,
+                               MASKING_RATIO * _contribution(hidden, q_cmd, stream_t), q_cmd, stream_t, rng)
+        snrs[effect_label(masking)] = float(_contribution(masking, q_cmd, stream_t) / sigma[joint])
+        effects += [masking, hidden]
+    elif family == "regime":
+        kind = _pick(rng, ("backlash", "hysteresis", "lag", "delay") if sampling == "stream" else ("backlash", "hysteresis"))
+        driver = other if kind == "hysteresis" else joint
+        if kind in ("backlash", "hysteresis"):
+            q_cmd[:, driver] = zigzag(rng, t, driver, int(rng.integers(4, 7)))
+        else:
+            q_cmd[:, joint] = few_fast_moves(rng, t, joint)
+        effects.append(conceal(kind, joint, driver, 2.0, 3.0))
+    elif family == "coupled":
+        effects.append(conceal(_pick(rng, ("coupling", "hysteresis")), joint, other, 1.0, 3.0))
+    noise_kind = "ar1" if family == "null-ar1" or (family != "null-white" and seed % 2) else "white"
+    noise = _noise(rng, len(t), noise_kind) * sigma
+    q_phy = ArmPhysics(effects).simulate(q_cmd, stream_t) + noise
+    recording = Recording(Path(f"<synth {family} {seed}>"), q_cmd, q_phy, t)
+    return Synthetic(recording, effects, snrs, concealed,
+                     {"kind": noise_kind, "sigma": sigma.tolist(), "rho": AR1_RHO if noise_kind == "ar1" else 0.0},
+                     family, seed)
+
+
+def _noise(rng: np.random.Generator, n: int, kind: str) -> Array:
+    """Unit-variance measurement noise: white, or AR(1) with ρ = 0.9."""
+    white = rng.standard_normal((n, len(JOINT_NAMES)))
+    if kind == "white":
+        return white
+    from scipy.signal import lfilter
+
+    innovations = white * np.sqrt(1 - AR1_RHO**2)
+    first = white[:1]
+    series, _ = lfilter([1.0], [1.0, -AR1_RHO], innovations, axis=0, zi=AR1_RHO * first)
+    return series
+
+
+def write_synthetic(synthetic: Synthetic, out: str | Path) -> tuple[Path, Path]:
+    """Write OUT/recording/ (what diagnose reads) and OUT/truth.json (what it never reads)."""
+    out = Path(out)
+    rec = synthetic.recording
+    folder = write_recording(out / "recording", rec.q_cmd, rec.q_phy, rec.t)
+    truth = out / "truth.json"
+    truth.write_text(json.dumps(synthetic.truth(), indent=2) + "\n")
+    return folder, truth
