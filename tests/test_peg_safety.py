@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pegbt.behaviours.skills import SIMULATOR_CALIBRATION_DIR
+from pegbt.behaviours.skills import SIMULATOR_CALIBRATION
 from pegbt.executive.session import run_tree_file
 from pegbt.motion.kinematics import forward_kinematics
 from pegbt.motion.limits import arm_settings
@@ -51,7 +51,7 @@ def test_halting_a_running_motion_stops_the_arm(tmp_path):
 def test_an_endpoint_that_dies_mid_trial_ends_the_run_with_its_cause(tmp_path):
     log = tmp_path / "crash.jsonl"
     with SimProcess([*SIMULATOR, "--crash-at", "6"]) as sim:
-        run = pegbt("run", "trees/unilateral.yaml", "--endpoint", sim.endpoint, "--calibration", str(SIMULATOR_CALIBRATION_DIR),
+        run = pegbt("run", "trees/unilateral.yaml", "--endpoint", sim.endpoint, "--calibration", str(SIMULATOR_CALIBRATION),
                     "--log", str(log), "--quiet")
     assert run.returncode != 0 and "Traceback" not in run.stderr
     assert "pegbt: error:" in run.stderr and "sim/step" in run.stderr
@@ -74,7 +74,7 @@ def one_transfer(tmp_path: Path, world_faults: str, log: Path) -> subprocess.Com
         "    - subtree: {use: transfer_block, args: {arm: PSM1, pick: 1, place: 7, regrasps: 1}}\n"
     )
     with SimProcess([*SIMULATOR, "--faults", str(faults)]) as sim:
-        return pegbt("run", str(tree), "--endpoint", sim.endpoint, "--calibration", str(SIMULATOR_CALIBRATION_DIR),
+        return pegbt("run", str(tree), "--endpoint", sim.endpoint, "--calibration", str(SIMULATOR_CALIBRATION),
                      "--log", str(log), "--quiet")
 
 

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from pegbt.behaviours.skills import SIMULATOR_CALIBRATION_DIR
+from pegbt.behaviours.skills import SIMULATOR_CALIBRATION
 from pegbt.executive.session import run_tree_file
 from pegbt.sim.process import SimProcess
 
@@ -24,7 +24,7 @@ def simulator():
 
 def trial(endpoint: str, variant: str, tmp_path: Path, condition: str = "optimized"):
     output = run_tree_file(REPO / "trees" / f"{variant}.yaml", tmp_path / f"{variant}.jsonl",
-                           options={"endpoint": endpoint, "condition": condition, "calibration": str(SIMULATOR_CALIBRATION_DIR)})
+                           options={"endpoint": endpoint, "condition": condition, "calibration": str(SIMULATOR_CALIBRATION)})
     return output, output.reports["robot"]
 
 

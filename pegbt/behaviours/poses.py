@@ -133,3 +133,4 @@ def from_handover(cell: Workcell, motion: MotionSettings, arm: str, board: Board
     offset = grasp.position - to_arm(cell, arm, block_pose[:3, 3])
     return placement_waypoints(grasp.pose, to_arm(cell, arm, peg_top_board(cell, board, place_peg)), place_offset=offset,
                                place_yaw=yaw_about(grasp.pose[:3, :3], up), up=up, heights=motion.transfer)
+

@@ -1,4 +1,4 @@
-"""The `physics` model: named cable effects (`ArmPhysics`), inverted analytically.
+"""The `physics` model: named cable effects (`ArmPhysics`), inverted analytically where they can be.
 
 On settled set-points an arm's physics is a static map m = A·q + o (scale, coupling, offset), then
 backlash: the physical joint stays at y until m has moved half_width h past it. Both invert exactly:
@@ -24,11 +24,16 @@ from pegbt.calibration.modelfile import ModelMetadata
 from pegbt.errors import PegbtError
 from pegbt.physics import JOINT_NAMES, ArmPhysics, Effect
 
-PhysicsState = tuple[NDArray[np.float64], NDArray[np.float64]]  # (physical joints y, static-map target m)
+# (physical joints y, target m, play of each hysteresis drive, hysteresis terms of the last command)
+PhysicsState = tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]
 
 
 class ArmInverse:
-    """Forward and exact inverse of an `ArmPhysics` on set-points, one command at a time."""
+    """Forward and inverse of an `ArmPhysics` on set-points, one command at a time.
+
+    Static map and backlash invert exactly. Hysteresis terms (a drive's play: they depend on which way
+    the drive last moved) are taken as they stand after the last command; Alg. 1's iterations correct
+    what moving changes of them."""
 
     def __init__(self, physics: ArmPhysics) -> None:
         self.physics = physics
@@ -37,25 +42,43 @@ class ArmInverse:
             raise PegbtError("the effects' scale and coupling cannot be inverted (singular map)", field="effects")
         self.matrix_inverse = np.linalg.inv(self.matrix)
         self.half_width = physics.half_width
+        table = np.array(physics.hysteresis, dtype=float).reshape(-1, 4)  # (joint, source, half_width, k) per drive
+        self._joints, self._sources = table[:, 0].astype(int), table[:, 1].astype(int)
+        self._own = self._joints == self._sources  # a joint's own hysteresis is driven by its static target
+        self._widths, self._gains = table[:, 2], table[:, 3]
+
+    def _seen(self, q_c: NDArray[np.float64], static: NDArray[np.float64]) -> NDArray[np.float64]:
+        """What each hysteresis drive sees: its source's command, or its joint's static target."""
+        return np.where(self._own, static[self._joints], q_c[self._sources])
+
+    def _target(self, q_c: NDArray[np.float64], plays: NDArray[np.float64]) -> tuple[NDArray, NDArray, NDArray]:
+        """(target, new drive plays, hysteresis terms) of command `q_c`, as `ArmPhysics.step` computes them."""
+        static = self.physics.static_map(q_c)
+        seen = self._seen(q_c, static)
+        plays = np.minimum(np.maximum(plays, seen - self._widths), seen + self._widths)
+        terms = np.bincount(self._joints, weights=self._gains * (plays - seen), minlength=len(static))
+        return static + terms, plays, terms
 
     def settle(self, q: NDArray[np.float64]) -> PhysicsState:
-        target = self.physics.static_map(q)
-        return target.copy(), target
+        static = self.physics.static_map(q)
+        return static.copy(), static, self._seen(q, static), np.zeros_like(static)
 
     def forward(self, q_c: NDArray[np.float64], state: PhysicsState) -> NDArray[np.float64]:
-        played, _ = state
-        target = self.physics.static_map(q_c)
+        played, _, plays, _ = state
+        target, _, _ = self._target(q_c, plays)
         return np.clip(played, target - self.half_width, target + self.half_width)
 
     def advance(self, state: PhysicsState, q_issued: NDArray[np.float64]) -> PhysicsState:
-        return self.forward(q_issued, state), self.physics.static_map(q_issued)
+        played, _, plays, _ = state
+        target, plays, terms = self._target(q_issued, plays)
+        return np.clip(played, target - self.half_width, target + self.half_width), target, plays, terms
 
     def inverse(self, q_d: NDArray[np.float64], state: PhysicsState) -> NDArray[np.float64]:
-        played, previous_target = state
+        played, previous_target, _, terms = state
         target = np.where(
             q_d > played, q_d + self.half_width, np.where(q_d < played, q_d - self.half_width, previous_target)
         )
-        return self.matrix_inverse @ (target - self.physics.offset)
+        return self.matrix_inverse @ (target - terms - self.physics.offset)
 
 
 class PhysicsModel(CalibrationModel):
