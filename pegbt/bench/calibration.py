@@ -23,7 +23,7 @@ from pegbt.bench import Figures
 from pegbt.calibration.base import CalibrationModel, new_model
 from pegbt.calibration.compensation import Compensator
 from pegbt.calibration.evaluation import evaluate
-from pegbt.calibration.recording import Recording, load_recording
+from pegbt.physics.recording import Recording, load_recording
 from pegbt.errors import PegbtError
 
 DATA = Path(os.environ.get("PEGBT_DVRK_DATA", Path(__file__).resolve().parents[3] / "shared" / "data" / "dvrk"))
