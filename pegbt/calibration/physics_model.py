@@ -14,7 +14,8 @@ falling, and stays where it was (within the band) when q_d = y. The target is pi
 hysteresis is in its band or saturated at ±h), so m(q) = m* is solved by Newton's method over those
 pieces: guess each hysteresis's piece, solve the 6×6 linear system, re-read the pieces at the solution,
 repeat until they agree (a few iterations); should that ever cycle, every combination of pieces is
-tried at once. Lag and delay cannot be identified from set-points and are never named here; for a model
+tried at once, and where none reaches the target (effects whose map folds over) the closest command is
+returned, which compensation then rejects for the raw one. Lag and delay cannot be identified from set-points and are never named here; for a model
 built from effects that do name them (`from_effects`), they are ignored: they only delay when the settled
 joints are reached, and the inverse commands the settled joints (pre-empting them would need a lead filter
 that amplifies noise and breaks the velocity limits). The state advances on every issued command, 10 ms
