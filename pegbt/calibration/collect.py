@@ -8,8 +8,8 @@ sample depends on the set-points alone, as a set-point model assumes), settles, 
 and the physical joints (`fiducial_js`) are recorded, like the paper's camera after 0.3 s of settling.
 
 `collect` runs it end to end over an `ArmClient` and writes the dataset layout with `RecordingWriter`;
-its parts (`random_setpoints`, `straight_move`) are what a behaviour tree leaf does one tick at a time
-(`pegbt calibrate collect`).
+its parts (`random_setpoints`, `straight_move`, `RecordingWriter.add`) are what a behaviour-tree leaf of
+the `pegbt calibrate collect` tree does one tick at a time.
 """
 
 from __future__ import annotations
