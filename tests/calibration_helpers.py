@@ -6,7 +6,8 @@ from pathlib import Path
 
 import numpy as np
 
-from pegbt.calibration.recording import Recording, RecordingWriter
+from pegbt.physics.recording import Recording, RecordingWriter
+from pegbt.calibration.collect import random_setpoints
 from pegbt.motion.limits import arm_settings
 from pegbt.physics import ArmPhysics, Effect
 
@@ -23,14 +24,11 @@ TRUTH = [
 
 
 def set_points(n: int, seed: int = 0, arm: str = "PSM1", margin: float = 0.4) -> np.ndarray:
-    """n smooth random set-points inside the middle of the joint ranges (a random walk, low-pass)."""
+    """n smooth random set-points inside the middle `margin` of the joint ranges, as `calibrate collect`
+    draws them (each joint sweeps back and forth, like the dVRK recordings)."""
     limits = arm_settings(arm)
     centre, half = (limits.lower + limits.upper) / 2, (limits.upper - limits.lower) / 2 * margin
-    rng = np.random.default_rng(seed)
-    walk = np.cumsum(rng.normal(0, 1, (n + 20, 6)), axis=0)
-    walk = np.array([np.convolve(column, np.ones(5) / 5, mode="valid")[:n] for column in walk.T]).T
-    walk = (walk - walk.mean(axis=0)) / (np.abs(walk - walk.mean(axis=0)).max(axis=0))
-    return centre + half * walk
+    return random_setpoints(centre - half, centre + half, n, np.random.default_rng(seed))
 
 
 def synthetic(n: int = 400, seed: int = 0, noise: float = 0.0, arm: str = "PSM1") -> Recording:
@@ -38,7 +36,7 @@ def synthetic(n: int = 400, seed: int = 0, noise: float = 0.0, arm: str = "PSM1"
     q_cmd = set_points(n, seed, arm)
     sigma = noise * np.array([1, 1, 0.01, 1, 1, 1])
     q_phy = ArmPhysics(TRUTH).simulate(q_cmd) + np.random.default_rng(seed + 1).normal(0, 1, q_cmd.shape) * sigma
-    return Recording(q_cmd, q_phy, None, Path(f"<synthetic {arm}>"), arm)
+    return Recording(Path(f"<synthetic {arm}>"), q_cmd, q_phy, None, arm)
 
 
 def write(recording: Recording, folder: Path) -> Path:

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from pegbt.physics import ArmPhysics, Effect
-from pegbt.sim2real.recording import Recording
+from pegbt.physics.recording import Recording
 from pegbt.sim2real.synth import smooth_commands
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -10,7 +10,7 @@ from calibration_helpers import synthetic, write
 
 from pegbt.calibration.base import CalibrationModel, new_model
 from pegbt.calibration.evaluation import evaluate
-from pegbt.calibration.recording import RecordingWriter, load_recording
+from pegbt.physics.recording import RecordingWriter, load_recording
 from pegbt.errors import PegbtError
 
 
@@ -19,12 +19,12 @@ def _pegbt(*args: str) -> subprocess.CompletedProcess:
 
 
 def test_train_then_eval_on_a_written_recording(tmp_path):
-    folder = write(synthetic(300, noise=0.001), tmp_path / "rec_PSM1")
+    folder = write(synthetic(800, noise=0.001), tmp_path / "rec_PSM1")
     out = tmp_path / "model.json"
     trained = _pegbt("calibrate", "train", folder, "--arm", "PSM1", "--model", "physics", "--out", out)
     assert trained.returncode == 0, trained.stderr
     assert "held-out samples" in trained.stdout
-    assert json.loads(out.read_text())["heldout"]["samples"] == 90
+    assert json.loads(out.read_text())["heldout"]["samples"] == 240
     scored = _pegbt("calibrate", "eval", out, folder, "--json", "--from-fraction", "0.7")
     assert scored.returncode == 0, scored.stderr
     scores = json.loads(scored.stdout)
@@ -43,7 +43,7 @@ def test_bad_input_is_one_line_and_status_2(tmp_path):
     q_phy[17, 4] = np.nan
     np.save(folder / "q_phy.npy", q_phy)
     broken = _pegbt("calibrate", "train", folder, "--arm", "PSM2", "--model", "hybrid", "--out", tmp_path / "m.json")
-    assert broken.returncode == 2 and "q_phy.npy:18: non-finite value" in broken.stderr
+    assert broken.returncode == 2 and "q_phy.npy: q_phy: NaN or infinite value in sample 17" in broken.stderr
     missing = _pegbt("calibrate", "eval", tmp_path / "nothing.json", folder)
     assert missing.returncode == 2 and "cannot read model file" in missing.stderr
 
@@ -51,24 +51,25 @@ def test_bad_input_is_one_line_and_status_2(tmp_path):
 def test_recordings_are_checked_when_loaded(tmp_path):
     folder = write(synthetic(120), tmp_path / "rec")
     np.save(folder / "q_cmd.npy", np.zeros((120, 7)))
-    with pytest.raises(PegbtError, match="N×6"):
+    with pytest.raises(PegbtError, match="N×6") as error:
         load_recording(folder)
+    assert error.value.file == str(folder / "q_cmd.npy") and error.value.field == "q_cmd"
     np.save(folder / "q_cmd.npy", np.zeros((119, 6)))
-    with pytest.raises(PegbtError, match="differ in length"):
+    with pytest.raises(PegbtError, match="different lengths"):
         load_recording(folder)
-    with pytest.raises(PegbtError, match="not a recording folder"):
+    with pytest.raises(PegbtError, match="no such recording"):
         load_recording(tmp_path / "absent")
 
 
 def test_the_writer_writes_what_the_loader_reads(tmp_path):
     writer = RecordingWriter(tmp_path / "collected", "PSM2")
-    writer.add(np.zeros(6), np.ones(6), 0.0)
-    writer.add(np.ones(6), np.zeros(6), 0.4)
+    for n in range(60):
+        writer.add(np.full(6, 0.01 * n), np.ones(6) - 0.01 * n, 0.4 * n)
     with pytest.raises(PegbtError, match="time must increase"):
-        writer.add(np.ones(6), np.zeros(6), 0.4)
+        writer.add(np.ones(6), np.zeros(6), 0.4 * 59)
     recording = load_recording(writer.close())
-    assert recording.arm == "PSM2" and len(recording) == 2
-    assert np.array_equal(recording.t_stamp, [0.0, 0.4]) and np.array_equal(recording.q_phy[0], np.ones(6))
+    assert recording.arm == "PSM2" and len(recording) == 60 and recording.sampling.mode == "setpoints"
+    assert np.allclose(recording.t, 0.4 * np.arange(60)) and np.array_equal(recording.q_phy[0], np.ones(6))
 
 
 @pytest.mark.parametrize("kind", ["physics", "hybrid"])

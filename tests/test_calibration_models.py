@@ -9,7 +9,8 @@ from calibration_helpers import TRUTH, set_points, synthetic
 from pegbt.calibration.base import CalibrationModel, new_model
 from pegbt.calibration.physics_model import PhysicsModel
 from pegbt.errors import PegbtError
-from pegbt.physics import ArmPhysics
+from pegbt.physics import ArmPhysics, Effect
+from pegbt.sim2real import identify
 
 TINY = {"lstm": {"epochs": 2, "hidden": 16}, "physics": {}, "hybrid": {"epochs": 5}}
 
@@ -47,18 +48,35 @@ def test_one_command_at_a_time_matches_the_whole_sequence(kind, trained):
     assert np.allclose(np.array(stepped), model.predict(q), atol=1e-5)
 
 
-def test_the_fixed_structure_fit_recovers_known_effects():
-    model = PhysicsModel("PSM1").fit(synthetic(400))
-    fitted = ArmPhysics(model.effects)
-    truth = ArmPhysics(TRUTH)
+def test_the_physics_model_takes_its_effects_from_the_sim2real_identification():
+    recording = synthetic(400, noise=0.002)
+    model = PhysicsModel("PSM1").fit(recording)
+    assert list(model.effects) == identify(recording.q_cmd, recording.q_phy, arm="PSM1")
+    fitted, truth = ArmPhysics(model.effects), ArmPhysics(TRUTH)
+    assert {(e.effect, e.joint) for e in model.effects} == {(e.effect, e.joint) for e in TRUTH}
     assert np.allclose(fitted.offset, truth.offset, atol=2e-3)
     assert np.allclose(fitted.coupling, truth.coupling, atol=2e-3)
-    assert np.allclose(fitted.half_width[4:], truth.half_width[4:], atol=2e-3)
+    assert np.allclose(fitted.half_width, truth.half_width, atol=2e-3)
 
 
-def test_physics_inverse_is_exact_on_arm_physics_data():
+EVERY_KIND = {
+    "offset": [Effect("offset", "q4", {"value": 0.2})],
+    "scale": [Effect("scale", "q6", {"value": 0.9})],
+    "coupling": [Effect("coupling", "q5", {"source": "q6", "k": 0.15})],
+    "backlash": [Effect("backlash", "q5", {"half_width": 0.04})],
+    "own hysteresis": [Effect("hysteresis", "q4", {"source": "q4", "half_width": 0.05, "k": 0.3})],
+    "driven hysteresis": [Effect("hysteresis", "q5", {"source": "q6", "half_width": 0.14, "k": -0.67})],
+    "test truth": TRUTH,
+    "dvrk-real PSM1": list(ArmPhysics.load("dvrk-real", "PSM1").effects),
+    "dvrk-real PSM2": list(ArmPhysics.load("dvrk-real", "PSM2").effects),
+}
+
+
+@pytest.mark.parametrize("case", list(EVERY_KIND))
+def test_physics_inverse_is_exact_for_every_effect_kind(case):
     """The analytic inverse, fed its own history, puts the true arm exactly on every desired point."""
-    model = PhysicsModel.from_effects("PSM1", TRUTH, source="test truth")
+    effects = EVERY_KIND[case]
+    model = PhysicsModel.from_effects("PSM1", effects, source="test truth")
     desired = set_points(200, seed=5, margin=0.3)
     state = model.initial_state(desired[0])
     issued = [desired[0]]
@@ -66,9 +84,27 @@ def test_physics_inverse_is_exact_on_arm_physics_data():
         q_c = model.command_for(q_d, state)
         state = model.advance(state, q_c)
         issued.append(q_c)
-    reached = ArmPhysics(TRUTH).simulate(np.array(issued))
-    assert np.allclose(reached[1:], desired[1:], atol=1e-12)
-    assert not np.allclose(ArmPhysics(TRUTH).simulate(desired), desired, atol=0.01)  # there was work to do
+    truth = ArmPhysics(effects)
+    assert np.allclose(truth.simulate(np.array(issued))[1:], desired[1:], rtol=0, atol=1e-12)
+    assert not np.allclose(truth.simulate(desired), desired, atol=1e-3)  # there was work to do
+
+
+def test_lag_and_delay_are_left_to_settle_the_inverse_commands_the_settled_joints():
+    """Set-points cannot show lag or delay; the inverse does not lead them, and the arm settles exactly."""
+    effects = [Effect("lag", "q5", {"tau": 0.05}), Effect("delay", "q6", {"seconds": 0.02}), *TRUTH]
+    model = PhysicsModel.from_effects("PSM1", effects, source="test truth")
+    settled_only = PhysicsModel.from_effects("PSM1", TRUTH, source="test truth")
+    desired = set_points(20, seed=6, margin=0.3)
+    state, state_settled = model.initial_state(desired[0]), settled_only.initial_state(desired[0])
+    arm = ArmPhysics(effects)
+    arm.reset(desired[0])
+    for q_d in desired[1:]:
+        q_c = model.command_for(q_d, state)
+        assert np.array_equal(q_c, settled_only.command_for(q_d, state_settled))
+        state, state_settled = model.advance(state, q_c), settled_only.advance(state_settled, q_c)
+        for _ in range(100):  # 1 s of 10 ms steps holding the command: lag and delay die out
+            reached = arm.step(q_c, 0.01)
+        assert np.allclose(reached, q_d, rtol=0, atol=1e-9)
 
 
 def test_a_physics_model_file_is_a_physics_file_the_simulator_reads(tmp_path):

@@ -8,7 +8,7 @@ import pytest
 from pegbt.cli import main
 from pegbt.physics import ArmPhysics, Effect
 from pegbt.sim2real.diagnose import diagnose
-from pegbt.sim2real.recording import load_recording, write_recording
+from pegbt.physics.recording import load_recording, write_recording
 from tests.sim2real_helpers import recording_with, run_cli
 
 EFFECTS = [Effect("offset", "q4", {"value": 0.1}), Effect("coupling", "q5", {"source": "q6", "k": 0.15}),

@@ -6,7 +6,7 @@ import pytest
 
 from pegbt.physics import ArmPhysics, Effect
 from pegbt.sim2real.diagnose import diagnose
-from pegbt.sim2real.recording import Recording
+from pegbt.physics.recording import Recording
 from tests.sim2real_helpers import recording_with
 
 

@@ -7,7 +7,7 @@ import pytest
 
 from pegbt.physics import ArmPhysics
 from pegbt.sim2real.diagnose import Diagnosis, diagnose
-from pegbt.sim2real.recording import load_recording
+from pegbt.physics.recording import load_recording
 
 
 @lru_cache(maxsize=None)

@@ -6,14 +6,21 @@
 - `train_s_MODEL`: seconds to fit on the ~2800 samples of `random_smooth_new1_PSM1`.
 - `compensate_us_MODEL`: median microseconds of one compensated 10 ms step (Alg. 1 included) along a
   streamed trajectory through held-out set-points of grey1_PSM1.
-Tip errors are means in mm through forward kinematics; joint RMSE in rad. The closed-loop simulator
-figures (`tip_err_mm_uncompensated/compensated`) need the simulator endpoint and are not measured here.
+Tip errors are means in mm through forward kinematics; joint RMSE in rad.
+
+Closed loop on the simulator (`pegbt sim --lockstep --no-world --physics dvrk-real`, over zenoh): a
+physics model is fitted to `SIM_SETPOINTS` set-points collected from the simulator (`calibrate collect`'s
+motion), then the 48 waypoints of the twelve unilateral transfers are commanded on a fresh simulator,
+uncompensated and through the `Compensator`, and the tip error is read from `fiducial_js`.
+`tip_err_mm_uncompensated`, `tip_err_mm_compensated` and `tip_err_ratio` are PSM1's (the unilateral
+task's arm); `sim.PSM2.*` the same for the other arm.
 """
 
 from __future__ import annotations
 
 import logging
 import os
+import tempfile
 import time
 from pathlib import Path
 
@@ -21,9 +28,11 @@ import numpy as np
 
 from pegbt.bench import Figures
 from pegbt.calibration.base import CalibrationModel, new_model
+from pegbt.calibration.closed_loop import collect_on_simulator, simulator_tip_errors
 from pegbt.calibration.compensation import Compensator
 from pegbt.calibration.evaluation import evaluate
-from pegbt.calibration.recording import Recording, load_recording
+from pegbt.calibration.task import transfer_goals
+from pegbt.physics.recording import Recording, load_recording
 from pegbt.errors import PegbtError
 
 DATA = Path(os.environ.get("PEGBT_DVRK_DATA", Path(__file__).resolve().parents[3] / "shared" / "data" / "dvrk"))
@@ -32,6 +41,8 @@ KINDS = ("lstm", "physics", "hybrid")
 WRIST = ("q4", "q5", "q6")
 # The reference paper's repository: mean tip error on peg-transfer motion (for comparison only).
 PAPER_TIP_MM = {"uncompensated": 4.13, "lstm": 1.87}
+SIM_SETPOINTS = 1500
+SIM_SEED = 0
 
 
 def _recording(name: str) -> Recording:
@@ -75,6 +86,22 @@ def _summarise(figures: Figures, split: str, recordings: list[str]) -> None:
         figures[f"{split}.mean.{kind}.tip_mm"] = float(np.mean(values))
 
 
+def _simulator_figures(figures: Figures, arm: str) -> None:
+    """Collect from the simulator, fit the physics model, command the transfer waypoints both ways."""
+    with tempfile.TemporaryDirectory() as folder:
+        start = time.perf_counter()
+        recording = load_recording(collect_on_simulator(arm, Path(folder) / f"sim_{arm}", SIM_SETPOINTS, SIM_SEED))
+        figures[f"sim.{arm}.collect_s"] = time.perf_counter() - start
+    model = new_model("physics", arm).fit(recording)
+    goals = transfer_goals(arm)
+    uncompensated = simulator_tip_errors(arm, goals)
+    compensated = simulator_tip_errors(arm, goals, model)
+    figures[f"sim.{arm}.tip_err_mm_uncompensated"] = float(uncompensated.mean())
+    figures[f"sim.{arm}.tip_err_mm_compensated"] = float(compensated.mean())
+    figures[f"sim.{arm}.tip_err_mm_compensated_max"] = float(compensated.max())
+    figures[f"sim.{arm}.tip_err_ratio"] = float(uncompensated.mean() / compensated.mean())
+
+
 def run() -> Figures:
     logging.getLogger("pegbt.calibration").setLevel(logging.ERROR)  # clamps are counted, not printed here
     figures: Figures = {f"reference_paper.{k}.tip_mm": v for k, v in PAPER_TIP_MM.items()}
@@ -97,4 +124,8 @@ def run() -> Figures:
     _summarise(figures, "split", list(recordings))
     for kind in KINDS:
         figures[f"train_s_{kind}"] = train_s[kind]
+    for arm in ("PSM1", "PSM2"):
+        _simulator_figures(figures, arm)
+    for name in ("tip_err_mm_uncompensated", "tip_err_mm_compensated", "tip_err_ratio"):
+        figures[name] = figures[f"sim.PSM1.{name}"]
     return figures

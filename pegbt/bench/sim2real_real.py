@@ -21,7 +21,7 @@ from pegbt.physics import JOINT_NAMES
 from pegbt.sim2real.baselines import linear_window, lstm_window
 from pegbt.sim2real.compare import compare
 from pegbt.sim2real.diagnose import diagnose
-from pegbt.sim2real.recording import load_recording
+from pegbt.physics.recording import load_recording
 
 RECORDINGS = ("random_smooth_grey1_PSM1", "random_smooth_grey2_PSM2", "random_smooth_new1_PSM1",
               "random_smooth_new2_PSM2")

@@ -26,7 +26,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from pegbt.calibration.modelfile import ModelMetadata, read_document, write_document
-from pegbt.calibration.recording import ARMS, N_JOINTS, Recording, check_arm, check_trainable
+from pegbt.physics.recording import N_JOINTS, Recording, known_arm
 from pegbt.errors import PegbtError
 from pegbt.physics import JOINT_NAMES
 
@@ -49,9 +49,7 @@ class CalibrationModel(ABC):
     history_spacing: float = 0.0
 
     def __init__(self, arm: str) -> None:
-        if arm not in ARMS:
-            raise PegbtError(f"unknown arm {arm!r}; expected one of {', '.join(ARMS)}", field="arm")
-        self.arm = arm
+        self.arm = known_arm(arm)
         self.metadata: ModelMetadata | None = None
 
     # ------------------------------------------------------------------ fit and predict
@@ -155,6 +153,28 @@ def model_class(kind: str, path: Path | None = None) -> type[CalibrationModel]:
 def new_model(kind: str, arm: str, **settings: Any) -> CalibrationModel:
     """An unfitted model of kind `kind` for `arm`."""
     return model_class(kind)(arm, **settings)
+
+
+def check_trainable(recording: Recording, joints: tuple[int, ...], min_samples: int) -> None:
+    """Refuse a recording a model cannot learn from: too few samples, or a learned joint that never moves."""
+    if len(recording) < min_samples:
+        raise PegbtError(
+            f"too few samples to train on: {len(recording)}, need at least {min_samples}", file=recording.path
+        )
+    for j in joints:
+        span = float(np.ptp(recording.q_cmd[:, j]))
+        if span < 1e-3:
+            raise PegbtError(
+                f"{JOINT_NAMES[j]} never moves in the commands (range {span:.2g}): its cable effects cannot be learned",
+                file=recording.path,
+                field=JOINT_NAMES[j],
+            )
+
+
+def check_arm(recording: Recording, arm: str, what: str) -> None:
+    """Refuse to mix arms: a recording of PSM2 says nothing about PSM1's cables."""
+    if recording.arm is not None and recording.arm != arm:
+        raise PegbtError(f"the recording is of {recording.arm}, but {what} is for {arm}", file=recording.path, field="arm")
 
 
 def as_commands(q_cmd: ArrayLike) -> NDArray[np.float64]:

@@ -48,7 +48,7 @@ def _train(args: argparse.Namespace) -> int:
     from pegbt.calibration.base import new_model
     from pegbt.calibration.compensation import skill_model_path
     from pegbt.calibration.evaluation import evaluate
-    from pegbt.calibration.recording import load_recording
+    from pegbt.physics.recording import load_recording
 
     recording = load_recording(args.recording)
     n_train = recording.head(args.train_fraction)
@@ -66,7 +66,7 @@ def _train(args: argparse.Namespace) -> int:
 def _eval(args: argparse.Namespace) -> int:
     from pegbt.calibration.base import CalibrationModel
     from pegbt.calibration.evaluation import evaluate
-    from pegbt.calibration.recording import load_recording
+    from pegbt.physics.recording import load_recording
 
     model = CalibrationModel.load(args.model)
     recording = load_recording(args.recording)

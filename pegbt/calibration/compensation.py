@@ -136,20 +136,19 @@ class Compensator:
         """Alg. 1 on the target of the model's explicit physics, which is inverted exactly: with none
         (lstm) this is the paper's q_c ← q_c + α (q_d − f(q_c)); with physics alone it is exact at once.
         The raw command is returned if the iteration ended further from q_d (by the model)."""
+        what = f"the {self.model.kind} model's prediction"
         target = q_d + self._correction
         q_c = self.model.command_for(target, self.state)
-        predicted = self.model.forward(q_c, self.state)
-        raw = self.model.forward(q_d, self.state)
+        predicted = require_finite(self.model.forward(q_c, self.state), what)
+        raw = require_finite(self.model.forward(q_d, self.state), what)
         for _ in range(iterations.count):
             if np.max(np.abs(q_d - predicted)) < CONVERGED:
                 break
             target = target + iterations.alpha * (q_d - predicted)
             q_c = self.model.command_for(target, self.state)
-            predicted = self.model.forward(q_c, self.state)
-        what = f"the {self.model.kind} model's prediction"
-        reached, raw = require_finite(predicted, what), require_finite(raw, what)
+            predicted = require_finite(self.model.forward(q_c, self.state), what)
         q_c = require_finite(q_c, "the compensated command")
-        worse = np.max(np.abs(q_d - reached)) > np.max(np.abs(q_d - raw))
+        worse = np.max(np.abs(q_d - predicted)) > np.max(np.abs(q_d - raw))
         self._note("fallback", bool(worse), "compensation did not converge; issuing the uncompensated command")
         self._correction = np.zeros_like(q_d) if worse else target - q_d
         return q_d.copy() if worse else q_c

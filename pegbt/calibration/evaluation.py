@@ -13,8 +13,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from pegbt.calibration.base import CalibrationModel
-from pegbt.calibration.recording import Recording, check_arm
+from pegbt.calibration.base import CalibrationModel, check_arm
+from pegbt.physics.recording import Recording
 from pegbt.errors import PegbtError
 from pegbt.motion.kinematics import tip_position
 from pegbt.physics import JOINT_NAMES

@@ -1,10 +1,10 @@
 """The `hybrid` model: the physics model plus a small learned residual on the wrist.
 
-The named effects carry the bulk (offsets, scale, coupling, backlash) and keep their exact inverse.
-A small network learns what they leave from the physics' own view of the wrist: where it puts each
-joint (y), which way the play is taken up (m − y, the static-map target minus the played output), and
-the direction memory of the path of y (`PlayBank` gaps) — which carries the cross-joint hysteresis
-(q5's error depends on which way q6 last moved) that no `ArmPhysics` effect expresses. Reading the
+The named effects carry the bulk (offsets, scale, coupling, hysteresis, backlash) and keep their exact
+inverse. A small network learns what they leave from the physics' own view of the wrist: where it puts
+each joint (y), which way the play is taken up (m − y, the backlash's target minus the played output),
+and the direction memory of the path of y (`PlayBank` gaps): hysteresis loops of other shapes and widths
+than the identified ones. Reading the
 physics' output rather than the raw commands keeps the inverse well posed: compensation picks y, the
 physics inverse gives the command, and the residual is a smooth function of the y it picked (read from
 the commands, the residual let the inverse jump between two solutions from one 10 ms step to the next).
@@ -58,7 +58,7 @@ class HybridModel(CalibrationModel):
 
     def _feature_rows(self, q_cmd: NDArray[np.float64], physics: NDArray[np.float64]) -> NDArray[np.float64]:
         y = physics[:, WRIST]
-        taken_up = self.physics.arm_inverse.physics.static_map(q_cmd)[:, WRIST] - y
+        taken_up = self.physics.settled.physics.settled_targets(q_cmd)[:, WRIST] - y
         return np.concatenate([y, taken_up, self.bank.gaps(y)], axis=1)
 
     def _predict(self, q_cmd: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -71,12 +71,13 @@ class HybridModel(CalibrationModel):
     def initial_state(self, q: NDArray[np.float64]) -> HybridState:
         nets.use_one_thread()
         physics_state = self.physics.initial_state(q)
-        return physics_state, self.bank.settle(physics_state[0][list(WRIST)])
+        return physics_state, self.bank.settle(physics_state.played[list(WRIST)])
 
     def forward(self, q_c: NDArray[np.float64], state: HybridState) -> NDArray[np.float64]:
-        q_phy = self.physics.forward(q_c, state[0])
+        after = self.physics.advance(state[0], q_c)
+        q_phy = after.played.copy()
         y = q_phy[list(WRIST)]
-        taken_up = self.physics.arm_inverse.physics.static_map(q_c)[list(WRIST)] - y
+        taken_up = after.target[list(WRIST)] - y
         gaps, _ = self.bank.step(state[1], y)
         features = self.features.apply(np.concatenate([y, taken_up, gaps])[None])
         with torch.inference_mode():
@@ -86,7 +87,7 @@ class HybridModel(CalibrationModel):
 
     def advance(self, state: HybridState, q_issued: NDArray[np.float64]) -> HybridState:
         physics_state = self.physics.advance(state[0], q_issued)
-        _, outputs = self.bank.step(state[1], physics_state[0][list(WRIST)])
+        _, outputs = self.bank.step(state[1], physics_state.played[list(WRIST)])
         return physics_state, outputs
 
     def command_for(self, target: NDArray[np.float64], state: HybridState) -> NDArray[np.float64]:

@@ -1,16 +1,32 @@
-"""The `physics` model: named cable effects (`ArmPhysics`), inverted analytically where they can be.
+"""The `physics` model: the cable effects the sim-to-real identification names, inverted analytically.
 
-On settled set-points an arm's physics is a static map m = A·q + o (scale, coupling, offset), then
-backlash: the physical joint stays at y until m has moved half_width h past it. Both invert exactly:
-to reach q_d from the current output y, the map must land at q_d + h when moving up, q_d − h when
-moving down, and stay where it was when q_d = y; then q_c = A⁻¹(m − o). Backlash does not depend on
-rate, so the state advances on every issued command, 10 ms step or set-point alike. Lag and delay
-(if the effects name them) have died out at a set-point and are not modelled here.
+Effects come from `pegbt.sim2real.identify` (against the ideal arm, samples taken as settled set-points):
+the same identification that produced the simulator's `dvrk-real` preset, so a model file is a physics
+file the simulator can load. On settled set-points every effect it can name is rate-independent:
+
+- a static map s = A·q + o (scale, coupling, offset);
+- hysteresis: a play of half width h on a drive x (another joint's command, or the joint's own static
+  target s_j) adds k·(play(x) − x) = k·clip(p − x, −h, h) to joint j, p the drive's play state;
+- backlash of half width w on the sum m (the target): the joint stays at y until m is w past it.
+
+The inverse is exact. Backlash: to move y to q_d the target must be m = q_d + w when rising, q_d − w when
+falling, and stays where it was (within the band) when q_d = y. The target is piecewise linear in q (each
+hysteresis is in its band or saturated at ±h), so m(q) = m* is solved by Newton's method over those
+pieces: guess each hysteresis's piece, solve the 6×6 linear system, re-read the pieces at the solution,
+repeat until they agree (a few iterations); should that ever cycle, every combination of pieces is
+tried at once, and where none reaches the target (effects whose map folds over) the closest command is
+returned, which compensation then rejects for the raw one. Lag and delay cannot be identified from set-points and are never named here; for a model
+built from effects that do name them (`from_effects`), they are ignored: they only delay when the settled
+joints are reached, and the inverse commands the settled joints (pre-empting them would need a lead filter
+that amplifies noise and breaks the velocity limits). The state advances on every issued command, 10 ms
+step or set-point alike, because nothing in it depends on rate.
 """
 
 from __future__ import annotations
 
+import itertools
 from collections.abc import Iterable
+from dataclasses import dataclass
 from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
@@ -19,70 +35,120 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pegbt.calibration.base import CalibrationModel
-from pegbt.calibration.identify import identify_effects
 from pegbt.calibration.modelfile import ModelMetadata
 from pegbt.errors import PegbtError
 from pegbt.physics import JOINT_NAMES, ArmPhysics, Effect
 
-# (physical joints y, target m, play of each hysteresis drive, hysteresis terms of the last command)
-PhysicsState = tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]
+Array = NDArray[np.float64]
+EXACT = 1e-12  # rad or m: below this a joint counts as not moving
+REACHED = 1e-9  # rad or m: a command whose target is this close solves the inverse
+NEWTON_ITERATIONS = 20
+MAX_ENUMERATED = 10  # hysteresis terms whose 3^n pieces may be tried at once (59049 small solves)
 
 
-class ArmInverse:
-    """Forward and inverse of an `ArmPhysics` on set-points, one command at a time.
+@dataclass(frozen=True)
+class PhysicsState:
+    """The arm's memory after a command: physical joints, each hysteresis's play, the last target."""
 
-    Static map and backlash invert exactly. Hysteresis terms (a drive's play: they depend on which way
-    the drive last moved) are taken as they stand after the last command; Alg. 1's iterations correct
-    what moving changes of them."""
+    played: Array  # (6,) backlash outputs: the physical joints
+    drives: Array  # (H,) play state of each hysteresis
+    target: Array  # (6,) the target the backlash saw last
+
+
+class SettledArm:
+    """Forward and exact inverse of an `ArmPhysics` on settled set-points, one command at a time."""
 
     def __init__(self, physics: ArmPhysics) -> None:
         self.physics = physics
         self.matrix = np.diag(physics.scale) + physics.coupling
         if abs(np.linalg.det(self.matrix)) < 1e-6:
             raise PegbtError("the effects' scale and coupling cannot be inverted (singular map)", field="effects")
-        self.matrix_inverse = np.linalg.inv(self.matrix)
         self.half_width = physics.half_width
-        table = np.array(physics.hysteresis, dtype=float).reshape(-1, 4)  # (joint, source, half_width, k) per drive
-        self._joints, self._sources = table[:, 0].astype(int), table[:, 1].astype(int)
-        self._own = self._joints == self._sources  # a joint's own hysteresis is driven by its static target
-        self._widths, self._gains = table[:, 2], table[:, 3]
+        n = len(physics.hysteresis)
+        joints = np.array([h[0] for h in physics.hysteresis], dtype=int)
+        sources = np.array([h[1] for h in physics.hysteresis], dtype=int)
+        self.play = np.array([h[2] for h in physics.hysteresis], dtype=float)
+        self.gain = np.array([h[3] for h in physics.hysteresis], dtype=float)
+        self.into = np.zeros((len(JOINT_NAMES), n))  # into[j, n] = 1: hysteresis n acts on joint j
+        self.into[joints, np.arange(n)] = 1.0
+        # Each drive is x = G·q + c: the source's command, or the joint's own static target.
+        own = sources == joints
+        self.drive_rows = np.where(own[:, None], self.matrix[joints], np.eye(len(JOINT_NAMES))[sources])
+        self.drive_offsets = np.where(own, physics.offset[joints], 0.0)
 
-    def _seen(self, q_c: NDArray[np.float64], static: NDArray[np.float64]) -> NDArray[np.float64]:
-        """What each hysteresis drive sees: its source's command, or its joint's static target."""
-        return np.where(self._own, static[self._joints], q_c[self._sources])
+    # ------------------------------------------------------------------ forward
+    def settle(self, q: Array) -> PhysicsState:
+        target = self.physics.static_map(q)
+        return PhysicsState(target.copy(), self.drive_rows @ q + self.drive_offsets, target)
 
-    def _target(self, q_c: NDArray[np.float64], plays: NDArray[np.float64]) -> tuple[NDArray, NDArray, NDArray]:
-        """(target, new drive plays, hysteresis terms) of command `q_c`, as `ArmPhysics.step` computes them."""
-        static = self.physics.static_map(q_c)
-        seen = self._seen(q_c, static)
-        plays = np.minimum(np.maximum(plays, seen - self._widths), seen + self._widths)
-        terms = np.bincount(self._joints, weights=self._gains * (plays - seen), minlength=len(static))
-        return static + terms, plays, terms
+    def step(self, q_c: Array, state: PhysicsState) -> PhysicsState:
+        """The state after issuing `q_c`."""
+        target, drives = self._target(q_c, state.drives)
+        played = np.clip(state.played, target - self.half_width, target + self.half_width)
+        return PhysicsState(played, drives, target)
 
-    def settle(self, q: NDArray[np.float64]) -> PhysicsState:
-        static = self.physics.static_map(q)
-        return static.copy(), static, self._seen(q, static), np.zeros_like(static)
+    def _target(self, q: Array, drives: Array) -> tuple[Array, Array]:
+        x = self.drive_rows @ q + self.drive_offsets
+        moved = np.clip(drives, x - self.play, x + self.play)
+        return self.physics.static_map(q) + self.into @ (self.gain * (moved - x)), moved
 
-    def forward(self, q_c: NDArray[np.float64], state: PhysicsState) -> NDArray[np.float64]:
-        played, _, plays, _ = state
-        target, _, _ = self._target(q_c, plays)
-        return np.clip(played, target - self.half_width, target + self.half_width)
+    # ------------------------------------------------------------------ inverse
+    def inverse(self, q_d: Array, state: PhysicsState) -> Array:
+        """The command after which the physical joints are exactly `q_d`."""
+        return self.command_for_target(self._backlash_target(q_d, state), state.drives)
 
-    def advance(self, state: PhysicsState, q_issued: NDArray[np.float64]) -> PhysicsState:
-        played, _, plays, _ = state
-        target, plays, terms = self._target(q_issued, plays)
-        return np.clip(played, target - self.half_width, target + self.half_width), target, plays, terms
+    def _backlash_target(self, q_d: Array, state: PhysicsState) -> Array:
+        w, y = self.half_width, state.played
+        stay = np.clip(state.target, q_d - w, q_d + w)
+        return np.where(q_d > y + EXACT, q_d + w, np.where(q_d < y - EXACT, q_d - w, stay))
 
-    def inverse(self, q_d: NDArray[np.float64], state: PhysicsState) -> NDArray[np.float64]:
-        played, previous_target, _, terms = state
-        target = np.where(
-            q_d > played, q_d + self.half_width, np.where(q_d < played, q_d - self.half_width, previous_target)
-        )
-        return self.matrix_inverse @ (target - terms - self.physics.offset)
+    def command_for_target(self, target: Array, drives: Array) -> Array:
+        """The command whose target (static map plus hysteresis) is `target`, given the plays' state.
+
+        Where no command reaches it (effects whose map folds over), the closest one found is returned;
+        compensation then sees that it does not land and falls back to the raw command."""
+        pieces = self._pieces(np.linalg.solve(self.matrix, target - self.physics.offset), drives)
+        candidates, seen = [], set()
+        for _ in range(NEWTON_ITERATIONS):
+            q = self._solve_pieces(pieces[None], target, drives)[0]
+            if self._miss(q, target, drives) < REACHED:
+                return q
+            candidates.append(q)
+            seen.add(pieces.tobytes())
+            pieces = self._pieces(q, drives)
+            if pieces.tobytes() in seen:
+                break
+        if len(self.play) <= MAX_ENUMERATED:
+            combos = np.array(list(itertools.product((-1, 0, 1), repeat=len(self.play))), dtype=np.int8)
+            candidates.extend(self._solve_pieces(combos, target, drives))
+        return min(candidates, key=lambda q: self._miss(q, target, drives))
+
+    def _pieces(self, q: Array, drives: Array) -> Array:
+        """Which piece each hysteresis is on at command q: +1 saturated high, −1 low, 0 in its band."""
+        gap = drives - (self.drive_rows @ q + self.drive_offsets)
+        return np.where(gap >= self.play, 1, np.where(gap <= -self.play, -1, 0)).astype(np.int8)
+
+    def _solve_pieces(self, pieces: NDArray[np.int8], target: Array, drives: Array) -> Array:
+        """Commands (K, 6) solving the linear target equation of each row of pieces (K, H); NaN if singular."""
+        in_band = (pieces == 0).astype(float)
+        # In its band hysteresis n adds k (p − G q − c); saturated it adds k · (±h).
+        matrices = self.matrix[None] - np.einsum("jn,kn,ni->kji", self.into, in_band * self.gain, self.drive_rows)
+        constant = in_band * (drives - self.drive_offsets) + (1.0 - in_band) * pieces * self.play
+        rhs = target - self.physics.offset - (constant * self.gain) @ self.into.T
+        solved = np.full(rhs.shape, np.nan)
+        regular = np.abs(np.linalg.det(matrices)) > 1e-12
+        solved[regular] = np.linalg.solve(matrices[regular], rhs[regular][..., None])[..., 0]
+        return solved
+
+    def _miss(self, q: Array, target: Array, drives: Array) -> float:
+        """How far command q's target is from `target` (inf for a command that is not finite)."""
+        if not np.all(np.isfinite(q)):
+            return np.inf
+        return float(np.max(np.abs(self._target(q, drives)[0] - target)))
 
 
 class PhysicsModel(CalibrationModel):
-    """Explicit cable effects: offset, scale, coupling and backlash per joint."""
+    """Explicit cable effects, as `pegbt.physics` names them, with their exact inverse."""
 
     kind = "physics"
     outputs = tuple(range(len(JOINT_NAMES)))  # effects may act on any joint; none means identity
@@ -90,7 +156,7 @@ class PhysicsModel(CalibrationModel):
     def __init__(self, arm: str) -> None:
         super().__init__(arm)
         self.effects: tuple[Effect, ...] = ()
-        self.arm_inverse = ArmInverse(ArmPhysics())
+        self.settled = SettledArm(ArmPhysics())
 
     @classmethod
     def from_effects(cls, arm: str, effects: Iterable[Effect], source: str) -> "PhysicsModel":
@@ -105,25 +171,27 @@ class PhysicsModel(CalibrationModel):
 
     def _set_effects(self, effects: Iterable[Effect]) -> None:
         self.effects = tuple(effects)
-        self.arm_inverse = ArmInverse(ArmPhysics(self.effects))
+        self.settled = SettledArm(ArmPhysics(self.effects))
 
-    def _fit(self, q_cmd: NDArray[np.float64], q_phy: NDArray[np.float64]) -> None:
-        self._set_effects(identify_effects(q_cmd, q_phy))
+    def _fit(self, q_cmd: Array, q_phy: Array) -> None:
+        from pegbt.sim2real import identify  # only fitting needs it; compensation at run time does not
 
-    def _predict(self, q_cmd: NDArray[np.float64]) -> NDArray[np.float64]:
-        return self.arm_inverse.physics.simulate(q_cmd)
+        self._set_effects(identify(q_cmd, q_phy, t=None, base="ideal", arm=self.arm))
 
-    def initial_state(self, q: NDArray[np.float64]) -> PhysicsState:
-        return self.arm_inverse.settle(q)
+    def _predict(self, q_cmd: Array) -> Array:
+        return self.settled.physics.simulate(q_cmd)
 
-    def forward(self, q_c: NDArray[np.float64], state: PhysicsState) -> NDArray[np.float64]:
-        return self.arm_inverse.forward(q_c, state)
+    def initial_state(self, q: Array) -> PhysicsState:
+        return self.settled.settle(q)
 
-    def advance(self, state: PhysicsState, q_issued: NDArray[np.float64]) -> PhysicsState:
-        return self.arm_inverse.advance(state, q_issued)
+    def forward(self, q_c: Array, state: PhysicsState) -> Array:
+        return self.settled.step(q_c, state).played
 
-    def command_for(self, target: NDArray[np.float64], state: PhysicsState) -> NDArray[np.float64]:
-        return self.arm_inverse.inverse(target, state)
+    def advance(self, state: PhysicsState, q_issued: Array) -> PhysicsState:
+        return self.settled.step(q_issued, state)
+
+    def command_for(self, target: Array, state: PhysicsState) -> Array:
+        return self.settled.inverse(target, state)
 
     def _body(self) -> dict[str, Any]:
         return {"settings": {}, "effects": [effect.to_dict() for effect in self.effects]}

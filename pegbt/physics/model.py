@@ -176,10 +176,14 @@ class ArmPhysics:
         if q_cmd.ndim != 2 or q_cmd.shape[1] != N_JOINTS:
             raise PegbtError(f"commands must be N×{N_JOINTS}, got shape {q_cmd.shape}", field="q_cmd")
         if t is None:
-            return apply_play(self._with_hysteresis([q_cmd] * N_JOINTS), self.half_width)
+            return apply_play(self.settled_targets(q_cmd), self.half_width)
         t = np.asarray(t, dtype=float)
         delayed = [delay_series(q_cmd, t, float(self.delay[j])) for j in range(N_JOINTS)]
         return apply_lag(apply_play(self._with_hysteresis(delayed), self.half_width), t, self.tau)
+
+    def settled_targets(self, q_cmd: NDArray[np.float64]) -> NDArray[np.float64]:
+        """What each joint's backlash sees along settled set-points (N, 6): the static map plus hysteresis."""
+        return self._with_hysteresis([q_cmd] * N_JOINTS)
 
     def _with_hysteresis(self, seen_by: list[NDArray[np.float64]]) -> NDArray[np.float64]:
         """Static targets (N, 6) from the commands each joint sees, plus the hysteresis terms."""

@@ -8,6 +8,6 @@ Entry points: `load_recording(path)`, `diagnose(recording, sim="ideal") -> Diagn
 """
 
 from pegbt.sim2real.diagnose import Diagnosis, diagnose, identify
-from pegbt.sim2real.recording import Recording, load_recording
+from pegbt.physics.recording import Recording, load_recording
 
 __all__ = ["Diagnosis", "Recording", "diagnose", "identify", "load_recording"]

@@ -61,7 +61,7 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
 
 def _diagnose(args: argparse.Namespace) -> int:
     from pegbt.sim2real.diagnose import diagnose
-    from pegbt.sim2real.recording import load_recording
+    from pegbt.physics.recording import load_recording
     from pegbt.sim2real.report import read_named_effects, report_dict, write_report
 
     recording = load_recording(args.recording)

@@ -21,7 +21,7 @@ from pegbt.sim2real.explain import effect_sentence, remaining_sentence, rival_se
 from pegbt.sim2real.fit import JointFit, Term, bootstrap, fit_joint, merged_physics, settle_backlash, to_effects
 from pegbt.sim2real.library import build_columns
 from pegbt.sim2real.locate import JointMismatch, locate
-from pegbt.sim2real.recording import Recording, Sampling, validate
+from pegbt.physics.recording import Recording, Sampling, validate
 from pegbt.sim2real.select import JointSelection, Unidentifiable, find_unidentifiable, select
 
 Array = NDArray[np.float64]
@@ -81,11 +81,6 @@ class Diagnosis:
         before, after = self.rmse_before(), self.rmse_after()
         unit = "s" if self.recording.t is not None else "samples"
         return [remaining_sentence(m, after[m.joint], before[m.joint], unit) for m in after_located]
-
-
-def guess_arm(path: Path) -> str:
-    """PSM2 when the recording's name says so, else PSM1 (presets differ per arm)."""
-    return "PSM2" if "PSM2" in str(path).upper() else "PSM1"
 
 
 def structure_of(selection: JointSelection) -> JointFit:
@@ -154,7 +149,7 @@ def choose_effects(q_cmd: Array, t: Array | None, residual: Array, base: ArmPhys
 def diagnose(recording: Recording, sim: str | Path = "ideal", arm: str | None = None,
              n_bootstrap: int = N_BOOTSTRAP, seed: int = 0) -> Diagnosis:
     """Locate, explain and fit the mismatch between a recording and the simulator's physics."""
-    arm = arm or guess_arm(recording.path)
+    arm = arm or recording.arm or "PSM1"  # presets differ per arm; the recording's meta.json or name says which
     base = ArmPhysics.load(sim, arm)
     sampling = recording.sampling
     t = recording.t if sampling.is_stream else None

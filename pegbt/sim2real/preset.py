@@ -7,7 +7,7 @@ from pathlib import Path
 
 from pegbt.errors import PegbtError
 from pegbt.sim2real.diagnose import diagnose
-from pegbt.sim2real.recording import load_recording
+from pegbt.physics.recording import load_recording
 
 
 def _rounded(value):

@@ -26,7 +26,7 @@ from scipy.optimize import brentq
 
 from pegbt.errors import PegbtError
 from pegbt.physics import JOINT_NAMES, ArmPhysics, Effect
-from pegbt.sim2real.recording import Recording, write_recording
+from pegbt.physics.recording import Recording, write_recording
 
 Array = NDArray[np.float64]
 

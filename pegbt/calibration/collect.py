@@ -1,0 +1,91 @@
+"""Collect a calibration recording from an arm: random smooth set-points, commanded against physical joints.
+
+The motion imitates the dVRK recordings the models were designed on: every joint sweeps its whole range
+back and forth along a smooth random path (a monotone cubic through random values a few set-points
+apart), so each cable's hysteresis is driven through many loops of many sizes. The arm moves to each
+set-point along a straight line in joint space (so every cable's input moves one way only, and the
+sample depends on the set-points alone, as a set-point model assumes), settles, and then the set-point
+and the physical joints (`fiducial_js`) are recorded, like the paper's camera after 0.3 s of settling.
+
+`collect` runs it end to end over an `ArmClient` and writes the dataset layout with `RecordingWriter`;
+its parts (`random_setpoints`, `straight_move`, `RecordingWriter.add`) are what a behaviour-tree leaf of
+the `pegbt calibrate collect` tree does one tick at a time.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.interpolate import PchipInterpolator
+
+from pegbt.errors import PegbtError
+from pegbt.motion.limits import ArmSettings
+from pegbt.physics.recording import RecordingWriter
+from pegbt.transport import ArmClient, Clock, codec
+
+Array = NDArray[np.float64]
+KNOT_SPACING = (6, 16)  # set-points between the random values a joint's path passes through
+SETTLE_S = 0.3  # as the dVRK recordings: the arm rests this long before a sample is taken
+SPEED_SHARE = 0.5  # straight moves use this share of the planner's velocity limits
+MOVE_TIMEOUT_S = 10.0
+
+
+def random_setpoints(lower: ArrayLike, upper: ArrayLike, count: int, rng: np.random.Generator) -> Array:
+    """`count` smooth random set-points (count, 6) inside [lower, upper], each joint reversing often."""
+    lower, upper = np.asarray(lower, dtype=float), np.asarray(upper, dtype=float)
+    if count < 2 or np.any(upper <= lower):
+        raise PegbtError(f"need at least 2 set-points in a non-empty box, got {count} in {lower}..{upper}",
+                         field="count")
+    points = np.empty((count, len(lower)))
+    index = np.arange(count)
+    for j in range(len(lower)):
+        spacing = rng.uniform(*KNOT_SPACING)
+        knots = np.arange(-spacing * rng.uniform(), count + 2 * spacing, spacing)
+        values = rng.uniform(lower[j], upper[j], len(knots))
+        points[:, j] = PchipInterpolator(knots, values)(index)  # monotone cubic: never outside the values
+    return points
+
+
+def straight_move(start: ArrayLike, goal: ArrayLike, settings: ArmSettings) -> codec.Trajectory:
+    """A straight line in joint space from `start` to `goal`, at `SPEED_SHARE` of the planner velocity.
+
+    The endpoint plays a trajectory linearly between its samples from the current set-point, so the goal
+    alone at the end time is the whole line."""
+    start, goal = np.asarray(start, dtype=float), np.asarray(goal, dtype=float)
+    period = settings.control_period
+    seconds = float(np.max(np.abs(goal - start) / (SPEED_SHARE * settings.planner_velocity)))
+    duration = period * max(1, int(np.ceil(seconds / period)))
+    return codec.Trajectory(np.array([duration]), goal[None])
+
+
+def move_and_settle(client: ArmClient, clock: Clock, trajectory: codec.Trajectory, settle_s: float = SETTLE_S) -> None:
+    """Send `trajectory`, let simulated or real time pass until it is done, then rest `settle_s`."""
+    handle = client.move_jp(trajectory)
+    clock.wait(float(trajectory.t[-1]))
+    deadline = clock.now() + MOVE_TIMEOUT_S
+    while handle.busy and clock.now() < deadline:
+        clock.wait(client.settings.control_period)
+    if not handle.done:
+        raise PegbtError(f"{client.name}: {handle.error or 'move did not finish'}", field="move_jp")
+    clock.wait(settle_s)
+
+
+def collect(client: ArmClient, clock: Clock, out: str | Path, count: int, seed: int = 0,
+            box: tuple[ArrayLike, ArrayLike] | None = None) -> Path:
+    """Drive `client`'s arm through `count` random smooth set-points and write the recording to `out`.
+
+    `box` (lower, upper) bounds the set-points; by default the peg-transfer task's joints
+    (`pegbt.calibration.task.task_box`)."""
+    from pegbt.calibration.task import task_box
+
+    lower, upper = box if box is not None else task_box(client.name)
+    setpoints = random_setpoints(lower, upper, count, np.random.default_rng(seed))
+    writer = RecordingWriter(out, client.name)
+    current = client.setpoint_js.position
+    for goal in setpoints:
+        move_and_settle(client, clock, straight_move(current, goal, client.settings))
+        current = client.setpoint_js.position
+        writer.add(current, client.fiducial_js.position, clock.now())
+    return writer.close()

@@ -1,0 +1,290 @@
+"""Recordings of commanded versus physical joints: reading, validating, writing (the dVRK dataset layout).
+
+The one reader and writer of the data the arm-physics model is fitted to, shared by the sim-to-real
+tool (which names the effects) and calibration (which learns and inverts them). Two layouts are read:
+
+- a folder with `q_cmd.npy` (N×6 commanded joints), `q_phy.npy` (N×6 physical joints), optional
+  `t_stamp.npy` (N seconds) and optional `meta.json` (`{"arm": "PSM1", ...}`), as in
+  `../shared/data/dvrk/`; those real folders have no `meta.json`, their names end in the arm (`..._PSM1`);
+- a CSV with columns `t,q1_cmd..q6_cmd,q1_meas..q6_meas`.
+
+Everything a user can get wrong (lengths, NaN rows, time running backwards, commands that never move,
+too few samples, a file that is not a recording at all) is refused with a `PegbtError` naming the file,
+the field and the sample, before any analysis runs, so nothing that looks like a result is written.
+
+Samples are either a stream (the controller's 100 Hz set-points, where lag and delay act between
+samples) or settled set-points seconds apart (the arm came to rest before each sample, as in the dVRK
+recordings). `Recording.sampling` says which, and why. `RecordingWriter` collects samples as they are
+measured (`pegbt calibrate collect`) and writes the folder at once.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+import re
+from dataclasses import dataclass
+from datetime import datetime, timezone
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from pegbt.errors import PegbtError
+from pegbt.physics.effects import JOINT_NAMES
+
+Array = NDArray[np.float64]
+
+N_JOINTS = len(JOINT_NAMES)
+ARMS = ("PSM1", "PSM2")
+MIN_SAMPLES = 50
+# Samples closer than this are a stream (the dVRK controller runs at 100 Hz); farther apart, the arm had
+# time to settle between them, so lag and delay are over before each sample.
+STREAM_MAX_INTERVAL_S = 0.1
+CSV_COLUMNS = ("t", *(f"{q}_cmd" for q in JOINT_NAMES), *(f"{q}_meas" for q in JOINT_NAMES))
+FILES = {"q_cmd": "q_cmd.npy", "q_phy": "q_phy.npy", "t": "t_stamp.npy"}
+_ARM_AT_END = re.compile(r"(PSM[12])$")
+
+
+@dataclass(frozen=True)
+class Sampling:
+    """How the samples relate in time: `stream` or `setpoints`, and the reason it was assumed."""
+
+    mode: str
+    reason: str
+
+    @property
+    def is_stream(self) -> bool:
+        return self.mode == "stream"
+
+
+@dataclass(frozen=True)
+class Recording:
+    """Commanded and physical joints (N, 6) of one arm, with sample times when known; `path` names it in
+    messages, `arm` is None when neither `meta.json` nor the name says which arm it is."""
+
+    path: Path
+    q_cmd: Array
+    q_phy: Array
+    t: Array | None = None
+    arm: str | None = None
+
+    @property
+    def n(self) -> int:
+        return len(self.q_cmd)
+
+    def __len__(self) -> int:
+        return self.n
+
+    @property
+    def times(self) -> Array:
+        """Sample times in seconds, or sample indices when the recording has no timestamps."""
+        return np.arange(self.n, dtype=float) if self.t is None else self.t
+
+    @property
+    def sampling(self) -> Sampling:
+        if self.t is None:
+            return Sampling("setpoints", "no timestamps: each sample is taken as a settled set-point")
+        interval = float(np.median(np.diff(self.t)))
+        if interval <= STREAM_MAX_INTERVAL_S:
+            return Sampling("stream", f"median sample interval {interval * 1e3:.1f} ms: a command stream")
+        return Sampling(
+            "setpoints",
+            f"median sample interval {interval:.2f} s > {STREAM_MAX_INTERVAL_S} s: settled set-points "
+            "(lag and delay have died out before each sample)",
+        )
+
+    def head(self, fraction: float) -> int:
+        """Number of samples in the first `fraction` of the recording (the training part of a split)."""
+        if not 0.0 < fraction <= 1.0:
+            raise PegbtError(f"the training fraction must be in (0, 1], got {fraction}", field="fraction")
+        return int(round(fraction * self.n))
+
+    def slice(self, start: int, stop: int | None = None) -> "Recording":
+        """The samples [start, stop) as a recording of their own."""
+        t = None if self.t is None else self.t[start:stop]
+        return Recording(self.path, self.q_cmd[start:stop], self.q_phy[start:stop], t, self.arm)
+
+
+# ---------------------------------------------------------------------------------------------- reading
+def load_recording(path: str | Path) -> Recording:
+    """Read and validate a recording folder or CSV; a `PegbtError` naming the file and problem if bad."""
+    path = Path(path)
+    if not path.exists():
+        raise PegbtError("no such recording (expected a folder with q_cmd.npy and q_phy.npy, or a CSV)", file=path)
+    if path.is_dir():
+        q_cmd, q_phy, t = _read_folder(path)
+    elif path.suffix.lower() == ".csv":
+        q_cmd, q_phy, t = _read_csv(path)
+    else:
+        raise PegbtError("not a recording: expected a folder with q_cmd.npy and q_phy.npy, or a .csv file", file=path)
+    validate(q_cmd, q_phy, t, path)
+    return Recording(path, q_cmd, q_phy, t, _arm_of(path))
+
+
+def _load_npy(path: Path) -> Array:
+    try:
+        data = np.load(path, allow_pickle=False)
+    except (OSError, ValueError, EOFError) as error:
+        raise PegbtError(f"not a recording: cannot read it as a NumPy array ({error})", file=path) from None
+    if not np.issubdtype(data.dtype, np.number):
+        raise PegbtError(f"not a recording: holds {data.dtype} values, not numbers", file=path)
+    return np.asarray(data, dtype=float)
+
+
+def _read_folder(folder: Path) -> tuple[Array, Array, Array | None]:
+    missing = [FILES[name] for name in ("q_cmd", "q_phy") if not (folder / FILES[name]).is_file()]
+    if missing:
+        raise PegbtError(f"not a recording: the folder lacks {' and '.join(missing)}", file=folder)
+    q_cmd = _load_npy(folder / FILES["q_cmd"])
+    q_phy = _load_npy(folder / FILES["q_phy"])
+    t = _load_npy(folder / FILES["t"]).reshape(-1) if (folder / FILES["t"]).is_file() else None
+    return q_cmd, q_phy, t
+
+
+def _read_csv(path: Path) -> tuple[Array, Array, Array]:
+    try:
+        with path.open(newline="") as handle:
+            rows = list(csv.reader(handle))
+    except (OSError, UnicodeDecodeError) as error:
+        raise PegbtError(f"not a recording: cannot read it as text ({error})", file=path) from None
+    if not rows:
+        raise PegbtError("not a recording: the file is empty", file=path)
+    header = [name.strip() for name in rows[0]]
+    absent = [name for name in CSV_COLUMNS if name not in header]
+    if absent:
+        raise PegbtError(
+            f"not a recording: the header lacks {', '.join(absent)} (expected {','.join(CSV_COLUMNS)})",
+            file=path, line=1, field=absent[0],
+        )
+    columns = [header.index(name) for name in CSV_COLUMNS]
+    values = np.empty((len(rows) - 1, len(CSV_COLUMNS)))
+    for line, row in enumerate(rows[1:], start=2):
+        for k, column in enumerate(columns):
+            text = row[column].strip() if column < len(row) else ""
+            try:
+                values[line - 2, k] = float(text) if text else math.nan
+            except ValueError:
+                raise PegbtError(f"not a number: {text!r}", file=path, line=line, column=column + 1,
+                                 field=CSV_COLUMNS[k]) from None
+    return values[:, 1:7], values[:, 7:13], values[:, 0]
+
+
+def _arm_of(path: Path) -> str | None:
+    """The arm from `meta.json` in a folder, else from the name's ending (`random_smooth_grey1_PSM1`)."""
+    meta = path / "meta.json"
+    if path.is_dir() and meta.exists():
+        try:
+            arm = json.loads(meta.read_text()).get("arm")
+        except (OSError, json.JSONDecodeError, AttributeError) as error:
+            raise PegbtError(f"cannot read recording metadata: {error}", file=meta) from None
+        return known_arm(arm, meta)
+    name = path.resolve().name if path.is_dir() else path.resolve().stem
+    match = _ARM_AT_END.search(name)
+    return match.group(1) if match else None
+
+
+def known_arm(arm: object, where: Path | None = None) -> str:
+    """`arm` if it names a PSM, else a `PegbtError`."""
+    if arm not in ARMS:
+        raise PegbtError(f"unknown arm {arm!r}; expected one of {', '.join(ARMS)}", file=where, field="arm")
+    return str(arm)
+
+
+# ---------------------------------------------------------------------------------------------- validation
+def validate(q_cmd: Array, q_phy: Array, t: Array | None, where: Path) -> None:
+    """Refuse recordings that cannot be analysed, saying which file, field and sample is wrong."""
+    for name, array in (("q_cmd", q_cmd), ("q_phy", q_phy)):
+        if array.ndim != 2 or array.shape[1] != N_JOINTS:
+            raise PegbtError(f"expected an N×{N_JOINTS} array of joints ({', '.join(JOINT_NAMES)}), got shape "
+                             f"{array.shape}", file=_file(where, name), field=name)
+    if len(q_cmd) != len(q_phy):
+        raise PegbtError(f"different lengths: {len(q_cmd)} commanded samples but {len(q_phy)} measured", file=where)
+    if t is not None and len(t) != len(q_cmd):
+        raise PegbtError(f"different lengths: {len(t)} timestamps for {len(q_cmd)} samples", file=where, field="t")
+    if len(q_cmd) < MIN_SAMPLES:
+        raise PegbtError(f"only {len(q_cmd)} sample(s): at least {MIN_SAMPLES} are needed", file=where)
+    for name, array in (("q_cmd", q_cmd), ("q_phy", q_phy), ("t", t)):
+        if array is None:
+            continue
+        bad = np.flatnonzero(~np.isfinite(array.reshape(len(array), -1)).all(axis=1))
+        if bad.size:
+            more = f" and {bad.size - 1} more" if bad.size > 1 else ""
+            raise PegbtError(f"NaN or infinite value in sample {bad[0]}{more}", file=_file(where, name),
+                             line=_line(where, bad[0]), field=name)
+    if t is not None:
+        steps = np.diff(t)
+        if (steps <= 0).any():
+            n = int(np.flatnonzero(steps <= 0)[0]) + 1
+            raise PegbtError(f"timestamps not increasing at sample {n} ({t[n]:.6g} s after {t[n - 1]:.6g} s)",
+                             file=_file(where, "t"), line=_line(where, n), field="t")
+    if np.ptp(q_cmd, axis=0).max() == 0:
+        raise PegbtError("constant commands: no joint's command ever changes, so nothing can be identified",
+                         file=_file(where, "q_cmd"), field="q_cmd")
+
+
+def _is_csv(where: Path) -> bool:
+    return where.suffix.lower() == ".csv"
+
+
+def _file(where: Path, name: str) -> Path:
+    """The file holding array `name`: the CSV itself, or the folder's .npy file."""
+    return where if _is_csv(where) or not where.is_dir() else where / FILES[name]
+
+
+def _line(where: Path, sample: int) -> int | None:
+    """The CSV line of a sample (header is line 1); None for array folders (a sample is a row, not a line)."""
+    return sample + 2 if _is_csv(where) else None
+
+
+# ---------------------------------------------------------------------------------------------- writing
+def write_recording(folder: str | Path, q_cmd: ArrayLike, q_phy: ArrayLike, t: ArrayLike | None,
+                    arm: str | None = None) -> Path:
+    """Write a recording in the dVRK folder layout; with `arm`, also `meta.json` saying which arm it is."""
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    q_cmd = np.asarray(q_cmd, dtype=float)
+    np.save(folder / FILES["q_cmd"], q_cmd)
+    np.save(folder / FILES["q_phy"], np.asarray(q_phy, dtype=float))
+    if t is not None:
+        np.save(folder / FILES["t"], np.asarray(t, dtype=float))
+    if arm is not None:
+        meta = {"arm": known_arm(arm), "joints": list(JOINT_NAMES), "samples": len(q_cmd),
+                "written": datetime.now(timezone.utc).isoformat(timespec="seconds")}
+        (folder / "meta.json").write_text(json.dumps(meta, indent=2) + "\n")
+    return folder
+
+
+class RecordingWriter:
+    """Collects (command, physical joints, time) samples as they are measured and writes them in the
+    dataset layout; `close()` writes every file at once, so a folder never holds a half-written recording."""
+
+    def __init__(self, path: str | Path, arm: str) -> None:
+        self.path = Path(path)
+        self.arm = known_arm(arm)
+        self._rows: list[tuple[Array, Array, float]] = []
+
+    def add(self, q_cmd: ArrayLike, q_phy: ArrayLike, t: float) -> None:
+        """Append one sample; refuses non-finite joints and time that does not increase."""
+        q_cmd, q_phy = np.asarray(q_cmd, dtype=float), np.asarray(q_phy, dtype=float)
+        if q_cmd.shape != (N_JOINTS,) or q_phy.shape != (N_JOINTS,):
+            raise PegbtError(f"a sample needs {N_JOINTS} commanded and {N_JOINTS} physical joints", file=self.path)
+        if not (np.all(np.isfinite(q_cmd)) and np.all(np.isfinite(q_phy)) and np.isfinite(t)):
+            raise PegbtError(f"non-finite sample {len(self._rows)}", file=self.path)
+        if self._rows and t <= self._rows[-1][2]:
+            raise PegbtError(f"time must increase: sample {len(self._rows)} at {t} s", file=self.path, field="t")
+        self._rows.append((q_cmd, q_phy, float(t)))
+
+    def __len__(self) -> int:
+        return len(self._rows)
+
+    def close(self) -> Path:
+        """Write the recording folder (checked as `load_recording` checks it) and return its path."""
+        if not self._rows:
+            raise PegbtError("no samples recorded", file=self.path)
+        q_cmd = np.stack([row[0] for row in self._rows])
+        q_phy = np.stack([row[1] for row in self._rows])
+        t = np.array([row[2] for row in self._rows])
+        validate(q_cmd, q_phy, t, self.path)
+        return write_recording(self.path, q_cmd, q_phy, t, self.arm)
