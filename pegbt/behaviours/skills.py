@@ -6,11 +6,11 @@ Conditions, as in the reference paper's experiments:
 - `calibrated`: the same motions, every commanded row pre-compensated by the arm's calibration model;
 - `optimized`: transfers planned as the paper's spline refined by SQP, pre-compensated.
 
-Calibration models are read from `--calibration`: a directory (by default `skills/calibration/`), per
-arm the first of `ARM-hybrid.json`, `ARM-physics.json`, `ARM-lstm.json` found; or a physics preset file
-of identified effects (by default for `--endpoint auto`, `skills/calibration/sim-dvrk-real.json`: the
-simulator's arms, identified by `pegbt sim2real preset` from recordings of `trees/calibrate_collect.yaml`).
-Models are per set-up: a model fitted on one robot (or on the simulator) does not fit another.
+Calibration models are read from the directory `--calibration` (by default `skills/calibration/`, and
+for `--endpoint auto` `skills/calibration/sim-dvrk-real/`: models fitted on recordings of the simulator's
+arms made by `trees/calibrate_collect.yaml`): per arm the first of `ARM-hybrid.json`, `ARM-physics.json`,
+`ARM-lstm.json` found. Models are per set-up: a model fitted on one robot (or on the simulator) does not
+fit another.
 """
 
 from __future__ import annotations
@@ -23,8 +23,7 @@ from numpy.typing import NDArray
 
 from pegbt.behaviours.arm_motion import ArmMotion
 from pegbt.calibration.base import CalibrationModel
-from pegbt.calibration.compensation import CALIBRATION_DIR, STREAM_ITERATIONS, Compensator, Iterations
-from pegbt.calibration.physics_model import PhysicsModel
+from pegbt.calibration.compensation import CALIBRATION_DIR, Compensator
 from pegbt.errors import PegbtError
 from pegbt.executive.providers import ProviderSetup
 from pegbt.motion.handover import tool_distance
@@ -36,24 +35,16 @@ from pegbt.motion.transfer import TransferPlanner
 from pegbt.perception.blocks import BlockLocator
 from pegbt.perception.board import PegboardRegistration
 from pegbt.perception.grasp import GraspSelector
-from pegbt.physics import ArmPhysics
 from pegbt.workcell import ARMS, Workcell, workcell
 
 CONDITIONS = ("uncalibrated", "calibrated", "optimized")
-SIMULATOR_CALIBRATION = CALIBRATION_DIR / "sim-dvrk-real.json"
+SIMULATOR_CALIBRATION = CALIBRATION_DIR / "sim-dvrk-real"
 MODEL_PREFERENCE = ("hybrid", "physics", "lstm")
-# A physics model's forward is cheap, and its hysteresis terms move with the command: ten of Alg. 1's
-# iterations per 10 ms row bring a PSM2 grasp from 0.7 to 0.01-0.04 mm (one per row lets the wrist jolt).
-PHYSICS_STREAM = Iterations(10, 0.7)
 CLEARANCE_STRIDE = 3  # check every third 10 ms row: tools move well under a millimetre in 30 ms
 
 
 def calibration_model(directory: Path, arm: str) -> CalibrationModel:
-    """`arm`'s calibration model from `directory` (its preferred model file), or from a physics preset
-    file (`pegbt sim2real preset`: the effects identified from a recording of that set-up, used as a
-    `physics` model); a `PegbtError` if there is none."""
-    if directory.is_file():
-        return PhysicsModel.from_effects(arm, ArmPhysics.load(directory, arm).effects, source=str(directory))
+    """The preferred calibration model of `arm` in `directory`; a `PegbtError` if there is none."""
     for kind in MODEL_PREFERENCE:
         path = directory / f"{arm}-{kind}.json"
         if path.exists():
@@ -77,9 +68,7 @@ class Skills:
             settings = arm_settings(arm)
             compensator = None
             if condition != "uncalibrated":
-                model = calibration_model(calibration or CALIBRATION_DIR, arm)
-                stream = PHYSICS_STREAM if model.kind == "physics" else STREAM_ITERATIONS
-                compensator = Compensator(model, settings=settings, stream=stream)
+                compensator = Compensator(calibration_model(calibration or CALIBRATION_DIR, arm), settings=settings)
             planner = TransferPlanner(settings, self.motion) if condition == "optimized" else None
             self.arms[arm] = ArmMotion(settings, planner=planner, compensator=compensator)
         self.registration = PegboardRegistration(self.cell)
