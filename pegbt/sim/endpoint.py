@@ -32,13 +32,16 @@ import threading
 import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
+from functools import partial
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import zenoh
+from numpy.typing import NDArray
 
 from pegbt.errors import PegbtError
-from pegbt.motion.kinematics import forward_kinematics, link_frames
+from pegbt.motion.kinematics import forward_kinematics
 from pegbt.motion.limits import arm_settings
 from pegbt.physics import ArmPhysics
 from pegbt.sim.arm import DEFAULT_JOINTS, DEFAULT_SERVO_TAU, SimArm, Transition
@@ -69,18 +72,26 @@ class EndpointConfig:
     heartbeat: float = 0.05  # s of wall time between re-sends of the state while a lockstep endpoint idles
 
 
+Message = Callable[[], bytes]  # encodes a message when someone will receive it
+
+
 class _Outbox:
-    """Publishes tagged messages, losing or delaying them as the fault plan says (delays keep per-key order)."""
+    """Publishes tagged messages, losing or delaying them as the fault plan says (delays keep per-key order).
+
+    A message is encoded only if someone subscribes to its key; otherwise it is kept, unencoded, as the
+    key's latest, so that a heartbeat can still hand it to a late subscriber.
+    """
 
     def __init__(self, session: zenoh.Session, source: Source, faults: FaultInjector, log: Callable[..., None], realtime: bool) -> None:
         self._session = session
         self._source = source
         self._faults = faults
+        self._faulty = faults.plan.loss_probability > 0 or faults.plan.latency > 0 or faults.plan.jitter > 0
         self._log = log
         self._realtime = realtime  # real time: express, and drop stale stream messages rather than block
         self._outlets: dict[str, Outlet] = {}
         self._delayed: list[tuple[float, int, str, bytes, str, str]] = []
-        self._last: dict[str, tuple[bytes, str, str]] = {}
+        self._last: dict[str, tuple[bytes | Message, str, str]] = {}
         self.inject = True  # off while publishing the initial state: every key starts with one message
         self._last_due: dict[str, float] = {}
         self._order = itertools.count()
@@ -92,15 +103,15 @@ class _Outbox:
             )
         return self._outlets[key]
 
-    def listened(self, key: str) -> bool:
-        """Whether anyone subscribes to `key`: nothing is encoded or sent for nobody."""
-        return self.outlet(key).matched
-
-    def send(self, now: float, key: str, payload: bytes, cause: str = "", outcome: str = "") -> None:
-        identity = f"{now:.6f}|{cause.partition(':')[2]}|{outcome}"  # without the sender's random name
-        if not self.inject:
-            self._put(key, payload, cause, outcome)
+    def send(self, now: float, key: str, message: Message, cause: str = "", outcome: str = "") -> None:
+        outlet = self.outlet(key)
+        if not outlet.matched:
+            self._last[key] = (message, cause, outcome)
             return
+        if not (self.inject and self._faulty):
+            self._put(outlet, message(), cause, outcome)
+            return
+        identity = f"{now:.6f}|{cause.partition(':')[2]}|{outcome}"  # without the sender's random name
         if self._faults.lost(key, identity):
             self._log(now, "fault", fault="loss", key=key)
             return
@@ -108,24 +119,29 @@ class _Outbox:
         if delay > 0:
             due = max(now + delay, self._last_due.get(key, 0.0))
             self._last_due[key] = due
-            heapq.heappush(self._delayed, (due, next(self._order), key, payload, cause, outcome))
+            heapq.heappush(self._delayed, (due, next(self._order), key, message(), cause, outcome))
             self._log(now, "fault", fault="latency", key=key, seconds=round(due - now, 6))
             return
-        self._put(key, payload, cause, outcome)
+        self._put(outlet, message(), cause, outcome)
 
-    def _put(self, key: str, payload: bytes, cause: str, outcome: str) -> None:
-        self.outlet(key).put(payload, cause, outcome)
-        self._last[key] = (payload, cause, outcome)
+    def _put(self, outlet: Outlet, payload: bytes, cause: str, outcome: str) -> None:
+        outlet.put(payload, cause, outcome)
+        self._last[outlet.key] = (payload, cause, outcome)
 
     def release(self, now: float) -> None:
         while self._delayed and self._delayed[0][0] <= now + 1e-9:
             _, _, key, payload, cause, outcome = heapq.heappop(self._delayed)
-            self._put(key, payload, cause, outcome)
+            self._put(self.outlet(key), payload, cause, outcome)
 
     def repeat(self, keys: set[str]) -> None:
-        """Put the last message sent on each of `keys` again, unchanged (same stamp, same values)."""
+        """Put the latest message of each of `keys` again, unchanged (same stamp, same values), to whoever listens."""
         for key in keys & self._last.keys():
-            self.outlet(key).put(*self._last[key])
+            outlet = self.outlet(key)
+            if outlet.matched:
+                message, cause, outcome = self._last[key]
+                payload = message if isinstance(message, bytes) else message()
+                self._last[key] = (payload, cause, outcome)
+                outlet.put(payload, cause, outcome)
 
     def close(self) -> None:
         for outlet in self._outlets.values():
@@ -239,9 +255,11 @@ class SimEndpoint:
             else:
                 timeout = max(0.0, next_tick - time.time())
             try:
-                self._handle(self._inbox.get(timeout=timeout))
+                item = self._inbox.get(timeout=timeout)
             except queue.Empty:
-                pass
+                item = None
+            if item is not None:
+                self._handle(item)
             if self.faults.crashed:
                 return "crashed"
             if self.config.lockstep:
@@ -404,7 +422,7 @@ class SimEndpoint:
             if transition.outcome == "refused":
                 text = f"{key} refused: {transition.text}"
                 self.log.record(self.elapsed, "refused", arm=arm_name, key=key, command=transition.command_id, reason=transition.text)
-                self._outbox.send(now, keys.error, codec.encode_string(text), transition.command_id, "refused")
+                self._outbox.send(now, keys.error, partial(codec.encode_string, text), transition.command_id, "refused")
             else:
                 self._publish_operating_state(arm_name, transition.command_id, transition.outcome)
 
@@ -427,7 +445,7 @@ class SimEndpoint:
         """Move the world with each tool where its physical joints put it; a gripped block stops the jaw."""
         assert self.world is not None
         tools = {
-            name: ToolState.from_link_frames(link_frames(arm.physical), float(arm.jaw.encoder[0]), self._arm_to_board[name])
+            name: ToolState.from_joints(arm.physical, float(arm.jaw.encoder[0]), self._arm_to_board[name])
             for name, arm in self.arms.items()
         }
         self.world.update(self.elapsed, tools)
@@ -447,7 +465,7 @@ class SimEndpoint:
     def _publish_operating_state(self, name: str, cause: str = "", outcome: str = "") -> None:
         arm = self.arms[name]
         state = codec.OperatingState(self.now(), arm.state, arm.is_homed, arm.is_busy)
-        self._outbox.send(self.now(), self.keys[name].operating_state, codec.encode_operating_state(state), cause, outcome)
+        self._outbox.send(self.now(), self.keys[name].operating_state, partial(codec.encode_operating_state, state), cause, outcome)
 
     def _publish_operating_states(self) -> None:
         self._last_state_refresh = self.time
@@ -457,22 +475,20 @@ class SimEndpoint:
     def _publish_setpoint(self, name: str, jaw: bool) -> None:
         arm, keys, now = self.arms[name], self.keys[name], self.now()
         if jaw:
-            self._outbox.send(now, keys.jaw_setpoint_js, codec.encode_joint_state(now, arm.jaw.setpoint, names=JAW_JOINT_NAMES))
+            self._outbox.send(now, keys.jaw_setpoint_js, partial(codec.encode_joint_state, now, arm.jaw.setpoint, names=JAW_JOINT_NAMES))
         else:
-            self._outbox.send(now, keys.setpoint_js, codec.encode_joint_state(now, arm.joints.setpoint, names=ARM_JOINT_NAMES))
+            self._outbox.send(now, keys.setpoint_js, partial(codec.encode_joint_state, now, arm.joints.setpoint, names=ARM_JOINT_NAMES))
 
     def _publish_state(self) -> None:
-        now = self.time
+        """Every arm's state now. An arm's arrays are replaced each tick, never changed in place, so a
+        message kept unencoded (nobody listens yet) still shows this instant when a late subscriber gets it."""
+        now, send, encode = self.time, self._outbox.send, codec.encode_joint_state
         for name, arm in self.arms.items():
-            keys = self.keys[name]
-            measured = codec.encode_joint_state(now, arm.joints.encoder, arm.joints.velocity, names=ARM_JOINT_NAMES)
-            jaw = codec.encode_joint_state(now, arm.jaw.encoder, arm.jaw.velocity, names=JAW_JOINT_NAMES)
-            self._outbox.send(now, keys.measured_js, measured)
-            self._outbox.send(now, keys.jaw_measured_js, jaw)
-            self._outbox.send(now, keys.fiducial_js, codec.encode_joint_state(now, arm.physical, names=ARM_JOINT_NAMES))
-            if self._outbox.listened(keys.measured_cp):  # forward kinematics and a pose cost: only when asked
-                pose = codec.encode_pose_stamped(now, forward_kinematics(arm.joints.encoder), f"{name}_base")
-                self._outbox.send(now, keys.measured_cp, pose)
+            keys, joints, jaw = self.keys[name], arm.joints, arm.jaw
+            send(now, keys.measured_js, partial(encode, now, joints.encoder, joints.velocity, names=ARM_JOINT_NAMES))
+            send(now, keys.jaw_measured_js, partial(encode, now, jaw.encoder, jaw.velocity, names=JAW_JOINT_NAMES))
+            send(now, keys.fiducial_js, partial(encode, now, arm.physical, names=ARM_JOINT_NAMES))
+            send(now, keys.measured_cp, partial(_encode_pose, now, joints.encoder, f"{name}_base"))
             self._publish_setpoint(name, jaw=False)
             self._publish_setpoint(name, jaw=True)
 
@@ -491,7 +507,7 @@ class SimEndpoint:
         now = self.now()
         points = self.camera.capture(self.world, self.elapsed)
         self._log_world_events()
-        self._outbox.send(now, self.camera_keys.points, codec.encode_point_cloud(now, points), command_id, "done")
+        self._outbox.send(now, self.camera_keys.points, partial(codec.encode_point_cloud, now, points), command_id, "done")
 
     # ------------------------------------------------------------------ shutdown
     def close(self) -> None:
@@ -500,3 +516,8 @@ class SimEndpoint:
         self._outbox.close()
         self._events_outlet.close()
         self.log.close()
+
+
+def _encode_pose(stamp: float, joints: NDArray[np.float64], frame_id: str) -> bytes:
+    """`measured_cp`: the tip pose the encoders put the tool at, in the arm's base frame."""
+    return codec.encode_pose_stamped(stamp, forward_kinematics(joints), frame_id)

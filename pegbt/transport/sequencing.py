@@ -166,6 +166,8 @@ class Inlet(Generic[T]):
 
     def wait_for(self, source: str, seq: int, timeout: float) -> bool:
         """Block until message `seq` of `source` (or a later one) has arrived; False on timeout."""
+        if self._seen.get(source, 0) >= seq:  # already here (the usual case): no lock to take
+            return True
         with self._changed:
             return self._changed.wait_for(lambda: self._seen.get(source, 0) >= seq, timeout)
 
