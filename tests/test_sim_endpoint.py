@@ -193,7 +193,7 @@ def test_lockstep_runs_are_deterministic_for_a_seed_with_faults(tmp_path):
 
 
 def test_real_time_endpoint_echoes_servo_and_a_killed_one_is_detected_in_time():
-    with SimProcess(["--physics", "ideal"]) as sim, connect([sim.endpoint]) as link:
+    with SimProcess(["--physics", "ideal", "--no-world"]) as sim, connect([sim.endpoint]) as link:
         psm1 = ArmClient(link, "PSM1")
         psm1.wait_until_ready()
         q = psm1.setpoint_js.position + [0.01, 0, 0, 0, 0, 0]

@@ -73,7 +73,7 @@ def test_a_scripted_transfer_grasps_lifts_and_places_on_the_event_stream_and_in_
     link, _, events, truth, _ = transfer
     happened = [(e["kind"], e["arm"], e["block"], e["peg"]) for e in truth.log if e["kind"] != "start"]
     assert happened == [("grasp", "PSM1", 1, 1), ("lift", "PSM1", 1, 1), ("release", "PSM1", 1, 7), ("place", "PSM1", 1, 7)]
-    assert events == truth.log  # the stream and the judge's query tell the same story
+    assert events == truth.log[-len(events):] and len(events) >= 4  # the stream (from when it was subscribed) and the truth agree
     blocks = {b["block"]: b for b in truth.blocks}
     assert blocks[1]["state"] == "on_peg" and blocks[1]["peg"] == 7 and blocks[1]["holders"] == []
     assert [blocks[i]["peg"] for i in (0, 2, 3, 4, 5)] == [0, 2, 3, 4, 5]

@@ -9,8 +9,11 @@ echoed on `setpoint_js` at once); time advances in control ticks of 10 ms:
 - lockstep: ticks only when a client's `SimClock` asks (`sim/step`), stamps in simulated seconds from 0.
   Before stepping, the endpoint waits until it holds every command that client sent (the request
   carries its per-key counts); the reply carries the endpoint's own counts, so the client can wait for
-  everything published on the way. the state is re-sent every 50 ms of wall time while idle, so
-  liveness checks hold and late joiners see it.
+  everything published on the way. The request also claims the state topics the client subscribes
+  to: from then on their latest messages travel inside that client's step replies, not on the topics
+  (one message per step instead of a dozen), unless loss or latency faults act on them. Every 50 ms
+  of wall time the state is re-sent on its topics, so liveness checks hold, late joiners see it and
+  other subscribers of claimed topics follow at that pace.
 
 Each tick the world sees every tool where its *physical* joints put it (forward kinematics of the
 cable physics' output, in the board frame); a jaw gripping a block stops at the block's wall, and its
@@ -52,7 +55,7 @@ from pegbt.sim.tools import ToolState
 from pegbt.transport import codec
 from pegbt.transport.arm import ARM_JOINT_NAMES, JAW_JOINT_NAMES
 from pegbt.transport.keys import ArmKeys, CameraKeys, SimKeys
-from pegbt.transport.sequencing import Outlet, Source, Tag
+from pegbt.transport.sequencing import Bundled, Outlet, Source, Tag, bundle
 
 MAX_STEPS_PER_REQUEST = 1_000_000
 STATE_REFRESH = 1.0  # s of simulated time between unprompted operating_state messages
@@ -79,7 +82,9 @@ class _Outbox:
     """Publishes tagged messages, losing or delaying them as the fault plan says (delays keep per-key order).
 
     A message is encoded only if someone subscribes to its key; otherwise it is kept, unencoded, as the
-    key's latest, so that a heartbeat can still hand it to a late subscriber.
+    key's latest, so that a heartbeat can still hand it to a late subscriber. A key a stepping client
+    has `claimed` is not put at all: its latest goes back in that client's step replies (`latest`),
+    and to other subscribers with the heartbeat.
     """
 
     def __init__(self, session: zenoh.Session, source: Source, faults: FaultInjector, log: Callable[..., None], realtime: bool) -> None:
@@ -95,6 +100,7 @@ class _Outbox:
         self.inject = True  # off while publishing the initial state: every key starts with one message
         self._last_due: dict[str, float] = {}
         self._order = itertools.count()
+        self.claimed: set[str] = set()
 
     def outlet(self, key: str) -> Outlet:
         if key not in self._outlets:
@@ -105,7 +111,7 @@ class _Outbox:
 
     def send(self, now: float, key: str, message: Message, cause: str = "", outcome: str = "") -> None:
         outlet = self.outlet(key)
-        if not outlet.matched:
+        if key in self.claimed or not outlet.matched:
             self._last[key] = (message, cause, outcome)
             return
         if not (self.inject and self._faulty):
@@ -132,6 +138,16 @@ class _Outbox:
         while self._delayed and self._delayed[0][0] <= now + 1e-9:
             _, _, key, payload, cause, outcome = heapq.heappop(self._delayed)
             self._put(self.outlet(key), payload, cause, outcome)
+
+    def latest(self, keys: set[str]) -> list[Bundled]:
+        """The latest message of each claimed key among `keys`, tagged anew, for a step's reply."""
+        messages = []
+        for key in sorted(keys & self.claimed & self._last.keys()):
+            message, cause, outcome = self._last[key]
+            payload = message if isinstance(message, bytes) else message()
+            self._last[key] = (payload, cause, outcome)
+            messages.append((key, self._source.next_tag(key, cause, outcome), payload))
+        return messages
 
     def repeat(self, keys: set[str]) -> None:
         """Put the latest message of each of `keys` again, unchanged (same stamp, same values), to whoever listens."""
@@ -185,9 +201,8 @@ class SimEndpoint:
         self.time = self.start_time
         self.source = Source()
         self.faults = FaultInjector(config.faults)
-        events = Outlet(session, self.sim_keys.events, self.source)
-        self.log = SimLog(config.log_path, lambda line: events.put(codec.encode_string(line)))
-        self._events_outlet = events
+        self._events_outlet = Outlet(session, self.sim_keys.events, self.source)
+        self.log = SimLog(config.log_path, self._publish_log_line)
         self._outbox = _Outbox(session, self.source, self.faults, self.log.record, realtime=not config.lockstep)
         self._inbox: queue.Queue[tuple] = queue.Queue()
         self._received: dict[str, dict[str, int]] = {}
@@ -205,15 +220,23 @@ class SimEndpoint:
     def _arm_command_keys(keys: ArmKeys) -> tuple[str, ...]:
         return (keys.servo_jp, keys.move_jp, keys.follow_jt, keys.state_command, keys.jaw_servo_jp, keys.jaw_move_jp)
 
+    @staticmethod
+    def _state_keys(keys: ArmKeys) -> tuple[str, ...]:
+        """An arm's state streams: only the latest message of each matters."""
+        return (keys.measured_js, keys.setpoint_js, keys.fiducial_js, keys.measured_cp, keys.jaw_measured_js, keys.jaw_setpoint_js)
+
     def _declare(self) -> None:
         self._command_keys = {key for keys in self.keys.values() for key in self._arm_command_keys(keys)}
+        # state a stepping client may take in its step replies; streams under loss or latency stay on their topics
+        self._claimable = {
+            key for keys in self.keys.values() for key in self._state_keys(keys) if not self.faults.affects(key)
+        }
         for name, keys in self.keys.items():
             for key in self._arm_command_keys(keys):
                 self._declarations.append(
                     self.session.declare_subscriber(key, lambda sample, k=key, a=name: self._enqueue_command(a, k, sample))
                 )
-            for key in (keys.measured_js, keys.setpoint_js, keys.fiducial_js, keys.measured_cp, keys.jaw_measured_js,
-                        keys.jaw_setpoint_js, keys.operating_state, keys.error):
+            for key in (*self._state_keys(keys), keys.operating_state, keys.error):
                 self._outbox.outlet(key)
         if self.camera is not None:
             self._outbox.outlet(self.camera_keys.points)
@@ -306,10 +329,12 @@ class SimEndpoint:
             if not 0 < steps <= MAX_STEPS_PER_REQUEST:
                 raise PegbtError(f"steps must be in 1..{MAX_STEPS_PER_REQUEST}, got {steps}", field="steps")
             self._await_commands(str(request.get("source", "")), request.get("sent", {}))
+            claim = set(map(str, request.get("claim", []))) & self._claimable
         except (PegbtError, ValueError, TypeError) as error:
             query.reply_err(str(error))
             query.drop()
             return
+        self._outbox.claimed |= claim
         for _ in range(steps):
             if self.faults.crashed:
                 break
@@ -319,7 +344,10 @@ class SimEndpoint:
             query.drop()
             return
         self._publish_state()
-        self._reply(query, {"time": self.time, "source": self.source.name, "sent": self.source.counts()})
+        state = self._outbox.latest(claim)
+        header = {"time": self.time, "source": self.source.name, "sent": self.source.counts()}
+        query.reply(query.key_expr, bundle(header, state), express=True)
+        query.drop()
 
     def _await_commands(self, source: str, sent: Mapping[str, int]) -> None:
         """Handle every command `source` sent before asking to step (zenoh orders keys independently)."""
@@ -492,15 +520,17 @@ class SimEndpoint:
             self._publish_setpoint(name, jaw=False)
             self._publish_setpoint(name, jaw=True)
 
+    def _publish_log_line(self, line: str) -> None:
+        """A log entry on `sim/events`, to whoever listens: a message numbered for nobody would hold up the
+        lockstep barrier of a client that subscribed later."""
+        if self._events_outlet.matched:
+            self._events_outlet.put(codec.encode_string(line))
+
     def _send_heartbeat(self) -> None:
-        """Re-send what each arm last sent, unchanged: an idle lockstep endpoint is alive, and late joiners
-        see its state; faults are not drawn again, so what a client sees stays deterministic."""
-        self._outbox.repeat({
-            key
-            for keys in self.keys.values()
-            for key in (keys.measured_js, keys.setpoint_js, keys.fiducial_js, keys.jaw_measured_js,
-                        keys.jaw_setpoint_js, keys.operating_state)
-        })
+        """Re-send each arm's latest state, unchanged, on its topics: a lockstep endpoint is seen alive
+        while idle, late joiners see its state, and subscribers of claimed keys get it at this pace;
+        faults are not drawn again, so what a client sees stays deterministic."""
+        self._outbox.repeat({key for keys in self.keys.values() for key in (*self._state_keys(keys), keys.operating_state)})
 
     def _capture(self, command_id: str) -> None:
         assert self.camera is not None and self.world is not None

@@ -2,7 +2,9 @@
 
 It drives the simulator in lockstep: `wait()` asks it to advance by that much simulated time and returns once the
 simulator has done so and everything it published on the way has arrived here, so runs are
-deterministic and faster than real time, with every timestamp in simulated time.
+deterministic and faster than real time, with every timestamp in simulated time. The step's reply
+brings back the latest state of every topic this link subscribes to (one message instead of one per
+topic: most of a step's cost); events and command outcomes still come on their own topics.
 """
 
 from __future__ import annotations
@@ -14,6 +16,7 @@ from pegbt.clock import Clock, WallClock
 from pegbt.errors import PegbtError
 from pegbt.transport.keys import SimKeys
 from pegbt.transport.link import Link
+from pegbt.transport.sequencing import unbundle
 
 
 class SimClock:
@@ -50,8 +53,12 @@ class SimClock:
         steps = math.floor((self._target - self._time) / self.period + 1e-9)
         if steps <= 0:
             return
-        request = {"steps": steps, "source": self._link.source.name, "sent": self._link.source.counts()}
-        reply = self._link.query(self._keys.step, request, self._reply_timeout)
+        link = self._link
+        claim = sorted({inlet.key for inlet in link.inlets})  # the state to bring back in the reply
+        request = {"steps": steps, "source": link.source.name, "sent": link.source.counts(), "claim": claim}
+        reply, messages = unbundle(link.ask(self._keys.step, request, self._reply_timeout))
+        for key, tag, payload in messages:
+            link.deliver(key, tag, payload)
         self._time = reply["time"]
         self._await_published(reply["source"], reply["sent"])
 

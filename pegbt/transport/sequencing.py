@@ -9,12 +9,13 @@ was accepted, refused, finished or aborted.
 
 from __future__ import annotations
 
+import json
 import threading
 import time
 import uuid
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Generic, TypeVar
+from typing import Any, Generic, TypeVar
 
 import zenoh
 
@@ -48,6 +49,30 @@ class Tag:
         if len(parts) != 4 or not parts[1].isdigit():
             return None
         return cls(parts[0], int(parts[1]), parts[2], parts[3])
+
+
+Bundled = tuple[str, Tag, bytes]  # a message's key, tag and payload, carried inside another message
+
+
+def bundle(header: dict[str, Any], messages: Sequence[Bundled]) -> bytes:
+    """One payload holding a JSON header and whole tagged messages: the header line lists each message's
+    key, tag and size, and their payloads follow it, back to back."""
+    listing = [[key, tag.encode().decode(), len(payload)] for key, tag, payload in messages]
+    return json.dumps({**header, "messages": listing}).encode() + b"\n" + b"".join(payload for _, _, payload in messages)
+
+
+def unbundle(data: bytes) -> tuple[dict[str, Any], list[Bundled]]:
+    """The header and the messages of a `bundle`."""
+    head, _, body = data.partition(b"\n")
+    header = json.loads(head)
+    messages, offset = [], 0
+    for key, tag, size in header.pop("messages", []):
+        decoded = Tag.decode(tag.encode())
+        if decoded is None:
+            raise PegbtError(f"bundled message on {key} has no valid tag: {tag!r}", field=key)
+        messages.append((key, decoded, body[offset : offset + size]))
+        offset += size
+    return header, messages
 
 
 class Source:
@@ -145,8 +170,11 @@ class Inlet(Generic[T]):
         self._subscriber = session.declare_subscriber(key, self._receive)
 
     def _receive(self, sample: zenoh.Sample) -> None:
-        tag = Tag.decode(sample.attachment)
-        received = Received(sample.payload.to_bytes(), self._decode, tag, time.monotonic())
+        self.deliver(sample.payload.to_bytes(), Tag.decode(sample.attachment))
+
+    def deliver(self, payload: bytes, tag: Tag | None) -> None:
+        """Take a message of this key, whether it came on the key itself or bundled in a step's reply."""
+        received = Received(payload, self._decode, tag, time.monotonic())
         with self._changed:
             if tag is not None:
                 if tag.seq <= self._seen.get(tag.source, 0):
