@@ -213,6 +213,7 @@ class SimEndpoint:
         self._last_state_refresh = self.time
         self._stop = threading.Event()
         self._declarations: list[Any] = []
+        self._step_replies: dict[str, zenoh.Publisher] = {}  # per stepping client
         self._declare()
 
     # ------------------------------------------------------------------ zenoh wiring
@@ -245,7 +246,9 @@ class SimEndpoint:
                 self.session.declare_subscriber(self.camera_keys.trigger, lambda sample: self._enqueue_command("", self.camera_keys.trigger, sample))
             )
         self._declarations.append(self.session.declare_queryable(self.sim_keys.clock, lambda q: self._inbox.put(("clock", q))))
-        self._declarations.append(self.session.declare_queryable(self.sim_keys.step, lambda q: self._inbox.put(("step", q))))
+        self._declarations.append(
+            self.session.declare_subscriber(self.sim_keys.step, lambda sample: self._inbox.put(("step", sample.payload.to_bytes())))
+        )
         self._declarations.append(self.session.declare_queryable(self.sim_keys.truth, lambda q: self._inbox.put(("truth", q))))
 
     def _enqueue_command(self, arm: str, key: str, sample: zenoh.Sample) -> None:
@@ -320,9 +323,14 @@ class SimEndpoint:
             self._answer_truth(item[1])
 
     # ------------------------------------------------------------------ lockstep
-    def _step(self, query: zenoh.Query) -> None:
+    def _step(self, payload: bytes) -> None:
+        """A step request: wait for the client's commands, tick, answer with the state it claims."""
         try:
-            request = json.loads(query.payload.to_bytes()) if query.payload is not None else {}
+            request = json.loads(payload)
+            source, number = str(request["source"]), int(request["number"])
+        except (ValueError, TypeError, KeyError):
+            return  # not a SimClock's request: there is nobody to answer
+        try:
             steps = int(request.get("steps", 1))
             if not self.config.lockstep:
                 raise PegbtError("the simulator runs in real time; sim/step needs --lockstep", field="steps")
@@ -331,8 +339,7 @@ class SimEndpoint:
             self._await_commands(str(request.get("source", "")), request.get("sent", {}))
             claim = set(map(str, request.get("claim", []))) & self._claimable
         except (PegbtError, ValueError, TypeError) as error:
-            query.reply_err(str(error))
-            query.drop()
+            self._answer_step(source, {"number": number, "error": str(error)}, [])
             return
         self._outbox.claimed |= claim
         for _ in range(steps):
@@ -341,13 +348,16 @@ class SimEndpoint:
             self.time = self.start_time + round((self.elapsed + self.period) / self.period) * self.period
             self._tick()
         if self.faults.crashed:
-            query.drop()
             return
         self._publish_state()
         state = self._outbox.latest(claim)
-        header = {"time": self.time, "source": self.source.name, "sent": self.source.counts()}
-        query.reply(query.key_expr, bundle(header, state), express=True)
-        query.drop()
+        header = {"number": number, "time": self.time, "source": self.source.name, "sent": self.source.counts()}
+        self._answer_step(source, header, state)
+
+    def _answer_step(self, source: str, header: dict[str, Any], state: list[Bundled]) -> None:
+        if source not in self._step_replies:
+            self._step_replies[source] = self.session.declare_publisher(self.sim_keys.stepped(source), express=True)
+        self._step_replies[source].put(bundle(header, state))
 
     def _await_commands(self, source: str, sent: Mapping[str, int]) -> None:
         """Handle every command `source` sent before asking to step (zenoh orders keys independently)."""
@@ -541,7 +551,7 @@ class SimEndpoint:
 
     # ------------------------------------------------------------------ shutdown
     def close(self) -> None:
-        for declaration in self._declarations:
+        for declaration in [*self._declarations, *self._step_replies.values()]:
             declaration.undeclare()
         self._outbox.close()
         self._events_outlet.close()

@@ -9,8 +9,12 @@ topic: most of a step's cost); events and command outcomes still come on their o
 
 from __future__ import annotations
 
+import json
 import math
+import threading
 import time
+
+import zenoh
 
 from pegbt.clock import Clock, WallClock
 from pegbt.errors import PegbtError
@@ -30,7 +34,13 @@ class SimClock:
         self._link = link
         self._keys = SimKeys(link.namespace)
         self._reply_timeout = reply_timeout
-        info = link.query(self._keys.clock, {}, reply_timeout)
+        # steps are a put and a put back, not a query: a query's reply and end cost the simulator more than a step
+        self._requests = link.session.declare_publisher(self._keys.step, express=True)
+        self._replies = link.session.declare_subscriber(self._keys.stepped(link.source.name), self._on_reply)
+        self._reply: tuple[int, bytes] | None = None
+        self._replied = threading.Condition()
+        self._request_number = 0
+        info = link.query(self._keys.clock, {}, reply_timeout)  # also makes sure the simulator sees our subscriber
         self.mode: str = info["mode"]
         self.period: float = info["period"]
         self._time: float = info["time"]
@@ -54,13 +64,35 @@ class SimClock:
         if steps <= 0:
             return
         link = self._link
+        self._request_number += 1
         claim = sorted({inlet.key for inlet in link.inlets})  # the state to bring back in the reply
-        request = {"steps": steps, "source": link.source.name, "sent": link.source.counts(), "claim": claim}
-        reply, messages = unbundle(link.ask(self._keys.step, request, self._reply_timeout))
+        request = {
+            "steps": steps, "source": link.source.name, "number": self._request_number,
+            "sent": link.source.counts(), "claim": claim,
+        }
+        self._requests.put(json.dumps(request))
+        reply, messages = unbundle(self._await_reply(self._request_number))
+        if "error" in reply:
+            raise PegbtError(f"simulator refused {self._keys.step}: {reply['error']}", field=self._keys.step)
         for key, tag, payload in messages:
             link.deliver(key, tag, payload)
         self._time = reply["time"]
         self._await_published(reply["source"], reply["sent"])
+
+    def _on_reply(self, sample: zenoh.Sample) -> None:
+        payload = sample.payload.to_bytes()
+        number = json.loads(payload.partition(b"\n")[0]).get("number", 0)
+        with self._replied:
+            self._reply = (number, payload)
+            self._replied.notify_all()
+
+    def _await_reply(self, number: int) -> bytes:
+        with self._replied:
+            if not self._replied.wait_for(lambda: self._reply is not None and self._reply[0] == number, self._reply_timeout):
+                key = self._keys.step
+                raise PegbtError(f"no simulator answers on {key} (is `pegbt sim --lockstep` running and reachable?)", field=key)
+            assert self._reply is not None
+            return self._reply[1]
 
     def _await_published(self, source: str, sent: dict[str, int]) -> None:
         """Barrier: wait until every inlet of this link holds what the simulator sent on its key."""

@@ -42,20 +42,16 @@ class Link:
         self._outlets.append(outlet)
         return outlet
 
-    def ask(self, key: str, request: dict[str, Any], timeout: float) -> bytes:
-        """Send a JSON request to the simulator's queryable `key`; the answer's bytes, or a `PegbtError`
-        if none comes or it refuses."""
+    def query(self, key: str, request: dict[str, Any], timeout: float) -> dict[str, Any]:
+        """Send a JSON request to the simulator's queryable `key`; its JSON answer, or a `PegbtError` if
+        none comes or it refuses."""
         # the first reply, as soon as it comes: the query's end follows, and nobody needs to wait for it
         reply = next(iter(self.session.get(key, payload=json.dumps(request), timeout=timeout, express=True)), None)
         if reply is None:
             raise PegbtError(f"no simulator answers on {key} (is `pegbt sim` running and reachable?)", field=key)
         if reply.ok is None:
             raise PegbtError(f"simulator refused {key}: {reply.err.payload.to_string()}", field=key)
-        return reply.ok.payload.to_bytes()
-
-    def query(self, key: str, request: dict[str, Any], timeout: float) -> dict[str, Any]:
-        """`ask` for a JSON answer."""
-        return json.loads(self.ask(key, request, timeout))
+        return json.loads(reply.ok.payload.to_bytes())
 
     def deliver(self, key: str, tag: Tag, payload: bytes) -> None:
         """Hand a message of `key` that came bundled in another to every inlet of that key."""
