@@ -15,7 +15,6 @@ import time
 
 from pegbt.bench import Figures
 
-UNILATERAL = [(1, 7), (0, 6), (3, 8), (2, 9), (5, 11), (4, 10), (7, 1), (6, 0), (8, 3), (9, 2), (11, 5), (10, 4)]
 STEP = 0.01  # s between the samples of the scripted joint trajectories
 SPEED = 0.1  # m/s of the tool along the scripted straight moves
 SEED = 0
@@ -45,8 +44,9 @@ def run() -> Figures:
     from pegbt.sim.arm_script import scripted_trial
     from pegbt.sim.process import SimProcess
     from pegbt.sim.world import World
+    from pegbt.workcell import UNILATERAL_ORDER
 
-    transfers = [("PSM1" if i % 2 == 0 else "PSM2", start, goal) for i, (start, goal) in enumerate(UNILATERAL)]
+    transfers = [("PSM1" if i % 2 == 0 else "PSM2", start, goal) for i, (start, goal) in enumerate(UNILATERAL_ORDER)]
     trial = scripted_trial(World(SEED), transfers, STEP, SPEED)
     figures: Figures = {}
     for tick, suffix in ((0.01, ""), (0.02, "_20ms")):

@@ -49,7 +49,6 @@ class ArmPhysics:
         self._output: NDArray[np.float64] | None = None  # lag output
         self._history: deque[tuple[float, NDArray[np.float64]]] = deque()
         self._time = 0.0
-        self._lag_alpha: dict[float, NDArray[np.float64]] = {}  # per step length: the lag's share of the gap
 
     def _apply(self, effect: Effect) -> None:
         j, p = effect.index, effect.params
@@ -122,23 +121,18 @@ class ArmPhysics:
         return self._output.copy()
 
     def step(self, q_cmd: ArrayLike, dt: float) -> NDArray[np.float64]:
-        """Advance by `dt` seconds with the command held at `q_cmd`; return the physical joints (a new array)."""
+        """Advance by `dt` seconds with the command held at `q_cmd`; return the physical joints."""
         q_cmd = np.asarray(q_cmd, dtype=float)
         if self._state is None or self._output is None:
             self.reset(q_cmd)
         assert self._state is not None and self._output is not None
         self._time += dt
-        if self.is_ideal:  # the simulator's every tick: skip the arithmetic of effects that are all absent
-            self._state = self._output = q_cmd.copy()
-            return q_cmd.copy()
         delayed = self._delayed_command(q_cmd)
         target = self.static_map(delayed)
         if target.ndim == 2:  # row j is the map of the command joint j sees; keep joint j of it
             target = np.diagonal(target).copy()
         self._state = _play(self._state, target, self.half_width)
-        alpha = self._lag_alpha.get(dt)
-        if alpha is None:
-            alpha = self._lag_alpha[dt] = np.where(self.tau > 0, 1.0 - np.exp(-dt / np.maximum(self.tau, 1e-12)), 1.0)
+        alpha = np.where(self.tau > 0, 1.0 - np.exp(-dt / np.maximum(self.tau, 1e-12)), 1.0)
         self._output = self._output + alpha * (self._state - self._output)
         return self._output.copy()
 
@@ -183,7 +177,7 @@ class ArmPhysics:
 
 def _play(state: NDArray[np.float64], target: NDArray[np.float64], half_width: NDArray[np.float64]) -> NDArray[np.float64]:
     """One step of the play operator: move the output only as far as the input has pushed it."""
-    return np.minimum(np.maximum(state, target - half_width), target + half_width)
+    return np.clip(state, target - half_width, target + half_width)
 
 
 def apply_play(u: NDArray[np.float64], half_width: ArrayLike, initial: ArrayLike | None = None) -> NDArray[np.float64]:
