@@ -152,6 +152,17 @@ def test_dvrk_real_shows_backlash_and_q5_q6_coupling_in_fiducial_js(lockstep):
     assert coupled == pytest.approx(expected, abs=2e-3)
 
 
+def test_a_refused_step_is_reported_and_leaves_the_clock_usable(lockstep):
+    link, _, _ = lockstep
+    clock = SimClock(link)
+    before = clock.now()
+    with pytest.raises(PegbtError, match=r"simulator refused sim/step: steps: steps must be in 1\.\.1000000, got 2000000"):
+        clock.wait(20_000.0)  # two million control periods in one request
+    assert clock.now() == before
+    clock.wait(TICK)
+    assert clock.now() == pytest.approx(before + TICK)
+
+
 def test_capture_without_a_camera_fails_clearly(lockstep):
     link, _, _ = lockstep
     with pytest.raises(EndpointSilent, match="no camera listens"):

@@ -2,14 +2,15 @@
 topics over zenoh.
 
 One thread owns all simulator state and runs a loop fed by an inbox. Zenoh callbacks only enqueue:
-commands, camera triggers and clock queries. Commands are applied as they arrive (a `servo_jp` is
+commands, camera triggers, step requests and queries. Commands are applied as they arrive (a `servo_jp` is
 echoed on `setpoint_js` at once); time advances in control ticks of 10 ms:
 
 - real time: a tick every 10 ms of wall time, stamps in epoch seconds; state published every tick.
-- lockstep: ticks only when a client's `SimClock` asks (`sim/step`), stamps in simulated seconds from 0.
-  Before stepping, the endpoint waits until it holds every command that client sent (the request
-  carries its per-key counts); the reply carries the endpoint's own counts, so the client can wait for
-  everything published on the way. The request also claims the state topics the client subscribes
+- lockstep: ticks only when a client's `SimClock` asks (a put on `sim/step`, answered by a put on
+  `sim/stepped/<client>`: cheaper than a query), stamps in simulated seconds from 0. Before stepping,
+  the endpoint waits until it holds every command that client sent (the request carries its per-key
+  counts); the reply carries the endpoint's own counts, so the client can wait for everything
+  published on the way. The request also claims the state topics the client subscribes
   to: from then on their latest messages travel inside that client's step replies, not on the topics
   (one message per step instead of a dozen), unless loss or latency faults act on them. Every 50 ms
   of wall time the state is re-sent on its topics, so liveness checks hold, late joiners see it and
@@ -139,13 +140,19 @@ class _Outbox:
             _, _, key, payload, cause, outcome = heapq.heappop(self._delayed)
             self._put(self.outlet(key), payload, cause, outcome)
 
+    def _encoded_last(self, key: str) -> tuple[bytes, str, str]:
+        """The latest message of `key`, encoded (once)."""
+        message, cause, outcome = self._last[key]
+        if not isinstance(message, bytes):
+            message = message()
+            self._last[key] = (message, cause, outcome)
+        return message, cause, outcome
+
     def latest(self, keys: set[str]) -> list[Bundled]:
         """The latest message of each claimed key among `keys`, tagged anew, for a step's reply."""
         messages = []
         for key in sorted(keys & self.claimed & self._last.keys()):
-            message, cause, outcome = self._last[key]
-            payload = message if isinstance(message, bytes) else message()
-            self._last[key] = (payload, cause, outcome)
+            payload, cause, outcome = self._encoded_last(key)
             messages.append((key, self._source.next_tag(key, cause, outcome), payload))
         return messages
 
@@ -154,10 +161,7 @@ class _Outbox:
         for key in keys & self._last.keys():
             outlet = self.outlet(key)
             if outlet.matched:
-                message, cause, outcome = self._last[key]
-                payload = message if isinstance(message, bytes) else message()
-                self._last[key] = (payload, cause, outcome)
-                outlet.put(payload, cause, outcome)
+                outlet.put(*self._encoded_last(key))
 
     def close(self) -> None:
         for outlet in self._outlets.values():
@@ -336,7 +340,7 @@ class SimEndpoint:
                 raise PegbtError("the simulator runs in real time; sim/step needs --lockstep", field="steps")
             if not 0 < steps <= MAX_STEPS_PER_REQUEST:
                 raise PegbtError(f"steps must be in 1..{MAX_STEPS_PER_REQUEST}, got {steps}", field="steps")
-            self._await_commands(str(request.get("source", "")), request.get("sent", {}))
+            self._await_commands(source, request.get("sent", {}))
             claim = set(map(str, request.get("claim", []))) & self._claimable
         except (PegbtError, ValueError, TypeError) as error:
             self._answer_step(source, {"number": number, "error": str(error)}, [])

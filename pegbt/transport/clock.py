@@ -59,9 +59,10 @@ class SimClock:
         if not self.lockstep:
             time.sleep(seconds)
             return
-        self._target += seconds
-        steps = math.floor((self._target - self._time) / self.period + 1e-9)
+        target = self._target + seconds  # kept only once the simulator has stepped towards it
+        steps = math.floor((target - self._time) / self.period + 1e-9)
         if steps <= 0:
+            self._target = target
             return
         link = self._link
         self._request_number += 1
@@ -76,6 +77,7 @@ class SimClock:
             raise PegbtError(f"simulator refused {self._keys.step}: {reply['error']}", field=self._keys.step)
         for key, tag, payload in messages:
             link.deliver(key, tag, payload)
+        self._target = target
         self._time = reply["time"]
         self._await_published(reply["source"], reply["sent"])
 
