@@ -18,7 +18,7 @@ from pegbt.motion.limits import arm_settings
 from pegbt.sim.scripted import Driver, Keyframe, grasp_candidate_facing, interpolate, parked, transfer_keyframes
 from pegbt.sim.tools import tool_pointing_down
 from pegbt.sim.world import World
-from pegbt.transport.arm import ArmClient, MotionHandle
+from pegbt.transport.arm import ArmClient, MotionHandle, MotionStatus
 from pegbt.transport.codec import Trajectory
 from pegbt.workcell import Workcell
 
@@ -118,9 +118,10 @@ class MotionPlayer:
     def poll(self) -> bool:
         """Start the next motion once the last is done; False when all are done. A failed motion raises."""
         if self._handle is not None:
-            if self._handle.busy:
+            status = self._handle.status
+            if status is MotionStatus.BUSY:
                 return True
-            if self._handle.failed:
+            if status is MotionStatus.FAILED:
                 raise PegbtError(f"{self.client.name}: {self._handle.error}", field=self.client.name)
         if not self.pending:
             return False
