@@ -79,6 +79,38 @@ class EndpointConfig:
 Message = Callable[[], bytes]  # encodes a message when someone will receive it
 
 
+@dataclass(frozen=True)
+class _JointStateMessage:
+    """A JointState, encoded when called; `content` (all but the stamp) tells an unchanged state."""
+
+    stamp: float
+    position: NDArray[np.float64]
+    velocity: NDArray[np.float64] | tuple[()] = ()
+    names: tuple[str, ...] = ()
+
+    def __call__(self) -> bytes:
+        return codec.encode_joint_state(self.stamp, self.position, self.velocity, names=self.names)
+
+    def content(self) -> tuple[tuple[str, ...], bytes, bytes]:
+        return self.names, self.position.tobytes(), np.asarray(self.velocity, dtype=float).tobytes()
+
+
+@dataclass
+class _Latest:
+    """The latest message of a key: how to encode it, and its bytes once encoded."""
+
+    message: Message | None
+    cause: str
+    outcome: str
+    encoded: bytes | None = None
+
+    def payload(self) -> bytes:
+        if self.encoded is None:
+            assert self.message is not None
+            self.encoded = self.message()
+        return self.encoded
+
+
 class _Outbox:
     """Publishes tagged messages, losing or delaying them as the fault plan says (delays keep per-key order).
 
@@ -97,11 +129,12 @@ class _Outbox:
         self._realtime = realtime  # real time: express, and drop stale stream messages rather than block
         self._outlets: dict[str, Outlet] = {}
         self._delayed: list[tuple[float, int, str, bytes, str, str]] = []
-        self._last: dict[str, tuple[bytes | Message, str, str]] = {}
+        self._last: dict[str, _Latest] = {}
         self.inject = True  # off while publishing the initial state: every key starts with one message
         self._last_due: dict[str, float] = {}
         self._order = itertools.count()
         self.claimed: set[str] = set()
+        self._replied: dict[str, dict[str, tuple[object, int]]] = {}  # per clock, per key: content and number last sent
 
     def outlet(self, key: str) -> Outlet:
         if key not in self._outlets:
@@ -113,10 +146,10 @@ class _Outbox:
     def send(self, now: float, key: str, message: Message, cause: str = "", outcome: str = "") -> None:
         outlet = self.outlet(key)
         if key in self.claimed or not outlet.matched:
-            self._last[key] = (message, cause, outcome)
+            self._last[key] = _Latest(message, cause, outcome)
             return
         if not (self.inject and self._faulty):
-            self._put(outlet, message(), cause, outcome)
+            self._put(outlet, _Latest(message, cause, outcome))
             return
         identity = f"{now:.6f}|{cause.partition(':')[2]}|{outcome}"  # without the sender's random name
         if self._faults.lost(key, identity):
@@ -129,31 +162,34 @@ class _Outbox:
             heapq.heappush(self._delayed, (due, next(self._order), key, message(), cause, outcome))
             self._log(now, "fault", fault="latency", key=key, seconds=round(due - now, 6))
             return
-        self._put(outlet, message(), cause, outcome)
+        self._put(outlet, _Latest(message, cause, outcome))
 
-    def _put(self, outlet: Outlet, payload: bytes, cause: str, outcome: str) -> None:
-        outlet.put(payload, cause, outcome)
-        self._last[outlet.key] = (payload, cause, outcome)
+    def _put(self, outlet: Outlet, latest: _Latest) -> None:
+        outlet.put(latest.payload(), latest.cause, latest.outcome)
+        self._last[outlet.key] = latest
 
     def release(self, now: float) -> None:
         while self._delayed and self._delayed[0][0] <= now + 1e-9:
             _, _, key, payload, cause, outcome = heapq.heappop(self._delayed)
-            self._put(self.outlet(key), payload, cause, outcome)
+            self._put(self.outlet(key), _Latest(None, cause, outcome, payload))
 
-    def _encoded_last(self, key: str) -> tuple[bytes, str, str]:
-        """The latest message of `key`, encoded (once)."""
-        message, cause, outcome = self._last[key]
-        if not isinstance(message, bytes):
-            message = message()
-            self._last[key] = (message, cause, outcome)
-        return message, cause, outcome
-
-    def latest(self, keys: set[str]) -> list[Bundled]:
-        """The latest message of each claimed key among `keys`, tagged anew, for a step's reply."""
-        messages = []
+    def latest(self, keys: set[str], clock: str) -> list[Bundled]:
+        """The latest message of each claimed key among `keys`, tagged anew, for `clock`'s step reply: a
+        joint state equal but for its stamp to the one it was last sent is a note with the new stamp
+        (nothing to encode here or to decode there)."""
+        replied = self._replied.setdefault(clock, {})
+        messages: list[Bundled] = []
         for key in sorted(keys & self.claimed & self._last.keys()):
-            payload, cause, outcome = self._encoded_last(key)
-            messages.append((key, self._source.next_tag(key, cause, outcome), payload))
+            latest = self._last[key]
+            tag = self._source.next_tag(key, latest.cause, latest.outcome)
+            message = latest.message
+            content = message.content() if isinstance(message, _JointStateMessage) else None
+            last = replied.get(key)
+            if content is not None and last is not None and last[0] == content:
+                messages.append((key, tag, {"restamp": codec.seconds_parts(message.stamp), "base": last[1]}))
+            else:
+                messages.append((key, tag, latest.payload()))
+            replied[key] = (content, tag.seq)
         return messages
 
     def repeat(self, keys: set[str]) -> None:
@@ -161,7 +197,8 @@ class _Outbox:
         for key in keys & self._last.keys():
             outlet = self.outlet(key)
             if outlet.matched:
-                outlet.put(*self._encoded_last(key))
+                latest = self._last[key]
+                outlet.put(latest.payload(), latest.cause, latest.outcome)
 
     def close(self) -> None:
         for outlet in self._outlets.values():
@@ -217,7 +254,7 @@ class SimEndpoint:
         self._last_state_refresh = self.time
         self._stop = threading.Event()
         self._declarations: list[Any] = []
-        self._step_replies: dict[str, zenoh.Publisher] = {}  # per stepping client
+        self._step_replies: dict[str, zenoh.Publisher] = {}  # per stepping clock
         self._declare()
 
     # ------------------------------------------------------------------ zenoh wiring
@@ -331,7 +368,7 @@ class SimEndpoint:
         """A step request: wait for the client's commands, tick, answer with the state it claims."""
         try:
             request = json.loads(payload)
-            source, number = str(request["source"]), int(request["number"])
+            clock, source, number = str(request["clock"]), str(request["source"]), int(request["number"])
         except (ValueError, TypeError, KeyError):
             return  # not a SimClock's request: there is nobody to answer
         try:
@@ -343,7 +380,7 @@ class SimEndpoint:
             self._await_commands(source, request.get("sent", {}))
             claim = set(map(str, request.get("claim", []))) & self._claimable
         except (PegbtError, ValueError, TypeError) as error:
-            self._answer_step(source, {"number": number, "error": str(error)}, [])
+            self._answer_step(clock, {"number": number, "error": str(error)}, [])
             return
         self._outbox.claimed |= claim
         for _ in range(steps):
@@ -354,14 +391,14 @@ class SimEndpoint:
         if self.faults.crashed:
             return
         self._publish_state()
-        state = self._outbox.latest(claim)
+        state = self._outbox.latest(claim, clock)
         header = {"number": number, "time": self.time, "source": self.source.name, "sent": self.source.counts()}
-        self._answer_step(source, header, state)
+        self._answer_step(clock, header, state)
 
-    def _answer_step(self, source: str, header: dict[str, Any], state: list[Bundled]) -> None:
-        if source not in self._step_replies:
-            self._step_replies[source] = self.session.declare_publisher(self.sim_keys.stepped(source), express=True)
-        self._step_replies[source].put(bundle(header, state))
+    def _answer_step(self, clock: str, header: dict[str, Any], state: list[Bundled]) -> None:
+        if clock not in self._step_replies:
+            self._step_replies[clock] = self.session.declare_publisher(self.sim_keys.stepped(clock), express=True)
+        self._step_replies[clock].put(bundle(header, state))
 
     def _await_commands(self, source: str, sent: Mapping[str, int]) -> None:
         """Handle every command `source` sent before asking to step (zenoh orders keys independently)."""
@@ -517,19 +554,19 @@ class SimEndpoint:
     def _publish_setpoint(self, name: str, jaw: bool) -> None:
         arm, keys, now = self.arms[name], self.keys[name], self.now()
         if jaw:
-            self._outbox.send(now, keys.jaw_setpoint_js, partial(codec.encode_joint_state, now, arm.jaw.setpoint, names=JAW_JOINT_NAMES))
+            self._outbox.send(now, keys.jaw_setpoint_js, _JointStateMessage(now, arm.jaw.setpoint, names=JAW_JOINT_NAMES))
         else:
-            self._outbox.send(now, keys.setpoint_js, partial(codec.encode_joint_state, now, arm.joints.setpoint, names=ARM_JOINT_NAMES))
+            self._outbox.send(now, keys.setpoint_js, _JointStateMessage(now, arm.joints.setpoint, names=ARM_JOINT_NAMES))
 
     def _publish_state(self) -> None:
         """Every arm's state now. An arm's arrays are replaced each tick, never changed in place, so a
         message kept unencoded (nobody listens yet) still shows this instant when a late subscriber gets it."""
-        now, send, encode = self.time, self._outbox.send, codec.encode_joint_state
+        now, send, joint_state = self.time, self._outbox.send, _JointStateMessage
         for name, arm in self.arms.items():
             keys, joints, jaw = self.keys[name], arm.joints, arm.jaw
-            send(now, keys.measured_js, partial(encode, now, joints.encoder, joints.velocity, names=ARM_JOINT_NAMES))
-            send(now, keys.jaw_measured_js, partial(encode, now, jaw.encoder, jaw.velocity, names=JAW_JOINT_NAMES))
-            send(now, keys.fiducial_js, partial(encode, now, arm.physical, names=ARM_JOINT_NAMES))
+            send(now, keys.measured_js, joint_state(now, joints.encoder, joints.velocity, names=ARM_JOINT_NAMES))
+            send(now, keys.jaw_measured_js, joint_state(now, jaw.encoder, jaw.velocity, names=JAW_JOINT_NAMES))
+            send(now, keys.fiducial_js, joint_state(now, arm.physical, names=ARM_JOINT_NAMES))
             send(now, keys.measured_cp, partial(_encode_pose, now, joints.encoder, f"{name}_base"))
             self._publish_setpoint(name, jaw=False)
             self._publish_setpoint(name, jaw=True)

@@ -111,9 +111,9 @@ class SimKeys:
         """Step requests (JSON), put by a client's `SimClock`."""
         return scoped(self.namespace, "sim/step")
 
-    def stepped(self, source: str) -> str:
-        """Where the simulator answers the step requests of client `source`."""
-        return scoped(self.namespace, f"sim/stepped/{source}")
+    def stepped(self, clock: str) -> str:
+        """Where the simulator answers the step requests of the `SimClock` named `clock`."""
+        return scoped(self.namespace, f"sim/stepped/{clock}")
 
     @property
     def clock(self) -> str:

@@ -7,6 +7,7 @@ clients opened, so a lockstep `SimClock` can wait for exactly what the simulator
 from __future__ import annotations
 
 import json
+import time
 from collections.abc import Callable, Sequence
 from typing import Any, TypeVar
 
@@ -58,6 +59,13 @@ class Link:
         for inlet in self.inlets:
             if inlet.key == key:
                 inlet.deliver(payload, tag)
+
+    def deliver_value(self, key: str, tag: Tag, value: Callable[[], Any]) -> None:
+        """Hand every inlet of `key` a message whose value `value()` gives (called on first read)."""
+        received = Received(b"", lambda _: value(), tag, time.monotonic())
+        for inlet in self.inlets:
+            if inlet.key == key:
+                inlet.take(received)
 
     def close(self) -> None:
         """Undeclare everything opened here; close the session if this link opened it."""

@@ -51,27 +51,34 @@ class Tag:
         return cls(parts[0], int(parts[1]), parts[2], parts[3])
 
 
-Bundled = tuple[str, Tag, bytes]  # a message's key, tag and payload, carried inside another message
+Bundled = tuple[str, Tag, "bytes | dict[str, Any]"]  # a message carried inside another: key, tag, payload or a note
 
 
 def bundle(header: dict[str, Any], messages: Sequence[Bundled]) -> bytes:
-    """One payload holding a JSON header and whole tagged messages: the header line lists each message's
-    key, tag and size, and their payloads follow it, back to back."""
-    listing = [[key, tag.encode().decode(), len(payload)] for key, tag, payload in messages]
-    return json.dumps({**header, "messages": listing}).encode() + b"\n" + b"".join(payload for _, _, payload in messages)
+    """One payload holding a JSON header and whole tagged messages. The header lists each message's key,
+    tag and either its size (its payload follows the header line, back to back with the others) or a
+    JSON note standing for it (see `SimClock` for the one note there is)."""
+    listing = [
+        [key, tag.encode().decode(), len(content) if isinstance(content, bytes) else content]
+        for key, tag, content in messages
+    ]
+    body = b"".join(content for _, _, content in messages if isinstance(content, bytes))
+    return json.dumps({**header, "messages": listing}).encode() + b"\n" + body
 
 
 def unbundle(data: bytes) -> tuple[dict[str, Any], list[Bundled]]:
     """The header and the messages of a `bundle`."""
     head, _, body = data.partition(b"\n")
     header = json.loads(head)
-    messages, offset = [], 0
-    for key, tag, size in header.pop("messages", []):
+    messages: list[Bundled] = []
+    offset = 0
+    for key, tag, content in header.pop("messages", []):
         decoded = Tag.decode(tag.encode())
         if decoded is None:
             raise PegbtError(f"bundled message on {key} has no valid tag: {tag!r}", field=key)
-        messages.append((key, decoded, body[offset : offset + size]))
-        offset += size
+        if isinstance(content, int):
+            content, offset = body[offset : offset + content], offset + content
+        messages.append((key, decoded, content))
     return header, messages
 
 
@@ -174,7 +181,11 @@ class Inlet(Generic[T]):
 
     def deliver(self, payload: bytes, tag: Tag | None) -> None:
         """Take a message of this key, whether it came on the key itself or bundled in a step's reply."""
-        received = Received(payload, self._decode, tag, time.monotonic())
+        self.take(Received(payload, self._decode, tag, time.monotonic()))
+
+    def take(self, received: Received[T]) -> None:
+        """Take a message already wrapped (with its own way to decode it)."""
+        tag = received.tag
         with self._changed:
             if tag is not None:
                 if tag.seq <= self._seen.get(tag.source, 0):
