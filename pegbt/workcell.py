@@ -23,6 +23,8 @@ from pegbt.errors import PegbtError
 WORKCELL_FILE = Path(__file__).resolve().parents[1] / "skills" / "workcell.yaml"
 ARMS = ("PSM1", "PSM2")
 N_PEGS = 12
+# The reference's unilateral trial (one arm): (start peg, goal peg) of each of the 12 transfers.
+UNILATERAL_ORDER = ((1, 7), (0, 6), (3, 8), (2, 9), (5, 11), (4, 10), (7, 1), (6, 0), (8, 3), (9, 2), (11, 5), (10, 4))
 
 Matrix = NDArray[np.float64]
 
@@ -212,6 +214,15 @@ class Workcell:
     def arm_to_board(self, arm: str) -> Matrix:
         """(4, 4) transform taking `arm`'s base-frame coordinates into the board frame."""
         return invert_rigid(self.arm_from_board[_known_arm(arm)])
+
+    def peg_tops_in(self, arm: str) -> Matrix:
+        """(12, 3) peg top centres in `arm`'s base frame."""
+        to_arm = self.arm_from_board[_known_arm(arm)]
+        return self.pegs.tops @ to_arm[:3, :3].T + to_arm[:3, 3]
+
+    def up_in(self, arm: str) -> Matrix:
+        """(3,) the pegs' axis pointing away from the board ("up"), in `arm`'s base frame."""
+        return self.arm_from_board[_known_arm(arm)][:3, :3] @ np.array([0.0, 0.0, -1.0])
 
     def remote_centre(self, arm: str) -> Matrix:
         """(3,) the arm's remote centre of motion (its base-frame origin) in the board frame."""

@@ -4,7 +4,6 @@ import numpy as np
 import pytest
 
 from pegbt.errors import PegbtError
-from pegbt.motion import reference
 from pegbt.motion.checks import trajectory_problems
 from pegbt.motion.handover import handover_meeting_point, plan_handover, tool_distance
 from pegbt.motion.ik import solve_ik
@@ -17,24 +16,25 @@ from pegbt.workcell import workcell
 PSM1, PSM2 = arm_settings("PSM1"), arm_settings("PSM2")
 RECEIVER = TransferPlanner(PSM1)
 PLACE_PEG = 7
+CELL = workcell()
 
 
 def _lifted(arm, settings, peg):
-    tops = reference.peg_tops(arm)
-    return solve_ik(transfer_waypoints(tops[peg], tops[peg], up=reference.up(arm)).poses[1], settings)
+    tops = CELL.peg_tops_in(arm)
+    return solve_ik(transfer_waypoints(tops[peg], tops[peg], up=CELL.up_in(arm)).poses[1], settings)
 
 
 def _plan(receiver_offset):
-    meet = handover_meeting_point(reference.peg_tops_board()[[3, 6, 9]])
+    meet = handover_meeting_point(CELL.pegs.tops[[3, 6, 9]])
     return meet, plan_handover(
         PSM2, RECEIVER, _lifted("PSM2", PSM2, 1), _lifted("PSM1", PSM1, 7), meet,
-        reference.arm_from_board("PSM2"), reference.arm_from_board("PSM1"), receiver_offset,
-        workcell().pegs.top(PLACE_PEG),
+        CELL.board_to_arm("PSM2"), CELL.board_to_arm("PSM1"), receiver_offset,
+        CELL.pegs.top(PLACE_PEG),
     )
 
 
 def _tip_in_board(arm, q):
-    board_from_arm = np.linalg.inv(reference.arm_from_board(arm))
+    board_from_arm = np.linalg.inv(CELL.board_to_arm(arm))
     return board_from_arm[:3, :3] @ forward_kinematics(q)[:3, 3] + board_from_arm[:3, 3]
 
 
@@ -64,15 +64,15 @@ def test_tools_too_close_are_refused_naming_the_phase():
 
 def test_tool_distance_is_symmetric_and_zero_for_the_same_tool():
     q = _lifted("PSM1", PSM1, 7)
-    T = reference.arm_from_board("PSM1")
+    T = CELL.board_to_arm("PSM1")
     assert tool_distance(q, T, q, T) == pytest.approx(0.0, abs=1e-12)
-    q2, T2 = _lifted("PSM2", PSM2, 1), reference.arm_from_board("PSM2")
+    q2, T2 = _lifted("PSM2", PSM2, 1), CELL.board_to_arm("PSM2")
     assert tool_distance(q, T, q2, T2) == pytest.approx(tool_distance(q2, T2, q, T))
     assert tool_distance(q, T, q2, T2) > 0.02  # above pegs 7 and 1, about 35 mm apart
 
 
 def test_receiver_lowers_the_block_onto_its_peg_along_the_axis_clear_of_the_giver():
-    cell = workcell()
+    cell = CELL
     _, plan = _plan([0.0087, 0.0, 0.0])
     place = plan.phases[-1].moves["PSM1"]
     T = cell.board_to_arm("PSM1")
@@ -93,5 +93,5 @@ def test_receiver_lowers_the_block_onto_its_peg_along_the_axis_clear_of_the_give
     assert np.degrees(np.arccos(poses[:, :3, 2] @ up)).max() <= 2.0 + 1e-6
     # The giver holds its retreat pose meanwhile; the tools stay at least 5 mm apart.
     giver_still = plan.phases[3].moves["PSM2"].q[-1]
-    apart = tool_distance(np.repeat(giver_still[None], len(place), axis=0), reference.arm_from_board("PSM2"), place.q, T)
+    apart = tool_distance(np.repeat(giver_still[None], len(place), axis=0), CELL.board_to_arm("PSM2"), place.q, T)
     assert apart.min() >= 0.005 and plan.closest_tools <= apart.min() + 1e-12

@@ -5,7 +5,6 @@ import pytest
 import yaml
 
 from pegbt.errors import PegbtError
-from pegbt.motion import reference
 from pegbt.motion.channel import Upright
 from pegbt.motion.checks import check_trajectory, trajectory_problems
 from pegbt.motion.cubic import joint_move, rest_to_rest_path
@@ -17,13 +16,15 @@ from pegbt.motion.spline import shortest_segment_times
 from pegbt.motion.trajectory import HermitePath, Trajectory, concatenate, segment_extremes
 from pegbt.motion.transfer import TransferPlanner, cubic_transfer, joint_waypoints
 from pegbt.motion.waypoints import placement_waypoints, transfer_waypoints
+from pegbt.workcell import workcell
 
 PSM1 = arm_settings("PSM1")
+CELL = workcell()
 
 
 def _waypoints(pick, place, arm="PSM1", **kwargs):
-    tops = reference.peg_tops(arm)
-    return transfer_waypoints(tops[pick], tops[place], up=reference.up(arm), **kwargs)
+    tops = CELL.peg_tops_in(arm)
+    return transfer_waypoints(tops[pick], tops[place], up=CELL.up_in(arm), **kwargs)
 
 
 @pytest.fixture(scope="module")
@@ -132,17 +133,17 @@ def test_checker_names_a_tool_leaning_beyond_the_upright_limit():
 
 
 def test_unreachable_waypoint_is_refused_naming_it_and_the_limit(planner):
-    far = reference.peg_tops("PSM1")[7] + np.array([0.0, 0.0, -0.2])  # 20 cm below the board
-    waypoints = transfer_waypoints(reference.peg_tops("PSM1")[1], far)
+    far = CELL.peg_tops_in("PSM1")[7] + np.array([0.0, 0.0, -0.2])  # 20 cm below the board
+    waypoints = transfer_waypoints(CELL.peg_tops_in("PSM1")[1], far)
     with pytest.raises(PegbtError, match=r"transfer waypoint 2 \(above the goal peg\): not reachable by PSM1: q3 \(insertion\)"):
         planner.plan(waypoints)
 
 
 def test_nan_peg_position_and_a_malformed_placement_start_are_refused():
     with pytest.raises(PegbtError, match="place_peg_top"):
-        transfer_waypoints(reference.peg_tops("PSM1")[1], [0.1, float("nan"), -0.15])
+        transfer_waypoints(CELL.peg_tops_in("PSM1")[1], [0.1, float("nan"), -0.15])
     with pytest.raises(PegbtError, match="start"):
-        placement_waypoints(np.eye(3), reference.peg_tops("PSM1")[1])
+        placement_waypoints(np.eye(3), CELL.peg_tops_in("PSM1")[1])
 
 
 def test_non_positive_planner_limit_is_refused(tmp_path):

@@ -151,6 +151,17 @@ def test_dvrk_real_shows_backlash_and_q5_q6_coupling_in_fiducial_js(lockstep):
     assert abs(q6_moved - from_below) > 0.03  # coupling: only q6 moved, yet the physical q5 did too
 
 
+def test_a_refused_step_is_reported_and_leaves_the_clock_usable(lockstep):
+    link, _, _ = lockstep
+    clock = SimClock(link)
+    before = clock.now()
+    with pytest.raises(PegbtError, match=r"simulator refused sim/step: steps: steps must be in 1\.\.1000000, got 2000000"):
+        clock.wait(20_000.0)  # two million control periods in one request
+    assert clock.now() == before
+    clock.wait(TICK)
+    assert clock.now() == pytest.approx(before + TICK)
+
+
 def test_capture_without_a_camera_fails_clearly(lockstep):
     link, _, _ = lockstep
     with pytest.raises(EndpointSilent, match="no camera listens"):
@@ -192,7 +203,7 @@ def test_lockstep_runs_are_deterministic_for_a_seed_with_faults(tmp_path):
 
 
 def test_real_time_endpoint_echoes_servo_and_a_killed_one_is_detected_in_time():
-    with SimProcess(["--physics", "ideal"]) as sim, connect([sim.endpoint]) as link:
+    with SimProcess(["--physics", "ideal", "--no-world"]) as sim, connect([sim.endpoint]) as link:
         psm1 = ArmClient(link, "PSM1")
         psm1.wait_until_ready()
         q = psm1.setpoint_js.position + [0.01, 0, 0, 0, 0, 0]

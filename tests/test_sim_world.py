@@ -11,6 +11,7 @@ from world_helpers import block_points, in_board
 
 from pegbt.errors import PegbtError
 from pegbt.motion.kinematics import forward_kinematics
+from pegbt.sim.arm import DEFAULT_JOINTS
 from pegbt.sim.arm_script import MotionPlayer, descending_motions, transfer_motions
 from pegbt.sim.camera import DepthCamera
 from pegbt.sim.endpoint import EndpointConfig, SimEndpoint
@@ -18,6 +19,7 @@ from pegbt.sim.fault_plan import FaultPlan
 from pegbt.sim.faults import NoiseBurst
 from pegbt.sim.process import SimProcess, free_port
 from pegbt.sim.scripted import grasp_candidate_facing, grasp_keyframes, lifted
+from pegbt.sim.tools import ToolState
 from pegbt.sim.truth import ask_truth
 from pegbt.sim.world import World
 from pegbt.transport import ArmClient, CameraClient, SimClock, codec, connect, endpoint_settings, open_session
@@ -71,7 +73,7 @@ def test_a_scripted_transfer_grasps_lifts_and_places_on_the_event_stream_and_in_
     link, _, events, truth, _ = transfer
     happened = [(e["kind"], e["arm"], e["block"], e["peg"]) for e in truth.log if e["kind"] != "start"]
     assert happened == [("grasp", "PSM1", 1, 1), ("lift", "PSM1", 1, 1), ("release", "PSM1", 1, 7), ("place", "PSM1", 1, 7)]
-    assert events == truth.log  # the stream and the judge's query tell the same story
+    assert events == truth.log[-len(events):] and len(events) >= 4  # the stream (from when it was subscribed) and the truth agree
     blocks = {b["block"]: b for b in truth.blocks}
     assert blocks[1]["state"] == "on_peg" and blocks[1]["peg"] == 7 and blocks[1]["holders"] == []
     assert [blocks[i]["peg"] for i in (0, 2, 3, 4, 5)] == [0, 2, 3, 4, 5]
@@ -153,11 +155,11 @@ def test_lockstep_runs_with_the_world_are_deterministic_for_a_seed(tmp_path):
 
 @pytest.fixture()
 def in_process():
-    """An endpoint with world and camera in this process (its world inspectable), dvrk-real cables."""
+    """An endpoint with its world in this process (the world inspectable), dvrk-real cables."""
     address = f"tcp/127.0.0.1:{free_port()}"
     session = open_session(endpoint_settings([address]))
-    world, camera = World(SEED), DepthCamera(seed=SEED)
-    endpoint = SimEndpoint(session, EndpointConfig(lockstep=True, physics="dvrk-real"), world=world, camera=camera)
+    world = World(SEED)
+    endpoint = SimEndpoint(session, EndpointConfig(lockstep=True, physics="dvrk-real"), world=world)
     thread = threading.Thread(target=endpoint.run, daemon=True)
     thread.start()
     link = connect([address])
@@ -187,11 +189,13 @@ def test_the_world_sees_each_tool_where_its_physical_joints_put_it(in_process):
     assert tool.jaw == pytest.approx(psm1.jaw.measured_js.position[0], abs=1e-12)
 
 
-def test_a_capture_is_the_cameras_view_of_the_world_at_the_request(in_process):
-    world, link = in_process
-    clock = SimClock(link)
-    clock.wait(0.1)
-    handle = CameraClient(link, clock=clock).capture_async()
-    points = handle.result(timeout=5.0)
-    assert handle.stamp == pytest.approx(clock.now())
-    assert np.array_equal(points, DepthCamera(seed=SEED).capture(world))  # same seed, same world: same noise
+def test_a_capture_is_the_cameras_view_of_the_world_at_the_request():
+    with SimProcess(["--lockstep", "--seed", str(SEED)]) as sim, connect([sim.endpoint]) as link:
+        clock = SimClock(link)
+        clock.wait(0.1)
+        handle = CameraClient(link, clock=clock).capture_async()
+        points = handle.result(timeout=5.0)
+        assert handle.stamp == pytest.approx(clock.now())
+    world = World(SEED)  # the simulator's world: same seed, arms resting where they start
+    world.update(0.1, {arm: ToolState.from_joints(DEFAULT_JOINTS, 0.0, world.cell.arm_to_board(arm)) for arm in ("PSM1", "PSM2")})
+    assert np.array_equal(points, DepthCamera(seed=SEED).capture(world))  # same seed, same scene: same noise

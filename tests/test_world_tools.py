@@ -3,7 +3,6 @@
 import numpy as np
 import pytest
 
-from pegbt.motion.kinematics import link_frames
 from pegbt.sim.geometry import pose, yaw_of, yaw_rotation
 from pegbt.sim.tools import ToolState
 from pegbt.sim.world import World
@@ -11,7 +10,7 @@ from pegbt.workcell import invert_rigid
 
 
 def _tool(world, q, jaw):
-    return ToolState.from_link_frames(link_frames(np.asarray(q, dtype=float)), jaw, world.cell.arm_to_board("PSM1"))
+    return ToolState.from_joints(np.asarray(q, dtype=float), jaw, world.cell.arm_to_board("PSM1"))
 
 
 def test_the_home_pose_points_the_tool_down_into_the_board_under_the_remote_centre():

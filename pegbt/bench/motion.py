@@ -25,12 +25,12 @@ from collections.abc import Callable
 import numpy as np
 
 from pegbt.bench import Figures
-from pegbt.motion import reference
 from pegbt.motion.ik import inverse_kinematics
 from pegbt.motion.kinematics import forward_kinematics
 from pegbt.motion.limits import ArmSettings, arm_settings
 from pegbt.motion.transfer import TransferPlanner, cubic_transfer
 from pegbt.motion.waypoints import transfer_waypoints
+from pegbt.workcell import UNILATERAL_ORDER, workcell
 
 HOME = np.array([0.0, 0.0, 0.12, 0.0, 0.0, 0.0])
 BATCH = 10_000
@@ -121,8 +121,9 @@ def _transfer_figures(settings: ArmSettings) -> dict[str, list]:
     setup_start = time.perf_counter()
     planner = TransferPlanner(settings)
     setup = time.perf_counter() - setup_start
-    tops, up = reference.peg_tops(settings.name), reference.up(settings.name)
-    transfers = [transfer_waypoints(tops[a], tops[b], up=up) for a, b in reference.UNILATERAL_ORDER]
+    cell = workcell()
+    tops, up = cell.peg_tops_in(settings.name), cell.up_in(settings.name)
+    transfers = [transfer_waypoints(tops[a], tops[b], up=up) for a, b in UNILATERAL_ORDER]
     planner.plan(transfers[0])  # warm-up: imports and first factorisation
     keys = ("plan", "baseline", "ours", "splines", "optimal", "optimal_spline", "no_channel", "cubic", "refined")
     figures: dict[str, list] = {key: [] for key in keys}

@@ -13,7 +13,6 @@ import numpy as np
 
 from pegbt.bench import Figures
 
-UNILATERAL = [(1, 7), (0, 6), (3, 8), (2, 9), (5, 11), (4, 10), (7, 1), (6, 0), (8, 3), (9, 2), (11, 5), (10, 4)]
 STEP = 0.01
 
 
@@ -21,6 +20,7 @@ def run() -> Figures:
     from pegbt.sim.camera import DepthCamera
     from pegbt.sim.scripted import Driver, grasp_candidate_facing, parked, transfer_keyframes
     from pegbt.sim.world import World
+    from pegbt.workcell import UNILATERAL_ORDER
 
     world = World(seed=0)
     durations: list[float] = []
@@ -34,7 +34,7 @@ def run() -> Figures:
 
     world.update = timed_update  # type: ignore[method-assign]
     driver = Driver(world, step=STEP)
-    for start_peg, goal_peg in UNILATERAL:
+    for start_peg, goal_peg in UNILATERAL_ORDER:
         block = next(b.index for b in world.blocks if b.peg == start_peg and b.state == "on_peg")
         driver.play({"PSM1": transfer_keyframes(world, block, goal_peg, grasp_candidate_facing(world, block, "PSM1"))})
     driver.play({"PSM1": [parked(world, "PSM1")]})

@@ -13,9 +13,8 @@ from numpy.typing import NDArray
 
 from pegbt.motion.ik import solve_ik
 from pegbt.motion.limits import arm_settings
-from pegbt.motion.reference import UNILATERAL_ORDER
 from pegbt.motion.waypoints import WAYPOINT_NAMES, transfer_waypoints
-from pegbt.workcell import workcell
+from pegbt.workcell import UNILATERAL_ORDER, workcell
 
 Array = NDArray[np.float64]
 BOARD_UP = np.array([0.0, 0.0, -1.0])  # the board frame's z points down into the board

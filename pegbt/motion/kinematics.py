@@ -2,10 +2,14 @@
 
 Joints: q1 yaw, q2 pitch (rad), q3 insertion (m), q4 roll, q5 wrist pitch, q6 wrist yaw (rad).
 Each link is `RotX(α)·TransX(a)·RotZ(θ)·TransZ(d)` (Craig's convention). Everything is vectorised
-over a leading batch dimension so the simulator, the planner and calibration share one implementation.
+over a leading batch dimension so the simulator, the planner and calibration share one implementation;
+`shaft_end_and_tip` walks the same chain for one configuration on Python floats, for the simulator's
+every tick, where numpy's per-call overhead would dominate.
 """
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -17,21 +21,29 @@ L4 = 0.0095  # wrist yaw axis to the tool tip (m)
 
 N_JOINTS = 6
 
+Joint = float | NDArray[np.float64]
 
-def _dh_rows(q: NDArray[np.float64]) -> list[tuple[float, float, NDArray[np.float64], NDArray[np.float64]]]:
-    """(a, α, d, θ) per link for joint batch `q` (..., 6); d and θ are arrays."""
-    zero = np.zeros(q.shape[:-1])
+
+def _dh_table(
+    q1: Joint, q2: Joint, q3: Joint, q4: Joint, q5: Joint, q6: Joint, zero: Joint
+) -> list[tuple[float, float, Joint, Joint]]:
+    """(a, α, d, θ) per link; d and θ are floats for one configuration, arrays for a batch (`zero` says which)."""
     half_pi = np.pi / 2
     return [
-        (0.0, half_pi, zero, q[..., 0] + half_pi),
-        (0.0, -half_pi, zero, q[..., 1] - half_pi),
-        (0.0, half_pi, q[..., 2] - L1 + L2, zero),
-        (0.0, 0.0, zero, q[..., 3]),
-        (0.0, -half_pi, zero, q[..., 4] - half_pi),
-        (L3, -half_pi, zero, q[..., 5] - half_pi),
+        (0.0, half_pi, zero, q1 + half_pi),
+        (0.0, -half_pi, zero, q2 - half_pi),
+        (0.0, half_pi, q3 - L1 + L2, zero),
+        (0.0, 0.0, zero, q4),
+        (0.0, -half_pi, zero, q5 - half_pi),
+        (L3, -half_pi, zero, q6 - half_pi),
         (0.0, -half_pi, zero + L4, zero),
         (0.0, np.pi, zero, zero + np.pi),
     ]
+
+
+def _dh_rows(q: NDArray[np.float64]) -> list[tuple[float, float, NDArray[np.float64], NDArray[np.float64]]]:
+    """(a, α, d, θ) per link for joint batch `q` (..., 6); d and θ are arrays."""
+    return _dh_table(*(q[..., i] for i in range(N_JOINTS)), zero=np.zeros(q.shape[:-1]))
 
 
 def _link(a: float, alpha: float, d: NDArray[np.float64], theta: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -75,3 +87,26 @@ def forward_kinematics(q: ArrayLike) -> NDArray[np.float64]:
 def tip_position(q: ArrayLike) -> NDArray[np.float64]:
     """Tool-tip position (..., 3) in metres."""
     return forward_kinematics(q)[..., :3, 3]
+
+
+def shaft_end_and_tip(q: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """For one configuration `q` (6,): the end of the shaft (3,), at the wrist pitch axis, and the
+    tool-tip pose (4, 4), both in the base frame; the same chain as `link_frames`, on floats."""
+    cos, sin = math.cos, math.sin
+    xx, xy, xz, yx, yy, yz, zx, zy, zz = 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0  # frame axes (columns)
+    px = py = pz = 0.0  # frame origin
+    shaft_end = (0.0, 0.0, 0.0)
+    for link, (a, alpha, d, theta) in enumerate(_dh_table(*np.asarray(q, dtype=float).tolist(), zero=0.0)):
+        ca, sa, ct, st = cos(alpha), sin(alpha), cos(theta), sin(theta)
+        px, py, pz = px + a * xx, py + a * xy, pz + a * xz  # TransX(a)
+        yx, yy, yz, zx, zy, zz = (  # RotX(α)
+            ca * yx + sa * zx, ca * yy + sa * zy, ca * yz + sa * zz, ca * zx - sa * yx, ca * zy - sa * yy, ca * zz - sa * yz
+        )
+        xx, xy, xz, yx, yy, yz = (  # RotZ(θ)
+            ct * xx + st * yx, ct * xy + st * yy, ct * xz + st * yz, ct * yx - st * xx, ct * yy - st * xy, ct * yz - st * xz
+        )
+        px, py, pz = px + d * zx, py + d * zy, pz + d * zz  # TransZ(d)
+        if link == 2:  # the insertion joint's frame: where the shaft ends
+            shaft_end = (px, py, pz)
+    tip = np.array([[xx, yx, zx, px], [xy, yy, zy, py], [xz, yz, zz, pz], [0.0, 0.0, 0.0, 1.0]])
+    return np.array(shaft_end), tip

@@ -222,7 +222,8 @@ class SimArm:
     def advance(self, dt: float) -> list[Transition]:
         """One control tick: play motions, move encoders, run the cable physics."""
         transitions = self.joints.advance(dt) + self.jaw.advance(dt)
-        self.physical = self.physics.step(self.joints.encoder, dt)
+        # ideal cables: the physical joints are the encoders (and the simulator skips the model's arithmetic)
+        self.physical = self.joints.encoder if self.physics.is_ideal else self.physics.step(self.joints.encoder, dt)
         return transitions
 
 

@@ -18,7 +18,7 @@ from pegbt.motion.limits import arm_settings
 from pegbt.sim.scripted import Driver, Keyframe, grasp_candidate_facing, interpolate, parked, transfer_keyframes
 from pegbt.sim.tools import tool_pointing_down
 from pegbt.sim.world import World
-from pegbt.transport.arm import ArmClient, MotionHandle
+from pegbt.transport.arm import ArmClient, MotionHandle, MotionStatus
 from pegbt.transport.codec import Trajectory
 from pegbt.workcell import Workcell
 
@@ -32,36 +32,40 @@ class ArmMotion:
     jaw: float | None = None
 
 
-def keyframe_joints(cell: Workcell, arm: str, frames: list[Keyframe]) -> NDArray[np.float64]:
-    """Joints (n, 6) putting `arm`'s tool at each keyframe (vertical, jaws closing along its yaw).
-
-    The jaw is symmetric, so a yaw and its opposite grip alike: all frames turn by π if that keeps the
-    roll nearer zero for the first one, so a path never flips its roll halfway.
-    """
-    settings = arm_settings(arm)
+def _solve(cell: Workcell, arm: str, frames: list[Keyframe], turn: float) -> IKSolution:
+    """IK of a vertical tool at each keyframe, its jaw-closing axis turned by `turn` from the keyframe's yaw."""
     to_arm, centre = cell.board_to_arm(arm), cell.remote_centre(arm)
+    poses = [to_arm @ tool_pointing_down(f.position, f.yaw + turn, f.jaw, centre, cell.tool).tip for f in frames]
+    return inverse_kinematics(np.array(poses), arm_settings(arm))
 
-    def solve(turn: float) -> IKSolution:
-        poses = [to_arm @ tool_pointing_down(f.position, f.yaw + turn, f.jaw, centre, cell.tool).tip for f in frames]
-        return inverse_kinematics(np.array(poses), settings)
 
-    solutions = [solve(0.0), solve(math.pi)]
-    usable = [s for s in solutions if s.ok.all()]
+def jaw_turn(cell: Workcell, arm: str, frames: list[Keyframe]) -> float:
+    """0 or π: the jaw is symmetric, so a yaw and its opposite grip alike; the one that reaches every
+    frame with the roll nearer zero at the first (one choice for a whole path: its roll never flips)."""
+    usable = [(abs(s.q[0, 3]), turn) for turn in (0.0, math.pi) if (s := _solve(cell, arm, frames, turn)).ok.all()]
     if not usable:
-        first_failure = int(np.argmin(solutions[0].ok))
-        raise PegbtError(f"{arm} cannot reach the scripted path: {'; '.join(solutions[0].problems(first_failure))}", field=arm)
-    return min(usable, key=lambda s: abs(s.q[0, 3])).q
+        keyframe_joints(cell, arm, frames, 0.0)  # raises, naming the first frame out of reach
+    return min(usable)[1]
+
+
+def keyframe_joints(cell: Workcell, arm: str, frames: list[Keyframe], turn: float) -> NDArray[np.float64]:
+    """Joints (n, 6) putting `arm`'s tool at each keyframe: vertical, jaws closing along its yaw + `turn`."""
+    solution = _solve(cell, arm, frames, turn)
+    if not solution.ok.all():
+        problems = solution.problems(int(np.argmin(solution.ok)))
+        raise PegbtError(f"{arm} cannot reach the scripted path: {'; '.join(problems)}", field=arm)
+    return solution.q
 
 
 def joint_motions(cell: Workcell, arm: str, keyframes: list[Keyframe], step: float, speed: float) -> list[ArmMotion]:
     """A joint goal to the first keyframe and its jaw angle, then each straight move as a joint trajectory
     sampled every `step` seconds at `speed` (m/s), and each jaw change as a jaw move."""
-    joints = keyframe_joints(cell, arm, keyframes)
+    turn = jaw_turn(cell, arm, keyframes)
+    joints = keyframe_joints(cell, arm, keyframes, turn)
     motions = [ArmMotion(goal=joints[0]), ArmMotion(jaw=keyframes[0].jaw)]
     for start, end in zip(keyframes, keyframes[1:]):
         if not np.allclose(start.position, end.position) or start.yaw != end.yaw:
-            frames = list(interpolate([start, end], step, speed))
-            q = keyframe_joints(cell, arm, frames)
+            q = keyframe_joints(cell, arm, list(interpolate([start, end], step, speed)), turn)
             motions.append(ArmMotion(trajectory=Trajectory(step * np.arange(1, len(q) + 1), q)))
         if end.jaw != start.jaw:
             motions.append(ArmMotion(jaw=end.jaw))
@@ -82,7 +86,7 @@ def transfer_motions(world: World, arm: str, block: int, goal_peg: int, step: fl
     park, last = parked(world, arm), keyframes[-1]
     rise = Keyframe(np.append(last.position[:2], park.position[2]), last.yaw, last.jaw)
     motions = descending_motions(world, arm, [*keyframes, rise], step, speed)
-    return motions + [ArmMotion(goal=keyframe_joints(world.cell, arm, [park])[0])]
+    return motions + [ArmMotion(goal=keyframe_joints(world.cell, arm, [park], jaw_turn(world.cell, arm, [park]))[0])]
 
 
 def scripted_trial(
@@ -114,9 +118,10 @@ class MotionPlayer:
     def poll(self) -> bool:
         """Start the next motion once the last is done; False when all are done. A failed motion raises."""
         if self._handle is not None:
-            if self._handle.busy:
+            status = self._handle.status
+            if status is MotionStatus.BUSY:
                 return True
-            if self._handle.failed:
+            if status is MotionStatus.FAILED:
                 raise PegbtError(f"{self.client.name}: {self._handle.error}", field=self.client.name)
         if not self.pending:
             return False

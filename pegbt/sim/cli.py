@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import gc
 import os
 import signal
 import sys
@@ -65,6 +66,8 @@ def _sim(args: argparse.Namespace) -> int:
     mode = "lockstep" if args.lockstep else "real time"
     scene = f"world and camera, seed {plan.seed}" if world is not None else "no world"
     print(f"pegbt sim: serving {', '.join(endpoint.arms)} on {', '.join(listen)} ({mode}, physics {args.physics}, {scene})", flush=True)
+    gc.collect()
+    gc.freeze()  # what start-up built (modules, meshes) lives on: a collection scanning it would stall a tick
     try:
         outcome = endpoint.run()
     except KeyboardInterrupt:

@@ -2,15 +2,19 @@
 topics over zenoh.
 
 One thread owns all simulator state and runs a loop fed by an inbox. Zenoh callbacks only enqueue:
-commands, camera triggers and clock queries. Commands are applied as they arrive (a `servo_jp` is
+commands, camera triggers, step requests and queries. Commands are applied as they arrive (a `servo_jp` is
 echoed on `setpoint_js` at once); time advances in control ticks of 10 ms:
 
 - real time: a tick every 10 ms of wall time, stamps in epoch seconds; state published every tick.
-- lockstep: ticks only when a client's `SimClock` asks (`sim/step`), stamps in simulated seconds from 0.
-  Before stepping, the endpoint waits until it holds every command that client sent (the request
-  carries its per-key counts); the reply carries the endpoint's own counts, so the client can wait for
-  everything published on the way. the state is re-sent every 50 ms of wall time while idle, so
-  liveness checks hold and late joiners see it.
+- lockstep: ticks only when a client's `SimClock` asks (a put on `sim/step`, answered by a put on
+  `sim/stepped/<client>`: cheaper than a query), stamps in simulated seconds from 0. Before stepping,
+  the endpoint waits until it holds every command that client sent (the request carries its per-key
+  counts); the reply carries the endpoint's own counts, so the client can wait for everything
+  published on the way. The request also claims the state topics the client subscribes
+  to: from then on their latest messages travel inside that client's step replies, not on the topics
+  (one message per step instead of a dozen), unless loss or latency faults act on them. Every 50 ms
+  of wall time the state is re-sent on its topics, so liveness checks hold, late joiners see it and
+  other subscribers of claimed topics follow at that pace.
 
 Each tick the world sees every tool where its *physical* joints put it (forward kinematics of the
 cable physics' output, in the board frame); a jaw gripping a block stops at the block's wall, and its
@@ -32,13 +36,16 @@ import threading
 import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
+from functools import partial
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import zenoh
+from numpy.typing import NDArray
 
 from pegbt.errors import PegbtError
-from pegbt.motion.kinematics import forward_kinematics, link_frames
+from pegbt.motion.kinematics import forward_kinematics
 from pegbt.motion.limits import arm_settings
 from pegbt.physics import ArmPhysics
 from pegbt.sim.arm import DEFAULT_JOINTS, DEFAULT_SERVO_TAU, SimArm, Transition
@@ -49,7 +56,7 @@ from pegbt.sim.tools import ToolState
 from pegbt.transport import codec
 from pegbt.transport.arm import ARM_JOINT_NAMES, JAW_JOINT_NAMES
 from pegbt.transport.keys import ArmKeys, CameraKeys, SimKeys
-from pegbt.transport.sequencing import Outlet, Source, Tag
+from pegbt.transport.sequencing import Bundled, Outlet, Source, Tag, bundle
 
 MAX_STEPS_PER_REQUEST = 1_000_000
 STATE_REFRESH = 1.0  # s of simulated time between unprompted operating_state messages
@@ -69,21 +76,65 @@ class EndpointConfig:
     heartbeat: float = 0.05  # s of wall time between re-sends of the state while a lockstep endpoint idles
 
 
+Message = Callable[[], bytes]  # encodes a message when someone will receive it
+
+
+@dataclass(frozen=True)
+class _JointStateMessage:
+    """A JointState, encoded when called; `content` (all but the stamp) tells an unchanged state."""
+
+    stamp: float
+    position: NDArray[np.float64]
+    velocity: NDArray[np.float64] | tuple[()] = ()
+    names: tuple[str, ...] = ()
+
+    def __call__(self) -> bytes:
+        return codec.encode_joint_state(self.stamp, self.position, self.velocity, names=self.names)
+
+    def content(self) -> tuple[tuple[str, ...], bytes, bytes]:
+        return self.names, self.position.tobytes(), np.asarray(self.velocity, dtype=float).tobytes()
+
+
+@dataclass
+class _Latest:
+    """The latest message of a key: how to encode it, and its bytes once encoded."""
+
+    message: Message | None
+    cause: str
+    outcome: str
+    encoded: bytes | None = None
+
+    def payload(self) -> bytes:
+        if self.encoded is None:
+            assert self.message is not None
+            self.encoded = self.message()
+        return self.encoded
+
+
 class _Outbox:
-    """Publishes tagged messages, losing or delaying them as the fault plan says (delays keep per-key order)."""
+    """Publishes tagged messages, losing or delaying them as the fault plan says (delays keep per-key order).
+
+    A message is encoded only if someone subscribes to its key; otherwise it is kept, unencoded, as the
+    key's latest, so that a heartbeat can still hand it to a late subscriber. A key a stepping client
+    has `claimed` is not put at all: its latest goes back in that client's step replies (`latest`),
+    and to other subscribers with the heartbeat.
+    """
 
     def __init__(self, session: zenoh.Session, source: Source, faults: FaultInjector, log: Callable[..., None], realtime: bool) -> None:
         self._session = session
         self._source = source
         self._faults = faults
+        self._faulty = faults.plan.loss_probability > 0 or faults.plan.latency > 0 or faults.plan.jitter > 0
         self._log = log
         self._realtime = realtime  # real time: express, and drop stale stream messages rather than block
         self._outlets: dict[str, Outlet] = {}
         self._delayed: list[tuple[float, int, str, bytes, str, str]] = []
-        self._last: dict[str, tuple[bytes, str, str]] = {}
+        self._last: dict[str, _Latest] = {}
         self.inject = True  # off while publishing the initial state: every key starts with one message
         self._last_due: dict[str, float] = {}
         self._order = itertools.count()
+        self.claimed: set[str] = set()
+        self._replied: dict[str, dict[str, tuple[object, int]]] = {}  # per clock, per key: content and number last sent
 
     def outlet(self, key: str) -> Outlet:
         if key not in self._outlets:
@@ -92,15 +143,15 @@ class _Outbox:
             )
         return self._outlets[key]
 
-    def listened(self, key: str) -> bool:
-        """Whether anyone subscribes to `key`: nothing is encoded or sent for nobody."""
-        return self.outlet(key).matched
-
-    def send(self, now: float, key: str, payload: bytes, cause: str = "", outcome: str = "") -> None:
-        identity = f"{now:.6f}|{cause.partition(':')[2]}|{outcome}"  # without the sender's random name
-        if not self.inject:
-            self._put(key, payload, cause, outcome)
+    def send(self, now: float, key: str, message: Message, cause: str = "", outcome: str = "") -> None:
+        outlet = self.outlet(key)
+        if key in self.claimed or not outlet.matched:
+            self._last[key] = _Latest(message, cause, outcome)
             return
+        if not (self.inject and self._faulty):
+            self._put(outlet, _Latest(message, cause, outcome))
+            return
+        identity = f"{now:.6f}|{cause.partition(':')[2]}|{outcome}"  # without the sender's random name
         if self._faults.lost(key, identity):
             self._log(now, "fault", fault="loss", key=key)
             return
@@ -108,24 +159,46 @@ class _Outbox:
         if delay > 0:
             due = max(now + delay, self._last_due.get(key, 0.0))
             self._last_due[key] = due
-            heapq.heappush(self._delayed, (due, next(self._order), key, payload, cause, outcome))
+            heapq.heappush(self._delayed, (due, next(self._order), key, message(), cause, outcome))
             self._log(now, "fault", fault="latency", key=key, seconds=round(due - now, 6))
             return
-        self._put(key, payload, cause, outcome)
+        self._put(outlet, _Latest(message, cause, outcome))
 
-    def _put(self, key: str, payload: bytes, cause: str, outcome: str) -> None:
-        self.outlet(key).put(payload, cause, outcome)
-        self._last[key] = (payload, cause, outcome)
+    def _put(self, outlet: Outlet, latest: _Latest) -> None:
+        outlet.put(latest.payload(), latest.cause, latest.outcome)
+        self._last[outlet.key] = latest
 
     def release(self, now: float) -> None:
         while self._delayed and self._delayed[0][0] <= now + 1e-9:
             _, _, key, payload, cause, outcome = heapq.heappop(self._delayed)
-            self._put(key, payload, cause, outcome)
+            self._put(self.outlet(key), _Latest(None, cause, outcome, payload))
+
+    def latest(self, keys: set[str], clock: str) -> list[Bundled]:
+        """The latest message of each claimed key among `keys`, tagged anew, for `clock`'s step reply: a
+        joint state equal but for its stamp to the one it was last sent is a note with the new stamp
+        (nothing to encode here or to decode there)."""
+        replied = self._replied.setdefault(clock, {})
+        messages: list[Bundled] = []
+        for key in sorted(keys & self.claimed & self._last.keys()):
+            latest = self._last[key]
+            tag = self._source.next_tag(key, latest.cause, latest.outcome)
+            message = latest.message
+            content = message.content() if isinstance(message, _JointStateMessage) else None
+            last = replied.get(key)
+            if content is not None and last is not None and last[0] == content:
+                messages.append((key, tag, {"restamp": codec.seconds_parts(message.stamp), "base": last[1]}))
+            else:
+                messages.append((key, tag, latest.payload()))
+            replied[key] = (content, tag.seq)
+        return messages
 
     def repeat(self, keys: set[str]) -> None:
-        """Put the last message sent on each of `keys` again, unchanged (same stamp, same values)."""
+        """Put the latest message of each of `keys` again, unchanged (same stamp, same values), to whoever listens."""
         for key in keys & self._last.keys():
-            self.outlet(key).put(*self._last[key])
+            outlet = self.outlet(key)
+            if outlet.matched:
+                latest = self._last[key]
+                outlet.put(latest.payload(), latest.cause, latest.outcome)
 
     def close(self) -> None:
         for outlet in self._outlets.values():
@@ -169,9 +242,8 @@ class SimEndpoint:
         self.time = self.start_time
         self.source = Source()
         self.faults = FaultInjector(config.faults)
-        events = Outlet(session, self.sim_keys.events, self.source)
-        self.log = SimLog(config.log_path, lambda line: events.put(codec.encode_string(line)))
-        self._events_outlet = events
+        self._events_outlet = Outlet(session, self.sim_keys.events, self.source)
+        self.log = SimLog(config.log_path, self._publish_log_line)
         self._outbox = _Outbox(session, self.source, self.faults, self.log.record, realtime=not config.lockstep)
         self._inbox: queue.Queue[tuple] = queue.Queue()
         self._received: dict[str, dict[str, int]] = {}
@@ -182,6 +254,7 @@ class SimEndpoint:
         self._last_state_refresh = self.time
         self._stop = threading.Event()
         self._declarations: list[Any] = []
+        self._step_replies: dict[str, zenoh.Publisher] = {}  # per stepping clock
         self._declare()
 
     # ------------------------------------------------------------------ zenoh wiring
@@ -189,15 +262,23 @@ class SimEndpoint:
     def _arm_command_keys(keys: ArmKeys) -> tuple[str, ...]:
         return (keys.servo_jp, keys.move_jp, keys.follow_jt, keys.state_command, keys.jaw_servo_jp, keys.jaw_move_jp)
 
+    @staticmethod
+    def _state_keys(keys: ArmKeys) -> tuple[str, ...]:
+        """An arm's state streams: only the latest message of each matters."""
+        return (keys.measured_js, keys.setpoint_js, keys.fiducial_js, keys.measured_cp, keys.jaw_measured_js, keys.jaw_setpoint_js)
+
     def _declare(self) -> None:
         self._command_keys = {key for keys in self.keys.values() for key in self._arm_command_keys(keys)}
+        # state a stepping client may take in its step replies; streams under loss or latency stay on their topics
+        self._claimable = {
+            key for keys in self.keys.values() for key in self._state_keys(keys) if not self.faults.affects(key)
+        }
         for name, keys in self.keys.items():
             for key in self._arm_command_keys(keys):
                 self._declarations.append(
                     self.session.declare_subscriber(key, lambda sample, k=key, a=name: self._enqueue_command(a, k, sample))
                 )
-            for key in (keys.measured_js, keys.setpoint_js, keys.fiducial_js, keys.measured_cp, keys.jaw_measured_js,
-                        keys.jaw_setpoint_js, keys.operating_state, keys.error):
+            for key in (*self._state_keys(keys), keys.operating_state, keys.error):
                 self._outbox.outlet(key)
         if self.camera is not None:
             self._outbox.outlet(self.camera_keys.points)
@@ -206,7 +287,9 @@ class SimEndpoint:
                 self.session.declare_subscriber(self.camera_keys.trigger, lambda sample: self._enqueue_command("", self.camera_keys.trigger, sample))
             )
         self._declarations.append(self.session.declare_queryable(self.sim_keys.clock, lambda q: self._inbox.put(("clock", q))))
-        self._declarations.append(self.session.declare_queryable(self.sim_keys.step, lambda q: self._inbox.put(("step", q))))
+        self._declarations.append(
+            self.session.declare_subscriber(self.sim_keys.step, lambda sample: self._inbox.put(("step", sample.payload.to_bytes())))
+        )
         self._declarations.append(self.session.declare_queryable(self.sim_keys.truth, lambda q: self._inbox.put(("truth", q))))
 
     def _enqueue_command(self, arm: str, key: str, sample: zenoh.Sample) -> None:
@@ -239,9 +322,11 @@ class SimEndpoint:
             else:
                 timeout = max(0.0, next_tick - time.time())
             try:
-                self._handle(self._inbox.get(timeout=timeout))
+                item = self._inbox.get(timeout=timeout)
             except queue.Empty:
-                pass
+                item = None
+            if item is not None:
+                self._handle(item)
             if self.faults.crashed:
                 return "crashed"
             if self.config.lockstep:
@@ -280,29 +365,41 @@ class SimEndpoint:
             self._answer_truth(item[1])
 
     # ------------------------------------------------------------------ lockstep
-    def _step(self, query: zenoh.Query) -> None:
+    def _step(self, payload: bytes) -> None:
+        """A step request: wait for the client's commands, tick, answer with the state it claims."""
         try:
-            request = json.loads(query.payload.to_bytes()) if query.payload is not None else {}
+            request = json.loads(payload)
+            clock, source, number = str(request["clock"]), str(request["source"]), int(request["number"])
+        except (ValueError, TypeError, KeyError):
+            return  # not a SimClock's request: there is nobody to answer
+        try:
             steps = int(request.get("steps", 1))
             if not self.config.lockstep:
                 raise PegbtError("the simulator runs in real time; sim/step needs --lockstep", field="steps")
             if not 0 < steps <= MAX_STEPS_PER_REQUEST:
                 raise PegbtError(f"steps must be in 1..{MAX_STEPS_PER_REQUEST}, got {steps}", field="steps")
-            self._await_commands(str(request.get("source", "")), request.get("sent", {}))
+            self._await_commands(source, request.get("sent", {}))
+            claim = set(map(str, request.get("claim", []))) & self._claimable
         except (PegbtError, ValueError, TypeError) as error:
-            query.reply_err(str(error))
-            query.drop()
+            self._answer_step(clock, {"number": number, "error": str(error)}, [])
             return
+        self._outbox.claimed |= claim
         for _ in range(steps):
             if self.faults.crashed:
                 break
             self.time = self.start_time + round((self.elapsed + self.period) / self.period) * self.period
             self._tick()
         if self.faults.crashed:
-            query.drop()
             return
         self._publish_state()
-        self._reply(query, {"time": self.time, "source": self.source.name, "sent": self.source.counts()})
+        state = self._outbox.latest(claim, clock)
+        header = {"number": number, "time": self.time, "source": self.source.name, "sent": self.source.counts()}
+        self._answer_step(clock, header, state)
+
+    def _answer_step(self, clock: str, header: dict[str, Any], state: list[Bundled]) -> None:
+        if clock not in self._step_replies:
+            self._step_replies[clock] = self.session.declare_publisher(self.sim_keys.stepped(clock), express=True)
+        self._step_replies[clock].put(bundle(header, state))
 
     def _await_commands(self, source: str, sent: Mapping[str, int]) -> None:
         """Handle every command `source` sent before asking to step (zenoh orders keys independently)."""
@@ -405,7 +502,7 @@ class SimEndpoint:
             if transition.outcome == "refused":
                 text = f"{key} refused: {transition.text}"
                 self.log.record(self.elapsed, "refused", arm=arm_name, key=key, command=transition.command_id, reason=transition.text)
-                self._outbox.send(now, keys.error, codec.encode_string(text), transition.command_id, "refused")
+                self._outbox.send(now, keys.error, partial(codec.encode_string, text), transition.command_id, "refused")
             else:
                 self._publish_operating_state(arm_name, transition.command_id, transition.outcome)
 
@@ -428,7 +525,7 @@ class SimEndpoint:
         """Move the world with each tool where its physical joints put it; a gripped block stops the jaw."""
         assert self.world is not None
         tools = {
-            name: ToolState.from_link_frames(link_frames(arm.physical), float(arm.jaw.encoder[0]), self._arm_to_board[name])
+            name: ToolState.from_joints(arm.physical, float(arm.jaw.encoder[0]), self._arm_to_board[name])
             for name, arm in self.arms.items()
         }
         self.world.update(self.elapsed, tools)
@@ -448,7 +545,7 @@ class SimEndpoint:
     def _publish_operating_state(self, name: str, cause: str = "", outcome: str = "") -> None:
         arm = self.arms[name]
         state = codec.OperatingState(self.now(), arm.state, arm.is_homed, arm.is_busy)
-        self._outbox.send(self.now(), self.keys[name].operating_state, codec.encode_operating_state(state), cause, outcome)
+        self._outbox.send(self.now(), self.keys[name].operating_state, partial(codec.encode_operating_state, state), cause, outcome)
 
     def _publish_operating_states(self) -> None:
         self._last_state_refresh = self.time
@@ -458,46 +555,51 @@ class SimEndpoint:
     def _publish_setpoint(self, name: str, jaw: bool) -> None:
         arm, keys, now = self.arms[name], self.keys[name], self.now()
         if jaw:
-            self._outbox.send(now, keys.jaw_setpoint_js, codec.encode_joint_state(now, arm.jaw.setpoint, names=JAW_JOINT_NAMES))
+            self._outbox.send(now, keys.jaw_setpoint_js, _JointStateMessage(now, arm.jaw.setpoint, names=JAW_JOINT_NAMES))
         else:
-            self._outbox.send(now, keys.setpoint_js, codec.encode_joint_state(now, arm.joints.setpoint, names=ARM_JOINT_NAMES))
+            self._outbox.send(now, keys.setpoint_js, _JointStateMessage(now, arm.joints.setpoint, names=ARM_JOINT_NAMES))
 
     def _publish_state(self) -> None:
-        now = self.time
+        """Every arm's state now. An arm's arrays are replaced each tick, never changed in place, so a
+        message kept unencoded (nobody listens yet) still shows this instant when a late subscriber gets it."""
+        now, send, joint_state = self.time, self._outbox.send, _JointStateMessage
         for name, arm in self.arms.items():
-            keys = self.keys[name]
-            measured = codec.encode_joint_state(now, arm.joints.encoder, arm.joints.velocity, names=ARM_JOINT_NAMES)
-            jaw = codec.encode_joint_state(now, arm.jaw.encoder, arm.jaw.velocity, names=JAW_JOINT_NAMES)
-            self._outbox.send(now, keys.measured_js, measured)
-            self._outbox.send(now, keys.jaw_measured_js, jaw)
-            self._outbox.send(now, keys.fiducial_js, codec.encode_joint_state(now, arm.physical, names=ARM_JOINT_NAMES))
-            if self._outbox.listened(keys.measured_cp):  # forward kinematics and a pose cost: only when asked
-                pose = codec.encode_pose_stamped(now, forward_kinematics(arm.joints.encoder), f"{name}_base")
-                self._outbox.send(now, keys.measured_cp, pose)
+            keys, joints, jaw = self.keys[name], arm.joints, arm.jaw
+            send(now, keys.measured_js, joint_state(now, joints.encoder, joints.velocity, names=ARM_JOINT_NAMES))
+            send(now, keys.jaw_measured_js, joint_state(now, jaw.encoder, jaw.velocity, names=JAW_JOINT_NAMES))
+            send(now, keys.fiducial_js, joint_state(now, arm.physical, names=ARM_JOINT_NAMES))
+            send(now, keys.measured_cp, partial(_encode_pose, now, joints.encoder, f"{name}_base"))
             self._publish_setpoint(name, jaw=False)
             self._publish_setpoint(name, jaw=True)
 
+    def _publish_log_line(self, line: str) -> None:
+        """A log entry on `sim/events`, to whoever listens: a message numbered for nobody would hold up the
+        lockstep barrier of a client that subscribed later."""
+        if self._events_outlet.matched:
+            self._events_outlet.put(codec.encode_string(line))
+
     def _send_heartbeat(self) -> None:
-        """Re-send what each arm last sent, unchanged: an idle lockstep endpoint is alive, and late joiners
-        see its state; faults are not drawn again, so what a client sees stays deterministic."""
-        self._outbox.repeat({
-            key
-            for keys in self.keys.values()
-            for key in (keys.measured_js, keys.setpoint_js, keys.fiducial_js, keys.jaw_measured_js,
-                        keys.jaw_setpoint_js, keys.operating_state)
-        })
+        """Re-send each arm's latest state, unchanged, on its topics: a lockstep endpoint is seen alive
+        while idle, late joiners see its state, and subscribers of claimed keys get it at this pace;
+        faults are not drawn again, so what a client sees stays deterministic."""
+        self._outbox.repeat({key for keys in self.keys.values() for key in (*self._state_keys(keys), keys.operating_state)})
 
     def _capture(self, command_id: str) -> None:
         assert self.camera is not None and self.world is not None
         now = self.now()
         points = self.camera.capture(self.world, self.elapsed)
         self._log_world_events()
-        self._outbox.send(now, self.camera_keys.points, codec.encode_point_cloud(now, points), command_id, "done")
+        self._outbox.send(now, self.camera_keys.points, partial(codec.encode_point_cloud, now, points), command_id, "done")
 
     # ------------------------------------------------------------------ shutdown
     def close(self) -> None:
-        for declaration in self._declarations:
+        for declaration in [*self._declarations, *self._step_replies.values()]:
             declaration.undeclare()
         self._outbox.close()
         self._events_outlet.close()
         self.log.close()
+
+
+def _encode_pose(stamp: float, joints: NDArray[np.float64], frame_id: str) -> bytes:
+    """`measured_cp`: the tip pose the encoders put the tool at, in the arm's base frame."""
+    return codec.encode_pose_stamped(stamp, forward_kinematics(joints), frame_id)

@@ -157,6 +157,12 @@ class FaultInjector:
         self.plan = plan
         self.crashed = False
 
+    def affects(self, key: str) -> bool:
+        """Whether loss or latency may act on the messages of `key`."""
+        plan = self.plan
+        lossy = plan.loss_probability > 0 and _matches(key, plan.loss_topics)
+        return lossy or (plan.latency > 0 or plan.jitter > 0) and _matches(key, plan.latency_topics)
+
     def lost(self, key: str, identity: str) -> bool:
         plan = self.plan
         return plan.loss_probability > 0 and _matches(key, plan.loss_topics) and _uniform(plan.seed, "loss", key, identity) < plan.loss_probability

@@ -11,6 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from pegbt.motion.kinematics import shaft_end_and_tip
 from pegbt.sim.geometry import Matrix
 from pegbt.workcell import ToolGeometry
 
@@ -29,14 +30,12 @@ class ToolState:
     shaft: Matrix
 
     @classmethod
-    def from_link_frames(cls, frames: list[Matrix], jaw: float, arm_to_board: Matrix) -> ToolState:
-        """The tool state from an arm's 8 link frames in its base frame (`pegbt.motion.kinematics.link_frames`).
-
-        The remote centre is the base origin; the shaft ends where the insertion joint's frame (the
-        third, index 2) ends, at the wrist pitch axis; the tip is the last frame.
-        """
-        shaft = np.array([arm_to_board[:3, 3], arm_to_board[:3, :3] @ frames[2][:3, 3] + arm_to_board[:3, 3]])
-        return cls(tip=arm_to_board @ frames[-1], jaw=float(jaw), shaft=shaft)
+    def from_joints(cls, q: Matrix, jaw: float, arm_to_board: Matrix) -> ToolState:
+        """The tool of an arm at joints `q` (its physical joints), by the arm's forward kinematics: the
+        shaft runs from the remote centre (the base origin) to the wrist pitch axis."""
+        shaft_end, tip = shaft_end_and_tip(q)
+        rotation, origin = arm_to_board[:3, :3], arm_to_board[:3, 3]
+        return cls(tip=arm_to_board @ tip, jaw=float(jaw), shaft=np.array([origin, rotation @ shaft_end + origin]))
 
     def jaw_hinge(self, tool: ToolGeometry) -> Matrix:
         """(3,) the wrist yaw axis, where the jaws hinge: `jaw_length` back up the tool from the tip."""

@@ -352,6 +352,8 @@ class World:
         current: set[tuple[str, str, int, int]] = set()
         segments = {arm: self._tool_segments(state) for arm, state in sorted(self.tools.items())}
         for arm, (starts, ends, radii, low, high) in segments.items():
+            if high[:, 2].max() < self._peg_low[0, 2]:  # the whole tool is above the peg tops (z points down)
+                continue
             pairs = np.nonzero(boxes_overlap(low[:, None], high[:, None], self._peg_low[None], self._peg_high[None]))
             if pairs[0].size:
                 seg, peg = pairs

@@ -30,6 +30,7 @@ from pegbt.transport.sequencing import Inlet, Outlet, Received
 ARM_JOINT_NAMES = ("outer_yaw", "outer_pitch", "outer_insertion", "outer_roll", "outer_wrist_pitch", "outer_wrist_yaw")
 JAW_JOINT_NAMES = ("jaw",)
 STATE_COMMANDS = ("enable", "disable", "home", "unhome")
+FIRST_SAMPLE_TIMEOUT = 1.0  # s to wait for the first sample of a topic subscribed on first use
 
 
 class EndpointSilent(PegbtError):
@@ -214,7 +215,7 @@ class ArmClient(_Axis):
             self.keys.operating_state, codec.decode_operating_state, self._on_state
         )
         self._error: Inlet[str] = link.inlet(self.keys.error, codec.decode_string, self._on_error)
-        self._fiducial: Inlet[JointSample] = link.inlet(self.keys.fiducial_js, codec.decode_joint_state)
+        self._fiducial: Inlet[JointSample] | None = None  # subscribed on first use: only calibration reads it
         self._cartesian = link.inlet(self.keys.measured_cp, codec.decode_pose_stamped) if cartesian else None
         self._trajectory = link.outlet(self.keys.follow_jt)
         self._state_command = link.outlet(self.keys.state_command)
@@ -293,7 +294,14 @@ class ArmClient(_Axis):
     # ------------------------------------------------------------------ reads
     @property
     def fiducial_js(self) -> JointSample:
-        """Physical joints as an external tracker measures them (simulator: through the cable physics)."""
+        """Physical joints as an external tracker measures them (simulator: through the cable physics).
+
+        The first read subscribes and waits (up to the liveness timeout) for the endpoint to send its
+        latest: the simulator publishes nothing nobody listens to, and re-sends its state to newcomers.
+        """
+        if self._fiducial is None:
+            self._fiducial = self.link.inlet(self.keys.fiducial_js, codec.decode_joint_state)
+            self._fiducial.wait_for_any(max(self.liveness_timeout, FIRST_SAMPLE_TIMEOUT))
         return self.read(self._fiducial)
 
     @property

@@ -2,18 +2,30 @@
 
 It drives the simulator in lockstep: `wait()` asks it to advance by that much simulated time and returns once the
 simulator has done so and everything it published on the way has arrived here, so runs are
-deterministic and faster than real time, with every timestamp in simulated time.
+deterministic and faster than real time, with every timestamp in simulated time. The step's reply
+brings back the latest state of every topic this link subscribes to (one message instead of one per
+topic: most of a step's cost), a joint state whose values did not change since the last reply as a
+note with its new stamp; events and command outcomes still come on their own topics.
 """
 
 from __future__ import annotations
 
+import dataclasses
+import json
 import math
+import threading
 import time
+import uuid
+from typing import Any
+
+import zenoh
 
 from pegbt.clock import Clock, WallClock
 from pegbt.errors import PegbtError
 from pegbt.transport.keys import SimKeys
 from pegbt.transport.link import Link
+from pegbt.transport import codec
+from pegbt.transport.sequencing import Tag, unbundle
 
 
 class SimClock:
@@ -27,7 +39,15 @@ class SimClock:
         self._link = link
         self._keys = SimKeys(link.namespace)
         self._reply_timeout = reply_timeout
-        info = link.query(self._keys.clock, {}, reply_timeout)
+        # steps are a put and a put back, not a query: a query's reply and end cost the simulator more than a step
+        self._requests = link.session.declare_publisher(self._keys.step, express=True)
+        self._name = uuid.uuid4().hex[:12]  # each clock has its own replies (and state notes) even on a shared link
+        self._replies = link.session.declare_subscriber(self._keys.stepped(self._name), self._on_reply)
+        self._reply: tuple[int, bytes] | None = None
+        self._replied = threading.Condition()
+        self._request_number = 0
+        self._bases: dict[str, tuple[int, bytes]] = {}  # per key: number and payload of the last full state received
+        info = link.query(self._keys.clock, {}, reply_timeout)  # also makes sure the simulator sees our subscriber
         self.mode: str = info["mode"]
         self.period: float = info["period"]
         self._time: float = info["time"]
@@ -49,14 +69,58 @@ class SimClock:
         if not self.lockstep:
             time.sleep(seconds)
             return
-        self._target += seconds
-        steps = math.floor((self._target - self._time) / self.period + 1e-9)
+        target = self._target + seconds  # kept only once the simulator has stepped towards it
+        steps = math.floor((target - self._time) / self.period + 1e-9)
         if steps <= 0:
+            self._target = target
             return
-        request = {"steps": steps, "source": self._link.source.name, "sent": self._link.source.counts()}
-        reply = self._link.query(self._keys.step, request, self._reply_timeout)
+        link = self._link
+        self._request_number += 1
+        claim = sorted({inlet.key for inlet in link.inlets})  # the state to bring back in the reply
+        request = {
+            "steps": steps, "clock": self._name, "source": link.source.name, "number": self._request_number,
+            "sent": link.source.counts(), "claim": claim,
+        }
+        self._requests.put(json.dumps(request))
+        reply, messages = unbundle(self._await_reply(self._request_number))
+        if "error" in reply:
+            raise PegbtError(f"simulator refused {self._keys.step}: {reply['error']}", field=self._keys.step)
+        for key, tag, content in messages:
+            if isinstance(content, bytes):
+                link.deliver(key, tag, content)
+                self._bases[key] = (tag.seq, content)
+            else:
+                self._restamp(key, tag, content)
+        self._target = target
         self._time = reply["time"]
         self._await_published(reply["source"], reply["sent"])
+
+    def _restamp(self, key: str, tag: Tag, note: dict[str, Any]) -> None:
+        """The simulator's note that the state on `key` is unchanged but for its stamp: the last full
+        message of `key` this clock received, with the new stamp (decoded only if someone reads it)."""
+        seq, payload = self._bases.get(key, (None, b""))
+        if seq != note["base"]:
+            raise PegbtError(f"the step reply re-stamps {key} #{note['base']}, but this client last had #{seq}", field=key)
+        sec, nanosec = note["restamp"]
+        self._link.deliver_value(
+            key, tag, lambda: dataclasses.replace(codec.decode_joint_state(payload), stamp=sec + nanosec * 1e-9)
+        )
+        self._bases[key] = (tag.seq, payload)
+
+    def _on_reply(self, sample: zenoh.Sample) -> None:
+        payload = sample.payload.to_bytes()
+        number = json.loads(payload.partition(b"\n")[0]).get("number", 0)
+        with self._replied:
+            self._reply = (number, payload)
+            self._replied.notify_all()
+
+    def _await_reply(self, number: int) -> bytes:
+        with self._replied:
+            if not self._replied.wait_for(lambda: self._reply is not None and self._reply[0] == number, self._reply_timeout):
+                key = self._keys.step
+                raise PegbtError(f"no simulator answers on {key} (is `pegbt sim --lockstep` running and reachable?)", field=key)
+            assert self._reply is not None
+            return self._reply[1]
 
     def _await_published(self, source: str, sent: dict[str, int]) -> None:
         """Barrier: wait until every inlet of this link holds what the simulator sent on its key."""

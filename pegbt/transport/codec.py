@@ -62,12 +62,12 @@ def _type(name: str) -> Any:
 def _header(stamp: float, frame_id: str = "") -> Any:
     if not math.isfinite(stamp) or stamp < 0:
         raise PegbtError(f"stamp must be a finite time >= 0, got {stamp}", field="stamp")
-    sec, nanosec = _seconds_parts(stamp)
+    sec, nanosec = seconds_parts(stamp)
     time = _type("builtin_interfaces/msg/Time")(sec=sec, nanosec=nanosec)
     return _type("std_msgs/msg/Header")(stamp=time, frame_id=frame_id)
 
 
-def _seconds_parts(seconds: float) -> tuple[int, int]:
+def seconds_parts(seconds: float) -> tuple[int, int]:
     """Whole seconds and nanoseconds, as builtin_interfaces Time and Duration hold them."""
     sec = int(math.floor(seconds))
     return sec, min(int(round((seconds - sec) * 1e9)), 999_999_999)
@@ -246,7 +246,7 @@ def encode_trajectory(stamp: float, trajectory: Any, names: tuple[str, ...] = ()
     empty = np.zeros(0)
     points = []
     for i, ti in enumerate(t):
-        sec, nanosec = _seconds_parts(float(ti))
+        sec, nanosec = seconds_parts(float(ti))
         points.append(
             point_type(
                 positions=_floats(q[i]),

@@ -108,7 +108,12 @@ class SimKeys:
 
     @property
     def step(self) -> str:
+        """Step requests (JSON), put by a client's `SimClock`."""
         return scoped(self.namespace, "sim/step")
+
+    def stepped(self, clock: str) -> str:
+        """Where the simulator answers the step requests of the `SimClock` named `clock`."""
+        return scoped(self.namespace, f"sim/stepped/{clock}")
 
     @property
     def clock(self) -> str:

@@ -7,13 +7,14 @@ clients opened, so a lockstep `SimClock` can wait for exactly what the simulator
 from __future__ import annotations
 
 import json
+import time
 from collections.abc import Callable, Sequence
 from typing import Any, TypeVar
 
 import zenoh
 
 from pegbt.errors import PegbtError
-from pegbt.transport.sequencing import Inlet, Outlet, Received, Source
+from pegbt.transport.sequencing import Inlet, Outlet, Received, Source, Tag
 from pegbt.transport.session import DEFAULT_ENDPOINT, client_settings, open_session
 
 T = TypeVar("T")
@@ -43,14 +44,28 @@ class Link:
         return outlet
 
     def query(self, key: str, request: dict[str, Any], timeout: float) -> dict[str, Any]:
-        """Ask the simulator's JSON queryable `key`; its answer, or a `PegbtError` if none or a refusal."""
-        replies = list(self.session.get(key, payload=json.dumps(request), timeout=timeout, express=True))
-        if not replies:
+        """Send a JSON request to the simulator's queryable `key`; its JSON answer, or a `PegbtError` if
+        none comes or it refuses."""
+        # the first reply, as soon as it comes: the query's end follows, and nobody needs to wait for it
+        reply = next(iter(self.session.get(key, payload=json.dumps(request), timeout=timeout, express=True)), None)
+        if reply is None:
             raise PegbtError(f"no simulator answers on {key} (is `pegbt sim` running and reachable?)", field=key)
-        reply = replies[0]
         if reply.ok is None:
             raise PegbtError(f"simulator refused {key}: {reply.err.payload.to_string()}", field=key)
         return json.loads(reply.ok.payload.to_bytes())
+
+    def deliver(self, key: str, tag: Tag, payload: bytes) -> None:
+        """Hand a message of `key` that came bundled in another to every inlet of that key."""
+        for inlet in self.inlets:
+            if inlet.key == key:
+                inlet.deliver(payload, tag)
+
+    def deliver_value(self, key: str, tag: Tag, value: Callable[[], Any]) -> None:
+        """Hand every inlet of `key` a message whose value `value()` gives (called on first read)."""
+        received = Received(b"", lambda _: value(), tag, time.monotonic())
+        for inlet in self.inlets:
+            if inlet.key == key:
+                inlet.take(received)
 
     def close(self) -> None:
         """Undeclare everything opened here; close the session if this link opened it."""

@@ -9,12 +9,13 @@ was accepted, refused, finished or aborted.
 
 from __future__ import annotations
 
+import json
 import threading
 import time
 import uuid
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Generic, TypeVar
+from typing import Any, Generic, TypeVar
 
 import zenoh
 
@@ -48,6 +49,37 @@ class Tag:
         if len(parts) != 4 or not parts[1].isdigit():
             return None
         return cls(parts[0], int(parts[1]), parts[2], parts[3])
+
+
+Bundled = tuple[str, Tag, "bytes | dict[str, Any]"]  # a message carried inside another: key, tag, payload or a note
+
+
+def bundle(header: dict[str, Any], messages: Sequence[Bundled]) -> bytes:
+    """One payload holding a JSON header and whole tagged messages. The header lists each message's key,
+    tag and either its size (its payload follows the header line, back to back with the others) or a
+    JSON note standing for it (see `SimClock` for the one note there is)."""
+    listing = [
+        [key, tag.encode().decode(), len(content) if isinstance(content, bytes) else content]
+        for key, tag, content in messages
+    ]
+    body = b"".join(content for _, _, content in messages if isinstance(content, bytes))
+    return json.dumps({**header, "messages": listing}).encode() + b"\n" + body
+
+
+def unbundle(data: bytes) -> tuple[dict[str, Any], list[Bundled]]:
+    """The header and the messages of a `bundle`."""
+    head, _, body = data.partition(b"\n")
+    header = json.loads(head)
+    messages: list[Bundled] = []
+    offset = 0
+    for key, tag, content in header.pop("messages", []):
+        decoded = Tag.decode(tag.encode())
+        if decoded is None:
+            raise PegbtError(f"bundled message on {key} has no valid tag: {tag!r}", field=key)
+        if isinstance(content, int):
+            content, offset = body[offset : offset + content], offset + content
+        messages.append((key, decoded, content))
+    return header, messages
 
 
 class Source:
@@ -145,8 +177,15 @@ class Inlet(Generic[T]):
         self._subscriber = session.declare_subscriber(key, self._receive)
 
     def _receive(self, sample: zenoh.Sample) -> None:
-        tag = Tag.decode(sample.attachment)
-        received = Received(sample.payload.to_bytes(), self._decode, tag, time.monotonic())
+        self.deliver(sample.payload.to_bytes(), Tag.decode(sample.attachment))
+
+    def deliver(self, payload: bytes, tag: Tag | None) -> None:
+        """Take a message of this key, whether it came on the key itself or bundled in a step's reply."""
+        self.take(Received(payload, self._decode, tag, time.monotonic()))
+
+    def take(self, received: Received[T]) -> None:
+        """Take a message already wrapped (with its own way to decode it)."""
+        tag = received.tag
         with self._changed:
             if tag is not None:
                 if tag.seq <= self._seen.get(tag.source, 0):
@@ -166,6 +205,8 @@ class Inlet(Generic[T]):
 
     def wait_for(self, source: str, seq: int, timeout: float) -> bool:
         """Block until message `seq` of `source` (or a later one) has arrived; False on timeout."""
+        if self._seen.get(source, 0) >= seq:  # already here (the usual case): no lock to take
+            return True
         with self._changed:
             return self._changed.wait_for(lambda: self._seen.get(source, 0) >= seq, timeout)
 
