@@ -1,9 +1,11 @@
 """The work cell's frames and geometry, read once from `skills/workcell.yaml`.
 
-One source of truth for the pegboard, the pegs, the FLS block, where the arms and the camera sit
-relative to the board, and the heights motions use: the simulator builds its world from it,
-perception its models, behaviours their waypoints. Everything is in metres and radians, in the
-board frame (origin in the board plane, z down into the board) unless a name says otherwise.
+One source of truth for the pegboard, the pegs, the FLS block (and where it is grasped), where the
+arms and the camera sit relative to the board, and which pegs the handover meets over: the simulator
+builds its world from it, perception its models, motion and behaviours their waypoints. How the arms
+move (heights, jaw angles, clearances) is `skills/motion.yaml`'s (`pegbt.motion.settings`). Everything
+is in metres and radians, in the board frame (origin in the board plane, z down into the board)
+unless a name says otherwise.
 """
 
 from __future__ import annotations
@@ -12,21 +14,17 @@ import math
 from dataclasses import dataclass
 from functools import cached_property, lru_cache
 from pathlib import Path
-from typing import Any
 
 import numpy as np
-import yaml
-from numpy.typing import NDArray
 
-from pegbt.errors import PegbtError
+from pegbt.frames import Matrix, apply_rigid, invert_rigid
+from pegbt.psm import ARMS, known_arm
+from pegbt.yamlfile import Located, read_settings_file
 
 WORKCELL_FILE = Path(__file__).resolve().parents[1] / "skills" / "workcell.yaml"
-ARMS = ("PSM1", "PSM2")
 N_PEGS = 12
 # The reference's unilateral trial (one arm): (start peg, goal peg) of each of the 12 transfers.
 UNILATERAL_ORDER = ((1, 7), (0, 6), (3, 8), (2, 9), (5, 11), (4, 10), (7, 1), (6, 0), (8, 3), (9, 2), (11, 5), (10, 4))
-
-Matrix = NDArray[np.float64]
 
 
 @dataclass(frozen=True)
@@ -172,28 +170,6 @@ class ToolGeometry:
 
 
 @dataclass(frozen=True)
-class MotionHeights:
-    """Waypoint heights (z in each arm's base frame, z up) and jaw angles."""
-
-    transfer_height: float
-    drop_height: float
-    approach_above_block: float
-    jaw_open: float
-    jaw_closed: float
-
-
-@dataclass(frozen=True)
-class Handover:
-    """Where and how a block passes from one arm to the other."""
-
-    pegs: tuple[int, ...]
-    offset: Matrix  # (2,) board x, y
-    above_transfer: float
-    receiver_wait_above: float
-    giver_rise: float
-
-
-@dataclass(frozen=True)
 class Workcell:
     """Everything in `skills/workcell.yaml`, typed."""
 
@@ -204,201 +180,119 @@ class Workcell:
     arm_from_board: dict[str, Matrix]  # arm name -> (4, 4): p_arm = T · p_board
     camera: CameraModel
     tool: ToolGeometry
-    motion: MotionHeights
-    handover: Handover
+    handover_pegs: tuple[int, ...]  # the handover meets over the mean of these pegs' tops
+
+    @property
+    def block_top_below_peg_top(self) -> float:
+        """How far a resting block's top face lies below the peg tops (along the pegs)."""
+        return (self.board.surface_z - self.block.height) - self.pegs.top_z
+
+    @property
+    def grasp_below_peg_top(self) -> float:
+        """How far below the peg tops the jaw grips a block resting on a peg."""
+        return self.block_top_below_peg_top + self.block.grasp_depth
 
     def board_to_arm(self, arm: str) -> Matrix:
         """(4, 4) transform taking board coordinates into `arm`'s base frame."""
-        return self.arm_from_board[_known_arm(arm)].copy()
+        return self.arm_from_board[known_arm(arm)].copy()
 
     def arm_to_board(self, arm: str) -> Matrix:
         """(4, 4) transform taking `arm`'s base-frame coordinates into the board frame."""
-        return invert_rigid(self.arm_from_board[_known_arm(arm)])
+        return invert_rigid(self.arm_from_board[known_arm(arm)])
 
     def peg_tops_in(self, arm: str) -> Matrix:
         """(12, 3) peg top centres in `arm`'s base frame."""
-        to_arm = self.arm_from_board[_known_arm(arm)]
-        return self.pegs.tops @ to_arm[:3, :3].T + to_arm[:3, 3]
+        return apply_rigid(self.arm_from_board[known_arm(arm)], self.pegs.tops)
 
     def up_in(self, arm: str) -> Matrix:
         """(3,) the pegs' axis pointing away from the board ("up"), in `arm`'s base frame."""
-        return self.arm_from_board[_known_arm(arm)][:3, :3] @ np.array([0.0, 0.0, -1.0])
+        return self.arm_from_board[known_arm(arm)][:3, :3] @ np.array([0.0, 0.0, -1.0])
 
     def remote_centre(self, arm: str) -> Matrix:
         """(3,) the arm's remote centre of motion (its base-frame origin) in the board frame."""
         return self.arm_to_board(arm)[:3, 3]
 
-    def handover_point_xy(self) -> Matrix:
-        """(2,) board x, y of the handover meeting point."""
-        return self.pegs.positions[list(self.handover.pegs)].mean(axis=0) + self.handover.offset
+
+SECTIONS = ("board", "pegs", "block", "arms", "camera", "tool", "handover")
 
 
-def invert_rigid(T: Matrix) -> Matrix:
-    """Inverse of a rigid 4×4 transform."""
-    inverse = np.eye(4)
-    inverse[:3, :3] = T[:3, :3].T
-    inverse[:3, 3] = -T[:3, :3].T @ T[:3, 3]
-    return inverse
+def _pegs(value: Located) -> tuple[int, ...]:
+    return tuple(item.integer(low=0, high=N_PEGS - 1) for item in value.sequence())
 
 
-def _known_arm(arm: str) -> str:
-    if arm not in ARMS:
-        raise PegbtError(f"unknown arm {arm!r}; known: {', '.join(ARMS)}", field="arm")
-    return arm
+def _lengths(section: Located, names: tuple[str, ...]) -> dict[str, float]:
+    """The named positive numbers of a section that holds nothing else."""
+    section.mapping(names)
+    return {name: section[name].number(positive=True) for name in names}
 
 
-class _Reader:
-    """Typed reads of the YAML document; errors name the file, line, column and dotted field."""
-
-    def __init__(self, path: Path, text: str) -> None:
-        self.path = path
-        try:
-            self.data = yaml.safe_load(text)
-            self.root = yaml.compose(text)
-        except yaml.YAMLError as error:
-            mark = getattr(error, "problem_mark", None)
-            raise PegbtError(
-                f"not valid YAML: {getattr(error, 'problem', error)}",
-                file=path,
-                line=None if mark is None else mark.line + 1,
-                column=None if mark is None else mark.column + 1,
-            ) from None
-        if not isinstance(self.data, dict):
-            raise PegbtError("expected a mapping of sections", file=path, line=1, column=1)
-
-    def error(self, field: str, message: str) -> PegbtError:
-        node, line, column = self.root, None, None
-        for key in field.split("."):
-            if not isinstance(node, yaml.MappingNode):
-                break
-            match = [(k, v) for k, v in node.value if k.value == key]
-            if not match:
-                break
-            node = match[0][1]
-            line, column = node.start_mark.line + 1, node.start_mark.column + 1
-        return PegbtError(message, file=self.path, line=line, column=column, field=field)
-
-    def raw(self, field: str) -> Any:
-        value: Any = self.data
-        for key in field.split("."):
-            if not isinstance(value, dict) or key not in value:
-                raise self.error(field, "missing")
-            value = value[key]
-        return value
-
-    def number(self, field: str, *, positive: bool = False) -> float:
-        value = self.raw(field)
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-            raise self.error(field, f"expected a finite number, got {value!r}")
-        if positive and value <= 0:
-            raise self.error(field, f"expected a positive number, got {value!r}")
-        return float(value)
-
-    def array(self, field: str, shape: tuple[int, ...]) -> Matrix:
-        value = self.raw(field)
-        try:
-            array = np.asarray(value, dtype=float)
-        except (TypeError, ValueError):
-            array = None
-        if array is None or array.shape != shape or not np.all(np.isfinite(array)):
-            raise self.error(field, f"expected {' x '.join(map(str, shape))} finite numbers, got {value!r}")
-        return array
-
-    def pegs(self, field: str) -> tuple[int, ...]:
-        value = self.raw(field)
-        if not isinstance(value, list) or not all(isinstance(v, int) and 0 <= v < N_PEGS for v in value):
-            raise self.error(field, f"expected a list of peg numbers 0..{N_PEGS - 1}, got {value!r}")
-        return tuple(value)
-
-    def rigid(self, field: str, scale: float = 1.0) -> Matrix:
-        """A 4×4 transform from `field.rotation` (projected onto SO(3)) and `field.translation`."""
-        rotation = self.array(f"{field}.rotation", (3, 3))
-        u, _, vt = np.linalg.svd(rotation)
-        exact = u @ np.diag([1.0, 1.0, np.linalg.det(u @ vt)]) @ vt
-        if np.abs(exact - rotation).max() > 0.01:
-            raise self.error(f"{field}.rotation", "not a rotation matrix (off by more than 0.01)")
-        T = np.eye(4)
-        T[:3, :3] = exact
-        T[:3, 3] = self.array(f"{field}.translation", (3,)) * scale
-        return T
+def _extent(board: Located, name: str) -> tuple[float, float]:
+    low, high = board[name].array((2,))
+    if low >= high:
+        raise board[name].error("expected [low, high] with low < high")
+    return float(low), float(high)
 
 
 def load_workcell(path: Path | str = WORKCELL_FILE) -> Workcell:
-    """Read and check a work-cell file; `PegbtError` (with its location) if anything is wrong."""
+    """Read and check a work-cell file; `PegbtError` (with its file, line, column and field) if anything is wrong."""
     path = Path(path)
-    try:
-        text = path.read_text()
-    except OSError as error:
-        raise PegbtError(f"cannot read the work cell: {error.strerror}", file=path) from None
-    read = _Reader(path, text)
-    extent_x, extent_y = read.array("board.extent_x", (2,)), read.array("board.extent_y", (2,))
-    for field, extent in (("board.extent_x", extent_x), ("board.extent_y", extent_y)):
-        if extent[0] >= extent[1]:
-            raise read.error(field, "expected [low, high] with low < high")
+    root = read_settings_file(path)
+    root.mapping(SECTIONS)
+    board, pegs_section, block_section = root["board"], root["pegs"], root["block"]
+    board.mapping(("surface_z", "extent_x", "extent_y", "thickness"))
+    pegs_section.mapping(("diameter", "top_z", "positions", "left_group", "right_group"))
     pegs = Pegs(
-        positions=read.array("pegs.positions", (N_PEGS, 2)),
-        top_z=read.number("pegs.top_z"),
-        radius=read.number("pegs.diameter", positive=True) / 2,
-        left_group=read.pegs("pegs.left_group"),
-        right_group=read.pegs("pegs.right_group"),
+        positions=pegs_section["positions"].array((N_PEGS, 2)),
+        top_z=pegs_section["top_z"].number(),
+        radius=pegs_section["diameter"].number(positive=True) / 2,
+        left_group=_pegs(pegs_section["left_group"]),
+        right_group=_pegs(pegs_section["right_group"]),
     )
+    block_section.mapping(("edge_distance", "corner_distance", "height", "hole_radius", "edge_directions_deg",
+                           "grasp_radial", "grasp_along_edge", "grasp_depth"))
     block = BlockModel(
-        edge_distance=read.number("block.edge_distance", positive=True),
-        corner_distance=read.number("block.corner_distance", positive=True),
-        height=read.number("block.height", positive=True),
-        hole_radius=read.number("block.hole_radius", positive=True),
-        edge_directions=np.radians(read.array("block.edge_directions_deg", (3,))),
-        grasp_radial=read.number("block.grasp_radial", positive=True),
-        grasp_along_edge=read.number("block.grasp_along_edge"),
-        grasp_depth=read.number("block.grasp_depth", positive=True),
+        **{name: block_section[name].number(positive=True)
+           for name in ("edge_distance", "corner_distance", "height", "hole_radius", "grasp_radial", "grasp_depth")},
+        grasp_along_edge=block_section["grasp_along_edge"].number(),
+        edge_directions=np.radians(block_section["edge_directions_deg"].array((3,))),
     )
     if not block.hole_radius < block.edge_distance < block.corner_distance < 2 * block.edge_distance:
-        raise read.error("block", "expected hole_radius < edge_distance < corner_distance < 2 · edge_distance")
+        raise block_section.error("expected hole_radius < edge_distance < corner_distance < 2 · edge_distance")
     if block.hole_radius <= pegs.radius:
-        raise read.error("block.hole_radius", "the hole must be wider than a peg")
+        raise block_section["hole_radius"].error("the hole must be wider than a peg")
+    if not 0 < block.grasp_depth < block.height:
+        raise block_section["grasp_depth"].error(f"expected a depth below the top face within the block's height ({block.height:g} m)")
+    camera_section = root["camera"]
+    camera_section.mapping(("rotation", "translation", "width", "height", "fx", "fy", "cx", "cy", "depth_noise"))
     camera = CameraModel(
-        board_from_camera=read.rigid("camera"),
-        width=int(read.number("camera.width", positive=True)),
-        height=int(read.number("camera.height", positive=True)),
-        fx=read.number("camera.fx", positive=True),
-        fy=read.number("camera.fy", positive=True),
-        cx=read.number("camera.cx"),
-        cy=read.number("camera.cy"),
-        depth_noise=read.number("camera.depth_noise"),
+        board_from_camera=camera_section.rigid(),
+        width=camera_section["width"].integer(low=1),
+        height=camera_section["height"].integer(low=1),
+        fx=camera_section["fx"].number(positive=True),
+        fy=camera_section["fy"].number(positive=True),
+        cx=camera_section["cx"].number(),
+        cy=camera_section["cy"].number(),
+        depth_noise=camera_section["depth_noise"].number(low=0.0),
     )
+    arms = root["arms"]
+    for arm in arms.mapping(ARMS).values():
+        arm.mapping(("rotation", "translation"))
+    handover = root["handover"]
+    handover.mapping(("pegs",))
     return Workcell(
         source=path,
         board=Board(
-            surface_z=read.number("board.surface_z"),
-            extent_x=(float(extent_x[0]), float(extent_x[1])),
-            extent_y=(float(extent_y[0]), float(extent_y[1])),
-            thickness=read.number("board.thickness", positive=True),
+            surface_z=board["surface_z"].number(),
+            extent_x=_extent(board, "extent_x"),
+            extent_y=_extent(board, "extent_y"),
+            thickness=board["thickness"].number(positive=True),
         ),
         pegs=pegs,
         block=block,
-        arm_from_board={arm: read.rigid(f"arms.{arm}") for arm in ARMS},
+        arm_from_board={arm: arms[arm].rigid() for arm in ARMS},
         camera=camera,
-        tool=ToolGeometry(
-            jaw_length=read.number("tool.jaw_length", positive=True),
-            wrist_length=read.number("tool.wrist_length", positive=True),
-            jaw_radius=read.number("tool.jaw_radius", positive=True),
-            wrist_radius=read.number("tool.wrist_radius", positive=True),
-            shaft_radius=read.number("tool.shaft_radius", positive=True),
-        ),
-        motion=MotionHeights(
-            transfer_height=read.number("motion.transfer_height"),
-            drop_height=read.number("motion.drop_height"),
-            approach_above_block=read.number("motion.approach_above_block"),
-            jaw_open=read.number("motion.jaw_open"),
-            jaw_closed=read.number("motion.jaw_closed"),
-        ),
-        handover=Handover(
-            pegs=read.pegs("handover.pegs"),
-            offset=read.array("handover.offset", (2,)),
-            above_transfer=read.number("handover.above_transfer"),
-            receiver_wait_above=read.number("handover.receiver_wait_above"),
-            giver_rise=read.number("handover.giver_rise"),
-        ),
+        tool=ToolGeometry(**_lengths(root["tool"], ("jaw_length", "wrist_length", "jaw_radius", "wrist_radius", "shaft_radius"))),
+        handover_pegs=_pegs(handover["pegs"]),
     )
 
 

@@ -9,6 +9,7 @@ from pegbt.sim.camera import DepthCamera
 from pegbt.sim.faults import CameraFaults, NoiseBurst
 from pegbt.sim.scripted import Driver, grasp_candidate_facing, grasp_keyframes, parked, transfer_keyframes
 from pegbt.sim.world import World
+from pegbt.yamlfile import parse_yaml
 
 
 @pytest.fixture(scope="module")
@@ -113,10 +114,10 @@ def test_a_scheduled_noise_burst_is_noisy_and_logged(world, clean_camera):
 
 
 def test_camera_faults_from_configuration_and_their_errors():
-    faults = CameraFaults.from_mapping({"bursts": [{"start": 1, "duration": 0.5}], "burst_probability": 0.1})
+    faults = CameraFaults.read(parse_yaml("bursts: [{start: 1, duration: 0.5}]\nburst_probability: 0.1", "sim.yaml"))
     assert faults.bursts == (NoiseBurst(1.0, 0.5),) and faults.burst_probability == 0.1
     with pytest.raises(PegbtError) as caught:
-        CameraFaults.from_mapping({"bursts": [{"start": 1}]}, source="sim.yaml")
-    assert caught.value.field == "camera_faults.bursts[0]" and caught.value.file == "sim.yaml"
+        CameraFaults.read(parse_yaml("bursts: [{start: 1}]", "sim.yaml"))
+    assert caught.value.field == "bursts[0].duration" and caught.value.file == "sim.yaml"
     with pytest.raises(PegbtError):
-        CameraFaults.from_mapping({"burst_probability": 1.5})
+        CameraFaults.read(parse_yaml("burst_probability: 1.5", "sim.yaml"))

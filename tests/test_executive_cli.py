@@ -80,7 +80,7 @@ def test_bad_tree_files_give_located_errors_never_tracebacks(tmp_path):
         assert f"{path}: " in result.stderr, name
     expectations = {
         "empty": ":1:1: the file is empty",
-        "huge": ":166668:1: file is 3000006 bytes; tree files are limited to 2000000 bytes",
+        "huge": ":166668:1: file is 3000006 bytes; YAML files are limited to 2000000 bytes",
         "wrong types": ":1:15: seconds: /wait: parameter 'seconds' should be a float",
         "unknown keys": ":1:27: speed: /wait: wait has no field 'speed'",
         "binary": ":1:1: not UTF-8 text",

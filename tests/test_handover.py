@@ -25,7 +25,7 @@ def _lifted(arm, settings, peg):
 
 
 def _plan(receiver_offset):
-    meet = handover_meeting_point(CELL.pegs.tops[[3, 6, 9]])
+    meet = handover_meeting_point(CELL)
     return meet, plan_handover(
         PSM2, RECEIVER, _lifted("PSM2", PSM2, 1), _lifted("PSM1", PSM1, 7), meet,
         CELL.board_to_arm("PSM2"), CELL.board_to_arm("PSM1"), receiver_offset,
@@ -34,7 +34,7 @@ def _plan(receiver_offset):
 
 
 def _tip_in_board(arm, q):
-    board_from_arm = np.linalg.inv(CELL.board_to_arm(arm))
+    board_from_arm = CELL.arm_to_board(arm)
     return board_from_arm[:3, :3] @ forward_kinematics(q)[:3, 3] + board_from_arm[:3, 3]
 
 

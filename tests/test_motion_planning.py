@@ -157,10 +157,11 @@ def test_non_positive_planner_limit_is_refused(tmp_path):
 
 
 def test_motion_settings_name_a_bad_field(tmp_path):
-    text = MOTION_SETTINGS.read_text().replace("grasp_depth: 0.0045", "grasp_depth: -1")
+    text = MOTION_SETTINGS.read_text().replace("approach_above_block: 0.0025", "approach_above_block: -1")
     path = tmp_path / "motion.yaml"
     path.write_text(text)
-    with pytest.raises(PegbtError, match=r"transfer.grasp_depth: must be positive"):
+    line = next(i for i, row in enumerate(text.splitlines(), 1) if "approach_above_block: -1" in row)
+    with pytest.raises(PegbtError, match=rf"motion.yaml:{line}:\d+: transfer.approach_above_block: expected a positive number"):
         motion_settings(path)
 
 

@@ -5,12 +5,13 @@ import math
 import numpy as np
 import pytest
 
+from pegbt.frames import yaw_of, yaw_pose
+from pegbt.motion.settings import motion_settings
 from pegbt.perception.blocks import block_on_peg, locate_blocks, wrap_symmetric
 from pegbt.perception.board import PegboardRegistration
 from pegbt.sim.camera import DepthCamera
 from pegbt.sim.faults import CameraFaults, NoiseBurst
 from pegbt.perception.segment import SegmentSettings
-from pegbt.sim.geometry import pose, yaw_of, yaw_rotation
 from pegbt.sim.scripted import Driver, Keyframe, grasp_candidate_facing, grasp_keyframes, lifted, parked, transfer_keyframes
 from pegbt.sim.world import World
 
@@ -55,7 +56,7 @@ def test_a_block_dropped_on_the_board_is_found_off_the_pegs(board):
     grasp = grasp_keyframes(world, 2, grasp_candidate_facing(world, 2, "PSM1"))
     up = lifted(world, grasp[-1])
     away = Keyframe(np.array([0.110, 0.065, up.position[2]]), up.yaw, up.jaw)
-    opened = Keyframe(away.position, away.yaw, world.cell.motion.jaw_open)
+    opened = Keyframe(away.position, away.yaw, motion_settings().transfer.jaw_open)
     events = driver.play({"PSM1": [*grasp, up, away, opened]})
     driver.play({"PSM1": [parked(world, "PSM1")]})
     assert [event.kind for event in events][-1] == "drop" and world.blocks[2].state == "on_board"
@@ -117,7 +118,7 @@ def test_a_block_that_tipped_off_a_peg_top_is_found_beside_that_peg(board):
     offset = world.blocks[3].pose[:2, 3] - grasp[-1].position[:2]  # from the jaw to the block's centre
     miss = world.cell.pegs.positions[6] + [0.0, 0.004] - offset  # the hole lands 4 mm off peg 6's axis
     over = Keyframe(np.array([miss[0], miss[1], up.position[2]]), up.yaw, up.jaw)
-    events = driver.play({"PSM1": [*grasp, up, over, Keyframe(over.position, over.yaw, world.cell.motion.jaw_open)]})
+    events = driver.play({"PSM1": [*grasp, up, over, Keyframe(over.position, over.yaw, motion_settings().transfer.jaw_open)]})
     driver.play({"PSM1": [parked(world, "PSM1")]})
     assert events[-1].kind == "drop" and "off the top of peg 6" in events[-1].detail
 
@@ -132,7 +133,7 @@ def test_a_block_that_tipped_off_a_peg_top_is_found_beside_that_peg(board):
 def test_blocks_touching_across_neighbouring_pegs_are_told_apart(board):
     world = World(seed=0)
     for index, yaw_deg in ((0, 58.0), (2, 2.0)):  # corners pointing at each other across 17.7 mm
-        world.blocks[index].pose = pose(world.blocks[index].pose[:3, 3], yaw_rotation(math.radians(yaw_deg)))
+        world.blocks[index].pose = yaw_pose(world.blocks[index].pose[:3, 3], math.radians(yaw_deg))
     corners = [block.pose[:2, :2] @ world.cell.block.outline.T + block.pose[:2, 3:] for block in world.blocks[0:3:2]]
     gap = np.linalg.norm(corners[0].T[:, None] - corners[1].T[None], axis=2).min()
     assert gap < SegmentSettings().cluster_distance  # one cluster to DBSCAN: only the split can separate them

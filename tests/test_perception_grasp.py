@@ -6,6 +6,8 @@ import numpy as np
 import pytest
 
 from pegbt.errors import PegbtError
+from pegbt.motion.handover import handover_meeting_point
+from pegbt.motion.settings import motion_settings
 from pegbt.perception.blocks import BlockEstimate, block_on_peg, locate_blocks
 from pegbt.perception.board import PegboardRegistration
 from pegbt.perception.grasp import PEG_DISTANCE_TIE, YAW_WINDOW, GraspSelector, grasp_options, select_grasp
@@ -110,7 +112,7 @@ def test_the_reachability_predicate_is_respected_and_sees_arm_frame_poses_in_the
 
 
 def test_a_handover_receiver_takes_the_candidate_nearest_to_itself():
-    held = estimate_at(CELL.handover_point_xy(), -0.4, None).pose
+    held = estimate_at(handover_meeting_point(CELL)[:2], -0.4, None).pose
     for receiver in ("PSM1", "PSM2"):
         grasp = GraspSelector(receiver, everywhere).receive(held)
         centre = CELL.remote_centre(receiver)[:2]
@@ -129,7 +131,7 @@ def test_a_perceived_grasp_grips_the_block_in_the_world():
         grasp = select_grasp(block_on_peg(estimates, world.blocks[block].peg), arm, everywhere)
         tip = CELL.arm_to_board(arm) @ grasp.pose
         yaw = math.atan2(tip[1, 0], tip[0, 0])
-        motion = world.cell.motion
+        motion = motion_settings().transfer
         above = tip[:3, 3] - [0.0, 0.0, CELL.block.grasp_depth + motion.approach_above_block]
         at_grasp = Keyframe(tip[:3, 3], yaw, motion.jaw_open)
         driver = Driver(world)

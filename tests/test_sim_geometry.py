@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from pegbt.sim.geometry import segment_distances
+from pegbt.frames import segment_distances
 from pegbt.sim.meshes import block_mesh, box_mesh, cylinder_mesh
 from pegbt.workcell import workcell
 

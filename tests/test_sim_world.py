@@ -11,6 +11,7 @@ from world_helpers import block_points, in_board
 
 from pegbt.errors import PegbtError
 from pegbt.motion.kinematics import forward_kinematics
+from pegbt.motion.settings import motion_settings
 from pegbt.sim.arm import DEFAULT_JOINTS
 from pegbt.sim.arm_script import MotionPlayer, descending_motions, transfer_motions
 from pegbt.sim.camera import DepthCamera
@@ -86,7 +87,7 @@ def test_the_jaw_stops_at_the_gripped_block_and_measured_js_reports_it(transfer)
     _, trace, _, truth, _ = transfer
     grasped, released = (next(e["time"] for e in truth.log if e["kind"] == kind) for kind in ("grasp", "release"))
     cell = World(SEED).cell
-    closed = cell.motion.jaw_closed
+    closed = motion_settings().transfer.jaw_closed
     wall = 2 * np.arcsin((cell.block.edge_distance - cell.block.hole_radius) / 2 / cell.tool.jaw_length)
     holding = [(measured, setpoint) for t, measured, setpoint, *_ in trace if grasped < t < released - 0.1]
     assert len(holding) > 50
@@ -119,7 +120,7 @@ def test_a_slip_in_the_fault_plan_happens_at_its_time_and_is_logged(tmp_path):
     assert kinds[1][1] < 4.0 and kinds[2][1] == pytest.approx(4.0) and kinds[3][1] == pytest.approx(4.0)
     assert "slip injected" in entries[3]["detail"] and entries[5]["detail"] == "onto peg 1"
     jaw_after = [measured for t, measured, *_ in trace if t > 4.1]
-    assert jaw_after and all(m == pytest.approx(World(SEED).cell.motion.jaw_closed, abs=1e-6) for m in jaw_after)
+    assert jaw_after and all(m == pytest.approx(motion_settings().transfer.jaw_closed, abs=1e-6) for m in jaw_after)
 
 
 def test_the_fault_plan_hands_world_and_camera_faults_on_and_locates_errors(tmp_path):

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from pegbt.errors import PegbtError
+from pegbt.motion.handover import handover_meeting_point
 from pegbt.workcell import WORKCELL_FILE, load_workcell, workcell
 
 
@@ -60,7 +61,7 @@ def test_camera_looks_at_the_board_from_about_half_a_metre():
 
 
 def test_handover_point_is_between_the_groups():
-    x, y = workcell().handover_point_xy()
+    x, y, _ = handover_meeting_point(workcell())
     assert 0.044 < x < 0.062 and y == pytest.approx((0.0318 + 0.0211 + 0.0428) / 3 - 0.010)
 
 

@@ -9,6 +9,7 @@ from pegbt.sim.events import read_events
 from pegbt.sim.faults import SlipAt, WorldFaults
 from pegbt.sim.scripted import Driver, grasp_candidate_facing, transfer_keyframes
 from pegbt.sim.world import World
+from pegbt.yamlfile import parse_yaml
 
 
 def _transfer(world, block=1, goal=7):
@@ -60,17 +61,30 @@ def test_random_faults_are_the_same_for_the_same_seed():
     assert any(event["kind"] == "fault" for log in logs for event in log)
 
 
+def _world_faults(text: str) -> WorldFaults:
+    return WorldFaults.read(parse_yaml(text, "sim.yaml"))
+
+
 def test_faults_from_configuration_and_their_errors():
-    faults = WorldFaults.from_mapping({"slips": [{"time": 2.5, "arm": "PSM2"}, {"time": 1}], "miss_probability": 0.1})
+    faults = _world_faults("slips: [{time: 2.5, arm: PSM2}, {time: 1}]\nmiss_probability: 0.1\n")
     assert faults.slips == (SlipAt(1.0, None), SlipAt(2.5, "PSM2")) and faults.miss_probability == 0.1
     with pytest.raises(PegbtError) as caught:
-        WorldFaults.from_mapping({"slips": [{"time": 1, "arm": "PSM3"}]}, source="sim.yaml")
-    assert caught.value.field == "faults.slips[0].arm" and caught.value.file == "sim.yaml"
+        _world_faults("slips:\n  - {time: 1, arm: PSM3}\n")
+    error = caught.value
+    assert (error.file, error.line, error.column, error.field) == ("sim.yaml", 2, 20, "slips[0].arm")
     with pytest.raises(PegbtError, match=r"\[0, 1\]"):
-        WorldFaults.from_mapping({"miss_probability": 2})
+        _world_faults("miss_probability: 2")
     with pytest.raises(PegbtError) as caught:
-        WorldFaults.from_mapping({"slip_chance": 0.1})
-    assert caught.value.field == "faults.slip_chance"
+        _world_faults("slip_chance: 0.1")
+    assert caught.value.field == "slip_chance" and "unknown field" in caught.value.message
+
+
+def test_a_slips_entry_that_is_not_a_list_is_located():
+    with pytest.raises(PegbtError) as caught:
+        _world_faults("slips: 5\n")
+    error = caught.value
+    assert (error.file, error.line, error.column, error.field) == ("sim.yaml", 1, 8, "slips")
+    assert "expected a list" in error.message
 
 
 def test_the_event_log_round_trips_through_json_lines(tmp_path):

@@ -3,10 +3,10 @@
 import numpy as np
 import pytest
 
-from pegbt.sim.geometry import pose, yaw_of, yaw_rotation
+from pegbt.frames import invert_rigid, yaw_of, yaw_pose
+from pegbt.motion.settings import motion_settings
 from pegbt.sim.tools import ToolState
 from pegbt.sim.world import World
-from pegbt.workcell import invert_rigid
 
 
 def _tool(world, q, jaw):
@@ -27,17 +27,17 @@ def test_the_home_pose_points_the_tool_down_into_the_board_under_the_remote_cent
 def test_the_jaw_grips_across_the_wall_along_the_tip_x_axis(roll, grips):
     world = World(seed=0)
     q = [0.05, -0.03, 0.125, roll, 0.0, 0.0]
-    tool = _tool(world, q, world.cell.motion.jaw_open)
+    tool = _tool(world, q, motion_settings().transfer.jaw_open)
     # lift block 1 off its peg and hold it upright, its first grasp candidate at the tool tip, wall across tip x
     candidates = world.cell.block.grasp_candidates
     yaw = yaw_of(_tool(world, q[:3] + [0, 0, 0], 0).tip) - candidates.jaw_yaw[0]
-    upright = pose(np.zeros(3), yaw_rotation(yaw))
+    upright = yaw_pose(np.zeros(3), yaw)
     offset = upright[:3, :3] @ candidates.positions[0]
-    world.blocks[1].pose, world.blocks[1].peg = pose(tool.tip[:3, 3] - offset, yaw_rotation(yaw)), None
+    world.blocks[1].pose, world.blocks[1].peg = yaw_pose(tool.tip[:3, 3] - offset, yaw), None
     assert world.blocks[1].pose[2, 3] < world.cell.pegs.top_z  # clear of the pegs and the board
     assert np.linalg.norm((invert_rigid(world.blocks[1].pose) @ tool.tip)[:3, 3] - candidates.positions[0]) < 1e-9
     world.update(0.01, {"PSM1": tool})
-    events = world.update(0.02, {"PSM1": _tool(world, q, world.cell.motion.jaw_closed)})
+    events = world.update(0.02, {"PSM1": _tool(world, q, motion_settings().transfer.jaw_closed)})
     assert [event.kind for event in events] == (["grasp"] if grips else ["grasp_miss"])
     if grips:
         assert world.jaw_stop("PSM1") == pytest.approx(2 * np.arcsin(0.001 / 0.0095))

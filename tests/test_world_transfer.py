@@ -3,6 +3,8 @@
 import numpy as np
 import pytest
 
+from pegbt.motion.handover import handover_meeting_point
+from pegbt.motion.settings import motion_settings
 from pegbt.sim.scripted import (
     Driver,
     Keyframe,
@@ -108,7 +110,7 @@ def test_a_block_released_over_a_peg_top_off_the_clearance_tips_off_and_can_be_p
     _carry_block_1(world, driver)
     clearance = world.cell.block.hole_radius - world.cell.pegs.radius
     above, *_ = place_keyframes(world, 1, 7, driver.at("PSM1"), error=np.array([0.0, 1.5 * clearance]))
-    opened = type(above)(above.position, above.yaw, world.cell.motion.jaw_open)
+    opened = type(above)(above.position, above.yaw, motion_settings().transfer.jaw_open)
     events = driver.play({"PSM1": [above, opened]})
     assert kinds(events) == ["release", "drop"] and events[-1].detail == "onto the board off the top of peg 7"
     block = world.blocks[1]
@@ -137,13 +139,13 @@ def test_a_handover_leaves_the_block_with_the_receiver():
     driver.play({"PSM2": [*grasp, lifted(world, grasp[-1])]})
     holding = driver.at("PSM2")
     tip_from_block = holding.position[:2] - world.blocks[1].pose[:2, 3]
-    meeting = np.append(world.cell.handover_point_xy() + tip_from_block, holding.position[2])
+    meeting = np.append(handover_meeting_point(world.cell)[:2] + tip_from_block, holding.position[2])
     driver.play({"PSM2": [Keyframe(meeting, holding.yaw, holding.jaw)]})
     assert world.held_by("PSM2") == 1
 
     events = driver.play({"PSM1": grasp_keyframes(world, 1, grasp_candidate_facing(world, 1, "PSM1"))})
     assert kinds(events) == ["grasp"] and events[0].detail.endswith("handover from PSM2")
-    jaw_open = world.cell.motion.jaw_open
+    jaw_open = motion_settings().transfer.jaw_open
     events = driver.play({"PSM2": [Keyframe(meeting, holding.yaw, jaw_open), Keyframe(meeting - [0, 0, 0.01], holding.yaw, jaw_open)]})
     assert kinds(events) == ["release"] and events[0].arm == "PSM2"
     assert world.blocks[1].state == "held" and world.held_by("PSM1") == 1

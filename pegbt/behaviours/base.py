@@ -32,12 +32,11 @@ from pegbt.errors import PegbtError
 from pegbt.executive.leaf import Leaf
 from pegbt.executive.params import Param
 from pegbt.motion.trajectory import Trajectory
+from pegbt.psm import ARMS
 from pegbt.transport import ArmClient, EndpointSilent, MotionHandle
-from pegbt.workcell import ARMS
 
 log = logging.getLogger("pegbt.behaviours")
 RESOURCES = ("robot", "skills")
-KEEP_APART = 0.010  # m between the two tools' axes (shafts and wrist-to-tip segments): shafts are 8.4 mm thick
 BLOCKED_RETRY = 0.1  # s between attempts of a motion that would come too close to the other arm
 BLOCKED_PATIENCE = 15.0  # s a motion waits for the other arm to clear its way before the leaf fails
 STEP_BACK = 0.03  # m of insertion an arm gives up to let the other arm past
@@ -55,9 +54,11 @@ def peg_param(name: str, doc: str) -> Param:
     return Param(name, int, doc, choices=tuple(range(12)), blackboard=True)
 
 
-def keep_apart_param(default: float = KEEP_APART) -> Param:
-    return Param("keep_apart", float, "m: an arm motion waits until it keeps the tools this far apart (0: no check, "
-                 "for the handover, where the tools meet on purpose)", default=default, minimum=0.0)
+def keep_apart_param(default: float | None = None) -> Param:
+    """`keep_apart`, by default skills/motion.yaml's `two_arms.keep_apart` (read when the leaf runs)."""
+    return Param("keep_apart", float, "m: an arm motion waits until it keeps the tools this far apart (default: "
+                 "two_arms.keep_apart of skills/motion.yaml; 0: no check, for the handover, where the tools meet on "
+                 "purpose)", default=default, minimum=0.0)
 
 
 def key_param(name: str, access: str, doc: str) -> Param:
@@ -191,7 +192,9 @@ class MotionLeaf(RobotLeaf):
         """Send a planned arm trajectory (compensated by the condition's skills), unless it would bring the
         tools closer than `keep_apart` (then `Blocked`: nothing is sent)."""
         client, motion = self.client(arm), self.motion(arm)
-        keep_apart = float(self.params.get("keep_apart", 0.0))
+        keep_apart = self.params.get("keep_apart", 0.0)
+        if keep_apart is None:
+            keep_apart = self.skills.motion.two_arms.keep_apart
         if keep_apart > 0:
             others = {name: other.setpoint_js.position for name, other in self.robot.arms.items() if name != arm}
             gap = self.skills.clearance(arm, trajectory, self.context.clock.now(), others)

@@ -17,14 +17,15 @@ from py_trees.common import Status
 
 from pegbt.behaviours.base import RESOURCES, MotionLeaf, RobotLeaf, arm_param, keep_apart_param, key_param, peg_param
 from pegbt.behaviours.motion import CarryLeaf, above_pegs_first, carry_params
-from pegbt.behaviours.poses import from_handover, to_arm, to_handover, tool_pose, up_in_arm
+from pegbt.behaviours.poses import from_handover, to_arm, to_handover, tool_pose
 from pegbt.executive.params import Param
 from pegbt.executive.registry import behaviour
+from pegbt.frames import invert_rigid
 from pegbt.motion.handover import handover_meeting_point
 from pegbt.motion.ik import solve_ik
 from pegbt.motion.waypoints import TransferWaypoints
 from pegbt.perception.grasp import Grasp
-from pegbt.workcell import ARMS, invert_rigid
+from pegbt.psm import ARMS
 
 
 @behaviour(
@@ -49,8 +50,8 @@ class HandoverPoses(RobotLeaf):
             return self.fail(f"{giver} cannot hand a block to itself")
         cell, motion = self.skills.cell, self.skills.motion
         grasp: Grasp = self.get("grasp")
-        point = handover_meeting_point(cell.pegs.tops[list(cell.handover.pegs)], motion)
-        meeting = tool_pose(to_arm(cell, giver, point), 0.0, up_in_arm(cell, giver))
+        point = handover_meeting_point(cell, motion)
+        meeting = tool_pose(to_arm(cell, giver, point), 0.0, cell.up_in(giver))
         tip_board = cell.arm_to_board(giver) @ grasp.pose
         block_pose = cell.arm_to_board(giver) @ meeting @ invert_rigid(tip_board) @ self.get("block").pose
         giver_edge = cell.block.grasp_candidates.edge[grasp.candidate]
@@ -95,7 +96,7 @@ class GoToHandover(MotionLeaf):
         motion, cell = self.motion(arm), self.skills.cell
         start = motion.start_from(self.client(arm))
         wait = self.get("grasp").pose.copy()
-        wait[:3, 3] += self.skills.motion.handover.receiver_wait_above * up_in_arm(cell, arm)
+        wait[:3, 3] += self.skills.motion.handover.receiver_wait_above * cell.up_in(arm)
         stops = above_pegs_first(cell, self.skills.motion, arm, start, motion.settings)
         joints = stops + [solve_ik(wait, motion.settings, what="waiting above the handover grasp")]
         trajectory = motion.through(start, joints, [f"stop {i}" for i in range(len(stops))] + ["waiting pose"])

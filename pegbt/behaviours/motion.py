@@ -15,7 +15,7 @@ from numpy.typing import NDArray
 from py_trees.common import Status
 
 from pegbt.behaviours.base import RESOURCES, MotionLeaf, arm_param, keep_apart_param, key_param, peg_param
-from pegbt.behaviours.poses import height_above_pegs, tool_pose, transfer_for, up_in_arm
+from pegbt.behaviours.poses import height_above_pegs, tool_pose, transfer_for
 from pegbt.executive.params import Param
 from pegbt.executive.registry import behaviour
 from pegbt.motion.ik import solve_ik
@@ -38,7 +38,7 @@ def above_pegs_first(cell: Workcell, motion: MotionSettings, arm: str, start: ND
     if rise <= LOW:
         return []
     above = tip.copy()
-    above[:3, 3] += rise * up_in_arm(cell, arm)
+    above[:3, 3] += rise * cell.up_in(arm)
     return [solve_ik(above, settings, what="straight above the tool")]
 
 
@@ -105,7 +105,7 @@ class Rise(MotionLeaf):
         motion = self.motion(arm)
         start = motion.start_from(self.client(arm))
         target = forward_kinematics(start)
-        target[:3, 3] += self.param("height") * up_in_arm(self.skills.cell, arm)
+        target[:3, 3] += self.param("height") * self.skills.cell.up_in(arm)
         trajectory = motion.through(start, [solve_ik(target, motion.settings, what="risen")], ["risen"])
         self.move(arm, trajectory, f"{arm} rising")
 
@@ -121,7 +121,7 @@ class Park(MotionLeaf):
         arm = self.param("arm")
         motion, cell = self.motion(arm), self.skills.cell
         start = motion.start_from(self.client(arm))
-        home = tool_pose(motion.settings.home_tip, 0.0, up_in_arm(cell, arm))
+        home = tool_pose(motion.settings.home_tip, 0.0, cell.up_in(arm))
         joints = above_pegs_first(cell, self.skills.motion, arm, start, motion.settings)
         joints.append(solve_ik(home, motion.settings, what=f"{arm} home pose"))
         trajectory = motion.through(start, joints, [f"stop {i}" for i in range(len(joints) - 1)] + ["home"])

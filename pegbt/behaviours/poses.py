@@ -13,6 +13,7 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from pegbt.frames import apply_rigid, rigid_transform
 from pegbt.motion.channel import Channel
 from pegbt.motion.settings import MotionSettings
 from pegbt.motion.waypoints import TransferWaypoints, placement_waypoints, tool_down_rotation, transfer_waypoints
@@ -41,13 +42,7 @@ def block_axis_top(cell: Workcell, board: BoardEstimate | None, block: BlockEsti
 
 
 def to_arm(cell: Workcell, arm: str, point_board: ArrayLike) -> NDArray[np.float64]:
-    T = cell.board_to_arm(arm)
-    return T[:3, :3] @ np.asarray(point_board, dtype=float) + T[:3, 3]
-
-
-def up_in_arm(cell: Workcell, arm: str) -> NDArray[np.float64]:
-    """The pegs' axis, away from the board, in `arm`'s frame."""
-    return cell.board_to_arm(arm)[:3, :3] @ UP_BOARD
+    return apply_rigid(cell.board_to_arm(arm), point_board)
 
 
 def yaw_about(rotation: NDArray[np.float64], up: NDArray[np.float64]) -> float:
@@ -58,10 +53,7 @@ def yaw_about(rotation: NDArray[np.float64], up: NDArray[np.float64]) -> float:
 
 def tool_pose(position: ArrayLike, yaw: float, up: NDArray[np.float64]) -> NDArray[np.float64]:
     """A tip pose at `position` (arm frame), tool pointing down along −`up`, turned by `yaw`."""
-    pose = np.eye(4)
-    pose[:3, :3] = tool_down_rotation(yaw, up)
-    pose[:3, 3] = position
-    return pose
+    return rigid_transform(tool_down_rotation(yaw, up), position)
 
 
 def transfer_for(cell: Workcell, motion: MotionSettings, arm: str, board: BoardEstimate | None,
@@ -69,7 +61,7 @@ def transfer_for(cell: Workcell, motion: MotionSettings, arm: str, board: BoardE
     """The transfer of `block`, held at `grasp`, onto `place_peg`: the block keeps its yaw, so the tool
     keeps its yaw and its offset from the block's axis. Without `place_peg`, only the pick side (grasp,
     approach, lifted) is meaningful: the block would be put back where it is."""
-    up = up_in_arm(cell, arm)
+    up = cell.up_in(arm)
     pick_top = to_arm(cell, arm, block_axis_top(cell, board, block))
     offset = grasp.position - pick_top
     yaw = yaw_about(grasp.pose[:3, :3], up)
@@ -80,7 +72,7 @@ def transfer_for(cell: Workcell, motion: MotionSettings, arm: str, board: BoardE
 
 def height_above_pegs(cell: Workcell, arm: str, tip_arm: ArrayLike) -> float:
     """How far a tip (arm frame) is above the peg tops, along the pegs' axis."""
-    tip_board = cell.arm_to_board(arm)[:3, :3] @ np.asarray(tip_arm, dtype=float) + cell.arm_to_board(arm)[:3, 3]
+    tip_board = apply_rigid(cell.arm_to_board(arm), tip_arm)
     return float((tip_board[2] - cell.pegs.top_z) * UP_BOARD[2])
 
 
@@ -92,7 +84,7 @@ def approach_for(cell: Workcell, motion: MotionSettings, arm: str, start: NDArra
     block's axis. The descent is a channel from just above the peg tops down: the open jaw comes down
     around the block's wall."""
     heights = motion.transfer
-    up = up_in_arm(cell, arm)
+    up = cell.up_in(arm)
     rise = max(heights.transfer_height_above_peg_top - height_above_pegs(cell, arm, start[:3, 3]), MIN_RISE)
     risen = start.copy()
     risen[:3, 3] += rise * up
@@ -117,7 +109,7 @@ def to_handover(cell: Workcell, motion: MotionSettings, arm: str, board: BoardEs
     """The giver's carry: lift the block off its peg as in a transfer, then over to the `meeting` tip pose
     (arm frame), arriving from `HANDOVER_ARRIVAL` above it."""
     pick = transfer_for(cell, motion, arm, board, block, grasp)
-    up = up_in_arm(cell, arm)
+    up = cell.up_in(arm)
     above = meeting.copy()
     above[:3, 3] += HANDOVER_ARRIVAL * up
     tolerance = motion.transfer.channel_tolerance
@@ -129,7 +121,7 @@ def from_handover(cell: Workcell, motion: MotionSettings, arm: str, board: Board
                   block_pose: NDArray[np.float64], place_peg: int) -> TransferWaypoints:
     """The receiver's placement: from its grasp of the block held in the air (`block_pose`, board frame)
     over peg `place_peg` and down onto it, the block keeping its yaw."""
-    up = up_in_arm(cell, arm)
+    up = cell.up_in(arm)
     offset = grasp.position - to_arm(cell, arm, block_pose[:3, 3])
     return placement_waypoints(grasp.pose, to_arm(cell, arm, peg_top_board(cell, board, place_peg)), place_offset=offset,
                                place_yaw=yaw_about(grasp.pose[:3, :3], up), up=up, heights=motion.transfer)

@@ -14,12 +14,12 @@ from typing import Any
 from pegbt.clock import Clock, WallClock
 from pegbt.errors import PegbtError
 from pegbt.executive.providers import ProviderSetup
+from pegbt.psm import ARMS
 from pegbt.sim.process import SimProcess
 from pegbt.transport import ArmClient, CameraClient, Link, SimClock, connect
 from pegbt.sim.truth import ask_truth
 from pegbt.behaviours.trial import Trial
 
-ARMS = ("PSM1", "PSM2")
 SIMULATOR_ARGS = ("--lockstep", "--physics", "dvrk-real")
 PROBE_TIMEOUT = 2.0  # s to wait for a simulator to answer `sim/clock`
 READY_TIMEOUT = 5.0  # s to wait for each arm's first state

@@ -35,7 +35,8 @@ from pegbt.motion.transfer import TransferPlanner
 from pegbt.perception.blocks import BlockLocator
 from pegbt.perception.board import PegboardRegistration
 from pegbt.perception.grasp import GraspSelector
-from pegbt.workcell import ARMS, Workcell, workcell
+from pegbt.psm import ARMS
+from pegbt.workcell import Workcell, workcell
 
 CONDITIONS = ("uncalibrated", "calibrated", "optimized")
 SIMULATOR_CALIBRATION = CALIBRATION_DIR / "sim-dvrk-real"

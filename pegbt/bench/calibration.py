@@ -33,6 +33,7 @@ from pegbt.calibration.compensation import Compensator
 from pegbt.calibration.evaluation import evaluate
 from pegbt.calibration.task import transfer_goals
 from pegbt.physics.recording import Recording, load_recording
+from pegbt.psm import ARMS
 from pegbt.errors import PegbtError
 
 DATA = Path(os.environ.get("PEGBT_DVRK_DATA", Path(__file__).resolve().parents[3] / "shared" / "data" / "dvrk"))
@@ -124,7 +125,7 @@ def run() -> Figures:
     _summarise(figures, "split", list(recordings))
     for kind in KINDS:
         figures[f"train_s_{kind}"] = train_s[kind]
-    for arm in ("PSM1", "PSM2"):
+    for arm in ARMS:
         _simulator_figures(figures, arm)
     for name in ("tip_err_mm_uncompensated", "tip_err_mm_compensated", "tip_err_ratio"):
         figures[name] = figures[f"sim.PSM1.{name}"]

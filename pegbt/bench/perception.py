@@ -40,7 +40,7 @@ def run() -> Figures:
     from pegbt.perception.board import PegboardRegistration
     from pegbt.perception.grasp import GraspSelector
     from pegbt.sim.camera import DepthCamera
-    from pegbt.sim.geometry import yaw_of
+    from pegbt.frames import yaw_of
     from pegbt.sim.world import World
 
     def everywhere(poses: np.ndarray) -> np.ndarray:

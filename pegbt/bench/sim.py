@@ -24,11 +24,12 @@ def _trial(endpoint: str, trial: list, tick: float) -> tuple[float, float, int]:
     """Play the trial at `tick`; (simulated seconds, wall seconds, blocks placed)."""
     from pegbt.sim.arm_script import MotionPlayer
     from pegbt.sim.truth import ask_truth
+    from pegbt.psm import ARMS
     from pegbt.transport import ArmClient, SimClock, connect
 
     with connect([endpoint]) as link:
         clock = SimClock(link)
-        arms = {name: ArmClient(link, name, clock=clock) for name in ("PSM1", "PSM2")}
+        arms = {name: ArmClient(link, name, clock=clock) for name in ARMS}
         for arm in arms.values():
             arm.wait_until_ready()
         started_sim, started_wall = clock.now(), time.perf_counter()

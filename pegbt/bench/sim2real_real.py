@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from pegbt.errors import PegbtError
-from pegbt.physics import JOINT_NAMES
+from pegbt.psm import JOINT_NAMES
 from pegbt.sim2real.baselines import linear_window, lstm_window
 from pegbt.sim2real.compare import compare
 from pegbt.sim2real.diagnose import diagnose

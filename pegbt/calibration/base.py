@@ -26,9 +26,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from pegbt.calibration.modelfile import ModelMetadata, read_document, write_document
-from pegbt.physics.recording import N_JOINTS, Recording, known_arm
 from pegbt.errors import PegbtError
-from pegbt.physics import JOINT_NAMES
+from pegbt.physics.recording import Recording
+from pegbt.psm import JOINT_NAMES, N_JOINTS, known_arm
 
 WRIST = (3, 4, 5)  # roll, wrist pitch, wrist yaw: the cable-driven joints whose error matters
 MIN_TRAIN_SAMPLES = 100

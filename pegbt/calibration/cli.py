@@ -7,9 +7,9 @@ import json
 from pathlib import Path
 
 from pegbt.errors import PegbtError
+from pegbt.psm import ARMS, JOINT_NAMES
 
 KINDS = ("lstm", "physics", "hybrid")
-JOINTS = ("q1", "q2", "q3", "q4", "q5", "q6")
 
 
 def add_commands(subparsers: argparse._SubParsersAction) -> None:
@@ -23,7 +23,7 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
         "it (with its held-out scores) to --out, by default skills/calibration/ARM-MODEL.json.",
     )
     train.add_argument("recording", type=Path, metavar="RECORDING", help="folder with q_cmd.npy and q_phy.npy")
-    train.add_argument("--arm", required=True, choices=("PSM1", "PSM2"))
+    train.add_argument("--arm", required=True, choices=ARMS)
     train.add_argument("--model", required=True, choices=KINDS)
     train.add_argument("--out", type=Path, help="model file to write")
     train.add_argument("--train-fraction", type=float, default=0.7, help="share used for training (default 0.7; "
@@ -79,12 +79,12 @@ def _eval(args: argparse.Namespace) -> int:
 
 
 def _summary(scores: dict) -> str:
-    header = "              " + " ".join(f"{j:>8}" for j in JOINTS) + "   tip mm"
+    header = "              " + " ".join(f"{j:>8}" for j in JOINT_NAMES) + "   tip mm"
     rows = [
         ("uncompensated", scores["joint_rmse_uncompensated"], scores["tip_err_mm_mean_uncompensated"]),
         (scores["model"], scores["joint_rmse"], scores["tip_err_mm_mean"]),
     ]
     lines = [f"{scores['samples']} held-out samples of {scores['recording']} (RMSE: rad, q3 in m)", header]
     for name, rmse, tip in rows:
-        lines.append(f"{name:<13} " + " ".join(f"{rmse[j]:8.4f}" for j in JOINTS) + f" {tip:8.2f}")
+        lines.append(f"{name:<13} " + " ".join(f"{rmse[j]:8.4f}" for j in JOINT_NAMES) + f" {tip:8.2f}")
     return "\n".join(lines)

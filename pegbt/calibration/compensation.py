@@ -29,7 +29,7 @@ from numpy.typing import ArrayLike, NDArray
 from pegbt.calibration.base import CalibrationModel, require_finite
 from pegbt.errors import PegbtError
 from pegbt.motion.limits import SKILLS_DIR, ArmSettings, arm_settings
-from pegbt.physics import JOINT_NAMES
+from pegbt.psm import JOINT_NAMES
 
 log = logging.getLogger(__name__)
 CALIBRATION_DIR = SKILLS_DIR / "calibration"

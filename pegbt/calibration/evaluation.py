@@ -17,7 +17,7 @@ from pegbt.calibration.base import CalibrationModel, check_arm
 from pegbt.physics.recording import Recording
 from pegbt.errors import PegbtError
 from pegbt.motion.kinematics import tip_position
-from pegbt.physics import JOINT_NAMES
+from pegbt.psm import JOINT_NAMES
 
 
 def joint_rmse(predicted: NDArray[np.float64], measured: NDArray[np.float64]) -> dict[str, float]:

@@ -26,7 +26,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pegbt.errors import PegbtError
-from pegbt.physics import JOINT_NAMES
+from pegbt.psm import JOINT_NAMES
 
 FORMAT = "pegbt-calibration-model"
 VERSION = 1

@@ -37,7 +37,8 @@ from numpy.typing import NDArray
 from pegbt.calibration.base import CalibrationModel
 from pegbt.calibration.modelfile import ModelMetadata
 from pegbt.errors import PegbtError
-from pegbt.physics import JOINT_NAMES, ArmPhysics, Effect
+from pegbt.physics import ArmPhysics, Effect
+from pegbt.psm import JOINT_NAMES
 
 Array = NDArray[np.float64]
 EXACT = 1e-12  # rad or m: below this a joint counts as not moving

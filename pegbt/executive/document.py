@@ -20,7 +20,7 @@ from typing import Any
 from pegbt.errors import PegbtError
 from pegbt.executive.params import REQUIRED, TYPE_NAMES, check_type, is_valid_key
 from pegbt.executive.problems import Problems, did_you_mean
-from pegbt.executive.source import Located, Mark, read_yaml_file
+from pegbt.yamlfile import Located, Mark, read_yaml_file
 
 TOP_LEVEL_KEYS = ("doc", "include", "blackboard", "subtrees", "tree")
 SUBTREE_KEYS = ("doc", "args", "tree")

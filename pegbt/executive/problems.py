@@ -6,7 +6,7 @@ import difflib
 from collections.abc import Iterable
 
 from pegbt.errors import PegbtError, PegbtErrors
-from pegbt.executive.source import Mark
+from pegbt.yamlfile import Mark
 
 
 def did_you_mean(word: str, choices: Iterable[str]) -> str:

@@ -22,7 +22,7 @@ from pegbt.executive.nodetypes import NODE_TYPES, NodeType
 from pegbt.executive.params import REQUIRED, BlackboardRef, Param, Unbound, check_type, describe, is_valid_key
 from pegbt.executive.problems import Problems, did_you_mean
 from pegbt.executive.registry import REGISTRY, BehaviourRegistry, BehaviourSpec
-from pegbt.executive.source import Located, Mark
+from pegbt.yamlfile import Located, Mark
 from pegbt.executive.spec import KeyUse, NodeSpec
 
 _ARG_PATTERN = re.compile(r"\$\{([^}]*)\}")

@@ -9,7 +9,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
-from pegbt.executive.source import Mark
+from pegbt.yamlfile import Mark
 
 
 @dataclass(frozen=True)

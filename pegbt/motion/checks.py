@@ -9,15 +9,12 @@ import numpy as np
 from pegbt.errors import PegbtError
 from pegbt.motion.channel import Channel, Upright
 from pegbt.motion.kinematics import forward_kinematics
-from pegbt.motion.limits import JOINT_NAMES, ArmSettings
+from pegbt.motion.limits import ArmSettings
 from pegbt.motion.trajectory import Trajectory
+from pegbt.psm import joint_label
 
 RELATIVE_SLACK = 1e-6  # rounding allowed on velocity and acceleration limits
 ABSOLUTE_SLACK = 1e-9
-
-
-def _joint(i: int) -> str:
-    return f"q{i + 1} ({JOINT_NAMES[i]})"
 
 
 def _limit_problems(trajectory: Trajectory, settings: ArmSettings) -> list[str]:
@@ -31,7 +28,7 @@ def _limit_problems(trajectory: Trajectory, settings: ArmSettings) -> list[str]:
         bad = ~((values >= low) & (values <= high))  # also catches NaN
         for j in np.flatnonzero(bad.any(axis=0)):
             k = int(np.argmax(bad[:, j]))
-            problems.append(f"{_joint(j)} {name} {values[k, j]:.4g} at t={t[k]:.2f} s outside [{low[j]:.4g}, {high[j]:.4g}]")
+            problems.append(f"{joint_label(j)} {name} {values[k, j]:.4g} at t={t[k]:.2f} s outside [{low[j]:.4g}, {high[j]:.4g}]")
     return problems
 
 
@@ -50,7 +47,7 @@ def _continuity_problems(trajectory: Trajectory, settings: ArmSettings) -> list[
     position_jump = np.abs(np.diff(q, axis=0) - dt[:, None] * (qd[1:] + qd[:-1]) / 2) > a * dt[:, None] ** 2 / 4 + ABSOLUTE_SLACK
     for kind, jumps in (("velocity", velocity_jump), ("position", position_jump)):
         for j in np.flatnonzero(jumps.any(axis=0)):
-            problems.append(f"{_joint(j)} {kind} jumps at t={t[int(np.argmax(jumps[:, j]))]:.2f} s")
+            problems.append(f"{joint_label(j)} {kind} jumps at t={t[int(np.argmax(jumps[:, j]))]:.2f} s")
     return problems
 
 

@@ -16,6 +16,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from pegbt.errors import PegbtError
+from pegbt.frames import apply_rigid, invert_rigid, rigid_transform, segment_distances
 from pegbt.motion.cubic import joint_move
 from pegbt.motion.ik import solve_ik
 from pegbt.motion.kinematics import link_frames
@@ -24,6 +25,7 @@ from pegbt.motion.settings import MotionSettings, motion_settings
 from pegbt.motion.trajectory import Trajectory
 from pegbt.motion.transfer import TransferPlanner
 from pegbt.motion.waypoints import placement_waypoints, tool_down_rotation
+from pegbt.workcell import Workcell
 
 WRIST_FRAME = 4  # link frame at the end of the shaft (wrist pitch axis)
 
@@ -44,45 +46,30 @@ class HandoverPlan:
     closest_tools: float  # m: the smallest distance between the two tools over the whole plan
 
 
-def handover_meeting_point(peg_tops_board: ArrayLike, motion: MotionSettings | None = None) -> NDArray[np.float64]:
-    """The giver's tip position at the handover, board frame: the mean of the given peg tops (the
-    reference uses pegs 3, 6 and 9), shifted in board y, raised above the transfer height."""
+def handover_meeting_point(cell: Workcell, motion: MotionSettings | None = None) -> NDArray[np.float64]:
+    """The giver's tip position at the handover, board frame: the mean of the work cell's handover peg
+    tops (the reference uses pegs 3, 6 and 9), shifted in board y, raised above the transfer height."""
     motion = motion or motion_settings()
-    tops = np.asarray(peg_tops_board, dtype=float).reshape(-1, 3)
-    point = tops.mean(axis=0)
+    point = cell.pegs.tops[list(cell.handover_pegs)].mean(axis=0)
     point[1] += motion.handover.meeting_offset_board_y
     point[2] -= motion.transfer.transfer_height_above_peg_top + motion.handover.meeting_above_transfer  # board z is down
     return point
-
-
-def _segment_distance(p0: NDArray, p1: NDArray, q0: NDArray, q1: NDArray) -> NDArray[np.float64]:
-    """Closest distance (...) between segments p0–p1 and q0–q1 (..., 3)."""
-    d1, d2, r = p1 - p0, q1 - q0, p0 - q0
-    a, e = np.sum(d1 * d1, -1), np.sum(d2 * d2, -1)
-    b, c, f = np.sum(d1 * d2, -1), np.sum(d1 * r, -1), np.sum(d2 * r, -1)
-    denominator = a * e - b * b
-    with np.errstate(divide="ignore", invalid="ignore"):
-        s = np.clip(np.where(denominator > 1e-15, (b * f - c * e) / denominator, 0.0), 0.0, 1.0)
-        t = (b * s + f) / e
-        s = np.where(t < 0, np.clip(-c / a, 0, 1), np.where(t > 1, np.clip((b - c) / a, 0, 1), s))
-        t = np.clip(t, 0.0, 1.0)
-    return np.linalg.norm(p0 + d1 * s[..., None] - (q0 + d2 * t[..., None]), axis=-1)
 
 
 def tool_segments(q: ArrayLike, board_from_arm: NDArray[np.float64]) -> tuple[NDArray, NDArray, NDArray]:
     """Remote centre, wrist and tip (..., 3) of an arm at joints `q`, in the board frame."""
     frames = link_frames(q)
     points = [np.zeros(np.shape(q)[:-1] + (3,)), frames[WRIST_FRAME][..., :3, 3], frames[-1][..., :3, 3]]
-    return tuple(p @ board_from_arm[:3, :3].T + board_from_arm[:3, 3] for p in points)
+    return tuple(apply_rigid(board_from_arm, p) for p in points)
 
 
 def tool_distance(q_a: ArrayLike, a_from_board: ArrayLike, q_b: ArrayLike, b_from_board: ArrayLike) -> NDArray[np.float64]:
     """Smallest distance (...) between two arms' tools (shaft and wrist-to-tip segments) at joints
     `q_a`, `q_b` (..., 6), given each arm's transform from the board frame."""
-    rcm_a, wrist_a, tip_a = tool_segments(q_a, np.linalg.inv(np.asarray(a_from_board, dtype=float)))
-    rcm_b, wrist_b, tip_b = tool_segments(q_b, np.linalg.inv(np.asarray(b_from_board, dtype=float)))
+    rcm_a, wrist_a, tip_a = tool_segments(q_a, invert_rigid(a_from_board))
+    rcm_b, wrist_b, tip_b = tool_segments(q_b, invert_rigid(b_from_board))
     pairs = [
-        _segment_distance(a0, a1, b0, b1)
+        segment_distances(a0, a1, b0, b1)
         for a0, a1 in ((rcm_a, wrist_a), (wrist_a, tip_a))
         for b0, b1 in ((rcm_b, wrist_b), (wrist_b, tip_b))
     ]
@@ -90,10 +77,7 @@ def tool_distance(q_a: ArrayLike, a_from_board: ArrayLike, q_b: ArrayLike, b_fro
 
 
 def _pose_in_arm(position_board: NDArray, yaw: float, arm_from_board: NDArray, up_board: NDArray) -> NDArray:
-    pose = np.eye(4)
-    pose[:3, :3] = tool_down_rotation(yaw, arm_from_board[:3, :3] @ up_board)
-    pose[:3, 3] = arm_from_board[:3, :3] @ position_board + arm_from_board[:3, 3]
-    return pose
+    return rigid_transform(tool_down_rotation(yaw, arm_from_board[:3, :3] @ up_board), apply_rigid(arm_from_board, position_board))
 
 
 def plan_handover(
@@ -137,7 +121,7 @@ def plan_handover(
     placement = receiver.plan(
         placement_waypoints(
             _pose_in_arm(grasp, receiver_yaw, T_receiver, up),
-            T_receiver[:3, :3] @ np.asarray(place_peg_top, dtype=float) + T_receiver[:3, 3],
+            apply_rigid(T_receiver, place_peg_top),
             place_offset=T_receiver[:3, :3] @ np.asarray(place_offset, dtype=float),
             place_yaw=receiver_yaw,
             up=T_receiver[:3, :3] @ up,

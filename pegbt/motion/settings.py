@@ -1,7 +1,9 @@
-"""Motion settings from `skills/motion.yaml`: waypoint heights, the peg channel, SQP and handover knobs.
+"""Motion settings from `skills/motion.yaml`: waypoint heights, the peg channel, jaw angles, SQP, the
+handover and how far apart the two arms keep.
 
-Joint limits are per arm and live in `skills/psm.yaml` (`pegbt.motion.limits`); this file holds what
-both arms share.
+Joint limits are per arm and live in `skills/psm.yaml` (`pegbt.motion.limits`); the block and where it
+is gripped are the work cell's (`skills/workcell.yaml`), so the two heights the waypoints take from the
+block are derived from it here, not written twice.
 """
 
 from __future__ import annotations
@@ -9,11 +11,11 @@ from __future__ import annotations
 from dataclasses import dataclass, fields
 from functools import lru_cache
 from pathlib import Path
+from typing import Any
 
-import yaml
-
-from pegbt.errors import PegbtError
 from pegbt.motion.limits import SKILLS_DIR
+from pegbt.workcell import WORKCELL_FILE, workcell
+from pegbt.yamlfile import Located, read_settings_file
 
 MOTION_SETTINGS = SKILLS_DIR / "motion.yaml"
 SIGNED = {"meeting_offset_board_y", "jaw_closed"}  # settings that may be zero or negative
@@ -21,7 +23,9 @@ SIGNED = {"meeting_offset_board_y", "jaw_closed"}  # settings that may be zero o
 
 @dataclass(frozen=True)
 class TransferSettings:
-    """Where the tip goes relative to the pegs, along the peg axis (m), and the jaw angles (rad)."""
+    """Where the tip goes relative to the pegs, along the peg axis (m), and the jaw angles (rad).
+
+    `block_top_below_peg_top` and `grasp_depth` come from the work cell's block."""
 
     block_top_below_peg_top: float
     grasp_depth: float
@@ -60,55 +64,48 @@ class HandoverSettings:
 
 
 @dataclass(frozen=True)
+class TwoArmSettings:
+    """How the two arms share the work cell (m)."""
+
+    keep_apart: float  # an arm motion waits until it keeps the tools' axes this far apart
+
+
+@dataclass(frozen=True)
 class MotionSettings:
     transfer: TransferSettings
     sqp: SqpSettings
     handover: HandoverSettings
+    two_arms: TwoArmSettings
 
 
-def _number(value: object, wanted: type, signed: bool, path: Path, field: str) -> float | int:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or (wanted is int and not isinstance(value, int)):
-        raise PegbtError(f"expected a number ({wanted.__name__}), got {value!r}", file=path, field=field)
-    if not value > 0 and not signed:
-        raise PegbtError(f"must be positive, got {value!r}", file=path, field=field)
-    return wanted(value)
+def _setting(value: Located, kind: str, signed: bool) -> Any:
+    if kind == "int":
+        return value.integer(low=1)
+    if kind == "tuple[float, ...]":  # one value per joint
+        return tuple(value.array((6,), positive=not signed).tolist())
+    return value.number(positive=not signed)
 
 
-def _section(document: dict, name: str, kind: type, path: Path) -> object:
-    data = document.get(name) if isinstance(document, dict) else None
-    if not isinstance(data, dict):
-        raise PegbtError("missing section", file=path, field=name)
-    values = {}
-    for field in fields(kind):
-        if field.name not in data:
-            raise PegbtError("missing setting", file=path, field=f"{name}.{field.name}")
-        value, where, signed = data[field.name], f"{name}.{field.name}", field.name in SIGNED
-        if field.type == "tuple[float, ...]":  # one value per joint
-            if not isinstance(value, list) or len(value) != 6:
-                raise PegbtError(f"expected 6 numbers (one per joint), got {value!r}", file=path, field=where)
-            values[field.name] = tuple(_number(v, float, signed, path, f"{where}[{i}]") for i, v in enumerate(value))
-        else:
-            values[field.name] = _number(value, int if field.type == "int" else float, signed, path, where)
-    return kind(**values)
+def _section(document: Located, name: str, kind: type, derived: dict[str, float] | None = None) -> Any:
+    """Section `name` as dataclass `kind`: every field it reads, and nothing else."""
+    section = document[name]
+    read = [f for f in fields(kind) if f.name not in (derived or {})]
+    section.mapping(tuple(f.name for f in read))
+    values = {f.name: _setting(section[f.name], str(f.type), f.name in SIGNED) for f in read}
+    return kind(**values, **(derived or {}))
 
 
 @lru_cache(maxsize=None)
-def motion_settings(path: Path = MOTION_SETTINGS) -> MotionSettings:
-    """The motion settings of `path` (default `skills/motion.yaml`)."""
-    try:
-        document = yaml.safe_load(path.read_text())
-    except OSError as error:
-        raise PegbtError(f"cannot read motion settings: {error}", file=path) from None
-    except yaml.YAMLError as error:
-        mark = getattr(error, "problem_mark", None)
-        raise PegbtError(
-            f"not valid YAML: {getattr(error, 'problem', error)}",
-            file=path,
-            line=None if mark is None else mark.line + 1,
-            column=None if mark is None else mark.column + 1,
-        ) from None
+def motion_settings(path: Path = MOTION_SETTINGS, workcell_file: Path = WORKCELL_FILE) -> MotionSettings:
+    """The motion settings of `path` (default `skills/motion.yaml`), with the block's heights from
+    `workcell_file` (default `skills/workcell.yaml`)."""
+    document = read_settings_file(path)
+    document.mapping(("transfer", "sqp", "handover", "two_arms"))
+    cell = workcell(workcell_file)
+    block = {"block_top_below_peg_top": cell.block_top_below_peg_top, "grasp_depth": cell.block.grasp_depth}
     return MotionSettings(
-        transfer=_section(document, "transfer", TransferSettings, path),
-        sqp=_section(document, "sqp", SqpSettings, path),
-        handover=_section(document, "handover", HandoverSettings, path),
+        transfer=_section(document, "transfer", TransferSettings, block),
+        sqp=_section(document, "sqp", SqpSettings),
+        handover=_section(document, "handover", HandoverSettings),
+        two_arms=_section(document, "two_arms", TwoArmSettings),
     )

@@ -16,6 +16,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from pegbt.errors import PegbtError
+from pegbt.frames import rigid_transform, yaw_rotation
 from pegbt.motion.channel import Channel, Upright
 from pegbt.motion.settings import TransferSettings, motion_settings
 
@@ -41,21 +42,12 @@ def tool_down_rotation(yaw: float, up: ArrayLike = (0.0, 0.0, 1.0)) -> NDArray[n
     With `up` = z this is a plain rotation about z (the PSM's R = I points the tool down)."""
     up = np.asarray(up, dtype=float)
     up = up / np.linalg.norm(up)
-    c, s = np.cos(yaw), np.sin(yaw)
-    yaw_rotation = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
     # The smallest rotation taking z onto `up` (Rodrigues), for boards that are not level.
     z = np.array([0.0, 0.0, 1.0])
     v, cos_angle = np.cross(z, up), float(z @ up)
     skew = np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
     tilt = np.eye(3) + skew + skew @ skew / (1.0 + cos_angle)
-    return tilt @ yaw_rotation
-
-
-def _pose(rotation: NDArray[np.float64], position: NDArray[np.float64]) -> NDArray[np.float64]:
-    pose = np.eye(4)
-    pose[:3, :3] = rotation
-    pose[:3, 3] = position
-    return pose
+    return tilt @ yaw_rotation(yaw)
 
 
 def _vector(value: ArrayLike, what: str) -> NDArray[np.float64]:
@@ -86,7 +78,7 @@ def _placing(
     dropped = place + heights.drop_height_above_peg_top * up
     rotation = tool_down_rotation(place_yaw, up)
     channel = Channel(dropped, up, heights.channel_clear_above_peg_top - heights.drop_height_above_peg_top, heights.channel_tolerance)
-    return _pose(rotation, place + heights.transfer_height_above_peg_top * up), _pose(rotation, dropped), channel
+    return rigid_transform(rotation, place + heights.transfer_height_above_peg_top * up), rigid_transform(rotation, dropped), channel
 
 
 def transfer_waypoints(
@@ -111,11 +103,11 @@ def transfer_waypoints(
     block_top = -heights.block_top_below_peg_top
     grasp = pick + (block_top - heights.grasp_depth) * up
     pick_rotation = tool_down_rotation(pick_yaw, up)
-    poses = np.stack([_pose(pick_rotation, grasp), _pose(pick_rotation, pick + heights.transfer_height_above_peg_top * up), above, dropped])
+    poses = np.stack([rigid_transform(pick_rotation, grasp), rigid_transform(pick_rotation, pick + heights.transfer_height_above_peg_top * up), above, dropped])
     clear = heights.channel_clear_above_peg_top
     return TransferWaypoints(
         poses=poses,
-        approach=_pose(pick_rotation, pick + (block_top + heights.approach_above_block) * up),
+        approach=rigid_transform(pick_rotation, pick + (block_top + heights.approach_above_block) * up),
         pick=Channel(grasp, up, clear - (block_top - heights.grasp_depth), heights.channel_tolerance),
         place=place,
         upright=Upright(up, heights.upright_tilt),

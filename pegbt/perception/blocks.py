@@ -20,11 +20,12 @@ import open3d as o3d
 from numpy.typing import ArrayLike, NDArray
 
 from pegbt.errors import PegbtError
+from pegbt.frames import invert_rigid, yaw_of, yaw_pose
 from pegbt.perception.board import BoardEstimate
 from pegbt.perception.cloud import Points, to_open3d
 from pegbt.perception.models import block_model
 from pegbt.perception.segment import SegmentSettings, block_segments
-from pegbt.workcell import Workcell, invert_rigid, workcell
+from pegbt.workcell import Workcell, workcell
 
 _registration = o3d.pipelines.registration
 SYMMETRY = 2 * math.pi / 3  # the block looks the same turned by 120°
@@ -68,7 +69,7 @@ class BlockEstimate:
     @property
     def pose(self) -> NDArray[np.float64]:
         """4×4 pose in the board frame, lying flat at `yaw`."""
-        return flat_pose(self.position, self.yaw)
+        return yaw_pose(self.position, self.yaw)
 
 
 class BlockLocator:
@@ -109,7 +110,7 @@ class BlockLocator:
             ).transformation
         quality = _registration.evaluate_registration(source, self._model, settings.quality_distance, T)
         pose = invert_rigid(T)
-        position, yaw = pose[:3, 3], wrap_symmetric(math.atan2(pose[1, 0], pose[0, 0]))
+        position, yaw = pose[:3, 3], wrap_symmetric(yaw_of(pose))
         tilt = math.acos(min(1.0, pose[2, 2]))
         reason = ""
         if quality.fitness < settings.min_fitness:
@@ -145,7 +146,7 @@ class BlockLocator:
         if np.linalg.norm(peg_xy[nearest] - centre) < model.hole_radius:
             centre = peg_xy[nearest]  # a peg's shadow on the top face biases the centroid; the peg does not
         z = float(np.median(top[:, 2])) + model.height
-        return flat_pose([centre[0], centre[1], z], three_fold_yaw(top[:, :2] - centre, model.edge_directions[0]))
+        return yaw_pose([centre[0], centre[1], z], three_fold_yaw(top[:, :2] - centre, model.edge_directions[0]))
 
     def _peg_through_hole(self, position: Points, peg_xy: Points) -> int | None:
         """The peg within the hole's clearance of the block's axis, if any."""
@@ -170,15 +171,6 @@ def block_on_peg(estimates: list[BlockEstimate], peg: int) -> BlockEstimate | No
     """The block found on `peg` (a trustworthy one first), or None: the peg is empty as far as we see."""
     on_peg = [estimate for estimate in estimates if estimate.peg == peg]
     return max(on_peg, key=lambda estimate: (estimate.ok, estimate.fitness), default=None)
-
-
-def flat_pose(position: ArrayLike, yaw: float) -> NDArray[np.float64]:
-    """A 4×4 pose at `position`, turned by `yaw` about board z."""
-    c, s = math.cos(yaw), math.sin(yaw)
-    T = np.eye(4)
-    T[:2, :2] = [[c, -s], [s, c]]
-    T[:3, 3] = position
-    return T
 
 
 def wrap_symmetric(yaw: float) -> float:

@@ -23,6 +23,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from pegbt.errors import PegbtError
+from pegbt.frames import apply_rigid, pose_from_axes, yaw_of
 from pegbt.perception.blocks import BlockEstimate
 from pegbt.workcell import Workcell, workcell
 
@@ -62,14 +63,12 @@ def grasp_options(block_pose: ArrayLike, arm: str, cell: Workcell | None = None)
     options = []
     for index, (local, jaw_yaw) in enumerate(zip(candidates.positions, candidates.jaw_yaw)):
         closing = block_pose[:3, :3] @ [math.cos(jaw_yaw), math.sin(jaw_yaw), 0.0]
-        tip_in_board = np.eye(4)
-        tip_in_board[:3, 0], tip_in_board[:3, 1], tip_in_board[:3, 2] = closing, np.cross(up, closing), up
-        tip_in_board[:3, 3] = block_pose[:3, :3] @ local + block_pose[:3, 3]
+        tip_in_board = pose_from_axes(closing, up, apply_rigid(block_pose, local))
         pose = arm_from_board @ tip_in_board
-        yaw = math.atan2(pose[1, 0], pose[0, 0])
+        yaw = yaw_of(pose)
         if not -math.pi / 2 < yaw <= math.pi / 2:  # the same grasp with the jaws swapped
             pose[:3, :2] = -pose[:3, :2]
-            yaw = math.atan2(pose[1, 0], pose[0, 0])
+            yaw = yaw_of(pose)
         options.append(Grasp(arm, index, pose, yaw, tip_in_board[:3, 3].copy()))
     return options
 

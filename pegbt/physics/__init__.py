@@ -4,7 +4,7 @@ The simulator endpoint runs it to move the tool, the sim-to-real tool replays re
 and names the effects it lacks, and calibration inverts it. One implementation, shared.
 """
 
-from pegbt.physics.effects import EFFECT_KINDS, Effect, JOINT_NAMES, joint_index
+from pegbt.physics.effects import EFFECT_KINDS, Effect, joint_index
 from pegbt.physics.model import ArmPhysics
 
-__all__ = ["EFFECT_KINDS", "Effect", "JOINT_NAMES", "joint_index", "ArmPhysics"]
+__all__ = ["EFFECT_KINDS", "Effect", "joint_index", "ArmPhysics"]

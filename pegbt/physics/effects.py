@@ -23,8 +23,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from pegbt.errors import PegbtError
-
-JOINT_NAMES: tuple[str, ...] = ("q1", "q2", "q3", "q4", "q5", "q6")
+from pegbt.psm import JOINT_NAMES
 
 # Parameters each effect kind takes; `source` is a joint name, the rest are floats.
 EFFECT_KINDS: dict[str, tuple[str, ...]] = {

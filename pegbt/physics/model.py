@@ -22,10 +22,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from pegbt.errors import PegbtError
-from pegbt.physics.effects import JOINT_NAMES, Effect, joint_index
+from pegbt.physics.effects import Effect, joint_index
 from pegbt.physics.kernels import apply_lag, apply_play, delay_series, play_grid
-
-N_JOINTS = len(JOINT_NAMES)
+from pegbt.psm import JOINT_NAMES, N_JOINTS
 PRESET_DIR = Path(__file__).parent / "presets"
 
 

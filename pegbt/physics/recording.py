@@ -32,12 +32,10 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from pegbt.errors import PegbtError
-from pegbt.physics.effects import JOINT_NAMES
+from pegbt.psm import JOINT_NAMES, N_JOINTS, known_arm
 
 Array = NDArray[np.float64]
 
-N_JOINTS = len(JOINT_NAMES)
-ARMS = ("PSM1", "PSM2")
 MIN_SAMPLES = 50
 # Samples closer than this are a stream (the dVRK controller runs at 100 Hz); farther apart, the arm had
 # time to settle between them, so lag and delay are over before each sample.
@@ -183,13 +181,6 @@ def _arm_of(path: Path) -> str | None:
     name = path.resolve().name if path.is_dir() else path.resolve().stem
     match = _ARM_AT_END.search(name)
     return match.group(1) if match else None
-
-
-def known_arm(arm: object, where: Path | None = None) -> str:
-    """`arm` if it names a PSM, else a `PegbtError`."""
-    if arm not in ARMS:
-        raise PegbtError(f"unknown arm {arm!r}; expected one of {', '.join(ARMS)}", file=where, field="arm")
-    return str(arm)
 
 
 # ---------------------------------------------------------------------------------------------- validation

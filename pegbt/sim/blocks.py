@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from pegbt.sim.geometry import Matrix
+from pegbt.frames import Matrix
 
 
 @dataclass

@@ -13,9 +13,9 @@ import numpy as np
 import open3d as o3d
 
 from pegbt.errors import PegbtError
+from pegbt.frames import Matrix
 from pegbt.sim.events import Event
 from pegbt.sim.faults import CameraFaults, NoiseBurst
-from pegbt.sim.geometry import Matrix
 from pegbt.sim.meshes import Mesh, block_mesh, cylinder_mesh, merge, static_scene_mesh, transformed
 from pegbt.sim.world import World
 from pegbt.workcell import Workcell, workcell

@@ -48,6 +48,7 @@ from pegbt.errors import PegbtError
 from pegbt.motion.kinematics import forward_kinematics
 from pegbt.motion.limits import arm_settings
 from pegbt.physics import ArmPhysics
+from pegbt.psm import ARMS
 from pegbt.sim.arm import DEFAULT_JOINTS, DEFAULT_SERVO_TAU, SimArm, Transition
 from pegbt.sim.fault_plan import FaultInjector, FaultPlan
 from pegbt.sim.log import SimLog
@@ -65,7 +66,7 @@ BARRIER_TIMEOUT = 5.0  # s to wait for a stepping client's commands to arrive
 
 @dataclass(frozen=True)
 class EndpointConfig:
-    arms: tuple[str, ...] = ("PSM1", "PSM2")
+    arms: tuple[str, ...] = ARMS
     physics: str = "ideal"  # preset name or a JSON file (preset or sim-to-real report)
     lockstep: bool = False
     namespace: str = ""

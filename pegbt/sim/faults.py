@@ -8,14 +8,10 @@ Every injected fault is logged as a `fault` event before its consequence.
 
 from __future__ import annotations
 
-import math
-from collections.abc import Mapping
 from dataclasses import dataclass, field
-from pathlib import Path
-from typing import Any
 
-from pegbt.errors import PegbtError
-from pegbt.workcell import ARMS
+from pegbt.psm import ARMS
+from pegbt.yamlfile import Located
 
 
 @dataclass(frozen=True)
@@ -34,40 +30,23 @@ class WorldFaults:
     miss_probability: float = 0.0  # of any grasp that would have held
 
     @classmethod
-    def from_mapping(cls, data: Mapping[str, Any], source: Path | str | None = None, prefix: str = "faults") -> WorldFaults:
-        """Faults from a configuration mapping (keys as the fields; slips as [{time, arm}]); errors name
-        the field under `prefix`."""
-
-        def fail(name: str, message: str) -> PegbtError:
-            return PegbtError(message, file=source, field=f"{prefix}.{name}")
-
-        def probability(name: str, upper: float) -> float:
-            value = data.get(name, 0.0)
-            if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0.0 <= value <= upper:
-                raise fail(name, f"expected a number in [0, {upper:g}], got {value!r}")
-            return float(value)
-
-        unknown = set(data) - {"slips", "slip_rate", "miss_attempts", "miss_probability"}
-        if unknown:
-            raise fail(sorted(unknown)[0], "unknown fault setting")
-        slips = []
-        for index, entry in enumerate(data.get("slips", [])):
-            entry = entry if isinstance(entry, dict) else {}
-            time, arm = entry.get("time"), entry.get("arm")
-            if isinstance(time, bool) or not isinstance(time, (int, float)) or not math.isfinite(time):
-                raise fail(f"slips[{index}].time", f"expected a time in seconds, got {time!r}")
-            if arm is not None and arm not in ARMS:
-                raise fail(f"slips[{index}].arm", f"expected one of {', '.join(ARMS)}, got {arm!r}")
-            slips.append(SlipAt(float(time), arm))
-        attempts = data.get("miss_attempts", [])
-        if not isinstance(attempts, list) or not all(isinstance(a, int) and a >= 0 for a in attempts):
-            raise fail("miss_attempts", f"expected a list of attempt numbers (0, 1, ...), got {attempts!r}")
+    def read(cls, section: Located) -> WorldFaults:
+        """Faults from a fault plan's `world:` mapping (keys as the fields; slips as [{time, arm?}])."""
+        entries = section.mapping(("slips", "slip_rate", "miss_attempts", "miss_probability"))
+        slips = [_slip(entry) for entry in entries["slips"].sequence()] if "slips" in entries else []
+        attempts = [item.integer(low=0) for item in entries["miss_attempts"].sequence()] if "miss_attempts" in entries else []
         return cls(
             slips=tuple(sorted(slips, key=lambda slip: slip.time)),
-            slip_rate=probability("slip_rate", math.inf),
+            slip_rate=section.number_or("slip_rate", 0.0, low=0.0),
             miss_attempts=frozenset(attempts),
-            miss_probability=probability("miss_probability", 1.0),
+            miss_probability=section.number_or("miss_probability", 0.0, low=0.0, high=1.0),
         )
+
+
+def _slip(entry: Located) -> SlipAt:
+    entry.mapping(("time", "arm"))
+    arm = entry.get("arm")
+    return SlipAt(entry["time"].number(), None if arm is None else arm.choice(ARMS))
 
 
 @dataclass(frozen=True)
@@ -90,26 +69,20 @@ class CameraFaults:
     random_burst: NoiseBurst = NoiseBurst(0.0, 0.0)  # its sigma and outliers apply to random bursts
 
     @classmethod
-    def from_mapping(cls, data: Mapping[str, Any], source: Path | str | None = None, prefix: str = "camera_faults") -> CameraFaults:
-        """Faults from configuration: `bursts: [{start, duration, sigma?, outliers?}]`, `burst_probability`;
-        errors name the field under `prefix`."""
-        unknown = set(data) - {"bursts", "burst_probability"}
-        if unknown:
-            raise PegbtError("unknown camera fault setting", file=source, field=f"{prefix}.{sorted(unknown)[0]}")
-        bursts = []
-        for index, entry in enumerate(data.get("bursts", [])):
-            field = f"{prefix}.bursts[{index}]"
-            if not isinstance(entry, dict) or not {"start", "duration"} <= set(entry) <= {"start", "duration", "sigma", "outliers"}:
-                raise PegbtError("expected {start, duration, sigma?, outliers?}", file=source, field=field)
-            values = {key: entry[key] for key in entry}
-            if not all(_is_number(value) and value >= 0 for value in values.values()) or values.get("outliers", 0) > 1:
-                raise PegbtError(f"expected non-negative numbers (outliers at most 1), got {entry!r}", file=source, field=field)
-            bursts.append(NoiseBurst(**{key: float(value) for key, value in values.items()}))
-        probability = data.get("burst_probability", 0.0)
-        if not _is_number(probability) or not 0.0 <= probability <= 1.0:
-            raise PegbtError(f"expected a number in [0, 1], got {probability!r}", file=source, field=f"{prefix}.burst_probability")
-        return cls(bursts=tuple(bursts), burst_probability=float(probability))
+    def read(cls, section: Located) -> CameraFaults:
+        """Faults from a fault plan's `camera:` mapping: `bursts: [{start, duration, sigma?, outliers?}]`,
+        `burst_probability`."""
+        entries = section.mapping(("bursts", "burst_probability"))
+        bursts = tuple(_burst(entry) for entry in entries["bursts"].sequence()) if "bursts" in entries else ()
+        return cls(bursts=bursts, burst_probability=section.number_or("burst_probability", 0.0, low=0.0, high=1.0))
 
 
-def _is_number(value: object) -> bool:
-    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+def _burst(entry: Located) -> NoiseBurst:
+    entry.mapping(("start", "duration", "sigma", "outliers"))
+    default = NoiseBurst(0.0, 0.0)
+    return NoiseBurst(
+        start=entry["start"].number(low=0.0),
+        duration=entry["duration"].number(low=0.0),
+        sigma=entry.number_or("sigma", default.sigma, low=0.0),
+        outliers=entry.number_or("outliers", default.outliers, low=0.0, high=1.0),
+    )

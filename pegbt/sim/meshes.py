@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from pegbt.sim.geometry import Matrix
+from pegbt.frames import Matrix
 from pegbt.workcell import BlockModel, Workcell
 
 Mesh = tuple[Matrix, NDArray[np.int64]]

@@ -13,11 +13,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from pegbt.frames import Matrix, yaw_of
+from pegbt.motion.settings import motion_settings
+from pegbt.psm import ARMS
 from pegbt.sim.events import Event
-from pegbt.sim.geometry import Matrix, yaw_of
 from pegbt.sim.tools import ToolState, tool_pointing_down
 from pegbt.sim.world import World
-from pegbt.workcell import ARMS
 
 LIFT_MARGIN = 0.004  # the block's bottom clears the peg tops by this much when carried
 PLACE_DEPTH = 0.003  # a block is released with its bottom this far down the goal peg
@@ -57,8 +58,7 @@ def carry_height(world: World) -> float:
 
 def grasp_keyframes(world: World, block: int, candidate: int, error: Matrix = np.zeros(3)) -> list[Keyframe]:
     """Over the grasp, down onto it from just above the block (missing it by `error`), close the jaw."""
-    cell = world.cell
-    model, motion = cell.block, cell.motion
+    model, motion = world.cell.block, motion_settings().transfer
     block_pose = world.blocks[block].pose
     grasp = (block_pose @ np.append(model.grasp_candidates.positions[candidate], 1.0))[:3] + error
     yaw = yaw_of(block_pose) + model.grasp_candidates.jaw_yaw[candidate]
@@ -84,8 +84,8 @@ def place_keyframes(world: World, block: int, goal_peg: int, holding: Keyframe, 
     place_z = carry_height(world) + LIFT_MARGIN + PLACE_DEPTH
     above = Keyframe(np.array([goal[0], goal[1], carry_height(world)]), holding.yaw, holding.jaw)
     lowered = Keyframe(np.array([goal[0], goal[1], place_z]), holding.yaw, holding.jaw)
-    opened = Keyframe(lowered.position, holding.yaw, cell.motion.jaw_open)
-    return [above, lowered, opened, Keyframe(above.position, holding.yaw, cell.motion.jaw_open)]
+    jaw_open = motion_settings().transfer.jaw_open
+    return [above, lowered, Keyframe(lowered.position, holding.yaw, jaw_open), Keyframe(above.position, holding.yaw, jaw_open)]
 
 
 def transfer_keyframes(world: World, block: int, goal_peg: int, candidate: int) -> list[Keyframe]:

@@ -11,8 +11,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from pegbt.frames import Matrix, pose_from_axes
 from pegbt.motion.kinematics import shaft_end_and_tip
-from pegbt.sim.geometry import Matrix
 from pegbt.workcell import ToolGeometry
 
 
@@ -56,10 +56,8 @@ def tool_pointing_down(position: Matrix, yaw: float, jaw: float, remote_centre: 
     `wrist_length` from the jaw hinge towards it, as an unbent wrist would put it.
     """
     position = np.asarray(position, dtype=float)
-    x = np.array([np.cos(yaw), np.sin(yaw), 0.0])
     z = np.array([0.0, 0.0, -1.0])  # back up the tool: "up" is -z on the board
-    tip = np.eye(4)
-    tip[:3, 0], tip[:3, 1], tip[:3, 2], tip[:3, 3] = x, np.cross(z, x), z, position
+    tip = pose_from_axes([np.cos(yaw), np.sin(yaw), 0.0], z, position)
     hinge = position + tool.jaw_length * z
     towards_centre = (remote_centre - hinge) / np.linalg.norm(remote_centre - hinge)
     wrist = hinge + tool.wrist_length * towards_centre

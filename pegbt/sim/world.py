@@ -17,12 +17,12 @@ from itertools import combinations
 
 import numpy as np
 
+from pegbt.frames import Matrix, invert_rigid, segment_distances, yaw_of, yaw_pose
 from pegbt.sim.blocks import Block
 from pegbt.sim.events import Event, EventLog
 from pegbt.sim.faults import WorldFaults
-from pegbt.sim.geometry import Matrix, boxes_overlap, pose, segment_distances, yaw_of, yaw_rotation
 from pegbt.sim.tools import ToolState
-from pegbt.workcell import Workcell, invert_rigid, workcell
+from pegbt.workcell import Workcell, workcell
 
 _LOST_BELOW_BOARD = 0.1  # where a block that left the workspace lies: on the floor, 10 cm below the board
 
@@ -330,11 +330,11 @@ class World:
             detail = f" off the top of peg {struck[0]}"
         board = self.cell.board
         if board.contains_xy(*xy):
-            block.pose = pose([xy[0], xy[1], board.surface_z], yaw_rotation(yaw))
+            block.pose = yaw_pose([xy[0], xy[1], board.surface_z], yaw)
             self._log("drop", arm, block.index, None, f"onto the board{detail}")
         else:
             block.lost = True
-            block.pose = pose([xy[0], xy[1], board.surface_z + _LOST_BELOW_BOARD], yaw_rotation(yaw))
+            block.pose = yaw_pose([xy[0], xy[1], board.surface_z + _LOST_BELOW_BOARD], yaw)
             self._log("drop", arm, block.index, None, f"off the workspace{detail}")
 
     def _rest_on_peg(self, block: Block, peg: int, yaw: float) -> None:
@@ -342,7 +342,7 @@ class World:
         below = sum(1 for other in self.blocks if other is not block and other.peg == peg and not other.grips)
         x, y = self.cell.pegs.positions[peg]
         z = self.cell.board.surface_z - below * self.cell.block.height
-        block.pose = pose([x, y, z], yaw_rotation(yaw))
+        block.pose = yaw_pose([x, y, z], yaw)
         block.peg = peg
 
     # ------------------------------------------------------------------------------------- collisions
@@ -386,3 +386,8 @@ class World:
         starts, ends, radii = state.segments(self.cell.tool)
         reach = radii[:, None]
         return starts, ends, radii, np.minimum(starts, ends) - reach, np.maximum(starts, ends) + reach
+
+
+def boxes_overlap(low_a: Matrix, high_a: Matrix, low_b: Matrix, high_b: Matrix) -> Matrix:
+    """Whether axis-aligned boxes overlap, broadcast over leading dimensions (…, 3) -> (…)."""
+    return np.all((low_a <= high_b) & (low_b <= high_a), axis=-1)

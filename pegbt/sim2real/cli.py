@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 import json
 
+from pegbt.psm import ARMS
+
 
 def add_commands(subparsers: argparse._SubParsersAction) -> None:
     parser = subparsers.add_parser(
@@ -24,7 +26,7 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
     diagnose.add_argument("recording", metavar="RECORDING")
     diagnose.add_argument("--sim", default="ideal", metavar="ideal|PRESET|REPORT.json",
                           help="physics to replay the commands through (default: ideal)")
-    diagnose.add_argument("--arm", choices=("PSM1", "PSM2"), help="arm for presets (default: from the recording's name)")
+    diagnose.add_argument("--arm", choices=ARMS, help="arm for presets (default: from the recording's name)")
     diagnose.add_argument("--out", metavar="DIR", help="write report.json, report.md and PNG plots here")
     diagnose.add_argument("--json", action="store_true", help="print report.json to standard output")
     diagnose.add_argument("--compare", metavar="REPORT.json",

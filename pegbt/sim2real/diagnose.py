@@ -15,7 +15,8 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from pegbt.physics import JOINT_NAMES, ArmPhysics, Effect
+from pegbt.physics import ArmPhysics, Effect
+from pegbt.psm import JOINT_NAMES
 from pegbt.sim2real.crossval import BlockedGrams
 from pegbt.sim2real.explain import effect_sentence, remaining_sentence, rival_sentence
 from pegbt.sim2real.fit import JointFit, Term, bootstrap, fit_joint, merged_physics, settle_backlash, to_effects

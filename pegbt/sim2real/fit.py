@@ -22,7 +22,8 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.optimize import minimize_scalar
 
-from pegbt.physics import JOINT_NAMES, ArmPhysics, Effect
+from pegbt.physics import ArmPhysics, Effect
+from pegbt.psm import JOINT_NAMES
 from pegbt.sim2real.library import DRIVEN_KINDS, WIDTH_KINDS, play_widths, width_bounds, width_column
 from pegbt.sim2real.significance import block_bootstrap_indices, correlation_length
 

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from pegbt.physics import JOINT_NAMES
+from pegbt.psm import JOINT_NAMES
 from pegbt.physics.kernels import delay_series, lag_series, play_grid
 
 Array = NDArray[np.float64]

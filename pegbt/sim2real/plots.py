@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pegbt.physics import JOINT_NAMES
+from pegbt.psm import JOINT_NAMES
 from pegbt.sim2real.diagnose import Diagnosis
 from pegbt.sim2real.explain import unit
 

@@ -6,8 +6,9 @@ import json
 from pathlib import Path
 
 from pegbt.errors import PegbtError
-from pegbt.sim2real.diagnose import diagnose
 from pegbt.physics.recording import load_recording
+from pegbt.psm import ARMS
+from pegbt.sim2real.diagnose import diagnose
 
 
 def _rounded(value):
@@ -29,8 +30,8 @@ def parse_sources(pairs: list[str]) -> dict[str, Path]:
     sources = {}
     for pair in pairs:
         arm, sep, path = pair.partition("=")
-        if not sep or arm not in ("PSM1", "PSM2"):
-            raise PegbtError(f"expected ARM=RECORDING with ARM PSM1 or PSM2, got {pair!r}", field="--from")
+        if not sep or arm not in ARMS:
+            raise PegbtError(f"expected ARM=RECORDING with ARM one of {', '.join(ARMS)}, got {pair!r}", field="--from")
         sources[arm] = Path(path)
     return sources
 

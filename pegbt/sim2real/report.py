@@ -12,7 +12,8 @@ from pathlib import Path
 from typing import Any
 
 from pegbt.errors import PegbtError
-from pegbt.physics import JOINT_NAMES, Effect
+from pegbt.physics import Effect
+from pegbt.psm import JOINT_NAMES
 from pegbt.sim2real.compare import compare
 from pegbt.sim2real.crossval import N_FOLDS
 from pegbt.sim2real.diagnose import Diagnosis

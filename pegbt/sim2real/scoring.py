@@ -6,7 +6,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pegbt.physics import JOINT_NAMES, Effect
+from pegbt.physics import Effect
+from pegbt.psm import JOINT_NAMES
 from pegbt.sim2real.diagnose import Diagnosis, crossval_predict, structure_from_effects
 from pegbt.sim2real.fit import fit_joint
 from pegbt.sim2real.synth import Synthetic, effect_label

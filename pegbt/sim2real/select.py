@@ -27,7 +27,8 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.optimize import minimize_scalar
 
-from pegbt.physics import JOINT_NAMES, ArmPhysics
+from pegbt.physics import ArmPhysics
+from pegbt.psm import JOINT_NAMES
 from pegbt.physics.kernels import play_grid
 from pegbt.sim2real.crossval import BlockedGrams
 from pegbt.sim2real.library import DRIVEN_KINDS, Candidate, width_bounds, width_column

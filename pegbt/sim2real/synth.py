@@ -25,7 +25,8 @@ from scipy.interpolate import PchipInterpolator
 from scipy.optimize import brentq
 
 from pegbt.errors import PegbtError
-from pegbt.physics import JOINT_NAMES, ArmPhysics, Effect
+from pegbt.physics import ArmPhysics, Effect
+from pegbt.psm import JOINT_NAMES
 from pegbt.physics.recording import Recording, write_recording
 
 Array = NDArray[np.float64]

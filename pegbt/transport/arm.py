@@ -20,6 +20,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from pegbt.errors import PegbtError
 from pegbt.motion.limits import ArmSettings, arm_settings
+from pegbt.psm import JOINT_LABELS
 from pegbt.transport import codec, guards
 from pegbt.clock import Clock, WallClock
 from pegbt.transport.codec import JointSample, OperatingState
@@ -27,7 +28,7 @@ from pegbt.transport.keys import ArmKeys
 from pegbt.transport.link import Link
 from pegbt.transport.sequencing import Inlet, Outlet, Received
 
-ARM_JOINT_NAMES = ("outer_yaw", "outer_pitch", "outer_insertion", "outer_roll", "outer_wrist_pitch", "outer_wrist_yaw")
+ARM_JOINT_NAMES = tuple(f"outer_{label}" for label in JOINT_LABELS)  # as the dVRK's joint states name them
 JAW_JOINT_NAMES = ("jaw",)
 STATE_COMMANDS = ("enable", "disable", "home", "unhome")
 FIRST_SAMPLE_TIMEOUT = 1.0  # s to wait for the first sample of a topic subscribed on first use

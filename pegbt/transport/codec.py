@@ -17,6 +17,7 @@ from numpy.typing import ArrayLike, NDArray
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
 from pegbt.errors import PegbtError
+from pegbt.frames import rigid_transform
 
 CRTK_MSGS = {
     "crtk_msgs/msg/OperatingState": "std_msgs/Header header\nstring state\nbool is_homed\nbool is_busy\n",
@@ -185,10 +186,7 @@ def decode_pose_stamped(data: bytes) -> tuple[float, NDArray[np.float64]]:
 
     message = deserialize(data, POSE_STAMPED)
     p, o = message.pose.position, message.pose.orientation
-    transform = np.eye(4)
-    transform[:3, :3] = Rotation.from_quat([o.x, o.y, o.z, o.w]).as_matrix()
-    transform[:3, 3] = (p.x, p.y, p.z)
-    return _stamp(message.header), transform
+    return _stamp(message.header), rigid_transform(Rotation.from_quat([o.x, o.y, o.z, o.w]).as_matrix(), (p.x, p.y, p.z))
 
 
 # ----------------------------------------------------------------------------- point clouds

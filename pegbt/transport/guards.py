@@ -12,9 +12,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from pegbt.errors import PegbtError
-from pegbt.motion.limits import JOINT_NAMES, ArmSettings
+from pegbt.motion.limits import ArmSettings
+from pegbt.psm import N_JOINTS, joint_label
 
-N_JOINTS = len(JOINT_NAMES)
 # Relative slack on velocity checks, for floating-point round-off in planners' samples.
 VELOCITY_SLACK = 1e-6
 
@@ -37,7 +37,7 @@ def step_problems(q: ArrayLike, reference: ArrayLike, settings: ArmSettings, sec
     speed = np.abs(q - reference) / seconds
     allowed = settings.velocity * (1 + VELOCITY_SLACK)
     return [
-        f"q{i + 1} ({JOINT_NAMES[i]}) would move at {speed[i]:.4g}/s, limit {settings.velocity[i]:.4g}/s"
+        f"{joint_label(i)} would move at {speed[i]:.4g}/s, limit {settings.velocity[i]:.4g}/s"
         for i in np.flatnonzero(speed > allowed)
     ]
 
