@@ -19,7 +19,6 @@ task's arm); `sim.PSM2.*` the same for the other arm.
 from __future__ import annotations
 
 import logging
-import os
 import tempfile
 import time
 from pathlib import Path
@@ -32,11 +31,9 @@ from pegbt.calibration.closed_loop import collect_on_simulator, simulator_tip_er
 from pegbt.calibration.compensation import Compensator
 from pegbt.calibration.evaluation import evaluate
 from pegbt.calibration.task import transfer_goals
-from pegbt.physics.recording import Recording, load_recording
+from pegbt.physics.recording import Recording, dvrk_data_dir, load_recording
 from pegbt.psm import ARMS
-from pegbt.errors import PegbtError
 
-DATA = Path(os.environ.get("PEGBT_DVRK_DATA", Path(__file__).resolve().parents[3] / "shared" / "data" / "dvrk"))
 PAIRS = (("grey1_PSM1", "new1_PSM1"), ("grey2_PSM2", "new2_PSM2"))  # (paper-era set-up, later set-up)
 KINDS = ("lstm", "physics", "hybrid")
 WRIST = ("q4", "q5", "q6")
@@ -47,10 +44,7 @@ SIM_SEED = 0
 
 
 def _recording(name: str) -> Recording:
-    path = DATA / f"random_smooth_{name}"
-    if not path.exists():
-        raise PegbtError("real dVRK recordings not found (set PEGBT_DVRK_DATA)", file=path)
-    return load_recording(path)
+    return load_recording(dvrk_data_dir(required=True) / f"random_smooth_{name}")
 
 
 def _arm(recording: Recording) -> str:

@@ -10,18 +10,15 @@ recordings of each arm name the same kinds of effect, and which parameters diffe
 
 from __future__ import annotations
 
-import os
 import time
-from pathlib import Path
 
 import numpy as np
 
-from pegbt.errors import PegbtError
+from pegbt.physics.recording import dvrk_data_dir, load_recording
 from pegbt.psm import JOINT_NAMES
 from pegbt.sim2real.baselines import linear_window, lstm_window
 from pegbt.sim2real.compare import compare
 from pegbt.sim2real.diagnose import diagnose
-from pegbt.physics.recording import load_recording
 
 RECORDINGS = ("random_smooth_grey1_PSM1", "random_smooth_grey2_PSM2", "random_smooth_new1_PSM1",
               "random_smooth_new2_PSM2")
@@ -36,19 +33,12 @@ README_RAW = {
 }
 
 
-def data_dir() -> Path:
-    folder = Path(os.environ.get("PEGBT_DVRK_DATA", Path(__file__).resolve().parents[3] / "shared" / "data" / "dvrk"))
-    if not (folder / RECORDINGS[0] / "q_cmd.npy").exists():
-        raise PegbtError("real dVRK recordings not found (set PEGBT_DVRK_DATA)", file=folder)
-    return folder
-
-
 def _rmse(error: np.ndarray) -> np.ndarray:
     return np.sqrt((error**2).mean(0))
 
 
 def run() -> dict[str, float | int | str]:
-    folder = data_dir()
+    folder = dvrk_data_dir(required=True)
     figures: dict[str, float | int | str] = {}
     wrist = {method: [] for method in ("raw", "sim2real", "linear", "lstm")}
     seconds = {method: 0.0 for method in ("sim2real", "linear", "lstm")}

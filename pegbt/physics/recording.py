@@ -23,6 +23,7 @@ from __future__ import annotations
 import csv
 import json
 import math
+import os
 import re
 from dataclasses import dataclass
 from datetime import datetime, timezone
@@ -41,8 +42,18 @@ MIN_SAMPLES = 50
 # time to settle between them, so lag and delay are over before each sample.
 STREAM_MAX_INTERVAL_S = 0.1
 CSV_COLUMNS = ("t", *(f"{q}_cmd" for q in JOINT_NAMES), *(f"{q}_meas" for q in JOINT_NAMES))
+DVRK_DATA_VARIABLE = "PEGBT_DVRK_DATA"
 FILES = {"q_cmd": "q_cmd.npy", "q_phy": "q_phy.npy", "t": "t_stamp.npy"}
 _ARM_AT_END = re.compile(r"(PSM[12])$")
+
+
+def dvrk_data_dir(required: bool = False) -> Path:
+    """The folder of real dVRK recordings: `$PEGBT_DVRK_DATA`, else `shared/data/dvrk` beside the checkout.
+    With `required`, a `PegbtError` when the recordings are not there."""
+    folder = Path(os.environ.get(DVRK_DATA_VARIABLE, Path(__file__).resolve().parents[3] / "shared" / "data" / "dvrk"))
+    if required and not (folder / "random_smooth_grey1_PSM1" / "q_cmd.npy").exists():
+        raise PegbtError(f"real dVRK recordings not found (set {DVRK_DATA_VARIABLE})", file=folder)
+    return folder
 
 
 @dataclass(frozen=True)
