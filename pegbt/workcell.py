@@ -48,8 +48,7 @@ class Pegs:
     positions: Matrix  # (12, 2) top centres x, y
     top_z: float
     radius: float
-    left_group: tuple[int, ...]
-    right_group: tuple[int, ...]
+    left_group: tuple[int, ...]  # where the blocks start
 
     @cached_property
     def tops(self) -> Matrix:
@@ -149,10 +148,6 @@ class CameraModel:
     def camera_from_board(self) -> Matrix:
         return invert_rigid(self.board_from_camera)
 
-    @cached_property
-    def intrinsic_matrix(self) -> Matrix:
-        return np.array([[self.fx, 0.0, self.cx], [0.0, self.fy, self.cy], [0.0, 0.0, 1.0]])
-
 
 @dataclass(frozen=True)
 class ToolGeometry:
@@ -240,13 +235,12 @@ def load_workcell(path: Path | str = WORKCELL_FILE) -> Workcell:
     root.mapping(SECTIONS)
     board, pegs_section, block_section = root["board"], root["pegs"], root["block"]
     board.mapping(("surface_z", "extent_x", "extent_y", "thickness"))
-    pegs_section.mapping(("diameter", "top_z", "positions", "left_group", "right_group"))
+    pegs_section.mapping(("diameter", "top_z", "positions", "left_group"))
     pegs = Pegs(
         positions=pegs_section["positions"].array((N_PEGS, 2)),
         top_z=pegs_section["top_z"].number(),
         radius=pegs_section["diameter"].number(positive=True) / 2,
         left_group=_pegs(pegs_section["left_group"]),
-        right_group=_pegs(pegs_section["right_group"]),
     )
     block_section.mapping(("edge_distance", "corner_distance", "height", "hole_radius", "edge_directions_deg",
                            "grasp_radial", "grasp_along_edge", "grasp_depth"))

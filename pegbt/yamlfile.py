@@ -113,13 +113,6 @@ class Located:
         entry.mapping(allowed)
         return entry
 
-    def at(self, dotted: str) -> Located:
-        """The value at a dotted path of mapping keys below this one (`board.extent_x`)."""
-        value = self
-        for key in dotted.split("."):
-            value = value[key]
-        return value
-
     def sequence(self, length: int | None = None) -> list[Located]:
         """The items of a list (of exactly `length` items, when given)."""
         if not self.is_list:
