@@ -182,11 +182,6 @@ class Workcell:
         """How far a resting block's top face lies below the peg tops (along the pegs)."""
         return (self.board.surface_z - self.block.height) - self.pegs.top_z
 
-    @property
-    def grasp_below_peg_top(self) -> float:
-        """How far below the peg tops the jaw grips a block resting on a peg."""
-        return self.block_top_below_peg_top + self.block.grasp_depth
-
     def board_to_arm(self, arm: str) -> Matrix:
         """(4, 4) transform taking board coordinates into `arm`'s base frame."""
         return self.arm_from_board[known_arm(arm)].copy()

@@ -86,7 +86,7 @@ class Located:
     def mapping(self, allowed: tuple[str, ...] | None = None) -> dict[str, Located]:
         """The entries of a mapping; a key outside `allowed` (when given) is an error at that key."""
         if not self.is_map:
-            raise self.error(f"expected a mapping, got {describe(self)}")
+            raise self.error(f"expected a mapping, got {_describe(self)}")
         if allowed is not None:
             for key, mark in self.key_marks.items():
                 if key not in allowed:
@@ -113,12 +113,10 @@ class Located:
         entry.mapping(allowed)
         return entry
 
-    def sequence(self, length: int | None = None) -> list[Located]:
-        """The items of a list (of exactly `length` items, when given)."""
+    def sequence(self) -> list[Located]:
+        """The items of a list."""
         if not self.is_list:
-            raise self.error(f"expected a list, got {describe(self)}")
-        if length is not None and len(self.value) != length:
-            raise self.error(f"expected {length} items, got {len(self.value)}")
+            raise self.error(f"expected a list, got {_describe(self)}")
         return self.value
 
     # ---------------------------------------------------------------------------------------- scalars
@@ -126,7 +124,7 @@ class Located:
         """A finite number (not a boolean), positive or within [low, high] when asked."""
         value = self.value
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-            raise self.error(f"expected a finite number, got {describe(self)}")
+            raise self.error(f"expected a finite number, got {_describe(self)}")
         if positive and not value > 0:
             raise self.error(f"expected a positive number, got {value!r}")
         if not low <= value <= high:
@@ -142,21 +140,22 @@ class Located:
         """A whole number (not a boolean) within [low, high] when given."""
         value = self.value
         if isinstance(value, bool) or not isinstance(value, int):
-            raise self.error(f"expected a whole number, got {describe(self)}")
+            raise self.error(f"expected a whole number, got {_describe(self)}")
         if (low is not None and value < low) or (high is not None and value > high):
             bounds = f"[{'-inf' if low is None else low}, {'inf' if high is None else high}]"
             raise self.error(f"expected a whole number in {bounds}, got {value!r}")
         return value
 
     def text(self) -> str:
+        """A string."""
         if not isinstance(self.value, str):
-            raise self.error(f"expected a string, got {describe(self)}")
+            raise self.error(f"expected a string, got {_describe(self)}")
         return self.value
 
     def choice(self, options: tuple[str, ...]) -> str:
         """One of `options`."""
         if self.value not in options:
-            raise self.error(f"expected one of {', '.join(options)}, got {describe(self)}")
+            raise self.error(f"expected one of {', '.join(options)}, got {_describe(self)}")
         return str(self.value)
 
     # ----------------------------------------------------------------------------------------- arrays
@@ -166,20 +165,20 @@ class Located:
         if not shape:
             return np.array(self.number(positive=positive))
         if not self.is_list or len(self.value) != shape[0]:
-            raise self.error(f"expected {wanted} finite numbers, got {describe(self)}")
+            raise self.error(f"expected {wanted} finite numbers, got {_describe(self)}")
         return np.array([item.array(shape[1:], positive=positive) for item in self.value], dtype=float).reshape(shape)
 
-    def rigid(self, scale: float = 1.0) -> NDArray[np.float64]:
-        """A 4×4 transform from this mapping's `rotation` (projected onto SO(3)) and `translation` (× `scale`)."""
+    def rigid(self) -> NDArray[np.float64]:
+        """A 4×4 transform from this mapping's `rotation` (projected onto SO(3)) and `translation`."""
         rotation = self["rotation"].array((3, 3))
         u, _, vt = np.linalg.svd(rotation)
         exact = u @ np.diag([1.0, 1.0, np.linalg.det(u @ vt)]) @ vt
         if np.abs(exact - rotation).max() > 0.01:
             raise self["rotation"].error("not a rotation matrix (off by more than 0.01)")
-        return rigid_transform(exact, self["translation"].array((3,)) * scale)
+        return rigid_transform(exact, self["translation"].array((3,)))
 
 
-def describe(value: Located) -> str:
+def _describe(value: Located) -> str:
     """A short description of what a value is, for error messages."""
     if value.is_map:
         return "a mapping"

@@ -70,8 +70,8 @@ def test_mappings_refuse_unknown_fields_and_name_missing_ones():
 
 def test_rigid_transforms_are_projected_onto_rotations():
     doc = parse_yaml("T:\n  rotation: [[0, -1, 0], [1, 0, 0], [0, 0, 1]]\n  translation: [1, 2, 3]\n", "s.yaml")
-    T = doc["T"].rigid(scale=0.001)
-    assert np.allclose(T[:3, :3], [[0, -1, 0], [1, 0, 0], [0, 0, 1]]) and np.allclose(T[:3, 3], [0.001, 0.002, 0.003])
+    T = doc["T"].rigid()
+    assert np.allclose(T[:3, :3], [[0, -1, 0], [1, 0, 0], [0, 0, 1]]) and np.allclose(T[:3, 3], [1, 2, 3])
     bad = parse_yaml("T:\n  rotation: [[2, 0, 0], [0, 1, 0], [0, 0, 1]]\n  translation: [0, 0, 0]\n", "s.yaml")
     with pytest.raises(PegbtError, match="not a rotation matrix") as caught:
         bad["T"].rigid()
