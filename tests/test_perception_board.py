@@ -26,7 +26,7 @@ def cloud(world):
 
 def peg_top_error(cell, board_from_camera):
     """Largest displacement (m) of a peg top between the true extrinsics and `board_from_camera`."""
-    error = board_from_camera @ np.linalg.inv(cell.camera.board_from_camera)
+    error = board_from_camera @ cell.camera.camera_from_board
     tops = cell.pegs.tops
     return np.linalg.norm(tops @ error[:3, :3].T + error[:3, 3] - tops, axis=1).max()
 

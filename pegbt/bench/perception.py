@@ -15,6 +15,7 @@ import time
 import numpy as np
 
 from pegbt.bench import Figures
+from pegbt.frames import rigid_transform
 
 SEEDS = range(8)
 CAPTURES_PER_SEED = 2
@@ -29,18 +30,16 @@ def _perturbation(rng: np.random.Generator) -> np.ndarray:
     from scipy.spatial.transform import Rotation
 
     axis, shift = rng.normal(size=3), rng.normal(size=3)
-    T = np.eye(4)
-    T[:3, :3] = Rotation.from_rotvec(math.radians(EXTRINSIC_ERROR_DEG) * axis / np.linalg.norm(axis)).as_matrix()
-    T[:3, 3] = EXTRINSIC_ERROR_MM / 1000 * shift / np.linalg.norm(shift)
-    return T
+    rotation = Rotation.from_rotvec(math.radians(EXTRINSIC_ERROR_DEG) * axis / np.linalg.norm(axis)).as_matrix()
+    return rigid_transform(rotation, EXTRINSIC_ERROR_MM / 1000 * shift / np.linalg.norm(shift))
 
 
 def run() -> Figures:
+    from pegbt.frames import yaw_of
     from pegbt.perception.blocks import BlockLocator, wrap_symmetric
     from pegbt.perception.board import PegboardRegistration
     from pegbt.perception.grasp import GraspSelector
     from pegbt.sim.camera import DepthCamera
-    from pegbt.frames import yaw_of
     from pegbt.sim.world import World
 
     def everywhere(poses: np.ndarray) -> np.ndarray:
