@@ -56,9 +56,9 @@ def peg_param(name: str, doc: str) -> Param:
 
 def keep_apart_param(default: float | None = None) -> Param:
     """`keep_apart`, by default skills/motion.yaml's `two_arms.keep_apart` (read when the leaf runs)."""
-    return Param("keep_apart", float, "m: an arm motion waits until it keeps the tools this far apart (default: "
-                 "two_arms.keep_apart of skills/motion.yaml; 0: no check, for the handover, where the tools meet on "
-                 "purpose)", default=default, minimum=0.0)
+    from_skills = " (None: two_arms.keep_apart of skills/motion.yaml)" if default is None else ""
+    return Param("keep_apart", float, f"m: an arm motion waits until it keeps the tools this far apart{from_skills}; 0: "
+                 "no check, for the handover, where the tools meet on purpose", default=default, minimum=0.0)
 
 
 def key_param(name: str, access: str, doc: str) -> Param:
