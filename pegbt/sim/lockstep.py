@@ -119,7 +119,10 @@ class Lockstep:
 
     def _put_reply(self, clock: str, header: dict[str, Any], state: list[Bundled]) -> None:
         if clock not in self._replies:
-            self._replies[clock] = self._session.declare_publisher(self._keys.stepped(clock), express=True)
+            # a dropped reply would hold its client up until it times out: block, as commands do, rather than drop
+            self._replies[clock] = self._session.declare_publisher(
+                self._keys.stepped(clock), express=True, congestion_control=zenoh.CongestionControl.BLOCK
+            )
         self._replies[clock].put(bundle(header, state))
 
     def _await_commands(self, source: str, sent: Mapping[str, int]) -> None:
