@@ -47,7 +47,7 @@ def test_client_moves_psm1_along_a_trajectory_and_reads_the_state_back(lockstep)
     goal = start + np.array([0.2, -0.1, 0.02, 0.3, 0.2, -0.2])
     t = np.arange(0, 1.0 + TICK / 2, TICK)
     blend = (1 - np.cos(np.pi * t / t[-1])) / 2
-    trajectory = codec.Trajectory(t, start + np.outer(blend, goal - start))
+    trajectory = codec.TrajectoryPoints(t, start + np.outer(blend, goal - start))
 
     handle = psm1.move_jp(trajectory)
     assert handle.busy

@@ -20,6 +20,7 @@ from pegbt.motion.limits import ArmSettings
 from pegbt.physics import ArmPhysics
 from pegbt.sim.playback import Playback, goal_playback, ramp_playback, trajectory_playback
 from pegbt.transport import guards
+from pegbt.transport.codec import TrajectoryPoints
 
 DEFAULT_JOINTS = (0.0, 0.0, 0.12, 0.0, 0.0, 0.0)
 DEFAULT_SERVO_TAU = 0.004  # s: encoders settle on a new set-point within about 20 ms
@@ -173,11 +174,11 @@ class SimArm:
             self.period,
         )
         # A profile from a moving start can overshoot a limit: refuse rather than clip.
-        outside = guards.trajectory_problems(_Samples(playback.times, playback.positions), s)
+        outside = guards.trajectory_problems(TrajectoryPoints(playback.times, playback.positions), s)
         return self._refusal(command_id, [f"planned profile: {p}" for p in outside]) or self.joints.start(playback)
 
     def follow_jt(self, t: ArrayLike, q: ArrayLike, qd: ArrayLike | None, command_id: str) -> list[Transition]:
-        trajectory = _Samples(np.asarray(t, dtype=float), np.asarray(q, dtype=float), qd)
+        trajectory = TrajectoryPoints(np.asarray(t, dtype=float), np.asarray(q, dtype=float), qd)
         problems = guards.trajectory_problems(trajectory, self.settings)
         if not problems:
             lead = max(float(trajectory.t[0]), self.period)
@@ -225,10 +226,3 @@ class SimArm:
         # ideal cables: the physical joints are the encoders (and the simulator skips the model's arithmetic)
         self.physical = self.joints.encoder if self.physics.is_ideal else self.physics.step(self.joints.encoder, dt)
         return transitions
-
-
-@dataclass(frozen=True)
-class _Samples:
-    t: NDArray[np.float64]
-    q: NDArray[np.float64]
-    qd: ArrayLike | None = None

@@ -19,7 +19,7 @@ from pegbt.sim.scripted import Driver, Keyframe, grasp_candidate_facing, interpo
 from pegbt.sim.tools import tool_pointing_down
 from pegbt.sim.world import World
 from pegbt.transport.arm import ArmClient, MotionHandle, MotionStatus
-from pegbt.transport.codec import Trajectory
+from pegbt.transport.codec import TrajectoryPoints
 from pegbt.workcell import Workcell
 
 
@@ -28,7 +28,7 @@ class ArmMotion:
     """One command: a joint goal, a joint trajectory, or a jaw angle (exactly one is set)."""
 
     goal: NDArray[np.float64] | None = None
-    trajectory: Trajectory | None = None
+    trajectory: TrajectoryPoints | None = None
     jaw: float | None = None
 
 
@@ -66,7 +66,7 @@ def joint_motions(cell: Workcell, arm: str, keyframes: list[Keyframe], step: flo
     for start, end in zip(keyframes, keyframes[1:]):
         if not np.allclose(start.position, end.position) or start.yaw != end.yaw:
             q = keyframe_joints(cell, arm, list(interpolate([start, end], step, speed)), turn)
-            motions.append(ArmMotion(trajectory=Trajectory(step * np.arange(1, len(q) + 1), q)))
+            motions.append(ArmMotion(trajectory=TrajectoryPoints(step * np.arange(1, len(q) + 1), q)))
         if end.jaw != start.jaw:
             motions.append(ArmMotion(jaw=end.jaw))
     return motions
