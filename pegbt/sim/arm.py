@@ -48,7 +48,7 @@ class JointGroup:
         self.encoder = self.setpoint.copy()
         self.velocity = np.zeros_like(self.setpoint)
         self.motion: Playback | None = None
-        self.stop: NDArray[np.float64] | None = None  # the encoders cannot go below it (a block in the jaw)
+        self.lowest: NDArray[np.float64] | None = None  # the encoders cannot go below it (a block in the jaw)
         self._elapsed = 0.0
         self._servo_tau = servo_tau
         self._problems = problems
@@ -75,9 +75,9 @@ class JointGroup:
 
     def stop_at(self, lowest: float | None) -> None:
         """Keep the encoders at or above `lowest` from now on (None: free), as a gripped block stops a jaw."""
-        self.stop = None if lowest is None else np.full_like(self.encoder, lowest)
-        if self.stop is not None:
-            self.encoder = np.maximum(self.encoder, self.stop)
+        self.lowest = None if lowest is None else np.full_like(self.encoder, lowest)
+        if self.lowest is not None:
+            self.encoder = np.maximum(self.encoder, self.lowest)
 
     def setpoint_velocity(self, period: float) -> NDArray[np.float64]:
         return (self.tick_setpoint - self.previous_tick_setpoint) / period
@@ -94,8 +94,8 @@ class JointGroup:
         alpha = 1.0 - math.exp(-dt / self._servo_tau) if self._servo_tau > 0 else 1.0
         previous = self.encoder
         self.encoder = previous + alpha * (self.setpoint - previous)
-        if self.stop is not None:
-            self.encoder = np.maximum(self.encoder, self.stop)
+        if self.lowest is not None:
+            self.encoder = np.maximum(self.encoder, self.lowest)
         self.velocity = (self.encoder - previous) / dt
         return transitions
 

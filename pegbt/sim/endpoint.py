@@ -20,7 +20,9 @@ stepping client claimed follow at that pace.
 Each tick the world sees every tool where its *physical* joints put it (forward kinematics of the
 cable physics' output, in the board frame); a jaw gripping a block stops at the block's wall, and its
 `jaw/measured_js` says so, as a real gripper's encoder would. A command is applied as it arrives (a
-`servo_jp` is echoed on `setpoint_js` at once); a motion plays out over the ticks that follow.
+`servo_jp` is echoed on `setpoint_js` at once); a motion plays out over the ticks that follow. Loss and
+latency act on commands and published messages, the world and camera inject their own faults, and an
+injected crash ends `run()` at its simulated time; each fault is logged with that time.
 """
 
 from __future__ import annotations
@@ -62,6 +64,9 @@ STATE_REFRESH = 1.0  # s of simulated time between unprompted operating_state me
 
 @dataclass(frozen=True)
 class EndpointConfig:
+    """How to run the simulator: its arms, their cable physics, lockstep or real time, the key namespace,
+    injected faults, the log file, the arms' starting joints and servo response."""
+
     arms: tuple[str, ...] = ("PSM1", "PSM2")
     physics: str = "ideal"  # preset name or a JSON file (preset or sim-to-real report)
     lockstep: bool = False
