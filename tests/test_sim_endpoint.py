@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import threading
 import time
 
 import numpy as np
@@ -46,7 +47,7 @@ def test_client_moves_psm1_along_a_trajectory_and_reads_the_state_back(lockstep)
     goal = start + np.array([0.2, -0.1, 0.02, 0.3, 0.2, -0.2])
     t = np.arange(0, 1.0 + TICK / 2, TICK)
     blend = (1 - np.cos(np.pi * t / t[-1])) / 2
-    trajectory = codec.Trajectory(t, start + np.outer(blend, goal - start))
+    trajectory = codec.TrajectoryPoints(t, start + np.outer(blend, goal - start))
 
     handle = psm1.move_jp(trajectory)
     assert handle.busy
@@ -160,6 +161,30 @@ def test_a_refused_step_is_reported_and_leaves_the_clock_usable(lockstep):
     assert clock.now() == before
     clock.wait(TICK)
     assert clock.now() == pytest.approx(before + TICK)
+
+
+def test_clocks_stepping_at_once_are_served_in_turn(lockstep):
+    """Two clocks of one client step from two threads: while one request waits at the barrier the other
+    waits its turn, and both reach their targets (neither request is lost or holds the simulator up)."""
+    link, _, _ = lockstep
+    clocks = [SimClock(link, reply_timeout=5.0), SimClock(link, reply_timeout=5.0)]
+    start = max(clock.now() for clock in clocks)
+    failures: list[Exception] = []
+
+    def step(clock: SimClock) -> None:
+        try:
+            for _ in range(150):
+                clock.wait(TICK)
+        except PegbtError as error:
+            failures.append(error)
+
+    threads = [threading.Thread(target=step, args=(clock,)) for clock in clocks]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join()
+    assert not failures
+    assert all(clock.now() >= start + 150 * TICK - 1e-6 for clock in clocks)
 
 
 def test_capture_without_a_camera_fails_clearly(lockstep):

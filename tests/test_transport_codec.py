@@ -144,10 +144,10 @@ def test_guards_check_velocity_of_steps_and_trajectories():
     assert not guards.step_problems(HOME + [SETTINGS.velocity[0] * period * 0.99, 0, 0, 0, 0, 0], HOME, SETTINGS, period)
 
     t = np.arange(0, 0.5, period)
-    ok = codec.Trajectory(t, HOME + np.outer(t, [0.5, 0, 0, 0, 0, 0]))
+    ok = codec.TrajectoryPoints(t, HOME + np.outer(t, [0.5, 0, 0, 0, 0, 0]))
     assert not guards.trajectory_problems(ok, SETTINGS)
-    too_fast = codec.Trajectory(t[:20], HOME + np.outer(t[:20], [5.0, 0, 0, 0, 0, 0]))
+    too_fast = codec.TrajectoryPoints(t[:20], HOME + np.outer(t[:20], [5.0, 0, 0, 0, 0, 0]))
     assert "segment after point 0" in " ".join(guards.trajectory_problems(too_fast, SETTINGS))
-    backwards = codec.Trajectory(t[::-1], ok.q)
+    backwards = codec.TrajectoryPoints(t[::-1], ok.q)
     assert "increasing" in " ".join(guards.trajectory_problems(backwards, SETTINGS))
     assert "jaw angle" in " ".join(guards.jaw_problems(2.0, SETTINGS))

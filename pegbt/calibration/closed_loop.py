@@ -26,7 +26,8 @@ from pegbt.calibration.collect import SETTLE_S, collect, move_and_settle, straig
 from pegbt.calibration.compensation import Compensator
 from pegbt.motion.kinematics import tip_position
 from pegbt.sim.process import SimProcess
-from pegbt.transport import ArmClient, SimClock, codec, connect
+from pegbt.transport import ArmClient, SimClock, connect
+from pegbt.transport.codec import TrajectoryPoints
 
 Array = NDArray[np.float64]
 
@@ -72,7 +73,7 @@ def run_waypoints(client: ArmClient, clock: SimClock, goals: Array, model: Calib
     for goal in goals:
         desired = desired_samples(current, goal, client)
         commands = desired if compensator is None else np.array([compensator.step(q) for q in desired])
-        trajectory = codec.Trajectory(period * np.arange(1, len(commands) + 1), commands)
+        trajectory = TrajectoryPoints(period * np.arange(1, len(commands) + 1), commands)
         move_and_settle(client, clock, trajectory, settle_s=0.0)
         errors.append(1000.0 * np.linalg.norm(tip_position(client.fiducial_js.position) - tip_position(goal)))
         current = goal

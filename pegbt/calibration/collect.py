@@ -23,7 +23,8 @@ from scipy.interpolate import PchipInterpolator
 from pegbt.errors import PegbtError
 from pegbt.motion.limits import ArmSettings
 from pegbt.physics.recording import RecordingWriter
-from pegbt.transport import ArmClient, Clock, codec
+from pegbt.transport import ArmClient, Clock
+from pegbt.transport.codec import TrajectoryLike, TrajectoryPoints
 
 Array = NDArray[np.float64]
 KNOT_SPACING = (6, 16)  # set-points between the random values a joint's path passes through
@@ -48,7 +49,7 @@ def random_setpoints(lower: ArrayLike, upper: ArrayLike, count: int, rng: np.ran
     return points
 
 
-def straight_move(start: ArrayLike, goal: ArrayLike, settings: ArmSettings) -> codec.Trajectory:
+def straight_move(start: ArrayLike, goal: ArrayLike, settings: ArmSettings) -> TrajectoryPoints:
     """A straight line in joint space from `start` to `goal`, at `SPEED_SHARE` of the planner velocity.
 
     The endpoint plays a trajectory linearly between its samples from the current set-point, so the goal
@@ -57,10 +58,10 @@ def straight_move(start: ArrayLike, goal: ArrayLike, settings: ArmSettings) -> c
     period = settings.control_period
     seconds = float(np.max(np.abs(goal - start) / (SPEED_SHARE * settings.planner_velocity)))
     duration = period * max(1, int(np.ceil(seconds / period)))
-    return codec.Trajectory(np.array([duration]), goal[None])
+    return TrajectoryPoints(np.array([duration]), goal[None])
 
 
-def move_and_settle(client: ArmClient, clock: Clock, trajectory: codec.Trajectory, settle_s: float = SETTLE_S) -> None:
+def move_and_settle(client: ArmClient, clock: Clock, trajectory: TrajectoryLike, settle_s: float = SETTLE_S) -> None:
     """Send `trajectory`, let simulated or real time pass until it is done, then rest `settle_s`."""
     handle = client.move_jp(trajectory)
     clock.wait(float(trajectory.t[-1]))

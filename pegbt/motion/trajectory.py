@@ -3,8 +3,9 @@ control period, a time-stamped `Trajectory` ready to stream.
 
 A `Trajectory` is plain arrays: `t` (N,) from 0 in steps of the control period, and `q`, `qd`, `qdd`
 (N, 6) in the joint order yaw, pitch, insertion, roll, wrist pitch, wrist yaw (SI units). It starts
-and ends at rest. The simulator executes it point by point (move_jp with a trajectory); the transport
-sends one JointState per row (position q, velocity qd).
+and ends at rest. `ArmClient.move_jp` sends it whole, as a trajectory_msgs/JointTrajectory on
+`follow_jt`, and the simulator plays it back point by point. It is the one trajectory type: the
+transport encodes anything with `t` and `q` (and `qd`, `qdd`), and decodes into unchecked plain points.
 """
 
 from __future__ import annotations

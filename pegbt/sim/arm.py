@@ -20,6 +20,7 @@ from pegbt.motion.limits import ArmSettings
 from pegbt.physics import ArmPhysics
 from pegbt.sim.playback import Playback, goal_playback, ramp_playback, trajectory_playback
 from pegbt.transport import guards
+from pegbt.transport.codec import TrajectoryPoints
 
 DEFAULT_JOINTS = (0.0, 0.0, 0.12, 0.0, 0.0, 0.0)
 DEFAULT_SERVO_TAU = 0.004  # s: encoders settle on a new set-point within about 20 ms
@@ -47,7 +48,7 @@ class JointGroup:
         self.encoder = self.setpoint.copy()
         self.velocity = np.zeros_like(self.setpoint)
         self.motion: Playback | None = None
-        self.stop: NDArray[np.float64] | None = None  # the encoders cannot go below it (a block in the jaw)
+        self.lowest: NDArray[np.float64] | None = None  # the encoders cannot go below it (a block in the jaw)
         self._elapsed = 0.0
         self._servo_tau = servo_tau
         self._problems = problems
@@ -74,9 +75,9 @@ class JointGroup:
 
     def stop_at(self, lowest: float | None) -> None:
         """Keep the encoders at or above `lowest` from now on (None: free), as a gripped block stops a jaw."""
-        self.stop = None if lowest is None else np.full_like(self.encoder, lowest)
-        if self.stop is not None:
-            self.encoder = np.maximum(self.encoder, self.stop)
+        self.lowest = None if lowest is None else np.full_like(self.encoder, lowest)
+        if self.lowest is not None:
+            self.encoder = np.maximum(self.encoder, self.lowest)
 
     def setpoint_velocity(self, period: float) -> NDArray[np.float64]:
         return (self.tick_setpoint - self.previous_tick_setpoint) / period
@@ -93,8 +94,8 @@ class JointGroup:
         alpha = 1.0 - math.exp(-dt / self._servo_tau) if self._servo_tau > 0 else 1.0
         previous = self.encoder
         self.encoder = previous + alpha * (self.setpoint - previous)
-        if self.stop is not None:
-            self.encoder = np.maximum(self.encoder, self.stop)
+        if self.lowest is not None:
+            self.encoder = np.maximum(self.encoder, self.lowest)
         self.velocity = (self.encoder - previous) / dt
         return transitions
 
@@ -173,11 +174,11 @@ class SimArm:
             self.period,
         )
         # A profile from a moving start can overshoot a limit: refuse rather than clip.
-        outside = guards.trajectory_problems(_Samples(playback.times, playback.positions), s)
+        outside = guards.trajectory_problems(TrajectoryPoints(playback.times, playback.positions), s)
         return self._refusal(command_id, [f"planned profile: {p}" for p in outside]) or self.joints.start(playback)
 
     def follow_jt(self, t: ArrayLike, q: ArrayLike, qd: ArrayLike | None, command_id: str) -> list[Transition]:
-        trajectory = _Samples(np.asarray(t, dtype=float), np.asarray(q, dtype=float), qd)
+        trajectory = TrajectoryPoints(np.asarray(t, dtype=float), np.asarray(q, dtype=float), qd)
         problems = guards.trajectory_problems(trajectory, self.settings)
         if not problems:
             lead = max(float(trajectory.t[0]), self.period)
@@ -225,10 +226,3 @@ class SimArm:
         # ideal cables: the physical joints are the encoders (and the simulator skips the model's arithmetic)
         self.physical = self.joints.encoder if self.physics.is_ideal else self.physics.step(self.joints.encoder, dt)
         return transitions
-
-
-@dataclass(frozen=True)
-class _Samples:
-    t: NDArray[np.float64]
-    q: NDArray[np.float64]
-    qd: ArrayLike | None = None

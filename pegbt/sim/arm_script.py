@@ -19,16 +19,16 @@ from pegbt.sim.scripted import Driver, Keyframe, grasp_candidate_facing, interpo
 from pegbt.sim.tools import tool_pointing_down
 from pegbt.sim.world import World
 from pegbt.transport.arm import ArmClient, MotionHandle, MotionStatus
-from pegbt.transport.codec import Trajectory
+from pegbt.transport.codec import TrajectoryPoints
 from pegbt.workcell import Workcell
 
 
 @dataclass(frozen=True)
-class ArmMotion:
+class ScriptedMotion:
     """One command: a joint goal, a joint trajectory, or a jaw angle (exactly one is set)."""
 
     goal: NDArray[np.float64] | None = None
-    trajectory: Trajectory | None = None
+    trajectory: TrajectoryPoints | None = None
     jaw: float | None = None
 
 
@@ -57,41 +57,41 @@ def keyframe_joints(cell: Workcell, arm: str, frames: list[Keyframe], turn: floa
     return solution.q
 
 
-def joint_motions(cell: Workcell, arm: str, keyframes: list[Keyframe], step: float, speed: float) -> list[ArmMotion]:
+def joint_motions(cell: Workcell, arm: str, keyframes: list[Keyframe], step: float, speed: float) -> list[ScriptedMotion]:
     """A joint goal to the first keyframe and its jaw angle, then each straight move as a joint trajectory
     sampled every `step` seconds at `speed` (m/s), and each jaw change as a jaw move."""
     turn = jaw_turn(cell, arm, keyframes)
     joints = keyframe_joints(cell, arm, keyframes, turn)
-    motions = [ArmMotion(goal=joints[0]), ArmMotion(jaw=keyframes[0].jaw)]
+    motions = [ScriptedMotion(goal=joints[0]), ScriptedMotion(jaw=keyframes[0].jaw)]
     for start, end in zip(keyframes, keyframes[1:]):
         if not np.allclose(start.position, end.position) or start.yaw != end.yaw:
             q = keyframe_joints(cell, arm, list(interpolate([start, end], step, speed)), turn)
-            motions.append(ArmMotion(trajectory=Trajectory(step * np.arange(1, len(q) + 1), q)))
+            motions.append(ScriptedMotion(trajectory=TrajectoryPoints(step * np.arange(1, len(q) + 1), q)))
         if end.jaw != start.jaw:
-            motions.append(ArmMotion(jaw=end.jaw))
+            motions.append(ScriptedMotion(jaw=end.jaw))
     return motions
 
 
-def descending_motions(world: World, arm: str, keyframes: list[Keyframe], step: float, speed: float) -> list[ArmMotion]:
+def descending_motions(world: World, arm: str, keyframes: list[Keyframe], step: float, speed: float) -> list[ScriptedMotion]:
     """`keyframes` as joint motions, reached straight down from `arm`'s parking height (clear of the pegs)."""
     first = keyframes[0]
     above = Keyframe(np.append(first.position[:2], parked(world, arm).position[2]), first.yaw, first.jaw)
     return joint_motions(world.cell, arm, [above, *keyframes], step, speed)
 
 
-def transfer_motions(world: World, arm: str, block: int, goal_peg: int, step: float, speed: float) -> list[ArmMotion]:
+def transfer_motions(world: World, arm: str, block: int, goal_peg: int, step: float, speed: float) -> list[ScriptedMotion]:
     """`arm` moves `block` onto `goal_peg` as `world` stands now: down from its parking height above the
     block, the scripted transfer (`transfer_keyframes`), straight up again and back to its park."""
     keyframes = transfer_keyframes(world, block, goal_peg, grasp_candidate_facing(world, block, arm))
     park, last = parked(world, arm), keyframes[-1]
     rise = Keyframe(np.append(last.position[:2], park.position[2]), last.yaw, last.jaw)
     motions = descending_motions(world, arm, [*keyframes, rise], step, speed)
-    return motions + [ArmMotion(goal=keyframe_joints(world.cell, arm, [park], jaw_turn(world.cell, arm, [park]))[0])]
+    return motions + [ScriptedMotion(goal=keyframe_joints(world.cell, arm, [park], jaw_turn(world.cell, arm, [park]))[0])]
 
 
 def scripted_trial(
     world: World, transfers: list[tuple[str, int, int]], step: float, speed: float
-) -> list[tuple[str, list[ArmMotion]]]:
+) -> list[tuple[str, list[ScriptedMotion]]]:
     """Each (arm, start peg, goal peg) transfer as that arm's motions, in order; `world` (a copy of the
     simulator's, same seed) plays them out on the way, so each transfer finds its block where the last left it."""
     driver = Driver(world, step=step, speed=speed)
@@ -107,12 +107,12 @@ def scripted_trial(
 class MotionPlayer:
     """Plays one arm's motions in order through its `ArmClient`; `poll()` once per tick."""
 
-    def __init__(self, client: ArmClient, motions: list[ArmMotion] | None = None) -> None:
+    def __init__(self, client: ArmClient, motions: list[ScriptedMotion] | None = None) -> None:
         self.client = client
-        self.pending: list[ArmMotion] = list(motions or [])
+        self.pending: list[ScriptedMotion] = list(motions or [])
         self._handle: MotionHandle | None = None
 
-    def extend(self, motions: list[ArmMotion]) -> None:
+    def extend(self, motions: list[ScriptedMotion]) -> None:
         self.pending.extend(motions)
 
     def poll(self) -> bool:

@@ -1,40 +1,37 @@
 """The simulator endpoint: two PSMs, the pegboard world they act in and its depth camera, behind CRTK
-topics over zenoh.
+topics over zenoh, as a dVRK's arms are behind its ROS 2 topics.
 
-One thread owns all simulator state and runs a loop fed by an inbox. Zenoh callbacks only enqueue:
-commands, camera triggers, step requests and queries. Commands are applied as they arrive (a `servo_jp` is
-echoed on `setpoint_js` at once); time advances in control ticks of 10 ms:
+The endpoint composes the simulator's parts and owns its one thread. Zenoh callbacks only put what
+arrives in an inbox (commands, camera triggers, step requests, queries); the endpoint's loop takes it
+from there, so all simulator state changes on one thread and in one order. Its parts, each with one job:
 
-- real time: a tick every 10 ms of wall time, stamps in epoch seconds; state published every tick.
-- lockstep: ticks only when a client's `SimClock` asks (a put on `sim/step`, answered by a put on
-  `sim/stepped/<client>`: cheaper than a query), stamps in simulated seconds from 0. Before stepping,
-  the endpoint waits until it holds every command that client sent (the request carries its per-key
-  counts); the reply carries the endpoint's own counts, so the client can wait for everything
-  published on the way. The request also claims the state topics the client subscribes
-  to: from then on their latest messages travel inside that client's step replies, not on the topics
-  (one message per step instead of a dozen), unless loss or latency faults act on them. Every 50 ms
-  of wall time the state is re-sent on its topics, so liveness checks hold, late joiners see it and
-  other subscribers of claimed topics follow at that pace.
+- `SimArm` (`arm`): one arm's controller, limits, servo response and cable physics;
+- `commands`: a command message to the arm call it asks for, through loss and latency faults;
+- `outbox`: every published message, encoded only when received, through loss and latency faults;
+- `lockstep`: step requests, and the barrier that makes each step see exactly what was sent before it;
+- `truth`: the judge's `sim/truth` query; `log` (`SimLog`): the ground-truth log behind it.
+
+Time advances in control ticks of 10 ms. In real time a tick comes every 10 ms of wall time, stamps
+are epoch seconds and the state goes out every tick. In lockstep ticks come only when a client's
+`SimClock` asks, stamps are simulated seconds from 0, and every 50 ms of wall time the state is re-sent
+on its topics (a heartbeat), so liveness checks hold, late joiners see it and subscribers of keys a
+stepping client claimed follow at that pace.
 
 Each tick the world sees every tool where its *physical* joints put it (forward kinematics of the
 cable physics' output, in the board frame); a jaw gripping a block stops at the block's wall, and its
-`jaw/measured_js` says so. World events go to the `SimLog` (the `--log` file and `sim/events`); the
-`sim/truth` query answers with block states and the log so far, for a judge, never for behaviours.
-
-Each command's fate goes out tagged with the command's id: `operating_state` (accepted, done, aborted)
-or `error` (refused, with the reason). Message loss, latency and a crash are injected per `FaultPlan`
-(the world and camera inject their own faults) and logged with their time.
+`jaw/measured_js` says so, as a real gripper's encoder would. A command is applied as it arrives (a
+`servo_jp` is echoed on `setpoint_js` at once); a motion plays out over the ticks that follow. Loss and
+latency act on commands and published messages, the world and camera inject their own faults, and an
+injected crash ends `run()` at its simulated time; each fault is logged with that time.
 """
 
 from __future__ import annotations
 
-import heapq
-import itertools
 import json
 import queue
 import threading
 import time
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from functools import partial
 from pathlib import Path
@@ -50,22 +47,27 @@ from pegbt.motion.limits import arm_settings
 from pegbt.physics import ArmPhysics
 from pegbt.psm import ARMS
 from pegbt.sim.arm import DEFAULT_JOINTS, DEFAULT_SERVO_TAU, SimArm, Transition
+from pegbt.sim.commands import Command, CommandIntake, command_keys, dispatch, refused
 from pegbt.sim.fault_plan import FaultInjector, FaultPlan
+from pegbt.sim.interfaces import SimCamera, SimWorld
+from pegbt.sim.lockstep import Inbox, Lockstep
 from pegbt.sim.log import SimLog
-from pegbt.sim.plugins import SimCamera, SimWorld
+from pegbt.sim.outbox import JointStateMessage, Outbox
 from pegbt.sim.tools import ToolState
+from pegbt.sim.truth import requested_since, truth_answer
 from pegbt.transport import codec
 from pegbt.transport.arm import ARM_JOINT_NAMES, JAW_JOINT_NAMES
 from pegbt.transport.keys import ArmKeys, CameraKeys, SimKeys
-from pegbt.transport.sequencing import Bundled, Outlet, Source, Tag, bundle
+from pegbt.transport.sequencing import Outlet, Source, Tag
 
-MAX_STEPS_PER_REQUEST = 1_000_000
 STATE_REFRESH = 1.0  # s of simulated time between unprompted operating_state messages
-BARRIER_TIMEOUT = 5.0  # s to wait for a stepping client's commands to arrive
 
 
 @dataclass(frozen=True)
 class EndpointConfig:
+    """How to run the simulator: its arms, their cable physics, lockstep or real time, the key namespace,
+    injected faults, the log file, the arms' starting joints and servo response."""
+
     arms: tuple[str, ...] = ARMS
     physics: str = "ideal"  # preset name or a JSON file (preset or sim-to-real report)
     lockstep: bool = False
@@ -77,133 +79,9 @@ class EndpointConfig:
     heartbeat: float = 0.05  # s of wall time between re-sends of the state while a lockstep endpoint idles
 
 
-Message = Callable[[], bytes]  # encodes a message when someone will receive it
-
-
-@dataclass(frozen=True)
-class _JointStateMessage:
-    """A JointState, encoded when called; `content` (all but the stamp) tells an unchanged state."""
-
-    stamp: float
-    position: NDArray[np.float64]
-    velocity: NDArray[np.float64] | tuple[()] = ()
-    names: tuple[str, ...] = ()
-
-    def __call__(self) -> bytes:
-        return codec.encode_joint_state(self.stamp, self.position, self.velocity, names=self.names)
-
-    def content(self) -> tuple[tuple[str, ...], bytes, bytes]:
-        return self.names, self.position.tobytes(), np.asarray(self.velocity, dtype=float).tobytes()
-
-
-@dataclass
-class _Latest:
-    """The latest message of a key: how to encode it, and its bytes once encoded."""
-
-    message: Message | None
-    cause: str
-    outcome: str
-    encoded: bytes | None = None
-
-    def payload(self) -> bytes:
-        if self.encoded is None:
-            assert self.message is not None
-            self.encoded = self.message()
-        return self.encoded
-
-
-class _Outbox:
-    """Publishes tagged messages, losing or delaying them as the fault plan says (delays keep per-key order).
-
-    A message is encoded only if someone subscribes to its key; otherwise it is kept, unencoded, as the
-    key's latest, so that a heartbeat can still hand it to a late subscriber. A key a stepping client
-    has `claimed` is not put at all: its latest goes back in that client's step replies (`latest`),
-    and to other subscribers with the heartbeat.
-    """
-
-    def __init__(self, session: zenoh.Session, source: Source, faults: FaultInjector, log: Callable[..., None], realtime: bool) -> None:
-        self._session = session
-        self._source = source
-        self._faults = faults
-        self._faulty = faults.plan.loss_probability > 0 or faults.plan.latency > 0 or faults.plan.jitter > 0
-        self._log = log
-        self._realtime = realtime  # real time: express, and drop stale stream messages rather than block
-        self._outlets: dict[str, Outlet] = {}
-        self._delayed: list[tuple[float, int, str, bytes, str, str]] = []
-        self._last: dict[str, _Latest] = {}
-        self.inject = True  # off while publishing the initial state: every key starts with one message
-        self._last_due: dict[str, float] = {}
-        self._order = itertools.count()
-        self.claimed: set[str] = set()
-        self._replied: dict[str, dict[str, tuple[object, int]]] = {}  # per clock, per key: content and number last sent
-
-    def outlet(self, key: str) -> Outlet:
-        if key not in self._outlets:
-            self._outlets[key] = Outlet(
-                self._session, key, self._source, drop_when_congested=self._realtime, express=self._realtime
-            )
-        return self._outlets[key]
-
-    def send(self, now: float, key: str, message: Message, cause: str = "", outcome: str = "") -> None:
-        outlet = self.outlet(key)
-        if key in self.claimed or not outlet.matched:
-            self._last[key] = _Latest(message, cause, outcome)
-            return
-        if not (self.inject and self._faulty):
-            self._put(outlet, _Latest(message, cause, outcome))
-            return
-        identity = f"{now:.6f}|{cause.partition(':')[2]}|{outcome}"  # without the sender's random name
-        if self._faults.lost(key, identity):
-            self._log(now, "fault", fault="loss", key=key)
-            return
-        delay = self._faults.delay(key, identity)
-        if delay > 0:
-            due = max(now + delay, self._last_due.get(key, 0.0))
-            self._last_due[key] = due
-            heapq.heappush(self._delayed, (due, next(self._order), key, message(), cause, outcome))
-            self._log(now, "fault", fault="latency", key=key, seconds=round(due - now, 6))
-            return
-        self._put(outlet, _Latest(message, cause, outcome))
-
-    def _put(self, outlet: Outlet, latest: _Latest) -> None:
-        outlet.put(latest.payload(), latest.cause, latest.outcome)
-        self._last[outlet.key] = latest
-
-    def release(self, now: float) -> None:
-        while self._delayed and self._delayed[0][0] <= now + 1e-9:
-            _, _, key, payload, cause, outcome = heapq.heappop(self._delayed)
-            self._put(self.outlet(key), _Latest(None, cause, outcome, payload))
-
-    def latest(self, keys: set[str], clock: str) -> list[Bundled]:
-        """The latest message of each claimed key among `keys`, tagged anew, for `clock`'s step reply: a
-        joint state equal but for its stamp to the one it was last sent is a note with the new stamp
-        (nothing to encode here or to decode there)."""
-        replied = self._replied.setdefault(clock, {})
-        messages: list[Bundled] = []
-        for key in sorted(keys & self.claimed & self._last.keys()):
-            latest = self._last[key]
-            tag = self._source.next_tag(key, latest.cause, latest.outcome)
-            message = latest.message
-            content = message.content() if isinstance(message, _JointStateMessage) else None
-            last = replied.get(key)
-            if content is not None and last is not None and last[0] == content:
-                messages.append((key, tag, {"restamp": codec.seconds_parts(message.stamp), "base": last[1]}))
-            else:
-                messages.append((key, tag, latest.payload()))
-            replied[key] = (content, tag.seq)
-        return messages
-
-    def repeat(self, keys: set[str]) -> None:
-        """Put the latest message of each of `keys` again, unchanged (same stamp, same values), to whoever listens."""
-        for key in keys & self._last.keys():
-            outlet = self.outlet(key)
-            if outlet.matched:
-                latest = self._last[key]
-                outlet.put(latest.payload(), latest.cause, latest.outcome)
-
-    def close(self) -> None:
-        for outlet in self._outlets.values():
-            outlet.close()
+def _state_keys(keys: ArmKeys) -> tuple[str, ...]:
+    """An arm's state streams: only the latest message of each matters."""
+    return (keys.measured_js, keys.setpoint_js, keys.fiducial_js, keys.measured_cp, keys.jaw_measured_js, keys.jaw_setpoint_js)
 
 
 class SimEndpoint:
@@ -245,45 +123,35 @@ class SimEndpoint:
         self.faults = FaultInjector(config.faults)
         self._events_outlet = Outlet(session, self.sim_keys.events, self.source)
         self.log = SimLog(config.log_path, self._publish_log_line)
-        self._outbox = _Outbox(session, self.source, self.faults, self.log.record, realtime=not config.lockstep)
-        self._inbox: queue.Queue[tuple] = queue.Queue()
-        self._received: dict[str, dict[str, int]] = {}
-        self._received_lock = threading.Lock()
-        self._delayed_commands: list[tuple[float, int, tuple]] = []
-        self._order = itertools.count()
-        self._untagged = itertools.count(1)
+        self._outbox = Outbox(session, self.source, self.faults, self.log.record, realtime=not config.lockstep)
+        self._commands = CommandIntake(self.faults, self.log)
+        self._inbox: Inbox = queue.Queue()
         self._last_state_refresh = self.time
         self._stop = threading.Event()
         self._declarations: list[Any] = []
-        self._step_replies: dict[str, zenoh.Publisher] = {}  # per stepping clock
+        commands = {key for keys in self.keys.values() for key in command_keys(keys)}
+        if camera is not None:
+            commands.add(self.camera_keys.trigger)
+        # streams under loss or latency stay on their topics, where the faults act
+        claimable = {key for keys in self.keys.values() for key in _state_keys(keys) if not self.faults.affects(key)}
+        self._lockstep = Lockstep(
+            session, self.sim_keys, self._outbox, self._inbox, self._handle,
+            enabled=config.lockstep, command_keys=commands, claimable=claimable,
+        )
         self._declare()
 
     # ------------------------------------------------------------------ zenoh wiring
-    @staticmethod
-    def _arm_command_keys(keys: ArmKeys) -> tuple[str, ...]:
-        return (keys.servo_jp, keys.move_jp, keys.follow_jt, keys.state_command, keys.jaw_servo_jp, keys.jaw_move_jp)
-
-    @staticmethod
-    def _state_keys(keys: ArmKeys) -> tuple[str, ...]:
-        """An arm's state streams: only the latest message of each matters."""
-        return (keys.measured_js, keys.setpoint_js, keys.fiducial_js, keys.measured_cp, keys.jaw_measured_js, keys.jaw_setpoint_js)
-
     def _declare(self) -> None:
-        self._command_keys = {key for keys in self.keys.values() for key in self._arm_command_keys(keys)}
-        # state a stepping client may take in its step replies; streams under loss or latency stay on their topics
-        self._claimable = {
-            key for keys in self.keys.values() for key in self._state_keys(keys) if not self.faults.affects(key)
-        }
+        """Subscribe to commands, step requests and queries; declare every state and report key."""
         for name, keys in self.keys.items():
-            for key in self._arm_command_keys(keys):
+            for key in command_keys(keys):
                 self._declarations.append(
                     self.session.declare_subscriber(key, lambda sample, k=key, a=name: self._enqueue_command(a, k, sample))
                 )
-            for key in (*self._state_keys(keys), keys.operating_state, keys.error):
+            for key in (*_state_keys(keys), keys.operating_state, keys.error):
                 self._outbox.outlet(key)
         if self.camera is not None:
             self._outbox.outlet(self.camera_keys.points)
-            self._command_keys.add(self.camera_keys.trigger)
             self._declarations.append(
                 self.session.declare_subscriber(self.camera_keys.trigger, lambda sample: self._enqueue_command("", self.camera_keys.trigger, sample))
             )
@@ -296,10 +164,8 @@ class SimEndpoint:
     def _enqueue_command(self, arm: str, key: str, sample: zenoh.Sample) -> None:
         tag = Tag.decode(sample.attachment)
         self._inbox.put(("command", arm, key, sample.payload.to_bytes(), tag))
-        if tag is not None:  # counted after queueing, so a satisfied barrier means the command is queued
-            with self._received_lock:
-                counts = self._received.setdefault(tag.source, {})
-                counts[key] = max(counts.get(key, 0), tag.seq)
+        if tag is not None:
+            self._lockstep.arrived(tag, key)
 
     # ------------------------------------------------------------------ the loop
     def stop(self) -> None:
@@ -353,39 +219,27 @@ class SimEndpoint:
         """Stamp for something happening between ticks."""
         return self.time if self.config.lockstep else max(self.time, time.time())
 
+    # ------------------------------------------------------------------ what arrives
     def _handle(self, item: tuple) -> None:
+        """Act on one inbox item: a command, a step request, or a `sim/clock` or `sim/truth` query."""
         kind = item[0]
         if kind == "command":
             self._command(*item[1:])
         elif kind == "clock":
-            self._reply(item[1], {"mode": "lockstep" if self.config.lockstep else "realtime", "period": self.period, "time": self.now(),
-                                  "source": self.source.name, "sent": self.source.counts()})
+            clock = {"mode": "lockstep" if self.config.lockstep else "realtime", "period": self.period, "time": self.now(),
+                     "source": self.source.name, "sent": self.source.counts()}
+            self._reply(item[1], json.dumps(clock))
         elif kind == "step":
             self._step(item[1])
         elif kind == "truth":
             self._answer_truth(item[1])
 
-    # ------------------------------------------------------------------ lockstep
     def _step(self, payload: bytes) -> None:
-        """A step request: wait for the client's commands, tick, answer with the state it claims."""
-        try:
-            request = json.loads(payload)
-            clock, source, number = str(request["clock"]), str(request["source"]), int(request["number"])
-        except (ValueError, TypeError, KeyError):
-            return  # not a SimClock's request: there is nobody to answer
-        try:
-            steps = int(request.get("steps", 1))
-            if not self.config.lockstep:
-                raise PegbtError("the simulator runs in real time; sim/step needs --lockstep", field="steps")
-            if not 0 < steps <= MAX_STEPS_PER_REQUEST:
-                raise PegbtError(f"steps must be in 1..{MAX_STEPS_PER_REQUEST}, got {steps}", field="steps")
-            self._await_commands(source, request.get("sent", {}))
-            claim = set(map(str, request.get("claim", []))) & self._claimable
-        except (PegbtError, ValueError, TypeError) as error:
-            self._answer_step(clock, {"number": number, "error": str(error)}, [])
+        """A step request: once the lockstep barrier admits it, tick and answer with the state it claims."""
+        request = self._lockstep.admit(payload)
+        if request is None:
             return
-        self._outbox.claimed |= claim
-        for _ in range(steps):
+        for _ in range(request.steps):
             if self.faults.crashed:
                 break
             self.time = self.start_time + round((self.elapsed + self.period) / self.period) * self.period
@@ -393,109 +247,43 @@ class SimEndpoint:
         if self.faults.crashed:
             return
         self._publish_state()
-        state = self._outbox.latest(claim, clock)
-        header = {"number": number, "time": self.time, "source": self.source.name, "sent": self.source.counts()}
-        self._answer_step(clock, header, state)
-
-    def _answer_step(self, clock: str, header: dict[str, Any], state: list[Bundled]) -> None:
-        if clock not in self._step_replies:
-            self._step_replies[clock] = self.session.declare_publisher(self.sim_keys.stepped(clock), express=True)
-        self._step_replies[clock].put(bundle(header, state))
-
-    def _await_commands(self, source: str, sent: Mapping[str, int]) -> None:
-        """Handle every command `source` sent before asking to step (zenoh orders keys independently)."""
-        ours = set(sent) & self._command_keys
-        deadline = time.monotonic() + BARRIER_TIMEOUT
-        while True:
-            with self._received_lock:
-                counts = dict(self._received.get(source, {}))
-            if all(counts.get(key, 0) >= int(sent[key]) for key in ours):
-                break
-            if time.monotonic() > deadline:
-                raise PegbtError(f"commands from {source} never arrived: wanted {sent}, have {counts}", field="sent")
-            try:
-                item = self._inbox.get(timeout=0.001)
-            except queue.Empty:
-                continue
-            self._defer_or_handle(item)
-        while True:  # everything counted is queued: drain it
-            try:
-                item = self._inbox.get_nowait()
-            except queue.Empty:
-                break
-            self._defer_or_handle(item)
-
-    def _defer_or_handle(self, item: tuple) -> None:
-        if item[0] == "step":  # another client's step waits its turn
-            self._inbox.put(item)
-        else:
-            self._handle(item)
+        self._lockstep.answer(request, {"time": self.time, "source": self.source.name, "sent": self.source.counts()})
 
     @staticmethod
-    def _reply(query: zenoh.Query, answer: dict | str) -> None:
-        query.reply(query.key_expr, answer if isinstance(answer, str) else json.dumps(answer), express=True)
+    def _reply(query: zenoh.Query, answer: str) -> None:
+        query.reply(query.key_expr, answer, express=True)
         query.drop()
 
     def _answer_truth(self, query: zenoh.Query) -> None:
         """Block states and the log from the asked index on: the judge's view, JSON."""
         try:
-            request = json.loads(query.payload.to_bytes()) if query.payload is not None else {}
-            since = int(request.get("since", 0))
-            if since < 0:
-                raise ValueError(f"since must be >= 0, got {since}")
-        except (ValueError, TypeError, AttributeError) as error:
+            since = requested_since(query.payload.to_bytes() if query.payload is not None else None)
+        except ValueError as error:
             query.reply_err(str(error))
             query.drop()
             return
-        blocks = json.dumps(self.world.snapshot()["blocks"] if self.world is not None else [])
-        lines = self.log.lines
-        log = ",".join(lines[since:])
-        self._reply(query, f'{{"time": {self.elapsed!r}, "blocks": {blocks}, "log": [{log}], "next": {len(lines)}}}')
+        blocks = self.world.snapshot()["blocks"] if self.world is not None else []
+        self._reply(query, truth_answer(self.elapsed, blocks, self.log.lines, since))
 
-    # ------------------------------------------------------------------ commands
     def _command(self, arm: str, key: str, payload: bytes, tag: Tag | None) -> None:
-        number = tag.seq if tag is not None else next(self._untagged)
-        command_id = tag.command_id(key) if tag is not None else f"untagged:{key}:{number}"
-        now = self.now()
-        identity = str(number)  # not the sender's random name: the same script draws the same faults
-        if self.faults.lost(key, identity):
-            self.log.record(self.elapsed, "fault", fault="loss", key=key, command=number)
-            return
-        delay = self.faults.delay(key, identity)
-        if delay > 0:
-            self.log.record(self.elapsed, "fault", fault="latency", key=key, command=number, seconds=round(delay, 6))
-            heapq.heappush(self._delayed_commands, (now + delay, next(self._order), (arm, key, payload, command_id)))
-            return
-        self._apply(arm, key, payload, command_id)
+        command = self._commands.admit(arm, key, payload, tag, self.now(), self.elapsed)
+        if command is not None:
+            self._apply(command)
 
-    def _apply(self, arm_name: str, key: str, payload: bytes, command_id: str) -> None:
-        if key == self.camera_keys.trigger:
-            self._capture(command_id)
+    def _apply(self, command: Command) -> None:
+        """Carry out `command` and publish what became of it; an accepted servo_jp is echoed on setpoint_js."""
+        if command.key == self.camera_keys.trigger:
+            self._capture(command.command_id)
             return
-        arm, keys = self.arms[arm_name], self.keys[arm_name]
-        try:
-            if key == keys.follow_jt:
-                _, trajectory = codec.decode_trajectory(payload)
-                transitions = arm.follow_jt(trajectory.t, trajectory.q, trajectory.qd, command_id)
-            elif key == keys.state_command:
-                transitions = arm.state_command(codec.decode_string_stamped(payload)[1], command_id)
-            else:
-                position = codec.decode_joint_state(payload).position
-                handler = {
-                    keys.servo_jp: arm.servo_jp,
-                    keys.move_jp: arm.move_jp,
-                    keys.jaw_servo_jp: arm.jaw_servo_jp,
-                    keys.jaw_move_jp: arm.jaw_move_jp,
-                }[key]
-                transitions = handler(position, command_id)
-        except PegbtError as error:
-            transitions = [Transition(command_id, "refused", error.message)]
-        self._publish_transitions(arm_name, key, transitions)
-        refused = any(t.outcome == "refused" and t.command_id == command_id for t in transitions)
-        if not refused and key == keys.servo_jp:
-            self._publish_setpoint(arm_name, jaw=False)
-        elif not refused and key == keys.jaw_servo_jp:
-            self._publish_setpoint(arm_name, jaw=True)
+        keys = self.keys[command.arm]
+        transitions = dispatch(self.arms[command.arm], keys, command)
+        self._publish_transitions(command.arm, command.key, transitions)
+        if refused(transitions, command.command_id):
+            return
+        if command.key == keys.servo_jp:
+            self._publish_setpoint(command.arm, jaw=False)
+        elif command.key == keys.jaw_servo_jp:
+            self._publish_setpoint(command.arm, jaw=True)
 
     def _publish_transitions(self, arm_name: str, key: str, transitions: list[Transition]) -> None:
         keys, now = self.keys[arm_name], self.now()
@@ -509,8 +297,8 @@ class SimEndpoint:
 
     # ------------------------------------------------------------------ ticks
     def _tick(self) -> None:
-        while self._delayed_commands and self._delayed_commands[0][0] <= self.time + 1e-9:
-            self._apply(*heapq.heappop(self._delayed_commands)[2])
+        for command in self._commands.due(self.time):
+            self._apply(command)
         for name, arm in self.arms.items():
             for transition in arm.advance(self.period):
                 self._publish_operating_state(name, transition.command_id, transition.outcome)
@@ -556,14 +344,14 @@ class SimEndpoint:
     def _publish_setpoint(self, name: str, jaw: bool) -> None:
         arm, keys, now = self.arms[name], self.keys[name], self.now()
         if jaw:
-            self._outbox.send(now, keys.jaw_setpoint_js, _JointStateMessage(now, arm.jaw.setpoint, names=JAW_JOINT_NAMES))
+            self._outbox.send(now, keys.jaw_setpoint_js, JointStateMessage(now, arm.jaw.setpoint, names=JAW_JOINT_NAMES))
         else:
-            self._outbox.send(now, keys.setpoint_js, _JointStateMessage(now, arm.joints.setpoint, names=ARM_JOINT_NAMES))
+            self._outbox.send(now, keys.setpoint_js, JointStateMessage(now, arm.joints.setpoint, names=ARM_JOINT_NAMES))
 
     def _publish_state(self) -> None:
         """Every arm's state now. An arm's arrays are replaced each tick, never changed in place, so a
         message kept unencoded (nobody listens yet) still shows this instant when a late subscriber gets it."""
-        now, send, joint_state = self.time, self._outbox.send, _JointStateMessage
+        now, send, joint_state = self.time, self._outbox.send, JointStateMessage
         for name, arm in self.arms.items():
             keys, joints, jaw = self.keys[name], arm.joints, arm.jaw
             send(now, keys.measured_js, joint_state(now, joints.encoder, joints.velocity, names=ARM_JOINT_NAMES))
@@ -583,7 +371,7 @@ class SimEndpoint:
         """Re-send each arm's latest state, unchanged, on its topics: a lockstep endpoint is seen alive
         while idle, late joiners see its state, and subscribers of claimed keys get it at this pace;
         faults are not drawn again, so what a client sees stays deterministic."""
-        self._outbox.repeat({key for keys in self.keys.values() for key in (*self._state_keys(keys), keys.operating_state)})
+        self._outbox.repeat({key for keys in self.keys.values() for key in (*_state_keys(keys), keys.operating_state)})
 
     def _capture(self, command_id: str) -> None:
         assert self.camera is not None and self.world is not None
@@ -594,8 +382,9 @@ class SimEndpoint:
 
     # ------------------------------------------------------------------ shutdown
     def close(self) -> None:
-        for declaration in [*self._declarations, *self._step_replies.values()]:
+        for declaration in self._declarations:
             declaration.undeclare()
+        self._lockstep.close()
         self._outbox.close()
         self._events_outlet.close()
         self.log.close()

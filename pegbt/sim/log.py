@@ -16,16 +16,15 @@ from pegbt.sim.events import Event
 
 
 class SimLog:
+    """Log entries as JSON lines: kept (`lines`, what `sim/truth` hands out), appended to a file, published."""
+
     def __init__(self, path: Path | None = None, publish: Callable[[str], None] | None = None) -> None:
         self.lines: list[str] = []  # each entry as one line of JSON
         self._file = None if path is None else open(path, "a", encoding="utf-8")
         self._publish = publish
 
-    @property
-    def entries(self) -> list[dict[str, Any]]:
-        return [json.loads(line) for line in self.lines]
-
     def record(self, time: float, kind: str, **details: Any) -> None:
+        """One entry: its simulated `time` (s), its `kind` (a world event's, "fault", "refused", "start"), details."""
         line = json.dumps({"time": round(time, 6), "kind": kind, **details}, default=_plain)
         self.lines.append(line)
         if self._file is not None:

@@ -13,7 +13,7 @@ import threading
 import time
 from collections.abc import Callable
 from enum import Enum
-from typing import Any, Protocol
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -23,7 +23,7 @@ from pegbt.motion.limits import ArmSettings, arm_settings
 from pegbt.psm import JOINT_LABELS
 from pegbt.transport import codec, guards
 from pegbt.clock import Clock, WallClock
-from pegbt.transport.codec import JointSample, OperatingState
+from pegbt.transport.codec import JointSample, OperatingState, TrajectoryLike
 from pegbt.transport.keys import ArmKeys
 from pegbt.transport.link import Link
 from pegbt.transport.sequencing import Inlet, Outlet, Received
@@ -36,13 +36,6 @@ FIRST_SAMPLE_TIMEOUT = 1.0  # s to wait for the first sample of a topic subscrib
 
 class EndpointSilent(PegbtError):
     """The endpoint stopped publishing (crashed, unplugged) or never started."""
-
-
-class TrajectoryLike(Protocol):
-    """What `move_jp` accepts as a trajectory: times from start (N,), positions (N, 6); `qd`, `qdd` optional."""
-
-    t: Any
-    q: Any
 
 
 class MotionStatus(str, Enum):

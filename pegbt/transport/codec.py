@@ -10,7 +10,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from functools import lru_cache
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -224,9 +224,20 @@ def decode_point_cloud(data: bytes) -> tuple[float, NDArray[np.float32]]:
 
 
 # ----------------------------------------------------------------------------- joint trajectories
+class TrajectoryLike(Protocol):
+    """What travels as a JointTrajectory: times from its start `t` (N,) and positions `q` (N, J); velocities
+    `qd` and accelerations `qdd` (N, J) if it has them. A planned `pegbt.motion.trajectory.Trajectory` is one."""
+
+    t: Any
+    q: Any
+
+
 @dataclass(frozen=True)
-class Trajectory:
-    """A joint trajectory: times from its start (N,), positions (N, J), velocities and accelerations or None."""
+class TrajectoryPoints:
+    """The points of a trajectory_msgs/JointTrajectory as plain arrays: times from its start (N,), positions
+    (N, J), velocities and accelerations or None. Unchecked, as any message is when it arrives (a receiver
+    checks it with `guards.trajectory_problems`); also what a client sends when it has set-points at times
+    rather than a planned `Trajectory` (a lone goal at the end of a straight move, a stream of commands)."""
 
     t: NDArray[np.float64]
     q: NDArray[np.float64]
@@ -234,8 +245,8 @@ class Trajectory:
     qdd: NDArray[np.float64] | None = None
 
 
-def encode_trajectory(stamp: float, trajectory: Any, names: tuple[str, ...] = ()) -> bytes:
-    """Any object with `t`, `q` (and optionally `qd`, `qdd`) as trajectory_msgs/JointTrajectory."""
+def encode_trajectory(stamp: float, trajectory: TrajectoryLike, names: tuple[str, ...] = ()) -> bytes:
+    """`trajectory` (`t`, `q` and, if it has them, `qd`, `qdd`) as trajectory_msgs/JointTrajectory."""
     point_type = _type("trajectory_msgs/msg/JointTrajectoryPoint")
     duration_type = _type("builtin_interfaces/msg/Duration")
     t = np.asarray(trajectory.t, dtype=float)
@@ -258,8 +269,8 @@ def encode_trajectory(stamp: float, trajectory: Any, names: tuple[str, ...] = ()
     return serialize(message)
 
 
-def decode_trajectory(data: bytes) -> tuple[float, Trajectory]:
-    """(stamp, Trajectory); ragged points are kept as given (validation is the receiver's job)."""
+def decode_trajectory(data: bytes) -> tuple[float, TrajectoryPoints]:
+    """(stamp, points); ragged points are kept as given (validation is the receiver's job)."""
     message = deserialize(data, JOINT_TRAJECTORY)
     points = message.points
     t = np.array([p.time_from_start.sec + p.time_from_start.nanosec * 1e-9 for p in points])
@@ -275,4 +286,4 @@ def decode_trajectory(data: bytes) -> tuple[float, Trajectory]:
     q = stack("positions")
     if q is None:
         raise PegbtError("trajectory has no positions", field="positions")
-    return _stamp(message.header), Trajectory(t=t, q=q, qd=stack("velocities"), qdd=stack("accelerations"))
+    return _stamp(message.header), TrajectoryPoints(t=t, q=q, qd=stack("velocities"), qdd=stack("accelerations"))

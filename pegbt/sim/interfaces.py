@@ -1,5 +1,7 @@
 """What the endpoint needs of a world and a camera: `pegbt.sim.world.World` and
-`pegbt.sim.camera.DepthCamera` satisfy these protocols, and the endpoint knows nothing else of them.
+`pegbt.sim.camera.DepthCamera` satisfy these protocols, and the endpoint knows nothing else of them,
+so an endpoint without a world (`pegbt sim --no-world`) never imports them (nor Open3D), and a test may
+hand it a world of its own.
 
 Each control tick the endpoint hands the world one `ToolState` per arm, computed from the *physical*
 joints (after the cable physics), publishes the events the world appended to its log, and holds each
