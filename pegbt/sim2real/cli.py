@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 import json
 
+from pegbt.numbers import NumberOption
+
 
 def add_commands(subparsers: argparse._SubParsersAction) -> None:
     parser = subparsers.add_parser(
@@ -29,7 +31,8 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
     diagnose.add_argument("--json", action="store_true", help="print report.json to standard output")
     diagnose.add_argument("--compare", metavar="REPORT.json",
                           help="an earlier report (e.g. the same arm after re-homing): say what agrees and what differs")
-    diagnose.add_argument("--bootstrap", type=int, default=100, metavar="N", help="bootstrap resamples for intervals")
+    diagnose.add_argument("--bootstrap", action=NumberOption, type=int, at_least=0, default=100, metavar="N",
+                          help="bootstrap resamples for intervals")
     diagnose.set_defaults(handler=_diagnose)
 
     synth = commands.add_parser(
@@ -40,11 +43,11 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
     synth.add_argument("outdir", metavar="OUTDIR")
     synth.add_argument("--family", default="weak",
                        help="weak, masked, regime, coupled, null-white or null-ar1 (default: weak)")
-    synth.add_argument("--seed", type=int, default=0)
-    synth.add_argument("--seconds", type=float, default=30.0)
-    synth.add_argument("--rate", type=float, default=100.0, metavar="HZ", help="stream rate (default 100 Hz)")
+    synth.add_argument("--seed", action=NumberOption, type=int, at_least=0, default=0)
+    synth.add_argument("--seconds", action=NumberOption, above=0.0, default=30.0)
+    synth.add_argument("--rate", action=NumberOption, above=0.0, default=100.0, metavar="HZ", help="stream rate (default 100 Hz)")
     synth.add_argument("--sampling", default="stream", choices=("stream", "setpoints"))
-    synth.add_argument("--snr", type=float, help="SNR of the concealed effect (default: drawn per family)")
+    synth.add_argument("--snr", action=NumberOption, above=0.0, help="SNR of the concealed effect (default: drawn per family)")
     synth.set_defaults(handler=_synth)
 
     preset = commands.add_parser(
@@ -67,7 +70,7 @@ def _diagnose(args: argparse.Namespace) -> int:
     recording = load_recording(args.recording)
     if args.compare:
         read_named_effects(args.compare)  # refuse a bad report before the work, not after it
-    diagnosis = diagnose(recording, args.sim, args.arm, n_bootstrap=max(0, args.bootstrap))
+    diagnosis = diagnose(recording, args.sim, args.arm, n_bootstrap=args.bootstrap)
     report = write_report(diagnosis, args.out, args.compare) if args.out else report_dict(diagnosis, args.compare)
     if args.json:
         print(json.dumps(report, indent=2))
