@@ -12,7 +12,7 @@ from pathlib import Path
 
 from pegbt.errors import PegbtError
 from pegbt.numbers import NumberOption
-from pegbt.physics.recording import ARMS, MIN_SAMPLES
+from pegbt.workcell import ARMS
 
 KINDS = ("lstm", "physics", "hybrid")
 JOINTS = ("q1", "q2", "q3", "q4", "q5", "q6")
@@ -78,6 +78,7 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
 def _collect(args: argparse.Namespace) -> int:
     from pegbt.calibration.collect import SETTLE_S, setpoints_for_minutes
     from pegbt.executive.session import default_log_path, run_tree_file
+    from pegbt.physics.recording import MIN_SAMPLES
 
     count, step = setpoints_for_minutes(args.minutes, args.arm, args.seed)
     if count < MIN_SAMPLES:
@@ -99,6 +100,7 @@ def _collect(args: argparse.Namespace) -> int:
 def _train(args: argparse.Namespace) -> int:
     from pegbt.calibration.base import new_model
     from pegbt.calibration.evaluation import evaluate
+    from pegbt.calibration.modelfile import model_file_name
     from pegbt.physics.recording import load_recording
 
     recording = load_recording(args.recording)
@@ -109,7 +111,7 @@ def _train(args: argparse.Namespace) -> int:
         scores = evaluate(model, recording, start=n_train)
         model.metadata.heldout = scores
         print(_summary(scores))
-    path = model.save(args.out or OUTPUT_DIR / f"{args.arm}-{args.model}.json")
+    path = model.save(args.out or OUTPUT_DIR / model_file_name(args.arm, args.model))
     print(f"wrote {path}")
     return 0
 

@@ -45,6 +45,12 @@ class ModelMetadata:
     heldout: dict[str, Any] | None = None
 
 
+def model_file_name(arm: str, kind: str) -> str:
+    """The name a model of `kind` for `arm` has in a directory of models (`PSM1-hybrid.json`): how the
+    skills find an arm's model among several."""
+    return f"{arm}-{kind}.json"
+
+
 def encode_arrays(arrays: dict[str, NDArray[Any]]) -> dict[str, dict[str, Any]]:
     """Arrays as JSON-safe float32 base64 blobs with their shapes."""
     encoded = {}
