@@ -40,7 +40,7 @@ def evaluate(model: CalibrationModel, recording: Recording, start: int = 0) -> d
     return {
         "model": model.kind,
         "arm": model.arm,
-        "recording": str(recording.path),
+        "recording": recording.path.name,
         "samples": len(measured),
         "first_sample": start,
         "joint_rmse": joint_rmse(predicted, measured),

@@ -7,6 +7,8 @@ import json
 
 from pegbt.numbers import NumberOption
 
+PRESET_OUT = "runs/sim2real/preset.json"  # never a shipped preset unless --out names it
+
 
 def add_commands(subparsers: argparse._SubParsersAction) -> None:
     parser = subparsers.add_parser(
@@ -54,9 +56,10 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
         "preset",
         help="identify a physics preset (one model per arm) from recordings",
         description="Diagnose each arm's recording against the ideal arm and write the identified models as a "
-        "preset that `ArmPhysics.load` and `pegbt sim --physics` read.",
+        f"preset that `ArmPhysics.load` and `pegbt sim --physics` read: to --out, by default {PRESET_OUT} (the "
+        "presets pegbt ships are in pegbt/physics/presets/: give that path to --out to replace one).",
     )
-    preset.add_argument("out", metavar="OUT.json")
+    preset.add_argument("--out", default=PRESET_OUT, metavar="OUT.json", help=f"preset file to write (default {PRESET_OUT})")
     preset.add_argument("--from", dest="sources", action="append", required=True, metavar="ARM=RECORDING",
                         help="an arm and its recording, e.g. PSM1=../shared/data/dvrk/random_smooth_grey1_PSM1")
     preset.set_defaults(handler=_preset)
@@ -96,7 +99,7 @@ def _preset(args: argparse.Namespace) -> int:
     from pegbt.sim2real.preset import parse_sources, write_preset
 
     sources = parse_sources(args.sources)
-    command = "pegbt sim2real preset " + " ".join([args.out] + [f"--from {pair}" for pair in args.sources])
+    command = "pegbt sim2real preset " + " ".join([f"--out {args.out}"] + [f"--from {pair}" for pair in args.sources])
     print(f"preset: {write_preset(args.out, sources, command)}")
     return 0
 
