@@ -41,6 +41,7 @@ def block_axis_top(cell: Workcell, board: BoardEstimate | None, block: BlockEsti
 
 
 def to_arm(cell: Workcell, arm: str, point_board: ArrayLike) -> NDArray[np.float64]:
+    """A point in the board frame expressed in `arm`'s base frame, where its motions are planned."""
     T = cell.board_to_arm(arm)
     return T[:3, :3] @ np.asarray(point_board, dtype=float) + T[:3, 3]
 

@@ -25,7 +25,7 @@ from pegbt.clock import Clock, WallClock
 from pegbt.transport.codec import JointSample, OperatingState
 from pegbt.transport.keys import ArmKeys
 from pegbt.transport.link import Link
-from pegbt.transport.sequencing import Inlet, Outlet, Received
+from pegbt.transport.sequencing import Inlet, Outlet, Received, Tag
 
 ARM_JOINT_NAMES = ("outer_yaw", "outer_pitch", "outer_insertion", "outer_roll", "outer_wrist_pitch", "outer_wrist_yaw")
 JAW_JOINT_NAMES = ("jaw",)
@@ -284,8 +284,8 @@ class ArmClient(_Axis):
     def read(self, inlet: Inlet) -> Any:
         return self.read_received(inlet).value
 
-    def send(self, outlet: Outlet, payload: bytes):
-        """Publish a command, only to a live endpoint that listens on its key."""
+    def send(self, outlet: Outlet, payload: bytes) -> Tag:
+        """Publish a command, only to a live endpoint that listens on its key; its tag (which names it)."""
         self.check_alive()
         if not outlet.matched:
             raise EndpointSilent(f"{self.name}: nobody subscribes to {outlet.key}; command not sent", field=outlet.key)
