@@ -42,7 +42,9 @@ class SimClock:
         self._keys = SimKeys(link.namespace)
         self._reply_timeout = reply_timeout
         # steps are a put and a put back, not a query: a query's reply and end cost the simulator more than a step
-        self._requests = link.session.declare_publisher(self._keys.step, express=True)
+        # BLOCK, not zenoh's default DROP: a lost request is a lost step, and a loaded machine drops them
+        self._requests = link.session.declare_publisher(self._keys.step, express=True,
+                                                        congestion_control=zenoh.CongestionControl.BLOCK)
         self._name = uuid.uuid4().hex[:12]  # each clock has its own replies (and state notes) even on a shared link
         self._replies = link.session.declare_subscriber(self._keys.stepped(self._name), self._on_reply)
         self._reply: tuple[int, bytes] | None = None
