@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import sys
 
 from pegbt import __version__
@@ -35,15 +36,26 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+BROKEN_PIPE_STATUS = 141  # what a shell reports for a process killed by SIGPIPE
+
+
 def main(argv: list[str] | None = None) -> int:
-    """Run one `pegbt` command; returns the process exit status."""
-    args = build_parser().parse_args(argv)
+    """Run one `pegbt` command; returns the process exit status.
+
+    Bad input (a `PegbtError`, also from an option's value) is one line on stderr and status 2. A reader
+    that stops early (`pegbt tree schema | head`) ends the command quietly, as it would a Unix tool.
+    """
     try:
+        args = build_parser().parse_args(argv)
         status = args.handler(args)
+        sys.stdout.flush()  # a closed pipe shows here, not in the interpreter's own flush at exit
     except PegbtError as error:
         print(f"pegbt: error: {error}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print("pegbt: interrupted", file=sys.stderr)
         return 130
+    except BrokenPipeError:
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # nothing left to flush at exit
+        return BROKEN_PIPE_STATUS
     return int(status or 0)

@@ -84,9 +84,10 @@ def test_on_real_data_the_model_reduces_the_held_out_wrist_error(kind, dvrk_data
 
 
 def test_the_stored_skill_models_load_for_their_arms():
-    from pegbt.calibration.compensation import skill_model_path
+    from pegbt.calibration.compensation import CALIBRATION_DIR
+    from pegbt.calibration.modelfile import model_file_name
 
     for arm in ("PSM1", "PSM2"):
-        model = CalibrationModel.load(skill_model_path(arm), arm=arm)
+        model = CalibrationModel.load(CALIBRATION_DIR / model_file_name(arm, "hybrid"), arm=arm)
         assert model.kind == "hybrid" and model.metadata is not None
         assert "grey" in model.metadata.training["recording"]

@@ -100,7 +100,7 @@ def test_run_refuses_bad_input_in_one_line(tmp_path, capsys):
     assert main(["run", str(failing), "--clock", "manual", "--log", str(tmp_path / "fail.jsonl"), "--quiet"]) == 1
     assert "outcome: failure" in capsys.readouterr().out
     assert main(["run", str(failing), "--period", "0"]) == 2
-    assert capsys.readouterr().err.strip() == "pegbt: error: --period: must be positive"
+    assert capsys.readouterr().err.strip() == "pegbt: error: --period: must be a finite number > 0, got 0"
     assert main(["run", str(tmp_path / "nothing.yaml")]) == 2
     assert "file not found" in capsys.readouterr().err
     corrupt = tmp_path / "corrupt.jsonl"

@@ -189,8 +189,10 @@ def test_clocks_stepping_at_once_are_served_in_turn(lockstep):
 
 def test_capture_without_a_camera_fails_clearly(lockstep):
     link, _, _ = lockstep
+    handle = CameraClient(link, timeout=0.2).capture_async()  # never waits, even with nobody listening
+    assert not handle.sent and not handle.ready
     with pytest.raises(EndpointSilent, match="no camera listens"):
-        CameraClient(link, timeout=0.2).capture_async()
+        handle.result(0.2)
 
 
 def run_script(endpoint: str) -> list[tuple]:

@@ -99,8 +99,15 @@ def test_sessions_default_to_loopback_peer_without_scouting():
     assert DEFAULT_ENDPOINT == "tcp/127.0.0.1:7447"
     with pytest.raises(PegbtError, match="tcp/HOST:PORT"):
         SessionSettings(connect=("127.0.0.1",))
-    with pytest.raises(PegbtError, match="mode"):
-        SessionSettings(mode="broadcast")
+    with pytest.raises(TypeError):
+        SessionSettings(mode="client")  # peer mode only: a client or router session is not offered
+    with pytest.raises(PegbtError, match="not on loopback"):
+        endpoint_settings(["tcp/192.168.1.10:7447"])
+    with pytest.raises(PegbtError, match="any free port"):
+        endpoint_settings(["tcp/[::1]:0"])
+    assert endpoint_settings(["tcp/[::1]:7447", "tcp/localhost:7448"]).listen == ("tcp/[::1]:7447", "tcp/localhost:7448")
+    assert endpoint_settings(["tcp/0.0.0.0:7447"], allow_remote_listen=True).listen == ("tcp/0.0.0.0:7447",)
+    assert client_settings(["tcp/192.168.1.10:7447"]).connect == ("tcp/192.168.1.10:7447",)  # a real dVRK elsewhere
 
 
 def test_crtk_key_names_follow_dvrk_topics():

@@ -46,8 +46,8 @@ class Blocked(Exception):
     """A motion not sent because it would bring the arms too close; the leaf waits and tries again."""
 
 
-def arm_param(doc: str = "which arm") -> Param:
-    return Param("arm", str, doc, choices=ARMS)
+def arm_param(doc: str = "which arm", *, blackboard: bool = False) -> Param:
+    return Param("arm", str, doc, choices=ARMS, blackboard=blackboard)
 
 
 def peg_param(name: str, doc: str) -> Param:

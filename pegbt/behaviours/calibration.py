@@ -29,11 +29,11 @@ from pegbt.physics.recording import RecordingWriter
     "drive `arm` through `samples` random smooth set-points over the task's joints (uncompensated), hold each "
     "`settle` s, and record set-point and physical joints to the recording folder `out`",
     params=(
-        arm_param(),
-        Param("samples", int, "set-points to record", minimum=2),
+        arm_param(blackboard=True),
+        Param("samples", int, "set-points to record", minimum=2, blackboard=True),
         Param("settle", float, "seconds to hold each set-point before sampling it", default=SETTLE_S, minimum=0.0),
-        Param("out", str, "recording folder to write (relative to the working directory)"),
-        Param("seed", int, "seed of the random set-points", default=0),
+        Param("out", str, "recording folder to write (relative to the working directory)", blackboard=True),
+        Param("seed", int, "seed of the random set-points", default=0, minimum=0, blackboard=True),
     ),
     resources=("robot",),
 )
@@ -42,10 +42,10 @@ class CollectCalibration(Leaf):
         self.robot = self.context.resource("robot", Robot)
 
     def initialise(self) -> None:
-        self.client = self.robot.arm(self.params["arm"])
-        self.setpoints = random_setpoints(*task_box(self.client.name), self.params["samples"],
-                                          np.random.default_rng(self.params["seed"]))
-        self.writer = RecordingWriter(Path(self.params["out"]), self.client.name)
+        self.client = self.robot.arm(self.param("arm"))
+        self.setpoints = random_setpoints(*task_box(self.client.name), self.param("samples"),
+                                          np.random.default_rng(self.param("seed")))
+        self.writer = RecordingWriter(Path(self.param("out")), self.client.name)
         self.handle = None
         self.problem = ""
         self._next()

@@ -42,6 +42,7 @@ def block_axis_top(cell: Workcell, board: BoardEstimate | None, block: BlockEsti
 
 
 def to_arm(cell: Workcell, arm: str, point_board: ArrayLike) -> NDArray[np.float64]:
+    """A point in the board frame expressed in `arm`'s base frame, where its motions are planned."""
     return apply_rigid(cell.board_to_arm(arm), point_board)
 
 

@@ -22,6 +22,7 @@ from pegbt.behaviours.trial import Trial
 
 SIMULATOR_ARGS = ("--lockstep", "--physics", "dvrk-real")
 PROBE_TIMEOUT = 2.0  # s to wait for a simulator to answer `sim/clock`
+STEP_TIMEOUT = 5.0  # s to wait for a lockstep step: a camera capture on a loaded 2-core machine took over 2
 READY_TIMEOUT = 5.0  # s to wait for each arm's first state
 # Liveness: a lockstep simulator re-sends its state every 50 ms of wall time; a busy machine can delay
 # that, so the simulator gets more slack than a real arm streaming at 100 Hz.
@@ -83,7 +84,7 @@ class Robot:
 def _probe_simulator(link: Link) -> SimClock | None:
     """The simulator's clock if a simulator answers at the other end of `link`, else None (a robot)."""
     try:
-        return SimClock(link, reply_timeout=PROBE_TIMEOUT)
+        return SimClock(link, reply_timeout=STEP_TIMEOUT, probe_timeout=PROBE_TIMEOUT)
     except PegbtError:
         return None
 

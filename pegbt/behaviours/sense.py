@@ -12,9 +12,7 @@ import time
 from py_trees.common import Status
 
 from pegbt.behaviours.base import RESOURCES, RobotLeaf
-from pegbt.errors import PegbtError
 from pegbt.executive.registry import behaviour
-from pegbt.transport import EndpointSilent
 
 
 @behaviour(
@@ -25,22 +23,15 @@ from pegbt.transport import EndpointSilent
 )
 class Capture(RobotLeaf):
     def initialise(self) -> None:
-        self.handle = None
-        self.problem = ""
-        try:
-            self.handle = self.robot.camera.capture_async()
-        except EndpointSilent:
-            raise
-        except PegbtError as error:
-            self.problem = str(error)
+        self.handle = self.robot.camera.capture_async()
         self.deadline = time.monotonic() + self.robot.camera.timeout
         self.feedback_message = "capturing"
 
     def act(self) -> Status:
-        if self.problem:
-            return self.fail(self.problem)
-        if not self.handle.ready:
+        if not self.handle.ready:  # sends the trigger once a camera listens
             if time.monotonic() > self.deadline:
+                if not self.handle.sent:
+                    self.handle.result(0.0)  # EndpointSilent: no camera to ask, the endpoint is gone (the run halts)
                 return self.fail(f"no point cloud within {self.robot.camera.timeout:g} s of the capture request")
             return Status.RUNNING
         points = self.handle.points

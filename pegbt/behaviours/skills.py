@@ -24,6 +24,7 @@ from numpy.typing import NDArray
 from pegbt.behaviours.arm_motion import ArmMotion
 from pegbt.calibration.base import CalibrationModel
 from pegbt.calibration.compensation import CALIBRATION_DIR, Compensator
+from pegbt.calibration.modelfile import model_file_name
 from pegbt.errors import PegbtError
 from pegbt.executive.providers import ProviderSetup
 from pegbt.motion.handover import tool_distance
@@ -47,10 +48,10 @@ CLEARANCE_STRIDE = 3  # check every third 10 ms row: tools move well under a mil
 def calibration_model(directory: Path, arm: str) -> CalibrationModel:
     """The preferred calibration model of `arm` in `directory`; a `PegbtError` if there is none."""
     for kind in MODEL_PREFERENCE:
-        path = directory / f"{arm}-{kind}.json"
+        path = directory / model_file_name(arm, kind)
         if path.exists():
             return CalibrationModel.load(path, arm=arm)
-    names = ", ".join(f"{arm}-{kind}.json" for kind in MODEL_PREFERENCE)
+    names = ", ".join(model_file_name(arm, kind) for kind in MODEL_PREFERENCE)
     raise PegbtError(f"no calibration model for {arm} (looked for {names})", file=directory, field="--calibration")
 
 

@@ -208,10 +208,12 @@ class Trial:
         def listen(record: dict[str, Any]) -> None:
             if record["type"] == "header":
                 total = sum(1 for node in record["nodes"] if node["type"] == "begin_transfer")
-                state["task"] = progress.add_task("transfers", total=total or None)
-                progress.start()
+                if total:  # a tree that moves no block (a calibration walk) gets no bar
+                    state["task"] = progress.add_task("transfers", total=total)
+                    progress.start()
             elif record["type"] == "end":
-                progress.stop()
+                if "task" in state:
+                    progress.stop()
             elif "task" in state:
                 done = sum(1 for transfer in self.transfers if transfer.ended is not None)
                 current = next((t for t in reversed(self.transfers) if t.ended is None), None)

@@ -63,7 +63,7 @@ class CalibrationModel(ABC):
             arm=self.arm,
             outputs=tuple(JOINT_NAMES[j] for j in self.outputs),
             training={
-                "recording": str(recording.path),
+                "recording": recording.path.name,  # its name, not where it sat on the machine that trained
                 "samples": len(recording),
                 "created": datetime.now(timezone.utc).isoformat(timespec="seconds"),
             },

@@ -1,4 +1,8 @@
-"""`pegbt calibrate train|eval`: fit a calibration model to a recording and score it on held-out data."""
+"""`pegbt calibrate collect|train|eval`: record an arm, fit a calibration model to a recording, score it.
+
+`collect` runs `trees/calibrate_collect.yaml` on the executive (like `pegbt run`), with the tree's
+blackboard values set from its options: a command, like the benchmarks, may use any layer below it.
+"""
 
 from __future__ import annotations
 
@@ -7,26 +11,52 @@ import json
 from pathlib import Path
 
 from pegbt.errors import PegbtError
+from pegbt.numbers import NumberOption
 from pegbt.psm import ARMS, JOINT_NAMES
 
 KINDS = ("lstm", "physics", "hybrid")
+RECORDING_HELP = "recording: a folder with q_cmd.npy and q_phy.npy (the dVRK dataset layout), or a CSV"
+COLLECT_TREE = Path(__file__).resolve().parents[2] / "trees" / "calibrate_collect.yaml"
+OUTPUT_DIR = Path("runs") / "calibration"  # what the commands write unless told: never the committed skills/
 
 
 def add_commands(subparsers: argparse._SubParsersAction) -> None:
     parser = subparsers.add_parser("calibrate", help="learn an arm's cable effects and score the model")
     commands = parser.add_subparsers(dest="calibrate_command", metavar="COMMAND", required=True)
 
+    collect = commands.add_parser(
+        "collect",
+        help="drive an arm through random smooth set-points and record commanded and physical joints",
+        description="Run trees/calibrate_collect.yaml on the executive: ARM walks through random smooth set-points "
+        "over the joints peg transfer uses, uncompensated; each is a straight move plus 0.3 s of settling, then "
+        "the set-point and the physical joints (fiducial_js) are sampled. The number of set-points comes from "
+        "--minutes of the arm's time (printed before it starts). Writes the dataset layout to --out.",
+    )
+    collect.add_argument("--arm", required=True, choices=ARMS)
+    collect.add_argument("--minutes", required=True, action=NumberOption, above=0.0, metavar="N",
+                         help="the arm's time to spend (a lockstep simulator runs faster than that)")
+    collect.add_argument("--out", type=Path, metavar="DIR",
+                         help=f"recording folder (default {OUTPUT_DIR}/sim-ARM with --endpoint auto, else {OUTPUT_DIR}/ARM)")
+    collect.add_argument("--endpoint", default="auto", metavar="auto|ADDRESS",
+                         help="auto (default): the embedded simulator (lockstep, dvrk-real physics); or the zenoh "
+                         "address of a running simulator or robot")
+    collect.add_argument("--seed", action=NumberOption, type=int, at_least=0, default=0,
+                         help="seed of the set-points and of the embedded simulator (default 0)")
+    collect.add_argument("--log", type=Path, metavar="FILE", help="tick log path (default runs/calibrate_collect-DATE-TIME.jsonl)")
+    collect.set_defaults(handler=_collect)
+
     train = commands.add_parser(
         "train",
         help="fit a model to a recording",
         description="Fit a model on the first --train-fraction of RECORDING, score it on the rest, and write "
-        "it (with its held-out scores) to --out, by default skills/calibration/ARM-MODEL.json.",
+        f"it (with its held-out scores) to --out, by default {OUTPUT_DIR}/ARM-MODEL.json (the models pegbt run "
+        "uses are in skills/calibration/: give that path to --out to replace one).",
     )
-    train.add_argument("recording", type=Path, metavar="RECORDING", help="folder with q_cmd.npy and q_phy.npy")
+    train.add_argument("recording", type=Path, metavar="RECORDING", help=RECORDING_HELP)
     train.add_argument("--arm", required=True, choices=ARMS)
     train.add_argument("--model", required=True, choices=KINDS)
     train.add_argument("--out", type=Path, help="model file to write")
-    train.add_argument("--train-fraction", type=float, default=0.7, help="share used for training (default 0.7; "
+    train.add_argument("--train-fraction", action=NumberOption, above=0.0, at_most=1.0, default=0.7, help="share used for training (default 0.7; "
                        "1.0 trains on everything and records no held-out scores)")
     train.set_defaults(handler=_train)
 
@@ -37,17 +67,39 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
         "of the physical joints of RECORDING, next to the uncompensated error (q_phy against q_cmd).",
     )
     evaluate.add_argument("model", type=Path, metavar="MODEL", help="model file")
-    evaluate.add_argument("recording", type=Path, metavar="RECORDING", help="folder with q_cmd.npy and q_phy.npy")
-    evaluate.add_argument("--from-fraction", type=float, default=0.0,
+    evaluate.add_argument("recording", type=Path, metavar="RECORDING", help=RECORDING_HELP)
+    evaluate.add_argument("--from-fraction", action=NumberOption, at_least=0.0, below=1.0, default=0.0,
                           help="score only samples after this share of the recording (0.7: the held-out part)")
     evaluate.add_argument("--json", action="store_true", help="print one JSON object")
     evaluate.set_defaults(handler=_eval)
 
 
+def _collect(args: argparse.Namespace) -> int:
+    from pegbt.calibration.collect import SETTLE_S, setpoints_for_minutes
+    from pegbt.executive.session import default_log_path, run_tree_file
+    from pegbt.physics.recording import MIN_SAMPLES
+
+    count, step = setpoints_for_minutes(args.minutes, args.arm, args.seed)
+    if count < MIN_SAMPLES:
+        raise PegbtError(f"{args.minutes:g} min holds {count} set-points of {step:.2f} s; a recording needs at least "
+                         f"{MIN_SAMPLES} ({MIN_SAMPLES * step / 60:.2f} min)", field="--minutes")
+    out = args.out or OUTPUT_DIR / (f"sim-{args.arm}" if args.endpoint == "auto" else args.arm)
+    print(f"{args.arm}: {count} set-points in {args.minutes:g} min, {step:.2f} s each "
+          f"(move {step - SETTLE_S:.2f} s + {SETTLE_S:g} s settle, estimated)", flush=True)
+    log_path = args.log or default_log_path(COLLECT_TREE)
+    output = run_tree_file(COLLECT_TREE, log_path, options={"endpoint": args.endpoint, "seed": args.seed}, quiet=False,
+                           blackboard={"arm": args.arm, "setpoints": count, "out": str(out), "seed": args.seed})
+    print(f"outcome: {output.result.outcome} in {output.result.duration:.1f} s of the run's clock")
+    if output.ok:
+        print(f"recording: {out}")
+    print(f"tick log: {log_path}")
+    return 0 if output.ok else 1
+
+
 def _train(args: argparse.Namespace) -> int:
     from pegbt.calibration.base import new_model
-    from pegbt.calibration.compensation import skill_model_path
     from pegbt.calibration.evaluation import evaluate
+    from pegbt.calibration.modelfile import model_file_name
     from pegbt.physics.recording import load_recording
 
     recording = load_recording(args.recording)
@@ -58,7 +110,7 @@ def _train(args: argparse.Namespace) -> int:
         scores = evaluate(model, recording, start=n_train)
         model.metadata.heldout = scores
         print(_summary(scores))
-    path = model.save(args.out or skill_model_path(args.arm, args.model))
+    path = model.save(args.out or OUTPUT_DIR / model_file_name(args.arm, args.model))
     print(f"wrote {path}")
     return 0
 

@@ -31,6 +31,7 @@ KNOT_SPACING = (6, 16)  # set-points between the random values a joint's path pa
 SETTLE_S = 0.3  # as the dVRK recordings: the arm rests this long before a sample is taken
 SPEED_SHARE = 0.5  # straight moves use this share of the planner's velocity limits
 MOVE_TIMEOUT_S = 10.0
+ESTIMATE_COUNT = 500  # set-points whose moves `setpoints_for_minutes` averages
 
 
 def random_setpoints(lower: ArrayLike, upper: ArrayLike, count: int, rng: np.random.Generator) -> Array:
@@ -49,16 +50,35 @@ def random_setpoints(lower: ArrayLike, upper: ArrayLike, count: int, rng: np.ran
     return points
 
 
+def move_seconds(start: ArrayLike, goal: ArrayLike, settings: ArmSettings) -> NDArray[np.float64]:
+    """How long the straight move from `start` to `goal` takes (whole control periods; batches of rows too)."""
+    start, goal = np.asarray(start, dtype=float), np.asarray(goal, dtype=float)
+    period = settings.control_period
+    seconds = np.max(np.abs(goal - start) / (SPEED_SHARE * settings.planner_velocity), axis=-1)
+    return period * np.maximum(1, np.ceil(seconds / period))
+
+
 def straight_move(start: ArrayLike, goal: ArrayLike, settings: ArmSettings) -> TrajectoryPoints:
     """A straight line in joint space from `start` to `goal`, at `SPEED_SHARE` of the planner velocity.
 
     The endpoint plays a trajectory linearly between its samples from the current set-point, so the goal
     alone at the end time is the whole line."""
-    start, goal = np.asarray(start, dtype=float), np.asarray(goal, dtype=float)
-    period = settings.control_period
-    seconds = float(np.max(np.abs(goal - start) / (SPEED_SHARE * settings.planner_velocity)))
-    duration = period * max(1, int(np.ceil(seconds / period)))
-    return TrajectoryPoints(np.array([duration]), goal[None])
+    goal = np.asarray(goal, dtype=float)
+    return TrajectoryPoints(np.array([float(move_seconds(start, goal, settings))]), goal[None])
+
+
+def setpoints_for_minutes(minutes: float, arm: str, seed: int = 0) -> tuple[int, float]:
+    """How many set-points a collection of `minutes` of arm time holds, and the seconds each takes on average.
+
+    Each set-point costs its straight move plus `SETTLE_S`; the moves are measured on `ESTIMATE_COUNT`
+    set-points drawn as the collection draws them (same arm box, same seed), so the count is an estimate
+    of the arm's time, not of the wall clock (a lockstep simulator runs faster)."""
+    from pegbt.calibration.task import task_box
+    from pegbt.motion.limits import arm_settings
+
+    points = random_setpoints(*task_box(arm), ESTIMATE_COUNT, np.random.default_rng(seed))
+    step = float(np.mean(move_seconds(points[:-1], points[1:], arm_settings(arm)))) + SETTLE_S
+    return max(2, int(minutes * 60.0 / step)), step
 
 
 def move_and_settle(client: ArmClient, clock: Clock, trajectory: TrajectoryLike, settle_s: float = SETTLE_S) -> None:

@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import logging
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -34,11 +33,6 @@ from pegbt.psm import JOINT_NAMES
 log = logging.getLogger(__name__)
 CALIBRATION_DIR = SKILLS_DIR / "calibration"
 CONVERGED = 1e-9  # rad or m: the model says the command lands on the desired joints
-
-
-def skill_model_path(arm: str, kind: str = "hybrid") -> Path:
-    """Where the trained model of `kind` for `arm` is stored (`skills/calibration/PSM1-hybrid.json`)."""
-    return CALIBRATION_DIR / f"{arm}-{kind}.json"
 
 
 @dataclass(frozen=True)
@@ -78,11 +72,6 @@ class Compensator:
         self.counts = {"fallback": 0, "joint_limit": 0, "velocity_limit": 0}  # steps affected
         self._starts = dict.fromkeys(self.counts, 0)
         self._active: set[str] = set()
-
-    @classmethod
-    def for_arm(cls, arm: str, kind: str = "hybrid", **options: Any) -> "Compensator":
-        """A compensator with the arm's stored model from `skills/calibration/`."""
-        return cls(CalibrationModel.load(skill_model_path(arm, kind), arm=arm), **options)
 
     def reset(self, q_now: ArrayLike) -> None:
         """Start from an arm that has settled at command `q_now` (no history of motion)."""

@@ -21,11 +21,16 @@ from pegbt.psm import JOINT_NAMES
 
 
 def joint_rmse(predicted: NDArray[np.float64], measured: NDArray[np.float64]) -> dict[str, float]:
+    """Per-joint RMSE (rad; m for q3), by joint name: the scores `calibrate eval --json` reports per joint."""
     rmse = np.sqrt(np.mean((predicted - measured) ** 2, axis=0))
     return {name: float(value) for name, value in zip(JOINT_NAMES, rmse)}
 
 
 def tip_error_mm(predicted: NDArray[np.float64], measured: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Tool-tip distance (mm) between the two joint sets of each row, through forward kinematics.
+
+    Joint errors in rad and m do not add up; the tip is where the task succeeds or fails, and it is the
+    figure the reference paper reports."""
     return 1000.0 * np.linalg.norm(tip_position(predicted) - tip_position(measured), axis=-1)
 
 
@@ -40,7 +45,7 @@ def evaluate(model: CalibrationModel, recording: Recording, start: int = 0) -> d
     return {
         "model": model.kind,
         "arm": model.arm,
-        "recording": str(recording.path),
+        "recording": recording.path.name,
         "samples": len(measured),
         "first_sample": start,
         "joint_rmse": joint_rmse(predicted, measured),

@@ -26,7 +26,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pegbt.errors import PegbtError
-from pegbt.psm import JOINT_NAMES
+from pegbt.psm import JOINT_NAMES, known_arm
 
 FORMAT = "pegbt-calibration-model"
 VERSION = 1
@@ -42,6 +42,12 @@ class ModelMetadata:
     joints: tuple[str, ...] = JOINT_NAMES
     training: dict[str, Any] = field(default_factory=dict)
     heldout: dict[str, Any] | None = None
+
+
+def model_file_name(arm: str, kind: str) -> str:
+    """The name a model of `kind` for `arm` has in a directory of models (`PSM1-hybrid.json`): how the
+    skills find an arm's model among several."""
+    return f"{arm}-{kind}.json"
 
 
 def encode_arrays(arrays: dict[str, NDArray[Any]]) -> dict[str, dict[str, Any]]:
@@ -100,22 +106,34 @@ def read_document(path: str | Path, arm: str | None = None) -> tuple[ModelMetada
         raise PegbtError(f"not a calibration model file (format is not {FORMAT!r})", file=path, field="format")
     if document.get("version") != VERSION:
         raise PegbtError(f"model file version {document.get('version')!r}; this pegbt reads {VERSION}", file=path, field="version")
-    joints = tuple(document.get("joints", ()))
+    joints = _names(document, "joints", path)
     if joints != JOINT_NAMES:
         raise PegbtError(
             f"the model's joint layout {list(joints)} is not this arm's {list(JOINT_NAMES)}", file=path, field="joints"
         )
-    outputs = tuple(document.get("outputs", ()))
+    outputs = _names(document, "outputs", path)
     if not outputs or not set(outputs) <= set(JOINT_NAMES):
         raise PegbtError(f"the model's outputs {list(outputs)} are not joints of {list(JOINT_NAMES)}", file=path, field="outputs")
-    if arm is not None and document.get("arm") != arm:
-        raise PegbtError(f"the model is for {document.get('arm')!r}, not {arm!r}", file=path, field="arm")
+    model_arm = known_arm(document.get("arm"), path)
+    if arm is not None and model_arm != arm:
+        raise PegbtError(f"the model is for {model_arm!r}, not {arm!r}", file=path, field="arm")
+    for name in ("training", "heldout"):
+        if document.get(name) is not None and not isinstance(document[name], dict):
+            raise PegbtError(f"expected an object; got {document[name]!r}", file=path, field=name)
     metadata = ModelMetadata(
         kind=str(document.get("kind")),
-        arm=str(document.get("arm")),
+        arm=model_arm,
         outputs=outputs,
         joints=joints,
         training=dict(document.get("training") or {}),
         heldout=document.get("heldout"),
     )
     return metadata, document
+
+
+def _names(document: dict[str, Any], key: str, path: Path) -> tuple[str, ...]:
+    """The list of joint names under `key` (empty if absent); a `PegbtError` naming the field if it is no such list."""
+    value = document.get(key, [])
+    if not isinstance(value, list) or not all(isinstance(name, str) for name in value):
+        raise PegbtError(f"expected a list of joint names; got {value!r}", file=path, field=key)
+    return tuple(value)

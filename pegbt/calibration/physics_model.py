@@ -199,6 +199,6 @@ class PhysicsModel(CalibrationModel):
 
     def _restore(self, document: dict[str, Any], path: Path) -> None:
         try:
-            self._set_effects(Effect.from_dict(entry) for entry in document["effects"])
+            self._set_effects(ArmPhysics.from_dicts(document["effects"]).effects)
         except PegbtError as error:
             raise PegbtError(error.message, file=path, field=error.field) from None

@@ -12,6 +12,7 @@ import json
 from collections import defaultdict
 from dataclasses import dataclass
 
+from pegbt.errors import PegbtError
 from pegbt.executive.logfile import TickLog, Transition
 
 _MARKS = {"SUCCESS": "[S]", "FAILURE": "[F]", "RUNNING": "[R]", "INVALID": "[ ]"}
@@ -227,6 +228,8 @@ def replay(log: TickLog, *, tick: int | None = None, time: float | None = None) 
     """Every node's status (and feedback) after tick `tick`, or at executive time `time`, with the blackboard."""
     if tick is None:
         tick = max((change.n for change in log.transitions if change.t <= time), default=0) if time is not None else log.last_n
+    elif not 0 <= tick <= log.last_n:
+        raise PegbtError(f"the log has ticks 0 to {log.last_n}, not {tick}", file=log.path, field="--tick")
     status = ["INVALID"] * len(log.nodes)
     feedback = [""] * len(log.nodes)
     t = 0.0

@@ -3,11 +3,12 @@
 from __future__ import annotations
 
 import argparse
-import datetime
 import sys
 from pathlib import Path
 
+from pegbt.errors import PegbtError
 from pegbt.executive.providers import RUN_OPTIONS
+from pegbt.numbers import NumberOption
 
 
 def add_commands(subparsers: argparse._SubParsersAction) -> None:
@@ -25,8 +26,8 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
 
     run = subparsers.add_parser("run", help="run a behaviour tree until it succeeds, fails or times out; writes a tick log")
     run.add_argument("tree", metavar="TREE")
-    run.add_argument("--period", type=float, default=0.02, metavar="S", help="tick period, s (default 0.02)")
-    run.add_argument("--timeout", type=float, default=None, metavar="S", help="halt the tree after S seconds")
+    run.add_argument("--period", action=NumberOption, above=0.0, default=0.02, metavar="S", help="tick period, s (default 0.02)")
+    run.add_argument("--timeout", action=NumberOption, above=0.0, default=None, metavar="S", help="halt the tree after S seconds")
     run.add_argument("--log", metavar="FILE", help="tick log path (default runs/TREE-DATE-TIME.jsonl)")
     run.add_argument("--clock", default=None, metavar="NAME",
                      help="wall (default): real time; manual: time that advances one period per tick, without sleeping; "
@@ -50,7 +51,7 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
     replay.add_argument("log", metavar="LOG")
     moment = replay.add_mutually_exclusive_group(required=True)
     moment.add_argument("--tick", type=int, metavar="N")
-    moment.add_argument("--time", type=float, metavar="T", help="seconds since the start (executive clock)")
+    moment.add_argument("--time", action=NumberOption, at_least=0.0, metavar="T", help="seconds since the start (executive clock)")
     replay.set_defaults(handler=_log_replay)
     export = log_commands.add_parser("export", help="convert a tick log to Groot2's .btlog (BehaviorTree.CPP FileLogger2)")
     export.add_argument("log", metavar="LOG")
@@ -81,7 +82,10 @@ def _tree_show(args: argparse.Namespace) -> int:
 
     built = load_tree(args.file).build()
     if args.dot:
-        Path(args.dot).write_text(py_trees.display.dot_tree(built.root).to_string(), encoding="utf-8")
+        try:
+            Path(args.dot).write_text(py_trees.display.dot_tree(built.root).to_string(), encoding="utf-8")
+        except OSError as error:
+            raise PegbtError(f"cannot write the dot file: {error.strerror}", file=args.dot, field="--dot") from None
         print(f"wrote {args.dot}")
     else:
         print(py_trees.display.ascii_tree(built.root), end="")
@@ -95,18 +99,13 @@ def _tree_schema(args: argparse.Namespace) -> int:
     return 0
 
 
-def _default_log_path(tree: str) -> Path:
-    stamp = datetime.datetime.now().strftime("%Y%m%d-%H%M%S")
-    return Path("runs") / f"{Path(tree).stem}-{stamp}.jsonl"
-
-
 def _run(args: argparse.Namespace) -> int:
     from pegbt.executive.analysis import result_table
     from pegbt.executive.logfile import read_tick_log
-    from pegbt.executive.session import run_tree_file
+    from pegbt.executive.session import default_log_path, run_tree_file
 
     options = {name: getattr(args, f"option_{name}") for name in RUN_OPTIONS}
-    log_path = Path(args.log) if args.log else _default_log_path(args.tree)
+    log_path = Path(args.log) if args.log else default_log_path(args.tree)
     output = run_tree_file(args.tree, log_path, options=options, clock=args.clock, period=args.period,
                            timeout=args.timeout, quiet=args.quiet)
     reports = list(output.reports.values())

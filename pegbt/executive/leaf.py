@@ -13,7 +13,8 @@ from typing import Any
 
 import py_trees
 
-from pegbt.executive.params import BlackboardRef
+from pegbt.errors import PegbtError
+from pegbt.executive.params import BlackboardRef, describe
 from pegbt.executive.registry import LeafSetup
 
 
@@ -56,11 +57,18 @@ class Leaf(py_trees.behaviour.Behaviour):
             self.blackboard.register_key(key=_root_key(key), access=py_trees.common.Access.WRITE)
 
     def param(self, name: str) -> Any:
-        """The parameter's value; a `$key` parameter is read from the blackboard now (KeyError if unset)."""
+        """The parameter's value; a `$key` parameter is read from the blackboard now (KeyError if unset) and
+        checked as the validator checks a literal (type, choices, minimum): a `PegbtError` if it fails."""
         value = self.params[name]
-        if isinstance(value, BlackboardRef):
-            return self.blackboard.get(value.key)
-        return value
+        if not isinstance(value, BlackboardRef):
+            return value
+        read = self.blackboard.get(value.key)
+        declared = next(param for param in self.setup_info.spec.params if param.name == name)
+        checked, problem = declared.check_value(read)
+        if problem:
+            raise PegbtError(f"{self.name}: parameter {name!r} should be {problem}; blackboard key {value.key!r} holds "
+                             f"{describe(read)}", field=name)
+        return checked
 
     def read(self, key: str) -> Any:
         """A declared blackboard key's value (KeyError if nothing wrote it yet)."""

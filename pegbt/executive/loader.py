@@ -6,7 +6,8 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Mapping
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -15,6 +16,7 @@ from pegbt.executive.build import BuiltTree, build_tree
 from pegbt.executive.context import RunContext
 from pegbt.executive.document import TreeDocument, load_document
 from pegbt.executive.keys import check_keys
+from pegbt.executive.params import check_type, describe
 from pegbt.executive.problems import Problems
 from pegbt.executive.registry import REGISTRY, BehaviourRegistry
 from pegbt.executive.resolve import Resolver
@@ -27,10 +29,28 @@ class LoadedTree:
 
     document: TreeDocument
     root: NodeSpec | None
+    overrides: dict[str, Any] = field(default_factory=dict)  # initial values a command set (`set_blackboard`)
 
     @property
     def initial_blackboard(self) -> dict[str, Any]:
-        return {key: value.plain() for key, value in self.document.blackboard.items()}
+        return {key: value.plain() for key, value in self.document.blackboard.items()} | self.overrides
+
+    def set_blackboard(self, values: Mapping[str, Any]) -> None:
+        """Replace initial values of keys the file's `blackboard:` declares, as a command's parameters.
+
+        Why only declared keys, each keeping its type: the file's values are what the validator checked
+        the tree against, so a command can change a value but not what the tree reads."""
+        declared = {key: value.plain() for key, value in self.document.blackboard.items()}
+        for key, value in values.items():
+            absolute = key if key.startswith("/") else "/" + key
+            if absolute not in declared:
+                raise PegbtError(f"the tree declares no blackboard key {key!r}; it has {', '.join(sorted(declared)) or 'none'}",
+                                 file=self.document.path, field=key)
+            checked, problem = check_type(value, type(declared[absolute]))
+            if problem:
+                raise PegbtError(f"blackboard key {key!r} holds {problem}, not {describe(value)}", file=self.document.path,
+                                 field=key)
+            self.overrides[absolute] = checked
 
     def node_count(self) -> int:
         return sum(1 for _ in self.root.walk()) if self.root else 0

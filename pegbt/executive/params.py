@@ -126,6 +126,10 @@ class Param:
                 return value, "a blackboard reference `$name` (letters, digits, _, / and .)"
             else:
                 return BlackboardRef(value[1:]), None
+        return self.check_value(value)
+
+    def check_value(self, value: Any) -> tuple[Any, str | None]:
+        """As `check`, for a value that is never a reference: one read from the blackboard at run time."""
         checked, problem = check_type(value, self.type)
         if problem:
             return value, problem

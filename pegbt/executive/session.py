@@ -7,6 +7,7 @@ resource's `report()` while the resources are still open, and closes them whatev
 
 from __future__ import annotations
 
+import datetime
 import sys
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -27,6 +28,13 @@ from pegbt.executive.providers import (
 )
 from pegbt.executive.runner import RunResult, run
 from pegbt.executive.ticklog import TickLogWriter
+from pegbt.numbers import checked_number
+
+
+def default_log_path(tree: str | Path) -> Path:
+    """Where a run's tick log goes unless told: `runs/TREE-DATE-TIME.jsonl` under the working directory."""
+    stamp = datetime.datetime.now().strftime("%Y%m%d-%H%M%S")
+    return Path("runs") / f"{Path(tree).stem}-{stamp}.jsonl"
 
 
 @dataclass
@@ -53,12 +61,16 @@ def run_tree_file(
     timeout: float | None = None,
     quiet: bool = True,
     out: IO[str] = sys.stdout,
+    blackboard: Mapping[str, Any] | None = None,
 ) -> RunOutput:
-    """Run the tree file `tree` once; see the module docstring. `quiet=False` prints progress to `out`."""
-    if period <= 0 or (timeout is not None and timeout <= 0):
-        raise PegbtError("must be positive", field="--period" if period <= 0 else "--timeout")
+    """Run the tree file `tree` once; see the module docstring. `quiet=False` prints progress to `out`;
+    `blackboard` replaces initial values the file declares (`LoadedTree.set_blackboard`)."""
+    checked_number(period, "--period", above=0.0)
+    if timeout is not None:
+        checked_number(timeout, "--timeout", above=0.0)
     log_path = Path(log_path)
     loaded = load_tree(tree)
+    loaded.set_blackboard(blackboard or {})
     setup = ProviderSetup(clock=make_clock(clock or "wall"), options=run_options(options))
     resources = provide_resources(loaded.resource_users(), setup)
     try:

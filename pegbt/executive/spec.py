@@ -6,6 +6,7 @@ parameters checked and defaulted) without constructing anything; the builder tur
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -36,7 +37,7 @@ class NodeSpec:
     keys: list[KeyUse] = field(default_factory=list)
     subtree: str | None = None  # for a subtree instance: "transfer(arm='PSM1')"
 
-    def walk(self):
+    def walk(self) -> Iterator[NodeSpec]:
         """This node and all its descendants, depth first, children in order."""
         yield self
         for child in self.children:

@@ -96,7 +96,12 @@ class Effect:
     @classmethod
     def from_dict(cls, data: Mapping[str, Any]) -> "Effect":
         """Read an effect from its report / preset form; extra keys (ci, text, ...) are ignored."""
+        if not isinstance(data, Mapping):
+            raise PegbtError(f"an effect entry is an object with effect, joint and params; got {data!r}")
+        params = data.get("params", {})
+        if not isinstance(params, Mapping):
+            raise PegbtError(f"params is an object of parameter values; got {params!r}", field="params")
         try:
-            return cls(str(data["effect"]), str(data["joint"]), dict(data.get("params", {})))
+            return cls(str(data["effect"]), str(data["joint"]), dict(params))
         except KeyError as missing:
             raise PegbtError(f"effect entry lacks {missing.args[0]!r}", field=str(missing.args[0])) from None

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import json
 from collections import deque
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable
 from pathlib import Path
 
 import numpy as np
@@ -71,8 +71,17 @@ class ArmPhysics:
 
     # ----------------------------------------------------------------- construction helpers
     @classmethod
-    def from_dicts(cls, entries: Iterable[dict]) -> "ArmPhysics":
-        return cls(Effect.from_dict(entry) for entry in entries)
+    def from_dicts(cls, entries: object) -> "ArmPhysics":
+        """The model of effect entries in report / preset form (a list of objects), as files store them."""
+        if not isinstance(entries, list):
+            raise PegbtError(f"effects is a list of effect entries; got {entries!r}", field="effects")
+        effects = []
+        for index, entry in enumerate(entries):
+            try:
+                effects.append(Effect.from_dict(entry))
+            except PegbtError as error:
+                raise PegbtError(error.message, field=f"effects[{index}].{error.field}" if error.field else f"effects[{index}]") from None
+        return cls(effects)
 
     @classmethod
     def load(cls, source: str | Path, arm: str = "PSM1") -> "ArmPhysics":
@@ -94,6 +103,8 @@ class ArmPhysics:
             raise PegbtError(f"cannot read physics file: {error}", file=path) from None
         if isinstance(data, dict) and "arms" in data:
             arms = data["arms"]
+            if not isinstance(arms, dict):
+                raise PegbtError(f"arms is an object of effect lists by arm; got {arms!r}", file=path, field="arms")
             if arm not in arms:
                 raise PegbtError(f"no physics for arm {arm!r}; the file has {sorted(arms)}", file=path, field="arms")
             entries = arms[arm]

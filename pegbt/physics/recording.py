@@ -107,7 +107,7 @@ class Recording:
     def head(self, fraction: float) -> int:
         """Number of samples in the first `fraction` of the recording (the training part of a split)."""
         if not 0.0 < fraction <= 1.0:
-            raise PegbtError(f"the training fraction must be in (0, 1], got {fraction}", field="fraction")
+            raise PegbtError(f"a share of the recording must be in (0, 1], got {fraction}", field="fraction")
         return int(round(fraction * self.n))
 
     def slice(self, start: int, stop: int | None = None) -> "Recording":

@@ -11,7 +11,8 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from pegbt.transport.session import DEFAULT_ENDPOINT
+from pegbt.numbers import NumberOption
+from pegbt.transport.endpoints import DEFAULT_ENDPOINT
 
 if TYPE_CHECKING:
     from pegbt.sim.camera import DepthCamera
@@ -30,6 +31,8 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
         f"Listens on {DEFAULT_ENDPOINT} (peer mode, no scouting) unless told otherwise.",
     )
     parser.add_argument("--listen", action="append", metavar="ENDPOINT", help=f"zenoh listen endpoint (default {DEFAULT_ENDPOINT}; repeatable)")
+    parser.add_argument("--allow-remote-listen", action="store_true",
+                        help="let --listen name a non-loopback address (peers on that network can then command the arms)")
     parser.add_argument("--connect", action="append", default=[], metavar="ENDPOINT", help="zenoh endpoint to connect to (a router, a bridge; repeatable)")
     parser.add_argument("--namespace", default="", help="key prefix, e.g. lab2 for lab2/PSM1/measured_js")
     parser.add_argument("--physics", default="ideal", help="cable physics: ideal, dvrk-real, or a preset/report JSON file")
@@ -37,31 +40,36 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--world", action=argparse.BooleanOptionalAction, default=True,
                         help="simulate the pegboard, blocks and depth camera (default); --no-world: arms only")
     parser.add_argument("--faults", type=Path, metavar="YAML", help="fault plan (loss, latency, crash, world and camera faults)")
-    parser.add_argument("--seed", type=int, help="seed of the block layout, depth noise and injected faults (default: the plan's, else 0)")
-    parser.add_argument("--loss", type=float, metavar="P", help="probability of losing each stream message")
-    parser.add_argument("--latency", type=float, metavar="S", help="extra latency of stream messages (s)")
-    parser.add_argument("--crash-at", type=float, metavar="T", help="crash the endpoint at simulated time T (s)")
+    parser.add_argument("--seed", action=NumberOption, type=int, at_least=0, help="seed of the block layout, depth noise and injected faults (default: the plan's, else 0)")
+    parser.add_argument("--loss", action=NumberOption, at_least=0.0, at_most=1.0, metavar="P",
+                        help="probability of losing each stream message")
+    parser.add_argument("--latency", action=NumberOption, at_least=0.0, metavar="S", help="extra latency of stream messages (s)")
+    parser.add_argument("--crash-at", action=NumberOption, at_least=0.0, metavar="T",
+                        help="crash the endpoint at simulated time T (s)")
     parser.add_argument("--log", type=Path, metavar="JSONL", help="append the simulator's log (world events, faults) here")
     parser.set_defaults(handler=_sim)
 
 
 def _sim(args: argparse.Namespace) -> int:
-    from pegbt.errors import PegbtError
     from pegbt.sim.endpoint import EndpointConfig, SimEndpoint
     from pegbt.sim.fault_plan import FaultPlan
+    from pegbt.transport.keys import check_namespace
     from pegbt.transport.session import endpoint_settings, open_session
 
+    check_namespace(args.namespace, "--namespace")
+    listen = args.listen or [DEFAULT_ENDPOINT]
+    settings = endpoint_settings(listen, args.connect, args.allow_remote_listen)
     plan = FaultPlan.load(args.faults) if args.faults else FaultPlan()
     overrides = {"seed": args.seed, "loss_probability": args.loss, "latency": args.latency, "crash_at": args.crash_at}
-    for name, value in overrides.items():
-        if value is not None and (value < 0 or (name == "loss_probability" and value > 1)):
-            raise PegbtError(f"--{name.replace('_probability', '').replace('_', '-')} out of range: {value}", field=name)
     plan = dataclasses.replace(plan, **{k: v for k, v in overrides.items() if v is not None})
     config = EndpointConfig(physics=args.physics, lockstep=args.lockstep, namespace=args.namespace, faults=plan, log_path=args.log)
     world, camera = _world(plan) if args.world else (None, None)
-    listen = args.listen or [DEFAULT_ENDPOINT]
-    session = open_session(endpoint_settings(listen, args.connect))
-    endpoint = SimEndpoint(session, config, world=world, camera=camera)
+    session = open_session(settings)
+    try:
+        endpoint = SimEndpoint(session, config, world=world, camera=camera)
+    except BaseException:
+        session.close()
+        raise
     signal.signal(signal.SIGTERM, lambda *_: endpoint.stop())
     mode = "lockstep" if args.lockstep else "real time"
     scene = f"world and camera, seed {plan.seed}" if world is not None else "no world"

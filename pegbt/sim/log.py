@@ -12,6 +12,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from pegbt.errors import PegbtError
 from pegbt.sim.events import Event
 
 
@@ -20,7 +21,10 @@ class SimLog:
 
     def __init__(self, path: Path | None = None, publish: Callable[[str], None] | None = None) -> None:
         self.lines: list[str] = []  # each entry as one line of JSON
-        self._file = None if path is None else open(path, "a", encoding="utf-8")
+        try:
+            self._file = None if path is None else open(path, "a", encoding="utf-8")
+        except OSError as error:
+            raise PegbtError(f"cannot write the simulator's log: {error.strerror}", file=path, field="--log") from None
         self._publish = publish
 
     def record(self, time: float, kind: str, **details: Any) -> None:

@@ -4,6 +4,7 @@ endpoint in another process, as it is in use."""
 from __future__ import annotations
 
 import os
+import selectors
 import socket
 import subprocess
 import sys
@@ -12,7 +13,8 @@ from pathlib import Path
 
 from pegbt.errors import PegbtError
 
-STARTUP_TIMEOUT = 30.0
+STARTUP_TIMEOUT = 30.0  # s for the child to say it serves
+EXIT_TIMEOUT = 5.0  # s for a killed or terminated child to be gone
 
 
 def free_port() -> int:
@@ -37,16 +39,26 @@ class SimProcess:
             text=True,
             env=env,
         )
-        line = self.process.stdout.readline() if self.process.stdout else ""
+        line = self._first_line(STARTUP_TIMEOUT)
         if not line.startswith("pegbt sim: serving"):
             self.process.kill()
-            _, err = self.process.communicate(timeout=STARTUP_TIMEOUT)
-            raise PegbtError(f"pegbt sim did not start: {line.strip()} {err.strip()}", field="sim")
+            _, err = self.process.communicate(timeout=EXIT_TIMEOUT)
+            said = f"{line.strip()} {err.strip()}".strip() or f"nothing within {STARTUP_TIMEOUT:g} s"
+            raise PegbtError(f"pegbt sim did not start: {said}", field="sim")
+
+    def _first_line(self, timeout: float) -> str:
+        """The child's first line of output, or "" if it prints none within `timeout` s (a hung start-up)."""
+        assert self.process.stdout is not None
+        with selectors.DefaultSelector() as selector:
+            selector.register(self.process.stdout, selectors.EVENT_READ)
+            if not selector.select(timeout):
+                return ""
+        return self.process.stdout.readline()  # the child prints its line whole and flushes it
 
     def kill(self) -> None:
         """SIGKILL: the endpoint vanishes without a word, as a crashed one does."""
         self.process.kill()
-        self.process.wait(timeout=STARTUP_TIMEOUT)
+        self.process.wait(timeout=EXIT_TIMEOUT)
 
     def wait(self, timeout: float) -> int:
         return self.process.wait(timeout=timeout)
@@ -55,7 +67,7 @@ class SimProcess:
         if self.process.poll() is None:
             self.process.terminate()
             try:
-                self.process.wait(timeout=5)
+                self.process.wait(timeout=EXIT_TIMEOUT)
             except subprocess.TimeoutExpired:
                 self.kill()
         for stream in (self.process.stdout, self.process.stderr):

@@ -5,7 +5,10 @@ from __future__ import annotations
 import argparse
 import json
 
+from pegbt.numbers import NumberOption
 from pegbt.psm import ARMS
+
+PRESET_OUT = "runs/sim2real/preset.json"  # never a shipped preset unless --out names it
 
 
 def add_commands(subparsers: argparse._SubParsersAction) -> None:
@@ -31,7 +34,8 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
     diagnose.add_argument("--json", action="store_true", help="print report.json to standard output")
     diagnose.add_argument("--compare", metavar="REPORT.json",
                           help="an earlier report (e.g. the same arm after re-homing): say what agrees and what differs")
-    diagnose.add_argument("--bootstrap", type=int, default=100, metavar="N", help="bootstrap resamples for intervals")
+    diagnose.add_argument("--bootstrap", action=NumberOption, type=int, at_least=0, default=100, metavar="N",
+                          help="bootstrap resamples for intervals")
     diagnose.set_defaults(handler=_diagnose)
 
     synth = commands.add_parser(
@@ -42,20 +46,21 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
     synth.add_argument("outdir", metavar="OUTDIR")
     synth.add_argument("--family", default="weak",
                        help="weak, masked, regime, coupled, null-white or null-ar1 (default: weak)")
-    synth.add_argument("--seed", type=int, default=0)
-    synth.add_argument("--seconds", type=float, default=30.0)
-    synth.add_argument("--rate", type=float, default=100.0, metavar="HZ", help="stream rate (default 100 Hz)")
+    synth.add_argument("--seed", action=NumberOption, type=int, at_least=0, default=0)
+    synth.add_argument("--seconds", action=NumberOption, above=0.0, default=30.0)
+    synth.add_argument("--rate", action=NumberOption, above=0.0, default=100.0, metavar="HZ", help="stream rate (default 100 Hz)")
     synth.add_argument("--sampling", default="stream", choices=("stream", "setpoints"))
-    synth.add_argument("--snr", type=float, help="SNR of the concealed effect (default: drawn per family)")
+    synth.add_argument("--snr", action=NumberOption, above=0.0, help="SNR of the concealed effect (default: drawn per family)")
     synth.set_defaults(handler=_synth)
 
     preset = commands.add_parser(
         "preset",
         help="identify a physics preset (one model per arm) from recordings",
         description="Diagnose each arm's recording against the ideal arm and write the identified models as a "
-        "preset that `ArmPhysics.load` and `pegbt sim --physics` read.",
+        f"preset that `ArmPhysics.load` and `pegbt sim --physics` read: to --out, by default {PRESET_OUT} (the "
+        "presets pegbt ships are in pegbt/physics/presets/: give that path to --out to replace one).",
     )
-    preset.add_argument("out", metavar="OUT.json")
+    preset.add_argument("--out", default=PRESET_OUT, metavar="OUT.json", help=f"preset file to write (default {PRESET_OUT})")
     preset.add_argument("--from", dest="sources", action="append", required=True, metavar="ARM=RECORDING",
                         help="an arm and its recording, e.g. PSM1=../shared/data/dvrk/random_smooth_grey1_PSM1")
     preset.set_defaults(handler=_preset)
@@ -69,7 +74,7 @@ def _diagnose(args: argparse.Namespace) -> int:
     recording = load_recording(args.recording)
     if args.compare:
         read_named_effects(args.compare)  # refuse a bad report before the work, not after it
-    diagnosis = diagnose(recording, args.sim, args.arm, n_bootstrap=max(0, args.bootstrap))
+    diagnosis = diagnose(recording, args.sim, args.arm, n_bootstrap=args.bootstrap)
     report = write_report(diagnosis, args.out, args.compare) if args.out else report_dict(diagnosis, args.compare)
     if args.json:
         print(json.dumps(report, indent=2))
@@ -95,7 +100,7 @@ def _preset(args: argparse.Namespace) -> int:
     from pegbt.sim2real.preset import parse_sources, write_preset
 
     sources = parse_sources(args.sources)
-    command = "pegbt sim2real preset " + " ".join([args.out] + [f"--from {pair}" for pair in args.sources])
+    command = "pegbt sim2real preset " + " ".join([f"--out {args.out}"] + [f"--from {pair}" for pair in args.sources])
     print(f"preset: {write_preset(args.out, sources, command)}")
     return 0
 

@@ -20,6 +20,10 @@ RIDGE = 1e-9  # relative to each column's energy: keeps near-collinear grids sol
 
 
 def block_edges(n: int, n_blocks: int = N_BLOCKS) -> NDArray[np.int64]:
+    """Boundaries of `n_blocks` contiguous, nearly equal blocks of `n` samples (n_blocks + 1 indices).
+
+    Cross-validation holds out whole blocks, not scattered samples: neighbouring samples of a recording are
+    correlated, and a fold that shares them with training would overstate every effect's gain."""
     return np.linspace(0, n, n_blocks + 1).round().astype(np.int64)
 
 

@@ -85,6 +85,10 @@ class Diagnosis:
 
 
 def structure_of(selection: JointSelection) -> JointFit:
+    """The unfitted structure (intercept and terms) the selection chose for its joint.
+
+    Selection only decides which effects a joint has; the parameters are fitted afterwards on the whole
+    recording (and on bootstrap resamples), from this structure."""
     terms = [Term(c.candidate.kind, c.candidate.source, c.width, coef=1.0 if c.fixed else 0.0, fixed=c.fixed)
              for c in selection.chosen]
     return JointFit(selection.joint, selection.offset is not None, terms)

@@ -37,6 +37,8 @@ def parse_sources(pairs: list[str]) -> dict[str, Path]:
 
 
 def write_preset(out: str | Path, sources: dict[str, Path], command: str) -> Path:
+    """Identify each arm's effects from its recording and write them as a preset (`command` is quoted in its
+    description, so the file says how to make it again); one effect per line, for readable diffs."""
     arms = identify_preset(sources)
     described = ", ".join(f"{arm} from {path.name}" for arm, path in sources.items())
     preset = {
@@ -50,6 +52,10 @@ def write_preset(out: str | Path, sources: dict[str, Path], command: str) -> Pat
         f'    "{arm}": [\n' + ",\n".join(f"      {json.dumps(effect)}" for effect in effects) + "\n    ]"
         for arm, effects in preset["arms"].items()
     ]
-    out.write_text('{\n  "description": ' + json.dumps(preset["description"]) + ',\n  "arms": {\n'
-                   + ",\n".join(arm_lines) + "\n  }\n}\n")
+    try:
+        out.parent.mkdir(parents=True, exist_ok=True)
+        out.write_text('{\n  "description": ' + json.dumps(preset["description"]) + ',\n  "arms": {\n'
+                       + ",\n".join(arm_lines) + "\n  }\n}\n")
+    except OSError as error:
+        raise PegbtError(f"cannot write the preset: {error.strerror}", file=out, field="--out") from None
     return out

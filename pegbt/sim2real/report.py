@@ -88,6 +88,9 @@ def _pvalue(value: float) -> str:
 
 
 def report_markdown(report: dict[str, Any], plots: list[str]) -> str:
+    """`report.md`: the report's content for a person (where, what, how sure, what is left, the plots).
+
+    Written from the JSON report rather than the diagnosis, so the two files can never disagree."""
     lines = [f"# Sim-to-real diagnosis of `{report['recording']}`", ""]
     lines += [f"- {report['samples']} samples; {report['sampling']['reason']}.",
               f"- Simulator physics: `{report['sim']}` (arm {report['arm']}).",

@@ -5,32 +5,30 @@ under CRTK key names, and the arm and camera clients behaviours use.
     clock = SimClock(link)                    # or WallClock() for a real dVRK
     psm1 = ArmClient(link, "PSM1", clock=clock)
     handle = psm1.move_jp(goal)               # returns at once; poll handle.status in later ticks
+
+The names below load on first use (PEP 562), so that importing a light module of this package
+(`pegbt.transport.endpoints`, say, for `pegbt --help`) does not load zenoh and the message types.
 """
 
-from pegbt.transport.arm import ArmClient, EndpointSilent, JawClient, MotionHandle, MotionStatus
-from pegbt.transport.camera import CameraClient, CaptureHandle
-from pegbt.transport.clock import Clock, SimClock, WallClock
-from pegbt.transport.guards import CommandRefused
-from pegbt.transport.link import Link, connect
-from pegbt.transport.session import DEFAULT_ENDPOINT, SessionSettings, client_settings, endpoint_settings, open_session
+from __future__ import annotations
 
-__all__ = [
-    "ArmClient",
-    "CameraClient",
-    "CaptureHandle",
-    "Clock",
-    "CommandRefused",
-    "DEFAULT_ENDPOINT",
-    "EndpointSilent",
-    "JawClient",
-    "Link",
-    "MotionHandle",
-    "MotionStatus",
-    "SessionSettings",
-    "SimClock",
-    "WallClock",
-    "client_settings",
-    "connect",
-    "endpoint_settings",
-    "open_session",
-]
+import importlib
+from typing import Any
+
+_EXPORTS = {
+    "ArmClient": "arm", "EndpointSilent": "arm", "JawClient": "arm", "MotionHandle": "arm", "MotionStatus": "arm",
+    "CameraClient": "camera", "CaptureHandle": "camera",
+    "Clock": "clock", "SimClock": "clock", "WallClock": "clock",
+    "CommandRefused": "guards",
+    "Link": "link", "connect": "link",
+    "DEFAULT_ENDPOINT": "endpoints",
+    "SessionSettings": "session", "client_settings": "session", "endpoint_settings": "session", "open_session": "session",
+}
+
+__all__ = sorted(_EXPORTS)
+
+
+def __getattr__(name: str) -> Any:
+    if name not in _EXPORTS:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    return getattr(importlib.import_module(f"{__name__}.{_EXPORTS[name]}"), name)

@@ -26,7 +26,7 @@ from pegbt.clock import Clock, WallClock
 from pegbt.transport.codec import JointSample, OperatingState, TrajectoryLike
 from pegbt.transport.keys import ArmKeys
 from pegbt.transport.link import Link
-from pegbt.transport.sequencing import Inlet, Outlet, Received
+from pegbt.transport.sequencing import Inlet, Outlet, Received, Tag
 
 ARM_JOINT_NAMES = tuple(f"outer_{label}" for label in JOINT_LABELS)  # as the dVRK's joint states name them
 JAW_JOINT_NAMES = ("jaw",)
@@ -278,8 +278,8 @@ class ArmClient(_Axis):
     def read(self, inlet: Inlet) -> Any:
         return self.read_received(inlet).value
 
-    def send(self, outlet: Outlet, payload: bytes):
-        """Publish a command, only to a live endpoint that listens on its key."""
+    def send(self, outlet: Outlet, payload: bytes) -> Tag:
+        """Publish a command, only to a live endpoint that listens on its key; its tag (which names it)."""
         self.check_alive()
         if not outlet.matched:
             raise EndpointSilent(f"{self.name}: nobody subscribes to {outlet.key}; command not sent", field=outlet.key)

@@ -1,9 +1,10 @@
 """`CameraClient`: point clouds from a depth camera on `camera/depth/points` (sensor_msgs/PointCloud2).
 
 `capture_async()` asks for a cloud (a trigger message the simulator answers; a streaming real camera
-ignores it) and returns a handle that a later tick polls; `capture()` blocks for it. The cloud that
+ignores it) and returns a handle that later ticks poll; `capture()` blocks for it. The cloud that
 answers is the one tagged with the trigger's id, or for an untagged camera the first one stamped at
-or after the request.
+or after the request. Nothing here blocks a tick: if no camera listens yet (a fresh session takes a
+moment to see it), the trigger goes out on a later poll of the handle.
 """
 
 from __future__ import annotations
@@ -25,10 +26,14 @@ Cloud = tuple[float, NDArray[np.float32]]
 
 
 class CaptureHandle:
-    """A requested point cloud: `ready` in a later tick, then `points` ((N, 3) float32, metres, camera frame)."""
+    """A requested point cloud: `ready` in a later tick, then `points` ((N, 3) float32, metres, camera frame).
 
-    def __init__(self, request_id: str, requested_at: float) -> None:
-        self.request_id = request_id
+    `sent` says whether the trigger has gone out; until a camera listens it has not, and each poll of
+    `ready` tries again."""
+
+    def __init__(self, camera: "CameraClient", requested_at: float) -> None:
+        self.camera = camera
+        self.request_id: str | None = None
         self.requested_at = requested_at
         self.stamp: float | None = None
         self._points: NDArray[np.float32] | None = None
@@ -39,12 +44,25 @@ class CaptureHandle:
         self._arrived.set()
 
     @property
+    def sent(self) -> bool:
+        return self.request_id is not None
+
+    @property
     def ready(self) -> bool:
+        """Whether the cloud has come (sending the trigger first if a camera now listens)."""
+        if not self.sent:
+            self.camera.send_trigger(self)
         return self._arrived.is_set()
 
     def result(self, timeout: float) -> NDArray[np.float32]:
-        """The cloud, waiting up to `timeout` seconds; `EndpointSilent` if none came."""
-        if not self._arrived.wait(timeout):
+        """The cloud, waiting up to `timeout` seconds (a blocking call); `EndpointSilent` if none came."""
+        deadline = time.monotonic() + timeout
+        while not self.camera.send_trigger(self) and time.monotonic() < deadline:
+            time.sleep(0.005)  # a blocking caller waits for a camera to listen; a tick polls `ready` instead
+        if not self.sent:
+            raise EndpointSilent(f"no camera listens on {self.camera.keys.trigger}; capture not sent",
+                                 field=self.camera.keys.trigger)
+        if not self._arrived.wait(max(0.0, deadline - time.monotonic())):
             raise EndpointSilent(f"no point cloud answered capture {self.request_id} within {timeout} s", field="camera")
         assert self._points is not None
         return self._points
@@ -79,19 +97,20 @@ class CameraClient:
             handle.fulfil(stamp, points)
 
     def capture_async(self) -> CaptureHandle:
-        """Request a cloud now; poll the handle's `ready` in later ticks."""
-        deadline = time.monotonic() + self.timeout
-        while not self._trigger.matched:  # a freshly opened session takes a moment to see the camera
-            if time.monotonic() > deadline:
-                raise EndpointSilent(f"no camera listens on {self.keys.trigger}; capture not sent", field=self.keys.trigger)
-            time.sleep(0.005)
-        requested_at = self.clock.now()
-        with self._lock:
-            tag = self._trigger.put(codec.encode_empty())
-            request_id = tag.command_id(self.keys.trigger)
-            handle = CaptureHandle(request_id, requested_at)
-            self._pending[request_id] = handle
+        """Request a cloud now; poll the handle's `ready` in later ticks. Never waits."""
+        handle = CaptureHandle(self, self.clock.now())
+        self.send_trigger(handle)
         return handle
+
+    def send_trigger(self, handle: CaptureHandle) -> bool:
+        """Send `handle`'s trigger if a camera listens (and it was not sent yet); whether it has gone out."""
+        with self._lock:
+            if handle.sent or not self._trigger.matched:
+                return handle.sent
+            tag = self._trigger.put(codec.encode_empty())
+            handle.request_id = tag.command_id(self.keys.trigger)
+            self._pending[handle.request_id] = handle
+        return True
 
     def capture(self) -> NDArray[np.float32]:
         """A fresh cloud, blocking until it arrives (at most `timeout` seconds)."""

@@ -35,7 +35,9 @@ class SimClock:
     over, so many short waits add up exactly) and blocks until it has; in real-time mode it sleeps.
     """
 
-    def __init__(self, link: Link, *, reply_timeout: float = 10.0) -> None:
+    def __init__(self, link: Link, *, reply_timeout: float = 10.0, probe_timeout: float | None = None) -> None:
+        """`probe_timeout` (default `reply_timeout`) bounds the first question, whether a simulator is there at
+        all; `reply_timeout` bounds every step after it, which a busy machine can make slow."""
         self._link = link
         self._keys = SimKeys(link.namespace)
         self._reply_timeout = reply_timeout
@@ -51,7 +53,7 @@ class SimClock:
         self._replied = threading.Condition()
         self._request_number = 0
         self._bases: dict[str, tuple[int, bytes]] = {}  # per key: number and payload of the last full state received
-        info = link.query(self._keys.clock, {}, reply_timeout)  # also makes sure the simulator sees our subscriber
+        info = link.query(self._keys.clock, {}, probe_timeout or reply_timeout)  # also: the simulator sees our subscriber
         self.mode: str = info["mode"]
         self.period: float = info["period"]
         self._time: float = info["time"]

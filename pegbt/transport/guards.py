@@ -56,6 +56,10 @@ def jaw_problems(angle: ArrayLike, settings: ArmSettings) -> list[str]:
 
 
 def jaw_step_problems(angle: float, reference: float, settings: ArmSettings, seconds: float) -> list[str]:
+    """Why moving the jaw from `reference` to `angle` in `seconds` breaks its velocity limit (empty if not).
+
+    Shared by the client (refuses before sending) and the simulator (refuses what arrives), so both hold
+    a streamed jaw command to the same limit."""
     speed = abs(angle - reference) / seconds
     if speed > settings.jaw_velocity * (1 + VELOCITY_SLACK):
         return [f"jaw would move at {speed:.4g} rad/s, limit {settings.jaw_velocity:.4g} rad/s"]

@@ -6,7 +6,25 @@
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
+
+from pegbt.errors import PegbtError
+
+# ROS 2 name tokens (what a bridge's namespace can be): letters, digits and _, not starting with a digit
+_NAMESPACE = re.compile(r"[A-Za-z_][A-Za-z0-9_]*(/[A-Za-z_][A-Za-z0-9_]*)*")
+
+
+def check_namespace(namespace: str, field: str = "namespace") -> str:
+    """`namespace` if it can prefix keys (ROS 2 name tokens joined by `/`; empty for none), else a `PegbtError`.
+
+    Why: zenoh reads `*`, `$`, `?` and `#` in a key as wildcards or syntax, so a namespace holding them
+    would make the endpoint publish to or subscribe on keys nobody meant.
+    """
+    if namespace.strip("/") and not _NAMESPACE.fullmatch(namespace.strip("/")):
+        raise PegbtError(f"{namespace!r} is not a key prefix: use ROS 2 names (letters, digits, _; not starting "
+                         "with a digit), joined by /", field=field)
+    return namespace
 
 
 def scoped(namespace: str, name: str) -> str:

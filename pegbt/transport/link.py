@@ -14,8 +14,10 @@ from typing import Any, TypeVar
 import zenoh
 
 from pegbt.errors import PegbtError
+from pegbt.transport.keys import check_namespace
 from pegbt.transport.sequencing import Inlet, Outlet, Received, Source, Tag
-from pegbt.transport.session import DEFAULT_ENDPOINT, client_settings, open_session
+from pegbt.transport.endpoints import DEFAULT_ENDPOINT
+from pegbt.transport.session import client_settings, open_session
 
 T = TypeVar("T")
 
@@ -25,7 +27,7 @@ class Link:
 
     def __init__(self, session: zenoh.Session, namespace: str = "", *, owns_session: bool = False) -> None:
         self.session = session
-        self.namespace = namespace
+        self.namespace = check_namespace(namespace)
         self.source = Source()
         self.inlets: list[Inlet] = []
         self._outlets: list[Outlet] = []
@@ -85,6 +87,7 @@ class Link:
         self.close()
 
 
-def connect(endpoints: Sequence[str] = (DEFAULT_ENDPOINT,), namespace: str = "", mode: str = "peer") -> Link:
-    """Open a client session to `endpoints` (loopback port 7447 by default) and wrap it in a `Link`."""
-    return Link(open_session(client_settings(endpoints, mode)), namespace, owns_session=True)
+def connect(endpoints: Sequence[str] = (DEFAULT_ENDPOINT,), namespace: str = "") -> Link:
+    """Open a peer session to `endpoints` (loopback port 7447 by default) and wrap it in a `Link`."""
+    check_namespace(namespace)  # before a session is opened that a refused namespace would leave open
+    return Link(open_session(client_settings(endpoints)), namespace, owns_session=True)

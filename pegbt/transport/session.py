@@ -14,32 +14,31 @@ from dataclasses import dataclass
 import zenoh
 
 from pegbt.errors import PegbtError
-
-DEFAULT_PORT = 7447
-DEFAULT_ENDPOINT = f"tcp/127.0.0.1:{DEFAULT_PORT}"
-MODES = ("peer", "client", "router")
+from pegbt.transport.endpoints import DEFAULT_ENDPOINT, check_listen, split_endpoint
 
 
 @dataclass(frozen=True)
 class SessionSettings:
-    """Where a session listens and what it connects to; `mode="client"` to go through a router."""
+    """Where a peer session listens and what it connects to.
+
+    Always peer mode: client and router modes would route through, or become, a zenoh router, which the
+    loopback-only rule does not cover. Listen endpoints must be loopback unless `allow_remote_listen`.
+    """
 
     listen: tuple[str, ...] = ()
     connect: tuple[str, ...] = ()
-    mode: str = "peer"
+    allow_remote_listen: bool = False
 
     def __post_init__(self) -> None:
-        if self.mode not in MODES:
-            raise PegbtError(f"zenoh mode must be one of {', '.join(MODES)}, got {self.mode!r}", field="mode")
-        for endpoint in (*self.listen, *self.connect):
-            protocol, _, address = endpoint.partition("/")
-            if not protocol or ":" not in address:
-                raise PegbtError(f"zenoh endpoint must look like tcp/HOST:PORT, got {endpoint!r}", field="endpoint")
+        for endpoint in self.connect:
+            split_endpoint(endpoint)
+        for endpoint in self.listen:
+            check_listen(endpoint, self.allow_remote_listen)
 
     def config(self) -> zenoh.Config:
-        """The zenoh configuration: these endpoints, and scouting switched off."""
+        """The zenoh configuration: peer mode, these endpoints, and scouting switched off."""
         config = zenoh.Config()
-        config.insert_json5("mode", json.dumps(self.mode))
+        config.insert_json5("mode", json.dumps("peer"))
         config.insert_json5("listen/endpoints", json.dumps(list(self.listen)))
         config.insert_json5("connect/endpoints", json.dumps(list(self.connect)))
         config.insert_json5("scouting/multicast/enabled", "false")
@@ -47,14 +46,15 @@ class SessionSettings:
         return config
 
 
-def endpoint_settings(listen: Sequence[str] = (DEFAULT_ENDPOINT,), connect: Sequence[str] = ()) -> SessionSettings:
+def endpoint_settings(listen: Sequence[str] = (DEFAULT_ENDPOINT,), connect: Sequence[str] = (),
+                      allow_remote_listen: bool = False) -> SessionSettings:
     """Settings for an endpoint (the simulator): listens on loopback port 7447 by default."""
-    return SessionSettings(listen=tuple(listen), connect=tuple(connect))
+    return SessionSettings(listen=tuple(listen), connect=tuple(connect), allow_remote_listen=allow_remote_listen)
 
 
-def client_settings(connect: Sequence[str] = (DEFAULT_ENDPOINT,), mode: str = "peer") -> SessionSettings:
+def client_settings(connect: Sequence[str] = (DEFAULT_ENDPOINT,)) -> SessionSettings:
     """Settings for a client (the executive, a benchmark): connects to loopback port 7447 by default."""
-    return SessionSettings(connect=tuple(connect), mode=mode)
+    return SessionSettings(connect=tuple(connect))
 
 
 def open_session(settings: SessionSettings) -> zenoh.Session:

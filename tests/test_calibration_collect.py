@@ -1,0 +1,65 @@
+"""`pegbt calibrate collect`: the collection tree on the executive, parameterised by the command's options."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from pegbt.calibration.collect import SETTLE_S, setpoints_for_minutes
+from pegbt.calibration.task import task_box
+from pegbt.cli import main
+from pegbt.errors import PegbtError
+from pegbt.executive.loader import load_tree
+from pegbt.executive.session import run_tree_file
+from pegbt.physics.recording import MIN_SAMPLES, load_recording
+
+REPO = Path(__file__).resolve().parents[1]
+COLLECT_TREE = REPO / "trees" / "calibrate_collect.yaml"
+
+
+def test_collect_records_the_chosen_arm_on_the_embedded_simulator(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    count, step = setpoints_for_minutes(0.3, "PSM2", seed=3)
+    assert count == int(0.3 * 60 / step) >= MIN_SAMPLES and step > SETTLE_S
+    assert main(["calibrate", "collect", "--arm", "PSM2", "--minutes", "0.3", "--seed", "3"]) == 0
+    out = capsys.readouterr().out
+    assert f"PSM2: {count} set-points in 0.3 min, {step:.2f} s each" in out
+    assert "recording: runs/calibration/sim-PSM2" in out
+    recording = load_recording(tmp_path / "runs" / "calibration" / "sim-PSM2")
+    assert recording.arm == "PSM2" and recording.n == count
+    lower, upper = task_box("PSM2")
+    assert np.all(recording.q_cmd >= lower - 1e-9) and np.all(recording.q_cmd <= upper + 1e-9)
+    assert np.all(np.diff(recording.t) >= step - SETTLE_S)  # each sample a move and a settle after the last
+    wrist_error = np.abs(recording.q_phy - recording.q_cmd)[:, 3:]
+    assert wrist_error.max() > 0.01  # the simulator's dvrk-real cables: physical joints are not the commands
+    assert not (tmp_path / "runs" / "calibration" / "sim-PSM1").exists()
+
+
+def test_too_few_minutes_for_a_recording_are_refused_before_anything_runs(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    assert main(["calibrate", "collect", "--arm", "PSM1", "--minutes", "0.05"]) == 2
+    err = capsys.readouterr().err
+    assert "--minutes: 0.05 min holds" in err and f"at least {MIN_SAMPLES}" in err
+    assert not (tmp_path / "runs").exists()
+
+
+def test_a_command_sets_only_the_blackboard_values_the_tree_declares():
+    loaded = load_tree(COLLECT_TREE)
+    loaded.set_blackboard({"arm": "PSM2", "setpoints": 60})
+    assert loaded.initial_blackboard["/arm"] == "PSM2" and loaded.initial_blackboard["/setpoints"] == 60
+    with pytest.raises(PegbtError, match="declares no blackboard key 'speed'"):
+        loaded.set_blackboard({"speed": 2})
+    with pytest.raises(PegbtError, match="'setpoints' holds an int"):
+        loaded.set_blackboard({"setpoints": "many"})
+
+
+def test_a_blackboard_value_is_checked_like_a_literal_when_the_leaf_reads_it(tmp_path):
+    """`seconds: $pause` set to a negative number by the command fails when the leaf reads it, naming the parameter."""
+    tree = tmp_path / "pause.yaml"
+    tree.write_text("blackboard: {pause: 0.1}\ntree: {wait: {name: pause, seconds: $pause}}\n")
+    done = run_tree_file(tree, tmp_path / "ok.jsonl", clock="manual", blackboard={"pause": 0.2})
+    assert done.result.outcome == "success" and done.result.duration == pytest.approx(0.2)
+    with pytest.raises(PegbtError, match=r"pause: parameter 'seconds' should be a number >= 0; blackboard key 'pause' holds -1\.0"):
+        run_tree_file(tree, tmp_path / "bad.jsonl", clock="manual", blackboard={"pause": -1.0})
