@@ -398,7 +398,9 @@ class SimEndpoint:
 
     def _answer_step(self, clock: str, header: dict[str, Any], state: list[Bundled]) -> None:
         if clock not in self._step_replies:
-            self._step_replies[clock] = self.session.declare_publisher(self.sim_keys.stepped(clock), express=True)
+            self._step_replies[clock] = self.session.declare_publisher(  # never dropped: the client waits for it
+                self.sim_keys.stepped(clock), express=True, congestion_control=zenoh.CongestionControl.BLOCK
+            )
         self._step_replies[clock].put(bundle(header, state))
 
     def _await_commands(self, source: str, sent: Mapping[str, int]) -> None:

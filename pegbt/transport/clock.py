@@ -35,19 +35,25 @@ class SimClock:
     over, so many short waits add up exactly) and blocks until it has; in real-time mode it sleeps.
     """
 
-    def __init__(self, link: Link, *, reply_timeout: float = 10.0) -> None:
+    def __init__(self, link: Link, *, reply_timeout: float = 10.0, probe_timeout: float | None = None) -> None:
+        """`reply_timeout`: how long a step may take; `probe_timeout` (default `reply_timeout`): how long
+        to wait for the first answer, shorter when the far end may well not be a simulator at all."""
         self._link = link
         self._keys = SimKeys(link.namespace)
         self._reply_timeout = reply_timeout
-        # steps are a put and a put back, not a query: a query's reply and end cost the simulator more than a step
-        self._requests = link.session.declare_publisher(self._keys.step, express=True)
+        # steps are a put and a put back, not a query: a query's reply and end cost the simulator more than a step;
+        # a step lost in a congested queue (behind a point cloud, say) would stall the run, so it blocks instead
+        self._requests = link.session.declare_publisher(
+            self._keys.step, express=True, congestion_control=zenoh.CongestionControl.BLOCK
+        )
         self._name = uuid.uuid4().hex[:12]  # each clock has its own replies (and state notes) even on a shared link
         self._replies = link.session.declare_subscriber(self._keys.stepped(self._name), self._on_reply)
         self._reply: tuple[int, bytes] | None = None
         self._replied = threading.Condition()
         self._request_number = 0
         self._bases: dict[str, tuple[int, bytes]] = {}  # per key: number and payload of the last full state received
-        info = link.query(self._keys.clock, {}, reply_timeout)  # also makes sure the simulator sees our subscriber
+        # the first answer also makes sure the simulator sees our subscriber
+        info = link.query(self._keys.clock, {}, reply_timeout if probe_timeout is None else probe_timeout)
         self.mode: str = info["mode"]
         self.period: float = info["period"]
         self._time: float = info["time"]
