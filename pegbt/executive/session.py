@@ -52,9 +52,11 @@ def run_tree_file(
     period: float = 0.02,
     timeout: float | None = None,
     quiet: bool = True,
-    out: IO[str] = sys.stdout,
+    out: IO[str] | None = None,
 ) -> RunOutput:
-    """Run the tree file `tree` once; see the module docstring. `quiet=False` prints progress to `out`."""
+    """Run the tree file `tree` once; see the module docstring. `quiet=False` prints progress to `out`
+    (default: `sys.stdout` as it is when called)."""
+    out = out or sys.stdout
     if period <= 0 or (timeout is not None and timeout <= 0):
         raise PegbtError("must be positive", field="--period" if period <= 0 else "--timeout")
     log_path = Path(log_path)
