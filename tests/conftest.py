@@ -1,13 +1,18 @@
-"""Test-wide settings: one torch thread (2-core machines), and where the real dVRK recordings live."""
+"""Test-wide settings: where the real dVRK recordings live, and how tests run the `pegbt` command."""
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
 
 from pegbt.errors import PegbtError
 from pegbt.physics.recording import dvrk_data_dir
+
+REPO = Path(__file__).resolve().parents[1]
 
 
 @pytest.fixture
@@ -17,3 +22,31 @@ def dvrk_data() -> Path:
         return dvrk_data_dir(required=True)
     except PegbtError as missing:
         pytest.skip(str(missing))
+
+
+class PegbtCommand:
+    """`python -m pegbt ARGS` in a child process, as a user runs it: from the repository root (or `cwd`),
+    this checkout first on PYTHONPATH. For what only a real process shows: the exit status, no traceback,
+    a signal; everything else calls `pegbt.cli.main` in the test's process (no 3-4 s of imports)."""
+
+    def __init__(self) -> None:
+        path = os.pathsep.join(filter(None, [str(REPO), os.environ.get("PYTHONPATH")]))
+        self.env = {**os.environ, "PYTHONPATH": path}
+
+    def __call__(self, *args: object, cwd: Path | None = None, timeout: float = 120) -> subprocess.CompletedProcess[str]:
+        return subprocess.run(self._argv(args), capture_output=True, text=True, cwd=cwd or REPO, env=self.env, timeout=timeout)
+
+    def start(self, *args: object, cwd: Path | None = None) -> subprocess.Popen[str]:
+        """The command running, its output piped (to signal it before it ends)."""
+        return subprocess.Popen(self._argv(args), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                                cwd=cwd or REPO, env=self.env)
+
+    @staticmethod
+    def _argv(args: tuple[object, ...]) -> list[str]:
+        return [sys.executable, "-m", "pegbt", *map(str, args)]
+
+
+@pytest.fixture(scope="session")
+def pegbt_cli() -> PegbtCommand:
+    """Runs `python -m pegbt` in a child process; see `PegbtCommand`."""
+    return PegbtCommand()

@@ -1,9 +1,7 @@
-"""Shared builders for the sim2real tests: commands, recordings with known physics, the CLI."""
+"""Shared builders for the sim2real tests: commands and recordings with known physics."""
 
 from __future__ import annotations
 
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -12,7 +10,6 @@ from pegbt.physics import ArmPhysics, Effect
 from pegbt.physics.recording import Recording
 from pegbt.sim2real.synth import smooth_commands
 
-ROOT = Path(__file__).resolve().parents[1]
 SIGMA = 0.002
 
 
@@ -34,7 +31,3 @@ def recording_with(effects: list[Effect], seed: int = 0, noise: str = "white", s
     q_phy = ArmPhysics(effects).simulate(q_cmd, t) + sigma * e
     return Recording(Path(f"<test {seed}>"), q_cmd, q_phy, t)
 
-
-def run_cli(*args: str) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "pegbt", *args], cwd=ROOT, capture_output=True, text=True,
-                          timeout=120)

@@ -1,8 +1,6 @@
 """`pegbt calibrate train|eval`, the recording layout, and the real dVRK recordings."""
 
 import json
-import subprocess
-import sys
 
 import numpy as np
 import pytest
@@ -10,42 +8,37 @@ from calibration_helpers import synthetic, write
 
 from pegbt.calibration.base import CalibrationModel, new_model
 from pegbt.calibration.evaluation import evaluate
+from pegbt.cli import main
 from pegbt.physics.recording import RecordingWriter, load_recording
 from pegbt.errors import PegbtError
 
 
-def _pegbt(*args: str) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "pegbt", *map(str, args)], capture_output=True, text=True, timeout=120)
-
-
-def test_train_then_eval_on_a_written_recording(tmp_path):
+def test_train_then_eval_on_a_written_recording(tmp_path, capsys):
     folder = write(synthetic(800, noise=0.001), tmp_path / "rec_PSM1")
     out = tmp_path / "model.json"
-    trained = _pegbt("calibrate", "train", folder, "--arm", "PSM1", "--model", "physics", "--out", out)
-    assert trained.returncode == 0, trained.stderr
-    assert "held-out samples" in trained.stdout
+    assert main(["calibrate", "train", str(folder), "--arm", "PSM1", "--model", "physics", "--out", str(out)]) == 0
+    assert "held-out samples" in capsys.readouterr().out
     assert json.loads(out.read_text())["heldout"]["samples"] == 240
-    scored = _pegbt("calibrate", "eval", out, folder, "--json", "--from-fraction", "0.7")
-    assert scored.returncode == 0, scored.stderr
-    scores = json.loads(scored.stdout)
+    assert main(["calibrate", "eval", str(out), str(folder), "--json", "--from-fraction", "0.7"]) == 0
+    scores = json.loads(capsys.readouterr().out)
     assert set(scores["joint_rmse"]) == {"q1", "q2", "q3", "q4", "q5", "q6"}
     assert set(scores["joint_rmse_uncompensated"]) == set(scores["joint_rmse"])
     assert scores["tip_err_mm_mean"] < 0.2 * scores["tip_err_mm_mean_uncompensated"]
     assert scores["joint_rmse"]["q5"] < 0.01 < scores["joint_rmse_uncompensated"]["q5"]
 
 
-def test_bad_input_is_one_line_and_status_2(tmp_path):
+def test_bad_input_is_one_line_and_status_2(tmp_path, pegbt_cli, capsys):
     folder = write(synthetic(300, arm="PSM2"), tmp_path / "rec")
-    wrong_arm = _pegbt("calibrate", "train", folder, "--arm", "PSM1", "--model", "physics", "--out", tmp_path / "m.json")
+    wrong_arm = pegbt_cli("calibrate", "train", folder, "--arm", "PSM1", "--model", "physics", "--out", tmp_path / "m.json")
     assert wrong_arm.returncode == 2 and "recording is of PSM2" in wrong_arm.stderr
     assert len(wrong_arm.stderr.strip().splitlines()) == 1 and not (tmp_path / "m.json").exists()
     q_phy = np.load(folder / "q_phy.npy")
     q_phy[17, 4] = np.nan
     np.save(folder / "q_phy.npy", q_phy)
-    broken = _pegbt("calibrate", "train", folder, "--arm", "PSM2", "--model", "hybrid", "--out", tmp_path / "m.json")
-    assert broken.returncode == 2 and "q_phy.npy: q_phy: NaN or infinite value in sample 17" in broken.stderr
-    missing = _pegbt("calibrate", "eval", tmp_path / "nothing.json", folder)
-    assert missing.returncode == 2 and "cannot read model file" in missing.stderr
+    assert main(["calibrate", "train", str(folder), "--arm", "PSM2", "--model", "hybrid", "--out", str(tmp_path / "m.json")]) == 2
+    assert "q_phy.npy: q_phy: NaN or infinite value in sample 17" in capsys.readouterr().err
+    assert main(["calibrate", "eval", str(tmp_path / "nothing.json"), str(folder)]) == 2
+    assert "cannot read model file" in capsys.readouterr().err
 
 
 def test_recordings_are_checked_when_loaded(tmp_path):

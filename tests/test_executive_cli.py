@@ -2,9 +2,6 @@
 
 from __future__ import annotations
 
-import os
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
@@ -15,24 +12,18 @@ REPO = Path(__file__).resolve().parents[1]
 EXAMPLE = REPO / "trees" / "example.yaml"
 
 
-def pegbt(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess[str]:
-    env = dict(os.environ, PYTHONPATH=str(REPO))
-    return subprocess.run([sys.executable, "-m", "pegbt", *args], capture_output=True, text=True, cwd=cwd or REPO, env=env,
-                          timeout=120)
-
-
-def test_run_example_writes_a_log_that_the_log_commands_read(tmp_path):
-    result = pegbt("run", str(EXAMPLE), "--clock", "manual", "--period", "0.01", cwd=tmp_path)
-    assert result.returncode == 0, result.stderr
-    assert "FAILURE  /example/both arms/transfer PSM1/transfer with PSM1/pick, re-sense on failure/pick  (jaw of PSM1 closed on nothing)" in result.stdout
-    assert "outcome: success in 0.210 s, 7 ticks" in result.stdout  # waits need no ticks of their own
+def test_run_example_writes_a_log_that_the_log_commands_read(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)  # the default log goes to runs/ under the working directory
+    assert main(["run", str(EXAMPLE), "--clock", "manual", "--period", "0.01"]) == 0
+    out = capsys.readouterr().out
+    assert "FAILURE  /example/both arms/transfer PSM1/transfer with PSM1/pick, re-sense on failure/pick  (jaw of PSM1 closed on nothing)" in out
+    assert "outcome: success in 0.210 s, 7 ticks" in out  # waits need no ticks of their own
     logs = list((tmp_path / "runs").glob("example-*.jsonl"))
     assert len(logs) == 1
-    assert f"tick log: runs/{logs[0].name}" in result.stdout
-    why = pegbt("log", "why", str(logs[0]))
-    assert why.returncode == 0 and "it helped" in why.stdout
-    replay = pegbt("log", "replay", str(logs[0]), "--tick", "2")
-    assert replay.returncode == 0 and "[F] pick  -- jaw of PSM1 closed on nothing" in replay.stdout
+    assert f"tick log: runs/{logs[0].name}" in out
+    assert main(["log", "why", str(logs[0])]) == 0 and "it helped" in capsys.readouterr().out
+    assert main(["log", "replay", str(logs[0]), "--tick", "2"]) == 0
+    assert "[F] pick  -- jaw of PSM1 closed on nothing" in capsys.readouterr().out
 
 
 def test_tree_check_reports_every_error_and_exits_2(tmp_path, capsys):
@@ -71,9 +62,9 @@ def bad_inputs(tmp_path: Path) -> dict[str, Path]:
     return paths
 
 
-def test_bad_tree_files_give_located_errors_never_tracebacks(tmp_path):
+def test_bad_tree_files_give_located_errors_never_tracebacks(tmp_path, pegbt_cli):
     paths = bad_inputs(tmp_path)
-    result = pegbt("tree", "check", *map(str, paths.values()))
+    result = pegbt_cli("tree", "check", *paths.values())
     assert result.returncode == 2
     assert "Traceback" not in result.stderr and "Traceback" not in result.stdout
     for name, path in paths.items():
@@ -131,7 +122,7 @@ def test_usage_errors_exit_2(argv, capsys):
     assert raised.value.code == 2
 
 
-def test_ctrl_c_halts_a_running_tree_and_the_log_records_it(tmp_path):
+def test_ctrl_c_halts_a_running_tree_and_the_log_records_it(tmp_path, pegbt_cli):
     import json
     import signal
     import time
@@ -139,9 +130,7 @@ def test_ctrl_c_halts_a_running_tree_and_the_log_records_it(tmp_path):
     tree = tmp_path / "long.yaml"
     tree.write_text("tree: {sequence: [{log: {message: started}}, {wait: {name: long wait, seconds: 60}}]}\n")
     log = tmp_path / "long.jsonl"
-    env = dict(os.environ, PYTHONPATH=str(REPO))
-    process = subprocess.Popen([sys.executable, "-m", "pegbt", "run", str(tree), "--log", str(log)], stdout=subprocess.PIPE,
-                               stderr=subprocess.PIPE, text=True, env=env)
+    process = pegbt_cli.start("run", tree, "--log", log)
     try:
         deadline = time.monotonic() + 60
         while not (log.exists() and len(log.read_text().splitlines()) >= 2) and time.monotonic() < deadline:

@@ -11,6 +11,8 @@ from executive_helpers import write_tree
 from pegbt.errors import PegbtError
 from pegbt.executive.loader import check_tree, load_tree
 
+REPO = Path(__file__).resolve().parents[1]
+
 
 def lines_of(errors: list[PegbtError]) -> list[int]:
     return [error.line for error in errors]
@@ -181,12 +183,12 @@ def test_keys_are_checked_per_namespace(tmp_path):
 
 
 def test_the_real_trees_are_valid():
-    for path in ("trees/example.yaml", "trees/shared/transfer.yaml"):
+    for path in (REPO / "trees" / "example.yaml", REPO / "trees" / "shared" / "transfer.yaml"):
         assert check_tree(path) == []
 
 
 def test_the_readme_example_is_a_valid_tree(tmp_path):
-    readme = (Path(__file__).resolve().parents[1] / "README.md").read_text()
+    readme = (REPO / "README.md").read_text()
     example = readme.split("## Behaviour trees")[1].split("```yaml\n")[1].split("```")[0]
     shutil.copytree(Path(__file__).resolve().parents[1] / "trees" / "shared", tmp_path / "shared")  # what it includes
     errors = check_tree(write_tree(tmp_path, example))

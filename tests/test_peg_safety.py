@@ -1,17 +1,17 @@
 """Stopping safely: a halted motion stops its arm, a vanished endpoint ends the run with its cause, and a
-block that is not where perception says fails the trial with the reason, all against the embedded simulator."""
+block that is not where perception says fails the trial with the reason, all against the embedded simulator.
+Trials run `pegbt run` in this process (`main`); only the dying endpoint's is a child process, for its exit status."""
 
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 from pegbt.behaviours.skills import SIMULATOR_CALIBRATION
+from pegbt.cli import main
 from pegbt.executive.session import run_tree_file
 from pegbt.motion.kinematics import forward_kinematics
 from pegbt.motion.limits import arm_settings
@@ -22,8 +22,11 @@ REPO = Path(__file__).resolve().parents[1]
 SIMULATOR = ["--lockstep", "--physics", "dvrk-real"]
 
 
-def pegbt(*args: str, timeout: float = 120) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "pegbt", *args], capture_output=True, text=True, cwd=REPO, timeout=timeout)
+def log_why(log: Path, capsys: pytest.CaptureFixture[str]) -> str:
+    """What `pegbt log why LOG` prints."""
+    capsys.readouterr()
+    assert main(["log", "why", str(log)]) == 0
+    return capsys.readouterr().out
 
 
 def test_halting_a_running_motion_stops_the_arm(tmp_path):
@@ -48,21 +51,21 @@ def test_halting_a_running_motion_stops_the_arm(tmp_path):
     assert halted and "parking" in halted[0][3]
 
 
-def test_an_endpoint_that_dies_mid_trial_ends_the_run_with_its_cause(tmp_path):
+def test_an_endpoint_that_dies_mid_trial_ends_the_run_with_its_cause(tmp_path, pegbt_cli, capsys):
     log = tmp_path / "crash.jsonl"
     with SimProcess([*SIMULATOR, "--crash-at", "6"]) as sim:
-        run = pegbt("run", "trees/unilateral.yaml", "--endpoint", sim.endpoint, "--calibration", str(SIMULATOR_CALIBRATION),
-                    "--log", str(log), "--quiet")
+        run = pegbt_cli("run", "trees/unilateral.yaml", "--endpoint", sim.endpoint, "--calibration", SIMULATOR_CALIBRATION,
+                        "--log", log, "--quiet")
     assert run.returncode != 0 and "Traceback" not in run.stderr
     assert "pegbt: error:" in run.stderr and "sim/step" in run.stderr
-    why = pegbt("log", "why", str(log))
-    assert why.returncode == 0
-    assert "outcome: crash" in why.stdout and "no simulator answers on sim/step" in why.stdout
-    assert "halted: crash" in why.stdout  # the motion under way was told to stop
+    why = log_why(log, capsys)
+    assert "outcome: crash" in why and "no simulator answers on sim/step" in why
+    assert "halted: crash" in why  # the motion under way was told to stop
 
 
-def one_transfer(tmp_path: Path, world_faults: str, log: Path) -> subprocess.CompletedProcess:
-    """Transfer 1 → 7 with PSM1 (one recovery allowed, no skipping) on a simulator injecting `world_faults`."""
+def one_transfer(tmp_path: Path, world_faults: str, log: Path, capsys: pytest.CaptureFixture[str]) -> tuple[int, str]:
+    """Transfer 1 → 7 with PSM1 (one recovery allowed, no skipping) on a simulator injecting `world_faults`:
+    `pegbt run`'s exit status and what it printed."""
     faults = tmp_path / "faults.yaml"
     faults.write_text(f"world: {world_faults}\n")
     tree = tmp_path / "one.yaml"
@@ -73,25 +76,28 @@ def one_transfer(tmp_path: Path, world_faults: str, log: Path) -> subprocess.Com
         "    - subtree: {use: clear_view}\n"
         "    - subtree: {use: transfer_block, args: {arm: PSM1, pick: 1, place: 7, regrasps: 1}}\n"
     )
+    capsys.readouterr()
     with SimProcess([*SIMULATOR, "--faults", str(faults)]) as sim:
-        return pegbt("run", str(tree), "--endpoint", sim.endpoint, "--calibration", str(SIMULATOR_CALIBRATION),
-                     "--log", str(log), "--quiet")
+        status = main(["run", str(tree), "--endpoint", sim.endpoint, "--calibration", str(SIMULATOR_CALIBRATION),
+                       "--log", str(log), "--quiet"])
+    printed = capsys.readouterr()
+    return status, printed.out + printed.err
 
 
-def test_a_block_that_slips_from_the_jaw_is_found_and_moved_again(tmp_path):
+def test_a_block_that_slips_from_the_jaw_is_found_and_moved_again(tmp_path, capsys):
     log = tmp_path / "slip.jsonl"
-    run = one_transfer(tmp_path, "{slips: [{time: 5.2, arm: PSM1}]}", log)
-    assert run.returncode == 0, run.stdout + run.stderr
-    assert "transfers 1/1 succeeded" in run.stdout
-    why = pegbt("log", "why", str(log)).stdout
+    status, printed = one_transfer(tmp_path, "{slips: [{time: 5.2, arm: PSM1}]}", log, capsys)
+    assert status == 0, printed
+    assert "transfers 1/1 succeeded" in printed
+    why = log_why(log, capsys)
     assert "the block slipped from PSM1's jaw" in why and "it helped" in why
 
 
-def test_a_block_not_where_perception_says_fails_the_trial_with_the_reason(tmp_path):
+def test_a_block_not_where_perception_says_fails_the_trial_with_the_reason(tmp_path, capsys):
     log = tmp_path / "miss.jsonl"
-    run = one_transfer(tmp_path, "{miss_probability: 1.0}", log)
-    assert run.returncode == 1 and "Traceback" not in run.stderr
-    assert "transfers 0/1 succeeded" in run.stdout and "gave up after 1 recoveries" in run.stdout
-    why = pegbt("log", "why", str(log)).stdout
+    status, printed = one_transfer(tmp_path, "{miss_probability: 1.0}", log, capsys)
+    assert status == 1, printed
+    assert "transfers 0/1 succeeded" in printed and "gave up after 1 recoveries" in printed
+    why = log_why(log, capsys)
     assert "outcome: failure" in why and "policy says skip it" in why
     assert "jaw closed to" in why and "on nothing" in why  # the pick's reason, as the recoveries saw it

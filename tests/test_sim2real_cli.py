@@ -1,5 +1,8 @@
-"""The `pegbt sim2real` commands end to end: reports, closing the loop, bad input, the generator."""
+"""The `pegbt sim2real` commands end to end: reports, closing the loop, bad input, the generator. The commands
+run in this process (`main`); one test runs the real process for its exit status."""
 
+import contextlib
+import io
 import json
 
 import numpy as np
@@ -9,7 +12,7 @@ from pegbt.cli import main
 from pegbt.physics import ArmPhysics, Effect
 from pegbt.sim2real.diagnose import diagnose
 from pegbt.physics.recording import load_recording, write_recording
-from tests.sim2real_helpers import recording_with, run_cli
+from tests.sim2real_helpers import recording_with
 
 EFFECTS = [Effect("offset", "q4", {"value": 0.1}), Effect("coupling", "q5", {"source": "q6", "k": 0.15}),
            Effect("backlash", "q6", {"half_width": 0.03})]
@@ -17,17 +20,21 @@ EFFECTS = [Effect("offset", "q4", {"value": 0.1}), Effect("coupling", "q5", {"so
 
 @pytest.fixture(scope="module")
 def recorded(tmp_path_factory):
+    """10 s at 100 Hz of a wrist with EFFECTS."""
     folder = tmp_path_factory.mktemp("rec") / "wrist"
-    rec = recording_with(EFFECTS, seed=9)
+    rec = recording_with(EFFECTS, seed=9, seconds=10.0)
     return write_recording(folder, rec.q_cmd, rec.q_phy, rec.t)
 
 
 @pytest.fixture(scope="module")
 def reported(recorded, tmp_path_factory):
+    """`sim2real diagnose --out`: its folder and what it printed (10 resamples: the fewest that give intervals)."""
     out = tmp_path_factory.mktemp("out")
-    done = run_cli("sim2real", "diagnose", str(recorded), "--out", str(out), "--bootstrap", "30")
-    assert done.returncode == 0, done.stderr
-    return out, done.stdout
+    printed = io.StringIO()
+    with contextlib.redirect_stdout(printed):
+        status = main(["sim2real", "diagnose", str(recorded), "--out", str(out), "--bootstrap", "10"])
+    assert status == 0
+    return out, printed.getvalue()
 
 
 def test_report_json_has_the_documented_keys_and_the_named_effects(reported):
@@ -41,6 +48,7 @@ def test_report_json_has_the_documented_keys_and_the_named_effects(reported):
     assert named == {("offset", "q4", None), ("coupling", "q5", "q6"), ("backlash", "q6", None)}
     for entry in report["effects"]:
         assert {"effect", "joint", "params", "ci", "explains", "text"} <= set(entry)
+        assert set(entry["ci"]) == {name for name in entry["params"] if name != "source"}
         for name, (lo, hi) in entry["ci"].items():
             assert lo <= entry["params"][name] <= hi
     coupling = next(e for e in report["effects"] if e["effect"] == "coupling")
@@ -61,10 +69,9 @@ def test_a_report_loads_as_the_simulator_physics_and_closes_the_loop(reported, r
     assert before["q5"] < 0.0025 and before["q6"] < 0.0025  # the mismatch is gone: only the 2 mrad noise is left
 
 
-def test_json_output_is_the_report(recorded):
-    done = run_cli("sim2real", "diagnose", str(recorded), "--json", "--bootstrap", "0")
-    assert done.returncode == 0, done.stderr
-    assert {"mismatch", "effects", "fit", "model"} <= set(json.loads(done.stdout))
+def test_json_output_is_the_report(recorded, capsys):
+    assert main(["sim2real", "diagnose", str(recorded), "--json", "--bootstrap", "0"]) == 0
+    assert {"mismatch", "effects", "fit", "model"} <= set(json.loads(capsys.readouterr().out))
 
 
 def _bad_recordings(tmp_path):
@@ -108,9 +115,9 @@ def test_bad_input_is_refused_by_name_with_nothing_written(tmp_path, capsys):
         assert not out.exists(), name
 
 
-def test_the_process_exits_non_zero_without_a_traceback(tmp_path):
+def test_the_process_exits_non_zero_without_a_traceback(tmp_path, pegbt_cli):
     path, problem = _bad_recordings(tmp_path)["nan"]
-    done = run_cli("sim2real", "diagnose", str(path))
+    done = pegbt_cli("sim2real", "diagnose", path)
     assert done.returncode == 2 and problem in done.stderr and "Traceback" not in done.stderr
 
 
@@ -124,20 +131,20 @@ def test_a_csv_recording_is_read_like_a_folder(tmp_path):
     assert np.allclose(loaded.q_phy, rec.q_phy) and loaded.sampling.mode == "stream"
 
 
-def test_synth_writes_a_recording_and_a_truth_that_diagnose_does_not_need(tmp_path):
-    done = run_cli("sim2real", "synth", str(tmp_path / "s"), "--family", "coupled", "--seed", "4", "--seconds", "20")
-    assert done.returncode == 0, done.stderr
+def test_synth_writes_a_recording_and_a_truth_that_diagnose_does_not_need(tmp_path, capsys):
+    assert main(["sim2real", "synth", str(tmp_path / "s"), "--family", "coupled", "--seed", "4", "--seconds", "20"]) == 0
     truth = json.loads((tmp_path / "s" / "truth.json").read_text())
     assert truth["family"] == "coupled" and len(truth["effects"]) == 1
     assert sorted(p.name for p in (tmp_path / "s" / "recording").iterdir()) == ["q_cmd.npy", "q_phy.npy", "t_stamp.npy"]
-    report = json.loads(run_cli("sim2real", "diagnose", str(tmp_path / "s" / "recording"), "--json",
-                                "--bootstrap", "0").stdout)
+    capsys.readouterr()
+    assert main(["sim2real", "diagnose", str(tmp_path / "s" / "recording"), "--json", "--bootstrap", "0"]) == 0
+    report = json.loads(capsys.readouterr().out)
     true_effect = truth["effects"][0]
     assert [(e["effect"], e["joint"]) for e in report["effects"]] == [(true_effect["effect"], true_effect["joint"])]
 
 
-def test_unknown_family_and_physics_are_refused(tmp_path, recorded):
-    done = run_cli("sim2real", "synth", str(tmp_path / "x"), "--family", "nope")
-    assert done.returncode == 2 and "unknown family 'nope'" in done.stderr
-    done = run_cli("sim2real", "diagnose", str(recorded), "--sim", "no-such-physics")
-    assert done.returncode == 2 and "unknown physics preset" in done.stderr
+def test_unknown_family_and_physics_are_refused(tmp_path, recorded, capsys):
+    assert main(["sim2real", "synth", str(tmp_path / "x"), "--family", "nope"]) == 2
+    assert "unknown family 'nope'" in capsys.readouterr().err
+    assert main(["sim2real", "diagnose", str(recorded), "--sim", "no-such-physics"]) == 2
+    assert "unknown physics preset" in capsys.readouterr().err

@@ -82,7 +82,8 @@ class Robot:
 
 
 def _probe_simulator(link: Link) -> SimClock | None:
-    """The simulator's clock if a simulator answers at the other end of `link`, else None (a robot)."""
+    """The simulator's clock if a simulator answers at the other end of `link`, else None (a robot). Only
+    the probe is short: a step (a camera capture, say) may take longer on a busy machine."""
     try:
         return SimClock(link, reply_timeout=STEP_TIMEOUT, probe_timeout=PROBE_TIMEOUT)
     except PegbtError:

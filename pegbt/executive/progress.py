@@ -11,8 +11,8 @@ from pegbt.executive.build import BuiltTree
 class ProgressPrinter:
     """A tick-log listener that prints leaf results as they happen."""
 
-    def __init__(self, built: BuiltTree, stream: IO[str] = sys.stdout) -> None:
-        self.stream = stream
+    def __init__(self, built: BuiltTree, stream: IO[str] | None = None) -> None:
+        self.stream = stream or sys.stdout  # looked up now, not at import: the stream may have been swapped since
         self.leaves = {node.id: node.spec.path for node in built.nodes if not node.spec.children}
 
     def __call__(self, record: dict[str, Any]) -> None:

@@ -60,11 +60,13 @@ def run_tree_file(
     period: float = 0.02,
     timeout: float | None = None,
     quiet: bool = True,
-    out: IO[str] = sys.stdout,
+    out: IO[str] | None = None,
     blackboard: Mapping[str, Any] | None = None,
 ) -> RunOutput:
-    """Run the tree file `tree` once; see the module docstring. `quiet=False` prints progress to `out`;
-    `blackboard` replaces initial values the file declares (`LoadedTree.set_blackboard`)."""
+    """Run the tree file `tree` once; see the module docstring. `quiet=False` prints progress to `out`
+    (default: `sys.stdout` as it is when called); `blackboard` replaces initial values the file declares
+    (`LoadedTree.set_blackboard`)."""
+    out = out or sys.stdout
     checked_number(period, "--period", above=0.0)
     if timeout is not None:
         checked_number(timeout, "--timeout", above=0.0)

@@ -27,6 +27,8 @@ from pegbt.transport.link import Link
 from pegbt.transport import codec
 from pegbt.transport.sequencing import Tag, unbundle
 
+CONNECTION_CHECK_S = 0.1  # while awaiting a step's reply, how often to check that anyone is still connected
+
 
 class SimClock:
     """The simulator's clock, as seen by one client process.
@@ -121,12 +123,22 @@ class SimClock:
             self._replied.notify_all()
 
     def _await_reply(self, number: int) -> bytes:
+        """The reply to request `number`. A `PegbtError` after `reply_timeout`, or as soon as this session is
+        connected to nobody: a simulator that died closed its connection, and no reply can come any more."""
+        deadline = time.monotonic() + self._reply_timeout
         with self._replied:
-            if not self._replied.wait_for(lambda: self._reply is not None and self._reply[0] == number, self._reply_timeout):
-                key = self._keys.step
-                raise PegbtError(f"no simulator answers on {key} (is `pegbt sim --lockstep` running and reachable?)", field=key)
+            while not self._replied.wait_for(lambda: self._reply is not None and self._reply[0] == number,
+                                             max(0.0, min(CONNECTION_CHECK_S, deadline - time.monotonic()))):
+                if time.monotonic() >= deadline or not self._connected():
+                    key = self._keys.step
+                    raise PegbtError(f"no simulator answers on {key} (is `pegbt sim --lockstep` running and reachable?)",
+                                     field=key)
             assert self._reply is not None
             return self._reply[1]
+
+    def _connected(self) -> bool:
+        info = self._link.session.info
+        return bool(info.peers_zid() or info.routers_zid())
 
     def _await_published(self, source: str, sent: dict[str, int]) -> None:
         """Barrier: wait until every inlet of this link holds what the simulator sent on its key."""

@@ -48,8 +48,11 @@ class Link:
     def query(self, key: str, request: dict[str, Any], timeout: float) -> dict[str, Any]:
         """Send a JSON request to the simulator's queryable `key`; its JSON answer, or a `PegbtError` if
         none comes or it refuses."""
-        # the first reply, as soon as it comes: the query's end follows, and nobody needs to wait for it
-        reply = next(iter(self.session.get(key, payload=json.dumps(request), timeout=timeout, express=True)), None)
+        # the first reply, as soon as it comes: the query's end follows, and nobody needs to wait for it; the query
+        # (and so its reply, which takes its QoS) blocks rather than drops in a congested queue
+        replies = self.session.get(key, payload=json.dumps(request), timeout=timeout, express=True,
+                                   congestion_control=zenoh.CongestionControl.BLOCK)
+        reply = next(iter(replies), None)
         if reply is None:
             raise PegbtError(f"no simulator answers on {key} (is `pegbt sim` running and reachable?)", field=key)
         if reply.ok is None:
