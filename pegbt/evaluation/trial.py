@@ -17,6 +17,9 @@ from pegbt.errors import PegbtError
 from pegbt.evaluation.truth import failure_cause, injected_faults
 
 TREES = Path(__file__).resolve().parents[2] / "trees"
+# A trial that has not ended after this much simulated time is stopped (a tree that loops, a hung recovery):
+# the paper's trials took 40–75 s; recoveries, uncalibrated, take a few times that.
+TRIAL_TIMEOUT_S = 600.0
 
 
 @dataclass(frozen=True)
@@ -75,7 +78,7 @@ def run_trial(spec: TrialSpec) -> TrialRecord:
     record = TrialRecord(spec.variant, spec.condition, spec.seed, "error")
     started = time.perf_counter()
     try:
-        output = run_tree_file(tree_path(spec.variant), spec.log, options=options)
+        output = run_tree_file(tree_path(spec.variant), spec.log, options=options, timeout=TRIAL_TIMEOUT_S)
     except PegbtError as error:
         record.error, record.run_wall_s = str(error), time.perf_counter() - started
         record.log = str(spec.log) if spec.log.exists() else ""

@@ -61,16 +61,12 @@ def _involves(entry: Entry, arms: set[str]) -> bool:
 
 
 def transfer_blocks(transfer: Transfer, entries: Sequence[Entry]) -> set[int]:
-    """The blocks a transfer worked on: those its arms gripped or tried to grip in its window (first its pick
-    peg's; a later attempt on a block from the board counts too)."""
+    """The block a transfer worked on (empty if none): the first its arms gripped, or tried to grip, on its
+    pick peg in its window. Recoveries fetch that same block from wherever it fell."""
     start, stop = _window(transfer)
     arms = _arms(transfer)
-    tried = [e for e in entries if e["kind"] in ("grasp", "grasp_miss") and start <= e["time"] <= stop and _involves(e, arms)]
-    first = next((e["block"] for e in tried if e.get("peg") == transfer["pick"]), None)
-    if first is None:
-        return set()
-    # after the pick peg's block: the same block again, or (picked up from the board) whatever lies there
-    return {first} | {e["block"] for e in tried if e["block"] == first or e.get("peg") is None}
+    return next(({e["block"]} for e in entries if e["kind"] in ("grasp", "grasp_miss") and e.get("peg") == transfer["pick"]
+                 and start <= e["time"] <= stop and _involves(e, arms)), set())
 
 
 def failure_cause(transfer: Transfer, entries: Sequence[Entry]) -> Cause:

@@ -32,6 +32,11 @@ STEP_OF_LEAF = {
 }
 
 
+# A failure whose origin is not a robot leaf (a decorator, a logged message) is read by its words.
+STEP_OF_WORDS = (("missed the block", "grasp"), ("on nothing", "grasp"), ("slipped", "carry"),
+                 ("no block seen", "sense"), ("poor capture", "sense"), ("not located", "sense"))
+
+
 @dataclass(frozen=True)
 class WhyCheck:
     """For one failed transfer: what `why` named, what the simulator says, and whether they agree."""
@@ -77,7 +82,8 @@ def check_why(log: TickLog, causes: Mapping[int, Cause], entries: Sequence[Mappi
     checks = []
     for index, truth in sorted(causes.items()):
         inside = [step for step in steps if _inside(step.path, scopes.get(index, []))]
-        named = inside[-1] if inside else None
+        # the last failure that names a step; a side that waited for the other in vain only echoes it
+        named = next((step for step in reversed(inside) if _named_step(step)), inside[-1] if inside else None)
         checks.append(WhyCheck(index, _describe(named), _named_step(named), truth))
     for step in steps:
         if step.handled == "run":
@@ -91,7 +97,7 @@ def _named_step(step: FailureStep | None) -> str | None:
         return None
     if step.type == "check_placed" and "(empty)" not in step.feedback:
         return "sense"  # every peg it checked had a block it could not see reliably
-    return STEP_OF_LEAF.get(step.type)
+    return STEP_OF_LEAF.get(step.type) or next((s for words, s in STEP_OF_WORDS if words in step.feedback), None)
 
 
 def _describe(step: FailureStep | None) -> str:
