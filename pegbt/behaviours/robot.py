@@ -88,15 +88,17 @@ def _probe_simulator(link: Link) -> SimClock | None:
         return None
 
 
-def connect_robot(endpoint: str, seed: int = 0, faults: str | None = None) -> Robot:
+def connect_robot(endpoint: str, seed: int = 0, faults: str | None = None, simlog: str | None = None) -> Robot:
     """A `Robot` on `endpoint` (`auto`: a fresh embedded simulator seeded with `seed`, injecting the fault
-    plan `faults` if given)."""
-    if faults is not None and endpoint != "auto":
-        raise PegbtError("a fault plan is for the embedded simulator (--endpoint auto); give it to `pegbt sim --faults` "
-                         "when you start the simulator yourself", field="--faults")
+    plan `faults` if given, appending its log to `simlog` if given)."""
+    for value, flag, sim_flag in ((faults, "--faults", "--faults"), (simlog, "--simlog", "--log")):
+        if value is not None and endpoint != "auto":
+            raise PegbtError(f"{flag} is for the embedded simulator (--endpoint auto); give `pegbt sim {sim_flag}` to a "
+                             "simulator you start yourself", field=flag)
     simulator = None
     if endpoint == "auto":
-        simulator = SimProcess([*SIMULATOR_ARGS, "--seed", str(seed), *(["--faults", faults] if faults else [])])
+        simulator = SimProcess([*SIMULATOR_ARGS, "--seed", str(seed), *(["--faults", faults] if faults else []),
+                                *(["--log", simlog] if simlog else [])])
     try:
         link = connect([simulator.endpoint if simulator else endpoint])
         try:
@@ -116,6 +118,7 @@ def connect_robot(endpoint: str, seed: int = 0, faults: str | None = None) -> Ro
 
 
 def provide_robot(setup: ProviderSetup) -> Robot:
-    """The `robot` resource for `pegbt run` (options `endpoint`, `seed` and `faults`)."""
+    """The `robot` resource for `pegbt run` (options `endpoint`, `seed`, `faults` and `simlog`)."""
     options = setup.options
-    return connect_robot(str(options.get("endpoint") or "auto"), int(options.get("seed") or 0), options.get("faults"))
+    return connect_robot(str(options.get("endpoint") or "auto"), int(options.get("seed") or 0), options.get("faults"),
+                         options.get("simlog"))

@@ -68,7 +68,6 @@ class TrialResult:
     arm_arm_collisions: int
     other_contacts: int
     events: dict[str, int] = field(default_factory=dict)
-    truth: tuple[dict[str, Any], ...] = field(default=(), repr=False)  # the simulator's log entries of the trial
 
     @property
     def attempted(self) -> int:
@@ -140,6 +139,13 @@ class TrialResult:
         return buffer.getvalue().rstrip()
 
 
+def count_contacts(entries: list[dict[str, Any]]) -> tuple[int, int]:
+    """Arm-arm collisions and other contacts among the simulator's log entries."""
+    collisions = [entry for entry in entries if entry["kind"] == "collision"]
+    arm_arm = sum(entry.get("detail") in ARM_ARM_CONTACTS for entry in collisions)
+    return arm_arm, len(collisions) - arm_arm
+
+
 class Trial:
     """The transfers of one run, recorded as leaves run them; `result()` judges them."""
 
@@ -167,16 +173,10 @@ class Trial:
                                wall_time, 0, 0)
         entries = [entry for entry in self.truth.entries(self.clock) if entry["time"] >= self.started]
         kinds: dict[str, int] = {}
-        arm_arm = other = 0
         for entry in entries:
             kinds[entry["kind"]] = kinds.get(entry["kind"], 0) + 1
-            if entry["kind"] == "collision":
-                if entry.get("detail") in ARM_ARM_CONTACTS:
-                    arm_arm += 1
-                else:
-                    other += 1
-        return TrialResult("the simulator's ground truth", tuple(self._judged(entries)), trial_time, wall_time, arm_arm,
-                           other, kinds, tuple(entries))
+        return TrialResult("the simulator's ground truth", tuple(self._judged(entries)), trial_time, wall_time,
+                           *count_contacts(entries), kinds)
 
     def _believed(self) -> list[TransferOutcome]:
         return [

@@ -8,11 +8,13 @@ process calls, so its argument and result are picklable.
 
 from __future__ import annotations
 
+import json
 import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
+from pegbt.behaviours.trial import count_contacts
 from pegbt.errors import PegbtError
 from pegbt.evaluation.truth import failure_cause, injected_faults
 
@@ -30,6 +32,7 @@ class TrialSpec:
     log: Path  # where the tick log goes
     faults: Path | None = None  # fault plan for the simulator
     keep_log: bool = False  # keep the tick log of a trial in which every transfer succeeded
+    tree: Path | None = None  # another tree than the variant's (tests: a short task)
 
 
 @dataclass
@@ -73,47 +76,60 @@ def run_trial(spec: TrialSpec) -> TrialRecord:
     from pegbt.executive.logfile import read_tick_log
     from pegbt.executive.session import run_tree_file
 
-    options = {"endpoint": "auto", "condition": spec.condition, "seed": spec.seed,
+    truth = truth_path(spec.log)
+    truth.unlink(missing_ok=True)  # the simulator appends
+    options = {"endpoint": "auto", "condition": spec.condition, "seed": spec.seed, "simlog": str(truth),
                "faults": None if spec.faults is None else str(spec.faults)}
     record = TrialRecord(spec.variant, spec.condition, spec.seed, "error")
     started = time.perf_counter()
     try:
-        output = run_tree_file(tree_path(spec.variant), spec.log, options=options, timeout=TRIAL_TIMEOUT_S)
+        output = run_tree_file(spec.tree or tree_path(spec.variant), spec.log, options=options, timeout=TRIAL_TIMEOUT_S)
     except PegbtError as error:
         record.error, record.run_wall_s = str(error), time.perf_counter() - started
         record.log = str(spec.log) if spec.log.exists() else ""
         return record
     record.run_wall_s = time.perf_counter() - started
-    record.outcome = output.result.outcome
+    record.outcome, record.trial_time_s = output.result.outcome, output.result.duration
+    entries = read_truth(truth)
+    record.arm_arm_collisions, record.other_contacts = count_contacts(entries)
     judged, skills = output.reports.get("robot"), output.reports.get("skills")
     if skills is not None:
         record.tip_path_m = sum(skills.tip_path_m.values())
         record.fallbacks = sum(skills.fallbacks.values())
     if judged is not None:
-        _fill_from_judge(record, judged)
-    failed = {t["index"]: failure_cause(t, judged.truth) for t in record.transfers if not t["succeeded"]} if judged else {}
+        _fill_from_judge(record, judged.as_dict())
+    log = read_tick_log(spec.log)
+    record.transfers_attempted = max(len(record.transfers), sum(node["type"] == "begin_transfer" for node in log.nodes))
     for transfer in record.transfers:
-        transfer["cause"] = failed[transfer["index"]].step if transfer["index"] in failed else ""
-        transfer["cause_event"] = failed[transfer["index"]].event if transfer["index"] in failed else ""
+        cause = None if transfer["succeeded"] else failure_cause(transfer, entries)
+        transfer["cause"], transfer["cause_event"] = (cause.step, cause.event) if cause else ("", "")
+    record.faults = [asdict(fault) for fault in injected_faults(record.transfers, entries, record.outcome == "success")]
+    failed = [transfer for transfer in record.transfers if not transfer["succeeded"]]
     if failed or record.outcome != "success":
-        checks = check_why(read_tick_log(spec.log), failed, judged.truth if judged else ())
-        record.why = [{**asdict(check), "agrees": check.agrees} for check in checks]
+        record.why = [{**asdict(check), "agrees": check.agrees} for check in check_why(log, failed, entries)]
     if spec.keep_log or not record.complete or record.faults:
         record.log = str(spec.log)
     else:
         spec.log.unlink(missing_ok=True)
+        truth.unlink(missing_ok=True)
     return record
 
 
-def _fill_from_judge(record: TrialRecord, judged: Any) -> None:
-    figures = judged.as_dict()
-    record.transfers_attempted = figures["transfers_attempted"]
+def truth_path(log: Path) -> Path:
+    """Where a trial's simulator log (its ground truth) goes: beside its tick log."""
+    return log.with_name(log.name.removesuffix(".jsonl") + ".truth.jsonl")
+
+
+def read_truth(path: Path) -> list[dict[str, Any]]:
+    """The simulator's log entries (times in simulated seconds, the executive's clock in lockstep)."""
+    try:
+        return [json.loads(line) for line in path.read_text(encoding="utf-8").splitlines() if line.strip()]
+    except (OSError, json.JSONDecodeError) as error:
+        raise PegbtError(f"cannot read the simulator's log: {error}", file=path) from None
+
+
+def _fill_from_judge(record: TrialRecord, figures: dict[str, Any]) -> None:
     record.transfers_succeeded = figures["transfers_succeeded"]
     record.mean_transfer_time_s = figures["mean_transfer_time_s"]
-    record.trial_time_s = figures["trial_time_s"]
     record.wall_time_s = figures["wall_time_s"]
-    record.arm_arm_collisions = figures["arm_arm_collisions"]
-    record.other_contacts = figures["other_contacts"]
     record.transfers = [dict(transfer) for transfer in figures["transfers"]]
-    faults = injected_faults(record.transfers, judged.truth, record.outcome == "success")
-    record.faults = [asdict(fault) for fault in faults]

@@ -21,6 +21,7 @@ from typing import Any
 from pegbt.workcell import workcell
 
 GRACE = 0.5  # s after a transfer's end in which its events still count (the block settles), as the judge's
+CONFIRM_WINDOW = 5.0  # s before a leaf's failure in which the simulator's event must lie to confirm it
 INJECTED = ("grasp miss injected", "slip injected", "depth noise burst")  # world and camera faults, by detail prefix
 
 Entry = Mapping[str, Any]
@@ -33,6 +34,7 @@ class Cause:
 
     step: str  # grasp, carry, place, sense
     event: str  # the deciding event, e.g. "collision: block-peg: caught on peg 1: hole 2.1 mm off its axis"
+    time: float | None = None  # when it happened; None for a state (a peg that was empty)
 
 
 @dataclass(frozen=True)
@@ -69,23 +71,46 @@ def transfer_blocks(transfer: Transfer, entries: Sequence[Entry]) -> set[int]:
                  and start <= e["time"] <= stop and _involves(e, arms)), set())
 
 
-def failure_cause(transfer: Transfer, entries: Sequence[Entry]) -> Cause:
-    """The step and event that ended a failed transfer, by the last adverse event on its block."""
+def setbacks(transfer: Transfer, entries: Sequence[Entry]) -> list[Cause]:
+    """Everything the simulator saw go wrong for a transfer, in order: what befell its block (grasp misses,
+    slips, knocks, a missed placement); for a transfer that never touched a block on its pick peg, its arms'
+    grasps that gripped nothing; and, as `sense`, an empty pick peg when it began, noise bursts while it
+    ran and a block lost off the workspace."""
     start, stop = _window(transfer)
     blocks = transfer_blocks(transfer, entries)
-    mine = [e for e in entries if start <= e["time"] <= stop and e["kind"] != "fault" and e.get("block") in blocks]
-    adverse = _adverse(mine, transfer)
-    if not adverse and not blocks:
-        on_pick = blocks_on_pegs(entries, start).get(transfer["pick"], [])
-        if not on_pick:
-            return Cause("sense", f"no block was on peg {transfer['pick']} when the transfer began")
-    if not adverse:
-        bursts = [e for e in entries if e["kind"] == "fault" and str(e.get("detail", "")).startswith("depth noise burst")
-                  and start <= e["time"] <= stop]
-        lost = [e for e in entries if e["kind"] == "drop" and "off the workspace" in str(e.get("detail", "")) and e["time"] <= stop]
-        event = bursts[-1] if bursts else lost[-1] if lost else None
-        return Cause("sense", _describe(event) if event else "no grasp attempted on a block of this transfer")
-    return adverse[-1]
+    arms = _arms(transfer)
+    during = [e for e in entries if start <= e["time"] <= stop and e["kind"] != "fault"]
+    found = _adverse([e for e in during if e.get("block") in blocks], transfer)
+    if not blocks:
+        found += [Cause("grasp", _describe(e), e["time"]) for e in during if e["kind"] == "grasp_miss" and _involves(e, arms)]
+        if not blocks_on_pegs(entries, start).get(transfer["pick"]):
+            found.append(Cause("sense", f"no block was on peg {transfer['pick']} when the transfer began"))
+    found += [Cause("sense", _describe(e), e["time"]) for e in entries if start <= e["time"] <= stop
+              and e["kind"] == "fault" and str(e.get("detail", "")).startswith("depth noise burst")]
+    found += [Cause("sense", _describe(e), e["time"]) for e in entries if e["kind"] == "drop" and e["time"] <= stop
+              and e.get("block") in blocks and "off the workspace" in str(e.get("detail", ""))]
+    return found
+
+
+def failure_cause(transfer: Transfer, entries: Sequence[Entry]) -> Cause:
+    """What ended a failed transfer: the last thing that befell its block, else what kept it from one."""
+    blocks = transfer_blocks(transfer, entries)
+    start, stop = _window(transfer)
+    own = _adverse([e for e in entries if start <= e["time"] <= stop and e["kind"] != "fault" and e.get("block") in blocks],
+                   transfer)
+    if own:
+        return own[-1]
+    others = setbacks(transfer, entries)
+    sense = [cause for cause in others if cause.step == "sense"]
+    if sense:
+        return sense[0] if sense[0].time is None else sense[-1]
+    return others[-1] if others else Cause("sense", "no grasp attempted on a block of this transfer")
+
+
+def confirms(step: str, time: float, causes: Sequence[Cause]) -> bool:
+    """Whether the simulator saw a setback of `step` shortly before `time` (or throughout, for a state)."""
+    return any(cause.step == step and (cause.time is None or time - CONFIRM_WINDOW <= cause.time <= time + GRACE)
+               for cause in causes)
 
 
 def final_check_cause(pegs: Sequence[int], entries: Sequence[Entry], time: float) -> Cause:
@@ -97,7 +122,8 @@ def final_check_cause(pegs: Sequence[int], entries: Sequence[Entry], time: float
         return Cause("place", f"no block on peg {', '.join(map(str, empty))} at t={time:.2f} s")
     bursts = [e for e in entries if e["kind"] == "fault" and str(e.get("detail", "")).startswith("depth noise burst")
               and e["time"] <= time]
-    return Cause("sense", _describe(bursts[-1]) if bursts else f"a block on each of pegs {', '.join(map(str, pegs))}")
+    return Cause("sense", _describe(bursts[-1]) if bursts else f"a block on each of pegs {', '.join(map(str, pegs))}",
+                 bursts[-1]["time"] if bursts else None)
 
 
 def blocks_on_pegs(entries: Sequence[Entry], until: float) -> dict[int, list[int]]:
@@ -134,7 +160,7 @@ def _adverse(events: Sequence[Entry], transfer: Transfer) -> list[Cause]:
         elif kind == "place" and entry.get("peg") != transfer["place"]:
             step = "place"
         if step is not None:
-            causes.append(Cause(step, _describe(entry)))
+            causes.append(Cause(step, _describe(entry), entry["time"]))
         previous[entry.get("block")] = kind
     return causes
 

@@ -13,7 +13,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from pegbt.evaluation.truth import Cause, final_check_cause
+from pegbt.evaluation.truth import Cause, confirms, failure_cause, final_check_cause, setbacks
 from pegbt.executive.analysis import FailureStep, failure_steps
 from pegbt.executive.logfile import TickLog
 
@@ -39,16 +39,19 @@ STEP_OF_WORDS = (("missed the block", "grasp"), ("on nothing", "grasp"), ("slipp
 
 @dataclass(frozen=True)
 class WhyCheck:
-    """For one failed transfer: what `why` named, what the simulator says, and whether they agree."""
+    """For one failed transfer (0: the run's own failure): what `why` named, what ended it by the simulator,
+    and whether the simulator saw a setback of the named step just before the named failure."""
 
     transfer: int
     named: str  # "leaf path: feedback", or "" when why named nothing in the transfer
     named_step: str | None
     truth: Cause
+    confirmed: bool = False
 
     @property
     def agrees(self) -> bool:
-        return self.named_step == self.truth.step
+        """`why` named a step, and it is the simulator's final cause or one the simulator saw happen then."""
+        return self.named_step is not None and (self.named_step == self.truth.step or self.confirmed)
 
 
 def transfer_scopes(log: TickLog) -> dict[int, list[str]]:
@@ -73,23 +76,30 @@ def _inside(path: str, scopes: Sequence[str]) -> bool:
     return any(path.startswith(scope + "/") for scope in scopes)
 
 
-def check_why(log: TickLog, causes: Mapping[int, Cause], entries: Sequence[Mapping[str, Any]]) -> list[WhyCheck]:
-    """Compare, for each failed transfer (by number, with the simulator's cause), the last failure `why`
-    names inside it; and, when the run itself failed, the failure `why` names as the run's (number 0)
-    with what the simulator says of the pegs the failing leaf checked."""
+def check_why(log: TickLog, failed: Sequence[Mapping[str, Any]], entries: Sequence[Mapping[str, Any]]) -> list[WhyCheck]:
+    """Compare, for each failed transfer (as the judge reports it), the last failure `why` names inside it with
+    the simulator's log; and, when the run itself failed, the run's failure (transfer 0) with what the
+    simulator says of the pegs the failing leaf checked."""
     steps = failure_steps(log)
     scopes = transfer_scopes(log)
     checks = []
-    for index, truth in sorted(causes.items()):
-        inside = [step for step in steps if _inside(step.path, scopes.get(index, []))]
-        # the last failure that names a step; a side that waited for the other in vain only echoes it
-        named = next((step for step in reversed(inside) if _named_step(step)), inside[-1] if inside else None)
-        checks.append(WhyCheck(index, _describe(named), _named_step(named), truth))
-    for step in steps:
-        if step.handled == "run":
-            pegs = next((node["params"].get("pegs") for node in log.nodes if node["path"] == step.path), None) or []
-            checks.append(WhyCheck(0, _describe(step), _named_step(step), final_check_cause(pegs, entries, step.t)))
+    for transfer in failed:
+        named = _last_named([step for step in steps if _inside(step.path, scopes.get(transfer["index"], []))])
+        step = _named_step(named)
+        seen = setbacks(transfer, entries)
+        confirmed = named is not None and step is not None and confirms(step, named.t, seen)
+        checks.append(WhyCheck(transfer["index"], _describe(named), step, failure_cause(transfer, entries), confirmed))
+    named = _last_named([step for step in steps if step.handled == "run"])
+    if named is not None:
+        pegs = next((node["params"].get("pegs") for node in log.nodes if node["path"] == named.path), None) or []
+        checks.append(WhyCheck(0, _describe(named), _named_step(named), final_check_cause(pegs, entries, named.t)))
     return checks
+
+
+def _last_named(steps: Sequence[FailureStep]) -> FailureStep | None:
+    """The last failure that names a step: control flow that failed on the way (a check that the board was
+    already registered) or a side that waited for the other in vain only echoes it."""
+    return next((step for step in reversed(steps) if _named_step(step)), steps[-1] if steps else None)
 
 
 def _named_step(step: FailureStep | None) -> str | None:
