@@ -13,7 +13,6 @@ use, so the two can be compared (`pegbt.evaluation.why`):
 from __future__ import annotations
 
 import math
-
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any

@@ -54,7 +54,8 @@ class SimClock:
         if steps <= 0:
             return
         request = {"steps": steps, "source": self._link.source.name, "sent": self._link.source.counts()}
-        reply = self._link.query(self._keys.step, request, self._reply_timeout)
+        # a long step may take the simulator as long as real time would on a busy machine: allow that on top
+        reply = self._link.query(self._keys.step, request, self._reply_timeout + steps * self.period)
         self._time = reply["time"]
         self._await_published(reply["source"], reply["sent"])
 
