@@ -83,7 +83,7 @@ class Robot:
 def _probe_simulator(link: Link) -> SimClock | None:
     """The simulator's clock if a simulator answers at the other end of `link`, else None (a robot)."""
     try:
-        return SimClock(link, reply_timeout=PROBE_TIMEOUT)
+        return SimClock(link, probe_timeout=PROBE_TIMEOUT)
     except PegbtError:
         return None
 

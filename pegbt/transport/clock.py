@@ -23,11 +23,13 @@ class SimClock:
     over, so many short waits add up exactly) and blocks until it has; in real-time mode it sleeps.
     """
 
-    def __init__(self, link: Link, *, reply_timeout: float = 10.0) -> None:
+    def __init__(self, link: Link, *, reply_timeout: float = 10.0, probe_timeout: float | None = None) -> None:
+        """`probe_timeout`: how long the first question may take (short, to tell a simulator from a robot);
+        `reply_timeout`: how long each step may take beyond the simulated time it covers."""
         self._link = link
         self._keys = SimKeys(link.namespace)
         self._reply_timeout = reply_timeout
-        info = link.query(self._keys.clock, {}, reply_timeout)
+        info = link.query(self._keys.clock, {}, reply_timeout if probe_timeout is None else probe_timeout)
         self.mode: str = info["mode"]
         self.period: float = info["period"]
         self._time: float = info["time"]
