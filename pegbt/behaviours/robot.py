@@ -21,7 +21,7 @@ from pegbt.behaviours.trial import Trial
 
 ARMS = ("PSM1", "PSM2")
 SIMULATOR_ARGS = ("--lockstep", "--physics", "dvrk-real")
-PROBE_TIMEOUT = 2.0  # s to wait for a simulator to answer `sim/clock`
+PROBE_TIMEOUT = 2.0  # s to wait for a simulator to answer `sim/clock` at an address (no answer: a robot)
 READY_TIMEOUT = 5.0  # s to wait for each arm's first state
 # Liveness: a lockstep simulator re-sends its state every 50 ms of wall time; a busy machine can delay
 # that, so the simulator gets more slack than a real arm streaming at 100 Hz.
@@ -102,7 +102,8 @@ def connect_robot(endpoint: str, seed: int = 0, faults: str | None = None, simlo
     try:
         link = connect([simulator.endpoint if simulator else endpoint])
         try:
-            sim_clock = _probe_simulator(link)
+            # the simulator we started must answer, however busy the machine: no probe timeout for it
+            sim_clock = SimClock(link) if simulator is not None else _probe_simulator(link)
             truth = SimulatorTruth(link) if sim_clock is not None else None
             robot = Robot(link, sim_clock or WallClock(), simulator=simulator, truth=truth,
                           lockstep=bool(sim_clock and sim_clock.lockstep), endpoint=endpoint)
