@@ -20,6 +20,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "pegbt.calibration.cli",
     "pegbt.sim.cli",
     "pegbt.sim2real.cli",
+    "pegbt.evaluation.cli",
 )
 
 

@@ -21,7 +21,7 @@ from pegbt.sim.truth import ask_truth
 from pegbt.behaviours.trial import Trial
 
 SIMULATOR_ARGS = ("--lockstep", "--physics", "dvrk-real")
-PROBE_TIMEOUT = 2.0  # s to wait for a simulator to answer `sim/clock`
+PROBE_TIMEOUT = 2.0  # s to wait for a simulator to answer `sim/clock` at an address (no answer: a robot)
 STEP_TIMEOUT = 5.0  # s to wait for a lockstep step: a camera capture on a loaded 2-core machine took over 2
 READY_TIMEOUT = 5.0  # s to wait for each arm's first state
 # Liveness: a lockstep simulator re-sends its state every 50 ms of wall time; a busy machine can delay
@@ -90,19 +90,22 @@ def _probe_simulator(link: Link) -> SimClock | None:
         return None
 
 
-def connect_robot(endpoint: str, seed: int = 0, faults: str | None = None) -> Robot:
+def connect_robot(endpoint: str, seed: int = 0, faults: str | None = None, simlog: str | None = None) -> Robot:
     """A `Robot` on `endpoint` (`auto`: a fresh embedded simulator seeded with `seed`, injecting the fault
-    plan `faults` if given)."""
-    if faults is not None and endpoint != "auto":
-        raise PegbtError("a fault plan is for the embedded simulator (--endpoint auto); give it to `pegbt sim --faults` "
-                         "when you start the simulator yourself", field="--faults")
+    plan `faults` if given, appending its log to `simlog` if given)."""
+    for value, flag, sim_flag in ((faults, "--faults", "--faults"), (simlog, "--simlog", "--log")):
+        if value is not None and endpoint != "auto":
+            raise PegbtError(f"{flag} is for the embedded simulator (--endpoint auto); give `pegbt sim {sim_flag}` to a "
+                             "simulator you start yourself", field=flag)
     simulator = None
     if endpoint == "auto":
-        simulator = SimProcess([*SIMULATOR_ARGS, "--seed", str(seed), *(["--faults", faults] if faults else [])])
+        simulator = SimProcess([*SIMULATOR_ARGS, "--seed", str(seed), *(["--faults", faults] if faults else []),
+                                *(["--log", simlog] if simlog else [])])
     try:
         link = connect([simulator.endpoint if simulator else endpoint])
         try:
-            sim_clock = _probe_simulator(link)
+            # the simulator we started must answer, however busy the machine: no probe timeout for it
+            sim_clock = SimClock(link, reply_timeout=STEP_TIMEOUT) if simulator is not None else _probe_simulator(link)
             truth = SimulatorTruth(link) if sim_clock is not None else None
             robot = Robot(link, sim_clock or WallClock(), simulator=simulator, truth=truth,
                           lockstep=bool(sim_clock and sim_clock.lockstep), endpoint=endpoint)
@@ -118,6 +121,7 @@ def connect_robot(endpoint: str, seed: int = 0, faults: str | None = None) -> Ro
 
 
 def provide_robot(setup: ProviderSetup) -> Robot:
-    """The `robot` resource for `pegbt run` (options `endpoint`, `seed` and `faults`)."""
+    """The `robot` resource for `pegbt run` (options `endpoint`, `seed`, `faults` and `simlog`)."""
     options = setup.options
-    return connect_robot(str(options.get("endpoint") or "auto"), int(options.get("seed") or 0), options.get("faults"))
+    return connect_robot(str(options.get("endpoint") or "auto"), int(options.get("seed") or 0), options.get("faults"),
+                         options.get("simlog"))

@@ -61,7 +61,8 @@ class RegisterBoard(RobotLeaf):
 
 @behaviour(
     "find_blocks",
-    "segment and register every block in `/cloud` on the registered `/board`; writes `/blocks`",
+    "segment and register every block in `/cloud` on the registered `/board`; writes `/blocks`; fails on a "
+    "capture in which no block is trustworthy (a noise burst, say), so that `sense` takes another",
     reads=("/cloud", "/board"),
     writes=("/blocks",),
     resources=RESOURCES,
@@ -74,4 +75,6 @@ class FindBlocks(RobotLeaf):
         doubtful = [block.reason for block in blocks if not block.ok]
         self.feedback_message = f"{len(blocks)} block(s); trustworthy on pegs: {where or 'none'}" + (
             f"; doubtful: {'; '.join(doubtful)}" if doubtful else "")
+        if not any(block.ok for block in blocks):
+            return self.fail(f"a poor capture: {self.feedback_message}")
         return Status.SUCCESS

@@ -3,8 +3,9 @@ what the executive believes.
 
 Leaves `begin_transfer` and `finish_transfer` record each transfer (arm(s), pick peg, place peg, start,
 end, the executive's verdict). The judge then reads the simulator's events: a transfer succeeded when a
-block lifted off its pick peg during the transfer was placed (released onto a peg) on its place peg by
-the transfer's end (plus a moment to settle); its time runs from its start to that placement. Arm-arm
+block lifted off its pick peg during the transfer came to rest on its place peg by the transfer's end
+(plus a moment to settle): released there, or fallen there from a jaw it slipped out of (the block is
+on the peg all the same); its time runs from its start to that moment. Arm-arm
 collisions (tool-tool, shaft-shaft) are counted apart from other contacts (tool-peg, block-peg, block-board).
 """
 
@@ -53,6 +54,7 @@ class TransferOutcome:
     started: float
     seconds: float | None  # from its start to its block's placement
     note: str
+    ended: float | None = None  # when the executive finished it (None: never finished)
 
 
 @dataclass(frozen=True)
@@ -137,6 +139,13 @@ class TrialResult:
         return buffer.getvalue().rstrip()
 
 
+def count_contacts(entries: list[dict[str, Any]]) -> tuple[int, int]:
+    """Arm-arm collisions and other contacts among the simulator's log entries."""
+    collisions = [entry for entry in entries if entry["kind"] == "collision"]
+    arm_arm = sum(entry.get("detail") in ARM_ARM_CONTACTS for entry in collisions)
+    return arm_arm, len(collisions) - arm_arm
+
+
 class Trial:
     """The transfers of one run, recorded as leaves run them; `result()` judges them."""
 
@@ -164,21 +173,16 @@ class Trial:
                                wall_time, 0, 0)
         entries = [entry for entry in self.truth.entries(self.clock) if entry["time"] >= self.started]
         kinds: dict[str, int] = {}
-        arm_arm = other = 0
         for entry in entries:
             kinds[entry["kind"]] = kinds.get(entry["kind"], 0) + 1
-            if entry["kind"] == "collision":
-                if entry.get("detail") in ARM_ARM_CONTACTS:
-                    arm_arm += 1
-                else:
-                    other += 1
-        return TrialResult("the simulator's ground truth", tuple(self._judged(entries)), trial_time, wall_time, arm_arm,
-                           other, kinds)
+        return TrialResult("the simulator's ground truth", tuple(self._judged(entries)), trial_time, wall_time,
+                           *count_contacts(entries), kinds)
 
     def _believed(self) -> list[TransferOutcome]:
         return [
             TransferOutcome(record.index, record.arms, record.pick, record.place, record.outcome == "placed", record.started,
-                            None if record.ended is None else record.ended - record.started, record.note or record.outcome)
+                            None if record.ended is None else record.ended - record.started, record.note or record.outcome,
+                            record.ended)
             for record in self.transfers
         ]
 
@@ -188,16 +192,16 @@ class Trial:
             until = (record.ended if record.ended is not None else self.clock.now()) + GRACE
             lifted = {entry["block"] for entry in entries if entry["kind"] == "lift" and entry.get("peg") == record.pick
                       and record.started <= entry["time"] <= until}
-            placed = [entry for entry in entries if entry["kind"] == "place" and entry.get("peg") == record.place
+            placed = [entry for entry in entries if entry["kind"] in ("place", "drop") and entry.get("peg") == record.place
                       and entry.get("block") in lifted and record.started <= entry["time"] <= until]
             if placed:
                 seconds = placed[0]["time"] - record.started
                 outcomes.append(TransferOutcome(record.index, record.arms, record.pick, record.place, True, record.started,
-                                                seconds, record.note))
+                                                seconds, record.note, record.ended))
             else:
                 why = record.note or ("no block lifted off the pick peg" if not lifted else "not placed on the place peg")
                 outcomes.append(TransferOutcome(record.index, record.arms, record.pick, record.place, False, record.started,
-                                                None, why))
+                                                None, why, record.ended))
         return outcomes
 
     def progress_listener(self) -> Callable[[dict[str, Any]], None]:

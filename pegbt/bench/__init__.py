@@ -24,6 +24,7 @@ BENCHMARKS: dict[str, str] = {
     "motion": "pegbt.bench.motion:run",
     "sim2real": "pegbt.bench.sim2real:run",
     "sim2real-real": "pegbt.bench.sim2real_real:run",
+    "eval": "pegbt.bench.eval:run",
 }
 
 

@@ -4,6 +4,9 @@
 latest change before that moment, since the node last started, was to FAILURE; a node with no such
 child failed on its own (a leaf, a timeout, a guard whose condition stopped holding). For each of
 those origins it shows the time, the feedback message and the blackboard values the node reads.
+Failures the tree absorbed are listed too: each recovery that ran, and each failure it gave up on (a
+`recover` node out of retries, a `force_success` over a failed child) so the run could go on.
+`failure_steps` returns the same origins as data, for tools that check them (`pegbt eval`).
 """
 
 from __future__ import annotations
@@ -122,6 +125,44 @@ class _Timeline:
         return failures[-1] if failures else None
 
 
+@dataclass(frozen=True)
+class FailureStep:
+    """A node that failed on its own (the origin of a failure) and how the tree took that failure:
+    `run` (the run failed), `recovered` (a recovery ran), `given up` (a recover node ran out of retries,
+    or a force_success absorbed it); `by` is the path of the node that took it."""
+
+    path: str
+    name: str
+    type: str
+    t: float
+    feedback: str
+    handled: str
+    by: str
+
+
+def failure_steps(log: TickLog) -> list[FailureStep]:
+    """Every failure origin `why` names, in time order."""
+    timeline = _Timeline(log)
+    steps = []
+    root_failure = timeline.final_failure(0)
+    if log.end and log.end["outcome"] == "failure" and root_failure is not None:
+        steps += [_step(log, origin, "run", 0) for origin in _origins(timeline, root_failure)]
+    steps += [_step(log, origin, "recovered", node) for node, origin, _ in _recovered(timeline)]
+    steps += [_step(log, origin, "given up", node) for node, origin in _given_up(timeline)]
+    return sorted(steps, key=lambda step: step.t)
+
+
+def _step(log: TickLog, origin: Transition, handled: str, by: int) -> FailureStep:
+    node = log.nodes[origin.node]
+    return FailureStep(node["path"], node["name"], node["type"], origin.t, origin.feedback, handled, log.nodes[by]["path"])
+
+
+def _origins(timeline: _Timeline, failure: Transition) -> list[Transition]:
+    """Every node down the causal chain of `failure` that failed on its own."""
+    causes = _causes(timeline, failure)
+    return [origin for cause in causes for origin in _origins(timeline, cause)] if causes else [failure]
+
+
 def why(log: TickLog) -> str:
     """The causal chain of the run's failure (or its timeout / interruption), and the recoveries that ran."""
     timeline = _Timeline(log)
@@ -140,6 +181,7 @@ def why(log: TickLog) -> str:
     else:
         lines.append("the run succeeded" + ("; failures below were recovered" if any(c.after == "FAILURE" for c in log.transitions) else ""))
     lines += _recoveries(timeline)
+    lines += _given_up_lines(timeline)
     return "\n".join(lines)
 
 
@@ -191,9 +233,11 @@ def _origin_details(timeline: _Timeline, failure: Transition, indent: str, lines
                 lines.append(f"{indent}  halted child: {log.nodes[child]['path']} ({change.feedback or 'no feedback'})")
 
 
-def _recoveries(timeline: _Timeline) -> list[str]:
+def _recovered(timeline: _Timeline) -> list[tuple[int, Transition, tuple[Transition, Transition, int]]]:
+    """Per main failure a recovery answered: the recover node, the failure's origin, and (the main's
+    failure, the recovery's outcome, the main child) for the verdict."""
     log = timeline.log
-    lines = []
+    found = []
     for node in log.nodes:
         if node["type"] != "recover":
             continue
@@ -204,13 +248,53 @@ def _recoveries(timeline: _Timeline) -> list[str]:
             tried = next((c for c in timeline.by_node[recovery] if c.seq > change.seq and c.after in ("SUCCESS", "FAILURE")), None)
             if tried is None or timeline.last_before(main, tried.seq) is not change:
                 continue  # no recovery answered this failure (none left, or the run stopped)
-            origin = _origin(timeline, change)
-            reason = origin.feedback or "no feedback"
-            if origin is not change:
-                reason = f"{log.nodes[origin.node]['name']}: {reason}"
-            lines.append(f"  {node['path']}: main failed at t={change.t:.3f} s ({reason}); "
-                         f"recovery {tried.after.lower()} at t={tried.t:.3f} s; {_verdict(timeline, main, tried)}")
+            found.append((node["id"], _origin(timeline, change), (change, tried, main)))
+    return found
+
+
+def _reason(log: TickLog, origin: Transition, failure: Transition) -> str:
+    reason = origin.feedback or "no feedback"
+    return reason if origin is failure else f"{log.nodes[origin.node]['name']}: {reason}"
+
+
+def _recoveries(timeline: _Timeline) -> list[str]:
+    log = timeline.log
+    lines = []
+    for node, origin, (change, tried, main) in _recovered(timeline):
+        lines.append(f"  {log.nodes[node]['path']}: main failed at t={change.t:.3f} s ({_reason(log, origin, change)}); "
+                     f"recovery {tried.after.lower()} at t={tried.t:.3f} s; {_verdict(timeline, main, tried)}")
     return (["recoveries:"] + lines) if lines else ["recoveries: none ran"]
+
+
+def _given_up(timeline: _Timeline) -> list[tuple[int, Transition]]:
+    """Failures the tree absorbed to go on: a recover node that failed (retries spent) and a force_success
+    over a failed child, each with its origin; one entry per origin (the innermost node that gave up)."""
+    log = timeline.log
+    found, seen = [], set()
+    for node in reversed(log.nodes):  # children before their ancestors
+        if node["type"] == "recover":
+            failures = [c for c in timeline.by_node[node["id"]] if c.after == "FAILURE"]
+        elif node["type"] == "force_success":
+            failures = [c for child in log.children(node["id"]) for c in timeline.by_node[child] if c.after == "FAILURE"]
+        else:
+            continue
+        for failure in failures:
+            origin = _origin(timeline, failure)
+            if origin is failure and node["type"] == "recover":
+                # main failed again as soon as it was retried, within one tick: the log kept its first failure
+                last = timeline.last_before(log.children(node["id"])[0], failure.seq)
+                origin = _origin(timeline, last) if last is not None and last.after == "FAILURE" else failure
+            if origin.seq not in seen:
+                seen.add(origin.seq)
+                found.append((node["id"], origin))
+    return sorted(found, key=lambda item: item[1].seq)
+
+
+def _given_up_lines(timeline: _Timeline) -> list[str]:
+    log = timeline.log
+    lines = [f"  {log.nodes[node]['path']}: gave up at t={origin.t:.3f} s ({log.nodes[origin.node]['name']}: "
+             f"{origin.feedback or 'no feedback'})" for node, origin in _given_up(timeline)]
+    return (["given up (the tree went on without it):"] + lines) if lines else []
 
 
 def _verdict(timeline: _Timeline, main: int, recovery: Transition) -> str:

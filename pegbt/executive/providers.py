@@ -59,6 +59,8 @@ RUN_OPTIONS: dict[str, RunOption] = {
                   choices=("uncalibrated", "calibrated", "optimized")),
         RunOption("seed", "robot: seed of the embedded simulator's world", 0, type=int),
         RunOption("faults", "robot: fault plan (YAML) for the embedded simulator to inject (see `pegbt sim --faults`)"),
+        RunOption("simlog", "robot: file the embedded simulator appends its log to: injected faults and world events, "
+                  "the ground truth (see `pegbt sim --log`)"),
         RunOption("calibration", "skills: directory of calibration models (default: the simulator's for "
                   "--endpoint auto, else skills/calibration)"),
     )

@@ -90,7 +90,8 @@ class SimClock:
             "sent": link.source.counts(), "claim": claim,
         }
         self._requests.put(json.dumps(request))
-        reply, messages = unbundle(self._await_reply(self._request_number))
+        # a long step may take the simulator as long as real time would on a busy machine: allow that on top
+        reply, messages = unbundle(self._await_reply(self._request_number, steps * self.period))
         if "error" in reply:
             raise PegbtError(f"simulator refused {self._keys.step}: {reply['error']}", field=self._keys.step)
         for key, tag, content in messages:
@@ -122,10 +123,10 @@ class SimClock:
             self._reply = (number, payload)
             self._replied.notify_all()
 
-    def _await_reply(self, number: int) -> bytes:
-        """The reply to request `number`. A `PegbtError` after `reply_timeout`, or as soon as this session is
-        connected to nobody: a simulator that died closed its connection, and no reply can come any more."""
-        deadline = time.monotonic() + self._reply_timeout
+    def _await_reply(self, number: int, allowance: float) -> bytes:
+        """The reply to request `number`. A `PegbtError` after `reply_timeout` + `allowance` s, or as soon as
+        this session is connected to nobody: a simulator that died closed its connection, and no reply can come."""
+        deadline = time.monotonic() + self._reply_timeout + allowance
         with self._replied:
             while not self._replied.wait_for(lambda: self._reply is not None and self._reply[0] == number,
                                              max(0.0, min(CONNECTION_CHECK_S, deadline - time.monotonic()))):

@@ -187,17 +187,20 @@ class Inlet(Generic[T]):
         """Take a message already wrapped (with its own way to decode it)."""
         tag = received.tag
         with self._changed:
-            if tag is not None:
-                if tag.seq <= self._seen.get(tag.source, 0):
-                    return
-                self._seen[tag.source] = tag.seq
+            if tag is not None and tag.seq <= self._seen.get(tag.source, 0):
+                return
             self._latest = received
-            self._changed.notify_all()
         if self._on_message is not None:
             try:
                 self._on_message(received)
             except PegbtError:
                 pass  # a corrupt payload: whoever reads it gets the error
+        # Counted only after `on_message` has run, so a lockstep barrier that waits for this message also
+        # sees its consequences (a capture handle fulfilled); otherwise a tick may race the callback.
+        with self._changed:
+            if tag is not None:
+                self._seen[tag.source] = max(tag.seq, self._seen.get(tag.source, 0))
+            self._changed.notify_all()
 
     def latest(self) -> Received[T] | None:
         """The newest message, None before the first."""

@@ -1,0 +1,76 @@
+"""Many trials of one cell (variant × condition), seeds S..S+N−1, in worker processes.
+
+Each trial starts its own simulator on its own free port, so trials share nothing and a seed gives the
+same result whichever worker runs it, in whatever order. Two workers keep both cores of a small machine
+busy (a trial's executive and its simulator take turns in lockstep, so each pair uses about one core).
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+from collections.abc import Callable
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import dataclass
+from pathlib import Path
+
+from pegbt.evaluation.faultgen import write_fault_plan
+from pegbt.evaluation.trial import TrialRecord, TrialSpec, run_trial
+
+
+@dataclass(frozen=True)
+class Cell:
+    """What to run: one variant and condition over `trials` seeds from `seed`, with faults as asked."""
+
+    variant: str
+    condition: str
+    trials: int
+    seed: int = 0
+    faults: Path | None = None  # one plan for every trial (its probabilistic faults vary with the seed)
+    inject_faults: bool = False  # a plan per seed from `pegbt.evaluation.faultgen`
+
+    @property
+    def name(self) -> str:
+        return f"{self.variant}-{self.condition}" + ("-faults" if self.faults or self.inject_faults else "")
+
+    @property
+    def seeds(self) -> range:
+        return range(self.seed, self.seed + self.trials)
+
+
+def trial_specs(cell: Cell, out: Path, keep_logs: bool = False) -> list[TrialSpec]:
+    """One spec per seed; tick logs under `out/logs/`, generated fault plans under `out/faults/`."""
+    logs = out / "logs"
+    logs.mkdir(parents=True, exist_ok=True)
+    specs = []
+    for seed in cell.seeds:
+        plan = write_fault_plan(out / "faults" / cell.variant, seed) if cell.inject_faults else cell.faults
+        specs.append(TrialSpec(cell.variant, cell.condition, seed, logs / f"{cell.name}-{seed}.jsonl", plan, keep_logs))
+    return specs
+
+
+def run_trials(specs: list[TrialSpec], workers: int = 2,
+               done: Callable[[TrialRecord], None] | None = None) -> list[TrialRecord]:
+    """Run every spec (in `workers` processes; in this one if 1) and return their records in spec order;
+    `done` is called with each record as it finishes."""
+    if workers <= 1 or len(specs) <= 1:
+        records = []
+        for spec in specs:
+            records.append(run_trial(spec))
+            if done is not None:
+                done(records[-1])
+        return records
+    by_seed: dict[int, TrialRecord] = {}
+    context = multiprocessing.get_context("spawn")  # a clean interpreter: no inherited zenoh session or threads
+    with ProcessPoolExecutor(max_workers=min(workers, len(specs)), mp_context=context) as pool:
+        futures = [pool.submit(run_trial, spec) for spec in specs]
+        try:
+            for future in as_completed(futures):
+                record = future.result()
+                by_seed[record.seed] = record
+                if done is not None:
+                    done(record)
+        except BaseException:
+            for future in futures:
+                future.cancel()
+            raise
+    return [by_seed[spec.seed] for spec in specs]

@@ -1,0 +1,201 @@
+"""What the simulator's ground truth says about a trial: why each failed transfer failed, and which
+injected faults the trial recovered from.
+
+Failures are named by the step where the block was lost, in the same words the executive's leaves
+use, so the two can be compared (`pegbt.evaluation.why`):
+
+- `grasp`: a closing jaw gripped nothing (`grasp_miss`, geometric or injected);
+- `carry`: the block left a closed jaw between grasp and release (a slip, a peg that caught or struck it);
+- `place`: the block was released but did not come to rest on the goal peg;
+- `sense`: nothing was tried on the block (perception gave no usable block: a noise burst, a lost block).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+from pegbt.workcell import workcell
+
+GRACE = 0.5  # s after a transfer's end in which its events still count (the block settles), as the judge's
+CONFIRM_WINDOW = 5.0  # s before a leaf's failure in which the simulator's event must lie to confirm it
+INJECTED = ("grasp miss injected", "slip injected", "depth noise burst")  # world and camera faults, by detail prefix
+
+Entry = Mapping[str, Any]
+Transfer = Mapping[str, Any]
+
+
+@dataclass(frozen=True)
+class Cause:
+    """Why a transfer failed, by the simulator: the step and the event that ended it."""
+
+    step: str  # grasp, carry, place, sense
+    event: str  # the deciding event, e.g. "collision: block-peg: caught on peg 1: hole 2.1 mm off its axis"
+    time: float | None = None  # when it happened; None for a state (a peg that was empty)
+
+
+@dataclass(frozen=True)
+class InjectedFault:
+    """A fault the simulator injected, the transfer it hit (None: between transfers) and whether the trial
+    got over it (that transfer succeeded; between transfers, the next one did)."""
+
+    time: float
+    kind: str  # grasp miss, slip, depth noise burst
+    transfer: int | None
+    recovered: bool
+
+
+def _window(transfer: Transfer) -> tuple[float, float]:
+    """From a transfer's start to its end (plus the settling grace); to the trial's end if it never ended."""
+    ended = transfer.get("ended")
+    return transfer["started"], math.inf if ended is None else ended + GRACE
+
+
+def _arms(transfer: Transfer) -> set[str]:
+    return set(str(transfer["arms"]).replace("→", "+").split("+"))
+
+
+def _involves(entry: Entry, arms: set[str]) -> bool:
+    return bool(entry.get("arm")) and bool(set(str(entry["arm"]).split("+")) & arms)
+
+
+def transfer_blocks(transfer: Transfer, entries: Sequence[Entry]) -> set[int]:
+    """The block a transfer worked on (empty if none): the first its arms gripped, or tried to grip, on its
+    pick peg in its window. Recoveries fetch that same block from wherever it fell."""
+    start, stop = _window(transfer)
+    arms = _arms(transfer)
+    return next(({e["block"]} for e in entries if e["kind"] in ("grasp", "grasp_miss") and e.get("peg") == transfer["pick"]
+                 and start <= e["time"] <= stop and _involves(e, arms)), set())
+
+
+def setbacks(transfer: Transfer, entries: Sequence[Entry]) -> list[Cause]:
+    """Everything the simulator saw go wrong for a transfer, in order: what befell its block (grasp misses,
+    slips, knocks, a missed placement); for a transfer that never touched a block on its pick peg, its arms'
+    grasps that gripped nothing; and, as `sense`, an empty pick peg when it began, noise bursts while it
+    ran and a block lost off the workspace."""
+    start, stop = _window(transfer)
+    blocks = transfer_blocks(transfer, entries)
+    arms = _arms(transfer)
+    during = [e for e in entries if start <= e["time"] <= stop and e["kind"] != "fault"]
+    found = _adverse([e for e in during if e.get("block") in blocks], transfer)
+    if not blocks:
+        found += [Cause("grasp", _describe(e), e["time"]) for e in during if e["kind"] == "grasp_miss" and _involves(e, arms)]
+        if not blocks_on_pegs(entries, start).get(transfer["pick"]):
+            found.append(Cause("sense", f"no block was on peg {transfer['pick']} when the transfer began"))
+    found += [Cause("sense", _describe(e), e["time"]) for e in entries if start <= e["time"] <= stop
+              and e["kind"] == "fault" and str(e.get("detail", "")).startswith("depth noise burst")]
+    found += [Cause("sense", _describe(e), e["time"]) for e in entries if e["kind"] == "drop" and e["time"] <= stop
+              and e.get("block") in blocks and "off the workspace" in str(e.get("detail", ""))]
+    return found
+
+
+def failure_cause(transfer: Transfer, entries: Sequence[Entry]) -> Cause:
+    """What ended a failed transfer: the last thing that befell its block, else what kept it from one."""
+    blocks = transfer_blocks(transfer, entries)
+    start, stop = _window(transfer)
+    own = _adverse([e for e in entries if start <= e["time"] <= stop and e["kind"] != "fault" and e.get("block") in blocks],
+                   transfer)
+    if own:
+        return own[-1]
+    others = setbacks(transfer, entries)
+    sense = [cause for cause in others if cause.step == "sense"]
+    if sense:
+        return sense[0] if sense[0].time is None else sense[-1]
+    return others[-1] if others else Cause("sense", "no grasp attempted on a block of this transfer")
+
+
+def confirms(step: str, time: float, causes: Sequence[Cause]) -> bool:
+    """Whether the simulator saw a setback of `step` shortly before `time` (or throughout, for a state)."""
+    return any(cause.step == step and (cause.time is None or time - CONFIRM_WINDOW <= cause.time <= time + GRACE)
+               for cause in causes)
+
+
+def final_check_cause(pegs: Sequence[int], entries: Sequence[Entry], time: float) -> Cause:
+    """Why a check that every peg of `pegs` holds a block failed at `time`: a peg was empty (`place`), or each
+    held a block and the capture misled (`sense`, with the noise burst if there was one)."""
+    occupied = blocks_on_pegs(entries, time)
+    empty = [peg for peg in pegs if not occupied.get(peg)]
+    if empty:
+        return Cause("place", f"no block on peg {', '.join(map(str, empty))} at t={time:.2f} s")
+    bursts = [e for e in entries if e["kind"] == "fault" and str(e.get("detail", "")).startswith("depth noise burst")
+              and e["time"] <= time]
+    return Cause("sense", _describe(bursts[-1]) if bursts else f"a block on each of pegs {', '.join(map(str, pegs))}",
+                 bursts[-1]["time"] if bursts else None)
+
+
+def blocks_on_pegs(entries: Sequence[Entry], until: float) -> dict[int, list[int]]:
+    """Which blocks rest on (or are threaded on) each peg at time `until`, replaying the events from the
+    world's start (block i on the i-th peg of the left group)."""
+    where: dict[int, int | None] = dict(enumerate(workcell().pegs.left_group))
+    for entry in entries:
+        if entry["time"] > until or entry.get("block") is None:
+            continue
+        if entry["kind"] == "lift":
+            where[entry["block"]] = None
+        elif entry["kind"] in ("place", "drop"):
+            where[entry["block"]] = entry.get("peg")
+    pegs: dict[int, list[int]] = {}
+    for block, peg in where.items():
+        if peg is not None:
+            pegs.setdefault(peg, []).append(block)
+    return pegs
+
+
+def _adverse(events: Sequence[Entry], transfer: Transfer) -> list[Cause]:
+    """The events that set a transfer back, each with its step. A drop is the consequence of what came just
+    before it on its block: a release (the placement missed) or a slip or knock (already counted)."""
+    causes, previous = [], {}
+    for entry in events:
+        kind, detail = entry["kind"], str(entry.get("detail", ""))
+        step = None
+        if kind == "grasp_miss":
+            step = "grasp"
+        elif kind == "slip" or kind == "collision" and detail.startswith("block-peg"):
+            step = "carry"
+        elif kind == "drop" and previous.get(entry.get("block")) == "release":
+            step = "place"
+        elif kind == "place" and entry.get("peg") != transfer["place"]:
+            step = "place"
+        if step is not None:
+            causes.append(Cause(step, _describe(entry), entry["time"]))
+        previous[entry.get("block")] = kind
+    return causes
+
+
+def _describe(entry: Entry) -> str:
+    detail = entry.get("detail")
+    return f"{entry['kind']}: {detail}" if detail else str(entry["kind"])
+
+
+def injected_faults(transfers: Sequence[Transfer], entries: Sequence[Entry], tree_ok: bool) -> list[InjectedFault]:
+    """Every world or camera fault the simulator injected with an effect, with the transfer it hit and whether
+    it was got over (`tree_ok`: the tree succeeded, for a fault after the last transfer)."""
+    faults = []
+    for entry in entries:
+        detail = str(entry.get("detail", ""))
+        if entry["kind"] != "fault" or not detail.startswith(INJECTED):
+            continue
+        kind = next(prefix for prefix in INJECTED if detail.startswith(prefix)).replace(" injected", "")
+        hit = _hit_transfer(entry, transfers, entries)
+        if hit is not None:
+            faults.append(InjectedFault(entry["time"], kind, hit["index"], bool(hit["succeeded"])))
+            continue
+        # between transfers (a capture while looking): the next transfer shows whether it was got over
+        following = min((t for t in transfers if t["started"] >= entry["time"]), key=lambda t: t["started"], default=None)
+        faults.append(InjectedFault(entry["time"], kind, None, tree_ok if following is None else bool(following["succeeded"])))
+    return faults
+
+
+def _hit_transfer(fault: Entry, transfers: Sequence[Transfer], entries: Sequence[Entry]) -> Transfer | None:
+    """The transfer a fault hit: the one working on its block then (a slip, a miss), else the latest one running
+    at that moment on the same arm (or, for a camera burst, any arm)."""
+    running = [t for t in transfers if _window(t)[0] <= fault["time"] <= _window(t)[1]]
+    if fault.get("block") is not None:
+        for transfer in running:
+            if fault["block"] in transfer_blocks(transfer, entries):
+                return transfer
+    if fault.get("arm"):
+        running = [t for t in running if _involves(fault, _arms(t))]
+    return max(running, key=lambda t: t["started"], default=None)

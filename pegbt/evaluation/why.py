@@ -1,0 +1,114 @@
+"""Does `pegbt log why` name the step and cause the simulator confirms? One answer per failed transfer.
+
+The tick log says which leaf failed and why (`pegbt.executive.analysis.failure_steps`, what `pegbt log
+why` prints); the transfer a failure belongs to is the subtree around the transfer's `begin_transfer`
+leaf (and, for a handover, the receiver's subtree that finishes the same transfer key). The last failure
+`why` names inside a failed transfer is its stated cause; its leaf's kind gives the step, compared with
+the step the ground truth gives (`pegbt.evaluation.truth`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+from pegbt.evaluation.truth import Cause, confirms, failure_cause, final_check_cause, setbacks
+from pegbt.executive.analysis import FailureStep, failure_steps
+from pegbt.executive.logfile import TickLog
+
+# The step a failing leaf stands for, by behaviour: the words the ground truth's causes use.
+STEP_OF_LEAF = {
+    "grasp": "grasp",  # the jaw closed on nothing
+    "transfer": "carry",  # the block left the jaw while lifted, carried or lowered
+    "carry_to_handover": "carry",
+    "carry_from_handover": "carry",
+    "release": "place",
+    "check_placed": "place",  # "sense" when the peg it misses was not empty but unseen (see `_named_step`)
+    "select_grasp": "sense",  # no usable block seen where one should be
+    "capture": "sense",
+    "register_board": "sense",
+    "find_blocks": "sense",
+}
+
+
+# A failure whose origin is not a robot leaf (a decorator, a logged message) is read by its words.
+STEP_OF_WORDS = (("missed the block", "grasp"), ("on nothing", "grasp"), ("slipped", "carry"),
+                 ("no block seen", "sense"), ("poor capture", "sense"), ("not located", "sense"))
+
+
+@dataclass(frozen=True)
+class WhyCheck:
+    """For one failed transfer (0: the run's own failure): what `why` named, what ended it by the simulator,
+    and whether the simulator saw a setback of the named step just before the named failure."""
+
+    transfer: int
+    named: str  # "leaf path: feedback", or "" when why named nothing in the transfer
+    named_step: str | None
+    truth: Cause
+    confirmed: bool = False
+
+    @property
+    def agrees(self) -> bool:
+        """`why` named a step, and it is the simulator's final cause or one the simulator saw happen then."""
+        return self.named_step is not None and (self.named_step == self.truth.step or self.confirmed)
+
+
+def transfer_scopes(log: TickLog) -> dict[int, list[str]]:
+    """Per transfer number (as the judge counts them: in the order their `begin_transfer` leaves ran), the
+    subtree paths its failures lie under."""
+    nodes = log.nodes
+    parent_path = {node["id"]: nodes[node["parent"]]["path"] for node in nodes if node["parent"] is not None}
+    begins = [node["id"] for node in nodes if node["type"] == "begin_transfer"]
+    started = sorted((change.seq, change.node) for change in log.transitions if change.node in begins and change.after == "SUCCESS")
+    scopes = {index: [parent_path[node]] for index, (_, node) in enumerate(started, 1)}
+    key_of = {index: nodes[node]["params"].get("transfer") for index, (_, node) in enumerate(started, 1)}
+    for node in nodes:
+        if node["type"] != "finish_transfer" or _inside(node["path"], [p for paths in scopes.values() for p in paths]):
+            continue
+        owners = [index for index, key in key_of.items() if key == node["params"].get("transfer")]
+        if len(owners) == 1:  # a handover's receiver finishes the giver's transfer
+            scopes[owners[0]].append(parent_path[node["id"]])
+    return scopes
+
+
+def _inside(path: str, scopes: Sequence[str]) -> bool:
+    return any(path.startswith(scope + "/") for scope in scopes)
+
+
+def check_why(log: TickLog, failed: Sequence[Mapping[str, Any]], entries: Sequence[Mapping[str, Any]]) -> list[WhyCheck]:
+    """Compare, for each failed transfer (as the judge reports it), the last failure `why` names inside it with
+    the simulator's log; and, when the run itself failed, the run's failure (transfer 0) with what the
+    simulator says of the pegs the failing leaf checked."""
+    steps = failure_steps(log)
+    scopes = transfer_scopes(log)
+    checks = []
+    for transfer in failed:
+        named = _last_named([step for step in steps if _inside(step.path, scopes.get(transfer["index"], []))])
+        step = _named_step(named)
+        seen = setbacks(transfer, entries)
+        confirmed = named is not None and step is not None and confirms(step, named.t, seen)
+        checks.append(WhyCheck(transfer["index"], _describe(named), step, failure_cause(transfer, entries), confirmed))
+    named = _last_named([step for step in steps if step.handled == "run"])
+    if named is not None:
+        pegs = next((node["params"].get("pegs") for node in log.nodes if node["path"] == named.path), None) or []
+        checks.append(WhyCheck(0, _describe(named), _named_step(named), final_check_cause(pegs, entries, named.t)))
+    return checks
+
+
+def _last_named(steps: Sequence[FailureStep]) -> FailureStep | None:
+    """The last failure that names a step: control flow that failed on the way (a check that the board was
+    already registered) or a side that waited for the other in vain only echoes it."""
+    return next((step for step in reversed(steps) if _named_step(step)), steps[-1] if steps else None)
+
+
+def _named_step(step: FailureStep | None) -> str | None:
+    if step is None:
+        return None
+    if step.type == "check_placed" and "(empty)" not in step.feedback:
+        return "sense"  # every peg it checked had a block it could not see reliably
+    return STEP_OF_LEAF.get(step.type) or next((s for words, s in STEP_OF_WORDS if words in step.feedback), None)
+
+
+def _describe(step: FailureStep | None) -> str:
+    return f"{step.path}: {step.feedback}" if step else ""

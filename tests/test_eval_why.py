@@ -1,0 +1,63 @@
+"""Failure analysis: on seeded faulty trials, `pegbt log why` names the step and cause that the simulator's
+ground-truth event log confirms, and injected faults are counted with whether the trial got over them."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from pegbt.evaluation.trial import TrialSpec, run_trial
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+def short_task(tmp_path: Path) -> Path:
+    """Look, then move the block on peg 1 to peg 7 with PSM1, one recovery allowed, then check it arrived."""
+    tree = tmp_path / "short.yaml"
+    tree.write_text(
+        f"include: [{REPO / 'trees' / 'shared' / 'one_transfer.yaml'}, {REPO / 'trees' / 'shared' / 'sense.yaml'}]\n"
+        "blackboard: {/policy/skip_failed_blocks: true, /PSM1/may_carry: true, /PSM2/may_carry: true}\n"
+        "tree:\n  sequence:\n"
+        "    - subtree: {use: clear_view}\n"
+        "    - subtree: {use: transfer_block, args: {arm: PSM1, pick: 1, place: 7, regrasps: 1}}\n"
+        "    - subtree: {use: clear_view, name: look at the result}\n"
+        "    - check_placed: {name: block home, pegs: [7]}\n"
+    )
+    return tree
+
+
+def faulty_trial(tmp_path: Path, name: str, plan: str, seed: int = 3):
+    faults = tmp_path / f"{name}.yaml"
+    faults.write_text(plan)
+    spec = TrialSpec("unilateral", "optimized", seed, tmp_path / f"{name}.jsonl", faults, tree=short_task(tmp_path))
+    return run_trial(spec)
+
+
+@pytest.mark.parametrize(("name", "plan", "step"), [
+    ("misses", "world: {miss_probability: 1.0}\n", "grasp"),  # every grasp would have held, and misses
+    ("slips", "world: {slips: [{time: 5.4}, {time: 10.6}]}\n", "carry"),  # both carries (seed 3) lose the block
+    ("bursts", "camera: {burst_probability: 1.0}\n", "sense"),  # every capture is noise: nothing is ever seen
+])
+def test_why_names_the_step_the_simulator_confirms(tmp_path, name, plan, step):
+    record = faulty_trial(tmp_path, name, plan)
+    assert record.outcome == "failure" and not record.complete
+    assert record.why, "a failed trial is checked"
+    for check in record.why:
+        assert check["agrees"], check
+    assert step in {check["named_step"] for check in record.why}
+    assert step in {check["truth"]["step"] for check in record.why}
+    # the same verdict from the command a person would run
+    why = subprocess.run([sys.executable, "-m", "pegbt", "log", "why", record.log], capture_output=True, text=True,
+                         cwd=REPO, timeout=60)
+    assert why.returncode == 0
+    for check in record.why:
+        assert check["named"].rpartition(": ")[2] in why.stdout
+
+
+def test_a_recovered_fault_counts_as_recovered(tmp_path):
+    record = faulty_trial(tmp_path, "one-miss", "world: {miss_attempts: [0]}\n")
+    assert record.complete and record.outcome == "success" and not record.why
+    assert [(fault["kind"], fault["transfer"], fault["recovered"]) for fault in record.faults] == [("grasp miss", 1, True)]
