@@ -8,6 +8,9 @@ busy (a trial's executive and its simulator take turns in lockstep, so each pair
 from __future__ import annotations
 
 import multiprocessing
+import os
+import threading
+import time
 from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
@@ -61,7 +64,8 @@ def run_trials(specs: list[TrialSpec], workers: int = 2,
         return records
     by_seed: dict[int, TrialRecord] = {}
     context = multiprocessing.get_context("spawn")  # a clean interpreter: no inherited zenoh session or threads
-    with ProcessPoolExecutor(max_workers=min(workers, len(specs)), mp_context=context) as pool:
+    with ProcessPoolExecutor(max_workers=min(workers, len(specs)), mp_context=context,
+                             initializer=_exit_with_parent, initargs=(os.getpid(),)) as pool:
         futures = [pool.submit(run_trial, spec) for spec in specs]
         try:
             for future in as_completed(futures):
@@ -74,3 +78,16 @@ def run_trials(specs: list[TrialSpec], workers: int = 2,
                 future.cancel()
             raise
     return [by_seed[spec.seed] for spec in specs]
+
+
+def _exit_with_parent(parent: int) -> None:
+    """In a worker: exit as soon as `parent` is gone. A terminated or killed `pegbt eval` would otherwise
+    leave its workers running their trials (and writing its logs) for minutes; the worker's simulator
+    stops with it (`SimProcess`)."""
+
+    def watch() -> None:
+        while os.getppid() == parent:
+            time.sleep(0.5)
+        os._exit(1)
+
+    threading.Thread(target=watch, name="parent-watch", daemon=True).start()

@@ -8,6 +8,7 @@ import gc
 import os
 import signal
 import sys
+import threading
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -16,6 +17,7 @@ from pegbt.transport.endpoints import DEFAULT_ENDPOINT
 
 if TYPE_CHECKING:
     from pegbt.sim.camera import DepthCamera
+    from pegbt.sim.endpoint import SimEndpoint
     from pegbt.sim.fault_plan import FaultPlan
     from pegbt.sim.world import World
 
@@ -47,6 +49,8 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--crash-at", action=NumberOption, at_least=0.0, metavar="T",
                         help="crash the endpoint at simulated time T (s)")
     parser.add_argument("--log", type=Path, metavar="JSONL", help="append the simulator's log (world events, faults) here")
+    parser.add_argument("--stop-with-parent", action="store_true",
+                        help="stop when standard input closes: a parent process that pipes it is gone (even killed)")
     parser.set_defaults(handler=_sim)
 
 
@@ -71,6 +75,8 @@ def _sim(args: argparse.Namespace) -> int:
         session.close()
         raise
     signal.signal(signal.SIGTERM, lambda *_: endpoint.stop())
+    if args.stop_with_parent:
+        threading.Thread(target=_stop_at_stdin_eof, args=(endpoint,), name="parent-watch", daemon=True).start()
     mode = "lockstep" if args.lockstep else "real time"
     scene = f"world and camera, seed {plan.seed}" if world is not None else "no world"
     print(f"pegbt sim: serving {', '.join(endpoint.arms)} on {', '.join(listen)} ({mode}, physics {args.physics}, {scene})", flush=True)
@@ -86,7 +92,18 @@ def _sim(args: argparse.Namespace) -> int:
         os._exit(CRASH_EXIT_STATUS)  # die like a crash: no orderly goodbye to the peers
     endpoint.close()
     session.close()
-    return 0
+    # Everything is closed and written. Leave now: after a peer vanished mid-step, a zenoh callback thread
+    # can outlive its session, and the interpreter's exit would wait on it for ever (seen in eval runs).
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(0)
+
+
+def _stop_at_stdin_eof(endpoint: SimEndpoint) -> None:
+    """Block until standard input ends, then stop: a parent that died, however, closed its end of the pipe."""
+    while sys.stdin.buffer.read(4096):
+        pass
+    endpoint.stop()
 
 
 def _world(plan: FaultPlan) -> tuple[World, DepthCamera]:

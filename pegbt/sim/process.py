@@ -25,7 +25,8 @@ def free_port() -> int:
 
 
 class SimProcess:
-    """A `pegbt sim` child listening on a free port; `endpoint` is where clients connect."""
+    """A `pegbt sim` child listening on a free port; `endpoint` is where clients connect. It stops with
+    this process, however this one ends: its standard input is a pipe from here (`--stop-with-parent`)."""
 
     def __init__(self, args: Sequence[str] = (), port: int | None = None) -> None:
         self.port = port or free_port()
@@ -33,7 +34,8 @@ class SimProcess:
         root = Path(__file__).resolve().parents[2]
         env = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [str(root), os.environ.get("PYTHONPATH")]))}
         self.process = subprocess.Popen(
-            [sys.executable, "-m", "pegbt", "sim", "--listen", self.endpoint, *args],
+            [sys.executable, "-m", "pegbt", "sim", "--listen", self.endpoint, "--stop-with-parent", *args],
+            stdin=subprocess.PIPE,
             stdout=subprocess.PIPE,
             stderr=subprocess.PIPE,
             text=True,
@@ -70,7 +72,7 @@ class SimProcess:
                 self.process.wait(timeout=EXIT_TIMEOUT)
             except subprocess.TimeoutExpired:
                 self.kill()
-        for stream in (self.process.stdout, self.process.stderr):
+        for stream in (self.process.stdin, self.process.stdout, self.process.stderr):
             if stream is not None:
                 stream.close()
 
