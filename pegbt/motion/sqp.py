@@ -35,7 +35,7 @@ Variables are the changes of the control points from the linearisation point, sc
 δč = δc/(a_max·h²), the segment accelerations ǎ = a/a_max (tied to them by equality rows: ADMM handles
 bounds on variables far better than bounds on differences) and λ. Between solves only the channel
 rows' coefficients and the bounds change, never the sparsity, so one `osqp.OSQP` object is set up per
-planner and updated, and each QP starts from the previous one's primal and dual solution.
+planner and updated, and each QP of a refinement starts from the previous one's primal and dual solution.
 """
 
 from __future__ import annotations
@@ -307,6 +307,8 @@ class SqpRefiner:
                 l=np.concatenate([limits_lo, channel_lo.ravel()]),
                 u=np.concatenate([limits_hi, channel_hi.ravel()]),
             )
+            if iteration == 1:
+                self._forget_previous_transfer()
             self._solver.warm_start(x=np.concatenate([np.zeros(self.n_control), acceleration, [slow_down]]))
             result = self._solver.solve(raise_error=False)
             self.solves += 1
@@ -324,6 +326,14 @@ class SqpRefiner:
             if not problems:
                 return path, trajectory
         raise PegbtError(f"after {self.sqp.max_iterations} linearisations the SQP's path still fails: " + "; ".join(problems), field="sqp")
+
+    def _forget_previous_transfer(self) -> None:
+        """ADMM's step size back to its initial value, as its duals are set back to zero: a plan then
+        depends on its waypoints alone, not on what the arm planned before (the same time and QPs per
+        plan, measured); with the previous transfer's, a transfer at the edge of feasibility was refined
+        or not depending on the trial's history."""
+        self._solver.update_settings(rho=self.sqp.rho)
+        self._solver.warm_start(y=np.zeros(self._rows))
 
     def _phases(self, tip: NDArray, pick: Channel | None, place: Channel) -> tuple[int, int]:
         """The samples where the block leaves the start peg (0 without one) and reaches the goal peg,
