@@ -1,9 +1,9 @@
 """Planning one transfer: waypoints → IK → the paper's spline (Alg. 2) → SQP refinement → checked trajectory.
 
 Also the paper's unoptimised baseline for the same waypoints: rest-to-rest cubics, stopping at each.
-The planner's answer always passes the checks and is never slower than that baseline: it is the SQP's
-path, or if the SQP finds none, the spline, or the cubics, whichever first passes the checks (and the
-cubics if they are faster still); if none does, an error gives every reason.
+The planner's answer always passes the checks and is never slower than that baseline: the SQP's path
+if it passes them and is no slower, else the spline (never slower: its magnitudes' grid starts at rest)
+or else the cubics, whichever first passes the checks; if none does, an error gives every reason.
 """
 
 from __future__ import annotations
@@ -25,14 +25,11 @@ from pegbt.motion.trajectory import HermitePath, Trajectory
 from pegbt.motion.waypoints import WAYPOINT_NAMES, TransferWaypoints
 
 
-METHODS = ("sqp", "spline", "cubic")  # the planner's answers, in the order it tries them
-
-
 @dataclass(frozen=True)
 class TransferPlan:
     """A planned transfer: the streamable `trajectory`, the continuous `path` it was sampled from, the
-    spline that warm-started the SQP, the joint waypoints (4, 6), which of `METHODS` gave it, and why the
-    ones before it did not (empty for the SQP's)."""
+    spline that warm-started the SQP, the joint waypoints (4, 6), which method gave it (`sqp`, `spline` or
+    `cubic`, tried in that order) and why the ones before it did not (empty for the SQP's)."""
 
     trajectory: Trajectory
     path: HermitePath
