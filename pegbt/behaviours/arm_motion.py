@@ -73,15 +73,22 @@ class ArmMotion:
 
     # ------------------------------------------------------------------ planning
     def transfer(self, waypoints: TransferWaypoints) -> Trajectory:
-        """The transfer through `waypoints`: SQP-refined spline if this arm has a planner (falling back, with
-        a warning, to rest-to-rest cubics if neither the refined path nor the spline passes the checks),
-        else rest-to-rest cubics."""
+        """The transfer through `waypoints`: with a planner, its checked plan (the SQP-refined spline, or
+        the first of spline and cubics that passes the checks); rest-to-rest cubics without one, or, with
+        a warning, when no plan passes the checks. Each plan that is not the SQP's is logged with the
+        reason, and counted in `fallbacks` if it is the cubics."""
         if self.planner is not None:
             try:
-                return self.planner.plan(waypoints).trajectory
+                plan = self.planner.plan(waypoints)
             except PegbtError as error:
                 self.fallbacks += 1
-                log.warning("%s: optimised plan rejected (%s); using rest-to-rest cubics", self.settings.name, error)
+                log.warning("%s: no optimised plan (%s); using rest-to-rest cubics", self.settings.name, error)
+            else:
+                if plan.method == "cubic":
+                    self.fallbacks += 1
+                if not plan.refined:
+                    log.warning("%s: transfer planned by the %s (%s)", self.settings.name, plan.method, plan.reason)
+                return plan.trajectory
         return cubic_transfer(waypoints, self.settings)
 
     def through(self, start: ArrayLike, joints: list[NDArray[np.float64]], names: list[str]) -> Trajectory:

@@ -26,19 +26,23 @@ smoothest of the fastest paths. The constraints:
   of the channel holds (without it the QP turns roll against wrist pitch, which cancel to first order
   but tilt the tool by tens of degrees).
 The channel is re-linearised until the path, retimed exactly to its limits and sampled at the control
-period, passes the trajectory checks (sequential QP).
+period, passes the trajectory checks (sequential QP). The warm path's control points are first turned
+upright (`pegbt.motion.straighten`): the trust region could not take back the lean of a joint-space
+spline that turns the roll, and the first QP would be infeasible. A QP without a solution ends the
+refinement with that reason: OSQP's answer then is a certificate of infeasibility, not a step.
 
 Variables are the changes of the control points from the linearisation point, scaled per joint,
 δč = δc/(a_max·h²), the segment accelerations ǎ = a/a_max (tied to them by equality rows: ADMM handles
 bounds on variables far better than bounds on differences) and λ. Between solves only the channel
 rows' coefficients and the bounds change, never the sparsity, so one `osqp.OSQP` object is set up per
-planner and updated, and each QP starts from the previous one's primal and dual solution.
+planner and updated, and each QP of a refinement starts from the previous one's primal and dual solution.
 """
 
 from __future__ import annotations
 
 import numpy as np
 import osqp
+from osqp import SolverStatus
 import scipy.sparse as sparse
 from numpy.typing import NDArray
 
@@ -47,7 +51,9 @@ from pegbt.motion.checks import trajectory_problems
 from pegbt.motion.jacobian import cross, jacobian_from_frames
 from pegbt.motion.kinematics import link_frames, tip_position
 from pegbt.motion.limits import ArmSettings
+from pegbt.errors import PegbtError
 from pegbt.motion.settings import SqpSettings
+from pegbt.motion.straighten import upright_configurations
 from pegbt.motion.trajectory import HermitePath, Trajectory, fit_to_limits
 
 N = 6  # joints
@@ -60,6 +66,13 @@ INSIDE_TOLERANCE = 0.5  # fraction of the channel tolerance the samples may use 
 # Samples by which the block leaves the start peg later than on the spline. Over the 24 reference
 # transfers (both arms), 0 gives a median of 1.66 s, 1 gives 1.60 s, 2 gives 1.71 s (measured).
 LIFT_LATER = 1
+# OSQP answers with a certificate, not a step, when a linearisation has no solution.
+NO_SOLUTION = (
+    SolverStatus.OSQP_PRIMAL_INFEASIBLE,
+    SolverStatus.OSQP_PRIMAL_INFEASIBLE_INACCURATE,
+    SolverStatus.OSQP_DUAL_INFEASIBLE,
+    SolverStatus.OSQP_DUAL_INFEASIBLE_INACCURATE,
+)
 
 
 class _FixedPattern:
@@ -260,17 +273,19 @@ class SqpRefiner:
     # --- the refinement ----------------------------------------------------------------------------
     def refine(
         self, warm: HermitePath, pick: Channel | None, place: Channel, upright: Upright
-    ) -> tuple[HermitePath, Trajectory] | None:
+    ) -> tuple[HermitePath, Trajectory]:
         """The fastest path found, retimed to the limits, and its trajectory sampled at the control
         period, which has passed the trajectory checks (limits, channels, upright tool); warm-started
-        from `warm`. No `pick` channel: the block starts in the air (after a handover). None if the
-        linearisations run out first."""
-        # Control points on the warm path at the times they sit nearest to, ends doubled; the phases
-        # (the samples where the block leaves the start peg and reaches the goal peg) come from it.
+        from `warm`. No `pick` channel: the block starts in the air (after a handover). A `PegbtError`
+        saying why if a linearisation has no solution or they run out first."""
+        # Control points on the warm path at the times they sit nearest to, turned upright, ends
+        # doubled; the phases (the samples where the block leaves the start peg and reaches the goal
+        # peg) come from them.
         h = warm.duration / self.segments
         times = np.clip((np.arange(self.points) - 0.5) / self.segments, 0.0, 1.0) * warm.duration
         control = warm.evaluate(warm.times[0] + times)[0]
         control[:2], control[-2:] = warm.positions[0], warm.positions[-1]
+        control[2:-2] = upright_configurations(control[2:-2], self.settings, upright)
         tips = tip_position(self._sample(control))
         phases = self._phases(tips, pick, place)
         # In transit the block stays above the goal peg's clearing height, and above the start peg's.
@@ -283,7 +298,8 @@ class SqpRefiner:
         acceleration = _accelerations(control / scale)
         slow_down = float(np.max(np.abs(acceleration)))
         start, goal = control[0], control[-1]
-        for _ in range(self.sqp.max_iterations):
+        problems: list[str] = []
+        for iteration in range(1, self.sqp.max_iterations + 1):
             physical, channel_lo, channel_hi = self._linearise(control, phases, leaving, place, upright, floor)
             limits_lo, limits_hi = self._bounds(h, control / scale, slow_down)
             self._solver.update(
@@ -291,11 +307,14 @@ class SqpRefiner:
                 l=np.concatenate([limits_lo, channel_lo.ravel()]),
                 u=np.concatenate([limits_hi, channel_hi.ravel()]),
             )
+            if iteration == 1:
+                self._forget_previous_transfer()
             self._solver.warm_start(x=np.concatenate([np.zeros(self.n_control), acceleration, [slow_down]]))
-            x = self._solver.solve(raise_error=False).x
+            result = self._solver.solve(raise_error=False)
             self.solves += 1
-            if not np.all(np.isfinite(x)):
-                return None
+            x = result.x
+            if result.info.status_val in NO_SOLUTION or x is None or not np.all(np.isfinite(x)):
+                raise PegbtError(f"the SQP's linearisation {iteration} has no solution (OSQP: {result.info.status})", field="sqp")
             # OSQP meets bounds only to its tolerance: pin the fixed ends and clip to the joint limits
             # exactly (the path stays in the convex hull of its control points).
             control = np.clip(control + x[: self.n_control].reshape(-1, N) * scale, self.settings.lower, self.settings.upper)
@@ -303,9 +322,18 @@ class SqpRefiner:
             acceleration, slow_down = _accelerations(control / scale), max(float(x[-1]), 1e-6)
             path = fit_to_limits(_b_spline_path(control, h), self.settings.planner_velocity, self.settings.planner_acceleration, speed_up=True)
             trajectory = path.sample(self.settings.control_period)
-            if not trajectory_problems(trajectory, self.settings, leaving=pick, arriving=place, upright=upright):
+            problems = trajectory_problems(trajectory, self.settings, leaving=pick, arriving=place, upright=upright)
+            if not problems:
                 return path, trajectory
-        return None
+        raise PegbtError(f"after {self.sqp.max_iterations} linearisations the SQP's path still fails: " + "; ".join(problems), field="sqp")
+
+    def _forget_previous_transfer(self) -> None:
+        """ADMM's step size back to its initial value, as its duals are set back to zero: a plan then
+        depends on its waypoints alone, not on what the arm planned before (the same time and QPs per
+        plan, measured); with the previous transfer's, a transfer at the edge of feasibility was refined
+        or not depending on the trial's history."""
+        self._solver.update_settings(rho=self.sqp.rho)
+        self._solver.warm_start(y=np.zeros(self._rows))
 
     def _phases(self, tip: NDArray, pick: Channel | None, place: Channel) -> tuple[int, int]:
         """The samples where the block leaves the start peg (0 without one) and reaches the goal peg,

@@ -1,6 +1,9 @@
 """Planning one transfer: waypoints → IK → the paper's spline (Alg. 2) → SQP refinement → checked trajectory.
 
 Also the paper's unoptimised baseline for the same waypoints: rest-to-rest cubics, stopping at each.
+The planner's answer always passes the checks and is never slower than that baseline: the SQP's path
+if it passes them and is no slower, else the spline (never slower: its magnitudes' grid starts at rest)
+or else the cubics, whichever first passes the checks; if none does, an error gives every reason.
 """
 
 from __future__ import annotations
@@ -10,7 +13,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from pegbt.motion.checks import check_trajectory
+from pegbt.errors import PegbtError
+from pegbt.motion.checks import trajectory_problems
 from pegbt.motion.cubic import rest_to_rest_path
 from pegbt.motion.ik import solve_ik
 from pegbt.motion.limits import ArmSettings
@@ -24,14 +28,20 @@ from pegbt.motion.waypoints import WAYPOINT_NAMES, TransferWaypoints
 @dataclass(frozen=True)
 class TransferPlan:
     """A planned transfer: the streamable `trajectory`, the continuous `path` it was sampled from, the
-    spline that warm-started it, the joint waypoints (4, 6), and whether the SQP refined the spline
-    (False: the spline kept the channel on its own and is used as it is)."""
+    spline that warm-started the SQP, the joint waypoints (4, 6), which method gave it (`sqp`, `spline` or
+    `cubic`, tried in that order) and why the ones before it did not (empty for the SQP's)."""
 
     trajectory: Trajectory
     path: HermitePath
     spline: HermitePath
     joints: NDArray[np.float64]
-    refined: bool
+    method: str
+    reason: str = ""
+
+    @property
+    def refined(self) -> bool:
+        """Whether the SQP refined the spline."""
+        return self.method == "sqp"
 
 
 def joint_waypoints(waypoints: TransferWaypoints, settings: ArmSettings) -> NDArray[np.float64]:
@@ -61,21 +71,28 @@ class TransferPlanner:
         return plan_spline(q, joint_direction(q[1], up), joint_direction(q[2], -up), self.settings)
 
     def plan(self, waypoints: TransferWaypoints) -> TransferPlan:
-        """The refined, checked transfer; a `PegbtError` (and no trajectory) if the waypoints are out of
-        reach or neither the refined path nor the spline passes the checks (limits, channels, upright
-        tool, C1)."""
+        """The checked transfer, never slower than the rest-to-rest cubics: the SQP's, else the spline's,
+        else the cubics' (see the module's docstring); a `PegbtError` (and no trajectory) if the
+        waypoints are out of reach or none passes the checks (limits, channels, upright tool, C1),
+        naming why each failed."""
         joints = joint_waypoints(waypoints, self.settings)
         spline = self.spline(waypoints, joints)
-        refined = self.refiner.refine(spline, waypoints.pick, waypoints.place, waypoints.upright)
-        if refined is not None:  # its trajectory has passed the checks
-            return TransferPlan(refined[1], refined[0], spline, joints, True)
-        # If the SQP finds nothing, the spline itself may still keep the channel: the checks decide.
-        trajectory = check_trajectory(
-            spline.sample(self.settings.control_period),
-            self.settings,
-            leaving=waypoints.pick,
-            arriving=waypoints.place,
-            upright=waypoints.upright,
-            what="transfer",
-        )
-        return TransferPlan(trajectory, spline, spline, joints, False)
+        cubic = rest_to_rest_path(joints, self.settings, list(WAYPOINT_NAMES))
+        reasons: list[str] = []
+        try:
+            path, trajectory = self.refiner.refine(spline, waypoints.pick, waypoints.place, waypoints.upright)
+        except PegbtError as error:
+            reasons.append(f"sqp: {error.message}")
+        else:
+            if trajectory.duration <= cubic.sample(self.settings.control_period).duration:
+                return TransferPlan(trajectory, path, spline, joints, "sqp")
+            reasons.append(f"sqp: its {trajectory.duration:.2f} s are slower than the cubics")
+        for method, path in (("spline", spline), ("cubic", cubic)):
+            trajectory = path.sample(self.settings.control_period)
+            problems = trajectory_problems(
+                trajectory, self.settings, leaving=waypoints.pick, arriving=waypoints.place, upright=waypoints.upright
+            )
+            if not problems:
+                return TransferPlan(trajectory, path, spline, joints, method, "; ".join(reasons))
+            reasons.append(f"{method}: " + "; ".join(problems))
+        raise PegbtError(f"no transfer for {self.settings.name} passes its checks: " + " | ".join(reasons), field="transfer")
