@@ -24,9 +24,6 @@ SIMULATOR_ARGS = ("--lockstep", "--physics", "dvrk-real")
 PROBE_TIMEOUT = 2.0  # s to wait for a simulator to answer `sim/clock` at an address (no answer: a robot)
 STEP_TIMEOUT = 5.0  # s to wait for a lockstep step: a camera capture on a loaded 2-core machine took over 2
 READY_TIMEOUT = 5.0  # s to wait for each arm's first state
-# Liveness: a lockstep simulator re-sends its state every 50 ms of wall time; a busy machine can delay
-# that, so the simulator gets more slack than a real arm streaming at 100 Hz.
-LIVENESS = {"simulator": 1.0, "robot": 0.2}
 
 
 class SimulatorTruth:
@@ -54,8 +51,7 @@ class Robot:
         self.lockstep = lockstep
         self.truth = truth
         self.endpoint = endpoint
-        liveness = LIVENESS["simulator" if truth is not None else "robot"]
-        self.arms = {name: ArmClient(link, name, clock=clock, liveness_timeout=liveness) for name in ARMS}
+        self.arms = {name: ArmClient(link, name, clock=clock) for name in ARMS}
         self.camera = CameraClient(link, clock=clock)
         self.trial = Trial(clock, truth)
 

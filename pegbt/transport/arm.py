@@ -1,9 +1,11 @@
 """`ArmClient`: one PSM and its jaw as a behaviour sees them, over CRTK topics.
 
 Reads (`measured_js`, `setpoint_js`, ...) return the latest sample and raise `EndpointSilent` once the
-arm has not published `measured_js` for `liveness_timeout` seconds. Commands are checked before they
-leave (NaN, size, joint and velocity limits: `CommandRefused`) and are never sent into the void: the
-endpoint must be alive and listening. `move_jp` returns at once with a `MotionHandle` that later ticks
+arm has not published `measured_js` for `liveness_timeout` seconds (a real arm streams at 100 Hz; a
+simulator on a busy machine can fall behind, and a lockstep one re-sends its state only every 50 ms of
+wall time, so it gets more slack). Commands are checked before they leave (NaN, size, joint and velocity
+limits: `CommandRefused`) and are never sent into the void: the endpoint must be alive and listening.
+`move_jp` returns at once with a `MotionHandle` that later ticks
 poll; the endpoint reports the fate of each command (accepted, refused, done, aborted) tagged with its id.
 """
 
@@ -23,6 +25,7 @@ from pegbt.motion.limits import ArmSettings, arm_settings
 from pegbt.psm import JOINT_LABELS
 from pegbt.transport import codec, guards
 from pegbt.clock import Clock, WallClock
+from pegbt.transport.clock import SimClock
 from pegbt.transport.codec import JointSample, OperatingState, TrajectoryLike
 from pegbt.transport.keys import ArmKeys
 from pegbt.transport.link import Link
@@ -182,6 +185,8 @@ class JawClient(_Axis):
     def move_jp(self, angle: float) -> MotionHandle:
         return self.move_goal([angle])
 
+LIVENESS_S = {"simulator": 1.0, "robot": 0.2}  # s without `measured_js` before an arm counts as silent
+
 
 class ArmClient(_Axis):
     """One PSM over CRTK topics; `jaw` is its jaw with the same verbs."""
@@ -192,15 +197,18 @@ class ArmClient(_Axis):
         arm: str,
         *,
         clock: Clock | None = None,
-        liveness_timeout: float = 0.2,
+        liveness_timeout: float | None = None,
         settings: ArmSettings | None = None,
         cartesian: bool = False,
     ) -> None:
-        """`cartesian=True` also subscribes to `measured_cp` (the endpoint computes it only for listeners)."""
+        """`liveness_timeout` defaults to the clock's kind of endpoint (`LIVENESS_S`); `cartesian=True` also
+        subscribes to `measured_cp` (the endpoint computes it only for listeners)."""
         self.link = link
         self.name = arm
         self.keys = ArmKeys(arm, link.namespace)
         self.clock: Clock = clock or WallClock()
+        if liveness_timeout is None:
+            liveness_timeout = LIVENESS_S["simulator" if isinstance(self.clock, SimClock) else "robot"]
         self.liveness_timeout = liveness_timeout
         self.settings = settings or arm_settings(arm)
         self.outcomes = _Outcomes()
