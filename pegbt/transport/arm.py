@@ -5,7 +5,8 @@ arm has not published `measured_js` for `liveness_timeout` seconds (a real arm s
 simulator on a busy machine can fall behind, and a lockstep one re-sends its state only every 50 ms of
 wall time, so it gets more slack). Commands are checked before they leave (NaN, size, joint and velocity
 limits: `CommandRefused`) and are never sent into the void: the endpoint must be alive and listening.
-`move_jp` returns at once with a `MotionHandle` that later ticks poll; the endpoint reports the fate of each command (accepted, refused, done, aborted) tagged with its id.
+`move_jp` returns at once with a `MotionHandle` that later ticks poll; the endpoint reports the fate of
+each command (accepted, refused, done, aborted) tagged with its id.
 """
 
 from __future__ import annotations
