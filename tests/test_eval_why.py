@@ -61,3 +61,38 @@ def test_a_recovered_fault_counts_as_recovered(tmp_path):
     record = faulty_trial(tmp_path, "one-miss", "world: {miss_attempts: [0]}\n")
     assert record.complete and record.outcome == "success" and not record.why
     assert [(fault["kind"], fault["transfer"], fault["recovered"]) for fault in record.faults] == [("grasp miss", 1, True)]
+
+
+def test_a_stray_block_is_fetched_and_the_empty_peg_named(tmp_path):
+    """The campaign's commonest disagreement: a transfer given up after a slip leaves its block on the board,
+    and the later transfer from its (empty) goal peg fetches it. The simulator judges that later transfer
+    failed (nothing was on its pick peg); `why` must say so (sense), not stay silent because the stray block
+    got home."""
+    tree = tmp_path / "stray.yaml"
+    tree.write_text(
+        f"include: [{REPO / 'trees' / 'shared' / 'one_transfer.yaml'}, {REPO / 'trees' / 'shared' / 'sense.yaml'}]\n"
+        "blackboard: {/policy/skip_failed_blocks: true, /PSM1/may_carry: true, /PSM2/may_carry: true}\n"
+        "tree:\n  sequence:\n"
+        "    - subtree: {use: clear_view}\n"
+        "    - subtree: {use: transfer_block, args: {arm: PSM1, pick: 1, place: 7, regrasps: 0}}\n"
+        "    - subtree: {use: transfer_block, args: {arm: PSM1, pick: 7, place: 1}}\n"
+        "    - subtree: {use: clear_view, name: look at the result}\n"
+        "    - check_placed: {name: block home, pegs: [1]}\n")
+    faults = tmp_path / "slip.yaml"
+    faults.write_text("world: {slips: [{time: 5.4}]}\n")  # seed 3: the block is over the board, off every peg
+    record = run_trial(TrialSpec("unilateral", "optimized", 3, tmp_path / "stray.jsonl", faults, tree=tree))
+    assert record.outcome == "success", "the stray block was fetched and placed on peg 1"
+    assert [(t["succeeded"], t["cause"]) for t in record.transfers] == [(False, "carry"), (False, "sense")]
+    assert [(check["transfer"], check["named_step"], check["agrees"]) for check in record.why] == [
+        (1, "carry", True), (2, "sense", True)]
+    assert "no block seen on peg 7" in record.why[1]["named"]
+
+
+def test_a_burst_lasting_two_captures_is_waited_out(tmp_path):
+    """A depth-noise burst that spoils a capture and its immediate retake: sense pauses, looks again and the
+    trial completes (six captures at once, 40 ms apart, would all fall in the burst); every burst capture is
+    counted, and counted as recovered."""
+    record = faulty_trial(tmp_path, "long-burst", "camera: {bursts: [{start: 0.0, duration: 1.85}]}\n")
+    assert record.complete and record.outcome == "success" and not record.why
+    bursts = [fault for fault in record.faults if fault["kind"] == "depth noise burst"]
+    assert len(bursts) >= 2 and all(fault["recovered"] for fault in bursts)

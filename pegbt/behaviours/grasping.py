@@ -27,7 +27,9 @@ from pegbt.perception.blocks import BlockEstimate, block_on_peg
     params=(
         arm_param(),
         peg_param("peg", "peg the block should be on"),
-        Param("dropped", bool, "if the peg is empty, take the block lying on the board nearest to it", default=False),
+        Param("dropped", bool, "if the peg is empty, take the block lying on the board nearest to it (`$key`: only "
+              "once the transfer has lost its block, so an empty pick peg is reported, not covered up)",
+              default=False, blackboard=True),
         key_param("block", "write", "the block chosen (perception's estimate)"),
         key_param("grasp", "write", "the grasp chosen (tip pose in the arm frame)"),
     ),

@@ -47,10 +47,10 @@ class InjectedFault:
     recovered: bool
 
 
-def _window(transfer: Transfer) -> tuple[float, float]:
+def _window(transfer: Transfer, grace: float = GRACE) -> tuple[float, float]:
     """From a transfer's start to its end (plus the settling grace); to the trial's end if it never ended."""
     ended = transfer.get("ended")
-    return transfer["started"], math.inf if ended is None else ended + GRACE
+    return transfer["started"], math.inf if ended is None else ended + grace
 
 
 def _arms(transfer: Transfer) -> set[str]:
@@ -190,8 +190,10 @@ def injected_faults(transfers: Sequence[Transfer], entries: Sequence[Entry], tre
 
 def _hit_transfer(fault: Entry, transfers: Sequence[Transfer], entries: Sequence[Entry]) -> Transfer | None:
     """The transfer a fault hit: the one working on its block then (a slip, a miss), else the latest one running
-    at that moment on the same arm (or, for a camera burst, any arm)."""
-    running = [t for t in transfers if _window(t)[0] <= fault["time"] <= _window(t)[1]]
+    at that moment on the same arm (or, for a camera burst, any arm). The settling grace is for blocks: a
+    capture just after a transfer ended is the next look's, not that transfer's."""
+    grace = GRACE if fault.get("block") is not None else 0.0
+    running = [t for t in transfers if _window(t, grace)[0] <= fault["time"] <= _window(t, grace)[1]]
     if fault.get("block") is not None:
         for transfer in running:
             if fault["block"] in transfer_blocks(transfer, entries):
