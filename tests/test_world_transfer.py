@@ -45,20 +45,78 @@ def test_a_scripted_transfer_moves_block_1_from_peg_1_to_peg_7():
     assert list(world.events) == events
 
 
-def test_a_grasp_3_mm_off_the_wall_misses_and_1_mm_off_holds():
+def _grasp_off_the_wall_centre(world, driver, off, jaw_open=None):
+    """Close PSM1's jaw on block 1 `off` metres outward from the centre of the wall it faces."""
+    candidate = grasp_candidate_facing(world, 1, "PSM1")
+    model = world.cell.block
+    outward = np.append(world.blocks[1].pose[:2, :2] @ model.edge_normals[candidate // 2], 0.0)
+    centre = (model.hole_radius + model.edge_distance) / 2
+    frames = grasp_keyframes(world, 1, candidate, error=(centre - model.grasp_radial + off) * outward)
+    if jaw_open is not None:
+        frames = [Keyframe(f.position, f.yaw, jaw_open if f.jaw > 0.5 else f.jaw) for f in frames]
+    return driver.play({"PSM1": frames}), outward
+
+
+@pytest.mark.parametrize("off", [0.001, -0.001, 0.0018])
+def test_a_grasp_up_to_the_pegs_clearance_off_the_wall_centre_grips_and_slides_the_block_into_the_jaws(off):
     world = World(seed=1)
     driver = Driver(world)
-    candidate = grasp_candidate_facing(world, 1, "PSM1")
-    outward = np.append(world.blocks[1].pose[:2, :2] @ world.cell.block.edge_normals[candidate // 2], 0.0)
-    events = driver.play({"PSM1": grasp_keyframes(world, 1, candidate, error=0.003 * outward)})
-    assert kinds(events) == ["grasp_miss"]
-    expected = world.cell.block.grasp_radial + 0.003 - world.cell.block.edge_distance
-    assert events[0].detail == f"jaw {expected * 1000:.1f} mm off the wall"
+    events, outward = _grasp_off_the_wall_centre(world, driver, off)
+    assert kinds(events) == ["grasp"] and world.held_by("PSM1") == 1
+    slid = world.blocks[1].pose[:3, 3] - np.append(world.cell.pegs.positions[1], world.cell.board.surface_z)
+    assert np.allclose(slid, off * outward, atol=1e-6)  # the wall now sits centred between the jaws
+
+
+def test_a_grasp_beyond_the_pegs_clearance_misses_because_the_peg_stops_the_block():
+    world = World(seed=1)
+    driver = Driver(world)
+    clearance = world.cell.block.hole_radius - world.cell.pegs.radius  # 2.0 mm
+    events, _ = _grasp_off_the_wall_centre(world, driver, clearance + 0.0004)
+    assert kinds(events) == ["grasp_miss"] and events[0].detail == "jaw 2.4 mm off the wall's centre: peg 1 stops the block"
+    assert np.allclose(world.blocks[1].pose[:2, 3], world.cell.pegs.positions[1])
+
+
+def test_a_grasp_3_mm_off_the_wall_centre_misses_and_leaves_the_block_on_its_peg():
+    world = World(seed=1)
+    driver = Driver(world)
+    events, _ = _grasp_off_the_wall_centre(world, driver, 0.003)
+    assert kinds(events) == ["grasp_miss"] and events[0].detail == "jaw 3.0 mm off the wall's centre: peg 1 stops the block"
     events = driver.play({"PSM1": [lifted(world, driver.at("PSM1"))]})
     assert world.blocks[1].state == "on_peg" and world.held_by("PSM1") is None
 
-    events = driver.play({"PSM1": grasp_keyframes(world, 1, candidate, error=0.001 * outward)})
+
+def _move_block_1_onto_the_board(world):
+    block = world.blocks[1]
+    block.peg = None
+    block.pose[:2, 3] = [0.030, 0.065]  # clear of every peg
+    return block
+
+
+def test_a_jaw_opened_too_little_cannot_straddle_the_wall():
+    world = World(seed=1)
+    driver = Driver(world)
+    events, _ = _grasp_off_the_wall_centre(world, driver, 0.001, jaw_open=np.radians(22))
+    # 22° open: the tips are 9.5·sin 11° = 1.8 mm either side of the axis, 0.8 mm beyond the wall's faces
+    assert kinds(events) == ["grasp_miss"] and events[0].detail.startswith("jaws open 0.8 mm")
+
+
+def test_a_grasp_beyond_the_open_jaws_misses_even_a_free_block():
+    world = World(seed=1)
+    driver = Driver(world)
+    _move_block_1_onto_the_board(world)
+    events, _ = _grasp_off_the_wall_centre(world, driver, 0.0035)
+    # 50° open: the tips are 9.5·sin 25° = 4.0 mm either side of the axis, 3.0 mm beyond the 2 mm wall's faces
+    assert kinds(events) == ["grasp_miss"]
+    assert events[0].detail == "jaws open 3.0 mm either side of the wall's centre miss it by 3.5 mm"
+
+
+def test_a_block_on_the_board_slides_further_into_the_jaws_than_one_on_a_peg():
+    world = World(seed=1)
+    driver = Driver(world)
+    block = _move_block_1_onto_the_board(world)
+    events, outward = _grasp_off_the_wall_centre(world, driver, 0.0025)
     assert kinds(events) == ["grasp"] and world.held_by("PSM1") == 1
+    assert np.allclose(block.pose[:2, 3], np.array([0.030, 0.065]) + 0.0025 * outward[:2], atol=1e-6)
 
 
 def test_lifting_sideways_catches_the_block_on_its_peg():
