@@ -43,3 +43,21 @@ def test_the_jaw_grips_across_the_wall_along_the_tip_x_axis(roll, grips):
         assert world.jaw_stop("PSM1") == pytest.approx(2 * np.arcsin(0.001 / 0.0095))
     else:
         assert world.jaw_stop("PSM1") is None
+
+
+def test_the_wrist_gives_within_the_cable_play_the_physics_names():
+    from pegbt.physics import ArmPhysics, Effect
+    from pegbt.sim.tools import wrist_give
+
+    tool = World(seed=0).cell.tool
+    assert wrist_give(ArmPhysics(), 0.0, tool) == (0.0, 0.0)  # ideal cables: a rigid wrist
+    physics = ArmPhysics([
+        Effect("backlash", "q6", {"half_width": 0.05}),
+        Effect("hysteresis", "q5", {"source": "q5", "half_width": 0.2, "k": 0.25}),
+        Effect("hysteresis", "q5", {"source": "q6", "half_width": 0.3, "k": -0.5}),  # another drive's play: no give
+    ])
+    assert physics.play("q6") == pytest.approx(0.05) and physics.play("q5") == pytest.approx(0.05)
+    along_x, along_y = wrist_give(physics, 0.0, tool)
+    assert along_x == pytest.approx(0.05 * tool.jaw_length)  # yaw swings the tip on the jaw
+    assert along_y == pytest.approx(0.05 * (tool.wrist_length + tool.jaw_length))  # pitch on wrist and jaw
+    assert wrist_give(physics, np.pi / 2, tool)[1] == pytest.approx(0.05 * tool.wrist_length)  # jaw turned aside

@@ -1,5 +1,6 @@
 """Grasp, lift, transfer, place and handover in the simulated world, decided by geometry alone."""
 
+import dataclasses
 import numpy as np
 import pytest
 
@@ -132,6 +133,36 @@ def test_lifting_sideways_catches_the_block_on_its_peg():
     assert events[0].detail.startswith("block-peg: caught on peg 1")
     assert events[1].peg == 1  # it falls back down its peg
     assert world.blocks[1].state == "on_peg" and world.held_by("PSM1") is None
+
+
+class YieldingDriver(Driver):
+    """Scripted tools whose wrists give `give` (m) along the tip's x and y, as cable play lets them."""
+
+    def __init__(self, world, give):
+        super().__init__(world)
+        self.give = give
+
+    def tool(self, arm, frame):
+        return dataclasses.replace(super().tool(arm, frame), give=self.give)
+
+
+@pytest.mark.parametrize(("give", "caught"), [(0.0, True), (0.0003, True), (0.001, False)])
+def test_a_peg_guides_a_block_lifted_against_it_as_far_as_the_wrist_gives(give, caught):
+    world = World(seed=2)
+    driver = YieldingDriver(world, (give, give))
+    candidate = grasp_candidate_facing(world, 1, "PSM1")
+    grasp = grasp_keyframes(world, 1, candidate)
+    driver.play({"PSM1": grasp})
+    slid = np.linalg.norm(world.blocks[1].pose[:2, 3] - world.cell.pegs.positions[1])  # into the jaws, outward
+    clearance = world.cell.block.hole_radius - world.cell.pegs.radius
+    outward = (world.blocks[1].pose[:2, 3] - world.cell.pegs.positions[1]) / slid
+    # pull the tool outward until the hole presses the peg 0.5 mm beyond the clearance, then lift
+    pulled = Keyframe(grasp[-1].position + np.append((clearance - slid + 0.0005) * outward, 0.0), grasp[-1].yaw, grasp[-1].jaw)
+    events = driver.play({"PSM1": [pulled, lifted(world, pulled)]})
+    if caught:
+        assert kinds(events)[:2] == ["collision", "drop"] and world.held_by("PSM1") is None
+    else:
+        assert kinds(events) == ["lift"] and world.held_by("PSM1") == 1
 
 
 def _carry_block_1(world, driver):

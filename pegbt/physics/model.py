@@ -123,6 +123,14 @@ class ArmPhysics:
     def is_ideal(self) -> bool:
         return not self.effects
 
+    def play(self, joint: str | int) -> float:
+        """Half-width of the free play in `joint`'s own drive (rad, m): its backlash plus the part k of
+        each own-drive hysteresis that reaches the joint. Within it the cables carry no load, so a push
+        on the instrument turns the joint without meeting resistance."""
+        j = joint_index(joint)
+        own = sum(abs(k) * half_width for target, source, half_width, k in self.hysteresis if target == source == j)
+        return float(self.half_width[j] + own)
+
     # ----------------------------------------------------------------- the physics
     def static_map(self, q_cmd: ArrayLike) -> NDArray[np.float64]:
         """Scale, coupling and offset applied to commands (..., 6): the settled joints without any play."""

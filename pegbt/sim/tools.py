@@ -7,12 +7,14 @@ not where the encoders say it is.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from pegbt.frames import Matrix, pose_from_axes
 from pegbt.motion.kinematics import shaft_end_and_tip
+from pegbt.physics import ArmPhysics
 from pegbt.workcell import ToolGeometry
 
 
@@ -22,20 +24,22 @@ class ToolState:
 
     `tip`: 4×4 tool-tip pose (the tool-tip frame of `pegbt.motion.kinematics`: z back up the tool, x the
     jaw-closing direction, y the jaw hinge). `jaw`: jaw opening angle (rad). `shaft`: (2, 3) the shaft's
-    two ends, the remote centre of motion and the wrist pitch axis.
+    two ends, the remote centre of motion and the wrist pitch axis. `give`: how far (m) a push moves the
+    tip along its x and y before the wrist's cables take up the load (`wrist_give`; rigid by default).
     """
 
     tip: Matrix
     jaw: float
     shaft: Matrix
+    give: tuple[float, float] = (0.0, 0.0)
 
     @classmethod
-    def from_joints(cls, q: Matrix, jaw: float, arm_to_board: Matrix) -> ToolState:
+    def from_joints(cls, q: Matrix, jaw: float, arm_to_board: Matrix, give: tuple[float, float] = (0.0, 0.0)) -> ToolState:
         """The tool of an arm at joints `q` (its physical joints), by the arm's forward kinematics: the
         shaft runs from the remote centre (the base origin) to the wrist pitch axis."""
         shaft_end, tip = shaft_end_and_tip(q)
         rotation, origin = arm_to_board[:3, :3], arm_to_board[:3, 3]
-        return cls(tip=arm_to_board @ tip, jaw=float(jaw), shaft=np.array([origin, rotation @ shaft_end + origin]))
+        return cls(tip=arm_to_board @ tip, jaw=float(jaw), shaft=np.array([origin, rotation @ shaft_end + origin]), give=give)
 
     def jaw_hinge(self, tool: ToolGeometry) -> Matrix:
         """(3,) the wrist yaw axis, where the jaws hinge: `jaw_length` back up the tool from the tip."""
@@ -47,6 +51,16 @@ class ToolState:
         starts = np.array([self.shaft[0], self.shaft[1], hinge])
         ends = np.array([self.shaft[1], hinge, self.tip[:3, 3]])
         return starts, ends, np.array([tool.shaft_radius, tool.wrist_radius, tool.jaw_radius])
+
+
+def wrist_give(physics: ArmPhysics, wrist_yaw: float, tool: ToolGeometry) -> tuple[float, float]:
+    """How far (m) a push moves the tip along the tool's x and y within the wrist's cable play, at wrist
+    yaw (q6) `wrist_yaw`.
+
+    Wrist yaw turns the jaws about the hinge (y): the tip swings along x on the jaw's length. Wrist
+    pitch (q5) swings the tip along y on the wrist's length plus the jaw's, shortened as the jaw turns."""
+    lever = tool.wrist_length + tool.jaw_length * math.cos(wrist_yaw)
+    return tool.jaw_length * physics.play("q6"), abs(lever) * physics.play("q5")
 
 
 def tool_pointing_down(position: Matrix, yaw: float, jaw: float, remote_centre: Matrix, tool: ToolGeometry) -> ToolState:

@@ -1,12 +1,14 @@
 """The world the arms act in: a pegboard, six FLS blocks, and geometry that decides what happens.
 
 The endpoint calls `World.update(time, tools)` every simulation step with each arm's tool state (from
-its physical joints). Nothing is scripted: a closing jaw grips a block only if its open jaws straddle one of
-the block's walls and the block can slide (on its peg, within the hole's clearance) until the wall sits
-centred between them; a gripped block moves rigidly with the jaw; lifting it clears its peg only if the hole
-stays around the peg all the way up; a released block lands on a peg only if its hole is over one
-within the clearance, and otherwise drops onto the board (or off it). Every such outcome, every
-collision and every injected fault is appended to `World.events`, the ground truth of a trial.
+its physical joints). Nothing is scripted: a closing jaw grips a block only if its open jaws straddle one
+of the block's walls and the block can slide (on its peg, within the hole's clearance) until the wall
+sits centred between them; a gripped block moves rigidly with the jaw; lifting it clears its peg only if
+the hole stays around the peg all the way up (a peg pressing on the hole pushes the block, and the jaw
+holding it, aside as far as the wrist's cable play gives: `ToolState.give`); a released block lands on a
+peg only if its hole is over one within the clearance, and otherwise drops onto the board (or off it).
+Every such outcome, every collision and every injected fault is appended to `World.events`, the ground
+truth of a trial.
 """
 
 from __future__ import annotations
@@ -299,8 +301,15 @@ class World:
             low = min(bottom[2], self.cell.board.surface_z)
             high = max(top[2], peg_top_z)
             points = [bottom + (bottom[2] - z) / span * (top - bottom) for z in (low, high)]
-            offset = max(float(np.linalg.norm(p[:2] - self.cell.pegs.positions[peg])) for p in points)
-            if offset > self._clearance:
+            offsets = np.array([p[:2] - self.cell.pegs.positions[peg] for p in points])
+            push = self._peg_push(offsets)
+            if push is None:
+                return
+            guided = np.linalg.norm(offsets + push, axis=1).max() <= self._clearance + 1e-9  # not tipped across it
+            if guided and self._holders_give(block, push):
+                block.pose[:2, 3] += push  # the peg guides the hole; the holders' wrists yield
+            else:
+                offset = float(np.linalg.norm(offsets, axis=1).max())
                 self._knock_loose(block, peg, f"caught on peg {peg}: hole {offset * 1000:.1f} mm off its axis")
             return
         if bottom[2] <= peg_top_z:
@@ -315,6 +324,24 @@ class World:
         if len(struck):
             peg = int(struck[0])
             self._knock_loose(block, peg, f"struck peg {peg}")
+
+    def _peg_push(self, offsets: Matrix) -> Matrix | None:
+        """The sideways push (board x, y) with which the peg keeps the hole around it, given the hole
+        axis's offsets (n, 2) from the peg's axis along their overlap; None when the hole is clear of it."""
+        distances = np.linalg.norm(offsets, axis=1)
+        worst = int(np.argmax(distances))
+        if distances[worst] <= self._clearance:
+            return None
+        return -(distances[worst] - self._clearance) * offsets[worst] / distances[worst]
+
+    def _holders_give(self, block: Block, push: Matrix) -> bool:
+        """Whether every jaw holding `block` yields to `push` (board x, y) within its wrist's play."""
+        for arm in block.grips:
+            tool = self.tools[arm]
+            along = np.abs(tool.tip[:2, :2].T @ push)  # along the tip's x and y
+            if along[0] > tool.give[0] or along[1] > tool.give[1]:
+                return False
+        return True
 
     def _knock_loose(self, block: Block, peg: int, detail: str) -> None:
         """A peg stops a carried block: the contact tears it out of every jaw and it falls."""
