@@ -136,7 +136,7 @@ def test_lifting_sideways_catches_the_block_on_its_peg():
 
 
 class YieldingDriver(Driver):
-    """Scripted tools whose wrists give `give` (m) along the tip's x and y, as cable play lets them."""
+    """Scripted tools whose wrists give `give` (m) along the tip's -x, +x, -y and +y, as cable play lets them."""
 
     def __init__(self, world, give):
         super().__init__(world)
@@ -149,7 +149,7 @@ class YieldingDriver(Driver):
 @pytest.mark.parametrize(("give", "caught"), [(0.0, True), (0.0003, True), (0.001, False)])
 def test_a_peg_guides_a_block_lifted_against_it_as_far_as_the_wrist_gives(give, caught):
     world = World(seed=2)
-    driver = YieldingDriver(world, (give, give))
+    driver = YieldingDriver(world, (give,) * 4)
     candidate = grasp_candidate_facing(world, 1, "PSM1")
     grasp = grasp_keyframes(world, 1, candidate)
     driver.play({"PSM1": grasp})

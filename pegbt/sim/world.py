@@ -338,8 +338,9 @@ class World:
         """Whether every jaw holding `block` yields to `push` (board x, y) within its wrist's play."""
         for arm in block.grips:
             tool = self.tools[arm]
-            along = np.abs(tool.tip[:2, :2].T @ push)  # along the tip's x and y
-            if along[0] > tool.give[0] or along[1] > tool.give[1]:
+            x, y = tool.tip[:2, :2].T @ push  # along the tip's x and y
+            minus_x, plus_x, minus_y, plus_y = tool.give
+            if not (-minus_x <= x <= plus_x and -minus_y <= y <= plus_y):
                 return False
         return True
 
