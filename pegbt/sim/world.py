@@ -36,7 +36,7 @@ class WorldConfig:
 
     jaw_closed_below: float = 0.25  # a jaw closing past this angle grips (it meets a 2 mm wall at 0.21)
     jaw_open_above: float = 0.35  # a gripping jaw opening past this angle lets go
-    grasp_edge_margin: float = 0.001  # and must stay this far inside the ends of the flat edge
+    grasp_edge_margin: float = 0.001  # the jaw tip must stay this far inside the ends of the flat edge
     grasp_min_bite: float = 0.001  # the jaw tip must reach this far below the block's top face
     grasp_max_tilt: float = math.radians(30)  # between the tool's axis and the block's
     grasp_max_misalignment: float = math.radians(30)  # between the jaw-closing axis and the wall's normal
