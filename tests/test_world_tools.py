@@ -43,3 +43,53 @@ def test_the_jaw_grips_across_the_wall_along_the_tip_x_axis(roll, grips):
         assert world.jaw_stop("PSM1") == pytest.approx(2 * np.arcsin(0.001 / 0.0095))
     else:
         assert world.jaw_stop("PSM1") is None
+
+
+def test_a_joint_that_lags_in_its_play_can_be_pushed_across_it_towards_its_command():
+    from pegbt.physics import ArmPhysics, Effect
+
+    physics = ArmPhysics([
+        Effect("backlash", "q6", {"half_width": 0.05}),
+        Effect("hysteresis", "q5", {"source": "q5", "half_width": 0.2, "k": 0.25}),
+        Effect("hysteresis", "q5", {"source": "q6", "half_width": 0.3, "k": -0.5}),  # another drive's: no room
+    ])
+    assert ArmPhysics().play_room("q6") == (0.0, 0.0)  # ideal cables: a rigid joint
+    physics.reset(np.zeros(6))
+    assert physics.play_room("q6") == pytest.approx((0.05, 0.05))  # settled mid-play
+    assert physics.play_room("q5") == pytest.approx((0.05, 0.05))  # k · half-width either way
+    physics.step([0, 0, 0, 0, 0.5, 0.5], 0.01)  # commanded up: both joints trail at the bottom of their play
+    assert physics.play_room("q6") == pytest.approx((0.0, 0.1))
+    assert physics.play_room("q5") == pytest.approx((0.0, 0.1))
+    assert ArmPhysics([Effect("hysteresis", "q5", {"source": "q5", "half_width": 0.2, "k": -0.25})]).play_room("q5") == (0.0, 0.0)
+
+
+def test_the_wrist_gives_along_the_tip_axes_as_its_play_lets_it():
+    from pegbt.physics import ArmPhysics, Effect
+    from pegbt.sim.tools import RIGID, wrist_give
+
+    tool = World(seed=0).cell.tool
+    rigid = ArmPhysics()
+    rigid.reset(np.zeros(6))
+    assert wrist_give(rigid, 0.0, tool) == RIGID
+    physics = ArmPhysics([Effect("backlash", "q6", {"half_width": 0.05}), Effect("backlash", "q5", {"half_width": 0.05})])
+    physics.reset(np.zeros(6))
+    physics.step([0, 0, 0, 0, 0.5, 0.5], 0.01)  # q5 and q6 trail below their commands
+    minus_x, plus_x, minus_y, plus_y = wrist_give(physics, 0.0, tool)
+    assert (minus_x, plus_x) == pytest.approx((0.0, 0.1 * tool.jaw_length))  # +q6 swings the tip along +x
+    lever = tool.wrist_length + tool.jaw_length
+    assert (minus_y, plus_y) == pytest.approx((0.1 * lever, 0.0))  # +q5 swings it along -y
+    assert wrist_give(physics, np.pi / 2, tool)[2] == pytest.approx(0.1 * tool.wrist_length)  # jaw turned aside
+
+
+@pytest.mark.parametrize("wrist_yaw", [0.0, -0.8])
+def test_the_gives_directions_are_where_forward_kinematics_moves_the_tip(wrist_yaw):
+    from pegbt.motion.kinematics import shaft_end_and_tip
+
+    tool = World(seed=0).cell.tool
+    q = np.array([0.8, 0.1, 0.2, 0.0, -0.1, wrist_yaw])
+    _, tip = shaft_end_and_tip(q)
+    for joint, expected in ((5, [tool.jaw_length, 0.0]), (4, [0.0, -(tool.wrist_length + tool.jaw_length * np.cos(wrist_yaw))])):
+        nudged = q.copy()
+        nudged[joint] += 1e-4
+        moved = tip[:3, :3].T @ (shaft_end_and_tip(nudged)[1][:3, 3] - tip[:3, 3]) / 1e-4
+        assert moved[:2] == pytest.approx(expected, abs=2e-4)

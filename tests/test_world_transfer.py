@@ -1,5 +1,6 @@
 """Grasp, lift, transfer, place and handover in the simulated world, decided by geometry alone."""
 
+import dataclasses
 import numpy as np
 import pytest
 
@@ -45,20 +46,78 @@ def test_a_scripted_transfer_moves_block_1_from_peg_1_to_peg_7():
     assert list(world.events) == events
 
 
-def test_a_grasp_3_mm_off_the_wall_misses_and_1_mm_off_holds():
+def _grasp_off_the_wall_centre(world, driver, off, jaw_open=None):
+    """Close PSM1's jaw on block 1 `off` metres outward from the centre of the wall it faces."""
+    candidate = grasp_candidate_facing(world, 1, "PSM1")
+    model = world.cell.block
+    outward = np.append(world.blocks[1].pose[:2, :2] @ model.edge_normals[candidate // 2], 0.0)
+    centre = (model.hole_radius + model.edge_distance) / 2
+    frames = grasp_keyframes(world, 1, candidate, error=(centre - model.grasp_radial + off) * outward)
+    if jaw_open is not None:
+        frames = [Keyframe(f.position, f.yaw, jaw_open if f.jaw > 0.5 else f.jaw) for f in frames]
+    return driver.play({"PSM1": frames}), outward
+
+
+@pytest.mark.parametrize("off", [0.001, -0.001, 0.0018])
+def test_a_grasp_up_to_the_pegs_clearance_off_the_wall_centre_grips_and_slides_the_block_into_the_jaws(off):
     world = World(seed=1)
     driver = Driver(world)
-    candidate = grasp_candidate_facing(world, 1, "PSM1")
-    outward = np.append(world.blocks[1].pose[:2, :2] @ world.cell.block.edge_normals[candidate // 2], 0.0)
-    events = driver.play({"PSM1": grasp_keyframes(world, 1, candidate, error=0.003 * outward)})
-    assert kinds(events) == ["grasp_miss"]
-    expected = world.cell.block.grasp_radial + 0.003 - world.cell.block.edge_distance
-    assert events[0].detail == f"jaw {expected * 1000:.1f} mm off the wall"
+    events, outward = _grasp_off_the_wall_centre(world, driver, off)
+    assert kinds(events) == ["grasp"] and world.held_by("PSM1") == 1
+    slid = world.blocks[1].pose[:3, 3] - np.append(world.cell.pegs.positions[1], world.cell.board.surface_z)
+    assert np.allclose(slid, off * outward, atol=1e-6)  # the wall now sits centred between the jaws
+
+
+def test_a_grasp_beyond_the_pegs_clearance_misses_because_the_peg_stops_the_block():
+    world = World(seed=1)
+    driver = Driver(world)
+    clearance = world.cell.block.hole_radius - world.cell.pegs.radius  # 2.0 mm
+    events, _ = _grasp_off_the_wall_centre(world, driver, clearance + 0.0004)
+    assert kinds(events) == ["grasp_miss"] and events[0].detail == "jaw 2.4 mm off the wall's centre: peg 1 stops the block"
+    assert np.allclose(world.blocks[1].pose[:2, 3], world.cell.pegs.positions[1])
+
+
+def test_a_grasp_3_mm_off_the_wall_centre_misses_and_leaves_the_block_on_its_peg():
+    world = World(seed=1)
+    driver = Driver(world)
+    events, _ = _grasp_off_the_wall_centre(world, driver, 0.003)
+    assert kinds(events) == ["grasp_miss"] and events[0].detail == "jaw 3.0 mm off the wall's centre: peg 1 stops the block"
     events = driver.play({"PSM1": [lifted(world, driver.at("PSM1"))]})
     assert world.blocks[1].state == "on_peg" and world.held_by("PSM1") is None
 
-    events = driver.play({"PSM1": grasp_keyframes(world, 1, candidate, error=0.001 * outward)})
+
+def _move_block_1_onto_the_board(world):
+    block = world.blocks[1]
+    block.peg = None
+    block.pose[:2, 3] = [0.030, 0.065]  # clear of every peg
+    return block
+
+
+def test_a_jaw_opened_too_little_cannot_straddle_the_wall():
+    world = World(seed=1)
+    driver = Driver(world)
+    events, _ = _grasp_off_the_wall_centre(world, driver, 0.001, jaw_open=np.radians(22))
+    # 22° open: the tips are 9.5·sin 11° = 1.8 mm either side of the axis, 0.8 mm beyond the wall's faces
+    assert kinds(events) == ["grasp_miss"] and events[0].detail.startswith("jaws open 0.8 mm")
+
+
+def test_a_grasp_beyond_the_open_jaws_misses_even_a_free_block():
+    world = World(seed=1)
+    driver = Driver(world)
+    _move_block_1_onto_the_board(world)
+    events, _ = _grasp_off_the_wall_centre(world, driver, 0.0035)
+    # 50° open: the tips are 9.5·sin 25° = 4.0 mm either side of the axis, 3.0 mm beyond the 2 mm wall's faces
+    assert kinds(events) == ["grasp_miss"]
+    assert events[0].detail == "jaws open 3.0 mm either side of the wall's centre miss it by 3.5 mm"
+
+
+def test_a_block_on_the_board_slides_further_into_the_jaws_than_one_on_a_peg():
+    world = World(seed=1)
+    driver = Driver(world)
+    block = _move_block_1_onto_the_board(world)
+    events, outward = _grasp_off_the_wall_centre(world, driver, 0.0025)
     assert kinds(events) == ["grasp"] and world.held_by("PSM1") == 1
+    assert np.allclose(block.pose[:2, 3], np.array([0.030, 0.065]) + 0.0025 * outward[:2], atol=1e-6)
 
 
 def test_lifting_sideways_catches_the_block_on_its_peg():
@@ -74,6 +133,36 @@ def test_lifting_sideways_catches_the_block_on_its_peg():
     assert events[0].detail.startswith("block-peg: caught on peg 1")
     assert events[1].peg == 1  # it falls back down its peg
     assert world.blocks[1].state == "on_peg" and world.held_by("PSM1") is None
+
+
+class YieldingDriver(Driver):
+    """Scripted tools whose wrists give `give` (m) along the tip's -x, +x, -y and +y, as cable play lets them."""
+
+    def __init__(self, world, give):
+        super().__init__(world)
+        self.give = give
+
+    def tool(self, arm, frame):
+        return dataclasses.replace(super().tool(arm, frame), give=self.give)
+
+
+@pytest.mark.parametrize(("give", "caught"), [(0.0, True), (0.0003, True), (0.001, False)])
+def test_a_peg_guides_a_block_lifted_against_it_as_far_as_the_wrist_gives(give, caught):
+    world = World(seed=2)
+    driver = YieldingDriver(world, (give,) * 4)
+    candidate = grasp_candidate_facing(world, 1, "PSM1")
+    grasp = grasp_keyframes(world, 1, candidate)
+    driver.play({"PSM1": grasp})
+    slid = np.linalg.norm(world.blocks[1].pose[:2, 3] - world.cell.pegs.positions[1])  # into the jaws, outward
+    clearance = world.cell.block.hole_radius - world.cell.pegs.radius
+    outward = (world.blocks[1].pose[:2, 3] - world.cell.pegs.positions[1]) / slid
+    # pull the tool outward until the hole presses the peg 0.5 mm beyond the clearance, then lift
+    pulled = Keyframe(grasp[-1].position + np.append((clearance - slid + 0.0005) * outward, 0.0), grasp[-1].yaw, grasp[-1].jaw)
+    events = driver.play({"PSM1": [pulled, lifted(world, pulled)]})
+    if caught:
+        assert kinds(events)[:2] == ["collision", "drop"] and world.held_by("PSM1") is None
+    else:
+        assert kinds(events) == ["lift"] and world.held_by("PSM1") == 1
 
 
 def _carry_block_1(world, driver):

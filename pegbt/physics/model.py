@@ -47,6 +47,8 @@ class ArmPhysics:
             seen.add(effect.slot)
             self._apply(effect)
         self._state: NDArray[np.float64] | None = None  # backlash output
+        self._target: NDArray[np.float64] = np.zeros(N_JOINTS)  # backlash input (static map plus hysteresis)
+        self._drive_seen: NDArray[np.float64] = np.zeros(len(self.hysteresis))  # input of each hysteresis
         self._drive_play: NDArray[np.float64] = np.zeros(len(self.hysteresis))  # play state of each hysteresis
         self._output: NDArray[np.float64] | None = None  # lag output
         self._history: deque[tuple[float, NDArray[np.float64]]] = deque()
@@ -123,6 +125,23 @@ class ArmPhysics:
     def is_ideal(self) -> bool:
         return not self.effects
 
+    def play_room(self, joint: str | int) -> tuple[float, float]:
+        """How far (rad, m) `joint` can be turned down and up from where it stands now (after `reset` or
+        `step`) without its own drive's cables taking up load: the free part of its backlash and of each
+        own-drive hysteresis (the part k of that play reaching the joint). A joint that lags behind its
+        command sits at one edge of its play and can be pushed across all of it towards the command."""
+        j = joint_index(joint)
+        if self._state is None:
+            return 0.0, 0.0
+        down = float(self._state[j] - (self._target[j] - self.half_width[j]))
+        up = float(self._target[j] + self.half_width[j] - self._state[j])
+        for n, (target, source, half_width, k) in enumerate(self.hysteresis):
+            if target == source == j:
+                below = k * (self._drive_play[n] - (self._drive_seen[n] - half_width))
+                above = k * (self._drive_seen[n] + half_width - self._drive_play[n])
+                down, up = down + max(below, -above), up + max(above, -below)  # k < 0 swaps the sides
+        return down, up
+
     # ----------------------------------------------------------------- the physics
     def static_map(self, q_cmd: ArrayLike) -> NDArray[np.float64]:
         """Scale, coupling and offset applied to commands (..., 6): the settled joints without any play."""
@@ -133,7 +152,9 @@ class ArmPhysics:
         """Settle the arm at command `q_cmd` (no play taken up) and return its physical joints."""
         q_cmd = np.asarray(q_cmd, dtype=float).copy()
         self._state = self.static_map(q_cmd)
+        self._target = self._state.copy()
         self._drive_play = np.array([self._drive(j, s, q_cmd, self._state) for j, s, _, _ in self.hysteresis])
+        self._drive_seen = self._drive_play.copy()
         self._output = self._state.copy()
         self._time = time
         self._history = deque([(time, q_cmd)])
@@ -154,8 +175,10 @@ class ArmPhysics:
         for n, (j, source, half_width, k) in enumerate(self.hysteresis):
             seen = self._drive(j, source, delayed[j] if delayed.ndim == 2 else delayed, static)
             self._drive_play[n] = np.clip(self._drive_play[n], seen - half_width, seen + half_width)
+            self._drive_seen[n] = seen
             target[j] += k * (self._drive_play[n] - seen)
         self._state = _play(self._state, target, self.half_width)
+        self._target = target
         alpha = np.where(self.tau > 0, 1.0 - np.exp(-dt / np.maximum(self.tau, 1e-12)), 1.0)
         self._output = self._output + alpha * (self._state - self._output)
         return self._output.copy()

@@ -53,7 +53,7 @@ from pegbt.sim.interfaces import SimCamera, SimWorld
 from pegbt.sim.lockstep import Inbox, Lockstep
 from pegbt.sim.log import SimLog
 from pegbt.sim.outbox import JointStateMessage, Outbox
-from pegbt.sim.tools import ToolState
+from pegbt.sim.tools import ToolState, wrist_give
 from pegbt.sim.truth import requested_since, truth_answer
 from pegbt.transport import codec
 from pegbt.transport.arm import ARM_JOINT_NAMES, JAW_JOINT_NAMES
@@ -314,7 +314,8 @@ class SimEndpoint:
         """Move the world with each tool where its physical joints put it; a gripped block stops the jaw."""
         assert self.world is not None
         tools = {
-            name: ToolState.from_joints(arm.physical, float(arm.jaw.encoder[0]), self._arm_to_board[name])
+            name: ToolState.from_joints(arm.physical, float(arm.jaw.encoder[0]), self._arm_to_board[name],
+                                        wrist_give(arm.physics, float(arm.physical[5]), self.world.cell.tool))
             for name, arm in self.arms.items()
         }
         self.world.update(self.elapsed, tools)

@@ -7,13 +7,18 @@ not where the encoders say it is.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from pegbt.frames import Matrix, pose_from_axes
 from pegbt.motion.kinematics import shaft_end_and_tip
+from pegbt.physics import ArmPhysics
 from pegbt.workcell import ToolGeometry
+
+Give = tuple[float, float, float, float]  # how far the tip yields along its -x, +x, -y, +y (m)
+RIGID: Give = (0.0, 0.0, 0.0, 0.0)
 
 
 @dataclass(frozen=True)
@@ -22,20 +27,23 @@ class ToolState:
 
     `tip`: 4×4 tool-tip pose (the tool-tip frame of `pegbt.motion.kinematics`: z back up the tool, x the
     jaw-closing direction, y the jaw hinge). `jaw`: jaw opening angle (rad). `shaft`: (2, 3) the shaft's
-    two ends, the remote centre of motion and the wrist pitch axis.
+    two ends, the remote centre of motion and the wrist pitch axis. `give`: how far (m) a push moves the
+    tip along its -x, +x, -y and +y before the wrist's cables take up the load (`wrist_give`; rigid by
+    default).
     """
 
     tip: Matrix
     jaw: float
     shaft: Matrix
+    give: Give = RIGID
 
     @classmethod
-    def from_joints(cls, q: Matrix, jaw: float, arm_to_board: Matrix) -> ToolState:
+    def from_joints(cls, q: Matrix, jaw: float, arm_to_board: Matrix, give: Give = RIGID) -> ToolState:
         """The tool of an arm at joints `q` (its physical joints), by the arm's forward kinematics: the
         shaft runs from the remote centre (the base origin) to the wrist pitch axis."""
         shaft_end, tip = shaft_end_and_tip(q)
         rotation, origin = arm_to_board[:3, :3], arm_to_board[:3, 3]
-        return cls(tip=arm_to_board @ tip, jaw=float(jaw), shaft=np.array([origin, rotation @ shaft_end + origin]))
+        return cls(tip=arm_to_board @ tip, jaw=float(jaw), shaft=np.array([origin, rotation @ shaft_end + origin]), give=give)
 
     def jaw_hinge(self, tool: ToolGeometry) -> Matrix:
         """(3,) the wrist yaw axis, where the jaws hinge: `jaw_length` back up the tool from the tip."""
@@ -47,6 +55,18 @@ class ToolState:
         starts = np.array([self.shaft[0], self.shaft[1], hinge])
         ends = np.array([self.shaft[1], hinge, self.tip[:3, 3]])
         return starts, ends, np.array([tool.shaft_radius, tool.wrist_radius, tool.jaw_radius])
+
+
+def wrist_give(physics: ArmPhysics, wrist_yaw: float, tool: ToolGeometry) -> Give:
+    """How far (m) a push can move the tip along the tool's -x, +x, -y and +y within the wrist's cable
+    play as it stands now, at wrist yaw (q6) `wrist_yaw`.
+
+    Wrist yaw turns the jaws about the hinge (y): +q6 swings the tip along +x on the jaw's length. Wrist
+    pitch (q5): +q5 swings it along -y on the wrist's length plus the jaw's, shortened as the jaw turns."""
+    yaw_down, yaw_up = physics.play_room("q6")
+    pitch_down, pitch_up = physics.play_room("q5")
+    lever = abs(tool.wrist_length + tool.jaw_length * math.cos(wrist_yaw))
+    return tool.jaw_length * yaw_down, tool.jaw_length * yaw_up, lever * pitch_up, lever * pitch_down
 
 
 def tool_pointing_down(position: Matrix, yaw: float, jaw: float, remote_centre: Matrix, tool: ToolGeometry) -> ToolState:

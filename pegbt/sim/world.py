@@ -1,11 +1,14 @@
 """The world the arms act in: a pegboard, six FLS blocks, and geometry that decides what happens.
 
 The endpoint calls `World.update(time, tools)` every simulation step with each arm's tool state (from
-its physical joints). Nothing is scripted: a closing jaw grips a block only if it straddles one of the
-block's walls; a gripped block moves rigidly with the jaw; lifting it clears its peg only if the hole
-stays around the peg all the way up; a released block lands on a peg only if its hole is over one
-within the clearance, and otherwise drops onto the board (or off it). Every such outcome, every
-collision and every injected fault is appended to `World.events`, the ground truth of a trial.
+its physical joints). Nothing is scripted: a closing jaw grips a block only if its open jaws straddle one
+of the block's walls and the block can slide (on its peg, within the hole's clearance) until the wall
+sits centred between them; a gripped block moves rigidly with the jaw; lifting it clears its peg only if
+the hole stays around the peg all the way up (a peg pressing on the hole pushes the block, and the jaw
+holding it, aside as far as the wrist's cable play gives: `ToolState.give`); a released block lands on a
+peg only if its hole is over one within the clearance, and otherwise drops onto the board (or off it).
+Every such outcome, every collision and every injected fault is appended to `World.events`, the ground
+truth of a trial.
 """
 
 from __future__ import annotations
@@ -17,7 +20,7 @@ from itertools import combinations
 
 import numpy as np
 
-from pegbt.frames import Matrix, invert_rigid, segment_distances, yaw_of, yaw_pose
+from pegbt.frames import Matrix, invert_rigid, rigid_transform, segment_distances, yaw_of, yaw_pose
 from pegbt.sim.blocks import Block
 from pegbt.sim.events import Event, EventLog
 from pegbt.sim.faults import WorldFaults
@@ -33,8 +36,7 @@ class WorldConfig:
 
     jaw_closed_below: float = 0.25  # a jaw closing past this angle grips (it meets a 2 mm wall at 0.21)
     jaw_open_above: float = 0.35  # a gripping jaw opening past this angle lets go
-    grasp_wall_tolerance: float = 0.0005  # the jaw tip may miss the wall's radial span by this much
-    grasp_edge_margin: float = 0.001  # and must stay this far inside the ends of the flat edge
+    grasp_edge_margin: float = 0.001  # the jaw tip must stay this far inside the ends of the flat edge
     grasp_min_bite: float = 0.001  # the jaw tip must reach this far below the block's top face
     grasp_max_tilt: float = math.radians(30)  # between the tool's axis and the block's
     grasp_max_misalignment: float = math.radians(30)  # between the jaw-closing axis and the wall's normal
@@ -66,6 +68,7 @@ class World:
         self.time = 0.0
         self.tools: dict[str, ToolState] = {}
         self._closed: dict[str, bool] = {}
+        self._widest: dict[str, float] = {}  # widest jaw angle of each arm since its jaw last opened
         self._contacts: set[tuple[str, str, int, int]] = set()
         self._attempts = 0
         self._next_slip = 0
@@ -130,11 +133,13 @@ class World:
 
     def _follow_jaw(self, arm: str, tool: ToolState) -> None:
         closed = self._closed.get(arm)
+        if not closed:
+            self._widest[arm] = max(self._widest.get(arm, tool.jaw), tool.jaw)
         if closed is None:  # first sight of this arm: its jaw state, without a transition
             self._closed[arm] = tool.jaw < self.config.jaw_closed_below
         elif not closed and tool.jaw < self.config.jaw_closed_below:
             self._closed[arm] = True
-            self._try_grasp(arm, tool)
+            self._try_grasp(arm, tool, self._widest.pop(arm, tool.jaw))
         elif closed and tool.jaw > self.config.jaw_open_above:
             self._closed[arm] = False
             for block in self.blocks:
@@ -144,10 +149,11 @@ class World:
                     if not block.grips:
                         self._settle(block, arm, deliberate=True)
 
-    def _try_grasp(self, arm: str, tool: ToolState) -> None:
+    def _try_grasp(self, arm: str, tool: ToolState, opened: float) -> None:
+        """`arm`'s jaw, opened to `opened` (rad), has just closed at `tool`: grip the nearest block it can."""
         attempt = self._attempts
         self._attempts += 1
-        best: tuple[float, Block, str | None, int] | None = None
+        best: tuple[float, Block, str | None, int, Matrix] | None = None
         for block in self.blocks:
             if block.lost or arm in block.grips:
                 continue
@@ -155,13 +161,13 @@ class World:
             distance = float(np.linalg.norm(local[:3, 3] + [0.0, 0.0, self.cell.block.height / 2]))
             if distance > self.config.grasp_search_radius:
                 continue
-            problem, edge = self._grip_problem(local)
+            problem, edge, slide = self._grip_problem(block, local, opened)
             candidate = (int(problem is not None), distance)
             if best is None or candidate < (int(best[2] is not None), best[0]):
-                best = (distance, block, problem, edge)
+                best = (distance, block, problem, edge, slide)
         if best is None:
             return  # closing in the air: not a grasp attempt
-        _, block, problem, edge = best
+        _, block, problem, edge, slide = best
         if problem is not None:
             self._log("grasp_miss", arm, block.index, block.peg, problem)
             return
@@ -172,39 +178,53 @@ class World:
             self._log("grasp_miss", arm, block.index, block.peg, "injected fault")
             return
         giver = next(iter(block.grips), None)
+        if giver is None:  # a free block slides until its wall sits centred between the closing jaws
+            block.pose = block.pose @ rigid_transform(None, [slide[0], slide[1], 0.0])
         block.grips[arm] = invert_rigid(tool.tip) @ block.pose
         detail = f"edge {edge}" + (f", handover from {giver}" if giver else "")
         self._log("grasp", arm, block.index, block.peg, detail)
 
-    def _grip_problem(self, local: Matrix) -> tuple[str | None, int]:
-        """Why a jaw at `local` (tip pose in the block frame) would not grip the block, and which edge.
+    def _grip_problem(self, block: Block, local: Matrix, opened: float) -> tuple[str | None, int, Matrix]:
+        """Why a jaw opened to `opened` and closing at `local` (tip pose in the block frame) would not
+        grip `block`, which edge it closes on, and how far (block x, y) the block slides into the jaws.
 
-        The jaw grips when its tip lies on the wall between hole and a flat edge (within tolerance),
-        its closing axis crosses that wall, the tool stands roughly along the block's axis and the
-        tip bites below the top face.
+        The open jaw tips lie `jaw_length`·sin(opened/2) either side of the tool's axis. They grip when
+        they straddle a wall (one tip in the hole, the other beyond the flat edge), the closing axis
+        crosses that wall, the tool stands roughly along the block's axis and the tips bite below the
+        top face. The first jaw to touch pushes the block until the wall is centred between the jaws:
+        a free block slides that far, a block on a peg only as far as the hole's clearance lets it
+        (beyond, the peg holds the wall against one jaw and the other closes beside it). A block held
+        by another jaw cannot slide; the holders' disagreement is judged as it is carried.
         """
         model, config = self.cell.block, self.config
         rotation, tip = local[:3, :3], local[:3, 3]
         tilt = math.degrees(math.acos(max(-1.0, min(1.0, -rotation[2, 2]))))  # tool z is up, block z down
         alignment = np.abs(model.edge_normals @ rotation[:2, 0])
         edge = int(np.argmax(alignment))
+        no_slide = np.zeros(2)
         if tilt > math.degrees(config.grasp_max_tilt):
-            return f"tool tilted {tilt:.0f}° from the block's axis", edge
+            return f"tool tilted {tilt:.0f}° from the block's axis", edge, no_slide
         if alignment[edge] < math.cos(config.grasp_max_misalignment):
-            return "jaws do not close across a wall", edge
+            return "jaws do not close across a wall", edge, no_slide
         normal = model.edge_normals[edge]
-        radial = float(tip[:2] @ normal)
         along = float(tip[:2] @ [-normal[1], normal[0]])
-        off_wall = max(model.hole_radius - radial, radial - model.edge_distance, 0.0)
-        if off_wall > config.grasp_wall_tolerance:
-            return f"jaw {off_wall * 1000:.1f} mm off the wall", edge
         if abs(along) > model.edge_half_length - config.grasp_edge_margin:
-            return "jaw beyond the end of the wall", edge
+            return "jaw beyond the end of the wall", edge, no_slide
         if tip[2] > 0.0:
-            return "jaw below the block", edge
+            return "jaw below the block", edge, no_slide
         if tip[2] + model.height < config.grasp_min_bite:
-            return "jaw above the block", edge
-        return None, edge
+            return "jaw above the block", edge, no_slide
+        wall_half = (model.edge_distance - model.hole_radius) / 2
+        off_centre = float(tip[:2] @ normal) - (model.hole_radius + wall_half)
+        reach = self.cell.tool.jaw_length * math.sin(max(opened, 0.0) / 2) * alignment[edge] - wall_half
+        if abs(off_centre) >= reach:
+            return f"jaws open {max(reach, 0.0) * 1000:.1f} mm either side of the wall's centre miss it by {abs(off_centre) * 1000:.1f} mm", edge, no_slide
+        slide = off_centre * normal
+        if block.peg is not None and not block.grips:
+            peg_xy = self._pegs_in_block_frame(block)[block.peg]  # where the peg stands in the hole
+            if np.linalg.norm(peg_xy - slide) > self._clearance:
+                return f"jaw {abs(off_centre) * 1000:.1f} mm off the wall's centre: peg {block.peg} stops the block", edge, no_slide
+        return None, edge, slide
 
     def _slip(self, arm: str, block: Block, detail: str) -> None:
         """`arm`'s grip on `block` is lost without its jaw opening."""
@@ -281,8 +301,15 @@ class World:
             low = min(bottom[2], self.cell.board.surface_z)
             high = max(top[2], peg_top_z)
             points = [bottom + (bottom[2] - z) / span * (top - bottom) for z in (low, high)]
-            offset = max(float(np.linalg.norm(p[:2] - self.cell.pegs.positions[peg])) for p in points)
-            if offset > self._clearance:
+            offsets = np.array([p[:2] - self.cell.pegs.positions[peg] for p in points])
+            push = self._peg_push(offsets)
+            if push is None:
+                return
+            guided = np.linalg.norm(offsets + push, axis=1).max() <= self._clearance + 1e-9  # not tipped across it
+            if guided and self._holders_give(block, push):
+                block.pose[:2, 3] += push  # the peg guides the hole; the holders' wrists yield
+            else:
+                offset = float(np.linalg.norm(offsets, axis=1).max())
                 self._knock_loose(block, peg, f"caught on peg {peg}: hole {offset * 1000:.1f} mm off its axis")
             return
         if bottom[2] <= peg_top_z:
@@ -297,6 +324,25 @@ class World:
         if len(struck):
             peg = int(struck[0])
             self._knock_loose(block, peg, f"struck peg {peg}")
+
+    def _peg_push(self, offsets: Matrix) -> Matrix | None:
+        """The sideways push (board x, y) with which the peg keeps the hole around it, given the hole
+        axis's offsets (n, 2) from the peg's axis along their overlap; None when the hole is clear of it."""
+        distances = np.linalg.norm(offsets, axis=1)
+        worst = int(np.argmax(distances))
+        if distances[worst] <= self._clearance:
+            return None
+        return -(distances[worst] - self._clearance) * offsets[worst] / distances[worst]
+
+    def _holders_give(self, block: Block, push: Matrix) -> bool:
+        """Whether every jaw holding `block` yields to `push` (board x, y) within its wrist's play."""
+        for arm in block.grips:
+            tool = self.tools[arm]
+            x, y = tool.tip[:2, :2].T @ push  # along the tip's x and y
+            minus_x, plus_x, minus_y, plus_y = tool.give
+            if not (-minus_x <= x <= plus_x and -minus_y <= y <= plus_y):
+                return False
+        return True
 
     def _knock_loose(self, block: Block, peg: int, detail: str) -> None:
         """A peg stops a carried block: the contact tears it out of every jaw and it falls."""

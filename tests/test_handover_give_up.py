@@ -1,0 +1,36 @@
+"""A giver that cannot pick its block gives the handover up once: it lets go, tells the receiver, and the
+trial goes on."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from pegbt.evaluation.trial import TrialSpec, run_trial
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+def one_handover(tmp_path: Path) -> Path:
+    """Look, then hand the block on peg 1 from PSM2 to PSM1 for peg 7, no recovery of the pick."""
+    tree = tmp_path / "one-handover.yaml"
+    tree.write_text(
+        f"include: [{REPO / 'trees' / 'shared' / 'handover.yaml'}, {REPO / 'trees' / 'shared' / 'sense.yaml'}]\n"
+        "blackboard: {/handover/offered: 0, /handover/arrived: 0, /handover/taken: 0, /handover/released: 0, /handover/given_up: 0,\n"
+        "             /PSM1/may_carry: true, /PSM2/may_carry: true}\n"
+        "tree:\n  sequence:\n"
+        "    - subtree: {use: clear_view}\n"
+        "    - parallel:\n        name: one handover\n        children:\n"
+        "          - force_success: {name: g, child: {subtree: {use: give, args: {giver: PSM2, receiver: PSM1, n: 1, pick: 1, place: 7, regrasps: 0}}}}\n"
+        "          - force_success: {name: r, child: {subtree: {use: receive, args: {receiver: PSM1, n: 1, place: 7}}}}\n"
+    )
+    return tree
+
+
+def test_a_giver_that_misses_gives_the_handover_up_once(tmp_path):
+    faults = tmp_path / "misses.yaml"
+    faults.write_text("world: {miss_probability: 1.0}\n")
+    spec = TrialSpec("handover", "optimized", 3, tmp_path / "one-handover.jsonl", faults, tree=one_handover(tmp_path))
+    record = run_trial(spec)
+    assert record.transfers_attempted == 1  # begun once, not again and again while the jaw opens
+    assert [transfer["succeeded"] for transfer in record.transfers] == [False]
+    assert record.trial_time_s < 20.0  # the look, one missed pick, letting go: the receiver does not wait it out
