@@ -99,23 +99,26 @@ class BlockLocator:
         return estimates
 
     def take_apart(self, cluster: Points, peg_xy: Points) -> list[BlockEstimate]:
-        """The blocks of a cluster too wide for one. The block on each peg the cluster surrounds is fitted
-        first, by ICP from that peg's axis, and its points taken out; what is left is blocks lying loose
-        (a block that fell against another). Cropping by nearest peg instead would cut a loose block in
-        two and leave both fits doubtful; it remains for touching blocks none of which is on a peg."""
+        """The blocks of a cluster too wide for one. Blocks touching across neighbouring pegs are cut apart
+        by nearest peg (the paper's per-peg crop). If that leaves a doubtful fit, a block lies loose
+        against another, and the crop cut it in two: then the block on each peg the cluster surrounds is
+        fitted first, by ICP from that peg's axis, and its points taken out; what is left is registered
+        as the blocks lying loose."""
+        cropped = [self.register(part, peg_xy) for part in split_by_nearest_peg(cluster, peg_xy)
+                   if len(part) >= self.settings.segment.min_points]
+        if all(estimate.ok for estimate in cropped):
+            return cropped
         estimates: list[BlockEstimate] = []
         rest = cluster
         for peg in self._surrounded_pegs(cluster, peg_xy):
             near = rest[np.linalg.norm(rest[:, :2] - peg_xy[peg], axis=1) < self.cell.block.corner_distance]
             if len(near) < self.settings.segment.min_points:
                 continue
-            fitted = self._fit_from_yaws(near, self.initial_pose(near, peg_xy))
-            mine = self._near_model(rest, fitted)
+            mine = self._near_model(rest, self._fit_from_yaws(near, self.initial_pose(near, peg_xy)))
             estimates.append(self.register(rest[mine], peg_xy))
             rest = rest[~mine]
         if not estimates:
-            return [self.register(part, peg_xy) for part in split_by_nearest_peg(cluster, peg_xy)
-                    if len(part) >= self.settings.segment.min_points]
+            return cropped
         return estimates + [self.register(part, peg_xy) for part in clusters(rest, self.settings.segment)]
 
     def _fit_from_yaws(self, segment: Points, initial: NDArray[np.float64]) -> NDArray[np.float64]:
