@@ -20,6 +20,8 @@ from pegbt.motion.ik import solve_ik
 from pegbt.motion.kinematics import forward_kinematics
 from pegbt.perception.blocks import BlockEstimate, block_on_peg
 
+SAME_BLOCK = 0.005  # m: a block seen this near where the last pick chose one is that block (a miss may nudge it)
+
 @behaviour(
     "select_grasp",
     "choose `arm`'s grasp of the block on peg `peg` from `/blocks` (or, with `dropped`, of a block lying off "
@@ -33,6 +35,9 @@ from pegbt.perception.blocks import BlockEstimate, block_on_peg
         Param("strays", list[int], "with `dropped`: pegs a lost block may have fallen onto and no block belongs on yet "
               "(the peg under the handover's meeting point); a block there is taken if none lies on the board",
               choices=tuple(range(12)), default=[]),
+        Param("another", bool, "pick again: if the block is the one last chosen (still within `SAME_BLOCK` of "
+              "where it was seen), prefer another of its candidates than the one that failed (`$key`)",
+              default=False, blackboard=True),
         key_param("block", "write", "the block chosen (perception's estimate)"),
         key_param("grasp", "write", "the grasp chosen (tip pose in the arm frame)"),
     ),
@@ -55,7 +60,7 @@ class SelectGrasp(RobotLeaf):
         where = f"peg {peg}" if block.peg is not None else f"the board at {np.round(block.position[:2] * 1000, 1).tolist()} mm"
         if not block.ok:
             return self.fail(f"the block on {where} is not located reliably: {block.reason}")
-        grasp = self.skills.selectors[arm].pick(block)
+        grasp = self.skills.selectors[arm].pick(block, avoid=self._failed_candidate(block))
         if grasp is None:
             return self.fail(f"no grasp of the block on {where} is within {arm}'s yaw window and reach")
         self.put("block", block)
@@ -63,6 +68,19 @@ class SelectGrasp(RobotLeaf):
         self.feedback_message = (f"{arm} grasps the block on {where} at candidate {grasp.candidate}, "
                                  f"yaw {math.degrees(grasp.yaw):.0f}°")
         return Status.SUCCESS
+
+    def _failed_candidate(self, block: BlockEstimate) -> tuple[int, ...]:
+        """The candidate chosen last time, if this is a pick again of the same block."""
+        if not self.param("another"):
+            return ()
+        try:
+            last_block: BlockEstimate = self.get("block")
+            last_grasp = self.get("grasp")
+        except KeyError:
+            return ()
+        if np.linalg.norm(last_block.position[:2] - block.position[:2]) > SAME_BLOCK:
+            return ()
+        return (last_grasp.candidate,)
 
 
 @behaviour(
