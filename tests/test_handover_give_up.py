@@ -10,17 +10,17 @@ from pegbt.evaluation.trial import TrialSpec, run_trial
 REPO = Path(__file__).resolve().parents[1]
 
 
-def one_handover(tmp_path: Path) -> Path:
-    """Look, then hand the block on peg 1 from PSM2 to PSM1 for peg 7, no recovery of the pick."""
+def one_handover(tmp_path: Path, regrasps: int = 0) -> Path:
+    """Look, then hand the block on peg 1 from PSM2 to PSM1 for peg 7, with `regrasps` recoveries of the pick."""
     tree = tmp_path / "one-handover.yaml"
     tree.write_text(
         f"include: [{REPO / 'trees' / 'shared' / 'handover.yaml'}, {REPO / 'trees' / 'shared' / 'sense.yaml'}]\n"
-        "blackboard: {/handover/offered: 0, /handover/arrived: 0, /handover/taken: 0, /handover/released: 0, /handover/given_up: 0,\n"
+        "blackboard: {/handover/offered: 0, /handover/arrived: 0, /handover/taken: 0, /handover/released: 0, /handover/given_up: 0, /handover/refused: 0,\n"
         "             /PSM1/may_carry: true, /PSM2/may_carry: true}\n"
         "tree:\n  sequence:\n"
         "    - subtree: {use: clear_view}\n"
         "    - parallel:\n        name: one handover\n        children:\n"
-        "          - force_success: {name: g, child: {subtree: {use: give, args: {giver: PSM2, receiver: PSM1, n: 1, pick: 1, place: 7, regrasps: 0}}}}\n"
+        f"          - force_success: {{name: g, child: {{subtree: {{use: give, args: {{giver: PSM2, receiver: PSM1, n: 1, pick: 1, place: 7, regrasps: {regrasps}}}}}}}}}\n"
         "          - force_success: {name: r, child: {subtree: {use: receive, args: {receiver: PSM1, n: 1, place: 7}}}}\n"
     )
     return tree

@@ -145,3 +145,22 @@ def test_blocks_touching_across_neighbouring_pegs_are_told_apart(board):
         assert estimate is not None and estimate.ok
         position_error, yaw_error = errors(estimate, block)
         assert position_error < POSITION_TOLERANCE and yaw_error < YAW_TOLERANCE
+
+
+def test_a_loose_block_against_a_block_on_a_peg_is_told_apart_from_it(board):
+    world = World(seed=0)
+    on_peg, loose = world.blocks[1], world.blocks[3]
+    loose.peg = None  # fell between pegs 0 and 1, against the block on peg 1 (0.7 mm apart)
+    beside = world.cell.pegs.positions[1] - [0.0152, 0.0]
+    loose.pose = yaw_pose([beside[0], beside[1], on_peg.pose[2, 3]], yaw_of(loose.pose))
+
+    estimates = locate_blocks(DepthCamera(seed=0).capture(world), board)
+
+    assert len(estimates) == 6
+    fallen = [estimate for estimate in estimates if estimate.peg is None]
+    assert len(fallen) == 1 and fallen[0].ok, fallen
+    assert errors(fallen[0], loose)[0] < POSITION_TOLERANCE
+    held = block_on_peg(estimates, 1)
+    assert held is not None and held.ok, held
+    position_error, yaw_error = errors(held, on_peg)
+    assert position_error < POSITION_TOLERANCE and yaw_error < YAW_TOLERANCE

@@ -12,13 +12,15 @@ import numpy as np
 from py_trees.common import Status
 
 from pegbt.behaviours.base import RESOURCES, MotionLeaf, RobotLeaf, arm_param, keep_apart_param, key_param, peg_param
-from pegbt.behaviours.motion import above_pegs_first, held_param
+from pegbt.behaviours.motion import SLIP_CHECK, above_pegs_first, held_param, slip
 from pegbt.behaviours.poses import approach_for, transfer_for
 from pegbt.executive.params import Param
 from pegbt.executive.registry import behaviour
 from pegbt.motion.ik import solve_ik
 from pegbt.motion.kinematics import forward_kinematics
 from pegbt.perception.blocks import BlockEstimate, block_on_peg
+
+SAME_BLOCK = 0.005  # m: a block seen this near where the last pick chose one is that block (a miss may nudge it)
 
 @behaviour(
     "select_grasp",
@@ -29,6 +31,12 @@ from pegbt.perception.blocks import BlockEstimate, block_on_peg
         peg_param("peg", "peg the block should be on"),
         Param("dropped", bool, "if the peg is empty, take the block lying on the board nearest to it (`$key`: only "
               "once the transfer has lost its block, so an empty pick peg is reported, not covered up)",
+              default=False, blackboard=True),
+        Param("strays", list[int], "with `dropped`: pegs a lost block may have fallen onto and no block belongs on yet "
+              "(the peg under the handover's meeting point); a block there is taken if none lies on the board",
+              choices=tuple(range(12)), default=[]),
+        Param("another", bool, "pick again: if the block is the one last chosen (still within `SAME_BLOCK` of "
+              "where it was seen), prefer another of its candidates than the one that failed (`$key`)",
               default=False, blackboard=True),
         key_param("block", "write", "the block chosen (perception's estimate)"),
         key_param("grasp", "write", "the grasp chosen (tip pose in the arm frame)"),
@@ -45,12 +53,14 @@ class SelectGrasp(RobotLeaf):
             loose = [b for b in blocks if b.ok and b.peg is None]
             target = self.skills.cell.pegs.positions[peg]
             block = min(loose, key=lambda b: float(np.linalg.norm(b.position[:2] - target)), default=None)
+            for stray in self.param("strays"):
+                block = block or block_on_peg(blocks, stray)
         if block is None:
             return self.fail(f"no block seen on peg {peg}" + (" nor on the board" if self.param("dropped") else ""))
         where = f"peg {peg}" if block.peg is not None else f"the board at {np.round(block.position[:2] * 1000, 1).tolist()} mm"
         if not block.ok:
             return self.fail(f"the block on {where} is not located reliably: {block.reason}")
-        grasp = self.skills.selectors[arm].pick(block)
+        grasp = self.skills.selectors[arm].pick(block, avoid=self._failed_candidate(block))
         if grasp is None:
             return self.fail(f"no grasp of the block on {where} is within {arm}'s yaw window and reach")
         self.put("block", block)
@@ -58,6 +68,19 @@ class SelectGrasp(RobotLeaf):
         self.feedback_message = (f"{arm} grasps the block on {where} at candidate {grasp.candidate}, "
                                  f"yaw {math.degrees(grasp.yaw):.0f}°")
         return Status.SUCCESS
+
+    def _failed_candidate(self, block: BlockEstimate) -> tuple[int, ...]:
+        """The candidate chosen last time, if this is a pick again of the same block."""
+        if not self.param("another"):
+            return ()
+        try:
+            last_block: BlockEstimate = self.get("block")
+            last_grasp = self.get("grasp")
+        except KeyError:
+            return ()
+        if np.linalg.norm(last_block.position[:2] - block.position[:2]) > SAME_BLOCK:
+            return ()
+        return (last_grasp.candidate,)
 
 
 @behaviour(
@@ -111,3 +134,22 @@ class CloseOnBlock(MotionLeaf):
             return self.fail(f"{arm}'s jaw closed to {math.degrees(angle):.0f}° on nothing: no block between the jaws")
         self.feedback_message = f"{arm} holds a block (jaw stopped at {math.degrees(angle):.0f}°)"
         return Status.SUCCESS
+
+
+@behaviour(
+    "keep_holding",
+    "run while `arm`'s jaw still holds its block (looking every few ticks' worth of time); fail at once if "
+    "the block slipped out: a giver waiting at the meeting point must notice a slip there, or the receiver "
+    "closes on nothing and nobody fetches the block",
+    params=(arm_param(), held_param()),
+    resources=RESOURCES,
+)
+class KeepHolding(RobotLeaf):
+    def act(self) -> Status:
+        arm = self.param("arm")
+        slipped = slip(self.client(arm).jaw.measured_js.position[0], self.param("held_above"))
+        if slipped:
+            return self.fail(f"the block slipped from {arm}'s jaw ({slipped}) while it waited")
+        self.wake_at = self.context.clock.now() + SLIP_CHECK
+        self.feedback_message = f"{arm} holds its block"
+        return Status.RUNNING

@@ -59,13 +59,18 @@ class CarryLeaf(MotionLeaf):
         self.feedback_message = f"planned in {trajectory.duration:.2f} s ({self.skills.condition})"
 
     def watch(self) -> Status:
-        arm = self.param("arm")
-        angle = float(self.client(arm).jaw.measured_js.position[0])
-        if angle <= self.param("held_above"):
-            return self.fail(f"the block slipped from {arm}'s jaw (jaw at {math.degrees(angle):.0f}°) during {self.name}")
+        slipped = slip(self.client(self.param("arm")).jaw.measured_js.position[0], self.param("held_above"))
+        if slipped:
+            return self.fail(f"the block slipped from {self.param('arm')}'s jaw ({slipped}) during {self.name}")
         if self.wake_at is not None:
             self.wake_at = min(self.wake_at, self.context.clock.now() + SLIP_CHECK)
         return Status.RUNNING
+
+
+def slip(jaw_angle: float, held_above: float) -> str | None:
+    """How the jaw shows that its block slipped out (it closed past `held_above`), or None if it still holds it."""
+    angle = float(jaw_angle)
+    return f"jaw at {math.degrees(angle):.0f}°" if angle <= held_above else None
 
 
 def held_param() -> Param:

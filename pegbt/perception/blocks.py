@@ -24,11 +24,12 @@ from pegbt.frames import invert_rigid, yaw_of, yaw_pose
 from pegbt.perception.board import BoardEstimate
 from pegbt.perception.cloud import Points, to_open3d
 from pegbt.perception.models import block_model
-from pegbt.perception.segment import SegmentSettings, block_segments
+from pegbt.perception.segment import SegmentSettings, block_segments, clusters, split_by_nearest_peg
 from pegbt.workcell import Workcell, workcell
 
 _registration = o3d.pipelines.registration
 SYMMETRY = 2 * math.pi / 3  # the block looks the same turned by 120°
+RESTART_YAWS = tuple(math.radians(turn) for turn in (0.0, 30.0, 60.0, 90.0))  # within the 120° symmetry
 
 
 @dataclass(frozen=True)
@@ -45,6 +46,8 @@ class BlockSettings:
     max_tilt: float = math.radians(8.0)  # blocks lie flat, on a peg or on the board
     top_face_depth: float = 0.001  # points this close to the highest belong to the top face
     on_peg_tolerance: float = 0.0005  # beyond the hole's clearance around a peg
+    surrounded_points: int = 50  # a touching cluster with this many points around a peg's axis has a block on it
+    part_distance: float = 0.0015  # points this near a fitted block belong to it (taking touching blocks apart)
     segment: SegmentSettings = field(default_factory=SegmentSettings)
 
 
@@ -90,7 +93,74 @@ class BlockLocator:
         board_points = board.to_board(cloud)
         peg_xy = board.peg_tops[:, :2]
         segments = block_segments(board_points, peg_xy, self.cell, self.settings.segment)
-        return [self.register(segment, peg_xy) for segment in segments]
+        estimates = [self.register(segment, peg_xy) for segment in segments.blocks]
+        for cluster in segments.touching:
+            estimates += self.take_apart(cluster, peg_xy)
+        return estimates
+
+    def take_apart(self, cluster: Points, peg_xy: Points) -> list[BlockEstimate]:
+        """The blocks of a cluster too wide for one. Blocks touching across neighbouring pegs are cut apart
+        by nearest peg (the paper's per-peg crop). If that leaves a doubtful fit, a block lies loose
+        against another, and the crop cut it in two: then the block on each peg the cluster surrounds is
+        fitted first, by ICP from that peg's axis, and its points taken out; what is left is registered
+        as the blocks lying loose."""
+        cropped = [self.register(part, peg_xy) for part in split_by_nearest_peg(cluster, peg_xy)
+                   if len(part) >= self.settings.segment.min_points]
+        if all(estimate.ok for estimate in cropped):
+            return cropped
+        estimates: list[BlockEstimate] = []
+        rest = cluster
+        for peg in self._surrounded_pegs(cluster, peg_xy):
+            near = rest[np.linalg.norm(rest[:, :2] - peg_xy[peg], axis=1) < self.cell.block.corner_distance]
+            if len(near) < self.settings.segment.min_points:
+                continue
+            mine = self._near_model(rest, self._fit_from_yaws(near, self.initial_pose(near, peg_xy)))
+            estimates.append(self.register(rest[mine], peg_xy))
+            rest = rest[~mine]
+        if not estimates:
+            return cropped
+        return estimates + [self.register(part, peg_xy) for part in clusters(rest, self.settings.segment)]
+
+    def _fit_from_yaws(self, segment: Points, initial: NDArray[np.float64]) -> NDArray[np.float64]:
+        """The best of ICP fits from `initial` turned by each of `RESTART_YAWS`: the other block's points
+        spoil the yaw read off the top face, and ICP started 60° out settles on a wrong fit."""
+        source = to_open3d(segment)
+        fits = [self._fit(segment, initial @ yaw_pose([0.0, 0.0, 0.0], turn), robust=True) for turn in RESTART_YAWS]
+        fitness = [_registration.evaluate_registration(source, self._model, self.settings.quality_distance,
+                                                       invert_rigid(fit)).fitness for fit in fits]
+        return fits[int(np.argmax(fitness))]
+
+    def _surrounded_pegs(self, cluster: Points, peg_xy: Points) -> list[int]:
+        """Pegs whose axis the cluster surrounds (points all round it, centred on it), most points first."""
+        model = self.cell.block
+        found = []
+        for peg, xy in enumerate(peg_xy):
+            ring = cluster[np.linalg.norm(cluster[:, :2] - xy, axis=1) < model.edge_distance]
+            if len(ring) >= self.settings.surrounded_points and np.linalg.norm(ring[:, :2].mean(axis=0) - xy) < model.hole_radius:
+                found.append((len(ring), peg))
+        return [peg for _, peg in sorted(found, reverse=True)]
+
+    def _near_model(self, points: Points, block_to_board: NDArray[np.float64]) -> NDArray[np.bool_]:
+        """Which `points` (board frame) lie within `part_distance` of the block model placed at `block_to_board`."""
+        local = to_open3d(points).transform(invert_rigid(block_to_board))
+        return np.asarray(local.compute_point_cloud_distance(self._model)) < self.settings.part_distance
+
+    def _fit(self, segment: Points, initial: NDArray[np.float64], robust: bool = False) -> NDArray[np.float64]:
+        """The block pose (board frame) that ICP fits to `segment` from `initial`, coarse to fine; `robust`:
+        with a Tukey loss, so points of another block touching this one do not pull the fit towards it."""
+        source = to_open3d(segment)
+        T = invert_rigid(initial)  # ICP moves the segment into the block frame
+        for distance in self.settings.distances:
+            loss = _registration.TukeyLoss(k=distance / 2) if robust else _registration.L2Loss()
+            T = _registration.registration_icp(
+                source,
+                self._model,
+                distance,
+                T,
+                _registration.TransformationEstimationPointToPlane(loss),
+                _registration.ICPConvergenceCriteria(max_iteration=self.settings.max_iterations),
+            ).transformation
+        return invert_rigid(T)
 
     def register(self, segment: Points, peg_xy: Points) -> BlockEstimate:
         """The block whose visible surface is `segment` (board frame)."""
@@ -98,18 +168,9 @@ class BlockLocator:
         if len(segment) > settings.max_points:
             return self._failure(segment, peg_xy, f"{len(segment)} points are too many for one block")
         source = to_open3d(segment)
-        T = invert_rigid(self.initial_pose(segment, peg_xy))  # ICP moves the segment into the block frame
-        for distance in settings.distances:
-            T = _registration.registration_icp(
-                source,
-                self._model,
-                distance,
-                T,
-                _registration.TransformationEstimationPointToPlane(),
-                _registration.ICPConvergenceCriteria(max_iteration=settings.max_iterations),
-            ).transformation
+        pose = self._fit(segment, self.initial_pose(segment, peg_xy))
+        T = invert_rigid(pose)
         quality = _registration.evaluate_registration(source, self._model, settings.quality_distance, T)
-        pose = invert_rigid(T)
         position, yaw = pose[:3, 3], wrap_symmetric(yaw_of(pose))
         tilt = math.acos(min(1.0, pose[2, 2]))
         reason = ""

@@ -16,7 +16,7 @@ yaw in (-90°, 90°], the smaller turn from the tool's neutral orientation.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Collection
 from dataclasses import dataclass
 
 import numpy as np
@@ -102,9 +102,10 @@ class GraspSelector:
             )
         return [option for option, ok in zip(in_window, accepted) if ok]
 
-    def pick(self, block: BlockEstimate) -> Grasp | None:
+    def pick(self, block: BlockEstimate, avoid: Collection[int] = ()) -> Grasp | None:
         """The paper's grasp of a located block: feasible, and farthest (in x, y) from the block's peg,
-        ties going to the candidate nearest to the arm (its remote centre, in x, y).
+        ties going to the candidate nearest to the arm (its remote centre, in x, y). Candidates in `avoid`
+        (one that just missed) are taken only if no other is feasible.
 
         For a block lying on the board, "its peg" is the nearest one. None if no candidate is feasible.
         """
@@ -112,7 +113,8 @@ class GraspSelector:
             raise PegbtError(f"the block's pose is not trustworthy ({block.reason})", field="block")
         pegs = self.cell.pegs.positions
         peg = block.peg if block.peg is not None else int(np.argmin(np.linalg.norm(pegs - block.position[:2], axis=1)))
-        options = self.feasible(block.pose)
+        feasible = self.feasible(block.pose)
+        options = [option for option in feasible if option.candidate not in avoid] or feasible
         if not options:
             return None
         from_peg = np.array([np.linalg.norm(option.board_position[:2] - pegs[peg]) for option in options])

@@ -4,7 +4,7 @@ In the board frame the plane is known (z = surface), so removing it is a height 
 shafts are removed inside a radius halfway between peg and hole wall (the paper's inner annulus). What
 remains is blocks (and anything else above the board). Open3D's DBSCAN clusters it over the whole board,
 so a block that fell off its peg is found as readily as one on a peg; a cluster too wide for one block
-(blocks touching across neighbouring pegs) is split by nearest peg, the paper's per-peg crop.
+(blocks touching each other) is returned apart, for registration to separate block by block.
 """
 
 from __future__ import annotations
@@ -30,8 +30,17 @@ class SegmentSettings:
     wide_margin: float = 0.002  # a cluster this much wider than a block holds more than one
 
 
-def block_segments(board_points: Points, peg_xy: Points, cell: Workcell, settings: SegmentSettings) -> list[Points]:
-    """Point sets (board frame), each one block's visible surface, largest first.
+@dataclass(frozen=True)
+class Segments:
+    """A capture's raised points, clustered: `blocks` one block wide each; `touching` too wide for one
+    block (blocks touching each other), left for registration to take apart (`BlockLocator`)."""
+
+    blocks: list[Points]
+    touching: list[Points]
+
+
+def block_segments(board_points: Points, peg_xy: Points, cell: Workcell, settings: SegmentSettings) -> Segments:
+    """The raised points of a capture clustered into blocks, each list largest first.
 
     `board_points`: the capture in the board frame; `peg_xy` (12, 2): where the pegs stand.
     """
@@ -40,20 +49,19 @@ def block_segments(board_points: Points, peg_xy: Points, cell: Workcell, setting
     raised = board_points[(z < surface - settings.plane_margin) & (z > surface - settings.max_height)]
     peg_distance = np.linalg.norm(raised[:, None, :2] - peg_xy[None], axis=2)
     off_pegs = peg_distance.min(axis=1) > (cell.pegs.radius + block.hole_radius) / 2
-    thinned = to_open3d(raised[off_pegs]).voxel_down_sample(settings.voxel)
-    points = np.asarray(thinned.points)
+    points = np.asarray(to_open3d(raised[off_pegs]).voxel_down_sample(settings.voxel).points)
+    found = clusters(points, settings)
+    wide = [xy_span(cluster) > 2 * block.corner_distance + settings.wide_margin for cluster in found]
+    return Segments([c for c, w in zip(found, wide) if not w], [c for c, w in zip(found, wide) if w])
+
+
+def clusters(points: Points, settings: SegmentSettings) -> list[Points]:
+    """Open3D's DBSCAN clusters of `points` with at least `min_points` points, largest first."""
     if len(points) < settings.min_points:
         return []
-    labels = np.asarray(thinned.cluster_dbscan(settings.cluster_distance, settings.cluster_min_points))
-    segments: list[Points] = []
-    for label in range(labels.max() + 1):
-        cluster = points[labels == label]
-        if xy_span(cluster) > 2 * block.corner_distance + settings.wide_margin:
-            segments += _split_by_nearest_peg(cluster, peg_xy)
-        else:
-            segments.append(cluster)
-    segments = [segment for segment in segments if len(segment) >= settings.min_points]
-    return sorted(segments, key=len, reverse=True)
+    labels = np.asarray(to_open3d(points).cluster_dbscan(settings.cluster_distance, settings.cluster_min_points))
+    found = [points[labels == label] for label in range(labels.max() + 1)]
+    return sorted([cluster for cluster in found if len(cluster) >= settings.min_points], key=len, reverse=True)
 
 
 def xy_span(points: Points) -> float:
@@ -64,7 +72,8 @@ def xy_span(points: Points) -> float:
     return float(np.linalg.norm(xy - extreme, axis=1).max())
 
 
-def _split_by_nearest_peg(cluster: Points, peg_xy: Points) -> list[Points]:
-    """`cluster` cut into the parts nearest to each peg (each peg's Voronoi cell)."""
+def split_by_nearest_peg(cluster: Points, peg_xy: Points) -> list[Points]:
+    """`cluster` cut into the parts nearest to each peg (each peg's Voronoi cell): the paper's per-peg crop,
+    for touching blocks none of which is on a peg."""
     nearest = np.argmin(np.linalg.norm(cluster[:, None, :2] - peg_xy[None], axis=2), axis=1)
     return [cluster[nearest == peg] for peg in np.unique(nearest)]

@@ -28,6 +28,8 @@ from pegbt.sim.tools import ToolState
 from pegbt.workcell import Workcell, workcell
 
 _LOST_BELOW_BOARD = 0.1  # where a block that left the workspace lies: on the floor, 10 cm below the board
+_SLIDE_STEP = 0.0005  # m: a block that fell against pegs slides off them in steps this long
+_SLIDE_STEPS = 200  # at most this many (10 cm): a block cannot rest inside a peg
 
 
 @dataclass(frozen=True)
@@ -43,6 +45,7 @@ class WorldConfig:
     grasp_search_radius: float = 0.015  # a closing jaw this near a block's centre is a grasp attempt
     handover_pull_apart: float = 0.003  # two grips disagreeing by more than this: the later one slips
     peg_slack: float = 0.0  # extra clearance allowed between hole and peg before the block catches
+    tip_off_clearance: float = 0.003  # m: a block that fell against pegs slides off until this far clear of them
     board_press_tolerance: float = 0.0005  # a held block pushed this far into the board is a collision
     initial_yaw_spread: float = math.pi / 3  # initial yaws are drawn from ± this
 
@@ -279,10 +282,10 @@ class World:
         feet = np.column_stack([self.cell.pegs.positions, np.full(len(self._peg_tops), bottom[2])])
         return ((feet - bottom) @ block.pose[:3, :3])[:, :2]
 
-    def _in_footprint(self, points: Matrix) -> Matrix:
-        """Which (n, 2) block-frame peg positions touch the block's solid outline."""
+    def _in_footprint(self, points: Matrix, margin: float = 0.0) -> Matrix:
+        """Which (n, 2) block-frame peg positions touch the block's solid outline (or come within `margin`)."""
         normals, offsets = self.cell.block.outline_planes
-        return (points @ normals.T - offsets).max(axis=1) <= self.cell.pegs.radius
+        return (points @ normals.T - offsets).max(axis=1) <= self.cell.pegs.radius + margin
 
     def _check_pegs(self, block: Block) -> None:
         """A carried block must keep its hole around the peg it is threaded on, and hit no other peg."""
@@ -365,15 +368,9 @@ class World:
             else:
                 self._log("drop", arm, block.index, peg, f"onto peg {peg}")
             return
-        xy = block.pose[:2, 3].copy()
-        detail = ""
         struck = np.flatnonzero(self._in_footprint(self._pegs_in_block_frame(block)))
-        if len(struck):  # it lands on a peg's top and tips off it, away from the peg
-            foot = self.cell.pegs.positions[struck[0]]
-            away = xy - foot
-            away = away / np.linalg.norm(away) if np.linalg.norm(away) > 1e-9 else np.array([1.0, 0.0])
-            xy = foot + away * (self.cell.block.corner_distance + self.cell.pegs.radius)
-            detail = f" off the top of peg {struck[0]}"
+        detail = f" off the top of peg {struck[0]}" if len(struck) else ""
+        xy = self._clear_of_pegs(block)
         board = self.cell.board
         if board.contains_xy(*xy):
             block.pose = yaw_pose([xy[0], xy[1], board.surface_z], yaw)
@@ -382,6 +379,20 @@ class World:
             block.lost = True
             block.pose = yaw_pose([xy[0], xy[1], board.surface_z + _LOST_BELOW_BOARD], yaw)
             self._log("drop", arm, block.index, None, f"off the workspace{detail}")
+
+    def _clear_of_pegs(self, block: Block) -> Matrix:
+        """Where (board x, y) a block falling at its pose comes to rest: one landing on a peg's top (or
+        between pegs) tips and slides off, away from every peg it touches, until it rests
+        `tip_off_clearance` clear of them all, so a later grasp does not find it pressed against a peg."""
+        margin = self.config.tip_off_clearance
+        for _ in range(_SLIDE_STEPS):
+            touching = np.flatnonzero(self._in_footprint(self._pegs_in_block_frame(block), margin))
+            if not len(touching):
+                break
+            away = sum((_unit(block.pose[:2, 3] - self.cell.pegs.positions[peg]) for peg in touching), np.zeros(2))
+            block.pose[:2, 3] += _SLIDE_STEP * _unit(away)
+        return block.pose[:2, 3].copy()
+
 
     def _rest_on_peg(self, block: Block, peg: int, yaw: float) -> None:
         """Seat a block on a peg, on top of any blocks already resting there."""
@@ -432,6 +443,12 @@ class World:
         starts, ends, radii = state.segments(self.cell.tool)
         reach = radii[:, None]
         return starts, ends, radii, np.minimum(starts, ends) - reach, np.maximum(starts, ends) + reach
+
+
+def _unit(vector: Matrix) -> Matrix:
+    """`vector` scaled to length 1 (board x if it is zero)."""
+    length = float(np.linalg.norm(vector))
+    return vector / length if length > 1e-9 else np.array([1.0, 0.0])
 
 
 def boxes_overlap(low_a: Matrix, high_a: Matrix, low_b: Matrix, high_b: Matrix) -> Matrix:

@@ -1,0 +1,35 @@
+"""A pick again after a missed grasp tries another of the block's grasp candidates, not the one that missed."""
+
+from __future__ import annotations
+
+from pegbt.evaluation.trial import TrialSpec, run_trial
+from pegbt.perception.grasp import GraspSelector
+from tests.test_eval_why import short_task
+from tests.test_perception_grasp import everywhere, off_peg
+
+
+def test_the_selector_avoids_a_candidate_while_another_is_feasible():
+    block = off_peg(2, 75.0)
+    selector = GraspSelector("PSM1", everywhere)
+    first = selector.pick(block)
+    again = selector.pick(block, avoid=(first.candidate,))
+    assert again is not None and again.candidate != first.candidate
+    everything = tuple(range(6))
+    assert selector.pick(block, avoid=everything).candidate == first.candidate  # nothing else: the same again
+
+
+def test_the_pick_after_a_miss_chooses_another_candidate(tmp_path, monkeypatch):
+    chosen = []
+    pick = GraspSelector.pick
+
+    def recording(self, block, avoid=()):
+        grasp = pick(self, block, avoid)
+        chosen.append(grasp.candidate)
+        return grasp
+
+    monkeypatch.setattr(GraspSelector, "pick", recording)
+    faults = tmp_path / "miss.yaml"
+    faults.write_text("world: {miss_attempts: [0]}\n")
+    record = run_trial(TrialSpec("unilateral", "optimized", 3, tmp_path / "miss.jsonl", faults, tree=short_task(tmp_path)))
+    assert record.complete and [fault["recovered"] for fault in record.faults] == [True]
+    assert len(chosen) == 2 and chosen[0] != chosen[1], chosen
