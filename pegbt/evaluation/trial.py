@@ -8,7 +8,6 @@ process calls, so its argument and result are picklable.
 
 from __future__ import annotations
 
-import json
 import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -17,6 +16,7 @@ from typing import Any
 from pegbt.behaviours.trial import count_contacts
 from pegbt.errors import PegbtError
 from pegbt.evaluation.truth import failure_cause, injected_faults
+from pegbt.sim.log import read_sim_log
 
 TREES = Path(__file__).resolve().parents[2] / "trees"
 # A trial that has not ended after this much simulated time is stopped (a tree that loops, a hung recovery):
@@ -90,7 +90,7 @@ def run_trial(spec: TrialSpec) -> TrialRecord:
         return record
     record.run_wall_s = time.perf_counter() - started
     record.outcome, record.trial_time_s = output.result.outcome, output.result.duration
-    entries = read_truth(truth)
+    entries = read_sim_log(truth)
     record.arm_arm_collisions, record.other_contacts = count_contacts(entries)
     judged, skills = output.reports.get("robot"), output.reports.get("skills")
     if skills is not None:
@@ -118,14 +118,6 @@ def run_trial(spec: TrialSpec) -> TrialRecord:
 def truth_path(log: Path) -> Path:
     """Where a trial's simulator log (its ground truth) goes: beside its tick log."""
     return log.with_name(log.name.removesuffix(".jsonl") + ".truth.jsonl")
-
-
-def read_truth(path: Path) -> list[dict[str, Any]]:
-    """The simulator's log entries (times in simulated seconds, the executive's clock in lockstep)."""
-    try:
-        return [json.loads(line) for line in path.read_text(encoding="utf-8").splitlines() if line.strip()]
-    except (OSError, json.JSONDecodeError) as error:
-        raise PegbtError(f"cannot read the simulator's log: {error}", file=path) from None
 
 
 def _fill_from_judge(record: TrialRecord, figures: dict[str, Any]) -> None:

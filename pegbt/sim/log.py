@@ -47,6 +47,27 @@ class SimLog:
             self._file = None
 
 
+def read_sim_log(path: Path) -> list[dict[str, Any]]:
+    """The entries a `SimLog` wrote to `path` (times in simulated seconds); a `PegbtError` naming the line
+    of anything that is not one JSON object per line (a simulator killed mid-write, say)."""
+    try:
+        lines = path.read_text(encoding="utf-8").splitlines()
+    except OSError as error:
+        raise PegbtError(f"cannot read the simulator's log: {error.strerror}", file=path) from None
+    entries = []
+    for number, line in enumerate(lines, 1):
+        if not line.strip():
+            continue
+        try:
+            entry = json.loads(line)
+        except json.JSONDecodeError as error:
+            raise PegbtError(f"not a log entry: {error.msg}", file=path, line=number, column=error.colno) from None
+        if not isinstance(entry, dict):
+            raise PegbtError("not a log entry: expected a JSON object", file=path, line=number)
+        entries.append(entry)
+    return entries
+
+
 def _plain(value: Any) -> Any:
     """numpy scalars and arrays as plain JSON values."""
     return value.tolist() if hasattr(value, "tolist") else str(value)
