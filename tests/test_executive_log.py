@@ -163,7 +163,7 @@ def test_why_reports_recoveries_that_helped(tmp_path):
     assert result.outcome == "success"
     text = why(read_tick_log(path))
     assert "the run succeeded; failures below were recovered" in text
-    assert "/pick with recovery: main failed at t=0.000 s (missed); recovery success at t=0.200 s; " \
+    assert "/pick with recovery: main failed at t=0.000 s (pick: missed); recovery success at t=0.200 s; " \
            "main was retried and succeeded at t=0.300 s: it helped" in text
 
 

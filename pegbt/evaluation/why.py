@@ -1,10 +1,10 @@
 """Does `pegbt log why` name the step and cause the simulator confirms? One answer per failed transfer.
 
-The tick log says which leaf failed and why (`pegbt.executive.analysis.failure_steps`, what `pegbt log
-why` prints); the transfer a failure belongs to is the subtree around the transfer's `begin_transfer`
-leaf (and, for a handover, the receiver's subtree that finishes the same transfer key). The last failure
-`why` names inside a failed transfer is its stated cause; its leaf's kind gives the step, compared with
-the step the ground truth gives (`pegbt.evaluation.truth`).
+The tick log says which failures the tree did not get over and what caused each (`pegbt.executive.causes
+.failure_chains`, what `pegbt log why` prints); the transfer a failure belongs to is the subtree around the
+transfer's `begin_transfer` leaf (and, for a handover, the receiver's subtree that finishes the same
+transfer key). The first cause of the chains inside a failed transfer is its stated cause; its leaf's kind
+gives the step, compared with the step the ground truth gives (`pegbt.evaluation.truth`).
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from pegbt.evaluation.truth import Cause, confirms, failure_cause, final_check_cause, setbacks
-from pegbt.executive.analysis import FailureStep, failure_steps
+from pegbt.executive.causes import FailureStep, Timeline, failure_chains, failure_step, first_cause, recoveries
 from pegbt.executive.logfile import TickLog
 
 # The step a failing leaf stands for, by behaviour: the words the ground truth's causes use.
@@ -77,29 +77,30 @@ def _inside(path: str, scopes: Sequence[str]) -> bool:
 
 
 def check_why(log: TickLog, failed: Sequence[Mapping[str, Any]], entries: Sequence[Mapping[str, Any]]) -> list[WhyCheck]:
-    """Compare, for each failed transfer (as the judge reports it), the last failure `why` names inside it with
-    the simulator's log; and, when the run itself failed, the run's failure (transfer 0) with what the
+    """Compare, for each failed transfer (as the judge reports it), the first cause `why` names inside it with
+    the simulator's log; and, when the run itself failed, the run's first cause (transfer 0) with what the
     simulator says of the pegs the failing leaf checked."""
-    steps = failure_steps(log)
+    timeline = Timeline(log)
+    chains = failure_chains(log, timeline)
+    steps = sorted({(step.t, step.path): step for chain in chains for step in chain.steps}.values(), key=lambda step: step.t)
+    recovered = [failure_step(log, recovery.origin) for recovery in recoveries(timeline)]
     scopes = transfer_scopes(log)
     checks = []
     for transfer in failed:
-        named = _last_named([step for step in steps if _inside(step.path, scopes.get(transfer["index"], []))])
+        scope = scopes.get(transfer["index"], [])
+        # the failures the tree did not get over; if it got over all (it thought the block placed), those it recovered from
+        inside = [step for step in steps if _inside(step.path, scope)] or [step for step in recovered if _inside(step.path, scope)]
+        named = first_cause(inside) if inside else None
         step = _named_step(named)
         seen = setbacks(transfer, entries)
         confirmed = named is not None and step is not None and confirms(step, named.t, seen)
         checks.append(WhyCheck(transfer["index"], _describe(named), step, failure_cause(transfer, entries), confirmed))
-    named = _last_named([step for step in steps if step.handled == "run"])
-    if named is not None:
+    run = next((chain for chain in chains if chain.handled == "run"), None)
+    if run is not None:
+        named = run.first_cause
         pegs = next((node["params"].get("pegs") for node in log.nodes if node["path"] == named.path), None) or []
         checks.append(WhyCheck(0, _describe(named), _named_step(named), final_check_cause(pegs, entries, named.t)))
     return checks
-
-
-def _last_named(steps: Sequence[FailureStep]) -> FailureStep | None:
-    """The last failure that names a step: control flow that failed on the way (a check that the board was
-    already registered) or a side that waited for the other in vain only echoes it."""
-    return next((step for step in reversed(steps) if _named_step(step)), steps[-1] if steps else None)
 
 
 def _named_step(step: FailureStep | None) -> str | None:
