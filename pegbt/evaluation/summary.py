@@ -19,8 +19,7 @@ from rich.table import Table
 from pegbt.evaluation.campaign import Cell
 from pegbt.evaluation.paper import GOAL_SUCCESS_RATE, GOAL_WALL_S, PAPER, goal_mean_transfer_s
 from pegbt.evaluation.trial import TrialRecord
-
-STEPS = ("grasp", "carry", "place", "sense")
+from pegbt.evaluation.truth import STEPS
 
 
 def _mean(values: Sequence[float]) -> float | None:

@@ -101,12 +101,12 @@ def run_trial(spec: TrialSpec) -> TrialRecord:
     log = read_tick_log(spec.log)
     record.transfers_attempted = max(len(record.transfers), sum(node["type"] == "begin_transfer" for node in log.nodes))
     for transfer in record.transfers:
-        cause = None if transfer["succeeded"] else failure_cause(transfer, entries)
+        cause = None if transfer["succeeded"] else failure_cause(transfer, entries, record.transfers)
         transfer["cause"], transfer["cause_event"] = (cause.step, cause.event) if cause else ("", "")
     record.faults = [asdict(fault) for fault in injected_faults(record.transfers, entries, record.outcome == "success")]
     failed = [transfer for transfer in record.transfers if not transfer["succeeded"]]
     if failed or record.outcome != "success":
-        record.why = [{**asdict(check), "agrees": check.agrees} for check in check_why(log, failed, entries)]
+        record.why = [{**asdict(check), "agrees": check.agrees} for check in check_why(log, record.transfers, entries)]
     if spec.keep_log or not record.complete or record.faults:
         record.log = str(spec.log)
     else:

@@ -7,7 +7,11 @@ use, so the two can be compared (`pegbt.evaluation.why`):
 - `grasp`: a closing jaw gripped nothing (`grasp_miss`, geometric or injected);
 - `carry`: the block left a closed jaw between grasp and release (a slip, a peg that caught or struck it);
 - `place`: the block was released but did not come to rest on the goal peg;
-- `sense`: nothing was tried on the block (perception gave no usable block: a noise burst, a lost block).
+- `handover`: the block never passed from the giver to the receiver (the receiver never gripped it from
+  the giver, or the giver let go of it while nobody else held it);
+- `sense`: the block was not there to be seen (an empty pick peg, one holding two blocks, a noise burst,
+  a block lost off the workspace);
+- `reach`: no arm went for the block, which sat alone on its pick peg (no camera fault in the way).
 """
 
 from __future__ import annotations
@@ -21,6 +25,7 @@ from pegbt.workcell import workcell
 
 GRACE = 0.5  # s after a transfer's end in which its events still count (the block settles), as the judge's
 CONFIRM_WINDOW = 5.0  # s before a leaf's failure in which the simulator's event must lie to confirm it
+STEPS = ("grasp", "carry", "place", "handover", "sense", "reach", "none")  # a cause's step; none: nothing seen going wrong
 INJECTED = ("grasp miss injected", "slip injected", "depth noise burst")  # world and camera faults, by detail prefix
 
 Entry = Mapping[str, Any]
@@ -31,7 +36,7 @@ Transfer = Mapping[str, Any]
 class Cause:
     """Why a transfer failed, by the simulator: the step and the event that ended it."""
 
-    step: str  # grasp, carry, place, sense
+    step: str  # grasp, carry, place, handover, sense, reach (none: the simulator saw nothing go wrong)
     event: str  # the deciding event, e.g. "collision: block-peg: caught on peg 1: hole 2.1 mm off its axis"
     time: float | None = None  # when it happened; None for a state (a peg that was empty)
 
@@ -57,6 +62,12 @@ def _arms(transfer: Transfer) -> set[str]:
     return set(str(transfer["arms"]).replace("→", "+").split("+"))
 
 
+def _roles(transfer: Transfer) -> tuple[str, str | None]:
+    """(giver, receiver) of a handover ("PSM2→PSM1"); (the arms, None) for a transfer by one arm or two."""
+    giver, _, receiver = str(transfer["arms"]).partition("→")
+    return giver, receiver or None
+
+
 def _involves(entry: Entry, arms: set[str]) -> bool:
     return bool(entry.get("arm")) and bool(set(str(entry["arm"]).split("+")) & arms)
 
@@ -70,20 +81,24 @@ def transfer_blocks(transfer: Transfer, entries: Sequence[Entry]) -> set[int]:
                  and start <= e["time"] <= stop and _involves(e, arms)), set())
 
 
-def setbacks(transfer: Transfer, entries: Sequence[Entry]) -> list[Cause]:
+def setbacks(transfer: Transfer, entries: Sequence[Entry], others: Sequence[Transfer] = ()) -> list[Cause]:
     """Everything the simulator saw go wrong for a transfer, in order: what befell its block (grasp misses,
-    slips, knocks, a missed placement); for a transfer that never touched a block on its pick peg, its arms'
-    grasps that gripped nothing; and, as `sense`, an empty pick peg when it began, noise bursts while it
-    ran and a block lost off the workspace."""
+    slips, knocks, a missed placement, a handover the giver let go of); its arms' grasps that gripped nothing
+    near another block that no other transfer (of `others`) running then worked on (a receiver closing where
+    no block is held out); for a handover, a receiver that never gripped the block from the giver; for a
+    transfer that never touched a block on its pick peg, as `sense`, a pick peg empty or holding two blocks
+    when it began, else (`reach`) that no arm went for the block on it; as `sense`, noise bursts while it ran
+    and a block lost off the workspace."""
     start, stop = _window(transfer)
     blocks = transfer_blocks(transfer, entries)
     arms = _arms(transfer)
     during = [e for e in entries if start <= e["time"] <= stop and e["kind"] != "fault"]
     found = _adverse([e for e in during if e.get("block") in blocks], transfer)
+    found += [Cause("grasp", _describe(e), e["time"]) for e in during if e["kind"] == "grasp_miss" and _involves(e, arms)
+              and e.get("block") not in blocks and not _claimed(e, others, entries)]
+    found += _not_handed_over(transfer, blocks, during)
     if not blocks:
-        found += [Cause("grasp", _describe(e), e["time"]) for e in during if e["kind"] == "grasp_miss" and _involves(e, arms)]
-        if not blocks_on_pegs(entries, start).get(transfer["pick"]):
-            found.append(Cause("sense", f"no block was on peg {transfer['pick']} when the transfer began"))
+        found += _pick_peg(transfer, entries, during)
     found += [Cause("sense", _describe(e), e["time"]) for e in entries if start <= e["time"] <= stop
               and e["kind"] == "fault" and str(e.get("detail", "")).startswith("depth noise burst")]
     found += [Cause("sense", _describe(e), e["time"]) for e in entries if e["kind"] == "drop" and e["time"] <= stop
@@ -91,19 +106,52 @@ def setbacks(transfer: Transfer, entries: Sequence[Entry]) -> list[Cause]:
     return found
 
 
-def failure_cause(transfer: Transfer, entries: Sequence[Entry]) -> Cause:
-    """What ended a failed transfer: the last thing that befell its block, else what kept it from one."""
+def _claimed(miss: Entry, others: Sequence[Transfer], entries: Sequence[Entry]) -> bool:
+    """Whether another transfer running at the moment of `miss` worked on the block it missed."""
+    return any(_window(other)[0] <= miss["time"] <= _window(other)[1] and miss.get("block") in transfer_blocks(other, entries)
+               for other in others)
+
+
+def _not_handed_over(transfer: Transfer, blocks: set[int], during: Sequence[Entry]) -> list[Cause]:
+    """A handover whose giver gripped the block and whose receiver never gripped it from the giver (a state)."""
+    giver, receiver = _roles(transfer)
+    if receiver is None or not blocks:
+        return []
+    block = next(iter(blocks))
+    taken = any(e["kind"] == "grasp" and e.get("block") == block and e.get("arm") == receiver
+                and f"handover from {giver}" in str(e.get("detail", "")) for e in during)
+    return [] if taken else [Cause("handover", f"{receiver} never gripped block {block} from {giver}")]
+
+
+def _pick_peg(transfer: Transfer, entries: Sequence[Entry], during: Sequence[Entry]) -> list[Cause]:
+    """For a transfer that never touched a block on its pick peg: what the peg held when it began."""
+    peg = transfer["pick"]
+    held = blocks_on_pegs(entries, transfer["started"]).get(peg, [])
+    if not held:
+        return [Cause("sense", f"no block was on peg {peg} when the transfer began")]
+    if len(held) > 1:
+        return [Cause("sense", f"peg {peg} held blocks {' and '.join(map(str, sorted(held)))} when the transfer began")]
+    if any(e.get("block") == held[0] for e in during):
+        return []  # another arm moved it
+    return [Cause("reach", f"no arm went for block {held[0]}, alone on peg {peg} while the transfer ran")]
+
+
+def failure_cause(transfer: Transfer, entries: Sequence[Entry], others: Sequence[Transfer] = ()) -> Cause:
+    """What ended a failed transfer: the last thing that befell its block; else, for a handover whose giver
+    gripped it, that the receiver never did (perception had found it); else what kept the arms from it (the
+    pick peg, a noise burst), else the last setback; `none` if the simulator saw nothing go wrong."""
     blocks = transfer_blocks(transfer, entries)
     start, stop = _window(transfer)
     own = _adverse([e for e in entries if start <= e["time"] <= stop and e["kind"] != "fault" and e.get("block") in blocks],
                    transfer)
     if own:
         return own[-1]
-    others = setbacks(transfer, entries)
-    sense = [cause for cause in others if cause.step == "sense"]
-    if sense:
-        return sense[0] if sense[0].time is None else sense[-1]
-    return others[-1] if others else Cause("sense", "no grasp attempted on a block of this transfer")
+    others_seen = setbacks(transfer, entries, others)
+    for step in ("handover", "sense"):
+        found = [cause for cause in others_seen if cause.step == step]
+        if found:
+            return found[0] if found[0].time is None else found[-1]
+    return others_seen[-1] if others_seen else Cause("none", "the simulator saw nothing set this transfer back")
 
 
 def confirms(step: str, time: float, causes: Sequence[Cause]) -> bool:
@@ -145,22 +193,29 @@ def blocks_on_pegs(entries: Sequence[Entry], until: float) -> dict[int, list[int
 
 def _adverse(events: Sequence[Entry], transfer: Transfer) -> list[Cause]:
     """The events that set a transfer back, each with its step. A drop is the consequence of what came just
-    before it on its block: a release (the placement missed) or a slip or knock (already counted)."""
-    causes, previous = [], {}
+    before it on its block: a release (the placement missed) or a slip or knock (already counted). In a
+    handover, a block the giver let go of that fell had never passed to the receiver (`handover`), unless the
+    receiver had gripped it and lost it (already counted)."""
+    giver, receiver = _roles(transfer)
+    causes, previous, taken = [], {}, set()
     for entry in events:
-        kind, detail = entry["kind"], str(entry.get("detail", ""))
+        kind, detail, block = entry["kind"], str(entry.get("detail", "")), entry.get("block")
         step = None
-        if kind == "grasp_miss":
+        if kind == "grasp" and receiver is not None and entry.get("arm") == receiver and f"handover from {giver}" in detail:
+            taken.add(block)
+        elif kind == "grasp_miss":
             step = "grasp"
         elif kind == "slip" or kind == "collision" and detail.startswith("block-peg"):
             step = "carry"
-        elif kind == "drop" and previous.get(entry.get("block")) == "release":
+        elif kind in ("drop", "place") and receiver is not None and previous.get(block) == ("release", giver):
+            step = None if block in taken else "handover"
+        elif kind == "drop" and previous.get(block, ("",))[0] == "release":
             step = "place"
         elif kind == "place" and entry.get("peg") != transfer["place"]:
             step = "place"
         if step is not None:
             causes.append(Cause(step, _describe(entry), entry["time"]))
-        previous[entry.get("block")] = kind
+        previous[block] = (kind, entry.get("arm"))
     return causes
 
 

@@ -23,18 +23,24 @@ STEP_OF_LEAF = {
     "transfer": "carry",  # the block left the jaw while lifted, carried or lowered
     "carry_to_handover": "carry",
     "carry_from_handover": "carry",
+    "keep_holding": "carry",  # the giver's block slipped while it held it out
+    "go_to_handover": "handover",  # the receiver did not get to the block held out
+    "descend_to_grasp": "handover",
     "release": "place",
     "check_placed": "place",  # "sense" when the peg it misses was not empty but unseen (see `_named_step`)
     "select_grasp": "sense",  # no usable block seen where one should be
     "capture": "sense",
     "register_board": "sense",
     "find_blocks": "sense",
+    "approach": "reach",  # the arm did not get to the block it saw
 }
 
 
-# A failure whose origin is not a robot leaf (a decorator, a logged message) is read by its words.
+# A failure whose origin is not a robot leaf (a decorator, a logged message) is read by its words, and a timeout
+# by what it halted: the wait it gave up on.
 STEP_OF_WORDS = (("missed the block", "grasp"), ("on nothing", "grasp"), ("slipped", "carry"),
-                 ("no block seen", "sense"), ("poor capture", "sense"), ("not located", "sense"))
+                 ("no block seen", "sense"), ("poor capture", "sense"), ("not located", "sense"),
+                 ("/handover/", "handover"))
 
 
 @dataclass(frozen=True)
@@ -76,29 +82,29 @@ def _inside(path: str, scopes: Sequence[str]) -> bool:
     return any(path.startswith(scope + "/") for scope in scopes)
 
 
-def check_why(log: TickLog, failed: Sequence[Mapping[str, Any]], entries: Sequence[Mapping[str, Any]]) -> list[WhyCheck]:
-    """Compare, for each failed transfer (as the judge reports it), the first cause `why` names inside it with
-    the simulator's log; and, when the run itself failed, the run's first cause (transfer 0) with what the
-    simulator says of the pegs the failing leaf checked."""
+def check_why(log: TickLog, transfers: Sequence[Mapping[str, Any]], entries: Sequence[Mapping[str, Any]]) -> list[WhyCheck]:
+    """Compare, for each failed transfer of `transfers` (as the judge reports them), the first cause `why` names
+    inside it with the simulator's log; and, when the run itself failed at a check of pegs, the run's first
+    cause (transfer 0) with what the simulator says of those pegs."""
     timeline = Timeline(log)
     chains = failure_chains(log, timeline)
     steps = sorted({(step.t, step.path): step for chain in chains for step in chain.steps}.values(), key=lambda step: step.t)
-    recovered = [failure_step(log, recovery.origin) for recovery in recoveries(timeline)]
+    recovered = [failure_step(timeline, recovery.origin) for recovery in recoveries(timeline)]
     scopes = transfer_scopes(log)
     checks = []
-    for transfer in failed:
+    for transfer in (transfer for transfer in transfers if not transfer["succeeded"]):
         scope = scopes.get(transfer["index"], [])
         # the failures the tree did not get over; if it got over all (it thought the block placed), those it recovered from
         inside = [step for step in steps if _inside(step.path, scope)] or [step for step in recovered if _inside(step.path, scope)]
         named = first_cause(inside) if inside else None
         step = _named_step(named)
-        seen = setbacks(transfer, entries)
+        seen = setbacks(transfer, entries, transfers)
         confirmed = named is not None and step is not None and confirms(step, named.t, seen)
-        checks.append(WhyCheck(transfer["index"], _describe(named), step, failure_cause(transfer, entries), confirmed))
+        checks.append(WhyCheck(transfer["index"], _describe(named), step, failure_cause(transfer, entries, transfers), confirmed))
     run = next((chain for chain in chains if chain.handled == "run"), None)
-    if run is not None:
-        named = run.first_cause
-        pegs = next((node["params"].get("pegs") for node in log.nodes if node["path"] == named.path), None) or []
+    named = run.first_cause if run is not None else None
+    pegs = next((node["params"].get("pegs") for node in log.nodes if named and node["path"] == named.path), None)
+    if named is not None and pegs:  # a run that failed elsewhere has no record in the simulator's log to check
         checks.append(WhyCheck(0, _describe(named), _named_step(named), final_check_cause(pegs, entries, named.t)))
     return checks
 
@@ -108,7 +114,8 @@ def _named_step(step: FailureStep | None) -> str | None:
         return None
     if step.type == "check_placed" and "(empty)" not in step.feedback:
         return "sense"  # every peg it checked had a block it could not see reliably
-    return STEP_OF_LEAF.get(step.type) or next((s for words, s in STEP_OF_WORDS if words in step.feedback), None)
+    said = " ".join((step.feedback, *step.halted))
+    return STEP_OF_LEAF.get(step.type) or next((s for words, s in STEP_OF_WORDS if words in said), None)
 
 
 def _describe(step: FailureStep | None) -> str:

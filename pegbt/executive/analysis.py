@@ -153,7 +153,7 @@ def _origin_details(timeline: Timeline, failure: Transition, indent: str, lines:
 def _short(value: Any, width: int = SHOWN_WIDTH) -> str:
     """A blackboard value as JSON (an object the log kept as its repr, as that repr), cut to `width`
     characters: a list of block estimates would fill a screen."""
-    text = value["repr"] if isinstance(value, dict) and list(value) == ["repr"] else json.dumps(value)
+    text = " ".join(value["repr"].split()) if isinstance(value, dict) and list(value) == ["repr"] else json.dumps(value)
     return text if len(text) <= width else text[: width - 3] + "..."
 
 

@@ -110,18 +110,22 @@ class Timeline:
         return bool(self.children[failure.node]) and bool(self.causes(failure))
 
     def _reached(self, failure: Transition, top: int, before: int) -> bool:
+        """Whether every node between `failure`'s node and `top` failed next (before seq `before`): its first
+        finish after the failure is a failure, or it has none and was failed already (it failed again within a
+        tick). A node that went on running (a selector to its next child, a retry to its next attempt) decides
+        at its finish; one that succeeded or was halted absorbed the failure."""
         if failure.node == top:
             return True
         node = self.log.nodes[failure.node]["parent"]
         while node is not None and node != top:
-            following = self.first_after(node, failure.seq)
-            if following is not None and following.seq < before:
-                if following.after != "FAILURE":
-                    return False
-            else:
-                latest = self.last_before(node, failure.seq)
+            index = bisect_right(self._seqs.get(node, []), failure.seq)
+            finish = next((change for change in self.by_node[node][index:] if change.seq < before and change.after in FINISHED), None)
+            if finish is None:
+                latest = self.last_before(node, before)
                 if latest is None or latest.after != "FAILURE":
                     return False
+            elif finish.after != "FAILURE":
+                return False
             node = self.log.nodes[node]["parent"]
         return node == top
 
@@ -179,8 +183,8 @@ def _next_outcome(timeline: Timeline, node: int, main: int, tried: Transition) -
 
 @dataclass(frozen=True)
 class FailureStep:
-    """A node that failed on its own: when, why (its feedback), where it is defined, and the blackboard values
-    it reads as they were then."""
+    """A node that failed on its own: when, why (its feedback), where it is defined, the blackboard values it
+    reads as they were then, and what it halted as it failed (a timeout's wait: what it waited for)."""
 
     path: str
     name: str
@@ -190,6 +194,7 @@ class FailureStep:
     feedback: str
     source: str
     reads: tuple[tuple[str, Any], ...]  # (key, value); a key unset then is left out
+    halted: tuple[str, ...] = ()  # "leaf name: its feedback" of each leaf below it halted as it failed
 
 
 @dataclass(frozen=True)
@@ -213,11 +218,15 @@ def first_cause(steps: Sequence[FailureStep]) -> FailureStep:
     return next((step for step in steps if step.type not in CONTROL_FLOW), steps[-1])
 
 
-def failure_step(log: TickLog, origin: Transition) -> FailureStep:
+def failure_step(timeline: Timeline, origin: Transition) -> FailureStep:
+    log = timeline.log
     node = log.nodes[origin.node]
     values = log.blackboard_at(origin.n)
     reads = tuple((key, values[key]) for key in node["reads"] if key in values)
-    return FailureStep(node["path"], node["name"], node["type"], origin.t, origin.n, origin.feedback, node["source"], reads)
+    halted = tuple(f"{log.nodes[leaf]['name']}: {change.feedback or 'no feedback'}" for leaf in timeline.descendants(origin.node)
+                   if not timeline.children[leaf] for change in timeline.by_node[leaf]
+                   if change.n == origin.n and change.before == "RUNNING" and change.after == "INVALID")
+    return FailureStep(node["path"], node["name"], node["type"], origin.t, origin.n, origin.feedback, node["source"], reads, halted)
 
 
 def failure_chains(log: TickLog, timeline: Timeline | None = None) -> list[FailureChain]:
@@ -241,7 +250,7 @@ def failure_chains(log: TickLog, timeline: Timeline | None = None) -> list[Failu
         mine = origins[(by, end.seq)]
         if any(other != by and _contains(log, other, by) and mine <= theirs for (other, _), theirs in origins.items()):
             continue
-        steps = tuple(failure_step(log, origin) for origin in timeline.origins(end))
+        steps = tuple(failure_step(timeline, origin) for origin in timeline.origins(end))
         chains.append(FailureChain(handled, log.nodes[by]["path"], end.t, steps))
     return chains
 
