@@ -27,7 +27,7 @@ STEP_OF_LEAF = {
     "go_to_handover": "handover",  # the receiver did not get to the block held out
     "descend_to_grasp": "handover",
     "release": "place",
-    "check_placed": "place",  # "sense" when the peg it misses was not empty but unseen (see `_named_step`)
+    "check_placed": "place",  # "sense" when the peg it misses was not empty but unseen (see `named_step`)
     "select_grasp": "sense",  # no usable block seen where one should be
     "capture": "sense",
     "register_board": "sense",
@@ -97,7 +97,7 @@ def check_why(log: TickLog, transfers: Sequence[Mapping[str, Any]], entries: Seq
         # the failures the tree did not get over; if it got over all (it thought the block placed), those it recovered from
         inside = [step for step in steps if _inside(step.path, scope)] or [step for step in recovered if _inside(step.path, scope)]
         named = first_cause(inside) if inside else None
-        step = _named_step(named)
+        step = named_step(named)
         seen = setbacks(transfer, entries, transfers)
         confirmed = named is not None and step is not None and confirms(step, named.t, seen)
         checks.append(WhyCheck(transfer["index"], _describe(named), step, failure_cause(transfer, entries, transfers), confirmed))
@@ -105,11 +105,12 @@ def check_why(log: TickLog, transfers: Sequence[Mapping[str, Any]], entries: Seq
     named = run.first_cause if run is not None else None
     pegs = next((node["params"].get("pegs") for node in log.nodes if named and node["path"] == named.path), None)
     if named is not None and pegs:  # a run that failed elsewhere has no record in the simulator's log to check
-        checks.append(WhyCheck(0, _describe(named), _named_step(named), final_check_cause(pegs, entries, named.t)))
+        checks.append(WhyCheck(0, _describe(named), named_step(named), final_check_cause(pegs, entries, named.t)))
     return checks
 
 
-def _named_step(step: FailureStep | None) -> str | None:
+def named_step(step: FailureStep | None) -> str | None:
+    """The step, in the ground truth's words, that a failure stands for: by its leaf, else by what it said."""
     if step is None:
         return None
     if step.type == "check_placed" and "(empty)" not in step.feedback:

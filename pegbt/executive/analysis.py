@@ -184,6 +184,8 @@ def _given_up_lines(log: TickLog, timeline: Timeline) -> list[str]:
                 lines.append(f"      defined at {step.source}")
                 if step.reads:
                     lines.append(f"      blackboard it read: {', '.join(f'{key}={_short(value)}' for key, value in step.reads)}")
+                if step.halted:
+                    lines.append(f"      it halted: {'; '.join(step.halted)}")
             else:
                 lines.append(f"    {'then' if step.t >= first.t else 'before'}: {where} at t={step.t:.3f} s: {step.feedback or 'no feedback'}")
     return (["given up (the tree went on without it):"] + lines) if lines else []

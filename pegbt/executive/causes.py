@@ -11,7 +11,8 @@ tick keeps its status, so the log has no change for it; it is taken to have fail
 
 The first cause of a chain is its earliest origin that is not control flow: a blackboard check that
 steered the tree, or a failure raised on purpose, only echoes a failure before it (a receiver that finds
-the offer withdrawn, a branch that records a failure and fails again).
+the offer withdrawn, a branch that records a failure and fails again). A chain of echoes alone (the
+failure was elsewhere: the other arm's subtree) starts at its earliest echo.
 """
 
 from __future__ import annotations
@@ -103,7 +104,7 @@ class Timeline:
         return self.first_of(self.origins(failure))
 
     def first_of(self, origins: Sequence[Transition]) -> Transition:
-        return next((origin for origin in origins if self.log.nodes[origin.node]["type"] not in CONTROL_FLOW), origins[-1])
+        return next((origin for origin in origins if self.log.nodes[origin.node]["type"] not in CONTROL_FLOW), origins[0])
 
     def _failed_through(self, failure: Transition) -> bool:
         """Whether a child's failure made this one (it did not fail on its own)."""
@@ -214,8 +215,8 @@ class FailureChain:
 
 
 def first_cause(steps: Sequence[FailureStep]) -> FailureStep:
-    """The earliest of `steps` (in time order) that is not control flow; the last if all are."""
-    return next((step for step in steps if step.type not in CONTROL_FLOW), steps[-1])
+    """The earliest of `steps` (in time order) that is not control flow; the earliest if all are."""
+    return next((step for step in steps if step.type not in CONTROL_FLOW), steps[0])
 
 
 def failure_step(timeline: Timeline, origin: Transition) -> FailureStep:
