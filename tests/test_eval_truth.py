@@ -3,7 +3,7 @@ executive's leaves use (`pegbt.evaluation.truth`)."""
 
 from __future__ import annotations
 
-from pegbt.evaluation.truth import confirms, failure_cause, setbacks
+from pegbt.evaluation.truth import confirms, failure_cause, final_check_cause, setbacks
 
 BURST = {"kind": "fault", "arm": None, "block": None, "peg": None, "detail": "depth noise burst: sigma 3.0 mm, 5% outliers"}
 
@@ -69,3 +69,11 @@ def test_a_transfer_that_never_touched_its_block_is_sense_with_evidence_else_rea
     assert confirms("reach", 55.0, setbacks(transfer, burst))  # no arm went for it, burst or not
     empty = [event(30.0, "lift", "PSM1", 3, 3)]
     assert failure_cause(transfer, empty).event == "no block was on peg 3 when the transfer began"
+
+
+def test_a_run_that_failed_at_a_leaf_checking_no_pegs_is_sense_only_after_a_burst():
+    """A look that gave up in a noise burst is confirmed; a motion the executive refused never reached the
+    simulator, which saw nothing go wrong."""
+    assert final_check_cause([], [{**BURST, "time": 2.3}], 2.5).step == "sense"
+    assert (final_check_cause([], [{**BURST, "time": 2.3}], 60.0).step, final_check_cause([], [], 60.0).event) == (
+        "none", "the simulator saw nothing go wrong before t=60.00 s")

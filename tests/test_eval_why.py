@@ -96,3 +96,42 @@ def test_a_burst_lasting_two_captures_is_waited_out(tmp_path):
     assert record.complete and record.outcome == "success" and not record.why
     bursts = [fault for fault in record.faults if fault["kind"] == "depth noise burst"]
     assert len(bursts) >= 2 and all(fault["recovered"] for fault in bursts)
+
+
+def log_why(log: str) -> str:
+    """What `pegbt log why LOG` prints."""
+    why = subprocess.run([sys.executable, "-m", "pegbt", "log", "why", log], capture_output=True, text=True, cwd=REPO, timeout=60)
+    assert why.returncode == 0, why.stderr
+    return why.stdout
+
+
+def test_a_block_that_slipped_and_was_missed_when_picked_again_is_named_by_the_slip(tmp_path):
+    """The slip began the chain; the re-grasp that missed only followed it. The simulator ends the transfer
+    on the miss and confirms the slip just before the leaf that reported it."""
+    record = faulty_trial(tmp_path, "slip-then-miss", "world: {slips: [{time: 5.4}], miss_attempts: [1]}\n")
+    [check] = [check for check in record.why if check["transfer"] == 1]
+    assert (check["named_step"], check["truth"]["step"], check["confirmed"], check["agrees"]) == ("carry", "grasp", True, True)
+    assert check["named"].endswith("lift carry and lower: the block slipped from PSM1's jaw (jaw at -15°) during lift carry and lower")
+    given_up = log_why(record.log).split("given up (the tree went on without it):")[1]
+    assert "first cause: pick and carry/lift PSM1 7/lift and carry/lift carry and lower (transfer) failed at t=" in given_up
+    assert "blackboard it read: /PSM1/block=BlockEstimate(" in given_up and "/PSM1/grasp=Grasp(arm='PSM1'" in given_up
+    assert "then: pick and carry/pick PSM1 1/pick from peg 1/close and check at t=" in given_up
+
+
+def test_a_giver_whose_receiver_never_came_is_named_by_the_wait_and_the_simulator_confirms_it(tmp_path):
+    """A giver alone: it holds the block out, waits for a receiver that never comes and lets go. `why` names the
+    wait it gave up (what it halted says so); the simulator saw the block never pass to the receiver."""
+    tree = tmp_path / "giver.yaml"
+    tree.write_text(
+        f"include: [{REPO / 'trees' / 'shared' / 'handover.yaml'}, {REPO / 'trees' / 'shared' / 'sense.yaml'}]\n"
+        "blackboard: {/handover/offered: 0, /handover/arrived: 0, /handover/taken: 0, /handover/released: 0, /handover/given_up: 0,\n"
+        "             /handover/refused: 0, /PSM1/may_carry: true, /PSM2/may_carry: true}\n"
+        "tree:\n  sequence:\n"
+        "    - subtree: {use: clear_view}\n"
+        "    - force_success: {name: g, child: {subtree: {use: give, args: {giver: PSM2, receiver: PSM1, n: 1, pick: 1, place: 7,"
+        " regrasps: 0, patience: 2.0}}}}\n")
+    record = run_trial(TrialSpec("handover", "optimized", 3, tmp_path / "giver.jsonl", None, tree=tree))
+    [check] = record.why
+    assert (check["named_step"], check["truth"]["step"], check["agrees"]) == ("handover", "handover", True)
+    assert check["named"].endswith("the receiver takes it: timed out after 2 s")
+    assert "it halted: still holding: PSM2 holds its block; wait until taken: waiting for /handover/taken == 1 (now 0)" in log_why(record.log)

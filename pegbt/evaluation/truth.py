@@ -161,14 +161,20 @@ def confirms(step: str, time: float, causes: Sequence[Cause]) -> bool:
 
 
 def final_check_cause(pegs: Sequence[int], entries: Sequence[Entry], time: float) -> Cause:
-    """Why a check that every peg of `pegs` holds a block failed at `time`: a peg was empty (`place`), or each
-    held a block and the capture misled (`sense`, with the noise burst if there was one)."""
+    """Why the run failed at `time` at a leaf that checked that every peg of `pegs` holds a block: a peg was
+    empty (`place`), or each held a block and the capture misled (`sense`, with the noise burst if there was
+    one). At a leaf that checks no pegs (a look before any transfer, a motion the executive refused): `sense`
+    if a noise burst came just before, else `none` (the simulator saw nothing go wrong)."""
+    bursts = [e for e in entries if e["kind"] == "fault" and str(e.get("detail", "")).startswith("depth noise burst")
+              and e["time"] <= time]
+    if not pegs:
+        recent = [e for e in bursts if e["time"] >= time - CONFIRM_WINDOW]
+        return (Cause("sense", _describe(recent[-1]), recent[-1]["time"]) if recent
+                else Cause("none", f"the simulator saw nothing go wrong before t={time:.2f} s"))
     occupied = blocks_on_pegs(entries, time)
     empty = [peg for peg in pegs if not occupied.get(peg)]
     if empty:
         return Cause("place", f"no block on peg {', '.join(map(str, empty))} at t={time:.2f} s")
-    bursts = [e for e in entries if e["kind"] == "fault" and str(e.get("detail", "")).startswith("depth noise burst")
-              and e["time"] <= time]
     return Cause("sense", _describe(bursts[-1]) if bursts else f"a block on each of pegs {', '.join(map(str, pegs))}",
                  bursts[-1]["time"] if bursts else None)
 
@@ -220,7 +226,7 @@ def _adverse(events: Sequence[Entry], transfer: Transfer) -> list[Cause]:
 
 
 def _describe(entry: Entry) -> str:
-    detail = entry.get("detail")
+    detail = entry.get("detail") or (f"on peg {entry['peg']}" if entry.get("peg") is not None and entry["kind"] == "place" else "")
     return f"{entry['kind']}: {detail}" if detail else str(entry["kind"])
 
 

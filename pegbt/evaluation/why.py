@@ -84,8 +84,8 @@ def _inside(path: str, scopes: Sequence[str]) -> bool:
 
 def check_why(log: TickLog, transfers: Sequence[Mapping[str, Any]], entries: Sequence[Mapping[str, Any]]) -> list[WhyCheck]:
     """Compare, for each failed transfer of `transfers` (as the judge reports them), the first cause `why` names
-    inside it with the simulator's log; and, when the run itself failed at a check of pegs, the run's first
-    cause (transfer 0) with what the simulator says of those pegs."""
+    inside it with the simulator's log; and, when the run itself failed, the run's first cause (transfer 0)
+    with what the simulator says of the pegs its leaf checked (or saw just before, if it checks none)."""
     timeline = Timeline(log)
     chains = failure_chains(log, timeline)
     steps = sorted({(step.t, step.path): step for chain in chains for step in chain.steps}.values(), key=lambda step: step.t)
@@ -102,9 +102,9 @@ def check_why(log: TickLog, transfers: Sequence[Mapping[str, Any]], entries: Seq
         confirmed = named is not None and step is not None and confirms(step, named.t, seen)
         checks.append(WhyCheck(transfer["index"], _describe(named), step, failure_cause(transfer, entries, transfers), confirmed))
     run = next((chain for chain in chains if chain.handled == "run"), None)
-    named = run.first_cause if run is not None else None
-    pegs = next((node["params"].get("pegs") for node in log.nodes if named and node["path"] == named.path), None)
-    if named is not None and pegs:  # a run that failed elsewhere has no record in the simulator's log to check
+    if run is not None:
+        named = run.first_cause
+        pegs = next((node["params"].get("pegs") for node in log.nodes if node["path"] == named.path), None) or []
         checks.append(WhyCheck(0, _describe(named), named_step(named), final_check_cause(pegs, entries, named.t)))
     return checks
 
