@@ -9,7 +9,7 @@ from pathlib import Path
 
 from pegbt.evaluation.why import named_step
 from pegbt.executive.analysis import why
-from pegbt.executive.causes import Timeline, failure_chains, recoveries
+from pegbt.executive.causes import Timeline, failure_chains, fallbacks, recoveries
 from pegbt.executive.logfile import TickLog, read_tick_log
 from pegbt.executive.ticklog import FORMAT, FORMAT_VERSION
 
@@ -171,3 +171,28 @@ def test_a_timeout_shows_the_wait_it_halted_and_a_give_up_inside_another_is_told
     assert chain.first_cause.halted == ("wait until taken: waiting for /handover/taken == 1 (now 0)",)
     assert named_step(chain.first_cause) == "handover"
     assert "it halted: wait until taken: waiting for /handover/taken == 1 (now 0)" in why(log)
+
+
+def test_a_failure_a_fallback_made_up_for_is_listed_with_it(tmp_path):
+    """The carry slipped and fetching the block from the board worked: no failure is left, but a person reading
+    `why` sees the slip and what got over it (a check that steered a selector is not listed)."""
+    log = tick_log(tmp_path, [
+        ("/run", "sequence"),
+        ("/run/registered or register", "selector"),
+        ("/run/registered or register/registered", "check_blackboard"),
+        ("/run/registered or register/register", "register_board"),
+        ("/run/carry or fetch", "selector"),
+        ("/run/carry or fetch/carry", "carry_from_handover"),
+        ("/run/carry or fetch/fetch", "park"),
+    ], [
+        (0.0, [("registered", "INVALID", "FAILURE", "'/board_registered' comparison failed"), ("register", "INVALID", "SUCCESS", ""),
+               ("registered or register", "INVALID", "SUCCESS", ""), ("carry", "INVALID", "FAILURE", "the block slipped"),
+               ("fetch", "INVALID", "RUNNING", ""), ("carry or fetch", "INVALID", "RUNNING", ""), ("run", "INVALID", "RUNNING", "")]),
+        (0.5, [("fetch", "RUNNING", "SUCCESS", ""), ("carry or fetch", "RUNNING", "SUCCESS", ""), ("run", "RUNNING", "SUCCESS", "")]),
+    ])
+    assert failure_chains(log) == []
+    found = fallbacks(Timeline(log))
+    assert [(log.nodes[item.node]["name"], log.nodes[item.origin.node]["name"], item.succeeded.t) for item in found] == [
+        ("carry or fetch", "carry", 0.5)]
+    assert "got over by another alternative or attempt:\n  /run/carry or fetch: carry failed at t=0.000 s (the block slipped); " \
+           "it went on and succeeded at t=0.500 s" in why(log)

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from pegbt.evaluation.truth import Cause, confirms, failure_cause, final_check_cause, setbacks
-from pegbt.executive.causes import FailureStep, Timeline, failure_chains, failure_step, first_cause, recoveries
+from pegbt.executive.causes import FailureStep, Timeline, failure_chains, failure_step, fallbacks, first_cause, recoveries
 from pegbt.executive.logfile import TickLog
 
 # The step a failing leaf stands for, by behaviour: the words the ground truth's causes use.
@@ -89,12 +89,14 @@ def check_why(log: TickLog, transfers: Sequence[Mapping[str, Any]], entries: Seq
     timeline = Timeline(log)
     chains = failure_chains(log, timeline)
     steps = sorted({(step.t, step.path): step for chain in chains for step in chain.steps}.values(), key=lambda step: step.t)
-    recovered = [failure_step(timeline, recovery.origin) for recovery in recoveries(timeline)]
+    origins = [recovery.origin for recovery in recoveries(timeline)] + [found.origin for found in fallbacks(timeline)]
+    recovered = [failure_step(timeline, origin) for origin in sorted(origins, key=lambda origin: origin.seq)]
     scopes = transfer_scopes(log)
     checks = []
     for transfer in (transfer for transfer in transfers if not transfer["succeeded"]):
         scope = scopes.get(transfer["index"], [])
-        # the failures the tree did not get over; if it got over all (it thought the block placed), those it recovered from
+        # the failures the tree did not get over; if it got over all (it thought the block placed), those it recovered
+        # from or went past by another alternative or attempt
         inside = [step for step in steps if _inside(step.path, scope)] or [step for step in recovered if _inside(step.path, scope)]
         named = first_cause(inside) if inside else None
         step = named_step(named)

@@ -4,8 +4,8 @@
 since the node last finished (a selector's alternatives, a retry's attempts, a recover node's tries, not
 only the latest); a node with no such child failed on its own (a leaf, a timeout, a guard whose condition
 stopped holding). For each of those origins it shows the time, the feedback message and the blackboard
-values the node reads. Failures the tree absorbed are listed too: each recovery that ran, and each
-failure it gave up on (a `recover` node out of retries, a `force_success` over a failed child) so the
+values the node reads. Failures the tree absorbed are listed too: each recovery that ran, each failure
+a selector or a retry got over, and each failure it gave up on (a `recover` node out of retries, a `force_success` over a failed child) so the
 run could go on, traced back to its first cause: the earliest origin in its chain that is not control
 flow (a blackboard check that steered the tree, a failure raised on purpose), with what followed.
 `pegbt.executive.causes` has the same chains as data, for tools that check them (`pegbt eval`).
@@ -18,7 +18,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from pegbt.errors import PegbtError
-from pegbt.executive.causes import Recovery, Timeline, failure_chains, recoveries
+from pegbt.executive.causes import Recovery, Timeline, failure_chains, fallbacks, recoveries
 from pegbt.executive.logfile import TickLog, Transition
 
 SHOWN_WIDTH = 160  # characters of a blackboard value shown beside a failure
@@ -118,6 +118,7 @@ def why(log: TickLog) -> str:
     else:
         lines.append("the run succeeded" + ("; failures below were recovered" if any(c.after == "FAILURE" for c in log.transitions) else ""))
     lines += _recoveries(timeline)
+    lines += _fallback_lines(timeline)
     lines += _given_up_lines(log, timeline)
     return "\n".join(lines)
 
@@ -166,6 +167,14 @@ def _recoveries(timeline: Timeline) -> list[str]:
                      f"({log.nodes[origin.node]['name']}: {origin.feedback or 'no feedback'}); "
                      f"recovery {recovery.tried.after.lower()} at t={recovery.tried.t:.3f} s; {_verdict(recovery)}")
     return (["recoveries:"] + lines) if lines else ["recoveries: none ran"]
+
+
+def _fallback_lines(timeline: Timeline) -> list[str]:
+    log = timeline.log
+    lines = [f"  {log.nodes[found.node]['path']}: {log.nodes[found.origin.node]['name']} failed at t={found.origin.t:.3f} s "
+             f"({found.origin.feedback or 'no feedback'}); it went on and succeeded at t={found.succeeded.t:.3f} s"
+             for found in fallbacks(timeline)]
+    return (["got over by another alternative or attempt:"] + lines) if lines else []
 
 
 def _given_up_lines(log: TickLog, timeline: Timeline) -> list[str]:

@@ -1,5 +1,6 @@
 """Why nodes failed, from a tick log: the child failures behind a failure, the origins down its chain, the
-recoveries that ran, and the chains of failures the tree did not get over, each with its first cause.
+recoveries that ran, the failures a selector or a retry got over, and the chains of failures the tree did
+not get over, each with its first cause.
 
 A node failed because of every child that failed since the node last finished: all of a selector's
 alternatives, each attempt of a retry, each try of a recover node's main and its recovery, not only the
@@ -26,6 +27,7 @@ from typing import Any
 from pegbt.executive.logfile import TickLog, Transition
 
 CONTROL_FLOW = frozenset({"check_blackboard", "force_failure", "inverter"})
+ABSORBERS = frozenset({"selector", "retry"})  # nodes that get over a child's failure by another child or attempt
 FINISHED = ("SUCCESS", "FAILURE", "INVALID")
 
 
@@ -95,7 +97,7 @@ class Timeline:
         """`top` and its descendants that failed on their own between seqs `after` and `before`, and whose
         failure reached `top`'s child on their way (each node between failed next)."""
         found = [change for node in [top, *self.descendants(top)] for change in self.by_node[node]
-                 if after < change.seq < before and change.after == "FAILURE" and not self._failed_through(change)
+                 if after < change.seq < before and change.after == "FAILURE" and self.failed_on_its_own(change)
                  and self._reached(change, top, before)]
         return sorted(found, key=lambda change: change.seq)
 
@@ -106,9 +108,13 @@ class Timeline:
     def first_of(self, origins: Sequence[Transition]) -> Transition:
         return next((origin for origin in origins if self.log.nodes[origin.node]["type"] not in CONTROL_FLOW), origins[0])
 
-    def _failed_through(self, failure: Transition) -> bool:
-        """Whether a child's failure made this one (it did not fail on its own)."""
-        return bool(self.children[failure.node]) and bool(self.causes(failure))
+    def next_finish(self, node: int, after: int, before: int) -> Transition | None:
+        """The node's first finish (a change to SUCCESS, FAILURE or INVALID) between seqs `after` and `before`."""
+        index = bisect_right(self._seqs.get(node, []), after)
+        return next((change for change in self.by_node[node][index:] if change.seq < before and change.after in FINISHED), None)
+
+    def failed_on_its_own(self, failure: Transition) -> bool:
+        return not self.children[failure.node] or not self.causes(failure)
 
     def _reached(self, failure: Transition, top: int, before: int) -> bool:
         """Whether every node between `failure`'s node and `top` failed next (before seq `before`): its first
@@ -119,8 +125,7 @@ class Timeline:
             return True
         node = self.log.nodes[failure.node]["parent"]
         while node is not None and node != top:
-            index = bisect_right(self._seqs.get(node, []), failure.seq)
-            finish = next((change for change in self.by_node[node][index:] if change.seq < before and change.after in FINISHED), None)
+            finish = self.next_finish(node, failure.seq, before)
             if finish is None:
                 latest = self.last_before(node, before)
                 if latest is None or latest.after != "FAILURE":
@@ -129,6 +134,36 @@ class Timeline:
                 return False
             node = self.log.nodes[node]["parent"]
         return node == top
+
+
+@dataclass(frozen=True)
+class Fallback:
+    """A failure a selector or a retry got over: the origin, the node that absorbed it, and its success."""
+
+    node: int
+    origin: Transition
+    succeeded: Transition
+
+
+def fallbacks(timeline: Timeline) -> list[Fallback]:
+    """Every failure (of a node that failed on its own, not control flow) that reached a selector or a retry
+    which then succeeded: an alternative or another attempt made up for it. In time order."""
+    log, end = timeline.log, len(timeline.log.transitions)
+    found = []
+    for change in log.transitions:
+        if change.after != "FAILURE" or log.nodes[change.node]["type"] in CONTROL_FLOW or not timeline.failed_on_its_own(change):
+            continue
+        node = log.nodes[change.node]["parent"]
+        while node is not None:
+            finish = timeline.next_finish(node, change.seq, end)
+            if finish is None or finish.after == "INVALID":
+                break
+            if finish.after == "SUCCESS":
+                if log.nodes[node]["type"] in ABSORBERS:
+                    found.append(Fallback(node, change, finish))
+                break
+            node = log.nodes[node]["parent"]
+    return found
 
 
 @dataclass(frozen=True)
