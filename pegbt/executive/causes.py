@@ -147,7 +147,8 @@ class Fallback:
 
 def fallbacks(timeline: Timeline) -> list[Fallback]:
     """Every failure (of a node that failed on its own, not control flow) that reached a selector or a retry
-    which then succeeded: an alternative or another attempt made up for it. In time order."""
+    which then succeeded: an alternative or another attempt made up for it. In time order. A failure a recover
+    node gave up on is not one, even if a selector then went on (to give the block up)."""
     log, end = timeline.log, len(timeline.log.transitions)
     found = []
     for change in log.transitions:
@@ -156,8 +157,8 @@ def fallbacks(timeline: Timeline) -> list[Fallback]:
         node = log.nodes[change.node]["parent"]
         while node is not None:
             finish = timeline.next_finish(node, change.seq, end)
-            if finish is None or finish.after == "INVALID":
-                break
+            if finish is None or finish.after == "INVALID" or finish.after == "FAILURE" and log.nodes[node]["type"] == "recover":
+                break  # halted, or given up (a chain tells it)
             if finish.after == "SUCCESS":
                 if log.nodes[node]["type"] in ABSORBERS:
                     found.append(Fallback(node, change, finish))
