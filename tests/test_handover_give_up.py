@@ -20,8 +20,8 @@ def one_handover(tmp_path: Path, regrasps: int = 0) -> Path:
         "tree:\n  sequence:\n"
         "    - subtree: {use: clear_view}\n"
         "    - parallel:\n        name: one handover\n        children:\n"
-        f"          - force_success: {{name: g, child: {{subtree: {{use: give, args: {{giver: PSM2, receiver: PSM1, n: 1, pick: 1, place: 7, regrasps: {regrasps}}}}}}}}}\n"
-        "          - force_success: {name: r, child: {subtree: {use: receive, args: {receiver: PSM1, n: 1, place: 7}}}}\n"
+        f"          - force_success: {{name: g, child: {{subtree: {{use: give, args: {{giver: PSM2, receiver: PSM1, n: 1, pick: 1, place: 7, regrasps: {regrasps}, strays: [6]}}}}}}}}\n"
+        "          - force_success: {name: r, child: {subtree: {use: receive, args: {receiver: PSM1, n: 1, place: 7, strays: [6]}}}}\n"
     )
     return tree
 

@@ -19,7 +19,7 @@ from pegbt.executive.params import Param
 from pegbt.executive.registry import behaviour
 from pegbt.motion.ik import solve_ik
 from pegbt.motion.kinematics import forward_kinematics
-from pegbt.perception.blocks import BlockEstimate, block_on_peg
+from pegbt.perception.blocks import BlockEstimate, block_on_peg, stack_level
 from pegbt.psm import ARMS
 
 SAME_BLOCK = 0.005  # m: a block seen this near where the last pick chose one is that block (a miss may nudge it)
@@ -54,15 +54,16 @@ class SelectGrasp(RobotLeaf):
         arm, peg = self.param("arm"), int(self.param("peg"))
         blocks: list[BlockEstimate] = self.read("/blocks")
         block = block_on_peg(blocks, peg)
-        if block is None and self.param("dropped"):
-            loose = [b for b in blocks if b.ok and b.peg is None]
+        if block is None and self.param("dropped"):  # a block on another block never belongs there: it fell
+            loose = [b for b in blocks if b.ok and (b.peg is None or stack_level(b, self.skills.cell) > 0)]
             target = self.skills.cell.pegs.positions[peg]
             block = min(loose, key=lambda b: float(np.linalg.norm(b.position[:2] - target)), default=None)
             for stray in self.param("strays"):
                 block = block or block_on_peg(blocks, stray)
         if block is None:
             return self.fail(f"no block seen on peg {peg}" + (" nor on the board" if self.param("dropped") else ""))
-        where = f"peg {block.peg}" if block.peg is not None else f"the board at {np.round(block.position[:2] * 1000, 1).tolist()} mm"
+        where = (f"peg {block.peg}" + (" (on another block)" if stack_level(block, self.skills.cell) else "")
+                 if block.peg is not None else f"the board at {np.round(block.position[:2] * 1000, 1).tolist()} mm")
         if not block.ok:
             return self.fail(f"the block on {where} is not located reliably: {block.reason}")
         receiver = self.param("handover_to")
