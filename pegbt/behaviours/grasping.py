@@ -20,6 +20,7 @@ from pegbt.executive.registry import behaviour
 from pegbt.motion.ik import solve_ik
 from pegbt.motion.kinematics import forward_kinematics
 from pegbt.perception.blocks import BlockEstimate, block_on_peg, stack_level
+from pegbt.perception.grasp import Grasp
 from pegbt.psm import ARMS
 
 SAME_BLOCK = 0.005  # m: a block seen this near where the last pick chose one is that block (a miss may nudge it)
@@ -67,8 +68,12 @@ class SelectGrasp(RobotLeaf):
         if not block.ok:
             return self.fail(f"the block on {where} is not located reliably: {block.reason}")
         receiver = self.param("handover_to")
-        handed = None if not receiver else (lambda option: plan_meeting(self.skills, arm, receiver, option, block) is not None)
-        grasp = self.skills.selectors[arm].pick(block, avoid=self._failed_candidate(block), acceptable=handed)
+
+        def handed(option: Grasp) -> bool:
+            return plan_meeting(self.skills, arm, receiver, option, block) is not None
+
+        grasp = self.skills.selectors[arm].pick(block, avoid=self._failed_candidate(block),
+                                                acceptable=handed if receiver else None)
         if grasp is None:
             return self.fail(f"no grasp of the block on {where} is within {arm}'s yaw window and reach"
                              + (f" and lets {receiver} take it" if receiver else ""))

@@ -25,7 +25,7 @@ from pegbt.errors import PegbtError
 from pegbt.executive.params import Param
 from pegbt.executive.registry import behaviour
 from pegbt.frames import invert_rigid
-from pegbt.motion.handover import descent_clearance, handover_meeting_point, meeting_yaws
+from pegbt.motion.handover import descent_clearance, handover_meeting_point
 from pegbt.motion.ik import solve_ik
 from pegbt.motion.waypoints import TransferWaypoints
 from pegbt.perception.blocks import BlockEstimate
@@ -40,37 +40,26 @@ class Meeting:
     and the receiver's grasp of it."""
 
     tip: NDArray[np.float64]
-    yaw: float  # the giver's tool yaw there
     block_pose: NDArray[np.float64]
     receiver_grasp: Grasp
 
 
 def plan_meeting(skills: Skills, giver: str, receiver: str, grasp: Grasp, block: BlockEstimate) -> Meeting | None:
-    """The handover of `block` held by `giver` at `grasp`, or None if the receiver cannot take it.
-
-    The giver's tool meets at yaw 0 if some grasp of the receiver (on another wall than the giver's jaw)
-    keeps clear of the giver's tool all the way down onto it; else the giver turns its tool
-    (`meeting_yaws`), which turns the block, until one does. The receiver takes the clear grasp nearest to
-    it. Whether one exists depends on the giver's grasp: a block held on some walls hangs so that every
-    grasp of the receiver strikes the giver's tool."""
+    """The handover of `block` held by `giver` at `grasp`, or None if the receiver cannot take it: the
+    receiver's grasp is on another wall than the giver's jaw, keeps its tool `grasp_clearance` clear of the
+    giver's all the way down onto it, and is the nearest such to the receiver. Whether there is one depends
+    on the giver's grasp: a block held on some walls hangs so that every grasp of the receiver strikes the
+    giver's tool (never one held as the paper picks it off its peg; often one picked off the board)."""
     cell = skills.cell
-    point = handover_meeting_point(cell, skills.motion)
-    tip_board = cell.arm_to_board(giver) @ grasp.pose
+    tip = tool_pose(to_arm(cell, giver, handover_meeting_point(cell, skills.motion)), 0.0, cell.up_in(giver))
+    q_giver = solve_ik(tip, skills.arm(giver).settings, what="the giver at the meeting point")
+    block_pose = cell.arm_to_board(giver) @ tip @ invert_rigid(cell.arm_to_board(giver) @ grasp.pose) @ block.pose
     giver_edge = cell.block.grasp_candidates.edge[grasp.candidate]
-    for yaw in meeting_yaws(skills.motion.handover):
-        tip = tool_pose(to_arm(cell, giver, point), yaw, cell.up_in(giver))
-        try:
-            q_giver = solve_ik(tip, skills.arm(giver).settings, what="the giver at the meeting point")
-        except PegbtError:
-            continue
-        block_pose = cell.arm_to_board(giver) @ tip @ invert_rigid(tip_board) @ block.pose
-        options = [option for option in skills.selectors[receiver].feasible(block_pose)
-                   if cell.block.grasp_candidates.edge[option.candidate] != giver_edge]
-        taken = next((option for option in sorted(options, key=lambda option: _distance_to(cell, receiver, option))
-                      if _clear_descent(skills, receiver, option, giver, q_giver)), None)
-        if taken is not None:
-            return Meeting(tip, yaw, block_pose, taken)
-    return None
+    options = [option for option in skills.selectors[receiver].feasible(block_pose)
+               if cell.block.grasp_candidates.edge[option.candidate] != giver_edge]
+    taken = next((option for option in sorted(options, key=lambda option: _distance_to(cell, receiver, option))
+                  if _clear_descent(skills, receiver, option, giver, q_giver)), None)
+    return None if taken is None else Meeting(tip, block_pose, taken)
 
 
 def _distance_to(cell: Workcell, arm: str, option: Grasp) -> float:
@@ -86,7 +75,8 @@ def _clear_descent(skills: Skills, receiver: str, option: Grasp, giver: str, q_g
         q_wait, q_grasp = (solve_ik(pose, skills.arm(receiver).settings) for pose in (wait, option.pose))
     except PegbtError:
         return False
-    clearance = descent_clearance(q_wait, q_grasp, cell.board_to_arm(receiver), q_giver, cell.board_to_arm(giver), cell.tool)
+    clearance = descent_clearance(q_wait, q_grasp, cell.board_to_arm(receiver), q_giver, cell.board_to_arm(giver),
+                                  cell.tool)
     return clearance >= settings.grasp_clearance
 
 
@@ -113,15 +103,15 @@ class HandoverPoses(RobotLeaf):
             return self.fail(f"{giver} cannot hand a block to itself")
         meeting = plan_meeting(self.skills, giver, receiver, self.get("grasp"), self.get("block"))
         if meeting is None:
-            return self.fail(f"{receiver} can reach no grasp of the block at the meeting point that keeps clear of {giver}'s tool")
+            return self.fail(f"{receiver} can reach no grasp of the block at the meeting point that keeps clear of "
+                             f"{giver}'s tool")
         self.put("meeting", meeting.tip)
         self.put("block_pose", meeting.block_pose)
         self.put("receiver_grasp", meeting.receiver_grasp)
         taken = meeting.receiver_grasp
         point = handover_meeting_point(self.skills.cell, self.skills.motion)
-        self.feedback_message = (f"meeting at {np.round(point * 1000, 1).tolist()} mm (board), {giver}'s tool at yaw "
-                                 f"{math.degrees(meeting.yaw):.0f}°; {receiver} takes candidate {taken.candidate}, "
-                                 f"yaw {math.degrees(taken.yaw):.0f}°")
+        self.feedback_message = (f"meeting at {np.round(point * 1000, 1).tolist()} mm (board); {receiver} takes candidate "
+                                 f"{taken.candidate}, yaw {math.degrees(taken.yaw):.0f}°")
         return Status.SUCCESS
 
 

@@ -38,7 +38,10 @@ def block_axis_top(cell: Workcell, board: BoardEstimate | None, block: BlockEsti
     """Where the block's axis crosses the peg-top height, board frame: its peg's top, or above it on the board;
     for a block resting on another (a stack), that much higher, so it is grasped and lifted as if its peg
     were one block taller."""
-    top = peg_top_board(cell, board, block.peg) if block.peg is not None else np.array([block.position[0], block.position[1], cell.pegs.top_z])
+    if block.peg is not None:
+        top = peg_top_board(cell, board, block.peg)
+    else:
+        top = np.array([block.position[0], block.position[1], cell.pegs.top_z])
     top[2] -= stack_level(block, cell) * cell.block.height  # board z points down
     return top
 

@@ -21,7 +21,7 @@ from pegbt.motion.cubic import joint_move
 from pegbt.motion.ik import solve_ik
 from pegbt.motion.kinematics import link_frames
 from pegbt.motion.limits import ArmSettings
-from pegbt.motion.settings import HandoverSettings, MotionSettings, motion_settings
+from pegbt.motion.settings import MotionSettings, motion_settings
 from pegbt.motion.trajectory import Trajectory
 from pegbt.motion.transfer import TransferPlanner
 from pegbt.motion.waypoints import placement_waypoints, tool_down_rotation
@@ -81,7 +81,8 @@ def tool_gap(q_a: ArrayLike, a_from_board: ArrayLike, q_b: ArrayLike, b_from_boa
     """Smallest clearance (...) between two arms' tools as solids: shaft, wrist (pitch axis to jaw hinge)
     and jaw, each a segment with the work cell's radius, at joints `q_a`, `q_b` (..., 6); negative where
     they overlap. `tool_distance` measures axes; this is what touches."""
-    parts = [_tool_parts(q, invert_rigid(np.asarray(T, dtype=float)), tool) for q, T in ((q_a, a_from_board), (q_b, b_from_board))]
+    parts = [_tool_parts(q, invert_rigid(np.asarray(T, dtype=float)), tool)
+             for q, T in ((q_a, a_from_board), (q_b, b_from_board))]
     radii = (tool.shaft_radius, tool.wrist_radius, tool.jaw_radius)
     gaps = [segment_distances(a0, a1, b0, b1) - ra - rb
             for (a0, a1), ra in zip(parts[0], radii) for (b0, b1), rb in zip(parts[1], radii)]
@@ -97,12 +98,6 @@ def descent_clearance(q_wait: ArrayLike, q_grasp: ArrayLike, receiver_from_board
     path = q_wait + along * (np.asarray(q_grasp, dtype=float) - q_wait)
     giver = np.repeat(np.asarray(q_giver, dtype=float)[None], steps, axis=0)
     return float(tool_gap(path, receiver_from_board, giver, giver_from_board, tool).min())
-
-
-def meeting_yaws(settings: HandoverSettings) -> list[float]:
-    """The giver's tool yaws at the meeting point, in the order tried: 0, then ±1, ±2, ... steps up to the most."""
-    steps = int(settings.meeting_yaw_max / settings.meeting_yaw_step + 1e-9)
-    return [0.0] + [sign * k * settings.meeting_yaw_step for k in range(1, steps + 1) for sign in (1.0, -1.0)]
 
 
 def _tool_parts(q: ArrayLike, board_from_arm: NDArray, tool: ToolGeometry) -> list[tuple[NDArray, NDArray]]:

@@ -61,9 +61,7 @@ class HandoverSettings:
     receiver_wait_above: float
     giver_retreat: float
     min_tool_distance: float
-    grasp_clearance: float  # the receiver's tool, from waiting above its grasp down onto it, keeps this clear of the giver's
-    meeting_yaw_step: float  # rad: the giver turns its tool at the meeting point by this much at a time ...
-    meeting_yaw_max: float  # rad: ... up to this much, until a grasp of the receiver keeps clear of it
+    grasp_clearance: float  # the receiver's tool keeps this clear of the giver's, waiting above its grasp and down onto it
 
 
 @dataclass(frozen=True)
