@@ -15,13 +15,13 @@ def one_handover(tmp_path: Path, regrasps: int = 0) -> Path:
     tree = tmp_path / "one-handover.yaml"
     tree.write_text(
         f"include: [{REPO / 'trees' / 'shared' / 'handover.yaml'}, {REPO / 'trees' / 'shared' / 'sense.yaml'}]\n"
-        "blackboard: {/handover/offered: 0, /handover/arrived: 0, /handover/taken: 0, /handover/released: 0, /handover/given_up: 0, /handover/refused: 0,\n"
+        "blackboard: {/handover/offered: 0, /handover/arrived: 0, /handover/taken: 0, /handover/released: 0, /handover/given_up: 0, /handover/refused: 0, /handover/closing: 0, /handover/ready: 0,\n"
         "             /PSM1/may_carry: true, /PSM2/may_carry: true}\n"
         "tree:\n  sequence:\n"
         "    - subtree: {use: clear_view}\n"
         "    - parallel:\n        name: one handover\n        children:\n"
-        f"          - force_success: {{name: g, child: {{subtree: {{use: give, args: {{giver: PSM2, receiver: PSM1, n: 1, pick: 1, place: 7, regrasps: {regrasps}}}}}}}}}\n"
-        "          - force_success: {name: r, child: {subtree: {use: receive, args: {receiver: PSM1, n: 1, place: 7}}}}\n"
+        f"          - force_success: {{name: g, child: {{subtree: {{use: give, args: {{giver: PSM2, receiver: PSM1, n: 1, pick: 1, place: 7, regrasps: {regrasps}, strays: [6]}}}}}}}}\n"
+        "          - force_success: {name: r, child: {subtree: {use: receive, args: {receiver: PSM1, n: 1, place: 7, strays: [6]}}}}\n"
     )
     return tree
 

@@ -5,9 +5,11 @@ import math
 import numpy as np
 import pytest
 
+from pegbt.behaviours.poses import transfer_for
+from pegbt.behaviours.skills import Skills
 from pegbt.frames import yaw_of, yaw_pose
 from pegbt.motion.settings import motion_settings
-from pegbt.perception.blocks import block_on_peg, locate_blocks, wrap_symmetric
+from pegbt.perception.blocks import block_on_peg, locate_blocks, stack_level, wrap_symmetric
 from pegbt.perception.board import PegboardRegistration
 from pegbt.sim.camera import DepthCamera
 from pegbt.sim.faults import CameraFaults, NoiseBurst
@@ -164,3 +166,43 @@ def test_a_loose_block_against_a_block_on_a_peg_is_told_apart_from_it(board):
     assert held is not None and held.ok, held
     position_error, yaw_error = errors(held, on_peg)
     assert position_error < POSITION_TOLERANCE and yaw_error < YAW_TOLERANCE
+
+
+@pytest.mark.parametrize("seed", [0, 3])
+def test_a_block_dropped_onto_a_peg_that_holds_one_is_found_on_top_of_it(board, seed):
+    """A block that slipped over peg 6 while peg 6 held a block rests on that block: it is found there, on
+    peg 6, one block up, and is the one `block_on_peg` offers (the only one that can be lifted off)."""
+    world = World(seed=seed)
+    world._rest_on_peg(world.blocks[0], 6, 0.3)
+    dropped = world.blocks[1]
+    dropped.pose = yaw_pose([*world.cell.pegs.positions[6], world.cell.pegs.top_z - 0.02], -0.4 + 0.3 * seed)
+    dropped.peg = None
+    world._settle(dropped, "PSM1", deliberate=False)
+    assert world.events[-1].detail == "onto peg 6"  # it came down around peg 6, onto block 0
+    estimates = locate_blocks(DepthCamera(seed=seed).capture(world), board)
+    top = block_on_peg(estimates, 6)
+    assert top is not None and top.ok, top
+    assert stack_level(top) == 1
+    position_error, yaw_error = errors(top, dropped)
+    assert position_error < POSITION_TOLERANCE and yaw_error < YAW_TOLERANCE
+
+
+def test_the_block_on_top_of_a_stack_is_grasped_at_its_height_and_lifted_off_the_peg(board):
+    """The grasp and lift planned from that estimate (`transfer_for`, as a pick does) take the top block,
+    one block higher than a block on the board, clear of the peg; the block under it stays."""
+    world = World(seed=0)
+    world._rest_on_peg(world.blocks[0], 6, 0.3)
+    world._rest_on_peg(world.blocks[1], 6, -0.4)
+    top = block_on_peg(locate_blocks(DepthCamera(seed=0).capture(world), board), 6)
+    skills = Skills("uncalibrated")
+    grasp = skills.selectors["PSM1"].pick(top)
+    waypoints = transfer_for(world.cell, skills.motion, "PSM1", board, top, grasp)
+    to_board = world.cell.arm_to_board("PSM1")
+    at_grasp, risen = (to_board @ pose for pose in waypoints.poses[:2])
+    open_, closed = motion_settings().transfer.jaw_open, motion_settings().transfer.jaw_closed
+    frames = [Keyframe(position, yaw_of(at_grasp), jaw) for position, jaw in
+              ((risen[:3, 3], open_), (at_grasp[:3, 3], open_), (at_grasp[:3, 3], closed), (risen[:3, 3], closed))]
+    events = Driver(world).play({"PSM1": frames})
+    assert [(event.kind, event.block) for event in events if event.kind in ("grasp", "lift", "collision")] == \
+        [("grasp", 1), ("lift", 1)]
+    assert world.held_by("PSM1") == 1 and world.blocks[0].peg == 6

@@ -22,8 +22,8 @@ def test_the_pick_after_a_miss_chooses_another_candidate(tmp_path, monkeypatch):
     chosen = []
     pick = GraspSelector.pick
 
-    def recording(self, block, avoid=()):
-        grasp = pick(self, block, avoid)
+    def recording(self, block, avoid=(), acceptable=None):
+        grasp = pick(self, block, avoid, acceptable)
         chosen.append(grasp.candidate)
         return grasp
 

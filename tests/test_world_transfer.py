@@ -16,6 +16,7 @@ from pegbt.sim.scripted import (
     place_keyframes,
     transfer_keyframes,
 )
+from pegbt.frames import yaw_pose
 from pegbt.sim.world import World
 
 
@@ -273,3 +274,24 @@ def test_a_block_that_tipped_off_a_peg_rests_clear_of_every_peg_and_any_grasp_li
         events = Driver(again).play({"PSM1": [*grasp, lifted(again, grasp[-1])]})
         tool_hit = any(event.detail == "tool-peg" for event in events)
         assert tool_hit or not any(event.detail.startswith("block-peg") for event in events), (candidate, events)
+
+
+def test_a_block_dropped_between_the_peg_groups_rests_clear_of_every_peg():
+    """Around the handover's meeting point a falling block lands between pegs 3, 6 and 9, where sliding off
+    one peg runs onto another: it must still come to rest clear of them all (it once stayed inside peg 6,
+    and every later grasp of it struck the peg)."""
+    world = World(seed=0)
+    block = world.blocks[1]
+    normals, offsets = world.cell.block.outline_planes
+    meeting = handover_meeting_point(world.cell)
+    rng = np.random.default_rng(7)
+    for _ in range(200):
+        xy = meeting[:2] + rng.uniform(-0.012, 0.012, size=2)
+        block.pose = yaw_pose([xy[0], xy[1], meeting[2]], rng.uniform(-np.pi, np.pi))
+        block.peg, block.grips = None, {}
+        world._settle(block, "PSM2", deliberate=False)
+        if block.peg is not None:
+            continue  # its hole came down around a peg: it rests on it
+        gaps = (world._pegs_in_block_frame(block) @ normals.T - offsets).max(axis=1) - world.cell.pegs.radius
+        assert gaps.min() >= world.config.tip_off_clearance - 1e-9, (xy, gaps.min())
+        assert np.linalg.norm(block.pose[:2, 3] - xy) < 0.03  # it slid off nearby, not across the board

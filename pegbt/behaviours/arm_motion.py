@@ -129,13 +129,10 @@ class ArmMotion:
         return handle
 
     def stop(self, arm: ArmClient) -> None:
-        """Stop the active motion where it is; the arm is then meant to be at the planned row it was sent for."""
+        """Stop the active motion where it is. No plan ended there, and the set-point read now may be a
+        step behind the one the arm holds, so the next plan starts where the arm is then, as on first use."""
         active, self.active = self.active, None
         if active is None or not active.handle.busy:
             return
         active.handle.stop()
-        held = np.asarray(arm.setpoint_js.position, dtype=float)
-        row = int(np.argmin(np.max(np.abs(active.sent.q - held), axis=1)))
-        self.desired = active.planned.q[row].copy()
-        if self.compensator is not None:
-            self.compensator.reset(held)
+        self.desired = None

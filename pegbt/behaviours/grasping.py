@@ -12,13 +12,16 @@ import numpy as np
 from py_trees.common import Status
 
 from pegbt.behaviours.base import RESOURCES, MotionLeaf, RobotLeaf, arm_param, keep_apart_param, key_param, peg_param
+from pegbt.behaviours.handover import plan_meeting
 from pegbt.behaviours.motion import SLIP_CHECK, above_pegs_first, held_param, slip
 from pegbt.behaviours.poses import approach_for, transfer_for
 from pegbt.executive.params import Param
 from pegbt.executive.registry import behaviour
 from pegbt.motion.ik import solve_ik
 from pegbt.motion.kinematics import forward_kinematics
-from pegbt.perception.blocks import BlockEstimate, block_on_peg
+from pegbt.perception.blocks import BlockEstimate, block_on_peg, stack_level
+from pegbt.perception.grasp import Grasp
+from pegbt.psm import ARMS
 
 SAME_BLOCK = 0.005  # m: a block seen this near where the last pick chose one is that block (a miss may nudge it)
 
@@ -38,6 +41,9 @@ SAME_BLOCK = 0.005  # m: a block seen this near where the last pick chose one is
         Param("another", bool, "pick again: if the block is the one last chosen (still within `SAME_BLOCK` of "
               "where it was seen), prefer another of its candidates than the one that failed (`$key`)",
               default=False, blackboard=True),
+        Param("handover_to", str, "a giver's pick: only grasps from which the block can be handed to this arm "
+              "(`handover_poses` finds a grasp of the receiver clear of the giver's tool); '': any grasp",
+              default="", choices=("", *ARMS)),
         key_param("block", "write", "the block chosen (perception's estimate)"),
         key_param("grasp", "write", "the grasp chosen (tip pose in the arm frame)"),
     ),
@@ -49,20 +55,28 @@ class SelectGrasp(RobotLeaf):
         arm, peg = self.param("arm"), int(self.param("peg"))
         blocks: list[BlockEstimate] = self.read("/blocks")
         block = block_on_peg(blocks, peg)
-        if block is None and self.param("dropped"):
-            loose = [b for b in blocks if b.ok and b.peg is None]
+        if block is None and self.param("dropped"):  # a block on another block never belongs there: it fell
+            loose = [b for b in blocks if b.ok and (b.peg is None or stack_level(b, self.skills.cell) > 0)]
             target = self.skills.cell.pegs.positions[peg]
             block = min(loose, key=lambda b: float(np.linalg.norm(b.position[:2] - target)), default=None)
             for stray in self.param("strays"):
                 block = block or block_on_peg(blocks, stray)
         if block is None:
             return self.fail(f"no block seen on peg {peg}" + (" nor on the board" if self.param("dropped") else ""))
-        where = f"peg {peg}" if block.peg is not None else f"the board at {np.round(block.position[:2] * 1000, 1).tolist()} mm"
+        where = (f"peg {block.peg}" + (" (on another block)" if stack_level(block, self.skills.cell) else "")
+                 if block.peg is not None else f"the board at {np.round(block.position[:2] * 1000, 1).tolist()} mm")
         if not block.ok:
             return self.fail(f"the block on {where} is not located reliably: {block.reason}")
-        grasp = self.skills.selectors[arm].pick(block, avoid=self._failed_candidate(block))
+        receiver = self.param("handover_to")
+
+        def handed(option: Grasp) -> bool:
+            return plan_meeting(self.skills, arm, receiver, option, block) is not None
+
+        grasp = self.skills.selectors[arm].pick(block, avoid=self._failed_candidate(block),
+                                                acceptable=handed if receiver else None)
         if grasp is None:
-            return self.fail(f"no grasp of the block on {where} is within {arm}'s yaw window and reach")
+            return self.fail(f"no grasp of the block on {where} is within {arm}'s yaw window and reach"
+                             + (f" and lets {receiver} take it" if receiver else ""))
         self.put("block", block)
         self.put("grasp", grasp)
         self.feedback_message = (f"{arm} grasps the block on {where} at candidate {grasp.candidate}, "

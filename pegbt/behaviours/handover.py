@@ -11,27 +11,80 @@ never call each other: each step is a leaf, and the trees synchronise them throu
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import NDArray
 from py_trees.common import Status
 
 from pegbt.behaviours.base import RESOURCES, MotionLeaf, RobotLeaf, arm_param, keep_apart_param, key_param, peg_param
 from pegbt.behaviours.motion import CarryLeaf, above_pegs_first, carry_params
 from pegbt.behaviours.poses import from_handover, to_arm, to_handover, tool_pose
+from pegbt.behaviours.skills import Skills
+from pegbt.errors import PegbtError
 from pegbt.executive.params import Param
 from pegbt.executive.registry import behaviour
 from pegbt.frames import invert_rigid
-from pegbt.motion.handover import handover_meeting_point
+from pegbt.motion.handover import descent_clearance, handover_meeting_point
 from pegbt.motion.ik import solve_ik
 from pegbt.motion.waypoints import TransferWaypoints
+from pegbt.perception.blocks import BlockEstimate
 from pegbt.perception.grasp import Grasp
 from pegbt.psm import ARMS
+from pegbt.workcell import Workcell
+
+
+@dataclass(frozen=True)
+class Meeting:
+    """A planned handover: where the giver's tip meets (its arm frame), the block's pose there (board frame)
+    and the receiver's grasp of it."""
+
+    tip: NDArray[np.float64]
+    block_pose: NDArray[np.float64]
+    receiver_grasp: Grasp
+
+
+def plan_meeting(skills: Skills, giver: str, receiver: str, grasp: Grasp, block: BlockEstimate) -> Meeting | None:
+    """The handover of `block` held by `giver` at `grasp`, or None if the receiver cannot take it: the
+    receiver's grasp is on another wall than the giver's jaw, keeps its tool `grasp_clearance` clear of the
+    giver's all the way down onto it, and is the nearest such to the receiver. Whether there is one depends
+    on the giver's grasp: a block held on some walls hangs so that every grasp of the receiver strikes the
+    giver's tool (never one held as the paper picks it off its peg; often one picked off the board)."""
+    cell = skills.cell
+    tip = tool_pose(to_arm(cell, giver, handover_meeting_point(cell, skills.motion)), 0.0, cell.up_in(giver))
+    q_giver = solve_ik(tip, skills.arm(giver).settings, what="the giver at the meeting point")
+    block_pose = cell.arm_to_board(giver) @ tip @ invert_rigid(cell.arm_to_board(giver) @ grasp.pose) @ block.pose
+    giver_edge = cell.block.grasp_candidates.edge[grasp.candidate]
+    options = [option for option in skills.selectors[receiver].feasible(block_pose)
+               if cell.block.grasp_candidates.edge[option.candidate] != giver_edge]
+    taken = next((option for option in sorted(options, key=lambda option: _distance_to(cell, receiver, option))
+                  if _clear_descent(skills, receiver, option, giver, q_giver)), None)
+    return None if taken is None else Meeting(tip, block_pose, taken)
+
+
+def _distance_to(cell: Workcell, arm: str, option: Grasp) -> float:
+    return float(np.linalg.norm(option.board_position[:2] - cell.remote_centre(arm)[:2]))
+
+
+def _clear_descent(skills: Skills, receiver: str, option: Grasp, giver: str, q_giver: NDArray[np.float64]) -> bool:
+    """Whether the receiver, descending from waiting above `option` onto it, keeps `grasp_clearance` from the giver."""
+    cell, settings = skills.cell, skills.motion.handover
+    wait = option.pose.copy()
+    wait[:3, 3] += settings.receiver_wait_above * cell.up_in(receiver)
+    try:
+        q_wait, q_grasp = (solve_ik(pose, skills.arm(receiver).settings) for pose in (wait, option.pose))
+    except PegbtError:
+        return False
+    clearance = descent_clearance(q_wait, q_grasp, cell.board_to_arm(receiver), q_giver, cell.board_to_arm(giver),
+                                  cell.tool)
+    return clearance >= settings.grasp_clearance
 
 
 @behaviour(
     "handover_poses",
     "where the handover happens: the giver's tip pose at the meeting point, the pose the block it holds will "
-    "have there, and the receiver's grasp of it (nearest the receiver, on another wall than the giver's jaw)",
+    "have there, and the receiver's grasp of it (nearest the receiver, on another wall than the giver's jaw, "
+    "clear of the giver's tool)",
     params=(
         arm_param("the giver"),
         Param("receiver", str, "the receiver", choices=ARMS),
@@ -48,24 +101,17 @@ class HandoverPoses(RobotLeaf):
         giver, receiver = self.param("arm"), self.param("receiver")
         if giver == receiver:
             return self.fail(f"{giver} cannot hand a block to itself")
-        cell, motion = self.skills.cell, self.skills.motion
-        grasp: Grasp = self.get("grasp")
-        point = handover_meeting_point(cell, motion)
-        meeting = tool_pose(to_arm(cell, giver, point), 0.0, cell.up_in(giver))
-        tip_board = cell.arm_to_board(giver) @ grasp.pose
-        block_pose = cell.arm_to_board(giver) @ meeting @ invert_rigid(tip_board) @ self.get("block").pose
-        giver_edge = cell.block.grasp_candidates.edge[grasp.candidate]
-        options = [option for option in self.skills.selectors[receiver].feasible(block_pose)
-                   if cell.block.grasp_candidates.edge[option.candidate] != giver_edge]
-        centre = cell.remote_centre(receiver)[:2]
-        taken = min(options, key=lambda option: float(np.linalg.norm(option.board_position[:2] - centre)), default=None)
-        if taken is None:
-            return self.fail(f"{receiver} can reach no grasp of the block at the meeting point apart from {giver}'s wall")
-        self.put("meeting", meeting)
-        self.put("block_pose", block_pose)
-        self.put("receiver_grasp", taken)
-        self.feedback_message = (f"meeting at {np.round(point * 1000, 1).tolist()} mm (board); {receiver} takes "
-                                 f"candidate {taken.candidate}, yaw {math.degrees(taken.yaw):.0f}°")
+        meeting = plan_meeting(self.skills, giver, receiver, self.get("grasp"), self.get("block"))
+        if meeting is None:
+            return self.fail(f"{receiver} can reach no grasp of the block at the meeting point that keeps clear of "
+                             f"{giver}'s tool")
+        self.put("meeting", meeting.tip)
+        self.put("block_pose", meeting.block_pose)
+        self.put("receiver_grasp", meeting.receiver_grasp)
+        taken = meeting.receiver_grasp
+        point = handover_meeting_point(self.skills.cell, self.skills.motion)
+        self.feedback_message = (f"meeting at {np.round(point * 1000, 1).tolist()} mm (board); {receiver} takes candidate "
+                                 f"{taken.candidate}, yaw {math.degrees(taken.yaw):.0f}°")
         return Status.SUCCESS
 
 

@@ -17,7 +17,7 @@ from pegbt.frames import apply_rigid, rigid_transform
 from pegbt.motion.channel import Channel
 from pegbt.motion.settings import MotionSettings
 from pegbt.motion.waypoints import TransferWaypoints, placement_waypoints, tool_down_rotation, transfer_waypoints
-from pegbt.perception.blocks import BlockEstimate
+from pegbt.perception.blocks import BlockEstimate, stack_level
 from pegbt.perception.board import BoardEstimate
 from pegbt.perception.grasp import Grasp
 from pegbt.workcell import Workcell
@@ -35,10 +35,15 @@ def peg_top_board(cell: Workcell, board: BoardEstimate | None, peg: int) -> NDAr
 
 
 def block_axis_top(cell: Workcell, board: BoardEstimate | None, block: BlockEstimate) -> NDArray[np.float64]:
-    """Where the block's axis crosses the peg-top height, board frame: its peg's top, or above it on the board."""
+    """Where the block's axis crosses the peg-top height, board frame: its peg's top, or above it on the board;
+    for a block resting on another (a stack), that much higher, so it is grasped and lifted as if its peg
+    were one block taller."""
     if block.peg is not None:
-        return peg_top_board(cell, board, block.peg)
-    return np.array([block.position[0], block.position[1], cell.pegs.top_z])
+        top = peg_top_board(cell, board, block.peg)
+    else:
+        top = np.array([block.position[0], block.position[1], cell.pegs.top_z])
+    top[2] -= stack_level(block, cell) * cell.block.height  # board z points down
+    return top
 
 
 def to_arm(cell: Workcell, arm: str, point_board: ArrayLike) -> NDArray[np.float64]:

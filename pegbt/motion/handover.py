@@ -25,7 +25,7 @@ from pegbt.motion.settings import MotionSettings, motion_settings
 from pegbt.motion.trajectory import Trajectory
 from pegbt.motion.transfer import TransferPlanner
 from pegbt.motion.waypoints import placement_waypoints, tool_down_rotation
-from pegbt.workcell import Workcell
+from pegbt.workcell import ToolGeometry, Workcell
 
 WRIST_FRAME = 4  # link frame at the end of the shaft (wrist pitch axis)
 
@@ -74,6 +74,41 @@ def tool_distance(q_a: ArrayLike, a_from_board: ArrayLike, q_b: ArrayLike, b_fro
         for b0, b1 in ((rcm_b, wrist_b), (wrist_b, tip_b))
     ]
     return np.min(np.stack(pairs), axis=0)
+
+
+def tool_gap(q_a: ArrayLike, a_from_board: ArrayLike, q_b: ArrayLike, b_from_board: ArrayLike,
+             tool: ToolGeometry) -> NDArray[np.float64]:
+    """Smallest clearance (...) between two arms' tools as solids: shaft, wrist (pitch axis to jaw hinge)
+    and jaw, each a segment with the work cell's radius, at joints `q_a`, `q_b` (..., 6); negative where
+    they overlap. `tool_distance` measures axes; this is what touches."""
+    parts = [_tool_parts(q, invert_rigid(np.asarray(T, dtype=float)), tool)
+             for q, T in ((q_a, a_from_board), (q_b, b_from_board))]
+    radii = (tool.shaft_radius, tool.wrist_radius, tool.jaw_radius)
+    gaps = [segment_distances(a0, a1, b0, b1) - ra - rb
+            for (a0, a1), ra in zip(parts[0], radii) for (b0, b1), rb in zip(parts[1], radii)]
+    return np.min(np.stack(gaps), axis=0)
+
+
+def descent_clearance(q_wait: ArrayLike, q_grasp: ArrayLike, receiver_from_board: ArrayLike, q_giver: ArrayLike,
+                      giver_from_board: ArrayLike, tool: ToolGeometry, steps: int = 6) -> float:
+    """The receiver's smallest clearance (m, `tool_gap`) from the giver resting at `q_giver` as it descends
+    from `q_wait` straight (in joints, as its move does) onto `q_grasp`."""
+    along = np.linspace(0.0, 1.0, steps)[:, None]
+    q_wait = np.asarray(q_wait, dtype=float)
+    path = q_wait + along * (np.asarray(q_grasp, dtype=float) - q_wait)
+    giver = np.repeat(np.asarray(q_giver, dtype=float)[None], steps, axis=0)
+    return float(tool_gap(path, receiver_from_board, giver, giver_from_board, tool).min())
+
+
+def _tool_parts(q: ArrayLike, board_from_arm: NDArray, tool: ToolGeometry) -> list[tuple[NDArray, NDArray]]:
+    """Shaft, wrist and jaw segments (board frame) of an arm at joints `q`, as the simulator's world sees them."""
+    frames = link_frames(q)
+    tip = frames[-1]
+    hinge = tip[..., :3, 3] + tool.jaw_length * tip[..., :3, 2]
+    rcm, wrist, end = (apply_rigid(board_from_arm, p) for p in
+                       (np.zeros(np.shape(q)[:-1] + (3,)), frames[WRIST_FRAME][..., :3, 3], tip[..., :3, 3]))
+    hinge = apply_rigid(board_from_arm, hinge)
+    return [(rcm, wrist), (wrist, hinge), (hinge, end)]
 
 
 def _pose_in_arm(position_board: NDArray, yaw: float, arm_from_board: NDArray, up_board: NDArray) -> NDArray:

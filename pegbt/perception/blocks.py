@@ -48,6 +48,7 @@ class BlockSettings:
     on_peg_tolerance: float = 0.0005  # beyond the hole's clearance around a peg
     surrounded_points: int = 50  # a touching cluster with this many points around a peg's axis has a block on it
     part_distance: float = 0.0015  # points this near a fitted block belong to it (taking touching blocks apart)
+    stack_height: float = 1.5  # a segment this many block heights tall is a block on top of another
     segment: SegmentSettings = field(default_factory=SegmentSettings)
 
 
@@ -93,10 +94,23 @@ class BlockLocator:
         board_points = board.to_board(cloud)
         peg_xy = board.peg_tops[:, :2]
         segments = block_segments(board_points, peg_xy, self.cell, self.settings.segment)
-        estimates = [self.register(segment, peg_xy) for segment in segments.blocks]
+        estimates = [estimate for segment in segments.blocks for estimate in self.unstack(segment, peg_xy)]
         for cluster in segments.touching:
             estimates += self.take_apart(cluster, peg_xy)
         return estimates
+
+    def unstack(self, segment: Points, peg_xy: Points) -> list[BlockEstimate]:
+        """The blocks of a segment: one, or, if it stands taller than `stack_height` blocks, a stack (a block
+        dropped onto a peg that held one): the top block is fitted from its top face down, its points
+        (those above its bottom face) registered as one block, the rest as the block under it."""
+        model, settings = self.cell.block, self.settings
+        low, high = np.percentile(segment[:, 2], [1.0, 99.0])
+        if high - low < settings.stack_height * model.height:
+            return [self.register(segment, peg_xy)]
+        bottom = self._fit(segment, self.initial_pose(segment, peg_xy))[2, 3]
+        above = segment[:, 2] < bottom - settings.top_face_depth  # board z points down
+        return [self.register(part, peg_xy) for part in (segment[above], segment[~above])
+                if len(part) >= settings.segment.min_points]
 
     def take_apart(self, cluster: Points, peg_xy: Points) -> list[BlockEstimate]:
         """The blocks of a cluster too wide for one. Blocks touching across neighbouring pegs are cut apart
@@ -229,9 +243,16 @@ def locate_blocks(cloud: ArrayLike, board: BoardEstimate) -> list[BlockEstimate]
 
 
 def block_on_peg(estimates: list[BlockEstimate], peg: int) -> BlockEstimate | None:
-    """The block found on `peg` (a trustworthy one first), or None: the peg is empty as far as we see."""
+    """The block found on `peg` (a trustworthy one first; of a stack, the top one, the only one that can be
+    lifted off), or None: the peg is empty as far as we see."""
     on_peg = [estimate for estimate in estimates if estimate.peg == peg]
-    return max(on_peg, key=lambda estimate: (estimate.ok, estimate.fitness), default=None)
+    return max(on_peg, key=lambda estimate: (estimate.ok, -stack_level(estimate), estimate.fitness), default=None)
+
+
+def stack_level(block: BlockEstimate, cell: Workcell | None = None) -> int:
+    """How many blocks `block` rests on: 0 on the board, 1 on top of another block (a stack on a peg)."""
+    cell = cell or workcell()
+    return max(0, round((cell.board.surface_z - float(block.position[2])) / cell.block.height))  # board z points down
 
 
 def wrap_symmetric(yaw: float) -> float:

@@ -102,10 +102,12 @@ class GraspSelector:
             )
         return [option for option, ok in zip(in_window, accepted) if ok]
 
-    def pick(self, block: BlockEstimate, avoid: Collection[int] = ()) -> Grasp | None:
+    def pick(self, block: BlockEstimate, avoid: Collection[int] = (),
+             acceptable: Callable[[Grasp], bool] | None = None) -> Grasp | None:
         """The paper's grasp of a located block: feasible, and farthest (in x, y) from the block's peg,
         ties going to the candidate nearest to the arm (its remote centre, in x, y). Candidates in `avoid`
-        (one that just missed) are taken only if no other is feasible.
+        (one that just missed) are taken only if no other is feasible; candidates `acceptable` rejects (what
+        the grasp is for cannot be done from it) never.
 
         For a block lying on the board, "its peg" is the nearest one. None if no candidate is feasible.
         """
@@ -113,7 +115,7 @@ class GraspSelector:
             raise PegbtError(f"the block's pose is not trustworthy ({block.reason})", field="block")
         pegs = self.cell.pegs.positions
         peg = block.peg if block.peg is not None else int(np.argmin(np.linalg.norm(pegs - block.position[:2], axis=1)))
-        feasible = self.feasible(block.pose)
+        feasible = [option for option in self.feasible(block.pose) if acceptable is None or acceptable(option)]
         options = [option for option in feasible if option.candidate not in avoid] or feasible
         if not options:
             return None

@@ -383,15 +383,26 @@ class World:
     def _clear_of_pegs(self, block: Block) -> Matrix:
         """Where (board x, y) a block falling at its pose comes to rest: one landing on a peg's top (or
         between pegs) tips and slides off, away from every peg it touches, until it rests
-        `tip_off_clearance` clear of them all, so a later grasp does not find it pressed against a peg."""
-        margin = self.config.tip_off_clearance
+        `tip_off_clearance` clear of them all, so a later grasp does not find it pressed against a peg.
+        Wedged between pegs (sliding off one onto another, back and forth), it comes to rest at the spot
+        nearest to where it fell that is that clear of them all."""
+        fell = block.pose[:2, 3].copy()
         for _ in range(_SLIDE_STEPS):
-            touching = np.flatnonzero(self._in_footprint(self._pegs_in_block_frame(block), margin))
+            touching = np.flatnonzero(self._touching_pegs(block))
             if not len(touching):
-                break
+                return block.pose[:2, 3].copy()
             away = sum((_unit(block.pose[:2, 3] - self.cell.pegs.positions[peg]) for peg in touching), np.zeros(2))
             block.pose[:2, 3] += _SLIDE_STEP * _unit(away)
+        for ring in range(1, _SLIDE_STEPS + 1):
+            for turn in np.linspace(0.0, 2 * math.pi, 8 * ring, endpoint=False):
+                block.pose[:2, 3] = fell + ring * _SLIDE_STEP * np.array([math.cos(turn), math.sin(turn)])
+                if not self._touching_pegs(block).any():
+                    return block.pose[:2, 3].copy()
         return block.pose[:2, 3].copy()
+
+    def _touching_pegs(self, block: Block) -> Matrix:
+        """Which pegs `block`, where it lies, touches or comes within `tip_off_clearance` of."""
+        return self._in_footprint(self._pegs_in_block_frame(block), self.config.tip_off_clearance)
 
 
     def _rest_on_peg(self, block: Block, peg: int, yaw: float) -> None:
