@@ -119,13 +119,14 @@ def test_a_block_that_slipped_and_was_missed_when_picked_again_is_named_by_the_s
 
 
 def test_a_giver_whose_receiver_never_came_is_named_by_the_wait_and_the_simulator_confirms_it(tmp_path):
-    """A giver alone: it holds the block out, waits for a receiver that never comes and lets go. `why` names the
-    wait it gave up (what it halted says so); the simulator saw the block never pass to the receiver."""
+    """A giver alone: it holds the block out, waits for a receiver that said it was ready but never comes, and
+    lets go. `why` names the wait it gave up (what it halted says so); the simulator saw the block never pass
+    to the receiver."""
     tree = tmp_path / "giver.yaml"
     tree.write_text(
         f"include: [{REPO / 'trees' / 'shared' / 'handover.yaml'}, {REPO / 'trees' / 'shared' / 'sense.yaml'}]\n"
         "blackboard: {/handover/offered: 0, /handover/arrived: 0, /handover/taken: 0, /handover/released: 0, /handover/given_up: 0,\n"
-        "             /handover/refused: 0, /PSM1/may_carry: true, /PSM2/may_carry: true}\n"
+        "             /handover/refused: 0, /handover/ready: 1, /handover/closing: 0, /PSM1/may_carry: true, /PSM2/may_carry: true}\n"
         "tree:\n  sequence:\n"
         "    - subtree: {use: clear_view}\n"
         "    - force_success: {name: g, child: {subtree: {use: give, args: {giver: PSM2, receiver: PSM1, n: 1, pick: 1, place: 7,"
@@ -134,4 +135,4 @@ def test_a_giver_whose_receiver_never_came_is_named_by_the_wait_and_the_simulato
     [check] = record.why
     assert (check["named_step"], check["truth"]["step"], check["agrees"]) == ("handover", "handover", True)
     assert check["named"].endswith("the receiver takes it: timed out after 2 s")
-    assert "it halted: still holding: PSM2 holds its block; wait until taken: waiting for /handover/taken == 1 (now 0)" in log_why(record.log)
+    assert "still holding: PSM2 holds its block; wait until taken: waiting for /handover/taken == 1 (now 0)" in log_why(record.log)
