@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import signal
 import subprocess
 import sys
 from pathlib import Path
@@ -37,13 +38,18 @@ class PegbtCommand:
         return subprocess.run(self._argv(args), capture_output=True, text=True, cwd=cwd or REPO, env=self.env, timeout=timeout)
 
     def start(self, *args: object, cwd: Path | None = None) -> subprocess.Popen[str]:
-        """The command running, its output piped (to signal it before it ends)."""
+        """The command running, its output piped (to signal it before it ends). Ctrl-C reaches it even when the
+        suite itself runs where SIGINT is ignored (a background job), which the child would inherit."""
         return subprocess.Popen(self._argv(args), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                                cwd=cwd or REPO, env=self.env)
+                                cwd=cwd or REPO, env=self.env, preexec_fn=_interruptible)
 
     @staticmethod
     def _argv(args: tuple[object, ...]) -> list[str]:
         return [sys.executable, "-m", "pegbt", *map(str, args)]
+
+
+def _interruptible() -> None:
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
 
 
 @pytest.fixture(scope="session")
