@@ -56,22 +56,28 @@ def handover_meeting_point(cell: Workcell, motion: MotionSettings | None = None)
     return point
 
 
-def tool_segments(q: ArrayLike, board_from_arm: NDArray[np.float64]) -> tuple[NDArray, NDArray, NDArray]:
-    """Remote centre, wrist and tip (..., 3) of an arm at joints `q`, in the board frame."""
+def tool_segments(q: ArrayLike, board_from_arm: NDArray[np.float64],
+                  tool: ToolGeometry | None = None) -> list[tuple[NDArray, NDArray]]:
+    """An arm's tool at joints `q` (..., 6) as segments (start, end; each (..., 3), board frame): the shaft
+    (remote centre to wrist pitch axis) and wrist to tip; given `tool`, the latter split at the jaw hinge
+    into wrist and jaw, as the simulator's world sees the tool (`pegbt.sim.tools.ToolState.segments`)."""
     frames = link_frames(q)
-    points = [np.zeros(np.shape(q)[:-1] + (3,)), frames[WRIST_FRAME][..., :3, 3], frames[-1][..., :3, 3]]
-    return tuple(apply_rigid(board_from_arm, p) for p in points)
+    tip = frames[-1]
+    points = [np.zeros(np.shape(q)[:-1] + (3,)), frames[WRIST_FRAME][..., :3, 3]]
+    if tool is not None:
+        points.append(tip[..., :3, 3] + tool.jaw_length * tip[..., :3, 2])
+    points.append(tip[..., :3, 3])
+    points = [apply_rigid(board_from_arm, point) for point in points]
+    return list(zip(points[:-1], points[1:]))
 
 
 def tool_distance(q_a: ArrayLike, a_from_board: ArrayLike, q_b: ArrayLike, b_from_board: ArrayLike) -> NDArray[np.float64]:
     """Smallest distance (...) between two arms' tools (shaft and wrist-to-tip segments) at joints
     `q_a`, `q_b` (..., 6), given each arm's transform from the board frame."""
-    rcm_a, wrist_a, tip_a = tool_segments(q_a, invert_rigid(a_from_board))
-    rcm_b, wrist_b, tip_b = tool_segments(q_b, invert_rigid(b_from_board))
     pairs = [
         segment_distances(a0, a1, b0, b1)
-        for a0, a1 in ((rcm_a, wrist_a), (wrist_a, tip_a))
-        for b0, b1 in ((rcm_b, wrist_b), (wrist_b, tip_b))
+        for a0, a1 in tool_segments(q_a, invert_rigid(a_from_board))
+        for b0, b1 in tool_segments(q_b, invert_rigid(b_from_board))
     ]
     return np.min(np.stack(pairs), axis=0)
 
@@ -81,7 +87,7 @@ def tool_gap(q_a: ArrayLike, a_from_board: ArrayLike, q_b: ArrayLike, b_from_boa
     """Smallest clearance (...) between two arms' tools as solids: shaft, wrist (pitch axis to jaw hinge)
     and jaw, each a segment with the work cell's radius, at joints `q_a`, `q_b` (..., 6); negative where
     they overlap. `tool_distance` measures axes; this is what touches."""
-    parts = [_tool_parts(q, invert_rigid(np.asarray(T, dtype=float)), tool)
+    parts = [tool_segments(q, invert_rigid(np.asarray(T, dtype=float)), tool)
              for q, T in ((q_a, a_from_board), (q_b, b_from_board))]
     radii = (tool.shaft_radius, tool.wrist_radius, tool.jaw_radius)
     gaps = [segment_distances(a0, a1, b0, b1) - ra - rb
@@ -98,17 +104,6 @@ def descent_clearance(q_wait: ArrayLike, q_grasp: ArrayLike, receiver_from_board
     path = q_wait + along * (np.asarray(q_grasp, dtype=float) - q_wait)
     giver = np.repeat(np.asarray(q_giver, dtype=float)[None], steps, axis=0)
     return float(tool_gap(path, receiver_from_board, giver, giver_from_board, tool).min())
-
-
-def _tool_parts(q: ArrayLike, board_from_arm: NDArray, tool: ToolGeometry) -> list[tuple[NDArray, NDArray]]:
-    """Shaft, wrist and jaw segments (board frame) of an arm at joints `q`, as the simulator's world sees them."""
-    frames = link_frames(q)
-    tip = frames[-1]
-    hinge = tip[..., :3, 3] + tool.jaw_length * tip[..., :3, 2]
-    rcm, wrist, end = (apply_rigid(board_from_arm, p) for p in
-                       (np.zeros(np.shape(q)[:-1] + (3,)), frames[WRIST_FRAME][..., :3, 3], tip[..., :3, 3]))
-    hinge = apply_rigid(board_from_arm, hinge)
-    return [(rcm, wrist), (wrist, hinge), (hinge, end)]
 
 
 def _pose_in_arm(position_board: NDArray, yaw: float, arm_from_board: NDArray, up_board: NDArray) -> NDArray:
