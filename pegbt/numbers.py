@@ -26,14 +26,24 @@ def checked_number(
     below: float | None = None,
 ) -> float:
     """`value` as a float if it is finite and within the given bounds; else a `PegbtError` naming `field`."""
-    bounds = [f"> {above:g}" if above is not None else "", f">= {at_least:g}" if at_least is not None else "",
-              f"<= {at_most:g}" if at_most is not None else "", f"< {below:g}" if below is not None else ""]
+    bounds = [
+        f"> {above:g}" if above is not None else "",
+        f">= {at_least:g}" if at_least is not None else "",
+        f"<= {at_most:g}" if at_most is not None else "",
+        f"< {below:g}" if below is not None else "",
+    ]
     wanted = " and ".join(bound for bound in bounds if bound)
     number = float(value)
-    if (not math.isfinite(number) or (above is not None and not number > above)
-            or (at_least is not None and not number >= at_least) or (at_most is not None and not number <= at_most)
-            or (below is not None and not number < below)):
-        raise PegbtError(f"must be a finite number{' ' + wanted if wanted else ''}, got {number:g}", field=field)
+    if (
+        not math.isfinite(number)
+        or (above is not None and not number > above)
+        or (at_least is not None and not number >= at_least)
+        or (at_most is not None and not number <= at_most)
+        or (below is not None and not number < below)
+    ):
+        raise PegbtError(
+            f"must be a finite number{' ' + wanted if wanted else ''}, got {number:g}", field=field
+        )
     return number
 
 
@@ -44,14 +54,27 @@ class NumberOption(argparse.Action):
     `PegbtError` naming the option, which `pegbt.cli.main` prints as one line.
     """
 
-    def __init__(self, option_strings: Sequence[str], dest: str, *, above: float | None = None,
-                 at_least: float | None = None, at_most: float | None = None, below: float | None = None,
-                 **kwargs: Any) -> None:
+    def __init__(
+        self,
+        option_strings: Sequence[str],
+        dest: str,
+        *,
+        above: float | None = None,
+        at_least: float | None = None,
+        at_most: float | None = None,
+        below: float | None = None,
+        **kwargs: Any,
+    ) -> None:
         kwargs.setdefault("type", float)
         super().__init__(option_strings, dest, **kwargs)
         self.bounds = {"above": above, "at_least": at_least, "at_most": at_most, "below": below}
 
-    def __call__(self, parser: argparse.ArgumentParser, namespace: argparse.Namespace, values: Any,
-                 option_string: str | None = None) -> None:
+    def __call__(
+        self,
+        parser: argparse.ArgumentParser,
+        namespace: argparse.Namespace,
+        values: Any,
+        option_string: str | None = None,
+    ) -> None:
         number = checked_number(values, option_string or self.dest, **self.bounds)
         setattr(namespace, self.dest, values if self.type is int else number)

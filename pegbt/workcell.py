@@ -24,7 +24,20 @@ from pegbt.yamlfile import Located, read_settings_file
 WORKCELL_FILE = Path(__file__).resolve().parents[1] / "skills" / "workcell.yaml"
 N_PEGS = 12
 # The reference's unilateral trial (one arm): (start peg, goal peg) of each of the 12 transfers.
-UNILATERAL_ORDER = ((1, 7), (0, 6), (3, 8), (2, 9), (5, 11), (4, 10), (7, 1), (6, 0), (8, 3), (9, 2), (11, 5), (10, 4))
+UNILATERAL_ORDER = (
+    (1, 7),
+    (0, 6),
+    (3, 8),
+    (2, 9),
+    (5, 11),
+    (4, 10),
+    (7, 1),
+    (6, 0),
+    (8, 3),
+    (9, 2),
+    (11, 5),
+    (10, 4),
+)
 
 
 @dataclass(frozen=True)
@@ -237,22 +250,47 @@ def load_workcell(path: Path | str = WORKCELL_FILE) -> Workcell:
         radius=pegs_section["diameter"].number(positive=True) / 2,
         left_group=_pegs(pegs_section["left_group"]),
     )
-    block_section.mapping(("edge_distance", "corner_distance", "height", "hole_radius", "edge_directions_deg",
-                           "grasp_radial", "grasp_along_edge", "grasp_depth"))
+    block_section.mapping(
+        (
+            "edge_distance",
+            "corner_distance",
+            "height",
+            "hole_radius",
+            "edge_directions_deg",
+            "grasp_radial",
+            "grasp_along_edge",
+            "grasp_depth",
+        )
+    )
     block = BlockModel(
-        **{name: block_section[name].number(positive=True)
-           for name in ("edge_distance", "corner_distance", "height", "hole_radius", "grasp_radial", "grasp_depth")},
+        **{
+            name: block_section[name].number(positive=True)
+            for name in (
+                "edge_distance",
+                "corner_distance",
+                "height",
+                "hole_radius",
+                "grasp_radial",
+                "grasp_depth",
+            )
+        },
         grasp_along_edge=block_section["grasp_along_edge"].number(),
         edge_directions=np.radians(block_section["edge_directions_deg"].array((3,))),
     )
     if not block.hole_radius < block.edge_distance < block.corner_distance < 2 * block.edge_distance:
-        raise block_section.error("expected hole_radius < edge_distance < corner_distance < 2 · edge_distance")
+        raise block_section.error(
+            "expected hole_radius < edge_distance < corner_distance < 2 · edge_distance"
+        )
     if block.hole_radius <= pegs.radius:
         raise block_section["hole_radius"].error("the hole must be wider than a peg")
     if not 0 < block.grasp_depth < block.height:
-        raise block_section["grasp_depth"].error(f"expected a depth below the top face within the block's height ({block.height:g} m)")
+        raise block_section["grasp_depth"].error(
+            f"expected a depth below the top face within the block's height ({block.height:g} m)"
+        )
     camera_section = root["camera"]
-    camera_section.mapping(("rotation", "translation", "width", "height", "fx", "fy", "cx", "cy", "depth_noise"))
+    camera_section.mapping(
+        ("rotation", "translation", "width", "height", "fx", "fy", "cx", "cy", "depth_noise")
+    )
     camera = CameraModel(
         board_from_camera=camera_section.rigid(),
         width=camera_section["width"].integer(low=1),
@@ -280,7 +318,11 @@ def load_workcell(path: Path | str = WORKCELL_FILE) -> Workcell:
         block=block,
         arm_from_board={arm: arms[arm].rigid() for arm in ARMS},
         camera=camera,
-        tool=ToolGeometry(**_lengths(root["tool"], ("jaw_length", "wrist_length", "jaw_radius", "wrist_radius", "shaft_radius"))),
+        tool=ToolGeometry(
+            **_lengths(
+                root["tool"], ("jaw_length", "wrist_length", "jaw_radius", "wrist_radius", "shaft_radius")
+            )
+        ),
         handover_pegs=_pegs(handover["pegs"]),
     )
 

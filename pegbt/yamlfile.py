@@ -77,7 +77,9 @@ class Located:
     def error(self, message: str, *, at: Mark | None = None, field_name: str | None = None) -> PegbtError:
         """A `PegbtError` about this value (or, with `at`/`field_name`, about one of its parts)."""
         mark = at or self.mark
-        return PegbtError(message, file=mark.file, line=mark.line, column=mark.column, field=field_name or self.path or None)
+        return PegbtError(
+            message, file=mark.file, line=mark.line, column=mark.column, field=field_name or self.path or None
+        )
 
     def child_path(self, key: str) -> str:
         return f"{self.path}.{key}" if self.path else key
@@ -90,7 +92,11 @@ class Located:
         if allowed is not None:
             for key, mark in self.key_marks.items():
                 if key not in allowed:
-                    raise self.error(f"unknown field; expected one of {', '.join(allowed)}", at=mark, field_name=self.child_path(key))
+                    raise self.error(
+                        f"unknown field; expected one of {', '.join(allowed)}",
+                        at=mark,
+                        field_name=self.child_path(key),
+                    )
         return self.value
 
     def get(self, key: str) -> Located | None:
@@ -131,7 +137,15 @@ class Located:
             raise self.error(f"expected a number in [{low:g}, {high:g}], got {value!r}")
         return float(value)
 
-    def number_or(self, key: str, default: float, *, positive: bool = False, low: float = -math.inf, high: float = math.inf) -> float:
+    def number_or(
+        self,
+        key: str,
+        default: float,
+        *,
+        positive: bool = False,
+        low: float = -math.inf,
+        high: float = math.inf,
+    ) -> float:
         """The number at entry `key` of a mapping (checked as `number` does), or `default` when it is absent."""
         entry = self.get(key)
         return default if entry is None else entry.number(positive=positive, low=low, high=high)
@@ -166,7 +180,9 @@ class Located:
             return np.array(self.number(positive=positive))
         if not self.is_list or len(self.value) != shape[0]:
             raise self.error(f"expected {wanted} finite numbers, got {_describe(self)}")
-        return np.array([item.array(shape[1:], positive=positive) for item in self.value], dtype=float).reshape(shape)
+        return np.array(
+            [item.array(shape[1:], positive=positive) for item in self.value], dtype=float
+        ).reshape(shape)
 
     def rigid(self) -> NDArray[np.float64]:
         """A 4×4 transform from this mapping's `rotation` (projected onto SO(3)) and `translation`."""
@@ -192,7 +208,9 @@ def read_settings_file(path: Path) -> Located:
     """A settings file's document, which must be a mapping; merge keys (`<<: *defaults`) are allowed."""
     document = read_yaml_file(path, merge_keys=True)
     if document is None:
-        raise PegbtError("the file is empty; expected a mapping of sections", file=str(path), line=1, column=1)
+        raise PegbtError(
+            "the file is empty; expected a mapping of sections", file=str(path), line=1, column=1
+        )
     document.mapping()
     return document
 
@@ -243,7 +261,10 @@ def _position(text: str, index: int) -> tuple[int, int]:
 
 
 def _compose(text: str, name: str) -> yaml.Node | None:
-    use_c = getattr(yaml, "__with_libyaml__", False) and (text.count("[") + text.count("{")) <= _C_PARSER_BRACKET_LIMIT
+    use_c = (
+        getattr(yaml, "__with_libyaml__", False)
+        and (text.count("[") + text.count("{")) <= _C_PARSER_BRACKET_LIMIT
+    )
     loader = yaml.CSafeLoader(text) if use_c else yaml.SafeLoader(text)
     try:
         return loader.get_single_node()
@@ -254,10 +275,15 @@ def _compose(text: str, name: str) -> yaml.Node | None:
         raise PegbtError(f"YAML syntax: {problem}", file=name, line=line, column=column) from None
     except yaml.reader.ReaderError as error:
         line, column = _position(text, error.position)
-        raise PegbtError(f"YAML: character {error.character!r} is not allowed", file=name, line=line, column=column) from None
+        raise PegbtError(
+            f"YAML: character {error.character!r} is not allowed", file=name, line=line, column=column
+        ) from None
     except RecursionError:
         raise PegbtError(
-            "YAML nesting is too deep", file=name, line=getattr(loader, "line", 0) + 1, column=getattr(loader, "column", 0) + 1
+            "YAML nesting is too deep",
+            file=name,
+            line=getattr(loader, "line", 0) + 1,
+            column=getattr(loader, "column", 0) + 1,
         ) from None
     except yaml.YAMLError as error:
         raise PegbtError(f"YAML: {error}", file=name, line=1, column=1) from None
@@ -281,19 +307,38 @@ class _Converter:
         mark = self.mark(node)
         self.count += 1
         if self.count > MAX_VALUES:
-            raise PegbtError(f"more than {MAX_VALUES} YAML values (aliases expanding?)", file=self.name, line=mark.line, column=mark.column)
+            raise PegbtError(
+                f"more than {MAX_VALUES} YAML values (aliases expanding?)",
+                file=self.name,
+                line=mark.line,
+                column=mark.column,
+            )
         if depth > MAX_DEPTH:
-            raise PegbtError(f"nested more than {MAX_DEPTH} levels deep", file=self.name, line=mark.line, column=mark.column)
+            raise PegbtError(
+                f"nested more than {MAX_DEPTH} levels deep",
+                file=self.name,
+                line=mark.line,
+                column=mark.column,
+            )
         if isinstance(node, yaml.MappingNode):
             return self._mapping(node, mark, depth, path)
         if isinstance(node, yaml.SequenceNode):
             self._check_tag(node, _SEQ_TAG, mark)
-            return Located([self.convert(item, depth + 1, f"{path}[{i}]") for i, item in enumerate(node.value)], mark, path=path)
+            return Located(
+                [self.convert(item, depth + 1, f"{path}[{i}]") for i, item in enumerate(node.value)],
+                mark,
+                path=path,
+            )
         return Located(self._scalar(node, mark), mark, path=path)
 
     def _check_tag(self, node: yaml.Node, expected: str, mark: Mark) -> None:
         if node.tag != expected:
-            raise PegbtError(f"YAML tag {node.tag!r} is not supported here", file=self.name, line=mark.line, column=mark.column)
+            raise PegbtError(
+                f"YAML tag {node.tag!r} is not supported here",
+                file=self.name,
+                line=mark.line,
+                column=mark.column,
+            )
 
     def _mapping(self, node: yaml.MappingNode, mark: Mark, depth: int, path: str) -> Located:
         self._check_tag(node, _MAP_TAG, mark)
@@ -304,17 +349,28 @@ class _Converter:
         for index, (key_node, value_node) in enumerate(node.value):
             key_mark = self.mark(key_node)
             if not isinstance(key_node, yaml.ScalarNode):
-                raise PegbtError("mapping keys must be plain strings, found a collection", file=self.name, line=key_mark.line, column=key_mark.column)
+                raise PegbtError(
+                    "mapping keys must be plain strings, found a collection",
+                    file=self.name,
+                    line=key_mark.line,
+                    column=key_mark.column,
+                )
             key = "<<" if key_node.tag == _MERGE_TAG else self._scalar(key_node, key_mark)
             if not isinstance(key, str) or key == "<<":
                 shown = "a merge key (<<)" if key == "<<" else f"{type(key).__name__} {key!r} (quote it)"
                 raise PegbtError(
-                    f"mapping keys must be plain strings, found {shown}", file=self.name, line=key_mark.line, column=key_mark.column
+                    f"mapping keys must be plain strings, found {shown}",
+                    file=self.name,
+                    line=key_mark.line,
+                    column=key_mark.column,
                 )
             if key in written:
                 first = key_marks[key]
                 raise PegbtError(
-                    f"duplicate key {key!r} (first at line {first.line})", file=self.name, line=key_mark.line, column=key_mark.column
+                    f"duplicate key {key!r} (first at line {first.line})",
+                    file=self.name,
+                    line=key_mark.line,
+                    column=key_mark.column,
                 )
             if index >= inherited:
                 written.add(key)
@@ -329,7 +385,9 @@ class _Converter:
             self.scalars.flatten_mapping(node)
         except yaml.YAMLError as error:
             problem = getattr(error, "problem", None) or str(error)
-            raise PegbtError(f"bad merge key: {problem}", file=self.name, line=mark.line, column=mark.column) from None
+            raise PegbtError(
+                f"bad merge key: {problem}", file=self.name, line=mark.line, column=mark.column
+            ) from None
         return len(node.value) - own
 
     def _scalar(self, node: yaml.Node, mark: Mark) -> Any:
@@ -339,4 +397,6 @@ class _Converter:
             problem = getattr(error, "problem", None) or str(error)
             if "could not determine a constructor" in problem:
                 problem = f"YAML tag {node.tag!r} is not supported"
-            raise PegbtError(f"bad YAML value: {problem}", file=self.name, line=mark.line, column=mark.column) from None
+            raise PegbtError(
+                f"bad YAML value: {problem}", file=self.name, line=mark.line, column=mark.column
+            ) from None

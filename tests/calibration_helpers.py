@@ -35,7 +35,9 @@ def synthetic(n: int = 400, seed: int = 0, noise: float = 0.0, arm: str = "PSM1"
     """A recording of the TRUTH arm; `noise` is the measurement noise in rad (a hundredth of it in m on q3)."""
     q_cmd = set_points(n, seed, arm)
     sigma = noise * np.array([1, 1, 0.01, 1, 1, 1])
-    q_phy = ArmPhysics(TRUTH).simulate(q_cmd) + np.random.default_rng(seed + 1).normal(0, 1, q_cmd.shape) * sigma
+    q_phy = (
+        ArmPhysics(TRUTH).simulate(q_cmd) + np.random.default_rng(seed + 1).normal(0, 1, q_cmd.shape) * sigma
+    )
     return Recording(Path(f"<synthetic {arm}>"), q_cmd, q_phy, None, arm)
 
 

@@ -34,14 +34,25 @@ class PegbtCommand:
         path = os.pathsep.join(filter(None, [str(REPO), os.environ.get("PYTHONPATH")]))
         self.env = {**os.environ, "PYTHONPATH": path}
 
-    def __call__(self, *args: object, cwd: Path | None = None, timeout: float = 120) -> subprocess.CompletedProcess[str]:
-        return subprocess.run(self._argv(args), capture_output=True, text=True, cwd=cwd or REPO, env=self.env, timeout=timeout)
+    def __call__(
+        self, *args: object, cwd: Path | None = None, timeout: float = 120
+    ) -> subprocess.CompletedProcess[str]:
+        return subprocess.run(
+            self._argv(args), capture_output=True, text=True, cwd=cwd or REPO, env=self.env, timeout=timeout
+        )
 
     def start(self, *args: object, cwd: Path | None = None) -> subprocess.Popen[str]:
         """The command running, its output piped (to signal it before it ends). Ctrl-C reaches it even when the
         suite itself runs where SIGINT is ignored (a background job), which the child would inherit."""
-        return subprocess.Popen(self._argv(args), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                                cwd=cwd or REPO, env=self.env, preexec_fn=_interruptible)
+        return subprocess.Popen(
+            self._argv(args),
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+            cwd=cwd or REPO,
+            env=self.env,
+            preexec_fn=_interruptible,
+        )
 
     @staticmethod
     def _argv(args: tuple[object, ...]) -> list[str]:

@@ -37,7 +37,9 @@ def node(built: BuiltTree, name: str) -> py_trees.behaviour.Behaviour:
     return matches[0]
 
 
-def tick_statuses(built: BuiltTree, ticks: int, clock: ManualClock | None = None, step: float = 0.1) -> list[Status]:
+def tick_statuses(
+    built: BuiltTree, ticks: int, clock: ManualClock | None = None, step: float = 0.1
+) -> list[Status]:
     """The root's status after each of `ticks` ticks (advancing `clock` by `step` between ticks)."""
     statuses = []
     for _ in range(ticks):
@@ -97,8 +99,13 @@ class Counter:
 
 if REGISTRY.get("test_counting") is None:
 
-    @behaviour("test_counting", "uses the `counter` resource once, writes `step` + 1 to `uses`, then succeeds",
-               reads=("step",), writes=("uses",), resources=("counter",))
+    @behaviour(
+        "test_counting",
+        "uses the `counter` resource once, writes `step` + 1 to `uses`, then succeeds",
+        reads=("step",),
+        writes=("uses",),
+        resources=("counter",),
+    )
     class TestCounting(Leaf):
         def setup(self, **kwargs: object) -> None:
             self.counter = self.context.resource("counter", Counter)

@@ -16,7 +16,10 @@ from pegbt.errors import PegbtError
 def test_train_then_eval_on_a_written_recording(tmp_path, capsys):
     folder = write(synthetic(800, noise=0.001), tmp_path / "rec_PSM1")
     out = tmp_path / "model.json"
-    assert main(["calibrate", "train", str(folder), "--arm", "PSM1", "--model", "physics", "--out", str(out)]) == 0
+    assert (
+        main(["calibrate", "train", str(folder), "--arm", "PSM1", "--model", "physics", "--out", str(out)])
+        == 0
+    )
     assert "held-out samples" in capsys.readouterr().out
     assert json.loads(out.read_text())["heldout"]["samples"] == 240
     assert main(["calibrate", "eval", str(out), str(folder), "--json", "--from-fraction", "0.7"]) == 0
@@ -29,13 +32,30 @@ def test_train_then_eval_on_a_written_recording(tmp_path, capsys):
 
 def test_bad_input_is_one_line_and_status_2(tmp_path, pegbt_cli, capsys):
     folder = write(synthetic(300, arm="PSM2"), tmp_path / "rec")
-    wrong_arm = pegbt_cli("calibrate", "train", folder, "--arm", "PSM1", "--model", "physics", "--out", tmp_path / "m.json")
+    wrong_arm = pegbt_cli(
+        "calibrate", "train", folder, "--arm", "PSM1", "--model", "physics", "--out", tmp_path / "m.json"
+    )
     assert wrong_arm.returncode == 2 and "recording is of PSM2" in wrong_arm.stderr
     assert len(wrong_arm.stderr.strip().splitlines()) == 1 and not (tmp_path / "m.json").exists()
     q_phy = np.load(folder / "q_phy.npy")
     q_phy[17, 4] = np.nan
     np.save(folder / "q_phy.npy", q_phy)
-    assert main(["calibrate", "train", str(folder), "--arm", "PSM2", "--model", "hybrid", "--out", str(tmp_path / "m.json")]) == 2
+    assert (
+        main(
+            [
+                "calibrate",
+                "train",
+                str(folder),
+                "--arm",
+                "PSM2",
+                "--model",
+                "hybrid",
+                "--out",
+                str(tmp_path / "m.json"),
+            ]
+        )
+        == 2
+    )
     assert "q_phy.npy: q_phy: NaN or infinite value in sample 17" in capsys.readouterr().err
     assert main(["calibrate", "eval", str(tmp_path / "nothing.json"), str(folder)]) == 2
     assert "cannot read model file" in capsys.readouterr().err

@@ -16,7 +16,9 @@ from pegbt.sim.arm import DEFAULT_JOINTS
 @pytest.fixture(scope="module")
 def collected(tmp_path_factory):
     """1000 set-points of PSM1 collected from a lockstep simulator with the dvrk-real cables."""
-    return load_recording(collect_on_simulator("PSM1", tmp_path_factory.mktemp("sim") / "sim_PSM1", 1000, seed=0))
+    return load_recording(
+        collect_on_simulator("PSM1", tmp_path_factory.mktemp("sim") / "sim_PSM1", 1000, seed=0)
+    )
 
 
 def test_a_collected_recording_is_in_the_dataset_layout_and_covers_the_task(collected):

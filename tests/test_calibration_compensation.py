@@ -26,7 +26,9 @@ def _wrist_error(reached: np.ndarray, desired: np.ndarray) -> float:
 
 @pytest.mark.parametrize("kind", ["physics", "hybrid"])
 def test_compensation_reaches_the_goals_on_an_arm_with_known_effects(kind):
-    model = new_model(kind, "PSM1", **({"epochs": 100} if kind == "hybrid" else {})).fit(synthetic(400, noise=0.002))
+    model = new_model(kind, "PSM1", **({"epochs": 100} if kind == "hybrid" else {})).fit(
+        synthetic(400, noise=0.002)
+    )
     desired = set_points(60, seed=11, margin=0.3)
     compensator = Compensator(model)
     compensator.reset(desired[0])

@@ -45,7 +45,9 @@ def test_a_moved_block_is_seen_at_its_new_peg():
     # nothing block-shaped is left around peg 1: only its peg, the board and the neighbours' edges
     near_peg_1 = np.linalg.norm(points[:, :2] - world.cell.pegs.positions[1], axis=1) < 0.005
     raised = points[:, 2] < world.cell.board.surface_z - 0.002
-    off_peg = np.linalg.norm(points[:, :2] - world.cell.pegs.positions[1], axis=1) > world.cell.pegs.radius + 0.001
+    off_peg = (
+        np.linalg.norm(points[:, :2] - world.cell.pegs.positions[1], axis=1) > world.cell.pegs.radius + 0.001
+    )
     assert not np.any(near_peg_1 & raised & off_peg)
 
 
@@ -71,7 +73,9 @@ def test_faces_turned_away_and_the_board_behind_blocks_are_not_seen(world, clean
         f = (top_z - camera_at[2]) / (board_points[:, 2] - camera_at[2])
         crossing = camera_at + f[:, None] * (board_points - camera_at)
         local = (crossing - block.pose[:3, 3]) @ block.pose[:3, :3]
-        solid = ((local[:, :2] @ normals.T - offsets).max(axis=1) < -1e-5) & (np.linalg.norm(local[:, :2], axis=1) > model.hole_radius + 1e-5)
+        solid = ((local[:, :2] @ normals.T - offsets).max(axis=1) < -1e-5) & (
+            np.linalg.norm(local[:, :2], axis=1) > model.hole_radius + 1e-5
+        )
         shadowed += int(solid.sum())
         # and the shadow is really there: board just behind the block (away from the camera) is missing
         behind = block.pose[:2, 3] + [0.0, -model.edge_distance - 0.003]
@@ -96,13 +100,21 @@ def test_a_tool_gripping_a_block_hides_part_of_it():
     facing_camera = int(np.argmax((candidates[:, :2] @ arms.blocks[2].pose[:2, :2].T)[:, 1]))  # nearest +y
     driver.play({"PSM2": grasp_keyframes(arms, 2, facing_camera)})
     assert arms.held_by("PSM2") == 2
-    seen_with = block_points(arms.cell, in_board(arms.cell, DepthCamera(seed=0).capture(arms)), arms.blocks[2].pose)
-    seen_without = block_points(arms.cell, in_board(arms.cell, DepthCamera(seed=0, include_arms=False).capture(arms)), arms.blocks[2].pose)
+    seen_with = block_points(
+        arms.cell, in_board(arms.cell, DepthCamera(seed=0).capture(arms)), arms.blocks[2].pose
+    )
+    seen_without = block_points(
+        arms.cell,
+        in_board(arms.cell, DepthCamera(seed=0, include_arms=False).capture(arms)),
+        arms.blocks[2].pose,
+    )
     assert len(seen_with) < 0.9 * len(seen_without)
 
 
 def test_a_scheduled_noise_burst_is_noisy_and_logged(world, clean_camera):
-    camera = DepthCamera(seed=0, faults=CameraFaults(bursts=(NoiseBurst(start=10.0, duration=1.0, sigma=0.003),)))
+    camera = DepthCamera(
+        seed=0, faults=CameraFaults(bursts=(NoiseBurst(start=10.0, duration=1.0, sigma=0.003),))
+    )
     clean = clean_camera.capture(world)
     before = len(world.events)
     quiet = camera.capture(world, time=9.0)
@@ -114,7 +126,9 @@ def test_a_scheduled_noise_burst_is_noisy_and_logged(world, clean_camera):
 
 
 def test_camera_faults_from_configuration_and_their_errors():
-    faults = CameraFaults.read(parse_yaml("bursts: [{start: 1, duration: 0.5}]\nburst_probability: 0.1", "sim.yaml"))
+    faults = CameraFaults.read(
+        parse_yaml("bursts: [{start: 1, duration: 0.5}]\nburst_probability: 0.1", "sim.yaml")
+    )
     assert faults.bursts == (NoiseBurst(1.0, 0.5),) and faults.burst_probability == 0.1
     with pytest.raises(PegbtError) as caught:
         CameraFaults.read(parse_yaml("bursts: [{start: 1}]", "sim.yaml"))

@@ -50,49 +50,124 @@ def _sim(*args: str) -> list[str]:
 
 
 CASES = {
-    "dot into a missing folder": (lambda tmp, log: ["tree", "show", str(EXAMPLE), "--dot", str(tmp / "no" / "o.dot")],
-                                  "--dot: cannot write the dot file"),
-    "sim log into a missing folder": (lambda tmp, log: _sim("--log", str(tmp / "no" / "sim.jsonl")),
-                                      "--log: cannot write the simulator's log"),
-    "physics effect not an object": (lambda tmp, log: _sim("--physics", _physics_file(tmp, {"effects": [1]})),
-                                     "physics.json: effects[0]: an effect entry is an object"),
-    "physics effects not a list": (lambda tmp, log: _sim("--physics", _physics_file(tmp, {"effects": {"q1": 1}})),
-                                   "physics.json: effects: effects is a list"),
+    "dot into a missing folder": (
+        lambda tmp, log: ["tree", "show", str(EXAMPLE), "--dot", str(tmp / "no" / "o.dot")],
+        "--dot: cannot write the dot file",
+    ),
+    "sim log into a missing folder": (
+        lambda tmp, log: _sim("--log", str(tmp / "no" / "sim.jsonl")),
+        "--log: cannot write the simulator's log",
+    ),
+    "physics effect not an object": (
+        lambda tmp, log: _sim("--physics", _physics_file(tmp, {"effects": [1]})),
+        "physics.json: effects[0]: an effect entry is an object",
+    ),
+    "physics effects not a list": (
+        lambda tmp, log: _sim("--physics", _physics_file(tmp, {"effects": {"q1": 1}})),
+        "physics.json: effects: effects is a list",
+    ),
     "physics params not an object": (
-        lambda tmp, log: _sim("--physics", _physics_file(tmp, {"effects": [{"effect": "offset", "joint": "q1", "params": 3}]})),
-        "physics.json: effects[0].params:"),
-    "model joints not a list": (lambda tmp, log: ["calibrate", "eval", _model_with(tmp, joints=5), str(tmp)],
-                                "model.json: joints: expected a list of joint names"),
-    "model outputs not a list": (lambda tmp, log: ["calibrate", "eval", _model_with(tmp, outputs=5), str(tmp)],
-                                 "model.json: outputs: expected a list of joint names"),
-    "model training not an object": (lambda tmp, log: ["calibrate", "eval", _model_with(tmp, training=5), str(tmp)],
-                                     "model.json: training: expected an object"),
-    "model for an unknown arm": (lambda tmp, log: ["calibrate", "eval", _model_with(tmp, arm="PSM9"), str(tmp)],
-                                 "model.json: arm: unknown arm 'PSM9'"),
-    "model effect not an object": (lambda tmp, log: ["calibrate", "eval", _model_with(tmp, effects=[1]), str(tmp)],
-                                   "model.json: effects[0]: an effect entry is an object"),
-    "period nan": (lambda tmp, log: ["run", str(EXAMPLE), "--period", "nan"], "--period: must be a finite number > 0, got nan"),
-    "period zero": (lambda tmp, log: ["run", str(EXAMPLE), "--period", "0"], "--period: must be a finite number > 0"),
-    "timeout infinite": (lambda tmp, log: ["run", str(EXAMPLE), "--timeout", "inf"], "--timeout: must be a finite number"),
-    "replay a negative tick": (lambda tmp, log: ["log", "replay", log, "--tick", "-3"], "--tick: the log has ticks 0 to 7, not -3"),
-    "replay a tick after the end": (lambda tmp, log: ["log", "replay", log, "--tick", "99999"], "--tick: the log has ticks 0 to 7"),
-    "replay a time of nan": (lambda tmp, log: ["log", "replay", log, "--time", "nan"], "--time: must be a finite number >= 0"),
-    "from-fraction below 0": (lambda tmp, log: ["calibrate", "eval", str(MODEL), str(tmp), "--from-fraction", "-1"],
-                              "--from-fraction: must be a finite number >= 0 and < 1, got -1"),
-    "from-fraction above 1": (lambda tmp, log: ["calibrate", "eval", str(MODEL), str(tmp), "--from-fraction", "2"],
-                              "--from-fraction: must be a finite number >= 0 and < 1, got 2"),
-    "train-fraction zero": (lambda tmp, log: ["calibrate", "train", str(tmp), "--arm", "PSM1", "--model", "physics",
-                                              "--train-fraction", "0"], "--train-fraction: must be a finite number > 0"),
-    "crash-at nan": (lambda tmp, log: _sim("--crash-at", "nan"), "--crash-at: must be a finite number >= 0, got nan"),
+        lambda tmp, log: _sim(
+            "--physics", _physics_file(tmp, {"effects": [{"effect": "offset", "joint": "q1", "params": 3}]})
+        ),
+        "physics.json: effects[0].params:",
+    ),
+    "model joints not a list": (
+        lambda tmp, log: ["calibrate", "eval", _model_with(tmp, joints=5), str(tmp)],
+        "model.json: joints: expected a list of joint names",
+    ),
+    "model outputs not a list": (
+        lambda tmp, log: ["calibrate", "eval", _model_with(tmp, outputs=5), str(tmp)],
+        "model.json: outputs: expected a list of joint names",
+    ),
+    "model training not an object": (
+        lambda tmp, log: ["calibrate", "eval", _model_with(tmp, training=5), str(tmp)],
+        "model.json: training: expected an object",
+    ),
+    "model for an unknown arm": (
+        lambda tmp, log: ["calibrate", "eval", _model_with(tmp, arm="PSM9"), str(tmp)],
+        "model.json: arm: unknown arm 'PSM9'",
+    ),
+    "model effect not an object": (
+        lambda tmp, log: ["calibrate", "eval", _model_with(tmp, effects=[1]), str(tmp)],
+        "model.json: effects[0]: an effect entry is an object",
+    ),
+    "period nan": (
+        lambda tmp, log: ["run", str(EXAMPLE), "--period", "nan"],
+        "--period: must be a finite number > 0, got nan",
+    ),
+    "period zero": (
+        lambda tmp, log: ["run", str(EXAMPLE), "--period", "0"],
+        "--period: must be a finite number > 0",
+    ),
+    "timeout infinite": (
+        lambda tmp, log: ["run", str(EXAMPLE), "--timeout", "inf"],
+        "--timeout: must be a finite number",
+    ),
+    "replay a negative tick": (
+        lambda tmp, log: ["log", "replay", log, "--tick", "-3"],
+        "--tick: the log has ticks 0 to 7, not -3",
+    ),
+    "replay a tick after the end": (
+        lambda tmp, log: ["log", "replay", log, "--tick", "99999"],
+        "--tick: the log has ticks 0 to 7",
+    ),
+    "replay a time of nan": (
+        lambda tmp, log: ["log", "replay", log, "--time", "nan"],
+        "--time: must be a finite number >= 0",
+    ),
+    "from-fraction below 0": (
+        lambda tmp, log: ["calibrate", "eval", str(MODEL), str(tmp), "--from-fraction", "-1"],
+        "--from-fraction: must be a finite number >= 0 and < 1, got -1",
+    ),
+    "from-fraction above 1": (
+        lambda tmp, log: ["calibrate", "eval", str(MODEL), str(tmp), "--from-fraction", "2"],
+        "--from-fraction: must be a finite number >= 0 and < 1, got 2",
+    ),
+    "train-fraction zero": (
+        lambda tmp, log: [
+            "calibrate",
+            "train",
+            str(tmp),
+            "--arm",
+            "PSM1",
+            "--model",
+            "physics",
+            "--train-fraction",
+            "0",
+        ],
+        "--train-fraction: must be a finite number > 0",
+    ),
+    "crash-at nan": (
+        lambda tmp, log: _sim("--crash-at", "nan"),
+        "--crash-at: must be a finite number >= 0, got nan",
+    ),
     "loss above 1": (lambda tmp, log: _sim("--loss", "2"), "--loss: must be a finite number >= 0 and <= 1"),
     "negative seed": (lambda tmp, log: _sim("--seed", "-1"), "--seed: must be a finite number >= 0"),
-    "namespace with a wildcard": (lambda tmp, log: _sim("--namespace", "lab/*"), "--namespace: 'lab/*' is not a key prefix"),
-    "namespace with a space": (lambda tmp, log: _sim("--namespace", "a b"), "--namespace: 'a b' is not a key prefix"),
-    "listen on port 0": (lambda tmp, log: ["sim", "--listen", "tcp/127.0.0.1:0"], "listen: listen endpoint 'tcp/127.0.0.1:0' asks for any free port"),
-    "listen on every interface": (lambda tmp, log: ["sim", "--listen", "tcp/0.0.0.0:7447"], "is not on loopback"),
-    "synth seconds nan": (lambda tmp, log: ["sim2real", "synth", str(tmp / "s"), "--seconds", "nan"], "--seconds: must be a finite number > 0"),
-    "collect minutes zero": (lambda tmp, log: ["calibrate", "collect", "--arm", "PSM1", "--minutes", "0"],
-                             "--minutes: must be a finite number > 0"),
+    "namespace with a wildcard": (
+        lambda tmp, log: _sim("--namespace", "lab/*"),
+        "--namespace: 'lab/*' is not a key prefix",
+    ),
+    "namespace with a space": (
+        lambda tmp, log: _sim("--namespace", "a b"),
+        "--namespace: 'a b' is not a key prefix",
+    ),
+    "listen on port 0": (
+        lambda tmp, log: ["sim", "--listen", "tcp/127.0.0.1:0"],
+        "listen: listen endpoint 'tcp/127.0.0.1:0' asks for any free port",
+    ),
+    "listen on every interface": (
+        lambda tmp, log: ["sim", "--listen", "tcp/0.0.0.0:7447"],
+        "is not on loopback",
+    ),
+    "synth seconds nan": (
+        lambda tmp, log: ["sim2real", "synth", str(tmp / "s"), "--seconds", "nan"],
+        "--seconds: must be a finite number > 0",
+    ),
+    "collect minutes zero": (
+        lambda tmp, log: ["calibrate", "collect", "--arm", "PSM1", "--minutes", "0"],
+        "--minutes: must be a finite number > 0",
+    ),
 }
 
 
@@ -107,14 +182,23 @@ def test_bad_input_is_one_line_naming_the_field(case, tmp_path, tick_log, capsys
 
 def _command(*args: str, **options: object) -> subprocess.Popen[str]:
     env = dict(os.environ, PYTHONPATH=str(REPO))
-    return subprocess.Popen([sys.executable, "-m", "pegbt", *args], cwd=REPO, env=env, text=True, stderr=subprocess.PIPE,
-                            **options)
+    return subprocess.Popen(
+        [sys.executable, "-m", "pegbt", *args],
+        cwd=REPO,
+        env=env,
+        text=True,
+        stderr=subprocess.PIPE,
+        **options,
+    )
 
 
 def test_a_command_run_as_a_process_refuses_a_bad_number_in_one_line():
     process = _command("run", str(EXAMPLE), "--period", "nan", stdout=subprocess.PIPE)
     out, err = process.communicate(timeout=60)
-    assert process.returncode == 2 and err.strip() == "pegbt: error: --period: must be a finite number > 0, got nan"
+    assert (
+        process.returncode == 2
+        and err.strip() == "pegbt: error: --period: must be a finite number > 0, got nan"
+    )
 
 
 def test_a_reader_that_stops_early_ends_the_command_quietly():

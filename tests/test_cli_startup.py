@@ -20,10 +20,18 @@ HEAVY = ("zenoh", "scipy", "torch", "open3d", "matplotlib", "rosbags", "py_trees
 
 def test_the_parser_loads_no_heavy_library():
     """Handlers import what they need; building every command's parser (what --help does) must not."""
-    probe = ("import sys; from pegbt.cli import build_parser; build_parser(); "
-             f"print(sorted({{m.split('.')[0] for m in sys.modules}} & set({HEAVY!r})))")
-    done = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, cwd=REPO, timeout=60,
-                          env=dict(os.environ, PYTHONPATH=str(REPO)))
+    probe = (
+        "import sys; from pegbt.cli import build_parser; build_parser(); "
+        f"print(sorted({{m.split('.')[0] for m in sys.modules}} & set({HEAVY!r})))"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", probe],
+        capture_output=True,
+        text=True,
+        cwd=REPO,
+        timeout=60,
+        env=dict(os.environ, PYTHONPATH=str(REPO)),
+    )
     assert done.returncode == 0, done.stderr
     assert done.stdout.strip() == "[]"
 
@@ -37,13 +45,20 @@ def test_a_simulator_that_prints_nothing_in_time_is_killed_with_a_clear_error(mo
 def test_a_simulator_stops_when_the_process_that_started_it_is_killed(tmp_path):
     """A killed parent (an eval run stopped with SIGKILL, a crashed test) leaves no simulator serving."""
     pid_file = tmp_path / "sim.pid"
-    parent = subprocess.Popen([sys.executable, "-c", (
-        "import pathlib, sys, time\n"
-        "from pegbt.sim.process import SimProcess\n"
-        "sim = SimProcess(['--no-world'])\n"
-        f"pathlib.Path({str(pid_file)!r}).write_text(str(sim.process.pid))\n"
-        "time.sleep(60)\n"
-    )], env={**os.environ, "PYTHONPATH": str(REPO)})
+    parent = subprocess.Popen(
+        [
+            sys.executable,
+            "-c",
+            (
+                "import pathlib, sys, time\n"
+                "from pegbt.sim.process import SimProcess\n"
+                "sim = SimProcess(['--no-world'])\n"
+                f"pathlib.Path({str(pid_file)!r}).write_text(str(sim.process.pid))\n"
+                "time.sleep(60)\n"
+            ),
+        ],
+        env={**os.environ, "PYTHONPATH": str(REPO)},
+    )
     deadline = time.monotonic() + 60
     while not pid_file.exists() or not pid_file.read_text():
         assert parent.poll() is None and time.monotonic() < deadline, "the parent never started its simulator"

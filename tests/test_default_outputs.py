@@ -13,7 +13,9 @@ from pegbt.cli import main
 from pegbt.physics import ArmPhysics
 
 REPO = Path(__file__).resolve().parents[1]
-SHIPPED = sorted((REPO / "skills" / "calibration").rglob("*.json")) + sorted((REPO / "pegbt" / "physics" / "presets").glob("*.json"))
+SHIPPED = sorted((REPO / "skills" / "calibration").rglob("*.json")) + sorted(
+    (REPO / "pegbt" / "physics" / "presets").glob("*.json")
+)
 
 
 def _digests() -> dict[Path, str]:

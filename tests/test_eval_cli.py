@@ -14,17 +14,41 @@ import pytest
 from pegbt.evaluation.trial import TrialSpec, run_trial
 
 REPO = Path(__file__).resolve().parents[1]
-JSON_KEYS = {"variant", "condition", "trials", "transfers_attempted", "transfers_succeeded", "success_rate",
-             "mean_transfer_time_s", "collisions_per_trial", "trial_time_s_mean", "trial_time_s_std"}
+JSON_KEYS = {
+    "variant",
+    "condition",
+    "trials",
+    "transfers_attempted",
+    "transfers_succeeded",
+    "success_rate",
+    "mean_transfer_time_s",
+    "collisions_per_trial",
+    "trial_time_s_mean",
+    "trial_time_s_std",
+}
 
 
 def pegbt(*args: str, timeout: float = 180) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "pegbt", *args], capture_output=True, text=True, cwd=REPO, timeout=timeout)
+    return subprocess.run(
+        [sys.executable, "-m", "pegbt", *args], capture_output=True, text=True, cwd=REPO, timeout=timeout
+    )
 
 
 def test_eval_prints_the_figures_writes_csv_and_plots_and_repeats_a_seed_exactly(tmp_path):
     out = tmp_path / "results"
-    run = pegbt("eval", "--variant", "bilateral", "--trials", "1", "--seed", "5", "--json", "--out", str(out), "--quiet")
+    run = pegbt(
+        "eval",
+        "--variant",
+        "bilateral",
+        "--trials",
+        "1",
+        "--seed",
+        "5",
+        "--json",
+        "--out",
+        str(out),
+        "--quiet",
+    )
     assert run.returncode == 0, run.stderr
     figures = json.loads(run.stdout)
     assert JSON_KEYS <= set(figures)
@@ -46,17 +70,24 @@ def test_eval_prints_the_figures_writes_csv_and_plots_and_repeats_a_seed_exactly
     assert again.transfers_succeeded == figures["transfers_succeeded"]
     assert [t["succeeded"] for t in again.transfers] == [row["succeeded"] == "True" for row in transfers]
     assert [t["seconds"] for t in again.transfers] == pytest.approx(
-        [float(row["seconds"]) if row["seconds"] else None for row in transfers], abs=1e-6)
+        [float(row["seconds"]) if row["seconds"] else None for row in transfers], abs=1e-6
+    )
     assert again.trial_time_s == pytest.approx(figures["trial_time_s_mean"], abs=1e-6)
 
 
-@pytest.mark.parametrize(("args", "words"), [
-    (["--variant", "trilateral", "--trials", "3"], "unknown variant 'trilateral'"),
-    (["--variant", "unilateral", "--trials", "0"], "--trials: must be at least 1"),
-    (["--variant", "unilateral", "--trials", "-2"], "--trials: must be at least 1"),
-    (["--variant", "unilateral", "--trials", "2", "--condition", "fast"], "unknown condition 'fast'"),
-    (["--variant", "unilateral", "--trials", "2", "--faults", "no/such/plan.yaml"], "no/such/plan.yaml: file not found"),
-])
+@pytest.mark.parametrize(
+    ("args", "words"),
+    [
+        (["--variant", "trilateral", "--trials", "3"], "unknown variant 'trilateral'"),
+        (["--variant", "unilateral", "--trials", "0"], "--trials: must be at least 1"),
+        (["--variant", "unilateral", "--trials", "-2"], "--trials: must be at least 1"),
+        (["--variant", "unilateral", "--trials", "2", "--condition", "fast"], "unknown condition 'fast'"),
+        (
+            ["--variant", "unilateral", "--trials", "2", "--faults", "no/such/plan.yaml"],
+            "no/such/plan.yaml: file not found",
+        ),
+    ],
+)
 def test_bad_input_is_one_line_and_a_non_zero_exit(tmp_path, args, words):
     run = pegbt("eval", *args, "--out", str(tmp_path))
     assert run.returncode == 2
@@ -67,6 +98,16 @@ def test_bad_input_is_one_line_and_a_non_zero_exit(tmp_path, args, words):
 def test_a_fault_plan_that_is_not_valid_names_its_line_and_field(tmp_path):
     plan = tmp_path / "plan.yaml"
     plan.write_text("seed: 1\nworld:\n  miss_probability: 2.5\n")
-    run = pegbt("eval", "--variant", "handover", "--trials", "1", "--faults", str(plan), "--out", str(tmp_path / "out"))
+    run = pegbt(
+        "eval",
+        "--variant",
+        "handover",
+        "--trials",
+        "1",
+        "--faults",
+        str(plan),
+        "--out",
+        str(tmp_path / "out"),
+    )
     assert run.returncode == 2 and run.stderr.count("\n") == 1
     assert f"{plan}:3:" in run.stderr and "miss_probability" in run.stderr

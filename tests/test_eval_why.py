@@ -32,15 +32,28 @@ def short_task(tmp_path: Path) -> Path:
 def faulty_trial(tmp_path: Path, name: str, plan: str, seed: int = 3):
     faults = tmp_path / f"{name}.yaml"
     faults.write_text(plan)
-    spec = TrialSpec("unilateral", "optimized", seed, tmp_path / f"{name}.jsonl", faults, tree=short_task(tmp_path))
+    spec = TrialSpec(
+        "unilateral", "optimized", seed, tmp_path / f"{name}.jsonl", faults, tree=short_task(tmp_path)
+    )
     return run_trial(spec)
 
 
-@pytest.mark.parametrize(("name", "plan", "step"), [
-    ("misses", "world: {miss_probability: 1.0}\n", "grasp"),  # every grasp would have held, and misses
-    ("slips", "world: {slips: [{time: 5.4}, {time: 10.6}]}\n", "carry"),  # both carries (seed 3) lose the block
-    ("bursts", "camera: {burst_probability: 1.0}\n", "sense"),  # every capture is noise: nothing is ever seen
-])
+@pytest.mark.parametrize(
+    ("name", "plan", "step"),
+    [
+        ("misses", "world: {miss_probability: 1.0}\n", "grasp"),  # every grasp would have held, and misses
+        (
+            "slips",
+            "world: {slips: [{time: 5.4}, {time: 10.6}]}\n",
+            "carry",
+        ),  # both carries (seed 3) lose the block
+        (
+            "bursts",
+            "camera: {burst_probability: 1.0}\n",
+            "sense",
+        ),  # every capture is noise: nothing is ever seen
+    ],
+)
 def test_why_names_the_step_the_simulator_confirms(tmp_path, name, plan, step):
     record = faulty_trial(tmp_path, name, plan)
     assert record.outcome == "failure" and not record.complete
@@ -50,8 +63,13 @@ def test_why_names_the_step_the_simulator_confirms(tmp_path, name, plan, step):
     assert step in {check["named_step"] for check in record.why}
     assert step in {check["truth"]["step"] for check in record.why}
     # the same verdict from the command a person would run
-    why = subprocess.run([sys.executable, "-m", "pegbt", "log", "why", record.log], capture_output=True, text=True,
-                         cwd=REPO, timeout=60)
+    why = subprocess.run(
+        [sys.executable, "-m", "pegbt", "log", "why", record.log],
+        capture_output=True,
+        text=True,
+        cwd=REPO,
+        timeout=60,
+    )
     assert why.returncode == 0
     for check in record.why:
         assert check["named"].rpartition(": ")[2] in why.stdout
@@ -60,7 +78,9 @@ def test_why_names_the_step_the_simulator_confirms(tmp_path, name, plan, step):
 def test_a_recovered_fault_counts_as_recovered(tmp_path):
     record = faulty_trial(tmp_path, "one-miss", "world: {miss_attempts: [0]}\n")
     assert record.complete and record.outcome == "success" and not record.why
-    assert [(fault["kind"], fault["transfer"], fault["recovered"]) for fault in record.faults] == [("grasp miss", 1, True)]
+    assert [(fault["kind"], fault["transfer"], fault["recovered"]) for fault in record.faults] == [
+        ("grasp miss", 1, True)
+    ]
 
 
 def test_a_stray_block_is_fetched_and_the_empty_peg_named(tmp_path):
@@ -77,14 +97,17 @@ def test_a_stray_block_is_fetched_and_the_empty_peg_named(tmp_path):
         "    - subtree: {use: transfer_block, args: {arm: PSM1, pick: 1, place: 7, regrasps: 0}}\n"
         "    - subtree: {use: transfer_block, args: {arm: PSM1, pick: 7, place: 1}}\n"
         "    - subtree: {use: clear_view, name: look at the result}\n"
-        "    - check_placed: {name: block home, pegs: [1]}\n")
+        "    - check_placed: {name: block home, pegs: [1]}\n"
+    )
     faults = tmp_path / "slip.yaml"
     faults.write_text("world: {slips: [{time: 5.4}]}\n")  # seed 3: the block is over the board, off every peg
     record = run_trial(TrialSpec("unilateral", "optimized", 3, tmp_path / "stray.jsonl", faults, tree=tree))
     assert record.outcome == "success", "the stray block was fetched and placed on peg 1"
     assert [(t["succeeded"], t["cause"]) for t in record.transfers] == [(False, "carry"), (False, "sense")]
     assert [(check["transfer"], check["named_step"], check["agrees"]) for check in record.why] == [
-        (1, "carry", True), (2, "sense", True)]
+        (1, "carry", True),
+        (2, "sense", True),
+    ]
     assert "no block seen on peg 7" in record.why[1]["named"]
 
 
@@ -100,7 +123,13 @@ def test_a_burst_lasting_two_captures_is_waited_out(tmp_path):
 
 def log_why(log: str) -> str:
     """What `pegbt log why LOG` prints."""
-    why = subprocess.run([sys.executable, "-m", "pegbt", "log", "why", log], capture_output=True, text=True, cwd=REPO, timeout=60)
+    why = subprocess.run(
+        [sys.executable, "-m", "pegbt", "log", "why", log],
+        capture_output=True,
+        text=True,
+        cwd=REPO,
+        timeout=60,
+    )
     assert why.returncode == 0, why.stderr
     return why.stdout
 
@@ -110,11 +139,24 @@ def test_a_block_that_slipped_and_was_missed_when_picked_again_is_named_by_the_s
     on the miss and confirms the slip just before the leaf that reported it."""
     record = faulty_trial(tmp_path, "slip-then-miss", "world: {slips: [{time: 5.4}], miss_attempts: [1]}\n")
     [check] = [check for check in record.why if check["transfer"] == 1]
-    assert (check["named_step"], check["truth"]["step"], check["confirmed"], check["agrees"]) == ("carry", "grasp", True, True)
-    assert check["named"].endswith("lift carry and lower: the block slipped from PSM1's jaw (jaw at -15°) during lift carry and lower")
+    assert (check["named_step"], check["truth"]["step"], check["confirmed"], check["agrees"]) == (
+        "carry",
+        "grasp",
+        True,
+        True,
+    )
+    assert check["named"].endswith(
+        "lift carry and lower: the block slipped from PSM1's jaw (jaw at -15°) during lift carry and lower"
+    )
     given_up = log_why(record.log).split("given up (the tree went on without it):")[1]
-    assert "first cause: pick and carry/lift PSM1 7/lift and carry/lift carry and lower (transfer) failed at t=" in given_up
-    assert "blackboard it read: /PSM1/block=BlockEstimate(" in given_up and "/PSM1/grasp=Grasp(arm='PSM1'" in given_up
+    assert (
+        "first cause: pick and carry/lift PSM1 7/lift and carry/lift carry and lower (transfer) failed at t="
+        in given_up
+    )
+    assert (
+        "blackboard it read: /PSM1/block=BlockEstimate(" in given_up
+        and "/PSM1/grasp=Grasp(arm='PSM1'" in given_up
+    )
     assert "then: pick and carry/pick PSM1 1/pick from peg 1/close and check at t=" in given_up
 
 
@@ -130,9 +172,13 @@ def test_a_giver_whose_receiver_never_came_is_named_by_the_wait_and_the_simulato
         "tree:\n  sequence:\n"
         "    - subtree: {use: clear_view}\n"
         "    - force_success: {name: g, child: {subtree: {use: give, args: {giver: PSM2, receiver: PSM1, n: 1, pick: 1, place: 7,"
-        " regrasps: 0, patience: 2.0}}}}\n")
+        " regrasps: 0, patience: 2.0}}}}\n"
+    )
     record = run_trial(TrialSpec("handover", "optimized", 3, tmp_path / "giver.jsonl", None, tree=tree))
     [check] = record.why
     assert (check["named_step"], check["truth"]["step"], check["agrees"]) == ("handover", "handover", True)
     assert check["named"].endswith("the receiver takes it: timed out after 2 s")
-    assert "still holding: PSM2 holds its block; wait until taken: waiting for /handover/taken == 1 (now 0)" in log_why(record.log)
+    assert (
+        "still holding: PSM2 holds its block; wait until taken: waiting for /handover/taken == 1 (now 0)"
+        in log_why(record.log)
+    )

@@ -16,7 +16,10 @@ def test_run_example_writes_a_log_that_the_log_commands_read(tmp_path, monkeypat
     monkeypatch.chdir(tmp_path)  # the default log goes to runs/ under the working directory
     assert main(["run", str(EXAMPLE), "--clock", "manual", "--period", "0.01"]) == 0
     out = capsys.readouterr().out
-    assert "FAILURE  /example/both arms/transfer PSM1/transfer with PSM1/pick, re-sense on failure/pick  (jaw of PSM1 closed on nothing)" in out
+    assert (
+        "FAILURE  /example/both arms/transfer PSM1/transfer with PSM1/pick, re-sense on failure/pick  (jaw of PSM1 closed on nothing)"
+        in out
+    )
     assert "outcome: success in 0.210 s, 7 ticks" in out  # waits need no ticks of their own
     logs = list((tmp_path / "runs").glob("example-*.jsonl"))
     assert len(logs) == 1
@@ -28,7 +31,9 @@ def test_run_example_writes_a_log_that_the_log_commands_read(tmp_path, monkeypat
 
 def test_tree_check_reports_every_error_and_exits_2(tmp_path, capsys):
     bad = tmp_path / "bad.yaml"
-    bad.write_text("tree:\n  sequence:\n    - wait: {seconds: x}\n    - lgo: {message: hi}\n    - retry: {child: wait}\n")
+    bad.write_text(
+        "tree:\n  sequence:\n    - wait: {seconds: x}\n    - lgo: {message: hi}\n    - retry: {child: wait}\n"
+    )
     assert main(["tree", "check", str(EXAMPLE), str(bad)]) == 2
     out, err = capsys.readouterr()
     assert f"{EXAMPLE}: ok" in out
@@ -49,8 +54,8 @@ def bad_inputs(tmp_path: Path) -> dict[str, Path]:
         "deep block nesting": "tree:\n" + "".join(" " * i + "a:\n" for i in range(1, 400)),
         "tabs": "tree:\n\twait: {seconds: 1}\n",
         "alias bomb": "a: &a [x, x, x, x, x, x, x, x, x, x]\nb: &b [*a, *a, *a, *a, *a, *a, *a, *a, *a, *a]\n"
-                      "c: &c [*b, *b, *b, *b, *b, *b, *b, *b, *b, *b]\nd: &d [*c, *c, *c, *c, *c, *c, *c, *c, *c, *c]\n"
-                      "e: &e [*d, *d, *d, *d, *d, *d, *d, *d, *d, *d]\ntree: [*e, *e, *e, *e, *e, *e, *e, *e, *e, *e]\n",
+        "c: &c [*b, *b, *b, *b, *b, *b, *b, *b, *b, *b]\nd: &d [*c, *c, *c, *c, *c, *c, *c, *c, *c, *c]\n"
+        "e: &e [*d, *d, *d, *d, *d, *d, *d, *d, *d, *d]\ntree: [*e, *e, *e, *e, *e, *e, *e, *e, *e, *e]\n",
     }
     paths = {}
     for name, content in files.items():
@@ -81,14 +86,19 @@ def test_bad_tree_files_give_located_errors_never_tracebacks(tmp_path, pegbt_cli
         "alias bomb": "more than 200000 YAML values",
     }
     for name, expected in expectations.items():
-        assert any(line.startswith(str(paths[name])) and expected in line for line in result.stderr.splitlines()), (name, result.stderr)
+        assert any(
+            line.startswith(str(paths[name])) and expected in line for line in result.stderr.splitlines()
+        ), (name, result.stderr)
     assert f"{paths['missing']}: file not found" in result.stderr
 
 
 def test_run_refuses_bad_input_in_one_line(tmp_path, capsys):
     failing = tmp_path / "fail.yaml"
     failing.write_text("tree: {scripted: {outcomes: [failure], message: no luck}}\n")
-    assert main(["run", str(failing), "--clock", "manual", "--log", str(tmp_path / "fail.jsonl"), "--quiet"]) == 1
+    assert (
+        main(["run", str(failing), "--clock", "manual", "--log", str(tmp_path / "fail.jsonl"), "--quiet"])
+        == 1
+    )
     assert "outcome: failure" in capsys.readouterr().out
     assert main(["run", str(failing), "--period", "0"]) == 2
     assert capsys.readouterr().err.strip() == "pegbt: error: --period: must be a finite number > 0, got 0"
@@ -99,7 +109,11 @@ def test_run_refuses_bad_input_in_one_line(tmp_path, capsys):
     corrupt.write_text(text[:-20])
     for command in ("summary", "why"):
         assert main(["log", command, str(corrupt)]) == 2
-        assert capsys.readouterr().err.strip().startswith(f"pegbt: error: {corrupt}:{text.count(chr(10))}: truncated record")
+        assert (
+            capsys.readouterr()
+            .err.strip()
+            .startswith(f"pegbt: error: {corrupt}:{text.count(chr(10))}: truncated record")
+        )
 
 
 def test_tree_show_schema_and_dot(tmp_path, capsys):
@@ -111,7 +125,12 @@ def test_tree_show_schema_and_dot(tmp_path, capsys):
     assert dot.read_text().startswith("digraph") and '"transfer PSM1"' in dot.read_text()
     assert main(["tree", "schema"]) == 0
     schema = capsys.readouterr().out
-    for word in ("recover [main, recovery]", "guard [child]", "scripted --", "seconds: float, required, >= 0, $key allowed"):
+    for word in (
+        "recover [main, recovery]",
+        "guard [child]",
+        "scripted --",
+        "seconds: float, required, >= 0, $key allowed",
+    ):
         assert word in schema
 
 
@@ -154,15 +173,30 @@ def test_run_provides_declared_resources_and_closes_them(tmp_path, monkeypatch, 
 
     tree = tmp_path / "uses.yaml"
     tree.write_text("tree:\n  sequence: [{test_counting: {name: count}}]\nblackboard: {step: 41}\n")
-    argv = ["run", str(tree), "--clock", "manual", "--quiet", "--log", str(tmp_path / "uses.jsonl"), "--seed", "7"]
+    argv = [
+        "run",
+        str(tree),
+        "--clock",
+        "manual",
+        "--quiet",
+        "--log",
+        str(tmp_path / "uses.jsonl"),
+        "--seed",
+        "7",
+    ]
     assert main(argv) == 2
-    assert f"no provider for resource 'counter' (needed by /sequence/count at {tree}:2:14)" in capsys.readouterr().err
+    assert (
+        f"no provider for resource 'counter' (needed by /sequence/count at {tree}:2:14)"
+        in capsys.readouterr().err
+    )
     monkeypatch.setitem(providers.RESOURCE_PROVIDERS, "counter", "executive_helpers:Counter")
     Counter.instances.clear()
     assert main(argv) == 0
     (counter,) = Counter.instances
     assert counter.uses == 1 and counter.closed and counter.clock.__class__.__name__ == "ManualClock"
-    assert counter.options["seed"] == 7 and counter.options["condition"] == "optimized"  # every run option, defaults filled
+    assert (
+        counter.options["seed"] == 7 and counter.options["condition"] == "optimized"
+    )  # every run option, defaults filled
     assert '"bb":{"/step":41,"/uses":42}' in (tmp_path / "uses.jsonl").read_text()
     assert main(["run", str(tree), "--clock", "sundial"]) == 2
     assert "unknown clock 'sundial'; known: wall, manual" in capsys.readouterr().err

@@ -82,12 +82,22 @@ def test_the_log_records_transitions_blackboard_writes_and_sources(tmp_path):
     assert nodes["/task/pick either arm/grasp PSM1/grasp PSM1/aim"]["writes"] == ["/grasp_PSM1/target"]
     assert header["blackboard"] == {"/force": 2.5, "/limit": 1.0}
     first = events[0]
-    assert first["type"] == "tick" and first["n"] == 1 and first["bb"]["/grasp_PSM1/target"] == "block for PSM1"
+    assert (
+        first["type"] == "tick" and first["n"] == 1 and first["bb"]["/grasp_PSM1/target"] == "block for PSM1"
+    )
     assert [leaf["id"], "INVALID", "RUNNING", ""] in first["changes"]
-    failures = [change for event in events if event["type"] == "tick" for change in event["changes"] if change[0] == leaf["id"] and change[2] == "FAILURE"]
+    failures = [
+        change
+        for event in events
+        if event["type"] == "tick"
+        for change in event["changes"]
+        if change[0] == leaf["id"] and change[2] == "FAILURE"
+    ]
     assert failures == [[leaf["id"], "RUNNING", "FAILURE", "jaw of PSM1 slipped"]]
     assert events[-1] == {"type": "end", "n": 3, "t": pytest.approx(0.2), "outcome": "failure"}
-    assert all(event["type"] != "tick" or event["changes"] or "bb" in event for event in events)  # only ticks that changed
+    assert all(
+        event["type"] != "tick" or event["changes"] or "bb" in event for event in events
+    )  # only ticks that changed
 
 
 def test_blackboard_arrays_are_logged_as_short_lists(tmp_path):
@@ -98,7 +108,9 @@ def test_blackboard_arrays_are_logged_as_short_lists(tmp_path):
     py_trees.blackboard.Blackboard.set("/cloud", np.zeros((100, 3)))
     writer.tick_logged()
     writer.tick(1, 0.0, 1e-4)
-    py_trees.blackboard.Blackboard.set("/pose", np.array([0.1, 0.2, 0.3]))  # new object, same value: no record
+    py_trees.blackboard.Blackboard.set(
+        "/pose", np.array([0.1, 0.2, 0.3])
+    )  # new object, same value: no record
     writer.tick_logged()
     writer.tick(2, 0.1, 1e-4)
     writer.close()
@@ -124,7 +136,9 @@ class InterruptingClock(ManualClock):
 
 def test_ctrl_c_halts_running_behaviours_and_is_logged(tmp_path):
     motion_class().terminated.clear()
-    result, path = run_logged(tmp_path, "tree: {sequence: [{test_motion: {name: move}}]}", clock=InterruptingClock())
+    result, path = run_logged(
+        tmp_path, "tree: {sequence: [{test_motion: {name: move}}]}", clock=InterruptingClock()
+    )
     assert result.outcome == "interrupted" and result.ticks == 2
     assert motion_class().terminated == [("move", py_trees.common.Status.INVALID)]
     halt, end = records(path)[-2:]
@@ -144,7 +158,11 @@ def test_a_crash_is_logged_and_raised(tmp_path):
     with pytest.raises(RuntimeError, match="behaviour bug"):
         run_logged(tmp_path, "tree: {parallel: [{test_motion: {name: move}}, {test_crash: {name: bug}}]}")
     crash, halt, end = records(tmp_path / "run.jsonl")[-3:]
-    assert crash["type"] == "crash" and "RuntimeError: behaviour bug" in crash["error"] and "Traceback" in crash["traceback"]
+    assert (
+        crash["type"] == "crash"
+        and "RuntimeError: behaviour bug" in crash["error"]
+        and "Traceback" in crash["traceback"]
+    )
     assert halt["reason"] == "crash" and end["outcome"] == "crash"
 
 
@@ -163,8 +181,10 @@ def test_why_reports_recoveries_that_helped(tmp_path):
     assert result.outcome == "success"
     text = why(read_tick_log(path))
     assert "the run succeeded; failures below were recovered" in text
-    assert "/pick with recovery: main failed at t=0.000 s (pick: missed); recovery success at t=0.200 s; " \
-           "main was retried and succeeded at t=0.300 s: it helped" in text
+    assert (
+        "/pick with recovery: main failed at t=0.000 s (pick: missed); recovery success at t=0.200 s; "
+        "main was retried and succeeded at t=0.300 s: it helped" in text
+    )
 
 
 def test_replay_shows_every_status_at_a_tick(tmp_path):
@@ -192,7 +212,11 @@ def test_summary_counts_and_times(tmp_path):
         (lambda lines: lines[:-1] + [lines[-1][:10]], "last", "truncated record"),
         (lambda lines: lines[:2] + ["{not json"] + lines[2:], 3, "corrupt record: not JSON"),
         (lambda lines: [lines[0].replace("pegbt-ticklog", "other")] + lines[1:], 1, "not a pegbt tick log"),
-        (lambda lines: lines[:1] + [lines[1].replace('"RUNNING"', '"WALKING"', 1)] + lines[2:], 2, "corrupt status change"),
+        (
+            lambda lines: lines[:1] + [lines[1].replace('"RUNNING"', '"WALKING"', 1)] + lines[2:],
+            2,
+            "corrupt status change",
+        ),
         (lambda lines: lines[:1] + [lines[1].replace('"n":1', '"n":"one"')] + lines[2:], 2, "expected int"),
         (lambda lines: lines + ['{"type":"tick","n":9,"t":1}'], "last", "record after the end record"),
         (lambda lines: lines + ["[]"], "last", "expected a JSON object"),
@@ -223,12 +247,18 @@ def test_btlog_export_follows_the_file_logger2_layout(tmp_path):
     assert root.tag == "root" and root.get("BTCPP_format") == "4"
     nodes = [element for element in root.iter() if element.get("_uid")]
     assert [(node.tag, node.get("name"), node.get("_uid")) for node in nodes] == [
-        ("recover", "pick with recovery", "1"), ("scripted", "pick", "2"), ("wait", "re-sense", "3")]
+        ("recover", "pick with recovery", "1"),
+        ("scripted", "pick", "2"),
+        ("wait", "re-sense", "3"),
+    ]
     assert nodes[2].get("seconds") == "0.15"
     models = {model.get("ID"): model.tag for model in root.find("TreeNodesModel")}
     assert models == {"recover": "Control", "scripted": "Action", "wait": "Action"}
     assert abs(first_us / 1e6 - datetime_of(log.header["start_time"])) < 1e-3
-    expected = [(round(c.t * 1e6), c.node + 1, {"INVALID": 0, "RUNNING": 1, "SUCCESS": 2, "FAILURE": 3}[c.after]) for c in log.transitions]
+    expected = [
+        (round(c.t * 1e6), c.node + 1, {"INVALID": 0, "RUNNING": 1, "SUCCESS": 2, "FAILURE": 3}[c.after])
+        for c in log.transitions
+    ]
     assert transitions == expected
     assert transitions[-1] == (300_000, 1, 2)  # the recover node succeeded at t = 0.3 s
 
@@ -247,7 +277,9 @@ def test_a_failing_setup_is_logged_as_a_crash(tmp_path):
 
 
 def test_why_shows_a_guard_that_stopped_holding_and_the_child_it_halted(tmp_path):
-    result, path = run_logged(tmp_path, """
+    result, path = run_logged(
+        tmp_path,
+        """
     blackboard: {safe: true}
     tree:
       parallel:
@@ -258,9 +290,13 @@ def test_why_shows_a_guard_that_stopped_holding_and_the_child_it_halted(tmp_path
               - wait: {seconds: 0.1}
               - set_blackboard: {name: collision, key: safe, value: false}
               - wait: {seconds: 5}
-    """)
+    """,
+    )
     assert result.outcome == "failure"
     text = why(read_tick_log(path))
-    assert "while safe (guard) failed at t=0.200 s, tick 3: guard: /safe == True no longer holds (value False)  <- failed here" in text
+    assert (
+        "while safe (guard) failed at t=0.200 s, tick 3: guard: /safe == True no longer holds (value False)  <- failed here"
+        in text
+    )
     assert "blackboard it reads: /safe=false" in text
     assert "halted child: /parallel/while safe/move (waiting 5 s)" in text

@@ -27,12 +27,16 @@ def two_children(kind: str, memory: bool, first: str, second: str) -> str:
 
 
 def test_sequence_with_memory_resumes_at_the_running_child(tmp_path):
-    built = build_text(tmp_path, two_children("sequence", True, "[success, failure]", "[running, running, success]"))
+    built = build_text(
+        tmp_path, two_children("sequence", True, "[success, failure]", "[running, running, success]")
+    )
     assert tick_statuses(built, 3) == [R, R, S]
 
 
 def test_sequence_without_memory_restarts_and_halts_the_running_child(tmp_path):
-    built = build_text(tmp_path, two_children("sequence", False, "[success, failure]", "[running, running, success]"))
+    built = build_text(
+        tmp_path, two_children("sequence", False, "[success, failure]", "[running, running, success]")
+    )
     assert tick_statuses(built, 2) == [R, F]
     assert node(built, "b").status == I
 
@@ -44,7 +48,9 @@ def test_selector_without_memory_prefers_a_recovered_higher_priority_child(tmp_p
 
 
 def test_selector_with_memory_stays_with_the_running_child(tmp_path):
-    built = build_text(tmp_path, two_children("selector", True, "[failure, success]", "[running, running, failure]"))
+    built = build_text(
+        tmp_path, two_children("selector", True, "[failure, success]", "[running, running, failure]")
+    )
     assert tick_statuses(built, 3) == [R, R, F]
 
 
@@ -118,7 +124,9 @@ def test_oneshot_does_not_tick_its_child_after_latching(tmp_path):
 
 def test_timeout_uses_the_executive_clock_and_halts_its_child(tmp_path):
     clock = ManualClock()
-    built = build_text(tmp_path, "tree: {timeout: {seconds: 0.25, child: {test_motion: {name: move}}}}", clock)
+    built = build_text(
+        tmp_path, "tree: {timeout: {seconds: 0.25, child: {test_motion: {name: move}}}}", clock
+    )
     assert isinstance(built.root, ClockTimeout)
     motion_class().terminated.clear()
     assert tick_statuses(built, 4, clock, step=0.1) == [R, R, R, F]
@@ -141,13 +149,16 @@ def test_wait_counts_executive_clock_time_not_ticks(tmp_path):
 
 
 def test_guard_halts_its_child_when_the_condition_stops_holding(tmp_path):
-    built = build_text(tmp_path, """
+    built = build_text(
+        tmp_path,
+        """
     blackboard: {safe: true}
     tree:
       guard:
         key: safe
         child: {test_motion: {name: move}}
-    """)
+    """,
+    )
     assert isinstance(built.root, BlackboardGuard)
     motion_class().terminated.clear()
     assert tick_statuses(built, 2) == [R, R]
@@ -159,10 +170,13 @@ def test_guard_halts_its_child_when_the_condition_stops_holding(tmp_path):
 
 
 def test_guard_compares_with_an_operator(tmp_path):
-    built = build_text(tmp_path, """
+    built = build_text(
+        tmp_path,
+        """
     blackboard: {force: 0.5}
     tree: {guard: {key: force, op: "<", value: 1.0, child: {scripted: {outcomes: [running]}}}}
-    """)
+    """,
+    )
     assert tick_statuses(built, 1) == [R]
     py_trees.blackboard.Blackboard.set("/force", 2.0)
     assert tick_statuses(built, 1) == [F]
@@ -210,7 +224,9 @@ def test_recover_with_no_retries_fails_like_its_main(tmp_path):
 
 
 def test_set_and_check_blackboard_and_log(tmp_path):
-    built = build_text(tmp_path, """
+    built = build_text(
+        tmp_path,
+        """
     tree:
       sequence:
         - set_blackboard: {key: count, value: 3}
@@ -218,14 +234,17 @@ def test_set_and_check_blackboard_and_log(tmp_path):
         - check_blackboard: {key: copy, op: ">=", value: 3}
         - log: {message: copied, value: $copy}
         - check_blackboard: {key: copy, op: "<", value: 3}
-    """)
+    """,
+    )
     assert tick_statuses(built, 1) == [F]
     assert py_trees.blackboard.Blackboard.get("/copy") == 3
     assert node(built, "log").feedback_message == "copied 3"
 
 
 def test_subtree_instances_get_their_own_namespaces_and_arguments(tmp_path):
-    built = build_text(tmp_path, """
+    built = build_text(
+        tmp_path,
+        """
     subtrees:
       mark:
         args: {arm: str, count: {type: int, default: 1}}
@@ -240,7 +259,8 @@ def test_subtree_instances_get_their_own_namespaces_and_arguments(tmp_path):
       sequence:
         - subtree: {use: mark, args: {arm: PSM1}}
         - subtree: {use: mark, args: {arm: PSM2, count: 2}}
-    """)
+    """,
+    )
     assert tick_statuses(built, 1) == [S]
     assert py_trees.blackboard.Blackboard.get("/mark_PSM1/arm") == "PSM1"
     assert py_trees.blackboard.Blackboard.get("/mark_PSM2_2/label") == "arm PSM2 x2"
@@ -250,7 +270,10 @@ def test_subtree_instances_get_their_own_namespaces_and_arguments(tmp_path):
 
 
 def test_the_built_tree_is_plain_py_trees(tmp_path):
-    built = build_text(tmp_path, "tree: {sequence: [{wait: {seconds: 0}}, {inverter: {child: {scripted: {outcomes: [failure]}}}}]}")
+    built = build_text(
+        tmp_path,
+        "tree: {sequence: [{wait: {seconds: 0}}, {inverter: {child: {scripted: {outcomes: [failure]}}}}]}",
+    )
     assert isinstance(built.root, py_trees.composites.Sequence)
     tree = py_trees.trees.BehaviourTree(built.root)
     tree.tick()

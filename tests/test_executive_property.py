@@ -15,15 +15,47 @@ from pegbt.executive.loader import load_tree
 from pegbt.executive.nodetypes import NODE_TYPES
 
 TREES = Path(__file__).resolve().parents[1] / "trees"
-WORDS = list(NODE_TYPES) + ["wait", "log", "scripted", "set_blackboard", "check_blackboard", "tree", "subtrees", "include",
-                            "blackboard", "children", "child", "name", "seconds", "message", "outcomes", "main", "recovery",
-                            "use", "args", "key", "value", "$x", "${arm}", "success", "failure"]
+WORDS = list(NODE_TYPES) + [
+    "wait",
+    "log",
+    "scripted",
+    "set_blackboard",
+    "check_blackboard",
+    "tree",
+    "subtrees",
+    "include",
+    "blackboard",
+    "children",
+    "child",
+    "name",
+    "seconds",
+    "message",
+    "outcomes",
+    "main",
+    "recovery",
+    "use",
+    "args",
+    "key",
+    "value",
+    "$x",
+    "${arm}",
+    "success",
+    "failure",
+]
 
-scalars = st.one_of(st.none(), st.booleans(), st.integers(-5, 5), st.floats(allow_nan=False, width=32), st.sampled_from(WORDS),
-                    st.text(max_size=8))
+scalars = st.one_of(
+    st.none(),
+    st.booleans(),
+    st.integers(-5, 5),
+    st.floats(allow_nan=False, width=32),
+    st.sampled_from(WORDS),
+    st.text(max_size=8),
+)
 documents = st.recursive(
     scalars,
-    lambda inner: st.one_of(st.lists(inner, max_size=4), st.dictionaries(st.sampled_from(WORDS), inner, max_size=4)),
+    lambda inner: st.one_of(
+        st.lists(inner, max_size=4), st.dictionaries(st.sampled_from(WORDS), inner, max_size=4)
+    ),
     max_leaves=30,
 )
 
@@ -52,8 +84,15 @@ MUTATIONS = ("delete", "duplicate", "indent", "dedent", "replace", "insert", "tr
 @settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(
     name=st.sampled_from(["example.yaml", "shared/transfer.yaml"]),
-    edits=st.lists(st.tuples(st.sampled_from(MUTATIONS), st.integers(0, 10_000), st.sampled_from(["{", "]", ":", "-", " ", "x", "$", "'", "\t", "&a", "*a", "\x00"])),
-                   min_size=1, max_size=3),
+    edits=st.lists(
+        st.tuples(
+            st.sampled_from(MUTATIONS),
+            st.integers(0, 10_000),
+            st.sampled_from(["{", "]", ":", "-", " ", "x", "$", "'", "\t", "&a", "*a", "\x00"]),
+        ),
+        min_size=1,
+        max_size=3,
+    ),
 )
 def test_mutated_real_trees(name, edits):
     with tempfile.TemporaryDirectory() as directory:
@@ -73,7 +112,7 @@ def test_mutated_real_trees(name, edits):
             elif kind == "dedent":
                 lines[index] = line[2:]
             elif kind == "replace":
-                lines[index] = line[:column] + token + line[column + 1:]
+                lines[index] = line[:column] + token + line[column + 1 :]
             elif kind == "insert":
                 lines[index] = line[:column] + token + line[column:]
             else:

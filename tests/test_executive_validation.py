@@ -55,13 +55,29 @@ def test_five_errors_are_reported_with_their_lines_in_one_run(tmp_path):
         ("tree:\n  sequence:\n    children: []\n", 3, "needs `children:`, a non-empty list"),
         ("tree:\n  inverter: {}\n", 2, "needs `child:`"),
         ("tree:\n  wait: {seconds: 1, seconds: 2}\n", 2, "duplicate key 'seconds'"),
-        ("tree:\n  sequence:\n    - wait: {seconds: 1}\n      log: {message: x}\n", 3, "a node is a mapping with one key"),
-        ("tree:\n  sequence:\n    - wait: {name: a, seconds: 1}\n    - wait: {name: a, seconds: 1}\n", 4, "duplicate name 'a'"),
+        (
+            "tree:\n  sequence:\n    - wait: {seconds: 1}\n      log: {message: x}\n",
+            3,
+            "a node is a mapping with one key",
+        ),
+        (
+            "tree:\n  sequence:\n    - wait: {name: a, seconds: 1}\n    - wait: {name: a, seconds: 1}\n",
+            4,
+            "duplicate name 'a'",
+        ),
         ("tree:\n  sequence:\n    - wait: {name: a/b, seconds: 1}\n", 3, "without '/'"),
         ("tree:\n  retry: {attempts: 0, child: wait}\n", 2, "a number >= 1"),
         ("tree:\n  retry: {attempts: true, child: {wait: {seconds: 1}}}\n", 2, "should be an int"),
-        ("tree:\n  parallel: {policy: some, children: [{wait: {seconds: 1}}]}\n", 2, "one of 'all', 'one', 'selected'"),
-        ("tree:\n  parallel:\n    policy: selected\n    selected: [b]\n    children: [{wait: {name: a, seconds: 1}}]\n", 4, "'b' is not a child"),
+        (
+            "tree:\n  parallel: {policy: some, children: [{wait: {seconds: 1}}]}\n",
+            2,
+            "one of 'all', 'one', 'selected'",
+        ),
+        (
+            "tree:\n  parallel:\n    policy: selected\n    selected: [b]\n    children: [{wait: {name: a, seconds: 1}}]\n",
+            4,
+            "'b' is not a child",
+        ),
         ("tree:\n  log: {message: $x}\n", 2, "does not take blackboard references"),
         ("tree:\n  wait: {seconds: $delay}\n", 2, "reads blackboard key '/delay'"),
         ("tree:\n  log: {message: '${arm}'}\n", 2, "not inside a subtree"),
@@ -102,14 +118,17 @@ subtrees:
 
 def test_subtree_argument_problems(tmp_path):
     write_tree(tmp_path, SUBTREES, "shared.yaml")
-    path = write_tree(tmp_path, """\
+    path = write_tree(
+        tmp_path,
+        """\
     include: [shared.yaml]
     tree:
       sequence:
         - subtree: {use: transfer, args: {arm: PSM1, sped: 2}}
         - subtree: {use: transfer, args: {speed: fast}}
         - subtree: {use: transfr, args: {arm: PSM2}}
-    """)
+    """,
+    )
     errors = check_tree(path)
     text = "\n".join(str(error) for error in errors)
     assert "no argument 'sped' (did you mean 'speed'?)" in text
@@ -117,7 +136,9 @@ def test_subtree_argument_problems(tmp_path):
     assert "needs argument 'arm'" in text
     assert "unknown subtree 'transfr' (did you mean 'transfer'?)" in text
     assert f"{tmp_path / 'shared.yaml'}:12:" in text and "unknown subtree argument 'arme'" in text
-    assert sum("unknown subtree argument 'arme'" in str(error) for error in errors) == 1  # one report per place
+    assert (
+        sum("unknown subtree argument 'arme'" in str(error) for error in errors) == 1
+    )  # one report per place
 
 
 def test_a_subtree_file_on_its_own_is_checked_with_unbound_arguments(tmp_path):
@@ -137,38 +158,48 @@ def test_include_cycles_are_refused(tmp_path):
 
 def test_duplicate_subtree_definitions_across_files(tmp_path):
     write_tree(tmp_path, "subtrees: {t: {tree: {wait: {seconds: 1}}}}\n", "one.yaml")
-    path = write_tree(tmp_path, "include: [one.yaml]\nsubtrees:\n  t: {tree: {wait: {seconds: 2}}}\n", "two.yaml")
+    path = write_tree(
+        tmp_path, "include: [one.yaml]\nsubtrees:\n  t: {tree: {wait: {seconds: 2}}}\n", "two.yaml"
+    )
     errors = check_tree(path)
     assert [error.line for error in errors] == [3]
     assert "already defined at" in errors[0].message
 
 
 def test_recursive_subtrees_are_refused(tmp_path):
-    path = write_tree(tmp_path, """\
+    path = write_tree(
+        tmp_path,
+        """\
     subtrees:
       loop: {tree: {subtree: {use: loop, name: again}}}
     tree: {subtree: {use: loop}}
-    """)
+    """,
+    )
     errors = check_tree(path)
     assert any("instantiates itself: loop -> loop" in error.message for error in errors)
 
 
 def test_instances_may_not_share_a_namespace(tmp_path):
-    path = write_tree(tmp_path, """\
+    path = write_tree(
+        tmp_path,
+        """\
     subtrees:
       t: {tree: {set_blackboard: {key: x, value: 1}}}
     tree:
       sequence:
         - subtree: {use: t, name: first, namespace: same}
         - subtree: {use: t, name: second, namespace: same}
-    """)
+    """,
+    )
     errors = check_tree(path)
     assert [error.line for error in errors] == [6]
     assert "namespace '/same' is already used" in errors[0].message
 
 
 def test_keys_are_checked_per_namespace(tmp_path):
-    path = write_tree(tmp_path, """\
+    path = write_tree(
+        tmp_path,
+        """\
     subtrees:
       writer: {tree: {set_blackboard: {key: pose, value: 1}}}
       reader: {tree: {check_blackboard: {key: pose}}}
@@ -177,9 +208,14 @@ def test_keys_are_checked_per_namespace(tmp_path):
         - subtree: {use: writer}
         - subtree: {use: reader}
         - check_blackboard: {key: /writer/pose, value: 1}
-    """)
+    """,
+    )
     errors = check_tree(path)
-    assert len(errors) == 1 and "'/reader/pose'" in errors[0].message and "did you mean '/writer/pose'" in errors[0].message
+    assert (
+        len(errors) == 1
+        and "'/reader/pose'" in errors[0].message
+        and "did you mean '/writer/pose'" in errors[0].message
+    )
 
 
 def test_the_real_trees_are_valid():
@@ -190,6 +226,8 @@ def test_the_real_trees_are_valid():
 def test_the_readme_example_is_a_valid_tree(tmp_path):
     readme = (REPO / "README.md").read_text()
     example = readme.split("## Behaviour trees")[1].split("```yaml\n")[1].split("```")[0]
-    shutil.copytree(Path(__file__).resolve().parents[1] / "trees" / "shared", tmp_path / "shared")  # what it includes
+    shutil.copytree(
+        Path(__file__).resolve().parents[1] / "trees" / "shared", tmp_path / "shared"
+    )  # what it includes
     errors = check_tree(write_tree(tmp_path, example))
     assert errors == [], [str(error) for error in errors]

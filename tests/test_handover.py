@@ -27,8 +27,14 @@ def _lifted(arm, settings, peg):
 def _plan(receiver_offset):
     meet = handover_meeting_point(CELL)
     return meet, plan_handover(
-        PSM2, RECEIVER, _lifted("PSM2", PSM2, 1), _lifted("PSM1", PSM1, 7), meet,
-        CELL.board_to_arm("PSM2"), CELL.board_to_arm("PSM1"), receiver_offset,
+        PSM2,
+        RECEIVER,
+        _lifted("PSM2", PSM2, 1),
+        _lifted("PSM1", PSM1, 7),
+        meet,
+        CELL.board_to_arm("PSM2"),
+        CELL.board_to_arm("PSM1"),
+        receiver_offset,
         CELL.pegs.top(PLACE_PEG),
     )
 
@@ -40,14 +46,22 @@ def _tip_in_board(arm, q):
 
 def test_handover_brings_both_tools_to_the_block_in_order():
     meet, plan = _plan([0.0087, 0.0, 0.0])
-    assert [p.name for p in plan.phases] == ["meet", "receiver descends", "giver releases", "giver rises", "receiver places"]
+    assert [p.name for p in plan.phases] == [
+        "meet",
+        "receiver descends",
+        "giver releases",
+        "giver rises",
+        "receiver places",
+    ]
     first, descend, release, rise, place = plan.phases
     assert np.allclose(_tip_in_board("PSM2", first.moves["PSM2"].q[-1]), meet, atol=1e-9)
     waiting = _tip_in_board("PSM1", first.moves["PSM1"].q[-1])
     grasped = _tip_in_board("PSM1", descend.moves["PSM1"].q[-1])
     assert np.allclose(grasped, meet + [0.0087, 0.0, 0.0], atol=1e-9)
     assert np.allclose(waiting - grasped, [0.0, 0.0, -0.013], atol=1e-9)  # 13 mm above (board z is down)
-    assert descend.jaws == {"PSM1": pytest.approx(-0.2618)} and release.jaws == {"PSM2": pytest.approx(0.8727)}
+    assert descend.jaws == {"PSM1": pytest.approx(-0.2618)} and release.jaws == {
+        "PSM2": pytest.approx(0.8727)
+    }
     assert np.allclose(_tip_in_board("PSM2", rise.moves["PSM2"].q[-1]) - meet, [0.0, 0.0, -0.010], atol=1e-9)
     assert np.allclose(place.moves["PSM1"].q[0], descend.moves["PSM1"].q[-1], atol=1e-9)
     assert place.jaws == {"PSM1": pytest.approx(0.8727)}
@@ -93,5 +107,7 @@ def test_receiver_lowers_the_block_onto_its_peg_along_the_axis_clear_of_the_give
     assert np.degrees(np.arccos(poses[:, :3, 2] @ up)).max() <= 2.0 + 1e-6
     # The giver holds its retreat pose meanwhile; the tools stay at least 5 mm apart.
     giver_still = plan.phases[3].moves["PSM2"].q[-1]
-    apart = tool_distance(np.repeat(giver_still[None], len(place), axis=0), CELL.board_to_arm("PSM2"), place.q, T)
+    apart = tool_distance(
+        np.repeat(giver_still[None], len(place), axis=0), CELL.board_to_arm("PSM2"), place.q, T
+    )
     assert apart.min() >= 0.005 and plan.closest_tools <= apart.min() + 1e-12

@@ -21,20 +21,31 @@ CELL = SKILLS.cell
 
 
 def block_at(x: float, y: float, yaw_deg: float, peg: int | None = None) -> BlockEstimate:
-    return BlockEstimate(np.array([x, y, CELL.board.surface_z]), math.radians(yaw_deg), peg, 1.0, 0.0003, 1000, True, "")
+    return BlockEstimate(
+        np.array([x, y, CELL.board.surface_z]), math.radians(yaw_deg), peg, 1.0, 0.0003, 1000, True, ""
+    )
 
 
 def world_sees_tools_touch(q_a, arm_a, q_b, arm_b) -> bool:
     """Whether the simulator's world logs a tool-tool or shaft-shaft contact with the arms at these joints."""
     world = World(seed=0)
-    world.update(0.01, {arm: ToolState.from_joints(np.asarray(q), 0.8, CELL.arm_to_board(arm))
-                        for arm, q in ((arm_a, q_a), (arm_b, q_b))})
-    return any(event.kind == "collision" and event.detail in ("tool-tool", "shaft-shaft") for event in world.events)
+    world.update(
+        0.01,
+        {
+            arm: ToolState.from_joints(np.asarray(q), 0.8, CELL.arm_to_board(arm))
+            for arm, q in ((arm_a, q_a), (arm_b, q_b))
+        },
+    )
+    return any(
+        event.kind == "collision" and event.detail in ("tool-tool", "shaft-shaft") for event in world.events
+    )
 
 
 def test_tool_gap_is_negative_exactly_where_the_world_sees_the_tools_touch():
     rng = np.random.default_rng(3)
-    meeting = solve_ik(plan_meeting(SKILLS, "PSM2", "PSM1", *pick_of("PSM2", 1)).tip, SKILLS.arm("PSM2").settings)
+    meeting = solve_ik(
+        plan_meeting(SKILLS, "PSM2", "PSM1", *pick_of("PSM2", 1)).tip, SKILLS.arm("PSM2").settings
+    )
     checked = {True: 0, False: 0}
     for _ in range(60):
         tip = plan_meeting(SKILLS, "PSM2", "PSM1", *pick_of("PSM2", 1)).receiver_grasp.pose.copy()
@@ -54,7 +65,9 @@ def pick_of(arm: str, peg: int, seed: int = 2) -> tuple:
     world = World(seed=seed)
     pose = world.blocks[min(peg % 6, 5)].pose
     x, y = CELL.pegs.positions[peg]
-    block = BlockEstimate(np.array([x, y, pose[2, 3]]), math.atan2(pose[1, 0], pose[0, 0]), peg, 1.0, 0.0003, 1000, True, "")
+    block = BlockEstimate(
+        np.array([x, y, pose[2, 3]]), math.atan2(pose[1, 0], pose[0, 0]), peg, 1.0, 0.0003, 1000, True, ""
+    )
     return SKILLS.selectors[arm].pick(block), block
 
 
@@ -75,8 +88,13 @@ def test_a_block_held_on_some_walls_cannot_be_handed_over_and_the_giver_picks_an
     every grasp of PSM2 at the meeting point would strike PSM1's tool; the giver's pick avoids those."""
     block = block_at(0.0606, 0.0232, 0.0)
     feasible = SKILLS.selectors["PSM1"].feasible(block.pose)
-    handed = {option.candidate: plan_meeting(SKILLS, "PSM1", "PSM2", option, block) is not None for option in feasible}
+    handed = {
+        option.candidate: plan_meeting(SKILLS, "PSM1", "PSM2", option, block) is not None
+        for option in feasible
+    }
     assert not all(handed.values()) and any(handed.values()), handed
     chosen = SKILLS.selectors["PSM1"].pick(block, acceptable=lambda option: handed[option.candidate])
     assert handed[chosen.candidate]
-    assert not handed[SKILLS.selectors["PSM1"].pick(block).candidate]  # the paper's rule alone picks one of those
+    assert not handed[
+        SKILLS.selectors["PSM1"].pick(block).candidate
+    ]  # the paper's rule alone picks one of those

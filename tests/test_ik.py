@@ -14,7 +14,9 @@ PSM1 = arm_settings("PSM1")
 
 def _rotation_angle(Ra, Rb):
     cos = (np.trace(np.swapaxes(Ra, -1, -2) @ Rb, axis1=-2, axis2=-1) - 1) / 2
-    sin = np.linalg.norm(np.swapaxes(Ra, -1, -2) @ Rb - Rb.swapaxes(-1, -2) @ Ra, axis=(-2, -1)) / (2 * np.sqrt(2))
+    sin = np.linalg.norm(np.swapaxes(Ra, -1, -2) @ Rb - Rb.swapaxes(-1, -2) @ Ra, axis=(-2, -1)) / (
+        2 * np.sqrt(2)
+    )
     return np.arctan2(sin, cos)
 
 
@@ -52,7 +54,9 @@ def test_batches_of_any_shape():
 
 
 def test_out_of_limit_pose_is_refused_naming_the_limit():
-    q = np.array([[0.1, 0.2, 0.26, 0.0, 0.1, 0.1], [0.1, 0.2, 0.15, 0.0, 0.1, 0.1]])  # first: insertion too deep
+    q = np.array(
+        [[0.1, 0.2, 0.26, 0.0, 0.1, 0.1], [0.1, 0.2, 0.15, 0.0, 0.1, 0.1]]
+    )  # first: insertion too deep
     solution = inverse_kinematics(forward_kinematics(q), PSM1)
     assert solution.reachable.all()
     assert solution.ok.tolist() == [False, True]

@@ -16,7 +16,9 @@ def table_rows(text: str) -> Rows:
     for line in text.splitlines():
         if line.startswith("| `pegbt"):
             paths = re.findall(r"`(pegbt[^`]*)`", line.split("|")[1])
-            rows.append(tuple(path.removesuffix(".py").removesuffix("/__init__").replace("/", ".") for path in paths))
+            rows.append(
+                tuple(path.removesuffix(".py").removesuffix("/__init__").replace("/", ".") for path in paths)
+            )
     return rows
 
 
@@ -53,7 +55,9 @@ def imported(source: str, module: str, is_package: bool) -> list[tuple[int, str]
                 base = ".".join(anchor + ([base] if base else []))
             for alias in node.names:
                 candidate = f"{base}.{alias.name}"
-                exists = (REPO / Path(*candidate.split("."))).with_suffix(".py").exists() or (REPO / Path(*candidate.split("."))).is_dir()
+                exists = (REPO / Path(*candidate.split("."))).with_suffix(".py").exists() or (
+                    REPO / Path(*candidate.split("."))
+                ).is_dir()
                 found.append((node.lineno, candidate if exists else base))
     return [(line, name) for line, name in found if name == "pegbt" or name.startswith("pegbt.")]
 
@@ -71,14 +75,19 @@ def upward_imports(rows: Rows, sources: dict[str, tuple[str, bool]]) -> list[str
             if row is None:
                 problems.append(f"{module}:{line}: imports {target}, which is in no row of the table")
             elif row < own:
-                problems.append(f"{module}:{line}: imports {target} (row {row + 1}) from row {own + 1}: upward")
+                problems.append(
+                    f"{module}:{line}: imports {target} (row {row + 1}) from row {own + 1}: upward"
+                )
     return problems
 
 
 def test_no_import_goes_up_the_layer_table():
     rows = table_rows((REPO / "DEVELOPERS.md").read_text())
     assert len(rows) > 10, "the layout table of DEVELOPERS.md was not found"
-    sources = {module_name(path): (path.read_text(), path.name == "__init__.py") for path in (REPO / "pegbt").rglob("*.py")}
+    sources = {
+        module_name(path): (path.read_text(), path.name == "__init__.py")
+        for path in (REPO / "pegbt").rglob("*.py")
+    }
     assert upward_imports(rows, sources) == []
 
 

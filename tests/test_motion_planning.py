@@ -43,7 +43,12 @@ def test_transfer_goes_from_the_grasp_to_the_place_pose_within_every_check(plan)
     assert np.allclose(np.diff(trajectory.t), PSM1.control_period)
     assert np.allclose(forward_kinematics(trajectory.q[0]), waypoints.poses[0], atol=1e-9)
     assert np.allclose(forward_kinematics(trajectory.q[-1]), waypoints.poses[3], atol=1e-9)
-    assert trajectory_problems(trajectory, PSM1, leaving=waypoints.pick, arriving=waypoints.place, upright=waypoints.upright) == []
+    assert (
+        trajectory_problems(
+            trajectory, PSM1, leaving=waypoints.pick, arriving=waypoints.place, upright=waypoints.upright
+        )
+        == []
+    )
     # Independently of the checker: the tip stays within the tolerance of the start peg's axis until
     # the block has cleared it, and the block does clear it; the tool never leans more than 2°.
     poses = forward_kinematics(trajectory.q)
@@ -57,7 +62,9 @@ def test_transfer_goes_from_the_grasp_to_the_place_pose_within_every_check(plan)
 
 
 def test_refined_transfer_beats_the_spline_and_the_cubic_baseline(plan):
-    cubic = cubic_transfer(_waypoints(1, 7, pick_offset=(0.0, 0.004, 0.0), pick_yaw=0.3, place_yaw=-0.2), PSM1)
+    cubic = cubic_transfer(
+        _waypoints(1, 7, pick_offset=(0.0, 0.004, 0.0), pick_yaw=0.3, place_yaw=-0.2), PSM1
+    )
     assert plan.refined
     assert plan.trajectory.duration < plan.spline.duration < cubic.duration
 
@@ -86,7 +93,10 @@ def test_rest_to_rest_cubic_hits_a_limit_exactly_and_stops_at_each_waypoint():
     assert np.all(path.velocities == 0)
     trajectory = path.sample(PSM1.control_period)
     assert trajectory_problems(trajectory, PSM1) == []
-    peak = np.max(np.abs(path.retimed(1.0).evaluate(np.linspace(0, path.duration, 20001))[2]) / PSM1.planner_acceleration)
+    peak = np.max(
+        np.abs(path.retimed(1.0).evaluate(np.linspace(0, path.duration, 20001))[2])
+        / PSM1.planner_acceleration
+    )
     assert peak == pytest.approx(1.0, rel=1e-3)
 
 
@@ -135,7 +145,10 @@ def test_checker_names_a_tool_leaning_beyond_the_upright_limit():
 def test_unreachable_waypoint_is_refused_naming_it_and_the_limit(planner):
     far = CELL.peg_tops_in("PSM1")[7] + np.array([0.0, 0.0, -0.2])  # 20 cm below the board
     waypoints = transfer_waypoints(CELL.peg_tops_in("PSM1")[1], far)
-    with pytest.raises(PegbtError, match=r"transfer waypoint 2 \(above the goal peg\): not reachable by PSM1: q3 \(insertion\)"):
+    with pytest.raises(
+        PegbtError,
+        match=r"transfer waypoint 2 \(above the goal peg\): not reachable by PSM1: q3 \(insertion\)",
+    ):
         planner.plan(waypoints)
 
 
@@ -161,7 +174,10 @@ def test_motion_settings_name_a_bad_field(tmp_path):
     path = tmp_path / "motion.yaml"
     path.write_text(text)
     line = next(i for i, row in enumerate(text.splitlines(), 1) if "approach_above_block: -1" in row)
-    with pytest.raises(PegbtError, match=rf"motion.yaml:{line}:\d+: transfer.approach_above_block: expected a positive number"):
+    with pytest.raises(
+        PegbtError,
+        match=rf"motion.yaml:{line}:\d+: transfer.approach_above_block: expected a positive number",
+    ):
         motion_settings(path)
 
 
@@ -187,7 +203,10 @@ def test_shortest_segment_times_match_a_dense_scan_and_the_rest_to_rest_formulas
     # The first duration on a fine grid at which every limit holds (feasibility is not monotone).
     grid = np.linspace(PSM1.control_period, 3.0, 20001)
     peak_v, peak_a = segment_extremes(delta[:, None], v0[:, None], v1[:, None], grid[None, :, None])
-    ok = np.all((peak_v <= PSM1.planner_velocity * (1 + 1e-9)) & (peak_a <= PSM1.planner_acceleration * (1 + 1e-9)), axis=-1)
+    ok = np.all(
+        (peak_v <= PSM1.planner_velocity * (1 + 1e-9)) & (peak_a <= PSM1.planner_acceleration * (1 + 1e-9)),
+        axis=-1,
+    )
     found = ok.any(axis=1)
     assert found.sum() >= count // 2  # the others overshoot their limits at every duration up to 3 s
     assert np.allclose(shortest[found], grid[np.argmax(ok[found], axis=1)], atol=grid[1] - grid[0])

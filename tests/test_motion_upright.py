@@ -28,18 +28,39 @@ DESCENT_CLEAR = 0.0146  # the approach's channel: from just above the peg tops d
 # above-the-grasp and grasp poses (m, arm frame), start yaw, grasp yaw (rad about the pegs' axis)).
 # The jaw turns by 74-103° on the way. Planned by a fresh planner (OSQP's duals then start at zero).
 APPROACHES = [
-    ("PSM1", [[0.16799762263703322, -0.018960862881196815, -0.14185287829418916],
-              [0.16840429239930418, -0.01894116699638206, -0.12385748355618531],
-              [0.09110364657253388, -0.010308307804182557, -0.12212004995627301],
-              [0.09025415862467895, -0.01034945031912894, -0.15971043007565877]], 0.12276141955002626, -1.1775618799733745),
-    ("PSM1", [[0.08971706773452984, -0.01138846463326567, -0.14009213950349947],
-              [0.09012373749680082, -0.011368768748450912, -0.12209674476549551],
-              [0.1404721739007515, -0.006083209740057871, -0.12324033126215964],
-              [0.13962268595289656, -0.0061243522550042525, -0.16083071138154542]], -0.8734632381563885, 0.9076687460457958),
-    ("PSM2", [[-0.1457604516007266, -0.031726972237213685, -0.1362291840400642],
-              [-0.14629021006314236, -0.03186715981204851, -0.11823752754558434],
-              [-0.08248111580126509, -0.002233164451368483, -0.11612778708793157],
-              [-0.08137450923532992, -0.0019403281839357324, -0.15371035843195627]], -0.6178286932163419, 0.7272834775790449),
+    (
+        "PSM1",
+        [
+            [0.16799762263703322, -0.018960862881196815, -0.14185287829418916],
+            [0.16840429239930418, -0.01894116699638206, -0.12385748355618531],
+            [0.09110364657253388, -0.010308307804182557, -0.12212004995627301],
+            [0.09025415862467895, -0.01034945031912894, -0.15971043007565877],
+        ],
+        0.12276141955002626,
+        -1.1775618799733745,
+    ),
+    (
+        "PSM1",
+        [
+            [0.08971706773452984, -0.01138846463326567, -0.14009213950349947],
+            [0.09012373749680082, -0.011368768748450912, -0.12209674476549551],
+            [0.1404721739007515, -0.006083209740057871, -0.12324033126215964],
+            [0.13962268595289656, -0.0061243522550042525, -0.16083071138154542],
+        ],
+        -0.8734632381563885,
+        0.9076687460457958,
+    ),
+    (
+        "PSM2",
+        [
+            [-0.1457604516007266, -0.031726972237213685, -0.1362291840400642],
+            [-0.14629021006314236, -0.03186715981204851, -0.11823752754558434],
+            [-0.08248111580126509, -0.002233164451368483, -0.11612778708793157],
+            [-0.08137450923532992, -0.0019403281839357324, -0.15371035843195627],
+        ],
+        -0.6178286932163419,
+        0.7272834775790449,
+    ),
 ]
 
 
@@ -47,18 +68,27 @@ def _approach(arm, tips, start_yaw, grasp_yaw):
     up = CELL.up_in(arm)
     yaws = (start_yaw, start_yaw, grasp_yaw, grasp_yaw)
     poses = np.stack([rigid_transform(tool_down_rotation(yaw, up), tip) for yaw, tip in zip(yaws, tips)])
-    return TransferWaypoints(poses, None, None, Channel(tips[3], up, DESCENT_CLEAR, HEIGHTS.channel_tolerance),
-                             Upright(up, HEIGHTS.upright_tilt))
+    return TransferWaypoints(
+        poses,
+        None,
+        None,
+        Channel(tips[3], up, DESCENT_CLEAR, HEIGHTS.channel_tolerance),
+        Upright(up, HEIGHTS.upright_tilt),
+    )
 
 
 @pytest.mark.parametrize("arm, tips, start_yaw, grasp_yaw", APPROACHES)
-def test_an_approach_turning_the_jaw_is_refined_within_the_channel_and_the_upright_cone(arm, tips, start_yaw, grasp_yaw):
+def test_an_approach_turning_the_jaw_is_refined_within_the_channel_and_the_upright_cone(
+    arm, tips, start_yaw, grasp_yaw
+):
     waypoints = _approach(arm, tips, start_yaw, grasp_yaw)
     settings = arm_settings(arm)
     plan = TransferPlanner(settings).plan(waypoints)
     assert plan.method == "sqp" and plan.reason == ""
     trajectory = plan.trajectory
-    assert trajectory_problems(trajectory, settings, arriving=waypoints.place, upright=waypoints.upright) == []
+    assert (
+        trajectory_problems(trajectory, settings, arriving=waypoints.place, upright=waypoints.upright) == []
+    )
     # Independently of the checker: the tool leans at most 2° all along, and below the clearing height
     # the tip is within 0.5 mm of the grasp's axis.
     poses = forward_kinematics(trajectory.q)
@@ -85,7 +115,10 @@ def test_configurations_turned_upright_keep_their_tip_and_heading():
     assert np.allclose(after[moved, :3, 2], up, atol=1e-9)
     assert np.allclose(after[:, :3, 3], before[:, :3, 3], atol=1e-9)
     heading = before[moved, :3, 0] - np.outer(before[moved, :3, 0] @ up, up)
-    assert np.allclose(np.einsum("ki,ki->k", heading / np.linalg.norm(heading, axis=1, keepdims=True), after[moved, :3, 0]), 1.0)
+    assert np.allclose(
+        np.einsum("ki,ki->k", heading / np.linalg.norm(heading, axis=1, keepdims=True), after[moved, :3, 0]),
+        1.0,
+    )
     assert np.all(np.abs(turned - q)[:, [0, 1, 3, 4, 5]] <= np.pi)
 
 
@@ -94,14 +127,19 @@ def test_when_no_plan_keeps_the_checks_the_error_gives_every_reason():
     waypoints = _approach(arm, tips, start_yaw, grasp_yaw)
     impossible = Channel(waypoints.place.point, waypoints.place.axis, DESCENT_CLEAR, 1e-9)
     with pytest.raises(PegbtError) as error:
-        TransferPlanner(arm_settings(arm)).plan(TransferWaypoints(waypoints.poses, None, None, impossible, waypoints.upright))
+        TransferPlanner(arm_settings(arm)).plan(
+            TransferWaypoints(waypoints.poses, None, None, impossible, waypoints.upright)
+        )
     message = str(error.value)
     assert "no transfer for PSM1 passes its checks" in message
     assert all(f"{method}: " in message for method in ("sqp", "spline", "cubic"))
 
 
 def test_the_eval_summary_counts_fallbacks_per_trial():
-    records = [TrialRecord("unilateral", "optimized", seed, "success", fallbacks=count) for seed, count in ((1, 1), (2, 0))]
+    records = [
+        TrialRecord("unilateral", "optimized", seed, "success", fallbacks=count)
+        for seed, count in ((1, 1), (2, 0))
+    ]
     figures = summarise(Cell("unilateral", "optimized", 2, 1), records)
     assert figures["fallbacks_per_trial"] == 0.5
     assert "fallen back to cubics / trial" in table(figures)

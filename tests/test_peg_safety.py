@@ -33,7 +33,9 @@ def test_halting_a_running_motion_stops_the_arm(tmp_path):
     tree = tmp_path / "halt.yaml"
     tree.write_text("tree:\n  timeout:\n    seconds: 0.7\n    child:\n      park: {name: park, arm: PSM1}\n")
     with SimProcess([*SIMULATOR, "--no-world"]) as sim:
-        output = run_tree_file(tree, tmp_path / "halt.jsonl", options={"endpoint": sim.endpoint, "condition": "uncalibrated"})
+        output = run_tree_file(
+            tree, tmp_path / "halt.jsonl", options={"endpoint": sim.endpoint, "condition": "uncalibrated"}
+        )
         assert output.result.outcome == "failure"
         with connect([sim.endpoint]) as link:
             clock = SimClock(link)
@@ -46,16 +48,30 @@ def test_halting_a_running_motion_stops_the_arm(tmp_path):
     home, start = arm_settings("PSM1").home_tip, forward_kinematics(np.array([0, 0, 0.12, 0, 0, 0.0]))[:3, 3]
     assert np.linalg.norm(tip - home) > 0.005 and np.linalg.norm(tip - start) > 0.005  # stopped on the way
     records = [json.loads(line) for line in (tmp_path / "halt.jsonl").read_text().splitlines()]
-    halted = [change for record in records if record["type"] == "tick" for change in record["changes"]
-              if change[1] == "RUNNING" and change[2] == "INVALID"]
+    halted = [
+        change
+        for record in records
+        if record["type"] == "tick"
+        for change in record["changes"]
+        if change[1] == "RUNNING" and change[2] == "INVALID"
+    ]
     assert halted and "parking" in halted[0][3]
 
 
 def test_an_endpoint_that_dies_mid_trial_ends_the_run_with_its_cause(tmp_path, pegbt_cli, capsys):
     log = tmp_path / "crash.jsonl"
     with SimProcess([*SIMULATOR, "--crash-at", "6"]) as sim:
-        run = pegbt_cli("run", "trees/unilateral.yaml", "--endpoint", sim.endpoint, "--calibration", SIMULATOR_CALIBRATION,
-                        "--log", log, "--quiet")
+        run = pegbt_cli(
+            "run",
+            "trees/unilateral.yaml",
+            "--endpoint",
+            sim.endpoint,
+            "--calibration",
+            SIMULATOR_CALIBRATION,
+            "--log",
+            log,
+            "--quiet",
+        )
     assert run.returncode != 0 and "Traceback" not in run.stderr
     assert "pegbt: error:" in run.stderr and "sim/step" in run.stderr
     why = log_why(log, capsys)
@@ -63,7 +79,9 @@ def test_an_endpoint_that_dies_mid_trial_ends_the_run_with_its_cause(tmp_path, p
     assert "halted: crash" in why  # the motion under way was told to stop
 
 
-def one_transfer(tmp_path: Path, world_faults: str, log: Path, capsys: pytest.CaptureFixture[str]) -> tuple[int, str]:
+def one_transfer(
+    tmp_path: Path, world_faults: str, log: Path, capsys: pytest.CaptureFixture[str]
+) -> tuple[int, str]:
     """Transfer 1 → 7 with PSM1 (one recovery allowed, no skipping) on a simulator injecting `world_faults`:
     `pegbt run`'s exit status and what it printed."""
     faults = tmp_path / "faults.yaml"
@@ -78,8 +96,19 @@ def one_transfer(tmp_path: Path, world_faults: str, log: Path, capsys: pytest.Ca
     )
     capsys.readouterr()
     with SimProcess([*SIMULATOR, "--faults", str(faults)]) as sim:
-        status = main(["run", str(tree), "--endpoint", sim.endpoint, "--calibration", str(SIMULATOR_CALIBRATION),
-                       "--log", str(log), "--quiet"])
+        status = main(
+            [
+                "run",
+                str(tree),
+                "--endpoint",
+                sim.endpoint,
+                "--calibration",
+                str(SIMULATOR_CALIBRATION),
+                "--log",
+                str(log),
+                "--quiet",
+            ]
+        )
     printed = capsys.readouterr()
     return status, printed.out + printed.err
 

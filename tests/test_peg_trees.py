@@ -21,8 +21,25 @@ def test_peg_trees_check_clean(name):
 
 def test_peg_trees_name_their_transfers_in_the_reference_order():
     loaded = load_tree(REPO / "trees" / "unilateral.yaml")
-    begins = [(node.params["pick"], node.params["place"]) for node in loaded.root.walk() if node.type == "begin_transfer"]
-    assert begins == [(1, 7), (0, 6), (3, 8), (2, 9), (5, 11), (4, 10), (7, 1), (6, 0), (8, 3), (9, 2), (11, 5), (10, 4)]
+    begins = [
+        (node.params["pick"], node.params["place"])
+        for node in loaded.root.walk()
+        if node.type == "begin_transfer"
+    ]
+    assert begins == [
+        (1, 7),
+        (0, 6),
+        (3, 8),
+        (2, 9),
+        (5, 11),
+        (4, 10),
+        (7, 1),
+        (6, 0),
+        (8, 3),
+        (9, 2),
+        (11, 5),
+        (10, 4),
+    ]
     handover = load_tree(REPO / "trees" / "handover.yaml")
     arms = {node.params["arms"] for node in handover.root.walk() if node.type == "begin_transfer"}
     assert arms == {"PSM2→PSM1", "PSM1→PSM2"}
@@ -39,7 +56,10 @@ def test_a_behaviour_with_wrong_parameters_is_caught_by_check_and_load(tmp_path,
         "    - select_grasp: {arm: PSM1}\n"
     )
     messages = "\n".join(str(error) for error in check_tree(tree))
-    assert f"{tree}:4:18: arm: /sequence/transfer: parameter 'arm' should be one of 'PSM1', 'PSM2'; found 'PSM3'" in messages
+    assert (
+        f"{tree}:4:18: arm: /sequence/transfer: parameter 'arm' should be one of 'PSM1', 'PSM2'; found 'PSM3'"
+        in messages
+    )
     assert f"{tree}:4:29: place: /sequence/transfer: parameter 'place' should be one of 0, 1," in messages
     assert f"{tree}:4:40: speed: /sequence/transfer: transfer has no field 'speed'" in messages
     assert f"{tree}:5:7: peg: /sequence/select_grasp: missing required parameter 'peg'" in messages

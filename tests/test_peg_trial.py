@@ -23,8 +23,11 @@ def simulator():
 
 
 def trial(endpoint: str, variant: str, tmp_path: Path, condition: str = "optimized"):
-    output = run_tree_file(REPO / "trees" / f"{variant}.yaml", tmp_path / f"{variant}.jsonl",
-                           options={"endpoint": endpoint, "condition": condition, "calibration": str(SIMULATOR_CALIBRATION)})
+    output = run_tree_file(
+        REPO / "trees" / f"{variant}.yaml",
+        tmp_path / f"{variant}.jsonl",
+        options={"endpoint": endpoint, "condition": condition, "calibration": str(SIMULATOR_CALIBRATION)},
+    )
     return output, output.reports["robot"]
 
 
@@ -46,4 +49,6 @@ def test_two_arm_trials_complete(simulator, tmp_path, variant):
     assert (result.attempted, result.succeeded) == (12, 12)
     assert result.arm_arm_collisions == 0
     assert result.mean_transfer_time_s < PAPER_MEAN_TRANSFER_S[variant]
-    assert {t.arms for t in result.transfers} == ({"PSM1", "PSM2"} if variant == "bilateral" else {"PSM2→PSM1", "PSM1→PSM2"})
+    assert {t.arms for t in result.transfers} == (
+        {"PSM1", "PSM2"} if variant == "bilateral" else {"PSM2→PSM1", "PSM1→PSM2"}
+    )

@@ -14,7 +14,15 @@ from pegbt.perception.board import PegboardRegistration
 from pegbt.sim.camera import DepthCamera
 from pegbt.sim.faults import CameraFaults, NoiseBurst
 from pegbt.perception.segment import SegmentSettings
-from pegbt.sim.scripted import Driver, Keyframe, grasp_candidate_facing, grasp_keyframes, lifted, parked, transfer_keyframes
+from pegbt.sim.scripted import (
+    Driver,
+    Keyframe,
+    grasp_candidate_facing,
+    grasp_keyframes,
+    lifted,
+    parked,
+    transfer_keyframes,
+)
 from pegbt.sim.world import World
 
 POSITION_TOLERANCE = 0.0005
@@ -90,7 +98,11 @@ def test_a_block_moved_away_leaves_its_peg_reported_empty(board):
 
 @pytest.mark.parametrize(
     "burst",
-    [NoiseBurst(0.0, 1.0), NoiseBurst(0.0, 1.0, sigma=0.001), NoiseBurst(0.0, 1.0, sigma=0.0006, outliers=0.02)],
+    [
+        NoiseBurst(0.0, 1.0),
+        NoiseBurst(0.0, 1.0, sigma=0.001),
+        NoiseBurst(0.0, 1.0, sigma=0.0006, outliers=0.02),
+    ],
     ids=["default", "1mm", "0.6mm"],
 )
 def test_a_noise_burst_gives_a_correct_pose_or_an_explicit_failure(board, burst):
@@ -101,14 +113,18 @@ def test_a_noise_burst_gives_a_correct_pose_or_an_explicit_failure(board, burst)
         if not estimate.ok:
             assert estimate.reason
             continue
-        nearest = min(world.blocks, key=lambda block: np.linalg.norm(block.pose[:2, 3] - estimate.position[:2]))
+        nearest = min(
+            world.blocks, key=lambda block: np.linalg.norm(block.pose[:2, 3] - estimate.position[:2])
+        )
         position_error, yaw_error = errors(estimate, nearest)
         assert position_error < POSITION_TOLERANCE and yaw_error < YAW_TOLERANCE, estimate
 
 
 def test_the_default_burst_fails_every_block(board):
     world = World(seed=8)
-    estimates = locate_blocks(DepthCamera(seed=8, faults=CameraFaults(bursts=(NoiseBurst(0.0, 1.0),))).capture(world), board)
+    estimates = locate_blocks(
+        DepthCamera(seed=8, faults=CameraFaults(bursts=(NoiseBurst(0.0, 1.0),))).capture(world), board
+    )
     assert estimates and not any(estimate.ok for estimate in estimates)
 
 
@@ -120,7 +136,9 @@ def test_a_block_that_tipped_off_a_peg_top_is_found_beside_that_peg(board):
     offset = world.blocks[3].pose[:2, 3] - grasp[-1].position[:2]  # from the jaw to the block's centre
     miss = world.cell.pegs.positions[6] + [0.0, 0.004] - offset  # the hole lands 4 mm off peg 6's axis
     over = Keyframe(np.array([miss[0], miss[1], up.position[2]]), up.yaw, up.jaw)
-    events = driver.play({"PSM1": [*grasp, up, over, Keyframe(over.position, over.yaw, motion_settings().transfer.jaw_open)]})
+    events = driver.play(
+        {"PSM1": [*grasp, up, over, Keyframe(over.position, over.yaw, motion_settings().transfer.jaw_open)]}
+    )
     driver.play({"PSM1": [parked(world, "PSM1")]})
     assert events[-1].kind == "drop" and "off the top of peg 6" in events[-1].detail
 
@@ -136,7 +154,9 @@ def test_blocks_touching_across_neighbouring_pegs_are_told_apart(board):
     world = World(seed=0)
     for index, yaw_deg in ((0, 58.0), (2, 2.0)):  # corners pointing at each other across 17.7 mm
         world.blocks[index].pose = yaw_pose(world.blocks[index].pose[:3, 3], math.radians(yaw_deg))
-    corners = [block.pose[:2, :2] @ world.cell.block.outline.T + block.pose[:2, 3:] for block in world.blocks[0:3:2]]
+    corners = [
+        block.pose[:2, :2] @ world.cell.block.outline.T + block.pose[:2, 3:] for block in world.blocks[0:3:2]
+    ]
     gap = np.linalg.norm(corners[0].T[:, None] - corners[1].T[None], axis=2).min()
     assert gap < SegmentSettings().cluster_distance  # one cluster to DBSCAN: only the split can separate them
 
@@ -200,9 +220,17 @@ def test_the_block_on_top_of_a_stack_is_grasped_at_its_height_and_lifted_off_the
     to_board = world.cell.arm_to_board("PSM1")
     at_grasp, risen = (to_board @ pose for pose in waypoints.poses[:2])
     open_, closed = motion_settings().transfer.jaw_open, motion_settings().transfer.jaw_closed
-    frames = [Keyframe(position, yaw_of(at_grasp), jaw) for position, jaw in
-              ((risen[:3, 3], open_), (at_grasp[:3, 3], open_), (at_grasp[:3, 3], closed), (risen[:3, 3], closed))]
+    frames = [
+        Keyframe(position, yaw_of(at_grasp), jaw)
+        for position, jaw in (
+            (risen[:3, 3], open_),
+            (at_grasp[:3, 3], open_),
+            (at_grasp[:3, 3], closed),
+            (risen[:3, 3], closed),
+        )
+    ]
     events = Driver(world).play({"PSM1": frames})
-    assert [(event.kind, event.block) for event in events if event.kind in ("grasp", "lift", "collision")] == \
-        [("grasp", 1), ("lift", 1)]
+    assert [
+        (event.kind, event.block) for event in events if event.kind in ("grasp", "lift", "collision")
+    ] == [("grasp", 1), ("lift", 1)]
     assert world.held_by("PSM1") == 1 and world.blocks[0].peg == 6

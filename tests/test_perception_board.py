@@ -43,9 +43,15 @@ def board(registration, cloud):
 
 @pytest.mark.parametrize(
     "rotation_deg, translation_mm",
-    [((2.0, 0.0, 0.0), (3.0, 0.0, 0.0)), ((0.0, -1.5, 2.0), (0.0, -3.0, 2.0)), ((-1.0, 1.0, -2.5), (-2.0, 2.0, -3.0))],
+    [
+        ((2.0, 0.0, 0.0), (3.0, 0.0, 0.0)),
+        ((0.0, -1.5, 2.0), (0.0, -3.0, 2.0)),
+        ((-1.0, 1.0, -2.5), (-2.0, 2.0, -3.0)),
+    ],
 )
-def test_a_perturbed_extrinsic_is_corrected_to_a_tenth_of_a_millimetre(world, cloud, rotation_deg, translation_mm):
+def test_a_perturbed_extrinsic_is_corrected_to_a_tenth_of_a_millimetre(
+    world, cloud, rotation_deg, translation_mm
+):
     perturbation = np.eye(4)
     perturbation[:3, :3] = Rotation.from_rotvec(np.radians(rotation_deg)).as_matrix()
     perturbation[:3, 3] = np.array(translation_mm) / 1000
@@ -101,7 +107,9 @@ def test_nan_points_are_refused_even_in_an_otherwise_good_capture(registration, 
 def test_a_cloud_that_does_not_show_the_board_is_a_failed_registration_not_a_crash(registration):
     rng = np.random.default_rng(0)
     scattered = rng.normal(0.0, 0.2, (500, 3))  # wild points only: nothing survives thinning
-    far_wall = np.column_stack([rng.uniform(-0.3, 0.3, 20000), rng.uniform(-0.3, 0.3, 20000), np.full(20000, 2.0)])
+    far_wall = np.column_stack(
+        [rng.uniform(-0.3, 0.3, 20000), rng.uniform(-0.3, 0.3, 20000), np.full(20000, 2.0)]
+    )
     for cloud, reason in ((scattered, "not a view of the board"), (far_wall, "fits only 0%")):
         board = registration.fit(cloud)
         assert not board.ok and reason in board.reason

@@ -30,7 +30,9 @@ def estimate_at(xy, yaw, peg):
 def off_peg(peg, direction_deg, offset=0.0015, yaw=0.3):
     """A block resting on `peg` pushed `offset` towards `direction_deg` (the hole's clearance allows 2 mm)."""
     angle = math.radians(direction_deg)
-    return estimate_at(CELL.pegs.positions[peg] + offset * np.array([math.cos(angle), math.sin(angle)]), yaw, peg)
+    return estimate_at(
+        CELL.pegs.positions[peg] + offset * np.array([math.cos(angle), math.sin(angle)]), yaw, peg
+    )
 
 
 def distance_from_peg(grasp, peg):
@@ -48,7 +50,9 @@ def test_the_six_options_are_the_block_candidates_expressed_in_the_arm_frame():
             assert np.allclose(option.board_position, expected)
             assert np.allclose(option.position, (CELL.board_to_arm(arm) @ np.append(expected, 1.0))[:3])
             rotation = option.pose[:3, :3]
-            assert np.allclose(rotation.T @ rotation, np.eye(3)) and np.linalg.det(rotation) == pytest.approx(1.0)
+            assert np.allclose(rotation.T @ rotation, np.eye(3)) and np.linalg.det(rotation) == pytest.approx(
+                1.0
+            )
             assert rotation[2, 2] > 0.99  # the tool points down: its z axis is the arm's up
             assert -math.pi / 2 < option.yaw <= math.pi / 2
             assert option.yaw == pytest.approx(math.atan2(rotation[1, 0], rotation[0, 0]))
@@ -136,7 +140,12 @@ def test_a_perceived_grasp_grips_the_block_in_the_world():
         at_grasp = Keyframe(tip[:3, 3], yaw, motion.jaw_open)
         driver = Driver(world)
         over = Keyframe(np.array([above[0], above[1], carry_height(world)]), yaw, motion.jaw_open)
-        path = [over, Keyframe(above, yaw, motion.jaw_open), at_grasp, Keyframe(tip[:3, 3], yaw, motion.jaw_closed)]
+        path = [
+            over,
+            Keyframe(above, yaw, motion.jaw_open),
+            at_grasp,
+            Keyframe(tip[:3, 3], yaw, motion.jaw_closed),
+        ]
         events = driver.play({arm: [*path, lifted(world, path[-1])]})
         assert [event.kind for event in events][:2] == ["grasp", "lift"], events
         assert events[0].block == block and events[0].arm == arm

@@ -20,11 +20,13 @@ def test_ideal_arm_reproduces_the_command():
 
 
 def test_offset_scale_and_coupling_form_the_static_map():
-    model = ArmPhysics([
-        Effect("offset", "q4", {"value": 0.2}),
-        Effect("scale", "q5", {"value": 0.9}),
-        Effect("coupling", "q5", {"source": "q6", "k": 0.25}),
-    ])
+    model = ArmPhysics(
+        [
+            Effect("offset", "q4", {"value": 0.2}),
+            Effect("scale", "q5", {"value": 0.9}),
+            Effect("coupling", "q5", {"source": "q6", "k": 0.25}),
+        ]
+    )
     q = _commands()
     out = model.simulate(q)
     assert np.allclose(out[:, 3], q[:, 3] + 0.2)
@@ -129,17 +131,26 @@ def test_hysteresis_from_another_joint_follows_that_joints_direction():
 
 
 def test_own_hysteresis_is_partial_backlash_on_the_static_target():
-    partial = ArmPhysics([Effect("scale", "q6", {"value": 0.8}),
-                          Effect("hysteresis", "q6", {"source": "q6", "half_width": 0.05, "k": 1.0})])
+    partial = ArmPhysics(
+        [
+            Effect("scale", "q6", {"value": 0.8}),
+            Effect("hysteresis", "q6", {"source": "q6", "half_width": 0.05, "k": 1.0}),
+        ]
+    )
     full = ArmPhysics([Effect("scale", "q6", {"value": 0.8}), Effect("backlash", "q6", {"half_width": 0.05})])
     q = _commands()
     assert np.allclose(partial.simulate(q), full.simulate(q))
 
 
 def test_stepping_with_hysteresis_matches_replaying_a_stream():
-    model = ArmPhysics([Effect("hysteresis", "q5", {"source": "q6", "half_width": 0.04, "k": 0.3}),
-                        Effect("hysteresis", "q6", {"source": "q6", "half_width": 0.02, "k": 0.6}),
-                        Effect("delay", "q5", {"seconds": 0.02}), Effect("lag", "q6", {"tau": 0.05})])
+    model = ArmPhysics(
+        [
+            Effect("hysteresis", "q5", {"source": "q6", "half_width": 0.04, "k": 0.3}),
+            Effect("hysteresis", "q6", {"source": "q6", "half_width": 0.02, "k": 0.6}),
+            Effect("delay", "q5", {"seconds": 0.02}),
+            Effect("lag", "q6", {"tau": 0.05}),
+        ]
+    )
     t = np.arange(300) * 0.01
     q = _commands(300)
     first = model.reset(q[0], time=0.0)
@@ -149,9 +160,11 @@ def test_stepping_with_hysteresis_matches_replaying_a_stream():
 
 def test_a_sim2real_report_loads_its_whole_model(tmp_path):
     report = tmp_path / "report.json"
-    report.write_text('{"effects": [{"effect": "offset", "joint": "q4", "params": {"value": 0.1}}], '
-                      '"model": {"effects": [{"effect": "offset", "joint": "q4", "params": {"value": 0.1}}, '
-                      '{"effect": "scale", "joint": "q6", "params": {"value": 0.9}}]}}')
+    report.write_text(
+        '{"effects": [{"effect": "offset", "joint": "q4", "params": {"value": 0.1}}], '
+        '"model": {"effects": [{"effect": "offset", "joint": "q4", "params": {"value": 0.1}}, '
+        '{"effect": "scale", "joint": "q6", "params": {"value": 0.9}}]}}'
+    )
     model = ArmPhysics.load(report, "PSM2")
     assert model.offset[3] == 0.1 and model.scale[5] == 0.9
 

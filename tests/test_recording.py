@@ -16,7 +16,9 @@ def _arrays(n: int = 60, interval: float = 0.5):
 
 def test_the_arm_comes_from_meta_json_else_from_the_name(tmp_path):
     q_cmd, q_phy, t = _arrays()
-    assert load_recording(write_recording(tmp_path / "random_smooth_grey2_PSM2", q_cmd, q_phy, t)).arm == "PSM2"
+    assert (
+        load_recording(write_recording(tmp_path / "random_smooth_grey2_PSM2", q_cmd, q_phy, t)).arm == "PSM2"
+    )
     assert load_recording(write_recording(tmp_path / "named_PSM2", q_cmd, q_phy, t, arm="PSM1")).arm == "PSM1"
     assert load_recording(write_recording(tmp_path / "unnamed", q_cmd, q_phy, t)).arm is None
     (tmp_path / "unnamed" / "meta.json").write_text(json.dumps({"arm": "ECM"}))
@@ -41,9 +43,15 @@ def test_a_bad_sample_is_named_by_file_field_and_sample(tmp_path):
     folder = write_recording(tmp_path / "rec", q_cmd, q_phy, t)
     with pytest.raises(PegbtError, match="NaN or infinite value in sample 17") as error:
         load_recording(folder)
-    assert (error.value.file, error.value.field, error.value.line) == (str(folder / "q_phy.npy"), "q_phy", None)
+    assert (error.value.file, error.value.field, error.value.line) == (
+        str(folder / "q_phy.npy"),
+        "q_phy",
+        None,
+    )
     csv = tmp_path / "rec.csv"
-    header = "t," + ",".join(f"q{i}_cmd" for i in range(1, 7)) + "," + ",".join(f"q{i}_meas" for i in range(1, 7))
+    header = (
+        "t," + ",".join(f"q{i}_cmd" for i in range(1, 7)) + "," + ",".join(f"q{i}_meas" for i in range(1, 7))
+    )
     np.savetxt(csv, np.column_stack([t, q_cmd, q_phy]), delimiter=",", header=header, comments="")
     with pytest.raises(PegbtError, match="sample 17") as error:
         load_recording(csv)

@@ -30,6 +30,8 @@ def test_the_pick_after_a_miss_chooses_another_candidate(tmp_path, monkeypatch):
     monkeypatch.setattr(GraspSelector, "pick", recording)
     faults = tmp_path / "miss.yaml"
     faults.write_text("world: {miss_attempts: [0]}\n")
-    record = run_trial(TrialSpec("unilateral", "optimized", 3, tmp_path / "miss.jsonl", faults, tree=short_task(tmp_path)))
+    record = run_trial(
+        TrialSpec("unilateral", "optimized", 3, tmp_path / "miss.jsonl", faults, tree=short_task(tmp_path))
+    )
     assert record.complete and [fault["recovered"] for fault in record.faults] == [True]
     assert len(chosen) == 2 and chosen[0] != chosen[1], chosen

@@ -14,8 +14,11 @@ from pegbt.sim2real.diagnose import diagnose
 from pegbt.physics.recording import load_recording, write_recording
 from tests.sim2real_helpers import recording_with
 
-EFFECTS = [Effect("offset", "q4", {"value": 0.1}), Effect("coupling", "q5", {"source": "q6", "k": 0.15}),
-           Effect("backlash", "q6", {"half_width": 0.03})]
+EFFECTS = [
+    Effect("offset", "q4", {"value": 0.1}),
+    Effect("coupling", "q5", {"source": "q6", "k": 0.15}),
+    Effect("backlash", "q6", {"half_width": 0.03}),
+]
 
 
 @pytest.fixture(scope="module")
@@ -62,11 +65,17 @@ def test_report_json_has_the_documented_keys_and_the_named_effects(reported):
 def test_a_report_loads_as_the_simulator_physics_and_closes_the_loop(reported, recorded):
     out, _ = reported
     physics = ArmPhysics.load(out / "report.json", "PSM1")
-    assert {(e.effect, e.joint) for e in physics.effects} == {("offset", "q4"), ("coupling", "q5"), ("backlash", "q6")}
+    assert {(e.effect, e.joint) for e in physics.effects} == {
+        ("offset", "q4"),
+        ("coupling", "q5"),
+        ("backlash", "q6"),
+    }
     again = diagnose(load_recording(recorded), sim=str(out / "report.json"), n_bootstrap=0)
     assert again.effects == []
     before = again.rmse_before()
-    assert before["q5"] < 0.0025 and before["q6"] < 0.0025  # the mismatch is gone: only the 2 mrad noise is left
+    assert (
+        before["q5"] < 0.0025 and before["q6"] < 0.0025
+    )  # the mismatch is gone: only the 2 mrad noise is left
 
 
 def test_json_output_is_the_report(recorded, capsys):
@@ -81,13 +90,25 @@ def _bad_recordings(tmp_path):
     cases["lengths"] = (folder, "different lengths")
     q_phy = rec.q_phy.copy()
     q_phy[17, 2] = np.nan
-    cases["nan"] = (write_recording(tmp_path / "nan", rec.q_cmd, q_phy, rec.t), "NaN or infinite value in sample 17")
+    cases["nan"] = (
+        write_recording(tmp_path / "nan", rec.q_cmd, q_phy, rec.t),
+        "NaN or infinite value in sample 17",
+    )
     t = rec.t.copy()
     t[40] = t[39]
-    cases["time"] = (write_recording(tmp_path / "time", rec.q_cmd, rec.q_phy, t), "timestamps not increasing at sample 40")
+    cases["time"] = (
+        write_recording(tmp_path / "time", rec.q_cmd, rec.q_phy, t),
+        "timestamps not increasing at sample 40",
+    )
     constant = np.zeros_like(rec.q_cmd)
-    cases["constant"] = (write_recording(tmp_path / "constant", constant, rec.q_phy, rec.t), "constant commands")
-    cases["single"] = (write_recording(tmp_path / "single", rec.q_cmd[:1], rec.q_phy[:1], rec.t[:1]), "only 1 sample")
+    cases["constant"] = (
+        write_recording(tmp_path / "constant", constant, rec.q_phy, rec.t),
+        "constant commands",
+    )
+    cases["single"] = (
+        write_recording(tmp_path / "single", rec.q_cmd[:1], rec.q_phy[:1], rec.t[:1]),
+        "only 1 sample",
+    )
     text = tmp_path / "notes.txt"
     text.write_text("not a recording\n")
     cases["text"] = (text, "not a recording")
@@ -99,8 +120,12 @@ def _bad_recordings(tmp_path):
     (junk / "q_phy.npy").write_text("garbage")
     cases["junk"] = (junk, "cannot read it as a NumPy array")
     csv = tmp_path / "bad.csv"
-    header = "t," + ",".join(f"q{i}_cmd" for i in range(1, 7)) + "," + ",".join(f"q{i}_meas" for i in range(1, 7))
-    csv.write_text(header + "\n" + "\n".join(",".join(["0.1"] * 13) for _ in range(3)) + "\n0.2,x" + ",0" * 11 + "\n")
+    header = (
+        "t," + ",".join(f"q{i}_cmd" for i in range(1, 7)) + "," + ",".join(f"q{i}_meas" for i in range(1, 7))
+    )
+    csv.write_text(
+        header + "\n" + "\n".join(",".join(["0.1"] * 13) for _ in range(3)) + "\n0.2,x" + ",0" * 11 + "\n"
+    )
     cases["csv"] = (csv, ":5:2: q1_cmd: not a number")
     return cases
 
@@ -124,7 +149,9 @@ def test_the_process_exits_non_zero_without_a_traceback(tmp_path, pegbt_cli):
 def test_a_csv_recording_is_read_like_a_folder(tmp_path):
     rec = recording_with([Effect("offset", "q2", {"value": 0.02})], seed=2, seconds=5.0)
     rows = np.column_stack([rec.t, rec.q_cmd, rec.q_phy])
-    header = "t," + ",".join(f"q{i}_cmd" for i in range(1, 7)) + "," + ",".join(f"q{i}_meas" for i in range(1, 7))
+    header = (
+        "t," + ",".join(f"q{i}_cmd" for i in range(1, 7)) + "," + ",".join(f"q{i}_meas" for i in range(1, 7))
+    )
     path = tmp_path / "rec.csv"
     np.savetxt(path, rows, delimiter=",", header=header, comments="")
     loaded = load_recording(path)
@@ -132,15 +159,38 @@ def test_a_csv_recording_is_read_like_a_folder(tmp_path):
 
 
 def test_synth_writes_a_recording_and_a_truth_that_diagnose_does_not_need(tmp_path, capsys):
-    assert main(["sim2real", "synth", str(tmp_path / "s"), "--family", "coupled", "--seed", "4", "--seconds", "20"]) == 0
+    assert (
+        main(
+            [
+                "sim2real",
+                "synth",
+                str(tmp_path / "s"),
+                "--family",
+                "coupled",
+                "--seed",
+                "4",
+                "--seconds",
+                "20",
+            ]
+        )
+        == 0
+    )
     truth = json.loads((tmp_path / "s" / "truth.json").read_text())
     assert truth["family"] == "coupled" and len(truth["effects"]) == 1
-    assert sorted(p.name for p in (tmp_path / "s" / "recording").iterdir()) == ["q_cmd.npy", "q_phy.npy", "t_stamp.npy"]
+    assert sorted(p.name for p in (tmp_path / "s" / "recording").iterdir()) == [
+        "q_cmd.npy",
+        "q_phy.npy",
+        "t_stamp.npy",
+    ]
     capsys.readouterr()
-    assert main(["sim2real", "diagnose", str(tmp_path / "s" / "recording"), "--json", "--bootstrap", "0"]) == 0
+    assert (
+        main(["sim2real", "diagnose", str(tmp_path / "s" / "recording"), "--json", "--bootstrap", "0"]) == 0
+    )
     report = json.loads(capsys.readouterr().out)
     true_effect = truth["effects"][0]
-    assert [(e["effect"], e["joint"]) for e in report["effects"]] == [(true_effect["effect"], true_effect["joint"])]
+    assert [(e["effect"], e["joint"]) for e in report["effects"]] == [
+        (true_effect["effect"], true_effect["joint"])
+    ]
 
 
 def test_unknown_family_and_physics_are_refused(tmp_path, recorded, capsys):

@@ -12,7 +12,9 @@ from tests.sim2real_helpers import recording_with
 
 def _named(recording, **kwargs):
     diagnosis = diagnose(recording, n_bootstrap=0, **kwargs)
-    return diagnosis, {(e.effect.effect, e.effect.joint, e.effect.params.get("source")): e.effect for e in diagnosis.effects}
+    return diagnosis, {
+        (e.effect.effect, e.effect.joint, e.effect.params.get("source")): e.effect for e in diagnosis.effects
+    }
 
 
 @pytest.mark.parametrize(
@@ -46,8 +48,11 @@ def test_partial_play_on_a_joint_is_named_hysteresis_of_the_joint_on_itself():
 
 
 def test_a_small_effect_under_a_large_one_is_still_found():
-    effects = [Effect("offset", "q5", {"value": 0.3}), Effect("coupling", "q5", {"source": "q6", "k": 0.25}),
-               Effect("backlash", "q5", {"half_width": 0.01})]
+    effects = [
+        Effect("offset", "q5", {"value": 0.3}),
+        Effect("coupling", "q5", {"source": "q6", "k": 0.25}),
+        Effect("backlash", "q5", {"half_width": 0.01}),
+    ]
     _, named = _named(recording_with(effects, seed=8))
     assert {("offset", "q5", None), ("coupling", "q5", "q6"), ("backlash", "q5", None)} <= set(named)
     assert named[("backlash", "q5", None)].params["half_width"] == pytest.approx(0.01, rel=0.15)
@@ -80,7 +85,9 @@ def test_a_joint_that_never_reverses_is_reported_not_identifiable():
 def test_settled_set_points_say_lag_and_delay_cannot_be_identified():
     recording = recording_with([Effect("offset", "q4", {"value": 0.1})], seed=4)
     every = slice(None, None, 40)
-    setpoints = Recording(recording.path, recording.q_cmd[every], recording.q_phy[every], recording.t[every] * 40)
+    setpoints = Recording(
+        recording.path, recording.q_cmd[every], recording.q_phy[every], recording.t[every] * 40
+    )
     diagnosis, named = _named(setpoints)
     assert diagnosis.sampling.mode == "setpoints"
     assert ("offset", "q4", None) in named
@@ -89,7 +96,9 @@ def test_settled_set_points_say_lag_and_delay_cannot_be_identified():
 
 def test_a_partial_model_is_asked_only_for_what_it_still_lacks(tmp_path):
     preset = tmp_path / "partial.json"
-    preset.write_text('{"effects": [{"effect": "coupling", "joint": "q5", "params": {"source": "q6", "k": 0.2}}]}')
+    preset.write_text(
+        '{"effects": [{"effect": "coupling", "joint": "q5", "params": {"source": "q6", "k": 0.2}}]}'
+    )
     effects = [Effect("coupling", "q5", {"source": "q6", "k": 0.2}), Effect("offset", "q5", {"value": -0.1})]
     _, named = _named(recording_with(effects, seed=6), sim=str(preset))
     assert set(named) == {("offset", "q5", None)}

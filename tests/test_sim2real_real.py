@@ -33,8 +33,10 @@ def test_the_named_wrist_effects_are_the_papers_offset_coupling_and_hysteresis(g
     assert ("offset", "q4", None) in named
     assert ("coupling", "q6", "q5") in named
     assert ("hysteresis", "q5", "q6") in named  # q5 moves with the direction of q6: coupled hysteresis
-    assert any(kind in ("backlash", "hysteresis") and joint == "q6" and source in (None, "q6")
-               for kind, joint, source in named)
+    assert any(
+        kind in ("backlash", "hysteresis") and joint == "q6" and source in (None, "q6")
+        for kind, joint, source in named
+    )
     assert any("not identifiable" in s and "set-points" in s for s in grey1.not_identifiable)
 
 

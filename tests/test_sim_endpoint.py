@@ -12,7 +12,16 @@ import pytest
 from pegbt.errors import PegbtError
 from pegbt.physics import ArmPhysics
 from pegbt.sim.process import SimProcess
-from pegbt.transport import ArmClient, CameraClient, CommandRefused, EndpointSilent, MotionStatus, SimClock, codec, connect
+from pegbt.transport import (
+    ArmClient,
+    CameraClient,
+    CommandRefused,
+    EndpointSilent,
+    MotionStatus,
+    SimClock,
+    codec,
+    connect,
+)
 from pegbt.transport.sequencing import Outlet
 
 TICK = 0.01
@@ -156,7 +165,9 @@ def test_a_refused_step_is_reported_and_leaves_the_clock_usable(lockstep):
     link, _, _ = lockstep
     clock = SimClock(link)
     before = clock.now()
-    with pytest.raises(PegbtError, match=r"simulator refused sim/step: steps: steps must be in 1\.\.1000000, got 2000000"):
+    with pytest.raises(
+        PegbtError, match=r"simulator refused sim/step: steps: steps must be in 1\.\.1000000, got 2000000"
+    ):
         clock.wait(20_000.0)  # two million control periods in one request
     assert clock.now() == before
     clock.wait(TICK)
@@ -224,7 +235,9 @@ def test_lockstep_runs_are_deterministic_for_a_seed_with_faults(tmp_path):
             traces.append(run_script(sim.endpoint))
         logs.append([json.loads(line) for line in log.read_text().splitlines()])
     assert traces[0] == traces[1]
-    faults = [[(e["time"], e["fault"], e["key"]) for e in entries if e["kind"] == "fault"] for entries in logs]
+    faults = [
+        [(e["time"], e["fault"], e["key"]) for e in entries if e["kind"] == "fault"] for entries in logs
+    ]
     assert faults[0] == faults[1]
     assert {"loss", "latency"} <= {fault for _, fault, _ in faults[0]}
 

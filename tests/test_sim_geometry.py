@@ -53,4 +53,6 @@ def test_meshes_are_closed_outward_solids_of_the_right_volume():
     expected = (outline_area - np.pi * model.hole_radius**2) * model.height
     assert _signed_volume(block_mesh(model)) == pytest.approx(expected, rel=0.01)
     assert _signed_volume(box_mesh(np.zeros(3), np.array([1.0, 2.0, 3.0]))) == pytest.approx(6.0)
-    assert _signed_volume(cylinder_mesh(np.zeros(3), np.array([0.0, 0.0, 2.0]), 0.5)) == pytest.approx(np.pi / 2, rel=0.03)
+    assert _signed_volume(cylinder_mesh(np.zeros(3), np.array([0.0, 0.0, 2.0]), 0.5)) == pytest.approx(
+        np.pi / 2, rel=0.03
+    )

@@ -20,10 +20,17 @@ def test_what_the_log_wrote_reads_back(tmp_path):
     ]
 
 
-@pytest.mark.parametrize("text, line, words", [
-    ('{"time": 0.5, "kind": "start"}\n{"time": 1.0, "ki', 2, "not a log entry"),  # a simulator killed mid-write
-    ('{"time": 0.5, "kind": "start"}\n\n[1, 2]\n', 3, "expected a JSON object"),
-])
+@pytest.mark.parametrize(
+    "text, line, words",
+    [
+        (
+            '{"time": 0.5, "kind": "start"}\n{"time": 1.0, "ki',
+            2,
+            "not a log entry",
+        ),  # a simulator killed mid-write
+        ('{"time": 0.5, "kind": "start"}\n\n[1, 2]\n', 3, "expected a JSON object"),
+    ],
+)
 def test_a_torn_or_foreign_log_names_its_line(tmp_path, text, line, words):
     path = tmp_path / "sim.jsonl"
     path.write_text(text)

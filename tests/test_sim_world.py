@@ -41,7 +41,9 @@ def connected(endpoint: str):
     """A link, its lockstep clock, PSM1, and the sim/events stream as it arrives (a list of dicts)."""
     link = connect([endpoint])
     events: list[dict] = []
-    link.inlet(SimKeys().events, codec.decode_string, lambda received: events.append(json.loads(received.value)))
+    link.inlet(
+        SimKeys().events, codec.decode_string, lambda received: events.append(json.loads(received.value))
+    )
     clock = SimClock(link)
     psm1 = ArmClient(link, "PSM1", clock=clock)
     psm1.wait_until_ready()
@@ -54,7 +56,14 @@ def play(clock: SimClock, psm1: ArmClient, motions, until: float = 0.0) -> list[
     player, trace = MotionPlayer(psm1, motions), []
     while player.poll() or clock.now() < until - 1e-9:
         clock.wait(TICK)
-        trace.append((clock.now(), *psm1.jaw.measured_js.position, *psm1.jaw.setpoint_js.position, *psm1.measured_js.position))
+        trace.append(
+            (
+                clock.now(),
+                *psm1.jaw.measured_js.position,
+                *psm1.jaw.setpoint_js.position,
+                *psm1.measured_js.position,
+            )
+        )
     return trace
 
 
@@ -73,8 +82,15 @@ def transfer():
 def test_a_scripted_transfer_grasps_lifts_and_places_on_the_event_stream_and_in_the_truth(transfer):
     link, _, events, truth, _ = transfer
     happened = [(e["kind"], e["arm"], e["block"], e["peg"]) for e in truth.log if e["kind"] != "start"]
-    assert happened == [("grasp", "PSM1", 1, 1), ("lift", "PSM1", 1, 1), ("release", "PSM1", 1, 7), ("place", "PSM1", 1, 7)]
-    assert events == truth.log[-len(events):] and len(events) >= 4  # the stream (from when it was subscribed) and the truth agree
+    assert happened == [
+        ("grasp", "PSM1", 1, 1),
+        ("lift", "PSM1", 1, 1),
+        ("release", "PSM1", 1, 7),
+        ("place", "PSM1", 1, 7),
+    ]
+    assert (
+        events == truth.log[-len(events) :] and len(events) >= 4
+    )  # the stream (from when it was subscribed) and the truth agree
     blocks = {b["block"]: b for b in truth.blocks}
     assert blocks[1]["state"] == "on_peg" and blocks[1]["peg"] == 7 and blocks[1]["holders"] == []
     assert [blocks[i]["peg"] for i in (0, 2, 3, 4, 5)] == [0, 2, 3, 4, 5]
@@ -85,7 +101,9 @@ def test_a_scripted_transfer_grasps_lifts_and_places_on_the_event_stream_and_in_
 
 def test_the_jaw_stops_at_the_gripped_block_and_measured_js_reports_it(transfer):
     _, trace, _, truth, _ = transfer
-    grasped, released = (next(e["time"] for e in truth.log if e["kind"] == kind) for kind in ("grasp", "release"))
+    grasped, released = (
+        next(e["time"] for e in truth.log if e["kind"] == kind) for kind in ("grasp", "release")
+    )
     cell = World(SEED).cell
     closed = motion_settings().transfer.jaw_closed
     wall = 2 * np.arcsin((cell.block.edge_distance - cell.block.hole_radius) / 2 / cell.tool.jaw_length)
@@ -120,17 +138,23 @@ def test_a_slip_in_the_fault_plan_happens_at_its_time_and_is_logged(tmp_path):
     assert kinds[1][1] < 4.0 and kinds[2][1] == pytest.approx(4.0) and kinds[3][1] == pytest.approx(4.0)
     assert "slip injected" in entries[3]["detail"] and entries[5]["detail"] == "onto peg 1"
     jaw_after = [measured for t, measured, *_ in trace if t > 4.1]
-    assert jaw_after and all(m == pytest.approx(motion_settings().transfer.jaw_closed, abs=1e-6) for m in jaw_after)
+    assert jaw_after and all(
+        m == pytest.approx(motion_settings().transfer.jaw_closed, abs=1e-6) for m in jaw_after
+    )
 
 
 def test_the_fault_plan_hands_world_and_camera_faults_on_and_locates_errors(tmp_path):
     plan = tmp_path / "faults.yaml"
-    plan.write_text("seed: 4\nworld:\n  miss_attempts: [0, 2]\ncamera:\n  bursts:\n    - {start: 1.0, duration: 0.5}\n")
+    plan.write_text(
+        "seed: 4\nworld:\n  miss_attempts: [0, 2]\ncamera:\n  bursts:\n    - {start: 1.0, duration: 0.5}\n"
+    )
     loaded = FaultPlan.load(plan)
     assert loaded.seed == 4 and loaded.world.miss_attempts == {0, 2}
     assert loaded.camera.bursts == (NoiseBurst(1.0, 0.5),)
     plan.write_text("world:\n  slips:\n    - {time: 1.0}\n    - {time: 2.0, arm: PSM3}\n")
-    with pytest.raises(PegbtError, match=r"faults.yaml:4:24: world.slips\[1\].arm: expected one of PSM1, PSM2"):
+    with pytest.raises(
+        PegbtError, match=r"faults.yaml:4:24: world.slips\[1\].arm: expected one of PSM1, PSM2"
+    ):
         FaultPlan.load(plan)
 
 
@@ -198,5 +222,11 @@ def test_a_capture_is_the_cameras_view_of_the_world_at_the_request():
         points = handle.result(timeout=5.0)
         assert handle.stamp == pytest.approx(clock.now())
     world = World(SEED)  # the simulator's world: same seed, arms resting where they start
-    world.update(0.1, {arm: ToolState.from_joints(DEFAULT_JOINTS, 0.0, world.cell.arm_to_board(arm)) for arm in ("PSM1", "PSM2")})
+    world.update(
+        0.1,
+        {
+            arm: ToolState.from_joints(DEFAULT_JOINTS, 0.0, world.cell.arm_to_board(arm))
+            for arm in ("PSM1", "PSM2")
+        },
+    )
     assert np.array_equal(points, DepthCamera(seed=SEED).capture(world))  # same seed, same scene: same noise

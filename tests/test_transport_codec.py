@@ -18,13 +18,17 @@ from pegbt.transport.session import DEFAULT_ENDPOINT, SessionSettings, client_se
 # An independent typestore, as a ROS 2 node (or the bridge) would have it.
 REFERENCE = get_typestore(Stores.ROS2_HUMBLE)
 REFERENCE.register(
-    get_types_from_msg("std_msgs/Header header\nstring state\nbool is_homed\nbool is_busy\n", "crtk_msgs/msg/OperatingState")
+    get_types_from_msg(
+        "std_msgs/Header header\nstring state\nbool is_homed\nbool is_busy\n", "crtk_msgs/msg/OperatingState"
+    )
 )
 T = REFERENCE.types
 
 
 def header(sec: int, nanosec: int, frame: str = "") -> object:
-    return T["std_msgs/msg/Header"](stamp=T["builtin_interfaces/msg/Time"](sec=sec, nanosec=nanosec), frame_id=frame)
+    return T["std_msgs/msg/Header"](
+        stamp=T["builtin_interfaces/msg/Time"](sec=sec, nanosec=nanosec), frame_id=frame
+    )
 
 
 def reference_bytes(message: object) -> bytes:
@@ -35,17 +39,25 @@ def test_joint_state_round_trips_byte_for_byte():
     q = np.array([0.1, -0.2, 0.15, 0.3, -0.4, 0.5])
     direct = reference_bytes(
         T["sensor_msgs/msg/JointState"](
-            header=header(12, 500_000_000), name=["a", "b", "c", "d", "e", "f"], position=q, velocity=-q, effort=np.zeros(0)
+            header=header(12, 500_000_000),
+            name=["a", "b", "c", "d", "e", "f"],
+            position=q,
+            velocity=-q,
+            effort=np.zeros(0),
         )
     )
     sample = codec.decode_joint_state(direct)
     assert sample.stamp == pytest.approx(12.5) and np.array_equal(sample.position, q)
-    ours = codec.encode_joint_state(sample.stamp, sample.position, sample.velocity, sample.effort, sample.name)
+    ours = codec.encode_joint_state(
+        sample.stamp, sample.position, sample.velocity, sample.effort, sample.name
+    )
     assert ours == direct
 
 
 def test_operating_state_from_msg_text_matches_rosbags():
-    direct = reference_bytes(T["crtk_msgs/msg/OperatingState"](header=header(3, 250), state="ENABLED", is_homed=True, is_busy=True))
+    direct = reference_bytes(
+        T["crtk_msgs/msg/OperatingState"](header=header(3, 250), state="ENABLED", is_homed=True, is_busy=True)
+    )
     state = codec.decode_operating_state(direct)
     assert (state.state, state.is_homed, state.is_busy) == ("ENABLED", True, True)
     assert codec.encode_operating_state(state) == direct
@@ -64,8 +76,13 @@ def test_point_cloud_and_trajectory_round_trip():
             joint_names=[],
             points=[
                 T["trajectory_msgs/msg/JointTrajectoryPoint"](
-                    positions=q[i], velocities=np.zeros(0), accelerations=np.zeros(0), effort=np.zeros(0),
-                    time_from_start=T["builtin_interfaces/msg/Duration"](sec=int(t[i]), nanosec=int(round(t[i] % 1 * 1e9))),
+                    positions=q[i],
+                    velocities=np.zeros(0),
+                    accelerations=np.zeros(0),
+                    effort=np.zeros(0),
+                    time_from_start=T["builtin_interfaces/msg/Duration"](
+                        sec=int(t[i]), nanosec=int(round(t[i] % 1 * 1e9))
+                    ),
                 )
                 for i in range(3)
             ],
@@ -95,7 +112,9 @@ def test_sessions_default_to_loopback_peer_without_scouting():
         assert json.loads(config.get_json("mode")) == "peer"
         assert json.loads(config.get_json("scouting/multicast/enabled")) is False
         assert json.loads(config.get_json("scouting/gossip/enabled")) is False
-    assert endpoint_settings().listen == (DEFAULT_ENDPOINT,) and client_settings().connect == (DEFAULT_ENDPOINT,)
+    assert endpoint_settings().listen == (DEFAULT_ENDPOINT,) and client_settings().connect == (
+        DEFAULT_ENDPOINT,
+    )
     assert DEFAULT_ENDPOINT == "tcp/127.0.0.1:7447"
     with pytest.raises(PegbtError, match="tcp/HOST:PORT"):
         SessionSettings(connect=("127.0.0.1",))
@@ -105,15 +124,23 @@ def test_sessions_default_to_loopback_peer_without_scouting():
         endpoint_settings(["tcp/192.168.1.10:7447"])
     with pytest.raises(PegbtError, match="any free port"):
         endpoint_settings(["tcp/[::1]:0"])
-    assert endpoint_settings(["tcp/[::1]:7447", "tcp/localhost:7448"]).listen == ("tcp/[::1]:7447", "tcp/localhost:7448")
+    assert endpoint_settings(["tcp/[::1]:7447", "tcp/localhost:7448"]).listen == (
+        "tcp/[::1]:7447",
+        "tcp/localhost:7448",
+    )
     assert endpoint_settings(["tcp/0.0.0.0:7447"], allow_remote_listen=True).listen == ("tcp/0.0.0.0:7447",)
-    assert client_settings(["tcp/192.168.1.10:7447"]).connect == ("tcp/192.168.1.10:7447",)  # a real dVRK elsewhere
+    assert client_settings(["tcp/192.168.1.10:7447"]).connect == (
+        "tcp/192.168.1.10:7447",
+    )  # a real dVRK elsewhere
 
 
 def test_crtk_key_names_follow_dvrk_topics():
     keys = ArmKeys("PSM1")
     assert (keys.measured_js, keys.servo_jp, keys.jaw_move_jp, keys.operating_state) == (
-        "PSM1/measured_js", "PSM1/servo_jp", "PSM1/jaw/move_jp", "PSM1/operating_state",
+        "PSM1/measured_js",
+        "PSM1/servo_jp",
+        "PSM1/jaw/move_jp",
+        "PSM1/operating_state",
     )
     assert ArmKeys("PSM2", "/lab2/").setpoint_js == "lab2/PSM2/setpoint_js"
     assert CameraKeys().points == "camera/depth/points"
@@ -148,7 +175,9 @@ def test_guards_check_velocity_of_steps_and_trajectories():
     period = SETTINGS.control_period
     fast_step = HOME + [SETTINGS.velocity[0] * period * 1.5, 0, 0, 0, 0, 0]
     assert "yaw" in " ".join(guards.step_problems(fast_step, HOME, SETTINGS, period))
-    assert not guards.step_problems(HOME + [SETTINGS.velocity[0] * period * 0.99, 0, 0, 0, 0, 0], HOME, SETTINGS, period)
+    assert not guards.step_problems(
+        HOME + [SETTINGS.velocity[0] * period * 0.99, 0, 0, 0, 0, 0], HOME, SETTINGS, period
+    )
 
     t = np.arange(0, 0.5, period)
     ok = codec.TrajectoryPoints(t, HOME + np.outer(t, [0.5, 0, 0, 0, 0, 0]))

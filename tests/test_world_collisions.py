@@ -22,7 +22,9 @@ def test_a_tool_lowered_beside_a_peg_touches_it_once():
     park = _tool(world, "PSM2", world.cell.remote_centre("PSM2") + [0, 0, 0.095])
     events = []
     for z in np.linspace(peg[2] - 0.01, peg[2] + 0.01, 21):  # down past the peg top, 2 mm from its axis
-        events += world.update(world.time + 0.01, {"PSM1": _tool(world, "PSM1", peg + [0.002, 0, z - peg[2]]), "PSM2": park})
+        events += world.update(
+            world.time + 0.01, {"PSM1": _tool(world, "PSM1", peg + [0.002, 0, z - peg[2]]), "PSM2": park}
+        )
     assert collisions(events) == [("tool-peg", "PSM1", 8)]
 
 
@@ -38,7 +40,10 @@ def test_shafts_crossing_collide_and_again_after_parting():
 
     far_tips = (np.array([0.1, 0.0, -0.09]), np.array([0.1, -0.05, -0.14]))
     crossing = {"PSM1": tool(a0, a1, far_tips[0]), "PSM2": tool(b0, b1, far_tips[1])}
-    parted = {"PSM1": crossing["PSM1"], "PSM2": tool(b0 + [0, 0, -0.02], b1 + [0, 0, -0.02], far_tips[1] + [0, 0, -0.02])}
+    parted = {
+        "PSM1": crossing["PSM1"],
+        "PSM2": tool(b0 + [0, 0, -0.02], b1 + [0, 0, -0.02], far_tips[1] + [0, 0, -0.02]),
+    }
     events = []
     for tools in (crossing, crossing, parted, crossing):
         events += world.update(world.time + 0.01, tools)
@@ -48,7 +53,9 @@ def test_shafts_crossing_collide_and_again_after_parting():
 def test_two_tools_at_one_place_collide():
     world = World(seed=0)
     point = np.array([0.06, 0.07, -0.03])
-    events = world.update(0.01, {"PSM1": _tool(world, "PSM1", point), "PSM2": _tool(world, "PSM2", point + [0.001, 0, 0])})
+    events = world.update(
+        0.01, {"PSM1": _tool(world, "PSM1", point), "PSM2": _tool(world, "PSM2", point + [0.001, 0, 0])}
+    )
     assert ("tool-tool", "PSM1+PSM2", None) in collisions(events)
 
 
@@ -62,7 +69,9 @@ def test_a_block_carried_low_into_another_peg_is_knocked_loose():
     pegs = world.cell.pegs.positions
     clear_spot = np.append(pegs[1] + (pegs[7] - pegs[1]) / 3, world.blocks[1].pose[2, 3]) + tip_from_block
     down = [0.0, 0.0, 0.006]  # the block's bottom 2 mm below the peg tops
-    beyond_peg_7 = np.append(pegs[7] + (pegs[7] - pegs[1]) / 3, world.blocks[1].pose[2, 3]) + tip_from_block + down
+    beyond_peg_7 = (
+        np.append(pegs[7] + (pegs[7] - pegs[1]) / 3, world.blocks[1].pose[2, 3]) + tip_from_block + down
+    )
     path = [Keyframe(p, holding.yaw, holding.jaw) for p in (clear_spot, clear_spot + down, beyond_peg_7)]
     events = driver.play({"PSM1": path})
     kinds = [event.kind for event in events]

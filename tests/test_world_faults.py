@@ -13,7 +13,9 @@ from pegbt.yamlfile import parse_yaml
 
 
 def _transfer(world, block=1, goal=7):
-    return Driver(world).play({"PSM1": transfer_keyframes(world, block, goal, grasp_candidate_facing(world, block, "PSM1"))})
+    return Driver(world).play(
+        {"PSM1": transfer_keyframes(world, block, goal, grasp_candidate_facing(world, block, "PSM1"))}
+    )
 
 
 def kinds(events):
@@ -27,7 +29,9 @@ def test_a_scheduled_slip_drops_the_carried_block():
     events = _transfer(world)
     assert kinds(events) == ["grasp", "lift", "fault", "slip", "drop"]
     fault = events[2]
-    assert fault.arm == "PSM1" and fault.block == 1 and fault.time == pytest.approx(lift_time + 0.2, abs=0.011)
+    assert (
+        fault.arm == "PSM1" and fault.block == 1 and fault.time == pytest.approx(lift_time + 0.2, abs=0.011)
+    )
     assert events[4].detail.startswith("onto the board") and world.blocks[1].state == "on_board"
 
 

@@ -16,7 +16,9 @@ def _tool(world, q, jaw):
 def test_the_home_pose_points_the_tool_down_into_the_board_under_the_remote_centre():
     world = World(seed=0)
     tool = _tool(world, [0, 0, 0.15, 0, 0, 0], 0.5)
-    assert tool.tip[:3, 2] == pytest.approx([0, 0, -1], abs=0.03)  # tool-tip z points back up, out of the board
+    assert tool.tip[:3, 2] == pytest.approx(
+        [0, 0, -1], abs=0.03
+    )  # tool-tip z points back up, out of the board
     assert np.allclose(tool.shaft[0], world.cell.remote_centre("PSM1"))
     assert np.linalg.norm(tool.shaft[1] - tool.shaft[0]) == pytest.approx(0.15 - 0.4318 + 0.4162)
     wrist_to_tip = np.linalg.norm(tool.tip[:3, 3] - tool.shaft[1])
@@ -35,7 +37,10 @@ def test_the_jaw_grips_across_the_wall_along_the_tip_x_axis(roll, grips):
     offset = upright[:3, :3] @ candidates.positions[0]
     world.blocks[1].pose, world.blocks[1].peg = yaw_pose(tool.tip[:3, 3] - offset, yaw), None
     assert world.blocks[1].pose[2, 3] < world.cell.pegs.top_z  # clear of the pegs and the board
-    assert np.linalg.norm((invert_rigid(world.blocks[1].pose) @ tool.tip)[:3, 3] - candidates.positions[0]) < 1e-9
+    assert (
+        np.linalg.norm((invert_rigid(world.blocks[1].pose) @ tool.tip)[:3, 3] - candidates.positions[0])
+        < 1e-9
+    )
     world.update(0.01, {"PSM1": tool})
     events = world.update(0.02, {"PSM1": _tool(world, q, motion_settings().transfer.jaw_closed)})
     assert [event.kind for event in events] == (["grasp"] if grips else ["grasp_miss"])
@@ -48,11 +53,15 @@ def test_the_jaw_grips_across_the_wall_along_the_tip_x_axis(roll, grips):
 def test_a_joint_that_lags_in_its_play_can_be_pushed_across_it_towards_its_command():
     from pegbt.physics import ArmPhysics, Effect
 
-    physics = ArmPhysics([
-        Effect("backlash", "q6", {"half_width": 0.05}),
-        Effect("hysteresis", "q5", {"source": "q5", "half_width": 0.2, "k": 0.25}),
-        Effect("hysteresis", "q5", {"source": "q6", "half_width": 0.3, "k": -0.5}),  # another drive's: no room
-    ])
+    physics = ArmPhysics(
+        [
+            Effect("backlash", "q6", {"half_width": 0.05}),
+            Effect("hysteresis", "q5", {"source": "q5", "half_width": 0.2, "k": 0.25}),
+            Effect(
+                "hysteresis", "q5", {"source": "q6", "half_width": 0.3, "k": -0.5}
+            ),  # another drive's: no room
+        ]
+    )
     assert ArmPhysics().play_room("q6") == (0.0, 0.0)  # ideal cables: a rigid joint
     physics.reset(np.zeros(6))
     assert physics.play_room("q6") == pytest.approx((0.05, 0.05))  # settled mid-play
@@ -60,7 +69,9 @@ def test_a_joint_that_lags_in_its_play_can_be_pushed_across_it_towards_its_comma
     physics.step([0, 0, 0, 0, 0.5, 0.5], 0.01)  # commanded up: both joints trail at the bottom of their play
     assert physics.play_room("q6") == pytest.approx((0.0, 0.1))
     assert physics.play_room("q5") == pytest.approx((0.0, 0.1))
-    assert ArmPhysics([Effect("hysteresis", "q5", {"source": "q5", "half_width": 0.2, "k": -0.25})]).play_room("q5") == (0.0, 0.0)
+    assert ArmPhysics(
+        [Effect("hysteresis", "q5", {"source": "q5", "half_width": 0.2, "k": -0.25})]
+    ).play_room("q5") == (0.0, 0.0)
 
 
 def test_the_wrist_gives_along_the_tip_axes_as_its_play_lets_it():
@@ -71,14 +82,18 @@ def test_the_wrist_gives_along_the_tip_axes_as_its_play_lets_it():
     rigid = ArmPhysics()
     rigid.reset(np.zeros(6))
     assert wrist_give(rigid, 0.0, tool) == RIGID
-    physics = ArmPhysics([Effect("backlash", "q6", {"half_width": 0.05}), Effect("backlash", "q5", {"half_width": 0.05})])
+    physics = ArmPhysics(
+        [Effect("backlash", "q6", {"half_width": 0.05}), Effect("backlash", "q5", {"half_width": 0.05})]
+    )
     physics.reset(np.zeros(6))
     physics.step([0, 0, 0, 0, 0.5, 0.5], 0.01)  # q5 and q6 trail below their commands
     minus_x, plus_x, minus_y, plus_y = wrist_give(physics, 0.0, tool)
     assert (minus_x, plus_x) == pytest.approx((0.0, 0.1 * tool.jaw_length))  # +q6 swings the tip along +x
     lever = tool.wrist_length + tool.jaw_length
     assert (minus_y, plus_y) == pytest.approx((0.1 * lever, 0.0))  # +q5 swings it along -y
-    assert wrist_give(physics, np.pi / 2, tool)[2] == pytest.approx(0.1 * tool.wrist_length)  # jaw turned aside
+    assert wrist_give(physics, np.pi / 2, tool)[2] == pytest.approx(
+        0.1 * tool.wrist_length
+    )  # jaw turned aside
 
 
 @pytest.mark.parametrize("wrist_yaw", [0.0, -0.8])
@@ -88,7 +103,10 @@ def test_the_gives_directions_are_where_forward_kinematics_moves_the_tip(wrist_y
     tool = World(seed=0).cell.tool
     q = np.array([0.8, 0.1, 0.2, 0.0, -0.1, wrist_yaw])
     _, tip = shaft_end_and_tip(q)
-    for joint, expected in ((5, [tool.jaw_length, 0.0]), (4, [0.0, -(tool.wrist_length + tool.jaw_length * np.cos(wrist_yaw))])):
+    for joint, expected in (
+        (5, [tool.jaw_length, 0.0]),
+        (4, [0.0, -(tool.wrist_length + tool.jaw_length * np.cos(wrist_yaw))]),
+    ):
         nudged = q.copy()
         nudged[joint] += 1e-4
         moved = tip[:3, :3].T @ (shaft_end_and_tip(nudged)[1][:3, 3] - tip[:3, 3]) / 1e-4

@@ -75,7 +75,10 @@ def test_a_grasp_beyond_the_pegs_clearance_misses_because_the_peg_stops_the_bloc
     driver = Driver(world)
     clearance = world.cell.block.hole_radius - world.cell.pegs.radius  # 2.0 mm
     events, _ = _grasp_off_the_wall_centre(world, driver, clearance + 0.0004)
-    assert kinds(events) == ["grasp_miss"] and events[0].detail == "jaw 2.4 mm off the wall's centre: peg 1 stops the block"
+    assert (
+        kinds(events) == ["grasp_miss"]
+        and events[0].detail == "jaw 2.4 mm off the wall's centre: peg 1 stops the block"
+    )
     assert np.allclose(world.blocks[1].pose[:2, 3], world.cell.pegs.positions[1])
 
 
@@ -83,7 +86,10 @@ def test_a_grasp_3_mm_off_the_wall_centre_misses_and_leaves_the_block_on_its_peg
     world = World(seed=1)
     driver = Driver(world)
     events, _ = _grasp_off_the_wall_centre(world, driver, 0.003)
-    assert kinds(events) == ["grasp_miss"] and events[0].detail == "jaw 3.0 mm off the wall's centre: peg 1 stops the block"
+    assert (
+        kinds(events) == ["grasp_miss"]
+        and events[0].detail == "jaw 3.0 mm off the wall's centre: peg 1 stops the block"
+    )
     events = driver.play({"PSM1": [lifted(world, driver.at("PSM1"))]})
     assert world.blocks[1].state == "on_peg" and world.held_by("PSM1") is None
 
@@ -155,11 +161,17 @@ def test_a_peg_guides_a_block_lifted_against_it_as_far_as_the_wrist_gives(give, 
     candidate = grasp_candidate_facing(world, 1, "PSM1")
     grasp = grasp_keyframes(world, 1, candidate)
     driver.play({"PSM1": grasp})
-    slid = np.linalg.norm(world.blocks[1].pose[:2, 3] - world.cell.pegs.positions[1])  # into the jaws, outward
+    slid = np.linalg.norm(
+        world.blocks[1].pose[:2, 3] - world.cell.pegs.positions[1]
+    )  # into the jaws, outward
     clearance = world.cell.block.hole_radius - world.cell.pegs.radius
     outward = (world.blocks[1].pose[:2, 3] - world.cell.pegs.positions[1]) / slid
     # pull the tool outward until the hole presses the peg 0.5 mm beyond the clearance, then lift
-    pulled = Keyframe(grasp[-1].position + np.append((clearance - slid + 0.0005) * outward, 0.0), grasp[-1].yaw, grasp[-1].jaw)
+    pulled = Keyframe(
+        grasp[-1].position + np.append((clearance - slid + 0.0005) * outward, 0.0),
+        grasp[-1].yaw,
+        grasp[-1].jaw,
+    )
     events = driver.play({"PSM1": [pulled, lifted(world, pulled)]})
     if caught:
         assert kinds(events)[:2] == ["collision", "drop"] and world.held_by("PSM1") is None
@@ -218,7 +230,9 @@ def test_a_block_released_beyond_the_board_is_lost():
     driver = Driver(world)
     _carry_block_1(world, driver)
     beyond = world.cell.board.extent_x[1] + 0.02 - world.cell.pegs.positions[7][0]
-    events = driver.play({"PSM1": place_keyframes(world, 1, 7, driver.at("PSM1"), error=np.array([beyond, 0.0]))})
+    events = driver.play(
+        {"PSM1": place_keyframes(world, 1, 7, driver.at("PSM1"), error=np.array([beyond, 0.0]))}
+    )
     assert kinds(events)[-2:] == ["release", "drop"] and events[-1].detail == "off the workspace"
     assert world.blocks[1].state == "lost"
 
@@ -237,11 +251,20 @@ def test_a_handover_leaves_the_block_with_the_receiver():
     events = driver.play({"PSM1": grasp_keyframes(world, 1, grasp_candidate_facing(world, 1, "PSM1"))})
     assert kinds(events) == ["grasp"] and events[0].detail.endswith("handover from PSM2")
     jaw_open = motion_settings().transfer.jaw_open
-    events = driver.play({"PSM2": [Keyframe(meeting, holding.yaw, jaw_open), Keyframe(meeting - [0, 0, 0.01], holding.yaw, jaw_open)]})
+    events = driver.play(
+        {
+            "PSM2": [
+                Keyframe(meeting, holding.yaw, jaw_open),
+                Keyframe(meeting - [0, 0, 0.01], holding.yaw, jaw_open),
+            ]
+        }
+    )
     assert kinds(events) == ["release"] and events[0].arm == "PSM2"
     assert world.blocks[1].state == "held" and world.held_by("PSM1") == 1
 
-    events = driver.play({"PSM1": [lifted(world, driver.at("PSM1")), *place_keyframes(world, 1, 7, driver.at("PSM1"))]})
+    events = driver.play(
+        {"PSM1": [lifted(world, driver.at("PSM1")), *place_keyframes(world, 1, 7, driver.at("PSM1"))]}
+    )
     assert kinds(events) == ["release", "place"] and events[-1].arm == "PSM1" and events[-1].peg == 7
 
 
@@ -253,7 +276,11 @@ def test_a_second_grip_pulled_away_slips_and_the_first_keeps_the_block():
     driver.play({"PSM1": grasp_keyframes(world, 1, grasp_candidate_facing(world, 1, "PSM1"))})
     away = driver.at("PSM1")
     events = driver.play({"PSM1": [Keyframe(away.position + [0.01, 0, 0], away.yaw, away.jaw)]})
-    assert kinds(events) == ["slip"] and events[0].arm == "PSM1" and "pulled out of the jaw by PSM2" in events[0].detail
+    assert (
+        kinds(events) == ["slip"]
+        and events[0].arm == "PSM1"
+        and "pulled out of the jaw by PSM2" in events[0].detail
+    )
     assert world.held_by("PSM2") == 1 and world.held_by("PSM1") is None
 
 
@@ -266,14 +293,19 @@ def test_a_block_that_tipped_off_a_peg_rests_clear_of_every_peg_and_any_grasp_li
     direction = np.radians(direction_deg)
     error = 1.5 * clearance * np.array([np.cos(direction), np.sin(direction)])
     above, *_ = place_keyframes(world, 1, 7, driver.at("PSM1"), error=error)
-    driver.play({"PSM1": [above, type(above)(above.position, above.yaw, motion_settings().transfer.jaw_open)]})
+    driver.play(
+        {"PSM1": [above, type(above)(above.position, above.yaw, motion_settings().transfer.jaw_open)]}
+    )
     assert world.blocks[1].state == "on_board"
     for candidate in range(6):  # none finds the block pressed against a peg (the tool may still hit one)
         again = copy.deepcopy(world)
         grasp = grasp_keyframes(again, 1, candidate)
         events = Driver(again).play({"PSM1": [*grasp, lifted(again, grasp[-1])]})
         tool_hit = any(event.detail == "tool-peg" for event in events)
-        assert tool_hit or not any(event.detail.startswith("block-peg") for event in events), (candidate, events)
+        assert tool_hit or not any(event.detail.startswith("block-peg") for event in events), (
+            candidate,
+            events,
+        )
 
 
 def test_a_block_dropped_between_the_peg_groups_rests_clear_of_every_peg():

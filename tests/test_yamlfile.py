@@ -69,10 +69,14 @@ def test_mappings_refuse_unknown_fields_and_name_missing_ones():
 
 
 def test_rigid_transforms_are_projected_onto_rotations():
-    doc = parse_yaml("T:\n  rotation: [[0, -1, 0], [1, 0, 0], [0, 0, 1]]\n  translation: [1, 2, 3]\n", "s.yaml")
+    doc = parse_yaml(
+        "T:\n  rotation: [[0, -1, 0], [1, 0, 0], [0, 0, 1]]\n  translation: [1, 2, 3]\n", "s.yaml"
+    )
     T = doc["T"].rigid()
     assert np.allclose(T[:3, :3], [[0, -1, 0], [1, 0, 0], [0, 0, 1]]) and np.allclose(T[:3, 3], [1, 2, 3])
-    bad = parse_yaml("T:\n  rotation: [[2, 0, 0], [0, 1, 0], [0, 0, 1]]\n  translation: [0, 0, 0]\n", "s.yaml")
+    bad = parse_yaml(
+        "T:\n  rotation: [[2, 0, 0], [0, 1, 0], [0, 0, 1]]\n  translation: [0, 0, 0]\n", "s.yaml"
+    )
     with pytest.raises(PegbtError, match="not a rotation matrix") as caught:
         bad["T"].rigid()
     assert caught.value.field == "T.rotation"
@@ -96,17 +100,27 @@ def test_a_broken_psm_file_is_a_located_error_not_a_parser_traceback(tmp_path):
     path, text = _edited(tmp_path, PSM_SETTINGS, "lower: -0.3491", "lower: [-0.3491")
     with pytest.raises(PegbtError, match="YAML syntax") as caught:
         arm_settings("PSM1", path)
-    assert caught.value.file == str(path) and caught.value.line is not None and caught.value.line >= _line_of(text, "lower: [-0.3491")
+    assert (
+        caught.value.file == str(path)
+        and caught.value.line is not None
+        and caught.value.line >= _line_of(text, "lower: [-0.3491")
+    )
 
 
 def test_a_non_number_joint_limit_names_its_line_and_field(tmp_path):
-    path, text = _edited(tmp_path, PSM_SETTINGS, "upper: [1.3963, 1.0472, 0.245,", "upper: [1.3963, 1.0472, deep,")
+    path, text = _edited(
+        tmp_path, PSM_SETTINGS, "upper: [1.3963, 1.0472, 0.245,", "upper: [1.3963, 1.0472, deep,"
+    )
     with pytest.raises(PegbtError, match="expected a finite number, got 'deep'") as caught:
         arm_settings("PSM2", path)
     line = _line_of(text, "deep")
     # The limits are written once, under `defaults`, and merged into each arm: the error points there.
-    assert _located(caught.value) == (str(path), line, text.splitlines()[line - 1].index("deep") + 1,
-                                      "arms.PSM2.joint_limits.upper[2]")
+    assert _located(caught.value) == (
+        str(path),
+        line,
+        text.splitlines()[line - 1].index("deep") + 1,
+        "arms.PSM2.joint_limits.upper[2]",
+    )
 
 
 def test_a_bad_slips_entry_in_a_fault_plan_is_located(tmp_path):

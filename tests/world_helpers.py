@@ -16,5 +16,10 @@ def block_points(cell, board_points, pose):
     inside = (local[:, :2] @ normals.T - offsets).max(axis=1) < 0.0005
     radial = np.linalg.norm(local[:, :2], axis=1)
     height = cell.block.height
-    on = inside & (radial > cell.block.hole_radius - 0.0005) & (local[:, 2] > -height - 0.0005) & (local[:, 2] < -0.0005)
+    on = (
+        inside
+        & (radial > cell.block.hole_radius - 0.0005)
+        & (local[:, 2] > -height - 0.0005)
+        & (local[:, 2] < -0.0005)
+    )
     return local[on]

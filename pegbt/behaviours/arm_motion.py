@@ -47,8 +47,13 @@ class SentMotion:
 class ArmMotion:
     """Plans and sends one arm's motions; `planner` (SQP) and `compensator` are None when the condition has none."""
 
-    def __init__(self, settings: ArmSettings, *, planner: TransferPlanner | None = None,
-                 compensator: Compensator | None = None) -> None:
+    def __init__(
+        self,
+        settings: ArmSettings,
+        *,
+        planner: TransferPlanner | None = None,
+        compensator: Compensator | None = None,
+    ) -> None:
         self.settings = settings
         self.planner = planner
         self.compensator = compensator
@@ -68,7 +73,9 @@ class ArmMotion:
             if self.compensator is not None:
                 self.compensator.reset(setpoint)
                 self.desired = self.settings.require_within(
-                    self.compensator.model.forward(setpoint, self.compensator.state), f"{arm.name} as the model sees it")
+                    self.compensator.model.forward(setpoint, self.compensator.state),
+                    f"{arm.name} as the model sees it",
+                )
         return self.desired.copy()
 
     # ------------------------------------------------------------------ planning
@@ -82,12 +89,16 @@ class ArmMotion:
                 plan = self.planner.plan(waypoints)
             except PegbtError as error:
                 self.fallbacks += 1
-                log.warning("%s: no optimised plan (%s); using rest-to-rest cubics", self.settings.name, error)
+                log.warning(
+                    "%s: no optimised plan (%s); using rest-to-rest cubics", self.settings.name, error
+                )
             else:
                 if plan.method == "cubic":
                     self.fallbacks += 1
                 if not plan.refined:
-                    log.warning("%s: transfer planned by the %s (%s)", self.settings.name, plan.method, plan.reason)
+                    log.warning(
+                        "%s: transfer planned by the %s (%s)", self.settings.name, plan.method, plan.reason
+                    )
                 return plan.trajectory
         return cubic_transfer(waypoints, self.settings)
 
@@ -118,8 +129,11 @@ class ArmMotion:
         """Send `planned` (compensated) to `arm`; afterwards the arm is meant to be at its last row."""
         start = self.start_from(arm)
         if np.max(np.abs(planned.q[0] - start)) > 1e-6:
-            raise PegbtError(f"{arm.name}: the plan starts {np.round(planned.q[0] - start, 4).tolist()} away from "
-                             "where the last motion ended", field="trajectory")
+            raise PegbtError(
+                f"{arm.name}: the plan starts {np.round(planned.q[0] - start, 4).tolist()} away from "
+                "where the last motion ended",
+                field="trajectory",
+            )
         sent = self.commands(planned)
         handle = arm.move_jp(sent)
         self.active = SentMotion(planned, sent, handle, arm.clock.now())

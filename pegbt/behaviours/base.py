@@ -57,14 +57,22 @@ def peg_param(name: str, doc: str) -> Param:
 def keep_apart_param(default: float | None = None) -> Param:
     """`keep_apart`, by default skills/motion.yaml's `two_arms.keep_apart` (read when the leaf runs)."""
     from_skills = " (None: two_arms.keep_apart of skills/motion.yaml)" if default is None else ""
-    return Param("keep_apart", float, f"m: an arm motion waits until it keeps the tools this far apart{from_skills}; 0: "
-                 "no check, for the handover, where the tools meet on purpose", default=default, minimum=0.0)
+    return Param(
+        "keep_apart",
+        float,
+        f"m: an arm motion waits until it keeps the tools this far apart{from_skills}; 0: "
+        "no check, for the handover, where the tools meet on purpose",
+        default=default,
+        minimum=0.0,
+    )
 
 
 def key_param(name: str, access: str, doc: str) -> Param:
     """A parameter naming the blackboard key where a leaf reads or writes `name` (default: `name` itself,
     in the leaf's namespace; shared subtrees use per-arm keys such as `/PSM1/grasp`)."""
-    return Param(name, str, f"key {'read' if access == 'read' else 'written'}: {doc}", default=name, key=access)
+    return Param(
+        name, str, f"key {'read' if access == 'read' else 'written'}: {doc}", default=name, key=access
+    )
 
 
 class RobotLeaf(Leaf):
@@ -169,7 +177,11 @@ class MotionLeaf(RobotLeaf):
         """This arm gives way when the other arm waits too, and waited first (or as long)."""
         if not self.may_step_back or self.stepped_back:
             return False
-        others = [since for arm, since in self.skills.waiting.items() if arm != self.param("arm") and since is not None]
+        others = [
+            since
+            for arm, since in self.skills.waiting.items()
+            if arm != self.param("arm") and since is not None
+        ]
         return bool(others) and min(others) <= self.blocked_since
 
     def _step_back(self) -> None:
@@ -180,7 +192,9 @@ class MotionLeaf(RobotLeaf):
         target = start.copy()
         target[2] = max(motion.settings.lower[2], start[2] - STEP_BACK)
         handle = motion.send(client, motion.through(start, [target], ["stepped back"]))
-        self.stepping_back = Running(f"{arm} stepping back for the other arm", handle, lambda: motion.stop(client))
+        self.stepping_back = Running(
+            f"{arm} stepping back for the other arm", handle, lambda: motion.stop(client)
+        )
         self.running.append(self.stepping_back)
         self.stepped_back = True
         self.feedback_message = f"{arm} steps back along its shaft: both arms were waiting for each other"
@@ -196,11 +210,15 @@ class MotionLeaf(RobotLeaf):
         if keep_apart is None:
             keep_apart = self.skills.motion.two_arms.keep_apart
         if keep_apart > 0:
-            others = {name: other.setpoint_js.position for name, other in self.robot.arms.items() if name != arm}
+            others = {
+                name: other.setpoint_js.position for name, other in self.robot.arms.items() if name != arm
+            }
             gap = self.skills.clearance(arm, trajectory, self.context.clock.now(), others)
             if gap < keep_apart:
-                raise Blocked(f"{what} would bring the tools within {gap * 1000:.1f} mm of each other "
-                              f"(keep apart {keep_apart * 1000:.0f} mm)")
+                raise Blocked(
+                    f"{what} would bring the tools within {gap * 1000:.1f} mm of each other "
+                    f"(keep apart {keep_apart * 1000:.0f} mm)"
+                )
         handle = motion.send(client, trajectory)
         self.running.append(Running(what, handle, lambda: motion.stop(client)))
         self._expect(trajectory.duration)

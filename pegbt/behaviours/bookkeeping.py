@@ -16,8 +16,12 @@ from pegbt.executive.registry import behaviour
 @behaviour(
     "begin_transfer",
     "record the start of a transfer from peg `pick` to peg `place` by `arms`; writes its number to `transfer`",
-    params=(Param("arms", str, "the arm, or giver→receiver for a handover"), peg_param("pick", "start peg"),
-            peg_param("place", "goal peg"), key_param("transfer", "write", "the transfer's number")),
+    params=(
+        Param("arms", str, "the arm, or giver→receiver for a handover"),
+        peg_param("pick", "start peg"),
+        peg_param("place", "goal peg"),
+        key_param("transfer", "write", "the transfer's number"),
+    ),
     resources=("robot", "skills"),
 )
 class BeginTransfer(RobotLeaf):
@@ -31,13 +35,17 @@ class BeginTransfer(RobotLeaf):
 @behaviour(
     "finish_transfer",
     "record how transfer `transfer` ended, as the executive believes (placed, skipped or failed); succeeds",
-    params=(Param("outcome", str, "the verdict", choices=("placed", "skipped", "failed")),
-            Param("note", str, "why, for the result table", default=""),
-            key_param("transfer", "read", "the transfer's number")),
+    params=(
+        Param("outcome", str, "the verdict", choices=("placed", "skipped", "failed")),
+        Param("note", str, "why, for the result table", default=""),
+        key_param("transfer", "read", "the transfer's number"),
+    ),
     resources=("robot", "skills"),
 )
 class FinishTransfer(RobotLeaf):
     def act(self) -> Status:
         record = self.robot.trial.finish(int(self.get("transfer")), self.param("outcome"), self.param("note"))
-        self.feedback_message = f"transfer {record.index} {record.outcome} after {record.ended - record.started:.2f} s"
+        self.feedback_message = (
+            f"transfer {record.index} {record.outcome} after {record.ended - record.started:.2f} s"
+        )
         return Status.SUCCESS

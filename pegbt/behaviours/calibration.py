@@ -31,7 +31,13 @@ from pegbt.physics.recording import RecordingWriter
     params=(
         arm_param(blackboard=True),
         Param("samples", int, "set-points to record", minimum=2, blackboard=True),
-        Param("settle", float, "seconds to hold each set-point before sampling it", default=SETTLE_S, minimum=0.0),
+        Param(
+            "settle",
+            float,
+            "seconds to hold each set-point before sampling it",
+            default=SETTLE_S,
+            minimum=0.0,
+        ),
         Param("out", str, "recording folder to write (relative to the working directory)", blackboard=True),
         Param("seed", int, "seed of the random set-points", default=0, minimum=0, blackboard=True),
     ),
@@ -43,8 +49,9 @@ class CollectCalibration(Leaf):
 
     def initialise(self) -> None:
         self.client = self.robot.arm(self.param("arm"))
-        self.setpoints = random_setpoints(*task_box(self.client.name), self.param("samples"),
-                                          np.random.default_rng(self.param("seed")))
+        self.setpoints = random_setpoints(
+            *task_box(self.client.name), self.param("samples"), np.random.default_rng(self.param("seed"))
+        )
         self.writer = RecordingWriter(Path(self.param("out")), self.client.name)
         self.handle = None
         self.problem = ""

@@ -57,7 +57,10 @@ def set_blackboard(setup: LeafSetup) -> py_trees.behaviour.Behaviour:
         ref_key = value.key
         value = lambda: source.get(ref_key)  # noqa: E731  # py_trees calls it on every tick
     return py_trees.behaviours.SetBlackboardVariable(
-        name=setup.name, variable_name=setup.absolute_key(setup.params["key"]), variable_value=value, overwrite=True
+        name=setup.name,
+        variable_name=setup.absolute_key(setup.params["key"]),
+        variable_value=value,
+        overwrite=True,
     )
 
 
@@ -72,7 +75,9 @@ def set_blackboard(setup: LeafSetup) -> py_trees.behaviour.Behaviour:
 )
 def check_blackboard(setup: LeafSetup) -> py_trees.behaviour.Behaviour:
     check = py_trees.common.ComparisonExpression(
-        variable=setup.absolute_key(setup.params["key"]), value=setup.params["value"], operator=comparison(setup.params["op"])
+        variable=setup.absolute_key(setup.params["key"]),
+        value=setup.params["value"],
+        operator=comparison(setup.params["op"]),
     )
     return py_trees.behaviours.CheckBlackboardVariableValue(name=setup.name, check=check)
 
@@ -113,7 +118,13 @@ class WaitBlackboard(Leaf):
     "log `message` (and `value`, e.g. `$key`) to the run's output and the tick log, then succeed",
     params=(
         Param("message", str, "text to log"),
-        Param("value", Any, "optional value appended to the message; `$key` shows a blackboard value", default=None, blackboard=True),
+        Param(
+            "value",
+            Any,
+            "optional value appended to the message; `$key` shows a blackboard value",
+            default=None,
+            blackboard=True,
+        ),
         Param("level", str, "log level", default="info", choices=("debug", "info", "warning", "error")),
     ),
 )
@@ -150,8 +161,13 @@ class ScriptedOutcomes(py_trees.behaviours.StatusQueue):
     "return the given outcomes one per tick, across retries (for testing recovery logic)",
     params=(
         Param("outcomes", list[str], "outcomes in order", choices=tuple(_STATUSES), minimum=1),
-        Param("then", str, "after the list: repeat the last outcome, or start the list again",
-              default="last", choices=("last", "cycle")),
+        Param(
+            "then",
+            str,
+            "after the list: repeat the last outcome, or start the list again",
+            default="last",
+            choices=("last", "cycle"),
+        ),
         Param("message", str, "feedback message when the outcome is failure (why it failed)", default=""),
     ),
 )

@@ -11,7 +11,15 @@ import math
 import numpy as np
 from py_trees.common import Status
 
-from pegbt.behaviours.base import RESOURCES, MotionLeaf, RobotLeaf, arm_param, keep_apart_param, key_param, peg_param
+from pegbt.behaviours.base import (
+    RESOURCES,
+    MotionLeaf,
+    RobotLeaf,
+    arm_param,
+    keep_apart_param,
+    key_param,
+    peg_param,
+)
 from pegbt.behaviours.handover import plan_meeting
 from pegbt.behaviours.motion import SLIP_CHECK, above_pegs_first, held_param, slip
 from pegbt.behaviours.poses import approach_for, transfer_for
@@ -23,7 +31,10 @@ from pegbt.perception.blocks import BlockEstimate, block_on_peg, stack_level
 from pegbt.perception.grasp import Grasp
 from pegbt.psm import ARMS
 
-SAME_BLOCK = 0.005  # m: a block seen this near where the last pick chose one is that block (a miss may nudge it)
+SAME_BLOCK = (
+    0.005  # m: a block seen this near where the last pick chose one is that block (a miss may nudge it)
+)
+
 
 @behaviour(
     "select_grasp",
@@ -32,18 +43,38 @@ SAME_BLOCK = 0.005  # m: a block seen this near where the last pick chose one is
     params=(
         arm_param(),
         peg_param("peg", "peg the block should be on"),
-        Param("dropped", bool, "if the peg is empty, take the block lying on the board nearest to it (`$key`: only "
-              "once the transfer has lost its block, so an empty pick peg is reported, not covered up)",
-              default=False, blackboard=True),
-        Param("strays", list[int], "with `dropped`: pegs a lost block may have fallen onto and no block belongs on yet "
-              "(the peg under the handover's meeting point); a block there is taken if none lies on the board",
-              choices=tuple(range(12)), default=[]),
-        Param("another", bool, "pick again: if the block is the one last chosen (still within `SAME_BLOCK` of "
-              "where it was seen), prefer another of its candidates than the one that failed (`$key`)",
-              default=False, blackboard=True),
-        Param("handover_to", str, "a giver's pick: only grasps from which the block can be handed to this arm "
-              "(`handover_poses` finds a grasp of the receiver clear of the giver's tool); '': any grasp",
-              default="", choices=("", *ARMS)),
+        Param(
+            "dropped",
+            bool,
+            "if the peg is empty, take the block lying on the board nearest to it (`$key`: only "
+            "once the transfer has lost its block, so an empty pick peg is reported, not covered up)",
+            default=False,
+            blackboard=True,
+        ),
+        Param(
+            "strays",
+            list[int],
+            "with `dropped`: pegs a lost block may have fallen onto and no block belongs on yet "
+            "(the peg under the handover's meeting point); a block there is taken if none lies on the board",
+            choices=tuple(range(12)),
+            default=[],
+        ),
+        Param(
+            "another",
+            bool,
+            "pick again: if the block is the one last chosen (still within `SAME_BLOCK` of "
+            "where it was seen), prefer another of its candidates than the one that failed (`$key`)",
+            default=False,
+            blackboard=True,
+        ),
+        Param(
+            "handover_to",
+            str,
+            "a giver's pick: only grasps from which the block can be handed to this arm "
+            "(`handover_poses` finds a grasp of the receiver clear of the giver's tool); '': any grasp",
+            default="",
+            choices=("", *ARMS),
+        ),
         key_param("block", "write", "the block chosen (perception's estimate)"),
         key_param("grasp", "write", "the grasp chosen (tip pose in the arm frame)"),
     ),
@@ -62,9 +93,14 @@ class SelectGrasp(RobotLeaf):
             for stray in self.param("strays"):
                 block = block or block_on_peg(blocks, stray)
         if block is None:
-            return self.fail(f"no block seen on peg {peg}" + (" nor on the board" if self.param("dropped") else ""))
-        where = (f"peg {block.peg}" + (" (on another block)" if stack_level(block, self.skills.cell) else "")
-                 if block.peg is not None else f"the board at {np.round(block.position[:2] * 1000, 1).tolist()} mm")
+            return self.fail(
+                f"no block seen on peg {peg}" + (" nor on the board" if self.param("dropped") else "")
+            )
+        where = (
+            f"peg {block.peg}" + (" (on another block)" if stack_level(block, self.skills.cell) else "")
+            if block.peg is not None
+            else f"the board at {np.round(block.position[:2] * 1000, 1).tolist()} mm"
+        )
         if not block.ok:
             return self.fail(f"the block on {where} is not located reliably: {block.reason}")
         receiver = self.param("handover_to")
@@ -72,15 +108,20 @@ class SelectGrasp(RobotLeaf):
         def handed(option: Grasp) -> bool:
             return plan_meeting(self.skills, arm, receiver, option, block) is not None
 
-        grasp = self.skills.selectors[arm].pick(block, avoid=self._failed_candidate(block),
-                                                acceptable=handed if receiver else None)
+        grasp = self.skills.selectors[arm].pick(
+            block, avoid=self._failed_candidate(block), acceptable=handed if receiver else None
+        )
         if grasp is None:
-            return self.fail(f"no grasp of the block on {where} is within {arm}'s yaw window and reach"
-                             + (f" and lets {receiver} take it" if receiver else ""))
+            return self.fail(
+                f"no grasp of the block on {where} is within {arm}'s yaw window and reach"
+                + (f" and lets {receiver} take it" if receiver else "")
+            )
         self.put("block", block)
         self.put("grasp", grasp)
-        self.feedback_message = (f"{arm} grasps the block on {where} at candidate {grasp.candidate}, "
-                                 f"yaw {math.degrees(grasp.yaw):.0f}°")
+        self.feedback_message = (
+            f"{arm} grasps the block on {where} at candidate {grasp.candidate}, "
+            f"yaw {math.degrees(grasp.yaw):.0f}°"
+        )
         return Status.SUCCESS
 
     def _failed_candidate(self, block: BlockEstimate) -> tuple[int, ...]:
@@ -100,8 +141,12 @@ class SelectGrasp(RobotLeaf):
 @behaviour(
     "approach",
     "move `arm` over its chosen grasp at the transfer height and down onto it, opening the jaw on the way",
-    params=(arm_param(), key_param("grasp", "read", "the chosen grasp"), key_param("block", "read", "the block to grasp"),
-            keep_apart_param()),
+    params=(
+        arm_param(),
+        key_param("grasp", "read", "the chosen grasp"),
+        key_param("block", "read", "the block to grasp"),
+        keep_apart_param(),
+    ),
     reads=("/board",),
     resources=RESOURCES,
 )
@@ -114,15 +159,25 @@ class Approach(MotionLeaf):
     def begin(self) -> None:
         arm = self.param("arm")
         motion, cell = self.motion(arm), self.skills.cell
-        waypoints = transfer_for(cell, self.skills.motion, arm, self.read("/board"), self.get("block"), self.get("grasp"))
+        waypoints = transfer_for(
+            cell, self.skills.motion, arm, self.read("/board"), self.get("block"), self.get("grasp")
+        )
         start = motion.start_from(self.client(arm))
         stops = above_pegs_first(cell, self.skills.motion, arm, start, motion.settings)
         if motion.planner is not None and stops:
-            trajectory = motion.transfer(approach_for(cell, self.skills.motion, arm, forward_kinematics(start), waypoints))
+            trajectory = motion.transfer(
+                approach_for(cell, self.skills.motion, arm, forward_kinematics(start), waypoints)
+            )
         else:
-            names = [f"above the grasp {i}" for i in range(len(stops))] + ["over the grasp", "just above the block", "grasp"]
+            names = [f"above the grasp {i}" for i in range(len(stops))] + [
+                "over the grasp",
+                "just above the block",
+                "grasp",
+            ]
             poses = [waypoints.poses[1], waypoints.approach, waypoints.poses[0]]
-            joints = stops + [solve_ik(pose, motion.settings, what=name) for pose, name in zip(poses, names[-3:])]
+            joints = stops + [
+                solve_ik(pose, motion.settings, what=name) for pose, name in zip(poses, names[-3:])
+            ]
             trajectory = motion.through(start, joints, names[: len(joints)])
         self.move(arm, trajectory, f"{arm} approach")
         self.move_jaw(arm, self.skills.motion.transfer.jaw_open, f"{arm} jaw opening")
@@ -137,7 +192,9 @@ class Approach(MotionLeaf):
 )
 class CloseOnBlock(MotionLeaf):
     def begin(self) -> None:
-        self.move_jaw(self.param("arm"), self.skills.motion.transfer.jaw_closed, f"{self.param('arm')} jaw closing")
+        self.move_jaw(
+            self.param("arm"), self.skills.motion.transfer.jaw_closed, f"{self.param('arm')} jaw closing"
+        )
 
     def done(self) -> Status:
         arm = self.param("arm")
@@ -145,7 +202,9 @@ class CloseOnBlock(MotionLeaf):
         holding = angle > self.param("held_above")
         self.put("holding", holding)
         if not holding:
-            return self.fail(f"{arm}'s jaw closed to {math.degrees(angle):.0f}° on nothing: no block between the jaws")
+            return self.fail(
+                f"{arm}'s jaw closed to {math.degrees(angle):.0f}° on nothing: no block between the jaws"
+            )
         self.feedback_message = f"{arm} holds a block (jaw stopped at {math.degrees(angle):.0f}°)"
         return Status.SUCCESS
 

@@ -17,7 +17,15 @@ import numpy as np
 from numpy.typing import NDArray
 from py_trees.common import Status
 
-from pegbt.behaviours.base import RESOURCES, MotionLeaf, RobotLeaf, arm_param, keep_apart_param, key_param, peg_param
+from pegbt.behaviours.base import (
+    RESOURCES,
+    MotionLeaf,
+    RobotLeaf,
+    arm_param,
+    keep_apart_param,
+    key_param,
+    peg_param,
+)
 from pegbt.behaviours.motion import CarryLeaf, above_pegs_first, carry_params
 from pegbt.behaviours.poses import from_handover, to_arm, to_handover, tool_pose
 from pegbt.behaviours.skills import Skills
@@ -44,7 +52,9 @@ class Meeting:
     receiver_grasp: Grasp
 
 
-def plan_meeting(skills: Skills, giver: str, receiver: str, grasp: Grasp, block: BlockEstimate) -> Meeting | None:
+def plan_meeting(
+    skills: Skills, giver: str, receiver: str, grasp: Grasp, block: BlockEstimate
+) -> Meeting | None:
     """The handover of `block` held by `giver` at `grasp`, or None if the receiver cannot take it: the
     receiver's grasp is on another wall than the giver's jaw, keeps its tool `grasp_clearance` clear of the
     giver's all the way down onto it, and is the nearest such to the receiver. Whether there is one depends
@@ -53,12 +63,23 @@ def plan_meeting(skills: Skills, giver: str, receiver: str, grasp: Grasp, block:
     cell = skills.cell
     tip = tool_pose(to_arm(cell, giver, handover_meeting_point(cell, skills.motion)), 0.0, cell.up_in(giver))
     q_giver = solve_ik(tip, skills.arm(giver).settings, what="the giver at the meeting point")
-    block_pose = cell.arm_to_board(giver) @ tip @ invert_rigid(cell.arm_to_board(giver) @ grasp.pose) @ block.pose
+    block_pose = (
+        cell.arm_to_board(giver) @ tip @ invert_rigid(cell.arm_to_board(giver) @ grasp.pose) @ block.pose
+    )
     giver_edge = cell.block.grasp_candidates.edge[grasp.candidate]
-    options = [option for option in skills.selectors[receiver].feasible(block_pose)
-               if cell.block.grasp_candidates.edge[option.candidate] != giver_edge]
-    taken = next((option for option in sorted(options, key=lambda option: _distance_to(cell, receiver, option))
-                  if _clear_descent(skills, receiver, option, giver, q_giver)), None)
+    options = [
+        option
+        for option in skills.selectors[receiver].feasible(block_pose)
+        if cell.block.grasp_candidates.edge[option.candidate] != giver_edge
+    ]
+    taken = next(
+        (
+            option
+            for option in sorted(options, key=lambda option: _distance_to(cell, receiver, option))
+            if _clear_descent(skills, receiver, option, giver, q_giver)
+        ),
+        None,
+    )
     return None if taken is None else Meeting(tip, block_pose, taken)
 
 
@@ -66,7 +87,9 @@ def _distance_to(cell: Workcell, arm: str, option: Grasp) -> float:
     return float(np.linalg.norm(option.board_position[:2] - cell.remote_centre(arm)[:2]))
 
 
-def _clear_descent(skills: Skills, receiver: str, option: Grasp, giver: str, q_giver: NDArray[np.float64]) -> bool:
+def _clear_descent(
+    skills: Skills, receiver: str, option: Grasp, giver: str, q_giver: NDArray[np.float64]
+) -> bool:
     """Whether the receiver, descending from waiting above `option` onto it, keeps `grasp_clearance` from the giver."""
     cell, settings = skills.cell, skills.motion.handover
     wait = option.pose.copy()
@@ -75,8 +98,9 @@ def _clear_descent(skills: Skills, receiver: str, option: Grasp, giver: str, q_g
         q_wait, q_grasp = (solve_ik(pose, skills.arm(receiver).settings) for pose in (wait, option.pose))
     except PegbtError:
         return False
-    clearance = descent_clearance(q_wait, q_grasp, cell.board_to_arm(receiver), q_giver, cell.board_to_arm(giver),
-                                  cell.tool)
+    clearance = descent_clearance(
+        q_wait, q_grasp, cell.board_to_arm(receiver), q_giver, cell.board_to_arm(giver), cell.tool
+    )
     return clearance >= settings.grasp_clearance
 
 
@@ -103,15 +127,19 @@ class HandoverPoses(RobotLeaf):
             return self.fail(f"{giver} cannot hand a block to itself")
         meeting = plan_meeting(self.skills, giver, receiver, self.get("grasp"), self.get("block"))
         if meeting is None:
-            return self.fail(f"{receiver} can reach no grasp of the block at the meeting point that keeps clear of "
-                             f"{giver}'s tool")
+            return self.fail(
+                f"{receiver} can reach no grasp of the block at the meeting point that keeps clear of "
+                f"{giver}'s tool"
+            )
         self.put("meeting", meeting.tip)
         self.put("block_pose", meeting.block_pose)
         self.put("receiver_grasp", meeting.receiver_grasp)
         taken = meeting.receiver_grasp
         point = handover_meeting_point(self.skills.cell, self.skills.motion)
-        self.feedback_message = (f"meeting at {np.round(point * 1000, 1).tolist()} mm (board); {receiver} takes candidate "
-                                 f"{taken.candidate}, yaw {math.degrees(taken.yaw):.0f}°")
+        self.feedback_message = (
+            f"meeting at {np.round(point * 1000, 1).tolist()} mm (board); {receiver} takes candidate "
+            f"{taken.candidate}, yaw {math.degrees(taken.yaw):.0f}°"
+        )
         return Status.SUCCESS
 
 
@@ -119,21 +147,36 @@ class HandoverPoses(RobotLeaf):
     "carry_to_handover",
     "lift the block held by `arm` (the giver) off its peg and carry it to the meeting pose; fails at once "
     "if the block slips",
-    params=carry_params(key_param("grasp", "read", "the giver's grasp"), key_param("block", "read", "the block held"),
-                        key_param("meeting", "read", "the giver's tip pose at the meeting point"), keep_apart=keep_apart_param(0.0)),
+    params=carry_params(
+        key_param("grasp", "read", "the giver's grasp"),
+        key_param("block", "read", "the block held"),
+        key_param("meeting", "read", "the giver's tip pose at the meeting point"),
+        keep_apart=keep_apart_param(0.0),
+    ),
     reads=("/board",),
     resources=RESOURCES,
 )
 class CarryToHandover(CarryLeaf):
     def waypoints(self) -> TransferWaypoints:
-        return to_handover(self.skills.cell, self.skills.motion, self.param("arm"), self.read("/board"), self.get("block"),
-                           self.get("grasp"), self.get("meeting"))
+        return to_handover(
+            self.skills.cell,
+            self.skills.motion,
+            self.param("arm"),
+            self.read("/board"),
+            self.get("block"),
+            self.get("grasp"),
+            self.get("meeting"),
+        )
 
 
 @behaviour(
     "go_to_handover",
     "move `arm` (the receiver) to wait, jaw open, straight above its grasp of the block at the meeting point",
-    params=(arm_param(), key_param("grasp", "read", "the receiver's grasp at the meeting point"), keep_apart_param(0.0)),
+    params=(
+        arm_param(),
+        key_param("grasp", "read", "the receiver's grasp at the meeting point"),
+        keep_apart_param(0.0),
+    ),
     resources=RESOURCES,
 )
 class GoToHandover(MotionLeaf):
@@ -145,7 +188,9 @@ class GoToHandover(MotionLeaf):
         wait[:3, 3] += self.skills.motion.handover.receiver_wait_above * cell.up_in(arm)
         stops = above_pegs_first(cell, self.skills.motion, arm, start, motion.settings)
         joints = stops + [solve_ik(wait, motion.settings, what="waiting above the handover grasp")]
-        trajectory = motion.through(start, joints, [f"stop {i}" for i in range(len(stops))] + ["waiting pose"])
+        trajectory = motion.through(
+            start, joints, [f"stop {i}" for i in range(len(stops))] + ["waiting pose"]
+        )
         self.move(arm, trajectory, f"{arm} going to the handover")
         self.move_jaw(arm, self.skills.motion.transfer.jaw_open, f"{arm} jaw opening")
 
@@ -169,13 +214,23 @@ class DescendToGrasp(MotionLeaf):
     "carry_from_handover",
     "carry the block that `arm` (the receiver) took at the meeting point over peg `place` and lower it onto "
     "the peg; fails at once if the block slips",
-    params=carry_params(peg_param("place", "goal peg"), key_param("grasp", "read", "the receiver's grasp"),
-                        key_param("block_pose", "read", "the block's pose at the meeting point (board frame)"),
-                        keep_apart=keep_apart_param(0.0)),
+    params=carry_params(
+        peg_param("place", "goal peg"),
+        key_param("grasp", "read", "the receiver's grasp"),
+        key_param("block_pose", "read", "the block's pose at the meeting point (board frame)"),
+        keep_apart=keep_apart_param(0.0),
+    ),
     reads=("/board",),
     resources=RESOURCES,
 )
 class CarryFromHandover(CarryLeaf):
     def waypoints(self) -> TransferWaypoints:
-        return from_handover(self.skills.cell, self.skills.motion, self.param("arm"), self.read("/board"), self.get("grasp"),
-                             self.get("block_pose"), int(self.param("place")))
+        return from_handover(
+            self.skills.cell,
+            self.skills.motion,
+            self.param("arm"),
+            self.read("/board"),
+            self.get("grasp"),
+            self.get("block_pose"),
+            int(self.param("place")),
+        )

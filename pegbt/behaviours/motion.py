@@ -30,8 +30,9 @@ LOW = 0.001  # m: a tip more than this below the transfer height rises before mo
 SLIP_CHECK = 0.1  # s: how often a transfer looks at the jaw for a slipping block
 
 
-def above_pegs_first(cell: Workcell, motion: MotionSettings, arm: str, start: NDArray[np.float64],
-                     settings: ArmSettings) -> list[NDArray[np.float64]]:
+def above_pegs_first(
+    cell: Workcell, motion: MotionSettings, arm: str, start: NDArray[np.float64], settings: ArmSettings
+) -> list[NDArray[np.float64]]:
     """[joints straight above `start` at the transfer height] if the tip is low among the pegs, else []."""
     tip = forward_kinematics(start)
     rise = motion.transfer.transfer_height_above_peg_top - height_above_pegs(cell, arm, tip[:3, 3])
@@ -61,7 +62,9 @@ class CarryLeaf(MotionLeaf):
     def watch(self) -> Status:
         slipped = slip(self.client(self.param("arm")).jaw.measured_js.position[0], self.param("held_above"))
         if slipped:
-            return self.fail(f"the block slipped from {self.param('arm')}'s jaw ({slipped}) during {self.name}")
+            return self.fail(
+                f"the block slipped from {self.param('arm')}'s jaw ({slipped}) during {self.name}"
+            )
         if self.wake_at is not None:
             self.wake_at = min(self.wake_at, self.context.clock.now() + SLIP_CHECK)
         return Status.RUNNING
@@ -74,12 +77,22 @@ def slip(jaw_angle: float, held_above: float) -> str | None:
 
 
 def held_param() -> Param:
-    return Param("held_above", float, "a closed jaw stopped above this angle (rad) holds a block; one closing past it "
-                 "has lost its block", default=HELD_ABOVE)
+    return Param(
+        "held_above",
+        float,
+        "a closed jaw stopped above this angle (rad) holds a block; one closing past it has lost its block",
+        default=HELD_ABOVE,
+    )
 
 
 def carry_params(*extra: Param, keep_apart: Param = keep_apart_param()) -> tuple[Param, ...]:
-    return (arm_param(), *extra, held_param(), key_param("plan_s", "write", "the planned motion's duration, s"), keep_apart)
+    return (
+        arm_param(),
+        *extra,
+        held_param(),
+        key_param("plan_s", "write", "the planned motion's duration, s"),
+        keep_apart,
+    )
 
 
 @behaviour(
@@ -87,15 +100,25 @@ def carry_params(*extra: Param, keep_apart: Param = keep_apart_param()) -> tuple
     "lift the held block off its peg, carry it over peg `place` and lower it onto the peg (one trajectory: "
     "SQP-optimised or rest-to-rest cubics, as the condition says); fails at once if the block slips from "
     "the jaw; writes the plan's duration to `plan_s`",
-    params=carry_params(peg_param("place", "goal peg"), key_param("grasp", "read", "the grasp holding the block"),
-                        key_param("block", "read", "the block held")),
+    params=carry_params(
+        peg_param("place", "goal peg"),
+        key_param("grasp", "read", "the grasp holding the block"),
+        key_param("block", "read", "the block held"),
+    ),
     reads=("/board",),
     resources=RESOURCES,
 )
 class Transfer(CarryLeaf):
     def waypoints(self) -> TransferWaypoints:
-        return transfer_for(self.skills.cell, self.skills.motion, self.param("arm"), self.read("/board"), self.get("block"),
-                            self.get("grasp"), int(self.param("place")))
+        return transfer_for(
+            self.skills.cell,
+            self.skills.motion,
+            self.param("arm"),
+            self.read("/board"),
+            self.get("block"),
+            self.get("grasp"),
+            int(self.param("place")),
+        )
 
 
 @behaviour(

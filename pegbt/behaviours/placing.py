@@ -19,7 +19,9 @@ from pegbt.perception.blocks import block_on_peg
 )
 class Release(MotionLeaf):
     def begin(self) -> None:
-        self.move_jaw(self.param("arm"), self.skills.motion.transfer.jaw_open, f"{self.param('arm')} jaw opening")
+        self.move_jaw(
+            self.param("arm"), self.skills.motion.transfer.jaw_open, f"{self.param('arm')} jaw opening"
+        )
 
     def done(self) -> Status:
         self.put("holding", False)
@@ -29,7 +31,9 @@ class Release(MotionLeaf):
 @behaviour(
     "check_placed",
     "succeed if the latest `/blocks` shows a trustworthy block on every peg in `pegs`",
-    params=(Param("pegs", list[int], "pegs that should each hold a block", choices=tuple(range(12)), minimum=1),),
+    params=(
+        Param("pegs", list[int], "pegs that should each hold a block", choices=tuple(range(12)), minimum=1),
+    ),
     reads=("/blocks",),
     resources=RESOURCES,
 )

@@ -16,7 +16,12 @@ from numpy.typing import ArrayLike, NDArray
 from pegbt.frames import apply_rigid, rigid_transform
 from pegbt.motion.channel import Channel
 from pegbt.motion.settings import MotionSettings
-from pegbt.motion.waypoints import TransferWaypoints, placement_waypoints, tool_down_rotation, transfer_waypoints
+from pegbt.motion.waypoints import (
+    TransferWaypoints,
+    placement_waypoints,
+    tool_down_rotation,
+    transfer_waypoints,
+)
 from pegbt.perception.blocks import BlockEstimate, stack_level
 from pegbt.perception.board import BoardEstimate
 from pegbt.perception.grasp import Grasp
@@ -31,7 +36,9 @@ MIN_RISE = 0.005  # m: an approach rises at least this much before it moves over
 
 def peg_top_board(cell: Workcell, board: BoardEstimate | None, peg: int) -> NDArray[np.float64]:
     """Top centre of `peg` in the board frame: measured if the board was registered, else modelled."""
-    return (board.peg_tops[peg] if board is not None and board.ok else cell.pegs.tops[peg]).astype(float).copy()
+    return (
+        (board.peg_tops[peg] if board is not None and board.ok else cell.pegs.tops[peg]).astype(float).copy()
+    )
 
 
 def block_axis_top(cell: Workcell, board: BoardEstimate | None, block: BlockEstimate) -> NDArray[np.float64]:
@@ -62,8 +69,15 @@ def tool_pose(position: ArrayLike, yaw: float, up: NDArray[np.float64]) -> NDArr
     return rigid_transform(tool_down_rotation(yaw, up), position)
 
 
-def transfer_for(cell: Workcell, motion: MotionSettings, arm: str, board: BoardEstimate | None,
-                 block: BlockEstimate, grasp: Grasp, place_peg: int | None = None) -> TransferWaypoints:
+def transfer_for(
+    cell: Workcell,
+    motion: MotionSettings,
+    arm: str,
+    board: BoardEstimate | None,
+    block: BlockEstimate,
+    grasp: Grasp,
+    place_peg: int | None = None,
+) -> TransferWaypoints:
     """The transfer of `block`, held at `grasp`, onto `place_peg`: the block keeps its yaw, so the tool
     keeps its yaw and its offset from the block's axis. Without `place_peg`, only the pick side (grasp,
     approach, lifted) is meaningful: the block would be put back where it is."""
@@ -72,8 +86,16 @@ def transfer_for(cell: Workcell, motion: MotionSettings, arm: str, board: BoardE
     offset = grasp.position - pick_top
     yaw = yaw_about(grasp.pose[:3, :3], up)
     place_top = pick_top if place_peg is None else to_arm(cell, arm, peg_top_board(cell, board, place_peg))
-    return transfer_waypoints(pick_top, place_top, pick_offset=offset, place_offset=offset, pick_yaw=yaw,
-                              place_yaw=yaw, up=up, heights=motion.transfer)
+    return transfer_waypoints(
+        pick_top,
+        place_top,
+        pick_offset=offset,
+        place_offset=offset,
+        pick_yaw=yaw,
+        place_yaw=yaw,
+        up=up,
+        heights=motion.transfer,
+    )
 
 
 def height_above_pegs(cell: Workcell, arm: str, tip_arm: ArrayLike) -> float:
@@ -82,8 +104,9 @@ def height_above_pegs(cell: Workcell, arm: str, tip_arm: ArrayLike) -> float:
     return float((tip_board[2] - cell.pegs.top_z) * UP_BOARD[2])
 
 
-def approach_for(cell: Workcell, motion: MotionSettings, arm: str, start: NDArray[np.float64],
-                 pick: TransferWaypoints) -> TransferWaypoints:
+def approach_for(
+    cell: Workcell, motion: MotionSettings, arm: str, start: NDArray[np.float64], pick: TransferWaypoints
+) -> TransferWaypoints:
     """The approach from a tool at `start` (tip pose, arm frame; low among the pegs, having just let go of
     a block) to the grasp of `pick`, shaped like a transfer so the same planner serves: rise straight up
     to the transfer height (at least `MIN_RISE`), move over the grasp, descend onto it along the
@@ -110,8 +133,15 @@ def _free_channel(point: NDArray[np.float64], up: NDArray[np.float64], tolerance
     return Channel(point, up, -ALREADY_CLEAR, tolerance)
 
 
-def to_handover(cell: Workcell, motion: MotionSettings, arm: str, board: BoardEstimate | None, block: BlockEstimate,
-                grasp: Grasp, meeting: NDArray[np.float64]) -> TransferWaypoints:
+def to_handover(
+    cell: Workcell,
+    motion: MotionSettings,
+    arm: str,
+    board: BoardEstimate | None,
+    block: BlockEstimate,
+    grasp: Grasp,
+    meeting: NDArray[np.float64],
+) -> TransferWaypoints:
     """The giver's carry: lift the block off its peg as in a transfer, then over to the `meeting` tip pose
     (arm frame), arriving from `HANDOVER_ARRIVAL` above it."""
     pick = transfer_for(cell, motion, arm, board, block, grasp)
@@ -119,16 +149,33 @@ def to_handover(cell: Workcell, motion: MotionSettings, arm: str, board: BoardEs
     above = meeting.copy()
     above[:3, 3] += HANDOVER_ARRIVAL * up
     tolerance = motion.transfer.channel_tolerance
-    return TransferWaypoints(np.stack([pick.poses[0], pick.poses[1], above, meeting]), pick.approach, pick.pick,
-                             _free_channel(meeting[:3, 3], up, tolerance), pick.upright)
+    return TransferWaypoints(
+        np.stack([pick.poses[0], pick.poses[1], above, meeting]),
+        pick.approach,
+        pick.pick,
+        _free_channel(meeting[:3, 3], up, tolerance),
+        pick.upright,
+    )
 
 
-def from_handover(cell: Workcell, motion: MotionSettings, arm: str, board: BoardEstimate | None, grasp: Grasp,
-                  block_pose: NDArray[np.float64], place_peg: int) -> TransferWaypoints:
+def from_handover(
+    cell: Workcell,
+    motion: MotionSettings,
+    arm: str,
+    board: BoardEstimate | None,
+    grasp: Grasp,
+    block_pose: NDArray[np.float64],
+    place_peg: int,
+) -> TransferWaypoints:
     """The receiver's placement: from its grasp of the block held in the air (`block_pose`, board frame)
     over peg `place_peg` and down onto it, the block keeping its yaw."""
     up = cell.up_in(arm)
     offset = grasp.position - to_arm(cell, arm, block_pose[:3, 3])
-    return placement_waypoints(grasp.pose, to_arm(cell, arm, peg_top_board(cell, board, place_peg)), place_offset=offset,
-                               place_yaw=yaw_about(grasp.pose[:3, :3], up), up=up, heights=motion.transfer)
-
+    return placement_waypoints(
+        grasp.pose,
+        to_arm(cell, arm, peg_top_board(cell, board, place_peg)),
+        place_offset=offset,
+        place_yaw=yaw_about(grasp.pose[:3, :3], up),
+        up=up,
+        heights=motion.transfer,
+    )

@@ -43,8 +43,16 @@ class SimulatorTruth:
 class Robot:
     """Arms, camera and clock of one run; `trial` records the transfers for the judge."""
 
-    def __init__(self, link: Link, clock: Clock, *, simulator: SimProcess | None = None, lockstep: bool = False,
-                 truth: SimulatorTruth | None = None, endpoint: str = "") -> None:
+    def __init__(
+        self,
+        link: Link,
+        clock: Clock,
+        *,
+        simulator: SimProcess | None = None,
+        lockstep: bool = False,
+        truth: SimulatorTruth | None = None,
+        endpoint: str = "",
+    ) -> None:
         self.link = link
         self.run_clock = clock
         self.simulator = simulator
@@ -86,25 +94,47 @@ def _probe_simulator(link: Link) -> SimClock | None:
         return None
 
 
-def connect_robot(endpoint: str, seed: int = 0, faults: str | None = None, simlog: str | None = None) -> Robot:
+def connect_robot(
+    endpoint: str, seed: int = 0, faults: str | None = None, simlog: str | None = None
+) -> Robot:
     """A `Robot` on `endpoint` (`auto`: a fresh embedded simulator seeded with `seed`, injecting the fault
     plan `faults` if given, appending its log to `simlog` if given)."""
     for value, flag, sim_flag in ((faults, "--faults", "--faults"), (simlog, "--simlog", "--log")):
         if value is not None and endpoint != "auto":
-            raise PegbtError(f"{flag} is for the embedded simulator (--endpoint auto); give `pegbt sim {sim_flag}` to a "
-                             "simulator you start yourself", field=flag)
+            raise PegbtError(
+                f"{flag} is for the embedded simulator (--endpoint auto); give `pegbt sim {sim_flag}` to a "
+                "simulator you start yourself",
+                field=flag,
+            )
     simulator = None
     if endpoint == "auto":
-        simulator = SimProcess([*SIMULATOR_ARGS, "--seed", str(seed), *(["--faults", faults] if faults else []),
-                                *(["--log", simlog] if simlog else [])])
+        simulator = SimProcess(
+            [
+                *SIMULATOR_ARGS,
+                "--seed",
+                str(seed),
+                *(["--faults", faults] if faults else []),
+                *(["--log", simlog] if simlog else []),
+            ]
+        )
     try:
         link = connect([simulator.endpoint if simulator else endpoint])
         try:
             # the simulator we started must answer, however busy the machine: no probe timeout for it
-            sim_clock = SimClock(link, reply_timeout=STEP_TIMEOUT) if simulator is not None else _probe_simulator(link)
+            sim_clock = (
+                SimClock(link, reply_timeout=STEP_TIMEOUT)
+                if simulator is not None
+                else _probe_simulator(link)
+            )
             truth = SimulatorTruth(link) if sim_clock is not None else None
-            robot = Robot(link, sim_clock or WallClock(), simulator=simulator, truth=truth,
-                          lockstep=bool(sim_clock and sim_clock.lockstep), endpoint=endpoint)
+            robot = Robot(
+                link,
+                sim_clock or WallClock(),
+                simulator=simulator,
+                truth=truth,
+                lockstep=bool(sim_clock and sim_clock.lockstep),
+                endpoint=endpoint,
+            )
             robot.wait_until_ready()
         except BaseException:
             link.close()
@@ -119,5 +149,9 @@ def connect_robot(endpoint: str, seed: int = 0, faults: str | None = None, simlo
 def provide_robot(setup: ProviderSetup) -> Robot:
     """The `robot` resource for `pegbt run` (options `endpoint`, `seed`, `faults` and `simlog`)."""
     options = setup.options
-    return connect_robot(str(options.get("endpoint") or "auto"), int(options.get("seed") or 0), options.get("faults"),
-                         options.get("simlog"))
+    return connect_robot(
+        str(options.get("endpoint") or "auto"),
+        int(options.get("seed") or 0),
+        options.get("faults"),
+        options.get("simlog"),
+    )

@@ -31,8 +31,12 @@ class Capture(RobotLeaf):
         if not self.handle.ready:  # sends the trigger once a camera listens
             if time.monotonic() > self.deadline:
                 if not self.handle.sent:
-                    self.handle.result(0.0)  # EndpointSilent: no camera to ask, the endpoint is gone (the run halts)
-                return self.fail(f"no point cloud within {self.robot.camera.timeout:g} s of the capture request")
+                    self.handle.result(
+                        0.0
+                    )  # EndpointSilent: no camera to ask, the endpoint is gone (the run halts)
+                return self.fail(
+                    f"no point cloud within {self.robot.camera.timeout:g} s of the capture request"
+                )
             return Status.RUNNING
         points = self.handle.points
         self.write("/cloud", points)
@@ -55,7 +59,9 @@ class RegisterBoard(RobotLeaf):
             return self.fail(f"pegboard registration failed: {board.reason}")
         self.write("/board", board)
         self.write("/board_registered", True)
-        self.feedback_message = f"board registered: fitness {board.fitness:.2f}, RMSE {board.rmse * 1000:.2f} mm"
+        self.feedback_message = (
+            f"board registered: fitness {board.fitness:.2f}, RMSE {board.rmse * 1000:.2f} mm"
+        )
         return Status.SUCCESS
 
 
@@ -74,7 +80,8 @@ class FindBlocks(RobotLeaf):
         where = ", ".join("board" if block.peg is None else str(block.peg) for block in blocks if block.ok)
         doubtful = [block.reason for block in blocks if not block.ok]
         self.feedback_message = f"{len(blocks)} block(s); trustworthy on pegs: {where or 'none'}" + (
-            f"; doubtful: {'; '.join(doubtful)}" if doubtful else "")
+            f"; doubtful: {'; '.join(doubtful)}" if doubtful else ""
+        )
         if not any(block.ok for block in blocks):
             return self.fail(f"a poor capture: {self.feedback_message}")
         return Status.SUCCESS

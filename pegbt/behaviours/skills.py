@@ -52,16 +52,25 @@ def calibration_model(directory: Path, arm: str) -> CalibrationModel:
         if path.exists():
             return CalibrationModel.load(path, arm=arm)
     names = ", ".join(model_file_name(arm, kind) for kind in MODEL_PREFERENCE)
-    raise PegbtError(f"no calibration model for {arm} (looked for {names})", file=directory, field="--calibration")
+    raise PegbtError(
+        f"no calibration model for {arm} (looked for {names})", file=directory, field="--calibration"
+    )
 
 
 class Skills:
     """Per-arm motion under one condition, the work cell, and the perception pipeline's state."""
 
-    def __init__(self, condition: str, calibration: Path | None = None, cell: Workcell | None = None,
-                 motion: MotionSettings | None = None) -> None:
+    def __init__(
+        self,
+        condition: str,
+        calibration: Path | None = None,
+        cell: Workcell | None = None,
+        motion: MotionSettings | None = None,
+    ) -> None:
         if condition not in CONDITIONS:
-            raise PegbtError(f"unknown condition {condition!r}; known: {', '.join(CONDITIONS)}", field="--condition")
+            raise PegbtError(
+                f"unknown condition {condition!r}; known: {', '.join(CONDITIONS)}", field="--condition"
+            )
         self.condition = condition
         self.cell = cell or workcell()
         self.motion = motion or motion_settings()
@@ -70,7 +79,9 @@ class Skills:
             settings = arm_settings(arm)
             compensator = None
             if condition != "uncalibrated":
-                compensator = Compensator(calibration_model(calibration or CALIBRATION_DIR, arm), settings=settings)
+                compensator = Compensator(
+                    calibration_model(calibration or CALIBRATION_DIR, arm), settings=settings
+                )
             planner = TransferPlanner(settings, self.motion) if condition == "optimized" else None
             self.arms[arm] = ArmMotion(settings, planner=planner, compensator=compensator)
         self.registration = PegboardRegistration(self.cell)
@@ -91,7 +102,9 @@ class Skills:
             raise PegbtError(f"unknown arm {name!r}; known: {', '.join(self.arms)}", field="arm")
         return self.arms[name]
 
-    def clearance(self, arm: str, planned: Trajectory, start: float, others: dict[str, NDArray[np.float64]]) -> float:
+    def clearance(
+        self, arm: str, planned: Trajectory, start: float, others: dict[str, NDArray[np.float64]]
+    ) -> float:
         """Closest distance (m) between `arm`'s tool along `planned` (starting at clock time `start`) and
         each other arm's tool where it is meant to be at the same times (along its own motion, or at rest:
         `others` gives each other arm's set-point in case it has not moved yet). Tools are their shafts and
@@ -109,9 +122,12 @@ class Skills:
         """How the motions went (None if nothing moved): trajectories sent, fallbacks, planned tool-tip paths."""
         if not any(motion.plans for motion in self.arms.values()):
             return None
-        return SkillsReport(self.condition, {name: motion.plans for name, motion in self.arms.items()},
-                            {name: motion.fallbacks for name, motion in self.arms.items()},
-                            {name: motion.tip_path for name, motion in self.arms.items()})
+        return SkillsReport(
+            self.condition,
+            {name: motion.plans for name, motion in self.arms.items()},
+            {name: motion.fallbacks for name, motion in self.arms.items()},
+            {name: motion.tip_path for name, motion in self.arms.items()},
+        )
 
 
 @dataclass(frozen=True)
@@ -124,13 +140,23 @@ class SkillsReport:
     tip_path_m: dict[str, float]
 
     def as_dict(self) -> dict[str, object]:
-        return {"condition": self.condition, "plans": dict(self.plans), "fallbacks": dict(self.fallbacks),
-                "tip_path_m": dict(self.tip_path_m)}
+        return {
+            "condition": self.condition,
+            "plans": dict(self.plans),
+            "fallbacks": dict(self.fallbacks),
+            "tip_path_m": dict(self.tip_path_m),
+        }
 
     def __str__(self) -> str:
-        arms = "; ".join(f"{arm} {self.plans[arm]} trajectories, planned tool-tip path {self.tip_path_m[arm]:.2f} m"
-                         + (f", {self.fallbacks[arm]} optimised plan(s) fell back to cubics" if self.fallbacks[arm] else "")
-                         for arm in self.plans)
+        arms = "; ".join(
+            f"{arm} {self.plans[arm]} trajectories, planned tool-tip path {self.tip_path_m[arm]:.2f} m"
+            + (
+                f", {self.fallbacks[arm]} optimised plan(s) fell back to cubics"
+                if self.fallbacks[arm]
+                else ""
+            )
+            for arm in self.plans
+        )
         return f"motion ({self.condition}): {arms}"
 
 

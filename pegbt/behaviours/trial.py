@@ -80,14 +80,20 @@ class TrialResult:
     @property
     def transfer_times(self) -> list[float]:
         """Each successful transfer's own time, from its start to its block's placement."""
-        return [outcome.seconds for outcome in self.transfers if outcome.succeeded and outcome.seconds is not None]
+        return [
+            outcome.seconds for outcome in self.transfers if outcome.succeeded and outcome.seconds is not None
+        ]
 
     @property
     def mean_transfer_time_s(self) -> float | None:
         """Time spent transferring per successful transfer: the union of their start-to-placement intervals
         (transfers that overlap, two arms at once or a pipelined handover, count their shared time once)
         over their number. For one arm at a time it is the mean of the transfer times."""
-        intervals = sorted((o.started, o.started + o.seconds) for o in self.transfers if o.succeeded and o.seconds is not None)
+        intervals = sorted(
+            (o.started, o.started + o.seconds)
+            for o in self.transfers
+            if o.succeeded and o.seconds is not None
+        )
         busy, reach = 0.0, -math.inf
         for start, end in intervals:
             busy += max(0.0, end - max(start, reach))
@@ -129,8 +135,14 @@ class TrialResult:
             table.add_column(column, justify="right" if column in ("#", "time s") else "left")
         for outcome in self.transfers:
             seconds = "" if outcome.seconds is None else f"{outcome.seconds:.2f}"
-            table.add_row(str(outcome.index), outcome.arms, f"{outcome.pick} → {outcome.place}",
-                          "ok" if outcome.succeeded else "FAILED", seconds, outcome.note)
+            table.add_row(
+                str(outcome.index),
+                outcome.arms,
+                f"{outcome.pick} → {outcome.place}",
+                "ok" if outcome.succeeded else "FAILED",
+                seconds,
+                outcome.note,
+            )
         return Group(table, Text(self.summary()))
 
     def __str__(self) -> str:
@@ -169,20 +181,40 @@ class Trial:
     def result(self) -> TrialResult:
         trial_time, wall_time = self.clock.now() - self.started, time.perf_counter() - self.wall_started
         if self.truth is None:
-            return TrialResult("the executive's beliefs (no simulator ground truth)", tuple(self._believed()), trial_time,
-                               wall_time, 0, 0)
+            return TrialResult(
+                "the executive's beliefs (no simulator ground truth)",
+                tuple(self._believed()),
+                trial_time,
+                wall_time,
+                0,
+                0,
+            )
         entries = [entry for entry in self.truth.entries(self.clock) if entry["time"] >= self.started]
         kinds: dict[str, int] = {}
         for entry in entries:
             kinds[entry["kind"]] = kinds.get(entry["kind"], 0) + 1
-        return TrialResult("the simulator's ground truth", tuple(self._judged(entries)), trial_time, wall_time,
-                           *count_contacts(entries), kinds)
+        return TrialResult(
+            "the simulator's ground truth",
+            tuple(self._judged(entries)),
+            trial_time,
+            wall_time,
+            *count_contacts(entries),
+            kinds,
+        )
 
     def _believed(self) -> list[TransferOutcome]:
         return [
-            TransferOutcome(record.index, record.arms, record.pick, record.place, record.outcome == "placed", record.started,
-                            None if record.ended is None else record.ended - record.started, record.note or record.outcome,
-                            record.ended)
+            TransferOutcome(
+                record.index,
+                record.arms,
+                record.pick,
+                record.place,
+                record.outcome == "placed",
+                record.started,
+                None if record.ended is None else record.ended - record.started,
+                record.note or record.outcome,
+                record.ended,
+            )
             for record in self.transfers
         ]
 
@@ -190,23 +222,60 @@ class Trial:
         outcomes = []
         for record in self.transfers:
             until = (record.ended if record.ended is not None else self.clock.now()) + GRACE
-            lifted = {entry["block"] for entry in entries if entry["kind"] == "lift" and entry.get("peg") == record.pick
-                      and record.started <= entry["time"] <= until}
-            placed = [entry for entry in entries if entry["kind"] in ("place", "drop") and entry.get("peg") == record.place
-                      and entry.get("block") in lifted and record.started <= entry["time"] <= until]
+            lifted = {
+                entry["block"]
+                for entry in entries
+                if entry["kind"] == "lift"
+                and entry.get("peg") == record.pick
+                and record.started <= entry["time"] <= until
+            }
+            placed = [
+                entry
+                for entry in entries
+                if entry["kind"] in ("place", "drop")
+                and entry.get("peg") == record.place
+                and entry.get("block") in lifted
+                and record.started <= entry["time"] <= until
+            ]
             if placed:
                 seconds = placed[0]["time"] - record.started
-                outcomes.append(TransferOutcome(record.index, record.arms, record.pick, record.place, True, record.started,
-                                                seconds, record.note, record.ended))
+                outcomes.append(
+                    TransferOutcome(
+                        record.index,
+                        record.arms,
+                        record.pick,
+                        record.place,
+                        True,
+                        record.started,
+                        seconds,
+                        record.note,
+                        record.ended,
+                    )
+                )
             else:
-                why = record.note or ("no block lifted off the pick peg" if not lifted else "not placed on the place peg")
-                outcomes.append(TransferOutcome(record.index, record.arms, record.pick, record.place, False, record.started,
-                                                None, why, record.ended))
+                why = record.note or (
+                    "no block lifted off the pick peg" if not lifted else "not placed on the place peg"
+                )
+                outcomes.append(
+                    TransferOutcome(
+                        record.index,
+                        record.arms,
+                        record.pick,
+                        record.place,
+                        False,
+                        record.started,
+                        None,
+                        why,
+                        record.ended,
+                    )
+                )
         return outcomes
 
     def progress_listener(self) -> Callable[[dict[str, Any]], None]:
         """A tick-log listener drawing a progress bar of finished transfers (total: the tree's `begin_transfer` leaves)."""
-        progress = Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn())
+        progress = Progress(
+            TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn()
+        )
         state: dict[str, Any] = {}
 
         def listen(record: dict[str, Any]) -> None:
@@ -221,7 +290,9 @@ class Trial:
             elif "task" in state:
                 done = sum(1 for transfer in self.transfers if transfer.ended is not None)
                 current = next((t for t in reversed(self.transfers) if t.ended is None), None)
-                label = f"transfers ({current.arms} {current.pick}→{current.place})" if current else "transfers"
+                label = (
+                    f"transfers ({current.arms} {current.pick}→{current.place})" if current else "transfers"
+                )
                 progress.update(state["task"], completed=done, description=label)
 
         return listen

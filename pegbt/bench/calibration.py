@@ -85,7 +85,9 @@ def _simulator_figures(figures: Figures, arm: str) -> None:
     """Collect from the simulator, fit the physics model, command the transfer waypoints both ways."""
     with tempfile.TemporaryDirectory() as folder:
         start = time.perf_counter()
-        recording = load_recording(collect_on_simulator(arm, Path(folder) / f"sim_{arm}", SIM_SETPOINTS, SIM_SEED))
+        recording = load_recording(
+            collect_on_simulator(arm, Path(folder) / f"sim_{arm}", SIM_SETPOINTS, SIM_SEED)
+        )
         figures[f"sim.{arm}.collect_s"] = time.perf_counter() - start
     model = new_model("physics", arm).fit(recording)
     goals = transfer_goals(arm)

@@ -30,9 +30,13 @@ def run() -> Figures:
     faulty = {"faults_injected": 0, "faults_recovered": 0, "why_checked": 0, "why_agreed": 0}
     with tempfile.TemporaryDirectory(prefix="pegbt-bench-eval-") as scratch:
         for variant in VARIANTS:
-            for cell in (Cell(variant, "optimized", CLEAN_TRIALS, FIRST_SEED),
-                         Cell(variant, "optimized", FAULTY_TRIALS, FIRST_SEED, inject_faults=True)):
-                summary = summarise(cell, run_trials(trial_specs(cell, Path(scratch) / cell.name), WORKERS), WORKERS)
+            for cell in (
+                Cell(variant, "optimized", CLEAN_TRIALS, FIRST_SEED),
+                Cell(variant, "optimized", FAULTY_TRIALS, FIRST_SEED, inject_faults=True),
+            ):
+                summary = summarise(
+                    cell, run_trials(trial_specs(cell, Path(scratch) / cell.name), WORKERS), WORKERS
+                )
                 if cell.inject_faults:
                     for key in faulty:
                         faulty[key] += summary[key]
@@ -42,7 +46,11 @@ def run() -> Figures:
                 figures[f"{variant}_mean_transfer_time_s"] = summary["mean_transfer_time_s"]
                 figures[f"{variant}_collisions_per_trial"] = summary["collisions_per_trial"]
                 figures[f"{variant}_wall_time_s_median"] = summary["wall_time_s_median"]
-    figures["recovery_rate"] = faulty["faults_recovered"] / faulty["faults_injected"] if faulty["faults_injected"] else float("nan")
-    figures["why_agreement"] = faulty["why_agreed"] / faulty["why_checked"] if faulty["why_checked"] else float("nan")
+    figures["recovery_rate"] = (
+        faulty["faults_recovered"] / faulty["faults_injected"] if faulty["faults_injected"] else float("nan")
+    )
+    figures["why_agreement"] = (
+        faulty["why_agreed"] / faulty["why_checked"] if faulty["why_checked"] else float("nan")
+    )
     figures.update(faulty)
     return {key: value for key, value in figures.items() if value is not None}

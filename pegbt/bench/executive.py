@@ -103,7 +103,13 @@ def _tick_costs(directory: Path, running_ticks: int) -> tuple[int, float, float,
     with log_path.open() as log:
         records = sum(1 for _ in log) - 1
     ratio = statistics.median(after / before for before, after in zip(plain, logged))
-    return len(built.nodes), statistics.median(plain) * 1e6, statistics.median(logged) * 1e6, ratio, records / tick
+    return (
+        len(built.nodes),
+        statistics.median(plain) * 1e6,
+        statistics.median(logged) * 1e6,
+        ratio,
+        records / tick,
+    )
 
 
 def run() -> Figures:

@@ -58,7 +58,9 @@ def _scipy_ik(target: np.ndarray, settings: ArmSettings) -> np.ndarray:
         rotation_error = (target_rotation.inv() * Rotation.from_matrix(pose[:3, :3])).as_rotvec()
         return np.concatenate([pose[:3, 3] - target[:3, 3], 0.01 * rotation_error])
 
-    result = least_squares(residual, HOME, bounds=(settings.lower, settings.upper), xtol=1e-12, ftol=1e-12, gtol=1e-12)
+    result = least_squares(
+        residual, HOME, bounds=(settings.lower, settings.upper), xtol=1e-12, ftol=1e-12, gtol=1e-12
+    )
     return result.x
 
 
@@ -93,7 +95,9 @@ def _toppra_duration(q: np.ndarray, times: np.ndarray, settings: ArmSettings) ->
     toppra.setup_logging("WARNING")
     path = toppra.SplineInterpolator(times, q)
     limits = [
-        toppra.constraint.JointVelocityConstraint(np.stack([-settings.planner_velocity, settings.planner_velocity], axis=1)),
+        toppra.constraint.JointVelocityConstraint(
+            np.stack([-settings.planner_velocity, settings.planner_velocity], axis=1)
+        ),
         toppra.constraint.JointAccelerationConstraint(
             np.stack([-settings.planner_acceleration, settings.planner_acceleration], axis=1)
         ),
@@ -125,7 +129,17 @@ def _transfer_figures(settings: ArmSettings) -> dict[str, list]:
     tops, up = cell.peg_tops_in(settings.name), cell.up_in(settings.name)
     transfers = [transfer_waypoints(tops[a], tops[b], up=up) for a, b in UNILATERAL_ORDER]
     planner.plan(transfers[0])  # warm-up: imports and first factorisation
-    keys = ("plan", "baseline", "ours", "splines", "optimal", "optimal_spline", "no_channel", "cubic", "refined")
+    keys = (
+        "plan",
+        "baseline",
+        "ours",
+        "splines",
+        "optimal",
+        "optimal_spline",
+        "no_channel",
+        "cubic",
+        "refined",
+    )
     figures: dict[str, list] = {key: [] for key in keys}
     figures["setup"], solves_before = [setup], planner.refiner.solves
     for waypoints in transfers:
@@ -179,4 +193,7 @@ def _planning_figures(arms: list[ArmSettings]) -> Figures:
 
 
 def run() -> Figures:
-    return {**_ik_figures(arm_settings("PSM1")), **_planning_figures([arm_settings("PSM1"), arm_settings("PSM2")])}
+    return {
+        **_ik_figures(arm_settings("PSM1")),
+        **_planning_figures([arm_settings("PSM1"), arm_settings("PSM2")]),
+    }

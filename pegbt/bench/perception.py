@@ -30,7 +30,9 @@ def _perturbation(rng: np.random.Generator) -> np.ndarray:
     from scipy.spatial.transform import Rotation
 
     axis, shift = rng.normal(size=3), rng.normal(size=3)
-    rotation = Rotation.from_rotvec(math.radians(EXTRINSIC_ERROR_DEG) * axis / np.linalg.norm(axis)).as_matrix()
+    rotation = Rotation.from_rotvec(
+        math.radians(EXTRINSIC_ERROR_DEG) * axis / np.linalg.norm(axis)
+    ).as_matrix()
     return rigid_transform(rotation, EXTRINSIC_ERROR_MM / 1000 * shift / np.linalg.norm(shift))
 
 

@@ -47,7 +47,9 @@ def run() -> Figures:
     from pegbt.sim.world import World
     from pegbt.workcell import UNILATERAL_ORDER
 
-    transfers = [("PSM1" if i % 2 == 0 else "PSM2", start, goal) for i, (start, goal) in enumerate(UNILATERAL_ORDER)]
+    transfers = [
+        ("PSM1" if i % 2 == 0 else "PSM2", start, goal) for i, (start, goal) in enumerate(UNILATERAL_ORDER)
+    ]
     trial = scripted_trial(World(SEED), transfers, STEP, SPEED)
     figures: Figures = {}
     for tick, suffix in ((0.01, ""), (0.02, "_20ms")):

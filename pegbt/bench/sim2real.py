@@ -39,7 +39,10 @@ def _ten_minutes_seconds() -> float:
     rng = np.random.default_rng(7)
     t = np.arange(0.0, 600.0, 0.01)
     q_cmd = smooth_commands(rng, t, rng.uniform(0.8, 2.0, 6))
-    q_phy = ArmPhysics.load("dvrk-real", "PSM1").simulate(q_cmd, t) + rng.standard_normal(q_cmd.shape) * NOISE_SIGMA
+    q_phy = (
+        ArmPhysics.load("dvrk-real", "PSM1").simulate(q_cmd, t)
+        + rng.standard_normal(q_cmd.shape) * NOISE_SIGMA
+    )
     recording = Recording(Path("<10 min synthetic PSM1>"), q_cmd, q_phy, t)
     start = time.perf_counter()
     with tempfile.TemporaryDirectory() as out:
@@ -89,7 +92,9 @@ def run() -> dict[str, float | int | str]:
         "min_detectable_snr": detection_threshold(SNR_LEVELS, rates),
     }
     figures.update({f"naming_accuracy_{family}": value for family, value in per_family.items()})
-    figures.update({f"false_discovery_rate_{family.split('-')[1]}": value for family, value in null_named.items()})
+    figures.update(
+        {f"false_discovery_rate_{family.split('-')[1]}": value for family, value in null_named.items()}
+    )
     figures["wrong_name_fraction"] = false_names / max(named, 1)
     figures.update({f"naming_rate_snr_{level:g}": rate for level, rate in zip(SNR_LEVELS, rates)})
     figures["seeds_per_family"] = SEEDS

@@ -20,16 +20,24 @@ from pegbt.sim2real.baselines import linear_window, lstm_window
 from pegbt.sim2real.compare import compare
 from pegbt.sim2real.diagnose import diagnose
 
-RECORDINGS = ("random_smooth_grey1_PSM1", "random_smooth_grey2_PSM2", "random_smooth_new1_PSM1",
-              "random_smooth_new2_PSM2")
-SAME_ARM = {"PSM1": ("random_smooth_grey1_PSM1", "random_smooth_new1_PSM1"),
-            "PSM2": ("random_smooth_grey2_PSM2", "random_smooth_new2_PSM2")}
+RECORDINGS = (
+    "random_smooth_grey1_PSM1",
+    "random_smooth_grey2_PSM2",
+    "random_smooth_new1_PSM1",
+    "random_smooth_new2_PSM2",
+)
+SAME_ARM = {
+    "PSM1": ("random_smooth_grey1_PSM1", "random_smooth_new1_PSM1"),
+    "PSM2": ("random_smooth_grey2_PSM2", "random_smooth_new2_PSM2"),
+}
 TRAIN_FRACTION = 0.7
 WRIST = ("q4", "q5", "q6")
 # Raw q_phy − q_cmd RMSE of the wrist joints as tabulated in ../shared/data/dvrk/README.md (Table I data).
 README_RAW = {
-    "random_smooth_grey1_PSM1": (0.261, 0.152, 0.166), "random_smooth_grey2_PSM2": (0.156, 0.164, 0.206),
-    "random_smooth_new1_PSM1": (0.071, 0.035, 0.125), "random_smooth_new2_PSM2": (0.104, 0.033, 0.127),
+    "random_smooth_grey1_PSM1": (0.261, 0.152, 0.166),
+    "random_smooth_grey2_PSM2": (0.156, 0.164, 0.206),
+    "random_smooth_new1_PSM1": (0.071, 0.035, 0.125),
+    "random_smooth_new2_PSM2": (0.104, 0.033, 0.127),
 }
 
 

@@ -73,7 +73,9 @@ def _servo_round_trips() -> list[float]:
 def _raw_round_trips(payload_size: int) -> list[float]:
     port = free_port()
     echo = subprocess.Popen(
-        [sys.executable, "-m", "pegbt.bench.transport", "echo", f"tcp/127.0.0.1:{port}"], stdout=subprocess.PIPE, text=True
+        [sys.executable, "-m", "pegbt.bench.transport", "echo", f"tcp/127.0.0.1:{port}"],
+        stdout=subprocess.PIPE,
+        text=True,
     )
     try:
         echo.stdout.readline()  # "ready"

@@ -36,7 +36,9 @@ def run() -> Figures:
     driver = Driver(world, step=STEP)
     for start_peg, goal_peg in UNILATERAL_ORDER:
         block = next(b.index for b in world.blocks if b.peg == start_peg and b.state == "on_peg")
-        driver.play({"PSM1": transfer_keyframes(world, block, goal_peg, grasp_candidate_facing(world, block, "PSM1"))})
+        driver.play(
+            {"PSM1": transfer_keyframes(world, block, goal_peg, grasp_candidate_facing(world, block, "PSM1"))}
+        )
     driver.play({"PSM1": [parked(world, "PSM1")]})
     steps = np.array(durations)
     placed = world.events.of_kind("place")

@@ -112,7 +112,8 @@ class CalibrationModel(ABC):
         if metadata.outputs != expected:
             raise PegbtError(
                 f"a {metadata.kind} model predicts {list(expected)}, the file says {list(metadata.outputs)}",
-                file=path, field="outputs",
+                file=path,
+                field="outputs",
             )
         model = cls(metadata.arm)
         try:
@@ -145,7 +146,9 @@ class CalibrationModel(ABC):
 def model_class(kind: str, path: Path | None = None) -> type[CalibrationModel]:
     """The class of model kind `kind` (lstm, physics, hybrid)."""
     if kind not in MODEL_KINDS:
-        raise PegbtError(f"unknown model kind {kind!r}; expected one of {', '.join(MODEL_KINDS)}", file=path, field="kind")
+        raise PegbtError(
+            f"unknown model kind {kind!r}; expected one of {', '.join(MODEL_KINDS)}", file=path, field="kind"
+        )
     module_name, class_name = MODEL_KINDS[kind].split(":")
     return getattr(importlib.import_module(module_name), class_name)
 
@@ -174,14 +177,19 @@ def check_trainable(recording: Recording, joints: tuple[int, ...], min_samples: 
 def check_arm(recording: Recording, arm: str, what: str) -> None:
     """Refuse to mix arms: a recording of PSM2 says nothing about PSM1's cables."""
     if recording.arm is not None and recording.arm != arm:
-        raise PegbtError(f"the recording is of {recording.arm}, but {what} is for {arm}", file=recording.path, field="arm")
+        raise PegbtError(
+            f"the recording is of {recording.arm}, but {what} is for {arm}", file=recording.path, field="arm"
+        )
 
 
 def as_commands(q_cmd: ArrayLike) -> NDArray[np.float64]:
     """Commands as an (N, 6) float array, or a `PegbtError` saying what shape they had."""
     q_cmd = np.asarray(q_cmd, dtype=float)
     if q_cmd.ndim != 2 or q_cmd.shape[1] != N_JOINTS:
-        raise PegbtError(f"commands must be N×{N_JOINTS} ({', '.join(JOINT_NAMES)}), got shape {q_cmd.shape}", field="q_cmd")
+        raise PegbtError(
+            f"commands must be N×{N_JOINTS} ({', '.join(JOINT_NAMES)}), got shape {q_cmd.shape}",
+            field="q_cmd",
+        )
     return q_cmd
 
 

@@ -33,16 +33,41 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
         "--minutes of the arm's time (printed before it starts). Writes the dataset layout to --out.",
     )
     collect.add_argument("--arm", required=True, choices=ARMS)
-    collect.add_argument("--minutes", required=True, action=NumberOption, above=0.0, metavar="N",
-                         help="the arm's time to spend (a lockstep simulator runs faster than that)")
-    collect.add_argument("--out", type=Path, metavar="DIR",
-                         help=f"recording folder (default {OUTPUT_DIR}/sim-ARM with --endpoint auto, else {OUTPUT_DIR}/ARM)")
-    collect.add_argument("--endpoint", default="auto", metavar="auto|ADDRESS",
-                         help="auto (default): the embedded simulator (lockstep, dvrk-real physics); or the zenoh "
-                         "address of a running simulator or robot")
-    collect.add_argument("--seed", action=NumberOption, type=int, at_least=0, default=0,
-                         help="seed of the set-points and of the embedded simulator (default 0)")
-    collect.add_argument("--log", type=Path, metavar="FILE", help="tick log path (default runs/calibrate_collect-DATE-TIME.jsonl)")
+    collect.add_argument(
+        "--minutes",
+        required=True,
+        action=NumberOption,
+        above=0.0,
+        metavar="N",
+        help="the arm's time to spend (a lockstep simulator runs faster than that)",
+    )
+    collect.add_argument(
+        "--out",
+        type=Path,
+        metavar="DIR",
+        help=f"recording folder (default {OUTPUT_DIR}/sim-ARM with --endpoint auto, else {OUTPUT_DIR}/ARM)",
+    )
+    collect.add_argument(
+        "--endpoint",
+        default="auto",
+        metavar="auto|ADDRESS",
+        help="auto (default): the embedded simulator (lockstep, dvrk-real physics); or the zenoh "
+        "address of a running simulator or robot",
+    )
+    collect.add_argument(
+        "--seed",
+        action=NumberOption,
+        type=int,
+        at_least=0,
+        default=0,
+        help="seed of the set-points and of the embedded simulator (default 0)",
+    )
+    collect.add_argument(
+        "--log",
+        type=Path,
+        metavar="FILE",
+        help="tick log path (default runs/calibrate_collect-DATE-TIME.jsonl)",
+    )
     collect.set_defaults(handler=_collect)
 
     train = commands.add_parser(
@@ -56,8 +81,14 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
     train.add_argument("--arm", required=True, choices=ARMS)
     train.add_argument("--model", required=True, choices=KINDS)
     train.add_argument("--out", type=Path, help="model file to write")
-    train.add_argument("--train-fraction", action=NumberOption, above=0.0, at_most=1.0, default=0.7, help="share used for training (default 0.7; "
-                       "1.0 trains on everything and records no held-out scores)")
+    train.add_argument(
+        "--train-fraction",
+        action=NumberOption,
+        above=0.0,
+        at_most=1.0,
+        default=0.7,
+        help="share used for training (default 0.7; 1.0 trains on everything and records no held-out scores)",
+    )
     train.set_defaults(handler=_train)
 
     evaluate = commands.add_parser(
@@ -68,8 +99,14 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
     )
     evaluate.add_argument("model", type=Path, metavar="MODEL", help="model file")
     evaluate.add_argument("recording", type=Path, metavar="RECORDING", help=RECORDING_HELP)
-    evaluate.add_argument("--from-fraction", action=NumberOption, at_least=0.0, below=1.0, default=0.0,
-                          help="score only samples after this share of the recording (0.7: the held-out part)")
+    evaluate.add_argument(
+        "--from-fraction",
+        action=NumberOption,
+        at_least=0.0,
+        below=1.0,
+        default=0.0,
+        help="score only samples after this share of the recording (0.7: the held-out part)",
+    )
     evaluate.add_argument("--json", action="store_true", help="print one JSON object")
     evaluate.set_defaults(handler=_eval)
 
@@ -81,14 +118,25 @@ def _collect(args: argparse.Namespace) -> int:
 
     count, step = setpoints_for_minutes(args.minutes, args.arm, args.seed)
     if count < MIN_SAMPLES:
-        raise PegbtError(f"{args.minutes:g} min holds {count} set-points of {step:.2f} s; a recording needs at least "
-                         f"{MIN_SAMPLES} ({MIN_SAMPLES * step / 60:.2f} min)", field="--minutes")
+        raise PegbtError(
+            f"{args.minutes:g} min holds {count} set-points of {step:.2f} s; a recording needs at least "
+            f"{MIN_SAMPLES} ({MIN_SAMPLES * step / 60:.2f} min)",
+            field="--minutes",
+        )
     out = args.out or OUTPUT_DIR / (f"sim-{args.arm}" if args.endpoint == "auto" else args.arm)
-    print(f"{args.arm}: {count} set-points in {args.minutes:g} min, {step:.2f} s each "
-          f"(move {step - SETTLE_S:.2f} s + {SETTLE_S:g} s settle, estimated)", flush=True)
+    print(
+        f"{args.arm}: {count} set-points in {args.minutes:g} min, {step:.2f} s each "
+        f"(move {step - SETTLE_S:.2f} s + {SETTLE_S:g} s settle, estimated)",
+        flush=True,
+    )
     log_path = args.log or default_log_path(COLLECT_TREE)
-    output = run_tree_file(COLLECT_TREE, log_path, options={"endpoint": args.endpoint, "seed": args.seed}, quiet=False,
-                           blackboard={"arm": args.arm, "setpoints": count, "out": str(out), "seed": args.seed})
+    output = run_tree_file(
+        COLLECT_TREE,
+        log_path,
+        options={"endpoint": args.endpoint, "seed": args.seed},
+        quiet=False,
+        blackboard={"arm": args.arm, "setpoints": count, "out": str(out), "seed": args.seed},
+    )
     print(f"outcome: {output.result.outcome} in {output.result.duration:.1f} s of the run's clock")
     if output.ok:
         print(f"recording: {out}")
@@ -124,7 +172,9 @@ def _eval(args: argparse.Namespace) -> int:
     recording = load_recording(args.recording)
     start = recording.head(args.from_fraction) if args.from_fraction > 0 else 0
     if start >= len(recording):
-        raise PegbtError(f"--from-fraction {args.from_fraction} leaves no samples to score", field="--from-fraction")
+        raise PegbtError(
+            f"--from-fraction {args.from_fraction} leaves no samples to score", field="--from-fraction"
+        )
     scores = evaluate(model, recording, start=start)
     print(json.dumps(scores) if args.json else _summary(scores))
     return 0

@@ -46,7 +46,9 @@ def simulated_arm(arm: str, physics: str = "dvrk-real") -> Iterator[tuple[ArmCli
             link.close()
 
 
-def collect_on_simulator(arm: str, out: str | Path, count: int, seed: int = 0, physics: str = "dvrk-real") -> Path:
+def collect_on_simulator(
+    arm: str, out: str | Path, count: int, seed: int = 0, physics: str = "dvrk-real"
+) -> Path:
     """A calibration recording of `count` set-points collected from a simulator with `physics`."""
     with simulated_arm(arm, physics) as (client, clock):
         return collect(client, clock, out, count, seed)
@@ -61,7 +63,9 @@ def desired_samples(start: Array, goal: Array, client: ArmClient) -> Array:
     return np.vstack([line, rest])
 
 
-def run_waypoints(client: ArmClient, clock: SimClock, goals: Array, model: CalibrationModel | None = None) -> Array:
+def run_waypoints(
+    client: ArmClient, clock: SimClock, goals: Array, model: CalibrationModel | None = None
+) -> Array:
     """Tool-tip error (mm) at each of `goals` (K, 6), reached uncompensated or through `model`."""
     period = client.settings.control_period
     current = client.setpoint_js.position
@@ -80,8 +84,9 @@ def run_waypoints(client: ArmClient, clock: SimClock, goals: Array, model: Calib
     return np.array(errors)
 
 
-def simulator_tip_errors(arm: str, goals: Array, model: CalibrationModel | None = None,
-                         physics: str = "dvrk-real") -> Array:
+def simulator_tip_errors(
+    arm: str, goals: Array, model: CalibrationModel | None = None, physics: str = "dvrk-real"
+) -> Array:
     """`run_waypoints` for `arm` on a fresh simulator with `physics`."""
     with simulated_arm(arm, physics) as (client, clock):
         return run_waypoints(client, clock, goals, model)

@@ -38,8 +38,9 @@ def random_setpoints(lower: ArrayLike, upper: ArrayLike, count: int, rng: np.ran
     """`count` smooth random set-points (count, 6) inside [lower, upper], each joint reversing often."""
     lower, upper = np.asarray(lower, dtype=float), np.asarray(upper, dtype=float)
     if count < 2 or np.any(upper <= lower):
-        raise PegbtError(f"need at least 2 set-points in a non-empty box, got {count} in {lower}..{upper}",
-                         field="count")
+        raise PegbtError(
+            f"need at least 2 set-points in a non-empty box, got {count} in {lower}..{upper}", field="count"
+        )
     points = np.empty((count, len(lower)))
     index = np.arange(count)
     for j in range(len(lower)):
@@ -81,7 +82,9 @@ def setpoints_for_minutes(minutes: float, arm: str, seed: int = 0) -> tuple[int,
     return max(2, int(minutes * 60.0 / step)), step
 
 
-def move_and_settle(client: ArmClient, clock: Clock, trajectory: TrajectoryLike, settle_s: float = SETTLE_S) -> None:
+def move_and_settle(
+    client: ArmClient, clock: Clock, trajectory: TrajectoryLike, settle_s: float = SETTLE_S
+) -> None:
     """Send `trajectory`, let simulated or real time pass until it is done, then rest `settle_s`."""
     handle = client.move_jp(trajectory)
     clock.wait(float(trajectory.t[-1]))
@@ -93,8 +96,14 @@ def move_and_settle(client: ArmClient, clock: Clock, trajectory: TrajectoryLike,
     clock.wait(settle_s)
 
 
-def collect(client: ArmClient, clock: Clock, out: str | Path, count: int, seed: int = 0,
-            box: tuple[ArrayLike, ArrayLike] | None = None) -> Path:
+def collect(
+    client: ArmClient,
+    clock: Clock,
+    out: str | Path,
+    count: int,
+    seed: int = 0,
+    box: tuple[ArrayLike, ArrayLike] | None = None,
+) -> Path:
     """Drive `client`'s arm through `count` random smooth set-points and write the recording to `out`.
 
     `box` (lower, upper) bounds the set-points; by default the peg-transfer task's joints

@@ -44,7 +44,9 @@ class Iterations:
 
     def __post_init__(self) -> None:
         if self.count < 0 or not 0.0 < self.alpha <= 1.0:
-            raise PegbtError(f"need M >= 0 and 0 < alpha <= 1, got M={self.count}, alpha={self.alpha}", field="alpha")
+            raise PegbtError(
+                f"need M >= 0 and 0 < alpha <= 1, got M={self.count}, alpha={self.alpha}", field="alpha"
+            )
 
 
 # Single goals iterate M = 5 times. Streamed steps carry the correction from step to step, so one full
@@ -58,7 +60,11 @@ class Compensator:
     """Turns desired joints into the commands that reach them, for one arm and one model."""
 
     def __init__(
-        self, model: CalibrationModel, *, goal: Iterations = GOAL_ITERATIONS, stream: Iterations = STREAM_ITERATIONS,
+        self,
+        model: CalibrationModel,
+        *,
+        goal: Iterations = GOAL_ITERATIONS,
+        stream: Iterations = STREAM_ITERATIONS,
         settings: ArmSettings | None = None,
     ) -> None:
         self.model = model
@@ -97,7 +103,9 @@ class Compensator:
             raise PegbtError(f"{what} must have {len(JOINT_NAMES)} joints, got shape {q.shape}", field="q")
         problems = self.settings.joint_violations(q)
         if problems:
-            raise PegbtError(f"{what} is outside {self.model.arm}'s joint limits: {'; '.join(problems)}", field="q")
+            raise PegbtError(
+                f"{what} is outside {self.model.arm}'s joint limits: {'; '.join(problems)}", field="q"
+            )
         return q
 
     def _issue(self, q_desired: ArrayLike, streamed: bool) -> NDArray[np.float64]:
@@ -106,13 +114,19 @@ class Compensator:
             self.reset(q_d)
         assert self.last_issued is not None and self._last_entry is not None
         q_c = self._solve(q_d, self.iterations[streamed])
-        self._note("joint_limit", bool(np.any((q_c < self.settings.lower) | (q_c > self.settings.upper))),
-                   "compensated command clamped into the joint limits")
+        self._note(
+            "joint_limit",
+            bool(np.any((q_c < self.settings.lower) | (q_c > self.settings.upper))),
+            "compensated command clamped into the joint limits",
+        )
         q_c = np.clip(q_c, self.settings.lower, self.settings.upper)
         if streamed:
             move = q_c - self.last_issued
-            self._note("velocity_limit", bool(np.any(np.abs(move) > self.max_step)),
-                       "compensated command clamped to the velocity limits")
+            self._note(
+                "velocity_limit",
+                bool(np.any(np.abs(move) > self.max_step)),
+                "compensated command clamped to the velocity limits",
+            )
             q_c = self.last_issued + np.clip(move, -self.max_step, self.max_step)
         self.last_issued = q_c
         spacing = self.model.history_spacing
@@ -138,7 +152,9 @@ class Compensator:
             predicted = require_finite(self.model.forward(q_c, self.state), what)
         q_c = require_finite(q_c, "the compensated command")
         worse = np.max(np.abs(q_d - predicted)) > np.max(np.abs(q_d - raw))
-        self._note("fallback", bool(worse), "compensation did not converge; issuing the uncompensated command")
+        self._note(
+            "fallback", bool(worse), "compensation did not converge; issuing the uncompensated command"
+        )
         self._correction = np.zeros_like(q_d) if worse else target - q_d
         return q_d.copy() if worse else q_c
 
@@ -151,8 +167,13 @@ class Compensator:
             self._active.add(event)
             self._starts[event] += 1
             if _is_power_of_ten(self._starts[event]):
-                log.warning("%s (%s, %s model; %d step(s) so far)", message, self.model.arm, self.model.kind,
-                            self.counts[event])
+                log.warning(
+                    "%s (%s, %s model; %d step(s) so far)",
+                    message,
+                    self.model.arm,
+                    self.model.kind,
+                    self.counts[event],
+                )
 
 
 def _is_power_of_ten(n: int) -> bool:

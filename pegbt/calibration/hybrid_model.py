@@ -35,8 +35,16 @@ class HybridModel(CalibrationModel):
     outputs = PhysicsModel.outputs
 
     def __init__(
-        self, arm: str, *, widths: tuple[float, ...] = (0.05, 0.1, 0.2), hidden: int = 64, epochs: int = 300,
-        batch_size: int = 64, learning_rate: float = 2e-3, weight_decay: float = 1e-2, seed: int = 0,
+        self,
+        arm: str,
+        *,
+        widths: tuple[float, ...] = (0.05, 0.1, 0.2),
+        hidden: int = 64,
+        epochs: int = 300,
+        batch_size: int = 64,
+        learning_rate: float = 2e-3,
+        weight_decay: float = 1e-2,
+        seed: int = 0,
     ) -> None:
         super().__init__(arm)
         self.physics = PhysicsModel(arm)
@@ -95,10 +103,20 @@ class HybridModel(CalibrationModel):
 
     # ------------------------------------------------------------------ files
     def _body(self) -> dict[str, Any]:
-        arrays = nets.weights_of(self.net, "net") | self.features.arrays("features") | self.targets.arrays("targets")
-        settings = {"widths": list(self.bank.widths), "hidden": self.hidden, "epochs": self.training.epochs,
-                    "batch_size": self.training.batch_size, "learning_rate": self.training.learning_rate,
-                    "weight_decay": self.training.weight_decay, "seed": self.training.seed}
+        arrays = (
+            nets.weights_of(self.net, "net")
+            | self.features.arrays("features")
+            | self.targets.arrays("targets")
+        )
+        settings = {
+            "widths": list(self.bank.widths),
+            "hidden": self.hidden,
+            "epochs": self.training.epochs,
+            "batch_size": self.training.batch_size,
+            "learning_rate": self.training.learning_rate,
+            "weight_decay": self.training.weight_decay,
+            "seed": self.training.seed,
+        }
         return self.physics._body() | {"settings": settings, "arrays": encode_arrays(arrays)}
 
     def _restore(self, document: dict[str, Any], path: Path) -> None:

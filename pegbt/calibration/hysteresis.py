@@ -32,7 +32,9 @@ class PlayBank:
         """Operator outputs after resting at input `u` (n_inputs,)."""
         return self._tiled(u)
 
-    def step(self, outputs: NDArray[np.float64], u: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    def step(
+        self, outputs: NDArray[np.float64], u: NDArray[np.float64]
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """(gaps, new outputs) after the input moves to `u`."""
         tiled = self._tiled(u)
         new = np.clip(outputs, tiled - self.half_widths, tiled + self.half_widths)

@@ -38,8 +38,15 @@ class LstmModel(CalibrationModel):
     outputs = WRIST
 
     def __init__(
-        self, arm: str, *, window: int = 5, hidden: int = 256, epochs: int = 60, batch_size: int = 64,
-        learning_rate: float = 1e-3, seed: int = 0,
+        self,
+        arm: str,
+        *,
+        window: int = 5,
+        hidden: int = 256,
+        epochs: int = 60,
+        batch_size: int = 64,
+        learning_rate: float = 1e-3,
+        seed: int = 0,
     ) -> None:
         super().__init__(arm)
         self.window, self.hidden = window, hidden
@@ -95,9 +102,15 @@ class LstmModel(CalibrationModel):
     def _body(self) -> dict[str, Any]:
         arrays = nets.weights_of(self.net, "net")
         arrays |= self.inputs.arrays("inputs") | self.targets.arrays("targets")
-        settings = {"window": self.window, "hidden": self.hidden, "history_spacing": self.history_spacing,
-                    "epochs": self.training.epochs, "batch_size": self.training.batch_size,
-                    "learning_rate": self.training.learning_rate, "seed": self.training.seed}
+        settings = {
+            "window": self.window,
+            "hidden": self.hidden,
+            "history_spacing": self.history_spacing,
+            "epochs": self.training.epochs,
+            "batch_size": self.training.batch_size,
+            "learning_rate": self.training.learning_rate,
+            "seed": self.training.seed,
+        }
         return {"settings": settings, "arrays": encode_arrays(arrays)}
 
     def _restore(self, document: dict[str, Any], path: Path) -> None:

@@ -101,19 +101,33 @@ def read_document(path: str | Path, arm: str | None = None) -> tuple[ModelMetada
     except OSError as error:
         raise PegbtError(f"cannot read model file: {error.strerror}", file=path) from None
     except json.JSONDecodeError as error:
-        raise PegbtError(f"not a model file: {error.msg}", file=path, line=error.lineno, column=error.colno) from None
+        raise PegbtError(
+            f"not a model file: {error.msg}", file=path, line=error.lineno, column=error.colno
+        ) from None
     if not isinstance(document, dict) or document.get("format") != FORMAT:
-        raise PegbtError(f"not a calibration model file (format is not {FORMAT!r})", file=path, field="format")
+        raise PegbtError(
+            f"not a calibration model file (format is not {FORMAT!r})", file=path, field="format"
+        )
     if document.get("version") != VERSION:
-        raise PegbtError(f"model file version {document.get('version')!r}; this pegbt reads {VERSION}", file=path, field="version")
+        raise PegbtError(
+            f"model file version {document.get('version')!r}; this pegbt reads {VERSION}",
+            file=path,
+            field="version",
+        )
     joints = _names(document, "joints", path)
     if joints != JOINT_NAMES:
         raise PegbtError(
-            f"the model's joint layout {list(joints)} is not this arm's {list(JOINT_NAMES)}", file=path, field="joints"
+            f"the model's joint layout {list(joints)} is not this arm's {list(JOINT_NAMES)}",
+            file=path,
+            field="joints",
         )
     outputs = _names(document, "outputs", path)
     if not outputs or not set(outputs) <= set(JOINT_NAMES):
-        raise PegbtError(f"the model's outputs {list(outputs)} are not joints of {list(JOINT_NAMES)}", file=path, field="outputs")
+        raise PegbtError(
+            f"the model's outputs {list(outputs)} are not joints of {list(JOINT_NAMES)}",
+            file=path,
+            field="outputs",
+        )
     model_arm = known_arm(document.get("arm"), path)
     if arm is not None and model_arm != arm:
         raise PegbtError(f"the model is for {model_arm!r}, not {arm!r}", file=path, field="arm")

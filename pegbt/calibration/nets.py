@@ -27,7 +27,11 @@ class WindowLstm(nn.Module):
         super().__init__()
         self.lstm = nn.LSTM(n_in, hidden, batch_first=True)
         self.head = nn.Sequential(
-            nn.Linear(hidden, hidden), nn.ReLU(), nn.Linear(hidden, hidden), nn.ReLU(), nn.Linear(hidden, n_out)
+            nn.Linear(hidden, hidden),
+            nn.ReLU(),
+            nn.Linear(hidden, hidden),
+            nn.ReLU(),
+            nn.Linear(hidden, n_out),
         )
 
     def forward(self, window: torch.Tensor) -> torch.Tensor:
@@ -46,7 +50,9 @@ class WindowLstm(nn.Module):
 
 def residual_mlp(n_in: int, n_out: int, hidden: int = 64) -> nn.Sequential:
     """The hybrid model's small residual network."""
-    return nn.Sequential(nn.Linear(n_in, hidden), nn.Tanh(), nn.Linear(hidden, hidden), nn.Tanh(), nn.Linear(hidden, n_out))
+    return nn.Sequential(
+        nn.Linear(n_in, hidden), nn.Tanh(), nn.Linear(hidden, hidden), nn.Tanh(), nn.Linear(hidden, n_out)
+    )
 
 
 @dataclass(frozen=True)
@@ -72,7 +78,9 @@ class Scaling:
     @classmethod
     def of(cls, x: NDArray[np.float64]) -> "Scaling":
         flat = x.reshape(-1, x.shape[-1])
-        return cls(flat.mean(axis=0).astype(np.float32), np.maximum(flat.std(axis=0), 1e-6).astype(np.float32))
+        return cls(
+            flat.mean(axis=0).astype(np.float32), np.maximum(flat.std(axis=0), 1e-6).astype(np.float32)
+        )
 
     def apply(self, x: NDArray[np.float64]) -> NDArray[np.float32]:
         return ((x - self.mean) / self.spread).astype(np.float32)
@@ -88,13 +96,17 @@ class Scaling:
         return cls(arrays[f"{prefix}.mean"], arrays[f"{prefix}.spread"])
 
 
-def train(net: nn.Module, inputs: NDArray[np.float32], targets: NDArray[np.float32], settings: TrainingSettings) -> None:
+def train(
+    net: nn.Module, inputs: NDArray[np.float32], targets: NDArray[np.float32], settings: TrainingSettings
+) -> None:
     """Minimise the mean squared error of `net(inputs)` against `targets` with Adam, in minibatches."""
     use_one_thread()
     torch.manual_seed(settings.seed)
     generator = torch.Generator().manual_seed(settings.seed)
     x, y = torch.from_numpy(inputs), torch.from_numpy(targets)
-    optimiser = torch.optim.Adam(net.parameters(), lr=settings.learning_rate, weight_decay=settings.weight_decay)
+    optimiser = torch.optim.Adam(
+        net.parameters(), lr=settings.learning_rate, weight_decay=settings.weight_decay
+    )
     loss_fn = nn.MSELoss()
     net.train()
     for _ in range(settings.epochs):
@@ -121,7 +133,11 @@ def weights_of(net: nn.Module, prefix: str) -> dict[str, NDArray[np.float32]]:
 
 def load_weights(net: nn.Module, arrays: dict[str, NDArray[np.float32]], prefix: str) -> None:
     """Put stored arrays back into `net`; a missing or misshapen tensor is a `ValueError`."""
-    state = {name[len(prefix) + 1 :]: torch.from_numpy(value) for name, value in arrays.items() if name.startswith(prefix + ".")}
+    state = {
+        name[len(prefix) + 1 :]: torch.from_numpy(value)
+        for name, value in arrays.items()
+        if name.startswith(prefix + ".")
+    }
     try:
         net.load_state_dict(state, strict=True)
     except RuntimeError as error:  # torch reports missing or misshapen tensors this way

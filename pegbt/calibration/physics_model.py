@@ -63,7 +63,9 @@ class SettledArm:
         self.physics = physics
         self.matrix = np.diag(physics.scale) + physics.coupling
         if abs(np.linalg.det(self.matrix)) < 1e-6:
-            raise PegbtError("the effects' scale and coupling cannot be inverted (singular map)", field="effects")
+            raise PegbtError(
+                "the effects' scale and coupling cannot be inverted (singular map)", field="effects"
+            )
         self.half_width = physics.half_width
         n = len(physics.hysteresis)
         joints = np.array([h[0] for h in physics.hysteresis], dtype=int)
@@ -133,7 +135,9 @@ class SettledArm:
         """Commands (K, 6) solving the linear target equation of each row of pieces (K, H); NaN if singular."""
         in_band = (pieces == 0).astype(float)
         # In its band hysteresis n adds k (p − G q − c); saturated it adds k · (±h).
-        matrices = self.matrix[None] - np.einsum("jn,kn,ni->kji", self.into, in_band * self.gain, self.drive_rows)
+        matrices = self.matrix[None] - np.einsum(
+            "jn,kn,ni->kji", self.into, in_band * self.gain, self.drive_rows
+        )
         constant = in_band * (drives - self.drive_offsets) + (1.0 - in_band) * pieces * self.play
         rhs = target - self.physics.offset - (constant * self.gain) @ self.into.T
         solved = np.full(rhs.shape, np.nan)
@@ -165,8 +169,13 @@ class PhysicsModel(CalibrationModel):
         model = cls(arm)
         model._set_effects(effects)
         model.metadata = ModelMetadata(
-            kind=cls.kind, arm=arm, outputs=JOINT_NAMES,
-            training={"effects_from": source, "created": datetime.now(timezone.utc).isoformat(timespec="seconds")},
+            kind=cls.kind,
+            arm=arm,
+            outputs=JOINT_NAMES,
+            training={
+                "effects_from": source,
+                "created": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+            },
         )
         return model
 

@@ -47,12 +47,15 @@ def trial_specs(cell: Cell, out: Path, keep_logs: bool = False) -> list[TrialSpe
     specs = []
     for seed in cell.seeds:
         plan = write_fault_plan(out / "faults" / cell.variant, seed) if cell.inject_faults else cell.faults
-        specs.append(TrialSpec(cell.variant, cell.condition, seed, logs / f"{cell.name}-{seed}.jsonl", plan, keep_logs))
+        specs.append(
+            TrialSpec(cell.variant, cell.condition, seed, logs / f"{cell.name}-{seed}.jsonl", plan, keep_logs)
+        )
     return specs
 
 
-def run_trials(specs: list[TrialSpec], workers: int = 2,
-               done: Callable[[TrialRecord], None] | None = None) -> list[TrialRecord]:
+def run_trials(
+    specs: list[TrialSpec], workers: int = 2, done: Callable[[TrialRecord], None] | None = None
+) -> list[TrialRecord]:
     """Run every spec (in `workers` processes; in this one if 1) and return their records in spec order;
     `done` is called with each record as it finishes."""
     if workers <= 1 or len(specs) <= 1:
@@ -63,9 +66,15 @@ def run_trials(specs: list[TrialSpec], workers: int = 2,
                 done(records[-1])
         return records
     by_seed: dict[int, TrialRecord] = {}
-    context = multiprocessing.get_context("spawn")  # a clean interpreter: no inherited zenoh session or threads
-    with ProcessPoolExecutor(max_workers=min(workers, len(specs)), mp_context=context,
-                             initializer=_exit_with_parent, initargs=(os.getpid(),)) as pool:
+    context = multiprocessing.get_context(
+        "spawn"
+    )  # a clean interpreter: no inherited zenoh session or threads
+    with ProcessPoolExecutor(
+        max_workers=min(workers, len(specs)),
+        mp_context=context,
+        initializer=_exit_with_parent,
+        initargs=(os.getpid(),),
+    ) as pool:
         futures = [pool.submit(run_trial, spec) for spec in specs]
         try:
             for future in as_completed(futures):

@@ -20,17 +20,47 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
         "physics, depth noise), seeds S..S+N-1, each judged by the simulator's ground truth; print the paper's "
         "table beside its figures; write per-trial and per-transfer CSV, a JSON summary and box plots to DIR.",
     )
-    parser.add_argument("--variant", required=True, metavar="NAME", help=f"task variant: {', '.join(VARIANTS)}")
-    parser.add_argument("--trials", type=int, required=True, metavar="N", help="number of trials (seeds S..S+N-1)")
-    parser.add_argument("--condition", default="optimized", metavar="C", help=f"{', '.join(CONDITIONS)} (default optimized)")
+    parser.add_argument(
+        "--variant", required=True, metavar="NAME", help=f"task variant: {', '.join(VARIANTS)}"
+    )
+    parser.add_argument(
+        "--trials", type=int, required=True, metavar="N", help="number of trials (seeds S..S+N-1)"
+    )
+    parser.add_argument(
+        "--condition", default="optimized", metavar="C", help=f"{', '.join(CONDITIONS)} (default optimized)"
+    )
     parser.add_argument("--seed", type=int, default=0, metavar="S", help="first seed (default 0)")
     faults = parser.add_mutually_exclusive_group()
-    faults.add_argument("--faults", type=Path, metavar="PLAN", help="fault plan (YAML, as `pegbt sim --faults`) for every trial")
-    faults.add_argument("--inject-faults", action="store_true",
-                        help="a fault plan per seed: a missed grasp, slips, depth-noise bursts (written to DIR/faults/)")
-    parser.add_argument("--out", type=Path, default=Path("runs/eval"), metavar="DIR", help="results directory (default runs/eval)")
-    parser.add_argument("--workers", type=int, default=2, metavar="K", help="trials run at once, each with its own simulator (default 2)")
-    parser.add_argument("--keep-logs", action="store_true", help="keep every trial's tick log (default: only trials with a failure or a fault)")
+    faults.add_argument(
+        "--faults",
+        type=Path,
+        metavar="PLAN",
+        help="fault plan (YAML, as `pegbt sim --faults`) for every trial",
+    )
+    faults.add_argument(
+        "--inject-faults",
+        action="store_true",
+        help="a fault plan per seed: a missed grasp, slips, depth-noise bursts (written to DIR/faults/)",
+    )
+    parser.add_argument(
+        "--out",
+        type=Path,
+        default=Path("runs/eval"),
+        metavar="DIR",
+        help="results directory (default runs/eval)",
+    )
+    parser.add_argument(
+        "--workers",
+        type=int,
+        default=2,
+        metavar="K",
+        help="trials run at once, each with its own simulator (default 2)",
+    )
+    parser.add_argument(
+        "--keep-logs",
+        action="store_true",
+        help="keep every trial's tick log (default: only trials with a failure or a fault)",
+    )
     parser.add_argument("--json", action="store_true", help="print one JSON object instead of the table")
     parser.add_argument("--quiet", action="store_true", help="no line per finished trial on stderr")
     parser.set_defaults(handler=_eval)
@@ -41,7 +71,9 @@ def check_arguments(args: argparse.Namespace) -> None:
     if args.variant not in VARIANTS:
         raise PegbtError(f"unknown variant {args.variant!r}; known: {', '.join(VARIANTS)}", field="--variant")
     if args.condition not in CONDITIONS:
-        raise PegbtError(f"unknown condition {args.condition!r}; known: {', '.join(CONDITIONS)}", field="--condition")
+        raise PegbtError(
+            f"unknown condition {args.condition!r}; known: {', '.join(CONDITIONS)}", field="--condition"
+        )
     for name in ("trials", "workers"):
         if getattr(args, name) <= 0:
             raise PegbtError(f"must be at least 1, got {getattr(args, name)}", field=f"--{name}")
@@ -59,8 +91,14 @@ def _eval(args: argparse.Namespace) -> int:
     from pegbt.evaluation.output import plot_transfer_times, write_cell
     from pegbt.evaluation.summary import summarise, table
 
-    cell = Cell(args.variant, args.condition, args.trials, args.seed,
-                None if args.faults is None else args.faults.resolve(), args.inject_faults)
+    cell = Cell(
+        args.variant,
+        args.condition,
+        args.trials,
+        args.seed,
+        None if args.faults is None else args.faults.resolve(),
+        args.inject_faults,
+    )
     specs = trial_specs(cell, args.out, keep_logs=args.keep_logs)
     records = run_trials(specs, args.workers, done=None if args.quiet else _report_trial)
     figures = summarise(cell, records, min(args.workers, args.trials))
@@ -80,6 +118,8 @@ def _report_trial(record) -> None:
         line = f"error: {record.error}"
     else:
         mean = "-" if record.mean_transfer_time_s is None else f"{record.mean_transfer_time_s:.2f} s"
-        line = (f"{record.transfers_succeeded}/{record.transfers_attempted} transfers, mean {mean}, "
-                f"trial {record.trial_time_s:.1f} s, wall {record.wall_time_s:.1f} s")
+        line = (
+            f"{record.transfers_succeeded}/{record.transfers_attempted} transfers, mean {mean}, "
+            f"trial {record.trial_time_s:.1f} s, wall {record.wall_time_s:.1f} s"
+        )
     print(f"seed {record.seed}: {line}", file=sys.stderr, flush=True)

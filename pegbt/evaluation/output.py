@@ -16,29 +16,73 @@ from pegbt.evaluation.campaign import Cell
 from pegbt.evaluation.paper import CONDITIONS, PAPER, VARIANTS
 from pegbt.evaluation.trial import TrialRecord
 
-TRIAL_COLUMNS = ("variant", "condition", "seed", "outcome", "transfers_attempted", "transfers_succeeded",
-                 "mean_transfer_time_s", "trial_time_s", "wall_time_s", "run_wall_s", "arm_arm_collisions",
-                 "other_contacts", "tip_path_m", "fallbacks", "faults_injected", "faults_recovered", "why_checked",
-                 "why_agreed", "log", "error")
-TRANSFER_COLUMNS = ("variant", "condition", "seed", "index", "arms", "pick", "place", "succeeded", "seconds", "started",
-                    "ended", "note", "cause", "cause_event")
+TRIAL_COLUMNS = (
+    "variant",
+    "condition",
+    "seed",
+    "outcome",
+    "transfers_attempted",
+    "transfers_succeeded",
+    "mean_transfer_time_s",
+    "trial_time_s",
+    "wall_time_s",
+    "run_wall_s",
+    "arm_arm_collisions",
+    "other_contacts",
+    "tip_path_m",
+    "fallbacks",
+    "faults_injected",
+    "faults_recovered",
+    "why_checked",
+    "why_agreed",
+    "log",
+    "error",
+)
+TRANSFER_COLUMNS = (
+    "variant",
+    "condition",
+    "seed",
+    "index",
+    "arms",
+    "pick",
+    "place",
+    "succeeded",
+    "seconds",
+    "started",
+    "ended",
+    "note",
+    "cause",
+    "cause_event",
+)
 PLOT = "transfer_times.png"
 
 
 def _trial_row(record: TrialRecord) -> dict[str, Any]:
     row = {column: getattr(record, column) for column in TRIAL_COLUMNS if hasattr(record, column)}
-    row.update(faults_injected=len(record.faults), faults_recovered=sum(f["recovered"] for f in record.faults),
-               why_checked=len(record.why), why_agreed=sum(c["agrees"] for c in record.why))
+    row.update(
+        faults_injected=len(record.faults),
+        faults_recovered=sum(f["recovered"] for f in record.faults),
+        why_checked=len(record.why),
+        why_agreed=sum(c["agrees"] for c in record.why),
+    )
     return row
 
 
 def write_cell(out: Path, cell: Cell, records: Sequence[TrialRecord], figures: dict[str, Any]) -> list[Path]:
     """Write `trials-CELL.csv`, `transfers-CELL.csv` and `summary-CELL.json` into `out`; returns their paths."""
-    paths = [out / f"trials-{cell.name}.csv", out / f"transfers-{cell.name}.csv", out / f"summary-{cell.name}.json"]
+    paths = [
+        out / f"trials-{cell.name}.csv",
+        out / f"transfers-{cell.name}.csv",
+        out / f"summary-{cell.name}.json",
+    ]
     try:
         out.mkdir(parents=True, exist_ok=True)
         _write_csv(paths[0], TRIAL_COLUMNS, [_trial_row(r) for r in records])
-        rows = [{"variant": r.variant, "condition": r.condition, "seed": r.seed, **t} for r in records for t in r.transfers]
+        rows = [
+            {"variant": r.variant, "condition": r.condition, "seed": r.seed, **t}
+            for r in records
+            for t in r.transfers
+        ]
         _write_csv(paths[1], TRANSFER_COLUMNS, rows)
         paths[2].write_text(json.dumps(figures, indent=1) + "\n", encoding="utf-8")
     except OSError as error:
@@ -61,8 +105,11 @@ def transfer_times(out: Path) -> dict[tuple[str, str], list[float]]:
             path = out / f"transfers-{variant}-{condition}.csv"
             if path.exists():
                 with path.open(newline="", encoding="utf-8") as file:
-                    times[(variant, condition)] = [float(row["seconds"]) for row in csv.DictReader(file)
-                                                   if row["succeeded"] == "True" and row["seconds"]]
+                    times[(variant, condition)] = [
+                        float(row["seconds"])
+                        for row in csv.DictReader(file)
+                        if row["succeeded"] == "True" and row["seconds"]
+                    ]
     return times
 
 
@@ -80,8 +127,14 @@ def plot_transfer_times(out: Path) -> Path:
         if conditions:
             axis.boxplot([times[(variant, c)] for c in conditions], showfliers=True)
             axis.set_xticks(range(1, len(conditions) + 1), conditions)
-            axis.scatter(range(1, len(conditions) + 1), [PAPER[(variant, c)].mean_transfer_time_s for c in conditions],
-                         marker="D", color="tab:red", zorder=3, label="paper's mean")
+            axis.scatter(
+                range(1, len(conditions) + 1),
+                [PAPER[(variant, c)].mean_transfer_time_s for c in conditions],
+                marker="D",
+                color="tab:red",
+                zorder=3,
+                label="paper's mean",
+            )
             axis.legend(loc="upper right", fontsize="small")
         axis.set_title(variant)
         axis.grid(axis="y", alpha=0.3)

@@ -39,7 +39,9 @@ def summarise(cell: Cell, records: Sequence[TrialRecord], workers: int = 1) -> d
     ran = [r for r in records if r.outcome != "error"]
     attempted = sum(r.transfers_attempted for r in ran)
     succeeded = sum(r.transfers_succeeded for r in ran)
-    busy = sum(r.mean_transfer_time_s * r.transfers_succeeded for r in ran if r.mean_transfer_time_s is not None)
+    busy = sum(
+        r.mean_transfer_time_s * r.transfers_succeeded for r in ran if r.mean_transfer_time_s is not None
+    )
     times = [t["seconds"] for r in ran for t in r.transfers if t["succeeded"]]
     trial_times = [r.trial_time_s for r in ran]
     faults = [f for r in ran for f in r.faults]
@@ -94,34 +96,66 @@ def _pct(value: float | None) -> str:
 def table(figures: dict[str, Any]) -> str:
     """The paper's table for one cell, measured beside the paper's, with the goals."""
     f = figures
-    title = (f"pegbt eval: {f['variant']}, {f['condition']}, {f['trials']} trial(s), seeds {f['seeds'][0]}..{f['seeds'][1]}, "
-             f"faults: {f['faults']} (judged by the simulator's ground truth)")
+    title = (
+        f"pegbt eval: {f['variant']}, {f['condition']}, {f['trials']} trial(s), seeds {f['seeds'][0]}..{f['seeds'][1]}, "
+        f"faults: {f['faults']} (judged by the simulator's ground truth)"
+    )
     grid = Table()
     for column in ("", "measured", "paper", "goal"):
         grid.add_column(column, justify="left" if not column else "right")
     trial_time = f"{_s(f['trial_time_s_mean'], '', 1)} ± {_s(f['trial_time_s_std'], ' s', 1)}"
     paper_trial = _s(f["paper_trial_time_s"], " s", 1)
     rows = [
-        ("mean transfer time", _s(f["mean_transfer_time_s"]), _s(f["paper_mean_transfer_time_s"], " s", 1),
-         f"< {f['goal_mean_transfer_time_s']:.1f} s"),
+        (
+            "mean transfer time",
+            _s(f["mean_transfer_time_s"]),
+            _s(f["paper_mean_transfer_time_s"], " s", 1),
+            f"< {f['goal_mean_transfer_time_s']:.1f} s",
+        ),
         ("successes / attempts", f"{f['transfers_succeeded']} / {f['transfers_attempted']}", "", ""),
-        ("success rate", _pct(f["success_rate"]), _pct(f["paper_success_rate"]),
-         f">= {100 * GOAL_SUCCESS_RATE:.0f} %" if f["condition"] != "uncalibrated" else "clearly worse"),
+        (
+            "success rate",
+            _pct(f["success_rate"]),
+            _pct(f["paper_success_rate"]),
+            f">= {100 * GOAL_SUCCESS_RATE:.0f} %" if f["condition"] != "uncalibrated" else "clearly worse",
+        ),
         ("trials complete", f"{f['trials_complete']} / {f['trials']}", "", ""),
         ("trial time", trial_time, paper_trial, ""),
         ("arm-arm collisions / trial", _s(f["collisions_per_trial"], "", 2), "0", "0"),
         ("other contacts / trial", _s(f["other_contacts_per_trial"], "", 2), "", ""),
         ("tool-tip path / trial (planned)", _s(f["tip_path_m_per_trial"], " m"), "", ""),
-        ("optimised plans fallen back to cubics / trial", _s(f["fallbacks_per_trial"], "", 2), "", "0" if f["condition"] == "optimized" else ""),
-        (f"wall time / trial (median, {f['workers']} at once)",
-         f"{_s(f['wall_time_s_median'])} ({_s(f['run_wall_s_median'])} with start-up)", "", f"<= {GOAL_WALL_S:.0f} s"),
+        (
+            "optimised plans fallen back to cubics / trial",
+            _s(f["fallbacks_per_trial"], "", 2),
+            "",
+            "0" if f["condition"] == "optimized" else "",
+        ),
+        (
+            f"wall time / trial (median, {f['workers']} at once)",
+            f"{_s(f['wall_time_s_median'])} ({_s(f['run_wall_s_median'])} with start-up)",
+            "",
+            f"<= {GOAL_WALL_S:.0f} s",
+        ),
         ("failed transfers by step", ", ".join(f"{k} {v}" for k, v in f["failures_by_step"].items()), "", ""),
     ]
     if f["faults_injected"]:
-        rows.append(("injected faults recovered", f"{f['faults_recovered']} / {f['faults_injected']} ({_pct(f['recovery_rate'])})",
-                     "", ">= 90 %"))
+        rows.append(
+            (
+                "injected faults recovered",
+                f"{f['faults_recovered']} / {f['faults_injected']} ({_pct(f['recovery_rate'])})",
+                "",
+                ">= 90 %",
+            )
+        )
     if f["why_checked"]:
-        rows.append(("`pegbt log why` agrees", f"{f['why_agreed']} / {f['why_checked']} ({_pct(f['why_agreement'])})", "", "all"))
+        rows.append(
+            (
+                "`pegbt log why` agrees",
+                f"{f['why_agreed']} / {f['why_checked']} ({_pct(f['why_agreement'])})",
+                "",
+                "all",
+            )
+        )
     if f["errors"]:
         rows.append(("trials that could not run", str(f["errors"]), "", "0"))
     for row in rows:

@@ -63,7 +63,11 @@ class TrialRecord:
     @property
     def complete(self) -> bool:
         """Every transfer placed, as the simulator judged."""
-        return self.outcome != "error" and self.transfers_attempted > 0 and self.transfers_succeeded == self.transfers_attempted
+        return (
+            self.outcome != "error"
+            and self.transfers_attempted > 0
+            and self.transfers_succeeded == self.transfers_attempted
+        )
 
 
 def tree_path(variant: str) -> Path:
@@ -78,12 +82,19 @@ def run_trial(spec: TrialSpec) -> TrialRecord:
 
     truth = truth_path(spec.log)
     truth.unlink(missing_ok=True)  # the simulator appends
-    options = {"endpoint": "auto", "condition": spec.condition, "seed": spec.seed, "simlog": str(truth),
-               "faults": None if spec.faults is None else str(spec.faults)}
+    options = {
+        "endpoint": "auto",
+        "condition": spec.condition,
+        "seed": spec.seed,
+        "simlog": str(truth),
+        "faults": None if spec.faults is None else str(spec.faults),
+    }
     record = TrialRecord(spec.variant, spec.condition, spec.seed, "error")
     started = time.perf_counter()
     try:
-        output = run_tree_file(spec.tree or tree_path(spec.variant), spec.log, options=options, timeout=TRIAL_TIMEOUT_S)
+        output = run_tree_file(
+            spec.tree or tree_path(spec.variant), spec.log, options=options, timeout=TRIAL_TIMEOUT_S
+        )
     except PegbtError as error:
         record.error, record.run_wall_s = str(error), time.perf_counter() - started
         record.log = str(spec.log) if spec.log.exists() else ""
@@ -99,14 +110,20 @@ def run_trial(spec: TrialSpec) -> TrialRecord:
     if judged is not None:
         _fill_from_judge(record, judged.as_dict())
     log = read_tick_log(spec.log)
-    record.transfers_attempted = max(len(record.transfers), sum(node["type"] == "begin_transfer" for node in log.nodes))
+    record.transfers_attempted = max(
+        len(record.transfers), sum(node["type"] == "begin_transfer" for node in log.nodes)
+    )
     for transfer in record.transfers:
         cause = None if transfer["succeeded"] else failure_cause(transfer, entries, record.transfers)
         transfer["cause"], transfer["cause_event"] = (cause.step, cause.event) if cause else ("", "")
-    record.faults = [asdict(fault) for fault in injected_faults(record.transfers, entries, record.outcome == "success")]
+    record.faults = [
+        asdict(fault) for fault in injected_faults(record.transfers, entries, record.outcome == "success")
+    ]
     failed = [transfer for transfer in record.transfers if not transfer["succeeded"]]
     if failed or record.outcome != "success":
-        record.why = [{**asdict(check), "agrees": check.agrees} for check in check_why(log, record.transfers, entries)]
+        record.why = [
+            {**asdict(check), "agrees": check.agrees} for check in check_why(log, record.transfers, entries)
+        ]
     if spec.keep_log or not record.complete or record.faults:
         record.log = str(spec.log)
     else:

@@ -25,8 +25,20 @@ from pegbt.workcell import workcell
 
 GRACE = 0.5  # s after a transfer's end in which its events still count (the block settles), as the judge's
 CONFIRM_WINDOW = 5.0  # s before a leaf's failure in which the simulator's event must lie to confirm it
-STEPS = ("grasp", "carry", "place", "handover", "sense", "reach", "none")  # a cause's step; none: nothing seen going wrong
-INJECTED = ("grasp miss injected", "slip injected", "depth noise burst")  # world and camera faults, by detail prefix
+STEPS = (
+    "grasp",
+    "carry",
+    "place",
+    "handover",
+    "sense",
+    "reach",
+    "none",
+)  # a cause's step; none: nothing seen going wrong
+INJECTED = (
+    "grasp miss injected",
+    "slip injected",
+    "depth noise burst",
+)  # world and camera faults, by detail prefix
 
 Entry = Mapping[str, Any]
 Transfer = Mapping[str, Any]
@@ -77,8 +89,17 @@ def transfer_blocks(transfer: Transfer, entries: Sequence[Entry]) -> set[int]:
     pick peg in its window. Recoveries fetch that same block from wherever it fell."""
     start, stop = _window(transfer)
     arms = _arms(transfer)
-    return next(({e["block"]} for e in entries if e["kind"] in ("grasp", "grasp_miss") and e.get("peg") == transfer["pick"]
-                 and start <= e["time"] <= stop and _involves(e, arms)), set())
+    return next(
+        (
+            {e["block"]}
+            for e in entries
+            if e["kind"] in ("grasp", "grasp_miss")
+            and e.get("peg") == transfer["pick"]
+            and start <= e["time"] <= stop
+            and _involves(e, arms)
+        ),
+        set(),
+    )
 
 
 def setbacks(transfer: Transfer, entries: Sequence[Entry], others: Sequence[Transfer] = ()) -> list[Cause]:
@@ -94,22 +115,42 @@ def setbacks(transfer: Transfer, entries: Sequence[Entry], others: Sequence[Tran
     arms = _arms(transfer)
     during = [e for e in entries if start <= e["time"] <= stop and e["kind"] != "fault"]
     found = _adverse([e for e in during if e.get("block") in blocks], transfer)
-    found += [Cause("grasp", _describe(e), e["time"]) for e in during if e["kind"] == "grasp_miss" and _involves(e, arms)
-              and e.get("block") not in blocks and not _claimed(e, others, entries)]
+    found += [
+        Cause("grasp", _describe(e), e["time"])
+        for e in during
+        if e["kind"] == "grasp_miss"
+        and _involves(e, arms)
+        and e.get("block") not in blocks
+        and not _claimed(e, others, entries)
+    ]
     found += _not_handed_over(transfer, blocks, during)
     if not blocks:
         found += _pick_peg(transfer, entries, during)
-    found += [Cause("sense", _describe(e), e["time"]) for e in entries if start <= e["time"] <= stop
-              and e["kind"] == "fault" and str(e.get("detail", "")).startswith("depth noise burst")]
-    found += [Cause("sense", _describe(e), e["time"]) for e in entries if e["kind"] == "drop" and e["time"] <= stop
-              and e.get("block") in blocks and "off the workspace" in str(e.get("detail", ""))]
+    found += [
+        Cause("sense", _describe(e), e["time"])
+        for e in entries
+        if start <= e["time"] <= stop
+        and e["kind"] == "fault"
+        and str(e.get("detail", "")).startswith("depth noise burst")
+    ]
+    found += [
+        Cause("sense", _describe(e), e["time"])
+        for e in entries
+        if e["kind"] == "drop"
+        and e["time"] <= stop
+        and e.get("block") in blocks
+        and "off the workspace" in str(e.get("detail", ""))
+    ]
     return found
 
 
 def _claimed(miss: Entry, others: Sequence[Transfer], entries: Sequence[Entry]) -> bool:
     """Whether another transfer running at the moment of `miss` worked on the block it missed."""
-    return any(_window(other)[0] <= miss["time"] <= _window(other)[1] and miss.get("block") in transfer_blocks(other, entries)
-               for other in others)
+    return any(
+        _window(other)[0] <= miss["time"] <= _window(other)[1]
+        and miss.get("block") in transfer_blocks(other, entries)
+        for other in others
+    )
 
 
 def _not_handed_over(transfer: Transfer, blocks: set[int], during: Sequence[Entry]) -> list[Cause]:
@@ -118,8 +159,13 @@ def _not_handed_over(transfer: Transfer, blocks: set[int], during: Sequence[Entr
     if receiver is None or not blocks:
         return []
     block = next(iter(blocks))
-    taken = any(e["kind"] == "grasp" and e.get("block") == block and e.get("arm") == receiver
-                and f"handover from {giver}" in str(e.get("detail", "")) for e in during)
+    taken = any(
+        e["kind"] == "grasp"
+        and e.get("block") == block
+        and e.get("arm") == receiver
+        and f"handover from {giver}" in str(e.get("detail", ""))
+        for e in during
+    )
     return [] if taken else [Cause("handover", f"{receiver} never gripped block {block} from {giver}")]
 
 
@@ -130,7 +176,12 @@ def _pick_peg(transfer: Transfer, entries: Sequence[Entry], during: Sequence[Ent
     if not held:
         return [Cause("sense", f"no block was on peg {peg} when the transfer began")]
     if len(held) > 1:
-        return [Cause("sense", f"peg {peg} held blocks {' and '.join(map(str, sorted(held)))} when the transfer began")]
+        return [
+            Cause(
+                "sense",
+                f"peg {peg} held blocks {' and '.join(map(str, sorted(held)))} when the transfer began",
+            )
+        ]
     if any(e.get("block") == held[0] for e in during):
         return []  # another arm moved it
     return [Cause("reach", f"no arm went for block {held[0]}, alone on peg {peg} while the transfer ran")]
@@ -142,8 +193,14 @@ def failure_cause(transfer: Transfer, entries: Sequence[Entry], others: Sequence
     pick peg, a noise burst), else the last setback; `none` if the simulator saw nothing go wrong."""
     blocks = transfer_blocks(transfer, entries)
     start, stop = _window(transfer)
-    own = _adverse([e for e in entries if start <= e["time"] <= stop and e["kind"] != "fault" and e.get("block") in blocks],
-                   transfer)
+    own = _adverse(
+        [
+            e
+            for e in entries
+            if start <= e["time"] <= stop and e["kind"] != "fault" and e.get("block") in blocks
+        ],
+        transfer,
+    )
     if own:
         return own[-1]
     others_seen = setbacks(transfer, entries, others)
@@ -151,13 +208,17 @@ def failure_cause(transfer: Transfer, entries: Sequence[Entry], others: Sequence
         found = [cause for cause in others_seen if cause.step == step]
         if found:
             return found[0] if found[0].time is None else found[-1]
-    return others_seen[-1] if others_seen else Cause("none", "the simulator saw nothing set this transfer back")
+    return (
+        others_seen[-1] if others_seen else Cause("none", "the simulator saw nothing set this transfer back")
+    )
 
 
 def confirms(step: str, time: float, causes: Sequence[Cause]) -> bool:
     """Whether the simulator saw a setback of `step` shortly before `time` (or throughout, for a state)."""
-    return any(cause.step == step and (cause.time is None or time - CONFIRM_WINDOW <= cause.time <= time + GRACE)
-               for cause in causes)
+    return any(
+        cause.step == step and (cause.time is None or time - CONFIRM_WINDOW <= cause.time <= time + GRACE)
+        for cause in causes
+    )
 
 
 def final_check_cause(pegs: Sequence[int], entries: Sequence[Entry], time: float) -> Cause:
@@ -165,18 +226,29 @@ def final_check_cause(pegs: Sequence[int], entries: Sequence[Entry], time: float
     empty (`place`), or each held a block and the capture misled (`sense`, with the noise burst if there was
     one). At a leaf that checks no pegs (a look before any transfer, a motion the executive refused): `sense`
     if a noise burst came just before, else `none` (the simulator saw nothing go wrong)."""
-    bursts = [e for e in entries if e["kind"] == "fault" and str(e.get("detail", "")).startswith("depth noise burst")
-              and e["time"] <= time]
+    bursts = [
+        e
+        for e in entries
+        if e["kind"] == "fault"
+        and str(e.get("detail", "")).startswith("depth noise burst")
+        and e["time"] <= time
+    ]
     if not pegs:
         recent = [e for e in bursts if e["time"] >= time - CONFIRM_WINDOW]
-        return (Cause("sense", _describe(recent[-1]), recent[-1]["time"]) if recent
-                else Cause("none", f"the simulator saw nothing go wrong before t={time:.2f} s"))
+        return (
+            Cause("sense", _describe(recent[-1]), recent[-1]["time"])
+            if recent
+            else Cause("none", f"the simulator saw nothing go wrong before t={time:.2f} s")
+        )
     occupied = blocks_on_pegs(entries, time)
     empty = [peg for peg in pegs if not occupied.get(peg)]
     if empty:
         return Cause("place", f"no block on peg {', '.join(map(str, empty))} at t={time:.2f} s")
-    return Cause("sense", _describe(bursts[-1]) if bursts else f"a block on each of pegs {', '.join(map(str, pegs))}",
-                 bursts[-1]["time"] if bursts else None)
+    return Cause(
+        "sense",
+        _describe(bursts[-1]) if bursts else f"a block on each of pegs {', '.join(map(str, pegs))}",
+        bursts[-1]["time"] if bursts else None,
+    )
 
 
 def blocks_on_pegs(entries: Sequence[Entry], until: float) -> dict[int, list[int]]:
@@ -207,7 +279,12 @@ def _adverse(events: Sequence[Entry], transfer: Transfer) -> list[Cause]:
     for entry in events:
         kind, detail, block = entry["kind"], str(entry.get("detail", "")), entry.get("block")
         step = None
-        if kind == "grasp" and receiver is not None and entry.get("arm") == receiver and f"handover from {giver}" in detail:
+        if (
+            kind == "grasp"
+            and receiver is not None
+            and entry.get("arm") == receiver
+            and f"handover from {giver}" in detail
+        ):
             taken.add(block)
         elif kind == "grasp_miss":
             step = "grasp"
@@ -226,11 +303,15 @@ def _adverse(events: Sequence[Entry], transfer: Transfer) -> list[Cause]:
 
 
 def _describe(entry: Entry) -> str:
-    detail = entry.get("detail") or (f"on peg {entry['peg']}" if entry.get("peg") is not None and entry["kind"] == "place" else "")
+    detail = entry.get("detail") or (
+        f"on peg {entry['peg']}" if entry.get("peg") is not None and entry["kind"] == "place" else ""
+    )
     return f"{entry['kind']}: {detail}" if detail else str(entry["kind"])
 
 
-def injected_faults(transfers: Sequence[Transfer], entries: Sequence[Entry], tree_ok: bool) -> list[InjectedFault]:
+def injected_faults(
+    transfers: Sequence[Transfer], entries: Sequence[Entry], tree_ok: bool
+) -> list[InjectedFault]:
     """Every world or camera fault the simulator injected with an effect, with the transfer it hit and whether
     it was got over (`tree_ok`: the tree succeeded, for a fault after the last transfer)."""
     faults = []
@@ -244,8 +325,14 @@ def injected_faults(transfers: Sequence[Transfer], entries: Sequence[Entry], tre
             faults.append(InjectedFault(entry["time"], kind, hit["index"], bool(hit["succeeded"])))
             continue
         # between transfers (a capture while looking): the next transfer shows whether it was got over
-        following = min((t for t in transfers if t["started"] >= entry["time"]), key=lambda t: t["started"], default=None)
-        faults.append(InjectedFault(entry["time"], kind, None, tree_ok if following is None else bool(following["succeeded"])))
+        following = min(
+            (t for t in transfers if t["started"] >= entry["time"]), key=lambda t: t["started"], default=None
+        )
+        faults.append(
+            InjectedFault(
+                entry["time"], kind, None, tree_ok if following is None else bool(following["succeeded"])
+            )
+        )
     return faults
 
 

@@ -14,7 +14,15 @@ from dataclasses import dataclass
 from typing import Any
 
 from pegbt.evaluation.truth import Cause, confirms, failure_cause, final_check_cause, setbacks
-from pegbt.executive.causes import FailureStep, Timeline, failure_chains, failure_step, fallbacks, first_cause, recoveries
+from pegbt.executive.causes import (
+    FailureStep,
+    Timeline,
+    failure_chains,
+    failure_step,
+    fallbacks,
+    first_cause,
+    recoveries,
+)
 from pegbt.executive.logfile import TickLog
 
 # The step a failing leaf stands for, by behaviour: the words the ground truth's causes use.
@@ -38,9 +46,15 @@ STEP_OF_LEAF = {
 
 # A failure whose origin is not a robot leaf (a decorator, a logged message) is read by its words, and a timeout
 # by what it halted: the wait it gave up on.
-STEP_OF_WORDS = (("missed the block", "grasp"), ("on nothing", "grasp"), ("slipped", "carry"),
-                 ("no block seen", "sense"), ("poor capture", "sense"), ("not located", "sense"),
-                 ("/handover/", "handover"))
+STEP_OF_WORDS = (
+    ("missed the block", "grasp"),
+    ("on nothing", "grasp"),
+    ("slipped", "carry"),
+    ("no block seen", "sense"),
+    ("poor capture", "sense"),
+    ("not located", "sense"),
+    ("/handover/", "handover"),
+)
 
 
 @dataclass(frozen=True)
@@ -66,11 +80,17 @@ def transfer_scopes(log: TickLog) -> dict[int, list[str]]:
     nodes = log.nodes
     parent_path = {node["id"]: nodes[node["parent"]]["path"] for node in nodes if node["parent"] is not None}
     begins = [node["id"] for node in nodes if node["type"] == "begin_transfer"]
-    started = sorted((change.seq, change.node) for change in log.transitions if change.node in begins and change.after == "SUCCESS")
+    started = sorted(
+        (change.seq, change.node)
+        for change in log.transitions
+        if change.node in begins and change.after == "SUCCESS"
+    )
     scopes = {index: [parent_path[node]] for index, (_, node) in enumerate(started, 1)}
     key_of = {index: nodes[node]["params"].get("transfer") for index, (_, node) in enumerate(started, 1)}
     for node in nodes:
-        if node["type"] != "finish_transfer" or _inside(node["path"], [p for paths in scopes.values() for p in paths]):
+        if node["type"] != "finish_transfer" or _inside(
+            node["path"], [p for paths in scopes.values() for p in paths]
+        ):
             continue
         owners = [index for index, key in key_of.items() if key == node["params"].get("transfer")]
         if len(owners) == 1:  # a handover's receiver finishes the giver's transfer
@@ -82,14 +102,21 @@ def _inside(path: str, scopes: Sequence[str]) -> bool:
     return any(path.startswith(scope + "/") for scope in scopes)
 
 
-def check_why(log: TickLog, transfers: Sequence[Mapping[str, Any]], entries: Sequence[Mapping[str, Any]]) -> list[WhyCheck]:
+def check_why(
+    log: TickLog, transfers: Sequence[Mapping[str, Any]], entries: Sequence[Mapping[str, Any]]
+) -> list[WhyCheck]:
     """Compare, for each failed transfer of `transfers` (as the judge reports them), the first cause `why` names
     inside it with the simulator's log; and, when the run itself failed, the run's first cause (transfer 0)
     with what the simulator says of the pegs its leaf checked (or saw just before, if it checks none)."""
     timeline = Timeline(log)
     chains = failure_chains(log, timeline)
-    steps = sorted({(step.t, step.path): step for chain in chains for step in chain.steps}.values(), key=lambda step: step.t)
-    origins = [recovery.origin for recovery in recoveries(timeline)] + [found.origin for found in fallbacks(timeline)]
+    steps = sorted(
+        {(step.t, step.path): step for chain in chains for step in chain.steps}.values(),
+        key=lambda step: step.t,
+    )
+    origins = [recovery.origin for recovery in recoveries(timeline)] + [
+        found.origin for found in fallbacks(timeline)
+    ]
     recovered = [failure_step(timeline, origin) for origin in sorted(origins, key=lambda origin: origin.seq)]
     scopes = transfer_scopes(log)
     checks = []
@@ -97,17 +124,31 @@ def check_why(log: TickLog, transfers: Sequence[Mapping[str, Any]], entries: Seq
         scope = scopes.get(transfer["index"], [])
         # the failures the tree did not get over; if it got over all (it thought the block placed), those it recovered
         # from or went past by another alternative or attempt
-        inside = [step for step in steps if _inside(step.path, scope)] or [step for step in recovered if _inside(step.path, scope)]
+        inside = [step for step in steps if _inside(step.path, scope)] or [
+            step for step in recovered if _inside(step.path, scope)
+        ]
         named = first_cause(inside) if inside else None
         step = named_step(named)
         seen = setbacks(transfer, entries, transfers)
         confirmed = named is not None and step is not None and confirms(step, named.t, seen)
-        checks.append(WhyCheck(transfer["index"], _describe(named), step, failure_cause(transfer, entries, transfers), confirmed))
+        checks.append(
+            WhyCheck(
+                transfer["index"],
+                _describe(named),
+                step,
+                failure_cause(transfer, entries, transfers),
+                confirmed,
+            )
+        )
     run = next((chain for chain in chains if chain.handled == "run"), None)
     if run is not None:
         named = run.first_cause
-        pegs = next((node["params"].get("pegs") for node in log.nodes if node["path"] == named.path), None) or []
-        checks.append(WhyCheck(0, _describe(named), named_step(named), final_check_cause(pegs, entries, named.t)))
+        pegs = (
+            next((node["params"].get("pegs") for node in log.nodes if node["path"] == named.path), None) or []
+        )
+        checks.append(
+            WhyCheck(0, _describe(named), named_step(named), final_check_cause(pegs, entries, named.t))
+        )
     return checks
 
 

@@ -75,7 +75,10 @@ def summary(log: TickLog, slowest: int = 5) -> str:
     lines += [""] + _table(log, stats, [node["id"] for node in log.nodes])
     ranked = sorted(leaves, key=lambda node: stats[node].running_time, reverse=True)[:slowest]
     lines += ["", "slowest leaves (time running):"]
-    lines += [f"  {stats[node].running_time:8.3f} s (longest {stats[node].longest_run:.3f} s)  {log.nodes[node]['path']}" for node in ranked]
+    lines += [
+        f"  {stats[node].running_time:8.3f} s (longest {stats[node].longest_run:.3f} s)  {log.nodes[node]['path']}"
+        for node in ranked
+    ]
     return "\n".join(lines)
 
 
@@ -83,7 +86,9 @@ def result_table(log: TickLog) -> str:
     """A short table of the run for the end of `pegbt run`: outcome, and how each leaf fared."""
     stats = node_stats(log)
     shown = [node["id"] for node in log.nodes if not log.children(node["id"]) or node["type"] == "subtree"]
-    return "\n".join([f"outcome: {log.outcome} in {log.last_t:.3f} s, {log.last_n} ticks"] + _table(log, stats, shown))
+    return "\n".join(
+        [f"outcome: {log.outcome} in {log.last_t:.3f} s, {log.last_n} ticks"] + _table(log, stats, shown)
+    )
 
 
 def _table(log: TickLog, stats: list[NodeStats], nodes: list[int]) -> list[str]:
@@ -93,7 +98,9 @@ def _table(log: TickLog, stats: list[NodeStats], nodes: list[int]) -> list[str]:
     rows = [f"{'node':<{width}}  {'ok':>4} {'fail':>4} {'halt':>4} {'running s':>10}"]
     for node in nodes:
         entry = stats[node]
-        rows.append(f"{names[node]:<{width}}  {entry.successes:>4} {entry.failures:>4} {entry.halts:>4} {entry.running_time:>10.3f}")
+        rows.append(
+            f"{names[node]:<{width}}  {entry.successes:>4} {entry.failures:>4} {entry.halts:>4} {entry.running_time:>10.3f}"
+        )
     return rows
 
 
@@ -105,18 +112,29 @@ def why(log: TickLog) -> str:
     root_failure = timeline.final_failure(0)
     if log.end and log.end["outcome"] == "failure" and root_failure is not None:
         first = timeline.first_origin(root_failure)
-        lines.append(f"first cause: {log.nodes[first.node]['path']} at t={first.t:.3f} s: {first.feedback or 'no feedback'}")
+        lines.append(
+            f"first cause: {log.nodes[first.node]['path']} at t={first.t:.3f} s: {first.feedback or 'no feedback'}"
+        )
         lines.append("causal chain (root failure down to the leaves that caused it):")
         _explain(timeline, root_failure, 1, lines)
     elif log.end is None or log.end["outcome"] != "success":
         lines.append("running when the run stopped:")
         for change in log.transitions:
             if change.halted and change.before == "RUNNING" and not log.children(change.node):
-                lines.append(f"  {log.nodes[change.node]['path']}  ({change.feedback or 'no feedback'})  halted: {change.halted}")
+                lines.append(
+                    f"  {log.nodes[change.node]['path']}  ({change.feedback or 'no feedback'})  halted: {change.halted}"
+                )
         if log.crash:
             lines.append(f"crash: {log.crash.get('error')}")
     else:
-        lines.append("the run succeeded" + ("; failures below were recovered" if any(c.after == "FAILURE" for c in log.transitions) else ""))
+        lines.append(
+            "the run succeeded"
+            + (
+                "; failures below were recovered"
+                if any(c.after == "FAILURE" for c in log.transitions)
+                else ""
+            )
+        )
     lines += _recoveries(timeline)
     lines += _fallback_lines(timeline)
     lines += _given_up_lines(log, timeline)
@@ -130,7 +148,9 @@ def _explain(timeline: Timeline, failure: Transition, depth: int, lines: list[st
     indent = "  " * depth
     origin = "" if causes else "  <- failed here"
     feedback = f": {failure.feedback}" if failure.feedback else ""
-    lines.append(f"{indent}{node['path']} ({node['type']}) failed at t={failure.t:.3f} s, tick {failure.n}{feedback}{origin}")
+    lines.append(
+        f"{indent}{node['path']} ({node['type']}) failed at t={failure.t:.3f} s, tick {failure.n}{feedback}{origin}"
+    )
     lines.append(f"{indent}  defined at {node['source']}")
     if not causes:
         _origin_details(timeline, failure, indent, lines)
@@ -143,18 +163,26 @@ def _origin_details(timeline: Timeline, failure: Transition, indent: str, lines:
     node = log.nodes[failure.node]
     if node["reads"]:
         values = log.blackboard_at(failure.n)
-        shown = ", ".join(f"{key}={_short(values[key]) if key in values else '<unset>'}" for key in node["reads"])
+        shown = ", ".join(
+            f"{key}={_short(values[key]) if key in values else '<unset>'}" for key in node["reads"]
+        )
         lines.append(f"{indent}  blackboard it reads: {shown}")
     for child in log.children(failure.node):
         for change in timeline.by_node[child]:
             if change.n == failure.n and change.before == "RUNNING" and change.after == "INVALID":
-                lines.append(f"{indent}  halted child: {log.nodes[child]['path']} ({change.feedback or 'no feedback'})")
+                lines.append(
+                    f"{indent}  halted child: {log.nodes[child]['path']} ({change.feedback or 'no feedback'})"
+                )
 
 
 def _short(value: Any, width: int = SHOWN_WIDTH) -> str:
     """A blackboard value as JSON (an object the log kept as its repr, as that repr), cut to `width`
     characters: a list of block estimates would fill a screen."""
-    text = " ".join(value["repr"].split()) if isinstance(value, dict) and list(value) == ["repr"] else json.dumps(value)
+    text = (
+        " ".join(value["repr"].split())
+        if isinstance(value, dict) and list(value) == ["repr"]
+        else json.dumps(value)
+    )
     return text if len(text) <= width else text[: width - 3] + "..."
 
 
@@ -163,17 +191,21 @@ def _recoveries(timeline: Timeline) -> list[str]:
     lines = []
     for recovery in recoveries(timeline):
         origin = recovery.origin
-        lines.append(f"  {log.nodes[recovery.node]['path']}: main failed at t={recovery.failed_t:.3f} s "
-                     f"({log.nodes[origin.node]['name']}: {origin.feedback or 'no feedback'}); "
-                     f"recovery {recovery.tried.after.lower()} at t={recovery.tried.t:.3f} s; {_verdict(recovery)}")
+        lines.append(
+            f"  {log.nodes[recovery.node]['path']}: main failed at t={recovery.failed_t:.3f} s "
+            f"({log.nodes[origin.node]['name']}: {origin.feedback or 'no feedback'}); "
+            f"recovery {recovery.tried.after.lower()} at t={recovery.tried.t:.3f} s; {_verdict(recovery)}"
+        )
     return (["recoveries:"] + lines) if lines else ["recoveries: none ran"]
 
 
 def _fallback_lines(timeline: Timeline) -> list[str]:
     log = timeline.log
-    lines = [f"  {log.nodes[found.node]['path']}: {log.nodes[found.origin.node]['name']} failed at t={found.origin.t:.3f} s "
-             f"({found.origin.feedback or 'no feedback'}); it went on and succeeded at t={found.succeeded.t:.3f} s"
-             for found in fallbacks(timeline)]
+    lines = [
+        f"  {log.nodes[found.node]['path']}: {log.nodes[found.origin.node]['name']} failed at t={found.origin.t:.3f} s "
+        f"({found.origin.feedback or 'no feedback'}); it went on and succeeded at t={found.succeeded.t:.3f} s"
+        for found in fallbacks(timeline)
+    ]
     return (["got over by another alternative or attempt:"] + lines) if lines else []
 
 
@@ -189,14 +221,20 @@ def _given_up_lines(log: TickLog, timeline: Timeline) -> list[str]:
         for step in chain.steps:
             where = step.path.removeprefix(chain.by + "/")
             if step is first:
-                lines.append(f"    first cause: {where} ({step.type}) failed at t={step.t:.3f} s, tick {step.n}: {step.feedback or 'no feedback'}")
+                lines.append(
+                    f"    first cause: {where} ({step.type}) failed at t={step.t:.3f} s, tick {step.n}: {step.feedback or 'no feedback'}"
+                )
                 lines.append(f"      defined at {step.source}")
                 if step.reads:
-                    lines.append(f"      blackboard it read: {', '.join(f'{key}={_short(value)}' for key, value in step.reads)}")
+                    lines.append(
+                        f"      blackboard it read: {', '.join(f'{key}={_short(value)}' for key, value in step.reads)}"
+                    )
                 if step.halted:
                     lines.append(f"      it halted: {'; '.join(step.halted)}")
             else:
-                lines.append(f"    {'then' if step.t >= first.t else 'before'}: {where} at t={step.t:.3f} s: {step.feedback or 'no feedback'}")
+                lines.append(
+                    f"    {'then' if step.t >= first.t else 'before'}: {where} at t={step.t:.3f} s: {step.feedback or 'no feedback'}"
+                )
     return (["given up (the tree went on without it):"] + lines) if lines else []
 
 
@@ -213,7 +251,11 @@ def _verdict(recovery: Recovery) -> str:
 def replay(log: TickLog, *, tick: int | None = None, time: float | None = None) -> str:
     """Every node's status (and feedback) after tick `tick`, or at executive time `time`, with the blackboard."""
     if tick is None:
-        tick = max((change.n for change in log.transitions if change.t <= time), default=0) if time is not None else log.last_n
+        tick = (
+            max((change.n for change in log.transitions if change.t <= time), default=0)
+            if time is not None
+            else log.last_n
+        )
     elif not 0 <= tick <= log.last_n:
         raise PegbtError(f"the log has ticks 0 to {log.last_n}, not {tick}", file=log.path, field="--tick")
     status = ["INVALID"] * len(log.nodes)

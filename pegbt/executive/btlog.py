@@ -41,7 +41,9 @@ def tree_xml(log: TickLog) -> str:
     for node in log.nodes:
         parent = tree if node["parent"] is None else elements[node["parent"]]
         params = {name: "" if value is None else str(value) for name, value in node.get("params", {}).items()}
-        element = ElementTree.SubElement(parent, node["type"], name=node["name"], _uid=str(node["id"] + 1), **params)
+        element = ElementTree.SubElement(
+            parent, node["type"], name=node["name"], _uid=str(node["id"] + 1), **params
+        )
         elements[node["id"]] = element
         models.setdefault(node["type"], set()).update(params)
     model_root = ElementTree.SubElement(root, "TreeNodesModel")
@@ -55,7 +57,9 @@ def tree_xml(log: TickLog) -> str:
 def export_btlog(log: TickLog, path: Path) -> int:
     """Write `log` as a `.btlog` file at `path`; returns the number of transitions written."""
     if len(log.nodes) >= 2**16 - 1:
-        raise PegbtError(f"{len(log.nodes)} nodes: a .btlog holds at most 65534", file=log.path, field="nodes")
+        raise PegbtError(
+            f"{len(log.nodes)} nodes: a .btlog holds at most 65534", file=log.path, field="nodes"
+        )
     start = datetime.datetime.fromisoformat(log.header["start_time"])
     first_us = int(start.timestamp() * 1e6)
     xml = tree_xml(log).encode("utf-8")
@@ -78,9 +82,9 @@ def read_btlog(path: Path) -> tuple[str, int, list[tuple[int, int, int]]]:
     """(XML, first timestamp µs, [(µs offset, uid, status)]): the inverse of `export_btlog`, for checking files."""
     data = path.read_bytes()
     (size,) = struct.unpack_from("<i", data, 0)
-    xml = data[4:4 + size].decode("utf-8")
+    xml = data[4 : 4 + size].decode("utf-8")
     (first_us,) = struct.unpack_from("<q", data, 4 + size)
-    body = data[12 + size:]
+    body = data[12 + size :]
     if len(body) % 8:
         raise PegbtError("truncated .btlog: transitions are 8 bytes each", file=path)
     words = struct.unpack(f"<{len(body) // 8}Q", body)

@@ -53,7 +53,13 @@ def build_tree(root: NodeSpec, context: RunContext, registry: BehaviourRegistry 
     return BuiltTree(root=behaviour, nodes=nodes, context=context)
 
 
-def _build(spec: NodeSpec, parent: int | None, context: RunContext, registry: BehaviourRegistry, nodes: list[BuiltNode]) -> Behaviour:
+def _build(
+    spec: NodeSpec,
+    parent: int | None,
+    context: RunContext,
+    registry: BehaviourRegistry,
+    nodes: list[BuiltNode],
+) -> Behaviour:
     node_id = len(nodes)
     nodes.append(None)  # type: ignore[arg-type]  # reserve this node's id before its children take theirs
     children = [_build(child, node_id, context, registry, nodes) for child in spec.children]
@@ -70,10 +76,17 @@ def _build(spec: NodeSpec, parent: int | None, context: RunContext, registry: Be
 def _leaf(spec: NodeSpec, context: RunContext, registry: BehaviourRegistry) -> Behaviour:
     behaviour_spec = registry.get(spec.type)
     if behaviour_spec is None:
-        raise PegbtError(f"{spec.path}: behaviour {spec.type!r} is not registered", file=spec.mark.file, line=spec.mark.line)
-    setup = LeafSetup(name=spec.name, params=spec.params, namespace=spec.namespace, spec=behaviour_spec, context=context)
+        raise PegbtError(
+            f"{spec.path}: behaviour {spec.type!r} is not registered",
+            file=spec.mark.file,
+            line=spec.mark.line,
+        )
+    setup = LeafSetup(
+        name=spec.name, params=spec.params, namespace=spec.namespace, spec=behaviour_spec, context=context
+    )
     behaviour = behaviour_spec.factory(setup)
     if not isinstance(behaviour, Behaviour):
-        raise TypeError(f"behaviour {spec.type!r} factory returned {type(behaviour).__name__}, not a py_trees Behaviour")
+        raise TypeError(
+            f"behaviour {spec.type!r} factory returned {type(behaviour).__name__}, not a py_trees Behaviour"
+        )
     return behaviour
-

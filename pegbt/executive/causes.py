@@ -27,7 +27,9 @@ from typing import Any
 from pegbt.executive.logfile import TickLog, Transition
 
 CONTROL_FLOW = frozenset({"check_blackboard", "force_failure", "inverter"})
-ABSORBERS = frozenset({"selector", "retry"})  # nodes that get over a child's failure by another child or attempt
+ABSORBERS = frozenset(
+    {"selector", "retry"}
+)  # nodes that get over a child's failure by another child or attempt
 FINISHED = ("SUCCESS", "FAILURE", "INVALID")
 
 
@@ -60,7 +62,9 @@ class Timeline:
         Its children's changes after that belong to its next activation, even those logged in the tick it
         started, before its own change to RUNNING (a tick logs children first)."""
         index = bisect_right(self._seqs.get(node, []), seq - 1)
-        return next((change.seq for change in reversed(self.by_node[node][:index]) if change.after in FINISHED), -1)
+        return next(
+            (change.seq for change in reversed(self.by_node[node][:index]) if change.after in FINISHED), -1
+        )
 
     def final_failure(self, node: int) -> Transition | None:
         failures = [change for change in self.by_node[node] if change.after == "FAILURE"]
@@ -78,8 +82,12 @@ class Timeline:
         if none was logged, a child whose latest change was to FAILURE (it failed again within one tick)."""
         children = self.children[failure.node]
         finish = self.finished_before(failure.node, failure.seq)
-        found = [change for child in children for change in self.by_node[child]
-                 if finish < change.seq < failure.seq and change.after == "FAILURE"]
+        found = [
+            change
+            for child in children
+            for change in self.by_node[child]
+            if finish < change.seq < failure.seq and change.after == "FAILURE"
+        ]
         if not found:
             latest = (self.last_before(child, failure.seq) for child in children)
             found = [change for change in latest if change is not None and change.after == "FAILURE"]
@@ -89,16 +97,24 @@ class Timeline:
         """The origins of `failure` (see the module docstring), in the order they failed; the failure itself
         if its node failed on its own."""
         if failure.seq not in self._origins:
-            found = self.origins_between(failure.node, self.finished_before(failure.node, failure.seq), failure.seq)
+            found = self.origins_between(
+                failure.node, self.finished_before(failure.node, failure.seq), failure.seq
+            )
             self._origins[failure.seq] = found or [failure]
         return self._origins[failure.seq]
 
     def origins_between(self, top: int, after: int, before: int) -> list[Transition]:
         """`top` and its descendants that failed on their own between seqs `after` and `before`, and whose
         failure reached `top`'s child on their way (each node between failed next)."""
-        found = [change for node in [top, *self.descendants(top)] for change in self.by_node[node]
-                 if after < change.seq < before and change.after == "FAILURE" and self.failed_on_its_own(change)
-                 and self._reached(change, top, before)]
+        found = [
+            change
+            for node in [top, *self.descendants(top)]
+            for change in self.by_node[node]
+            if after < change.seq < before
+            and change.after == "FAILURE"
+            and self.failed_on_its_own(change)
+            and self._reached(change, top, before)
+        ]
         return sorted(found, key=lambda change: change.seq)
 
     def first_origin(self, failure: Transition) -> Transition:
@@ -106,12 +122,22 @@ class Timeline:
         return self.first_of(self.origins(failure))
 
     def first_of(self, origins: Sequence[Transition]) -> Transition:
-        return next((origin for origin in origins if self.log.nodes[origin.node]["type"] not in CONTROL_FLOW), origins[0])
+        return next(
+            (origin for origin in origins if self.log.nodes[origin.node]["type"] not in CONTROL_FLOW),
+            origins[0],
+        )
 
     def next_finish(self, node: int, after: int, before: int) -> Transition | None:
         """The node's first finish (a change to SUCCESS, FAILURE or INVALID) between seqs `after` and `before`."""
         index = bisect_right(self._seqs.get(node, []), after)
-        return next((change for change in self.by_node[node][index:] if change.seq < before and change.after in FINISHED), None)
+        return next(
+            (
+                change
+                for change in self.by_node[node][index:]
+                if change.seq < before and change.after in FINISHED
+            ),
+            None,
+        )
 
     def failed_on_its_own(self, failure: Transition) -> bool:
         return not self.children[failure.node] or not self.causes(failure)
@@ -152,12 +178,21 @@ def fallbacks(timeline: Timeline) -> list[Fallback]:
     log, end = timeline.log, len(timeline.log.transitions)
     found = []
     for change in log.transitions:
-        if change.after != "FAILURE" or log.nodes[change.node]["type"] in CONTROL_FLOW or not timeline.failed_on_its_own(change):
+        if (
+            change.after != "FAILURE"
+            or log.nodes[change.node]["type"] in CONTROL_FLOW
+            or not timeline.failed_on_its_own(change)
+        ):
             continue
         node = log.nodes[change.node]["parent"]
         while node is not None:
             finish = timeline.next_finish(node, change.seq, end)
-            if finish is None or finish.after == "INVALID" or finish.after == "FAILURE" and log.nodes[node]["type"] == "recover":
+            if (
+                finish is None
+                or finish.after == "INVALID"
+                or finish.after == "FAILURE"
+                and log.nodes[node]["type"] == "recover"
+            ):
                 break  # halted, or given up (a chain tells it)
             if finish.after == "SUCCESS":
                 if log.nodes[node]["type"] in ABSORBERS:
@@ -189,8 +224,12 @@ def recoveries(timeline: Timeline) -> list[Recovery]:
             continue
         main, recovery = timeline.children[node["id"]]
         last: list[Transition] = []
-        for tried in (change for change in timeline.by_node[recovery] if change.after in ("SUCCESS", "FAILURE")):
-            start = max(timeline.finished_before(node["id"], tried.seq), timeline.finished_before(recovery, tried.seq))
+        for tried in (
+            change for change in timeline.by_node[recovery] if change.after in ("SUCCESS", "FAILURE")
+        ):
+            start = max(
+                timeline.finished_before(node["id"], tried.seq), timeline.finished_before(recovery, tried.seq)
+            )
             began = timeline.first_after(recovery, start)
             failed = timeline.origins_between(main, start, tried.seq) or last
             if began is None or not failed:
@@ -206,9 +245,15 @@ def _next_outcome(timeline: Timeline, node: int, main: int, tried: Transition) -
     began, or the recover node gave up), with when; "" if the run ended first."""
     if tried.after == "FAILURE":
         return "", None
-    success = next((change for change in timeline.by_node[main] if change.seq > tried.seq and change.after == "SUCCESS"), None)
+    success = next(
+        (change for change in timeline.by_node[main] if change.seq > tried.seq and change.after == "SUCCESS"),
+        None,
+    )
     again = timeline.first_after(timeline.children[node][1], tried.seq)
-    gave_up = next((change for change in timeline.by_node[node] if change.seq > tried.seq and change.after in FINISHED), None)
+    gave_up = next(
+        (change for change in timeline.by_node[node] if change.seq > tried.seq and change.after in FINISHED),
+        None,
+    )
     ends = [change for change in (success, again, gave_up) if change is not None]
     if not ends:
         return "", None
@@ -260,10 +305,24 @@ def failure_step(timeline: Timeline, origin: Transition) -> FailureStep:
     node = log.nodes[origin.node]
     values = log.blackboard_at(origin.n)
     reads = tuple((key, values[key]) for key in node["reads"] if key in values)
-    halted = tuple(f"{log.nodes[leaf]['name']}: {change.feedback or 'no feedback'}" for leaf in timeline.descendants(origin.node)
-                   if not timeline.children[leaf] for change in timeline.by_node[leaf]
-                   if change.n == origin.n and change.before == "RUNNING" and change.after == "INVALID")
-    return FailureStep(node["path"], node["name"], node["type"], origin.t, origin.n, origin.feedback, node["source"], reads, halted)
+    halted = tuple(
+        f"{log.nodes[leaf]['name']}: {change.feedback or 'no feedback'}"
+        for leaf in timeline.descendants(origin.node)
+        if not timeline.children[leaf]
+        for change in timeline.by_node[leaf]
+        if change.n == origin.n and change.before == "RUNNING" and change.after == "INVALID"
+    )
+    return FailureStep(
+        node["path"],
+        node["name"],
+        node["type"],
+        origin.t,
+        origin.n,
+        origin.feedback,
+        node["source"],
+        reads,
+        halted,
+    )
 
 
 def failure_chains(log: TickLog, timeline: Timeline | None = None) -> list[FailureChain]:
@@ -277,15 +336,26 @@ def failure_chains(log: TickLog, timeline: Timeline | None = None) -> list[Failu
         ends.append(("run", 0, root_failure))
     for node in log.nodes:
         if node["type"] == "recover":
-            ends += [("given up", node["id"], change) for change in timeline.by_node[node["id"]] if change.after == "FAILURE"]
+            ends += [
+                ("given up", node["id"], change)
+                for change in timeline.by_node[node["id"]]
+                if change.after == "FAILURE"
+            ]
         elif node["type"] == "force_success":
-            ends += [("given up", node["id"], change) for child in timeline.children[node["id"]]
-                     for change in timeline.by_node[child] if change.after == "FAILURE"]
+            ends += [
+                ("given up", node["id"], change)
+                for child in timeline.children[node["id"]]
+                for change in timeline.by_node[child]
+                if change.after == "FAILURE"
+            ]
     origins = {(by, end.seq): {origin.seq for origin in timeline.origins(end)} for _, by, end in ends}
     chains = []
     for handled, by, end in sorted(ends, key=lambda item: item[2].seq):
         mine = origins[(by, end.seq)]
-        if any(other != by and _contains(log, other, by) and mine <= theirs for (other, _), theirs in origins.items()):
+        if any(
+            other != by and _contains(log, other, by) and mine <= theirs
+            for (other, _), theirs in origins.items()
+        ):
             continue
         steps = tuple(failure_step(timeline, origin) for origin in timeline.origins(end))
         chains.append(FailureChain(handled, log.nodes[by]["path"], end.t, steps))

@@ -14,7 +14,9 @@ from pegbt.numbers import NumberOption
 def add_commands(subparsers: argparse._SubParsersAction) -> None:
     tree = subparsers.add_parser("tree", help="check, show and describe YAML behaviour trees")
     tree_commands = tree.add_subparsers(dest="tree_command", metavar="COMMAND", required=True)
-    check = tree_commands.add_parser("check", help="validate tree files without running them; all errors, each FILE:LINE:COLUMN")
+    check = tree_commands.add_parser(
+        "check", help="validate tree files without running them; all errors, each FILE:LINE:COLUMN"
+    )
     check.add_argument("files", nargs="+", metavar="FILE")
     check.set_defaults(handler=_tree_check)
     show = tree_commands.add_parser("show", help="print a tree (ASCII), or write Graphviz with --dot")
@@ -24,36 +26,74 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
     schema = tree_commands.add_parser("schema", help="list every node type and behaviour with its parameters")
     schema.set_defaults(handler=_tree_schema)
 
-    run = subparsers.add_parser("run", help="run a behaviour tree until it succeeds, fails or times out; writes a tick log")
+    run = subparsers.add_parser(
+        "run", help="run a behaviour tree until it succeeds, fails or times out; writes a tick log"
+    )
     run.add_argument("tree", metavar="TREE")
-    run.add_argument("--period", action=NumberOption, above=0.0, default=0.02, metavar="S", help="tick period, s (default 0.02)")
-    run.add_argument("--timeout", action=NumberOption, above=0.0, default=None, metavar="S", help="halt the tree after S seconds")
+    run.add_argument(
+        "--period",
+        action=NumberOption,
+        above=0.0,
+        default=0.02,
+        metavar="S",
+        help="tick period, s (default 0.02)",
+    )
+    run.add_argument(
+        "--timeout",
+        action=NumberOption,
+        above=0.0,
+        default=None,
+        metavar="S",
+        help="halt the tree after S seconds",
+    )
     run.add_argument("--log", metavar="FILE", help="tick log path (default runs/TREE-DATE-TIME.jsonl)")
-    run.add_argument("--clock", default=None, metavar="NAME",
-                     help="wall (default): real time; manual: time that advances one period per tick, without sleeping; "
-                     "others as registered in pegbt/executive/providers.py; a resource that is a time source "
-                     "(a simulator in lockstep) supplies its own")
+    run.add_argument(
+        "--clock",
+        default=None,
+        metavar="NAME",
+        help="wall (default): real time; manual: time that advances one period per tick, without sleeping; "
+        "others as registered in pegbt/executive/providers.py; a resource that is a time source "
+        "(a simulator in lockstep) supplies its own",
+    )
     run.add_argument("--quiet", action="store_true", help="no progress lines")
     for option in RUN_OPTIONS.values():
-        run.add_argument(f"--{option.name}", dest=f"option_{option.name}", type=option.type, default=option.default,
-                         choices=option.choices or None, help=f"{option.help} (default {option.default})")
+        run.add_argument(
+            f"--{option.name}",
+            dest=f"option_{option.name}",
+            type=option.type,
+            default=option.default,
+            choices=option.choices or None,
+            help=f"{option.help} (default {option.default})",
+        )
     run.set_defaults(handler=_run)
 
     log = subparsers.add_parser("log", help="analyse tick logs written by `pegbt run`")
     log_commands = log.add_subparsers(dest="log_command", metavar="COMMAND", required=True)
-    summary = log_commands.add_parser("summary", help="outcome, duration, ticks, per-node counts, slowest leaves")
+    summary = log_commands.add_parser(
+        "summary", help="outcome, duration, ticks, per-node counts, slowest leaves"
+    )
     summary.add_argument("log", metavar="LOG")
     summary.set_defaults(handler=_log_summary)
-    why = log_commands.add_parser("why", help="causal chain from the root's failure to the leaf failures; recoveries")
+    why = log_commands.add_parser(
+        "why", help="causal chain from the root's failure to the leaf failures; recoveries"
+    )
     why.add_argument("log", metavar="LOG")
     why.set_defaults(handler=_log_why)
     replay = log_commands.add_parser("replay", help="every node's status at one tick or time")
     replay.add_argument("log", metavar="LOG")
     moment = replay.add_mutually_exclusive_group(required=True)
     moment.add_argument("--tick", type=int, metavar="N")
-    moment.add_argument("--time", action=NumberOption, at_least=0.0, metavar="T", help="seconds since the start (executive clock)")
+    moment.add_argument(
+        "--time",
+        action=NumberOption,
+        at_least=0.0,
+        metavar="T",
+        help="seconds since the start (executive clock)",
+    )
     replay.set_defaults(handler=_log_replay)
-    export = log_commands.add_parser("export", help="convert a tick log to Groot2's .btlog (BehaviorTree.CPP FileLogger2)")
+    export = log_commands.add_parser(
+        "export", help="convert a tick log to Groot2's .btlog (BehaviorTree.CPP FileLogger2)"
+    )
     export.add_argument("log", metavar="LOG")
     export.add_argument("out", metavar="OUT", help="the .btlog file to write")
     export.set_defaults(handler=_log_export)
@@ -85,7 +125,9 @@ def _tree_show(args: argparse.Namespace) -> int:
         try:
             Path(args.dot).write_text(py_trees.display.dot_tree(built.root).to_string(), encoding="utf-8")
         except OSError as error:
-            raise PegbtError(f"cannot write the dot file: {error.strerror}", file=args.dot, field="--dot") from None
+            raise PegbtError(
+                f"cannot write the dot file: {error.strerror}", file=args.dot, field="--dot"
+            ) from None
         print(f"wrote {args.dot}")
     else:
         print(py_trees.display.ascii_tree(built.root), end="")
@@ -106,11 +148,20 @@ def _run(args: argparse.Namespace) -> int:
 
     options = {name: getattr(args, f"option_{name}") for name in RUN_OPTIONS}
     log_path = Path(args.log) if args.log else default_log_path(args.tree)
-    output = run_tree_file(args.tree, log_path, options=options, clock=args.clock, period=args.period,
-                           timeout=args.timeout, quiet=args.quiet)
+    output = run_tree_file(
+        args.tree,
+        log_path,
+        options=options,
+        clock=args.clock,
+        period=args.period,
+        timeout=args.timeout,
+        quiet=args.quiet,
+    )
     reports = list(output.reports.values())
     if reports:  # a resource that judges the run says more than the per-node table
-        print(f"outcome: {output.result.outcome} in {output.result.duration:.3f} s, {output.result.ticks} ticks")
+        print(
+            f"outcome: {output.result.outcome} in {output.result.duration:.3f} s, {output.result.ticks} ticks"
+        )
         for report in reports:
             print(report)
     else:

@@ -35,5 +35,7 @@ class RunContext:
             raise PegbtError(f"this run provides no resource {name!r} (available: {available})", field=name)
         value = self.resources[name]
         if kind is not None and not isinstance(value, kind):
-            raise PegbtError(f"resource {name!r} is a {type(value).__name__}, expected {kind.__name__}", field=name)
+            raise PegbtError(
+                f"resource {name!r} is a {type(value).__name__}, expected {kind.__name__}", field=name
+            )
         return value

@@ -86,10 +86,14 @@ class _DocumentLoader:
             self.problems.add_error(error)
             return document
         if root is None:
-            self.problems.add("the file is empty; expected a mapping with `tree:` and/or `subtrees:`", Mark(str(path), 1, 1))
+            self.problems.add(
+                "the file is empty; expected a mapping with `tree:` and/or `subtrees:`", Mark(str(path), 1, 1)
+            )
             return document
         if not root.is_map:
-            self.problems.add(f"expected a mapping with keys {', '.join(TOP_LEVEL_KEYS)}; found {_kind(root)}", root.mark)
+            self.problems.add(
+                f"expected a mapping with keys {', '.join(TOP_LEVEL_KEYS)}; found {_kind(root)}", root.mark
+            )
             return document
         for key, value in root.value.items():
             if key not in TOP_LEVEL_KEYS:
@@ -108,7 +112,11 @@ class _DocumentLoader:
         for subtree in self._subtrees(root.value.get("subtrees")):
             first = self.defined_at.get(subtree.name)
             if first is not None and first != subtree.mark:
-                self.problems.add(f"subtree {subtree.name!r} is already defined at {first}", subtree.mark, field=subtree.name)
+                self.problems.add(
+                    f"subtree {subtree.name!r} is already defined at {first}",
+                    subtree.mark,
+                    field=subtree.name,
+                )
                 continue
             self.defined_at[subtree.name] = subtree.mark
             document.subtrees[subtree.name] = subtree
@@ -118,7 +126,7 @@ class _DocumentLoader:
     def _include(self, document: TreeDocument, path: Path, mark: Mark, stack: tuple[Path, ...]) -> None:
         resolved = path.resolve()
         if resolved in stack:
-            chain = " -> ".join(p.name for p in stack[stack.index(resolved):] + (resolved,))
+            chain = " -> ".join(p.name for p in stack[stack.index(resolved) :] + (resolved,))
             self.problems.add(f"include cycle: {chain}", mark, field="include")
             return
         if not path.is_file():
@@ -154,12 +162,20 @@ class _DocumentLoader:
         if value is None:
             return {}
         if not value.is_map:
-            self.problems.add(f"expected a mapping of blackboard keys to initial values; found {_kind(value)}", value.mark, field="blackboard")
+            self.problems.add(
+                f"expected a mapping of blackboard keys to initial values; found {_kind(value)}",
+                value.mark,
+                field="blackboard",
+            )
             return {}
         values = {}
         for key, item in value.value.items():
             if not is_valid_key(key) or "." in key:
-                self.problems.add("not a blackboard key name (letters, digits, _, and / for namespaces)", value.key_marks[key], field=key)
+                self.problems.add(
+                    "not a blackboard key name (letters, digits, _, and / for namespaces)",
+                    value.key_marks[key],
+                    field=key,
+                )
                 continue
             values[key if key.startswith("/") else "/" + key] = item
         return values
@@ -168,13 +184,21 @@ class _DocumentLoader:
         if value is None:
             return []
         if not value.is_map:
-            self.problems.add(f"expected a mapping of subtree names to definitions; found {_kind(value)}", value.mark, field="subtrees")
+            self.problems.add(
+                f"expected a mapping of subtree names to definitions; found {_kind(value)}",
+                value.mark,
+                field="subtrees",
+            )
             return []
         definitions = []
         for name, body in value.value.items():
             mark = value.key_marks[name]
             if not body.is_map:
-                self.problems.add(f"expected a mapping with keys {', '.join(SUBTREE_KEYS)}; found {_kind(body)}", body.mark, field=name)
+                self.problems.add(
+                    f"expected a mapping with keys {', '.join(SUBTREE_KEYS)}; found {_kind(body)}",
+                    body.mark,
+                    field=name,
+                )
                 continue
             for key in body.value:
                 if key not in SUBTREE_KEYS:
@@ -186,14 +210,26 @@ class _DocumentLoader:
             if "tree" not in body.value:
                 self.problems.add(f"subtree {name!r} has no `tree:`", mark, field=name)
                 continue
-            definitions.append(SubtreeDef(name, self._text(body, "doc"), self._args(body.value.get("args"), name), body.value["tree"], mark))
+            definitions.append(
+                SubtreeDef(
+                    name,
+                    self._text(body, "doc"),
+                    self._args(body.value.get("args"), name),
+                    body.value["tree"],
+                    mark,
+                )
+            )
         return definitions
 
     def _args(self, value: Located | None, subtree: str) -> dict[str, ArgSpec]:
         if value is None:
             return {}
         if not value.is_map:
-            self.problems.add(f"expected a mapping of argument names to types; found {_kind(value)}", value.mark, field="args")
+            self.problems.add(
+                f"expected a mapping of argument names to types; found {_kind(value)}",
+                value.mark,
+                field="args",
+            )
             return {}
         args = {}
         for name, declaration in value.value.items():
@@ -201,21 +237,32 @@ class _DocumentLoader:
             fields = declaration.value if declaration.is_map else {"type": declaration}
             for key in fields:
                 if key not in ARG_KEYS:
-                    self.problems.add(f"unknown key {key!r}{did_you_mean(key, ARG_KEYS)}; expected {', '.join(ARG_KEYS)}",
-                                      declaration.key_marks[key], field=key)
+                    self.problems.add(
+                        f"unknown key {key!r}{did_you_mean(key, ARG_KEYS)}; expected {', '.join(ARG_KEYS)}",
+                        declaration.key_marks[key],
+                        field=key,
+                    )
             type_value = fields.get("type")
             kind_name = type_value.value if type_value is not None else "any"
             if not isinstance(kind_name, str) or kind_name not in TYPE_NAMES:
                 where = type_value.mark if type_value is not None else mark
-                self.problems.add(f"unknown argument type {kind_name!r}{did_you_mean(str(kind_name), TYPE_NAMES)}; expected one of "
-                                  f"{', '.join(TYPE_NAMES)}", where, field=name)
+                self.problems.add(
+                    f"unknown argument type {kind_name!r}{did_you_mean(str(kind_name), TYPE_NAMES)}; expected one of "
+                    f"{', '.join(TYPE_NAMES)}",
+                    where,
+                    field=name,
+                )
                 continue
             kind = TYPE_NAMES[kind_name]
             default = fields["default"].plain() if "default" in fields else REQUIRED
             if default is not REQUIRED and default is not None:
                 default, problem = check_type(default, kind)
                 if problem:
-                    self.problems.add(f"default of argument {name!r} should be {problem}", fields["default"].mark, field=name)
+                    self.problems.add(
+                        f"default of argument {name!r} should be {problem}",
+                        fields["default"].mark,
+                        field=name,
+                    )
             doc = fields["doc"].value if "doc" in fields and isinstance(fields["doc"].value, str) else ""
             args[name] = ArgSpec(name, kind, default, doc, mark)
         return args
@@ -227,4 +274,3 @@ def _kind(value: Located) -> str:
     if value.is_list:
         return "a list"
     return f"{value.value!r} ({type(value.value).__name__})" if value.value is not None else "nothing"
-

@@ -22,7 +22,9 @@ class BlackboardGuard(py_trees.decorators.EternalGuard):
         self.op = op
         self.value = value
         self._compare = comparison(op)
-        super().__init__(name=name, child=child, condition=self._holds, blackboard_keys=[key.split(".", 1)[0]])
+        super().__init__(
+            name=name, child=child, condition=self._holds, blackboard_keys=[key.split(".", 1)[0]]
+        )
 
     def _holds(self, blackboard: py_trees.blackboard.Client) -> bool:
         try:
@@ -32,5 +34,7 @@ class BlackboardGuard(py_trees.decorators.EternalGuard):
             return False
         holds = self._compare(current, self.value)
         if not holds:
-            self.feedback_message = f"guard: {self.key} {self.op} {self.value!r} no longer holds (value {current!r})"
+            self.feedback_message = (
+                f"guard: {self.key} {self.op} {self.value!r} no longer holds (value {current!r})"
+            )
         return holds

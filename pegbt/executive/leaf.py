@@ -66,8 +66,11 @@ class Leaf(py_trees.behaviour.Behaviour):
         declared = next(param for param in self.setup_info.spec.params if param.name == name)
         checked, problem = declared.check_value(read)
         if problem:
-            raise PegbtError(f"{self.name}: parameter {name!r} should be {problem}; blackboard key {value.key!r} holds "
-                             f"{describe(read)}", field=name)
+            raise PegbtError(
+                f"{self.name}: parameter {name!r} should be {problem}; blackboard key {value.key!r} holds "
+                f"{describe(read)}",
+                field=name,
+            )
         return checked
 
     def read(self, key: str) -> Any:

@@ -44,12 +44,18 @@ class LoadedTree:
         for key, value in values.items():
             absolute = key if key.startswith("/") else "/" + key
             if absolute not in declared:
-                raise PegbtError(f"the tree declares no blackboard key {key!r}; it has {', '.join(sorted(declared)) or 'none'}",
-                                 file=self.document.path, field=key)
+                raise PegbtError(
+                    f"the tree declares no blackboard key {key!r}; it has {', '.join(sorted(declared)) or 'none'}",
+                    file=self.document.path,
+                    field=key,
+                )
             checked, problem = check_type(value, type(declared[absolute]))
             if problem:
-                raise PegbtError(f"blackboard key {key!r} holds {problem}, not {describe(value)}", file=self.document.path,
-                                 field=key)
+                raise PegbtError(
+                    f"blackboard key {key!r} holds {problem}, not {describe(value)}",
+                    file=self.document.path,
+                    field=key,
+                )
             self.overrides[absolute] = checked
 
     def node_count(self) -> int:
@@ -59,7 +65,9 @@ class LoadedTree:
         """The py_trees tree; a `PegbtError` if the file has no `tree:` or the context lacks a declared resource."""
         context = context or RunContext()
         if self.root is None:
-            raise PegbtError("this file has no `tree:` to build (it only defines subtrees)", file=self.document.path)
+            raise PegbtError(
+                "this file has no `tree:` to build (it only defines subtrees)", file=self.document.path
+            )
         built = build_tree(self.root, context, registry)
         built.initial_blackboard = self.initial_blackboard
         built.source = str(self.document.path)

@@ -36,7 +36,9 @@ class TickLog:
     header: dict[str, Any]
     nodes: list[dict[str, Any]]
     transitions: list[Transition] = field(default_factory=list)
-    writes: list[tuple[int, float, str, Any]] = field(default_factory=list)  # (n, t, key, value); None value = unset
+    writes: list[tuple[int, float, str, Any]] = field(
+        default_factory=list
+    )  # (n, t, key, value); None value = unset
     crash: dict[str, Any] | None = None
     end: dict[str, Any] | None = None
     last_n: int = 0
@@ -44,7 +46,11 @@ class TickLog:
 
     @property
     def outcome(self) -> str:
-        return self.end["outcome"] if self.end else "unfinished (no end record: the run was killed or is still running)"
+        return (
+            self.end["outcome"]
+            if self.end
+            else "unfinished (no end record: the run was killed or is still running)"
+        )
 
     def children(self, node: int) -> list[int]:
         return [other["id"] for other in self.nodes if other["parent"] == node]
@@ -100,10 +106,18 @@ def _parse_line(raw: bytes, number: int, path: Path, last: bool) -> dict[str, An
         record = json.loads(raw)
     except (json.JSONDecodeError, UnicodeDecodeError) as error:
         if last:
-            raise PegbtError("truncated record: the log ends in the middle of a line (was the run killed while writing?)",
-                             file=path, line=number) from None
+            raise PegbtError(
+                "truncated record: the log ends in the middle of a line (was the run killed while writing?)",
+                file=path,
+                line=number,
+            ) from None
         column = getattr(error, "colno", None)
-        raise PegbtError(f"corrupt record: not JSON ({getattr(error, 'msg', error)})", file=path, line=number, column=column) from None
+        raise PegbtError(
+            f"corrupt record: not JSON ({getattr(error, 'msg', error)})",
+            file=path,
+            line=number,
+            column=column,
+        ) from None
     if not isinstance(record, dict):
         raise PegbtError("corrupt record: expected a JSON object", file=path, line=number)
     return record
@@ -112,16 +126,30 @@ def _parse_line(raw: bytes, number: int, path: Path, last: bool) -> dict[str, An
 def _require(record: dict[str, Any], key: str, kind: type | tuple[type, ...], path: Path, line: int) -> Any:
     value = record.get(key)
     if not isinstance(value, kind) or isinstance(value, bool) and kind is not bool:
-        raise PegbtError(f"corrupt record: expected {getattr(kind, '__name__', kind)}, found {value!r}", file=path, line=line, field=key)
+        raise PegbtError(
+            f"corrupt record: expected {getattr(kind, '__name__', kind)}, found {value!r}",
+            file=path,
+            line=line,
+            field=key,
+        )
     return value
 
 
 def _header(record: dict[str, Any], path: Path) -> TickLog:
     if record.get("type") != "header" or record.get("format") != FORMAT:
-        raise PegbtError(f"not a pegbt tick log: the first record should be a {FORMAT} header", file=path, line=1, field="type")
+        raise PegbtError(
+            f"not a pegbt tick log: the first record should be a {FORMAT} header",
+            file=path,
+            line=1,
+            field="type",
+        )
     if record.get("format_version") != FORMAT_VERSION:
-        raise PegbtError(f"tick log format version {record.get('format_version')!r}; this pegbt reads version {FORMAT_VERSION}",
-                         file=path, line=1, field="format_version")
+        raise PegbtError(
+            f"tick log format version {record.get('format_version')!r}; this pegbt reads version {FORMAT_VERSION}",
+            file=path,
+            line=1,
+            field="format_version",
+        )
     nodes = _require(record, "nodes", list, path, 1)
     for index, node in enumerate(nodes):
         if not isinstance(node, dict) or node.get("id") != index or not isinstance(node.get("path"), str):
@@ -137,7 +165,12 @@ def _header(record: dict[str, Any], path: Path) -> TickLog:
 def _event(log: TickLog, record: dict[str, Any], line: int, path: Path) -> None:
     kind = record.get("type")
     if kind not in _EVENT_TYPES:
-        raise PegbtError(f"unknown record type {kind!r}; expected one of {', '.join(_EVENT_TYPES)}", file=path, line=line, field="type")
+        raise PegbtError(
+            f"unknown record type {kind!r}; expected one of {', '.join(_EVENT_TYPES)}",
+            file=path,
+            line=line,
+            field="type",
+        )
     if log.end is not None:
         raise PegbtError("record after the end record", file=path, line=line, field="type")
     n = _require(record, "n", int, path, line)
@@ -161,11 +194,23 @@ def _event(log: TickLog, record: dict[str, Any], line: int, path: Path) -> None:
         log.writes.append((n, t, key, _UNSET))
 
 
-def _transition(log: TickLog, change: Any, n: int, t: float, halted: str | None, path: Path, line: int) -> Transition:
+def _transition(
+    log: TickLog, change: Any, n: int, t: float, halted: str | None, path: Path, line: int
+) -> Transition:
     valid = (
-        isinstance(change, list) and len(change) == 4 and isinstance(change[0], int) and 0 <= change[0] < len(log.nodes)
-        and change[1] in STATUSES and change[2] in STATUSES and isinstance(change[3], str)
+        isinstance(change, list)
+        and len(change) == 4
+        and isinstance(change[0], int)
+        and 0 <= change[0] < len(log.nodes)
+        and change[1] in STATUSES
+        and change[2] in STATUSES
+        and isinstance(change[3], str)
     )
     if not valid:
-        raise PegbtError(f"corrupt status change {change!r}: expected [node id, from, to, feedback]", file=path, line=line, field="changes")
+        raise PegbtError(
+            f"corrupt status change {change!r}: expected [node id, from, to, feedback]",
+            file=path,
+            line=line,
+            field="changes",
+        )
     return Transition(len(log.transitions), n, t, change[0], change[1], change[2], change[3], halted)

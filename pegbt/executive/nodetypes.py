@@ -38,17 +38,29 @@ class NodeType:
 
     @property
     def child_fields(self) -> tuple[str, ...]:
-        return {"composite": ("children",), "decorator": ("child",), "recover": ("main", "recovery"), "subtree": ()}[self.shape]
+        return {
+            "composite": ("children",),
+            "decorator": ("child",),
+            "recover": ("main", "recovery"),
+            "subtree": (),
+        }[self.shape]
 
 
 def _memory(default: bool) -> Param:
-    return Param("memory", bool, "resume at the running child (true) or restart from the first child every tick (false)", default=default)
+    return Param(
+        "memory",
+        bool,
+        "resume at the running child (true) or restart from the first child every tick (false)",
+        default=default,
+    )
 
 
 def _parallel(spec: NodeSpec, children: list[Behaviour], context: RunContext) -> Behaviour:
     policy_name, synchronise = spec.params["policy"], spec.params["synchronise"]
     if policy_name == "all":
-        policy: py_trees.common.ParallelPolicy.Base = py_trees.common.ParallelPolicy.SuccessOnAll(synchronise=synchronise)
+        policy: py_trees.common.ParallelPolicy.Base = py_trees.common.ParallelPolicy.SuccessOnAll(
+            synchronise=synchronise
+        )
     elif policy_name == "one":
         policy = py_trees.common.ParallelPolicy.SuccessOnOne()
     else:
@@ -79,57 +91,146 @@ NODE_TYPES: dict[str, NodeType] = {
     node.name: node
     for node in (
         NodeType(
-            "sequence", "tick children in order; fail at the first failure, succeed when all succeed", "composite",
+            "sequence",
+            "tick children in order; fail at the first failure, succeed when all succeed",
+            "composite",
             (_memory(True),),
-            lambda spec, children, context: py_trees.composites.Sequence(spec.name, memory=spec.params["memory"], children=children),
+            lambda spec, children, context: py_trees.composites.Sequence(
+                spec.name, memory=spec.params["memory"], children=children
+            ),
         ),
         NodeType(
-            "selector", "fallback: tick children in order; succeed at the first success, fail when all fail", "composite",
+            "selector",
+            "fallback: tick children in order; succeed at the first success, fail when all fail",
+            "composite",
             (_memory(False),),
-            lambda spec, children, context: py_trees.composites.Selector(spec.name, memory=spec.params["memory"], children=children),
+            lambda spec, children, context: py_trees.composites.Selector(
+                spec.name, memory=spec.params["memory"], children=children
+            ),
         ),
         NodeType(
-            "parallel", "tick every child every tick; any failure fails; success per policy", "composite",
+            "parallel",
+            "tick every child every tick; any failure fails; success per policy",
+            "composite",
             (
-                Param("policy", str, "all: every child succeeds; one: any child succeeds; selected: the children named in `selected` succeed",
-                      default="all", choices=("all", "one", "selected")),
-                Param("synchronise", bool, "(all, selected) do not tick children again once they succeeded", default=True),
-                Param("selected", list[str], "(selected) names of the children that must succeed", default=[]),
+                Param(
+                    "policy",
+                    str,
+                    "all: every child succeeds; one: any child succeeds; selected: the children named in `selected` succeed",
+                    default="all",
+                    choices=("all", "one", "selected"),
+                ),
+                Param(
+                    "synchronise",
+                    bool,
+                    "(all, selected) do not tick children again once they succeeded",
+                    default=True,
+                ),
+                Param(
+                    "selected", list[str], "(selected) names of the children that must succeed", default=[]
+                ),
             ),
             _parallel,
         ),
-        NodeType("retry", "tick the child again after it fails, up to `attempts` attempts in all", "decorator",
-                 (Param("attempts", int, "attempts in all", minimum=1),),
-                 lambda spec, children, context: py_trees.decorators.Retry(spec.name, children[0], num_failures=spec.params["attempts"])),
-        NodeType("timeout", "fail, halting the child, if it is still running after `seconds` (executive clock)", "decorator",
-                 (Param("seconds", float, "time allowed, s", minimum=0.0),),
-                 lambda spec, children, context: ClockTimeout(spec.name, children[0], spec.params["seconds"], context.clock)),
-        NodeType("inverter", "success becomes failure and failure success", "decorator", (),
-                 _decorator(py_trees.decorators.Inverter)),
-        NodeType("repeat", "tick the child again after it succeeds until it succeeded `times` times (-1: forever); fail on failure", "decorator",
-                 (Param("times", int, "successes needed (-1 repeats forever)", minimum=-1),),
-                 lambda spec, children, context: py_trees.decorators.Repeat(spec.name, children[0], num_success=spec.params["times"])),
-        NodeType("force_success", "failure becomes success (running stays running)", "decorator", (),
-                 _decorator(py_trees.decorators.FailureIsSuccess)),
-        NodeType("force_failure", "success becomes failure (running stays running)", "decorator", (),
-                 _decorator(py_trees.decorators.SuccessIsFailure)),
-        NodeType("oneshot", "run the child to completion once, then return that result without ticking it", "decorator",
-                 (Param("policy", str, "on_success: latch only success (a failure runs again next time); on_completion: latch any result",
-                        default="on_success", choices=("on_success", "on_completion")),),
-                 _oneshot),
-        NodeType("guard", "tick the child only while the blackboard condition `key op value` holds; when it stops holding, "
-                 "halt the child and fail (BT.CPP `_while`)", "decorator",
-                 (Param("key", str, "blackboard key to test", key="read"),
-                  Param("op", str, "comparison", default="==", choices=tuple(OPERATORS)),
-                  Param("value", Any, "value compared with", default=True)),
-                 _guard),
-        NodeType("recover", "run `main`; on failure run `recovery` and, if it succeeds, retry `main` (Nav2 RecoveryNode)", "recover",
-                 (Param("retries", int, "recoveries allowed before giving up", default=1, minimum=0),),
-                 lambda spec, children, context: Recover(spec.name, children[0], children[1], spec.params["retries"])),
-        NodeType("subtree", "an instance of a subtree definition, with its own blackboard namespace", "subtree",
-                 (Param("use", str, "name of the subtree definition"),
-                  Param("args", dict, "argument values", default={}),
-                  Param("namespace", str, "blackboard namespace of this instance (default: from the name)", default=None)),
-                 None),
+        NodeType(
+            "retry",
+            "tick the child again after it fails, up to `attempts` attempts in all",
+            "decorator",
+            (Param("attempts", int, "attempts in all", minimum=1),),
+            lambda spec, children, context: py_trees.decorators.Retry(
+                spec.name, children[0], num_failures=spec.params["attempts"]
+            ),
+        ),
+        NodeType(
+            "timeout",
+            "fail, halting the child, if it is still running after `seconds` (executive clock)",
+            "decorator",
+            (Param("seconds", float, "time allowed, s", minimum=0.0),),
+            lambda spec, children, context: ClockTimeout(
+                spec.name, children[0], spec.params["seconds"], context.clock
+            ),
+        ),
+        NodeType(
+            "inverter",
+            "success becomes failure and failure success",
+            "decorator",
+            (),
+            _decorator(py_trees.decorators.Inverter),
+        ),
+        NodeType(
+            "repeat",
+            "tick the child again after it succeeds until it succeeded `times` times (-1: forever); fail on failure",
+            "decorator",
+            (Param("times", int, "successes needed (-1 repeats forever)", minimum=-1),),
+            lambda spec, children, context: py_trees.decorators.Repeat(
+                spec.name, children[0], num_success=spec.params["times"]
+            ),
+        ),
+        NodeType(
+            "force_success",
+            "failure becomes success (running stays running)",
+            "decorator",
+            (),
+            _decorator(py_trees.decorators.FailureIsSuccess),
+        ),
+        NodeType(
+            "force_failure",
+            "success becomes failure (running stays running)",
+            "decorator",
+            (),
+            _decorator(py_trees.decorators.SuccessIsFailure),
+        ),
+        NodeType(
+            "oneshot",
+            "run the child to completion once, then return that result without ticking it",
+            "decorator",
+            (
+                Param(
+                    "policy",
+                    str,
+                    "on_success: latch only success (a failure runs again next time); on_completion: latch any result",
+                    default="on_success",
+                    choices=("on_success", "on_completion"),
+                ),
+            ),
+            _oneshot,
+        ),
+        NodeType(
+            "guard",
+            "tick the child only while the blackboard condition `key op value` holds; when it stops holding, "
+            "halt the child and fail (BT.CPP `_while`)",
+            "decorator",
+            (
+                Param("key", str, "blackboard key to test", key="read"),
+                Param("op", str, "comparison", default="==", choices=tuple(OPERATORS)),
+                Param("value", Any, "value compared with", default=True),
+            ),
+            _guard,
+        ),
+        NodeType(
+            "recover",
+            "run `main`; on failure run `recovery` and, if it succeeds, retry `main` (Nav2 RecoveryNode)",
+            "recover",
+            (Param("retries", int, "recoveries allowed before giving up", default=1, minimum=0),),
+            lambda spec, children, context: Recover(
+                spec.name, children[0], children[1], spec.params["retries"]
+            ),
+        ),
+        NodeType(
+            "subtree",
+            "an instance of a subtree definition, with its own blackboard namespace",
+            "subtree",
+            (
+                Param("use", str, "name of the subtree definition"),
+                Param("args", dict, "argument values", default={}),
+                Param(
+                    "namespace",
+                    str,
+                    "blackboard namespace of this instance (default: from the name)",
+                    default=None,
+                ),
+            ),
+            None,
+        ),
     )
 }

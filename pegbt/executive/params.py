@@ -15,7 +15,15 @@ from dataclasses import dataclass
 from typing import Any, Literal
 
 REQUIRED: Any = type("Required", (), {"__repr__": lambda self: "REQUIRED"})()
-TYPE_NAMES: dict[str, Any] = {"str": str, "int": int, "float": float, "bool": bool, "list": list, "dict": dict, "any": Any}
+TYPE_NAMES: dict[str, Any] = {
+    "str": str,
+    "int": int,
+    "float": float,
+    "bool": bool,
+    "list": list,
+    "dict": dict,
+    "any": Any,
+}
 _KEY_PATTERN = re.compile(r"^/?[A-Za-z_][A-Za-z0-9_]*(/[A-Za-z_][A-Za-z0-9_]*)*(\.[A-Za-z_][A-Za-z0-9_]*)*$")
 
 
@@ -121,7 +129,10 @@ class Param:
             if value.startswith("$$"):
                 value = value[1:]
             elif not self.blackboard:
-                return value, f"a literal {type_name(self.type)}; this parameter does not take blackboard references ($key)"
+                return (
+                    value,
+                    f"a literal {type_name(self.type)}; this parameter does not take blackboard references ($key)",
+                )
             elif not is_valid_key(value[1:]):
                 return value, "a blackboard reference `$name` (letters, digits, _, / and .)"
             else:

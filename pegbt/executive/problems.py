@@ -22,7 +22,9 @@ class Problems:
         self._errors: list[PegbtError] = []
         self._seen: set[tuple[object, ...]] = set()
 
-    def add(self, message: str, mark: Mark | None, *, path: str | None = None, field: str | None = None) -> None:
+    def add(
+        self, message: str, mark: Mark | None, *, path: str | None = None, field: str | None = None
+    ) -> None:
         """Record one problem at `mark`; `path` is the node's path in the tree, `field` the offending key."""
         text = f"{path}: {message}" if path else message
         identity = (mark, field, message)  # not the path: a subtree used twice has one fault, in one place
@@ -32,7 +34,9 @@ class Problems:
         if mark is None:
             self._errors.append(PegbtError(text, field=field))
         else:
-            self._errors.append(PegbtError(text, file=mark.file, line=mark.line, column=mark.column, field=field))
+            self._errors.append(
+                PegbtError(text, file=mark.file, line=mark.line, column=mark.column, field=field)
+            )
 
     def add_error(self, error: PegbtError) -> None:
         """Record an error raised elsewhere (a YAML syntax error in an included file, say)."""

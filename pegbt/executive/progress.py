@@ -12,16 +12,23 @@ class ProgressPrinter:
     """A tick-log listener that prints leaf results as they happen."""
 
     def __init__(self, built: BuiltTree, stream: IO[str] | None = None) -> None:
-        self.stream = stream or sys.stdout  # looked up now, not at import: the stream may have been swapped since
+        self.stream = (
+            stream or sys.stdout
+        )  # looked up now, not at import: the stream may have been swapped since
         self.leaves = {node.id: node.spec.path for node in built.nodes if not node.spec.children}
 
     def __call__(self, record: dict[str, Any]) -> None:
         kind = record["type"]
         if kind in ("tick", "halt"):
             for node, _, after, feedback in record["changes"]:
-                if node in self.leaves and (after in ("SUCCESS", "FAILURE") or kind == "halt" and after == "INVALID"):
+                if node in self.leaves and (
+                    after in ("SUCCESS", "FAILURE") or kind == "halt" and after == "INVALID"
+                ):
                     shown = "HALTED" if kind == "halt" else after
                     note = f"  ({feedback})" if feedback else ""
                     print(f"{record['t']:8.3f} s  {shown:<7}  {self.leaves[node]}{note}", file=self.stream)
         elif kind == "end":
-            print(f"{record['t']:8.3f} s  run ended: {record['outcome']} after {record['n']} ticks", file=self.stream)
+            print(
+                f"{record['t']:8.3f} s  run ended: {record['outcome']} after {record['n']} ticks",
+                file=self.stream,
+            )

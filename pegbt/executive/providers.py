@@ -52,17 +52,34 @@ class RunOption:
 RUN_OPTIONS: dict[str, RunOption] = {
     option.name: option
     for option in (
-        RunOption("endpoint", "robot: `auto` starts the embedded simulator (lockstep, dvrk-real physics); "
-                  "or the zenoh address of a running simulator or robot, e.g. tcp/127.0.0.1:7447", "auto"),
-        RunOption("condition", "skills: uncalibrated (cubic motion), calibrated (cubic + compensation), "
-                  "optimized (spline + SQP + compensation)", "optimized",
-                  choices=("uncalibrated", "calibrated", "optimized")),
+        RunOption(
+            "endpoint",
+            "robot: `auto` starts the embedded simulator (lockstep, dvrk-real physics); "
+            "or the zenoh address of a running simulator or robot, e.g. tcp/127.0.0.1:7447",
+            "auto",
+        ),
+        RunOption(
+            "condition",
+            "skills: uncalibrated (cubic motion), calibrated (cubic + compensation), "
+            "optimized (spline + SQP + compensation)",
+            "optimized",
+            choices=("uncalibrated", "calibrated", "optimized"),
+        ),
         RunOption("seed", "robot: seed of the embedded simulator's world", 0, type=int),
-        RunOption("faults", "robot: fault plan (YAML) for the embedded simulator to inject (see `pegbt sim --faults`)"),
-        RunOption("simlog", "robot: file the embedded simulator appends its log to: injected faults and world events, "
-                  "the ground truth (see `pegbt sim --log`)"),
-        RunOption("calibration", "skills: directory of calibration models (default: the simulator's for "
-                  "--endpoint auto, else skills/calibration)"),
+        RunOption(
+            "faults",
+            "robot: fault plan (YAML) for the embedded simulator to inject (see `pegbt sim --faults`)",
+        ),
+        RunOption(
+            "simlog",
+            "robot: file the embedded simulator appends its log to: injected faults and world events, "
+            "the ground truth (see `pegbt sim --log`)",
+        ),
+        RunOption(
+            "calibration",
+            "skills: directory of calibration models (default: the simulator's for "
+            "--endpoint auto, else skills/calibration)",
+        ),
     )
 }
 
@@ -92,12 +109,16 @@ def run_options(given: Mapping[str, Any] | None = None) -> dict[str, Any]:
     given = dict(given or {})
     unknown = sorted(set(given) - set(RUN_OPTIONS))
     if unknown:
-        raise PegbtError(f"unknown run option {unknown[0]!r}; known: {', '.join(RUN_OPTIONS)}", field=unknown[0])
+        raise PegbtError(
+            f"unknown run option {unknown[0]!r}; known: {', '.join(RUN_OPTIONS)}", field=unknown[0]
+        )
     options = {}
     for name, option in RUN_OPTIONS.items():
         value = given.get(name, option.default)
         if value is not None and option.choices and value not in option.choices:
-            raise PegbtError(f"{value!r} is not one of {', '.join(map(str, option.choices))}", field=f"--{name}")
+            raise PegbtError(
+                f"{value!r} is not one of {', '.join(map(str, option.choices))}", field=f"--{name}"
+            )
         options[name] = value
     return options
 
@@ -107,10 +128,17 @@ def provide_resources(users: Mapping[str, str], setup: ProviderSetup) -> dict[st
 
     If a provider fails, the resources already provided are closed before the error propagates.
     """
-    missing = [f"{name!r} (needed by {user})" for name, user in sorted(users.items()) if name not in RESOURCE_PROVIDERS]
+    missing = [
+        f"{name!r} (needed by {user})"
+        for name, user in sorted(users.items())
+        if name not in RESOURCE_PROVIDERS
+    ]
     if missing:
-        raise PegbtError(f"no provider for resource {'; '.join(missing)}; providers are registered in "
-                         "pegbt/executive/providers.py", field="resources")
+        raise PegbtError(
+            f"no provider for resource {'; '.join(missing)}; providers are registered in "
+            "pegbt/executive/providers.py",
+            field="resources",
+        )
     resources: dict[str, Any] = {}
     try:
         for name in sorted(users):
@@ -123,15 +151,23 @@ def provide_resources(users: Mapping[str, str], setup: ProviderSetup) -> dict[st
 
 def resource_clock(resources: Mapping[str, Any], requested: str | None) -> tuple[Clock | None, str]:
     """The clock a resource supplies (and its name), if one does; a `PegbtError` if `--clock` asked for another."""
-    supplied = [(name, resource.run_clock) for name, resource in sorted(resources.items()) if isinstance(getattr(resource, "run_clock", None), Clock)]
+    supplied = [
+        (name, resource.run_clock)
+        for name, resource in sorted(resources.items())
+        if isinstance(getattr(resource, "run_clock", None), Clock)
+    ]
     if len(supplied) > 1:
-        raise PegbtError(f"resources {', '.join(name for name, _ in supplied)} each supply a clock", field="resources")
+        raise PegbtError(
+            f"resources {', '.join(name for name, _ in supplied)} each supply a clock", field="resources"
+        )
     if not supplied:
         return None, requested or "wall"
     name, clock = supplied[0]
     if requested is not None:
-        raise PegbtError(f"resource {name!r} supplies the run's clock ({type(clock).__name__}); drop --clock {requested}",
-                         field="--clock")
+        raise PegbtError(
+            f"resource {name!r} supplies the run's clock ({type(clock).__name__}); drop --clock {requested}",
+            field="--clock",
+        )
     return clock, f"{name} ({type(clock).__name__})"
 
 

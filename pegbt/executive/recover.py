@@ -20,7 +20,11 @@ class Recover(py_trees.composites.Composite):
     """Run `main`; on failure run `recovery` and, if it succeeds, retry `main` (at most `retries` times)."""
 
     def __init__(
-        self, name: str, main: py_trees.behaviour.Behaviour, recovery: py_trees.behaviour.Behaviour, retries: int
+        self,
+        name: str,
+        main: py_trees.behaviour.Behaviour,
+        recovery: py_trees.behaviour.Behaviour,
+        retries: int,
     ) -> None:
         super().__init__(name, [main, recovery])
         self.retries = retries

@@ -132,7 +132,9 @@ def behaviour(
     """Class or function decorator registering a leaf behaviour (see the module docstring)."""
 
     def register(factory: F) -> F:
-        registry.add(BehaviourSpec(name, doc, factory, tuple(params), tuple(reads), tuple(writes), tuple(resources)))
+        registry.add(
+            BehaviourSpec(name, doc, factory, tuple(params), tuple(reads), tuple(writes), tuple(resources))
+        )
         return factory
 
     return register

@@ -47,7 +47,9 @@ def absolute_key(namespace: str, key: str) -> str:
 class Resolver:
     """Turns a `TreeDocument` into `NodeSpec`s, recording problems instead of raising."""
 
-    def __init__(self, document: TreeDocument, problems: Problems, registry: BehaviourRegistry = REGISTRY) -> None:
+    def __init__(
+        self, document: TreeDocument, problems: Problems, registry: BehaviourRegistry = REGISTRY
+    ) -> None:
         self.document = document
         self.problems = problems
         self.registry = registry
@@ -65,7 +67,10 @@ class Resolver:
         for name, definition in self.document.subtrees.items():
             if name not in self.instantiated:
                 self.instantiated.add(name)
-                args = {arg.name: (Unbound(arg.name) if arg.default is REQUIRED else arg.default) for arg in definition.args.values()}
+                args = {
+                    arg.name: (Unbound(arg.name) if arg.default is REQUIRED else arg.default)
+                    for arg in definition.args.values()
+                }
                 scope = Scope(path=f"(subtree {name})", namespace="/" + name, args=args, stack=(name,))
                 self.node(definition.body, scope, {})
 
@@ -82,7 +87,9 @@ class Resolver:
             known = list(NODE_TYPES) + self.registry.names()
             self.problems.add(
                 f"unknown node type or behaviour {type_name!r}{did_you_mean(type_name, known)}; see `pegbt tree schema`",
-                loc.mark, path=scope.path or "/", field=type_name,
+                loc.mark,
+                path=scope.path or "/",
+                field=type_name,
             )
             return None
         declared = node_type.params if node_type else behaviour.params
@@ -90,7 +97,9 @@ class Resolver:
             return self._subtree(loc, fields, field_marks, scope, siblings)
         name = self._name(type_name, fields, field_marks, scope, siblings, loc.mark)
         path = f"{scope.path}/{name}"
-        self._unknown_fields(type_name, fields, field_marks, declared, node_type.child_fields if node_type else (), path)
+        self._unknown_fields(
+            type_name, fields, field_marks, declared, node_type.child_fields if node_type else (), path
+        )
         params = self._params(declared, fields, field_marks, scope, loc.mark, path)
         spec = NodeSpec(type_name, name, params, loc.mark, path, scope.namespace)
         spec.keys = self._keys(declared, params, fields, field_marks, scope.namespace, behaviour, loc.mark)
@@ -109,44 +118,73 @@ class Resolver:
             found = f"keys {', '.join(loc.value)}" if loc.is_map else describe(loc.plain())
             self.problems.add(
                 f"a node is a mapping with one key, its type (e.g. `sequence: {{children: [...]}}`); found {found}",
-                loc.mark, path=where,
+                loc.mark,
+                path=where,
             )
             return None
-        (type_name, body), = loc.value.items()
+        ((type_name, body),) = loc.value.items()
         if body.value is None:
             return type_name, {}, {}
         node_type = NODE_TYPES.get(type_name)
         if body.is_list and node_type is not None and node_type.shape == "composite":
             return type_name, {"children": body}, {"children": body.mark}
         if not body.is_map:
-            self.problems.add(f"the fields of {type_name!r} should be a mapping; found {describe(body.plain())}", body.mark, path=where)
+            self.problems.add(
+                f"the fields of {type_name!r} should be a mapping; found {describe(body.plain())}",
+                body.mark,
+                path=where,
+            )
             return None
         return type_name, body.value, body.key_marks
 
-    def _unknown_fields(self, type_name: str, fields: dict[str, Located], marks: dict[str, Mark], declared: tuple[Param, ...],
-                        child_fields: tuple[str, ...], path: str) -> None:
+    def _unknown_fields(
+        self,
+        type_name: str,
+        fields: dict[str, Located],
+        marks: dict[str, Mark],
+        declared: tuple[Param, ...],
+        child_fields: tuple[str, ...],
+        path: str,
+    ) -> None:
         allowed = ("name",) + child_fields + tuple(param.name for param in declared)
         for key in fields:
             if key not in allowed:
                 self.problems.add(
                     f"{type_name} has no field {key!r}{did_you_mean(key, allowed)}; expected {', '.join(allowed)}",
-                    marks[key], path=path, field=key,
+                    marks[key],
+                    path=path,
+                    field=key,
                 )
 
-    def _name(self, default: str, fields: dict[str, Located], marks: dict[str, Mark], scope: Scope, siblings: dict[str, Mark],
-              mark: Mark) -> str:
+    def _name(
+        self,
+        default: str,
+        fields: dict[str, Located],
+        marks: dict[str, Mark],
+        scope: Scope,
+        siblings: dict[str, Mark],
+        mark: Mark,
+    ) -> str:
         if "name" in fields:
             name = self._substitute(fields["name"].value, scope, fields["name"].mark)
             if isinstance(name, Unbound):
                 name = fields["name"].value  # checked on its own: keep `${arg}` in the name
             if isinstance(name, str) and name and "/" not in name:
                 if name in siblings:
-                    self.problems.add(f"duplicate name {name!r} among siblings (first at line {siblings[name].line})",
-                                      marks["name"], path=scope.path or "/", field="name")
+                    self.problems.add(
+                        f"duplicate name {name!r} among siblings (first at line {siblings[name].line})",
+                        marks["name"],
+                        path=scope.path or "/",
+                        field="name",
+                    )
                 siblings.setdefault(name, marks["name"])
                 return name
-            self.problems.add(f"name should be a non-empty string without '/'; found {describe(name)}", marks["name"],
-                              path=scope.path or "/", field="name")
+            self.problems.add(
+                f"name should be a non-empty string without '/'; found {describe(name)}",
+                marks["name"],
+                path=scope.path or "/",
+                field="name",
+            )
         name, count = default, 1
         while name in siblings:
             count += 1
@@ -154,25 +192,49 @@ class Resolver:
         siblings[name] = mark
         return name
 
-    def _params(self, declared: tuple[Param, ...], fields: dict[str, Located], marks: dict[str, Mark], scope: Scope, mark: Mark,
-                path: str) -> dict[str, Any]:
+    def _params(
+        self,
+        declared: tuple[Param, ...],
+        fields: dict[str, Located],
+        marks: dict[str, Mark],
+        scope: Scope,
+        mark: Mark,
+        path: str,
+    ) -> dict[str, Any]:
         params: dict[str, Any] = {}
         for param in declared:
             if param.name not in fields:
                 if param.required:
-                    self.problems.add(f"missing required parameter {param.name!r} ({param.doc})", mark, path=path, field=param.name)
+                    self.problems.add(
+                        f"missing required parameter {param.name!r} ({param.doc})",
+                        mark,
+                        path=path,
+                        field=param.name,
+                    )
                 params[param.name] = None if param.required else param.default
                 continue
             raw = self._substitute(fields[param.name].plain(), scope, fields[param.name].mark, path)
             value, problem = param.check(raw)
             if problem:
-                self.problems.add(f"parameter {param.name!r} should be {problem}; found {describe(raw)}", marks[param.name],
-                                  path=path, field=param.name)
+                self.problems.add(
+                    f"parameter {param.name!r} should be {problem}; found {describe(raw)}",
+                    marks[param.name],
+                    path=path,
+                    field=param.name,
+                )
             params[param.name] = value
         return params
 
-    def _keys(self, declared: tuple[Param, ...], params: dict[str, Any], fields: dict[str, Located], marks: dict[str, Mark],
-              namespace: str, behaviour: BehaviourSpec | None, mark: Mark) -> list[KeyUse]:
+    def _keys(
+        self,
+        declared: tuple[Param, ...],
+        params: dict[str, Any],
+        fields: dict[str, Located],
+        marks: dict[str, Mark],
+        namespace: str,
+        behaviour: BehaviourSpec | None,
+        mark: Mark,
+    ) -> list[KeyUse]:
         keys = []
         for param in declared:
             value = params.get(param.name)
@@ -186,98 +248,170 @@ class Resolver:
             keys.extend(KeyUse(absolute_key(namespace, key), "write", mark) for key in behaviour.writes)
         return keys
 
-    def _children(self, node_type: NodeType, fields: dict[str, Located], marks: dict[str, Mark], scope: Scope, mark: Mark,
-                  path: str) -> list[NodeSpec]:
+    def _children(
+        self,
+        node_type: NodeType,
+        fields: dict[str, Located],
+        marks: dict[str, Mark],
+        scope: Scope,
+        mark: Mark,
+        path: str,
+    ) -> list[NodeSpec]:
         siblings: dict[str, Mark] = {}
         if node_type.shape == "composite":
             value = fields.get("children")
             if value is None or not value.is_list or not value.value:
                 found = "nothing" if value is None else describe(value.plain())
-                self.problems.add(f"{node_type.name} needs `children:`, a non-empty list of nodes; found {found}",
-                                  marks.get("children", mark), path=path, field="children")
+                self.problems.add(
+                    f"{node_type.name} needs `children:`, a non-empty list of nodes; found {found}",
+                    marks.get("children", mark),
+                    path=path,
+                    field="children",
+                )
                 return []
             children = [self.node(item, scope, siblings) for item in value.value]
         else:
             children = []
             for field_name in node_type.child_fields:
                 if field_name not in fields:
-                    self.problems.add(f"{node_type.name} needs `{field_name}:`, one node", mark, path=path, field=field_name)
+                    self.problems.add(
+                        f"{node_type.name} needs `{field_name}:`, one node", mark, path=path, field=field_name
+                    )
                     continue
                 children.append(self.node(fields[field_name], scope, siblings))
         return [child for child in children if child is not None]
 
-    def _check_parallel(self, node_type: NodeType, spec: NodeSpec, fields: dict[str, Located], marks: dict[str, Mark]) -> None:
+    def _check_parallel(
+        self, node_type: NodeType, spec: NodeSpec, fields: dict[str, Located], marks: dict[str, Mark]
+    ) -> None:
         if node_type.name != "parallel" or spec.params.get("policy") != "selected":
             return
         selected = spec.params.get("selected") or []
         names = [child.name for child in spec.children]
         where = marks.get("selected", spec.mark)
         if not selected:
-            self.problems.add("policy 'selected' needs `selected:`, the names of the children that must succeed", where,
-                              path=spec.path, field="selected")
+            self.problems.add(
+                "policy 'selected' needs `selected:`, the names of the children that must succeed",
+                where,
+                path=spec.path,
+                field="selected",
+            )
         for name in selected if isinstance(selected, list) else []:
             if isinstance(name, str) and name not in names:
-                self.problems.add(f"selected child {name!r} is not a child of this parallel{did_you_mean(name, names)}", where,
-                                  path=spec.path, field="selected")
+                self.problems.add(
+                    f"selected child {name!r} is not a child of this parallel{did_you_mean(name, names)}",
+                    where,
+                    path=spec.path,
+                    field="selected",
+                )
 
     # -- subtrees ------------------------------------------------------------------------------------------
 
-    def _subtree(self, loc: Located, fields: dict[str, Located], marks: dict[str, Mark], scope: Scope,
-                 siblings: dict[str, Mark]) -> NodeSpec | None:
+    def _subtree(
+        self,
+        loc: Located,
+        fields: dict[str, Located],
+        marks: dict[str, Mark],
+        scope: Scope,
+        siblings: dict[str, Mark],
+    ) -> NodeSpec | None:
         where = scope.path or "/"
         use_field = fields.get("use")
         use = self._substitute(use_field.value, scope, use_field.mark) if use_field is not None else None
         if not isinstance(use, str):
-            self.problems.add(f"subtree needs `use:`, the name of a subtree definition; found {describe(use)}",
-                              use_field.mark if use_field else loc.mark, path=where, field="use")
+            self.problems.add(
+                f"subtree needs `use:`, the name of a subtree definition; found {describe(use)}",
+                use_field.mark if use_field else loc.mark,
+                path=where,
+                field="use",
+            )
             return None
         definition = self.document.subtrees.get(use)
         if definition is None:
-            self.problems.add(f"unknown subtree {use!r}{did_you_mean(use, self.document.subtrees)}; defined: "
-                              f"{', '.join(sorted(self.document.subtrees)) or 'none'}", use_field.mark, path=where, field="use")
+            self.problems.add(
+                f"unknown subtree {use!r}{did_you_mean(use, self.document.subtrees)}; defined: "
+                f"{', '.join(sorted(self.document.subtrees)) or 'none'}",
+                use_field.mark,
+                path=where,
+                field="use",
+            )
             return None
         self.instantiated.add(use)
         args = self._arguments(definition, fields.get("args"), scope, loc.mark, where)
         given = fields["args"].value if fields.get("args") is not None and fields["args"].is_map else {}
-        shown_args = " ".join(str(args[arg]) for arg in given if arg in args and isinstance(args[arg], (str, int, float)))
+        shown_args = " ".join(
+            str(args[arg]) for arg in given if arg in args and isinstance(args[arg], (str, int, float))
+        )
         name = self._name(f"{use} {shown_args}".strip(), fields, marks, scope, siblings, loc.mark)
         path = f"{scope.path}/{name}"
         self._unknown_fields("subtree", fields, marks, NODE_TYPES["subtree"].params, (), path)
         namespace = self._namespace(fields.get("namespace"), name, scope, loc.mark, path)
-        instance = NodeSpec("subtree", name, {"use": use, "args": args, "namespace": namespace}, loc.mark, path, namespace,
-                            subtree=f"{use}({', '.join(f'{k}={v!r}' for k, v in args.items())})")
+        instance = NodeSpec(
+            "subtree",
+            name,
+            {"use": use, "args": args, "namespace": namespace},
+            loc.mark,
+            path,
+            namespace,
+            subtree=f"{use}({', '.join(f'{k}={v!r}' for k, v in args.items())})",
+        )
         if use in scope.stack:
-            chain = " -> ".join(scope.stack[scope.stack.index(use):] + (use,))
-            self.problems.add(f"subtree {use!r} instantiates itself: {chain}", use_field.mark, path=path, field="use")
+            chain = " -> ".join(scope.stack[scope.stack.index(use) :] + (use,))
+            self.problems.add(
+                f"subtree {use!r} instantiates itself: {chain}", use_field.mark, path=path, field="use"
+            )
             return instance
-        body = self.node(definition.body, Scope(path=path, namespace=namespace, args=args, stack=scope.stack + (use,)), {})
+        body = self.node(
+            definition.body, Scope(path=path, namespace=namespace, args=args, stack=scope.stack + (use,)), {}
+        )
         instance.children = [body] if body is not None else []
         return instance
 
-    def _arguments(self, definition: SubtreeDef, given: Located | None, scope: Scope, mark: Mark, where: str) -> dict[str, Any]:
+    def _arguments(
+        self, definition: SubtreeDef, given: Located | None, scope: Scope, mark: Mark, where: str
+    ) -> dict[str, Any]:
         values: dict[str, Any] = {}
         if given is not None and not given.is_map:
-            self.problems.add(f"`args:` should be a mapping of argument names to values; found {describe(given.plain())}", given.mark,
-                              path=where, field="args")
+            self.problems.add(
+                f"`args:` should be a mapping of argument names to values; found {describe(given.plain())}",
+                given.mark,
+                path=where,
+                field="args",
+            )
             given = None
         entries = given.value if given is not None else {}
         for arg_name, value in entries.items():
             arg = definition.args.get(arg_name)
             if arg is None:
-                self.problems.add(f"subtree {definition.name!r} has no argument {arg_name!r}{did_you_mean(arg_name, definition.args)}; "
-                                  f"declared: {', '.join(definition.args) or 'none'}", given.key_marks[arg_name], path=where, field=arg_name)
+                self.problems.add(
+                    f"subtree {definition.name!r} has no argument {arg_name!r}{did_you_mean(arg_name, definition.args)}; "
+                    f"declared: {', '.join(definition.args) or 'none'}",
+                    given.key_marks[arg_name],
+                    path=where,
+                    field=arg_name,
+                )
                 continue
             raw = self._substitute(value.plain(), scope, value.mark)
             checked, problem = check_type(raw, arg.type)
             if problem:
-                self.problems.add(f"argument {arg_name!r} should be {problem}; found {describe(raw)}", value.mark, path=where, field=arg_name)
+                self.problems.add(
+                    f"argument {arg_name!r} should be {problem}; found {describe(raw)}",
+                    value.mark,
+                    path=where,
+                    field=arg_name,
+                )
                 checked = Unbound(arg_name)  # reported once here, not again wherever the subtree uses it
             values[arg_name] = checked
         for arg in definition.args.values():
             if arg.name not in values:
                 if arg.default is REQUIRED:
                     if arg.name not in entries:
-                        self.problems.add(f"subtree {definition.name!r} needs argument {arg.name!r}", mark, path=where, field=arg.name)
+                        self.problems.add(
+                            f"subtree {definition.name!r} needs argument {arg.name!r}",
+                            mark,
+                            path=where,
+                            field=arg.name,
+                        )
                     values[arg.name] = Unbound(arg.name)
                 else:
                     values[arg.name] = arg.default
@@ -287,16 +421,30 @@ class Resolver:
         local = _NAMESPACE_CHARS.sub("_", name).strip("_") or "subtree"
         if field is not None and field.value is not None:
             value = self._substitute(field.value, scope, field.mark)
-            if isinstance(value, str) and is_valid_key(value) and "." not in value and not value.startswith("/"):
+            if (
+                isinstance(value, str)
+                and is_valid_key(value)
+                and "." not in value
+                and not value.startswith("/")
+            ):
                 local = value
             else:
-                self.problems.add(f"namespace should be a relative blackboard name (letters, digits, _, /); found {describe(value)}",
-                                  field.mark, path=path, field="namespace")
+                self.problems.add(
+                    f"namespace should be a relative blackboard name (letters, digits, _, /); found {describe(value)}",
+                    field.mark,
+                    path=path,
+                    field="namespace",
+                )
         namespace = absolute_key(scope.namespace, local)
         first = self.namespaces.get(namespace)
         if first is not None and first != mark:
-            self.problems.add(f"blackboard namespace {namespace!r} is already used by the subtree instance at {first}; "
-                              "give this instance another `name:` or `namespace:`", mark, path=path, field="namespace")
+            self.problems.add(
+                f"blackboard namespace {namespace!r} is already used by the subtree instance at {first}; "
+                "give this instance another `name:` or `namespace:`",
+                mark,
+                path=path,
+                field="namespace",
+            )
         self.namespaces.setdefault(namespace, mark)
         return namespace
 
@@ -329,10 +477,18 @@ class Resolver:
     def _argument(self, name: str, scope: Scope, mark: Mark, path: str) -> Any:
         """The argument's value; `Unbound` (which every check accepts) when it has none or does not exist."""
         if scope.args is None:
-            self.problems.add(f"${{{name}}} refers to a subtree argument, but this node is not inside a subtree", mark, path=path)
+            self.problems.add(
+                f"${{{name}}} refers to a subtree argument, but this node is not inside a subtree",
+                mark,
+                path=path,
+            )
         elif name not in scope.args:
-            self.problems.add(f"unknown subtree argument {name!r}{did_you_mean(name, scope.args)}; declared: "
-                              f"{', '.join(scope.args) or 'none'}", mark, path=path)
+            self.problems.add(
+                f"unknown subtree argument {name!r}{did_you_mean(name, scope.args)}; declared: "
+                f"{', '.join(scope.args) or 'none'}",
+                mark,
+                path=path,
+            )
         else:
             return scope.args[name]
         return Unbound(name)

@@ -44,7 +44,9 @@ def set_initial_blackboard(built: BuiltTree) -> None:
             writer.set(key, value, overwrite=True)
 
 
-def run(built: BuiltTree, *, period: float, timeout: float | None = None, log: TickLogWriter | None = None) -> RunResult:
+def run(
+    built: BuiltTree, *, period: float, timeout: float | None = None, log: TickLogWriter | None = None
+) -> RunResult:
     """Set up and tick `built` every `period` seconds of its context's clock; see the module docstring for how it ends."""
     clock = built.context.clock
     root = built.root
@@ -93,7 +95,9 @@ def run(built: BuiltTree, *, period: float, timeout: float | None = None, log: T
 def _changed(before: dict) -> bool:
     """Whether the tick wrote the blackboard (a new value or key): a waiting node may now go on."""
     after = py_trees.blackboard.Blackboard.storage
-    return len(after) != len(before) or any(before.get(key, before) is not value for key, value in after.items())
+    return len(after) != len(before) or any(
+        before.get(key, before) is not value for key, value in after.items()
+    )
 
 
 def next_wake(built: BuiltTree, now: float, period: float) -> float:
@@ -116,7 +120,9 @@ def next_wake(built: BuiltTree, now: float, period: float) -> float:
     return now + period * math.ceil((earliest - now) / period - 1e-9)
 
 
-def _halt(root: py_trees.behaviour.Behaviour, log: TickLogWriter | None, ticks: int, t: float, reason: str) -> None:
+def _halt(
+    root: py_trees.behaviour.Behaviour, log: TickLogWriter | None, ticks: int, t: float, reason: str
+) -> None:
     root.stop(Status.INVALID)
     if log is not None:
         log.halt(ticks, t, reason)

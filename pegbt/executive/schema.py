@@ -23,7 +23,11 @@ def _param_line(param: Param) -> str:
 
 def schema_text(registry: BehaviourRegistry = REGISTRY) -> str:
     """The schema of tree files: top-level keys, control node types, registered behaviours."""
-    lines = [f"tree file keys: {', '.join(TOP_LEVEL_KEYS)}", "", "control node types (every node also takes `name`):"]
+    lines = [
+        f"tree file keys: {', '.join(TOP_LEVEL_KEYS)}",
+        "",
+        "control node types (every node also takes `name`):",
+    ]
     for node_type in NODE_TYPES.values():
         children = f" [{', '.join(node_type.child_fields)}]" if node_type.child_fields else ""
         lines.append(f"  {node_type.name}{children} -- {node_type.doc}")
@@ -32,7 +36,11 @@ def schema_text(registry: BehaviourRegistry = REGISTRY) -> str:
     for spec in registry:
         lines.append(f"  {spec.name} -- {spec.doc}")
         lines += [_param_line(param) for param in spec.params]
-        for label, keys in (("reads", spec.reads), ("writes", spec.writes), ("needs resources", spec.resources)):
+        for label, keys in (
+            ("reads", spec.reads),
+            ("writes", spec.writes),
+            ("needs resources", spec.resources),
+        ):
             if keys:
                 lines.append(f"    ({label}: {', '.join(keys)})")
     return "\n".join(lines)

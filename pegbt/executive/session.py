@@ -48,7 +48,9 @@ class RunOutput:
     @property
     def ok(self) -> bool:
         """The tree succeeded and no report says otherwise."""
-        return self.result.outcome == "success" and all(getattr(report, "ok", True) for report in self.reports.values())
+        return self.result.outcome == "success" and all(
+            getattr(report, "ok", True) for report in self.reports.values()
+        )
 
 
 def run_tree_file(
@@ -80,7 +82,11 @@ def run_tree_file(
         built = loaded.build(RunContext(clock=supplied or setup.clock, resources=resources))
         listeners = [] if quiet else [ProgressPrinter(built, out)]
         if not quiet:
-            listeners += [resource.progress() for resource in resources.values() if callable(getattr(resource, "progress", None))]
+            listeners += [
+                resource.progress()
+                for resource in resources.values()
+                if callable(getattr(resource, "progress", None))
+            ]
         try:
             writer = TickLogWriter(log_path, built, clock_kind=clock_kind, listeners=listeners)
         except OSError as error:
@@ -88,7 +94,11 @@ def run_tree_file(
         if not quiet:
             print(f"running {tree} (period {period:g} s, {clock_kind} clock); tick log {log_path}", file=out)
         result = run(built, period=period, timeout=timeout, log=writer)
-        reports = {name: resource.report() for name, resource in resources.items() if callable(getattr(resource, "report", None))}
+        reports = {
+            name: resource.report()
+            for name, resource in resources.items()
+            if callable(getattr(resource, "report", None))
+        }
         reports = {name: report for name, report in reports.items() if report is not None}
     finally:
         close_resources(resources)

@@ -55,29 +55,43 @@ def node_table(built: BuiltTree) -> list[Record]:
     table = []
     for node in built.nodes:
         spec = node.spec
-        table.append({
-            "id": node.id,
-            "parent": node.parent,
-            "path": spec.path,
-            "name": spec.name,
-            "type": spec.type,
-            "class": type(node.behaviour).__name__,
-            "source": str(spec.mark),
-            "params": {name: str(value) if isinstance(value, BlackboardRef) else compact(value) for name, value in spec.params.items()},
-            "reads": sorted({use.key for use in spec.keys if use.access == "read"}),
-            "writes": sorted({use.key for use in spec.keys if use.access == "write"}),
-            "subtree": spec.subtree,
-        })
+        table.append(
+            {
+                "id": node.id,
+                "parent": node.parent,
+                "path": spec.path,
+                "name": spec.name,
+                "type": spec.type,
+                "class": type(node.behaviour).__name__,
+                "source": str(spec.mark),
+                "params": {
+                    name: str(value) if isinstance(value, BlackboardRef) else compact(value)
+                    for name, value in spec.params.items()
+                },
+                "reads": sorted({use.key for use in spec.keys if use.access == "read"}),
+                "writes": sorted({use.key for use in spec.keys if use.access == "write"}),
+                "subtree": spec.subtree,
+            }
+        )
     return table
 
 
 class TickLogWriter:
     """Writes the tick log of one run of `built`; `listeners` see every record as it is written."""
 
-    def __init__(self, path: Path | str, built: BuiltTree, *, clock_kind: str, listeners: list[Callable[[Record], None]] = ()) -> None:
+    def __init__(
+        self,
+        path: Path | str,
+        built: BuiltTree,
+        *,
+        clock_kind: str,
+        listeners: list[Callable[[Record], None]] = (),
+    ) -> None:
         self.path = Path(path)
         self.path.parent.mkdir(parents=True, exist_ok=True)
-        self._file: IO[bytes] = self.path.open("wb", buffering=0)  # unbuffered: each record is one write, nothing held back
+        self._file: IO[bytes] = self.path.open(
+            "wb", buffering=0
+        )  # unbuffered: each record is one write, nothing held back
         self._root = built.root
         self._behaviours = [node.behaviour for node in built.nodes]
         self._index = {behaviour: index for index, behaviour in enumerate(self._behaviours)}
@@ -85,17 +99,19 @@ class TickLogWriter:
         self._changes: list[list[Any]] = []
         self._blackboard: dict[str, Any] = {}
         self._listeners = list(listeners)
-        self._write({
-            "type": "header",
-            "format": FORMAT,
-            "format_version": FORMAT_VERSION,
-            "pegbt": __version__,
-            "tree": built.source,
-            "start_time": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="milliseconds"),
-            "clock": clock_kind,
-            "blackboard": {key: compact(value) for key, value in built.initial_blackboard.items()},
-            "nodes": node_table(built),
-        })
+        self._write(
+            {
+                "type": "header",
+                "format": FORMAT,
+                "format_version": FORMAT_VERSION,
+                "pegbt": __version__,
+                "tree": built.source,
+                "start_time": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="milliseconds"),
+                "clock": clock_kind,
+                "blackboard": {key: compact(value) for key, value in built.initial_blackboard.items()},
+                "nodes": node_table(built),
+            }
+        )
 
     def _write(self, record: Record) -> None:
         self._file.write((_ENCODER.encode(record) + "\n").encode("utf-8"))
@@ -104,7 +120,12 @@ class TickLogWriter:
 
     def tick_logged(self) -> None:
         """Tick the tree once, noting each node's status as py_trees reports it during the tick."""
-        index, previous, changes, name = self._index, self._status, self._changes, _NAME  # `previous` is updated in place
+        index, previous, changes, name = (
+            self._index,
+            self._status,
+            self._changes,
+            _NAME,
+        )  # `previous` is updated in place
         for node in self._root.tick():
             i = index[node]
             status = node.status
@@ -120,7 +141,9 @@ class TickLogWriter:
         if current != previous:  # compares by identity first: cheap when nothing was halted
             for index, (before, after) in enumerate(zip(previous, current)):
                 if before is not after:
-                    changes.append([index, _NAME[before], _NAME[after], self._behaviours[index].feedback_message])
+                    changes.append(
+                        [index, _NAME[before], _NAME[after], self._behaviours[index].feedback_message]
+                    )
             self._status = current
         return changes
 
@@ -144,7 +167,13 @@ class TickLogWriter:
         changes = self._status_changes()
         written, unset = self._blackboard_changes()
         if changes or written or unset:
-            record: Record = {"type": "tick", "n": n, "t": round(t, 6), "dt_us": round(dt * 1e6, 1), "changes": changes}
+            record: Record = {
+                "type": "tick",
+                "n": n,
+                "t": round(t, 6),
+                "dt_us": round(dt * 1e6, 1),
+                "changes": changes,
+            }
             if written:
                 record["bb"] = written
             if unset:
@@ -153,10 +182,20 @@ class TickLogWriter:
 
     def halt(self, n: int, t: float, reason: str) -> None:
         """Record a halt of the tree and the status changes it caused."""
-        self._write({"type": "halt", "n": n, "t": round(t, 6), "reason": reason, "changes": self._status_changes()})
+        self._write(
+            {"type": "halt", "n": n, "t": round(t, 6), "reason": reason, "changes": self._status_changes()}
+        )
 
     def crash(self, n: int, t: float, error: BaseException, traceback_text: str) -> None:
-        self._write({"type": "crash", "n": n, "t": round(t, 6), "error": f"{type(error).__name__}: {error}", "traceback": traceback_text})
+        self._write(
+            {
+                "type": "crash",
+                "n": n,
+                "t": round(t, 6),
+                "error": f"{type(error).__name__}: {error}",
+                "traceback": traceback_text,
+            }
+        )
 
     def end(self, n: int, t: float, outcome: str) -> None:
         self._write({"type": "end", "n": n, "t": round(t, 6), "outcome": outcome})

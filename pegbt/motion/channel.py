@@ -35,7 +35,12 @@ class Channel:
 
     def __post_init__(self) -> None:
         point, axis = np.asarray(self.point, dtype=float), np.asarray(self.axis, dtype=float)
-        if point.shape != (3,) or axis.shape != (3,) or not np.all(np.isfinite(point)) or not np.isfinite(axis).all():
+        if (
+            point.shape != (3,)
+            or axis.shape != (3,)
+            or not np.all(np.isfinite(point))
+            or not np.isfinite(axis).all()
+        ):
             raise PegbtError("a channel needs a finite point and axis of 3 values", field="channel")
         norm = np.linalg.norm(axis)
         if norm == 0:
@@ -70,7 +75,10 @@ class Upright:
         if axis.shape != (3,) or not np.all(np.isfinite(axis)) or np.linalg.norm(axis) == 0:
             raise PegbtError("the upright axis needs 3 finite values, not all zero", field="upright.axis")
         if not 0 < self.max_tilt < np.pi / 2:
-            raise PegbtError(f"the upright tilt limit must lie in (0, π/2) rad, got {self.max_tilt!r}", field="upright.max_tilt")
+            raise PegbtError(
+                f"the upright tilt limit must lie in (0, π/2) rad, got {self.max_tilt!r}",
+                field="upright.max_tilt",
+            )
         object.__setattr__(self, "axis", axis / np.linalg.norm(axis))
 
     @cached_property

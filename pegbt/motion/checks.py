@@ -22,13 +22,25 @@ def _limit_problems(trajectory: Trajectory, settings: ArmSettings) -> list[str]:
     t, q, qd, qdd = trajectory.t, trajectory.q, trajectory.qd, trajectory.qdd
     for name, values, low, high in (
         ("position", q, settings.lower - ABSOLUTE_SLACK, settings.upper + ABSOLUTE_SLACK),
-        ("velocity", qd, -settings.planner_velocity * (1 + RELATIVE_SLACK), settings.planner_velocity * (1 + RELATIVE_SLACK)),
-        ("acceleration", qdd, -settings.planner_acceleration * (1 + RELATIVE_SLACK), settings.planner_acceleration * (1 + RELATIVE_SLACK)),
+        (
+            "velocity",
+            qd,
+            -settings.planner_velocity * (1 + RELATIVE_SLACK),
+            settings.planner_velocity * (1 + RELATIVE_SLACK),
+        ),
+        (
+            "acceleration",
+            qdd,
+            -settings.planner_acceleration * (1 + RELATIVE_SLACK),
+            settings.planner_acceleration * (1 + RELATIVE_SLACK),
+        ),
     ):
         bad = ~((values >= low) & (values <= high))  # also catches NaN
         for j in np.flatnonzero(bad.any(axis=0)):
             k = int(np.argmax(bad[:, j]))
-            problems.append(f"{joint_label(j)} {name} {values[k, j]:.4g} at t={t[k]:.2f} s outside [{low[j]:.4g}, {high[j]:.4g}]")
+            problems.append(
+                f"{joint_label(j)} {name} {values[k, j]:.4g} at t={t[k]:.2f} s outside [{low[j]:.4g}, {high[j]:.4g}]"
+            )
     return problems
 
 
@@ -44,7 +56,10 @@ def _continuity_problems(trajectory: Trajectory, settings: ArmSettings) -> list[
     # With |q̈| ≤ a, velocity moves at most a·dt per step and position departs from the trapezoid of the
     # velocities by at most a·dt²/4: anything more is a jump.
     velocity_jump = np.abs(np.diff(qd, axis=0)) > a * dt[:, None] + ABSOLUTE_SLACK
-    position_jump = np.abs(np.diff(q, axis=0) - dt[:, None] * (qd[1:] + qd[:-1]) / 2) > a * dt[:, None] ** 2 / 4 + ABSOLUTE_SLACK
+    position_jump = (
+        np.abs(np.diff(q, axis=0) - dt[:, None] * (qd[1:] + qd[:-1]) / 2)
+        > a * dt[:, None] ** 2 / 4 + ABSOLUTE_SLACK
+    )
     for kind, jumps in (("velocity", velocity_jump), ("position", position_jump)):
         for j in np.flatnonzero(jumps.any(axis=0)):
             problems.append(f"{joint_label(j)} {kind} jumps at t={t[int(np.argmax(jumps[:, j]))]:.2f} s")
@@ -56,11 +71,17 @@ def _channel_problems(tips: np.ndarray, channel: Channel, leaving: bool) -> list
     above = heights >= channel.clear
     if not above.any():
         return [f"the block never clears the {'start' if leaving else 'goal'} peg"]
-    on_peg = np.arange(len(tips)) < int(np.argmax(above)) if leaving else np.arange(len(tips)) > len(tips) - 1 - int(np.argmax(above[::-1]))
+    on_peg = (
+        np.arange(len(tips)) < int(np.argmax(above))
+        if leaving
+        else np.arange(len(tips)) > len(tips) - 1 - int(np.argmax(above[::-1]))
+    )
     distance = channel.distance(tips[on_peg])
     if distance.size and distance.max() > channel.tolerance:
         peg = "start" if leaving else "goal"
-        return [f"leaves the {peg} peg's axis by {distance.max() * 1000:.2f} mm (channel tolerance {channel.tolerance * 1000:.2f} mm)"]
+        return [
+            f"leaves the {peg} peg's axis by {distance.max() * 1000:.2f} mm (channel tolerance {channel.tolerance * 1000:.2f} mm)"
+        ]
     return []
 
 
@@ -68,7 +89,9 @@ def _upright_problems(t: np.ndarray, tool_axes: np.ndarray, upright: Upright) ->
     tilt = upright.tilt(tool_axes)
     worst = int(np.argmax(tilt))
     if tilt[worst] > upright.max_tilt + ABSOLUTE_SLACK:
-        return [f"the tool leans {np.degrees(tilt[worst]):.2f}° from the pegs' axis at t={t[worst]:.2f} s (upright limit {np.degrees(upright.max_tilt):.2f}°)"]
+        return [
+            f"the tool leans {np.degrees(tilt[worst]):.2f}° from the pegs' axis at t={t[worst]:.2f} s (upright limit {np.degrees(upright.max_tilt):.2f}°)"
+        ]
     return []
 
 

@@ -15,16 +15,25 @@ from pegbt.motion.limits import ArmSettings
 from pegbt.motion.trajectory import HermitePath, Trajectory
 
 
-def rest_to_rest_path(waypoints: ArrayLike, settings: ArmSettings, names: list[str] | None = None) -> HermitePath:
+def rest_to_rest_path(
+    waypoints: ArrayLike, settings: ArmSettings, names: list[str] | None = None
+) -> HermitePath:
     """Cubic segments through joint `waypoints` (K, 6), stopping at each; `names` label them in errors."""
     q = np.asarray(waypoints, dtype=float)
     if q.ndim != 2 or q.shape[1] != 6 or len(q) < 2:
-        raise PegbtError(f"expected at least two joint waypoints of shape (K, 6), got {q.shape}", field="waypoints")
+        raise PegbtError(
+            f"expected at least two joint waypoints of shape (K, 6), got {q.shape}", field="waypoints"
+        )
     names = names or [f"waypoint {i}" for i in range(len(q))]
     for name, row in zip(names, q):
         settings.require_within(row, name)
     delta = np.abs(np.diff(q, axis=0))
-    durations = np.max(np.maximum(1.5 * delta / settings.planner_velocity, np.sqrt(6 * delta / settings.planner_acceleration)), axis=1)
+    durations = np.max(
+        np.maximum(
+            1.5 * delta / settings.planner_velocity, np.sqrt(6 * delta / settings.planner_acceleration)
+        ),
+        axis=1,
+    )
     durations = np.maximum(durations, settings.control_period)  # coincident waypoints still take one period
     times = np.concatenate([[0.0], np.cumsum(durations)])
     return HermitePath(times, q, np.zeros_like(q))

@@ -52,12 +52,15 @@ def handover_meeting_point(cell: Workcell, motion: MotionSettings | None = None)
     motion = motion or motion_settings()
     point = cell.pegs.tops[list(cell.handover_pegs)].mean(axis=0)
     point[1] += motion.handover.meeting_offset_board_y
-    point[2] -= motion.transfer.transfer_height_above_peg_top + motion.handover.meeting_above_transfer  # board z is down
+    point[2] -= (
+        motion.transfer.transfer_height_above_peg_top + motion.handover.meeting_above_transfer
+    )  # board z is down
     return point
 
 
-def tool_segments(q: ArrayLike, board_from_arm: NDArray[np.float64],
-                  tool: ToolGeometry | None = None) -> list[tuple[NDArray, NDArray]]:
+def tool_segments(
+    q: ArrayLike, board_from_arm: NDArray[np.float64], tool: ToolGeometry | None = None
+) -> list[tuple[NDArray, NDArray]]:
     """An arm's tool at joints `q` (..., 6) as segments (start, end; each (..., 3), board frame): the shaft
     (remote centre to wrist pitch axis) and wrist to tip; given `tool`, the latter split at the jaw hinge
     into wrist and jaw, as the simulator's world sees the tool (`pegbt.sim.tools.ToolState.segments`)."""
@@ -71,7 +74,9 @@ def tool_segments(q: ArrayLike, board_from_arm: NDArray[np.float64],
     return list(zip(points[:-1], points[1:]))
 
 
-def tool_distance(q_a: ArrayLike, a_from_board: ArrayLike, q_b: ArrayLike, b_from_board: ArrayLike) -> NDArray[np.float64]:
+def tool_distance(
+    q_a: ArrayLike, a_from_board: ArrayLike, q_b: ArrayLike, b_from_board: ArrayLike
+) -> NDArray[np.float64]:
     """Smallest distance (...) between two arms' tools (shaft and wrist-to-tip segments) at joints
     `q_a`, `q_b` (..., 6), given each arm's transform from the board frame."""
     pairs = [
@@ -82,21 +87,34 @@ def tool_distance(q_a: ArrayLike, a_from_board: ArrayLike, q_b: ArrayLike, b_fro
     return np.min(np.stack(pairs), axis=0)
 
 
-def tool_gap(q_a: ArrayLike, a_from_board: ArrayLike, q_b: ArrayLike, b_from_board: ArrayLike,
-             tool: ToolGeometry) -> NDArray[np.float64]:
+def tool_gap(
+    q_a: ArrayLike, a_from_board: ArrayLike, q_b: ArrayLike, b_from_board: ArrayLike, tool: ToolGeometry
+) -> NDArray[np.float64]:
     """Smallest clearance (...) between two arms' tools as solids: shaft, wrist (pitch axis to jaw hinge)
     and jaw, each a segment with the work cell's radius, at joints `q_a`, `q_b` (..., 6); negative where
     they overlap. `tool_distance` measures axes; this is what touches."""
-    parts = [tool_segments(q, invert_rigid(np.asarray(T, dtype=float)), tool)
-             for q, T in ((q_a, a_from_board), (q_b, b_from_board))]
+    parts = [
+        tool_segments(q, invert_rigid(np.asarray(T, dtype=float)), tool)
+        for q, T in ((q_a, a_from_board), (q_b, b_from_board))
+    ]
     radii = (tool.shaft_radius, tool.wrist_radius, tool.jaw_radius)
-    gaps = [segment_distances(a0, a1, b0, b1) - ra - rb
-            for (a0, a1), ra in zip(parts[0], radii) for (b0, b1), rb in zip(parts[1], radii)]
+    gaps = [
+        segment_distances(a0, a1, b0, b1) - ra - rb
+        for (a0, a1), ra in zip(parts[0], radii)
+        for (b0, b1), rb in zip(parts[1], radii)
+    ]
     return np.min(np.stack(gaps), axis=0)
 
 
-def descent_clearance(q_wait: ArrayLike, q_grasp: ArrayLike, receiver_from_board: ArrayLike, q_giver: ArrayLike,
-                      giver_from_board: ArrayLike, tool: ToolGeometry, steps: int = 6) -> float:
+def descent_clearance(
+    q_wait: ArrayLike,
+    q_grasp: ArrayLike,
+    receiver_from_board: ArrayLike,
+    q_giver: ArrayLike,
+    giver_from_board: ArrayLike,
+    tool: ToolGeometry,
+    steps: int = 6,
+) -> float:
     """The receiver's smallest clearance (m, `tool_gap`) from the giver resting at `q_giver` as it descends
     from `q_wait` straight (in joints, as its move does) onto `q_grasp`."""
     along = np.linspace(0.0, 1.0, steps)[:, None]
@@ -107,7 +125,10 @@ def descent_clearance(q_wait: ArrayLike, q_grasp: ArrayLike, receiver_from_board
 
 
 def _pose_in_arm(position_board: NDArray, yaw: float, arm_from_board: NDArray, up_board: NDArray) -> NDArray:
-    return rigid_transform(tool_down_rotation(yaw, arm_from_board[:3, :3] @ up_board), apply_rigid(arm_from_board, position_board))
+    return rigid_transform(
+        tool_down_rotation(yaw, arm_from_board[:3, :3] @ up_board),
+        apply_rigid(arm_from_board, position_board),
+    )
 
 
 def plan_handover(
@@ -139,13 +160,18 @@ def plan_handover(
     up = np.asarray(up_board, dtype=float) / np.linalg.norm(up_board)
     meet = np.asarray(meeting_point, dtype=float)
     grasp = meet + np.asarray(receiver_offset, dtype=float)
-    T_giver, T_receiver = np.asarray(giver_from_board, dtype=float), np.asarray(receiver_from_board, dtype=float)
+    T_giver, T_receiver = (
+        np.asarray(giver_from_board, dtype=float),
+        np.asarray(receiver_from_board, dtype=float),
+    )
 
     def ik(arm: ArmSettings, position: NDArray, yaw: float, T: NDArray, what: str) -> NDArray:
         return solve_ik(_pose_in_arm(position, yaw, T, up), arm, what=f"handover {what}")
 
     q_meet = ik(giver, meet, giver_yaw, T_giver, "meeting pose (giver)")
-    q_wait = ik(taker, grasp + settings.receiver_wait_above * up, receiver_yaw, T_receiver, "waiting pose (receiver)")
+    q_wait = ik(
+        taker, grasp + settings.receiver_wait_above * up, receiver_yaw, T_receiver, "waiting pose (receiver)"
+    )
     q_grasp = ik(taker, grasp, receiver_yaw, T_receiver, "grasp (receiver)")
     q_clear = ik(giver, meet + settings.giver_retreat * up, giver_yaw, T_giver, "retreat (giver)")
     placement = receiver.plan(
@@ -162,19 +188,37 @@ def plan_handover(
     phases = (
         HandoverPhase(
             "meet",
-            {giver.name: joint_move(giver_q, q_meet, giver), taker.name: joint_move(receiver_q, q_wait, taker)},
+            {
+                giver.name: joint_move(giver_q, q_meet, giver),
+                taker.name: joint_move(receiver_q, q_wait, taker),
+            },
             {taker.name: jaw_open},
         ),
-        HandoverPhase("receiver descends", {taker.name: joint_move(q_wait, q_grasp, taker)}, {taker.name: jaw_closed}),
+        HandoverPhase(
+            "receiver descends", {taker.name: joint_move(q_wait, q_grasp, taker)}, {taker.name: jaw_closed}
+        ),
         HandoverPhase("giver releases", {}, {giver.name: jaw_open}),
         HandoverPhase("giver rises", {giver.name: joint_move(q_meet, q_clear, giver)}, {}),
         HandoverPhase("receiver places", {taker.name: placement.trajectory}, {taker.name: jaw_open}),
     )
-    return HandoverPlan(phases, _closest_tools(phases, {giver.name: giver_q, taker.name: receiver_q}, T_giver, T_receiver, settings.min_tool_distance))
+    return HandoverPlan(
+        phases,
+        _closest_tools(
+            phases,
+            {giver.name: giver_q, taker.name: receiver_q},
+            T_giver,
+            T_receiver,
+            settings.min_tool_distance,
+        ),
+    )
 
 
 def _closest_tools(
-    phases: tuple[HandoverPhase, ...], start: dict[str, ArrayLike], T_giver: NDArray, T_receiver: NDArray, minimum: float
+    phases: tuple[HandoverPhase, ...],
+    start: dict[str, ArrayLike],
+    T_giver: NDArray,
+    T_receiver: NDArray,
+    minimum: float,
 ) -> float:
     """The smallest distance between the two tools over all phases (giver first in `start`); a
     `PegbtError` names the first phase in which it falls below `minimum`."""

@@ -109,7 +109,11 @@ def inverse_kinematics(pose: ArrayLike, settings: ArmSettings | None = None) -> 
     R = T[..., :3, :3]
     with np.errstate(invalid="ignore", divide="ignore"):
         (q1, q2, q3, q4, q5, q6), cos_q2, depth, p = _solve(
-            [[R[..., i, j] for j in range(3)] for i in range(3)], T[..., 0, 3], T[..., 1, 3], T[..., 2, 3], _ARRAY
+            [[R[..., i, j] for j in range(3)] for i in range(3)],
+            T[..., 0, 3],
+            T[..., 1, 3],
+            T[..., 2, 3],
+            _ARRAY,
         )
         q = np.stack(np.broadcast_arrays(q1, q2, q3, q4, q5, q6), axis=-1)
         finite = np.all(np.isfinite(T), axis=(-2, -1))
@@ -120,7 +124,11 @@ def inverse_kinematics(pose: ArrayLike, settings: ArmSettings | None = None) -> 
             within = np.ones(reachable.shape, dtype=bool)
         else:
             within = np.all((q >= settings.lower) & (q <= settings.upper), axis=-1)
-    reasons = (None,) * reachable.size if reachable.all() else tuple(_reachability(finite, orthonormal, cos_q2, depth, p))
+    reasons = (
+        (None,) * reachable.size
+        if reachable.all()
+        else tuple(_reachability(finite, orthonormal, cos_q2, depth, p))
+    )
     return IKSolution(q, reachable, within & reachable, settings, reasons)
 
 
@@ -131,7 +139,9 @@ def _inverse_kinematics_single(T: NDArray[np.float64], settings: ArmSettings | N
     if not all(math.isfinite(v) for row in rows for v in row):
         reason = "the pose has non-finite entries"
     elif any(
-        abs(sum(r[k][i] * r[k][j] for k in range(3)) - (i == j)) >= ROTATION_TOLERANCE for i in range(3) for j in range(3)
+        abs(sum(r[k][i] * r[k][j] for k in range(3)) - (i == j)) >= ROTATION_TOLERANCE
+        for i in range(3)
+        for j in range(3)
     ):
         reason = "the pose's rotation is not orthonormal"
     if reason is not None:
@@ -146,7 +156,8 @@ def _inverse_kinematics_single(T: NDArray[np.float64], settings: ArmSettings | N
         elif cos_q2 < SINGULAR_COS_Q2:
             reason = "singular: pitch q2 at ±90°, yaw and roll not separable"
     within = reason is None and (
-        settings is None or all(low <= v <= high for v, low, high in zip(q.tolist(), settings.lower, settings.upper))
+        settings is None
+        or all(low <= v <= high for v, low, high in zip(q.tolist(), settings.lower, settings.upper))
     )
     return IKSolution(q, np.bool_(reason is None), np.bool_(within), settings, (reason,))
 
@@ -156,8 +167,5 @@ def solve_ik(pose: ArrayLike, settings: ArmSettings, *, what: str = "pose") -> N
     the violated limit."""
     solution = inverse_kinematics(pose, settings)
     if not solution.ok:
-        raise PegbtError(
-            f"not reachable by {settings.name}: " + "; ".join(solution.problems()), field=what
-        )
+        raise PegbtError(f"not reachable by {settings.name}: " + "; ".join(solution.problems()), field=what)
     return solution.q
-

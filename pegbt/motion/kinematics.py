@@ -100,10 +100,20 @@ def shaft_end_and_tip(q: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.flo
         ca, sa, ct, st = cos(alpha), sin(alpha), cos(theta), sin(theta)
         px, py, pz = px + a * xx, py + a * xy, pz + a * xz  # TransX(a)
         yx, yy, yz, zx, zy, zz = (  # RotX(α)
-            ca * yx + sa * zx, ca * yy + sa * zy, ca * yz + sa * zz, ca * zx - sa * yx, ca * zy - sa * yy, ca * zz - sa * yz
+            ca * yx + sa * zx,
+            ca * yy + sa * zy,
+            ca * yz + sa * zz,
+            ca * zx - sa * yx,
+            ca * zy - sa * yy,
+            ca * zz - sa * yz,
         )
         xx, xy, xz, yx, yy, yz = (  # RotZ(θ)
-            ct * xx + st * yx, ct * xy + st * yy, ct * xz + st * yz, ct * yx - st * xx, ct * yy - st * xy, ct * yz - st * xz
+            ct * xx + st * yx,
+            ct * xy + st * yy,
+            ct * xz + st * yz,
+            ct * yx - st * xx,
+            ct * yy - st * xy,
+            ct * yz - st * xz,
         )
         px, py, pz = px + d * zx, py + d * zy, pz + d * zz  # TransZ(d)
         if link == 2:  # the insertion joint's frame: where the shaft ends

@@ -61,7 +61,9 @@ class HandoverSettings:
     receiver_wait_above: float
     giver_retreat: float
     min_tool_distance: float
-    grasp_clearance: float  # the receiver's tool keeps this clear of the giver's, waiting above its grasp and down onto it
+    grasp_clearance: (
+        float  # the receiver's tool keeps this clear of the giver's, waiting above its grasp and down onto it
+    )
 
 
 @dataclass(frozen=True)

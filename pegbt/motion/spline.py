@@ -55,7 +55,9 @@ def shortest_segment_times(
         gap_low.append(np.where(discriminant > 0, (-p - root) / (2 * amax), 0.0))
         gap_high.append(np.where(discriminant > 0, (-p + root) / (2 * amax), 0.0))
     low, high = np.concatenate(gap_low, axis=1), np.concatenate(gap_high, axis=1)  # (N, 24) gaps
-    candidates = np.concatenate([np.full((len(delta), 1), settings.control_period), np.maximum(high, settings.control_period)], axis=1)
+    candidates = np.concatenate(
+        [np.full((len(delta), 1), settings.control_period), np.maximum(high, settings.control_period)], axis=1
+    )
     inside = (low[:, None, :] < candidates[:, :, None]) & (candidates[:, :, None] < high[:, None, :])
     shortest = np.min(np.where(inside.any(axis=2), np.inf, candidates), axis=1)
 
@@ -69,7 +71,9 @@ def shortest_segment_times(
     return shortest
 
 
-def _shortest_above(low: NDArray[np.float64], feasible: Callable[[NDArray[np.float64]], NDArray[np.bool_]]) -> NDArray[np.float64]:
+def _shortest_above(
+    low: NDArray[np.float64], feasible: Callable[[NDArray[np.float64]], NDArray[np.bool_]]
+) -> NDArray[np.float64]:
     """The shortest feasible durations above the infeasible `low` ones: the first feasible point of a
     log grid up to the longest segment, bisected against the point before it; inf where none is."""
     grid = np.geomspace(low, _LONGEST_SEGMENT, _GRID_POINTS)  # (points, rows)
@@ -107,7 +111,13 @@ def plan_spline(
         # One batch: first segments (rest → v1), last (v2 → rest), middle (every v1 → v2 pair).
         starts = np.concatenate([np.zeros((g, 6)), v2, np.repeat(v1, g, axis=0)])
         ends = np.concatenate([v1, np.zeros((g, 6)), np.tile(v2, (g, 1))])
-        deltas = np.concatenate([np.repeat(delta[[0]], g, axis=0), np.repeat(delta[[2]], g, axis=0), np.repeat(delta[[1]], g * g, axis=0)])
+        deltas = np.concatenate(
+            [
+                np.repeat(delta[[0]], g, axis=0),
+                np.repeat(delta[[2]], g, axis=0),
+                np.repeat(delta[[1]], g * g, axis=0),
+            ]
+        )
         durations = shortest_segment_times(deltas, starts, ends, settings)
         first, last, middle = durations[:g], durations[g : 2 * g], durations[2 * g :].reshape(g, g)
         total = first[:, None] + middle + last[None, :]
@@ -118,7 +128,9 @@ def plan_spline(
         low = np.maximum(np.array([best[1], best[2]]) - step, 0.0)
         high = np.minimum(np.array([best[1], best[2]]) + step, top_speed)
     if not np.isfinite(best[0]):
-        raise PegbtError("no spline through the transfer waypoints respects the planner limits", field="planner")
+        raise PegbtError(
+            "no spline through the transfer waypoints respects the planner limits", field="planner"
+        )
     _, speed1, speed2, durations = best
     velocities = np.stack([np.zeros(6), speed1 * directions[0], speed2 * directions[1], np.zeros(6)])
     return HermitePath(np.concatenate([[0.0], np.cumsum(durations)]), q, velocities)

@@ -160,11 +160,18 @@ class SqpRefiner:
         within ±λ; then the channel rows per sample. Joints never mix except in the channel rows."""
         eye, acc, moves = sparse.identity(N), self.n_acceleration, N * (self.points - 1)
 
-        def row_block(count: int, control: object = None, acceleration: object = None, slow_down: object = None) -> sparse.spmatrix:
+        def row_block(
+            count: int, control: object = None, acceleration: object = None, slow_down: object = None
+        ) -> sparse.spmatrix:
             """`count` rows with the given blocks on the control point, acceleration and λ columns."""
             widths = (self.n_control, acc, 1)
             blocks = (control, acceleration, slow_down)
-            return sparse.hstack([sparse.csr_matrix((count, width)) if block is None else block for block, width in zip(blocks, widths)])
+            return sparse.hstack(
+                [
+                    sparse.csr_matrix((count, width)) if block is None else block
+                    for block, width in zip(blocks, widths)
+                ]
+            )
 
         lam = sparse.csr_matrix(np.ones((acc, 1)))
         self._limit_rows = sparse.vstack(
@@ -172,7 +179,11 @@ class SqpRefiner:
                 row_block(self.n_control, control=sparse.identity(self.n_control)),
                 row_block(1, slow_down=sparse.identity(1)),
                 row_block(moves, control=sparse.kron(_differences(self.points, 1), eye)),
-                row_block(acc, control=sparse.kron(_differences(self.points, 2), eye), acceleration=-sparse.identity(acc)),
+                row_block(
+                    acc,
+                    control=sparse.kron(_differences(self.points, 2), eye),
+                    acceleration=-sparse.identity(acc),
+                ),
                 row_block(acc, acceleration=sparse.identity(acc), slow_down=-lam),
                 row_block(acc, acceleration=sparse.identity(acc), slow_down=lam),
             ],
@@ -184,7 +195,10 @@ class SqpRefiner:
         three = N * (self._first[:, None] + np.arange(3))[:, :, None] + np.arange(N)  # (samples, 3, 6)
         rows = np.concatenate([self._limit_rows.row, np.repeat(channel_rows.ravel(), 3 * N)])
         cols = np.concatenate(
-            [self._limit_rows.col, np.broadcast_to(three[:, None], (self.sample_count, CHANNEL_ROWS, 3, N)).ravel()]
+            [
+                self._limit_rows.col,
+                np.broadcast_to(three[:, None], (self.sample_count, CHANNEL_ROWS, 3, N)).ravel(),
+            ]
         )
         self._rows = limit_count + CHANNEL_ROWS * self.sample_count
         self._A = _FixedPattern(rows, cols, (self._rows, self.n))
@@ -193,11 +207,21 @@ class SqpRefiner:
         """λ² plus `jerk_weight` times the squared acceleration jumps between segments, from rest and
         back to rest; upper triangle."""
         zero = sparse.csr_matrix((1, self.segments))
-        jumps = _differences(self.segments + 2, 1) @ sparse.vstack([zero, sparse.identity(self.segments), zero])
+        jumps = _differences(self.segments + 2, 1) @ sparse.vstack(
+            [zero, sparse.identity(self.segments), zero]
+        )
         count = (self.segments + 1) * N
-        jerk = sparse.hstack([sparse.csr_matrix((count, self.n_control)), sparse.kron(jumps, sparse.identity(N)), sparse.csr_matrix((count, 1))])
+        jerk = sparse.hstack(
+            [
+                sparse.csr_matrix((count, self.n_control)),
+                sparse.kron(jumps, sparse.identity(N)),
+                sparse.csr_matrix((count, 1)),
+            ]
+        )
         slow_down = sparse.csr_matrix(([1.0], ([0], [self.n - 1])), shape=(1, self.n))
-        return sparse.triu(2.0 * (self.sqp.jerk_weight * jerk.T @ jerk + slow_down.T @ slow_down), format="csc")
+        return sparse.triu(
+            2.0 * (self.sqp.jerk_weight * jerk.T @ jerk + slow_down.T @ slow_down), format="csc"
+        )
 
     def _constraint_values(self, channel: NDArray[np.float64]) -> NDArray[np.float64]:
         """All values of A; `channel` (samples, 5, 6) are the rows' coefficients on a path sample's
@@ -207,7 +231,13 @@ class SqpRefiner:
 
     # --- one linearisation --------------------------------------------------------------------------
     def _linearise(
-        self, control: NDArray[np.float64], phases: tuple[int, int], pick: Channel, place: Channel, upright: Upright, floor: float
+        self,
+        control: NDArray[np.float64],
+        phases: tuple[int, int],
+        pick: Channel,
+        place: Channel,
+        upright: Upright,
+        floor: float,
     ) -> tuple[NDArray, NDArray, NDArray]:
         """Channel coefficients (samples, 5, 6) on the change of a path sample's physical position,
         linearised at the samples of `control` points, and the bounds (samples, 5) on those changes;
@@ -300,7 +330,9 @@ class SqpRefiner:
         start, goal = control[0], control[-1]
         problems: list[str] = []
         for iteration in range(1, self.sqp.max_iterations + 1):
-            physical, channel_lo, channel_hi = self._linearise(control, phases, leaving, place, upright, floor)
+            physical, channel_lo, channel_hi = self._linearise(
+                control, phases, leaving, place, upright, floor
+            )
             limits_lo, limits_hi = self._bounds(h, control / scale, slow_down)
             self._solver.update(
                 Ax=self._A.data(self._constraint_values(physical * scale)),
@@ -314,18 +346,34 @@ class SqpRefiner:
             self.solves += 1
             x = result.x
             if result.info.status_val in NO_SOLUTION or x is None or not np.all(np.isfinite(x)):
-                raise PegbtError(f"the SQP's linearisation {iteration} has no solution (OSQP: {result.info.status})", field="sqp")
+                raise PegbtError(
+                    f"the SQP's linearisation {iteration} has no solution (OSQP: {result.info.status})",
+                    field="sqp",
+                )
             # OSQP meets bounds only to its tolerance: pin the fixed ends and clip to the joint limits
             # exactly (the path stays in the convex hull of its control points).
-            control = np.clip(control + x[: self.n_control].reshape(-1, N) * scale, self.settings.lower, self.settings.upper)
+            control = np.clip(
+                control + x[: self.n_control].reshape(-1, N) * scale, self.settings.lower, self.settings.upper
+            )
             control[:2], control[-2:] = start, goal
             acceleration, slow_down = _accelerations(control / scale), max(float(x[-1]), 1e-6)
-            path = fit_to_limits(_b_spline_path(control, h), self.settings.planner_velocity, self.settings.planner_acceleration, speed_up=True)
+            path = fit_to_limits(
+                _b_spline_path(control, h),
+                self.settings.planner_velocity,
+                self.settings.planner_acceleration,
+                speed_up=True,
+            )
             trajectory = path.sample(self.settings.control_period)
-            problems = trajectory_problems(trajectory, self.settings, leaving=pick, arriving=place, upright=upright)
+            problems = trajectory_problems(
+                trajectory, self.settings, leaving=pick, arriving=place, upright=upright
+            )
             if not problems:
                 return path, trajectory
-        raise PegbtError(f"after {self.sqp.max_iterations} linearisations the SQP's path still fails: " + "; ".join(problems), field="sqp")
+        raise PegbtError(
+            f"after {self.sqp.max_iterations} linearisations the SQP's path still fails: "
+            + "; ".join(problems),
+            field="sqp",
+        )
 
     def _forget_previous_transfer(self) -> None:
         """ADMM's step size back to its initial value, as its duals are set back to zero: a plan then

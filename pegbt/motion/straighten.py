@@ -21,7 +21,9 @@ from pegbt.motion.limits import ArmSettings
 INSERTION = 2  # the one prismatic joint: a length, not an angle to unwrap
 
 
-def upright_configurations(q: NDArray[np.float64], settings: ArmSettings, upright: Upright) -> NDArray[np.float64]:
+def upright_configurations(
+    q: NDArray[np.float64], settings: ArmSettings, upright: Upright
+) -> NDArray[np.float64]:
     """`q` (K, 6) with each configuration replaced by the IK of its tip pose turned upright (tip position
     and heading about the axis kept), each angle taken within ±π of its old value. A configuration
     whose upright pose is out of reach or out of the joint limits is kept as it is."""

@@ -32,7 +32,9 @@ class Trajectory:
     def __post_init__(self) -> None:
         n = len(self.t)
         if n < 2 or any(a.shape != (n, N_JOINTS) for a in (self.q, self.qd, self.qdd)):
-            raise PegbtError(f"a trajectory needs N >= 2 times and (N, {N_JOINTS}) joint arrays", field="trajectory")
+            raise PegbtError(
+                f"a trajectory needs N >= 2 times and (N, {N_JOINTS}) joint arrays", field="trajectory"
+            )
         if not np.all(np.diff(self.t) > 0):
             raise PegbtError("trajectory times must increase", field="trajectory.t")
 
@@ -54,8 +56,12 @@ def concatenate(trajectories: list[Trajectory]) -> Trajectory:
     parts_t, parts = [first.t], [(first.q, first.qd, first.qdd)]
     end = first.t[-1]
     for index, following in enumerate(trajectories[1:], start=1):
-        if not np.allclose(following.q[0], parts[-1][0][-1], atol=1e-9) or not np.isclose(following.period, first.period):
-            raise PegbtError("does not start where the previous trajectory ends", field=f"trajectories[{index}]")
+        if not np.allclose(following.q[0], parts[-1][0][-1], atol=1e-9) or not np.isclose(
+            following.period, first.period
+        ):
+            raise PegbtError(
+                "does not start where the previous trajectory ends", field=f"trajectories[{index}]"
+            )
         parts_t.append(following.t[1:] - following.t[0] + end)
         parts.append((following.q[1:], following.qd[1:], following.qdd[1:]))
         end = parts_t[-1][-1]
@@ -78,7 +84,9 @@ class HermitePath:
 
     def retimed(self, factor: float) -> HermitePath:
         """The same path played `factor` times slower (velocities ÷ factor, accelerations ÷ factor²)."""
-        return HermitePath(self.times[0] + (self.times - self.times[0]) * factor, self.positions, self.velocities / factor)
+        return HermitePath(
+            self.times[0] + (self.times - self.times[0]) * factor, self.positions, self.velocities / factor
+        )
 
     def evaluate(self, t: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
         """Position, velocity and acceleration (len(t), 6) at times `t` (clamped to the path)."""
@@ -126,17 +134,24 @@ def segment_extremes(
     return peak_v, np.maximum(np.abs(a0), np.abs(a1))
 
 
-
-def limit_factor(path: HermitePath, velocity: NDArray[np.float64], acceleration: NDArray[np.float64]) -> float:
+def limit_factor(
+    path: HermitePath, velocity: NDArray[np.float64], acceleration: NDArray[np.float64]
+) -> float:
     """How many times slower `path` must play for its peak velocity and acceleration (exact, from the
     segments' extremes) to just meet `velocity` and `acceleration`; below 1 it could play faster."""
     h = np.diff(path.times)[:, None]
-    peak_v, peak_a = segment_extremes(np.diff(path.positions, axis=0), path.velocities[:-1], path.velocities[1:], h)
+    peak_v, peak_a = segment_extremes(
+        np.diff(path.positions, axis=0), path.velocities[:-1], path.velocities[1:], h
+    )
     return max(float(np.max(peak_v / velocity)), float(np.sqrt(np.max(peak_a / acceleration))))
 
 
 def fit_to_limits(
-    path: HermitePath, velocity: NDArray[np.float64], acceleration: NDArray[np.float64], *, speed_up: bool = False
+    path: HermitePath,
+    velocity: NDArray[np.float64],
+    acceleration: NDArray[np.float64],
+    *,
+    speed_up: bool = False,
 ) -> HermitePath:
     """`path` retimed uniformly to just meet the limits: slowed down if it exceeds them, and sped up
     until they bind if `speed_up`; otherwise returned unchanged when within them."""

@@ -47,7 +47,10 @@ class TransferPlan:
 def joint_waypoints(waypoints: TransferWaypoints, settings: ArmSettings) -> NDArray[np.float64]:
     """IK of the four transfer poses (4, 6); a `PegbtError` names the first unreachable one and why."""
     return np.stack(
-        [solve_ik(pose, settings, what=f"transfer waypoint {i} ({name})") for i, (pose, name) in enumerate(zip(waypoints.poses, WAYPOINT_NAMES))]
+        [
+            solve_ik(pose, settings, what=f"transfer waypoint {i} ({name})")
+            for i, (pose, name) in enumerate(zip(waypoints.poses, WAYPOINT_NAMES))
+        ]
     )
 
 
@@ -90,9 +93,16 @@ class TransferPlanner:
         for method, path in (("spline", spline), ("cubic", cubic)):
             trajectory = path.sample(self.settings.control_period)
             problems = trajectory_problems(
-                trajectory, self.settings, leaving=waypoints.pick, arriving=waypoints.place, upright=waypoints.upright
+                trajectory,
+                self.settings,
+                leaving=waypoints.pick,
+                arriving=waypoints.place,
+                upright=waypoints.upright,
             )
             if not problems:
                 return TransferPlan(trajectory, path, spline, joints, method, "; ".join(reasons))
             reasons.append(f"{method}: " + "; ".join(problems))
-        raise PegbtError(f"no transfer for {self.settings.name} passes its checks: " + " | ".join(reasons), field="transfer")
+        raise PegbtError(
+            f"no transfer for {self.settings.name} passes its checks: " + " | ".join(reasons),
+            field="transfer",
+        )

@@ -71,14 +71,27 @@ def _lateral(offset: ArrayLike, up: NDArray[np.float64], what: str) -> NDArray[n
 
 
 def _placing(
-    place_peg_top: ArrayLike, place_offset: ArrayLike, place_yaw: float, up: NDArray[np.float64], heights: TransferSettings
+    place_peg_top: ArrayLike,
+    place_offset: ArrayLike,
+    place_yaw: float,
+    up: NDArray[np.float64],
+    heights: TransferSettings,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], Channel]:
     """The poses above the goal peg and lowered onto it, and the goal peg's channel."""
     place = _vector(place_peg_top, "place_peg_top") + _lateral(place_offset, up, "place_offset")
     dropped = place + heights.drop_height_above_peg_top * up
     rotation = tool_down_rotation(place_yaw, up)
-    channel = Channel(dropped, up, heights.channel_clear_above_peg_top - heights.drop_height_above_peg_top, heights.channel_tolerance)
-    return rigid_transform(rotation, place + heights.transfer_height_above_peg_top * up), rigid_transform(rotation, dropped), channel
+    channel = Channel(
+        dropped,
+        up,
+        heights.channel_clear_above_peg_top - heights.drop_height_above_peg_top,
+        heights.channel_tolerance,
+    )
+    return (
+        rigid_transform(rotation, place + heights.transfer_height_above_peg_top * up),
+        rigid_transform(rotation, dropped),
+        channel,
+    )
 
 
 def transfer_waypoints(
@@ -103,7 +116,14 @@ def transfer_waypoints(
     block_top = -heights.block_top_below_peg_top
     grasp = pick + (block_top - heights.grasp_depth) * up
     pick_rotation = tool_down_rotation(pick_yaw, up)
-    poses = np.stack([rigid_transform(pick_rotation, grasp), rigid_transform(pick_rotation, pick + heights.transfer_height_above_peg_top * up), above, dropped])
+    poses = np.stack(
+        [
+            rigid_transform(pick_rotation, grasp),
+            rigid_transform(pick_rotation, pick + heights.transfer_height_above_peg_top * up),
+            above,
+            dropped,
+        ]
+    )
     clear = heights.channel_clear_above_peg_top
     return TransferWaypoints(
         poses=poses,
@@ -133,5 +153,9 @@ def placement_waypoints(
     up = _unit_up(up)
     above, dropped, place = _placing(place_peg_top, place_offset, place_yaw, up, heights)
     return TransferWaypoints(
-        poses=np.stack([start, start, above, dropped]), approach=None, pick=None, place=place, upright=Upright(up, heights.upright_tilt)
+        poses=np.stack([start, start, above, dropped]),
+        approach=None,
+        pick=None,
+        place=place,
+        upright=Upright(up, heights.upright_tilt),
     )

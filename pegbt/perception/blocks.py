@@ -46,8 +46,12 @@ class BlockSettings:
     max_tilt: float = math.radians(8.0)  # blocks lie flat, on a peg or on the board
     top_face_depth: float = 0.001  # points this close to the highest belong to the top face
     on_peg_tolerance: float = 0.0005  # beyond the hole's clearance around a peg
-    surrounded_points: int = 50  # a touching cluster with this many points around a peg's axis has a block on it
-    part_distance: float = 0.0015  # points this near a fitted block belong to it (taking touching blocks apart)
+    surrounded_points: int = (
+        50  # a touching cluster with this many points around a peg's axis has a block on it
+    )
+    part_distance: float = (
+        0.0015  # points this near a fitted block belong to it (taking touching blocks apart)
+    )
     stack_height: float = 1.5  # a segment this many block heights tall is a block on top of another
     segment: SegmentSettings = field(default_factory=SegmentSettings)
 
@@ -90,7 +94,9 @@ class BlockLocator:
         `PegbtError` if the board's registration failed: positions from it would be guesses.
         """
         if not board.ok:
-            raise PegbtError(f"the board registration failed ({board.reason}); register it again", field="board")
+            raise PegbtError(
+                f"the board registration failed ({board.reason}); register it again", field="board"
+            )
         board_points = board.to_board(cloud)
         peg_xy = board.peg_tops[:, :2]
         segments = block_segments(board_points, peg_xy, self.cell, self.settings.segment)
@@ -109,8 +115,11 @@ class BlockLocator:
             return [self.register(segment, peg_xy)]
         bottom = self._fit(segment, self.initial_pose(segment, peg_xy))[2, 3]
         above = segment[:, 2] < bottom - settings.top_face_depth  # board z points down
-        return [self.register(part, peg_xy) for part in (segment[above], segment[~above])
-                if len(part) >= settings.segment.min_points]
+        return [
+            self.register(part, peg_xy)
+            for part in (segment[above], segment[~above])
+            if len(part) >= settings.segment.min_points
+        ]
 
     def take_apart(self, cluster: Points, peg_xy: Points) -> list[BlockEstimate]:
         """The blocks of a cluster too wide for one. Blocks touching across neighbouring pegs are cut apart
@@ -118,8 +127,11 @@ class BlockLocator:
         against another, and the crop cut it in two: then the block on each peg the cluster surrounds is
         fitted first, by ICP from that peg's axis, and its points taken out; what is left is registered
         as the blocks lying loose."""
-        cropped = [self.register(part, peg_xy) for part in split_by_nearest_peg(cluster, peg_xy)
-                   if len(part) >= self.settings.segment.min_points]
+        cropped = [
+            self.register(part, peg_xy)
+            for part in split_by_nearest_peg(cluster, peg_xy)
+            if len(part) >= self.settings.segment.min_points
+        ]
         if all(estimate.ok for estimate in cropped):
             return cropped
         estimates: list[BlockEstimate] = []
@@ -139,9 +151,16 @@ class BlockLocator:
         """The best of ICP fits from `initial` turned by each of `RESTART_YAWS`: the other block's points
         spoil the yaw read off the top face, and ICP started 60° out settles on a wrong fit."""
         source = to_open3d(segment)
-        fits = [self._fit(segment, initial @ yaw_pose([0.0, 0.0, 0.0], turn), robust=True) for turn in RESTART_YAWS]
-        fitness = [_registration.evaluate_registration(source, self._model, self.settings.quality_distance,
-                                                       invert_rigid(fit)).fitness for fit in fits]
+        fits = [
+            self._fit(segment, initial @ yaw_pose([0.0, 0.0, 0.0], turn), robust=True)
+            for turn in RESTART_YAWS
+        ]
+        fitness = [
+            _registration.evaluate_registration(
+                source, self._model, self.settings.quality_distance, invert_rigid(fit)
+            ).fitness
+            for fit in fits
+        ]
         return fits[int(np.argmax(fitness))]
 
     def _surrounded_pegs(self, cluster: Points, peg_xy: Points) -> list[int]:
@@ -150,7 +169,10 @@ class BlockLocator:
         found = []
         for peg, xy in enumerate(peg_xy):
             ring = cluster[np.linalg.norm(cluster[:, :2] - xy, axis=1) < model.edge_distance]
-            if len(ring) >= self.settings.surrounded_points and np.linalg.norm(ring[:, :2].mean(axis=0) - xy) < model.hole_radius:
+            if (
+                len(ring) >= self.settings.surrounded_points
+                and np.linalg.norm(ring[:, :2].mean(axis=0) - xy) < model.hole_radius
+            ):
                 found.append((len(ring), peg))
         return [peg for _, peg in sorted(found, reverse=True)]
 
@@ -159,7 +181,9 @@ class BlockLocator:
         local = to_open3d(points).transform(invert_rigid(block_to_board))
         return np.asarray(local.compute_point_cloud_distance(self._model)) < self.settings.part_distance
 
-    def _fit(self, segment: Points, initial: NDArray[np.float64], robust: bool = False) -> NDArray[np.float64]:
+    def _fit(
+        self, segment: Points, initial: NDArray[np.float64], robust: bool = False
+    ) -> NDArray[np.float64]:
         """The block pose (board frame) that ICP fits to `segment` from `initial`, coarse to fine; `robust`:
         with a Tukey loss, so points of another block touching this one do not pull the fit towards it."""
         source = to_open3d(segment)
@@ -221,7 +245,9 @@ class BlockLocator:
         if np.linalg.norm(peg_xy[nearest] - centre) < model.hole_radius:
             centre = peg_xy[nearest]  # a peg's shadow on the top face biases the centroid; the peg does not
         z = float(np.median(top[:, 2])) + model.height
-        return yaw_pose([centre[0], centre[1], z], three_fold_yaw(top[:, :2] - centre, model.edge_directions[0]))
+        return yaw_pose(
+            [centre[0], centre[1], z], three_fold_yaw(top[:, :2] - centre, model.edge_directions[0])
+        )
 
     def _peg_through_hole(self, position: Points, peg_xy: Points) -> int | None:
         """The peg within the hole's clearance of the block's axis, if any."""
@@ -246,13 +272,17 @@ def block_on_peg(estimates: list[BlockEstimate], peg: int) -> BlockEstimate | No
     """The block found on `peg` (a trustworthy one first; of a stack, the top one, the only one that can be
     lifted off), or None: the peg is empty as far as we see."""
     on_peg = [estimate for estimate in estimates if estimate.peg == peg]
-    return max(on_peg, key=lambda estimate: (estimate.ok, -stack_level(estimate), estimate.fitness), default=None)
+    return max(
+        on_peg, key=lambda estimate: (estimate.ok, -stack_level(estimate), estimate.fitness), default=None
+    )
 
 
 def stack_level(block: BlockEstimate, cell: Workcell | None = None) -> int:
     """How many blocks `block` rests on: 0 on the board, 1 on top of another block (a stack on a peg)."""
     cell = cell or workcell()
-    return max(0, round((cell.board.surface_z - float(block.position[2])) / cell.block.height))  # board z points down
+    return max(
+        0, round((cell.board.surface_z - float(block.position[2])) / cell.block.height)
+    )  # board z points down
 
 
 def wrap_symmetric(yaw: float) -> float:

@@ -31,7 +31,9 @@ class BoardSettings:
     model_points: int = 30000
     voxels: tuple[float, ...] = (0.005, 0.003, 0.002)  # the capture is thinned to these, coarse to fine,
     distances: tuple[float, ...] = (0.015, 0.004, 0.001)  # and matched within these distances
-    outlier_radius: float = 0.005  # a thinned point with fewer neighbours than this within this radius is wild
+    outlier_radius: float = (
+        0.005  # a thinned point with fewer neighbours than this within this radius is wild
+    )
     outlier_neighbours: int = 4
     min_points: int = 500  # a view of the board leaves about 7000 after thinning
     tukey_k: float = 0.003  # robust kernel width: blocks and noise beyond it barely pull
@@ -77,7 +79,11 @@ class PegboardRegistration:
     ) -> None:
         self.cell = cell or workcell()
         self.settings = settings
-        nominal = self.cell.camera.board_from_camera if nominal_board_from_camera is None else nominal_board_from_camera
+        nominal = (
+            self.cell.camera.board_from_camera
+            if nominal_board_from_camera is None
+            else nominal_board_from_camera
+        )
         self.nominal_board_from_camera = np.array(nominal, dtype=np.float64)
         self._model = o3d.t.geometry.PointCloud.from_legacy(board_model(self.cell, settings.model_points))
 
@@ -89,20 +95,27 @@ class PegboardRegistration:
         # wild points each fill a voxel of their own: unremoved, a few percent of them would outnumber the board
         thinned, _ = thinned.remove_radius_outlier(settings.outlier_neighbours, settings.outlier_radius)
         if len(thinned.points) < settings.min_points:
-            return self._unregistered(f"only {len(thinned.points)} points left after thinning: not a view of the board")
+            return self._unregistered(
+                f"only {len(thinned.points)} points left after thinning: not a view of the board"
+            )
         source = o3d.t.geometry.PointCloud.from_legacy(thinned)
         result = _registration.multi_scale_icp(
             source,
             self._model,
             o3d.utility.DoubleVector(settings.voxels),
-            [_registration.ICPConvergenceCriteria(max_iteration=settings.max_iterations)] * len(settings.voxels),
+            [_registration.ICPConvergenceCriteria(max_iteration=settings.max_iterations)]
+            * len(settings.voxels),
             o3d.utility.DoubleVector(settings.distances),
             o3d.core.Tensor(self.nominal_board_from_camera),
             _registration.TransformationEstimationPointToPlane(
-                _registration.robust_kernel.RobustKernel(_registration.robust_kernel.RobustKernelMethod.TukeyLoss, settings.tukey_k)
+                _registration.robust_kernel.RobustKernel(
+                    _registration.robust_kernel.RobustKernelMethod.TukeyLoss, settings.tukey_k
+                )
             ),
         )
-        quality = _registration.evaluate_registration(source, self._model, settings.quality_distance, result.transformation)
+        quality = _registration.evaluate_registration(
+            source, self._model, settings.quality_distance, result.transformation
+        )
         T = result.transformation.numpy().astype(np.float64)
         peg_tops, counts = self._find_pegs(transform_points(T, points))
         reason = self._doubt(quality, peg_tops, counts)
@@ -119,14 +132,24 @@ class PegboardRegistration:
     def _unregistered(self, reason: str) -> BoardEstimate:
         """A failed registration: the nominal extrinsics and modelled pegs, marked untrustworthy."""
         pegs = self.cell.pegs.tops
-        return BoardEstimate(self.nominal_board_from_camera.copy(), pegs.copy(), np.zeros(len(pegs), np.int64), 0.0, math.inf, False, reason)
+        return BoardEstimate(
+            self.nominal_board_from_camera.copy(),
+            pegs.copy(),
+            np.zeros(len(pegs), np.int64),
+            0.0,
+            math.inf,
+            False,
+            reason,
+        )
 
     def _find_pegs(self, board_points: Points) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
         """Each peg's top from the points in the pegs-only height band near its modelled axis."""
         pegs, settings = self.cell.pegs, self.settings
         block_top = self.cell.board.surface_z - self.cell.block.height
         z = board_points[:, 2]
-        band = board_points[(z > pegs.top_z + settings.peg_band_margin) & (z < block_top - settings.peg_band_margin)]
+        band = board_points[
+            (z > pegs.top_z + settings.peg_band_margin) & (z < block_top - settings.peg_band_margin)
+        ]
         tops = pegs.tops.copy()
         counts = np.zeros(len(tops), dtype=np.int64)
         for peg, modelled in enumerate(pegs.positions):
@@ -136,7 +159,9 @@ class PegboardRegistration:
                 tops[peg, :2] = circle_centre(near, pegs.radius, modelled)
         return tops, counts
 
-    def _doubt(self, quality: _registration.RegistrationResult, peg_tops: Points, counts: NDArray[np.int64]) -> str:
+    def _doubt(
+        self, quality: _registration.RegistrationResult, peg_tops: Points, counts: NDArray[np.int64]
+    ) -> str:
         """Why this registration should not be trusted ("" if it should)."""
         settings = self.settings
         if quality.fitness < settings.min_fitness:
@@ -151,7 +176,9 @@ class PegboardRegistration:
         return ""
 
 
-def circle_centre(points: Points, radius: float, start: ArrayLike, iterations: int = 8) -> NDArray[np.float64]:
+def circle_centre(
+    points: Points, radius: float, start: ArrayLike, iterations: int = 8
+) -> NDArray[np.float64]:
     """Centre of the circle of known `radius` through 2-D `points` (a peg seen from one side).
 
     The visible half of a peg biases a plain centroid towards the camera by about 2r/π; a least-squares

@@ -28,7 +28,10 @@ def checked_points(cloud: ArrayLike, field: str = "cloud") -> Points:
     if not np.isfinite(points).all():
         finite = np.isfinite(points).all(axis=1)
         first = int(np.flatnonzero(~finite)[0])
-        raise PegbtError(f"{int((~finite).sum())} point(s) are not finite (first at row {first})", field=f"{field}[{first}]")
+        raise PegbtError(
+            f"{int((~finite).sum())} point(s) are not finite (first at row {first})",
+            field=f"{field}[{first}]",
+        )
     return points
 
 

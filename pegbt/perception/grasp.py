@@ -91,7 +91,11 @@ class GraspSelector:
 
     def feasible(self, block_pose: ArrayLike) -> list[Grasp]:
         """The options of a block at `block_pose` within the yaw window that the arm can reach."""
-        in_window = [option for option in grasp_options(block_pose, self.arm, self.cell) if abs(option.yaw) <= self.yaw_window]
+        in_window = [
+            option
+            for option in grasp_options(block_pose, self.arm, self.cell)
+            if abs(option.yaw) <= self.yaw_window
+        ]
         if not in_window:
             return []
         accepted = np.asarray(self.reachable(np.array([option.pose for option in in_window])))
@@ -102,8 +106,12 @@ class GraspSelector:
             )
         return [option for option, ok in zip(in_window, accepted) if ok]
 
-    def pick(self, block: BlockEstimate, avoid: Collection[int] = (),
-             acceptable: Callable[[Grasp], bool] | None = None) -> Grasp | None:
+    def pick(
+        self,
+        block: BlockEstimate,
+        avoid: Collection[int] = (),
+        acceptable: Callable[[Grasp], bool] | None = None,
+    ) -> Grasp | None:
         """The paper's grasp of a located block: feasible, and farthest (in x, y) from the block's peg,
         ties going to the candidate nearest to the arm (its remote centre, in x, y). Candidates in `avoid`
         (one that just missed) are taken only if no other is feasible; candidates `acceptable` rejects (what
@@ -114,13 +122,21 @@ class GraspSelector:
         if not block.ok:
             raise PegbtError(f"the block's pose is not trustworthy ({block.reason})", field="block")
         pegs = self.cell.pegs.positions
-        peg = block.peg if block.peg is not None else int(np.argmin(np.linalg.norm(pegs - block.position[:2], axis=1)))
-        feasible = [option for option in self.feasible(block.pose) if acceptable is None or acceptable(option)]
+        peg = (
+            block.peg
+            if block.peg is not None
+            else int(np.argmin(np.linalg.norm(pegs - block.position[:2], axis=1)))
+        )
+        feasible = [
+            option for option in self.feasible(block.pose) if acceptable is None or acceptable(option)
+        ]
         options = [option for option in feasible if option.candidate not in avoid] or feasible
         if not options:
             return None
         from_peg = np.array([np.linalg.norm(option.board_position[:2] - pegs[peg]) for option in options])
-        return self._nearest([option for option, d in zip(options, from_peg) if d >= from_peg.max() - PEG_DISTANCE_TIE])
+        return self._nearest(
+            [option for option, d in zip(options, from_peg) if d >= from_peg.max() - PEG_DISTANCE_TIE]
+        )
 
     def receive(self, block_pose: ArrayLike) -> Grasp | None:
         """A handover receiver's grasp of the block held at `block_pose` (4×4, board frame): feasible,
@@ -129,9 +145,13 @@ class GraspSelector:
 
     def _nearest(self, options: list[Grasp]) -> Grasp | None:
         """The option nearest (in x, y) to the arm's remote centre, or None if there are none."""
-        return min(options, key=lambda option: np.linalg.norm(option.board_position[:2] - self._centre), default=None)
+        return min(
+            options, key=lambda option: np.linalg.norm(option.board_position[:2] - self._centre), default=None
+        )
 
 
-def select_grasp(block: BlockEstimate, arm: str, reachable: Reachable, cell: Workcell | None = None) -> Grasp | None:
+def select_grasp(
+    block: BlockEstimate, arm: str, reachable: Reachable, cell: Workcell | None = None
+) -> Grasp | None:
     """`GraspSelector(arm, reachable, cell).pick(block)`: the paper's grasp, with the default yaw window."""
     return GraspSelector(arm, reachable, cell).pick(block)

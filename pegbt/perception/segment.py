@@ -39,7 +39,9 @@ class Segments:
     touching: list[Points]
 
 
-def block_segments(board_points: Points, peg_xy: Points, cell: Workcell, settings: SegmentSettings) -> Segments:
+def block_segments(
+    board_points: Points, peg_xy: Points, cell: Workcell, settings: SegmentSettings
+) -> Segments:
     """The raised points of a capture clustered into blocks, each list largest first.
 
     `board_points`: the capture in the board frame; `peg_xy` (12, 2): where the pegs stand.
@@ -59,9 +61,13 @@ def clusters(points: Points, settings: SegmentSettings) -> list[Points]:
     """Open3D's DBSCAN clusters of `points` with at least `min_points` points, largest first."""
     if len(points) < settings.min_points:
         return []
-    labels = np.asarray(to_open3d(points).cluster_dbscan(settings.cluster_distance, settings.cluster_min_points))
+    labels = np.asarray(
+        to_open3d(points).cluster_dbscan(settings.cluster_distance, settings.cluster_min_points)
+    )
     found = [points[labels == label] for label in range(labels.max() + 1)]
-    return sorted([cluster for cluster in found if len(cluster) >= settings.min_points], key=len, reverse=True)
+    return sorted(
+        [cluster for cluster in found if len(cluster) >= settings.min_points], key=len, reverse=True
+    )
 
 
 def xy_span(points: Points) -> float:

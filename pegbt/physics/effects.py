@@ -36,7 +36,12 @@ EFFECT_KINDS: dict[str, tuple[str, ...]] = {
     "hysteresis": ("source", "half_width", "k"),
 }
 
-_NON_NEGATIVE = {("backlash", "half_width"), ("lag", "tau"), ("delay", "seconds"), ("hysteresis", "half_width")}
+_NON_NEGATIVE = {
+    ("backlash", "half_width"),
+    ("lag", "tau"),
+    ("delay", "seconds"),
+    ("hysteresis", "half_width"),
+}
 
 
 def joint_index(name: str | int) -> int:
@@ -76,7 +81,9 @@ class Effect:
             if not isinstance(value, (int, float)) or value != value or abs(value) == float("inf"):
                 raise PegbtError(f"{self.effect}.{name} on {self.joint} must be a finite number", field=name)
             if (self.effect, name) in _NON_NEGATIVE and value < 0:
-                raise PegbtError(f"{self.effect}.{name} on {self.joint} must be >= 0, got {value}", field=name)
+                raise PegbtError(
+                    f"{self.effect}.{name} on {self.joint} must be >= 0, got {value}", field=name
+                )
 
     @property
     def index(self) -> int:

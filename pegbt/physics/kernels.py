@@ -22,7 +22,9 @@ def play_grid(u: ArrayLike, half_widths: ArrayLike, initial: ArrayLike | None = 
     """
     u = np.asarray(u, dtype=float)
     h = np.atleast_1d(np.asarray(half_widths, dtype=float))
-    start = np.full(h.shape, u[0]) if initial is None else np.broadcast_to(np.asarray(initial, float), h.shape)
+    start = (
+        np.full(h.shape, u[0]) if initial is None else np.broadcast_to(np.asarray(initial, float), h.shape)
+    )
     out = np.empty((len(u), len(h)))
     out[0] = np.clip(start, u[0] - h, u[0] + h)
     if len(u) == 1:

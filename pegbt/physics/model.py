@@ -25,6 +25,7 @@ from pegbt.errors import PegbtError
 from pegbt.physics.effects import Effect, joint_index
 from pegbt.physics.kernels import apply_lag, apply_play, delay_series, play_grid
 from pegbt.psm import JOINT_NAMES, N_JOINTS
+
 PRESET_DIR = Path(__file__).parent / "presets"
 
 
@@ -49,7 +50,9 @@ class ArmPhysics:
         self._state: NDArray[np.float64] | None = None  # backlash output
         self._target: NDArray[np.float64] = np.zeros(N_JOINTS)  # backlash input (static map plus hysteresis)
         self._drive_seen: NDArray[np.float64] = np.zeros(len(self.hysteresis))  # input of each hysteresis
-        self._drive_play: NDArray[np.float64] = np.zeros(len(self.hysteresis))  # play state of each hysteresis
+        self._drive_play: NDArray[np.float64] = np.zeros(
+            len(self.hysteresis)
+        )  # play state of each hysteresis
         self._output: NDArray[np.float64] | None = None  # lag output
         self._history: deque[tuple[float, NDArray[np.float64]]] = deque()
         self._time = 0.0
@@ -82,7 +85,10 @@ class ArmPhysics:
             try:
                 effects.append(Effect.from_dict(entry))
             except PegbtError as error:
-                raise PegbtError(error.message, field=f"effects[{index}].{error.field}" if error.field else f"effects[{index}]") from None
+                raise PegbtError(
+                    error.message,
+                    field=f"effects[{index}].{error.field}" if error.field else f"effects[{index}]",
+                ) from None
         return cls(effects)
 
     @classmethod
@@ -106,9 +112,13 @@ class ArmPhysics:
         if isinstance(data, dict) and "arms" in data:
             arms = data["arms"]
             if not isinstance(arms, dict):
-                raise PegbtError(f"arms is an object of effect lists by arm; got {arms!r}", file=path, field="arms")
+                raise PegbtError(
+                    f"arms is an object of effect lists by arm; got {arms!r}", file=path, field="arms"
+                )
             if arm not in arms:
-                raise PegbtError(f"no physics for arm {arm!r}; the file has {sorted(arms)}", file=path, field="arms")
+                raise PegbtError(
+                    f"no physics for arm {arm!r}; the file has {sorted(arms)}", file=path, field="arms"
+                )
             entries = arms[arm]
         elif isinstance(data, dict) and isinstance(data.get("model"), dict) and "effects" in data["model"]:
             entries = data["model"]["effects"]
@@ -228,11 +238,15 @@ class ArmPhysics:
         return target
 
     @staticmethod
-    def _drive(joint: int, source: int, commands: NDArray[np.float64], static: NDArray[np.float64]) -> NDArray[np.float64]:
+    def _drive(
+        joint: int, source: int, commands: NDArray[np.float64], static: NDArray[np.float64]
+    ) -> NDArray[np.float64]:
         """The input of a hysteresis: the source's command, or the joint's own static target."""
         return static[..., joint] if source == joint else commands[..., source]
 
 
-def _play(state: NDArray[np.float64], target: NDArray[np.float64], half_width: NDArray[np.float64]) -> NDArray[np.float64]:
+def _play(
+    state: NDArray[np.float64], target: NDArray[np.float64], half_width: NDArray[np.float64]
+) -> NDArray[np.float64]:
     """One step of the play operator: move the output only as far as the input has pushed it."""
     return np.clip(state, target - half_width, target + half_width)

@@ -50,7 +50,9 @@ _ARM_AT_END = re.compile(r"(PSM[12])$")
 def dvrk_data_dir(required: bool = False) -> Path:
     """The folder of real dVRK recordings: `$PEGBT_DVRK_DATA`, else `shared/data/dvrk` beside the checkout.
     With `required`, a `PegbtError` when the recordings are not there."""
-    folder = Path(os.environ.get(DVRK_DATA_VARIABLE, Path(__file__).resolve().parents[3] / "shared" / "data" / "dvrk"))
+    folder = Path(
+        os.environ.get(DVRK_DATA_VARIABLE, Path(__file__).resolve().parents[3] / "shared" / "data" / "dvrk")
+    )
     if required and not (folder / "random_smooth_grey1_PSM1" / "q_cmd.npy").exists():
         raise PegbtError(f"real dVRK recordings not found (set {DVRK_DATA_VARIABLE})", file=folder)
     return folder
@@ -121,13 +123,17 @@ def load_recording(path: str | Path) -> Recording:
     """Read and validate a recording folder or CSV; a `PegbtError` naming the file and problem if bad."""
     path = Path(path)
     if not path.exists():
-        raise PegbtError("no such recording (expected a folder with q_cmd.npy and q_phy.npy, or a CSV)", file=path)
+        raise PegbtError(
+            "no such recording (expected a folder with q_cmd.npy and q_phy.npy, or a CSV)", file=path
+        )
     if path.is_dir():
         q_cmd, q_phy, t = _read_folder(path)
     elif path.suffix.lower() == ".csv":
         q_cmd, q_phy, t = _read_csv(path)
     else:
-        raise PegbtError("not a recording: expected a folder with q_cmd.npy and q_phy.npy, or a .csv file", file=path)
+        raise PegbtError(
+            "not a recording: expected a folder with q_cmd.npy and q_phy.npy, or a .csv file", file=path
+        )
     validate(q_cmd, q_phy, t, path)
     return Recording(path, q_cmd, q_phy, t, _arm_of(path))
 
@@ -165,7 +171,9 @@ def _read_csv(path: Path) -> tuple[Array, Array, Array]:
     if absent:
         raise PegbtError(
             f"not a recording: the header lacks {', '.join(absent)} (expected {','.join(CSV_COLUMNS)})",
-            file=path, line=1, field=absent[0],
+            file=path,
+            line=1,
+            field=absent[0],
         )
     columns = [header.index(name) for name in CSV_COLUMNS]
     values = np.empty((len(rows) - 1, len(CSV_COLUMNS)))
@@ -175,8 +183,9 @@ def _read_csv(path: Path) -> tuple[Array, Array, Array]:
             try:
                 values[line - 2, k] = float(text) if text else math.nan
             except ValueError:
-                raise PegbtError(f"not a number: {text!r}", file=path, line=line, column=column + 1,
-                                 field=CSV_COLUMNS[k]) from None
+                raise PegbtError(
+                    f"not a number: {text!r}", file=path, line=line, column=column + 1, field=CSV_COLUMNS[k]
+                ) from None
     return values[:, 1:7], values[:, 7:13], values[:, 0]
 
 
@@ -199,12 +208,20 @@ def validate(q_cmd: Array, q_phy: Array, t: Array | None, where: Path) -> None:
     """Refuse recordings that cannot be analysed, saying which file, field and sample is wrong."""
     for name, array in (("q_cmd", q_cmd), ("q_phy", q_phy)):
         if array.ndim != 2 or array.shape[1] != N_JOINTS:
-            raise PegbtError(f"expected an N×{N_JOINTS} array of joints ({', '.join(JOINT_NAMES)}), got shape "
-                             f"{array.shape}", file=_file(where, name), field=name)
+            raise PegbtError(
+                f"expected an N×{N_JOINTS} array of joints ({', '.join(JOINT_NAMES)}), got shape "
+                f"{array.shape}",
+                file=_file(where, name),
+                field=name,
+            )
     if len(q_cmd) != len(q_phy):
-        raise PegbtError(f"different lengths: {len(q_cmd)} commanded samples but {len(q_phy)} measured", file=where)
+        raise PegbtError(
+            f"different lengths: {len(q_cmd)} commanded samples but {len(q_phy)} measured", file=where
+        )
     if t is not None and len(t) != len(q_cmd):
-        raise PegbtError(f"different lengths: {len(t)} timestamps for {len(q_cmd)} samples", file=where, field="t")
+        raise PegbtError(
+            f"different lengths: {len(t)} timestamps for {len(q_cmd)} samples", file=where, field="t"
+        )
     if len(q_cmd) < MIN_SAMPLES:
         raise PegbtError(f"only {len(q_cmd)} sample(s): at least {MIN_SAMPLES} are needed", file=where)
     for name, array in (("q_cmd", q_cmd), ("q_phy", q_phy), ("t", t)):
@@ -213,17 +230,28 @@ def validate(q_cmd: Array, q_phy: Array, t: Array | None, where: Path) -> None:
         bad = np.flatnonzero(~np.isfinite(array.reshape(len(array), -1)).all(axis=1))
         if bad.size:
             more = f" and {bad.size - 1} more" if bad.size > 1 else ""
-            raise PegbtError(f"NaN or infinite value in sample {bad[0]}{more}", file=_file(where, name),
-                             line=_line(where, bad[0]), field=name)
+            raise PegbtError(
+                f"NaN or infinite value in sample {bad[0]}{more}",
+                file=_file(where, name),
+                line=_line(where, bad[0]),
+                field=name,
+            )
     if t is not None:
         steps = np.diff(t)
         if (steps <= 0).any():
             n = int(np.flatnonzero(steps <= 0)[0]) + 1
-            raise PegbtError(f"timestamps not increasing at sample {n} ({t[n]:.6g} s after {t[n - 1]:.6g} s)",
-                             file=_file(where, "t"), line=_line(where, n), field="t")
+            raise PegbtError(
+                f"timestamps not increasing at sample {n} ({t[n]:.6g} s after {t[n - 1]:.6g} s)",
+                file=_file(where, "t"),
+                line=_line(where, n),
+                field="t",
+            )
     if np.ptp(q_cmd, axis=0).max() == 0:
-        raise PegbtError("constant commands: no joint's command ever changes, so nothing can be identified",
-                         file=_file(where, "q_cmd"), field="q_cmd")
+        raise PegbtError(
+            "constant commands: no joint's command ever changes, so nothing can be identified",
+            file=_file(where, "q_cmd"),
+            field="q_cmd",
+        )
 
 
 def _is_csv(where: Path) -> bool:
@@ -241,8 +269,9 @@ def _line(where: Path, sample: int) -> int | None:
 
 
 # ---------------------------------------------------------------------------------------------- writing
-def write_recording(folder: str | Path, q_cmd: ArrayLike, q_phy: ArrayLike, t: ArrayLike | None,
-                    arm: str | None = None) -> Path:
+def write_recording(
+    folder: str | Path, q_cmd: ArrayLike, q_phy: ArrayLike, t: ArrayLike | None, arm: str | None = None
+) -> Path:
     """Write a recording in the dVRK folder layout; with `arm`, also `meta.json` saying which arm it is."""
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
@@ -252,8 +281,12 @@ def write_recording(folder: str | Path, q_cmd: ArrayLike, q_phy: ArrayLike, t: A
     if t is not None:
         np.save(folder / FILES["t"], np.asarray(t, dtype=float))
     if arm is not None:
-        meta = {"arm": known_arm(arm), "joints": list(JOINT_NAMES), "samples": len(q_cmd),
-                "written": datetime.now(timezone.utc).isoformat(timespec="seconds")}
+        meta = {
+            "arm": known_arm(arm),
+            "joints": list(JOINT_NAMES),
+            "samples": len(q_cmd),
+            "written": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+        }
         (folder / "meta.json").write_text(json.dumps(meta, indent=2) + "\n")
     return folder
 
@@ -271,11 +304,15 @@ class RecordingWriter:
         """Append one sample; refuses non-finite joints and time that does not increase."""
         q_cmd, q_phy = np.asarray(q_cmd, dtype=float), np.asarray(q_phy, dtype=float)
         if q_cmd.shape != (N_JOINTS,) or q_phy.shape != (N_JOINTS,):
-            raise PegbtError(f"a sample needs {N_JOINTS} commanded and {N_JOINTS} physical joints", file=self.path)
+            raise PegbtError(
+                f"a sample needs {N_JOINTS} commanded and {N_JOINTS} physical joints", file=self.path
+            )
         if not (np.all(np.isfinite(q_cmd)) and np.all(np.isfinite(q_phy)) and np.isfinite(t)):
             raise PegbtError(f"non-finite sample {len(self._rows)}", file=self.path)
         if self._rows and t <= self._rows[-1][2]:
-            raise PegbtError(f"time must increase: sample {len(self._rows)} at {t} s", file=self.path, field="t")
+            raise PegbtError(
+                f"time must increase: sample {len(self._rows)} at {t} s", file=self.path, field="t"
+            )
         self._rows.append((q_cmd, q_phy, float(t)))
 
     def __len__(self) -> int:

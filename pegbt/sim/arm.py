@@ -41,7 +41,9 @@ Problems = Callable[[NDArray[np.float64]], list[str]]
 class JointGroup:
     """Set-point, encoders and the motion being played for one group of joints (the arm's six, or the jaw)."""
 
-    def __init__(self, q0: ArrayLike, servo_tau: float, problems: Problems, step_problems: Callable[..., list[str]]) -> None:
+    def __init__(
+        self, q0: ArrayLike, servo_tau: float, problems: Problems, step_problems: Callable[..., list[str]]
+    ) -> None:
         self.setpoint = np.asarray(q0, dtype=float).copy()
         self.tick_setpoint = self.setpoint.copy()  # the set-point at the last control tick
         self.previous_tick_setpoint = self.setpoint.copy()
@@ -143,7 +145,9 @@ class SimArm:
     def _refusal(self, command_id: str, problems: list[str]) -> list[Transition]:
         """The refusal of a command that finds the arm not ready or has `problems`; empty if it may run."""
         if self.state != "ENABLED":
-            return [Transition(command_id, "refused", f"{self.name} is {self.state}; send state_command enable")]
+            return [
+                Transition(command_id, "refused", f"{self.name} is {self.state}; send state_command enable")
+            ]
         if not self.is_homed:
             return [Transition(command_id, "refused", f"{self.name} is not homed; send state_command home")]
         return [Transition(command_id, "refused", "; ".join(problems))] if problems else []
@@ -175,9 +179,13 @@ class SimArm:
         )
         # A profile from a moving start can overshoot a limit: refuse rather than clip.
         outside = guards.trajectory_problems(TrajectoryPoints(playback.times, playback.positions), s)
-        return self._refusal(command_id, [f"planned profile: {p}" for p in outside]) or self.joints.start(playback)
+        return self._refusal(command_id, [f"planned profile: {p}" for p in outside]) or self.joints.start(
+            playback
+        )
 
-    def follow_jt(self, t: ArrayLike, q: ArrayLike, qd: ArrayLike | None, command_id: str) -> list[Transition]:
+    def follow_jt(
+        self, t: ArrayLike, q: ArrayLike, qd: ArrayLike | None, command_id: str
+    ) -> list[Transition]:
         trajectory = TrajectoryPoints(np.asarray(t, dtype=float), np.asarray(q, dtype=float), qd)
         problems = guards.trajectory_problems(trajectory, self.settings)
         if not problems:
@@ -186,7 +194,9 @@ class SimArm:
         refusal = self._refusal(command_id, problems)
         if refusal:
             return refusal
-        playback = trajectory_playback(command_id, self.joints.tick_setpoint, trajectory.t, trajectory.q, self.period)
+        playback = trajectory_playback(
+            command_id, self.joints.tick_setpoint, trajectory.t, trajectory.q, self.period
+        )
         return self.joints.start(playback)
 
     def jaw_servo_jp(self, angle: ArrayLike, command_id: str) -> list[Transition]:
@@ -199,7 +209,9 @@ class SimArm:
         if refusal:
             return refusal
         start = float(self.jaw.tick_setpoint[0])
-        return self.jaw.start(ramp_playback(command_id, start, float(angle[0]), self.settings.jaw_velocity, self.period))
+        return self.jaw.start(
+            ramp_playback(command_id, start, float(angle[0]), self.settings.jaw_velocity, self.period)
+        )
 
     def state_command(self, command: str, command_id: str) -> list[Transition]:
         """CRTK state commands; disabling or unhoming aborts any motion."""
@@ -224,5 +236,7 @@ class SimArm:
         """One control tick: play motions, move encoders, run the cable physics."""
         transitions = self.joints.advance(dt) + self.jaw.advance(dt)
         # ideal cables: the physical joints are the encoders (and the simulator skips the model's arithmetic)
-        self.physical = self.joints.encoder if self.physics.is_ideal else self.physics.step(self.joints.encoder, dt)
+        self.physical = (
+            self.joints.encoder if self.physics.is_ideal else self.physics.step(self.joints.encoder, dt)
+        )
         return transitions

@@ -15,7 +15,14 @@ from numpy.typing import NDArray
 from pegbt.errors import PegbtError
 from pegbt.motion.ik import IKSolution, inverse_kinematics
 from pegbt.motion.limits import arm_settings
-from pegbt.sim.scripted import Driver, Keyframe, grasp_candidate_facing, interpolate, parked, transfer_keyframes
+from pegbt.sim.scripted import (
+    Driver,
+    Keyframe,
+    grasp_candidate_facing,
+    interpolate,
+    parked,
+    transfer_keyframes,
+)
 from pegbt.sim.tools import tool_pointing_down
 from pegbt.sim.world import World
 from pegbt.transport.arm import ArmClient, MotionHandle, MotionStatus
@@ -35,14 +42,18 @@ class ScriptedMotion:
 def _solve(cell: Workcell, arm: str, frames: list[Keyframe], turn: float) -> IKSolution:
     """IK of a vertical tool at each keyframe, its jaw-closing axis turned by `turn` from the keyframe's yaw."""
     to_arm, centre = cell.board_to_arm(arm), cell.remote_centre(arm)
-    poses = [to_arm @ tool_pointing_down(f.position, f.yaw + turn, f.jaw, centre, cell.tool).tip for f in frames]
+    poses = [
+        to_arm @ tool_pointing_down(f.position, f.yaw + turn, f.jaw, centre, cell.tool).tip for f in frames
+    ]
     return inverse_kinematics(np.array(poses), arm_settings(arm))
 
 
 def jaw_turn(cell: Workcell, arm: str, frames: list[Keyframe]) -> float:
     """0 or π: the jaw is symmetric, so a yaw and its opposite grip alike; the one that reaches every
     frame with the roll nearer zero at the first (one choice for a whole path: its roll never flips)."""
-    usable = [(abs(s.q[0, 3]), turn) for turn in (0.0, math.pi) if (s := _solve(cell, arm, frames, turn)).ok.all()]
+    usable = [
+        (abs(s.q[0, 3]), turn) for turn in (0.0, math.pi) if (s := _solve(cell, arm, frames, turn)).ok.all()
+    ]
     if not usable:
         keyframe_joints(cell, arm, frames, 0.0)  # raises, naming the first frame out of reach
     return min(usable)[1]
@@ -57,7 +68,9 @@ def keyframe_joints(cell: Workcell, arm: str, frames: list[Keyframe], turn: floa
     return solution.q
 
 
-def joint_motions(cell: Workcell, arm: str, keyframes: list[Keyframe], step: float, speed: float) -> list[ScriptedMotion]:
+def joint_motions(
+    cell: Workcell, arm: str, keyframes: list[Keyframe], step: float, speed: float
+) -> list[ScriptedMotion]:
     """A joint goal to the first keyframe and its jaw angle, then each straight move as a joint trajectory
     sampled every `step` seconds at `speed` (m/s), and each jaw change as a jaw move."""
     turn = jaw_turn(cell, arm, keyframes)
@@ -72,21 +85,27 @@ def joint_motions(cell: Workcell, arm: str, keyframes: list[Keyframe], step: flo
     return motions
 
 
-def descending_motions(world: World, arm: str, keyframes: list[Keyframe], step: float, speed: float) -> list[ScriptedMotion]:
+def descending_motions(
+    world: World, arm: str, keyframes: list[Keyframe], step: float, speed: float
+) -> list[ScriptedMotion]:
     """`keyframes` as joint motions, reached straight down from `arm`'s parking height (clear of the pegs)."""
     first = keyframes[0]
     above = Keyframe(np.append(first.position[:2], parked(world, arm).position[2]), first.yaw, first.jaw)
     return joint_motions(world.cell, arm, [above, *keyframes], step, speed)
 
 
-def transfer_motions(world: World, arm: str, block: int, goal_peg: int, step: float, speed: float) -> list[ScriptedMotion]:
+def transfer_motions(
+    world: World, arm: str, block: int, goal_peg: int, step: float, speed: float
+) -> list[ScriptedMotion]:
     """`arm` moves `block` onto `goal_peg` as `world` stands now: down from its parking height above the
     block, the scripted transfer (`transfer_keyframes`), straight up again and back to its park."""
     keyframes = transfer_keyframes(world, block, goal_peg, grasp_candidate_facing(world, block, arm))
     park, last = parked(world, arm), keyframes[-1]
     rise = Keyframe(np.append(last.position[:2], park.position[2]), last.yaw, last.jaw)
     motions = descending_motions(world, arm, [*keyframes, rise], step, speed)
-    return motions + [ScriptedMotion(goal=keyframe_joints(world.cell, arm, [park], jaw_turn(world.cell, arm, [park]))[0])]
+    return motions + [
+        ScriptedMotion(goal=keyframe_joints(world.cell, arm, [park], jaw_turn(world.cell, arm, [park]))[0])
+    ]
 
 
 def scripted_trial(
@@ -99,7 +118,9 @@ def scripted_trial(
     for arm, start_peg, goal_peg in transfers:
         block = next(b.index for b in world.blocks if b.peg == start_peg and b.state == "on_peg")
         trial.append((arm, transfer_motions(world, arm, block, goal_peg, step, speed)))
-        driver.play({arm: transfer_keyframes(world, block, goal_peg, grasp_candidate_facing(world, block, arm))})
+        driver.play(
+            {arm: transfer_keyframes(world, block, goal_peg, grasp_candidate_facing(world, block, arm))}
+        )
         driver.play({arm: [parked(world, arm)]})
     return trial
 
@@ -129,5 +150,7 @@ class MotionPlayer:
         if motion.jaw is not None:
             self._handle = self.client.jaw.move_jp(motion.jaw)
         else:
-            self._handle = self.client.move_jp(motion.goal if motion.trajectory is None else motion.trajectory)
+            self._handle = self.client.move_jp(
+                motion.goal if motion.trajectory is None else motion.trajectory
+            )
         return True

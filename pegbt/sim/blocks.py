@@ -24,7 +24,7 @@ class Block:
 
     @property
     def state(self) -> str:
-        """"held", "on_peg", "on_board" or "lost" (fell off the workspace)."""
+        """ "held", "on_peg", "on_board" or "lost" (fell off the workspace)."""
         if self.lost:
             return "lost"
         if self.grips:

@@ -67,7 +67,9 @@ class DepthCamera:
         u = camera.fx * in_camera[:, 0] / in_camera[:, 2] + camera.cx
         v = camera.fy * in_camera[:, 1] / in_camera[:, 2] + camera.cy
         u_range = np.clip([u.min() - ROI_MARGIN_PX, u.max() + ROI_MARGIN_PX], 0, camera.width - 1).astype(int)
-        v_range = np.clip([v.min() - ROI_MARGIN_PX, v.max() + ROI_MARGIN_PX], 0, camera.height - 1).astype(int)
+        v_range = np.clip([v.min() - ROI_MARGIN_PX, v.max() + ROI_MARGIN_PX], 0, camera.height - 1).astype(
+            int
+        )
         us, vs = np.meshgrid(np.arange(u_range[0], u_range[1] + 1), np.arange(v_range[0], v_range[1] + 1))
         return np.column_stack(
             [(us.ravel() - camera.cx) / camera.fx, (vs.ravel() - camera.cy) / camera.fy, np.ones(us.size)]
@@ -80,7 +82,11 @@ class DepthCamera:
             tool = self.cell.tool
             for state in world.tools.values():
                 starts, ends, radii = state.segments(tool)
-                meshes += [cylinder_mesh(s, e, r) for s, e, r in zip(starts, ends, radii) if np.linalg.norm(e - s) > 1e-6]
+                meshes += [
+                    cylinder_mesh(s, e, r)
+                    for s, e, r in zip(starts, ends, radii)
+                    if np.linalg.norm(e - s) > 1e-6
+                ]
         return merge(meshes)
 
     def capture(self, world: World, time: float | None = None) -> np.ndarray:
@@ -88,7 +94,9 @@ class DepthCamera:
         time = world.time if time is None else time
         vertices, triangles = self.scene_mesh(world)
         scene = o3d.t.geometry.RaycastingScene()
-        scene.add_triangles(o3d.core.Tensor(vertices.astype(np.float32)), o3d.core.Tensor(triangles.astype(np.uint32)))
+        scene.add_triangles(
+            o3d.core.Tensor(vertices.astype(np.float32)), o3d.core.Tensor(triangles.astype(np.uint32))
+        )
         depth = scene.cast_rays(self._rays)["t_hit"].numpy()
         seen = np.isfinite(depth)
         depth = depth[seen].astype(np.float64)
@@ -104,7 +112,11 @@ class DepthCamera:
     def _burst(self, world: World, time: float) -> NoiseBurst | None:
         """The noise burst affecting a capture at `time`, logged as a fault event in the world."""
         burst = next((burst for burst in self.faults.bursts if burst.active(time)), None)
-        if burst is None and self.faults.burst_probability > 0 and self._rng.random() < self.faults.burst_probability:
+        if (
+            burst is None
+            and self.faults.burst_probability > 0
+            and self._rng.random() < self.faults.burst_probability
+        ):
             burst = self.faults.random_burst
         if burst is not None:
             detail = f"depth noise burst: sigma {burst.sigma * 1000:.1f} mm, {burst.outliers:.0%} outliers"

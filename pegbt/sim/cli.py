@@ -32,25 +32,80 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
         "with dVRK CRTK topic names and CDR payloads. "
         f"Listens on {DEFAULT_ENDPOINT} (peer mode, no scouting) unless told otherwise.",
     )
-    parser.add_argument("--listen", action="append", metavar="ENDPOINT", help=f"zenoh listen endpoint (default {DEFAULT_ENDPOINT}; repeatable)")
-    parser.add_argument("--allow-remote-listen", action="store_true",
-                        help="let --listen name a non-loopback address (peers on that network can then command the arms)")
-    parser.add_argument("--connect", action="append", default=[], metavar="ENDPOINT", help="zenoh endpoint to connect to (a router, a bridge; repeatable)")
+    parser.add_argument(
+        "--listen",
+        action="append",
+        metavar="ENDPOINT",
+        help=f"zenoh listen endpoint (default {DEFAULT_ENDPOINT}; repeatable)",
+    )
+    parser.add_argument(
+        "--allow-remote-listen",
+        action="store_true",
+        help="let --listen name a non-loopback address (peers on that network can then command the arms)",
+    )
+    parser.add_argument(
+        "--connect",
+        action="append",
+        default=[],
+        metavar="ENDPOINT",
+        help="zenoh endpoint to connect to (a router, a bridge; repeatable)",
+    )
     parser.add_argument("--namespace", default="", help="key prefix, e.g. lab2 for lab2/PSM1/measured_js")
-    parser.add_argument("--physics", default="ideal", help="cable physics: ideal, dvrk-real, or a preset/report JSON file")
-    parser.add_argument("--lockstep", action="store_true", help="advance time only when a client's SimClock steps it")
-    parser.add_argument("--world", action=argparse.BooleanOptionalAction, default=True,
-                        help="simulate the pegboard, blocks and depth camera (default); --no-world: arms only")
-    parser.add_argument("--faults", type=Path, metavar="YAML", help="fault plan (loss, latency, crash, world and camera faults)")
-    parser.add_argument("--seed", action=NumberOption, type=int, at_least=0, help="seed of the block layout, depth noise and injected faults (default: the plan's, else 0)")
-    parser.add_argument("--loss", action=NumberOption, at_least=0.0, at_most=1.0, metavar="P",
-                        help="probability of losing each stream message")
-    parser.add_argument("--latency", action=NumberOption, at_least=0.0, metavar="S", help="extra latency of stream messages (s)")
-    parser.add_argument("--crash-at", action=NumberOption, at_least=0.0, metavar="T",
-                        help="crash the endpoint at simulated time T (s)")
-    parser.add_argument("--log", type=Path, metavar="JSONL", help="append the simulator's log (world events, faults) here")
-    parser.add_argument("--stop-with-parent", action="store_true",
-                        help="stop when standard input closes: a parent process that pipes it is gone (even killed)")
+    parser.add_argument(
+        "--physics", default="ideal", help="cable physics: ideal, dvrk-real, or a preset/report JSON file"
+    )
+    parser.add_argument(
+        "--lockstep", action="store_true", help="advance time only when a client's SimClock steps it"
+    )
+    parser.add_argument(
+        "--world",
+        action=argparse.BooleanOptionalAction,
+        default=True,
+        help="simulate the pegboard, blocks and depth camera (default); --no-world: arms only",
+    )
+    parser.add_argument(
+        "--faults",
+        type=Path,
+        metavar="YAML",
+        help="fault plan (loss, latency, crash, world and camera faults)",
+    )
+    parser.add_argument(
+        "--seed",
+        action=NumberOption,
+        type=int,
+        at_least=0,
+        help="seed of the block layout, depth noise and injected faults (default: the plan's, else 0)",
+    )
+    parser.add_argument(
+        "--loss",
+        action=NumberOption,
+        at_least=0.0,
+        at_most=1.0,
+        metavar="P",
+        help="probability of losing each stream message",
+    )
+    parser.add_argument(
+        "--latency",
+        action=NumberOption,
+        at_least=0.0,
+        metavar="S",
+        help="extra latency of stream messages (s)",
+    )
+    parser.add_argument(
+        "--crash-at",
+        action=NumberOption,
+        at_least=0.0,
+        metavar="T",
+        help="crash the endpoint at simulated time T (s)",
+    )
+    parser.add_argument(
+        "--log", type=Path, metavar="JSONL", help="append the simulator's log (world events, faults) here"
+    )
+    parser.add_argument(
+        "--stop-with-parent",
+        action="store_true",
+        help="stop when standard input closes: a parent process that pipes it is gone (even killed)",
+    )
     parser.set_defaults(handler=_sim)
 
 
@@ -64,9 +119,16 @@ def _sim(args: argparse.Namespace) -> int:
     listen = args.listen or [DEFAULT_ENDPOINT]
     settings = endpoint_settings(listen, args.connect, args.allow_remote_listen)
     plan = FaultPlan.load(args.faults) if args.faults else FaultPlan()
-    overrides = {"seed": args.seed, "loss_probability": args.loss, "latency": args.latency, "crash_at": args.crash_at}
+    overrides = {
+        "seed": args.seed,
+        "loss_probability": args.loss,
+        "latency": args.latency,
+        "crash_at": args.crash_at,
+    }
     plan = dataclasses.replace(plan, **{k: v for k, v in overrides.items() if v is not None})
-    config = EndpointConfig(physics=args.physics, lockstep=args.lockstep, namespace=args.namespace, faults=plan, log_path=args.log)
+    config = EndpointConfig(
+        physics=args.physics, lockstep=args.lockstep, namespace=args.namespace, faults=plan, log_path=args.log
+    )
     world, camera = _world(plan) if args.world else (None, None)
     session = open_session(settings)
     try:
@@ -76,10 +138,15 @@ def _sim(args: argparse.Namespace) -> int:
         raise
     signal.signal(signal.SIGTERM, lambda *_: endpoint.stop())
     if args.stop_with_parent:
-        threading.Thread(target=_stop_at_stdin_eof, args=(endpoint,), name="parent-watch", daemon=True).start()
+        threading.Thread(
+            target=_stop_at_stdin_eof, args=(endpoint,), name="parent-watch", daemon=True
+        ).start()
     mode = "lockstep" if args.lockstep else "real time"
     scene = f"world and camera, seed {plan.seed}" if world is not None else "no world"
-    print(f"pegbt sim: serving {', '.join(endpoint.arms)} on {', '.join(listen)} ({mode}, physics {args.physics}, {scene})", flush=True)
+    print(
+        f"pegbt sim: serving {', '.join(endpoint.arms)} on {', '.join(listen)} ({mode}, physics {args.physics}, {scene})",
+        flush=True,
+    )
     gc.collect()
     gc.freeze()  # what start-up built (modules, meshes) lives on: a collection scanning it would stall a tick
     try:

@@ -32,7 +32,14 @@ from pegbt.transport.sequencing import Tag
 
 def command_keys(keys: ArmKeys) -> tuple[str, ...]:
     """The keys on which an arm takes commands."""
-    return (keys.servo_jp, keys.move_jp, keys.follow_jt, keys.state_command, keys.jaw_servo_jp, keys.jaw_move_jp)
+    return (
+        keys.servo_jp,
+        keys.move_jp,
+        keys.follow_jt,
+        keys.state_command,
+        keys.jaw_servo_jp,
+        keys.jaw_move_jp,
+    )
 
 
 @dataclass(frozen=True)
@@ -55,17 +62,23 @@ class CommandIntake:
         self._order = itertools.count()
         self._untagged = itertools.count(1)
 
-    def admit(self, arm: str, key: str, payload: bytes, tag: Tag | None, now: float, elapsed: float) -> Command | None:
+    def admit(
+        self, arm: str, key: str, payload: bytes, tag: Tag | None, now: float, elapsed: float
+    ) -> Command | None:
         """The command to apply now; None if it is lost or delayed (then `due` hands it over later)."""
         number = tag.seq if tag is not None else next(self._untagged)
-        command = Command(arm, key, payload, tag.command_id(key) if tag is not None else f"untagged:{key}:{number}")
+        command = Command(
+            arm, key, payload, tag.command_id(key) if tag is not None else f"untagged:{key}:{number}"
+        )
         identity = str(number)
         if self._faults.lost(key, identity):
             self._log.record(elapsed, "fault", fault="loss", key=key, command=number)
             return None
         delay = self._faults.delay(key, identity)
         if delay > 0:
-            self._log.record(elapsed, "fault", fault="latency", key=key, command=number, seconds=round(delay, 6))
+            self._log.record(
+                elapsed, "fault", fault="latency", key=key, command=number, seconds=round(delay, 6)
+            )
             heapq.heappush(self._delayed, (now + delay, next(self._order), command))
             return None
         return command

@@ -81,7 +81,14 @@ class EndpointConfig:
 
 def _state_keys(keys: ArmKeys) -> tuple[str, ...]:
     """An arm's state streams: only the latest message of each matters."""
-    return (keys.measured_js, keys.setpoint_js, keys.fiducial_js, keys.measured_cp, keys.jaw_measured_js, keys.jaw_setpoint_js)
+    return (
+        keys.measured_js,
+        keys.setpoint_js,
+        keys.fiducial_js,
+        keys.measured_cp,
+        keys.jaw_measured_js,
+        keys.jaw_setpoint_js,
+    )
 
 
 class SimEndpoint:
@@ -123,7 +130,9 @@ class SimEndpoint:
         self.faults = FaultInjector(config.faults)
         self._events_outlet = Outlet(session, self.sim_keys.events, self.source)
         self.log = SimLog(config.log_path, self._publish_log_line)
-        self._outbox = Outbox(session, self.source, self.faults, self.log.record, realtime=not config.lockstep)
+        self._outbox = Outbox(
+            session, self.source, self.faults, self.log.record, realtime=not config.lockstep
+        )
         self._commands = CommandIntake(self.faults, self.log)
         self._inbox: Inbox = queue.Queue()
         self._last_state_refresh = self.time
@@ -133,10 +142,18 @@ class SimEndpoint:
         if camera is not None:
             commands.add(self.camera_keys.trigger)
         # streams under loss or latency stay on their topics, where the faults act
-        claimable = {key for keys in self.keys.values() for key in _state_keys(keys) if not self.faults.affects(key)}
+        claimable = {
+            key for keys in self.keys.values() for key in _state_keys(keys) if not self.faults.affects(key)
+        }
         self._lockstep = Lockstep(
-            session, self.sim_keys, self._outbox, self._inbox, self._handle,
-            enabled=config.lockstep, command_keys=commands, claimable=claimable,
+            session,
+            self.sim_keys,
+            self._outbox,
+            self._inbox,
+            self._handle,
+            enabled=config.lockstep,
+            command_keys=commands,
+            claimable=claimable,
         )
         self._declare()
 
@@ -146,20 +163,31 @@ class SimEndpoint:
         for name, keys in self.keys.items():
             for key in command_keys(keys):
                 self._declarations.append(
-                    self.session.declare_subscriber(key, lambda sample, k=key, a=name: self._enqueue_command(a, k, sample))
+                    self.session.declare_subscriber(
+                        key, lambda sample, k=key, a=name: self._enqueue_command(a, k, sample)
+                    )
                 )
             for key in (*_state_keys(keys), keys.operating_state, keys.error):
                 self._outbox.outlet(key)
         if self.camera is not None:
             self._outbox.outlet(self.camera_keys.points)
             self._declarations.append(
-                self.session.declare_subscriber(self.camera_keys.trigger, lambda sample: self._enqueue_command("", self.camera_keys.trigger, sample))
+                self.session.declare_subscriber(
+                    self.camera_keys.trigger,
+                    lambda sample: self._enqueue_command("", self.camera_keys.trigger, sample),
+                )
             )
-        self._declarations.append(self.session.declare_queryable(self.sim_keys.clock, lambda q: self._inbox.put(("clock", q))))
         self._declarations.append(
-            self.session.declare_subscriber(self.sim_keys.step, lambda sample: self._inbox.put(("step", sample.payload.to_bytes())))
+            self.session.declare_queryable(self.sim_keys.clock, lambda q: self._inbox.put(("clock", q)))
         )
-        self._declarations.append(self.session.declare_queryable(self.sim_keys.truth, lambda q: self._inbox.put(("truth", q))))
+        self._declarations.append(
+            self.session.declare_subscriber(
+                self.sim_keys.step, lambda sample: self._inbox.put(("step", sample.payload.to_bytes()))
+            )
+        )
+        self._declarations.append(
+            self.session.declare_queryable(self.sim_keys.truth, lambda q: self._inbox.put(("truth", q)))
+        )
 
     def _enqueue_command(self, arm: str, key: str, sample: zenoh.Sample) -> None:
         tag = Tag.decode(sample.attachment)
@@ -173,8 +201,13 @@ class SimEndpoint:
 
     def run(self) -> str:
         """Serve until stopped ("stopped") or until an injected crash ("crashed")."""
-        self.log.record(self.elapsed, "start", mode="lockstep" if self.config.lockstep else "realtime",
-                        physics=self.config.physics, arms=list(self.arms))
+        self.log.record(
+            self.elapsed,
+            "start",
+            mode="lockstep" if self.config.lockstep else "realtime",
+            physics=self.config.physics,
+            arms=list(self.arms),
+        )
         if self.world is not None:
             self._update_world()
         self._outbox.inject = False
@@ -202,7 +235,9 @@ class SimEndpoint:
                     last_beat = time.monotonic()
                 continue
             if time.time() >= next_tick:
-                if time.time() - next_tick > 10 * self.period:  # fell far behind (machine busy): skip, don't burst
+                if (
+                    time.time() - next_tick > 10 * self.period
+                ):  # fell far behind (machine busy): skip, don't burst
                     next_tick = time.time()
                 self.time = next_tick
                 self._tick()
@@ -226,8 +261,13 @@ class SimEndpoint:
         if kind == "command":
             self._command(*item[1:])
         elif kind == "clock":
-            clock = {"mode": "lockstep" if self.config.lockstep else "realtime", "period": self.period, "time": self.now(),
-                     "source": self.source.name, "sent": self.source.counts()}
+            clock = {
+                "mode": "lockstep" if self.config.lockstep else "realtime",
+                "period": self.period,
+                "time": self.now(),
+                "source": self.source.name,
+                "sent": self.source.counts(),
+            }
             self._reply(item[1], json.dumps(clock))
         elif kind == "step":
             self._step(item[1])
@@ -247,7 +287,9 @@ class SimEndpoint:
         if self.faults.crashed:
             return
         self._publish_state()
-        self._lockstep.answer(request, {"time": self.time, "source": self.source.name, "sent": self.source.counts()})
+        self._lockstep.answer(
+            request, {"time": self.time, "source": self.source.name, "sent": self.source.counts()}
+        )
 
     @staticmethod
     def _reply(query: zenoh.Query, answer: str) -> None:
@@ -290,8 +332,17 @@ class SimEndpoint:
         for transition in transitions:
             if transition.outcome == "refused":
                 text = f"{key} refused: {transition.text}"
-                self.log.record(self.elapsed, "refused", arm=arm_name, key=key, command=transition.command_id, reason=transition.text)
-                self._outbox.send(now, keys.error, partial(codec.encode_string, text), transition.command_id, "refused")
+                self.log.record(
+                    self.elapsed,
+                    "refused",
+                    arm=arm_name,
+                    key=key,
+                    command=transition.command_id,
+                    reason=transition.text,
+                )
+                self._outbox.send(
+                    now, keys.error, partial(codec.encode_string, text), transition.command_id, "refused"
+                )
             else:
                 self._publish_operating_state(arm_name, transition.command_id, transition.outcome)
 
@@ -314,8 +365,12 @@ class SimEndpoint:
         """Move the world with each tool where its physical joints put it; a gripped block stops the jaw."""
         assert self.world is not None
         tools = {
-            name: ToolState.from_joints(arm.physical, float(arm.jaw.encoder[0]), self._arm_to_board[name],
-                                        wrist_give(arm.physics, float(arm.physical[5]), self.world.cell.tool))
+            name: ToolState.from_joints(
+                arm.physical,
+                float(arm.jaw.encoder[0]),
+                self._arm_to_board[name],
+                wrist_give(arm.physics, float(arm.physical[5]), self.world.cell.tool),
+            )
             for name, arm in self.arms.items()
         }
         self.world.update(self.elapsed, tools)
@@ -335,7 +390,13 @@ class SimEndpoint:
     def _publish_operating_state(self, name: str, cause: str = "", outcome: str = "") -> None:
         arm = self.arms[name]
         state = codec.OperatingState(self.now(), arm.state, arm.is_homed, arm.is_busy)
-        self._outbox.send(self.now(), self.keys[name].operating_state, partial(codec.encode_operating_state, state), cause, outcome)
+        self._outbox.send(
+            self.now(),
+            self.keys[name].operating_state,
+            partial(codec.encode_operating_state, state),
+            cause,
+            outcome,
+        )
 
     def _publish_operating_states(self) -> None:
         self._last_state_refresh = self.time
@@ -345,9 +406,13 @@ class SimEndpoint:
     def _publish_setpoint(self, name: str, jaw: bool) -> None:
         arm, keys, now = self.arms[name], self.keys[name], self.now()
         if jaw:
-            self._outbox.send(now, keys.jaw_setpoint_js, JointStateMessage(now, arm.jaw.setpoint, names=JAW_JOINT_NAMES))
+            self._outbox.send(
+                now, keys.jaw_setpoint_js, JointStateMessage(now, arm.jaw.setpoint, names=JAW_JOINT_NAMES)
+            )
         else:
-            self._outbox.send(now, keys.setpoint_js, JointStateMessage(now, arm.joints.setpoint, names=ARM_JOINT_NAMES))
+            self._outbox.send(
+                now, keys.setpoint_js, JointStateMessage(now, arm.joints.setpoint, names=ARM_JOINT_NAMES)
+            )
 
     def _publish_state(self) -> None:
         """Every arm's state now. An arm's arrays are replaced each tick, never changed in place, so a
@@ -355,8 +420,14 @@ class SimEndpoint:
         now, send, joint_state = self.time, self._outbox.send, JointStateMessage
         for name, arm in self.arms.items():
             keys, joints, jaw = self.keys[name], arm.joints, arm.jaw
-            send(now, keys.measured_js, joint_state(now, joints.encoder, joints.velocity, names=ARM_JOINT_NAMES))
-            send(now, keys.jaw_measured_js, joint_state(now, jaw.encoder, jaw.velocity, names=JAW_JOINT_NAMES))
+            send(
+                now,
+                keys.measured_js,
+                joint_state(now, joints.encoder, joints.velocity, names=ARM_JOINT_NAMES),
+            )
+            send(
+                now, keys.jaw_measured_js, joint_state(now, jaw.encoder, jaw.velocity, names=JAW_JOINT_NAMES)
+            )
             send(now, keys.fiducial_js, joint_state(now, arm.physical, names=ARM_JOINT_NAMES))
             send(now, keys.measured_cp, partial(_encode_pose, now, joints.encoder, f"{name}_base"))
             self._publish_setpoint(name, jaw=False)
@@ -372,14 +443,18 @@ class SimEndpoint:
         """Re-send each arm's latest state, unchanged, on its topics: a lockstep endpoint is seen alive
         while idle, late joiners see its state, and subscribers of claimed keys get it at this pace;
         faults are not drawn again, so what a client sees stays deterministic."""
-        self._outbox.repeat({key for keys in self.keys.values() for key in (*_state_keys(keys), keys.operating_state)})
+        self._outbox.repeat(
+            {key for keys in self.keys.values() for key in (*_state_keys(keys), keys.operating_state)}
+        )
 
     def _capture(self, command_id: str) -> None:
         assert self.camera is not None and self.world is not None
         now = self.now()
         points = self.camera.capture(self.world, self.elapsed)
         self._log_world_events()
-        self._outbox.send(now, self.camera_keys.points, partial(codec.encode_point_cloud, now, points), command_id, "done")
+        self._outbox.send(
+            now, self.camera_keys.points, partial(codec.encode_point_cloud, now, points), command_id, "done"
+        )
 
     # ------------------------------------------------------------------ shutdown
     def close(self) -> None:

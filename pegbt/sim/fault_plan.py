@@ -96,7 +96,11 @@ class FaultInjector:
 
     def lost(self, key: str, identity: str) -> bool:
         plan = self.plan
-        return plan.loss_probability > 0 and _matches(key, plan.loss_topics) and _uniform(plan.seed, "loss", key, identity) < plan.loss_probability
+        return (
+            plan.loss_probability > 0
+            and _matches(key, plan.loss_topics)
+            and _uniform(plan.seed, "loss", key, identity) < plan.loss_probability
+        )
 
     def delay(self, key: str, identity: str) -> float:
         plan = self.plan

@@ -34,7 +34,11 @@ class WorldFaults:
         """Faults from a fault plan's `world:` mapping (keys as the fields; slips as [{time, arm?}])."""
         entries = section.mapping(("slips", "slip_rate", "miss_attempts", "miss_probability"))
         slips = [_slip(entry) for entry in entries["slips"].sequence()] if "slips" in entries else []
-        attempts = [item.integer(low=0) for item in entries["miss_attempts"].sequence()] if "miss_attempts" in entries else []
+        attempts = (
+            [item.integer(low=0) for item in entries["miss_attempts"].sequence()]
+            if "miss_attempts" in entries
+            else []
+        )
         return cls(
             slips=tuple(sorted(slips, key=lambda slip: slip.time)),
             slip_rate=section.number_or("slip_rate", 0.0, low=0.0),
@@ -74,7 +78,9 @@ class CameraFaults:
         `burst_probability`."""
         entries = section.mapping(("bursts", "burst_probability"))
         bursts = tuple(_burst(entry) for entry in entries["bursts"].sequence()) if "bursts" in entries else ()
-        return cls(bursts=bursts, burst_probability=section.number_or("burst_probability", 0.0, low=0.0, high=1.0))
+        return cls(
+            bursts=bursts, burst_probability=section.number_or("burst_probability", 0.0, low=0.0, high=1.0)
+        )
 
 
 def _burst(entry: Located) -> NoiseBurst:

@@ -137,7 +137,9 @@ class Lockstep:
                 if all(counts.get(key, 0) >= int(sent[key]) for key in ours):
                     break
                 if time.monotonic() > deadline:
-                    raise PegbtError(f"commands from {source} never arrived: wanted {sent}, have {counts}", field="sent")
+                    raise PegbtError(
+                        f"commands from {source} never arrived: wanted {sent}, have {counts}", field="sent"
+                    )
                 try:
                     item = self._inbox.get(timeout=0.001)
                 except queue.Empty:

@@ -24,7 +24,9 @@ class SimLog:
         try:
             self._file = None if path is None else open(path, "a", encoding="utf-8")
         except OSError as error:
-            raise PegbtError(f"cannot write the simulator's log: {error.strerror}", file=path, field="--log") from None
+            raise PegbtError(
+                f"cannot write the simulator's log: {error.strerror}", file=path, field="--log"
+            ) from None
         self._publish = publish
 
     def record(self, time: float, kind: str, **details: Any) -> None:
@@ -39,7 +41,9 @@ class SimLog:
 
     def record_event(self, event: Event) -> None:
         """A world event, at its own time and with its own kind (grasp, drop, place, collision, ...)."""
-        self.record(event.time, event.kind, arm=event.arm, block=event.block, peg=event.peg, detail=event.detail)
+        self.record(
+            event.time, event.kind, arm=event.arm, block=event.block, peg=event.peg, detail=event.detail
+        )
 
     def close(self) -> None:
         if self._file is not None:
@@ -61,7 +65,9 @@ def read_sim_log(path: Path) -> list[dict[str, Any]]:
         try:
             entry = json.loads(line)
         except json.JSONDecodeError as error:
-            raise PegbtError(f"not a log entry: {error.msg}", file=path, line=number, column=error.colno) from None
+            raise PegbtError(
+                f"not a log entry: {error.msg}", file=path, line=number, column=error.colno
+            ) from None
         if not isinstance(entry, dict):
             raise PegbtError("not a log entry: expected a JSON object", file=path, line=number)
         entries.append(entry)

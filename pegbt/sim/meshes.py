@@ -22,7 +22,12 @@ def _ring_band(n: int, flip: bool, offset: int) -> list[list[int]]:
     triangles = []
     for i in range(n):
         j = (i + 1) % n
-        a, b, c, d = offset + i, offset + j, offset + n + i, offset + n + j  # outer i, outer j, inner i, inner j
+        a, b, c, d = (
+            offset + i,
+            offset + j,
+            offset + n + i,
+            offset + n + j,
+        )  # outer i, outer j, inner i, inner j
         triangles += [[a, b, d], [a, d, c]] if not flip else [[a, d, b], [a, c, d]]
     return triangles
 
@@ -79,7 +84,9 @@ def cylinder_mesh(start: Matrix, end: Matrix, radius: float, segments: int = CYL
 
 def box_mesh(low: Matrix, high: Matrix) -> Mesh:
     """An axis-aligned box."""
-    corners = np.array([[x, y, z] for x in (low[0], high[0]) for y in (low[1], high[1]) for z in (low[2], high[2])])
+    corners = np.array(
+        [[x, y, z] for x in (low[0], high[0]) for y in (low[1], high[1]) for z in (low[2], high[2])]
+    )
     faces = [[0, 1, 3, 2], [4, 6, 7, 5], [0, 4, 5, 1], [2, 3, 7, 6], [0, 2, 6, 4], [1, 5, 7, 3]]
     return corners, np.array([t for a, b, c, d in faces for t in ([a, b, c], [a, c, d])])
 

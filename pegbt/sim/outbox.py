@@ -73,7 +73,12 @@ class Outbox:
     """Publishes tagged messages, losing or delaying them as the fault plan says (delays keep per-key order)."""
 
     def __init__(
-        self, session: zenoh.Session, source: Source, faults: FaultInjector, log: Callable[..., None], realtime: bool
+        self,
+        session: zenoh.Session,
+        source: Source,
+        faults: FaultInjector,
+        log: Callable[..., None],
+        realtime: bool,
     ) -> None:
         self._session = session
         self._source = source
@@ -88,7 +93,9 @@ class Outbox:
         self._last_due: dict[str, float] = {}
         self._order = itertools.count()
         self._claimed: set[str] = set()
-        self._replied: dict[str, dict[str, tuple[object, int]]] = {}  # per clock, per key: content and number last sent
+        self._replied: dict[
+            str, dict[str, tuple[object, int]]
+        ] = {}  # per clock, per key: content and number last sent
 
     def outlet(self, key: str) -> Outlet:
         if key not in self._outlets:

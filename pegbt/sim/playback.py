@@ -84,7 +84,9 @@ def ramp_playback(command_id: str, start: float, goal: float, speed: float, peri
     return Playback(command_id, times, positions.reshape(-1, 1))
 
 
-def trajectory_playback(command_id: str, setpoint: ArrayLike, t: ArrayLike, q: ArrayLike, period: float) -> Playback:
+def trajectory_playback(
+    command_id: str, setpoint: ArrayLike, t: ArrayLike, q: ArrayLike, period: float
+) -> Playback:
     """A client's trajectory, timed from acceptance.
 
     If it starts exactly at the current set-point at time 0 it plays as given; otherwise the set-point

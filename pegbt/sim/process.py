@@ -32,7 +32,10 @@ class SimProcess:
         self.port = port or free_port()
         self.endpoint = f"tcp/127.0.0.1:{self.port}"
         root = Path(__file__).resolve().parents[2]
-        env = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [str(root), os.environ.get("PYTHONPATH")]))}
+        env = {
+            **os.environ,
+            "PYTHONPATH": os.pathsep.join(filter(None, [str(root), os.environ.get("PYTHONPATH")])),
+        }
         self.process = subprocess.Popen(
             [sys.executable, "-m", "pegbt", "sim", "--listen", self.endpoint, "--stop-with-parent", *args],
             stdin=subprocess.PIPE,

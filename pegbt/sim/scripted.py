@@ -39,7 +39,9 @@ def interpolate(
     """Keyframes every `step` seconds, moving in straight lines at `speed` (m/s), the jaw at `jaw_speed`."""
     for start, end in zip(keyframes, keyframes[1:]):
         distance = float(np.linalg.norm(end.position - start.position))
-        duration = max(distance / speed, abs(end.jaw - start.jaw) / jaw_speed, abs(end.yaw - start.yaw) / math.pi, step)
+        duration = max(
+            distance / speed, abs(end.jaw - start.jaw) / jaw_speed, abs(end.yaw - start.yaw) / math.pi, step
+        )
         count = math.ceil(duration / step - 1e-9)
         for i in range(1, count + 1):
             f = i / count
@@ -73,10 +75,14 @@ def grasp_keyframes(world: World, block: int, candidate: int, error: Matrix = np
 
 def lifted(world: World, frame: Keyframe) -> Keyframe:
     """`frame` raised straight up to the carry height."""
-    return Keyframe(np.array([frame.position[0], frame.position[1], carry_height(world)]), frame.yaw, frame.jaw)
+    return Keyframe(
+        np.array([frame.position[0], frame.position[1], carry_height(world)]), frame.yaw, frame.jaw
+    )
 
 
-def place_keyframes(world: World, block: int, goal_peg: int, holding: Keyframe, error: Matrix = np.zeros(2)) -> list[Keyframe]:
+def place_keyframes(
+    world: World, block: int, goal_peg: int, holding: Keyframe, error: Matrix = np.zeros(2)
+) -> list[Keyframe]:
     """Carry the block gripped at `holding` over `goal_peg` (missing it by `error`), lower it, open, rise."""
     cell = world.cell
     offset = holding.position[:2] - world.blocks[block].pose[:2, 3]
@@ -85,7 +91,12 @@ def place_keyframes(world: World, block: int, goal_peg: int, holding: Keyframe, 
     above = Keyframe(np.array([goal[0], goal[1], carry_height(world)]), holding.yaw, holding.jaw)
     lowered = Keyframe(np.array([goal[0], goal[1], place_z]), holding.yaw, holding.jaw)
     jaw_open = motion_settings().transfer.jaw_open
-    return [above, lowered, Keyframe(lowered.position, holding.yaw, jaw_open), Keyframe(above.position, holding.yaw, jaw_open)]
+    return [
+        above,
+        lowered,
+        Keyframe(lowered.position, holding.yaw, jaw_open),
+        Keyframe(above.position, holding.yaw, jaw_open),
+    ]
 
 
 def transfer_keyframes(world: World, block: int, goal_peg: int, candidate: int) -> list[Keyframe]:
@@ -123,14 +134,17 @@ class Driver:
     def play(self, paths: dict[str, list[Keyframe]]) -> list[Event]:
         """Move the named arms along their paths together (each starting from where it is); returns the events."""
         streams = {
-            arm: list(interpolate([self.poses[arm], *frames], self.step, self.speed)) for arm, frames in paths.items()
+            arm: list(interpolate([self.poses[arm], *frames], self.step, self.speed))
+            for arm, frames in paths.items()
         }
         events: list[Event] = []
         for i in range(max(len(stream) for stream in streams.values())):
             for arm, stream in streams.items():
                 self.poses[arm] = stream[min(i, len(stream) - 1)]
             time = self.world.time + self.step
-            events += self.world.update(time, {arm: self.tool(arm, frame) for arm, frame in self.poses.items()})
+            events += self.world.update(
+                time, {arm: self.tool(arm, frame) for arm, frame in self.poses.items()}
+            )
         return events
 
     def at(self, arm: str) -> Keyframe:

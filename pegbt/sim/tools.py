@@ -43,7 +43,12 @@ class ToolState:
         shaft runs from the remote centre (the base origin) to the wrist pitch axis."""
         shaft_end, tip = shaft_end_and_tip(q)
         rotation, origin = arm_to_board[:3, :3], arm_to_board[:3, 3]
-        return cls(tip=arm_to_board @ tip, jaw=float(jaw), shaft=np.array([origin, rotation @ shaft_end + origin]), give=give)
+        return cls(
+            tip=arm_to_board @ tip,
+            jaw=float(jaw),
+            shaft=np.array([origin, rotation @ shaft_end + origin]),
+            give=give,
+        )
 
     def jaw_hinge(self, tool: ToolGeometry) -> Matrix:
         """(3,) the wrist yaw axis, where the jaws hinge: `jaw_length` back up the tool from the tip."""
@@ -69,7 +74,9 @@ def wrist_give(physics: ArmPhysics, wrist_yaw: float, tool: ToolGeometry) -> Giv
     return tool.jaw_length * yaw_down, tool.jaw_length * yaw_up, lever * pitch_up, lever * pitch_down
 
 
-def tool_pointing_down(position: Matrix, yaw: float, jaw: float, remote_centre: Matrix, tool: ToolGeometry) -> ToolState:
+def tool_pointing_down(
+    position: Matrix, yaw: float, jaw: float, remote_centre: Matrix, tool: ToolGeometry
+) -> ToolState:
     """A tool whose jaw points straight down into the board at `position`, jaws closing along `yaw`.
 
     For scripted scenes and benchmarks: the shaft runs from the arm's remote centre to a wrist placed

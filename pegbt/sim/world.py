@@ -45,7 +45,9 @@ class WorldConfig:
     grasp_search_radius: float = 0.015  # a closing jaw this near a block's centre is a grasp attempt
     handover_pull_apart: float = 0.003  # two grips disagreeing by more than this: the later one slips
     peg_slack: float = 0.0  # extra clearance allowed between hole and peg before the block catches
-    tip_off_clearance: float = 0.003  # m: a block that fell against pegs slides off until this far clear of them
+    tip_off_clearance: float = (
+        0.003  # m: a block that fell against pegs slides off until this far clear of them
+    )
     board_press_tolerance: float = 0.0005  # a held block pushed this far into the board is a collision
     initial_yaw_spread: float = math.pi / 3  # initial yaws are drawn from ± this
 
@@ -85,7 +87,9 @@ class World:
         self.blocks: list[Block] = []
         for index, peg in enumerate(pegs.left_group):
             block = Block(index, np.eye(4), peg)
-            self._rest_on_peg(block, peg, layout.uniform(-config.initial_yaw_spread, config.initial_yaw_spread))
+            self._rest_on_peg(
+                block, peg, layout.uniform(-config.initial_yaw_spread, config.initial_yaw_spread)
+            )
             self.blocks.append(block)
 
     # ----------------------------------------------------------------------------------------- queries
@@ -129,7 +133,14 @@ class World:
         self._detect_contacts()
         return self.events.since(start)
 
-    def _log(self, kind: str, arm: str | None = None, block: int | None = None, peg: int | None = None, detail: str = "") -> None:
+    def _log(
+        self,
+        kind: str,
+        arm: str | None = None,
+        block: int | None = None,
+        peg: int | None = None,
+        detail: str = "",
+    ) -> None:
         self.events.append(Event(self.time, kind, arm, block, peg, detail))
 
     # ----------------------------------------------------------------------------------- jaw and grips
@@ -221,12 +232,20 @@ class World:
         off_centre = float(tip[:2] @ normal) - (model.hole_radius + wall_half)
         reach = self.cell.tool.jaw_length * math.sin(max(opened, 0.0) / 2) * alignment[edge] - wall_half
         if abs(off_centre) >= reach:
-            return f"jaws open {max(reach, 0.0) * 1000:.1f} mm either side of the wall's centre miss it by {abs(off_centre) * 1000:.1f} mm", edge, no_slide
+            return (
+                f"jaws open {max(reach, 0.0) * 1000:.1f} mm either side of the wall's centre miss it by {abs(off_centre) * 1000:.1f} mm",
+                edge,
+                no_slide,
+            )
         slide = off_centre * normal
         if block.peg is not None and not block.grips:
             peg_xy = self._pegs_in_block_frame(block)[block.peg]  # where the peg stands in the hole
             if np.linalg.norm(peg_xy - slide) > self._clearance:
-                return f"jaw {abs(off_centre) * 1000:.1f} mm off the wall's centre: peg {block.peg} stops the block", edge, no_slide
+                return (
+                    f"jaw {abs(off_centre) * 1000:.1f} mm off the wall's centre: peg {block.peg} stops the block",
+                    edge,
+                    no_slide,
+                )
         return None, edge, slide
 
     def _slip(self, arm: str, block: Block, detail: str) -> None:
@@ -244,10 +263,18 @@ class World:
             arms = [scheduled.arm] if scheduled.arm else sorted(self.tools)
             held = [(arm, self.held_by(arm)) for arm in arms if self.held_by(arm) is not None]
             if not held:
-                self._log("fault", scheduled.arm, detail=f"slip scheduled at {scheduled.time:g} s: nothing held")
+                self._log(
+                    "fault", scheduled.arm, detail=f"slip scheduled at {scheduled.time:g} s: nothing held"
+                )
                 continue
             arm, index = held[0]
-            self._log("fault", arm, index, self.blocks[index].peg, f"slip injected (scheduled at {scheduled.time:g} s)")
+            self._log(
+                "fault",
+                arm,
+                index,
+                self.blocks[index].peg,
+                f"slip injected (scheduled at {scheduled.time:g} s)",
+            )
             self._slip(arm, self.blocks[index], "injected fault")
         if self.faults.slip_rate <= 0 or elapsed <= 0:
             return
@@ -308,12 +335,16 @@ class World:
             push = self._peg_push(offsets)
             if push is None:
                 return
-            guided = np.linalg.norm(offsets + push, axis=1).max() <= self._clearance + 1e-9  # not tipped across it
+            guided = (
+                np.linalg.norm(offsets + push, axis=1).max() <= self._clearance + 1e-9
+            )  # not tipped across it
             if guided and self._holders_give(block, push):
                 block.pose[:2, 3] += push  # the peg guides the hole; the holders' wrists yield
             else:
                 offset = float(np.linalg.norm(offsets, axis=1).max())
-                self._knock_loose(block, peg, f"caught on peg {peg}: hole {offset * 1000:.1f} mm off its axis")
+                self._knock_loose(
+                    block, peg, f"caught on peg {peg}: hole {offset * 1000:.1f} mm off its axis"
+                )
             return
         if bottom[2] <= peg_top_z:
             return  # above every peg
@@ -391,7 +422,9 @@ class World:
             touching = np.flatnonzero(self._touching_pegs(block))
             if not len(touching):
                 return block.pose[:2, 3].copy()
-            away = sum((_unit(block.pose[:2, 3] - self.cell.pegs.positions[peg]) for peg in touching), np.zeros(2))
+            away = sum(
+                (_unit(block.pose[:2, 3] - self.cell.pegs.positions[peg]) for peg in touching), np.zeros(2)
+            )
             block.pose[:2, 3] += _SLIDE_STEP * _unit(away)
         for ring in range(1, _SLIDE_STEPS + 1):
             for turn in np.linspace(0.0, 2 * math.pi, 8 * ring, endpoint=False):
@@ -403,7 +436,6 @@ class World:
     def _touching_pegs(self, block: Block) -> Matrix:
         """Which pegs `block`, where it lies, touches or comes within `tip_off_clearance` of."""
         return self._in_footprint(self._pegs_in_block_frame(block), self.config.tip_off_clearance)
-
 
     def _rest_on_peg(self, block: Block, peg: int, yaw: float) -> None:
         """Seat a block on a peg, on top of any blocks already resting there."""
@@ -422,7 +454,9 @@ class World:
         for arm, (starts, ends, radii, low, high) in segments.items():
             if high[:, 2].max() < self._peg_low[0, 2]:  # the whole tool is above the peg tops (z points down)
                 continue
-            pairs = np.nonzero(boxes_overlap(low[:, None], high[:, None], self._peg_low[None], self._peg_high[None]))
+            pairs = np.nonzero(
+                boxes_overlap(low[:, None], high[:, None], self._peg_low[None], self._peg_high[None])
+            )
             if pairs[0].size:
                 seg, peg = pairs
                 gaps = segment_distances(starts[seg], ends[seg], self._peg_tops[peg], self._peg_feet[peg])
@@ -432,7 +466,10 @@ class World:
             first, second = np.nonzero(boxes_overlap(a[3][:, None], a[4][:, None], b[3][None], b[4][None]))
             if not first.size:
                 continue
-            touching = segment_distances(a[0][first], a[1][first], b[0][second], b[1][second]) < a[2][first] + b[2][second]
+            touching = (
+                segment_distances(a[0][first], a[1][first], b[0][second], b[1][second])
+                < a[2][first] + b[2][second]
+            )
             shafts = (first == 0) & (second == 0)
             pair = f"{arm_a}+{arm_b}"
             if (touching & shafts).any():

@@ -29,8 +29,15 @@ def linear_window(q_cmd: Array, q_phy: Array, train: int, history: int = HISTORY
     return design @ beta
 
 
-def lstm_window(q_cmd: Array, q_phy: Array, train: int, seconds: float = 15.0, seed: int = 0,
-                history: int = HISTORY, hidden: int = 64) -> Array:
+def lstm_window(
+    q_cmd: Array,
+    q_phy: Array,
+    train: int,
+    seconds: float = 15.0,
+    seed: int = 0,
+    history: int = HISTORY,
+    hidden: int = 64,
+) -> Array:
     """The paper's model: an LSTM over the last `history` commands predicting the physical joints' error
     (q_phy − q_cmd), trained with Adam on the first `train` samples (the last 15 % of them kept for early
     stopping) for at most `seconds`; returns predictions of q_phy for all samples. One CPU thread."""

@@ -27,15 +27,29 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
         "layout) or a CSV with columns t,q1_cmd..q6_cmd,q1_meas..q6_meas.",
     )
     diagnose.add_argument("recording", metavar="RECORDING")
-    diagnose.add_argument("--sim", default="ideal", metavar="ideal|PRESET|REPORT.json",
-                          help="physics to replay the commands through (default: ideal)")
+    diagnose.add_argument(
+        "--sim",
+        default="ideal",
+        metavar="ideal|PRESET|REPORT.json",
+        help="physics to replay the commands through (default: ideal)",
+    )
     diagnose.add_argument("--arm", choices=ARMS, help="arm for presets (default: from the recording's name)")
     diagnose.add_argument("--out", metavar="DIR", help="write report.json, report.md and PNG plots here")
     diagnose.add_argument("--json", action="store_true", help="print report.json to standard output")
-    diagnose.add_argument("--compare", metavar="REPORT.json",
-                          help="an earlier report (e.g. the same arm after re-homing): say what agrees and what differs")
-    diagnose.add_argument("--bootstrap", action=NumberOption, type=int, at_least=0, default=100, metavar="N",
-                          help="bootstrap resamples for intervals")
+    diagnose.add_argument(
+        "--compare",
+        metavar="REPORT.json",
+        help="an earlier report (e.g. the same arm after re-homing): say what agrees and what differs",
+    )
+    diagnose.add_argument(
+        "--bootstrap",
+        action=NumberOption,
+        type=int,
+        at_least=0,
+        default=100,
+        metavar="N",
+        help="bootstrap resamples for intervals",
+    )
     diagnose.set_defaults(handler=_diagnose)
 
     synth = commands.add_parser(
@@ -44,13 +58,28 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
         description="Writes OUTDIR/recording/ (what diagnose reads) and OUTDIR/truth.json (what it never reads).",
     )
     synth.add_argument("outdir", metavar="OUTDIR")
-    synth.add_argument("--family", default="weak",
-                       help="weak, masked, regime, coupled, null-white or null-ar1 (default: weak)")
+    synth.add_argument(
+        "--family",
+        default="weak",
+        help="weak, masked, regime, coupled, null-white or null-ar1 (default: weak)",
+    )
     synth.add_argument("--seed", action=NumberOption, type=int, at_least=0, default=0)
     synth.add_argument("--seconds", action=NumberOption, above=0.0, default=30.0)
-    synth.add_argument("--rate", action=NumberOption, above=0.0, default=100.0, metavar="HZ", help="stream rate (default 100 Hz)")
+    synth.add_argument(
+        "--rate",
+        action=NumberOption,
+        above=0.0,
+        default=100.0,
+        metavar="HZ",
+        help="stream rate (default 100 Hz)",
+    )
     synth.add_argument("--sampling", default="stream", choices=("stream", "setpoints"))
-    synth.add_argument("--snr", action=NumberOption, above=0.0, help="SNR of the concealed effect (default: drawn per family)")
+    synth.add_argument(
+        "--snr",
+        action=NumberOption,
+        above=0.0,
+        help="SNR of the concealed effect (default: drawn per family)",
+    )
     synth.set_defaults(handler=_synth)
 
     preset = commands.add_parser(
@@ -60,9 +89,17 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
         f"preset that `ArmPhysics.load` and `pegbt sim --physics` read: to --out, by default {PRESET_OUT} (the "
         "presets pegbt ships are in pegbt/physics/presets/: give that path to --out to replace one).",
     )
-    preset.add_argument("--out", default=PRESET_OUT, metavar="OUT.json", help=f"preset file to write (default {PRESET_OUT})")
-    preset.add_argument("--from", dest="sources", action="append", required=True, metavar="ARM=RECORDING",
-                        help="an arm and its recording, e.g. PSM1=../shared/data/dvrk/random_smooth_grey1_PSM1")
+    preset.add_argument(
+        "--out", default=PRESET_OUT, metavar="OUT.json", help=f"preset file to write (default {PRESET_OUT})"
+    )
+    preset.add_argument(
+        "--from",
+        dest="sources",
+        action="append",
+        required=True,
+        metavar="ARM=RECORDING",
+        help="an arm and its recording, e.g. PSM1=../shared/data/dvrk/random_smooth_grey1_PSM1",
+    )
     preset.set_defaults(handler=_preset)
 
 
@@ -75,22 +112,28 @@ def _diagnose(args: argparse.Namespace) -> int:
     if args.compare:
         read_named_effects(args.compare)  # refuse a bad report before the work, not after it
     diagnosis = diagnose(recording, args.sim, args.arm, n_bootstrap=args.bootstrap)
-    report = write_report(diagnosis, args.out, args.compare) if args.out else report_dict(diagnosis, args.compare)
+    report = (
+        write_report(diagnosis, args.out, args.compare) if args.out else report_dict(diagnosis, args.compare)
+    )
     if args.json:
         print(json.dumps(report, indent=2))
         return 0
     print(f"{recording.path}: {recording.n} samples; {recording.sampling.reason}")
     print(f"simulator physics: {diagnosis.sim} ({diagnosis.arm})")
     before, after = report["fit"]["heldout_rmse_before"], report["fit"]["heldout_rmse_after"]
-    print("held-out RMSE before → after: " + ", ".join(f"{q} {before[q]:.4g} → {after[q]:.4g}" for q in before))
+    print(
+        "held-out RMSE before → after: " + ", ".join(f"{q} {before[q]:.4g} → {after[q]:.4g}" for q in before)
+    )
     for effect in report["effects"]:
         print(f"  {effect['effect']} on {effect['joint']}: {effect['text']}")
     for statement in report["not_identifiable"]:
         print(f"  {statement}")
     if "comparison" in report:
         differences = report["comparison"]["differences"]
-        print(f"compared with {args.compare}: {100 * report['comparison']['agreement']:.0f} % of kinds agree; "
-              f"{len(differences)} parameter(s) differ" + (f", e.g. {differences[0]}" if differences else ""))
+        print(
+            f"compared with {args.compare}: {100 * report['comparison']['agreement']:.0f} % of kinds agree; "
+            f"{len(differences)} parameter(s) differ" + (f", e.g. {differences[0]}" if differences else "")
+        )
     if args.out:
         print(f"report: {args.out}/report.md")
     return 0
@@ -100,7 +143,9 @@ def _preset(args: argparse.Namespace) -> int:
     from pegbt.sim2real.preset import parse_sources, write_preset
 
     sources = parse_sources(args.sources)
-    command = "pegbt sim2real preset " + " ".join([f"--out {args.out}"] + [f"--from {pair}" for pair in args.sources])
+    command = "pegbt sim2real preset " + " ".join(
+        [f"--out {args.out}"] + [f"--from {pair}" for pair in args.sources]
+    )
     print(f"preset: {write_preset(args.out, sources, command)}")
     return 0
 

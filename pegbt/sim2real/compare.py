@@ -34,7 +34,9 @@ def compare(first: list[Effect], second: list[Effect], names: tuple[str, str]) -
                 continue
             scale = max(abs(value), abs(other), 1e-12)
             if abs(value - other) > RELATIVE_DIFFERENCE * scale:
-                differences.append(f"{describe(key)} {name}: {value:.4g} ({names[0]}) vs {other:.4g} ({names[1]})")
+                differences.append(
+                    f"{describe(key)} {name}: {value:.4g} ({names[0]}) vs {other:.4g} ({names[1]})"
+                )
     union = set(a) | set(b)
     return {
         "agreement": len(shared) / max(len(union), 1),

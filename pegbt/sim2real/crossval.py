@@ -30,7 +30,9 @@ def block_edges(n: int, n_blocks: int = N_BLOCKS) -> NDArray[np.int64]:
 class BlockedGrams:
     """Per-block Gram matrices of a column bank M (N, m) and targets Y (N, J)."""
 
-    def __init__(self, columns: Array, targets: Array, n_blocks: int = N_BLOCKS, n_folds: int = N_FOLDS) -> None:
+    def __init__(
+        self, columns: Array, targets: Array, n_blocks: int = N_BLOCKS, n_folds: int = N_FOLDS
+    ) -> None:
         self._storage = columns
         self.columns = columns
         self.targets = targets
@@ -63,7 +65,9 @@ class BlockedGrams:
         gram[:, :m, m] = gram[:, m, :m] = cross
         gram[:, m, m] = [column[a:b] @ column[a:b] for a, b in pairs]
         self.gram = gram
-        self.rhs = np.concatenate([self.rhs, np.stack([column[a:b] @ self.targets[a:b] for a, b in pairs])[:, None]], 1)
+        self.rhs = np.concatenate(
+            [self.rhs, np.stack([column[a:b] @ self.targets[a:b] for a, b in pairs])[:, None]], 1
+        )
         if m == self._storage.shape[1]:  # grow the column store geometrically, not one copy per column
             grown = np.empty((len(column), 2 * m))
             grown[:, :m] = self._storage
@@ -103,8 +107,13 @@ class BlockedGrams:
         zz = yy[..., None] - 2 * rhs[..., fixed].sum(-1) + g_pp
         return g_ff, b, zz
 
-    def fit(self, joint: int, free: NDArray[np.int64], fixed: NDArray[np.int64] | None = None,
-            blocks: NDArray[np.bool_] | None = None) -> Array:
+    def fit(
+        self,
+        joint: int,
+        free: NDArray[np.int64],
+        fixed: NDArray[np.int64] | None = None,
+        blocks: NDArray[np.bool_] | None = None,
+    ) -> Array:
         """Coefficients of the `free` columns for target `joint` (the `fixed` ones at 1), on all or some blocks."""
         free = np.asarray(free, dtype=np.int64)[None]
         fixed = np.zeros((1, 0), dtype=np.int64) if fixed is None else np.asarray(fixed, dtype=np.int64)[None]
@@ -118,23 +127,33 @@ class BlockedGrams:
         fixed = np.zeros((1, 0), dtype=np.int64) if fixed is None else np.asarray(fixed, dtype=np.int64)[None]
         return self.cv_sse_many(joint, np.asarray(free, dtype=np.int64)[None], fixed)[0]
 
-    def cv_sse_many(self, joint: int, free: NDArray[np.int64], fixed: NDArray[np.int64] | None = None) -> Array:
+    def cv_sse_many(
+        self, joint: int, free: NDArray[np.int64], fixed: NDArray[np.int64] | None = None
+    ) -> Array:
         """Held-out SSE per fold (C, n_folds) for C models: `free` (C, p) fitted columns, `fixed` (C, q)
         columns entering with coefficient 1 (backlash, lag, delay are physically unit-gain)."""
         free = np.asarray(free, dtype=np.int64).reshape(len(free), -1)
-        fixed = np.zeros((len(free), 0), dtype=np.int64) if fixed is None else np.asarray(fixed, dtype=np.int64)
-        g_fold, b_fold, zz_fold = self._reduced(self._fold_gram, self._fold_rhs[:, :, joint], self._fold_yy[:, joint],
-                                                free, fixed)  # (F, C, p, p), (F, C, p), (F, C)
+        fixed = (
+            np.zeros((len(free), 0), dtype=np.int64) if fixed is None else np.asarray(fixed, dtype=np.int64)
+        )
+        g_fold, b_fold, zz_fold = self._reduced(
+            self._fold_gram, self._fold_rhs[:, :, joint], self._fold_yy[:, joint], free, fixed
+        )  # (F, C, p, p), (F, C, p), (F, C)
         if free.shape[1] == 0:
             return zz_fold.T
         g_train = g_fold.sum(0)[None] - g_fold
         b_train = b_fold.sum(0)[None] - b_fold
         beta = self._solve(g_train, b_train, free[None])
-        sse = zz_fold - 2 * np.einsum("fcp,fcp->fc", beta, b_fold) + np.einsum("fcp,fcpq,fcq->fc", beta, g_fold, beta)
+        sse = (
+            zz_fold
+            - 2 * np.einsum("fcp,fcp->fc", beta, b_fold)
+            + np.einsum("fcp,fcpq,fcq->fc", beta, g_fold, beta)
+        )
         return sse.T
 
-    def blocks_jackknife(self, joint: int, free: NDArray[np.int64], index: int,
-                         fixed: NDArray[np.int64] | None = None) -> tuple[float, float]:
+    def blocks_jackknife(
+        self, joint: int, free: NDArray[np.int64], index: int, fixed: NDArray[np.int64] | None = None
+    ) -> tuple[float, float]:
         """Coefficient `index` of a model and its delete-one-block jackknife standard error."""
         full = self.fit(joint, free, fixed)[index]
         blocks = np.ones(len(self.gram), dtype=bool)

@@ -19,7 +19,15 @@ from pegbt.physics import ArmPhysics, Effect
 from pegbt.psm import JOINT_NAMES
 from pegbt.sim2real.crossval import BlockedGrams
 from pegbt.sim2real.explain import effect_sentence, remaining_sentence, rival_sentence
-from pegbt.sim2real.fit import JointFit, Term, bootstrap, fit_joint, merged_physics, settle_backlash, to_effects
+from pegbt.sim2real.fit import (
+    JointFit,
+    Term,
+    bootstrap,
+    fit_joint,
+    merged_physics,
+    settle_backlash,
+    to_effects,
+)
 from pegbt.sim2real.library import build_columns
 from pegbt.sim2real.locate import JointMismatch, locate
 from pegbt.physics.recording import Recording, Sampling, validate
@@ -41,8 +49,13 @@ class NamedEffect:
     text: str
 
     def to_dict(self) -> dict:
-        return {**self.effect.to_dict(), "ci": {k: list(v) for k, v in self.ci.items()}, "explains": self.explains,
-                "p_value": self.pvalue, "text": self.text}
+        return {
+            **self.effect.to_dict(),
+            "ci": {k: list(v) for k, v in self.ci.items()},
+            "explains": self.explains,
+            "p_value": self.pvalue,
+            "text": self.text,
+        }
 
 
 @dataclass
@@ -78,7 +91,9 @@ class Diagnosis:
         return dict(zip(JOINT_NAMES, np.sqrt((self.residual_after**2).mean(0)).tolist()))
 
     def remaining(self) -> list[str]:
-        after_located = locate(self.residual_after, self.recording.q_cmd, self.recording.times, self.sampling.is_stream)
+        after_located = locate(
+            self.residual_after, self.recording.q_cmd, self.recording.times, self.sampling.is_stream
+        )
         before, after = self.rmse_before(), self.rmse_after()
         unit = "s" if self.recording.t is not None else "samples"
         return [remaining_sentence(m, after[m.joint], before[m.joint], unit) for m in after_located]
@@ -89,8 +104,10 @@ def structure_of(selection: JointSelection) -> JointFit:
 
     Selection only decides which effects a joint has; the parameters are fitted afterwards on the whole
     recording (and on bootstrap resamples), from this structure."""
-    terms = [Term(c.candidate.kind, c.candidate.source, c.width, coef=1.0 if c.fixed else 0.0, fixed=c.fixed)
-             for c in selection.chosen]
+    terms = [
+        Term(c.candidate.kind, c.candidate.source, c.width, coef=1.0 if c.fixed else 0.0, fixed=c.fixed)
+        for c in selection.chosen
+    ]
     return JointFit(selection.joint, selection.offset is not None, terms)
 
 
@@ -112,16 +129,24 @@ def structure_from_effects(effects: list[Effect]) -> list[JointFit]:
     return structures
 
 
-def crossval_predict(structures: list[JointFit], base: ArmPhysics, recording: Recording, t: Array | None,
-                     residual: Array, fold_ranges: list[tuple[int, int]]) -> Array:
+def crossval_predict(
+    structures: list[JointFit],
+    base: ArmPhysics,
+    recording: Recording,
+    t: Array | None,
+    residual: Array,
+    fold_ranges: list[tuple[int, int]],
+) -> Array:
     """Held-out predictions of the merged physics: coefficients refitted without each segment in turn."""
     prediction = np.empty_like(recording.q_phy)
     drivers = base.static_map(recording.q_cmd)
     for a, b in fold_ranges:
         rows = np.ones(recording.n, dtype=bool)
         rows[a:b] = False
-        fits = [fit_joint(s, recording.q_cmd, t, residual[:, s.joint], drivers[:, s.joint], rows, refine=False)
-                for s in structures]
+        fits = [
+            fit_joint(s, recording.q_cmd, t, residual[:, s.joint], drivers[:, s.joint], rows, refine=False)
+            for s in structures
+        ]
         prediction[a:b] = merged_physics(fits, base).simulate(recording.q_cmd, t)[a:b]
     return prediction
 
@@ -129,8 +154,9 @@ def crossval_predict(structures: list[JointFit], base: ArmPhysics, recording: Re
 SELECTION_ROUNDS = 2
 
 
-def choose_effects(q_cmd: Array, t: Array | None, residual: Array, base: ArmPhysics,
-                   unidentifiable: Unidentifiable) -> tuple[list[JointSelection], int, BlockedGrams]:
+def choose_effects(
+    q_cmd: Array, t: Array | None, residual: Array, base: ArmPhysics, unidentifiable: Unidentifiable
+) -> tuple[list[JointSelection], int, BlockedGrams]:
     """Selection, repeated once with each joint's driver updated by the scale and couplings it found."""
     base_drivers = base.static_map(q_cmd)
     drivers = base_drivers
@@ -141,7 +167,9 @@ def choose_effects(q_cmd: Array, t: Array | None, residual: Array, base: ArmPhys
         updated = base_drivers.copy()
         for selection in selections:
             free = selection.free_columns()
-            beta = grams.fit(selection.joint, np.array(free), np.array(selection.fixed_columns(), dtype=np.int64))
+            beta = grams.fit(
+                selection.joint, np.array(free), np.array(selection.fixed_columns(), dtype=np.int64)
+            )
             for column, b in zip(free[1:], beta[1:]):
                 if 1 <= column <= q_cmd.shape[1]:  # a command column: scale or coupling
                     updated[:, selection.joint] += b * columns[:, column]
@@ -151,10 +179,17 @@ def choose_effects(q_cmd: Array, t: Array | None, residual: Array, base: ArmPhys
     return selections, hypotheses, grams
 
 
-def diagnose(recording: Recording, sim: str | Path = "ideal", arm: str | None = None,
-             n_bootstrap: int = N_BOOTSTRAP, seed: int = 0) -> Diagnosis:
+def diagnose(
+    recording: Recording,
+    sim: str | Path = "ideal",
+    arm: str | None = None,
+    n_bootstrap: int = N_BOOTSTRAP,
+    seed: int = 0,
+) -> Diagnosis:
     """Locate, explain and fit the mismatch between a recording and the simulator's physics."""
-    arm = arm or recording.arm or "PSM1"  # presets differ per arm; the recording's meta.json or name says which
+    arm = (
+        arm or recording.arm or "PSM1"
+    )  # presets differ per arm; the recording's meta.json or name says which
     base = ArmPhysics.load(sim, arm)
     sampling = recording.sampling
     t = recording.t if sampling.is_stream else None
@@ -176,20 +211,41 @@ def diagnose(recording: Recording, sim: str | Path = "ideal", arm: str | None = 
     for selection, fit in zip(selections, fits):
         target, driver = residual[:, fit.joint], drivers[:, fit.joint]
         fitted_anything = fit.intercept or fit.terms
-        samples = bootstrap(fit, q_cmd, t, target, driver, n_bootstrap, rng) if n_bootstrap and fitted_anything else []
+        samples = (
+            bootstrap(fit, q_cmd, t, target, driver, n_bootstrap, rng)
+            if n_bootstrap and fitted_anything
+            else []
+        )
         evidence = ([selection.offset] if selection.offset else []) + selection.chosen
         changed = to_effects(fit, base)[1]
         sampled = [to_effects(sample, base)[1] for sample in samples]
         for position, (effect, chosen) in enumerate(zip(changed, evidence)):
             ci = _intervals(effect, [s[position] for s in sampled])
             base_value = float(base.offset[effect.index]) if effect.effect == "offset" else None
-            effects.append(NamedEffect(effect, ci, chosen.explains, chosen.pvalue, effect_sentence(effect, base_value)))
+            effects.append(
+                NamedEffect(effect, ci, chosen.explains, chosen.pvalue, effect_sentence(effect, base_value))
+            )
             if chosen.rival:
                 statements.append(rival_sentence(chosen.candidate.label, chosen.rival))
     physics = merged_physics(fits, base)
     heldout = crossval_predict(fits, base, recording, t, residual, folds)
-    return Diagnosis(recording, str(sim), arm, sampling, base, simulated, mismatch, selections, fits, effects,
-                     physics, heldout, folds, statements, hypotheses)
+    return Diagnosis(
+        recording,
+        str(sim),
+        arm,
+        sampling,
+        base,
+        simulated,
+        mismatch,
+        selections,
+        fits,
+        effects,
+        physics,
+        heldout,
+        folds,
+        statements,
+        hypotheses,
+    )
 
 
 def _intervals(effect: Effect, samples: list[Effect]) -> dict[str, tuple[float, float]]:
@@ -205,8 +261,9 @@ def _intervals(effect: Effect, samples: list[Effect]) -> dict[str, tuple[float, 
     return ci
 
 
-def identify(q_cmd: Array, q_phy: Array, t: Array | None = None, base: str | Path = "ideal",
-             arm: str = "PSM1") -> list[Effect]:
+def identify(
+    q_cmd: Array, q_phy: Array, t: Array | None = None, base: str | Path = "ideal", arm: str = "PSM1"
+) -> list[Effect]:
     """The whole arm-physics model (base plus what the data add) fitted to commanded vs measured joints.
 
     `t=None` treats samples as settled set-points. This is the entry point calibration can reuse.
@@ -214,4 +271,6 @@ def identify(q_cmd: Array, q_phy: Array, t: Array | None = None, base: str | Pat
     q_cmd, q_phy = np.asarray(q_cmd, float), np.asarray(q_phy, float)
     t = None if t is None else np.asarray(t, float)
     validate(q_cmd, q_phy, t, Path("<arrays>"))
-    return list(diagnose(Recording(Path("<arrays>"), q_cmd, q_phy, t), base, arm, n_bootstrap=0).physics.effects)
+    return list(
+        diagnose(Recording(Path("<arrays>"), q_cmd, q_phy, t), base, arm, n_bootstrap=0).physics.effects
+    )

@@ -89,7 +89,9 @@ class JointFit:
         return (np.column_stack(free) if free else np.zeros((len(q_cmd), 0))), fixed
 
     def free_coefficients(self) -> Array:
-        return np.array(([self.intercept_value] if self.intercept else []) + [t.coef for t in self.terms if not t.fixed])
+        return np.array(
+            ([self.intercept_value] if self.intercept else []) + [t.coef for t in self.terms if not t.fixed]
+        )
 
     def with_coefficients(self, beta: Array) -> "JointFit":
         values = iter(beta[1:] if self.intercept else beta)
@@ -116,8 +118,15 @@ def _solve(fit: JointFit, q_cmd: Array, t: Array | None, target: Array, base_dri
     return fit.with_coefficients(beta)
 
 
-def fit_joint(structure: JointFit, q_cmd: Array, t: Array | None, target: Array, base_driver: Array,
-              rows: NDArray[np.bool_] | None = None, refine: bool = True) -> JointFit:
+def fit_joint(
+    structure: JointFit,
+    q_cmd: Array,
+    t: Array | None,
+    target: Array,
+    base_driver: Array,
+    rows: NDArray[np.bool_] | None = None,
+    refine: bool = True,
+) -> JointFit:
     """Coefficients (and, with `refine`, widths) of `structure` fitted to `target` on `rows`."""
     rows = slice(None) if rows is None else rows
     fit = JointFit(structure.joint, structure.intercept, list(structure.terms), structure.intercept_value)
@@ -133,26 +142,38 @@ def fit_joint(structure: JointFit, q_cmd: Array, t: Array | None, target: Array,
     return fit
 
 
-def _refine_width(fit: JointFit, i: int, q_cmd: Array, t: Array | None, target: Array, base_driver: Array,
-                  rows) -> float:
+def _refine_width(
+    fit: JointFit, i: int, q_cmd: Array, t: Array | None, target: Array, base_driver: Array, rows
+) -> float:
     term = fit.terms[i]
 
     def sse(log_width: float) -> float:
         terms = list(fit.terms)
         terms[i] = replace(term, width=float(np.exp(log_width)))
-        free, fixed = JointFit(fit.joint, fit.intercept, terms, fit.intercept_value).columns(q_cmd, t, base_driver)
+        free, fixed = JointFit(fit.joint, fit.intercept, terms, fit.intercept_value).columns(
+            q_cmd, t, base_driver
+        )
         return _least_squares(free[rows], (target - fixed)[rows])[1]
 
     signal = fit.driver(q_cmd, base_driver) if term.kind in DRIVEN_KINDS else q_cmd[:, term.source]
     lo, hi = width_bounds(term.kind, signal, t)
     lo, hi = min(lo, term.width), max(hi, term.width)  # a width given from outside the grid stays reachable
-    bounds = (np.log(max(term.width / WIDTH_SEARCH_RATIO, lo)), np.log(min(term.width * WIDTH_SEARCH_RATIO, hi)))
+    bounds = (
+        np.log(max(term.width / WIDTH_SEARCH_RATIO, lo)),
+        np.log(min(term.width * WIDTH_SEARCH_RATIO, hi)),
+    )
     found = minimize_scalar(sse, bounds=bounds, method="bounded", options={"xatol": 0.01})
     return float(np.exp(found.x)) if found.fun <= sse(np.log(term.width)) else term.width
 
 
-def heldout_sse(structure: JointFit, q_cmd: Array, t: Array | None, target: Array, base_driver: Array,
-                fold_ranges: list[tuple[int, int]]) -> Array:
+def heldout_sse(
+    structure: JointFit,
+    q_cmd: Array,
+    t: Array | None,
+    target: Array,
+    base_driver: Array,
+    fold_ranges: list[tuple[int, int]],
+) -> Array:
     """Held-out SSE per fold of the linearised correction, coefficients refitted without each fold."""
     sse = []
     for a, b in fold_ranges:
@@ -164,8 +185,14 @@ def heldout_sse(structure: JointFit, q_cmd: Array, t: Array | None, target: Arra
     return np.array(sse)
 
 
-def settle_backlash(fit: JointFit, q_cmd: Array, t: Array | None, target: Array, base_driver: Array,
-                    fold_ranges: list[tuple[int, int]]) -> JointFit:
+def settle_backlash(
+    fit: JointFit,
+    q_cmd: Array,
+    t: Array | None,
+    target: Array,
+    base_driver: Array,
+    fold_ranges: list[tuple[int, int]],
+) -> JointFit:
     """Keep each backlash at coefficient 1 unless partial play (free coefficient, width searched
     afresh on the grid) wins in every held-out fold and by `PARTIAL_PLAY_MIN_GAIN` overall."""
     for i, term in enumerate(fit.terms):
@@ -179,12 +206,16 @@ def settle_backlash(fit: JointFit, q_cmd: Array, t: Array | None, target: Array,
         for width in play_widths(fit.driver(q_cmd, base_driver)):
             partial.terms[i] = replace(term, fixed=False, width=float(width))
             trial = fit_joint(partial, q_cmd, t, target, base_driver, refine=False)
-            options.append((float(((target - trial.correction(q_cmd, t, base_driver)) ** 2).sum()), float(width)))
+            options.append(
+                (float(((target - trial.correction(q_cmd, t, base_driver)) ** 2).sum()), float(width))
+            )
         partial.terms[i] = replace(term, fixed=False, width=min(options)[1])
         partial = fit_joint(partial, q_cmd, t, target, base_driver)
         sse_full = heldout_sse(full, q_cmd, t, target, base_driver, fold_ranges)
         sse_partial = heldout_sse(partial, q_cmd, t, target, base_driver, fold_ranges)
-        wins = (sse_full > sse_partial).all() and sse_full.sum() - sse_partial.sum() >= PARTIAL_PLAY_MIN_GAIN * sse_full.sum()
+        wins = (
+            sse_full > sse_partial
+        ).all() and sse_full.sum() - sse_partial.sum() >= PARTIAL_PLAY_MIN_GAIN * sse_full.sum()
         fit = partial if wins else full
     return fit
 
@@ -200,8 +231,15 @@ def _gram_solve(gram: Array, rhs: Array, free: list[int], fixed: list[int]) -> t
     return beta, float(constant - b @ beta)
 
 
-def bootstrap(fit: JointFit, q_cmd: Array, t: Array | None, target: Array, base_driver: Array, n_resamples: int,
-              rng: np.random.Generator) -> list[JointFit]:
+def bootstrap(
+    fit: JointFit,
+    q_cmd: Array,
+    t: Array | None,
+    target: Array,
+    base_driver: Array,
+    n_resamples: int,
+    rng: np.random.Generator,
+) -> list[JointFit]:
     """Refits of `fit` on circular-block-bootstrap resamples of its residual.
 
     Widths are re-chosen on a local grid (×2^±0.5 around the fit) for each resample, one width at a
@@ -213,7 +251,9 @@ def bootstrap(fit: JointFit, q_cmd: Array, t: Array | None, target: Array, base_
     blocks = [static.columns(q_cmd, t, base_driver)[0]]
     for term in width_terms:
         signal = driver if term.kind in DRIVEN_KINDS else q_cmd[:, term.source]
-        blocks.append(np.column_stack([width_column(term.kind, signal, t, term.width * r) for r in BOOTSTRAP_LOCAL]))
+        blocks.append(
+            np.column_stack([width_column(term.kind, signal, t, term.width * r) for r in BOOTSTRAP_LOCAL])
+        )
     bank = np.column_stack(blocks)
     gram = bank.T @ bank
     gram += 1e-12 * np.trace(gram) / len(gram) * np.eye(len(gram))
@@ -222,8 +262,9 @@ def bootstrap(fit: JointFit, q_cmd: Array, t: Array | None, target: Array, base_
     block = max(10, correlation_length(residual))
     n_static = blocks[0].shape[1]
     local = len(BOOTSTRAP_LOCAL)
-    resamples = np.column_stack([prediction + residual[block_bootstrap_indices(len(target), block, rng)]
-                                 for _ in range(n_resamples)])
+    resamples = np.column_stack(
+        [prediction + residual[block_bootstrap_indices(len(target), block, rng)] for _ in range(n_resamples)]
+    )
     rhs_all = bank.T @ resamples
     refits = []
     for b in range(n_resamples):
@@ -272,11 +313,23 @@ def to_effects(fit: JointFit, base: ArmPhysics) -> tuple[list[Effect], list[Effe
         if term.kind == "scale":
             changed.append(Effect("scale", name, {"value": float(base.scale[j] + term.coef)}))
         elif term.kind == "coupling":
-            changed.append(Effect("coupling", name, {"source": source, "k": float(base.coupling[j, term.source] + term.coef)}))
+            changed.append(
+                Effect(
+                    "coupling",
+                    name,
+                    {"source": source, "k": float(base.coupling[j, term.source] + term.coef)},
+                )
+            )
         elif term.kind == "backlash" and term.fixed:
             changed.append(Effect("backlash", name, {"half_width": float(term.width)}))
         elif term.kind in ("backlash", "hysteresis"):
-            changed.append(Effect("hysteresis", name, {"source": source, "half_width": float(term.width), "k": float(term.coef)}))
+            changed.append(
+                Effect(
+                    "hysteresis",
+                    name,
+                    {"source": source, "half_width": float(term.width), "k": float(term.coef)},
+                )
+            )
         elif term.kind == "lag":
             changed.append(Effect("lag", name, {"tau": float(term.width)}))
         else:

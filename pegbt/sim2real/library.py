@@ -118,8 +118,11 @@ def build_columns(q_cmd: Array, t: Array | None, drivers: Array) -> tuple[Array,
 
     def add(kind: str, joint: int, widths: Array, signal: Array) -> None:
         nonlocal start
-        blocks.append(np.column_stack([width_column(kind, signal, t, w) for w in widths]) if kind in ("lag", "delay")
-                      else play_grid(signal, widths) - signal[:, None])
+        blocks.append(
+            np.column_stack([width_column(kind, signal, t, w) for w in widths])
+            if kind in ("lag", "delay")
+            else play_grid(signal, widths) - signal[:, None]
+        )
         groups[(kind, joint)] = (np.arange(start, start + len(widths)), widths, signal)
         start += len(widths)
 
@@ -139,8 +142,14 @@ def build_columns(q_cmd: Array, t: Array | None, drivers: Array) -> tuple[Array,
     for j in range(n_joints):
         candidates.append(Candidate("offset", j, j, np.array([0]), none, q_cmd[:, j]))
         candidates.append(Candidate("scale", j, j, np.array([1 + j]), none, q_cmd[:, j]))
-        candidates += [Candidate("coupling", j, s, np.array([1 + s]), none, q_cmd[:, s]) for s in range(n_joints) if s != j]
-        candidates += [Candidate("hysteresis", j, s, *groups[("hysteresis", s)]) for s in range(n_joints) if s != j]
+        candidates += [
+            Candidate("coupling", j, s, np.array([1 + s]), none, q_cmd[:, s])
+            for s in range(n_joints)
+            if s != j
+        ]
+        candidates += [
+            Candidate("hysteresis", j, s, *groups[("hysteresis", s)]) for s in range(n_joints) if s != j
+        ]
         kinds = ("backlash", "lag", "delay") if t is not None else ("backlash",)
         candidates += [Candidate(kind, j, j, *groups[(kind, j)]) for kind in kinds]
     return np.column_stack(blocks), candidates

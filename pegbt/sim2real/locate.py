@@ -45,8 +45,14 @@ class Regime:
         return float(max(ratio, abs(self.bias_in - self.bias_out) / scale))
 
     def to_dict(self) -> dict[str, float | str]:
-        return {"regime": self.regime, "fraction": self.fraction, "rmse_in": self.rmse_in,
-                "rmse_out": self.rmse_out, "bias_in": self.bias_in, "bias_out": self.bias_out}
+        return {
+            "regime": self.regime,
+            "fraction": self.fraction,
+            "rmse_in": self.rmse_in,
+            "rmse_out": self.rmse_out,
+            "bias_in": self.bias_in,
+            "bias_out": self.bias_out,
+        }
 
 
 @dataclass(frozen=True)
@@ -59,10 +65,15 @@ class JointMismatch:
     regimes: list[Regime]
 
     def to_dict(self) -> dict:
-        return {"joint": self.joint, "rmse": self.rmse, "bias": self.bias, "share": self.share,
-                "windows": [[t0, t1] for t0, t1, _ in self.windows],
-                "window_shares": [share for _, _, share in self.windows],
-                "regimes": [regime.to_dict() for regime in self.regimes]}
+        return {
+            "joint": self.joint,
+            "rmse": self.rmse,
+            "bias": self.bias,
+            "share": self.share,
+            "windows": [[t0, t1] for t0, t1, _ in self.windows],
+            "window_shares": [share for _, _, share in self.windows],
+            "regimes": [regime.to_dict() for regime in self.regimes],
+        }
 
 
 def locate(residual: Array, q_cmd: Array, times: Array, is_stream: bool) -> list[JointMismatch]:
@@ -72,8 +83,12 @@ def locate(residual: Array, q_cmd: Array, times: Array, is_stream: bool) -> list
     motion = _motion(q_cmd, times, is_stream)
     return [
         JointMismatch(
-            JOINT_NAMES[j], float(np.sqrt(mse[j])), float(residual[:, j].mean()), float(mse[j] / total),
-            _windows(residual[:, j], times), _regimes(j, residual[:, j], q_cmd, motion),
+            JOINT_NAMES[j],
+            float(np.sqrt(mse[j])),
+            float(residual[:, j].mean()),
+            float(mse[j] / total),
+            _windows(residual[:, j], times),
+            _regimes(j, residual[:, j], q_cmd, motion),
         )
         for j in range(residual.shape[1])
     ]
@@ -116,7 +131,9 @@ def _motion(q_cmd: Array, times: Array, is_stream: bool) -> _Motion:
     span = np.maximum(np.ptp(q_cmd, axis=0), 1e-12)
     direction = np.zeros((n, joints))
     after = np.zeros((n, joints), dtype=bool)
-    hold = max(1, int(round(AFTER_REVERSAL_S / float(np.median(dt))))) if is_stream else AFTER_REVERSAL_SAMPLES
+    hold = (
+        max(1, int(round(AFTER_REVERSAL_S / float(np.median(dt))))) if is_stream else AFTER_REVERSAL_SAMPLES
+    )
     for j in range(joints):
         path = play_grid(q_cmd[:, j], 0.005 * span[j])[:, 0]  # ignores dithering below 1 % of the range
         moves = np.sign(np.diff(path, prepend=path[0]))
@@ -135,8 +152,14 @@ def _motion(q_cmd: Array, times: Array, is_stream: bool) -> _Motion:
 def _compare(r: Array, inside: Array, label: str) -> Regime | None:
     if inside.sum() < 5 or (~inside).sum() < 5:
         return None
-    return Regime(label, float(inside.mean()), float(np.sqrt((r[inside] ** 2).mean())),
-                  float(np.sqrt((r[~inside] ** 2).mean())), float(r[inside].mean()), float(r[~inside].mean()))
+    return Regime(
+        label,
+        float(inside.mean()),
+        float(np.sqrt((r[inside] ** 2).mean())),
+        float(np.sqrt((r[~inside] ** 2).mean())),
+        float(r[inside].mean()),
+        float(r[~inside].mean()),
+    )
 
 
 def _regimes(j: int, r: Array, q_cmd: Array, motion: _Motion) -> list[Regime]:
@@ -144,7 +167,9 @@ def _regimes(j: int, r: Array, q_cmd: Array, motion: _Motion) -> list[Regime]:
     found: list[Regime | None] = []
     for k, other in enumerate(JOINT_NAMES):
         found.append(_compare(r, motion.after_reversal[:, k], f"just after {other} reverses"))
-        found.append(_compare(r, motion.direction[:, k] > 0, f"while {other} rises (against falls and rests)"))
+        found.append(
+            _compare(r, motion.direction[:, k] > 0, f"while {other} rises (against falls and rests)")
+        )
     fast = motion.speed[:, j] > np.percentile(motion.speed[:, j], 67)
     found.append(_compare(r, fast, f"when {name} moves fast (top third of its speeds)"))
     high = q_cmd[:, j] > np.percentile(q_cmd[:, j], 67)

@@ -46,7 +46,12 @@ def write_plots(diagnosis: Diagnosis, out: Path) -> list[str]:
     for j in range(6):
         for row, (residual, name) in enumerate(((before, "before"), (after, "after, held out"))):
             ax = axes[row, j]
-            ax.plot(recording.q_cmd[keep, j], residual[keep, j], lw=0.3, color="tab:red" if row == 0 else "tab:blue")
+            ax.plot(
+                recording.q_cmd[keep, j],
+                residual[keep, j],
+                lw=0.3,
+                color="tab:red" if row == 0 else "tab:blue",
+            )
             ax.set_title(f"{JOINT_NAMES[j]} error {name}", fontsize=9)
             ax.set_xlabel(f"{JOINT_NAMES[j]} command")
     fig.suptitle("Error versus command: loops are hysteresis or play, slopes are scale, levels are offsets")
@@ -58,7 +63,13 @@ def write_plots(diagnosis: Diagnosis, out: Path) -> list[str]:
     for j, ax in enumerate(axes):
         ax.plot(times[span], recording.q_phy[span, j], lw=1.2, color="black", label="measured")
         ax.plot(times[span], diagnosis.simulated[span, j], lw=0.8, color="tab:red", label="simulator before")
-        ax.plot(times[span], diagnosis.heldout_prediction[span, j], lw=0.8, color="tab:blue", label="model (held out)")
+        ax.plot(
+            times[span],
+            diagnosis.heldout_prediction[span, j],
+            lw=0.8,
+            color="tab:blue",
+            label="model (held out)",
+        )
         ax.set_ylabel(f"{JOINT_NAMES[j]} ({unit(JOINT_NAMES[j])})")
     axes[0].legend(loc="upper right", fontsize=8)
     axes[0].set_title("Held-out segment: measured joints, the simulator before, and the fitted model")

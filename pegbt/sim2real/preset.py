@@ -20,8 +20,10 @@ def identify_preset(sources: dict[str, Path]) -> dict[str, list[dict]]:
     arms = {}
     for arm, path in sources.items():
         diagnosis = diagnose(load_recording(path), "ideal", arm, n_bootstrap=0)
-        arms[arm] = [{**e.to_dict(), "params": {k: _rounded(v) for k, v in e.params.items()}}
-                     for e in diagnosis.physics.effects]
+        arms[arm] = [
+            {**e.to_dict(), "params": {k: _rounded(v) for k, v in e.params.items()}}
+            for e in diagnosis.physics.effects
+        ]
     return arms
 
 
@@ -31,7 +33,9 @@ def parse_sources(pairs: list[str]) -> dict[str, Path]:
     for pair in pairs:
         arm, sep, path = pair.partition("=")
         if not sep or arm not in ARMS:
-            raise PegbtError(f"expected ARM=RECORDING with ARM one of {', '.join(ARMS)}, got {pair!r}", field="--from")
+            raise PegbtError(
+                f"expected ARM=RECORDING with ARM one of {', '.join(ARMS)}, got {pair!r}", field="--from"
+            )
         sources[arm] = Path(path)
     return sources
 
@@ -54,8 +58,13 @@ def write_preset(out: str | Path, sources: dict[str, Path], command: str) -> Pat
     ]
     try:
         out.parent.mkdir(parents=True, exist_ok=True)
-        out.write_text('{\n  "description": ' + json.dumps(preset["description"]) + ',\n  "arms": {\n'
-                       + ",\n".join(arm_lines) + "\n  }\n}\n")
+        out.write_text(
+            '{\n  "description": '
+            + json.dumps(preset["description"])
+            + ',\n  "arms": {\n'
+            + ",\n".join(arm_lines)
+            + "\n  }\n}\n"
+        )
     except OSError as error:
         raise PegbtError(f"cannot write the preset: {error.strerror}", file=out, field="--out") from None
     return out

@@ -45,8 +45,10 @@ def report_dict(diagnosis: Diagnosis, compared_with: str | Path | None = None) -
     if compared_with is not None:
         names = ("this", str(compared_with))
         comparison = compare([e.effect for e in diagnosis.effects], read_named_effects(compared_with), names)
-        comparison = {"report": str(compared_with), **{k.replace(f"only_{names[1]}", "only_other"): v
-                                                       for k, v in comparison.items()}}
+        comparison = {
+            "report": str(compared_with),
+            **{k.replace(f"only_{names[1]}", "only_other"): v for k, v in comparison.items()},
+        }
     report = {
         "recording": str(recording.path),
         "samples": recording.n,
@@ -72,7 +74,10 @@ def report_dict(diagnosis: Diagnosis, compared_with: str | Path | None = None) -
             "folds": [[float(times[a]), float(times[b - 1])] for a, b in diagnosis.fold_ranges],
         },
         "remaining": diagnosis.remaining(),
-        "model": {"base": diagnosis.sim, "effects": [effect.to_dict() for effect in diagnosis.physics.effects]},
+        "model": {
+            "base": diagnosis.sim,
+            "effects": [effect.to_dict() for effect in diagnosis.physics.effects],
+        },
     }
     if comparison is not None:
         report["comparison"] = comparison
@@ -92,50 +97,85 @@ def report_markdown(report: dict[str, Any], plots: list[str]) -> str:
 
     Written from the JSON report rather than the diagnosis, so the two files can never disagree."""
     lines = [f"# Sim-to-real diagnosis of `{report['recording']}`", ""]
-    lines += [f"- {report['samples']} samples; {report['sampling']['reason']}.",
-              f"- Simulator physics: `{report['sim']}` (arm {report['arm']}).",
-              f"- Effects chosen by blocked cross-validation; each must gain in every held-out fold and beat "
-              f"circularly shifted data at α = {report['selection']['alpha']} / {report['selection']['hypotheses']} "
-              f"tests (joints × effects, Bonferroni).", ""]
-    lines += ["## Where the mismatch is", "", "| joint | RMSE | bias | share | windows | strongest regimes |",
-              "|---|---|---|---|---|---|"]
+    lines += [
+        f"- {report['samples']} samples; {report['sampling']['reason']}.",
+        f"- Simulator physics: `{report['sim']}` (arm {report['arm']}).",
+        f"- Effects chosen by blocked cross-validation; each must gain in every held-out fold and beat "
+        f"circularly shifted data at α = {report['selection']['alpha']} / {report['selection']['hypotheses']} "
+        f"tests (joints × effects, Bonferroni).",
+        "",
+    ]
+    lines += [
+        "## Where the mismatch is",
+        "",
+        "| joint | RMSE | bias | share | windows | strongest regimes |",
+        "|---|---|---|---|---|---|",
+    ]
     for m in report["mismatch"]:
         windows = ", ".join(f"{a:.4g}–{b:.4g}" for a, b in m["windows"][:3]) or "spread evenly"
-        regimes = "; ".join(
-            f"{r['regime']}: RMSE {_number(r['rmse_in'])} vs {_number(r['rmse_out'])}, bias {_number(r['bias_in'])} "
-            f"vs {_number(r['bias_out'])}" for r in m["regimes"][:2]) or "none stands out"
-        lines.append(f"| {m['joint']} | {_number(m['rmse'])} | {_number(m['bias'])} | {100 * m['share']:.1f} % | "
-                     f"{windows} | {regimes} |")
+        regimes = (
+            "; ".join(
+                f"{r['regime']}: RMSE {_number(r['rmse_in'])} vs {_number(r['rmse_out'])}, bias {_number(r['bias_in'])} "
+                f"vs {_number(r['bias_out'])}"
+                for r in m["regimes"][:2]
+            )
+            or "none stands out"
+        )
+        lines.append(
+            f"| {m['joint']} | {_number(m['rmse'])} | {_number(m['bias'])} | {100 * m['share']:.1f} % | "
+            f"{windows} | {regimes} |"
+        )
     lines += ["", "## What the simulator left out", ""]
     if not report["effects"]:
         lines.append("Nothing: no candidate effect passed the tests.")
     for e in report["effects"]:
-        params = ", ".join(f"{k} = {v}" if isinstance(v, str) else f"{k} = {_number(v)}" for k, v in e["params"].items())
+        params = ", ".join(
+            f"{k} = {v}" if isinstance(v, str) else f"{k} = {_number(v)}" for k, v in e["params"].items()
+        )
         ci = ", ".join(f"{k} ∈ [{_number(lo)}, {_number(hi)}]" for k, (lo, hi) in e["ci"].items())
-        lines.append(f"- **{e['effect']} on {e['joint']}** ({params}; 95 % CI {ci or 'n/a'}; explains "
-                     f"{100 * e['explains']:.1f} % of the joint's error; p {_pvalue(e['p_value'])}): {e['text']}.")
+        lines.append(
+            f"- **{e['effect']} on {e['joint']}** ({params}; 95 % CI {ci or 'n/a'}; explains "
+            f"{100 * e['explains']:.1f} % of the joint's error; p {_pvalue(e['p_value'])}): {e['text']}."
+        )
     if report["not_identifiable"]:
         lines += ["", "## Not identifiable from these data", ""]
         lines += [f"- {statement}" for statement in report["not_identifiable"]]
     fit = report["fit"]
-    lines += ["", "## Held-out fit", "", f"{fit['method']}.", "", "| joint | before | after |", "|---|---|---|"]
+    lines += [
+        "",
+        "## Held-out fit",
+        "",
+        f"{fit['method']}.",
+        "",
+        "| joint | before | after |",
+        "|---|---|---|",
+    ]
     for q in report["joints"]:
-        lines.append(f"| {q} ({report['units'][q]}) | {_number(fit['heldout_rmse_before'][q])} | "
-                     f"{_number(fit['heldout_rmse_after'][q])} |")
+        lines.append(
+            f"| {q} ({report['units'][q]}) | {_number(fit['heldout_rmse_before'][q])} | "
+            f"{_number(fit['heldout_rmse_after'][q])} |"
+        )
     lines += ["", "## What remains", ""] + [f"- {text}" for text in report["remaining"]]
     if "comparison" in report:
         c = report["comparison"]
-        lines += ["", f"## Compared with `{c['report']}`", "",
-                  f"- Same kinds of effect ({100 * c['agreement']:.0f} % of all named): {', '.join(c['shared']) or 'none'}.",
-                  f"- Only here: {', '.join(c['only_this']) or 'none'}; only there: {', '.join(c['only_other']) or 'none'}.",
-                  "- Parameters that differ by more than 25 % (offsets move when an arm is re-homed): "
-                  + ("; ".join(c["differences"]) or "none") + "."]
+        lines += [
+            "",
+            f"## Compared with `{c['report']}`",
+            "",
+            f"- Same kinds of effect ({100 * c['agreement']:.0f} % of all named): {', '.join(c['shared']) or 'none'}.",
+            f"- Only here: {', '.join(c['only_this']) or 'none'}; only there: {', '.join(c['only_other']) or 'none'}.",
+            "- Parameters that differ by more than 25 % (offsets move when an arm is re-homed): "
+            + ("; ".join(c["differences"]) or "none")
+            + ".",
+        ]
     if plots:
         lines += ["", "## Plots", ""] + [f"![{Path(p).stem}]({Path(p).name})" for p in plots]
     return "\n".join(lines) + "\n"
 
 
-def write_report(diagnosis: Diagnosis, out: str | Path, compared_with: str | Path | None = None) -> dict[str, Any]:
+def write_report(
+    diagnosis: Diagnosis, out: str | Path, compared_with: str | Path | None = None
+) -> dict[str, Any]:
     """Write report.json, report.md and the plots into `out`; return the report dictionary."""
     report = report_dict(diagnosis, compared_with)
     out = Path(out)

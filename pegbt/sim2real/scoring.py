@@ -45,7 +45,9 @@ def score(synthetic: Synthetic, diagnosis: Diagnosis) -> Score:
     named = {effect_key(e.effect): e.effect for e in diagnosis.effects}
     truth = {effect_key(e): e for e in synthetic.effects}
     found = {effect_label(effect): key in named for key, effect in truth.items()}
-    errors = [err for key, effect in truth.items() if key in named for err in relative_errors(effect, named[key])]
+    errors = [
+        err for key, effect in truth.items() if key in named for err in relative_errors(effect, named[key])
+    ]
     false_names = sum(1 for key in named if key not in truth)
     return Score(found, false_names, len(named), errors, _oracle_fraction(synthetic, diagnosis))
 
@@ -58,8 +60,10 @@ def _oracle_fraction(synthetic: Synthetic, diagnosis: Diagnosis) -> float | None
     t = recording.t if diagnosis.sampling.is_stream else None
     residual = diagnosis.residual_before
     drivers = diagnosis.base.static_map(recording.q_cmd)
-    oracle = [fit_joint(s, recording.q_cmd, t, residual[:, s.joint], drivers[:, s.joint])
-              for s in structure_from_effects(synthetic.effects)]
+    oracle = [
+        fit_joint(s, recording.q_cmd, t, residual[:, s.joint], drivers[:, s.joint])
+        for s in structure_from_effects(synthetic.effects)
+    ]
     predicted = crossval_predict(oracle, diagnosis.base, recording, t, residual, diagnosis.fold_ranges)
     before = (residual**2).mean(0)
     after_tool = (diagnosis.residual_after**2).mean(0)

@@ -109,12 +109,16 @@ def find_unidentifiable(q_cmd: Array, is_stream: bool, base: ArmPhysics) -> Unid
         if not moving[s]:
             keys |= driven_by_s | {("scale", s, s), ("lag", s, s), ("delay", s, s)}
             keys |= {("coupling", j, s) for j in range(n_joints)}
-            statements.append(f"scale, backlash, lag and delay on {name}, couplings and hysteresis driven by {name}: "
-                              f"not identifiable: {name} is never commanded to move")
+            statements.append(
+                f"scale, backlash, lag and delay on {name}, couplings and hysteresis driven by {name}: "
+                f"not identifiable: {name} is never commanded to move"
+            )
         elif reversals[s] < MIN_REVERSALS:
             keys |= driven_by_s
             how = "never reverses" if reversals[s] == 0 else f"reverses only {reversals[s]} time(s)"
-            statements.append(f"backlash on {name} and hysteresis driven by {name}: not identifiable: {name} {how}")
+            statements.append(
+                f"backlash on {name} and hysteresis driven by {name}: not identifiable: {name} {how}"
+            )
     corr = np.corrcoef(q_cmd[:, moving].T) if moving.sum() > 1 else np.ones((1, 1))
     index = np.flatnonzero(moving)
     for a in range(len(index)):
@@ -122,11 +126,15 @@ def find_unidentifiable(q_cmd: Array, is_stream: bool, base: ArmPhysics) -> Unid
             if abs(corr[a, b]) > COLLINEAR:
                 j, s = index[a], index[b]
                 keys |= {("coupling", j, s), ("coupling", s, j)}
-                statements.append(f"coupling between {JOINT_NAMES[j]} and {JOINT_NAMES[s]} versus their scales: not "
-                                  f"identifiable: their commands move together (r = {corr[a, b]:.3f})")
+                statements.append(
+                    f"coupling between {JOINT_NAMES[j]} and {JOINT_NAMES[s]} versus their scales: not "
+                    f"identifiable: their commands move together (r = {corr[a, b]:.3f})"
+                )
     if not is_stream:
         keys |= {(k, j, j) for j in range(n_joints) for k in ("lag", "delay")}
-        statements.append("lag and delay on every joint: not identifiable: the samples are settled set-points")
+        statements.append(
+            "lag and delay on every joint: not identifiable: the samples are settled set-points"
+        )
     for effect in base.effects:  # play and time effects the base already has are kept as they are
         if effect.effect in ("backlash", "lag", "delay"):
             keys.add((effect.effect, effect.index, effect.index))
@@ -179,8 +187,9 @@ def select_joint(
             cand, g, unit_gain = options[index]
             if gain[index] < MIN_GAIN:
                 reason = f"gains only {100 * max(gain[index], 0):.2f} % held out"
-            elif not _gains_where_excited(grams, refined.get(index, (int(cand.columns[g]), 0.0))[0],
-                                          current - sse[index]):
+            elif not _gains_where_excited(
+                grams, refined.get(index, (int(cand.columns[g]), 0.0))[0], current - sse[index]
+            ):
                 reason = "does not gain in every fold that excites it"
             else:
                 pvalue = shift_pvalue(residual, grams.columns[:, cand.columns])
@@ -195,9 +204,18 @@ def select_joint(
         index, pvalue = accepted
         cand, g, unit_gain = options[index]
         column, width = refined.get(index, (int(cand.columns[g]), float(cand.widths[g])))
-        result.chosen.append(Chosen(cand, column, width, float((current.sum() - sse[index].sum()) / before), pvalue,
-                                    tuple(float(x) for x in current - sse[index]), _rival(options, sse, gain, index),
-                                    unit_gain))
+        result.chosen.append(
+            Chosen(
+                cand,
+                column,
+                width,
+                float((current.sum() - sse[index].sum()) / before),
+                pvalue,
+                tuple(float(x) for x in current - sse[index]),
+                _rival(options, sse, gain, index),
+                unit_gain,
+            )
+        )
         result.stopped = ""
         current = sse[index]
         pool = [c for c in pool if c.key != cand.key]
@@ -209,18 +227,22 @@ def select_joint(
     offset_gain = float(gains.sum() / max(float(without.sum()), 1e-300))
     if pvalue <= level and (gains > 0).all() and offset_gain >= MIN_GAIN:
         offset = next(c for c in candidates if c.joint == joint and c.kind == "offset")
-        result.offset = Chosen(offset, 0, float("nan"), float(gains.sum() / before), pvalue,
-                               tuple(float(x) for x in gains))
+        result.offset = Chosen(
+            offset, 0, float("nan"), float(gains.sum() / before), pvalue, tuple(float(x) for x in gains)
+        )
     return result
 
 
-def _score_options(grams: BlockedGrams, joint: int, pool: list[Candidate], free: list[int], fixed: list[int]
-                   ) -> tuple[list[tuple[Candidate, int, bool]], Array]:
+def _score_options(
+    grams: BlockedGrams, joint: int, pool: list[Candidate], free: list[int], fixed: list[int]
+) -> tuple[list[tuple[Candidate, int, bool]], Array]:
     """Every (candidate, grid width, unit gain?) added to the current model, and its held-out SSE per fold."""
     options: list[tuple[Candidate, int, bool]] = []
     parts = []
     for unit_gain in (False, True):
-        batch = [(c, g, unit_gain) for c in pool if unit_gain in _gains_allowed(c) for g in range(len(c.columns))]
+        batch = [
+            (c, g, unit_gain) for c in pool if unit_gain in _gains_allowed(c) for g in range(len(c.columns))
+        ]
         if not batch:
             continue
         extra = np.array([[int(c.columns[g])] for c, g, _ in batch])
@@ -240,7 +262,9 @@ def _residual(grams: BlockedGrams, joint: int, free: list[int], fixed: list[int]
     return grams.targets[:, joint] - grams.columns[:, fixed].sum(1) - grams.columns[:, free] @ beta
 
 
-def _refine_width(candidate: Candidate, width: float, residual: Array, t: Array | None, unit_gain: bool) -> float:
+def _refine_width(
+    candidate: Candidate, width: float, residual: Array, t: Array | None, unit_gain: bool
+) -> float:
     """The width between grid values that best explains the current residual (so that a grid step
     is not mistaken for a second effect)."""
     e = residual - residual.mean()

@@ -60,9 +60,15 @@ class Synthetic:
     seed: int
 
     def truth(self) -> dict:
-        return {"family": self.family, "seed": self.seed, "effects": [e.to_dict() for e in self.effects],
-                "snr": self.snr, "concealed": self.concealed, "noise": self.noise,
-                "sampling": self.recording.sampling.mode}
+        return {
+            "family": self.family,
+            "seed": self.seed,
+            "effects": [e.to_dict() for e in self.effects],
+            "snr": self.snr,
+            "concealed": self.concealed,
+            "noise": self.noise,
+            "sampling": self.recording.sampling.mode,
+        }
 
 
 def smooth_commands(rng: np.random.Generator, t: Array, hold_s: Array) -> Array:
@@ -110,20 +116,30 @@ def plausible_effect(kind: str, joint: int, source: int, q_cmd: Array, rng: np.r
     if kind == "scale":
         return Effect("scale", name, {"value": 1.0 + sign * rng.uniform(0.02, 0.2)})
     if kind == "coupling":
-        return Effect("coupling", name, {"source": src, "k": sign * _unit_ratio(joint, source) * rng.uniform(0.02, 0.3)})
+        return Effect(
+            "coupling", name, {"source": src, "k": sign * _unit_ratio(joint, source) * rng.uniform(0.02, 0.3)}
+        )
     if kind == "backlash":
         return Effect("backlash", name, {"half_width": size * rng.uniform(0.005, 0.05)})
     if kind == "hysteresis":
         half_width = float(rng.uniform(0.03, 0.1) * np.ptp(q_cmd[:, source]))
-        return Effect("hysteresis", name, {"source": src, "half_width": half_width,
-                                           "k": sign * _unit_ratio(joint, source) * rng.uniform(0.1, 0.8)})
+        return Effect(
+            "hysteresis",
+            name,
+            {
+                "source": src,
+                "half_width": half_width,
+                "k": sign * _unit_ratio(joint, source) * rng.uniform(0.1, 0.8),
+            },
+        )
     if kind == "lag":
         return Effect("lag", name, {"tau": rng.uniform(0.02, 0.1)})
     return Effect("delay", name, {"seconds": rng.uniform(0.01, 0.05)})
 
 
-def sized_effect(kind: str, joint: int, source: int, target: float, q_cmd: Array, t: Array | None,
-                 rng: np.random.Generator) -> Effect:
+def sized_effect(
+    kind: str, joint: int, source: int, target: float, q_cmd: Array, t: Array | None, rng: np.random.Generator
+) -> Effect:
     """An effect of `kind` whose contribution has RMS `target` (for masking effects of a chosen size)."""
     shape = plausible_effect(kind, joint, source, q_cmd, rng)
     if kind in ("offset", "scale", "coupling", "hysteresis"):
@@ -152,12 +168,20 @@ def _pick(rng: np.random.Generator, options) -> str:
 def zigzag(rng: np.random.Generator, t: Array, joint: int, reversals: int) -> Array:
     """A smooth command that reverses exactly `reversals` times, between alternating high and low values."""
     knots = np.linspace(t[0], t[-1], reversals + 2)
-    values = CENTRE[joint] + AMPLITUDE[joint] * rng.uniform(0.3, 1.0, len(knots)) * (-1.0) ** np.arange(len(knots))
+    values = CENTRE[joint] + AMPLITUDE[joint] * rng.uniform(0.3, 1.0, len(knots)) * (-1.0) ** np.arange(
+        len(knots)
+    )
     return PchipInterpolator(knots, values)(t)
 
 
-def generate(family: str, seed: int, seconds: float = 30.0, rate_hz: float = 100.0, sampling: str = "stream",
-             snr: float | None = None) -> Synthetic:
+def generate(
+    family: str,
+    seed: int,
+    seconds: float = 30.0,
+    rate_hz: float = 100.0,
+    sampling: str = "stream",
+    snr: float | None = None,
+) -> Synthetic:
     """One synthetic recording of `family`, reproducible from `seed`.
 
     The concealed effect has parameters in a plausible physical range; its SNR (drawn per family, or
@@ -170,7 +194,11 @@ def generate(family: str, seed: int, seconds: float = 30.0, rate_hz: float = 100
     rng = np.random.default_rng(seed)
     interval = 1.0 / rate_hz if sampling == "stream" else SETPOINT_INTERVAL_S
     t = np.arange(0.0, seconds, interval)
-    hold = rng.uniform(0.8, 2.0, len(JOINT_NAMES)) if sampling == "stream" else rng.uniform(2.5, 5.0, len(JOINT_NAMES))
+    hold = (
+        rng.uniform(0.8, 2.0, len(JOINT_NAMES))
+        if sampling == "stream"
+        else rng.uniform(2.5, 5.0, len(JOINT_NAMES))
+    )
     q_cmd = smooth_commands(rng, t, hold)
     stream_t = t if sampling == "stream" else None
     kinds = KINDS if sampling == "stream" else SETTLED_KINDS
@@ -198,12 +226,24 @@ def generate(family: str, seed: int, seconds: float = 30.0, rate_hz: float = 100
         where = joint if rng.random() < 0.5 else other
         source = int((where + 1 + rng.integers(len(JOINT_NAMES) - 1)) % len(JOINT_NAMES))
         hidden = conceal(small, where, source if small in ("coupling", "hysteresis") else where, 1.0, 2.0)
-        masking = sized_effect(big, joint, other if big == "coupling" else joint,
-                               MASKING_RATIO * _contribution(hidden, q_cmd, stream_t), q_cmd, stream_t, rng)
+        masking = sized_effect(
+            big,
+            joint,
+            other if big == "coupling" else joint,
+            MASKING_RATIO * _contribution(hidden, q_cmd, stream_t),
+            q_cmd,
+            stream_t,
+            rng,
+        )
         snrs[effect_label(masking)] = float(_contribution(masking, q_cmd, stream_t) / sigma[joint])
         effects += [masking, hidden]
     elif family == "regime":
-        kind = _pick(rng, ("backlash", "hysteresis", "lag", "delay") if sampling == "stream" else ("backlash", "hysteresis"))
+        kind = _pick(
+            rng,
+            ("backlash", "hysteresis", "lag", "delay")
+            if sampling == "stream"
+            else ("backlash", "hysteresis"),
+        )
         driver = other if kind == "hysteresis" else joint
         if kind in ("backlash", "hysteresis"):
             q_cmd[:, driver] = zigzag(rng, t, driver, int(rng.integers(4, 7)))
@@ -216,9 +256,15 @@ def generate(family: str, seed: int, seconds: float = 30.0, rate_hz: float = 100
     noise = _noise(rng, len(t), noise_kind) * sigma
     q_phy = ArmPhysics(effects).simulate(q_cmd, stream_t) + noise
     recording = Recording(Path(f"<synth {family} {seed}>"), q_cmd, q_phy, t)
-    return Synthetic(recording, effects, snrs, concealed,
-                     {"kind": noise_kind, "sigma": sigma.tolist(), "rho": AR1_RHO if noise_kind == "ar1" else 0.0},
-                     family, seed)
+    return Synthetic(
+        recording,
+        effects,
+        snrs,
+        concealed,
+        {"kind": noise_kind, "sigma": sigma.tolist(), "rho": AR1_RHO if noise_kind == "ar1" else 0.0},
+        family,
+        seed,
+    )
 
 
 def _noise(rng: np.random.Generator, n: int, kind: str) -> Array:

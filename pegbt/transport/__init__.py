@@ -16,13 +16,24 @@ import importlib
 from typing import Any
 
 _EXPORTS = {
-    "ArmClient": "arm", "EndpointSilent": "arm", "JawClient": "arm", "MotionHandle": "arm", "MotionStatus": "arm",
-    "CameraClient": "camera", "CaptureHandle": "camera",
-    "Clock": "clock", "SimClock": "clock", "WallClock": "clock",
+    "ArmClient": "arm",
+    "EndpointSilent": "arm",
+    "JawClient": "arm",
+    "MotionHandle": "arm",
+    "MotionStatus": "arm",
+    "CameraClient": "camera",
+    "CaptureHandle": "camera",
+    "Clock": "clock",
+    "SimClock": "clock",
+    "WallClock": "clock",
     "CommandRefused": "guards",
-    "Link": "link", "connect": "link",
+    "Link": "link",
+    "connect": "link",
     "DEFAULT_ENDPOINT": "endpoints",
-    "SessionSettings": "session", "client_settings": "session", "endpoint_settings": "session", "open_session": "session",
+    "SessionSettings": "session",
+    "client_settings": "session",
+    "endpoint_settings": "session",
+    "open_session": "session",
 }
 
 __all__ = sorted(_EXPORTS)

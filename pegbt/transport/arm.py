@@ -168,7 +168,9 @@ class _Axis:
         goal = np.asarray(goal, dtype=float).reshape(-1)
         what = f"goal {np.round(goal, 5).tolist()}"
         guards.refuse_if(self._problems(goal), what, self._move.key)
-        return self._start(self._move, codec.encode_joint_state(self._arm.clock.now(), goal, names=self._names), what)
+        return self._start(
+            self._move, codec.encode_joint_state(self._arm.clock.now(), goal, names=self._names), what
+        )
 
     def _start(self, outlet: Outlet, payload: bytes, what: str) -> MotionHandle:
         sent_at = self._arm.clock.now()
@@ -184,6 +186,7 @@ class JawClient(_Axis):
 
     def move_jp(self, angle: float) -> MotionHandle:
         return self.move_goal([angle])
+
 
 # s without `measured_js` before an arm counts as silent. A simulator that dies is caught at once by its
 # clock (no step reply, no connection); for it this is a backstop as long as a slow step on a busy machine
@@ -242,7 +245,9 @@ class ArmClient(_Axis):
             self.keys.jaw_move_jp,
             JAW_JOINT_NAMES,
             lambda angle: guards.jaw_problems(angle, self.settings),
-            lambda angle, reference: guards.jaw_step_problems(float(angle[0]), float(reference[0]), self.settings, period),
+            lambda angle, reference: guards.jaw_step_problems(
+                float(angle[0]), float(reference[0]), self.settings, period
+            ),
         )
 
     # ------------------------------------------------------------------ event tracking
@@ -264,7 +269,9 @@ class ArmClient(_Axis):
         """Raise `EndpointSilent` unless `measured_js` arrived within the liveness timeout."""
         latest = self._measured.latest()
         if latest is None:
-            raise EndpointSilent(f"{self.name}: no {self.keys.measured_js} received yet", field=self.keys.measured_js)
+            raise EndpointSilent(
+                f"{self.name}: no {self.keys.measured_js} received yet", field=self.keys.measured_js
+            )
         age = time.monotonic() - latest.received_at
         if age > self.liveness_timeout:
             raise EndpointSilent(
@@ -277,7 +284,9 @@ class ArmClient(_Axis):
         """Block until the arm has published its joints, set-points and operating state."""
         for inlet in (self._measured, self._setpoint, self._state, self.jaw._setpoint):
             if not inlet.wait_for_any(timeout):
-                raise EndpointSilent(f"{self.name}: nothing on {inlet.key} within {timeout} s", field=inlet.key)
+                raise EndpointSilent(
+                    f"{self.name}: nothing on {inlet.key} within {timeout} s", field=inlet.key
+                )
 
     def read_received(self, inlet: Inlet) -> Received:
         self.check_alive()
@@ -293,7 +302,9 @@ class ArmClient(_Axis):
         """Publish a command, only to a live endpoint that listens on its key; its tag (which names it)."""
         self.check_alive()
         if not outlet.matched:
-            raise EndpointSilent(f"{self.name}: nobody subscribes to {outlet.key}; command not sent", field=outlet.key)
+            raise EndpointSilent(
+                f"{self.name}: nobody subscribes to {outlet.key}; command not sent", field=outlet.key
+            )
         return outlet.put(payload)
 
     # ------------------------------------------------------------------ reads
@@ -313,7 +324,9 @@ class ArmClient(_Axis):
     def measured_cp(self) -> NDArray[np.float64]:
         """Tool-tip pose (4×4) in the arm's base frame, from the measured joints."""
         if self._cartesian is None:
-            raise PegbtError(f"{self.name}: measured_cp needs ArmClient(..., cartesian=True)", field=self.keys.measured_cp)
+            raise PegbtError(
+                f"{self.name}: measured_cp needs ArmClient(..., cartesian=True)", field=self.keys.measured_cp
+            )
         return self.read(self._cartesian)[1]
 
     @property
@@ -333,7 +346,9 @@ class ArmClient(_Axis):
         start = np.asarray(target.q, dtype=float)[0]
         lead = max(float(np.asarray(target.t, dtype=float)[0]), self.settings.control_period)
         guards.refuse_if(
-            guards.step_problems(start, self.setpoint_js.position, self.settings, lead), "trajectory start", key
+            guards.step_problems(start, self.setpoint_js.position, self.settings, lead),
+            "trajectory start",
+            key,
         )
         payload = codec.encode_trajectory(self.clock.now(), target, ARM_JOINT_NAMES)
         return self._start(self._trajectory, payload, "trajectory")

@@ -60,10 +60,14 @@ class CaptureHandle:
         while not self.camera.send_trigger(self) and time.monotonic() < deadline:
             time.sleep(0.005)  # a blocking caller waits for a camera to listen; a tick polls `ready` instead
         if not self.sent:
-            raise EndpointSilent(f"no camera listens on {self.camera.keys.trigger}; capture not sent",
-                                 field=self.camera.keys.trigger)
+            raise EndpointSilent(
+                f"no camera listens on {self.camera.keys.trigger}; capture not sent",
+                field=self.camera.keys.trigger,
+            )
         if not self._arrived.wait(max(0.0, deadline - time.monotonic())):
-            raise EndpointSilent(f"no point cloud answered capture {self.request_id} within {timeout} s", field="camera")
+            raise EndpointSilent(
+                f"no point cloud answered capture {self.request_id} within {timeout} s", field="camera"
+            )
         assert self._points is not None
         return self._points
 
@@ -75,7 +79,9 @@ class CaptureHandle:
 class CameraClient:
     """A depth camera on the link."""
 
-    def __init__(self, link: Link, name: str = "camera", *, clock: Clock | None = None, timeout: float = 2.0) -> None:
+    def __init__(
+        self, link: Link, name: str = "camera", *, clock: Clock | None = None, timeout: float = 2.0
+    ) -> None:
         self.keys = CameraKeys(name, link.namespace)
         self.clock: Clock = clock or WallClock()
         self.timeout = timeout
@@ -88,7 +94,9 @@ class CameraClient:
         stamp, points = received.value
         with self._lock:
             if received.tag is not None and received.tag.cause:
-                answered = [self._pending.pop(received.tag.cause)] if received.tag.cause in self._pending else []
+                answered = (
+                    [self._pending.pop(received.tag.cause)] if received.tag.cause in self._pending else []
+                )
             else:
                 answered = [h for h in self._pending.values() if h.requested_at <= stamp]
                 for handle in answered:

@@ -37,7 +37,9 @@ class SimClock:
     over, so many short waits add up exactly) and blocks until it has; in real-time mode it sleeps.
     """
 
-    def __init__(self, link: Link, *, reply_timeout: float = 10.0, probe_timeout: float | None = None) -> None:
+    def __init__(
+        self, link: Link, *, reply_timeout: float = 10.0, probe_timeout: float | None = None
+    ) -> None:
         """`probe_timeout` (default `reply_timeout`) bounds the first question, whether a simulator is there at
         all; `reply_timeout` bounds every step after it, which a busy machine can make slow."""
         self._link = link
@@ -49,13 +51,19 @@ class SimClock:
         self._requests = link.session.declare_publisher(
             self._keys.step, express=True, congestion_control=zenoh.CongestionControl.BLOCK
         )
-        self._name = uuid.uuid4().hex[:12]  # each clock has its own replies (and state notes) even on a shared link
+        self._name = uuid.uuid4().hex[
+            :12
+        ]  # each clock has its own replies (and state notes) even on a shared link
         self._replies = link.session.declare_subscriber(self._keys.stepped(self._name), self._on_reply)
         self._reply: tuple[int, bytes] | None = None
         self._replied = threading.Condition()
         self._request_number = 0
-        self._bases: dict[str, tuple[int, bytes]] = {}  # per key: number and payload of the last full state received
-        info = link.query(self._keys.clock, {}, probe_timeout or reply_timeout)  # also: the simulator sees our subscriber
+        self._bases: dict[
+            str, tuple[int, bytes]
+        ] = {}  # per key: number and payload of the last full state received
+        info = link.query(
+            self._keys.clock, {}, probe_timeout or reply_timeout
+        )  # also: the simulator sees our subscriber
         self.mode: str = info["mode"]
         self.period: float = info["period"]
         self._time: float = info["time"]
@@ -86,8 +94,12 @@ class SimClock:
         self._request_number += 1
         claim = sorted({inlet.key for inlet in link.inlets})  # the state to bring back in the reply
         request = {
-            "steps": steps, "clock": self._name, "source": link.source.name, "number": self._request_number,
-            "sent": link.source.counts(), "claim": claim,
+            "steps": steps,
+            "clock": self._name,
+            "source": link.source.name,
+            "number": self._request_number,
+            "sent": link.source.counts(),
+            "claim": claim,
         }
         self._requests.put(json.dumps(request))
         # a long step may take the simulator as long as real time would on a busy machine: allow that on top
@@ -109,10 +121,14 @@ class SimClock:
         message of `key` this clock received, with the new stamp (decoded only if someone reads it)."""
         seq, payload = self._bases.get(key, (None, b""))
         if seq != note["base"]:
-            raise PegbtError(f"the step reply re-stamps {key} #{note['base']}, but this client last had #{seq}", field=key)
+            raise PegbtError(
+                f"the step reply re-stamps {key} #{note['base']}, but this client last had #{seq}", field=key
+            )
         sec, nanosec = note["restamp"]
         self._link.deliver_value(
-            key, tag, lambda: dataclasses.replace(codec.decode_joint_state(payload), stamp=sec + nanosec * 1e-9)
+            key,
+            tag,
+            lambda: dataclasses.replace(codec.decode_joint_state(payload), stamp=sec + nanosec * 1e-9),
         )
         self._bases[key] = (tag.seq, payload)
 
@@ -128,12 +144,16 @@ class SimClock:
         this session is connected to nobody: a simulator that died closed its connection, and no reply can come."""
         deadline = time.monotonic() + self._reply_timeout + allowance
         with self._replied:
-            while not self._replied.wait_for(lambda: self._reply is not None and self._reply[0] == number,
-                                             max(0.0, min(CONNECTION_CHECK_S, deadline - time.monotonic()))):
+            while not self._replied.wait_for(
+                lambda: self._reply is not None and self._reply[0] == number,
+                max(0.0, min(CONNECTION_CHECK_S, deadline - time.monotonic())),
+            ):
                 if time.monotonic() >= deadline or not self._connected():
                     key = self._keys.step
-                    raise PegbtError(f"no simulator answers on {key} (is `pegbt sim --lockstep` running and reachable?)",
-                                     field=key)
+                    raise PegbtError(
+                        f"no simulator answers on {key} (is `pegbt sim --lockstep` running and reachable?)",
+                        field=key,
+                    )
             assert self._reply is not None
             return self._reply[1]
 
@@ -146,5 +166,9 @@ class SimClock:
         deadline = time.monotonic() + self._reply_timeout
         for inlet in self._link.inlets:
             seq = sent.get(inlet.key, 0)
-            if seq > self._before.get(inlet.key, 0) and not inlet.wait_for(source, seq, max(0.0, deadline - time.monotonic())):
-                raise PegbtError(f"simulator published {inlet.key} #{seq} but it never arrived", field=inlet.key)
+            if seq > self._before.get(inlet.key, 0) and not inlet.wait_for(
+                source, seq, max(0.0, deadline - time.monotonic())
+            ):
+                raise PegbtError(
+                    f"simulator published {inlet.key} #{seq} but it never arrived", field=inlet.key
+                )

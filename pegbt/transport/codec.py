@@ -142,7 +142,9 @@ def encode_operating_state(state: OperatingState) -> bytes:
 
 def decode_operating_state(data: bytes) -> OperatingState:
     message = deserialize(data, OPERATING_STATE)
-    return OperatingState(_stamp(message.header), message.state, bool(message.is_homed), bool(message.is_busy))
+    return OperatingState(
+        _stamp(message.header), message.state, bool(message.is_homed), bool(message.is_busy)
+    )
 
 
 # ----------------------------------------------------------------------------- strings and triggers
@@ -186,7 +188,9 @@ def decode_pose_stamped(data: bytes) -> tuple[float, NDArray[np.float64]]:
 
     message = deserialize(data, POSE_STAMPED)
     p, o = message.pose.position, message.pose.orientation
-    return _stamp(message.header), rigid_transform(Rotation.from_quat([o.x, o.y, o.z, o.w]).as_matrix(), (p.x, p.y, p.z))
+    return _stamp(message.header), rigid_transform(
+        Rotation.from_quat([o.x, o.y, o.z, o.w]).as_matrix(), (p.x, p.y, p.z)
+    )
 
 
 # ----------------------------------------------------------------------------- point clouds
@@ -196,7 +200,10 @@ def encode_point_cloud(stamp: float, points: ArrayLike, frame_id: str = "camera"
     if points.ndim != 2 or points.shape[1] != 3:
         raise PegbtError(f"point cloud must be N×3, got shape {points.shape}", field="points")
     field_type = _type("sensor_msgs/msg/PointField")
-    fields = [field_type(name=axis, offset=4 * i, datatype=field_type.FLOAT32, count=1) for i, axis in enumerate("xyz")]
+    fields = [
+        field_type(name=axis, offset=4 * i, datatype=field_type.FLOAT32, count=1)
+        for i, axis in enumerate("xyz")
+    ]
     message = _type(POINT_CLOUD2)(
         header=_header(stamp, frame_id),
         height=1,
@@ -218,7 +225,9 @@ def decode_point_cloud(data: bytes) -> tuple[float, NDArray[np.float32]]:
     if not {"x", "y", "z"} <= offsets.keys() or message.is_bigendian:
         raise PegbtError("point cloud needs little-endian float32 x, y, z fields", field="fields")
     count = message.width * message.height
-    raw = np.asarray(message.data, dtype=np.uint8)[: count * message.point_step].reshape(count, message.point_step)
+    raw = np.asarray(message.data, dtype=np.uint8)[: count * message.point_step].reshape(
+        count, message.point_step
+    )
     columns = [raw[:, offsets[axis] : offsets[axis] + 4].copy().view("<f4").reshape(-1) for axis in "xyz"]
     return _stamp(message.header), np.column_stack(columns).astype(np.float32)
 
@@ -286,4 +295,6 @@ def decode_trajectory(data: bytes) -> tuple[float, TrajectoryPoints]:
     q = stack("positions")
     if q is None:
         raise PegbtError("trajectory has no positions", field="positions")
-    return _stamp(message.header), TrajectoryPoints(t=t, q=q, qd=stack("velocities"), qdd=stack("accelerations"))
+    return _stamp(message.header), TrajectoryPoints(
+        t=t, q=q, qd=stack("velocities"), qdd=stack("accelerations")
+    )

@@ -42,9 +42,15 @@ def check_listen(endpoint: str, allow_remote: bool = False) -> str:
     """`endpoint` if a session may listen there: a port of its own (not 0), on loopback unless `allow_remote`."""
     _, host, port = split_endpoint(endpoint)
     if int(port) == 0:
-        raise PegbtError(f"listen endpoint {endpoint!r} asks for any free port, which zenoh does not report; "
-                         "give a port (pegbt.sim.process.free_port finds one)", field="listen")
+        raise PegbtError(
+            f"listen endpoint {endpoint!r} asks for any free port, which zenoh does not report; "
+            "give a port (pegbt.sim.process.free_port finds one)",
+            field="listen",
+        )
     if not allow_remote and not is_loopback(host):
-        raise PegbtError(f"listen endpoint {endpoint!r} is not on loopback (127.0.0.1, ::1): peers on that network "
-                         "could command the arms; pass --allow-remote-listen if that is meant", field="listen")
+        raise PegbtError(
+            f"listen endpoint {endpoint!r} is not on loopback (127.0.0.1, ::1): peers on that network "
+            "could command the arms; pass --allow-remote-listen if that is meant",
+            field="listen",
+        )
     return endpoint

@@ -22,8 +22,11 @@ def check_namespace(namespace: str, field: str = "namespace") -> str:
     would make the endpoint publish to or subscribe on keys nobody meant.
     """
     if namespace.strip("/") and not _NAMESPACE.fullmatch(namespace.strip("/")):
-        raise PegbtError(f"{namespace!r} is not a key prefix: use ROS 2 names (letters, digits, _; not starting "
-                         "with a digit), joined by /", field=field)
+        raise PegbtError(
+            f"{namespace!r} is not a key prefix: use ROS 2 names (letters, digits, _; not starting "
+            "with a digit), joined by /",
+            field=field,
+        )
     return namespace
 
 

@@ -50,11 +50,18 @@ class Link:
         none comes or it refuses."""
         # the first reply, as soon as it comes: the query's end follows, and nobody needs to wait for it; the query
         # (and so its reply, which takes its QoS) blocks rather than drops in a congested queue
-        replies = self.session.get(key, payload=json.dumps(request), timeout=timeout, express=True,
-                                   congestion_control=zenoh.CongestionControl.BLOCK)
+        replies = self.session.get(
+            key,
+            payload=json.dumps(request),
+            timeout=timeout,
+            express=True,
+            congestion_control=zenoh.CongestionControl.BLOCK,
+        )
         reply = next(iter(replies), None)
         if reply is None:
-            raise PegbtError(f"no simulator answers on {key} (is `pegbt sim` running and reachable?)", field=key)
+            raise PegbtError(
+                f"no simulator answers on {key} (is `pegbt sim` running and reachable?)", field=key
+            )
         if reply.ok is None:
             raise PegbtError(f"simulator refused {key}: {reply.err.payload.to_string()}", field=key)
         return json.loads(reply.ok.payload.to_bytes())

@@ -51,7 +51,9 @@ class Tag:
         return cls(parts[0], int(parts[1]), parts[2], parts[3])
 
 
-Bundled = tuple[str, Tag, "bytes | dict[str, Any]"]  # a message carried inside another: key, tag, payload or a note
+Bundled = tuple[
+    str, Tag, "bytes | dict[str, Any]"
+]  # a message carried inside another: key, tag, payload or a note
 
 
 def bundle(header: dict[str, Any], messages: Sequence[Bundled]) -> bytes:
@@ -110,7 +112,13 @@ class Outlet:
     """
 
     def __init__(
-        self, session: zenoh.Session, key: str, source: Source, *, drop_when_congested: bool = False, express: bool = True
+        self,
+        session: zenoh.Session,
+        key: str,
+        source: Source,
+        *,
+        drop_when_congested: bool = False,
+        express: bool = True,
     ) -> None:
         self.key = key
         self._source = source
@@ -139,7 +147,9 @@ class Received(Generic[T]):
 
     __slots__ = ("_payload", "_decode", "_value", "tag", "received_at")
 
-    def __init__(self, payload: bytes, decode: Callable[[bytes], T], tag: Tag | None, received_at: float) -> None:
+    def __init__(
+        self, payload: bytes, decode: Callable[[bytes], T], tag: Tag | None, received_at: float
+    ) -> None:
         self._payload: bytes | None = payload
         self._decode = decode
         self._value: T | None = None

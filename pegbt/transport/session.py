@@ -46,10 +46,15 @@ class SessionSettings:
         return config
 
 
-def endpoint_settings(listen: Sequence[str] = (DEFAULT_ENDPOINT,), connect: Sequence[str] = (),
-                      allow_remote_listen: bool = False) -> SessionSettings:
+def endpoint_settings(
+    listen: Sequence[str] = (DEFAULT_ENDPOINT,),
+    connect: Sequence[str] = (),
+    allow_remote_listen: bool = False,
+) -> SessionSettings:
     """Settings for an endpoint (the simulator): listens on loopback port 7447 by default."""
-    return SessionSettings(listen=tuple(listen), connect=tuple(connect), allow_remote_listen=allow_remote_listen)
+    return SessionSettings(
+        listen=tuple(listen), connect=tuple(connect), allow_remote_listen=allow_remote_listen
+    )
 
 
 def client_settings(connect: Sequence[str] = (DEFAULT_ENDPOINT,)) -> SessionSettings:
