@@ -104,7 +104,7 @@ def test_receiver_lowers_the_block_onto_its_peg_along_the_axis_clear_of_the_give
     entered = int(np.flatnonzero(height >= 0.013)[-1]) + 1
     assert entered < len(place) - 5
     assert axis_distance[entered:].max() <= 0.0005
-    assert np.degrees(np.arccos(poses[:, :3, 2] @ up)).max() <= 2.0 + 1e-6
+    assert np.degrees(np.arccos(np.clip(poses[:, :3, 2] @ up, -1.0, 1.0))).max() <= 2.0 + 1e-6
     # The giver holds its retreat pose meanwhile; the tools stay at least 5 mm apart.
     giver_still = plan.phases[3].moves["PSM2"].q[-1]
     apart = tool_distance(
