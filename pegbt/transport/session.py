@@ -36,13 +36,15 @@ class SessionSettings:
             check_listen(endpoint, self.allow_remote_listen)
 
     def config(self) -> zenoh.Config:
-        """The zenoh configuration: peer mode, these endpoints, and scouting switched off."""
+        """The zenoh configuration: peer mode, these endpoints, scouting switched off, timestamps on."""
         config = zenoh.Config()
         config.insert_json5("mode", json.dumps("peer"))
         config.insert_json5("listen/endpoints", json.dumps(list(self.listen)))
         config.insert_json5("connect/endpoints", json.dumps(list(self.connect)))
         config.insert_json5("scouting/multicast/enabled", "false")
         config.insert_json5("scouting/gossip/enabled", "false")
+        # zenoh-ext's advanced publishers (latched ROS 2 topics) order their cache by timestamp
+        config.insert_json5("timestamping/enabled", "true")
         return config
 
 

@@ -1,0 +1,113 @@
+"""How a ROS 2 topic becomes zenoh traffic: the wire a robot's CRTK topics travel on.
+
+A `Ros2Wire` turns (topic, ROS 2 type, durability) into zenoh publishers and subscribers that carry the
+topic's CDR bytes. Everything that speaks to a ROS 2 robot (the dVRK interface of the simulator, the
+executive's CRTK client, recorders) declares its topics through a wire, never through raw zenoh keys, so
+that the same code runs over zenoh-bridge-ros2dds (`BridgeWire`, here) and over rmw_zenoh (its own wire,
+with rmw_zenoh's keys, attachments and liveliness tokens).
+
+`BridgeWire` reproduces what eclipse-zenoh/zenoh-plugin-ros2dds does with a topic
+(`zenoh-plugin-ros2dds/src/route_publisher.rs`, `route_subscriber.rs`): the key is the ROS 2 name without
+its leading `/` under the bridge's namespace, the payload is the CDR bytes unchanged, no attachment; a
+TRANSIENT_LOCAL topic (the dVRK's `operating_state`) is served to late joiners from a zenoh-ext
+`AdvancedPublisher` cache with publisher detection, and read with an `AdvancedSubscriber` whose history
+detects late publishers.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Protocol
+
+import zenoh
+import zenoh.ext
+
+from pegbt.transport.keys import scoped
+
+
+@dataclass(frozen=True)
+class Topic:
+    """A ROS 2 topic: its name (`/PSM1/measured_js`), its type (`sensor_msgs/msg/JointState`) and whether
+    it is latched (TRANSIENT_LOCAL durability, the last `depth` messages kept for late joiners)."""
+
+    name: str
+    typename: str
+    latched: bool = False
+    depth: int = 1
+
+
+class TopicPublisher(Protocol):
+    """Publishes CDR bytes on one topic."""
+
+    def put(self, payload: bytes) -> None: ...
+
+    def close(self) -> None: ...
+
+
+class TopicSubscriber(Protocol):
+    """Receives CDR bytes on one topic until closed."""
+
+    def close(self) -> None: ...
+
+
+class Ros2Wire(Protocol):
+    """Declares a process's ROS 2 publishers and subscribers on one zenoh session."""
+
+    def publisher(self, topic: Topic) -> TopicPublisher: ...
+
+    def subscriber(self, topic: Topic, on_payload: Callable[[bytes], None]) -> TopicSubscriber: ...
+
+
+class _Closing:
+    """A declared zenoh entity that `close()` undeclares."""
+
+    def __init__(self, entity: zenoh.Publisher | zenoh.Subscriber | zenoh.ext.AdvancedPublisher) -> None:
+        self._entity = entity
+
+    def put(self, payload: bytes) -> None:
+        self._entity.put(payload)  # type: ignore[union-attr]
+
+    def close(self) -> None:
+        self._entity.undeclare()
+
+
+class BridgeWire:
+    """Topics as zenoh-bridge-ros2dds maps them: `namespace/topic` keys, plain CDR, no attachment."""
+
+    def __init__(self, session: zenoh.Session, namespace: str = "") -> None:
+        self.session = session
+        self.namespace = namespace
+
+    def key(self, topic: Topic) -> str:
+        """The zenoh key of `topic` (`/PSM1/measured_js` → `PSM1/measured_js`, under the namespace)."""
+        return scoped(self.namespace, topic.name.lstrip("/"))
+
+    def publisher(self, topic: Topic) -> TopicPublisher:
+        if topic.latched:
+            return _Closing(
+                zenoh.ext.declare_advanced_publisher(
+                    self.session,
+                    self.key(topic),
+                    cache=zenoh.ext.CacheConfig(max_samples=topic.depth),
+                    publisher_detection=True,
+                    reliability=zenoh.Reliability.RELIABLE,
+                    congestion_control=zenoh.CongestionControl.BLOCK,
+                )
+            )
+        return _Closing(self.session.declare_publisher(self.key(topic), express=True))
+
+    def subscriber(self, topic: Topic, on_payload: Callable[[bytes], None]) -> TopicSubscriber:
+        def deliver(sample: zenoh.Sample) -> None:
+            on_payload(sample.payload.to_bytes())
+
+        if topic.latched:
+            return _Closing(
+                zenoh.ext.declare_advanced_subscriber(
+                    self.session,
+                    self.key(topic),
+                    deliver,
+                    history=zenoh.ext.HistoryConfig(detect_late_publishers=True, max_samples=topic.depth),
+                )
+            )
+        return _Closing(self.session.declare_subscriber(self.key(topic), deliver))

@@ -1,0 +1,53 @@
+"""The bridge wire carries a topic as zenoh-bridge-ros2dds does: plain CDR bytes, no attachment, and a
+latched topic served to a subscriber that joins after it was published (route_publisher.rs)."""
+
+from __future__ import annotations
+
+import time
+
+import zenoh
+
+from pegbt.transport.ros2 import BridgeWire, Topic
+from pegbt.transport.session import client_settings, endpoint_settings, open_session
+from pegbt.sim.process import free_port
+
+
+def _wait_for(condition, timeout: float = 5.0) -> bool:
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if condition():
+            return True
+        time.sleep(0.01)
+    return condition()
+
+
+def test_a_latched_topic_reaches_a_subscriber_that_joins_later_and_a_plain_one_does_not() -> None:
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    with (
+        open_session(endpoint_settings([endpoint])) as robot,
+        open_session(client_settings([endpoint])) as client,
+    ):
+        latched = Topic("/PSM1/operating_state", "crtk_msgs/msg/OperatingState", latched=True)
+        plain = Topic("/PSM1/warning", "std_msgs/msg/String")
+        robot_wire, client_wire = BridgeWire(robot, "lab"), BridgeWire(client, "lab")
+        state, warning = robot_wire.publisher(latched), robot_wire.publisher(plain)
+        time.sleep(0.2)
+        state.put(b"ENABLED")
+        warning.put(b"arm not ready")
+        time.sleep(0.3)
+
+        raw: list[zenoh.Sample] = []
+        tap = client.declare_subscriber("lab/PSM1/**", raw.append)
+        got_state: list[bytes] = []
+        got_warning: list[bytes] = []
+        client_wire.subscriber(latched, got_state.append)
+        client_wire.subscriber(plain, got_warning.append)
+        assert _wait_for(lambda: got_state == [b"ENABLED"])
+        assert got_warning == []
+
+        state.put(b"FAULT")
+        assert _wait_for(lambda: got_state == [b"ENABLED", b"FAULT"])
+        assert _wait_for(lambda: any(s.payload.to_bytes() == b"FAULT" for s in raw))
+        assert {str(s.key_expr) for s in raw} == {"lab/PSM1/operating_state"}
+        assert all(s.attachment is None for s in raw)
+        tap.undeclare()
