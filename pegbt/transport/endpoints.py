@@ -38,10 +38,11 @@ def is_loopback(host: str) -> bool:
         return False  # another host name: it may resolve to any interface
 
 
-def check_listen(endpoint: str, allow_remote: bool = False) -> str:
-    """`endpoint` if a session may listen there: a port of its own (not 0), on loopback unless `allow_remote`."""
+def check_listen(endpoint: str, allow_remote: bool = False, any_port: bool = False) -> str:
+    """`endpoint` if a session may listen there: a port of its own (not 0, unless `any_port`), on loopback
+    unless `allow_remote`."""
     _, host, port = split_endpoint(endpoint)
-    if int(port) == 0:
+    if int(port) == 0 and not any_port:
         raise PegbtError(
             f"listen endpoint {endpoint!r} asks for any free port, which zenoh does not report; "
             "give a port (pegbt.sim.process.free_port finds one)",

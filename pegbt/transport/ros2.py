@@ -52,17 +52,26 @@ class TopicSubscriber(Protocol):
 
 
 class Ros2Wire(Protocol):
-    """Declares a process's ROS 2 publishers and subscribers on one zenoh session."""
+    """Declares a process's ROS 2 publishers and subscribers on one zenoh session; holds them until
+    `close()` (zenoh undeclares an entity nobody holds)."""
 
     def publisher(self, topic: Topic) -> TopicPublisher: ...
 
     def subscriber(self, topic: Topic, on_payload: Callable[[bytes], None]) -> TopicSubscriber: ...
 
+    def close(self) -> None: ...
+
 
 class _Closing:
     """A declared zenoh entity that `close()` undeclares."""
 
-    def __init__(self, entity: zenoh.Publisher | zenoh.Subscriber | zenoh.ext.AdvancedPublisher) -> None:
+    def __init__(
+        self,
+        entity: zenoh.Publisher
+        | zenoh.Subscriber
+        | zenoh.ext.AdvancedPublisher
+        | zenoh.ext.AdvancedSubscriber,
+    ) -> None:
         self._entity = entity
 
     def put(self, payload: bytes) -> None:
@@ -78,6 +87,17 @@ class BridgeWire:
     def __init__(self, session: zenoh.Session, namespace: str = "") -> None:
         self.session = session
         self.namespace = namespace
+        self._endpoints: list[_Closing] = []
+
+    def _held(self, endpoint: _Closing) -> _Closing:
+        self._endpoints.append(endpoint)
+        return endpoint
+
+    def close(self) -> None:
+        """Undeclare every publisher and subscriber declared through this wire."""
+        for endpoint in self._endpoints:
+            endpoint.close()
+        self._endpoints.clear()
 
     def key(self, topic: Topic) -> str:
         """The zenoh key of `topic` (`/PSM1/measured_js` → `PSM1/measured_js`, under the namespace)."""
@@ -85,29 +105,29 @@ class BridgeWire:
 
     def publisher(self, topic: Topic) -> TopicPublisher:
         if topic.latched:
-            return _Closing(
-                zenoh.ext.declare_advanced_publisher(
-                    self.session,
-                    self.key(topic),
-                    cache=zenoh.ext.CacheConfig(max_samples=topic.depth),
-                    publisher_detection=True,
-                    reliability=zenoh.Reliability.RELIABLE,
-                    congestion_control=zenoh.CongestionControl.BLOCK,
-                )
+            entity: zenoh.Publisher | zenoh.ext.AdvancedPublisher = zenoh.ext.declare_advanced_publisher(
+                self.session,
+                self.key(topic),
+                cache=zenoh.ext.CacheConfig(max_samples=topic.depth),
+                publisher_detection=True,
+                reliability=zenoh.Reliability.RELIABLE,
+                congestion_control=zenoh.CongestionControl.BLOCK,
             )
-        return _Closing(self.session.declare_publisher(self.key(topic), express=True))
+        else:
+            entity = self.session.declare_publisher(self.key(topic), express=True)
+        return self._held(_Closing(entity))
 
     def subscriber(self, topic: Topic, on_payload: Callable[[bytes], None]) -> TopicSubscriber:
         def deliver(sample: zenoh.Sample) -> None:
             on_payload(sample.payload.to_bytes())
 
         if topic.latched:
-            return _Closing(
-                zenoh.ext.declare_advanced_subscriber(
-                    self.session,
-                    self.key(topic),
-                    deliver,
-                    history=zenoh.ext.HistoryConfig(detect_late_publishers=True, max_samples=topic.depth),
-                )
+            entity: zenoh.Subscriber | zenoh.ext.AdvancedSubscriber = zenoh.ext.declare_advanced_subscriber(
+                self.session,
+                self.key(topic),
+                deliver,
+                history=zenoh.ext.HistoryConfig(detect_late_publishers=True, max_samples=topic.depth),
             )
-        return _Closing(self.session.declare_subscriber(self.key(topic), deliver))
+        else:
+            entity = self.session.declare_subscriber(self.key(topic), deliver)
+        return self._held(_Closing(entity))

@@ -28,21 +28,24 @@ class SessionSettings:
     listen: tuple[str, ...] = ()
     connect: tuple[str, ...] = ()
     allow_remote_listen: bool = False
+    gossip: bool = False
 
     def __post_init__(self) -> None:
         for endpoint in self.connect:
             split_endpoint(endpoint)
         for endpoint in self.listen:
-            check_listen(endpoint, self.allow_remote_listen)
+            # gossip tells peers the port a listener got, so a ROS 2 graph session may ask for any free one
+            check_listen(endpoint, self.allow_remote_listen, any_port=self.gossip)
 
     def config(self) -> zenoh.Config:
-        """The zenoh configuration: peer mode, these endpoints, scouting switched off, timestamps on."""
+        """The zenoh configuration: peer mode, these endpoints, no multicast scouting, gossip only for a ROS 2
+        graph, timestamps on."""
         config = zenoh.Config()
         config.insert_json5("mode", json.dumps("peer"))
         config.insert_json5("listen/endpoints", json.dumps(list(self.listen)))
         config.insert_json5("connect/endpoints", json.dumps(list(self.connect)))
         config.insert_json5("scouting/multicast/enabled", "false")
-        config.insert_json5("scouting/gossip/enabled", "false")
+        config.insert_json5("scouting/gossip/enabled", json.dumps(self.gossip))
         # zenoh-ext's advanced publishers (latched ROS 2 topics) order their cache by timestamp
         config.insert_json5("timestamping/enabled", "true")
         return config
@@ -62,6 +65,13 @@ def endpoint_settings(
 def client_settings(connect: Sequence[str] = (DEFAULT_ENDPOINT,)) -> SessionSettings:
     """Settings for a client (the executive, a benchmark): connects to loopback port 7447 by default."""
     return SessionSettings(connect=tuple(connect))
+
+
+def ros2_graph_settings(router: Sequence[str]) -> SessionSettings:
+    """Settings for a node of a ROS 2 graph on rmw_zenoh: connect to its router, listen on loopback, and
+    learn the other peers by gossip, as rmw_zenoh's default session does
+    (`rmw_zenoh_cpp/config/DEFAULT_RMW_ZENOH_SESSION_CONFIG.json5`; multicast stays off)."""
+    return SessionSettings(listen=("tcp/127.0.0.1:0",), connect=tuple(router), gossip=True)
 
 
 def open_session(settings: SessionSettings) -> zenoh.Session:

@@ -1,0 +1,241 @@
+"""ROS 2 topics as rmw_zenoh carries them, so pegbt joins a ROS 2 graph with no ROS installation.
+
+What a ROS 2 node running `rmw_zenoh_cpp` expects of a peer, from ros2/rmw_zenoh:
+- data keys `<domain>/<topic without outer slashes>/<DDS type name>/<RIHS01 type hash>`
+  (`rmw_zenoh_cpp/src/detail/liveliness_utils.cpp`, `TopicInfo`);
+- on every sample an attachment of the publication's sequence number, source timestamp (ns) and the
+  publisher's 16-byte GID, serialised positionally with zenoh's serializer: int64, int64, then the GID as
+  a length-prefixed buffer (`rmw_zenoh_cpp/src/detail/attachment_helpers.cpp`, since ros2/rmw_zenoh#601);
+  a subscription drops a sample without one;
+- a liveliness token per node (`NN`) and per publisher (`MP`) and subscription (`MS`):
+  `@ros2_lv/<domain>/<zid>/<node id>/<entity id>/<kind>/<enclave>/<namespace>/<node>[/<topic>/<type>/<hash>/<qos>]`,
+  names with `/` written as `%`, QoS as `reliability:durability:history,depth:deadline:lifespan:liveliness`
+  with the fields equal to rmw_zenoh's default left empty (`liveliness_utils.cpp`, `qos_to_keyexpr`);
+  an entity's GID is the XXH3-128 hash of its token (low 64 bits first);
+- TRANSIENT_LOCAL topics through zenoh-ext advanced publishers (a cache) and subscribers (history with
+  late-publisher detection) (`docs/design.md`, "Quality of Service").
+"""
+
+from __future__ import annotations
+
+import itertools
+import os
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import xxhash
+import zenoh
+import zenoh.ext
+
+from pegbt.errors import PegbtError
+from pegbt.transport.codec import typestore
+from pegbt.transport.ros2 import Topic, TopicPublisher, TopicSubscriber
+
+ADMIN_SPACE = "@ros2_lv"
+GID_SIZE = 16
+# rmw_zenoh's default QoS (`rmw_zenoh_cpp/src/detail/qos.cpp`): RELIABLE, VOLATILE, KEEP_LAST with depth 42
+_DEFAULT_DEPTH = 42
+_RELIABLE, _TRANSIENT_LOCAL = 1, 1
+
+
+def domain_id(value: int | None = None) -> int:
+    """The ROS 2 domain: `value`, else `ROS_DOMAIN_ID`, else 0; a `PegbtError` if it is not 0-232."""
+    text = str(value) if value is not None else os.environ.get("ROS_DOMAIN_ID", "0") or "0"
+    if not text.isdigit() or not 0 <= int(text) <= 232:
+        raise PegbtError(f"ROS 2 domain id must be an integer 0-232, got {text!r}", field="ROS_DOMAIN_ID")
+    return int(text)
+
+
+def dds_type_name(typename: str) -> str:
+    """`sensor_msgs/msg/JointState` → `sensor_msgs::msg::dds_::JointState_`, the name rmw_zenoh keys by."""
+    package, kind, name = typename.split("/")
+    return f"{package}::{kind}::dds_::{name}_"
+
+
+def type_hash(typename: str) -> str:
+    """The type's RIHS01 hash (REP 2011), computed by rosbags from the message definitions."""
+    return str(typestore().hash_rihs01(typename))
+
+
+def mangle(name: str) -> str:
+    """A ROS 2 name as one key chunk: every `/` becomes `%` (`liveliness_utils.cpp`, `mangle_name`)."""
+    return name.replace("/", "%")
+
+
+def qos_token(topic: Topic) -> str:
+    """The QoS chunk of an endpoint's token: only what differs from rmw_zenoh's default is written."""
+    durability = str(_TRANSIENT_LOCAL) if topic.latched else ""
+    depth = "" if topic.depth == _DEFAULT_DEPTH else str(topic.depth)
+    return f":{durability}:,{depth}:,:,:,,"
+
+
+def encode_attachment(sequence_number: int, source_timestamp_ns: int, gid: bytes) -> bytes:
+    """rmw_zenoh's attachment of one sample: int64 sequence number, int64 timestamp, GID buffer."""
+    serialized = zenoh.ext.z_serialize(
+        (zenoh.ext.Int64(sequence_number), zenoh.ext.Int64(source_timestamp_ns), bytes(gid))
+    )
+    return serialized.to_bytes()
+
+
+@dataclass(frozen=True)
+class Attachment:
+    """What rmw_zenoh attaches to a sample."""
+
+    sequence_number: int
+    source_timestamp_ns: int
+    gid: bytes
+
+
+def decode_attachment(raw: zenoh.ZBytes | bytes | None) -> Attachment | None:
+    """The attachment of a sample, or None when it is absent or not rmw_zenoh's (such samples are dropped)."""
+    if raw is None:
+        return None
+    try:
+        sequence, stamp, gid = zenoh.ext.z_deserialize(
+            tuple[zenoh.ext.Int64, zenoh.ext.Int64, bytes], zenoh.ZBytes(bytes(raw))
+        )
+    except (zenoh.ext.ZDeserializeError, ValueError, TypeError):
+        return None
+    if len(gid) != GID_SIZE:
+        return None
+    return Attachment(int(sequence), int(stamp), bytes(gid))
+
+
+def gid_of(token: str) -> bytes:
+    """An entity's GID: the XXH3-128 hash of its liveliness token, low 64 bits first (`Entity::Entity`)."""
+    digest = xxhash.xxh3_128_intdigest(token.encode())
+    return (digest & (2**64 - 1)).to_bytes(8, "little") + (digest >> 64).to_bytes(8, "little")
+
+
+class _Publisher:
+    """One topic's publisher with its liveliness token; each sample carries rmw_zenoh's attachment."""
+
+    def __init__(
+        self, entity: zenoh.Publisher | zenoh.ext.AdvancedPublisher, token: zenoh.LivelinessToken, gid: bytes
+    ) -> None:
+        self._entity, self._token, self.gid = entity, token, gid
+        self._sequence = itertools.count(1)
+        self._lock = threading.Lock()
+
+    def put(self, payload: bytes) -> None:
+        with self._lock:
+            attachment = encode_attachment(next(self._sequence), time.time_ns(), self.gid)
+            self._entity.put(payload, attachment=attachment)
+
+    def close(self) -> None:
+        self._entity.undeclare()
+        self._token.undeclare()
+
+
+class _Subscriber:
+    """One topic's subscriber with its liveliness token."""
+
+    def __init__(
+        self, entity: zenoh.Subscriber | zenoh.ext.AdvancedSubscriber, token: zenoh.LivelinessToken
+    ) -> None:
+        self._entity, self._token = entity, token
+
+    def close(self) -> None:
+        self._entity.undeclare()
+        self._token.undeclare()
+
+
+class RmwZenohWire:
+    """A ROS 2 node on a zenoh session, as rmw_zenoh_cpp would declare it: keys, attachments, tokens.
+
+    `node_name` and `namespace` name the node in the graph (`ros2 node list`); topic names are absolute.
+    The wire holds every endpoint it declares (zenoh undeclares a dropped token) until `close()`.
+    Samples without a valid attachment are dropped, as rmw_zenoh drops them, and counted in `dropped`.
+    """
+
+    def __init__(
+        self,
+        session: zenoh.Session,
+        node_name: str = "pegbt",
+        namespace: str = "/",
+        domain: int | None = None,
+        enclave: str = "/",
+    ) -> None:
+        self.session = session
+        self.domain = domain_id(domain)
+        self.node_name, self.namespace, self.enclave = node_name, namespace, enclave
+        self.zid = str(session.zid())
+        self.node_id = 0
+        self._entity_ids = itertools.count(1)
+        self.dropped = 0
+        self._endpoints: list[_Publisher | _Subscriber] = []
+        self._node_token = session.liveliness().declare_token(self._token(self.node_id, "NN"))
+
+    def _token(self, entity_id: int, kind: str, topic: Topic | None = None) -> str:
+        chunks = [
+            ADMIN_SPACE,
+            str(self.domain),
+            self.zid,
+            str(self.node_id),
+            str(entity_id),
+            kind,
+            mangle(self.enclave),
+            mangle(self.namespace),
+            mangle(self.node_name),
+        ]
+        if topic is not None:
+            chunks += [
+                mangle(topic.name),
+                dds_type_name(topic.typename),
+                type_hash(topic.typename),
+                qos_token(topic),
+            ]
+        return "/".join(chunks)
+
+    def key(self, topic: Topic) -> str:
+        """The data key of `topic` (`0/PSM1/measured_js/sensor_msgs::msg::dds_::JointState_/RIHS01_…`)."""
+        name = topic.name.strip("/")
+        return f"{self.domain}/{name}/{dds_type_name(topic.typename)}/{type_hash(topic.typename)}"
+
+    def publisher(self, topic: Topic) -> TopicPublisher:
+        token = self._token(next(self._entity_ids), "MP", topic)
+        if topic.latched:
+            entity: zenoh.Publisher | zenoh.ext.AdvancedPublisher = zenoh.ext.declare_advanced_publisher(
+                self.session,
+                self.key(topic),
+                cache=zenoh.ext.CacheConfig(max_samples=topic.depth),
+                publisher_detection=True,
+                reliability=zenoh.Reliability.RELIABLE,
+                congestion_control=zenoh.CongestionControl.BLOCK,
+            )
+        else:
+            entity = self.session.declare_publisher(self.key(topic), express=True)
+        publisher = _Publisher(entity, self.session.liveliness().declare_token(token), gid_of(token))
+        self._endpoints.append(publisher)
+        return publisher
+
+    def subscriber(self, topic: Topic, on_payload: Callable[[bytes], None]) -> TopicSubscriber:
+        token = self._token(next(self._entity_ids), "MS", topic)
+
+        def deliver(sample: zenoh.Sample) -> None:
+            if decode_attachment(sample.attachment) is None:
+                self.dropped += 1
+                return
+            on_payload(sample.payload.to_bytes())
+
+        if topic.latched:
+            entity: zenoh.Subscriber | zenoh.ext.AdvancedSubscriber = zenoh.ext.declare_advanced_subscriber(
+                self.session,
+                self.key(topic),
+                deliver,
+                history=zenoh.ext.HistoryConfig(detect_late_publishers=True, max_samples=topic.depth),
+            )
+        else:
+            entity = self.session.declare_subscriber(self.key(topic), deliver)
+        subscriber = _Subscriber(entity, self.session.liveliness().declare_token(token))
+        self._endpoints.append(subscriber)
+        return subscriber
+
+    def close(self) -> None:
+        """Withdraw the node and every endpoint it declared from the graph."""
+        for endpoint in self._endpoints:
+            endpoint.close()
+        self._endpoints.clear()
+        self._node_token.undeclare()

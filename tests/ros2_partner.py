@@ -1,0 +1,117 @@
+"""A ROS 2 node written with zenoh-ros2-sdk (ROBOTIS's rmw_zenoh client, not pegbt's code), run as a
+separate process by the rmw_zenoh tests: its session is a process-wide singleton configured from the
+environment, so each role gets a process of its own.
+
+    python ros2_partner.py MESSAGES_DIR ROUTER_PORT sub TOPIC TYPE COUNT TIMEOUT
+    python ros2_partner.py MESSAGES_DIR ROUTER_PORT pub TOPIC TYPE JSON_FIELDS RATE SECONDS
+    python ros2_partner.py MESSAGES_DIR ROUTER_PORT info TOPIC...
+
+Every result is one JSON line on standard output.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+import threading
+import time
+from typing import Any
+
+import numpy as np
+from zenoh_ros2_sdk import ROS2Publisher, ROS2Subscriber, get_message_class, get_registry
+from zenoh_ros2_sdk.discovery import get_topic_info
+
+
+def _plain(message: Any) -> Any:
+    if hasattr(message, "__dataclass_fields__") or hasattr(message, "__slots__"):
+        names = getattr(message, "__dataclass_fields__", None) or message.__slots__
+        return {name: _plain(getattr(message, name)) for name in names}
+    if hasattr(message, "tolist"):
+        return message.tolist()
+    if isinstance(message, (list, tuple)):
+        return [_plain(item) for item in message]
+    return message
+
+
+def _subscribe(port: int, topic: str, typename: str, count: int, timeout: float) -> None:
+    got: list[Any] = []
+    done = threading.Event()
+
+    def on_message(message: Any) -> None:
+        got.append(_plain(message))
+        if len(got) >= count:
+            done.set()
+
+    subscriber = ROS2Subscriber(topic, typename, on_message, router_port=port, node_name="sdk_listener")
+    print(json.dumps({"ready": True}), flush=True)
+    done.wait(timeout)
+    print(json.dumps({"messages": got}), flush=True)
+    subscriber.close()
+
+
+def _fields(values: dict[str, Any]) -> dict[str, Any]:
+    """Message fields from JSON: a stamped header of now, lists of numbers as float64 arrays."""
+    now = time.time()
+    header = get_message_class("std_msgs/msg/Header")(
+        stamp=get_message_class("builtin_interfaces/msg/Time")(sec=int(now), nanosec=int(now % 1 * 1e9)),
+        frame_id="",
+    )
+    fields: dict[str, Any] = {"header": header}
+    for name, value in values.items():
+        is_numbers = isinstance(value, list) and all(isinstance(v, (int, float)) for v in value)
+        fields[name] = np.asarray(value, dtype=np.float64) if is_numbers else value
+    return fields
+
+
+def _publish(port: int, topic: str, typename: str, fields: str, rate: float, seconds: float) -> None:
+    publisher = ROS2Publisher(topic, typename, router_port=port, node_name="sdk_talker")
+    values = json.loads(fields)
+    print(json.dumps({"ready": True}), flush=True)
+    sent = 0
+    end = time.monotonic() + seconds
+    while time.monotonic() < end:
+        publisher.publish(**_fields(values))
+        sent += 1
+        time.sleep(1.0 / rate)
+    print(json.dumps({"sent": sent}), flush=True)
+    publisher.close()
+
+
+def _info(port: int, topics: list[str]) -> None:
+    """`ros2 topic info -v` of each topic, asked again until every one is known (tokens take a moment
+    to reach a newly joined node) or 10 s pass."""
+    deadline = time.monotonic() + 10.0
+    while True:
+        infos = {
+            topic: get_topic_info(topic, router_port=port, timeout=1.0, verbose=True) for topic in topics
+        }
+        if all(infos.values()) or time.monotonic() > deadline:
+            break
+        time.sleep(0.2)
+    answer = {}
+    for topic, info in infos.items():
+        answer[topic] = (
+            None
+            if info is None
+            else {
+                "types": info.topic_types,
+                "publishers": [(e.node_name, e.topic_type, e.type_hash, e.qos) for e in info.publishers],
+                "subscribers": [(e.node_name, e.topic_type, e.type_hash, e.qos) for e in info.subscribers],
+            }
+        )
+    print(json.dumps(answer), flush=True)
+
+
+def main(argv: list[str]) -> None:
+    messages_dir, port, role, *rest = argv
+    get_registry(messages_dir)
+    if role == "sub":
+        _subscribe(int(port), rest[0], rest[1], int(rest[2]), float(rest[3]))
+    elif role == "pub":
+        _publish(int(port), rest[0], rest[1], rest[2], float(rest[3]), float(rest[4]))
+    else:
+        _info(int(port), rest)
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])
