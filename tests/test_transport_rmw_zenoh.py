@@ -139,8 +139,10 @@ def test_pegbt_receives_a_ros2_publisher_and_drops_samples_without_the_attachmen
     assert got, "nothing reached pegbt's subscriber"
     assert np.allclose(decode_joint_state(got[-1]).position, [0.5] * 6)
     with open_session(ros2_graph_settings([f"tcp/127.0.0.1:{router}"])) as stranger:
-        stranger.put(pegbt_node.key(MEASURED), encode_joint_state(0.0, np.zeros(6)))
-        time.sleep(0.5)
+        deadline = time.monotonic() + 10.0  # a new session's first puts may precede its routes
+        while pegbt_node.dropped == 0 and time.monotonic() < deadline:
+            stranger.put(pegbt_node.key(MEASURED), encode_joint_state(0.0, np.zeros(6)))
+            time.sleep(0.05)
     assert pegbt_node.dropped >= 1
     assert all(np.allclose(decode_joint_state(p).position, 0.5) for p in got)
 
