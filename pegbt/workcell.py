@@ -242,7 +242,7 @@ def load_workcell(path: Path | str = WORKCELL_FILE) -> Workcell:
     root = read_settings_file(path)
     root.mapping(SECTIONS)
     board, pegs_section, block_section = root["board"], root["pegs"], root["block"]
-    board.mapping(("surface_z", "extent_x", "extent_y", "thickness"))
+    board.mapping(("resting_block_top_z", "extent_x", "extent_y", "thickness"))
     pegs_section.mapping(("diameter", "top_z", "positions", "left_group"))
     pegs = Pegs(
         positions=pegs_section["positions"].array((N_PEGS, 2)),
@@ -309,7 +309,7 @@ def load_workcell(path: Path | str = WORKCELL_FILE) -> Workcell:
     return Workcell(
         source=path,
         board=Board(
-            surface_z=board["surface_z"].number(),
+            surface_z=board["resting_block_top_z"].number() + block.height,
             extent_x=_extent(board, "extent_x"),
             extent_y=_extent(board, "extent_y"),
             thickness=board["thickness"].number(positive=True),

@@ -9,6 +9,7 @@ from pegbt.sim.camera import DepthCamera
 from pegbt.sim.faults import CameraFaults, NoiseBurst
 from pegbt.sim.scripted import Driver, grasp_candidate_facing, grasp_keyframes, parked, transfer_keyframes
 from pegbt.sim.world import World
+from pegbt.workcell import N_PEGS
 from pegbt.yamlfile import parse_yaml
 
 
@@ -29,7 +30,7 @@ def test_a_capture_shows_all_12_pegs_and_6_blocks_where_the_world_has_them(world
     assert cloud.dtype == np.float32 and cloud.ndim == 2 and cloud.shape[1] == 3
     assert 0.4 < np.median(cloud[:, 2]) < 0.7  # camera frame: depth along z, about half a metre
     points = in_board(world.cell, cloud)
-    for peg in range(12):
+    for peg in range(N_PEGS):
         assert np.sum(np.linalg.norm(points - world.cell.pegs.top(peg), axis=1) < 0.002) >= 30, peg
     for block in world.blocks:
         assert len(block_points(world.cell, points, block.pose)) >= 1000, block.index

@@ -11,9 +11,9 @@ from pegbt.frames import yaw_of, yaw_pose
 from pegbt.motion.settings import motion_settings
 from pegbt.perception.blocks import block_on_peg, locate_blocks, stack_level, wrap_symmetric
 from pegbt.perception.board import PegboardRegistration
+from pegbt.perception.settings import perception_settings
 from pegbt.sim.camera import DepthCamera
 from pegbt.sim.faults import CameraFaults, NoiseBurst
-from pegbt.perception.segment import SegmentSettings
 from pegbt.sim.scripted import (
     Driver,
     Keyframe,
@@ -158,7 +158,7 @@ def test_blocks_touching_across_neighbouring_pegs_are_told_apart(board):
         block.pose[:2, :2] @ world.cell.block.outline.T + block.pose[:2, 3:] for block in world.blocks[0:3:2]
     ]
     gap = np.linalg.norm(corners[0].T[:, None] - corners[1].T[None], axis=2).min()
-    assert gap < SegmentSettings().cluster_distance  # one cluster to DBSCAN: only the split can separate them
+    assert gap < perception_settings().block.segment.cluster_distance  # one cluster to DBSCAN: only the split can separate them
 
     estimates = locate_blocks(DepthCamera(seed=0).capture(world), board)
 

@@ -25,6 +25,7 @@ from pegbt.sim.truth import ask_truth
 from pegbt.sim.world import World
 from pegbt.transport import ArmClient, CameraClient, SimClock, codec, connect, endpoint_settings, open_session
 from pegbt.transport.keys import SimKeys
+from pegbt.workcell import N_PEGS
 
 TICK = 0.01
 SPEED = 0.05
@@ -118,7 +119,7 @@ def test_a_capture_over_zenoh_shows_the_12_pegs_and_6_blocks_where_the_truth_has
     cell = World(SEED).cell
     assert cloud.dtype == np.float32 and cloud.shape[1] == 3 and len(cloud) > 50_000
     points = in_board(cell, cloud)
-    for peg in range(12):
+    for peg in range(N_PEGS):
         assert np.sum(np.linalg.norm(points - cell.pegs.top(peg), axis=1) < 0.002) >= 30, peg
     for block in truth.blocks:
         assert len(block_points(cell, points, np.array(block["pose"]))) >= 1000, block["block"]

@@ -7,12 +7,13 @@ import pytest
 
 from pegbt.errors import PegbtError
 from pegbt.motion.handover import handover_meeting_point
-from pegbt.workcell import WORKCELL_FILE, load_workcell, workcell
+from pegbt.motion.settings import motion_settings
+from pegbt.workcell import N_PEGS, WORKCELL_FILE, load_workcell, workcell
 
 
 def test_peg_tops_sit_about_148_mm_below_psm1():
     cell = workcell()
-    tops = np.column_stack([cell.pegs.tops, np.ones(12)]) @ cell.board_to_arm("PSM1").T
+    tops = np.column_stack([cell.pegs.tops, np.ones(N_PEGS)]) @ cell.board_to_arm("PSM1").T
     assert np.allclose(tops[:, 2], -0.148, atol=0.003)
 
 
@@ -60,9 +61,16 @@ def test_camera_looks_at_the_board_from_about_half_a_metre():
     assert np.allclose(camera.camera_from_board @ T, np.eye(4), atol=1e-12)
 
 
-def test_handover_point_is_between_the_groups():
-    x, y, _ = handover_meeting_point(workcell())
-    assert 0.044 < x < 0.062 and y == pytest.approx((0.0318 + 0.0211 + 0.0428) / 3 - 0.010)
+def test_handover_point_is_between_the_groups_offset_from_its_pegs():
+    cell = workcell()
+    x, y, _ = handover_meeting_point(cell)
+    left, right = (
+        cell.pegs.positions[list(cell.pegs.left_group)],
+        np.delete(cell.pegs.positions, list(cell.pegs.left_group), axis=0),
+    )
+    assert left[:, 0].max() < x < right[:, 0].min()
+    centre = cell.pegs.positions[list(cell.handover_pegs)].mean(axis=0)
+    assert y == pytest.approx(centre[1] + motion_settings().handover.meeting_offset_board_y)
 
 
 def _broken(tmp_path: Path, old: str, new: str) -> Path:

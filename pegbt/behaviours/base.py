@@ -34,6 +34,7 @@ from pegbt.executive.params import Param
 from pegbt.motion.trajectory import Trajectory
 from pegbt.psm import ARMS
 from pegbt.transport import ArmClient, EndpointSilent, MotionHandle
+from pegbt.workcell import N_PEGS
 
 log = logging.getLogger("pegbt.behaviours")
 RESOURCES = ("robot", "skills")
@@ -51,7 +52,7 @@ def arm_param(doc: str = "which arm", *, blackboard: bool = False) -> Param:
 
 
 def peg_param(name: str, doc: str) -> Param:
-    return Param(name, int, doc, choices=tuple(range(12)), blackboard=True)
+    return Param(name, int, doc, choices=tuple(range(N_PEGS)), blackboard=True)
 
 
 def keep_apart_param(default: float | None = None) -> Param:

@@ -30,6 +30,7 @@ from pegbt.motion.kinematics import forward_kinematics
 from pegbt.perception.blocks import BlockEstimate, block_on_peg, stack_level
 from pegbt.perception.grasp import Grasp
 from pegbt.psm import ARMS
+from pegbt.workcell import N_PEGS
 
 SAME_BLOCK = (
     0.005  # m: a block seen this near where the last pick chose one is that block (a miss may nudge it)
@@ -56,7 +57,7 @@ SAME_BLOCK = (
             list[int],
             "with `dropped`: pegs a lost block may have fallen onto and no block belongs on yet "
             "(the peg under the handover's meeting point); a block there is taken if none lies on the board",
-            choices=tuple(range(12)),
+            choices=tuple(range(N_PEGS)),
             default=[],
         ),
         Param(

@@ -9,6 +9,7 @@ from pegbt.behaviours.base import RESOURCES, MotionLeaf, RobotLeaf, arm_param, k
 from pegbt.executive.params import Param
 from pegbt.executive.registry import behaviour
 from pegbt.perception.blocks import block_on_peg
+from pegbt.workcell import N_PEGS
 
 
 @behaviour(
@@ -32,7 +33,9 @@ class Release(MotionLeaf):
     "check_placed",
     "succeed if the latest `/blocks` shows a trustworthy block on every peg in `pegs`",
     params=(
-        Param("pegs", list[int], "pegs that should each hold a block", choices=tuple(range(12)), minimum=1),
+        Param(
+            "pegs", list[int], "pegs that should each hold a block", choices=tuple(range(N_PEGS)), minimum=1
+        ),
     ),
     reads=("/blocks",),
     resources=RESOURCES,

@@ -25,18 +25,25 @@ SIGNED = {"meeting_offset_board_y", "jaw_closed"}  # settings that may be zero o
 class TransferSettings:
     """Where the tip goes relative to the pegs, along the peg axis (m), and the jaw angles (rad).
 
-    `block_top_below_peg_top` and `grasp_depth` come from the work cell's block."""
+    `block_top_below_peg_top`, `grasp_depth` and `block_below_tip` come from the work cell's block."""
 
     block_top_below_peg_top: float
     grasp_depth: float
+    block_below_tip: float
     approach_above_block: float
     transfer_height_above_peg_top: float
     drop_height_above_peg_top: float
-    channel_clear_above_peg_top: float
+    channel_margin: float
     channel_tolerance: float
     upright_tilt: float
     jaw_open: float
     jaw_closed: float
+
+    @property
+    def channel_clear_above_peg_top(self) -> float:
+        """The block is on the peg while the tip is lower than this above the peg top (its bottom hangs
+        `block_below_tip` under the tip), and the tip must then stay on the peg axis."""
+        return self.block_below_tip + self.channel_margin
 
 
 @dataclass(frozen=True)
@@ -105,7 +112,11 @@ def motion_settings(path: Path = MOTION_SETTINGS, workcell_file: Path = WORKCELL
     document = read_settings_file(path)
     document.mapping(("transfer", "sqp", "handover", "two_arms"))
     cell = workcell(workcell_file)
-    block = {"block_top_below_peg_top": cell.block_top_below_peg_top, "grasp_depth": cell.block.grasp_depth}
+    block = {
+        "block_top_below_peg_top": cell.block_top_below_peg_top,
+        "grasp_depth": cell.block.grasp_depth,
+        "block_below_tip": cell.block.height - cell.block.grasp_depth,
+    }
     return MotionSettings(
         transfer=_section(document, "transfer", TransferSettings, block),
         sqp=_section(document, "sqp", SqpSettings),

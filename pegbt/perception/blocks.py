@@ -12,7 +12,7 @@ is reported as a failure with its reason, never passed on as a pose.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
@@ -24,36 +24,13 @@ from pegbt.frames import invert_rigid, yaw_of, yaw_pose
 from pegbt.perception.board import BoardEstimate
 from pegbt.perception.cloud import Points, to_open3d
 from pegbt.perception.models import block_model
-from pegbt.perception.segment import SegmentSettings, block_segments, clusters, split_by_nearest_peg
+from pegbt.perception.segment import block_segments, clusters, split_by_nearest_peg
+from pegbt.perception.settings import BlockSettings, perception_settings
 from pegbt.workcell import Workcell, workcell
 
 _registration = o3d.pipelines.registration
 SYMMETRY = 2 * math.pi / 3  # the block looks the same turned by 120°
 RESTART_YAWS = tuple(math.radians(turn) for turn in (0.0, 30.0, 60.0, 90.0))  # within the 120° symmetry
-
-
-@dataclass(frozen=True)
-class BlockSettings:
-    """Tunables of block registration (metres, radians)."""
-
-    model_points: int = 4000
-    distances: tuple[float, ...] = (0.004, 0.002, 0.001, 0.0005)
-    max_iterations: int = 30
-    quality_distance: float = 0.001  # fitness and RMSE are measured with this correspondence distance
-    min_fitness: float = 0.85
-    max_points: int = 2500  # a whole block shows about 1000–1300 points at the segmentation's grid
-    max_rmse: float = 0.0005
-    max_tilt: float = math.radians(8.0)  # blocks lie flat, on a peg or on the board
-    top_face_depth: float = 0.001  # points this close to the highest belong to the top face
-    on_peg_tolerance: float = 0.0005  # beyond the hole's clearance around a peg
-    surrounded_points: int = (
-        50  # a touching cluster with this many points around a peg's axis has a block on it
-    )
-    part_distance: float = (
-        0.0015  # points this near a fitted block belong to it (taking touching blocks apart)
-    )
-    stack_height: float = 1.5  # a segment this many block heights tall is a block on top of another
-    segment: SegmentSettings = field(default_factory=SegmentSettings)
 
 
 @dataclass(frozen=True)
@@ -83,10 +60,10 @@ class BlockEstimate:
 class BlockLocator:
     """Finds blocks in captures; holds the sampled block model so it is built once."""
 
-    def __init__(self, cell: Workcell | None = None, settings: BlockSettings = BlockSettings()) -> None:
+    def __init__(self, cell: Workcell | None = None, settings: BlockSettings | None = None) -> None:
         self.cell = cell or workcell()
-        self.settings = settings
-        self._model = block_model(self.cell, settings.model_points)
+        self.settings = settings or perception_settings().block
+        self._model = block_model(self.cell, self.settings.model_points)
 
     def locate(self, cloud: ArrayLike, board: BoardEstimate) -> list[BlockEstimate]:
         """Every block in a camera-frame capture (N, 3, metres), given the registered board.

@@ -19,31 +19,10 @@ from numpy.typing import ArrayLike, NDArray
 
 from pegbt.perception.cloud import Points, checked_points, to_open3d, transform_points
 from pegbt.perception.models import board_model
+from pegbt.perception.settings import BoardSettings, perception_settings
 from pegbt.workcell import Workcell, workcell
 
 _registration = o3d.t.pipelines.registration
-
-
-@dataclass(frozen=True)
-class BoardSettings:
-    """Tunables of the board registration (metres)."""
-
-    model_points: int = 30000
-    voxels: tuple[float, ...] = (0.005, 0.003, 0.002)  # the capture is thinned to these, coarse to fine,
-    distances: tuple[float, ...] = (0.015, 0.004, 0.001)  # and matched within these distances
-    outlier_radius: float = (
-        0.005  # a thinned point with fewer neighbours than this within this radius is wild
-    )
-    outlier_neighbours: int = 4
-    min_points: int = 500  # a view of the board leaves about 7000 after thinning
-    tukey_k: float = 0.003  # robust kernel width: blocks and noise beyond it barely pull
-    max_iterations: int = 30
-    quality_distance: float = 0.001  # fitness and RMSE are measured with this correspondence distance
-    min_fitness: float = 0.6  # blocks (not in the model) cover about a sixth of a good fit's points
-    peg_band_margin: float = 0.0012  # the band stops this far below peg tops and above block tops
-    peg_search_radius: float = 0.003  # band points this near a peg's axis belong to it
-    min_peg_points: int = 20
-    max_peg_offset: float = 0.001  # a peg found farther than this from the registered model is a failure
 
 
 @dataclass(frozen=True)
@@ -75,17 +54,19 @@ class PegboardRegistration:
         self,
         cell: Workcell | None = None,
         nominal_board_from_camera: ArrayLike | None = None,
-        settings: BoardSettings = BoardSettings(),
+        settings: BoardSettings | None = None,
     ) -> None:
         self.cell = cell or workcell()
-        self.settings = settings
+        self.settings = settings or perception_settings().board
         nominal = (
             self.cell.camera.board_from_camera
             if nominal_board_from_camera is None
             else nominal_board_from_camera
         )
         self.nominal_board_from_camera = np.array(nominal, dtype=np.float64)
-        self._model = o3d.t.geometry.PointCloud.from_legacy(board_model(self.cell, settings.model_points))
+        self._model = o3d.t.geometry.PointCloud.from_legacy(
+            board_model(self.cell, self.settings.model_points)
+        )
 
     def fit(self, cloud: ArrayLike) -> BoardEstimate:
         """Register the board in a camera-frame capture (N, 3, metres) and find its pegs."""

@@ -14,20 +14,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from pegbt.perception.cloud import Points, to_open3d
+from pegbt.perception.settings import SegmentSettings
 from pegbt.workcell import Workcell
-
-
-@dataclass(frozen=True)
-class SegmentSettings:
-    """Tunables of the segmentation (metres)."""
-
-    plane_margin: float = 0.0012  # points this far above the board still count as board (4σ of the noise)
-    max_height: float = 0.045  # points higher above the board than this (three blocks) are not blocks
-    voxel: float = 0.0007  # the raised points are thinned to this grid before clustering
-    cluster_distance: float = 0.0015  # DBSCAN's neighbourhood radius
-    cluster_min_points: int = 8  # DBSCAN's core-point neighbourhood size
-    min_points: int = 150  # a smaller cluster is not a block (a whole one has about 1000 at 0.7 mm)
-    wide_margin: float = 0.002  # a cluster this much wider than a block holds more than one
 
 
 @dataclass(frozen=True)
@@ -48,7 +36,8 @@ def block_segments(
     """
     surface, block = cell.board.surface_z, cell.block
     z = board_points[:, 2]
-    raised = board_points[(z < surface - settings.plane_margin) & (z > surface - settings.max_height)]
+    highest = settings.max_stack * block.height + settings.plane_margin
+    raised = board_points[(z < surface - settings.plane_margin) & (z > surface - highest)]
     peg_distance = np.linalg.norm(raised[:, None, :2] - peg_xy[None], axis=2)
     off_pegs = peg_distance.min(axis=1) > (cell.pegs.radius + block.hole_radius) / 2
     points = np.asarray(to_open3d(raised[off_pegs]).voxel_down_sample(settings.voxel).points)
