@@ -5,9 +5,14 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from pegbt.errors import PegbtError
 from pegbt.executive.providers import RUN_OPTIONS
+from pegbt.monitor.cli import add_port_option
+
+if TYPE_CHECKING:
+    from pegbt.monitor.live import LiveMonitor
 from pegbt.numbers import NumberOption
 
 
@@ -55,7 +60,11 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
         "others as registered in pegbt/executive/providers.py; a resource that is a time source "
         "(a simulator in lockstep) supplies its own",
     )
-    run.add_argument("--quiet", action="store_true", help="no progress lines")
+    run.add_argument("--quiet", action="store_true", help="no progress bar, no progress lines")
+    run.add_argument(
+        "--verbose", action="store_true", help="a line for every leaf that finishes, not only failures"
+    )
+    add_port_option(run, "--monitor", default=None)
     for option in RUN_OPTIONS.values():
         run.add_argument(
             f"--{option.name}",
@@ -148,15 +157,24 @@ def _run(args: argparse.Namespace) -> int:
 
     options = {name: getattr(args, f"option_{name}") for name in RUN_OPTIONS}
     log_path = Path(args.log) if args.log else default_log_path(args.tree)
-    output = run_tree_file(
-        args.tree,
-        log_path,
-        options=options,
-        clock=args.clock,
-        period=args.period,
-        timeout=args.timeout,
-        quiet=args.quiet,
-    )
+    monitor = _start_monitor(args.monitor, log_path) if args.monitor is not None else None
+    try:
+        output = run_tree_file(
+            args.tree,
+            log_path,
+            options=options,
+            clock=args.clock,
+            period=args.period,
+            timeout=args.timeout,
+            quiet=args.quiet,
+            verbose=args.verbose,
+            watch=monitor.watch if monitor else None,
+        )
+    except BaseException:
+        if monitor:
+            monitor.close()
+            monitor.server.stop()
+        raise
     reports = list(output.reports.values())
     if reports:  # a resource that judges the run says more than the per-node table
         print(
@@ -167,7 +185,22 @@ def _run(args: argparse.Namespace) -> int:
     else:
         print(result_table(read_tick_log(log_path)))
     print(f"tick log: {log_path}")
+    if monitor:
+        from pegbt.monitor.cli import serve_until_interrupted
+
+        monitor.close()
+        serve_until_interrupted(monitor.server, "the run has ended; its page is still")
+        monitor.server.stop()
     return 0 if output.ok else 1
+
+
+def _start_monitor(port: int, log_path: Path) -> LiveMonitor:
+    from pegbt.monitor.live import LiveMonitor
+    from pegbt.monitor.server import MonitorServer
+
+    server = MonitorServer(int(port)).start()
+    print(f"monitor: {server.url}", flush=True)
+    return LiveMonitor(server, log_path)
 
 
 def _log_summary(args: argparse.Namespace) -> int:
