@@ -116,7 +116,7 @@ class WorldSampler:
             board_from_camera = self.cell.camera.board_from_camera
         points = np.asarray(points, dtype=float).reshape(-1, 3)
         step = max(1, len(points) // CLOUD_POINTS)
-        return _rounded(apply_rigid(board_from_camera, points[::step]), 4).ravel().tolist()
+        return np.round(apply_rigid(board_from_camera, points[::step]), 4).ravel().tolist()
 
     def _ask_truth(self) -> list[dict[str, Any]] | None:
         try:

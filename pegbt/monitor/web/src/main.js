@@ -147,6 +147,7 @@ function frame() {
   if (!state.header) return;
   if (mode === "live" || following) showTick(state.lastTick);
   else showTick(shownTick);
+  if (monitor.loadedAt === null) monitor.loadedAt = performance.now(); // ms since navigation began
 }
 
 function connect() {
@@ -179,5 +180,6 @@ $("first-failure").onclick = () => {
 };
 $("first-cause").onclick = () => { if (causes && causes.first) { timeline.seek(causes.first.n); tree.reveal(causes.first.node); } };
 
-window.pegbtMonitor = { state, tree, showTick, get shownTick() { return shownTick; } };
+const monitor = { state, tree, showTick, loadedAt: null, get shownTick() { return shownTick; } };
+window.pegbtMonitor = monitor; // for the browser tests and the console
 connect();

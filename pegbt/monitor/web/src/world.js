@@ -77,7 +77,7 @@ export class WorldView {
     );
     this.frame.add(this.believed, this.truth, this.tools, this.cloud);
     const centre = new THREE.Vector3((board.x[0] + board.x[1]) / 2, -(board.y[0] + board.y[1]) / 2, -board.z);
-    this.camera.position.set(centre.x + 0.05, centre.y - 0.28, centre.z + 0.22);
+    this.camera.position.set(centre.x + 0.05, centre.y - 0.16, centre.z + 0.13);
     this.controls.target.copy(centre);
     this.controls.update();
     this.ready = true;
