@@ -100,6 +100,12 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
         help="seconds since the start (executive clock)",
     )
     replay.set_defaults(handler=_log_replay)
+    plot = log_commands.add_parser(
+        "plot", help="draw the run's timeline: each arm's activity, transfers, failures, recoveries"
+    )
+    plot.add_argument("log", metavar="LOG")
+    plot.add_argument("--out", metavar="FILE", help="the figure to write (PNG, SVG, PDF; default LOG.png)")
+    plot.set_defaults(handler=_log_plot)
     export = log_commands.add_parser(
         "export", help="convert a tick log to Groot2's .btlog (BehaviorTree.CPP FileLogger2)"
     )
@@ -224,6 +230,19 @@ def _log_replay(args: argparse.Namespace) -> int:
     from pegbt.executive.logfile import read_tick_log
 
     print(replay(read_tick_log(args.log), tick=args.tick, time=args.time))
+    return 0
+
+
+def _log_plot(args: argparse.Namespace) -> int:
+    from pegbt.executive.logfile import read_tick_log
+    from pegbt.executive.logplot import plot_timeline
+
+    out = Path(args.out) if args.out else Path(args.log).with_suffix(".png")
+    try:
+        plot_timeline(read_tick_log(args.log), out)
+    except OSError as error:
+        raise PegbtError(f"cannot write the figure: {error.strerror}", file=out, field="--out") from None
+    print(f"wrote {out}")
     return 0
 
 
