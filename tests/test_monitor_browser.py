@@ -133,7 +133,7 @@ def test_live_page_shows_the_tick_count_and_the_running_node_change(tmp_path, pe
         assert len(running) >= 2 and all(re.fullmatch(r"/waits/wait \d.*", item) for item in running), running
     finally:
         process.send_signal(signal.SIGINT)  # the page stays up after the run until Ctrl-C
-        out, err = process.communicate(timeout=60)
+        _, err = process.communicate(timeout=60)
     assert process.returncode == 0, err
     assert "Traceback" not in err
 
@@ -197,7 +197,9 @@ def test_folding_subtrees_and_search(tmp_path, page, capsys):
         page.fill("#search", "settle")
         page.press("#search", "Enter")
         assert page.text_content("#search-count") == "1 of 3"  # two "let the scene settle" and "settle"
-        assert page.query_selector("#tree .row.selected .name").text_content() == "let the scene settle"  # unfolded
+        assert (
+            page.query_selector("#tree .row.selected .name").text_content() == "let the scene settle"
+        )  # unfolded
     finally:
         server.stop()
 
@@ -205,7 +207,7 @@ def test_folding_subtrees_and_search(tmp_path, page, capsys):
 def big_tree(leaves_per_branch: int, branches: int) -> str:
     lines = ["tree:", "  sequence:", "    name: big", "    children:"]
     for branch in range(branches):
-        lines += [f"      - selector:", f"          name: branch {branch}", "          children:"]
+        lines += ["      - selector:", f"          name: branch {branch}", "          children:"]
         lines += [
             f"            - check_blackboard: {{name: check {branch}.{leaf}, key: flag, value: {leaf}}}"
             for leaf in range(leaves_per_branch)

@@ -71,8 +71,9 @@ def transfers(log: TickLog) -> list[dict]:
     return [found[index] for index in sorted(found)]
 
 
-def plot_timeline(log: TickLog, out: Path) -> Path:
-    """Draw the run's timeline (see the module docstring) to `out` (PNG, SVG or PDF by its suffix)."""
+def plot_timeline(log: TickLog, out: Path, faults: list[dict] = ()) -> Path:
+    """Draw the run's timeline (see the module docstring) to `out` (PNG, SVG or PDF by its suffix); `faults`
+    (run time `t`, `detail`) are those the simulator injected, when known."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -111,6 +112,15 @@ def plot_timeline(log: TickLog, out: Path) -> Path:
             fontsize=7,
         )
     _trouble(log, axis, y["trouble"])
+    if faults:
+        axis.scatter(
+            [fault["t"] for fault in faults],
+            [y["trouble"] + 0.3] * len(faults),
+            marker="v",
+            s=60,
+            color="tab:purple",
+            label="fault injected (simulator)",
+        )
     axis.set_yticks(list(y.values()), list(y.keys()))
     axis.set_xlabel("run time (s, executive clock)")
     axis.set_xlim(0, max(log.last_t, 1e-3))

@@ -57,7 +57,9 @@ class ProgressPrinter:
 def tick_bar(stream: IO[str] | None = None) -> Callable[[dict[str, Any]], None]:
     """A tick-log listener showing the tick count and the run's clock while the tree runs (on a terminal)."""
     console = Console(file=stream or sys.stdout)
-    progress = Progress(SpinnerColumn(), TextColumn("{task.description}"), TimeElapsedColumn(), console=console)
+    progress = Progress(
+        SpinnerColumn(), TextColumn("{task.description}"), TimeElapsedColumn(), console=console
+    )
     task = progress.add_task("tick 0", total=None)
 
     def listen(record: dict[str, Any]) -> None:

@@ -6,7 +6,8 @@ run's tick log and, at most every `period` seconds of run time and whenever perc
 each arm's tool as segments from its published joints (`measured_js`, forward kinematics through
 `pegbt.motion.handover.tool_segments`), the last cloud from the blackboard (camera to board through the
 registered board, thinned to `CLOUD_POINTS`), the blocks as perception believes them (`/blocks`) and, when
-the robot is the simulator, its ground truth (`sim/truth`), labelled as such by the page. Samples go to
+the robot is the simulator, its ground truth (`sim/truth`: the blocks, labelled as such by the page, and
+the faults it injected, which `pegbt log plot` marks). Samples go to
 the page and to a sidecar next to the tick log (`world_log_path`), so that a replay shows them too.
 """
 
@@ -48,7 +49,11 @@ def scene(cell: Workcell | None = None) -> dict[str, Any]:
             "z": cell.board.surface_z,
             "thickness": cell.board.thickness,
         },
-        "pegs": {"tops": _rounded(cell.pegs.tops), "radius": cell.pegs.radius, "base_z": cell.board.surface_z},
+        "pegs": {
+            "tops": _rounded(cell.pegs.tops),
+            "radius": cell.pegs.radius,
+            "base_z": cell.board.surface_z,
+        },
         "block": {"outline": _rounded(cell.block.outline), "height": cell.block.height},
         "arms": {arm: _rounded(cell.remote_centre(arm)) for arm in cell.arm_from_board},
     }
@@ -76,6 +81,7 @@ class WorldSampler:
         self._last_t = -np.inf
         self._last_truth_t = -np.inf
         self._truth: list[dict[str, Any]] | None = None
+        self._next_entry = 0  # the simulator's log index to ask from
 
     def __call__(self, record: dict[str, Any]) -> None:
         if record["type"] not in ("tick", "halt", "end"):
@@ -93,7 +99,9 @@ class WorldSampler:
             sample["blocks"] = believed_blocks(storage.get("/blocks"))
         if self.robot.truth is not None and (t - self._last_truth_t >= TRUTH_PERIOD or perceived):
             self._last_truth_t = t
-            sample["truth"] = self._ask_truth()
+            sample["truth"], faults = self._ask_truth(t)
+            if faults:
+                sample["faults"] = faults
         for sink in self.sinks:
             sink(sample)
 
@@ -118,16 +126,24 @@ class WorldSampler:
         step = max(1, len(points) // CLOUD_POINTS)
         return np.round(apply_rigid(board_from_camera, points[::step]), 4).ravel().tolist()
 
-    def _ask_truth(self) -> list[dict[str, Any]] | None:
+    def _ask_truth(self, t: float) -> tuple[list[dict[str, Any]] | None, list[dict[str, Any]]]:
+        """The simulator's blocks now, and the faults it injected since the last question (run time, detail)."""
         try:
-            truth = ask_truth(self.robot.link, since=10**9, timeout=1.0)
+            truth = ask_truth(self.robot.link, since=self._next_entry, timeout=1.0)
         except PegbtError:
-            return self._truth
+            return self._truth, []
+        self._next_entry = truth.next
         self._truth = [
             {"block": block.get("block"), "state": block.get("state"), "pose": _rounded(block["pose"])}
             for block in truth.blocks
         ]
-        return self._truth
+        offset = t - truth.time  # simulator seconds to run seconds (the tick started at t)
+        faults = [
+            {"t": round(entry["time"] + offset, 4), "detail": str(entry.get("detail", ""))}
+            for entry in truth.log
+            if entry.get("kind") == "fault"
+        ]
+        return self._truth, faults
 
 
 def believed_blocks(blocks: Any) -> list[dict[str, Any]]:
