@@ -25,7 +25,9 @@ def test_run_prints_failures_and_recoveries_and_every_leaf_only_when_verbose(tmp
     log = tmp_path / "example.jsonl"
     assert main(["run", str(EXAMPLE), "--clock", "manual", "--log", str(log)]) == 0
     quiet = capsys.readouterr().out
-    assert "FAILURE  /example/both arms/transfer PSM1/transfer with PSM1/pick, re-sense on failure/pick" in quiet
+    assert (
+        "FAILURE  /example/both arms/transfer PSM1/transfer with PSM1/pick, re-sense on failure/pick" in quiet
+    )
     assert "RECOVER  /example/both arms/transfer PSM1/transfer with PSM1/pick, re-sense on failure\n" in quiet
     assert "SUCCESS  /example/start" not in quiet
     assert main(["run", str(EXAMPLE), "--clock", "manual", "--log", str(log), "--verbose"]) == 0
