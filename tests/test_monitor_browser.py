@@ -114,7 +114,7 @@ def test_live_page_shows_the_tick_count_and_the_running_node_change(tmp_path, pe
     tree = tmp_path / "waits.yaml"
     tree.write_text(
         "tree:\n  sequence:\n    name: waits\n    children:\n"
-        + "".join(f"      - wait: {{name: wait {i}, seconds: 0.6}}\n" for i in range(1, 6))
+        + "".join(f"      - wait: {{name: wait {i}, seconds: {2.0 if i == 1 else 0.6}}}\n" for i in range(1, 7))
     )
     port = free_port()
     process = pegbt_cli.start("run", tree, "--monitor", port, "--log", tmp_path / "waits.jsonl")
@@ -227,3 +227,20 @@ def test_a_2000_node_tree_loads_in_under_2_s(tmp_path, page, capsys):
         assert len(page.query_selector_all("#tree .row")) < 200  # only the rows in view are in the document
     finally:
         server.stop()
+
+
+def test_bad_input_to_the_monitor_is_one_line_naming_what(tmp_path, capsys):
+    assert main(["monitor", str(tmp_path / "missing.jsonl")]) == 2
+    assert "tick log not found" in capsys.readouterr().err
+    corrupt = tmp_path / "corrupt.jsonl"
+    corrupt.write_text('{"type": "header"}\n')
+    assert main(["monitor", str(corrupt)]) == 2
+    assert f"{corrupt}:1" in capsys.readouterr().err
+    busy = MonitorServer(free_port()).start()
+    try:
+        assert main(["run", str(EXAMPLE), "--clock", "manual", "--monitor", str(busy.port)]) == 2
+        assert f"cannot serve the monitor on port {busy.port}" in capsys.readouterr().err
+    finally:
+        busy.stop()
+    assert main(["monitor", str(corrupt), "--port", "0"]) == 2
+    assert "--port" in capsys.readouterr().err

@@ -10,6 +10,7 @@ gave up on and the run's first cause, as `pegbt log why` names them (`pegbt.exec
 from __future__ import annotations
 
 import re
+from collections.abc import Sequence
 from pathlib import Path
 
 from pegbt.executive.causes import CONTROL_FLOW, Timeline, failure_chains
@@ -71,7 +72,7 @@ def transfers(log: TickLog) -> list[dict]:
     return [found[index] for index in sorted(found)]
 
 
-def plot_timeline(log: TickLog, out: Path, faults: list[dict] = ()) -> Path:
+def plot_timeline(log: TickLog, out: Path, faults: Sequence[dict] = ()) -> Path:
     """Draw the run's timeline (see the module docstring) to `out` (PNG, SVG or PDF by its suffix); `faults`
     (run time `t`, `detail`) are those the simulator injected, when known."""
     import matplotlib

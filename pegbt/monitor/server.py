@@ -69,7 +69,8 @@ class MonitorServer:
         app = web.Application()
         app.router.add_get("/", self._page)
         app.router.add_get("/ws", self._socket)
-        app.router.add_static("/static/", WEB_DIR, follow_symlinks=False)
+        app.router.add_get("/static/monitor.css", self._stylesheet)
+        app.router.add_static("/static/dist/", BUNDLE.parent, follow_symlinks=False)
         self._runner = web.AppRunner(app, access_log=None)
         try:
             self._loop.run_until_complete(self._runner.setup())
@@ -92,6 +93,9 @@ class MonitorServer:
 
     async def _page(self, request: web.Request) -> web.FileResponse:
         return web.FileResponse(WEB_DIR / "index.html")
+
+    async def _stylesheet(self, request: web.Request) -> web.FileResponse:
+        return web.FileResponse(WEB_DIR / "monitor.css")
 
     async def _socket(self, request: web.Request) -> web.WebSocketResponse:
         socket = web.WebSocketResponse(heartbeat=30, max_msg_size=0)
