@@ -114,7 +114,9 @@ def test_live_page_shows_the_tick_count_and_the_running_node_change(tmp_path, pe
     tree = tmp_path / "waits.yaml"
     tree.write_text(
         "tree:\n  sequence:\n    name: waits\n    children:\n"
-        + "".join(f"      - wait: {{name: wait {i}, seconds: {2.0 if i == 1 else 0.6}}}\n" for i in range(1, 7))
+        + "".join(
+            f"      - wait: {{name: wait {i}, seconds: {2.0 if i == 1 else 0.6}}}\n" for i in range(1, 7)
+        )
     )
     port = free_port()
     process = pegbt_cli.start("run", tree, "--monitor", port, "--log", tmp_path / "waits.jsonl")
@@ -244,3 +246,26 @@ def test_bad_input_to_the_monitor_is_one_line_naming_what(tmp_path, capsys):
         busy.stop()
     assert main(["monitor", str(corrupt), "--port", "0"]) == 2
     assert "--port" in capsys.readouterr().err
+
+
+def test_jumping_to_a_time_and_playing(tmp_path, page, capsys):
+    log = run_log(tmp_path, None, "example", capsys)
+    assert main(["log", "replay", str(log), "--time", "0.1"]) == 0
+    expected_tick = int(re.match(r"after tick (\d+) of", capsys.readouterr().out).group(1))
+    server = serve_replay(log)
+    try:
+        page.goto(server.url)
+        page.wait_for_function("window.pegbtMonitor.loadedAt !== null")
+        page.fill("#time-input", "0.1")
+        page.press("#time-input", "Enter")
+        assert page.evaluate("window.pegbtMonitor.shownTick") == expected_tick
+        page.fill("#tick-input", "0")
+        page.press("#tick-input", "Enter")
+        page.select_option("#speed", "1")
+        page.click("#play")
+        page.wait_for_function("window.pegbtMonitor.shownTick > 0")
+        last = page.evaluate("window.pegbtMonitor.state.lastTick")
+        page.wait_for_function(f"window.pegbtMonitor.shownTick === {last}", timeout=30_000)
+        assert page.text_content("#play") == "▶"  # stopped at the end
+    finally:
+        server.stop()
