@@ -47,7 +47,7 @@ def monitored_run(log: Path, server: MonitorServer, condition: str, seed: int, b
             watch=monitor.watch,
         )
     finally:
-        monitor.close()
+        monitor.stop()
 
 
 def live_page(browser, work: Path) -> None:

@@ -99,8 +99,7 @@ def test_world_samples_of_a_simulated_trial_agree_with_the_simulators_truth(tmp_
             watch=monitor.watch,
         )
     finally:
-        monitor.close()
-        server.stop()
+        monitor.stop()
     judged = output.reports["robot"]
     parsed = read_tick_log(log)
     assert [(t["label"], t["outcome"]) for t in transfers(parsed)] == [

@@ -10,10 +10,10 @@ from typing import TYPE_CHECKING
 from pegbt.errors import PegbtError
 from pegbt.executive.providers import RUN_OPTIONS
 from pegbt.monitor.cli import add_port_option
+from pegbt.numbers import NumberOption
 
 if TYPE_CHECKING:
     from pegbt.monitor.live import LiveMonitor
-from pegbt.numbers import NumberOption
 
 
 def add_commands(subparsers: argparse._SubParsersAction) -> None:
@@ -178,8 +178,7 @@ def _run(args: argparse.Namespace) -> int:
         )
     except BaseException:
         if monitor:
-            monitor.close()
-            monitor.server.stop()
+            monitor.stop()
         raise
     reports = list(output.reports.values())
     if reports:  # a resource that judges the run says more than the per-node table
@@ -192,11 +191,7 @@ def _run(args: argparse.Namespace) -> int:
         print(result_table(read_tick_log(log_path)))
     print(f"tick log: {log_path}")
     if monitor:
-        from pegbt.monitor.cli import serve_until_interrupted
-
-        monitor.close()
-        serve_until_interrupted(monitor.server, "the run has ended; its page is still")
-        monitor.server.stop()
+        monitor.serve_until_interrupted()
     return 0 if output.ok else 1
 
 

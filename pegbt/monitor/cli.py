@@ -3,13 +3,8 @@
 from __future__ import annotations
 
 import argparse
-import threading
-from typing import TYPE_CHECKING
 
 from pegbt.numbers import NumberOption
-
-if TYPE_CHECKING:
-    from pegbt.monitor.server import MonitorServer
 
 
 def add_commands(subparsers: argparse._SubParsersAction) -> None:
@@ -34,15 +29,6 @@ def add_port_option(parser: argparse.ArgumentParser, name: str, default: int | N
     )
 
 
-def serve_until_interrupted(server: MonitorServer, what: str) -> None:
-    """Block until Ctrl-C, saying where the page is."""
-    print(f"monitor: {what} at {server.url} (Ctrl-C to stop)", flush=True)
-    try:
-        threading.Event().wait()
-    except KeyboardInterrupt:
-        pass
-
-
 def _monitor(args: argparse.Namespace) -> int:
     from pegbt.monitor.replay import replay_messages
     from pegbt.monitor.server import MonitorServer
@@ -52,7 +38,7 @@ def _monitor(args: argparse.Namespace) -> int:
     for message in messages:
         server.publish(message)
     try:
-        serve_until_interrupted(server, f"replay of {args.log}")
+        server.serve_until_interrupted(f"replay of {args.log}")
     finally:
         server.stop()
     return 0

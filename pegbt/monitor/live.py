@@ -43,6 +43,18 @@ class LiveMonitor:
         if record["type"] == "end":
             self.server.publish({"type": "causes", **marked_causes(read_tick_log(self.log_path))})
 
-    def close(self) -> None:
+    def serve_until_interrupted(self) -> None:
+        """After the run: keep the page up until Ctrl-C, then stop."""
+        self._close_world_log()
+        try:
+            self.server.serve_until_interrupted("the run has ended; its page is still")
+        finally:
+            self.stop()
+
+    def stop(self) -> None:
+        self._close_world_log()
+        self.server.stop()
+
+    def _close_world_log(self) -> None:
         if self._world_log is not None:
             self._world_log.close()

@@ -59,6 +59,14 @@ class MonitorServer:
         text = json.dumps(message, separators=(",", ":"))
         self._loop.call_soon_threadsafe(self._pending.append, text)
 
+    def serve_until_interrupted(self, what: str) -> None:
+        """Block until Ctrl-C, saying where the page is."""
+        print(f"monitor: {what} at {self.url} (Ctrl-C to stop)", flush=True)
+        try:
+            threading.Event().wait()
+        except KeyboardInterrupt:
+            pass
+
     def stop(self) -> None:
         if self._thread.is_alive():
             asyncio.run_coroutine_threadsafe(self._shutdown(), self._loop).result(10)
