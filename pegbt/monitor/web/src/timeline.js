@@ -77,21 +77,22 @@ export class Timeline {
     const step = () => {
       if (!this.playing) return;
       const time = startTime + ((performance.now() - startWall) / 1000) * speed();
-      const tick = this.state.eventsUpTo(Infinity) ? this.tickBefore(time) : 0;
-      if (tick !== this.tick) this.seek(tick);
+      const tick = this.tickBefore(time);
+      if (tick > this.tick) this.seek(tick);
       if (this.tick >= this.state.lastTick) { this.togglePlay(); return; }
       requestAnimationFrame(step);
     };
     requestAnimationFrame(step);
   }
 
-  // The last tick whose record is at or before run time `time`.
+  // The last tick whose record is at or before run time `time` (records are in time order).
   tickBefore(time) {
-    let tick = this.tick;
-    for (const event of this.state.events) {
-      if (event.t > time) break;
-      tick = Math.max(tick, event.n);
+    const events = this.state.events;
+    let low = 0, high = events.length;
+    while (low < high) {
+      const mid = (low + high) >> 1;
+      if (events[mid].t <= time) low = mid + 1; else high = mid;
     }
-    return tick;
+    return low ? events[low - 1].n : 0;
   }
 }

@@ -187,7 +187,7 @@ export class TreeView {
     }
   }
 
-  // Repaint the rows on screen of the nodes that changed (and of folded ancestors, whose line stands for them).
+  // Repaint the rows on screen of the nodes that changed; rows off screen are painted when they scroll in.
   update(changed) {
     for (const id of changed) {
       const element = this.rendered.get(id);
