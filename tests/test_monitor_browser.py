@@ -14,6 +14,7 @@ from pathlib import Path
 import pytest
 from playwright.sync_api import Page, sync_playwright
 
+from pegbt.bench.monitor import wide_tree
 from pegbt.cli import main
 from pegbt.monitor.replay import replay_messages
 from pegbt.monitor.server import MonitorServer
@@ -206,19 +207,8 @@ def test_folding_subtrees_and_search(tmp_path, page, capsys):
         server.stop()
 
 
-def big_tree(leaves_per_branch: int, branches: int) -> str:
-    lines = ["tree:", "  sequence:", "    name: big", "    children:"]
-    for branch in range(branches):
-        lines += ["      - selector:", f"          name: branch {branch}", "          children:"]
-        lines += [
-            f"            - check_blackboard: {{name: check {branch}.{leaf}, key: flag, value: {leaf}}}"
-            for leaf in range(leaves_per_branch)
-        ]
-    return "blackboard: {flag: 3}\n" + "\n".join(lines) + "\n"
-
-
 def test_a_2000_node_tree_loads_in_under_2_s(tmp_path, page, capsys):
-    log = run_log(tmp_path, big_tree(leaves_per_branch=39, branches=50), "big", capsys)
+    log = run_log(tmp_path, wide_tree(branches=50, checks=38), "big", capsys)
     server = serve_replay(log)
     try:
         page.goto(server.url)
