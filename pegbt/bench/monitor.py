@@ -3,7 +3,7 @@
 - `load_ms_2001`: median ms from navigation to the replay page showing a 2,001-node tree (`wide_tree`: 50
   selectors of 38 failing blackboard checks and a wait, one after another) after its last tick, in
   headless Debian chromium, over `LOADS` page loads;
-  `load_ms_example`: the same for `trees/example.yaml` (28 nodes), the baseline, loaded in turn with it.
+  `load_ms_example`: the same for `trees/example.yaml` (30 nodes), the baseline, loaded in turn with it.
 - `step_ms_2001`: median ms per step of the big tree's replay, stepping through every tick and back.
 - `publish_us`: median µs the run's thread spends handing one tick record to the server (`publish`).
 
