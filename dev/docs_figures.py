@@ -34,13 +34,16 @@ FLAGS = [
     "--no-first-run",
 ]
 UNILATERAL = Path("trees/unilateral.yaml")  # relative: the pages show the path as a user types it
+HANDOVER = Path("trees/handover.yaml")
 
 
-def monitored_run(log: Path, server: MonitorServer, condition: str, seed: int, blackboard: dict) -> None:
+def monitored_run(
+    log: Path, server: MonitorServer, condition: str, seed: int, blackboard: dict, tree: Path = UNILATERAL
+) -> None:
     monitor = LiveMonitor(server, log)
     try:
         run_tree_file(
-            UNILATERAL,
+            tree,
             log,
             options={"endpoint": "auto", "condition": condition, "seed": seed},
             blackboard=blackboard,
@@ -67,16 +70,17 @@ def live_page(browser, work: Path) -> None:
     server.stop()
 
 
-def replay_page(browser, log: Path) -> None:
+def replay_page(browser, log: Path, out: str, button: str) -> None:
+    """A screenshot of the replay of `log` after clicking `button` (first cause, fold subtrees)."""
     server = MonitorServer(free_port()).start()
     for message in replay_messages(log):
         server.publish(message)
     page = browser.new_page(viewport={"width": 1500, "height": 900})
     page.goto(server.url)
-    page.wait_for_selector("#first-cause:not([hidden])")
-    page.click("#first-cause")
+    page.wait_for_function("window.pegbtMonitor.loadedAt !== null")
+    page.click(button)
     time.sleep(0.5)
-    page.screenshot(path=DOCS / "monitor-replay.png")
+    page.screenshot(path=DOCS / out)
     page.close()
     server.stop()
 
@@ -92,7 +96,12 @@ def main_(eval_out: Path) -> None:
         server = MonitorServer(free_port()).start()
         monitored_run(failed, server, "uncalibrated", 1001, {"/policy/skip_failed_blocks": False})
         server.stop()
-        replay_page(browser, failed)
+        replay_page(browser, failed, "monitor-replay.png", "#first-cause")
+        handover = work / "handover.jsonl"  # 2,300 nodes; uncalibrated, so the tree gives up on blocks
+        server = MonitorServer(free_port()).start()
+        monitored_run(handover, server, "uncalibrated", 1000, {}, HANDOVER)
+        server.stop()
+        replay_page(browser, handover, "monitor-handover-folded.png", "#fold")
         browser.close()
         main(["log", "plot", str(failed), "--out", str(DOCS / "log-plot.png")])
     for name in ("transfer_times.png", "trial_figures.png"):

@@ -53,19 +53,19 @@ function handle(message) {
 }
 
 function markCauses() {
-  tree.causes = new Map();
-  for (const given of causes.given_up) tree.causes.set(given.node, "gave up: first cause");
+  const marks = new Map();
+  for (const given of causes.given_up) marks.set(given.node, "gave up: first cause");
   const banner = $("cause-banner");
   if (causes.first) {
     const first = causes.first;
-    tree.causes.set(first.node, "first cause");
+    marks.set(first.node, "first cause");
     banner.hidden = false;
     banner.textContent = `first cause (pegbt log why): ${first.path} at t=${first.t.toFixed(3)} s, tick ${first.n}: ${first.feedback || "no feedback"}`;
     banner.onclick = () => { following = false; showTick(first.n); tree.reveal(first.node); };
     $("first-cause").hidden = false;
   }
   timeline.setCauses(causes);
-  tree.repaintAll();
+  tree.setCauses(marks);
 }
 
 function showTick(tick) {

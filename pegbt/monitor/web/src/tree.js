@@ -18,6 +18,7 @@ export class TreeView {
     this.rendered = new Map(); // node id -> row element in the document
     this.selected = null;
     this.causes = new Map(); // node id -> badge text
+    this.causeAncestors = new Set(); // nodes with a marked cause below them (shown when folded)
     this.matches = new Set();
     this.virtualizer = new Virtualizer({
       count: 0,
@@ -156,7 +157,8 @@ export class TreeView {
       const tag = document.createElement("span");
       tag.className = "sub";
       tag.textContent = `subtree ${node.data.subtree}`;
-      element.querySelector(".name").after(tag);
+      tag.title = tag.textContent;
+      element.querySelector(".type").after(tag);
     }
     if (node.hidden) {
       const folded = document.createElement("span");
@@ -179,10 +181,11 @@ export class TreeView {
     element.classList.toggle("cause", this.causes.has(id));
     const old = element.querySelector(".badge");
     if (old) old.remove();
-    if (this.causes.has(id)) {
+    const folded = this.byId[id].hidden && this.causeAncestors.has(id);
+    if (this.causes.has(id) || folded) {
       const badge = document.createElement("span");
       badge.className = "badge";
-      badge.textContent = this.causes.get(id);
+      badge.textContent = this.causes.get(id) || "a cause inside";
       element.querySelector(".type").after(badge);
     }
   }
@@ -193,6 +196,15 @@ export class TreeView {
       const element = this.rendered.get(id);
       if (element) this.paint(element, id);
     }
+  }
+
+  setCauses(causes) {
+    this.causes = causes;
+    this.causeAncestors = new Set();
+    for (const id of causes.keys()) {
+      for (const ancestor of this.byId[id].ancestors().slice(1)) this.causeAncestors.add(ancestor.data.id);
+    }
+    this.repaintAll();
   }
 
   repaintAll() {
