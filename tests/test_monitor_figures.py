@@ -119,3 +119,25 @@ def test_world_samples_of_a_simulated_trial_agree_with_the_simulators_truth(tmp_
     tops = np.array(samples[0]["pegs"]["tops"])
     near_pegs = np.min(np.linalg.norm(cloud[:, None, :2] - tops[None, :, :2], axis=2), axis=1) < 0.002
     assert np.ptp(cloud[near_pegs, 2]) > 0.01  # in the board frame: the pegs stand above the board
+
+
+def test_a_failing_world_view_stops_itself_not_the_run(caplog):
+    from pegbt.monitor.world import WorldSampler
+
+    class BrokenArm:
+        @property
+        def measured_js(self):
+            raise RuntimeError("no joints here")
+
+    class Robot:
+        arms = {"PSM1": BrokenArm()}
+        truth = None
+        link = None
+
+    samples = []
+    sampler = WorldSampler(Robot(), [samples.append])
+    tick = {"type": "tick", "n": 1, "t": 0.0, "changes": []}
+    sampler(tick)
+    sampler({**tick, "n": 2, "t": 1.0})
+    assert sampler.broken and samples == []
+    assert "RuntimeError: no joints here" in caplog.text

@@ -14,6 +14,7 @@ the page and to a sidecar next to the tick log (`world_log_path`), so that a rep
 from __future__ import annotations
 
 import json
+import logging
 from collections.abc import Callable
 from pathlib import Path
 from typing import IO, Any
@@ -30,6 +31,7 @@ from pegbt.workcell import Workcell, workcell
 CLOUD_POINTS = 4000  # points of a capture sent to the page (of ~130 000): enough to see the board and blocks
 TRUTH_PERIOD = 0.25  # s of run time between two questions to the simulator
 PERCEPTION_KEYS = ("/cloud", "/blocks", "/board")
+LOG = logging.getLogger("pegbt.monitor")
 
 
 def world_log_path(tick_log: Path | str) -> Path:
@@ -82,10 +84,20 @@ class WorldSampler:
         self._last_truth_t = -np.inf
         self._truth: list[dict[str, Any]] | None = None
         self._next_entry = 0  # the simulator's log index to ask from
+        self.broken = False
 
     def __call__(self, record: dict[str, Any]) -> None:
-        if record["type"] not in ("tick", "halt", "end"):
+        if record["type"] not in ("tick", "halt", "end") or self.broken:
             return
+        try:
+            self._sample(record)
+        except Exception as error:  # noqa: BLE001 (the view is an aid: it never stops the run it watches)
+            self.broken = True
+            LOG.warning(
+                "monitor: the 3D view stops, its sampling failed: %s: %s", type(error).__name__, error
+            )
+
+    def _sample(self, record: dict[str, Any]) -> None:
         t = float(record["t"])
         perceived = [key for key in PERCEPTION_KEYS if key in (record.get("bb") or {})]
         if not perceived and t - self._last_t < self.period and record["type"] == "tick":
