@@ -21,6 +21,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "pegbt.sim.cli",
     "pegbt.sim2real.cli",
     "pegbt.evaluation.cli",
+    "pegbt.monitor.cli",
 )
 
 

@@ -88,6 +88,7 @@ def check_arguments(args: argparse.Namespace) -> None:
 def _eval(args: argparse.Namespace) -> int:
     check_arguments(args)
     from pegbt.evaluation.campaign import Cell, run_trials, trial_specs
+    from pegbt.evaluation.figures import plot_trial_figures
     from pegbt.evaluation.output import plot_transfer_times, write_cell
     from pegbt.evaluation.summary import summarise, table
 
@@ -104,7 +105,7 @@ def _eval(args: argparse.Namespace) -> int:
     figures = summarise(cell, records, min(args.workers, args.trials))
     paths = write_cell(args.out, cell, records, figures)
     if not (args.faults or args.inject_faults):
-        paths.append(plot_transfer_times(args.out))
+        paths += [plot_transfer_times(args.out), plot_trial_figures(args.out)]
     if args.json:
         print(json.dumps(figures))
     else:

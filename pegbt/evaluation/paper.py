@@ -18,19 +18,28 @@ class PaperCell:
     mean_transfer_time_s: float
     success_rate: float
     trial_time_s: float | None = None  # trial completion time, reported for calibrated + optimised only
+    trial_time_sd_s: float | None = None
 
 
 PAPER: dict[tuple[str, str], PaperCell] = {
     ("unilateral", "uncalibrated"): PaperCell(5.6, 0.347),
     ("unilateral", "calibrated"): PaperCell(5.7, 1.0),
-    ("unilateral", "optimized"): PaperCell(5.2, 1.0, 62.6),
+    ("unilateral", "optimized"): PaperCell(5.2, 1.0, 62.6, 0.7),
     ("bilateral", "uncalibrated"): PaperCell(3.6, 0.544),
     ("bilateral", "calibrated"): PaperCell(3.5, 1.0),
-    ("bilateral", "optimized"): PaperCell(3.0, 1.0, 40.4),
+    ("bilateral", "optimized"): PaperCell(3.0, 1.0, 40.4, 0.5),
     ("handover", "uncalibrated"): PaperCell(6.3, 0.177),
     ("handover", "calibrated"): PaperCell(6.1, 1.0),
-    ("handover", "optimized"): PaperCell(6.0, 1.0, 72.5),
+    ("handover", "optimized"): PaperCell(6.0, 1.0, 72.5, 1.3),
 }
+
+# The paper's surgeon (the human column of its Tables II-IV): mean transfer time (s) and success rate.
+SURGEON: dict[str, PaperCell] = {
+    "unilateral": PaperCell(4.7, 1.0),
+    "bilateral": PaperCell(4.8, 0.975),
+    "handover": PaperCell(7.9, 1.0),
+}
+PAPER_COLLISIONS = 0  # "the robot never collided" (the paper, calibrated and optimised trials)
 
 # Issue 7's goals: success over calibrated conditions, mean transfer time below the paper's optimised
 # figure, no arm-arm collision, a 12-transfer trial within this much wall time.

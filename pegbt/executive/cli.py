@@ -5,10 +5,15 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from pegbt.errors import PegbtError
 from pegbt.executive.providers import RUN_OPTIONS
+from pegbt.monitor.cli import add_port_option
 from pegbt.numbers import NumberOption
+
+if TYPE_CHECKING:
+    from pegbt.monitor.live import LiveMonitor
 
 
 def add_commands(subparsers: argparse._SubParsersAction) -> None:
@@ -55,7 +60,11 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
         "others as registered in pegbt/executive/providers.py; a resource that is a time source "
         "(a simulator in lockstep) supplies its own",
     )
-    run.add_argument("--quiet", action="store_true", help="no progress lines")
+    run.add_argument("--quiet", action="store_true", help="no progress bar, no progress lines")
+    run.add_argument(
+        "--verbose", action="store_true", help="a line for every leaf that finishes, not only failures"
+    )
+    add_port_option(run, "--monitor", default=None)
     for option in RUN_OPTIONS.values():
         run.add_argument(
             f"--{option.name}",
@@ -91,6 +100,12 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
         help="seconds since the start (executive clock)",
     )
     replay.set_defaults(handler=_log_replay)
+    plot = log_commands.add_parser(
+        "plot", help="draw the run's timeline: each arm's activity, transfers, failures, recoveries"
+    )
+    plot.add_argument("log", metavar="LOG")
+    plot.add_argument("--out", metavar="FILE", help="the figure to write (PNG, SVG, PDF; default LOG.png)")
+    plot.set_defaults(handler=_log_plot)
     export = log_commands.add_parser(
         "export", help="convert a tick log to Groot2's .btlog (BehaviorTree.CPP FileLogger2)"
     )
@@ -148,15 +163,23 @@ def _run(args: argparse.Namespace) -> int:
 
     options = {name: getattr(args, f"option_{name}") for name in RUN_OPTIONS}
     log_path = Path(args.log) if args.log else default_log_path(args.tree)
-    output = run_tree_file(
-        args.tree,
-        log_path,
-        options=options,
-        clock=args.clock,
-        period=args.period,
-        timeout=args.timeout,
-        quiet=args.quiet,
-    )
+    monitor = _start_monitor(args.monitor, log_path) if args.monitor is not None else None
+    try:
+        output = run_tree_file(
+            args.tree,
+            log_path,
+            options=options,
+            clock=args.clock,
+            period=args.period,
+            timeout=args.timeout,
+            quiet=args.quiet,
+            verbose=args.verbose,
+            watch=monitor.watch if monitor else None,
+        )
+    except BaseException:
+        if monitor:
+            monitor.stop()
+        raise
     reports = list(output.reports.values())
     if reports:  # a resource that judges the run says more than the per-node table
         print(
@@ -167,7 +190,18 @@ def _run(args: argparse.Namespace) -> int:
     else:
         print(result_table(read_tick_log(log_path)))
     print(f"tick log: {log_path}")
+    if monitor:
+        monitor.serve_until_interrupted()
     return 0 if output.ok else 1
+
+
+def _start_monitor(port: int, log_path: Path) -> LiveMonitor:
+    from pegbt.monitor.live import LiveMonitor
+    from pegbt.monitor.server import MonitorServer
+
+    server = MonitorServer(int(port)).start()
+    print(f"monitor: {server.url}", flush=True)
+    return LiveMonitor(server, log_path)
 
 
 def _log_summary(args: argparse.Namespace) -> int:
@@ -191,6 +225,26 @@ def _log_replay(args: argparse.Namespace) -> int:
     from pegbt.executive.logfile import read_tick_log
 
     print(replay(read_tick_log(args.log), tick=args.tick, time=args.time))
+    return 0
+
+
+def _log_plot(args: argparse.Namespace) -> int:
+    from pegbt.executive.logfile import read_tick_log
+    from pegbt.executive.logplot import plot_timeline
+    from pegbt.monitor.world import read_world_log, world_log_path
+
+    out = Path(args.out) if args.out else Path(args.log).with_suffix(".png")
+    world = world_log_path(args.log)
+    faults = [
+        fault
+        for sample in (read_world_log(world) if world.exists() else [])
+        for fault in sample.get("faults", [])
+    ]
+    try:
+        plot_timeline(read_tick_log(args.log), out, faults)
+    except OSError as error:
+        raise PegbtError(f"cannot write the figure: {error.strerror}", file=out, field="--out") from None
+    print(f"wrote {out}")
     return 0
 
 

@@ -9,15 +9,16 @@ from __future__ import annotations
 
 import datetime
 import sys
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO, Any
 
 from pegbt.errors import PegbtError
+from pegbt.executive.build import BuiltTree
 from pegbt.executive.context import RunContext
 from pegbt.executive.loader import load_tree
-from pegbt.executive.progress import ProgressPrinter
+from pegbt.executive.progress import ProgressPrinter, tick_bar
 from pegbt.executive.providers import (
     ProviderSetup,
     close_resources,
@@ -64,10 +65,13 @@ def run_tree_file(
     quiet: bool = True,
     out: IO[str] | None = None,
     blackboard: Mapping[str, Any] | None = None,
+    verbose: bool = False,
+    watch: Callable[[BuiltTree, Mapping[str, Any]], list[Callable[[dict[str, Any]], None]]] | None = None,
 ) -> RunOutput:
     """Run the tree file `tree` once; see the module docstring. `quiet=False` prints progress to `out`
     (default: `sys.stdout` as it is when called); `blackboard` replaces initial values the file declares
-    (`LoadedTree.set_blackboard`)."""
+    (`LoadedTree.set_blackboard`); `verbose` prints every leaf's result, not only failures and
+    recoveries; `watch(built, resources)` returns more tick-log listeners (`pegbt run --monitor`)."""
     out = out or sys.stdout
     checked_number(period, "--period", above=0.0)
     if timeout is not None:
@@ -80,13 +84,16 @@ def run_tree_file(
     try:
         supplied, clock_kind = resource_clock(resources, clock)
         built = loaded.build(RunContext(clock=supplied or setup.clock, resources=resources))
-        listeners = [] if quiet else [ProgressPrinter(built, out)]
+        listeners = [] if quiet else [ProgressPrinter(built, out, verbose=verbose)]
         if not quiet:
-            listeners += [
+            bars = [
                 resource.progress()
                 for resource in resources.values()
                 if callable(getattr(resource, "progress", None))
             ]
+            listeners += bars or [tick_bar(out)]
+        if watch is not None:
+            listeners += watch(built, resources)
         try:
             writer = TickLogWriter(log_path, built, clock_kind=clock_kind, listeners=listeners)
         except OSError as error:

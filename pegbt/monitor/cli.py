@@ -1,0 +1,44 @@
+"""`pegbt monitor LOG --port PORT`: replay a tick log in the browser (`pegbt run --monitor PORT` shows a live run)."""
+
+from __future__ import annotations
+
+import argparse
+
+from pegbt.numbers import NumberOption
+
+
+def add_commands(subparsers: argparse._SubParsersAction) -> None:
+    monitor = subparsers.add_parser(
+        "monitor", help="replay a tick log in the browser: tree, timeline, blackboard, first cause, 3D world"
+    )
+    monitor.add_argument("log", metavar="LOG")
+    add_port_option(monitor, "--port", default=8765)
+    monitor.set_defaults(handler=_monitor)
+
+
+def add_port_option(parser: argparse.ArgumentParser, name: str, default: int | None) -> None:
+    parser.add_argument(
+        name,
+        action=NumberOption,
+        type=int,
+        at_least=1,
+        at_most=65535,
+        default=default,
+        metavar="PORT",
+        help=f"serve the monitor page on http://127.0.0.1:PORT/{f' (default {default})' if default else ''}",
+    )
+
+
+def _monitor(args: argparse.Namespace) -> int:
+    from pegbt.monitor.replay import replay_messages
+    from pegbt.monitor.server import MonitorServer
+
+    messages = replay_messages(args.log)
+    server = MonitorServer(int(args.port)).start()
+    for message in messages:
+        server.publish(message)
+    try:
+        server.serve_until_interrupted(f"replay of {args.log}")
+    finally:
+        server.stop()
+    return 0

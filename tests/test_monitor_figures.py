@@ -1,0 +1,143 @@
+"""`pegbt run`'s console, `pegbt log plot`, `pegbt eval`'s trial figures, and the monitor's world on the simulator."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib.image
+import numpy as np
+import pytest
+
+from pegbt.cli import main
+from pegbt.evaluation.campaign import Cell
+from pegbt.evaluation.figures import plot_trial_figures, trial_rows
+from pegbt.evaluation.output import write_cell
+from pegbt.evaluation.trial import TrialRecord
+from pegbt.executive.analysis import node_stats
+from pegbt.executive.logfile import read_tick_log
+from pegbt.executive.logplot import running_spans, transfers
+
+REPO = Path(__file__).resolve().parents[1]
+EXAMPLE = REPO / "trees" / "example.yaml"
+
+
+def test_run_prints_failures_and_recoveries_and_every_leaf_only_when_verbose(tmp_path, capsys):
+    log = tmp_path / "example.jsonl"
+    assert main(["run", str(EXAMPLE), "--clock", "manual", "--log", str(log)]) == 0
+    quiet = capsys.readouterr().out
+    assert (
+        "FAILURE  /example/both arms/transfer PSM1/transfer with PSM1/pick, re-sense on failure/pick" in quiet
+    )
+    assert "RECOVER  /example/both arms/transfer PSM1/transfer with PSM1/pick, re-sense on failure\n" in quiet
+    assert "SUCCESS  /example/start" not in quiet
+    assert main(["run", str(EXAMPLE), "--clock", "manual", "--log", str(log), "--verbose"]) == 0
+    verbose = capsys.readouterr().out
+    assert "SUCCESS  /example/start  (starting the example run)" in verbose
+    assert "RECOVER  " in verbose and "FAILURE  " in verbose
+
+
+def test_log_plot_shows_each_leaf_for_as_long_as_log_summary_says_it_ran(tmp_path, capsys):
+    log = tmp_path / "example.jsonl"
+    main(["run", str(EXAMPLE), "--clock", "manual", "--period", "0.01", "--log", str(log), "--quiet"])
+    parsed = read_tick_log(log)
+    stats = node_stats(parsed)
+    drawn: dict[int, float] = {}
+    for node, start, end in running_spans(parsed):
+        drawn[node] = drawn.get(node, 0.0) + end - start
+    leaves = [node["id"] for node in parsed.nodes if not parsed.children(node["id"])]
+    assert {node: pytest.approx(stats[node].running_time) for node in leaves if stats[node].running_time} == {
+        node: time for node, time in drawn.items() if time
+    }
+    capsys.readouterr()
+    assert main(["log", "plot", str(log)]) == 0
+    assert capsys.readouterr().out == f"wrote {log.with_suffix('.png')}\n"
+    image = matplotlib.image.imread(log.with_suffix(".png"))
+    assert image.shape[0] > 200 and image.shape[1] > 1000
+
+
+def test_eval_trial_figures_read_every_cell_written(tmp_path):
+    cell = Cell("unilateral", "optimized", 3)
+    records = [
+        TrialRecord(
+            "unilateral",
+            "optimized",
+            seed,
+            "success" if done == 12 else "failure",
+            transfers_attempted=12,
+            transfers_succeeded=done,
+            trial_time_s=50.0 + seed,
+            arm_arm_collisions=seed,
+            tip_path_m=2.5 + 0.1 * seed,
+        )
+        for seed, done in enumerate((12, 9, 12))
+    ]
+    write_cell(tmp_path, cell, records, {})
+    rows = trial_rows(tmp_path)
+    assert list(rows) == [("unilateral", "optimized")]
+    assert [row["success"] for row in rows[("unilateral", "optimized")]] == [100.0, 75.0, 100.0]
+    assert [row["arm_arm_collisions"] for row in rows[("unilateral", "optimized")]] == [0.0, 1.0, 2.0]
+    image = matplotlib.image.imread(plot_trial_figures(tmp_path))
+    assert image.shape[0] > 800
+
+
+@pytest.mark.slow
+def test_world_samples_of_a_simulated_trial_agree_with_the_simulators_truth(tmp_path):
+    from pegbt.executive.session import run_tree_file
+    from pegbt.monitor.live import LiveMonitor
+    from pegbt.monitor.server import MonitorServer
+    from pegbt.monitor.world import read_world_log, world_log_path
+    from pegbt.sim.process import free_port
+
+    log = tmp_path / "trial.jsonl"
+    server = MonitorServer(free_port()).start()
+    monitor = LiveMonitor(server, log)
+    try:
+        output = run_tree_file(
+            REPO / "trees" / "unilateral.yaml",
+            log,
+            options={"endpoint": "auto", "condition": "optimized", "seed": 1000},
+            watch=monitor.watch,
+        )
+    finally:
+        monitor.stop()
+    judged = output.reports["robot"]
+    parsed = read_tick_log(log)
+    assert [(t["label"], t["outcome"]) for t in transfers(parsed)] == [
+        (f"{o.pick}→{o.place}", "placed") for o in judged.transfers
+    ]
+    samples = read_world_log(world_log_path(log))
+    assert samples[0]["type"] == "scene"
+    worlds = samples[1:]
+    assert all(set(sample["tools"]) == {"PSM1", "PSM2"} for sample in worlds)
+    first_blocks = next(sample for sample in worlds if sample.get("blocks"))
+    truth = [np.array(block["pose"])[:3, 3] for block in first_blocks["truth"]]
+    for block in first_blocks["blocks"]:  # perception's belief within 2 mm of the simulator's block
+        nearest = min(np.linalg.norm(np.array(block["position"]) - position) for position in truth)
+        assert nearest < 0.002
+    cloud = np.array(next(sample["cloud"] for sample in worlds if "cloud" in sample)).reshape(-1, 3)
+    assert 1000 < len(cloud) <= 8000
+    tops = np.array(samples[0]["pegs"]["tops"])
+    near_pegs = np.min(np.linalg.norm(cloud[:, None, :2] - tops[None, :, :2], axis=2), axis=1) < 0.002
+    assert np.ptp(cloud[near_pegs, 2]) > 0.01  # in the board frame: the pegs stand above the board
+
+
+def test_a_failing_world_view_stops_itself_not_the_run(caplog):
+    from pegbt.monitor.world import WorldSampler
+
+    class BrokenArm:
+        @property
+        def measured_js(self):
+            raise RuntimeError("no joints here")
+
+    class Robot:
+        arms = {"PSM1": BrokenArm()}
+        truth = None
+        link = None
+
+    samples = []
+    sampler = WorldSampler(Robot(), [samples.append])
+    tick = {"type": "tick", "n": 1, "t": 0.0, "changes": []}
+    sampler(tick)
+    sampler({**tick, "n": 2, "t": 1.0})
+    assert sampler.broken and samples == []
+    assert "RuntimeError: no joints here" in caplog.text
