@@ -12,10 +12,14 @@ from pathlib import Path
 
 from pegbt.errors import PegbtError
 from pegbt.numbers import NumberOption
+from pegbt.bagoptions import add_bag_arguments, bag_options
 from pegbt.psm import ARMS, JOINT_NAMES
 
 KINDS = ("lstm", "physics", "hybrid")
-RECORDING_HELP = "recording: a folder with q_cmd.npy and q_phy.npy (the dVRK dataset layout), or a CSV"
+RECORDING_HELP = (
+    "recording: a folder with q_cmd.npy and q_phy.npy (the dVRK dataset layout), a CSV, an MCAP file or a "
+    "rosbag2 folder"
+)
 COLLECT_TREE = Path(__file__).resolve().parents[2] / "trees" / "calibrate_collect.yaml"
 OUTPUT_DIR = Path("runs") / "calibration"  # what the commands write unless told: never the committed skills/
 
@@ -89,6 +93,7 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
         default=0.7,
         help="share used for training (default 0.7; 1.0 trains on everything and records no held-out scores)",
     )
+    add_bag_arguments(train)
     train.set_defaults(handler=_train)
 
     evaluate = commands.add_parser(
@@ -108,6 +113,7 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
         help="score only samples after this share of the recording (0.7: the held-out part)",
     )
     evaluate.add_argument("--json", action="store_true", help="print one JSON object")
+    add_bag_arguments(evaluate)
     evaluate.set_defaults(handler=_eval)
 
 
@@ -150,7 +156,7 @@ def _train(args: argparse.Namespace) -> int:
     from pegbt.calibration.modelfile import model_file_name
     from pegbt.physics.recording import load_recording
 
-    recording = load_recording(args.recording)
+    recording = load_recording(args.recording, arm=args.arm, **bag_options(args))
     n_train = recording.head(args.train_fraction)
     model = new_model(args.model, args.arm).fit(recording.slice(0, n_train))
     if n_train < len(recording):
@@ -169,7 +175,7 @@ def _eval(args: argparse.Namespace) -> int:
     from pegbt.physics.recording import load_recording
 
     model = CalibrationModel.load(args.model)
-    recording = load_recording(args.recording)
+    recording = load_recording(args.recording, arm=model.arm, **bag_options(args))
     start = recording.head(args.from_fraction) if args.from_fraction > 0 else 0
     if start >= len(recording):
         raise PegbtError(
