@@ -1,5 +1,6 @@
-"""The command-line options that choose a bag's topics and samples (`pegbt sim2real diagnose`, `pegbt
-calibrate train|eval`), kept apart from the bag reader so that building the parser imports no numerics."""
+"""Command-line options for ROS 2 bags: those that choose a bag's topics and samples (`pegbt sim2real
+diagnose`, `pegbt calibrate train|eval`) and those that record one (`pegbt run`, `pegbt calibrate collect`,
+`pegbt sim`), kept apart from the reader and the recorder so that building the parser imports neither."""
 
 from __future__ import annotations
 
@@ -33,3 +34,26 @@ def add_bag_arguments(parser: argparse.ArgumentParser) -> None:
 def bag_options(args: argparse.Namespace) -> dict[str, object]:
     """The bag arguments of `add_bag_arguments` as `load_recording` keywords."""
     return {"cmd": args.cmd, "phy": args.phy, "settled": args.settled}
+
+
+def add_record_arguments(parser: argparse.ArgumentParser) -> None:
+    """`--record FILE.mcap` and `--record-cloud-step K`, for commands whose traffic can be recorded."""
+    parser.add_argument(
+        "--record",
+        metavar="FILE.mcap",
+        help="record the CRTK topics, camera clouds, tick statuses and simulator events to an MCAP file",
+    )
+    parser.add_argument(
+        "--record-cloud-step",
+        action=NumberOption,
+        type=int,
+        at_least=1,
+        default=10,
+        metavar="K",
+        help="keep every K-th point of each camera cloud in the recording (1: whole clouds; default 10)",
+    )
+
+
+def record_options(args: argparse.Namespace) -> dict[str, object]:
+    """The arguments of `add_record_arguments` as `run_tree_file` keywords."""
+    return {"record": args.record, "record_cloud_step": args.record_cloud_step}

@@ -10,9 +10,9 @@ import argparse
 import json
 from pathlib import Path
 
+from pegbt.bagoptions import add_bag_arguments, add_record_arguments, bag_options, record_options
 from pegbt.errors import PegbtError
 from pegbt.numbers import NumberOption
-from pegbt.bagoptions import add_bag_arguments, bag_options
 from pegbt.psm import ARMS, JOINT_NAMES
 
 KINDS = ("lstm", "physics", "hybrid")
@@ -72,6 +72,7 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
         metavar="FILE",
         help="tick log path (default runs/calibrate_collect-DATE-TIME.jsonl)",
     )
+    add_record_arguments(collect)
     collect.set_defaults(handler=_collect)
 
     train = commands.add_parser(
@@ -142,6 +143,7 @@ def _collect(args: argparse.Namespace) -> int:
         options={"endpoint": args.endpoint, "seed": args.seed},
         quiet=False,
         blackboard={"arm": args.arm, "setpoints": count, "out": str(out), "seed": args.seed},
+        **record_options(args),
     )
     print(f"outcome: {output.result.outcome} in {output.result.duration:.1f} s of the run's clock")
     if output.ok:

@@ -6,6 +6,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from pegbt.bagoptions import add_record_arguments, record_options
 from pegbt.errors import PegbtError
 from pegbt.executive.providers import RUN_OPTIONS
 from pegbt.numbers import NumberOption
@@ -56,6 +57,7 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
         "(a simulator in lockstep) supplies its own",
     )
     run.add_argument("--quiet", action="store_true", help="no progress lines")
+    add_record_arguments(run)
     for option in RUN_OPTIONS.values():
         run.add_argument(
             f"--{option.name}",
@@ -156,6 +158,7 @@ def _run(args: argparse.Namespace) -> int:
         period=args.period,
         timeout=args.timeout,
         quiet=args.quiet,
+        **record_options(args),
     )
     reports = list(output.reports.values())
     if reports:  # a resource that judges the run says more than the per-node table
@@ -166,7 +169,7 @@ def _run(args: argparse.Namespace) -> int:
             print(report)
     else:
         print(result_table(read_tick_log(log_path)))
-    print(f"tick log: {log_path}")
+    print(f"tick log: {log_path}" + (f"; recording: {args.record}" if args.record else ""))
     return 0 if output.ok else 1
 
 

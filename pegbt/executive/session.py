@@ -64,10 +64,13 @@ def run_tree_file(
     quiet: bool = True,
     out: IO[str] | None = None,
     blackboard: Mapping[str, Any] | None = None,
+    record: str | Path | None = None,
+    record_cloud_step: int = 10,
 ) -> RunOutput:
     """Run the tree file `tree` once; see the module docstring. `quiet=False` prints progress to `out`
     (default: `sys.stdout` as it is when called); `blackboard` replaces initial values the file declares
-    (`LoadedTree.set_blackboard`)."""
+    (`LoadedTree.set_blackboard`); `record` names an MCAP file for what the resources' links carry and the
+    tick log's status changes (`pegbt.transport.recorder`)."""
     out = out or sys.stdout
     checked_number(period, "--period", above=0.0)
     if timeout is not None:
@@ -77,10 +80,14 @@ def run_tree_file(
     loaded.set_blackboard(blackboard or {})
     setup = ProviderSetup(clock=make_clock(clock or "wall"), options=run_options(options))
     resources = provide_resources(loaded.resource_users(), setup)
+    recorder = None
     try:
         supplied, clock_kind = resource_clock(resources, clock)
         built = loaded.build(RunContext(clock=supplied or setup.clock, resources=resources))
         listeners = [] if quiet else [ProgressPrinter(built, out)]
+        if record is not None:
+            recorder = _recorder(record, supplied or setup.clock, clock_kind, record_cloud_step, resources)
+            listeners.append(recorder.tick_record)
         if not quiet:
             listeners += [
                 resource.progress()
@@ -101,5 +108,21 @@ def run_tree_file(
         }
         reports = {name: report for name, report in reports.items() if report is not None}
     finally:
+        if recorder is not None:
+            recorder.close()
         close_resources(resources)
     return RunOutput(result, log_path, reports)
+
+
+def _recorder(
+    path: str | Path, clock: Any, clock_kind: str, cloud_step: int, resources: Mapping[str, Any]
+) -> Any:
+    """A `WireRecorder` on every resource's link (imported here: zenoh and mcap only when recording)."""
+    from pegbt.transport.link import Link
+    from pegbt.transport.recorder import WireRecorder
+
+    recorder = WireRecorder(path, clock, clock_kind=clock_kind, cloud_step=cloud_step)
+    for resource in resources.values():
+        if isinstance(getattr(resource, "link", None), Link):
+            recorder.attach(resource.link)
+    return recorder

@@ -71,7 +71,7 @@ def _raw_messages(path: Path, topics: dict[str, str]) -> Iterator[tuple[str, str
         except McapError as error:
             if not topics:
                 raise PegbtError(f"not a readable MCAP file: {error}", file=path) from None
-        except EOFError:
+        except (EOFError, struct.error):
             pass  # a file cut short (a crash while recording) reads up to the cut
 
 
