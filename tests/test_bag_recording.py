@@ -193,3 +193,22 @@ def test_the_cli_names_the_bag_and_topic(tmp_path):
     )
     assert done.returncode == 2 and "Traceback" not in done.stderr
     assert str(bag) in done.stderr and "no topic /PSM1/nope" in done.stderr
+
+
+def test_a_bag_cut_short_reads_up_to_the_cut(tmp_path):
+    t = np.arange(400) * 0.5
+    q = np.linspace(0.0, 0.5, 400)[:, None] * np.ones(6)
+    path = tmp_path / "whole.mcap"
+    with path.open("wb") as out:
+        writer = mcap_ros2_writer.Writer(out, chunk_size=4096)
+        schema = writer.register_msgdef(JOINT_STATE, STORE.generate_msgdef(JOINT_STATE, ros_version=2)[0])
+        for stamp, row in zip(t, q):  # interleaved, as a recorder writes them
+            for topic in ("/PSM1/setpoint_js", "/PSM1/fiducial_js"):
+                writer.write_message(topic, schema, joint_state(stamp, row), log_time=round(stamp * 1e9))
+        writer.finish()
+    data = path.read_bytes()
+    cut = tmp_path / "cut.mcap"
+    cut.write_bytes(data[: len(data) // 2])
+    recording = load_recording(cut)
+    assert 100 < recording.n < 400
+    np.testing.assert_array_equal(recording.q_phy, q[: recording.n])

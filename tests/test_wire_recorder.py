@@ -101,7 +101,7 @@ def test_a_file_cut_short_reads_up_to_the_cut(tmp_path, monkeypatch):
     monkeypatch.setattr(recorder, "FLUSH_S", 0.0)  # a chunk per message: what a long run does every second
     clock = ManualClock()
     path = tmp_path / "cut.mcap"
-    wire = WireRecorder(path, clock, clock_kind="manual", cloud_step=1)
+    wire = WireRecorder(path, clock.now, simulated=False, clock_kind="manual", cloud_step=1)
     for i in range(40):
         clock.advance(0.01)
         wire.sent("PSM1/servo_jp", codec.encode_joint_state(clock.now(), np.full(6, i * 0.01)))
@@ -129,7 +129,7 @@ def test_a_file_cut_short_reads_up_to_the_cut(tmp_path, monkeypatch):
 def test_a_step_replys_restamp_note_records_the_last_state_with_its_new_stamp(tmp_path):
     clock = ManualClock()
     path = tmp_path / "notes.mcap"
-    wire = WireRecorder(path, clock, clock_kind="manual")
+    wire = WireRecorder(path, clock.now, simulated=False, clock_kind="manual")
     base = codec.encode_joint_state(
         1.25, [0.1, 0.2, 0.1, 0.3, 0.4, 0.5], names=("a", "b", "c", "d", "e", "f")
     )
@@ -159,3 +159,33 @@ def test_a_step_replys_restamp_note_records_the_last_state_with_its_new_stamp(tm
         }
     ]
     assert {topic for topic, _, _, _ in messages} == {"/PSM1/measured_js", "/pegbt/ticks"}
+
+
+def test_the_simulator_records_the_commands_it_takes_and_the_state_it_sends(tmp_path):
+    from pegbt.sim.process import SimProcess
+    from pegbt.transport import ArmClient, SimClock, connect
+
+    path = tmp_path / "sim.mcap"
+    simulator = SimProcess(["--lockstep", "--no-world", "--record", str(path)])
+    try:
+        with connect([simulator.endpoint]) as link:
+            clock = SimClock(link)
+            arm = ArmClient(link, "PSM1", clock=clock)
+            arm.wait_until_ready()
+            goal = arm.measured_js.position + np.array([0.05, 0.0, 0.0, 0.0, 0.0, 0.0])
+            handle = arm.move_jp(goal)
+            for _ in range(100):
+                clock.wait(0.05)
+                if handle.done:
+                    break
+            assert handle.done
+    finally:
+        simulator.stop()
+    messages = read_all(path)
+    moves = [decoded for topic, _, _, decoded in messages if topic == "/PSM1/move_jp"]
+    assert len(moves) == 1 and list(moves[0].position) == pytest.approx(list(goal))
+    setpoints = [(t, decoded) for topic, _, t, decoded in messages if topic == "/PSM1/setpoint_js"]
+    assert setpoints and list(setpoints[-1][1].position) == pytest.approx(list(goal), abs=1e-6)
+    assert max(t for t, _ in setpoints) < 10e9  # simulated seconds since the simulator started
+    events = [json.loads(decoded.data) for topic, _, _, decoded in messages if topic == "/pegbt/events"]
+    assert events[0]["kind"] == "start" and events[0]["mode"] == "lockstep"

@@ -121,7 +121,10 @@ def _recorder(
     from pegbt.transport.link import Link
     from pegbt.transport.recorder import WireRecorder
 
-    recorder = WireRecorder(path, clock, clock_kind=clock_kind, cloud_step=cloud_step)
+    simulated = bool(getattr(clock, "lockstep", False))
+    recorder = WireRecorder(
+        path, clock.now, simulated=simulated, clock_kind=clock_kind, cloud_step=cloud_step
+    )
     for resource in resources.values():
         if isinstance(getattr(resource, "link", None), Link):
             recorder.attach(resource.link)

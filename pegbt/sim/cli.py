@@ -10,8 +10,9 @@ import signal
 import sys
 import threading
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
+from pegbt.bagoptions import add_record_arguments
 from pegbt.numbers import NumberOption
 from pegbt.transport.endpoints import DEFAULT_ENDPOINT
 
@@ -106,6 +107,7 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
         action="store_true",
         help="stop when standard input closes: a parent process that pipes it is gone (even killed)",
     )
+    add_record_arguments(parser)
     parser.set_defaults(handler=_sim)
 
 
@@ -136,6 +138,7 @@ def _sim(args: argparse.Namespace) -> int:
     except BaseException:
         session.close()
         raise
+    recorder = _recorder(args, endpoint) if args.record else None
     signal.signal(signal.SIGTERM, lambda *_: endpoint.stop())
     if args.stop_with_parent:
         threading.Thread(
@@ -154,9 +157,13 @@ def _sim(args: argparse.Namespace) -> int:
     except KeyboardInterrupt:
         outcome = "stopped"
     if outcome == "crashed":
+        if recorder is not None:
+            recorder.close()
         print(f"pegbt sim: injected crash at t={endpoint.elapsed:.3f} s", file=sys.stderr, flush=True)
         endpoint.log.close()
         os._exit(CRASH_EXIT_STATUS)  # die like a crash: no orderly goodbye to the peers
+    if recorder is not None:
+        recorder.close()
     endpoint.close()
     session.close()
     # Everything is closed and written. Leave now: after a peer vanished mid-step, a zenoh callback thread
@@ -164,6 +171,22 @@ def _sim(args: argparse.Namespace) -> int:
     sys.stdout.flush()
     sys.stderr.flush()
     os._exit(0)
+
+
+def _recorder(args: argparse.Namespace, endpoint: SimEndpoint) -> Any:
+    """A recorder of everything the simulator takes and sends, on its clock (simulated in lockstep)."""
+    from pegbt.transport.recorder import WireRecorder
+
+    kind = "simulator (lockstep)" if args.lockstep else "simulator (real time)"
+    recorder = WireRecorder(
+        args.record,
+        lambda: endpoint.time,
+        simulated=args.lockstep,
+        clock_kind=kind,
+        cloud_step=args.record_cloud_step,
+    )
+    endpoint.record(recorder)
+    return recorder
 
 
 def _stop_at_stdin_eof(endpoint: SimEndpoint) -> None:

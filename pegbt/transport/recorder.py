@@ -1,11 +1,12 @@
 """Record what crosses the wire to one MCAP file, as rosbag2 writes it: ROS 2 schemas (`ros2msg`), CDR messages.
 
-`WireRecorder.attach(link)` taps a `Link`: every message its inlets take (on their topics, or bundled in a
+`WireRecorder.attach(link)` taps a client's `Link`: every message its inlets take (on their topics, or bundled in a
 lockstep step's reply, where a re-stamped joint state becomes the last full one with the new stamp) and
 every payload its outlets put, each on its ROS 2 topic (`/PSM1/measured_js`) with its ROS 2 type and the
 same CDR bytes. Camera clouds keep every `cloud_step`-th point (1: as received). Beside them, JSON as
 `std_msgs/msg/String`: `/pegbt/ticks` (the tick log's status changes, from `tick_record`) and
-`/pegbt/events` (the simulator's faults and world events from `sim/events`).
+`/pegbt/events` (the simulator's faults and world events from `sim/events`). The simulator records its
+side through the same methods (`SimEndpoint.record`).
 
 Log times are the run's clock (simulated seconds in lockstep; the file's `pegbt` metadata says which):
 a stamped message's header stamp, else the clock when it crossed. The `mcap` library writes the file in
@@ -18,6 +19,7 @@ import json
 import struct
 import threading
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -26,7 +28,6 @@ import zenoh
 from mcap.writer import CompressionType, Writer
 
 from pegbt import __version__
-from pegbt.clock import Clock
 from pegbt.errors import PegbtError
 from pegbt.transport import codec
 from pegbt.transport.keys import SimKeys
@@ -66,7 +67,16 @@ def ros2_type(key: str) -> str | None:
 class WireRecorder:
     """One MCAP file of a run's traffic; `attach` links, give `tick_record` to the tick log, then `close`."""
 
-    def __init__(self, path: str | Path, clock: Clock, *, clock_kind: str, cloud_step: int = 10) -> None:
+    def __init__(
+        self,
+        path: str | Path,
+        now: Callable[[], float],
+        *,
+        simulated: bool,
+        clock_kind: str,
+        cloud_step: int = 10,
+    ) -> None:
+        """`now` is the run's clock (seconds; `simulated`: since the simulator started, else the Unix epoch)."""
         if cloud_step < 1:
             raise PegbtError(f"the cloud step must be at least 1, got {cloud_step}", field="cloud_step")
         self.path = Path(path)
@@ -75,12 +85,11 @@ class WireRecorder:
             self._file = self.path.open("wb")
         except OSError as error:
             raise PegbtError(f"cannot write the recording: {error.strerror}", file=self.path) from None
-        self._clock = clock
+        self._now = now
         self._cloud_step = cloud_step
         self._lock = threading.Lock()
         self._writer = Writer(self._file, chunk_size=CHUNK_BYTES, compression=CompressionType.ZSTD)
         self._writer.start(profile="ros2", library=f"pegbt {__version__}")
-        simulated = bool(getattr(clock, "lockstep", False))
         self._writer.add_metadata(
             "pegbt",
             {
@@ -128,18 +137,22 @@ class WireRecorder:
         ]
         if changes or record["type"] != "tick":
             entry = {key: record[key] for key in ("type", "n", "t", "reason", "outcome") if key in record}
-            self._string(TICKS_TOPIC, {**entry, "changes": changes}, self._clock.now())
+            self._string(TICKS_TOPIC, {**entry, "changes": changes}, self._now())
+
+    def event(self, line: str) -> None:
+        """A line of the simulator's log (JSON: a world event or a fault, with its `time`) to `/pegbt/events`."""
+        try:
+            entry = json.loads(line)
+        except ValueError:
+            return
+        when = entry.get("time") if isinstance(entry, dict) else None
+        self._string(EVENTS_TOPIC, entry, float(when) if isinstance(when, (int, float)) else self._now())
 
     def _event(self, sample: zenoh.Sample) -> None:
         try:
-            line = codec.decode_string(sample.payload.to_bytes())
-            entry = json.loads(line)
-        except (PegbtError, ValueError):
+            self.event(codec.decode_string(sample.payload.to_bytes()))
+        except PegbtError:
             return
-        when = entry.get("time") if isinstance(entry, dict) else None
-        self._string(
-            EVENTS_TOPIC, entry, float(when) if isinstance(when, (int, float)) else self._clock.now()
-        )
 
     # ------------------------------------------------------------------------------------------ writing
     def _message(self, key: str, payload: bytes) -> None:
@@ -150,7 +163,7 @@ class WireRecorder:
             payload = _thinned(payload, self._cloud_step)
         if kind == "sensor_msgs/msg/JointState":
             self._last[key] = payload
-        when = self._clock.now()
+        when = self._now()
         if kind in _STAMPED and len(payload) >= 12:
             sec, nanosec = _STAMP.unpack_from(payload, 4)
             when = sec + nanosec * 1e-9 or when
