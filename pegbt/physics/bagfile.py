@@ -23,7 +23,7 @@ from numpy.typing import NDArray
 
 from pegbt.bagoptions import DEFAULT_CMD, DEFAULT_PHY
 from pegbt.errors import PegbtError
-from pegbt.psm import N_JOINTS
+from pegbt.psm import ARMS, N_JOINTS
 
 JOINT_STATE = "sensor_msgs/msg/JointState"
 _ARM_IN_TOPIC = re.compile(r"(?:^|/)(PSM[12])(?:/|$)")
@@ -90,7 +90,9 @@ def _joint_stream(path: Path, topic: str, kind: str, rows: list[tuple[float, lis
             field=topic,
         )
     order = np.argsort([stamp for stamp, _ in rows], kind="stable")
-    return np.array([[rows[i][0], *rows[i][1]] for i in order], dtype=float)
+    stream = np.array([[rows[i][0], *rows[i][1]] for i in order], dtype=float)
+    last_of_stamp = np.r_[stream[1:, 0] != stream[:-1, 0], True]  # a state re-sent unchanged counts once
+    return stream[last_of_stamp]
 
 
 def _bag_arm(path: Path, arm: str | None, cmd: str | None, phy: str | None) -> str | None:
@@ -133,7 +135,9 @@ def read_bag(
     if not topics:
         raise PegbtError("the bag is empty: no topics, no messages", file=path)
     if arm is None:
-        arms = sorted({match.group(1) for topic in topics if (match := _ARM_IN_TOPIC.search(topic))})
+        arms = [name for name in ARMS if DEFAULT_PHY.format(arm=name) in topics]  # the arm tracked, else
+        if len(arms) != 1:  # the one arm the topics name
+            arms = sorted({match.group(1) for topic in topics if (match := _ARM_IN_TOPIC.search(topic))})
         if len(arms) != 1:
             raise PegbtError(
                 f"which arm? the bag's topics name {' and '.join(arms) or 'neither arm'}: give --arm, or --cmd "
