@@ -3,6 +3,7 @@ know nothing of pegbt: topics, ROS 2 types, CDR payloads, log times, and a file 
 
 from __future__ import annotations
 
+import dataclasses
 import io
 import json
 import struct
@@ -134,7 +135,8 @@ def test_a_step_replys_restamp_note_records_the_last_state_with_its_new_stamp(tm
         1.25, [0.1, 0.2, 0.1, 0.3, 0.4, 0.5], names=("a", "b", "c", "d", "e", "f")
     )
     wire.received("PSM1/measured_js", Received(base, codec.decode_joint_state, None, 0.0))
-    again = Received(b"", lambda _: codec.JointSample(2.5, np.zeros(6), np.zeros(0), np.zeros(0)), None, 0.0)
+    # as SimClock delivers a note: its last full state of the key, with the note's stamp
+    again = Received(b"", lambda _: dataclasses.replace(codec.decode_joint_state(base), stamp=2.5), None, 0.0)
     wire.received("PSM1/measured_js", again)
     wire.received("sim/clock", Received(b"{}", json.loads, None, 0.0))  # not a ROS 2 topic: left out
     wire.tick_record({"type": "header", "nodes": [{"id": 0, "path": "/root"}]})
@@ -189,3 +191,29 @@ def test_the_simulator_records_the_commands_it_takes_and_the_state_it_sends(tmp_
     assert max(t for t, _ in setpoints) < 10e9  # simulated seconds since the simulator started
     events = [json.loads(decoded.data) for topic, _, _, decoded in messages if topic == "/pegbt/events"]
     assert events[0]["kind"] == "start" and events[0]["mode"] == "lockstep"
+
+
+@pytest.mark.slow
+def test_a_collection_recorded_as_a_bag_holds_every_sample_of_its_folder(tmp_path):
+    import subprocess
+    import sys
+
+    from pegbt.physics.recording import load_recording
+
+    bag, folder = tmp_path / "collect.mcap", tmp_path / "collect"
+    done = subprocess.run(
+        [sys.executable, "-m", "pegbt", "calibrate", "collect", "--arm", "PSM2", "--minutes", "0.4"]
+        + ["--record", str(bag), "--out", str(folder), "--log", str(tmp_path / "collect.jsonl")],
+        capture_output=True,
+        text=True,
+        cwd=REPO,
+        timeout=300,
+        check=False,
+    )
+    assert done.returncode == 0, done.stderr
+    from_bag, from_folder = load_recording(bag), load_recording(folder)  # the bag with its default topics
+    assert from_bag.arm == "PSM2" and from_bag.n >= from_folder.n
+    index = np.searchsorted(from_bag.t, from_folder.t - 1e-6)  # stamps hold whole nanoseconds
+    np.testing.assert_allclose(from_bag.t[index], from_folder.t, atol=1e-9)
+    np.testing.assert_allclose(from_bag.q_phy[index], from_folder.q_phy, atol=1e-12)
+    np.testing.assert_allclose(from_bag.q_cmd[index], from_folder.q_cmd, atol=1e-12)

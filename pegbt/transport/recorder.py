@@ -3,7 +3,7 @@
 `WireRecorder.attach(link)` taps a client's `Link`: every message its inlets take (on their topics, or bundled in a
 lockstep step's reply, where a re-stamped joint state becomes the last full one with the new stamp) and
 every payload its outlets put, each on its ROS 2 topic (`/PSM1/measured_js`) with its ROS 2 type and the
-same CDR bytes. Camera clouds keep every `cloud_step`-th point (1: as received). Beside them, JSON as
+same CDR bytes (a note is encoded as the simulator encodes the full state). Camera clouds keep every `cloud_step`-th point (1: as received). Beside them, JSON as
 `std_msgs/msg/String`: `/pegbt/ticks` (the tick log's status changes, from `tick_record`) and
 `/pegbt/events` (the simulator's faults and world events from `sim/events`). The simulator records its
 side through the same methods (`SimEndpoint.record`).
@@ -101,7 +101,6 @@ class WireRecorder:
         )
         self._schemas: dict[str, int] = {}
         self._channels: dict[str, int] = {}
-        self._last: dict[str, bytes] = {}  # per key, the last full payload (a step's notes re-stamp it)
         self._paths: dict[int, str] = {}
         self._subscribers: list[zenoh.Subscriber] = []
         self._flushed = time.monotonic()
@@ -116,11 +115,11 @@ class WireRecorder:
 
     def received(self, key: str, message: Received[Any]) -> None:
         payload = message.payload
-        if not payload:  # a step reply's note: the last full state of `key`, stamped anew
-            base = self._last.get(key)
-            if base is None:
-                return
-            payload = base[:4] + _STAMP.pack(*codec.seconds_parts(message.value.stamp)) + base[12:]
+        if not payload:  # a step reply's note: the clock's last full state of `key`, stamped anew
+            state = message.value
+            payload = codec.encode_joint_state(
+                state.stamp, state.position, state.velocity, state.effort, state.name
+            )
         self._message(key, payload)
 
     def sent(self, key: str, payload: bytes) -> None:
@@ -161,8 +160,6 @@ class WireRecorder:
             return
         if kind == POINT_CLOUD2 and self._cloud_step > 1:
             payload = _thinned(payload, self._cloud_step)
-        if kind == "sensor_msgs/msg/JointState":
-            self._last[key] = payload
         when = self._now()
         if kind in _STAMPED and len(payload) >= 12:
             sec, nanosec = _STAMP.unpack_from(payload, 4)
