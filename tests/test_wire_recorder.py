@@ -217,3 +217,15 @@ def test_a_collection_recorded_as_a_bag_holds_every_sample_of_its_folder(tmp_pat
     np.testing.assert_allclose(from_bag.t[index], from_folder.t, atol=1e-9)
     np.testing.assert_allclose(from_bag.q_phy[index], from_folder.q_phy, atol=1e-12)
     np.testing.assert_allclose(from_bag.q_cmd[index], from_folder.q_cmd, atol=1e-12)
+
+
+def test_a_failing_disk_stops_the_recording_not_the_run(monkeypatch):
+    from pegbt.errors import PegbtError
+
+    monkeypatch.setattr(recorder, "FLUSH_S", 0.0)
+    clock = ManualClock()
+    wire = WireRecorder("/dev/full", clock.now, simulated=False, clock_kind="manual")
+    for i in range(3):  # each write fails underneath; none raises into the caller
+        wire.sent("PSM1/servo_jp", codec.encode_joint_state(float(i), np.zeros(6)))
+    with pytest.raises(PegbtError, match="the recording stopped: No space left on device"):
+        wire.close()

@@ -108,9 +108,11 @@ def run_tree_file(
         }
         reports = {name: report for name, report in reports.items() if report is not None}
     finally:
-        if recorder is not None:
-            recorder.close()
-        close_resources(resources)
+        try:
+            if recorder is not None:
+                recorder.close()
+        finally:
+            close_resources(resources)
     return RunOutput(result, log_path, reports)
 
 

@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from pegbt.bagoptions import add_record_arguments
+from pegbt.errors import PegbtError
 from pegbt.numbers import NumberOption
 from pegbt.transport.endpoints import DEFAULT_ENDPOINT
 
@@ -156,14 +157,15 @@ def _sim(args: argparse.Namespace) -> int:
         outcome = endpoint.run()
     except KeyboardInterrupt:
         outcome = "stopped"
-    if outcome == "crashed":
-        if recorder is not None:
+    if recorder is not None:
+        try:
             recorder.close()
+        except PegbtError as error:  # the simulator still stops in order
+            print(f"pegbt sim: {error}", file=sys.stderr, flush=True)
+    if outcome == "crashed":
         print(f"pegbt sim: injected crash at t={endpoint.elapsed:.3f} s", file=sys.stderr, flush=True)
         endpoint.log.close()
         os._exit(CRASH_EXIT_STATUS)  # die like a crash: no orderly goodbye to the peers
-    if recorder is not None:
-        recorder.close()
     endpoint.close()
     session.close()
     # Everything is closed and written. Leave now: after a peer vanished mid-step, a zenoh callback thread

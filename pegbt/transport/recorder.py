@@ -65,7 +65,10 @@ def ros2_type(key: str) -> str | None:
 
 
 class WireRecorder:
-    """One MCAP file of a run's traffic; `attach` links, give `tick_record` to the tick log, then `close`."""
+    """One MCAP file of a run's traffic; `attach` links, give `tick_record` to the tick log, then `close`.
+
+    Its methods never raise into the client that calls them (a zenoh callback): a write that fails stops
+    the recording, and `close` reports it."""
 
     def __init__(
         self,
@@ -105,6 +108,7 @@ class WireRecorder:
         self._subscribers: list[zenoh.Subscriber] = []
         self._flushed = time.monotonic()
         self._closed = False
+        self._failure: OSError | None = None
 
     # ------------------------------------------------------------------------------------------ inputs
     def attach(self, link: Link) -> None:
@@ -116,7 +120,10 @@ class WireRecorder:
     def received(self, key: str, message: Received[Any]) -> None:
         payload = message.payload
         if not payload:  # a step reply's note: the clock's last full state of `key`, stamped anew
-            state = message.value
+            try:
+                state = message.value
+            except PegbtError:
+                return  # whoever reads it gets the error; the recording goes on
             payload = codec.encode_joint_state(
                 state.stamp, state.position, state.velocity, state.effort, state.name
             )
@@ -159,7 +166,10 @@ class WireRecorder:
         if kind is None:
             return
         if kind == POINT_CLOUD2 and self._cloud_step > 1:
-            payload = _thinned(payload, self._cloud_step)
+            try:
+                payload = _thinned(payload, self._cloud_step)
+            except PegbtError:
+                pass  # not a cloud to thin: recorded as it came
         when = self._now()
         if kind in _STAMPED and len(payload) >= 12:
             sec, nanosec = _STAMP.unpack_from(payload, 4)
@@ -183,10 +193,13 @@ class WireRecorder:
                         kind, "ros2msg", text.encode()
                     )
                 channel = self._channels[topic] = self._writer.register_channel(topic, "cdr", schema)
-            self._writer.add_message(channel, log_time=stamp, data=payload, publish_time=stamp)
-            if time.monotonic() - self._flushed >= FLUSH_S:
-                self._writer.flush()
-                self._flushed = time.monotonic()
+            try:
+                self._writer.add_message(channel, log_time=stamp, data=payload, publish_time=stamp)
+                if time.monotonic() - self._flushed >= FLUSH_S:
+                    self._writer.flush()
+                    self._flushed = time.monotonic()
+            except OSError as error:  # a full disk stops the recording, never the run: `close` says so
+                self._failure, self._closed = error, True
 
     def close(self) -> None:
         """Finish the file (its summary and index): a reader can then seek in it."""
@@ -194,11 +207,18 @@ class WireRecorder:
             subscriber.undeclare()
         self._subscribers.clear()
         with self._lock:
-            if self._closed:
-                return
-            self._closed = True
-            self._writer.finish()
-            self._file.close()
+            if not self._closed:
+                self._closed = True
+                try:
+                    self._writer.finish()
+                except OSError as error:
+                    self._failure = error
+            try:
+                self._file.close()
+            except OSError as error:  # what was buffered could not be written either
+                self._failure = self._failure or error
+        if self._failure is not None:
+            raise PegbtError(f"the recording stopped: {self._failure.strerror}", file=self.path)
 
 
 def _thinned(payload: bytes, step: int) -> bytes:
