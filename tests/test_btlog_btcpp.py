@@ -61,6 +61,15 @@ tree:
             - scripted: {name: p1, outcomes: [running, success]}
             - scripted: {name: p2, outcomes: [running, running, running, success]}
       - subtree: {use: place, args: {who: me}, name: put}
+      - retry:
+          name: start over
+          attempts: 2
+          child:
+            sequence:
+              name: both
+              children:  # restarted from the first child after a failure: BT.CPP's Sequence, not SequenceWithMemory
+                - scripted: {name: first, outcomes: [success, running, success]}
+                - scripted: {name: second, outcomes: [failure, success]}
       - repeat:
           times: 2
           child: {scripted: {name: twice, outcomes: [running, success, running, running, success]}}
@@ -185,6 +194,7 @@ def test_export_matches_the_file_btcpp_writes_for_the_same_run(tmp_path):
     uid = {node["name"]: node["id"] + 1 for node in log.nodes}
     assert (uid["left"], 3) in ours_sequence and (uid["right"], 3) in ours_sequence  # a failure, a retry
     assert ours_sequence.count((uid["twice"], 1)) == 2  # a leaf running over several ticks, twice
+    assert ours_sequence.count((uid["first"], 2)) == 2  # the sequence ran its first child again
     assert (uid["stuck"], 0) in ours_sequence and (uid["limit"], 3) in ours_sequence  # timed out: halted
 
 
