@@ -233,42 +233,6 @@ def test_damaged_logs_give_located_errors(tmp_path, damage, line, expected):
     assert raised.value.line == (len(lines) if line == "last" else line)
 
 
-def test_btlog_export_follows_the_file_logger2_layout(tmp_path):
-    import xml.etree.ElementTree as ElementTree
-
-    from pegbt.executive.btlog import export_btlog, read_btlog
-
-    _, path = run_logged(tmp_path, RECOVERED)
-    log = read_tick_log(path)
-    out = tmp_path / "run.btlog"
-    assert export_btlog(log, out) == len(log.transitions)
-    xml, first_us, transitions = read_btlog(out)
-    root = ElementTree.fromstring(xml)
-    assert root.tag == "root" and root.get("BTCPP_format") == "4"
-    nodes = [element for element in root.iter() if element.get("_uid")]
-    assert [(node.tag, node.get("name"), node.get("_uid")) for node in nodes] == [
-        ("recover", "pick with recovery", "1"),
-        ("scripted", "pick", "2"),
-        ("wait", "re-sense", "3"),
-    ]
-    assert nodes[2].get("seconds") == "0.15"
-    models = {model.get("ID"): model.tag for model in root.find("TreeNodesModel")}
-    assert models == {"recover": "Control", "scripted": "Action", "wait": "Action"}
-    assert abs(first_us / 1e6 - datetime_of(log.header["start_time"])) < 1e-3
-    expected = [
-        (round(c.t * 1e6), c.node + 1, {"INVALID": 0, "RUNNING": 1, "SUCCESS": 2, "FAILURE": 3}[c.after])
-        for c in log.transitions
-    ]
-    assert transitions == expected
-    assert transitions[-1] == (300_000, 1, 2)  # the recover node succeeded at t = 0.3 s
-
-
-def datetime_of(text: str) -> float:
-    import datetime
-
-    return datetime.datetime.fromisoformat(text).timestamp()
-
-
 def test_a_failing_setup_is_logged_as_a_crash(tmp_path):
     with pytest.raises(PegbtError, match="provides no resource 'counter'"):
         run_logged(tmp_path, "blackboard: {step: 1}\ntree: {test_counting: {name: count}}")

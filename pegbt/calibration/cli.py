@@ -10,12 +10,16 @@ import argparse
 import json
 from pathlib import Path
 
+from pegbt.bagoptions import add_bag_arguments, add_record_arguments, bag_options, record_options
 from pegbt.errors import PegbtError
 from pegbt.numbers import NumberOption
 from pegbt.psm import ARMS, JOINT_NAMES
 
 KINDS = ("lstm", "physics", "hybrid")
-RECORDING_HELP = "recording: a folder with q_cmd.npy and q_phy.npy (the dVRK dataset layout), or a CSV"
+RECORDING_HELP = (
+    "recording: a folder with q_cmd.npy and q_phy.npy (the dVRK dataset layout), a CSV, an MCAP file or a "
+    "rosbag2 folder"
+)
 COLLECT_TREE = Path(__file__).resolve().parents[2] / "trees" / "calibrate_collect.yaml"
 OUTPUT_DIR = Path("runs") / "calibration"  # what the commands write unless told: never the committed skills/
 
@@ -68,6 +72,7 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
         metavar="FILE",
         help="tick log path (default runs/calibrate_collect-DATE-TIME.jsonl)",
     )
+    add_record_arguments(collect)
     collect.set_defaults(handler=_collect)
 
     train = commands.add_parser(
@@ -89,6 +94,7 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
         default=0.7,
         help="share used for training (default 0.7; 1.0 trains on everything and records no held-out scores)",
     )
+    add_bag_arguments(train)
     train.set_defaults(handler=_train)
 
     evaluate = commands.add_parser(
@@ -108,6 +114,7 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
         help="score only samples after this share of the recording (0.7: the held-out part)",
     )
     evaluate.add_argument("--json", action="store_true", help="print one JSON object")
+    add_bag_arguments(evaluate)
     evaluate.set_defaults(handler=_eval)
 
 
@@ -136,6 +143,7 @@ def _collect(args: argparse.Namespace) -> int:
         options={"endpoint": args.endpoint, "seed": args.seed},
         quiet=False,
         blackboard={"arm": args.arm, "setpoints": count, "out": str(out), "seed": args.seed},
+        **record_options(args),
     )
     print(f"outcome: {output.result.outcome} in {output.result.duration:.1f} s of the run's clock")
     if output.ok:
@@ -150,7 +158,7 @@ def _train(args: argparse.Namespace) -> int:
     from pegbt.calibration.modelfile import model_file_name
     from pegbt.physics.recording import load_recording
 
-    recording = load_recording(args.recording)
+    recording = load_recording(args.recording, arm=args.arm, **bag_options(args))
     n_train = recording.head(args.train_fraction)
     model = new_model(args.model, args.arm).fit(recording.slice(0, n_train))
     if n_train < len(recording):
@@ -169,7 +177,7 @@ def _eval(args: argparse.Namespace) -> int:
     from pegbt.physics.recording import load_recording
 
     model = CalibrationModel.load(args.model)
-    recording = load_recording(args.recording)
+    recording = load_recording(args.recording, arm=model.arm, **bag_options(args))
     start = recording.head(args.from_fraction) if args.from_fraction > 0 else 0
     if start >= len(recording):
         raise PegbtError(

@@ -7,6 +7,7 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from pegbt.bagoptions import add_record_arguments, record_options
 from pegbt.errors import PegbtError
 from pegbt.executive.providers import RUN_OPTIONS
 from pegbt.monitor.cli import add_port_option
@@ -65,6 +66,7 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
         "--verbose", action="store_true", help="a line for every leaf that finishes, not only failures"
     )
     add_port_option(run, "--monitor", default=None)
+    add_record_arguments(run)
     for option in RUN_OPTIONS.values():
         run.add_argument(
             f"--{option.name}",
@@ -175,6 +177,7 @@ def _run(args: argparse.Namespace) -> int:
             quiet=args.quiet,
             verbose=args.verbose,
             watch=monitor.watch if monitor else None,
+            **record_options(args),
         )
     except BaseException:
         if monitor:
@@ -189,7 +192,7 @@ def _run(args: argparse.Namespace) -> int:
             print(report)
     else:
         print(result_table(read_tick_log(log_path)))
-    print(f"tick log: {log_path}")
+    print(f"tick log: {log_path}" + (f"; recording: {args.record}" if args.record else ""))
     if monitor:
         monitor.serve_until_interrupted()
     return 0 if output.ok else 1

@@ -67,11 +67,15 @@ def run_tree_file(
     blackboard: Mapping[str, Any] | None = None,
     verbose: bool = False,
     watch: Callable[[BuiltTree, Mapping[str, Any]], list[Callable[[dict[str, Any]], None]]] | None = None,
+    record: str | Path | None = None,
+    record_cloud_step: int = 10,
 ) -> RunOutput:
     """Run the tree file `tree` once; see the module docstring. `quiet=False` prints progress to `out`
     (default: `sys.stdout` as it is when called); `blackboard` replaces initial values the file declares
     (`LoadedTree.set_blackboard`); `verbose` prints every leaf's result, not only failures and
-    recoveries; `watch(built, resources)` returns more tick-log listeners (`pegbt run --monitor`)."""
+    recoveries; `watch(built, resources)` returns more tick-log listeners (`pegbt run --monitor`);
+    `record` names an MCAP file for what the resources' links carry and the tick log's status changes
+    (`pegbt.transport.recorder`)."""
     out = out or sys.stdout
     checked_number(period, "--period", above=0.0)
     if timeout is not None:
@@ -81,10 +85,14 @@ def run_tree_file(
     loaded.set_blackboard(blackboard or {})
     setup = ProviderSetup(clock=make_clock(clock or "wall"), options=run_options(options))
     resources = provide_resources(loaded.resource_users(), setup)
+    recorder = None
     try:
         supplied, clock_kind = resource_clock(resources, clock)
         built = loaded.build(RunContext(clock=supplied or setup.clock, resources=resources))
         listeners = [] if quiet else [ProgressPrinter(built, out, verbose=verbose)]
+        if record is not None:
+            recorder = _recorder(record, supplied or setup.clock, clock_kind, record_cloud_step, resources)
+            listeners.append(recorder.tick_record)
         if not quiet:
             bars = [
                 resource.progress()
@@ -108,5 +116,26 @@ def run_tree_file(
         }
         reports = {name: report for name, report in reports.items() if report is not None}
     finally:
-        close_resources(resources)
+        try:
+            if recorder is not None:
+                recorder.close()
+        finally:
+            close_resources(resources)
     return RunOutput(result, log_path, reports)
+
+
+def _recorder(
+    path: str | Path, clock: Any, clock_kind: str, cloud_step: int, resources: Mapping[str, Any]
+) -> Any:
+    """A `WireRecorder` on every resource's link (imported here: zenoh and mcap only when recording)."""
+    from pegbt.transport.link import Link
+    from pegbt.transport.recorder import WireRecorder
+
+    simulated = bool(getattr(clock, "lockstep", False))
+    recorder = WireRecorder(
+        path, clock.now, simulated=simulated, clock_kind=clock_kind, cloud_step=cloud_step
+    )
+    for resource in resources.values():
+        if isinstance(getattr(resource, "link", None), Link):
+            recorder.attach(resource.link)
+    return recorder

@@ -6,7 +6,9 @@ tool (which names the effects) and calibration (which learns and inverts them). 
 - a folder with `q_cmd.npy` (N×6 commanded joints), `q_phy.npy` (N×6 physical joints), optional
   `t_stamp.npy` (N seconds) and optional `meta.json` (`{"arm": "PSM1", ...}`), as in
   `../shared/data/dvrk/`; those real folders have no `meta.json`, their names end in the arm (`..._PSM1`);
-- a CSV with columns `t,q1_cmd..q6_cmd,q1_meas..q6_meas`.
+- a CSV with columns `t,q1_cmd..q6_cmd,q1_meas..q6_meas`;
+- a ROS 2 bag (an MCAP file or a rosbag2 folder) with command and physical joint-state topics, paired by
+  stamp (`bagfile.py`).
 
 Everything a user can get wrong (lengths, NaN rows, time running backwards, commands that never move,
 too few samples, a file that is not a recording at all) is refused with a `PegbtError` naming the file,
@@ -33,6 +35,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from pegbt.errors import PegbtError
+from pegbt.physics.bagfile import is_bag, read_bag
 from pegbt.psm import JOINT_NAMES, N_JOINTS, known_arm
 
 Array = NDArray[np.float64]
@@ -119,12 +122,31 @@ class Recording:
 
 
 # ---------------------------------------------------------------------------------------------- reading
-def load_recording(path: str | Path) -> Recording:
-    """Read and validate a recording folder or CSV; a `PegbtError` naming the file and problem if bad."""
+def load_recording(
+    path: str | Path,
+    *,
+    cmd: str | None = None,
+    phy: str | None = None,
+    arm: str | None = None,
+    settled: float | None = None,
+) -> Recording:
+    """Read and validate a recording folder, CSV or bag; a `PegbtError` naming the file and problem if bad.
+
+    `cmd`, `phy`, `arm` and `settled` choose a bag's topics and samples (`bagfile.read_bag`)."""
     path = Path(path)
     if not path.exists():
         raise PegbtError(
-            "no such recording (expected a folder with q_cmd.npy and q_phy.npy, or a CSV)", file=path
+            "no such recording (expected a folder with q_cmd.npy and q_phy.npy, a CSV, an MCAP file or a "
+            "rosbag2 folder)",
+            file=path,
+        )
+    if is_bag(path):
+        samples = read_bag(path, cmd=cmd, phy=phy, arm=arm, settled=settled)
+        validate(samples.q_cmd, samples.q_phy, samples.t, path)
+        return Recording(path, samples.q_cmd, samples.q_phy, samples.t, samples.arm)
+    if cmd or phy or settled is not None:
+        raise PegbtError(
+            "--cmd, --phy and --settled choose a bag's topics; this recording is not a bag", file=path
         )
     if path.is_dir():
         q_cmd, q_phy, t = _read_folder(path)
@@ -132,7 +154,8 @@ def load_recording(path: str | Path) -> Recording:
         q_cmd, q_phy, t = _read_csv(path)
     else:
         raise PegbtError(
-            "not a recording: expected a folder with q_cmd.npy and q_phy.npy, or a .csv file", file=path
+            "not a recording: expected a folder with q_cmd.npy and q_phy.npy, a .csv or a .mcap file",
+            file=path,
         )
     validate(q_cmd, q_phy, t, path)
     return Recording(path, q_cmd, q_phy, t, _arm_of(path))
@@ -260,7 +283,7 @@ def _is_csv(where: Path) -> bool:
 
 def _file(where: Path, name: str) -> Path:
     """The file holding array `name`: the CSV itself, or the folder's .npy file."""
-    return where if _is_csv(where) or not where.is_dir() else where / FILES[name]
+    return where if _is_csv(where) or not where.is_dir() or is_bag(where) else where / FILES[name]
 
 
 def _line(where: Path, sample: int) -> int | None:

@@ -10,8 +10,10 @@ import signal
 import sys
 import threading
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
+from pegbt.bagoptions import add_record_arguments
+from pegbt.errors import PegbtError
 from pegbt.numbers import NumberOption
 from pegbt.transport.endpoints import DEFAULT_ENDPOINT
 
@@ -106,6 +108,7 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
         action="store_true",
         help="stop when standard input closes: a parent process that pipes it is gone (even killed)",
     )
+    add_record_arguments(parser)
     parser.set_defaults(handler=_sim)
 
 
@@ -136,6 +139,7 @@ def _sim(args: argparse.Namespace) -> int:
     except BaseException:
         session.close()
         raise
+    recorder = _recorder(args, endpoint) if args.record else None
     signal.signal(signal.SIGTERM, lambda *_: endpoint.stop())
     if args.stop_with_parent:
         threading.Thread(
@@ -153,6 +157,11 @@ def _sim(args: argparse.Namespace) -> int:
         outcome = endpoint.run()
     except KeyboardInterrupt:
         outcome = "stopped"
+    if recorder is not None:
+        try:
+            recorder.close()
+        except PegbtError as error:  # the simulator still stops in order
+            print(f"pegbt sim: {error}", file=sys.stderr, flush=True)
     if outcome == "crashed":
         print(f"pegbt sim: injected crash at t={endpoint.elapsed:.3f} s", file=sys.stderr, flush=True)
         endpoint.log.close()
@@ -164,6 +173,22 @@ def _sim(args: argparse.Namespace) -> int:
     sys.stdout.flush()
     sys.stderr.flush()
     os._exit(0)
+
+
+def _recorder(args: argparse.Namespace, endpoint: SimEndpoint) -> Any:
+    """A recorder of everything the simulator takes and sends, on its clock (simulated in lockstep)."""
+    from pegbt.transport.recorder import WireRecorder
+
+    kind = "simulator (lockstep)" if args.lockstep else "simulator (real time)"
+    recorder = WireRecorder(
+        args.record,
+        lambda: endpoint.time,
+        simulated=args.lockstep,
+        clock_kind=kind,
+        cloud_step=args.record_cloud_step,
+    )
+    endpoint.record(recorder)
+    return recorder
 
 
 def _stop_at_stdin_eof(endpoint: SimEndpoint) -> None:

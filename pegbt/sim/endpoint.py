@@ -35,7 +35,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from functools import partial
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import zenoh
@@ -59,6 +59,9 @@ from pegbt.transport import codec
 from pegbt.transport.arm import ARM_JOINT_NAMES, JAW_JOINT_NAMES
 from pegbt.transport.keys import ArmKeys, CameraKeys, SimKeys
 from pegbt.transport.sequencing import Outlet, Source, Tag
+
+if TYPE_CHECKING:
+    from pegbt.transport.recorder import WireRecorder
 
 STATE_REFRESH = 1.0  # s of simulated time between unprompted operating_state messages
 
@@ -129,6 +132,7 @@ class SimEndpoint:
         self.source = Source()
         self.faults = FaultInjector(config.faults)
         self._events_outlet = Outlet(session, self.sim_keys.events, self.source)
+        self._recorder: WireRecorder | None = None
         self.log = SimLog(config.log_path, self._publish_log_line)
         self._outbox = Outbox(
             session, self.source, self.faults, self.log.record, realtime=not config.lockstep
@@ -189,9 +193,17 @@ class SimEndpoint:
             self.session.declare_queryable(self.sim_keys.truth, lambda q: self._inbox.put(("truth", q)))
         )
 
+    def record(self, recorder: WireRecorder) -> None:
+        """Show `recorder` every command taken, every message published or bundled, every log line."""
+        self._recorder = recorder
+        self._outbox.record(recorder.sent)
+
     def _enqueue_command(self, arm: str, key: str, sample: zenoh.Sample) -> None:
         tag = Tag.decode(sample.attachment)
-        self._inbox.put(("command", arm, key, sample.payload.to_bytes(), tag))
+        payload = sample.payload.to_bytes()
+        if self._recorder is not None:
+            self._recorder.sent(key, payload)
+        self._inbox.put(("command", arm, key, payload, tag))
         if tag is not None:
             self._lockstep.arrived(tag, key)
 
@@ -436,6 +448,8 @@ class SimEndpoint:
     def _publish_log_line(self, line: str) -> None:
         """A log entry on `sim/events`, to whoever listens: a message numbered for nobody would hold up the
         lockstep barrier of a client that subscribed later."""
+        if self._recorder is not None:
+            self._recorder.event(line)
         if self._events_outlet.matched:
             self._events_outlet.put(codec.encode_string(line))
 

@@ -93,6 +93,9 @@ class Outbox:
         self._last_due: dict[str, float] = {}
         self._order = itertools.count()
         self._claimed: set[str] = set()
+        self.tap: Callable[[str, bytes], None] | None = (
+            None  # sees every message sent or bundled (a recorder)
+        )
         self._replied: dict[
             str, dict[str, tuple[object, int]]
         ] = {}  # per clock, per key: content and number last sent
@@ -102,6 +105,7 @@ class Outbox:
             self._outlets[key] = Outlet(
                 self._session, key, self._source, drop_when_congested=self._realtime, express=self._realtime
             )
+            self._outlets[key].tap = self.tap
         return self._outlets[key]
 
     def claim(self, keys: set[str]) -> None:
@@ -155,7 +159,15 @@ class Outbox:
             else:
                 messages.append((key, tag, latest.payload()))
             replied[key] = (content, tag.seq)
+            if self.tap is not None:
+                self.tap(key, latest.payload())
         return messages
+
+    def record(self, tap: Callable[[str, bytes], None]) -> None:
+        """Show `tap` every message from now on: put on its topic (by every outlet) or bundled in a reply."""
+        self.tap = tap
+        for outlet in self._outlets.values():
+            outlet.tap = tap
 
     def repeat(self, keys: set[str]) -> None:
         """Put the latest message of each of `keys` again, unchanged (same stamp, same values), to whoever listens."""

@@ -6,6 +6,7 @@ import argparse
 import json
 
 from pegbt.numbers import NumberOption
+from pegbt.bagoptions import add_bag_arguments, bag_options
 from pegbt.psm import ARMS
 
 PRESET_OUT = "runs/sim2real/preset.json"  # never a shipped preset unless --out names it
@@ -24,7 +25,8 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
         "diagnose",
         help="diagnose a recording against the simulator's arm physics",
         description="RECORDING is a folder with q_cmd.npy, q_phy.npy and optional t_stamp.npy (the dVRK dataset "
-        "layout) or a CSV with columns t,q1_cmd..q6_cmd,q1_meas..q6_meas.",
+        "layout), a CSV with columns t,q1_cmd..q6_cmd,q1_meas..q6_meas, or a ROS 2 bag (an MCAP file or a "
+        "rosbag2 folder) with --cmd and --phy joint-state topics.",
     )
     diagnose.add_argument("recording", metavar="RECORDING")
     diagnose.add_argument(
@@ -50,6 +52,7 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
         metavar="N",
         help="bootstrap resamples for intervals",
     )
+    add_bag_arguments(diagnose)
     diagnose.set_defaults(handler=_diagnose)
 
     synth = commands.add_parser(
@@ -104,11 +107,11 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
 
 
 def _diagnose(args: argparse.Namespace) -> int:
-    from pegbt.sim2real.diagnose import diagnose
     from pegbt.physics.recording import load_recording
+    from pegbt.sim2real.diagnose import diagnose
     from pegbt.sim2real.report import read_named_effects, report_dict, write_report
 
-    recording = load_recording(args.recording)
+    recording = load_recording(args.recording, arm=args.arm, **bag_options(args))
     if args.compare:
         read_named_effects(args.compare)  # refuse a bad report before the work, not after it
     diagnosis = diagnose(recording, args.sim, args.arm, n_bootstrap=args.bootstrap)

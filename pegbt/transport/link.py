@@ -32,18 +32,30 @@ class Link:
         self.inlets: list[Inlet] = []
         self._outlets: list[Outlet] = []
         self._owns_session = owns_session
+        self._taps: tuple[Callable[[str, Received[Any]], None], Callable[[str, bytes], None]] | None = None
 
     def inlet(
         self, key: str, decode: Callable[[bytes], T], on_message: Callable[[Received[T]], None] | None = None
     ) -> Inlet[T]:
         inlet = Inlet(self.session, key, decode, on_message)
+        inlet.tap = self._taps and self._taps[0]
         self.inlets.append(inlet)
         return inlet
 
     def outlet(self, key: str) -> Outlet:
         outlet = Outlet(self.session, key, self.source)
+        outlet.tap = self._taps and self._taps[1]
         self._outlets.append(outlet)
         return outlet
+
+    def tap(self, received: Callable[[str, Received[Any]], None], sent: Callable[[str, bytes], None]) -> None:
+        """Show every message the inlets take (on their keys or bundled in a step's reply) to `received`
+        and every payload the outlets put to `sent`: what crosses the wire, as the clients see it."""
+        self._taps = (received, sent)
+        for inlet in self.inlets:
+            inlet.tap = received
+        for outlet in self._outlets:
+            outlet.tap = sent
 
     def query(self, key: str, request: dict[str, Any], timeout: float) -> dict[str, Any]:
         """Send a JSON request to the simulator's queryable `key`; its JSON answer, or a `PegbtError` if

@@ -124,6 +124,7 @@ class Outlet:
         self._source = source
         congestion = zenoh.CongestionControl.DROP if drop_when_congested else zenoh.CongestionControl.BLOCK
         self._publisher = session.declare_publisher(key, express=express, congestion_control=congestion)
+        self.tap: Callable[[str, bytes], None] | None = None  # sees every payload put (a recorder)
 
     @property
     def matched(self) -> bool:
@@ -133,6 +134,8 @@ class Outlet:
     def put(self, payload: bytes, cause: str = "", outcome: str = "") -> Tag:
         tag = self._source.next_tag(self.key, cause, outcome)
         self._publisher.put(payload, attachment=tag.encode())
+        if self.tap is not None:
+            self.tap(self.key, payload)
         return tag
 
     def close(self) -> None:
@@ -163,6 +166,11 @@ class Received(Generic[T]):
             self._value, self._payload = self._decode(self._payload), None
         return self._value  # type: ignore[return-value]
 
+    @property
+    def payload(self) -> bytes | None:
+        """The bytes as received, until `value` decodes them (empty for a value given without bytes)."""
+        return self._payload
+
 
 class Inlet(Generic[T]):
     """The latest message on one key, and the highest sequence number seen from each source.
@@ -184,6 +192,7 @@ class Inlet(Generic[T]):
         self._latest: Received[T] | None = None
         self._seen: dict[str, int] = {}
         self._changed = threading.Condition()
+        self.tap: Callable[[str, Received[T]], None] | None = None  # sees every message taken (a recorder)
         self._subscriber = session.declare_subscriber(key, self._receive)
 
     def _receive(self, sample: zenoh.Sample) -> None:
@@ -200,6 +209,8 @@ class Inlet(Generic[T]):
             if tag is not None and tag.seq <= self._seen.get(tag.source, 0):
                 return
             self._latest = received
+        if self.tap is not None:
+            self.tap(self.key, received)
         if self._on_message is not None:
             try:
                 self._on_message(received)

@@ -1,0 +1,183 @@
+"""Commanded and physical joints from a ROS 2 bag: an MCAP file, or a rosbag2 folder (MCAP or sqlite3).
+
+A bag holds two `sensor_msgs/msg/JointState` streams, the commands (`--cmd`, default
+`/PSMn/setpoint_js`) and the physical joints (`--phy`, default `/PSMn/fiducial_js`, the simulator's; on a
+dVRK the tracker's topic). Each physical sample is paired with the latest command stamped at or before
+it (header stamps; the log time when a stamp is zero), so a bag with one message per set-point on each
+topic gives the samples of the folder layout. `settled` keeps only samples whose command had then held
+for that many seconds. rosbag2 folders are read by `rosbags`' reader; a lone MCAP file by the `mcap`
+library's stream reader, which also reads a file cut short up to the cut. Payloads are CDR, decoded by
+`rosbags`' typestore.
+"""
+
+from __future__ import annotations
+
+import re
+import struct
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+
+from pegbt.bagoptions import DEFAULT_CMD, DEFAULT_PHY
+from pegbt.errors import PegbtError
+from pegbt.psm import ARMS, N_JOINTS
+
+JOINT_STATE = "sensor_msgs/msg/JointState"
+_ARM_IN_TOPIC = re.compile(r"(?:^|/)(PSM[12])(?:/|$)")
+
+Array = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class BagSamples:
+    """Paired samples of one arm from a bag: (N, 6) commands and physical joints, N stamps (s)."""
+
+    q_cmd: Array
+    q_phy: Array
+    t: Array
+    arm: str | None
+
+
+def is_bag(path: Path) -> bool:
+    """An MCAP file, or a folder with rosbag2's `metadata.yaml`."""
+    return path.suffix.lower() == ".mcap" and path.is_file() or (path / "metadata.yaml").is_file()
+
+
+def _raw_messages(path: Path, topics: dict[str, str]) -> Iterator[tuple[str, str, bytes, int]]:
+    """(topic, type, CDR payload, log time ns) of every message of the bag; `topics` learns every topic's type."""
+    if path.is_dir():
+        from rosbags.highlevel import AnyReader, AnyReaderError
+
+        try:
+            with AnyReader([path]) as reader:
+                topics.update({c.topic: c.msgtype for c in reader.connections})
+                for connection, log_time, data in reader.messages():
+                    yield connection.topic, connection.msgtype, bytes(data), log_time
+        except AnyReaderError as error:
+            raise PegbtError(f"not a readable rosbag2 folder: {error}", file=path) from None
+        return
+    from mcap.exceptions import McapError
+    from mcap.reader import NonSeekingReader
+
+    with path.open("rb") as stream:
+        try:
+            for schema, channel, message in NonSeekingReader(stream).iter_messages(log_time_order=False):
+                kind = schema.name if schema else ""
+                topics[channel.topic] = kind
+                yield channel.topic, kind, message.data, message.log_time
+        except McapError as error:
+            if not topics:
+                raise PegbtError(f"not a readable MCAP file: {error}", file=path) from None
+        except (EOFError, struct.error):
+            pass  # a file cut short (a crash while recording) reads up to the cut
+
+
+def _joint_stream(path: Path, topic: str, kind: str, rows: list[tuple[float, list[float]]]) -> Array:
+    if kind != JOINT_STATE:
+        raise PegbtError(
+            f"topic {topic} holds {kind or 'untyped messages'}, not {JOINT_STATE}", file=path, field=topic
+        )
+    if not rows:
+        raise PegbtError(f"topic {topic} has no messages", file=path, field=topic)
+    bad = next((i for i, (_, q) in enumerate(rows) if len(q) != N_JOINTS), None)
+    if bad is not None:
+        raise PegbtError(
+            f"message {bad} of {topic} has {len(rows[bad][1])} joint positions; an arm has {N_JOINTS}",
+            file=path,
+            field=topic,
+        )
+    order = np.argsort([stamp for stamp, _ in rows], kind="stable")
+    stream = np.array([[rows[i][0], *rows[i][1]] for i in order], dtype=float)
+    last_of_stamp = np.r_[stream[1:, 0] != stream[:-1, 0], True]  # a state re-sent unchanged counts once
+    return stream[last_of_stamp]
+
+
+def _bag_arm(path: Path, arm: str | None, cmd: str | None, phy: str | None) -> str | None:
+    if arm is not None:
+        return arm
+    for topic in (cmd, phy):
+        match = _ARM_IN_TOPIC.search(topic or "")
+        if match:
+            return match.group(1)
+    return None
+
+
+def read_bag(
+    path: Path,
+    *,
+    cmd: str | None = None,
+    phy: str | None = None,
+    arm: str | None = None,
+    settled: float | None = None,
+) -> BagSamples:
+    """Paired samples of `cmd` and `phy`; a `PegbtError` naming the file and topic for a bag that has none."""
+    from rosbags.typesys import Stores, get_typestore
+
+    arm = _bag_arm(path, arm, cmd, phy)
+    topics: dict[str, str] = {}
+    rows: dict[str, list[tuple[float, list[float]]]] = {}
+    store = get_typestore(Stores.ROS2_JAZZY)
+    wanted = None if arm is None else {cmd or DEFAULT_CMD.format(arm=arm), phy or DEFAULT_PHY.format(arm=arm)}
+    for topic, kind, data, log_time in _raw_messages(path, topics):
+        if kind != JOINT_STATE or (wanted is not None and topic not in wanted):
+            continue
+        try:
+            message = store.deserialize_cdr(data, JOINT_STATE)
+        except (ValueError, IndexError, struct.error, UnicodeDecodeError) as error:
+            raise PegbtError(
+                f"a message of {topic} is not valid CDR: {error}", file=path, field=topic
+            ) from None
+        stamp = message.header.stamp.sec + message.header.stamp.nanosec * 1e-9 or log_time * 1e-9
+        rows.setdefault(topic, []).append((stamp, [float(q) for q in message.position]))
+    if not topics:
+        raise PegbtError("the bag is empty: no topics, no messages", file=path)
+    if arm is None:
+        arms = [name for name in ARMS if DEFAULT_PHY.format(arm=name) in topics]  # the arm tracked, else
+        if len(arms) != 1:  # the one arm the topics name
+            arms = sorted({match.group(1) for topic in topics if (match := _ARM_IN_TOPIC.search(topic))})
+        if len(arms) != 1:
+            raise PegbtError(
+                f"which arm? the bag's topics name {' and '.join(arms) or 'neither arm'}: give --arm, or --cmd "
+                "and --phy",
+                file=path,
+            )
+        arm = arms[0]
+    cmd, phy = cmd or DEFAULT_CMD.format(arm=arm), phy or DEFAULT_PHY.format(arm=arm)
+    for topic in (cmd, phy):
+        if topic not in topics:
+            raise PegbtError(
+                f"no topic {topic} in the bag (it has {', '.join(sorted(topics))})", file=path, field=topic
+            )
+    commands = _joint_stream(path, cmd, topics[cmd], rows.get(cmd, []))
+    physical = _joint_stream(path, phy, topics[phy], rows.get(phy, []))
+    return _paired(path, cmd, phy, commands, physical, arm, settled)
+
+
+def _paired(
+    path: Path, cmd: str, phy: str, commands: Array, physical: Array, arm: str, settled: float | None
+) -> BagSamples:
+    """Each physical sample with the latest command at or before it; with `settled`, only held commands."""
+    latest = np.searchsorted(commands[:, 0], physical[:, 0], side="right") - 1
+    keep = latest >= 0
+    if not keep.any():
+        raise PegbtError(
+            f"no overlap in time: every {phy} message ({physical[0, 0]:.9g}–{physical[-1, 0]:.9g} s) is "
+            f"stamped before the first {cmd} message ({commands[0, 0]:.9g} s)",
+            file=path,
+            field=phy,
+        )
+    if settled is not None:
+        changed = np.r_[True, (np.diff(commands[:, 1:], axis=0) != 0).any(axis=1)]
+        since = np.maximum.accumulate(np.where(changed, np.arange(len(commands)), 0))
+        held = physical[:, 0] - commands[since[np.maximum(latest, 0)], 0]
+        keep &= held >= settled
+        if not keep.any():
+            raise PegbtError(
+                f"no {phy} sample comes {settled:g} s or more after its command last changed",
+                file=path,
+                field="settled",
+            )
+    return BagSamples(commands[latest[keep], 1:], physical[keep, 1:], physical[keep, 0], arm)

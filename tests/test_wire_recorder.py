@@ -1,0 +1,231 @@
+"""`--record FILE.mcap` read back by the `mcap` library's readers and `mcap-ros2-support`'s decoder, which
+know nothing of pegbt: topics, ROS 2 types, CDR payloads, log times, and a file cut short by a crash."""
+
+from __future__ import annotations
+
+import dataclasses
+import io
+import json
+import struct
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from pegbt.clock import ManualClock
+from pegbt.transport import codec, recorder
+from pegbt.transport.recorder import WireRecorder
+from pegbt.transport.sequencing import Received
+
+mcap_reader = pytest.importorskip("mcap.reader")
+from mcap.exceptions import McapError
+from mcap.records import Message
+from mcap.stream_reader import StreamReader
+from mcap_ros2.decoder import DecoderFactory
+
+REPO = Path(__file__).resolve().parents[1]
+JOINT_STATE = "sensor_msgs/msg/JointState"
+
+
+def read_all(path: Path) -> list[tuple[str, str, int, object]]:
+    """(topic, schema name, log time, decoded message) of every message, by mcap's seeking reader."""
+    with path.open("rb") as stream:
+        reader = mcap_reader.make_reader(stream, decoder_factories=[DecoderFactory()])
+        return [
+            (channel.topic, schema.name, message.log_time, decoded)
+            for schema, channel, message, decoded in reader.iter_decoded_messages(log_time_order=False)
+        ]
+
+
+@pytest.mark.slow
+def test_a_recorded_unilateral_trial_reads_back_with_every_topic_and_type(tmp_path):
+    from pegbt.executive.logfile import read_tick_log
+    from pegbt.executive.session import run_tree_file
+
+    path = tmp_path / "trial.mcap"
+    output = run_tree_file(
+        REPO / "trees" / "unilateral.yaml",
+        tmp_path / "trial.jsonl",
+        options={"endpoint": "auto", "seed": 3},
+        record=path,
+        record_cloud_step=10,
+    )
+    assert output.ok
+    with path.open("rb") as stream:
+        reader = mcap_reader.make_reader(stream)
+        assert reader.get_header().profile == "ros2"
+        metadata = {record.name: record.metadata for record in reader.iter_metadata()}
+        summary = reader.get_summary()
+    assert metadata["pegbt"]["log_time"].startswith("ns of simulated time")
+    assert {schema.encoding for schema in summary.schemas.values()} == {"ros2msg"}
+    assert {channel.message_encoding for channel in summary.channels.values()} == {"cdr"}
+    messages = read_all(path)
+    types = {topic: kind for topic, kind, _, _ in messages}
+    expected = {
+        **{
+            f"/{arm}/{topic}": JOINT_STATE
+            for arm in ("PSM1", "PSM2")
+            for topic in ("measured_js", "setpoint_js")
+        },
+        **{
+            f"/{arm}/jaw/{topic}": JOINT_STATE
+            for arm in ("PSM1", "PSM2")
+            for topic in ("measured_js", "setpoint_js")
+        },
+        **{f"/{arm}/operating_state": "crtk_msgs/msg/OperatingState" for arm in ("PSM1", "PSM2")},
+        "/PSM1/follow_jt": "trajectory_msgs/msg/JointTrajectory",
+        "/PSM1/jaw/move_jp": JOINT_STATE,
+        "/camera/trigger": "std_msgs/msg/Empty",
+        "/camera/depth/points": "sensor_msgs/msg/PointCloud2",
+        "/pegbt/ticks": "std_msgs/msg/String",
+        "/pegbt/events": "std_msgs/msg/String",
+    }
+    assert {topic: types.get(topic) for topic in expected} == expected
+    for topic, kind, log_time, decoded in messages:
+        if kind == JOINT_STATE and "/jaw/" not in topic:
+            assert len(decoded.position) == 6, topic
+        if kind in (JOINT_STATE, "sensor_msgs/msg/PointCloud2"):  # logged at its stamp: simulated time
+            assert log_time == decoded.header.stamp.sec * 10**9 + decoded.header.stamp.nanosec
+    last_tick = read_tick_log(tmp_path / "trial.jsonl").last_t
+    assert max(log_time for _, _, log_time, _ in messages) <= (last_tick + 1.0) * 1e9  # not the wall clock
+    clouds = [decoded for topic, _, _, decoded in messages if topic == "/camera/depth/points"]
+    assert all(5_000 < cloud.width < 20_000 and len(cloud.data) == 12 * cloud.width for cloud in clouds)
+    ticks = [json.loads(decoded.data) for topic, _, _, decoded in messages if topic == "/pegbt/ticks"]
+    log = read_tick_log(tmp_path / "trial.jsonl")
+    assert sum(len(tick["changes"]) for tick in ticks) == len(log.transitions)
+    assert ticks[-1]["type"] == "end" and ticks[-1]["outcome"] == "success"
+    events = [json.loads(decoded.data) for topic, _, _, decoded in messages if topic == "/pegbt/events"]
+    assert sum(event.get("kind") == "place" for event in events) == 12
+
+
+def test_a_file_cut_short_reads_up_to_the_cut(tmp_path, monkeypatch):
+    monkeypatch.setattr(recorder, "FLUSH_S", 0.0)  # a chunk per message: what a long run does every second
+    clock = ManualClock()
+    path = tmp_path / "cut.mcap"
+    wire = WireRecorder(path, clock.now, simulated=False, clock_kind="manual", cloud_step=1)
+    for i in range(40):
+        clock.advance(0.01)
+        wire.sent("PSM1/servo_jp", codec.encode_joint_state(clock.now(), np.full(6, i * 0.01)))
+    data = path.read_bytes()  # the process dies here: no summary, no footer
+    cut = data[: len(data) * 6 // 10]  # and a chunk was half written
+    decoder = DecoderFactory()
+    positions = []
+    stream = StreamReader(io.BytesIO(cut))
+    schema = None
+    try:
+        for record in stream.records:
+            if isinstance(record, Message):
+                decoded = decoder.decoder_for("cdr", schema)(record.data)
+                positions.append(decoded.position[0])
+            elif type(record).__name__ == "Schema":
+                schema = record
+    except (McapError, EOFError, struct.error):
+        pass  # the stream ends at the cut
+    assert 15 <= len(positions) < 40
+    np.testing.assert_allclose(positions, np.arange(len(positions)) * 0.01)
+    wire.close()
+    assert len(read_all(path)) == 40  # closed properly, the seeking reader finds all of them
+
+
+def test_a_step_replys_restamp_note_records_the_last_state_with_its_new_stamp(tmp_path):
+    clock = ManualClock()
+    path = tmp_path / "notes.mcap"
+    wire = WireRecorder(path, clock.now, simulated=False, clock_kind="manual")
+    base = codec.encode_joint_state(
+        1.25, [0.1, 0.2, 0.1, 0.3, 0.4, 0.5], names=("a", "b", "c", "d", "e", "f")
+    )
+    wire.received("PSM1/measured_js", Received(base, codec.decode_joint_state, None, 0.0))
+    # as SimClock delivers a note: its last full state of the key, with the note's stamp
+    again = Received(b"", lambda _: dataclasses.replace(codec.decode_joint_state(base), stamp=2.5), None, 0.0)
+    wire.received("PSM1/measured_js", again)
+    wire.received("sim/clock", Received(b"{}", json.loads, None, 0.0))  # not a ROS 2 topic: left out
+    wire.tick_record({"type": "header", "nodes": [{"id": 0, "path": "/root"}]})
+    wire.tick_record({"type": "tick", "n": 1, "t": 0.0, "changes": [[0, "INVALID", "RUNNING", ""]]})
+    wire.close()
+    messages = read_all(path)
+    states = [decoded for topic, _, _, decoded in messages if topic == "/PSM1/measured_js"]
+    assert [(s.header.stamp.sec, s.header.stamp.nanosec) for s in states] == [
+        (1, 250_000_000),
+        (2, 500_000_000),
+    ]
+    assert list(states[1].position) == [0.1, 0.2, 0.1, 0.3, 0.4, 0.5] and list(states[1].name) == list(
+        "abcdef"
+    )
+    ticks = [json.loads(decoded.data) for topic, _, _, decoded in messages if topic == "/pegbt/ticks"]
+    assert ticks == [
+        {
+            "type": "tick",
+            "n": 1,
+            "t": 0.0,
+            "changes": [{"node": "/root", "from": "INVALID", "to": "RUNNING", "feedback": ""}],
+        }
+    ]
+    assert {topic for topic, _, _, _ in messages} == {"/PSM1/measured_js", "/pegbt/ticks"}
+
+
+def test_the_simulator_records_the_commands_it_takes_and_the_state_it_sends(tmp_path):
+    from pegbt.sim.process import SimProcess
+    from pegbt.transport import ArmClient, SimClock, connect
+
+    path = tmp_path / "sim.mcap"
+    simulator = SimProcess(["--lockstep", "--no-world", "--record", str(path)])
+    try:
+        with connect([simulator.endpoint]) as link:
+            clock = SimClock(link)
+            arm = ArmClient(link, "PSM1", clock=clock)
+            arm.wait_until_ready()
+            goal = arm.measured_js.position + np.array([0.05, 0.0, 0.0, 0.0, 0.0, 0.0])
+            handle = arm.move_jp(goal)
+            for _ in range(100):
+                clock.wait(0.05)
+                if handle.done:
+                    break
+            assert handle.done
+    finally:
+        simulator.stop()
+    messages = read_all(path)
+    moves = [decoded for topic, _, _, decoded in messages if topic == "/PSM1/move_jp"]
+    assert len(moves) == 1 and list(moves[0].position) == pytest.approx(list(goal))
+    setpoints = [(t, decoded) for topic, _, t, decoded in messages if topic == "/PSM1/setpoint_js"]
+    assert setpoints and list(setpoints[-1][1].position) == pytest.approx(list(goal), abs=1e-6)
+    assert max(t for t, _ in setpoints) < 10e9  # simulated seconds since the simulator started
+    events = [json.loads(decoded.data) for topic, _, _, decoded in messages if topic == "/pegbt/events"]
+    assert events[0]["kind"] == "start" and events[0]["mode"] == "lockstep"
+
+
+@pytest.mark.slow
+def test_a_collection_recorded_as_a_bag_holds_every_sample_of_its_folder(tmp_path):
+    import subprocess
+    import sys
+
+    from pegbt.physics.recording import load_recording
+
+    bag, folder = tmp_path / "collect.mcap", tmp_path / "collect"
+    done = subprocess.run(
+        [sys.executable, "-m", "pegbt", "calibrate", "collect", "--arm", "PSM2", "--minutes", "0.4"]
+        + ["--record", str(bag), "--out", str(folder), "--log", str(tmp_path / "collect.jsonl")],
+        capture_output=True,
+        text=True,
+        cwd=REPO,
+        timeout=300,
+        check=False,
+    )
+    assert done.returncode == 0, done.stderr
+    from_bag, from_folder = load_recording(bag), load_recording(folder)  # the bag with its default topics
+    assert from_bag.arm == "PSM2" and from_bag.n >= from_folder.n
+    index = np.searchsorted(from_bag.t, from_folder.t - 1e-6)  # stamps hold whole nanoseconds
+    np.testing.assert_allclose(from_bag.t[index], from_folder.t, atol=1e-9)
+    np.testing.assert_allclose(from_bag.q_phy[index], from_folder.q_phy, atol=1e-12)
+    np.testing.assert_allclose(from_bag.q_cmd[index], from_folder.q_cmd, atol=1e-12)
+
+
+def test_a_failing_disk_stops_the_recording_not_the_run(monkeypatch):
+    from pegbt.errors import PegbtError
+
+    monkeypatch.setattr(recorder, "FLUSH_S", 0.0)
+    clock = ManualClock()
+    wire = WireRecorder("/dev/full", clock.now, simulated=False, clock_kind="manual")
+    for i in range(3):  # each write fails underneath; none raises into the caller
+        wire.sent("PSM1/servo_jp", codec.encode_joint_state(float(i), np.zeros(6)))
+    with pytest.raises(PegbtError, match="the recording stopped: No space left on device"):
+        wire.close()
