@@ -86,6 +86,10 @@ def test_eval_prints_the_figures_writes_csv_and_plots_and_repeats_a_seed_exactly
             ["--variant", "unilateral", "--trials", "2", "--faults", "no/such/plan.yaml"],
             "no/such/plan.yaml: file not found",
         ),
+        (
+            ["--variant", "unilateral", "--trials", "2", "--cluster", "127.0.0.1:8786"],
+            "expected a scheduler address tcp://HOST:PORT",
+        ),
     ],
 )
 def test_bad_input_is_one_line_and_a_non_zero_exit(tmp_path, args, words):

@@ -57,6 +57,12 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
         help="trials run at once, each with its own simulator (default 2)",
     )
     parser.add_argument(
+        "--cluster",
+        metavar="ADDRESS",
+        help="run each trial as a task on this Dask scheduler (tcp://HOST:PORT; needs the cluster extra) "
+        "instead of --workers local processes; logs come back here unless the workers see --out",
+    )
+    parser.add_argument(
         "--keep-logs",
         action="store_true",
         help="keep every trial's tick log (default: only trials with a failure or a fault)",
@@ -79,6 +85,10 @@ def check_arguments(args: argparse.Namespace) -> None:
             raise PegbtError(f"must be at least 1, got {getattr(args, name)}", field=f"--{name}")
     if args.seed < 0:
         raise PegbtError(f"seeds are non-negative, got {args.seed}", field="--seed")
+    if args.cluster is not None:
+        from pegbt.evaluation.cluster import check_address
+
+        check_address(args.cluster)
     if args.faults is not None:
         from pegbt.sim.fault_plan import FaultPlan
 
@@ -101,8 +111,14 @@ def _eval(args: argparse.Namespace) -> int:
         args.inject_faults,
     )
     specs = trial_specs(cell, args.out, keep_logs=args.keep_logs)
-    records = run_trials(specs, args.workers, done=None if args.quiet else _report_trial)
-    figures = summarise(cell, records, min(args.workers, args.trials))
+    done = None if args.quiet else _report_trial
+    if args.cluster is None:
+        records, workers = run_trials(specs, args.workers, done=done), args.workers
+    else:
+        from pegbt.evaluation.cluster import run_trials_on_cluster
+
+        records, workers = run_trials_on_cluster(specs, args.cluster, done=done)
+    figures = summarise(cell, records, min(workers, args.trials))
     paths = write_cell(args.out, cell, records, figures)
     if not (args.faults or args.inject_faults):
         paths += [plot_transfer_times(args.out), plot_trial_figures(args.out)]

@@ -1,0 +1,112 @@
+"""A Dask cluster on loopback from the real command lines (`python -m dask scheduler`, `... worker`), as a
+user starts one: every socket, dashboards included, on 127.0.0.1; each process in its own session so a
+test can kill one worker whole (nanny, worker process and the trial's simulator), as a lost machine."""
+
+from __future__ import annotations
+
+import os
+import signal
+import socket
+import subprocess
+import sys
+import time
+from pathlib import Path
+from typing import Self
+
+import psutil
+
+from pegbt.sim.process import free_port
+
+REPO = Path(__file__).resolve().parents[1]
+START_TIMEOUT_S = 120.0  # a loaded machine imports slowly
+
+
+class LocalDaskCluster:
+    def __init__(self, workers: int, pythonpath: Path = REPO) -> None:
+        self.port = free_port()
+        self.address = f"tcp://127.0.0.1:{self.port}"
+        self.env = {**os.environ, "PYTHONPATH": str(pythonpath)}
+        self.cwd = pythonpath  # `python -m` puts the working directory first on the path
+        self.scheduler = self._start(
+            "scheduler", "--host", "127.0.0.1", "--port", str(self.port), "--dashboard-address", "127.0.0.1:0"
+        )
+        self.workers: list[subprocess.Popen] = []
+        self._wait_for_port()
+        for index in range(workers):
+            self.add_worker(f"w{index}")
+        self.wait_for_workers(workers)
+
+    def _start(self, *args: str) -> subprocess.Popen:
+        return subprocess.Popen(
+            [sys.executable, "-m", "dask", *args],
+            env=self.env,
+            cwd=self.cwd,
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
+            start_new_session=True,
+        )
+
+    def add_worker(self, name: str) -> subprocess.Popen:
+        worker = self._start(
+            "worker", self.address, "--host", "127.0.0.1", "--nthreads", "1", "--name", name,
+            "--dashboard-address", "127.0.0.1:0",
+        )  # fmt: skip
+        self.workers.append(worker)
+        return worker
+
+    def _wait_for_port(self) -> None:
+        deadline = time.monotonic() + START_TIMEOUT_S
+        while time.monotonic() < deadline:
+            with socket.socket() as probe:
+                if probe.connect_ex(("127.0.0.1", self.port)) == 0:
+                    return
+            time.sleep(0.2)
+        raise TimeoutError(f"no Dask scheduler on {self.address} after {START_TIMEOUT_S:g} s")
+
+    def wait_for_workers(self, count: int) -> None:
+        from distributed import Client
+
+        with Client(self.address, timeout=START_TIMEOUT_S, set_as_default=False) as client:
+            client.wait_for_workers(count, timeout=START_TIMEOUT_S)
+
+    def kill_worker_mid_trial(self, worker: subprocess.Popen, timeout: float = 120.0) -> None:
+        """SIGKILL the worker's whole session once its trial's simulator runs."""
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            if any(_is_simulator(child) for child in psutil.Process(worker.pid).children(recursive=True)):
+                os.killpg(worker.pid, signal.SIGKILL)
+                worker.wait(timeout=10)
+                return
+            time.sleep(0.05)
+        raise TimeoutError(f"no simulator started under worker {worker.pid} within {timeout:g} s")
+
+    def close(self) -> None:
+        for process in [*self.workers, self.scheduler]:
+            _signal_session(process, signal.SIGTERM)
+        for process in [*self.workers, self.scheduler]:
+            try:
+                process.wait(timeout=10)
+            except subprocess.TimeoutExpired:
+                _signal_session(process, signal.SIGKILL)
+                process.wait(timeout=10)
+
+    def __enter__(self) -> Self:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def _signal_session(process: subprocess.Popen, signum: int) -> None:
+    try:
+        os.killpg(process.pid, signum)
+    except ProcessLookupError:
+        pass
+
+
+def _is_simulator(process: psutil.Process) -> bool:
+    try:
+        command = process.cmdline()
+    except psutil.Error:
+        return False
+    return "pegbt" in command and "sim" in command
