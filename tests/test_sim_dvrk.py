@@ -237,9 +237,8 @@ def test_the_camera_streams_point_clouds_at_about_its_rate(tmp_path: Path) -> No
     from pegbt.sim.world import World
 
     topic = "/rs/camera/depth/color/points"
-    running = Running(
-        tmp_path / "sim.jsonl", World(0), DepthCamera(seed=0), camera_topic=topic, camera_period=0.2
-    )
+    camera = DepthCamera(seed=0)
+    running = Running(tmp_path / "sim.jsonl", World(0), camera, camera_topic=topic, camera_period=0.2)
     client = DvrkPeer(running.address)
     try:
         tap = client.subscribe("**")
@@ -251,8 +250,16 @@ def test_the_camera_streams_point_clouds_at_about_its_rate(tmp_path: Path) -> No
         rate = count / (time.monotonic() - first)
         assert 0.5 * 5 <= rate <= 1.1 * 5, rate  # 5 Hz asked; a loaded machine may fall behind, never ahead
         cloud = STORE.deserialize_cdr(clouds.all()[-1].payload.to_bytes(), "sensor_msgs/msg/PointCloud2")
-        assert [(f.name, f.datatype) for f in cloud.fields] == [("x", 7), ("y", 7), ("z", 7)]
-        assert cloud.width * cloud.height > 10_000
+        assert [(f.name, f.offset, f.datatype) for f in cloud.fields] == [
+            ("x", 0, 7),
+            ("y", 4, 7),
+            ("z", 8, 7),
+        ]
+        assert (cloud.height, cloud.width) == camera.image_shape  # organised: the camera's pixels, row by row
+        xyz = np.frombuffer(bytes(cloud.data), dtype="<f4").reshape(cloud.height, cloud.width, 3)
+        seen = np.isfinite(xyz).all(axis=2)
+        assert not cloud.is_dense and 0.5 < seen.mean() < 1.0  # pixels that see nothing are NaN
+        assert np.all(xyz[seen][:, 2] > 0.1)  # in front of the camera, metres
         keys = {str(sample.key_expr) for sample in tap.all()}
         assert topic.lstrip("/") in keys and not any(
             key.startswith(("sim/", "camera/trigger")) for key in keys

@@ -34,8 +34,9 @@ from pegbt.physics import ArmPhysics
 from pegbt.psm import ARMS
 from pegbt.sim import dvrk_config as dvrk
 from pegbt.sim.arm import DEFAULT_JOINTS, DEFAULT_SERVO_TAU
+from pegbt.sim.camera_stream import CameraStream
 from pegbt.sim.dvrk_arm import DvrkArm
-from pegbt.sim.interfaces import SimCamera, SimWorld
+from pegbt.sim.interfaces import SimWorld, StreamingCamera
 from pegbt.sim.log import SimLog
 from pegbt.sim.scene import Scene
 from pegbt.transport import codec
@@ -44,6 +45,7 @@ from pegbt.transport.endpoints import DEFAULT_POINTS_TOPIC
 from pegbt.transport.ros2 import Ros2Wire, Topic, TopicPublisher, TopicSubscriber
 
 CAMERA_FRAME = "camera_depth_optical_frame"  # realsense2_camera's frame of its depth cloud
+CAMERA_BUDGET = 0.3  # of each control period, at most, for rendering the camera's frame
 
 
 @dataclass(frozen=True)
@@ -107,7 +109,7 @@ class DvrkEndpoint:
         config: DvrkEndpointConfig = DvrkEndpointConfig(),
         *,
         world: SimWorld | None = None,
-        camera: SimCamera | None = None,
+        camera: StreamingCamera | None = None,
     ) -> None:
         if camera is not None and world is None:
             raise PegbtError("a camera needs a world to look at", field="camera")
@@ -136,6 +138,11 @@ class DvrkEndpoint:
         self._publishers: dict[str, TopicPublisher] = {}
         self._subscribers: list[TopicSubscriber] = []
         self._overrun = OverrunWatch(self.period, self.log)
+        self._camera = (
+            CameraStream(camera, world, config.camera_period, CAMERA_BUDGET * self.period, CAMERA_FRAME)
+            if camera is not None and world is not None
+            else None
+        )
         self._declare(wire)
 
     # ------------------------------------------------------------------ wiring
@@ -190,7 +197,7 @@ class DvrkEndpoint:
         self._report()
         self._publish_states()
         next_tick = time.time() + self.period
-        next_state = next_camera = 0.0
+        next_state = 0.0
         while not self._stop.is_set():
             try:
                 item = self._inbox.get(timeout=max(0.0, next_tick - time.time()))
@@ -207,9 +214,8 @@ class DvrkEndpoint:
             if self.elapsed >= next_state - 1e-9:
                 self._publish_states()
                 next_state = self.elapsed + self.config.state_period
-            if self.camera is not None and self.elapsed >= next_camera - 1e-9:
-                self._capture()
-                next_camera = max(next_camera + self.config.camera_period, self.elapsed)
+            if self._camera is not None:
+                self._stream()
             next_tick += self.period
         return "stopped"
 
@@ -281,12 +287,12 @@ class DvrkEndpoint:
             self._put(topics.jaw_setpoint_js, encode_js(stamp, jaw.setpoint, names=jaw_names))
             self._put(topics.fiducial_js, encode_js(stamp, arm.sim.physical, names=names))
 
-    def _capture(self) -> None:
-        assert self.camera is not None and self.world is not None and self._scene is not None
-        points = self.camera.capture(self.world, self.elapsed)
-        self._scene.log_events()
-        cloud = codec.encode_point_cloud(self.time, points, CAMERA_FRAME)
-        self._put(point_cloud_topic(self.config.camera_topic), cloud)
+    def _stream(self) -> None:
+        assert self._camera is not None and self._scene is not None
+        cloud = self._camera.step(self.elapsed, self.time)
+        if cloud is not None:
+            self._scene.log_events()  # a noise burst is the camera's event
+            self._put(point_cloud_topic(self.config.camera_topic), cloud)
 
     # ------------------------------------------------------------------ shutdown
     def close(self) -> None:
