@@ -13,8 +13,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from dvrk_peer import STORE, DvrkPeer, Received, empty, joint_state, state_command, wait_for
+
 from pegbt.cli import main
 from pegbt.sim import dvrk_config as dvrk
 from pegbt.sim.dvrk_endpoint import DvrkEndpoint, DvrkEndpointConfig

@@ -9,7 +9,8 @@ sawIntuitiveResearchKit `core/components/code/mtsIntuitiveResearchKitArm.cpp` (A
   DISABLED at start; `enable` powers it (POWERING, then ENABLED); `home` goes on through
   CALIBRATING_ENCODERS_FROM_POTS, ENCODERS_BIASED, HOMING (a trajectory to the homing goal, which for a
   PSM holding a tool is where it stands: PSM.cpp `SetGoalHomingArm`), HOMED, then engages the adapter and
-  the tool (PSM.cpp `TransitionHomed`, `EnterEngagingAdapter`, `RunEngagingTool`); `disable`, `pause`,
+  the tool (PSM.cpp `TransitionHomed`, `EnterEngagingAdapter`, `RunEngagingTool`: no motion, the tool's tip
+  being past the cannula); `disable`, `pause`,
   `resume`, `unhome`; which command is valid in which state is cisst's `prmOperatingState::ValidCommand`
   (jhu-cisst/cisst `cisstParameterTypes/code/prmOperatingState.cpp`); a PSM is homed when powered, its
   encoders biased and its tool engaged (PSM.cpp `is_homed`);
@@ -39,7 +40,6 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from pegbt.errors import PegbtError
-from pegbt.motion.kinematics import forward_kinematics
 from pegbt.motion.limits import ArmSettings
 from pegbt.physics import ArmPhysics
 from pegbt.psm import JOINT_LABELS
@@ -55,10 +55,6 @@ VALID_COMMANDS = {
     "FAULT": ("disable", "unhome"),
 }
 KNOWN_COMMANDS = ("enable", "disable", "home", "unhome", "pause", "resume")
-# share/tool/LARGE_NEEDLE_DRIVER_400006.json "tool_engage_position" (roll, wrist pitch, wrist yaw, jaw)
-ENGAGE_LOWER = np.array([-4.5378, -0.261799, -0.261799, 0.0])
-ENGAGE_UPPER = np.array([4.5378, 0.261799, 0.261799, 0.0])
-ENGAGE_DEPTH_CANNULA = 0.025  # mtsIntuitiveResearchKit.h PSM::EngageDepthCannula
 PID_OFF = ("DISABLED", "POWERING", "ENABLED", "CALIBRATING_ENCODERS_FROM_POTS", "ENCODERS_BIASED")
 
 
@@ -112,7 +108,6 @@ class DvrkArm:
         )
         self._velocity = np.zeros(7)  # the trajectory's velocity at the last set-point
         self._homing_end = 0.0
-        self._engage_goals: list[NDArray[np.float64]] = []
         self._entered = 0.0
         self._resume = ("DISABLED", "DISABLED")
         self._not_ready_count = 0
@@ -198,21 +193,16 @@ class DvrkArm:
         self._enter("HOMED")
 
     def _enter_engaging_tool(self) -> None:
+        """PSM.cpp `RunEngagingTool`: a tool whose tip is past the cannula (25 mm from the remote centre,
+        mtsIntuitiveResearchKit.h `EngageDepthCannula`) needs no engaging motion. pegbt's insertion limit
+        (0.08 m, `skills/psm.yaml`) keeps every simulated tip past it."""
         self._operating("ENABLED", True)
-        tip = forward_kinematics(self.sim.joints.encoder)[:3, 3]
-        if np.linalg.norm(tip) >= ENGAGE_DEPTH_CANNULA:
-            self._report(
-                "status",
-                'tool tip is outside the cannula, assuming it doesn\'t need to "engage".  If the tool is not '
-                "engaged properly, move the sterile adapter all the way up and re-insert the tool.",
-            )
-            self._enter("TOOL_ENGAGED")
-            return
-        goal = self.setpoint
-        self._engage_goals = [
-            np.concatenate([goal[:3], tool]) for tool in (ENGAGE_UPPER, ENGAGE_LOWER, np.zeros(4))
-        ]
-        self._start_trajectory(np.concatenate([goal[:3], ENGAGE_LOWER]))
+        self._report(
+            "status",
+            'tool tip is outside the cannula, assuming it doesn\'t need to "engage".  If the tool is not '
+            "engaged properly, move the sterile adapter all the way up and re-insert the tool.",
+        )
+        self._enter("TOOL_ENGAGED")
 
     def _enter_tool_engaged(self) -> None:
         self._operating("ENABLED", False)
@@ -404,9 +394,7 @@ class DvrkArm:
     def advance(self, now: float) -> None:
         """One control period ending at `now` (s since the simulator started)."""
         self.now = now
-        if self.current in ("HOMING", "ENGAGING_TOOL") or (
-            self.current == "HOMED" and self._mode == "trajectory"
-        ):
+        if self.current == "HOMING" or (self.current == "HOMED" and self._mode == "trajectory"):
             self._run_trajectory()
         for _ in range(12):  # a chain of immediate transitions settles within one period
             if not self._transition():
@@ -434,7 +422,7 @@ class DvrkArm:
             self._trajectory_ended()
 
     def _trajectory_ended(self) -> None:
-        """Arm.cpp `control_move_jp_on_stop`, `RunHoming`'s goal check; PSM.cpp `RunEngagingTool`'s stages."""
+        """Arm.cpp `control_move_jp_on_stop`, and `RunHoming`'s goal check."""
         if self.current == "HOMED":
             self.is_busy = False
         elif self.current == "HOMING":
@@ -444,13 +432,6 @@ class DvrkArm:
             elif self.now > self._homing_end + dvrk.HOMING_EXTRA_TIME:
                 self._report("error", "unable to reach home position during calibration on pots")
                 self._set_desired("FAULT")
-        elif self.current == "ENGAGING_TOOL":
-            if self._engage_goals:
-                stage = 4 - len(self._engage_goals)
-                self._report("status", f"engaging tool {stage} of 3")
-                self._start_trajectory(self._engage_goals.pop(0))
-            else:
-                self._enter("TOOL_ENGAGED")
 
     def _hold_where_measured(self) -> None:
         """The PID is off: its set-point is the measured position (sawControllers mtsPID.cpp)."""
