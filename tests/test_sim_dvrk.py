@@ -17,8 +17,9 @@ from dvrk_peer import STORE, DvrkPeer, Received, empty, joint_state, state_comma
 
 from pegbt.cli import main
 from pegbt.sim import dvrk_config as dvrk
-from pegbt.sim.dvrk_endpoint import DvrkEndpoint, DvrkEndpointConfig
-from pegbt.sim.process import free_port
+from pegbt.sim.dvrk_endpoint import DvrkEndpoint, DvrkEndpointConfig, OverrunWatch
+from pegbt.sim.log import SimLog
+from pegbt.sim.process import SimProcess, free_port
 from pegbt.transport.dvrk_topics import PsmTopics
 from pegbt.transport.ros2 import BridgeWire
 from pegbt.transport.session import endpoint_settings, open_session
@@ -232,45 +233,69 @@ def test_a_jump_beyond_the_tracking_tolerance_faults_the_arm_until_it_is_enabled
 
 
 @pytest.mark.slow
-def test_the_camera_streams_point_clouds_at_about_its_rate(tmp_path: Path) -> None:
+def test_the_simulator_process_streams_clouds_and_states_at_the_rates_asked(tmp_path: Path) -> None:
     from pegbt.sim.camera import DepthCamera
-    from pegbt.sim.world import World
 
     topic = "/rs/camera/depth/color/points"
-    camera = DepthCamera(seed=0)
-    running = Running(tmp_path / "sim.jsonl", World(0), camera, camera_topic=topic, camera_period=0.2)
-    client = DvrkPeer(running.address)
-    try:
-        tap = client.subscribe("**")
-        clouds = client.subscribe(topic.lstrip("/"))
-        assert wait_for(lambda: clouds.all())
-        first = time.monotonic()
-        time.sleep(3.0)
-        count = len(clouds.all()) - 1
-        rate = count / (time.monotonic() - first)
-        assert 0.5 * 5 <= rate <= 1.1 * 5, rate  # 5 Hz asked; a loaded machine may fall behind, never ahead
-        cloud = STORE.deserialize_cdr(clouds.all()[-1].payload.to_bytes(), "sensor_msgs/msg/PointCloud2")
-        assert [(f.name, f.offset, f.datatype) for f in cloud.fields] == [
-            ("x", 0, 7),
-            ("y", 4, 7),
-            ("z", 8, 7),
-        ]
-        assert (cloud.height, cloud.width) == camera.image_shape  # organised: the camera's pixels, row by row
-        xyz = np.frombuffer(bytes(cloud.data), dtype="<f4").reshape(cloud.height, cloud.width, 3)
-        seen = np.isfinite(xyz).all(axis=2)
-        assert not cloud.is_dense and 0.5 < seen.mean() < 1.0  # pixels that see nothing are NaN
-        assert np.all(xyz[seen][:, 2] > 0.1)  # in front of the camera, metres
-        keys = {str(sample.key_expr) for sample in tap.all()}
-        assert topic.lstrip("/") in keys and not any(
-            key.startswith(("sim/", "camera/trigger")) for key in keys
-        )
-        assert all(sample.attachment is None for sample in tap.all())
-    finally:
-        client.close()
-        running.close()
+    log = tmp_path / "sim.jsonl"
+    args = ["--camera-topic", topic, "--camera-rate", "5", "--state-rate", "50", "--log", str(log)]
+    with SimProcess(args, interface="dvrk") as sim:
+        client = DvrkPeer(sim.endpoint)
+        try:
+            tap = client.subscribe("**")
+            clouds = client.subscribe(topic.lstrip("/"))
+            states = client.subscribe("PSM2/measured_js")
+            assert wait_for(lambda: clouds.all() and states.all(), timeout=20)
+            first, clouds_before, states_before = time.monotonic(), len(clouds.all()), len(states.all())
+            time.sleep(3.0)
+            seconds = time.monotonic() - first
+            cloud_rate = (len(clouds.all()) - clouds_before) / seconds
+            state_rate = (len(states.all()) - states_before) / seconds
+            samples = tap.all()
+        finally:
+            client.close()
+    # as asked, or less on a loaded machine (a late frame is skipped, not queued), never more
+    assert 0.5 * 5 <= cloud_rate <= 1.1 * 5, cloud_rate
+    assert 0.5 * 50 <= state_rate <= 1.1 * 50, state_rate
+    cloud = STORE.deserialize_cdr(clouds.all()[-1].payload.to_bytes(), "sensor_msgs/msg/PointCloud2")
+    assert [(f.name, f.offset, f.datatype) for f in cloud.fields] == [("x", 0, 7), ("y", 4, 7), ("z", 8, 7)]
+    assert (cloud.height, cloud.width) == DepthCamera().image_shape  # organised: the camera's pixels, by row
+    xyz = np.frombuffer(bytes(cloud.data), dtype="<f4").reshape(cloud.height, cloud.width, 3)
+    seen = np.isfinite(xyz).all(axis=2)
+    assert not cloud.is_dense and 0.5 < seen.mean() < 1.0  # pixels that see nothing are NaN
+    assert np.all(xyz[seen][:, 2] > 0.1)  # in front of the camera, metres
+    allowed = {topic.lstrip("/")} | {
+        t.name.lstrip("/") for arm in ("PSM1", "PSM2") for t in PsmTopics(arm).published()
+    }
+    assert {str(sample.key_expr) for sample in samples} <= allowed
+    assert all(sample.attachment is None for sample in samples)
+    start = json.loads(log.read_text().splitlines()[0])
+    assert (start["kind"], start["interface"], start["camera_period"]) == ("start", "dvrk", 0.2)
 
 
 def test_lockstep_is_refused_with_the_dvrk_interface(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["sim", "--interface", "dvrk", "--lockstep", "--no-world"]) == 2
     err = capsys.readouterr().err
     assert "real time only" in err and "--lockstep" in err and "Traceback" not in err
+
+
+def test_late_control_periods_are_logged_once_per_run_of_them(tmp_path: Path) -> None:
+    log = SimLog(tmp_path / "sim.jsonl")
+    watch = OverrunWatch(0.01, log)
+    due = 100.0
+    for now in (
+        100.001,
+        100.025,
+        100.032,
+        100.035,
+        100.3,
+        100.301,
+    ):  # on time, 2 late, on time, far behind, ...
+        due = watch.check(now, due, due - 100.0) + 0.01
+    log.close()
+    entries = [json.loads(line) for line in (tmp_path / "sim.jsonl").read_text().splitlines()]
+    assert [(e["kind"], e["time"], e["periods"], e["skipped"]) for e in entries] == [
+        ("overrun", 0.01, 2, 0),
+        ("overrun", 0.04, 1, 25),
+    ]
+    assert entries[0]["worst_late"] == pytest.approx(0.015)
