@@ -123,7 +123,7 @@ class CrtkDouble:
         homed: bool = False,
         home_seconds: float = 0.5,
         homes: bool = True,
-        camera_topic: str = "camera/depth/points",
+        camera_topic: str = "camera/camera/depth/color/points",
         move_seconds: float = 0.3,
     ) -> None:
         self.session = zenoh.open(session_config(listen))

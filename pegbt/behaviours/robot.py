@@ -24,7 +24,8 @@ from pegbt.psm import ARMS
 from pegbt.sim.process import SimProcess
 from pegbt.transport import ArmClient, CameraClient, Link, SimClock, connect
 from pegbt.transport.cloud_stream import StreamingCamera
-from pegbt.transport.crtk import DEFAULT_CAMERA_TOPIC, camera_topic
+from pegbt.transport.dvrk_topics import point_cloud_topic
+from pegbt.transport.endpoints import DEFAULT_POINTS_TOPIC
 from pegbt.transport.crtk_arm import CrtkArm, make_ready
 from pegbt.transport.keys import check_namespace
 from pegbt.transport.ros2 import BridgeWire
@@ -181,7 +182,7 @@ def connect_crtk_robot(
     namespace: str = "",
     robot_config: str | None = None,
     robot_tool: str = DEFAULT_TOOL,
-    camera: str = DEFAULT_CAMERA_TOPIC,
+    camera: str = DEFAULT_POINTS_TOPIC,
 ) -> Robot:
     """A `Robot` of CRTK arms at `endpoint` (a zenoh-bridge-ros2dds, a `pegbt sim --interface dvrk`), its
     arms enabled and homed, limits narrowed by the dVRK's `robot_config` folder when given."""
@@ -207,7 +208,7 @@ def connect_crtk_robot(
         }
         robot = Robot(
             arms,
-            StreamingCamera(wire, camera_topic(camera), clock=clock),
+            StreamingCamera(wire, point_cloud_topic(camera), clock=clock),
             clock,
             endpoint=endpoint,
             closers=(streamer.close, session.close),
@@ -236,7 +237,7 @@ def provide_robot(setup: ProviderSetup) -> Robot:
             str(options.get("namespace") or ""),
             options.get("robot-config"),
             str(options.get("robot-tool") or DEFAULT_TOOL),
-            str(options.get("camera-topic") or DEFAULT_CAMERA_TOPIC),
+            str(options.get("camera-topic") or DEFAULT_POINTS_TOPIC),
         )
     return connect_robot(
         str(options.get("endpoint") or "auto"),

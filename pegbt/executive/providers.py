@@ -82,7 +82,7 @@ RUN_OPTIONS: dict[str, RunOption] = {
         RunOption(
             "camera-topic",
             "robot (--interface dvrk): the streaming PointCloud2 topic of the depth camera "
-            "(None: /camera/depth/points)",
+            "(None: /camera/camera/depth/color/points, a RealSense's)",
         ),
         RunOption(
             "condition",

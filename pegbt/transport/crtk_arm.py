@@ -31,12 +31,14 @@ from pegbt.motion.limits import ArmSettings
 from pegbt.transport import codec, guards
 from pegbt.transport.arm import EndpointSilent, MotionStatus
 from pegbt.transport.codec import JointSample, OperatingState, TrajectoryLike
-from pegbt.transport.crtk import MESSAGE_LEVELS, PsmTopics
+from pegbt.transport.dvrk_topics import PsmTopics
 from pegbt.transport.ros2 import Ros2Wire
 from pegbt.transport.sequencing import Received
 from pegbt.transport.streaming import StreamedMotion, Streamer
 
 T = TypeVar("T")
+
+MESSAGE_LEVELS = ("error", "warning", "status")  # the dVRK's human-readable events, most severe first
 
 LIVENESS_S = 1.0  # s without measured_js before the robot counts as silent
 ENABLE_TIMEOUT = (
@@ -193,7 +195,7 @@ class CrtkArm:
         self.jaw = CrtkJaw(self, jaw_measured, jaw_setpoint)
         for level in MESSAGE_LEVELS:
             wire.subscriber(
-                topics.message(level), lambda payload, level=level: self._on_message(level, payload)
+                getattr(topics, level), lambda payload, level=level: self._on_message(level, payload)
             )
         self._move = wire.publisher(topics.move_jp)
         self._hold = wire.publisher(topics.hold)

@@ -91,7 +91,7 @@ class Streamer:
     def __init__(self, config: dict[str, Any], report: Callable[[Frame], None]) -> None:
         from pegbt.transport import codec, guards
         from pegbt.transport.arm import ARM_JOINT_NAMES, JAW_JOINT_NAMES
-        from pegbt.transport.crtk import PsmTopics
+        from pegbt.transport.dvrk_topics import PsmTopics
         from pegbt.transport.ros2 import BridgeWire
         from pegbt.transport.session import client_settings, open_session
 
