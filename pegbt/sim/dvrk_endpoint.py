@@ -139,7 +139,7 @@ class DvrkEndpoint:
         self._subscribers: list[TopicSubscriber] = []
         self._overrun = OverrunWatch(self.period, self.log)
         self._camera = (
-            CameraStream(camera, world, config.camera_period, CAMERA_BUDGET * self.period, CAMERA_FRAME)
+            CameraStream(camera, world, config.camera_period, self.period, CAMERA_BUDGET, CAMERA_FRAME)
             if camera is not None and world is not None
             else None
         )
@@ -197,7 +197,7 @@ class DvrkEndpoint:
         self._report()
         self._publish_states()
         next_tick = time.time() + self.period
-        next_state = 0.0
+        next_state = self.config.state_period
         while not self._stop.is_set():
             try:
                 item = self._inbox.get(timeout=max(0.0, next_tick - time.time()))
@@ -211,9 +211,9 @@ class DvrkEndpoint:
             next_tick = self._overrun.check(now, next_tick, next_tick - self.start_time)
             self.time = next_tick
             self._tick()
-            if self.elapsed >= next_state - 1e-9:
+            if self.elapsed >= next_state - self.period / 2:  # epoch-based times are only µs-exact
                 self._publish_states()
-                next_state = self.elapsed + self.config.state_period
+                next_state = max(next_state, self.elapsed) + self.config.state_period
             if self._camera is not None:
                 self._stream()
             next_tick += self.period
