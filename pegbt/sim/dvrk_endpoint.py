@@ -26,6 +26,7 @@ from functools import partial
 from pathlib import Path
 
 import numpy as np
+from numpy.typing import NDArray
 
 from pegbt.errors import PegbtError
 from pegbt.motion.kinematics import forward_kinematics
@@ -156,14 +157,12 @@ class DvrkEndpoint:
         for name, topics in self.topics.items():
             arm = self.arms[name]
             handlers: dict[Topic, Callable[[bytes], None]] = {
-                topics.servo_jp: lambda data, a=arm: a.servo_jp(_positions(data)),
-                topics.move_jp: lambda data, a=arm: a.move_jp(_positions(data)),
-                topics.jaw_servo_jp: lambda data, a=arm: a.jaw_servo_jp(_positions(data)),
-                topics.jaw_move_jp: lambda data, a=arm: a.jaw_move_jp(_positions(data)),
-                topics.hold: lambda data, a=arm: a.hold(),
-                topics.state_command: lambda data, a=arm: a.state_command(
-                    codec.decode_string_stamped(data)[1]
-                ),
+                topics.servo_jp: _joint_command(arm.servo_jp),
+                topics.move_jp: _joint_command(arm.move_jp),
+                topics.jaw_servo_jp: _joint_command(arm.jaw_servo_jp),
+                topics.jaw_move_jp: _joint_command(arm.jaw_move_jp),
+                topics.hold: _void_command(arm.hold),
+                topics.state_command: _string_command(arm.state_command),
             }
             for topic, handler in handlers.items():
                 self._subscribers.append(wire.subscriber(topic, partial(self._arrived, name, handler)))
@@ -303,6 +302,16 @@ class DvrkEndpoint:
         self.log.close()
 
 
-def _positions(payload: bytes) -> np.ndarray:
-    """The positions of a JointState command (servo_jp, move_jp and their jaw's)."""
-    return codec.decode_joint_state(payload).position
+def _joint_command(command: Callable[[NDArray[np.float64]], None]) -> Callable[[bytes], None]:
+    """A JointState command (servo_jp, move_jp and the jaw's): its positions."""
+    return lambda payload: command(codec.decode_joint_state(payload).position)
+
+
+def _string_command(command: Callable[[str], None]) -> Callable[[bytes], None]:
+    """A crtk_msgs/StringStamped command (state_command): its string."""
+    return lambda payload: command(codec.decode_string_stamped(payload)[1])
+
+
+def _void_command(command: Callable[[], None]) -> Callable[[bytes], None]:
+    """A std_msgs/Empty command (hold): nothing to read."""
+    return lambda payload: command()
