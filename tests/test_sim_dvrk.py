@@ -149,7 +149,7 @@ def test_enable_then_home_takes_seconds_then_the_arm_is_homed(sim: Running, peer
     seen = [(s.state, s.is_homed, s.is_busy) for s in states.decoded(OPERATING_STATE)]
     assert ("ENABLED", False, True) in seen  # busy while homing
     assert seen[-1] == ("ENABLED", True, False)
-    assert "PSM1: current state HOMED" in _texts(status)
+    assert wait_for(lambda: "PSM1: current state HOMED" in _texts(status))
 
 
 @pytest.mark.slow
@@ -217,9 +217,9 @@ def test_a_jump_beyond_the_tracking_tolerance_faults_the_arm_until_it_is_enabled
     peer.put("PSM1/servo_jp", joint_state([0.05, 0.0, 0.12, 0.0, 0.0, 0.0]))
     peer.put("PSM1/state_command", state_command("enable"))  # not from FAULT (prmOperatingState.cpp)
     assert wait_for(lambda: len(_texts(warnings)) >= 2)
-    assert _texts(warnings) == [
-        "PSM1: servo_jp, arm not ready",
+    assert sorted(_texts(warnings)) == [  # zenoh, as DDS, orders messages per topic, not across topics
         'PSM1: command "enable" is not supported in state "FAULT" (FAULT)',
+        "PSM1: servo_jp, arm not ready",
     ]
     assert _last_position(setpoints)[0] < 0.8
 
@@ -255,8 +255,11 @@ def test_the_simulator_process_streams_clouds_and_states_at_the_rates_asked(tmp_
         finally:
             client.close()
     # as asked, or less on a loaded machine (a late frame is skipped, not queued), never more
-    assert 0.5 * 5 <= cloud_rate <= 1.1 * 5, cloud_rate
-    assert 0.5 * 50 <= state_rate <= 1.1 * 50, state_rate
+    assert 0.3 * 5 <= cloud_rate <= 1.1 * 5, cloud_rate
+    assert 0.3 * 50 <= state_rate <= 1.1 * 50, state_rate
+    stamps = [m.header.stamp.sec + m.header.stamp.nanosec * 1e-9 for m in states.decoded(JOINT_STATE)]
+    gaps = np.diff(stamps)
+    assert gaps.min() > 0.02 - 1e-6 and np.any(np.abs(gaps - 0.02) < 1e-6)  # every 20 ms of the 10 ms clock
     cloud = STORE.deserialize_cdr(clouds.all()[-1].payload.to_bytes(), "sensor_msgs/msg/PointCloud2")
     assert [(f.name, f.offset, f.datatype) for f in cloud.fields] == [("x", 0, 7), ("y", 4, 7), ("z", 8, 7)]
     assert (cloud.height, cloud.width) == DepthCamera().image_shape  # organised: the camera's pixels, by row

@@ -18,15 +18,23 @@ RAYS_PER_CAST = 8192  # a part of a frame: about a millisecond of ray casting on
 
 
 class CameraStream:
-    """Frames of `camera` looking at `world`, one every `period` s of simulated time."""
+    """Frames of `camera` looking at `world`, one every `period` s of simulated time, rendered within
+    `budget` (a fraction) of each control period."""
 
     def __init__(
-        self, camera: StreamingCamera, world: SimWorld, period: float, budget: float, frame_id: str
+        self,
+        camera: StreamingCamera,
+        world: SimWorld,
+        period: float,
+        control_period: float,
+        budget: float,
+        frame_id: str,
     ) -> None:
         self._camera = camera
         self._world = world
         self._period = period
-        self._budget = budget  # s of wall time per control period for ray casting
+        self._slack = control_period / 2  # a frame is due at the control period nearest its time
+        self._budget = budget * control_period  # s of wall time per control period for ray casting
         self._frame_id = frame_id
         self._exposure: CameraExposure | None = None
         self._stamp = 0.0
@@ -35,10 +43,10 @@ class CameraStream:
     def step(self, elapsed: float, stamp: float) -> bytes | None:
         """Expose a frame if one is due at `elapsed` (simulated s; `stamp` its epoch time), render within the
         budget; the encoded PointCloud2 of a frame finished now, else None."""
-        if self._exposure is None and elapsed >= self._next - 1e-9:
+        if self._exposure is None and elapsed >= self._next - self._slack:
             self._exposure = self._camera.expose(self._world, elapsed)
             self._stamp = stamp
-            self._next = max(self._next + self._period, elapsed)
+            self._next = max(self._next, elapsed) + self._period
         exposure = self._exposure
         if exposure is None:
             return None

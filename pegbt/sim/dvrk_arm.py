@@ -292,15 +292,15 @@ class DvrkArm:
         self._not_ready_count += 1
         return False
 
-    def servo_jp(self, q: ArrayLike) -> None:
-        q = self._positions(q, 6, "servo_jp")
+    def servo_jp(self, positions: ArrayLike) -> None:
+        q = self._positions(positions, 6, "servo_jp")
         if q is None or not self._ready("servo_jp", cartesian=False):
             return
         self._position_mode()
         self.sim.joints.setpoint = self._clip_joints(q, "servo_jp")
 
-    def move_jp(self, q: ArrayLike) -> None:
-        q = self._positions(q, 6, "move_jp")
+    def move_jp(self, positions: ArrayLike) -> None:
+        q = self._positions(positions, 6, "move_jp")
         if q is None or not self._ready("move_jp", cartesian=False):
             return
         goal = self._trajectory_mode()
@@ -312,15 +312,15 @@ class DvrkArm:
         if self._ready("hold", cartesian=False):
             self._position_mode()
 
-    def jaw_servo_jp(self, angle: ArrayLike) -> None:
-        angle = self._positions(angle, 1, "jaw/servo_jp")
+    def jaw_servo_jp(self, positions: ArrayLike) -> None:
+        angle = self._positions(positions, 1, "jaw/servo_jp")
         if angle is None or not self._ready("jaw_servo_jp", cartesian=True):
             return
         self._position_mode()
         self.sim.jaw.setpoint = self._clip_jaw(angle, "jaw/servo_jp")
 
-    def jaw_move_jp(self, angle: ArrayLike) -> None:
-        angle = self._positions(angle, 1, "jaw/move_jp")
+    def jaw_move_jp(self, positions: ArrayLike) -> None:
+        angle = self._positions(positions, 1, "jaw/move_jp")
         if angle is None or not self._ready("jaw_move_jp", cartesian=True):
             return
         goal = self._trajectory_mode()

@@ -26,6 +26,7 @@ from functools import partial
 from pathlib import Path
 
 import numpy as np
+from numpy.typing import NDArray
 
 from pegbt.errors import PegbtError
 from pegbt.motion.kinematics import forward_kinematics
@@ -139,7 +140,7 @@ class DvrkEndpoint:
         self._subscribers: list[TopicSubscriber] = []
         self._overrun = OverrunWatch(self.period, self.log)
         self._camera = (
-            CameraStream(camera, world, config.camera_period, CAMERA_BUDGET * self.period, CAMERA_FRAME)
+            CameraStream(camera, world, config.camera_period, self.period, CAMERA_BUDGET, CAMERA_FRAME)
             if camera is not None and world is not None
             else None
         )
@@ -156,14 +157,12 @@ class DvrkEndpoint:
         for name, topics in self.topics.items():
             arm = self.arms[name]
             handlers: dict[Topic, Callable[[bytes], None]] = {
-                topics.servo_jp: lambda data, a=arm: a.servo_jp(_positions(data)),
-                topics.move_jp: lambda data, a=arm: a.move_jp(_positions(data)),
-                topics.jaw_servo_jp: lambda data, a=arm: a.jaw_servo_jp(_positions(data)),
-                topics.jaw_move_jp: lambda data, a=arm: a.jaw_move_jp(_positions(data)),
-                topics.hold: lambda data, a=arm: a.hold(),
-                topics.state_command: lambda data, a=arm: a.state_command(
-                    codec.decode_string_stamped(data)[1]
-                ),
+                topics.servo_jp: _joint_command(arm.servo_jp),
+                topics.move_jp: _joint_command(arm.move_jp),
+                topics.jaw_servo_jp: _joint_command(arm.jaw_servo_jp),
+                topics.jaw_move_jp: _joint_command(arm.jaw_move_jp),
+                topics.hold: _void_command(arm.hold),
+                topics.state_command: _string_command(arm.state_command),
             }
             for topic, handler in handlers.items():
                 self._subscribers.append(wire.subscriber(topic, partial(self._arrived, name, handler)))
@@ -197,7 +196,7 @@ class DvrkEndpoint:
         self._report()
         self._publish_states()
         next_tick = time.time() + self.period
-        next_state = 0.0
+        next_state = self.config.state_period
         while not self._stop.is_set():
             try:
                 item = self._inbox.get(timeout=max(0.0, next_tick - time.time()))
@@ -211,9 +210,9 @@ class DvrkEndpoint:
             next_tick = self._overrun.check(now, next_tick, next_tick - self.start_time)
             self.time = next_tick
             self._tick()
-            if self.elapsed >= next_state - 1e-9:
+            if self.elapsed >= next_state - self.period / 2:  # epoch-based times are only µs-exact
                 self._publish_states()
-                next_state = self.elapsed + self.config.state_period
+                next_state = max(next_state, self.elapsed) + self.config.state_period
             if self._camera is not None:
                 self._stream()
             next_tick += self.period
@@ -303,6 +302,16 @@ class DvrkEndpoint:
         self.log.close()
 
 
-def _positions(payload: bytes) -> np.ndarray:
-    """The positions of a JointState command (servo_jp, move_jp and their jaw's)."""
-    return codec.decode_joint_state(payload).position
+def _joint_command(command: Callable[[NDArray[np.float64]], None]) -> Callable[[bytes], None]:
+    """A JointState command (servo_jp, move_jp and the jaw's): its positions."""
+    return lambda payload: command(codec.decode_joint_state(payload).position)
+
+
+def _string_command(command: Callable[[str], None]) -> Callable[[bytes], None]:
+    """A crtk_msgs/StringStamped command (state_command): its string."""
+    return lambda payload: command(codec.decode_string_stamped(payload)[1])
+
+
+def _void_command(command: Callable[[], None]) -> Callable[[bytes], None]:
+    """A std_msgs/Empty command (hold): nothing to read."""
+    return lambda payload: command()
