@@ -26,7 +26,8 @@ from pegbt.transport import ArmClient, CameraClient, Link, SimClock, connect
 from pegbt.transport.cloud_stream import StreamingCamera
 from pegbt.transport.dvrk_topics import point_cloud_topic
 from pegbt.transport.endpoints import DEFAULT_POINTS_TOPIC
-from pegbt.transport.crtk_arm import CrtkArm, make_ready
+from pegbt.numbers import checked_number
+from pegbt.transport.crtk_arm import LIVENESS_S, CrtkArm, make_ready
 from pegbt.transport.keys import check_namespace
 from pegbt.transport.ros2 import BridgeWire
 from pegbt.transport.session import client_settings, open_session
@@ -183,6 +184,7 @@ def connect_crtk_robot(
     robot_config: str | None = None,
     robot_tool: str = DEFAULT_TOOL,
     camera: str = DEFAULT_POINTS_TOPIC,
+    liveness: float = LIVENESS_S,
 ) -> Robot:
     """A `Robot` of CRTK arms at `endpoint` (a zenoh-bridge-ros2dds, a `pegbt sim --interface dvrk`), its
     arms enabled and homed, limits narrowed by the dVRK's `robot_config` folder when given."""
@@ -204,7 +206,10 @@ def connect_crtk_robot(
         wire = BridgeWire(session, namespace)
         clock = WallClock()
         arms = {
-            arm: CrtkArm(wire, arm, settings=settings[arm], streamer=streamer, clock=clock) for arm in ARMS
+            arm: CrtkArm(
+                wire, arm, settings=settings[arm], streamer=streamer, clock=clock, liveness_timeout=liveness
+            )
+            for arm in ARMS
         }
         robot = Robot(
             arms,
@@ -238,6 +243,7 @@ def provide_robot(setup: ProviderSetup) -> Robot:
             options.get("robot-config"),
             str(options.get("robot-tool") or DEFAULT_TOOL),
             str(options.get("camera-topic") or DEFAULT_POINTS_TOPIC),
+            checked_number(float(options.get("liveness") or LIVENESS_S), "--liveness", above=0.0),
         )
     return connect_robot(
         str(options.get("endpoint") or "auto"),

@@ -80,6 +80,12 @@ RUN_OPTIONS: dict[str, RunOption] = {
             "(None: LARGE_NEEDLE_DRIVER_400006)",
         ),
         RunOption(
+            "liveness",
+            "robot (--interface dvrk): seconds without the robot's measured_js before the run stops "
+            "(None: 1; a simulator sharing a loaded machine may need more)",
+            type=float,
+        ),
+        RunOption(
             "camera-topic",
             "robot (--interface dvrk): the streaming PointCloud2 topic of the depth camera "
             "(None: /camera/camera/depth/color/points, a RealSense's)",

@@ -49,6 +49,9 @@ HOME_TIMEOUT = 60.0  # s for a homing motion (seconds on a dVRK; more when it fi
 # 90°/s² for yaw and pitch, 0.2 m/s and 0.2 m/s² for insertion, 1080°/s and 720°/s² for roll and the wrist
 DVRK_MOVE_VELOCITY = np.array([np.pi / 2, np.pi / 2, 0.2, 6 * np.pi, 6 * np.pi, 6 * np.pi])
 DVRK_MOVE_ACCELERATION = np.array([np.pi / 2, np.pi / 2, 0.2, 4 * np.pi, 4 * np.pi, 4 * np.pi])
+ARRIVED = (
+    1e-6  # rad or m: the robot's set-point is the last one streamed (it takes servo_jp as its set-point)
+)
 MOVE_MARGIN = 2.0  # s beyond twice the rest-to-rest time a robot's move_jp may take before it fails
 
 
@@ -278,10 +281,12 @@ class CrtkArm:
                 )
 
     # ------------------------------------------------------------------ state commands
-    def state_command(self, command: str) -> None:
-        """CRTK state command (enable, disable, home, unhome, pause, resume)."""
+    def state_command(self, command: str) -> float:
+        """CRTK state command (enable, disable, home, unhome, pause, resume); when it was sent."""
         self.check_alive()
-        self._state_command.put(codec.encode_string_stamped(self.clock.now(), command))
+        sent_at = self.clock.now()
+        self._state_command.put(codec.encode_string_stamped(sent_at, command))
+        return sent_at
 
     def await_state(self, condition: Callable[[OperatingState], bool], what: str, timeout: float) -> None:
         """Block until `operating_state` satisfies `condition`; else a `PegbtError` naming the arm, its state
@@ -337,20 +342,37 @@ class CrtkArm:
         """Hand a checked trajectory of `axis` (`arm` or `jaw`) to the streamer."""
         self.check_alive()
         motion_id = self._streamer.play(self.name, axis, t, q)
-        return StreamedMotion(self._streamer, motion_id, what, duration, self.check_alive)
+        setpoint = self._setpoint if axis == "arm" else self.jaw._setpoint
+        end = np.asarray(q, dtype=float)[-1]
+
+        def arrived() -> bool:
+            return bool(np.allclose(self.read(setpoint).position, end, atol=ARRIVED))
+
+        return StreamedMotion(self._streamer, motion_id, what, duration, self.check_alive, arrived)
 
 
 def make_ready(
     arms: list[CrtkArm], enable_timeout: float = ENABLE_TIMEOUT, home_timeout: float = HOME_TIMEOUT
 ) -> None:
-    """Enable every arm that is not, then home every arm that is not homed; each step bounded in time."""
-    for arm in arms:
-        if arm.operating_state.state != "ENABLED":
-            arm.state_command("enable")
+    """Enable every arm that is not, then home every arm that is not homed; each step bounded in time.
+
+    An arm just enabled is homed too, even if it says it is: a dVRK arm homed, disabled and enabled again
+    reports `is_homed` (its encoders are still biased) but acts only once homed again, which is then quick
+    (`mtsIntuitiveResearchKitArm.cpp`: `TransitionEnabled`, `RunHomed`; `is_homed` in `...PSM.cpp`)."""
+    enabled = [arm for arm in arms if arm.operating_state.state != "ENABLED"]
+    for arm in enabled:
+        arm.state_command("enable")
     for arm in arms:
         arm.await_state(lambda s: s.state == "ENABLED" and not s.is_busy, "enable", enable_timeout)
+    homing = {
+        arm.name: arm.state_command("home")
+        for arm in arms
+        if arm in enabled or not arm.operating_state.is_homed
+    }
     for arm in arms:
-        if not arm.operating_state.is_homed:
-            arm.state_command("home")
-    for arm in arms:
-        arm.await_state(lambda s: s.state == "ENABLED" and s.is_homed and not s.is_busy, "home", home_timeout)
+        after = homing.get(arm.name, -np.inf)  # a state from before the command (homed, say) does not count
+        arm.await_state(
+            lambda s: s.stamp > after and s.state == "ENABLED" and s.is_homed and not s.is_busy,
+            "home",
+            home_timeout,
+        )

@@ -133,8 +133,10 @@ class Streamer:
 class StreamedMotion:
     """A trajectory the streamer plays: poll `status` (busy, done, failed), or `stop()` it.
 
-    It fails if the streamer refuses a set-point, if it has not finished `MOTION_MARGIN` s after its
-    duration (it is then stopped), or when `check_alive` (the robot's liveness) raises."""
+    It is done once the streamer has sent its last set-point and `arrived()` says the robot has taken it
+    (its `setpoint_js` there: the next motion plans from it). It fails if the streamer refuses a set-point,
+    if it is not done `MOTION_MARGIN` s after its duration (it is then stopped), or when `check_alive`
+    (the robot's liveness) raises."""
 
     def __init__(
         self,
@@ -143,8 +145,10 @@ class StreamedMotion:
         what: str,
         duration: float,
         check_alive: Callable[[], None],
+        arrived: Callable[[], bool],
     ) -> None:
         self._streamer = streamer
+        self._arrived = arrived
         self.motion_id = motion_id
         self.what = what
         self.bound = duration + MOTION_MARGIN
@@ -160,13 +164,12 @@ class StreamedMotion:
         if self._done:
             return MotionStatus.DONE
         outcome = self._streamer.outcome(self.motion_id)
-        if outcome is not None:
-            kind, reason = outcome
-            if kind == "done":
-                self._done = True
-                return MotionStatus.DONE
-            self.error = f"{self.what} failed: {reason}"
+        if outcome is not None and outcome[0] != "done":
+            self.error = f"{self.what} failed: {outcome[1]}"
             return MotionStatus.FAILED
+        if outcome is not None and self._arrived():
+            self._done = True
+            return MotionStatus.DONE
         if not self._streamer.running:
             raise EndpointSilent(f"the servo streamer exited during {self.what}", field="streamer")
         self._check_alive()
