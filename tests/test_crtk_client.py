@@ -23,6 +23,8 @@ from crtk_double import LOWER, UPPER, CrtkDouble
 from pegbt.behaviours.arm_motion import ArmMotion
 from pegbt.behaviours.robot import connect_crtk_robot
 from pegbt.errors import PegbtError
+from pegbt.executive.analysis import summary
+from pegbt.executive.logfile import read_tick_log
 from pegbt.executive.session import run_tree_file
 from pegbt.motion.limits import arm_settings
 from pegbt.sim.process import free_port
@@ -102,6 +104,9 @@ def test_a_run_enables_and_homes_the_arms_logs_what_the_robot_says_and_touches_n
         messages = [(r["source"], r["level"], r["text"]) for r in records if r["type"] == "message"]
         assert ("PSM1", "status", "PSM1: power on") in messages
         assert "STATUS   PSM2: PSM2: power on" in out.getvalue()
+        log = read_tick_log(tmp_path / "look.jsonl")  # the reader takes the new record kind
+        assert len(log.messages) == len(messages) and log.outcome == "success"
+        assert "robot:    " in summary(log)
         time.sleep(0.3)
         assert sniffer.seen == []
     finally:

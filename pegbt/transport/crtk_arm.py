@@ -34,7 +34,7 @@ from pegbt.transport.codec import JointSample, OperatingState, TrajectoryLike
 from pegbt.transport.dvrk_topics import PsmTopics
 from pegbt.transport.ros2 import Ros2Wire
 from pegbt.transport.sequencing import Received
-from pegbt.transport.streaming import StreamedMotion, Streamer
+from pegbt.transport.streaming import MOTION_MARGIN, StreamedMotion, Streamer
 
 T = TypeVar("T")
 
@@ -348,7 +348,9 @@ class CrtkArm:
         def arrived() -> bool:
             return bool(np.allclose(self.read(setpoint).position, end, atol=ARRIVED))
 
-        return StreamedMotion(self._streamer, motion_id, what, duration, self.check_alive, arrived)
+        # a robot allowed to fall silent for the liveness timeout may report its set-point that much later
+        margin = max(MOTION_MARGIN, 2 * self.liveness_timeout)
+        return StreamedMotion(self._streamer, motion_id, what, duration, self.check_alive, arrived, margin)
 
 
 def make_ready(

@@ -135,7 +135,7 @@ class StreamedMotion:
 
     It is done once the streamer has sent its last set-point and `arrived()` says the robot has taken it
     (its `setpoint_js` there: the next motion plans from it). It fails if the streamer refuses a set-point,
-    if it is not done `MOTION_MARGIN` s after its duration (it is then stopped), or when `check_alive`
+    if it is not done `margin` s after its duration (it is then stopped), or when `check_alive`
     (the robot's liveness) raises."""
 
     def __init__(
@@ -146,12 +146,13 @@ class StreamedMotion:
         duration: float,
         check_alive: Callable[[], None],
         arrived: Callable[[], bool],
+        margin: float = MOTION_MARGIN,
     ) -> None:
         self._streamer = streamer
         self._arrived = arrived
         self.motion_id = motion_id
         self.what = what
-        self.bound = duration + MOTION_MARGIN
+        self.bound = duration + margin
         self._deadline = time.monotonic() + self.bound
         self._check_alive = check_alive
         self.error: str | None = None
