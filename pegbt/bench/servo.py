@@ -98,13 +98,12 @@ class _Load:
         end = time.monotonic() + seconds
         next_capture, captures, plans = time.monotonic(), 0, 0
         while time.monotonic() < end:
-            if time.monotonic() >= next_capture:
-                next_capture += CAMERA_PERIOD
+            if time.monotonic() >= next_capture:  # a camera that falls behind drops frames, as a stream does
+                next_capture = max(next_capture + CAMERA_PERIOD, time.monotonic())
                 self.locator.locate(self.camera.capture(self.world), self.board)
                 captures += 1
-            else:
-                self.planner.plan(self.transfers[plans % len(self.transfers)])
-                plans += 1
+            self.planner.plan(self.transfers[plans % len(self.transfers)])
+            plans += 1
         return captures, plans
 
 
