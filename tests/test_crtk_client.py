@@ -282,3 +282,23 @@ def test_a_capture_is_the_first_cloud_stamped_after_the_request_without_its_nan_
     finally:
         robot.close()
         double.close()
+
+
+def test_bad_dvrk_options_are_one_clear_line_each(pegbt_cli, tmp_path: Path) -> None:
+    auto = pegbt_cli("run", "trees/unilateral.yaml", "--interface", "dvrk", "--log", tmp_path / "a.jsonl")
+    assert auto.returncode == 2 and "give its bridge's address" in auto.stderr
+    missing = pegbt_cli(
+        "run",
+        "trees/unilateral.yaml",
+        "--interface",
+        "dvrk",
+        "--endpoint",
+        f"tcp/127.0.0.1:{free_port()}",
+        "--robot-config",
+        tmp_path / "nowhere",
+        "--log",
+        tmp_path / "b.jsonl",
+    )
+    assert missing.returncode == 2 and "not a folder" in missing.stderr and "nowhere" in missing.stderr
+    for run in (auto, missing):
+        assert "Traceback" not in run.stderr and len(run.stderr.strip().splitlines()) == 1

@@ -7,6 +7,7 @@ import itertools
 import os
 import subprocess
 import sys
+import tempfile
 import threading
 import time
 from collections.abc import Callable, Sequence
@@ -39,11 +40,14 @@ class Streamer:
             **os.environ,
             "PYTHONPATH": os.pathsep.join(filter(None, [str(root), os.environ.get("PYTHONPATH")])),
         }
+        self._stderr = (
+            tempfile.TemporaryFile()
+        )  # never a pipe nobody reads: a full one would stall the stream
         self.process = subprocess.Popen(
             [sys.executable, "-m", "pegbt.transport.streamer"],
             stdin=subprocess.PIPE,
             stdout=subprocess.PIPE,
-            stderr=subprocess.PIPE,
+            stderr=self._stderr,
             env=env,
         )
         self.period = period
@@ -64,8 +68,9 @@ class Streamer:
         with self._changed:
             self._changed.wait_for(lambda: self._ready or self._gone, STARTUP_TIMEOUT)
         if not self._ready:
+            self._stderr.seek(0)
+            said = self._stderr.read().decode(errors="replace").strip()
             self.close()
-            said = self.process.stderr.read().decode(errors="replace").strip() if self.process.stderr else ""
             raise PegbtError(
                 f"the servo streamer did not start: {said or f'not ready within {STARTUP_TIMEOUT:g} s'}",
                 field="streamer",
@@ -125,7 +130,7 @@ class Streamer:
             except (EndpointSilent, subprocess.TimeoutExpired):
                 self.process.kill()
                 self.process.wait(timeout=EXIT_TIMEOUT)
-        for stream in (self.process.stdin, self.process.stdout, self.process.stderr):
+        for stream in (self.process.stdin, self.process.stdout, self._stderr):
             if stream is not None:
                 stream.close()
 
