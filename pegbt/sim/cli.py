@@ -201,6 +201,21 @@ def _sim(args: argparse.Namespace) -> int:
     os._exit(0)
 
 
+def _stop_at_stdin_eof(endpoint: SimEndpoint | DvrkEndpoint) -> None:
+    """Block until standard input ends, then stop: a parent that died, however, closed its end of the pipe."""
+    while sys.stdin.buffer.read(4096):
+        pass
+    endpoint.stop()
+
+
+def _world(plan: FaultPlan) -> tuple[World, DepthCamera]:
+    """The pegboard world and its camera, seeded and faulted as the plan says."""
+    from pegbt.sim.camera import DepthCamera
+    from pegbt.sim.world import World
+
+    return World(plan.seed, faults=plan.world), DepthCamera(seed=plan.seed, faults=plan.camera)
+
+
 def _refuse_pegbt_only_options(args: argparse.Namespace) -> None:
     """The dVRK interface is a robot's: real time, and no network faults of pegbt's own transport."""
     from pegbt.errors import PegbtError
@@ -251,18 +266,3 @@ def _dvrk_endpoint(
         camera_period=1.0 / args.camera_rate,
     )
     return DvrkEndpoint(BridgeWire(session, args.namespace), config, world=world, camera=camera)
-
-
-def _stop_at_stdin_eof(endpoint: SimEndpoint | DvrkEndpoint) -> None:
-    """Block until standard input ends, then stop: a parent that died, however, closed its end of the pipe."""
-    while sys.stdin.buffer.read(4096):
-        pass
-    endpoint.stop()
-
-
-def _world(plan: FaultPlan) -> tuple[World, DepthCamera]:
-    """The pegboard world and its camera, seeded and faulted as the plan says."""
-    from pegbt.sim.camera import DepthCamera
-    from pegbt.sim.world import World
-
-    return World(plan.seed, faults=plan.world), DepthCamera(seed=plan.seed, faults=plan.camera)

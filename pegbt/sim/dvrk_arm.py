@@ -25,8 +25,8 @@ sawIntuitiveResearchKit `core/components/code/mtsIntuitiveResearchKitArm.cpp` (A
   sawControllers `core/components/code/mtsPID.cpp`, relayed by Arm.cpp `ErrorEventHandler`); in FAULT
   the power is off and the arm holds where it is until it is disabled and enabled again.
 
-Outside HOMED and FAULT, the PID is off (Arm.cpp `EnterDisabled`, `EnterEnabled`): the set-point follows
-the encoders. Status, warning and error texts follow the dVRK's (`reports`); what the simulator's
+Until HOMING (DISABLED, POWERING, ENABLED, the encoders' calibration) the PID is off (Arm.cpp
+`EnterDisabled`, `EnterEnabled`): the set-point follows the encoders; in FAULT it stays where they were. Status, warning and error texts follow the dVRK's (`reports`); what the simulator's
 judge needs (clips, dropped commands, faults) is in `safety`.
 """
 
