@@ -60,14 +60,14 @@ def test_out_of_limit_pose_is_refused_naming_the_limit():
     solution = inverse_kinematics(forward_kinematics(q), PSM1)
     assert solution.reachable.all()
     assert solution.ok.tolist() == [False, True]
-    assert solution.problems(0)[0].startswith("q3 (insertion) = 0.2600 outside [0.0800, 0.2450]")
+    assert solution.problems(0)[0].startswith("q3 (insertion) = 0.2600 outside [0.0800, 0.2400]")
     assert solution.problems(1) == []
     with pytest.raises(PegbtError, match=r"grasp waypoint: not reachable by PSM1: q3 \(insertion\)"):
         solve_ik(forward_kinematics(q[0]), PSM1, what="grasp waypoint")
 
 
 def test_wrist_limit_is_named():
-    q = np.array([0.1, 0.2, 0.15, 0.0, 0.1, 1.9])  # wrist yaw beyond 100°
+    q = np.array([0.1, 0.2, 0.15, 0.0, 0.1, 1.9])  # wrist yaw beyond 80°
     with pytest.raises(PegbtError, match=r"q6 \(wrist_yaw\)"):
         solve_ik(forward_kinematics(q), PSM1)
 

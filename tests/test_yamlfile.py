@@ -109,7 +109,7 @@ def test_a_broken_psm_file_is_a_located_error_not_a_parser_traceback(tmp_path):
 
 def test_a_non_number_joint_limit_names_its_line_and_field(tmp_path):
     path, text = _edited(
-        tmp_path, PSM_SETTINGS, "upper: [1.3963, 1.0472, 0.245,", "upper: [1.3963, 1.0472, deep,"
+        tmp_path, PSM_SETTINGS, "upper: [1.3963, 0.925025, 0.24,", "upper: [1.3963, 0.925025, deep,"
     )
     with pytest.raises(PegbtError, match="expected a finite number, got 'deep'") as caught:
         arm_settings("PSM2", path)

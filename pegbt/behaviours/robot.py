@@ -1,14 +1,20 @@
-"""The `robot` resource: both PSMs and the depth camera over one zenoh link, and the run's clock.
+"""The `robot` resource: both PSMs and the depth camera, and the run's clock; `--interface` picks the client.
 
-`--endpoint auto` starts the embedded simulator (`pegbt sim --lockstep --physics dvrk-real`) as a child
-process on a free loopback port; an address connects to a simulator or a robot already running there.
-A simulator answers `sim/clock`: its `SimClock` becomes the run's clock (lockstep: time advances only when
-the executive waits) and its ground truth (`sim/truth`) judges the trial. Anything else is a
-robot, run on the wall clock and judged by what the executive believes.
+`--interface pegbt` (the default): pegbt's own protocol over one zenoh link. `--endpoint auto` starts the
+embedded simulator (`pegbt sim --lockstep --physics dvrk-real`) as a child process on a free loopback port;
+an address connects to a simulator or a robot already running there. A simulator answers `sim/clock`: its
+`SimClock` becomes the run's clock (lockstep: time advances only when the executive waits) and its ground
+truth (`sim/truth`) judges the trial. Anything else is a robot, run on the wall clock and judged by what
+the executive believes.
+
+`--interface dvrk`: any CRTK robot as a dVRK 2.x serves it through zenoh-bridge-ros2dds (`CrtkArm`,
+`StreamingCamera`, trajectories streamed by a `Streamer` process), on the wall clock, never touching a
+`sim/*` key; each arm enabled and homed before the tree starts; the robot's messages go to the tick log.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 from pegbt.clock import Clock, WallClock
@@ -17,6 +23,16 @@ from pegbt.executive.providers import ProviderSetup
 from pegbt.psm import ARMS
 from pegbt.sim.process import SimProcess
 from pegbt.transport import ArmClient, CameraClient, Link, SimClock, connect
+from pegbt.transport.cloud_stream import StreamingCamera
+from pegbt.transport.dvrk_topics import point_cloud_topic
+from pegbt.transport.endpoints import DEFAULT_POINTS_TOPIC
+from pegbt.numbers import checked_number
+from pegbt.transport.crtk_arm import LIVENESS_S, CrtkArm, make_ready
+from pegbt.transport.keys import check_namespace
+from pegbt.transport.ros2 import BridgeWire
+from pegbt.transport.session import client_settings, open_session
+from pegbt.transport.streaming import Streamer
+from pegbt.motion.robot_config import DEFAULT_TOOL, robot_arm_settings
 from pegbt.sim.truth import ask_truth
 from pegbt.behaviours.trial import Trial
 
@@ -45,25 +61,31 @@ class Robot:
 
     def __init__(
         self,
-        link: Link,
+        arms: dict[str, Any],
+        camera: Any,
         clock: Clock,
         *,
+        link: Link | None = None,
         simulator: SimProcess | None = None,
         lockstep: bool = False,
         truth: SimulatorTruth | None = None,
         endpoint: str = "",
+        closers: tuple[Callable[[], None], ...] = (),
     ) -> None:
+        """`arms` (`ArmClient`s or `CrtkArm`s by name) and `camera` share the verbs behaviours use; `closers`
+        run at `close()`, in order, after the link is closed."""
         self.link = link
         self.run_clock = clock
         self.simulator = simulator
         self.lockstep = lockstep
         self.truth = truth
         self.endpoint = endpoint
-        self.arms = {name: ArmClient(link, name, clock=clock) for name in ARMS}
-        self.camera = CameraClient(link, clock=clock)
+        self.arms = arms
+        self.camera = camera
         self.trial = Trial(clock, truth)
+        self._closers = closers
 
-    def arm(self, name: str) -> ArmClient:
+    def arm(self, name: str) -> Any:
         if name not in self.arms:
             raise PegbtError(f"unknown arm {name!r}; known: {', '.join(self.arms)}", field="arm")
         return self.arms[name]
@@ -71,6 +93,10 @@ class Robot:
     def wait_until_ready(self) -> None:
         for arm in self.arms.values():
             arm.wait_until_ready(READY_TIMEOUT)
+
+    def log_messages(self) -> list[dict[str, Any]]:
+        """The robot's error, warning and status messages since the last call (for the tick log)."""
+        return [message for arm in self.arms.values() for message in getattr(arm, "drain_messages", list)()]
 
     def report(self) -> Any:
         """The judged trial (None when the tree moved no block)."""
@@ -80,7 +106,10 @@ class Robot:
         return self.trial.progress_listener()
 
     def close(self) -> None:
-        self.link.close()
+        if self.link is not None:
+            self.link.close()
+        for close in self._closers:
+            close()
         if self.simulator is not None:
             self.simulator.stop()
 
@@ -127,9 +156,12 @@ def connect_robot(
                 else _probe_simulator(link)
             )
             truth = SimulatorTruth(link) if sim_clock is not None else None
+            clock = sim_clock or WallClock()
             robot = Robot(
-                link,
-                sim_clock or WallClock(),
+                {name: ArmClient(link, name, clock=clock) for name in ARMS},
+                CameraClient(link, clock=clock),
+                clock,
+                link=link,
                 simulator=simulator,
                 truth=truth,
                 lockstep=bool(sim_clock and sim_clock.lockstep),
@@ -146,9 +178,73 @@ def connect_robot(
     return robot
 
 
+def connect_crtk_robot(
+    endpoint: str,
+    namespace: str = "",
+    robot_config: str | None = None,
+    robot_tool: str = DEFAULT_TOOL,
+    camera: str = DEFAULT_POINTS_TOPIC,
+    liveness: float = LIVENESS_S,
+) -> Robot:
+    """A `Robot` of CRTK arms at `endpoint` (a zenoh-bridge-ros2dds, a `pegbt sim --interface dvrk`), its
+    arms enabled and homed, limits narrowed by the dVRK's `robot_config` folder when given."""
+    if endpoint == "auto":
+        raise PegbtError(
+            "--interface dvrk talks to a robot: give its bridge's address (--endpoint tcp/HOST:PORT)",
+            field="--endpoint",
+        )
+    check_namespace(namespace, "--namespace")
+    settings = {arm: robot_arm_settings(arm, robot_config, robot_tool) for arm in ARMS}
+    period = min(arm.control_period for arm in settings.values())
+    session = open_session(client_settings([endpoint]))
+    try:
+        streamer = Streamer([endpoint], namespace, settings, period)
+    except BaseException:
+        session.close()
+        raise
+    try:
+        wire = BridgeWire(session, namespace)
+        clock = WallClock()
+        arms = {
+            arm: CrtkArm(
+                wire, arm, settings=settings[arm], streamer=streamer, clock=clock, liveness_timeout=liveness
+            )
+            for arm in ARMS
+        }
+        robot = Robot(
+            arms,
+            StreamingCamera(wire, point_cloud_topic(camera), clock=clock),
+            clock,
+            endpoint=endpoint,
+            closers=(streamer.close, session.close),
+        )
+        robot.wait_until_ready()
+        make_ready(list(arms.values()))
+    except BaseException:
+        streamer.close()
+        session.close()
+        raise
+    return robot
+
+
 def provide_robot(setup: ProviderSetup) -> Robot:
-    """The `robot` resource for `pegbt run` (options `endpoint`, `seed`, `faults` and `simlog`)."""
+    """The `robot` resource for `pegbt run` (options `interface`, `endpoint`, `seed`, `faults`, `simlog`;
+    for `dvrk` also `namespace`, `robot-config`, `robot-tool`, `camera-topic`)."""
     options = setup.options
+    if options.get("interface") == "dvrk":
+        for flag in ("faults", "simlog"):
+            if options.get(flag) is not None:
+                raise PegbtError(
+                    f"--{flag} is for the embedded simulator (--interface pegbt)", field=f"--{flag}"
+                )
+        return connect_crtk_robot(
+            str(options.get("endpoint") or "auto"),
+            str(options.get("namespace") or ""),
+            options.get("robot-config"),
+            str(options.get("robot-tool") or DEFAULT_TOOL),
+            str(options.get("camera-topic") or DEFAULT_POINTS_TOPIC),
+            checked_number(float(options.get("liveness") or LIVENESS_S), "--liveness", above=0.0),
+        )
     return connect_robot(
         str(options.get("endpoint") or "auto"),
         int(options.get("seed") or 0),

@@ -29,7 +29,7 @@ from pegbt.errors import PegbtError
 from pegbt.executive.providers import ProviderSetup
 from pegbt.motion.handover import tool_distance
 from pegbt.motion.ik import inverse_kinematics
-from pegbt.motion.limits import arm_settings
+from pegbt.motion.robot_config import DEFAULT_TOOL, robot_arm_settings
 from pegbt.motion.settings import MotionSettings, motion_settings
 from pegbt.motion.trajectory import Trajectory
 from pegbt.motion.transfer import TransferPlanner
@@ -66,7 +66,10 @@ class Skills:
         calibration: Path | None = None,
         cell: Workcell | None = None,
         motion: MotionSettings | None = None,
+        robot_config: Path | None = None,
+        robot_tool: str = DEFAULT_TOOL,
     ) -> None:
+        """`robot_config`: a dVRK's share/ folder, whose limits narrow skills/psm.yaml's (`robot_arm_settings`)."""
         if condition not in CONDITIONS:
             raise PegbtError(
                 f"unknown condition {condition!r}; known: {', '.join(CONDITIONS)}", field="--condition"
@@ -75,8 +78,9 @@ class Skills:
         self.cell = cell or workcell()
         self.motion = motion or motion_settings()
         self.arms: dict[str, ArmMotion] = {}
+        self.settings = {arm: robot_arm_settings(arm, robot_config, robot_tool) for arm in ARMS}
         for arm in ARMS:
-            settings = arm_settings(arm)
+            settings = self.settings[arm]
             compensator = None
             if condition != "uncalibrated":
                 compensator = Compensator(
@@ -90,7 +94,7 @@ class Skills:
         self.waiting: dict[str, float | None] = dict.fromkeys(ARMS)  # since when each arm waits for the other
 
     def _reachable(self, arm: str):
-        settings = arm_settings(arm)
+        settings = self.settings[arm]
 
         def reachable(poses: NDArray[np.float64]) -> NDArray[np.bool_]:
             return np.asarray(inverse_kinematics(poses, settings).ok, dtype=bool).reshape(len(poses))
@@ -161,9 +165,16 @@ class SkillsReport:
 
 
 def provide_skills(setup: ProviderSetup) -> Skills:
-    """The `skills` resource for `pegbt run` (options `condition`, `calibration`, `endpoint`)."""
+    """The `skills` resource for `pegbt run` (options `condition`, `calibration`, `endpoint`, `robot-config`,
+    `robot-tool`)."""
     options = setup.options
     directory = options.get("calibration")
     if directory is None:
         directory = SIMULATOR_CALIBRATION if options.get("endpoint", "auto") == "auto" else CALIBRATION_DIR
-    return Skills(str(options.get("condition") or "optimized"), Path(directory))
+    robot_config = options.get("robot-config")
+    return Skills(
+        str(options.get("condition") or "optimized"),
+        Path(directory),
+        robot_config=None if robot_config is None else Path(robot_config),
+        robot_tool=str(options.get("robot-tool") or DEFAULT_TOOL),
+    )

@@ -21,11 +21,13 @@ BENCHMARKS: dict[str, str] = {
     "perception": "pegbt.bench.perception:run",
     "transport": "pegbt.bench.transport:run",
     "sim": "pegbt.bench.sim:run",
+    "dvrk-sim": "pegbt.bench.dvrk_sim:run",
     "motion": "pegbt.bench.motion:run",
     "sim2real": "pegbt.bench.sim2real:run",
     "sim2real-real": "pegbt.bench.sim2real_real:run",
     "eval": "pegbt.bench.eval:run",
     "monitor": "pegbt.bench.monitor:run",
+    "servo": "pegbt.bench.servo:run",
 }
 
 

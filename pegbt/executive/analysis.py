@@ -22,6 +22,7 @@ from pegbt.executive.causes import Recovery, Timeline, failure_chains, fallbacks
 from pegbt.executive.logfile import TickLog, Transition
 
 SHOWN_WIDTH = 160  # characters of a blackboard value shown beside a failure
+MESSAGES_SHOWN = 10  # a robot's last errors and warnings listed by `pegbt log summary`
 _MARKS = {"SUCCESS": "[S]", "FAILURE": "[F]", "RUNNING": "[R]", "INVALID": "[ ]"}
 
 
@@ -72,6 +73,15 @@ def summary(log: TickLog, slowest: int = 5) -> str:
     ]
     if log.crash:
         lines.append(f"crash:    {log.crash.get('error')}")
+    if log.messages:
+        levels = [message["level"] for message in log.messages]
+        lines.append(
+            "robot:    " + ", ".join(f"{levels.count(level)} {level}" for level in sorted(set(levels)))
+        )
+        lines += [
+            f"  {m['t']:8.3f} s  {m['level']:<7}  {m['source']}: {m['text']}"
+            for m in [m for m in log.messages if m["level"] in ("error", "warning")][-MESSAGES_SHOWN:]
+        ]
     lines += [""] + _table(log, stats, [node["id"] for node in log.nodes])
     ranked = sorted(leaves, key=lambda node: stats[node].running_time, reverse=True)[:slowest]
     lines += ["", "slowest leaves (time running):"]

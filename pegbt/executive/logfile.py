@@ -11,7 +11,7 @@ from pegbt.errors import PegbtError
 from pegbt.executive.ticklog import FORMAT, FORMAT_VERSION
 
 STATUSES = ("INVALID", "RUNNING", "SUCCESS", "FAILURE")
-_EVENT_TYPES = ("tick", "halt", "crash", "end")
+_EVENT_TYPES = ("tick", "halt", "crash", "end", "message")
 
 
 @dataclass(frozen=True)
@@ -41,6 +41,7 @@ class TickLog:
     )  # (n, t, key, value); None value = unset
     crash: dict[str, Any] | None = None
     end: dict[str, Any] | None = None
+    messages: list[dict[str, Any]] = field(default_factory=list)  # what robots said (`message` records)
     last_n: int = 0
     last_t: float = 0.0
 
@@ -184,6 +185,11 @@ def _event(log: TickLog, record: dict[str, Any], line: int, path: Path) -> None:
         return
     if kind == "crash":
         log.crash = record
+        return
+    if kind == "message":
+        for key in ("source", "level", "text"):
+            _require(record, key, str, path, line)
+        log.messages.append(record)
         return
     halted = record.get("reason") if kind == "halt" else None
     for change in _require(record, "changes", list, path, line):

@@ -42,6 +42,11 @@ class ProgressPrinter:
                     shown = "HALTED" if kind == "halt" else after
                     note = f"  ({feedback})" if feedback else ""
                     print(f"{record['t']:8.3f} s  {shown:<7}  {self.leaves[node]}{note}", file=self.stream)
+        elif kind == "message":
+            print(
+                f"{record['t']:8.3f} s  {record['level'].upper():<7}  {record['source']}: {record['text']}",
+                file=self.stream,
+            )
         elif kind == "end":
             print(
                 f"{record['t']:8.3f} s  run ended: {record['outcome']} after {record['n']} ticks",

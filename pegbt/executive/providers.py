@@ -15,6 +15,8 @@ A resource may take part in the run beyond serving its behaviours (each is optio
 - `progress()`: returns a tick-log listener that shows progress (used unless the run is quiet);
 - `report()`: a result printed after the run, while the resource is still open; a result whose `ok` is
   False makes the run exit non-zero;
+- `log_messages()`: what the resource heard since it was last asked (a robot's warnings), as tick-log
+  `message` records (`source`, `level`, `text`, `stamp`), logged and shown as the run goes;
 - `close()`: called at the end of the run, always.
 """
 
@@ -54,9 +56,39 @@ RUN_OPTIONS: dict[str, RunOption] = {
     for option in (
         RunOption(
             "endpoint",
-            "robot: `auto` starts the embedded simulator (lockstep, dvrk-real physics); "
+            "robot: `auto` starts the embedded simulator (lockstep, dvrk-real physics, --interface pegbt); "
             "or the zenoh address of a running simulator or robot, e.g. tcp/127.0.0.1:7447",
             "auto",
+        ),
+        RunOption(
+            "interface",
+            "robot: pegbt (pegbt's simulator: lockstep, whole trajectories on follow_jt) or dvrk (any CRTK "
+            "robot as a dVRK 2.x is reached through zenoh-bridge-ros2dds: wall clock, trajectories streamed "
+            "as servo_jp by a streamer process; needs --endpoint ADDRESS)",
+            "pegbt",
+            choices=("pegbt", "dvrk"),
+        ),
+        RunOption("namespace", "robot: the key prefix of the robot's topics (the bridge's namespace)", ""),
+        RunOption(
+            "robot-config",
+            "robot and skills: the dVRK's share/ folder; its kinematic/PSM.json and tool file narrow the "
+            "joint limits of skills/psm.yaml",
+        ),
+        RunOption(
+            "robot-tool",
+            "robot and skills: the tool file in the dVRK's share/tool/, without .json "
+            "(None: LARGE_NEEDLE_DRIVER_400006)",
+        ),
+        RunOption(
+            "liveness",
+            "robot (--interface dvrk): seconds without the robot's measured_js before the run stops "
+            "(None: 1; a simulator sharing a loaded machine may need more)",
+            type=float,
+        ),
+        RunOption(
+            "camera-topic",
+            "robot (--interface dvrk): the streaming PointCloud2 topic of the depth camera "
+            "(None: /camera/camera/depth/color/points, a RealSense's)",
         ),
         RunOption(
             "condition",

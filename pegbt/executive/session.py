@@ -103,7 +103,17 @@ def run_tree_file(
         if watch is not None:
             listeners += watch(built, resources)
         try:
-            writer = TickLogWriter(log_path, built, clock_kind=clock_kind, listeners=listeners)
+            writer = TickLogWriter(
+                log_path,
+                built,
+                clock_kind=clock_kind,
+                listeners=listeners,
+                messages=[
+                    resource.log_messages
+                    for resource in resources.values()
+                    if callable(getattr(resource, "log_messages", None))
+                ],
+            )
         except OSError as error:
             raise PegbtError(f"cannot write the tick log: {error.strerror}", file=log_path) from None
         if not quiet:

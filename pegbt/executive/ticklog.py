@@ -12,6 +12,9 @@ Records (one JSON object per line, flushed as written so that a crash loses noth
   halt caused (running nodes going to INVALID had `terminate` called).
 - `crash`: an exception escaped a tick (`error`, `traceback`).
 - `end`: `outcome` (`success`, `failure`, `timeout`, `interrupted`, `crash`), `ticks`, `t`.
+- `message`: what a robot said (a CRTK robot's `error`, `warning` and `status` topics): `n` and `t` of the
+  tick it was logged before, `source` (the arm), `level` (`error`, `warning`, `status`), `text`, and
+  `stamp` (the run's clock when it arrived). Logs written before this record existed simply have none.
 
 A blackboard value changed in place (the same object mutated) is not seen: behaviours write new values.
 A node that finishes with the same status on consecutive ticks (a condition that keeps failing, a
@@ -86,7 +89,10 @@ class TickLogWriter:
         *,
         clock_kind: str,
         listeners: list[Callable[[Record], None]] = (),
+        messages: list[Callable[[], list[Record]]] = (),
     ) -> None:
+        """`messages`: sources of `message` records (each returns what arrived since it was last asked),
+        drained before every tick, halt and end record."""
         self.path = Path(path)
         self.path.parent.mkdir(parents=True, exist_ok=True)
         self._file: IO[bytes] = self.path.open(
@@ -99,6 +105,7 @@ class TickLogWriter:
         self._changes: list[list[Any]] = []
         self._blackboard: dict[str, Any] = {}
         self._listeners = list(listeners)
+        self._messages = list(messages)
         self._write(
             {
                 "type": "header",
@@ -162,8 +169,14 @@ class TickLogWriter:
             del last[key]
         return written, unset
 
+    def _drain_messages(self, n: int, t: float) -> None:
+        for source in self._messages:
+            for message in source():
+                self._write({"type": "message", "n": n, "t": round(t, 6), **message})
+
     def tick(self, n: int, t: float, dt: float) -> None:
         """Record tick `n` (at executive time `t`, wall cost `dt` seconds) if it changed anything."""
+        self._drain_messages(n, t)
         changes = self._status_changes()
         written, unset = self._blackboard_changes()
         if changes or written or unset:
@@ -182,6 +195,7 @@ class TickLogWriter:
 
     def halt(self, n: int, t: float, reason: str) -> None:
         """Record a halt of the tree and the status changes it caused."""
+        self._drain_messages(n, t)
         self._write(
             {"type": "halt", "n": n, "t": round(t, 6), "reason": reason, "changes": self._status_changes()}
         )
@@ -198,6 +212,7 @@ class TickLogWriter:
         )
 
     def end(self, n: int, t: float, outcome: str) -> None:
+        self._drain_messages(n, t)
         self._write({"type": "end", "n": n, "t": round(t, 6), "outcome": outcome})
 
     def close(self) -> None:

@@ -3,8 +3,12 @@
 Each capture casts one ray per pixel (Open3D's `RaycastingScene`) into the board, pegs, blocks and,
 optionally, the instruments, keeps the first hit, and adds Gaussian noise along the ray, so hidden
 faces and the board behind blocks are missing exactly as for a real camera. Only the pixels that can
-see the board are cast. Noise bursts can be injected (scheduled or at random); each is logged in the
-world's event log.
+see the board are cast (`image_shape`: that region of the image, rows by columns). Noise bursts can be
+injected (scheduled or at random); each is logged in the world's event log.
+
+A capture is taken whole (`capture`) or in parts (`expose`, then `Exposure.cast` a few rays at a time, then
+`Exposure.points`): the streaming camera of the simulator's dVRK interface renders a frame over several
+control periods, so that a frame never stalls the arms' control loop. Both give the same points.
 """
 
 from __future__ import annotations
@@ -42,7 +46,7 @@ class DepthCamera:
         self._rng = np.random.default_rng(np.random.SeedSequence([seed, 0xCA3E7A]))
         self._static = static_scene_mesh(self.cell)
         self._block = block_mesh(self.cell.block)
-        self._directions = self._pixel_directions()  # (n, 3) camera frame, z = 1
+        self._directions, self.image_shape = self._pixel_directions()  # (n, 3) camera frame, z = 1
         board_from_camera = self.cell.camera.board_from_camera
         origins = np.broadcast_to(board_from_camera[:3, 3], self._directions.shape)
         self._rays = o3d.core.Tensor(
@@ -54,8 +58,9 @@ class DepthCamera:
         """How many pixels are cast per capture (those whose view can meet the board)."""
         return len(self._directions)
 
-    def _pixel_directions(self) -> Matrix:
-        """Ray directions (z = 1) of the pixels inside the board's image, padded by a margin."""
+    def _pixel_directions(self) -> tuple[Matrix, tuple[int, int]]:
+        """Ray directions (z = 1) of the pixels inside the board's image, padded by a margin, row by row; and
+        that region's rows and columns."""
         camera = self.cell.camera
         board, top = self.cell.board, self.cell.pegs.top_z
         corners = np.array(
@@ -71,9 +76,10 @@ class DepthCamera:
             int
         )
         us, vs = np.meshgrid(np.arange(u_range[0], u_range[1] + 1), np.arange(v_range[0], v_range[1] + 1))
-        return np.column_stack(
+        directions = np.column_stack(
             [(us.ravel() - camera.cx) / camera.fx, (vs.ravel() - camera.cy) / camera.fy, np.ones(us.size)]
         )
+        return directions, (int(us.shape[0]), int(us.shape[1]))
 
     def scene_mesh(self, world: World) -> Mesh:
         """Everything the camera can see now, in the board frame."""
@@ -91,23 +97,29 @@ class DepthCamera:
 
     def capture(self, world: World, time: float | None = None) -> np.ndarray:
         """A point cloud (N, 3) float32 in the camera frame (metres) of the world at `time` (default: now)."""
-        time = world.time if time is None else time
-        vertices, triangles = self.scene_mesh(world)
-        scene = o3d.t.geometry.RaycastingScene()
-        scene.add_triangles(
-            o3d.core.Tensor(vertices.astype(np.float32)), o3d.core.Tensor(triangles.astype(np.uint32))
-        )
-        depth = scene.cast_rays(self._rays)["t_hit"].numpy()
+        exposure = self.expose(world, time)
+        exposure.cast(self.ray_count)
+        points = exposure.points()
+        return points[np.isfinite(points[:, 0])]
+
+    def expose(self, world: World, time: float | None = None) -> Exposure:
+        """A capture of the world as it is now, stamped `time` (default: the world's); no ray cast yet."""
+        return Exposure(self, world, world.time if time is None else time)
+
+    def _develop(self, depth: np.ndarray, world: World, time: float) -> np.ndarray:
+        """Every pixel's point (n, 3) float32 from its ray's hit distance, noisy; NaN where nothing is hit."""
         seen = np.isfinite(depth)
-        depth = depth[seen].astype(np.float64)
+        hits = depth[seen].astype(np.float64)
         if self.depth_noise > 0:
-            depth += self._rng.normal(0.0, self.depth_noise, depth.shape)
+            hits += self._rng.normal(0.0, self.depth_noise, hits.shape)
         burst = self._burst(world, time)
         if burst is not None:
-            depth += self._rng.normal(0.0, burst.sigma, depth.shape)
-            wild = self._rng.random(depth.shape) < burst.outliers
-            depth[wild] *= self._rng.uniform(0.8, 1.2, int(wild.sum()))
-        return (self._directions[seen] * depth[:, None]).astype(np.float32)
+            hits += self._rng.normal(0.0, burst.sigma, hits.shape)
+            wild = self._rng.random(hits.shape) < burst.outliers
+            hits[wild] *= self._rng.uniform(0.8, 1.2, int(wild.sum()))
+        points = np.full(self._directions.shape, np.nan, dtype=np.float32)
+        points[seen] = (self._directions[seen] * hits[:, None]).astype(np.float32)
+        return points
 
     def _burst(self, world: World, time: float) -> NoiseBurst | None:
         """The noise burst affecting a capture at `time`, logged as a fault event in the world."""
@@ -122,3 +134,38 @@ class DepthCamera:
             detail = f"depth noise burst: sigma {burst.sigma * 1000:.1f} mm, {burst.outliers:.0%} outliers"
             world.events.append(Event(time, "fault", detail=detail))
         return burst
+
+
+class Exposure:
+    """One capture under way: the scene frozen as it was when exposed, its rays cast a part at a time."""
+
+    def __init__(self, camera: DepthCamera, world: World, time: float) -> None:
+        self.time = time
+        self._camera = camera
+        self._world = world
+        vertices, triangles = camera.scene_mesh(world)
+        self._scene = o3d.t.geometry.RaycastingScene()
+        self._scene.add_triangles(
+            o3d.core.Tensor(vertices.astype(np.float32)), o3d.core.Tensor(triangles.astype(np.uint32))
+        )
+        self._depth = np.empty(camera.ray_count, dtype=np.float32)
+        self._cast = 0
+
+    @property
+    def done(self) -> bool:
+        """Whether every ray has been cast."""
+        return self._cast >= len(self._depth)
+
+    def cast(self, count: int) -> None:
+        """Cast the next `count` rays (the first call also builds the scene's search structure)."""
+        start, stop = self._cast, min(self._cast + count, len(self._depth))
+        rays = self._camera._rays[start:stop]
+        self._depth[start:stop] = self._scene.cast_rays(rays)["t_hit"].numpy()
+        self._cast = stop
+
+    def points(self) -> np.ndarray:
+        """Every pixel's point (n, 3) float32, camera frame, row by row over `image_shape`; NaN where no
+        surface was hit (as a depth camera's organised cloud marks invalid pixels)."""
+        if not self.done:
+            raise PegbtError("the exposure's rays are not all cast yet", field="camera")
+        return self._camera._develop(self._depth, self._world, self.time)

@@ -15,10 +15,13 @@ from typing import TYPE_CHECKING, Any
 from pegbt.bagoptions import add_record_arguments
 from pegbt.errors import PegbtError
 from pegbt.numbers import NumberOption
-from pegbt.transport.endpoints import DEFAULT_ENDPOINT
+from pegbt.transport.endpoints import DEFAULT_ENDPOINT, DEFAULT_POINTS_TOPIC
 
 if TYPE_CHECKING:
+    import zenoh
+
     from pegbt.sim.camera import DepthCamera
+    from pegbt.sim.dvrk_endpoint import DvrkEndpoint
     from pegbt.sim.endpoint import SimEndpoint
     from pegbt.sim.fault_plan import FaultPlan
     from pegbt.sim.world import World
@@ -51,6 +54,13 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
         default=[],
         metavar="ENDPOINT",
         help="zenoh endpoint to connect to (a router, a bridge; repeatable)",
+    )
+    parser.add_argument(
+        "--interface",
+        choices=("pegbt", "dvrk"),
+        default="pegbt",
+        help="pegbt: CRTK topics with pegbt's extensions (follow_jt, sim/*, lockstep; the default); "
+        "dvrk: only what a dVRK 2.x PSM serves through zenoh-bridge-ros2dds, in real time",
     )
     parser.add_argument("--namespace", default="", help="key prefix, e.g. lab2 for lab2/PSM1/measured_js")
     parser.add_argument(
@@ -104,6 +114,30 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
         "--log", type=Path, metavar="JSONL", help="append the simulator's log (world events, faults) here"
     )
     parser.add_argument(
+        "--camera-topic",
+        default=DEFAULT_POINTS_TOPIC,
+        metavar="TOPIC",
+        help=f"--interface dvrk: the ROS 2 topic of the camera's PointCloud2 stream (default {DEFAULT_POINTS_TOPIC})",
+    )
+    parser.add_argument(
+        "--camera-rate",
+        action=NumberOption,
+        default=10.0,
+        above=0.0,
+        at_most=30.0,
+        metavar="HZ",
+        help="--interface dvrk: point clouds per second (default 10)",
+    )
+    parser.add_argument(
+        "--state-rate",
+        action=NumberOption,
+        default=100.0,
+        above=0.0,
+        at_most=100.0,
+        metavar="HZ",
+        help="--interface dvrk: joint and Cartesian states per second (default 100, the dVRK's ROS period)",
+    )
+    parser.add_argument(
         "--stop-with-parent",
         action="store_true",
         help="stop when standard input closes: a parent process that pipes it is gone (even killed)",
@@ -113,12 +147,13 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
 
 
 def _sim(args: argparse.Namespace) -> int:
-    from pegbt.sim.endpoint import EndpointConfig, SimEndpoint
     from pegbt.sim.fault_plan import FaultPlan
     from pegbt.transport.keys import check_namespace
     from pegbt.transport.session import endpoint_settings, open_session
 
     check_namespace(args.namespace, "--namespace")
+    if args.interface == "dvrk":
+        _refuse_pegbt_only_options(args)
     listen = args.listen or [DEFAULT_ENDPOINT]
     settings = endpoint_settings(listen, args.connect, args.allow_remote_listen)
     plan = FaultPlan.load(args.faults) if args.faults else FaultPlan()
@@ -129,13 +164,12 @@ def _sim(args: argparse.Namespace) -> int:
         "crash_at": args.crash_at,
     }
     plan = dataclasses.replace(plan, **{k: v for k, v in overrides.items() if v is not None})
-    config = EndpointConfig(
-        physics=args.physics, lockstep=args.lockstep, namespace=args.namespace, faults=plan, log_path=args.log
-    )
     world, camera = _world(plan) if args.world else (None, None)
     session = open_session(settings)
     try:
-        endpoint = SimEndpoint(session, config, world=world, camera=camera)
+        endpoint = (_dvrk_endpoint if args.interface == "dvrk" else _pegbt_endpoint)(
+            args, plan, session, world, camera
+        )
     except BaseException:
         session.close()
         raise
@@ -148,7 +182,8 @@ def _sim(args: argparse.Namespace) -> int:
     mode = "lockstep" if args.lockstep else "real time"
     scene = f"world and camera, seed {plan.seed}" if world is not None else "no world"
     print(
-        f"pegbt sim: serving {', '.join(endpoint.arms)} on {', '.join(listen)} ({mode}, physics {args.physics}, {scene})",
+        f"pegbt sim: serving {', '.join(endpoint.arms)} on {', '.join(listen)} ({mode}, {args.interface} "
+        f"interface, physics {args.physics}, {scene})",
         flush=True,
     )
     gc.collect()
@@ -191,7 +226,7 @@ def _recorder(args: argparse.Namespace, endpoint: SimEndpoint) -> Any:
     return recorder
 
 
-def _stop_at_stdin_eof(endpoint: SimEndpoint) -> None:
+def _stop_at_stdin_eof(endpoint: SimEndpoint | DvrkEndpoint) -> None:
     """Block until standard input ends, then stop: a parent that died, however, closed its end of the pipe."""
     while sys.stdin.buffer.read(4096):
         pass
@@ -204,3 +239,61 @@ def _world(plan: FaultPlan) -> tuple[World, DepthCamera]:
     from pegbt.sim.world import World
 
     return World(plan.seed, faults=plan.world), DepthCamera(seed=plan.seed, faults=plan.camera)
+
+
+def _refuse_pegbt_only_options(args: argparse.Namespace) -> None:
+    """The dVRK interface is a robot's: real time, and no network faults of pegbt's own transport."""
+    from pegbt.errors import PegbtError
+
+    if args.lockstep:
+        raise PegbtError(
+            "the dVRK interface runs in real time only, as a dVRK does; drop --lockstep or use "
+            "--interface pegbt",
+            field="--lockstep",
+        )
+    if args.record:
+        raise PegbtError(
+            "--record is pegbt's interface's; to record a dVRK interface, record on the client "
+            "(pegbt run --record) or with ros2 bag record",
+            field="--record",
+        )
+    for option, value in (("--loss", args.loss), ("--latency", args.latency), ("--crash-at", args.crash_at)):
+        if value is not None:
+            raise PegbtError(
+                f"{option} acts on pegbt's own transport: use it with --interface pegbt", field=option
+            )
+
+
+def _pegbt_endpoint(
+    args: argparse.Namespace,
+    plan: FaultPlan,
+    session: zenoh.Session,
+    world: World | None,
+    camera: DepthCamera | None,
+) -> SimEndpoint:
+    from pegbt.sim.endpoint import EndpointConfig, SimEndpoint
+
+    config = EndpointConfig(
+        physics=args.physics, lockstep=args.lockstep, namespace=args.namespace, faults=plan, log_path=args.log
+    )
+    return SimEndpoint(session, config, world=world, camera=camera)
+
+
+def _dvrk_endpoint(
+    args: argparse.Namespace,
+    plan: FaultPlan,
+    session: zenoh.Session,
+    world: World | None,
+    camera: DepthCamera | None,
+) -> DvrkEndpoint:
+    from pegbt.sim.dvrk_endpoint import DvrkEndpoint, DvrkEndpointConfig
+    from pegbt.transport.ros2 import BridgeWire
+
+    config = DvrkEndpointConfig(
+        physics=args.physics,
+        log_path=args.log,
+        state_period=1.0 / args.state_rate,
+        camera_topic=args.camera_topic,
+        camera_period=1.0 / args.camera_rate,
+    )
+    return DvrkEndpoint(BridgeWire(session, args.namespace), config, world=world, camera=camera)

@@ -9,6 +9,7 @@ ticks (a servo round trip then skips a hand-over between threads, about a third 
 machine). Its parts, each with one job:
 
 - `SimArm` (`arm`): one arm's controller, limits, servo response and cable physics;
+- `Scene` (`scene`): the world moved by the arms' physical joints, its events put in the log;
 - `commands`: a command message to the arm call it asks for, through loss and latency faults;
 - `outbox`: every published message, encoded only when received, through loss and latency faults;
 - `lockstep`: step requests, and the barrier that makes each step see exactly what was sent before it;
@@ -56,7 +57,7 @@ from pegbt.sim.interfaces import SimCamera, SimWorld
 from pegbt.sim.lockstep import Inbox, Lockstep
 from pegbt.sim.log import SimLog
 from pegbt.sim.outbox import JointStateMessage, Outbox
-from pegbt.sim.tools import ToolState, wrist_give
+from pegbt.sim.scene import Scene
 from pegbt.sim.truth import requested_since, truth_answer
 from pegbt.transport import codec
 from pegbt.transport.arm import ARM_JOINT_NAMES, JAW_JOINT_NAMES
@@ -124,8 +125,6 @@ class SimEndpoint:
             )
             for name in config.arms
         }
-        self._arm_to_board = {name: world.cell.arm_to_board(name) for name in self.arms} if world else {}
-        self._events_logged = 0  # world events already in the log
         self.period = next(iter(self.arms.values())).period
         self.keys = {name: ArmKeys(name, config.namespace) for name in config.arms}
         self.sim_keys = SimKeys(config.namespace)
@@ -137,6 +136,7 @@ class SimEndpoint:
         self._events_outlet = Outlet(session, self.sim_keys.events, self.source)
         self._recorder: WireRecorder | None = None
         self.log = SimLog(config.log_path, self._publish_log_line)
+        self._scene = Scene(world, self.arms, self.log) if world is not None else None
         self._outbox = Outbox(
             session, self.source, self.faults, self.log.record, realtime=not config.lockstep
         )
@@ -229,8 +229,8 @@ class SimEndpoint:
             physics=self.config.physics,
             arms=list(self.arms),
         )
-        if self.world is not None:
-            self._update_world()
+        if self._scene is not None:
+            self._scene.update(self.elapsed)
         self._outbox.inject = False
         self._publish_operating_states()
         self._publish_state()
@@ -376,38 +376,13 @@ class SimEndpoint:
         for name, arm in self.arms.items():
             for transition in arm.advance(self.period):
                 self._publish_operating_state(name, transition.command_id, transition.outcome)
-        if self.world is not None:
-            self._update_world()
+        if self._scene is not None:
+            self._scene.update(self.elapsed)
         if self.time - self._last_state_refresh >= STATE_REFRESH - 1e-9:
             self._publish_operating_states()
         self._outbox.release(self.time)
         if self.faults.crash_due(self.elapsed):
             self.log.record(self.elapsed, "fault", fault="crash")
-
-    def _update_world(self) -> None:
-        """Move the world with each tool where its physical joints put it; a gripped block stops the jaw."""
-        assert self.world is not None
-        tools = {
-            name: ToolState.from_joints(
-                arm.physical,
-                float(arm.jaw.encoder[0]),
-                self._arm_to_board[name],
-                wrist_give(arm.physics, float(arm.physical[5]), self.world.cell.tool),
-            )
-            for name, arm in self.arms.items()
-        }
-        self.world.update(self.elapsed, tools)
-        for name, arm in self.arms.items():
-            arm.jaw.stop_at(self.world.jaw_stop(name))
-        self._log_world_events()
-
-    def _log_world_events(self) -> None:
-        """Put the world's new events (from a step, or a capture's noise burst) in the simulator's log."""
-        assert self.world is not None
-        events = self.world.events
-        for event in events.since(self._events_logged):
-            self.log.record_event(event)
-        self._events_logged = len(events)
 
     # ------------------------------------------------------------------ publishing
     def _publish_operating_state(self, name: str, cause: str = "", outcome: str = "") -> None:
@@ -476,7 +451,8 @@ class SimEndpoint:
         assert self.camera is not None and self.world is not None
         now = self.now()
         points = self.camera.capture(self.world, self.elapsed)
-        self._log_world_events()
+        assert self._scene is not None
+        self._scene.log_events()
         self._outbox.send(
             now, self.camera_keys.points, partial(codec.encode_point_cloud, now, points), command_id, "done"
         )

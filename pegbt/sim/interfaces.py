@@ -46,3 +46,27 @@ class SimCamera(Protocol):
     def capture(self, world: SimWorld, time: float | None = None) -> NDArray[np.float32]:
         """(N, 3) points in metres, camera frame, as the world is at `time`."""
         ...
+
+
+class CameraExposure(Protocol):
+    """One capture under way (`pegbt.sim.camera.Exposure`): cast its rays a part at a time, then develop it."""
+
+    done: bool
+
+    def cast(self, count: int) -> None:
+        """Cast the next `count` rays."""
+        ...
+
+    def points(self) -> NDArray[np.float32]:
+        """Every pixel's point (n, 3), row by row over the camera's `image_shape`; NaN where nothing is hit."""
+        ...
+
+
+class StreamingCamera(Protocol):
+    """A depth camera that renders a frame in parts, so that streaming never stalls a control loop."""
+
+    image_shape: tuple[int, int]
+
+    def expose(self, world: SimWorld, time: float | None = None) -> CameraExposure:
+        """A capture of the world as it is now, at simulated `time`."""
+        ...

@@ -26,9 +26,10 @@ def free_port() -> int:
 
 class SimProcess:
     """A `pegbt sim` child listening on a free port; `endpoint` is where clients connect. It stops with
-    this process, however this one ends: its standard input is a pipe from here (`--stop-with-parent`)."""
+    this process, however this one ends: its standard input is a pipe from here (`--stop-with-parent`).
+    `interface` is `pegbt sim --interface`: "pegbt" (pegbt's topics and extensions) or "dvrk" (a dVRK's)."""
 
-    def __init__(self, args: Sequence[str] = (), port: int | None = None) -> None:
+    def __init__(self, args: Sequence[str] = (), port: int | None = None, interface: str = "pegbt") -> None:
         self.port = port or free_port()
         self.endpoint = f"tcp/127.0.0.1:{self.port}"
         root = Path(__file__).resolve().parents[2]
@@ -37,7 +38,18 @@ class SimProcess:
             "PYTHONPATH": os.pathsep.join(filter(None, [str(root), os.environ.get("PYTHONPATH")])),
         }
         self.process = subprocess.Popen(
-            [sys.executable, "-m", "pegbt", "sim", "--listen", self.endpoint, "--stop-with-parent", *args],
+            [
+                sys.executable,
+                "-m",
+                "pegbt",
+                "sim",
+                "--interface",
+                interface,
+                "--listen",
+                self.endpoint,
+                "--stop-with-parent",
+                *args,
+            ],
             stdin=subprocess.PIPE,
             stdout=subprocess.PIPE,
             stderr=subprocess.PIPE,

@@ -195,10 +195,13 @@ def decode_pose_stamped(data: bytes) -> tuple[float, NDArray[np.float64]]:
 
 # ----------------------------------------------------------------------------- point clouds
 def encode_point_cloud(stamp: float, points: ArrayLike, frame_id: str = "camera") -> bytes:
-    """(N, 3) points in metres as an unorganised sensor_msgs/PointCloud2 of float32 x, y, z."""
+    """Points in metres as a sensor_msgs/PointCloud2 of float32 x, y, z: (N, 3) unorganised, or (H, W, 3)
+    organised as an image's pixels, row by row, NaN marking the invalid ones (then not dense)."""
     points = np.ascontiguousarray(points, dtype="<f4")
-    if points.ndim != 2 or points.shape[1] != 3:
-        raise PegbtError(f"point cloud must be N×3, got shape {points.shape}", field="points")
+    if points.ndim not in (2, 3) or points.shape[-1] != 3:
+        raise PegbtError(f"point cloud must be N×3 or H×W×3, got shape {points.shape}", field="points")
+    height, width = points.shape[:2] if points.ndim == 3 else (1, len(points))
+    points = points.reshape(-1, 3)
     field_type = _type("sensor_msgs/msg/PointField")
     fields = [
         field_type(name=axis, offset=4 * i, datatype=field_type.FLOAT32, count=1)
@@ -206,14 +209,14 @@ def encode_point_cloud(stamp: float, points: ArrayLike, frame_id: str = "camera"
     ]
     message = _type(POINT_CLOUD2)(
         header=_header(stamp, frame_id),
-        height=1,
-        width=len(points),
+        height=height,
+        width=width,
         fields=fields,
         is_bigendian=False,
         point_step=12,
-        row_step=12 * len(points),
+        row_step=12 * width,
         data=points.view(np.uint8).reshape(-1),
-        is_dense=True,
+        is_dense=bool(np.isfinite(points).all()),
     )
     return serialize(message)
 

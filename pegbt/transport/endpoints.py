@@ -1,4 +1,5 @@
-"""Zenoh endpoint addresses: the default one, and the checks every session's endpoints pass.
+"""Zenoh endpoint addresses: the default one (and the default camera topic), and the checks every
+session's endpoints pass.
 
 Kept apart from `session.py` (which imports zenoh) so that `pegbt --help` can show the default address
 without loading zenoh.
@@ -16,6 +17,8 @@ from pegbt.errors import PegbtError
 
 DEFAULT_PORT = 7447
 DEFAULT_ENDPOINT = f"tcp/127.0.0.1:{DEFAULT_PORT}"
+# where a depth camera's cloud is found unless told otherwise: realsense2_camera's, under its default names
+DEFAULT_POINTS_TOPIC = "/camera/camera/depth/color/points"
 
 
 def split_endpoint(endpoint: str) -> tuple[str, str, str]:

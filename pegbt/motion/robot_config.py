@@ -1,0 +1,124 @@
+"""Joint and jaw limits from a dVRK's own configuration: its `share/` folder (`pegbt run --robot-config DIR`).
+
+The dVRK (jhu-dvrk/sawIntuitiveResearchKit) writes a PSM's limits in two JSON files with comments: the arm's
+kinematic file `share/kinematic/PSM.json` (`DH.joints[0..2]`: yaw, pitch, insertion, each with `qmin`/`qmax`)
+and the tool's file, e.g. `share/tool/LARGE_NEEDLE_DRIVER_400006.json` (`DH.joints[0..2]`: roll, wrist pitch,
+wrist yaw; `jaw.qmin`/`jaw.qmax`). The robot's controller clips every command to these (`clip_jp`,
+`clip_jaw_jp` in `mtsIntuitiveResearchKitArm.cpp`), so a plan must stay within them to land where it says.
+The limits used are the robot's, narrowed further wherever `skills/psm.yaml` (the task's workspace) is
+narrower: never wider than either.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+from typing import Any
+
+import json5
+import numpy as np
+
+from pegbt.errors import PegbtError
+from pegbt.motion.limits import ArmSettings, arm_settings
+
+KINEMATIC_FILE = Path("kinematic") / "PSM.json"
+DEFAULT_TOOL = (
+    "LARGE_NEEDLE_DRIVER_400006"  # the tool of the dVRK's PSM_KIN_SIMULATED_LARGE_NEEDLE_DRIVER arm file
+)
+
+
+@dataclasses.dataclass(frozen=True)
+class RobotLimits:
+    """Joint limits (yaw, pitch, insertion, roll, wrist pitch, wrist yaw) and jaw limits as the robot's files say."""
+
+    lower: np.ndarray
+    upper: np.ndarray
+    jaw_lower: float
+    jaw_upper: float
+
+
+def _read(path: Path) -> dict[str, Any]:
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise PegbtError("dVRK configuration file not found", file=path, field="--robot-config") from None
+    except OSError as error:
+        raise PegbtError(f"cannot read: {error.strerror}", file=path) from None
+    try:
+        document = json5.loads(text)
+    except ValueError as error:
+        raise PegbtError(f"not a dVRK JSON file: {error}", file=path) from None
+    if not isinstance(document, dict):
+        raise PegbtError("expected a JSON object", file=path)
+    return document
+
+
+def _number(value: Any, path: Path, field: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value):
+        raise PegbtError(f"expected a finite number, got {value!r}", file=path, field=field)
+    return float(value)
+
+
+def _joint_limits(path: Path) -> tuple[list[float], list[float], dict[str, Any]]:
+    """`qmin`, `qmax` of the three DH joints of one dVRK file, and the whole document."""
+    document = _read(path)
+    dh = document.get("DH")
+    joints = dh.get("joints") if isinstance(dh, dict) else None
+    if not isinstance(joints, list) or len(joints) != 3:
+        raise PegbtError("expected DH.joints with 3 joints", file=path, field="DH.joints")
+    lower, upper = [], []
+    for index, joint in enumerate(joints):
+        field = f"DH.joints[{index}]"
+        if not isinstance(joint, dict):
+            raise PegbtError("expected a joint object", file=path, field=field)
+        low = _number(joint.get("qmin"), path, f"{field}.qmin")
+        high = _number(joint.get("qmax"), path, f"{field}.qmax")
+        if low >= high:
+            raise PegbtError(f"qmin {low} is not below qmax {high}", file=path, field=field)
+        lower.append(low)
+        upper.append(high)
+    return lower, upper, document
+
+
+def read_robot_limits(share: str | Path, tool: str = DEFAULT_TOOL) -> RobotLimits:
+    """The PSM's limits from the dVRK `share` folder: `kinematic/PSM.json` and `tool/TOOL.json`."""
+    share = Path(share)
+    if not share.is_dir():
+        raise PegbtError("not a folder (give the dVRK's share/ folder)", file=share, field="--robot-config")
+    arm_lower, arm_upper, _ = _joint_limits(share / KINEMATIC_FILE)
+    tool_path = share / "tool" / f"{tool}.json"
+    tool_lower, tool_upper, tool_document = _joint_limits(tool_path)
+    jaw = tool_document.get("jaw")
+    if not isinstance(jaw, dict):
+        raise PegbtError("expected a jaw object with qmin and qmax", file=tool_path, field="jaw")
+    return RobotLimits(
+        lower=np.array(arm_lower + tool_lower),
+        upper=np.array(arm_upper + tool_upper),
+        jaw_lower=_number(jaw.get("qmin"), tool_path, "jaw.qmin"),
+        jaw_upper=_number(jaw.get("qmax"), tool_path, "jaw.qmax"),
+    )
+
+
+def narrowed(settings: ArmSettings, limits: RobotLimits) -> ArmSettings:
+    """`settings` with every joint and jaw limit narrowed to the robot's where the robot's is narrower."""
+    lower = np.maximum(settings.lower, limits.lower)
+    upper = np.minimum(settings.upper, limits.upper)
+    if np.any(lower >= upper):
+        raise PegbtError(
+            f"{settings.name}: the robot's joint limits and skills/psm.yaml's leave no range for some joint "
+            f"(lower {np.round(lower, 4).tolist()}, upper {np.round(upper, 4).tolist()})",
+            field="--robot-config",
+        )
+    return dataclasses.replace(
+        settings,
+        lower=lower,
+        upper=upper,
+        jaw_lower=max(settings.jaw_lower, limits.jaw_lower),
+        jaw_upper=min(settings.jaw_upper, limits.jaw_upper),
+    )
+
+
+def robot_arm_settings(arm: str, share: str | Path | None, tool: str = DEFAULT_TOOL) -> ArmSettings:
+    """The settings of `arm` for a robot: `skills/psm.yaml`'s, narrowed by the dVRK's files when `share` is given."""
+    settings = arm_settings(arm)
+    return settings if share is None else narrowed(settings, read_robot_limits(share, tool))

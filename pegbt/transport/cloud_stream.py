@@ -1,0 +1,97 @@
+"""`StreamingCamera`: point clouds from a depth camera that streams sensor_msgs/PointCloud2 on its own (a
+RealSense on `/camera/camera/depth/color/points`), with the verbs behaviours use on `CameraClient`.
+
+Nobody triggers it: a capture is the first cloud stamped after the request. Invalid points (NaN, as a
+RealSense sends for pixels without depth) are dropped. Clouds are decoded only while a capture waits.
+"""
+
+from __future__ import annotations
+
+import threading
+
+import numpy as np
+from numpy.typing import NDArray
+
+from pegbt.clock import Clock, WallClock
+from pegbt.errors import PegbtError
+from pegbt.transport import codec
+from pegbt.transport.arm import EndpointSilent
+from pegbt.transport.ros2 import Ros2Wire, Topic
+
+
+class StreamedCapture:
+    """A requested cloud: `ready` once one stamped after `requested_at` came; then `points` ((N, 3) float32)."""
+
+    sent = True  # nothing to send: the camera streams
+
+    def __init__(self, camera: "StreamingCamera", requested_at: float) -> None:
+        self.camera = camera
+        self.requested_at = requested_at
+        self.stamp: float | None = None
+        self._points: NDArray[np.float32] | None = None
+        self._arrived = threading.Event()
+
+    def fulfil(self, stamp: float, points: NDArray[np.float32]) -> None:
+        self.stamp, self._points = stamp, points
+        self._arrived.set()
+
+    @property
+    def ready(self) -> bool:
+        return self._arrived.is_set()
+
+    def result(self, timeout: float) -> NDArray[np.float32]:
+        """The cloud, waiting up to `timeout` s; `EndpointSilent` if none came."""
+        if not self._arrived.wait(timeout):
+            raise EndpointSilent(
+                f"no point cloud on {self.camera.topic.name} stamped after the request within {timeout:g} s",
+                field=self.camera.topic.name,
+            )
+        assert self._points is not None
+        return self._points
+
+    @property
+    def points(self) -> NDArray[np.float32]:
+        return self.result(0.0)
+
+
+class StreamingCamera:
+    """A streaming depth camera on `wire`'s `topic`."""
+
+    def __init__(
+        self, wire: Ros2Wire, topic: Topic, *, clock: Clock | None = None, timeout: float = 2.0
+    ) -> None:
+        self.topic = topic
+        self.clock: Clock = clock or WallClock()
+        self.timeout = timeout
+        self._pending: list[StreamedCapture] = []
+        self._lock = threading.Lock()
+        self.last_error: str | None = None
+        wire.subscriber(topic, self._on_cloud)
+
+    def _on_cloud(self, payload: bytes) -> None:
+        with self._lock:
+            if not self._pending:
+                return
+        try:
+            stamp, points = codec.decode_point_cloud(payload)
+        except PegbtError as error:
+            self.last_error = str(error)
+            return
+        with self._lock:
+            answered = [handle for handle in self._pending if handle.requested_at < stamp]
+            self._pending = [handle for handle in self._pending if handle.requested_at >= stamp]
+        if answered:
+            valid = points[np.isfinite(points).all(axis=1)]
+            for handle in answered:
+                handle.fulfil(stamp, valid)
+
+    def capture_async(self) -> StreamedCapture:
+        """Ask for the next cloud stamped from now on; poll the handle's `ready` in later ticks."""
+        handle = StreamedCapture(self, self.clock.now())
+        with self._lock:
+            self._pending.append(handle)
+        return handle
+
+    def capture(self) -> NDArray[np.float32]:
+        """The next cloud, blocking up to `timeout` s."""
+        return self.capture_async().result(self.timeout)

@@ -1,0 +1,380 @@
+"""`CrtkArm`: one PSM of any CRTK robot (a dVRK 2.x behind zenoh-bridge-ros2dds), with the verbs behaviours
+use on `ArmClient`, and no pegbt extension: no trajectory topic, no attachment, no simulator key.
+
+- State: `operating_state` is latched on the robot (published on change only), so it is read through the
+  wire's latched subscriber, which gets the last one from the robot's cache however late it joins.
+- `make_ready()`: enables the arm, and homes it only if it is not homed, each bounded in time; as
+  crtk_python_client's `enable`/`home` do (`src/crtk/utils.py`: wait for ENABLED; for homed and not busy).
+- `move_jp(goal)`: the robot's own `move_jp`; done by CRTK's rule (`src/crtk/utils.py` `is_busy(start_time)`,
+  `wait_move_handle.py`): an `operating_state` stamped after the command, not busy; failed if not done in
+  a bound computed from the dVRK's own trajectory limits.
+- `move_jp(trajectory)` and the jaw's `move_jp(angle)`: played by the servo streamer as `servo_jp`/
+  `jaw/servo_jp` set-points (a jaw `move_jp` would take a dVRK PSM out of position mode mid-stream:
+  `mtsIntuitiveResearchKitPSM::jaw_move_jp`).
+- `stop`: the robot's `hold` (`mtsIntuitiveResearchKitArm::hold`: servo to the current set-point).
+- The robot's `error`, `warning` and `status` messages are kept for the tick log (`drain_messages`).
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from collections.abc import Callable
+from typing import Any, Generic, TypeVar
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from pegbt.clock import Clock, WallClock
+from pegbt.errors import PegbtError
+from pegbt.motion.limits import ArmSettings
+from pegbt.transport import codec, guards
+from pegbt.transport.arm import EndpointSilent, MotionStatus
+from pegbt.transport.codec import JointSample, OperatingState, TrajectoryLike
+from pegbt.transport.dvrk_topics import PsmTopics
+from pegbt.transport.ros2 import Ros2Wire
+from pegbt.transport.sequencing import Received
+from pegbt.transport.streaming import MOTION_MARGIN, StreamedMotion, Streamer
+
+T = TypeVar("T")
+
+MESSAGE_LEVELS = ("error", "warning", "status")  # the dVRK's human-readable events, most severe first
+
+LIVENESS_S = 1.0  # s without measured_js before the robot counts as silent
+ENABLE_TIMEOUT = (
+    10.0  # s for an arm to power up (the dVRK allows 2 × TimeToPower, mtsIntuitiveResearchKitArm.cpp)
+)
+HOME_TIMEOUT = 60.0  # s for a homing motion (seconds on a dVRK; more when it first calibrates on pots)
+# The dVRK PSM's move_jp trajectory limits (mtsIntuitiveResearchKitPSM.cpp, m_trajectory_j.v_max/a_max): 90°/s and
+# 90°/s² for yaw and pitch, 0.2 m/s and 0.2 m/s² for insertion, 1080°/s and 720°/s² for roll and the wrist
+DVRK_MOVE_VELOCITY = np.array([np.pi / 2, np.pi / 2, 0.2, 6 * np.pi, 6 * np.pi, 6 * np.pi])
+DVRK_MOVE_ACCELERATION = np.array([np.pi / 2, np.pi / 2, 0.2, 4 * np.pi, 4 * np.pi, 4 * np.pi])
+ARRIVED = (
+    1e-6  # rad or m: the robot's set-point is the last one streamed (it takes servo_jp as its set-point)
+)
+MOVE_MARGIN = 2.0  # s beyond twice the rest-to-rest time a robot's move_jp may take before it fails
+
+
+def rest_to_rest_bound(start: ArrayLike, goal: ArrayLike) -> float:
+    """Seconds the dVRK's own rest-to-rest profile needs from `start` to `goal` (the slowest joint)."""
+    distance = np.abs(np.asarray(goal, dtype=float) - np.asarray(start, dtype=float))
+    v, a = DVRK_MOVE_VELOCITY, DVRK_MOVE_ACCELERATION
+    seconds = np.where(distance <= v * v / a, 2 * np.sqrt(distance / a), distance / v + v / a)
+    return float(seconds.max())
+
+
+class Latest(Generic[T]):
+    """The latest message of one topic (decoded on first read) and when it came."""
+
+    def __init__(self, topic: str, decode: Callable[[bytes], T]) -> None:
+        self.topic = topic
+        self._decode = decode
+        self._latest: Received[T] | None = None
+        self._changed = threading.Condition()
+
+    def take(self, payload: bytes) -> None:
+        with self._changed:
+            self._latest = Received(payload, self._decode, None, time.monotonic())
+            self._changed.notify_all()
+
+    def latest(self) -> Received[T] | None:
+        return self._latest
+
+    def wait_until(self, condition: Callable[[T], bool], timeout: float) -> bool:
+        """Block until the latest message satisfies `condition`; False on timeout."""
+        with self._changed:
+            return self._changed.wait_for(
+                lambda: self._latest is not None and condition(self._latest.value), timeout
+            )
+
+
+class RobotMove:
+    """The robot's own `move_jp` to a goal: done by CRTK's rule, failed past its time bound."""
+
+    def __init__(self, arm: "CrtkArm", sent_at: float, what: str, bound: float) -> None:
+        self._arm = arm
+        self.sent_at = sent_at
+        self.what = what
+        self.bound = bound
+        self._deadline = time.monotonic() + bound
+        self.error: str | None = None
+        self._done = False
+
+    @property
+    def status(self) -> MotionStatus:
+        if self.error is not None:
+            return MotionStatus.FAILED
+        if self._done:
+            return MotionStatus.DONE
+        state = self._arm.operating_state
+        if state.stamp > self.sent_at and not state.is_busy:
+            if state.state != "ENABLED":
+                self.error = f"{self.what}: {self._arm.name} is {state.state}"
+                return MotionStatus.FAILED
+            self._done = True
+            return MotionStatus.DONE
+        if time.monotonic() > self._deadline:
+            self._arm.hold()
+            self.error = f"{self.what} not done within {self.bound:.1f} s; held"
+            return MotionStatus.FAILED
+        return MotionStatus.BUSY
+
+    @property
+    def busy(self) -> bool:
+        return self.status is MotionStatus.BUSY
+
+    @property
+    def done(self) -> bool:
+        return self.status is MotionStatus.DONE
+
+    @property
+    def failed(self) -> bool:
+        return self.status is MotionStatus.FAILED
+
+    def stop(self) -> None:
+        if self.status is MotionStatus.BUSY:
+            self._arm.hold()
+            self.error = f"{self.what} stopped by the client"
+
+
+class CrtkJaw:
+    """The jaw of a CRTK PSM: `measured_js`, `setpoint_js`, `move_jp(angle)` (streamed)."""
+
+    def __init__(self, arm: "CrtkArm", measured: Latest[JointSample], setpoint: Latest[JointSample]) -> None:
+        self._arm = arm
+        self._measured = measured
+        self._setpoint = setpoint
+
+    @property
+    def measured_js(self) -> JointSample:
+        return self._arm.read(self._measured)
+
+    @property
+    def setpoint_js(self) -> JointSample:
+        return self._arm.read(self._setpoint)
+
+    def move_jp(self, angle: float) -> StreamedMotion:
+        """Open or close to `angle` along a rest-to-rest cubic at the jaw's velocity limit."""
+        settings = self._arm.settings
+        guards.refuse_if(
+            guards.jaw_problems(angle, settings), f"jaw goal {angle}", self._arm.topics.jaw_servo_jp.name
+        )
+        start = float(self.setpoint_js.position[0])
+        # a cubic's peak speed is 1.5 times its mean: the duration that keeps the peak at the limit
+        duration = max(1.5 * abs(angle - start) / settings.jaw_velocity, settings.control_period)
+        t = np.append(np.arange(0.0, duration, settings.control_period), duration)
+        s = t / duration
+        q = start + (angle - start) * (3 * s**2 - 2 * s**3)
+        return self._arm.stream("jaw", t, q[:, None], f"{self._arm.name} jaw to {angle:.3f} rad", duration)
+
+
+class CrtkArm:
+    """One PSM of a CRTK robot on `wire`; trajectories go through `streamer`. Same verbs as `ArmClient`."""
+
+    def __init__(
+        self,
+        wire: Ros2Wire,
+        arm: str,
+        *,
+        settings: ArmSettings,
+        streamer: Streamer,
+        clock: Clock | None = None,
+        liveness_timeout: float = LIVENESS_S,
+    ) -> None:
+        self.name = arm
+        self.topics = PsmTopics(arm)
+        self.settings = settings
+        self.clock: Clock = clock or WallClock()
+        self.liveness_timeout = liveness_timeout
+        self._streamer = streamer
+        self._messages: list[dict[str, Any]] = []
+        self._messages_lock = threading.Lock()
+        topics = self.topics
+        self._measured = self._latest(wire, topics.measured_js, codec.decode_joint_state)
+        self._setpoint = self._latest(wire, topics.setpoint_js, codec.decode_joint_state)
+        self._state = self._latest(wire, topics.operating_state, codec.decode_operating_state)
+        jaw_measured = self._latest(wire, topics.jaw_measured_js, codec.decode_joint_state)
+        jaw_setpoint = self._latest(wire, topics.jaw_setpoint_js, codec.decode_joint_state)
+        self.jaw = CrtkJaw(self, jaw_measured, jaw_setpoint)
+        for level in MESSAGE_LEVELS:
+            wire.subscriber(
+                getattr(topics, level), lambda payload, level=level: self._on_message(level, payload)
+            )
+        self._move = wire.publisher(topics.move_jp)
+        self._hold = wire.publisher(topics.hold)
+        self._state_command = wire.publisher(topics.state_command)
+
+    @staticmethod
+    def _latest(wire: Ros2Wire, topic: Any, decode: Callable[[bytes], T]) -> Latest[T]:
+        latest = Latest(topic.name, decode)
+        wire.subscriber(topic, latest.take)
+        return latest
+
+    def _on_message(self, level: str, payload: bytes) -> None:
+        try:
+            text = codec.decode_string(payload)
+        except PegbtError as error:
+            text = str(error)
+        with self._messages_lock:
+            self._messages.append(
+                {"source": self.name, "level": level, "text": text, "stamp": self.clock.now()}
+            )
+
+    def drain_messages(self) -> list[dict[str, Any]]:
+        """The robot's error, warning and status messages since the last call, oldest first."""
+        with self._messages_lock:
+            messages, self._messages = self._messages, []
+        return messages
+
+    # ------------------------------------------------------------------ liveness and reads
+    @property
+    def is_alive(self) -> bool:
+        latest = self._measured.latest()
+        return latest is not None and time.monotonic() - latest.received_at <= self.liveness_timeout
+
+    def check_alive(self) -> None:
+        """Raise `EndpointSilent` unless `measured_js` arrived within the liveness timeout."""
+        latest = self._measured.latest()
+        if latest is None:
+            raise EndpointSilent(
+                f"{self.name}: no {self.topics.measured_js.name} received yet", field=self.name
+            )
+        age = time.monotonic() - latest.received_at
+        if age > self.liveness_timeout:
+            raise EndpointSilent(
+                f"{self.name}: robot silent, no {self.topics.measured_js.name} for {age:.3f} s "
+                f"(liveness timeout {self.liveness_timeout} s)",
+                field=self.topics.measured_js.name,
+            )
+
+    def read(self, latest: Latest[T]) -> T:
+        self.check_alive()
+        received = latest.latest()
+        if received is None:
+            raise EndpointSilent(f"{self.name}: no {latest.topic} received yet", field=latest.topic)
+        return received.value
+
+    @property
+    def measured_js(self) -> JointSample:
+        return self.read(self._measured)
+
+    @property
+    def setpoint_js(self) -> JointSample:
+        return self.read(self._setpoint)
+
+    @property
+    def operating_state(self) -> OperatingState:
+        return self.read(self._state)
+
+    @property
+    def fiducial_js(self) -> JointSample:
+        raise PegbtError(
+            f"{self.name}: a robot has no fiducial_js (an external tracker's joints)", field="fiducial_js"
+        )
+
+    def wait_until_ready(self, timeout: float) -> None:
+        """Block until the robot has published this arm's joints, set-points and (latched) operating state."""
+        for latest in (self._measured, self._setpoint, self._state, self.jaw._setpoint):
+            if not latest.wait_until(lambda _: True, timeout):
+                raise EndpointSilent(
+                    f"{self.name}: nothing on {latest.topic} within {timeout:g} s", field=latest.topic
+                )
+
+    # ------------------------------------------------------------------ state commands
+    def state_command(self, command: str) -> float:
+        """CRTK state command (enable, disable, home, unhome, pause, resume); when it was sent."""
+        self.check_alive()
+        sent_at = self.clock.now()
+        self._state_command.put(codec.encode_string_stamped(sent_at, command))
+        return sent_at
+
+    def await_state(self, condition: Callable[[OperatingState], bool], what: str, timeout: float) -> None:
+        """Block until `operating_state` satisfies `condition`; else a `PegbtError` naming the arm, its state
+        and the robot's last error or warning."""
+        if self._state.wait_until(condition, timeout):
+            return
+        state = self.operating_state
+        said = next(
+            (
+                f"; the robot said: {m['text']}"
+                for m in reversed(self._messages)
+                if m["level"] in ("error", "warning")
+            ),
+            "",
+        )
+        raise PegbtError(
+            f"did not {what} within {timeout:g} s: it is {state.state}, "
+            f"{'homed' if state.is_homed else 'not homed'}{', busy' if state.is_busy else ''}{said}",
+            field=self.name,
+        )
+
+    # ------------------------------------------------------------------ commands
+    def hold(self) -> None:
+        """The robot's `hold`: stay at the current set-point."""
+        self._hold.put(codec.encode_empty())
+
+    def move_jp(self, target: ArrayLike | TrajectoryLike) -> RobotMove | StreamedMotion:
+        """To a joint goal (the robot's own `move_jp`), or along a planned trajectory (streamed)."""
+        if not hasattr(target, "q"):
+            return self._move_goal(np.asarray(target, dtype=float).reshape(-1))
+        topic = self.topics.servo_jp.name
+        guards.refuse_if(guards.trajectory_problems(target, self.settings), "trajectory", topic)
+        t, q = np.asarray(target.t, dtype=float), np.asarray(target.q, dtype=float)
+        lead = max(float(t[0]), self.settings.control_period)
+        guards.refuse_if(
+            guards.step_problems(q[0], self.setpoint_js.position, self.settings, lead),
+            "trajectory start",
+            topic,
+        )
+        return self.stream("arm", t - t[0], q, f"{self.name} trajectory", float(t[-1] - t[0]))
+
+    def _move_goal(self, goal: NDArray[np.float64]) -> RobotMove:
+        what = f"{self.name} move_jp to {np.round(goal, 4).tolist()}"
+        guards.refuse_if(guards.joint_problems(goal, self.settings), what, self.topics.move_jp.name)
+        bound = 2 * rest_to_rest_bound(self.setpoint_js.position, goal) + MOVE_MARGIN
+        sent_at = self.clock.now()
+        self._move.put(codec.encode_joint_state(sent_at, goal))
+        return RobotMove(self, sent_at, what, bound)
+
+    def stream(
+        self, axis: str, t: NDArray[np.float64], q: NDArray[np.float64], what: str, duration: float
+    ) -> StreamedMotion:
+        """Hand a checked trajectory of `axis` (`arm` or `jaw`) to the streamer."""
+        self.check_alive()
+        motion_id = self._streamer.play(self.name, axis, t, q)
+        setpoint = self._setpoint if axis == "arm" else self.jaw._setpoint
+        end = np.asarray(q, dtype=float)[-1]
+
+        def arrived() -> bool:
+            return bool(np.allclose(self.read(setpoint).position, end, atol=ARRIVED))
+
+        # a robot allowed to fall silent for the liveness timeout may report its set-point that much later
+        margin = max(MOTION_MARGIN, 2 * self.liveness_timeout)
+        return StreamedMotion(self._streamer, motion_id, what, duration, self.check_alive, arrived, margin)
+
+
+def make_ready(
+    arms: list[CrtkArm], enable_timeout: float = ENABLE_TIMEOUT, home_timeout: float = HOME_TIMEOUT
+) -> None:
+    """Enable every arm that is not, then home every arm that is not homed; each step bounded in time.
+
+    An arm just enabled is homed too, even if it says it is: a dVRK arm homed, disabled and enabled again
+    reports `is_homed` (its encoders are still biased) but acts only once homed again, which is then quick
+    (`mtsIntuitiveResearchKitArm.cpp`: `TransitionEnabled`, `RunHomed`; `is_homed` in `...PSM.cpp`)."""
+    enabled = [arm for arm in arms if arm.operating_state.state != "ENABLED"]
+    for arm in enabled:
+        arm.state_command("enable")
+    for arm in arms:
+        arm.await_state(lambda s: s.state == "ENABLED" and not s.is_busy, "enable", enable_timeout)
+    homing = {
+        arm.name: arm.state_command("home")
+        for arm in arms
+        if arm in enabled or not arm.operating_state.is_homed
+    }
+    for arm in arms:
+        after = homing.get(arm.name, -np.inf)  # a state from before the command (homed, say) does not count
+        arm.await_state(
+            lambda s: s.stamp > after and s.state == "ENABLED" and s.is_homed and not s.is_busy,
+            "home",
+            home_timeout,
+        )

@@ -1,0 +1,286 @@
+"""The servo streamer: plays whole joint trajectories to a CRTK robot as `servo_jp` set-points, one every
+control period of wall-clock time, in a process of its own (`python -m pegbt.transport.streamer`).
+
+Why a process: a thread of the executive would wait for the GIL behind ticking, registration and planning,
+for up to Python's 5 ms switch interval at a time, and a 100 Hz stream cannot hold its period that way.
+
+The executive (`pegbt.transport.streaming.Streamer`) talks to it over its standard input and output in
+frames (a 4-byte little-endian length, then a pickle; both ends are pegbt):
+
+- in: `("configure", {...})` first, then `("play", id, arm, axis, t, q)` (axis `arm` or `jaw`; `t` from 0,
+  `q` one row per time), `("stop", id)`, `("quit",)`;
+- out: `("ready",)`, `("started", id)`, `("done", id)`, `("failed", id, reason)`.
+
+Every set-point is checked before it leaves (`guards`: joint limits, and velocity from the last one sent, or
+from the robot's `setpoint_js` for the first of a motion): one that fails is never sent; the motion fails,
+and the arm is told to `hold`. A motion also fails if the arm leaves ENABLED. When the executive dies (its
+end of the pipe closes), every arm is told to `hold` and the streamer exits.
+"""
+
+from __future__ import annotations
+
+import os
+import pickle
+import selectors
+import struct
+import sys
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+_LENGTH = struct.Struct("<I")
+Frame = tuple[Any, ...]
+
+
+def encode_frame(message: Frame) -> bytes:
+    body = pickle.dumps(message, protocol=pickle.HIGHEST_PROTOCOL)
+    return _LENGTH.pack(len(body)) + body
+
+
+class FrameReader:
+    """Splits bytes read from a pipe into whole frames."""
+
+    def __init__(self) -> None:
+        self._buffer = bytearray()
+
+    def feed(self, data: bytes) -> list[Frame]:
+        self._buffer += data
+        frames = []
+        while len(self._buffer) >= _LENGTH.size:
+            (size,) = _LENGTH.unpack_from(self._buffer)
+            if len(self._buffer) < _LENGTH.size + size:
+                break
+            frames.append(pickle.loads(bytes(self._buffer[_LENGTH.size : _LENGTH.size + size])))
+            del self._buffer[: _LENGTH.size + size]
+        return frames
+
+
+@dataclass
+class _Motion:
+    id: int
+    t: NDArray[np.float64]
+    q: NDArray[np.float64]
+    start: float  # monotonic time of row 0
+
+
+class _Axis:
+    """One commanded axis (an arm's 6 joints, or its jaw): its set-point topic, its checks, its motion."""
+
+    def __init__(
+        self,
+        publish: Callable[[NDArray[np.float64]], None],
+        problems: Callable[[NDArray[np.float64]], list[str]],
+        step_problems: Callable[[NDArray[np.float64], NDArray[np.float64], float], list[str]],
+        reference: Callable[[], NDArray[np.float64] | None],
+    ) -> None:
+        self.publish = publish
+        self.problems = problems
+        self.step_problems = step_problems
+        self.reference = reference  # the robot's latest set-point, None before the first
+        self.motion: _Motion | None = None
+        self.last: tuple[float, NDArray[np.float64]] | None = None  # (monotonic time, set-point) last sent
+
+
+class Streamer:
+    """The child's loop: commands from `stdin`, reports to `stdout`, set-points to the robot on a wire."""
+
+    def __init__(self, config: dict[str, Any], report: Callable[[Frame], None]) -> None:
+        from pegbt.transport import codec, guards
+        from pegbt.transport.arm import ARM_JOINT_NAMES, JAW_JOINT_NAMES
+        from pegbt.transport.dvrk_topics import PsmTopics
+        from pegbt.transport.ros2 import BridgeWire
+        from pegbt.transport.session import client_settings, open_session
+
+        self.period: float = config["period"]
+        self._report = report
+        self._session = open_session(client_settings(config["connect"]))
+        wire = BridgeWire(self._session, config["namespace"])
+        self._codec = codec
+        self.axes: dict[tuple[str, str], _Axis] = {}
+        self._holds: dict[str, Any] = {}
+        self._states: dict[str, Any] = {}
+        self._latest: dict[Any, bytes] = {}
+        for arm, settings in config["arms"].items():
+            topics = PsmTopics(arm)
+            self._holds[arm] = wire.publisher(topics.hold)
+            for topic in (topics.setpoint_js, topics.jaw_setpoint_js, topics.operating_state):
+                wire.subscriber(topic, lambda payload, topic=topic: self._latest.__setitem__(topic, payload))
+            self._states[arm] = topics.operating_state
+            arm_servo, jaw_servo = wire.publisher(topics.servo_jp), wire.publisher(topics.jaw_servo_jp)
+            self.axes[(arm, "arm")] = _Axis(
+                lambda q, p=arm_servo: p.put(codec.encode_joint_state(time.time(), q, names=ARM_JOINT_NAMES)),
+                lambda q, s=settings: guards.joint_problems(q, s),
+                lambda q, ref, dt, s=settings: guards.step_problems(q, ref, s, dt),
+                lambda topic=topics.setpoint_js: self._position(topic),
+            )
+            self.axes[(arm, "jaw")] = _Axis(
+                lambda q, p=jaw_servo: p.put(codec.encode_joint_state(time.time(), q, names=JAW_JOINT_NAMES)),
+                lambda q, s=settings: guards.jaw_problems(q, s),
+                lambda q, ref, dt, s=settings: guards.jaw_step_problems(float(q[0]), float(ref[0]), s, dt),
+                lambda topic=topics.jaw_setpoint_js: self._position(topic),
+            )
+
+        # rosbags builds each type's (de)serialiser on first use, in ~0.1 s: not in the middle of a motion
+        warm = codec.encode_joint_state(0.0, np.zeros(6))
+        codec.decode_joint_state(warm)
+        codec.decode_operating_state(
+            codec.encode_operating_state(codec.OperatingState(0.0, "", False, False))
+        )
+        codec.encode_empty()
+
+    def _position(self, topic: Any) -> NDArray[np.float64] | None:
+        payload = self._latest.get(topic)
+        return None if payload is None else self._codec.decode_joint_state(payload).position
+
+    def _state(self, arm: str) -> str | None:
+        payload = self._latest.get(self._states[arm])
+        return None if payload is None else self._codec.decode_operating_state(payload).state
+
+    # ------------------------------------------------------------------ commands
+    def handle(self, message: Frame, next_tick: float) -> bool:
+        """Act on one command; False when told to quit."""
+        kind = message[0]
+        if kind == "play":
+            _, motion_id, arm, axis_name, t, q = message
+            self._play(
+                motion_id, arm, axis_name, np.asarray(t, dtype=float), np.asarray(q, dtype=float), next_tick
+            )
+        elif kind == "stop":
+            for (arm, axis_name), axis in self.axes.items():
+                if axis.motion is not None and axis.motion.id == message[1]:
+                    axis.motion = None
+                    if axis_name == "arm":
+                        self.hold(arm)
+                    self._report(("failed", message[1], "stopped by the client"))
+        elif kind == "quit":
+            for (arm, _), axis in self.axes.items():
+                if axis.motion is not None:
+                    self.hold(arm)
+            return False
+        return True
+
+    def _play(self, motion_id: int, arm: str, axis_name: str, t: NDArray, q: NDArray, start: float) -> None:
+        axis = self.axes[(arm, axis_name)]
+        if axis.motion is not None:
+            self._report(("failed", axis.motion.id, "replaced by a newer motion"))
+        axis.motion = None
+        q = q.reshape(len(t), -1)
+        reference = self._reference(axis, start)
+        if reference is None:
+            self._report(("failed", motion_id, f"no {arm} {axis_name} set-point from the robot yet"))
+            return
+        problems = axis.problems(q[0]) + axis.step_problems(q[0], reference, self.period)
+        if problems:
+            self._report(("failed", motion_id, f"{arm} {axis_name} start refused: {'; '.join(problems)}"))
+            return
+        start = max(start, time.monotonic())  # rows before it would be skipped, not sent
+        axis.motion = _Motion(motion_id, t, q, start)
+        axis.last = (start - self.period, reference)
+        self._report(("started", motion_id))
+
+    def _reference(self, axis: _Axis, now: float) -> NDArray[np.float64] | None:
+        """Where the axis's set-point is: the last one sent if the stream is still going, else the robot's."""
+        if axis.last is not None and now - axis.last[0] <= 2 * self.period:
+            return axis.last[1]
+        return axis.reference()
+
+    def hold(self, arm: str) -> None:
+        self._holds[arm].put(self._codec.encode_empty())
+
+    # ------------------------------------------------------------------ set-points
+    def tick(self, now: float) -> None:
+        """Send each running motion's set-point for time `now` (monotonic)."""
+        for (arm, axis_name), axis in self.axes.items():
+            motion = axis.motion
+            if motion is None:
+                continue
+            if axis_name == "arm" and self._state(arm) not in (None, "ENABLED"):
+                axis.motion = None
+                self._report(("failed", motion.id, f"{arm} is {self._state(arm)}, no longer ENABLED"))
+                continue
+            elapsed = now - motion.start
+            last_row = elapsed >= motion.t[-1]
+            q = motion.q[-1] if last_row else _sample(motion.t, motion.q, elapsed)
+            assert axis.last is not None
+            problems = axis.problems(q) + axis.step_problems(q, axis.last[1], now - axis.last[0])
+            if problems:
+                axis.motion = None
+                self.hold(arm)
+                self._report(
+                    ("failed", motion.id, f"{arm} {axis_name} set-point refused: {'; '.join(problems)}")
+                )
+                continue
+            axis.publish(q)
+            axis.last = (now, q)
+            if last_row:
+                axis.motion = None
+                self._report(("done", motion.id))
+
+    def close(self) -> None:
+        self._session.close()
+
+
+def _sample(t: NDArray[np.float64], q: NDArray[np.float64], at: float) -> NDArray[np.float64]:
+    """`q` linearly interpolated at time `at` (within the trajectory)."""
+    index = int(np.searchsorted(t, at, side="right"))
+    if index <= 0:
+        return q[0]
+    before, after = t[index - 1], t[index]
+    share = (at - before) / (after - before)
+    return q[index - 1] + share * (q[index] - q[index - 1])
+
+
+def main() -> int:
+    """Run until the executive says quit or its end of the pipe closes."""
+    reader, stdin, stdout = FrameReader(), sys.stdin.fileno(), sys.stdout.fileno()
+
+    def report(message: Frame) -> None:
+        os.write(stdout, encode_frame(message))
+
+    frames: list[Frame] = []
+    while not frames:
+        data = os.read(stdin, 65536)
+        if not data:
+            return 0
+        frames = reader.feed(data)
+    streamer = Streamer(frames.pop(0)[1], report)
+    report(("ready",))
+    selector = selectors.DefaultSelector()
+    selector.register(stdin, selectors.EVENT_READ)
+    period = streamer.period
+    next_tick = time.monotonic()
+    running = True
+    try:
+        while running:
+            for message in frames:
+                running = running and streamer.handle(message, next_tick)
+            frames = []
+            if not running:
+                break
+            if selector.select(max(0.0, next_tick - time.monotonic())):
+                data = os.read(stdin, 1 << 20)
+                if not data:  # the executive is gone: hold every arm, then leave
+                    for arm in {arm for arm, _ in streamer.axes}:
+                        streamer.hold(arm)
+                    break
+                frames = reader.feed(data)
+                continue
+            now = time.monotonic()
+            if now < next_tick:
+                continue
+            streamer.tick(next_tick)
+            next_tick += period
+            if next_tick < now:  # fell more than a period behind: skip, never burst
+                next_tick += period * np.ceil((now - next_tick) / period)
+    finally:
+        time.sleep(0.05)  # let the last messages (a hold) leave before the session closes
+        streamer.close()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

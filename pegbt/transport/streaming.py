@@ -1,0 +1,204 @@
+"""The executive's side of the servo streamer (`pegbt.transport.streamer`): start it, hand it whole
+trajectories, and follow each one to its end with a `StreamedMotion` that behaviours poll like any motion."""
+
+from __future__ import annotations
+
+import itertools
+import os
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from pegbt.errors import PegbtError
+from pegbt.motion.limits import ArmSettings
+from pegbt.transport.arm import EndpointSilent, MotionStatus
+from pegbt.transport.streamer import FrameReader, encode_frame
+
+STARTUP_TIMEOUT = 30.0  # s for the streamer to import, connect and say it is ready (a loaded machine)
+EXIT_TIMEOUT = 5.0  # s for it to hold and exit when told to quit
+MOTION_MARGIN = (
+    2.0  # s a streamed motion may overrun its duration (a late start, a slow machine) before it fails
+)
+
+
+class Streamer:
+    """A running streamer process for the arms in `settings`, connected to `connect` under `namespace`."""
+
+    def __init__(
+        self, connect: Sequence[str], namespace: str, settings: dict[str, ArmSettings], period: float
+    ) -> None:
+        root = Path(__file__).resolve().parents[2]
+        env = {
+            **os.environ,
+            "PYTHONPATH": os.pathsep.join(filter(None, [str(root), os.environ.get("PYTHONPATH")])),
+        }
+        self._stderr = (
+            tempfile.TemporaryFile()
+        )  # never a pipe nobody reads: a full one would stall the stream
+        self.process = subprocess.Popen(
+            [sys.executable, "-m", "pegbt.transport.streamer"],
+            stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE,
+            stderr=self._stderr,
+            env=env,
+        )
+        self.period = period
+        self._ids = itertools.count(1)
+        self._outcomes: dict[int, tuple[str, str]] = {}
+        self._started: set[int] = set()
+        self._changed = threading.Condition()
+        self._ready = False
+        self._gone = False
+        self._write_lock = threading.Lock()
+        self._send(
+            (
+                "configure",
+                {"connect": list(connect), "namespace": namespace, "arms": settings, "period": period},
+            )
+        )
+        threading.Thread(target=self._read_reports, name="streamer reports", daemon=True).start()
+        with self._changed:
+            self._changed.wait_for(lambda: self._ready or self._gone, STARTUP_TIMEOUT)
+        if not self._ready:
+            self._stderr.seek(0)
+            said = self._stderr.read().decode(errors="replace").strip()
+            self.close()
+            raise PegbtError(
+                f"the servo streamer did not start: {said or f'not ready within {STARTUP_TIMEOUT:g} s'}",
+                field="streamer",
+            )
+
+    def _send(self, message: tuple[Any, ...]) -> None:
+        assert self.process.stdin is not None
+        try:
+            with self._write_lock:
+                self.process.stdin.write(encode_frame(message))
+                self.process.stdin.flush()
+        except (BrokenPipeError, ValueError):
+            self._gone = True
+            raise EndpointSilent("the servo streamer has exited", field="streamer") from None
+
+    def _read_reports(self) -> None:
+        reader, stdout = FrameReader(), self.process.stdout
+        assert stdout is not None
+        while data := stdout.read1(65536):
+            for frame in reader.feed(data):
+                with self._changed:
+                    if frame[0] == "ready":
+                        self._ready = True
+                    elif frame[0] == "started":
+                        self._started.add(frame[1])
+                    else:
+                        self._outcomes[frame[1]] = (frame[0], frame[2] if len(frame) > 2 else "")
+                    self._changed.notify_all()
+        with self._changed:
+            self._gone = True
+            self._changed.notify_all()
+
+    @property
+    def running(self) -> bool:
+        return not self._gone and self.process.poll() is None
+
+    def play(self, arm: str, axis: str, t: ArrayLike, q: ArrayLike) -> int:
+        """Hand a trajectory (`t` from 0, rows of `q`) of `arm`'s `axis` (`arm` or `jaw`) to the streamer; its id."""
+        motion_id = next(self._ids)
+        self._send(("play", motion_id, arm, axis, np.asarray(t, dtype=float), np.asarray(q, dtype=float)))
+        return motion_id
+
+    def stop(self, motion_id: int) -> None:
+        self._send(("stop", motion_id))
+
+    def outcome(self, motion_id: int) -> tuple[str, str] | None:
+        """`("done", "")` or `("failed", reason)` once the streamer has said; None while it plays."""
+        with self._changed:
+            return self._outcomes.get(motion_id)
+
+    def close(self) -> None:
+        """Tell it to quit (it holds any arm still moving) and wait; kill it if it does not go."""
+        if self.process.poll() is None:
+            try:
+                self._send(("quit",))
+                self.process.wait(timeout=EXIT_TIMEOUT)
+            except (EndpointSilent, subprocess.TimeoutExpired):
+                self.process.kill()
+                self.process.wait(timeout=EXIT_TIMEOUT)
+        for stream in (self.process.stdin, self.process.stdout, self._stderr):
+            if stream is not None:
+                stream.close()
+
+
+class StreamedMotion:
+    """A trajectory the streamer plays: poll `status` (busy, done, failed), or `stop()` it.
+
+    It is done once the streamer has sent its last set-point and `arrived()` says the robot has taken it
+    (its `setpoint_js` there: the next motion plans from it). It fails if the streamer refuses a set-point,
+    if it is not done `margin` s after its duration (it is then stopped), or when `check_alive`
+    (the robot's liveness) raises."""
+
+    def __init__(
+        self,
+        streamer: Streamer,
+        motion_id: int,
+        what: str,
+        duration: float,
+        check_alive: Callable[[], None],
+        arrived: Callable[[], bool],
+        margin: float = MOTION_MARGIN,
+    ) -> None:
+        self._streamer = streamer
+        self._arrived = arrived
+        self.motion_id = motion_id
+        self.what = what
+        self.bound = duration + margin
+        self._deadline = time.monotonic() + self.bound
+        self._check_alive = check_alive
+        self.error: str | None = None
+        self._done = False
+
+    @property
+    def status(self) -> MotionStatus:
+        if self.error is not None:
+            return MotionStatus.FAILED
+        if self._done:
+            return MotionStatus.DONE
+        outcome = self._streamer.outcome(self.motion_id)
+        if outcome is not None and outcome[0] != "done":
+            self.error = f"{self.what} failed: {outcome[1]}"
+            return MotionStatus.FAILED
+        if outcome is not None and self._arrived():
+            self._done = True
+            return MotionStatus.DONE
+        if not self._streamer.running:
+            raise EndpointSilent(f"the servo streamer exited during {self.what}", field="streamer")
+        self._check_alive()
+        if time.monotonic() > self._deadline:
+            self._streamer.stop(self.motion_id)
+            self.error = f"{self.what} not done within {self.bound:.1f} s; stopped"
+            return MotionStatus.FAILED
+        return MotionStatus.BUSY
+
+    @property
+    def busy(self) -> bool:
+        return self.status is MotionStatus.BUSY
+
+    @property
+    def done(self) -> bool:
+        return self.status is MotionStatus.DONE
+
+    @property
+    def failed(self) -> bool:
+        return self.status is MotionStatus.FAILED
+
+    def stop(self) -> None:
+        """Stop streaming it; the arm holds where its last set-point put it."""
+        if self.status is MotionStatus.BUSY:
+            self._streamer.stop(self.motion_id)
+            self.error = f"{self.what} stopped by the client"

@@ -1,0 +1,268 @@
+"""A small CRTK robot double written with raw zenoh and rosbags (none of pegbt's transport): two PSMs as a
+dVRK 2.x serves them through zenoh-bridge-ros2dds, and a streaming depth camera.
+
+What it reproduces, from jhu-dvrk/sawIntuitiveResearchKit `core/components/code/mtsIntuitiveResearchKitArm.cpp`:
+DISABLED at start; `enable` powers up (busy, then ENABLED); `home` is a motion that takes seconds (busy,
+then homed), or never ends with an error; `operating_state` published on change only, from a zenoh-ext
+advanced publisher's cache (latched); a command to an arm not ready is dropped with a throttled
+"arm not ready" warning (`ArmIsReady`); a set-point outside the joint limits is clipped (`clip_jp`);
+`hold` stays at the set-point. It records every command it receives, with its zenoh attachment.
+"""
+
+from __future__ import annotations
+
+import json
+import threading
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import zenoh
+import zenoh.ext
+from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
+# crtk_msgs/msg/OperatingState.msg and StringStamped.msg (collaborative-robotics/crtk_msgs)
+_STORE = get_typestore(Stores.ROS2_HUMBLE)
+_STORE.register(
+    get_types_from_msg(
+        "std_msgs/Header header\nstring state\nbool is_homed\nbool is_busy\n", "crtk_msgs/msg/OperatingState"
+    )
+)
+_STORE.register(get_types_from_msg("std_msgs/Header header\nstring string\n", "crtk_msgs/msg/StringStamped"))
+T = _STORE.types
+# the dVRK's PSM and large needle driver limits (share/kinematic/PSM.json, share/tool/LARGE_NEEDLE_DRIVER_400006.json)
+LOWER = np.array([-1.588, -0.925025, 0.0, -4.53786, -1.39626, -1.39626])
+UPPER = np.array([1.588, 0.925025, 0.24, 4.53786, 1.39626, 1.39626])
+START = np.array([0.0, 0.0, 0.12, 0.0, 0.0, 0.0])
+
+
+def header(stamp: float) -> Any:
+    sec = int(stamp)
+    return T["std_msgs/msg/Header"](
+        stamp=T["builtin_interfaces/msg/Time"](sec=sec, nanosec=int((stamp - sec) * 1e9)), frame_id=""
+    )
+
+
+def cdr(message: Any) -> bytes:
+    return bytes(_STORE.serialize_cdr(message, message.__msgtype__))
+
+
+def joint_state(q: np.ndarray) -> bytes:
+    return cdr(
+        T["sensor_msgs/msg/JointState"](
+            header=header(time.time()),
+            name=[],
+            position=np.asarray(q, dtype=float),
+            velocity=np.zeros(0),
+            effort=np.zeros(0),
+        )
+    )
+
+
+def cloud(points: np.ndarray, stamp: float) -> bytes:
+    """An organised PointCloud2 with x, y, z and rgb float32 fields (16-byte points), as a RealSense sends."""
+    field_type = T["sensor_msgs/msg/PointField"]
+    fields = [
+        field_type(name=n, offset=4 * i, datatype=7, count=1) for i, n in enumerate(("x", "y", "z", "rgb"))
+    ]
+    data = np.column_stack([points, np.zeros(len(points))]).astype("<f4")
+    return cdr(
+        T["sensor_msgs/msg/PointCloud2"](
+            header=header(stamp),
+            height=2,
+            width=len(points) // 2,
+            fields=fields,
+            is_bigendian=False,
+            point_step=16,
+            row_step=16 * (len(points) // 2),
+            data=data.view(np.uint8).reshape(-1),
+            is_dense=False,
+        )
+    )
+
+
+def session_config(listen: str) -> zenoh.Config:
+    config = zenoh.Config()
+    config.insert_json5("mode", json.dumps("peer"))
+    config.insert_json5("listen/endpoints", json.dumps([listen]))
+    config.insert_json5("scouting/multicast/enabled", "false")
+    config.insert_json5("scouting/gossip/enabled", "false")
+    config.insert_json5("timestamping/enabled", "true")
+    return config
+
+
+@dataclass
+class Received:
+    key: str
+    at: float  # time.monotonic()
+    attachment: bytes | None
+    message: Any
+
+
+@dataclass
+class ArmDouble:
+    name: str
+    state: str = "DISABLED"
+    homed: bool = False
+    busy: bool = False
+    setpoint: np.ndarray = field(default_factory=lambda: START.copy())
+    jaw: float = 0.0
+    last_warning: float = -10.0
+    clips: int = 0
+
+
+class CrtkDouble:
+    """Serve two PSMs and a camera on `listen`; see the module docstring."""
+
+    def __init__(
+        self,
+        listen: str,
+        *,
+        enabled: bool = False,
+        homed: bool = False,
+        home_seconds: float = 0.5,
+        homes: bool = True,
+        camera_topic: str = "camera/camera/depth/color/points",
+        move_seconds: float = 0.3,
+    ) -> None:
+        self.session = zenoh.open(session_config(listen))
+        self.home_seconds, self.homes, self.move_seconds = home_seconds, homes, move_seconds
+        self.received: list[Received] = []
+        self.arms = {
+            name: ArmDouble(name, "ENABLED" if enabled else "DISABLED", homed) for name in ("PSM1", "PSM2")
+        }
+        self._lock = threading.RLock()
+        self._timers: list[tuple[float, Any]] = []
+        self._pub: dict[str, Any] = {}
+        self._entities: list[Any] = []
+        for arm in self.arms:
+            for topic in (
+                "measured_js",
+                "setpoint_js",
+                "jaw/measured_js",
+                "jaw/setpoint_js",
+                "error",
+                "warning",
+                "status",
+            ):
+                self._pub[f"{arm}/{topic}"] = self.session.declare_publisher(f"{arm}/{topic}")
+            self._pub[f"{arm}/operating_state"] = zenoh.ext.declare_advanced_publisher(
+                self.session,
+                f"{arm}/operating_state",
+                cache=zenoh.ext.CacheConfig(max_samples=1),
+                publisher_detection=True,
+            )
+            for topic in ("servo_jp", "jaw/servo_jp", "move_jp", "jaw/move_jp", "hold", "state_command"):
+                self._entities.append(
+                    self.session.declare_subscriber(
+                        f"{arm}/{topic}", lambda s, a=arm, t=topic: self._on(a, t, s)
+                    )
+                )
+            self._publish_state(self.arms[arm])
+        self._camera = self.session.declare_publisher(camera_topic)
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, daemon=True)
+        self._thread.start()
+
+    # ------------------------------------------------------------------ what the robot says
+    def _publish_state(self, arm: ArmDouble) -> None:
+        message = T["crtk_msgs/msg/OperatingState"](
+            header=header(time.time()), state=arm.state, is_homed=arm.homed, is_busy=arm.busy
+        )
+        self._pub[f"{arm.name}/operating_state"].put(cdr(message))
+
+    def say(self, arm: str, level: str, text: str) -> None:
+        self._pub[f"{arm}/{level}"].put(cdr(T["std_msgs/msg/String"](data=f"{arm}: {text}")))
+
+    def _later(self, seconds: float, action: Any) -> None:
+        self._timers.append((time.monotonic() + seconds, action))
+
+    # ------------------------------------------------------------------ commands
+    def _on(self, name: str, topic: str, sample: zenoh.Sample) -> None:
+        payload = sample.payload.to_bytes()
+        kinds = {"state_command": "crtk_msgs/msg/StringStamped", "hold": "std_msgs/msg/Empty"}
+        message = _STORE.deserialize_cdr(payload, kinds.get(topic, "sensor_msgs/msg/JointState"))
+        attachment = None if sample.attachment is None else sample.attachment.to_bytes()
+        with self._lock:
+            self.received.append(Received(str(sample.key_expr), time.monotonic(), attachment, message))
+            arm = self.arms[name]
+            if topic == "state_command":
+                self._state_command(arm, message.string)
+            elif not (arm.state == "ENABLED" and arm.homed):
+                if time.monotonic() - arm.last_warning > 2.0:  # throttled, as ArmIsReady does
+                    arm.last_warning = time.monotonic()
+                    self.say(name, "warning", f"{topic}, arm not ready")
+            elif topic == "servo_jp":
+                goal = np.asarray(message.position, dtype=float)
+                clipped = np.clip(goal, LOWER, UPPER)
+                arm.clips += int(not np.array_equal(goal, clipped))
+                arm.setpoint = clipped
+            elif topic == "jaw/servo_jp":
+                arm.jaw = float(message.position[0])
+            elif topic == "move_jp":
+                arm.busy = True
+                self._publish_state(arm)
+                goal = np.clip(np.asarray(message.position, dtype=float), LOWER, UPPER)
+                self._later(self.move_seconds, lambda: self._arrive(arm, goal))
+
+    def _arrive(self, arm: ArmDouble, goal: np.ndarray) -> None:
+        arm.setpoint, arm.busy = goal, False
+        self._publish_state(arm)
+
+    def _state_command(self, arm: ArmDouble, command: str) -> None:
+        self.say(arm.name, "status", f"desired state {command}")
+        if command == "enable" and arm.state != "ENABLED":
+            arm.busy = True
+            self._publish_state(arm)
+
+            def powered() -> None:
+                arm.state, arm.busy = "ENABLED", False
+                self.say(arm.name, "status", "power on")
+                self._publish_state(arm)
+
+            self._later(0.1, powered)
+        elif command == "home":
+            arm.busy = True
+            self._publish_state(arm)
+
+            def homed() -> None:
+                if self.homes:
+                    arm.homed, arm.busy = True, False
+                else:
+                    arm.busy = False
+                    self.say(arm.name, "error", "unable to reach home position during calibration on pots")
+                self._publish_state(arm)
+
+            self._later(self.home_seconds, homed)
+
+    # ------------------------------------------------------------------ streams
+    def _run(self) -> None:
+        next_cloud = 0.0
+        rng = np.random.default_rng(0)
+        while not self._stop.wait(0.01):
+            with self._lock:
+                now = time.monotonic()
+                due = [action for at, action in self._timers if at <= now]
+                self._timers = [(at, action) for at, action in self._timers if at > now]
+                for action in due:
+                    action()
+                for name, arm in self.arms.items():
+                    for topic in ("measured_js", "setpoint_js"):
+                        self._pub[f"{name}/{topic}"].put(joint_state(arm.setpoint))
+                    for topic in ("jaw/measured_js", "jaw/setpoint_js"):
+                        self._pub[f"{name}/{topic}"].put(joint_state(np.array([arm.jaw])))
+            if now >= next_cloud:
+                next_cloud = now + 0.1
+                points = rng.normal(size=(200, 3))
+                points[::10] = np.nan  # pixels without depth
+                self._camera.put(cloud(points, time.time()))
+
+    def commands(self, suffix: str) -> list[Received]:
+        with self._lock:
+            return [r for r in self.received if r.key.endswith(suffix)]
+
+    def close(self) -> None:
+        self._stop.set()
+        self._thread.join(timeout=2)
+        self.session.close()
