@@ -5,6 +5,7 @@ environment, so each role gets a process of its own.
     python ros2_partner.py MESSAGES_DIR ROUTER_PORT sub TOPIC TYPE COUNT TIMEOUT
     python ros2_partner.py MESSAGES_DIR ROUTER_PORT pub TOPIC TYPE JSON_FIELDS RATE SECONDS
     python ros2_partner.py MESSAGES_DIR ROUTER_PORT info TOPIC...
+    python ros2_partner.py MESSAGES_DIR ROUTER_PORT drive ARM DELTA TIMEOUT
 
 Every result is one JSON line on standard output.
 """
@@ -12,6 +13,7 @@ Every result is one JSON line on standard output.
 from __future__ import annotations
 
 import json
+import os
 import sys
 import threading
 import time
@@ -102,6 +104,62 @@ def _info(port: int, topics: list[str]) -> None:
     print(json.dumps(answer), flush=True)
 
 
+def _drive(port: int, arm: str, delta: float, timeout: float) -> None:
+    """Enable and home `arm` with CRTK `state_command`s, then servo its first joint by `delta`: what a
+    ROS 2 operator's node does first; reports the states seen and the joint before and after."""
+    states: list[dict[str, Any]] = []
+    positions: list[list[float]] = []
+    ROS2Subscriber(
+        f"/{arm}/operating_state",
+        "crtk_msgs/msg/OperatingState",
+        lambda m: states.append({"state": m.state, "is_homed": bool(m.is_homed), "is_busy": bool(m.is_busy)}),
+        router_port=port,
+        node_name="sdk_operator",
+    )
+    ROS2Subscriber(
+        f"/{arm}/measured_js",
+        "sensor_msgs/msg/JointState",
+        lambda m: positions.append([float(v) for v in m.position]),
+        router_port=port,
+        node_name="sdk_operator",
+    )
+    command = ROS2Publisher(f"/{arm}/state_command", "crtk_msgs/msg/StringStamped", router_port=port)
+    servo = ROS2Publisher(f"/{arm}/servo_jp", "sensor_msgs/msg/JointState", router_port=port)
+    deadline = time.monotonic() + timeout
+
+    def wait(condition: Any) -> bool:
+        while time.monotonic() < deadline:
+            if condition():
+                return True
+            time.sleep(0.05)
+        return False
+
+    wait(lambda: positions)
+    for word, reached in (
+        ("enable", lambda: any(s["state"] == "ENABLED" for s in states)),
+        ("home", lambda: any(s["state"] == "ENABLED" and s["is_homed"] and not s["is_busy"] for s in states)),
+    ):
+        # sent again every second until the arm answers: the first may precede the simulator's route
+        end = min(deadline, time.monotonic() + 10.0)
+        while time.monotonic() < end and not reached():
+            command.publish(**_fields({"string": word}))
+            pause = time.monotonic() + 1.0
+            while time.monotonic() < pause and not reached():
+                time.sleep(0.05)
+    before = positions[-1] if positions else None
+    moved = None
+    if before is not None:
+        goal = list(before)
+        goal[0] += delta
+        for _ in range(100):  # 1 s of set-points at 100 Hz, as a teleoperation node streams them
+            servo.publish(**_fields({"name": [], "position": goal, "velocity": [], "effort": []}))
+            time.sleep(0.01)
+        wait(lambda: abs(positions[-1][0] - goal[0]) < 0.2 * abs(delta))
+        moved = positions[-1]
+    print(json.dumps({"states": states, "before": before, "after": moved}), flush=True)
+    os._exit(0)  # the SDK's shared session keeps threads that would hold the interpreter open
+
+
 def main(argv: list[str]) -> None:
     messages_dir, port, role, *rest = argv
     get_registry(messages_dir)
@@ -109,6 +167,8 @@ def main(argv: list[str]) -> None:
         _subscribe(int(port), rest[0], rest[1], int(rest[2]), float(rest[3]))
     elif role == "pub":
         _publish(int(port), rest[0], rest[1], rest[2], float(rest[3]), float(rest[4]))
+    elif role == "drive":
+        _drive(int(port), rest[0], float(rest[1]), float(rest[2]))
     else:
         _info(int(port), rest)
 

@@ -29,8 +29,8 @@ from pegbt.transport.endpoints import DEFAULT_POINTS_TOPIC
 from pegbt.numbers import checked_number
 from pegbt.transport.crtk_arm import LIVENESS_S, CrtkArm, make_ready
 from pegbt.transport.keys import check_namespace
-from pegbt.transport.ros2 import BridgeWire
-from pegbt.transport.session import client_settings, open_session
+from pegbt.transport.wires import make_wire, wire_session_settings
+from pegbt.transport.session import open_session
 from pegbt.transport.streaming import Streamer
 from pegbt.motion.robot_config import DEFAULT_TOOL, robot_arm_settings
 from pegbt.sim.truth import ask_truth
@@ -185,6 +185,7 @@ def connect_crtk_robot(
     robot_tool: str = DEFAULT_TOOL,
     camera: str = DEFAULT_POINTS_TOPIC,
     liveness: float = LIVENESS_S,
+    ros2: str = "bridge",
 ) -> Robot:
     """A `Robot` of CRTK arms at `endpoint` (a zenoh-bridge-ros2dds, a `pegbt sim --interface dvrk`), its
     arms enabled and homed, limits narrowed by the dVRK's `robot_config` folder when given."""
@@ -196,14 +197,14 @@ def connect_crtk_robot(
     check_namespace(namespace, "--namespace")
     settings = {arm: robot_arm_settings(arm, robot_config, robot_tool) for arm in ARMS}
     period = min(arm.control_period for arm in settings.values())
-    session = open_session(client_settings([endpoint]))
+    session = open_session(wire_session_settings(ros2, [endpoint]))
     try:
-        streamer = Streamer([endpoint], namespace, settings, period)
+        streamer = Streamer([endpoint], namespace, settings, period, ros2=ros2)
     except BaseException:
         session.close()
         raise
     try:
-        wire = BridgeWire(session, namespace)
+        wire = make_wire(ros2, session, namespace, node_name="pegbt")
         clock = WallClock()
         arms = {
             arm: CrtkArm(
@@ -244,6 +245,7 @@ def provide_robot(setup: ProviderSetup) -> Robot:
             str(options.get("robot-tool") or DEFAULT_TOOL),
             str(options.get("camera-topic") or DEFAULT_POINTS_TOPIC),
             checked_number(float(options.get("liveness") or LIVENESS_S), "--liveness", above=0.0),
+            ros2=str(options.get("ros2") or "bridge"),
         )
     return connect_robot(
         str(options.get("endpoint") or "auto"),

@@ -70,6 +70,13 @@ RUN_OPTIONS: dict[str, RunOption] = {
         ),
         RunOption("namespace", "robot: the key prefix of the robot's topics (the bridge's namespace)", ""),
         RunOption(
+            "ros2",
+            "robot (--interface dvrk): the ROS 2 wire: bridge (zenoh-bridge-ros2dds; --endpoint is the "
+            "bridge) or rmw_zenoh (a node of a ROS 2 graph on rmw_zenoh; --endpoint is its zenoh router)",
+            "bridge",
+            choices=("bridge", "rmw_zenoh"),
+        ),
+        RunOption(
             "robot-config",
             "robot and skills: the dVRK's share/ folder; its kinematic/PSM.json and tool file narrow the "
             "joint limits of skills/psm.yaml",

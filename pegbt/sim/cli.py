@@ -25,6 +25,7 @@ if TYPE_CHECKING:
     from pegbt.sim.endpoint import SimEndpoint
     from pegbt.sim.fault_plan import FaultPlan
     from pegbt.sim.world import World
+    from pegbt.transport.session import SessionSettings
 
 CRASH_EXIT_STATUS = 3
 
@@ -63,6 +64,14 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
         "dvrk: only what a dVRK 2.x PSM serves through zenoh-bridge-ros2dds, in real time",
     )
     parser.add_argument("--namespace", default="", help="key prefix, e.g. lab2 for lab2/PSM1/measured_js")
+    parser.add_argument(
+        "--ros2",
+        choices=("bridge", "rmw_zenoh"),
+        default="bridge",
+        help="--interface dvrk: the ROS 2 wire: bridge (zenoh-bridge-ros2dds's keys; the default) or "
+        "rmw_zenoh (a node of a ROS 2 graph on rmw_zenoh: its keys, attachments and liveliness tokens; "
+        "--connect names the graph's zenoh router)",
+    )
     parser.add_argument(
         "--physics", default="ideal", help="cable physics: ideal, dvrk-real, or a preset/report JSON file"
     )
@@ -154,8 +163,11 @@ def _sim(args: argparse.Namespace) -> int:
     check_namespace(args.namespace, "--namespace")
     if args.interface == "dvrk":
         _refuse_pegbt_only_options(args)
-    listen = args.listen or [DEFAULT_ENDPOINT]
-    settings = endpoint_settings(listen, args.connect, args.allow_remote_listen)
+    if args.ros2 == "rmw_zenoh":
+        settings = _graph_settings(args)
+    else:
+        listen = args.listen or [DEFAULT_ENDPOINT]
+        settings = endpoint_settings(listen, args.connect, args.allow_remote_listen)
     plan = FaultPlan.load(args.faults) if args.faults else FaultPlan()
     overrides = {
         "seed": args.seed,
@@ -180,9 +192,14 @@ def _sim(args: argparse.Namespace) -> int:
             target=_stop_at_stdin_eof, args=(endpoint,), name="parent-watch", daemon=True
         ).start()
     mode = "lockstep" if args.lockstep else "real time"
+    where = (
+        f"the ROS 2 graph of router {', '.join(args.connect)} (rmw_zenoh)"
+        if args.ros2 == "rmw_zenoh"
+        else ", ".join(settings.listen)
+    )
     scene = f"world and camera, seed {plan.seed}" if world is not None else "no world"
     print(
-        f"pegbt sim: serving {', '.join(endpoint.arms)} on {', '.join(listen)} ({mode}, {args.interface} "
+        f"pegbt sim: serving {', '.join(endpoint.arms)} on {where} ({mode}, {args.interface} "
         f"interface, physics {args.physics}, {scene})",
         flush=True,
     )
@@ -241,6 +258,20 @@ def _world(plan: FaultPlan) -> tuple[World, DepthCamera]:
     return World(plan.seed, faults=plan.world), DepthCamera(seed=plan.seed, faults=plan.camera)
 
 
+def _graph_settings(args: argparse.Namespace) -> SessionSettings:
+    """A node of a ROS 2 graph on rmw_zenoh: it connects to the graph's router and listens where gossip
+    tells its peers, so `--listen` has no place; only the dVRK interface is a ROS 2 robot's."""
+    from pegbt.transport.wires import wire_session_settings
+
+    if args.interface != "dvrk":
+        raise PegbtError("--ros2 rmw_zenoh serves the dVRK's interface: add --interface dvrk", field="--ros2")
+    if args.listen:
+        raise PegbtError(
+            "--ros2 rmw_zenoh joins the graph through its router (--connect); drop --listen", field="--listen"
+        )
+    return wire_session_settings("rmw_zenoh", args.connect)
+
+
 def _refuse_pegbt_only_options(args: argparse.Namespace) -> None:
     """The dVRK interface is a robot's: real time, and no network faults of pegbt's own transport."""
     from pegbt.errors import PegbtError
@@ -287,7 +318,7 @@ def _dvrk_endpoint(
     camera: DepthCamera | None,
 ) -> DvrkEndpoint:
     from pegbt.sim.dvrk_endpoint import DvrkEndpoint, DvrkEndpointConfig
-    from pegbt.transport.ros2 import BridgeWire
+    from pegbt.transport.wires import make_wire
 
     config = DvrkEndpointConfig(
         physics=args.physics,
@@ -296,4 +327,5 @@ def _dvrk_endpoint(
         camera_topic=args.camera_topic,
         camera_period=1.0 / args.camera_rate,
     )
-    return DvrkEndpoint(BridgeWire(session, args.namespace), config, world=world, camera=camera)
+    wire = make_wire(args.ros2, session, args.namespace, node_name="pegbt_sim")
+    return DvrkEndpoint(wire, config, world=world, camera=camera)

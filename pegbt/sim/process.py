@@ -27,11 +27,20 @@ def free_port() -> int:
 class SimProcess:
     """A `pegbt sim` child listening on a free port; `endpoint` is where clients connect. It stops with
     this process, however this one ends: its standard input is a pipe from here (`--stop-with-parent`).
-    `interface` is `pegbt sim --interface`: "pegbt" (pegbt's topics and extensions) or "dvrk" (a dVRK's)."""
+    `interface` is `pegbt sim --interface`: "pegbt" (pegbt's topics and extensions) or "dvrk" (a dVRK's).
+    With a `router` (a ROS 2 graph's zenoh router), the dVRK interface joins that graph over rmw_zenoh
+    (`--ros2 rmw_zenoh`) instead of listening, and `endpoint` is the router."""
 
-    def __init__(self, args: Sequence[str] = (), port: int | None = None, interface: str = "pegbt") -> None:
+    def __init__(
+        self,
+        args: Sequence[str] = (),
+        port: int | None = None,
+        interface: str = "pegbt",
+        router: str | None = None,
+    ) -> None:
         self.port = port or free_port()
-        self.endpoint = f"tcp/127.0.0.1:{self.port}"
+        self.endpoint = router or f"tcp/127.0.0.1:{self.port}"
+        where = ["--ros2", "rmw_zenoh", "--connect", router] if router else ["--listen", self.endpoint]
         root = Path(__file__).resolve().parents[2]
         env = {
             **os.environ,
@@ -45,8 +54,7 @@ class SimProcess:
                 "sim",
                 "--interface",
                 interface,
-                "--listen",
-                self.endpoint,
+                *where,
                 "--stop-with-parent",
                 *args,
             ],

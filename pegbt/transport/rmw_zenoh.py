@@ -145,7 +145,8 @@ class _Subscriber:
 class RmwZenohWire:
     """A ROS 2 node on a zenoh session, as rmw_zenoh_cpp would declare it: keys, attachments, tokens.
 
-    `node_name` and `namespace` name the node in the graph (`ros2 node list`); topic names are absolute.
+    `node_name` and `namespace` name the node in the graph (`ros2 node list`); the topics, written as if
+    absolute (`/PSM1/measured_js`), are placed under that namespace, as a bridge's namespace places them.
     The wire holds every endpoint it declares (zenoh undeclares a dropped token) until `close()`.
     Samples without a valid attachment are dropped, as rmw_zenoh drops them, and counted in `dropped`.
     """
@@ -182,16 +183,20 @@ class RmwZenohWire:
         ]
         if topic is not None:
             chunks += [
-                mangle(topic.name),
+                mangle(self.name(topic)),
                 dds_type_name(topic.typename),
                 type_hash(topic.typename),
                 qos_token(topic),
             ]
         return "/".join(chunks)
 
+    def name(self, topic: Topic) -> str:
+        """The topic's name in the graph: under the node's namespace (`/lab2/PSM1/measured_js`)."""
+        return self.namespace.rstrip("/") + "/" + topic.name.strip("/")
+
     def key(self, topic: Topic) -> str:
         """The data key of `topic` (`0/PSM1/measured_js/sensor_msgs::msg::dds_::JointState_/RIHS01_…`)."""
-        name = topic.name.strip("/")
+        name = self.name(topic).strip("/")
         return f"{self.domain}/{name}/{dds_type_name(topic.typename)}/{type_hash(topic.typename)}"
 
     def publisher(self, topic: Topic) -> TopicPublisher:

@@ -92,13 +92,14 @@ class Streamer:
         from pegbt.transport import codec, guards
         from pegbt.transport.arm import ARM_JOINT_NAMES, JAW_JOINT_NAMES
         from pegbt.transport.dvrk_topics import PsmTopics
-        from pegbt.transport.ros2 import BridgeWire
-        from pegbt.transport.session import client_settings, open_session
+        from pegbt.transport.session import open_session
+        from pegbt.transport.wires import make_wire, wire_session_settings
 
         self.period: float = config["period"]
         self._report = report
-        self._session = open_session(client_settings(config["connect"]))
-        wire = BridgeWire(self._session, config["namespace"])
+        ros2 = config.get("ros2", "bridge")
+        self._session = open_session(wire_session_settings(ros2, config["connect"]))
+        wire = make_wire(ros2, self._session, config["namespace"], node_name="pegbt_streamer")
         self._codec = codec
         self.axes: dict[tuple[str, str], _Axis] = {}
         self._holds: dict[str, Any] = {}

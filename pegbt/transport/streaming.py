@@ -33,7 +33,12 @@ class Streamer:
     """A running streamer process for the arms in `settings`, connected to `connect` under `namespace`."""
 
     def __init__(
-        self, connect: Sequence[str], namespace: str, settings: dict[str, ArmSettings], period: float
+        self,
+        connect: Sequence[str],
+        namespace: str,
+        settings: dict[str, ArmSettings],
+        period: float,
+        ros2: str = "bridge",
     ) -> None:
         root = Path(__file__).resolve().parents[2]
         env = {
@@ -61,7 +66,13 @@ class Streamer:
         self._send(
             (
                 "configure",
-                {"connect": list(connect), "namespace": namespace, "arms": settings, "period": period},
+                {
+                    "connect": list(connect),
+                    "namespace": namespace,
+                    "ros2": ros2,
+                    "arms": settings,
+                    "period": period,
+                },
             )
         )
         threading.Thread(target=self._read_reports, name="streamer reports", daemon=True).start()

@@ -1,0 +1,71 @@
+"""The simulator's dVRK interface as a node of a ROS 2 graph on rmw_zenoh, driven by zenoh-ros2-sdk
+(ROBOTIS's rmw_zenoh client) as a ROS 2 operator's node would: it reads `/PSM1/measured_js`, enables and
+homes the arm with `state_command`, and moves it with `servo_jp`; and a pegbt run over rmw_zenoh places
+every block. The router is a zenoh session in router mode on 127.0.0.1."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from pegbt.sim.process import SimProcess
+from pegbt.transport.codec import JOINT_STATE
+from pegbt.workcell import UNILATERAL_ORDER
+from tests.test_transport_rmw_zenoh import _lines, _partner, messages_dir, router  # noqa: F401 (fixtures)
+
+
+@pytest.mark.slow
+def test_a_ros2_node_reads_enables_homes_and_servos_the_simulated_arm(messages_dir, router) -> None:  # noqa: F811
+    simulator = SimProcess(["--no-world"], interface="dvrk", router=f"tcp/127.0.0.1:{router}")
+    try:
+        info = _lines(_partner(messages_dir, router, "info", "/PSM1/measured_js", "/PSM1/servo_jp"))[-1]
+        assert info["/PSM1/measured_js"]["types"] == [JOINT_STATE]
+        assert [p[0] for p in info["/PSM1/measured_js"]["publishers"]] == ["pegbt_sim"]
+        assert [s[0] for s in info["/PSM1/servo_jp"]["subscribers"]] == ["pegbt_sim"]
+        listened = _lines(_partner(messages_dir, router, "sub", "/PSM1/measured_js", JOINT_STATE, "5", "20"))
+        assert len(listened[-1]["messages"]) == 5
+        drove = _lines(_partner(messages_dir, router, "drive", "PSM1", "0.05", "40"), timeout=60)[-1]
+    finally:
+        simulator.stop()
+    states = drove["states"]
+    assert any(s["state"] == "ENABLED" and not s["is_homed"] for s in states)
+    assert any(s["state"] == "ENABLED" and s["is_homed"] for s in states)
+    assert drove["after"] is not None
+    assert drove["after"][0] - drove["before"][0] == pytest.approx(0.05, abs=0.01)
+
+
+@pytest.mark.slow
+def test_a_unilateral_trial_over_rmw_zenoh_places_every_block(pegbt_cli, router, tmp_path: Path) -> None:  # noqa: F811
+    simlog = tmp_path / "sim.jsonl"
+    graph = f"tcp/127.0.0.1:{router}"
+    simulator = SimProcess(
+        ["--physics", "dvrk-real", "--seed", "0", "--log", str(simlog)], interface="dvrk", router=graph
+    )
+    try:
+        run = pegbt_cli(
+            "run",
+            "trees/unilateral.yaml",
+            "--interface",
+            "dvrk",
+            "--ros2",
+            "rmw_zenoh",
+            "--endpoint",
+            graph,
+            "--calibration",
+            "skills/calibration/sim-dvrk-real",
+            "--liveness",
+            5,  # the simulator shares this loaded machine with the run: it may stall for a second
+            "--log",
+            tmp_path / "run.jsonl",
+            "--quiet",
+            timeout=600,
+        )
+    finally:
+        simulator.stop()
+    assert run.returncode == 0, run.stdout[-3000:] + run.stderr[-3000:]
+    entries = [json.loads(line) for line in simlog.read_text().splitlines()]
+    placed = [entry["peg"] for entry in entries if entry["kind"] == "place"]
+    assert placed == [goal for _, goal in UNILATERAL_ORDER]
+    assert not [entry for entry in entries if entry["kind"] == "safety"]
