@@ -80,6 +80,11 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
         above=0.0,
         help="SNR of the concealed effect (default: drawn per family)",
     )
+    synth.add_argument(
+        "--effect",
+        metavar="KIND",
+        help="the kind of effect the weak family conceals (default: drawn from every registered kind)",
+    )
     synth.set_defaults(handler=_synth)
 
     preset = commands.add_parser(
@@ -153,7 +158,9 @@ def _preset(args: argparse.Namespace) -> int:
 def _synth(args: argparse.Namespace) -> int:
     from pegbt.sim2real.synth import generate, write_synthetic
 
-    synthetic = generate(args.family, args.seed, args.seconds, args.rate, args.sampling, args.snr)
+    synthetic = generate(
+        args.family, args.seed, args.seconds, args.rate, args.sampling, args.snr, args.effect
+    )
     folder, truth = write_synthetic(synthetic, args.outdir)
     print(f"recording: {folder}\ntruth: {truth}")
     return 0

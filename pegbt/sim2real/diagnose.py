@@ -115,17 +115,12 @@ def structure_from_effects(effects: list[Effect]) -> list[JointFit]:
     """The fit structure that a known list of effects would need (the oracle in benchmarks)."""
     structures = [JointFit(j, False, []) for j in range(len(JOINT_NAMES))]
     for effect in effects:
-        fit, p, j = structures[effect.index], effect.params, effect.index
-        source = JOINT_NAMES.index(p["source"]) if "source" in p else j
-        if effect.effect == "offset":
+        fit = structures[effect.index]
+        if effect.kind.is_intercept:
             fit.intercept = True
-        elif effect.effect in ("scale", "coupling"):
-            fit.terms.append(Term(effect.effect, source))
-        elif effect.effect == "hysteresis":
-            fit.terms.append(Term("backlash" if source == j else "hysteresis", source, p["half_width"]))
-        else:
-            width = p[{"backlash": "half_width", "lag": "tau", "delay": "seconds"}[effect.effect]]
-            fit.terms.append(Term(effect.effect, j, width, coef=1.0, fixed=True))
+            continue
+        kind, source, width, fixed = effect.kind.term(effect)
+        fit.terms.append(Term(kind, source, width, coef=1.0 if fixed else 0.0, fixed=fixed))
     return structures
 
 
@@ -221,9 +216,9 @@ def diagnose(
         sampled = [to_effects(sample, base)[1] for sample in samples]
         for position, (effect, chosen) in enumerate(zip(changed, evidence)):
             ci = _intervals(effect, [s[position] for s in sampled])
-            base_value = float(base.offset[effect.index]) if effect.effect == "offset" else None
+            before = next((e for e in base.effects if e.slot == effect.slot), None)
             effects.append(
-                NamedEffect(effect, ci, chosen.explains, chosen.pvalue, effect_sentence(effect, base_value))
+                NamedEffect(effect, ci, chosen.explains, chosen.pvalue, effect_sentence(effect, before))
             )
             if chosen.rival:
                 statements.append(rival_sentence(chosen.candidate.label, chosen.rival))

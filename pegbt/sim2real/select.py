@@ -27,11 +27,11 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.optimize import minimize_scalar
 
-from pegbt.physics import ArmPhysics
-from pegbt.psm import JOINT_NAMES
+from pegbt.physics import ArmPhysics, EffectKind, effect_kinds
 from pegbt.physics.kernels import play_grid
+from pegbt.psm import JOINT_NAMES
 from pegbt.sim2real.crossval import BlockedGrams
-from pegbt.sim2real.library import DRIVEN_KINDS, Candidate, width_bounds, width_column
+from pegbt.sim2real.library import Candidate, width_bounds, width_column
 from pegbt.sim2real.significance import shift_pvalue, t_pvalue
 
 Array = NDArray[np.float64]
@@ -103,12 +103,17 @@ def find_unidentifiable(q_cmd: Array, is_stream: bool, base: ArmPhysics) -> Unid
     statements: list[str] = []
     moving = np.ptp(q_cmd, axis=0) > 0
     reversals = [count_reversals(q_cmd[:, s]) for s in range(n_joints)]
+    kinds = effect_kinds()
+
+    def driven_by(s: int, which: list[EffectKind]) -> set[tuple[str, int, int]]:
+        """Candidate keys of these kinds whose column moves with s's command."""
+        return {(k.name, j, s) for k in which for j in (range(n_joints) if k.takes_source else [s])}
+
     for s in range(n_joints):
         name = JOINT_NAMES[s]
-        driven_by_s = {("hysteresis", j, s) for j in range(n_joints)} | {("backlash", s, s)}
+        driven_by_s = driven_by(s, [k for k in kinds if k.needs_reversals])
         if not moving[s]:
-            keys |= driven_by_s | {("scale", s, s), ("lag", s, s), ("delay", s, s)}
-            keys |= {("coupling", j, s) for j in range(n_joints)}
+            keys |= driven_by(s, [k for k in kinds if not k.is_intercept])
             statements.append(
                 f"scale, backlash, lag and delay on {name}, couplings and hysteresis driven by {name}: "
                 f"not identifiable: {name} is never commanded to move"
@@ -121,26 +126,24 @@ def find_unidentifiable(q_cmd: Array, is_stream: bool, base: ArmPhysics) -> Unid
             )
     corr = np.corrcoef(q_cmd[:, moving].T) if moving.sum() > 1 else np.ones((1, 1))
     index = np.flatnonzero(moving)
+    cross = [k.name for k in kinds if k.is_linear and k.takes_source]
     for a in range(len(index)):
         for b in range(a + 1, len(index)):
             if abs(corr[a, b]) > COLLINEAR:
                 j, s = index[a], index[b]
-                keys |= {("coupling", j, s), ("coupling", s, j)}
+                keys |= {(name, j, s) for name in cross} | {(name, s, j) for name in cross}
                 statements.append(
                     f"coupling between {JOINT_NAMES[j]} and {JOINT_NAMES[s]} versus their scales: not "
                     f"identifiable: their commands move together (r = {corr[a, b]:.3f})"
                 )
     if not is_stream:
-        keys |= {(k, j, j) for j in range(n_joints) for k in ("lag", "delay")}
+        keys |= {(k.name, j, j) for j in range(n_joints) for k in kinds if k.streams_only}
         statements.append(
             "lag and delay on every joint: not identifiable: the samples are settled set-points"
         )
     for effect in base.effects:  # play and time effects the base already has are kept as they are
-        if effect.effect in ("backlash", "lag", "delay"):
-            keys.add((effect.effect, effect.index, effect.index))
-        elif effect.effect == "hysteresis":
-            source = JOINT_NAMES.index(str(effect.params["source"]))
-            keys.add(("backlash" if source == effect.index else "hysteresis", effect.index, source))
+        if effect.kind.width is not None:
+            keys.add(effect.kind.candidate_key(effect))
     return Unidentifiable(frozenset(keys), tuple(statements))
 
 
@@ -159,7 +162,9 @@ def select_joint(
 ) -> JointSelection:
     """Forward selection for one joint (see the module docstring for the rules)."""
     result = JointSelection(joint)
-    pool = [c for c in candidates if c.joint == joint and c.kind != "offset" and c.key not in excluded]
+    pool = [
+        c for c in candidates if c.joint == joint and not c.effect_kind.is_intercept and c.key not in excluded
+    ]
     before = float(grams.cv_sse(joint, np.array([], dtype=np.int64)).sum())
     if before <= 0:
         result.stopped = "no error left to explain"
@@ -226,7 +231,7 @@ def select_joint(
     gains = without - current
     offset_gain = float(gains.sum() / max(float(without.sum()), 1e-300))
     if pvalue <= level and (gains > 0).all() and offset_gain >= MIN_GAIN:
-        offset = next(c for c in candidates if c.joint == joint and c.kind == "offset")
+        offset = next(c for c in candidates if c.joint == joint and c.effect_kind.is_intercept)
         result.offset = Chosen(
             offset, 0, float("nan"), float(gains.sum() / before), pvalue, tuple(float(x) for x in gains)
         )
@@ -292,9 +297,7 @@ def _gains_where_excited(grams: BlockedGrams, column: int, fold_gains: Array) ->
 
 def _gains_allowed(candidate: Candidate) -> tuple[bool, ...]:
     """Whether a candidate enters with a free coefficient (False), at unit gain (True), or either."""
-    if candidate.kind == "backlash":
-        return (False, True)  # full play, or play of which only part reaches the joint
-    return (True,) if candidate.kind in DRIVEN_KINDS else (False,)
+    return candidate.effect_kind.gains
 
 
 def _best_per_candidate(options: list[tuple[Candidate, int, bool]], gain: Array) -> list[int]:
