@@ -50,6 +50,13 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
         metavar="N",
         help="bootstrap resamples for intervals",
     )
+    diagnose.add_argument(
+        "--resolution",
+        metavar="R1,...,R6",
+        help="what the measurement resolves per joint, in the joints' units (the paper's fiducial set-up: "
+        "0.01,0.01,0.0005,0.01,0.01,0.01); effects smaller are listed below resolution, not named "
+        "(default: the recording's meta.json, when it says)",
+    )
     diagnose.set_defaults(handler=_diagnose)
 
     synth = commands.add_parser(
@@ -110,13 +117,14 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
 
 def _diagnose(args: argparse.Namespace) -> int:
     from pegbt.sim2real.diagnose import diagnose
-    from pegbt.physics.recording import load_recording
+    from pegbt.physics.recording import load_recording, parse_resolution
     from pegbt.sim2real.report import read_named_effects, report_dict, write_report
 
+    resolution = None if args.resolution is None else parse_resolution(args.resolution)
     recording = load_recording(args.recording)
     if args.compare:
         read_named_effects(args.compare)  # refuse a bad report before the work, not after it
-    diagnosis = diagnose(recording, args.sim, args.arm, n_bootstrap=args.bootstrap)
+    diagnosis = diagnose(recording, args.sim, args.arm, n_bootstrap=args.bootstrap, resolution=resolution)
     report = (
         write_report(diagnosis, args.out, args.compare) if args.out else report_dict(diagnosis, args.compare)
     )
@@ -131,6 +139,8 @@ def _diagnose(args: argparse.Namespace) -> int:
     )
     for effect in report["effects"]:
         print(f"  {effect['effect']} on {effect['joint']}: {effect['text']}")
+    for below in report["below_resolution"]:
+        print(f"  below resolution, not named: {below['effect']}: {below['reason']}")
     for statement in report["not_identifiable"]:
         print(f"  {statement}")
     if "comparison" in report:

@@ -9,7 +9,7 @@ the linearised fit) over each held-out segment, so the figure is what the simula
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -30,6 +30,7 @@ from pegbt.sim2real.fit import (
 )
 from pegbt.sim2real.library import build_columns
 from pegbt.sim2real.locate import JointMismatch, locate
+from pegbt.sim2real.practical import BelowResolution, settle_joint
 from pegbt.physics.recording import Recording, Sampling, validate
 from pegbt.sim2real.select import JointSelection, Unidentifiable, find_unidentifiable, select
 
@@ -44,15 +45,17 @@ class NamedEffect:
 
     effect: Effect
     ci: dict[str, tuple[float, float]]
-    explains: float
+    explains: float  # share of the joint's held-out error before any effect (greedy order)
     pvalue: float
     text: str
+    contribution: float = 0.0  # held-out RMS it removes, in the joint's units
 
     def to_dict(self) -> dict:
         return {
             **self.effect.to_dict(),
             "ci": {k: list(v) for k, v in self.ci.items()},
             "explains": self.explains,
+            "contribution": self.contribution,
             "p_value": self.pvalue,
             "text": self.text,
         }
@@ -69,12 +72,14 @@ class Diagnosis:
     mismatch: list[JointMismatch]
     selections: list[JointSelection]
     fits: list[JointFit]
-    effects: list[NamedEffect]
+    effects: list[NamedEffect]  # in order of what they contribute
     physics: ArmPhysics
     heldout_prediction: Array
     fold_ranges: list[tuple[int, int]]
     not_identifiable: list[str]
     hypotheses: int
+    below_resolution: list[BelowResolution]
+    resolution: tuple[float, ...] | None
 
     @property
     def residual_before(self) -> Array:
@@ -180,8 +185,12 @@ def diagnose(
     arm: str | None = None,
     n_bootstrap: int = N_BOOTSTRAP,
     seed: int = 0,
+    resolution: tuple[float, ...] | None = None,
 ) -> Diagnosis:
-    """Locate, explain and fit the mismatch between a recording and the simulator's physics."""
+    """Locate, explain and fit the mismatch between a recording and the simulator's physics.
+
+    `resolution` (per joint; default: the recording's own, when its metadata says) sets what is too
+    small to name (`pegbt.sim2real.practical`)."""
     arm = (
         arm or recording.arm or "PSM1"
     )  # presets differ per arm; the recording's meta.json or name says which
@@ -194,6 +203,13 @@ def diagnose(
     mismatch = locate(residual, q_cmd, recording.times, sampling.is_stream)
     unidentifiable = find_unidentifiable(q_cmd, sampling.is_stream, base)
     selections, hypotheses, grams = choose_effects(q_cmd, t, residual, base, unidentifiable)
+    resolution = resolution if resolution is not None else recording.resolution
+    below: list[BelowResolution] = []
+    for n, selection in enumerate(selections):
+        selections[n], dropped = settle_joint(
+            grams, selection, None if resolution is None else resolution[selection.joint]
+        )
+        below += dropped
     folds = grams.fold_ranges()
     drivers = base.static_map(q_cmd)
     fits = []
@@ -224,6 +240,14 @@ def diagnose(
                 statements.append(rival_sentence(chosen.candidate.label, chosen.rival))
     physics = merged_physics(fits, base)
     heldout = crossval_predict(fits, base, recording, t, residual, folds)
+    error_before = np.sqrt((residual**2).mean(0))
+    effects = sorted(
+        (
+            replace(e, contribution=float(error_before[e.effect.index] * np.sqrt(max(e.explains, 0.0))))
+            for e in effects
+        ),
+        key=lambda e: -e.contribution,
+    )
     return Diagnosis(
         recording,
         str(sim),
@@ -240,6 +264,8 @@ def diagnose(
         folds,
         statements,
         hypotheses,
+        below,
+        resolution,
     )
 
 

@@ -60,6 +60,8 @@ def report_dict(diagnosis: Diagnosis, compared_with: str | Path | None = None) -
         "units": {q: unit(q) for q in JOINT_NAMES},
         "mismatch": [m.to_dict() for m in diagnosis.mismatch],
         "effects": [e.to_dict() for e in diagnosis.effects],
+        "resolution": None if diagnosis.resolution is None else dict(zip(JOINT_NAMES, diagnosis.resolution)),
+        "below_resolution": [b.to_dict() for b in diagnosis.below_resolution],
         "not_identifiable": list(diagnosis.not_identifiable),
         "selection": {
             "alpha": ALPHA,
@@ -97,6 +99,12 @@ def report_markdown(report: dict[str, Any], plots: list[str]) -> str:
 
     Written from the JSON report rather than the diagnosis, so the two files can never disagree."""
     lines = [f"# Sim-to-real diagnosis of `{report['recording']}`", ""]
+    if report["effects"]:
+        lines += ["In order of what they explain:", ""]
+        lines += [f"{n}. {e['text']}." for n, e in enumerate(report["effects"], 1)]
+    else:
+        lines.append("No effect large enough to name.")
+    lines.append("")
     lines += [
         f"- {report['samples']} samples; {report['sampling']['reason']}.",
         f"- Simulator physics: `{report['sim']}` (arm {report['arm']}).",
@@ -137,6 +145,9 @@ def report_markdown(report: dict[str, Any], plots: list[str]) -> str:
             f"- **{e['effect']} on {e['joint']}** ({params}; 95 % CI {ci or 'n/a'}; explains "
             f"{100 * e['explains']:.1f} % of the joint's error; p {_pvalue(e['p_value'])}): {e['text']}."
         )
+    if report["below_resolution"]:
+        lines += ["", "## Below resolution (not named)", ""]
+        lines += [f"- {b['effect']}: {b['reason']}" for b in report["below_resolution"]]
     if report["not_identifiable"]:
         lines += ["", "## Not identifiable from these data", ""]
         lines += [f"- {statement}" for statement in report["not_identifiable"]]
