@@ -17,6 +17,9 @@ The intercept itself is named an `offset` only if its delete-one-block jackknife
 level and it too gains in every fold. Candidates the data cannot test (a joint that never reverses,
 two commands that move together, lag and delay on settled set-points) are set aside with the reason;
 a rival that explains nearly as much and is not beaten in every fold is reported as not separable.
+Between near-equivalent explanations of different size (full backlash versus partial play, coupling or
+scale versus hysteresis) the one with fewer parameters is kept unless the richer one gains more in every
+held-out fold and by `PARSIMONY_GUARD`; the report then says the two were not separable.
 """
 
 from __future__ import annotations
@@ -43,6 +46,7 @@ MIN_REVERSALS = 3
 REVERSAL_TRAVEL = 0.02  # a reversal counts when the command comes back by this fraction of its range
 COLLINEAR = 0.98
 AMBIGUOUS_GAIN = 0.9  # a rival explaining this fraction of the winner's gain, not beaten in every fold
+PARSIMONY_GUARD = 0.01  # of what is left: how much more a richer explanation must gain than a simpler one
 WIDTH_SEARCH_RATIO = 1.8  # a chosen width is refined within [w / r, w · r] of its grid value
 EXCITED = 0.05  # a fold excites a candidate when its column's energy there is this fraction of the mean
 TRIES_PER_STEP = 5  # when the best candidate fails a guard, the next ones (by held-out gain) may pass
@@ -177,16 +181,27 @@ def select_joint(
         residual = _residual(grams, joint, free, fixed)
         shortlist = _best_per_candidate(options, gain)[:TRIES_PER_STEP]
         refined: dict[int, tuple[int, float]] = {}  # option → (bank column, width) between grid values
-        for index in shortlist:
+
+        def refine(index: int) -> None:
             cand, g, unit_gain = options[index]
-            if cand.has_width and gain[index] >= MIN_GAIN:
+            if cand.has_width and gain[index] >= MIN_GAIN and index not in refined:
                 width = _refine_width(cand, float(cand.widths[g]), residual, t, unit_gain)
                 column = grams.add_column(width_column(cand.kind, cand.signal, t, width))
                 refined[index] = column, width
                 trial_free, trial_fixed = (free, fixed + [column]) if unit_gain else (free + [column], fixed)
                 sse[index] = grams.cv_sse(joint, np.array(trial_free), np.array(trial_fixed, dtype=np.int64))
                 gain[index] = (current.sum() - sse[index].sum()) / max(float(current.sum()), 1e-300)
+
+        for index in shortlist:
+            refine(index)
         shortlist.sort(key=lambda index: -gain[index])
+        parsimonious: dict[int, str] = {}  # a simpler option chosen over a richer one → the richer's label
+        simpler = _simpler(options, sse, gain, shortlist[0]) if shortlist else None
+        if simpler is not None:
+            refine(simpler)
+            if not _richer_wins(sse, gain, shortlist[0], simpler):
+                parsimonious[simpler] = options[shortlist[0]][0].label + _mode(options[shortlist[0]])
+                shortlist = [simpler] + [index for index in shortlist if index != simpler]
         accepted = None
         for rank, index in enumerate(shortlist):
             cand, g, unit_gain = options[index]
@@ -217,7 +232,7 @@ def select_joint(
                 float((current.sum() - sse[index].sum()) / before),
                 pvalue,
                 tuple(float(x) for x in current - sse[index]),
-                _rival(options, sse, gain, index),
+                parsimonious.get(index) or _rival(options, sse, gain, index),
                 unit_gain,
             )
         )
@@ -310,6 +325,43 @@ def _best_per_candidate(options: list[tuple[Candidate, int, bool]], gain: Array)
             seen.add(key)
             order.append(int(index))
     return order
+
+
+def _n_params(option: tuple[Candidate, int, bool]) -> int:
+    """Parameters an option adds: its width, if it has one, and its coefficient, unless at unit gain."""
+    cand, _, unit_gain = option
+    return int(cand.has_width) + int(not unit_gain)
+
+
+def _mode(option: tuple[Candidate, int, bool]) -> str:
+    """How an option of a kind that may enter either way enters (partial play versus full backlash)."""
+    cand, _, unit_gain = option
+    if set(cand.effect_kind.gains) != {False, True}:
+        return ""
+    return " at unit gain" if unit_gain else " with a free gain"
+
+
+def _simpler(options: list[tuple[Candidate, int, bool]], sse: Array, gain: Array, best: int) -> int | None:
+    """The best option with fewer parameters than `best` that explains nearly as much (nested or
+    near-equivalent explanations: full versus partial play, coupling or scale versus hysteresis)."""
+    needed = _n_params(options[best])
+    seen: set[tuple[tuple[str, int, int], bool]] = set()
+    for index in np.argsort(gain)[::-1]:
+        option = options[index]
+        key = (option[0].key, option[2])
+        if key in seen:
+            continue
+        seen.add(key)
+        if gain[index] < AMBIGUOUS_GAIN * gain[best]:
+            return None
+        if int(index) != best and _n_params(option) < needed:
+            return int(index)
+    return None
+
+
+def _richer_wins(sse: Array, gain: Array, richer: int, simpler: int) -> bool:
+    """Whether the richer explanation beats the simpler one in every held-out fold and by the guard."""
+    return bool((sse[richer] < sse[simpler]).all() and gain[richer] - gain[simpler] >= PARSIMONY_GUARD)
 
 
 def _rival(options: list[tuple[Candidate, int, bool]], sse: Array, gain: Array, best: int) -> str | None:
