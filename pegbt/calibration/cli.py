@@ -148,11 +148,15 @@ def _train(args: argparse.Namespace) -> int:
     from pegbt.calibration.base import new_model
     from pegbt.calibration.evaluation import evaluate
     from pegbt.calibration.modelfile import model_file_name
+    from pegbt.physics.faults import detect_faults
     from pegbt.physics.recording import load_recording
 
     recording = load_recording(args.recording)
     n_train = recording.head(args.train_fraction)
-    model = new_model(args.model, args.arm).fit(recording.slice(0, n_train))
+    training = recording.slice(0, n_train)
+    faults = detect_faults(training.q_cmd, training.q_phy)
+    print(f"training samples: {faults.sentence(training.times)}")
+    model = new_model(args.model, args.arm).fit(training.subset(faults.kept))
     if n_train < len(recording):
         assert model.metadata is not None
         scores = evaluate(model, recording, start=n_train)

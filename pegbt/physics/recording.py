@@ -114,6 +114,13 @@ class Recording:
             raise PegbtError(f"a share of the recording must be in (0, 1], got {fraction}", field="fraction")
         return int(round(fraction * self.n))
 
+    def subset(self, keep: NDArray[np.bool_]) -> "Recording":
+        """The samples where `keep` is true, as a recording of their own (itself if it keeps all)."""
+        if keep.all():
+            return self
+        t = None if self.t is None else self.t[keep]
+        return Recording(self.path, self.q_cmd[keep], self.q_phy[keep], t, self.arm, self.resolution)
+
     def slice(self, start: int, stop: int | None = None) -> "Recording":
         """The samples [start, stop) as a recording of their own."""
         t = None if self.t is None else self.t[start:stop]

@@ -133,6 +133,7 @@ def _diagnose(args: argparse.Namespace) -> int:
         return 0
     print(f"{recording.path}: {recording.n} samples; {recording.sampling.reason}")
     print(f"simulator physics: {diagnosis.sim} ({diagnosis.arm})")
+    print(f"measurement faults: {report['measurement_faults']['text']}")
     before, after = report["fit"]["heldout_rmse_before"], report["fit"]["heldout_rmse_after"]
     print(
         "held-out RMSE before → after: " + ", ".join(f"{q} {before[q]:.4g} → {after[q]:.4g}" for q in before)

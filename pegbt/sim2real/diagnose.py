@@ -16,6 +16,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pegbt.physics import ArmPhysics, Effect
+from pegbt.physics.faults import MeasurementFaults, detect_faults
 from pegbt.psm import JOINT_NAMES
 from pegbt.sim2real.crossval import BlockedGrams
 from pegbt.sim2real.explain import effect_sentence, remaining_sentence, rival_sentence
@@ -80,6 +81,8 @@ class Diagnosis:
     hypotheses: int
     below_resolution: list[BelowResolution]
     resolution: tuple[float, ...] | None
+    faults: MeasurementFaults  # over the whole recording; `recording` holds the kept samples
+    times_before_exclusion: Array
 
     @property
     def residual_before(self) -> Array:
@@ -190,11 +193,15 @@ def diagnose(
     """Locate, explain and fit the mismatch between a recording and the simulator's physics.
 
     `resolution` (per joint; default: the recording's own, when its metadata says) sets what is too
-    small to name (`pegbt.sim2real.practical`)."""
+    small to name (`pegbt.sim2real.practical`). Samples no arm could produce (`pegbt.physics.faults`)
+    are left out of everything: selection, fit and the held-out figures."""
     arm = (
         arm or recording.arm or "PSM1"
     )  # presets differ per arm; the recording's meta.json or name says which
     base = ArmPhysics.load(sim, arm)
+    times_before_exclusion = recording.times
+    faults = detect_faults(recording.q_cmd, recording.q_phy)
+    recording = recording.subset(faults.kept)
     sampling = recording.sampling
     t = recording.t if sampling.is_stream else None
     q_cmd = recording.q_cmd
@@ -266,6 +273,8 @@ def diagnose(
         hypotheses,
         below,
         resolution,
+        faults,
+        times_before_exclusion,
     )
 
 

@@ -51,7 +51,7 @@ def report_dict(diagnosis: Diagnosis, compared_with: str | Path | None = None) -
         }
     report = {
         "recording": str(recording.path),
-        "samples": recording.n,
+        "samples": len(diagnosis.times_before_exclusion),
         "sampling": {"mode": diagnosis.sampling.mode, "reason": diagnosis.sampling.reason},
         "time_unit": "s" if recording.t is not None else "sample",
         "sim": diagnosis.sim,
@@ -62,6 +62,7 @@ def report_dict(diagnosis: Diagnosis, compared_with: str | Path | None = None) -
         "effects": [e.to_dict() for e in diagnosis.effects],
         "resolution": None if diagnosis.resolution is None else dict(zip(JOINT_NAMES, diagnosis.resolution)),
         "below_resolution": [b.to_dict() for b in diagnosis.below_resolution],
+        "measurement_faults": diagnosis.faults.to_dict(diagnosis.times_before_exclusion),
         "not_identifiable": list(diagnosis.not_identifiable),
         "selection": {
             "alpha": ALPHA,
@@ -73,6 +74,8 @@ def report_dict(diagnosis: Diagnosis, compared_with: str | Path | None = None) -
             "heldout_rmse_before": diagnosis.rmse_before(),
             "heldout_rmse_after": diagnosis.rmse_after(),
             "method": HELDOUT_METHOD,
+            "samples": recording.n,
+            "samples_excluded": diagnosis.faults.count,
             "folds": [[float(times[a]), float(times[b - 1])] for a, b in diagnosis.fold_ranges],
         },
         "remaining": diagnosis.remaining(),
@@ -107,6 +110,7 @@ def report_markdown(report: dict[str, Any], plots: list[str]) -> str:
     lines.append("")
     lines += [
         f"- {report['samples']} samples; {report['sampling']['reason']}.",
+        f"- Measurement faults: {report['measurement_faults']['text']}.",
         f"- Simulator physics: `{report['sim']}` (arm {report['arm']}).",
         f"- Effects chosen by blocked cross-validation; each must gain in every held-out fold and beat "
         f"circularly shifted data at α = {report['selection']['alpha']} / {report['selection']['hypotheses']} "
@@ -156,7 +160,8 @@ def report_markdown(report: dict[str, Any], plots: list[str]) -> str:
         "",
         "## Held-out fit",
         "",
-        f"{fit['method']}.",
+        f"{fit['method']}; on the {fit['samples']} samples kept ({fit['samples_excluded']} excluded as "
+        "measurement faults).",
         "",
         "| joint | before | after |",
         "|---|---|---|",
