@@ -70,6 +70,18 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
     )
     collect.set_defaults(handler=_collect)
 
+    refit = commands.add_parser(
+        "refit",
+        help="recalibrate a re-homed arm: refit a physics model's offsets from a few set-points",
+        description="Keep MODEL's couplings, play and hysteresis and refit what re-homing changes (each joint's "
+        "offset) from the first --samples set-points of RECORDING (a new session of the same arm).",
+    )
+    refit.add_argument("model", metavar="MODEL")
+    refit.add_argument("recording", metavar="RECORDING")
+    refit.add_argument("--samples", action=NumberOption, type=int, at_least=1, default=20, metavar="N")
+    refit.add_argument("--out", type=Path, required=True, metavar="FILE")
+    refit.set_defaults(handler=_refit)
+
     train = commands.add_parser(
         "train",
         help="fit a model to a recording",
@@ -164,6 +176,22 @@ def _train(args: argparse.Namespace) -> int:
         print(_summary(scores))
     path = model.save(args.out or OUTPUT_DIR / model_file_name(args.arm, args.model))
     print(f"wrote {path}")
+    return 0
+
+
+def _refit(args: argparse.Namespace) -> int:
+    from pegbt.calibration.base import CalibrationModel
+    from pegbt.calibration.physics_model import PhysicsModel
+    from pegbt.calibration.refit import refit_offsets
+    from pegbt.physics.recording import load_recording
+
+    model = CalibrationModel.load(args.model)
+    recording = load_recording(args.recording)
+    refitted = refit_offsets(model, recording, args.samples)
+    assert isinstance(model, PhysicsModel)  # refit_offsets refuses any other kind
+    moved = refitted.settled.physics.offset - model.settled.physics.offset
+    print("offsets moved by " + ", ".join(f"{q} {m:+.4g}" for q, m in zip(JOINT_NAMES, moved)))
+    print(f"wrote {refitted.save(args.out)}")
     return 0
 
 
