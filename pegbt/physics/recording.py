@@ -224,10 +224,9 @@ def _resolution_of(path: Path) -> tuple[float, ...] | None:
 
 def parse_resolution(values: object, where: Path | str | None = None) -> tuple[float, ...]:
     """Six non-negative finite numbers, one per joint, from a list or a comma-separated string."""
-    if isinstance(values, str):
-        values = [v.strip() for v in values.split(",")]
+    items = values.split(",") if isinstance(values, str) else values
     try:
-        numbers = tuple(float(v) for v in values)  # type: ignore[union-attr]
+        numbers = tuple(float(v) for v in items) if isinstance(items, (list, tuple)) else ()
     except (TypeError, ValueError):
         numbers = ()
     if len(numbers) != N_JOINTS or not all(np.isfinite(numbers)) or min(numbers) < 0:
