@@ -18,6 +18,7 @@ BENCHMARKS: dict[str, str] = {
     "world": "pegbt.bench.world:run",
     "executive": "pegbt.bench.executive:run",
     "calibration": "pegbt.bench.calibration:run",
+    "calibration-refit": "pegbt.bench.calibration_refit:run",
     "perception": "pegbt.bench.perception:run",
     "transport": "pegbt.bench.transport:run",
     "sim": "pegbt.bench.sim:run",

@@ -75,6 +75,18 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
     add_record_arguments(collect)
     collect.set_defaults(handler=_collect)
 
+    refit = commands.add_parser(
+        "refit",
+        help="recalibrate a re-homed arm: refit a physics model's offsets from a few set-points",
+        description="Keep MODEL's couplings, play and hysteresis and refit what re-homing changes (each joint's "
+        "offset) from the first --samples set-points of RECORDING (a new session of the same arm).",
+    )
+    refit.add_argument("model", metavar="MODEL")
+    refit.add_argument("recording", metavar="RECORDING")
+    refit.add_argument("--samples", action=NumberOption, type=int, at_least=1, default=20, metavar="N")
+    refit.add_argument("--out", type=Path, required=True, metavar="FILE")
+    refit.set_defaults(handler=_refit)
+
     train = commands.add_parser(
         "train",
         help="fit a model to a recording",
@@ -156,11 +168,15 @@ def _train(args: argparse.Namespace) -> int:
     from pegbt.calibration.base import new_model
     from pegbt.calibration.evaluation import evaluate
     from pegbt.calibration.modelfile import model_file_name
+    from pegbt.physics.faults import detect_faults
     from pegbt.physics.recording import load_recording
 
     recording = load_recording(args.recording, arm=args.arm, **bag_options(args))
     n_train = recording.head(args.train_fraction)
-    model = new_model(args.model, args.arm).fit(recording.slice(0, n_train))
+    training = recording.slice(0, n_train)
+    faults = detect_faults(training.q_cmd, training.q_phy)
+    print(f"training samples: {faults.sentence(training.times)}")
+    model = new_model(args.model, args.arm).fit(training.subset(faults.kept))
     if n_train < len(recording):
         assert model.metadata is not None
         scores = evaluate(model, recording, start=n_train)
@@ -168,6 +184,22 @@ def _train(args: argparse.Namespace) -> int:
         print(_summary(scores))
     path = model.save(args.out or OUTPUT_DIR / model_file_name(args.arm, args.model))
     print(f"wrote {path}")
+    return 0
+
+
+def _refit(args: argparse.Namespace) -> int:
+    from pegbt.calibration.base import CalibrationModel
+    from pegbt.calibration.physics_model import PhysicsModel
+    from pegbt.calibration.refit import refit_offsets
+    from pegbt.physics.recording import load_recording
+
+    model = CalibrationModel.load(args.model)
+    recording = load_recording(args.recording)
+    refitted = refit_offsets(model, recording, args.samples)
+    assert isinstance(model, PhysicsModel)  # refit_offsets refuses any other kind
+    moved = refitted.settled.physics.offset - model.settled.physics.offset
+    print("offsets moved by " + ", ".join(f"{q} {m:+.4g}" for q, m in zip(JOINT_NAMES, moved)))
+    print(f"wrote {refitted.save(args.out)}")
     return 0
 
 

@@ -14,7 +14,7 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import NDArray
 
-from pegbt.physics.model import apply_play
+from pegbt.physics.kernels import apply_play
 
 
 class PlayBank:

@@ -7,10 +7,12 @@ file the simulator can load. On settled set-points every effect it can name is r
 - a static map s = A·q + o (scale, coupling, offset);
 - hysteresis: a play of half width h on a drive x (another joint's command, or the joint's own static
   target s_j) adds k·(play(x) − x) = k·clip(p − x, −h, h) to joint j, p the drive's play state;
-- backlash of half width w on the sum m (the target): the joint stays at y until m is w past it.
+- then the joint's transforms that set-points keep, each its kind's kernel: backlash of half width w
+  on the target m (the joint stays at y until m is w past it), and any stateless map a kind adds.
 
-The inverse is exact. Backlash: to move y to q_d the target must be m = q_d + w when rising, q_d − w when
-falling, and stays where it was (within the band) when q_d = y. The target is piecewise linear in q (each
+The inverse is exact. The transforms are undone last to first by their kinds' `inverse` (backlash: to
+move y to q_d the target must be m = q_d + w when rising, q_d − w when falling, and stays where it was
+within the band when q_d = y). The target is piecewise linear in q (each
 hysteresis is in its band or saturated at ±h), so m(q) = m* is solved by Newton's method over those
 pieces: guess each hysteresis's piece, solve the 6×6 linear system, re-read the pieces at the solution,
 repeat until they agree (a few iterations); should that ever cycle, every combination of pieces is
@@ -41,7 +43,6 @@ from pegbt.physics import ArmPhysics, Effect
 from pegbt.psm import JOINT_NAMES
 
 Array = NDArray[np.float64]
-EXACT = 1e-12  # rad or m: below this a joint counts as not moving
 REACHED = 1e-9  # rad or m: a command whose target is this close solves the inverse
 NEWTON_ITERATIONS = 20
 MAX_ENUMERATED = 10  # hysteresis terms whose 3^n pieces may be tried at once (59049 small solves)
@@ -49,11 +50,14 @@ MAX_ENUMERATED = 10  # hysteresis terms whose 3^n pieces may be tried at once (5
 
 @dataclass(frozen=True)
 class PhysicsState:
-    """The arm's memory after a command: physical joints, each hysteresis's play, the last target."""
+    """The arm's memory after a command: physical joints, each hysteresis's play, each transform's last
+    input and kernel state."""
 
-    played: Array  # (6,) backlash outputs: the physical joints
+    played: Array  # (6,) the physical joints
     drives: Array  # (H,) play state of each hysteresis
-    target: Array  # (6,) the target the backlash saw last
+    target: Array  # (6,) the static map plus hysteresis, before the transforms
+    inputs: tuple[float, ...]  # what each settled transform saw last
+    kernels: tuple[object, ...]  # each settled transform's kernel state
 
 
 class SettledArm:
@@ -66,7 +70,7 @@ class SettledArm:
             raise PegbtError(
                 "the effects' scale and coupling cannot be inverted (singular map)", field="effects"
             )
-        self.half_width = physics.half_width
+        self.transforms = physics.settled_transforms()
         n = len(physics.hysteresis)
         joints = np.array([h[0] for h in physics.hysteresis], dtype=int)
         sources = np.array([h[1] for h in physics.hysteresis], dtype=int)
@@ -82,13 +86,25 @@ class SettledArm:
     # ------------------------------------------------------------------ forward
     def settle(self, q: Array) -> PhysicsState:
         target = self.physics.static_map(q)
-        return PhysicsState(target.copy(), self.drive_rows @ q + self.drive_offsets, target)
+        signal = target.copy()
+        inputs, kernels = [], []
+        for j, kind, effect in self.transforms:
+            inputs.append(float(signal[j]))
+            kernels.append(kind.start(effect, float(signal[j])))
+            signal[j], kernels[-1] = kind.step(effect, kernels[-1], float(signal[j]), 0.0)
+        drives = self.drive_rows @ q + self.drive_offsets
+        return PhysicsState(signal, drives, target, tuple(inputs), tuple(kernels))
 
     def step(self, q_c: Array, state: PhysicsState) -> PhysicsState:
         """The state after issuing `q_c`."""
         target, drives = self._target(q_c, state.drives)
-        played = np.clip(state.played, target - self.half_width, target + self.half_width)
-        return PhysicsState(played, drives, target)
+        signal = target.copy()
+        inputs, kernels = [], []
+        for (j, kind, effect), kernel in zip(self.transforms, state.kernels):
+            inputs.append(float(signal[j]))
+            signal[j], kernel = kind.step(effect, kernel, float(signal[j]), 0.0)
+            kernels.append(kernel)
+        return PhysicsState(signal, drives, target, tuple(inputs), tuple(kernels))
 
     def _target(self, q: Array, drives: Array) -> tuple[Array, Array]:
         x = self.drive_rows @ q + self.drive_offsets
@@ -98,12 +114,11 @@ class SettledArm:
     # ------------------------------------------------------------------ inverse
     def inverse(self, q_d: Array, state: PhysicsState) -> Array:
         """The command after which the physical joints are exactly `q_d`."""
-        return self.command_for_target(self._backlash_target(q_d, state), state.drives)
-
-    def _backlash_target(self, q_d: Array, state: PhysicsState) -> Array:
-        w, y = self.half_width, state.played
-        stay = np.clip(state.target, q_d - w, q_d + w)
-        return np.where(q_d > y + EXACT, q_d + w, np.where(q_d < y - EXACT, q_d - w, stay))
+        target = np.array(q_d, dtype=float)
+        for n in reversed(range(len(self.transforms))):
+            j, kind, effect = self.transforms[n]
+            target[j] = kind.inverse(effect, float(target[j]), state.kernels[n], state.inputs[n])
+        return self.command_for_target(target, state.drives)
 
     def command_for_target(self, target: Array, drives: Array) -> Array:
         """The command whose target (static map plus hysteresis) is `target`, given the plays' state.

@@ -4,7 +4,17 @@ The simulator endpoint runs it to move the tool, the sim-to-real tool replays re
 and names the effects it lacks, and calibration inverts it. One implementation, shared.
 """
 
-from pegbt.physics.effects import EFFECT_KINDS, Effect, joint_index
+from pegbt.physics import kinds as _kinds  # noqa: F401  (registers the built-in effect kinds)
+from pegbt.physics.effects import Effect, EffectKind, effect_kinds, joint_index, kind_of, register, registered
 from pegbt.physics.model import ArmPhysics
 
-__all__ = ["EFFECT_KINDS", "Effect", "joint_index", "ArmPhysics"]
+__all__ = [
+    "Effect",
+    "EffectKind",
+    "effect_kinds",
+    "joint_index",
+    "kind_of",
+    "register",
+    "registered",
+    "ArmPhysics",
+]

@@ -1,47 +1,45 @@
-"""Cable effects between a commanded joint and the physical joint, as plain data.
+"""Cable effects between a commanded joint and the physical joint: `Effect` (plain data) and the
+registry of effect kinds.
 
 An `Effect` names one physical phenomenon on one joint with its parameters, in the same form as the
-sim-to-real report (`{"effect": "coupling", "joint": "q5", "params": {"source": "q6", "k": 0.21}}`):
-
-- `offset` {value}: physical = command + value (rad or m).
-- `scale` {value}: physical = value × command.
-- `coupling` {source, k}: physical += k × the source joint's command (cables routed past each other).
-- `backlash` {half_width}: play; the output stays until the input has moved half_width past it.
-- `lag` {tau}: first-order response with time constant tau (s).
-- `delay` {seconds}: pure transport delay of the command.
-- `hysteresis` {source, half_width, k}: physical += k × (play(x, half_width) − x), x the source's
-  command: play in one joint's drive that shows, scaled by k, in this joint. With source = the joint
-  itself, x is the joint's static target (the input its backlash sees) and k ≠ 1 is play of which only
-  part reaches the joint (k = 1 is backlash). Found on the real dVRK wrist, where q6's cable play moves
-  q5 about as much as q6.
+sim-to-real report (`{"effect": "coupling", "joint": "q5", "params": {"source": "q6", "k": 0.21}}`).
+What an effect *does* belongs to its kind: a subclass of `EffectKind`, registered by name, that declares
+its parameters, how it enters the arm's physics (its step and sequence kernels, its inverse for
+compensation), the regressors sim-to-real searches for it, how a synthetic recording conceals it and
+the sentence that explains it. The simulator, calibration and sim-to-real iterate the registry, so a new
+effect is one class (`register(MyKind())`). The built-in kinds are in `pegbt.physics.kinds`.
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
+from contextlib import contextmanager
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any, ClassVar
+
+import numpy as np
+from numpy.typing import NDArray
 
 from pegbt.errors import PegbtError
 from pegbt.psm import JOINT_NAMES
 
-# Parameters each effect kind takes; `source` is a joint name, the rest are floats.
-EFFECT_KINDS: dict[str, tuple[str, ...]] = {
-    "offset": ("value",),
-    "scale": ("value",),
-    "coupling": ("source", "k"),
-    "backlash": ("half_width",),
-    "lag": ("tau",),
-    "delay": ("seconds",),
-    "hysteresis": ("source", "half_width", "k"),
-}
+if TYPE_CHECKING:
+    from pegbt.physics.model import ArmPhysics
 
-_NON_NEGATIVE = {
-    ("backlash", "half_width"),
-    ("lag", "tau"),
-    ("delay", "seconds"),
-    ("hysteresis", "half_width"),
-}
+Array = NDArray[np.float64]
+
+# Where a kind acts in the arm's chain, in order: the command as each joint sees it (delay), the linear
+# static map (scale, coupling, offset), play in a drive added to the target (hysteresis), then per-joint
+# transforms of the target: stateless ones ("target"), play that settled set-points keep ("play"), and
+# dynamics that settle out between set-points ("output").
+STAGES = ("delay", "linear", "drive", "target", "play", "output")
+TRANSFORM_STAGES = ("target", "play", "output")
+UNITS = {"q3": "m"}
+
+
+def joint_unit(joint: str) -> str:
+    """The unit a joint's values are in: metres for insertion, radians for the rest."""
+    return UNITS.get(joint, "rad")
 
 
 def joint_index(name: str | int) -> int:
@@ -53,6 +51,177 @@ def joint_index(name: str | int) -> int:
     raise PegbtError(f"unknown joint {name!r}; expected one of {', '.join(JOINT_NAMES)}", field="joint")
 
 
+class EffectKind:
+    """One kind of cable effect. Subclasses set the class attributes and override what they need.
+
+    Physics: a kind in a transform stage maps its joint's signal (`sequence` over a whole recording,
+    `start`/`step` sample by sample, `inverse` for compensation on settled set-points); the kinds of
+    the structured stages (delay, linear, drive) write their parameters into the arm in `install`.
+
+    Sim-to-real: a candidate is a coefficient times a regressor column built from `signal` ("constant",
+    "command": a joint's command, one per source for kinds that take one, or "driver": the joint's static
+    target); kinds with a `width` parameter search it on a grid (`grid`: "play" widths scaled to the
+    motion, or "time" widths) and compute the column in `column`; `gains` says whether it enters with a
+    free coefficient (False), at unit gain (True) or either.
+    """
+
+    name: ClassVar[str]
+    params: ClassVar[tuple[str, ...]]
+    non_negative: ClassVar[frozenset[str]] = frozenset()
+    stage: ClassVar[str] = "target"
+    signal: ClassVar[str] = "driver"
+    width: ClassVar[str | None] = None
+    grid: ClassVar[str] = "play"
+    gains: ClassVar[tuple[bool, ...]] = (True,)
+    streams_only: ClassVar[bool] = False  # not identifiable on settled set-points (lag, delay)
+    needs_reversals: ClassVar[bool] = False  # only a command that reverses can show it (play)
+    family: ClassVar[str] = ""  # effects of one family describe the same physics (compare); default: name
+    neutral: ClassVar[float] = 0.0  # the parameter value that changes nothing (scale: 1)
+
+    @property
+    def takes_source(self) -> bool:
+        return "source" in self.params
+
+    @property
+    def is_intercept(self) -> bool:
+        return self.signal == "constant"
+
+    @property
+    def is_linear(self) -> bool:
+        """A coefficient on a command: it changes the joint's static target (its driver)."""
+        return self.signal == "command" and self.width is None
+
+    def family_name(self) -> str:
+        return self.family or self.name
+
+    # ------------------------------------------------------------------ data
+    def check(self, effect: "Effect") -> None:
+        """Refuse parameter values the physics cannot take (beyond finite numbers and `non_negative`)."""
+
+    def slot(self, effect: "Effect") -> tuple[str, str, str, float]:
+        """What the effect occupies in a model: one of each kind per joint (and per source, if it has one)."""
+        return (effect.effect, effect.joint, str(effect.params.get("source", "")), 0.0)
+
+    def sentence(self, effect: "Effect", before: "Effect | None" = None) -> str:
+        """What the effect means physically, with its parameters, in one sentence (`before`: the same
+        slot in the model it was found against)."""
+        values = ", ".join(f"{k} = {v:.4g}" for k, v in effect.params.items() if k != "source")
+        return f"{effect.joint} shows {self.name} ({values})"
+
+    # ------------------------------------------------------------------ physics
+    def install(self, arm: "ArmPhysics", effect: "Effect") -> None:
+        """Enter the effect into `arm`; transform stages are applied by `sequence` and `step`."""
+        arm.add_transform(self, effect)
+
+    def sequence(self, effect: "Effect", x: Array, t: Array | None) -> Array:
+        """The transformed signal (N,) of one joint; `t=None`: settled set-points."""
+        raise NotImplementedError(f"{self.name} gives no sequence kernel")
+
+    def start(self, effect: "Effect", x: float) -> Any:
+        """The kernel's state with the joint settled at input `x` (None for a stateless kind)."""
+        return None
+
+    def step(self, effect: "Effect", state: Any, x: float, dt: float) -> tuple[float, Any]:
+        """(output, next state) after `dt` seconds with the input at `x`."""
+        return float(self.sequence(effect, np.array([x]), None)[0]), state
+
+    def inverse(self, effect: "Effect", y: float, state: Any, previous: float) -> float:
+        """The input after which a settled `step` outputs `y` (`previous`: the last input)."""
+        raise NotImplementedError(f"{self.name} cannot be inverted")
+
+    # ------------------------------------------------------------------ sim-to-real
+    def column(self, signal: Array, t: Array | None, width: float) -> Array:
+        """The regressor column of a width candidate: what the effect adds to the signal at this width."""
+        raise NotImplementedError(f"{self.name} has no width column")
+
+    def columns(self, signal: Array, t: Array | None, widths: Array) -> Array:
+        """The columns (N, G) of a grid of widths."""
+        return np.column_stack([self.column(signal, t, float(w)) for w in widths])
+
+    def to_effect(
+        self, joint: int, source: int, width: float, coef: float, fixed: bool, base: "ArmPhysics"
+    ) -> "Effect":
+        """The effect a fitted candidate stands for, merged with the base model's effect in its slot."""
+        params: dict[str, Any] = {}
+        if self.takes_source:
+            params["source"] = JOINT_NAMES[source]
+        if self.width is not None:
+            params[self.width] = float(width)
+        for name in self.params:
+            if name not in params:
+                params[name] = float(coef)
+        return Effect(self.name, JOINT_NAMES[joint], params)
+
+    def term(self, effect: "Effect") -> tuple[str, int, float, bool]:
+        """(candidate kind, source index, width, fixed) of the fit structure that names this effect."""
+        source = joint_index(effect.params["source"]) if self.takes_source else effect.index
+        width = float(effect.params[self.width]) if self.width else float("nan")
+        return self.name, source, width, self.width is not None and self.signal == "driver"
+
+    def candidate_key(self, effect: "Effect") -> tuple[str, int, int]:
+        """The candidate this effect of a base model occupies (so it is not searched again)."""
+        return self.term(effect)[0], effect.index, self.term(effect)[1]
+
+    # ------------------------------------------------------------------ synthetic recordings
+    def plausible(self, joint: int, source: int, q_cmd: Array, rng: np.random.Generator) -> "Effect":
+        """An effect of this kind with parameters in the range a cable-driven arm shows."""
+        raise NotImplementedError(f"{self.name} cannot be synthesised")
+
+    def resized(self, effect: "Effect", ratio: float) -> "Effect | None":
+        """The effect with its contribution scaled by `ratio`, if that is linear in a parameter; else
+        None and its `width` is searched instead, up to `largest`."""
+        return None
+
+    def largest(self, q_cmd: Array, joint: int) -> float:
+        """The largest width a synthetic recording may give it."""
+        return 0.5
+
+
+_REGISTRY: dict[str, EffectKind] = {}
+
+
+def register(kind: EffectKind) -> EffectKind:
+    """Add a kind to the registry (replacing one of the same name); the simulator, calibration and
+    sim-to-real know it from then on."""
+    if kind.stage not in STAGES:
+        raise PegbtError(f"effect kind {kind.name!r} has unknown stage {kind.stage!r}", field="stage")
+    _REGISTRY[kind.name] = kind
+    return kind
+
+
+def unregister(name: str) -> None:
+    _REGISTRY.pop(name, None)
+
+
+@contextmanager
+def registered(kind: EffectKind) -> Iterator[EffectKind]:
+    """The kind registered for the duration of a block (tests, experiments)."""
+    previous = _REGISTRY.get(kind.name)
+    register(kind)
+    try:
+        yield kind
+    finally:
+        if previous is None:
+            unregister(kind.name)
+        else:
+            register(previous)
+
+
+def kind_of(name: str) -> EffectKind:
+    """The registered kind called `name`."""
+    try:
+        return _REGISTRY[name]
+    except KeyError:
+        raise PegbtError(
+            f"unknown effect {name!r}; expected one of {', '.join(_REGISTRY)}", field="effect"
+        ) from None
+
+
+def effect_kinds() -> tuple[EffectKind, ...]:
+    """Every registered kind, in registration order."""
+    return tuple(_REGISTRY.values())
+
+
 @dataclass(frozen=True)
 class Effect:
     """One cable effect on one joint."""
@@ -62,12 +231,9 @@ class Effect:
     params: Mapping[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        if self.effect not in EFFECT_KINDS:
-            raise PegbtError(
-                f"unknown effect {self.effect!r}; expected one of {', '.join(EFFECT_KINDS)}", field="effect"
-            )
+        kind = kind_of(self.effect)
         joint_index(self.joint)
-        expected = set(EFFECT_KINDS[self.effect])
+        expected = set(kind.params)
         if set(self.params) != expected:
             raise PegbtError(
                 f"{self.effect} on {self.joint} takes parameters {sorted(expected)}, got {sorted(self.params)}",
@@ -75,15 +241,19 @@ class Effect:
             )
         for name, value in self.params.items():
             if name == "source":
-                if self.effect == "coupling" and joint_index(value) == joint_index(self.joint):
-                    raise PegbtError(f"coupling on {self.joint} cannot take itself as source", field="source")
+                joint_index(value)
                 continue
             if not isinstance(value, (int, float)) or value != value or abs(value) == float("inf"):
                 raise PegbtError(f"{self.effect}.{name} on {self.joint} must be a finite number", field=name)
-            if (self.effect, name) in _NON_NEGATIVE and value < 0:
+            if name in kind.non_negative and value < 0:
                 raise PegbtError(
                     f"{self.effect}.{name} on {self.joint} must be >= 0, got {value}", field=name
                 )
+        kind.check(self)
+
+    @property
+    def kind(self) -> EffectKind:
+        return kind_of(self.effect)
 
     @property
     def index(self) -> int:
@@ -91,11 +261,7 @@ class Effect:
 
     @property
     def slot(self) -> tuple[str, str, str, float]:
-        """What the effect occupies in a model: one offset, scale, backlash, lag, delay per joint, one
-        coupling per source, and one hysteresis per source and play width (several widths from the same
-        drive add up to a hysteresis loop of any shape, as in a Prandtl–Ishlinskii operator)."""
-        width = float(self.params["half_width"]) if self.effect == "hysteresis" else 0.0
-        return (self.effect, self.joint, str(self.params.get("source", "")), width)
+        return self.kind.slot(self)
 
     def to_dict(self) -> dict[str, Any]:
         return {"effect": self.effect, "joint": self.joint, "params": dict(self.params)}

@@ -1,10 +1,11 @@
 """`ArmPhysics`: the physical joints of one PSM as a function of its command history.
 
-Per joint, in this order: delay the command, map it statically (scale, coupling from other joints'
-commands, offset), add hysteresis (play in a drive: another joint's command, or for a joint's own
-hysteresis its static target, the same input its backlash sees), pass it through backlash (play),
-then through a first-order lag. The static map is vectorised; play and lag carry state, so `step()` runs
-them sample by sample while `simulate()` uses the run-wise kernels of `pegbt.physics.kernels`.
+Per joint, in the order of `pegbt.physics.effects.STAGES`: delay the command, map it statically (scale,
+coupling from other joints' commands, offset), add hysteresis (play in a drive: another joint's command,
+or for a joint's own hysteresis its static target, the same input its backlash sees), then pass the
+target through the joint's transforms: stateless ones, play (backlash), then dynamics (first-order lag).
+Each effect's kind puts it there (`EffectKind.install`); the static map is vectorised, and the transforms
+run their kind's kernels: `step()` sample by sample, `simulate()` over whole sequences.
 
 Two ways to run it: `step()` at the control period (the simulator endpoint), and `simulate()` over a
 whole recording, either as a time stream or as settled set-points (`t=None`: lag and delay have died
@@ -22,9 +23,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from pegbt.errors import PegbtError
-from pegbt.physics.effects import Effect, joint_index
-from pegbt.physics.kernels import apply_lag, apply_play, delay_series, play_grid
-from pegbt.psm import JOINT_NAMES, N_JOINTS
+from pegbt.physics.effects import TRANSFORM_STAGES, Effect, EffectKind, joint_index
+from pegbt.physics.kernels import delay_series, play_grid
+from pegbt.psm import N_JOINTS
 
 PRESET_DIR = Path(__file__).parent / "presets"
 
@@ -41,14 +42,17 @@ class ArmPhysics:
         self.tau = np.zeros(N_JOINTS)
         self.delay = np.zeros(N_JOINTS)
         self.hysteresis: list[tuple[int, int, float, float]] = []  # (joint, source, half_width, k)
+        self.transforms: list[tuple[int, EffectKind, Effect]] = []  # (joint, kind, effect) in stage order
         seen: set[tuple[str, str, str, float]] = set()
         for effect in self.effects:
             if effect.slot in seen:
                 raise PegbtError(f"{effect.effect} on {effect.joint} given twice", field=effect.joint)
             seen.add(effect.slot)
-            self._apply(effect)
-        self._state: NDArray[np.float64] | None = None  # backlash output
-        self._target: NDArray[np.float64] = np.zeros(N_JOINTS)  # backlash input (static map plus hysteresis)
+            effect.kind.install(self, effect)
+        self.transforms.sort(key=lambda entry: TRANSFORM_STAGES.index(entry[1].stage))
+        self._kernel_states: list[object] = [None] * len(self.transforms)
+        self._state: NDArray[np.float64] | None = None  # output of the play stage
+        self._target: NDArray[np.float64] = np.zeros(N_JOINTS)  # input of the play stage
         self._drive_seen: NDArray[np.float64] = np.zeros(len(self.hysteresis))  # input of each hysteresis
         self._drive_play: NDArray[np.float64] = np.zeros(
             len(self.hysteresis)
@@ -57,22 +61,15 @@ class ArmPhysics:
         self._history: deque[tuple[float, NDArray[np.float64]]] = deque()
         self._time = 0.0
 
-    def _apply(self, effect: Effect) -> None:
-        j, p = effect.index, effect.params
-        if effect.effect == "offset":
-            self.offset[j] = p["value"]
-        elif effect.effect == "scale":
-            self.scale[j] = p["value"]
-        elif effect.effect == "coupling":
-            self.coupling[j, joint_index(p["source"])] = p["k"]
-        elif effect.effect == "backlash":
-            self.half_width[j] = p["half_width"]
-        elif effect.effect == "lag":
-            self.tau[j] = p["tau"]
-        elif effect.effect == "delay":
-            self.delay[j] = p["seconds"]
-        elif effect.effect == "hysteresis":
-            self.hysteresis.append((j, joint_index(p["source"]), float(p["half_width"]), float(p["k"])))
+    def add_transform(self, kind: EffectKind, effect: Effect) -> None:
+        """Run `effect` as a per-joint transform of its stage (what `EffectKind.install` does by default)."""
+        if kind.stage not in TRANSFORM_STAGES:
+            raise PegbtError(f"{kind.name} acts at stage {kind.stage!r}, not a transform", field="effect")
+        self.transforms.append((effect.index, kind, effect))
+
+    def settled_transforms(self) -> list[tuple[int, EffectKind, Effect]]:
+        """The transforms that set-points keep (output dynamics settle out between them)."""
+        return [entry for entry in self.transforms if entry[1].stage != "output"]
 
     # ----------------------------------------------------------------- construction helpers
     @classmethod
@@ -161,11 +158,10 @@ class ArmPhysics:
     def reset(self, q_cmd: ArrayLike, time: float = 0.0) -> NDArray[np.float64]:
         """Settle the arm at command `q_cmd` (no play taken up) and return its physical joints."""
         q_cmd = np.asarray(q_cmd, dtype=float).copy()
-        self._state = self.static_map(q_cmd)
-        self._target = self._state.copy()
-        self._drive_play = np.array([self._drive(j, s, q_cmd, self._state) for j, s, _, _ in self.hysteresis])
+        static = self.static_map(q_cmd)
+        self._drive_play = np.array([self._drive(j, s, q_cmd, static) for j, s, _, _ in self.hysteresis])
         self._drive_seen = self._drive_play.copy()
-        self._output = self._state.copy()
+        self._output = self._run_stages(static, 0.0, starting=True)
         self._time = time
         self._history = deque([(time, q_cmd)])
         return self._output.copy()
@@ -187,11 +183,30 @@ class ArmPhysics:
             self._drive_play[n] = np.clip(self._drive_play[n], seen - half_width, seen + half_width)
             self._drive_seen[n] = seen
             target[j] += k * (self._drive_play[n] - seen)
-        self._state = _play(self._state, target, self.half_width)
-        self._target = target
-        alpha = np.where(self.tau > 0, 1.0 - np.exp(-dt / np.maximum(self.tau, 1e-12)), 1.0)
-        self._output = self._output + alpha * (self._state - self._output)
+        self._output = self._run_stages(target, dt)
         return self._output.copy()
+
+    def _run_stages(
+        self, target: NDArray[np.float64], dt: float, starting: bool = False
+    ) -> NDArray[np.float64]:
+        """Pass the target through each transform's step kernel (`starting`: settle each kernel at its
+        input first), keeping the play stage's input (`_target`) and output (`_state`)."""
+        signal = target.copy()
+        play_input: NDArray[np.float64] | None = None
+        play_output: NDArray[np.float64] | None = None
+        for n, (j, kind, effect) in enumerate(self.transforms):
+            if play_input is None and kind.stage != "target":
+                play_input = signal.copy()
+            if play_output is None and kind.stage == "output":
+                play_output = signal.copy()
+            if starting:
+                self._kernel_states[n] = kind.start(effect, float(signal[j]))
+            signal[j], self._kernel_states[n] = kind.step(
+                effect, self._kernel_states[n], float(signal[j]), dt
+            )
+        self._target = signal.copy() if play_input is None else play_input
+        self._state = signal.copy() if play_output is None else play_output
+        return signal
 
     def _delayed_command(self, q_cmd: NDArray[np.float64]) -> NDArray[np.float64]:
         """The command as each joint sees it: (6,) without delays, else (6, 6), row j delayed by delay[j]."""
@@ -219,10 +234,19 @@ class ArmPhysics:
         if q_cmd.ndim != 2 or q_cmd.shape[1] != N_JOINTS:
             raise PegbtError(f"commands must be N×{N_JOINTS}, got shape {q_cmd.shape}", field="q_cmd")
         if t is None:
-            return apply_play(self.settled_targets(q_cmd), self.half_width)
+            return self._transformed(self.settled_targets(q_cmd), None)
         t = np.asarray(t, dtype=float)
         delayed = [delay_series(q_cmd, t, float(self.delay[j])) for j in range(N_JOINTS)]
-        return apply_lag(apply_play(self._with_hysteresis(delayed), self.half_width), t, self.tau)
+        return self._transformed(self._with_hysteresis(delayed), t)
+
+    def _transformed(
+        self, targets: NDArray[np.float64], t: NDArray[np.float64] | None
+    ) -> NDArray[np.float64]:
+        """Each joint's targets (N, 6) through its transforms' sequence kernels (settled: no dynamics)."""
+        out = targets.copy()
+        for j, kind, effect in self.transforms if t is not None else self.settled_transforms():
+            out[:, j] = kind.sequence(effect, out[:, j], t)
+        return out
 
     def settled_targets(self, q_cmd: NDArray[np.float64]) -> NDArray[np.float64]:
         """What each joint's backlash sees along settled set-points (N, 6): the static map plus hysteresis."""
@@ -243,10 +267,3 @@ class ArmPhysics:
     ) -> NDArray[np.float64]:
         """The input of a hysteresis: the source's command, or the joint's own static target."""
         return static[..., joint] if source == joint else commands[..., source]
-
-
-def _play(
-    state: NDArray[np.float64], target: NDArray[np.float64], half_width: NDArray[np.float64]
-) -> NDArray[np.float64]:
-    """One step of the play operator: move the output only as far as the input has pushed it."""
-    return np.clip(state, target - half_width, target + half_width)

@@ -76,13 +76,15 @@ class Sampling:
 @dataclass(frozen=True)
 class Recording:
     """Commanded and physical joints (N, 6) of one arm, with sample times when known; `path` names it in
-    messages, `arm` is None when neither `meta.json` nor the name says which arm it is."""
+    messages, `arm` is None when neither `meta.json` nor the name says which arm it is; `resolution`
+    (per joint, in the joints' units) is what the measurement can tell apart, when `meta.json` says."""
 
     path: Path
     q_cmd: Array
     q_phy: Array
     t: Array | None = None
     arm: str | None = None
+    resolution: tuple[float, ...] | None = None
 
     @property
     def n(self) -> int:
@@ -115,10 +117,19 @@ class Recording:
             raise PegbtError(f"a share of the recording must be in (0, 1], got {fraction}", field="fraction")
         return int(round(fraction * self.n))
 
+    def subset(self, keep: NDArray[np.bool_]) -> "Recording":
+        """The samples where `keep` is true, as a recording of their own (itself if it keeps all)."""
+        if keep.all():
+            return self
+        t = None if self.t is None else self.t[keep]
+        return Recording(self.path, self.q_cmd[keep], self.q_phy[keep], t, self.arm, self.resolution)
+
     def slice(self, start: int, stop: int | None = None) -> "Recording":
         """The samples [start, stop) as a recording of their own."""
         t = None if self.t is None else self.t[start:stop]
-        return Recording(self.path, self.q_cmd[start:stop], self.q_phy[start:stop], t, self.arm)
+        return Recording(
+            self.path, self.q_cmd[start:stop], self.q_phy[start:stop], t, self.arm, self.resolution
+        )
 
 
 # ---------------------------------------------------------------------------------------------- reading
@@ -158,7 +169,7 @@ def load_recording(
             file=path,
         )
     validate(q_cmd, q_phy, t, path)
-    return Recording(path, q_cmd, q_phy, t, _arm_of(path))
+    return Recording(path, q_cmd, q_phy, t, _arm_of(path), _resolution_of(path))
 
 
 def _load_npy(path: Path) -> Array:
@@ -212,15 +223,49 @@ def _read_csv(path: Path) -> tuple[Array, Array, Array]:
     return values[:, 1:7], values[:, 7:13], values[:, 0]
 
 
+def _meta(path: Path) -> dict | None:
+    """A folder's `meta.json`, if it has one."""
+    meta = path / "meta.json"
+    if not (path.is_dir() and meta.exists()):
+        return None
+    try:
+        data = json.loads(meta.read_text())
+    except (OSError, json.JSONDecodeError) as error:
+        raise PegbtError(f"cannot read recording metadata: {error}", file=meta) from None
+    if not isinstance(data, dict):
+        raise PegbtError("recording metadata is an object", file=meta)
+    return data
+
+
+def _resolution_of(path: Path) -> tuple[float, ...] | None:
+    """Per-joint measurement resolution from `meta.json` (`"resolution": [six values]`), if it says."""
+    meta = _meta(path)
+    if meta is None or "resolution" not in meta:
+        return None
+    return parse_resolution(meta["resolution"], path / "meta.json")
+
+
+def parse_resolution(values: object, where: Path | str | None = None) -> tuple[float, ...]:
+    """Six non-negative finite numbers, one per joint, from a list or a comma-separated string."""
+    items = values.split(",") if isinstance(values, str) else values
+    try:
+        numbers = tuple(float(v) for v in items) if isinstance(items, (list, tuple)) else ()
+    except (TypeError, ValueError):
+        numbers = ()
+    if len(numbers) != N_JOINTS or not all(np.isfinite(numbers)) or min(numbers) < 0:
+        raise PegbtError(
+            f"resolution is {N_JOINTS} non-negative numbers, one per joint in its units; got {values!r}",
+            file=where,
+            field="resolution",
+        )
+    return numbers
+
+
 def _arm_of(path: Path) -> str | None:
     """The arm from `meta.json` in a folder, else from the name's ending (`random_smooth_grey1_PSM1`)."""
-    meta = path / "meta.json"
-    if path.is_dir() and meta.exists():
-        try:
-            arm = json.loads(meta.read_text()).get("arm")
-        except (OSError, json.JSONDecodeError, AttributeError) as error:
-            raise PegbtError(f"cannot read recording metadata: {error}", file=meta) from None
-        return known_arm(arm, meta)
+    meta = _meta(path)
+    if meta is not None and "arm" in meta:
+        return known_arm(meta["arm"], path / "meta.json")
     name = path.resolve().name if path.is_dir() else path.resolve().stem
     match = _ARM_AT_END.search(name)
     return match.group(1) if match else None
@@ -293,9 +338,15 @@ def _line(where: Path, sample: int) -> int | None:
 
 # ---------------------------------------------------------------------------------------------- writing
 def write_recording(
-    folder: str | Path, q_cmd: ArrayLike, q_phy: ArrayLike, t: ArrayLike | None, arm: str | None = None
+    folder: str | Path,
+    q_cmd: ArrayLike,
+    q_phy: ArrayLike,
+    t: ArrayLike | None,
+    arm: str | None = None,
+    resolution: tuple[float, ...] | None = None,
 ) -> Path:
-    """Write a recording in the dVRK folder layout; with `arm`, also `meta.json` saying which arm it is."""
+    """Write a recording in the dVRK folder layout; with `arm` or `resolution`, also `meta.json` saying
+    which arm it is and what its measurement resolves."""
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     q_cmd = np.asarray(q_cmd, dtype=float)
@@ -303,13 +354,15 @@ def write_recording(
     np.save(folder / FILES["q_phy"], np.asarray(q_phy, dtype=float))
     if t is not None:
         np.save(folder / FILES["t"], np.asarray(t, dtype=float))
-    if arm is not None:
-        meta = {
-            "arm": known_arm(arm),
+    if arm is not None or resolution is not None:
+        meta: dict[str, object] = {"arm": known_arm(arm)} if arm is not None else {}
+        meta |= {
             "joints": list(JOINT_NAMES),
             "samples": len(q_cmd),
             "written": datetime.now(timezone.utc).isoformat(timespec="seconds"),
         }
+        if resolution is not None:
+            meta["resolution"] = list(parse_resolution(resolution))
         (folder / "meta.json").write_text(json.dumps(meta, indent=2) + "\n")
     return folder
 

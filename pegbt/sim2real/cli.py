@@ -53,6 +53,13 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
         help="bootstrap resamples for intervals",
     )
     add_bag_arguments(diagnose)
+    diagnose.add_argument(
+        "--resolution",
+        metavar="R1,...,R6",
+        help="what the measurement resolves per joint, in the joints' units (the paper's fiducial set-up: "
+        "0.01,0.01,0.0005,0.01,0.01,0.01); effects smaller are listed below resolution, not named "
+        "(default: the recording's meta.json, when it says)",
+    )
     diagnose.set_defaults(handler=_diagnose)
 
     synth = commands.add_parser(
@@ -83,6 +90,11 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
         above=0.0,
         help="SNR of the concealed effect (default: drawn per family)",
     )
+    synth.add_argument(
+        "--effect",
+        metavar="KIND",
+        help="the kind of effect the weak family conceals (default: drawn from every registered kind)",
+    )
     synth.set_defaults(handler=_synth)
 
     preset = commands.add_parser(
@@ -107,14 +119,15 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
 
 
 def _diagnose(args: argparse.Namespace) -> int:
-    from pegbt.physics.recording import load_recording
+    from pegbt.physics.recording import load_recording, parse_resolution
     from pegbt.sim2real.diagnose import diagnose
     from pegbt.sim2real.report import read_named_effects, report_dict, write_report
 
+    resolution = None if args.resolution is None else parse_resolution(args.resolution)
     recording = load_recording(args.recording, arm=args.arm, **bag_options(args))
     if args.compare:
         read_named_effects(args.compare)  # refuse a bad report before the work, not after it
-    diagnosis = diagnose(recording, args.sim, args.arm, n_bootstrap=args.bootstrap)
+    diagnosis = diagnose(recording, args.sim, args.arm, n_bootstrap=args.bootstrap, resolution=resolution)
     report = (
         write_report(diagnosis, args.out, args.compare) if args.out else report_dict(diagnosis, args.compare)
     )
@@ -123,12 +136,15 @@ def _diagnose(args: argparse.Namespace) -> int:
         return 0
     print(f"{recording.path}: {recording.n} samples; {recording.sampling.reason}")
     print(f"simulator physics: {diagnosis.sim} ({diagnosis.arm})")
+    print(f"measurement faults: {report['measurement_faults']['text']}")
     before, after = report["fit"]["heldout_rmse_before"], report["fit"]["heldout_rmse_after"]
     print(
         "held-out RMSE before → after: " + ", ".join(f"{q} {before[q]:.4g} → {after[q]:.4g}" for q in before)
     )
     for effect in report["effects"]:
         print(f"  {effect['effect']} on {effect['joint']}: {effect['text']}")
+    for below in report["below_resolution"]:
+        print(f"  below resolution, not named: {below['effect']}: {below['reason']}")
     for statement in report["not_identifiable"]:
         print(f"  {statement}")
     if "comparison" in report:
@@ -156,7 +172,9 @@ def _preset(args: argparse.Namespace) -> int:
 def _synth(args: argparse.Namespace) -> int:
     from pegbt.sim2real.synth import generate, write_synthetic
 
-    synthetic = generate(args.family, args.seed, args.seconds, args.rate, args.sampling, args.snr)
+    synthetic = generate(
+        args.family, args.seed, args.seconds, args.rate, args.sampling, args.snr, args.effect
+    )
     folder, truth = write_synthetic(synthetic, args.outdir)
     print(f"recording: {folder}\ntruth: {truth}")
     return 0

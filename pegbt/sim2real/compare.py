@@ -10,13 +10,13 @@ RELATIVE_DIFFERENCE = 0.25  # parameters further apart than this (relative) are 
 def kind_key(effect: Effect) -> tuple[str, str, str]:
     """Effect family, joint, source: full and partial play on a joint's own drive are the same kind."""
     source = str(effect.params.get("source", effect.joint))
-    family = "play" if effect.effect in ("backlash", "hysteresis") else effect.effect
+    family = effect.kind.family_name()
     return (family, effect.joint, source)
 
 
 def describe(key: tuple[str, str, str]) -> str:
     family, joint, source = key
-    if family in ("coupling", "play") and source != joint:
+    if source != joint:
         return f"{family} {source}→{joint}"
     return f"{family} on {joint}"
 

@@ -9,13 +9,14 @@ the linearised fit) over each held-out segment, so the figure is what the simula
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
 from numpy.typing import NDArray
 
 from pegbt.physics import ArmPhysics, Effect
+from pegbt.physics.faults import MeasurementFaults, detect_faults
 from pegbt.psm import JOINT_NAMES
 from pegbt.sim2real.crossval import BlockedGrams
 from pegbt.sim2real.explain import effect_sentence, remaining_sentence, rival_sentence
@@ -30,6 +31,7 @@ from pegbt.sim2real.fit import (
 )
 from pegbt.sim2real.library import build_columns
 from pegbt.sim2real.locate import JointMismatch, locate
+from pegbt.sim2real.practical import BelowResolution, settle_joint
 from pegbt.physics.recording import Recording, Sampling, validate
 from pegbt.sim2real.select import JointSelection, Unidentifiable, find_unidentifiable, select
 
@@ -44,15 +46,17 @@ class NamedEffect:
 
     effect: Effect
     ci: dict[str, tuple[float, float]]
-    explains: float
+    explains: float  # share of the joint's held-out error before any effect (greedy order)
     pvalue: float
     text: str
+    contribution: float = 0.0  # held-out RMS it removes, in the joint's units
 
     def to_dict(self) -> dict:
         return {
             **self.effect.to_dict(),
             "ci": {k: list(v) for k, v in self.ci.items()},
             "explains": self.explains,
+            "contribution": self.contribution,
             "p_value": self.pvalue,
             "text": self.text,
         }
@@ -69,12 +73,16 @@ class Diagnosis:
     mismatch: list[JointMismatch]
     selections: list[JointSelection]
     fits: list[JointFit]
-    effects: list[NamedEffect]
+    effects: list[NamedEffect]  # in order of what they contribute
     physics: ArmPhysics
     heldout_prediction: Array
     fold_ranges: list[tuple[int, int]]
     not_identifiable: list[str]
     hypotheses: int
+    below_resolution: list[BelowResolution]
+    resolution: tuple[float, ...] | None
+    faults: MeasurementFaults  # over the whole recording; `recording` holds the kept samples
+    times_before_exclusion: Array
 
     @property
     def residual_before(self) -> Array:
@@ -115,17 +123,12 @@ def structure_from_effects(effects: list[Effect]) -> list[JointFit]:
     """The fit structure that a known list of effects would need (the oracle in benchmarks)."""
     structures = [JointFit(j, False, []) for j in range(len(JOINT_NAMES))]
     for effect in effects:
-        fit, p, j = structures[effect.index], effect.params, effect.index
-        source = JOINT_NAMES.index(p["source"]) if "source" in p else j
-        if effect.effect == "offset":
+        fit = structures[effect.index]
+        if effect.kind.is_intercept:
             fit.intercept = True
-        elif effect.effect in ("scale", "coupling"):
-            fit.terms.append(Term(effect.effect, source))
-        elif effect.effect == "hysteresis":
-            fit.terms.append(Term("backlash" if source == j else "hysteresis", source, p["half_width"]))
-        else:
-            width = p[{"backlash": "half_width", "lag": "tau", "delay": "seconds"}[effect.effect]]
-            fit.terms.append(Term(effect.effect, j, width, coef=1.0, fixed=True))
+            continue
+        kind, source, width, fixed = effect.kind.term(effect)
+        fit.terms.append(Term(kind, source, width, coef=1.0 if fixed else 0.0, fixed=fixed))
     return structures
 
 
@@ -185,12 +188,20 @@ def diagnose(
     arm: str | None = None,
     n_bootstrap: int = N_BOOTSTRAP,
     seed: int = 0,
+    resolution: tuple[float, ...] | None = None,
 ) -> Diagnosis:
-    """Locate, explain and fit the mismatch between a recording and the simulator's physics."""
+    """Locate, explain and fit the mismatch between a recording and the simulator's physics.
+
+    `resolution` (per joint; default: the recording's own, when its metadata says) sets what is too
+    small to name (`pegbt.sim2real.practical`). Samples no arm could produce (`pegbt.physics.faults`)
+    are left out of everything: selection, fit and the held-out figures."""
     arm = (
         arm or recording.arm or "PSM1"
     )  # presets differ per arm; the recording's meta.json or name says which
     base = ArmPhysics.load(sim, arm)
+    times_before_exclusion = recording.times
+    faults = detect_faults(recording.q_cmd, recording.q_phy)
+    recording = recording.subset(faults.kept)
     sampling = recording.sampling
     t = recording.t if sampling.is_stream else None
     q_cmd = recording.q_cmd
@@ -199,6 +210,13 @@ def diagnose(
     mismatch = locate(residual, q_cmd, recording.times, sampling.is_stream)
     unidentifiable = find_unidentifiable(q_cmd, sampling.is_stream, base)
     selections, hypotheses, grams = choose_effects(q_cmd, t, residual, base, unidentifiable)
+    resolution = resolution if resolution is not None else recording.resolution
+    below: list[BelowResolution] = []
+    for n, selection in enumerate(selections):
+        selections[n], dropped = settle_joint(
+            grams, selection, None if resolution is None else resolution[selection.joint]
+        )
+        below += dropped
     folds = grams.fold_ranges()
     drivers = base.static_map(q_cmd)
     fits = []
@@ -221,14 +239,22 @@ def diagnose(
         sampled = [to_effects(sample, base)[1] for sample in samples]
         for position, (effect, chosen) in enumerate(zip(changed, evidence)):
             ci = _intervals(effect, [s[position] for s in sampled])
-            base_value = float(base.offset[effect.index]) if effect.effect == "offset" else None
+            before = next((e for e in base.effects if e.slot == effect.slot), None)
             effects.append(
-                NamedEffect(effect, ci, chosen.explains, chosen.pvalue, effect_sentence(effect, base_value))
+                NamedEffect(effect, ci, chosen.explains, chosen.pvalue, effect_sentence(effect, before))
             )
             if chosen.rival:
                 statements.append(rival_sentence(chosen.candidate.label, chosen.rival))
     physics = merged_physics(fits, base)
     heldout = crossval_predict(fits, base, recording, t, residual, folds)
+    error_before = np.sqrt((residual**2).mean(0))
+    effects = sorted(
+        (
+            replace(e, contribution=float(error_before[e.effect.index] * np.sqrt(max(e.explains, 0.0))))
+            for e in effects
+        ),
+        key=lambda e: -e.contribution,
+    )
     return Diagnosis(
         recording,
         str(sim),
@@ -245,6 +271,10 @@ def diagnose(
         folds,
         statements,
         hypotheses,
+        below,
+        resolution,
+        faults,
+        times_before_exclusion,
     )
 
 

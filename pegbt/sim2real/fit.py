@@ -22,9 +22,8 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.optimize import minimize_scalar
 
-from pegbt.physics import ArmPhysics, Effect
-from pegbt.psm import JOINT_NAMES
-from pegbt.sim2real.library import DRIVEN_KINDS, WIDTH_KINDS, play_widths, width_bounds, width_column
+from pegbt.physics import ArmPhysics, Effect, EffectKind, effect_kinds, kind_of
+from pegbt.sim2real.library import play_widths, width_bounds, width_column
 from pegbt.sim2real.significance import block_bootstrap_indices, correlation_length
 
 Array = NDArray[np.float64]
@@ -37,7 +36,7 @@ BOOTSTRAP_LOCAL = 2.0 ** np.linspace(-0.5, 0.5, 7)
 
 @dataclass(frozen=True)
 class Term:
-    """One correction: `kind` in scale, coupling, hysteresis, backlash, lag, delay; driven by `source`.
+    """One correction: a candidate of a registered effect kind (not the intercept), driven by `source`.
 
     `fixed` terms enter with coefficient 1 (full backlash, lag, delay); the others are fitted.
     """
@@ -49,8 +48,17 @@ class Term:
     fixed: bool = False
 
     @property
+    def effect_kind(self) -> EffectKind:
+        return kind_of(self.kind)
+
+    @property
     def has_width(self) -> bool:
-        return self.kind in WIDTH_KINDS
+        return self.effect_kind.width is not None
+
+    @property
+    def driven(self) -> bool:
+        """Acts on the joint's driver (its static target), not on a command."""
+        return self.effect_kind.signal == "driver"
 
 
 @dataclass
@@ -66,7 +74,7 @@ class JointFit:
         """The joint's static target: the base model's plus this fit's scale and couplings."""
         driver = base_driver.copy()
         for term in self.terms:
-            if term.kind in ("scale", "coupling"):
+            if term.effect_kind.is_linear:
                 driver += term.coef * q_cmd[:, term.source]
         return driver
 
@@ -76,7 +84,7 @@ class JointFit:
         free = [np.ones(len(q_cmd))] if self.intercept else []
         fixed = np.zeros(len(q_cmd))
         for term in self.terms:
-            if term.kind in DRIVEN_KINDS:
+            if term.driven:
                 column = width_column(term.kind, driver, t, term.width)
             elif term.has_width:
                 column = width_column(term.kind, q_cmd[:, term.source], t, term.width)
@@ -155,7 +163,7 @@ def _refine_width(
         )
         return _least_squares(free[rows], (target - fixed)[rows])[1]
 
-    signal = fit.driver(q_cmd, base_driver) if term.kind in DRIVEN_KINDS else q_cmd[:, term.source]
+    signal = fit.driver(q_cmd, base_driver) if term.driven else q_cmd[:, term.source]
     lo, hi = width_bounds(term.kind, signal, t)
     lo, hi = min(lo, term.width), max(hi, term.width)  # a width given from outside the grid stays reachable
     bounds = (
@@ -196,7 +204,7 @@ def settle_backlash(
     """Keep each backlash at coefficient 1 unless partial play (free coefficient, width searched
     afresh on the grid) wins in every held-out fold and by `PARTIAL_PLAY_MIN_GAIN` overall."""
     for i, term in enumerate(fit.terms):
-        if term.kind != "backlash":
+        if set(term.effect_kind.gains) != {False, True}:
             continue
         full = JointFit(fit.joint, fit.intercept, list(fit.terms), fit.intercept_value)
         full.terms[i] = replace(term, fixed=True, coef=1.0)
@@ -250,7 +258,7 @@ def bootstrap(
     width_terms = [term for term in fit.terms if term.has_width]
     blocks = [static.columns(q_cmd, t, base_driver)[0]]
     for term in width_terms:
-        signal = driver if term.kind in DRIVEN_KINDS else q_cmd[:, term.source]
+        signal = driver if term.driven else q_cmd[:, term.source]
         blocks.append(
             np.column_stack([width_column(term.kind, signal, t, term.width * r) for r in BOOTSTRAP_LOCAL])
         )
@@ -299,41 +307,17 @@ def to_effects(fit: JointFit, base: ArmPhysics) -> tuple[list[Effect], list[Effe
     """(this joint's effects in the merged model, the effects that are new or changed, in fit order:
     the offset first when the fit has an intercept, then one per term).
 
-    Offsets, scales and couplings add to the base model's values; a full backlash is `backlash`, a
-    partial one the joint's own `hysteresis`; play driven by another joint is `hysteresis`; lag and
-    delay carry over (a delay adds to the base model's).
+    Each term becomes the effect its kind says (`EffectKind.to_effect`): offsets, scales and couplings
+    add to the base model's values; a full backlash is `backlash`, a partial one the joint's own
+    `hysteresis`; a delay adds to the base model's.
     """
     j = fit.joint
-    name = JOINT_NAMES[j]
     changed: list[Effect] = []
     if fit.intercept:
-        changed.append(Effect("offset", name, {"value": float(base.offset[j] + fit.intercept_value)}))
+        intercept = next(kind for kind in effect_kinds() if kind.is_intercept)
+        changed.append(intercept.to_effect(j, j, float("nan"), fit.intercept_value, False, base))
     for term in fit.terms:
-        source = JOINT_NAMES[term.source]
-        if term.kind == "scale":
-            changed.append(Effect("scale", name, {"value": float(base.scale[j] + term.coef)}))
-        elif term.kind == "coupling":
-            changed.append(
-                Effect(
-                    "coupling",
-                    name,
-                    {"source": source, "k": float(base.coupling[j, term.source] + term.coef)},
-                )
-            )
-        elif term.kind == "backlash" and term.fixed:
-            changed.append(Effect("backlash", name, {"half_width": float(term.width)}))
-        elif term.kind in ("backlash", "hysteresis"):
-            changed.append(
-                Effect(
-                    "hysteresis",
-                    name,
-                    {"source": source, "half_width": float(term.width), "k": float(term.coef)},
-                )
-            )
-        elif term.kind == "lag":
-            changed.append(Effect("lag", name, {"tau": float(term.width)}))
-        else:
-            changed.append(Effect("delay", name, {"seconds": float(base.delay[j] + term.width)}))
+        changed.append(term.effect_kind.to_effect(j, term.source, term.width, term.coef, term.fixed, base))
     replaced = {effect.slot for effect in changed}
     kept = [effect for effect in base.effects if effect.index == j and effect.slot not in replaced]
     return kept + changed, changed

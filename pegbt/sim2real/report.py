@@ -51,7 +51,7 @@ def report_dict(diagnosis: Diagnosis, compared_with: str | Path | None = None) -
         }
     report = {
         "recording": str(recording.path),
-        "samples": recording.n,
+        "samples": len(diagnosis.times_before_exclusion),
         "sampling": {"mode": diagnosis.sampling.mode, "reason": diagnosis.sampling.reason},
         "time_unit": "s" if recording.t is not None else "sample",
         "sim": diagnosis.sim,
@@ -60,6 +60,9 @@ def report_dict(diagnosis: Diagnosis, compared_with: str | Path | None = None) -
         "units": {q: unit(q) for q in JOINT_NAMES},
         "mismatch": [m.to_dict() for m in diagnosis.mismatch],
         "effects": [e.to_dict() for e in diagnosis.effects],
+        "resolution": None if diagnosis.resolution is None else dict(zip(JOINT_NAMES, diagnosis.resolution)),
+        "below_resolution": [b.to_dict() for b in diagnosis.below_resolution],
+        "measurement_faults": diagnosis.faults.to_dict(diagnosis.times_before_exclusion),
         "not_identifiable": list(diagnosis.not_identifiable),
         "selection": {
             "alpha": ALPHA,
@@ -71,6 +74,8 @@ def report_dict(diagnosis: Diagnosis, compared_with: str | Path | None = None) -
             "heldout_rmse_before": diagnosis.rmse_before(),
             "heldout_rmse_after": diagnosis.rmse_after(),
             "method": HELDOUT_METHOD,
+            "samples": recording.n,
+            "samples_excluded": diagnosis.faults.count,
             "folds": [[float(times[a]), float(times[b - 1])] for a, b in diagnosis.fold_ranges],
         },
         "remaining": diagnosis.remaining(),
@@ -97,8 +102,15 @@ def report_markdown(report: dict[str, Any], plots: list[str]) -> str:
 
     Written from the JSON report rather than the diagnosis, so the two files can never disagree."""
     lines = [f"# Sim-to-real diagnosis of `{report['recording']}`", ""]
+    if report["effects"]:
+        lines += ["In order of what they explain:", ""]
+        lines += [f"{n}. {e['text']}." for n, e in enumerate(report["effects"], 1)]
+    else:
+        lines.append("No effect large enough to name.")
+    lines.append("")
     lines += [
         f"- {report['samples']} samples; {report['sampling']['reason']}.",
+        f"- Measurement faults: {report['measurement_faults']['text']}.",
         f"- Simulator physics: `{report['sim']}` (arm {report['arm']}).",
         f"- Effects chosen by blocked cross-validation; each must gain in every held-out fold and beat "
         f"circularly shifted data at α = {report['selection']['alpha']} / {report['selection']['hypotheses']} "
@@ -137,6 +149,9 @@ def report_markdown(report: dict[str, Any], plots: list[str]) -> str:
             f"- **{e['effect']} on {e['joint']}** ({params}; 95 % CI {ci or 'n/a'}; explains "
             f"{100 * e['explains']:.1f} % of the joint's error; p {_pvalue(e['p_value'])}): {e['text']}."
         )
+    if report["below_resolution"]:
+        lines += ["", "## Below resolution (not named)", ""]
+        lines += [f"- {b['effect']}: {b['reason']}" for b in report["below_resolution"]]
     if report["not_identifiable"]:
         lines += ["", "## Not identifiable from these data", ""]
         lines += [f"- {statement}" for statement in report["not_identifiable"]]
@@ -145,7 +160,8 @@ def report_markdown(report: dict[str, Any], plots: list[str]) -> str:
         "",
         "## Held-out fit",
         "",
-        f"{fit['method']}.",
+        f"{fit['method']}; on the {fit['samples']} samples kept ({fit['samples_excluded']} excluded as "
+        "measurement faults).",
         "",
         "| joint | before | after |",
         "|---|---|---|",

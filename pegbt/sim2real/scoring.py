@@ -18,12 +18,13 @@ def effect_key(effect: Effect) -> tuple[str, str, str]:
 
 
 def relative_errors(truth: Effect, named: Effect) -> list[float]:
-    """Relative error of each numeric parameter (a scale's error is relative to its departure from 1)."""
+    """Relative error of each numeric parameter, relative to its departure from the value that changes
+    nothing (a scale's from 1)."""
     errors = []
     for name, value in truth.params.items():
         if name == "source":
             continue
-        reference = abs(value - 1.0) if truth.effect == "scale" else abs(value)
+        reference = abs(value - truth.kind.neutral)
         errors.append(abs(named.params[name] - value) / max(reference, 1e-12))
     return errors
 

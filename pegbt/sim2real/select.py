@@ -17,6 +17,9 @@ The intercept itself is named an `offset` only if its delete-one-block jackknife
 level and it too gains in every fold. Candidates the data cannot test (a joint that never reverses,
 two commands that move together, lag and delay on settled set-points) are set aside with the reason;
 a rival that explains nearly as much and is not beaten in every fold is reported as not separable.
+Between near-equivalent explanations of different size (full backlash versus partial play, coupling or
+scale versus hysteresis) the one with fewer parameters is kept unless the richer one gains more in every
+held-out fold and by `PARSIMONY_GUARD`; the report then says the two were not separable.
 """
 
 from __future__ import annotations
@@ -27,11 +30,11 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.optimize import minimize_scalar
 
-from pegbt.physics import ArmPhysics
-from pegbt.psm import JOINT_NAMES
+from pegbt.physics import ArmPhysics, EffectKind, effect_kinds
 from pegbt.physics.kernels import play_grid
+from pegbt.psm import JOINT_NAMES
 from pegbt.sim2real.crossval import BlockedGrams
-from pegbt.sim2real.library import DRIVEN_KINDS, Candidate, width_bounds, width_column
+from pegbt.sim2real.library import Candidate, width_bounds, width_column
 from pegbt.sim2real.significance import shift_pvalue, t_pvalue
 
 Array = NDArray[np.float64]
@@ -43,6 +46,7 @@ MIN_REVERSALS = 3
 REVERSAL_TRAVEL = 0.02  # a reversal counts when the command comes back by this fraction of its range
 COLLINEAR = 0.98
 AMBIGUOUS_GAIN = 0.9  # a rival explaining this fraction of the winner's gain, not beaten in every fold
+PARSIMONY_GUARD = 0.01  # of what is left: how much more a richer explanation must gain than a simpler one
 WIDTH_SEARCH_RATIO = 1.8  # a chosen width is refined within [w / r, w · r] of its grid value
 EXCITED = 0.05  # a fold excites a candidate when its column's energy there is this fraction of the mean
 TRIES_PER_STEP = 5  # when the best candidate fails a guard, the next ones (by held-out gain) may pass
@@ -103,12 +107,17 @@ def find_unidentifiable(q_cmd: Array, is_stream: bool, base: ArmPhysics) -> Unid
     statements: list[str] = []
     moving = np.ptp(q_cmd, axis=0) > 0
     reversals = [count_reversals(q_cmd[:, s]) for s in range(n_joints)]
+    kinds = effect_kinds()
+
+    def driven_by(s: int, which: list[EffectKind]) -> set[tuple[str, int, int]]:
+        """Candidate keys of these kinds whose column moves with s's command."""
+        return {(k.name, j, s) for k in which for j in (range(n_joints) if k.takes_source else [s])}
+
     for s in range(n_joints):
         name = JOINT_NAMES[s]
-        driven_by_s = {("hysteresis", j, s) for j in range(n_joints)} | {("backlash", s, s)}
+        driven_by_s = driven_by(s, [k for k in kinds if k.needs_reversals])
         if not moving[s]:
-            keys |= driven_by_s | {("scale", s, s), ("lag", s, s), ("delay", s, s)}
-            keys |= {("coupling", j, s) for j in range(n_joints)}
+            keys |= driven_by(s, [k for k in kinds if not k.is_intercept])
             statements.append(
                 f"scale, backlash, lag and delay on {name}, couplings and hysteresis driven by {name}: "
                 f"not identifiable: {name} is never commanded to move"
@@ -121,26 +130,24 @@ def find_unidentifiable(q_cmd: Array, is_stream: bool, base: ArmPhysics) -> Unid
             )
     corr = np.corrcoef(q_cmd[:, moving].T) if moving.sum() > 1 else np.ones((1, 1))
     index = np.flatnonzero(moving)
+    cross = [k.name for k in kinds if k.is_linear and k.takes_source]
     for a in range(len(index)):
         for b in range(a + 1, len(index)):
             if abs(corr[a, b]) > COLLINEAR:
                 j, s = index[a], index[b]
-                keys |= {("coupling", j, s), ("coupling", s, j)}
+                keys |= {(name, j, s) for name in cross} | {(name, s, j) for name in cross}
                 statements.append(
                     f"coupling between {JOINT_NAMES[j]} and {JOINT_NAMES[s]} versus their scales: not "
                     f"identifiable: their commands move together (r = {corr[a, b]:.3f})"
                 )
     if not is_stream:
-        keys |= {(k, j, j) for j in range(n_joints) for k in ("lag", "delay")}
+        keys |= {(k.name, j, j) for j in range(n_joints) for k in kinds if k.streams_only}
         statements.append(
             "lag and delay on every joint: not identifiable: the samples are settled set-points"
         )
     for effect in base.effects:  # play and time effects the base already has are kept as they are
-        if effect.effect in ("backlash", "lag", "delay"):
-            keys.add((effect.effect, effect.index, effect.index))
-        elif effect.effect == "hysteresis":
-            source = JOINT_NAMES.index(str(effect.params["source"]))
-            keys.add(("backlash" if source == effect.index else "hysteresis", effect.index, source))
+        if effect.kind.width is not None:
+            keys.add(effect.kind.candidate_key(effect))
     return Unidentifiable(frozenset(keys), tuple(statements))
 
 
@@ -159,7 +166,9 @@ def select_joint(
 ) -> JointSelection:
     """Forward selection for one joint (see the module docstring for the rules)."""
     result = JointSelection(joint)
-    pool = [c for c in candidates if c.joint == joint and c.kind != "offset" and c.key not in excluded]
+    pool = [
+        c for c in candidates if c.joint == joint and not c.effect_kind.is_intercept and c.key not in excluded
+    ]
     before = float(grams.cv_sse(joint, np.array([], dtype=np.int64)).sum())
     if before <= 0:
         result.stopped = "no error left to explain"
@@ -172,16 +181,27 @@ def select_joint(
         residual = _residual(grams, joint, free, fixed)
         shortlist = _best_per_candidate(options, gain)[:TRIES_PER_STEP]
         refined: dict[int, tuple[int, float]] = {}  # option → (bank column, width) between grid values
-        for index in shortlist:
+
+        def refine(index: int) -> None:
             cand, g, unit_gain = options[index]
-            if cand.has_width and gain[index] >= MIN_GAIN:
+            if cand.has_width and gain[index] >= MIN_GAIN and index not in refined:
                 width = _refine_width(cand, float(cand.widths[g]), residual, t, unit_gain)
                 column = grams.add_column(width_column(cand.kind, cand.signal, t, width))
                 refined[index] = column, width
                 trial_free, trial_fixed = (free, fixed + [column]) if unit_gain else (free + [column], fixed)
                 sse[index] = grams.cv_sse(joint, np.array(trial_free), np.array(trial_fixed, dtype=np.int64))
                 gain[index] = (current.sum() - sse[index].sum()) / max(float(current.sum()), 1e-300)
+
+        for index in shortlist:
+            refine(index)
         shortlist.sort(key=lambda index: -gain[index])
+        parsimonious: dict[int, str] = {}  # a simpler option chosen over a richer one → the richer's label
+        simpler = _simpler(options, sse, gain, shortlist[0]) if shortlist else None
+        if simpler is not None:
+            refine(simpler)
+            if not _richer_wins(sse, gain, shortlist[0], simpler):
+                parsimonious[simpler] = options[shortlist[0]][0].label + _mode(options[shortlist[0]])
+                shortlist = [simpler] + [index for index in shortlist if index != simpler]
         accepted = None
         for rank, index in enumerate(shortlist):
             cand, g, unit_gain = options[index]
@@ -212,7 +232,7 @@ def select_joint(
                 float((current.sum() - sse[index].sum()) / before),
                 pvalue,
                 tuple(float(x) for x in current - sse[index]),
-                _rival(options, sse, gain, index),
+                parsimonious.get(index) or _rival(options, sse, gain, index),
                 unit_gain,
             )
         )
@@ -226,7 +246,7 @@ def select_joint(
     gains = without - current
     offset_gain = float(gains.sum() / max(float(without.sum()), 1e-300))
     if pvalue <= level and (gains > 0).all() and offset_gain >= MIN_GAIN:
-        offset = next(c for c in candidates if c.joint == joint and c.kind == "offset")
+        offset = next(c for c in candidates if c.joint == joint and c.effect_kind.is_intercept)
         result.offset = Chosen(
             offset, 0, float("nan"), float(gains.sum() / before), pvalue, tuple(float(x) for x in gains)
         )
@@ -292,9 +312,7 @@ def _gains_where_excited(grams: BlockedGrams, column: int, fold_gains: Array) ->
 
 def _gains_allowed(candidate: Candidate) -> tuple[bool, ...]:
     """Whether a candidate enters with a free coefficient (False), at unit gain (True), or either."""
-    if candidate.kind == "backlash":
-        return (False, True)  # full play, or play of which only part reaches the joint
-    return (True,) if candidate.kind in DRIVEN_KINDS else (False,)
+    return candidate.effect_kind.gains
 
 
 def _best_per_candidate(options: list[tuple[Candidate, int, bool]], gain: Array) -> list[int]:
@@ -307,6 +325,43 @@ def _best_per_candidate(options: list[tuple[Candidate, int, bool]], gain: Array)
             seen.add(key)
             order.append(int(index))
     return order
+
+
+def _n_params(option: tuple[Candidate, int, bool]) -> int:
+    """Parameters an option adds: its width, if it has one, and its coefficient, unless at unit gain."""
+    cand, _, unit_gain = option
+    return int(cand.has_width) + int(not unit_gain)
+
+
+def _mode(option: tuple[Candidate, int, bool]) -> str:
+    """How an option of a kind that may enter either way enters (partial play versus full backlash)."""
+    cand, _, unit_gain = option
+    if set(cand.effect_kind.gains) != {False, True}:
+        return ""
+    return " at unit gain" if unit_gain else " with a free gain"
+
+
+def _simpler(options: list[tuple[Candidate, int, bool]], sse: Array, gain: Array, best: int) -> int | None:
+    """The best option with fewer parameters than `best` that explains nearly as much (nested or
+    near-equivalent explanations: full versus partial play, coupling or scale versus hysteresis)."""
+    needed = _n_params(options[best])
+    seen: set[tuple[tuple[str, int, int], bool]] = set()
+    for index in np.argsort(gain)[::-1]:
+        option = options[index]
+        key = (option[0].key, option[2])
+        if key in seen:
+            continue
+        seen.add(key)
+        if gain[index] < AMBIGUOUS_GAIN * gain[best]:
+            return None
+        if int(index) != best and _n_params(option) < needed:
+            return int(index)
+    return None
+
+
+def _richer_wins(sse: Array, gain: Array, richer: int, simpler: int) -> bool:
+    """Whether the richer explanation beats the simpler one in every held-out fold and by the guard."""
+    return bool((sse[richer] < sse[simpler]).all() and gain[richer] - gain[simpler] >= PARSIMONY_GUARD)
 
 
 def _rival(options: list[tuple[Candidate, int, bool]], sse: Array, gain: Array, best: int) -> str | None:

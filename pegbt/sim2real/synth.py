@@ -25,7 +25,7 @@ from scipy.interpolate import PchipInterpolator
 from scipy.optimize import brentq
 
 from pegbt.errors import PegbtError
-from pegbt.physics import ArmPhysics, Effect
+from pegbt.physics import ArmPhysics, Effect, effect_kinds, kind_of
 from pegbt.psm import JOINT_NAMES
 from pegbt.physics.recording import Recording, write_recording
 
@@ -37,10 +37,7 @@ AMPLITUDE = np.array([0.5, 0.4, 0.05, 1.0, 0.7, 0.7])
 NOISE_SIGMA = np.array([0.002, 0.002, 0.0001, 0.003, 0.003, 0.003])
 AR1_RHO = 0.9
 SETPOINT_INTERVAL_S = 0.8
-KINDS = ("offset", "scale", "coupling", "backlash", "hysteresis", "lag", "delay")
-SETTLED_KINDS = ("offset", "scale", "coupling", "backlash", "hysteresis")
 MASKING_RATIO = 10.0  # a masking effect's RMS over the concealed one's
-MAX_BACKLASH_FRACTION = 0.15  # of the joint's range: more play than this and the joint hardly moves
 
 
 def effect_label(effect: Effect) -> str:
@@ -97,44 +94,12 @@ def few_fast_moves(rng: np.random.Generator, t: Array, joint: int, moves: int = 
 def _contribution(effect: Effect, q_cmd: Array, t: Array | None) -> float:
     """RMS of what the effect changes in its joint (its mean removed, except for an offset)."""
     change = ArmPhysics([effect]).simulate(q_cmd, t)[:, effect.index] - q_cmd[:, effect.index]
-    return float(np.sqrt((change**2).mean())) if effect.effect == "offset" else float(change.std())
-
-
-def _unit_ratio(joint: int, source: int) -> float:
-    """How a rad-sized coefficient scales between joints of different units (q3 is in metres)."""
-    metres = {2}
-    return (0.01 if joint in metres else 1.0) / (0.01 if source in metres else 1.0)
+    return float(np.sqrt((change**2).mean())) if effect.kind.is_intercept else float(change.std())
 
 
 def plausible_effect(kind: str, joint: int, source: int, q_cmd: Array, rng: np.random.Generator) -> Effect:
     """An effect with parameters in the range a cable-driven arm shows (sign at random)."""
-    name, src = JOINT_NAMES[joint], JOINT_NAMES[source]
-    sign = float(rng.choice([-1.0, 1.0]))
-    size = 0.01 if joint == 2 else 1.0  # q3 moves in metres
-    if kind == "offset":
-        return Effect("offset", name, {"value": sign * size * rng.uniform(0.01, 0.2)})
-    if kind == "scale":
-        return Effect("scale", name, {"value": 1.0 + sign * rng.uniform(0.02, 0.2)})
-    if kind == "coupling":
-        return Effect(
-            "coupling", name, {"source": src, "k": sign * _unit_ratio(joint, source) * rng.uniform(0.02, 0.3)}
-        )
-    if kind == "backlash":
-        return Effect("backlash", name, {"half_width": size * rng.uniform(0.005, 0.05)})
-    if kind == "hysteresis":
-        half_width = float(rng.uniform(0.03, 0.1) * np.ptp(q_cmd[:, source]))
-        return Effect(
-            "hysteresis",
-            name,
-            {
-                "source": src,
-                "half_width": half_width,
-                "k": sign * _unit_ratio(joint, source) * rng.uniform(0.1, 0.8),
-            },
-        )
-    if kind == "lag":
-        return Effect("lag", name, {"tau": rng.uniform(0.02, 0.1)})
-    return Effect("delay", name, {"seconds": rng.uniform(0.01, 0.05)})
+    return kind_of(kind).plausible(joint, source, q_cmd, rng)
 
 
 def sized_effect(
@@ -142,23 +107,25 @@ def sized_effect(
 ) -> Effect:
     """An effect of `kind` whose contribution has RMS `target` (for masking effects of a chosen size)."""
     shape = plausible_effect(kind, joint, source, q_cmd, rng)
-    if kind in ("offset", "scale", "coupling", "hysteresis"):
-        ratio = target / _contribution(shape, q_cmd, t)
-        params = dict(shape.params)
-        if kind == "scale":
-            params["value"] = 1.0 + (params["value"] - 1.0) * ratio
-        else:
-            params["value" if kind == "offset" else "k"] *= ratio
-        return Effect(kind, shape.joint, params)
-    width = {"backlash": "half_width", "lag": "tau", "delay": "seconds"}[kind]
-    upper = MAX_BACKLASH_FRACTION * float(np.ptp(q_cmd[:, joint])) if kind == "backlash" else 0.5
+    resized = shape.kind.resized(shape, target / _contribution(shape, q_cmd, t))
+    if resized is not None:
+        return resized
+    width = shape.kind.width
+    assert width is not None, f"{kind} can be sized neither by a coefficient nor by a width"
+    upper = shape.kind.largest(q_cmd, joint)
 
     def excess(value: float) -> float:
-        return _contribution(Effect(kind, shape.joint, {width: value}), q_cmd, t) - target
+        return _contribution(Effect(kind, shape.joint, {**shape.params, width: value}), q_cmd, t) - target
 
     if excess(upper) < 0:
-        return Effect(kind, shape.joint, {width: upper})
-    return Effect(kind, shape.joint, {width: float(brentq(excess, upper * 1e-7, upper, xtol=upper * 1e-9))})
+        return Effect(kind, shape.joint, {**shape.params, width: upper})
+    value = float(brentq(excess, upper * 1e-7, upper, xtol=upper * 1e-9))
+    return Effect(kind, shape.joint, {**shape.params, width: value})
+
+
+def concealable(sampling: str) -> tuple[str, ...]:
+    """The kinds a recording of this sampling can hide (and show): stream-only kinds need streams."""
+    return tuple(k.name for k in effect_kinds() if sampling == "stream" or not k.streams_only)
 
 
 def _pick(rng: np.random.Generator, options) -> str:
@@ -181,16 +148,24 @@ def generate(
     rate_hz: float = 100.0,
     sampling: str = "stream",
     snr: float | None = None,
+    effect: str | None = None,
 ) -> Synthetic:
     """One synthetic recording of `family`, reproducible from `seed`.
 
     The concealed effect has parameters in a plausible physical range; its SNR (drawn per family, or
     `snr`) then sets the noise σ of its joint. Masking effects are sized `MASKING_RATIO`× the concealed one.
+    `effect` names the kind the `weak` family conceals (default: drawn from every registered kind).
     """
     if family not in FAMILIES:
         raise PegbtError(f"unknown family {family!r}; known: {', '.join(FAMILIES)}", field="family")
     if sampling not in ("stream", "setpoints"):
         raise PegbtError(f"unknown sampling {sampling!r}; expected stream or setpoints", field="sampling")
+    if effect is not None and (family != "weak" or effect not in concealable(sampling)):
+        raise PegbtError(
+            f"--effect names the kind the weak family conceals, one of {', '.join(concealable(sampling))} "
+            f"for {sampling}; got {effect!r} for {family}",
+            field="effect",
+        )
     rng = np.random.default_rng(seed)
     interval = 1.0 / rate_hz if sampling == "stream" else SETPOINT_INTERVAL_S
     t = np.arange(0.0, seconds, interval)
@@ -201,7 +176,8 @@ def generate(
     )
     q_cmd = smooth_commands(rng, t, hold)
     stream_t = t if sampling == "stream" else None
-    kinds = KINDS if sampling == "stream" else SETTLED_KINDS
+    kinds = concealable(sampling)
+    sourced = tuple(k for k in kinds if kind_of(k).takes_source)
     joint = int(rng.integers(len(JOINT_NAMES)))
     other = int((joint + rng.integers(1, len(JOINT_NAMES))) % len(JOINT_NAMES))
     sigma = NOISE_SIGMA.copy()
@@ -218,14 +194,14 @@ def generate(
         return effect
 
     if family == "weak":
-        kind = _pick(rng, kinds)
-        effects.append(conceal(kind, joint, other if kind in ("coupling", "hysteresis") else joint, 0.5, 1.0))
+        kind = effect or _pick(rng, kinds)
+        effects.append(conceal(kind, joint, other if kind in sourced else joint, 0.5, 1.0))
     elif family == "masked":
         big = _pick(rng, ("offset", "scale", "coupling", "backlash"))
         small = _pick(rng, [k for k in kinds if k != big])
         where = joint if rng.random() < 0.5 else other
         source = int((where + 1 + rng.integers(len(JOINT_NAMES) - 1)) % len(JOINT_NAMES))
-        hidden = conceal(small, where, source if small in ("coupling", "hysteresis") else where, 1.0, 2.0)
+        hidden = conceal(small, where, source if small in sourced else where, 1.0, 2.0)
         masking = sized_effect(
             big,
             joint,
@@ -238,20 +214,15 @@ def generate(
         snrs[effect_label(masking)] = float(_contribution(masking, q_cmd, stream_t) / sigma[joint])
         effects += [masking, hidden]
     elif family == "regime":
-        kind = _pick(
-            rng,
-            ("backlash", "hysteresis", "lag", "delay")
-            if sampling == "stream"
-            else ("backlash", "hysteresis"),
-        )
-        driver = other if kind == "hysteresis" else joint
-        if kind in ("backlash", "hysteresis"):
+        kind = _pick(rng, [k for k in kinds if kind_of(k).needs_reversals or kind_of(k).streams_only])
+        driver = other if kind in sourced else joint
+        if kind_of(kind).needs_reversals:
             q_cmd[:, driver] = zigzag(rng, t, driver, int(rng.integers(4, 7)))
         else:
             q_cmd[:, joint] = few_fast_moves(rng, t, joint)
         effects.append(conceal(kind, joint, driver, 2.0, 3.0))
     elif family == "coupled":
-        effects.append(conceal(_pick(rng, ("coupling", "hysteresis")), joint, other, 1.0, 3.0))
+        effects.append(conceal(_pick(rng, sourced), joint, other, 1.0, 3.0))
     noise_kind = "ar1" if family == "null-ar1" or (family != "null-white" and seed % 2) else "white"
     noise = _noise(rng, len(t), noise_kind) * sigma
     q_phy = ArmPhysics(effects).simulate(q_cmd, stream_t) + noise

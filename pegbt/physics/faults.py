@@ -1,0 +1,98 @@
+"""Measurement faults: samples of a recording that no arm could have produced.
+
+A fiducial tracker fails in two ways (`../shared/data/dvrk/README.md`, "Clean, unlike raw recordings"):
+it loses a sphere for a sample, and every joint jumps at once, even q1–q3 by tenths of a radian; or it
+loses the tool for minutes, and the reading leaves the command altogether. Neither is physics, and both
+must stay out of any fit. A sample is a fault when, on at least `MIN_JOINTS` joints at once, its error
+(measured − commanded) departs by more than `LIMIT` times the joint's typical error (its robust spread
+over the whole recording) from its neighbours (a glitch among good samples) or from where the joint
+usually sits (a window of samples far from it). Robust: medians and median absolute deviations, so the
+faults themselves do not widen the yardstick. Runs of faults become windows.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.ndimage import median_filter
+
+Array = NDArray[np.float64]
+
+LIMIT = 8.0  # robust deviations (MAD × 1.4826) beyond which a joint's error is not its own
+MIN_JOINTS = 2  # joints that must depart at once: a tracker fault corrupts the whole pose
+NEIGHBOURS = 9  # samples in the running median a glitch is compared with
+WINDOW_GAP = 5  # faults this close together belong to one window
+MIN_WINDOW = 10  # a run of at least this many faults is lost tracking, not a glitch
+
+
+@dataclass(frozen=True)
+class MeasurementFaults:
+    """Which samples are faults, as a mask, and their windows (first, last sample index inclusive)."""
+
+    mask: NDArray[np.bool_]
+    windows: tuple[tuple[int, int], ...]  # runs of at least MIN_WINDOW faults: tracking lost
+    glitches: int  # isolated faulty samples outside those windows
+
+    @property
+    def count(self) -> int:
+        return int(self.mask.sum())
+
+    @property
+    def kept(self) -> NDArray[np.bool_]:
+        return ~self.mask
+
+    def sentence(self, times: Array, unit: str = "s") -> str:
+        """What happened, for a person: "the tracker lost the tool after 812 s; 240 samples excluded"."""
+        if not self.count:
+            return "no measurement faults"
+        parts = [
+            f"the tracker lost the tool from {times[a]:.4g} to {times[b]:.4g} {unit} ({b - a + 1} samples)"
+            for a, b in self.windows
+        ]
+        if self.glitches:
+            parts.append(
+                f"{self.glitches} isolated samples jumped on several joints at once (tracker glitches)"
+            )
+        return "; ".join(parts) + f"; {self.count} samples excluded"
+
+    def to_dict(self, times: Array) -> dict[str, object]:
+        return {
+            "samples_excluded": self.count,
+            "glitches": self.glitches,
+            "windows": [[float(times[a]), float(times[b]), b - a + 1] for a, b in self.windows],
+            "text": self.sentence(times),
+        }
+
+
+def _spread(error: Array) -> Array:
+    """Each joint's typical error: 1.4826 × the median absolute deviation of its whole recording."""
+    spread = 1.4826 * np.median(np.abs(error - np.median(error, axis=0)), axis=0)
+    return np.maximum(spread, 1e-9)
+
+
+def detect_faults(q_cmd: Array, q_phy: Array) -> MeasurementFaults:
+    """The samples of a recording no arm could produce (see the module docstring)."""
+    error = np.asarray(q_phy, float) - np.asarray(q_cmd, float)
+    n = len(error)
+    if n < NEIGHBOURS:
+        return MeasurementFaults(np.zeros(n, dtype=bool), (), 0)
+    spread = _spread(error)
+    local = np.abs(error - median_filter(error, size=(NEIGHBOURS, 1), mode="nearest")) / spread
+    overall = np.abs(error - np.median(error, axis=0)) / spread
+    departs = np.maximum(local, overall) > LIMIT
+    mask = departs.sum(axis=1) >= MIN_JOINTS
+    windows = []
+    glitches = 0
+    index = np.flatnonzero(mask)
+    if index.size:
+        breaks = np.flatnonzero(np.diff(index) > WINDOW_GAP)
+        for run in np.split(index, breaks + 1):
+            a, b = int(run[0]), int(run[-1])
+            if len(run) >= MIN_WINDOW:
+                mask[a : b + 1] = True
+                windows.append((a, b))
+            else:
+                glitches += len(run)
+    return MeasurementFaults(mask, tuple(windows), glitches)
