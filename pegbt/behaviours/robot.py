@@ -1,17 +1,18 @@
 """The `robot` resource: both PSMs and the depth camera over one zenoh link, and the run's clock.
 
-`--endpoint auto` starts the embedded simulator (`pegbt sim --lockstep --physics dvrk-real`) as a child
-process on a free loopback port; an address connects to a simulator or a robot already running there.
-A simulator answers `sim/clock`: its `SimClock` becomes the run's clock (lockstep: time advances only when
-the executive waits) and its ground truth (`sim/truth`) judges the trial. Anything else is a
-robot, run on the wall clock and judged by what the executive believes.
+`--endpoint auto` starts the embedded simulator (`pegbt sim --lockstep --physics dvrk-real`; in real time,
+without `--lockstep`, when the run asks for `--clock wall`) as a child process on a free loopback port;
+an address connects to a simulator or a robot already running there. A simulator answers `sim/clock`:
+its ground truth (`sim/truth`) judges the trial, and in lockstep its `SimClock` is the run's clock (time
+advances only when the executive waits). A simulator in real time, and anything else (a robot, judged by
+what the executive believes), runs on the wall clock.
 """
 
 from __future__ import annotations
 
 from typing import Any
 
-from pegbt.clock import Clock, WallClock
+from pegbt.clock import Clock, WallClock, is_realtime
 from pegbt.errors import PegbtError
 from pegbt.executive.providers import ProviderSetup
 from pegbt.psm import ARMS
@@ -20,7 +21,7 @@ from pegbt.transport import ArmClient, CameraClient, Link, SimClock, connect
 from pegbt.sim.truth import ask_truth
 from pegbt.behaviours.trial import Trial
 
-SIMULATOR_ARGS = ("--lockstep", "--physics", "dvrk-real")
+SIMULATOR_ARGS = ("--physics", "dvrk-real")
 PROBE_TIMEOUT = 2.0  # s to wait for a simulator to answer `sim/clock` at an address (no answer: a robot)
 STEP_TIMEOUT = 5.0  # s to wait for a lockstep step: a camera capture on a loaded 2-core machine took over 2
 READY_TIMEOUT = 5.0  # s to wait for each arm's first state
@@ -54,7 +55,8 @@ class Robot:
         endpoint: str = "",
     ) -> None:
         self.link = link
-        self.run_clock = clock
+        self.clock = clock
+        self.run_clock = clock if lockstep else None  # a lockstep simulator's clock drives the run
         self.simulator = simulator
         self.lockstep = lockstep
         self.truth = truth
@@ -95,10 +97,16 @@ def _probe_simulator(link: Link) -> SimClock | None:
 
 
 def connect_robot(
-    endpoint: str, seed: int = 0, faults: str | None = None, simlog: str | None = None
+    endpoint: str,
+    seed: int = 0,
+    faults: str | None = None,
+    simlog: str | None = None,
+    wall_clock: Clock | None = None,
 ) -> Robot:
     """A `Robot` on `endpoint` (`auto`: a fresh embedded simulator seeded with `seed`, injecting the fault
-    plan `faults` if given, appending its log to `simlog` if given)."""
+    plan `faults` if given, appending its log to `simlog` if given). With `wall_clock` (a clock in real
+    time) the embedded simulator runs in real time and a simulator at an address must too; without it,
+    a robot or a simulator in real time runs on a new `WallClock`."""
     for value, flag, sim_flag in ((faults, "--faults", "--faults"), (simlog, "--simlog", "--log")):
         if value is not None and endpoint != "auto":
             raise PegbtError(
@@ -111,6 +119,7 @@ def connect_robot(
         simulator = SimProcess(
             [
                 *SIMULATOR_ARGS,
+                *([] if wall_clock is not None else ["--lockstep"]),
                 "--seed",
                 str(seed),
                 *(["--faults", faults] if faults else []),
@@ -127,12 +136,19 @@ def connect_robot(
                 else _probe_simulator(link)
             )
             truth = SimulatorTruth(link) if sim_clock is not None else None
+            lockstep = bool(sim_clock and sim_clock.lockstep)
+            if lockstep and wall_clock is not None:
+                raise PegbtError(
+                    f"the simulator at {endpoint} runs in lockstep, and its clock drives the run: drop "
+                    "--clock, or start `pegbt sim` without --lockstep",
+                    field="--clock",
+                )
             robot = Robot(
                 link,
-                sim_clock or WallClock(),
+                sim_clock if lockstep else wall_clock or WallClock(),
                 simulator=simulator,
                 truth=truth,
-                lockstep=bool(sim_clock and sim_clock.lockstep),
+                lockstep=lockstep,
                 endpoint=endpoint,
             )
             robot.wait_until_ready()
@@ -147,11 +163,20 @@ def connect_robot(
 
 
 def provide_robot(setup: ProviderSetup) -> Robot:
-    """The `robot` resource for `pegbt run` (options `endpoint`, `seed`, `faults` and `simlog`)."""
+    """The `robot` resource for `pegbt run` (options `endpoint`, `seed`, `faults` and `simlog`). `--clock`
+    may only ask for a clock in real time (the robot's time passes on its own): `--clock wall` runs the
+    embedded simulator in real time."""
     options = setup.options
+    if setup.clock_name is not None and not is_realtime(setup.clock):
+        raise PegbtError(
+            f"a robot or a simulator cannot run on the {setup.clock_name} clock: their time passes on its "
+            "own (--clock wall runs in real time; without --clock the embedded simulator runs in lockstep)",
+            field="--clock",
+        )
     return connect_robot(
         str(options.get("endpoint") or "auto"),
         int(options.get("seed") or 0),
         options.get("faults"),
         options.get("simlog"),
+        setup.clock if setup.clock_name is not None else None,
     )
