@@ -7,6 +7,7 @@ block's wall, one closing on nothing goes all the way.
 from __future__ import annotations
 
 import math
+from functools import partial
 
 import numpy as np
 from py_trees.common import Status
@@ -27,6 +28,7 @@ from pegbt.executive.params import Param
 from pegbt.executive.registry import behaviour
 from pegbt.motion.ik import solve_ik
 from pegbt.motion.kinematics import forward_kinematics
+from pegbt.motion.trajectory import Trajectory
 from pegbt.perception.blocks import BlockEstimate, block_on_peg, stack_level
 from pegbt.perception.grasp import Grasp
 from pegbt.psm import ARMS
@@ -165,8 +167,9 @@ class Approach(MotionLeaf):
         start = motion.start_from(self.client(arm))
         stops = above_pegs_first(cell, self.skills.motion, arm, start, motion.settings)
         if motion.planner is not None and stops:
-            trajectory = motion.transfer(
-                approach_for(cell, self.skills.motion, arm, forward_kinematics(start), waypoints)
+            plan = partial(
+                motion.transfer,
+                approach_for(cell, self.skills.motion, arm, forward_kinematics(start), waypoints),
             )
         else:
             names = [f"above the grasp {i}" for i in range(len(stops))] + [
@@ -178,10 +181,12 @@ class Approach(MotionLeaf):
             joints = stops + [
                 solve_ik(pose, motion.settings, what=name) for pose, name in zip(poses, names[-3:])
             ]
-            trajectory = motion.through(start, joints, names[: len(joints)])
-        self.move(arm, trajectory, f"{arm} approach")
+            plan = partial(motion.through, start, joints, names[: len(joints)])
+        self.move(arm, plan, f"{arm} approach")
         self.move_jaw(arm, self.skills.motion.transfer.jaw_open, f"{arm} jaw opening")
-        self.feedback_message = f"approaching in {trajectory.duration:.2f} s"
+
+    def started(self, trajectories: list[Trajectory]) -> None:
+        self.feedback_message = f"approaching in {trajectories[0].duration:.2f} s"
 
 
 @behaviour(

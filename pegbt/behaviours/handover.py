@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 from numpy.typing import NDArray
@@ -188,10 +189,8 @@ class GoToHandover(MotionLeaf):
         wait[:3, 3] += self.skills.motion.handover.receiver_wait_above * cell.up_in(arm)
         stops = above_pegs_first(cell, self.skills.motion, arm, start, motion.settings)
         joints = stops + [solve_ik(wait, motion.settings, what="waiting above the handover grasp")]
-        trajectory = motion.through(
-            start, joints, [f"stop {i}" for i in range(len(stops))] + ["waiting pose"]
-        )
-        self.move(arm, trajectory, f"{arm} going to the handover")
+        names = [f"stop {i}" for i in range(len(stops))] + ["waiting pose"]
+        self.move(arm, partial(motion.through, start, joints, names), f"{arm} going to the handover")
         self.move_jaw(arm, self.skills.motion.transfer.jaw_open, f"{arm} jaw opening")
 
 
@@ -207,7 +206,9 @@ class DescendToGrasp(MotionLeaf):
         motion = self.motion(arm)
         start = motion.start_from(self.client(arm))
         target = solve_ik(self.get("grasp").pose, motion.settings, what="the handover grasp")
-        self.move(arm, motion.through(start, [target], ["grasp"]), f"{arm} descending onto the grasp")
+        self.move(
+            arm, partial(motion.through, start, [target], ["grasp"]), f"{arm} descending onto the grasp"
+        )
 
 
 @behaviour(
