@@ -201,10 +201,12 @@ class MotionLeaf(RobotLeaf):
             self.halt_motions()
             return
         motions = [(self.motion(outgoing.arm), outgoing) for outgoing in self.outgoing]
-        if any(outgoing.trajectory is not None for outgoing in self.outgoing):
-            self.job = self.offload(prepare_all, motions)
-        else:
+        if not any(outgoing.trajectory is not None for outgoing in self.outgoing):
             self._send([None] * len(motions))
+            return
+        self.job = self.offload(prepare_all, motions)
+        if self.job.done:  # computed in this tick (lockstep): send now, as a later tick would
+            self._pick_up()
 
     def _send(self, prepared: list[Prepared | None]) -> None:
         """Send what `begin()` asked for, unless an arm motion would come too close to the other arm (then

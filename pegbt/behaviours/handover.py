@@ -20,8 +20,8 @@ from py_trees.common import Status
 
 from pegbt.behaviours.base import (
     RESOURCES,
+    ComputeLeaf,
     MotionLeaf,
-    RobotLeaf,
     arm_param,
     keep_apart_param,
     key_param,
@@ -121,12 +121,19 @@ def _clear_descent(
     ),
     resources=RESOURCES,
 )
-class HandoverPoses(RobotLeaf):
-    def act(self) -> Status:
+class HandoverPoses(ComputeLeaf):
+    """Planning the meeting (IK and a clearance sweep per candidate grasp) runs off the tick."""
+
+    def inputs(self) -> tuple:
+        return self.param("arm"), self.param("receiver"), self.get("grasp"), self.get("block")
+
+    def compute(self, giver: str, receiver: str, grasp: Grasp, block: BlockEstimate) -> Meeting | None:
+        return None if giver == receiver else plan_meeting(self.skills, giver, receiver, grasp, block)
+
+    def finish(self, meeting: Meeting | None) -> Status:
         giver, receiver = self.param("arm"), self.param("receiver")
         if giver == receiver:
             return self.fail(f"{giver} cannot hand a block to itself")
-        meeting = plan_meeting(self.skills, giver, receiver, self.get("grasp"), self.get("block"))
         if meeting is None:
             return self.fail(
                 f"{receiver} can reach no grasp of the block at the meeting point that keeps clear of "

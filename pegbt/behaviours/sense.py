@@ -13,9 +13,9 @@ import time
 from py_trees.common import Status
 
 from pegbt.behaviours.base import RESOURCES, ComputeLeaf, RobotLeaf
+from pegbt.executive.registry import behaviour
 from pegbt.perception.blocks import BlockEstimate
 from pegbt.perception.board import BoardEstimate
-from pegbt.executive.registry import behaviour
 
 
 @behaviour(

@@ -15,8 +15,7 @@ Overruns: a tick that takes longer than the period on the run's clock (real time
 in the tick, a loaded machine) is recorded (the tick log's `late_s`, `RunResult.overruns`) and the next
 tick starts at once; time never has to run backwards. Work a leaf offloads (`pegbt.executive.work`)
 runs while the tree keeps ticking; with a clock whose time stands still while the tree computes
-(lockstep), the runner instead waits for every pending job and ticks again at the same time, so the
-results arrive at the moment they were asked for and runs stay deterministic.
+(lockstep), it runs in the tick that asks for it instead, so runs stay deterministic and unchanged.
 """
 
 from __future__ import annotations
@@ -63,7 +62,7 @@ def run(
     """Set up and tick `built` every `period` seconds of its context's clock; see the module docstring for how it ends."""
     clock = built.context.clock
     work = built.context.work
-    realtime = is_realtime(clock)
+    work.inline = not is_realtime(clock)
     root = built.root
     start = clock.now()
     ticks = overruns = 0
@@ -94,9 +93,6 @@ def run(
                 outcome = "timeout"
                 _halt(root, log, ticks, clock.now() - start, "timeout")
                 break
-            if not realtime and work.pending():
-                work.wait()  # time stands still for the computation: tick again at this same time
-                continue
             wake = tick_start + period if _changed(before) else next_wake(built, tick_start, period)
             if timeout is not None:
                 wake = min(wake, start + timeout)

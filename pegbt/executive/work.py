@@ -7,9 +7,9 @@ much of a job's time the ticking thread still gets). A leaf calls `Leaf.offload(
 must compute from its arguments alone (no blackboard, no transport), since the tree runs on meanwhile.
 
 With a clock whose time stands still while the tree computes (a lockstep simulator, `ManualClock`), the
-runner waits for every pending job before it lets time pass and ticks again at the same time: results
-are picked up at the simulated moment they were asked for, as if computed in the tick, so lockstep runs
-stay deterministic and their simulated times unchanged.
+runner makes the pool `inline`: a job then runs at once, in the tick that asks for it, and the leaf finds
+it done on that same tick. Computing costs no simulated time there anyway, and ticks, results and
+simulated times stay exactly those of computing in the tick (deterministic campaigns).
 """
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ from __future__ import annotations
 import threading
 import time
 from collections.abc import Callable
-from concurrent.futures import Future, ThreadPoolExecutor, wait
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
 from typing import Any, Generic, TypeVar
 
@@ -29,15 +29,23 @@ class Job(Generic[T]):
     """One computation on a worker: `done` once it finished, `result()` its value (or its exception)."""
 
     def __init__(
-        self, pool: "WorkPool", executor: ThreadPoolExecutor, fn: Callable[..., T], args: tuple
+        self, pool: "WorkPool", executor: ThreadPoolExecutor | None, fn: Callable[..., T], args: tuple
     ) -> None:
+        """On `executor`'s threads, or at once in the caller when there is none (`WorkPool.inline`)."""
         self._pool = pool
         self.submitted = time.perf_counter()
         self.started: float | None = None
         self.finished: float | None = None
         self.discarded = False
         self._picked = False
-        self._future: Future = executor.submit(self._run, fn, args)
+        if executor is not None:
+            self._future: Future = executor.submit(self._run, fn, args)
+            return
+        self._future = Future()
+        try:
+            self._future.set_result(self._run(fn, args))
+        except Exception as error:  # delivered by `result()`, as a worker's would be
+            self._future.set_exception(error)
 
     def _run(self, fn: Callable[..., T], args: tuple) -> T:
         self.started = time.perf_counter()
@@ -78,19 +86,21 @@ class WorkStats:
 
 
 class WorkPool:
-    """The run's worker threads; `pending()` lists jobs whose results are still wanted and not ready."""
+    """The run's worker threads; `pending()` lists jobs whose results are still wanted and not ready.
+    `inline`: run each job at once in the caller (time that stands still while the tree computes)."""
 
-    def __init__(self, workers: int = WORKERS) -> None:
+    def __init__(self, workers: int = WORKERS, *, inline: bool = False) -> None:
         self._workers = workers
+        self.inline = inline
         self._executor: ThreadPoolExecutor | None = None
         self._jobs: list[Job] = []
         self._lock = threading.Lock()
         self.stats = WorkStats()
 
     def submit(self, fn: Callable[..., T], *args: Any) -> Job[T]:
-        if self._executor is None:
+        if self._executor is None and not self.inline:
             self._executor = ThreadPoolExecutor(self._workers, thread_name_prefix="pegbt-work")
-        job: Job[T] = Job(self, self._executor, fn, args)
+        job: Job[T] = Job(self, None if self.inline else self._executor, fn, args)
         with self._lock:
             self._jobs = [other for other in self._jobs if not other.done and not other.discarded] + [job]
         return job
@@ -98,12 +108,6 @@ class WorkPool:
     def pending(self) -> list[Job]:
         with self._lock:
             return [job for job in self._jobs if not job.done and not job.discarded]
-
-    def wait(self) -> None:
-        """Block until every pending job is done."""
-        jobs = self.pending()
-        if jobs:
-            wait([job._future for job in jobs])
 
     def count(self, job: Job) -> None:
         with self._lock:
