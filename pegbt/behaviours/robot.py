@@ -18,6 +18,7 @@ from pegbt.executive.providers import ProviderSetup
 from pegbt.psm import ARMS
 from pegbt.sim.process import SimProcess
 from pegbt.transport import ArmClient, CameraClient, Link, SimClock, connect
+from pegbt.transport.arm import LIVENESS_S
 from pegbt.sim.truth import ask_truth
 from pegbt.behaviours.trial import Trial
 
@@ -55,13 +56,15 @@ class Robot:
         endpoint: str = "",
     ) -> None:
         self.link = link
-        self.clock = clock
         self.run_clock = clock if lockstep else None  # a lockstep simulator's clock drives the run
         self.simulator = simulator
         self.lockstep = lockstep
         self.truth = truth
         self.endpoint = endpoint
-        self.arms = {name: ArmClient(link, name, clock=clock) for name in ARMS}
+        # a simulator in real time, on the wall clock, keeps its own liveness timeout: a busy machine
+        # starves its process for longer than a robot's 0.2 s
+        liveness = LIVENESS_S["simulator"] if truth is not None else None
+        self.arms = {name: ArmClient(link, name, clock=clock, liveness_timeout=liveness) for name in ARMS}
         self.camera = CameraClient(link, clock=clock)
         self.trial = Trial(clock, truth)
 
