@@ -45,6 +45,9 @@ RESOURCES = ("robot", "skills")
 BLOCKED_RETRY = 0.1  # s between attempts of a motion that would come too close to the other arm
 BLOCKED_PATIENCE = 15.0  # s a motion waits for the other arm to clear its way before the leaf fails
 STEP_BACK = 0.03  # m of insertion an arm gives up to let the other arm past
+# s a motion may run past its planned end before the leaf gives up on it: in real time an endpoint's
+# report of the end can be lost (a busy machine), and every motion is bounded in time
+MOTION_OVERTIME = 3.0
 
 
 class Blocked(Exception):
@@ -361,7 +364,12 @@ class MotionLeaf(RobotLeaf):
                 self.halt_motions()
                 return self.fail(f"{motion.what}: {motion.handle.error}")
         if any(motion.handle.busy for motion in self.running):
-            ahead = self.expected_end is not None and self.context.clock.now() < self.expected_end
+            now = self.context.clock.now()
+            if self.expected_end is not None and now > self.expected_end + MOTION_OVERTIME:
+                late = next(motion for motion in self.running if motion.handle.busy)
+                self.halt_motions()
+                return self.fail(f"{late.what}: no end reported {MOTION_OVERTIME:g} s after its planned end")
+            ahead = self.expected_end is not None and now < self.expected_end
             self.wake_at = self.expected_end if ahead else None
             return self.watch()
         self.wake_at = None
