@@ -3,10 +3,10 @@ noise; lockstep, or real time with the run on the wall clock), seeded, judged by
 truth, distilled into plain data.
 
 A fresh simulator per trial: the simulator has no reset, and its start-up (≈1.6 s) is the price of a
-clean world, a fresh seed and identical results whatever ran before. The trial starts it itself, as
-`pegbt sim` in a shell would be, and the run connects to its address: so `--interface` reaches both
-(`pegbt sim --interface`, `pegbt run --interface`). `run_trial` is what a worker process calls, so
-its argument and result are picklable.
+clean world, a fresh seed and identical results whatever ran before. With pegbt's interface the run
+starts it (`--endpoint auto`); with another the trial starts it itself, as `pegbt sim --interface` in
+a shell would be, and the run connects to its address with `--interface`. `run_trial` is what a
+worker process calls, so its argument and result are picklable.
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ from __future__ import annotations
 import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from pegbt.behaviours.robot import SIMULATOR_ARGS
 from pegbt.behaviours.skills import SIMULATOR_CALIBRATION
@@ -23,6 +23,9 @@ from pegbt.errors import PegbtError
 from pegbt.evaluation.truth import failure_cause, injected_faults
 from pegbt.sim.log import read_sim_log
 from pegbt.sim.process import SimProcess
+
+if TYPE_CHECKING:
+    from pegbt.executive.session import RunOutput
 
 TREES = Path(__file__).resolve().parents[2] / "trees"
 # A trial that has not ended after this much simulated time is stopped (a tree that loops, a hung recovery):
@@ -90,21 +93,13 @@ def run_trial(spec: TrialSpec) -> TrialRecord:
     """Run and judge one trial. A trial that cannot run (simulator gone, bad plan) is an `error` record."""
     from pegbt.evaluation.why import check_why
     from pegbt.executive.logfile import read_tick_log
-    from pegbt.executive.session import run_tree_file
 
     truth = truth_path(spec.log)
     truth.unlink(missing_ok=True)  # the simulator appends
     record = TrialRecord(spec.variant, spec.condition, spec.seed, "error")
     started = time.perf_counter()
     try:
-        with SimProcess(simulator_args(spec, truth)) as simulator:
-            output = run_tree_file(
-                spec.tree or tree_path(spec.variant),
-                spec.log,
-                options=run_options(spec, simulator.endpoint),
-                clock="wall" if spec.realtime else None,
-                timeout=TRIAL_TIMEOUT_S,
-            )
+        output = _run(spec, truth)
     except PegbtError as error:
         record.error, record.run_wall_s = str(error), time.perf_counter() - started
         record.log = str(spec.log) if spec.log.exists() else ""
@@ -151,8 +146,31 @@ def run_trial(spec: TrialSpec) -> TrialRecord:
     return record
 
 
+def _run(spec: TrialSpec, truth: Path) -> RunOutput:
+    """The trial's run. pegbt's interface: on the embedded simulator (`--endpoint auto`, in real time with
+    `--clock wall`), which the run knows for a simulator without asking (a probe can time out on a busy
+    machine). Another interface: on a simulator started here with `--interface`, at its address."""
+    from pegbt.executive.session import run_tree_file
+
+    tree = spec.tree or tree_path(spec.variant)
+    clock = "wall" if spec.realtime else None
+    if spec.interface == "pegbt":
+        options = {
+            "endpoint": "auto",
+            "condition": spec.condition,
+            "seed": spec.seed,
+            "simlog": str(truth),
+            "faults": None if spec.faults is None else str(spec.faults),
+        }
+        return run_tree_file(tree, spec.log, options=options, clock=clock, timeout=TRIAL_TIMEOUT_S)
+    with SimProcess(simulator_args(spec, truth)) as simulator:
+        options = run_options(spec, simulator.endpoint)
+        return run_tree_file(tree, spec.log, options=options, clock=clock, timeout=TRIAL_TIMEOUT_S)
+
+
 def simulator_args(spec: TrialSpec, truth: Path) -> list[str]:
-    """`pegbt sim` arguments of a trial: seeded, logging its ground truth to `truth`."""
+    """`pegbt sim` arguments of a trial started here: seeded, logging its ground truth to `truth` (the
+    embedded simulator of `--endpoint auto` gets the same)."""
     return [
         *SIMULATOR_ARGS,
         *([] if spec.realtime else ["--lockstep"]),
@@ -166,13 +184,13 @@ def simulator_args(spec: TrialSpec, truth: Path) -> list[str]:
 
 
 def run_options(spec: TrialSpec, endpoint: str) -> dict[str, Any]:
-    """`pegbt run` options of a trial on the simulator at `endpoint` (its arms' calibration models are the
-    simulator's own, as `--endpoint auto` would take)."""
+    """`pegbt run` options of a trial on the simulator started here, at `endpoint` (its arms' calibration
+    models are the simulator's own, as `--endpoint auto` would take)."""
     return {
         "endpoint": endpoint,
         "condition": spec.condition,
         "calibration": str(SIMULATOR_CALIBRATION),
-        **({} if spec.interface == "pegbt" else {"interface": spec.interface}),
+        "interface": spec.interface,
     }
 
 
