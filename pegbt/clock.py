@@ -9,7 +9,7 @@ only counts, for tests and benchmarks that must not depend on the machine's spee
 from __future__ import annotations
 
 import time
-from typing import Protocol, runtime_checkable
+from typing import Any, Protocol, runtime_checkable
 
 
 @runtime_checkable
@@ -25,8 +25,16 @@ class Clock(Protocol):
         ...
 
 
+def is_realtime(clock: Any) -> bool:
+    """Whether `clock`'s time passes while a tick computes (wall time). A lockstep simulator's clock and
+    `ManualClock` say `realtime = False`: their time moves only when waited for, so computing costs none."""
+    return bool(getattr(clock, "realtime", True))
+
+
 class WallClock:
     """Real time in seconds since the epoch, as ROS stamps are (a real dVRK, or the simulator in real time)."""
+
+    realtime = True
 
     def now(self) -> float:
         return time.time()
@@ -38,6 +46,8 @@ class WallClock:
 
 class ManualClock:
     """Time that moves only when `wait` (or `advance`) is called: deterministic runs without a simulator."""
+
+    realtime = False
 
     def __init__(self, start: float = 0.0) -> None:
         self._now = float(start)

@@ -94,7 +94,14 @@ def test_the_log_records_transitions_blackboard_writes_and_sources(tmp_path):
         if change[0] == leaf["id"] and change[2] == "FAILURE"
     ]
     assert failures == [[leaf["id"], "RUNNING", "FAILURE", "jaw of PSM1 slipped"]]
-    assert events[-1] == {"type": "end", "n": 3, "t": pytest.approx(0.2), "outcome": "failure"}
+    assert events[-1] == {
+        "type": "end",
+        "n": 3,
+        "t": pytest.approx(0.2),
+        "outcome": "failure",
+        "overruns": 0,
+        "work": {"jobs": 0, "compute_s": 0.0, "waited_s": 0.0},
+    }
     assert all(
         event["type"] != "tick" or event["changes"] or "bb" in event for event in events
     )  # only ticks that changed

@@ -6,11 +6,18 @@ row of a planned trajectory is pre-compensated (the paper's Alg. 1, one 10 ms st
 trajectory is sent, so the arm receives the commands that land it on the plan; without one the plan is
 sent as it is. The next plan starts where the last one was meant to end (`desired`), not at the encoders,
 which read the compensated command.
+
+Planning and pre-compensation are the heavy part of a motion (tens of milliseconds); `prepare` does them
+off the tick (`MotionLeaf` runs it on a worker thread) on a fork of the compensator, touching nothing
+shared, and `dispatch`, on the tick, sends the result and makes it this arm's state. Planning holds the
+arm's lock: the SQP refiner is one OSQP problem per arm.
 """
 
 from __future__ import annotations
 
 import logging
+import threading
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -44,6 +51,16 @@ class SentMotion:
         return self.planned.q[np.clip(rows, 0, len(self.planned) - 1)]
 
 
+@dataclass(frozen=True)
+class Prepared:
+    """A trajectory ready to send: as planned, as it will be commanded (pre-compensated), and the arm's
+    compensator as it will be once those commands are issued (None without calibration)."""
+
+    planned: Trajectory
+    sent: Trajectory
+    compensator: Compensator | None
+
+
 class ArmMotion:
     """Plans and sends one arm's motions; `planner` (SQP) and `compensator` are None when the condition has none."""
 
@@ -62,6 +79,7 @@ class ArmMotion:
         self.fallbacks = 0  # optimised plans that fell back to cubics
         self.plans = 0  # trajectories sent
         self.tip_path = 0.0  # m: length of the planned tool-tip paths sent
+        self._planning = threading.Lock()
 
     def start_from(self, arm: ArmClient) -> NDArray[np.float64]:
         """Where the next plan starts: where the last one ended, or (first use) where the arm is now: its
@@ -86,7 +104,8 @@ class ArmMotion:
         reason, and counted in `fallbacks` if it is the cubics."""
         if self.planner is not None:
             try:
-                plan = self.planner.plan(waypoints)
+                with self._planning:
+                    plan = self.planner.plan(waypoints)
             except PegbtError as error:
                 self.fallbacks += 1
                 log.warning(
@@ -108,11 +127,12 @@ class ArmMotion:
         return path.sample(self.settings.control_period)
 
     # ------------------------------------------------------------------ execution
-    def commands(self, planned: Trajectory) -> Trajectory:
-        """The trajectory to send for `planned`: every row pre-compensated, or `planned` itself."""
-        if self.compensator is None:
+    def commands(self, planned: Trajectory, compensator: Compensator | None) -> Trajectory:
+        """The trajectory to send for `planned`: every row pre-compensated by `compensator` (which it
+        advances), or `planned` itself without one."""
+        if compensator is None:
             return planned
-        q = np.array([self.compensator.step(row) for row in planned.q])
+        q = np.array([compensator.step(row) for row in planned.q])
         qd = np.gradient(q, planned.t, axis=0)
         qd[[0, -1]] = 0.0
         return Trajectory(planned.t, q, qd, np.gradient(qd, planned.t, axis=0))
@@ -125,8 +145,20 @@ class ArmMotion:
         at = resting if self.desired is None else self.desired
         return np.repeat(np.asarray(at, dtype=float)[None], len(times), axis=0)
 
+    def prepare(self, planned: Trajectory | Callable[[], Trajectory]) -> Prepared:
+        """`planned` (or the trajectory it plans, when it is the planning still to do), pre-compensated on a
+        fork of the compensator: safe on a worker thread, nothing shared changes until `dispatch`."""
+        trajectory = planned() if callable(planned) else planned
+        compensator = None if self.compensator is None else self.compensator.fork()
+        return Prepared(trajectory, self.commands(trajectory, compensator), compensator)
+
     def send(self, arm: ArmClient, planned: Trajectory) -> MotionHandle:
-        """Send `planned` (compensated) to `arm`; afterwards the arm is meant to be at its last row."""
+        """Prepare and send `planned` at once (a short motion, on the tick)."""
+        return self.dispatch(arm, self.prepare(planned))
+
+    def dispatch(self, arm: ArmClient, prepared: Prepared) -> MotionHandle:
+        """Send `prepared` to `arm`; afterwards the arm is meant to be at its last row."""
+        planned = prepared.planned
         start = self.start_from(arm)
         if np.max(np.abs(planned.q[0] - start)) > 1e-6:
             raise PegbtError(
@@ -134,9 +166,10 @@ class ArmMotion:
                 "where the last motion ended",
                 field="trajectory",
             )
-        sent = self.commands(planned)
-        handle = arm.move_jp(sent)
-        self.active = SentMotion(planned, sent, handle, arm.clock.now())
+        handle = arm.move_jp(prepared.sent)
+        if prepared.compensator is not None:
+            self.compensator = prepared.compensator
+        self.active = SentMotion(planned, prepared.sent, handle, arm.clock.now())
         self.desired = planned.q[-1].copy()
         self.plans += 1
         self.tip_path += float(np.linalg.norm(np.diff(tip_position(planned.q), axis=0), axis=1).sum())

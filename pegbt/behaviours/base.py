@@ -7,8 +7,11 @@ An endpoint that went silent is different: no recovery in a tree can bring it ba
 propagates, and the runner halts the tree (every motion told to stop), logs the cause and ends the
 run. Other exceptions are bugs and crash the run the same way.
 
-A `MotionLeaf` starts its motions in `initialise` (one per arm or jaw, planned and sent at once), polls
-them in `update` and, when halted, stops whatever still moves in `terminate`. It never blocks a tick.
+A `MotionLeaf` plans its motions in `initialise` (`begin()`: one per arm or jaw), computes the heavy part
+(SQP planning, pre-compensating every row) on a worker thread, sends them all on the tick that finds that
+done, polls them in `update` and, when halted, stops whatever still moves in `terminate` (and discards
+a plan still computing). It never blocks a tick. A `ComputeLeaf` is one computation off the tick
+(perception, a handover's meeting), picked up by a later tick.
 Before an arm motion is sent, it is checked against where the other arm is meant to be at the same
 times (moving or at rest): if the tools would come closer than `keep_apart`, nothing is sent and the
 leaf waits, planning again a little later, until the way is clear (or fails after `BLOCKED_PATIENCE`).
@@ -22,15 +25,17 @@ from __future__ import annotations
 import logging
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 from py_trees.common import Status
 
-from pegbt.behaviours.arm_motion import ArmMotion
+from pegbt.behaviours.arm_motion import ArmMotion, Prepared
 from pegbt.behaviours.robot import Robot
 from pegbt.behaviours.skills import Skills
 from pegbt.errors import PegbtError
 from pegbt.executive.leaf import Leaf
 from pegbt.executive.params import Param
+from pegbt.executive.work import Job
 from pegbt.motion.trajectory import Trajectory
 from pegbt.psm import ARMS
 from pegbt.transport import ArmClient, EndpointSilent, MotionHandle
@@ -41,6 +46,9 @@ RESOURCES = ("robot", "skills")
 BLOCKED_RETRY = 0.1  # s between attempts of a motion that would come too close to the other arm
 BLOCKED_PATIENCE = 15.0  # s a motion waits for the other arm to clear its way before the leaf fails
 STEP_BACK = 0.03  # m of insertion an arm gives up to let the other arm past
+# s a motion may run past its planned end before the leaf gives up on it: in real time an endpoint's
+# report of the end can be lost (a busy machine), and every motion is bounded in time
+MOTION_OVERTIME = 3.0
 
 
 class Blocked(Exception):
@@ -114,6 +122,51 @@ class RobotLeaf(Leaf):
         raise NotImplementedError
 
 
+class ComputeLeaf(RobotLeaf):
+    """A leaf whose work is one computation off the tick: `inputs()` read on the tick, `compute(*inputs)` run
+    on a worker thread (from its arguments alone), `finish(result)` on the tick that finds it done."""
+
+    def initialise(self) -> None:
+        self.job: Job | None = None
+        self.feedback_message = ""
+
+    def act(self) -> Status:
+        if self.job is None:
+            self.job = self.offload(self.compute, *self.inputs())
+        if not self.job.done:
+            self.feedback_message = "computing"
+            return Status.RUNNING
+        return self.finish(self.job.result())
+
+    def inputs(self) -> tuple[Any, ...]:
+        raise NotImplementedError
+
+    def compute(self, *inputs: Any) -> Any:
+        raise NotImplementedError
+
+    def finish(self, result: Any) -> Status:
+        raise NotImplementedError
+
+
+@dataclass
+class Outgoing:
+    """A motion `begin()` asked for, to send once planned: an arm's trajectory (or the planning that makes
+    it) or a jaw's target angle."""
+
+    what: str
+    arm: str
+    trajectory: Trajectory | Callable[[], Trajectory] | None = None
+    jaw_angle: float | None = None
+
+
+def prepare_all(motions: list[tuple[ArmMotion, Outgoing]]) -> list[Prepared | None]:
+    """On a worker: every arm trajectory planned and pre-compensated (None for a jaw motion)."""
+    return [
+        None if outgoing.trajectory is None else motion.prepare(outgoing.trajectory)
+        for motion, outgoing in motions
+    ]
+
+
 @dataclass
 class Running:
     """A motion this leaf started: what it is, its handle, how to stop it."""
@@ -136,14 +189,44 @@ class MotionLeaf(RobotLeaf):
         self.blocked_since: float | None = None
         self.stepping_back: Running | None = None
         self.stepped_back = False
+        self.job: Job | None = None
         self._start()
 
     def _start(self) -> None:
-        """Plan and send (`begin`); a motion that would come too close to the other arm leaves the leaf waiting."""
-        arm = self.param("arm")
+        """Plan (`begin`) on the tick and leave the heavy part to a worker (`_send` picks it up); a leaf with
+        only jaw motions sends them at once."""
+        self.outgoing: list[Outgoing] = []
         try:
             self.begin()
+        except EndpointSilent:
+            raise
+        except PegbtError as error:
+            self.problem = str(error)
+            self.halt_motions()
+            return
+        motions = [(self.motion(outgoing.arm), outgoing) for outgoing in self.outgoing]
+        if not any(outgoing.trajectory is not None for outgoing in self.outgoing):
+            self._send([None] * len(motions))
+            return
+        self.job = self.offload(prepare_all, motions)
+        if self.job.done:  # computed in this tick (lockstep): send now, as a later tick would
+            self._pick_up()
+
+    def _send(self, prepared: list[Prepared | None]) -> None:
+        """Send what `begin()` asked for, unless an arm motion would come too close to the other arm (then
+        nothing is sent and the leaf waits)."""
+        arm = self.param("arm")
+        try:
+            for outgoing, ready in zip(self.outgoing, prepared):
+                if ready is not None:
+                    self._check_clearance(outgoing, ready.planned)
+            for outgoing, ready in zip(self.outgoing, prepared):
+                if ready is None:
+                    self._send_jaw(outgoing)
+                else:
+                    self._send_arm(outgoing, ready)
             self.blocked_since = self.skills.waiting[arm] = None
+            self.started([ready.planned for ready in prepared if ready is not None])
         except Blocked as blocked:
             now = self.context.clock.now()
             if self.blocked_since is None:
@@ -155,6 +238,17 @@ class MotionLeaf(RobotLeaf):
         except PegbtError as error:
             self.problem = str(error)
             self.halt_motions()
+
+    def _pick_up(self) -> None:
+        """The tick that finds the worker's plan done sends it (a planning error fails the leaf)."""
+        job, self.job = self.job, None
+        try:
+            prepared = job.result()
+        except PegbtError as error:
+            self.problem = str(error)
+            self.halt_motions()
+            return
+        self._send(prepared)
 
     def _wait_for_the_way(self) -> Status:
         """A tick while blocked by the other arm: step back if both arms wait on each other, try again, give up."""
@@ -201,12 +295,25 @@ class MotionLeaf(RobotLeaf):
         self.feedback_message = f"{arm} steps back along its shaft: both arms were waiting for each other"
 
     def begin(self) -> None:
+        """Ask for this leaf's motions with `move` and `move_jaw` (runs on the tick: keep heavy planning in a
+        function given to `move`)."""
         raise NotImplementedError
 
-    def move(self, arm: str, trajectory: Trajectory, what: str) -> None:
-        """Send a planned arm trajectory (compensated by the condition's skills), unless it would bring the
-        tools closer than `keep_apart` (then `Blocked`: nothing is sent)."""
-        client, motion = self.client(arm), self.motion(arm)
+    def started(self, trajectories: list[Trajectory]) -> None:
+        """Called once the arm trajectories (as planned, in `move` order) were sent; a subclass may report them."""
+
+    def move(self, arm: str, trajectory: Trajectory | Callable[[], Trajectory], what: str) -> None:
+        """Send a trajectory for `arm` (or the one a function plans, called on a worker thread: it must use
+        its own inputs alone), pre-compensated by the condition's skills, unless it would bring the tools
+        closer than `keep_apart` (then nothing is sent and the leaf waits)."""
+        self.outgoing.append(Outgoing(what, arm, trajectory=trajectory))
+
+    def move_jaw(self, arm: str, angle: float, what: str) -> None:
+        self.outgoing.append(Outgoing(what, arm, jaw_angle=angle))
+
+    def _check_clearance(self, outgoing: Outgoing, trajectory: Trajectory) -> None:
+        """`Blocked` if `trajectory`, starting now, would bring the tools closer than `keep_apart`."""
+        arm = outgoing.arm
         keep_apart = self.params.get("keep_apart", 0.0)
         if keep_apart is None:
             keep_apart = self.skills.motion.two_arms.keep_apart
@@ -217,18 +324,25 @@ class MotionLeaf(RobotLeaf):
             gap = self.skills.clearance(arm, trajectory, self.context.clock.now(), others)
             if gap < keep_apart:
                 raise Blocked(
-                    f"{what} would bring the tools within {gap * 1000:.1f} mm of each other "
+                    f"{outgoing.what} would bring the tools within {gap * 1000:.1f} mm of each other "
                     f"(keep apart {keep_apart * 1000:.0f} mm)"
                 )
-        handle = motion.send(client, trajectory)
-        self.running.append(Running(what, handle, lambda: motion.stop(client)))
-        self._expect(trajectory.duration)
 
-    def move_jaw(self, arm: str, angle: float, what: str) -> None:
-        jaw = self.client(arm).jaw
-        seconds = abs(angle - float(jaw.setpoint_js.position[0])) / self.motion(arm).settings.jaw_velocity
+    def _send_arm(self, outgoing: Outgoing, prepared: Prepared) -> None:
+        client, motion = self.client(outgoing.arm), self.motion(outgoing.arm)
+        handle = motion.dispatch(client, prepared)
+        self.running.append(Running(outgoing.what, handle, lambda: motion.stop(client)))
+        self._expect(prepared.planned.duration)
+
+    def _send_jaw(self, outgoing: Outgoing) -> None:
+        jaw = self.client(outgoing.arm).jaw
+        angle = outgoing.jaw_angle
+        assert angle is not None
+        seconds = (
+            abs(angle - float(jaw.setpoint_js.position[0])) / self.motion(outgoing.arm).settings.jaw_velocity
+        )
         handle = jaw.move_jp(angle)
-        self.running.append(Running(what, handle, handle.stop))
+        self.running.append(Running(outgoing.what, handle, handle.stop))
         self._expect(seconds)
 
     def _expect(self, seconds: float) -> None:
@@ -237,6 +351,11 @@ class MotionLeaf(RobotLeaf):
         self.expected_end = end if self.expected_end is None else max(self.expected_end, end)
 
     def act(self) -> Status:
+        if self.job is not None:
+            if not self.job.done:
+                self.wake_at = None
+                return Status.RUNNING
+            self._pick_up()
         if self.problem is not None:
             return self.fail(self.problem)
         if self.blocked_since is not None:
@@ -246,7 +365,12 @@ class MotionLeaf(RobotLeaf):
                 self.halt_motions()
                 return self.fail(f"{motion.what}: {motion.handle.error}")
         if any(motion.handle.busy for motion in self.running):
-            ahead = self.expected_end is not None and self.context.clock.now() < self.expected_end
+            now = self.context.clock.now()
+            if self.expected_end is not None and now > self.expected_end + MOTION_OVERTIME:
+                late = next(motion for motion in self.running if motion.handle.busy)
+                self.halt_motions()
+                return self.fail(f"{late.what}: no end reported {MOTION_OVERTIME:g} s after its planned end")
+            ahead = self.expected_end is not None and now < self.expected_end
             self.wake_at = self.expected_end if ahead else None
             return self.watch()
         self.wake_at = None

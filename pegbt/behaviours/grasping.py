@@ -7,6 +7,7 @@ block's wall, one closing on nothing goes all the way.
 from __future__ import annotations
 
 import math
+from functools import partial
 
 import numpy as np
 from py_trees.common import Status
@@ -25,8 +26,10 @@ from pegbt.behaviours.motion import SLIP_CHECK, above_pegs_first, held_param, sl
 from pegbt.behaviours.poses import approach_for, transfer_for
 from pegbt.executive.params import Param
 from pegbt.executive.registry import behaviour
+from pegbt.executive.work import Job
 from pegbt.motion.ik import solve_ik
 from pegbt.motion.kinematics import forward_kinematics
+from pegbt.motion.trajectory import Trajectory
 from pegbt.perception.blocks import BlockEstimate, block_on_peg, stack_level
 from pegbt.perception.grasp import Grasp
 from pegbt.psm import ARMS
@@ -83,7 +86,23 @@ SAME_BLOCK = (
     resources=RESOURCES,
 )
 class SelectGrasp(RobotLeaf):
+    """Choosing among the candidates runs off the tick when it plans a handover for each (`handover_to`)."""
+
+    def initialise(self) -> None:
+        self.job: Job | None = None
+
     def act(self) -> Status:
+        if self.job is None:
+            chosen = self._choose()
+            if chosen is not None:
+                return chosen
+        assert self.job is not None
+        if not self.job.done:
+            return Status.RUNNING
+        return self._chosen(self.job.result())
+
+    def _choose(self) -> Status | None:
+        """Find the block and choose its grasp (None: the choice was handed to a worker)."""
         arm, peg = self.param("arm"), int(self.param("peg"))
         blocks: list[BlockEstimate] = self.read("/blocks")
         block = block_on_peg(blocks, peg)
@@ -97,30 +116,37 @@ class SelectGrasp(RobotLeaf):
             return self.fail(
                 f"no block seen on peg {peg}" + (" nor on the board" if self.param("dropped") else "")
             )
-        where = (
+        self.block = block
+        self.where = (
             f"peg {block.peg}" + (" (on another block)" if stack_level(block, self.skills.cell) else "")
             if block.peg is not None
             else f"the board at {np.round(block.position[:2] * 1000, 1).tolist()} mm"
         )
         if not block.ok:
-            return self.fail(f"the block on {where} is not located reliably: {block.reason}")
+            return self.fail(f"the block on {self.where} is not located reliably: {block.reason}")
         receiver = self.param("handover_to")
+        selector, avoid = self.skills.selectors[arm], self._failed_candidate(block)
+        if not receiver:
+            return self._chosen(selector.pick(block, avoid=avoid))
+        skills = self.skills
 
         def handed(option: Grasp) -> bool:
-            return plan_meeting(self.skills, arm, receiver, option, block) is not None
+            return plan_meeting(skills, arm, receiver, option, block) is not None
 
-        grasp = self.skills.selectors[arm].pick(
-            block, avoid=self._failed_candidate(block), acceptable=handed if receiver else None
-        )
+        self.job = self.offload(partial(selector.pick, block, avoid=avoid, acceptable=handed))
+        return None
+
+    def _chosen(self, grasp: Grasp | None) -> Status:
+        arm, receiver = self.param("arm"), self.param("handover_to")
         if grasp is None:
             return self.fail(
-                f"no grasp of the block on {where} is within {arm}'s yaw window and reach"
+                f"no grasp of the block on {self.where} is within {arm}'s yaw window and reach"
                 + (f" and lets {receiver} take it" if receiver else "")
             )
-        self.put("block", block)
+        self.put("block", self.block)
         self.put("grasp", grasp)
         self.feedback_message = (
-            f"{arm} grasps the block on {where} at candidate {grasp.candidate}, "
+            f"{arm} grasps the block on {self.where} at candidate {grasp.candidate}, "
             f"yaw {math.degrees(grasp.yaw):.0f}°"
         )
         return Status.SUCCESS
@@ -166,8 +192,9 @@ class Approach(MotionLeaf):
         start = motion.start_from(self.client(arm))
         stops = above_pegs_first(cell, self.skills.motion, arm, start, motion.settings)
         if motion.planner is not None and stops:
-            trajectory = motion.transfer(
-                approach_for(cell, self.skills.motion, arm, forward_kinematics(start), waypoints)
+            plan = partial(
+                motion.transfer,
+                approach_for(cell, self.skills.motion, arm, forward_kinematics(start), waypoints),
             )
         else:
             names = [f"above the grasp {i}" for i in range(len(stops))] + [
@@ -179,10 +206,12 @@ class Approach(MotionLeaf):
             joints = stops + [
                 solve_ik(pose, motion.settings, what=name) for pose, name in zip(poses, names[-3:])
             ]
-            trajectory = motion.through(start, joints, names[: len(joints)])
-        self.move(arm, trajectory, f"{arm} approach")
+            plan = partial(motion.through, start, joints, names[: len(joints)])
+        self.move(arm, plan, f"{arm} approach")
         self.move_jaw(arm, self.skills.motion.transfer.jaw_open, f"{arm} jaw opening")
-        self.feedback_message = f"approaching in {trajectory.duration:.2f} s"
+
+    def started(self, trajectories: list[Trajectory]) -> None:
+        self.feedback_message = f"approaching in {trajectories[0].duration:.2f} s"
 
 
 @behaviour(

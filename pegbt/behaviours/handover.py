@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 from numpy.typing import NDArray
@@ -19,8 +20,8 @@ from py_trees.common import Status
 
 from pegbt.behaviours.base import (
     RESOURCES,
+    ComputeLeaf,
     MotionLeaf,
-    RobotLeaf,
     arm_param,
     keep_apart_param,
     key_param,
@@ -120,12 +121,19 @@ def _clear_descent(
     ),
     resources=RESOURCES,
 )
-class HandoverPoses(RobotLeaf):
-    def act(self) -> Status:
+class HandoverPoses(ComputeLeaf):
+    """Planning the meeting (IK and a clearance sweep per candidate grasp) runs off the tick."""
+
+    def inputs(self) -> tuple:
+        return self.param("arm"), self.param("receiver"), self.get("grasp"), self.get("block")
+
+    def compute(self, giver: str, receiver: str, grasp: Grasp, block: BlockEstimate) -> Meeting | None:
+        return None if giver == receiver else plan_meeting(self.skills, giver, receiver, grasp, block)
+
+    def finish(self, meeting: Meeting | None) -> Status:
         giver, receiver = self.param("arm"), self.param("receiver")
         if giver == receiver:
             return self.fail(f"{giver} cannot hand a block to itself")
-        meeting = plan_meeting(self.skills, giver, receiver, self.get("grasp"), self.get("block"))
         if meeting is None:
             return self.fail(
                 f"{receiver} can reach no grasp of the block at the meeting point that keeps clear of "
@@ -188,10 +196,8 @@ class GoToHandover(MotionLeaf):
         wait[:3, 3] += self.skills.motion.handover.receiver_wait_above * cell.up_in(arm)
         stops = above_pegs_first(cell, self.skills.motion, arm, start, motion.settings)
         joints = stops + [solve_ik(wait, motion.settings, what="waiting above the handover grasp")]
-        trajectory = motion.through(
-            start, joints, [f"stop {i}" for i in range(len(stops))] + ["waiting pose"]
-        )
-        self.move(arm, trajectory, f"{arm} going to the handover")
+        names = [f"stop {i}" for i in range(len(stops))] + ["waiting pose"]
+        self.move(arm, partial(motion.through, start, joints, names), f"{arm} going to the handover")
         self.move_jaw(arm, self.skills.motion.transfer.jaw_open, f"{arm} jaw opening")
 
 
@@ -207,7 +213,9 @@ class DescendToGrasp(MotionLeaf):
         motion = self.motion(arm)
         start = motion.start_from(self.client(arm))
         target = solve_ik(self.get("grasp").pose, motion.settings, what="the handover grasp")
-        self.move(arm, motion.through(start, [target], ["grasp"]), f"{arm} descending onto the grasp")
+        self.move(
+            arm, partial(motion.through, start, [target], ["grasp"]), f"{arm} descending onto the grasp"
+        )
 
 
 @behaviour(

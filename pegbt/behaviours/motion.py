@@ -9,6 +9,7 @@ never sweeps sideways through pegs and blocks.
 from __future__ import annotations
 
 import math
+from functools import partial
 
 import numpy as np
 from numpy.typing import NDArray
@@ -22,6 +23,7 @@ from pegbt.motion.ik import solve_ik
 from pegbt.motion.kinematics import forward_kinematics
 from pegbt.motion.limits import ArmSettings
 from pegbt.motion.settings import MotionSettings
+from pegbt.motion.trajectory import Trajectory
 from pegbt.motion.waypoints import TransferWaypoints
 from pegbt.workcell import Workcell
 
@@ -54,10 +56,12 @@ class CarryLeaf(MotionLeaf):
 
     def begin(self) -> None:
         arm = self.param("arm")
-        trajectory = self.motion(arm).transfer(self.waypoints())
-        self.put("plan_s", round(trajectory.duration, 3))
-        self.move(arm, trajectory, f"{arm} {self.name}")
-        self.feedback_message = f"planned in {trajectory.duration:.2f} s ({self.skills.condition})"
+        self.move(arm, partial(self.motion(arm).transfer, self.waypoints()), f"{arm} {self.name}")
+
+    def started(self, trajectories: list[Trajectory]) -> None:
+        duration = trajectories[0].duration
+        self.put("plan_s", round(duration, 3))
+        self.feedback_message = f"planned in {duration:.2f} s ({self.skills.condition})"
 
     def watch(self) -> Status:
         slipped = slip(self.client(self.param("arm")).jaw.measured_js.position[0], self.param("held_above"))
@@ -134,8 +138,8 @@ class Rise(MotionLeaf):
         start = motion.start_from(self.client(arm))
         target = forward_kinematics(start)
         target[:3, 3] += self.param("height") * self.skills.cell.up_in(arm)
-        trajectory = motion.through(start, [solve_ik(target, motion.settings, what="risen")], ["risen"])
-        self.move(arm, trajectory, f"{arm} rising")
+        risen = solve_ik(target, motion.settings, what="risen")
+        self.move(arm, partial(motion.through, start, [risen], ["risen"]), f"{arm} rising")
 
 
 @behaviour(
@@ -152,6 +156,8 @@ class Park(MotionLeaf):
         home = tool_pose(motion.settings.home_tip, 0.0, cell.up_in(arm))
         joints = above_pegs_first(cell, self.skills.motion, arm, start, motion.settings)
         joints.append(solve_ik(home, motion.settings, what=f"{arm} home pose"))
-        trajectory = motion.through(start, joints, [f"stop {i}" for i in range(len(joints) - 1)] + ["home"])
-        self.move(arm, trajectory, f"{arm} parking")
-        self.feedback_message = f"parking in {trajectory.duration:.2f} s"
+        names = [f"stop {i}" for i in range(len(joints) - 1)] + ["home"]
+        self.move(arm, partial(motion.through, start, joints, names), f"{arm} parking")
+
+    def started(self, trajectories: list[Trajectory]) -> None:
+        self.feedback_message = f"parking in {trajectories[0].duration:.2f} s"

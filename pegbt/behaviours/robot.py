@@ -1,11 +1,12 @@
 """The `robot` resource: both PSMs and the depth camera, and the run's clock; `--interface` picks the client.
 
 `--interface pegbt` (the default): pegbt's own protocol over one zenoh link. `--endpoint auto` starts the
-embedded simulator (`pegbt sim --lockstep --physics dvrk-real`) as a child process on a free loopback port;
-an address connects to a simulator or a robot already running there. A simulator answers `sim/clock`: its
-`SimClock` becomes the run's clock (lockstep: time advances only when the executive waits) and its ground
-truth (`sim/truth`) judges the trial. Anything else is a robot, run on the wall clock and judged by what
-the executive believes.
+embedded simulator (`pegbt sim --lockstep --physics dvrk-real`; in real time, without `--lockstep`, when
+the run asks for `--clock wall`) as a child process on a free loopback port; an address connects to a
+simulator or a robot already running there. A simulator answers `sim/clock`: its ground truth
+(`sim/truth`) judges the trial, and in lockstep its `SimClock` is the run's clock (time advances only when
+the executive waits). A simulator in real time, and anything else (a robot, judged by what the executive
+believes), runs on the wall clock.
 
 `--interface dvrk`: any CRTK robot as a dVRK 2.x serves it through zenoh-bridge-ros2dds (`CrtkArm`,
 `StreamingCamera`, trajectories streamed by a `Streamer` process), on the wall clock, never touching a
@@ -17,12 +18,13 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
-from pegbt.clock import Clock, WallClock
+from pegbt.clock import Clock, WallClock, is_realtime
 from pegbt.errors import PegbtError
 from pegbt.executive.providers import ProviderSetup
 from pegbt.psm import ARMS
 from pegbt.sim.process import SimProcess
 from pegbt.transport import ArmClient, CameraClient, Link, SimClock, connect
+from pegbt.transport.arm import LIVENESS_S as CLIENT_LIVENESS_S
 from pegbt.transport.cloud_stream import StreamingCamera
 from pegbt.transport.dvrk_topics import point_cloud_topic
 from pegbt.transport.endpoints import DEFAULT_POINTS_TOPIC
@@ -36,7 +38,7 @@ from pegbt.motion.robot_config import DEFAULT_TOOL, robot_arm_settings
 from pegbt.sim.truth import ask_truth
 from pegbt.behaviours.trial import Trial
 
-SIMULATOR_ARGS = ("--lockstep", "--physics", "dvrk-real")
+SIMULATOR_ARGS = ("--physics", "dvrk-real")
 PROBE_TIMEOUT = 2.0  # s to wait for a simulator to answer `sim/clock` at an address (no answer: a robot)
 STEP_TIMEOUT = 5.0  # s to wait for a lockstep step: a camera capture on a loaded 2-core machine took over 2
 READY_TIMEOUT = 5.0  # s to wait for each arm's first state
@@ -75,7 +77,7 @@ class Robot:
         """`arms` (`ArmClient`s or `CrtkArm`s by name) and `camera` share the verbs behaviours use; `closers`
         run at `close()`, in order, after the link is closed."""
         self.link = link
-        self.run_clock = clock
+        self.run_clock = clock if lockstep else None  # a lockstep simulator's clock drives the run
         self.simulator = simulator
         self.lockstep = lockstep
         self.truth = truth
@@ -124,10 +126,16 @@ def _probe_simulator(link: Link) -> SimClock | None:
 
 
 def connect_robot(
-    endpoint: str, seed: int = 0, faults: str | None = None, simlog: str | None = None
+    endpoint: str,
+    seed: int = 0,
+    faults: str | None = None,
+    simlog: str | None = None,
+    wall_clock: Clock | None = None,
 ) -> Robot:
     """A `Robot` on `endpoint` (`auto`: a fresh embedded simulator seeded with `seed`, injecting the fault
-    plan `faults` if given, appending its log to `simlog` if given)."""
+    plan `faults` if given, appending its log to `simlog` if given). With `wall_clock` (a clock in real
+    time) the embedded simulator runs in real time and a simulator at an address must too; without it,
+    a robot or a simulator in real time runs on a new `WallClock`."""
     for value, flag, sim_flag in ((faults, "--faults", "--faults"), (simlog, "--simlog", "--log")):
         if value is not None and endpoint != "auto":
             raise PegbtError(
@@ -140,6 +148,7 @@ def connect_robot(
         simulator = SimProcess(
             [
                 *SIMULATOR_ARGS,
+                *([] if wall_clock is not None else ["--lockstep"]),
                 "--seed",
                 str(seed),
                 *(["--faults", faults] if faults else []),
@@ -156,15 +165,25 @@ def connect_robot(
                 else _probe_simulator(link)
             )
             truth = SimulatorTruth(link) if sim_clock is not None else None
-            clock = sim_clock or WallClock()
+            lockstep = bool(sim_clock and sim_clock.lockstep)
+            if lockstep and wall_clock is not None:
+                raise PegbtError(
+                    f"the simulator at {endpoint} runs in lockstep, and its clock drives the run: drop "
+                    "--clock, or start `pegbt sim` without --lockstep",
+                    field="--clock",
+                )
+            clock = sim_clock if lockstep and sim_clock is not None else wall_clock or WallClock()
+            # a simulator in real time, on the wall clock, keeps its own liveness timeout: a busy machine
+            # starves its process for longer than a robot's 0.2 s
+            liveness = CLIENT_LIVENESS_S["simulator"] if truth is not None else None
             robot = Robot(
-                {name: ArmClient(link, name, clock=clock) for name in ARMS},
+                {name: ArmClient(link, name, clock=clock, liveness_timeout=liveness) for name in ARMS},
                 CameraClient(link, clock=clock),
                 clock,
                 link=link,
                 simulator=simulator,
                 truth=truth,
-                lockstep=bool(sim_clock and sim_clock.lockstep),
+                lockstep=lockstep,
                 endpoint=endpoint,
             )
             robot.wait_until_ready()
@@ -230,8 +249,16 @@ def connect_crtk_robot(
 
 def provide_robot(setup: ProviderSetup) -> Robot:
     """The `robot` resource for `pegbt run` (options `interface`, `endpoint`, `seed`, `faults`, `simlog`;
-    for `dvrk` also `namespace`, `robot-config`, `robot-tool`, `camera-topic`)."""
+    for `dvrk` also `namespace`, `ros2`, `robot-config`, `robot-tool`, `camera-topic`). `--clock` may only
+    ask for a clock in real time (the robot's time passes on its own): `--clock wall` runs the embedded
+    simulator in real time."""
     options = setup.options
+    if setup.clock_name is not None and not is_realtime(setup.clock):
+        raise PegbtError(
+            f"a robot or a simulator cannot run on the {setup.clock_name} clock: their time passes on its "
+            "own (--clock wall runs in real time; without --clock the embedded simulator runs in lockstep)",
+            field="--clock",
+        )
     if options.get("interface") == "dvrk":
         for flag in ("faults", "simlog"):
             if options.get(flag) is not None:
@@ -252,4 +279,5 @@ def provide_robot(setup: ProviderSetup) -> Robot:
         int(options.get("seed") or 0),
         options.get("faults"),
         options.get("simlog"),
+        setup.clock if setup.clock_name is not None else None,
     )

@@ -1,8 +1,9 @@
 """Sensing: capture a point cloud, register the pegboard (once per trial), find the blocks.
 
 The capture is asynchronous: requested in `initialise`, collected by a later tick. Registration and
-block search run on the cloud on the blackboard; their results go back to the blackboard (`/board`,
-`/blocks`) with a summary as feedback, so a tick log shows what was seen.
+block search run on the cloud on the blackboard, off the tick (on a worker thread: Open3D's ICP and
+DBSCAN take a few hundred milliseconds); their results go back to the blackboard (`/board`, `/blocks`)
+with a summary as feedback, so a tick log shows what was seen.
 """
 
 from __future__ import annotations
@@ -11,8 +12,10 @@ import time
 
 from py_trees.common import Status
 
-from pegbt.behaviours.base import RESOURCES, RobotLeaf
+from pegbt.behaviours.base import RESOURCES, ComputeLeaf, RobotLeaf
 from pegbt.executive.registry import behaviour
+from pegbt.perception.blocks import BlockEstimate
+from pegbt.perception.board import BoardEstimate
 
 
 @behaviour(
@@ -52,9 +55,14 @@ class Capture(RobotLeaf):
     writes=("/board", "/board_registered"),
     resources=RESOURCES,
 )
-class RegisterBoard(RobotLeaf):
-    def act(self) -> Status:
-        board = self.skills.registration.fit(self.read("/cloud"))
+class RegisterBoard(ComputeLeaf):
+    def inputs(self) -> tuple:
+        return (self.read("/cloud"),)
+
+    def compute(self, cloud) -> BoardEstimate:
+        return self.skills.registration.fit(cloud)
+
+    def finish(self, board: BoardEstimate) -> Status:
         if not board.ok:
             return self.fail(f"pegboard registration failed: {board.reason}")
         self.write("/board", board)
@@ -73,9 +81,14 @@ class RegisterBoard(RobotLeaf):
     writes=("/blocks",),
     resources=RESOURCES,
 )
-class FindBlocks(RobotLeaf):
-    def act(self) -> Status:
-        blocks = self.skills.locator.locate(self.read("/cloud"), self.read("/board"))
+class FindBlocks(ComputeLeaf):
+    def inputs(self) -> tuple:
+        return self.read("/cloud"), self.read("/board")
+
+    def compute(self, cloud, board: BoardEstimate) -> list[BlockEstimate]:
+        return self.skills.locator.locate(cloud, board)
+
+    def finish(self, blocks: list[BlockEstimate]) -> Status:
         self.write("/blocks", blocks)
         where = ", ".join("board" if block.peg is None else str(block.peg) for block in blocks if block.ok)
         doubtful = [block.reason for block in blocks if not block.ok]

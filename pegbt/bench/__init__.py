@@ -29,6 +29,7 @@ BENCHMARKS: dict[str, str] = {
     "eval": "pegbt.bench.eval:run",
     "monitor": "pegbt.bench.monitor:run",
     "servo": "pegbt.bench.servo:run",
+    "offload": "pegbt.bench.offload:run",
 }
 
 

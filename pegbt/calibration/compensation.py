@@ -18,6 +18,7 @@ a warning is logged when it starts happening, on its 1st, 10th, 100th... start (
 
 from __future__ import annotations
 
+import copy
 import logging
 from dataclasses import dataclass
 from typing import Any
@@ -87,6 +88,13 @@ class Compensator:
         self._last_entry = q_now.copy()
         self._correction = np.zeros_like(q_now)
         self._active.clear()
+
+    def fork(self) -> "Compensator":
+        """A copy that compensates on from this one's history without changing it (the model is shared:
+        models are not changed by compensating)."""
+        twin = copy.copy(self)
+        twin.counts, twin._starts, twin._active = dict(self.counts), dict(self._starts), set(self._active)
+        return twin
 
     def step(self, q_desired: ArrayLike) -> NDArray[np.float64]:
         """The command to issue on this control step of a streamed trajectory (every 10 ms)."""

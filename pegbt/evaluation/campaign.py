@@ -30,10 +30,17 @@ class Cell:
     seed: int = 0
     faults: Path | None = None  # one plan for every trial (its probabilistic faults vary with the seed)
     inject_faults: bool = False  # a plan per seed from `pegbt.evaluation.faultgen`
+    realtime: bool = False  # simulators in real time, runs on the wall clock (else lockstep)
+    interface: str = "pegbt"
 
     @property
     def name(self) -> str:
-        return f"{self.variant}-{self.condition}" + ("-faults" if self.faults or self.inject_faults else "")
+        return (
+            f"{self.variant}-{self.condition}"
+            + ("-faults" if self.faults or self.inject_faults else "")
+            + ("-realtime" if self.realtime else "")
+            + ("" if self.interface == "pegbt" else f"-{self.interface}")
+        )
 
     @property
     def seeds(self) -> range:
@@ -47,8 +54,18 @@ def trial_specs(cell: Cell, out: Path, keep_logs: bool = False) -> list[TrialSpe
     specs = []
     for seed in cell.seeds:
         plan = write_fault_plan(out / "faults" / cell.variant, seed) if cell.inject_faults else cell.faults
+        log = logs / f"{cell.name}-{seed}.jsonl"
         specs.append(
-            TrialSpec(cell.variant, cell.condition, seed, logs / f"{cell.name}-{seed}.jsonl", plan, keep_logs)
+            TrialSpec(
+                cell.variant,
+                cell.condition,
+                seed,
+                log,
+                plan,
+                keep_logs,
+                realtime=cell.realtime,
+                interface=cell.interface,
+            )
         )
     return specs
 

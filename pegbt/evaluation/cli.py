@@ -11,6 +11,8 @@ from pathlib import Path
 from pegbt.errors import PegbtError
 from pegbt.evaluation.paper import CONDITIONS, VARIANTS
 
+INTERFACES = ("pegbt", "dvrk")  # as `pegbt.evaluation.trial.INTERFACES` (not imported: it pulls in the robot)
+
 
 def add_commands(subparsers: argparse._SubParsersAction) -> None:
     parser = subparsers.add_parser(
@@ -41,6 +43,19 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
         "--inject-faults",
         action="store_true",
         help="a fault plan per seed: a missed grasp, slips, depth-noise bursts (written to DIR/faults/)",
+    )
+    parser.add_argument(
+        "--realtime",
+        action="store_true",
+        help="each trial's simulator runs in real time and the run on the wall clock (default: lockstep)",
+    )
+    parser.add_argument(
+        "--interface",
+        choices=INTERFACES,
+        default="pegbt",
+        help="what the simulator serves and the run speaks: pegbt (its own topics and extensions, the "
+        "default) or dvrk (what a dVRK serves through zenoh-bridge-ros2dds); passed to `pegbt sim "
+        "--interface` and `pegbt run --interface`",
     )
     parser.add_argument(
         "--out",
@@ -93,6 +108,42 @@ def check_arguments(args: argparse.Namespace) -> None:
         from pegbt.sim.fault_plan import FaultPlan
 
         FaultPlan.load(args.faults)  # unreadable or invalid: its error names the file, line and field
+    check_interface(args.interface)
+
+
+def check_interface(interface: str) -> None:
+    """A `PegbtError` unless both `pegbt sim --interface` and `pegbt run --interface` accept `interface`."""
+    if interface == "pegbt":
+        return
+    from pegbt.executive.providers import RUN_OPTIONS
+
+    missing = [
+        command
+        for command, accepts in (
+            ("pegbt sim", _sim_accepts(interface)),
+            ("pegbt run", interface in getattr(RUN_OPTIONS.get("interface"), "choices", ())),
+        )
+        if not accepts
+    ]
+    if missing:
+        raise PegbtError(
+            f"{' and '.join(f'`{command} --interface {interface}`' for command in missing)} not available in "
+            "this build of pegbt: the dVRK interface (its simulator side and the executive's CRTK client) "
+            "is not merged yet",
+            field="--interface",
+        )
+
+
+def _sim_accepts(interface: str) -> bool:
+    """Whether `pegbt sim` offers `--interface` with `interface` among its choices (read from its parser)."""
+    from pegbt.sim.cli import add_commands as add_sim
+
+    parser = argparse.ArgumentParser()
+    add_sim(parser.add_subparsers())
+    sim = next(action for action in parser._actions if isinstance(action, argparse._SubParsersAction))
+    options = {option: action for action in sim.choices["sim"]._actions for option in action.option_strings}
+    action = options.get("--interface")
+    return action is not None and (action.choices is None or interface in action.choices)
 
 
 def _eval(args: argparse.Namespace) -> int:
@@ -109,6 +160,8 @@ def _eval(args: argparse.Namespace) -> int:
         args.seed,
         None if args.faults is None else args.faults.resolve(),
         args.inject_faults,
+        realtime=args.realtime,
+        interface=args.interface,
     )
     specs = trial_specs(cell, args.out, keep_logs=args.keep_logs)
     done = None if args.quiet else _report_trial

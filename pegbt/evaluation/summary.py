@@ -54,6 +54,8 @@ def summarise(cell: Cell, records: Sequence[TrialRecord], workers: int = 1) -> d
         "trials": len(records),
         "seeds": [cell.seed, cell.seed + cell.trials - 1],
         "faults": "per-seed plans" if cell.inject_faults else (str(cell.faults) if cell.faults else "none"),
+        "realtime": cell.realtime,
+        "interface": cell.interface,
         "errors": len(records) - len(ran),
         "transfers_attempted": attempted,
         "transfers_succeeded": succeeded,
@@ -66,6 +68,11 @@ def summarise(cell: Cell, records: Sequence[TrialRecord], workers: int = 1) -> d
         "other_contacts_per_trial": _mean([r.other_contacts for r in ran]),
         "tip_path_m_per_trial": _mean([r.tip_path_m for r in ran]),
         "fallbacks_per_trial": _mean([r.fallbacks for r in ran]),
+        "overruns_per_trial": _mean([r.overruns for r in ran]),
+        "compute_waited_s_per_transfer": sum(r.compute_waited_s for r in ran) / succeeded
+        if succeeded
+        else None,
+        "compute_s_per_transfer": sum(r.compute_s for r in ran) / succeeded if succeeded else None,
         "trial_time_s_mean": _mean(trial_times),
         "trial_time_s_std": _std(trial_times),
         "workers": workers,
@@ -96,9 +103,10 @@ def _pct(value: float | None) -> str:
 def table(figures: dict[str, Any]) -> str:
     """The paper's table for one cell, measured beside the paper's, with the goals."""
     f = figures
+    mode = "real time, wall clock" if f["realtime"] else "lockstep"
     title = (
         f"pegbt eval: {f['variant']}, {f['condition']}, {f['trials']} trial(s), seeds {f['seeds'][0]}..{f['seeds'][1]}, "
-        f"faults: {f['faults']} (judged by the simulator's ground truth)"
+        f"faults: {f['faults']}, {mode}, {f['interface']} interface (judged by the simulator's ground truth)"
     )
     grid = Table()
     for column in ("", "measured", "paper", "goal"):
@@ -136,6 +144,13 @@ def table(figures: dict[str, Any]) -> str:
             "",
             f"<= {GOAL_WALL_S:.0f} s",
         ),
+        (
+            "perception and planning waited for / transfer (wall)",
+            f"{_s(f['compute_waited_s_per_transfer'])} ({_s(f['compute_s_per_transfer'])} computing)",
+            "",
+            "",
+        ),
+        ("ticks over their period / trial", _s(f["overruns_per_trial"], "", 1), "", ""),
         ("failed transfers by step", ", ".join(f"{k} {v}" for k, v in f["failures_by_step"].items()), "", ""),
     ]
     if f["faults_injected"]:

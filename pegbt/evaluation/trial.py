@@ -1,9 +1,12 @@
-"""One evaluation trial: a task variant's tree on a fresh embedded simulator (lockstep, dvrk-real
-physics, perception noise), seeded, judged by the simulator's ground truth, distilled into plain data.
+"""One evaluation trial: a task variant's tree on a fresh simulator (dvrk-real physics, perception
+noise; lockstep, or real time with the run on the wall clock), seeded, judged by the simulator's ground
+truth, distilled into plain data.
 
 A fresh simulator per trial: the simulator has no reset, and its start-up (≈1.6 s) is the price of a
-clean world, a fresh seed and identical results whatever ran before. `run_trial` is what a worker
-process calls, so its argument and result are picklable.
+clean world, a fresh seed and identical results whatever ran before. With pegbt's interface the run
+starts it (`--endpoint auto`); with another the trial starts it itself, as `pegbt sim --interface` in
+a shell would be, and the run connects to its address with `--interface`. `run_trial` is what a
+worker process calls, so its argument and result are picklable.
 """
 
 from __future__ import annotations
@@ -11,17 +14,24 @@ from __future__ import annotations
 import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
+from pegbt.behaviours.robot import SIMULATOR_ARGS
+from pegbt.behaviours.skills import SIMULATOR_CALIBRATION
 from pegbt.behaviours.trial import count_contacts
 from pegbt.errors import PegbtError
 from pegbt.evaluation.truth import failure_cause, injected_faults
 from pegbt.sim.log import read_sim_log
+from pegbt.sim.process import SimProcess
+
+if TYPE_CHECKING:
+    from pegbt.executive.session import RunOutput
 
 TREES = Path(__file__).resolve().parents[2] / "trees"
 # A trial that has not ended after this much simulated time is stopped (a tree that loops, a hung recovery):
 # the paper's trials took 40–75 s; recoveries, uncalibrated, take a few times that.
 TRIAL_TIMEOUT_S = 600.0
+INTERFACES = ("pegbt", "dvrk")  # pegbt: pegbt's own topics and extensions; dvrk: what a dVRK 2.x serves
 
 
 @dataclass(frozen=True)
@@ -33,6 +43,8 @@ class TrialSpec:
     faults: Path | None = None  # fault plan for the simulator
     keep_log: bool = False  # keep the tick log of a trial in which every transfer succeeded
     tree: Path | None = None  # another tree than the variant's (tests: a short task)
+    realtime: bool = False  # the simulator in real time and the run on the wall clock (else lockstep)
+    interface: str = "pegbt"  # what the simulator serves and the run speaks (`INTERFACES`)
 
 
 @dataclass
@@ -55,6 +67,9 @@ class TrialRecord:
     other_contacts: int = 0
     tip_path_m: float = 0.0  # planned tool-tip path, both arms
     fallbacks: int = 0  # optimised plans that fell back to cubics
+    overruns: int = 0  # ticks that took longer than the period
+    compute_waited_s: float = 0.0  # wall time from asking for perception or planning to picking it up
+    compute_s: float = 0.0  # wall time the worker threads computed
     log: str = ""  # kept tick log ("" if deleted)
     transfers: list[dict[str, Any]] = field(default_factory=list)
     faults: list[dict[str, Any]] = field(default_factory=list)
@@ -78,29 +93,22 @@ def run_trial(spec: TrialSpec) -> TrialRecord:
     """Run and judge one trial. A trial that cannot run (simulator gone, bad plan) is an `error` record."""
     from pegbt.evaluation.why import check_why
     from pegbt.executive.logfile import read_tick_log
-    from pegbt.executive.session import run_tree_file
 
     truth = truth_path(spec.log)
     truth.unlink(missing_ok=True)  # the simulator appends
-    options = {
-        "endpoint": "auto",
-        "condition": spec.condition,
-        "seed": spec.seed,
-        "simlog": str(truth),
-        "faults": None if spec.faults is None else str(spec.faults),
-    }
     record = TrialRecord(spec.variant, spec.condition, spec.seed, "error")
     started = time.perf_counter()
     try:
-        output = run_tree_file(
-            spec.tree or tree_path(spec.variant), spec.log, options=options, timeout=TRIAL_TIMEOUT_S
-        )
+        output = _run(spec, truth)
     except PegbtError as error:
         record.error, record.run_wall_s = str(error), time.perf_counter() - started
         record.log = str(spec.log) if spec.log.exists() else ""
         return record
     record.run_wall_s = time.perf_counter() - started
     record.outcome, record.trial_time_s = output.result.outcome, output.result.duration
+    record.overruns = output.result.overruns
+    record.compute_waited_s = output.result.work.waited_s
+    record.compute_s = output.result.work.compute_s
     entries = read_sim_log(truth)
     record.arm_arm_collisions, record.other_contacts = count_contacts(entries)
     judged, skills = output.reports.get("robot"), output.reports.get("skills")
@@ -108,6 +116,12 @@ def run_trial(spec: TrialSpec) -> TrialRecord:
         record.tip_path_m = sum(skills.tip_path_m.values())
         record.fallbacks = sum(skills.fallbacks.values())
     if judged is not None:
+        if not judged.judged_by.startswith("the simulator"):
+            record.outcome, record.error = (
+                "error",
+                f"the run was not judged by the simulator: {judged.judged_by}",
+            )
+            return record
         _fill_from_judge(record, judged.as_dict())
     log = read_tick_log(spec.log)
     record.transfers_attempted = max(
@@ -130,6 +144,54 @@ def run_trial(spec: TrialSpec) -> TrialRecord:
         spec.log.unlink(missing_ok=True)
         truth.unlink(missing_ok=True)
     return record
+
+
+def _run(spec: TrialSpec, truth: Path) -> RunOutput:
+    """The trial's run. pegbt's interface: on the embedded simulator (`--endpoint auto`, in real time with
+    `--clock wall`), which the run knows for a simulator without asking (a probe can time out on a busy
+    machine). Another interface: on a simulator started here with `--interface`, at its address."""
+    from pegbt.executive.session import run_tree_file
+
+    tree = spec.tree or tree_path(spec.variant)
+    clock = "wall" if spec.realtime else None
+    if spec.interface == "pegbt":
+        options = {
+            "endpoint": "auto",
+            "condition": spec.condition,
+            "seed": spec.seed,
+            "simlog": str(truth),
+            "faults": None if spec.faults is None else str(spec.faults),
+        }
+        return run_tree_file(tree, spec.log, options=options, clock=clock, timeout=TRIAL_TIMEOUT_S)
+    with SimProcess(simulator_args(spec, truth)) as simulator:
+        options = run_options(spec, simulator.endpoint)
+        return run_tree_file(tree, spec.log, options=options, clock=clock, timeout=TRIAL_TIMEOUT_S)
+
+
+def simulator_args(spec: TrialSpec, truth: Path) -> list[str]:
+    """`pegbt sim` arguments of a trial started here: seeded, logging its ground truth to `truth` (the
+    embedded simulator of `--endpoint auto` gets the same)."""
+    return [
+        *SIMULATOR_ARGS,
+        *([] if spec.realtime else ["--lockstep"]),
+        *([] if spec.interface == "pegbt" else ["--interface", spec.interface]),
+        "--seed",
+        str(spec.seed),
+        "--log",
+        str(truth),
+        *([] if spec.faults is None else ["--faults", str(spec.faults)]),
+    ]
+
+
+def run_options(spec: TrialSpec, endpoint: str) -> dict[str, Any]:
+    """`pegbt run` options of a trial on the simulator started here, at `endpoint` (its arms' calibration
+    models are the simulator's own, as `--endpoint auto` would take)."""
+    return {
+        "endpoint": endpoint,
+        "condition": spec.condition,
+        "calibration": str(SIMULATOR_CALIBRATION),
+        "interface": spec.interface,
+    }
 
 
 def truth_path(log: Path) -> Path:

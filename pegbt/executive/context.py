@@ -13,20 +13,23 @@ from typing import Any, TypeVar
 
 from pegbt.errors import PegbtError
 from pegbt.clock import Clock, WallClock
+from pegbt.executive.work import WorkPool
 
 T = TypeVar("T")
 
 
 @dataclass
 class RunContext:
-    """The clock and the named resources of one run.
+    """The clock, the named resources and the worker threads of one run.
 
     `resources` maps a name (e.g. `"arms"`, `"camera"`, `"skills"`) to whatever object the
-    behaviours that declared that name expect; the runner's caller fills it.
+    behaviours that declared that name expect; the runner's caller fills it. `work` runs leaves'
+    heavy computations off the tick (`Leaf.offload`).
     """
 
     clock: Clock = field(default_factory=WallClock)
     resources: Mapping[str, Any] = field(default_factory=dict)
+    work: WorkPool = field(default_factory=WorkPool)
 
     def resource(self, name: str, kind: type[T] | None = None) -> T:
         """The resource called `name`; a `PegbtError` if this run lacks it or it is not a `kind`."""

@@ -4,18 +4,25 @@ A leaf gets one `LeafSetup`. Its blackboard client lives in the node's namespace
 gets its own) and has access to exactly the keys the behaviour declared, the keys its key-parameters
 name and the keys its `$key` parameters reference. Follow py_trees' conventions: keep `__init__` light,
 acquire resources in `setup()` through `self.context.resource(...)`, and in `terminate(new_status)`
-stop anything still in motion when `new_status` is `INVALID` (the node was halted).
+stop anything still in motion when `new_status` is `INVALID` (the node was halted). Heavy work goes
+to `offload()` (`pegbt.executive.work`): the leaf stays RUNNING until a later tick finds the job done;
+a leaf that stops (halted, or done) discards whatever it still had computing.
 """
 
 from __future__ import annotations
 
-from typing import Any
+from collections.abc import Callable
+from typing import Any, TypeVar
 
 import py_trees
+from py_trees.common import Status
 
 from pegbt.errors import PegbtError
 from pegbt.executive.params import BlackboardRef, describe
 from pegbt.executive.registry import LeafSetup
+from pegbt.executive.work import Job
+
+T = TypeVar("T")
 
 
 def leaf_keys(setup: LeafSetup) -> tuple[set[str], set[str]]:
@@ -50,11 +57,25 @@ class Leaf(py_trees.behaviour.Behaviour):
         self.context = setup.context
         self.params = setup.params
         self.blackboard = self.attach_blackboard_client(name=setup.name, namespace=setup.namespace)
+        self._jobs: list[Job] = []
         reads, writes = leaf_keys(setup)
         for key in reads - writes:
             self.blackboard.register_key(key=_root_key(key), access=py_trees.common.Access.READ)
         for key in writes:
             self.blackboard.register_key(key=_root_key(key), access=py_trees.common.Access.WRITE)
+
+    def offload(self, fn: Callable[..., T], *args: Any) -> Job[T]:
+        """Run `fn(*args)` on the run's worker threads; pick the result up on a later tick (`Job.done`,
+        `Job.result()`). `fn` must compute from its arguments alone: the tree ticks on meanwhile."""
+        job = self.context.work.submit(fn, *args)
+        self._jobs.append(job)
+        return job
+
+    def stop(self, new_status: Status = Status.INVALID) -> None:
+        super().stop(new_status)
+        for job in self._jobs:
+            job.discard()
+        self._jobs = []
 
     def param(self, name: str) -> Any:
         """The parameter's value; a `$key` parameter is read from the blackboard now (KeyError if unset) and

@@ -125,10 +125,12 @@ RUN_OPTIONS: dict[str, RunOption] = {
 
 @dataclass(frozen=True)
 class ProviderSetup:
-    """What a provider receives: the run's options (every `RUN_OPTIONS` name, defaults filled in) and clock."""
+    """What a provider receives: the run's options (every `RUN_OPTIONS` name, defaults filled in), its clock
+    and the clock's name if `--clock` asked for one (None: the default, or whatever a resource supplies)."""
 
     clock: Clock
     options: Mapping[str, Any] = field(default_factory=dict)
+    clock_name: str | None = None
 
 
 def _load(target: str) -> Any:

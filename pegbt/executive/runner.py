@@ -10,6 +10,12 @@ has such a hint and the tick wrote nothing to the blackboard, the runner lets th
 earliest hint (in whole periods) instead of ticking every period: a trajectory of 1.5 s is one wait,
 not 75. Running nodes that are not leaves (a timeout) constrain the wait with their own hints. Without
 hints the runner ticks every period.
+
+Overruns: a tick that takes longer than the period on the run's clock (real time: perception or planning
+in the tick, a loaded machine) is recorded (the tick log's `late_s`, `RunResult.overruns`) and the next
+tick starts at once; time never has to run backwards. Work a leaf offloads (`pegbt.executive.work`)
+runs while the tree keeps ticking; with a clock whose time stands still while the tree computes
+(lockstep), it runs in the tick that asks for it instead, so runs stay deterministic and unchanged.
 """
 
 from __future__ import annotations
@@ -17,22 +23,28 @@ from __future__ import annotations
 import math
 import time
 import traceback
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import py_trees
 from py_trees.common import Status
 
+from pegbt.clock import is_realtime
 from pegbt.executive.build import BuiltTree
 from pegbt.executive.ticklog import TickLogWriter
+from pegbt.executive.work import WorkStats
 
 
 @dataclass(frozen=True)
 class RunResult:
-    """How a run ended: `outcome` is success, failure, timeout or interrupted."""
+    """How a run ended: `outcome` is success, failure, timeout or interrupted; `overruns` counts ticks that
+    took longer than the period (the longest by `late_max_s`); `work` what leaves computed off the tick."""
 
     outcome: str
     ticks: int
     duration: float
+    overruns: int = 0
+    late_max_s: float = 0.0
+    work: WorkStats = field(default_factory=WorkStats)
 
 
 def set_initial_blackboard(built: BuiltTree) -> None:
@@ -49,9 +61,12 @@ def run(
 ) -> RunResult:
     """Set up and tick `built` every `period` seconds of its context's clock; see the module docstring for how it ends."""
     clock = built.context.clock
+    work = built.context.work
+    work.inline = not is_realtime(clock)
     root = built.root
     start = clock.now()
-    ticks = 0
+    ticks = overruns = 0
+    late_max = 0.0
     outcome = "interrupted"
     try:
         set_initial_blackboard(built)
@@ -65,7 +80,12 @@ def run(
                 root.tick_once()
             else:
                 log.tick_logged()
-                log.tick(ticks, tick_start - start, time.perf_counter() - wall)
+            late = clock.now() - (tick_start + period)
+            if late > 0:
+                overruns += 1
+                late_max = max(late_max, late)
+            if log is not None:
+                log.tick(ticks, tick_start - start, time.perf_counter() - wall, max(late, 0.0))
             if root.status in (Status.SUCCESS, Status.FAILURE):
                 outcome = root.status.value.lower()
                 break
@@ -76,7 +96,7 @@ def run(
             wake = tick_start + period if _changed(before) else next_wake(built, tick_start, period)
             if timeout is not None:
                 wake = min(wake, start + timeout)
-            clock.wait(max(tick_start + period, wake) - clock.now())
+            clock.wait(max(0.0, max(tick_start + period, wake) - clock.now()))
     except KeyboardInterrupt:
         _halt(root, log, ticks, clock.now() - start, "interrupt")
     except Exception as error:
@@ -86,10 +106,11 @@ def run(
         _halt(root, log, ticks, clock.now() - start, "crash")
         raise
     finally:
+        work.close()
         if log is not None:
-            log.end(ticks, clock.now() - start, outcome)
+            log.end(ticks, clock.now() - start, outcome, overruns=overruns, work=work.stats.as_dict())
             log.close()
-    return RunResult(outcome, ticks, clock.now() - start)
+    return RunResult(outcome, ticks, clock.now() - start, overruns, late_max, work.stats)
 
 
 def _changed(before: dict) -> bool:

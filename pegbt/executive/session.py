@@ -83,7 +83,7 @@ def run_tree_file(
     log_path = Path(log_path)
     loaded = load_tree(tree)
     loaded.set_blackboard(blackboard or {})
-    setup = ProviderSetup(clock=make_clock(clock or "wall"), options=run_options(options))
+    setup = ProviderSetup(clock=make_clock(clock or "wall"), options=run_options(options), clock_name=clock)
     resources = provide_resources(loaded.resource_users(), setup)
     recorder = None
     try:

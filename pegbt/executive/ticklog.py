@@ -7,11 +7,14 @@ Records (one JSON object per line, flushed as written so that a crash loses noth
   `file:line:column`, parameters, blackboard keys read and written, subtree instance.
 - `tick`: `n` (tick number from 1), `t` (executive-clock seconds since the start), `dt_us` (wall
   cost of the tick, for profiling), `changes` as `[id, from, to, feedback]` and `bb` as
-  `{key: compact value}` (`bb_unset` lists deleted keys).
+  `{key: compact value}` (`bb_unset` lists deleted keys); `late_s` when the tick overran its period
+  on the run's clock (such a tick is always written).
 - `halt`: the tree was halted (`reason`: `interrupt`, `timeout`, `crash`), with the status changes the
   halt caused (running nodes going to INVALID had `terminate` called).
 - `crash`: an exception escaped a tick (`error`, `traceback`).
-- `end`: `outcome` (`success`, `failure`, `timeout`, `interrupted`, `crash`), `ticks`, `t`.
+- `end`: `outcome` (`success`, `failure`, `timeout`, `interrupted`, `crash`), `ticks`, `t`,
+  `overruns` (ticks that overran the period) and `work` (jobs run off the tick: `jobs`, `compute_s`,
+  `waited_s` from submission to pick-up, wall time).
 - `message`: what a robot said (a CRTK robot's `error`, `warning` and `status` topics): `n` and `t` of the
   tick it was logged before, `source` (the arm), `level` (`error`, `warning`, `status`), `text`, and
   `stamp` (the run's clock when it arrived). Logs written before this record existed simply have none.
@@ -174,12 +177,13 @@ class TickLogWriter:
             for message in source():
                 self._write({"type": "message", "n": n, "t": round(t, 6), **message})
 
-    def tick(self, n: int, t: float, dt: float) -> None:
-        """Record tick `n` (at executive time `t`, wall cost `dt` seconds) if it changed anything."""
+    def tick(self, n: int, t: float, dt: float, late: float = 0.0) -> None:
+        """Record tick `n` (at executive time `t`, wall cost `dt` seconds) if it changed anything or ran
+        `late` seconds past its period."""
         self._drain_messages(n, t)
         changes = self._status_changes()
         written, unset = self._blackboard_changes()
-        if changes or written or unset:
+        if changes or written or unset or late > 0:
             record: Record = {
                 "type": "tick",
                 "n": n,
@@ -187,6 +191,8 @@ class TickLogWriter:
                 "dt_us": round(dt * 1e6, 1),
                 "changes": changes,
             }
+            if late > 0:
+                record["late_s"] = round(late, 6)
             if written:
                 record["bb"] = written
             if unset:
@@ -211,9 +217,14 @@ class TickLogWriter:
             }
         )
 
-    def end(self, n: int, t: float, outcome: str) -> None:
+    def end(
+        self, n: int, t: float, outcome: str, *, overruns: int = 0, work: dict[str, float] | None = None
+    ) -> None:
         self._drain_messages(n, t)
-        self._write({"type": "end", "n": n, "t": round(t, 6), "outcome": outcome})
+        record: Record = {"type": "end", "n": n, "t": round(t, 6), "outcome": outcome, "overruns": overruns}
+        if work is not None:
+            record["work"] = work
+        self._write(record)
 
     def close(self) -> None:
         self._file.close()

@@ -37,6 +37,9 @@ from pegbt.transport.sequencing import Bundled, Outlet, Source
 Message = Callable[[], bytes]  # encodes a message when someone will receive it
 
 
+OUTCOME_TOPICS = ("operating_state", "error")  # what answers a command (with its attachment)
+
+
 @dataclass(frozen=True)
 class JointStateMessage:
     """A JointState, encoded when called; `content` (all but the stamp) tells an unchanged state."""
@@ -102,8 +105,14 @@ class Outbox:
 
     def outlet(self, key: str) -> Outlet:
         if key not in self._outlets:
+            # a stale stream message may go, but never a command's outcome: a client would wait for it for ever
+            stream = key.rsplit("/", 1)[-1] not in OUTCOME_TOPICS
             self._outlets[key] = Outlet(
-                self._session, key, self._source, drop_when_congested=self._realtime, express=self._realtime
+                self._session,
+                key,
+                self._source,
+                drop_when_congested=self._realtime and stream,
+                express=self._realtime,
             )
             self._outlets[key].tap = self.tap
         return self._outlets[key]

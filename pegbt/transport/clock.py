@@ -76,6 +76,11 @@ class SimClock:
     def lockstep(self) -> bool:
         return self.mode == "lockstep"
 
+    @property
+    def realtime(self) -> bool:
+        """False in lockstep: simulated time stands still while the client computes (`pegbt.clock.is_realtime`)."""
+        return not self.lockstep
+
     def now(self) -> float:
         return self._time if self.lockstep else time.time()
 
