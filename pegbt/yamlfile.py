@@ -18,12 +18,16 @@ import numpy as np
 import yaml
 from numpy.typing import NDArray
 
-from pegbt.errors import PegbtError
+from pegbt.errors import PegbtError, brief
 from pegbt.frames import rigid_transform
 
 MAX_FILE_BYTES = 2_000_000
 MAX_DEPTH = 100
 MAX_VALUES = 200_000
+# The settings-wide ceiling for a number without a physical bound of its own: SI values of a bench-top
+# robot's cell (metres, seconds, radians, pixels) never come near it, so beyond it is a typo or an attack.
+MAX_MAGNITUDE = 1e6
+MAX_INTEGER = 2**63 - 1
 # libyaml's composer recurses in C and crashes the interpreter beyond ~20 000 nested flow collections;
 # past this many brackets we use the pure-Python parser, which fails cleanly instead.
 _C_PARSER_BRACKET_LIMIT = 10_000
@@ -126,15 +130,19 @@ class Located:
         return self.value
 
     # ---------------------------------------------------------------------------------------- scalars
-    def number(self, *, positive: bool = False, low: float = -math.inf, high: float = math.inf) -> float:
-        """A finite number (not a boolean), positive or within [low, high] when asked."""
+    def number(
+        self, *, positive: bool = False, low: float = -MAX_MAGNITUDE, high: float = MAX_MAGNITUDE
+    ) -> float:
+        """A finite number (not a boolean), positive or within [low, high] (default ±`MAX_MAGNITUDE`)."""
         value = self.value
+        if isinstance(value, int) and not isinstance(value, bool) and abs(value) > MAX_INTEGER:
+            raise self.error(f"expected a number in [{low:g}, {high:g}], got {brief(value)}")
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
             raise self.error(f"expected a finite number, got {_describe(self)}")
         if positive and not value > 0:
-            raise self.error(f"expected a positive number, got {value!r}")
+            raise self.error(f"expected a positive number, got {brief(value)}")
         if not low <= value <= high:
-            raise self.error(f"expected a number in [{low:g}, {high:g}], got {value!r}")
+            raise self.error(f"expected a number in [{low:g}, {high:g}], got {brief(value)}")
         return float(value)
 
     def number_or(
@@ -143,21 +151,20 @@ class Located:
         default: float,
         *,
         positive: bool = False,
-        low: float = -math.inf,
-        high: float = math.inf,
+        low: float = -MAX_MAGNITUDE,
+        high: float = MAX_MAGNITUDE,
     ) -> float:
         """The number at entry `key` of a mapping (checked as `number` does), or `default` when it is absent."""
         entry = self.get(key)
         return default if entry is None else entry.number(positive=positive, low=low, high=high)
 
-    def integer(self, *, low: int | None = None, high: int | None = None) -> int:
-        """A whole number (not a boolean) within [low, high] when given."""
+    def integer(self, *, low: int = -MAX_INTEGER, high: int = MAX_INTEGER) -> int:
+        """A whole number (not a boolean) within [low, high] (default: a signed 64-bit integer)."""
         value = self.value
         if isinstance(value, bool) or not isinstance(value, int):
             raise self.error(f"expected a whole number, got {_describe(self)}")
-        if (low is not None and value < low) or (high is not None and value > high):
-            bounds = f"[{'-inf' if low is None else low}, {'inf' if high is None else high}]"
-            raise self.error(f"expected a whole number in {bounds}, got {value!r}")
+        if not low <= value <= high:
+            raise self.error(f"expected a whole number in [{low}, {high}], got {brief(value)}")
         return value
 
     def text(self) -> str:
@@ -200,8 +207,7 @@ def _describe(value: Located) -> str:
         return "a mapping"
     if value.is_list:
         return "a list"
-    shown = repr(value.value)
-    return shown if len(shown) <= 40 else shown[:37] + "..."
+    return brief(value.value)
 
 
 def read_settings_file(path: Path) -> Located:

@@ -129,7 +129,7 @@ def test_tree_show_schema_and_dot(tmp_path, capsys):
         "recover [main, recovery]",
         "guard [child]",
         "scripted --",
-        "seconds: float, required, >= 0, $key allowed",
+        "seconds: float, required, >= 0, <= 86400, $key allowed",
     ):
         assert word in schema
 

@@ -17,8 +17,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from pegbt.errors import PegbtError
-from pegbt.executive.params import REQUIRED, TYPE_NAMES, check_type, is_valid_key
+from pegbt.errors import PegbtError, brief
+from pegbt.executive.params import REQUIRED, TYPE_NAMES, check_type, is_valid_key, non_finite
 from pegbt.executive.problems import Problems, did_you_mean
 from pegbt.yamlfile import Located, Mark, read_yaml_file
 
@@ -177,6 +177,9 @@ class _DocumentLoader:
                     field=key,
                 )
                 continue
+            if non_finite(item.plain()):
+                self.problems.add("expected finite numbers (not NaN or an infinity)", item.mark, field=key)
+                continue
             values[key if key.startswith("/") else "/" + key] = item
         return values
 
@@ -273,4 +276,4 @@ def _kind(value: Located) -> str:
         return "a mapping"
     if value.is_list:
         return "a list"
-    return f"{value.value!r} ({type(value.value).__name__})" if value.value is not None else "nothing"
+    return f"{brief(value.value)} ({type(value.value).__name__})" if value.value is not None else "nothing"

@@ -21,6 +21,7 @@ measured (`pegbt calibrate collect`) and writes the folder at once.
 from __future__ import annotations
 
 import csv
+import io
 import json
 import math
 import os
@@ -32,7 +33,9 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from pegbt.boundedio import load_npy, read_bytes
 from pegbt.errors import PegbtError
+from pegbt.physics.plausible import check_arm_joints, check_times
 from pegbt.psm import JOINT_NAMES, N_JOINTS, known_arm
 
 Array = NDArray[np.float64]
@@ -45,6 +48,13 @@ CSV_COLUMNS = ("t", *(f"{q}_cmd" for q in JOINT_NAMES), *(f"{q}_meas" for q in J
 DVRK_DATA_VARIABLE = "PEGBT_DVRK_DATA"
 FILES = {"q_cmd": "q_cmd.npy", "q_phy": "q_phy.npy", "t": "t_stamp.npy"}
 _ARM_AT_END = re.compile(r"(PSM[12])$")
+MAX_ARRAY_BYTES = 256 * 2**20  # per .npy file: 5.6 million samples of six joints, 15 hours at 100 Hz
+MAX_CSV_BYTES = 512 * 2**20
+MAX_META_BYTES = 64 * 2**10
+
+
+class RecordingError(PegbtError):
+    """A file that is not a readable recording of an arm, named with its field and sample."""
 
 
 def dvrk_data_dir(required: bool = False) -> Path:
@@ -120,9 +130,23 @@ class Recording:
 
 # ---------------------------------------------------------------------------------------------- reading
 def load_recording(path: str | Path) -> Recording:
-    """Read and validate a recording folder or CSV; a `PegbtError` naming the file and problem if bad."""
-    path = Path(path)
-    if not path.exists():
+    """Read and validate a recording folder or CSV; a `RecordingError` naming the file and problem if bad."""
+    try:
+        return _load_recording(Path(path))
+    except RecordingError:
+        raise
+    except PegbtError as error:
+        raise RecordingError(
+            error.message, file=error.file, line=error.line, column=error.column, field=error.field
+        ) from None
+
+
+def _load_recording(path: Path) -> Recording:
+    try:
+        exists = path.exists()
+    except (OSError, ValueError) as error:
+        raise PegbtError(f"cannot read the recording: {error}", file=path) from None
+    if not exists:
         raise PegbtError(
             "no such recording (expected a folder with q_cmd.npy and q_phy.npy, or a CSV)", file=path
         )
@@ -134,18 +158,16 @@ def load_recording(path: str | Path) -> Recording:
         raise PegbtError(
             "not a recording: expected a folder with q_cmd.npy and q_phy.npy, or a .csv file", file=path
         )
-    validate(q_cmd, q_phy, t, path)
-    return Recording(path, q_cmd, q_phy, t, _arm_of(path))
+    arm = _arm_of(path)
+    validate(q_cmd, q_phy, t, path, arm=arm)
+    return Recording(path, q_cmd, q_phy, t, arm)
 
 
 def _load_npy(path: Path) -> Array:
     try:
-        data = np.load(path, allow_pickle=False)
-    except (OSError, ValueError, EOFError) as error:
-        raise PegbtError(f"not a recording: cannot read it as a NumPy array ({error})", file=path) from None
-    if not np.issubdtype(data.dtype, np.number):
-        raise PegbtError(f"not a recording: holds {data.dtype} values, not numbers", file=path)
-    return np.asarray(data, dtype=float)
+        return load_npy(path, MAX_ARRAY_BYTES)
+    except PegbtError as error:
+        raise PegbtError(f"not a recording: {error.message}", file=path) from None
 
 
 def _read_folder(folder: Path) -> tuple[Array, Array, Array | None]:
@@ -159,11 +181,11 @@ def _read_folder(folder: Path) -> tuple[Array, Array, Array | None]:
 
 
 def _read_csv(path: Path) -> tuple[Array, Array, Array]:
+    raw = read_bytes(path, MAX_CSV_BYTES, "CSV recording")
     try:
-        with path.open(newline="") as handle:
-            rows = list(csv.reader(handle))
-    except (OSError, UnicodeDecodeError) as error:
-        raise PegbtError(f"not a recording: cannot read it as text ({error})", file=path) from None
+        rows = list(csv.reader(io.StringIO(raw.decode("utf-8"), newline="")))
+    except (UnicodeDecodeError, csv.Error) as error:
+        raise PegbtError(f"not a recording: cannot read it as CSV text ({error})", file=path) from None
     if not rows:
         raise PegbtError("not a recording: the file is empty", file=path)
     header = [name.strip() for name in rows[0]]
@@ -194,9 +216,10 @@ def _arm_of(path: Path) -> str | None:
     meta = path / "meta.json"
     if path.is_dir() and meta.exists():
         try:
-            arm = json.loads(meta.read_text()).get("arm")
-        except (OSError, json.JSONDecodeError, AttributeError) as error:
-            raise PegbtError(f"cannot read recording metadata: {error}", file=meta) from None
+            arm = json.loads(read_bytes(meta, MAX_META_BYTES, "metadata file").decode("utf-8")).get("arm")
+        except (UnicodeDecodeError, json.JSONDecodeError, AttributeError, RecursionError) as error:
+            reason = "nested too deeply" if isinstance(error, RecursionError) else str(error)
+            raise PegbtError(f"cannot read recording metadata: {reason}", file=meta, field="arm") from None
         return known_arm(arm, meta)
     name = path.resolve().name if path.is_dir() else path.resolve().stem
     match = _ARM_AT_END.search(name)
@@ -204,8 +227,9 @@ def _arm_of(path: Path) -> str | None:
 
 
 # ---------------------------------------------------------------------------------------------- validation
-def validate(q_cmd: Array, q_phy: Array, t: Array | None, where: Path) -> None:
-    """Refuse recordings that cannot be analysed, saying which file, field and sample is wrong."""
+def validate(q_cmd: Array, q_phy: Array, t: Array | None, where: Path, *, arm: str | None = None) -> None:
+    """Refuse recordings that cannot be analysed or are not an arm's (`pegbt.physics.plausible`), saying
+    which file, field and sample is wrong."""
     for name, array in (("q_cmd", q_cmd), ("q_phy", q_phy)):
         if array.ndim != 2 or array.shape[1] != N_JOINTS:
             raise PegbtError(
@@ -252,6 +276,9 @@ def validate(q_cmd: Array, q_phy: Array, t: Array | None, where: Path) -> None:
             file=_file(where, "q_cmd"),
             field="q_cmd",
         )
+    if t is not None:
+        check_times(t, _file(where, "t"), lambda sample: _line(where, sample))
+    check_arm_joints(q_cmd, q_phy, arm, lambda name: _file(where, name), lambda sample: _line(where, sample))
 
 
 def _is_csv(where: Path) -> bool:
@@ -325,5 +352,5 @@ class RecordingWriter:
         q_cmd = np.stack([row[0] for row in self._rows])
         q_phy = np.stack([row[1] for row in self._rows])
         t = np.array([row[2] for row in self._rows])
-        validate(q_cmd, q_phy, t, self.path)
+        validate(q_cmd, q_phy, t, self.path, arm=self.arm)
         return write_recording(self.path, q_cmd, q_phy, t, self.arm)
