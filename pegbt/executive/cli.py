@@ -5,10 +5,14 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from pegbt.errors import PegbtError
 from pegbt.executive.providers import RUN_OPTIONS
 from pegbt.numbers import NumberOption
+
+if TYPE_CHECKING:
+    from pegbt.executive.logfile import TickLog
 
 
 def add_commands(subparsers: argparse._SubParsersAction) -> None:
@@ -18,10 +22,12 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
         "check", help="validate tree files without running them; all errors, each FILE:LINE:COLUMN"
     )
     check.add_argument("files", nargs="+", metavar="FILE")
+    _include_option(check)
     check.set_defaults(handler=_tree_check)
     show = tree_commands.add_parser("show", help="print a tree (ASCII), or write Graphviz with --dot")
     show.add_argument("file", metavar="FILE")
     show.add_argument("--dot", metavar="OUT", help="write the tree as a Graphviz .dot file")
+    _include_option(show)
     show.set_defaults(handler=_tree_show)
     schema = tree_commands.add_parser("schema", help="list every node type and behaviour with its parameters")
     schema.set_defaults(handler=_tree_schema)
@@ -56,6 +62,7 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
         "(a simulator in lockstep) supplies its own",
     )
     run.add_argument("--quiet", action="store_true", help="no progress lines")
+    _include_option(run)
     for option in RUN_OPTIONS.values():
         run.add_argument(
             f"--{option.name}",
@@ -99,12 +106,20 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
     export.set_defaults(handler=_log_export)
 
 
+def _include_option(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--allow-include-outside",
+        action="store_true",
+        help="let `include:` name files outside the tree file's folder (refused by default)",
+    )
+
+
 def _tree_check(args: argparse.Namespace) -> int:
     from pegbt.executive.loader import check_tree
 
     failed = 0
     for file in args.files:
-        errors = check_tree(file)
+        errors = check_tree(file, allow_include_outside=args.allow_include_outside)
         for error in errors:
             print(error, file=sys.stderr)
         if errors:
@@ -120,7 +135,7 @@ def _tree_show(args: argparse.Namespace) -> int:
 
     from pegbt.executive.loader import load_tree
 
-    built = load_tree(args.file).build()
+    built = load_tree(args.file, allow_include_outside=args.allow_include_outside).build()
     if args.dot:
         try:
             Path(args.dot).write_text(py_trees.display.dot_tree(built.root).to_string(), encoding="utf-8")
@@ -156,6 +171,7 @@ def _run(args: argparse.Namespace) -> int:
         period=args.period,
         timeout=args.timeout,
         quiet=args.quiet,
+        allow_include_outside=args.allow_include_outside,
     )
     reports = list(output.reports.values())
     if reports:  # a resource that judges the run says more than the per-node table
@@ -172,32 +188,38 @@ def _run(args: argparse.Namespace) -> int:
 
 def _log_summary(args: argparse.Namespace) -> int:
     from pegbt.executive.analysis import summary
-    from pegbt.executive.logfile import read_tick_log
 
-    print(summary(read_tick_log(args.log)))
+    print(summary(_read_log(args.log)))
     return 0
 
 
 def _log_why(args: argparse.Namespace) -> int:
     from pegbt.executive.analysis import why
-    from pegbt.executive.logfile import read_tick_log
 
-    print(why(read_tick_log(args.log)))
+    print(why(_read_log(args.log)))
     return 0
 
 
 def _log_replay(args: argparse.Namespace) -> int:
     from pegbt.executive.analysis import replay
-    from pegbt.executive.logfile import read_tick_log
 
-    print(replay(read_tick_log(args.log), tick=args.tick, time=args.time))
+    print(replay(_read_log(args.log), tick=args.tick, time=args.time))
     return 0
 
 
 def _log_export(args: argparse.Namespace) -> int:
     from pegbt.executive.btlog import export_btlog
-    from pegbt.executive.logfile import read_tick_log
 
-    count = export_btlog(read_tick_log(args.log), Path(args.out))
+    count = export_btlog(_read_log(args.log), Path(args.out))
     print(f"wrote {args.out} ({count} transitions)")
     return 0
+
+
+def _read_log(path: str) -> TickLog:
+    """The tick log, saying on stderr what the reader skipped or cut (a crash's last line, a repeat)."""
+    from pegbt.executive.logfile import read_tick_log
+
+    log = read_tick_log(path)
+    for warning in log.warnings:
+        print(f"pegbt: warning: {path}: {warning}", file=sys.stderr)
+    return log
