@@ -13,6 +13,8 @@ from os import PathLike
 class PegbtError(Exception):
     """A problem with the user's input or environment, located as precisely as it can be."""
 
+    exit_status = 2  # bad input; a subclass may say otherwise (an endpoint lost is 3)
+
     def __init__(
         self,
         message: str,

@@ -268,11 +268,30 @@ def _position(text: str, index: int) -> tuple[int, int]:
     return line, index - (text.rfind("\n", 0, index) + 1) + 1
 
 
+def _flow_depth(text: str) -> tuple[int, int]:
+    """(deepest nesting of flow brackets, where it is reached), counting brackets inside quotes too: an
+    over-estimate refuses a rare odd file, never lets a deep one through to a parser that would crash."""
+    depth = deepest = at = 0
+    for index, char in enumerate(text):
+        if char in "[{":
+            depth += 1
+            if depth > deepest:
+                deepest, at = depth, index
+        elif char in "]}" and depth:
+            depth -= 1
+    return deepest, at
+
+
 def _compose(text: str, name: str) -> yaml.Node | None:
-    use_c = (
-        getattr(yaml, "__with_libyaml__", False)
-        and (text.count("[") + text.count("{")) <= _C_PARSER_BRACKET_LIMIT
-    )
+    brackets = text.count("[") + text.count("{")
+    if brackets > _C_PARSER_BRACKET_LIMIT:
+        deepest, at = _flow_depth(text)
+        if deepest > MAX_DEPTH:
+            line, column = _position(text, at)
+            raise YamlFileError(
+                f"nested more than {MAX_DEPTH} levels deep", file=name, line=line, column=column
+            )
+    use_c = getattr(yaml, "__with_libyaml__", False) and brackets <= _C_PARSER_BRACKET_LIMIT
     loader = yaml.CSafeLoader(text) if use_c else yaml.SafeLoader(text)
     try:
         return loader.get_single_node()

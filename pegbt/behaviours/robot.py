@@ -11,14 +11,14 @@ from __future__ import annotations
 
 from typing import Any
 
+from pegbt.behaviours.trial import Trial
 from pegbt.clock import Clock, WallClock
 from pegbt.errors import PegbtError
 from pegbt.executive.providers import ProviderSetup
 from pegbt.psm import ARMS
 from pegbt.sim.process import SimProcess
-from pegbt.transport import ArmClient, CameraClient, Link, SimClock, connect
 from pegbt.sim.truth import ask_truth
-from pegbt.behaviours.trial import Trial
+from pegbt.transport import ArmClient, CameraClient, EndpointSilent, Link, SimClock, connect
 
 SIMULATOR_ARGS = ("--lockstep", "--physics", "dvrk-real")
 PROBE_TIMEOUT = 2.0  # s to wait for a simulator to answer `sim/clock` at an address (no answer: a robot)
@@ -135,7 +135,13 @@ def connect_robot(
                 lockstep=bool(sim_clock and sim_clock.lockstep),
                 endpoint=endpoint,
             )
-            robot.wait_until_ready()
+            try:
+                robot.wait_until_ready()
+            except EndpointSilent as error:
+                where = simulator.endpoint if simulator else endpoint
+                raise EndpointSilent(
+                    f"no endpoint answered at {where}: {error.message}", field=error.field
+                ) from None
         except BaseException:
             link.close()
             raise

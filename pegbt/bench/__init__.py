@@ -25,6 +25,7 @@ BENCHMARKS: dict[str, str] = {
     "sim2real": "pegbt.bench.sim2real:run",
     "sim2real-real": "pegbt.bench.sim2real_real:run",
     "eval": "pegbt.bench.eval:run",
+    "fuzz": "pegbt.bench.fuzz:run",
 }
 
 

@@ -10,6 +10,9 @@ from typing import TYPE_CHECKING
 from pegbt.errors import PegbtError
 from pegbt.executive.providers import RUN_OPTIONS
 from pegbt.numbers import NumberOption
+from pegbt.stopsignals import stop_signals
+
+INTERRUPTED = 130  # 128 + SIGINT: a Ctrl-C that reached the runner as KeyboardInterrupt
 
 if TYPE_CHECKING:
     from pegbt.executive.logfile import TickLog
@@ -163,16 +166,17 @@ def _run(args: argparse.Namespace) -> int:
 
     options = {name: getattr(args, f"option_{name}") for name in RUN_OPTIONS}
     log_path = Path(args.log) if args.log else default_log_path(args.tree)
-    output = run_tree_file(
-        args.tree,
-        log_path,
-        options=options,
-        clock=args.clock,
-        period=args.period,
-        timeout=args.timeout,
-        quiet=args.quiet,
-        allow_include_outside=args.allow_include_outside,
-    )
+    with stop_signals() as received:
+        output = run_tree_file(
+            args.tree,
+            log_path,
+            options=options,
+            clock=args.clock,
+            period=args.period,
+            timeout=args.timeout,
+            quiet=args.quiet,
+            allow_include_outside=args.allow_include_outside,
+        )
     reports = list(output.reports.values())
     if reports:  # a resource that judges the run says more than the per-node table
         print(
@@ -183,6 +187,9 @@ def _run(args: argparse.Namespace) -> int:
     else:
         print(result_table(read_tick_log(log_path)))
     print(f"tick log: {log_path}")
+    if output.result.outcome == "interrupted":
+        print(f"pegbt: interrupted by {received.name or 'SIGINT'}: the tree was halted", file=sys.stderr)
+        return received.status if received.signum else INTERRUPTED
     return 0 if output.ok else 1
 
 

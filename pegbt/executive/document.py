@@ -293,6 +293,13 @@ class _DocumentLoader:
                 continue
             kind = TYPE_NAMES[kind_name]
             default = fields["default"].plain() if "default" in fields else REQUIRED
+            if default is not REQUIRED and non_finite(default):
+                self.problems.add(
+                    f"default of argument {name!r} should be finite numbers (not NaN, an infinity or beyond 64 bits)",
+                    fields["default"].mark,
+                    field=name,
+                )
+                default = REQUIRED
             if default is not REQUIRED and default is not None:
                 default, problem = check_type(default, kind)
                 if problem:

@@ -101,9 +101,12 @@ def describe(value: Any) -> str:
 
 
 def non_finite(value: Any) -> bool:
-    """Whether a value holds NaN or an infinity anywhere (a float, or inside a list or mapping)."""
+    """Whether a value holds NaN, an infinity or an integer beyond 64 bits anywhere (a number, or inside a
+    list or mapping): no quantity a tree gives is either, and the integer cannot even be printed."""
     if isinstance(value, float):
         return not math.isfinite(value)
+    if isinstance(value, int):
+        return abs(value) > 2**63
     if isinstance(value, list):
         return any(non_finite(item) for item in value)
     if isinstance(value, dict):
@@ -166,7 +169,7 @@ class Param:
         if self.key is not None and not isinstance(checked, Unbound) and not is_valid_key(checked):
             return value, "a blackboard key name (letters, digits, _, / for namespaces, . for attributes)"
         if non_finite(checked):
-            return value, "a finite number (not NaN or an infinity)"
+            return value, "a finite number (not NaN, an infinity or beyond 64 bits)"
         numbers = checked if isinstance(checked, list) else [checked]
         for number in numbers:
             if isinstance(number, bool) or not isinstance(number, (int, float)):

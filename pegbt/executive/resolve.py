@@ -19,7 +19,16 @@ import py_trees
 
 from pegbt.executive.document import SubtreeDef, TreeDocument
 from pegbt.executive.nodetypes import NODE_TYPES, NodeType
-from pegbt.executive.params import REQUIRED, BlackboardRef, Param, Unbound, check_type, describe, is_valid_key
+from pegbt.executive.params import (
+    REQUIRED,
+    BlackboardRef,
+    Param,
+    Unbound,
+    check_type,
+    describe,
+    is_valid_key,
+    non_finite,
+)
 from pegbt.executive.problems import Problems, did_you_mean
 from pegbt.executive.registry import REGISTRY, BehaviourRegistry, BehaviourSpec
 from pegbt.yamlfile import Located, Mark
@@ -415,6 +424,8 @@ class Resolver:
                 continue
             raw = self._substitute(value.plain(), scope, value.mark)
             checked, problem = check_type(raw, arg.type)
+            if not problem and non_finite(checked):
+                problem = "finite numbers (not NaN, an infinity or beyond 64 bits)"
             if problem:
                 self.problems.add(
                     f"argument {arg_name!r} should be {problem}; found {describe(raw)}",
