@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import json
 import random
+import re
 import shutil
 import signal
 import tempfile
@@ -78,7 +79,7 @@ class Tally:
         except PegbtError:
             self.refused += 1
             return
-        except Exception as error:  # the campaign's finding: any other exception is a traceback
+        except Exception as error:  # noqa: BLE001 - the campaign's finding: any other exception
             self.tracebacks += 1
             self._example(f"traceback {type(error).__name__}: {error!s:.120}: {what}")
             return
@@ -126,20 +127,19 @@ def _mutate_text(text: str, rng: random.Random) -> tuple[str, bool, str]:
         ]
     )
     if kind in ("number", "param"):
-        numbers = [(i, token) for i, line in enumerate(lines) for token in _numbers(line)]
-        if kind == "param":
-            numbers = [
-                (i, t) for i, t in numbers if any(f"{p}:" in lines[i] for p in NUMERIC_PARAMS)
-            ] or numbers
-        if numbers:
-            index, token = rng.choice(numbers)
+        numbers = [(i, match) for i, line in enumerate(lines) for match in _numbers(line)]
+        params = [
+            (i, m)
+            for i, m in numbers
+            if lines[i][: m.start()].rstrip().endswith(tuple(f"{p}:" for p in NUMERIC_PARAMS))
+        ]
+        chosen = params if kind == "param" and params else numbers
+        if chosen:
+            index, match = rng.choice(chosen)
             absurd = rng.choice(ABSURD_NUMBERS)
-            lines[index] = lines[index].replace(token, absurd, 1)
-            return (
-                "".join(lines),
-                kind == "param" or not absurd.startswith(("1", "-1", "0x")),
-                f"{token} -> {absurd[:12]} at line {index + 1}",
-            )
+            lines[index] = lines[index][: match.start()] + absurd + lines[index][match.end() :]
+            made_absurd = (kind == "param" and bool(params)) or not absurd.startswith(("1", "-1", "0x"))
+            return "".join(lines), made_absurd, f"{match.group()} -> {absurd[:12]} at line {index + 1}"
     if kind == "delete" and lines:
         index = rng.randrange(len(lines))
         return "".join(lines[:index] + lines[index + 1 :]), False, f"line {index + 1} deleted"
@@ -163,21 +163,36 @@ def _mutate_text(text: str, rng: random.Random) -> tuple[str, bool, str]:
     return raw.decode("utf-8", "replace"), False, "bytes flipped"
 
 
-def _numbers(line: str) -> list[str]:
-    import re
+def _numbers(line: str) -> list[re.Match[str]]:
+    """Numbers written as values (after `: `, `[` or `, `), not inside names, strings or comments."""
+    code = line.split("#", 1)[0]
+    return list(
+        re.finditer(
+            r"(?<=[:\[,] )-?\d+(?:\.\d+)?(?:e[-+]\d+)?(?=\s*[,}\]]|\s*$)|(?<=\[)-?\d+(?:\.\d+)?(?=[,\]])",
+            code,
+        )
+    )
 
-    code = line.split("#", 1)[0]  # a number in a comment is no value
-    return re.findall(r"(?<![\w.$])-?\d+\.\d+(?:e[-+]\d+)?(?![\w.])|(?<=: )-?\d+(?=[,}\s])", code)
 
-
-def _parses(text: str) -> bool:
+def _parses(text: str) -> tuple[bool, bool]:
+    """(whether the text is YAML, whether it holds an absurd number as a number, not inside a string)."""
     from pegbt.yamlfile import parse_yaml
 
     try:
-        parse_yaml(text, "<fuzz>")
-        return True
+        document = parse_yaml(text, "<fuzz>")
     except PegbtError:
+        return False, False
+    return True, document is not None and _holds_absurd(document.plain())
+
+
+def _holds_absurd(value: Any) -> bool:
+    if isinstance(value, dict):
+        return any(_holds_absurd(item) for item in value.values())
+    if isinstance(value, list):
+        return any(_holds_absurd(item) for item in value)
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
         return False
+    return abs(value) >= 1e300 if isinstance(value, int) else not abs(value) < 1e300
 
 
 # ---------------------------------------------------------------------------------------------- readers
@@ -196,8 +211,12 @@ def fuzz_trees(count: int, rng: random.Random, work: Path) -> Tally:
         text, absurd, what = _mutate_text(texts[source], rng)
         target = source.with_name(f"fuzz-{n}.yaml")
         target.write_text(text, encoding="utf-8", errors="surrogateescape")
+        parsed, holds = _parses(text)
         tally.record(
-            lambda: not check_tree(target), parsed=_parses(text), absurd=absurd, what=f"{source.name}: {what}"
+            lambda target=target: not check_tree(target),
+            parsed=parsed,
+            absurd=absurd and holds,
+            what=f"{source.name}: {what}",
         )
         target.unlink()
     return tally
@@ -211,7 +230,10 @@ def fuzz_settings(count: int, rng: random.Random, work: Path) -> Tally:
 
     plan = "seed: 7\nloss: {probability: 0.05, topics: [servo_jp]}\nlatency: {seconds: 0.02, jitter: 0.005}\ncrash: {at: 30.0}\nworld: {slips: [{time: 12.0, arm: PSM1}], miss_attempts: [0], slip_rate: 0.0}\ncamera: {bursts: [{start: 5.0, duration: 1.0, sigma: 0.003}]}\n"
     readers: dict[str, tuple[str, Callable[[Path], Any]]] = {
-        "psm.yaml": ((REPO / "skills" / "psm.yaml").read_text(), lambda p: arm_settings("PSM1", p)),
+        "psm.yaml": (
+            (REPO / "skills" / "psm.yaml").read_text(),
+            lambda p: (arm_settings("PSM1", p), arm_settings("PSM2", p)),
+        ),
         "motion.yaml": ((REPO / "skills" / "motion.yaml").read_text(), lambda p: motion_settings(p)),
         "workcell.yaml": ((REPO / "skills" / "workcell.yaml").read_text(), load_workcell),
         "faults.yaml": (plan, FaultPlan.load),
@@ -223,7 +245,13 @@ def fuzz_settings(count: int, rng: random.Random, work: Path) -> Tally:
         text, absurd, what = _mutate_text(base, rng)
         target = work / f"settings-{n}-{name}"
         target.write_text(text, encoding="utf-8", errors="surrogateescape")
-        tally.record(lambda: read(target), parsed=_parses(text), absurd=absurd, what=f"{name}: {what}")
+        parsed, holds = _parses(text)
+        tally.record(
+            lambda read=read, target=target: read(target),
+            parsed=parsed,
+            absurd=absurd and holds,
+            what=f"{name}: {what}",
+        )
         target.unlink()
     return tally
 
@@ -320,7 +348,7 @@ def fuzz_recordings(count: int, rng: random.Random, work: Path) -> Tally:
             what = kind
         parsed = all(_npy_header_ok(folder / f) for f in ("q_cmd.npy", "q_phy.npy"))
         before = tally.absurd_accepted
-        tally.record(lambda: load_recording(folder), parsed=parsed, absurd=absurd, what=what)
+        tally.record(lambda folder=folder: load_recording(folder), parsed=parsed, absurd=absurd, what=what)
         tally.written_from_non_arm += tally.absurd_accepted - before
         shutil.rmtree(folder)
     return tally
@@ -358,7 +386,7 @@ def _npy_header_ok(path: Path) -> bool:
             np.lib.format.read_magic(handle)
             np.lib.format.read_array_header_1_0(handle)
         return True
-    except Exception:
+    except (OSError, ValueError, EOFError, SyntaxError):
         return False
 
 
@@ -366,7 +394,6 @@ def fuzz_tick_logs(count: int, rng: random.Random, work: Path) -> Tally:
     from pegbt.executive.analysis import replay, summary, why
     from pegbt.executive.btlog import export_btlog
     from pegbt.executive.logfile import read_tick_log
-
     from pegbt.executive.session import run_tree_file
 
     valid = work / "valid.jsonl"
@@ -390,12 +417,25 @@ def fuzz_tick_logs(count: int, rng: random.Random, work: Path) -> Tally:
             json.dumps(record, allow_nan=True) if not isinstance(record, str) else record
             for record in mutated
         ]
-        tail = "" if rng.random() < 0.9 else lines.pop()[: rng.randrange(1, 40)]
+        tail = ""
+        if rng.random() < 0.1:  # the run died while writing its last line: that line is not read
+            tail = lines.pop()[: rng.randrange(1, 40)]
+            absurd = absurd and f"line {len(lines) + 1}:" not in what
         path = work / f"log-{n}.jsonl"
         path.write_text("".join(line + "\n" for line in lines) + tail)
-        tally.record(lambda: read(path), parsed=True, absurd=absurd, what=what)
+        tally.record(lambda path=path: read(path), parsed=_json_lines(lines), absurd=absurd, what=what)
         path.unlink()
     return tally
+
+
+def _json_lines(lines: list[str]) -> bool:
+    """Whether every line is JSON (the mutation left the syntax alone and reached the record checks)."""
+    try:
+        for line in lines:
+            json.loads(line)
+    except (ValueError, RecursionError):
+        return False
+    return True
 
 
 def _mutate_records(records: list[Any], rng: random.Random) -> tuple[bool, str]:
@@ -485,8 +525,21 @@ def fuzz_payloads(count: int, rng: random.Random, work: Path) -> Tally:
                 raise AssertionError("an out-of-limit set-point was applied")
             return True
 
-        tally.record(admit, parsed=True, absurd=absurd, what=f"{kind} #{n}")
+        tally.record(admit, parsed=_decodes(kind, payload), absurd=absurd, what=f"{kind} #{n}")
     return tally
+
+
+def _decodes(kind: str, payload: bytes) -> bool:
+    """Whether the payload is a well-formed message (CDR, or a tag's four fields): past the parser."""
+    from pegbt.transport import codec
+
+    if kind == "tag":
+        return payload.count(b"|") == 3
+    try:
+        codec.decode_joint_state(payload)
+    except Exception:  # noqa: BLE001 - any failure to decode is "did not parse"
+        return False
+    return True
 
 
 READERS: dict[str, Callable[[int, random.Random, Path], Tally]] = {
