@@ -5,8 +5,8 @@ from __future__ import annotations
 import typing
 
 import pytest
-
 from executive_helpers import write_tree
+
 from pegbt.executive.loader import check_tree
 from pegbt.executive.nodetypes import NODE_TYPES
 from pegbt.executive.registry import REGISTRY

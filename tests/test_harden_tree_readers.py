@@ -8,8 +8,8 @@ import time
 from pathlib import Path
 
 import pytest
-
 from executive_helpers import write_tree
+
 from pegbt.cli import main
 from pegbt.errors import PegbtError
 from pegbt.executive.loader import check_tree
