@@ -49,7 +49,7 @@ HUGE_HEX = "0x" + "f" * 5000
             2,
             11,
             "attempts",
-            "<= ",
+            "beyond 64 bits",
         ),
         ("tree:\n  wait: {seconds: " + HUGE_HEX + "}\n", 2, 10, "seconds", "at most 1e300"),
         ("tree:\n  set_blackboard: {key: x, value: .nan}\n", 2, 28, "value", "finite"),
