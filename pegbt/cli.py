@@ -53,10 +53,10 @@ def main(argv: list[str] | None = None) -> int:
         sys.stdout.flush()  # a closed pipe shows here, not in the interpreter's own flush at exit
     except PegbtError as error:
         print(f"pegbt: error: {error}", file=sys.stderr)
-        return 2
-    except KeyboardInterrupt:
-        print("pegbt: interrupted", file=sys.stderr)
-        return 130
+        return error.exit_status
+    except KeyboardInterrupt as stop:
+        print(f"pegbt: interrupted by {stop.args[0] if stop.args else 'SIGINT'}", file=sys.stderr)
+        return getattr(stop, "status", 130)
     except BrokenPipeError:
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # nothing left to flush at exit
         return BROKEN_PIPE_STATUS

@@ -13,6 +13,8 @@ from os import PathLike
 class PegbtError(Exception):
     """A problem with the user's input or environment, located as precisely as it can be."""
 
+    exit_status = 2  # bad input; a subclass may say otherwise (an endpoint lost is 3)
+
     def __init__(
         self,
         message: str,
@@ -55,3 +57,17 @@ class PegbtErrors(PegbtError):
 
     def __str__(self) -> str:
         return "\n".join(str(error) for error in self.errors)
+
+
+def brief(value: object, limit: int = 40) -> str:
+    """`repr(value)` cut to `limit` characters, safe for any value an error may quote.
+
+    Why: Python refuses to print an integer of more than 4,300 digits (a YAML `0xfff…` parses to one),
+    so an error message quoting such a value would itself raise; it is described by its size instead."""
+    if isinstance(value, int) and not isinstance(value, bool) and value.bit_length() > 1000:
+        return f"<an integer of about {int(value.bit_length() * 0.30103) + 1} digits>"
+    try:
+        shown = repr(value)
+    except (ValueError, RecursionError):
+        return f"<a {type(value).__name__} too large to show>"
+    return shown if len(shown) <= limit else shown[: limit - 3] + "..."

@@ -18,18 +18,27 @@ import numpy as np
 import yaml
 from numpy.typing import NDArray
 
-from pegbt.errors import PegbtError
+from pegbt.boundedio import read_bytes
+from pegbt.errors import PegbtError, brief
 from pegbt.frames import rigid_transform
 
 MAX_FILE_BYTES = 2_000_000
 MAX_DEPTH = 100
 MAX_VALUES = 200_000
+# The settings-wide ceiling for a number without a physical bound of its own: SI values of a bench-top
+# robot's cell (metres, seconds, radians, pixels) never come near it, so beyond it is a typo or an attack.
+MAX_MAGNITUDE = 1e6
+MAX_INTEGER = 2**63 - 1
 # libyaml's composer recurses in C and crashes the interpreter beyond ~20 000 nested flow collections;
 # past this many brackets we use the pure-Python parser, which fails cleanly instead.
 _C_PARSER_BRACKET_LIMIT = 10_000
 _MAP_TAG = "tag:yaml.org,2002:map"
 _SEQ_TAG = "tag:yaml.org,2002:seq"
 _MERGE_TAG = "tag:yaml.org,2002:merge"
+
+
+class YamlFileError(PegbtError):
+    """A YAML file that cannot be read: too large, not a regular file, not UTF-8, or not YAML."""
 
 
 @dataclass(frozen=True)
@@ -74,10 +83,10 @@ class Located:
             return [item.plain() for item in self.value]
         return self.value
 
-    def error(self, message: str, *, at: Mark | None = None, field_name: str | None = None) -> PegbtError:
+    def error(self, message: str, *, at: Mark | None = None, field_name: str | None = None) -> YamlFileError:
         """A `PegbtError` about this value (or, with `at`/`field_name`, about one of its parts)."""
         mark = at or self.mark
-        return PegbtError(
+        return YamlFileError(
             message, file=mark.file, line=mark.line, column=mark.column, field=field_name or self.path or None
         )
 
@@ -126,15 +135,19 @@ class Located:
         return self.value
 
     # ---------------------------------------------------------------------------------------- scalars
-    def number(self, *, positive: bool = False, low: float = -math.inf, high: float = math.inf) -> float:
-        """A finite number (not a boolean), positive or within [low, high] when asked."""
+    def number(
+        self, *, positive: bool = False, low: float = -MAX_MAGNITUDE, high: float = MAX_MAGNITUDE
+    ) -> float:
+        """A finite number (not a boolean), positive or within [low, high] (default ±`MAX_MAGNITUDE`)."""
         value = self.value
+        if isinstance(value, int) and not isinstance(value, bool) and abs(value) > MAX_INTEGER:
+            raise self.error(f"expected a number in [{low:g}, {high:g}], got {brief(value)}")
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
             raise self.error(f"expected a finite number, got {_describe(self)}")
         if positive and not value > 0:
-            raise self.error(f"expected a positive number, got {value!r}")
+            raise self.error(f"expected a positive number, got {brief(value)}")
         if not low <= value <= high:
-            raise self.error(f"expected a number in [{low:g}, {high:g}], got {value!r}")
+            raise self.error(f"expected a number in [{low:g}, {high:g}], got {brief(value)}")
         return float(value)
 
     def number_or(
@@ -143,21 +156,20 @@ class Located:
         default: float,
         *,
         positive: bool = False,
-        low: float = -math.inf,
-        high: float = math.inf,
+        low: float = -MAX_MAGNITUDE,
+        high: float = MAX_MAGNITUDE,
     ) -> float:
         """The number at entry `key` of a mapping (checked as `number` does), or `default` when it is absent."""
         entry = self.get(key)
         return default if entry is None else entry.number(positive=positive, low=low, high=high)
 
-    def integer(self, *, low: int | None = None, high: int | None = None) -> int:
-        """A whole number (not a boolean) within [low, high] when given."""
+    def integer(self, *, low: int = -MAX_INTEGER, high: int = MAX_INTEGER) -> int:
+        """A whole number (not a boolean) within [low, high] (default: a signed 64-bit integer)."""
         value = self.value
         if isinstance(value, bool) or not isinstance(value, int):
             raise self.error(f"expected a whole number, got {_describe(self)}")
-        if (low is not None and value < low) or (high is not None and value > high):
-            bounds = f"[{'-inf' if low is None else low}, {'inf' if high is None else high}]"
-            raise self.error(f"expected a whole number in {bounds}, got {value!r}")
+        if not low <= value <= high:
+            raise self.error(f"expected a whole number in [{low}, {high}], got {brief(value)}")
         return value
 
     def text(self) -> str:
@@ -200,15 +212,14 @@ def _describe(value: Located) -> str:
         return "a mapping"
     if value.is_list:
         return "a list"
-    shown = repr(value.value)
-    return shown if len(shown) <= 40 else shown[:37] + "..."
+    return brief(value.value)
 
 
 def read_settings_file(path: Path) -> Located:
     """A settings file's document, which must be a mapping; merge keys (`<<: *defaults`) are allowed."""
     document = read_yaml_file(path, merge_keys=True)
     if document is None:
-        raise PegbtError(
+        raise YamlFileError(
             "the file is empty; expected a mapping of sections", file=str(path), line=1, column=1
         )
     document.mapping()
@@ -218,14 +229,11 @@ def read_settings_file(path: Path) -> Located:
 def read_yaml_file(path: Path, *, merge_keys: bool = False) -> Located | None:
     """Parse one YAML file; `None` for a file with no document. Raises `PegbtError` with a location.
     Merge keys (`<<`) are refused unless `merge_keys`: trees have subtrees for sharing, settings files anchors."""
-    name = str(path)
     try:
-        data = path.read_bytes()
-    except FileNotFoundError:
-        raise PegbtError("file not found", file=name) from None
-    except OSError as error:
-        raise PegbtError(f"cannot read: {error.strerror}", file=name) from None
-    return parse_yaml(data, name, merge_keys=merge_keys)
+        data = read_bytes(path, MAX_FILE_BYTES)
+    except PegbtError as error:
+        raise YamlFileError(error.message, file=str(path)) from None
+    return parse_yaml(data, str(path), merge_keys=merge_keys)
 
 
 def parse_yaml(data: bytes | str, name: str, *, merge_keys: bool = False) -> Located | None:
@@ -233,7 +241,7 @@ def parse_yaml(data: bytes | str, name: str, *, merge_keys: bool = False) -> Loc
     raw = data.encode("utf-8", "surrogatepass") if isinstance(data, str) else data
     if len(raw) > MAX_FILE_BYTES:
         line = raw.count(b"\n", 0, MAX_FILE_BYTES) + 1
-        raise PegbtError(
+        raise YamlFileError(
             f"file is {len(raw)} bytes; YAML files are limited to {MAX_FILE_BYTES} bytes (limit reached here)",
             file=name,
             line=line,
@@ -252,7 +260,7 @@ def _decode(raw: bytes, name: str) -> str:
     except UnicodeDecodeError as error:
         line = raw.count(b"\n", 0, error.start) + 1
         column = error.start - (raw.rfind(b"\n", 0, error.start) + 1) + 1
-        raise PegbtError("not UTF-8 text", file=name, line=line, column=column) from None
+        raise YamlFileError("not UTF-8 text", file=name, line=line, column=column) from None
 
 
 def _position(text: str, index: int) -> tuple[int, int]:
@@ -260,11 +268,30 @@ def _position(text: str, index: int) -> tuple[int, int]:
     return line, index - (text.rfind("\n", 0, index) + 1) + 1
 
 
+def _flow_depth(text: str) -> tuple[int, int]:
+    """(deepest nesting of flow brackets, where it is reached), counting brackets inside quotes too: an
+    over-estimate refuses a rare odd file, never lets a deep one through to a parser that would crash."""
+    depth = deepest = at = 0
+    for index, char in enumerate(text):
+        if char in "[{":
+            depth += 1
+            if depth > deepest:
+                deepest, at = depth, index
+        elif char in "]}" and depth:
+            depth -= 1
+    return deepest, at
+
+
 def _compose(text: str, name: str) -> yaml.Node | None:
-    use_c = (
-        getattr(yaml, "__with_libyaml__", False)
-        and (text.count("[") + text.count("{")) <= _C_PARSER_BRACKET_LIMIT
-    )
+    brackets = text.count("[") + text.count("{")
+    if brackets > _C_PARSER_BRACKET_LIMIT:
+        deepest, at = _flow_depth(text)
+        if deepest > MAX_DEPTH:
+            line, column = _position(text, at)
+            raise YamlFileError(
+                f"nested more than {MAX_DEPTH} levels deep", file=name, line=line, column=column
+            )
+    use_c = getattr(yaml, "__with_libyaml__", False) and brackets <= _C_PARSER_BRACKET_LIMIT
     loader = yaml.CSafeLoader(text) if use_c else yaml.SafeLoader(text)
     try:
         return loader.get_single_node()
@@ -272,21 +299,21 @@ def _compose(text: str, name: str) -> yaml.Node | None:
         mark = error.problem_mark or error.context_mark
         problem = error.problem or error.context or "invalid YAML"
         line, column = (mark.line + 1, mark.column + 1) if mark else (1, 1)
-        raise PegbtError(f"YAML syntax: {problem}", file=name, line=line, column=column) from None
+        raise YamlFileError(f"YAML syntax: {problem}", file=name, line=line, column=column) from None
     except yaml.reader.ReaderError as error:
         line, column = _position(text, error.position)
-        raise PegbtError(
+        raise YamlFileError(
             f"YAML: character {error.character!r} is not allowed", file=name, line=line, column=column
         ) from None
     except RecursionError:
-        raise PegbtError(
+        raise YamlFileError(
             "YAML nesting is too deep",
             file=name,
             line=getattr(loader, "line", 0) + 1,
             column=getattr(loader, "column", 0) + 1,
         ) from None
     except yaml.YAMLError as error:
-        raise PegbtError(f"YAML: {error}", file=name, line=1, column=1) from None
+        raise YamlFileError(f"YAML: {error}", file=name, line=1, column=1) from None
     finally:
         loader.dispose()
 
@@ -307,14 +334,14 @@ class _Converter:
         mark = self.mark(node)
         self.count += 1
         if self.count > MAX_VALUES:
-            raise PegbtError(
+            raise YamlFileError(
                 f"more than {MAX_VALUES} YAML values (aliases expanding?)",
                 file=self.name,
                 line=mark.line,
                 column=mark.column,
             )
         if depth > MAX_DEPTH:
-            raise PegbtError(
+            raise YamlFileError(
                 f"nested more than {MAX_DEPTH} levels deep",
                 file=self.name,
                 line=mark.line,
@@ -333,7 +360,7 @@ class _Converter:
 
     def _check_tag(self, node: yaml.Node, expected: str, mark: Mark) -> None:
         if node.tag != expected:
-            raise PegbtError(
+            raise YamlFileError(
                 f"YAML tag {node.tag!r} is not supported here",
                 file=self.name,
                 line=mark.line,
@@ -349,7 +376,7 @@ class _Converter:
         for index, (key_node, value_node) in enumerate(node.value):
             key_mark = self.mark(key_node)
             if not isinstance(key_node, yaml.ScalarNode):
-                raise PegbtError(
+                raise YamlFileError(
                     "mapping keys must be plain strings, found a collection",
                     file=self.name,
                     line=key_mark.line,
@@ -358,7 +385,7 @@ class _Converter:
             key = "<<" if key_node.tag == _MERGE_TAG else self._scalar(key_node, key_mark)
             if not isinstance(key, str) or key == "<<":
                 shown = "a merge key (<<)" if key == "<<" else f"{type(key).__name__} {key!r} (quote it)"
-                raise PegbtError(
+                raise YamlFileError(
                     f"mapping keys must be plain strings, found {shown}",
                     file=self.name,
                     line=key_mark.line,
@@ -366,7 +393,7 @@ class _Converter:
                 )
             if key in written:
                 first = key_marks[key]
-                raise PegbtError(
+                raise YamlFileError(
                     f"duplicate key {key!r} (first at line {first.line})",
                     file=self.name,
                     line=key_mark.line,
@@ -385,7 +412,7 @@ class _Converter:
             self.scalars.flatten_mapping(node)
         except yaml.YAMLError as error:
             problem = getattr(error, "problem", None) or str(error)
-            raise PegbtError(
+            raise YamlFileError(
                 f"bad merge key: {problem}", file=self.name, line=mark.line, column=mark.column
             ) from None
         return len(node.value) - own
@@ -397,6 +424,6 @@ class _Converter:
             problem = getattr(error, "problem", None) or str(error)
             if "could not determine a constructor" in problem:
                 problem = f"YAML tag {node.tag!r} is not supported"
-            raise PegbtError(
+            raise YamlFileError(
                 f"bad YAML value: {problem}", file=self.name, line=mark.line, column=mark.column
             ) from None

@@ -114,3 +114,14 @@ if REGISTRY.get("test_counting") is None:
             self.counter.uses += 1
             self.write("uses", self.read("step") + self.counter.uses)
             return Status.SUCCESS
+
+
+def with_shared_trees(folder: Path) -> Path:
+    """`folder` holding a copy of the shipped `trees/shared/`, so a test tree written there may include
+    `shared/NAME.yaml` (includes stay inside the tree's own folder)."""
+    import shutil
+
+    shutil.copytree(
+        Path(__file__).resolve().parents[1] / "trees" / "shared", folder / "shared", dirs_exist_ok=True
+    )
+    return folder

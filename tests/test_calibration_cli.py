@@ -76,13 +76,14 @@ def test_recordings_are_checked_when_loaded(tmp_path):
 
 def test_the_writer_writes_what_the_loader_reads(tmp_path):
     writer = RecordingWriter(tmp_path / "collected", "PSM2")
+    insertion = np.array([0.0, 0.0, 0.1, 0.0, 0.0, 0.0])  # m: within the arm's insertion range
     for n in range(60):
-        writer.add(np.full(6, 0.01 * n), np.ones(6) - 0.01 * n, 0.4 * n)
+        writer.add(insertion + np.full(6, 0.001 * n), insertion + 0.02 + np.full(6, 0.001 * n), 0.4 * n)
     with pytest.raises(PegbtError, match="time must increase"):
         writer.add(np.ones(6), np.zeros(6), 0.4 * 59)
     recording = load_recording(writer.close())
     assert recording.arm == "PSM2" and len(recording) == 60 and recording.sampling.mode == "setpoints"
-    assert np.allclose(recording.t, 0.4 * np.arange(60)) and np.array_equal(recording.q_phy[0], np.ones(6))
+    assert np.allclose(recording.t, 0.4 * np.arange(60)) and np.allclose(recording.q_phy[0], insertion + 0.02)
 
 
 @pytest.mark.parametrize("kind", ["physics", "hybrid"])

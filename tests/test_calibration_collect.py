@@ -63,6 +63,6 @@ def test_a_blackboard_value_is_checked_like_a_literal_when_the_leaf_reads_it(tmp
     assert done.result.outcome == "success" and done.result.duration == pytest.approx(0.2)
     with pytest.raises(
         PegbtError,
-        match=r"pause: parameter 'seconds' should be a number >= 0; blackboard key 'pause' holds -1\.0",
+        match=r"pause: parameter 'seconds' should be a number >= 0 and <= 86400; blackboard key 'pause' holds -1\.0",
     ):
         run_tree_file(tree, tmp_path / "bad.jsonl", clock="manual", blackboard={"pause": -1.0})

@@ -8,6 +8,7 @@ import sys
 from pathlib import Path
 
 import pytest
+from executive_helpers import with_shared_trees
 
 from pegbt.evaluation.trial import TrialSpec, run_trial
 
@@ -17,8 +18,9 @@ REPO = Path(__file__).resolve().parents[1]
 def short_task(tmp_path: Path) -> Path:
     """Look, then move the block on peg 1 to peg 7 with PSM1, one recovery allowed, then check it arrived."""
     tree = tmp_path / "short.yaml"
+    with_shared_trees(tree.parent)
     tree.write_text(
-        f"include: [{REPO / 'trees' / 'shared' / 'one_transfer.yaml'}, {REPO / 'trees' / 'shared' / 'sense.yaml'}]\n"
+        "include: [shared/one_transfer.yaml, shared/sense.yaml]\n"
         "blackboard: {/policy/skip_failed_blocks: true, /PSM1/may_carry: true, /PSM2/may_carry: true}\n"
         "tree:\n  sequence:\n"
         "    - subtree: {use: clear_view}\n"
@@ -89,8 +91,9 @@ def test_a_stray_block_is_fetched_and_the_empty_peg_named(tmp_path):
     failed (nothing was on its pick peg); `why` must say so (sense), not stay silent because the stray block
     got home."""
     tree = tmp_path / "stray.yaml"
+    with_shared_trees(tree.parent)
     tree.write_text(
-        f"include: [{REPO / 'trees' / 'shared' / 'one_transfer.yaml'}, {REPO / 'trees' / 'shared' / 'sense.yaml'}]\n"
+        "include: [shared/one_transfer.yaml, shared/sense.yaml]\n"
         "blackboard: {/policy/skip_failed_blocks: true, /PSM1/may_carry: true, /PSM2/may_carry: true}\n"
         "tree:\n  sequence:\n"
         "    - subtree: {use: clear_view}\n"
@@ -165,8 +168,9 @@ def test_a_giver_whose_receiver_never_came_is_named_by_the_wait_and_the_simulato
     lets go. `why` names the wait it gave up (what it halted says so); the simulator saw the block never pass
     to the receiver."""
     tree = tmp_path / "giver.yaml"
+    with_shared_trees(tree.parent)
     tree.write_text(
-        f"include: [{REPO / 'trees' / 'shared' / 'handover.yaml'}, {REPO / 'trees' / 'shared' / 'sense.yaml'}]\n"
+        "include: [shared/handover.yaml, shared/sense.yaml]\n"
         "blackboard: {/handover/offered: 0, /handover/arrived: 0, /handover/taken: 0, /handover/released: 0, /handover/given_up: 0,\n"
         "             /handover/refused: 0, /handover/ready: 1, /handover/closing: 0, /PSM1/may_carry: true, /PSM2/may_carry: true}\n"
         "tree:\n  sequence:\n"

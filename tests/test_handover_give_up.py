@@ -5,6 +5,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from executive_helpers import with_shared_trees
+
 from pegbt.evaluation.trial import TrialSpec, run_trial
 
 REPO = Path(__file__).resolve().parents[1]
@@ -13,8 +15,9 @@ REPO = Path(__file__).resolve().parents[1]
 def one_handover(tmp_path: Path, regrasps: int = 0) -> Path:
     """Look, then hand the block on peg 1 from PSM2 to PSM1 for peg 7, with `regrasps` recoveries of the pick."""
     tree = tmp_path / "one-handover.yaml"
+    with_shared_trees(tree.parent)
     tree.write_text(
-        f"include: [{REPO / 'trees' / 'shared' / 'handover.yaml'}, {REPO / 'trees' / 'shared' / 'sense.yaml'}]\n"
+        f"include: [shared/handover.yaml, shared/sense.yaml]\n"
         "blackboard: {/handover/offered: 0, /handover/arrived: 0, /handover/taken: 0, /handover/released: 0, /handover/given_up: 0, /handover/refused: 0, /handover/closing: 0, /handover/ready: 0,\n"
         "             /PSM1/may_carry: true, /PSM2/may_carry: true}\n"
         "tree:\n  sequence:\n"

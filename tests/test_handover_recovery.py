@@ -6,8 +6,10 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from executive_helpers import with_shared_trees
+
 from pegbt.evaluation.trial import TrialSpec, run_trial
-from tests.test_handover_give_up import REPO, one_handover
+from tests.test_handover_give_up import one_handover
 
 RECEIVER_GRIPS = 6.30  # s: the receiver's jaw gripped the block at 6.27 s, its check ends at 6.36 s (seed 3)
 RECEIVER_CARRIES = 7.20  # s: the receiver carries the block away from the meeting point from 7.00 s
@@ -30,8 +32,9 @@ def two_handovers(tmp_path: Path) -> Path:
         f"n: {n}, place: {place}, strays: [6]}}}}}}}}\n"
         for n, place in ((1, 7), (2, 6))
     )
+    with_shared_trees(tree.parent)
     tree.write_text(
-        f"include: [{REPO / 'trees' / 'shared' / 'handover.yaml'}, {REPO / 'trees' / 'shared' / 'sense.yaml'}]\n"
+        f"include: [shared/handover.yaml, shared/sense.yaml]\n"
         f"blackboard: {{{keys}, /PSM1/may_carry: true, /PSM2/may_carry: true}}\n"
         "tree:\n  sequence:\n"
         "    - subtree: {use: clear_view}\n"

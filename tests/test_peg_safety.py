@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from executive_helpers import with_shared_trees
 
 from pegbt.behaviours.skills import SIMULATOR_CALIBRATION
 from pegbt.cli import main
@@ -87,8 +88,9 @@ def one_transfer(
     faults = tmp_path / "faults.yaml"
     faults.write_text(f"world: {world_faults}\n")
     tree = tmp_path / "one.yaml"
+    with_shared_trees(tree.parent)
     tree.write_text(
-        f"include: [{REPO / 'trees' / 'shared' / 'one_transfer.yaml'}, {REPO / 'trees' / 'shared' / 'sense.yaml'}]\n"
+        "include: [shared/one_transfer.yaml, shared/sense.yaml]\n"
         "blackboard: {/policy/skip_failed_blocks: false, /PSM1/may_carry: true}\n"
         "tree:\n  sequence:\n"
         "    - subtree: {use: clear_view}\n"

@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
+from executive_helpers import with_shared_trees
 
 from pegbt.cli import main
 from pegbt.errors import PegbtError
@@ -48,8 +49,9 @@ def test_peg_trees_name_their_transfers_in_the_reference_order():
 
 def test_a_behaviour_with_wrong_parameters_is_caught_by_check_and_load(tmp_path, capsys):
     tree = tmp_path / "bad.yaml"
+    with_shared_trees(tree.parent)
     tree.write_text(
-        f"include: [{REPO / 'trees' / 'shared' / 'one_transfer.yaml'}]\n"
+        "include: [shared/one_transfer.yaml]\n"
         "tree:\n"
         "  sequence:\n"
         "    - transfer: {arm: PSM3, place: 12, speed: 2}\n"

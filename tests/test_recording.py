@@ -10,7 +10,9 @@ from pegbt.physics.recording import RecordingWriter, load_recording, write_recor
 
 
 def _arrays(n: int = 60, interval: float = 0.5):
-    q_cmd = np.column_stack([np.sin(np.arange(n) * 0.3 + k) for k in range(6)])
+    scale = np.array([0.5, 0.5, 0.05, 0.5, 0.5, 0.5])  # within the arm's limits (rad, m)
+    centre = np.array([0.0, 0.0, 0.15, 0.0, 0.0, 0.0])
+    q_cmd = centre + scale * np.column_stack([np.sin(np.arange(n) * 0.3 + k) for k in range(6)])
     return q_cmd, q_cmd + 0.01, interval * np.arange(n)
 
 

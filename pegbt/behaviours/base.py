@@ -45,6 +45,7 @@ log = logging.getLogger("pegbt.behaviours")
 RESOURCES = ("robot", "skills")
 BLOCKED_RETRY = 0.1  # s between attempts of a motion that would come too close to the other arm
 BLOCKED_PATIENCE = 15.0  # s a motion waits for the other arm to clear its way before the leaf fails
+MAX_KEEP_APART = 0.1  # m between the tools' axes: farther apart than the two arms' shared workspace allows
 STEP_BACK = 0.03  # m of insertion an arm gives up to let the other arm past
 # s a motion may run past its planned end before the leaf gives up on it: in real time an endpoint's
 # report of the end can be lost (a busy machine), and every motion is bounded in time
@@ -73,6 +74,7 @@ def keep_apart_param(default: float | None = None) -> Param:
         "no check, for the handover, where the tools meet on purpose",
         default=default,
         minimum=0.0,
+        maximum=MAX_KEEP_APART,
     )
 
 

@@ -23,6 +23,9 @@ from pegbt.executive.params import Param
 from pegbt.executive.registry import behaviour
 from pegbt.physics.recording import RecordingWriter
 
+MAX_SAMPLES = 1_000_000  # set-points: about 95 hours of collection at 174 a minute
+MAX_SETTLE = 60.0  # s a set-point is held before it is sampled
+
 
 @behaviour(
     "collect_calibration",
@@ -30,16 +33,25 @@ from pegbt.physics.recording import RecordingWriter
     "`settle` s, and record set-point and physical joints to the recording folder `out`",
     params=(
         arm_param(blackboard=True),
-        Param("samples", int, "set-points to record", minimum=2, blackboard=True),
+        Param("samples", int, "set-points to record", minimum=2, maximum=MAX_SAMPLES, blackboard=True),
         Param(
             "settle",
             float,
             "seconds to hold each set-point before sampling it",
             default=SETTLE_S,
             minimum=0.0,
+            maximum=MAX_SETTLE,
         ),
         Param("out", str, "recording folder to write (relative to the working directory)", blackboard=True),
-        Param("seed", int, "seed of the random set-points", default=0, minimum=0, blackboard=True),
+        Param(
+            "seed",
+            int,
+            "seed of the random set-points",
+            default=0,
+            minimum=0,
+            maximum=2**32 - 1,
+            blackboard=True,
+        ),
     ),
     resources=("robot",),
 )

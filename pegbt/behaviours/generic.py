@@ -16,7 +16,7 @@ from py_trees.common import Status
 
 from pegbt.executive.conditions import OPERATORS, comparison
 from pegbt.executive.leaf import Leaf
-from pegbt.executive.params import BlackboardRef, Param
+from pegbt.executive.params import MAX_SECONDS, BlackboardRef, Param
 from pegbt.executive.registry import LeafSetup, behaviour
 
 TREE_LOG = logging.getLogger("pegbt.tree")
@@ -26,7 +26,7 @@ _STATUSES = {"success": Status.SUCCESS, "failure": Status.FAILURE, "running": St
 @behaviour(
     "wait",
     "run for `seconds` of the executive's clock, then succeed",
-    params=(Param("seconds", float, "how long, s", minimum=0.0, blackboard=True),),
+    params=(Param("seconds", float, "how long, s", minimum=0.0, maximum=MAX_SECONDS, blackboard=True),),
 )
 class Wait(Leaf):
     """Running until the clock has advanced `seconds` since the node started."""

@@ -27,6 +27,7 @@ from pegbt.motion.trajectory import Trajectory
 from pegbt.motion.waypoints import TransferWaypoints
 from pegbt.workcell import Workcell
 
+MAX_RISE = 0.165  # m: the PSM's whole insertion travel (0.08-0.245 m, skills/psm.yaml)
 HELD_ABOVE = 0.0  # rad: closed is -15°; a block stops a closing jaw at about +12°
 LOW = 0.001  # m: a tip more than this below the transfer height rises before moving sideways
 SLIP_CHECK = 0.1  # s: how often a transfer looks at the jaw for a slipping block
@@ -86,6 +87,8 @@ def held_param() -> Param:
         float,
         "a closed jaw stopped above this angle (rad) holds a block; one closing past it has lost its block",
         default=HELD_ABOVE,
+        minimum=-0.3491,  # the jaw's range, skills/psm.yaml
+        maximum=1.3963,
     )
 
 
@@ -128,7 +131,11 @@ class Transfer(CarryLeaf):
 @behaviour(
     "rise",
     "move `arm` straight up along the pegs' axis by `height` metres (a giver letting go, a tool backing off)",
-    params=(arm_param(), Param("height", float, "how far, m", minimum=0.0), keep_apart_param()),
+    params=(
+        arm_param(),
+        Param("height", float, "how far, m", minimum=0.0, maximum=MAX_RISE),
+        keep_apart_param(),
+    ),
     resources=RESOURCES,
 )
 class Rise(MotionLeaf):

@@ -18,25 +18,25 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
+from pegbt.behaviours.trial import Trial
 from pegbt.clock import Clock, WallClock, is_realtime
 from pegbt.errors import PegbtError
 from pegbt.executive.providers import ProviderSetup
+from pegbt.motion.robot_config import DEFAULT_TOOL, robot_arm_settings
+from pegbt.numbers import checked_number
 from pegbt.psm import ARMS
 from pegbt.sim.process import SimProcess
-from pegbt.transport import ArmClient, CameraClient, Link, SimClock, connect
+from pegbt.sim.truth import ask_truth
+from pegbt.transport import ArmClient, CameraClient, EndpointSilent, Link, SimClock, connect
 from pegbt.transport.arm import LIVENESS_S as CLIENT_LIVENESS_S
 from pegbt.transport.cloud_stream import StreamingCamera
+from pegbt.transport.crtk_arm import LIVENESS_S, CrtkArm, make_ready
 from pegbt.transport.dvrk_topics import point_cloud_topic
 from pegbt.transport.endpoints import DEFAULT_POINTS_TOPIC
-from pegbt.numbers import checked_number
-from pegbt.transport.crtk_arm import LIVENESS_S, CrtkArm, make_ready
 from pegbt.transport.keys import check_namespace
-from pegbt.transport.wires import make_wire, wire_session_settings
 from pegbt.transport.session import open_session
 from pegbt.transport.streaming import Streamer
-from pegbt.motion.robot_config import DEFAULT_TOOL, robot_arm_settings
-from pegbt.sim.truth import ask_truth
-from pegbt.behaviours.trial import Trial
+from pegbt.transport.wires import make_wire, wire_session_settings
 
 SIMULATOR_ARGS = ("--physics", "dvrk-real")
 PROBE_TIMEOUT = 2.0  # s to wait for a simulator to answer `sim/clock` at an address (no answer: a robot)
@@ -186,7 +186,13 @@ def connect_robot(
                 lockstep=lockstep,
                 endpoint=endpoint,
             )
-            robot.wait_until_ready()
+            try:
+                robot.wait_until_ready()
+            except EndpointSilent as error:
+                where = simulator.endpoint if simulator else endpoint
+                raise EndpointSilent(
+                    f"no endpoint answered at {where}: {error.message}", field=error.field
+                ) from None
         except BaseException:
             link.close()
             raise

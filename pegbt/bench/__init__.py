@@ -30,6 +30,7 @@ BENCHMARKS: dict[str, str] = {
     "monitor": "pegbt.bench.monitor:run",
     "servo": "pegbt.bench.servo:run",
     "offload": "pegbt.bench.offload:run",
+    "fuzz": "pegbt.bench.fuzz:run",
 }
 
 

@@ -152,20 +152,23 @@ def why(log: TickLog) -> str:
 
 
 def _explain(timeline: Timeline, failure: Transition, depth: int, lines: list[str]) -> None:
+    """The failure and its causes, depth first (a stack, not recursion: a chain may be long)."""
     log = timeline.log
-    node = log.nodes[failure.node]
-    causes = timeline.causes(failure)
-    indent = "  " * depth
-    origin = "" if causes else "  <- failed here"
-    feedback = f": {failure.feedback}" if failure.feedback else ""
-    lines.append(
-        f"{indent}{node['path']} ({node['type']}) failed at t={failure.t:.3f} s, tick {failure.n}{feedback}{origin}"
-    )
-    lines.append(f"{indent}  defined at {node['source']}")
-    if not causes:
-        _origin_details(timeline, failure, indent, lines)
-    for cause in causes:
-        _explain(timeline, cause, depth + 1, lines)
+    pending = [(failure, depth)]
+    while pending:
+        failure, depth = pending.pop()
+        node = log.nodes[failure.node]
+        causes = timeline.causes(failure)
+        indent = "  " * depth
+        origin = "" if causes else "  <- failed here"
+        feedback = f": {failure.feedback}" if failure.feedback else ""
+        lines.append(
+            f"{indent}{node['path']} ({node['type']}) failed at t={failure.t:.3f} s, tick {failure.n}{feedback}{origin}"
+        )
+        lines.append(f"{indent}  defined at {node['source']}")
+        if not causes:
+            _origin_details(timeline, failure, indent, lines)
+        pending += [(cause, depth + 1) for cause in reversed(causes)]
 
 
 def _origin_details(timeline: Timeline, failure: Transition, indent: str, lines: list[str]) -> None:

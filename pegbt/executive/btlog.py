@@ -211,6 +211,8 @@ def export_btlog(log: TickLog, path: Path) -> int:
         raise PegbtError(
             f"{len(log.nodes)} nodes: a .btlog holds at most 65535", file=log.path, field="nodes"
         )
+    if "start_time" not in log.header:
+        raise PegbtError("the log's header has no start time", file=log.path, line=1, field="start_time")
     start = datetime.datetime.fromisoformat(log.header["start_time"])
     xml = tree_xml(log).encode("utf-8")
     records = bytearray()

@@ -12,8 +12,12 @@ from pegbt.errors import PegbtError
 from pegbt.executive.providers import RUN_OPTIONS
 from pegbt.monitor.cli import add_port_option
 from pegbt.numbers import NumberOption
+from pegbt.stopsignals import stop_signals
+
+INTERRUPTED = 130  # 128 + SIGINT: a Ctrl-C that reached the runner as KeyboardInterrupt
 
 if TYPE_CHECKING:
+    from pegbt.executive.logfile import TickLog
     from pegbt.monitor.live import LiveMonitor
 
 
@@ -24,10 +28,12 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
         "check", help="validate tree files without running them; all errors, each FILE:LINE:COLUMN"
     )
     check.add_argument("files", nargs="+", metavar="FILE")
+    _include_option(check)
     check.set_defaults(handler=_tree_check)
     show = tree_commands.add_parser("show", help="print a tree (ASCII), or write Graphviz with --dot")
     show.add_argument("file", metavar="FILE")
     show.add_argument("--dot", metavar="OUT", help="write the tree as a Graphviz .dot file")
+    _include_option(show)
     show.set_defaults(handler=_tree_show)
     schema = tree_commands.add_parser("schema", help="list every node type and behaviour with its parameters")
     schema.set_defaults(handler=_tree_schema)
@@ -67,6 +73,7 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
     )
     add_port_option(run, "--monitor", default=None)
     add_record_arguments(run)
+    _include_option(run)
     for option in RUN_OPTIONS.values():
         run.add_argument(
             f"--{option.name}",
@@ -116,12 +123,20 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
     export.set_defaults(handler=_log_export)
 
 
+def _include_option(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--allow-include-outside",
+        action="store_true",
+        help="let `include:` name files outside the tree file's folder (refused by default)",
+    )
+
+
 def _tree_check(args: argparse.Namespace) -> int:
     from pegbt.executive.loader import check_tree
 
     failed = 0
     for file in args.files:
-        errors = check_tree(file)
+        errors = check_tree(file, allow_include_outside=args.allow_include_outside)
         for error in errors:
             print(error, file=sys.stderr)
         if errors:
@@ -137,7 +152,7 @@ def _tree_show(args: argparse.Namespace) -> int:
 
     from pegbt.executive.loader import load_tree
 
-    built = load_tree(args.file).build()
+    built = load_tree(args.file, allow_include_outside=args.allow_include_outside).build()
     if args.dot:
         try:
             Path(args.dot).write_text(py_trees.display.dot_tree(built.root).to_string(), encoding="utf-8")
@@ -167,18 +182,20 @@ def _run(args: argparse.Namespace) -> int:
     log_path = Path(args.log) if args.log else default_log_path(args.tree)
     monitor = _start_monitor(args.monitor, log_path) if args.monitor is not None else None
     try:
-        output = run_tree_file(
-            args.tree,
-            log_path,
-            options=options,
-            clock=args.clock,
-            period=args.period,
-            timeout=args.timeout,
-            quiet=args.quiet,
-            verbose=args.verbose,
-            watch=monitor.watch if monitor else None,
-            **record_options(args),
-        )
+        with stop_signals() as received:
+            output = run_tree_file(
+                args.tree,
+                log_path,
+                options=options,
+                clock=args.clock,
+                period=args.period,
+                timeout=args.timeout,
+                quiet=args.quiet,
+                verbose=args.verbose,
+                watch=monitor.watch if monitor else None,
+                allow_include_outside=args.allow_include_outside,
+                **record_options(args),
+            )
     except BaseException:
         if monitor:
             monitor.stop()
@@ -193,6 +210,11 @@ def _run(args: argparse.Namespace) -> int:
     else:
         print(result_table(read_tick_log(log_path)))
     print(f"tick log: {log_path}" + (f"; recording: {args.record}" if args.record else ""))
+    if output.result.outcome == "interrupted":
+        if monitor:
+            monitor.stop()
+        print(f"pegbt: interrupted by {received.name or 'SIGINT'}: the tree was halted", file=sys.stderr)
+        return received.status if received.signum else INTERRUPTED
     if monitor:
         monitor.serve_until_interrupted()
     return 0 if output.ok else 1
@@ -209,25 +231,22 @@ def _start_monitor(port: int, log_path: Path) -> LiveMonitor:
 
 def _log_summary(args: argparse.Namespace) -> int:
     from pegbt.executive.analysis import summary
-    from pegbt.executive.logfile import read_tick_log
 
-    print(summary(read_tick_log(args.log)))
+    print(summary(_read_log(args.log)))
     return 0
 
 
 def _log_why(args: argparse.Namespace) -> int:
     from pegbt.executive.analysis import why
-    from pegbt.executive.logfile import read_tick_log
 
-    print(why(read_tick_log(args.log)))
+    print(why(_read_log(args.log)))
     return 0
 
 
 def _log_replay(args: argparse.Namespace) -> int:
     from pegbt.executive.analysis import replay
-    from pegbt.executive.logfile import read_tick_log
 
-    print(replay(read_tick_log(args.log), tick=args.tick, time=args.time))
+    print(replay(_read_log(args.log), tick=args.tick, time=args.time))
     return 0
 
 
@@ -253,8 +272,17 @@ def _log_plot(args: argparse.Namespace) -> int:
 
 def _log_export(args: argparse.Namespace) -> int:
     from pegbt.executive.btlog import export_btlog
-    from pegbt.executive.logfile import read_tick_log
 
-    count = export_btlog(read_tick_log(args.log), Path(args.out))
+    count = export_btlog(_read_log(args.log), Path(args.out))
     print(f"wrote {args.out} ({count} transitions)")
     return 0
+
+
+def _read_log(path: str) -> TickLog:
+    """The tick log, saying on stderr what the reader skipped or cut (a crash's last line, a repeat)."""
+    from pegbt.executive.logfile import read_tick_log
+
+    log = read_tick_log(path)
+    for warning in log.warnings:
+        print(f"pegbt: warning: {path}: {warning}", file=sys.stderr)
+    return log

@@ -3,7 +3,9 @@
 A tree file is a mapping with these keys (all optional, but a file must have `tree` or `subtrees`):
 
 - `doc`: a description.
-- `include`: a list of tree files (paths relative to this file) whose subtree definitions this file uses.
+- `include`: a list of tree files (paths relative to this file) whose subtree definitions this file uses;
+  they must lie in the folder of the tree file being loaded or below it (`allow_include_outside` lifts
+  this), at most `MAX_INCLUDE_DEPTH` files deep. No error quotes an included file's content.
 - `blackboard`: initial blackboard values, `key: value`, set before the first tick.
 - `subtrees`: definitions, `NAME: {doc, args: {ARG: TYPE | {type, default, doc}}, tree: NODE}`.
 - `tree`: the root node.
@@ -13,16 +15,19 @@ Only the subtree definitions of an included file are used (its own `tree` and `b
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from pegbt.errors import PegbtError
-from pegbt.executive.params import REQUIRED, TYPE_NAMES, check_type, is_valid_key
+from pegbt.errors import PegbtError, brief
+from pegbt.executive.params import REQUIRED, TYPE_NAMES, check_type, is_valid_key, non_finite
 from pegbt.executive.problems import Problems, did_you_mean
 from pegbt.yamlfile import Located, Mark, read_yaml_file
 
 TOP_LEVEL_KEYS = ("doc", "include", "blackboard", "subtrees", "tree")
+_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_-]{0,39}")
+MAX_INCLUDE_DEPTH = 32  # files including files: far beyond the shipped trees' 3
 SUBTREE_KEYS = ("doc", "args", "tree")
 ARG_KEYS = ("type", "default", "doc")
 
@@ -62,15 +67,18 @@ class TreeDocument:
     files: list[Path] = field(default_factory=list)
 
 
-def load_document(path: Path, problems: Problems) -> TreeDocument:
-    """Read `path` and its includes, recording every problem in `problems` (nothing is raised)."""
-    loader = _DocumentLoader(problems)
+def load_document(path: Path, problems: Problems, *, allow_include_outside: bool = False) -> TreeDocument:
+    """Read `path` and its includes, recording every problem in `problems` (nothing is raised).
+
+    Includes must resolve inside `path`'s folder unless `allow_include_outside`."""
+    loader = _DocumentLoader(problems, None if allow_include_outside else Path(path).resolve().parent)
     return loader.load(Path(path), stack=())
 
 
 class _DocumentLoader:
-    def __init__(self, problems: Problems) -> None:
+    def __init__(self, problems: Problems, confine_to: Path | None) -> None:
         self.problems = problems
+        self.confine_to = confine_to
         self.cache: dict[Path, TreeDocument] = {}
         self.defined_at: dict[str, Mark] = {}
 
@@ -92,15 +100,24 @@ class _DocumentLoader:
             return document
         if not root.is_map:
             self.problems.add(
-                f"expected a mapping with keys {', '.join(TOP_LEVEL_KEYS)}; found {_kind(root)}", root.mark
+                f"not a tree file: expected a mapping with keys {', '.join(TOP_LEVEL_KEYS)}; found {_shape(root)}",
+                root.mark,
             )
             return document
         for key, value in root.value.items():
-            if key not in TOP_LEVEL_KEYS:
+            if key in TOP_LEVEL_KEYS:
+                continue
+            if _NAME.fullmatch(key):
                 self.problems.add(
                     f"unknown top-level key {key!r}{did_you_mean(key, TOP_LEVEL_KEYS)}; expected {', '.join(TOP_LEVEL_KEYS)}",
                     root.key_marks[key],
                     field=key,
+                )
+            else:  # not a name someone meant as a key: quoting it could show a secret file's line
+                self.problems.add(
+                    f"not a tree file: a top-level key of {len(key)} characters is no name; expected "
+                    f"{', '.join(TOP_LEVEL_KEYS)}",
+                    root.key_marks[key],
                 )
         if "tree" not in root.value and "subtrees" not in root.value:
             self.problems.add("nothing to run or share: expected `tree:` and/or `subtrees:`", root.mark)
@@ -124,13 +141,31 @@ class _DocumentLoader:
         return document
 
     def _include(self, document: TreeDocument, path: Path, mark: Mark, stack: tuple[Path, ...]) -> None:
-        resolved = path.resolve()
+        try:
+            resolved = path.resolve()
+            found = path.is_file()
+        except (OSError, ValueError) as error:
+            self.problems.add(f"included file {brief(str(path), 80)}: {error}", mark, field="include")
+            return
         if resolved in stack:
             chain = " -> ".join(p.name for p in stack[stack.index(resolved) :] + (resolved,))
             self.problems.add(f"include cycle: {chain}", mark, field="include")
             return
-        if not path.is_file():
-            self.problems.add(f"included file {str(path)!r} not found", mark, field="include")
+        if self.confine_to is not None and not resolved.is_relative_to(self.confine_to):
+            self.problems.add(
+                f"included file {brief(str(path), 80)} is outside the tree's folder {self.confine_to} "
+                "(`--allow-include-outside` allows it)",
+                mark,
+                field="include",
+            )
+            return
+        if len(stack) >= MAX_INCLUDE_DEPTH:
+            self.problems.add(
+                f"includes nested more than {MAX_INCLUDE_DEPTH} files deep", mark, field="include"
+            )
+            return
+        if not found:
+            self.problems.add(f"included file {brief(str(path), 80)} not found", mark, field="include")
             return
         included = self.load(path, stack)
         for name, subtree in included.subtrees.items():
@@ -176,6 +211,9 @@ class _DocumentLoader:
                     value.key_marks[key],
                     field=key,
                 )
+                continue
+            if non_finite(item.plain()):
+                self.problems.add("expected finite numbers (not NaN or an infinity)", item.mark, field=key)
                 continue
             values[key if key.startswith("/") else "/" + key] = item
         return values
@@ -255,6 +293,13 @@ class _DocumentLoader:
                 continue
             kind = TYPE_NAMES[kind_name]
             default = fields["default"].plain() if "default" in fields else REQUIRED
+            if default is not REQUIRED and non_finite(default):
+                self.problems.add(
+                    f"default of argument {name!r} should be finite numbers (not NaN, an infinity or beyond 64 bits)",
+                    fields["default"].mark,
+                    field=name,
+                )
+                default = REQUIRED
             if default is not REQUIRED and default is not None:
                 default, problem = check_type(default, kind)
                 if problem:
@@ -268,9 +313,20 @@ class _DocumentLoader:
         return args
 
 
+def _shape(value: Located) -> str:
+    """What a value is, without quoting it (a file that is not a tree may hold anything, secrets too)."""
+    if value.is_map:
+        return "a mapping"
+    if value.is_list:
+        return f"a list of {len(value.value)} item(s)"
+    if isinstance(value.value, str):
+        return f"a text of {len(value.value)} character(s)"
+    return "nothing" if value.value is None else f"a {type(value.value).__name__}"
+
+
 def _kind(value: Located) -> str:
     if value.is_map:
         return "a mapping"
     if value.is_list:
         return "a list"
-    return f"{value.value!r} ({type(value.value).__name__})" if value.value is not None else "nothing"
+    return f"{brief(value.value)} ({type(value.value).__name__})" if value.value is not None else "nothing"

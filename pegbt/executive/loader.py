@@ -83,9 +83,11 @@ class LoadedTree:
         return users
 
 
-def _validate(path: Path, registry: BehaviourRegistry) -> tuple[LoadedTree, Problems]:
+def _validate(
+    path: Path, registry: BehaviourRegistry, allow_include_outside: bool = False
+) -> tuple[LoadedTree, Problems]:
     problems = Problems()
-    document = load_document(Path(path), problems)
+    document = load_document(Path(path), problems, allow_include_outside=allow_include_outside)
     resolver = Resolver(document, problems, registry)
     root = resolver.resolve_tree()
     resolver.check_unused_subtrees()
@@ -94,9 +96,12 @@ def _validate(path: Path, registry: BehaviourRegistry) -> tuple[LoadedTree, Prob
     return LoadedTree(document, root), problems
 
 
-def check_tree(path: str | Path, registry: BehaviourRegistry = REGISTRY) -> list[PegbtError]:
-    """Every problem in the tree file at `path` and the files it includes, in file and line order."""
-    _, problems = _validate(Path(path), registry)
+def check_tree(
+    path: str | Path, registry: BehaviourRegistry = REGISTRY, *, allow_include_outside: bool = False
+) -> list[PegbtError]:
+    """Every problem in the tree file at `path` and the files it includes, in file and line order.
+    Includes outside `path`'s folder are problems unless `allow_include_outside`."""
+    _, problems = _validate(Path(path), registry, allow_include_outside)
     try:
         problems.raise_if_any()
     except PegbtError as error:
@@ -104,8 +109,10 @@ def check_tree(path: str | Path, registry: BehaviourRegistry = REGISTRY) -> list
     return []
 
 
-def load_tree(path: str | Path, registry: BehaviourRegistry = REGISTRY) -> LoadedTree:
+def load_tree(
+    path: str | Path, registry: BehaviourRegistry = REGISTRY, *, allow_include_outside: bool = False
+) -> LoadedTree:
     """Load and validate a tree file; raises `PegbtError` / `PegbtErrors` listing every problem."""
-    loaded, problems = _validate(Path(path), registry)
+    loaded, problems = _validate(Path(path), registry, allow_include_outside)
     problems.raise_if_any()
     return loaded

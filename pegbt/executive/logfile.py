@@ -1,17 +1,38 @@
-"""Reading tick logs back: every record checked, every problem reported with its line number."""
+"""Reading tick logs back: every record checked, every problem reported with its line number.
+
+The reader is total: the file's size is bounded before it is read, every field the analyses use is
+checked (type, range, finiteness), the node table's depth is bounded, and its questions (children,
+depth) are answered from tables built once, so a log of a 20,000-node tree reads in linear time. A log
+cut short by a crash is read up to its last complete record, and `TickLog.warnings` says what was cut;
+a record repeated verbatim (a writer retrying a line) is read once, with a warning.
+"""
 
 from __future__ import annotations
 
+import datetime
 import json
+import math
 from dataclasses import dataclass, field
+from functools import cached_property
 from pathlib import Path
 from typing import Any
 
-from pegbt.errors import PegbtError
+from pegbt.boundedio import read_bytes
+from pegbt.errors import PegbtError, brief
+from pegbt.executive.spec import MAX_TREE_DEPTH
 from pegbt.executive.ticklog import FORMAT, FORMAT_VERSION
 
 STATUSES = ("INVALID", "RUNNING", "SUCCESS", "FAILURE")
 _EVENT_TYPES = ("tick", "halt", "crash", "end", "message")
+MAX_LOG_BYTES = 512 * 2**20
+MAX_TICK = 2**53  # ticks are counted exactly in a float too
+MAX_TIME = 1e9  # s of executive time: 31 years
+_NODE_TEXT = ("path", "name", "type", "source")
+_NODE_KEYS = ("reads", "writes")
+
+
+class TickLogError(PegbtError):
+    """A tick log that cannot be read: the file, line and field at fault."""
 
 
 @dataclass(frozen=True)
@@ -44,6 +65,7 @@ class TickLog:
     messages: list[dict[str, Any]] = field(default_factory=list)  # what robots said (`message` records)
     last_n: int = 0
     last_t: float = 0.0
+    warnings: list[str] = field(default_factory=list)  # what was skipped or cut while reading
 
     @property
     def outcome(self) -> str:
@@ -54,13 +76,22 @@ class TickLog:
         )
 
     def children(self, node: int) -> list[int]:
-        return [other["id"] for other in self.nodes if other["parent"] == node]
+        return self._children[node]
 
     def depth(self, node: int) -> int:
-        depth, parent = 0, self.nodes[node]["parent"]
-        while parent is not None:
-            depth, parent = depth + 1, self.nodes[parent]["parent"]
-        return depth
+        return self._depths[node]
+
+    @cached_property
+    def _children(self) -> list[list[int]]:
+        children: list[list[int]] = [[] for _ in self.nodes]
+        for node in self.nodes:
+            if node["parent"] is not None:
+                children[node["parent"]].append(node["id"])
+        return children
+
+    @cached_property
+    def _depths(self) -> list[int]:
+        return _depths(self.nodes)
 
     def blackboard_at(self, n: int) -> dict[str, Any]:
         """Blackboard values after tick `n` (initial values, then every logged write up to it)."""
@@ -79,56 +110,71 @@ _UNSET = object()
 
 
 def read_tick_log(path: str | Path) -> TickLog:
-    """Parse and check a tick log; a `PegbtError` naming the line and field for anything malformed."""
+    """Parse and check a tick log; a `TickLogError` naming the line and field for anything malformed.
+
+    A last line cut short (the run died while writing it) is left out, with a warning in `warnings`."""
     path = Path(path)
     try:
-        data = path.read_bytes()
-    except FileNotFoundError:
-        raise PegbtError("tick log not found", file=path) from None
-    except OSError as error:
-        raise PegbtError(f"cannot read: {error.strerror}", file=path) from None
+        data = read_bytes(path, MAX_LOG_BYTES, "tick log")
+    except TickLogError:
+        raise
+    except PegbtError as error:
+        raise TickLogError(error.message, file=path) from None
     if not data.strip():
-        raise PegbtError("the tick log is empty", file=path, line=1)
+        raise TickLogError("the tick log is empty", file=path, line=1)
     lines = data.split(b"\n")
-    if lines[-1] == b"":
-        lines.pop()
+    cut = lines.pop()  # after the last newline: empty, or a record the writer never finished
     log: TickLog | None = None
+    previous = b""
     for number, raw in enumerate(lines, start=1):
-        record = _parse_line(raw, number, path, last=number == len(lines) and not data.endswith(b"\n"))
+        record = _parse_line(raw, number, path)
         if log is None:
             log = _header(record, path)
-            continue
-        _event(log, record, number, path)
+        elif raw == previous and record.get("type") in ("tick", "halt"):
+            log.warnings.append(f"line {number} repeats line {number - 1} word for word; read once")
+        else:
+            _event(log, record, number, path)
+        previous = raw
+    if cut.strip():
+        if log is None:
+            raise TickLogError(
+                "truncated record: the log ends in the middle of its header (was the run killed while writing?)",
+                file=path,
+                line=len(lines) + 1,
+            )
+        log.warnings.append(
+            f"line {len(lines) + 1} was cut short ({len(cut)} bytes, no newline: the run died while writing it); "
+            f"read up to line {len(lines)}, tick {log.last_n}"
+        )
     return log
 
 
-def _parse_line(raw: bytes, number: int, path: Path, last: bool) -> dict[str, Any]:
+def _parse_line(raw: bytes, number: int, path: Path) -> dict[str, Any]:
     try:
         record = json.loads(raw)
-    except (json.JSONDecodeError, UnicodeDecodeError) as error:
-        if last:
-            raise PegbtError(
-                "truncated record: the log ends in the middle of a line (was the run killed while writing?)",
-                file=path,
-                line=number,
-            ) from None
-        column = getattr(error, "colno", None)
-        raise PegbtError(
-            f"corrupt record: not JSON ({getattr(error, 'msg', error)})",
+    except (ValueError, UnicodeDecodeError, RecursionError) as error:
+        if isinstance(error, RecursionError):
+            reason = "nested too deeply"
+        elif isinstance(error, json.JSONDecodeError):
+            reason = error.msg
+        else:
+            reason = str(error).split(";")[0]  # an integer too long to convert, say
+        raise TickLogError(
+            f"corrupt record: not JSON ({reason})",
             file=path,
             line=number,
-            column=column,
+            column=getattr(error, "colno", None),
         ) from None
     if not isinstance(record, dict):
-        raise PegbtError("corrupt record: expected a JSON object", file=path, line=number)
+        raise TickLogError("corrupt record: expected a JSON object", file=path, line=number)
     return record
 
 
 def _require(record: dict[str, Any], key: str, kind: type | tuple[type, ...], path: Path, line: int) -> Any:
     value = record.get(key)
     if not isinstance(value, kind) or isinstance(value, bool) and kind is not bool:
-        raise PegbtError(
-            f"corrupt record: expected {getattr(kind, '__name__', kind)}, found {value!r}",
+        raise TickLogError(
+            f"corrupt record: expected {getattr(kind, '__name__', kind)}, found {brief(value)}",
             file=path,
             line=line,
             field=key,
@@ -138,46 +184,103 @@ def _require(record: dict[str, Any], key: str, kind: type | tuple[type, ...], pa
 
 def _header(record: dict[str, Any], path: Path) -> TickLog:
     if record.get("type") != "header" or record.get("format") != FORMAT:
-        raise PegbtError(
+        raise TickLogError(
             f"not a pegbt tick log: the first record should be a {FORMAT} header",
             file=path,
             line=1,
             field="type",
         )
     if record.get("format_version") != FORMAT_VERSION:
-        raise PegbtError(
+        raise TickLogError(
             f"tick log format version {record.get('format_version')!r}; this pegbt reads version {FORMAT_VERSION}",
             file=path,
             line=1,
             field="format_version",
         )
     nodes = _require(record, "nodes", list, path, 1)
+    if not nodes:
+        raise TickLogError("the node table is empty", file=path, line=1, field="nodes")
     for index, node in enumerate(nodes):
-        if not isinstance(node, dict) or node.get("id") != index or not isinstance(node.get("path"), str):
-            raise PegbtError(f"corrupt node table entry {index}", file=path, line=1, field="nodes")
-        parent = node.get("parent")
-        if parent is not None and not (isinstance(parent, int) and 0 <= parent < index):
-            raise PegbtError(f"node {index} has a bad parent {parent!r}", file=path, line=1, field="nodes")
+        _check_node(node, index, path)
+    depths = _depths(nodes)
+    if depths and max(depths) > MAX_TREE_DEPTH:
+        deepest = next(index for index, depth in enumerate(depths) if depth > MAX_TREE_DEPTH)
+        raise TickLogError(
+            f"node {deepest} is nested {depths[deepest]} levels deep; trees are at most {MAX_TREE_DEPTH}",
+            file=path,
+            line=1,
+            field="nodes",
+        )
     if not isinstance(record.get("blackboard", {}), dict):
-        raise PegbtError("corrupt record: expected a mapping", file=path, line=1, field="blackboard")
+        raise TickLogError("corrupt record: expected a mapping", file=path, line=1, field="blackboard")
+    start = record.get("start_time", "1970-01-01T00:00:00+00:00")
+    try:
+        datetime.datetime.fromisoformat(start).timestamp()
+    except (TypeError, ValueError, OverflowError, OSError):
+        raise TickLogError(
+            f"expected an ISO 8601 start time, found {brief(start)}", file=path, line=1, field="start_time"
+        ) from None
     return TickLog(path=path, header=record, nodes=nodes)
+
+
+def _check_node(node: Any, index: int, path: Path) -> None:
+    """A node table entry as the analyses use it: id, parent (an earlier node, or null), texts, keys."""
+    where = f"nodes[{index}]"
+    if not isinstance(node, dict) or node.get("id") != index:
+        raise TickLogError(
+            f"corrupt node table entry {index}: expected id {index}", file=path, line=1, field=where
+        )
+    if "parent" not in node:
+        raise TickLogError(f"node {index} has no parent field", file=path, line=1, field=f"{where}.parent")
+    parent = node["parent"]
+    if parent is not None and not (
+        isinstance(parent, int) and not isinstance(parent, bool) and 0 <= parent < index
+    ):
+        raise TickLogError(
+            f"node {index} has a bad parent {brief(parent)}", file=path, line=1, field=f"{where}.parent"
+        )
+    for name in _NODE_TEXT:
+        if not isinstance(node.get(name), str):
+            raise TickLogError(f"node {index}: expected a string", file=path, line=1, field=f"{where}.{name}")
+    for name in _NODE_KEYS:
+        keys = node.get(name, [])
+        if not isinstance(keys, list) or not all(isinstance(key, str) for key in keys):
+            raise TickLogError(
+                f"node {index}: expected a list of keys", file=path, line=1, field=f"{where}.{name}"
+            )
+    if not isinstance(node.get("params", {}), dict):
+        raise TickLogError(f"node {index}: expected a mapping", file=path, line=1, field=f"{where}.params")
+
+
+def _depths(nodes: list[dict[str, Any]]) -> list[int]:
+    """Each node's depth, in one pass: a parent always comes before its children."""
+    depths: list[int] = []
+    for node in nodes:
+        depths.append(0 if node["parent"] is None else depths[node["parent"]] + 1)
+    return depths
 
 
 def _event(log: TickLog, record: dict[str, Any], line: int, path: Path) -> None:
     kind = record.get("type")
     if kind not in _EVENT_TYPES:
-        raise PegbtError(
+        raise TickLogError(
             f"unknown record type {kind!r}; expected one of {', '.join(_EVENT_TYPES)}",
             file=path,
             line=line,
             field="type",
         )
     if log.end is not None:
-        raise PegbtError("record after the end record", file=path, line=line, field="type")
+        raise TickLogError("record after the end record", file=path, line=line, field="type")
     n = _require(record, "n", int, path, line)
     t = float(_require(record, "t", (int, float), path, line))
+    if not 0 <= n <= MAX_TICK:
+        raise TickLogError(f"tick number {brief(n)} is outside [0, 2**53]", file=path, line=line, field="n")
+    if not (math.isfinite(t) and 0 <= t <= MAX_TIME):
+        raise TickLogError(
+            f"time {t!r} s is not a finite time in [0, {MAX_TIME:g}] s", file=path, line=line, field="t"
+        )
     if n < log.last_n:
-        raise PegbtError(f"tick {n} comes after tick {log.last_n}", file=path, line=line, field="n")
+        raise TickLogError(f"tick {n} comes after tick {log.last_n}", file=path, line=line, field="n")
     log.last_n, log.last_t = n, t
     if kind == "end":
         _require(record, "outcome", str, path, line)
@@ -194,9 +297,20 @@ def _event(log: TickLog, record: dict[str, Any], line: int, path: Path) -> None:
     halted = record.get("reason") if kind == "halt" else None
     for change in _require(record, "changes", list, path, line):
         log.transitions.append(_transition(log, change, n, t, halted, path, line))
-    for key, value in (record.get("bb") or {}).items():
+    written = record.get("bb") or {}
+    if not isinstance(written, dict):
+        raise TickLogError(
+            f"corrupt record: expected a mapping of blackboard keys, found {brief(written)}",
+            file=path,
+            line=line,
+            field="bb",
+        )
+    unset = record.get("bb_unset") or []
+    if not isinstance(unset, list) or not all(isinstance(key, str) for key in unset):
+        raise TickLogError("corrupt record: expected a list of keys", file=path, line=line, field="bb_unset")
+    for key, value in written.items():
         log.writes.append((n, t, key, value))
-    for key in record.get("bb_unset") or []:
+    for key in unset:
         log.writes.append((n, t, key, _UNSET))
 
 
@@ -213,8 +327,8 @@ def _transition(
         and isinstance(change[3], str)
     )
     if not valid:
-        raise PegbtError(
-            f"corrupt status change {change!r}: expected [node id, from, to, feedback]",
+        raise TickLogError(
+            f"corrupt status change {brief(change)}: expected [node id, from, to, feedback]",
             file=path,
             line=line,
             field="changes",

@@ -17,7 +17,7 @@ from py_trees.behaviour import Behaviour
 from pegbt.executive.conditions import OPERATORS
 from pegbt.executive.context import RunContext
 from pegbt.executive.guard import BlackboardGuard
-from pegbt.executive.params import Param
+from pegbt.executive.params import MAX_COUNT, MAX_SECONDS, Param
 from pegbt.executive.recover import Recover
 from pegbt.executive.spec import NodeSpec
 from pegbt.executive.timeout import ClockTimeout
@@ -136,7 +136,7 @@ NODE_TYPES: dict[str, NodeType] = {
             "retry",
             "tick the child again after it fails, up to `attempts` attempts in all",
             "decorator",
-            (Param("attempts", int, "attempts in all", minimum=1),),
+            (Param("attempts", int, "attempts in all", minimum=1, maximum=MAX_COUNT),),
             lambda spec, children, context: py_trees.decorators.Retry(
                 spec.name, children[0], num_failures=spec.params["attempts"]
             ),
@@ -145,7 +145,7 @@ NODE_TYPES: dict[str, NodeType] = {
             "timeout",
             "fail, halting the child, if it is still running after `seconds` (executive clock)",
             "decorator",
-            (Param("seconds", float, "time allowed, s", minimum=0.0),),
+            (Param("seconds", float, "time allowed, s", minimum=0.0, maximum=MAX_SECONDS),),
             lambda spec, children, context: ClockTimeout(
                 spec.name, children[0], spec.params["seconds"], context.clock
             ),
@@ -161,7 +161,7 @@ NODE_TYPES: dict[str, NodeType] = {
             "repeat",
             "tick the child again after it succeeds until it succeeded `times` times (-1: forever); fail on failure",
             "decorator",
-            (Param("times", int, "successes needed (-1 repeats forever)", minimum=-1),),
+            (Param("times", int, "successes needed (-1 repeats forever)", minimum=-1, maximum=MAX_COUNT),),
             lambda spec, children, context: py_trees.decorators.Repeat(
                 spec.name, children[0], num_success=spec.params["times"]
             ),
@@ -211,7 +211,16 @@ NODE_TYPES: dict[str, NodeType] = {
             "recover",
             "run `main`; on failure run `recovery` and, if it succeeds, retry `main` (Nav2 RecoveryNode)",
             "recover",
-            (Param("retries", int, "recoveries allowed before giving up", default=1, minimum=0),),
+            (
+                Param(
+                    "retries",
+                    int,
+                    "recoveries allowed before giving up",
+                    default=1,
+                    minimum=0,
+                    maximum=MAX_COUNT,
+                ),
+            ),
             lambda spec, children, context: Recover(
                 spec.name, children[0], children[1], spec.params["retries"]
             ),

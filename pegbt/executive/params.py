@@ -9,10 +9,13 @@ blackboard key itself (e.g. `set_blackboard`'s `key`), so the validator knows wh
 
 from __future__ import annotations
 
+import math
 import re
 import typing
 from dataclasses import dataclass
 from typing import Any, Literal
+
+from pegbt.errors import brief
 
 REQUIRED: Any = type("Required", (), {"__repr__": lambda self: "REQUIRED"})()
 TYPE_NAMES: dict[str, Any] = {
@@ -24,6 +27,9 @@ TYPE_NAMES: dict[str, Any] = {
     "dict": dict,
     "any": Any,
 }
+# Stated ranges for numbers a tree gives (a `Param` without a physical bound of its own uses these).
+MAX_SECONDS = 86_400.0  # s: a day; no step of a task is meant to wait or be allowed longer
+MAX_COUNT = 1_000_000  # attempts, repetitions, recoveries: more is a typo, not a policy
 _KEY_PATTERN = re.compile(r"^/?[A-Za-z_][A-Za-z0-9_]*(/[A-Za-z_][A-Za-z0-9_]*)*(\.[A-Za-z_][A-Za-z0-9_]*)*$")
 
 
@@ -75,6 +81,8 @@ def check_type(value: Any, kind: Any) -> tuple[Any, str | None]:
             converted.append(item_value)
         return converted, None
     if kind is float and isinstance(value, int) and not isinstance(value, bool):
+        if abs(value) > 1e300:
+            return value, "a float of at most 1e300 in magnitude"
         return float(value), None
     if kind in (int, float) and isinstance(value, bool):
         return value, _article(type_name(kind))
@@ -89,10 +97,21 @@ def _article(name: str) -> str:
 
 def describe(value: Any) -> str:
     """A short account of a value for error messages: `'abc' (str)`."""
-    shown = repr(value)
-    if len(shown) > 40:
-        shown = shown[:37] + "..."
-    return f"{shown} ({type(value).__name__})"
+    return f"{brief(value)} ({type(value).__name__})"
+
+
+def non_finite(value: Any) -> bool:
+    """Whether a value holds NaN, an infinity or an integer beyond 64 bits anywhere (a number, or inside a
+    list or mapping): no quantity a tree gives is either, and the integer cannot even be printed."""
+    if isinstance(value, float):
+        return not math.isfinite(value)
+    if isinstance(value, int):
+        return abs(value) > 2**63
+    if isinstance(value, list):
+        return any(non_finite(item) for item in value)
+    if isinstance(value, dict):
+        return any(non_finite(item) for item in value.values())
+    return False
 
 
 @dataclass(frozen=True)
@@ -108,6 +127,8 @@ class Param:
         blackboard: the value may be `$key`, read from the blackboard each time the node asks for it.
         key: the value is itself a blackboard key that the node reads or writes.
         minimum: smallest allowed number (`int` / `float`) or length (`list`).
+        maximum: largest allowed number (`int` / `float`, or each item of a `list[int]` / `list[float]`):
+            every number a tree gives has a stated physical range (a duration, a height, a count).
     """
 
     name: str
@@ -118,6 +139,7 @@ class Param:
     blackboard: bool = False
     key: Literal["read", "write"] | None = None
     minimum: float | None = None
+    maximum: float | None = None
 
     @property
     def required(self) -> bool:
@@ -146,8 +168,16 @@ class Param:
             return value, problem
         if self.key is not None and not isinstance(checked, Unbound) and not is_valid_key(checked):
             return value, "a blackboard key name (letters, digits, _, / for namespaces, . for attributes)"
-        if self.minimum is not None and isinstance(checked, (int, float)) and checked < self.minimum:
-            return value, f"a number >= {self.minimum:g}"
+        if non_finite(checked):
+            return value, "a finite number (not NaN, an infinity or beyond 64 bits)"
+        numbers = checked if isinstance(checked, list) else [checked]
+        for number in numbers:
+            if isinstance(number, bool) or not isinstance(number, (int, float)):
+                continue
+            if self.minimum is not None and not isinstance(checked, list) and number < self.minimum:
+                return value, self._range()
+            if self.maximum is not None and number > self.maximum:
+                return value, self._range()
         if self.minimum is not None and isinstance(checked, list) and len(checked) < self.minimum:
             return value, f"a list of at least {self.minimum:g} item(s)"
         if self.choices and not isinstance(checked, Unbound):
@@ -156,3 +186,8 @@ class Param:
                 if item not in self.choices:
                     return value, "one of " + ", ".join(repr(choice) for choice in self.choices)
         return checked, None
+
+    def _range(self) -> str:
+        low = "" if self.minimum is None else f" >= {self.minimum:g}"
+        high = "" if self.maximum is None else f" <= {self.maximum:g}"
+        return f"a number{low}{' and' if low and high else ''}{high}"

@@ -14,6 +14,8 @@ def _param_line(param: Param) -> str:
         facts.append("one of " + "|".join(str(choice) for choice in param.choices))
     if param.minimum is not None:
         facts.append(f">= {param.minimum:g}")
+    if param.maximum is not None:
+        facts.append(f"<= {param.maximum:g}")
     if param.blackboard:
         facts.append("$key allowed")
     if param.key:

@@ -69,6 +69,7 @@ def run_tree_file(
     watch: Callable[[BuiltTree, Mapping[str, Any]], list[Callable[[dict[str, Any]], None]]] | None = None,
     record: str | Path | None = None,
     record_cloud_step: int = 10,
+    allow_include_outside: bool = False,
 ) -> RunOutput:
     """Run the tree file `tree` once; see the module docstring. `quiet=False` prints progress to `out`
     (default: `sys.stdout` as it is when called); `blackboard` replaces initial values the file declares
@@ -81,7 +82,7 @@ def run_tree_file(
     if timeout is not None:
         checked_number(timeout, "--timeout", above=0.0)
     log_path = Path(log_path)
-    loaded = load_tree(tree)
+    loaded = load_tree(tree, allow_include_outside=allow_include_outside)
     loaded.set_blackboard(blackboard or {})
     setup = ProviderSetup(clock=make_clock(clock or "wall"), options=run_options(options), clock_name=clock)
     resources = provide_resources(loaded.resource_users(), setup)

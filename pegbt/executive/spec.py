@@ -12,6 +12,11 @@ from typing import Any
 
 from pegbt.yamlfile import Mark
 
+# Nodes from the root to the deepest leaf, subtree instances included: far more than a task needs (the
+# peg-transfer trees are under 20), few enough that recursive walks (py_trees ticks, builders) stay
+# well inside Python's recursion limit.
+MAX_TREE_DEPTH = 100
+
 
 @dataclass(frozen=True)
 class KeyUse:

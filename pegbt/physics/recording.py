@@ -23,6 +23,7 @@ measured (`pegbt calibrate collect`) and writes the folder at once.
 from __future__ import annotations
 
 import csv
+import io
 import json
 import math
 import os
@@ -34,8 +35,10 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from pegbt.boundedio import load_npy, read_bytes
 from pegbt.errors import PegbtError
 from pegbt.physics.bagfile import is_bag, read_bag
+from pegbt.physics.plausible import check_arm_joints, check_times
 from pegbt.psm import JOINT_NAMES, N_JOINTS, known_arm
 
 Array = NDArray[np.float64]
@@ -48,6 +51,13 @@ CSV_COLUMNS = ("t", *(f"{q}_cmd" for q in JOINT_NAMES), *(f"{q}_meas" for q in J
 DVRK_DATA_VARIABLE = "PEGBT_DVRK_DATA"
 FILES = {"q_cmd": "q_cmd.npy", "q_phy": "q_phy.npy", "t": "t_stamp.npy"}
 _ARM_AT_END = re.compile(r"(PSM[12])$")
+MAX_ARRAY_BYTES = 256 * 2**20  # per .npy file: 5.6 million samples of six joints, 15 hours at 100 Hz
+MAX_CSV_BYTES = 512 * 2**20
+MAX_META_BYTES = 64 * 2**10
+
+
+class RecordingError(PegbtError):
+    """A file that is not a readable recording of an arm, named with its field and sample."""
 
 
 def dvrk_data_dir(required: bool = False) -> Path:
@@ -141,11 +151,26 @@ def load_recording(
     arm: str | None = None,
     settled: float | None = None,
 ) -> Recording:
-    """Read and validate a recording folder, CSV or bag; a `PegbtError` naming the file and problem if bad.
+    """Read and validate a recording folder, CSV or bag; a `RecordingError` naming the file and problem if
+    bad. `cmd`, `phy`, `arm` and `settled` choose a bag's topics and samples (`bagfile.read_bag`)."""
+    try:
+        return _load_recording(Path(path), cmd=cmd, phy=phy, arm=arm, settled=settled)
+    except RecordingError:
+        raise
+    except PegbtError as error:
+        raise RecordingError(
+            error.message, file=error.file, line=error.line, column=error.column, field=error.field
+        ) from None
 
-    `cmd`, `phy`, `arm` and `settled` choose a bag's topics and samples (`bagfile.read_bag`)."""
-    path = Path(path)
-    if not path.exists():
+
+def _load_recording(
+    path: Path, *, cmd: str | None, phy: str | None, arm: str | None, settled: float | None
+) -> Recording:
+    try:
+        exists = path.exists()
+    except (OSError, ValueError) as error:
+        raise PegbtError(f"cannot read the recording: {error}", file=path) from None
+    if not exists:
         raise PegbtError(
             "no such recording (expected a folder with q_cmd.npy and q_phy.npy, a CSV, an MCAP file or a "
             "rosbag2 folder)",
@@ -153,7 +178,7 @@ def load_recording(
         )
     if is_bag(path):
         samples = read_bag(path, cmd=cmd, phy=phy, arm=arm, settled=settled)
-        validate(samples.q_cmd, samples.q_phy, samples.t, path)
+        validate(samples.q_cmd, samples.q_phy, samples.t, path, arm=samples.arm)
         return Recording(path, samples.q_cmd, samples.q_phy, samples.t, samples.arm)
     if cmd or phy or settled is not None:
         raise PegbtError(
@@ -168,18 +193,16 @@ def load_recording(
             "not a recording: expected a folder with q_cmd.npy and q_phy.npy, a .csv or a .mcap file",
             file=path,
         )
-    validate(q_cmd, q_phy, t, path)
-    return Recording(path, q_cmd, q_phy, t, _arm_of(path), _resolution_of(path))
+    arm = _arm_of(path)
+    validate(q_cmd, q_phy, t, path, arm=arm)
+    return Recording(path, q_cmd, q_phy, t, arm, _resolution_of(path))
 
 
 def _load_npy(path: Path) -> Array:
     try:
-        data = np.load(path, allow_pickle=False)
-    except (OSError, ValueError, EOFError) as error:
-        raise PegbtError(f"not a recording: cannot read it as a NumPy array ({error})", file=path) from None
-    if not np.issubdtype(data.dtype, np.number):
-        raise PegbtError(f"not a recording: holds {data.dtype} values, not numbers", file=path)
-    return np.asarray(data, dtype=float)
+        return load_npy(path, MAX_ARRAY_BYTES)
+    except PegbtError as error:
+        raise PegbtError(f"not a recording: {error.message}", file=path) from None
 
 
 def _read_folder(folder: Path) -> tuple[Array, Array, Array | None]:
@@ -193,11 +216,11 @@ def _read_folder(folder: Path) -> tuple[Array, Array, Array | None]:
 
 
 def _read_csv(path: Path) -> tuple[Array, Array, Array]:
+    raw = read_bytes(path, MAX_CSV_BYTES, "CSV recording")
     try:
-        with path.open(newline="") as handle:
-            rows = list(csv.reader(handle))
-    except (OSError, UnicodeDecodeError) as error:
-        raise PegbtError(f"not a recording: cannot read it as text ({error})", file=path) from None
+        rows = list(csv.reader(io.StringIO(raw.decode("utf-8"), newline="")))
+    except (UnicodeDecodeError, csv.Error) as error:
+        raise PegbtError(f"not a recording: cannot read it as CSV text ({error})", file=path) from None
     if not rows:
         raise PegbtError("not a recording: the file is empty", file=path)
     header = [name.strip() for name in rows[0]]
@@ -229,11 +252,12 @@ def _meta(path: Path) -> dict | None:
     if not (path.is_dir() and meta.exists()):
         return None
     try:
-        data = json.loads(meta.read_text())
-    except (OSError, json.JSONDecodeError) as error:
-        raise PegbtError(f"cannot read recording metadata: {error}", file=meta) from None
+        data = json.loads(read_bytes(meta, MAX_META_BYTES, "metadata file").decode("utf-8"))
+    except (UnicodeDecodeError, json.JSONDecodeError, RecursionError) as error:
+        reason = "nested too deeply" if isinstance(error, RecursionError) else str(error)
+        raise PegbtError(f"cannot read recording metadata: {reason}", file=meta) from None
     if not isinstance(data, dict):
-        raise PegbtError("recording metadata is an object", file=meta)
+        raise PegbtError("recording metadata must be an object", file=meta)
     return data
 
 
@@ -272,8 +296,9 @@ def _arm_of(path: Path) -> str | None:
 
 
 # ---------------------------------------------------------------------------------------------- validation
-def validate(q_cmd: Array, q_phy: Array, t: Array | None, where: Path) -> None:
-    """Refuse recordings that cannot be analysed, saying which file, field and sample is wrong."""
+def validate(q_cmd: Array, q_phy: Array, t: Array | None, where: Path, *, arm: str | None = None) -> None:
+    """Refuse recordings that cannot be analysed or are not an arm's (`pegbt.physics.plausible`), saying
+    which file, field and sample is wrong."""
     for name, array in (("q_cmd", q_cmd), ("q_phy", q_phy)):
         if array.ndim != 2 or array.shape[1] != N_JOINTS:
             raise PegbtError(
@@ -320,6 +345,9 @@ def validate(q_cmd: Array, q_phy: Array, t: Array | None, where: Path) -> None:
             file=_file(where, "q_cmd"),
             field="q_cmd",
         )
+    if t is not None:
+        check_times(t, _file(where, "t"), lambda sample: _line(where, sample))
+    check_arm_joints(q_cmd, q_phy, arm, lambda name: _file(where, name), lambda sample: _line(where, sample))
 
 
 def _is_csv(where: Path) -> bool:
@@ -401,5 +429,5 @@ class RecordingWriter:
         q_cmd = np.stack([row[0] for row in self._rows])
         q_phy = np.stack([row[1] for row in self._rows])
         t = np.array([row[2] for row in self._rows])
-        validate(q_cmd, q_phy, t, self.path)
+        validate(q_cmd, q_phy, t, self.path, arm=self.arm)
         return write_recording(self.path, q_cmd, q_phy, t, self.arm)

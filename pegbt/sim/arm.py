@@ -64,6 +64,12 @@ class JointGroup:
         self.setpoint = q.copy()
         return transitions
 
+    def hold(self, command_id: str) -> list[Transition]:
+        """Stop at the set-point of the last control tick: a step of zero, which no guard can refuse."""
+        transitions = self.abort("held")
+        self.setpoint = self.tick_setpoint.copy()
+        return transitions + [Transition(command_id, "done")]
+
     def start(self, playback: Playback) -> list[Transition]:
         transitions = self.abort("preempted by a newer motion")
         self.motion, self._elapsed = playback, 0.0
@@ -202,6 +208,10 @@ class SimArm:
     def jaw_servo_jp(self, angle: ArrayLike, command_id: str) -> list[Transition]:
         angle, problems = self._sized(angle, 1)
         return self._refusal(command_id, problems) or self.jaw.servo(angle, command_id, self.period)
+
+    def hold(self, jaw: bool, command_id: str) -> list[Transition]:
+        """The robot's `hold`: the arm (or jaw) stops where it is commanded now; always accepted."""
+        return (self.jaw if jaw else self.joints).hold(command_id)
 
     def jaw_move_jp(self, angle: ArrayLike, command_id: str) -> list[Transition]:
         angle, problems = self._sized(angle, 1)

@@ -39,6 +39,8 @@ def command_keys(keys: ArmKeys) -> tuple[str, ...]:
         keys.state_command,
         keys.jaw_servo_jp,
         keys.jaw_move_jp,
+        keys.hold,
+        keys.jaw_hold,
     )
 
 
@@ -98,6 +100,8 @@ def dispatch(arm: SimArm, keys: ArmKeys, command: Command) -> list[Transition]:
             return arm.follow_jt(trajectory.t, trajectory.q, trajectory.qd, command_id)
         if key == keys.state_command:
             return arm.state_command(codec.decode_string_stamped(payload)[1], command_id)
+        if key in (keys.hold, keys.jaw_hold):
+            return arm.hold(key == keys.jaw_hold, command_id)
         position = codec.decode_joint_state(payload).position
         handler = {
             keys.servo_jp: arm.servo_jp,

@@ -62,7 +62,7 @@ from pegbt.sim.truth import requested_since, truth_answer
 from pegbt.transport import codec
 from pegbt.transport.arm import ARM_JOINT_NAMES, JAW_JOINT_NAMES
 from pegbt.transport.keys import ArmKeys, CameraKeys, SimKeys
-from pegbt.transport.sequencing import Outlet, Source, Tag
+from pegbt.transport.sequencing import BadTag, Outlet, Source, Tag
 
 if TYPE_CHECKING:
     from pegbt.transport.recorder import WireRecorder
@@ -132,6 +132,7 @@ class SimEndpoint:
         self.start_time = 0.0 if config.lockstep else time.time()
         self.time = self.start_time
         self.source = Source()
+        self.bad_tags = 0  # commands refused because their attachment was not a tag
         self.faults = FaultInjector(config.faults)
         self._events_outlet = Outlet(session, self.sim_keys.events, self.source)
         self._recorder: WireRecorder | None = None
@@ -203,7 +204,11 @@ class SimEndpoint:
         self._outbox.record(recorder.sent)
 
     def _enqueue_command(self, arm: str, key: str, sample: zenoh.Sample) -> None:
-        tag = Tag.decode(sample.attachment)
+        try:
+            tag = Tag.decode(sample.attachment)
+        except BadTag as error:
+            self._inbox.put(("bad tag", arm, key, error.message))
+            return
         payload = sample.payload.to_bytes()
         if self._recorder is not None:
             self._recorder.sent(key, payload)
@@ -296,6 +301,8 @@ class SimEndpoint:
             self._step(item[1])
         elif kind == "truth":
             self._answer_truth(item[1])
+        elif kind == "bad tag":
+            self._refuse_untagged(*item[1:])
 
     def _step(self, payload: bytes) -> None:
         """A step request: once the lockstep barrier admits it, tick and answer with the state it claims."""
@@ -329,6 +336,19 @@ class SimEndpoint:
             return
         blocks = self.world.snapshot()["blocks"] if self.world is not None else []
         self._reply(query, truth_answer(self.elapsed, blocks, self.log.lines, since))
+
+    def _refuse_untagged(self, arm: str, key: str, reason: str) -> None:
+        """A command whose attachment is not a tag: not applied (whose command it is cannot be told),
+        logged and said on the arm's error topic."""
+        self.bad_tags += 1
+        self.log.record(
+            self.elapsed, "refused", arm=arm, key=key, command="", reason=f"bad attachment: {reason}"
+        )
+        if arm in self.keys:
+            text = f"{key} refused: bad attachment: {reason}"
+            self._outbox.send(
+                self.now(), self.keys[arm].error, partial(codec.encode_string, text), "", "refused"
+            )
 
     def _command(self, arm: str, key: str, payload: bytes, tag: Tag | None) -> None:
         command = self._commands.admit(arm, key, payload, tag, self.now(), self.elapsed)

@@ -20,10 +20,11 @@ import hashlib
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from pegbt.sim.faults import CameraFaults, WorldFaults
+from pegbt.sim.faults import DAY, CameraFaults, WorldFaults
 from pegbt.yamlfile import Located, read_yaml_file
 
 # Streams lose and lag messages by default; events (operating_state, error) and move commands only if listed.
+MAX_LATENCY = 10.0  # s: a message later than this is lost, which is the `loss` fault
 STREAM_TOPICS = ("measured_js", "setpoint_js", "fiducial_js", "measured_cp", "servo_jp")
 
 
@@ -53,13 +54,13 @@ class FaultPlan:
         crash_at = document.section("crash", ("at",)).get("at")
         seed = document.get("seed")
         return FaultPlan(
-            seed=0 if seed is None else seed.integer(low=0),
+            seed=0 if seed is None else seed.integer(low=0, high=2**32 - 1),
             loss_probability=loss.number_or("probability", 0.0, low=0.0, high=1.0),
             loss_topics=_topics(loss),
-            latency=latency.number_or("seconds", 0.0, low=0.0),
-            jitter=latency.number_or("jitter", 0.0, low=0.0),
+            latency=latency.number_or("seconds", 0.0, low=0.0, high=MAX_LATENCY),
+            jitter=latency.number_or("jitter", 0.0, low=0.0, high=MAX_LATENCY),
             latency_topics=_topics(latency),
-            crash_at=None if crash_at is None else crash_at.number(low=0.0),
+            crash_at=None if crash_at is None else crash_at.number(low=0.0, high=DAY),
             world=WorldFaults.read(document.section("world")),
             camera=CameraFaults.read(document.section("camera")),
         )

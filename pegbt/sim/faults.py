@@ -13,6 +13,10 @@ from dataclasses import dataclass, field
 from pegbt.psm import ARMS
 from pegbt.yamlfile import Located
 
+DAY = 86_400.0  # s: the latest a fault may be planned (a trial lasts about a minute)
+MAX_SIGMA = 0.05  # m of depth noise: five times a block's size, a camera that sees nothing
+MAX_RATE = 100.0  # slips per second of holding: one per 10 ms tick
+
 
 @dataclass(frozen=True)
 class SlipAt:
@@ -41,7 +45,7 @@ class WorldFaults:
         )
         return cls(
             slips=tuple(sorted(slips, key=lambda slip: slip.time)),
-            slip_rate=section.number_or("slip_rate", 0.0, low=0.0),
+            slip_rate=section.number_or("slip_rate", 0.0, low=0.0, high=MAX_RATE),
             miss_attempts=frozenset(attempts),
             miss_probability=section.number_or("miss_probability", 0.0, low=0.0, high=1.0),
         )
@@ -50,7 +54,7 @@ class WorldFaults:
 def _slip(entry: Located) -> SlipAt:
     entry.mapping(("time", "arm"))
     arm = entry.get("arm")
-    return SlipAt(entry["time"].number(), None if arm is None else arm.choice(ARMS))
+    return SlipAt(entry["time"].number(low=0.0, high=DAY), None if arm is None else arm.choice(ARMS))
 
 
 @dataclass(frozen=True)
@@ -87,8 +91,8 @@ def _burst(entry: Located) -> NoiseBurst:
     entry.mapping(("start", "duration", "sigma", "outliers"))
     default = NoiseBurst(0.0, 0.0)
     return NoiseBurst(
-        start=entry["start"].number(low=0.0),
-        duration=entry["duration"].number(low=0.0),
-        sigma=entry.number_or("sigma", default.sigma, low=0.0),
+        start=entry["start"].number(low=0.0, high=DAY),
+        duration=entry["duration"].number(low=0.0, high=DAY),
+        sigma=entry.number_or("sigma", default.sigma, low=0.0, high=MAX_SIGMA),
         outliers=entry.number_or("outliers", default.outliers, low=0.0, high=1.0),
     )

@@ -37,8 +37,6 @@ from pegbt.transport.sequencing import Bundled, Outlet, Source
 Message = Callable[[], bytes]  # encodes a message when someone will receive it
 
 
-OUTCOME_TOPICS = ("operating_state", "error")  # what answers a command (with its attachment)
-
 
 @dataclass(frozen=True)
 class JointStateMessage:
@@ -70,6 +68,12 @@ class _Latest:
             assert self.message is not None
             self.encoded = self.message()
         return self.encoded
+
+
+# Answers to commands are not a stream a newer message replaces: each refusal and each state change
+# must reach the client, so under congestion they wait rather than drop (a 20,000-command burst lost
+# 38 refusals on `PSMn/error` when they dropped like joint states).
+NEVER_DROPPED = ("error", "operating_state")
 
 
 class Outbox:
@@ -105,8 +109,7 @@ class Outbox:
 
     def outlet(self, key: str) -> Outlet:
         if key not in self._outlets:
-            # a stale stream message may go, but never a command's outcome: a client would wait for it for ever
-            stream = key.rsplit("/", 1)[-1] not in OUTCOME_TOPICS
+            stream = key.rsplit("/", 1)[-1] not in NEVER_DROPPED
             self._outlets[key] = Outlet(
                 self._session,
                 key,

@@ -40,6 +40,8 @@ FIRST_SAMPLE_TIMEOUT = 1.0  # s to wait for the first sample of a topic subscrib
 class EndpointSilent(PegbtError):
     """The endpoint stopped publishing (crashed, unplugged) or never started."""
 
+    exit_status = 3  # the endpoint was lost: not the user's input
+
 
 class MotionStatus(str, Enum):
     BUSY = "busy"
@@ -134,6 +136,7 @@ class _Axis:
         self._setpoint: Inlet[JointSample] = link.inlet(setpoint_key, codec.decode_joint_state)
         self._servo = link.outlet(servo_key)
         self._move = link.outlet(move_key)
+        self._hold = link.outlet(servo_key.rsplit("/", 1)[0] + "/hold")
         self._last_servo: tuple[float, NDArray[np.float64]] | None = None
 
     @property
@@ -178,7 +181,13 @@ class _Axis:
         return MotionHandle(self, tag.command_id(outlet.key), sent_at, what)
 
     def hold(self) -> None:
-        self.servo_jp(self.setpoint_js.position)
+        """Stop where the endpoint's set-point is now. The endpoint's own `hold` when it has one: a servo
+        at the last `setpoint_js` received is a step from where the set-point was a tick or two ago,
+        which in a fast move the endpoint's velocity guard refuses, and the arm travels on."""
+        if self._hold.matched:
+            self._arm.send(self._hold, codec.encode_empty())
+        else:
+            self.servo_jp(self.setpoint_js.position)
 
 
 class JawClient(_Axis):

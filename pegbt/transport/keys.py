@@ -104,6 +104,18 @@ class ArmKeys:
     def jaw_move_jp(self) -> str:
         return self._key("jaw/move_jp")
 
+    @property
+    def hold(self) -> str:
+        """std_msgs/Empty: stop at the current set-point. The dVRK's own `hold` (sawIntuitiveResearchKit
+        core/components/code/mtsIntuitiveResearchKitArm.cpp `hold()`: servo goal = the PID's set-point;
+        bridged to a ROS topic by cisst-ros cisst_ros_crtk/src/mts_ros_crtk_bridge_provided.cpp)."""
+        return self._key("hold")
+
+    @property
+    def jaw_hold(self) -> str:
+        """As `hold`, for the jaw (the simulator's; a robot without it gets a servo at the set-point)."""
+        return self._key("jaw/hold")
+
 
 @dataclass(frozen=True)
 class CameraKeys:

@@ -10,6 +10,7 @@ was accepted, refused, finished or aborted.
 from __future__ import annotations
 
 import json
+import logging
 import threading
 import time
 import uuid
@@ -22,6 +23,14 @@ import zenoh
 from pegbt.errors import PegbtError
 
 T = TypeVar("T")
+LOG = logging.getLogger("pegbt.transport")
+MAX_SEQ_DIGITS = 19  # a sequence number fits a signed 64-bit integer
+MAX_TAG_BYTES = 512
+
+
+class BadTag(PegbtError):
+    """An attachment that is there but is not a tag: refused, counted and logged, never a silent failure
+    of the zenoh callback (a `²` or 5,000 digits where the number belongs made `int()` raise in it)."""
 
 
 @dataclass(frozen=True)
@@ -42,13 +51,24 @@ class Tag:
 
     @classmethod
     def decode(cls, raw: zenoh.ZBytes | bytes | None) -> "Tag | None":
-        """The tag of an attachment, or None for untagged messages (a ROS 2 bridge, a foreign client)."""
+        """The tag of an attachment, or None for untagged messages and foreign attachments (a ROS 2 bridge,
+        rmw_zenoh's own); `BadTag` for one shaped as a tag (four `|` fields) whose number is not 1 to 19
+        ASCII digits, or that is longer than any tag."""
         if raw is None:
             return None
-        parts = (raw.to_bytes() if isinstance(raw, zenoh.ZBytes) else raw).decode(errors="replace").split("|")
-        if len(parts) != 4 or not parts[1].isdigit():
+        data = raw.to_bytes() if isinstance(raw, zenoh.ZBytes) else raw
+        parts = data.decode(errors="replace").split("|")
+        if len(parts) != 4:
             return None
-        return cls(parts[0], int(parts[1]), parts[2], parts[3])
+        number = parts[1]
+        if len(data) > MAX_TAG_BYTES:
+            raise BadTag(f"a tag of {len(data)} bytes; tags are at most {MAX_TAG_BYTES}", field="attachment")
+        if not (number.isascii() and number.isdigit() and 0 < len(number) <= MAX_SEQ_DIGITS):
+            raise BadTag(
+                f"sequence number {number[:24]!r} is not 1 to {MAX_SEQ_DIGITS} ASCII digits",
+                field="attachment.seq",
+            )
+        return cls(parts[0], int(number), parts[2], parts[3])
 
 
 Bundled = tuple[
@@ -75,9 +95,12 @@ def unbundle(data: bytes) -> tuple[dict[str, Any], list[Bundled]]:
     messages: list[Bundled] = []
     offset = 0
     for key, tag, content in header.pop("messages", []):
-        decoded = Tag.decode(tag.encode())
+        try:
+            decoded = Tag.decode(tag.encode())
+        except BadTag:
+            decoded = None
         if decoded is None:
-            raise PegbtError(f"bundled message on {key} has no valid tag: {tag!r}", field=key)
+            raise PegbtError(f"bundled message on {key} has no valid tag: {tag[:40]!r}", field=key)
         if isinstance(content, int):
             content, offset = body[offset : offset + content], offset + content
         messages.append((key, decoded, content))
@@ -193,10 +216,20 @@ class Inlet(Generic[T]):
         self._seen: dict[str, int] = {}
         self._changed = threading.Condition()
         self.tap: Callable[[str, Received[T]], None] | None = None  # sees every message taken (a recorder)
+        self.bad_tags = 0  # messages dropped because their attachment was not a tag
         self._subscriber = session.declare_subscriber(key, self._receive)
 
     def _receive(self, sample: zenoh.Sample) -> None:
-        self.deliver(sample.payload.to_bytes(), Tag.decode(sample.attachment))
+        try:
+            tag = Tag.decode(sample.attachment)
+        except BadTag as error:
+            self.bad_tags += 1
+            if self.bad_tags == 1 or self.bad_tags % 1000 == 0:
+                LOG.warning(
+                    "%s: dropped %d message(s) with a bad attachment: %s", self.key, self.bad_tags, error
+                )
+            return
+        self.deliver(sample.payload.to_bytes(), tag)
 
     def deliver(self, payload: bytes, tag: Tag | None) -> None:
         """Take a message of this key, whether it came on the key itself or bundled in a step's reply."""

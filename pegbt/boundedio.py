@@ -1,0 +1,96 @@
+"""Reading files a user names without trusting them: regular files only, sizes bounded before reading.
+
+Why: a reader that reads a file whole and then checks it dies of MemoryError on `/dev/zero`, hangs
+on a FIFO, and lets a NumPy header that claims 44 GiB allocate it. Every reader of user files goes
+through `file_size` (what the file is, before it is opened) and `read_bytes` or `load_npy` (never
+more than the limit), so a bad file is a `PegbtError` naming it, never a hang or a traceback.
+"""
+
+from __future__ import annotations
+
+import errno
+import os
+import stat
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+
+from pegbt.errors import PegbtError
+
+_NPY_MAGIC = b"\x93NUMPY"
+
+
+def file_size(path: str | os.PathLike[str], limit: int, what: str = "file") -> int:
+    """The size of `path` if it is a regular file of at most `limit` bytes; else a `PegbtError`."""
+    try:
+        status = os.stat(path)
+    except FileNotFoundError:
+        raise PegbtError(f"{what} not found", file=path) from None
+    except OSError as error:
+        reason = "a part of the path is too long" if error.errno == errno.ENAMETOOLONG else error.strerror
+        raise PegbtError(f"cannot read the {what}: {reason}", file=path) from None
+    except ValueError as error:  # an embedded NUL byte
+        raise PegbtError(f"cannot read the {what}: {error}", file=path) from None
+    if stat.S_ISDIR(status.st_mode):
+        raise PegbtError(f"expected a {what}, found a folder", file=path)
+    if not stat.S_ISREG(status.st_mode):
+        raise PegbtError(f"expected a regular {what}, found a device, FIFO or socket", file=path)
+    if status.st_size > limit:
+        raise PegbtError(f"{what} is {status.st_size} bytes; the limit is {limit} bytes", file=path)
+    return status.st_size
+
+
+def read_bytes(path: str | os.PathLike[str], limit: int, what: str = "file") -> bytes:
+    """The contents of a regular file of at most `limit` bytes (checked before and while reading)."""
+    file_size(path, limit, what)
+    try:
+        with open(path, "rb") as handle:
+            data = handle.read(limit + 1)
+    except OSError as error:
+        raise PegbtError(f"cannot read the {what}: {error.strerror}", file=path) from None
+    if len(data) > limit:
+        raise PegbtError(f"{what} grew past the limit of {limit} bytes while being read", file=path)
+    return data
+
+
+def load_npy(path: Path, limit: int) -> NDArray[np.floating]:
+    """A floating-point `.npy` array whose header, read first, promises at most `limit` bytes of data.
+
+    Integers (a recording in counts or ticks), complex numbers (whose imaginary part a cast drops),
+    timedeltas, objects and zip archives (`.npz` named `.npy`) are refused, never cast."""
+    size = file_size(path, limit + 4096, "NumPy file")
+    try:
+        with open(path, "rb") as handle:
+            if handle.read(len(_NPY_MAGIC)) != _NPY_MAGIC:
+                raise PegbtError(
+                    "cannot read it as a NumPy array: no .npy header (an .npz archive, or another format?)",
+                    file=path,
+                )
+            handle.seek(0)
+            version = np.lib.format.read_magic(handle)
+            if version == (1, 0):
+                shape, fortran, dtype = np.lib.format.read_array_header_1_0(handle)
+            elif version in ((2, 0), (3, 0)):
+                shape, fortran, dtype = np.lib.format.read_array_header_2_0(handle)
+            else:
+                raise PegbtError(f"unsupported .npy format version {version}", file=path)
+            if dtype.kind != "f" or dtype.hasobject:
+                raise PegbtError(
+                    f"holds {dtype} values; joints and times must be floating point (rad, m, s)", file=path
+                )
+            count = int(np.prod(shape, dtype=object))
+            claimed = count * dtype.itemsize
+            if claimed > limit or claimed > size - handle.tell():
+                raise PegbtError(
+                    f"the header claims {claimed} bytes of data for shape {shape}, but the file holds "
+                    f"{size - handle.tell()} (limit {limit})",
+                    file=path,
+                )
+            data = np.fromfile(handle, dtype=dtype, count=count)
+    except PegbtError:
+        raise
+    except (OSError, ValueError, EOFError, SyntaxError, TypeError) as error:
+        raise PegbtError(f"cannot read it as a NumPy array ({error})", file=path) from None
+    data = data.reshape(shape, order="F" if fortran else "C")
+    return np.asarray(data, dtype=float)

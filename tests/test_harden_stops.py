@@ -1,0 +1,77 @@
+"""Stops: SIGTERM and SIGINT halt the tree, write the halt and end records and exit with their own
+status; a stop is a command the endpoint always accepts (issue 19)."""
+
+from __future__ import annotations
+
+import json
+import signal
+import time
+
+import numpy as np
+import pytest
+
+from pegbt.motion.limits import arm_settings
+from pegbt.physics import ArmPhysics
+from pegbt.sim.arm import SimArm
+
+LONG_WAIT = (
+    "tree:\n  sequence:\n    children:\n      - log: {message: started}\n      - wait: {seconds: 600.0}\n"
+)
+
+
+def _records(path) -> list[dict]:
+    return [json.loads(line) for line in path.read_text().splitlines() if line.endswith("}")]
+
+
+@pytest.mark.parametrize(("signum", "status"), [(signal.SIGTERM, 143), (signal.SIGINT, 130)])
+def test_a_signal_halts_the_tree_writes_halt_and_end_and_exits_with_its_own_status(
+    tmp_path, pegbt_cli, signum, status
+):
+    tree, log = tmp_path / "wait.yaml", tmp_path / "run.jsonl"
+    tree.write_text(LONG_WAIT)
+    process = pegbt_cli.start("run", tree, "--log", log, "--quiet")
+    deadline = time.monotonic() + 60
+    while not (log.exists() and any(r.get("type") == "tick" for r in _records(log))):
+        assert process.poll() is None and time.monotonic() < deadline, process.communicate()
+        time.sleep(0.1)
+    process.send_signal(signum)
+    _, stderr = process.communicate(timeout=60)
+    assert process.returncode == status
+    assert f"interrupted by {signal.Signals(signum).name}" in stderr and "Traceback" not in stderr
+    records = _records(log)
+    halt = [r for r in records if r["type"] == "halt"]
+    assert halt and halt[0]["reason"] == "interrupt"
+    assert any(change[2] == "RUNNING" and change[3] for change in halt[0]["changes"]) or halt[0]["changes"]
+    assert records[-1]["type"] == "end" and records[-1]["outcome"] == "interrupted"
+
+
+def test_nothing_listening_names_the_address_tried(tmp_path, pegbt_cli):
+    from pegbt.sim.process import free_port
+
+    address = f"tcp/127.0.0.1:{free_port()}"
+    done = pegbt_cli(
+        "run", "trees/unilateral.yaml", "--endpoint", address, "--log", tmp_path / "x.jsonl", timeout=180
+    )
+    assert done.returncode == 3, done.stderr
+    assert address in done.stderr and "Traceback" not in done.stderr
+
+
+def test_a_hold_is_accepted_in_a_fast_move_where_a_servo_at_a_stale_set_point_is_refused():
+    settings = arm_settings("PSM1")
+    arm = SimArm("PSM1", settings, ArmPhysics())
+    start = arm.joints.setpoint.copy()
+    goal = np.array([-1.2, *start[1:]])  # a long yaw move: at its middle it nears 2 rad/s
+    assert [t.outcome for t in arm.move_jp(goal, "move")] == ["accepted"]
+    seen = []
+    for _ in range(round(0.6 / arm.period)):  # into the fast middle of the move
+        arm.advance(arm.period)
+        seen.append(arm.joints.setpoint.copy())
+    stale = seen[-3]  # the set-point a client received two ticks ago
+    refused = arm.servo_jp(stale, "stop by servo")
+    assert refused[-1].outcome == "refused" and "would move at" in refused[-1].text
+    transitions = arm.hold(False, "stop by hold")
+    assert [(t.command_id, t.outcome) for t in transitions] == [("move", "aborted"), ("stop by hold", "done")]
+    held = arm.joints.setpoint.copy()
+    for _ in range(20):
+        arm.advance(arm.period)
+    assert np.array_equal(arm.joints.setpoint, held) and not arm.is_busy
