@@ -20,7 +20,7 @@ from pegbt.executive.btlog import export_btlog
 from pegbt.executive.logfile import read_tick_log
 from pegbt.executive.runner import run
 from pegbt.executive.ticklog import TickLogWriter
-from tests.executive_helpers import build_text
+from executive_helpers import build_text
 
 bt = pytest.importorskip("behaviortreepy")
 
