@@ -122,9 +122,11 @@ def test_a_rosbag2_folder_reads_as_the_folder(tmp_path, folder, storage):
 def stream_bag(tmp_path: Path) -> tuple[Path, np.ndarray]:
     """Commands at 100 Hz holding each of 60 set-points for 0.5 s; the tracker at 10 Hz, 5 ms off the grid."""
     t_cmd = np.arange(3000) * 0.01
-    q_cmd = np.repeat(np.linspace(0.0, 0.6, 60), 50)[:, None] * np.ones(6)
+    # within the arm's limits: insertion from 0.12 m, the rest from 0 rad
+    scale, base = np.array([1.0, 1.0, 0.1, 1.0, 1.0, 1.0]), np.array([0.0, 0.0, 0.12, 0.0, 0.0, 0.0])
+    q_cmd = np.repeat(np.linspace(0.0, 0.6, 60), 50)[:, None] * scale + base
     t_phy = np.arange(300) * 0.1 + 0.005
-    q_phy = np.interp(t_phy, t_cmd, q_cmd[:, 0])[:, None] * np.ones(6) + 0.01
+    q_phy = np.column_stack([np.interp(t_phy, t_cmd, q_cmd[:, j]) for j in range(6)]) + 0.001
     streams = {
         "/PSM1/setpoint_js": [(s, joint_state(s, q)) for s, q in zip(t_cmd, q_cmd)],
         "/tracker/PSM1": [(s, joint_state(s, q)) for s, q in zip(t_phy, q_phy)],
@@ -197,7 +199,14 @@ def test_the_cli_names_the_bag_and_topic(tmp_path):
 
 def test_a_bag_cut_short_reads_up_to_the_cut(tmp_path):
     t = np.arange(400) * 0.5
-    q = np.linspace(0.0, 0.5, 400)[:, None] * np.ones(6)
+    q = np.linspace(0.0, 0.5, 400)[:, None] * [1.0, 1.0, 0.1, 1.0, 1.0, 1.0] + [
+        0.0,
+        0.0,
+        0.1,
+        0.0,
+        0.0,
+        0.0,
+    ]  # in limits
     path = tmp_path / "whole.mcap"
     with path.open("wb") as out:
         writer = mcap_ros2_writer.Writer(out, chunk_size=4096)

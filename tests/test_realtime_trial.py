@@ -11,10 +11,8 @@ from pathlib import Path
 import pytest
 
 from pegbt.errors import PegbtError
-from pegbt.evaluation.cli import _sim_accepts, check_interface
 from pegbt.evaluation.trial import TrialSpec, run_options, run_trial, simulator_args, truth_path
 from pegbt.executive.logfile import read_tick_log
-from pegbt.executive.providers import RUN_OPTIONS
 from pegbt.executive.session import run_tree_file
 from pegbt.sim.log import read_sim_log
 
@@ -58,11 +56,7 @@ def test_eval_passes_realtime_and_the_interface_to_the_simulator_and_the_run(tmp
     assert "--lockstep" in lockstep and "--interface" not in lockstep
 
 
-def test_eval_refuses_the_dvrk_interface_until_both_pegbt_sim_and_pegbt_run_take_it(tmp_path):
-    run_takes = "dvrk" in getattr(RUN_OPTIONS.get("interface"), "choices", ())
-    if run_takes and _sim_accepts("dvrk"):
-        check_interface("dvrk")  # merged: nothing to refuse
-        return
+def test_eval_refuses_the_dvrk_interface_without_realtime(tmp_path):
     run = subprocess.run(
         [sys.executable, "-m", "pegbt", "eval", "--variant", "unilateral", "--trials", "1"]
         + ["--interface", "dvrk", "--out", str(tmp_path / "out")],
@@ -73,5 +67,5 @@ def test_eval_refuses_the_dvrk_interface_until_both_pegbt_sim_and_pegbt_run_take
         check=False,
     )
     assert run.returncode == 2 and run.stderr.count("\n") == 1 and "Traceback" not in run.stderr
-    assert "--interface dvrk" in run.stderr and "not available" in run.stderr
+    assert "--interface dvrk runs in real time" in run.stderr
     assert not (tmp_path / "out").exists()  # nothing ran

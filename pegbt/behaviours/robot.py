@@ -16,6 +16,7 @@ believes), runs on the wall clock.
 from __future__ import annotations
 
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 from pegbt.behaviours.trial import Trial
@@ -25,6 +26,7 @@ from pegbt.executive.providers import ProviderSetup
 from pegbt.motion.robot_config import DEFAULT_TOOL, robot_arm_settings
 from pegbt.numbers import checked_number
 from pegbt.psm import ARMS
+from pegbt.sim.log import read_sim_log
 from pegbt.sim.process import SimProcess
 from pegbt.sim.truth import ask_truth
 from pegbt.transport import ArmClient, CameraClient, EndpointSilent, Link, SimClock, connect
@@ -56,6 +58,27 @@ class SimulatorTruth:
         truth = ask_truth(self._link)
         offset = clock.now() - truth.time
         return [{**entry, "time": entry["time"] + offset} for entry in truth.log]
+
+
+class SimulatorLogTruth:
+    """A real-time simulator's ground truth read from the log file it writes, for the judge only: the
+    dVRK interface serves no `sim/truth` (a robot has no oracle), so a trial against it is judged from
+    the file, its times moved onto the wall clock by the epoch its `start` entry gives."""
+
+    def __init__(self, path: str | Path) -> None:
+        self.path = Path(path)
+
+    def entries(self, clock: Clock) -> list[dict[str, Any]]:
+        entries = read_sim_log(self.path)
+        start = next((entry for entry in entries if entry["kind"] == "start"), {})
+        if not isinstance(start.get("epoch"), (int, float)):
+            raise PegbtError(
+                "the simulator's log has no start entry with its epoch: not a real-time `pegbt sim "
+                "--interface dvrk` log",
+                file=self.path,
+                field="simlog",
+            )
+        return [{**entry, "time": entry["time"] + start["epoch"]} for entry in entries]
 
 
 class Robot:
@@ -211,6 +234,7 @@ def connect_crtk_robot(
     camera: str = DEFAULT_POINTS_TOPIC,
     liveness: float = LIVENESS_S,
     ros2: str = "bridge",
+    simlog: str | None = None,
 ) -> Robot:
     """A `Robot` of CRTK arms at `endpoint` (a zenoh-bridge-ros2dds, a `pegbt sim --interface dvrk`), its
     arms enabled and homed, limits narrowed by the dVRK's `robot_config` folder when given."""
@@ -242,6 +266,7 @@ def connect_crtk_robot(
             StreamingCamera(wire, point_cloud_topic(camera), clock=clock),
             clock,
             endpoint=endpoint,
+            truth=SimulatorLogTruth(simlog) if simlog else None,
             closers=(streamer.close, session.close),
         )
         robot.wait_until_ready()
@@ -266,11 +291,11 @@ def provide_robot(setup: ProviderSetup) -> Robot:
             field="--clock",
         )
     if options.get("interface") == "dvrk":
-        for flag in ("faults", "simlog"):
-            if options.get(flag) is not None:
-                raise PegbtError(
-                    f"--{flag} is for the embedded simulator (--interface pegbt)", field=f"--{flag}"
-                )
+        if options.get("faults") is not None:
+            raise PegbtError(
+                "--faults is for the embedded simulator (--interface pegbt); give it to `pegbt sim --faults`",
+                field="--faults",
+            )
         return connect_crtk_robot(
             str(options.get("endpoint") or "auto"),
             str(options.get("namespace") or ""),
@@ -279,6 +304,7 @@ def provide_robot(setup: ProviderSetup) -> Robot:
             str(options.get("camera-topic") or DEFAULT_POINTS_TOPIC),
             checked_number(float(options.get("liveness") or LIVENESS_S), "--liveness", above=0.0),
             ros2=str(options.get("ros2") or "bridge"),
+            simlog=options.get("simlog"),
         )
     return connect_robot(
         str(options.get("endpoint") or "auto"),

@@ -108,42 +108,15 @@ def check_arguments(args: argparse.Namespace) -> None:
         from pegbt.sim.fault_plan import FaultPlan
 
         FaultPlan.load(args.faults)  # unreadable or invalid: its error names the file, line and field
-    check_interface(args.interface)
+    check_interface(args.interface, args.realtime)
 
 
-def check_interface(interface: str) -> None:
-    """A `PegbtError` unless both `pegbt sim --interface` and `pegbt run --interface` accept `interface`."""
-    if interface == "pegbt":
-        return
-    from pegbt.executive.providers import RUN_OPTIONS
-
-    missing = [
-        command
-        for command, accepts in (
-            ("pegbt sim", _sim_accepts(interface)),
-            ("pegbt run", interface in getattr(RUN_OPTIONS.get("interface"), "choices", ())),
-        )
-        if not accepts
-    ]
-    if missing:
+def check_interface(interface: str, realtime: bool) -> None:
+    """A `PegbtError` for the dVRK interface without `--realtime`: a robot's interface has no lockstep."""
+    if interface != "pegbt" and not realtime:
         raise PegbtError(
-            f"{' and '.join(f'`{command} --interface {interface}`' for command in missing)} not available in "
-            "this build of pegbt: the dVRK interface (its simulator side and the executive's CRTK client) "
-            "is not merged yet",
-            field="--interface",
+            f"--interface {interface} runs in real time, as a robot does: add --realtime", field="--interface"
         )
-
-
-def _sim_accepts(interface: str) -> bool:
-    """Whether `pegbt sim` offers `--interface` with `interface` among its choices (read from its parser)."""
-    from pegbt.sim.cli import add_commands as add_sim
-
-    parser = argparse.ArgumentParser()
-    add_sim(parser.add_subparsers())
-    sim = next(action for action in parser._actions if isinstance(action, argparse._SubParsersAction))
-    options = {option: action for action in sim.choices["sim"]._actions for option in action.option_strings}
-    action = options.get("--interface")
-    return action is not None and (action.choices is None or interface in action.choices)
 
 
 def _eval(args: argparse.Namespace) -> int:

@@ -183,6 +183,11 @@ def simulator_args(spec: TrialSpec, truth: Path) -> list[str]:
     ]
 
 
+# s without the arms' measured_js before the run stops: a simulator shares this machine with the run and
+# may stall for a second under load, which a robot's 1 s would take for a dead robot
+SIMULATOR_LIVENESS_S = 5.0
+
+
 def run_options(spec: TrialSpec, endpoint: str) -> dict[str, Any]:
     """`pegbt run` options of a trial on the simulator started here, at `endpoint` (its arms' calibration
     models are the simulator's own, as `--endpoint auto` would take)."""
@@ -191,6 +196,8 @@ def run_options(spec: TrialSpec, endpoint: str) -> dict[str, Any]:
         "condition": spec.condition,
         "calibration": str(SIMULATOR_CALIBRATION),
         "interface": spec.interface,
+        "simlog": str(truth_path(spec.log)),  # the judge: the simulator's log file (no `sim/truth` here)
+        "liveness": SIMULATOR_LIVENESS_S,
     }
 
 

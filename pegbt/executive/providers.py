@@ -112,7 +112,8 @@ RUN_OPTIONS: dict[str, RunOption] = {
         RunOption(
             "simlog",
             "robot: file the embedded simulator appends its log to: injected faults and world events, "
-            "the ground truth (see `pegbt sim --log`)",
+            "the ground truth (see `pegbt sim --log`); with --interface dvrk, the log file of the "
+            "simulator at --endpoint, which then judges the trial",
         ),
         RunOption(
             "calibration",

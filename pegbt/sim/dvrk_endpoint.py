@@ -186,6 +186,7 @@ class DvrkEndpoint:
             "start",
             mode="realtime",
             interface="dvrk",
+            epoch=self.start_time,  # the wall time the log's times count from (a judge on another clock)
             physics=self.config.physics,
             arms=list(self.arms),
             state_period=self.config.state_period,
