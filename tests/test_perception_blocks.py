@@ -158,7 +158,9 @@ def test_blocks_touching_across_neighbouring_pegs_are_told_apart(board):
         block.pose[:2, :2] @ world.cell.block.outline.T + block.pose[:2, 3:] for block in world.blocks[0:3:2]
     ]
     gap = np.linalg.norm(corners[0].T[:, None] - corners[1].T[None], axis=2).min()
-    assert gap < perception_settings().block.segment.cluster_distance  # one cluster to DBSCAN: only the split can separate them
+    assert (
+        gap < perception_settings().block.segment.cluster_distance
+    )  # one cluster to DBSCAN: only the split can separate them
 
     estimates = locate_blocks(DepthCamera(seed=0).capture(world), board)
 

@@ -13,7 +13,6 @@ from __future__ import annotations
 from dataclasses import replace
 
 from pegbt.calibration.base import CalibrationModel
-from pegbt.calibration.modelfile import ModelMetadata
 from pegbt.calibration.physics_model import PhysicsModel
 from pegbt.errors import PegbtError
 from pegbt.physics import Effect

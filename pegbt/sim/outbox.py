@@ -37,7 +37,6 @@ from pegbt.transport.sequencing import Bundled, Outlet, Source
 Message = Callable[[], bytes]  # encodes a message when someone will receive it
 
 
-
 @dataclass(frozen=True)
 class JointStateMessage:
     """A JointState, encoded when called; `content` (all but the stamp) tells an unchanged state."""

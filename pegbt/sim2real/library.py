@@ -18,7 +18,6 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pegbt.physics import EffectKind, effect_kinds, kind_of
-from pegbt.physics.kernels import play_grid
 from pegbt.psm import JOINT_NAMES
 
 Array = NDArray[np.float64]

@@ -20,7 +20,7 @@ from typing import Any
 
 import zenoh
 
-from pegbt.clock import Clock, WallClock
+from pegbt.clock import Clock, WallClock  # noqa: F401 (pegbt.transport re-exports them from here)
 from pegbt.errors import PegbtError
 from pegbt.transport.keys import SimKeys
 from pegbt.transport.link import Link
