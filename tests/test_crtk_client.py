@@ -302,3 +302,37 @@ def test_bad_dvrk_options_are_one_clear_line_each(pegbt_cli, tmp_path: Path) -> 
     assert missing.returncode == 2 and "not a folder" in missing.stderr and "nowhere" in missing.stderr
     for run in (auto, missing):
         assert "Traceback" not in run.stderr and len(run.stderr.strip().splitlines()) == 1
+
+
+def test_a_recording_of_a_crtk_run_holds_the_robots_topics_as_an_independent_reader_decodes_them(
+    endpoint: str, tmp_path: Path
+) -> None:
+    from mcap.reader import make_reader
+    from mcap_ros2.decoder import DecoderFactory
+
+    double = CrtkDouble(endpoint)
+    tree = tmp_path / "look.yaml"
+    tree.write_text("doc: one capture from the robot's camera\ntree:\n  capture: {}\n")
+    try:
+        output = run_tree_file(
+            tree,
+            tmp_path / "look.jsonl",
+            options={"interface": "dvrk", "endpoint": endpoint, "condition": "uncalibrated"},
+            timeout=20,
+            record=tmp_path / "look.mcap",
+        )
+    finally:
+        double.close()
+    assert output.result.outcome == "success"
+    with (tmp_path / "look.mcap").open("rb") as file:
+        reader = make_reader(file, decoder_factories=[DecoderFactory()])
+        seen: dict[str, list[object]] = {}
+        for schema, channel, _, message in reader.iter_decoded_messages():
+            seen.setdefault(channel.topic, []).append((schema.name, message))
+    for arm in ("PSM1", "PSM2"):  # the robot's states as its topics carried them, with their ROS 2 types
+        for topic in ("measured_js", "setpoint_js", "jaw/measured_js", "jaw/setpoint_js"):
+            assert {name for name, _ in seen[f"/{arm}/{topic}"]} == {"sensor_msgs/msg/JointState"}
+        assert seen[f"/{arm}/operating_state"][-1][1].state == "ENABLED"  # latched: there from the start
+    clouds = seen["/camera/camera/depth/color/points"]
+    assert clouds and clouds[0][0] == "sensor_msgs/msg/PointCloud2"
+    assert "/pegbt/ticks" in seen

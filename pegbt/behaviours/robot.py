@@ -33,11 +33,12 @@ from pegbt.transport import ArmClient, CameraClient, EndpointSilent, Link, SimCl
 from pegbt.transport.arm import LIVENESS_S as CLIENT_LIVENESS_S
 from pegbt.transport.cloud_stream import StreamingCamera
 from pegbt.transport.crtk_arm import LIVENESS_S, CrtkArm, make_ready
-from pegbt.transport.dvrk_topics import point_cloud_topic
+from pegbt.transport.dvrk_topics import PsmTopics, point_cloud_topic
 from pegbt.transport.endpoints import DEFAULT_POINTS_TOPIC
 from pegbt.transport.keys import check_namespace
 from pegbt.transport.session import open_session
 from pegbt.transport.streaming import Streamer
+from pegbt.transport.ros2 import Ros2Wire, Topic
 from pegbt.transport.wires import make_wire, wire_session_settings
 
 SIMULATOR_ARGS = ("--physics", "dvrk-real")
@@ -109,6 +110,8 @@ class Robot:
         self.camera = camera
         self.trial = Trial(clock, truth)
         self._closers = closers
+        self.wire: Ros2Wire | None = None  # a CRTK robot's wire, and the topics a recording takes from it
+        self.ros2_topics: tuple[Topic, ...] = ()
 
     def arm(self, name: str) -> Any:
         if name not in self.arms:
@@ -268,6 +271,11 @@ def connect_crtk_robot(
             endpoint=endpoint,
             truth=SimulatorLogTruth(simlog) if simlog else None,
             closers=(streamer.close, session.close),
+        )
+        robot.wire = wire  # what a recording listens to (`pegbt run --record`)
+        robot.ros2_topics = (
+            *(topic for arm in ARMS for topic in (*PsmTopics(arm).published(), *PsmTopics(arm).subscribed())),
+            point_cloud_topic(camera),
         )
         robot.wait_until_ready()
         make_ready(list(arms.values()))

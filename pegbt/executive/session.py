@@ -149,4 +149,6 @@ def _recorder(
     for resource in resources.values():
         if isinstance(getattr(resource, "link", None), Link):
             recorder.attach(resource.link)
+        if getattr(resource, "wire", None) is not None:  # a CRTK robot: its topics, from whoever sends them
+            recorder.listen(resource.wire, resource.ros2_topics)
     return recorder

@@ -1,6 +1,6 @@
 """Record what crosses the wire to one MCAP file, as rosbag2 writes it: ROS 2 schemas (`ros2msg`), CDR messages.
 
-`WireRecorder.attach(link)` taps a client's `Link`: every message its inlets take (on their topics, or bundled in a
+`WireRecorder.attach(link)` taps a client's `Link` (`listen(wire, topics)` subscribes to a CRTK robot's topics instead): every message its inlets take (on their topics, or bundled in a
 lockstep step's reply, where a re-stamped joint state becomes the last full one with the new stamp) and
 every payload its outlets put, each on its ROS 2 topic (`/PSM1/measured_js`) with its ROS 2 type and the
 same CDR bytes (a note is encoded as the simulator encodes the full state). Camera clouds keep every `cloud_step`-th point (1: as received). Beside them, JSON as
@@ -19,7 +19,7 @@ import json
 import struct
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from pathlib import Path
 from typing import Any
 
@@ -32,6 +32,7 @@ from pegbt.errors import PegbtError
 from pegbt.transport import codec
 from pegbt.transport.keys import SimKeys
 from pegbt.transport.link import Link
+from pegbt.transport.ros2 import Ros2Wire, Topic
 from pegbt.transport.sequencing import Received
 
 FLUSH_S = 1.0
@@ -117,6 +118,14 @@ class WireRecorder:
         events = SimKeys(link.namespace).events
         self._subscribers.append(link.session.declare_subscriber(events, self._event))
 
+    def listen(self, wire: Ros2Wire, topics: Iterable[Topic]) -> None:
+        """Record `topics` as they cross `wire` (a CRTK robot's: no `Link` to tap), whoever sends them: the
+        robot's states, the executive's commands, its servo streamer's set-points, the camera's clouds."""
+        for topic in topics:
+            wire.subscriber(
+                topic, lambda payload, topic=topic: self._typed(topic.name, topic.typename, payload)
+            )
+
     def received(self, key: str, message: Received[Any]) -> None:
         payload = message.payload
         if not payload:  # a step reply's note: the clock's last full state of `key`, stamped anew
@@ -163,8 +172,10 @@ class WireRecorder:
     # ------------------------------------------------------------------------------------------ writing
     def _message(self, key: str, payload: bytes) -> None:
         kind = ros2_type(key)
-        if kind is None:
-            return
+        if kind is not None:
+            self._typed("/" + key, kind, payload)
+
+    def _typed(self, topic: str, kind: str, payload: bytes) -> None:
         if kind == POINT_CLOUD2 and self._cloud_step > 1:
             try:
                 payload = _thinned(payload, self._cloud_step)
@@ -174,7 +185,7 @@ class WireRecorder:
         if kind in _STAMPED and len(payload) >= 12:
             sec, nanosec = _STAMP.unpack_from(payload, 4)
             when = sec + nanosec * 1e-9 or when
-        self._write("/" + key, kind, payload, when)
+        self._write(topic, kind, payload, when)
 
     def _string(self, topic: str, data: Any, when: float) -> None:
         self._write(topic, STRING, codec.encode_string(json.dumps(data, separators=(",", ":"))), when)
