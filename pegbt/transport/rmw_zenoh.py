@@ -31,7 +31,15 @@ import zenoh.ext
 
 from pegbt.errors import PegbtError
 from pegbt.transport.codec import typestore
-from pegbt.transport.ros2 import Topic, TopicPublisher, TopicSubscriber
+from pegbt.transport.ros2 import (
+    Publisher,
+    Subscriber,
+    Topic,
+    TopicPublisher,
+    TopicSubscriber,
+    declare_publisher,
+    declare_subscriber,
+)
 
 ADMIN_SPACE = "@ros2_lv"
 GID_SIZE = 16
@@ -112,9 +120,7 @@ def gid_of(token: str) -> bytes:
 class _Publisher:
     """One topic's publisher with its liveliness token; each sample carries rmw_zenoh's attachment."""
 
-    def __init__(
-        self, entity: zenoh.Publisher | zenoh.ext.AdvancedPublisher, token: zenoh.LivelinessToken, gid: bytes
-    ) -> None:
+    def __init__(self, entity: Publisher, token: zenoh.LivelinessToken, gid: bytes) -> None:
         self._entity, self._token, self.gid = entity, token, gid
         self._sequence = itertools.count(1)
         self._lock = threading.Lock()
@@ -132,9 +138,7 @@ class _Publisher:
 class _Subscriber:
     """One topic's subscriber with its liveliness token."""
 
-    def __init__(
-        self, entity: zenoh.Subscriber | zenoh.ext.AdvancedSubscriber, token: zenoh.LivelinessToken
-    ) -> None:
+    def __init__(self, entity: Subscriber, token: zenoh.LivelinessToken) -> None:
         self._entity, self._token = entity, token
 
     def close(self) -> None:
@@ -201,17 +205,7 @@ class RmwZenohWire:
 
     def publisher(self, topic: Topic) -> TopicPublisher:
         token = self._token(next(self._entity_ids), "MP", topic)
-        if topic.latched:
-            entity: zenoh.Publisher | zenoh.ext.AdvancedPublisher = zenoh.ext.declare_advanced_publisher(
-                self.session,
-                self.key(topic),
-                cache=zenoh.ext.CacheConfig(max_samples=topic.depth),
-                publisher_detection=True,
-                reliability=zenoh.Reliability.RELIABLE,
-                congestion_control=zenoh.CongestionControl.BLOCK,
-            )
-        else:
-            entity = self.session.declare_publisher(self.key(topic), express=True)
+        entity = declare_publisher(self.session, self.key(topic), topic)
         publisher = _Publisher(entity, self.session.liveliness().declare_token(token), gid_of(token))
         self._endpoints.append(publisher)
         return publisher
@@ -225,15 +219,7 @@ class RmwZenohWire:
                 return
             on_payload(sample.payload.to_bytes())
 
-        if topic.latched:
-            entity: zenoh.Subscriber | zenoh.ext.AdvancedSubscriber = zenoh.ext.declare_advanced_subscriber(
-                self.session,
-                self.key(topic),
-                deliver,
-                history=zenoh.ext.HistoryConfig(detect_late_publishers=True, max_samples=topic.depth),
-            )
-        else:
-            entity = self.session.declare_subscriber(self.key(topic), deliver)
+        entity = declare_subscriber(self.session, self.key(topic), topic, deliver)
         subscriber = _Subscriber(entity, self.session.liveliness().declare_token(token))
         self._endpoints.append(subscriber)
         return subscriber

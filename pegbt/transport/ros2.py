@@ -104,30 +104,44 @@ class BridgeWire:
         return scoped(self.namespace, topic.name.lstrip("/"))
 
     def publisher(self, topic: Topic) -> TopicPublisher:
-        if topic.latched:
-            entity: zenoh.Publisher | zenoh.ext.AdvancedPublisher = zenoh.ext.declare_advanced_publisher(
-                self.session,
-                self.key(topic),
-                cache=zenoh.ext.CacheConfig(max_samples=topic.depth),
-                publisher_detection=True,
-                reliability=zenoh.Reliability.RELIABLE,
-                congestion_control=zenoh.CongestionControl.BLOCK,
-            )
-        else:
-            entity = self.session.declare_publisher(self.key(topic), express=True)
-        return self._held(_Closing(entity))
+        return self._held(_Closing(declare_publisher(self.session, self.key(topic), topic)))
 
     def subscriber(self, topic: Topic, on_payload: Callable[[bytes], None]) -> TopicSubscriber:
         def deliver(sample: zenoh.Sample) -> None:
             on_payload(sample.payload.to_bytes())
 
-        if topic.latched:
-            entity: zenoh.Subscriber | zenoh.ext.AdvancedSubscriber = zenoh.ext.declare_advanced_subscriber(
-                self.session,
-                self.key(topic),
-                deliver,
-                history=zenoh.ext.HistoryConfig(detect_late_publishers=True, max_samples=topic.depth),
-            )
-        else:
-            entity = self.session.declare_subscriber(self.key(topic), deliver)
-        return self._held(_Closing(entity))
+        return self._held(_Closing(declare_subscriber(self.session, self.key(topic), topic, deliver)))
+
+
+Publisher = zenoh.Publisher | zenoh.ext.AdvancedPublisher
+Subscriber = zenoh.Subscriber | zenoh.ext.AdvancedSubscriber
+
+
+def declare_publisher(session: zenoh.Session, key: str, topic: Topic) -> Publisher:
+    """A publisher of `topic` on `key`: for a latched topic, a zenoh-ext advanced publisher whose cache
+    serves late joiners (what a bridge and rmw_zenoh both do for TRANSIENT_LOCAL), else a plain one."""
+    if topic.latched:
+        return zenoh.ext.declare_advanced_publisher(
+            session,
+            key,
+            cache=zenoh.ext.CacheConfig(max_samples=topic.depth),
+            publisher_detection=True,
+            reliability=zenoh.Reliability.RELIABLE,
+            congestion_control=zenoh.CongestionControl.BLOCK,
+        )
+    return session.declare_publisher(key, express=True)
+
+
+def declare_subscriber(
+    session: zenoh.Session, key: str, topic: Topic, deliver: Callable[[zenoh.Sample], None]
+) -> Subscriber:
+    """A subscriber of `topic` on `key`: for a latched topic, an advanced subscriber that asks for the
+    history and detects late publishers, else a plain one."""
+    if topic.latched:
+        return zenoh.ext.declare_advanced_subscriber(
+            session,
+            key,
+            deliver,
+            history=zenoh.ext.HistoryConfig(detect_late_publishers=True, max_samples=topic.depth),
+        )
+    return session.declare_subscriber(key, deliver)
