@@ -49,6 +49,26 @@ class MotionStatus(str, Enum):
     FAILED = "failed"
 
 
+class StatusFlags:
+    """`busy`, `done` and `failed` of a motion handle, read from the `status` it computes."""
+
+    @property
+    def status(self) -> MotionStatus:
+        raise NotImplementedError
+
+    @property
+    def busy(self) -> bool:
+        return self.status is MotionStatus.BUSY
+
+    @property
+    def done(self) -> bool:
+        return self.status is MotionStatus.DONE
+
+    @property
+    def failed(self) -> bool:
+        return self.status is MotionStatus.FAILED
+
+
 class _Outcomes:
     """The fate of each command, as the endpoint reports it on operating_state and error (thread-safe)."""
 
@@ -66,7 +86,7 @@ class _Outcomes:
             return self._outcomes.get(cause)
 
 
-class MotionHandle:
+class MotionHandle(StatusFlags):
     """A motion in progress: poll `status` (busy, done, failed) in later ticks, or `stop()` it."""
 
     def __init__(self, axis: "_Axis", command_id: str, sent_at: float, what: str) -> None:
@@ -92,18 +112,6 @@ class MotionHandle:
         if state.tag is None and state.value.stamp > self.sent_at and not state.value.is_busy:
             return MotionStatus.DONE  # an untagged endpoint (a real dVRK behind a bridge): CRTK's own rule
         return MotionStatus.BUSY
-
-    @property
-    def busy(self) -> bool:
-        return self.status is MotionStatus.BUSY
-
-    @property
-    def done(self) -> bool:
-        return self.status is MotionStatus.DONE
-
-    @property
-    def failed(self) -> bool:
-        return self.status is MotionStatus.FAILED
 
     def stop(self) -> None:
         """Hold at the current set-point (a servo command preempts the motion); the handle then fails."""

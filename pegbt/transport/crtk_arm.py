@@ -29,7 +29,7 @@ from pegbt.clock import Clock, WallClock
 from pegbt.errors import PegbtError
 from pegbt.motion.limits import ArmSettings
 from pegbt.transport import codec, guards
-from pegbt.transport.arm import EndpointSilent, MotionStatus
+from pegbt.transport.arm import EndpointSilent, MotionStatus, StatusFlags
 from pegbt.transport.codec import JointSample, OperatingState, TrajectoryLike
 from pegbt.transport.dvrk_topics import PsmTopics
 from pegbt.transport.ros2 import Ros2Wire
@@ -88,7 +88,7 @@ class Latest(Generic[T]):
             )
 
 
-class RobotMove:
+class RobotMove(StatusFlags):
     """The robot's own `move_jp` to a goal: done by CRTK's rule, failed past its time bound."""
 
     def __init__(self, arm: "CrtkArm", sent_at: float, what: str, bound: float) -> None:
@@ -118,18 +118,6 @@ class RobotMove:
             self.error = f"{self.what} not done within {self.bound:.1f} s; held"
             return MotionStatus.FAILED
         return MotionStatus.BUSY
-
-    @property
-    def busy(self) -> bool:
-        return self.status is MotionStatus.BUSY
-
-    @property
-    def done(self) -> bool:
-        return self.status is MotionStatus.DONE
-
-    @property
-    def failed(self) -> bool:
-        return self.status is MotionStatus.FAILED
 
     def stop(self) -> None:
         if self.status is MotionStatus.BUSY:

@@ -19,7 +19,7 @@ from numpy.typing import ArrayLike
 
 from pegbt.errors import PegbtError
 from pegbt.motion.limits import ArmSettings
-from pegbt.transport.arm import EndpointSilent, MotionStatus
+from pegbt.transport.arm import EndpointSilent, MotionStatus, StatusFlags
 from pegbt.transport.streamer import FrameReader, encode_frame
 
 STARTUP_TIMEOUT = 30.0  # s for the streamer to import, connect and say it is ready (a loaded machine)
@@ -146,7 +146,7 @@ class Streamer:
                 stream.close()
 
 
-class StreamedMotion:
+class StreamedMotion(StatusFlags):
     """A trajectory the streamer plays: poll `status` (busy, done, failed), or `stop()` it.
 
     It is done once the streamer has sent its last set-point and `arrived()` says the robot has taken it
@@ -195,18 +195,6 @@ class StreamedMotion:
             self.error = f"{self.what} not done within {self.bound:.1f} s; stopped"
             return MotionStatus.FAILED
         return MotionStatus.BUSY
-
-    @property
-    def busy(self) -> bool:
-        return self.status is MotionStatus.BUSY
-
-    @property
-    def done(self) -> bool:
-        return self.status is MotionStatus.DONE
-
-    @property
-    def failed(self) -> bool:
-        return self.status is MotionStatus.FAILED
 
     def stop(self) -> None:
         """Stop streaming it; the arm holds where its last set-point put it."""
