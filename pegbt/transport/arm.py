@@ -43,6 +43,23 @@ class EndpointSilent(PegbtError):
     exit_status = 3  # the endpoint was lost: not the user's input
 
 
+def check_recent(arm: str, topic: str, received_at: float | None, timeout: float, who: str) -> None:
+    """Raise `EndpointSilent` unless `topic` (an arm's `measured_js`) arrived within `timeout` s of now
+    (monotonic `received_at`; None: never); `who` is what went silent (an endpoint, a robot)."""
+    if received_at is None:
+        raise EndpointSilent(f"{arm}: no {topic} received yet", field=topic)
+    age = time.monotonic() - received_at
+    if age > timeout:
+        raise EndpointSilent(
+            f"{arm}: {who} silent, no {topic} for {age:.3f} s (liveness timeout {timeout} s)", field=topic
+        )
+
+
+def is_recent(received_at: float | None, timeout: float) -> bool:
+    """Whether a message received at monotonic `received_at` (None: never) is at most `timeout` s old."""
+    return received_at is not None and time.monotonic() - received_at <= timeout
+
+
 class MotionStatus(str, Enum):
     BUSY = "busy"
     DONE = "done"
@@ -280,22 +297,13 @@ class ArmClient(_Axis):
     @property
     def is_alive(self) -> bool:
         latest = self._measured.latest()
-        return latest is not None and time.monotonic() - latest.received_at <= self.liveness_timeout
+        return is_recent(None if latest is None else latest.received_at, self.liveness_timeout)
 
     def check_alive(self) -> None:
         """Raise `EndpointSilent` unless `measured_js` arrived within the liveness timeout."""
         latest = self._measured.latest()
-        if latest is None:
-            raise EndpointSilent(
-                f"{self.name}: no {self.keys.measured_js} received yet", field=self.keys.measured_js
-            )
-        age = time.monotonic() - latest.received_at
-        if age > self.liveness_timeout:
-            raise EndpointSilent(
-                f"{self.name}: endpoint silent, no {self.keys.measured_js} for {age:.3f} s "
-                f"(liveness timeout {self.liveness_timeout} s)",
-                field=self.keys.measured_js,
-            )
+        received_at = None if latest is None else latest.received_at
+        check_recent(self.name, self.keys.measured_js, received_at, self.liveness_timeout, "endpoint")
 
     def wait_until_ready(self, timeout: float = 5.0) -> None:
         """Block until the arm has published its joints, set-points and operating state."""

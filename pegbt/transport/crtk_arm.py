@@ -29,7 +29,7 @@ from pegbt.clock import Clock, WallClock
 from pegbt.errors import PegbtError
 from pegbt.motion.limits import ArmSettings
 from pegbt.transport import codec, guards
-from pegbt.transport.arm import EndpointSilent, MotionStatus, StatusFlags
+from pegbt.transport.arm import EndpointSilent, MotionStatus, StatusFlags, check_recent, is_recent
 from pegbt.transport.codec import JointSample, OperatingState, TrajectoryLike
 from pegbt.transport.dvrk_topics import PsmTopics
 from pegbt.transport.ros2 import Ros2Wire
@@ -218,22 +218,13 @@ class CrtkArm:
     @property
     def is_alive(self) -> bool:
         latest = self._measured.latest()
-        return latest is not None and time.monotonic() - latest.received_at <= self.liveness_timeout
+        return is_recent(None if latest is None else latest.received_at, self.liveness_timeout)
 
     def check_alive(self) -> None:
         """Raise `EndpointSilent` unless `measured_js` arrived within the liveness timeout."""
         latest = self._measured.latest()
-        if latest is None:
-            raise EndpointSilent(
-                f"{self.name}: no {self.topics.measured_js.name} received yet", field=self.name
-            )
-        age = time.monotonic() - latest.received_at
-        if age > self.liveness_timeout:
-            raise EndpointSilent(
-                f"{self.name}: robot silent, no {self.topics.measured_js.name} for {age:.3f} s "
-                f"(liveness timeout {self.liveness_timeout} s)",
-                field=self.topics.measured_js.name,
-            )
+        received_at = None if latest is None else latest.received_at
+        check_recent(self.name, self.topics.measured_js.name, received_at, self.liveness_timeout, "robot")
 
     def read(self, latest: Latest[T]) -> T:
         self.check_alive()
