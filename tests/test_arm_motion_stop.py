@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pegbt.behaviours.skills import SIMULATOR_CALIBRATION, Skills
+from pegbt.behaviours.resources.skills import SIMULATOR_CALIBRATION, Skills
 from pegbt.sim.process import SimProcess
 from pegbt.transport import ArmClient, SimClock, connect
 

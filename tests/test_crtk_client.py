@@ -20,8 +20,8 @@ import pytest
 import zenoh
 
 from crtk_double import LOWER, UPPER, CrtkDouble
-from pegbt.behaviours.arm_motion import ArmMotion
-from pegbt.behaviours.robot import connect_crtk_robot
+from pegbt.behaviours.resources.arm_motion import ArmMotion
+from pegbt.behaviours.resources.robot import connect_crtk_robot
 from pegbt.errors import PegbtError
 from pegbt.executive.analysis import summary
 from pegbt.executive.logfile import read_tick_log
@@ -232,8 +232,8 @@ def test_the_streamer_holds_the_arm_and_exits_when_its_executive_is_killed(endpo
     script = textwrap.dedent(
         f"""
         import numpy as np
-        from pegbt.behaviours.arm_motion import ArmMotion
-        from pegbt.behaviours.robot import connect_crtk_robot
+        from pegbt.behaviours.resources.arm_motion import ArmMotion
+        from pegbt.behaviours.resources.robot import connect_crtk_robot
         robot = connect_crtk_robot("{endpoint}")
         arm = robot.arm("PSM1")
         motion = ArmMotion(arm.settings)

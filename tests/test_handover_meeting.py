@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from pegbt.behaviours.handover import plan_meeting
-from pegbt.behaviours.skills import Skills
+from pegbt.behaviours.resources.skills import Skills
 from pegbt.motion.handover import tool_gap
 from pegbt.motion.ik import solve_ik
 from pegbt.perception.blocks import BlockEstimate

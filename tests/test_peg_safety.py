@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from executive_helpers import with_shared_trees
 
-from pegbt.behaviours.skills import SIMULATOR_CALIBRATION
+from pegbt.behaviours.resources.skills import SIMULATOR_CALIBRATION
 from pegbt.cli import main
 from pegbt.executive.session import run_tree_file
 from pegbt.motion.kinematics import forward_kinematics

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from pegbt.behaviours.skills import SIMULATOR_CALIBRATION
+from pegbt.behaviours.resources.skills import SIMULATOR_CALIBRATION
 from pegbt.executive.session import run_tree_file
 from pegbt.sim.process import SimProcess
 

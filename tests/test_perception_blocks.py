@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from pegbt.behaviours.poses import transfer_for
-from pegbt.behaviours.skills import Skills
+from pegbt.behaviours.resources.skills import Skills
 from pegbt.frames import yaw_of, yaw_pose
 from pegbt.motion.settings import motion_settings
 from pegbt.perception.blocks import block_on_peg, locate_blocks, stack_level, wrap_symmetric

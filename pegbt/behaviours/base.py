@@ -29,9 +29,9 @@ from typing import Any
 
 from py_trees.common import Status
 
-from pegbt.behaviours.arm_motion import ArmMotion, Prepared
-from pegbt.behaviours.robot import Robot
-from pegbt.behaviours.skills import Skills
+from pegbt.behaviours.resources.arm_motion import ArmMotion, Prepared
+from pegbt.behaviours.resources.robot import Robot
+from pegbt.behaviours.resources.skills import Skills
 from pegbt.errors import PegbtError
 from pegbt.executive.leaf import Leaf
 from pegbt.executive.params import Param

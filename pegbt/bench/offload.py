@@ -28,7 +28,7 @@ SEED = 3
 def _jobs() -> dict[str, Callable[[], object]]:
     """The two jobs, on a seeded world: perceive a capture; plan and pre-compensate PSM1's first transfer."""
     from pegbt.behaviours.poses import transfer_for
-    from pegbt.behaviours.skills import SIMULATOR_CALIBRATION, Skills
+    from pegbt.behaviours.resources.skills import SIMULATOR_CALIBRATION, Skills
     from pegbt.motion.ik import solve_ik
     from pegbt.perception.blocks import block_on_peg
     from pegbt.sim.camera import DepthCamera

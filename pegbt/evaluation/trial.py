@@ -16,9 +16,9 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from pegbt.behaviours.robot import SIMULATOR_ARGS
-from pegbt.behaviours.skills import SIMULATOR_CALIBRATION
-from pegbt.behaviours.trial import count_contacts
+from pegbt.behaviours.resources.robot import SIMULATOR_ARGS
+from pegbt.behaviours.resources.skills import SIMULATOR_CALIBRATION
+from pegbt.behaviours.resources.trial import count_contacts
 from pegbt.errors import PegbtError
 from pegbt.evaluation.truth import failure_cause, injected_faults
 from pegbt.sim.log import read_sim_log

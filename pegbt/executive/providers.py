@@ -2,7 +2,7 @@
 
 Later packages register here instead of editing the run command:
 
-- `RESOURCE_PROVIDERS`: a provider per resource name (`"robot": "pegbt.behaviours.robot:provide_robot"`).
+- `RESOURCE_PROVIDERS`: a provider per resource name (`"robot": "pegbt.behaviours.resources.robot:provide_robot"`).
   A provider is called once per run with a `ProviderSetup` (the run's options and clock) and returns
   the resource. Providers are imported only when a tree needs them.
 - `RUN_OPTIONS`: the options providers read; `pegbt run` offers each as `--NAME` and hands every
@@ -35,8 +35,8 @@ CLOCKS: dict[str, str] = {
     "manual": "pegbt.clock:ManualClock",
 }
 RESOURCE_PROVIDERS: dict[str, str] = {
-    "robot": "pegbt.behaviours.robot:provide_robot",
-    "skills": "pegbt.behaviours.skills:provide_skills",
+    "robot": "pegbt.behaviours.resources.robot:provide_robot",
+    "skills": "pegbt.behaviours.resources.skills:provide_skills",
 }
 
 

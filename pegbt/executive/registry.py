@@ -35,14 +35,14 @@ from pegbt.executive.context import RunContext
 from pegbt.executive.params import Param
 
 BEHAVIOUR_MODULES: tuple[str, ...] = (
-    "pegbt.behaviours.generic",
-    "pegbt.behaviours.sense",
-    "pegbt.behaviours.grasping",
+    "pegbt.behaviours.actions.generic",
+    "pegbt.behaviours.actions.sensing",
+    "pegbt.behaviours.actions.grasping",
     "pegbt.behaviours.motion",
-    "pegbt.behaviours.placing",
+    "pegbt.behaviours.conditions.blocks",
     "pegbt.behaviours.handover",
-    "pegbt.behaviours.bookkeeping",
-    "pegbt.behaviours.calibration",
+    "pegbt.behaviours.actions.transfer_records",
+    "pegbt.behaviours.actions.collect_calibration",
 )
 
 Factory = Callable[["LeafSetup"], py_trees.behaviour.Behaviour]

@@ -14,7 +14,7 @@ import numpy as np
 from py_trees.common import Status
 
 from pegbt.behaviours.base import arm_param
-from pegbt.behaviours.robot import Robot
+from pegbt.behaviours.resources.robot import Robot
 from pegbt.calibration.collect import SETTLE_S, random_setpoints, straight_move
 from pegbt.calibration.task import task_box
 from pegbt.errors import PegbtError

@@ -1,4 +1,4 @@
-"""Leaves that record a trial's transfers for its judge (`pegbt.behaviours.trial`) and its progress bar.
+"""Leaves that record a trial's transfers for its judge (`pegbt.behaviours.resources.trial`) and its progress bar.
 
 They move nothing: `begin_transfer` notes which block goes where and when, `finish_transfer` the
 executive's verdict. The tree decides what a verdict means for the rest of the trial.

@@ -19,7 +19,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from pegbt.behaviours.trial import Trial
+from pegbt.behaviours.resources.trial import Trial
 from pegbt.clock import Clock, WallClock, is_realtime
 from pegbt.errors import PegbtError
 from pegbt.executive.providers import ProviderSetup

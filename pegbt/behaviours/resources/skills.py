@@ -1,0 +1,180 @@
+"""The `skills` resource: motion, calibration and perception as the run's condition asks for them.
+
+Conditions, as in the reference paper's experiments:
+
+- `uncalibrated`: rest-to-rest cubic motions, commands sent as planned;
+- `calibrated`: the same motions, every commanded row pre-compensated by the arm's calibration model;
+- `optimized`: transfers planned as the paper's spline refined by SQP, pre-compensated.
+
+Calibration models are read from the directory `--calibration` (by default `skills/calibration/`, and
+for `--endpoint auto` `skills/calibration/sim-dvrk-real/`: models fitted on recordings of the simulator's
+arms made by `trees/calibrate_collect.yaml`): per arm the first of `ARM-hybrid.json`, `ARM-physics.json`,
+`ARM-lstm.json` found. Models are per set-up: a model fitted on one robot (or on the simulator) does not
+fit another.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+
+from pegbt.behaviours.resources.arm_motion import ArmMotion
+from pegbt.calibration.base import CalibrationModel
+from pegbt.calibration.compensation import CALIBRATION_DIR, Compensator
+from pegbt.calibration.modelfile import model_file_name
+from pegbt.errors import PegbtError
+from pegbt.executive.providers import ProviderSetup
+from pegbt.motion.handover import tool_distance
+from pegbt.motion.ik import inverse_kinematics
+from pegbt.motion.robot_config import DEFAULT_TOOL, robot_arm_settings
+from pegbt.motion.settings import MotionSettings, motion_settings
+from pegbt.motion.trajectory import Trajectory
+from pegbt.motion.transfer import TransferPlanner
+from pegbt.perception.blocks import BlockLocator
+from pegbt.perception.board import PegboardRegistration
+from pegbt.perception.grasp import GraspSelector
+from pegbt.psm import ARMS
+from pegbt.workcell import Workcell, workcell
+
+CONDITIONS = ("uncalibrated", "calibrated", "optimized")
+SIMULATOR_CALIBRATION = CALIBRATION_DIR / "sim-dvrk-real"
+MODEL_PREFERENCE = ("hybrid", "physics", "lstm")
+CLEARANCE_STRIDE = 3  # check every third 10 ms row: tools move well under a millimetre in 30 ms
+
+
+def calibration_model(directory: Path, arm: str) -> CalibrationModel:
+    """The preferred calibration model of `arm` in `directory`; a `PegbtError` if there is none."""
+    for kind in MODEL_PREFERENCE:
+        path = directory / model_file_name(arm, kind)
+        if path.exists():
+            return CalibrationModel.load(path, arm=arm)
+    names = ", ".join(model_file_name(arm, kind) for kind in MODEL_PREFERENCE)
+    raise PegbtError(
+        f"no calibration model for {arm} (looked for {names})", file=directory, field="--calibration"
+    )
+
+
+class Skills:
+    """Per-arm motion under one condition, the work cell, and the perception pipeline's state."""
+
+    def __init__(
+        self,
+        condition: str,
+        calibration: Path | None = None,
+        cell: Workcell | None = None,
+        motion: MotionSettings | None = None,
+        robot_config: Path | None = None,
+        robot_tool: str = DEFAULT_TOOL,
+    ) -> None:
+        """`robot_config`: a dVRK's share/ folder, whose limits narrow skills/psm.yaml's (`robot_arm_settings`)."""
+        if condition not in CONDITIONS:
+            raise PegbtError(
+                f"unknown condition {condition!r}; known: {', '.join(CONDITIONS)}", field="--condition"
+            )
+        self.condition = condition
+        self.cell = cell or workcell()
+        self.motion = motion or motion_settings()
+        self.arms: dict[str, ArmMotion] = {}
+        self.settings = {arm: robot_arm_settings(arm, robot_config, robot_tool) for arm in ARMS}
+        for arm in ARMS:
+            settings = self.settings[arm]
+            compensator = None
+            if condition != "uncalibrated":
+                compensator = Compensator(
+                    calibration_model(calibration or CALIBRATION_DIR, arm), settings=settings
+                )
+            planner = TransferPlanner(settings, self.motion) if condition == "optimized" else None
+            self.arms[arm] = ArmMotion(settings, planner=planner, compensator=compensator)
+        self.registration = PegboardRegistration(self.cell)
+        self.locator = BlockLocator(self.cell)
+        self.selectors = {arm: GraspSelector(arm, self._reachable(arm), self.cell) for arm in ARMS}
+        self.waiting: dict[str, float | None] = dict.fromkeys(ARMS)  # since when each arm waits for the other
+
+    def _reachable(self, arm: str):
+        settings = self.settings[arm]
+
+        def reachable(poses: NDArray[np.float64]) -> NDArray[np.bool_]:
+            return np.asarray(inverse_kinematics(poses, settings).ok, dtype=bool).reshape(len(poses))
+
+        return reachable
+
+    def arm(self, name: str) -> ArmMotion:
+        if name not in self.arms:
+            raise PegbtError(f"unknown arm {name!r}; known: {', '.join(self.arms)}", field="arm")
+        return self.arms[name]
+
+    def clearance(
+        self, arm: str, planned: Trajectory, start: float, others: dict[str, NDArray[np.float64]]
+    ) -> float:
+        """Closest distance (m) between `arm`'s tool along `planned` (starting at clock time `start`) and
+        each other arm's tool where it is meant to be at the same times (along its own motion, or at rest:
+        `others` gives each other arm's set-point in case it has not moved yet). Tools are their shafts and
+        wrist-to-tip segments, as `pegbt.motion.handover.tool_distance` measures them."""
+        rows = planned.q[::CLEARANCE_STRIDE]
+        times = start + planned.t[::CLEARANCE_STRIDE]
+        closest = np.inf
+        for other, resting in others.items():
+            theirs = self.arms[other].joints_at(times, resting)
+            distance = tool_distance(rows, self.cell.board_to_arm(arm), theirs, self.cell.board_to_arm(other))
+            closest = min(closest, float(distance.min()))
+        return closest
+
+    def report(self) -> "SkillsReport | None":
+        """How the motions went (None if nothing moved): trajectories sent, fallbacks, planned tool-tip paths."""
+        if not any(motion.plans for motion in self.arms.values()):
+            return None
+        return SkillsReport(
+            self.condition,
+            {name: motion.plans for name, motion in self.arms.items()},
+            {name: motion.fallbacks for name, motion in self.arms.items()},
+            {name: motion.tip_path for name, motion in self.arms.items()},
+        )
+
+
+@dataclass(frozen=True)
+class SkillsReport:
+    """Per arm: trajectories sent, optimised plans that fell back to cubics, length of the planned tool-tip path (m)."""
+
+    condition: str
+    plans: dict[str, int]
+    fallbacks: dict[str, int]
+    tip_path_m: dict[str, float]
+
+    def as_dict(self) -> dict[str, object]:
+        return {
+            "condition": self.condition,
+            "plans": dict(self.plans),
+            "fallbacks": dict(self.fallbacks),
+            "tip_path_m": dict(self.tip_path_m),
+        }
+
+    def __str__(self) -> str:
+        arms = "; ".join(
+            f"{arm} {self.plans[arm]} trajectories, planned tool-tip path {self.tip_path_m[arm]:.2f} m"
+            + (
+                f", {self.fallbacks[arm]} optimised plan(s) fell back to cubics"
+                if self.fallbacks[arm]
+                else ""
+            )
+            for arm in self.plans
+        )
+        return f"motion ({self.condition}): {arms}"
+
+
+def provide_skills(setup: ProviderSetup) -> Skills:
+    """The `skills` resource for `pegbt run` (options `condition`, `calibration`, `endpoint`, `robot-config`,
+    `robot-tool`)."""
+    options = setup.options
+    directory = options.get("calibration")
+    if directory is None:
+        directory = SIMULATOR_CALIBRATION if options.get("endpoint", "auto") == "auto" else CALIBRATION_DIR
+    robot_config = options.get("robot-config")
+    return Skills(
+        str(options.get("condition") or "optimized"),
+        Path(directory),
+        robot_config=None if robot_config is None else Path(robot_config),
+        robot_tool=str(options.get("robot-tool") or DEFAULT_TOOL),
+    )
