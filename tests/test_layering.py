@@ -103,3 +103,45 @@ def test_the_check_catches_an_upward_and_an_unlisted_import():
         "pegbt.low:1: imports pegbt.top.api (row 2) from row 3: upward",
         "pegbt.top.runner:2: imports pegbt.elsewhere, which is in no row of the table",
     ]
+
+
+LEAF_KINDS = ("pegbt.behaviours.actions.", "pegbt.behaviours.conditions.")
+UNGROUPED = ("pegbt.behaviours.handover",)  # rewritten on its own branch; grouped when it is merged
+
+
+def test_every_registered_leaf_lives_in_the_package_of_its_kind():
+    """Leaves are grouped by kind (DEVELOPERS.md): the registry loads exactly the modules of `actions/` and
+    `conditions/`, and every leaf it knows is defined in one of them."""
+    from pegbt.executive.registry import BEHAVIOUR_MODULES, REGISTRY
+
+    grouped = {
+        module_name(path)
+        for kind in ("actions", "conditions")
+        for path in (REPO / "pegbt" / "behaviours" / kind).glob("*.py")
+        if path.name != "__init__.py"
+    }
+    assert set(BEHAVIOUR_MODULES) == grouped | set(UNGROUPED)
+    modules = {spec.name: spec.factory.__module__ for spec in REGISTRY}
+    misplaced = [
+        f"{name}: {module}"
+        for name, module in modules.items()
+        if module.startswith("pegbt.") and not module.startswith(LEAF_KINDS) and module not in UNGROUPED
+    ]
+    assert misplaced == []
+
+
+def test_a_condition_writes_nothing_and_moves_nothing():
+    """A condition only looks: it declares no blackboard write and is no motion leaf."""
+    from pegbt.behaviours.base import MotionLeaf
+    from pegbt.executive.registry import REGISTRY
+
+    conditions = [spec for spec in REGISTRY if spec.factory.__module__.startswith(LEAF_KINDS[1])]
+    assert {spec.name for spec in conditions} >= {"check_blackboard", "wait_blackboard", "check_placed"}
+    writing = [
+        spec.name
+        for spec in conditions
+        if spec.writes
+        or any(param.key == "write" for param in spec.params)
+        or (isinstance(spec.factory, type) and issubclass(spec.factory, MotionLeaf))
+    ]
+    assert writing == []

@@ -38,11 +38,12 @@ BEHAVIOUR_MODULES: tuple[str, ...] = (
     "pegbt.behaviours.actions.generic",
     "pegbt.behaviours.actions.sensing",
     "pegbt.behaviours.actions.grasping",
-    "pegbt.behaviours.motion",
-    "pegbt.behaviours.conditions.blocks",
-    "pegbt.behaviours.handover",
+    "pegbt.behaviours.actions.moving",
     "pegbt.behaviours.actions.transfer_records",
     "pegbt.behaviours.actions.collect_calibration",
+    "pegbt.behaviours.conditions.blackboard",
+    "pegbt.behaviours.conditions.blocks",
+    "pegbt.behaviours.handover",
 )
 
 Factory = Callable[["LeafSetup"], py_trees.behaviour.Behaviour]

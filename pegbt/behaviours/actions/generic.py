@@ -1,20 +1,18 @@
-"""Generic leaves for trees that run without a robot: wait, set / check blackboard, log, scripted.
+"""Generic actions for trees that run without a robot: wait, set a blackboard key, log, scripted outcomes.
 
-Where py_trees has the behaviour (`SetBlackboardVariable`, `CheckBlackboardVariableValue`,
-`StatusQueue`) the factory builds it (or a minimal subclass); `wait` and `log` are `Leaf`s because they need the executive's
-clock and parameters read from the blackboard.
+Where py_trees has the behaviour (`SetBlackboardVariable`, `StatusQueue`) the factory builds it (or a
+minimal subclass); `wait` and `log` are `Leaf`s because they need the executive's clock and parameters
+read from the blackboard.
 """
 
 from __future__ import annotations
 
 import logging
-import math
 from typing import Any
 
 import py_trees
 from py_trees.common import Status
 
-from pegbt.executive.conditions import OPERATORS, comparison
 from pegbt.executive.leaf import Leaf
 from pegbt.executive.params import MAX_SECONDS, BlackboardRef, Param
 from pegbt.executive.registry import LeafSetup, behaviour
@@ -62,55 +60,6 @@ def set_blackboard(setup: LeafSetup) -> py_trees.behaviour.Behaviour:
         variable_value=value,
         overwrite=True,
     )
-
-
-@behaviour(
-    "check_blackboard",
-    "succeed if blackboard `key` compares true with `value` (`op`), fail otherwise or if it is unset",
-    params=(
-        Param("key", str, "key to test", key="read"),
-        Param("op", str, "comparison", default="==", choices=tuple(OPERATORS)),
-        Param("value", Any, "value compared with", default=True),
-    ),
-)
-def check_blackboard(setup: LeafSetup) -> py_trees.behaviour.Behaviour:
-    check = py_trees.common.ComparisonExpression(
-        variable=setup.absolute_key(setup.params["key"]),
-        value=setup.params["value"],
-        operator=comparison(setup.params["op"]),
-    )
-    return py_trees.behaviours.CheckBlackboardVariableValue(name=setup.name, check=check)
-
-
-@behaviour(
-    "wait_blackboard",
-    "run until blackboard `key` compares true with `value` (`op`), then succeed; an unset key is waited for "
-    "(another branch of a parallel sets it: how subtrees synchronise); wrap it in `timeout` to bound the wait",
-    params=(
-        Param("key", str, "key to watch", key="read"),
-        Param("op", str, "comparison", default="==", choices=tuple(OPERATORS)),
-        Param("value", Any, "value compared with", default=True),
-    ),
-)
-class WaitBlackboard(Leaf):
-    """Running until the condition holds; it needs no tick of its own (only another node can change the key)."""
-
-    def initialise(self) -> None:
-        self.holds = comparison(self.params["op"])
-        self.wake_at = math.inf
-
-    def update(self) -> Status:
-        key, op, value = self.params["key"], self.params["op"], self.params["value"]
-        try:
-            current = self.read(key)
-        except KeyError:
-            current = "<unset>"
-        else:
-            if self.holds(current, value):
-                self.feedback_message = f"{key} {op} {value!r} (it is {current!r})"
-                return Status.SUCCESS
-        self.feedback_message = f"waiting for {key} {op} {value!r} (now {current!r})"
-        return Status.RUNNING
 
 
 @behaviour(

@@ -1,4 +1,5 @@
-"""Grasping: choose the grasp of a located block, approach it with the jaw open, close and check the hold.
+"""Grasping: choose the grasp of a located block, approach it with the jaw open, close and check the
+hold; and letting go (`release`: over the goal peg, onto which the transfer already lowered the block).
 
 Whether the jaw holds a block is read from the jaw's own encoder: a jaw closing on a block stops at the
 block's wall, one closing on nothing goes all the way.
@@ -22,7 +23,7 @@ from pegbt.behaviours.base import (
     peg_param,
 )
 from pegbt.behaviours.handover import plan_meeting
-from pegbt.behaviours.motion import SLIP_CHECK, above_pegs_first, held_param, slip
+from pegbt.behaviours.motion import above_pegs_first, held_param
 from pegbt.behaviours.poses import approach_for, transfer_for
 from pegbt.executive.params import Param
 from pegbt.executive.registry import behaviour
@@ -240,19 +241,17 @@ class CloseOnBlock(MotionLeaf):
 
 
 @behaviour(
-    "keep_holding",
-    "run while `arm`'s jaw still holds its block (looking every few ticks' worth of time); fail at once if "
-    "the block slipped out: a giver waiting at the meeting point must notice a slip there, or the receiver "
-    "closes on nothing and nobody fetches the block",
-    params=(arm_param(), held_param()),
+    "release",
+    "open `arm`'s jaw, letting go of whatever it holds; writes `holding` false",
+    params=(arm_param(), key_param("holding", "write", "whether the jaw holds a block (now false)")),
     resources=RESOURCES,
 )
-class KeepHolding(RobotLeaf):
-    def act(self) -> Status:
-        arm = self.param("arm")
-        slipped = slip(self.client(arm).jaw.measured_js.position[0], self.param("held_above"))
-        if slipped:
-            return self.fail(f"the block slipped from {arm}'s jaw ({slipped}) while it waited")
-        self.wake_at = self.context.clock.now() + SLIP_CHECK
-        self.feedback_message = f"{arm} holds its block"
-        return Status.RUNNING
+class Release(MotionLeaf):
+    def begin(self) -> None:
+        self.move_jaw(
+            self.param("arm"), self.skills.motion.transfer.jaw_open, f"{self.param('arm')} jaw opening"
+        )
+
+    def done(self) -> Status:
+        self.put("holding", False)
+        return Status.SUCCESS

@@ -1,32 +1,17 @@
-"""Placing: open the jaw over the goal peg (the transfer already lowered the block onto it), and check
-later captures for the block on its peg."""
+"""Conditions on the blocks: whether later captures show a block on each peg it should be on
+(`check_placed`), and whether a jaw still holds its block (`keep_holding`, read from the jaw's encoder:
+a jaw that closes past `held_above` has lost its block)."""
 
 from __future__ import annotations
 
 from py_trees.common import Status
 
-from pegbt.behaviours.base import RESOURCES, MotionLeaf, RobotLeaf, arm_param, key_param
+from pegbt.behaviours.base import RESOURCES, RobotLeaf, arm_param
+from pegbt.behaviours.motion import SLIP_CHECK, held_param, slip
 from pegbt.executive.params import Param
 from pegbt.executive.registry import behaviour
 from pegbt.perception.blocks import block_on_peg
 from pegbt.workcell import N_PEGS
-
-
-@behaviour(
-    "release",
-    "open `arm`'s jaw, letting go of whatever it holds; writes `holding` false",
-    params=(arm_param(), key_param("holding", "write", "whether the jaw holds a block (now false)")),
-    resources=RESOURCES,
-)
-class Release(MotionLeaf):
-    def begin(self) -> None:
-        self.move_jaw(
-            self.param("arm"), self.skills.motion.transfer.jaw_open, f"{self.param('arm')} jaw opening"
-        )
-
-    def done(self) -> Status:
-        self.put("holding", False)
-        return Status.SUCCESS
 
 
 @behaviour(
@@ -52,3 +37,22 @@ class CheckPlaced(RobotLeaf):
             return self.fail(f"no block seen reliably on {', '.join(missing)}")
         self.feedback_message = f"a block on each of pegs {', '.join(map(str, self.param('pegs')))}"
         return Status.SUCCESS
+
+
+@behaviour(
+    "keep_holding",
+    "run while `arm`'s jaw still holds its block (looking every few ticks' worth of time); fail at once if "
+    "the block slipped out: a giver waiting at the meeting point must notice a slip there, or the receiver "
+    "closes on nothing and nobody fetches the block",
+    params=(arm_param(), held_param()),
+    resources=RESOURCES,
+)
+class KeepHolding(RobotLeaf):
+    def act(self) -> Status:
+        arm = self.param("arm")
+        slipped = slip(self.client(arm).jaw.measured_js.position[0], self.param("held_above"))
+        if slipped:
+            return self.fail(f"the block slipped from {arm}'s jaw ({slipped}) while it waited")
+        self.wake_at = self.context.clock.now() + SLIP_CHECK
+        self.feedback_message = f"{arm} holds its block"
+        return Status.RUNNING
