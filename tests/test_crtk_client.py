@@ -104,7 +104,7 @@ def test_a_run_enables_and_homes_the_arms_logs_what_the_robot_says_and_touches_n
         messages = [(r["source"], r["level"], r["text"]) for r in records if r["type"] == "message"]
         assert ("PSM1", "status", "PSM1: power on") in messages
         assert "STATUS   PSM2: PSM2: power on" in out.getvalue()
-        log = read_tick_log(tmp_path / "look.jsonl")  # the reader takes the new record kind
+        log = read_tick_log(tmp_path / "look.jsonl")  # the reader takes `message` records
         assert len(log.messages) == len(messages) and log.outcome == "success"
         assert "robot:    " in summary(log)
         time.sleep(0.3)

@@ -1,5 +1,5 @@
 """The fuzz campaign's fast subset: about 50 inputs per reader, drawn by hypothesis, each a random or
-mutated valid input; none may raise anything but a `PegbtError`, hang, or accept an absurd value (issue 19).
+mutated valid input; none may raise anything but a `PegbtError`, hang, or accept an absurd value.
 `pegbt bench fuzz` runs 1000 per reader."""
 
 from __future__ import annotations

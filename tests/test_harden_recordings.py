@@ -1,4 +1,4 @@
-"""Recordings: only an arm's joints, in rad and m, read within bounds, reach a fit or a report (issue 19)."""
+"""Recordings: only an arm's joints, in rad and m, read within bounds, reach a fit or a report."""
 
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
 """Stops: SIGTERM and SIGINT halt the tree, write the halt and end records and exit with their own
-status; a stop is a command the endpoint always accepts (issue 19)."""
+status; a stop is a command the endpoint always accepts."""
 
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
 """Tick logs: the reader is total, linear and its own error type; a crash's log is read up to its last
-complete record, with a warning (issue 19)."""
+complete record, with a warning."""
 
 from __future__ import annotations
 
@@ -139,7 +139,8 @@ def test_a_20000_node_chain_is_refused_at_once(tmp_path):
 
 
 def test_a_20000_node_tree_is_analysed_in_linear_time(tmp_path):
-    """A root with 20,000 leaves, each failing once: every command answers (quadratic ones took minutes)."""
+    """A root with 20,000 leaves, each failing once: every command answers (an analysis quadratic in the
+    nodes would take minutes)."""
     header = _chain(1)
     header["nodes"] += [
         {
@@ -164,7 +165,7 @@ def test_a_20000_node_tree_is_analysed_in_linear_time(tmp_path):
     assert "l20000" in summary(log) and "failed" in why(log) and "l20000" in replay(log, tick=1)
     written = export_btlog(log, tmp_path / "wide.btlog")  # every failure, then BT.CPP's resets to IDLE
     assert written >= 20_001 and _btlog_transitions(tmp_path / "wide.btlog") == written
-    assert time.perf_counter() - start < 60  # generous for a loaded machine; quadratic was far beyond
+    assert time.perf_counter() - start < 60  # generous for a loaded machine; quadratic is far beyond
 
 
 def _btlog_transitions(path: Path) -> int:

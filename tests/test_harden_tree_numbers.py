@@ -1,4 +1,4 @@
-"""Tree parameters: only finite numbers within a stated physical range reach a behaviour (issue 19)."""
+"""Tree parameters: only finite numbers within a stated physical range reach a behaviour."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Tree files: every reader total (size, depth, time, names) and includes confined (issue 19)."""
+"""Tree files: every reader total (size, depth, time, names) and includes confined."""
 
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
 """Wire corners: a malformed attachment is refused and counted, and every refusal reaches `PSMn/error`
-even under a burst (issue 19)."""
+even under a burst."""
 
 from __future__ import annotations
 

@@ -1,7 +1,8 @@
 """Measurement faults are not physics: on set-point recordings whose truth is known, with tracker glitches
 (every joint jumps at once for a sample) and a window where the tracker lost the tool injected, the faults
-are found and reported, left out of selection and fit, and the physics is still named; faults that hide
-a real effect no longer do; `pegbt calibrate train` leaves out the same samples and says so."""
+are found and reported, left out of selection and fit, and the physics is still named; a real effect the
+faults would hide is found once they are left out; `pegbt calibrate train` leaves out the same samples and
+says so."""
 
 import contextlib
 import io

@@ -310,8 +310,8 @@ def test_a_block_that_tipped_off_a_peg_rests_clear_of_every_peg_and_any_grasp_li
 
 def test_a_block_dropped_between_the_peg_groups_rests_clear_of_every_peg():
     """Around the handover's meeting point a falling block lands between pegs 3, 6 and 9, where sliding off
-    one peg runs onto another: it must still come to rest clear of them all (it once stayed inside peg 6,
-    and every later grasp of it struck the peg)."""
+    one peg runs onto another: it must still come to rest clear of them all (a block left inside peg 6
+    would make every later grasp of it strike the peg)."""
     world = World(seed=0)
     block = world.blocks[1]
     normals, offsets = world.cell.block.outline_planes

@@ -9,7 +9,7 @@ in between. Two streams of the same 100 Hz set-points are measured under the sam
 - `thread_*`: the baseline: a thread of this process sleeping to the same deadlines.
 
 For each: `p50`/`p99` of |interval − control period| between arrivals (ms) and the longest gap (ms).
-Goal (issue 12): p99 ≤ 2 ms, no gap over 20 ms.
+Goal: p99 ≤ 2 ms, no gap over 20 ms.
 """
 
 from __future__ import annotations

@@ -41,8 +41,8 @@ SURGEON: dict[str, PaperCell] = {
 }
 PAPER_COLLISIONS = 0  # "the robot never collided" (the paper, calibrated and optimised trials)
 
-# Issue 7's goals: success over calibrated conditions, mean transfer time below the paper's optimised
-# figure, no arm-arm collision, a 12-transfer trial within this much wall time.
+# The goals pegbt is held to: success over calibrated conditions, mean transfer time below the paper's
+# optimised figure, no arm-arm collision, a 12-transfer trial within this much wall time.
 GOAL_SUCCESS_RATE = 0.99
 GOAL_WALL_S = 10.0
 

@@ -1,6 +1,6 @@
 """Where `pegbt run` gets its clock, the resources a tree's behaviours declare, and the options they read.
 
-Later packages register here instead of editing the run command:
+Packages register here, so that adding a resource never edits the run command:
 
 - `RESOURCE_PROVIDERS`: a provider per resource name (`"robot": "pegbt.behaviours.resources.robot:provide_robot"`).
   A provider is called once per run with a `ProviderSetup` (the run's options and clock) and returns

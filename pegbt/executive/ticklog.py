@@ -17,7 +17,7 @@ Records (one JSON object per line, flushed as written so that a crash loses noth
   `waited_s` from submission to pick-up, wall time).
 - `message`: what a robot said (a CRTK robot's `error`, `warning` and `status` topics): `n` and `t` of the
   tick it was logged before, `source` (the arm), `level` (`error`, `warning`, `status`), `text`, and
-  `stamp` (the run's clock when it arrived). Logs written before this record existed simply have none.
+  `stamp` (the run's clock when it arrived; optional: a reader takes a message without one).
 
 A blackboard value changed in place (the same object mutated) is not seen: behaviours write new values.
 A node that finishes with the same status on consecutive ticks (a condition that keeps failing, a

@@ -378,8 +378,8 @@ class SqpRefiner:
     def _forget_previous_transfer(self) -> None:
         """ADMM's step size back to its initial value, as its duals are set back to zero: a plan then
         depends on its waypoints alone, not on what the arm planned before (the same time and QPs per
-        plan, measured); with the previous transfer's, a transfer at the edge of feasibility was refined
-        or not depending on the trial's history."""
+        plan, measured); with the previous transfer's, whether a transfer at the edge of feasibility is
+        refined would depend on the trial's history."""
         self._solver.update_settings(rho=self.sqp.rho)
         self._solver.warm_start(y=np.zeros(self._rows))
 

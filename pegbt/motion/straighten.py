@@ -3,9 +3,10 @@ the pegs' axis. The SQP starts from the warm path's control points turned uprigh
 
 Why: a joint-space spline between waypoints of different roll (an approach that turns the jaw by 60°
 to meet its next block) leans the tool by 10-20° in transit. From there the trust region cannot bring
-the tool back within its 2° in one linearisation, the first QP is infeasible and the refinement used to
-give up. Started upright, it keeps the cone from the first QP on (measured over 363 transfers of
-unilateral, bilateral and handover trials: 10 gave up before, none after, at the same durations).
+the tool back within its 2° in one linearisation, the first QP is infeasible and the refinement gives
+up. Started upright, it keeps the cone from the first QP on (measured over 363 transfers of
+unilateral, bilateral and handover trials: from the leaning path 10 gave up, from the upright one none,
+at the same durations).
 """
 
 from __future__ import annotations
