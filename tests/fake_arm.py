@@ -112,10 +112,6 @@ class FakeAxis:
     def setpoint_js(self) -> JointSample:
         return self.sample(self.position())
 
-    @property
-    def measured_js(self) -> JointSample:
-        return self.setpoint_js
-
     # ------------------------------------------------------------------ commands
     def start(
         self, kind: str, target: Any, times: NDArray[np.float64], rows: NDArray[np.float64]

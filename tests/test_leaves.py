@@ -364,6 +364,13 @@ def test_rise_refused_by_the_transport_fails_without_sending(tmp_path, robot, sk
     assert arm.sent == [] and feedback(built)
 
 
+def test_a_silent_arm_halts_the_run_instead_of_failing_the_leaf(tmp_path, robot, skills, clock):
+    psm1(robot).silent = True
+    built = build(tmp_path, robot, skills, "{rise: {arm: PSM1, height: 0.02}}")
+    with pytest.raises(EndpointSilent, match="PSM1: nothing heard"):
+        run(built, clock)
+
+
 def test_park_rises_first_then_goes_home(tmp_path, robot, skills, seen, clock):
     arm, _ = holding_at_the_grasp(robot, skills, seen)  # low among the pegs
     built = build(tmp_path, robot, skills, "{park: {arm: PSM1}}")
