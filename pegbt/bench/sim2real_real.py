@@ -18,7 +18,7 @@ from pegbt.physics.recording import dvrk_data_dir, load_recording
 from pegbt.psm import JOINT_NAMES
 from pegbt.sim2real.baselines import linear_window, lstm_window
 from pegbt.sim2real.compare import compare
-from pegbt.sim2real.diagnose import diagnose
+from pegbt.sim2real.diagnose import diagnose, identify_physics
 
 RECORDINGS = (
     "random_smooth_grey1_PSM1",
@@ -60,7 +60,7 @@ def run() -> dict[str, float | int | str]:
         q_cmd, q_phy = recording.q_cmd, recording.q_phy
         t = recording.t if recording.sampling.is_stream else None
         start = time.perf_counter()
-        physics = diagnose(recording.slice(0, train), n_bootstrap=0, resolution=PAPER_RESOLUTION).physics
+        physics = identify_physics(recording.slice(0, train), resolution=PAPER_RESOLUTION)
         predictions = {"raw": q_cmd, "sim2real": physics.simulate(q_cmd, t)}
         seconds["sim2real"] += time.perf_counter() - start
         start = time.perf_counter()
