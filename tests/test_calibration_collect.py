@@ -45,6 +45,24 @@ def test_too_few_minutes_for_a_recording_are_refused_before_anything_runs(tmp_pa
     assert not (tmp_path / "runs").exists()
 
 
+def test_a_refit_collection_is_refused_before_anything_runs_when_it_cannot_refit(
+    tmp_path, monkeypatch, capsys
+):
+    from pegbt.calibration.physics_model import PhysicsModel
+    from pegbt.physics import ArmPhysics
+
+    monkeypatch.chdir(tmp_path)
+    model = PhysicsModel.from_effects("PSM1", ArmPhysics.load("dvrk-real", "PSM1").effects, "dvrk-real")
+    path = str(model.save(tmp_path / "psm1.json"))
+    assert main(["calibrate", "collect", "--arm", "PSM1"]) == 2
+    assert "--minutes" in capsys.readouterr().err
+    assert main(["calibrate", "collect", "--arm", "PSM1", "--refit", path, "--samples", "5"]) == 2
+    assert "a refit needs at least 10 set-points, got 5" in capsys.readouterr().err
+    assert main(["calibrate", "collect", "--arm", "PSM2", "--refit", path]) == 2
+    assert "the model is PSM1's, not PSM2's" in capsys.readouterr().err
+    assert not (tmp_path / "runs").exists()
+
+
 def test_a_command_sets_only_the_blackboard_values_the_tree_declares():
     loaded = load_tree(COLLECT_TREE)
     loaded.set_blackboard({"arm": "PSM2", "setpoints": 60})

@@ -5,7 +5,8 @@ on the training part only; its merged physics model then replays the whole comma
 play state at the split comes from the commands, as the baselines' command windows do) and is scored
 on the held-out part, next to a linear regression on the last five commands and the reference paper's
 5-step LSTM (torch, one thread, at most 15 s of training), all in this process. Also: whether the two
-recordings of each arm name the same kinds of effect, and which parameters differ.
+recordings of each arm name the same kinds of effect, and which parameters differ; and per recording,
+the effects the whole recording names and its nested cross-validated held-out RMSE over raw.
 """
 
 from __future__ import annotations
@@ -18,7 +19,7 @@ from pegbt.physics.recording import dvrk_data_dir, load_recording
 from pegbt.psm import JOINT_NAMES
 from pegbt.sim2real.baselines import linear_window, lstm_window
 from pegbt.sim2real.compare import compare
-from pegbt.sim2real.diagnose import diagnose
+from pegbt.sim2real.diagnose import diagnose, identify_physics
 
 RECORDINGS = (
     "random_smooth_grey1_PSM1",
@@ -60,7 +61,7 @@ def run() -> dict[str, float | int | str]:
         q_cmd, q_phy = recording.q_cmd, recording.q_phy
         t = recording.t if recording.sampling.is_stream else None
         start = time.perf_counter()
-        physics = diagnose(recording.slice(0, train), n_bootstrap=0, resolution=PAPER_RESOLUTION).physics
+        physics = identify_physics(recording.slice(0, train), resolution=PAPER_RESOLUTION)
         predictions = {"raw": q_cmd, "sim2real": physics.simulate(q_cmd, t)}
         seconds["sim2real"] += time.perf_counter() - start
         start = time.perf_counter()
@@ -82,6 +83,9 @@ def run() -> dict[str, float | int | str]:
         figures[f"{short}_named"] = len(whole.effects)
         figures[f"{short}_named_q1_q3"] = sum(e.effect.joint in ("q1", "q2", "q3") for e in whole.effects)
         figures[f"{short}_below_resolution"] = len(whole.below_resolution)
+        before, after = whole.rmse_before(), whole.rmse_after()
+        for joint in ("q3", *WRIST):
+            figures[f"{short}_{joint}_nested_ratio"] = after[joint] / before[joint]
     for method, values in wrist.items():
         figures[f"wrist_heldout_rmse_median_{method}"] = float(np.median(values))
         figures[f"wrist_heldout_rmse_max_{method}"] = float(np.max(values))

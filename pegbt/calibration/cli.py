@@ -9,11 +9,16 @@ from __future__ import annotations
 import argparse
 import json
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from pegbt.bagoptions import add_bag_arguments, add_record_arguments, bag_options, record_options
 from pegbt.errors import PegbtError
 from pegbt.numbers import NumberOption
 from pegbt.psm import ARMS, JOINT_NAMES
+
+if TYPE_CHECKING:  # the command module loads with `pegbt --help`; the models load when a command runs
+    from pegbt.calibration.base import CalibrationModel
+    from pegbt.physics.recording import Recording
 
 KINDS = ("lstm", "physics", "hybrid")
 RECORDING_HELP = (
@@ -39,11 +44,32 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
     collect.add_argument("--arm", required=True, choices=ARMS)
     collect.add_argument(
         "--minutes",
-        required=True,
         action=NumberOption,
         above=0.0,
         metavar="N",
-        help="the arm's time to spend (a lockstep simulator runs faster than that)",
+        help="the arm's time to spend (a lockstep simulator runs faster than that); required without --refit",
+    )
+    collect.add_argument(
+        "--refit",
+        type=Path,
+        metavar="MODEL",
+        help="recalibrate a re-homed arm instead: collect only --samples set-points and write MODEL refitted "
+        "on them (see `pegbt calibrate refit`) to --model-out",
+    )
+    collect.add_argument(
+        "--samples",
+        action=NumberOption,
+        type=int,
+        at_least=1,
+        default=20,
+        metavar="N",
+        help="set-points to collect with --refit (default 20)",
+    )
+    collect.add_argument(
+        "--model-out",
+        type=Path,
+        metavar="FILE",
+        help=f"refitted model to write with --refit (default {OUTPUT_DIR}/ARM-physics-refit.json)",
     )
     collect.add_argument(
         "--out",
@@ -77,9 +103,11 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
 
     refit = commands.add_parser(
         "refit",
-        help="recalibrate a re-homed arm: refit a physics model's offsets from a few set-points",
-        description="Keep MODEL's couplings, play and hysteresis and refit what re-homing changes (each joint's "
-        "offset) from the first --samples set-points of RECORDING (a new session of the same arm).",
+        help="recalibrate a re-homed arm: refit a physics model's offsets and gains from a few set-points",
+        description="Keep MODEL's effects and their widths and refit what moves between set-ups from the first "
+        "--samples set-points of RECORDING (a new session of the same arm): every joint's offset, and its gains "
+        "(scale, couplings, hysteresis) under a prior toward MODEL's whose strength the set-points choose by "
+        "leave-one-out error.",
     )
     refit.add_argument("model", metavar="MODEL")
     refit.add_argument("recording", metavar="RECORDING")
@@ -133,21 +161,31 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
 def _collect(args: argparse.Namespace) -> int:
     from pegbt.calibration.collect import SETTLE_S, setpoints_for_minutes
     from pegbt.executive.session import default_log_path, run_tree_file
-    from pegbt.physics.recording import MIN_SAMPLES
+    from pegbt.physics.recording import MIN_SAMPLES, load_recording
 
-    count, step = setpoints_for_minutes(args.minutes, args.arm, args.seed)
-    if count < MIN_SAMPLES:
-        raise PegbtError(
-            f"{args.minutes:g} min holds {count} set-points of {step:.2f} s; a recording needs at least "
-            f"{MIN_SAMPLES} ({MIN_SAMPLES * step / 60:.2f} min)",
-            field="--minutes",
+    model = _refit_model(args) if args.refit else None
+    if model is not None:
+        count = args.samples
+    elif args.minutes is None:
+        raise PegbtError("say how long to collect (--minutes), or --refit MODEL", field="--minutes")
+    else:
+        count, step = setpoints_for_minutes(args.minutes, args.arm, args.seed)
+        if count < MIN_SAMPLES:
+            raise PegbtError(
+                f"{args.minutes:g} min holds {count} set-points of {step:.2f} s; a recording needs at least "
+                f"{MIN_SAMPLES} ({MIN_SAMPLES * step / 60:.2f} min)",
+                field="--minutes",
+            )
+    name = f"{args.arm}-refit" if model is not None else args.arm
+    out = args.out or OUTPUT_DIR / (f"sim-{name}" if args.endpoint == "auto" else name)
+    if model is not None:
+        print(f"{args.arm}: {count} set-points to refit {args.refit}", flush=True)
+    else:
+        print(
+            f"{args.arm}: {count} set-points in {args.minutes:g} min, {step:.2f} s each "
+            f"(move {step - SETTLE_S:.2f} s + {SETTLE_S:g} s settle, estimated)",
+            flush=True,
         )
-    out = args.out or OUTPUT_DIR / (f"sim-{args.arm}" if args.endpoint == "auto" else args.arm)
-    print(
-        f"{args.arm}: {count} set-points in {args.minutes:g} min, {step:.2f} s each "
-        f"(move {step - SETTLE_S:.2f} s + {SETTLE_S:g} s settle, estimated)",
-        flush=True,
-    )
     log_path = args.log or default_log_path(COLLECT_TREE)
     output = run_tree_file(
         COLLECT_TREE,
@@ -161,7 +199,33 @@ def _collect(args: argparse.Namespace) -> int:
     if output.ok:
         print(f"recording: {out}")
     print(f"tick log: {log_path}")
+    if output.ok and model is not None:
+        from pegbt.calibration.refit import MIN_REFIT_SAMPLES
+
+        recording = load_recording(out, arm=args.arm, min_samples=MIN_REFIT_SAMPLES)
+        _write_refit(model, recording, count, args.model_out or OUTPUT_DIR / f"{args.arm}-physics-refit.json")
     return 0 if output.ok else 1
+
+
+def _refit_model(args: argparse.Namespace) -> CalibrationModel:
+    """The model `collect --refit` recalibrates, checked before the arm moves: a physics model of this arm,
+    and enough set-points for a refit."""
+    from pegbt.calibration.base import CalibrationModel
+    from pegbt.calibration.physics_model import PhysicsModel
+    from pegbt.calibration.refit import MIN_REFIT_SAMPLES
+
+    model = CalibrationModel.load(args.refit)
+    if not isinstance(model, PhysicsModel):
+        raise PegbtError(
+            f"refit keeps a physics model's shape; this is a {model.kind} model", file=args.refit
+        )
+    if model.arm != args.arm:
+        raise PegbtError(f"the model is {model.arm}'s, not {args.arm}'s", file=args.refit, field="arm")
+    if args.samples < MIN_REFIT_SAMPLES:
+        raise PegbtError(
+            f"a refit needs at least {MIN_REFIT_SAMPLES} set-points, got {args.samples}", field="--samples"
+        )
+    return model
 
 
 def _train(args: argparse.Namespace) -> int:
@@ -189,18 +253,30 @@ def _train(args: argparse.Namespace) -> int:
 
 def _refit(args: argparse.Namespace) -> int:
     from pegbt.calibration.base import CalibrationModel
-    from pegbt.calibration.physics_model import PhysicsModel
-    from pegbt.calibration.refit import refit_offsets
     from pegbt.physics.recording import load_recording
 
     model = CalibrationModel.load(args.model)
-    recording = load_recording(args.recording)
-    refitted = refit_offsets(model, recording, args.samples)
-    assert isinstance(model, PhysicsModel)  # refit_offsets refuses any other kind
-    moved = refitted.settled.physics.offset - model.settled.physics.offset
-    print("offsets moved by " + ", ".join(f"{q} {m:+.4g}" for q, m in zip(JOINT_NAMES, moved)))
-    print(f"wrote {refitted.save(args.out)}")
+    from pegbt.calibration.refit import MIN_REFIT_SAMPLES
+
+    recording = load_recording(args.recording, min_samples=MIN_REFIT_SAMPLES)
+    _write_refit(model, recording, args.samples, args.out)
     return 0
+
+
+def _write_refit(model: CalibrationModel, recording: Recording, samples: int, out: Path) -> Path:
+    """Refit `model` on the first `samples` set-points of `recording`, say what moved, write it to `out`."""
+    from pegbt.calibration.refit import refit
+
+    refitted, moved = refit(model, recording, samples)
+    for joint in moved:
+        prior = (
+            "gains kept" if joint.prior == float("inf") else f"gains refitted, prior strength {joint.prior:g}"
+        )
+        changes = ", ".join(f"{name} {old:.4g} → {new:.4g}" for name, old, new in joint.moved)
+        print(f"{joint.joint}: {prior}: {changes or 'nothing moved'}")
+    path = refitted.save(out)
+    print(f"wrote {path}")
+    return path
 
 
 def _eval(args: argparse.Namespace) -> int:

@@ -150,11 +150,15 @@ def load_recording(
     phy: str | None = None,
     arm: str | None = None,
     settled: float | None = None,
+    min_samples: int = MIN_SAMPLES,
 ) -> Recording:
     """Read and validate a recording folder, CSV or bag; a `RecordingError` naming the file and problem if
-    bad. `cmd`, `phy`, `arm` and `settled` choose a bag's topics and samples (`bagfile.read_bag`)."""
+    bad. `cmd`, `phy`, `arm` and `settled` choose a bag's topics and samples (`bagfile.read_bag`);
+    `min_samples` is what the analysis needs (a refit of a model's offsets needs fewer than a fit)."""
     try:
-        return _load_recording(Path(path), cmd=cmd, phy=phy, arm=arm, settled=settled)
+        return _load_recording(
+            Path(path), cmd=cmd, phy=phy, arm=arm, settled=settled, min_samples=min_samples
+        )
     except RecordingError:
         raise
     except PegbtError as error:
@@ -164,7 +168,7 @@ def load_recording(
 
 
 def _load_recording(
-    path: Path, *, cmd: str | None, phy: str | None, arm: str | None, settled: float | None
+    path: Path, *, cmd: str | None, phy: str | None, arm: str | None, settled: float | None, min_samples: int
 ) -> Recording:
     try:
         exists = path.exists()
@@ -178,7 +182,7 @@ def _load_recording(
         )
     if is_bag(path):
         samples = read_bag(path, cmd=cmd, phy=phy, arm=arm, settled=settled)
-        validate(samples.q_cmd, samples.q_phy, samples.t, path, arm=samples.arm)
+        validate(samples.q_cmd, samples.q_phy, samples.t, path, arm=samples.arm, min_samples=min_samples)
         return Recording(path, samples.q_cmd, samples.q_phy, samples.t, samples.arm)
     if cmd or phy or settled is not None:
         raise PegbtError(
@@ -194,7 +198,7 @@ def _load_recording(
             file=path,
         )
     arm = _arm_of(path)
-    validate(q_cmd, q_phy, t, path, arm=arm)
+    validate(q_cmd, q_phy, t, path, arm=arm, min_samples=min_samples)
     return Recording(path, q_cmd, q_phy, t, arm, _resolution_of(path))
 
 
@@ -296,7 +300,15 @@ def _arm_of(path: Path) -> str | None:
 
 
 # ---------------------------------------------------------------------------------------------- validation
-def validate(q_cmd: Array, q_phy: Array, t: Array | None, where: Path, *, arm: str | None = None) -> None:
+def validate(
+    q_cmd: Array,
+    q_phy: Array,
+    t: Array | None,
+    where: Path,
+    *,
+    arm: str | None = None,
+    min_samples: int = MIN_SAMPLES,
+) -> None:
     """Refuse recordings that cannot be analysed or are not an arm's (`pegbt.physics.plausible`), saying
     which file, field and sample is wrong."""
     for name, array in (("q_cmd", q_cmd), ("q_phy", q_phy)):
@@ -315,8 +327,8 @@ def validate(q_cmd: Array, q_phy: Array, t: Array | None, where: Path, *, arm: s
         raise PegbtError(
             f"different lengths: {len(t)} timestamps for {len(q_cmd)} samples", file=where, field="t"
         )
-    if len(q_cmd) < MIN_SAMPLES:
-        raise PegbtError(f"only {len(q_cmd)} sample(s): at least {MIN_SAMPLES} are needed", file=where)
+    if len(q_cmd) < min_samples:
+        raise PegbtError(f"only {len(q_cmd)} sample(s): at least {min_samples} are needed", file=where)
     for name, array in (("q_cmd", q_cmd), ("q_phy", q_phy), ("t", t)):
         if array is None:
             continue
@@ -399,9 +411,10 @@ class RecordingWriter:
     """Collects (command, physical joints, time) samples as they are measured and writes them in the
     dataset layout; `close()` writes every file at once, so a folder never holds a half-written recording."""
 
-    def __init__(self, path: str | Path, arm: str) -> None:
+    def __init__(self, path: str | Path, arm: str, min_samples: int = MIN_SAMPLES) -> None:
         self.path = Path(path)
         self.arm = known_arm(arm)
+        self.min_samples = min_samples
         self._rows: list[tuple[Array, Array, float]] = []
 
     def add(self, q_cmd: ArrayLike, q_phy: ArrayLike, t: float) -> None:
@@ -429,5 +442,5 @@ class RecordingWriter:
         q_cmd = np.stack([row[0] for row in self._rows])
         q_phy = np.stack([row[1] for row in self._rows])
         t = np.array([row[2] for row in self._rows])
-        validate(q_cmd, q_phy, t, self.path, arm=self.arm)
+        validate(q_cmd, q_phy, t, self.path, arm=self.arm, min_samples=self.min_samples)
         return write_recording(self.path, q_cmd, q_phy, t, self.arm)

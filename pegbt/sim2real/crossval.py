@@ -27,6 +27,13 @@ def block_edges(n: int, n_blocks: int = N_BLOCKS) -> NDArray[np.int64]:
     return np.linspace(0, n, n_blocks + 1).round().astype(np.int64)
 
 
+def fold_ranges(n: int, n_blocks: int = N_BLOCKS, n_folds: int = N_FOLDS) -> list[tuple[int, int]]:
+    """Sample ranges [start, stop) of each fold's held-out segment: `n_blocks // n_folds` consecutive blocks."""
+    edges = block_edges(n, n_blocks)
+    per_fold = n_blocks // n_folds
+    return [(int(edges[f * per_fold]), int(edges[(f + 1) * per_fold])) for f in range(n_folds)]
+
+
 class BlockedGrams:
     """Per-block Gram matrices of a column bank M (N, m) and targets Y (N, J)."""
 
@@ -83,11 +90,7 @@ class BlockedGrams:
 
     def fold_ranges(self) -> list[tuple[int, int]]:
         """Sample ranges [start, stop) of the held-out segment of each fold."""
-        ranges = []
-        for f in range(self.n_folds):
-            blocks = np.flatnonzero(self.fold_of_block == f)
-            ranges.append((int(self.edges[blocks[0]]), int(self.edges[blocks[-1] + 1])))
-        return ranges
+        return fold_ranges(int(self.edges[-1]), len(self.edges) - 1, self.n_folds)
 
     def _solve(self, gram: Array, rhs: Array, cols: NDArray[np.int64]) -> Array:
         """Least-squares coefficients for (..., p, p) Grams and (..., p) right-hand sides, column-scaled."""

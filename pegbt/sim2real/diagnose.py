@@ -18,7 +18,7 @@ from numpy.typing import NDArray
 from pegbt.physics import ArmPhysics, Effect
 from pegbt.physics.faults import MeasurementFaults, detect_faults
 from pegbt.psm import JOINT_NAMES
-from pegbt.sim2real.crossval import BlockedGrams
+from pegbt.sim2real.crossval import BlockedGrams, fold_ranges
 from pegbt.sim2real.explain import effect_sentence, remaining_sentence, rival_sentence
 from pegbt.sim2real.fit import (
     JointFit,
@@ -83,6 +83,7 @@ class Diagnosis:
     resolution: tuple[float, ...] | None
     faults: MeasurementFaults  # over the whole recording; `recording` holds the kept samples
     times_before_exclusion: Array
+    fold_named: list[list[str]]  # the effects each nested training part named, per held-out segment
 
     @property
     def residual_before(self) -> Array:
@@ -182,35 +183,39 @@ def choose_effects(
     return selections, hypotheses, grams
 
 
-def diagnose(
-    recording: Recording,
-    sim: str | Path = "ideal",
-    arm: str | None = None,
-    n_bootstrap: int = N_BOOTSTRAP,
-    seed: int = 0,
-    resolution: tuple[float, ...] | None = None,
-) -> Diagnosis:
-    """Locate, explain and fit the mismatch between a recording and the simulator's physics.
+@dataclass(frozen=True)
+class ModelChoice:
+    """What selection and fitting chose on some samples: per joint, the effects kept and their fits."""
 
-    `resolution` (per joint; default: the recording's own, when its metadata says) sets what is too
-    small to name (`pegbt.sim2real.practical`). Samples no arm could produce (`pegbt.physics.faults`)
-    are left out of everything: selection, fit and the held-out figures."""
-    arm = (
-        arm or recording.arm or "PSM1"
-    )  # presets differ per arm; the recording's meta.json or name says which
-    base = ArmPhysics.load(sim, arm)
-    times_before_exclusion = recording.times
-    faults = detect_faults(recording.q_cmd, recording.q_phy)
-    recording = recording.subset(faults.kept)
-    sampling = recording.sampling
-    t = recording.t if sampling.is_stream else None
-    q_cmd = recording.q_cmd
-    simulated = base.simulate(q_cmd, t)
-    residual = recording.q_phy - simulated
-    mismatch = locate(residual, q_cmd, recording.times, sampling.is_stream)
-    unidentifiable = find_unidentifiable(q_cmd, sampling.is_stream, base)
+    selections: list[JointSelection]
+    fits: list[JointFit]
+    below_resolution: list[BelowResolution]
+    hypotheses: int
+    unidentifiable: Unidentifiable
+
+    def labels(self) -> list[str]:
+        """The named effects, as `kind on joint` or `kind source→joint`."""
+        return [
+            label
+            for s in self.selections
+            for label in ([f"offset on {JOINT_NAMES[s.joint]}"] if s.offset else [])
+            + [c.candidate.label for c in s.chosen]
+        ]
+
+
+def choose_and_fit(
+    q_cmd: Array,
+    t: Array | None,
+    residual: Array,
+    base: ArmPhysics,
+    is_stream: bool,
+    resolution: tuple[float, ...] | None,
+) -> ModelChoice:
+    """The whole choice on these samples alone: which effects (tests, guards, practical significance),
+    their widths and coefficients. Run on the whole recording it names the effects; run without a
+    held-out segment it is what that segment is predicted by (nested cross-validation)."""
+    unidentifiable = find_unidentifiable(q_cmd, is_stream, base)
     selections, hypotheses, grams = choose_effects(q_cmd, t, residual, base, unidentifiable)
-    resolution = resolution if resolution is not None else recording.resolution
     below: list[BelowResolution] = []
     for n, selection in enumerate(selections):
         selections[n], dropped = settle_joint(
@@ -223,9 +228,68 @@ def diagnose(
     for s in selections:
         fit = fit_joint(structure_of(s), q_cmd, t, residual[:, s.joint], drivers[:, s.joint])
         fits.append(settle_backlash(fit, q_cmd, t, residual[:, s.joint], drivers[:, s.joint], folds))
+    return ModelChoice(selections, fits, below, hypotheses, unidentifiable)
+
+
+def nested_predict(
+    recording: Recording,
+    t: Array | None,
+    residual: Array,
+    base: ArmPhysics,
+    resolution: tuple[float, ...] | None,
+    fold_ranges: list[tuple[int, int]],
+) -> tuple[Array, list[list[str]]]:
+    """Held-out predictions by nested cross-validation, and the effects each training part named.
+
+    For each segment the whole choice (effects, widths, coefficients; its own inner folds) is made on
+    the rest of the recording, and the merged physics model replays the whole command sequence (commands
+    are inputs, known everywhere), scored on the segment. No figure sees its own segment's measurements."""
+    prediction = np.empty_like(recording.q_phy)
+    named = []
+    for a, b in fold_ranges:
+        keep = np.ones(recording.n, dtype=bool)
+        keep[a:b] = False
+        choice = choose_and_fit(
+            recording.q_cmd[keep],
+            None if t is None else t[keep],
+            residual[keep],
+            base,
+            recording.sampling.is_stream,
+            resolution,
+        )
+        prediction[a:b] = merged_physics(choice.fits, base).simulate(recording.q_cmd, t)[a:b]
+        named.append(choice.labels())
+    return prediction, named
+
+
+def diagnose(
+    recording: Recording,
+    sim: str | Path = "ideal",
+    arm: str | None = None,
+    n_bootstrap: int = N_BOOTSTRAP,
+    seed: int = 0,
+    resolution: tuple[float, ...] | None = None,
+) -> Diagnosis:
+    """Locate, explain and fit the mismatch between a recording and the simulator's physics.
+
+    `resolution` (per joint; default: the recording's own, when its metadata says) sets what is too
+    small to name (`pegbt.sim2real.practical`). Samples no arm could produce (`pegbt.physics.faults`)
+    are left out of everything: selection, fit and the held-out figures. The effects are named from the
+    whole recording; the held-out figures come from nested cross-validation (`nested_predict`)."""
+    arm = arm or recording.arm or "PSM1"
+    times_before_exclusion = recording.times
+    base, faults, recording, t, simulated = _prepare(recording, sim, arm)
+    sampling = recording.sampling
+    q_cmd = recording.q_cmd
+    residual = recording.q_phy - simulated
+    mismatch = locate(residual, q_cmd, recording.times, sampling.is_stream)
+    resolution = resolution if resolution is not None else recording.resolution
+    choice = choose_and_fit(q_cmd, t, residual, base, sampling.is_stream, resolution)
+    selections, fits = choice.selections, choice.fits
+    drivers = base.static_map(q_cmd)
     rng = np.random.default_rng(seed)
     effects: list[NamedEffect] = []
-    statements = list(unidentifiable.statements)
+    statements = list(choice.unidentifiable.statements)
     for selection, fit in zip(selections, fits):
         target, driver = residual[:, fit.joint], drivers[:, fit.joint]
         fitted_anything = fit.intercept or fit.terms
@@ -246,7 +310,8 @@ def diagnose(
             if chosen.rival:
                 statements.append(rival_sentence(chosen.candidate.label, chosen.rival))
     physics = merged_physics(fits, base)
-    heldout = crossval_predict(fits, base, recording, t, residual, folds)
+    folds = fold_ranges(recording.n)
+    heldout, fold_named = nested_predict(recording, t, residual, base, resolution, folds)
     error_before = np.sqrt((residual**2).mean(0))
     effects = sorted(
         (
@@ -270,11 +335,12 @@ def diagnose(
         heldout,
         folds,
         statements,
-        hypotheses,
-        below,
+        choice.hypotheses,
+        choice.below_resolution,
         resolution,
         faults,
         times_before_exclusion,
+        fold_named,
     )
 
 
@@ -301,6 +367,30 @@ def identify(
     q_cmd, q_phy = np.asarray(q_cmd, float), np.asarray(q_phy, float)
     t = None if t is None else np.asarray(t, float)
     validate(q_cmd, q_phy, t, Path("<arrays>"))
-    return list(
-        diagnose(Recording(Path("<arrays>"), q_cmd, q_phy, t), base, arm, n_bootstrap=0).physics.effects
-    )
+    return list(identify_physics(Recording(Path("<arrays>"), q_cmd, q_phy, t), base, arm).effects)
+
+
+def identify_physics(
+    recording: Recording,
+    sim: str | Path = "ideal",
+    arm: str | None = None,
+    resolution: tuple[float, ...] | None = None,
+) -> ArmPhysics:
+    """The merged physics model `diagnose` would name, without its held-out figures, intervals or
+    report (what a calibration or a benchmark's training part needs)."""
+    base, _, kept, t, simulated = _prepare(recording, sim, arm or recording.arm or "PSM1")
+    resolution = resolution if resolution is not None else kept.resolution
+    residual = kept.q_phy - simulated
+    choice = choose_and_fit(kept.q_cmd, t, residual, base, kept.sampling.is_stream, resolution)
+    return merged_physics(choice.fits, base)
+
+
+def _prepare(
+    recording: Recording, sim: str | Path, arm: str
+) -> tuple[ArmPhysics, MeasurementFaults, Recording, Array | None, Array]:
+    """(base physics, the faults, the kept samples, their times if a stream, the base's replay of them)."""
+    base = ArmPhysics.load(sim, arm)  # presets differ per arm; the recording's meta.json or name says which
+    faults = detect_faults(recording.q_cmd, recording.q_phy)
+    kept = recording.subset(faults.kept)
+    t = kept.t if kept.sampling.is_stream else None
+    return base, faults, kept, t, base.simulate(kept.q_cmd, t)

@@ -21,8 +21,10 @@ from pegbt.sim2real.explain import unit
 from pegbt.sim2real.select import ALPHA
 
 HELDOUT_METHOD = (
-    f"blocked cross-validation: {N_FOLDS} contiguous held-out segments; effects and widths chosen on the whole "
-    "recording, coefficients refitted without each segment, then the merged physics model replayed over it"
+    f"nested blocked cross-validation: {N_FOLDS} contiguous held-out segments; for each, the effects, widths "
+    "and coefficients are chosen again on the rest of the recording alone (with its own inner folds), then "
+    "the merged physics model is replayed over the segment; the effects named above are the whole "
+    "recording's choice"
 )
 
 
@@ -77,6 +79,7 @@ def report_dict(diagnosis: Diagnosis, compared_with: str | Path | None = None) -
             "samples": recording.n,
             "samples_excluded": diagnosis.faults.count,
             "folds": [[float(times[a]), float(times[b - 1])] for a, b in diagnosis.fold_ranges],
+            "fold_effects": diagnosis.fold_named,
         },
         "remaining": diagnosis.remaining(),
         "model": {
@@ -171,6 +174,11 @@ def report_markdown(report: dict[str, Any], plots: list[str]) -> str:
             f"| {q} ({report['units'][q]}) | {_number(fit['heldout_rmse_before'][q])} | "
             f"{_number(fit['heldout_rmse_after'][q])} |"
         )
+    lines += ["", "Effects named without each held-out segment (the nested choices):", ""]
+    lines += [
+        f"- segment {n} ({a:.4g}–{b:.4g}): {', '.join(named) or 'none'}"
+        for n, ((a, b), named) in enumerate(zip(fit["folds"], fit["fold_effects"]), 1)
+    ]
     lines += ["", "## What remains", ""] + [f"- {text}" for text in report["remaining"]]
     if "comparison" in report:
         c = report["comparison"]

@@ -64,7 +64,8 @@ class CollectCalibration(Leaf):
         self.setpoints = random_setpoints(
             *task_box(self.client.name), self.param("samples"), np.random.default_rng(self.param("seed"))
         )
-        self.writer = RecordingWriter(Path(self.param("out")), self.client.name)
+        # a recording of as many set-points as asked: the command that asks knows what its use needs
+        self.writer = RecordingWriter(Path(self.param("out")), self.client.name, self.param("samples"))
         self.handle = None
         self.problem = ""
         self._next()
