@@ -200,7 +200,7 @@ def _load_recording(
 
 def _load_npy(path: Path) -> Array:
     try:
-        return load_npy(path, MAX_ARRAY_BYTES)
+        return load_npy(path, MAX_ARRAY_BYTES).astype(np.float64, copy=False)
     except PegbtError as error:
         raise PegbtError(f"not a recording: {error.message}", file=path) from None
 
@@ -317,10 +317,10 @@ def validate(q_cmd: Array, q_phy: Array, t: Array | None, where: Path, *, arm: s
         )
     if len(q_cmd) < MIN_SAMPLES:
         raise PegbtError(f"only {len(q_cmd)} sample(s): at least {MIN_SAMPLES} are needed", file=where)
-    for name, array in (("q_cmd", q_cmd), ("q_phy", q_phy), ("t", t)):
-        if array is None:
+    for name, values in (("q_cmd", q_cmd), ("q_phy", q_phy), ("t", t)):
+        if values is None:
             continue
-        bad = np.flatnonzero(~np.isfinite(array.reshape(len(array), -1)).all(axis=1))
+        bad = np.flatnonzero(~np.isfinite(values.reshape(len(values), -1)).all(axis=1))
         if bad.size:
             more = f" and {bad.size - 1} more" if bad.size > 1 else ""
             raise PegbtError(
