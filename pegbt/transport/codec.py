@@ -240,8 +240,11 @@ class TrajectoryLike(Protocol):
     """What travels as a JointTrajectory: times from its start `t` (N,) and positions `q` (N, J); velocities
     `qd` and accelerations `qdd` (N, J) if it has them. A planned `pegbt.motion.trajectory.Trajectory` is one."""
 
-    t: Any
-    q: Any
+    @property
+    def t(self) -> ArrayLike: ...
+
+    @property
+    def q(self) -> ArrayLike: ...
 
 
 @dataclass(frozen=True)
