@@ -59,6 +59,8 @@ MAX_SETTLE = 60.0  # s a set-point is held before it is sampled
     resources=("robot",),
 )
 class CollectCalibration(Leaf):
+    handle: MotionHandle | RobotMove | StreamedMotion | None
+
     def setup(self, **kwargs: object) -> None:
         self.robot = self.context.resource("robot", Robot)
 
@@ -68,7 +70,7 @@ class CollectCalibration(Leaf):
             *task_box(self.client.name), self.param("samples"), np.random.default_rng(self.param("seed"))
         )
         self.writer = RecordingWriter(Path(self.param("out")), self.client.name)
-        self.handle: MotionHandle | RobotMove | StreamedMotion | None = None
+        self.handle = None
         self.problem = ""
         self._next()
 

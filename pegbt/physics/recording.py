@@ -299,6 +299,7 @@ def _arm_of(path: Path) -> str | None:
 def validate(q_cmd: Array, q_phy: Array, t: Array | None, where: Path, *, arm: str | None = None) -> None:
     """Refuse recordings that cannot be analysed or are not an arm's (`pegbt.physics.plausible`), saying
     which file, field and sample is wrong."""
+    array: Array | None  # the joints, then also the times, which a recording may lack
     for name, array in (("q_cmd", q_cmd), ("q_phy", q_phy)):
         if array.ndim != 2 or array.shape[1] != N_JOINTS:
             raise PegbtError(
@@ -317,10 +318,10 @@ def validate(q_cmd: Array, q_phy: Array, t: Array | None, where: Path, *, arm: s
         )
     if len(q_cmd) < MIN_SAMPLES:
         raise PegbtError(f"only {len(q_cmd)} sample(s): at least {MIN_SAMPLES} are needed", file=where)
-    for name, values in (("q_cmd", q_cmd), ("q_phy", q_phy), ("t", t)):
-        if values is None:
+    for name, array in (("q_cmd", q_cmd), ("q_phy", q_phy), ("t", t)):
+        if array is None:
             continue
-        bad = np.flatnonzero(~np.isfinite(values.reshape(len(values), -1)).all(axis=1))
+        bad = np.flatnonzero(~np.isfinite(array.reshape(len(array), -1)).all(axis=1))
         if bad.size:
             more = f" and {bad.size - 1} more" if bad.size > 1 else ""
             raise PegbtError(
