@@ -5,6 +5,7 @@ diagnose`, `pegbt calibrate train|eval`) and those that record one (`pegbt run`,
 from __future__ import annotations
 
 import argparse
+from typing import TypedDict
 
 from pegbt.numbers import NumberOption
 
@@ -31,7 +32,22 @@ def add_bag_arguments(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def bag_options(args: argparse.Namespace) -> dict[str, object]:
+class BagOptions(TypedDict):
+    """`load_recording`'s keywords for a bag."""
+
+    cmd: str | None
+    phy: str | None
+    settled: float | None
+
+
+class RecordOptions(TypedDict):
+    """`run_tree_file`'s keywords for a recording."""
+
+    record: str | None
+    record_cloud_step: int
+
+
+def bag_options(args: argparse.Namespace) -> BagOptions:
     """The bag arguments of `add_bag_arguments` as `load_recording` keywords."""
     return {"cmd": args.cmd, "phy": args.phy, "settled": args.settled}
 
@@ -54,6 +70,6 @@ def add_record_arguments(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def record_options(args: argparse.Namespace) -> dict[str, object]:
+def record_options(args: argparse.Namespace) -> RecordOptions:
     """The arguments of `add_record_arguments` as `run_tree_file` keywords."""
     return {"record": args.record, "record_cloud_step": args.record_cloud_step}

@@ -118,8 +118,8 @@ class BlockModel:
             tangent = np.array([-normal[1], normal[0]])
             for sign in (-1.0, 1.0):
                 vertices.append(self.edge_distance * normal + sign * self.edge_half_length * tangent)
-        vertices = np.array(vertices)
-        return vertices[np.argsort(np.arctan2(vertices[:, 1], vertices[:, 0]))]
+        corners = np.array(vertices)
+        return corners[np.argsort(np.arctan2(corners[:, 1], corners[:, 0]))]
 
     @cached_property
     def outline_planes(self) -> tuple[Matrix, Matrix]:

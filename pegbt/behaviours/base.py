@@ -25,7 +25,7 @@ from __future__ import annotations
 import logging
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Literal
 
 from py_trees.common import Status
 
@@ -78,7 +78,7 @@ def keep_apart_param(default: float | None = None) -> Param:
     )
 
 
-def key_param(name: str, access: str, doc: str) -> Param:
+def key_param(name: str, access: Literal["read", "write"], doc: str) -> Param:
     """A parameter naming the blackboard key where a leaf reads or writes `name` (default: `name` itself,
     in the leaf's namespace; shared subtrees use per-arm keys such as `/PSM1/grasp`)."""
     return Param(
@@ -99,8 +99,8 @@ class RobotLeaf(Leaf):
     def motion(self, arm: str | None = None) -> ArmMotion:
         return self.skills.arm(arm or self.param("arm"))
 
-    def get(self, name: str) -> object:
-        """The value of the blackboard key named by key parameter `name`."""
+    def get(self, name: str) -> Any:
+        """The value of the blackboard key named by key parameter `name` (untyped, as `Leaf.read`'s)."""
         return self.read(self.params[name])
 
     def put(self, name: str, value: object) -> None:
@@ -187,7 +187,8 @@ class MotionLeaf(RobotLeaf):
         self.running: list[Running] = []
         self.problem: str | None = None
         self.feedback_message = ""
-        self.expected_end = self.wake_at = None
+        self.expected_end: float | None = None
+        self.wake_at: float | None = None
         self.blocked_since: float | None = None
         self.stepping_back: Running | None = None
         self.stepped_back = False
@@ -244,6 +245,7 @@ class MotionLeaf(RobotLeaf):
     def _pick_up(self) -> None:
         """The tick that finds the worker's plan done sends it (a planning error fails the leaf)."""
         job, self.job = self.job, None
+        assert job is not None  # called when act() found it done
         try:
             prepared = job.result()
         except PegbtError as error:
@@ -254,6 +256,7 @@ class MotionLeaf(RobotLeaf):
 
     def _wait_for_the_way(self) -> Status:
         """A tick while blocked by the other arm: step back if both arms wait on each other, try again, give up."""
+        assert self.blocked_since is not None and self.wake_at is not None  # both set by `Blocked` in `_send`
         now = self.context.clock.now()
         if self.stepping_back is not None:
             if self.stepping_back.handle.failed:
@@ -274,6 +277,7 @@ class MotionLeaf(RobotLeaf):
         """This arm gives way when the other arm waits too, and waited first (or as long)."""
         if not self.may_step_back or self.stepped_back:
             return False
+        assert self.blocked_since is not None  # asked only while blocked
         others = [
             since
             for arm, since in self.skills.waiting.items()

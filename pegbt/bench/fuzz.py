@@ -21,6 +21,7 @@ import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -213,7 +214,7 @@ def fuzz_trees(count: int, rng: random.Random, work: Path) -> Tally:
         target.write_text(text, encoding="utf-8", errors="surrogateescape")
         parsed, holds = _parses(text)
         tally.record(
-            lambda target=target: not check_tree(target),
+            lambda: not check_tree(target),  # called at once, within this iteration
             parsed=parsed,
             absurd=absurd and holds,
             what=f"{source.name}: {what}",
@@ -247,7 +248,7 @@ def fuzz_settings(count: int, rng: random.Random, work: Path) -> Tally:
         target.write_text(text, encoding="utf-8", errors="surrogateescape")
         parsed, holds = _parses(text)
         tally.record(
-            lambda read=read, target=target: read(target),
+            partial(read, target),
             parsed=parsed,
             absurd=absurd and holds,
             what=f"{name}: {what}",
@@ -256,22 +257,26 @@ def fuzz_settings(count: int, rng: random.Random, work: Path) -> Tally:
     return tally
 
 
-def _recording_mutations() -> dict[str, Callable[[dict[str, np.ndarray], random.Random], tuple[dict, bool]]]:
-    def scaled(factor: float, joints: slice = slice(None)):
-        def apply(a, rng):
+_Arrays = dict[str, np.ndarray]
+_Mutation = Callable[[_Arrays, random.Random], tuple[_Arrays, bool]]
+
+
+def _recording_mutations() -> dict[str, _Mutation]:
+    def scaled(factor: float, joints: slice = slice(None)) -> _Mutation:
+        def apply(a: _Arrays, rng: random.Random) -> tuple[_Arrays, bool]:
             a["q_cmd"][:, joints] *= factor
             a["q_phy"][:, joints] *= factor
             return a, True
 
         return apply
 
-    def noise(a, rng):
+    def noise(a: _Arrays, rng: random.Random) -> tuple[_Arrays, bool]:
         a["q_phy"] = np.random.default_rng(rng.randrange(2**32)).uniform(-1.4, 1.4, a["q_phy"].shape)
         a["q_phy"][:, 2] = 0.16
         return a, True
 
-    def cast(dtype: str):
-        def apply(a, rng):
+    def cast(dtype: str) -> _Mutation:
+        def apply(a: _Arrays, rng: random.Random) -> tuple[_Arrays, bool]:
             a[rng.choice(["q_cmd", "q_phy", "t"])] = (
                 (a["q_cmd"] * 50).astype(dtype)
                 if dtype != "timedelta64[s]"
@@ -281,25 +286,25 @@ def _recording_mutations() -> dict[str, Callable[[dict[str, np.ndarray], random.
 
         return apply
 
-    def nan(a, rng):
+    def nan(a: _Arrays, rng: random.Random) -> tuple[_Arrays, bool]:
         a["q_phy"][rng.randrange(len(a["q_phy"])), rng.randrange(6)] = rng.choice(
             [np.nan, np.inf, 1.7e308, -1.7e308]
         )
         return a, True
 
-    def denormal(a, rng):
+    def denormal(a: _Arrays, rng: random.Random) -> tuple[_Arrays, bool]:
         a["t"] = np.arange(len(a["t"])) * 5e-324
         return a, True
 
-    def short(a, rng):
+    def short(a: _Arrays, rng: random.Random) -> tuple[_Arrays, bool]:
         keep = rng.randrange(1, 60)
         return {k: v[:keep] for k, v in a.items()}, False
 
-    def swap(a, rng):
+    def swap(a: _Arrays, rng: random.Random) -> tuple[_Arrays, bool]:
         a["q_cmd"], a["q_phy"] = a["q_cmd"][:, ::-1].copy(), a["q_phy"][:, ::-1].copy()
         return a, True
 
-    def jitter(a, rng):
+    def jitter(a: _Arrays, rng: random.Random) -> tuple[_Arrays, bool]:
         a["q_phy"] = a["q_phy"] + np.random.default_rng(rng.randrange(2**32)).normal(
             0, 0.002, a["q_phy"].shape
         )
@@ -348,7 +353,7 @@ def fuzz_recordings(count: int, rng: random.Random, work: Path) -> Tally:
             what = kind
         parsed = all(_npy_header_ok(folder / f) for f in ("q_cmd.npy", "q_phy.npy"))
         before = tally.absurd_accepted
-        tally.record(lambda folder=folder: load_recording(folder), parsed=parsed, absurd=absurd, what=what)
+        tally.record(partial(load_recording, folder), parsed=parsed, absurd=absurd, what=what)
         tally.written_from_non_arm += tally.absurd_accepted - before
         shutil.rmtree(folder)
     return tally
@@ -423,7 +428,7 @@ def fuzz_tick_logs(count: int, rng: random.Random, work: Path) -> Tally:
             absurd = absurd and f"line {len(lines) + 1}:" not in what
         path = work / f"log-{n}.jsonl"
         path.write_text("".join(line + "\n" for line in lines) + tail)
-        tally.record(lambda path=path: read(path), parsed=_json_lines(lines), absurd=absurd, what=what)
+        tally.record(partial(read, path), parsed=_json_lines(lines), absurd=absurd, what=what)
         path.unlink()
     return tally
 
@@ -442,7 +447,7 @@ def _mutate_records(records: list[Any], rng: random.Random) -> tuple[bool, str]:
     index = rng.randrange(len(records))
     record = records[index]
     kind = rng.choice(["value", "value", "delete", "duplicate", "node", "deep", "huge", "nan t", "raw"])
-    absurd_values = [None, "x", [], {}, -1, 2**70, 1.5, True, float("nan"), "9" * 5000]
+    absurd_values: list[object] = [None, "x", [], {}, -1, 2**70, 1.5, True, float("nan"), "9" * 5000]
     if kind == "nan t" and index > 0:
         record["t"] = rng.choice([float("nan"), float("inf"), -1.0, 1e308])
         return True, f"line {index + 1}: t made absurd"
@@ -572,10 +577,11 @@ def run(per_reader: int = 1000) -> dict[str, float | int | str]:
     figures: dict[str, float | int | str] = {}
     for name, tally in tallies.items():
         figures |= tally.figures(name)
-    figures["total_inputs"] = sum(t.inputs for t in tallies.values())
+    total_inputs = sum(t.inputs for t in tallies.values())
+    figures["total_inputs"] = total_inputs
     for key in ("tracebacks", "hangs", "absurd_accepted"):
         figures[f"total_{key}"] = sum(getattr(t, key) for t in tallies.values())
     figures["total_written_from_non_arm"] = tallies["recordings"].written_from_non_arm
-    figures["parsed_share"] = round(sum(t.parsed for t in tallies.values()) / figures["total_inputs"], 3)
+    figures["parsed_share"] = round(sum(t.parsed for t in tallies.values()) / total_inputs, 3)
     figures["seconds"] = round(time.perf_counter() - start, 1)
     return figures

@@ -104,7 +104,10 @@ def _toppra_duration(q: np.ndarray, times: np.ndarray, settings: ArmSettings) ->
     ]
     grid = np.linspace(times[0], times[-1], 1001)
     algorithm = toppra.algorithm.TOPPRA(limits, path, gridpoints=grid, parametrizer="ParametrizeConstAccel")
-    return float(algorithm.compute_trajectory(0.0, 0.0).duration)
+    trajectory = algorithm.compute_trajectory(0.0, 0.0)
+    assert trajectory is not None  # the planner's own path, within its limits, is always parametrisable
+    start, end = trajectory.path_interval
+    return float(end - start)
 
 
 def _ruckig_duration(start: np.ndarray, goal: np.ndarray, settings: ArmSettings) -> float:

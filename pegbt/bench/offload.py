@@ -40,7 +40,9 @@ def _jobs() -> dict[str, Callable[[], object]]:
     board = skills.registration.fit(cloud)
     blocks = skills.locator.locate(cloud, board)
     block = block_on_peg(blocks, 1)
+    assert block is not None  # seed SEED's world has a block on peg 1
     grasp = skills.selectors["PSM1"].pick(block)
+    assert grasp is not None
     waypoints = transfer_for(skills.cell, skills.motion, "PSM1", board, block, grasp, 7)
     motion = skills.arm("PSM1")
     assert motion.compensator is not None

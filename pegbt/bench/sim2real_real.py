@@ -49,10 +49,16 @@ def _rmse(error: np.ndarray) -> np.ndarray:
     return np.sqrt((error**2).mean(0))
 
 
+def _names(value: object) -> list[str]:
+    """One of `compare`'s lists of effect names."""
+    assert isinstance(value, list)
+    return value
+
+
 def run() -> dict[str, float | int | str]:
     folder = dvrk_data_dir(required=True)
     figures: dict[str, float | int | str] = {}
-    wrist = {method: [] for method in ("raw", "sim2real", "linear", "lstm")}
+    wrist: dict[str, list[float]] = {method: [] for method in ("raw", "sim2real", "linear", "lstm")}
     seconds = {method: 0.0 for method in ("sim2real", "linear", "lstm")}
     effects = {}
     for name in RECORDINGS:
@@ -95,9 +101,11 @@ def run() -> dict[str, float | int | str]:
         names = (first.replace("random_smooth_", ""), second.replace("random_smooth_", ""))
         wrist_effects = [[e.effect for e in effects[r] if e.effect.joint in WRIST] for r in (first, second)]
         agreement = compare(wrist_effects[0], wrist_effects[1], names)
-        figures[f"{arm}_wrist_kind_agreement"] = float(agreement["agreement"])
-        figures[f"{arm}_wrist_shared"] = "; ".join(agreement["shared"])
-        figures[f"{arm}_wrist_only_{names[0]}"] = "; ".join(agreement[f"only_{names[0]}"]) or "none"
-        figures[f"{arm}_wrist_only_{names[1]}"] = "; ".join(agreement[f"only_{names[1]}"]) or "none"
-        figures[f"{arm}_wrist_parameters_differ"] = "; ".join(agreement["differences"]) or "none"
+        share = agreement["agreement"]
+        assert isinstance(share, float)
+        figures[f"{arm}_wrist_kind_agreement"] = share
+        figures[f"{arm}_wrist_shared"] = "; ".join(_names(agreement["shared"]))
+        figures[f"{arm}_wrist_only_{names[0]}"] = "; ".join(_names(agreement[f"only_{names[0]}"])) or "none"
+        figures[f"{arm}_wrist_only_{names[1]}"] = "; ".join(_names(agreement[f"only_{names[1]}"])) or "none"
+        figures[f"{arm}_wrist_parameters_differ"] = "; ".join(_names(agreement["differences"])) or "none"
     return figures

@@ -14,8 +14,10 @@ import sys
 import threading
 import time
 import timeit
+from collections.abc import Callable
 
 import numpy as np
+import zenoh
 
 from pegbt.sim.process import SimProcess, free_port
 from pegbt.transport import ArmClient, codec, connect
@@ -31,7 +33,7 @@ def _percentiles(seconds: list[float]) -> tuple[float, float]:
     return float(np.percentile(values, 50)), float(np.percentile(values, 99))
 
 
-def _paced(send, arrived: threading.Event) -> list[float]:
+def _paced(send: Callable[[int], None], arrived: threading.Event) -> list[float]:
     """Send SAMPLES messages at RATE_HZ; each round trip from send until `arrived` is set."""
     trips = []
     next_send = time.perf_counter()
@@ -55,7 +57,7 @@ def _servo_round_trips() -> list[float]:
         wanted: list[np.ndarray] = [targets[0]]
         arrived = threading.Event()
 
-        def on_setpoint(sample) -> None:
+        def on_setpoint(sample: zenoh.Sample) -> None:
             if np.array_equal(codec.decode_joint_state(sample.payload.to_bytes()).position, wanted[0]):
                 arrived.set()
 
@@ -77,13 +79,14 @@ def _raw_round_trips(payload_size: int) -> list[float]:
         stdout=subprocess.PIPE,
         text=True,
     )
+    assert echo.stdout is not None  # stdout=PIPE
     try:
         echo.stdout.readline()  # "ready"
         session = open_session(client_settings([f"tcp/127.0.0.1:{port}"]))
         arrived = threading.Event()
         subscriber = session.declare_subscriber(PONG, lambda sample: arrived.set())
         publisher = session.declare_publisher(PING, express=True)
-        while not publisher.matching_status.matching:
+        while not publisher.matching_status.matching:  # type: ignore[attr-defined]  # zenoh's stub says bool; it is a MatchingStatus
             time.sleep(0.01)
         payload = bytes(payload_size)
         trips = _paced(lambda index: publisher.put(payload), arrived)

@@ -87,7 +87,7 @@ def move_and_settle(
 ) -> None:
     """Send `trajectory`, let simulated or real time pass until it is done, then rest `settle_s`."""
     handle = client.move_jp(trajectory)
-    clock.wait(float(trajectory.t[-1]))
+    clock.wait(float(np.asarray(trajectory.t)[-1]))
     deadline = clock.now() + MOVE_TIMEOUT_S
     while handle.busy and clock.now() < deadline:
         clock.wait(client.settings.control_period)

@@ -43,8 +43,9 @@ class WindowLstm(nn.Module):
         """An `LSTMCell` sharing this LSTM's weights: one step costs ~40 µs instead of ~190 µs through
         `nn.LSTM`'s per-call overhead, which matters for the M steps of every compensated command."""
         cell = nn.LSTMCell(self.lstm.input_size, self.lstm.hidden_size)
-        cell.weight_ih, cell.weight_hh = self.lstm.weight_ih_l0, self.lstm.weight_hh_l0
-        cell.bias_ih, cell.bias_hh = self.lstm.bias_ih_l0, self.lstm.bias_hh_l0
+        weight = self.lstm.get_parameter
+        cell.weight_ih, cell.weight_hh = weight("weight_ih_l0"), weight("weight_hh_l0")
+        cell.bias_ih, cell.bias_hh = weight("bias_ih_l0"), weight("bias_hh_l0")
         return cell.eval()
 
 
@@ -86,7 +87,7 @@ class Scaling:
         return ((x - self.mean) / self.spread).astype(np.float32)
 
     def undo(self, y: NDArray[np.float64]) -> NDArray[np.float64]:
-        return np.asarray(y, dtype=float) * self.spread + self.mean
+        return np.asarray(y, dtype=np.float64) * self.spread + self.mean
 
     def arrays(self, prefix: str) -> dict[str, NDArray[np.float32]]:
         return {f"{prefix}.mean": self.mean, f"{prefix}.spread": self.spread}

@@ -141,7 +141,7 @@ class SettledArm:
             candidates.extend(self._solve_pieces(combos, target, drives))
         return min(candidates, key=lambda q: self._miss(q, target, drives))
 
-    def _pieces(self, q: Array, drives: Array) -> Array:
+    def _pieces(self, q: NDArray[np.floating], drives: Array) -> NDArray[np.int8]:
         """Which piece each hysteresis is on at command q: +1 saturated high, −1 low, 0 in its band."""
         gap = drives - (self.drive_rows @ q + self.drive_offsets)
         return np.where(gap >= self.play, 1, np.where(gap <= -self.play, -1, 0)).astype(np.int8)

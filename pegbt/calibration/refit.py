@@ -15,6 +15,7 @@ derivatives solves it, and leave-one-out errors have the closed form of a ridge 
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -58,7 +59,7 @@ class JointRefit:
         }
 
 
-def _complete(effects: list[Effect]) -> list[Effect]:
+def _complete(effects: Sequence[Effect]) -> list[Effect]:
     """The effects with an offset and a scale on every joint (neutral where the model has none), so that
     what re-homing moves always has a parameter to move."""
     have = {(e.effect, e.joint) for e in effects}

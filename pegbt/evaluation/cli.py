@@ -7,9 +7,13 @@ import argparse
 import json
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from pegbt.errors import PegbtError
 from pegbt.evaluation.paper import CONDITIONS, VARIANTS
+
+if TYPE_CHECKING:
+    from pegbt.evaluation.trial import TrialRecord
 
 INTERFACES = ("pegbt", "dvrk")  # as `pegbt.evaluation.trial.INTERFACES` (not imported: it pulls in the robot)
 
@@ -156,7 +160,7 @@ def _eval(args: argparse.Namespace) -> int:
     return 0
 
 
-def _report_trial(record) -> None:
+def _report_trial(record: TrialRecord) -> None:
     if record.outcome == "error":
         line = f"error: {record.error}"
     else:

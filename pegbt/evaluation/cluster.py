@@ -22,10 +22,14 @@ from collections.abc import Callable
 from dataclasses import dataclass, replace
 from functools import cache
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import pegbt
 from pegbt.errors import PegbtError
 from pegbt.evaluation.trial import TrialRecord, TrialSpec, run_trial, truth_path
+
+if TYPE_CHECKING:
+    from distributed import Client, Future
 
 ADDRESS = re.compile(r"^(tcp|tls)://[^\s/:]+:\d{1,5}$")
 CONNECT_TIMEOUT_S = 30.0
@@ -151,7 +155,7 @@ def check_address(address: str) -> None:
         raise PegbtError(f"expected a scheduler address tcp://HOST:PORT, got {address!r}", field="--cluster")
 
 
-def connect(address: str):  # -> distributed.Client
+def connect(address: str) -> Client:
     """A client of the scheduler at `address`, or a `PegbtError` saying what is wrong."""
     check_address(address)
     try:
@@ -166,9 +170,10 @@ def connect(address: str):  # -> distributed.Client
         ) from None
 
 
-def check_workers(client, one_per_worker: bool) -> int:
+def check_workers(client: Client, one_per_worker: bool) -> int:
     """Refuse any worker that runs other code than this client (or, for `one_per_worker`, that lacks the
     `trial` resource); return how many trials the workers run at once."""
+    assert client.scheduler is not None  # a connected client's
     try:
         client.wait_for_workers(1, timeout=WORKER_WAIT_S)
     except TimeoutError:
@@ -198,7 +203,7 @@ def check_workers(client, one_per_worker: bool) -> int:
 
 
 def _run(
-    client,
+    client: Client,
     specs: list[TrialSpec],
     done: Callable[[TrialRecord], None] | None,
     one_per_worker: bool,
@@ -212,7 +217,7 @@ def _run(
         marker.write_text(token)
     ours = this_checkout()
     resources = {TRIAL_RESOURCE: 1} if one_per_worker else None
-    futures = {}
+    futures: dict[Future, TrialSpec] = {}
     for spec in specs:
         plan = None if spec.faults is None else Path(spec.faults).read_text()
         faults = None if spec.faults is None else Path(spec.faults).resolve()
@@ -237,7 +242,7 @@ def _run(
     return [by_seed[spec.seed] for spec in specs]
 
 
-def _collect(future, spec: TrialSpec) -> TrialRecord:
+def _collect(future: Future, spec: TrialSpec) -> TrialRecord:
     """The future's record, its logs written where the client expects them; a trial whose workers kept
     dying (the scheduler gave up on it) is an error record, as a trial whose simulator died is."""
     from distributed import KilledWorker

@@ -9,10 +9,14 @@ from __future__ import annotations
 
 import csv
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from pegbt.evaluation.paper import CONDITIONS, PAPER, PAPER_COLLISIONS, SURGEON, VARIANTS
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
 
 PLOT = "trial_figures.png"
 ROWS = (
@@ -92,7 +96,7 @@ def plot_trial_figures(out: Path) -> Path:
     return path
 
 
-def _success(axis, variant: str, conditions: list[str], values: list[list[float]]) -> None:
+def _success(axis: Axes, variant: str, conditions: list[str], values: list[list[float]]) -> None:
     positions = np.arange(1, len(conditions) + 1)
     if conditions:
         means = [float(np.mean(v)) for v in values]
@@ -109,12 +113,12 @@ def _success(axis, variant: str, conditions: list[str], values: list[list[float]
     axis.set_ylim(0, 105)
 
 
-def _paper_marks(axis, key: str, variant: str, conditions: list[str], positions: np.ndarray) -> None:
+def _paper_marks(axis: Axes, key: str, variant: str, conditions: list[str], positions: np.ndarray) -> None:
     for position, condition in zip(positions, conditions):
         paper = PAPER[(variant, condition)]
         if key == "trial_time_s" and paper.trial_time_s is not None:
             axis.errorbar(
-                [position + 0.3], [paper.trial_time_s], yerr=[paper.trial_time_sd_s], fmt="D", color="tab:red"
+                [position + 0.3], [paper.trial_time_s], yerr=paper.trial_time_sd_s, fmt="D", color="tab:red"
             )
         elif key == "arm_arm_collisions" and condition == "optimized":
             axis.scatter([position + 0.3], [PAPER_COLLISIONS], marker="D", color="tab:red")

@@ -275,7 +275,9 @@ def _adverse(events: Sequence[Entry], transfer: Transfer) -> list[Cause]:
     handover, a block the giver let go of that fell had never passed to the receiver (`handover`), unless the
     receiver had gripped it and lost it (already counted)."""
     giver, receiver = _roles(transfer)
-    causes, previous, taken = [], {}, set()
+    causes: list[Cause] = []
+    previous: dict[object, tuple[str, object]] = {}  # per block: the kind and arm of its last event
+    taken: set[object] = set()
     for entry in events:
         kind, detail, block = entry["kind"], str(entry.get("detail", "")), entry.get("block")
         step = None

@@ -125,7 +125,9 @@ def tree_xml(log: TickLog) -> str:
                 root, "BehaviorTree", ID=bt.ports["ID"], _fullpath=path
             )
             continue
-        elements[node["id"]] = ElementTree.SubElement(parent, bt.tag, name=node["name"], _uid=uid, **bt.ports)
+        elements[node["id"]] = ElementTree.SubElement(
+            parent, bt.tag, {"name": node["name"], "_uid": uid, **bt.ports}
+        )
     declared: dict[str, ElementTree.Element] = {}
     for bt in nodes:
         if bt.builtin:

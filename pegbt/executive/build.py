@@ -66,7 +66,9 @@ def _build(
     if spec.type == "subtree":
         behaviour: Behaviour = py_trees.decorators.PassThrough(name=spec.name, child=children[0])
     elif spec.type in NODE_TYPES:
-        behaviour = NODE_TYPES[spec.type].build(spec, children, context)
+        build = NODE_TYPES[spec.type].build
+        assert build is not None  # only `subtree` has no builder, and it is built above
+        behaviour = build(spec, children, context)
     else:
         behaviour = _leaf(spec, context, registry)
     nodes[node_id] = BuiltNode(node_id, parent, spec, behaviour)

@@ -146,6 +146,7 @@ def read_tick_log(path: str | Path) -> TickLog:
             f"line {len(lines) + 1} was cut short ({len(cut)} bytes, no newline: the run died while writing it); "
             f"read up to line {len(lines)}, tick {log.last_n}"
         )
+    assert log is not None  # the file is not blank, so it has a first line, or a cut one refused above
     return log
 
 

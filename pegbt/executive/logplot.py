@@ -12,9 +12,13 @@ from __future__ import annotations
 import re
 from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from pegbt.executive.causes import CONTROL_FLOW, Timeline, failure_chains
 from pegbt.executive.logfile import TickLog
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
 
 ARM_PARAMS = ("arm", "arms")
 OUTCOME_COLOURS = {"placed": "tab:green", "failed": "tab:red", "skipped": "tab:gray"}
@@ -139,7 +143,7 @@ def plot_timeline(log: TickLog, out: Path, faults: Sequence[dict] = ()) -> Path:
     return out
 
 
-def _trouble(log: TickLog, axis, row: float) -> None:
+def _trouble(log: TickLog, axis: Axes, row: float) -> None:
     leaves = {node["id"] for node in log.nodes if not log.children(node["id"])}
     checks = {node["id"] for node in log.nodes if node["type"] in CONTROL_FLOW}
     second_children = {log.children(node["id"])[1] for node in log.nodes if node["type"] == "recover"}

@@ -13,7 +13,7 @@ import math
 import re
 import typing
 from dataclasses import dataclass
-from typing import Any, Literal
+from typing import Any, Literal, TypeGuard
 
 from pegbt.errors import brief
 
@@ -60,7 +60,7 @@ def type_name(kind: Any) -> str:
     return kind.__name__
 
 
-def is_valid_key(key: object) -> bool:
+def is_valid_key(key: object) -> TypeGuard[str]:
     """Blackboard key syntax: names of letters, digits and `_`, `/` for namespaces, `.` for attributes."""
     return isinstance(key, str) and bool(_KEY_PATTERN.match(key))
 

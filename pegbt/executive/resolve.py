@@ -120,7 +120,11 @@ class Resolver:
                 field=type_name,
             )
             return None
-        declared = node_type.params if node_type else behaviour.params
+        if node_type is not None:
+            declared = node_type.params
+        else:
+            assert behaviour is not None  # refused above when neither
+            declared = behaviour.params
         if node_type is not None and node_type.shape == "subtree":
             return self._subtree(loc, fields, field_marks, scope, siblings)
         name = self._name(type_name, fields, field_marks, scope, siblings, loc.mark)
@@ -355,6 +359,7 @@ class Resolver:
                 field="use",
             )
             return None
+        assert use_field is not None  # a name came from it
         definition = self.document.subtrees.get(use)
         if definition is None:
             self.problems.add(
@@ -411,13 +416,14 @@ class Resolver:
             )
             given = None
         entries = given.value if given is not None else {}
+        key_marks = given.key_marks if given is not None else {}
         for arg_name, value in entries.items():
             arg = definition.args.get(arg_name)
             if arg is None:
                 self.problems.add(
                     f"subtree {definition.name!r} has no argument {arg_name!r}{did_you_mean(arg_name, definition.args)}; "
                     f"declared: {', '.join(definition.args) or 'none'}",
-                    given.key_marks[arg_name],
+                    key_marks[arg_name],
                     path=where,
                     field=arg_name,
                 )

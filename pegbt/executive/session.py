@@ -28,7 +28,7 @@ from pegbt.executive.providers import (
     run_options,
 )
 from pegbt.executive.runner import RunResult, run
-from pegbt.executive.ticklog import TickLogWriter
+from pegbt.executive.ticklog import Record, TickLogWriter
 from pegbt.numbers import checked_number
 
 
@@ -90,7 +90,9 @@ def run_tree_file(
     try:
         supplied, clock_kind = resource_clock(resources, clock)
         built = loaded.build(RunContext(clock=supplied or setup.clock, resources=resources))
-        listeners = [] if quiet else [ProgressPrinter(built, out, verbose=verbose)]
+        listeners: list[Callable[[Record], None]] = (
+            [] if quiet else [ProgressPrinter(built, out, verbose=verbose)]
+        )
         if record is not None:
             recorder = _recorder(record, supplied or setup.clock, clock_kind, record_cloud_step, resources)
             listeners.append(recorder.tick_record)

@@ -33,7 +33,7 @@ from __future__ import annotations
 import datetime
 import json
 import operator
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import IO, Any
 
@@ -91,8 +91,8 @@ class TickLogWriter:
         built: BuiltTree,
         *,
         clock_kind: str,
-        listeners: list[Callable[[Record], None]] = (),
-        messages: list[Callable[[], list[Record]]] = (),
+        listeners: Sequence[Callable[[Record], None]] = (),
+        messages: Sequence[Callable[[], list[Record]]] = (),
     ) -> None:
         """`messages`: sources of `message` records (each returns what arrived since it was last asked),
         drained before every tick, halt and end record."""

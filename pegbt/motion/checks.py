@@ -39,7 +39,7 @@ def _limit_problems(trajectory: Trajectory, settings: ArmSettings) -> list[str]:
         for j in np.flatnonzero(bad.any(axis=0)):
             k = int(np.argmax(bad[:, j]))
             problems.append(
-                f"{joint_label(j)} {name} {values[k, j]:.4g} at t={t[k]:.2f} s outside [{low[j]:.4g}, {high[j]:.4g}]"
+                f"{joint_label(int(j))} {name} {values[k, j]:.4g} at t={t[k]:.2f} s outside [{low[j]:.4g}, {high[j]:.4g}]"
             )
     return problems
 
@@ -62,7 +62,7 @@ def _continuity_problems(trajectory: Trajectory, settings: ArmSettings) -> list[
     )
     for kind, jumps in (("velocity", velocity_jump), ("position", position_jump)):
         for j in np.flatnonzero(jumps.any(axis=0)):
-            problems.append(f"{joint_label(j)} {kind} jumps at t={t[int(np.argmax(jumps[:, j]))]:.2f} s")
+            problems.append(f"{joint_label(int(j))} {kind} jumps at t={t[int(np.argmax(jumps[:, j]))]:.2f} s")
     return problems
 
 

@@ -42,4 +42,6 @@ def rest_to_rest_path(
 def joint_move(q_from: ArrayLike, q_to: ArrayLike, settings: ArmSettings) -> Trajectory:
     """The fastest rest-to-rest cubic from `q_from` to `q_to`, sampled at the control period (approach
     and retreat moves)."""
-    return rest_to_rest_path([q_from, q_to], settings, ["start", "goal"]).sample(settings.control_period)
+    return rest_to_rest_path(np.stack([q_from, q_to]), settings, ["start", "goal"]).sample(
+        settings.control_period
+    )

@@ -12,6 +12,7 @@ The same arithmetic runs on Python floats (`math`, about 10 µs for one pose) an
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from types import SimpleNamespace
 
@@ -29,7 +30,10 @@ ROTATION_TOLERANCE = 1e-6  # how far RᵀR may be from I before a pose is refuse
 SINGULAR_COS_Q2 = 1e-9  # |cos q2| below this: yaw and roll are not separable
 
 
-def _solve(r: list, x: object, y: object, z: object, ops: SimpleNamespace) -> tuple:
+_Num = float | NDArray[np.float64]  # one pose (floats) or a batch (arrays)
+
+
+def _solve(r: Sequence[Sequence[_Num]], x: _Num, y: _Num, z: _Num, ops: SimpleNamespace) -> tuple:
     """Joint values (q1..q6) and the cos q2 used for the singularity test, for rotation rows `r`
     (r[i][j] = R[i, j]) and tip position (x, y, z); works on floats and on numpy arrays alike."""
     # The RCM (base origin) expressed in the tip frame: t_inv = -Rᵀ t.
@@ -47,7 +51,7 @@ def _solve(r: list, x: object, y: object, z: object, ops: SimpleNamespace) -> tu
     w1 = (-c6, 0.0, s6)
     w2 = (-s6 * c5, s5, -c5 * c6)
 
-    def r04(i: int, w: tuple) -> object:
+    def r04(i: int, w: tuple[_Num, _Num, _Num]) -> _Num:
         return r[i][0] * w[0] + r[i][1] * w[1] + r[i][2] * w[2]
 
     a02, a12, a22 = r04(0, w2), r04(1, w2), r04(2, w2)
@@ -68,13 +72,13 @@ class IKSolution:
     """
 
     q: NDArray[np.float64]  # (..., 6)
-    reachable: NDArray[np.bool_]  # (...)
-    within_limits: NDArray[np.bool_]  # (...)
+    reachable: NDArray[np.bool_] | np.bool_  # (...)
+    within_limits: NDArray[np.bool_] | np.bool_  # (...)
     settings: ArmSettings | None
     _reasons: tuple[str | None, ...]  # per flattened pose: why it is unreachable, None if reachable
 
     @property
-    def ok(self) -> NDArray[np.bool_]:
+    def ok(self) -> NDArray[np.bool_] | np.bool_:
         return self.reachable & self.within_limits
 
     def problems(self, index: int | tuple[int, ...] = ()) -> list[str]:

@@ -10,6 +10,8 @@ every tick, where numpy's per-call overhead would dominate.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
+from typing import TypeVar
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -21,13 +23,12 @@ L4 = 0.0095  # wrist yaw axis to the tool tip (m)
 
 N_JOINTS = 6
 
-Joint = float | NDArray[np.float64]
+Joint = TypeVar("Joint", float, NDArray[np.float64])
 
 
-def _dh_table(
-    q1: Joint, q2: Joint, q3: Joint, q4: Joint, q5: Joint, q6: Joint, zero: Joint
-) -> list[tuple[float, float, Joint, Joint]]:
+def _dh_table(q: Sequence[Joint], zero: Joint) -> list[tuple[float, float, Joint, Joint]]:
     """(a, α, d, θ) per link; d and θ are floats for one configuration, arrays for a batch (`zero` says which)."""
+    q1, q2, q3, q4, q5, q6 = q
     half_pi = np.pi / 2
     return [
         (0.0, half_pi, zero, q1 + half_pi),
@@ -43,7 +44,7 @@ def _dh_table(
 
 def _dh_rows(q: NDArray[np.float64]) -> list[tuple[float, float, NDArray[np.float64], NDArray[np.float64]]]:
     """(a, α, d, θ) per link for joint batch `q` (..., 6); d and θ are arrays."""
-    return _dh_table(*(q[..., i] for i in range(N_JOINTS)), zero=np.zeros(q.shape[:-1]))
+    return _dh_table([q[..., i] for i in range(N_JOINTS)], zero=np.zeros(q.shape[:-1]))
 
 
 def _link(a: float, alpha: float, d: NDArray[np.float64], theta: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -96,7 +97,7 @@ def shaft_end_and_tip(q: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.flo
     xx, xy, xz, yx, yy, yz, zx, zy, zz = 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0  # frame axes (columns)
     px = py = pz = 0.0  # frame origin
     shaft_end = (0.0, 0.0, 0.0)
-    for link, (a, alpha, d, theta) in enumerate(_dh_table(*np.asarray(q, dtype=float).tolist(), zero=0.0)):
+    for link, (a, alpha, d, theta) in enumerate(_dh_table(np.asarray(q, dtype=float).tolist(), zero=0.0)):
         ca, sa, ct, st = cos(alpha), sin(alpha), cos(theta), sin(theta)
         px, py, pz = px + a * xx, py + a * xy, pz + a * xz  # TransX(a)
         yx, yy, yz, zx, zy, zz = (  # RotX(α)

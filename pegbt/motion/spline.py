@@ -131,6 +131,6 @@ def plan_spline(
         raise PegbtError(
             "no spline through the transfer waypoints respects the planner limits", field="planner"
         )
-    _, speed1, speed2, durations = best
+    _, speed1, speed2, segment_durations = best
     velocities = np.stack([np.zeros(6), speed1 * directions[0], speed2 * directions[1], np.zeros(6)])
-    return HermitePath(np.concatenate([[0.0], np.cumsum(durations)]), q, velocities)
+    return HermitePath(np.concatenate([[0.0], np.cumsum(segment_durations)]), q, velocities)

@@ -89,7 +89,7 @@ class _FixedPattern:
         self.shape = shape
 
     def data(self, values: NDArray[np.float64]) -> NDArray[np.float64]:
-        return np.bincount(self._inverse, weights=values, minlength=self._count)
+        return np.bincount(self._inverse, weights=values, minlength=self._count).astype(np.float64)
 
     def matrix(self, values: NDArray[np.float64]) -> sparse.csc_matrix:
         return sparse.csc_matrix((self.data(values), self.indices, self.indptr), shape=self.shape)
@@ -114,7 +114,7 @@ def _sample_weights(segments: int) -> NDArray[np.float64]:
 def _b_spline_path(control: NDArray[np.float64], h: float) -> HermitePath:
     """The quadratic B-spline of `control` points (S+2, 6) with knot spacing `h`, as cubic Hermite
     segments (each exactly quadratic): knots at the midpoints of consecutive control points."""
-    times = h * np.arange(len(control) - 1)
+    times = h * np.arange(len(control) - 1, dtype=np.float64)
     return HermitePath(times, 0.5 * (control[1:] + control[:-1]), np.diff(control, axis=0) / h)
 
 
@@ -161,7 +161,10 @@ class SqpRefiner:
         eye, acc, moves = sparse.identity(N), self.n_acceleration, N * (self.points - 1)
 
         def row_block(
-            count: int, control: object = None, acceleration: object = None, slow_down: object = None
+            count: int,
+            control: sparse.spmatrix | None = None,
+            acceleration: sparse.spmatrix | None = None,
+            slow_down: sparse.spmatrix | None = None,
         ) -> sparse.spmatrix:
             """`count` rows with the given blocks on the control point, acceleration and λ columns."""
             widths = (self.n_control, acc, 1)
@@ -186,9 +189,8 @@ class SqpRefiner:
                 ),
                 row_block(acc, acceleration=sparse.identity(acc), slow_down=-lam),
                 row_block(acc, acceleration=sparse.identity(acc), slow_down=lam),
-            ],
-            format="coo",
-        )
+            ]
+        ).tocoo()
         limit_count = self._limit_rows.shape[0]
         sample = np.arange(self.sample_count)
         channel_rows = limit_count + CHANNEL_ROWS * sample[:, None] + np.arange(CHANNEL_ROWS)  # (samples, 5)

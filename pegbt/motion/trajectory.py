@@ -90,10 +90,10 @@ class HermitePath:
 
     def evaluate(self, t: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
         """Position, velocity and acceleration (len(t), 6) at times `t` (clamped to the path)."""
-        t = np.clip(np.asarray(t, dtype=float), self.times[0], self.times[-1])
-        i = np.clip(np.searchsorted(self.times, t, side="right") - 1, 0, len(self.times) - 2)
+        ts = np.clip(np.asarray(t, dtype=np.float64), self.times[0], self.times[-1])
+        i = np.clip(np.searchsorted(self.times, ts, side="right") - 1, 0, len(self.times) - 2)
         h = (self.times[i + 1] - self.times[i])[:, None]
-        s = (t - self.times[i])[:, None] / h
+        s = (ts - self.times[i])[:, None] / h
         q0, q1 = self.positions[i], self.positions[i + 1]
         m0, m1 = self.velocities[i] * h, self.velocities[i + 1] * h
         delta = q1 - q0
@@ -109,7 +109,7 @@ class HermitePath:
         """The path sampled every `period` s; stretched (never sped up) so it lasts whole periods."""
         steps = max(1, int(np.ceil(self.duration / period - 1e-9)))
         path = self.retimed(steps * period / self.duration)
-        t = np.arange(steps + 1) * period
+        t = np.arange(steps + 1, dtype=np.float64) * period
         q, qd, qdd = path.evaluate(t + path.times[0])
         return Trajectory(t, q, qd, qdd)
 

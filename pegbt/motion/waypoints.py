@@ -40,11 +40,11 @@ def tool_down_rotation(yaw: float, up: ArrayLike = (0.0, 0.0, 1.0)) -> NDArray[n
     """Tip orientation with the tool along −`up` (straight down into the board) and `yaw` about `up`.
 
     With `up` = z this is a plain rotation about z (the PSM's R = I points the tool down)."""
-    up = np.asarray(up, dtype=float)
-    up = up / np.linalg.norm(up)
+    axis = np.asarray(up, dtype=float)
+    axis = axis / np.linalg.norm(axis)
     # The smallest rotation taking z onto `up` (Rodrigues), for boards that are not level.
     z = np.array([0.0, 0.0, 1.0])
-    v, cos_angle = np.cross(z, up), float(z @ up)
+    v, cos_angle = np.cross(z, axis), float(z @ axis)
     skew = np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
     tilt = np.eye(3) + skew + skew @ skew / (1.0 + cos_angle)
     return tilt @ yaw_rotation(yaw)

@@ -155,7 +155,8 @@ class BlockLocator:
 
     def _near_model(self, points: Points, block_to_board: NDArray[np.float64]) -> NDArray[np.bool_]:
         """Which `points` (board frame) lie within `part_distance` of the block model placed at `block_to_board`."""
-        local = to_open3d(points).transform(invert_rigid(block_to_board))
+        local = to_open3d(points)
+        local.transform(invert_rigid(block_to_board))
         return np.asarray(local.compute_point_cloud_distance(self._model)) < self.settings.part_distance
 
     def _fit(

@@ -87,7 +87,7 @@ class PegboardRegistration:
             [_registration.ICPConvergenceCriteria(max_iteration=settings.max_iterations)]
             * len(settings.voxels),
             o3d.utility.DoubleVector(settings.distances),
-            o3d.core.Tensor(self.nominal_board_from_camera),
+            o3d.core.Tensor.from_numpy(self.nominal_board_from_camera.copy()),
             _registration.TransformationEstimationPointToPlane(
                 _registration.robust_kernel.RobustKernel(
                     _registration.robust_kernel.RobustKernelMethod.TukeyLoss, settings.tukey_k

@@ -46,4 +46,6 @@ def transform_points(T: Points, points: Points) -> Points:
     Done by Open3D: numpy's matrix product hands this shape to a multi-threaded BLAS, which on a
     busy two-core machine is 20–40× slower.
     """
-    return np.asarray(to_open3d(points).transform(T).points)
+    cloud = to_open3d(points)
+    cloud.transform(T)
+    return np.asarray(cloud.points)

@@ -23,7 +23,7 @@ def visible_surface_samples(mesh: Mesh, count: int, seed: int = 0) -> o3d.geomet
         o3d.utility.Vector3dVector(vertices), o3d.utility.Vector3iVector(triangles.astype(np.int32))
     )
     surface.compute_triangle_normals()
-    surface.remove_triangles_by_mask(np.asarray(surface.triangle_normals)[:, 2] > _FACING_DOWN)
+    surface.remove_triangles_by_mask((np.asarray(surface.triangle_normals)[:, 2] > _FACING_DOWN).tolist())
     surface.remove_unreferenced_vertices()
     surface.compute_triangle_normals()
     o3d.utility.random.seed(seed)

@@ -115,6 +115,7 @@ def read_bag(
 ) -> BagSamples:
     """Paired samples of `cmd` and `phy`; a `PegbtError` naming the file and topic for a bag that has none."""
     from rosbags.typesys import Stores, get_typestore
+    from rosbags.typesys.stores.ros2_jazzy import sensor_msgs__msg__JointState
 
     arm = _bag_arm(path, arm, cmd, phy)
     topics: dict[str, str] = {}
@@ -130,6 +131,7 @@ def read_bag(
             raise PegbtError(
                 f"a message of {topic} is not valid CDR: {error}", file=path, field=topic
             ) from None
+        assert isinstance(message, sensor_msgs__msg__JointState)  # the store's class for JOINT_STATE
         stamp = message.header.stamp.sec + message.header.stamp.nanosec * 1e-9 or log_time * 1e-9
         rows.setdefault(topic, []).append((stamp, [float(q) for q in message.position]))
     if not topics:

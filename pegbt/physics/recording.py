@@ -204,7 +204,7 @@ def _load_recording(
 
 def _load_npy(path: Path) -> Array:
     try:
-        return load_npy(path, MAX_ARRAY_BYTES)
+        return load_npy(path, MAX_ARRAY_BYTES).astype(np.float64, copy=False)
     except PegbtError as error:
         raise PegbtError(f"not a recording: {error.message}", file=path) from None
 
@@ -311,6 +311,7 @@ def validate(
 ) -> None:
     """Refuse recordings that cannot be analysed or are not an arm's (`pegbt.physics.plausible`), saying
     which file, field and sample is wrong."""
+    array: Array | None  # the joints, then also the times, which a recording may lack
     for name, array in (("q_cmd", q_cmd), ("q_phy", q_phy)):
         if array.ndim != 2 or array.shape[1] != N_JOINTS:
             raise PegbtError(

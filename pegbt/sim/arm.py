@@ -192,7 +192,11 @@ class SimArm:
     def follow_jt(
         self, t: ArrayLike, q: ArrayLike, qd: ArrayLike | None, command_id: str
     ) -> list[Transition]:
-        trajectory = TrajectoryPoints(np.asarray(t, dtype=float), np.asarray(q, dtype=float), qd)
+        trajectory = TrajectoryPoints(
+            np.asarray(t, dtype=float),
+            np.asarray(q, dtype=float),
+            None if qd is None else np.asarray(qd, dtype=float),
+        )
         problems = guards.trajectory_problems(trajectory, self.settings)
         if not problems:
             lead = max(float(trajectory.t[0]), self.period)

@@ -79,7 +79,11 @@ def joint_motions(
     for start, end in zip(keyframes, keyframes[1:]):
         if not np.allclose(start.position, end.position) or start.yaw != end.yaw:
             q = keyframe_joints(cell, arm, list(interpolate([start, end], step, speed)), turn)
-            motions.append(ScriptedMotion(trajectory=TrajectoryPoints(step * np.arange(1, len(q) + 1), q)))
+            motions.append(
+                ScriptedMotion(
+                    trajectory=TrajectoryPoints(step * np.arange(1, len(q) + 1, dtype=np.float64), q)
+                )
+            )
         if end.jaw != start.jaw:
             motions.append(ScriptedMotion(jaw=end.jaw))
     return motions
@@ -150,7 +154,7 @@ class MotionPlayer:
         if motion.jaw is not None:
             self._handle = self.client.jaw.move_jp(motion.jaw)
         else:
-            self._handle = self.client.move_jp(
-                motion.goal if motion.trajectory is None else motion.trajectory
-            )
+            target = motion.goal if motion.trajectory is None else motion.trajectory
+            assert target is not None  # exactly one of goal, trajectory and jaw is set
+            self._handle = self.client.move_jp(target)
         return True

@@ -20,6 +20,7 @@ from pegbt.errors import PegbtError
 from pegbt.frames import Matrix
 from pegbt.sim.events import Event
 from pegbt.sim.faults import CameraFaults, NoiseBurst
+from pegbt.sim.interfaces import SimWorld
 from pegbt.sim.meshes import Mesh, block_mesh, cylinder_mesh, merge, static_scene_mesh, transformed
 from pegbt.sim.world import World
 from pegbt.workcell import Workcell, workcell
@@ -49,7 +50,7 @@ class DepthCamera:
         self._directions, self.image_shape = self._pixel_directions()  # (n, 3) camera frame, z = 1
         board_from_camera = self.cell.camera.board_from_camera
         origins = np.broadcast_to(board_from_camera[:3, 3], self._directions.shape)
-        self._rays = o3d.core.Tensor(
+        self._rays = o3d.core.Tensor.from_numpy(
             np.hstack([origins, self._directions @ board_from_camera[:3, :3].T]).astype(np.float32)
         )
 
@@ -95,15 +96,16 @@ class DepthCamera:
                 ]
         return merge(meshes)
 
-    def capture(self, world: World, time: float | None = None) -> np.ndarray:
+    def capture(self, world: SimWorld, time: float | None = None) -> np.ndarray:
         """A point cloud (N, 3) float32 in the camera frame (metres) of the world at `time` (default: now)."""
         exposure = self.expose(world, time)
         exposure.cast(self.ray_count)
         points = exposure.points()
         return points[np.isfinite(points[:, 0])]
 
-    def expose(self, world: World, time: float | None = None) -> Exposure:
+    def expose(self, world: SimWorld, time: float | None = None) -> Exposure:
         """A capture of the world as it is now, stamped `time` (default: the world's); no ray cast yet."""
+        assert isinstance(world, World)  # the camera renders pegbt's world, its blocks where they are
         return Exposure(self, world, world.time if time is None else time)
 
     def _develop(self, depth: np.ndarray, world: World, time: float) -> np.ndarray:
@@ -146,7 +148,8 @@ class Exposure:
         vertices, triangles = camera.scene_mesh(world)
         self._scene = o3d.t.geometry.RaycastingScene()
         self._scene.add_triangles(
-            o3d.core.Tensor(vertices.astype(np.float32)), o3d.core.Tensor(triangles.astype(np.uint32))
+            o3d.core.Tensor.from_numpy(vertices.astype(np.float32)),
+            o3d.core.Tensor.from_numpy(triangles.astype(np.uint32)),
         )
         self._depth = np.empty(camera.ray_count, dtype=np.float32)
         self._cast = 0

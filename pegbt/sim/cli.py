@@ -10,7 +10,7 @@ import signal
 import sys
 import threading
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from pegbt.bagoptions import add_record_arguments
 from pegbt.errors import PegbtError
@@ -25,6 +25,7 @@ if TYPE_CHECKING:
     from pegbt.sim.endpoint import SimEndpoint
     from pegbt.sim.fault_plan import FaultPlan
     from pegbt.sim.world import World
+    from pegbt.transport.recorder import WireRecorder
     from pegbt.transport.session import SessionSettings
 
 CRASH_EXIT_STATUS = 3
@@ -227,9 +228,12 @@ def _sim(args: argparse.Namespace) -> int:
     os._exit(0)
 
 
-def _recorder(args: argparse.Namespace, endpoint: SimEndpoint) -> Any:
+def _recorder(args: argparse.Namespace, endpoint: SimEndpoint | DvrkEndpoint) -> WireRecorder:
     """A recorder of everything the simulator takes and sends, on its clock (simulated in lockstep)."""
+    from pegbt.sim.endpoint import SimEndpoint
     from pegbt.transport.recorder import WireRecorder
+
+    assert isinstance(endpoint, SimEndpoint)  # `_refuse_pegbt_only_options` refused --record with the dVRK's
 
     kind = "simulator (lockstep)" if args.lockstep else "simulator (real time)"
     recorder = WireRecorder(

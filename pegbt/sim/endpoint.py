@@ -172,9 +172,7 @@ class SimEndpoint:
         for name, keys in self.keys.items():
             for key in command_keys(keys):
                 self._declarations.append(
-                    self.session.declare_subscriber(
-                        key, lambda sample, k=key, a=name: self._enqueue_command(a, k, sample)
-                    )
+                    self.session.declare_subscriber(key, partial(self._enqueue_command, name, key))
                 )
             for key in (*_state_keys(keys), keys.operating_state, keys.error):
                 self._outbox.outlet(key)

@@ -11,7 +11,7 @@ jaw where the world says a gripped block stops it.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from typing import Protocol
+from typing import Protocol, TypedDict
 
 import numpy as np
 from numpy.typing import NDArray
@@ -19,6 +19,13 @@ from numpy.typing import NDArray
 from pegbt.sim.events import Event, EventLog
 from pegbt.sim.tools import ToolState
 from pegbt.workcell import Workcell
+
+
+class WorldSnapshot(TypedDict):
+    """JSON-ready ground truth: simulated time and each block's `to_dict()`."""
+
+    time: float
+    blocks: list[dict[str, object]]
 
 
 class SimWorld(Protocol):
@@ -35,7 +42,7 @@ class SimWorld(Protocol):
         """The angle below which a gripped block stops `arm`'s jaw; None when it grips nothing."""
         ...
 
-    def snapshot(self) -> dict[str, object]:
+    def snapshot(self) -> WorldSnapshot:
         """JSON-ready ground truth: time and every block (state, peg, holders, pose)."""
         ...
 
@@ -51,7 +58,10 @@ class SimCamera(Protocol):
 class CameraExposure(Protocol):
     """One capture under way (`pegbt.sim.camera.Exposure`): cast its rays a part at a time, then develop it."""
 
-    done: bool
+    @property
+    def done(self) -> bool:
+        """Whether every ray has been cast."""
+        ...
 
     def cast(self, count: int) -> None:
         """Cast the next `count` rays."""

@@ -165,7 +165,7 @@ class Outbox:
             message = latest.message
             content = message.content() if isinstance(message, JointStateMessage) else None
             last = replied.get(key)
-            if content is not None and last is not None and last[0] == content:
+            if isinstance(message, JointStateMessage) and last is not None and last[0] == content:
                 messages.append((key, tag, {"restamp": codec.seconds_parts(message.stamp), "base": last[1]}))
             else:
                 messages.append((key, tag, latest.payload()))

@@ -44,7 +44,7 @@ class Playback:
 def _sample_times(duration: float, period: float) -> NDArray[np.float64]:
     """Tick times k·period covering `duration`, at least one tick (a move always takes one period)."""
     count = max(1, math.ceil(duration / period - 1e-9))
-    return period * np.arange(1, count + 1)
+    return period * np.arange(1, count + 1, dtype=np.float64)
 
 
 def goal_playback(

@@ -24,6 +24,7 @@ from pegbt.frames import Matrix, invert_rigid, rigid_transform, segment_distance
 from pegbt.sim.blocks import Block
 from pegbt.sim.events import Event, EventLog
 from pegbt.sim.faults import WorldFaults
+from pegbt.sim.interfaces import WorldSnapshot
 from pegbt.sim.tools import ToolState
 from pegbt.workcell import Workcell, workcell
 
@@ -112,7 +113,7 @@ class World:
         wall = self.cell.block.edge_distance - self.cell.block.hole_radius
         return 2.0 * math.asin(min(1.0, wall / 2.0 / self.cell.tool.jaw_length))
 
-    def snapshot(self) -> dict[str, object]:
+    def snapshot(self) -> WorldSnapshot:
         """JSON-ready state of the world: time and every block."""
         return {"time": self.time, "blocks": [block.to_dict() for block in self.blocks]}
 
@@ -261,7 +262,7 @@ class World:
             scheduled = slips[self._next_slip]
             self._next_slip += 1
             arms = [scheduled.arm] if scheduled.arm else sorted(self.tools)
-            held = [(arm, self.held_by(arm)) for arm in arms if self.held_by(arm) is not None]
+            held = [(arm, index) for arm in arms if (index := self.held_by(arm)) is not None]
             if not held:
                 self._log(
                     "fault", scheduled.arm, detail=f"slip scheduled at {scheduled.time:g} s: nothing held"
@@ -480,9 +481,9 @@ class World:
         for block in self.blocks:
             if block.grips and block.pose[2, 3] > surface:
                 current.add(("block-board", "+".join(block.grips), block.index, -1))
-        for kind, arm, block_index, peg in sorted(current - self._contacts):
+        for kind, arm, block_index, peg_index in sorted(current - self._contacts):
             block_or_none = None if block_index < 0 else block_index
-            peg_or_none = None if peg < 0 else peg
+            peg_or_none = None if peg_index < 0 else peg_index
             self._log("collision", arm, block_or_none, peg_or_none, kind)
         self._contacts = current
 

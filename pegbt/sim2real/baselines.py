@@ -81,6 +81,7 @@ def lstm_window(
             best, best_state = validation, {k: v.clone() for k, v in model.state_dict().items()}
         if time.perf_counter() - start > seconds:
             break
+    assert best_state is not None  # the first validation loss is below infinity
     model.load_state_dict(best_state)
     with torch.no_grad():
         predicted = model(x).numpy().astype(float)

@@ -98,7 +98,9 @@ class BlockedGrams:
         g = gram / (s[..., :, None] * s[..., None, :]) + RIDGE * np.eye(cols.shape[-1])
         return np.linalg.solve(g, (rhs / s)[..., None])[..., 0] / s
 
-    def _reduced(self, gram: Array, rhs: Array, yy: Array, free: NDArray[np.int64], fixed: NDArray[np.int64]):
+    def _reduced(
+        self, gram: Array, rhs: Array, yy: Array, free: NDArray[np.int64], fixed: NDArray[np.int64]
+    ) -> tuple[Array, Array, Array]:
         """Gram terms of the target z = y − Σ fixed columns: (G[free, free], Mᵀz on free, zᵀz).
 
         `gram` (..., m, m), `rhs` (..., m), `yy` (...); `free` (C, p), `fixed` (C, q) → (..., C, ...).

@@ -27,6 +27,7 @@ from pegbt.sim2real.library import play_widths, width_bounds, width_column
 from pegbt.sim2real.significance import block_bootstrap_indices, correlation_length
 
 Array = NDArray[np.float64]
+Rows = NDArray[np.bool_] | slice  # the samples a fit uses: a mask, or all of them
 
 WIDTH_SEARCH_RATIO = 1.8  # refine a grid width within [w / r, w · r]
 DRIVER_ITERATIONS = 3
@@ -117,10 +118,12 @@ def _least_squares(design: Array, target: Array) -> tuple[Array, float]:
         return np.zeros(0), float(target @ target)
     beta, *_ = np.linalg.lstsq(design, target, rcond=None)
     error = target - design @ beta
-    return beta, float(error @ error)
+    return beta.astype(np.float64, copy=False), float(error @ error)
 
 
-def _solve(fit: JointFit, q_cmd: Array, t: Array | None, target: Array, base_driver: Array, rows) -> JointFit:
+def _solve(
+    fit: JointFit, q_cmd: Array, t: Array | None, target: Array, base_driver: Array, rows: Rows
+) -> JointFit:
     free, fixed = fit.columns(q_cmd, t, base_driver)
     beta, _ = _least_squares(free[rows], (target - fixed)[rows])
     return fit.with_coefficients(beta)
@@ -132,7 +135,7 @@ def fit_joint(
     t: Array | None,
     target: Array,
     base_driver: Array,
-    rows: NDArray[np.bool_] | None = None,
+    rows: Rows | None = None,
     refine: bool = True,
 ) -> JointFit:
     """Coefficients (and, with `refine`, widths) of `structure` fitted to `target` on `rows`."""
@@ -151,7 +154,7 @@ def fit_joint(
 
 
 def _refine_width(
-    fit: JointFit, i: int, q_cmd: Array, t: Array | None, target: Array, base_driver: Array, rows
+    fit: JointFit, i: int, q_cmd: Array, t: Array | None, target: Array, base_driver: Array, rows: Rows
 ) -> float:
     term = fit.terms[i]
 
@@ -280,7 +283,8 @@ def bootstrap(
         choice = [local // 2] * len(width_terms)
 
         def solve(choice: list[int]) -> tuple[Array, float]:
-            free, fixed = list(range(n_static)), []
+            free: list[int] = list(range(n_static))
+            fixed: list[int] = []
             for k, (term, c) in enumerate(zip(width_terms, choice)):
                 (fixed if term.fixed else free).append(n_static + k * local + c)
             return _gram_solve(gram, rhs, free, fixed)

@@ -119,9 +119,9 @@ def _windows(r: Array, times: Array) -> list[tuple[float, float, float]]:
 @dataclass(frozen=True)
 class _Motion:
     direction: Array  # (N, J) +1 rising, -1 falling, 0 still (per step into the sample)
-    after_reversal: Array  # (N, J) bool
+    after_reversal: NDArray[np.bool_]  # (N, J)
     speed: Array  # (N, J)
-    others_moving: Array  # (N, J) bool: the other joints move more than usual
+    others_moving: NDArray[np.bool_]  # (N, J): the other joints move more than usual
 
 
 def _motion(q_cmd: Array, times: Array, is_stream: bool) -> _Motion:
@@ -149,7 +149,7 @@ def _motion(q_cmd: Array, times: Array, is_stream: bool) -> _Motion:
     return _Motion(direction, after, speed, others > np.median(others, axis=0))
 
 
-def _compare(r: Array, inside: Array, label: str) -> Regime | None:
+def _compare(r: Array, inside: NDArray[np.bool_], label: str) -> Regime | None:
     if inside.sum() < 5 or (~inside).sum() < 5:
         return None
     return Regime(

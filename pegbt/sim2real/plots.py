@@ -3,12 +3,17 @@
 from __future__ import annotations
 
 from pathlib import Path
+from types import ModuleType
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from pegbt.psm import JOINT_NAMES
 from pegbt.sim2real.diagnose import Diagnosis
 from pegbt.sim2real.explain import unit
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 MAX_POINTS = 6000  # plot at most this many samples per curve (long streams are thinned evenly)
 
@@ -78,7 +83,7 @@ def write_plots(diagnosis: Diagnosis, out: Path) -> list[str]:
     return paths
 
 
-def _save(fig, path: Path, plt) -> str:
+def _save(fig: Figure, path: Path, plt: ModuleType) -> str:
     fig.tight_layout()
     fig.savefig(path, dpi=80)
     plt.close(fig)

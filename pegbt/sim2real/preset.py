@@ -11,7 +11,7 @@ from pegbt.psm import ARMS
 from pegbt.sim2real.diagnose import diagnose
 
 
-def _rounded(value):
+def _rounded(value: object) -> object:
     return float(f"{value:.5g}") if isinstance(value, float) else value
 
 
@@ -54,7 +54,7 @@ def write_preset(out: str | Path, sources: dict[str, Path], command: str) -> Pat
     out = Path(out)
     arm_lines = [
         f'    "{arm}": [\n' + ",\n".join(f"      {json.dumps(effect)}" for effect in effects) + "\n    ]"
-        for arm, effects in preset["arms"].items()
+        for arm, effects in arms.items()
     ]
     try:
         out.parent.mkdir(parents=True, exist_ok=True)

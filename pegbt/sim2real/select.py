@@ -128,7 +128,7 @@ def find_unidentifiable(q_cmd: Array, is_stream: bool, base: ArmPhysics) -> Unid
             statements.append(
                 f"backlash on {name} and hysteresis driven by {name}: not identifiable: {name} {how}"
             )
-    corr = np.corrcoef(q_cmd[:, moving].T) if moving.sum() > 1 else np.ones((1, 1))
+    corr = np.atleast_2d(np.corrcoef(q_cmd[:, moving].T)) if moving.sum() > 1 else np.ones((1, 1))
     index = np.flatnonzero(moving)
     cross = [k.name for k in kinds if k.is_linear and k.takes_source]
     for a in range(len(index)):
@@ -239,9 +239,10 @@ def select_joint(
         result.stopped = ""
         current = sse[index]
         pool = [c for c in pool if c.key != cand.key]
-    free, fixed = np.array(result.free_columns()), np.array(result.fixed_columns(), dtype=np.int64)
-    without = grams.cv_sse(joint, free[1:], fixed)
-    estimate, se = grams.blocks_jackknife(joint, free, 0, fixed)
+    free_at = np.array(result.free_columns(), dtype=np.int64)
+    fixed_at = np.array(result.fixed_columns(), dtype=np.int64)
+    without = grams.cv_sse(joint, free_at[1:], fixed_at)
+    estimate, se = grams.blocks_jackknife(joint, free_at, 0, fixed_at)
     pvalue = t_pvalue(estimate, se, len(grams.edges) - 2)
     gains = without - current
     offset_gain = float(gains.sum() / max(float(without.sum()), 1e-300))

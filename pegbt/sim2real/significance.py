@@ -65,7 +65,7 @@ def shift_pvalue(residual: Array, columns: Array) -> float:
     n_eff = effective_samples(noise, phi)
     r = np.clip(r, -0.999999, 0.999999)
     t = np.abs(r) * np.sqrt((n_eff - 2) / (1 - r**2))
-    return float(min(1.0, columns.shape[1] * float((2 * stats.t.sf(t, n_eff - 2)).min())))
+    return float(min(1.0, columns.shape[1] * float(np.min(2 * stats.t.sf(t, n_eff - 2)))))
 
 
 def t_pvalue(estimate: float, standard_error: float, dof: int) -> float:

@@ -16,6 +16,7 @@ Families (how the effect is concealed):
 from __future__ import annotations
 
 import json
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -128,7 +129,7 @@ def concealable(sampling: str) -> tuple[str, ...]:
     return tuple(k.name for k in effect_kinds() if sampling == "stream" or not k.streams_only)
 
 
-def _pick(rng: np.random.Generator, options) -> str:
+def _pick(rng: np.random.Generator, options: Sequence[str]) -> str:
     return str(options[int(rng.integers(len(options)))])
 
 

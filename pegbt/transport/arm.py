@@ -153,7 +153,7 @@ class _Axis:
     ) -> None:
         link = arm.link
         self._arm = arm
-        self.outcomes = arm.outcomes
+        self.outcomes: _Outcomes = arm.outcomes
         self._names = names
         self._problems = problems
         self._step_problems = step_problems
@@ -364,7 +364,7 @@ class ArmClient(_Axis):
     # ------------------------------------------------------------------ commands
     def move_jp(self, target: ArrayLike | TrajectoryLike) -> MotionHandle:
         """Move to a joint goal (the endpoint plans within limits) or along a joint trajectory."""
-        if not hasattr(target, "q"):
+        if not isinstance(target, TrajectoryLike):
             return self.move_goal(target)
         key = self.keys.follow_jt
         guards.refuse_if(guards.trajectory_problems(target, self.settings), "trajectory", key)

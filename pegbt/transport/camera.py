@@ -98,9 +98,8 @@ class CameraClient:
                     [self._pending.pop(received.tag.cause)] if received.tag.cause in self._pending else []
                 )
             else:
-                answered = [h for h in self._pending.values() if h.requested_at <= stamp]
-                for handle in answered:
-                    del self._pending[handle.request_id]
+                due = [request for request, h in self._pending.items() if h.requested_at <= stamp]
+                answered = [self._pending.pop(request) for request in due]
         for handle in answered:
             handle.fulfil(stamp, points)
 

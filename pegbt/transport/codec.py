@@ -10,7 +10,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from functools import lru_cache
-from typing import Any, Protocol
+from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -236,12 +236,16 @@ def decode_point_cloud(data: bytes) -> tuple[float, NDArray[np.float32]]:
 
 
 # ----------------------------------------------------------------------------- joint trajectories
+@runtime_checkable
 class TrajectoryLike(Protocol):
     """What travels as a JointTrajectory: times from its start `t` (N,) and positions `q` (N, J); velocities
     `qd` and accelerations `qdd` (N, J) if it has them. A planned `pegbt.motion.trajectory.Trajectory` is one."""
 
-    t: Any
-    q: Any
+    @property
+    def t(self) -> ArrayLike: ...
+
+    @property
+    def q(self) -> ArrayLike: ...
 
 
 @dataclass(frozen=True)

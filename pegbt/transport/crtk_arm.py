@@ -20,6 +20,7 @@ from __future__ import annotations
 import threading
 import time
 from collections.abc import Callable
+from functools import partial
 from typing import Any, Generic, TypeVar
 
 import numpy as np
@@ -185,9 +186,7 @@ class CrtkArm:
         jaw_setpoint = self._latest(wire, topics.jaw_setpoint_js, codec.decode_joint_state)
         self.jaw = CrtkJaw(self, jaw_measured, jaw_setpoint)
         for level in MESSAGE_LEVELS:
-            wire.subscriber(
-                getattr(topics, level), lambda payload, level=level: self._on_message(level, payload)
-            )
+            wire.subscriber(getattr(topics, level), partial(self._on_message, level))
         self._move = wire.publisher(topics.move_jp)
         self._hold = wire.publisher(topics.hold)
         self._state_command = wire.publisher(topics.state_command)
@@ -294,7 +293,7 @@ class CrtkArm:
 
     def move_jp(self, target: ArrayLike | TrajectoryLike) -> RobotMove | StreamedMotion:
         """To a joint goal (the robot's own `move_jp`), or along a planned trajectory (streamed)."""
-        if not hasattr(target, "q"):
+        if not isinstance(target, TrajectoryLike):
             return self._move_goal(np.asarray(target, dtype=float).reshape(-1))
         topic = self.topics.servo_jp.name
         guards.refuse_if(guards.trajectory_problems(target, self.settings), "trajectory", topic)

@@ -37,7 +37,7 @@ def step_problems(q: ArrayLike, reference: ArrayLike, settings: ArmSettings, sec
     speed = np.abs(q - reference) / seconds
     allowed = settings.velocity * (1 + VELOCITY_SLACK)
     return [
-        f"{joint_label(i)} would move at {speed[i]:.4g}/s, limit {settings.velocity[i]:.4g}/s"
+        f"{joint_label(int(i))} would move at {speed[i]:.4g}/s, limit {settings.velocity[i]:.4g}/s"
         for i in np.flatnonzero(speed > allowed)
     ]
 

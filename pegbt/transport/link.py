@@ -75,6 +75,7 @@ class Link:
                 f"no simulator answers on {key} (is `pegbt sim` running and reachable?)", field=key
             )
         if reply.ok is None:
+            assert reply.err is not None  # a reply is either ok or an error
             raise PegbtError(f"simulator refused {key}: {reply.err.payload.to_string()}", field=key)
         return json.loads(reply.ok.payload.to_bytes())
 

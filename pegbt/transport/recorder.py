@@ -21,6 +21,7 @@ import threading
 import time
 from collections.abc import Callable, Iterable
 from pathlib import Path
+from functools import partial
 from typing import Any
 
 import numpy as np
@@ -122,9 +123,7 @@ class WireRecorder:
         """Record `topics` as they cross `wire` (a CRTK robot's: no `Link` to tap), whoever sends them: the
         robot's states, the executive's commands, its servo streamer's set-points, the camera's clouds."""
         for topic in topics:
-            wire.subscriber(
-                topic, lambda payload, topic=topic: self._typed(topic.name, topic.typename, payload)
-            )
+            wire.subscriber(topic, partial(self._typed, topic.name, topic.typename))
 
     def received(self, key: str, message: Received[Any]) -> None:
         payload = message.payload

@@ -102,7 +102,8 @@ def unbundle(data: bytes) -> tuple[dict[str, Any], list[Bundled]]:
         if decoded is None:
             raise PegbtError(f"bundled message on {key} has no valid tag: {tag[:40]!r}", field=key)
         if isinstance(content, int):
-            content, offset = body[offset : offset + content], offset + content
+            size = content
+            content, offset = body[offset : offset + size], offset + size
         messages.append((key, decoded, content))
     return header, messages
 
@@ -152,7 +153,7 @@ class Outlet:
     @property
     def matched(self) -> bool:
         """Whether any subscriber (an endpoint, a bridge) listens on this key right now."""
-        return bool(self._publisher.matching_status.matching)
+        return bool(self._publisher.matching_status.matching)  # type: ignore[attr-defined]  # zenoh's stub says bool; it is a MatchingStatus
 
     def put(self, payload: bytes, cause: str = "", outcome: str = "") -> Tag:
         tag = self._source.next_tag(self.key, cause, outcome)

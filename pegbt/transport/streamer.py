@@ -27,10 +27,14 @@ import sys
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
+from functools import partial
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
+
+if TYPE_CHECKING:
+    from pegbt.motion.limits import ArmSettings
 
 _LENGTH = struct.Struct("<I")
 Frame = tuple[Any, ...]
@@ -105,25 +109,29 @@ class Streamer:
         self._holds: dict[str, Any] = {}
         self._states: dict[str, Any] = {}
         self._latest: dict[Any, bytes] = {}
-        for arm, settings in config["arms"].items():
+
+        def add_arm(arm: str, settings: ArmSettings) -> None:
             topics = PsmTopics(arm)
             self._holds[arm] = wire.publisher(topics.hold)
             for topic in (topics.setpoint_js, topics.jaw_setpoint_js, topics.operating_state):
-                wire.subscriber(topic, lambda payload, topic=topic: self._latest.__setitem__(topic, payload))
+                wire.subscriber(topic, partial(self._latest.__setitem__, topic))
             self._states[arm] = topics.operating_state
             arm_servo, jaw_servo = wire.publisher(topics.servo_jp), wire.publisher(topics.jaw_servo_jp)
             self.axes[(arm, "arm")] = _Axis(
-                lambda q, p=arm_servo: p.put(codec.encode_joint_state(time.time(), q, names=ARM_JOINT_NAMES)),
-                lambda q, s=settings: guards.joint_problems(q, s),
-                lambda q, ref, dt, s=settings: guards.step_problems(q, ref, s, dt),
-                lambda topic=topics.setpoint_js: self._position(topic),
+                lambda q: arm_servo.put(codec.encode_joint_state(time.time(), q, names=ARM_JOINT_NAMES)),
+                lambda q: guards.joint_problems(q, settings),
+                lambda q, ref, dt: guards.step_problems(q, ref, settings, dt),
+                lambda: self._position(topics.setpoint_js),
             )
             self.axes[(arm, "jaw")] = _Axis(
-                lambda q, p=jaw_servo: p.put(codec.encode_joint_state(time.time(), q, names=JAW_JOINT_NAMES)),
-                lambda q, s=settings: guards.jaw_problems(q, s),
-                lambda q, ref, dt, s=settings: guards.jaw_step_problems(float(q[0]), float(ref[0]), s, dt),
-                lambda topic=topics.jaw_setpoint_js: self._position(topic),
+                lambda q: jaw_servo.put(codec.encode_joint_state(time.time(), q, names=JAW_JOINT_NAMES)),
+                lambda q: guards.jaw_problems(q, settings),
+                lambda q, ref, dt: guards.jaw_step_problems(float(q[0]), float(ref[0]), settings, dt),
+                lambda: self._position(topics.jaw_setpoint_js),
             )
+
+        for arm, settings in config["arms"].items():
+            add_arm(arm, settings)
 
         # rosbags builds each type's (de)serialiser on first use, in ~0.1 s: not in the middle of a motion
         warm = codec.encode_joint_state(0.0, np.zeros(6))

@@ -3,6 +3,7 @@ trajectories, and follow each one to its end with a `StreamedMotion` that behavi
 
 from __future__ import annotations
 
+import io
 import itertools
 import os
 import subprocess
@@ -99,7 +100,7 @@ class Streamer:
 
     def _read_reports(self) -> None:
         reader, stdout = FrameReader(), self.process.stdout
-        assert stdout is not None
+        assert isinstance(stdout, io.BufferedReader)  # a binary pipe, buffered (Popen's default)
         while data := stdout.read1(65536):
             for frame in reader.feed(data):
                 with self._changed:

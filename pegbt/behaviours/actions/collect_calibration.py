@@ -22,6 +22,9 @@ from pegbt.executive.leaf import Leaf
 from pegbt.executive.params import Param
 from pegbt.executive.registry import behaviour
 from pegbt.physics.recording import RecordingWriter
+from pegbt.transport.arm import MotionHandle
+from pegbt.transport.crtk_arm import RobotMove
+from pegbt.transport.streaming import StreamedMotion
 
 MAX_SAMPLES = 1_000_000  # set-points: about 95 hours of collection at 174 a minute
 MAX_SETTLE = 60.0  # s a set-point is held before it is sampled
@@ -56,6 +59,8 @@ MAX_SETTLE = 60.0  # s a set-point is held before it is sampled
     resources=("robot",),
 )
 class CollectCalibration(Leaf):
+    handle: MotionHandle | RobotMove | StreamedMotion | None
+
     def setup(self, **kwargs: object) -> None:
         self.robot = self.context.resource("robot", Robot)
 
@@ -86,6 +91,7 @@ class CollectCalibration(Leaf):
             self.feedback_message = self.problem
             return Status.FAILURE
         now = self.context.clock.now()
+        assert self.handle is not None  # `_next` set it, or the problem above
         try:
             if self.handle.failed:
                 self.feedback_message = f"set-point {len(self.writer)}: {self.handle.error}"

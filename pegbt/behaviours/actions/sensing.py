@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import time
 
+from numpy.typing import ArrayLike
 from py_trees.common import Status
 
 from pegbt.behaviours.base import RESOURCES, ComputeLeaf, RobotLeaf
@@ -59,7 +60,7 @@ class RegisterBoard(ComputeLeaf):
     def inputs(self) -> tuple:
         return (self.read("/cloud"),)
 
-    def compute(self, cloud) -> BoardEstimate:
+    def compute(self, cloud: ArrayLike) -> BoardEstimate:
         return self.skills.registration.fit(cloud)
 
     def finish(self, board: BoardEstimate) -> Status:
@@ -85,7 +86,7 @@ class FindBlocks(ComputeLeaf):
     def inputs(self) -> tuple:
         return self.read("/cloud"), self.read("/board")
 
-    def compute(self, cloud, board: BoardEstimate) -> list[BlockEstimate]:
+    def compute(self, cloud: ArrayLike, board: BoardEstimate) -> list[BlockEstimate]:
         return self.skills.locator.locate(cloud, board)
 
     def finish(self, blocks: list[BlockEstimate]) -> Status:

@@ -45,6 +45,7 @@ class BeginTransfer(RobotLeaf):
 class FinishTransfer(RobotLeaf):
     def act(self) -> Status:
         record = self.robot.trial.finish(int(self.get("transfer")), self.param("outcome"), self.param("note"))
+        assert record.ended is not None  # `finish` stamps it
         self.feedback_message = (
             f"transfer {record.index} {record.outcome} after {record.ended - record.started:.2f} s"
         )

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol
 
 from pegbt.behaviours.resources.trial import Trial
 from pegbt.clock import Clock, WallClock, is_realtime
@@ -45,6 +45,12 @@ SIMULATOR_ARGS = ("--physics", "dvrk-real")
 PROBE_TIMEOUT = 2.0  # s to wait for a simulator to answer `sim/clock` at an address (no answer: a robot)
 STEP_TIMEOUT = 5.0  # s to wait for a lockstep step: a camera capture on a loaded 2-core machine took over 2
 READY_TIMEOUT = 5.0  # s to wait for each arm's first state
+
+
+class Truth(Protocol):
+    """The simulator's log, as the judge reads it."""
+
+    def entries(self, clock: Clock) -> list[dict[str, Any]]: ...
 
 
 class SimulatorTruth:
@@ -94,7 +100,7 @@ class Robot:
         link: Link | None = None,
         simulator: SimProcess | None = None,
         lockstep: bool = False,
-        truth: SimulatorTruth | None = None,
+        truth: Truth | None = None,
         endpoint: str = "",
         closers: tuple[Callable[[], None], ...] = (),
     ) -> None:

@@ -15,6 +15,7 @@ fit another.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -93,7 +94,7 @@ class Skills:
         self.selectors = {arm: GraspSelector(arm, self._reachable(arm), self.cell) for arm in ARMS}
         self.waiting: dict[str, float | None] = dict.fromkeys(ARMS)  # since when each arm waits for the other
 
-    def _reachable(self, arm: str):
+    def _reachable(self, arm: str) -> Callable[[NDArray[np.float64]], NDArray[np.bool_]]:
         settings = self.settings[arm]
 
         def reachable(poses: NDArray[np.float64]) -> NDArray[np.bool_]:
