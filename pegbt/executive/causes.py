@@ -24,9 +24,10 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
+from pegbt.behaviours.handover_protocol import STEERING
 from pegbt.executive.logfile import TickLog, Transition
 
-CONTROL_FLOW = frozenset({"check_blackboard", "force_failure", "inverter"})
+CONTROL_FLOW = frozenset({"check_blackboard", "force_failure", "inverter", *STEERING})
 ABSORBERS = frozenset(
     {"selector", "retry"}
 )  # nodes that get over a child's failure by another child or attempt

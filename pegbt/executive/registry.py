@@ -41,6 +41,7 @@ BEHAVIOUR_MODULES: tuple[str, ...] = (
     "pegbt.behaviours.motion",
     "pegbt.behaviours.placing",
     "pegbt.behaviours.handover",
+    "pegbt.behaviours.handover_protocol",
     "pegbt.behaviours.bookkeeping",
     "pegbt.behaviours.calibration",
 )

@@ -270,8 +270,10 @@ class Resolver:
             where = marks.get(param.name, mark)
             if isinstance(value, BlackboardRef):
                 keys.append(KeyUse(absolute_key(namespace, value.key), "read", where, param.name))
-            elif param.key is not None and is_valid_key(value) and param.name in fields:
-                keys.append(KeyUse(absolute_key(namespace, value), param.key, where, param.name))
+            elif param.key is not None and param.key_named(value) is not None and param.name in fields:
+                keys.append(
+                    KeyUse(absolute_key(namespace, param.key_named(value)), param.key, where, param.name)
+                )
         if behaviour is not None:
             keys.extend(KeyUse(absolute_key(namespace, key), "read", mark) for key in behaviour.reads)
             keys.extend(KeyUse(absolute_key(namespace, key), "write", mark) for key in behaviour.writes)
