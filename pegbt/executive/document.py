@@ -10,7 +10,9 @@ A tree file is a mapping with these keys (all optional, but a file must have `tr
 - `subtrees`: definitions, `NAME: {doc, args: {ARG: TYPE | {type, default, doc}}, tree: NODE}`.
 - `tree`: the root node.
 
-Only the subtree definitions of an included file are used (its own `tree` and `blackboard` are not).
+An included file gives its subtree definitions and its `blackboard` values, as defaults: the including
+file's own value of a key wins, and two included files that give one key different values are an error
+naming both. An included file's own `tree` is not used.
 """
 
 from __future__ import annotations
@@ -124,8 +126,11 @@ class _DocumentLoader:
         document.doc = self._text(root, "doc")
         document.tree = root.value.get("tree")
         document.blackboard = self._blackboard(root.value.get("blackboard"))
+        own_keys = set(document.blackboard)
         for include_path, mark in self._includes(root.value.get("include"), path):
-            self._include(document, include_path, mark, stack + (path.resolve(),))
+            included = self._include(document, include_path, mark, stack + (path.resolve(),))
+            if included is not None:
+                self._defaults(document, included, own_keys)
         for subtree in self._subtrees(root.value.get("subtrees")):
             first = self.defined_at.get(subtree.name)
             if first is not None and first != subtree.mark:
@@ -140,17 +145,33 @@ class _DocumentLoader:
             document.own_subtrees.append(subtree.name)
         return document
 
-    def _include(self, document: TreeDocument, path: Path, mark: Mark, stack: tuple[Path, ...]) -> None:
+    def _defaults(self, document: TreeDocument, included: TreeDocument, own_keys: set[str]) -> None:
+        """Take the blackboard defaults of an included file, unless this file sets the key itself."""
+        for key, value in included.blackboard.items():
+            if key in own_keys:
+                continue
+            first = document.blackboard.setdefault(key, value)
+            if first.mark != value.mark and first.plain() != value.plain():
+                self.problems.add(
+                    f"blackboard key {key!r} has the default {brief(value.plain())} here and "
+                    f"{brief(first.plain())} at {first.mark}; set it in {document.path.name} to choose",
+                    value.mark,
+                    field=key,
+                )
+
+    def _include(
+        self, document: TreeDocument, path: Path, mark: Mark, stack: tuple[Path, ...]
+    ) -> TreeDocument | None:
         try:
             resolved = path.resolve()
             found = path.is_file()
         except (OSError, ValueError) as error:
             self.problems.add(f"included file {brief(str(path), 80)}: {error}", mark, field="include")
-            return
+            return None
         if resolved in stack:
             chain = " -> ".join(p.name for p in stack[stack.index(resolved) :] + (resolved,))
             self.problems.add(f"include cycle: {chain}", mark, field="include")
-            return
+            return None
         if self.confine_to is not None and not resolved.is_relative_to(self.confine_to):
             self.problems.add(
                 f"included file {brief(str(path), 80)} is outside the tree's folder {self.confine_to} "
@@ -158,19 +179,20 @@ class _DocumentLoader:
                 mark,
                 field="include",
             )
-            return
+            return None
         if len(stack) >= MAX_INCLUDE_DEPTH:
             self.problems.add(
                 f"includes nested more than {MAX_INCLUDE_DEPTH} files deep", mark, field="include"
             )
-            return
+            return None
         if not found:
             self.problems.add(f"included file {brief(str(path), 80)} not found", mark, field="include")
-            return
+            return None
         included = self.load(path, stack)
         for name, subtree in included.subtrees.items():
             document.subtrees.setdefault(name, subtree)
         document.files.extend(p for p in included.files if p not in document.files)
+        return included
 
     def _text(self, root: Located, key: str) -> str:
         value = root.value.get(key)
