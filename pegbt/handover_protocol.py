@@ -51,6 +51,9 @@ class Handover:
             f"receiver {self.receiver or 'not ready yet'}"
         )
 
+    def __repr__(self) -> str:  # as tick logs and `log why` show it: the words, not the enum members
+        return f"Handover({self.n}, giver={self.giver or 'none'}, receiver={self.receiver or 'none'})"
+
 
 def key(n: int) -> str:
     """The blackboard key of handover `n`'s record."""

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import dataclasses
 import enum
 from typing import Any
 
@@ -16,10 +15,6 @@ def compact(value: Any, depth: int = 0) -> Any:
         return value if not isinstance(value, str) or len(value) <= MAX_TEXT else value[:MAX_TEXT] + "..."
     if isinstance(value, enum.Enum):
         return str(value.value)
-    if depth < 3 and dataclasses.is_dataclass(value) and not isinstance(value, type):
-        return {
-            field.name: compact(getattr(value, field.name), depth + 1) for field in dataclasses.fields(value)
-        }
     if depth < 3 and hasattr(value, "shape") and hasattr(value, "tolist"):
         return _array(value)
     if depth < 3 and isinstance(value, (list, tuple)):
