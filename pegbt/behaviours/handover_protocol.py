@@ -9,6 +9,7 @@ with the record as it stands, which is what the tick log and `pegbt log why` sho
 from __future__ import annotations
 
 import math
+from typing import Literal
 
 from py_trees.common import Status
 
@@ -18,7 +19,7 @@ from pegbt.executive.registry import LeafSetup, behaviour
 from pegbt.handover_protocol import CONDITIONS, Giver, Handover, Receiver, key, record_of
 
 
-def _number(access: str) -> Param:
+def _number(access: Literal["read", "write"]) -> Param:
     return Param(
         "n",
         int,

@@ -33,8 +33,8 @@ def leaf_keys(setup: LeafSetup) -> tuple[set[str], set[str]]:
         value = setup.params.get(param.name)
         if isinstance(value, BlackboardRef):
             reads.add(value.key)
-        elif param.key_named(value) is not None:
-            (reads if param.key == "read" else writes).add(param.key_named(value))
+        elif (named := param.key_named(value)) is not None:
+            (reads if param.key == "read" else writes).add(named)
     return reads, writes
 
 

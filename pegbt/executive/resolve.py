@@ -272,10 +272,12 @@ class Resolver:
             where = marks.get(param.name, mark)
             if isinstance(value, BlackboardRef):
                 keys.append(KeyUse(absolute_key(namespace, value.key), "read", where, param.name))
-            elif param.key is not None and param.key_named(value) is not None and param.name in fields:
-                keys.append(
-                    KeyUse(absolute_key(namespace, param.key_named(value)), param.key, where, param.name)
-                )
+            elif (
+                param.key is not None
+                and (named := param.key_named(value)) is not None
+                and param.name in fields
+            ):
+                keys.append(KeyUse(absolute_key(namespace, named), param.key, where, param.name))
         if behaviour is not None:
             keys.extend(KeyUse(absolute_key(namespace, key), "read", mark) for key in behaviour.reads)
             keys.extend(KeyUse(absolute_key(namespace, key), "write", mark) for key in behaviour.writes)
@@ -447,7 +449,7 @@ class Resolver:
             instance = {
                 "use": fields["use"],
                 "args": Located(args, item.mark, {**fixed_marks, **item.key_marks}),
-                "name": Located(f"{position}: {shown}".strip(": "), item.mark),
+                "name": Located(f"{position}: {shown}" if shown else str(position), item.mark),
                 "namespace": Located(f"loop_{local}/item_{position}", item.mark),
             }
             child = self._subtree(item, instance, {key: item.mark for key in instance}, child_scope, children)
