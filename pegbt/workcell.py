@@ -26,6 +26,7 @@ N_PEGS = 12
 ORDERS_FILE = Path(__file__).resolve().parents[1] / "trees" / "shared" / "orders.yaml"
 
 
+@lru_cache(maxsize=1)
 def _reference_order(path: Path = ORDERS_FILE) -> tuple[tuple[int, int], ...]:
     """(start peg, goal peg) of each transfer of the reference order, from the trees' list of it."""
     items = read_settings_file(path).section("lists")["reference"].sequence()
@@ -35,9 +36,13 @@ def _reference_order(path: Path = ORDERS_FILE) -> tuple[tuple[int, int], ...]:
     )
 
 
-# The reference's unilateral trial (one arm): (start peg, goal peg) of each of the 12 transfers, read
-# from `trees/shared/orders.yaml`, the list the trees loop over.
-UNILATERAL_ORDER = _reference_order()
+def __getattr__(name: str) -> tuple[tuple[int, int], ...]:
+    """`UNILATERAL_ORDER`: the reference's unilateral trial (one arm), (start peg, goal peg) of each of its
+    12 transfers, read from `trees/shared/orders.yaml` (the list the trees loop over) when first asked for,
+    so importing this module reads no tree file."""
+    if name == "UNILATERAL_ORDER":
+        return _reference_order()
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 @dataclass(frozen=True)
