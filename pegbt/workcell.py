@@ -23,21 +23,26 @@ from pegbt.yamlfile import Located, read_settings_file
 
 WORKCELL_FILE = Path(__file__).resolve().parents[1] / "skills" / "workcell.yaml"
 N_PEGS = 12
-# The reference's unilateral trial (one arm): (start peg, goal peg) of each of the 12 transfers.
-UNILATERAL_ORDER = (
-    (1, 7),
-    (0, 6),
-    (3, 8),
-    (2, 9),
-    (5, 11),
-    (4, 10),
-    (7, 1),
-    (6, 0),
-    (8, 3),
-    (9, 2),
-    (11, 5),
-    (10, 4),
-)
+ORDERS_FILE = Path(__file__).resolve().parents[1] / "trees" / "shared" / "orders.yaml"
+
+
+@lru_cache(maxsize=1)
+def _reference_order(path: Path = ORDERS_FILE) -> tuple[tuple[int, int], ...]:
+    """(start peg, goal peg) of each transfer of the reference order, from the trees' list of it."""
+    items = read_settings_file(path).section("lists")["reference"].sequence()
+    return tuple(
+        (item["pick"].integer(low=0, high=N_PEGS - 1), item["place"].integer(low=0, high=N_PEGS - 1))
+        for item in items
+    )
+
+
+def __getattr__(name: str) -> tuple[tuple[int, int], ...]:
+    """`UNILATERAL_ORDER`: the reference's unilateral trial (one arm), (start peg, goal peg) of each of its
+    12 transfers, read from `trees/shared/orders.yaml` (the list the trees loop over) when first asked for,
+    so importing this module reads no tree file."""
+    if name == "UNILATERAL_ORDER":
+        return _reference_order()
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 @dataclass(frozen=True)

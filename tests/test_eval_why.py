@@ -171,18 +171,17 @@ def test_a_giver_whose_receiver_never_came_is_named_by_the_wait_and_the_simulato
     with_shared_trees(tree.parent)
     tree.write_text(
         "include: [shared/handover.yaml, shared/sense.yaml]\n"
-        "blackboard: {/handover/offered: 0, /handover/arrived: 0, /handover/taken: 0, /handover/released: 0, /handover/given_up: 0,\n"
-        "             /handover/refused: 0, /handover/ready: 1, /handover/closing: 0, /PSM1/may_carry: true, /PSM2/may_carry: true}\n"
         "tree:\n  sequence:\n"
         "    - subtree: {use: clear_view}\n"
+        "    - ready_for: {name: a receiver said it is ready, n: 1}\n"
         "    - force_success: {name: g, child: {subtree: {use: give, args: {giver: PSM2, receiver: PSM1, n: 1, pick: 1, place: 7,"
         " regrasps: 0, patience: 2.0}}}}\n"
     )
     record = run_trial(TrialSpec("handover", "optimized", 3, tmp_path / "giver.jsonl", None, tree=tree))
     [check] = record.why
     assert (check["named_step"], check["truth"]["step"], check["agrees"]) == ("handover", "handover", True)
-    assert check["named"].endswith("the receiver takes it: timed out after 2 s")
-    assert (
-        "still holding: PSM2 holds its block; wait until taken: waiting for /handover/taken == 1 (now 0)"
-        in log_why(record.log)
-    )
+    state = "/handover/state_1: handover 1: giver arrived, receiver ready"
+    assert check["named"].endswith(f"the receiver takes it: not taken after 2 s ({state})")
+    why = log_why(record.log)
+    assert "the receiver takes it (await_taker) failed at t=" in why
+    assert "blackboard it read: /handover/state_1=Handover(1, giver=arrived, receiver=ready)" in why

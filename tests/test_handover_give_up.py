@@ -18,8 +18,6 @@ def one_handover(tmp_path: Path, regrasps: int = 0) -> Path:
     with_shared_trees(tree.parent)
     tree.write_text(
         f"include: [shared/handover.yaml, shared/sense.yaml]\n"
-        "blackboard: {/handover/offered: 0, /handover/arrived: 0, /handover/taken: 0, /handover/released: 0, /handover/given_up: 0, /handover/refused: 0, /handover/closing: 0, /handover/ready: 0,\n"
-        "             /PSM1/may_carry: true, /PSM2/may_carry: true}\n"
         "tree:\n  sequence:\n"
         "    - subtree: {use: clear_view}\n"
         "    - parallel:\n        name: one handover\n        children:\n"

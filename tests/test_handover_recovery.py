@@ -16,33 +16,18 @@ RECEIVER_CARRIES = 7.20  # s: the receiver carries the block away from the meeti
 
 
 def two_handovers(tmp_path: Path) -> Path:
-    """Look, then hand the blocks on pegs 1 and 0 from PSM2 to PSM1 for pegs 7 and 6, pipelined."""
+    """Look, then hand the blocks on pegs 1 and 0 from PSM2 to PSM1 for pegs 7 and 6, pipelined: giver and
+    receiver loop over one list."""
     tree = tmp_path / "two-handovers.yaml"
-    keys = ", ".join(
-        f"/handover/{key}: 0"
-        for key in ("offered", "arrived", "taken", "released", "given_up", "refused", "closing", "ready")
-    )
-    gives = "".join(
-        f"                  - force_success: {{name: g{n}, child: {{subtree: {{use: give, args: {{giver: PSM2, "
-        f"receiver: PSM1, n: {n}, pick: {pick}, place: {place}, strays: [6]}}}}}}}}\n"
-        for n, pick, place in ((1, 1, 7), (2, 0, 6))
-    )
-    receives = "".join(
-        f"                  - force_success: {{name: r{n}, child: {{subtree: {{use: receive, args: {{receiver: PSM1, "
-        f"n: {n}, place: {place}, strays: [6]}}}}}}}}\n"
-        for n, place in ((1, 7), (2, 6))
-    )
     with_shared_trees(tree.parent)
     tree.write_text(
-        f"include: [shared/handover.yaml, shared/sense.yaml]\n"
-        f"blackboard: {{{keys}, /PSM1/may_carry: true, /PSM2/may_carry: true}}\n"
+        "include: [shared/handover.yaml, shared/sense.yaml]\n"
+        "lists: {two: [{pick: 1, place: 7, strays: [6]}, {pick: 0, place: 6, strays: [6]}]}\n"
         "tree:\n  sequence:\n"
         "    - subtree: {use: clear_view}\n"
         "    - parallel:\n        name: two handovers\n        children:\n"
-        "          - sequence:\n              name: PSM2 gives\n              children:\n"
-        + gives
-        + "          - sequence:\n              name: PSM1 receives\n              children:\n"
-        + receives
+        "          - for_each: {name: PSM2 gives, list: two, use: give, args: {giver: PSM2, receiver: PSM1}, on_failure: continue}\n"
+        "          - for_each: {name: PSM1 receives, list: two, use: receive, args: {receiver: PSM1}, on_failure: continue}\n"
     )
     return tree
 

@@ -106,7 +106,6 @@ def test_the_check_catches_an_upward_and_an_unlisted_import():
 
 
 LEAF_KINDS = ("pegbt.behaviours.actions.", "pegbt.behaviours.conditions.")
-UNGROUPED = ("pegbt.behaviours.handover",)  # rewritten on its own branch; grouped when it is merged
 
 
 def test_every_registered_leaf_lives_in_the_package_of_its_kind():
@@ -120,12 +119,12 @@ def test_every_registered_leaf_lives_in_the_package_of_its_kind():
         for path in (REPO / "pegbt" / "behaviours" / kind).glob("*.py")
         if path.name != "__init__.py"
     }
-    assert set(BEHAVIOUR_MODULES) == grouped | set(UNGROUPED)
+    assert set(BEHAVIOUR_MODULES) == grouped
     modules = {spec.name: spec.factory.__module__ for spec in REGISTRY}
     misplaced = [
         f"{name}: {module}"
         for name, module in modules.items()
-        if module.startswith("pegbt.") and not module.startswith(LEAF_KINDS) and module not in UNGROUPED
+        if module.startswith("pegbt.") and not module.startswith(LEAF_KINDS)
     ]
     assert misplaced == []
 

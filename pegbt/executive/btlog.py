@@ -32,7 +32,13 @@ MAGIC = b"BTCPP4-FileLogger2"
 PROTOCOL = 1
 IDLE, RUNNING, SUCCESS, FAILURE = 0, 1, 2, 3
 _STATUS = {"INVALID": IDLE, "RUNNING": RUNNING, "SUCCESS": SUCCESS, "FAILURE": FAILURE}
-_KIND = {"composite": "Control", "recover": "Control", "decorator": "Decorator", "subtree": "SubTree"}
+_KIND = {
+    "composite": "Control",
+    "recover": "Control",
+    "loop": "Control",
+    "decorator": "Decorator",
+    "subtree": "SubTree",
+}
 _SIMPLE = {"inverter": "Inverter", "force_success": "ForceSuccess", "force_failure": "ForceFailure"}
 _REACTIVE = {"ReactiveSequence", "ReactiveFallback"}  # a running child halts its siblings
 

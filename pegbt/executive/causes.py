@@ -24,9 +24,10 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
+from pegbt.behaviours.conditions.handover_protocol import STEERING
 from pegbt.executive.logfile import TickLog, Transition
 
-CONTROL_FLOW = frozenset({"check_blackboard", "force_failure", "inverter"})
+CONTROL_FLOW = frozenset({"check_blackboard", "force_failure", "inverter", *STEERING})
 ABSORBERS = frozenset(
     {"selector", "retry"}
 )  # nodes that get over a child's failure by another child or attempt
@@ -283,7 +284,7 @@ class FailureStep:
 class FailureChain:
     """A failure the tree did not get over: the run's own (`handled` "run", `by` the root) or one a node gave
     up on so the run could go on (`given up`: a recover node out of retries, a force_success over a failed
-    child); `steps` are the origins of its chain in the order they failed; it ended at `t`."""
+    child, a `for_each` that goes on past a failed item); `steps` are the origins of its chain in the order they failed; it ended at `t`."""
 
     handled: str
     by: str
@@ -341,7 +342,9 @@ def failure_chains(log: TickLog, timeline: Timeline | None = None) -> list[Failu
                 for change in timeline.by_node[node["id"]]
                 if change.after == "FAILURE"
             ]
-        elif node["type"] == "force_success":
+        elif node["type"] == "force_success" or (
+            node["type"] == "for_each" and node["params"].get("on_failure") == "continue"
+        ):
             ends += [
                 ("given up", node["id"], change)
                 for child in timeline.children[node["id"]]

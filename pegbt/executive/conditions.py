@@ -13,6 +13,7 @@ OPERATORS: dict[str, Callable[[Any, Any], Any]] = {
     "<=": operator.le,
     ">": operator.gt,
     ">=": operator.ge,
+    "in": lambda lhs, rhs: lhs in rhs,  # one of a list of values
 }
 
 

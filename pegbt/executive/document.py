@@ -7,10 +7,14 @@ A tree file is a mapping with these keys (all optional, but a file must have `tr
   they must lie in the folder of the tree file being loaded or below it (`allow_include_outside` lifts
   this), at most `MAX_INCLUDE_DEPTH` files deep. No error quotes an included file's content.
 - `blackboard`: initial blackboard values, `key: value`, set before the first tick.
+- `lists`: named lists of items, each a mapping of subtree arguments (`NAME: [{pick: 1, place: 7}, ...]`),
+  which `for_each` runs a subtree over; a name is defined once among a file and its includes.
 - `subtrees`: definitions, `NAME: {doc, args: {ARG: TYPE | {type, default, doc}}, tree: NODE}`.
 - `tree`: the root node.
 
-Only the subtree definitions of an included file are used (its own `tree` and `blackboard` are not).
+An included file gives its subtree definitions and its `blackboard` values, as defaults: the including
+file's own value of a key wins, and two included files that give one key different values are an error
+naming both. An included file's own `tree` is not used.
 """
 
 from __future__ import annotations
@@ -25,7 +29,7 @@ from pegbt.executive.params import REQUIRED, TYPE_NAMES, check_type, is_valid_ke
 from pegbt.executive.problems import Problems, did_you_mean
 from pegbt.yamlfile import Located, Mark, read_yaml_file
 
-TOP_LEVEL_KEYS = ("doc", "include", "blackboard", "subtrees", "tree")
+TOP_LEVEL_KEYS = ("doc", "include", "blackboard", "lists", "subtrees", "tree")
 _NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_-]{0,39}")
 MAX_INCLUDE_DEPTH = 32  # files including files: far beyond the shipped trees' 3
 SUBTREE_KEYS = ("doc", "args", "tree")
@@ -62,6 +66,7 @@ class TreeDocument:
     doc: str = ""
     tree: Located | None = None
     blackboard: dict[str, Located] = field(default_factory=dict)
+    lists: dict[str, Located] = field(default_factory=dict)
     subtrees: dict[str, SubtreeDef] = field(default_factory=dict)
     own_subtrees: list[str] = field(default_factory=list)
     files: list[Path] = field(default_factory=list)
@@ -119,13 +124,23 @@ class _DocumentLoader:
                     f"{', '.join(TOP_LEVEL_KEYS)}",
                     root.key_marks[key],
                 )
-        if "tree" not in root.value and "subtrees" not in root.value:
-            self.problems.add("nothing to run or share: expected `tree:` and/or `subtrees:`", root.mark)
+        if not {"tree", "subtrees", "lists"} & set(root.value):
+            self.problems.add("nothing to run or share: expected `tree:`, `subtrees:` or `lists:`", root.mark)
         document.doc = self._text(root, "doc")
         document.tree = root.value.get("tree")
         document.blackboard = self._blackboard(root.value.get("blackboard"))
+        own_keys = set(document.blackboard)
         for include_path, mark in self._includes(root.value.get("include"), path):
-            self._include(document, include_path, mark, stack + (path.resolve(),))
+            included = self._include(document, include_path, mark, stack + (path.resolve(),))
+            if included is not None:
+                self._defaults(document, included, own_keys)
+        for name, items in self._lists(root.value.get("lists")).items():
+            first = self.defined_at.get("list " + name)
+            if first is not None and first != items.mark:
+                self.problems.add(f"list {name!r} is already defined at {first}", items.mark, field=name)
+                continue
+            self.defined_at["list " + name] = items.mark
+            document.lists[name] = items
         for subtree in self._subtrees(root.value.get("subtrees")):
             first = self.defined_at.get(subtree.name)
             if first is not None and first != subtree.mark:
@@ -140,17 +155,33 @@ class _DocumentLoader:
             document.own_subtrees.append(subtree.name)
         return document
 
-    def _include(self, document: TreeDocument, path: Path, mark: Mark, stack: tuple[Path, ...]) -> None:
+    def _defaults(self, document: TreeDocument, included: TreeDocument, own_keys: set[str]) -> None:
+        """Take the blackboard defaults of an included file, unless this file sets the key itself."""
+        for key, value in included.blackboard.items():
+            if key in own_keys:
+                continue
+            first = document.blackboard.setdefault(key, value)
+            if first.mark != value.mark and first.plain() != value.plain():
+                self.problems.add(
+                    f"blackboard key {key!r} has the default {brief(value.plain())} here and "
+                    f"{brief(first.plain())} at {first.mark}; set it in {document.path.name} to choose",
+                    value.mark,
+                    field=key,
+                )
+
+    def _include(
+        self, document: TreeDocument, path: Path, mark: Mark, stack: tuple[Path, ...]
+    ) -> TreeDocument | None:
         try:
             resolved = path.resolve()
             found = path.is_file()
         except (OSError, ValueError) as error:
             self.problems.add(f"included file {brief(str(path), 80)}: {error}", mark, field="include")
-            return
+            return None
         if resolved in stack:
             chain = " -> ".join(p.name for p in stack[stack.index(resolved) :] + (resolved,))
             self.problems.add(f"include cycle: {chain}", mark, field="include")
-            return
+            return None
         if self.confine_to is not None and not resolved.is_relative_to(self.confine_to):
             self.problems.add(
                 f"included file {brief(str(path), 80)} is outside the tree's folder {self.confine_to} "
@@ -158,19 +189,22 @@ class _DocumentLoader:
                 mark,
                 field="include",
             )
-            return
+            return None
         if len(stack) >= MAX_INCLUDE_DEPTH:
             self.problems.add(
                 f"includes nested more than {MAX_INCLUDE_DEPTH} files deep", mark, field="include"
             )
-            return
+            return None
         if not found:
             self.problems.add(f"included file {brief(str(path), 80)} not found", mark, field="include")
-            return
+            return None
         included = self.load(path, stack)
         for name, subtree in included.subtrees.items():
             document.subtrees.setdefault(name, subtree)
+        for name, items in included.lists.items():
+            document.lists.setdefault(name, items)
         document.files.extend(p for p in included.files if p not in document.files)
+        return included
 
     def _text(self, root: Located, key: str) -> str:
         value = root.value.get(key)
@@ -217,6 +251,28 @@ class _DocumentLoader:
                 continue
             values[key if key.startswith("/") else "/" + key] = item
         return values
+
+    def _lists(self, value: Located | None) -> dict[str, Located]:
+        if value is None:
+            return {}
+        if not value.is_map:
+            self.problems.add(
+                f"expected a mapping of list names to lists of items; found {_kind(value)}",
+                value.mark,
+                field="lists",
+            )
+            return {}
+        lists = {}
+        for name, items in value.value.items():
+            if not items.is_list or not items.value or not all(item.is_map for item in items.value):
+                self.problems.add(
+                    "expected a non-empty list of items, each a mapping of argument names to values",
+                    items.mark,
+                    field=name,
+                )
+                continue
+            lists[name] = items
+        return lists
 
     def _subtrees(self, value: Located | None) -> list[SubtreeDef]:
         if value is None:

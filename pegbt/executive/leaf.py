@@ -33,10 +33,8 @@ def leaf_keys(setup: LeafSetup) -> tuple[set[str], set[str]]:
         value = setup.params.get(param.name)
         if isinstance(value, BlackboardRef):
             reads.add(value.key)
-        elif param.key == "read" and isinstance(value, str):
-            reads.add(value)
-        elif param.key == "write" and isinstance(value, str):
-            writes.add(value)
+        elif (named := param.key_named(value)) is not None:
+            (reads if param.key == "read" else writes).add(named)
     return reads, writes
 
 

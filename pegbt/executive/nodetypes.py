@@ -17,12 +17,13 @@ from py_trees.behaviour import Behaviour
 from pegbt.executive.conditions import OPERATORS
 from pegbt.executive.context import RunContext
 from pegbt.executive.guard import BlackboardGuard
+from pegbt.executive.loop import ForEach
 from pegbt.executive.params import MAX_COUNT, MAX_SECONDS, Param
 from pegbt.executive.recover import Recover
 from pegbt.executive.spec import NodeSpec
 from pegbt.executive.timeout import ClockTimeout
 
-Shape = Literal["composite", "decorator", "recover", "subtree"]
+Shape = Literal["composite", "decorator", "recover", "subtree", "loop"]
 Builder = Callable[[NodeSpec, list[Behaviour], RunContext], Behaviour]
 
 
@@ -43,6 +44,7 @@ class NodeType:
             "decorator": ("child",),
             "recover": ("main", "recovery"),
             "subtree": (),
+            "loop": (),
         }[self.shape]
 
 
@@ -223,6 +225,37 @@ NODE_TYPES: dict[str, NodeType] = {
             ),
             lambda spec, children, context: Recover(
                 spec.name, children[0], children[1], spec.params["retries"]
+            ),
+        ),
+        NodeType(
+            "for_each",
+            "an instance of subtree `use` per item of list `list` (the tree files' `lists:`), in order: the "
+            "item's fields are its arguments (those it declares), with `args` and, if it declares `n`, the "
+            "item's position in the list",
+            "loop",
+            (
+                Param("list", str, "name of the list (in `lists:` of this file or an included one)"),
+                Param("use", str, "name of the subtree definition run per item"),
+                Param("args", dict, "arguments the same for every item", default={}),
+                Param("from", int, "first item (position, from 1)", default=1, minimum=1, maximum=MAX_COUNT),
+                Param(
+                    "to",
+                    int,
+                    "last item (position; default the last)",
+                    default=None,
+                    minimum=1,
+                    maximum=MAX_COUNT,
+                ),
+                Param(
+                    "on_failure",
+                    str,
+                    "stop: the loop fails with the item; continue: go on with the next item and succeed",
+                    default="stop",
+                    choices=("stop", "continue"),
+                ),
+            ),
+            lambda spec, children, context: ForEach(
+                spec.name, children, keep_going=spec.params["on_failure"] == "continue"
             ),
         ),
         NodeType(

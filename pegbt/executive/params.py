@@ -12,6 +12,7 @@ from __future__ import annotations
 import math
 import re
 import typing
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, Literal, TypeGuard
 
@@ -125,7 +126,10 @@ class Param:
         default: the value when the field is absent; `REQUIRED` (the default) makes it mandatory.
         choices: allowed values (for lists: allowed items).
         blackboard: the value may be `$key`, read from the blackboard each time the node asks for it.
-        key: the value is itself a blackboard key that the node reads or writes.
+        key: the value is itself a blackboard key that the node reads or writes (or, with `names_key`,
+            names one).
+        names_key: the key the value names (a handover number names its record's key), when the value is
+            not the key itself.
         minimum: smallest allowed number (`int` / `float`) or length (`list`).
         maximum: largest allowed number (`int` / `float`, or each item of a `list[int]` / `list[float]`):
             every number a tree gives has a stated physical range (a duration, a height, a count).
@@ -140,6 +144,7 @@ class Param:
     key: Literal["read", "write"] | None = None
     minimum: float | None = None
     maximum: float | None = None
+    names_key: Callable[[Any], str] | None = None
 
     @property
     def required(self) -> bool:
@@ -166,7 +171,7 @@ class Param:
         checked, problem = check_type(value, self.type)
         if problem:
             return value, problem
-        if self.key is not None and not isinstance(checked, Unbound) and not is_valid_key(checked):
+        if self.key_named(checked) is None and self.key is not None and not isinstance(checked, Unbound):
             return value, "a blackboard key name (letters, digits, _, / for namespaces, . for attributes)"
         if non_finite(checked):
             return value, "a finite number (not NaN, an infinity or beyond 64 bits)"
@@ -186,6 +191,13 @@ class Param:
                 if item not in self.choices:
                     return value, "one of " + ", ".join(repr(choice) for choice in self.choices)
         return checked, None
+
+    def key_named(self, value: Any) -> str | None:
+        """The blackboard key a (checked) value of this key parameter names, or None if it names none."""
+        if self.key is None or isinstance(value, Unbound):
+            return None
+        named = self.names_key(value) if self.names_key is not None else value
+        return named if is_valid_key(named) else None
 
     def _range(self) -> str:
         low = "" if self.minimum is None else f" >= {self.minimum:g}"

@@ -43,7 +43,9 @@ BEHAVIOUR_MODULES: tuple[str, ...] = (
     "pegbt.behaviours.actions.collect_calibration",
     "pegbt.behaviours.conditions.blackboard",
     "pegbt.behaviours.conditions.blocks",
-    "pegbt.behaviours.handover",
+    "pegbt.behaviours.actions.handover",
+    "pegbt.behaviours.actions.handover_protocol",
+    "pegbt.behaviours.conditions.handover_protocol",
 )
 
 Factory = Callable[["LeafSetup"], py_trees.behaviour.Behaviour]

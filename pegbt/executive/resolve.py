@@ -127,6 +127,8 @@ class Resolver:
             declared = behaviour.params
         if node_type is not None and node_type.shape == "subtree":
             return self._subtree(loc, fields, field_marks, scope, siblings)
+        if node_type is not None and node_type.shape == "loop":
+            return self._loop(loc, fields, field_marks, scope, siblings)
         name = self._name(type_name, fields, field_marks, scope, siblings, loc.mark)
         path = f"{scope.path}/{name}"
         self._unknown_fields(
@@ -274,8 +276,12 @@ class Resolver:
             where = marks.get(param.name, mark)
             if isinstance(value, BlackboardRef):
                 keys.append(KeyUse(absolute_key(namespace, value.key), "read", where, param.name))
-            elif param.key is not None and is_valid_key(value) and param.name in fields:
-                keys.append(KeyUse(absolute_key(namespace, value), param.key, where, param.name))
+            elif (
+                param.key is not None
+                and (named := param.key_named(value)) is not None
+                and param.name in fields
+            ):
+                keys.append(KeyUse(absolute_key(namespace, named), param.key, where, param.name))
         if behaviour is not None:
             keys.extend(KeyUse(absolute_key(namespace, key), "read", mark) for key in behaviour.reads)
             keys.extend(KeyUse(absolute_key(namespace, key), "write", mark) for key in behaviour.writes)
@@ -402,6 +408,95 @@ class Resolver:
         )
         instance.children = [body] if body is not None else []
         return instance
+
+    def _loop(
+        self,
+        loc: Located,
+        fields: dict[str, Located],
+        marks: dict[str, Mark],
+        scope: Scope,
+        siblings: Siblings,
+    ) -> NodeSpec:
+        """A `for_each`: one instance of the subtree per item of the list, each item's fields its arguments."""
+        declared = NODE_TYPES["for_each"].params
+        name = self._name("for_each", fields, marks, scope, siblings, loc.mark)
+        path = f"{scope.path}/{name}"
+        self._unknown_fields("for_each", fields, marks, declared, (), path)
+        params = self._params(declared, fields, marks, scope, loc.mark, path)
+        spec = NodeSpec("for_each", name, params, loc.mark, path, scope.namespace)
+        items = self._items(params, fields, marks, loc.mark, path)
+        definition = self.document.subtrees.get(params["use"]) if isinstance(params["use"], str) else None
+        if not items or definition is None:
+            if definition is None and isinstance(params["use"], str):
+                self.problems.add(
+                    f"unknown subtree {params['use']!r}{did_you_mean(params['use'], self.document.subtrees)}",
+                    marks["use"],
+                    path=path,
+                    field="use",
+                )
+            return spec
+        given = fields.get("args")
+        fixed = given.value if given is not None and given.is_map else {}
+        fixed_marks = given.key_marks if given is not None and given.is_map else {}
+        local = _NAMESPACE_CHARS.sub("_", path).strip("_")  # the path: unique, where the name may not be
+        child_scope = Scope(path=path, namespace=scope.namespace, args=scope.args, stack=scope.stack)
+        children = Siblings()
+        for position, item in items:
+            taken = {key: value for key, value in item.value.items() if key in definition.args}
+            args = {**fixed, **taken}
+            if "n" in definition.args and "n" not in args:
+                args["n"] = Located(position, item.mark)
+            shown = " ".join(
+                f"{key} {value.plain()}"
+                for key, value in taken.items()
+                if not (value.is_map or value.is_list)
+            )
+            instance = {
+                "use": fields["use"],
+                "args": Located(args, item.mark, {**fixed_marks, **item.key_marks}),
+                "name": Located(f"{position}: {shown}" if shown else str(position), item.mark),
+                "namespace": Located(f"loop_{local}/item_{position}", item.mark),
+            }
+            child = self._subtree(item, instance, {key: item.mark for key in instance}, child_scope, children)
+            if child is not None:
+                spec.children.append(child)
+        return spec
+
+    def _items(
+        self,
+        params: dict[str, Any],
+        fields: dict[str, Located],
+        marks: dict[str, Mark],
+        mark: Mark,
+        path: str,
+    ) -> list[tuple[int, Located]]:
+        """(position from 1, item) of the loop's list between `from` and `to`; [] with a problem if none."""
+        name = params["list"]
+        if not isinstance(name, str):
+            return []
+        items = self.document.lists.get(name)
+        if items is None:
+            self.problems.add(
+                f"unknown list {name!r}{did_you_mean(name, self.document.lists)}; defined: "
+                f"{', '.join(sorted(self.document.lists)) or 'none'}",
+                marks.get("list", mark),
+                path=path,
+                field="list",
+            )
+            return []
+        first, last = params["from"], params["to"]
+        last = len(items.value) if last is None else last
+        if not isinstance(first, int) or not isinstance(last, int):
+            return []
+        if not 1 <= first <= last <= len(items.value):
+            self.problems.add(
+                f"items {first} to {last} are not in list {name!r} of {len(items.value)} item(s)",
+                marks.get("to", marks.get("from", mark)),
+                path=path,
+                field="to" if "to" in fields else "from",
+            )
+            return []
+        return [(position, items.value[position - 1]) for position in range(first, last + 1)]
 
     def _arguments(
         self, definition: SubtreeDef, given: Located | None, scope: Scope, mark: Mark, where: str

@@ -18,7 +18,9 @@ def _param_line(param: Param) -> str:
         facts.append(f"<= {param.maximum:g}")
     if param.blackboard:
         facts.append("$key allowed")
-    if param.key:
+    if param.names_key is not None:
+        facts.append(f"names blackboard key {param.names_key('N')} ({param.key})")
+    elif param.key:
         facts.append(f"blackboard key ({param.key})")
     return f"    {param.name}: {', '.join(facts)} -- {param.doc}"
 

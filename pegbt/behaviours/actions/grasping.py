@@ -22,7 +22,7 @@ from pegbt.behaviours.base import (
     key_param,
     peg_param,
 )
-from pegbt.behaviours.handover import plan_meeting
+from pegbt.behaviours.actions.handover import plan_meeting
 from pegbt.behaviours.motion import above_pegs_first, held_param
 from pegbt.behaviours.poses import approach_for, transfer_for
 from pegbt.executive.params import Param

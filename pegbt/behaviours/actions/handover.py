@@ -4,8 +4,8 @@ The giver carries the block to the meeting point (the mean of pegs 3, 6 and 9, s
 `skills/motion.yaml` says, tool yaw 0); the receiver waits open above its own grasp of the block there,
 descends and closes; the giver opens and rises; the receiver carries the block to its goal peg. The tools meet on purpose
 here, so these leaves do not keep the arms apart (`keep_apart` 0); the protocol does. The two arms
-never call each other: each step is a leaf, and the trees synchronise them through blackboard keys
-(`set_blackboard` on one side, `wait_blackboard` on the other).
+never call each other: each step is a leaf, and the trees synchronise them through the handover's record
+(`pegbt.handover_protocol`, set and tested by the leaves of `actions/handover_protocol.py` and `conditions/handover_protocol.py`).
 """
 
 from __future__ import annotations
@@ -29,7 +29,7 @@ from pegbt.behaviours.base import (
 )
 from pegbt.behaviours.motion import CarryLeaf, above_pegs_first, carry_params
 from pegbt.behaviours.poses import from_handover, to_arm, to_handover, tool_pose
-from pegbt.behaviours.skills import Skills
+from pegbt.behaviours.resources.skills import Skills
 from pegbt.errors import PegbtError
 from pegbt.executive.params import Param
 from pegbt.executive.registry import behaviour
