@@ -100,7 +100,7 @@ def test_the_log_records_transitions_blackboard_writes_and_sources(tmp_path):
         "t": pytest.approx(0.2),
         "outcome": "failure",
         "overruns": 0,
-        "work": {"jobs": 0, "compute_s": 0.0, "waited_s": 0.0},
+        "work": {"jobs": 0, "compute_s": 0.0, "waited_s": 0.0, "by_kind": {}},
     }
     assert all(
         event["type"] != "tick" or event["changes"] or "bb" in event for event in events

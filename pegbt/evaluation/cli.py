@@ -169,4 +169,6 @@ def _report_trial(record: TrialRecord) -> None:
             f"{record.transfers_succeeded}/{record.transfers_attempted} transfers, mean {mean}, "
             f"trial {record.trial_time_s:.1f} s, wall {record.wall_time_s:.1f} s"
         )
+    if record.commands_clipped or record.arm_faults:
+        line += f"; {record.commands_clipped} command(s) clipped, {record.arm_faults} FAULT(s)"
     print(f"seed {record.seed}: {line}", file=sys.stderr, flush=True)

@@ -29,6 +29,8 @@ TRIAL_COLUMNS = (
     "run_wall_s",
     "arm_arm_collisions",
     "other_contacts",
+    "commands_clipped",
+    "arm_faults",
     "tip_path_m",
     "fallbacks",
     "overruns",

@@ -66,6 +66,10 @@ def summarise(cell: Cell, records: Sequence[TrialRecord], workers: int = 1) -> d
         "trials_complete": sum(r.complete for r in ran),
         "collisions_per_trial": _mean([r.arm_arm_collisions for r in ran]),
         "other_contacts_per_trial": _mean([r.other_contacts for r in ran]),
+        "commands_clipped": sum(r.commands_clipped for r in records),
+        "commands_clipped_per_trial": [r.commands_clipped for r in records],
+        "arm_faults": sum(r.arm_faults for r in records),
+        "arm_faults_per_trial": [r.arm_faults for r in records],
         "tip_path_m_per_trial": _mean([r.tip_path_m for r in ran]),
         "fallbacks_per_trial": _mean([r.fallbacks for r in ran]),
         "overruns_per_trial": _mean([r.overruns for r in ran]),
@@ -131,6 +135,12 @@ def table(figures: dict[str, Any]) -> str:
         ("trial time", trial_time, paper_trial, ""),
         ("arm-arm collisions / trial", _s(f["collisions_per_trial"], "", 2), "0", "0"),
         ("other contacts / trial", _s(f["other_contacts_per_trial"], "", 2), "", ""),
+        (
+            "commands clipped, arm FAULTs (dVRK limits and tracking)",
+            f"{f['commands_clipped']}, {f['arm_faults']}",
+            "",
+            "0, 0",
+        ),
         ("tool-tip path / trial (planned)", _s(f["tip_path_m_per_trial"], " m"), "", ""),
         (
             "optimised plans fallen back to cubics / trial",

@@ -20,7 +20,7 @@ from pegbt.behaviours.resources.robot import SIMULATOR_ARGS
 from pegbt.behaviours.resources.skills import SIMULATOR_CALIBRATION
 from pegbt.behaviours.resources.trial import count_contacts
 from pegbt.errors import PegbtError
-from pegbt.evaluation.truth import failure_cause, injected_faults
+from pegbt.evaluation.truth import count_safety, failure_cause, injected_faults
 from pegbt.sim.log import read_sim_log
 from pegbt.sim.process import SimProcess
 
@@ -65,6 +65,8 @@ class TrialRecord:
     run_wall_s: float = 0.0  # including the simulator's start-up
     arm_arm_collisions: int = 0
     other_contacts: int = 0
+    commands_clipped: int = 0  # by the simulator, to the dVRK's limits (its `--interface dvrk`)
+    arm_faults: int = 0  # times an arm entered FAULT (its `--interface dvrk`)
     tip_path_m: float = 0.0  # planned tool-tip path, both arms
     fallbacks: int = 0  # optimised plans that fell back to cubics
     overruns: int = 0  # ticks that took longer than the period
@@ -103,6 +105,8 @@ def run_trial(spec: TrialSpec) -> TrialRecord:
     except PegbtError as error:
         record.error, record.run_wall_s = str(error), time.perf_counter() - started
         record.log = str(spec.log) if spec.log.exists() else ""
+        if truth.exists():  # kept, beside the tick log: a fault may be why the run stopped
+            record.commands_clipped, record.arm_faults = count_safety(read_sim_log(truth))
         return record
     record.run_wall_s = time.perf_counter() - started
     record.outcome, record.trial_time_s = output.result.outcome, output.result.duration
@@ -111,6 +115,7 @@ def run_trial(spec: TrialSpec) -> TrialRecord:
     record.compute_s = output.result.work.compute_s
     entries = read_sim_log(truth)
     record.arm_arm_collisions, record.other_contacts = count_contacts(entries)
+    record.commands_clipped, record.arm_faults = count_safety(entries)
     judged, skills = output.reports.get("robot"), output.reports.get("skills")
     if skills is not None:
         record.tip_path_m = sum(skills.tip_path_m.values())
@@ -138,7 +143,7 @@ def run_trial(spec: TrialSpec) -> TrialRecord:
         record.why = [
             {**asdict(check), "agrees": check.agrees} for check in check_why(log, record.transfers, entries)
         ]
-    if spec.keep_log or not record.complete or record.faults:
+    if spec.keep_log or not record.complete or record.faults or record.commands_clipped or record.arm_faults:
         record.log = str(spec.log)
     else:
         spec.log.unlink(missing_ok=True)

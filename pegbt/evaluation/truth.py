@@ -351,3 +351,16 @@ def _hit_transfer(fault: Entry, transfers: Sequence[Transfer], entries: Sequence
     if fault.get("arm"):
         running = [t for t in running if _involves(fault, _arms(t))]
     return max(running, key=lambda t: t["started"], default=None)
+
+
+def count_safety(entries: Sequence[Entry]) -> tuple[int, int]:
+    """Commands the simulator clipped to the dVRK's limits (`safety` entries of event `clip`) and times an
+    arm entered FAULT (`arm_state` entries, written when an arm's state changes), in its log."""
+    clipped = sum(entry["kind"] == "safety" and entry.get("event") == "clip" for entry in entries)
+    faults = 0
+    state: dict[str, str] = {}
+    for entry in entries:
+        if entry["kind"] == "arm_state":
+            faults += entry["state"] == "FAULT" and state.get(entry["arm"]) != "FAULT"
+            state[entry["arm"]] = entry["state"]
+    return clipped, faults

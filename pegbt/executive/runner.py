@@ -96,7 +96,7 @@ def run(
             wake = tick_start + period if _changed(before) else next_wake(built, tick_start, period)
             if timeout is not None:
                 wake = min(wake, start + timeout)
-            clock.wait(max(0.0, max(tick_start + period, wake) - clock.now()))
+            work.wait(clock, max(0.0, max(tick_start + period, wake) - clock.now()))
     except KeyboardInterrupt:
         _halt(root, log, ticks, clock.now() - start, "interrupt")
     except Exception as error:

@@ -14,7 +14,7 @@ Records (one JSON object per line, flushed as written so that a crash loses noth
 - `crash`: an exception escaped a tick (`error`, `traceback`).
 - `end`: `outcome` (`success`, `failure`, `timeout`, `interrupted`, `crash`), `ticks`, `t`,
   `overruns` (ticks that overran the period) and `work` (jobs run off the tick: `jobs`, `compute_s`,
-  `waited_s` from submission to pick-up, wall time).
+  `waited_s` from submission to pick-up, wall time; `by_kind`, the same per function a job ran).
 - `message`: what a robot said (a CRTK robot's `error`, `warning` and `status` topics): `n` and `t` of the
   tick it was logged before, `source` (the arm), `level` (`error`, `warning`, `status`), `text`, and
   `stamp` (the run's clock when it arrived; optional: a reader takes a message without one).
@@ -218,7 +218,7 @@ class TickLogWriter:
         )
 
     def end(
-        self, n: int, t: float, outcome: str, *, overruns: int = 0, work: dict[str, float] | None = None
+        self, n: int, t: float, outcome: str, *, overruns: int = 0, work: dict[str, Any] | None = None
     ) -> None:
         self._drain_messages(n, t)
         record: Record = {"type": "end", "n": n, "t": round(t, 6), "outcome": outcome, "overruns": overruns}

@@ -6,6 +6,9 @@ and Open3D, numpy and OSQP release the GIL in their heavy loops (`pegbt bench of
 much of a job's time the ticking thread still gets). A leaf calls `Leaf.offload(fn, *args)`; a job
 must compute from its arguments alone (no blackboard, no transport), since the tree runs on meanwhile.
 
+The run's ticking sleeps between ticks through `WorkPool.wait`, which a job ending cuts short: its leaf
+gets the result on the next tick at once, not up to a period later.
+
 With a clock whose time stands still while the tree computes (a lockstep simulator, `ManualClock`), the
 runner makes the pool `inline`: a job then runs at once, in the tick that asks for it, and the leaf finds
 it done on that same tick. Computing costs no simulated time there anyway, and ticks, results and
@@ -18,8 +21,10 @@ import threading
 import time
 from collections.abc import Callable
 from concurrent.futures import Future, ThreadPoolExecutor
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any, Generic, TypeVar
+
+from pegbt.clock import Clock
 
 T = TypeVar("T")
 WORKERS = 2  # two arms may plan at once
@@ -33,6 +38,7 @@ class Job(Generic[T]):
     ) -> None:
         """On `executor`'s threads, or at once in the caller when there is none (`WorkPool.inline`)."""
         self._pool = pool
+        self.kind = getattr(fn, "func", fn).__qualname__  # what computes (a partial's function)
         self.submitted = time.perf_counter()
         self.started: float | None = None
         self.finished: float | None = None
@@ -53,6 +59,7 @@ class Job(Generic[T]):
             return fn(*args)
         finally:
             self.finished = time.perf_counter()
+            self._pool.ended()
 
     @property
     def done(self) -> bool:
@@ -75,14 +82,33 @@ class Job(Generic[T]):
 
 @dataclass
 class WorkStats:
-    """Jobs picked up, their compute time and the time from submission to pick-up (wall seconds)."""
+    """Jobs picked up, their compute time and the time from submission to pick-up (wall seconds), in all
+    and by the function each job ran (`by_kind`: name → [jobs, compute_s, waited_s])."""
 
     jobs: int = 0
     compute_s: float = 0.0
     waited_s: float = 0.0
+    by_kind: dict[str, list[float]] = field(default_factory=dict)
 
-    def as_dict(self) -> dict[str, float]:
-        return {"jobs": self.jobs, "compute_s": round(self.compute_s, 6), "waited_s": round(self.waited_s, 6)}
+    def add(self, kind: str, compute: float, waited: float) -> None:
+        self.jobs += 1
+        self.compute_s += compute
+        self.waited_s += waited
+        figures = self.by_kind.setdefault(kind, [0, 0.0, 0.0])
+        figures[0] += 1
+        figures[1] += compute
+        figures[2] += waited
+
+    def as_dict(self) -> dict[str, Any]:
+        return {
+            "jobs": self.jobs,
+            "compute_s": round(self.compute_s, 6),
+            "waited_s": round(self.waited_s, 6),
+            "by_kind": {
+                kind: {"jobs": int(jobs), "compute_s": round(compute, 6), "waited_s": round(waited, 6)}
+                for kind, (jobs, compute, waited) in sorted(self.by_kind.items())
+            },
+        }
 
 
 class WorkPool:
@@ -96,6 +122,34 @@ class WorkPool:
         self._jobs: list[Job] = []
         self._lock = threading.Lock()
         self.stats = WorkStats()
+        self._ended = threading.Event()
+        self._ends = self._ends_seen = 0  # jobs ended, and how many had when `wait` last returned
+
+    def ended(self) -> None:
+        """A job has ended (called on its worker thread)."""
+        with self._lock:
+            self._ends += 1
+            self._ended.set()
+
+    def wait(self, clock: Clock, seconds: float) -> None:
+        """Wait `seconds` on `clock`, or less if a job ends meanwhile or has ended since the last wait (the
+        tick before may have looked too early), so that the tree picks its result up at once instead of
+        up to a period later. The run's ticking sleeps through this."""
+        if self.inline:
+            clock.wait(seconds)
+            return
+        with self._lock:
+            ended_since = self._ends != self._ends_seen
+            self._ended.clear()
+        if not ended_since:
+            if self.pending():
+                until = clock.now() + seconds
+                if not self._ended.wait(seconds):
+                    clock.wait(max(0.0, until - clock.now()))
+            else:
+                clock.wait(seconds)
+        with self._lock:
+            self._ends_seen = self._ends
 
     def submit(self, fn: Callable[..., T], *args: Any) -> Job[T]:
         if self._executor is None and not self.inline:
@@ -110,11 +164,9 @@ class WorkPool:
             return [job for job in self._jobs if not job.done and not job.discarded]
 
     def count(self, job: Job) -> None:
+        computed = 0.0 if job.started is None or job.finished is None else job.finished - job.started
         with self._lock:
-            self.stats.jobs += 1
-            self.stats.waited_s += time.perf_counter() - job.submitted
-            if job.started is not None and job.finished is not None:
-                self.stats.compute_s += job.finished - job.started
+            self.stats.add(job.kind, computed, time.perf_counter() - job.submitted)
 
     def close(self) -> None:
         """Drop queued jobs and let running ones end on their own (their results are discarded)."""

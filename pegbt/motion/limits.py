@@ -40,6 +40,8 @@ class ArmSettings:
     def joint_violations(self, q: ArrayLike) -> list[str]:
         """Human-readable joint-limit violations of one joint vector; empty when it is inside."""
         q = np.asarray(q, dtype=float)
+        if (q >= self.lower).all() and (q <= self.upper).all():  # NaN compares False: checked below
+            return []
         problems = []
         for i, (value, low, high) in enumerate(zip(q, self.lower, self.upper)):
             if not np.isfinite(value):

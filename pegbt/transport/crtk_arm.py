@@ -143,17 +143,20 @@ class CrtkJaw:
         return self._arm.read(self._setpoint)
 
     def move_jp(self, angle: float) -> StreamedMotion:
-        """Open or close to `angle` along a rest-to-rest cubic at the jaw's velocity limit."""
+        """Open or close to `angle` at the jaw's velocity limit: the constant-speed ramp pegbt's simulator
+        plays for a jaw `move_jp` (`pegbt.sim.playback.ramp_playback`), so that a jaw takes as long on
+        either interface. Each set-point moves at most the limit's step (0.06 rad at 6 rad/s and 100 Hz),
+        a tenth of the jaw actuator's tracking tolerance (`pegbt.sim.dvrk_config.ACTUATOR_TOLERANCE`)."""
         settings = self._arm.settings
         guards.refuse_if(
             guards.jaw_problems(angle, settings), f"jaw goal {angle}", self._arm.topics.jaw_servo_jp.name
         )
         start = float(self.setpoint_js.position[0])
-        # a cubic's peak speed is 1.5 times its mean: the duration that keeps the peak at the limit
-        duration = max(1.5 * abs(angle - start) / settings.jaw_velocity, settings.control_period)
+        distance = abs(angle - start)
+        duration = max(distance / settings.jaw_velocity, settings.control_period)
         t = np.append(np.arange(0.0, duration, settings.control_period), duration)
-        s = t / duration
-        q = start + (angle - start) * (3 * s**2 - 2 * s**3)
+        q = start + np.sign(angle - start) * np.minimum(t * settings.jaw_velocity, distance)
+        q[-1] = angle
         return self._arm.stream("jaw", t, q[:, None], f"{self._arm.name} jaw to {angle:.3f} rad", duration)
 
 

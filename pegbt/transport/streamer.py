@@ -9,12 +9,18 @@ frames (a 4-byte little-endian length, then a pickle; both ends are pegbt):
 
 - in: `("configure", {...})` first, then `("play", id, arm, axis, t, q)` (axis `arm` or `jaw`; `t` from 0,
   `q` one row per time), `("stop", id)`, `("quit",)`;
-- out: `("ready",)`, `("started", id)`, `("done", id)`, `("failed", id, reason)`.
+- out: `("ready", realtime)`, `("started", id)`, `("done", id)`, `("failed", id, reason)`.
 
 Every set-point is checked before it leaves (`guards`: joint limits, and velocity from the last one sent, or
 from the robot's `setpoint_js` for the first of a motion): one that fails is never sent; the motion fails,
 and the arm is told to `hold`. A motion also fails if the arm leaves ENABLED. When the executive dies (its
 end of the pipe closes), every arm is told to `hold` and the streamer exits.
+
+Timing (measured by `pegbt bench servo`): the loop waits for commands with `epoll`, whose timeout Python
+rounds up to whole milliseconds, so it wakes from it up to 1 ms early and sleeps the rest with
+`time.sleep` (`clock_nanosleep`, about 0.1 ms late). Where the system permits it (root, or an `rtprio`
+limit), the process, with zenoh's threads that send for it, runs under `SCHED_FIFO`, so that neither the
+executive's computing nor another process on the machine delays a set-point; elsewhere it runs as before.
 """
 
 from __future__ import annotations
@@ -37,6 +43,8 @@ if TYPE_CHECKING:
     from pegbt.motion.limits import ArmSettings
 
 _LENGTH = struct.Struct("<I")
+REALTIME_PRIORITY = 10  # SCHED_FIFO, 1..99: above every ordinary process, below the kernel's own threads
+EPOLL_RESOLUTION = 0.001  # s: epoll's timeout is whole milliseconds
 Frame = tuple[Any, ...]
 
 
@@ -243,6 +251,15 @@ def _sample(t: NDArray[np.float64], q: NDArray[np.float64], at: float) -> NDArra
     return q[index - 1] + share * (q[index] - q[index - 1])
 
 
+def realtime() -> bool:
+    """Run this process (and the threads it starts later) under SCHED_FIFO if the system lets it."""
+    try:
+        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(REALTIME_PRIORITY))
+    except (AttributeError, OSError):  # not Linux, or no permission: the ordinary scheduler
+        return False
+    return True
+
+
 def main() -> int:
     """Run until the executive says quit or its end of the pipe closes."""
     reader, stdin, stdout = FrameReader(), sys.stdin.fileno(), sys.stdout.fileno()
@@ -256,8 +273,9 @@ def main() -> int:
         if not data:
             return 0
         frames = reader.feed(data)
+    is_realtime = realtime()  # before the session opens, so that zenoh's threads inherit it
     streamer = Streamer(frames.pop(0)[1], report)
-    report(("ready",))
+    report(("ready", is_realtime))
     selector = selectors.DefaultSelector()
     selector.register(stdin, selectors.EVENT_READ)
     period = streamer.period
@@ -270,7 +288,7 @@ def main() -> int:
             frames = []
             if not running:
                 break
-            if selector.select(max(0.0, next_tick - time.monotonic())):
+            if selector.select(max(0.0, next_tick - time.monotonic() - EPOLL_RESOLUTION)):
                 data = os.read(stdin, 1 << 20)
                 if not data:  # the executive is gone: hold every arm, then leave
                     for arm in {arm for arm, _ in streamer.axes}:
@@ -279,8 +297,11 @@ def main() -> int:
                 frames = reader.feed(data)
                 continue
             now = time.monotonic()
-            if now < next_tick:
+            if now < next_tick - EPOLL_RESOLUTION:
                 continue
+            if now < next_tick:
+                time.sleep(next_tick - now)
+                now = time.monotonic()
             streamer.tick(next_tick)
             next_tick += period
             if next_tick < now:  # fell more than a period behind: skip, never burst

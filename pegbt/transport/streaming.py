@@ -62,6 +62,7 @@ class Streamer:
         self._started: set[int] = set()
         self._changed = threading.Condition()
         self._ready = False
+        self.realtime = False  # whether the streamer runs under SCHED_FIFO (see `pegbt.transport.streamer`)
         self._gone = False
         self._write_lock = threading.Lock()
         self._send(
@@ -105,7 +106,7 @@ class Streamer:
             for frame in reader.feed(data):
                 with self._changed:
                     if frame[0] == "ready":
-                        self._ready = True
+                        self._ready, self.realtime = True, bool(frame[1])
                     elif frame[0] == "started":
                         self._started.add(frame[1])
                     else:

@@ -1,0 +1,82 @@
+"""A campaign counts, per trial, the commands the simulator clipped to the dVRK's limits and the FAULTs its
+arms entered, from the simulator's own log (`--interface dvrk`), and keeps that log when either happened."""
+
+from __future__ import annotations
+
+import threading
+from pathlib import Path
+
+import pytest
+from dvrk_peer import DvrkPeer, joint_state, wait_for
+from test_eval_why import short_task
+
+from pegbt.evaluation.campaign import Cell
+from pegbt.evaluation.summary import summarise
+from pegbt.evaluation.trial import TrialSpec, run_trial, truth_path
+from pegbt.evaluation.truth import count_safety
+from pegbt.sim.process import SimProcess
+
+OPERATING_STATE = "crtk_msgs/msg/OperatingState"
+
+
+def test_a_fault_counts_once_however_many_state_changes_follow_it_and_only_clips_count_as_clips():
+    entries = [
+        {"kind": "arm_state", "arm": "PSM1", "state": "ENABLED"},
+        {"kind": "safety", "arm": "PSM1", "event": "not_ready", "command": "servo_jp"},
+        {"kind": "safety", "arm": "PSM1", "event": "clip", "command": "servo_jp"},
+        {"kind": "arm_state", "arm": "PSM1", "state": "FAULT"},
+        {"kind": "arm_state", "arm": "PSM2", "state": "ENABLED"},
+        {"kind": "arm_state", "arm": "PSM1", "state": "FAULT"},  # unhomed while in FAULT: the same fault
+        {"kind": "arm_state", "arm": "PSM1", "state": "ENABLED"},
+        {"kind": "arm_state", "arm": "PSM1", "state": "FAULT"},
+    ]
+    assert count_safety(entries) == (1, 2)
+
+
+class _OutOfLimitJaw(SimProcess):
+    """The trial's simulator, and a peer that, once PSM2 is enabled and homed, asks it for a jaw angle
+    beyond the tool's limit (`jaw/move_jp` 3 rad): the dVRK clips it (PSM.cpp `clip_jaw_jp`)."""
+
+    sent = threading.Event()
+
+    def __enter__(self) -> SimProcess:
+        threading.Thread(target=self._inject, daemon=True).start()
+        return self
+
+    def _inject(self) -> None:
+        peer = DvrkPeer(self.endpoint)
+        try:
+            states = peer.subscribe_latched("PSM2/operating_state")
+
+            def ready() -> bool:
+                decoded = states.decoded(OPERATING_STATE)
+                return bool(decoded) and decoded[-1].state == "ENABLED" and decoded[-1].is_homed
+
+            if wait_for(ready, timeout=120):
+                peer.put("PSM2/jaw/move_jp", joint_state([3.0]))
+                self.sent.set()
+        finally:
+            peer.close()
+
+
+@pytest.mark.slow
+def test_a_clip_forced_during_a_real_time_trial_is_counted_and_its_logs_kept(tmp_path: Path, monkeypatch):
+    monkeypatch.setattr("pegbt.evaluation.trial.SimProcess", _OutOfLimitJaw)
+    spec = TrialSpec(
+        "unilateral",
+        "optimized",
+        3,
+        tmp_path / "clip.jsonl",
+        tree=short_task(tmp_path),
+        realtime=True,
+        interface="dvrk",
+    )
+    record = run_trial(spec)
+    assert _OutOfLimitJaw.sent.is_set()
+    assert record.commands_clipped >= 1 and record.arm_faults == 0, record.error
+    assert record.log == str(spec.log) and truth_path(spec.log).exists()  # kept to be looked at
+    cell = Cell("unilateral", "optimized", 1, seed=3, realtime=True, interface="dvrk")
+    figures = summarise(cell, [record])
+    assert figures["commands_clipped"] == record.commands_clipped
+    assert figures["commands_clipped_per_trial"] == [record.commands_clipped]
+    assert figures["arm_faults"] == 0
