@@ -4,6 +4,7 @@ arms entered, from the simulator's own log (`--interface dvrk`), and keeps that 
 from __future__ import annotations
 
 import threading
+import time
 from pathlib import Path
 
 import pytest
@@ -17,6 +18,7 @@ from pegbt.evaluation.truth import count_safety
 from pegbt.sim.process import SimProcess
 
 OPERATING_STATE = "crtk_msgs/msg/OperatingState"
+JOINT_STATE = "sensor_msgs/msg/JointState"
 
 
 def test_a_fault_counts_once_however_many_state_changes_follow_it_and_only_clips_count_as_clips():
@@ -80,3 +82,64 @@ def test_a_clip_forced_during_a_real_time_trial_is_counted_and_its_logs_kept(tmp
     assert figures["commands_clipped"] == record.commands_clipped
     assert figures["commands_clipped_per_trial"] == [record.commands_clipped]
     assert figures["arm_faults"] == 0
+
+
+class _TrackingErrorJump(SimProcess):
+    """The trial's simulator, and a peer that, once PSM1 is enabled and homed and has begun to move, sends it
+    `servo_jp` 0.6 rad away in yaw: beyond the actuator's tracking tolerance, so the arm FAULTs
+    (sawControllers `mtsPID.cpp`) and stays there until a person disables and enables it."""
+
+    sent = threading.Event()
+
+    def __enter__(self) -> SimProcess:
+        threading.Thread(target=self._inject, daemon=True).start()
+        return self
+
+    def _inject(self) -> None:
+        peer = DvrkPeer(self.endpoint)
+        try:
+            states = peer.subscribe_latched("PSM1/operating_state")
+            measured = peer.subscribe("PSM1/measured_js")
+
+            def ready() -> bool:
+                decoded = states.decoded(OPERATING_STATE)
+                return bool(decoded) and decoded[-1].state == "ENABLED" and decoded[-1].is_homed
+
+            if wait_for(ready, timeout=120) and wait_for(lambda: measured.all(), timeout=10):
+                time.sleep(1.0)
+                q = list(measured.decoded(JOINT_STATE)[-1].position)
+                q[0] += -0.6 if q[0] > 0 else 0.6
+                for _ in range(50):  # for 0.1 s, so that no set-point the streamer sends meanwhile undoes it
+                    peer.put("PSM1/servo_jp", joint_state(q))
+                    time.sleep(0.002)
+                self.sent.set()
+        finally:
+            peer.close()
+
+
+@pytest.mark.slow
+def test_an_arm_the_robot_faults_stops_the_run_at_once_naming_the_arm_and_what_the_robot_said(
+    tmp_path: Path, monkeypatch
+):
+    monkeypatch.setattr("pegbt.evaluation.trial.SimProcess", _TrackingErrorJump)
+    spec = TrialSpec(
+        "unilateral",
+        "optimized",
+        4,
+        tmp_path / "fault.jsonl",
+        tree=short_task(tmp_path),
+        realtime=True,
+        interface="dvrk",
+    )
+    started = time.monotonic()
+    record = run_trial(spec)
+    assert _TrackingErrorJump.sent.is_set()
+    assert record.outcome == "error" and record.arm_faults == 1, (
+        record.arm_faults,
+        record.run_wall_s,
+        record.trial_time_s,
+    )
+    assert "PSM1 is in FAULT" in record.error and "tracking error" in record.error, record.error
+    assert (
+        time.monotonic() - started < 90
+    )  # stopped, not retried against the FAULTed arm until the trial timeout

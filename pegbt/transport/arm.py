@@ -43,6 +43,12 @@ class EndpointSilent(PegbtError):
     exit_status = 3  # the endpoint was lost: not the user's input
 
 
+class ArmFaulted(EndpointSilent):
+    """The robot put an arm in FAULT (a tracking error, an amplifier fault) and holds it there: the dVRK leaves
+    FAULT only when a person disables and enables it (`prmOperatingState.cpp`), so, as for a silent
+    endpoint, no recovery in a tree applies and the run halts."""
+
+
 def check_recent(arm: str, topic: str, received_at: float | None, timeout: float, who: str) -> None:
     """Raise `EndpointSilent` unless `topic` (an arm's `measured_js`) arrived within `timeout` s of now
     (monotonic `received_at`; None: never); `who` is what went silent (an endpoint, a robot)."""

@@ -30,7 +30,7 @@ from pegbt.clock import Clock, WallClock
 from pegbt.errors import PegbtError
 from pegbt.motion.limits import ArmSettings
 from pegbt.transport import codec, guards
-from pegbt.transport.arm import EndpointSilent, MotionStatus, StatusFlags, check_recent, is_recent
+from pegbt.transport.arm import ArmFaulted, EndpointSilent, MotionStatus, StatusFlags, check_recent, is_recent
 from pegbt.transport.codec import JointSample, OperatingState, TrajectoryLike
 from pegbt.transport.dvrk_topics import PsmTopics
 from pegbt.transport.ros2 import Ros2Wire
@@ -54,6 +54,7 @@ ARRIVED = (
     1e-6  # rad or m: the robot's set-point is the last one streamed (it takes servo_jp as its set-point)
 )
 MOVE_MARGIN = 2.0  # s beyond twice the rest-to-rest time a robot's move_jp may take before it fails
+STATE_CONFIRM_S = 0.5  # s to wait for the operating state the streamer saw, once it stops a motion
 
 
 def rest_to_rest_bound(start: ArrayLike, goal: ArrayLike) -> float:
@@ -180,6 +181,7 @@ class CrtkArm:
         self.liveness_timeout = liveness_timeout
         self._streamer = streamer
         self._messages: list[dict[str, Any]] = []
+        self._last_error: str | None = None
         self._messages_lock = threading.Lock()
         topics = self.topics
         self._measured = self._latest(wire, topics.measured_js, codec.decode_joint_state)
@@ -206,6 +208,8 @@ class CrtkArm:
         except PegbtError as error:
             text = str(error)
         with self._messages_lock:
+            if level == "error":
+                self._last_error = text
             self._messages.append(
                 {"source": self.name, "level": level, "text": text, "stamp": self.clock.now()}
             )
@@ -223,10 +227,19 @@ class CrtkArm:
         return is_recent(None if latest is None else latest.received_at, self.liveness_timeout)
 
     def check_alive(self) -> None:
-        """Raise `EndpointSilent` unless `measured_js` arrived within the liveness timeout."""
+        """Raise `EndpointSilent` unless `measured_js` arrived within the liveness timeout, and `ArmFaulted`
+        if the robot put the arm in FAULT."""
         latest = self._measured.latest()
         received_at = None if latest is None else latest.received_at
         check_recent(self.name, self.topics.measured_js.name, received_at, self.liveness_timeout, "robot")
+        state = self._state.latest()
+        if state is not None and state.value.state == "FAULT":
+            said = f" (the robot said: {self._last_error})" if self._last_error else ""
+            raise ArmFaulted(
+                f"{self.name} is in FAULT{said}: the robot holds it there until a person disables and "
+                "enables it; the run stops",
+                field=self.topics.operating_state.name,
+            )
 
     def read(self, latest: Latest[T]) -> T:
         self.check_alive()
@@ -331,7 +344,15 @@ class CrtkArm:
 
         # a robot allowed to fall silent for the liveness timeout may report its set-point that much later
         margin = max(MOTION_MARGIN, 2 * self.liveness_timeout)
-        return StreamedMotion(self._streamer, motion_id, what, duration, self.check_alive, arrived, margin)
+        return StreamedMotion(
+            self._streamer, motion_id, what, duration, self.check_alive, arrived, margin, self._check_fault
+        )
+
+    def _check_fault(self) -> None:
+        """The streamer stops a motion when it sees the arm leave ENABLED; this client's own copy of that
+        state arrives on its own subscription about then: wait for it (bounded), so a FAULT stops the run."""
+        self._state.wait_until(lambda state: state.state != "ENABLED", STATE_CONFIRM_S)
+        self.check_alive()
 
 
 def make_ready(

@@ -154,7 +154,8 @@ class StreamedMotion(StatusFlags):
     It is done once the streamer has sent its last set-point and `arrived()` says the robot has taken it
     (its `setpoint_js` there: the next motion plans from it). It fails if the streamer refuses a set-point,
     if it is not done `margin` s after its duration (it is then stopped), or when `check_alive`
-    (the robot's liveness) raises."""
+    (the robot's liveness) raises. When the streamer gives up on it, `check_failure` may raise what the
+    robot's own state says (an arm the robot faulted stops the run rather than failing one motion)."""
 
     def __init__(
         self,
@@ -165,8 +166,10 @@ class StreamedMotion(StatusFlags):
         check_alive: Callable[[], None],
         arrived: Callable[[], bool],
         margin: float = MOTION_MARGIN,
+        check_failure: Callable[[], None] | None = None,
     ) -> None:
         self._streamer = streamer
+        self._check_failure = check_failure
         self._arrived = arrived
         self.motion_id = motion_id
         self.what = what
@@ -184,6 +187,8 @@ class StreamedMotion(StatusFlags):
             return MotionStatus.DONE
         outcome = self._streamer.outcome(self.motion_id)
         if outcome is not None and outcome[0] != "done":
+            if self._check_failure is not None:
+                self._check_failure()
             self.error = f"{self.what} failed: {outcome[1]}"
             return MotionStatus.FAILED
         if outcome is not None and self._arrived():
