@@ -19,7 +19,7 @@ from pegbt.transport import codec
 from pegbt.transport.dvrk_topics import PsmTopics
 from pegbt.transport.ros2 import BridgeWire
 from pegbt.transport.session import endpoint_settings, open_session
-from pegbt.transport.streamer import realtime
+from pegbt.scheduling import ROBOT_PRIORITY, run_realtime
 
 SETPOINT = np.array([0.0, 0.0, 0.12, 0.0, 0.0, 0.0])
 PERIOD = 0.01  # s between the robot's set-point messages
@@ -29,7 +29,9 @@ def main() -> int:
     topics = PsmTopics("PSM1")
     arrivals: list[tuple[float, bytes]] = []
     wake_late: list[float] = []
-    is_realtime = realtime()  # before the session opens, so that zenoh's threads inherit it
+    is_realtime = run_realtime(
+        ROBOT_PRIORITY
+    )  # as a robot's controller; before the session opens, so that zenoh's threads inherit it
     with open_session(endpoint_settings([sys.argv[1]])) as session:
         wire = BridgeWire(session)
         wire.subscriber(topics.servo_jp, lambda payload: arrivals.append((time.time(), payload)))

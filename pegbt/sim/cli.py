@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING
 from pegbt.bagoptions import add_record_arguments
 from pegbt.errors import PegbtError
 from pegbt.numbers import NumberOption
+from pegbt.scheduling import ROBOT_PRIORITY, run_realtime
 from pegbt.transport.endpoints import DEFAULT_ENDPOINT, DEFAULT_POINTS_TOPIC
 
 if TYPE_CHECKING:
@@ -152,6 +153,14 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
         action="store_true",
         help="stop when standard input closes: a parent process that pipes it is gone (even killed)",
     )
+    parser.add_argument(
+        "--priority",
+        choices=("realtime", "normal"),
+        default="realtime",
+        help="real time only: run under SCHED_FIFO where the system permits it, above pegbt's servo streamer, "
+        "as a dVRK's controller runs, so that a busy machine delays the client and not the simulated "
+        "robot (default realtime; normal: the ordinary scheduler)",
+    )
     add_record_arguments(parser)
     parser.set_defaults(handler=_sim)
 
@@ -178,6 +187,8 @@ def _sim(args: argparse.Namespace) -> int:
     }
     plan = dataclasses.replace(plan, **{k: v for k, v in overrides.items() if v is not None})
     world, camera = _world(plan) if args.world else (None, None)
+    # before the session opens, so that zenoh's threads inherit it
+    realtime = not args.lockstep and args.priority == "realtime" and run_realtime(ROBOT_PRIORITY)
     session = open_session(settings)
     try:
         endpoint = (_dvrk_endpoint if args.interface == "dvrk" else _pegbt_endpoint)(
@@ -192,7 +203,7 @@ def _sim(args: argparse.Namespace) -> int:
         threading.Thread(
             target=_stop_at_stdin_eof, args=(endpoint,), name="parent-watch", daemon=True
         ).start()
-    mode = "lockstep" if args.lockstep else "real time"
+    mode = "lockstep" if args.lockstep else "real time" + (", SCHED_FIFO" if realtime else "")
     where = (
         f"the ROS 2 graph of router {', '.join(args.connect)} (rmw_zenoh)"
         if args.ros2 == "rmw_zenoh"

@@ -39,11 +39,12 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
+from pegbt.scheduling import STREAMER_PRIORITY, run_realtime
+
 if TYPE_CHECKING:
     from pegbt.motion.limits import ArmSettings
 
 _LENGTH = struct.Struct("<I")
-REALTIME_PRIORITY = 10  # SCHED_FIFO, 1..99: above every ordinary process, below the kernel's own threads
 EPOLL_RESOLUTION = 0.001  # s: epoll's timeout is whole milliseconds
 Frame = tuple[Any, ...]
 
@@ -251,15 +252,6 @@ def _sample(t: NDArray[np.float64], q: NDArray[np.float64], at: float) -> NDArra
     return q[index - 1] + share * (q[index] - q[index - 1])
 
 
-def realtime() -> bool:
-    """Run this process (and the threads it starts later) under SCHED_FIFO if the system lets it."""
-    try:
-        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(REALTIME_PRIORITY))
-    except (AttributeError, OSError):  # not Linux, or no permission: the ordinary scheduler
-        return False
-    return True
-
-
 def main() -> int:
     """Run until the executive says quit or its end of the pipe closes."""
     reader, stdin, stdout = FrameReader(), sys.stdin.fileno(), sys.stdout.fileno()
@@ -273,7 +265,9 @@ def main() -> int:
         if not data:
             return 0
         frames = reader.feed(data)
-    is_realtime = realtime()  # before the session opens, so that zenoh's threads inherit it
+    is_realtime = run_realtime(
+        STREAMER_PRIORITY
+    )  # before the session opens, so that zenoh's threads inherit it
     streamer = Streamer(frames.pop(0)[1], report)
     report(("ready", is_realtime))
     selector = selectors.DefaultSelector()
