@@ -2,8 +2,9 @@
 
 A definition is a file's `tree` or one of its `subtrees`. Its depth is the number of control nodes
 (composites, decorators, `recover`, `for_each`) on its deepest path; a `subtree` call is a leaf of the
-file it is written in, and so is the subtree a `for_each` runs, as a SubTree node is in a BehaviorTree.CPP
-or Nav2 XML file. Deeper logic gets a name: a subtree of its own, with a `doc` that says what it does.
+file it is written in, and so is the subtree a `for_each` runs, as a `<SubTree ID=.../>` element is in a
+BehaviorTree.CPP or Nav2 XML file (BehaviorTree.CPP's include/behaviortree_cpp/decorators/subtree_node.h).
+Deeper logic gets a name: a subtree of its own, with a `doc` that says what it does.
 (The expanded tree, every call inlined, is bounded by the loader: `pegbt.executive.spec.MAX_TREE_DEPTH`.)"""
 
 from __future__ import annotations
