@@ -50,9 +50,8 @@ def test_a_giver_whose_block_slips_as_the_receiver_grips_it_lets_the_receiver_ha
 
 def test_a_receiver_fetches_its_dropped_block_while_the_giver_holds_the_next_one_back(tmp_path):
     """The receiver's block slips as it carries it off: it fetches it from where it fell while the giver picks
-    the next block and plans that handover (in keys of its own: it must not touch the grasp the receiver fetches
-    with),
-    and the giver brings it to the meeting point only once the receiver is ready for it."""
+    the next block and plans that handover (in keys of its own: it must not touch the grasp the receiver
+    fetches with), and the giver brings it to the meeting point only once the receiver is ready for it."""
     record = trial(tmp_path, RECEIVER_CARRIES, "PSM1", two_handovers(tmp_path))
     assert [fault["kind"] for fault in record.faults] == ["slip"] and record.faults[0]["recovered"]
     assert [transfer["succeeded"] for transfer in record.transfers] == [True, True]
