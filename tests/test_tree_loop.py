@@ -92,6 +92,21 @@ def test_an_item_with_a_badly_typed_argument_is_an_error_at_the_item(tmp_path):
     )
 
 
+def test_a_number_that_is_no_number_in_a_list_no_tree_uses_is_a_located_error(tmp_path):
+    orders = tmp_path / "orders.yaml"
+    orders.write_text("lists:\n  spare:\n    - {pick: 1, place: 7}\n    - {pick: .nan, place: 6}\n")
+    errors = [str(error) for error in check_tree(orders)]
+    assert len(errors) == 1 and errors[0].startswith(f"{orders}:4:")
+    assert "pick" in errors[0] and "finite" in errors[0]
+
+
+def test_an_item_position_beyond_any_count_is_refused_as_its_parameter_not_a_traceback(tmp_path):
+    tree = tmp_path / "bad.yaml"
+    tree.write_text(JOBS.replace("on_failure: ON_FAILURE}", "to: " + "9" * 5000 + "}"))
+    errors = [str(error) for error in check_tree(tree)]
+    assert len(errors) == 1 and errors[0].startswith(f"{tree}:9:") and "to" in errors[0]
+
+
 def _instances(loop) -> list[dict]:
     return [child.params["args"] for child in loop.children]
 

@@ -271,7 +271,18 @@ class _DocumentLoader:
                     field=name,
                 )
                 continue
-            lists[name] = items
+            bad = [
+                (key, argument)
+                for item in items.value
+                for key, argument in item.value.items()
+                if non_finite(argument.plain())
+            ]
+            for key, argument in bad:  # refused in a list no tree of this file uses too
+                self.problems.add(
+                    "expected finite numbers (not NaN or an infinity)", argument.mark, field=key
+                )
+            if not bad:
+                lists[name] = items
         return lists
 
     def _subtrees(self, value: Located | None) -> list[SubtreeDef]:

@@ -20,6 +20,7 @@ import py_trees
 from pegbt.executive.document import SubtreeDef, TreeDocument
 from pegbt.executive.nodetypes import NODE_TYPES, NodeType
 from pegbt.executive.params import (
+    MAX_COUNT,
     REQUIRED,
     BlackboardRef,
     Param,
@@ -486,8 +487,8 @@ class Resolver:
             return []
         first, last = params["from"], params["to"]
         last = len(items.value) if last is None else last
-        if not isinstance(first, int) or not isinstance(last, int):
-            return []
+        if not isinstance(first, int) or not isinstance(last, int) or max(abs(first), abs(last)) > MAX_COUNT:
+            return []  # out of its parameter's range: refused there
         if not 1 <= first <= last <= len(items.value):
             self.problems.add(
                 f"items {first} to {last} are not in list {name!r} of {len(items.value)} item(s)",
