@@ -144,3 +144,17 @@ def test_a_grasp_squeezing_a_block_is_within_the_jaw_actuators_tolerance() -> No
     the jaw's error splits over two actuators through the tool's coupling."""
     errors = dvrk.actuator_errors(np.array([0, 0, 0, 0, 0, 0, arm_settings("PSM1").jaw_lower - 0.21]))
     assert np.all(np.abs(errors) < dvrk.ACTUATOR_TOLERANCE)
+
+
+def test_a_jump_while_the_simulator_excuses_its_own_lateness_is_not_faulted_and_after_it_is(
+    homed: Ticking,
+) -> None:
+    homed.arm.excuse_tracking(homed.now + 0.1)
+    homed.arm.servo_jp([0.0, 0.0, 0.18, 0.0, 0.0, 0.0])  # insertion 6 cm at once: beyond its 5 cm tolerance
+    homed.run(0.1)
+    assert homed.arm.current != "FAULT" and homed.arm.safety == []
+    assert homed.arm.measured[2] == pytest.approx(0.18, abs=1e-4)  # settled on it meanwhile
+    homed.arm.servo_jp([0.0, 0.0, 0.12, 0.0, 0.0, 0.0])  # the same jump back, the grace over
+    homed.run(homed.arm.period)
+    assert homed.arm.current == "FAULT"
+    assert [event.event for event in homed.arm.safety] == ["tracking_error"]
