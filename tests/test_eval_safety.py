@@ -35,11 +35,11 @@ def test_a_fault_counts_once_however_many_state_changes_follow_it_and_only_clips
     assert count_safety(entries) == (1, 2)
 
 
-class _OutOfLimitJaw(SimProcess):
-    """The trial's simulator, and a peer that, once PSM2 is enabled and homed, asks it for a jaw angle
-    beyond the tool's limit (`jaw/move_jp` 3 rad): the dVRK clips it (PSM.cpp `clip_jaw_jp`)."""
+class _PeerOnceHomed(SimProcess):
+    """The trial's simulator, and a peer that acts (`act`) once the trial has enabled and homed `ARM`."""
 
-    sent = threading.Event()
+    ARM = "PSM1"
+    sent: threading.Event
 
     def __enter__(self) -> SimProcess:
         threading.Thread(target=self._inject, daemon=True).start()
@@ -48,17 +48,31 @@ class _OutOfLimitJaw(SimProcess):
     def _inject(self) -> None:
         peer = DvrkPeer(self.endpoint)
         try:
-            states = peer.subscribe_latched("PSM2/operating_state")
+            states = peer.subscribe_latched(f"{self.ARM}/operating_state")
 
             def ready() -> bool:
                 decoded = states.decoded(OPERATING_STATE)
                 return bool(decoded) and decoded[-1].state == "ENABLED" and decoded[-1].is_homed
 
-            if wait_for(ready, timeout=120):
-                peer.put("PSM2/jaw/move_jp", joint_state([3.0]))
+            if wait_for(ready, timeout=120) and self.act(peer):
                 self.sent.set()
         finally:
             peer.close()
+
+    def act(self, peer: DvrkPeer) -> bool:
+        raise NotImplementedError
+
+
+class _OutOfLimitJaw(_PeerOnceHomed):
+    """Once PSM2 is homed, a jaw angle beyond the tool's limit (`jaw/move_jp` 3 rad): the dVRK clips it
+    (PSM.cpp `clip_jaw_jp`)."""
+
+    ARM = "PSM2"
+    sent = threading.Event()
+
+    def act(self, peer: DvrkPeer) -> bool:
+        peer.put("PSM2/jaw/move_jp", joint_state([3.0]))
+        return True
 
 
 @pytest.mark.slow
@@ -84,37 +98,24 @@ def test_a_clip_forced_during_a_real_time_trial_is_counted_and_its_logs_kept(tmp
     assert figures["arm_faults"] == 0
 
 
-class _TrackingErrorJump(SimProcess):
-    """The trial's simulator, and a peer that, once PSM1 is enabled and homed and has begun to move, sends it
-    `servo_jp` 0.6 rad away in yaw: beyond the actuator's tracking tolerance, so the arm FAULTs
-    (sawControllers `mtsPID.cpp`) and stays there until a person disables and enables it."""
+class _TrackingErrorJump(_PeerOnceHomed):
+    """Once PSM1 is homed and has begun to move, `servo_jp` 0.6 rad away in yaw: beyond the actuator's tracking
+    tolerance, so the arm FAULTs (sawControllers `mtsPID.cpp`) and stays there until a person disables and
+    enables it."""
 
     sent = threading.Event()
 
-    def __enter__(self) -> SimProcess:
-        threading.Thread(target=self._inject, daemon=True).start()
-        return self
-
-    def _inject(self) -> None:
-        peer = DvrkPeer(self.endpoint)
-        try:
-            states = peer.subscribe_latched("PSM1/operating_state")
-            measured = peer.subscribe("PSM1/measured_js")
-
-            def ready() -> bool:
-                decoded = states.decoded(OPERATING_STATE)
-                return bool(decoded) and decoded[-1].state == "ENABLED" and decoded[-1].is_homed
-
-            if wait_for(ready, timeout=120) and wait_for(lambda: measured.all(), timeout=10):
-                time.sleep(1.0)
-                q = list(measured.decoded(JOINT_STATE)[-1].position)
-                q[0] += -0.6 if q[0] > 0 else 0.6
-                for _ in range(50):  # for 0.1 s, so that no set-point the streamer sends meanwhile undoes it
-                    peer.put("PSM1/servo_jp", joint_state(q))
-                    time.sleep(0.002)
-                self.sent.set()
-        finally:
-            peer.close()
+    def act(self, peer: DvrkPeer) -> bool:
+        measured = peer.subscribe("PSM1/measured_js")
+        if not wait_for(lambda: measured.all(), timeout=10):
+            return False
+        time.sleep(1.0)
+        q = list(measured.decoded(JOINT_STATE)[-1].position)
+        q[0] += -0.6 if q[0] > 0 else 0.6
+        for _ in range(50):  # for 0.1 s, so that no set-point the streamer sends meanwhile undoes it
+            peer.put("PSM1/servo_jp", joint_state(q))
+            time.sleep(0.002)
+        return True
 
 
 @pytest.mark.slow
