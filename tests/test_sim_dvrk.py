@@ -12,7 +12,9 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
+import zenoh
 import pytest
+from numpy.typing import NDArray
 from dvrk_peer import STORE, DvrkPeer, Received, empty, joint_state, state_command, wait_for
 
 from pegbt.cli import main
@@ -26,6 +28,7 @@ from pegbt.transport.session import endpoint_settings, open_session
 
 OPERATING_STATE = "crtk_msgs/msg/OperatingState"
 JOINT_STATE = "sensor_msgs/msg/JointState"
+POINT_CLOUD = "sensor_msgs/msg/PointCloud2"
 STRING = "std_msgs/msg/String"
 
 
@@ -232,8 +235,22 @@ def test_a_jump_beyond_the_tracking_tolerance_faults_the_arm_until_it_is_enabled
     assert wait_for(lambda: _last_position(setpoints)[0] == pytest.approx(start + 0.05))
 
 
+def _stamps(samples: list[zenoh.Sample], message_type: str) -> NDArray[np.float64]:
+    messages = [STORE.deserialize_cdr(sample.payload.to_bytes(), message_type) for sample in samples]
+    return np.array([m.header.stamp.sec + m.header.stamp.nanosec * 1e-9 for m in messages])
+
+
+def _last_two_one_period_apart(received: Received, message_type: str, period: float) -> bool:
+    """The last two messages stamped exactly `period` apart: the stream's cadence when nothing was late."""
+    last = received.all()[-2:]
+    return len(last) == 2 and abs(float(np.diff(_stamps(last, message_type))[0]) - period) < 1e-5
+
+
 @pytest.mark.slow
 def test_the_simulator_process_streams_clouds_and_states_at_the_rates_asked(tmp_path: Path) -> None:
+    """The cadence is read from the stamps the simulator put on its messages, which a busy machine cannot
+    shorten; how many of them a starved subscriber receives (a 2 MB cloud is dropped, not queued, when the
+    receiver falls behind, as a bridge does with sensor data) only bounds the rate from above."""
     from pegbt.sim.camera import DepthCamera
 
     topic = "/rs/camera/depth/color/points"
@@ -251,16 +268,15 @@ def test_the_simulator_process_streams_clouds_and_states_at_the_rates_asked(tmp_
             seconds = time.monotonic() - first
             cloud_rate = (len(clouds.all()) - clouds_before) / seconds
             state_rate = (len(states.all()) - states_before) / seconds
+            assert wait_for(lambda: _last_two_one_period_apart(clouds, POINT_CLOUD, 0.2), timeout=20)
             samples = tap.all()
         finally:
             client.close()
-    # as asked, or less on a loaded machine (a late frame is skipped, not queued), never more
-    assert 0.3 * 5 <= cloud_rate <= 1.1 * 5, cloud_rate
-    assert 0.3 * 50 <= state_rate <= 1.1 * 50, state_rate
-    stamps = [m.header.stamp.sec + m.header.stamp.nanosec * 1e-9 for m in states.decoded(JOINT_STATE)]
-    gaps = np.diff(stamps)
+    assert 0 < cloud_rate <= 1.1 * 5 and 0 < state_rate <= 1.1 * 50, (cloud_rate, state_rate)
+    assert np.diff(_stamps(clouds.all(), POINT_CLOUD)).min() > 0.2 - 0.005  # never more often than asked
+    gaps = np.diff(_stamps(states.all(), JOINT_STATE))
     assert gaps.min() > 0.02 - 1e-6 and np.any(np.abs(gaps - 0.02) < 1e-6)  # every 20 ms of the 10 ms clock
-    cloud = STORE.deserialize_cdr(clouds.all()[-1].payload.to_bytes(), "sensor_msgs/msg/PointCloud2")
+    cloud = STORE.deserialize_cdr(clouds.all()[-1].payload.to_bytes(), POINT_CLOUD)
     assert [(f.name, f.offset, f.datatype) for f in cloud.fields] == [("x", 0, 7), ("y", 4, 7), ("z", 8, 7)]
     assert (cloud.height, cloud.width) == DepthCamera().image_shape  # organised: the camera's pixels, by row
     xyz = np.frombuffer(bytes(cloud.data), dtype="<f4").reshape(cloud.height, cloud.width, 3)
