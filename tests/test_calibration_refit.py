@@ -1,6 +1,7 @@
-"""Recalibrating a re-homed arm: a physics model keeps its shape and refits what moved from the first
-20 set-points of a re-homed copy of its recording, whose truth is known: offsets alone (the gains keep the
-old model's values), or offsets and a coupling's gain (the refit finds which joint's gains moved)."""
+"""Recalibrating a re-homed arm: a physics model keeps its effects and refits what moved from 20 set-points
+of a re-homed copy of its recording whose truth is known (offsets alone; a coupling's gain; a narrower
+play), keeps what set-points in a corner of the range cannot tell, and on the real recordings recovers
+most of what a model trained on the new session gains."""
 
 import contextlib
 import io
@@ -10,10 +11,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pegbt.calibration.base import CalibrationModel
+from pegbt.calibration.base import CalibrationModel, new_model
 from pegbt.calibration.evaluation import evaluate
 from pegbt.calibration.physics_model import PhysicsModel
-from pegbt.calibration.refit import MIN_REFIT_SAMPLES, refit
+from pegbt.calibration.collect import random_setpoints, spread_setpoints
+from pegbt.calibration.refit import MIN_REFIT_SAMPLES, MIN_SPAN, refit, refit_at
+from pegbt.calibration.task import task_box
 from pegbt.cli import main
 from pegbt.errors import PegbtError
 from pegbt.physics import ArmPhysics, Effect
@@ -158,3 +161,85 @@ def test_collect_refit_recalibrates_a_rehomed_simulated_arm_from_20_set_points(t
     measured = truth.simulate(q_cmd)
     stale, fresh = (np.abs(m.predict(q_cmd) - measured)[:, 3:].mean() for m in (old, refitted))
     assert fresh < 0.3 * stale
+
+
+def test_refit_finds_a_narrower_play_from_20_set_points_spread_over_the_session():
+    """A re-homing that narrows the wrist's play (0.1 → 0.04 rad) as the shared recordings' set-ups differ:
+    the refit narrows the width, which an offsets-only refit cannot, and comes near the truth."""
+    old = PhysicsModel.from_effects("PSM1", SHAPE + FIRST, "first set-up")
+    narrow = [SHAPE[0], Effect("hysteresis", "q5", {"source": "q6", "half_width": 0.04, "k": -0.4}), SHAPE[2]]
+    _, q_cmd = commands(6, seconds=400, rate_hz=1.25)
+    noise = np.random.default_rng(6).normal(0, 0.002, q_cmd.shape) * [0.5, 0.5, 0.05, 1, 1, 1]
+    session = Recording(
+        Path("<narrower play>"), q_cmd, ArmPhysics(narrow + REHOMED).simulate(q_cmd) + noise, arm="PSM1"
+    )
+    at = np.sort(np.random.default_rng(0).choice(session.head(0.7), 20, replace=False))
+    refitted, report = refit_at(old, session, at)
+    q5 = next(joint for joint in report if joint.joint == "q5")
+    assert q5.width_factor < 1 and not q5.held
+    width = next(e.params["half_width"] for e in refitted.effects if e.effect == "hysteresis")
+    assert 0.02 <= width <= 0.06
+    assert ("hysteresis q6→q5 half_width", 0.1, width) in q5.moved
+    start = session.head(0.7)
+    truth = PhysicsModel.from_effects("PSM1", narrow + REHOMED, "truth")
+    offsets_only = refit_at(old, session, at, gains=False)[0]
+    fresh, stale, best = (
+        evaluate(m, session, start)["tip_err_mm_mean"] for m in (refitted, offsets_only, truth)
+    )
+    assert fresh < 1.06 * best < 0.6 * stale  # with the old width kept: 1.10 × best
+
+
+def test_gains_stay_when_the_set_points_barely_move_the_joints_that_drive_them():
+    """The first 20 set-points hold the wrist in a corner (as the shared recordings' do): q5's coupling
+    from q6 moved (0.2 → 0.35), but no gain can be told there, so only offsets move, and the report says why."""
+    moved_shape = [Effect("coupling", "q5", {"source": "q6", "k": 0.35}), *SHAPE[1:]]
+    _, q_cmd = commands(7, seconds=400, rate_hz=1.25)
+    q_cmd[:20, 3:] = q_cmd[20, 3:] + np.random.default_rng(7).normal(0, 0.01, (20, 3))  # 1 % of the range
+    session = Recording(
+        Path("<corner>"), q_cmd, ArmPhysics(moved_shape + REHOMED).simulate(q_cmd), arm="PSM1"
+    )
+    old = PhysicsModel.from_effects("PSM1", SHAPE + FIRST, "first set-up")
+    refitted, report = refit(old, session, 20)
+    held = {joint.joint: joint.held for joint in report}
+    assert "span too little" in held["q5"] and "q6 " in held["q5"] and "25%" in held["q5"]
+    assert held["q1"] == ""  # the arm joints moved as usual
+    assert refitted.settled.physics.coupling[4, 5] == 0.2
+    assert np.isinf(next(joint.prior for joint in report if joint.joint == "q5"))
+    assert refitted.settled.physics.offset[3] != old.settled.physics.offset[3]
+
+
+def test_a_refit_collection_spans_what_a_refit_needs_on_every_joint():
+    """`collect --refit`'s spread design leaves no joint's gains held for want of span, where a random
+    smooth path of 20 set-points often does."""
+    lower, upper = task_box("PSM1")
+    spread, smooth = [], []
+    for seed in range(50):
+        for design, spans in ((spread_setpoints, spread), (random_setpoints, smooth)):
+            points = design(lower, upper, 20, np.random.default_rng(seed))
+            assert np.all(points >= lower) and np.all(points <= upper)
+            spans.append((np.ptp(points, axis=0) / (upper - lower)).min())
+    assert min(spread) >= MIN_SPAN
+    assert np.mean(np.array(smooth) < MIN_SPAN) > 0.3
+
+
+@pytest.mark.slow
+def test_on_real_recordings_20_spread_set_points_recover_most_of_a_model_trained_on_the_new_session(
+    dvrk_data,
+):
+    """grey1 → new1, the pair whose set-ups differ most (the wrist's play 0.15–0.36 rad against 0.03): two
+    draws of 20 set-points from the new session's first 70 %, scored on its last 30 %."""
+    old_session, session = (
+        load_recording(dvrk_data / f"random_smooth_{n}") for n in ("grey1_PSM1", "new1_PSM1")
+    )
+    old = new_model("physics", "PSM1").fit(old_session)
+    start = session.head(0.7)
+    trained = new_model("physics", "PSM1").fit(session.slice(0, start))
+    none = evaluate(trained, session, start)["tip_err_mm_mean_uncompensated"]
+    gain = none - evaluate(trained, session, start)["tip_err_mm_mean"]
+    for seed in (0, 1):
+        at = np.sort(np.random.default_rng(seed).choice(start, 20, replace=False))
+        refitted, report = refit_at(old, session, at)
+        assert (none - evaluate(refitted, session, start)["tip_err_mm_mean"]) / gain >= 0.8
+        assert {j.joint: j.width_factor for j in report}["q5"] < 1  # new1's wrist play is narrower
+    offsets_only = refit_at(old, session, at, gains=False)[0]
+    assert evaluate(offsets_only, session, start)["tip_err_mm_mean"] > none  # the old widths do harm

@@ -192,7 +192,13 @@ def _collect(args: argparse.Namespace) -> int:
         log_path,
         options={"endpoint": args.endpoint, "seed": args.seed},
         quiet=False,
-        blackboard={"arm": args.arm, "setpoints": count, "out": str(out), "seed": args.seed},
+        blackboard={
+            "arm": args.arm,
+            "setpoints": count,
+            "design": "spread" if model is not None else "smooth",
+            "out": str(out),
+            "seed": args.seed,
+        },
         **record_options(args),
     )
     print(f"outcome: {output.result.outcome} in {output.result.duration:.1f} s of the run's clock")
@@ -272,6 +278,10 @@ def _write_refit(model: CalibrationModel, recording: Recording, samples: int, ou
         prior = (
             "gains kept" if joint.prior == float("inf") else f"gains refitted, prior strength {joint.prior:g}"
         )
+        if joint.width_factor != 1.0:
+            prior = f"play widths ×{joint.width_factor:g}, {prior}"
+        if joint.held:
+            prior = f"{prior} ({joint.held})"
         changes = ", ".join(f"{name} {old:.4g} → {new:.4g}" for name, old, new in joint.moved)
         print(f"{joint.joint}: {prior}: {changes or 'nothing moved'}")
     path = refitted.save(out)

@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.interpolate import PchipInterpolator
+from scipy.stats import qmc
 
 from pegbt.errors import PegbtError
 from pegbt.motion.limits import ArmSettings
@@ -34,13 +35,19 @@ MOVE_TIMEOUT_S = 10.0
 ESTIMATE_COUNT = 500  # set-points whose moves `setpoints_for_minutes` averages
 
 
-def random_setpoints(lower: ArrayLike, upper: ArrayLike, count: int, rng: np.random.Generator) -> Array:
-    """`count` smooth random set-points (count, 6) inside [lower, upper], each joint reversing often."""
+def _box(lower: ArrayLike, upper: ArrayLike, count: int) -> tuple[Array, Array]:
+    """The box as arrays, checked to hold `count` >= 2 set-points."""
     lower, upper = np.asarray(lower, dtype=float), np.asarray(upper, dtype=float)
     if count < 2 or np.any(upper <= lower):
         raise PegbtError(
             f"need at least 2 set-points in a non-empty box, got {count} in {lower}..{upper}", field="count"
         )
+    return lower, upper
+
+
+def random_setpoints(lower: ArrayLike, upper: ArrayLike, count: int, rng: np.random.Generator) -> Array:
+    """`count` smooth random set-points (count, 6) inside [lower, upper], each joint reversing often."""
+    lower, upper = _box(lower, upper, count)
     points = np.empty((count, len(lower)))
     index = np.arange(count)
     for j in range(len(lower)):
@@ -49,6 +56,19 @@ def random_setpoints(lower: ArrayLike, upper: ArrayLike, count: int, rng: np.ran
         values = rng.uniform(lower[j], upper[j], len(knots))
         points[:, j] = PchipInterpolator(knots, values)(index)  # monotone cubic: never outside the values
     return points
+
+
+def spread_setpoints(lower: ArrayLike, upper: ArrayLike, count: int, rng: np.random.Generator) -> Array:
+    """`count` set-points (count, 6) inside [lower, upper] that each span nearly all of every joint's range
+    (a Latin hypercube: one set-point in each of `count` slices of every joint, in random order), for a
+    refit: a few set-points along a smooth path often leave a joint in a corner of its range, where no
+    gain can be identified (`pegbt.calibration.refit.MIN_SPAN`)."""
+    lower, upper = _box(lower, upper, count)
+    unit = qmc.LatinHypercube(d=len(lower), rng=rng).random(count)
+    return np.asarray(qmc.scale(unit, lower, upper), dtype=float)
+
+
+DESIGNS = {"smooth": random_setpoints, "spread": spread_setpoints}  # how a collection picks its set-points
 
 
 def move_seconds(start: ArrayLike, goal: ArrayLike, settings: ArmSettings) -> NDArray[np.float64]:

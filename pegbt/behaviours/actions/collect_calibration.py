@@ -1,7 +1,7 @@
 """Collecting calibration data on the executive: `pegbt.calibration.collect`'s recording, one tick at a time.
 
-The set-points are the calibration package's (`random_smooth` paths over `task_box`, the joints peg
-transfer uses), each reached along a straight joint-space line, held `settle` seconds and sampled:
+The set-points are the calibration package's, over `task_box` (the joints peg transfer uses): a random
+smooth path for a model to learn from, or spread over every joint's range for a refit (`DESIGNS`); each reached along a straight joint-space line, held `settle` seconds and sampled:
 set-point against physical joints (`fiducial_js`). Commands go out uncompensated (this is what a model
 learns from), so the leaf uses only the `robot` resource.
 """
@@ -15,7 +15,7 @@ from py_trees.common import Status
 
 from pegbt.behaviours.base import arm_param
 from pegbt.behaviours.resources.robot import Robot
-from pegbt.calibration.collect import SETTLE_S, random_setpoints, straight_move
+from pegbt.calibration.collect import DESIGNS, SETTLE_S, straight_move
 from pegbt.calibration.task import task_box
 from pegbt.errors import PegbtError
 from pegbt.executive.leaf import Leaf
@@ -32,8 +32,9 @@ MAX_SETTLE = 60.0  # s a set-point is held before it is sampled
 
 @behaviour(
     "collect_calibration",
-    "drive `arm` through `samples` random smooth set-points over the task's joints (uncompensated), hold each "
-    "`settle` s, and record set-point and physical joints to the recording folder `out`",
+    "drive `arm` through `samples` set-points over the task's joints (uncompensated; `design` smooth: a random "
+    "smooth path, spread: each joint's range covered, for a refit), hold each `settle` s, and record set-point "
+    "and physical joints to the recording folder `out`",
     params=(
         arm_param(blackboard=True),
         Param("samples", int, "set-points to record", minimum=2, maximum=MAX_SAMPLES, blackboard=True),
@@ -44,6 +45,14 @@ MAX_SETTLE = 60.0  # s a set-point is held before it is sampled
             default=SETTLE_S,
             minimum=0.0,
             maximum=MAX_SETTLE,
+        ),
+        Param(
+            "design",
+            str,
+            "how the set-points are drawn: smooth (to train a model) or spread (to refit one)",
+            default="smooth",
+            choices=tuple(DESIGNS),
+            blackboard=True,
         ),
         Param("out", str, "recording folder to write (relative to the working directory)", blackboard=True),
         Param(
@@ -66,7 +75,7 @@ class CollectCalibration(Leaf):
 
     def initialise(self) -> None:
         self.client = self.robot.arm(self.param("arm"))
-        self.setpoints = random_setpoints(
+        self.setpoints = DESIGNS[self.param("design")](
             *task_box(self.client.name), self.param("samples"), np.random.default_rng(self.param("seed"))
         )
         # a recording of as many set-points as asked: the command that asks knows what its use needs
