@@ -237,38 +237,22 @@ class Trial:
                 and entry.get("block") in lifted
                 and record.started <= entry["time"] <= until
             ]
-            if placed:
-                seconds = placed[0]["time"] - record.started
-                outcomes.append(
-                    TransferOutcome(
-                        record.index,
-                        record.arms,
-                        record.pick,
-                        record.place,
-                        True,
-                        record.started,
-                        seconds,
-                        record.note,
-                        record.ended,
-                    )
+            why = record.note or (
+                "no block lifted off the pick peg" if not lifted else "not placed on the place peg"
+            )
+            outcomes.append(
+                TransferOutcome(
+                    record.index,
+                    record.arms,
+                    record.pick,
+                    record.place,
+                    bool(placed),
+                    record.started,
+                    placed[0]["time"] - record.started if placed else None,
+                    record.note if placed else why,
+                    record.ended,
                 )
-            else:
-                why = record.note or (
-                    "no block lifted off the pick peg" if not lifted else "not placed on the place peg"
-                )
-                outcomes.append(
-                    TransferOutcome(
-                        record.index,
-                        record.arms,
-                        record.pick,
-                        record.place,
-                        False,
-                        record.started,
-                        None,
-                        why,
-                        record.ended,
-                    )
-                )
+            )
         return outcomes
 
     def progress_listener(self) -> Callable[[dict[str, Any]], None]:
