@@ -6,7 +6,8 @@ play state at the split comes from the commands, as the baselines' command windo
 on the held-out part, next to a linear regression on the last five commands and the reference paper's
 5-step LSTM (torch, one thread, at most 15 s of training), all in this process. Also: whether the two
 recordings of each arm name the same kinds of effect, and which parameters differ; and per recording,
-the effects the whole recording names and its nested cross-validated held-out RMSE over raw.
+the effects the whole recording names and its nested cross-validated held-out RMSE over raw; and the same
+with tracker glitches and a lost-tracking window injected, whose truth is known.
 """
 
 from __future__ import annotations
@@ -15,11 +16,12 @@ import time
 
 import numpy as np
 
-from pegbt.physics.recording import dvrk_data_dir, load_recording
+from pegbt.physics.recording import Recording, dvrk_data_dir, load_recording
 from pegbt.psm import JOINT_NAMES
 from pegbt.sim2real.baselines import linear_window, lstm_window
 from pegbt.sim2real.compare import compare
 from pegbt.sim2real.diagnose import diagnose, identify_physics
+from pegbt.sim2real.synth import effect_label, with_tracker_faults
 
 RECORDINGS = (
     "random_smooth_grey1_PSM1",
@@ -36,6 +38,7 @@ TRAIN_FRACTION = 0.7
 # paper's 0.32 mm per sphere and under 0.01 rad per joint; insertion rounded up to 0.5 mm).
 PAPER_RESOLUTION = (0.01, 0.01, 0.0005, 0.01, 0.01, 0.01)
 WRIST = ("q4", "q5", "q6")
+FAULT_GLITCHES = 181  # as many as a raw recording of the paper's set-up holds (issue 16)
 # Raw q_phy − q_cmd RMSE of the wrist joints as tabulated in ../shared/data/dvrk/README.md (Table I data).
 README_RAW = {
     "random_smooth_grey1_PSM1": (0.261, 0.152, 0.166),
@@ -47,6 +50,29 @@ README_RAW = {
 
 def _rmse(error: np.ndarray) -> np.ndarray:
     return np.sqrt((error**2).mean(0))
+
+
+def _with_faults(recording: Recording, short: str, clean: set[str]) -> dict[str, float | int | str]:
+    """The recording diagnosed again with `FAULT_GLITCHES` tracker glitches and a lost-tracking window
+    injected (`with_tracker_faults`): how many faults were found, what it names that the clean recording
+    does not (none on q1–q3 is the goal) and the wrist's nested held-out RMSE over raw on the kept samples."""
+    faulty, truth = with_tracker_faults(recording, FAULT_GLITCHES, np.random.default_rng(0))
+    diagnosis = diagnose(faulty, n_bootstrap=0, resolution=PAPER_RESOLUTION)
+    found = diagnosis.faults.mask
+    named = {effect_label(e.effect) for e in diagnosis.effects}
+    before, after = diagnosis.rmse_before(), diagnosis.rmse_after()
+    figures: dict[str, float | int | str] = {
+        f"{short}_faults_injected": int(truth.sum()),
+        f"{short}_faults_found": int((found & truth).sum()),
+        f"{short}_faults_false": int((found & ~truth).sum()),
+        f"{short}_faults_named": len(named),
+        f"{short}_faults_named_q1_q3": sum(e.effect.joint in ("q1", "q2", "q3") for e in diagnosis.effects),
+        f"{short}_faults_named_not_clean": "; ".join(sorted(named - clean)) or "none",
+        f"{short}_faults_missed_clean": "; ".join(sorted(clean - named)) or "none",
+    }
+    for joint in WRIST:
+        figures[f"{short}_{joint}_faults_nested_ratio"] = after[joint] / before[joint]
+    return figures
 
 
 def _names(value: object) -> list[str]:
@@ -92,6 +118,7 @@ def run() -> dict[str, float | int | str]:
         before, after = whole.rmse_before(), whole.rmse_after()
         for joint in ("q3", *WRIST):
             figures[f"{short}_{joint}_nested_ratio"] = after[joint] / before[joint]
+        figures.update(_with_faults(recording, short, {effect_label(e.effect) for e in whole.effects}))
     for method, values in wrist.items():
         figures[f"wrist_heldout_rmse_median_{method}"] = float(np.median(values))
         figures[f"wrist_heldout_rmse_max_{method}"] = float(np.max(values))

@@ -260,3 +260,27 @@ def write_synthetic(synthetic: Synthetic, out: str | Path) -> tuple[Path, Path]:
     truth = out / "truth.json"
     truth.write_text(json.dumps(synthetic.truth(), indent=2) + "\n")
     return folder, truth
+
+
+GLITCH_SIZE = np.array([0.3, 0.3, 0.01, 0.3, 0.3, 0.3])  # σ of a glitch's jump per joint (rad; m for q3)
+
+
+def with_tracker_faults(
+    recording: Recording, glitches: int, rng: np.random.Generator, noise: Array = NOISE_SIGMA
+) -> tuple[Recording, NDArray[np.bool_]]:
+    """`recording` as a fiducial tracker that glitches and loses the tool would have measured it, and the
+    true fault mask: the middle third of its last sixth reports the pose before it (plus `noise`), as a
+    tracker that lost the tool does, and `glitches` other samples jump on every joint at once (by up to
+    about a radian, even on q1–q3), as when it loses a sphere (`../shared/data/dvrk/README.md`)."""
+    q_phy, n = recording.q_phy.copy(), recording.n
+    truth = np.zeros(n, dtype=bool)
+    lost = slice(n - n // 6 + n // 18, n - n // 18)
+    q_phy[lost] = q_phy[lost.start - 1] + rng.normal(0, 1, q_phy[lost].shape) * noise
+    truth[lost] = True
+    jumps = rng.choice(np.flatnonzero(~truth), glitches, replace=False)
+    q_phy[jumps] += rng.normal(0, 1, (glitches, q_phy.shape[1])) * GLITCH_SIZE
+    truth[jumps] = True
+    faulty = Recording(
+        recording.path, recording.q_cmd, q_phy, recording.t, recording.arm, recording.resolution
+    )
+    return faulty, truth
