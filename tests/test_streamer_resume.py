@@ -27,12 +27,12 @@ PERIOD = 2.0**-7  # s: about 8 ms, exact in binary like every tick time below
 ROWS = 60
 
 
-def _until(condition, timeout: float = 10.0) -> bool:
+def _until(condition, timeout: float = 10.0, poll: float = 0.01) -> bool:
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline:
         if condition():
             return True
-        time.sleep(0.01)
+        time.sleep(poll)
     return condition()
 
 
@@ -51,17 +51,31 @@ class Rig:
         }
         self.streamer = Streamer(config, self.reports.append)
         assert _until(lambda: all(axis.reference() is not None for axis in self.streamer.axes.values()))
-        time.sleep(0.3)  # the double's subscriptions have reached the streamer's session
+        assert _until(self._hold_got_through)
         # far enough ahead of the monotonic clock that `play` never moves a start to "now"
         self.t0 = 2.0 ** math.ceil(math.log2(time.monotonic() + 600.0))
+
+    def _hold_got_through(self) -> bool:
+        """Whether the double's subscriptions have reached the streamer's session: a `hold` arrives."""
+        self.streamer.hold("PSM1")
+        return _until(lambda: bool(self.double.commands("PSM1/hold")), timeout=0.1)
 
     def play(self, motion_id: int, axis: str, q: np.ndarray, at_tick: int = 0) -> None:
         t = np.arange(len(q)) * PERIOD
         assert self.streamer.handle(("play", motion_id, "PSM1", axis, t, q), self.t0 + at_tick * PERIOD)
 
     def tick(self, ticks: range | list[int]) -> None:
+        """Tick at each of `ticks` (in periods from `t0`); before the next, the double has what it sent (the
+        set-point publishers drop what a full queue cannot take, and these ticks take no time)."""
+        axes = self.streamer.axes.values()
         for k in ticks:
+            before, received = [axis.last for axis in axes], len(self._servo_commands())
             self.streamer.tick(self.t0 + k * PERIOD)
+            expected = received + sum(axis.last is not last for axis, last in zip(axes, before))
+            assert _until(lambda: len(self._servo_commands()) >= expected, poll=0.0005)
+
+    def _servo_commands(self) -> list:
+        return self.double.commands("servo_jp")
 
     def received(self, topic: str, count: int) -> np.ndarray:
         """The positions of the first `count` set-points the double received on `topic`, in order."""
