@@ -22,9 +22,8 @@ motion rather than skipping ahead: the first set-point after it is the one a per
 and the motion ends that much later (reported as `stalled`). Jumping to where the trajectory would be by
 now would reach a dVRK as one `servo_jp` goal, which its arm hands to its PID as it comes
 (jhu-dvrk/sawIntuitiveResearchKit `core/components/code/mtsIntuitiveResearchKitArm.cpp`, `servo_jp` and
-`control_servo_jp`),
-and its PID disables the arm with a tracking error once the set-point is further from the measured
-position than the joint's `p_measured_setpoint_tolerance` (jhu-saw/sawControllers
+`control_servo_jp`), and the PID disables the arm with a tracking error once the set-point is further from
+the measured position than the joint's `p_measured_setpoint_tolerance` (jhu-saw/sawControllers
 `core/components/code/mtsPID.cpp`; 0.05 m on a PSM's insertion in sawIntuitiveResearchKit
 `share/pid/sawControllersPID-PSM.json`).
 
