@@ -9,12 +9,23 @@ frames (a 4-byte little-endian length, then a pickle; both ends are pegbt):
 
 - in: `("configure", {...})` first, then `("play", id, arm, axis, t, q)` (axis `arm` or `jaw`; `t` from 0,
   `q` one row per time), `("stop", id)`, `("quit",)`;
-- out: `("ready", realtime)`, `("started", id)`, `("done", id)`, `("failed", id, reason)`.
+- out: `("ready", realtime)`, `("started", id)`, `("stalled", id, seconds)`, `("done", id)`,
+  `("failed", id, reason)`.
 
 Every set-point is checked before it leaves (`guards`: joint limits, and velocity from the last one sent, or
 from the robot's `setpoint_js` for the first of a motion): one that fails is never sent; the motion fails,
 and the arm is told to `hold`. A motion also fails if the arm leaves ENABLED. When the executive dies (its
 end of the pipe closes), every arm is told to `hold` and the streamer exits.
+
+A stall (the process not scheduled for more than `STALL_PERIODS` control periods) pauses each running
+motion rather than skipping ahead: the first set-point after it is the one a period after the last one sent,
+and the motion ends that much later (reported as `stalled`). Jumping to where the trajectory would be by
+now would reach a dVRK as one `servo_jp` goal, which its arm hands to its PID as it comes
+(jhu-dvrk/sawIntuitiveResearchKit `core/components/code/mtsIntuitiveResearchKitArm.cpp`, `servo_jp` and
+`control_servo_jp`), and the PID disables the arm with a tracking error once the set-point is further from
+the measured position than the joint's `p_measured_setpoint_tolerance` (jhu-saw/sawControllers
+`core/components/code/mtsPID.cpp`; 0.05 m on a PSM's insertion in sawIntuitiveResearchKit
+`share/pid/sawControllersPID-PSM.json`).
 
 Timing (measured by `pegbt bench servo`): the loop waits for commands with `epoll`, whose timeout Python
 rounds up to whole milliseconds, so it wakes from it up to 1 ms early and sleeps the rest with
@@ -46,6 +57,7 @@ if TYPE_CHECKING:
 
 _LENGTH = struct.Struct("<I")
 EPOLL_RESOLUTION = 0.001  # s: epoll's timeout is whole milliseconds
+STALL_PERIODS = 2  # a longer gap since an axis's last set-point is a stall: its stream is no longer going
 Frame = tuple[Any, ...]
 
 
@@ -202,7 +214,7 @@ class Streamer:
 
     def _reference(self, axis: _Axis, now: float) -> NDArray[np.float64] | None:
         """Where the axis's set-point is: the last one sent if the stream is still going, else the robot's."""
-        if axis.last is not None and now - axis.last[0] <= 2 * self.period:
+        if axis.last is not None and now - axis.last[0] <= STALL_PERIODS * self.period:
             return axis.last[1]
         return axis.reference()
 
@@ -211,7 +223,8 @@ class Streamer:
 
     # ------------------------------------------------------------------ set-points
     def tick(self, now: float) -> None:
-        """Send each running motion's set-point for time `now` (monotonic)."""
+        """Send each running motion's set-point for time `now` (monotonic); after a stall, each motion's
+        next row instead (see the module docstring)."""
         for (arm, axis_name), axis in self.axes.items():
             motion = axis.motion
             if motion is None:
@@ -220,11 +233,17 @@ class Streamer:
                 axis.motion = None
                 self._report(("failed", motion.id, f"{arm} is {self._state(arm)}, no longer ENABLED"))
                 continue
+            assert axis.last is not None
+            since = now - axis.last[0]
+            if since > STALL_PERIODS * self.period:  # resume a period after the last set-point sent
+                stall = since - self.period
+                motion.start += stall
+                since = self.period
+                self._report(("stalled", motion.id, stall))
             elapsed = now - motion.start
             last_row = elapsed >= motion.t[-1]
             q = motion.q[-1] if last_row else _sample(motion.t, motion.q, elapsed)
-            assert axis.last is not None
-            problems = axis.problems(q) + axis.step_problems(q, axis.last[1], now - axis.last[0])
+            problems = axis.problems(q) + axis.step_problems(q, axis.last[1], since)
             if problems:
                 axis.motion = None
                 self.hold(arm)

@@ -1,5 +1,7 @@
 """The executive's side of the servo streamer (`pegbt.transport.streamer`): start it, hand it whole
-trajectories, and follow each one to its end with a `StreamedMotion` that behaviours poll like any motion."""
+trajectories, and follow each one to its end with a `StreamedMotion` that behaviours poll like any motion.
+The streamer's stalls (it was not scheduled, and resumed the motions it was playing) become warnings for the
+tick log (`drain_messages`)."""
 
 from __future__ import annotations
 
@@ -60,6 +62,8 @@ class Streamer:
         self._ids = itertools.count(1)
         self._outcomes: dict[int, tuple[str, str]] = {}
         self._started: set[int] = set()
+        self._axes: dict[int, str] = {}  # what each motion moves ("PSM1 arm"), to say which one stalled
+        self._messages: list[dict[str, Any]] = []
         self._changed = threading.Condition()
         self._ready = False
         self.realtime = False  # whether the streamer runs under SCHED_FIFO (see `pegbt.transport.streamer`)
@@ -109,12 +113,28 @@ class Streamer:
                         self._ready, self.realtime = True, bool(frame[1])
                     elif frame[0] == "started":
                         self._started.add(frame[1])
+                    elif frame[0] == "stalled":
+                        self._messages.append(self._stall_message(frame[1], frame[2]))
                     else:
                         self._outcomes[frame[1]] = (frame[0], frame[2] if len(frame) > 2 else "")
+                        self._axes.pop(frame[1], None)
                     self._changed.notify_all()
         with self._changed:
             self._gone = True
             self._changed.notify_all()
+
+    def _stall_message(self, motion_id: int, seconds: float) -> dict[str, Any]:
+        text = (
+            f"{self._axes.get(motion_id, 'a motion')}: no set-point for {seconds:.3f} s (the streamer was "
+            "not scheduled); the trajectory resumed from its last set-point and ends that much later"
+        )
+        return {"source": "streamer", "level": "warning", "text": text, "stamp": time.time()}
+
+    def drain_messages(self) -> list[dict[str, Any]]:
+        """Tick-log `message` records of the stalls since the last call, oldest first."""
+        with self._changed:
+            messages, self._messages = self._messages, []
+        return messages
 
     @property
     def running(self) -> bool:
@@ -123,6 +143,7 @@ class Streamer:
     def play(self, arm: str, axis: str, t: ArrayLike, q: ArrayLike) -> int:
         """Hand a trajectory (`t` from 0, rows of `q`) of `arm`'s `axis` (`arm` or `jaw`) to the streamer; its id."""
         motion_id = next(self._ids)
+        self._axes[motion_id] = f"{arm} {axis}"
         self._send(("play", motion_id, arm, axis, np.asarray(t, dtype=float), np.asarray(q, dtype=float)))
         return motion_id
 

@@ -103,9 +103,11 @@ class Robot:
         truth: Truth | None = None,
         endpoint: str = "",
         closers: tuple[Callable[[], None], ...] = (),
+        messages: tuple[Callable[[], list[dict[str, Any]]], ...] = (),
     ) -> None:
         """`arms` (`ArmClient`s or `CrtkArm`s by name) and `camera` share the verbs behaviours use; `closers`
-        run at `close()`, in order, after the link is closed."""
+        run at `close()`, in order, after the link is closed; `messages` are further sources of tick-log
+        messages besides the arms (a servo streamer's stalls)."""
         self.link = link
         self.run_clock = clock if lockstep else None  # a lockstep simulator's clock drives the run
         self.simulator = simulator
@@ -116,6 +118,7 @@ class Robot:
         self.camera = camera
         self.trial = Trial(clock, truth)
         self._closers = closers
+        self._message_sources = messages
         self.wire: Ros2Wire | None = None  # a CRTK robot's wire, and the topics a recording takes from it
         self.ros2_topics: tuple[Topic, ...] = ()
 
@@ -129,8 +132,10 @@ class Robot:
             arm.wait_until_ready(READY_TIMEOUT)
 
     def log_messages(self) -> list[dict[str, Any]]:
-        """The robot's error, warning and status messages since the last call (for the tick log)."""
-        return [message for arm in self.arms.values() for message in getattr(arm, "drain_messages", list)()]
+        """The robot's error, warning and status messages since the last call (for the tick log), then those
+        of the other sources."""
+        sources = [getattr(arm, "drain_messages", list) for arm in self.arms.values()]
+        return [message for source in (*sources, *self._message_sources) for message in source()]
 
     def report(self) -> Any:
         """The judged trial (None when the tree moved no block)."""
@@ -277,6 +282,7 @@ def connect_crtk_robot(
             endpoint=endpoint,
             truth=SimulatorLogTruth(simlog) if simlog else None,
             closers=(streamer.close, session.close),
+            messages=(streamer.drain_messages,),
         )
         robot.wire = wire  # what a recording listens to (`pegbt run --record`)
         robot.ros2_topics = (
