@@ -189,9 +189,10 @@ def test_refit_finds_a_narrower_play_from_20_set_points_spread_over_the_session(
     assert fresh < 1.06 * best < 0.6 * stale  # with the old width kept: 1.10 × best
 
 
-def test_gains_stay_when_the_set_points_barely_move_the_joints_that_drive_them():
+def test_gains_stay_when_the_set_points_barely_move_the_joints_that_drive_them(tmp_path):
     """The first 20 set-points hold the wrist in a corner (as the shared recordings' do): q5's coupling
-    from q6 moved (0.2 → 0.35), but no gain can be told there, so only offsets move, and the report says why."""
+    from q6 moved (0.2 → 0.35), but no gain can be told there, so only offsets move, and the report and
+    the command say why and what to collect instead."""
     moved_shape = [Effect("coupling", "q5", {"source": "q6", "k": 0.35}), *SHAPE[1:]]
     _, q_cmd = commands(7, seconds=400, rate_hz=1.25)
     q_cmd[:20, 3:] = q_cmd[20, 3:] + np.random.default_rng(7).normal(0, 0.01, (20, 3))  # 1 % of the range
@@ -201,11 +202,25 @@ def test_gains_stay_when_the_set_points_barely_move_the_joints_that_drive_them()
     old = PhysicsModel.from_effects("PSM1", SHAPE + FIRST, "first set-up")
     refitted, report = refit(old, session, 20)
     held = {joint.joint: joint.held for joint in report}
-    assert "span too little" in held["q5"] and "q6 " in held["q5"] and "25%" in held["q5"]
+    assert "of the task's range, under the 25 % a refit of gains needs" in held["q5"] and "q6 " in held["q5"]
     assert held["q1"] == ""  # the arm joints moved as usual
     assert refitted.settled.physics.coupling[4, 5] == 0.2
     assert np.isinf(next(joint.prior for joint in report if joint.joint == "q5"))
     assert refitted.settled.physics.offset[3] != old.settled.physics.offset[3]
+    folder = write_recording(tmp_path / "corner", session.q_cmd, session.q_phy, None, arm="PSM1")
+    printed = io.StringIO()
+    with contextlib.redirect_stdout(printed):
+        args = [
+            "calibrate",
+            "refit",
+            str(old.save(tmp_path / "old.json")),
+            str(folder),
+            "--out",
+            str(tmp_path / "n"),
+        ]
+        assert main(args) == 0
+    assert "note: only offsets moved on q4, q5, q6;" in printed.getvalue()
+    assert "pegbt calibrate collect --refit MODEL" in printed.getvalue()
 
 
 def test_a_refit_collection_spans_what_a_refit_needs_on_every_joint():

@@ -281,9 +281,15 @@ def _write_refit(model: CalibrationModel, recording: Recording, samples: int, ou
         if joint.width_factor != 1.0:
             prior = f"play widths ×{joint.width_factor:g}, {prior}"
         if joint.held:
-            prior = f"{prior} ({joint.held})"
+            prior = f"{prior}, {joint.held}"
         changes = ", ".join(f"{name} {old:.4g} → {new:.4g}" for name, old, new in joint.moved)
         print(f"{joint.joint}: {prior}: {changes or 'nothing moved'}")
+    narrow = [joint.joint for joint in moved if "span" in joint.held]
+    if narrow:
+        print(
+            f"note: only offsets moved on {', '.join(narrow)}; set-points spread over every joint's range "
+            "(`pegbt calibrate collect --refit MODEL`) let a refit follow gains and play widths too"
+        )
     path = refitted.save(out)
     print(f"wrote {path}")
     return path

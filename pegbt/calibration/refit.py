@@ -177,8 +177,8 @@ def _held(effects: list[Effect], joint: str, spans: Array) -> str:
     narrow = sorted({d for d in drives if spans[JOINT_NAMES.index(d)] < MIN_SPAN})
     if not narrow:
         return ""
-    spanned = ", ".join(f"{d} {spans[JOINT_NAMES.index(d)]:.0%}" for d in narrow)
-    return f"the set-points span too little of the task's range to refit its gains ({spanned}; {MIN_SPAN:.0%} needed)"
+    spanned = ", ".join(f"{d} {100 * spans[JOINT_NAMES.index(d)]:.1f} %" for d in narrow)
+    return f"the set-points span {spanned} of the task's range, under the {100 * MIN_SPAN:g} % a refit of gains needs"
 
 
 def known_memory(model: PhysicsModel, q_cmd: Array) -> NDArray[np.bool_]:
