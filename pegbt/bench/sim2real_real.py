@@ -115,6 +115,10 @@ def run() -> dict[str, float | int | str]:
         figures[f"{short}_named"] = len(whole.effects)
         figures[f"{short}_named_q1_q3"] = sum(e.effect.joint in ("q1", "q2", "q3") for e in whole.effects)
         figures[f"{short}_below_resolution"] = len(whole.below_resolution)
+        geometry = whole.geometry
+        figures[f"{short}_geometry_mm"] = (
+            "none" if geometry is None else ", ".join(f"{1000 * v:+.1f}" for v in geometry.displacement_m)
+        )
         before, after = whole.rmse_before(), whole.rmse_after()
         for joint in ("q3", *WRIST):
             figures[f"{short}_{joint}_nested_ratio"] = after[joint] / before[joint]

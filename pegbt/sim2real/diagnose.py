@@ -29,6 +29,7 @@ from pegbt.sim2real.fit import (
     settle_backlash,
     to_effects,
 )
+from pegbt.sim2real.geometry import GeometryCheck, check_geometry
 from pegbt.sim2real.library import build_columns
 from pegbt.sim2real.locate import JointMismatch, locate
 from pegbt.sim2real.practical import BelowResolution, settle_joint
@@ -84,6 +85,7 @@ class Diagnosis:
     faults: MeasurementFaults  # over the whole recording; `recording` holds the kept samples
     times_before_exclusion: Array
     fold_named: list[list[str]]  # the effects each nested training part named, per held-out segment
+    geometry: GeometryCheck | None = None  # q1–q3 moving as one displacement of the tool, if they do
 
     @property
     def residual_before(self) -> Array:
@@ -312,6 +314,7 @@ def diagnose(
     physics = merged_physics(fits, base)
     folds = fold_ranges(recording.n)
     heldout, fold_named = nested_predict(recording, t, residual, base, resolution, folds)
+    geometry = check_geometry(q_cmd, residual, recording.q_phy - heldout, folds, resolution)
     error_before = np.sqrt((residual**2).mean(0))
     effects = sorted(
         (
@@ -341,6 +344,7 @@ def diagnose(
         faults,
         times_before_exclusion,
         fold_named,
+        geometry,
     )
 
 

@@ -65,6 +65,7 @@ def report_dict(diagnosis: Diagnosis, compared_with: str | Path | None = None) -
         "resolution": None if diagnosis.resolution is None else dict(zip(JOINT_NAMES, diagnosis.resolution)),
         "below_resolution": [b.to_dict() for b in diagnosis.below_resolution],
         "measurement_faults": diagnosis.faults.to_dict(diagnosis.times_before_exclusion),
+        "geometry": None if diagnosis.geometry is None else diagnosis.geometry.to_dict(),
         "not_identifiable": list(diagnosis.not_identifiable),
         "selection": {
             "alpha": ALPHA,
@@ -114,6 +115,7 @@ def report_markdown(report: dict[str, Any], plots: list[str]) -> str:
     lines += [
         f"- {report['samples']} samples; {report['sampling']['reason']}.",
         f"- Measurement faults: {report['measurement_faults']['text']}.",
+        *([f"- Geometry: {report['geometry']['text']}."] if report.get("geometry") else []),
         f"- Simulator physics: `{report['sim']}` (arm {report['arm']}).",
         f"- Effects chosen by blocked cross-validation; each must gain in every held-out fold and beat "
         f"circularly shifted data at α = {report['selection']['alpha']} / {report['selection']['hypotheses']} "

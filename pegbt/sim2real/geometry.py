@@ -1,0 +1,124 @@
+"""Whether the arm joints' errors are one geometric displacement rather than cable physics.
+
+A fiducial tracker reports joints through the arm's kinematics: if its registration to the arm is off by
+a fixed translation (or the arm's own kinematic calibration is), every tool point it sees is displaced by
+the same vector, and q1–q3 all change, by amounts that depend on where the arm is
+(Δq = J(q)⁻¹ d, J the tool tip's Jacobian in q1–q3, `pegbt.motion.kinematics`). The per-joint cable
+effects cannot express that one cause. After the effects are named, this check fits joint offsets plus
+one displacement to q1–q3 in the diagnosis's held-out folds and, when that predicts them clearly better
+than the named physics, the report says so: a geometric error, not a cable effect, which a tracker alone
+cannot attribute to its registration or to the arm.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from pegbt.motion.kinematics import tip_position
+
+Array = NDArray[np.float64]
+
+ARM_JOINTS = 3  # q1–q3: the joints a displacement of the tool moves (the wrist's are set by its orientation)
+GUARD = 0.8  # the displacement's held-out squared error over the named physics', at most, on q1–q3
+STEP = 1e-6  # rad or m: finite-difference step of the Jacobian
+
+
+def displacement_columns(q_cmd: Array) -> Array:
+    """(N, 3, 3): how q1–q3 (rows) change per metre of tool displacement along x, y, z (columns)."""
+    q = np.asarray(q_cmd, dtype=float)
+    tip = tip_position(q)
+    jacobian = np.empty((len(q), 3, ARM_JOINTS))
+    for j in range(ARM_JOINTS):
+        nudged = q.copy()
+        nudged[:, j] += STEP
+        jacobian[:, :, j] = (tip_position(nudged) - tip) / STEP
+    return np.asarray(np.linalg.inv(jacobian), dtype=float)
+
+
+@dataclass(frozen=True)
+class GeometryCheck:
+    """A displacement that explains q1–q3: its vector, and q1–q3's held-out RMSE with it and with the
+    named physics (both over the error before either)."""
+
+    displacement_m: tuple[float, float, float]
+    heldout_ratio: tuple[float, float, float]
+    physics_ratio: tuple[float, float, float]
+
+    def sentence(self) -> str:
+        mm = ", ".join(f"{1000 * v:+.1f}" for v in self.displacement_m)
+        ratios = " / ".join(f"{r:.2f}" for r in self.heldout_ratio)
+        physics = " / ".join(f"{r:.2f}" for r in self.physics_ratio)
+        return (
+            f"q1–q3 move together as if the tool were displaced by ({mm}) mm in the arm's base frame: with "
+            f"joint offsets, that one displacement predicts q1 / q2 / q3 held out to {ratios} of their error, "
+            f"the named effects to {physics}. A geometric error (the tracker's registration, or the arm's "
+            "kinematic calibration), not a cable effect"
+        )
+
+    def to_dict(self) -> dict[str, object]:
+        return {
+            "displacement_m": list(self.displacement_m),
+            "heldout_ratio": list(self.heldout_ratio),
+            "physics_ratio": list(self.physics_ratio),
+            "text": self.sentence(),
+        }
+
+
+def _design(columns: Array) -> Array:
+    """(N, 3, 6): per q1–q3 row, its own offset and the displacement's three columns."""
+    offsets = np.broadcast_to(np.eye(ARM_JOINTS), (len(columns), ARM_JOINTS, ARM_JOINTS))
+    return np.concatenate([offsets, columns], axis=2)
+
+
+def _fit(design: Array, error: Array, weights: Array) -> Array:
+    x = (design / weights[None, :, None]).reshape(-1, design.shape[2])
+    y = (error / weights).reshape(-1)
+    return np.asarray(np.linalg.lstsq(x, y, rcond=None)[0], dtype=float)
+
+
+def check_geometry(
+    q_cmd: Array,
+    error: Array,
+    physics_error: Array,
+    folds: list[tuple[int, int]],
+    resolution: tuple[float, ...] | None,
+) -> GeometryCheck | None:
+    """The displacement q1–q3's `error` (N, 3: measured minus simulated) shows, if offsets plus one
+    displacement, refitted without each of `folds` in turn, predict q1–q3 held out with at most `GUARD`
+    of the squared error the named physics leaves (`physics_error`, N, 3, held out the same way), and the
+    displacement moves some joint by its resolution or more; else None. Joints are weighed by their
+    resolution (else by their error), so metres and radians add up."""
+    error = np.asarray(error, dtype=float)[:, :ARM_JOINTS]
+    physics_error = np.asarray(physics_error, dtype=float)[:, :ARM_JOINTS]
+    scale = np.sqrt((error**2).mean(axis=0))
+    weights = np.asarray(resolution[:ARM_JOINTS], dtype=float) if resolution else scale
+    if np.any(weights <= 0) or np.any(scale <= 0):
+        return None
+    design = _design(displacement_columns(q_cmd))
+    left = np.empty_like(error)
+    for a, b in folds:
+        rows = np.ones(len(error), dtype=bool)
+        rows[a:b] = False
+        coefficients = _fit(design[rows], error[rows], weights)
+        left[a:b] = error[a:b] - design[a:b] @ coefficients
+    if _weighted(left, weights) > GUARD * _weighted(physics_error, weights):
+        return None
+    displacement = _fit(design, error, weights)[ARM_JOINTS:]
+    moved = design[:, :, ARM_JOINTS:] @ displacement
+    moved -= moved.mean(axis=0)  # the part an offset cannot take up
+    if resolution and not np.any(np.abs(moved).max(axis=0) >= weights):
+        return None
+    ratio = np.sqrt((left**2).mean(axis=0)) / scale
+    physics = np.sqrt((physics_error**2).mean(axis=0)) / scale
+    return GeometryCheck(_triple(displacement), _triple(ratio), _triple(physics))
+
+
+def _weighted(error: Array, weights: Array) -> float:
+    return float(((error / weights) ** 2).sum())
+
+
+def _triple(values: Array) -> tuple[float, float, float]:
+    return float(values[0]), float(values[1]), float(values[2])

@@ -1,0 +1,75 @@
+"""q1–q3 moving as one displacement of the tool is told from cable effects: a recording whose measured
+joints are the closed-form inverse kinematics (`pegbt.motion.ik`, not the check's own Jacobian) of the
+commanded tip displaced by a fixed vector is reported as geometry with that vector; a q2→q3 coupling
+of the same size, and a recording with no arm-joint error, are not."""
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from pegbt.motion.ik import inverse_kinematics
+from pegbt.motion.kinematics import forward_kinematics
+from pegbt.physics import ArmPhysics, Effect
+from pegbt.physics.recording import Recording
+from pegbt.sim2real.diagnose import diagnose
+from pegbt.sim2real.report import write_report
+from tests.sim2real_helpers import commands
+
+RESOLUTION = (0.01, 0.01, 0.0005, 0.01, 0.01, 0.01)
+SIGMA = np.array([0.001, 0.001, 0.0001, 0.003, 0.003, 0.003])
+WRIST = [Effect("offset", "q4", {"value": 0.1}), Effect("coupling", "q6", {"source": "q5", "k": 0.15})]
+
+
+def _arm_commands(seed: int) -> np.ndarray:
+    """Set-points over the dVRK recordings' range: insertion 0.14–0.23 m, yaw and pitch ±0.25 rad."""
+    _, q = commands(seed, seconds=1200, rate_hz=1.25)
+    q[:, :2] = 0.25 * q[:, :2] / np.abs(q[:, :2]).max(axis=0)
+    q[:, 2] = 0.185 + 0.045 * (q[:, 2] - q[:, 2].mean()) / np.abs(q[:, 2] - q[:, 2].mean()).max()
+    return q
+
+
+def _measured(q_cmd: np.ndarray, effects: list[Effect], displacement: np.ndarray, seed: int) -> Recording:
+    q_phy = ArmPhysics(effects).simulate(q_cmd)
+    poses = forward_kinematics(q_phy)
+    poses[:, :3, 3] += displacement
+    solved = inverse_kinematics(poses)
+    assert solved.reachable.all()
+    q_phy = solved.q + np.random.default_rng(seed).normal(0, 1, q_cmd.shape) * SIGMA
+    return Recording(Path(f"<geometry {seed}>"), q_cmd, q_phy, None, "PSM1")
+
+
+def test_a_displaced_tool_is_reported_as_geometry_with_its_displacement(tmp_path):
+    displacement = np.array([-0.003, -0.0015, 0.005])  # as grey1 shows
+    diagnosis = diagnose(
+        _measured(_arm_commands(1), WRIST, displacement, 1), n_bootstrap=0, resolution=RESOLUTION
+    )
+    assert diagnosis.geometry is not None
+    assert np.array(diagnosis.geometry.displacement_m) == pytest.approx(displacement, abs=0.0005)
+    assert all(
+        g < 0.8 * p for g, p in zip(diagnosis.geometry.heldout_ratio, diagnosis.geometry.physics_ratio)
+    )
+    assert "not a cable effect" in diagnosis.geometry.sentence()
+    named = {(e.effect.effect, e.effect.joint) for e in diagnosis.effects}
+    assert {("offset", "q4"), ("coupling", "q6")} <= named
+    write_report(diagnosis, tmp_path)
+    report = json.loads((tmp_path / "report.json").read_text())
+    assert report["geometry"]["displacement_m"] == pytest.approx(list(displacement), abs=0.0005)
+    assert (
+        "- Geometry: q1–q3 move together as if the tool were displaced by"
+        in (tmp_path / "report.md").read_text()
+    )
+
+
+@pytest.mark.parametrize(
+    "arm_effects",
+    [[Effect("coupling", "q3", {"source": "q2", "k": 0.0026})], []],
+    ids=["q2-to-q3 coupling", "no arm-joint error"],
+)
+def test_cable_effects_and_a_clean_arm_are_not_read_as_geometry(arm_effects):
+    recording = _measured(_arm_commands(2), WRIST + arm_effects, np.zeros(3), 2)
+    diagnosis = diagnose(recording, n_bootstrap=0, resolution=RESOLUTION)
+    assert diagnosis.geometry is None
+    named = {(e.effect.effect, e.effect.joint) for e in diagnosis.effects}
+    assert (("coupling", "q3") in named) == bool(arm_effects)
