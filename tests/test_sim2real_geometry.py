@@ -1,7 +1,8 @@
 """q1–q3 moving as one displacement of the tool is told from cable effects: a recording whose measured
 joints are the closed-form inverse kinematics (`pegbt.motion.ik`, not the check's own Jacobian) of the
-commanded tip displaced by a fixed vector is reported as geometry with that vector; a q2→q3 coupling
-of the same size, and a recording with no arm-joint error, are not."""
+commanded tool pose displaced by a fixed vector is reported as geometry with that vector, and no cable
+effect but offsets is named for it; a q2→q3 coupling of the same size, and a recording with no arm-joint
+error, are not read as geometry."""
 
 import json
 from pathlib import Path
@@ -53,6 +54,8 @@ def test_a_displaced_tool_is_reported_as_geometry_with_its_displacement(tmp_path
     assert "not a cable effect" in diagnosis.geometry.sentence()
     named = {(e.effect.effect, e.effect.joint) for e in diagnosis.effects}
     assert {("offset", "q4"), ("coupling", "q6")} <= named
+    # taken out before the cable effects are chosen: what is left of it is constant, which offsets take up
+    assert {kind for kind, joint in named - {("coupling", "q6")}} == {"offset"}
     write_report(diagnosis, tmp_path)
     report = json.loads((tmp_path / "report.json").read_text())
     assert report["geometry"]["displacement_m"] == pytest.approx(list(displacement), abs=0.0005)

@@ -59,3 +59,19 @@ def test_new2s_insertion_offset_is_real_at_the_papers_resolution(dvrk_data):
     assert abs(q3.effect.params["value"]) > 0.0005
     assert diagnosis.rmse_after()["q3"] < 0.98 * diagnosis.rmse_before()["q3"]
     assert sum("offset on q3" in named for named in diagnosis.fold_named) >= 3
+
+
+@pytest.mark.slow
+def test_grey1s_arm_joints_move_as_one_displacement_of_the_tool_not_as_cable_effects(dvrk_data):
+    """grey1's q1–q3 errors are one geometric displacement (a few mm, as a tracker registration error
+    gives), not a q2→q3 coupling: reported as geometry, taken out, and no effect is named on q1–q3."""
+    resolution = (0.01, 0.01, 0.0005, 0.01, 0.01, 0.01)
+    diagnosis = diagnose(
+        load_recording(dvrk_data / "random_smooth_grey1_PSM1"), n_bootstrap=0, resolution=resolution
+    )
+    assert diagnosis.geometry is not None
+    assert 0.003 < sum(v * v for v in diagnosis.geometry.displacement_m) ** 0.5 < 0.01
+    assert diagnosis.geometry.heldout_ratio[0] < 0.6 and diagnosis.geometry.heldout_ratio[1] < 0.6
+    assert not [e for e in diagnosis.effects if e.effect.joint in ("q1", "q2", "q3")]
+    after, before = diagnosis.rmse_after(), diagnosis.rmse_before()
+    assert after["q1"] < 0.6 * before["q1"] and after["q2"] < 0.6 * before["q2"]  # held out, nested

@@ -9,6 +9,7 @@ the linearised fit) over each held-out segment, so the figure is what the simula
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -29,7 +30,7 @@ from pegbt.sim2real.fit import (
     settle_backlash,
     to_effects,
 )
-from pegbt.sim2real.geometry import GeometryCheck, check_geometry
+from pegbt.sim2real.geometry import GeometryCheck, check_geometry, displacement_removal
 from pegbt.sim2real.library import build_columns
 from pegbt.sim2real.locate import JointMismatch, locate
 from pegbt.sim2real.practical import BelowResolution, settle_joint
@@ -240,26 +241,31 @@ def nested_predict(
     base: ArmPhysics,
     resolution: tuple[float, ...] | None,
     fold_ranges: list[tuple[int, int]],
+    removal: Callable[[NDArray[np.bool_]], Array] | None = None,
 ) -> tuple[Array, list[list[str]]]:
     """Held-out predictions by nested cross-validation, and the effects each training part named.
 
     For each segment the whole choice (effects, widths, coefficients; its own inner folds) is made on
     the rest of the recording, and the merged physics model replays the whole command sequence (commands
-    are inputs, known everywhere), scored on the segment. No figure sees its own segment's measurements."""
+    are inputs, known everywhere), scored on the segment. No figure sees its own segment's measurements.
+    With a `removal` (`pegbt.sim2real.geometry.displacement_removal`), what it fits on the rest is taken
+    out of the residual before the choice and added back to the prediction."""
     prediction = np.empty_like(recording.q_phy)
     named = []
     for a, b in fold_ranges:
         keep = np.ones(recording.n, dtype=bool)
         keep[a:b] = False
+        shift = np.zeros_like(residual) if removal is None else removal(keep)
         choice = choose_and_fit(
             recording.q_cmd[keep],
             None if t is None else t[keep],
-            residual[keep],
+            (residual - shift)[keep],
             base,
             recording.sampling.is_stream,
             resolution,
         )
-        prediction[a:b] = merged_physics(choice.fits, base).simulate(recording.q_cmd, t)[a:b]
+        replay = merged_physics(choice.fits, base).simulate(recording.q_cmd, t)
+        prediction[a:b] = replay[a:b] + shift[a:b]
         named.append(choice.labels())
     return prediction, named
 
@@ -276,8 +282,10 @@ def diagnose(
 
     `resolution` (per joint; default: the recording's own, when its metadata says) sets what is too
     small to name (`pegbt.sim2real.practical`). Samples no arm could produce (`pegbt.physics.faults`)
-    are left out of everything: selection, fit and the held-out figures. The effects are named from the
-    whole recording; the held-out figures come from nested cross-validation (`nested_predict`)."""
+    are left out of everything: selection, fit and the held-out figures. When q1–q3 move as one
+    displacement of the tool (`pegbt.sim2real.geometry`), it is taken out before the effects are chosen
+    again, and reported as geometry. The effects are named from the whole recording; the held-out figures
+    come from nested cross-validation (`nested_predict`)."""
     arm = arm or recording.arm or "PSM1"
     times_before_exclusion = recording.times
     base, faults, recording, t, simulated = _prepare(recording, sim, arm)
@@ -286,14 +294,23 @@ def diagnose(
     residual = recording.q_phy - simulated
     mismatch = locate(residual, q_cmd, recording.times, sampling.is_stream)
     resolution = resolution if resolution is not None else recording.resolution
+    folds = fold_ranges(recording.n)
     choice = choose_and_fit(q_cmd, t, residual, base, sampling.is_stream, resolution)
+    heldout, fold_named = nested_predict(recording, t, residual, base, resolution, folds)
+    geometry = check_geometry(q_cmd, residual, recording.q_phy - heldout, folds, resolution)
+    cable_residual = residual
+    if geometry is not None:
+        removal = displacement_removal(q_cmd, residual, resolution)
+        cable_residual = residual - removal(np.ones(recording.n, dtype=bool))
+        choice = choose_and_fit(q_cmd, t, cable_residual, base, sampling.is_stream, resolution)
+        heldout, fold_named = nested_predict(recording, t, residual, base, resolution, folds, removal)
     selections, fits = choice.selections, choice.fits
     drivers = base.static_map(q_cmd)
     rng = np.random.default_rng(seed)
     effects: list[NamedEffect] = []
     statements = list(choice.unidentifiable.statements)
     for selection, fit in zip(selections, fits):
-        target, driver = residual[:, fit.joint], drivers[:, fit.joint]
+        target, driver = cable_residual[:, fit.joint], drivers[:, fit.joint]
         fitted_anything = fit.intercept or fit.terms
         samples = (
             bootstrap(fit, q_cmd, t, target, driver, n_bootstrap, rng)
@@ -312,9 +329,6 @@ def diagnose(
             if chosen.rival:
                 statements.append(rival_sentence(chosen.candidate.label, chosen.rival))
     physics = merged_physics(fits, base)
-    folds = fold_ranges(recording.n)
-    heldout, fold_named = nested_predict(recording, t, residual, base, resolution, folds)
-    geometry = check_geometry(q_cmd, residual, recording.q_phy - heldout, folds, resolution)
     error_before = np.sqrt((residual**2).mean(0))
     effects = sorted(
         (

@@ -3,21 +3,24 @@
 A fiducial tracker reports joints through the arm's kinematics: if its registration to the arm is off by
 a fixed translation (or the arm's own kinematic calibration is), every tool point it sees is displaced by
 the same vector, and q1–q3 all change, by amounts that depend on where the arm is
-(Δq = J(q)⁻¹ d, J the tool tip's Jacobian in q1–q3, `pegbt.motion.kinematics`). The per-joint cable
-effects cannot express that one cause. After the effects are named, this check fits joint offsets plus
-one displacement to q1–q3 in the diagnosis's held-out folds and, when that predicts them clearly better
-than the named physics, the report says so: a geometric error, not a cable effect, which a tracker alone
-cannot attribute to its registration or to the arm.
+(Δq = J(q)⁻¹ (d, 0), J the tool pose's Jacobian, `pegbt.motion.kinematics`; the wrist turns back the
+tilt that q1–q2's change gives the tool). The per-joint cable
+effects cannot express that one cause. After a first choice of effects, this check fits joint offsets
+plus one displacement to q1–q3 in the diagnosis's held-out folds; when that predicts them clearly better
+than the cable effects, the displacement is taken out before the effects are chosen again (and added back
+to their prediction), and the report names it as geometry: a tracker's registration or the arm's
+kinematic calibration, which a tracker alone cannot tell apart, not a cable effect.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
 
-from pegbt.motion.kinematics import tip_position
+from pegbt.motion.kinematics import forward_kinematics
 
 Array = NDArray[np.float64]
 
@@ -27,15 +30,20 @@ STEP = 1e-6  # rad or m: finite-difference step of the Jacobian
 
 
 def displacement_columns(q_cmd: Array) -> Array:
-    """(N, 3, 3): how q1–q3 (rows) change per metre of tool displacement along x, y, z (columns)."""
+    """(N, 6, 3): how each joint (rows) changes per metre of tool displacement along x, y, z (columns),
+    the tool's orientation unchanged: J(q)⁻¹ of the tip pose's Jacobian (position and rotation rows) on
+    a displacement with no rotation. q1–q3 carry it; the wrist turns back what their change tilts."""
     q = np.asarray(q_cmd, dtype=float)
-    tip = tip_position(q)
-    jacobian = np.empty((len(q), 3, ARM_JOINTS))
-    for j in range(ARM_JOINTS):
+    pose = forward_kinematics(q)
+    jacobian = np.empty((len(q), 6, q.shape[1]))
+    for j in range(q.shape[1]):
         nudged = q.copy()
         nudged[:, j] += STEP
-        jacobian[:, :, j] = (tip_position(nudged) - tip) / STEP
-    return np.asarray(np.linalg.inv(jacobian), dtype=float)
+        moved = forward_kinematics(nudged)
+        jacobian[:, :3, j] = (moved[:, :3, 3] - pose[:, :3, 3]) / STEP
+        turn = moved[:, :3, :3] @ np.swapaxes(pose[:, :3, :3], 1, 2)  # ≈ I + [ω]× STEP
+        jacobian[:, 3:, j] = np.stack([turn[:, 2, 1], turn[:, 0, 2], turn[:, 1, 0]], axis=1) / STEP
+    return np.asarray(np.linalg.inv(jacobian)[:, :, :3], dtype=float)
 
 
 @dataclass(frozen=True)
@@ -54,7 +62,7 @@ class GeometryCheck:
         return (
             f"q1–q3 move together as if the tool were displaced by ({mm}) mm in the arm's base frame: with "
             f"joint offsets, that one displacement predicts q1 / q2 / q3 held out to {ratios} of their error, "
-            f"the named effects to {physics}. A geometric error (the tracker's registration, or the arm's "
+            f"cable effects alone to {physics}; it is taken out before naming them. A geometric error (the tracker's registration, or the arm's "
             "kinematic calibration), not a cable effect"
         )
 
@@ -70,7 +78,7 @@ class GeometryCheck:
 def _design(columns: Array) -> Array:
     """(N, 3, 6): per q1–q3 row, its own offset and the displacement's three columns."""
     offsets = np.broadcast_to(np.eye(ARM_JOINTS), (len(columns), ARM_JOINTS, ARM_JOINTS))
-    return np.concatenate([offsets, columns], axis=2)
+    return np.concatenate([offsets, columns[:, :ARM_JOINTS]], axis=2)
 
 
 def _fit(design: Array, error: Array, weights: Array) -> Array:
@@ -94,7 +102,7 @@ def check_geometry(
     error = np.asarray(error, dtype=float)[:, :ARM_JOINTS]
     physics_error = np.asarray(physics_error, dtype=float)[:, :ARM_JOINTS]
     scale = np.sqrt((error**2).mean(axis=0))
-    weights = np.asarray(resolution[:ARM_JOINTS], dtype=float) if resolution else scale
+    weights = _weights(error, resolution)
     if np.any(weights <= 0) or np.any(scale <= 0):
         return None
     design = _design(displacement_columns(q_cmd))
@@ -114,6 +122,32 @@ def check_geometry(
     ratio = np.sqrt((left**2).mean(axis=0)) / scale
     physics = np.sqrt((physics_error**2).mean(axis=0)) / scale
     return GeometryCheck(_triple(displacement), _triple(ratio), _triple(physics))
+
+
+def displacement_removal(
+    q_cmd: Array, error: Array, resolution: tuple[float, ...] | None
+) -> Callable[[NDArray[np.bool_]], Array]:
+    """A function of samples `rows`: the displacement fitted on them alone (with the joints' offsets), as
+    it shows in every joint of every sample (N, 6; its mean over `rows` left to the joints' offsets).
+    The diagnosis takes it out of the error before choosing the cable effects and adds it back to their
+    prediction, fold by fold in nested cross-validation."""
+    error = np.asarray(error, dtype=float)[:, :ARM_JOINTS]
+    weights = _weights(error, resolution)
+    columns = displacement_columns(q_cmd)
+    design = _design(columns)
+
+    def removal(rows: NDArray[np.bool_]) -> Array:
+        shift = columns @ _fit(design[rows], error[rows], weights)[ARM_JOINTS:]
+        return np.asarray(shift - shift[rows].mean(axis=0), dtype=float)
+
+    return removal
+
+
+def _weights(error: Array, resolution: tuple[float, ...] | None) -> Array:
+    """How q1–q3 are weighed against one another: by resolution, else by their error."""
+    if resolution:
+        return np.asarray(resolution[:ARM_JOINTS], dtype=float)
+    return np.asarray(np.sqrt((error**2).mean(axis=0)), dtype=float)
 
 
 def _weighted(error: Array, weights: Array) -> float:
