@@ -4,6 +4,8 @@ commanded tool pose displaced by a fixed vector is reported as geometry with tha
 effect but offsets is named for it; a q2→q3 coupling of the same size, and a recording with no arm-joint
 error, are not read as geometry."""
 
+import contextlib
+import io
 import json
 from pathlib import Path
 
@@ -13,9 +15,9 @@ import pytest
 from pegbt.motion.ik import inverse_kinematics
 from pegbt.motion.kinematics import forward_kinematics
 from pegbt.physics import ArmPhysics, Effect
-from pegbt.physics.recording import Recording
+from pegbt.cli import main
+from pegbt.physics.recording import Recording, write_recording
 from pegbt.sim2real.diagnose import diagnose
-from pegbt.sim2real.report import write_report
 from tests.sim2real_helpers import commands
 
 RESOLUTION = (0.01, 0.01, 0.0005, 0.01, 0.01, 0.01)
@@ -43,26 +45,23 @@ def _measured(q_cmd: np.ndarray, effects: list[Effect], displacement: np.ndarray
 
 def test_a_displaced_tool_is_reported_as_geometry_with_its_displacement(tmp_path):
     displacement = np.array([-0.003, -0.0015, 0.005])  # as grey1 shows
-    diagnosis = diagnose(
-        _measured(_arm_commands(1), WRIST, displacement, 1), n_bootstrap=0, resolution=RESOLUTION
-    )
-    assert diagnosis.geometry is not None
-    assert np.array(diagnosis.geometry.displacement_m) == pytest.approx(displacement, abs=0.0005)
-    assert all(
-        g < 0.8 * p for g, p in zip(diagnosis.geometry.heldout_ratio, diagnosis.geometry.physics_ratio)
-    )
-    assert "not a cable effect" in diagnosis.geometry.sentence()
-    named = {(e.effect.effect, e.effect.joint) for e in diagnosis.effects}
+    recording = _measured(_arm_commands(1), WRIST, displacement, 1)
+    folder = write_recording(tmp_path / "rec", recording.q_cmd, recording.q_phy, None, "PSM1", RESOLUTION)
+    printed = io.StringIO()
+    with contextlib.redirect_stdout(printed):
+        args = ["sim2real", "diagnose", str(folder), "--out", str(tmp_path / "out"), "--bootstrap", "0"]
+        assert main(args) == 0
+    assert "geometry: q1–q3 move together as if the tool were displaced by" in printed.getvalue()
+    report = json.loads((tmp_path / "out" / "report.json").read_text())
+    geometry = report["geometry"]
+    assert geometry["displacement_m"] == pytest.approx(list(displacement), abs=0.0005)
+    assert all(g < 0.8 * p for g, p in zip(geometry["heldout_ratio"], geometry["physics_ratio"]))
+    assert "not a cable effect" in geometry["text"]
+    assert "- Geometry: q1–q3 move together" in (tmp_path / "out" / "report.md").read_text()
+    named = {(e["effect"], e["joint"]) for e in report["effects"]}
     assert {("offset", "q4"), ("coupling", "q6")} <= named
     # taken out before the cable effects are chosen: what is left of it is constant, which offsets take up
     assert {kind for kind, joint in named - {("coupling", "q6")}} == {"offset"}
-    write_report(diagnosis, tmp_path)
-    report = json.loads((tmp_path / "report.json").read_text())
-    assert report["geometry"]["displacement_m"] == pytest.approx(list(displacement), abs=0.0005)
-    assert (
-        "- Geometry: q1–q3 move together as if the tool were displaced by"
-        in (tmp_path / "report.md").read_text()
-    )
 
 
 @pytest.mark.parametrize(

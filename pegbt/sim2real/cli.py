@@ -137,6 +137,8 @@ def _diagnose(args: argparse.Namespace) -> int:
     print(f"{recording.path}: {recording.n} samples; {recording.sampling.reason}")
     print(f"simulator physics: {diagnosis.sim} ({diagnosis.arm})")
     print(f"measurement faults: {report['measurement_faults']['text']}")
+    if report["geometry"]:
+        print(f"geometry: {report['geometry']['text']}")
     before, after = report["fit"]["heldout_rmse_before"], report["fit"]["heldout_rmse_after"]
     print(
         "held-out RMSE before → after: " + ", ".join(f"{q} {before[q]:.4g} → {after[q]:.4g}" for q in before)
