@@ -2,14 +2,14 @@
 
 A fiducial tracker reports joints through the arm's kinematics: if its registration to the arm is off by
 a fixed translation (or the arm's own kinematic calibration is), every tool point it sees is displaced by
-the same vector, and q1–q3 all change, by amounts that depend on where the arm is
-(Δq = J(q)⁻¹ (d, 0), J the tool pose's Jacobian, `pegbt.motion.kinematics`; the wrist turns back the
-tilt that q1–q2's change gives the tool). The per-joint cable
-effects cannot express that one cause. After a first choice of effects, this check fits joint offsets
-plus one displacement to q1–q3 in the diagnosis's held-out folds; when that predicts them clearly better
-than the cable effects, the displacement is taken out before the effects are chosen again (and added back
-to their prediction), and the report names it as geometry: a tracker's registration or the arm's
-kinematic calibration, which a tracker alone cannot tell apart, not a cable effect.
+the same vector d, and the joints change by Δq = J(q)⁻¹ (d, 0), J the tool pose's Jacobian
+(`pegbt.motion.kinematics`): q1–q3 carry the displacement, by amounts that depend on where the arm is,
+and the wrist turns back the tilt their change gives the tool. Per-joint cable effects cannot express
+that one cause. After a first choice of effects, this check fits joint offsets plus one displacement to
+q1–q3 in the diagnosis's held-out folds; when that predicts them clearly better than the cable effects,
+the diagnosis takes the displacement out before choosing the effects again (and adds it back to their
+prediction), and the report names it as geometry, not a cable effect: the tracker's registration or the
+arm's kinematic calibration, which a tracker alone cannot tell apart.
 """
 
 from __future__ import annotations
@@ -24,7 +24,7 @@ from pegbt.motion.kinematics import forward_kinematics
 
 Array = NDArray[np.float64]
 
-ARM_JOINTS = 3  # q1–q3: the joints a displacement of the tool moves (the wrist's are set by its orientation)
+ARM_JOINTS = 3  # q1–q3: the joints a displacement is fitted on (the wrist's cable errors are far larger)
 GUARD = 0.8  # the displacement's held-out squared error over the named physics', at most, on q1–q3
 STEP = 1e-6  # rad or m: finite-difference step of the Jacobian
 
