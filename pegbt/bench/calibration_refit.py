@@ -56,20 +56,19 @@ def run() -> Figures:
             none = float(tip_error_mm(session.q_cmd[start:], session.q_phy[start:]).mean())
             gain = none - _tip_mm(trained, session, start)
 
-            def recovered(model: CalibrationModel) -> float:
-                return (none - _tip_mm(model, session, start)) / gain  # noqa: B023 (used in this iteration)
-
             figures[f"{prefix}.uncompensated.tip_mm"] = none
             figures[f"{prefix}.other.tip_mm"] = _tip_mm(models[old], session, start)
             figures[f"{prefix}.trained.tip_mm"] = none - gain
-            figures[f"{prefix}.refit_first.recovered"] = recovered(refit(models[old], session, SAMPLES)[0])
+            first_n = refit(models[old], session, SAMPLES)[0]
+            figures[f"{prefix}.refit_first.recovered"] = (none - _tip_mm(first_n, session, start)) / gain
             draws, offsets_only, factors = [], [], []
             for seed in range(DRAWS):
                 rng = np.random.default_rng(seed)
                 at = np.sort(rng.choice(start, SAMPLES, replace=False))
                 refitted, report = refit_at(models[old], session, at)
-                draws.append(recovered(refitted))
-                offsets_only.append(recovered(refit_at(models[old], session, at, gains=False)[0]))
+                offsets = refit_at(models[old], session, at, gains=False)[0]
+                draws.append((none - _tip_mm(refitted, session, start)) / gain)
+                offsets_only.append((none - _tip_mm(offsets, session, start)) / gain)
                 factors.append([joint.width_factor for joint in report])
             figures[f"{prefix}.refit.recovered_median"] = float(np.median(draws))
             figures[f"{prefix}.refit.recovered_worst"] = float(np.min(draws))

@@ -284,7 +284,7 @@ def _write_refit(model: CalibrationModel, recording: Recording, samples: int, ou
             prior = f"{prior}, {joint.held}"
         changes = ", ".join(f"{name} {old:.4g} → {new:.4g}" for name, old, new in joint.moved)
         print(f"{joint.joint}: {prior}: {changes or 'nothing moved'}")
-    narrow = [joint.joint for joint in moved if "span" in joint.held]
+    narrow = [joint.joint for joint in moved if joint.narrow]
     if narrow:
         print(
             f"note: only offsets moved on {', '.join(narrow)}; set-points spread over every joint's range "

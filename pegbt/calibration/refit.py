@@ -60,6 +60,7 @@ class JointRefit:
     width_factor: float  # the joint's play widths were multiplied by this (1: kept)
     moved: tuple[tuple[str, float, float], ...]  # (parameter, old, new)
     held: str = ""  # why the widths and gains were kept whatever the set-points say, if they were
+    narrow: bool = False  # held because the set-points span too little of the range (collect spread ones)
 
     def to_dict(self) -> dict[str, object]:
         return {
@@ -239,6 +240,7 @@ def refit_at(
     for j, joint in enumerate(JOINT_NAMES):
         enough = bool(known[:, j].sum() >= MIN_KNOWN)
         held = _held(old, joint, spans) if gains else "offsets only, as asked"
+        narrow = gains and bool(held)
         if not enough and not held:
             held = f"fewer than {MIN_KNOWN} set-points after its play's memory is known"
         options = _Options(
@@ -257,7 +259,7 @@ def refit_at(
             for name, value in before.params.items():
                 if not isinstance(value, str) and abs(float(after.params[name]) - value) > 1e-12:
                     moved.append((_label(before, name), value, float(after.params[name])))
-        report.append(JointRefit(joint, best.prior, best.width_factor, tuple(moved), held))
+        report.append(JointRefit(joint, best.prior, best.width_factor, tuple(moved), held, narrow))
     effects = [
         e for e in effects if not (e.effect in ("offset", "scale") and e.params["value"] == e.kind.neutral)
     ]

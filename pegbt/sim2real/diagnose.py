@@ -30,7 +30,12 @@ from pegbt.sim2real.fit import (
     settle_backlash,
     to_effects,
 )
-from pegbt.sim2real.geometry import GeometryCheck, check_geometry, displacement_removal
+from pegbt.sim2real.geometry import (
+    GeometryCheck,
+    check_geometry,
+    displacement_columns,
+    displacement_removal,
+)
 from pegbt.sim2real.library import build_columns
 from pegbt.sim2real.locate import JointMismatch, locate
 from pegbt.sim2real.practical import BelowResolution, settle_joint
@@ -297,10 +302,11 @@ def diagnose(
     folds = fold_ranges(recording.n)
     choice = choose_and_fit(q_cmd, t, residual, base, sampling.is_stream, resolution)
     heldout, fold_named = nested_predict(recording, t, residual, base, resolution, folds)
-    geometry = check_geometry(q_cmd, residual, recording.q_phy - heldout, folds, resolution)
+    displacement = displacement_columns(q_cmd)
+    geometry = check_geometry(displacement, residual, recording.q_phy - heldout, folds, resolution)
     cable_residual = residual
     if geometry is not None:
-        removal = displacement_removal(q_cmd, residual, resolution)
+        removal = displacement_removal(displacement, residual, resolution)
         cable_residual = residual - removal(np.ones(recording.n, dtype=bool))
         choice = choose_and_fit(q_cmd, t, cable_residual, base, sampling.is_stream, resolution)
         heldout, fold_named = nested_predict(recording, t, residual, base, resolution, folds, removal)

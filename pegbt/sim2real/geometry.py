@@ -88,13 +88,14 @@ def _fit(design: Array, error: Array, weights: Array) -> Array:
 
 
 def check_geometry(
-    q_cmd: Array,
+    columns: Array,
     error: Array,
     physics_error: Array,
     folds: list[tuple[int, int]],
     resolution: tuple[float, ...] | None,
 ) -> GeometryCheck | None:
-    """The displacement q1–q3's `error` (N, 3: measured minus simulated) shows, if offsets plus one
+    """The displacement q1–q3's `error` (N, 3: measured minus simulated; `columns` from
+    `displacement_columns` of the commands) shows, if offsets plus one
     displacement, refitted without each of `folds` in turn, predict q1–q3 held out with at most `GUARD`
     of the squared error the named physics leaves (`physics_error`, N, 3, held out the same way), and the
     displacement moves some joint by its resolution or more; else None. Joints are weighed by their
@@ -105,7 +106,7 @@ def check_geometry(
     weights = _weights(error, resolution)
     if np.any(weights <= 0) or np.any(scale <= 0):
         return None
-    design = _design(displacement_columns(q_cmd))
+    design = _design(columns)
     left = np.empty_like(error)
     for a, b in folds:
         rows = np.ones(len(error), dtype=bool)
@@ -125,15 +126,15 @@ def check_geometry(
 
 
 def displacement_removal(
-    q_cmd: Array, error: Array, resolution: tuple[float, ...] | None
+    columns: Array, error: Array, resolution: tuple[float, ...] | None
 ) -> Callable[[NDArray[np.bool_]], Array]:
-    """A function of samples `rows`: the displacement fitted on them alone (with the joints' offsets), as
+    """A function of samples `rows`: the displacement (`columns` as for `check_geometry`) fitted on them
+    alone (with the joints' offsets), as
     it shows in every joint of every sample (N, 6; its mean over `rows` left to the joints' offsets).
     The diagnosis takes it out of the error before choosing the cable effects and adds it back to their
     prediction, fold by fold in nested cross-validation."""
     error = np.asarray(error, dtype=float)[:, :ARM_JOINTS]
     weights = _weights(error, resolution)
-    columns = displacement_columns(q_cmd)
     design = _design(columns)
 
     def removal(rows: NDArray[np.bool_]) -> Array:
