@@ -1,7 +1,8 @@
 """q1–q3 moving as one displacement of the tool is told from cable effects: a recording whose measured
 joints are the closed-form inverse kinematics (`pegbt.motion.ik`, not the check's own Jacobian) of the
 commanded tool pose displaced by a fixed vector is reported as geometry with that vector, and no cable
-effect but offsets is named for it; a q2→q3 coupling of the same size, and a recording with no arm-joint
+effect is named for it (what an offset takes up is a zero offset of the arm, reported apart); a constant
+offset on q3 alone is such a zero offset too; a q2→q3 coupling of the same size, and a recording with no arm-joint
 error, are not read as geometry."""
 
 import contextlib
@@ -60,8 +61,32 @@ def test_a_displaced_tool_is_reported_as_geometry_with_its_displacement(tmp_path
     assert "- Geometry: q1–q3 move together" in (tmp_path / "out" / "report.md").read_text()
     named = {(e["effect"], e["joint"]) for e in report["effects"]}
     assert {("offset", "q4"), ("coupling", "q6")} <= named
-    # taken out before the cable effects are chosen: what is left of it is constant, which offsets take up
-    assert {kind for kind, joint in named - {("coupling", "q6")}} == {"offset"}
+    # taken out before the cable effects are chosen: what is left of it is constant, offsets of the arm
+    assert not {joint for _, joint in named} & {"q1", "q2", "q3"}
+    assert {e["effect"] for e in report["zero_offsets"]} <= {"offset"}
+
+
+def test_an_insertion_offset_is_a_zero_offset_of_the_arm_not_a_cable_effect(tmp_path):
+    """A tool that sits 0.8 mm short of its command (as new2's does) beside wrist cable effects."""
+    effects = [*WRIST, Effect("offset", "q3", {"value": -0.0008})]
+    recording = _measured(_arm_commands(3), effects, np.zeros(3), 3)
+    folder = write_recording(tmp_path / "rec", recording.q_cmd, recording.q_phy, None, "PSM1", RESOLUTION)
+    printed = io.StringIO()
+    with contextlib.redirect_stdout(printed):
+        args = ["sim2real", "diagnose", str(folder), "--out", str(tmp_path / "out"), "--bootstrap", "0"]
+        assert main(args) == 0
+    report = json.loads((tmp_path / "out" / "report.json").read_text())
+    assert {(e["effect"], e["joint"]) for e in report["effects"]} == {("offset", "q4"), ("coupling", "q6")}
+    (zero,) = report["zero_offsets"]
+    assert (zero["effect"], zero["joint"]) == ("offset", "q3")
+    assert zero["params"]["value"] == pytest.approx(-0.0008, abs=0.00005)
+    assert "zero offset of the arm, geometry and not a cable effect: q3 sits -0.000" in printed.getvalue()
+    assert (
+        "- Zero offset of the arm, geometry and not a cable effect: q3 sits"
+        in (tmp_path / "out" / "report.md").read_text()
+    )
+    model = {(e["effect"], e["joint"]) for e in report["model"]["effects"]}
+    assert ("offset", "q3") in model  # the model, and a calibration from it, still compensate it
 
 
 @pytest.mark.parametrize(

@@ -17,7 +17,7 @@ from pegbt.sim2real.diagnose import diagnose
 from tests.sim2real_helpers import recording_with
 
 RESOLUTION = (0.01, 0.01, 0.0005, 0.01, 0.01, 0.01)
-SMALL_ON_Q1 = Effect("offset", "q1", {"value": 0.004})  # clear in 0.0005 rad noise, under 0.01 rad
+SMALL_ON_Q4 = Effect("offset", "q4", {"value": 0.004})  # clear in 0.0005 rad noise, under 0.01 rad
 LARGE_ON_Q5 = Effect("coupling", "q5", {"source": "q6", "k": 0.2})
 
 
@@ -27,18 +27,18 @@ def _named(diagnosis):
 
 @pytest.fixture(scope="module")
 def small_and_large():
-    return recording_with([SMALL_ON_Q1, LARGE_ON_Q5], seed=4, sigma=0.0005)
+    return recording_with([SMALL_ON_Q4, LARGE_ON_Q5], seed=4, sigma=0.0005)
 
 
 def test_an_effect_below_resolution_is_listed_not_named(small_and_large):
     unresolved = diagnose(small_and_large, n_bootstrap=0)
-    assert ("offset", "q1") in _named(unresolved)  # the test alone finds it
+    assert ("offset", "q4") in _named(unresolved)  # the test alone finds it
     resolved = diagnose(small_and_large, n_bootstrap=0, resolution=RESOLUTION)
     assert _named(resolved) == {("coupling", "q5")}
-    (below,) = [b for b in resolved.below_resolution if b.label == "offset on q1"]
+    (below,) = [b for b in resolved.below_resolution if b.label == "offset on q4"]
     assert below.size == pytest.approx(0.004, rel=0.2)
     assert "below the resolution 0.01 rad" in below.reason
-    assert resolved.physics.offset[0] == 0.0  # nor is it in the model
+    assert resolved.physics.offset[3] == 0.0  # nor is it in the model
 
 
 def test_a_bias_dominated_joint_gets_its_offset_first_and_the_shares_add_up():
@@ -72,7 +72,7 @@ def test_the_report_opens_with_the_named_effects_and_lists_what_is_below_resolut
     report = json.loads((out / "report.json").read_text())
     assert [e["effect"] for e in report["effects"]] == ["coupling"]
     assert report["resolution"]["q3"] == 0.0005
-    assert [b["effect"] for b in report["below_resolution"]] == ["offset on q1"]
+    assert [b["effect"] for b in report["below_resolution"]] == ["offset on q4"]
     lines = (out / "report.md").read_text().splitlines()
     assert lines[2] == "In order of what they explain:"
     assert lines[4].startswith("1. q5 follows the q6 command")
@@ -100,7 +100,7 @@ def test_resolution_from_the_command_line_overrides_and_bad_values_are_refused(s
     assert status == 0
     report = json.loads(printed.getvalue())
     named = [(e["effect"], e["joint"]) for e in report["effects"]]
-    assert named == [("offset", "q1")]  # resolved at 0; the coupling moves q5 by less than 0.5 rad
+    assert named == [("offset", "q4")]  # resolved at 0; the coupling moves q5 by less than 0.5 rad
     with pytest.raises(PegbtError, match="6 non-negative numbers"):
         parse_resolution("0.01,0.01")
     assert np.isfinite(parse_resolution([1, 2, 3, 4, 5, 6])).all()

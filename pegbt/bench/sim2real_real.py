@@ -115,6 +115,10 @@ def run() -> dict[str, float | int | str]:
         figures[f"{short}_named"] = len(whole.effects)
         figures[f"{short}_named_q1_q3"] = sum(e.effect.joint in ("q1", "q2", "q3") for e in whole.effects)
         figures[f"{short}_below_resolution"] = len(whole.below_resolution)
+        figures[f"{short}_zero_offsets"] = (
+            "; ".join(f"{e.effect.joint} {e.effect.params['value']:+.3g}" for e in whole.zero_offsets)
+            or "none"
+        )
         geometry = whole.geometry
         figures[f"{short}_geometry_mm"] = (
             "none" if geometry is None else ", ".join(f"{1000 * v:+.1f}" for v in geometry.displacement_m)

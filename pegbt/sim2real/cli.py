@@ -121,7 +121,7 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
 def _diagnose(args: argparse.Namespace) -> int:
     from pegbt.physics.recording import load_recording, parse_resolution
     from pegbt.sim2real.diagnose import diagnose
-    from pegbt.sim2real.report import read_named_effects, report_dict, write_report
+    from pegbt.sim2real.report import ZERO_OFFSET_LABEL, read_named_effects, report_dict, write_report
 
     resolution = None if args.resolution is None else parse_resolution(args.resolution)
     recording = load_recording(args.recording, arm=args.arm, **bag_options(args))
@@ -139,6 +139,8 @@ def _diagnose(args: argparse.Namespace) -> int:
     print(f"measurement faults: {report['measurement_faults']['text']}")
     if report["geometry"]:
         print(f"geometry: {report['geometry']['text']}")
+    for zero in report["zero_offsets"]:
+        print(f"{ZERO_OFFSET_LABEL.lower()}: {zero['text']}")
     before, after = report["fit"]["heldout_rmse_before"], report["fit"]["heldout_rmse_after"]
     print(
         "held-out RMSE before → after: " + ", ".join(f"{q} {before[q]:.4g} → {after[q]:.4g}" for q in before)

@@ -10,7 +10,7 @@ the linearised fit) over each held-out segment, so the figure is what the simula
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -35,6 +35,7 @@ from pegbt.sim2real.geometry import (
     check_geometry,
     displacement_columns,
     displacement_removal,
+    is_arm_zero,
 )
 from pegbt.sim2real.library import build_columns
 from pegbt.sim2real.locate import JointMismatch, locate
@@ -80,7 +81,7 @@ class Diagnosis:
     mismatch: list[JointMismatch]
     selections: list[JointSelection]
     fits: list[JointFit]
-    effects: list[NamedEffect]  # in order of what they contribute
+    effects: list[NamedEffect]  # the cable effects named, in order of what they contribute
     physics: ArmPhysics
     heldout_prediction: Array
     fold_ranges: list[tuple[int, int]]
@@ -92,6 +93,7 @@ class Diagnosis:
     times_before_exclusion: Array
     fold_named: list[list[str]]  # the effects each nested training part named, per held-out segment
     geometry: GeometryCheck | None = None  # q1–q3 moving as one displacement of the tool, if they do
+    zero_offsets: list[NamedEffect] = field(default_factory=list)  # constant offsets on q1–q3: geometry
 
     @property
     def residual_before(self) -> Array:
@@ -289,8 +291,9 @@ def diagnose(
     small to name (`pegbt.sim2real.practical`). Samples no arm could produce (`pegbt.physics.faults`)
     are left out of everything: selection, fit and the held-out figures. When q1–q3 move as one
     displacement of the tool (`pegbt.sim2real.geometry`), it is taken out before the effects are chosen
-    again, and reported as geometry. The effects are named from the whole recording; the held-out figures
-    come from nested cross-validation (`nested_predict`)."""
+    again, and reported as geometry; so are constant offsets on q1–q3, which the model keeps. The effects
+    are named from the whole recording; the held-out figures come from nested cross-validation
+    (`nested_predict`)."""
     arm = arm or recording.arm or "PSM1"
     times_before_exclusion = recording.times
     base, faults, recording, t, simulated = _prepare(recording, sim, arm)
@@ -343,6 +346,8 @@ def diagnose(
         ),
         key=lambda e: -e.contribution,
     )
+    zero_offsets = [e for e in effects if is_arm_zero(e.effect)]
+    effects = [e for e in effects if not is_arm_zero(e.effect)]
     return Diagnosis(
         recording,
         str(sim),
@@ -365,6 +370,7 @@ def diagnose(
         times_before_exclusion,
         fold_named,
         geometry,
+        zero_offsets,
     )
 
 

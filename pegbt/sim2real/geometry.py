@@ -10,6 +10,10 @@ q1–q3 in the diagnosis's held-out folds; when that predicts them clearly bette
 the diagnosis takes the displacement out before choosing the effects again (and adds it back to their
 prediction), and the report names it as geometry, not a cable effect: the tracker's registration or the
 arm's kinematic calibration, which a tracker alone cannot tell apart.
+
+A constant offset on q1–q3 is geometry too: where the arm was homed, or where the tracker's registration
+puts its zero (an insertion offset is the tool's length as the tracker models it). The diagnosis fits it like
+any offset, and the physics model keeps it, but reports it apart from the cable effects (`is_arm_zero`).
 """
 
 from __future__ import annotations
@@ -21,12 +25,18 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pegbt.motion.kinematics import forward_kinematics
+from pegbt.physics import Effect
 
 Array = NDArray[np.float64]
 
 ARM_JOINTS = 3  # q1–q3: the joints a displacement is fitted on (the wrist's cable errors are far larger)
 GUARD = 0.8  # the displacement's held-out squared error over the named physics', at most, on q1–q3
 STEP = 1e-6  # rad or m: finite-difference step of the Jacobian
+
+
+def is_arm_zero(effect: Effect) -> bool:
+    """Whether `effect` is a constant offset on q1–q3: a zero of the arm or of the tracker, not cable physics."""
+    return effect.kind.is_intercept and effect.index < ARM_JOINTS
 
 
 def displacement_columns(q_cmd: Array) -> Array:

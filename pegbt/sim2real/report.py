@@ -28,6 +28,9 @@ HELDOUT_METHOD = (
 )
 
 
+ZERO_OFFSET_LABEL = "Zero offset of the arm, geometry and not a cable effect"
+
+
 def read_named_effects(path: str | Path) -> list[Effect]:
     """The effects an earlier report named (to compare two diagnoses of the same arm)."""
     try:
@@ -66,6 +69,7 @@ def report_dict(diagnosis: Diagnosis, compared_with: str | Path | None = None) -
         "below_resolution": [b.to_dict() for b in diagnosis.below_resolution],
         "measurement_faults": diagnosis.faults.to_dict(diagnosis.times_before_exclusion),
         "geometry": None if diagnosis.geometry is None else diagnosis.geometry.to_dict(),
+        "zero_offsets": [e.to_dict() for e in diagnosis.zero_offsets],
         "not_identifiable": list(diagnosis.not_identifiable),
         "selection": {
             "alpha": ALPHA,
@@ -116,6 +120,7 @@ def report_markdown(report: dict[str, Any], plots: list[str]) -> str:
         f"- {report['samples']} samples; {report['sampling']['reason']}.",
         f"- Measurement faults: {report['measurement_faults']['text']}.",
         *([f"- Geometry: {report['geometry']['text']}."] if report.get("geometry") else []),
+        *[f"- {ZERO_OFFSET_LABEL}: {e['text']}." for e in report.get("zero_offsets", [])],
         f"- Simulator physics: `{report['sim']}` (arm {report['arm']}).",
         f"- Effects chosen by blocked cross-validation; each must gain in every held-out fold and beat "
         f"circularly shifted data at α = {report['selection']['alpha']} / {report['selection']['hypotheses']} "
