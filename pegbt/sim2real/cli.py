@@ -148,7 +148,7 @@ def _diagnose(args: argparse.Namespace) -> int:
     for effect in report["effects"]:
         print(f"  {effect['effect']} on {effect['joint']}: {effect['text']}")
     for below in report["below_resolution"]:
-        print(f"  below resolution, not named: {below['effect']}: {below['reason']}")
+        print(f"  below resolution, in the model, not named: {below['effect']}: {below['reason']}")
     for statement in report["not_identifiable"]:
         print(f"  {statement}")
     if "comparison" in report:

@@ -195,10 +195,13 @@ def choose_effects(
 
 @dataclass(frozen=True)
 class ModelChoice:
-    """What selection and fitting chose on some samples: per joint, the effects kept and their fits."""
+    """What selection and fitting chose on some samples: per joint, what the model holds (every effect
+    the tests and guards chose) and its fit; what of it is named (practical significance) and its fit."""
 
-    selections: list[JointSelection]
-    fits: list[JointFit]
+    selections: list[JointSelection]  # the named effects, in greedy order with their shares
+    modelled: list[JointSelection]  # everything the model holds, named or below resolution
+    fits: list[JointFit]  # of `modelled`: what the model predicts with
+    named_fits: list[JointFit]  # of `selections` alone: what the named effects predict
     below_resolution: list[BelowResolution]
     hypotheses: int
     unidentifiable: Unidentifiable
@@ -221,24 +224,32 @@ def choose_and_fit(
     is_stream: bool,
     resolution: tuple[float, ...] | None,
 ) -> ModelChoice:
-    """The whole choice on these samples alone: which effects (tests, guards, practical significance),
-    their widths and coefficients. Run on the whole recording it names the effects; run without a
-    held-out segment it is what that segment is predicted by (nested cross-validation)."""
+    """The whole choice on these samples alone: which effects the model holds (tests and guards), which
+    of them are named (practical significance), their widths and coefficients. Run on the whole recording
+    it names the effects; run without a held-out segment it is what that segment is predicted by (nested
+    cross-validation). An effect too small to name still predicts: it held up in every fold."""
     unidentifiable = find_unidentifiable(q_cmd, is_stream, base)
-    selections, hypotheses, grams = choose_effects(q_cmd, t, residual, base, unidentifiable)
+    modelled, hypotheses, grams = choose_effects(q_cmd, t, residual, base, unidentifiable)
+    named: list[JointSelection] = []
     below: list[BelowResolution] = []
-    for n, selection in enumerate(selections):
-        selections[n], dropped = settle_joint(
+    for selection in modelled:
+        settled, dropped = settle_joint(
             grams, selection, None if resolution is None else resolution[selection.joint]
         )
+        named.append(settled)
         below += dropped
     folds = grams.fold_ranges()
     drivers = base.static_map(q_cmd)
-    fits = []
-    for s in selections:
-        fit = fit_joint(structure_of(s), q_cmd, t, residual[:, s.joint], drivers[:, s.joint])
-        fits.append(settle_backlash(fit, q_cmd, t, residual[:, s.joint], drivers[:, s.joint], folds))
-    return ModelChoice(selections, fits, below, hypotheses, unidentifiable)
+
+    def fit(s: JointSelection) -> JointFit:
+        target, driver = residual[:, s.joint], drivers[:, s.joint]
+        return settle_backlash(
+            fit_joint(structure_of(s), q_cmd, t, target, driver), q_cmd, t, target, driver, folds
+        )
+
+    fits = [fit(s) for s in modelled]
+    named_fits = [f if s.columns() == m.columns() else fit(s) for s, m, f in zip(named, modelled, fits)]
+    return ModelChoice(named, modelled, fits, named_fits, below, hypotheses, unidentifiable)
 
 
 def nested_predict(
@@ -249,8 +260,9 @@ def nested_predict(
     resolution: tuple[float, ...] | None,
     fold_ranges: list[tuple[int, int]],
     removal: Callable[[NDArray[np.bool_]], Array] | None = None,
-) -> tuple[Array, list[list[str]]]:
-    """Held-out predictions by nested cross-validation, and the effects each training part named.
+) -> tuple[Array, Array, list[list[str]]]:
+    """Held-out predictions by nested cross-validation, of the whole model and of its named effects
+    alone, and the effects each training part named.
 
     For each segment the whole choice (effects, widths, coefficients; its own inner folds) is made on
     the rest of the recording, and the merged physics model replays the whole command sequence (commands
@@ -258,6 +270,7 @@ def nested_predict(
     With a `removal` (`pegbt.sim2real.geometry.displacement_removal`), what it fits on the rest is taken
     out of the residual before the choice and added back to the prediction."""
     prediction = np.empty_like(recording.q_phy)
+    named_prediction = np.empty_like(recording.q_phy)
     named = []
     for a, b in fold_ranges:
         keep = np.ones(recording.n, dtype=bool)
@@ -273,8 +286,10 @@ def nested_predict(
         )
         replay = merged_physics(choice.fits, base).simulate(recording.q_cmd, t)
         prediction[a:b] = replay[a:b] + shift[a:b]
+        named_replay = merged_physics(choice.named_fits, base).simulate(recording.q_cmd, t)
+        named_prediction[a:b] = named_replay[a:b] + shift[a:b]
         named.append(choice.labels())
-    return prediction, named
+    return prediction, named_prediction, named
 
 
 def diagnose(
@@ -304,32 +319,31 @@ def diagnose(
     resolution = resolution if resolution is not None else recording.resolution
     folds = fold_ranges(recording.n)
     choice = choose_and_fit(q_cmd, t, residual, base, sampling.is_stream, resolution)
-    heldout, fold_named = nested_predict(recording, t, residual, base, resolution, folds)
+    heldout, named_heldout, fold_named = nested_predict(recording, t, residual, base, resolution, folds)
     displacement = displacement_columns(q_cmd)
-    geometry = check_geometry(displacement, residual, recording.q_phy - heldout, folds, resolution)
+    geometry = check_geometry(displacement, residual, recording.q_phy - named_heldout, folds, resolution)
     cable_residual = residual
     if geometry is not None:
         removal = displacement_removal(displacement, residual, resolution)
         cable_residual = residual - removal(np.ones(recording.n, dtype=bool))
         choice = choose_and_fit(q_cmd, t, cable_residual, base, sampling.is_stream, resolution)
-        heldout, fold_named = nested_predict(recording, t, residual, base, resolution, folds, removal)
-    selections, fits = choice.selections, choice.fits
+        heldout, _, fold_named = nested_predict(recording, t, residual, base, resolution, folds, removal)
+    fits = choice.fits
     drivers = base.static_map(q_cmd)
     rng = np.random.default_rng(seed)
     effects: list[NamedEffect] = []
     statements = list(choice.unidentifiable.statements)
-    for selection, fit in zip(selections, fits):
+    for modelled, selection, fit in zip(choice.modelled, choice.selections, fits):
         target, driver = cable_residual[:, fit.joint], drivers[:, fit.joint]
-        fitted_anything = fit.intercept or fit.terms
-        samples = (
-            bootstrap(fit, q_cmd, t, target, driver, n_bootstrap, rng)
-            if n_bootstrap and fitted_anything
-            else []
-        )
-        evidence = ([selection.offset] if selection.offset else []) + selection.chosen
+        named = {c.column: c for c in ([selection.offset] if selection.offset else []) + selection.chosen}
+        samples = bootstrap(fit, q_cmd, t, target, driver, n_bootstrap, rng) if n_bootstrap and named else []
+        evidence = ([modelled.offset] if modelled.offset else []) + modelled.chosen
         changed = to_effects(fit, base)[1]
         sampled = [to_effects(sample, base)[1] for sample in samples]
-        for position, (effect, chosen) in enumerate(zip(changed, evidence)):
+        for position, (effect, candidate) in enumerate(zip(changed, evidence)):
+            if candidate.column not in named:
+                continue  # in the model, below resolution: listed, not named
+            chosen = named[candidate.column]
             ci = _intervals(effect, [s[position] for s in sampled])
             before = next((e for e in base.effects if e.slot == effect.slot), None)
             effects.append(
@@ -356,7 +370,7 @@ def diagnose(
         base,
         simulated,
         mismatch,
-        selections,
+        choice.selections,
         fits,
         effects,
         physics,

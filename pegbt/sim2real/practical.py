@@ -4,7 +4,8 @@ A test says an effect is there; it does not say a person should care. After sele
 chosen effects (its offset among them) enter again one at a time from no model at all, greedily, each
 step adding the one whose held-out gain is largest. An effect's share is that gain over the joint's
 held-out error before any effect, so the shares add up to what the model explains, and a joint whose
-error is mostly bias gets its offset first. An effect is *below resolution*, listed and never named, when
+error is mostly bias gets its offset first. An effect is *below resolution*, listed and never named (the
+model still predicts with it: the tests chose it), when
 its largest contribution over the recording is smaller than the joint's measurement resolution, or when
 it lowers the joint's held-out error by less than `PRACTICAL_GAIN` of it: of the joint's whole error when
 the measurement's resolution is known (a real instrument: what a person can use), else of the error left

@@ -160,7 +160,7 @@ def report_markdown(report: dict[str, Any], plots: list[str]) -> str:
             f"{100 * e['explains']:.1f} % of the joint's error; p {_pvalue(e['p_value'])}): {e['text']}."
         )
     if report["below_resolution"]:
-        lines += ["", "## Below resolution (not named)", ""]
+        lines += ["", "## Below resolution (in the model, not named)", ""]
         lines += [f"- {b['effect']}: {b['reason']}" for b in report["below_resolution"]]
     if report["not_identifiable"]:
         lines += ["", "## Not identifiable from these data", ""]

@@ -73,6 +73,10 @@ class JointSelection:
     offset: Chosen | None = None
     stopped: str = ""  # why selection stopped: the best remaining candidate and the guard it failed
 
+    def columns(self) -> set[int]:
+        """The bank columns of every effect it holds (0 for the offset)."""
+        return {c.column for c in ([self.offset] if self.offset else []) + self.chosen}
+
     def free_columns(self) -> list[int]:
         """Bank columns fitted with free coefficients: the intercept, then the free effects in order."""
         return [0] + [c.column for c in self.chosen if not c.fixed]
