@@ -9,6 +9,8 @@ inherit it. Where the system refuses, they run under the ordinary scheduler and 
 from __future__ import annotations
 
 import os
+from collections.abc import Iterator
+from contextlib import contextmanager
 
 STREAMER_PRIORITY = 10  # SCHED_FIFO, 1..99: above every ordinary process, below the kernel's own threads
 ROBOT_PRIORITY = 20  # the robot (or what stands in for it) above the client that streams to it
@@ -21,3 +23,20 @@ def run_realtime(priority: int) -> bool:
     except (AttributeError, OSError):  # not Linux, or no permission: the ordinary scheduler
         return False
     return True
+
+
+@contextmanager
+def realtime_priority(priority: int | None) -> Iterator[bool]:
+    """`run_realtime(priority)` for the body (None: the ordinary scheduler), and this thread's policy as it
+    was after it, so a caller that goes on (a refused command run in-process, a test) is not left in
+    SCHED_FIFO. Yields whether SCHED_FIFO was granted."""
+    if priority is None:
+        yield False
+        return
+    policy, param = os.sched_getscheduler(0), os.sched_getparam(0)
+    granted = run_realtime(priority)
+    try:
+        yield granted
+    finally:
+        if granted:
+            os.sched_setscheduler(0, policy, param)

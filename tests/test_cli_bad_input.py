@@ -174,10 +174,13 @@ CASES = {
 @pytest.mark.parametrize("case", CASES)
 def test_bad_input_is_one_line_naming_the_field(case, tmp_path, tick_log, capsys):
     argv, expected = CASES[case]
+    policy = os.sched_getscheduler(0)
     assert main(argv(tmp_path, tick_log)) == 2
     err = capsys.readouterr().err.strip()
     assert err.startswith("pegbt: error: ") and expected in err, err
     assert len(err.splitlines()) == 1
+    # a refused `pegbt sim` gives back the real-time priority it took: the caller goes on as it was
+    assert os.sched_getscheduler(0) == policy
 
 
 def _command(*args: str, **options: object) -> subprocess.Popen[str]:

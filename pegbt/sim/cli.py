@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING
 from pegbt.bagoptions import add_record_arguments
 from pegbt.errors import PegbtError
 from pegbt.numbers import NumberOption
-from pegbt.scheduling import ROBOT_PRIORITY, run_realtime
+from pegbt.scheduling import ROBOT_PRIORITY, realtime_priority
 from pegbt.transport.endpoints import DEFAULT_ENDPOINT, DEFAULT_POINTS_TOPIC
 
 if TYPE_CHECKING:
@@ -168,7 +168,7 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
 def _sim(args: argparse.Namespace) -> int:
     from pegbt.sim.fault_plan import FaultPlan
     from pegbt.transport.keys import check_namespace
-    from pegbt.transport.session import endpoint_settings, open_session
+    from pegbt.transport.session import endpoint_settings
 
     check_namespace(args.namespace, "--namespace")
     if args.interface == "dvrk":
@@ -188,7 +188,22 @@ def _sim(args: argparse.Namespace) -> int:
     plan = dataclasses.replace(plan, **{k: v for k, v in overrides.items() if v is not None})
     world, camera = _world(plan) if args.world else (None, None)
     # before the session opens, so that zenoh's threads inherit it
-    realtime = not args.lockstep and args.priority == "realtime" and run_realtime(ROBOT_PRIORITY)
+    wanted = not args.lockstep and args.priority == "realtime"
+    with realtime_priority(ROBOT_PRIORITY if wanted else None) as realtime:
+        return _serve(args, settings, plan, world, camera, realtime)
+
+
+def _serve(
+    args: argparse.Namespace,
+    settings: SessionSettings,
+    plan: FaultPlan,
+    world: World | None,
+    camera: DepthCamera | None,
+    realtime: bool,
+) -> int:
+    """Open the session and serve until stopped; the process ends here (`os._exit`) unless refused."""
+    from pegbt.transport.session import open_session
+
     session = open_session(settings)
     try:
         endpoint = (_dvrk_endpoint if args.interface == "dvrk" else _pegbt_endpoint)(
