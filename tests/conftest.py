@@ -1,4 +1,5 @@
-"""Test-wide settings: where the real dVRK recordings live, and how tests run the `pegbt` command."""
+"""Test-wide settings: where the real dVRK recordings live, how tests run the `pegbt` command, and that no
+test leaves its process in a real-time scheduling class (everything it started later would inherit it)."""
 
 from __future__ import annotations
 
@@ -6,6 +7,7 @@ import os
 import signal
 import subprocess
 import sys
+from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
@@ -14,6 +16,18 @@ from pegbt.errors import PegbtError
 from pegbt.physics.recording import dvrk_data_dir
 
 REPO = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture(autouse=True)
+def ordinary_scheduling() -> Iterator[None]:
+    """A test that leaves the worker in SCHED_FIFO fails: every simulator or run the worker starts after it
+    would inherit the priority, and one that spins starves the machine."""
+    policy = os.sched_getscheduler(0)
+    yield
+    left = os.sched_getscheduler(0)
+    if left != policy:
+        os.sched_setscheduler(0, policy, os.sched_param(0))
+        pytest.fail(f"the test left its process in scheduling policy {left} (was {policy})")
 
 
 @pytest.fixture
