@@ -191,14 +191,17 @@ def test_a_move_is_busy_then_not_reaching_its_goal(sim: Running, peer: DvrkPeer)
 def test_hold_stops_a_move_where_it_is(sim: Running, peer: DvrkPeer) -> None:
     states = _homed(peer)
     setpoints = peer.subscribe("PSM1/setpoint_js")
-    peer.put("PSM1/move_jp", joint_state([1.0, 0.0, 0.12, 0.0, 0.0, 0.0]))
-    assert wait_for(lambda: (q := _last_position(setpoints)) is not None and q[0] > 0.2)
+    # a 1.8 s move (yaw 1.3 rad at 90 deg/s and 90 deg/s^2), held early: a loaded machine may deliver the
+    # hold late, yet well before the move would have ended
+    peer.put("PSM1/move_jp", joint_state([1.3, 0.0, 0.12, 0.0, 0.0, 0.0]))
+    assert wait_for(lambda: (q := _last_position(setpoints)) is not None and q[0] > 0.05)
+    seen = _last_position(setpoints)[0]
     peer.put("PSM1/hold", empty())
     assert wait_for(lambda: not _state(states).is_busy)
     time.sleep(0.3)
     held = _last_position(setpoints)[0]
     time.sleep(0.3)
-    assert 0.2 < held < 0.95
+    assert seen <= held < 1.25  # where it was when the hold came, short of the goal
     assert _last_position(setpoints)[0] == pytest.approx(held)
 
 
