@@ -217,9 +217,9 @@ def test_a_jump_beyond_the_tracking_tolerance_faults_the_arm_until_it_is_enabled
     for yaw in (0.8, 0.0, 0.8, 0.0):  # each a jump of 0.8 rad > 0.5
         peer.put("PSM1/servo_jp", joint_state([yaw, 0.0, 0.12, 0.0, 0.0, 0.0]))
         # a simulator that ran late at that moment excuses tracking for 0.1 s (a loaded machine): jump again
-        if wait_for(lambda: _state(states).state == "FAULT", timeout=2) or not sim.log("tracking_excused"):
+        if wait_for(lambda: _state(states).state == "FAULT", timeout=5) or not sim.log("tracking_excused"):
             break
-    assert _state(states).state == "FAULT"
+    assert wait_for(lambda: _state(states).state == "FAULT")  # a loaded machine may say so late
     assert wait_for(lambda: any("tracking error" in text for text in _texts(errors)))
     (fault,) = [e for e in sim.log("safety") if e["event"] == "tracking_error"]
     assert fault["actuator_errors"][0] > dvrk.ACTUATOR_TOLERANCE[0]
