@@ -35,7 +35,7 @@ def lockstep():
         clock = SimClock(link)
         arms = {name: ArmClient(link, name, clock=clock) for name in ("PSM1", "PSM2")}
         for arm in arms.values():
-            arm.wait_until_ready()
+            arm.wait_until_ready(30.0)
         yield link, clock, arms
         link.close()
 
@@ -211,7 +211,7 @@ def run_script(endpoint: str) -> list[tuple]:
     with connect([endpoint]) as link:
         clock = SimClock(link)
         psm1 = ArmClient(link, "PSM1", clock=clock)
-        psm1.wait_until_ready()
+        psm1.wait_until_ready(30.0)
         trace = []
         q = psm1.setpoint_js.position
         for _ in range(40):
@@ -245,7 +245,7 @@ def test_lockstep_runs_are_deterministic_for_a_seed_with_faults(tmp_path):
 def test_real_time_endpoint_echoes_servo_and_a_killed_one_is_detected_in_time():
     with SimProcess(["--physics", "ideal", "--no-world"]) as sim, connect([sim.endpoint]) as link:
         psm1 = ArmClient(link, "PSM1")
-        psm1.wait_until_ready()
+        psm1.wait_until_ready(30.0)
         q = psm1.setpoint_js.position + [0.01, 0, 0, 0, 0, 0]
         psm1.servo_jp(q)
         deadline = time.monotonic() + 10.0
