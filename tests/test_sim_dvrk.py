@@ -114,7 +114,9 @@ def test_no_attachment_and_no_key_beyond_the_dvrk_topics(sim: Running, peer: Dvr
 
 
 def test_a_late_joiner_gets_the_latched_operating_state(sim: Running, peer: DvrkPeer) -> None:
-    time.sleep(0.5)  # the state was published at start, and is not again until it changes
+    # the state is published at start, before the first joint states, and not again until it changes
+    measured = peer.subscribe("PSM1/measured_js")
+    assert wait_for(lambda: measured.all())
     plain = peer.subscribe("PSM1/operating_state")
     latched = peer.subscribe_latched("PSM1/operating_state")
     state = wait_for(lambda: _state(latched))
