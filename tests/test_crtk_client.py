@@ -323,7 +323,12 @@ def test_a_recording_of_a_crtk_run_holds_the_robots_topics_as_an_independent_rea
 
     double = CrtkDouble(endpoint)
     tree = tmp_path / "look.yaml"
-    tree.write_text("doc: one capture from the robot's camera\ntree:\n  capture: {}\n")
+    # the run goes on a second after its capture, so that the recording does not end with the camera's cloud
+    # still on its way to the recorder's subscriber (the capture's cloud may reach the camera's first)
+    tree.write_text(
+        "doc: one capture from the robot's camera, then a second of the robot's topics\n"
+        "tree: {sequence: [{capture: {}}, {wait: {seconds: 1.0}}]}\n"
+    )
     try:
         output = run_tree_file(
             tree,
