@@ -21,7 +21,7 @@ def arm():
         link = connect([sim.endpoint])
         clock = SimClock(link)
         psm1 = ArmClient(link, "PSM1", clock=clock)
-        psm1.wait_until_ready()
+        psm1.wait_until_ready(30.0)
         yield clock, psm1
         link.close()
 

@@ -134,7 +134,7 @@ def arms(endpoint: str):
     wire = BridgeWire(session)
     clients = [CrtkArm(wire, arm, settings=settings[arm], streamer=streamer) for arm in settings]
     for client in clients:
-        client.wait_until_ready(5.0)
+        client.wait_until_ready(20.0)
     yield double, clients
     streamer.close()
     session.close()
@@ -147,8 +147,9 @@ def test_an_arm_that_will_not_home_stops_the_run_naming_the_arm_its_state_and_wh
     double, clients = arms
     started = time.monotonic()
     with pytest.raises(PegbtError) as caught:
-        make_ready(clients, enable_timeout=5.0, home_timeout=1.5)
-    assert time.monotonic() - started < 5.0
+        make_ready(clients, enable_timeout=30.0, home_timeout=1.5)
+    # at the home deadline (with a loaded machine's margin), not at the enable deadline
+    assert time.monotonic() - started < 1.5 + 10.0
     message = str(caught.value)
     assert message.startswith("PSM1: did not home within 1.5 s: it is ENABLED, not homed")
     assert "unable to reach home position" in message
@@ -167,25 +168,35 @@ def test_a_trajectory_is_streamed_as_servo_set_points_within_limits_and_a_goal_e
         trajectory = motion.through(start, [target], ["target"])
         handle = arm.move_jp(trajectory)
         assert handle.busy
-        assert _until(lambda: not handle.busy, trajectory.duration + 5)
+        assert _until(lambda: not handle.busy, trajectory.duration + 20)
         assert handle.done, handle.error
-        sent = np.array([r.message.position for r in double.commands("PSM1/servo_jp")])
+        # the set-point publisher drops what a congested queue cannot take (KEEP_LAST, as the bridge): its
+        # last row may never come on a loaded machine: the last received is then within two rows of the end
+        # (that the final row is sent, exactly, test_streamer_resume shows, counting what was lost)
+        q = trajectory.q
+        _until(lambda: np.array_equal(double.arms["PSM1"].setpoint, q[-1]), 5)
+        servo = double.commands("PSM1/servo_jp")
+        sent = np.array([r.message.position for r in servo])
         assert len(sent) >= len(trajectory) // 2  # a loaded machine skips a late period rather than burst
-        assert np.allclose(sent[0], trajectory.q[0]) and np.allclose(sent[-1], trajectory.q[-1])
+        assert np.abs(sent[0] - q[0]).max() <= np.abs(q[2] - q[0]).max() + 1e-12
+        assert np.abs(sent[-1] - q[-1]).max() <= np.abs(q[-1] - q[-3]).max() + 1e-12
         assert np.all(np.diff(sent[:, 0]) >= -1e-12)  # in order, along a monotone yaw
-        assert double.arms["PSM1"].clips == 0 and np.allclose(double.arms["PSM1"].setpoint, target)
-        times = np.array([r.at for r in double.commands("PSM1/servo_jp")])
-        assert 0.005 < float(np.median(np.diff(times))) < 0.02  # about one every control period
+        assert double.arms["PSM1"].clips == 0 and np.array_equal(double.arms["PSM1"].setpoint, sent[-1])
+        # the cadence by the streamer's own stamps, which a starved receiver cannot bunch up or spread out
+        stamps = np.array([r.message.header.stamp.sec + r.message.header.stamp.nanosec * 1e-9 for r in servo])
+        assert 0.005 < float(np.median(np.diff(stamps))) < 0.02  # about one every control period
 
         jaw = arm.jaw.move_jp(0.8)
-        assert _until(lambda: not jaw.busy, 5) and jaw.done
-        assert double.arms["PSM1"].jaw == pytest.approx(0.8)
+        assert _until(lambda: not jaw.busy, 10) and jaw.done
+        _until(lambda: double.arms["PSM1"].jaw == 0.8, 5)
+        jaw_step = arm.settings.jaw_velocity * arm.settings.control_period  # the ramp's last row, if lost
+        assert abs(double.arms["PSM1"].jaw - 0.8) <= jaw_step + 1e-12
 
         before = double.arms["PSM1"].setpoint.copy()
         goal = before + np.array([0.0, 0.0, -0.01, 0.0, 0.0, 0.0])
         move = arm.move_jp(goal)
         assert move.busy  # a not-busy state from before the command does not count
-        assert _until(lambda: not move.busy, 5) and move.done
+        assert _until(lambda: not move.busy, 10) and move.done
         assert np.allclose(double.arms["PSM1"].setpoint, goal)
 
         long = motion.through(goal, [goal + np.array([0.5, 0, 0, 0, 0, 0])], ["far"])
@@ -194,7 +205,7 @@ def test_a_trajectory_is_streamed_as_servo_set_points_within_limits_and_a_goal_e
         time.sleep(0.2)
         stopped.stop()
         assert stopped.failed and "stopped by the client" in stopped.error
-        assert _until(lambda: len(double.commands("PSM1/hold")) == 1, 2)
+        assert _until(lambda: len(double.commands("PSM1/hold")) == 1)
         assert all(r.attachment is None for r in double.received)
     finally:
         robot.close()
@@ -215,13 +226,13 @@ def test_no_set_point_outside_the_limits_is_ever_sent(endpoint: str) -> None:
             arm.move_jp(trajectory)
         # and the streamer itself, handed it directly, plays up to the limit and stops there
         handle = arm.stream("arm", t, q, "past the limit", float(t[-1]))
-        assert _until(lambda: not handle.busy, 5) and handle.failed
+        assert _until(lambda: not handle.busy, 10) and handle.failed
         assert "set-point refused" in handle.error and "q2 (pitch)" in handle.error
         sent = np.array([r.message.position for r in double.commands("PSM2/servo_jp")])
         limits = arm.settings
         assert len(sent) > 10 and np.all(sent >= limits.lower) and np.all(sent <= limits.upper)
         assert np.all(sent >= LOWER) and np.all(sent <= UPPER) and double.arms["PSM2"].clips == 0
-        assert _until(lambda: len(double.commands("PSM2/hold")) == 1, 2)
+        assert _until(lambda: len(double.commands("PSM2/hold")) == 1)
     finally:
         robot.close()
         double.close()
@@ -261,7 +272,7 @@ def test_the_streamer_holds_the_arm_and_exits_when_its_executive_is_killed(endpo
                 return stat.read().split(")")[-1].split()[0] == "Z"
 
         assert _until(gone, 10)
-        assert len(double.commands("PSM1/hold")) == 1
+        assert _until(lambda: len(double.commands("PSM1/hold")) == 1)  # it may still be on its way
         count = len(double.commands("PSM1/servo_jp"))
         time.sleep(0.2)
         assert len(double.commands("PSM1/servo_jp")) == count  # the stream stopped
@@ -276,7 +287,7 @@ def test_a_capture_is_the_first_cloud_stamped_after_the_request_without_its_nan_
     robot = connect_crtk_robot(endpoint)
     try:
         handle = robot.camera.capture_async()
-        points = handle.result(2.0)
+        points = handle.result(10.0)
         assert handle.stamp > handle.requested_at
         assert points.shape == (180, 3) and np.isfinite(points).all()  # 20 of 200 were NaN
     finally:
@@ -312,7 +323,12 @@ def test_a_recording_of_a_crtk_run_holds_the_robots_topics_as_an_independent_rea
 
     double = CrtkDouble(endpoint)
     tree = tmp_path / "look.yaml"
-    tree.write_text("doc: one capture from the robot's camera\ntree:\n  capture: {}\n")
+    # the run goes on a second after its capture, so that the recording does not end with the camera's cloud
+    # still on its way to the recorder's subscriber (the capture's cloud may reach the camera's first)
+    tree.write_text(
+        "doc: one capture from the robot's camera, then a second of the robot's topics\n"
+        "tree: {sequence: [{capture: {}}, {wait: {seconds: 1.0}}]}\n"
+    )
     try:
         output = run_tree_file(
             tree,

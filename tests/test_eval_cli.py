@@ -28,7 +28,8 @@ JSON_KEYS = {
 }
 
 
-def pegbt(*args: str, timeout: float = 180) -> subprocess.CompletedProcess:
+def pegbt(*args: str, timeout: float = 600) -> subprocess.CompletedProcess:
+    """`python -m pegbt ARGS`; whole trials, which a loaded machine can slow several times over."""
     return subprocess.run(
         [sys.executable, "-m", "pegbt", *args], capture_output=True, text=True, cwd=REPO, timeout=timeout
     )

@@ -43,7 +43,7 @@ def test_bad_attachments_and_a_burst_of_refusals_all_reach_the_error_topic(tmp_p
         connect([sim.endpoint]) as link,
     ):
         psm1 = ArmClient(link, "PSM1")
-        psm1.wait_until_ready()
+        psm1.wait_until_ready(30.0)
         errors: list[str] = []
         lock = threading.Lock()
 

@@ -113,10 +113,11 @@ def replayed_statuses(log: Path, tick: int, capsys) -> list[str]:
 
 def test_live_page_shows_the_tick_count_and_the_running_node_change(tmp_path, pegbt_cli, page):
     tree = tmp_path / "waits.yaml"
+    # the first wait gives the page time to load on a loaded machine; the page must see two of the six running
     tree.write_text(
         "tree:\n  sequence:\n    name: waits\n    children:\n"
         + "".join(
-            f"      - wait: {{name: wait {i}, seconds: {2.0 if i == 1 else 0.6}}}\n" for i in range(1, 7)
+            f"      - wait: {{name: wait {i}, seconds: {4.0 if i == 1 else 0.6}}}\n" for i in range(1, 7)
         )
     )
     port = free_port()

@@ -41,7 +41,7 @@ def test_halting_a_running_motion_stops_the_arm(tmp_path):
         with connect([sim.endpoint]) as link:
             clock = SimClock(link)
             arm = ArmClient(link, "PSM1", clock=clock)
-            arm.wait_until_ready()
+            arm.wait_until_ready(30.0)
             held = arm.setpoint_js.position.copy()
             clock.wait(1.0)
             assert np.allclose(arm.setpoint_js.position, held) and not arm.operating_state.is_busy

@@ -114,7 +114,9 @@ def test_no_attachment_and_no_key_beyond_the_dvrk_topics(sim: Running, peer: Dvr
 
 
 def test_a_late_joiner_gets_the_latched_operating_state(sim: Running, peer: DvrkPeer) -> None:
-    time.sleep(0.5)  # the state was published at start, and is not again until it changes
+    # the state is published at start, before the first joint states, and not again until it changes
+    measured = peer.subscribe("PSM1/measured_js")
+    assert wait_for(lambda: measured.all())
     plain = peer.subscribe("PSM1/operating_state")
     latched = peer.subscribe_latched("PSM1/operating_state")
     state = wait_for(lambda: _state(latched))
@@ -191,14 +193,17 @@ def test_a_move_is_busy_then_not_reaching_its_goal(sim: Running, peer: DvrkPeer)
 def test_hold_stops_a_move_where_it_is(sim: Running, peer: DvrkPeer) -> None:
     states = _homed(peer)
     setpoints = peer.subscribe("PSM1/setpoint_js")
-    peer.put("PSM1/move_jp", joint_state([1.0, 0.0, 0.12, 0.0, 0.0, 0.0]))
-    assert wait_for(lambda: (q := _last_position(setpoints)) is not None and q[0] > 0.2)
+    # a 1.8 s move (yaw 1.3 rad at 90 deg/s and 90 deg/s^2), held early: a loaded machine may deliver the
+    # hold late, yet well before the move would have ended
+    peer.put("PSM1/move_jp", joint_state([1.3, 0.0, 0.12, 0.0, 0.0, 0.0]))
+    assert wait_for(lambda: (q := _last_position(setpoints)) is not None and q[0] > 0.05)
+    seen = _last_position(setpoints)[0]
     peer.put("PSM1/hold", empty())
     assert wait_for(lambda: not _state(states).is_busy)
     time.sleep(0.3)
     held = _last_position(setpoints)[0]
     time.sleep(0.3)
-    assert 0.2 < held < 0.95
+    assert seen <= held < 1.25  # where it was when the hold came, short of the goal
     assert _last_position(setpoints)[0] == pytest.approx(held)
 
 
@@ -214,9 +219,9 @@ def test_a_jump_beyond_the_tracking_tolerance_faults_the_arm_until_it_is_enabled
     for yaw in (0.8, 0.0, 0.8, 0.0):  # each a jump of 0.8 rad > 0.5
         peer.put("PSM1/servo_jp", joint_state([yaw, 0.0, 0.12, 0.0, 0.0, 0.0]))
         # a simulator that ran late at that moment excuses tracking for 0.1 s (a loaded machine): jump again
-        if wait_for(lambda: _state(states).state == "FAULT", timeout=2) or not sim.log("tracking_excused"):
+        if wait_for(lambda: _state(states).state == "FAULT", timeout=5) or not sim.log("tracking_excused"):
             break
-    assert _state(states).state == "FAULT"
+    assert wait_for(lambda: _state(states).state == "FAULT")  # a loaded machine may say so late
     assert wait_for(lambda: any("tracking error" in text for text in _texts(errors)))
     (fault,) = [e for e in sim.log("safety") if e["event"] == "tracking_error"]
     assert fault["actuator_errors"][0] > dvrk.ACTUATOR_TOLERANCE[0]

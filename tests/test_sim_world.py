@@ -47,7 +47,7 @@ def connected(endpoint: str):
     )
     clock = SimClock(link)
     psm1 = ArmClient(link, "PSM1", clock=clock)
-    psm1.wait_until_ready()
+    psm1.wait_until_ready(30.0)
     return link, clock, psm1, events
 
 
@@ -201,7 +201,7 @@ def test_the_world_sees_each_tool_where_its_physical_joints_put_it(in_process):
     world, link = in_process
     clock = SimClock(link)
     psm1 = ArmClient(link, "PSM1", clock=clock)
-    psm1.wait_until_ready()
+    psm1.wait_until_ready(30.0)
     move = psm1.move_jp([0.3, 0.1, 0.14, 0.2, 0.3, -0.2])
     while move.busy:
         clock.wait(TICK)

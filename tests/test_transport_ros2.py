@@ -12,7 +12,7 @@ from pegbt.transport.session import client_settings, endpoint_settings, open_ses
 from pegbt.sim.process import free_port
 
 
-def _wait_for(condition, timeout: float = 5.0) -> bool:
+def _wait_for(condition, timeout: float = 20.0) -> bool:
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline:
         if condition():

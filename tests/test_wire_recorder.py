@@ -173,7 +173,7 @@ def test_the_simulator_records_the_commands_it_takes_and_the_state_it_sends(tmp_
         with connect([simulator.endpoint]) as link:
             clock = SimClock(link)
             arm = ArmClient(link, "PSM1", clock=clock)
-            arm.wait_until_ready()
+            arm.wait_until_ready(30.0)
             goal = arm.measured_js.position + np.array([0.05, 0.0, 0.0, 0.0, 0.0, 0.0])
             handle = arm.move_jp(goal)
             for _ in range(100):
