@@ -51,3 +51,25 @@ def test_a_latched_topic_reaches_a_subscriber_that_joins_later_and_a_plain_one_d
         assert {str(s.key_expr) for s in raw} == {"lab/PSM1/operating_state"}
         assert all(s.attachment is None for s in raw)
         tap.undeclare()
+
+
+def test_a_command_blocks_under_congestion_and_a_set_point_stream_drops() -> None:
+    """Every dVRK command topic pegbt publishes blocks rather than be lost (zenoh-plugin-ros2dds routes a
+    RELIABLE writer with BLOCK, `route_publisher.rs`); the servo streams drop, as rmw_zenoh's KEEP_LAST
+    publishers do (`rmw_publisher_data.cpp`): the next set-point replaces a late one."""
+    from pegbt.transport.dvrk_topics import PsmTopics
+    from pegbt.transport.ros2 import declare_publisher
+
+    topics = PsmTopics("PSM1")
+    with open_session(endpoint_settings([f"tcp/127.0.0.1:{free_port()}"])) as session:
+        for topic, congestion in [
+            (topics.hold, zenoh.CongestionControl.BLOCK),
+            (topics.move_jp, zenoh.CongestionControl.BLOCK),
+            (topics.jaw_move_jp, zenoh.CongestionControl.BLOCK),
+            (topics.state_command, zenoh.CongestionControl.BLOCK),
+            (topics.servo_jp, zenoh.CongestionControl.DROP),
+            (topics.jaw_servo_jp, zenoh.CongestionControl.DROP),
+        ]:
+            publisher = declare_publisher(session, topic.name.lstrip("/"), topic)
+            assert publisher.congestion_control == congestion, topic.name
+            publisher.undeclare()

@@ -96,15 +96,15 @@ class PsmTopics:
 
     @property
     def move_jp(self) -> Topic:
-        return Topic(self._name("move_jp"), codec.JOINT_STATE)
+        return Topic(self._name("move_jp"), codec.JOINT_STATE, command=True)
 
     @property
     def hold(self) -> Topic:
-        return Topic(self._name("hold"), codec.EMPTY)
+        return Topic(self._name("hold"), codec.EMPTY, command=True)
 
     @property
     def state_command(self) -> Topic:
-        return Topic(self._name("state_command"), codec.STRING_STAMPED)
+        return Topic(self._name("state_command"), codec.STRING_STAMPED, command=True)
 
     @property
     def jaw_servo_jp(self) -> Topic:
@@ -112,7 +112,7 @@ class PsmTopics:
 
     @property
     def jaw_move_jp(self) -> Topic:
-        return Topic(self._name("jaw/move_jp"), codec.JOINT_STATE)
+        return Topic(self._name("jaw/move_jp"), codec.JOINT_STATE, command=True)
 
     def published(self) -> tuple[Topic, ...]:
         """What the PSM publishes (with the simulator's `fiducial_js`)."""

@@ -28,13 +28,15 @@ from pegbt.transport.keys import scoped
 
 @dataclass(frozen=True)
 class Topic:
-    """A ROS 2 topic: its name (`/PSM1/measured_js`), its type (`sensor_msgs/msg/JointState`) and whether
-    it is latched (TRANSIENT_LOCAL durability, the last `depth` messages kept for late joiners)."""
+    """A ROS 2 topic: its name (`/PSM1/measured_js`), its type (`sensor_msgs/msg/JointState`), whether
+    it is latched (TRANSIENT_LOCAL durability, the last `depth` messages kept for late joiners), and whether
+    it carries commands, each of which matters (not a stream whose next message replaces the last)."""
 
     name: str
     typename: str
     latched: bool = False
     depth: int = 1
+    command: bool = False
 
 
 class TopicPublisher(Protocol):
@@ -119,7 +121,10 @@ Subscriber = zenoh.Subscriber | zenoh.ext.AdvancedSubscriber
 
 def declare_publisher(session: zenoh.Session, key: str, topic: Topic) -> Publisher:
     """A publisher of `topic` on `key`: for a latched topic, a zenoh-ext advanced publisher whose cache
-    serves late joiners (what a bridge and rmw_zenoh both do for TRANSIENT_LOCAL), else a plain one."""
+    serves late joiners (what a bridge and rmw_zenoh both do for TRANSIENT_LOCAL), else a plain one. A
+    command blocks under congestion rather than be dropped, as the bridge routes a RELIABLE writer
+    (zenoh-plugin-ros2dds `route_publisher.rs`, `reliable_routes_blocking`); a stream drops what a congested
+    link cannot take, as rmw_zenoh does for KEEP_LAST (`rmw_publisher_data.cpp`)."""
     if topic.latched:
         return zenoh.ext.declare_advanced_publisher(
             session,
@@ -129,7 +134,8 @@ def declare_publisher(session: zenoh.Session, key: str, topic: Topic) -> Publish
             reliability=zenoh.Reliability.RELIABLE,
             congestion_control=zenoh.CongestionControl.BLOCK,
         )
-    return session.declare_publisher(key, express=True)
+    congestion = zenoh.CongestionControl.BLOCK if topic.command else zenoh.CongestionControl.DROP
+    return session.declare_publisher(key, express=True, congestion_control=congestion)
 
 
 def declare_subscriber(
