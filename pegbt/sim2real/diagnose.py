@@ -201,10 +201,17 @@ class ModelChoice:
     selections: list[JointSelection]  # the named effects, in greedy order with their shares
     modelled: list[JointSelection]  # everything the model holds, named or below resolution
     fits: list[JointFit]  # of `modelled`: what the model predicts with
-    named_fits: list[JointFit]  # of `selections` alone: what the named effects predict
     below_resolution: list[BelowResolution]
     hypotheses: int
     unidentifiable: Unidentifiable
+    fit: Callable[[JointSelection], JointFit]  # a selection fitted on the same samples
+
+    def named_fits(self) -> list[JointFit]:
+        """What the named effects alone predict with (fitted only where they differ from the model's)."""
+        return [
+            whole if named.columns() == modelled.columns() else self.fit(named)
+            for named, modelled, whole in zip(self.selections, self.modelled, self.fits)
+        ]
 
     def labels(self) -> list[str]:
         """The named effects, as `kind on joint` or `kind source→joint`."""
@@ -247,9 +254,7 @@ def choose_and_fit(
             fit_joint(structure_of(s), q_cmd, t, target, driver), q_cmd, t, target, driver, folds
         )
 
-    fits = [fit(s) for s in modelled]
-    named_fits = [f if s.columns() == m.columns() else fit(s) for s, m, f in zip(named, modelled, fits)]
-    return ModelChoice(named, modelled, fits, named_fits, below, hypotheses, unidentifiable)
+    return ModelChoice(named, modelled, [fit(s) for s in modelled], below, hypotheses, unidentifiable, fit)
 
 
 def nested_predict(
@@ -286,7 +291,7 @@ def nested_predict(
         )
         replay = merged_physics(choice.fits, base).simulate(recording.q_cmd, t)
         prediction[a:b] = replay[a:b] + shift[a:b]
-        named_replay = merged_physics(choice.named_fits, base).simulate(recording.q_cmd, t)
+        named_replay = merged_physics(choice.named_fits(), base).simulate(recording.q_cmd, t)
         named_prediction[a:b] = named_replay[a:b] + shift[a:b]
         named.append(choice.labels())
     return prediction, named_prediction, named

@@ -120,7 +120,7 @@ def report_markdown(report: dict[str, Any], plots: list[str]) -> str:
         f"- {report['samples']} samples; {report['sampling']['reason']}.",
         f"- Measurement faults: {report['measurement_faults']['text']}.",
         *([f"- Geometry: {report['geometry']['text']}."] if report.get("geometry") else []),
-        *[f"- {ZERO_OFFSET_LABEL}: {e['text']}." for e in report.get("zero_offsets", [])],
+        *[f"- {ZERO_OFFSET_LABEL}: {e['text']}." for e in report["zero_offsets"]],
         f"- Simulator physics: `{report['sim']}` (arm {report['arm']}).",
         f"- Effects chosen by blocked cross-validation; each must gain in every held-out fold and beat "
         f"circularly shifted data at α = {report['selection']['alpha']} / {report['selection']['hypotheses']} "

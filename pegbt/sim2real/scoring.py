@@ -40,7 +40,8 @@ class Score:
 
 def score(synthetic: Synthetic, diagnosis: Diagnosis) -> Score:
     """How well `diagnosis` recovered the effects concealed in `synthetic`: which it named (cable effects,
-    and zero offsets of q1–q3 reported as geometry), which it named that are not there, how far off their parameters are, and how much of the oracle's held-out gain it got.
+    and zero offsets of q1–q3 reported as geometry), which it named that are not there, how far off their
+    parameters are, and how much of the oracle's held-out gain it got.
 
     Only synthetic recordings have a truth to score against; `pegbt bench sim2real` sums these per family."""
     named = {effect_key(e.effect): e.effect for e in (*diagnosis.effects, *diagnosis.zero_offsets)}
