@@ -12,7 +12,9 @@ wrist within 3 % of its range), which no refit collection looks like; `pegbt cal
 walks a random path over the task's joints instead. So the refit is scored on `DRAWS` draws of
 `SAMPLES` set-points at random from the new session's first 70 %, each with the recorded history of
 commands before it (median and worst draw), beside the recording's first 20 and, on the same draws,
-the offsets alone refitted (the model's widths and gains kept).
+the offsets alone refitted (the model's widths and gains kept). `refit_first_own_shape` bounds what any
+refit that keeps a shape can take from the recording's first 20: the new session's own trained model,
+its offsets refitted on them.
 """
 
 from __future__ import annotations
@@ -61,6 +63,10 @@ def run() -> Figures:
             figures[f"{prefix}.trained.tip_mm"] = none - gain
             first_n = refit(models[old], session, SAMPLES)[0]
             figures[f"{prefix}.refit_first.recovered"] = (none - _tip_mm(first_n, session, start)) / gain
+            own = refit_at(trained, session, np.arange(SAMPLES), gains=False)[0]
+            figures[f"{prefix}.refit_first_own_shape.recovered"] = (
+                none - _tip_mm(own, session, start)
+            ) / gain
             draws, offsets_only, factors = [], [], []
             for seed in range(DRAWS):
                 rng = np.random.default_rng(seed)

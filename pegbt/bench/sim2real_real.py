@@ -7,7 +7,9 @@ on the held-out part, next to a linear regression on the last five commands and 
 5-step LSTM (torch, one thread, at most 15 s of training), all in this process. Also: whether the two
 recordings of each arm name the same kinds of effect, and which parameters differ; and per recording,
 the effects the whole recording names and its nested cross-validated held-out RMSE over raw; and the same
-with tracker glitches and a lost-tracking window injected, whose truth is known.
+with tracker glitches and a lost-tracking window injected, whose truth is known. Beside each wrist joint's
+nested ratio, what bounds it: the tracker's resolution over the raw error, and the ratio left once the
+nearest commanded set-points predict the residual as well (`neighbours_of_commands`).
 """
 
 from __future__ import annotations
@@ -18,9 +20,9 @@ import numpy as np
 
 from pegbt.physics.recording import Recording, dvrk_data_dir, load_recording
 from pegbt.psm import JOINT_NAMES
-from pegbt.sim2real.baselines import linear_window, lstm_window
+from pegbt.sim2real.baselines import linear_window, lstm_window, neighbours_of_commands
 from pegbt.sim2real.compare import compare
-from pegbt.sim2real.diagnose import diagnose, identify_physics
+from pegbt.sim2real.diagnose import Diagnosis, diagnose, identify_physics
 from pegbt.sim2real.synth import effect_label, with_tracker_faults
 
 RECORDINGS = (
@@ -72,6 +74,31 @@ def _with_faults(recording: Recording, short: str, clean: set[str]) -> dict[str,
     }
     for joint in WRIST:
         figures[f"{short}_{joint}_faults_nested_ratio"] = after[joint] / before[joint]
+    figures[f"{short}_wrist_faults_nested_ratio"] = _wrist_ratio(diagnosis)
+    return figures
+
+
+def _wrist_ratio(diagnosis: Diagnosis) -> float:
+    """The wrist's nested held-out error over raw, taken as one error: RMS over its three joints."""
+    columns = [JOINT_NAMES.index(joint) for joint in WRIST]
+    before, after = diagnosis.residual_before[:, columns], diagnosis.residual_after[:, columns]
+    return float(np.sqrt((after**2).sum(1).mean() / (before**2).sum(1).mean()))
+
+
+def _floors(whole: Diagnosis, short: str) -> dict[str, float]:
+    """What bounds the wrist's nested held-out ratio from below, per joint: the tracker's resolution over
+    the raw error (a residual at the resolution), and the ratio left once `k` nearest commanded set-points
+    (wrist commands and the directions they last moved, other folds only) predict the residual too; and the
+    wrist's ratio taken as one error."""
+    columns = [JOINT_NAMES.index(joint) for joint in WRIST]
+    before, after = whole.residual_before[:, columns], whole.residual_after[:, columns]
+    q_cmd = whole.recording.q_cmd[:, columns]
+    left = after - neighbours_of_commands(after, q_cmd, whole.fold_ranges)
+    raw = _rmse(before)
+    figures = {f"{short}_wrist_nested_ratio": _wrist_ratio(whole)}
+    for i, joint in enumerate(WRIST):
+        figures[f"{short}_{joint}_resolution_ratio"] = PAPER_RESOLUTION[columns[i]] / float(raw[i])
+        figures[f"{short}_{joint}_nested_ratio_after_neighbours"] = float(_rmse(left)[i] / raw[i])
     return figures
 
 
@@ -126,6 +153,7 @@ def run() -> dict[str, float | int | str]:
         before, after = whole.rmse_before(), whole.rmse_after()
         for joint in ("q3", *WRIST):
             figures[f"{short}_{joint}_nested_ratio"] = after[joint] / before[joint]
+        figures.update(_floors(whole, short))
         figures.update(_with_faults(recording, short, {effect_label(e.effect) for e in whole.effects}))
     for method, values in wrist.items():
         figures[f"wrist_heldout_rmse_median_{method}"] = float(np.median(values))

@@ -1,5 +1,6 @@
 """Black-box baselines that fit but name nothing: a linear model and the reference paper's LSTM, both
-on a window of the most recent commands, predicting the physical joints."""
+on a window of the most recent commands, predicting the physical joints; and nearest neighbours in the
+commands, which bound what any compensation could still take from a model's residual."""
 
 from __future__ import annotations
 
@@ -7,6 +8,7 @@ import time
 
 import numpy as np
 from numpy.typing import NDArray
+from scipy.spatial import cKDTree
 
 Array = NDArray[np.float64]
 
@@ -86,3 +88,29 @@ def lstm_window(
     with torch.no_grad():
         predicted = model(x).numpy().astype(float)
     return q_cmd + predicted * std_y + mean_y
+
+
+def last_moves(q_cmd: Array) -> Array:
+    """(N, J): the sign of each joint's last change of command up to each sample (0 before its first), the
+    state a play's memory keeps."""
+    steps = np.sign(np.diff(q_cmd, axis=0, prepend=q_cmd[:1]))
+    moves = np.zeros_like(steps)
+    current = np.zeros(q_cmd.shape[1])
+    for i, step in enumerate(steps):
+        current = np.where(step != 0, step, current)
+        moves[i] = current
+    return moves
+
+
+def neighbours_of_commands(residual: Array, q_cmd: Array, folds: list[tuple[int, int]], k: int = 20) -> Array:
+    """Held-out prediction of `residual` (N, J) by the mean of its `k` nearest set-points in the other
+    folds, in the commands (each joint scaled to unit spread) and the direction each last moved: what is
+    left of a model's residual that any function of the current command and its play state could take."""
+    features = np.column_stack([q_cmd / np.maximum(q_cmd.std(0), 1e-12), last_moves(q_cmd)])
+    predicted = np.empty_like(residual)
+    for a, b in folds:
+        train = np.ones(len(residual), dtype=bool)
+        train[a:b] = False
+        _, nearest = cKDTree(features[train]).query(features[a:b], k=k)
+        predicted[a:b] = residual[train][nearest].mean(axis=1)
+    return predicted
