@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 import zenoh
 from zenoh_ros2_sdk.attachment import Attachment as SdkAttachment
+from zenoh_ros2_sdk.qos import QosHistoryKind, QosProfile
 
 from pegbt.sim.process import free_port
 from pegbt.transport.codec import JOINT_STATE, OPERATING_STATE, decode_joint_state, encode_joint_state
@@ -154,11 +155,19 @@ def test_ros2_discovery_lists_pegbt_publishers_and_subscribers_with_their_types(
     pegbt_node.publisher(MEASURED)
     pegbt_node.publisher(Topic("/PSM1/operating_state", OPERATING_STATE, latched=True))
     pegbt_node.subscriber(Topic("/PSM1/servo_jp", JOINT_STATE), lambda payload: None)
+    move = Topic("/PSM1/move_jp", JOINT_STATE, command=True)
+    pegbt_node.publisher(move)
+    pegbt_node.subscriber(move, lambda payload: None)
     time.sleep(0.3)
-    info = _lines(
-        _partner(messages_dir, router, "info", "/PSM1/measured_js", "/PSM1/operating_state", "/PSM1/servo_jp")
-    )[-1]
+    topics = ("/PSM1/measured_js", "/PSM1/operating_state", "/PSM1/servo_jp", "/PSM1/move_jp")
+    info = _lines(_partner(messages_dir, router, "info", *topics))[-1]
     measured, state, servo = info["/PSM1/measured_js"], info["/PSM1/operating_state"], info["/PSM1/servo_jp"]
+    commands = info["/PSM1/move_jp"]
+    # a command's publisher says the history it acts on (it blocks, as rmw_zenoh does for KEEP_ALL); a
+    # stream's says KEEP_LAST, as does every subscriber
+    assert QosProfile.decode(commands["publishers"][0][3]).history_kind is QosHistoryKind.KEEP_ALL
+    assert QosProfile.decode(commands["subscribers"][0][3]).history_kind is QosHistoryKind.KEEP_LAST
+    assert QosProfile.decode(measured["publishers"][0][3]).history_kind is QosHistoryKind.KEEP_LAST
     assert measured["types"] == [JOINT_STATE] and servo["types"] == [JOINT_STATE]
     assert state["types"] == [OPERATING_STATE]
     assert [p[0] for p in measured["publishers"]] == ["pegbt_test"]

@@ -45,7 +45,7 @@ ADMIN_SPACE = "@ros2_lv"
 GID_SIZE = 16
 # rmw_zenoh's default QoS (`rmw_zenoh_cpp/src/detail/qos.cpp`): RELIABLE, VOLATILE, KEEP_LAST with depth 42
 _DEFAULT_DEPTH = 42
-_RELIABLE, _TRANSIENT_LOCAL = 1, 1
+_RELIABLE, _TRANSIENT_LOCAL, _KEEP_ALL = 1, 1, 2  # rmw/types.h's enum values
 
 
 def domain_id(value: int | None = None) -> int:
@@ -72,9 +72,13 @@ def mangle(name: str) -> str:
     return name.replace("/", "%")
 
 
-def qos_token(topic: Topic) -> str:
-    """The QoS chunk of an endpoint's token: only what differs from rmw_zenoh's default is written."""
+def qos_token(topic: Topic, publisher: bool = False) -> str:
+    """The QoS chunk of an endpoint's token: only what differs from rmw_zenoh's default is written. A
+    publisher of commands says KEEP_ALL, the history for which rmw_zenoh blocks under congestion
+    (`rmw_publisher_data.cpp`), as `declare_publisher` does for it."""
     durability = str(_TRANSIENT_LOCAL) if topic.latched else ""
+    if publisher and topic.command:
+        return f":{durability}:{_KEEP_ALL},0:,:,:,,"
     depth = "" if topic.depth == _DEFAULT_DEPTH else str(topic.depth)
     return f":{durability}:,{depth}:,:,:,,"
 
@@ -190,7 +194,7 @@ class RmwZenohWire:
                 mangle(self.name(topic)),
                 dds_type_name(topic.typename),
                 type_hash(topic.typename),
-                qos_token(topic),
+                qos_token(topic, publisher=kind == "MP"),
             ]
         return "/".join(chunks)
 
