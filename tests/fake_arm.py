@@ -6,7 +6,8 @@ What stays real: every command is checked by the transport's own guards (`pegbt.
 `ArmClient.move_jp` checks it, and raises the same `CommandRefused`; motions return the transport's
 `MotionHandle` and captures its `CaptureHandle`, which read their fate from this endpoint as they read it
 from a real one (an outcome per command id: done, refused, aborted). What a test scripts is the endpoint's
-side: a command it refuses (`refuse_next`), a motion whose end it never reports (`never_ends`), a block
+side: a command it refuses (`refuse_next`), a motion whose end it never reports (`never_ends`) or that
+stood still on the way (`stalled`), a block
 between the jaws (`block_in_jaw`) or slipping out of them (`drop_block()`), a camera that never answers.
 A sent trajectory is followed row by row on the clock; the jaw moves at the arm's jaw velocity.
 """
@@ -128,8 +129,23 @@ class FakeAxis:
             if self._motion is not None:
                 self._fates[self._motion[0]] = ("aborted", "preempted")
             self.rest = self.position()
-            self._motion = (command_id, now + times, rows)
+            stalled = self.arm.stalled
+            self._motion = (command_id, now + np.r_[times[:1], times[1:] + stalled], rows)
+            if stalled:
+                return StalledHandle(self, command_id, now, kind, stalled)
         return MotionHandle(self, command_id, now, kind)
+
+
+class StalledHandle(MotionHandle):
+    """The handle of a motion that stood still `paused` s at its start, as a streamed one reports it."""
+
+    def __init__(self, axis: FakeAxis, command_id: str, sent_at: float, what: str, paused: float) -> None:
+        super().__init__(axis, command_id, sent_at, what)  # type: ignore[arg-type]
+        self._paused = paused
+
+    @property
+    def paused(self) -> float:
+        return self._paused
 
 
 class FakeJaw(FakeAxis):
@@ -161,6 +177,7 @@ class FakeArm(FakeAxis):
         self.clock = clock
         self.refuse_next: str | None = None  # the endpoint refuses the next command, saying this
         self.never_ends = False  # the endpoint never reports a motion's end
+        self.stalled = 0.0  # s each motion stands at its start (a streamer not scheduled), ending that late
         self.block_in_jaw = False
         self.silent = False  # every read raises EndpointSilent, as the client does for a quiet endpoint
         self.fiducial_offset = np.zeros(6)  # where the physical joints are, from the set-point

@@ -269,6 +269,31 @@ def test_approach_fails_and_stops_the_arm_when_the_end_never_comes(tmp_path, rob
     assert arm.sent[-1].kind == "hold" and arm.jaw.sent[-1].kind == "hold"
 
 
+def test_a_motion_that_stood_still_may_end_that_much_later(tmp_path, robot, skills, seen, clock):
+    block, grasp = grasp_of(skills, seen)
+    built = build(
+        tmp_path, robot, skills, APPROACH, board=seen[0], **{"PSM1/block": block, "PSM1/grasp": grasp}
+    )
+    arm = psm1(robot)
+    arm.stalled = 2 * MOTION_OVERTIME
+    assert run(built, clock) == Status.SUCCESS
+    assert clock.now() >= arm.trajectories[0].duration + 2 * MOTION_OVERTIME
+
+
+def test_a_motion_that_stood_still_is_still_bounded_in_time(tmp_path, robot, skills, seen, clock):
+    block, grasp = grasp_of(skills, seen)
+    built = build(
+        tmp_path, robot, skills, APPROACH, board=seen[0], **{"PSM1/block": block, "PSM1/grasp": grasp}
+    )
+    arm = psm1(robot)
+    arm.stalled = 2 * MOTION_OVERTIME
+    arm.never_ends = arm.jaw.never_ends = True
+    assert run(built, clock) == Status.FAILURE
+    end = arm.trajectories[0].duration + 2 * MOTION_OVERTIME + MOTION_OVERTIME
+    assert end < clock.now() < end + 2 * STEP
+    assert "no end reported" in feedback(built)
+
+
 def closing(robot: Robot, skills: Skills) -> FakeArm:
     arm = psm1(robot)
     arm.jaw.rest = np.array([skills.motion.transfer.jaw_open])

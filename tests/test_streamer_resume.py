@@ -199,3 +199,31 @@ def test_a_stalled_streamer_process_resumes_and_the_run_logs_a_warning() -> None
     finally:
         robot.close()
         double.close()
+
+
+@pytest.mark.slow
+def test_a_stall_longer_than_the_margin_extends_the_motions_bound_by_the_stall() -> None:
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    double = CrtkDouble(endpoint, enabled=True, homed=True)
+    robot = connect_crtk_robot(endpoint)
+    try:
+        arm = robot.arm("PSM1")
+        period = arm.settings.control_period
+        t = np.arange(0.0, 0.5, period)
+        q = np.repeat(START[None], len(t), axis=0)
+        q[:, 0] += 0.1 * np.sin(np.pi * t)
+        handle = arm.stream("arm", t, q, "sway", float(t[-1]))
+        streamer = arm._streamer
+        stall = handle.bound + 1.0  # the motion would be failed at its bound without the stall counted
+        assert _until(lambda: len(double.commands("PSM1/servo_jp")) >= 5)
+        os.kill(streamer.process.pid, signal.SIGSTOP)
+        try:
+            time.sleep(stall)
+        finally:
+            os.kill(streamer.process.pid, signal.SIGCONT)
+        assert _until(lambda: streamer.stalled(handle.motion_id) >= stall - 0.1)
+        assert _until(lambda: not handle.busy, 30) and handle.done, handle.error
+        assert handle.paused == streamer.stalled(handle.motion_id)
+    finally:
+        robot.close()
+        double.close()

@@ -372,7 +372,8 @@ class MotionLeaf(RobotLeaf):
                 return self.fail(f"{motion.what}: {motion.handle.error}")
         if any(motion.handle.busy for motion in self.running):
             now = self.context.clock.now()
-            if self.expected_end is not None and now > self.expected_end + MOTION_OVERTIME:
+            paused = max(motion.handle.paused for motion in self.running)
+            if self.expected_end is not None and now > self.expected_end + paused + MOTION_OVERTIME:
                 late = next(motion for motion in self.running if motion.handle.busy)
                 self.halt_motions()
                 return self.fail(f"{late.what}: no end reported {MOTION_OVERTIME:g} s after its planned end")

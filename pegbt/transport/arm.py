@@ -91,6 +91,11 @@ class StatusFlags:
     def failed(self) -> bool:
         return self.status is MotionStatus.FAILED
 
+    @property
+    def paused(self) -> float:
+        """Seconds the motion stood still on the way, which its end comes that much later for."""
+        return 0.0
+
 
 class _Outcomes:
     """The fate of each command, as the endpoint reports it on operating_state and error (thread-safe)."""

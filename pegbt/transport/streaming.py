@@ -63,6 +63,7 @@ class Streamer:
         self._outcomes: dict[int, tuple[str, str]] = {}
         self._started: set[int] = set()
         self._axes: dict[int, str] = {}  # what each motion moves ("PSM1 arm"), to say which one stalled
+        self._stalled: dict[int, float] = {}  # s each motion stood still, the streamer not scheduled
         self._messages: list[dict[str, Any]] = []
         self._changed = threading.Condition()
         self._ready = False
@@ -115,6 +116,7 @@ class Streamer:
                         self._started.add(frame[1])
                     elif frame[0] == "stalled":
                         self._messages.append(self._stall_message(frame[1], frame[2]))
+                        self._stalled[frame[1]] = self._stalled.get(frame[1], 0.0) + float(frame[2])
                     else:
                         self._outcomes[frame[1]] = (frame[0], frame[2] if len(frame) > 2 else "")
                         self._axes.pop(frame[1], None)
@@ -150,6 +152,11 @@ class Streamer:
     def stop(self, motion_id: int) -> None:
         self._send(("stop", motion_id))
 
+    def stalled(self, motion_id: int) -> float:
+        """Seconds the motion stood still because the streamer was not scheduled, as it reported them."""
+        with self._changed:
+            return self._stalled.get(motion_id, 0.0)
+
     def outcome(self, motion_id: int) -> tuple[str, str] | None:
         """`("done", "")` or `("failed", reason)` once the streamer has said; None while it plays."""
         with self._changed:
@@ -174,7 +181,8 @@ class StreamedMotion(StatusFlags):
 
     It is done once the streamer has sent its last set-point and `arrived()` says the robot has taken it
     (its `setpoint_js` there: the next motion plans from it). It fails if the streamer refuses a set-point,
-    if it is not done `margin` s after its duration (it is then stopped), or when `check_alive`
+    if it is not done `margin` s after its duration and the stalls the streamer reported (the arm held
+    still through them; it is then stopped), or when `check_alive`
     (the robot's liveness) raises. When the streamer gives up on it, `check_failure` may raise what the
     robot's own state says (an arm the robot faulted stops the run rather than failing one motion)."""
 
@@ -218,11 +226,16 @@ class StreamedMotion(StatusFlags):
         if not self._streamer.running:
             raise EndpointSilent(f"the servo streamer exited during {self.what}", field="streamer")
         self._check_alive()
-        if time.monotonic() > self._deadline:
+        if time.monotonic() > self._deadline + self.paused:
             self._streamer.stop(self.motion_id)
-            self.error = f"{self.what} not done within {self.bound:.1f} s; stopped"
+            stalls = f" and {self.paused:.1f} s of stalls" if self.paused else ""
+            self.error = f"{self.what} not done within {self.bound:.1f} s{stalls}; stopped"
             return MotionStatus.FAILED
         return MotionStatus.BUSY
+
+    @property
+    def paused(self) -> float:
+        return self._streamer.stalled(self.motion_id)
 
     def stop(self) -> None:
         """Stop streaming it; the arm holds where its last set-point put it."""
