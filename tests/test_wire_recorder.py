@@ -7,10 +7,12 @@ import dataclasses
 import io
 import json
 import struct
+import time
 from pathlib import Path
 
 import numpy as np
 import pytest
+import zenoh
 
 from pegbt.clock import ManualClock
 from pegbt.transport import codec, recorder
@@ -229,3 +231,33 @@ def test_a_failing_disk_stops_the_recording_not_the_run(monkeypatch):
         wire.sent("PSM1/servo_jp", codec.encode_joint_state(float(i), np.zeros(6)))
     with pytest.raises(PegbtError, match="the recording stopped: No space left on device"):
         wire.close()
+
+
+def test_what_was_sent_before_the_recording_closes_is_in_it(tmp_path, monkeypatch):
+    """A burst a robot publishes just before the run ends (its answer to the last hold) reaches the file,
+    though it is still crossing the wire when the recording is told to close (with no drain, the last
+    of these 300 never do; the drain is lengthened here for a loaded machine)."""
+    monkeypatch.setattr(recorder, "DRAIN_S", 1.0)
+    from pegbt.sim.process import free_port
+    from pegbt.transport.ros2 import BridgeWire, Topic
+    from pegbt.transport.session import client_settings, endpoint_settings, open_session
+
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    topic = Topic("/PSM1/measured_js", JOINT_STATE)
+    path = tmp_path / "tail.mcap"
+    with (
+        open_session(endpoint_settings([endpoint])) as robot,
+        open_session(client_settings([endpoint])) as client,
+    ):
+        wire = WireRecorder(path, ManualClock().now, simulated=False, clock_kind="manual")
+        wire.listen(BridgeWire(client, "lab"), [topic])
+        publisher = robot.declare_publisher(
+            "lab/PSM1/measured_js", congestion_control=zenoh.CongestionControl.BLOCK
+        )
+        time.sleep(0.5)  # the subscriber's declaration reaches the robot
+        payloads = [codec.encode_joint_state(1.0 + k, [0.01 * k] * 6) for k in range(300)]
+        for payload in payloads:
+            publisher.put(payload)
+        wire.close()
+    stamps = [log_time for topic_name, _, log_time, _ in read_all(path) if topic_name == topic.name]
+    assert stamps == [round((1.0 + k) * 1e9) for k in range(300)]

@@ -37,6 +37,9 @@ from pegbt.transport.ros2 import Ros2Wire, Topic
 from pegbt.transport.sequencing import Received
 
 FLUSH_S = 1.0
+# s the recording stays open after it is told to close, while it listens to a wire: what the run's last
+# commands set off (a hold, the endpoint's answer to it) is still on its way then, on loopback a few ms
+DRAIN_S = 0.25
 CHUNK_BYTES = 1 << 20
 STRING = "std_msgs/msg/String"
 POINT_CLOUD2 = "sensor_msgs/msg/PointCloud2"
@@ -108,6 +111,7 @@ class WireRecorder:
         self._channels: dict[str, int] = {}
         self._paths: dict[int, str] = {}
         self._subscribers: list[zenoh.Subscriber] = []
+        self._listening = False  # taps a wire, so messages may still be on their way at `close`
         self._flushed = time.monotonic()
         self._closed = False
         self._failure: OSError | None = None
@@ -116,6 +120,7 @@ class WireRecorder:
     def attach(self, link: Link) -> None:
         """Record what `link`'s clients receive and send, and the simulator's events if one is there."""
         link.tap(self.received, self.sent)
+        self._listening = True
         events = SimKeys(link.namespace).events
         self._subscribers.append(link.session.declare_subscriber(events, self._event))
 
@@ -124,6 +129,7 @@ class WireRecorder:
         robot's states, the executive's commands, its servo streamer's set-points, the camera's clouds."""
         for topic in topics:
             wire.subscriber(topic, partial(self._typed, topic.name, topic.typename))
+        self._listening = True
 
     def received(self, key: str, message: Received[Any]) -> None:
         payload = message.payload
@@ -212,7 +218,10 @@ class WireRecorder:
                 self._failure, self._closed = error, True
 
     def close(self) -> None:
-        """Finish the file (its summary and index): a reader can then seek in it."""
+        """Finish the file (its summary and index), `DRAIN_S` after what was sent before has come if it
+        listens to a wire: a reader can then seek in it."""
+        if self._listening:
+            time.sleep(DRAIN_S)
         for subscriber in self._subscribers:
             subscriber.undeclare()
         self._subscribers.clear()
