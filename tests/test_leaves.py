@@ -269,24 +269,24 @@ def test_approach_fails_and_stops_the_arm_when_the_end_never_comes(tmp_path, rob
     assert arm.sent[-1].kind == "hold" and arm.jaw.sent[-1].kind == "hold"
 
 
-def test_a_motion_that_stood_still_may_end_that_much_later(tmp_path, robot, skills, seen, clock):
+def _stalled_approach(tmp_path, robot, skills, seen):
+    """An approach whose every motion stands still 2 × MOTION_OVERTIME on the way (a streamer's stall)."""
     block, grasp = grasp_of(skills, seen)
     built = build(
         tmp_path, robot, skills, APPROACH, board=seen[0], **{"PSM1/block": block, "PSM1/grasp": grasp}
     )
-    arm = psm1(robot)
-    arm.stalled = 2 * MOTION_OVERTIME
+    psm1(robot).stalled = 2 * MOTION_OVERTIME
+    return built, psm1(robot)
+
+
+def test_a_motion_that_stood_still_may_end_that_much_later(tmp_path, robot, skills, seen, clock):
+    built, arm = _stalled_approach(tmp_path, robot, skills, seen)
     assert run(built, clock) == Status.SUCCESS
     assert clock.now() >= arm.trajectories[0].duration + 2 * MOTION_OVERTIME
 
 
 def test_a_motion_that_stood_still_is_still_bounded_in_time(tmp_path, robot, skills, seen, clock):
-    block, grasp = grasp_of(skills, seen)
-    built = build(
-        tmp_path, robot, skills, APPROACH, board=seen[0], **{"PSM1/block": block, "PSM1/grasp": grasp}
-    )
-    arm = psm1(robot)
-    arm.stalled = 2 * MOTION_OVERTIME
+    built, arm = _stalled_approach(tmp_path, robot, skills, seen)
     arm.never_ends = arm.jaw.never_ends = True
     assert run(built, clock) == Status.FAILURE
     end = arm.trajectories[0].duration + 2 * MOTION_OVERTIME + MOTION_OVERTIME

@@ -17,6 +17,7 @@ import os
 import signal
 import time
 from collections.abc import Iterator
+from typing import Any
 
 import numpy as np
 import pytest
@@ -26,6 +27,7 @@ from pegbt.behaviours.resources.robot import connect_crtk_robot
 from pegbt.motion.limits import arm_settings
 from pegbt.sim.process import free_port
 from pegbt.transport.streamer import STALL_PERIODS, Frame, Streamer
+from pegbt.transport.streaming import MOTION_MARGIN
 
 PERIOD = 2.0**-7  # s: about 8 ms, exact in binary like every tick time below
 ROWS = 60
@@ -164,66 +166,68 @@ def test_each_axis_resumes_from_its_own_last_set_point(rig: Rig) -> None:
     rig.assert_received("PSM1/jaw/servo_jp", jaw)
 
 
-def test_a_stalled_streamer_process_resumes_and_the_run_logs_a_warning() -> None:
+@pytest.fixture
+def robot_double() -> Iterator[tuple[CrtkDouble, Any]]:
+    """The CRTK robot double and pegbt's CRTK robot client on it (which starts the real streamer)."""
     endpoint = f"tcp/127.0.0.1:{free_port()}"
     double = CrtkDouble(endpoint, enabled=True, homed=True)
     robot = connect_crtk_robot(endpoint)
     try:
-        arm = robot.arm("PSM1")
-        period = arm.settings.control_period
-        t = np.arange(0.0, 1.0, period)
-        q = np.repeat(START[None], len(t), axis=0)
-        q[:, 0] += 0.4 * np.sin(np.pi * t / 2.0)  # about 0.006 rad a period, ending at 0.4 rad
-        robot.log_messages()
-        handle = arm.stream("arm", t, q, "sway", float(t[-1]))
-        streamer_pid = arm._streamer.process.pid
-        assert _until(lambda: len(double.commands("PSM1/servo_jp")) >= 10)
-        os.kill(streamer_pid, signal.SIGSTOP)
-        try:
-            time.sleep(0.4)
-        finally:
-            os.kill(streamer_pid, signal.SIGCONT)
-        assert _until(lambda: not handle.busy, 30) and handle.done, handle.error
-        _until(lambda: np.array_equal(double.commands("PSM1/servo_jp")[-1].message.position, q[-1]), 5)
-        sent = np.array([r.message.position for r in double.commands("PSM1/servo_jp")])
-        largest_row_step = np.abs(np.diff(q[:, 0])).max()
-        # a gap short of a stall steps up to STALL_PERIODS periods, and a set-point lost on the way (the
-        # publisher drops under load) one more; the stall none further (skipping it would be 0.07 rad or more)
-        assert np.abs(np.diff(sent[:, 0])).max() <= (STALL_PERIODS + 1) * largest_row_step + 1e-9
-        # the last row, or, lost on the way, a row before it
-        assert np.abs(sent[-1] - q[-1]).max() <= np.abs(q[-1] - q[-3]).max()
-        stalls = [m for m in robot.log_messages() if m["source"] == "streamer"]
-        assert stalls and all(m["level"] == "warning" and m["text"].startswith("PSM1 arm: ") for m in stalls)
-        seconds = [float(m["text"].split("no set-point for ")[1].split(" s")[0]) for m in stalls]
-        assert max(seconds) >= 0.3
+        yield double, robot
     finally:
         robot.close()
         double.close()
+
+
+def _stream_and_stop(double: CrtkDouble, arm: Any, t: np.ndarray, q: np.ndarray, seconds: float) -> Any:
+    """Stream `q` at `t` on `arm`'s joints and, a few set-points in, stop the streamer's process for
+    `seconds` (SIGSTOP: it is not scheduled); the motion's handle."""
+    handle = arm.stream("arm", t, q, "sway", float(t[-1]))
+    pid = arm._streamer.process.pid
+    assert _until(lambda: len(double.commands("PSM1/servo_jp")) >= 10)
+    os.kill(pid, signal.SIGSTOP)
+    try:
+        time.sleep(seconds)
+    finally:
+        os.kill(pid, signal.SIGCONT)
+    return handle
+
+
+def test_a_stalled_streamer_process_resumes_and_the_run_logs_a_warning(robot_double) -> None:
+    double, robot = robot_double
+    arm = robot.arm("PSM1")
+    period = arm.settings.control_period
+    t = np.arange(0.0, 1.0, period)
+    q = np.repeat(START[None], len(t), axis=0)
+    q[:, 0] += 0.4 * np.sin(np.pi * t / 2.0)  # about 0.006 rad a period, ending at 0.4 rad
+    robot.log_messages()
+    handle = _stream_and_stop(double, arm, t, q, 0.4)
+    assert _until(lambda: not handle.busy, 30) and handle.done, handle.error
+    _until(lambda: np.array_equal(double.commands("PSM1/servo_jp")[-1].message.position, q[-1]), 5)
+    sent = np.array([r.message.position for r in double.commands("PSM1/servo_jp")])
+    largest_row_step = np.abs(np.diff(q[:, 0])).max()
+    # a gap short of a stall steps up to STALL_PERIODS periods, and a set-point lost on the way (the
+    # publisher drops under load) one more; the stall none further (skipping it would be 0.07 rad or more)
+    assert np.abs(np.diff(sent[:, 0])).max() <= (STALL_PERIODS + 1) * largest_row_step + 1e-9
+    # the last row, or, lost on the way, a row before it
+    assert np.abs(sent[-1] - q[-1]).max() <= np.abs(q[-1] - q[-3]).max()
+    stalls = [m for m in robot.log_messages() if m["source"] == "streamer"]
+    assert stalls and all(m["level"] == "warning" and m["text"].startswith("PSM1 arm: ") for m in stalls)
+    seconds = [float(m["text"].split("no set-point for ")[1].split(" s")[0]) for m in stalls]
+    assert max(seconds) >= 0.3
 
 
 @pytest.mark.slow
-def test_a_stall_longer_than_the_margin_extends_the_motions_bound_by_the_stall() -> None:
-    endpoint = f"tcp/127.0.0.1:{free_port()}"
-    double = CrtkDouble(endpoint, enabled=True, homed=True)
-    robot = connect_crtk_robot(endpoint)
-    try:
-        arm = robot.arm("PSM1")
-        period = arm.settings.control_period
-        t = np.arange(0.0, 0.5, period)
-        q = np.repeat(START[None], len(t), axis=0)
-        q[:, 0] += 0.1 * np.sin(np.pi * t)
-        handle = arm.stream("arm", t, q, "sway", float(t[-1]))
-        streamer = arm._streamer
-        stall = handle.bound + 1.0  # the motion would be failed at its bound without the stall counted
-        assert _until(lambda: len(double.commands("PSM1/servo_jp")) >= 5)
-        os.kill(streamer.process.pid, signal.SIGSTOP)
-        try:
-            time.sleep(stall)
-        finally:
-            os.kill(streamer.process.pid, signal.SIGCONT)
-        assert _until(lambda: streamer.stalled(handle.motion_id) >= stall - 0.1)
-        assert _until(lambda: not handle.busy, 30) and handle.done, handle.error
-        assert handle.paused == streamer.stalled(handle.motion_id)
-    finally:
-        robot.close()
-        double.close()
+def test_a_stall_longer_than_the_margin_extends_the_motions_bound_by_the_stall(robot_double) -> None:
+    double, robot = robot_double
+    arm = robot.arm("PSM1")
+    t = np.arange(0.0, 0.5, arm.settings.control_period)
+    q = np.repeat(START[None], len(t), axis=0)
+    q[:, 0] += 0.1 * np.sin(np.pi * t)
+    streamer = arm._streamer
+    stall = 0.5 + max(MOTION_MARGIN, 2 * arm.liveness_timeout) + 1.0  # past the motion's bound
+    handle = _stream_and_stop(double, arm, t, q, stall)
+    assert stall > handle.bound
+    assert _until(lambda: streamer.stalled(handle.motion_id) >= stall - 0.1)
+    assert _until(lambda: not handle.busy, 30) and handle.done, handle.error
+    assert handle.paused == streamer.stalled(handle.motion_id)
