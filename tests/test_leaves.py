@@ -291,7 +291,9 @@ def test_a_motion_that_stood_still_is_still_bounded_in_time(tmp_path, robot, ski
     assert run(built, clock) == Status.FAILURE
     end = arm.trajectories[0].duration + 2 * MOTION_OVERTIME + MOTION_OVERTIME
     assert end < clock.now() < end + 2 * STEP
-    assert "no end reported" in feedback(built)
+    assert "no end reported" in feedback(built) and f"and {2 * MOTION_OVERTIME:.1f} s of stalls" in feedback(
+        built
+    )
 
 
 def closing(robot: Robot, skills: Skills) -> FakeArm:

@@ -376,7 +376,10 @@ class MotionLeaf(RobotLeaf):
             if self.expected_end is not None and now > self.expected_end + paused + MOTION_OVERTIME:
                 late = next(motion for motion in self.running if motion.handle.busy)
                 self.halt_motions()
-                return self.fail(f"{late.what}: no end reported {MOTION_OVERTIME:g} s after its planned end")
+                stalls = f" and {paused:.1f} s of stalls" if paused else ""
+                return self.fail(
+                    f"{late.what}: no end reported {MOTION_OVERTIME:g} s after its planned end{stalls}"
+                )
             ahead = self.expected_end is not None and now < self.expected_end
             self.wake_at = self.expected_end if ahead else None
             return self.watch()

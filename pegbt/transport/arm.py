@@ -93,7 +93,7 @@ class StatusFlags:
 
     @property
     def paused(self) -> float:
-        """Seconds the motion stood still on the way, which its end comes that much later for."""
+        """Seconds the motion stood still on the way (its streamer not scheduled): it ends that much later."""
         return 0.0
 
 
