@@ -36,6 +36,34 @@ def test_run_prints_failures_and_recoveries_and_every_leaf_only_when_verbose(tmp
     assert "RECOVER  " in verbose and "FAILURE  " in verbose
 
 
+def test_a_check_that_answers_no_is_not_printed_as_a_failure_but_a_leaf_that_fails_is(tmp_path, capsys):
+    tree = tmp_path / "checks.yaml"
+    tree.write_text(
+        """tree:
+  sequence:
+    name: checks
+    children:
+      - selector:
+          name: registered or register
+          children:
+            - check_blackboard: {name: already registered, key: registered, value: true}
+            - set_blackboard: {name: register, key: registered, value: true}
+      - selector:
+          name: try then fall back
+          children:
+            - scripted: {name: first try, outcomes: [failure]}
+            - log: {name: fall back, message: fell back}
+"""
+    )
+    log = tmp_path / "checks.jsonl"
+    assert main(["run", str(tree), "--clock", "manual", "--log", str(log)]) == 0
+    quiet = capsys.readouterr().out
+    assert "/already registered" not in quiet
+    assert "FAILURE  /checks/try then fall back/first try" in quiet
+    assert main(["run", str(tree), "--clock", "manual", "--log", str(log), "--verbose"]) == 0
+    assert "FAILURE  /checks/registered or register/already registered" in capsys.readouterr().out
+
+
 def test_log_plot_shows_each_leaf_for_as_long_as_log_summary_says_it_ran(tmp_path, capsys):
     log = tmp_path / "example.jsonl"
     main(["run", str(EXAMPLE), "--clock", "manual", "--period", "0.01", "--log", str(log), "--quiet"])

@@ -1,5 +1,7 @@
 """What `pegbt run` prints as it runs: failures, halts and recoveries as they happen (every leaf's result with
-`verbose`), and `tick_bar`, the progress bar of a tree whose resources bring none of their own."""
+`verbose`), and `tick_bar`, the progress bar of a tree whose resources bring none of their own. A check that
+steers the tree (`check_blackboard`, a handover's protocol checks) answers "no" by failing; that is not a
+failure of the task, so it is printed only with `verbose`."""
 
 from __future__ import annotations
 
@@ -11,6 +13,7 @@ from rich.console import Console
 from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
 
 from pegbt.executive.build import BuiltTree
+from pegbt.executive.causes import CONTROL_FLOW
 
 _FINISHED = ("SUCCESS", "FAILURE")
 
@@ -24,6 +27,7 @@ class ProgressPrinter:
         )  # looked up now, not at import: the stream may have been swapped since
         self.verbose = verbose
         self.leaves = {node.id: node.spec.path for node in built.nodes if not node.spec.children}
+        self.checks = {node.id for node in built.nodes if node.spec.type in CONTROL_FLOW}
         children: dict[int, list[int]] = {}
         for node in built.nodes:
             if node.parent is not None:
@@ -38,7 +42,7 @@ class ProgressPrinter:
             for node, before, after, feedback in record["changes"]:
                 if node in self.recoveries and before != "RUNNING" and after != "INVALID":
                     print(f"{record['t']:8.3f} s  RECOVER  {self.recoveries[node]}", file=self.stream)
-                if node in self.leaves and self._shown(kind, after):
+                if node in self.leaves and self._shown(kind, after, node in self.checks):
                     shown = "HALTED" if kind == "halt" else after
                     note = f"  ({feedback})" if feedback else ""
                     print(f"{record['t']:8.3f} s  {shown:<7}  {self.leaves[node]}{note}", file=self.stream)
@@ -53,10 +57,10 @@ class ProgressPrinter:
                 file=self.stream,
             )
 
-    def _shown(self, kind: str, after: str) -> bool:
+    def _shown(self, kind: str, after: str, check: bool) -> bool:
         if kind == "halt":
             return after == "INVALID"
-        return after == "FAILURE" or self.verbose and after in _FINISHED
+        return after == "FAILURE" and not check or self.verbose and after in _FINISHED
 
 
 def tick_bar(stream: IO[str] | None = None) -> Callable[[dict[str, Any]], None]:
