@@ -13,6 +13,7 @@ from pegbt.cli import main
 from pegbt.executive.analysis import replay, summary, why
 from pegbt.executive.btlog import export_btlog
 from pegbt.executive.logfile import TickLogError, read_tick_log
+from pegbt.monitor.replay import replay_messages
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -103,6 +104,18 @@ def test_a_crashed_runs_log_is_read_to_its_last_complete_record_with_a_warning(
     )
     if command == "summary":
         assert "unfinished" in captured.out
+
+
+def test_the_monitor_replays_a_crashed_runs_log_up_to_its_last_complete_record(tmp_path, valid_log):
+    whole = "".join(json.dumps(record) + "\n" for record in valid_log[:-1])
+    path = tmp_path / "crashed.jsonl"
+    path.write_text(whole + json.dumps(valid_log[-1])[:17])
+    messages = replay_messages(path)
+    assert messages[0] == {"type": "mode", "mode": "replay", "log": str(path)}
+    assert messages[1 : len(valid_log)] == valid_log[:-1]
+    assert messages[len(valid_log)]["type"] == "causes"
+    repeated = _write(tmp_path / "twice.jsonl", valid_log[:3] + valid_log[2:])
+    assert replay_messages(repeated)[1 : len(valid_log) + 1] == valid_log  # read once, as `log replay` does
 
 
 def _chain(count: int) -> dict:

@@ -232,21 +232,21 @@ def _start_monitor(port: int, log_path: Path) -> LiveMonitor:
 def _log_summary(args: argparse.Namespace) -> int:
     from pegbt.executive.analysis import summary
 
-    print(summary(_read_log(args.log)))
+    print(summary(read_log(args.log)))
     return 0
 
 
 def _log_why(args: argparse.Namespace) -> int:
     from pegbt.executive.analysis import why
 
-    print(why(_read_log(args.log)))
+    print(why(read_log(args.log)))
     return 0
 
 
 def _log_replay(args: argparse.Namespace) -> int:
     from pegbt.executive.analysis import replay
 
-    print(replay(_read_log(args.log), tick=args.tick, time=args.time))
+    print(replay(read_log(args.log), tick=args.tick, time=args.time))
     return 0
 
 
@@ -273,16 +273,16 @@ def _log_plot(args: argparse.Namespace) -> int:
 def _log_export(args: argparse.Namespace) -> int:
     from pegbt.executive.btlog import export_btlog
 
-    count = export_btlog(_read_log(args.log), Path(args.out))
+    count = export_btlog(read_log(args.log), Path(args.out))
     print(f"wrote {args.out} ({count} transitions)")
     return 0
 
 
-def _read_log(path: str) -> TickLog:
+def read_log(path: str, *, keep_records: bool = False) -> TickLog:
     """The tick log, saying on stderr what the reader skipped or cut (a crash's last line, a repeat)."""
     from pegbt.executive.logfile import read_tick_log
 
-    log = read_tick_log(path)
+    log = read_tick_log(path, keep_records=keep_records)
     for warning in log.warnings:
         print(f"pegbt: warning: {path}: {warning}", file=sys.stderr)
     return log

@@ -66,6 +66,7 @@ class TickLog:
     last_n: int = 0
     last_t: float = 0.0
     warnings: list[str] = field(default_factory=list)  # what was skipped or cut while reading
+    records: list[dict[str, Any]] | None = None  # every record read, header first (`keep_records`)
 
     @property
     def outcome(self) -> str:
@@ -109,10 +110,11 @@ class TickLog:
 _UNSET = object()
 
 
-def read_tick_log(path: str | Path) -> TickLog:
+def read_tick_log(path: str | Path, *, keep_records: bool = False) -> TickLog:
     """Parse and check a tick log; a `TickLogError` naming the line and field for anything malformed.
 
-    A last line cut short (the run died while writing it) is left out, with a warning in `warnings`."""
+    A last line cut short (the run died while writing it) is left out, with a warning in `warnings`.
+    `keep_records` keeps the records read in `records` (the monitor replays them as they are)."""
     path = Path(path)
     try:
         data = read_bytes(path, MAX_LOG_BYTES, "tick log")
@@ -130,10 +132,13 @@ def read_tick_log(path: str | Path) -> TickLog:
         record = _parse_line(raw, number, path)
         if log is None:
             log = _header(record, path)
+            log.records = [record] if keep_records else None
         elif raw == previous and record.get("type") in ("tick", "halt"):
             log.warnings.append(f"line {number} repeats line {number - 1} word for word; read once")
         else:
             _event(log, record, number, path)
+            if log.records is not None:
+                log.records.append(record)
         previous = raw
     if cut.strip():
         if log is None:

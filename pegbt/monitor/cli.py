@@ -30,10 +30,11 @@ def add_port_option(parser: argparse.ArgumentParser, name: str, default: int | N
 
 
 def _monitor(args: argparse.Namespace) -> int:
+    from pegbt.executive.cli import read_log
     from pegbt.monitor.replay import replay_messages
     from pegbt.monitor.server import MonitorServer
 
-    messages = replay_messages(args.log)
+    messages = replay_messages(read_log(args.log, keep_records=True))
     server = MonitorServer(int(args.port)).start()
     for message in messages:
         server.publish(message)
