@@ -87,7 +87,7 @@ def test_a_duplicated_record_does_not_double_the_counts(tmp_path, valid_log):
     assert doubled.warnings == ["line 4 repeats line 3 word for word; read once"]
 
 
-@pytest.mark.parametrize("command", ["summary", "why", "replay", "export"])
+@pytest.mark.parametrize("command", ["summary", "why", "replay", "export", "plot"])
 def test_a_crashed_runs_log_is_read_to_its_last_complete_record_with_a_warning(
     tmp_path, valid_log, capsys, command
 ):

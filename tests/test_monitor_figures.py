@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 from pathlib import Path
+from xml.etree import ElementTree
 
 import matplotlib.image
 import numpy as np
+import PIL.Image
 import pytest
 
 from pegbt.cli import main
@@ -81,6 +83,23 @@ def test_log_plot_shows_each_leaf_for_as_long_as_log_summary_says_it_ran(tmp_pat
     assert capsys.readouterr().out == f"wrote {log.with_suffix('.png')}\n"
     image = matplotlib.image.imread(log.with_suffix(".png"))
     assert image.shape[0] > 200 and image.shape[1] > 1000
+
+
+def test_log_plot_writes_the_format_out_names_and_refuses_one_it_cannot(tmp_path, capsys):
+    log = tmp_path / "example.jsonl"
+    main(["run", str(EXAMPLE), "--clock", "manual", "--log", str(log), "--quiet"])
+    capsys.readouterr()
+    assert main(["log", "plot", str(log), "--out", str(tmp_path / "timeline.foo")]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"pegbt: error: {tmp_path / 'timeline.foo'}") and "--out" in err and "png" in err
+    assert not (tmp_path / "timeline.foo").exists()
+    bare = tmp_path / "timeline"
+    assert main(["log", "plot", str(log), "--out", str(bare)]) == 0
+    assert capsys.readouterr().out == f"wrote {bare}\n"
+    with PIL.Image.open(bare) as image:  # written where it says, not at timeline.png
+        assert image.format == "PNG"
+    assert main(["log", "plot", str(log), "--out", str(tmp_path / "timeline.svg")]) == 0
+    assert ElementTree.parse(tmp_path / "timeline.svg").getroot().tag == "{http://www.w3.org/2000/svg}svg"
 
 
 def test_eval_trial_figures_read_every_cell_written(tmp_path):

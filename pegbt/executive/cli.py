@@ -251,11 +251,11 @@ def _log_replay(args: argparse.Namespace) -> int:
 
 
 def _log_plot(args: argparse.Namespace) -> int:
-    from pegbt.executive.logfile import read_tick_log
-    from pegbt.executive.logplot import plot_timeline
+    from pegbt.executive.logplot import figure_format, plot_timeline
     from pegbt.monitor.world import read_world_log, world_log_path
 
     out = Path(args.out) if args.out else Path(args.log).with_suffix(".png")
+    figure_format(out)
     world = world_log_path(args.log)
     faults = [
         fault
@@ -263,7 +263,7 @@ def _log_plot(args: argparse.Namespace) -> int:
         for fault in sample.get("faults", [])
     ]
     try:
-        plot_timeline(read_tick_log(args.log), out, faults)
+        plot_timeline(read_log(args.log), out, faults)
     except OSError as error:
         raise PegbtError(f"cannot write the figure: {error.strerror}", file=out, field="--out") from None
     print(f"wrote {out}")

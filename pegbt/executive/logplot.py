@@ -14,6 +14,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from pegbt.errors import PegbtError
 from pegbt.executive.causes import CONTROL_FLOW, Timeline, failure_chains
 from pegbt.executive.logfile import TickLog
 
@@ -76,9 +77,26 @@ def transfers(log: TickLog) -> list[dict]:
     return [found[index] for index in sorted(found)]
 
 
+def figure_format(out: Path) -> str:
+    """The format `out` is written in: its suffix's, PNG without one (written to `out` as named, where
+    matplotlib would add `.png`); a suffix matplotlib cannot write is a `PegbtError` before any drawing."""
+    from matplotlib.backend_bases import FigureCanvasBase
+
+    suffix = out.suffix[1:].lower()
+    known = FigureCanvasBase.get_supported_filetypes()
+    if suffix and suffix not in known:
+        raise PegbtError(
+            f"cannot write a .{suffix} figure; the formats are {', '.join(sorted(known))}",
+            file=out,
+            field="--out",
+        )
+    return suffix or "png"
+
+
 def plot_timeline(log: TickLog, out: Path, faults: Sequence[dict] = ()) -> Path:
     """Draw the run's timeline (see the module docstring) to `out` (PNG, SVG or PDF by its suffix); `faults`
     (run time `t`, `detail`) are those the simulator injected, when known."""
+    file_format = figure_format(out)
     import matplotlib
 
     matplotlib.use("Agg")
@@ -138,7 +156,7 @@ def plot_timeline(log: TickLog, out: Path, faults: Sequence[dict] = ()) -> Path:
     axis.legend(loc="lower left", bbox_to_anchor=(1.01, 0.0), fontsize=7, title="trouble")
     axis.grid(axis="x", alpha=0.3)
     figure.tight_layout()
-    figure.savefig(out, dpi=100)
+    figure.savefig(out, dpi=100, format=file_format)
     plt.close(figure)
     return out
 
