@@ -134,6 +134,12 @@ def why(log: TickLog) -> str:
                 lines.append(
                     f"  {log.nodes[change.node]['path']}  ({change.feedback or 'no feedback'})  halted: {change.halted}"
                 )
+        if not any(change.halted for change in log.transitions):
+            for change in _still_running_leaves(log):
+                lines.append(
+                    f"  {log.nodes[change.node]['path']}  ({change.feedback or 'no feedback'})  never halted: "
+                    "the log ends"
+                )
         if log.crash:
             lines.append(f"crash: {log.crash.get('error')}")
     else:
@@ -149,6 +155,18 @@ def why(log: TickLog) -> str:
     lines += _fallback_lines(timeline)
     lines += _given_up_lines(log, timeline)
     return "\n".join(lines)
+
+
+def _still_running_leaves(log: TickLog) -> list[Transition]:
+    """The last change of each leaf still RUNNING where the log ends (a run killed with no halt record)."""
+    last: dict[int, Transition] = {}
+    for change in log.transitions:
+        last[change.node] = change
+    return [
+        change
+        for node, change in sorted(last.items())
+        if change.after == "RUNNING" and not log.children(node)
+    ]
 
 
 def _explain(timeline: Timeline, failure: Transition, depth: int, lines: list[str]) -> None:
