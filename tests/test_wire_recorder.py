@@ -165,6 +165,31 @@ def test_a_step_replys_restamp_note_records_the_last_state_with_its_new_stamp(tm
     assert {topic for topic, _, _, _ in messages} == {"/PSM1/measured_js", "/pegbt/ticks"}
 
 
+def test_every_message_with_a_header_is_logged_at_its_stamp(tmp_path):
+    """A lockstep reply bundles states the simulator stamped ahead of the client's clock: an arm that stops
+    being busy at 26.0 s must not show so at 24.44 s, where the clock was when the reply came."""
+    clock = ManualClock()
+    clock.advance(24.44)
+    path = tmp_path / "stamps.mcap"
+    wire = WireRecorder(path, clock.now, simulated=True, clock_kind="manual")
+    state = codec.encode_operating_state(codec.OperatingState(26.0, "ENABLED", True, False))
+    wire.received("PSM1/operating_state", Received(state, codec.decode_operating_state, None, 0.0))
+    wire.received("PSM1/measured_js", Received(codec.encode_joint_state(26.0, np.zeros(6)), None, None, 0.0))
+    wire.sent("PSM1/state_command", codec.encode_string_stamped(25.5, "enable"))
+    wire.sent("PSM1/jaw/move_jp", codec.encode_joint_state(0.0, np.zeros(1)))  # no stamp: the clock's time
+    wire.close()
+    messages = read_all(path)
+    assert {topic for topic, _, _, _ in messages} == {
+        "/PSM1/operating_state",
+        "/PSM1/measured_js",
+        "/PSM1/state_command",
+        "/PSM1/jaw/move_jp",
+    }
+    for topic, _, log_time, decoded in messages:
+        stamp = decoded.header.stamp.sec * 10**9 + decoded.header.stamp.nanosec
+        assert log_time == (stamp or 24_440_000_000), topic
+
+
 def test_the_simulator_records_the_commands_it_takes_and_the_state_it_sends(tmp_path):
     from pegbt.sim.process import SimProcess
     from pegbt.transport import ArmClient, SimClock, connect

@@ -21,7 +21,7 @@ import threading
 import time
 from collections.abc import Callable, Iterable
 from pathlib import Path
-from functools import partial
+from functools import cache, partial
 from typing import Any
 
 import numpy as np
@@ -59,8 +59,15 @@ ROS2_TYPES = {
     "depth/points": POINT_CLOUD2,
     "trigger": "std_msgs/msg/Empty",
 }
-_STAMPED = {"sensor_msgs/msg/JointState", "geometry_msgs/msg/PoseStamped", POINT_CLOUD2}
 _STAMP = struct.Struct("<iI")  # a Header's stamp, right after the 4-byte CDR encapsulation
+
+
+@cache
+def stamped(kind: str) -> bool:
+    """Whether messages of ROS 2 type `kind` open with a `std_msgs/msg/Header` (its stamp first in the CDR):
+    joint states and clouds, and also a CRTK `OperatingState` or `StringStamped`."""
+    fields = codec.typestore().fielddefs[kind][1]
+    return bool(fields) and fields[0][1][1] == "std_msgs/msg/Header"
 
 
 def ros2_type(key: str) -> str | None:
@@ -187,7 +194,7 @@ class WireRecorder:
             except PegbtError:
                 pass  # not a cloud to thin: recorded as it came
         when = self._now()
-        if kind in _STAMPED and len(payload) >= 12:
+        if stamped(kind) and len(payload) >= 12:
             sec, nanosec = _STAMP.unpack_from(payload, 4)
             when = sec + nanosec * 1e-9 or when
         self._write(topic, kind, payload, when)
