@@ -16,6 +16,7 @@ from xml.etree import ElementTree
 import pytest
 
 from pegbt.clock import ManualClock
+from pegbt.errors import PegbtError
 from pegbt.executive.btlog import export_btlog
 from pegbt.executive.logfile import read_tick_log
 from pegbt.executive.runner import run
@@ -235,3 +236,31 @@ def test_exported_xml_uses_btcpp_builtins_and_declares_the_rest(tmp_path):
     assert models["guard"] == ("Decorator", {"key", "op", "value"})
     assert models["wait"] == ("Action", {"seconds"}) and models["log"][0] == "Action"
     assert not {"ReactiveSequence", "Parallel"} & set(models)
+
+
+@pytest.mark.parametrize("name", ["run.log", "run.BTLOG", ".btlog", "run.btlog.txt", "run.btlog"])
+def test_export_takes_the_names_btcpps_file_logger_takes(tmp_path, name):
+    built = build_text(tmp_path, "tree: {scripted: {name: once, outcomes: [success]}}")
+    log_path = tmp_path / "run.jsonl"
+    run(built, period=PERIOD, log=TickLogWriter(log_path, built, clock_kind="manual"))
+    factory = bt.BehaviorTreeFactory()
+    factory.register_simple_action("A", lambda node: bt.NodeStatus.SUCCESS)
+    tree = factory.create_tree_from_text(
+        '<root BTCPP_format="4"><BehaviorTree ID="M"><A/></BehaviorTree></root>'
+    )
+    try:
+        logger = bt.FileLogger(tree, str(tmp_path / name))
+        del logger
+        btcpp_takes = True
+    except RuntimeError as error:
+        assert "extension must be [.btlog]" in str(error)
+        btcpp_takes = False
+    out = tmp_path / "pegbt" / name
+    out.parent.mkdir()
+    try:
+        export_btlog(read_tick_log(log_path), out)
+        pegbt_takes = True
+    except PegbtError as error:
+        assert error.file == str(out) and error.field == "OUT" and ".btlog" in error.message
+        pegbt_takes = False
+    assert pegbt_takes == btcpp_takes == out.exists()

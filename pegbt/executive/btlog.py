@@ -214,7 +214,14 @@ class BtcppStatuses:
 
 
 def export_btlog(log: TickLog, path: Path) -> int:
-    """Write `log` as a `.btlog` file at `path`; returns the number of status changes written."""
+    """Write `log` as a `.btlog` file at `path`; returns the number of status changes written.
+
+    The name must end `.btlog`, as BT.CPP's `FileLogger2` requires (its constructor throws otherwise) and
+    as Groot2 looks for."""
+    if path.suffix != ".btlog":
+        raise PegbtError(
+            "a Groot2 log's name must end .btlog (BT.CPP's FileLogger2 rule)", file=path, field="OUT"
+        )
     if len(log.nodes) >= 2**16:
         raise PegbtError(
             f"{len(log.nodes)} nodes: a .btlog holds at most 65535", file=log.path, field="nodes"
