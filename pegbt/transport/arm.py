@@ -28,19 +28,13 @@ from pegbt.clock import Clock, WallClock
 from pegbt.transport.clock import SimClock
 from pegbt.transport.codec import JointSample, OperatingState, TrajectoryLike
 from pegbt.transport.keys import ArmKeys
-from pegbt.transport.link import Link
+from pegbt.transport.link import EndpointSilent, Link
 from pegbt.transport.sequencing import Inlet, Outlet, Received, Tag
 
 ARM_JOINT_NAMES = tuple(f"outer_{label}" for label in JOINT_LABELS)  # as the dVRK's joint states name them
 JAW_JOINT_NAMES = ("jaw",)
 STATE_COMMANDS = ("enable", "disable", "home", "unhome")
 FIRST_SAMPLE_TIMEOUT = 1.0  # s to wait for the first sample of a topic subscribed on first use
-
-
-class EndpointSilent(PegbtError):
-    """The endpoint stopped publishing (crashed, unplugged) or never started."""
-
-    exit_status = 3  # the endpoint was lost: not the user's input
 
 
 class ArmFaulted(EndpointSilent):

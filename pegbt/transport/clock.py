@@ -23,7 +23,7 @@ import zenoh
 from pegbt.clock import Clock, WallClock  # noqa: F401 (pegbt.transport re-exports them from here)
 from pegbt.errors import PegbtError
 from pegbt.transport.keys import SimKeys
-from pegbt.transport.link import Link
+from pegbt.transport.link import EndpointSilent, Link
 from pegbt.transport import codec
 from pegbt.transport.sequencing import Tag, unbundle
 
@@ -155,7 +155,7 @@ class SimClock:
             ):
                 if time.monotonic() >= deadline or not self._connected():
                     key = self._keys.step
-                    raise PegbtError(
+                    raise EndpointSilent(
                         f"no simulator answers on {key} (is `pegbt sim --lockstep` running and reachable?)",
                         field=key,
                     )

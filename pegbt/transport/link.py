@@ -19,6 +19,13 @@ from pegbt.transport.sequencing import Inlet, Outlet, Received, Source, Tag
 from pegbt.transport.endpoints import DEFAULT_ENDPOINT
 from pegbt.transport.session import client_settings, open_session
 
+
+class EndpointSilent(PegbtError):
+    """The endpoint stopped publishing (crashed, unplugged) or never started."""
+
+    exit_status = 3  # the endpoint was lost: not the user's input
+
+
 T = TypeVar("T")
 
 
