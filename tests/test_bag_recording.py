@@ -174,6 +174,17 @@ def test_bad_bags_say_which_file_and_topic(tmp_path):
         load_recording(tmp_path / "junk.mcap")
     with pytest.raises(PegbtError, match="not a bag"):
         load_recording(write_recording_folder(tmp_path), cmd="/PSM1/setpoint_js")
+    whole = (tmp_path / "empty.mcap").read_bytes()
+    for size in (0, 8, len(whole) // 2):  # nothing; mcap's magic alone; cut before a channel
+        (tmp_path / "short.mcap").write_bytes(whole[:size])
+        with pytest.raises(PegbtError, match=rf"not a readable MCAP file: it ends after {size} bytes"):
+            load_recording(tmp_path / "short.mcap")
+    folder = tmp_path / "broken_bag"
+    folder.mkdir()
+    (folder / "metadata.yaml").write_text("rosbag2_bagfile_information: [\n")
+    with pytest.raises(PegbtError, match="not a readable rosbag2 folder: Could not load YAML") as raised:
+        load_recording(folder)
+    assert "\n" not in str(raised.value) and raised.value.file == str(folder)
 
 
 def write_recording_folder(tmp_path: Path) -> Path:

@@ -57,9 +57,9 @@ def _raw_messages(path: Path, topics: dict[str, str]) -> Iterator[tuple[str, str
                 for connection, log_time, data in reader.messages():
                     yield connection.topic, connection.msgtype, bytes(data), log_time
         except AnyReaderError as error:
-            raise PegbtError(f"not a readable rosbag2 folder: {error}", file=path) from None
+            raise PegbtError(f"not a readable rosbag2 folder: {_one_line(error)}", file=path) from None
         return
-    from mcap.exceptions import McapError
+    from mcap.exceptions import EndOfFile, McapError
     from mcap.reader import NonSeekingReader
 
     with path.open("rb") as stream:
@@ -70,9 +70,19 @@ def _raw_messages(path: Path, topics: dict[str, str]) -> Iterator[tuple[str, str
                 yield channel.topic, kind, message.data, message.log_time
         except McapError as error:
             if not topics:
-                raise PegbtError(f"not a readable MCAP file: {error}", file=path) from None
+                reason = (
+                    f"it ends after {stream.tell()} bytes, before its first channel"
+                    if isinstance(error, EndOfFile)
+                    else _one_line(error)
+                )
+                raise PegbtError(f"not a readable MCAP file: {reason}", file=path) from None
         except (EOFError, struct.error):
             pass  # a file cut short (a crash while recording) reads up to the cut
+
+
+def _one_line(error: Exception) -> str:
+    """A reader's message on one line (rosbags quotes YAML parser errors over several)."""
+    return " ".join(str(error).split()) or type(error).__name__
 
 
 def _joint_stream(path: Path, topic: str, kind: str, rows: list[tuple[float, list[float]]]) -> Array:
