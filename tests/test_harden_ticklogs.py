@@ -118,6 +118,29 @@ def test_the_monitor_replays_a_crashed_runs_log_up_to_its_last_complete_record(t
     assert replay_messages(repeated)[1 : len(valid_log) + 1] == valid_log  # read once, as `log replay` does
 
 
+def test_a_recording_or_a_btlog_given_as_the_tick_log_is_named_for_what_it_is(tmp_path):
+    from mcap.writer import Writer
+
+    bt = pytest.importorskip("behaviortreepy")
+    recording = tmp_path / "run.mcap"
+    with recording.open("wb") as stream:  # written by the mcap library, not by pegbt
+        writer = Writer(stream)
+        writer.start(profile="ros2", library="test")
+        writer.finish()
+    factory = bt.BehaviorTreeFactory()
+    factory.register_simple_action("A", lambda node: bt.NodeStatus.SUCCESS)
+    tree = factory.create_tree_from_text(
+        '<root BTCPP_format="4"><BehaviorTree ID="M"><A/></BehaviorTree></root>'
+    )
+    btlog = tmp_path / "run.btlog"
+    logger = bt.FileLogger(tree, str(btlog))  # BT.CPP's own FileLogger2
+    del logger
+    for path, what in ((recording, "an MCAP recording"), (btlog, "a BT.CPP FileLogger2 .btlog")):
+        with pytest.raises(TickLogError, match=f"not a tick log: this is {what}") as raised:
+            read_tick_log(path)
+        assert raised.value.file == str(path) and raised.value.line == 1
+
+
 def _chain(count: int) -> dict:
     nodes = [
         {

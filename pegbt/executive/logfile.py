@@ -28,6 +28,11 @@ MAX_LOG_BYTES = 512 * 2**20
 MAX_TICK = 2**53  # ticks are counted exactly in a float too
 MAX_TIME = 1e9  # s of executive time: 31 years
 _NODE_TEXT = ("path", "name", "type", "source")
+# the other files a run leaves beside its tick log, by their first bytes (MCAP's magic, FileLogger2's)
+_OTHER_FORMATS = {
+    b"\x89MCAP0\r\n": "an MCAP recording (`--record`): read it with an MCAP tool or `pegbt sim2real diagnose`",
+    b"BTCPP4-FileLogger2": "a BT.CPP FileLogger2 .btlog (`pegbt log export`): open it in Groot2",
+}
 _NODE_KEYS = ("reads", "writes")
 
 
@@ -124,6 +129,9 @@ def read_tick_log(path: str | Path, *, keep_records: bool = False) -> TickLog:
         raise TickLogError(error.message, file=path) from None
     if not data.strip():
         raise TickLogError("the tick log is empty", file=path, line=1)
+    for magic, what in _OTHER_FORMATS.items():
+        if data.startswith(magic):
+            raise TickLogError(f"not a tick log: this is {what}", file=path, line=1)
     lines = data.split(b"\n")
     cut = lines.pop()  # after the last newline: empty, or a record the writer never finished
     log: TickLog | None = None
