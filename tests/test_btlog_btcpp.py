@@ -264,3 +264,55 @@ def test_export_takes_the_names_btcpps_file_logger_takes(tmp_path, name):
         assert error.file == str(out) and error.field == "OUT" and ".btlog" in error.message
         pegbt_takes = False
     assert pegbt_takes == btcpp_takes == out.exists()
+
+
+HALTED = """
+tree:
+  sequence:
+    name: task
+    children:
+      - scripted: {name: first, outcomes: [success]}
+      - selector:
+          name: either
+          memory: true
+          children:
+            - scripted: {name: fails, outcomes: [failure]}
+            - parallel:
+                children:
+                  - scripted: {name: p1, outcomes: [running]}
+                  - scripted: {name: p2, outcomes: [running, success]}
+      - scripted: {name: never, outcomes: [success]}
+"""
+
+
+def test_a_run_halted_by_its_timeout_exports_what_btcpps_halt_tree_logs(tmp_path):
+    built = build_text(tmp_path, HALTED, ManualClock())
+    log_path = tmp_path / "run.jsonl"
+    result = run(built, period=PERIOD, timeout=0.1, log=TickLogWriter(log_path, built, clock_kind="manual"))
+    assert result.outcome == "timeout"
+    log = read_tick_log(log_path)
+    ours = tmp_path / "pegbt.btlog"
+    export_btlog(log, ours)
+    _, _, xml, _, records = read_btlog(ours.read_bytes())
+    factory = bt.BehaviorTreeFactory()
+    replay = Replay(log)
+    factory.register_simple_stateful_action("scripted", replay.start, replay.running)
+    tree = factory.create_tree_from_text(leaf_ports_dropped(xml))
+    theirs = tmp_path / "btcpp.btlog"
+    logger = bt.FileLogger(tree, str(theirs))
+    for _ in range(result.ticks):
+        replay.tick += 1
+        assert tree.tick_exactly_once() == bt.NodeStatus.RUNNING
+    tree.halt_tree()  # what a timeout or Ctrl-C does to the whole tree
+    time.sleep(0.05)  # the logger's writer thread drains its queue every 10 ms
+    del logger
+    gc.collect()
+    uid = {node["name"]: node["id"] + 1 for node in log.nodes}
+    ours_sequence = [(uid, status) for _, uid, status in records]
+    assert ours_sequence == [(uid, status) for _, uid, status in read_btlog(theirs.read_bytes())[4]]
+    assert ours_sequence[-7:] == [(uid[name], 0) for name in ("first", "fails", "p1", "p2")] + [
+        (uid["parallel"], 0),
+        (uid["either"], 0),
+        (uid["task"], 0),
+    ]  # children reset before their parents
+    assert not replay.errors and (uid["never"], 1) not in ours_sequence
