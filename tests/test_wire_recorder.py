@@ -190,6 +190,41 @@ def test_every_message_with_a_header_is_logged_at_its_stamp(tmp_path):
         assert log_time == (stamp or 24_440_000_000), topic
 
 
+def test_every_channel_offers_the_qos_of_the_dvrks_bridge_as_the_ros2_profile_requires(tmp_path):
+    """MCAP's ros2 profile requires `offered_qos_profiles` on every channel (foxglove/mcap
+    `docs/specification/profiles/ros2.md`); rosbags' rosbag2 reader takes the profiles from it, and a
+    player republishes the dVRK's latched operating_state to late joiners only if it says so."""
+    from rosbags.interfaces import QosDurability, QosReliability
+    from rosbags.rosbag2 import Reader
+
+    clock = ManualClock()
+    path = tmp_path / "qos.mcap"
+    wire = WireRecorder(path, clock.now, simulated=False, clock_kind="manual")
+    state = codec.encode_operating_state(codec.OperatingState(1.0, "ENABLED", True, False))
+    wire.received("PSM1/operating_state", Received(state, codec.decode_operating_state, None, 0.0))
+    wire.received("PSM1/measured_js", Received(codec.encode_joint_state(1.0, np.zeros(6)), None, None, 0.0))
+    wire.tick_record({"type": "header", "nodes": [{"id": 0, "path": "/root"}]})
+    wire.tick_record({"type": "tick", "n": 1, "t": 0.0, "changes": [[0, "INVALID", "RUNNING", ""]]})
+    wire.close()
+    with path.open("rb") as stream:
+        channels = mcap_reader.make_reader(stream).get_summary().channels.values()
+        assert all("offered_qos_profiles" in channel.metadata for channel in channels)
+    reader = Reader(path)
+    reader.open()
+    try:
+        offered = {c.topic: c.ext.offered_qos_profiles for c in reader.connections}
+    finally:
+        reader.close()
+    assert set(offered) == {"/PSM1/operating_state", "/PSM1/measured_js", "/pegbt/ticks"}
+    durability = {topic: [qos.durability for qos in profiles] for topic, profiles in offered.items()}
+    assert durability == {
+        "/PSM1/operating_state": [QosDurability.TRANSIENT_LOCAL],
+        "/PSM1/measured_js": [QosDurability.VOLATILE],
+        "/pegbt/ticks": [QosDurability.VOLATILE],
+    }
+    assert all(qos.reliability == QosReliability.RELIABLE and qos.depth == 100 for [qos] in offered.values())
+
+
 def test_the_simulator_records_the_commands_it_takes_and_the_state_it_sends(tmp_path):
     from pegbt.sim.process import SimProcess
     from pegbt.transport import ArmClient, SimClock, connect

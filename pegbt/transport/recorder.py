@@ -27,10 +27,13 @@ from typing import Any
 import numpy as np
 import zenoh
 from mcap.writer import CompressionType, Writer
+from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime
+from rosbags.rosbag2.metadata import dump_qos_v8
 
 from pegbt import __version__
 from pegbt.errors import PegbtError
 from pegbt.transport import codec
+from pegbt.transport.dvrk_topics import PsmTopics
 from pegbt.transport.keys import SimKeys
 from pegbt.transport.link import Link
 from pegbt.transport.ros2 import Ros2Wire, Topic
@@ -60,6 +63,11 @@ ROS2_TYPES = {
     "trigger": "std_msgs/msg/Empty",
 }
 _STAMP = struct.Struct("<iI")  # a Header's stamp, right after the 4-byte CDR encapsulation
+# QoS the dVRK's bridge offers (cisst-ros `cisst_ros_bridge/include/cisst_ros_bridge/mtsROSBridge.h`:
+# `AddPublisherFromCommandRead` and `AddPublisherFromEventWrite` keep the last 100, events latched;
+# `cisst_ral.h` `create_publisher`: `rclcpp::QoS(queue_size)`, reliable, and `transient_local()` if latched)
+QOS_DEPTH = 100
+LATCHED = frozenset(topic.name.rsplit("/", 1)[-1] for topic in PsmTopics("PSM1").published() if topic.latched)
 
 
 @cache
@@ -68,6 +76,26 @@ def stamped(kind: str) -> bool:
     joint states and clouds, and also a CRTK `OperatingState` or `StringStamped`."""
     fields = codec.typestore().fielddefs[kind][1]
     return bool(fields) and fields[0][1][1] == "std_msgs/msg/Header"
+
+
+@cache
+def offered_qos(topic: str) -> str:
+    """The `offered_qos_profiles` MCAP's ros2 profile requires of a channel, in rosbag2's YAML (by rosbags):
+    the dVRK bridge's QoS for every topic, transient local for its events (`operating_state`, `error`, ...)."""
+    latched = topic.rsplit("/", 1)[-1] in LATCHED
+    unset = QosTime(0, 0)  # deadline, lifespan and lease left to the middleware's defaults
+    profile = Qos(
+        QosHistory.KEEP_LAST,
+        QOS_DEPTH,
+        QosReliability.RELIABLE,
+        QosDurability.TRANSIENT_LOCAL if latched else QosDurability.VOLATILE,
+        unset,
+        unset,
+        QosLiveliness.AUTOMATIC,
+        unset,
+        False,
+    )
+    return dump_qos_v8([profile])
 
 
 def ros2_type(key: str) -> str | None:
@@ -215,7 +243,9 @@ class WireRecorder:
                     schema = self._schemas[kind] = self._writer.register_schema(
                         kind, "ros2msg", text.encode()
                     )
-                channel = self._channels[topic] = self._writer.register_channel(topic, "cdr", schema)
+                channel = self._channels[topic] = self._writer.register_channel(
+                    topic, "cdr", schema, metadata={"offered_qos_profiles": offered_qos(topic)}
+                )
             try:
                 self._writer.add_message(channel, log_time=stamp, data=payload, publish_time=stamp)
                 if time.monotonic() - self._flushed >= FLUSH_S:
