@@ -225,6 +225,21 @@ def test_every_channel_offers_the_qos_of_the_dvrks_bridge_as_the_ros2_profile_re
     assert all(qos.reliability == QosReliability.RELIABLE and qos.depth == 100 for [qos] in offered.values())
 
 
+@pytest.mark.parametrize("simulated", [True, False])
+def test_a_simulator_event_is_logged_on_the_recordings_clock(tmp_path, simulated):
+    """The simulator's log times count from its start: the run's clock in lockstep, not on the wall clock
+    (`pegbt sim --record` in real time, `pegbt run --clock wall`), whose log times are since the Unix epoch."""
+    clock = ManualClock()
+    clock.advance(3.5 if simulated else 1.8e9)
+    path = tmp_path / "events.mcap"
+    wire = WireRecorder(path, clock.now, simulated=simulated, clock_kind="manual")
+    wire.event(json.dumps({"time": 3.25, "kind": "slip", "arm": "PSM1"}))
+    wire.sent("PSM1/servo_jp", codec.encode_joint_state(clock.now(), np.zeros(6)))
+    wire.close()
+    times = {topic: log_time for topic, _, log_time, _ in read_all(path)}
+    assert times["/pegbt/events"] == (3_250_000_000 if simulated else times["/PSM1/servo_jp"])
+
+
 def test_the_simulator_records_the_commands_it_takes_and_the_state_it_sends(tmp_path):
     from pegbt.sim.process import SimProcess
     from pegbt.transport import ArmClient, SimClock, connect

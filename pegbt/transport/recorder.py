@@ -129,6 +129,7 @@ class WireRecorder:
         except OSError as error:
             raise PegbtError(f"cannot write the recording: {error.strerror}", file=self.path) from None
         self._now = now
+        self._simulated = simulated
         self._cloud_step = cloud_step
         self._lock = threading.Lock()
         self._writer = Writer(self._file, chunk_size=CHUNK_BYTES, compression=CompressionType.ZSTD)
@@ -195,12 +196,14 @@ class WireRecorder:
             self._string(TICKS_TOPIC, {**entry, "changes": changes}, self._now())
 
     def event(self, line: str) -> None:
-        """A line of the simulator's log (JSON: a world event or a fault, with its `time`) to `/pegbt/events`."""
+        """A line of the simulator's log (JSON: a world event or a fault, with its `time`) to `/pegbt/events`:
+        at its `time` on a simulated clock, where that is the run's clock; on the wall clock (its `time`
+        counts from the simulator's start, not the Unix epoch) when it crossed."""
         try:
             entry = json.loads(line)
         except ValueError:
             return
-        when = entry.get("time") if isinstance(entry, dict) else None
+        when = entry.get("time") if isinstance(entry, dict) and self._simulated else None
         self._string(EVENTS_TOPIC, entry, float(when) if isinstance(when, (int, float)) else self._now())
 
     def _event(self, sample: zenoh.Sample) -> None:
