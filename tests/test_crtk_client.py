@@ -352,3 +352,28 @@ def test_a_recording_of_a_crtk_run_holds_the_robots_topics_as_an_independent_rea
     clouds = seen["/camera/camera/depth/color/points"]
     assert clouds and clouds[0][0] == "sensor_msgs/msg/PointCloud2"
     assert "/pegbt/ticks" in seen
+
+
+@pytest.mark.parametrize("offset", [-5.0, 5.0], ids=["robot clock behind", "robot clock ahead"])
+def test_homing_and_a_goal_end_by_the_robots_own_clock_whatever_the_skew(
+    endpoint: str, offset: float
+) -> None:
+    """The dVRK stamps `operating_state` with its own computer's clock (cisst-ros `mtsCISSTToROS.h`,
+    `cisst_header_to_ros_header`), and pegbt runs on another computer: "stamped after the command" is
+    judged on the robot's clock. Behind, a stamp never passes the local send time (homing and every goal
+    would time out); ahead, the not-busy state from before the command would end a goal at once."""
+    double = CrtkDouble(endpoint, clock_offset=offset, move_seconds=1.0)
+    robot = connect_crtk_robot(endpoint)  # enables and homes: waits for a homed state stamped after `home`
+    try:
+        assert all(arm.homed for arm in double.arms.values())
+        arm = robot.arm("PSM1")
+        goal = double.arms["PSM1"].setpoint + np.array([0.0, 0.0, -0.01, 0.0, 0.0, 0.0])
+        move = arm.move_jp(goal)
+        assert move.busy  # the not-busy state from before the command does not count
+        time.sleep(0.3)  # the robot has taken the command and is still moving (1 s)
+        assert move.busy
+        assert _until(lambda: not move.busy, 10) and move.done, move.error
+        assert np.allclose(double.arms["PSM1"].setpoint, goal)
+    finally:
+        robot.close()
+        double.close()

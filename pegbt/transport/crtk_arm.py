@@ -7,7 +7,8 @@ use on `ArmClient`, and no pegbt extension: no trajectory topic, no attachment, 
   crtk_python_client's `enable`/`home` do (`src/crtk/utils.py`: wait for ENABLED; for homed and not busy).
 - `move_jp(goal)`: the robot's own `move_jp`; done by CRTK's rule (`src/crtk/utils.py` `is_busy(start_time)`,
   `wait_move_handle.py`): an `operating_state` stamped after the command, not busy; failed if not done in
-  a bound computed from the dVRK's own trajectory limits.
+  a bound computed from the dVRK's own trajectory limits. "After" is on the robot's clock (`robot_now`):
+  the dVRK stamps what it publishes with its own computer's clock, which need not agree with this one's.
 - `move_jp(trajectory)` and the jaw's `move_jp(angle)`: played by the servo streamer as `servo_jp`/
   `jaw/servo_jp` set-points (a jaw `move_jp` would take a dVRK PSM out of position mode mid-stream:
   `mtsIntuitiveResearchKitPSM::jaw_move_jp`).
@@ -252,6 +253,19 @@ class CrtkArm:
     def measured_js(self) -> JointSample:
         return self.read(self._measured)
 
+    def robot_now(self) -> float:
+        """Now on the robot's clock: the stamp of its latest `measured_js` plus the time since it came (early by
+        that message's age and latency, a few ms). The dVRK stamps what it publishes with its own computer's
+        ROS clock (cisst-ros `cisst_ros_bridge/include/cisst_ros_bridge/mtsCISSTToROS.h`,
+        `cisst_header_to_ros_header`: now minus the data's age), so an `operating_state` is compared with a
+        command's time on that clock, never on this computer's. A zero stamp (data the robot marks invalid)
+        says nothing of its clock: this computer's is used then."""
+        latest = self._measured.latest()
+        self.check_alive()
+        assert latest is not None, "check_alive raises while no measured_js came"
+        stamp = latest.value.stamp
+        return stamp + (time.monotonic() - latest.received_at) if stamp > 0 else self.clock.now()
+
     @property
     def setpoint_js(self) -> JointSample:
         return self.read(self._setpoint)
@@ -276,10 +290,10 @@ class CrtkArm:
 
     # ------------------------------------------------------------------ state commands
     def state_command(self, command: str) -> float:
-        """CRTK state command (enable, disable, home, unhome, pause, resume); when it was sent."""
-        self.check_alive()
-        sent_at = self.clock.now()
-        self._state_command.put(codec.encode_string_stamped(sent_at, command))
+        """CRTK state command (enable, disable, home, unhome, pause, resume); when it was sent, on the robot's
+        clock (`robot_now`)."""
+        sent_at = self.robot_now()
+        self._state_command.put(codec.encode_string_stamped(self.clock.now(), command))
         return sent_at
 
     def await_state(self, condition: Callable[[OperatingState], bool], what: str, timeout: float) -> None:
@@ -326,8 +340,8 @@ class CrtkArm:
         what = f"{self.name} move_jp to {np.round(goal, 4).tolist()}"
         guards.refuse_if(guards.joint_problems(goal, self.settings), what, self.topics.move_jp.name)
         bound = 2 * rest_to_rest_bound(self.setpoint_js.position, goal) + MOVE_MARGIN
-        sent_at = self.clock.now()
-        self._move.put(codec.encode_joint_state(sent_at, goal))
+        sent_at = self.robot_now()
+        self._move.put(codec.encode_joint_state(self.clock.now(), goal))
         return RobotMove(self, sent_at, what, bound)
 
     def stream(
