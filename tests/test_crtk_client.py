@@ -28,6 +28,7 @@ from pegbt.executive.logfile import read_tick_log
 from pegbt.executive.session import run_tree_file
 from pegbt.motion.limits import arm_settings
 from pegbt.sim.process import free_port
+from pegbt.transport.arm import EndpointSilent
 from pegbt.transport.crtk_arm import CrtkArm, make_ready
 from pegbt.transport.guards import CommandRefused
 from pegbt.transport.ros2 import BridgeWire
@@ -376,4 +377,37 @@ def test_homing_and_a_goal_end_by_the_robots_own_clock_whatever_the_skew(
         assert np.allclose(double.arms["PSM1"].setpoint, goal)
     finally:
         robot.close()
+        double.close()
+
+
+def test_no_bridge_at_the_address_is_one_line_naming_the_address_and_what_should_listen(
+    pegbt_cli, tmp_path: Path
+) -> None:
+    address = f"tcp/127.0.0.1:{free_port()}"
+    for ros2, listener in (("bridge", "zenoh-bridge-ros2dds"), ("rmw_zenoh", "rmw_zenohd")):
+        done = pegbt_cli(
+            "run",
+            "trees/unilateral.yaml",
+            "--interface",
+            "dvrk",
+            "--ros2",
+            ros2,
+            "--endpoint",
+            address,
+            "--log",
+            tmp_path / f"{ros2}.jsonl",
+        )
+        assert done.returncode == 3, done.stderr
+        assert f"nothing answers at {address}" in done.stderr and listener in done.stderr
+        assert "Traceback" not in done.stderr and len(done.stderr.strip().splitlines()) == 1
+
+
+def test_a_robot_under_another_namespace_is_told_apart_from_no_robot(endpoint: str) -> None:
+    double = CrtkDouble(endpoint)  # its topics without a namespace, as a bridge started without one
+    try:
+        with pytest.raises(
+            EndpointSilent, match=rf"{endpoint} answers, but no robot topic comes under namespace 'lab'"
+        ):
+            connect_crtk_robot(endpoint, namespace="lab")
+    finally:
         double.close()
