@@ -126,6 +126,7 @@ class CrtkDouble:
         camera_topic: str = "camera/camera/depth/color/points",
         move_seconds: float = 0.3,
         clock_offset: float = 0.0,
+        latched: bool = True,
     ) -> None:
         self.session = zenoh.open(session_config(listen))
         self.home_seconds, self.homes, self.move_seconds = home_seconds, homes, move_seconds
@@ -149,11 +150,16 @@ class CrtkDouble:
                 "status",
             ):
                 self._pub[f"{arm}/{topic}"] = self.session.declare_publisher(f"{arm}/{topic}")
-            self._pub[f"{arm}/operating_state"] = zenoh.ext.declare_advanced_publisher(
-                self.session,
-                f"{arm}/operating_state",
-                cache=zenoh.ext.CacheConfig(max_samples=1),
-                publisher_detection=True,
+            # unlatched: a bridge whose cache a late joiner's advanced subscriber cannot query
+            self._pub[f"{arm}/operating_state"] = (
+                zenoh.ext.declare_advanced_publisher(
+                    self.session,
+                    f"{arm}/operating_state",
+                    cache=zenoh.ext.CacheConfig(max_samples=1),
+                    publisher_detection=True,
+                )
+                if latched
+                else self.session.declare_publisher(f"{arm}/operating_state")
             )
             for topic in ("servo_jp", "jaw/servo_jp", "move_jp", "jaw/move_jp", "hold", "state_command"):
                 self._entities.append(

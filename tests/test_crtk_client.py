@@ -411,3 +411,16 @@ def test_a_robot_under_another_namespace_is_told_apart_from_no_robot(endpoint: s
             connect_crtk_robot(endpoint, namespace="lab")
     finally:
         double.close()
+
+
+def test_joints_without_the_latched_operating_state_name_the_bridge_version_that_serves_it(
+    endpoint: str,
+) -> None:
+    """The dVRK sends `operating_state` only when it changes (cisst-ros `mtsROSBridge.h`, an event publisher,
+    latched): a late joiner has it only from the bridge's cache of latched topics."""
+    double = CrtkDouble(endpoint, latched=False)
+    try:
+        with pytest.raises(EndpointSilent, match=r"/PSM1/operating_state.*joints come.*1\.5\.1"):
+            connect_crtk_robot(endpoint)
+    finally:
+        double.close()

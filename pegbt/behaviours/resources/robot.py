@@ -308,10 +308,19 @@ def connect_crtk_robot(
 def _robot_silent(
     error: EndpointSilent, session: Session, endpoint: str, ros2: str, namespace: str
 ) -> EndpointSilent:
-    """`error` with why the robot sent nothing: nobody at `endpoint` (no bridge, no router), or somebody
-    there but none of the arm's topics under `namespace` (the robot's system down, another namespace)."""
+    """`error` with why the robot sent nothing: nobody at `endpoint` (no bridge, no router); its joints but
+    not its latched `operating_state` (a bridge that keeps latched topics where pegbt's late joiner cannot
+    ask for them); or somebody there but none of the arm's topics under `namespace` (the robot's system
+    down, another namespace)."""
     if not reaches_anyone(session):
         why = f"nothing answers at {endpoint}: {WHAT_ANSWERS[ros2]}"
+    elif (error.field or "").endswith("/operating_state"):
+        why = "its joints come, but not its latched operating_state (sent only when it changes)" + (
+            ": a bridge must be zenoh-bridge-ros2dds 1.5.1 or later, which serves latched topics to late "
+            "joiners from zenoh-ext advanced publishers (zenoh-plugin-ros2dds #524; before, a PublicationCache)"
+            if ros2 == "bridge"
+            else ""
+        )
     else:
         under = f"under namespace {namespace!r}" if namespace else "without a namespace"
         why = (
