@@ -236,6 +236,9 @@ class CrtkDouble:
                 self._publish_state(arm)
 
             self._later(0.1, powered)
+        elif command == "disable":  # Arm.cpp state_command: SetDesiredState("DISABLED"), from any client
+            arm.state, arm.busy = "DISABLED", False
+            self._publish_state(arm)
         elif command == "home":
             arm.busy = True
             self._publish_state(arm)
@@ -271,6 +274,11 @@ class CrtkDouble:
                 points = rng.normal(size=(200, 3))
                 points[::10] = np.nan  # pixels without depth
                 self._camera.put(cloud(points, self.now()))
+
+    def console(self, arm: str, command: str) -> None:
+        """A state command from elsewhere (the dVRK's console, another ROS 2 node), not through pegbt."""
+        with self._lock:
+            self._state_command(self.arms[arm], command)
 
     def commands(self, suffix: str) -> list[Received]:
         with self._lock:

@@ -424,3 +424,25 @@ def test_joints_without_the_latched_operating_state_name_the_bridge_version_that
             connect_crtk_robot(endpoint)
     finally:
         double.close()
+
+
+def test_an_arm_disabled_from_elsewhere_mid_motion_stops_the_run_naming_its_state(endpoint: str) -> None:
+    """The dVRK takes `disable` from any client (its console, another node: `mtsIntuitiveResearchKitArm.cpp`
+    `state_command`) and then drops every command (`ArmIsReady`): no motion or recovery can succeed."""
+    double = CrtkDouble(endpoint)
+    robot = connect_crtk_robot(endpoint)
+    try:
+        arm = robot.arm("PSM1")
+        motion = ArmMotion(arm.settings)
+        start = motion.start_from(arm)
+        handle = arm.move_jp(motion.through(start, [start + np.array([0.5, 0, 0, 0, 0, 0])], ["far"]))
+        assert handle.busy
+        double.console("PSM1", "disable")
+        with pytest.raises(EndpointSilent, match="PSM1 is DISABLED"):
+            _until(lambda: not handle.busy, 10)
+        with pytest.raises(EndpointSilent, match="PSM1 is DISABLED"):
+            arm.jaw.move_jp(0.5)  # nor may anything else be sent
+        assert robot.arm("PSM2").measured_js is not None  # the other arm is still ready
+    finally:
+        robot.close()
+        double.close()
