@@ -446,3 +446,19 @@ def test_an_arm_disabled_from_elsewhere_mid_motion_stops_the_run_naming_its_stat
     finally:
         robot.close()
         double.close()
+
+
+def test_clouds_stamped_before_the_request_by_a_clock_behind_say_so(endpoint: str) -> None:
+    """A camera's clouds are stamped by its computer's clock (realsense2_camera), which may lag this one's:
+    a capture then never comes, and its error says the clouds did, stamped before the request."""
+    double = CrtkDouble(endpoint, clock_offset=-5.0)
+    robot = connect_crtk_robot(endpoint)
+    try:
+        with pytest.raises(
+            EndpointSilent,
+            match=r"stamped after the request within 1 s: \d+ came, stamped at least 5\.\d+ s before they arrived",
+        ):
+            robot.camera.capture_async().result(1.0)
+    finally:
+        robot.close()
+        double.close()
