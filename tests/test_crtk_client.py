@@ -52,6 +52,18 @@ def endpoint() -> str:
     return f"tcp/127.0.0.1:{free_port()}"
 
 
+@pytest.fixture
+def on_double(endpoint: str):
+    """A robot double and the executive's robot connected to it (enabled and homed)."""
+    double = CrtkDouble(endpoint)
+    try:
+        robot = connect_crtk_robot(endpoint)
+        yield double, robot
+        robot.close()
+    finally:
+        double.close()
+
+
 class Sniffer:
     """A raw zenoh session that answers and listens on every key the executive must never touch."""
 
@@ -426,26 +438,20 @@ def test_joints_without_the_latched_operating_state_name_the_bridge_version_that
         double.close()
 
 
-def test_an_arm_disabled_from_elsewhere_mid_motion_stops_the_run_naming_its_state(endpoint: str) -> None:
+def test_an_arm_disabled_from_elsewhere_mid_motion_stops_the_run_naming_its_state(on_double) -> None:
     """The dVRK takes `disable` from any client (its console, another node: `mtsIntuitiveResearchKitArm.cpp`
     `state_command`) and then drops every command (`ArmIsReady`): no motion or recovery can succeed."""
-    double = CrtkDouble(endpoint)
-    robot = connect_crtk_robot(endpoint)
-    try:
-        arm = robot.arm("PSM1")
-        motion = ArmMotion(arm.settings)
-        start = motion.start_from(arm)
-        handle = arm.move_jp(motion.through(start, [start + np.array([0.5, 0, 0, 0, 0, 0])], ["far"]))
-        assert handle.busy
-        double.console("PSM1", "disable")
-        with pytest.raises(EndpointSilent, match="PSM1 is DISABLED"):
-            _until(lambda: not handle.busy, 10)
-        with pytest.raises(EndpointSilent, match="PSM1 is DISABLED"):
-            arm.jaw.move_jp(0.5)  # nor may anything else be sent
-        assert robot.arm("PSM2").measured_js is not None  # the other arm is still ready
-    finally:
-        robot.close()
-        double.close()
+    double, robot = on_double
+    arm = robot.arm("PSM1")
+    start = arm.setpoint_js.position
+    handle = arm.move_jp(ArmMotion(arm.settings).through(start, [start + [0.5, 0, 0, 0, 0, 0]], ["far"]))
+    assert handle.busy
+    double.console("PSM1", "disable")
+    with pytest.raises(EndpointSilent, match="PSM1 is DISABLED"):
+        _until(lambda: not handle.busy, 10)
+    with pytest.raises(EndpointSilent, match="PSM1 is DISABLED"):
+        arm.jaw.move_jp(0.5)  # nor may anything else be sent
+    assert robot.arm("PSM2").measured_js is not None  # the other arm is still ready
 
 
 def test_clouds_stamped_before_the_request_by_a_clock_behind_say_so(endpoint: str) -> None:
