@@ -48,10 +48,10 @@ def cdr(message: Any) -> bytes:
     return bytes(_STORE.serialize_cdr(message, message.__msgtype__))
 
 
-def joint_state(q: np.ndarray) -> bytes:
+def joint_state(q: np.ndarray, stamp: float) -> bytes:
     return cdr(
         T["sensor_msgs/msg/JointState"](
-            header=header(time.time()),
+            header=header(stamp),
             name=[],
             position=np.asarray(q, dtype=float),
             velocity=np.zeros(0),
@@ -125,9 +125,12 @@ class CrtkDouble:
         homes: bool = True,
         camera_topic: str = "camera/camera/depth/color/points",
         move_seconds: float = 0.3,
+        clock_offset: float = 0.0,
+        latched: bool = True,
     ) -> None:
         self.session = zenoh.open(session_config(listen))
         self.home_seconds, self.homes, self.move_seconds = home_seconds, homes, move_seconds
+        self.clock_offset = clock_offset
         self.received: list[Received] = []
         self.arms = {
             name: ArmDouble(name, "ENABLED" if enabled else "DISABLED", homed) for name in ("PSM1", "PSM2")
@@ -147,11 +150,16 @@ class CrtkDouble:
                 "status",
             ):
                 self._pub[f"{arm}/{topic}"] = self.session.declare_publisher(f"{arm}/{topic}")
-            self._pub[f"{arm}/operating_state"] = zenoh.ext.declare_advanced_publisher(
-                self.session,
-                f"{arm}/operating_state",
-                cache=zenoh.ext.CacheConfig(max_samples=1),
-                publisher_detection=True,
+            # unlatched: a bridge whose cache a late joiner's advanced subscriber cannot query
+            self._pub[f"{arm}/operating_state"] = (
+                zenoh.ext.declare_advanced_publisher(
+                    self.session,
+                    f"{arm}/operating_state",
+                    cache=zenoh.ext.CacheConfig(max_samples=1),
+                    publisher_detection=True,
+                )
+                if latched
+                else self.session.declare_publisher(f"{arm}/operating_state")
             )
             for topic in ("servo_jp", "jaw/servo_jp", "move_jp", "jaw/move_jp", "hold", "state_command"):
                 self._entities.append(
@@ -166,9 +174,15 @@ class CrtkDouble:
         self._thread.start()
 
     # ------------------------------------------------------------------ what the robot says
+    def now(self) -> float:
+        """The robot computer's clock, `clock_offset` s from this one's: the dVRK stamps what it publishes with
+        its own ROS clock (cisst-ros `cisst_ros_bridge/include/cisst_ros_bridge/mtsCISSTToROS.h`,
+        `cisst_header_to_ros_header`: now minus the data's age), which need not agree with its clients'."""
+        return time.time() + self.clock_offset
+
     def _publish_state(self, arm: ArmDouble) -> None:
         message = T["crtk_msgs/msg/OperatingState"](
-            header=header(time.time()), state=arm.state, is_homed=arm.homed, is_busy=arm.busy
+            header=header(self.now()), state=arm.state, is_homed=arm.homed, is_busy=arm.busy
         )
         self._pub[f"{arm.name}/operating_state"].put(cdr(message))
 
@@ -222,6 +236,9 @@ class CrtkDouble:
                 self._publish_state(arm)
 
             self._later(0.1, powered)
+        elif command == "disable":  # Arm.cpp state_command: SetDesiredState("DISABLED"), from any client
+            arm.state, arm.busy = "DISABLED", False
+            self._publish_state(arm)
         elif command == "home":
             arm.busy = True
             self._publish_state(arm)
@@ -249,14 +266,19 @@ class CrtkDouble:
                     action()
                 for name, arm in self.arms.items():
                     for topic in ("measured_js", "setpoint_js"):
-                        self._pub[f"{name}/{topic}"].put(joint_state(arm.setpoint))
+                        self._pub[f"{name}/{topic}"].put(joint_state(arm.setpoint, self.now()))
                     for topic in ("jaw/measured_js", "jaw/setpoint_js"):
-                        self._pub[f"{name}/{topic}"].put(joint_state(np.array([arm.jaw])))
+                        self._pub[f"{name}/{topic}"].put(joint_state(np.array([arm.jaw]), self.now()))
             if now >= next_cloud:
                 next_cloud = now + 0.1
                 points = rng.normal(size=(200, 3))
                 points[::10] = np.nan  # pixels without depth
-                self._camera.put(cloud(points, time.time()))
+                self._camera.put(cloud(points, self.now()))
+
+    def console(self, arm: str, command: str) -> None:
+        """A state command from elsewhere (the dVRK's console, another ROS 2 node), not through pegbt."""
+        with self._lock:
+            self._state_command(self.arms[arm], command)
 
     def commands(self, suffix: str) -> list[Received]:
         with self._lock:

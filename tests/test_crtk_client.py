@@ -28,6 +28,7 @@ from pegbt.executive.logfile import read_tick_log
 from pegbt.executive.session import run_tree_file
 from pegbt.motion.limits import arm_settings
 from pegbt.sim.process import free_port
+from pegbt.transport.arm import EndpointSilent
 from pegbt.transport.crtk_arm import CrtkArm, make_ready
 from pegbt.transport.guards import CommandRefused
 from pegbt.transport.ros2 import BridgeWire
@@ -49,6 +50,18 @@ def _until(condition, timeout: float = 10.0) -> bool:
 @pytest.fixture
 def endpoint() -> str:
     return f"tcp/127.0.0.1:{free_port()}"
+
+
+@pytest.fixture
+def on_double(endpoint: str):
+    """A robot double and the executive's robot connected to it (enabled and homed)."""
+    double = CrtkDouble(endpoint)
+    try:
+        robot = connect_crtk_robot(endpoint)
+        yield double, robot
+        robot.close()
+    finally:
+        double.close()
 
 
 class Sniffer:
@@ -352,3 +365,106 @@ def test_a_recording_of_a_crtk_run_holds_the_robots_topics_as_an_independent_rea
     clouds = seen["/camera/camera/depth/color/points"]
     assert clouds and clouds[0][0] == "sensor_msgs/msg/PointCloud2"
     assert "/pegbt/ticks" in seen
+
+
+@pytest.mark.parametrize("offset", [-5.0, 5.0], ids=["robot clock behind", "robot clock ahead"])
+def test_homing_and_a_goal_end_by_the_robots_own_clock_whatever_the_skew(
+    endpoint: str, offset: float
+) -> None:
+    """The dVRK stamps `operating_state` with its own computer's clock (cisst-ros `mtsCISSTToROS.h`,
+    `cisst_header_to_ros_header`), and pegbt runs on another computer: "stamped after the command" is
+    judged on the robot's clock. Behind, a stamp never passes the local send time (homing and every goal
+    would time out); ahead, the not-busy state from before the command would end a goal at once."""
+    double = CrtkDouble(endpoint, clock_offset=offset, move_seconds=1.0)
+    robot = connect_crtk_robot(endpoint)  # enables and homes: waits for a homed state stamped after `home`
+    try:
+        assert all(arm.homed for arm in double.arms.values())
+        arm = robot.arm("PSM1")
+        goal = double.arms["PSM1"].setpoint + np.array([0.0, 0.0, -0.01, 0.0, 0.0, 0.0])
+        move = arm.move_jp(goal)
+        assert move.busy  # the not-busy state from before the command does not count
+        time.sleep(0.3)  # the robot has taken the command and is still moving (1 s)
+        assert move.busy
+        assert _until(lambda: not move.busy, 10) and move.done, move.error
+        assert np.allclose(double.arms["PSM1"].setpoint, goal)
+    finally:
+        robot.close()
+        double.close()
+
+
+def test_no_bridge_at_the_address_is_one_line_naming_the_address_and_what_should_listen(
+    pegbt_cli, tmp_path: Path
+) -> None:
+    address = f"tcp/127.0.0.1:{free_port()}"
+    for ros2, listener in (("bridge", "zenoh-bridge-ros2dds"), ("rmw_zenoh", "rmw_zenohd")):
+        done = pegbt_cli(
+            "run",
+            "trees/unilateral.yaml",
+            "--interface",
+            "dvrk",
+            "--ros2",
+            ros2,
+            "--endpoint",
+            address,
+            "--log",
+            tmp_path / f"{ros2}.jsonl",
+        )
+        assert done.returncode == 3, done.stderr
+        assert f"nothing answers at {address}" in done.stderr and listener in done.stderr
+        assert "Traceback" not in done.stderr and len(done.stderr.strip().splitlines()) == 1
+
+
+def test_a_robot_under_another_namespace_is_told_apart_from_no_robot(endpoint: str) -> None:
+    double = CrtkDouble(endpoint)  # its topics without a namespace, as a bridge started without one
+    try:
+        with pytest.raises(
+            EndpointSilent, match=rf"{endpoint} answers, but no robot topic comes under namespace 'lab'"
+        ):
+            connect_crtk_robot(endpoint, namespace="lab")
+    finally:
+        double.close()
+
+
+def test_joints_without_the_latched_operating_state_name_the_bridge_version_that_serves_it(
+    endpoint: str,
+) -> None:
+    """The dVRK sends `operating_state` only when it changes (cisst-ros `mtsROSBridge.h`, an event publisher,
+    latched): a late joiner has it only from the bridge's cache of latched topics."""
+    double = CrtkDouble(endpoint, latched=False)
+    try:
+        with pytest.raises(EndpointSilent, match=r"/PSM1/operating_state.*joints come.*1\.5\.1"):
+            connect_crtk_robot(endpoint)
+    finally:
+        double.close()
+
+
+def test_an_arm_disabled_from_elsewhere_mid_motion_stops_the_run_naming_its_state(on_double) -> None:
+    """The dVRK takes `disable` from any client (its console, another node: `mtsIntuitiveResearchKitArm.cpp`
+    `state_command`) and then drops every command (`ArmIsReady`): no motion or recovery can succeed."""
+    double, robot = on_double
+    arm = robot.arm("PSM1")
+    start = arm.setpoint_js.position
+    handle = arm.move_jp(ArmMotion(arm.settings).through(start, [start + [0.5, 0, 0, 0, 0, 0]], ["far"]))
+    assert handle.busy
+    double.console("PSM1", "disable")
+    with pytest.raises(EndpointSilent, match="PSM1 is DISABLED"):
+        _until(lambda: not handle.busy, 10)
+    with pytest.raises(EndpointSilent, match="PSM1 is DISABLED"):
+        arm.jaw.move_jp(0.5)  # nor may anything else be sent
+    assert robot.arm("PSM2").measured_js is not None  # the other arm is still ready
+
+
+def test_clouds_stamped_before_the_request_by_a_clock_behind_say_so(endpoint: str) -> None:
+    """A camera's clouds are stamped by its computer's clock (realsense2_camera), which may lag this one's:
+    a capture then never comes, and its error says the clouds did, stamped before the request."""
+    double = CrtkDouble(endpoint, clock_offset=-5.0)
+    robot = connect_crtk_robot(endpoint)
+    try:
+        with pytest.raises(
+            EndpointSilent,
+            match=r"stamped after the request within 1 s: \d+ came, stamped at least 5\.\d+ s before they arrived",
+        ):
+            robot.camera.capture_async().result(1.0)
+    finally:
+        robot.close()
+        double.close()

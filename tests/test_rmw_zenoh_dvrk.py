@@ -69,3 +69,35 @@ def test_a_unilateral_trial_over_rmw_zenoh_places_every_block(pegbt_cli, router,
     placed = [entry["peg"] for entry in entries if entry["kind"] == "place"]
     assert placed == [goal for _, goal in UNILATERAL_ORDER]
     assert not [entry for entry in entries if entry["kind"] == "safety"]
+
+
+def _sim_stderr(connect: str, seconds: float) -> str:
+    """What `pegbt sim --interface dvrk --ros2 rmw_zenoh --connect CONNECT` says on stderr in its first
+    `seconds` after start-up."""
+    import os
+    import subprocess
+    import sys
+    import time
+
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1])}
+    command = [sys.executable, "-m", "pegbt", "sim", "--interface", "dvrk", "--ros2", "rmw_zenoh"]
+    command += ["--connect", connect, "--no-world", "--priority", "normal"]
+    simulator = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+    try:
+        time.sleep(seconds)
+    finally:
+        simulator.terminate()
+        _, stderr = simulator.communicate(timeout=20)
+    return stderr
+
+
+@pytest.mark.slow
+def test_a_simulator_whose_router_is_absent_says_so_and_not_when_it_is_there(router) -> None:  # noqa: F811
+    from pegbt.sim.process import free_port
+
+    wait = (
+        11.0  # s: start-up, then the 3 s the simulator gives a router to answer (pegbt.sim.cli.CONNECT_GRACE)
+    )
+    absent = f"tcp/127.0.0.1:{free_port()}"
+    assert f"nothing answers at {absent}" in _sim_stderr(absent, wait)
+    assert "nothing answers" not in _sim_stderr(f"tcp/127.0.0.1:{router}", wait)

@@ -30,6 +30,7 @@ if TYPE_CHECKING:
     from pegbt.transport.session import SessionSettings
 
 CRASH_EXIT_STATUS = 3
+CONNECT_GRACE = 3.0  # s after start-up before saying that nothing answers where the simulator connects
 
 
 def add_commands(subparsers: argparse._SubParsersAction) -> None:
@@ -230,6 +231,10 @@ def _serve(
         f"interface, physics {args.physics}, {scene})",
         flush=True,
     )
+    if args.connect:
+        threading.Thread(
+            target=_warn_if_unconnected, args=(session, args.connect), name="connect-watch", daemon=True
+        ).start()
     gc.collect()
     gc.freeze()  # what start-up built (modules, meshes) lives on: a collection scanning it would stall a tick
     try:
@@ -252,6 +257,29 @@ def _serve(
     sys.stdout.flush()
     sys.stderr.flush()
     os._exit(0)
+
+
+def _warn_if_unconnected(session: zenoh.Session, connect: list[str]) -> None:
+    """Say once on stderr if nothing answers where the simulator connects (a ROS 2 graph's router, a bridge):
+    zenoh keeps trying in silence, and no client reaching the graph would ever see the arms."""
+    import time
+
+    import zenoh
+
+    from pegbt.transport.session import reaches_anyone
+
+    time.sleep(CONNECT_GRACE)
+    try:
+        if reaches_anyone(session):
+            return
+    except zenoh.ZError:  # the simulator stopped meanwhile
+        return
+    print(
+        f"pegbt sim: nothing answers at {', '.join(connect)} (zenoh keeps trying): is the router or bridge "
+        "running there?",
+        file=sys.stderr,
+        flush=True,
+    )
 
 
 def _recorder(args: argparse.Namespace, endpoint: SimEndpoint | DvrkEndpoint) -> WireRecorder:

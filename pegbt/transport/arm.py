@@ -43,6 +43,12 @@ class ArmFaulted(EndpointSilent):
     endpoint, no recovery in a tree applies and the run halts."""
 
 
+class ArmLeftReady(EndpointSilent):
+    """An arm the run had enabled and homed is no longer both (disabled or paused from the robot's console,
+    unhomed, its tool removed, or disabled by the robot after an error): the robot drops every command until
+    a person makes it ready again, so, as for a FAULT, no recovery in a tree applies and the run halts."""
+
+
 def check_recent(arm: str, topic: str, received_at: float | None, timeout: float, who: str) -> None:
     """Raise `EndpointSilent` unless `topic` (an arm's `measured_js`) arrived within `timeout` s of now
     (monotonic `received_at`; None: never); `who` is what went silent (an endpoint, a robot)."""

@@ -30,6 +30,7 @@ class StreamedCapture:
         self.stamp: float | None = None
         self._points: NDArray[np.float32] | None = None
         self._arrived = threading.Event()
+        self.lags: list[float] = []  # s from stamp to arrival of each cloud that came stamped before it
 
     def fulfil(self, stamp: float, points: NDArray[np.float32]) -> None:
         self.stamp, self._points = stamp, points
@@ -42,8 +43,15 @@ class StreamedCapture:
     def result(self, timeout: float) -> NDArray[np.float32]:
         """The cloud, waiting up to `timeout` s; `EndpointSilent` if none came."""
         if not self._arrived.wait(timeout):
+            came = (
+                f": {len(self.lags)} came, stamped at least {min(self.lags):.3f} s before they arrived (the "
+                "camera's computer stamps them: is its clock behind this one's?)"
+                if self.lags
+                else ""
+            )
             raise EndpointSilent(
-                f"no point cloud on {self.camera.topic.name} stamped after the request within {timeout:g} s",
+                f"no point cloud on {self.camera.topic.name} stamped after the request within {timeout:g} s"
+                + came,
                 field=self.camera.topic.name,
             )
         assert self._points is not None
@@ -80,6 +88,9 @@ class StreamingCamera:
         with self._lock:
             answered = [handle for handle in self._pending if handle.requested_at < stamp]
             self._pending = [handle for handle in self._pending if handle.requested_at >= stamp]
+            arrived = self.clock.now()
+            for handle in self._pending:
+                handle.lags.append(arrived - stamp)
         if answered:
             valid = points[np.isfinite(points).all(axis=1)]
             for handle in answered:

@@ -7,7 +7,8 @@ use on `ArmClient`, and no pegbt extension: no trajectory topic, no attachment, 
   crtk_python_client's `enable`/`home` do (`src/crtk/utils.py`: wait for ENABLED; for homed and not busy).
 - `move_jp(goal)`: the robot's own `move_jp`; done by CRTK's rule (`src/crtk/utils.py` `is_busy(start_time)`,
   `wait_move_handle.py`): an `operating_state` stamped after the command, not busy; failed if not done in
-  a bound computed from the dVRK's own trajectory limits.
+  a bound computed from the dVRK's own trajectory limits. "After" is on the robot's clock (`robot_now`):
+  the dVRK stamps what it publishes with its own computer's clock, which need not agree with this one's.
 - `move_jp(trajectory)` and the jaw's `move_jp(angle)`: played by the servo streamer as `servo_jp`/
   `jaw/servo_jp` set-points (a jaw `move_jp` would take a dVRK PSM out of position mode mid-stream:
   `mtsIntuitiveResearchKitPSM::jaw_move_jp`).
@@ -30,7 +31,15 @@ from pegbt.clock import Clock, WallClock
 from pegbt.errors import PegbtError
 from pegbt.motion.limits import ArmSettings
 from pegbt.transport import codec, guards
-from pegbt.transport.arm import ArmFaulted, EndpointSilent, MotionStatus, StatusFlags, check_recent, is_recent
+from pegbt.transport.arm import (
+    ArmFaulted,
+    ArmLeftReady,
+    EndpointSilent,
+    MotionStatus,
+    StatusFlags,
+    check_recent,
+    is_recent,
+)
 from pegbt.transport.codec import JointSample, OperatingState, TrajectoryLike
 from pegbt.transport.dvrk_topics import PsmTopics
 from pegbt.transport.ros2 import Ros2Wire
@@ -183,6 +192,7 @@ class CrtkArm:
         self._messages: list[dict[str, Any]] = []
         self._last_error: str | None = None
         self._messages_lock = threading.Lock()
+        self._kept_ready = False  # set once enabled and homed: from then on it must stay so
         topics = self.topics
         self._measured = self._latest(wire, topics.measured_js, codec.decode_joint_state)
         self._setpoint = self._latest(wire, topics.setpoint_js, codec.decode_joint_state)
@@ -227,19 +237,35 @@ class CrtkArm:
         return is_recent(None if latest is None else latest.received_at, self.liveness_timeout)
 
     def check_alive(self) -> None:
-        """Raise `EndpointSilent` unless `measured_js` arrived within the liveness timeout, and `ArmFaulted`
-        if the robot put the arm in FAULT."""
+        """Raise `EndpointSilent` unless `measured_js` arrived within the liveness timeout, `ArmFaulted` if the
+        robot put the arm in FAULT, and `ArmLeftReady` if, once `keep_ready()` was called, it is no longer
+        ENABLED and homed."""
         latest = self._measured.latest()
         received_at = None if latest is None else latest.received_at
         check_recent(self.name, self.topics.measured_js.name, received_at, self.liveness_timeout, "robot")
-        state = self._state.latest()
-        if state is not None and state.value.state == "FAULT":
-            said = f" (the robot said: {self._last_error})" if self._last_error else ""
+        received = self._state.latest()
+        if received is None:
+            return
+        state = received.value
+        said = f" (the robot said: {self._last_error})" if self._last_error else ""
+        if state.state == "FAULT":
             raise ArmFaulted(
                 f"{self.name} is in FAULT{said}: the robot holds it there until a person disables and "
                 "enables it; the run stops",
                 field=self.topics.operating_state.name,
             )
+        if self._kept_ready and (state.state != "ENABLED" or not state.is_homed):
+            raise ArmLeftReady(
+                f"{self.name} is {state.state}, {'homed' if state.is_homed else 'not homed'}{said}: the robot "
+                "drops every command until it is enabled and homed again; the run stops",
+                field=self.topics.operating_state.name,
+            )
+
+    def keep_ready(self) -> None:
+        """From now on the arm must stay ENABLED and homed (`check_alive`): the dVRK drops the commands of an
+        arm that is not (`mtsIntuitiveResearchKitArm.cpp` `ArmIsReady`), and leaves it so on its console's
+        `disable` or `pause`, or on its own after an error (`Run`: an exception disables the arm)."""
+        self._kept_ready = True
 
     def read(self, latest: Latest[T]) -> T:
         self.check_alive()
@@ -251,6 +277,19 @@ class CrtkArm:
     @property
     def measured_js(self) -> JointSample:
         return self.read(self._measured)
+
+    def robot_now(self) -> float:
+        """Now on the robot's clock: the stamp of its latest `measured_js` plus the time since it came (early by
+        that message's age and latency, a few ms). The dVRK stamps what it publishes with its own computer's
+        ROS clock (cisst-ros `cisst_ros_bridge/include/cisst_ros_bridge/mtsCISSTToROS.h`,
+        `cisst_header_to_ros_header`: now minus the data's age), so an `operating_state` is compared with a
+        command's time on that clock, never on this computer's. A zero stamp (data the robot marks invalid)
+        says nothing of its clock: this computer's is used then."""
+        latest = self._measured.latest()
+        self.check_alive()
+        assert latest is not None, "check_alive raises while no measured_js came"
+        stamp = latest.value.stamp
+        return stamp + (time.monotonic() - latest.received_at) if stamp > 0 else self.clock.now()
 
     @property
     def setpoint_js(self) -> JointSample:
@@ -276,10 +315,10 @@ class CrtkArm:
 
     # ------------------------------------------------------------------ state commands
     def state_command(self, command: str) -> float:
-        """CRTK state command (enable, disable, home, unhome, pause, resume); when it was sent."""
-        self.check_alive()
-        sent_at = self.clock.now()
-        self._state_command.put(codec.encode_string_stamped(sent_at, command))
+        """CRTK state command (enable, disable, home, unhome, pause, resume); when it was sent, on the robot's
+        clock (`robot_now`)."""
+        sent_at = self.robot_now()
+        self._state_command.put(codec.encode_string_stamped(self.clock.now(), command))
         return sent_at
 
     def await_state(self, condition: Callable[[OperatingState], bool], what: str, timeout: float) -> None:
@@ -326,8 +365,8 @@ class CrtkArm:
         what = f"{self.name} move_jp to {np.round(goal, 4).tolist()}"
         guards.refuse_if(guards.joint_problems(goal, self.settings), what, self.topics.move_jp.name)
         bound = 2 * rest_to_rest_bound(self.setpoint_js.position, goal) + MOVE_MARGIN
-        sent_at = self.clock.now()
-        self._move.put(codec.encode_joint_state(sent_at, goal))
+        sent_at = self.robot_now()
+        self._move.put(codec.encode_joint_state(self.clock.now(), goal))
         return RobotMove(self, sent_at, what, bound)
 
     def stream(
@@ -350,7 +389,8 @@ class CrtkArm:
 
     def _check_fault(self) -> None:
         """The streamer stops a motion when it sees the arm leave ENABLED; this client's own copy of that
-        state arrives on its own subscription about then: wait for it (bounded), so a FAULT stops the run."""
+        state arrives on its own subscription about then: wait for it (bounded), so a FAULT, or an arm
+        disabled or paused, stops the run."""
         self._state.wait_until(lambda state: state.state != "ENABLED", STATE_CONFIRM_S)
         self.check_alive()
 
@@ -358,7 +398,8 @@ class CrtkArm:
 def make_ready(
     arms: list[CrtkArm], enable_timeout: float = ENABLE_TIMEOUT, home_timeout: float = HOME_TIMEOUT
 ) -> None:
-    """Enable every arm that is not, then home every arm that is not homed; each step bounded in time.
+    """Enable every arm that is not, then home every arm that is not homed; each step bounded in time; from
+    then on each must stay enabled and homed (`CrtkArm.keep_ready`).
 
     An arm just enabled is homed too, even if it says it is: a dVRK arm homed, disabled and enabled again
     reports `is_homed` (its encoders are still biased) but acts only once homed again, which is then quick
@@ -380,3 +421,5 @@ def make_ready(
             "home",
             home_timeout,
         )
+    for arm in arms:
+        arm.keep_ready()

@@ -16,6 +16,8 @@ import zenoh
 from pegbt.errors import PegbtError
 from pegbt.transport.endpoints import DEFAULT_ENDPOINT, check_listen, split_endpoint
 
+Session = zenoh.Session  # for modules above transport that hold a session but never call zenoh
+
 
 @dataclass(frozen=True)
 class SessionSettings:
@@ -83,3 +85,9 @@ def open_session(settings: SessionSettings) -> zenoh.Session:
             f"cannot open zenoh session (listen {list(settings.listen)}, connect {list(settings.connect)}): {error}",
             field="endpoint",
         ) from None
+
+
+def reaches_anyone(session: zenoh.Session) -> bool:
+    """Whether `session` is connected to any zenoh router or peer (a peer's `connect` to an address where
+    nothing listens opens anyway, and keeps retrying)."""
+    return bool(session.info.routers_zid() or session.info.peers_zid())

@@ -36,7 +36,7 @@ from pegbt.transport.crtk_arm import LIVENESS_S, CrtkArm, make_ready
 from pegbt.transport.dvrk_topics import PsmTopics, point_cloud_topic
 from pegbt.transport.endpoints import DEFAULT_POINTS_TOPIC
 from pegbt.transport.keys import check_namespace
-from pegbt.transport.session import open_session
+from pegbt.transport.session import Session, open_session, reaches_anyone
 from pegbt.transport.streaming import Streamer
 from pegbt.transport.ros2 import Ros2Wire, Topic
 from pegbt.transport.wires import make_wire, wire_session_settings
@@ -45,6 +45,10 @@ SIMULATOR_ARGS = ("--physics", "dvrk-real")
 PROBE_TIMEOUT = 2.0  # s to wait for a simulator to answer `sim/clock` at an address (no answer: a robot)
 STEP_TIMEOUT = 5.0  # s to wait for a lockstep step: a camera capture on a loaded 2-core machine took over 2
 READY_TIMEOUT = 5.0  # s to wait for each arm's first state
+WHAT_ANSWERS = {
+    "bridge": "is zenoh-bridge-ros2dds running and listening there?",
+    "rmw_zenoh": "is the ROS 2 graph's zenoh router (`ros2 run rmw_zenoh_cpp rmw_zenohd`) running there?",
+}
 
 
 class Truth(Protocol):
@@ -289,13 +293,41 @@ def connect_crtk_robot(
             *(topic for arm in ARMS for topic in (*PsmTopics(arm).published(), *PsmTopics(arm).subscribed())),
             point_cloud_topic(camera),
         )
-        robot.wait_until_ready()
+        try:
+            robot.wait_until_ready()
+        except EndpointSilent as error:
+            raise _robot_silent(error, session, endpoint, ros2, namespace) from None
         make_ready(list(arms.values()))
     except BaseException:
         streamer.close()
         session.close()
         raise
     return robot
+
+
+def _robot_silent(
+    error: EndpointSilent, session: Session, endpoint: str, ros2: str, namespace: str
+) -> EndpointSilent:
+    """`error` with why the robot sent nothing: nobody at `endpoint` (no bridge, no router); its joints but
+    not its latched `operating_state` (a bridge that keeps latched topics where pegbt's late joiner cannot
+    ask for them); or somebody there but none of the arm's topics under `namespace` (the robot's system
+    down, another namespace)."""
+    if not reaches_anyone(session):
+        why = f"nothing answers at {endpoint}: {WHAT_ANSWERS[ros2]}"
+    elif (error.field or "").endswith("/operating_state"):
+        why = "its joints come, but not its latched operating_state (sent only when it changes)" + (
+            ": a bridge must be zenoh-bridge-ros2dds 1.5.1 or later, which serves latched topics to late "
+            "joiners from zenoh-ext advanced publishers (zenoh-plugin-ros2dds #524; before, a PublicationCache)"
+            if ros2 == "bridge"
+            else ""
+        )
+    else:
+        under = f"under namespace {namespace!r}" if namespace else "without a namespace"
+        why = (
+            f"{endpoint} answers, but no robot topic comes {under}: is the robot's ROS 2 system running, "
+            "and is --namespace the one its topics have?"
+        )
+    return EndpointSilent(f"{error.message}; {why}", field=error.field)
 
 
 def provide_robot(setup: ProviderSetup) -> Robot:
