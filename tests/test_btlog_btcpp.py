@@ -62,6 +62,7 @@ tree:
             - scripted: {name: p1, outcomes: [running, success]}
             - scripted: {name: p2, outcomes: [running, running, running, success]}
       - subtree: {use: place, args: {who: me}, name: put}
+      - subtree: {use: place, args: {who: you}, name: put again}  # other names: a definition of its own
       - retry:
           name: start over
           attempts: 2
@@ -192,7 +193,12 @@ def test_export_matches_the_file_btcpp_writes_for_the_same_run(tmp_path):
     their_magic, their_protocol, their_xml, _, their_records = read_btlog(theirs.read_bytes())
 
     assert (magic, protocol) == (their_magic, their_protocol) == (b"BTCPP4-FileLogger2", 1)
-    assert tree_nodes(xml) == tree_nodes(their_xml)
+    assert [tree.get("ID") for tree in ElementTree.fromstring(xml).findall("BehaviorTree")] == [
+        "MainTree",
+        "place",
+        "place_2",
+    ]
+    assert tree_nodes(xml) == tree_nodes(their_xml)  # each instance of `place` keeps its own names
     assert len(tree_nodes(xml)) == len(log.nodes)
     ours_sequence = [(uid, status) for _, uid, status in records]
     assert ours_sequence == [(uid, status) for _, uid, status in their_records]

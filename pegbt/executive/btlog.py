@@ -112,6 +112,41 @@ def _instance_paths(log: TickLog) -> dict[int, str]:
     return paths
 
 
+def _shape(tree: ElementTree.Element) -> str:
+    """A subtree instance's definition as BT.CPP reads it: everything but the logger's metadata."""
+    copy = ElementTree.fromstring(ElementTree.tostring(tree))
+    for element in copy.iter():
+        for name in ("_uid", "_fullpath", "ID") if element is copy else ("_uid", "_fullpath"):
+            element.attrib.pop(name, None)
+    return ElementTree.tostring(copy, encoding="unicode")
+
+
+def _distinct_subtree_ids(instances: list[tuple[ElementTree.Element, ElementTree.Element]]) -> None:
+    """Give instances of one subtree that pegbt expanded differently (other arguments, so other names and
+    ports) IDs of their own (`place`, `place_2`, ...): BT.CPP keeps one definition per ID, so a reader
+    that builds the tree from the XML would give every instance the last one's names. The deepest
+    instances are named first, so an outer instance's definition names the IDs its inner ones end with;
+    at one depth, in the order they appear (the first keeps the ID)."""
+    taken = {tree.get("ID") for _, tree in instances}
+    shapes: dict[str, dict[str, str]] = {}  # ID -> definition -> the ID it is written under
+    deepest_first = sorted(instances, key=lambda pair: -str(pair[1].get("_fullpath")).count("/"))
+    for subtree, tree in deepest_first:
+        given = str(tree.get("ID"))
+        known = shapes.setdefault(given, {})
+        shape = _shape(tree)
+        if shape not in known:
+            if not known:
+                known[shape] = given
+            else:
+                k = len(known) + 1
+                while f"{given}_{k}" in taken:
+                    k += 1
+                known[shape] = f"{given}_{k}"
+                taken.add(known[shape])
+        subtree.set("ID", known[shape])
+        tree.set("ID", known[shape])
+
+
 def tree_xml(log: TickLog) -> str:
     """The tree as `FileLogger2` embeds it: `BehaviorTree` elements with `_fullpath`, nodes with `_uid`."""
     nodes = btcpp_nodes(log)
@@ -119,6 +154,7 @@ def tree_xml(log: TickLog) -> str:
     root = ElementTree.Element("root", BTCPP_format="4", main_tree_to_execute="MainTree")
     main = ElementTree.SubElement(root, "BehaviorTree", ID="MainTree", _fullpath="")
     elements: dict[int, ElementTree.Element] = {}
+    instances: list[tuple[ElementTree.Element, ElementTree.Element]] = []  # (SubTree, its BehaviorTree)
     for node, bt in zip(log.nodes, nodes):
         parent = main if node["parent"] is None else elements[node["parent"]]
         uid = str(node["id"] + 1)
@@ -130,10 +166,12 @@ def tree_xml(log: TickLog) -> str:
             elements[node["id"]] = ElementTree.SubElement(
                 root, "BehaviorTree", ID=bt.ports["ID"], _fullpath=path
             )
+            instances.append((element, elements[node["id"]]))
             continue
         elements[node["id"]] = ElementTree.SubElement(
             parent, bt.tag, {"name": node["name"], "_uid": uid, **bt.ports}
         )
+    _distinct_subtree_ids(instances)
     declared: dict[str, ElementTree.Element] = {}
     for bt in nodes:
         if bt.builtin:
