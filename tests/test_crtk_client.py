@@ -116,7 +116,8 @@ def test_a_run_enables_and_homes_the_arms_logs_what_the_robot_says_and_touches_n
         records = [json.loads(line) for line in (tmp_path / "look.jsonl").read_text().splitlines()]
         messages = [(r["source"], r["level"], r["text"]) for r in records if r["type"] == "message"]
         assert ("PSM1", "status", "PSM1: power on") in messages
-        assert "STATUS   PSM2: PSM2: power on" in out.getvalue()
+        assert "STATUS   PSM2: power on" in out.getvalue()  # the arm's name once, though the robot gave it
+        assert "PSM2: PSM2" not in out.getvalue()
         log = read_tick_log(tmp_path / "look.jsonl")  # the reader takes `message` records
         assert len(log.messages) == len(messages) and log.outcome == "success"
         assert "robot:    " in summary(log)

@@ -19,7 +19,7 @@ from typing import Any
 
 from pegbt.errors import PegbtError
 from pegbt.executive.causes import Recovery, Timeline, failure_chains, fallbacks, recoveries
-from pegbt.executive.logfile import TickLog, Transition
+from pegbt.executive.logfile import TickLog, Transition, message_line
 
 SHOWN_WIDTH = 160  # characters of a blackboard value shown beside a failure
 MESSAGES_SHOWN = 10  # a robot's last errors and warnings listed by `pegbt log summary`
@@ -79,7 +79,7 @@ def summary(log: TickLog, slowest: int = 5) -> str:
             "robot:    " + ", ".join(f"{levels.count(level)} {level}" for level in sorted(set(levels)))
         )
         lines += [
-            f"  {m['t']:8.3f} s  {m['level']:<7}  {m['source']}: {m['text']}"
+            f"  {m['t']:8.3f} s  {m['level']:<7}  {message_line(m)}"
             for m in [m for m in log.messages if m["level"] in ("error", "warning")][-MESSAGES_SHOWN:]
         ]
     lines += [""] + _table(log, stats, [node["id"] for node in log.nodes])

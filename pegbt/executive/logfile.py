@@ -115,6 +115,13 @@ class TickLog:
 _UNSET = object()
 
 
+def message_line(message: dict[str, Any]) -> str:
+    """A `message` record's `source: text`, the source not repeated where the text opens with it (the dVRK
+    starts its messages with the arm's name: `mtsIntuitiveResearchKitArm.cpp`, `SendError(GetName() + ...)`)."""
+    source, text = str(message["source"]), str(message["text"])
+    return text if text.startswith(f"{source}: ") else f"{source}: {text}"
+
+
 def read_tick_log(path: str | Path, *, keep_records: bool = False) -> TickLog:
     """Parse and check a tick log; a `TickLogError` naming the line and field for anything malformed.
 

@@ -14,6 +14,7 @@ from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
 
 from pegbt.executive.build import BuiltTree
 from pegbt.executive.causes import CONTROL_FLOW
+from pegbt.executive.logfile import message_line
 
 _FINISHED = ("SUCCESS", "FAILURE")
 
@@ -48,7 +49,7 @@ class ProgressPrinter:
                     print(f"{record['t']:8.3f} s  {shown:<7}  {self.leaves[node]}{note}", file=self.stream)
         elif kind == "message":
             print(
-                f"{record['t']:8.3f} s  {record['level'].upper():<7}  {record['source']}: {record['text']}",
+                f"{record['t']:8.3f} s  {record['level'].upper():<7}  {message_line(record)}",
                 file=self.stream,
             )
         elif kind == "end":
