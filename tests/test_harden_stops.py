@@ -75,3 +75,28 @@ def test_a_hold_is_accepted_in_a_fast_move_where_a_servo_at_a_stale_set_point_is
     for _ in range(20):
         arm.advance(arm.period)
     assert np.array_equal(arm.joints.setpoint, held) and not arm.is_busy
+
+
+@pytest.mark.parametrize("second", [signal.SIGINT, signal.SIGTERM])
+def test_a_second_stop_while_the_simulator_closes_quits_it_at_once(tmp_path, pegbt_cli, second):
+    """`timeout -s INT` signals the process and then its group: two stops a moment apart, as a user who
+    presses Ctrl-C again does. The second, landing while the simulator closes its recording and session,
+    left it waiting on zenoh's threads for ever."""
+    from pegbt.sim.process import free_port
+
+    process = pegbt_cli.start(
+        "sim",
+        "--listen",
+        f"tcp/127.0.0.1:{free_port()}",
+        "--priority",
+        "normal",
+        "--no-world",
+        "--record",
+        tmp_path / "sim.mcap",
+    )
+    assert process.stdout is not None and "serving" in process.stdout.readline()
+    process.send_signal(signal.SIGINT)
+    time.sleep(0.01)
+    process.send_signal(second)
+    _, stderr = process.communicate(timeout=20)
+    assert process.returncode in (0, 128 + second) and "Traceback" not in stderr

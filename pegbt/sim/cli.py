@@ -213,34 +213,30 @@ def _serve(
     except BaseException:
         session.close()
         raise
-    recorder = _recorder(args, endpoint) if args.record else None
-    signal.signal(signal.SIGTERM, lambda *_: endpoint.stop())
-    if args.stop_with_parent:
-        threading.Thread(
-            target=_stop_at_stdin_eof, args=(endpoint,), name="parent-watch", daemon=True
-        ).start()
-    mode = "lockstep" if args.lockstep else "real time" + (", SCHED_FIFO" if realtime else "")
-    where = (
-        f"the ROS 2 graph of router {', '.join(args.connect)} (rmw_zenoh)"
-        if args.ros2 == "rmw_zenoh"
-        else ", ".join(settings.listen)
-    )
-    scene = f"world and camera, seed {plan.seed}" if world is not None else "no world"
-    print(
-        f"pegbt sim: serving {', '.join(endpoint.arms)} on {where} ({mode}, {args.interface} "
-        f"interface, physics {args.physics}, {scene})",
-        flush=True,
-    )
-    if args.connect:
-        threading.Thread(
-            target=_warn_if_unconnected, args=(session, args.connect), name="connect-watch", daemon=True
-        ).start()
-    gc.collect()
-    gc.freeze()  # what start-up built (modules, meshes) lives on: a collection scanning it would stall a tick
-    try:
+    recorder = None
+    outcome = "stopped"
+    try:  # from here a stop (Ctrl-C, SIGTERM) at any moment ends in the orderly close below
+        recorder = _recorder(args, endpoint) if args.record else None
+        signal.signal(signal.SIGTERM, lambda *_: endpoint.stop())
+        if args.stop_with_parent:
+            threading.Thread(
+                target=_stop_at_stdin_eof, args=(endpoint,), name="parent-watch", daemon=True
+            ).start()
+        _announce(args, settings, endpoint, realtime, plan, world)
+        if args.connect:
+            threading.Thread(
+                target=_warn_if_unconnected, args=(session, args.connect), name="connect-watch", daemon=True
+            ).start()
+        gc.collect()
+        gc.freeze()  # what start-up built (modules, meshes) lives on: a collection scanning it would stall a tick
         outcome = endpoint.run()
     except KeyboardInterrupt:
-        outcome = "stopped"
+        pass
+    except BaseException:  # refused (a recording it cannot write): closed here, raised to the caller
+        endpoint.close()
+        session.close()
+        raise
+    _quit_on_the_next_stop()
     if recorder is not None:
         try:
             recorder.close()
@@ -299,6 +295,37 @@ def _recorder(args: argparse.Namespace, endpoint: SimEndpoint | DvrkEndpoint) ->
     )
     endpoint.record(recorder)
     return recorder
+
+
+def _announce(
+    args: argparse.Namespace,
+    settings: SessionSettings,
+    endpoint: SimEndpoint | DvrkEndpoint,
+    realtime: bool,
+    plan: FaultPlan,
+    world: World | None,
+) -> None:
+    """The line a user (and `SimProcess`) waits for: what is served, where, how."""
+    mode = "lockstep" if args.lockstep else "real time" + (", SCHED_FIFO" if realtime else "")
+    where = (
+        f"the ROS 2 graph of router {', '.join(args.connect)} (rmw_zenoh)"
+        if args.ros2 == "rmw_zenoh"
+        else ", ".join(settings.listen)
+    )
+    scene = f"world and camera, seed {plan.seed}" if world is not None else "no world"
+    print(
+        f"pegbt sim: serving {', '.join(endpoint.arms)} on {where} ({mode}, {args.interface} "
+        f"interface, physics {args.physics}, {scene})",
+        flush=True,
+    )
+
+
+def _quit_on_the_next_stop() -> None:
+    """From here the simulator closes in order; a second Ctrl-C or SIGTERM (a user who will not wait, a
+    `timeout` that signals the process and then its group) quits at once. Raised as an exception in the
+    middle of closing, it left the zenoh session open and the interpreter waiting on its threads for ever."""
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(signum, lambda number, _: os._exit(128 + number))
 
 
 def _stop_at_stdin_eof(endpoint: SimEndpoint | DvrkEndpoint) -> None:
