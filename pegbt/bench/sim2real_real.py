@@ -86,7 +86,7 @@ def _wrist_ratio(diagnosis: Diagnosis) -> float:
 
 
 def _floors(whole: Diagnosis, short: str) -> dict[str, float]:
-    """What bounds the wrist's nested held-out ratio from below, per joint: the tracker's resolution over
+    """What the wrist's nested held-out ratio can be held against, per joint: the tracker's resolution over
     the raw error (a residual at the resolution), and the ratio left once `k` nearest commanded set-points
     (wrist commands and the directions they last moved, other folds only) predict the residual too; and the
     wrist's ratio taken as one error."""

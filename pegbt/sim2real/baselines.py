@@ -1,6 +1,6 @@
 """Black-box baselines that fit but name nothing: a linear model and the reference paper's LSTM, both
 on a window of the most recent commands, predicting the physical joints; and nearest neighbours in the
-commands, which bound what any compensation could still take from a model's residual."""
+commands, which estimate what a model's residual still holds that the commands could predict."""
 
 from __future__ import annotations
 
@@ -104,8 +104,9 @@ def last_moves(q_cmd: Array) -> Array:
 
 def neighbours_of_commands(residual: Array, q_cmd: Array, folds: list[tuple[int, int]], k: int = 20) -> Array:
     """Held-out prediction of `residual` (N, J) by the mean of its `k` nearest set-points in the other
-    folds, in the commands (each joint scaled to unit spread) and the direction each last moved: what is
-    left of a model's residual that any function of the current command and its play state could take."""
+    folds, in the commands (each joint scaled to unit spread) and the direction each last moved: an
+    estimate, with no model assumed, of what a model's residual still holds that the current command and
+    its play state predict."""
     features = np.column_stack([q_cmd / np.maximum(q_cmd.std(0), 1e-12), last_moves(q_cmd)])
     predicted = np.empty_like(residual)
     for a, b in folds:
