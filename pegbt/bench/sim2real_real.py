@@ -8,8 +8,8 @@ on the held-out part, next to a linear regression on the last five commands and 
 recordings of each arm name the same kinds of effect, and which parameters differ; and per recording,
 the effects the whole recording names and its nested cross-validated held-out RMSE over raw; and the same
 with tracker glitches and a lost-tracking window injected, whose truth is known. Beside each wrist joint's
-nested ratio, what to hold it against: the tracker's resolution over the raw error, and the ratio left once the
-nearest commanded set-points predict the residual as well (`neighbours_of_commands`).
+nested ratio, what to hold it against: the tracker's resolution over the raw error, and the ratio left
+once the nearest commanded set-points predict the residual as well (`neighbours_of_commands`).
 """
 
 from __future__ import annotations
