@@ -110,6 +110,7 @@ class ArmDouble:
     jaw: float = 0.0
     last_warning: float = -10.0
     clips: int = 0
+    setpoint_quiet_until: float = 0.0  # monotonic time before which setpoint_js is not published
 
 
 class CrtkDouble:
@@ -127,10 +128,14 @@ class CrtkDouble:
         move_seconds: float = 0.3,
         clock_offset: float = 0.0,
         latched: bool = True,
+        setpoint_lag: float = 0.0,
     ) -> None:
         self.session = zenoh.open(session_config(listen))
         self.home_seconds, self.homes, self.move_seconds = home_seconds, homes, move_seconds
         self.clock_offset = clock_offset
+        # s a move_jp's not-busy state goes ahead of the set-point at its goal: setpoint_js is a topic of its
+        # own, whose messages may come later than operating_state's
+        self.setpoint_lag = setpoint_lag
         self.received: list[Received] = []
         self.arms = {
             name: ArmDouble(name, "ENABLED" if enabled else "DISABLED", homed) for name in ("PSM1", "PSM2")
@@ -222,6 +227,7 @@ class CrtkDouble:
 
     def _arrive(self, arm: ArmDouble, goal: np.ndarray) -> None:
         arm.setpoint, arm.busy = goal, False
+        arm.setpoint_quiet_until = time.monotonic() + self.setpoint_lag
         self._publish_state(arm)
 
     def _state_command(self, arm: ArmDouble, command: str) -> None:
@@ -266,7 +272,8 @@ class CrtkDouble:
                     action()
                 for name, arm in self.arms.items():
                     for topic in ("measured_js", "setpoint_js"):
-                        self._pub[f"{name}/{topic}"].put(joint_state(arm.setpoint, self.now()))
+                        if topic == "measured_js" or now >= arm.setpoint_quiet_until:
+                            self._pub[f"{name}/{topic}"].put(joint_state(arm.setpoint, self.now()))
                     for topic in ("jaw/measured_js", "jaw/setpoint_js"):
                         self._pub[f"{name}/{topic}"].put(joint_state(np.array([arm.jaw]), self.now()))
             if now >= next_cloud:

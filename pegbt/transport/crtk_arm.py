@@ -100,7 +100,9 @@ class Latest(Generic[T]):
 
 
 class RobotMove(StatusFlags):
-    """The robot's own `move_jp` to a goal: done by CRTK's rule, failed past its time bound."""
+    """The robot's own `move_jp` to a goal: done by CRTK's rule once the set-point the next motion plans from
+    has come too (a `setpoint_js` stamped no earlier than the not-busy state: the two are topics of their own,
+    and the state may come first); failed past its time bound."""
 
     def __init__(self, arm: "CrtkArm", sent_at: float, what: str, bound: float) -> None:
         self._arm = arm
@@ -122,8 +124,9 @@ class RobotMove(StatusFlags):
             if state.state != "ENABLED":
                 self.error = f"{self.what}: {self._arm.name} is {state.state}"
                 return MotionStatus.FAILED
-            self._done = True
-            return MotionStatus.DONE
+            if self._arm.setpoint_js.stamp >= state.stamp:
+                self._done = True
+                return MotionStatus.DONE
         if time.monotonic() > self._deadline:
             self._arm.hold()
             self.error = f"{self.what} not done within {self.bound:.1f} s; held"
