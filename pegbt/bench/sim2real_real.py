@@ -78,10 +78,15 @@ def _with_faults(recording: Recording, short: str, clean: set[str]) -> dict[str,
     return figures
 
 
+def _wrist_residuals(diagnosis: Diagnosis) -> tuple[np.ndarray, np.ndarray]:
+    """The wrist joints' residuals before any effect and held out after the diagnosis's model."""
+    columns = [JOINT_NAMES.index(joint) for joint in WRIST]
+    return diagnosis.residual_before[:, columns], diagnosis.residual_after[:, columns]
+
+
 def _wrist_ratio(diagnosis: Diagnosis) -> float:
     """The wrist's nested held-out error over raw, taken as one error: RMS over its three joints."""
-    columns = [JOINT_NAMES.index(joint) for joint in WRIST]
-    before, after = diagnosis.residual_before[:, columns], diagnosis.residual_after[:, columns]
+    before, after = _wrist_residuals(diagnosis)
     return float(np.sqrt((after**2).sum(1).mean() / (before**2).sum(1).mean()))
 
 
@@ -90,14 +95,15 @@ def _floors(whole: Diagnosis, short: str) -> dict[str, float]:
     the raw error (a residual at the resolution), and the ratio left once `k` nearest commanded set-points
     (wrist commands and the directions they last moved, other folds only) predict the residual too; and the
     wrist's ratio taken as one error."""
-    columns = [JOINT_NAMES.index(joint) for joint in WRIST]
-    before, after = whole.residual_before[:, columns], whole.residual_after[:, columns]
-    q_cmd = whole.recording.q_cmd[:, columns]
+    before, after = _wrist_residuals(whole)
+    q_cmd = whole.recording.q_cmd[:, [JOINT_NAMES.index(joint) for joint in WRIST]]
     left = after - neighbours_of_commands(after, q_cmd, whole.fold_ranges)
     raw = _rmse(before)
     figures = {f"{short}_wrist_nested_ratio": _wrist_ratio(whole)}
     for i, joint in enumerate(WRIST):
-        figures[f"{short}_{joint}_resolution_ratio"] = PAPER_RESOLUTION[columns[i]] / float(raw[i])
+        figures[f"{short}_{joint}_resolution_ratio"] = PAPER_RESOLUTION[JOINT_NAMES.index(joint)] / float(
+            raw[i]
+        )
         figures[f"{short}_{joint}_nested_ratio_after_neighbours"] = float(_rmse(left)[i] / raw[i])
     return figures
 

@@ -9,6 +9,7 @@ import os
 import signal
 import sys
 import threading
+import time
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -258,8 +259,6 @@ def _serve(
 def _warn_if_unconnected(session: zenoh.Session, connect: list[str]) -> None:
     """Say once on stderr if nothing answers where the simulator connects (a ROS 2 graph's router, a bridge):
     zenoh keeps trying in silence, and no client reaching the graph would ever see the arms."""
-    import time
-
     import zenoh
 
     from pegbt.transport.session import reaches_anyone
