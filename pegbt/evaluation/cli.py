@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING
 
 from pegbt.errors import PegbtError
 from pegbt.evaluation.paper import CONDITIONS, VARIANTS
+from pegbt.numbers import NumberOption
 
 if TYPE_CHECKING:
     from pegbt.evaluation.trial import TrialRecord
@@ -60,6 +61,15 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
         help="what the simulator serves and the run speaks: pegbt (its own topics and extensions, the "
         "default) or dvrk (what a dVRK serves through zenoh-bridge-ros2dds); passed to `pegbt sim "
         "--interface` and `pegbt run --interface`",
+    )
+    parser.add_argument(
+        "--speed",
+        action=NumberOption,
+        above=0.0,
+        at_most=1.0,
+        default=1.0,
+        metavar="F",
+        help="every run moves at this fraction of the planner's speed, as `pegbt run --speed` (default 1)",
     )
     parser.add_argument(
         "--out",
@@ -139,6 +149,7 @@ def _eval(args: argparse.Namespace) -> int:
         args.inject_faults,
         realtime=args.realtime,
         interface=args.interface,
+        speed=args.speed,
     )
     specs = trial_specs(cell, args.out, keep_logs=args.keep_logs)
     done = None if args.quiet else _report_trial

@@ -45,6 +45,7 @@ class TrialSpec:
     tree: Path | None = None  # another tree than the variant's (tests: a short task)
     realtime: bool = False  # the simulator in real time and the run on the wall clock (else lockstep)
     interface: str = "pegbt"  # what the simulator serves and the run speaks (`INTERFACES`)
+    speed: float = 1.0  # the fraction of the planner's speed (`pegbt run --speed`)
 
 
 @dataclass
@@ -166,6 +167,7 @@ def _run(spec: TrialSpec, truth: Path) -> RunOutput:
             "seed": spec.seed,
             "simlog": str(truth),
             "faults": None if spec.faults is None else str(spec.faults),
+            "speed": spec.speed,
         }
         return run_tree_file(tree, spec.log, options=options, clock=clock, timeout=TRIAL_TIMEOUT_S)
     with SimProcess(simulator_args(spec, truth)) as simulator:
@@ -203,6 +205,7 @@ def run_options(spec: TrialSpec, endpoint: str) -> dict[str, Any]:
         "interface": spec.interface,
         "simlog": str(truth_path(spec.log)),  # the judge: the simulator's log file (no `sim/truth` here)
         "liveness": SIMULATOR_LIVENESS_S,
+        "speed": spec.speed,
     }
 
 

@@ -253,16 +253,19 @@ def connect_crtk_robot(
     liveness: float = LIVENESS_S,
     ros2: str = "bridge",
     simlog: str | None = None,
+    speed: float = 1.0,
 ) -> Robot:
     """A `Robot` of CRTK arms at `endpoint` (a zenoh-bridge-ros2dds, a `pegbt sim --interface dvrk`), its
-    arms enabled and homed, limits narrowed by the dVRK's `robot_config` folder when given."""
+    arms enabled and homed, limits narrowed by the dVRK's `robot_config` folder when given; the jaw's
+    streamed ramps at `speed` of its velocity (`ArmSettings.at_speed`)."""
     if endpoint == "auto":
         raise PegbtError(
             "--interface dvrk talks to a robot: give its bridge's address (--endpoint tcp/HOST:PORT)",
             field="--endpoint",
         )
     check_namespace(namespace, "--namespace")
-    settings = {arm: robot_arm_settings(arm, robot_config, robot_tool) for arm in ARMS}
+    speed = checked_number(speed, "--speed", above=0.0, at_most=1.0)
+    settings = {arm: robot_arm_settings(arm, robot_config, robot_tool).at_speed(speed) for arm in ARMS}
     period = min(arm.control_period for arm in settings.values())
     session = open_session(wire_session_settings(ros2, [endpoint]))
     try:
@@ -332,7 +335,7 @@ def _robot_silent(
 
 def provide_robot(setup: ProviderSetup) -> Robot:
     """The `robot` resource for `pegbt run` (options `interface`, `endpoint`, `seed`, `faults`, `simlog`;
-    for `dvrk` also `namespace`, `ros2`, `robot-config`, `robot-tool`, `camera-topic`). `--clock` may only
+    for `dvrk` also `namespace`, `ros2`, `robot-config`, `robot-tool`, `camera-topic`, `speed`). `--clock` may only
     ask for a clock in real time (the robot's time passes on its own): `--clock wall` runs the embedded
     simulator in real time."""
     options = setup.options
@@ -357,6 +360,7 @@ def provide_robot(setup: ProviderSetup) -> Robot:
             checked_number(float(options.get("liveness") or LIVENESS_S), "--liveness", above=0.0),
             ros2=str(options.get("ros2") or "bridge"),
             simlog=options.get("simlog"),
+            speed=1.0 if options.get("speed") is None else float(options["speed"]),
         )
     return connect_robot(
         str(options.get("endpoint") or "auto"),
