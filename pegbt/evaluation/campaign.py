@@ -33,6 +33,7 @@ class Cell:
     realtime: bool = False  # simulators in real time, runs on the wall clock (else lockstep)
     interface: str = "pegbt"
     speed: float = 1.0  # the fraction of the planner's speed (`pegbt run --speed`)
+    robot_clock_offset: float = 0.0  # s the simulated robot's clock is from this one's (`--interface dvrk`)
 
     @property
     def name(self) -> str:
@@ -42,6 +43,7 @@ class Cell:
             + ("-realtime" if self.realtime else "")
             + ("" if self.interface == "pegbt" else f"-{self.interface}")
             + ("" if self.speed == 1.0 else f"-speed{self.speed:g}")
+            + ("" if not self.robot_clock_offset else f"-clock{self.robot_clock_offset:+g}")
         )
 
     @property
@@ -68,6 +70,7 @@ def trial_specs(cell: Cell, out: Path, keep_logs: bool = False) -> list[TrialSpe
                 realtime=cell.realtime,
                 interface=cell.interface,
                 speed=cell.speed,
+                robot_clock_offset=cell.robot_clock_offset,
             )
         )
     return specs

@@ -72,6 +72,14 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
         help="every run moves at this fraction of the planner's speed, as `pegbt run --speed` (default 1)",
     )
     parser.add_argument(
+        "--robot-clock-offset",
+        action=NumberOption,
+        default=0.0,
+        metavar="SECONDS",
+        help="--interface dvrk: each simulator stamps what its robot sends on a clock this far from this "
+        "computer's (`pegbt sim --robot-clock-offset`; default 0)",
+    )
+    parser.add_argument(
         "--out",
         type=Path,
         default=Path("runs/eval"),
@@ -123,6 +131,10 @@ def check_arguments(args: argparse.Namespace) -> None:
 
         FaultPlan.load(args.faults)  # unreadable or invalid: its error names the file, line and field
     check_interface(args.interface, args.realtime)
+    if args.robot_clock_offset and args.interface != "dvrk":
+        raise PegbtError(
+            "a robot clock offset is the dVRK interface's: add --interface dvrk", field="--robot-clock-offset"
+        )
 
 
 def check_interface(interface: str, realtime: bool) -> None:
@@ -150,6 +162,7 @@ def _eval(args: argparse.Namespace) -> int:
         realtime=args.realtime,
         interface=args.interface,
         speed=args.speed,
+        robot_clock_offset=args.robot_clock_offset,
     )
     specs = trial_specs(cell, args.out, keep_logs=args.keep_logs)
     done = None if args.quiet else _report_trial

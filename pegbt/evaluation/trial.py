@@ -46,6 +46,7 @@ class TrialSpec:
     realtime: bool = False  # the simulator in real time and the run on the wall clock (else lockstep)
     interface: str = "pegbt"  # what the simulator serves and the run speaks (`INTERFACES`)
     speed: float = 1.0  # the fraction of the planner's speed (`pegbt run --speed`)
+    robot_clock_offset: float = 0.0  # s the simulated robot's clock is from this one's (`--interface dvrk`)
 
 
 @dataclass
@@ -187,6 +188,7 @@ def simulator_args(spec: TrialSpec, truth: Path) -> list[str]:
         "--log",
         str(truth),
         *([] if spec.faults is None else ["--faults", str(spec.faults)]),
+        *(["--robot-clock-offset", repr(spec.robot_clock_offset)] if spec.robot_clock_offset else []),
     ]
 
 

@@ -151,6 +151,14 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
         help="--interface dvrk: joint and Cartesian states per second (default 100, the dVRK's ROS period)",
     )
     parser.add_argument(
+        "--robot-clock-offset",
+        action=NumberOption,
+        default=0.0,
+        metavar="SECONDS",
+        help="--interface dvrk: stamp everything the robot sends on a clock this far ahead of this computer's "
+        "(negative: behind), as a robot computer whose clock is not synchronised (default 0)",
+    )
+    parser.add_argument(
         "--stop-with-parent",
         action="store_true",
         help="stop when standard input closes: a parent process that pipes it is gone (even killed)",
@@ -175,6 +183,12 @@ def _sim(args: argparse.Namespace) -> int:
     check_namespace(args.namespace, "--namespace")
     if args.interface == "dvrk":
         _refuse_pegbt_only_options(args)
+    elif args.robot_clock_offset:
+        raise PegbtError(
+            "--robot-clock-offset is the dVRK interface's (pegbt's stamps on the simulator's clock): add "
+            "--interface dvrk",
+            field="--robot-clock-offset",
+        )
     if args.ros2 == "rmw_zenoh":
         settings = _graph_settings(args)
     else:
@@ -410,6 +424,7 @@ def _dvrk_endpoint(
         state_period=1.0 / args.state_rate,
         camera_topic=args.camera_topic,
         camera_period=1.0 / args.camera_rate,
+        robot_clock_offset=args.robot_clock_offset,
     )
     wire = make_wire(args.ros2, session, args.namespace, node_name="pegbt_sim")
     return DvrkEndpoint(wire, config, world=world, camera=camera)
