@@ -283,20 +283,20 @@ class DvrkEndpoint:
                 )
             arm.reports.clear()
             arm.safety.clear()
-            for event in arm.state_events:
-                state = codec.OperatingState(stamp, event.state, event.is_homed, event.is_busy)
+            for update in arm.state_events:
+                state = codec.OperatingState(stamp, update.state, update.is_homed, update.is_busy)
                 self._put(topics.operating_state, codec.encode_operating_state(state))
-                logged = (event.state, event.substate, event.is_homed, event.is_busy)
+                logged = (update.state, update.substate, update.is_homed, update.is_busy)
                 if self._logged_states.get(name) != logged:
                     self._logged_states[name] = logged
                     self.log.record(
                         self.elapsed,
                         "arm_state",
                         arm=name,
-                        state=event.state,
-                        substate=event.substate,
-                        is_homed=event.is_homed,
-                        is_busy=event.is_busy,
+                        state=update.state,
+                        substate=update.substate,
+                        is_homed=update.is_homed,
+                        is_busy=update.is_busy,
                     )
             arm.state_events.clear()
 
@@ -322,7 +322,8 @@ class DvrkEndpoint:
         encode_js, encode_cp = codec.encode_joint_state, codec.encode_pose_stamped
         if arm.cartesian_ready:
             measured, setpoint, velocity = joints.encoder, joints.setpoint, joints.velocity
-            names, kinematic = dvrk.JOINT_NAMES, stamp
+            names: tuple[str, ...] = dvrk.JOINT_NAMES
+            kinematic = stamp
         elif arm.joint_ready:
             measured, setpoint = dvrk.pid_positions(arm.measured), dvrk.pid_positions(arm.setpoint)
             velocity = dvrk.pid_positions(np.concatenate([joints.velocity, jaw.velocity]))
