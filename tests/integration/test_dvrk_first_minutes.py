@@ -259,3 +259,13 @@ def test_messages_latched_before_the_run_are_history_never_a_stops_cause(
         assert "old error" not in str(stopped.value)
     finally:
         client.close()
+
+
+def test_a_robot_clock_offset_is_the_dvrk_interfaces_option(capsys: pytest.CaptureFixture[str]) -> None:
+    from pegbt.cli import main
+
+    assert main(["sim", "--robot-clock-offset", "5", "--no-world"]) == 2
+    assert main(["eval", "--variant", "unilateral", "--trials", "1", "--robot-clock-offset", "5"]) == 2
+    assert main(["sim", "--interface", "dvrk", "--robot-clock-offset", "nan", "--no-world"]) == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 3 and all("--robot-clock-offset" in line for line in lines), lines
