@@ -26,6 +26,7 @@ from pegbt.sim.events import Event, EventLog
 from pegbt.sim.faults import WorldFaults
 from pegbt.sim.interfaces import WorldSnapshot
 from pegbt.sim.tools import ToolState
+from pegbt.sim.world_effects import WorldEffects
 from pegbt.workcell import Workcell, workcell
 
 _LOST_BELOW_BOARD = 0.1  # where a block that left the workspace lies: on the floor, 10 cm below the board
@@ -63,10 +64,12 @@ class World:
         cell: Workcell | None = None,
         config: WorldConfig = WorldConfig(),
         faults: WorldFaults = WorldFaults(),
+        effects: WorldEffects = WorldEffects(),
     ) -> None:
         self.cell = cell or workcell()
         self.config = config
         self.faults = faults
+        self.effects = effects
         self.seed = seed
         layout_seed, fault_seed = np.random.SeedSequence(seed).spawn(2)
         self._rng = np.random.default_rng(fault_seed)
