@@ -3,7 +3,7 @@ trial with uncalibrated-sized errors gives the same events, outcome for outcome,
 existed (fingerprints recorded on main at 5c5ab95)."""
 
 import pytest
-from world_helpers import digest, noisy_unilateral
+from world_effects_helpers import digest, noisy_unilateral
 
 from pegbt.sim.world import World
 from pegbt.sim.world_effects import WORLD_EFFECT_KINDS, WorldEffects
