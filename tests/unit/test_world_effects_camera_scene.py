@@ -60,3 +60,22 @@ def test_eval_hands_the_world_file_to_a_simulator_it_starts(tmp_path):
     assert "--world-effects" not in simulator_args(
         TrialSpec("unilateral", "optimized", 3, tmp_path / "t"), tmp_path
     )
+
+
+def test_a_dask_worker_that_cannot_see_the_client_s_files_gets_the_world_file_s_text(tmp_path, monkeypatch):
+    from pegbt.evaluation import cluster
+
+    seen = {}
+
+    def run_trial(spec):
+        seen["text"] = spec.world_effects.read_text()
+        return cluster.TrialRecord(spec.variant, spec.condition, spec.seed, "success")
+
+    monkeypatch.setattr(cluster, "run_trial", run_trial)
+    text = "effects:\n  - {kind: depth_bias, bias: 0.001}\n"
+    spec = TrialSpec(
+        "unilateral", "optimized", 3, tmp_path / "t.jsonl", world_effects=tmp_path / "client-only.yaml"
+    )
+    task = cluster.RemoteTrial(spec, None, cluster.this_checkout(), None, "token", text)
+    cluster.run_remote_trial(task)
+    assert seen["text"] == text
