@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 from dvrk_peer import DvrkPeer, joint_state, wait_for
-from test_eval_why import short_task
+from trial_helpers import short_task
 
 from pegbt.evaluation.campaign import Cell
 from pegbt.evaluation.summary import summarise

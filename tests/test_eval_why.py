@@ -9,26 +9,11 @@ from pathlib import Path
 
 import pytest
 from executive_helpers import with_shared_trees
+from trial_helpers import short_task
 
 from pegbt.evaluation.trial import TrialSpec, run_trial
 
 REPO = Path(__file__).resolve().parents[1]
-
-
-def short_task(tmp_path: Path) -> Path:
-    """Look, then move the block on peg 1 to peg 7 with PSM1, one recovery allowed, then check it arrived."""
-    tree = tmp_path / "short.yaml"
-    with_shared_trees(tree.parent)
-    tree.write_text(
-        "include: [shared/one_transfer.yaml, shared/sense.yaml]\n"
-        "blackboard: {/policy/skip_failed_blocks: true, /PSM1/may_carry: true, /PSM2/may_carry: true}\n"
-        "tree:\n  sequence:\n"
-        "    - subtree: {use: clear_view}\n"
-        "    - subtree: {use: transfer_block, args: {arm: PSM1, pick: 1, place: 7, regrasps: 1}}\n"
-        "    - subtree: {use: clear_view, name: look at the result}\n"
-        "    - check_placed: {name: block home, pegs: [7]}\n"
-    )
-    return tree
 
 
 def faulty_trial(tmp_path: Path, name: str, plan: str, seed: int = 3):

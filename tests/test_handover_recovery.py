@@ -7,9 +7,9 @@ from __future__ import annotations
 from pathlib import Path
 
 from executive_helpers import with_shared_trees
+from trial_helpers import one_handover
 
 from pegbt.evaluation.trial import TrialSpec, run_trial
-from tests.test_handover_give_up import one_handover
 
 RECEIVER_GRIPS = 6.30  # s: the receiver's jaw gripped the block at 6.27 s, its check ends at 6.36 s (seed 3)
 RECEIVER_CARRIES = 7.20  # s: the receiver carries the block away from the meeting point from 7.00 s

@@ -3,8 +3,9 @@ withdraws, fetches the block from where it fell and holds it out again, and the 
 
 from __future__ import annotations
 
+from trial_helpers import one_handover
+
 from pegbt.evaluation.trial import TrialSpec, run_trial
-from tests.test_handover_give_up import one_handover
 
 HELD_OUT = 5.8  # s: the giver has held the block out since 5.68 s, the receiver closes on it at 6.36 s
 

@@ -4,6 +4,7 @@ import math
 
 import numpy as np
 import pytest
+from grasp_helpers import CELL, estimate_at, everywhere, off_peg
 
 from pegbt.errors import PegbtError
 from pegbt.motion.handover import handover_meeting_point
@@ -13,26 +14,6 @@ from pegbt.perception.board import PegboardRegistration
 from pegbt.perception.grasp import PEG_DISTANCE_TIE, YAW_WINDOW, GraspSelector, grasp_options, select_grasp
 from pegbt.sim.camera import DepthCamera
 from pegbt.sim.scripted import Driver, Keyframe, carry_height, lifted
-from pegbt.workcell import workcell
-
-CELL = workcell()
-
-
-def everywhere(poses):
-    return np.ones(len(poses), dtype=bool)
-
-
-def estimate_at(xy, yaw, peg):
-    position = np.array([xy[0], xy[1], CELL.board.surface_z])
-    return BlockEstimate(position, yaw, peg, fitness=1.0, rmse=0.0003, points=1000, ok=True, reason="")
-
-
-def off_peg(peg, direction_deg, offset=0.0015, yaw=0.3):
-    """A block resting on `peg` pushed `offset` towards `direction_deg` (the hole's clearance allows 2 mm)."""
-    angle = math.radians(direction_deg)
-    return estimate_at(
-        CELL.pegs.positions[peg] + offset * np.array([math.cos(angle), math.sin(angle)]), yaw, peg
-    )
 
 
 def distance_from_peg(grasp, peg):

@@ -2,10 +2,11 @@
 
 from __future__ import annotations
 
+from grasp_helpers import everywhere, off_peg
+from trial_helpers import short_task
+
 from pegbt.evaluation.trial import TrialSpec, run_trial
 from pegbt.perception.grasp import GraspSelector
-from tests.test_eval_why import short_task
-from tests.test_perception_grasp import everywhere, off_peg
 
 
 def test_the_selector_avoids_a_candidate_while_another_is_feasible():

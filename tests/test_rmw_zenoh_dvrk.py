@@ -9,24 +9,24 @@ import json
 from pathlib import Path
 
 import pytest
+from rmw_zenoh_helpers import lines, partner
 
 from pegbt.sim.process import SimProcess
 from pegbt.transport.codec import JOINT_STATE
 from pegbt.workcell import UNILATERAL_ORDER
-from tests.test_transport_rmw_zenoh import _lines, _partner, messages_dir, router  # noqa: F401 (fixtures)
 
 
 @pytest.mark.slow
-def test_a_ros2_node_reads_enables_homes_and_servos_the_simulated_arm(messages_dir, router) -> None:  # noqa: F811
+def test_a_ros2_node_reads_enables_homes_and_servos_the_simulated_arm(messages_dir, router) -> None:
     simulator = SimProcess(["--no-world"], interface="dvrk", router=f"tcp/127.0.0.1:{router}")
     try:
-        info = _lines(_partner(messages_dir, router, "info", "/PSM1/measured_js", "/PSM1/servo_jp"))[-1]
+        info = lines(partner(messages_dir, router, "info", "/PSM1/measured_js", "/PSM1/servo_jp"))[-1]
         assert info["/PSM1/measured_js"]["types"] == [JOINT_STATE]
         assert [p[0] for p in info["/PSM1/measured_js"]["publishers"]] == ["pegbt_sim"]
         assert [s[0] for s in info["/PSM1/servo_jp"]["subscribers"]] == ["pegbt_sim"]
-        listened = _lines(_partner(messages_dir, router, "sub", "/PSM1/measured_js", JOINT_STATE, "5", "20"))
+        listened = lines(partner(messages_dir, router, "sub", "/PSM1/measured_js", JOINT_STATE, "5", "20"))
         assert len(listened[-1]["messages"]) == 5
-        drove = _lines(_partner(messages_dir, router, "drive", "PSM1", "0.05", "40"), timeout=60)[-1]
+        drove = lines(partner(messages_dir, router, "drive", "PSM1", "0.05", "40"), timeout=60)[-1]
     finally:
         simulator.stop()
     states = drove["states"]
@@ -37,7 +37,7 @@ def test_a_ros2_node_reads_enables_homes_and_servos_the_simulated_arm(messages_d
 
 
 @pytest.mark.slow
-def test_a_unilateral_trial_over_rmw_zenoh_places_every_block(pegbt_cli, router, tmp_path: Path) -> None:  # noqa: F811
+def test_a_unilateral_trial_over_rmw_zenoh_places_every_block(pegbt_cli, router, tmp_path: Path) -> None:
     simlog = tmp_path / "sim.jsonl"
     graph = f"tcp/127.0.0.1:{router}"
     simulator = SimProcess(
@@ -92,7 +92,7 @@ def _sim_stderr(connect: str, seconds: float) -> str:
 
 
 @pytest.mark.slow
-def test_a_simulator_whose_router_is_absent_says_so_and_not_when_it_is_there(router) -> None:  # noqa: F811
+def test_a_simulator_whose_router_is_absent_says_so_and_not_when_it_is_there(router) -> None:
     from pegbt.sim.process import free_port
 
     wait = (

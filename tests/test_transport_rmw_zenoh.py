@@ -6,57 +6,21 @@ rmw_zenohd; every session stays on loopback."""
 from __future__ import annotations
 
 import json
-import os
-import subprocess
-import sys
 import time
 from collections.abc import Iterator
-from pathlib import Path
 
 import numpy as np
 import pytest
-import zenoh
+from rmw_zenoh_helpers import await_ready, lines, partner
 from zenoh_ros2_sdk.attachment import Attachment as SdkAttachment
 from zenoh_ros2_sdk.qos import QosHistoryKind, QosProfile
 
-from pegbt.sim.process import free_port
 from pegbt.transport.codec import JOINT_STATE, OPERATING_STATE, decode_joint_state, encode_joint_state
 from pegbt.transport.rmw_zenoh import RmwZenohWire, decode_attachment, encode_attachment, type_hash
 from pegbt.transport.ros2 import Topic
 from pegbt.transport.session import open_session, ros2_graph_settings
 
-PARTNER = Path(__file__).with_name("ros2_partner.py")
-# The ROS 2 definitions the partner computes its own type hashes from (comments do not enter RIHS01).
-MESSAGES = {
-    "builtin_interfaces/msg/Time.msg": "int32 sec\nuint32 nanosec\n",
-    "std_msgs/msg/Header.msg": "builtin_interfaces/Time stamp\nstring frame_id\n",
-    "sensor_msgs/msg/JointState.msg": (
-        "std_msgs/Header header\nstring[] name\nfloat64[] position\nfloat64[] velocity\nfloat64[] effort\n"
-    ),
-    "crtk_msgs/msg/OperatingState.msg": "std_msgs/Header header\nstring state\nbool is_homed\nbool is_busy\n",
-    "crtk_msgs/msg/StringStamped.msg": "std_msgs/Header header\nstring string\n",
-}
 MEASURED = Topic("/PSM1/measured_js", JOINT_STATE)
-
-
-@pytest.fixture
-def messages_dir(tmp_path: Path) -> Path:
-    for name, text in MESSAGES.items():
-        (tmp_path / name).parent.mkdir(parents=True, exist_ok=True)
-        (tmp_path / name).write_text(text)
-    return tmp_path
-
-
-@pytest.fixture
-def router() -> Iterator[int]:
-    """A zenoh router on 127.0.0.1, as rmw_zenohd would run (gossip on, multicast off)."""
-    port = free_port()
-    config = zenoh.Config()
-    config.insert_json5("mode", '"router"')
-    config.insert_json5("listen/endpoints", json.dumps([f"tcp/127.0.0.1:{port}"]))
-    config.insert_json5("scouting/multicast/enabled", "false")
-    with zenoh.open(config):
-        yield port
 
 
 @pytest.fixture
@@ -65,29 +29,6 @@ def pegbt_node(router: int) -> Iterator[RmwZenohWire]:
         wire = RmwZenohWire(session, node_name="pegbt_test")
         yield wire
         wire.close()
-
-
-def _partner(messages_dir: Path, router: int, *args: str) -> subprocess.Popen[str]:
-    env = dict(os.environ, ZENOH_CONFIG_OVERRIDE='listen/endpoints=["tcp/127.0.0.1:0"]', ROS_DOMAIN_ID="0")
-    return subprocess.Popen(
-        [sys.executable, str(PARTNER), str(messages_dir), str(router), *args],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-        env=env,
-    )
-
-
-def _lines(process: subprocess.Popen[str], timeout: float = 30.0) -> list[dict]:
-    out, err = process.communicate(timeout=timeout)
-    assert process.returncode == 0, err
-    return [json.loads(line) for line in out.splitlines() if line.startswith("{")]
-
-
-def _await_ready(process: subprocess.Popen[str]) -> None:
-    assert process.stdout is not None
-    line = process.stdout.readline()
-    assert json.loads(line) == {"ready": True}, process.stderr.read() if process.stderr else line
 
 
 def test_type_hashes_and_attachment_match_rmw_zenoh() -> None:
@@ -107,15 +48,15 @@ def test_type_hashes_and_attachment_match_rmw_zenoh() -> None:
 
 @pytest.mark.slow
 def test_a_ros2_subscriber_receives_what_pegbt_publishes(messages_dir, router, pegbt_node) -> None:
-    listener = _partner(messages_dir, router, "sub", "/PSM1/measured_js", JOINT_STATE, "3", "20")
-    _await_ready(listener)
+    listener = partner(messages_dir, router, "sub", "/PSM1/measured_js", JOINT_STATE, "3", "20")
+    await_ready(listener)
     publisher = pegbt_node.publisher(MEASURED)
     q = np.array([0.1, -0.2, 0.15, 0.3, -0.4, 0.5])
     deadline = time.monotonic() + 20
     while listener.poll() is None and time.monotonic() < deadline:
         publisher.put(encode_joint_state(time.time(), q))
         time.sleep(0.05)
-    messages = _lines(listener)[-1]["messages"]
+    messages = lines(listener)[-1]["messages"]
     assert len(messages) >= 3
     assert np.allclose(messages[0]["position"], q)
 
@@ -126,7 +67,7 @@ def test_pegbt_receives_a_ros2_publisher_and_drops_samples_without_the_attachmen
 ) -> None:
     got: list[bytes] = []
     pegbt_node.subscriber(MEASURED, got.append)
-    talker = _partner(
+    talker = partner(
         messages_dir,
         router,
         "pub",
@@ -136,7 +77,7 @@ def test_pegbt_receives_a_ros2_publisher_and_drops_samples_without_the_attachmen
         "20",
         "3",
     )
-    _lines(talker)
+    lines(talker)
     assert got, "nothing reached pegbt's subscriber"
     assert np.allclose(decode_joint_state(got[-1]).position, [0.5] * 6)
     with open_session(ros2_graph_settings([f"tcp/127.0.0.1:{router}"])) as stranger:
@@ -160,7 +101,7 @@ def test_ros2_discovery_lists_pegbt_publishers_and_subscribers_with_their_types(
     pegbt_node.subscriber(move, lambda payload: None)
     time.sleep(0.3)
     topics = ("/PSM1/measured_js", "/PSM1/operating_state", "/PSM1/servo_jp", "/PSM1/move_jp")
-    info = _lines(_partner(messages_dir, router, "info", *topics))[-1]
+    info = lines(partner(messages_dir, router, "info", *topics))[-1]
     measured, state, servo = info["/PSM1/measured_js"], info["/PSM1/operating_state"], info["/PSM1/servo_jp"]
     commands = info["/PSM1/move_jp"]
     # a command's publisher says the history it acts on (it blocks, as rmw_zenoh does for KEEP_ALL); a
