@@ -11,7 +11,6 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
-from rmw_zenoh_helpers import write_messages, zenoh_router
 
 from pegbt.errors import PegbtError
 from pegbt.physics.recording import dvrk_data_dir
@@ -82,16 +81,3 @@ def _interruptible() -> None:
 def pegbt_cli() -> PegbtCommand:
     """Runs `python -m pegbt` in a child process; see `PegbtCommand`."""
     return PegbtCommand()
-
-
-@pytest.fixture
-def messages_dir(tmp_path: Path) -> Path:
-    """The ROS 2 message definitions the rmw_zenoh partner node reads."""
-    return write_messages(tmp_path)
-
-
-@pytest.fixture
-def router() -> Iterator[int]:
-    """The port of a zenoh router on 127.0.0.1 standing in for rmw_zenohd."""
-    with zenoh_router() as port:
-        yield port
