@@ -1,10 +1,13 @@
-"""A bad world file given to `pegbt sim`, `pegbt eval` or `pegbt run` is one located line and exit 2,
-before any simulator starts."""
+"""World effects on the command line: a bad world file given to `pegbt sim`, `pegbt eval` or `pegbt run` is
+one located line and exit 2, before any simulator starts; `pegbt sim2real outcomes --effects` lists them."""
 
+import json
 import subprocess
 import sys
 
 import pytest
+
+from pegbt.sim.world_effects import WORLD_EFFECT_KINDS
 
 
 @pytest.mark.parametrize(
@@ -42,3 +45,22 @@ def test_world_effects_need_a_world():
         stdin=subprocess.DEVNULL,
     )
     assert done.returncode == 2 and "--world-effects: --world-effects act on the world" in done.stderr
+
+
+def test_the_listing_gives_every_kind_with_its_parameters_units_and_ranges():
+    listed = subprocess.run(
+        [sys.executable, "-m", "pegbt", "sim2real", "outcomes", "--effects", "--json"],
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    kinds = {entry["kind"]: entry["parameters"] for entry in json.loads(listed.stdout)}
+    assert list(kinds) == list(WORLD_EFFECT_KINDS)
+    assert kinds["peg_compliance"]["stiffness"] | {"source": ""} == {
+        "unit": "N/m",
+        "low": 100.0,
+        "high": 100000.0,
+        "default": 2900.0,
+        "source": "",
+    }
+    assert set(kinds["registration_offset"]) == {"x", "y", "z"}

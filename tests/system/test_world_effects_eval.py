@@ -11,6 +11,8 @@ import pytest
 
 from pegbt.sim.world_effects import WORLD_EFFECT_KINDS, WorldEffects, write_world_file
 
+pytestmark = pytest.mark.system
+
 # (condition, seed): (world events, fingerprint of them, transfers placed of 12) on main
 BEFORE = {
     ("uncalibrated", 6): (68, "ffc0c743dcd11469", 1),
