@@ -16,8 +16,9 @@ from playwright.sync_api import Page, sync_playwright
 
 from pegbt.bench.monitor import wide_tree
 from pegbt.cli import main
+from pegbt.monitor.history import History
 from pegbt.monitor.replay import replay_messages
-from pegbt.monitor.server import MonitorServer
+from pegbt.monitor.server import MonitorServer, start_ephemeral
 from pegbt.sim.process import free_port
 
 REPO = Path(__file__).resolve().parents[1]
@@ -67,10 +68,7 @@ def page(browser):
 
 
 def serve_replay(log: Path) -> MonitorServer:
-    server = MonitorServer(free_port()).start()
-    for message in replay_messages(log):
-        server.publish(message)
-    return server
+    return start_ephemeral(replay_messages(log), history=History(window=None, world_window=None))
 
 
 def run_log(tmp_path: Path, tree_text: str | None, name: str, capsys) -> Path:
@@ -123,8 +121,9 @@ def test_live_page_shows_the_tick_count_and_the_running_node_change(tmp_path, pe
     port = free_port()
     process = pegbt_cli.start("run", tree, "--monitor", port, "--log", tmp_path / "waits.jsonl")
     try:
-        assert process.stdout.readline().strip() == f"monitor: http://127.0.0.1:{port}/"
-        page.goto(f"http://127.0.0.1:{port}/")
+        url = re.fullmatch(r"monitor: (\S+)", process.stdout.readline().strip()).group(1)
+        assert re.fullmatch(rf"http://127\.0\.0\.1:{port}/\?token=[\w-]{{43}}", url)
+        page.goto(url)
         ticks, running = set(), set()
         deadline = time.monotonic() + 60
         while time.monotonic() < deadline and page.text_content("#outcome") != "success":
