@@ -7,8 +7,15 @@ import socket
 import time
 
 import pytest
-from monitor_helpers import frame_header, http_status, open_socket, read_frame, read_messages, upgrade_status
 
+from pegbt.bench.monitor_clients import (
+    frame_header,
+    http_status,
+    open_socket,
+    read_frame,
+    read_messages,
+    upgrade_status,
+)
 from pegbt.monitor.server import CLIENT_BUFFER, MAX_MESSAGE, start_ephemeral
 
 HEADER = {"type": "header", "tree": "t.yaml", "nodes": [], "blackboard": {}}

@@ -1,6 +1,7 @@
 """Raw WebSocket clients of the monitor, as a hostile or broken program would be one: upgrade requests with
-any Host, Origin and token, frames of any declared length, readers that never read (`socket` only, so a
-test controls every byte and a client costs the test's process nothing while it waits)."""
+any Host, Origin and token, frames of any declared length, readers that never read. Plain `socket`, so the
+caller (a test, `pegbt bench monitor-limits`, a fuzz campaign) controls every byte, and a client that waits
+costs its process nothing."""
 
 from __future__ import annotations
 
@@ -30,12 +31,22 @@ def upgrade_request(port: int, *, token: str | None, origin: str | None, host: s
 
 
 def open_socket(
-    port: int, *, token: str | None, origin: str | None = None, host: str | None = None
+    port: int,
+    *,
+    token: str | None,
+    origin: str | None = None,
+    host: str | None = None,
+    receive_buffer: int | None = None,
 ) -> tuple[int, socket.socket]:
     """The status of the upgrade and the connected socket (the response's headers read, nothing more).
-    `origin` and `host` default to the page's own; `""` leaves the header out."""
+    `origin` and `host` default to the page's own; `""` leaves the header out. `receive_buffer` shrinks
+    the socket's buffer before it connects (a page that never reads then holds back the server at once)."""
     origin = f"http://127.0.0.1:{port}" if origin is None else origin or None
-    connection = socket.create_connection(("127.0.0.1", port), timeout=HANDSHAKE_TIMEOUT_S)
+    connection = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+    if receive_buffer is not None:
+        connection.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, receive_buffer)
+    connection.settimeout(HANDSHAKE_TIMEOUT_S)
+    connection.connect(("127.0.0.1", port))
     connection.sendall(upgrade_request(port, token=token, origin=origin, host=host))
     head = b""
     while b"\r\n\r\n" not in head:
