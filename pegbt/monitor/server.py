@@ -40,8 +40,8 @@ BUNDLE = WEB_DIR / "dist" / "monitor.js"
 FLUSH_PERIOD = 0.05  # s between two batches sent to the pages
 HOST = "127.0.0.1"
 MAX_MESSAGE = 4096  # bytes of one message from a page (the page sends none)
-CLIENT_BUFFER = 4 * 1024 * 1024  # bytes of frames waiting for one page before it is dropped
-CLIENT_LAG = 10.0  # s the oldest frame for one page may wait before the page is dropped
+CLIENT_BUFFER = 1024 * 1024  # bytes of frames waiting for one page (beyond its first) before it is dropped
+CLIENT_LAG = 5.0  # s the oldest frame for one page may wait before the page is dropped
 MAX_CLIENTS = 32
 
 Handler = Callable[[web.Request], Awaitable[web.StreamResponse]]
@@ -53,7 +53,7 @@ class _Client:
 
     socket: web.WebSocketResponse
     request: web.Request
-    frames: deque[tuple[float, str]] = field(default_factory=deque)
+    frames: deque[tuple[float, bytes]] = field(default_factory=deque)
     queued: int = 0
     ready: asyncio.Event = field(default_factory=asyncio.Event)
 
@@ -195,7 +195,7 @@ class MonitorServer:
                 while client.frames:
                     _, frame = client.frames.popleft()
                     client.queued -= len(frame)
-                    await client.socket.send_str(frame)
+                    await client.socket.send_frame(frame, WSMsgType.TEXT)
         except (ConnectionError, RuntimeError):  # the page went away mid-frame
             self._drop(client)
 
@@ -214,7 +214,7 @@ class MonitorServer:
         for client in list(self._clients.values()):
             self._queue(client, frame)
 
-    def _queue(self, client: _Client, frame: str) -> None:
+    def _queue(self, client: _Client, frame: bytes) -> None:
         """Queue `frame` for one page, or drop the page if what waits for it is too much or too old."""
         now = time.monotonic()
         if client.frames and (client.queued > CLIENT_BUFFER or now - client.frames[0][0] > CLIENT_LAG):
@@ -234,8 +234,9 @@ class MonitorServer:
             client.request.transport.abort()
 
 
-def _frame(texts: Iterable[str]) -> str:
-    return "[" + ",".join(texts) + "]"
+def _frame(texts: Iterable[str]) -> bytes:
+    """One WebSocket text frame's payload: the messages as a JSON list, encoded once for every page."""
+    return ("[" + ",".join(texts) + "]").encode()
 
 
 def _same(given: str, token: str) -> bool:
