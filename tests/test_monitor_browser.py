@@ -259,3 +259,35 @@ def test_jumping_to_a_time_and_playing(tmp_path, page, capsys):
         assert page.text_content("#play") == "▶"  # stopped at the end
     finally:
         server.stop()
+
+
+def test_a_page_that_joins_a_long_run_late_shows_what_log_replay_prints_after_its_last_tick(
+    tmp_path, page, capsys
+):
+    log = run_log(tmp_path, FAILING, "failing", capsys)
+    messages = replay_messages(log)
+    last = max(message["n"] for message in messages if message["type"] in ("tick", "end"))
+    expected = replayed_statuses(log, last, capsys)
+    live = [{**messages[0], "mode": "live"}, *messages[1:]]
+    server = start_ephemeral(live, history=History(window=1, world_window=1))  # all but the end left out
+    try:
+        page.goto(server.url)
+        page.wait_for_function("window.pegbtMonitor.loadedAt !== null")
+        assert page.evaluate("window.pegbtMonitor.state.events.length") == 1
+        shown = rendered_statuses(page)
+        assert [shown[node] for node in range(len(expected))] == expected
+        first_failure = page.evaluate("window.pegbtMonitor.state.firstFailure()")
+        assert first_failure["n"] == 2 and page.text_content("#outcome") == "failure"
+        assert "/failing/pick one way or another/first try" in page.text_content("#cause-banner")
+    finally:
+        server.stop()
+
+
+def test_a_page_opened_without_the_token_gets_no_run(tmp_path, page, capsys):
+    server = serve_replay(run_log(tmp_path, None, "example", capsys))
+    try:
+        page.goto(server.url.split("?")[0])
+        page.wait_for_function("document.getElementById('mode').textContent.includes('disconnected')")
+        assert page.evaluate("window.pegbtMonitor.state.header") is None
+    finally:
+        server.stop()
