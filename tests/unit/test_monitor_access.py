@@ -16,6 +16,7 @@ from pegbt.bench.monitor_clients import (
     read_messages,
     upgrade_status,
 )
+from pegbt.monitor.cli import start_server
 from pegbt.monitor.server import CLIENT_BUFFER, MAX_MESSAGE, start_ephemeral
 
 HEADER = {"type": "header", "tree": "t.yaml", "nodes": [], "blackboard": {}}
@@ -75,9 +76,11 @@ def test_a_request_for_another_host_is_refused(server, host):
     assert http_status(server.port, "/", f"localhost:{server.port}") == 200
 
 
-def test_without_a_token_the_origin_is_still_checked():
-    server = start_ephemeral([HEADER], require_token=False)
+def test_without_a_token_the_origin_is_still_checked(capsys):
+    server = start_server(0, no_token=True)
+    server.publish(HEADER)
     try:
+        assert "any program on this machine that connects to port" in capsys.readouterr().err
         assert server.url == f"http://127.0.0.1:{server.port}/"
         assert upgrade_status(server.port, token=None) == 101
         assert upgrade_status(server.port, token=None, origin="http://evil.example") == 403
