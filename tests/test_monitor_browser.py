@@ -68,7 +68,7 @@ def page(browser):
 
 
 def serve_replay(log: Path) -> MonitorServer:
-    return start_ephemeral(replay_messages(log), history=History(window=None, world_window=None))
+    return start_ephemeral(replay_messages(log), history=History.whole())
 
 
 def run_log(tmp_path: Path, tree_text: str | None, name: str, capsys) -> Path:

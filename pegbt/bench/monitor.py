@@ -65,8 +65,7 @@ def run() -> Figures:
             logs[name] = Path(folder) / f"{name}.jsonl"
             run_tree_file(tree, logs[name], clock="manual")
         servers = {
-            name: start_ephemeral(replay_messages(log), history=History(window=None, world_window=None))
-            for name, log in logs.items()
+            name: start_ephemeral(replay_messages(log), history=History.whole()) for name, log in logs.items()
         }
         loads: dict[str, list[float]] = {name: [] for name in logs}
         with sync_playwright() as playwright:

@@ -65,7 +65,7 @@ def _monitor(args: argparse.Namespace) -> int:
     from pegbt.monitor.replay import replay_messages
 
     messages = replay_messages(read_log(args.log, keep_records=True))
-    server = start_server(int(args.port), args.no_token, History(window=None, world_window=None))
+    server = start_server(int(args.port), args.no_token, History.whole())
     for message in messages:
         server.publish(message)
     try:

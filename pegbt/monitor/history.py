@@ -39,6 +39,11 @@ class History:
         self._base_world: Message | None = None
         self._initial: Message | None = None  # the state before the first record (from the header)
 
+    @classmethod
+    def whole(cls) -> History:
+        """A replay's history: every message, for a page that steps through all of it."""
+        return cls(window=None, world_window=None)
+
     def add(self, message: Message, text: str) -> None:
         kind = message.get("type")
         if kind in KEPT:

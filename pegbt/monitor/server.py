@@ -62,8 +62,8 @@ class MonitorServer:
     """Serves the monitor page on `http://127.0.0.1:PORT/` from a thread of its own until `stop()`.
 
     `port=0` takes a free port (`port` is the one taken once started). `require_token=False` serves the
-    run to any program on this machine that reaches the port (`--no-token`). `history` is `History()` for a live run (bounded) and
-    `History(None, None)` for a replay (every message)."""
+    run to any program on this machine that reaches the port (`--no-token`). `history`: `History()` for
+    a live run (bounded, the default), `History.whole()` for a replay (every message)."""
 
     def __init__(self, port: int, *, require_token: bool = True, history: History | None = None) -> None:
         if not BUNDLE.exists():
