@@ -121,7 +121,7 @@ class MonitorServer:
 
     def _serve(self) -> None:
         asyncio.set_event_loop(self._loop)
-        app = web.Application(middlewares=[self._check_host], client_max_size=MAX_MESSAGE)
+        app = web.Application(middlewares=[self._check_host])
         app.router.add_get("/", self._page)
         app.router.add_get("/ws", self._socket)
         app.router.add_get("/static/monitor.css", self._stylesheet)

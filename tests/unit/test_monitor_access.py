@@ -17,7 +17,7 @@ from pegbt.bench.monitor_clients import (
     upgrade_status,
 )
 from pegbt.monitor.cli import start_server
-from pegbt.monitor.server import CLIENT_BUFFER, MAX_MESSAGE, start_ephemeral
+from pegbt.monitor.server import CLIENT_BUFFER, MAX_CLIENTS, MAX_MESSAGE, start_ephemeral
 
 HEADER = {"type": "header", "tree": "t.yaml", "nodes": [], "blackboard": {}}
 
@@ -123,3 +123,17 @@ def test_a_page_that_never_reads_is_dropped_and_the_others_still_get_every_messa
     assert sent * len(big) < 4 * CLIENT_BUFFER + 64 * 1024 * 1024  # dropped once its buffers were full
     stuck.close()
     reader.close()
+
+
+def test_pages_past_the_limit_are_refused_and_the_others_kept(server):
+    pages = [open_socket(server.port, token=server.token) for _ in range(MAX_CLIENTS)]
+    try:
+        assert {status for status, _ in pages} == {101}
+        assert upgrade_status(server.port, token=server.token) == 503
+        server.publish({"type": "tick", "n": 1, "t": 0.02, "changes": []})
+        for _, connection in pages:
+            read_messages(connection)  # the snapshot
+            assert read_messages(connection)[0]["n"] == 1
+    finally:
+        for _, connection in pages:
+            connection.close()
