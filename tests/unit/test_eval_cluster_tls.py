@@ -60,3 +60,19 @@ def test_a_tls_address_without_certificates_says_which_options_it_needs(tmp_path
     err = capsys.readouterr().err
     assert status == 2 and err.count("\n") == 1
     assert "needs --tls-ca-file, --tls-cert, --tls-key (or Dask's distributed.comm.tls configuration" in err
+
+
+def test_connecting_to_a_plain_tcp_scheduler_off_loopback_prints_the_warning_first(monkeypatch, capsys):
+    import distributed
+
+    from pegbt.errors import PegbtError
+    from pegbt.evaluation.cluster import connect
+
+    def unreachable(address, **options):  # no packet leaves this machine in a test
+        assert options["security"] is None
+        raise OSError("connection refused")
+
+    monkeypatch.setattr(distributed, "Client", unreachable)
+    with pytest.raises(PegbtError, match="cannot reach the Dask scheduler at tcp://10.1.2.3:8786"):
+        connect("tcp://10.1.2.3:8786")
+    assert "anyone who can reach that port can run any code on the workers" in capsys.readouterr().err
