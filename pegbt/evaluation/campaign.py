@@ -32,6 +32,7 @@ class Cell:
     inject_faults: bool = False  # a plan per seed from `pegbt.evaluation.faultgen`
     realtime: bool = False  # simulators in real time, runs on the wall clock (else lockstep)
     interface: str = "pegbt"
+    camera: str = "stream"
 
     @property
     def name(self) -> str:
@@ -40,6 +41,7 @@ class Cell:
             + ("-faults" if self.faults or self.inject_faults else "")
             + ("-realtime" if self.realtime else "")
             + ("" if self.interface == "pegbt" else f"-{self.interface}")
+            + ("" if self.camera == "stream" else f"-{self.camera}")
         )
 
     @property
@@ -65,6 +67,7 @@ def trial_specs(cell: Cell, out: Path, keep_logs: bool = False) -> list[TrialSpe
                 keep_logs,
                 realtime=cell.realtime,
                 interface=cell.interface,
+                camera=cell.camera,
             )
         )
     return specs

@@ -62,6 +62,14 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
         "--interface` and `pegbt run --interface`",
     )
     parser.add_argument(
+        "--camera",
+        choices=("stream", "zivid"),
+        default="stream",
+        help="--interface dvrk: the simulator's depth camera and the run's client of it: stream (a streaming "
+        "camera, the default) or zivid (a Zivid's capture service); passed to `pegbt sim --camera` and "
+        "`pegbt run --camera`",
+    )
+    parser.add_argument(
         "--out",
         type=Path,
         default=Path("runs/eval"),
@@ -113,6 +121,8 @@ def check_arguments(args: argparse.Namespace) -> None:
 
         FaultPlan.load(args.faults)  # unreadable or invalid: its error names the file, line and field
     check_interface(args.interface, args.realtime)
+    if args.camera != "stream" and args.interface == "pegbt":
+        raise PegbtError(f"--camera {args.camera} is a ROS 2 camera's: add --interface dvrk", field="--camera")
 
 
 def check_interface(interface: str, realtime: bool) -> None:
@@ -139,6 +149,7 @@ def _eval(args: argparse.Namespace) -> int:
         args.inject_faults,
         realtime=args.realtime,
         interface=args.interface,
+        camera=args.camera,
     )
     specs = trial_specs(cell, args.out, keep_logs=args.keep_logs)
     done = None if args.quiet else _report_trial

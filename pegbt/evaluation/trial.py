@@ -45,6 +45,7 @@ class TrialSpec:
     tree: Path | None = None  # another tree than the variant's (tests: a short task)
     realtime: bool = False  # the simulator in real time and the run on the wall clock (else lockstep)
     interface: str = "pegbt"  # what the simulator serves and the run speaks (`INTERFACES`)
+    camera: str = "stream"  # the dVRK interface's depth camera: streaming, or a Zivid's capture service
 
 
 @dataclass
@@ -180,6 +181,7 @@ def simulator_args(spec: TrialSpec, truth: Path) -> list[str]:
         *SIMULATOR_ARGS,
         *([] if spec.realtime else ["--lockstep"]),
         *([] if spec.interface == "pegbt" else ["--interface", spec.interface]),
+        *([] if spec.camera == "stream" else ["--camera", spec.camera]),
         "--seed",
         str(spec.seed),
         "--log",
@@ -203,6 +205,7 @@ def run_options(spec: TrialSpec, endpoint: str) -> dict[str, Any]:
         "interface": spec.interface,
         "simlog": str(truth_path(spec.log)),  # the judge: the simulator's log file (no `sim/truth` here)
         "liveness": SIMULATOR_LIVENESS_S,
+        "camera": spec.camera,
     }
 
 
