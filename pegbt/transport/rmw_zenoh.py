@@ -289,10 +289,10 @@ class RmwZenohWire:
             token = self._token(next(self._entity_ids), "SC", as_topic)
             client = _Client(self.session.liveliness().declare_token(token), gid_of(token))
             self._clients[service.name] = client
-        call = ServiceCall(service)
+        call = ServiceCall(service, timeout)
         self.session.get(
             self.key(as_topic),
-            zenoh.handlers.Callback(call.on_reply, call.on_finished(timeout)),
+            zenoh.handlers.Callback(call.on_reply, call.on_finished),
             payload=request,
             attachment=encode_attachment(next(client.sequence), time.time_ns(), client.gid),
             target=zenoh.QueryTarget.ALL_COMPLETE,

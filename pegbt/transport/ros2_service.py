@@ -60,8 +60,8 @@ class ServiceFailed(EndpointSilent):
 class ServiceCall:
     """A call in flight: `done` once the response came or the call ended without one; then `result()`."""
 
-    def __init__(self, service: Service) -> None:
-        self.service = service
+    def __init__(self, service: Service, timeout: float) -> None:
+        self.service, self.timeout = service, timeout
         self.sent_at = time.monotonic()
         self._response: bytes | None = None
         self._error: str | None = None
@@ -90,22 +90,19 @@ class ServiceCall:
         return self._response
 
     def on_reply(self, reply: zenoh.Reply) -> None:
-        """A zenoh reply: the response, or the error a queryable sent."""
+        """A zenoh reply: the response, or an error (zenoh's own when the query timed out)."""
         if reply.ok is not None:
             self.respond(reply.ok.payload.to_bytes())
         elif reply.err is not None:
-            self.fail(f"the server replied with an error: {reply.err.payload.to_bytes().decode(errors='replace')}")
+            text = reply.err.payload.to_bytes().decode(errors="replace")
+            self.fail(f"no response within {self.timeout:g} s" if text == "Timeout" else f"error reply: {text}")
 
-    def on_finished(self, timeout: float) -> Callable[[], None]:
-        """What to call when zenoh ends the query (every replier answered, or `timeout` passed)."""
-
-        def finished() -> None:
-            if time.monotonic() - self.sent_at < timeout / 2:
-                self.fail("no server answered: is the node that serves it running, and its bridge or router reachable?")
-            else:
-                self.fail(f"no response within {timeout:g} s")
-
-        return finished
+    def on_finished(self) -> None:
+        """Zenoh ended the query (every replier answered, or the timeout passed); without a response, why."""
+        if time.monotonic() - self.sent_at < self.timeout / 2:
+            self.fail("no server answered: is the node that serves it running, and its bridge or router reachable?")
+        else:
+            self.fail(f"no response within {self.timeout:g} s")
 
 
 class QueryRequest:
@@ -160,10 +157,10 @@ def call_on_bridge(
     session: zenoh.Session, namespace: str, service: Service, request: bytes, timeout: float
 ) -> ServiceCall:
     """Call `service` through the bridge: one query with the request's CDR, its first reply the response."""
-    call = ServiceCall(service)
+    call = ServiceCall(service, timeout)
     session.get(
         bridge_service_key(namespace, service),
-        zenoh.handlers.Callback(call.on_reply, call.on_finished(timeout)),
+        zenoh.handlers.Callback(call.on_reply, call.on_finished),
         payload=request,
         target=zenoh.QueryTarget.ALL_COMPLETE,
         consolidation=zenoh.ConsolidationMode.NONE,
