@@ -182,7 +182,9 @@ def _capture(port: int, service: str, topic: str, timeout: float) -> None:
         )
 
     called: list[float] = []
-    ROS2Subscriber(topic, "sensor_msgs/msg/PointCloud2", on_cloud, router_port=port, node_name="sdk_camera_user")
+    ROS2Subscriber(
+        topic, "sensor_msgs/msg/PointCloud2", on_cloud, router_port=port, node_name="sdk_camera_user"
+    )
     client = ROS2ServiceClient(
         service,
         "std_srvs/srv/Trigger",
@@ -200,7 +202,10 @@ def _capture(port: int, service: str, topic: str, timeout: float) -> None:
     while not clouds and time.monotonic() < end:
         time.sleep(0.05)
     answer = None if response is None else {"success": bool(response.success), "message": response.message}
-    print(json.dumps({"unasked": unasked, "response": answer, "hash": client.type_hash, "clouds": clouds}), flush=True)
+    print(
+        json.dumps({"unasked": unasked, "response": answer, "hash": client.type_hash, "clouds": clouds}),
+        flush=True,
+    )
     os._exit(0)  # the SDK's shared session keeps threads that would hold the interpreter open
 
 

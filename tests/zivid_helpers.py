@@ -61,7 +61,9 @@ class CountingWire(BridgeWire):
 class ZividSim:
     """A `DvrkEndpoint` with the Zivid camera (`--camera zivid`) on a free loopback port, from its own thread."""
 
-    def __init__(self, log_path: Path, camera: DepthCamera, wire_kind: type[BridgeWire] = CountingWire) -> None:
+    def __init__(
+        self, log_path: Path, camera: DepthCamera, wire_kind: type[BridgeWire] = CountingWire
+    ) -> None:
         self.address = f"tcp/127.0.0.1:{free_port()}"
         self.log_path = log_path
         self.session = open_session(endpoint_settings([self.address]))

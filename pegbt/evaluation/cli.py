@@ -122,7 +122,9 @@ def check_arguments(args: argparse.Namespace) -> None:
         FaultPlan.load(args.faults)  # unreadable or invalid: its error names the file, line and field
     check_interface(args.interface, args.realtime)
     if args.camera != "stream" and args.interface == "pegbt":
-        raise PegbtError(f"--camera {args.camera} is a ROS 2 camera's: add --interface dvrk", field="--camera")
+        raise PegbtError(
+            f"--camera {args.camera} is a ROS 2 camera's: add --interface dvrk", field="--camera"
+        )
 
 
 def check_interface(interface: str, realtime: bool) -> None:

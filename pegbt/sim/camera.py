@@ -82,7 +82,9 @@ class DepthCamera:
         v_range = np.clip([v.min() - ROI_MARGIN_PX, v.max() + ROI_MARGIN_PX], 0, camera.height - 1).astype(
             int
         )
-        return self._directions_of(np.arange(u_range[0], u_range[1] + 1), np.arange(v_range[0], v_range[1] + 1))
+        return self._directions_of(
+            np.arange(u_range[0], u_range[1] + 1), np.arange(v_range[0], v_range[1] + 1)
+        )
 
     def _all_pixel_directions(self) -> tuple[Matrix, tuple[int, int]]:
         """Ray directions (z = 1) of every pixel of the image, row by row; and its rows and columns."""
@@ -112,10 +114,14 @@ class DepthCamera:
 
     def capture(self, world: SimWorld, time: float | None = None) -> np.ndarray:
         """A point cloud (N, 3) float32 in the camera frame (metres) of the world at `time` (default: now)."""
+        points = self.capture_organised(world, time)
+        return points[np.isfinite(points[:, 0])]
+
+    def capture_organised(self, world: SimWorld, time: float | None = None) -> np.ndarray:
+        """Every pixel's point (n, 3) float32, row by row over `image_shape`, NaN where nothing is seen."""
         exposure = self.expose(world, time)
         exposure.cast(self.ray_count)
-        points = exposure.points()
-        return points[np.isfinite(points[:, 0])]
+        return exposure.points()
 
     def expose(self, world: SimWorld, time: float | None = None) -> Exposure:
         """A capture of the world as it is now, stamped `time` (default: the world's); no ray cast yet."""

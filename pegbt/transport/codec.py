@@ -289,9 +289,7 @@ def encode_organised_cloud(
     if rgba is not None:
         packed[..., 3] = np.asarray(rgba, dtype="<u4").view("<f4")
     field_type = _type("sensor_msgs/msg/PointField")
-    fields = [
-        field_type(name=axis, offset=4 * i, datatype=_FLOAT32, count=1) for i, axis in enumerate("xyz")
-    ]
+    fields = [field_type(name=axis, offset=4 * i, datatype=_FLOAT32, count=1) for i, axis in enumerate("xyz")]
     if rgba is not None:
         fields.append(field_type(name="rgba", offset=12, datatype=_UINT32, count=1))
     message = _type(POINT_CLOUD2)(

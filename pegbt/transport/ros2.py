@@ -154,7 +154,8 @@ def matched(publisher: Publisher) -> bool:
     """Whether a subscriber matches `publisher`'s key (a latched publisher's cache serves late joiners, so it
     counts as matched)."""
     if isinstance(publisher, zenoh.Publisher):
-        return publisher.matching_status.matching
+        # the stub says bool; zenoh 1.10 returns a MatchingStatus, whose `matching` is the bool
+        return publisher.matching_status.matching  # type: ignore[attr-defined]
     return True
 
 

@@ -95,12 +95,16 @@ class ServiceCall:
             self.respond(reply.ok.payload.to_bytes())
         elif reply.err is not None:
             text = reply.err.payload.to_bytes().decode(errors="replace")
-            self.fail(f"no response within {self.timeout:g} s" if text == "Timeout" else f"error reply: {text}")
+            self.fail(
+                f"no response within {self.timeout:g} s" if text == "Timeout" else f"error reply: {text}"
+            )
 
     def on_finished(self) -> None:
         """Zenoh ended the query (every replier answered, or the timeout passed); without a response, why."""
         if time.monotonic() - self.sent_at < self.timeout / 2:
-            self.fail("no server answered: is the node that serves it running, and its bridge or router reachable?")
+            self.fail(
+                "no server answered: is the node that serves it running, and its bridge or router reachable?"
+            )
         else:
             self.fail(f"no response within {self.timeout:g} s")
 
@@ -110,7 +114,8 @@ class QueryRequest:
     key, and the query ends with it."""
 
     def __init__(self, query: zenoh.Query, key: str, attachment: bytes | None = None) -> None:
-        self._query, self._key, self._attachment = query, key, attachment
+        self._query: zenoh.Query | None = query
+        self._key, self._attachment = key, attachment
         payload = query.payload
         self.payload = b"" if payload is None else payload.to_bytes()
         self._lock = threading.Lock()

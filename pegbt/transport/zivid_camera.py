@@ -31,7 +31,9 @@ from pegbt.transport.ros2_service import Service, ServiceCall, ServiceFailed
 CAPTURE = Service("/capture", codec.TRIGGER)
 # rmw_qos_profile_default (the driver's `getQoSLatched(false)`): reliable, volatile, keep last 10
 POINTS_XYZRGBA = Topic("/points/xyzrgba", codec.POINT_CLOUD2, depth=10, reliable=True)
-POINTS_XYZ = Topic("/points/xyz", codec.POINT_CLOUD2, depth=10, reliable=True)  # "recommended if you don't need the RGBA values"
+POINTS_XYZ = Topic(
+    "/points/xyz", codec.POINT_CLOUD2, depth=10, reliable=True
+)  # "recommended if you don't need the RGBA values"
 STRIDE = 2  # every 2nd row and column: 0.6 mm between points at the board (see `pegbt bench perception`)
 CLOUD_GRACE_S = 2.0  # after the response, for the cloud published before it to arrive
 
@@ -170,7 +172,9 @@ class ZividCamera:
     def capture_async(self) -> ZividCapture:
         """Call the capture service; poll the handle's `ready` in later ticks."""
         with self._lock:
-            handle = ZividCapture(self, self.wire.call(self.service, codec.encode_trigger_request(), self.timeout))
+            handle = ZividCapture(
+                self, self.wire.call(self.service, codec.encode_trigger_request(), self.timeout)
+            )
             self._pending.append(handle)
         return handle
 

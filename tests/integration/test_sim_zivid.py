@@ -44,10 +44,14 @@ def _organised(message: object) -> np.ndarray:
     """The (height, width, 3) x, y, z of a PointCloud2 with 16-byte points, read by its fields."""
     offsets = {field.name: field.offset for field in message.fields}  # type: ignore[attr-defined]
     raw = np.asarray(message.data, dtype=np.uint8).reshape(message.height, message.width, message.point_step)  # type: ignore[attr-defined]
-    return np.stack([raw[..., offsets[a] : offsets[a] + 4].copy().view("<f4")[..., 0] for a in "xyz"], axis=-1)
+    return np.stack(
+        [raw[..., offsets[a] : offsets[a] + 4].copy().view("<f4")[..., 0] for a in "xyz"], axis=-1
+    )
 
 
-def test_a_call_publishes_one_organised_full_resolution_cloud_with_nans(sim: ZividSim, peer: zenoh.Session) -> None:
+def test_a_call_publishes_one_organised_full_resolution_cloud_with_nans(
+    sim: ZividSim, peer: zenoh.Session
+) -> None:
     clouds = Received()
     subscriber = peer.declare_subscriber("points/xyzrgba", clouds)
     time.sleep(0.5)  # the subscriber is matched before the call

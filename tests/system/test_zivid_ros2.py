@@ -65,9 +65,20 @@ def test_a_ros2_node_calls_capture_and_gets_one_organised_cloud(
 ) -> None:
     graph = f"tcp/127.0.0.1:{router}"
     with SimProcess(["--camera", "zivid", "--seed", "0"], interface="dvrk", router=graph):
-        env = dict(os.environ, ZENOH_CONFIG_OVERRIDE='listen/endpoints=["tcp/127.0.0.1:0"]', ROS_DOMAIN_ID="0")
+        env = dict(
+            os.environ, ZENOH_CONFIG_OVERRIDE='listen/endpoints=["tcp/127.0.0.1:0"]', ROS_DOMAIN_ID="0"
+        )
         partner = subprocess.run(
-            [sys.executable, str(PARTNER), str(messages_dir), str(router), "capture", "/capture", "/points/xyz", "20"],
+            [
+                sys.executable,
+                str(PARTNER),
+                str(messages_dir),
+                str(router),
+                "capture",
+                "/capture",
+                "/points/xyz",
+                "20",
+            ],
             capture_output=True,
             text=True,
             env=env,
