@@ -66,7 +66,6 @@ class ZividDriver:
         self._exposure: CameraExposure | None = None
         self._packing: threading.Thread | None = None
         self._finished = threading.Event()
-        self.captures = 0  # answered requests, for the log
         self._xyzrgba = wire.publisher(POINTS_XYZRGBA)
         self._xyz = wire.publisher(POINTS_XYZ)
         self._server = wire.serve(CAPTURE, self._requests.append)
@@ -112,7 +111,6 @@ class ZividDriver:
                 if self._xyz in targets:
                     self._xyz.put(codec.encode_organised_cloud(stamp, points, ZIVID_FRAME))
             request.reply(codec.encode_trigger_response(True))
-            self.captures += 1
         finally:
             self._finished.set()
 
