@@ -16,19 +16,19 @@ STORE = get_typestore(Stores.ROS2_HUMBLE)
 STORE.register(get_types_from_msg("bool success\nstring message\n", "std_srvs/srv/Trigger_Response"))
 
 
-def _pcl_cloud(points: np.ndarray) -> bytes:
-    """An organised cloud as PCL's PointXYZ pads it (32 bytes a point, x, y, z first, rows padded by 8 bytes),
-    serialised by rosbags: another producer's layout than the Zivid's."""
+def _pcl_cloud(points: np.ndarray, axes: str = "xyz") -> bytes:
+    """An organised cloud as PCL's PointXYZ pads it (32 bytes a point, rows padded by 8 bytes), its first three
+    words the axes in the order `axes`, serialised by rosbags: another producer's layout than the Zivid's."""
     height, width = points.shape[:2]
     raw = np.zeros((height, width * 8 + 2), dtype="<f4")
-    raw[:, : width * 8].reshape(height, width, 8)[..., :3] = points
+    raw[:, : width * 8].reshape(height, width, 8)[..., :3] = points[..., ["xyz".index(a) for a in axes]]
     field = STORE.types["sensor_msgs/msg/PointField"]
     time = STORE.types["builtin_interfaces/msg/Time"](sec=12, nanosec=500_000_000)
     message = STORE.types["sensor_msgs/msg/PointCloud2"](
         header=STORE.types["std_msgs/msg/Header"](stamp=time, frame_id="camera"),
         height=height,
         width=width,
-        fields=[field(name=a, offset=4 * i, datatype=7, count=1) for i, a in enumerate("xyz")],
+        fields=[field(name=a, offset=4 * i, datatype=7, count=1) for i, a in enumerate(axes)],
         is_bigendian=False,
         point_step=32,
         row_step=raw.shape[1] * 4,
@@ -59,6 +59,8 @@ def test_another_producers_organised_cloud_is_thinned_on_its_grid() -> None:
     stamp, grid = codec.decode_organised_cloud(_pcl_cloud(points), stride=2)
     assert stamp == 12.5
     np.testing.assert_array_equal(grid, points[::2, ::2])
+    _, reordered = codec.decode_organised_cloud(_pcl_cloud(points, axes="zxy"), stride=2)
+    np.testing.assert_array_equal(reordered, points[::2, ::2])
     _, thinned = organised_points(_pcl_cloud(points), stride=3)
     np.testing.assert_array_equal(thinned, points[::3, ::3].reshape(-1, 3)[1:])  # the NaN pixel dropped
 
@@ -74,4 +76,6 @@ def test_the_trigger_messages_and_the_services_keys() -> None:
     )
     assert type_hash(codec.TRIGGER) == sdk
     assert dds_type_name(codec.TRIGGER) == "std_srvs::srv::dds_::Trigger_"
-    assert bridge_service_key("lab", CAPTURE) == "lab/capture" and bridge_service_key("", CAPTURE) == "capture"
+    assert (
+        bridge_service_key("lab", CAPTURE) == "lab/capture" and bridge_service_key("", CAPTURE) == "capture"
+    )
