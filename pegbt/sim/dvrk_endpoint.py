@@ -10,9 +10,10 @@ interface's arms (`Scene`).
 One thread owns the simulation. Zenoh callbacks only put what arrives in an inbox; the loop applies each
 command as it comes (what the arm says about it goes out at once), and every control period advances the
 arms, moves the world, publishes the joint and Cartesian states (every `state_period`), the operating
-state when it changed, and a point cloud every `camera_period` (a Zivid: once per capture request). A control period that starts a period or
-more late is an overrun, written to the simulator's log with how late it was; so is every safety event
-of the arms (a clip, a dropped command, a tracking-error fault). The log (`--log`) stays the judge.
+state when it changed, and a point cloud every `camera_period` (a Zivid: once per capture request). A
+control period that starts a period or more late is an overrun, written to the simulator's log with how
+late it was; so is every safety event of the arms (a clip, a dropped command, a tracking-error fault). The
+log (`--log`) stays the judge.
 """
 
 from __future__ import annotations

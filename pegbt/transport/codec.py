@@ -2,8 +2,8 @@
 
 Standard types come from the typestore's ROS 2 Humble set; `crtk_msgs` types and the service
 `std_srvs/srv/Trigger` (with the event type ROS 2 Iron and later describe every service by, so that its
-RIHS01 hash is the one rmw_zenoh keys by) are registered from their definitions' text. Each function turns one message into plain Python/numpy values or back; nothing here
-knows the wire format itself.
+RIHS01 hash is the one rmw_zenoh keys by) are registered from their definitions' text. Each function
+turns one message into plain Python/numpy values or back; nothing here knows the wire format itself.
 """
 
 from __future__ import annotations

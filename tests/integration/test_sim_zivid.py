@@ -43,7 +43,8 @@ def peer(sim: ZividSim) -> Iterator[zenoh.Session]:
 def _organised(message: object) -> np.ndarray:
     """The (height, width, 3) x, y, z of a PointCloud2 with 16-byte points, read by its fields."""
     offsets = {field.name: field.offset for field in message.fields}  # type: ignore[attr-defined]
-    raw = np.asarray(message.data, dtype=np.uint8).reshape(message.height, message.width, message.point_step)  # type: ignore[attr-defined]
+    shape = (message.height, message.width, message.point_step)  # type: ignore[attr-defined]
+    raw = np.asarray(message.data, dtype=np.uint8).reshape(shape)  # type: ignore[attr-defined]
     return np.stack(
         [raw[..., offsets[a] : offsets[a] + 4].copy().view("<f4")[..., 0] for a in "xyz"], axis=-1
     )

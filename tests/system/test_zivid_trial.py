@@ -49,7 +49,9 @@ def test_a_unilateral_trial_with_a_zivid_places_all_twelve(pegbt_cli, tmp_path: 
     assert not [entry for entry in entries if entry["kind"] == "safety"]
     assert not [entry for entry in entries if entry["kind"] == "arm_state" and entry["state"] == "FAULT"]
     ticks = [json.loads(line) for line in (tmp_path / "run.jsonl").read_text().splitlines()]
-    clouds = [r["bb"]["/cloud"]["shape"] for r in ticks if r.get("type") == "tick" and "/cloud" in r.get("bb", {})]
+    clouds = [
+        r["bb"]["/cloud"]["shape"] for r in ticks if r.get("type") == "tick" and "/cloud" in r.get("bb", {})
+    ]
     assert clouds, "every capture went through the Zivid's service"
     # a quarter of a full frame's ≈127 k valid points: every 2nd row and column, NaN dropped
     assert all(25_000 < rows < 45_000 and columns == 3 for rows, columns in clouds)
