@@ -7,12 +7,9 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-import pytest
 
 from pegbt.sim.process import SimProcess
 from pegbt.workcell import UNILATERAL_ORDER
-
-pytestmark = pytest.mark.system
 
 
 def test_a_unilateral_trial_with_a_zivid_places_all_twelve(pegbt_cli, tmp_path: Path) -> None:
