@@ -7,6 +7,7 @@ environment, so each role gets a process of its own.
     python ros2_partner.py MESSAGES_DIR ROUTER_PORT info TOPIC...
     python ros2_partner.py MESSAGES_DIR ROUTER_PORT drive ARM DELTA TIMEOUT
     python ros2_partner.py MESSAGES_DIR ROUTER_PORT capture SERVICE CLOUD_TOPIC TIMEOUT
+    python ros2_partner.py MESSAGES_DIR ROUTER_PORT serve SERVICE MESSAGE SECONDS
 
 Every result is one JSON line on standard output.
 """
@@ -21,7 +22,14 @@ import time
 from typing import Any
 
 import numpy as np
-from zenoh_ros2_sdk import ROS2Publisher, ROS2ServiceClient, ROS2Subscriber, get_message_class, get_registry
+from zenoh_ros2_sdk import (
+    ROS2Publisher,
+    ROS2ServiceClient,
+    ROS2ServiceServer,
+    ROS2Subscriber,
+    get_message_class,
+    get_registry,
+)
 from zenoh_ros2_sdk.discovery import get_topic_info
 
 
@@ -209,6 +217,30 @@ def _capture(port: int, service: str, topic: str, timeout: float) -> None:
     os._exit(0)  # the SDK's shared session keeps threads that would hold the interpreter open
 
 
+def _serve(port: int, service: str, message: str, seconds: float) -> None:
+    """Serve a Trigger service that answers `success` false with `message` (a camera that cannot capture),
+    for `seconds`; report how many requests came."""
+    served: list[int] = []
+
+    def answer(request: Any) -> Any:
+        served.append(1)
+        return server.response_msg_class(success=False, message=message)
+
+    server = ROS2ServiceServer(
+        service,
+        "std_srvs/srv/Trigger",
+        answer,
+        request_definition="uint8 structure_needs_at_least_one_member",
+        response_definition="bool success\nstring message",
+        router_port=port,
+        node_name="sdk_camera",
+    )
+    print(json.dumps({"ready": True}), flush=True)
+    time.sleep(seconds)
+    print(json.dumps({"served": len(served)}), flush=True)
+    os._exit(0)
+
+
 def main(argv: list[str]) -> None:
     messages_dir, port, role, *rest = argv
     get_registry(messages_dir)
@@ -220,6 +252,8 @@ def main(argv: list[str]) -> None:
         _drive(int(port), rest[0], float(rest[1]), float(rest[2]))
     elif role == "capture":
         _capture(int(port), rest[0], rest[1], float(rest[2]))
+    elif role == "serve":
+        _serve(int(port), rest[0], rest[1], float(rest[2]))
     else:
         _info(int(port), rest)
 

@@ -10,11 +10,13 @@ import time
 from pathlib import Path
 
 import numpy as np
-from rmw_zenoh_helpers import lines, partner
+import pytest
+from rmw_zenoh_helpers import await_ready, lines, partner
 
 from pegbt.sim.process import SimProcess
 from pegbt.transport.rmw_zenoh import type_hash
 from pegbt.transport.session import open_session, ros2_graph_settings
+from pegbt.transport.ros2_service import ServiceFailed
 from pegbt.transport.wires import make_wire
 from pegbt.transport.zivid_camera import ZividCamera
 
@@ -40,3 +42,21 @@ def test_a_ros2_node_calls_capture_and_gets_one_organised_cloud(router: int, mes
     assert cloud["frame_id"] == "zivid_optical_frame"
     assert 50_000 < cloud["valid"] < 1200 * 1944 / 2
     assert np.isfinite(points).all() and 0.2 < len(points) / cloud["valid"] < 0.3
+
+
+def test_pegbts_client_calls_a_ros2_nodes_trigger_service(router: int, messages_dir: Path) -> None:
+    """zenoh-ros2-sdk's service server (it drops a request without rmw_zenoh's attachment) refuses the
+    capture; pegbt's client says what it said, naming the service."""
+    server = partner(messages_dir, router, "serve", "/capture", "camera not connected", "15")
+    await_ready(server)
+    session = open_session(ros2_graph_settings([f"tcp/127.0.0.1:{router}"]))
+    try:
+        camera = ZividCamera(make_wire("rmw_zenoh", session, "", "pegbt"), timeout=10.0)
+        time.sleep(1.0)
+        with pytest.raises(ServiceFailed) as raised:
+            camera.capture()
+    finally:
+        session.close()
+    assert raised.value.field == "/capture"
+    assert "service /capture said: camera not connected" in raised.value.message
+    assert lines(server, timeout=30)[-1] == {"served": 1}
