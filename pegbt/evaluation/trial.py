@@ -46,6 +46,7 @@ class TrialSpec:
     realtime: bool = False  # the simulator in real time and the run on the wall clock (else lockstep)
     interface: str = "pegbt"  # what the simulator serves and the run speaks (`INTERFACES`)
     world_effects: Path | None = None  # world file for the simulator (`pegbt sim --world-effects`)
+    camera: str = "stream"  # the dVRK interface's depth camera: streaming, or a Zivid's capture service
 
 
 @dataclass
@@ -182,6 +183,7 @@ def simulator_args(spec: TrialSpec, truth: Path) -> list[str]:
         *SIMULATOR_ARGS,
         *([] if spec.realtime else ["--lockstep"]),
         *([] if spec.interface == "pegbt" else ["--interface", spec.interface]),
+        *([] if spec.camera == "stream" else ["--camera", spec.camera]),
         "--seed",
         str(spec.seed),
         "--log",
@@ -206,6 +208,7 @@ def run_options(spec: TrialSpec, endpoint: str) -> dict[str, Any]:
         "interface": spec.interface,
         "simlog": str(truth_path(spec.log)),  # the judge: the simulator's log file (no `sim/truth` here)
         "liveness": SIMULATOR_LIVENESS_S,
+        "camera": spec.camera,
     }
 
 

@@ -40,6 +40,8 @@ from pegbt.transport.session import Session, open_session, reaches_anyone
 from pegbt.transport.streaming import Streamer
 from pegbt.transport.ros2 import Ros2Wire, Topic
 from pegbt.transport.wires import make_wire, wire_session_settings
+from pegbt.transport.zivid_camera import POINTS_XYZ as ZIVID_POINTS
+from pegbt.transport.zivid_camera import ZividCamera
 
 SIMULATOR_ARGS = ("--physics", "dvrk-real")
 PROBE_TIMEOUT = 2.0  # s to wait for a simulator to answer `sim/clock` at an address (no answer: a robot)
@@ -260,9 +262,11 @@ def connect_crtk_robot(
     liveness: float = LIVENESS_S,
     ros2: str = "bridge",
     simlog: str | None = None,
+    camera_kind: str = "stream",
 ) -> Robot:
     """A `Robot` of CRTK arms at `endpoint` (a zenoh-bridge-ros2dds, a `pegbt sim --interface dvrk`), its
-    arms enabled and homed, limits narrowed by the dVRK's `robot_config` folder when given."""
+    arms enabled and homed, limits narrowed by the dVRK's `robot_config` folder when given; its camera
+    streams on the topic `camera`, or for `camera_kind` zivid is a Zivid driver's capture service."""
     if endpoint == "auto":
         raise PegbtError(
             "--interface dvrk talks to a robot: give its bridge's address (--endpoint tcp/HOST:PORT)",
@@ -286,9 +290,14 @@ def connect_crtk_robot(
             )
             for arm in ARMS
         }
+        depth_camera: StreamingCamera | ZividCamera = (
+            ZividCamera(wire, clock=clock)
+            if camera_kind == "zivid"
+            else StreamingCamera(wire, point_cloud_topic(camera), clock=clock)
+        )
         robot = Robot(
             arms,
-            StreamingCamera(wire, point_cloud_topic(camera), clock=clock),
+            depth_camera,
             clock,
             endpoint=endpoint,
             truth=SimulatorLogTruth(simlog) if simlog else None,
@@ -298,7 +307,7 @@ def connect_crtk_robot(
         robot.wire = wire  # what a recording listens to (`pegbt run --record`)
         robot.ros2_topics = (
             *(topic for arm in ARMS for topic in (*PsmTopics(arm).published(), *PsmTopics(arm).subscribed())),
-            point_cloud_topic(camera),
+            *((ZIVID_POINTS,) if camera_kind == "zivid" else (point_cloud_topic(camera),)),
         )
         try:
             robot.wait_until_ready()
@@ -339,8 +348,8 @@ def _robot_silent(
 
 def provide_robot(setup: ProviderSetup) -> Robot:
     """The `robot` resource for `pegbt run` (options `interface`, `endpoint`, `seed`, `faults`,
-    `world-effects`, `simlog`;
-    for `dvrk` also `namespace`, `ros2`, `robot-config`, `robot-tool`, `camera-topic`). `--clock` may only
+    `world-effects`, `simlog`; for `dvrk` also `namespace`, `ros2`, `robot-config`, `robot-tool`, `camera`,
+    `camera-topic`). `--clock` may only
     ask for a clock in real time (the robot's time passes on its own): `--clock wall` runs the embedded
     simulator in real time."""
     options = setup.options
@@ -367,6 +376,7 @@ def provide_robot(setup: ProviderSetup) -> Robot:
             checked_number(float(options.get("liveness") or LIVENESS_S), "--liveness", above=0.0),
             ros2=str(options.get("ros2") or "bridge"),
             simlog=options.get("simlog"),
+            camera_kind=str(options.get("camera") or "stream"),
         )
     return connect_robot(
         str(options.get("endpoint") or "auto"),
