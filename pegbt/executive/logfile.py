@@ -34,6 +34,15 @@ _OTHER_FORMATS = {
     b"BTCPP4-FileLogger2": "a BT.CPP FileLogger2 .btlog (`pegbt log export`): open it in Groot2",
 }
 _NODE_KEYS = ("reads", "writes")
+# header fields that may be missing (older logs, logs not written by `run_tree_file`), and their types if present
+_HEADER_FIELDS: dict[str, tuple[type, ...]] = {
+    "blackboard": (dict,),
+    "tree": (str, type(None)),
+    "variant": (str,),
+    "condition": (str, type(None)),
+    "run": (dict,),
+}
+_TYPE_NAMES: dict[type, str] = {dict: "a mapping", str: "a string"}
 
 
 class TickLogError(PegbtError):
@@ -72,6 +81,21 @@ class TickLog:
     last_t: float = 0.0
     warnings: list[str] = field(default_factory=list)  # what was skipped or cut while reading
     records: list[dict[str, Any]] | None = None  # every record read, header first (`keep_records`)
+
+    @property
+    def variant(self) -> str:
+        """The task variant the header names; for a log written before headers named it, the tree file's name."""
+        return self.header.get("variant") or Path(str(self.header.get("tree", ""))).stem
+
+    @property
+    def condition(self) -> str | None:
+        """The skills' condition the run had (None: not recorded, a log from before headers named it)."""
+        return self.header.get("condition")
+
+    @property
+    def run(self) -> dict[str, Any]:
+        """The run's options as the header records them (`RunOptions.record_fields`); empty if it has none."""
+        return self.header.get("run") or {}
 
     @property
     def outcome(self) -> str:
@@ -232,8 +256,15 @@ def _header(record: dict[str, Any], path: Path) -> TickLog:
             line=1,
             field="nodes",
         )
-    if not isinstance(record.get("blackboard", {}), dict):
-        raise TickLogError("corrupt record: expected a mapping", file=path, line=1, field="blackboard")
+    for key, kinds in _HEADER_FIELDS.items():
+        if key in record and not isinstance(record[key], kinds):
+            names = " or ".join("null" if kind is type(None) else _TYPE_NAMES[kind] for kind in kinds)
+            raise TickLogError(
+                f"corrupt record: expected {names}, found {brief(record.get(key))}",
+                file=path,
+                line=1,
+                field=key,
+            )
     start = record.get("start_time", "1970-01-01T00:00:00+00:00")
     try:
         datetime.datetime.fromisoformat(start).timestamp()

@@ -4,7 +4,8 @@ Records (one JSON object per line, flushed as written so that a crash loses noth
 
 - `header`: format version, pegbt version, tree file, start time (wall clock, ISO 8601), the clock's
   kind, initial blackboard, and `nodes`: id, parent, path, name, type, py_trees class, source
-  `file:line:column`, parameters, blackboard keys read and written, subtree instance.
+  `file:line:column`, parameters, blackboard keys read and written, subtree instance. A run of
+  `run_tree_file` adds `variant`, `condition` and `run`, its options (`RunOptions.record_fields`).
 - `tick`: `n` (tick number from 1), `t` (executive-clock seconds since the start), `dt_us` (wall
   cost of the tick, for profiling), `changes` as `[id, from, to, feedback]` and `bb` as
   `{key: compact value}` (`bb_unset` lists deleted keys); `late_s` when the tick overran its period
@@ -33,7 +34,7 @@ from __future__ import annotations
 import datetime
 import json
 import operator
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import IO, Any
 
@@ -91,10 +92,12 @@ class TickLogWriter:
         built: BuiltTree,
         *,
         clock_kind: str,
+        run: Mapping[str, Any] | None = None,
         listeners: Sequence[Callable[[Record], None]] = (),
         messages: Sequence[Callable[[], list[Record]]] = (),
     ) -> None:
-        """`messages`: sources of `message` records (each returns what arrived since it was last asked),
+        """`run`: the run's options, as `RunOptions.record_fields` gives them, added to the header;
+        `messages`: sources of `message` records (each returns what arrived since it was last asked),
         drained before every tick, halt and end record."""
         self.path = Path(path)
         self.path.parent.mkdir(parents=True, exist_ok=True)
@@ -119,6 +122,7 @@ class TickLogWriter:
                 "start_time": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="milliseconds"),
                 "clock": clock_kind,
                 "blackboard": {key: compact(value) for key, value in built.initial_blackboard.items()},
+                **(run or {}),
                 "nodes": node_table(built),
             }
         )
