@@ -12,7 +12,7 @@ from __future__ import annotations
 import datetime
 import json
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import cached_property
 from pathlib import Path
 from typing import Any
@@ -23,6 +23,7 @@ from pegbt.executive.spec import MAX_TREE_DEPTH
 from pegbt.executive.ticklog import FORMAT, FORMAT_VERSION
 
 STATUSES = ("INVALID", "RUNNING", "SUCCESS", "FAILURE")
+_DONE = ("SUCCESS", "FAILURE")
 _EVENT_TYPES = ("tick", "halt", "crash", "end", "message")
 MAX_LOG_BYTES = 512 * 2**20
 MAX_TICK = 2**53  # ticks are counted exactly in a float too
@@ -61,6 +62,9 @@ class Transition:
     after: str
     feedback: str
     halted: str | None = None  # the halt reason when a halt caused it
+    detail: dict[str, Any] | None = (
+        None  # what the leaf said beside its feedback as it finished (`log_detail`)
+    )
 
 
 @dataclass
@@ -347,8 +351,15 @@ def _event(log: TickLog, record: dict[str, Any], line: int, path: Path) -> None:
         log.messages.append(record)
         return
     halted = record.get("reason") if kind == "halt" else None
+    details = _details(log, record, path, line)
+    first = len(log.transitions)
     for change in _require(record, "changes", list, path, line):
         log.transitions.append(_transition(log, change, n, t, halted, path, line))
+    for node, detail in details.items():  # on the node's last finish in this record
+        mine = (c for c in reversed(log.transitions[first:]) if c.node == node and c.after in _DONE)
+        change = next(mine, None)
+        if change is not None:
+            log.transitions[change.seq] = replace(change, detail=detail)
     written = record.get("bb") or {}
     if not isinstance(written, dict):
         raise TickLogError(
@@ -364,6 +375,23 @@ def _event(log: TickLog, record: dict[str, Any], line: int, path: Path) -> None:
         log.writes.append((n, t, key, value))
     for key in unset:
         log.writes.append((n, t, key, _UNSET))
+
+
+def _details(log: TickLog, record: dict[str, Any], path: Path, line: int) -> dict[int, dict[str, Any]]:
+    """A tick's `detail` record: {node id: mapping}, checked."""
+    details = record.get("detail") or {}
+    valid = isinstance(details, dict) and all(
+        key.isdigit() and int(key) < len(log.nodes) and isinstance(value, dict)
+        for key, value in details.items()
+    )
+    if not valid:
+        raise TickLogError(
+            f"corrupt record: expected a mapping of node ids to mappings, found {brief(details)}",
+            file=path,
+            line=line,
+            field="detail",
+        )
+    return {int(key): value for key, value in details.items()}
 
 
 def _transition(

@@ -9,7 +9,9 @@ Records (one JSON object per line, flushed as written so that a crash loses noth
 - `tick`: `n` (tick number from 1), `t` (executive-clock seconds since the start), `dt_us` (wall
   cost of the tick, for profiling), `changes` as `[id, from, to, feedback]` and `bb` as
   `{key: compact value}` (`bb_unset` lists deleted keys); `late_s` when the tick overran its period
-  on the run's clock (such a tick is always written).
+  on the run's clock (such a tick is always written); `detail` as `{id: {...}}`: what a leaf that
+  finished in the tick says beside its feedback (its `log_detail`: a carry, which segment of its motion
+  was playing and whether the jaw held the block).
 - `halt`: the tree was halted (`reason`: `interrupt`, `timeout`, `crash`), with the status changes the
   halt caused (running nodes going to INVALID had `terminate` called).
 - `crash`: an exception escaped a tick (`error`, `traceback`).
@@ -53,6 +55,7 @@ _same = comparison("==")
 _ENCODER = json.JSONEncoder(separators=(",", ":"))
 _status_of = operator.attrgetter("status")
 _NAME = {status: status.value for status in py_trees.common.Status}  # Enum.value is a slow descriptor
+_FINISHED = (py_trees.common.Status.SUCCESS, py_trees.common.Status.FAILURE)
 
 Record = dict[str, Any]
 
@@ -109,6 +112,7 @@ class TickLogWriter:
         self._index = {behaviour: index for index, behaviour in enumerate(self._behaviours)}
         self._status = [behaviour.status for behaviour in self._behaviours]
         self._changes: list[list[Any]] = []
+        self._details: dict[str, Any] = {}
         self._blackboard: dict[str, Any] = {}
         self._listeners = list(listeners)
         self._messages = list(messages)
@@ -146,6 +150,8 @@ class TickLogWriter:
             if status is not previous[i]:
                 changes.append([i, name[previous[i]], name[status], node.feedback_message])
                 previous[i] = status
+                if status in _FINISHED and (detail := getattr(node, "log_detail", None)) is not None:
+                    self._details[str(i)] = compact(detail)
 
     def _status_changes(self) -> list[list[Any]]:
         """Changes noted during the tick, then those of nodes that changed without being ticked (halted)."""
@@ -197,6 +203,8 @@ class TickLogWriter:
             }
             if late > 0:
                 record["late_s"] = round(late, 6)
+            if self._details:
+                record["detail"], self._details = self._details, {}
             if written:
                 record["bb"] = written
             if unset:
