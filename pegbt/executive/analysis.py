@@ -67,8 +67,12 @@ def summary(log: TickLog, slowest: int = 5) -> str:
     """Outcome, duration, ticks, per-node counts and the slowest leaves, as text."""
     stats = node_stats(log)
     leaves = [node["id"] for node in log.nodes if not log.children(node["id"])]
+    world = log.run.get("world")
+    world = world if isinstance(world, dict) else {}
     lines = [
         f"tree:     {log.header.get('tree')}",
+        f"run:      variant {log.variant}, condition {log.condition or 'not recorded'}"
+        + (f", {world.get('physics')} physics ({world.get('speed')})" if world.get("physics") else ""),
         f"started:  {log.header.get('start_time')} ({log.header.get('clock')} clock)",
         f"outcome:  {log.outcome}",
         f"duration: {log.last_t:.3f} s over {log.last_n} ticks",

@@ -30,6 +30,9 @@ def test_pegbt_run_records_its_options_in_the_header(tmp_path, capsys):
     assert (run["clock"], run["period"], run["timeout"]) == ("manual", 0.05, 30.0)
     assert run["world"] == {}  # the example tree meets no robot and no simulator
     assert parsed.header["tree"] == str(EXAMPLE) and parsed.header["pegbt"]
+    capsys.readouterr()
+    assert main(["log", "summary", str(log)]) == 0
+    assert "run:      variant example, condition uncalibrated\n" in capsys.readouterr().out
 
 
 def test_a_run_from_code_names_its_variant_and_world(tmp_path):
