@@ -1,4 +1,4 @@
-"""`pegbt sim2real diagnose`, `pegbt sim2real synth` and `pegbt sim2real preset`."""
+"""`pegbt sim2real diagnose`, `pegbt sim2real synth`, `pegbt sim2real preset` and `pegbt sim2real outcomes`."""
 
 from __future__ import annotations
 
@@ -6,6 +6,7 @@ import argparse
 import json
 import sys
 
+from pegbt.errors import PegbtError
 from pegbt.numbers import NumberOption
 from pegbt.bagoptions import add_bag_arguments, bag_options
 from pegbt.psm import ARMS
@@ -118,6 +119,18 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
     )
     preset.set_defaults(handler=_preset)
 
+    outcomes = commands.add_parser(
+        "outcomes",
+        help="task-level sim to real: the world effects the simulator can add",
+        description="--effects lists the registered world effects (pegbt sim --world-effects) with their "
+        "parameters, units, ranges and inert defaults.",
+    )
+    outcomes.add_argument(
+        "--effects", action="store_true", help="list the registered world effects and their parameters"
+    )
+    outcomes.add_argument("--json", action="store_true", help="print the listing as JSON")
+    outcomes.set_defaults(handler=_outcomes)
+
 
 def _diagnose(args: argparse.Namespace) -> int:
     from pegbt.physics.recording import load_recording, parse_resolution
@@ -171,6 +184,15 @@ def _diagnose(args: argparse.Namespace) -> int:
         )
     if args.out:
         print(f"report: {args.out}/report.md")
+    return 0
+
+
+def _outcomes(args: argparse.Namespace) -> int:
+    from pegbt.sim2real.world_listing import listing_json, listing_text
+
+    if not args.effects:
+        raise PegbtError("say what to do: --effects lists the world effects", field="outcomes")
+    print(listing_json() if args.json else listing_text())
     return 0
 
 

@@ -61,11 +61,16 @@ def test_a_trial_records_its_cell_and_the_simulator_it_ran_on(tmp_path):
         "speed": "real time",
         "seed": 7,
         "faults": None,
+        "world_effects": None,
     }
+    world_file = str(tmp_path / "soft.yaml")
     lockstep = trial_run_options(
-        TrialSpec("unilateral", "optimized", 3, tmp_path / "u.jsonl"), {"endpoint": "auto", "seed": 3}
+        TrialSpec("unilateral", "optimized", 3, tmp_path / "u.jsonl", world_effects=Path(world_file)),
+        {"endpoint": "auto", "seed": 3, "world-effects": world_file},
     )
-    assert lockstep.record_fields()["run"]["world"]["speed"] == "lockstep"
+    run = lockstep.record_fields()["run"]
+    assert (run["world"]["speed"], run["world"]["world_effects"]) == ("lockstep", world_file)
+    assert run["options"]["world-effects"] == world_file
 
 
 def test_bad_options_are_refused_when_built(tmp_path):

@@ -159,21 +159,24 @@ class Robot:
 
 
 def simulated_world(
-    options: Mapping[str, Any], clock: str | None, seed: int | None = None, faults: str | None = None
+    options: Mapping[str, Any], clock: str | None, started: Mapping[str, Any] | None = None
 ) -> dict[str, Any]:
     """What a tick log's header records of the world a run meets (`RunOptions.world`): for a simulator
-    started for the run (`--endpoint auto` with pegbt's interface, or `seed` given: one the caller
-    started), its physics, speed (lockstep, or real time with `--clock`), seed and fault plan; nothing
-    for an endpoint at an address (a robot, or a simulator that knows its own)."""
+    started for the run (`--endpoint auto` with pegbt's interface, as `options` say; or one the caller
+    started, with the `seed`, `faults` and `world-effects` of `started`), its physics, speed (lockstep, or
+    real time with `--clock`), seed, fault plan and world file; nothing for an endpoint at an address (a
+    robot, or a simulator that knows its own)."""
     embedded = options.get("interface", "pegbt") == "pegbt" and options.get("endpoint", "auto") == "auto"
-    if not embedded and seed is None:
+    if not embedded and started is None:
         return {}
+    given = options if started is None else started
     return {
         "simulator": "embedded" if embedded else "pegbt sim",
         "physics": SIMULATOR_PHYSICS,
         "speed": "lockstep" if clock is None else "real time",
-        "seed": int(options.get("seed") or 0) if seed is None else seed,
-        "faults": options.get("faults") if faults is None else faults,
+        "seed": int(given.get("seed") or 0),
+        "faults": given.get("faults"),
+        "world_effects": given.get("world-effects"),
     }
 
 
@@ -192,12 +195,18 @@ def connect_robot(
     faults: str | None = None,
     simlog: str | None = None,
     wall_clock: Clock | None = None,
+    world_effects: str | None = None,
 ) -> Robot:
     """A `Robot` on `endpoint` (`auto`: a fresh embedded simulator seeded with `seed`, injecting the fault
-    plan `faults` if given, appending its log to `simlog` if given). With `wall_clock` (a clock in real
-    time) the embedded simulator runs in real time and a simulator at an address must too; without it,
-    a robot or a simulator in real time runs on a new `WallClock`."""
-    for value, flag, sim_flag in ((faults, "--faults", "--faults"), (simlog, "--simlog", "--log")):
+    plan `faults` if given, adding the world file's `world_effects` if given, appending its log to
+    `simlog` if given). With `wall_clock` (a clock in real time) the embedded simulator runs in real time
+    and a simulator at an address must too; without it, a robot or a simulator in real time runs on a new
+    `WallClock`."""
+    for value, flag, sim_flag in (
+        (faults, "--faults", "--faults"),
+        (simlog, "--simlog", "--log"),
+        (world_effects, "--world-effects", "--world-effects"),
+    ):
         if value is not None and endpoint != "auto":
             raise PegbtError(
                 f"{flag} is for the embedded simulator (--endpoint auto); give `pegbt sim {sim_flag}` to a "
@@ -213,6 +222,7 @@ def connect_robot(
                 "--seed",
                 str(seed),
                 *(["--faults", faults] if faults else []),
+                *(["--world-effects", world_effects] if world_effects else []),
                 *(["--log", simlog] if simlog else []),
             ]
         )
@@ -351,7 +361,8 @@ def _robot_silent(
 
 
 def provide_robot(setup: ProviderSetup) -> Robot:
-    """The `robot` resource for `pegbt run` (options `interface`, `endpoint`, `seed`, `faults`, `simlog`;
+    """The `robot` resource for `pegbt run` (options `interface`, `endpoint`, `seed`, `faults`,
+    `world-effects`, `simlog`;
     for `dvrk` also `namespace`, `ros2`, `robot-config`, `robot-tool`, `camera-topic`). `--clock` may only
     ask for a clock in real time (the robot's time passes on its own): `--clock wall` runs the embedded
     simulator in real time."""
@@ -363,11 +374,13 @@ def provide_robot(setup: ProviderSetup) -> Robot:
             field="--clock",
         )
     if options.get("interface") == "dvrk":
-        if options.get("faults") is not None:
-            raise PegbtError(
-                "--faults is for the embedded simulator (--interface pegbt); give it to `pegbt sim --faults`",
-                field="--faults",
-            )
+        for name in ("faults", "world-effects"):
+            if options.get(name) is not None:
+                raise PegbtError(
+                    f"--{name} is for the embedded simulator (--interface pegbt); give it to `pegbt sim "
+                    f"--{name}`",
+                    field=f"--{name}",
+                )
         return connect_crtk_robot(
             str(options.get("endpoint") or "auto"),
             str(options.get("namespace") or ""),
@@ -384,4 +397,5 @@ def provide_robot(setup: ProviderSetup) -> Robot:
         options.get("faults"),
         options.get("simlog"),
         setup.clock if setup.clock_name is not None else None,
+        options.get("world-effects"),
     )
