@@ -15,7 +15,7 @@ believes), runs on the wall clock.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any, Protocol
 
@@ -43,7 +43,8 @@ from pegbt.transport.wires import make_wire, wire_session_settings
 from pegbt.transport.zivid_camera import POINTS_XYZ as ZIVID_POINTS
 from pegbt.transport.zivid_camera import ZividCamera
 
-SIMULATOR_ARGS = ("--physics", "dvrk-real")
+SIMULATOR_PHYSICS = "dvrk-real"
+SIMULATOR_ARGS = ("--physics", SIMULATOR_PHYSICS)
 PROBE_TIMEOUT = 2.0  # s to wait for a simulator to answer `sim/clock` at an address (no answer: a robot)
 STEP_TIMEOUT = 5.0  # s to wait for a lockstep step: a camera capture on a loaded 2-core machine took over 2
 READY_TIMEOUT = 5.0  # s to wait for each arm's first state
@@ -157,6 +158,28 @@ class Robot:
             close()
         if self.simulator is not None:
             self.simulator.stop()
+
+
+def simulated_world(
+    options: Mapping[str, Any], clock: str | None, started: Mapping[str, Any] | None = None
+) -> dict[str, Any]:
+    """What a tick log's header records of the world a run meets (`RunOptions.world`): for a simulator
+    started for the run (`--endpoint auto` with pegbt's interface, as `options` say; or one the caller
+    started, with the `seed`, `faults` and `world-effects` of `started`), its physics, speed (lockstep, or
+    real time with `--clock`), seed, fault plan and world file; nothing for an endpoint at an address (a
+    robot, or a simulator that knows its own)."""
+    embedded = options.get("interface", "pegbt") == "pegbt" and options.get("endpoint", "auto") == "auto"
+    if not embedded and started is None:
+        return {}
+    given = options if started is None else started
+    return {
+        "simulator": "embedded" if embedded else "pegbt sim",
+        "physics": SIMULATOR_PHYSICS,
+        "speed": "lockstep" if clock is None else "real time",
+        "seed": int(given.get("seed") or 0),
+        "faults": given.get("faults"),
+        "world_effects": given.get("world-effects"),
+    }
 
 
 def _probe_simulator(link: Link) -> SimClock | None:
