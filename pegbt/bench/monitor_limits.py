@@ -77,6 +77,7 @@ def run_with_stalled_pages(pages: int, folder: Path, seconds: float = SECONDS) -
     """Overruns and ticks of a run publishing `PAYLOAD` bytes a tick while `pages` pages never read, and
     how many of them the server dropped."""
     from pegbt.bench.monitor_clients import open_socket
+    from pegbt.executive.runoptions import RunOptions
     from pegbt.executive.session import run_tree_file
     from pegbt.monitor.server import start_ephemeral
 
@@ -89,7 +90,8 @@ def run_with_stalled_pages(pages: int, folder: Path, seconds: float = SECONDS) -
 
     try:
         output = run_tree_file(
-            busy_tree(folder), folder / "busy.jsonl", clock="wall", period=0.02, timeout=seconds, watch=watch
+            RunOptions(busy_tree(folder), folder / "busy.jsonl", clock="wall", period=0.02, timeout=seconds),
+            watch=watch,
         )
     finally:
         for connection in sockets:
@@ -176,9 +178,10 @@ def synthetic_run(
 def example_records(folder: Path) -> tuple[dict[str, Any], list[dict[str, Any]]]:
     """The header and tick records of a run of `trees/example.yaml`."""
     from pegbt.executive.logfile import read_tick_log
+    from pegbt.executive.runoptions import RunOptions
     from pegbt.executive.session import run_tree_file
 
-    run_tree_file(TREES / "example.yaml", folder / "example.jsonl", clock="manual")
+    run_tree_file(RunOptions(TREES / "example.yaml", folder / "example.jsonl", clock="manual"))
     log = read_tick_log(folder / "example.jsonl", keep_records=True)
     assert log.records is not None, "read with keep_records"
     return log.records[0], [record for record in log.records if record["type"] == "tick"]

@@ -35,6 +35,7 @@ class Cell:
     world_effects: Path | None = (
         None  # a world file for every trial's simulator (`pegbt sim --world-effects`)
     )
+    camera: str = "stream"
 
     @property
     def name(self) -> str:
@@ -43,6 +44,7 @@ class Cell:
             + ("-faults" if self.faults or self.inject_faults else "")
             + ("-realtime" if self.realtime else "")
             + ("" if self.interface == "pegbt" else f"-{self.interface}")
+            + ("" if self.camera == "stream" else f"-{self.camera}")
         )
 
     @property
@@ -69,6 +71,7 @@ def trial_specs(cell: Cell, out: Path, keep_logs: bool = False) -> list[TrialSpe
                 realtime=cell.realtime,
                 interface=cell.interface,
                 world_effects=cell.world_effects,
+                camera=cell.camera,
             )
         )
     return specs

@@ -70,6 +70,14 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
         "--interface` and `pegbt run --interface`",
     )
     parser.add_argument(
+        "--camera",
+        choices=("stream", "zivid"),
+        default="stream",
+        help="--interface dvrk: the simulator's depth camera and the run's client of it: stream (a streaming "
+        "camera, the default) or zivid (a Zivid's capture service); passed to `pegbt sim --camera` and "
+        "`pegbt run --camera`",
+    )
+    parser.add_argument(
         "--out",
         type=Path,
         default=Path("runs/eval"),
@@ -138,6 +146,10 @@ def check_arguments(args: argparse.Namespace) -> None:
 
         read_world_file(args.world_effects)  # refused here, with its location, not in every trial
     check_interface(args.interface, args.realtime)
+    if args.camera != "stream" and args.interface == "pegbt":
+        raise PegbtError(
+            f"--camera {args.camera} is a ROS 2 camera's: add --interface dvrk", field="--camera"
+        )
 
 
 def cluster_tls(args: argparse.Namespace) -> ClusterTls | None:
@@ -178,6 +190,7 @@ def _eval(args: argparse.Namespace) -> int:
         realtime=args.realtime,
         interface=args.interface,
         world_effects=None if args.world_effects is None else args.world_effects.resolve(),
+        camera=args.camera,
     )
     specs = trial_specs(cell, args.out, keep_logs=args.keep_logs)
     done = None if args.quiet else _report_trial

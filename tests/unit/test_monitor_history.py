@@ -9,6 +9,7 @@ from pathlib import Path
 
 from pegbt.bench.monitor_limits import example_records, synthetic_run
 from pegbt.executive.logfile import read_tick_log
+from pegbt.executive.runoptions import RunOptions
 from pegbt.executive.session import run_tree_file
 from pegbt.monitor.history import History
 from pegbt.monitor.replay import replay_messages
@@ -43,7 +44,7 @@ def page_state(texts: list[str]) -> dict:
 
 def test_a_late_page_sees_the_last_tick_and_the_first_failure_as_the_log_has_them(tmp_path):
     log_path = tmp_path / "example.jsonl"
-    run_tree_file(EXAMPLE, log_path, clock="manual")
+    run_tree_file(RunOptions(EXAMPLE, log_path, clock="manual"))
     log = read_tick_log(log_path, keep_records=True)
     history = History(window=2, world_window=1)
     for message in replay_messages(log):

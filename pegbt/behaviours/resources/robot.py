@@ -15,7 +15,7 @@ believes), runs on the wall clock.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any, Protocol
 
@@ -40,8 +40,11 @@ from pegbt.transport.session import Session, open_session, reaches_anyone
 from pegbt.transport.streaming import Streamer
 from pegbt.transport.ros2 import Ros2Wire, Topic
 from pegbt.transport.wires import make_wire, wire_session_settings
+from pegbt.transport.zivid_camera import POINTS_XYZ as ZIVID_POINTS
+from pegbt.transport.zivid_camera import ZividCamera
 
-SIMULATOR_ARGS = ("--physics", "dvrk-real")
+SIMULATOR_PHYSICS = "dvrk-real"
+SIMULATOR_ARGS = ("--physics", SIMULATOR_PHYSICS)
 PROBE_TIMEOUT = 2.0  # s to wait for a simulator to answer `sim/clock` at an address (no answer: a robot)
 STEP_TIMEOUT = 5.0  # s to wait for a lockstep step: a camera capture on a loaded 2-core machine took over 2
 READY_TIMEOUT = 5.0  # s to wait for each arm's first state
@@ -157,6 +160,28 @@ class Robot:
             self.simulator.stop()
 
 
+def simulated_world(
+    options: Mapping[str, Any], clock: str | None, started: Mapping[str, Any] | None = None
+) -> dict[str, Any]:
+    """What a tick log's header records of the world a run meets (`RunOptions.world`): for a simulator
+    started for the run (`--endpoint auto` with pegbt's interface, as `options` say; or one the caller
+    started, with the `seed`, `faults` and `world-effects` of `started`), its physics, speed (lockstep, or
+    real time with `--clock`), seed, fault plan and world file; nothing for an endpoint at an address (a
+    robot, or a simulator that knows its own)."""
+    embedded = options.get("interface", "pegbt") == "pegbt" and options.get("endpoint", "auto") == "auto"
+    if not embedded and started is None:
+        return {}
+    given = options if started is None else started
+    return {
+        "simulator": "embedded" if embedded else "pegbt sim",
+        "physics": SIMULATOR_PHYSICS,
+        "speed": "lockstep" if clock is None else "real time",
+        "seed": int(given.get("seed") or 0),
+        "faults": given.get("faults"),
+        "world_effects": given.get("world-effects"),
+    }
+
+
 def _probe_simulator(link: Link) -> SimClock | None:
     """The simulator's clock if a simulator answers at the other end of `link`, else None (a robot). Only
     the probe is short: a step (a camera capture, say) may take longer on a busy machine."""
@@ -260,9 +285,11 @@ def connect_crtk_robot(
     liveness: float = LIVENESS_S,
     ros2: str = "bridge",
     simlog: str | None = None,
+    camera_kind: str = "stream",
 ) -> Robot:
     """A `Robot` of CRTK arms at `endpoint` (a zenoh-bridge-ros2dds, a `pegbt sim --interface dvrk`), its
-    arms enabled and homed, limits narrowed by the dVRK's `robot_config` folder when given."""
+    arms enabled and homed, limits narrowed by the dVRK's `robot_config` folder when given; its camera
+    streams on the topic `camera`, or for `camera_kind` zivid is a Zivid driver's capture service."""
     if endpoint == "auto":
         raise PegbtError(
             "--interface dvrk talks to a robot: give its bridge's address (--endpoint tcp/HOST:PORT)",
@@ -286,9 +313,14 @@ def connect_crtk_robot(
             )
             for arm in ARMS
         }
+        depth_camera: StreamingCamera | ZividCamera = (
+            ZividCamera(wire, clock=clock)
+            if camera_kind == "zivid"
+            else StreamingCamera(wire, point_cloud_topic(camera), clock=clock)
+        )
         robot = Robot(
             arms,
-            StreamingCamera(wire, point_cloud_topic(camera), clock=clock),
+            depth_camera,
             clock,
             endpoint=endpoint,
             truth=SimulatorLogTruth(simlog) if simlog else None,
@@ -298,7 +330,7 @@ def connect_crtk_robot(
         robot.wire = wire  # what a recording listens to (`pegbt run --record`)
         robot.ros2_topics = (
             *(topic for arm in ARMS for topic in (*PsmTopics(arm).published(), *PsmTopics(arm).subscribed())),
-            point_cloud_topic(camera),
+            *((ZIVID_POINTS,) if camera_kind == "zivid" else (point_cloud_topic(camera),)),
         )
         try:
             robot.wait_until_ready()
@@ -339,8 +371,8 @@ def _robot_silent(
 
 def provide_robot(setup: ProviderSetup) -> Robot:
     """The `robot` resource for `pegbt run` (options `interface`, `endpoint`, `seed`, `faults`,
-    `world-effects`, `simlog`;
-    for `dvrk` also `namespace`, `ros2`, `robot-config`, `robot-tool`, `camera-topic`). `--clock` may only
+    `world-effects`, `simlog`; for `dvrk` also `namespace`, `ros2`, `robot-config`, `robot-tool`, `camera`,
+    `camera-topic`). `--clock` may only
     ask for a clock in real time (the robot's time passes on its own): `--clock wall` runs the embedded
     simulator in real time."""
     options = setup.options
@@ -367,6 +399,7 @@ def provide_robot(setup: ProviderSetup) -> Robot:
             checked_number(float(options.get("liveness") or LIVENESS_S), "--liveness", above=0.0),
             ros2=str(options.get("ros2") or "bridge"),
             simlog=options.get("simlog"),
+            camera_kind=str(options.get("camera") or "stream"),
         )
     return connect_robot(
         str(options.get("endpoint") or "auto"),
