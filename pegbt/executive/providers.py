@@ -93,6 +93,14 @@ RUN_OPTIONS: dict[str, RunOption] = {
             type=float,
         ),
         RunOption(
+            "camera",
+            "robot (--interface dvrk): the depth camera's ROS 2 driver: stream (a camera that streams "
+            "PointCloud2 on --camera-topic, as realsense2_camera does) or zivid (zivid_camera: pegbt calls its "
+            "/capture service for each cloud and thins the full-resolution cloud on /points/xyz)",
+            "stream",
+            choices=("stream", "zivid"),
+        ),
+        RunOption(
             "camera-topic",
             "robot (--interface dvrk): the streaming PointCloud2 topic of the depth camera "
             "(None: /camera/camera/depth/color/points, a RealSense's)",
@@ -114,6 +122,11 @@ RUN_OPTIONS: dict[str, RunOption] = {
         RunOption(
             "faults",
             "robot: fault plan (YAML) for the embedded simulator to inject (see `pegbt sim --faults`)",
+        ),
+        RunOption(
+            "world-effects",
+            "robot: world file (YAML) of the world effects the embedded simulator adds (see `pegbt sim "
+            "--world-effects`)",
         ),
         RunOption(
             "simlog",

@@ -1,5 +1,5 @@
 """`pegbt sim --interface dvrk`: the simulator behind the topics a dVRK 2.x PSM serves, and a depth camera
-that streams as a RealSense does, in real time.
+that streams as a RealSense does or captures when asked as a Zivid does (`pegbt.sim.zivid`), in real time.
 
 Every topic is declared through a `Ros2Wire` (`pegbt.transport.dvrk_topics` names them), so the same
 endpoint serves zenoh-bridge-ros2dds's keys (`BridgeWire`) or another wire's; it builds no key itself, and
@@ -12,12 +12,13 @@ One thread owns the simulation. Zenoh callbacks only put what arrives in an inbo
 command as it comes (what the arm says about it goes out at once), and every control period advances the
 arms, moves the world, publishes the joint and Cartesian states (every `state_period`), the operating
 state whenever the arm updates it (changed or not, as the dVRK does), and a point cloud every
-`camera_period`. What the robot sends is stamped on the robot computer's clock, `robot_clock_offset` s from
-this one's (the dVRK stamps with its own ROS clock: cisst-ros `cisst_ros_bridge/include/cisst_ros_bridge/
-mtsCISSTToROS.h`, `cisst_header_to_ros_header`, which writes an invalid datum's stamp as 0); the camera,
-another device, stamps on this computer's. A control period that starts a period or
-more late is an overrun, written to the simulator's log with how late it was; so is every safety event
-of the arms (a clip, a dropped command, a tracking-error fault). The log (`--log`) stays the judge.
+`camera_period` (a Zivid: once per capture request). What the robot sends is stamped on the robot computer's
+clock, `robot_clock_offset` s from this one's (the dVRK stamps with its own ROS clock: cisst-ros
+`cisst_ros_bridge/include/cisst_ros_bridge/mtsCISSTToROS.h`, `cisst_header_to_ros_header`, which writes an
+invalid datum's stamp as 0); the camera, another device, stamps on this computer's. A control period that
+starts a period or more late is an overrun, written to the simulator's log with how late it was; so is
+every safety event of the arms (a clip, a dropped command, a tracking-error fault). The log (`--log`) stays
+the judge.
 """
 
 from __future__ import annotations
@@ -45,6 +46,7 @@ from pegbt.sim.dvrk_arm import DvrkArm
 from pegbt.sim.interfaces import SimWorld, StreamingCamera
 from pegbt.sim.log import SimLog
 from pegbt.sim.scene import Scene
+from pegbt.sim.zivid import ZividDriver
 from pegbt.transport import codec
 from pegbt.transport.dvrk_topics import PsmTopics, clutch_button_topic, point_cloud_topic
 from pegbt.transport.endpoints import DEFAULT_POINTS_TOPIC
@@ -67,6 +69,7 @@ class DvrkEndpointConfig:
     state_period: float = dvrk.PUBLISH_PERIOD
     camera_topic: str = DEFAULT_POINTS_TOPIC
     camera_period: float = 0.1
+    camera: str = "stream"  # "stream": a RealSense's; "zivid": the Zivid driver's capture service
     robot_clock_offset: float = 0.0  # s the robot computer's clock is ahead of this one's
 
 
@@ -146,18 +149,23 @@ class DvrkEndpoint:
         self._publishers: dict[str, TopicPublisher] = {}
         self._subscribers: list[TopicSubscriber] = []
         self._overrun = OverrunWatch(self.period, self.log)
+        zivid = config.camera == "zivid" and camera is not None and world is not None
         self._camera = (
             CameraStream(camera, world, config.camera_period, self.period, CAMERA_BUDGET, CAMERA_FRAME)
-            if camera is not None and world is not None
+            if camera is not None and world is not None and not zivid
             else None
         )
+        self._zivid: ZividDriver | None = None
+        if zivid:
+            assert camera is not None and world is not None  # zivid says so
+            self._zivid = ZividDriver(wire, camera, world, self.period, CAMERA_BUDGET)
         self._declare(wire)
 
     # ------------------------------------------------------------------ wiring
     def _declare(self, wire: Ros2Wire) -> None:
         """A publisher for every topic the arms (and the camera) publish, a subscriber for every command."""
         published = [topic for topics in self.topics.values() for topic in topics.published()]
-        if self.camera is not None:
+        if self._camera is not None:
             published.append(point_cloud_topic(self.config.camera_topic))
         for topic in published:
             self._publishers[topic.name] = wire.publisher(topic)
@@ -198,7 +206,8 @@ class DvrkEndpoint:
             physics=self.config.physics,
             arms=list(self.arms),
             state_period=self.config.state_period,
-            camera_period=self.config.camera_period if self.camera is not None else None,
+            camera_period=self.config.camera_period if self._camera is not None else None,
+            camera=self.config.camera if self.camera is not None else None,
         )
         if self._scene is not None:
             self._scene.update(0.0)
@@ -227,6 +236,8 @@ class DvrkEndpoint:
                 next_state = max(next_state, self.elapsed) + self.config.state_period
             if self._camera is not None:
                 self._stream()
+            if self._zivid is not None and self._zivid.step(self.elapsed) and self._scene is not None:
+                self._scene.log_events()  # a noise burst is the capture's event
             next_tick += self.period
         return "stopped"
 
@@ -352,6 +363,8 @@ class DvrkEndpoint:
 
     # ------------------------------------------------------------------ shutdown
     def close(self) -> None:
+        if self._zivid is not None:
+            self._zivid.close()
         for entity in (*self._subscribers, *self._publishers.values()):
             entity.close()
         self._subscribers.clear()

@@ -21,6 +21,7 @@ from pegbt.behaviours.resources.arm_motion import ArmMotion
 from pegbt.behaviours.resources.robot import Robot, connect_crtk_robot
 from pegbt.executive.analysis import summary
 from pegbt.executive.logfile import read_tick_log
+from pegbt.executive.runoptions import RunOptions
 from pegbt.executive.session import run_tree_file
 from pegbt.sim.process import free_port
 from pegbt.transport.arm import ArmLeftReady
@@ -231,16 +232,13 @@ def test_messages_latched_before_the_run_are_history_never_a_stops_cause(
     tree = tmp_path / "look.yaml"
     tree.write_text("doc: one capture from the robot's camera\ntree:\n  capture: {}\n")
     output = run_tree_file(
-        tree,
-        tmp_path / "look.jsonl",
-        options={
-            "interface": "dvrk",
-            "endpoint": robot.address,
-            "condition": "uncalibrated",
-            "liveness": 5.0,
-        },
+        RunOptions(
+            tree,
+            tmp_path / "look.jsonl",
+            {"interface": "dvrk", "endpoint": robot.address, "condition": "uncalibrated", "liveness": 5.0},
+            timeout=60,
+        ),
         quiet=True,
-        timeout=60,
     )
     assert output.result.outcome == "success"
     records = [json.loads(line) for line in (tmp_path / "look.jsonl").read_text().splitlines()]
