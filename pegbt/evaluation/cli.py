@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING
 
 from pegbt.errors import PegbtError
 from pegbt.evaluation.paper import CONDITIONS, VARIANTS
+from pegbt.numbers import NumberOption
 
 if TYPE_CHECKING:
     from pegbt.evaluation.cluster import ClusterTls
@@ -68,6 +69,23 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
         help="what the simulator serves and the run speaks: pegbt (its own topics and extensions, the "
         "default) or dvrk (what a dVRK serves through zenoh-bridge-ros2dds); passed to `pegbt sim "
         "--interface` and `pegbt run --interface`",
+    )
+    parser.add_argument(
+        "--speed",
+        action=NumberOption,
+        above=0.0,
+        at_most=1.0,
+        default=1.0,
+        metavar="F",
+        help="every run moves at this fraction of the planner's speed, as `pegbt run --speed` (default 1)",
+    )
+    parser.add_argument(
+        "--robot-clock-offset",
+        action=NumberOption,
+        default=0.0,
+        metavar="SECONDS",
+        help="--interface dvrk: each simulator stamps what its robot sends on a clock this far from this "
+        "computer's (`pegbt sim --robot-clock-offset`; default 0)",
     )
     parser.add_argument(
         "--camera",
@@ -146,6 +164,10 @@ def check_arguments(args: argparse.Namespace) -> None:
 
         read_world_file(args.world_effects)  # refused here, with its location, not in every trial
     check_interface(args.interface, args.realtime)
+    if args.robot_clock_offset and args.interface != "dvrk":
+        raise PegbtError(
+            "a robot clock offset is the dVRK interface's: add --interface dvrk", field="--robot-clock-offset"
+        )
     if args.camera != "stream" and args.interface == "pegbt":
         raise PegbtError(
             f"--camera {args.camera} is a ROS 2 camera's: add --interface dvrk", field="--camera"
@@ -191,6 +213,8 @@ def _eval(args: argparse.Namespace) -> int:
         interface=args.interface,
         world_effects=None if args.world_effects is None else args.world_effects.resolve(),
         camera=args.camera,
+        speed=args.speed,
+        robot_clock_offset=args.robot_clock_offset,
     )
     specs = trial_specs(cell, args.out, keep_logs=args.keep_logs)
     done = None if args.quiet else _report_trial

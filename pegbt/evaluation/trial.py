@@ -48,6 +48,8 @@ class TrialSpec:
     interface: str = "pegbt"  # what the simulator serves and the run speaks (`INTERFACES`)
     world_effects: Path | None = None  # world file for the simulator (`pegbt sim --world-effects`)
     camera: str = "stream"  # the dVRK interface's depth camera: streaming, or a Zivid's capture service
+    speed: float = 1.0  # the fraction of the planner's speed (`pegbt run --speed`)
+    robot_clock_offset: float = 0.0  # s the simulated robot's clock is from this one's (`--interface dvrk`)
 
 
 @dataclass
@@ -168,6 +170,7 @@ def _run(spec: TrialSpec, truth: Path) -> RunOutput:
             "simlog": str(truth),
             "faults": None if spec.faults is None else str(spec.faults),
             "world-effects": None if spec.world_effects is None else str(spec.world_effects),
+            "speed": spec.speed,
         }
         return run_tree_file(trial_run_options(spec, options))
     with SimProcess(simulator_args(spec, truth)) as simulator:
@@ -207,6 +210,7 @@ def simulator_args(spec: TrialSpec, truth: Path) -> list[str]:
         str(truth),
         *([] if spec.faults is None else ["--faults", str(spec.faults)]),
         *([] if spec.world_effects is None else ["--world-effects", str(spec.world_effects)]),
+        *(["--robot-clock-offset", repr(spec.robot_clock_offset)] if spec.robot_clock_offset else []),
     ]
 
 
@@ -226,6 +230,7 @@ def run_options(spec: TrialSpec, endpoint: str) -> dict[str, Any]:
         "simlog": str(truth_path(spec.log)),  # the judge: the simulator's log file (no `sim/truth` here)
         "liveness": SIMULATOR_LIVENESS_S,
         "camera": spec.camera,
+        "speed": spec.speed,
     }
 
 

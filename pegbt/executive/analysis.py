@@ -79,14 +79,20 @@ def summary(log: TickLog, slowest: int = 5) -> str:
     ]
     if log.crash:
         lines.append(f"crash:    {log.crash.get('error')}")
+    current = [message for message in log.messages if not message.get("before_run")]
     if log.messages:
-        levels = [message["level"] for message in log.messages]
+        levels = [message["level"] for message in current]
+        history = len(log.messages) - len(current)
         lines.append(
-            "robot:    " + ", ".join(f"{levels.count(level)} {level}" for level in sorted(set(levels)))
+            "robot:    "
+            + ", ".join(
+                [f"{levels.count(level)} {level}" for level in sorted(set(levels))]
+                + ([f"{history} from before this run"] if history else [])
+            )
         )
         lines += [
             f"  {m['t']:8.3f} s  {m['level']:<7}  {message_line(m)}"
-            for m in [m for m in log.messages if m["level"] in ("error", "warning")][-MESSAGES_SHOWN:]
+            for m in [m for m in current if m["level"] in ("error", "warning")][-MESSAGES_SHOWN:]
         ]
     lines += [""] + _table(log, stats, [node["id"] for node in log.nodes])
     ranked = sorted(leaves, key=lambda node: stats[node].running_time, reverse=True)[:slowest]

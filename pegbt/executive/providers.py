@@ -112,6 +112,12 @@ RUN_OPTIONS: dict[str, RunOption] = {
             "optimized",
             choices=("uncalibrated", "calibrated", "optimized"),
         ),
+        RunOption(
+            "speed",
+            "skills and robot: move at this fraction (0, 1] of the planner's speed, for a first run on a "
+            "robot: velocities × F, accelerations × F², every motion 1/F as long (None: 1)",
+            type=float,
+        ),
         RunOption("seed", "robot: seed of the embedded simulator's world", 0, type=int),
         RunOption(
             "faults",

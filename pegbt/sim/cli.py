@@ -168,6 +168,14 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
         help="--interface dvrk: joint and Cartesian states per second (default 100, the dVRK's ROS period)",
     )
     parser.add_argument(
+        "--robot-clock-offset",
+        action=NumberOption,
+        default=0.0,
+        metavar="SECONDS",
+        help="--interface dvrk: stamp everything the robot sends on a clock this far ahead of this computer's "
+        "(negative: behind), as a robot computer whose clock is not synchronised (default 0)",
+    )
+    parser.add_argument(
         "--stop-with-parent",
         action="store_true",
         help="stop when standard input closes: a parent process that pipes it is gone (even killed)",
@@ -192,6 +200,12 @@ def _sim(args: argparse.Namespace) -> int:
     check_namespace(args.namespace, "--namespace")
     if args.interface == "dvrk":
         _refuse_pegbt_only_options(args)
+    elif args.robot_clock_offset:
+        raise PegbtError(
+            "--robot-clock-offset is the dVRK interface's (pegbt's stamps on the simulator's clock): add "
+            "--interface dvrk",
+            field="--robot-clock-offset",
+        )
     elif args.camera != "stream":
         raise PegbtError(
             f"--camera {args.camera} is a ROS 2 camera driver's: add --interface dvrk", field="--camera"
@@ -446,6 +460,7 @@ def _dvrk_endpoint(
         camera_topic=args.camera_topic,
         camera_period=1.0 / args.camera_rate,
         camera=args.camera,
+        robot_clock_offset=args.robot_clock_offset,
     )
     wire = make_wire(args.ros2, session, args.namespace, node_name="pegbt_sim")
     return DvrkEndpoint(wire, config, world=world, camera=camera)

@@ -52,6 +52,7 @@ STRING_STAMPED = "crtk_msgs/msg/StringStamped"
 STRING = "std_msgs/msg/String"
 EMPTY = "std_msgs/msg/Empty"
 POSE_STAMPED = "geometry_msgs/msg/PoseStamped"
+JOY = "sensor_msgs/msg/Joy"
 POINT_CLOUD2 = "sensor_msgs/msg/PointCloud2"
 JOINT_TRAJECTORY = "trajectory_msgs/msg/JointTrajectory"
 
@@ -202,6 +203,23 @@ def decode_string(data: bytes) -> str:
 
 def encode_empty() -> bytes:
     return serialize(_type(EMPTY)())
+
+
+def encode_button(stamp: float, pressed: bool) -> bytes:
+    """A button event as the dVRK's bridge writes one (cisst-ros `cisst_ros_bridge/src/mtsCISSTToROS.cpp`,
+    prmEventButton to sensor_msgs/Joy): one button, 1 pressed, 0 released."""
+    message = _type(JOY)(
+        header=_header(stamp), axes=np.zeros(0, dtype=np.float32), buttons=np.array([int(pressed)], np.int32)
+    )
+    return serialize(message)
+
+
+def decode_button(data: bytes) -> bool:
+    """Whether a sensor_msgs/Joy button event says pressed (its first button is 1)."""
+    buttons = deserialize(data, JOY).buttons
+    if len(buttons) < 1:
+        raise PegbtError("a button event needs one button (1 pressed, 0 released)", field="buttons")
+    return bool(buttons[0] == 1)
 
 
 # ----------------------------------------------------------------------------- poses

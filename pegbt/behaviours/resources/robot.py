@@ -286,17 +286,20 @@ def connect_crtk_robot(
     ros2: str = "bridge",
     simlog: str | None = None,
     camera_kind: str = "stream",
+    speed: float = 1.0,
 ) -> Robot:
     """A `Robot` of CRTK arms at `endpoint` (a zenoh-bridge-ros2dds, a `pegbt sim --interface dvrk`), its
     arms enabled and homed, limits narrowed by the dVRK's `robot_config` folder when given; its camera
-    streams on the topic `camera`, or for `camera_kind` zivid is a Zivid driver's capture service."""
+    streams on the topic `camera`, or for `camera_kind` zivid is a Zivid driver's capture service; the jaw's
+    streamed ramps at `speed` of its velocity (`ArmSettings.at_speed`)."""
     if endpoint == "auto":
         raise PegbtError(
             "--interface dvrk talks to a robot: give its bridge's address (--endpoint tcp/HOST:PORT)",
             field="--endpoint",
         )
     check_namespace(namespace, "--namespace")
-    settings = {arm: robot_arm_settings(arm, robot_config, robot_tool) for arm in ARMS}
+    speed = checked_number(speed, "--speed", above=0.0, at_most=1.0)
+    settings = {arm: robot_arm_settings(arm, robot_config, robot_tool).at_speed(speed) for arm in ARMS}
     period = min(arm.control_period for arm in settings.values())
     session = open_session(wire_session_settings(ros2, [endpoint]))
     try:
@@ -372,7 +375,7 @@ def _robot_silent(
 def provide_robot(setup: ProviderSetup) -> Robot:
     """The `robot` resource for `pegbt run` (options `interface`, `endpoint`, `seed`, `faults`,
     `world-effects`, `simlog`; for `dvrk` also `namespace`, `ros2`, `robot-config`, `robot-tool`, `camera`,
-    `camera-topic`). `--clock` may only
+    `camera-topic`, `speed`). `--clock` may only
     ask for a clock in real time (the robot's time passes on its own): `--clock wall` runs the embedded
     simulator in real time."""
     options = setup.options
@@ -400,6 +403,7 @@ def provide_robot(setup: ProviderSetup) -> Robot:
             ros2=str(options.get("ros2") or "bridge"),
             simlog=options.get("simlog"),
             camera_kind=str(options.get("camera") or "stream"),
+            speed=1.0 if options.get("speed") is None else float(options["speed"]),
         )
     return connect_robot(
         str(options.get("endpoint") or "auto"),
