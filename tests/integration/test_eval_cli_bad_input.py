@@ -33,7 +33,7 @@ def pegbt(*args: str, timeout: float = 600) -> subprocess.CompletedProcess:
         ),
         (
             ["--variant", "unilateral", "--trials", "2", "--cluster", "127.0.0.1:8786"],
-            "expected a scheduler address tcp://HOST:PORT",
+            "expected a scheduler address tls://HOST:PORT or tcp://HOST:PORT",
         ),
     ],
 )
