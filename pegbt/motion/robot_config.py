@@ -5,8 +5,9 @@ kinematic file `share/kinematic/PSM.json` (`DH.joints[0..2]`: yaw, pitch, insert
 and the tool's file, e.g. `share/tool/LARGE_NEEDLE_DRIVER_400006.json` (`DH.joints[0..2]`: roll, wrist pitch,
 wrist yaw; `jaw.qmin`/`jaw.qmax`). The robot's controller clips every command to these (`clip_jp`,
 `clip_jaw_jp` in `mtsIntuitiveResearchKitArm.cpp`), so a plan must stay within them to land where it says.
-The limits used are the robot's, narrowed further wherever `skills/psm.yaml` (the task's workspace) is
-narrower: never wider than either.
+The limits pegbt plans by are the robot's, narrowed further wherever `skills/psm.yaml` (the task's workspace)
+is narrower: never wider than either. What a robot was sent (a recording's commands) is judged by the robot's
+own limits alone (`DVRK_LIMITS` unless a `share/` folder is given): the planner's are narrower.
 """
 
 from __future__ import annotations
@@ -35,6 +36,16 @@ class RobotLimits:
     upper: np.ndarray
     jaw_lower: float
     jaw_upper: float
+
+
+# The dVRK's figures for a PSM with the large needle driver: share/kinematic/PSM.json (yaw ±91°, pitch ±53°,
+# insertion 0 to 0.24 m) and share/tool/LARGE_NEEDLE_DRIVER_400006.json (roll ±260°, wrist ±80°, jaw -40° to 80°).
+DVRK_LIMITS = RobotLimits(
+    lower=np.array([-1.588, -0.925025, 0.0, -4.53786, -1.39626, -1.39626]),
+    upper=np.array([1.588, 0.925025, 0.24, 4.53786, 1.39626, 1.39626]),
+    jaw_lower=-0.698132,
+    jaw_upper=1.39626,
+)
 
 
 def _read(path: Path) -> dict[str, Any]:
@@ -97,6 +108,11 @@ def read_robot_limits(share: str | Path, tool: str = DEFAULT_TOOL) -> RobotLimit
         jaw_lower=_number(jaw.get("qmin"), tool_path, "jaw.qmin"),
         jaw_upper=_number(jaw.get("qmax"), tool_path, "jaw.qmax"),
     )
+
+
+def robot_limits(share: str | Path | None, tool: str = DEFAULT_TOOL) -> RobotLimits:
+    """The robot's own limits: its `share` folder's when given, else the dVRK's figures (`DVRK_LIMITS`)."""
+    return DVRK_LIMITS if share is None else read_robot_limits(share, tool)
 
 
 def narrowed(settings: ArmSettings, limits: RobotLimits) -> ArmSettings:
