@@ -242,6 +242,7 @@ def _train(args: argparse.Namespace) -> int:
     from pegbt.physics.recording import load_recording
 
     recording = load_recording(args.recording, arm=args.arm, **bag_options(args))
+    recording.warn()
     n_train = recording.head(args.train_fraction)
     faults = detect_faults(recording.q_cmd, recording.q_phy, recording.limits)
     print(f"measurement faults: {faults.sentence(recording.times)}")
@@ -302,6 +303,7 @@ def _eval(args: argparse.Namespace) -> int:
 
     model = CalibrationModel.load(args.model)
     recording = load_recording(args.recording, arm=model.arm, **bag_options(args))
+    recording.warn()
     start = recording.head(args.from_fraction) if args.from_fraction > 0 else 0
     if start >= len(recording):
         raise PegbtError(

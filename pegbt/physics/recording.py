@@ -30,7 +30,8 @@ import json
 import math
 import os
 import re
-from dataclasses import dataclass
+import sys
+from dataclasses import dataclass, replace
 from datetime import datetime, timezone
 from pathlib import Path
 
@@ -100,6 +101,7 @@ class Recording:
     arm: str | None = None
     resolution: tuple[float, ...] | None = None
     limits: RobotLimits = DVRK_LIMITS
+    notes: tuple[str, ...] = ()  # damage the reader read past (a bag cut short), for the reports to say
 
     @property
     def n(self) -> int:
@@ -126,6 +128,11 @@ class Recording:
             "(lag and delay have died out before each sample)",
         )
 
+    def warn(self) -> None:
+        """Say on stderr, one line each, the damage the reader read past (`pegbt: warning: FILE: ...`)."""
+        for note in self.notes:
+            print(f"pegbt: warning: {self.path}: {note}", file=sys.stderr)
+
     def head(self, fraction: float) -> int:
         """Number of samples in the first `fraction` of the recording (the training part of a split)."""
         if not 0.0 < fraction <= 1.0:
@@ -137,22 +144,12 @@ class Recording:
         if keep.all():
             return self
         t = None if self.t is None else self.t[keep]
-        return Recording(
-            self.path, self.q_cmd[keep], self.q_phy[keep], t, self.arm, self.resolution, self.limits
-        )
+        return replace(self, q_cmd=self.q_cmd[keep], q_phy=self.q_phy[keep], t=t)
 
     def slice(self, start: int, stop: int | None = None) -> "Recording":
         """The samples [start, stop) as a recording of their own."""
         t = None if self.t is None else self.t[start:stop]
-        return Recording(
-            self.path,
-            self.q_cmd[start:stop],
-            self.q_phy[start:stop],
-            t,
-            self.arm,
-            self.resolution,
-            self.limits,
-        )
+        return replace(self, q_cmd=self.q_cmd[start:stop], q_phy=self.q_phy[start:stop], t=t)
 
 
 # ---------------------------------------------------------------------------------------------- reading
@@ -207,7 +204,9 @@ def _load_recording(
     if is_bag(path):
         samples = read_bag(path, cmd=cmd, phy=phy, arm=arm, settled=settled)
         validate(samples.q_cmd, samples.q_phy, samples.t, path, limits=limits, min_samples=min_samples)
-        return Recording(path, samples.q_cmd, samples.q_phy, samples.t, samples.arm, limits=limits)
+        return Recording(
+            path, samples.q_cmd, samples.q_phy, samples.t, samples.arm, limits=limits, notes=samples.notes
+        )
     if cmd or phy or settled is not None:
         raise PegbtError(
             "--cmd, --phy and --settled choose a bag's topics; this recording is not a bag", file=path
