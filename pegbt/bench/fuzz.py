@@ -24,6 +24,9 @@ from typing import Any
 import numpy as np
 
 from pegbt.bench.fuzz_bags import fuzz_mcap, fuzz_rosbag2
+from pegbt.bench.fuzz_btlog import fuzz_btlog
+from pegbt.bench.fuzz_rmw_zenoh import fuzz_rmw_zenoh
+from pegbt.bench.fuzz_robot_config import fuzz_robot_config
 from pegbt.bench.fuzzing import Tally, mutate_text
 from pegbt.errors import PegbtError
 
@@ -272,7 +275,7 @@ def fuzz_tick_logs(count: int, rng: random.Random, work: Path) -> Tally:
 
     for n in range(count):
         mutated = json.loads(json.dumps(records))
-        absurd, what = _mutate_records(mutated, rng)
+        absurd, what = mutate_records(mutated, rng)
         lines = [
             json.dumps(record, allow_nan=True) if not isinstance(record, str) else record
             for record in mutated
@@ -298,7 +301,7 @@ def _json_lines(lines: list[str]) -> bool:
     return True
 
 
-def _mutate_records(records: list[Any], rng: random.Random) -> tuple[bool, str]:
+def mutate_records(records: list[Any], rng: random.Random) -> tuple[bool, str]:
     index = rng.randrange(len(records))
     record = records[index]
     kind = rng.choice(["value", "value", "delete", "duplicate", "node", "deep", "huge", "nan t", "raw"])
@@ -410,6 +413,9 @@ READERS: dict[str, Callable[[int, random.Random, Path], Tally]] = {
     "payloads": fuzz_payloads,
     "mcap_bags": fuzz_mcap,
     "rosbag2_bags": fuzz_rosbag2,
+    "btlog_files": fuzz_btlog,
+    "robot_config_folders": fuzz_robot_config,
+    "rmw_zenoh_wire": fuzz_rmw_zenoh,
 }
 
 

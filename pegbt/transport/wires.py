@@ -8,6 +8,7 @@ here, so `--ros2` means the same thing to each of them.
 
 from __future__ import annotations
 
+import re
 from collections.abc import Sequence
 
 import zenoh
@@ -34,9 +35,34 @@ def wire_session_settings(kind: str, connect: Sequence[str], listen: Sequence[st
     return SessionSettings(listen=tuple(listen), connect=tuple(connect))
 
 
+# ROS 2's names (ros2/rmw, rmw/src/validate_namespace.c and validate_node_name.c): tokens of letters, digits
+# and underscores, not starting with a digit, joined by single slashes. Anything else would reach zenoh as a
+# key expression: `*` or `**` subscribe and publish to every key they match, `$`, `#` and `?` are refused.
+_TOKEN = r"[A-Za-z_][A-Za-z0-9_]*"
+_NAMESPACE = re.compile(rf"/?(?:{_TOKEN}(?:/{_TOKEN})*)?/?")
+_NODE_NAME = re.compile(_TOKEN)
+MAX_NAME = 255  # rmw's RMW_NODE_NAME_MAX_NAME_LENGTH; a namespace's is 255 less the node name's
+
+
+def check_names(namespace: str, node_name: str) -> None:
+    """A `PegbtError` unless `namespace` and `node_name` are ROS 2 names (see `_NAMESPACE`)."""
+    if len(namespace) > MAX_NAME or not _NAMESPACE.fullmatch(namespace):
+        raise PegbtError(
+            f"not a ROS 2 namespace: {namespace[:80]!r} (tokens of letters, digits and _, not starting with a "
+            f"digit, joined by /; at most {MAX_NAME} characters)",
+            field="--namespace",
+        )
+    if len(node_name) > MAX_NAME or not _NODE_NAME.fullmatch(node_name):
+        raise PegbtError(
+            f"not a ROS 2 node name: {node_name[:80]!r} (letters, digits and _, not starting with a digit)",
+            field="node name",
+        )
+
+
 def make_wire(kind: str, session: zenoh.Session, namespace: str, node_name: str) -> Ros2Wire:
     """A `kind` wire on `session`; `namespace` prefixes the topics (the bridge's namespace, or the node's
-    namespace in the ROS 2 graph), `node_name` is the node rmw_zenoh announces."""
+    namespace in the ROS 2 graph), `node_name` is the node rmw_zenoh announces; both ROS 2 names."""
+    check_names(namespace, node_name)
     if kind == "rmw_zenoh":
         from pegbt.transport.rmw_zenoh import RmwZenohWire
 
