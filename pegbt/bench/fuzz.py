@@ -27,7 +27,7 @@ from pegbt.bench.fuzz_bags import fuzz_mcap, fuzz_rosbag2
 from pegbt.bench.fuzz_btlog import fuzz_btlog
 from pegbt.bench.fuzz_rmw_zenoh import fuzz_rmw_zenoh
 from pegbt.bench.fuzz_robot_config import fuzz_robot_config
-from pegbt.bench.fuzzing import Tally, mutate_text
+from pegbt.bench.fuzzing import REPORTED, SILENT, Tally, mutate_text
 from pegbt.errors import PegbtError
 
 REPO = Path(__file__).resolve().parents[2]
@@ -116,6 +116,9 @@ def fuzz_settings(count: int, rng: random.Random, work: Path) -> Tally:
 
 
 _Arrays = dict[str, np.ndarray]
+# Recordings a real robot makes (issue 26's): past the planner's limits but not the robot's, or with the
+# tracker losing the tool; refusing one counts as `good_refused`.
+GOOD_RECORDINGS = ("roll past the planner's limit", "insertion 0.2412 m", "tracker lost the tool")
 _Mutation = Callable[[_Arrays, random.Random], tuple[_Arrays, bool]]
 
 
@@ -145,10 +148,12 @@ def _recording_mutations() -> dict[str, _Mutation]:
         return apply
 
     def nan(a: _Arrays, rng: random.Random) -> tuple[_Arrays, bool]:
-        a["q_phy"][rng.randrange(len(a["q_phy"])), rng.randrange(6)] = rng.choice(
-            [np.nan, np.inf, 1.7e308, -1.7e308]
-        )
+        a["q_phy"][rng.randrange(len(a["q_phy"])), rng.randrange(6)] = rng.choice([np.nan, np.inf, -np.inf])
         return a, True
+
+    def far_out(a: _Arrays, rng: random.Random) -> tuple[_Arrays, bool]:
+        a["q_phy"][rng.randrange(len(a["q_phy"])), rng.randrange(6)] = rng.choice([1.7e308, -1.7e308, 57.3])
+        return a, False  # one tracked sample no arm could reach: a measurement fault, to be reported
 
     def denormal(a: _Arrays, rng: random.Random) -> tuple[_Arrays, bool]:
         a["t"] = np.arange(len(a["t"])) * 5e-324
@@ -168,7 +173,27 @@ def _recording_mutations() -> dict[str, _Mutation]:
         )
         return a, False
 
+    def roll_past_planner(a: _Arrays, rng: random.Random) -> tuple[_Arrays, bool]:
+        scale = -1.761 / min(a["q_cmd"][:, 3].min(), -1e-3)  # issue 26: a session commanded to -100.9°
+        a["q_cmd"][:, 3] *= scale
+        a["q_phy"][:, 3] *= scale
+        return a, False
+
+    def deep_insertion(a: _Arrays, rng: random.Random) -> tuple[_Arrays, bool]:
+        at = rng.randrange(len(a["q_cmd"]) - 3)  # dVRK 1.x's 0.2412 m for three samples
+        a["q_cmd"][at : at + 3, 2] = a["q_phy"][at : at + 3, 2] = 0.2412
+        return a, False
+
+    def tracker_lost(a: _Arrays, rng: random.Random) -> tuple[_Arrays, bool]:
+        n = len(a["q_phy"])
+        at = rng.randrange(n - n // 10)
+        a["q_phy"][at : at + n // 10, 2] = 0.0  # the tracker lost the tool: insertion read as 0 m
+        return a, False
+
     return {
+        "roll past the planner's limit": roll_past_planner,
+        "insertion 0.2412 m": deep_insertion,
+        "tracker lost the tool": tracker_lost,
         "degrees": scaled(57.29577951308232),
         "millimetres": scaled(1000.0, slice(2, 3)),
         "x100": scaled(100.0),
@@ -178,6 +203,7 @@ def _recording_mutations() -> dict[str, _Mutation]:
         "complex": cast("complex128"),
         "timedelta": cast("timedelta64[s]"),
         "non-finite": nan,
+        "a tracked sample far out": far_out,
         "denormal t": denormal,
         "too short": short,
         "joints reversed": swap,
@@ -186,7 +212,7 @@ def _recording_mutations() -> dict[str, _Mutation]:
 
 
 def fuzz_recordings(count: int, rng: random.Random, work: Path) -> Tally:
-    from pegbt.physics.recording import load_recording, write_recording
+    from pegbt.physics.recording import write_recording
     from pegbt.sim2real.synth import FAMILIES, generate
 
     bases = [generate(family, seed).recording for family in FAMILIES for seed in range(2)]
@@ -211,10 +237,30 @@ def fuzz_recordings(count: int, rng: random.Random, work: Path) -> Tally:
             what = kind
         parsed = all(_npy_header_ok(folder / f) for f in ("q_cmd.npy", "q_phy.npy"))
         before = tally.absurd_accepted
-        tally.record(partial(load_recording, folder), parsed=parsed, absurd=absurd, what=what)
+        tally.record(
+            partial(_read_recording, folder, kind == "a tracked sample far out"),
+            parsed=parsed,
+            absurd=absurd,
+            what=what,
+            good=kind in GOOD_RECORDINGS,
+        )
         tally.written_from_non_arm += tally.absurd_accepted - before
         shutil.rmtree(folder)
     return tally
+
+
+def _read_recording(folder: Path, far_out: bool) -> object:
+    """`load_recording`; a recording with a tracked sample no arm could reach is accepted only with that
+    sample among its measurement faults (what the diagnosis reports and leaves out)."""
+    from pegbt.physics.faults import detect_faults
+    from pegbt.physics.recording import load_recording
+
+    recording = load_recording(folder)
+    if not far_out:
+        return True
+    far = np.flatnonzero(np.abs(recording.q_phy).max(axis=1) > 50)
+    faults = detect_faults(recording.q_cmd, recording.q_phy, recording.limits)
+    return REPORTED if far.size and faults.mask[far].all() else SILENT
 
 
 def _damage_file(path: Path, rng: random.Random) -> None:
@@ -442,9 +488,10 @@ def run(per_reader: int = 1000) -> dict[str, float | int | str]:
         figures |= tally.figures(name)
     total_inputs = sum(t.inputs for t in tallies.values())
     figures["total_inputs"] = total_inputs
-    for key in ("tracebacks", "hangs", "absurd_accepted"):
+    for key in ("tracebacks", "hangs", "absurd_accepted", "reported"):
         figures[f"total_{key}"] = sum(getattr(t, key) for t in tallies.values())
     figures["total_written_from_non_arm"] = tallies["recordings"].written_from_non_arm
+    figures["total_good_refused"] = sum(t.good_refused for t in tallies.values())
     figures["parsed_share"] = round(sum(t.parsed for t in tallies.values()) / total_inputs, 3)
     figures["seconds"] = round(time.perf_counter() - start, 1)
     return figures

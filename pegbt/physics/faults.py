@@ -95,7 +95,8 @@ def _spread(error: Array) -> Array:
 
 def _departure(error: Array) -> Array:
     """(N, 6): how many robust deviations each error lies from where its joint usually sits."""
-    return np.abs(error - np.median(error, axis=0)) / _spread(error)
+    with np.errstate(over="ignore"):  # a reading of 1e308 departs infinitely far: so it does
+        return np.abs(error - np.median(error, axis=0)) / _spread(error)
 
 
 def outlying(q_cmd: Array, q_phy: Array) -> NDArray[np.bool_]:
@@ -120,7 +121,8 @@ def detect_faults(q_cmd: Array, q_phy: Array, limits: RobotLimits = DVRK_LIMITS)
     impossible: NDArray[np.bool_] = np.any(unreachable(q_cmd, q_phy, limits), axis=1)
     if n < NEIGHBOURS:
         return MeasurementFaults(impossible, (), int(impossible.sum()), int(impossible.sum()))
-    local = np.abs(error - median_filter(error, size=(NEIGHBOURS, 1), mode="nearest")) / _spread(error)
+    with np.errstate(over="ignore"):
+        local = np.abs(error - median_filter(error, size=(NEIGHBOURS, 1), mode="nearest")) / _spread(error)
     departs = np.maximum(local, _departure(error)) > LIMIT
     mask = (departs.sum(axis=1) >= MIN_JOINTS) | impossible
     windows = []
