@@ -14,6 +14,7 @@ from collections.abc import Sequence
 import zenoh
 
 from pegbt.errors import PegbtError
+from pegbt.transport.keys import check_namespace
 from pegbt.transport.ros2 import BridgeWire, Ros2Wire
 from pegbt.transport.session import SessionSettings, open_session, ros2_graph_settings
 
@@ -35,24 +36,18 @@ def wire_session_settings(kind: str, connect: Sequence[str], listen: Sequence[st
     return SessionSettings(listen=tuple(listen), connect=tuple(connect))
 
 
-# ROS 2's names (ros2/rmw, rmw/src/validate_namespace.c and validate_node_name.c): tokens of letters, digits
-# and underscores, not starting with a digit, joined by single slashes. Anything else would reach zenoh as a
-# key expression: `*` or `**` subscribe and publish to every key they match, `$`, `#` and `?` are refused.
-_TOKEN = r"[A-Za-z_][A-Za-z0-9_]*"
-_NAMESPACE = re.compile(rf"/?(?:{_TOKEN}(?:/{_TOKEN})*)?/?")
-_NODE_NAME = re.compile(_TOKEN)
-MAX_NAME = 255  # rmw's RMW_NODE_NAME_MAX_NAME_LENGTH; a namespace's is 255 less the node name's
+# A ROS 2 node name (ros2/rmw, rmw/src/validate_node_name.c): letters, digits and _, not starting with a digit.
+_NODE_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]{0,254}")
+MAX_NAMESPACE = 255  # rmw/include/rmw/validate_namespace.h, RMW_NAMESPACE_MAX_LENGTH
 
 
 def check_names(namespace: str, node_name: str) -> None:
-    """A `PegbtError` unless `namespace` and `node_name` are ROS 2 names (see `_NAMESPACE`)."""
-    if len(namespace) > MAX_NAME or not _NAMESPACE.fullmatch(namespace):
-        raise PegbtError(
-            f"not a ROS 2 namespace: {namespace[:80]!r} (tokens of letters, digits and _, not starting with a "
-            f"digit, joined by /; at most {MAX_NAME} characters)",
-            field="--namespace",
-        )
-    if len(node_name) > MAX_NAME or not _NODE_NAME.fullmatch(node_name):
+    """A `PegbtError` unless `namespace` can prefix keys (`check_namespace`) and `node_name` is a ROS 2 node
+    name: either goes into rmw_zenoh's liveliness tokens, where zenoh reads `*`, `$`, `?` and `#`."""
+    check_namespace(namespace, "--namespace")
+    if len(namespace) > MAX_NAMESPACE:
+        raise PegbtError(f"a ROS 2 namespace is at most {MAX_NAMESPACE} characters", field="--namespace")
+    if not _NODE_NAME.fullmatch(node_name):
         raise PegbtError(
             f"not a ROS 2 node name: {node_name[:80]!r} (letters, digits and _, not starting with a digit)",
             field="node name",
