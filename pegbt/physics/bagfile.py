@@ -121,20 +121,39 @@ def _mcap_messages(
     path: Path, topics: dict[str, str], notes: list[str]
 ) -> Iterator[tuple[str, str, bytes, int]]:
     """A lone MCAP file through the `mcap` library's stream reader, every CRC it offers checked (each
-    chunk's, and the data section's once its end is read); a file cut short reads up to the cut, noted."""
+    chunk's, and the data section's once its end is read); a file cut short reads up to the cut, and
+    messages no CRC covers (outside chunks, no data-section CRC) are counted: both noted."""
     from mcap.exceptions import EndOfFile, InvalidMagic, McapError, RecordLengthLimitExceeded
-    from mcap.reader import NonSeekingReader
+    from mcap.records import Channel, Chunk, DataEnd, Message, Schema
+    from mcap.stream_reader import StreamReader, breakup_chunk
 
     size = path.stat().st_size
-    count = 0
+    count = unchecked = 0
+    data_crc = False
+    schemas: dict[int, str] = {}
+    channels: dict[int, Channel] = {}
     with path.open("rb") as stream:
-        reader = NonSeekingReader(stream, validate_crcs=True, record_size_limit=max(size, 1))
+        reader = StreamReader(stream, emit_chunks=True, validate_crcs=True, record_size_limit=max(size, 1))
         try:
-            for schema, channel, message in reader.iter_messages(log_time_order=False):
-                kind = schema.name if schema else ""
-                topics[channel.topic] = kind
-                yield channel.topic, kind, message.data, message.log_time
-                count += 1
+            for record in reader.records:
+                inner = breakup_chunk(record, validate_crc=True) if isinstance(record, Chunk) else [record]
+                covered = isinstance(record, Chunk) and record.uncompressed_crc != 0
+                data_crc |= isinstance(record, DataEnd) and record.data_section_crc != 0
+                for item in inner:
+                    if isinstance(item, Schema):
+                        schemas[item.id] = item.name
+                    elif isinstance(item, Channel):
+                        channels[item.id] = item
+                        topics[item.topic] = schemas.get(item.schema_id, "")
+                    elif isinstance(item, Message):
+                        channel = channels.get(item.channel_id)
+                        if channel is None:
+                            raise McapError(
+                                f"message {count} is on channel {item.channel_id}, never declared"
+                            )
+                        unchecked += not covered
+                        yield channel.topic, topics[channel.topic], item.data, item.log_time
+                        count += 1
         except (EndOfFile, EOFError, RecordLengthLimitExceeded) as error:  # a record runs past the end
             if not topics:
                 reason = (
@@ -152,6 +171,11 @@ def _mcap_messages(
                 raise PegbtError(f"not a readable MCAP file: {_one_line(error)}", file=path) from None
             where = f"after {count} readable messages, at byte {stream.tell()} of {size}"
             raise PegbtError(f"damaged MCAP file: {_one_line(error)} ({where})", file=path) from None
+    if unchecked and not data_crc:
+        notes.append(
+            f"{unchecked} of its {count} messages are covered by no checksum (written outside chunks, without "
+            "a data-section CRC): damage to them could not be seen"
+        )
 
 
 def _one_line(error: Exception) -> str:

@@ -91,3 +91,15 @@ def test_a_rosbag2_metadata_nested_30000_deep_is_refused_at_once(tmp_path: Path)
     with pytest.raises(PegbtError, match="not a readable rosbag2 folder") as raised:
         load_recording(folder)
     assert raised.value.file == str(folder / "metadata.yaml")
+
+
+def test_messages_no_checksum_covers_are_said(tmp_path: Path, messages) -> None:
+    """An unchunked file written without a data-section CRC: a flipped bit in a message is a value like any
+    other, so the reader says that nothing checked them."""
+    path = write_mcap(tmp_path / "bag.mcap", messages, chunked=False)
+    recording = load_recording(path, cmd=CMD, phy=PHY)
+    assert recording.notes == (
+        "600 of its 600 messages are covered by no checksum (written outside chunks, without a data-section "
+        "CRC): damage to them could not be seen",
+    )
+    assert load_recording(write_mcap(tmp_path / "chunked.mcap", messages), cmd=CMD, phy=PHY).notes == ()
