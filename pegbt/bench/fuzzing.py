@@ -73,20 +73,14 @@ class Tally:
             self._example(f"hang: {what}")
             return
         except PegbtError as error:
-            self.refused += 1
-            if good:
-                self.good_refused += 1
-                self._example(f"good refused: {what}: {error}")
+            self._refused(good, f"{what}: {error}")
             return
         except Exception as error:  # noqa: BLE001 - the campaign's finding: any other exception
             self.tracebacks += 1
             self._example(f"traceback {type(error).__name__}: {error!s:.120}: {what}")
             return
         if accepted is False:
-            self.refused += 1
-            if good:
-                self.good_refused += 1
-                self._example(f"good refused: {what}")
+            self._refused(good, what)
             return
         self.accepted += 1
         if accepted is REPORTED:
@@ -94,6 +88,12 @@ class Tally:
         elif absurd or accepted is SILENT:
             self.absurd_accepted += 1
             self._example(f"absurd accepted: {what}")
+
+    def _refused(self, good: bool, what: str) -> None:
+        self.refused += 1
+        if good:
+            self.good_refused += 1
+            self._example(f"good refused: {what}")
 
     def _example(self, text: str) -> None:
         if len(self.examples) < 5:
