@@ -20,7 +20,6 @@ ODD_NAMES = (
     "a#b",
     "a?b",
     "a//b",
-    "1lab",
     "lab-2",
     "läb",
     "a b",
@@ -57,7 +56,9 @@ def _name(rng: random.Random) -> tuple[str, bool]:
     if rng.random() < 0.5:
         return rng.choice(NAMES), False
     base = rng.choice(NAMES[2:])
-    odd = rng.choice(ODD_NAMES)
+    if rng.random() < 0.1:  # a token starting with a digit
+        return "/1" + base.lstrip("/"), True
+    odd = rng.choice(ODD_NAMES)  # each breaks the rules wherever it is put
     at = rng.randrange(len(base) + 1)
     return base[:at] + odd + base[at:], True
 

@@ -121,14 +121,17 @@ def _mcap_messages(
     path: Path, topics: dict[str, str], notes: list[str]
 ) -> Iterator[tuple[str, str, bytes, int]]:
     """A lone MCAP file through the `mcap` library's stream reader, every CRC it offers checked (each
-    chunk's, and the data section's once its end is read); a file cut short reads up to the cut, and
-    messages no CRC covers (outside chunks, no data-section CRC) are counted: both noted."""
+    chunk's, and the data section's once its end is read) and the messages read counted against the summary's
+    Statistics record (a zeroed block reads as empty records, and the messages in it vanish); a file cut
+    short reads up to the cut, and messages no CRC covers (outside chunks, no data-section CRC) are
+    counted: both noted."""
     from mcap.exceptions import EndOfFile, InvalidMagic, McapError, RecordLengthLimitExceeded
-    from mcap.records import Channel, Chunk, DataEnd, Message, Schema
+    from mcap.records import Channel, Chunk, DataEnd, Message, Schema, Statistics
     from mcap.stream_reader import StreamReader, breakup_chunk
 
     size = path.stat().st_size
     count = unchecked = 0
+    counted: int | None = None  # what the summary's Statistics record says the file holds
     data_crc = False
     schemas: dict[int, str] = {}
     channels: dict[int, Channel] = {}
@@ -139,6 +142,8 @@ def _mcap_messages(
                 inner = breakup_chunk(record, validate_crc=True) if isinstance(record, Chunk) else [record]
                 covered = isinstance(record, Chunk) and record.uncompressed_crc != 0
                 data_crc |= isinstance(record, DataEnd) and record.data_section_crc != 0
+                if isinstance(record, Statistics):
+                    counted = record.message_count
                 for item in inner:
                     if isinstance(item, Schema):
                         schemas[item.id] = item.name
@@ -171,6 +176,10 @@ def _mcap_messages(
                 raise PegbtError(f"not a readable MCAP file: {_one_line(error)}", file=path) from None
             where = f"after {count} readable messages, at byte {stream.tell()} of {size}"
             raise PegbtError(f"damaged MCAP file: {_one_line(error)} ({where})", file=path) from None
+    if counted is not None and counted != count:
+        raise PegbtError(
+            f"damaged MCAP file: its statistics count {counted} messages, {count} could be read", file=path
+        )
     if unchecked and not data_crc:
         notes.append(
             f"{unchecked} of its {count} messages are covered by no checksum (written outside chunks, without "

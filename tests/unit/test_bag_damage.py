@@ -103,3 +103,16 @@ def test_messages_no_checksum_covers_are_said(tmp_path: Path, messages) -> None:
         "CRC): damage to them could not be seen",
     )
     assert load_recording(write_mcap(tmp_path / "chunked.mcap", messages), cmd=CMD, phy=PHY).notes == ()
+
+
+def test_a_chunk_whose_opcode_is_zeroed_is_found_missing_by_the_statistics(tmp_path: Path, messages) -> None:
+    """A record of an unknown opcode is skipped, as MCAP's readers must: a chunk whose opcode byte is zeroed
+    vanishes with its messages and no CRC fails, so only the summary's message count shows them missing."""
+    path = write_mcap(tmp_path / "bag.mcap", messages, chunk_size=2048)
+    data = bytearray(path.read_bytes())
+    _, at, _ = [r for r in _records(bytes(data)) if r[0] == 0x06][3]  # the fourth chunk
+    data[at - 1] = 0x00
+    path.write_bytes(bytes(data))
+    with pytest.raises(PegbtError, match=r"its statistics count 600 messages, \d+ could be read") as raised:
+        load_recording(path, cmd=CMD, phy=PHY)
+    assert raised.value.file == str(path)
