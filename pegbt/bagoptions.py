@@ -15,7 +15,19 @@ DEFAULT_PHY = "/{arm}/fiducial_js"
 
 
 def add_bag_arguments(parser: argparse.ArgumentParser) -> None:
-    """`--cmd`, `--phy` and `--settled`, for commands that read a recording that may be a bag."""
+    """`--cmd`, `--phy` and `--settled`, for commands that read a recording that may be a bag, and
+    `--robot-config`/`--robot-tool`, the robot whose limits its commands are judged by."""
+    parser.add_argument(
+        "--robot-config",
+        metavar="DIR",
+        help="the dVRK's share/ folder of the robot recorded: its kinematic/PSM.json and tool file give the "
+        "joint limits commands are judged by (default: the dVRK's own, large needle driver)",
+    )
+    parser.add_argument(
+        "--robot-tool",
+        metavar="TOOL",
+        help="the tool file in the dVRK's share/tool/, without .json (default LARGE_NEEDLE_DRIVER_400006)",
+    )
     parser.add_argument(
         "--cmd", metavar="TOPIC", help=f"a bag's command topic (default {DEFAULT_CMD.format(arm='PSMn')})"
     )
@@ -39,6 +51,8 @@ class BagOptions(TypedDict):
     cmd: str | None
     phy: str | None
     settled: float | None
+    robot_config: str | None
+    robot_tool: str | None
 
 
 class RecordOptions(TypedDict):
@@ -50,7 +64,13 @@ class RecordOptions(TypedDict):
 
 def bag_options(args: argparse.Namespace) -> BagOptions:
     """The bag arguments of `add_bag_arguments` as `load_recording` keywords."""
-    return {"cmd": args.cmd, "phy": args.phy, "settled": args.settled}
+    return {
+        "cmd": args.cmd,
+        "phy": args.phy,
+        "settled": args.settled,
+        "robot_config": args.robot_config,
+        "robot_tool": args.robot_tool,
+    }
 
 
 def add_record_arguments(parser: argparse.ArgumentParser) -> None:

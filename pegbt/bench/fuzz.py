@@ -13,166 +13,24 @@ from __future__ import annotations
 
 import json
 import random
-import re
 import shutil
-import signal
 import tempfile
 import time
-from collections.abc import Callable, Iterator
-from contextlib import contextmanager
-from dataclasses import dataclass, field
+from collections.abc import Callable
 from functools import partial
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from pegbt.bench.fuzz_bags import fuzz_mcap, fuzz_rosbag2
+from pegbt.bench.fuzz_btlog import fuzz_btlog
+from pegbt.bench.fuzz_rmw_zenoh import fuzz_rmw_zenoh
+from pegbt.bench.fuzz_robot_config import fuzz_robot_config
+from pegbt.bench.fuzzing import REPORTED, SILENT, Tally, mutate_text
 from pegbt.errors import PegbtError
 
 REPO = Path(__file__).resolve().parents[2]
-HANG_S = 10.0
-ABSURD_NUMBERS = (".nan", ".inf", "-.inf", "1.0e+300", "-1.0e+300", "0x" + "f" * 5000)
-NUMERIC_PARAMS = ("seconds", "height", "keep_apart", "attempts", "times", "retries", "held_above", "settle")
-
-
-class Hang(Exception):
-    """An input that took longer than `HANG_S` to read."""
-
-
-@contextmanager
-def _deadline(seconds: float) -> Iterator[None]:
-    def expire(signum: int, frame: object) -> None:
-        raise Hang()
-
-    previous = signal.signal(signal.SIGALRM, expire)
-    signal.setitimer(signal.ITIMER_REAL, seconds)
-    try:
-        yield
-    finally:
-        signal.setitimer(signal.ITIMER_REAL, 0)
-        signal.signal(signal.SIGALRM, previous)
-
-
-@dataclass
-class Tally:
-    """Counts of one reader's campaign."""
-
-    inputs: int = 0
-    parsed: int = 0
-    accepted: int = 0
-    refused: int = 0
-    tracebacks: int = 0
-    hangs: int = 0
-    absurd_accepted: int = 0
-    written_from_non_arm: int = 0
-    examples: list[str] = field(default_factory=list)
-
-    def record(self, read: Callable[[], Any], *, parsed: bool, absurd: bool, what: str) -> None:
-        self.inputs += 1
-        self.parsed += parsed
-        try:
-            with _deadline(HANG_S):
-                accepted = read()
-        except Hang:
-            self.hangs += 1
-            self._example(f"hang: {what}")
-            return
-        except PegbtError:
-            self.refused += 1
-            return
-        except Exception as error:  # noqa: BLE001 - the campaign's finding: any other exception
-            self.tracebacks += 1
-            self._example(f"traceback {type(error).__name__}: {error!s:.120}: {what}")
-            return
-        if accepted is False:
-            self.refused += 1
-            return
-        self.accepted += 1
-        if absurd:
-            self.absurd_accepted += 1
-            self._example(f"absurd accepted: {what}")
-
-    def _example(self, text: str) -> None:
-        if len(self.examples) < 5:
-            self.examples.append(text[:300])
-
-    def figures(self, name: str) -> dict[str, float | int | str]:
-        out: dict[str, float | int | str] = {
-            f"{name}_{key}": value
-            for key, value in vars(self).items()
-            if key != "examples" and not (key == "written_from_non_arm" and name != "recordings")
-        }
-        out[f"{name}_parsed_share"] = round(self.parsed / max(self.inputs, 1), 3)
-        if self.examples:
-            out[f"{name}_examples"] = " | ".join(self.examples)
-        return out
-
-
-# ------------------------------------------------------------------------------------------- text mutation
-def _mutate_text(text: str, rng: random.Random) -> tuple[str, bool, str]:
-    """(mutated text, whether it was made absurd on purpose, what was done)."""
-    lines = text.splitlines(keepends=True)
-    kind = rng.choice(
-        [
-            "number",
-            "number",
-            "number",
-            "param",
-            "param",
-            "delete",
-            "duplicate",
-            "swap",
-            "bytes",
-            "deep",
-            "truncate",
-        ]
-    )
-    if kind in ("number", "param"):
-        numbers = [(i, match) for i, line in enumerate(lines) for match in _numbers(line)]
-        params = [
-            (i, m)
-            for i, m in numbers
-            if lines[i][: m.start()].rstrip().endswith(tuple(f"{p}:" for p in NUMERIC_PARAMS))
-        ]
-        chosen = params if kind == "param" and params else numbers
-        if chosen:
-            index, match = rng.choice(chosen)
-            absurd = rng.choice(ABSURD_NUMBERS)
-            lines[index] = lines[index][: match.start()] + absurd + lines[index][match.end() :]
-            made_absurd = (kind == "param" and bool(params)) or not absurd.startswith(("1", "-1", "0x"))
-            return "".join(lines), made_absurd, f"{match.group()} -> {absurd[:12]} at line {index + 1}"
-    if kind == "delete" and lines:
-        index = rng.randrange(len(lines))
-        return "".join(lines[:index] + lines[index + 1 :]), False, f"line {index + 1} deleted"
-    if kind == "duplicate" and lines:
-        index = rng.randrange(len(lines))
-        return "".join(lines[: index + 1] + lines[index:]), False, f"line {index + 1} duplicated"
-    if kind == "swap" and len(lines) > 1:
-        a, b = rng.randrange(len(lines)), rng.randrange(len(lines))
-        lines[a], lines[b] = lines[b], lines[a]
-        return "".join(lines), False, f"lines {a + 1} and {b + 1} swapped"
-    if kind == "deep":
-        depth = rng.choice([50, 600, 30_000])
-        return text + "extra: " + "[" * depth + "]" * depth + "\n", False, f"{depth}-deep nesting"
-    if kind == "truncate":
-        cut = rng.randrange(len(text) + 1)
-        return text[:cut], False, f"cut at {cut}"
-    raw = bytearray(text.encode())
-    for _ in range(rng.randint(1, 8)):
-        if raw:
-            raw[rng.randrange(len(raw))] = rng.randrange(256)
-    return raw.decode("utf-8", "replace"), False, "bytes flipped"
-
-
-def _numbers(line: str) -> list[re.Match[str]]:
-    """Numbers written as values (after `: `, `[` or `, `), not inside names, strings or comments."""
-    code = line.split("#", 1)[0]
-    return list(
-        re.finditer(
-            r"(?<=[:\[,] )-?\d+(?:\.\d+)?(?:e[-+]\d+)?(?=\s*[,}\]]|\s*$)|(?<=\[)-?\d+(?:\.\d+)?(?=[,\]])",
-            code,
-        )
-    )
 
 
 def _parses(text: str) -> tuple[bool, bool]:
@@ -209,7 +67,7 @@ def fuzz_trees(count: int, rng: random.Random, work: Path) -> Tally:
     texts = {path: path.read_text() for path in seeds}
     for n in range(count):
         source = rng.choice(seeds)
-        text, absurd, what = _mutate_text(texts[source], rng)
+        text, absurd, what = mutate_text(texts[source], rng)
         target = source.with_name(f"fuzz-{n}.yaml")
         target.write_text(text, encoding="utf-8", errors="surrogateescape")
         parsed, holds = _parses(text)
@@ -243,7 +101,7 @@ def fuzz_settings(count: int, rng: random.Random, work: Path) -> Tally:
     for n in range(count):
         name = rng.choice(sorted(readers))
         base, read = readers[name]
-        text, absurd, what = _mutate_text(base, rng)
+        text, absurd, what = mutate_text(base, rng)
         target = work / f"settings-{n}-{name}"
         target.write_text(text, encoding="utf-8", errors="surrogateescape")
         parsed, holds = _parses(text)
@@ -258,6 +116,9 @@ def fuzz_settings(count: int, rng: random.Random, work: Path) -> Tally:
 
 
 _Arrays = dict[str, np.ndarray]
+# Recordings a real robot makes (issue 26's): past the planner's limits but not the robot's, or with the
+# tracker losing the tool; refusing one counts as `good_refused`.
+GOOD_RECORDINGS = ("roll past the planner's limit", "insertion 0.2412 m", "tracker lost the tool")
 _Mutation = Callable[[_Arrays, random.Random], tuple[_Arrays, bool]]
 
 
@@ -287,10 +148,12 @@ def _recording_mutations() -> dict[str, _Mutation]:
         return apply
 
     def nan(a: _Arrays, rng: random.Random) -> tuple[_Arrays, bool]:
-        a["q_phy"][rng.randrange(len(a["q_phy"])), rng.randrange(6)] = rng.choice(
-            [np.nan, np.inf, 1.7e308, -1.7e308]
-        )
+        a["q_phy"][rng.randrange(len(a["q_phy"])), rng.randrange(6)] = rng.choice([np.nan, np.inf, -np.inf])
         return a, True
+
+    def far_out(a: _Arrays, rng: random.Random) -> tuple[_Arrays, bool]:
+        a["q_phy"][rng.randrange(len(a["q_phy"])), rng.randrange(6)] = rng.choice([1.7e308, -1.7e308, 57.3])
+        return a, False  # one tracked sample no arm could reach: a measurement fault, to be reported
 
     def denormal(a: _Arrays, rng: random.Random) -> tuple[_Arrays, bool]:
         a["t"] = np.arange(len(a["t"])) * 5e-324
@@ -310,7 +173,27 @@ def _recording_mutations() -> dict[str, _Mutation]:
         )
         return a, False
 
+    def roll_past_planner(a: _Arrays, rng: random.Random) -> tuple[_Arrays, bool]:
+        scale = -1.761 / min(a["q_cmd"][:, 3].min(), -1e-3)  # issue 26: a session commanded to -100.9°
+        a["q_cmd"][:, 3] *= scale
+        a["q_phy"][:, 3] *= scale
+        return a, False
+
+    def deep_insertion(a: _Arrays, rng: random.Random) -> tuple[_Arrays, bool]:
+        at = rng.randrange(len(a["q_cmd"]) - 3)  # dVRK 1.x's 0.2412 m for three samples
+        a["q_cmd"][at : at + 3, 2] = a["q_phy"][at : at + 3, 2] = 0.2412
+        return a, False
+
+    def tracker_lost(a: _Arrays, rng: random.Random) -> tuple[_Arrays, bool]:
+        n = len(a["q_phy"])
+        at = rng.randrange(n - n // 10)
+        a["q_phy"][at : at + n // 10, 2] = 0.0  # the tracker lost the tool: insertion read as 0 m
+        return a, False
+
     return {
+        "roll past the planner's limit": roll_past_planner,
+        "insertion 0.2412 m": deep_insertion,
+        "tracker lost the tool": tracker_lost,
         "degrees": scaled(57.29577951308232),
         "millimetres": scaled(1000.0, slice(2, 3)),
         "x100": scaled(100.0),
@@ -320,6 +203,7 @@ def _recording_mutations() -> dict[str, _Mutation]:
         "complex": cast("complex128"),
         "timedelta": cast("timedelta64[s]"),
         "non-finite": nan,
+        "a tracked sample far out": far_out,
         "denormal t": denormal,
         "too short": short,
         "joints reversed": swap,
@@ -328,7 +212,7 @@ def _recording_mutations() -> dict[str, _Mutation]:
 
 
 def fuzz_recordings(count: int, rng: random.Random, work: Path) -> Tally:
-    from pegbt.physics.recording import load_recording, write_recording
+    from pegbt.physics.recording import write_recording
     from pegbt.sim2real.synth import FAMILIES, generate
 
     bases = [generate(family, seed).recording for family in FAMILIES for seed in range(2)]
@@ -353,10 +237,30 @@ def fuzz_recordings(count: int, rng: random.Random, work: Path) -> Tally:
             what = kind
         parsed = all(_npy_header_ok(folder / f) for f in ("q_cmd.npy", "q_phy.npy"))
         before = tally.absurd_accepted
-        tally.record(partial(load_recording, folder), parsed=parsed, absurd=absurd, what=what)
+        tally.record(
+            partial(_read_recording, folder, kind == "a tracked sample far out"),
+            parsed=parsed,
+            absurd=absurd,
+            what=what,
+            good=kind in GOOD_RECORDINGS,
+        )
         tally.written_from_non_arm += tally.absurd_accepted - before
         shutil.rmtree(folder)
     return tally
+
+
+def _read_recording(folder: Path, far_out: bool) -> object:
+    """`load_recording`; a recording with a tracked sample no arm could reach is accepted only with that
+    sample among its measurement faults (what the diagnosis reports and leaves out)."""
+    from pegbt.physics.faults import detect_faults
+    from pegbt.physics.recording import load_recording
+
+    recording = load_recording(folder)
+    if not far_out:
+        return True
+    far = np.flatnonzero(np.abs(recording.q_phy).max(axis=1) > 50)
+    faults = detect_faults(recording.q_cmd, recording.q_phy, recording.limits)
+    return REPORTED if far.size and faults.mask[far].all() else SILENT
 
 
 def _damage_file(path: Path, rng: random.Random) -> None:
@@ -418,7 +322,7 @@ def fuzz_tick_logs(count: int, rng: random.Random, work: Path) -> Tally:
 
     for n in range(count):
         mutated = json.loads(json.dumps(records))
-        absurd, what = _mutate_records(mutated, rng)
+        absurd, what = mutate_records(mutated, rng)
         lines = [
             json.dumps(record, allow_nan=True) if not isinstance(record, str) else record
             for record in mutated
@@ -444,7 +348,7 @@ def _json_lines(lines: list[str]) -> bool:
     return True
 
 
-def _mutate_records(records: list[Any], rng: random.Random) -> tuple[bool, str]:
+def mutate_records(records: list[Any], rng: random.Random) -> tuple[bool, str]:
     index = rng.randrange(len(records))
     record = records[index]
     kind = rng.choice(["value", "value", "delete", "duplicate", "node", "deep", "huge", "nan t", "raw"])
@@ -554,6 +458,11 @@ READERS: dict[str, Callable[[int, random.Random, Path], Tally]] = {
     "recordings": fuzz_recordings,
     "tick_logs": fuzz_tick_logs,
     "payloads": fuzz_payloads,
+    "mcap_bags": fuzz_mcap,
+    "rosbag2_bags": fuzz_rosbag2,
+    "btlog_files": fuzz_btlog,
+    "robot_config_folders": fuzz_robot_config,
+    "rmw_zenoh_wire": fuzz_rmw_zenoh,
 }
 
 
@@ -580,9 +489,10 @@ def run(per_reader: int = 1000) -> dict[str, float | int | str]:
         figures |= tally.figures(name)
     total_inputs = sum(t.inputs for t in tallies.values())
     figures["total_inputs"] = total_inputs
-    for key in ("tracebacks", "hangs", "absurd_accepted"):
+    for key in ("tracebacks", "hangs", "absurd_accepted", "reported"):
         figures[f"total_{key}"] = sum(getattr(t, key) for t in tallies.values())
     figures["total_written_from_non_arm"] = tallies["recordings"].written_from_non_arm
+    figures["total_good_refused"] = sum(t.good_refused for t in tallies.values())
     figures["parsed_share"] = round(sum(t.parsed for t in tallies.values()) / total_inputs, 3)
     figures["seconds"] = round(time.perf_counter() - start, 1)
     return figures

@@ -246,14 +246,15 @@ def _train(args: argparse.Namespace) -> int:
     from pegbt.physics.recording import load_recording
 
     recording = load_recording(args.recording, arm=args.arm, **bag_options(args))
+    recording.warn()
     n_train = recording.head(args.train_fraction)
-    training = recording.slice(0, n_train)
-    faults = detect_faults(training.q_cmd, training.q_phy)
-    print(f"training samples: {faults.sentence(training.times)}")
-    model = new_model(args.model, args.arm).fit(training.subset(faults.kept))
+    faults = detect_faults(recording.q_cmd, recording.q_phy, recording.limits)
+    print(f"measurement faults: {faults.sentence(recording.times)}")
+    training = recording.slice(0, n_train).subset(faults.kept[:n_train])
+    model = new_model(args.model, args.arm).fit(training)
     if n_train < len(recording):
         assert model.metadata is not None
-        scores = evaluate(model, recording, start=n_train)
+        scores = evaluate(model, recording, start=n_train, kept=faults.kept)
         model.metadata.heldout = scores
         print(_summary(scores))
     path = model.save(args.out or OUTPUT_DIR / model_file_name(args.arm, args.model))
@@ -306,6 +307,7 @@ def _eval(args: argparse.Namespace) -> int:
 
     model = CalibrationModel.load(args.model)
     recording = load_recording(args.recording, arm=model.arm, **bag_options(args))
+    recording.warn()
     start = recording.head(args.from_fraction) if args.from_fraction > 0 else 0
     if start >= len(recording):
         raise PegbtError(

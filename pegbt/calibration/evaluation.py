@@ -34,13 +34,23 @@ def tip_error_mm(predicted: NDArray[np.float64], measured: NDArray[np.float64]) 
     return 1000.0 * np.linalg.norm(tip_position(predicted) - tip_position(measured), axis=-1)
 
 
-def evaluate(model: CalibrationModel, recording: Recording, start: int = 0) -> dict[str, Any]:
-    """Held-out scores of `model` on samples start.. of `recording` (the `--json` form of `calibrate eval`)."""
+def evaluate(
+    model: CalibrationModel, recording: Recording, start: int = 0, kept: NDArray[np.bool_] | None = None
+) -> dict[str, Any]:
+    """Held-out scores of `model` on samples start.. of `recording` (the `--json` form of `calibrate eval`);
+    with `kept`, only on those samples (measurement faults left out), the model's memory running over all."""
     check_arm(recording, model.arm, f"the {model.kind} model")
     if not 0 <= start < len(recording):
         raise PegbtError(f"no samples to score from sample {start} of {len(recording)}", file=recording.path)
-    predicted = model.predict(recording.q_cmd)[start:]
-    measured, commanded = recording.q_phy[start:], recording.q_cmd[start:]
+    scored = np.arange(start, len(recording))
+    if kept is not None:
+        scored = scored[kept[start:]]
+        if not scored.size:
+            raise PegbtError(
+                f"every sample from sample {start} is a measurement fault: none to score", file=recording.path
+            )
+    predicted = model.predict(recording.q_cmd)[scored]
+    measured, commanded = recording.q_phy[scored], recording.q_cmd[scored]
     tip, tip_raw = tip_error_mm(predicted, measured), tip_error_mm(commanded, measured)
     return {
         "model": model.kind,

@@ -223,7 +223,7 @@ def refit_at(
     if not isinstance(model, PhysicsModel):
         raise PegbtError(f"refit keeps a physics model's shape; this is a {model.kind} model", field="MODEL")
     history = recording.slice(0, int(at[-1]) + 1)
-    faulty = ~detect_faults(history.q_cmd, history.q_phy).kept
+    faulty = ~detect_faults(history.q_cmd, history.q_phy, history.limits).kept
     at = at[~faulty[at]]
     if len(at) < MIN_REFIT_SAMPLES:
         raise PegbtError(

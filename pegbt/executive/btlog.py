@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import datetime
 import json
+import re
 import struct
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -41,6 +42,7 @@ _KIND = {
 }
 _SIMPLE = {"inverter": "Inverter", "force_success": "ForceSuccess", "force_failure": "ForceFailure"}
 _REACTIVE = {"ReactiveSequence", "ReactiveFallback"}  # a running child halts its siblings
+_XML_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_.-]{0,199}")  # XML names, as far as BT.CPP's are ASCII
 
 
 @dataclass(frozen=True)
@@ -96,7 +98,30 @@ def btcpp_node(node: dict[str, Any]) -> BtcppNode:
 
 
 def btcpp_nodes(log: TickLog) -> list[BtcppNode]:
-    return [btcpp_node(node) for node in log.nodes]
+    """Every node as BT.CPP sees it; a `PegbtError` naming the node for one that cannot be written: a
+    parameter its BT.CPP node needs missing or not a number, or a type or parameter name that is not an XML
+    name (BT.CPP's node IDs and ports are element and attribute names)."""
+    converted = []
+    for node in log.nodes:
+        where = f"node {node.get('id')}"
+        try:
+            btcpp = btcpp_node(node)
+        except (KeyError, TypeError, ValueError, OverflowError) as error:
+            raise PegbtError(
+                f"{where} ({str(node.get('type'))[:40]}) cannot be written for BT.CPP: {type(error).__name__} "
+                f"{str(error)[:80]}",
+                file=log.path,
+                field=where,
+            ) from None
+        bad = next((name for name in (btcpp.tag, *btcpp.ports) if not _XML_NAME.fullmatch(name)), None)
+        if bad is not None:
+            raise PegbtError(
+                f"{where}: {bad[:40]!r} is not an XML name, which BT.CPP's node IDs and ports must be",
+                file=log.path,
+                field=where,
+            )
+        converted.append(btcpp)
+    return converted
 
 
 def _instance_paths(log: TickLog) -> dict[int, str]:

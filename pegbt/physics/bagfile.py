@@ -13,9 +13,10 @@ library's stream reader, which also reads a file cut short up to the cut. Payloa
 from __future__ import annotations
 
 import re
+import sqlite3
 import struct
 from collections.abc import Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -24,6 +25,7 @@ from numpy.typing import NDArray
 from pegbt.bagoptions import DEFAULT_CMD, DEFAULT_PHY
 from pegbt.errors import PegbtError
 from pegbt.psm import ARMS, N_JOINTS
+from pegbt.yamlfile import read_yaml_file
 
 JOINT_STATE = "sensor_msgs/msg/JointState"
 _ARM_IN_TOPIC = re.compile(r"(?:^|/)(PSM[12])(?:/|$)")
@@ -39,6 +41,7 @@ class BagSamples:
     q_phy: Array
     t: Array
     arm: str | None
+    notes: tuple[str, ...] = ()  # what the reader read past: a file cut short
 
 
 def is_bag(path: Path) -> bool:
@@ -46,38 +49,142 @@ def is_bag(path: Path) -> bool:
     return path.suffix.lower() == ".mcap" and path.is_file() or (path / "metadata.yaml").is_file()
 
 
-def _raw_messages(path: Path, topics: dict[str, str]) -> Iterator[tuple[str, str, bytes, int]]:
-    """(topic, type, CDR payload, log time ns) of every message of the bag; `topics` learns every topic's type."""
+def _damage(reader_error: type[Exception]) -> tuple[type[Exception], ...]:
+    """What the readers raise on bytes that are not what the format says: the reader's own error, corrupt
+    compression (zstandard's ZstdError for mcap, backports.zstd's for rosbags, lz4's RuntimeError), a CRC that
+    disagrees (mcap's CRCValidationError is a ValueError), records cut or garbled (struct.error,
+    UnicodeDecodeError, KeyError), a damaged sqlite3 database (rosbags reads it through apsw)."""
+    from apsw import Error as ApswError
+    from backports.zstd import ZstdError as RosbagsZstdError
+    from zstandard import ZstdError
+
+    return (
+        reader_error,
+        ZstdError,
+        RosbagsZstdError,
+        ApswError,
+        ValueError,
+        RuntimeError,
+        struct.error,
+        KeyError,
+        IndexError,
+        EOFError,
+        MemoryError,
+        OverflowError,
+        sqlite3.Error,
+    )
+
+
+def _raw_messages(
+    path: Path, topics: dict[str, str], notes: list[str]
+) -> Iterator[tuple[str, str, bytes, int]]:
+    """(topic, type, CDR payload, log time ns) of every message of the bag; `topics` learns every topic's
+    type, `notes` what was read past (a file cut short). Damage is a `PegbtError` naming the file."""
     if path.is_dir():
-        from rosbags.highlevel import AnyReader, AnyReaderError
+        yield from _rosbag2_messages(path, topics)
+    else:
+        yield from _mcap_messages(path, topics, notes)
 
-        try:
-            with AnyReader([path]) as reader:
-                topics.update({c.topic: c.msgtype for c in reader.connections})
-                for connection, log_time, data in reader.messages():
-                    yield connection.topic, connection.msgtype, bytes(data), log_time
-        except AnyReaderError as error:
-            raise PegbtError(f"not a readable rosbag2 folder: {_one_line(error)}", file=path) from None
-        return
-    from mcap.exceptions import EndOfFile, McapError
-    from mcap.reader import NonSeekingReader
 
+def _rosbag2_messages(path: Path, topics: dict[str, str]) -> Iterator[tuple[str, str, bytes, int]]:
+    """A rosbag2 folder through `rosbags`, which checks an MCAP chunk's CRC as it decompresses it."""
+    from rosbags.highlevel import AnyReader, AnyReaderError
+    from rosbags.rosbag2 import ReaderError
+
+    try:
+        read_yaml_file(
+            path / "metadata.yaml"
+        )  # within bounds of size and depth, which rosbags' parser has not
+    except PegbtError as error:
+        raise PegbtError(
+            f"not a readable rosbag2 folder: {error.message}",
+            file=error.file,
+            line=error.line,
+            column=error.column,
+        ) from None
+    count = 0
+    try:
+        with AnyReader([path]) as reader:
+            topics.update({c.topic: c.msgtype for c in reader.connections})
+            for connection, log_time, data in reader.messages():
+                yield connection.topic, connection.msgtype, bytes(data), log_time
+                count += 1
+    except AnyReaderError as error:
+        raise PegbtError(f"not a readable rosbag2 folder: {_one_line(error)}", file=path) from None
+    except _damage(ReaderError) as error:
+        raise PegbtError(
+            f"damaged rosbag2 folder: {_one_line(error)} (after {count} readable messages)", file=path
+        ) from None
+
+
+def _mcap_messages(
+    path: Path, topics: dict[str, str], notes: list[str]
+) -> Iterator[tuple[str, str, bytes, int]]:
+    """A lone MCAP file through the `mcap` library's stream reader, every CRC it offers checked (each
+    chunk's, and the data section's once its end is read) and the messages read counted against the summary's
+    Statistics record (a zeroed block reads as empty records, and the messages in it vanish); a file cut
+    short reads up to the cut, and messages no CRC covers (outside chunks, no data-section CRC) are
+    counted: both noted."""
+    from mcap.exceptions import EndOfFile, InvalidMagic, McapError, RecordLengthLimitExceeded
+    from mcap.records import Channel, Chunk, DataEnd, Message, Schema, Statistics
+    from mcap.stream_reader import StreamReader, breakup_chunk
+
+    size = path.stat().st_size
+    count = unchecked = 0
+    counted: int | None = None  # what the summary's Statistics record says the file holds
+    data_crc = False
+    schemas: dict[int, str] = {}
+    channels: dict[int, Channel] = {}
     with path.open("rb") as stream:
+        reader = StreamReader(stream, emit_chunks=True, validate_crcs=True, record_size_limit=max(size, 1))
         try:
-            for schema, channel, message in NonSeekingReader(stream).iter_messages(log_time_order=False):
-                kind = schema.name if schema else ""
-                topics[channel.topic] = kind
-                yield channel.topic, kind, message.data, message.log_time
-        except McapError as error:
+            for record in reader.records:
+                inner = breakup_chunk(record, validate_crc=True) if isinstance(record, Chunk) else [record]
+                covered = isinstance(record, Chunk) and record.uncompressed_crc != 0
+                data_crc |= isinstance(record, DataEnd) and record.data_section_crc != 0
+                if isinstance(record, Statistics):
+                    counted = record.message_count
+                for item in inner:
+                    if isinstance(item, Schema):
+                        schemas[item.id] = item.name
+                    elif isinstance(item, Channel):
+                        channels[item.id] = item
+                        topics[item.topic] = schemas.get(item.schema_id, "")
+                    elif isinstance(item, Message):
+                        channel = channels.get(item.channel_id)
+                        if channel is None:
+                            raise McapError(
+                                f"message {count} is on channel {item.channel_id}, never declared"
+                            )
+                        unchecked += not covered
+                        yield channel.topic, topics[channel.topic], item.data, item.log_time
+                        count += 1
+        except (EndOfFile, EOFError, RecordLengthLimitExceeded) as error:  # a record runs past the end
             if not topics:
                 reason = (
-                    f"it ends after {stream.tell()} bytes, before its first channel"
-                    if isinstance(error, EndOfFile)
+                    f"it ends after {size} bytes, before its first channel"
+                    if size == stream.tell() or not isinstance(error, EndOfFile)
                     else _one_line(error)
                 )
                 raise PegbtError(f"not a readable MCAP file: {reason}", file=path) from None
-        except (EOFError, struct.error):
-            pass  # a file cut short (a crash while recording) reads up to the cut
+            notes.append(
+                f"the file ends in the middle of a record (a recording cut short, or a length past its end): "
+                f"{count} messages read before byte {stream.tell()} of {size}"
+            )
+        except _damage(McapError) as error:
+            if isinstance(error, InvalidMagic):
+                raise PegbtError(f"not a readable MCAP file: {_one_line(error)}", file=path) from None
+            where = f"after {count} readable messages, at byte {stream.tell()} of {size}"
+            raise PegbtError(f"damaged MCAP file: {_one_line(error)} ({where})", file=path) from None
+    if counted is not None and counted != count:
+        raise PegbtError(
+            f"damaged MCAP file: its statistics count {counted} messages, {count} could be read", file=path
+        )
+    if unchecked and not data_crc:
+        notes.append(
+            f"{unchecked} of its {count} messages are covered by no checksum (written outside chunks, without "
+            "a data-section CRC): damage to them could not be seen"
+        )
 
 
 def _one_line(error: Exception) -> str:
@@ -124,22 +231,25 @@ def read_bag(
     settled: float | None = None,
 ) -> BagSamples:
     """Paired samples of `cmd` and `phy`; a `PegbtError` naming the file and topic for a bag that has none."""
+    from rosbags.serde import SerdeError
     from rosbags.typesys import Stores, get_typestore
     from rosbags.typesys.stores.ros2_jazzy import sensor_msgs__msg__JointState
 
     arm = _bag_arm(path, arm, cmd, phy)
     topics: dict[str, str] = {}
     rows: dict[str, list[tuple[float, list[float]]]] = {}
+    notes: list[str] = []
     store = get_typestore(Stores.ROS2_JAZZY)
     wanted = None if arm is None else {cmd or DEFAULT_CMD.format(arm=arm), phy or DEFAULT_PHY.format(arm=arm)}
-    for topic, kind, data, log_time in _raw_messages(path, topics):
+    for topic, kind, data, log_time in _raw_messages(path, topics, notes):
         if kind != JOINT_STATE or (wanted is not None and topic not in wanted):
             continue
         try:
             message = store.deserialize_cdr(data, JOINT_STATE)
-        except (ValueError, IndexError, struct.error, UnicodeDecodeError) as error:
+        except (SerdeError, ValueError, IndexError, struct.error, UnicodeDecodeError, MemoryError) as error:
+            index = len(rows.get(topic, []))
             raise PegbtError(
-                f"a message of {topic} is not valid CDR: {error}", file=path, field=topic
+                f"message {index} of {topic} is not valid CDR: {_one_line(error)}", file=path, field=topic
             ) from None
         assert isinstance(message, sensor_msgs__msg__JointState)  # the store's class for JOINT_STATE
         stamp = message.header.stamp.sec + message.header.stamp.nanosec * 1e-9 or log_time * 1e-9
@@ -165,7 +275,7 @@ def read_bag(
             )
     commands = _joint_stream(path, cmd, topics[cmd], rows.get(cmd, []))
     physical = _joint_stream(path, phy, topics[phy], rows.get(phy, []))
-    return _paired(path, cmd, phy, commands, physical, arm, settled)
+    return replace(_paired(path, cmd, phy, commands, physical, arm, settled), notes=tuple(notes))
 
 
 def _paired(

@@ -8,6 +8,11 @@ must stay out of any fit. A sample is a fault when, on at least `MIN_JOINTS` joi
 over the whole recording) from its neighbours (a glitch among good samples) or from where the joint
 usually sits (a window of samples far from it). Robust: medians and median absolute deviations, so the
 faults themselves do not widen the yardstick. Runs of faults become windows.
+
+A sample is also a fault, on one joint alone, where no arm could be (`unreachable`): beyond the robot's own
+joint limits by more than a real joint passes them, or, on q1–q3, farther from its command than the dVRK's
+controller lets an arm lag before it stops it. A tracker that loses the tool reads the insertion as 0 m
+while it was commanded to 0.15 m: the arm was not there.
 """
 
 from __future__ import annotations
@@ -18,7 +23,16 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.ndimage import median_filter
 
+from pegbt.motion.robot_config import DVRK_LIMITS, RobotLimits
+
 Array = NDArray[np.float64]
+
+# How far physical joints may lie beyond the robot's limits: rad for rotary joints, m for insertion. A real
+# wrist does: the four dVRK recordings' physical joints differ from their commands by up to 0.45 rad (q6).
+PHYSICAL_TOLERANCE = np.array([0.5, 0.5, 0.01, 0.5, 0.5, 0.5])
+# The dVRK's tracking-error limit of the first three actuators, which are q1–q3 (share/pid/
+# sawControllersPID-PSM.json, "p_measured_setpoint_tolerance"; mtsPID.cpp stops the arm beyond it).
+TRACKING_TOLERANCE = np.array([0.5, 0.5, 0.05])
 
 LIMIT = 8.0  # robust deviations (MAD × 1.4826) beyond which a joint's error is not its own
 MIN_JOINTS = 2  # joints that must depart at once: a tracker fault corrupts the whole pose
@@ -34,6 +48,7 @@ class MeasurementFaults:
     mask: NDArray[np.bool_]
     windows: tuple[tuple[int, int], ...]  # runs of at least MIN_WINDOW faults: tracking lost
     glitches: int  # isolated faulty samples outside those windows
+    unreachable: int = 0  # of all faults, the samples where no arm could be (`unreachable`)
 
     @property
     def count(self) -> int:
@@ -55,12 +70,18 @@ class MeasurementFaults:
             parts.append(
                 f"{self.glitches} isolated samples jumped on several joints at once (tracker glitches)"
             )
+        if self.unreachable:
+            parts.append(
+                f"{self.unreachable} samples lie where no arm could be (beyond the robot's joint limits, or "
+                "farther from the command than its controller allows)"
+            )
         return "; ".join(parts) + f"; {self.count} samples excluded"
 
     def to_dict(self, times: Array) -> dict[str, object]:
         return {
             "samples_excluded": self.count,
             "glitches": self.glitches,
+            "unreachable": self.unreachable,
             "windows": [[float(times[a]), float(times[b]), b - a + 1] for a, b in self.windows],
             "text": self.sentence(times),
         }
@@ -72,17 +93,38 @@ def _spread(error: Array) -> Array:
     return np.maximum(spread, 1e-9)
 
 
-def detect_faults(q_cmd: Array, q_phy: Array) -> MeasurementFaults:
-    """The samples of a recording no arm could produce (see the module docstring)."""
+def _departure(error: Array) -> Array:
+    """(N, 6): how many robust deviations each error lies from where its joint usually sits."""
+    with np.errstate(over="ignore"):  # a reading of 1e308 departs infinitely far: so it does
+        return np.abs(error - np.median(error, axis=0)) / _spread(error)
+
+
+def outlying(q_cmd: Array, q_phy: Array) -> NDArray[np.bool_]:
+    """(N, 6): where a joint's error lies more than `LIMIT` robust deviations from where it usually sits."""
+    return _departure(np.asarray(q_phy, float) - np.asarray(q_cmd, float)) > LIMIT
+
+
+def unreachable(q_cmd: Array, q_phy: Array, limits: RobotLimits = DVRK_LIMITS) -> NDArray[np.bool_]:
+    """(N, 6): where a physical joint is beyond `limits` by more than `PHYSICAL_TOLERANCE`, or (q1–q3)
+    farther from its command than `TRACKING_TOLERANCE`."""
+    q_phy = np.asarray(q_phy, float)
+    beyond = (q_phy < limits.lower - PHYSICAL_TOLERANCE) | (q_phy > limits.upper + PHYSICAL_TOLERANCE)
+    lag = np.abs(q_phy[:, :3] - np.asarray(q_cmd, float)[:, :3]) > TRACKING_TOLERANCE
+    beyond[:, :3] |= lag
+    return beyond
+
+
+def detect_faults(q_cmd: Array, q_phy: Array, limits: RobotLimits = DVRK_LIMITS) -> MeasurementFaults:
+    """The samples of a recording no arm could produce (see the module docstring); `limits` are the robot's."""
     error = np.asarray(q_phy, float) - np.asarray(q_cmd, float)
     n = len(error)
+    impossible: NDArray[np.bool_] = np.any(unreachable(q_cmd, q_phy, limits), axis=1)
     if n < NEIGHBOURS:
-        return MeasurementFaults(np.zeros(n, dtype=bool), (), 0)
-    spread = _spread(error)
-    local = np.abs(error - median_filter(error, size=(NEIGHBOURS, 1), mode="nearest")) / spread
-    overall = np.abs(error - np.median(error, axis=0)) / spread
-    departs = np.maximum(local, overall) > LIMIT
-    mask = departs.sum(axis=1) >= MIN_JOINTS
+        return MeasurementFaults(impossible, (), int(impossible.sum()), int(impossible.sum()))
+    with np.errstate(over="ignore"):
+        local = np.abs(error - median_filter(error, size=(NEIGHBOURS, 1), mode="nearest")) / _spread(error)
+    departs = np.maximum(local, _departure(error)) > LIMIT
+    mask = (departs.sum(axis=1) >= MIN_JOINTS) | impossible
     windows = []
     glitches = 0
     index = np.flatnonzero(mask)
@@ -95,4 +137,4 @@ def detect_faults(q_cmd: Array, q_phy: Array) -> MeasurementFaults:
                 windows.append((a, b))
             else:
                 glitches += len(run)
-    return MeasurementFaults(mask, tuple(windows), glitches)
+    return MeasurementFaults(mask, tuple(windows), glitches, int(impossible.sum()))

@@ -1,11 +1,14 @@
-"""Whether a recording's joints are an arm's: commands within its limits, physical joints near them and
-following the commands, in radians and metres.
+"""Whether a recording's joints are an arm's: commands a robot could have been sent, physical joints that
+follow them, in radians and metres.
 
 Why a check of its own: a recording in degrees, millimetres or ×100, or a `q_phy` of pure noise, is
 finite and well shaped, so the format checks pass it, and the fit then names effects and writes a
-model of nothing (a held-out tip error of metres). The limits are the arm's (`skills/psm.yaml`, the
-same the simulator enforces); physical joints may pass them by a stated tolerance, since a real wrist
-does: the four dVRK recordings' physical joints differ from their commands by up to 0.45 rad (q6).
+model of nothing (a held-out tip error of metres). Commands are judged by the robot's own limits (the
+dVRK's, `DVRK_LIMITS`, or its `share/` folder's), never by the planner's narrower `skills/psm.yaml`,
+with `COMMAND_TOLERANCE` past them: the reference paper's dVRK 1.x took an insertion of 0.2412 m where
+dVRK 2.x stops at 0.24 m. Physical samples no arm could reach are measurement faults
+(`pegbt.physics.faults`), which the diagnosis reports and leaves out; only a recording most of whose
+physical samples are such is not an arm's.
 """
 
 from __future__ import annotations
@@ -17,52 +20,45 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pegbt.errors import PegbtError
-from pegbt.motion.limits import arm_settings
+from pegbt.motion.robot_config import RobotLimits
+from pegbt.physics.faults import PHYSICAL_TOLERANCE, outlying, unreachable
 from pegbt.psm import N_JOINTS, joint_label
 
-# How far physical joints may lie beyond the commanded limits: rad for rotary joints, m for insertion.
-PHYSICAL_TOLERANCE = np.array([0.5, 0.5, 0.01, 0.5, 0.5, 0.5])
+# How far a recorded command may pass the robot's limits: rad for rotary joints, m for insertion (5 mm
+# covers dVRK 1.x's 0.2412 m; a recording in millimetres is off by a factor of 1000).
+COMMAND_TOLERANCE = np.array([0.05, 0.05, 0.005, 0.05, 0.05, 0.05])
 # A joint whose commands move must follow them: the arm joints (q1-q3) closely, the cable-driven wrist
 # (offsets, coupling, hysteresis) at least loosely. Noise does not correlate with anything.
 MIN_CORRELATION = np.array([0.9, 0.9, 0.9, 0.3, 0.3, 0.3])
 # Spread of commands under which a joint is taken as not moved (below the tracker's resolution).
 MOVED = np.array([0.01, 0.01, 0.0005, 0.01, 0.01, 0.01])
-COMMAND_SLACK = 1e-6  # rounding of a limit written with four decimals
+# The share of physical samples that may lie where no arm could be: past it, the recording's bulk is not an
+# arm's (physical joints in other units, or of another arm), not a tracker that lost the tool for a while.
+MAX_UNREACHABLE_SHARE = 0.5
 
 
 def check_arm_joints(
     q_cmd: NDArray[np.float64],
     q_phy: NDArray[np.float64],
-    arm: str | None,
+    limits: RobotLimits,
     file_of: Callable[[str], Path],
     line_of: Callable[[int], int | None],
 ) -> None:
     """A `PegbtError` naming the file, joint and sample where the recording stops being an arm's.
-
-    `arm` None uses PSM1's limits (both PSMs share them in skills/psm.yaml)."""
-    settings = arm_settings(arm or "PSM1")
-    lower, upper = settings.lower, settings.upper
+    Physical samples no arm could reach are not refused unless they are most of the recording."""
     _within(
         q_cmd,
-        lower - COMMAND_SLACK,
-        upper + COMMAND_SLACK,
+        limits.lower - COMMAND_TOLERANCE,
+        limits.upper + COMMAND_TOLERANCE,
         "q_cmd",
-        "the arm's joint limits",
+        "the robot's joint limits widened by the command tolerance (0.05 rad, 5 mm)",
         file_of,
         line_of,
     )
-    _within(
-        q_phy,
-        lower - PHYSICAL_TOLERANCE,
-        upper + PHYSICAL_TOLERANCE,
-        "q_phy",
-        "the arm's joint limits widened by the physical tolerance (0.5 rad, 0.01 m)",
-        file_of,
-        line_of,
-    )
+    own = ~outlying(q_cmd, q_phy)  # a tracker that lost the tool does not make the joint unfollowing
     for joint in range(N_JOINTS):
-        command, physical = q_cmd[:, joint], q_phy[:, joint]
-        if np.ptp(command) < MOVED[joint] or np.ptp(physical) == 0:
+        command, physical = q_cmd[own[:, joint], joint], q_phy[own[:, joint], joint]
+        if command.size < 2 or np.ptp(command) < MOVED[joint] or np.ptp(physical) == 0:
             continue
         correlation = float(np.corrcoef(command, physical)[0, 1])
         if not correlation >= MIN_CORRELATION[joint]:
@@ -72,6 +68,21 @@ def check_arm_joints(
                 file=file_of("q_phy"),
                 field=f"q_phy.{joint_label(joint).split()[0]}",
             )
+    beyond = unreachable(q_cmd, q_phy, limits)
+    share = float(beyond.any(axis=1).mean())
+    if share > MAX_UNREACHABLE_SHARE:
+        sample, joint = (int(i) for i in np.argwhere(beyond)[0])
+        unit = "m" if joint == 2 else "rad"
+        raise PegbtError(
+            f"{joint_label(joint)} is {q_phy[sample, joint]:.6g} {unit} at sample {sample} (commanded "
+            f"{q_cmd[sample, joint]:.6g}), and {100 * share:.0f} % of the samples lie where no arm could be: "
+            f"beyond the robot's joint limits [{limits.lower[joint]:.4g}, {limits.upper[joint]:.4g}] {unit} "
+            f"widened by the physical tolerance ({PHYSICAL_TOLERANCE[joint]:g} {unit}), or farther from the "
+            "command than its controller allows; joints are in rad and m (not degrees, millimetres or scaled)",
+            file=file_of("q_phy"),
+            line=line_of(sample),
+            field=f"q_phy.{joint_label(joint).split()[0]}",
+        )
 
 
 def _within(

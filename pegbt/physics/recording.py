@@ -13,6 +13,8 @@ tool (which names the effects) and calibration (which learns and inverts them). 
 Everything a user can get wrong (lengths, NaN rows, time running backwards, commands that never move,
 too few samples, a file that is not a recording at all) is refused with a `PegbtError` naming the file,
 the field and the sample, before any analysis runs, so nothing that looks like a result is written.
+Commands are judged by the robot's own limits (`--robot-config`, else the dVRK's), not the planner's;
+physical samples no arm could reach are measurement faults for the analysis, not a reason to refuse.
 
 Samples are either a stream (the controller's 100 Hz set-points, where lag and delay act between
 samples) or settled set-points seconds apart (the arm came to rest before each sample, as in the dVRK
@@ -28,7 +30,8 @@ import json
 import math
 import os
 import re
-from dataclasses import dataclass
+import sys
+from dataclasses import dataclass, replace
 from datetime import datetime, timezone
 from pathlib import Path
 
@@ -37,6 +40,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from pegbt.boundedio import load_npy, read_bytes
 from pegbt.errors import PegbtError
+from pegbt.motion.robot_config import DEFAULT_TOOL, DVRK_LIMITS, RobotLimits, robot_limits
 from pegbt.physics.bagfile import is_bag, read_bag
 from pegbt.physics.plausible import check_arm_joints, check_times
 from pegbt.psm import JOINT_NAMES, N_JOINTS, known_arm
@@ -87,7 +91,8 @@ class Sampling:
 class Recording:
     """Commanded and physical joints (N, 6) of one arm, with sample times when known; `path` names it in
     messages, `arm` is None when neither `meta.json` nor the name says which arm it is; `resolution`
-    (per joint, in the joints' units) is what the measurement can tell apart, when `meta.json` says."""
+    (per joint, in the joints' units) is what the measurement can tell apart, when `meta.json` says;
+    `limits` are the robot's it was judged by, which its measurement faults are found against."""
 
     path: Path
     q_cmd: Array
@@ -95,6 +100,8 @@ class Recording:
     t: Array | None = None
     arm: str | None = None
     resolution: tuple[float, ...] | None = None
+    limits: RobotLimits = DVRK_LIMITS
+    notes: tuple[str, ...] = ()  # damage the reader read past (a bag cut short), for the reports to say
 
     @property
     def n(self) -> int:
@@ -121,6 +128,11 @@ class Recording:
             "(lag and delay have died out before each sample)",
         )
 
+    def warn(self) -> None:
+        """Say on stderr, one line each, the damage the reader read past (`pegbt: warning: FILE: ...`)."""
+        for note in self.notes:
+            print(f"pegbt: warning: {self.path}: {note}", file=sys.stderr)
+
     def head(self, fraction: float) -> int:
         """Number of samples in the first `fraction` of the recording (the training part of a split)."""
         if not 0.0 < fraction <= 1.0:
@@ -132,14 +144,12 @@ class Recording:
         if keep.all():
             return self
         t = None if self.t is None else self.t[keep]
-        return Recording(self.path, self.q_cmd[keep], self.q_phy[keep], t, self.arm, self.resolution)
+        return replace(self, q_cmd=self.q_cmd[keep], q_phy=self.q_phy[keep], t=t)
 
     def slice(self, start: int, stop: int | None = None) -> "Recording":
         """The samples [start, stop) as a recording of their own."""
         t = None if self.t is None else self.t[start:stop]
-        return Recording(
-            self.path, self.q_cmd[start:stop], self.q_phy[start:stop], t, self.arm, self.resolution
-        )
+        return replace(self, q_cmd=self.q_cmd[start:stop], q_phy=self.q_phy[start:stop], t=t)
 
 
 # ---------------------------------------------------------------------------------------------- reading
@@ -151,13 +161,17 @@ def load_recording(
     arm: str | None = None,
     settled: float | None = None,
     min_samples: int = MIN_SAMPLES,
+    robot_config: str | Path | None = None,
+    robot_tool: str | None = None,
 ) -> Recording:
     """Read and validate a recording folder, CSV or bag; a `RecordingError` naming the file and problem if
     bad. `cmd`, `phy`, `arm` and `settled` choose a bag's topics and samples (`bagfile.read_bag`);
-    `min_samples` is what the analysis needs (a refit of a model's offsets needs fewer than a fit)."""
+    `min_samples` is what the analysis needs (a refit of a model's offsets needs fewer than a fit);
+    `robot_config` (a dVRK `share/` folder) and `robot_tool` give the robot's limits (default the dVRK's)."""
     try:
+        limits = robot_limits(robot_config, robot_tool or DEFAULT_TOOL)
         return _load_recording(
-            Path(path), cmd=cmd, phy=phy, arm=arm, settled=settled, min_samples=min_samples
+            Path(path), cmd=cmd, phy=phy, arm=arm, settled=settled, min_samples=min_samples, limits=limits
         )
     except RecordingError:
         raise
@@ -168,7 +182,14 @@ def load_recording(
 
 
 def _load_recording(
-    path: Path, *, cmd: str | None, phy: str | None, arm: str | None, settled: float | None, min_samples: int
+    path: Path,
+    *,
+    cmd: str | None,
+    phy: str | None,
+    arm: str | None,
+    settled: float | None,
+    min_samples: int,
+    limits: RobotLimits,
 ) -> Recording:
     try:
         exists = path.exists()
@@ -182,8 +203,10 @@ def _load_recording(
         )
     if is_bag(path):
         samples = read_bag(path, cmd=cmd, phy=phy, arm=arm, settled=settled)
-        validate(samples.q_cmd, samples.q_phy, samples.t, path, arm=samples.arm, min_samples=min_samples)
-        return Recording(path, samples.q_cmd, samples.q_phy, samples.t, samples.arm)
+        validate(samples.q_cmd, samples.q_phy, samples.t, path, limits=limits, min_samples=min_samples)
+        return Recording(
+            path, samples.q_cmd, samples.q_phy, samples.t, samples.arm, limits=limits, notes=samples.notes
+        )
     if cmd or phy or settled is not None:
         raise PegbtError(
             "--cmd, --phy and --settled choose a bag's topics; this recording is not a bag", file=path
@@ -198,8 +221,8 @@ def _load_recording(
             file=path,
         )
     arm = _arm_of(path)
-    validate(q_cmd, q_phy, t, path, arm=arm, min_samples=min_samples)
-    return Recording(path, q_cmd, q_phy, t, arm, _resolution_of(path))
+    validate(q_cmd, q_phy, t, path, limits=limits, min_samples=min_samples)
+    return Recording(path, q_cmd, q_phy, t, arm, _resolution_of(path), limits)
 
 
 def _load_npy(path: Path) -> Array:
@@ -306,11 +329,11 @@ def validate(
     t: Array | None,
     where: Path,
     *,
-    arm: str | None = None,
+    limits: RobotLimits = DVRK_LIMITS,
     min_samples: int = MIN_SAMPLES,
 ) -> None:
-    """Refuse recordings that cannot be analysed or are not an arm's (`pegbt.physics.plausible`), saying
-    which file, field and sample is wrong."""
+    """Refuse recordings that cannot be analysed or are not an arm's (`pegbt.physics.plausible`, by the
+    robot's `limits`), saying which file, field and sample is wrong."""
     array: Array | None  # the joints, then also the times, which a recording may lack
     for name, array in (("q_cmd", q_cmd), ("q_phy", q_phy)):
         if array.ndim != 2 or array.shape[1] != N_JOINTS:
@@ -360,7 +383,9 @@ def validate(
         )
     if t is not None:
         check_times(t, _file(where, "t"), lambda sample: _line(where, sample))
-    check_arm_joints(q_cmd, q_phy, arm, lambda name: _file(where, name), lambda sample: _line(where, sample))
+    check_arm_joints(
+        q_cmd, q_phy, limits, lambda name: _file(where, name), lambda sample: _line(where, sample)
+    )
 
 
 def _is_csv(where: Path) -> bool:
@@ -443,5 +468,5 @@ class RecordingWriter:
         q_cmd = np.stack([row[0] for row in self._rows])
         q_phy = np.stack([row[1] for row in self._rows])
         t = np.array([row[2] for row in self._rows])
-        validate(q_cmd, q_phy, t, self.path, arm=self.arm, min_samples=self.min_samples)
+        validate(q_cmd, q_phy, t, self.path, min_samples=self.min_samples)
         return write_recording(self.path, q_cmd, q_phy, t, self.arm)

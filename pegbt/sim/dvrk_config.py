@@ -11,6 +11,7 @@ import math
 import numpy as np
 
 from pegbt.motion.limits import ArmSettings
+from pegbt.motion.robot_config import DVRK_LIMITS
 
 # Joint names of measured_js/setpoint_js: share/kinematic/PSM.json ("yaw", "pitch", "insertion") and the
 # tool's share/tool/LARGE_NEEDLE_DRIVER_400006.json ("roll", "wrist_pitch", "wrist_yaw"); the jaw is "jaw"
@@ -25,9 +26,8 @@ PID_NAMES = ("yaw", "pitch", "insertion", "disc_1", "disc_2", "disc_3", "disc_4"
 
 # Position limits ("qmin", "qmax"): share/kinematic/PSM.json for the first three joints,
 # share/tool/LARGE_NEEDLE_DRIVER_400006.json for the tool's three and its "jaw".
-LOWER = np.array([-1.588, -0.925025, 0.0, -4.53786, -1.39626, -1.39626])
-UPPER = np.array([1.588, 0.925025, 0.24, 4.53786, 1.39626, 1.39626])
-JAW_LOWER, JAW_UPPER = -0.698132, 1.39626
+LOWER, UPPER = DVRK_LIMITS.lower, DVRK_LIMITS.upper
+JAW_LOWER, JAW_UPPER = DVRK_LIMITS.jaw_lower, DVRK_LIMITS.jaw_upper
 
 # move_jp's trajectory limits, joints then jaw: mtsIntuitiveResearchKitPSM.cpp, Init (m_trajectory_j.v_max
 # and a_max: 90 deg/s and 90 deg/s^2 for yaw and pitch, 0.2 m/s and 0.2 m/s^2 for insertion, 3 x 360 deg/s and

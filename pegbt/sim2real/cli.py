@@ -140,6 +140,7 @@ def _diagnose(args: argparse.Namespace) -> int:
 
     resolution = None if args.resolution is None else parse_resolution(args.resolution)
     recording = load_recording(args.recording, arm=args.arm, **bag_options(args))
+    recording.warn()
     if args.compare:
         read_named_effects(args.compare)  # refuse a bad report before the work, not after it
     note = ""

@@ -439,7 +439,7 @@ def _prepare(
 ) -> tuple[ArmPhysics, MeasurementFaults, Recording, Array | None, Array]:
     """(base physics, the faults, the kept samples, their times if a stream, the base's replay of them)."""
     base = ArmPhysics.load(sim, arm)  # presets differ per arm; the recording's meta.json or name says which
-    faults = detect_faults(recording.q_cmd, recording.q_phy)
+    faults = detect_faults(recording.q_cmd, recording.q_phy, recording.limits)
     kept = recording.subset(faults.kept)
     t = kept.t if kept.sampling.is_stream else None
     return base, faults, kept, t, base.simulate(kept.q_cmd, t)

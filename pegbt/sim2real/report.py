@@ -72,6 +72,7 @@ def report_dict(
         "resolution_note": resolution_note,
         "below_resolution": [b.to_dict() for b in diagnosis.below_resolution],
         "measurement_faults": diagnosis.faults.to_dict(diagnosis.times_before_exclusion),
+        "read_past": list(recording.notes),
         "geometry": None if diagnosis.geometry is None else diagnosis.geometry.to_dict(),
         "zero_offsets": [e.to_dict() for e in diagnosis.zero_offsets],
         "not_identifiable": list(diagnosis.not_identifiable),
@@ -123,6 +124,7 @@ def report_markdown(report: dict[str, Any], plots: list[str]) -> str:
     lines += [
         f"- {report['samples']} samples; {report['sampling']['reason']}.",
         f"- Measurement faults: {report['measurement_faults']['text']}.",
+        *[f"- Read past damage: {note}." for note in report.get("read_past", [])],
         *([f"- Geometry: {report['geometry']['text']}."] if report.get("geometry") else []),
         *[f"- {ZERO_OFFSET_LABEL}: {e['text']}." for e in report["zero_offsets"]],
         f"- Simulator physics: `{report['sim']}` (arm {report['arm']}).",

@@ -57,6 +57,9 @@ from pegbt.transport.ros2_service import (
 
 ADMIN_SPACE = "@ros2_lv"
 GID_SIZE = 16
+# The attachment's one encoding: two int64 (8 bytes each), the GID's length as a LEB128 varint (one byte,
+# 16) and its 16 bytes (rmw_zenoh_cpp/src/detail/attachment_helpers.cpp, zenoh-ext's serializer).
+ATTACHMENT_SIZE = 8 + 8 + 1 + GID_SIZE
 # rmw_zenoh's default QoS (`rmw_zenoh_cpp/src/detail/qos.cpp`): RELIABLE, VOLATILE, KEEP_LAST with depth 42
 _DEFAULT_DEPTH = 42
 _RELIABLE, _TRANSIENT_LOCAL, _KEEP_ALL = 1, 1, 2  # rmw/types.h's enum values
@@ -118,9 +121,12 @@ def decode_attachment(raw: zenoh.ZBytes | bytes | None) -> Attachment | None:
     """The attachment of a sample, or None when it is absent or not rmw_zenoh's (such samples are dropped)."""
     if raw is None:
         return None
+    data = bytes(raw)
+    if len(data) != ATTACHMENT_SIZE or data[16] != GID_SIZE:
+        return None  # zenoh's deserializer allocates what a length prefix claims: terabytes abort the process
     try:
         sequence, stamp, gid = zenoh.ext.z_deserialize(
-            tuple[zenoh.ext.Int64, zenoh.ext.Int64, bytes], zenoh.ZBytes(bytes(raw))
+            tuple[zenoh.ext.Int64, zenoh.ext.Int64, bytes], zenoh.ZBytes(data)
         )
     except (zenoh.ext.ZDeserializeError, ValueError, TypeError):
         return None

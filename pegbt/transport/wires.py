@@ -8,11 +8,13 @@ here, so `--ros2` means the same thing to each of them.
 
 from __future__ import annotations
 
+import re
 from collections.abc import Sequence
 
 import zenoh
 
 from pegbt.errors import PegbtError
+from pegbt.transport.keys import check_namespace
 from pegbt.transport.ros2 import BridgeWire, Ros2Wire
 from pegbt.transport.session import SessionSettings, open_session, ros2_graph_settings
 
@@ -34,9 +36,28 @@ def wire_session_settings(kind: str, connect: Sequence[str], listen: Sequence[st
     return SessionSettings(listen=tuple(listen), connect=tuple(connect))
 
 
+# A ROS 2 node name (ros2/rmw, rmw/src/validate_node_name.c): letters, digits and _, not starting with a digit.
+_NODE_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]{0,254}")
+MAX_NAMESPACE = 255  # rmw/include/rmw/validate_namespace.h, RMW_NAMESPACE_MAX_LENGTH
+
+
+def check_names(namespace: str, node_name: str) -> None:
+    """A `PegbtError` unless `namespace` can prefix keys (`check_namespace`) and `node_name` is a ROS 2 node
+    name: either goes into rmw_zenoh's liveliness tokens, where zenoh reads `*`, `$`, `?` and `#`."""
+    check_namespace(namespace, "--namespace")
+    if len(namespace) > MAX_NAMESPACE:
+        raise PegbtError(f"a ROS 2 namespace is at most {MAX_NAMESPACE} characters", field="--namespace")
+    if not _NODE_NAME.fullmatch(node_name):
+        raise PegbtError(
+            f"not a ROS 2 node name: {node_name[:80]!r} (letters, digits and _, not starting with a digit)",
+            field="node name",
+        )
+
+
 def make_wire(kind: str, session: zenoh.Session, namespace: str, node_name: str) -> Ros2Wire:
     """A `kind` wire on `session`; `namespace` prefixes the topics (the bridge's namespace, or the node's
-    namespace in the ROS 2 graph), `node_name` is the node rmw_zenoh announces."""
+    namespace in the ROS 2 graph), `node_name` is the node rmw_zenoh announces; both ROS 2 names."""
+    check_names(namespace, node_name)
     if kind == "rmw_zenoh":
         from pegbt.transport.rmw_zenoh import RmwZenohWire
 

@@ -121,9 +121,10 @@ def test_bad_bags_say_which_file_and_topic(tmp_path):
     folder = tmp_path / "broken_bag"
     folder.mkdir()
     (folder / "metadata.yaml").write_text("rosbag2_bagfile_information: [\n")
-    with pytest.raises(PegbtError, match="not a readable rosbag2 folder: Could not load YAML") as raised:
+    with pytest.raises(PegbtError, match="not a readable rosbag2 folder: YAML syntax") as raised:
         load_recording(folder)
-    assert "\n" not in str(raised.value) and raised.value.file == str(folder)
+    assert "\n" not in str(raised.value) and raised.value.file == str(folder / "metadata.yaml")
+    assert raised.value.line == 2
 
 
 def write_recording_folder(tmp_path: Path) -> Path:

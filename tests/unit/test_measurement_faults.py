@@ -95,7 +95,7 @@ def test_faults_that_hide_a_real_effect_no_longer_do(monkeypatch):
     monkeypatch.setattr(
         diagnose_module,
         "detect_faults",
-        lambda q_cmd, q_phy: MeasurementFaults(np.zeros(len(q_cmd), bool), (), 0),
+        lambda q_cmd, q_phy, limits: MeasurementFaults(np.zeros(len(q_cmd), bool), (), 0),
     )
     blind = {(e.effect.effect, e.effect.joint) for e in diagnose(recording, n_bootstrap=0).effects}
     assert ("backlash", "q5") not in blind
@@ -120,8 +120,6 @@ def test_calibrate_train_leaves_out_the_same_samples_and_says_so(faulty, tmp_pat
             ]
         )
     assert status == 0
-    expected = detect_faults(
-        recording.q_cmd[: int(round(0.7 * recording.n))], recording.q_phy[: int(round(0.7 * recording.n))]
-    )
+    expected = detect_faults(recording.q_cmd, recording.q_phy)
     assert f"; {expected.count} samples excluded" in printed.getvalue()
     assert expected.count > 0

@@ -1,0 +1,54 @@
+"""`pegbt log export` of a tick log whose nodes BT.CPP could not read (found by `pegbt bench fuzz`'s
+btlog_files reader): a type that is not an XML name, a parameter the BT.CPP node needs missing or not a
+number. Each is one `PegbtError` naming the log and node, not an XML ParseError or a KeyError."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from pegbt.errors import PegbtError
+from pegbt.executive.btlog import export_btlog
+from pegbt.executive.logfile import read_tick_log
+from pegbt.executive.runoptions import RunOptions
+from pegbt.executive.session import run_tree_file
+
+REPO = Path(__file__).resolve().parents[2]
+
+
+@pytest.fixture(scope="module")
+def records(tmp_path_factory: pytest.TempPathFactory) -> list[dict]:
+    log = tmp_path_factory.mktemp("log") / "valid.jsonl"
+    run_tree_file(RunOptions(REPO / "trees" / "example.yaml", log, clock="manual"))
+    return [json.loads(line) for line in log.read_text().splitlines()]
+
+
+def _export(tmp_path: Path, records: list[dict], change) -> PegbtError:
+    changed = json.loads(json.dumps(records))
+    node = change(changed[0]["nodes"])
+    log = tmp_path / "changed.jsonl"
+    log.write_text("".join(json.dumps(record) + "\n" for record in changed))
+    with pytest.raises(PegbtError) as raised:
+        export_btlog(read_tick_log(log), tmp_path / "out.btlog")
+    assert raised.value.file == str(log) and raised.value.field == f"node {node['id']}"
+    return raised.value
+
+
+def test_a_type_that_is_no_xml_name_is_refused_naming_the_node(tmp_path: Path, records) -> None:
+    def change(nodes: list[dict]) -> dict:
+        leaf = next(node for node in nodes if not node.get("children"))
+        leaf["type"] = "9" * 50
+        return leaf
+
+    assert "is not an XML name" in _export(tmp_path, records, change).message
+
+
+def test_a_subtree_without_its_use_is_refused_naming_the_node(tmp_path: Path, records) -> None:
+    def change(nodes: list[dict]) -> dict:
+        subtree = next(node for node in nodes if node["type"] == "subtree")
+        subtree["params"] = {}
+        return subtree
+
+    assert "cannot be written for BT.CPP: KeyError 'use'" in _export(tmp_path, records, change).message
