@@ -1,0 +1,129 @@
+"""The whole diagnosis of one set of real outcomes: locate, name, model, prove."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from pegbt.errors import PegbtError
+from pegbt.sim.world_effects import WorldEffects
+from pegbt.sim2real.outcomes.cells import CONDITIONS, VARIANTS, Cell, Outcomes
+from pegbt.sim2real.outcomes.fit import Profile, Verdict, fit
+from pegbt.sim2real.outcomes.locate import Row, locate
+from pegbt.sim2real.outcomes.predict import Prediction, predict, predict_null
+from pegbt.sim2real.outcomes.likelihood import log_likelihood
+from pegbt.sim2real.outcomes.phasesim import TransferResult
+from pegbt.sim2real.outcomes.simulate import Key, Mapper, SimCounts, Task, simulate_cells
+
+
+@dataclass(frozen=True)
+class Settings:
+    """`fit`: which cells the fit sees (`all`, a variant or a condition); the rest are predicted.
+    `transfers`: simulated transfers per cell and world; `points`: grid values per fitted parameter."""
+
+    fit: str = "all"
+    transfers: int = 16
+    points: int = 5
+    phases: bool = True
+
+
+@dataclass
+class Diagnosis:
+    outcomes: Outcomes
+    settings: Settings
+    fit_cells: tuple[Cell, ...]
+    held_out: tuple[Cell, ...]
+    before: dict[Key, SimCounts]
+    rows: list[Row]
+    verdict: Verdict
+    predictions: dict[Key, Prediction]
+    predicted_by: dict[str, dict[Key, Prediction]] = field(default_factory=dict)
+    remaining: list[Row] = field(default_factory=list)  # fit cells' rows at the fitted world
+    seconds: float = 0.0
+    simulated: int = 0
+
+    @property
+    def unexplained(self) -> list[Row]:
+        """Fit-cell rows that still disagree beyond chance once the fitted world is simulated."""
+        return [row for row in self.remaining if row.disagrees]
+
+    def world(self) -> WorldEffects:
+        return self.verdict.world()
+
+
+def split(cells: Sequence[Cell], fit_on: str) -> tuple[tuple[Cell, ...], tuple[Cell, ...]]:
+    """The cells the fit sees (`fit_on`: all, a variant or a condition) and the rest."""
+    if fit_on not in ("all", *VARIANTS, *CONDITIONS):
+        raise PegbtError(
+            f"expected all, a variant ({', '.join(VARIANTS)}) or a condition ({', '.join(CONDITIONS)}), got {fit_on!r}",
+            field="--fit",
+        )
+    seen = tuple(c for c in cells if fit_on in ("all", c.variant, c.condition))
+    if not seen:
+        raise PegbtError(f"no cell of the outcomes is {fit_on}: nothing to fit on", field="--fit")
+    return seen, tuple(c for c in cells if c not in seen)
+
+
+class _Counting:
+    """A mapper that counts the transfers it simulated."""
+
+    def __init__(self, mapper: Mapper) -> None:
+        self.mapper, self.count = mapper, 0
+
+    def __call__(self, tasks: Sequence[Task]) -> list[TransferResult]:
+        self.count += len(tasks)
+        return self.mapper(tasks)
+
+
+def diagnose(outcomes: Outcomes, settings: Settings, mapper: Mapper) -> Diagnosis:
+    """Locate, name and fit on the fit cells, then predict every cell with the fitted world(s)."""
+    started = time.monotonic()
+    counting = _Counting(mapper)
+    cells = outcomes.cells
+    fit_cells, held_out = split(cells, settings.fit)
+    before = simulate_cells(counting, [WorldEffects()], [c.key for c in cells], settings.transfers)[0]
+    rows = locate(cells, before)
+    fit_keys = {c.key for c in fit_cells}
+    if any(r.disagrees for r in rows if (r.variant, r.condition) in fit_keys):
+        verdict = fit(counting, fit_cells, before, settings.transfers, settings.points, settings.phases)
+    else:
+        verdict = Verdict((), (), (), _null(fit_cells, before, settings.phases), ())
+    predicted_by: dict[str, dict[Key, Prediction]] = {}
+    if verdict.named:
+        predictions = predict(counting, [verdict.named[-1]], cells, settings.transfers)
+    elif verdict.tied:
+        for tied in verdict.tied:
+            predicted_by[tied.candidate.name] = predict(counting, [tied], cells, settings.transfers)
+        predictions = predict(counting, list(verdict.tied), cells, settings.transfers)
+    else:
+        predictions = predict_null(before, cells)
+    after = {key: p.at_best for key, p in predictions.items()}
+    remaining = locate(fit_cells, after) if verdict.named else []
+    return Diagnosis(
+        outcomes,
+        settings,
+        fit_cells,
+        held_out,
+        before,
+        rows,
+        verdict,
+        predictions,
+        predicted_by,
+        remaining,
+        time.monotonic() - started,
+        counting.count,
+    )
+
+
+def _null(cells: Sequence[Cell], before: dict[Key, SimCounts], phases: bool) -> np.ndarray:
+    return np.array([log_likelihood(c, before[c.key], phases) for c in cells])
+
+
+def profile_parameters(fitted: Profile) -> tuple[dict[str, float], dict[str, list[float]]]:
+    """The fitted effect's parameters (all, defaults filled in) and the interval of the one fitted."""
+    effect = next(e for e in fitted.world() if e.kind == fitted.candidate.kind)
+    low, high = fitted.interval()
+    return dict(effect.values), {fitted.candidate.parameter: [low, high]}
