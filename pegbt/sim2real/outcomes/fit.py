@@ -58,8 +58,8 @@ class Candidate:
 
 
 def candidates(points: int) -> list[Candidate]:
-    """Every fitted parameter of every registered kind, each on `points` values across its range away from
-    its inert default (log-spaced where the range spans decades)."""
+    """Every fitted parameter of every registered kind on `points` + 1 values spanning its range, less its
+    inert default (log-spaced where the range spans decades)."""
     out = []
     for kind, names in FITTED.items():
         if kind not in WORLD_EFFECT_KINDS:
@@ -69,9 +69,9 @@ def candidates(points: int) -> list[Candidate]:
             if p.low > 0 and p.high / p.low > 100:
                 values = np.geomspace(p.low, p.high, points + 1)
             else:
-                values = np.linspace(p.low, p.high, points + 1 if p.default in (p.low, p.high) else points + 2)
+                values = np.linspace(p.low, p.high, points + 1)
             grid = tuple(float(v) for v in values if not math.isclose(v, p.default, abs_tol=1e-12))
-            out.append(Candidate(kind, name, grid[:points] if p.default != p.high else grid[-points:]))
+            out.append(Candidate(kind, name, grid))
     return out
 
 
