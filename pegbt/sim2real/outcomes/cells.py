@@ -8,7 +8,8 @@ from dataclasses import dataclass, field
 
 VARIANTS = ("unilateral", "bilateral", "handover")
 CONDITIONS = ("uncalibrated", "calibrated", "optimized")
-PHASES = ("grasp", "lift", "carry", "handover", "lower", "release")
+# The phases of a failure, as `pegbt.executive.phases` reads them from a tick log.
+PHASES = ("sense", "reach", "grasp", "lift", "carry", "handover", "lower", "release")
 
 
 @dataclass(frozen=True)

@@ -87,8 +87,13 @@ def diagnose(outcomes: Outcomes, settings: Settings, mapper: Mapper) -> Diagnosi
     before = simulate_cells(counting, [WorldEffects()], [c.key for c in cells], settings.transfers)[0]
     rows = locate(cells, before)
     fit_keys = {c.key for c in fit_cells}
-    if any(r.disagrees for r in rows if (r.variant, r.condition) in fit_keys):
-        verdict = fit(counting, fit_cells, before, settings.transfers, settings.points, settings.phases)
+    flagged = [r for r in rows if r.disagrees and (r.variant, r.condition) in fit_keys]
+    if flagged:
+        phased = settings.phases and any(r.phase for r in rows)
+        disagreeing = frozenset(r.phase for r in flagged if r.phase) if phased else None
+        verdict = fit(
+            counting, fit_cells, before, settings.transfers, settings.points, settings.phases, disagreeing or None
+        )
     else:
         verdict = Verdict((), (), (), _null(fit_cells, before, settings.phases), ())
     predicted_by: dict[str, dict[Key, Prediction]] = {}

@@ -34,6 +34,16 @@ FITTED: dict[str, tuple[str, ...]] = {
     "registration_offset": ("x", "y"),
     "depth_bias": ("bias",),
 }
+# The phases each kind can change an outcome in: with failures per phase, a candidate is simulated only if
+# the real and simulated rates disagree in one of its phases (a kind that cannot act there cannot explain it).
+PHASES_OF: dict[str, frozenset[str]] = {
+    "peg_compliance": frozenset({"lift", "lower"}),
+    "chamfer_capture": frozenset({"lower", "release"}),
+    "grip_compliance": frozenset({"lift", "carry", "lower"}),
+    "jaw_friction": frozenset({"lift", "carry", "handover", "lower"}),
+    "registration_offset": frozenset({"grasp", "lift", "handover", "lower", "release"}),
+    "depth_bias": frozenset({"grasp", "lift", "handover", "lower", "release"}),
+}
 LR_95 = float(stats.chi2.ppf(0.95, 1))  # one fitted parameter
 TIE = 1.0  # log-likelihoods closer than this: the data do not tell the two effects apart
 
@@ -163,11 +173,17 @@ def fit(
     transfers: int,
     points: int,
     phases: bool = True,
+    disagreeing: frozenset[str] | None = None,
 ) -> Verdict:
-    """Profile every candidate on the fit `cells`; name the best that passes unless another ties with it;
-    then try a second effect beside a named one."""
+    """Profile every candidate (only those that can act in a `disagreeing` phase, when phases are known)
+    on the fit `cells`; name the best that passes unless another ties with it; then try a second effect
+    beside a named one."""
     null = np.array([log_likelihood(c, null_sims[c.key], phases) for c in cells])
-    tried = [profile(mapper, candidate, cells, transfers, phases=phases) for candidate in candidates(points)]
+    tried = [
+        profile(mapper, candidate, cells, transfers, phases=phases)
+        for candidate in candidates(points)
+        if disagreeing is None or PHASES_OF.get(candidate.kind, disagreeing) & disagreeing
+    ]
     passing = sorted((p for p in tried if passes(p, null)), key=lambda p: -p.total.max())
     if not passing:
         return Verdict((), (), tuple(tried), null, ())

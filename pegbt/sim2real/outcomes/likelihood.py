@@ -17,8 +17,9 @@ from pegbt.sim2real.outcomes.simulate import CATEGORIES, SimCounts
 
 
 def has_phases(cell: Cell) -> bool:
-    """Whether `cell` says where every failed transfer failed."""
-    return bool(cell.failures) and sum(cell.failures.values()) == cell.attempted - cell.succeeded
+    """Whether `cell` says where every failed transfer failed (in phases the simulator tells apart)."""
+    known = set(cell.failures) <= set(CATEGORIES[1:])
+    return bool(cell.failures) and known and sum(cell.failures.values()) == cell.attempted - cell.succeeded
 
 
 def real_vector(cell: Cell) -> np.ndarray:

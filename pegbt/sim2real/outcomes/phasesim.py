@@ -5,7 +5,8 @@ executive's `ArmMotion` would send under the condition (rest-to-rest cubics as p
 by the simulator's calibration models, or the optimised plan), and each control tick the world sees the tool
 where the physical joints put it, as `pegbt.sim.scene.Scene.update` does: descend onto the grasp, close,
 lift off the peg, carry, lower onto the goal peg, open. What perception would have seen is the block's
-pose with its noise (`PERCEPTION_SD`). The phase of a failure is read from the world's events here (this is
+pose with its noise (`PERCEPTION_SD`), displaced as the camera's world effects displace what it sees
+(`seen_point`). The phase of a failure is read from the world's events here (this is
 the simulator's side, where the truth is known).
 """
 
@@ -20,14 +21,15 @@ from numpy.typing import NDArray
 from pegbt.behaviours.resources.arm_motion import ArmMotion
 from pegbt.behaviours.resources.skills import SIMULATOR_CALIBRATION, Skills
 from pegbt.behaviours.actions.handover import Meeting, plan_meeting
-from pegbt.behaviours.poses import from_handover, to_handover, transfer_for
+from pegbt.behaviours.poses import approach_for, from_handover, to_handover, transfer_for
 from pegbt.frames import yaw_of
 from pegbt.motion.ik import inverse_kinematics
 from pegbt.motion.settings import motion_settings
 from pegbt.motion.trajectory import Trajectory
 from pegbt.perception.blocks import BlockEstimate
+from pegbt.perception.board import BoardEstimate
 from pegbt.physics import ArmPhysics
-from pegbt.sim.arm import SimArm
+from pegbt.sim.arm import DEFAULT_JOINTS, SimArm
 from pegbt.sim.events import Event
 from pegbt.sim.tools import ToolState, wrist_give
 from pegbt.sim.world import World
@@ -36,6 +38,7 @@ from pegbt.sim2real.outcomes.cells import PHASES
 
 PHYSICS = "dvrk-real"  # the arm as fitted on the real recordings: never refitted here
 PERCEPTION_SD = 0.0003  # m per axis: the block's position as perception fits it (0.3 mm depth noise)
+START = np.array(DEFAULT_JOINTS)  # each arm comes from where the simulator starts it, its cables at rest there
 REGRASPS = 3  # recoveries before a transfer is given up (`trees/shared/one_transfer.yaml`)
 SETTLE_S = 0.1  # s at rest after each motion: the executive starts the next leaf a tick or two later
 
@@ -101,8 +104,9 @@ class _Bench:
             self.events += [(self.segment, e) for e in self.world.update(self.world.time + self.arm.period, {self.name: tool})]
             self.arm.jaw.stop_at(self.world.jaw_stop(self.name))
 
-    def play(self, planned: Trajectory, segments: list[tuple[float, str]]) -> None:
-        """Send `planned` as the condition sends it; `segments` names the phase from each planned time on."""
+    def play(self, planned: Trajectory, segments: list[tuple[float, str]], holding: int | None = None) -> None:
+        """Send `planned` as the condition sends it; `segments` names the phase from each planned time on.
+        A carry of block `holding` stops the moment the block leaves the jaw, as the carry leaves do."""
         prepared = self.motion.prepare(planned)
         if prepared.compensator is not None:
             self.motion.compensator = prepared.compensator
@@ -114,6 +118,9 @@ class _Bench:
             elapsed = self.world.time - start
             self.segment = next((name for at, name in reversed(segments) if elapsed >= at), segments[0][1])
             self.tick(self.arm.period)
+            if holding is not None and self.world.held_by(self.name) != holding:
+                self.arm.hold(False, "lost")
+                break
         self.tick(SETTLE_S)
 
     def jaw(self, angle: float, segment: str) -> None:
@@ -128,8 +135,10 @@ def simulate_transfer(effects: WorldEffects, variant: str, condition: str, seed:
     """Transfer number `seed` of `variant`'s forward transfers (cycling), on a world of layout `seed`: the
     grasp the executive would choose for the block perception would see, and the motions it would send,
     picked and carried again after a failure up to `REGRASPS` times as `trees/shared/one_transfer.yaml`
-    recovers (from wherever the block fell; the arm starts each attempt at rest above it)."""
-    arm, start_peg, goal_peg = TRANSFERS[variant][seed % len(TRANSFERS[variant])]
+    recovers (from wherever the block fell; the arm starts each attempt from `START`)."""
+    order = TRANSFERS[variant]
+    arm, start_peg, goal_peg = order[seed % len(order)]
+    previous_peg = next(goal for other, _, goal in reversed(order + order[: seed % len(order)]) if other == arm)
     world = World(seed, effects=effects)
     skills = _skills(condition)
     block = next(b for b in world.blocks if b.peg == start_peg)
@@ -139,7 +148,7 @@ def simulate_transfer(effects: WorldEffects, variant: str, condition: str, seed:
     for _ in range(1 + REGRASPS):
         if block.lost:
             break
-        bench = _attempt(world, skills, arm, block.index, goal_peg, rng, handover=variant == "handover")
+        bench = _attempt(world, skills, arm, block.index, goal_peg, rng, previous_peg, handover=variant == "handover")
         events += bench.events
         if bench.held and bench.meeting is not None:
             return _hand_over(world, skills, bench, block.index, goal_peg, first)
@@ -155,6 +164,35 @@ def simulate_transfer(effects: WorldEffects, variant: str, condition: str, seed:
     return TransferResult(False, first or "grasp", world.time)
 
 
+def seen_point(world: World, point: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Where perception finds a point of a peg or block (board frame) under the world's camera effects:
+    displaced by the registration offset, and `bias` farther along the camera's ray."""
+    offset = world.effects.values("registration_offset")
+    bias = world.effects.values("depth_bias")["bias"]
+    ray = point - world.cell.camera.board_from_camera[:3, 3]
+    return point + [offset["x"], offset["y"], offset["z"]] + bias * ray / np.linalg.norm(ray)
+
+
+def seen_board(world: World) -> BoardEstimate:
+    """The registered board as perception would hand it over: the board true, its pegs where seen."""
+    tops = np.array([seen_point(world, top) for top in world.cell.pegs.tops])
+    camera = world.cell.camera.board_from_camera
+    return BoardEstimate(camera, tops, np.zeros(len(tops), dtype=np.int64), 1.0, 0.0, True, "")
+
+
+def _previous_release(
+    world: World, arm: str, dropped: NDArray[np.float64], goal_peg: int, previous_peg: int
+) -> NDArray[np.float64]:
+    """Where `arm` let go of the block before (its tip pose in its frame, as `dropped` over `goal_peg` but
+    over `previous_peg`): each attempt starts there, its cables at rest, and approaches as the executive
+    does (`pegbt.behaviours.poses.approach_for`)."""
+    to_arm = world.cell.board_to_arm(arm)
+    shift = to_arm[:3, :3] @ (world.cell.pegs.tops[previous_peg] - world.cell.pegs.tops[goal_peg])
+    start = dropped.copy()
+    start[:3, 3] += shift
+    return start
+
+
 def _attempt(
     world: World,
     skills: Skills,
@@ -162,6 +200,7 @@ def _attempt(
     block: int,
     goal_peg: int,
     rng: np.random.Generator,
+    previous_peg: int,
     handover: bool = False,
 ) -> _Bench:
     """One pick and carry of `block` as it lies, seen with perception's noise: the bench afterwards says
@@ -169,33 +208,36 @@ def _attempt(
     with `meeting`), or in which phase it was lost (`failed`)."""
     truth = world.blocks[block]
     noise = rng.normal(0.0, PERCEPTION_SD, 2)
-    position = truth.pose[:3, 3] + [noise[0], noise[1], 0.0]
+    position = seen_point(world, truth.pose[:3, 3]) + [noise[0], noise[1], 0.0]
     seen = BlockEstimate(position, yaw_of(truth.pose), truth.peg, 1.0, 0.0, 0, True, "")
+    board = seen_board(world)
     motion = skills.arm(arm)
     grasp = skills.selectors[arm].pick(seen)
     meeting = None
     if grasp is not None and handover:
         meeting = plan_meeting(skills, arm, RECEIVER[arm], grasp, seen)
     if grasp is None or (handover and meeting is None):
-        return _Bench.failed_before(world, arm, motion, "grasp")
+        return _Bench.failed_before(world, arm, motion, "sense")
     if meeting is None:
-        waypoints = transfer_for(world.cell, skills.motion, arm, None, seen, grasp, goal_peg)
+        waypoints = transfer_for(world.cell, skills.motion, arm, board, seen, grasp, goal_peg)
     else:
-        waypoints = to_handover(world.cell, skills.motion, arm, None, seen, grasp, meeting.tip)
+        waypoints = to_handover(world.cell, skills.motion, arm, board, seen, grasp, meeting.tip)
     if waypoints.approach is None:
-        return _Bench.failed_before(world, arm, motion, "grasp")
-    ik = inverse_kinematics(np.stack([waypoints.approach, waypoints.poses[0]]), motion.settings)
+        return _Bench.failed_before(world, arm, motion, "reach")
+    start = _previous_release(world, arm, waypoints.poses[3], goal_peg, previous_peg)
+    ik = inverse_kinematics(start[None], motion.settings)
     if not ik.ok.all():
-        return _Bench.failed_before(world, arm, motion, "grasp")
+        return _Bench.failed_before(world, arm, motion, "reach")
     bench = _Bench(world, arm, motion, ik.q[0])
-    bench.play(motion.through(ik.q[0], [ik.q[1]], ["grasp"]), [(0.0, "grasp")])
+    approach = approach_for(world.cell, skills.motion, arm, start, waypoints)
+    bench.play(motion.transfer(approach), [(0.0, "reach")])
     bench.jaw(skills.motion.transfer.jaw_closed, "grasp")
     if world.held_by(arm) != block:
         bench.failed = "grasp"
         return bench
     planned = motion.transfer(waypoints)
     lifted, lowering = _segment_times(planned)
-    bench.play(planned, [(0.0, "lift"), (lifted, "carry"), (lowering, "lower")])
+    bench.play(planned, [(0.0, "lift"), (lifted, "carry"), (lowering, "lower")], holding=block)
     bench.held = world.held_by(arm) == block
     bench.meeting = meeting
     if not bench.held:
@@ -217,18 +259,18 @@ def _hand_over(
     ik = inverse_kinematics(np.stack([wait, meeting.receiver_grasp.pose]), motion.settings)
     if not ik.ok.all():
         return TransferResult(False, first or "handover", world.time)
-    taker = _Bench(world, receiver, motion, ik.q[0])
-    taker.play(motion.through(ik.q[0], [ik.q[1]], ["handover grasp"]), [(0.0, "handover")])
+    taker = _Bench(world, receiver, motion, START)
+    taker.play(motion.through(START, list(ik.q), ["waiting", "handover grasp"]), [(0.0, "handover")])
     taker.jaw(skills.motion.transfer.jaw_closed, "handover")
     giver.jaw(skills.motion.transfer.jaw_open, "handover")
     if world.held_by(receiver) != block:
         return TransferResult(False, first or "handover", world.time)
     waypoints = from_handover(
-        world.cell, skills.motion, receiver, None, meeting.receiver_grasp, meeting.block_pose, goal_peg
+        world.cell, skills.motion, receiver, seen_board(world), meeting.receiver_grasp, meeting.block_pose, goal_peg
     )
     planned = motion.transfer(waypoints)
     _, lowering = _segment_times(planned)
-    taker.play(planned, [(0.0, "carry"), (lowering, "lower")])
+    taker.play(planned, [(0.0, "carry"), (lowering, "lower")], holding=block)
     if world.held_by(receiver) != block:
         return TransferResult(False, first or _failed_phase(taker.events, block), world.time)
     taker.jaw(skills.motion.transfer.jaw_open, "release")
