@@ -6,6 +6,10 @@ faces and the board behind blocks are missing exactly as for a real camera. Only
 see the board are cast (`image_shape`: that region of the image, rows by columns). Noise bursts can be
 injected (scheduled or at random); each is logged in the world's event log.
 
+A world's `depth_bias` (`pegbt.sim.world_effects`) acts on what the camera sees, never on the world: it
+lengthens the rays that meet the blocks and the instruments (not the pegboard, which perception registers
+and measures the pegs on).
+
 A capture is taken whole (`capture`) or in parts (`expose`, then `Exposure.cast` a few rays at a time, then
 `Exposure.points`): the streaming camera of the simulator's dVRK interface renders a frame over several
 control periods, so that a frame never stalls the arms' control loop. Both give the same points.
@@ -83,7 +87,8 @@ class DepthCamera:
         return directions, (int(us.shape[0]), int(us.shape[1]))
 
     def scene_mesh(self, world: World) -> Mesh:
-        """Everything the camera can see now, in the board frame."""
+        """Everything the camera can see now, in the board frame: the pegboard first (`board_triangles`
+        triangles), then the blocks and the instruments."""
         meshes = [self._static] + [transformed(self._block, block.pose) for block in world.blocks]
         if self.include_arms:
             tool = self.cell.tool
@@ -95,6 +100,11 @@ class DepthCamera:
                     if np.linalg.norm(e - s) > 1e-6
                 ]
         return merge(meshes)
+
+    @property
+    def board_triangles(self) -> int:
+        """How many triangles of a scene mesh are the pegboard's (board and pegs)."""
+        return len(self._static[1])
 
     def capture(self, world: SimWorld, time: float | None = None) -> np.ndarray:
         """A point cloud (N, 3) float32 in the camera frame (metres) of the world at `time` (default: now)."""
@@ -108,10 +118,16 @@ class DepthCamera:
         assert isinstance(world, World)  # the camera renders pegbt's world, its blocks where they are
         return Exposure(self, world, world.time if time is None else time)
 
-    def _develop(self, depth: np.ndarray, world: World, time: float) -> np.ndarray:
-        """Every pixel's point (n, 3) float32 from its ray's hit distance, noisy; NaN where nothing is hit."""
+    def _develop(
+        self, depth: np.ndarray, world: World, time: float, biased: np.ndarray | None = None
+    ) -> np.ndarray:
+        """Every pixel's point (n, 3) float32 from its ray's hit distance, noisy (and biased where `biased`
+        says a ray met a surface a depth bias lengthens); NaN where nothing is hit."""
         seen = np.isfinite(depth)
         hits = depth[seen].astype(np.float64)
+        bias = world.effects.values("depth_bias")["bias"]
+        if bias and biased is not None:
+            hits += bias * biased[seen]
         if self.depth_noise > 0:
             hits += self._rng.normal(0.0, self.depth_noise, hits.shape)
         burst = self._burst(world, time)
@@ -152,6 +168,8 @@ class Exposure:
             o3d.core.Tensor.from_numpy(triangles.astype(np.uint32)),
         )
         self._depth = np.empty(camera.ray_count, dtype=np.float32)
+        biased = world.effects.values("depth_bias")["bias"] != 0
+        self._biased = np.zeros(camera.ray_count, dtype=bool) if biased else None
         self._cast = 0
 
     @property
@@ -163,7 +181,10 @@ class Exposure:
         """Cast the next `count` rays (the first call also builds the scene's search structure)."""
         start, stop = self._cast, min(self._cast + count, len(self._depth))
         rays = self._camera._rays[start:stop]
-        self._depth[start:stop] = self._scene.cast_rays(rays)["t_hit"].numpy()
+        hits = self._scene.cast_rays(rays)
+        self._depth[start:stop] = hits["t_hit"].numpy()
+        if self._biased is not None:  # rays that met a block or an instrument
+            self._biased[start:stop] = hits["primitive_ids"].numpy() >= self._camera.board_triangles
         self._cast = stop
 
     def points(self) -> np.ndarray:
@@ -171,4 +192,4 @@ class Exposure:
         surface was hit (as a depth camera's organised cloud marks invalid pixels)."""
         if not self.done:
             raise PegbtError("the exposure's rays are not all cast yet", field="camera")
-        return self._camera._develop(self._depth, self._world, self.time)
+        return self._camera._develop(self._depth, self._world, self.time, self._biased)
