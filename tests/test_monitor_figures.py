@@ -129,6 +129,7 @@ def test_eval_trial_figures_read_every_cell_written(tmp_path):
 
 @pytest.mark.slow
 def test_world_samples_of_a_simulated_trial_agree_with_the_simulators_truth(tmp_path):
+    from pegbt.executive.runoptions import RunOptions
     from pegbt.executive.session import run_tree_file
     from pegbt.monitor.live import LiveMonitor
     from pegbt.monitor.server import MonitorServer
@@ -140,9 +141,11 @@ def test_world_samples_of_a_simulated_trial_agree_with_the_simulators_truth(tmp_
     monitor = LiveMonitor(server, log)
     try:
         output = run_tree_file(
-            REPO / "trees" / "unilateral.yaml",
-            log,
-            options={"endpoint": "auto", "condition": "optimized", "seed": 1000},
+            RunOptions(
+                REPO / "trees" / "unilateral.yaml",
+                log,
+                {"endpoint": "auto", "condition": "optimized", "seed": 1000},
+            ),
             watch=monitor.watch,
         )
     finally:

@@ -13,6 +13,7 @@ import pytest
 from pegbt.errors import PegbtError
 from pegbt.evaluation.trial import TrialSpec, run_options, run_trial, simulator_args, truth_path
 from pegbt.executive.logfile import read_tick_log
+from pegbt.executive.runoptions import RunOptions
 from pegbt.executive.session import run_tree_file
 from pegbt.sim.log import read_sim_log
 
@@ -44,7 +45,7 @@ def test_a_unilateral_trial_in_real_time_puts_every_block_back_home_as_the_simul
 
 def test_a_robot_cannot_run_on_a_clock_that_only_moves_when_asked(tmp_path):
     with pytest.raises(PegbtError, match="--clock.*manual clock"):
-        run_tree_file(REPO / "trees" / "unilateral.yaml", tmp_path / "run.jsonl", clock="manual")
+        run_tree_file(RunOptions(REPO / "trees" / "unilateral.yaml", tmp_path / "run.jsonl", clock="manual"))
 
 
 def test_eval_passes_realtime_and_the_interface_to_the_simulator_and_the_run(tmp_path):

@@ -48,6 +48,7 @@ def wide_tree(branches: int = 50, checks: int = 38) -> str:
 
 
 def run() -> Figures:
+    from pegbt.executive.runoptions import RunOptions
     from pegbt.executive.session import run_tree_file
     from pegbt.monitor.replay import replay_messages
     from pegbt.monitor.server import MonitorServer
@@ -63,7 +64,7 @@ def run() -> Figures:
         logs = {}
         for name, tree in (("2001", big_tree), ("example", TREES / "example.yaml")):
             logs[name] = Path(folder) / f"{name}.jsonl"
-            run_tree_file(tree, logs[name], clock="manual")
+            run_tree_file(RunOptions(tree, logs[name], clock="manual"))
         servers = {name: MonitorServer(free_port()).start() for name in logs}
         for name, server in servers.items():
             for message in replay_messages(logs[name]):

@@ -16,11 +16,12 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from pegbt.behaviours.resources.robot import SIMULATOR_ARGS
+from pegbt.behaviours.resources.robot import SIMULATOR_ARGS, simulated_world
 from pegbt.behaviours.resources.skills import SIMULATOR_CALIBRATION
 from pegbt.behaviours.resources.trial import count_contacts
 from pegbt.errors import PegbtError
 from pegbt.evaluation.truth import count_safety, failure_cause, injected_faults
+from pegbt.executive.runoptions import RunOptions
 from pegbt.sim.log import read_sim_log
 from pegbt.sim.process import SimProcess
 
@@ -157,8 +158,6 @@ def _run(spec: TrialSpec, truth: Path) -> RunOutput:
     machine). Another interface: on a simulator started here with `--interface`, at its address."""
     from pegbt.executive.session import run_tree_file
 
-    tree = spec.tree or tree_path(spec.variant)
-    clock = "wall" if spec.realtime else None
     if spec.interface == "pegbt":
         options = {
             "endpoint": "auto",
@@ -167,10 +166,24 @@ def _run(spec: TrialSpec, truth: Path) -> RunOutput:
             "simlog": str(truth),
             "faults": None if spec.faults is None else str(spec.faults),
         }
-        return run_tree_file(tree, spec.log, options=options, clock=clock, timeout=TRIAL_TIMEOUT_S)
+        return run_tree_file(trial_run_options(spec, options))
     with SimProcess(simulator_args(spec, truth)) as simulator:
-        options = run_options(spec, simulator.endpoint)
-        return run_tree_file(tree, spec.log, options=options, clock=clock, timeout=TRIAL_TIMEOUT_S)
+        return run_tree_file(trial_run_options(spec, run_options(spec, simulator.endpoint)))
+
+
+def trial_run_options(spec: TrialSpec, options: dict[str, Any]) -> RunOptions:
+    """The run of a trial with the providers' `options`: its variant, its simulator's world in the header."""
+    clock = "wall" if spec.realtime else None
+    faults = None if spec.faults is None else str(spec.faults)
+    return RunOptions(
+        spec.tree or tree_path(spec.variant),
+        spec.log,
+        options,
+        clock=clock,
+        timeout=TRIAL_TIMEOUT_S,
+        variant=spec.variant,
+        world=simulated_world(options, clock, spec.seed, faults),
+    )
 
 
 def simulator_args(spec: TrialSpec, truth: Path) -> list[str]:

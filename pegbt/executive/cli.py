@@ -174,27 +174,33 @@ def _tree_schema(args: argparse.Namespace) -> int:
 
 
 def _run(args: argparse.Namespace) -> int:
+    from pegbt.behaviours.resources.robot import simulated_world
     from pegbt.executive.analysis import result_table
     from pegbt.executive.logfile import read_tick_log
+    from pegbt.executive.runoptions import RunOptions
     from pegbt.executive.session import default_log_path, run_tree_file
 
     options = {name: getattr(args, f"option_{name}") for name in RUN_OPTIONS}
     log_path = Path(args.log) if args.log else default_log_path(args.tree)
+    run_options = RunOptions(
+        Path(args.tree),
+        log_path,
+        options,
+        clock=args.clock,
+        period=args.period,
+        timeout=args.timeout,
+        allow_include_outside=args.allow_include_outside,
+        world=simulated_world(options, args.clock),
+        **record_options(args),
+    )
     monitor = _start_monitor(args.monitor, log_path) if args.monitor is not None else None
     try:
         with stop_signals() as received:
             output = run_tree_file(
-                args.tree,
-                log_path,
-                options=options,
-                clock=args.clock,
-                period=args.period,
-                timeout=args.timeout,
+                run_options,
                 quiet=args.quiet,
                 verbose=args.verbose,
                 watch=monitor.watch if monitor else None,
-                allow_include_outside=args.allow_include_outside,
-                **record_options(args),
             )
     except BaseException:
         if monitor:

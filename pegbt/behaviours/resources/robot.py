@@ -15,7 +15,7 @@ believes), runs on the wall clock.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any, Protocol
 
@@ -41,7 +41,8 @@ from pegbt.transport.streaming import Streamer
 from pegbt.transport.ros2 import Ros2Wire, Topic
 from pegbt.transport.wires import make_wire, wire_session_settings
 
-SIMULATOR_ARGS = ("--physics", "dvrk-real")
+SIMULATOR_PHYSICS = "dvrk-real"
+SIMULATOR_ARGS = ("--physics", SIMULATOR_PHYSICS)
 PROBE_TIMEOUT = 2.0  # s to wait for a simulator to answer `sim/clock` at an address (no answer: a robot)
 STEP_TIMEOUT = 5.0  # s to wait for a lockstep step: a camera capture on a loaded 2-core machine took over 2
 READY_TIMEOUT = 5.0  # s to wait for each arm's first state
@@ -155,6 +156,25 @@ class Robot:
             close()
         if self.simulator is not None:
             self.simulator.stop()
+
+
+def simulated_world(
+    options: Mapping[str, Any], clock: str | None, seed: int | None = None, faults: str | None = None
+) -> dict[str, Any]:
+    """What a tick log's header records of the world a run meets (`RunOptions.world`): for a simulator
+    started for the run (`--endpoint auto` with pegbt's interface, or `seed` given: one the caller
+    started), its physics, speed (lockstep, or real time with `--clock`), seed and fault plan; nothing
+    for an endpoint at an address (a robot, or a simulator that knows its own)."""
+    embedded = options.get("interface", "pegbt") == "pegbt" and options.get("endpoint", "auto") == "auto"
+    if not embedded and seed is None:
+        return {}
+    return {
+        "simulator": "embedded" if embedded else "pegbt sim",
+        "physics": SIMULATOR_PHYSICS,
+        "speed": "lockstep" if clock is None else "real time",
+        "seed": int(options.get("seed") or 0) if seed is None else seed,
+        "faults": options.get("faults") if faults is None else faults,
+    }
 
 
 def _probe_simulator(link: Link) -> SimClock | None:
