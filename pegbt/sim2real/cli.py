@@ -150,6 +150,14 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
         help="simulated transfers per cell and world (default 16)",
     )
     outcomes.add_argument(
+        "--located",
+        action=NumberOption,
+        type=int,
+        at_least=2,
+        default=48,
+        help="simulated transfers per cell in the default world, the comparison every cell is located by (default 48)",
+    )
+    outcomes.add_argument(
         "--points",
         action=NumberOption,
         type=int,

@@ -6,11 +6,10 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
+from pegbt.executive.phases import PHASES  # the phases of a failure, as a tick log tells them
+
 VARIANTS = ("unilateral", "bilateral", "handover")
 CONDITIONS = ("uncalibrated", "calibrated", "optimized")
-# The phases of a failure, as `pegbt.executive.phases` reads them from a tick log.
-PHASES = ("sense", "reach", "grasp", "lift", "carry", "handover", "lower", "release")
-
 
 @dataclass(frozen=True)
 class Cell:

@@ -34,7 +34,7 @@ def read_outcomes(real: str | None, table: str | None) -> Outcomes:
 
 def run_outcomes(args: argparse.Namespace) -> int:
     outcomes = read_outcomes(args.real, args.table)
-    settings = Settings(fit=args.fit, transfers=args.transfers, points=args.points)
+    settings = Settings(fit=args.fit, transfers=args.transfers, located=args.located, points=args.points)
     split(outcomes.cells, settings.fit)  # a bad --fit is said before any simulation
     logging.getLogger("pegbt").setLevel(logging.ERROR)  # compensation clamps, once per simulated transfer
     mapper = ClusterMapper(args.cluster) if args.cluster else LocalMapper(args.workers)

@@ -22,10 +22,12 @@ from pegbt.sim2real.outcomes.simulate import Key, Mapper, SimCounts, Task, simul
 @dataclass(frozen=True)
 class Settings:
     """`fit`: which cells the fit sees (`all`, a variant or a condition); the rest are predicted.
-    `transfers`: simulated transfers per cell and world; `points`: grid values per fitted parameter."""
+    `transfers`: simulated transfers per cell and world in the fit; `located`: in the default world, which
+    every comparison is against (more, so a disagreement is seen); `points`: grid values per parameter."""
 
     fit: str = "all"
     transfers: int = 16
+    located: int = 48
     points: int = 5
     phases: bool = True
 
@@ -84,10 +86,9 @@ def diagnose(outcomes: Outcomes, settings: Settings, mapper: Mapper) -> Diagnosi
     counting = _Counting(mapper)
     cells = outcomes.cells
     fit_cells, held_out = split(cells, settings.fit)
-    before = simulate_cells(counting, [WorldEffects()], [c.key for c in cells], settings.transfers)[0]
+    before = simulate_cells(counting, [WorldEffects()], [c.key for c in cells], settings.located)[0]
     rows = locate(cells, before)
-    fit_keys = {c.key for c in fit_cells}
-    flagged = [r for r in rows if r.disagrees and (r.variant, r.condition) in fit_keys]
+    flagged = [r for r in locate(fit_cells, before) if r.disagrees]  # chance judged over the fit cells alone
     if flagged:
         phased = settings.phases and any(r.phase for r in rows)
         disagreeing = frozenset(r.phase for r in flagged if r.phase) if phased else None

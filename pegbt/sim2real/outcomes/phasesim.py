@@ -6,7 +6,7 @@ by the simulator's calibration models, or the optimised plan), and each control 
 where the physical joints put it, as `pegbt.sim.scene.Scene.update` does: descend onto the grasp, close,
 lift off the peg, carry, lower onto the goal peg, open. What perception would have seen is the block's
 pose with its noise (`PERCEPTION_SD`), displaced as the camera's world effects displace what it sees
-(`seen_point`). The phase of a failure is read from the world's events here (this is
+(`seen_point`); the arms stand where the world's registration offset puts them (`World.arm_to_board`). The phase of a failure is read from the world's events here (this is
 the simulator's side, where the truth is known).
 """
 
@@ -27,7 +27,6 @@ from pegbt.motion.ik import inverse_kinematics
 from pegbt.motion.settings import motion_settings
 from pegbt.motion.trajectory import Trajectory
 from pegbt.perception.blocks import BlockEstimate
-from pegbt.perception.board import BoardEstimate
 from pegbt.physics import ArmPhysics
 from pegbt.sim.arm import DEFAULT_JOINTS, SimArm
 from pegbt.sim.events import Event
@@ -72,7 +71,7 @@ class _Bench:
     def __init__(self, world: World, arm: str, motion: ArmMotion, q0: NDArray[np.float64]) -> None:
         self.world, self.name, self.motion = world, arm, motion
         self.arm = SimArm(arm, motion.settings, ArmPhysics.load(PHYSICS, arm), q0=q0, jaw0=motion_settings().transfer.jaw_open)
-        self.to_board = world.cell.arm_to_board(arm)
+        self.to_board = world.arm_to_board(arm)  # where the base truly stands (a registration offset moves it)
         self.events: list[tuple[str, Event]] = []
         self.segment = "approach"
         self.held = False  # holds the block lowered over its goal peg (or at the meeting point)
@@ -165,19 +164,11 @@ def simulate_transfer(effects: WorldEffects, variant: str, condition: str, seed:
 
 
 def seen_point(world: World, point: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Where perception finds a point of a peg or block (board frame) under the world's camera effects:
-    displaced by the registration offset, and `bias` farther along the camera's ray."""
-    offset = world.effects.values("registration_offset")
+    """Where perception finds a block's point (board frame): `depth_bias` farther along the camera's ray
+    (`pegbt.sim.camera` lengthens the rays meeting blocks; the board and its pegs are measured true)."""
     bias = world.effects.values("depth_bias")["bias"]
     ray = point - world.cell.camera.board_from_camera[:3, 3]
-    return point + [offset["x"], offset["y"], offset["z"]] + bias * ray / np.linalg.norm(ray)
-
-
-def seen_board(world: World) -> BoardEstimate:
-    """The registered board as perception would hand it over: the board true, its pegs where seen."""
-    tops = np.array([seen_point(world, top) for top in world.cell.pegs.tops])
-    camera = world.cell.camera.board_from_camera
-    return BoardEstimate(camera, tops, np.zeros(len(tops), dtype=np.int64), 1.0, 0.0, True, "")
+    return point + bias * ray / np.linalg.norm(ray)
 
 
 def _previous_release(
@@ -210,7 +201,6 @@ def _attempt(
     noise = rng.normal(0.0, PERCEPTION_SD, 2)
     position = seen_point(world, truth.pose[:3, 3]) + [noise[0], noise[1], 0.0]
     seen = BlockEstimate(position, yaw_of(truth.pose), truth.peg, 1.0, 0.0, 0, True, "")
-    board = seen_board(world)
     motion = skills.arm(arm)
     grasp = skills.selectors[arm].pick(seen)
     meeting = None
@@ -219,9 +209,9 @@ def _attempt(
     if grasp is None or (handover and meeting is None):
         return _Bench.failed_before(world, arm, motion, "sense")
     if meeting is None:
-        waypoints = transfer_for(world.cell, skills.motion, arm, board, seen, grasp, goal_peg)
+        waypoints = transfer_for(world.cell, skills.motion, arm, None, seen, grasp, goal_peg)
     else:
-        waypoints = to_handover(world.cell, skills.motion, arm, board, seen, grasp, meeting.tip)
+        waypoints = to_handover(world.cell, skills.motion, arm, None, seen, grasp, meeting.tip)
     if waypoints.approach is None:
         return _Bench.failed_before(world, arm, motion, "reach")
     start = _previous_release(world, arm, waypoints.poses[3], goal_peg, previous_peg)
@@ -266,7 +256,7 @@ def _hand_over(
     if world.held_by(receiver) != block:
         return TransferResult(False, first or "handover", world.time)
     waypoints = from_handover(
-        world.cell, skills.motion, receiver, seen_board(world), meeting.receiver_grasp, meeting.block_pose, goal_peg
+        world.cell, skills.motion, receiver, None, meeting.receiver_grasp, meeting.block_pose, goal_peg
     )
     planned = motion.transfer(waypoints)
     _, lowering = _segment_times(planned)

@@ -57,6 +57,7 @@ def report_dict(diagnosis: Diagnosis, commands: list[str] | None = None) -> dict
         "counting": "until_lost" if d.outcomes.attempts_end_at_lost_block else "every_attempt",
         "fit_on": d.settings.fit,
         "transfers_per_cell": d.settings.transfers,
+        "transfers_per_cell_default_world": d.settings.located,
         "grid_points": d.settings.points,
         "cells": cells,
         "disagreements": [
@@ -94,9 +95,7 @@ def report_dict(diagnosis: Diagnosis, commands: list[str] | None = None) -> dict
 
 def _finding(d: Diagnosis) -> list[str]:
     lines = []
-    fit_keys = {c.key for c in d.fit_cells}
-    disagreeing = [r for r in d.rows if r.disagrees and (r.variant, r.condition) in fit_keys]
-    if not disagreeing:
+    if not d.verdict.tried and not d.verdict.named:
         return ["No fit cell disagrees with the default world beyond chance: nothing is named."]
     if d.verdict.named:
         for fitted in d.verdict.named:
@@ -125,8 +124,9 @@ def report_markdown(d: Diagnosis, commands: list[str] | None = None) -> str:
         "",
         f"Real outcomes: {d.outcomes.source}"
         + (" (attempts end at a block lost for good)" if d.outcomes.attempts_end_at_lost_block else "")
-        + f". Simulator: each transfer's phases on the world with the `dvrk-real` arm, {d.settings.transfers} "
-        f"transfers per cell and world, {d.simulated} in all, {d.seconds:.0f} s. Fitted on: {d.settings.fit}.",
+        + f". Simulator: each transfer's phases on the world with the `dvrk-real` arm, {d.settings.located} "
+        f"transfers per cell in the default world and {d.settings.transfers} per cell and fitted world, "
+        f"{d.simulated} in all, {d.seconds:.0f} s. Fitted on: {d.settings.fit}.",
         "",
         "## Locate",
         "| variant | condition | what | real | 95 % | simulated (default world) | 95 % | p | beyond chance |",
