@@ -19,6 +19,9 @@ from pegbt.sim2real.outcomes.phasesim import TransferResult
 from pegbt.sim2real.outcomes.simulate import Key, Mapper, SimCounts, Task, simulate_cells
 
 
+CLOSE = 0.05  # real and simulated rates this close need no more simulated transfers to be compared
+
+
 @dataclass(frozen=True)
 class Settings:
     """`fit`: which cells the fit sees (`all`, a variant or a condition); the rest are predicted.
@@ -86,24 +89,27 @@ def diagnose(outcomes: Outcomes, settings: Settings, mapper: Mapper) -> Diagnosi
     counting = _Counting(mapper)
     cells = outcomes.cells
     fit_cells, held_out = split(cells, settings.fit)
-    before = simulate_cells(counting, [WorldEffects()], [c.key for c in cells], settings.located)[0]
+    before = _located(counting, cells, settings)
     rows = locate(cells, before)
     flagged = [r for r in locate(fit_cells, before) if r.disagrees]  # chance judged over the fit cells alone
     if flagged:
         phased = settings.phases and any(r.phase for r in rows)
         disagreeing = frozenset(r.phase for r in flagged if r.phase) if phased else None
+        loud = {(r.variant, r.condition) for r in flagged}
+        ordered = [c for c in fit_cells if c.key in loud] + [c for c in fit_cells if c.key not in loud]
         verdict = fit(
-            counting, fit_cells, before, settings.transfers, settings.points, settings.phases, disagreeing or None
+            counting, ordered, before, settings.transfers, settings.points, settings.phases,
+            disagreeing or None, len(loud),
         )
+        fit_cells = tuple(ordered)
     else:
         verdict = Verdict((), (), (), _null(fit_cells, before, settings.phases), ())
     predicted_by: dict[str, dict[Key, Prediction]] = {}
     if verdict.named:
-        predictions = predict(counting, [verdict.named[-1]], cells, settings.transfers)
+        predictions, _ = predict(counting, [verdict.named[-1]], cells, settings.transfers)
     elif verdict.tied:
-        for tied in verdict.tied:
-            predicted_by[tied.candidate.name] = predict(counting, [tied], cells, settings.transfers)
-        predictions = predict(counting, list(verdict.tied), cells, settings.transfers)
+        predictions, each = predict(counting, list(verdict.tied), cells, settings.transfers)
+        predicted_by = {tied.candidate.name: alone for tied, alone in zip(verdict.tied, each)}
     else:
         predictions = predict_null(before, cells)
     after = {key: p.at_best for key, p in predictions.items()}
@@ -122,6 +128,23 @@ def diagnose(outcomes: Outcomes, settings: Settings, mapper: Mapper) -> Diagnosi
         time.monotonic() - started,
         counting.count,
     )
+
+
+def _located(mapper: Mapper, cells: Sequence[Cell], settings: Settings) -> dict[Key, SimCounts]:
+    """The default world's transfers per cell: `transfers` each, topped up to `located` where the real
+    rate is more than `CLOSE` away (where a disagreement may be)."""
+    keys = [c.key for c in cells]
+    before = simulate_cells(mapper, [WorldEffects()], keys, settings.transfers)[0]
+    far = [c.key for c in cells if abs(c.rate - before[c.key].rate) > CLOSE]
+    extra = settings.located - settings.transfers
+    if far and extra > 0:
+        more = simulate_cells(mapper, [WorldEffects()], far, extra, first_seed=settings.transfers)[0]
+        for key, counts in more.items():
+            for category, n in counts.counts.items():
+                before[key].counts[category] += n
+            total = before[key].attempted
+            before[key].seconds = (before[key].seconds * (total - extra) + counts.seconds * extra) / total
+    return before
 
 
 def _null(cells: Sequence[Cell], before: dict[Key, SimCounts], phases: bool) -> np.ndarray:

@@ -141,14 +141,25 @@ def profile(
     candidate: Candidate,
     cells: Sequence[Cell],
     transfers: int,
+    null: np.ndarray,
+    informative: int,
     base: WorldEffects = WorldEffects(),
     phases: bool = True,
 ) -> Profile:
-    """Simulate the fit `cells` at every grid value of `candidate` (on top of `base`) and weigh each."""
+    """Simulate the fit `cells` at every grid value of `candidate` (on top of `base`) and weigh each. The
+    first `informative` cells (those that disagree) get `transfers` each; the others, which agree with the
+    default world, are simulated (with a third as many) only for a candidate that fits the informative
+    ones beyond chance, and otherwise keep the default world's likelihood, which they agree with."""
     worlds = [candidate.world(v, base) for v in candidate.grid]
-    sims = simulate_cells(mapper, worlds, [c.key for c in cells], transfers)
-    per_cell = np.array([[log_likelihood(c, sim[c.key], phases) for c in cells] for sim in sims])
-    return Profile(candidate, candidate.grid, sims, per_cell, base)
+    loud, quiet = list(cells[:informative]), list(cells[informative:])
+    sims = simulate_cells(mapper, worlds, [c.key for c in loud], transfers)
+    per_cell = np.array([[log_likelihood(c, sim[c.key], phases) for c in loud] for sim in sims])
+    rest = np.tile(null[informative:], (len(worlds), 1))
+    if quiet and 2 * (per_cell.sum(axis=1).max() - null[:informative].sum()) >= LR_95:
+        more = simulate_cells(mapper, worlds, [c.key for c in quiet], max(2, transfers // 3))
+        rest = np.array([[log_likelihood(c, sim[c.key], phases) for c in quiet] for sim in more])
+        sims = [{**a, **b} for a, b in zip(sims, more)]
+    return Profile(candidate, candidate.grid, sims, np.hstack([per_cell, rest]), base)
 
 
 def loo_gain(fitted: Profile, null: np.ndarray) -> float:
@@ -174,13 +185,15 @@ def fit(
     points: int,
     phases: bool = True,
     disagreeing: frozenset[str] | None = None,
+    informative: int | None = None,
 ) -> Verdict:
     """Profile every candidate (only those that can act in a `disagreeing` phase, when phases are known)
-    on the fit `cells`; name the best that passes unless another ties with it; then try a second effect
-    beside a named one."""
+    on the fit `cells` (the first `informative` of them disagree; all, if not given); name the best that
+    passes unless another ties with it; then try a second effect beside a named one."""
+    informative = len(cells) if informative is None else informative
     null = np.array([log_likelihood(c, null_sims[c.key], phases) for c in cells])
     tried = [
-        profile(mapper, candidate, cells, transfers, phases=phases)
+        profile(mapper, candidate, cells, transfers, null, informative, phases=phases)
         for candidate in candidates(points)
         if disagreeing is None or PHASES_OF.get(candidate.kind, disagreeing) & disagreeing
     ]
@@ -195,7 +208,9 @@ def fit(
     named = [best]
     second = [p for p in passing if p.candidate.kind != best.candidate.kind]
     for other in second[:2]:
-        pair = profile(mapper, other.candidate, cells, transfers, base=best.world(), phases=phases)
+        pair = profile(
+            mapper, other.candidate, cells, transfers, best.per_cell[best.best], informative, best.world(), phases
+        )
         if passes(pair, best.per_cell[best.best]) and not _ties_alone(pair, other):
             named.append(pair)
             break

@@ -73,7 +73,8 @@ class _Bench:
         self.arm = SimArm(arm, motion.settings, ArmPhysics.load(PHYSICS, arm), q0=q0, jaw0=motion_settings().transfer.jaw_open)
         self.to_board = world.arm_to_board(arm)  # where the base truly stands (a registration offset moves it)
         self.events: list[tuple[str, Event]] = []
-        self.segment = "approach"
+        self.clock = world.time
+        self.segment = "reach"
         self.held = False  # holds the block lowered over its goal peg (or at the meeting point)
         self.meeting: Meeting | None = None
         self.failed: str | None = None  # the phase in which this attempt lost the block
@@ -92,15 +93,20 @@ class _Bench:
         return bench
 
     def tick(self, seconds: float) -> None:
+        """Advance the arm, and the world with it; an approach holding nothing (`reach`) shows the world
+        only where it ends, since no contact on the way decides an outcome."""
         for _ in range(max(1, round(seconds / self.arm.period))):
             self.arm.advance(self.arm.period)
+            self.clock = max(self.clock, self.world.time) + self.arm.period
+            if self.segment == "reach" and self.arm.is_busy:
+                continue
             tool = ToolState.from_joints(
                 self.arm.physical,
                 float(self.arm.jaw.encoder[0]),
                 self.to_board,
                 wrist_give(self.arm.physics, float(self.arm.physical[5]), self.world.cell.tool),
             )
-            self.events += [(self.segment, e) for e in self.world.update(self.world.time + self.arm.period, {self.name: tool})]
+            self.events += [(self.segment, e) for e in self.world.update(self.clock, {self.name: tool})]
             self.arm.jaw.stop_at(self.world.jaw_stop(self.name))
 
     def play(self, planned: Trajectory, segments: list[tuple[float, str]], holding: int | None = None) -> None:

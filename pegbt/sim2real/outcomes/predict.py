@@ -36,21 +36,24 @@ def _mixture(cell: Cell, sims: Sequence[SimCounts], weights: np.ndarray) -> np.n
 
 def predict(
     mapper: Mapper, profiles: Sequence[Profile], cells: Sequence[Cell], transfers: int
-) -> dict[Key, Prediction]:
-    """Each of `cells` predicted by `profiles` (several: the effects the data cannot tell apart, mixed
-    equally) from their posterior over the fit cells."""
+) -> tuple[dict[Key, Prediction], list[dict[Key, Prediction]]]:
+    """Each of `cells` predicted by `profiles` mixed equally (several: effects the data cannot tell apart),
+    each from its posterior over the fit cells; and the prediction of each profile alone."""
     pmfs: dict[Key, list[np.ndarray]] = {c.key: [] for c in cells}
-    best: dict[Key, SimCounts] = {}
+    best: list[dict[Key, SimCounts]] = []
     for fitted in profiles:
         weights = fitted.weights()
         keep = [i for i, w in enumerate(weights) if w >= MIN_WEIGHT * weights.max()]
         worlds = [fitted.candidate.world(fitted.values[i], fitted.base) for i in keep]
         sims = simulate_cells(mapper, worlds, [c.key for c in cells], transfers, first_seed=10_000)
+        best.append(sims[keep.index(fitted.best)])
         for cell in cells:
             pmfs[cell.key].append(_mixture(cell, [s[cell.key] for s in sims], weights[keep]))
-            if fitted is profiles[0]:
-                best[cell.key] = sims[keep.index(fitted.best)][cell.key]
-    return {c.key: _prediction(c, np.mean(pmfs[c.key], axis=0), best[c.key]) for c in cells}
+    each = [
+        {c.key: _prediction(c, pmfs[c.key][k], best[k][c.key]) for c in cells} for k in range(len(profiles))
+    ]
+    mixed = {c.key: _prediction(c, np.mean(pmfs[c.key], axis=0), best[0][c.key]) for c in cells}
+    return mixed, each
 
 
 def predict_null(null_sims: dict[Key, SimCounts], cells: Sequence[Cell]) -> dict[Key, Prediction]:
