@@ -34,4 +34,6 @@ def fake_mapper(tasks: Sequence[tuple[WorldEffects, str, str, int]]) -> list[Tra
 
 def real_counts(effects: WorldEffects, variant: str, condition: str, attempted: int, seed: int) -> int:
     """What a robot in that world would place of `attempted` transfers."""
-    return int(np.random.default_rng([seed, 5]).binomial(attempted, lift_success(effects, variant, condition)))
+    return int(
+        np.random.default_rng([seed, 5]).binomial(attempted, lift_success(effects, variant, condition))
+    )

@@ -24,7 +24,10 @@ FAMILIES: dict[str, dict[str, dict[str, float]]] = {
     "chamfer_capture": {"chamfer_capture": {"capture_radius": 0.0032}},
     "grip_compliance": {"grip_compliance": {"displacement": 0.0015}},
     "registration_offset": {"registration_offset": {"x": 0.002}},
-    "peg_and_chamfer": {"peg_compliance": {"deflection": 0.0015}, "chamfer_capture": {"capture_radius": 0.0032}},
+    "peg_and_chamfer": {
+        "peg_compliance": {"deflection": 0.0015},
+        "chamfer_capture": {"capture_radius": 0.0032},
+    },
     "null": {},
 }
 CELLS = [(v, c) for v in ("unilateral", "bilateral", "handover") for c in ("uncalibrated", "calibrated")]
@@ -38,7 +41,9 @@ def concealed_outcomes(mapper: Mapper, hidden: WorldEffects, seed: int, transfer
     """Cells of `transfers` transfers in the `hidden` world, with the phase of each failure."""
     sims = simulate_cells(mapper, [hidden], CELLS, transfers, first_seed=REAL_SEED + 1000 * seed)[0]
     cells = tuple(
-        Cell(v, c, s.attempted, s.succeeded, s.seconds, {k: s.counts[k] for k in CATEGORIES[1:] if s.counts[k]})
+        Cell(
+            v, c, s.attempted, s.succeeded, s.seconds, {k: s.counts[k] for k in CATEGORIES[1:] if s.counts[k]}
+        )
         for (v, c), s in sims.items()
     )
     return Outcomes(cells, f"concealed world, seed {seed}")
@@ -73,13 +78,22 @@ def measure(
         for family in families:
             hidden = FAMILIES[family]
             scores = [
-                score(diagnose(concealed_outcomes(mapper, WorldEffects.of(hidden), seed, real_transfers), settings, mapper), hidden)
+                score(
+                    diagnose(
+                        concealed_outcomes(mapper, WorldEffects.of(hidden), seed, real_transfers),
+                        settings,
+                        mapper,
+                    ),
+                    hidden,
+                )
                 for seed in range(seeds)
             ]
             for name in ("named", "false", "inside"):
                 figures[f"{family}_{name}"] = statistics.mean(s[name] for s in scores)
             errors = [s["error"] for s in scores if s["error"] == s["error"]]
-            figures[f"{family}_parameter_error_median"] = statistics.median(errors) if errors else "none named"
+            figures[f"{family}_parameter_error_median"] = (
+                statistics.median(errors) if errors else "none named"
+            )
     finally:
         mapper.close()
     figures["seeds_per_family"] = seeds

@@ -134,7 +134,9 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
         "--effects", action="store_true", help="list the registered world effects and their parameters"
     )
     outcomes.add_argument("--json", action="store_true", help="print the listing (or report.json) as JSON")
-    outcomes.add_argument("--out", metavar="DIR", help="write report.json, report.md, outcomes.png, world.yaml here")
+    outcomes.add_argument(
+        "--out", metavar="DIR", help="write report.json, report.md, outcomes.png, world.yaml here"
+    )
     outcomes.add_argument(
         "--fit",
         default="all",
@@ -166,7 +168,12 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
         help="grid values per fitted parameter (default 5, plus one)",
     )
     outcomes.add_argument(
-        "--workers", action=NumberOption, type=int, at_least=0, default=2, help="local worker processes (0: none)"
+        "--workers",
+        action=NumberOption,
+        type=int,
+        at_least=0,
+        default=2,
+        help="local worker processes (0: none)",
     )
     outcomes.add_argument("--cluster", metavar="ADDRESS", help="simulate on this Dask scheduler instead")
     outcomes.set_defaults(handler=_outcomes)
@@ -223,7 +230,9 @@ def _outcomes(args: argparse.Namespace) -> int:
         print(listing_json() if args.json else listing_text())
         return 0
     if (args.real is None) == (args.table is None):
-        raise PegbtError("give REAL (a tick-log folder or an outcome table) or --table paper", field="outcomes")
+        raise PegbtError(
+            "give REAL (a tick-log folder or an outcome table) or --table paper", field="outcomes"
+        )
     from pegbt.sim2real.outcomes.cli import run_outcomes
 
     return run_outcomes(args)

@@ -14,7 +14,10 @@ REPO = Path(__file__).resolve().parents[2]
 
 
 def pegbt(*args: str, cwd: Path) -> subprocess.CompletedProcess[str]:
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [str(REPO), os.environ.get("PYTHONPATH")]))}
+    env = {
+        **os.environ,
+        "PYTHONPATH": os.pathsep.join(filter(None, [str(REPO), os.environ.get("PYTHONPATH")])),
+    }
     return subprocess.run(
         [sys.executable, "-m", "pegbt", *args], cwd=cwd, env=env, capture_output=True, text=True, timeout=900
     )
@@ -22,8 +25,23 @@ def pegbt(*args: str, cwd: Path) -> subprocess.CompletedProcess[str]:
 
 def test_tick_logs_of_a_campaign_are_diagnosed_from_the_logs_alone(tmp_path: Path):
     ran = pegbt(
-        "eval", "--variant", "unilateral", "--condition", "uncalibrated", "--trials", "1", "--seed", "5",
-        "--workers", "1", "--keep-logs", "--quiet", "--json", "--out", str(tmp_path / "eval"), cwd=tmp_path,
+        "eval",
+        "--variant",
+        "unilateral",
+        "--condition",
+        "uncalibrated",
+        "--trials",
+        "1",
+        "--seed",
+        "5",
+        "--workers",
+        "1",
+        "--keep-logs",
+        "--quiet",
+        "--json",
+        "--out",
+        str(tmp_path / "eval"),
+        cwd=tmp_path,
     )
     assert ran.returncode == 0, ran.stderr
     real = tmp_path / "real"
@@ -34,8 +52,21 @@ def test_tick_logs_of_a_campaign_are_diagnosed_from_the_logs_alone(tmp_path: Pat
         shutil.copy(log, real / log.name)
     out = tmp_path / "report"
     diagnosed = pegbt(
-        "sim2real", "outcomes", str(real), "--transfers", "2", "--located", "2", "--points", "2",
-        "--workers", "0", "--out", str(out), "--json", cwd=tmp_path,
+        "sim2real",
+        "outcomes",
+        str(real),
+        "--transfers",
+        "2",
+        "--located",
+        "2",
+        "--points",
+        "2",
+        "--workers",
+        "0",
+        "--out",
+        str(out),
+        "--json",
+        cwd=tmp_path,
     )
     assert diagnosed.returncode == 0, diagnosed.stderr
     report = json.loads((out / "report.json").read_text())

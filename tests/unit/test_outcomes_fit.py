@@ -59,7 +59,10 @@ def test_held_out_cells_never_reach_the_fit():
     hidden = WorldEffects.of({"peg_compliance": {"deflection": 0.0018}})
     outcomes = _outcomes(hidden, seed=3)
     changed = Outcomes(
-        tuple(c if c.variant == "unilateral" else Cell(c.variant, c.condition, c.attempted, 0) for c in outcomes.cells),
+        tuple(
+            c if c.variant == "unilateral" else Cell(c.variant, c.condition, c.attempted, 0)
+            for c in outcomes.cells
+        ),
         "test",
     )
     settings = Settings(fit="unilateral", transfers=200, points=5)

@@ -39,22 +39,45 @@ def test_a_yaml_table_with_phases_reads(tmp_path: Path):
 
 def test_a_csv_table_reads(tmp_path: Path):
     path = tmp_path / "t.csv"
-    path.write_text(
-        "variant,condition,attempted,succeeded,failures_lift\nbilateral,uncalibrated,68,37,31\n"
-    )
+    path.write_text("variant,condition,attempted,succeeded,failures_lift\nbilateral,uncalibrated,68,37,31\n")
     cell = read_table(path).cells[0]
-    assert (cell.variant, cell.attempted, cell.succeeded, dict(cell.failures)) == ("bilateral", 68, 37, {"lift": 31})
+    assert (cell.variant, cell.attempted, cell.succeeded, dict(cell.failures)) == (
+        "bilateral",
+        68,
+        37,
+        {"lift": 31},
+    )
 
 
 @pytest.mark.parametrize(
     ("text", "line", "field"),
     [
-        ("cells:\n  - {variant: sideways, condition: uncalibrated, attempted: 3, succeeded: 1}\n", 2, "cells[0].variant"),
-        ("cells:\n  - {variant: bilateral, condition: uncalibrated, attempted: 3, succeeded: 4}\n", 2, "succeeded"),
-        ("cells:\n  - {variant: bilateral, condition: uncalibrated, attempted: 3, succeeded: 1,\n     failures: {wobble: 1}}\n", 3, "cells[0].failures.wobble"),
-        ("cells:\n  - {variant: bilateral, condition: uncalibrated, attempted: 3, succeeded: 1}\n"
-         "  - {variant: bilateral, condition: uncalibrated, attempted: 3, succeeded: 1}\n", 3, "variant"),
-        ("cells:\n  - {variant: bilateral, condition: uncalibrated, attempted: -3, succeeded: 1}\n", 2, "cells[0].attempted"),
+        (
+            "cells:\n  - {variant: sideways, condition: uncalibrated, attempted: 3, succeeded: 1}\n",
+            2,
+            "cells[0].variant",
+        ),
+        (
+            "cells:\n  - {variant: bilateral, condition: uncalibrated, attempted: 3, succeeded: 4}\n",
+            2,
+            "succeeded",
+        ),
+        (
+            "cells:\n  - {variant: bilateral, condition: uncalibrated, attempted: 3, succeeded: 1,\n     failures: {wobble: 1}}\n",
+            3,
+            "cells[0].failures.wobble",
+        ),
+        (
+            "cells:\n  - {variant: bilateral, condition: uncalibrated, attempted: 3, succeeded: 1}\n"
+            "  - {variant: bilateral, condition: uncalibrated, attempted: 3, succeeded: 1}\n",
+            3,
+            "variant",
+        ),
+        (
+            "cells:\n  - {variant: bilateral, condition: uncalibrated, attempted: -3, succeeded: 1}\n",
+            2,
+            "cells[0].attempted",
+        ),
     ],
 )
 def test_yaml_errors_name_line_and_field(tmp_path: Path, text: str, line: int, field: str):
@@ -71,8 +94,16 @@ def test_yaml_errors_name_line_and_field(tmp_path: Path, text: str, line: int, f
         ("variant,condition,attempted,succeeded\nbilateral,uncalibrated,x,1\n", 2, "attempted"),
         ("variant,condition,attempted,succeeded,colour\nbilateral,uncalibrated,3,1,red\n", 1, "colour"),
         ("variant,condition,attempted\nbilateral,uncalibrated,3\n", 1, "succeeded"),
-        ("variant,condition,attempted,succeeded,mean_transfer_s\nbilateral,uncalibrated,3,1,nan\n", 2, "mean_transfer_s"),
-        ("variant,condition,attempted,succeeded\nbilateral,uncalibrated,3,1\nbilateral,wobbly,3,1\n", 3, "condition"),
+        (
+            "variant,condition,attempted,succeeded,mean_transfer_s\nbilateral,uncalibrated,3,1,nan\n",
+            2,
+            "mean_transfer_s",
+        ),
+        (
+            "variant,condition,attempted,succeeded\nbilateral,uncalibrated,3,1\nbilateral,wobbly,3,1\n",
+            3,
+            "condition",
+        ),
     ],
 )
 def test_csv_errors_name_line_and_field(tmp_path: Path, text: str, line: int, field: str):

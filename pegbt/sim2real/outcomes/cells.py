@@ -6,10 +6,11 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
-from pegbt.executive.phases import PHASES  # the phases of a failure, as a tick log tells them
+from pegbt.executive.phases import PHASES as PHASES  # the phases of a failure, as a tick log tells them
 
 VARIANTS = ("unilateral", "bilateral", "handover")
 CONDITIONS = ("uncalibrated", "calibrated", "optimized")
+
 
 @dataclass(frozen=True)
 class Cell:

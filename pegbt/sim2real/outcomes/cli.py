@@ -45,7 +45,11 @@ def run_outcomes(args: argparse.Namespace) -> int:
     commands = ["pegbt " + shlex.join(sys.argv[1:])] if sys.argv[1:2] == ["sim2real"] else []
     if args.out:
         data = write_report(diagnosis, Path(args.out), commands)
-        print(f"wrote {args.out}/report.md, report.json, outcomes.png" + "".join(f", {w}" for w in data["world_files"]), file=sys.stderr)
+        print(
+            f"wrote {args.out}/report.md, report.json, outcomes.png"
+            + "".join(f", {w}" for w in data["world_files"]),
+            file=sys.stderr,
+        )
     if args.json:
         print(json.dumps(report_dict(diagnosis, commands), indent=2))
     else:

@@ -98,8 +98,14 @@ def diagnose(outcomes: Outcomes, settings: Settings, mapper: Mapper) -> Diagnosi
         loud = {(r.variant, r.condition) for r in flagged}
         ordered = [c for c in fit_cells if c.key in loud] + [c for c in fit_cells if c.key not in loud]
         verdict = fit(
-            counting, ordered, before, settings.transfers, settings.points, settings.phases,
-            disagreeing or None, len(loud),
+            counting,
+            ordered,
+            before,
+            settings.transfers,
+            settings.points,
+            settings.phases,
+            disagreeing or None,
+            len(loud),
         )
         fit_cells = tuple(ordered)
     else:

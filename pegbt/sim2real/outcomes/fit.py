@@ -201,7 +201,11 @@ def fit(
     if not passing:
         return Verdict((), (), tuple(tried), null, ())
     best = passing[0]
-    rivals = [p for p in passing[1:] if p.candidate.kind != best.candidate.kind and best.total.max() - p.total.max() < TIE]
+    rivals = [
+        p
+        for p in passing[1:]
+        if p.candidate.kind != best.candidate.kind and best.total.max() - p.total.max() < TIE
+    ]
     names = tuple(p.candidate.name for p in passing)
     if rivals:
         return Verdict((), (best, *rivals), tuple(tried), null, names)
@@ -209,7 +213,14 @@ def fit(
     second = [p for p in passing if p.candidate.kind != best.candidate.kind]
     for other in second[:2]:
         pair = profile(
-            mapper, other.candidate, cells, transfers, best.per_cell[best.best], informative, best.world(), phases
+            mapper,
+            other.candidate,
+            cells,
+            transfers,
+            best.per_cell[best.best],
+            informative,
+            best.world(),
+            phases,
         )
         if passes(pair, best.per_cell[best.best]) and not _ties_alone(pair, other):
             named.append(pair)
@@ -220,4 +231,3 @@ def fit(
 def _ties_alone(pair: Profile, alone: Profile) -> bool:
     """Whether the second effect alone explains the data as well as the pair (the first adds nothing)."""
     return pair.total.max() - alone.total.max() < TIE
-

@@ -29,7 +29,7 @@ def disagreement_p(real: tuple[int, int], simulated: tuple[int, int]) -> float:
     (k_real, n_real), (k_sim, n_sim) = real, simulated
     if n_real == 0 or n_sim == 0:
         return 1.0
-    table = [[k_real, n_real - k_real], [k_sim, n_sim - k_sim]]
+    table = np.array([[k_real, n_real - k_real], [k_sim, n_sim - k_sim]])
     return float(stats.fisher_exact(table).pvalue)
 
 
@@ -47,7 +47,9 @@ def count_log_likelihood(succeeded: int, attempted: int, sim_succeeded: float, s
     return float(stats.betabinom.logpmf(succeeded, attempted, a, b))
 
 
-def mixture_pmf(attempted: int, sim: NDArray[np.float64], weights: NDArray[np.float64]) -> NDArray[np.float64]:
+def mixture_pmf(
+    attempted: int, sim: NDArray[np.float64], weights: NDArray[np.float64]
+) -> NDArray[np.float64]:
     """P(k) for k = 0..`attempted` under a mixture of simulated rates: `sim` (m, 2) rows of (succeeded,
     attempted) per parameter value, `weights` (m,) their posterior weights (parameter uncertainty)."""
     k = np.arange(attempted + 1)

@@ -33,5 +33,5 @@ def log_likelihood(cell: Cell, sim: SimCounts, phases: bool = True) -> float:
         return 0.0
     if phases and has_phases(cell):
         alpha = sim.vector() + 0.5
-        return float(stats.dirichlet_multinomial.logpmf(real_vector(cell), alpha, cell.attempted))
+        return float(stats.dirichlet_multinomial.logpmf(real_vector(cell), alpha, np.array(cell.attempted)))
     return count_log_likelihood(cell.succeeded, cell.attempted, sim.succeeded, sim.attempted)

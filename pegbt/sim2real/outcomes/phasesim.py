@@ -37,15 +37,38 @@ from pegbt.sim2real.outcomes.cells import PHASES
 
 PHYSICS = "dvrk-real"  # the arm as fitted on the real recordings: never refitted here
 PERCEPTION_SD = 0.0003  # m per axis: the block's position as perception fits it (0.3 mm depth noise)
-START = np.array(DEFAULT_JOINTS)  # each arm comes from where the simulator starts it, its cables at rest there
+START = np.array(
+    DEFAULT_JOINTS
+)  # each arm comes from where the simulator starts it, its cables at rest there
 REGRASPS = 3  # recoveries before a transfer is given up (`trees/shared/one_transfer.yaml`)
 SETTLE_S = 0.1  # s at rest after each motion: the executive starts the next leaf a tick or two later
 
 # Forward transfers (arm, start peg, goal peg) of each variant: `trees/shared/orders.yaml`.
 TRANSFERS: dict[str, tuple[tuple[str, int, int], ...]] = {
-    "unilateral": (("PSM1", 1, 7), ("PSM1", 0, 6), ("PSM1", 3, 8), ("PSM1", 2, 9), ("PSM1", 5, 11), ("PSM1", 4, 10)),
-    "bilateral": (("PSM2", 0, 7), ("PSM2", 2, 6), ("PSM2", 4, 9), ("PSM1", 1, 8), ("PSM1", 3, 11), ("PSM1", 5, 10)),
-    "handover": (("PSM2", 1, 7), ("PSM2", 0, 6), ("PSM2", 3, 8), ("PSM2", 2, 9), ("PSM2", 5, 11), ("PSM2", 4, 10)),
+    "unilateral": (
+        ("PSM1", 1, 7),
+        ("PSM1", 0, 6),
+        ("PSM1", 3, 8),
+        ("PSM1", 2, 9),
+        ("PSM1", 5, 11),
+        ("PSM1", 4, 10),
+    ),
+    "bilateral": (
+        ("PSM2", 0, 7),
+        ("PSM2", 2, 6),
+        ("PSM2", 4, 9),
+        ("PSM1", 1, 8),
+        ("PSM1", 3, 11),
+        ("PSM1", 5, 10),
+    ),
+    "handover": (
+        ("PSM2", 1, 7),
+        ("PSM2", 0, 6),
+        ("PSM2", 3, 8),
+        ("PSM2", 2, 9),
+        ("PSM2", 5, 11),
+        ("PSM2", 4, 10),
+    ),
 }
 RECEIVER = {"PSM1": "PSM2", "PSM2": "PSM1"}
 
@@ -70,8 +93,16 @@ class _Bench:
 
     def __init__(self, world: World, arm: str, motion: ArmMotion, q0: NDArray[np.float64]) -> None:
         self.world, self.name, self.motion = world, arm, motion
-        self.arm = SimArm(arm, motion.settings, ArmPhysics.load(PHYSICS, arm), q0=q0, jaw0=motion_settings().transfer.jaw_open)
-        self.to_board = world.arm_to_board(arm)  # where the base truly stands (a registration offset moves it)
+        self.arm = SimArm(
+            arm,
+            motion.settings,
+            ArmPhysics.load(PHYSICS, arm),
+            q0=q0,
+            jaw0=motion_settings().transfer.jaw_open,
+        )
+        self.to_board = world.arm_to_board(
+            arm
+        )  # where the base truly stands (a registration offset moves it)
         self.events: list[tuple[str, Event]] = []
         self.clock = world.time
         self.segment = "reach"
@@ -109,7 +140,9 @@ class _Bench:
             self.events += [(self.segment, e) for e in self.world.update(self.clock, {self.name: tool})]
             self.arm.jaw.stop_at(self.world.jaw_stop(self.name))
 
-    def play(self, planned: Trajectory, segments: list[tuple[float, str]], holding: int | None = None) -> None:
+    def play(
+        self, planned: Trajectory, segments: list[tuple[float, str]], holding: int | None = None
+    ) -> None:
         """Send `planned` as the condition sends it; `segments` names the phase from each planned time on.
         A carry of block `holding` stops the moment the block leaves the jaw, as the carry leaves do."""
         prepared = self.motion.prepare(planned)
@@ -143,7 +176,9 @@ def simulate_transfer(effects: WorldEffects, variant: str, condition: str, seed:
     recovers (from wherever the block fell; the arm starts each attempt from `START`)."""
     order = TRANSFERS[variant]
     arm, start_peg, goal_peg = order[seed % len(order)]
-    previous_peg = next(goal for other, _, goal in reversed(order + order[: seed % len(order)]) if other == arm)
+    previous_peg = next(
+        goal for other, _, goal in reversed(order + order[: seed % len(order)]) if other == arm
+    )
     world = World(seed, effects=effects)
     skills = _skills(condition)
     block = next(b for b in world.blocks if b.peg == start_peg)
@@ -153,7 +188,9 @@ def simulate_transfer(effects: WorldEffects, variant: str, condition: str, seed:
     for _ in range(1 + REGRASPS):
         if block.lost:
             break
-        bench = _attempt(world, skills, arm, block.index, goal_peg, rng, previous_peg, handover=variant == "handover")
+        bench = _attempt(
+            world, skills, arm, block.index, goal_peg, rng, previous_peg, handover=variant == "handover"
+        )
         events += bench.events
         if bench.held and bench.meeting is not None:
             return _hand_over(world, skills, bench, block.index, goal_peg, first)
@@ -286,6 +323,10 @@ def _segment_times(planned: Trajectory) -> tuple[float, float]:
 def _failed_phase(events: list[tuple[str, Event]], block: int) -> str:
     """The segment in which the block was first lost: knocked loose, slipped, dropped or misplaced."""
     for segment, event in events:
-        if event.block == block and event.kind in ("collision", "slip", "drop") and (event.kind != "collision" or "block-peg" in event.detail):
+        if (
+            event.block == block
+            and event.kind in ("collision", "slip", "drop")
+            and (event.kind != "collision" or "block-peg" in event.detail)
+        ):
             return segment if segment in PHASES else "carry"
     return "release"

@@ -46,7 +46,12 @@ def report_dict(diagnosis: Diagnosis, commands: list[str] | None = None) -> dict
             entry["real"]["failures"] = dict(cell.failures)
         for name, predictions in d.predicted_by.items():
             q = predictions[cell.key]
-            entry.setdefault("predicted_by", {})[name] = {"rate": q.rate, "low": q.low, "high": q.high, "inside": q.inside}
+            entry.setdefault("predicted_by", {})[name] = {
+                "rate": q.rate,
+                "low": q.low,
+                "high": q.high,
+                "inside": q.inside,
+            }
         cells.append(entry)
     named = []
     for fitted in d.verdict.named:
@@ -76,16 +81,28 @@ def report_dict(diagnosis: Diagnosis, commands: list[str] | None = None) -> dict
         ],
         "named": named,
         "indistinguishable": [
-            {"effect": t.candidate.kind, "parameter": t.candidate.parameter, "value": t.value, "interval": list(t.interval()), "log_likelihood": float(t.total.max())}
+            {
+                "effect": t.candidate.kind,
+                "parameter": t.candidate.parameter,
+                "value": t.value,
+                "interval": list(t.interval()),
+                "log_likelihood": float(t.total.max()),
+            }
             for t in d.verdict.tied
         ],
         "candidates": [
-            {"candidate": p.candidate.name, "best": p.value, "log_likelihood": float(p.total.max()), "passed": p.candidate.name in d.verdict.passing}
+            {
+                "candidate": p.candidate.name,
+                "best": p.value,
+                "log_likelihood": float(p.total.max()),
+                "passed": p.candidate.name in d.verdict.passing,
+            }
             for p in d.verdict.tried
         ],
         "null_log_likelihood": float(d.verdict.null.sum()),
         "unexplained": [
-            {"variant": r.variant, "condition": r.condition, "phase": r.phase, "p_value": r.p_value} for r in d.unexplained
+            {"variant": r.variant, "condition": r.condition, "phase": r.phase, "p_value": r.p_value}
+            for r in d.unexplained
         ],
         "simulated_transfers": d.simulated,
         "seconds": d.seconds,
@@ -105,16 +122,26 @@ def _finding(d: Diagnosis) -> list[str]:
                 f"(95 % interval {low:.4g}–{high:.4g} on the grid)."
             )
     elif d.verdict.tied:
-        names = ", ".join(f"{t.candidate.kind} ({t.candidate.parameter} ≈ {t.value:.4g})" for t in d.verdict.tied)
+        names = ", ".join(
+            f"{t.candidate.kind} ({t.candidate.parameter} ≈ {t.value:.4g})" for t in d.verdict.tied
+        )
         lines.append(
             f"**Not told apart:** {names} explain the fit cells equally well (log-likelihoods within 1); with "
-            + ("one informative count per cell and no phases" if not any(c.failures for c in d.fit_cells) else "these phases")
+            + (
+                "one informative count per cell and no phases"
+                if not any(c.failures for c in d.fit_cells)
+                else "these phases"
+            )
             + " the data cannot say which, so neither is named and each predicts the other cells below."
         )
     else:
-        lines.append("**Unexplained:** the fit cells disagree, and no registered world effect fits them better beyond chance and on held-out cells.")
+        lines.append(
+            "**Unexplained:** the fit cells disagree, and no registered world effect fits them better beyond chance and on held-out cells."
+        )
     for row in d.unexplained:
-        lines.append(f"Still unexplained at the fitted world: {row.variant} {row.condition} {row.what} (p = {row.p_value:.3g}).")
+        lines.append(
+            f"Still unexplained at the fitted world: {row.variant} {row.condition} {row.what} (p = {row.p_value:.3g})."
+        )
     return lines
 
 
@@ -140,9 +167,14 @@ def report_markdown(d: Diagnosis, commands: list[str] | None = None) -> str:
         )
     lines += ["", "## Name", *_finding(d), ""]
     if d.verdict.tried:
-        lines += ["| candidate | best value | log-likelihood (null " + f"{d.verdict.null.sum():.1f}) | passed |", "|---|---|---|---|"]
+        lines += [
+            "| candidate | best value | log-likelihood (null " + f"{d.verdict.null.sum():.1f}) | passed |",
+            "|---|---|---|---|",
+        ]
         for p in d.verdict.tried:
-            lines.append(f"| {p.candidate.name} | {p.value:.4g} | {p.total.max():.1f} | {'yes' if p.candidate.name in d.verdict.passing else 'no'} |")
+            lines.append(
+                f"| {p.candidate.name} | {p.value:.4g} | {p.total.max():.1f} | {'yes' if p.candidate.name in d.verdict.passing else 'no'} |"
+            )
         lines.append("")
     lines += [
         "## Prove",
@@ -151,17 +183,19 @@ def report_markdown(d: Diagnosis, commands: list[str] | None = None) -> str:
     ]
     held = {c.key for c in d.held_out}
     for cell in d.outcomes.cells:
-        p = d.predictions[cell.key]
+        q = d.predictions[cell.key]
         lines.append(
             f"| {cell.variant} | {cell.condition} | {cell.succeeded}/{cell.attempted} ({_pct(cell.rate)}) | "
-            f"{_pct(d.before[cell.key].rate)} | {_pct(p.at_best.rate)} | {_pct(p.rate)} ({_pct(p.low)}–{_pct(p.high)}) | "
-            f"{'yes' if cell.key in held else 'no'} | {'yes' if p.inside else '**no**'} |"
+            f"{_pct(d.before[cell.key].rate)} | {_pct(q.at_best.rate)} | {_pct(q.rate)} ({_pct(q.low)}–{_pct(q.high)}) | "
+            f"{'yes' if cell.key in held else 'no'} | {'yes' if q.inside else '**no**'} |"
         )
     for name, predictions in d.predicted_by.items():
         lines += ["", f"Predicted with {name} alone:"]
         for cell in d.held_out:
             q = predictions[cell.key]
-            lines.append(f"- {cell.variant} {cell.condition}: {_pct(q.rate)} ({_pct(q.low)}–{_pct(q.high)}), real {_pct(cell.rate)}: {'inside' if q.inside else 'outside'}")
+            lines.append(
+                f"- {cell.variant} {cell.condition}: {_pct(q.rate)} ({_pct(q.low)}–{_pct(q.high)}), real {_pct(cell.rate)}: {'inside' if q.inside else 'outside'}"
+            )
     inside = [d.predictions[c.key].inside for c in d.held_out]
     if inside:
         lines += ["", f"{sum(inside)} of {len(inside)} held-out cells inside their 95 % predictive interval."]
@@ -180,11 +214,22 @@ def write_figure(d: Diagnosis, path: Path) -> Path:
     cells: list[Cell] = list(d.outcomes.cells)
     figure, (rates, phases) = plt.subplots(1, 2, figsize=(13, 4.8))
     x = range(len(cells))
-    labels = [f"{c.variant[:4]}\n{c.condition[:5]}" + ("\n(held out)" if c in d.held_out else "") for c in cells]
+    labels = [
+        f"{c.variant[:4]}\n{c.condition[:5]}" + ("\n(held out)" if c in d.held_out else "") for c in cells
+    ]
     real = [c.rate for c in cells]
-    err = [[c.rate - rate_interval(c.succeeded, c.attempted)[0] for c in cells], [rate_interval(c.succeeded, c.attempted)[1] - c.rate for c in cells]]
+    err = [
+        [c.rate - rate_interval(c.succeeded, c.attempted)[0] for c in cells],
+        [rate_interval(c.succeeded, c.attempted)[1] - c.rate for c in cells],
+    ]
     rates.errorbar([i - 0.2 for i in x], real, yerr=err, fmt="o", color="black", label="real (95 %)")
-    rates.plot([i - 0.05 for i in x], [d.before[c.key].rate for c in cells], "x", color="tab:red", label="simulated, default world")
+    rates.plot(
+        [i - 0.05 for i in x],
+        [d.before[c.key].rate for c in cells],
+        "x",
+        color="tab:red",
+        label="simulated, default world",
+    )
     predicted = [d.predictions[c.key] for c in cells]
     rates.errorbar(
         [i + 0.15 for i in x],
@@ -203,10 +248,20 @@ def write_figure(d: Diagnosis, path: Path) -> Path:
     width = 0.35
     for k, category in enumerate(CATEGORIES[1:]):
         before = [d.before[c.key].counts[category] / max(d.before[c.key].attempted, 1) for c in cells]
-        after = [d.predictions[c.key].at_best.counts[category] / max(d.predictions[c.key].at_best.attempted, 1) for c in cells]
+        after = [
+            d.predictions[c.key].at_best.counts[category] / max(d.predictions[c.key].at_best.attempted, 1)
+            for c in cells
+        ]
         color = plt.get_cmap("tab10")(k)
         phases.bar([i - width / 2 for i in x], before, width, bottom=bottom, color=color, label=category)
-        phases.bar([i + width / 2 for i in x], after, width, bottom=[0.0] * len(cells) if k == 0 else _after_bottom(d, cells, k), color=color, hatch="//")
+        phases.bar(
+            [i + width / 2 for i in x],
+            after,
+            width,
+            bottom=[0.0] * len(cells) if k == 0 else _after_bottom(d, cells, k),
+            color=color,
+            hatch="//",
+        )
         bottom = [b + v for b, v in zip(bottom, before)]
     phases.set_xticks(list(x), labels, fontsize=7)
     phases.set_ylabel("simulated transfers failed, by phase (left before, hatched after)")
@@ -219,7 +274,8 @@ def write_figure(d: Diagnosis, path: Path) -> Path:
 
 def _after_bottom(d: Diagnosis, cells: list[Cell], upto: int) -> list[float]:
     return [
-        sum(d.predictions[c.key].at_best.counts[cat] for cat in CATEGORIES[1 : upto + 1]) / max(d.predictions[c.key].at_best.attempted, 1)
+        sum(d.predictions[c.key].at_best.counts[cat] for cat in CATEGORIES[1 : upto + 1])
+        / max(d.predictions[c.key].at_best.attempted, 1)
         for c in cells
     ]
 

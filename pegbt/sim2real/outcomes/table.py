@@ -60,7 +60,9 @@ def _check_cell(cell: Cell, file: str, line: int | None, seen: set[tuple[str, st
         raise fail(f"{cell.succeeded} succeeded of {cell.attempted} attempted", "succeeded")
     failed = sum(cell.failures.values())
     if failed > cell.attempted - cell.succeeded:
-        raise fail(f"{failed} failures per phase, but only {cell.attempted - cell.succeeded} failed", "failures")
+        raise fail(
+            f"{failed} failures per phase, but only {cell.attempted - cell.succeeded} failed", "failures"
+        )
     if cell.key in seen:
         raise fail(f"a second {cell.variant} {cell.condition} cell", "variant")
     seen.add(cell.key)
@@ -99,16 +101,21 @@ def _yaml_failures(section: Located) -> dict[str, int]:
 def _read_csv(path: Path) -> Outcomes:
     name = str(path)
     try:
-        text = read_bytes(path, MAX_TABLE_BYTES).decode("utf-8-sig")
+        content = read_bytes(path, MAX_TABLE_BYTES).decode("utf-8-sig")
     except UnicodeDecodeError as error:
         raise PegbtError(f"not UTF-8 text ({error.reason})", file=name) from None
-    reader = csv.DictReader(io.StringIO(text))
+    reader = csv.DictReader(io.StringIO(content))
     header = [column.strip() for column in reader.fieldnames or []]
     known = {"variant", "condition", "attempted", "succeeded", "mean_transfer_s", "counting"}
     known |= {f"failures_{phase}" for phase in PHASES}
     for column in header:
         if column not in known:
-            raise PegbtError(f"unknown column; expected some of {', '.join(sorted(known))}", file=name, line=1, field=column)
+            raise PegbtError(
+                f"unknown column; expected some of {', '.join(sorted(known))}",
+                file=name,
+                line=1,
+                field=column,
+            )
     for column in ("variant", "condition", "attempted", "succeeded"):
         if column not in header:
             raise PegbtError("missing column", file=name, line=1, field=column)
@@ -125,13 +132,17 @@ def _read_csv(path: Path) -> Outcomes:
         def text(column: str, options: tuple[str, ...]) -> str:
             value = values.get(column, "")
             if value not in options:
-                raise PegbtError(f"expected one of {', '.join(options)}, got {value!r}", file=name, line=line, field=column)
+                raise PegbtError(
+                    f"expected one of {', '.join(options)}, got {value!r}", file=name, line=line, field=column
+                )
             return value
 
         def count(column: str) -> int:
             value = values.get(column, "")
             if not value.isdigit() or int(value) > _MAX_COUNT:
-                raise PegbtError(f"expected a whole number ≥ 0, got {value!r}", file=name, line=line, field=column)
+                raise PegbtError(
+                    f"expected a whole number ≥ 0, got {value!r}", file=name, line=line, field=column
+                )
             return int(value)
 
         time = None
@@ -142,13 +153,21 @@ def _read_csv(path: Path) -> Outcomes:
                 time = float("nan")
             if not time > 0 or time == float("inf"):
                 raise PegbtError(
-                    f"expected a positive number, got {values['mean_transfer_s']!r}", file=name, line=line, field="mean_transfer_s"
+                    f"expected a positive number, got {values['mean_transfer_s']!r}",
+                    file=name,
+                    line=line,
+                    field="mean_transfer_s",
                 )
         if values.get("counting"):
             countings.add(text("counting", COUNTINGS))
         failures = {phase: count(f"failures_{phase}") for phase in PHASES if values.get(f"failures_{phase}")}
         cell = Cell(
-            text("variant", VARIANTS), text("condition", CONDITIONS), count("attempted"), count("succeeded"), time, failures
+            text("variant", VARIANTS),
+            text("condition", CONDITIONS),
+            count("attempted"),
+            count("succeeded"),
+            time,
+            failures,
         )
         _check_cell(cell, name, line, seen)
         cells.append(cell)

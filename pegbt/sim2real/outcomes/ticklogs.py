@@ -26,7 +26,12 @@ def read_tick_logs(folder: Path) -> Outcomes:
         log = read_tick_log(path)
         variant, condition = log.variant, log.condition
         if variant not in VARIANTS:
-            raise PegbtError(f"its header names variant {variant!r}; expected one of {', '.join(VARIANTS)}", file=path, line=1, field="variant")
+            raise PegbtError(
+                f"its header names variant {variant!r}; expected one of {', '.join(VARIANTS)}",
+                file=path,
+                line=1,
+                field="variant",
+            )
         if condition not in CONDITIONS:
             raise PegbtError(
                 f"its header names no condition ({condition!r}); expected one of {', '.join(CONDITIONS)} "
@@ -51,6 +56,8 @@ def read_tick_logs(folder: Path) -> Outcomes:
             None,
             {key.removeprefix("phase:"): n for key, n in tally.items() if key.startswith("phase:")},
         )
-        for (variant, condition), tally in sorted(tallies.items(), key=lambda item: (VARIANTS.index(item[0][0]), CONDITIONS.index(item[0][1])))
+        for (variant, condition), tally in sorted(
+            tallies.items(), key=lambda item: (VARIANTS.index(item[0][0]), CONDITIONS.index(item[0][1]))
+        )
     )
     return Outcomes(cells, f"{len(paths)} tick logs in {folder}")
