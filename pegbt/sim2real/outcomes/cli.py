@@ -39,7 +39,9 @@ def run_outcomes(args: argparse.Namespace) -> int:
     logging.getLogger("pegbt").setLevel(logging.ERROR)  # compensation clamps, once per simulated transfer
     mapper = ClusterMapper(args.cluster) if args.cluster else LocalMapper(args.workers)
     try:
-        diagnosis = diagnose(outcomes, settings, mapper)
+        diagnosis = diagnose(
+            outcomes, settings, mapper, progress=lambda line: print(line, file=sys.stderr, flush=True)
+        )
     finally:
         mapper.close()
     commands = ["pegbt " + shlex.join(sys.argv[1:])] if sys.argv[1:2] == ["sim2real"] else []

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -73,20 +73,26 @@ def split(cells: Sequence[Cell], fit_on: str) -> tuple[tuple[Cell, ...], tuple[C
 
 
 class _Counting:
-    """A mapper that counts the transfers it simulated."""
+    """A mapper that counts the transfers it simulated, telling `progress` after each batch."""
 
-    def __init__(self, mapper: Mapper) -> None:
-        self.mapper, self.count = mapper, 0
+    def __init__(self, mapper: Mapper, progress: Callable[[str], None] | None) -> None:
+        self.mapper, self.count, self.progress = mapper, 0, progress
+        self.started = time.monotonic()
 
     def __call__(self, tasks: Sequence[Task]) -> list[TransferResult]:
+        results = self.mapper(tasks)
         self.count += len(tasks)
-        return self.mapper(tasks)
+        if self.progress is not None:
+            self.progress(f"{self.count} transfers simulated ({time.monotonic() - self.started:.0f} s)")
+        return results
 
 
-def diagnose(outcomes: Outcomes, settings: Settings, mapper: Mapper) -> Diagnosis:
+def diagnose(
+    outcomes: Outcomes, settings: Settings, mapper: Mapper, progress: Callable[[str], None] | None = None
+) -> Diagnosis:
     """Locate, name and fit on the fit cells, then predict every cell with the fitted world(s)."""
     started = time.monotonic()
-    counting = _Counting(mapper)
+    counting = _Counting(mapper, progress)
     cells = outcomes.cells
     fit_cells, held_out = split(cells, settings.fit)
     before = _located(counting, cells, settings)

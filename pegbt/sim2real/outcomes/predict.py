@@ -14,7 +14,7 @@ from pegbt.sim2real.outcomes.fit import Profile
 from pegbt.sim2real.outcomes.intervals import mixture_pmf, predictive_interval
 from pegbt.sim2real.outcomes.simulate import Key, Mapper, SimCounts, simulate_cells
 
-MIN_WEIGHT = 1e-3  # grid values weighing less than this are not simulated for a prediction
+MIN_WEIGHT = 0.02  # grid values weighing less than this (relative to the best) are not simulated to predict
 
 
 @dataclass(frozen=True)
