@@ -32,6 +32,9 @@ class Cell:
     inject_faults: bool = False  # a plan per seed from `pegbt.evaluation.faultgen`
     realtime: bool = False  # simulators in real time, runs on the wall clock (else lockstep)
     interface: str = "pegbt"
+    world_effects: Path | None = (
+        None  # a world file for every trial's simulator (`pegbt sim --world-effects`)
+    )
 
     @property
     def name(self) -> str:
@@ -65,6 +68,7 @@ def trial_specs(cell: Cell, out: Path, keep_logs: bool = False) -> list[TrialSpe
                 keep_logs,
                 realtime=cell.realtime,
                 interface=cell.interface,
+                world_effects=cell.world_effects,
             )
         )
     return specs

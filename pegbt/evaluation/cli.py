@@ -49,6 +49,13 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
         help="a fault plan per seed: a missed grasp, slips, depth-noise bursts (written to DIR/faults/)",
     )
     parser.add_argument(
+        "--world-effects",
+        type=Path,
+        metavar="YAML",
+        help="world file for every trial's simulator: the contact physics it adds (as `pegbt sim "
+        "--world-effects`; `pegbt sim2real outcomes --effects` lists them)",
+    )
+    parser.add_argument(
         "--realtime",
         action="store_true",
         help="each trial's simulator runs in real time and the run on the wall clock (default: lockstep)",
@@ -112,6 +119,10 @@ def check_arguments(args: argparse.Namespace) -> None:
         from pegbt.sim.fault_plan import FaultPlan
 
         FaultPlan.load(args.faults)  # unreadable or invalid: its error names the file, line and field
+    if args.world_effects is not None:
+        from pegbt.sim.world_effects import read_world_file
+
+        read_world_file(args.world_effects)  # refused here, with its location, not in every trial
     check_interface(args.interface, args.realtime)
 
 
@@ -139,6 +150,7 @@ def _eval(args: argparse.Namespace) -> int:
         args.inject_faults,
         realtime=args.realtime,
         interface=args.interface,
+        world_effects=None if args.world_effects is None else args.world_effects.resolve(),
     )
     specs = trial_specs(cell, args.out, keep_logs=args.keep_logs)
     done = None if args.quiet else _report_trial

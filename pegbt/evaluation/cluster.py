@@ -82,14 +82,16 @@ def mismatch_message(worker: str, theirs: Checkout, ours: Checkout) -> str:
 
 @dataclass(frozen=True)
 class RemoteTrial:
-    """What a task needs: the trial, its fault plan's text (the worker may not see the client's files),
-    the client's checkout, and the marker file whose token shows the worker sees `--out` itself."""
+    """What a task needs: the trial, its fault plan's and world file's texts (the worker may not see the
+    client's files), the client's checkout, and the marker file whose token shows the worker sees `--out`
+    itself."""
 
     spec: TrialSpec
     plan: str | None
     client: Checkout
     marker: Path | None
     token: str
+    world: str | None = None  # the world file's text, as the plan's
 
 
 @dataclass
@@ -107,11 +109,14 @@ def run_remote_trial(task: RemoteTrial) -> RemoteResult:
         return RemoteResult(run_trial(task.spec), {})
     with tempfile.TemporaryDirectory(prefix="pegbt-trial-") as scratch:
         local = Path(scratch)
-        plan = None
+        plan = world = None
         if task.plan is not None:
             plan = local / "faults.yaml"
             plan.write_text(task.plan)
-        spec = replace(task.spec, log=local / task.spec.log.name, faults=plan)
+        if task.world is not None:
+            world = local / "world.yaml"
+            world.write_text(task.world)
+        spec = replace(task.spec, log=local / task.spec.log.name, faults=plan, world_effects=world)
         record = run_trial(spec)
         kept = [spec.log, truth_path(spec.log)] if record.log else []
         return RemoteResult(record, {path.name: path.read_bytes() for path in kept if path.exists()})
@@ -221,8 +226,12 @@ def _run(
     for spec in specs:
         plan = None if spec.faults is None else Path(spec.faults).read_text()
         faults = None if spec.faults is None else Path(spec.faults).resolve()
-        absolute = replace(spec, log=spec.log.resolve(), faults=faults)  # a worker's directory is its own
-        task = RemoteTrial(absolute, plan, ours, marker, token)
+        world = None if spec.world_effects is None else Path(spec.world_effects).read_text()
+        effects = None if spec.world_effects is None else Path(spec.world_effects).resolve()
+        absolute = replace(  # a worker's directory is its own
+            spec, log=spec.log.resolve(), faults=faults, world_effects=effects
+        )
+        task = RemoteTrial(absolute, plan, ours, marker, token, world)
         key = f"pegbt-trial-{spec.seed}-{token}"
         futures[client.submit(run_remote_trial, task, key=key, pure=False, resources=resources)] = spec
     by_seed: dict[int, TrialRecord] = {}

@@ -46,6 +46,7 @@ class TrialSpec:
     tree: Path | None = None  # another tree than the variant's (tests: a short task)
     realtime: bool = False  # the simulator in real time and the run on the wall clock (else lockstep)
     interface: str = "pegbt"  # what the simulator serves and the run speaks (`INTERFACES`)
+    world_effects: Path | None = None  # world file for the simulator (`pegbt sim --world-effects`)
 
 
 @dataclass
@@ -165,6 +166,7 @@ def _run(spec: TrialSpec, truth: Path) -> RunOutput:
             "seed": spec.seed,
             "simlog": str(truth),
             "faults": None if spec.faults is None else str(spec.faults),
+            "world-effects": None if spec.world_effects is None else str(spec.world_effects),
         }
         return run_tree_file(trial_run_options(spec, options))
     with SimProcess(simulator_args(spec, truth)) as simulator:
@@ -198,6 +200,7 @@ def simulator_args(spec: TrialSpec, truth: Path) -> list[str]:
         "--log",
         str(truth),
         *([] if spec.faults is None else ["--faults", str(spec.faults)]),
+        *([] if spec.world_effects is None else ["--world-effects", str(spec.world_effects)]),
     ]
 
 

@@ -110,6 +110,11 @@ RUN_OPTIONS: dict[str, RunOption] = {
             "robot: fault plan (YAML) for the embedded simulator to inject (see `pegbt sim --faults`)",
         ),
         RunOption(
+            "world-effects",
+            "robot: world file (YAML) of the world effects the embedded simulator adds (see `pegbt sim "
+            "--world-effects`)",
+        ),
+        RunOption(
             "simlog",
             "robot: file the embedded simulator appends its log to: injected faults and world events, "
             "the ground truth (see `pegbt sim --log`); with --interface dvrk, the log file of the "

@@ -95,6 +95,13 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
         help="fault plan (loss, latency, crash, world and camera faults)",
     )
     parser.add_argument(
+        "--world-effects",
+        type=Path,
+        metavar="YAML",
+        help="world file: the contact physics the world adds (bending pegs, chamfers, a compliant or "
+        "slipping grip, a registration offset, a depth bias; `pegbt sim2real outcomes --effects` lists them)",
+    )
+    parser.add_argument(
         "--seed",
         action=NumberOption,
         type=int,
@@ -188,7 +195,9 @@ def _sim(args: argparse.Namespace) -> int:
         "crash_at": args.crash_at,
     }
     plan = dataclasses.replace(plan, **{k: v for k, v in overrides.items() if v is not None})
-    world, camera = _world(plan) if args.world else (None, None)
+    if args.world_effects is not None and not args.world:
+        raise PegbtError("--world-effects act on the world: drop --no-world", field="--world-effects")
+    world, camera = _world(plan, args.world_effects) if args.world else (None, None)
     # before the session opens, so that zenoh's threads inherit it
     wanted = not args.lockstep and args.priority == "realtime"
     with realtime_priority(ROBOT_PRIORITY if wanted else None) as realtime:
@@ -311,7 +320,10 @@ def _announce(
         if args.ros2 == "rmw_zenoh"
         else ", ".join(settings.listen)
     )
-    scene = f"world and camera, seed {plan.seed}" if world is not None else "no world"
+    scene = "no world"
+    if world is not None:
+        effects = ", ".join(effect.kind for effect in world.effects) or "none"
+        scene = f"world and camera, seed {plan.seed}, world effects: {effects}"
     print(
         f"pegbt sim: serving {', '.join(endpoint.arms)} on {where} ({mode}, {args.interface} "
         f"interface, physics {args.physics}, {scene})",
@@ -334,12 +346,15 @@ def _stop_at_stdin_eof(endpoint: SimEndpoint | DvrkEndpoint) -> None:
     endpoint.stop()
 
 
-def _world(plan: FaultPlan) -> tuple[World, DepthCamera]:
-    """The pegboard world and its camera, seeded and faulted as the plan says."""
+def _world(plan: FaultPlan, world_file: Path | None) -> tuple[World, DepthCamera]:
+    """The pegboard world and its camera, seeded and faulted as the plan says, with the world file's effects."""
     from pegbt.sim.camera import DepthCamera
     from pegbt.sim.world import World
+    from pegbt.sim.world_effects import WorldEffects, read_world_file
 
-    return World(plan.seed, faults=plan.world), DepthCamera(seed=plan.seed, faults=plan.camera)
+    effects = WorldEffects() if world_file is None else read_world_file(world_file)
+    world = World(plan.seed, faults=plan.world, effects=effects)
+    return world, DepthCamera(seed=plan.seed, faults=plan.camera)
 
 
 def _graph_settings(args: argparse.Namespace) -> SessionSettings:

@@ -1,10 +1,11 @@
 """World effects: the physics of contact the simulated world leaves out by default, as a registry of kinds.
 
 The default world (`pegbt.sim.world`) is rigid: a peg never bends, a hole must come within the 2.0 mm
-clearance to go over a peg, a gripped block never moves in the jaws and never slips out, and the camera
-sees the cell where it is. Each kind here relaxes one of those, with parameters in physical units, their
-range, the value that leaves the world as it is (the default) and where a value comes from. The world
-(`World(effects=...)`) and its camera apply them; `WorldEffects()` (none) is today's world.
+clearance to go over a peg, a gripped block never moves in the jaws and never slips out, the arms stand
+where the work cell says and the camera measures every surface true. Each kind here relaxes one of those,
+with parameters in physical units, their range, the value that leaves the world as it is (the default) and
+where a value comes from. The world (`World(effects=...)`) and its camera (`acts_on`) apply them;
+`WorldEffects()` (none) is today's world.
 
 A world file lists them (YAML, read with `pegbt.yamlfile`, so every error names file, line and field):
 
@@ -168,11 +169,11 @@ class JawFriction(WorldEffectKind):
 
 class RegistrationOffset(WorldEffectKind):
     name = "registration_offset"
-    acts_on = "camera"
+    acts_on = "world"
     summary = (
-        "camera-to-robot registration is off by (x, y, z) in the board frame: the camera sees the pegs, "
-        "blocks and instruments displaced by it from the board it registers, so every target perception "
-        "hands the robot is off by it"
+        "camera-to-robot registration is off by (x, y, z) in the board frame: every target perception "
+        "hands the robot is reached that far off it (the arms' bases stand off the work cell's figures; "
+        "perception registers the board each trial, so an offset in the camera's view alone would cancel)"
     )
     parameters = {
         axis: Parameter(
@@ -191,8 +192,8 @@ class DepthBias(WorldEffectKind):
     name = "depth_bias"
     acts_on = "camera"
     summary = (
-        "the camera measures the pegs, blocks and instruments `bias` farther along each ray than they are "
-        "(light entering the printed plastic); the board, which perception registers, is measured true"
+        "the camera measures the blocks and instruments `bias` farther along each ray than they are (light "
+        "entering the printed plastic); the pegboard, which perception registers, is measured true"
     )
     parameters = {
         "bias": Parameter(

@@ -192,12 +192,18 @@ def connect_robot(
     faults: str | None = None,
     simlog: str | None = None,
     wall_clock: Clock | None = None,
+    world_effects: str | None = None,
 ) -> Robot:
     """A `Robot` on `endpoint` (`auto`: a fresh embedded simulator seeded with `seed`, injecting the fault
-    plan `faults` if given, appending its log to `simlog` if given). With `wall_clock` (a clock in real
-    time) the embedded simulator runs in real time and a simulator at an address must too; without it,
-    a robot or a simulator in real time runs on a new `WallClock`."""
-    for value, flag, sim_flag in ((faults, "--faults", "--faults"), (simlog, "--simlog", "--log")):
+    plan `faults` if given, adding the world file's `world_effects` if given, appending its log to
+    `simlog` if given). With `wall_clock` (a clock in real time) the embedded simulator runs in real time
+    and a simulator at an address must too; without it, a robot or a simulator in real time runs on a new
+    `WallClock`."""
+    for value, flag, sim_flag in (
+        (faults, "--faults", "--faults"),
+        (simlog, "--simlog", "--log"),
+        (world_effects, "--world-effects", "--world-effects"),
+    ):
         if value is not None and endpoint != "auto":
             raise PegbtError(
                 f"{flag} is for the embedded simulator (--endpoint auto); give `pegbt sim {sim_flag}` to a "
@@ -213,6 +219,7 @@ def connect_robot(
                 "--seed",
                 str(seed),
                 *(["--faults", faults] if faults else []),
+                *(["--world-effects", world_effects] if world_effects else []),
                 *(["--log", simlog] if simlog else []),
             ]
         )
@@ -351,7 +358,8 @@ def _robot_silent(
 
 
 def provide_robot(setup: ProviderSetup) -> Robot:
-    """The `robot` resource for `pegbt run` (options `interface`, `endpoint`, `seed`, `faults`, `simlog`;
+    """The `robot` resource for `pegbt run` (options `interface`, `endpoint`, `seed`, `faults`,
+    `world-effects`, `simlog`;
     for `dvrk` also `namespace`, `ros2`, `robot-config`, `robot-tool`, `camera-topic`). `--clock` may only
     ask for a clock in real time (the robot's time passes on its own): `--clock wall` runs the embedded
     simulator in real time."""
@@ -363,11 +371,13 @@ def provide_robot(setup: ProviderSetup) -> Robot:
             field="--clock",
         )
     if options.get("interface") == "dvrk":
-        if options.get("faults") is not None:
-            raise PegbtError(
-                "--faults is for the embedded simulator (--interface pegbt); give it to `pegbt sim --faults`",
-                field="--faults",
-            )
+        for name in ("faults", "world-effects"):
+            if options.get(name) is not None:
+                raise PegbtError(
+                    f"--{name} is for the embedded simulator (--interface pegbt); give it to `pegbt sim "
+                    f"--{name}`",
+                    field=f"--{name}",
+                )
         return connect_crtk_robot(
             str(options.get("endpoint") or "auto"),
             str(options.get("namespace") or ""),
@@ -384,4 +394,5 @@ def provide_robot(setup: ProviderSetup) -> Robot:
         options.get("faults"),
         options.get("simlog"),
         setup.clock if setup.clock_name is not None else None,
+        options.get("world-effects"),
     )

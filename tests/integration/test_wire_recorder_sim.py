@@ -1,0 +1,54 @@
+"""`--record FILE.mcap` read back by the `mcap` library's readers and `mcap-ros2-support`'s decoder, which
+know nothing of pegbt: topics, ROS 2 types, CDR payloads, log times, and a file cut short by a crash."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+
+mcap_reader = pytest.importorskip("mcap.reader")
+from mcap_ros2.decoder import DecoderFactory
+
+
+def read_all(path: Path) -> list[tuple[str, str, int, object]]:
+    """(topic, schema name, log time, decoded message) of every message, by mcap's seeking reader."""
+    with path.open("rb") as stream:
+        reader = mcap_reader.make_reader(stream, decoder_factories=[DecoderFactory()])
+        return [
+            (channel.topic, schema.name, message.log_time, decoded)
+            for schema, channel, message, decoded in reader.iter_decoded_messages(log_time_order=False)
+        ]
+
+
+def test_the_simulator_records_the_commands_it_takes_and_the_state_it_sends(tmp_path):
+    from pegbt.sim.process import SimProcess
+    from pegbt.transport import ArmClient, SimClock, connect
+
+    path = tmp_path / "sim.mcap"
+    simulator = SimProcess(["--lockstep", "--no-world", "--record", str(path)])
+    try:
+        with connect([simulator.endpoint]) as link:
+            clock = SimClock(link)
+            arm = ArmClient(link, "PSM1", clock=clock)
+            arm.wait_until_ready(30.0)
+            goal = arm.measured_js.position + np.array([0.05, 0.0, 0.0, 0.0, 0.0, 0.0])
+            handle = arm.move_jp(goal)
+            for _ in range(100):
+                clock.wait(0.05)
+                if handle.done:
+                    break
+            assert handle.done
+    finally:
+        simulator.stop()
+    messages = read_all(path)
+    moves = [decoded for topic, _, _, decoded in messages if topic == "/PSM1/move_jp"]
+    assert len(moves) == 1 and list(moves[0].position) == pytest.approx(list(goal))
+    setpoints = [(t, decoded) for topic, _, t, decoded in messages if topic == "/PSM1/setpoint_js"]
+    assert setpoints and list(setpoints[-1][1].position) == pytest.approx(list(goal), abs=1e-6)
+    assert max(t for t, _ in setpoints) < 10e9  # simulated seconds since the simulator started
+    events = [json.loads(decoded.data) for topic, _, _, decoded in messages if topic == "/pegbt/events"]
+    assert events[0]["kind"] == "start" and events[0]["mode"] == "lockstep"

@@ -1,0 +1,103 @@
+"""The simulator's dVRK interface as a node of a ROS 2 graph on rmw_zenoh, driven by zenoh-ros2-sdk
+(ROBOTIS's rmw_zenoh client) as a ROS 2 operator's node would: it reads `/PSM1/measured_js`, enables and
+homes the arm with `state_command`, and moves it with `servo_jp`; and a pegbt run over rmw_zenoh places
+every block. The router is a zenoh session in router mode on 127.0.0.1."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+from rmw_zenoh_helpers import lines, partner
+
+from pegbt.sim.process import SimProcess
+from pegbt.transport.codec import JOINT_STATE
+from pegbt.workcell import UNILATERAL_ORDER
+
+
+@pytest.mark.slow
+def test_a_ros2_node_reads_enables_homes_and_servos_the_simulated_arm(messages_dir, router) -> None:
+    simulator = SimProcess(["--no-world"], interface="dvrk", router=f"tcp/127.0.0.1:{router}")
+    try:
+        info = lines(partner(messages_dir, router, "info", "/PSM1/measured_js", "/PSM1/servo_jp"))[-1]
+        assert info["/PSM1/measured_js"]["types"] == [JOINT_STATE]
+        assert [p[0] for p in info["/PSM1/measured_js"]["publishers"]] == ["pegbt_sim"]
+        assert [s[0] for s in info["/PSM1/servo_jp"]["subscribers"]] == ["pegbt_sim"]
+        listened = lines(partner(messages_dir, router, "sub", "/PSM1/measured_js", JOINT_STATE, "5", "20"))
+        assert len(listened[-1]["messages"]) == 5
+        drove = lines(partner(messages_dir, router, "drive", "PSM1", "0.05", "40"), timeout=60)[-1]
+    finally:
+        simulator.stop()
+    states = drove["states"]
+    assert any(s["state"] == "ENABLED" and not s["is_homed"] for s in states)
+    assert any(s["state"] == "ENABLED" and s["is_homed"] for s in states)
+    assert drove["after"] is not None
+    assert drove["after"][0] - drove["before"][0] == pytest.approx(0.05, abs=0.01)
+
+
+@pytest.mark.slow
+def test_a_unilateral_trial_over_rmw_zenoh_places_every_block(pegbt_cli, router, tmp_path: Path) -> None:
+    simlog = tmp_path / "sim.jsonl"
+    graph = f"tcp/127.0.0.1:{router}"
+    simulator = SimProcess(
+        ["--physics", "dvrk-real", "--seed", "0", "--log", str(simlog)], interface="dvrk", router=graph
+    )
+    try:
+        run = pegbt_cli(
+            "run",
+            "trees/unilateral.yaml",
+            "--interface",
+            "dvrk",
+            "--ros2",
+            "rmw_zenoh",
+            "--endpoint",
+            graph,
+            "--calibration",
+            "skills/calibration/sim-dvrk-real",
+            "--liveness",
+            5,  # the simulator shares this loaded machine with the run: it may stall for a second
+            "--log",
+            tmp_path / "run.jsonl",
+            "--quiet",
+            timeout=600,
+        )
+    finally:
+        simulator.stop()
+    assert run.returncode == 0, run.stdout[-3000:] + run.stderr[-3000:]
+    entries = [json.loads(line) for line in simlog.read_text().splitlines()]
+    placed = [entry["peg"] for entry in entries if entry["kind"] == "place"]
+    assert placed == [goal for _, goal in UNILATERAL_ORDER]
+    assert not [entry for entry in entries if entry["kind"] == "safety"]
+
+
+def _sim_stderr(connect: str, seconds: float) -> str:
+    """What `pegbt sim --interface dvrk --ros2 rmw_zenoh --connect CONNECT` says on stderr in its first
+    `seconds` after start-up."""
+    import os
+    import subprocess
+    import sys
+    import time
+
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[2])}
+    command = [sys.executable, "-m", "pegbt", "sim", "--interface", "dvrk", "--ros2", "rmw_zenoh"]
+    command += ["--connect", connect, "--no-world", "--priority", "normal"]
+    simulator = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+    try:
+        time.sleep(seconds)
+    finally:
+        simulator.terminate()
+        _, stderr = simulator.communicate(timeout=20)
+    return stderr
+
+
+@pytest.mark.slow
+def test_a_simulator_whose_router_is_absent_says_so_and_not_when_it_is_there(router) -> None:
+    from pegbt.sim.process import free_port
+
+    wait = (
+        11.0  # s: start-up, then the 3 s the simulator gives a router to answer (pegbt.sim.cli.CONNECT_GRACE)
+    )
+    absent = f"tcp/127.0.0.1:{free_port()}"
+    assert f"nothing answers at {absent}" in _sim_stderr(absent, wait)
+    assert "nothing answers" not in _sim_stderr(f"tcp/127.0.0.1:{router}", wait)

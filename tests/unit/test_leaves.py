@@ -1,0 +1,921 @@
+"""Each peg-transfer leaf on its own, against the in-memory robot of `fake_arm` (the transport's guards and
+handles, the simulator's world and depth camera in this process): what it sends, what it writes to the
+blackboard, and its status when all goes well and when the endpoint refuses, never ends a motion, or the
+block slips. Trees are built by the executive from YAML, as a run builds them."""
+
+from __future__ import annotations
+
+import math
+import re
+import shutil
+import time
+from dataclasses import replace
+from functools import partial
+from pathlib import Path
+
+import numpy as np
+import py_trees
+import pytest
+from executive_helpers import write_tree
+from fake_arm import BLOCK_WALL_ANGLE, FakeArm, fake_robot
+from py_trees.common import Status
+
+from pegbt.behaviours.actions.handover import plan_meeting
+from pegbt.behaviours.base import MOTION_OVERTIME
+from pegbt.behaviours.poses import HANDOVER_ARRIVAL, height_above_pegs, transfer_for, yaw_about
+from pegbt.behaviours.resources.robot import Robot
+from pegbt.behaviours.resources.skills import Skills
+from pegbt.clock import ManualClock
+from pegbt.executive.build import BuiltTree
+from pegbt.executive.context import RunContext
+from pegbt.executive.loader import load_tree
+from pegbt.executive.registry import REGISTRY
+from pegbt.executive.runner import set_initial_blackboard
+from pegbt.executive.work import WorkPool
+from pegbt.motion.handover import descent_clearance, handover_meeting_point, tool_gap
+from pegbt.motion.ik import solve_ik
+from pegbt.motion.kinematics import forward_kinematics
+from pegbt.perception.blocks import BlockEstimate, block_on_peg
+from pegbt.perception.grasp import grasp_options
+from pegbt.physics.recording import MIN_SAMPLES, load_recording
+from pegbt.sim.camera import DepthCamera
+from pegbt.sim.faults import CameraFaults, NoiseBurst
+from pegbt.sim.world import World
+from pegbt.transport import EndpointSilent
+
+DVRK_SHARE = Path(__file__).parents[1] / "data" / "dvrk-share"  # a dVRK's share/ folder
+STEP = 0.05  # s of clock between ticks
+PICK = 1  # the reference order's first pick peg, and its place peg
+PLACE = 7
+
+
+@pytest.fixture
+def skills() -> Skills:
+    """Fresh for each test: its arms remember where their last motion ended."""
+    return Skills("uncalibrated")
+
+
+@pytest.fixture(scope="module")
+def world() -> World:
+    return World(seed=0)
+
+
+@pytest.fixture(scope="module")
+def cloud(world):
+    return DepthCamera(seed=0).capture(world)
+
+
+@pytest.fixture(scope="module")
+def seen(cloud):
+    """The board and blocks perception finds in the starting scene, as `/board` and `/blocks` hold them."""
+    skills = Skills("uncalibrated")
+    board = skills.registration.fit(cloud)
+    assert board.ok, board.reason
+    return board, skills.locator.locate(cloud, board)
+
+
+@pytest.fixture
+def clock() -> ManualClock:
+    return ManualClock()
+
+
+@pytest.fixture
+def robot(clock, skills, cloud) -> Robot:
+    return fake_robot(clock, skills.settings, skills.cell, cloud)
+
+
+@pytest.fixture(autouse=True)
+def fresh_blackboard():
+    py_trees.blackboard.Blackboard.clear()
+    yield
+    py_trees.blackboard.Blackboard.clear()
+
+
+def build(tmp_path: Path, robot: Robot, skills: Skills, tree: str, **blackboard: object) -> BuiltTree:
+    """The one-leaf tree `tree` (YAML) built against `robot` and `skills`, with `blackboard` values set
+    (keys given without their leading `/`)."""
+    resources = {"robot": robot, "skills": skills}
+    context = RunContext(clock=robot.trial.clock, resources=resources, work=WorkPool(inline=True))
+    declared = "".join(f"  /{key}: null\n" for key in blackboard)  # what the tree may read; set below
+    text = f"blackboard:\n{declared}tree: {tree}\n" if blackboard else f"tree: {tree}\n"
+    built = load_tree(write_tree(tmp_path, text)).build(context)
+    set_initial_blackboard(built)
+    for key, value in blackboard.items():
+        py_trees.blackboard.Blackboard.set(f"/{key}", value)
+    built.root.setup_with_descendants()
+    return built
+
+
+def run(built: BuiltTree, clock: ManualClock, seconds: float = 30.0) -> Status:
+    """Tick every `STEP` of the clock until the leaf ends, for at most `seconds` of it."""
+    end = clock.now() + seconds
+    while True:
+        built.root.tick_once()
+        status = built.root.status
+        if status != Status.RUNNING or clock.now() >= end:
+            return status
+        clock.advance(STEP)
+
+
+def read(key: str) -> object:
+    return py_trees.blackboard.Blackboard.get(key)
+
+
+def psm1(robot: Robot) -> FakeArm:
+    return robot.arms["PSM1"]
+
+
+def at(arm: FakeArm, joints) -> None:
+    """Put `arm` at rest at `joints` (where an earlier leaf left it)."""
+    arm.rest = np.asarray(joints, dtype=float)
+
+
+def feedback(built: BuiltTree) -> str:
+    return built.root.feedback_message
+
+
+def grasp_of(skills: Skills, seen, peg: int = PICK):
+    block = block_on_peg(seen[1], peg)
+    return block, skills.selectors["PSM1"].pick(block)
+
+
+# ---------------------------------------------------------------------------------------------- sensing
+def test_capture_writes_the_camera_cloud(tmp_path, robot, skills, cloud, clock):
+    built = build(tmp_path, robot, skills, "{capture: {}}")
+    assert run(built, clock) == Status.SUCCESS
+    assert read("/cloud") is cloud and robot.camera.triggers == 1
+    assert feedback(built) == f"{len(cloud)} points"
+
+
+def test_capture_fails_when_no_cloud_comes_and_halts_the_run_when_no_camera_listens(
+    tmp_path, robot, skills, clock
+):
+    robot.camera.cloud = None
+    built = build(tmp_path, robot, skills, "{capture: {}}")
+    assert run(built, clock, seconds=0.0) == Status.RUNNING
+    time.sleep(robot.camera.timeout * 2)  # its deadline is in wall time
+    assert run(built, clock) == Status.FAILURE
+    assert "no point cloud within" in feedback(built)
+    robot.camera.listening = False
+    built = build(tmp_path, robot, skills, "{capture: {}}")
+    assert run(built, clock, seconds=0.0) == Status.RUNNING and robot.camera.triggers == 1
+    time.sleep(robot.camera.timeout * 2)
+    with pytest.raises(EndpointSilent, match="no camera listens"):
+        run(built, clock)
+
+
+def test_register_board_writes_the_board_and_its_flag(tmp_path, robot, skills, cloud, clock):
+    built = build(tmp_path, robot, skills, "{register_board: {}}", cloud=cloud)
+    assert run(built, clock) == Status.SUCCESS
+    board = read("/board")
+    assert board.ok and read("/board_registered") is True
+    assert np.allclose(board.peg_tops, skills.cell.pegs.tops, atol=0.002)  # within 2 mm of the true pegs
+
+
+def test_register_board_fails_on_a_cloud_without_the_board(tmp_path, robot, skills, clock):
+    scattered = np.random.default_rng(0).uniform(-0.05, 0.05, (2000, 3)).astype(np.float32)
+    built = build(tmp_path, robot, skills, "{register_board: {}}", cloud=scattered)
+    assert run(built, clock) == Status.FAILURE
+    assert feedback(built).startswith("pegboard registration failed")
+    with pytest.raises(KeyError):
+        read("/board")
+
+
+def test_find_blocks_writes_every_block_on_its_peg(tmp_path, robot, skills, world, cloud, seen, clock):
+    built = build(tmp_path, robot, skills, "{find_blocks: {}}", cloud=cloud, board=seen[0])
+    assert run(built, clock) == Status.SUCCESS
+    blocks = read("/blocks")
+    assert sorted(b.peg for b in blocks if b.ok) == sorted(block.peg for block in world.blocks)
+
+
+def test_find_blocks_fails_on_a_capture_in_which_no_block_is_trustworthy(
+    tmp_path, robot, skills, world, seen, clock
+):
+    burst = DepthCamera(seed=8, faults=CameraFaults(bursts=(NoiseBurst(0.0, 1.0),))).capture(world)
+    built = build(tmp_path, robot, skills, "{find_blocks: {}}", cloud=burst, board=seen[0])
+    assert run(built, clock) == Status.FAILURE
+    assert feedback(built).startswith("a poor capture") and not any(b.ok for b in read("/blocks"))
+
+
+# ---------------------------------------------------------------------------------------------- grasping
+SELECT = (
+    f"{{select_grasp: {{arm: PSM1, peg: {PICK}, block: /PSM1/block, grasp: /PSM1/grasp, another: $again}}}}"
+)
+
+
+def test_select_grasp_writes_the_block_on_the_peg_and_a_reachable_grasp(tmp_path, robot, skills, seen, clock):
+    board, blocks = seen
+    built = build(tmp_path, robot, skills, SELECT, blocks=blocks, board=board, again=False)
+    assert run(built, clock) == Status.SUCCESS
+    block, grasp = read("/PSM1/block"), read("/PSM1/grasp")
+    assert block is block_on_peg(blocks, PICK)
+    solve_ik(grasp.pose, skills.settings["PSM1"])  # reachable: raises if not
+    assert robot.arms["PSM1"].sent == []  # choosing moves nothing
+    # ticked again, as a retry after a miss does, with `another` set: the block's other candidate
+    py_trees.blackboard.Blackboard.set("/again", True)
+    assert run(built, clock) == Status.SUCCESS and read("/PSM1/grasp").candidate != grasp.candidate
+
+
+def test_select_grasp_fails_on_an_empty_peg(tmp_path, robot, skills, seen, clock):
+    board, blocks = seen
+    empty = next(peg for peg in range(12) if block_on_peg(blocks, peg) is None)
+    tree = f"{{select_grasp: {{arm: PSM1, peg: {empty}, block: /PSM1/block, grasp: /PSM1/grasp}}}}"
+    built = build(tmp_path, robot, skills, tree, blocks=blocks, board=board)
+    assert run(built, clock) == Status.FAILURE
+    assert feedback(built) == f"no block seen on peg {empty}"
+    with pytest.raises(KeyError):
+        read("/PSM1/grasp")
+
+
+APPROACH = "{approach: {arm: PSM1, block: /PSM1/block, grasp: /PSM1/grasp}}"
+
+
+def test_approach_sends_one_motion_onto_the_grasp_and_opens_the_jaw(tmp_path, robot, skills, seen, clock):
+    block, grasp = grasp_of(skills, seen)
+    built = build(
+        tmp_path, robot, skills, APPROACH, board=seen[0], **{"PSM1/block": block, "PSM1/grasp": grasp}
+    )
+    arm = psm1(robot)
+    assert run(built, clock, seconds=0.0) == Status.RUNNING
+    (trajectory,) = arm.trajectories
+    assert np.allclose(forward_kinematics(trajectory.q[-1]), grasp.pose, atol=1e-4)
+    assert [sent.target for sent in arm.jaw.sent] == [skills.motion.transfer.jaw_open]
+    assert run(built, clock) == Status.SUCCESS
+    assert clock.now() >= trajectory.duration - 1e-9
+
+
+def test_approach_fails_with_the_endpoints_reason_when_it_refuses(tmp_path, robot, skills, seen, clock):
+    block, grasp = grasp_of(skills, seen)
+    built = build(
+        tmp_path, robot, skills, APPROACH, board=seen[0], **{"PSM1/block": block, "PSM1/grasp": grasp}
+    )
+    psm1(robot).refuse_next = "the arm is not homed"
+    assert run(built, clock) == Status.FAILURE
+    assert feedback(built) == "PSM1 approach: trajectory refused: the arm is not homed"
+    assert psm1(robot).jaw.sent[-1].kind == "hold"  # the jaw, still opening, was stopped
+
+
+def test_approach_fails_and_stops_the_arm_when_the_end_never_comes(tmp_path, robot, skills, seen, clock):
+    block, grasp = grasp_of(skills, seen)
+    built = build(
+        tmp_path, robot, skills, APPROACH, board=seen[0], **{"PSM1/block": block, "PSM1/grasp": grasp}
+    )
+    arm = psm1(robot)
+    arm.never_ends = arm.jaw.never_ends = True
+    assert run(built, clock) == Status.FAILURE
+    duration = arm.trajectories[0].duration
+    assert duration + MOTION_OVERTIME < clock.now() < duration + MOTION_OVERTIME + 2 * STEP
+    assert "no end reported" in feedback(built)
+    assert arm.sent[-1].kind == "hold" and arm.jaw.sent[-1].kind == "hold"
+
+
+def _stalled_approach(tmp_path, robot, skills, seen):
+    """An approach whose every motion stands still 2 × MOTION_OVERTIME on the way (a streamer's stall)."""
+    block, grasp = grasp_of(skills, seen)
+    built = build(
+        tmp_path, robot, skills, APPROACH, board=seen[0], **{"PSM1/block": block, "PSM1/grasp": grasp}
+    )
+    psm1(robot).stalled = 2 * MOTION_OVERTIME
+    return built, psm1(robot)
+
+
+def test_a_motion_that_stood_still_may_end_that_much_later(tmp_path, robot, skills, seen, clock):
+    built, arm = _stalled_approach(tmp_path, robot, skills, seen)
+    assert run(built, clock) == Status.SUCCESS
+    assert clock.now() >= arm.trajectories[0].duration + 2 * MOTION_OVERTIME
+
+
+def test_a_motion_that_stood_still_is_still_bounded_in_time(tmp_path, robot, skills, seen, clock):
+    built, arm = _stalled_approach(tmp_path, robot, skills, seen)
+    arm.never_ends = arm.jaw.never_ends = True
+    assert run(built, clock) == Status.FAILURE
+    end = arm.trajectories[0].duration + 2 * MOTION_OVERTIME + MOTION_OVERTIME
+    assert end < clock.now() < end + 2 * STEP
+    assert "no end reported" in feedback(built) and f"and {2 * MOTION_OVERTIME:.1f} s of stalls" in feedback(
+        built
+    )
+
+
+def closing(robot: Robot, skills: Skills) -> FakeArm:
+    arm = psm1(robot)
+    arm.jaw.rest = np.array([skills.motion.transfer.jaw_open])
+    return arm
+
+
+def test_grasp_closes_the_jaw_and_holds_a_block_between_its_jaws(tmp_path, robot, skills, clock):
+    arm = closing(robot, skills)
+    arm.block_in_jaw = True
+    built = build(tmp_path, robot, skills, "{grasp: {arm: PSM1, holding: /PSM1/holding}}")
+    assert run(built, clock) == Status.SUCCESS
+    assert [sent.target for sent in arm.jaw.sent] == [skills.motion.transfer.jaw_closed]
+    assert read("/PSM1/holding") is True
+    assert feedback(built) == f"PSM1 holds a block (jaw stopped at {math.degrees(BLOCK_WALL_ANGLE):.0f}°)"
+
+
+def test_grasp_fails_when_the_jaw_closes_on_nothing(tmp_path, robot, skills, clock):
+    closing(robot, skills)
+    built = build(tmp_path, robot, skills, "{grasp: {arm: PSM1, holding: /PSM1/holding}}")
+    assert run(built, clock) == Status.FAILURE
+    assert read("/PSM1/holding") is False and "on nothing" in feedback(built)
+
+
+def test_release_opens_the_jaw_and_writes_that_it_holds_nothing(tmp_path, robot, skills, clock):
+    arm = psm1(robot)
+    arm.block_in_jaw = True
+    built = build(
+        tmp_path, robot, skills, "{release: {arm: PSM1, holding: /PSM1/holding}}", **{"PSM1/holding": True}
+    )
+    assert run(built, clock) == Status.SUCCESS
+    assert [sent.target for sent in arm.jaw.sent] == [skills.motion.transfer.jaw_open]
+    assert read("/PSM1/holding") is False
+
+
+def test_release_fails_when_the_jaw_command_is_refused(tmp_path, robot, skills, clock):
+    psm1(robot).refuse_next = "jaw fault"
+    built = build(
+        tmp_path, robot, skills, "{release: {arm: PSM1, holding: /PSM1/holding}}", **{"PSM1/holding": True}
+    )
+    assert run(built, clock) == Status.FAILURE
+    assert feedback(built) == "PSM1 jaw opening: jaw refused: jaw fault" and read("/PSM1/holding") is True
+
+
+# ---------------------------------------------------------------------------------------------- moving
+TRANSFER = f"{{transfer: {{arm: PSM1, place: {PLACE}, block: /PSM1/block, grasp: /PSM1/grasp, plan_s: /PSM1/plan_s}}}}"
+
+
+def holding_at_the_grasp(robot: Robot, skills: Skills, seen):
+    block, grasp = grasp_of(skills, seen)
+    arm = psm1(robot)
+    # where `approach` leaves the tool: on the grasp as the transfer's first waypoint has it
+    start = transfer_for(skills.cell, skills.motion, "PSM1", seen[0], block, grasp).poses[0]
+    at(arm, solve_ik(start, skills.settings["PSM1"]))
+    arm.block_in_jaw = True
+    return arm, {"board": seen[0], "PSM1/block": block, "PSM1/grasp": grasp}
+
+
+def test_transfer_carries_the_block_over_its_place_peg_and_writes_the_plan(
+    tmp_path, robot, skills, seen, clock
+):
+    arm, values = holding_at_the_grasp(robot, skills, seen)
+    built = build(tmp_path, robot, skills, TRANSFER, **values)
+    assert run(built, clock) == Status.SUCCESS
+    (trajectory,) = arm.trajectories
+    assert read("/PSM1/plan_s") == round(trajectory.duration, 3)
+    # the block keeps its yaw and its place in the jaw: the tip moves as far as from peg top to peg top
+    tops = [skills.cell.board_to_arm("PSM1") @ np.append(seen[0].peg_tops[peg], 1.0) for peg in (PICK, PLACE)]
+    moved = forward_kinematics(trajectory.q[-1])[:3, 3] - forward_kinematics(trajectory.q[0])[:3, 3]
+    up = skills.cell.up_in("PSM1")
+    across = (tops[1] - tops[0])[:3]
+    assert np.allclose(moved - (moved @ up) * up, across - (across @ up) * up, atol=2e-4)
+
+
+def test_transfer_fails_at_once_and_stops_the_arm_when_the_block_slips(tmp_path, robot, skills, seen, clock):
+    arm, values = holding_at_the_grasp(robot, skills, seen)
+    built = build(tmp_path, robot, skills, TRANSFER, **values)
+    assert run(built, clock, seconds=0.5) == Status.RUNNING
+    arm.drop_block()
+    assert run(built, clock, seconds=0.5) == Status.FAILURE
+    assert clock.now() < 0.5 + 0.2  # noticed within a slip check
+    assert "slipped from PSM1's jaw" in feedback(built)
+    assert arm.sent[-1].kind == "hold"
+
+
+def test_rise_moves_straight_up_by_its_height(tmp_path, robot, skills, clock):
+    arm = psm1(robot)
+    start = forward_kinematics(arm.rest)
+    built = build(tmp_path, robot, skills, "{rise: {arm: PSM1, height: 0.02}}")
+    assert run(built, clock) == Status.SUCCESS
+    end = forward_kinematics(arm.trajectories[0].q[-1])
+    assert np.allclose(end[:3, 3] - start[:3, 3], 0.02 * skills.cell.up_in("PSM1"), atol=1e-5)
+    assert np.allclose(end[:3, :3], start[:3, :3], atol=1e-5)
+
+
+def test_rise_refused_by_the_transport_fails_without_sending(tmp_path, robot, skills, clock):
+    arm = psm1(robot)
+    at(arm, np.where(np.arange(6) == 2, skills.settings["PSM1"].lower[2] + 0.001, arm.rest))
+    built = build(tmp_path, robot, skills, "{rise: {arm: PSM1, height: 0.1}}")
+    assert run(built, clock) == Status.FAILURE
+    assert arm.sent == [] and feedback(built)
+
+
+def test_a_silent_arm_halts_the_run_instead_of_failing_the_leaf(tmp_path, robot, skills, clock):
+    psm1(robot).silent = True
+    built = build(tmp_path, robot, skills, "{rise: {arm: PSM1, height: 0.02}}")
+    with pytest.raises(EndpointSilent, match="PSM1: nothing heard"):
+        run(built, clock)
+
+
+def test_park_rises_first_then_goes_home(tmp_path, robot, skills, seen, clock):
+    arm, _ = holding_at_the_grasp(robot, skills, seen)  # low among the pegs
+    built = build(tmp_path, robot, skills, "{park: {arm: PSM1}}")
+    assert run(built, clock) == Status.SUCCESS
+    (trajectory,) = arm.trajectories
+    assert np.allclose(
+        forward_kinematics(trajectory.q[-1])[:3, 3], skills.settings["PSM1"].home_tip, atol=1e-4
+    )
+    tips = np.array([forward_kinematics(q)[:3, 3] for q in trajectory.q])
+    up = skills.cell.up_in("PSM1")
+    lateral = tips - np.outer((tips - tips[0]) @ up, up) - tips[0]
+    first_rise = np.argmax((tips - tips[0]) @ up > 0.005)  # it rises before moving sideways
+    assert np.linalg.norm(lateral[first_rise]) < 0.001
+
+
+# ---------------------------------------------------------------------------------------------- conditions
+def test_check_placed_looks_at_every_peg(tmp_path, robot, skills, world, seen, clock):
+    occupied = sorted(block.peg for block in world.blocks)
+    built = build(tmp_path, robot, skills, f"{{check_placed: {{pegs: {occupied}}}}}", blocks=seen[1])
+    assert run(built, clock) == Status.SUCCESS
+    empty = next(peg for peg in range(12) if peg not in occupied)
+    built = build(
+        tmp_path, robot, skills, f"{{check_placed: {{pegs: [{occupied[0]}, {empty}]}}}}", blocks=seen[1]
+    )
+    assert run(built, clock) == Status.FAILURE
+    assert feedback(built) == f"no block seen reliably on peg {empty} (empty)"
+    assert all(arm.sent == [] for arm in robot.arms.values())
+
+
+def test_keep_holding_runs_while_the_jaw_holds_and_fails_when_the_block_slips(tmp_path, robot, skills, clock):
+    arm = psm1(robot)
+    arm.block_in_jaw = True
+    built = build(tmp_path, robot, skills, "{keep_holding: {arm: PSM1}}")
+    assert run(built, clock, seconds=1.0) == Status.RUNNING
+    arm.drop_block()
+    assert run(built, clock) == Status.FAILURE
+    assert "slipped from PSM1's jaw" in feedback(built) and arm.sent == [] and arm.jaw.sent == []
+
+
+# ---------------------------------------------------------------------------------------------- records
+def test_begin_and_finish_transfer_record_it_for_the_judge(tmp_path, robot, skills, clock):
+    tree = f"""
+  sequence:
+    memory: true
+    children:
+      - begin_transfer: {{arms: PSM1, pick: {PICK}, place: {PLACE}, transfer: /n}}
+      - wait: {{seconds: 1.5}}
+      - finish_transfer: {{outcome: skipped, note: no block, transfer: /n}}"""
+    built = build(tmp_path, robot, skills, tree)
+    assert run(built, clock) == Status.SUCCESS
+    assert read("/n") == 1
+    (record,) = robot.trial.transfers
+    assert (record.arms, record.pick, record.place, record.outcome, record.note) == (
+        "PSM1",
+        PICK,
+        PLACE,
+        "skipped",
+        "no block",
+    )
+    assert record.ended - record.started == pytest.approx(1.5, abs=STEP)
+    result = robot.trial.result()
+    assert result.judged_by.startswith("the executive's beliefs") and result.succeeded == 0
+
+
+# ---------------------------------------------------------------------------------------------- calibration
+def test_collect_calibration_records_set_points_and_physical_joints(tmp_path, robot, skills, clock):
+    arm = psm1(robot)
+    arm.fiducial_offset = np.array([0.001, -0.002, 0.0005, 0.0, 0.0, 0.0])  # what a cable would do
+    out = tmp_path / "recording"
+    tree = f"{{collect_calibration: {{arm: PSM1, samples: {MIN_SAMPLES}, settle: 0.2, out: {out}, seed: 4}}}}"
+    built = build(tmp_path, robot, skills, tree)
+    assert run(built, clock, seconds=600.0) == Status.SUCCESS
+    assert len(arm.trajectories) == MIN_SAMPLES
+    recording = load_recording(out)
+    assert len(recording.q_cmd) == MIN_SAMPLES
+    goals = np.array([trajectory.q[-1] for trajectory in arm.trajectories])
+    assert np.allclose(recording.q_cmd, goals, atol=1e-9)
+    assert np.allclose(recording.q_phy - recording.q_cmd, arm.fiducial_offset, atol=1e-9)
+
+
+def test_collect_calibration_fails_when_a_move_is_refused(tmp_path, robot, skills, clock):
+    psm1(robot).refuse_next = "arm not ready"
+    tree = f"{{collect_calibration: {{arm: PSM1, samples: {MIN_SAMPLES}, out: {tmp_path / 'r'}}}}}"
+    built = build(tmp_path, robot, skills, tree)
+    assert run(built, clock) == Status.FAILURE
+    assert feedback(built) == "set-point 0: trajectory refused: arm not ready"
+    assert not (tmp_path / "r").exists()
+
+
+# ---------------------------------------------------------------------------------------------- handover
+# the reference handover: PSM2 gives the block of peg 1, PSM1 puts it on peg 7
+GIVER, RECEIVER = "PSM2", "PSM1"
+POSES = (
+    "{handover_poses: {arm: PSM2, receiver: PSM1, grasp: /PSM2/grasp, block: /PSM2/block, "
+    "meeting: /handover/meeting, block_pose: /handover/block_pose, receiver_grasp: /handover/receiver_grasp}}"
+)
+TO_HANDOVER = (
+    "{carry_to_handover: {arm: PSM2, grasp: /PSM2/grasp, block: /PSM2/block, meeting: /handover/meeting, "
+    "plan_s: /PSM2/plan_s}}"
+)
+GO_TO_HANDOVER = "{go_to_handover: {arm: PSM1, grasp: /handover/receiver_grasp}}"
+DESCEND = "{descend_to_grasp: {arm: PSM1, grasp: /handover/receiver_grasp}}"
+FROM_HANDOVER = (
+    f"{{carry_from_handover: {{arm: PSM1, place: {PLACE}, grasp: /handover/receiver_grasp, "
+    "block_pose: /handover/block_pose, plan_s: /PSM1/plan_s}}"
+)
+
+
+def giving(skills: Skills, seen):
+    """The block on the pick peg, the giver's grasp of it, and the handover `plan_meeting` plans for it."""
+    block = block_on_peg(seen[1], PICK)
+    grasp = skills.selectors[GIVER].pick(block)
+    return block, grasp, plan_meeting(skills, GIVER, RECEIVER, grasp, block)
+
+
+def board_pose(skills: Skills, arm: str, pose):
+    return skills.cell.arm_to_board(arm) @ pose
+
+
+def wait_pose(skills: Skills, grasp):
+    """Where the receiver waits: `receiver_wait_above` straight above its grasp (skills/motion.yaml)."""
+    wait = grasp.pose.copy()
+    wait[:3, 3] += skills.motion.handover.receiver_wait_above * skills.cell.up_in(RECEIVER)
+    return wait
+
+
+def lateral(skills: Skills, arm: str, vectors):
+    """The parts of `vectors` (arm frame) across the pegs' axis."""
+    up = skills.cell.up_in(arm)
+    vectors = np.asarray(vectors, dtype=float)
+    return vectors - np.outer(vectors @ up, up) if vectors.ndim == 2 else vectors - (vectors @ up) * up
+
+
+def test_handover_poses_writes_the_meeting_the_block_there_and_a_receiver_grasp_clear_of_the_giver(
+    tmp_path, robot, skills, seen, clock
+):
+    block, grasp, _ = giving(skills, seen)
+    cell = skills.cell
+    built = build(tmp_path, robot, skills, POSES, **{"PSM2/block": block, "PSM2/grasp": grasp})
+    assert run(built, clock) == Status.SUCCESS
+    meeting, block_pose, taken = (
+        read("/handover/meeting"),
+        read("/handover/block_pose"),
+        read("/handover/receiver_grasp"),
+    )
+    # the giver's tip at the meeting point, tool along the pegs' axis at yaw 0, within its limits
+    point = handover_meeting_point(cell, skills.motion)
+    assert np.allclose(board_pose(skills, GIVER, meeting)[:3, 3], point, atol=1e-9)
+    heights = skills.motion
+    above = heights.transfer.transfer_height_above_peg_top + heights.handover.meeting_above_transfer
+    assert height_above_pegs(cell, GIVER, meeting[:3, 3]) == pytest.approx(above)
+    up = cell.up_in(GIVER)
+    assert abs(meeting[:3, 2] @ up) == pytest.approx(1.0)
+    assert yaw_about(meeting[:3, :3], up) == pytest.approx(0.0)
+    q_giver = solve_ik(meeting, skills.settings[GIVER])
+    # the block moved with the giver's tip: where it sits in the jaw is where it sat on its peg
+    in_jaw = np.linalg.inv(board_pose(skills, GIVER, grasp.pose)) @ block.pose
+    assert np.allclose(np.linalg.inv(board_pose(skills, GIVER, meeting)) @ block_pose, in_jaw, atol=1e-9)
+    # the receiver's grasp: one of that block's grasps, on another wall than the giver's jaw, reachable
+    # within skills/psm.yaml's limits, and its descent onto it keeps `grasp_clearance` from the giver's tool
+    assert any(np.allclose(option.pose, taken.pose) for option in grasp_options(block_pose, RECEIVER, cell))
+    edges = cell.block.grasp_candidates.edge
+    assert edges[taken.candidate] != edges[grasp.candidate]
+    settings = skills.settings[RECEIVER]
+    q_grasp, q_wait = (solve_ik(pose, settings) for pose in (taken.pose, wait_pose(skills, taken)))
+    assert np.all(settings.lower <= q_grasp) and np.all(q_grasp <= settings.upper)
+    assert np.allclose(forward_kinematics(q_grasp), taken.pose, atol=1e-6)
+    clearance = descent_clearance(
+        q_wait, q_grasp, cell.board_to_arm(RECEIVER), q_giver, cell.board_to_arm(GIVER), cell.tool, steps=60
+    )
+    assert clearance >= skills.motion.handover.grasp_clearance
+    assert f"PSM1 takes candidate {taken.candidate}" in feedback(built)
+    assert all(arm.sent == [] and arm.jaw.sent == [] for arm in robot.arms.values())  # planning moves nothing
+
+
+def test_handover_poses_fails_naming_why_there_is_no_handover(tmp_path, robot, skills, seen, clock):
+    block, grasp, _ = giving(skills, seen)
+    values = {"PSM2/block": block, "PSM2/grasp": grasp}
+    built = build(tmp_path, robot, skills, POSES.replace("receiver: PSM1", "receiver: PSM2"), **values)
+    assert run(built, clock) == Status.FAILURE
+    assert feedback(built) == "PSM2 cannot hand a block to itself"
+    # a meeting point out of the giver's reach (30 cm above the transfer height)
+    handover = replace(skills.motion.handover, meeting_above_transfer=0.3)
+    high = Skills("uncalibrated", motion=replace(skills.motion, handover=handover))
+    built = build(tmp_path, robot, high, POSES, **values)
+    assert run(built, clock) == Status.FAILURE
+    assert feedback(built).startswith("the giver at the meeting point: not reachable by PSM2: ")
+    # a robot whose outer yaw turns no further than 0.85 rad (its share/ folder narrowing skills/psm.yaml,
+    # as `test_robot_config` does): the giver reaches the meeting point, the receiver none of its grasps there
+    share = tmp_path / "share"
+    shutil.copytree(DVRK_SHARE, share)
+    kinematic = share / "kinematic" / "PSM.json"
+    kinematic.write_text(
+        kinematic.read_text().replace('"qmin": -1.588, "qmax": 1.588', '"qmin": -1.588, "qmax": 0.85')
+    )
+    narrow = Skills("uncalibrated", robot_config=share)
+    assert narrow.settings[RECEIVER].upper[0] == 0.85
+    built = build(tmp_path, robot, narrow, POSES, **values)
+    assert run(built, clock) == Status.FAILURE
+    assert feedback(built) == (
+        "PSM1 can reach no grasp of the block at the meeting point that keeps clear of PSM2's tool"
+    )
+    assert (
+        narrow.selectors[RECEIVER].feasible(plan_meeting(skills, GIVER, RECEIVER, grasp, block).block_pose)
+        == []
+    )
+    # a block held on a wall from which every grasp of the receiver strikes the giver's tool (a block lying
+    # on the board by peg 7, as `test_handover_meeting` finds), PSM1 giving to PSM2
+    lying = BlockEstimate(
+        np.array([0.0606, 0.0232, skills.cell.board.surface_z]), 0.0, None, 1.0, 0.0003, 1000, True, ""
+    )
+    blocked = next(
+        option
+        for option in skills.selectors["PSM1"].feasible(lying.pose)
+        if plan_meeting(skills, "PSM1", "PSM2", option, lying) is None
+    )
+    tree = POSES.replace("arm: PSM2", "arm: PSM1").replace("receiver: PSM1", "receiver: PSM2")
+    built = build(tmp_path, robot, skills, tree, **{"PSM2/block": lying, "PSM2/grasp": blocked})
+    assert run(built, clock) == Status.FAILURE
+    assert feedback(built) == (
+        "PSM2 can reach no grasp of the block at the meeting point that keeps clear of PSM1's tool"
+    )
+    for key in ("/handover/meeting", "/handover/block_pose", "/handover/receiver_grasp"):
+        with pytest.raises(KeyError):
+            read(key)
+
+
+def giver_holding(robot: Robot, skills: Skills, seen):
+    """The giver holding the block where `approach` and `grasp` leave it, and the blackboard of its carry."""
+    block, grasp, meeting = giving(skills, seen)
+    arm = robot.arms[GIVER]
+    start = transfer_for(skills.cell, skills.motion, GIVER, seen[0], block, grasp).poses[0]
+    at(arm, solve_ik(start, skills.settings[GIVER]))
+    arm.block_in_jaw = True
+    values = {"board": seen[0], "PSM2/block": block, "PSM2/grasp": grasp, "handover/meeting": meeting.tip}
+    return arm, values
+
+
+def test_carry_to_handover_lifts_the_block_off_its_peg_and_brings_it_to_the_meeting_pose(
+    tmp_path, robot, skills, seen, clock
+):
+    arm, values = giver_holding(robot, skills, seen)
+    start = forward_kinematics(arm.rest)
+    built = build(tmp_path, robot, skills, TO_HANDOVER, **values)
+    assert run(built, clock) == Status.SUCCESS
+    (trajectory,) = arm.trajectories
+    assert read("/PSM2/plan_s") == round(trajectory.duration, 3)
+    assert np.allclose(forward_kinematics(trajectory.q[-1]), values["handover/meeting"], atol=1e-4)
+    # it lifts the block straight up its peg's axis until the block's bottom is clear of the peg's top,
+    # before it moves over, and arrives from `HANDOVER_ARRIVAL` straight above the meeting pose
+    cell, up = skills.cell, skills.cell.up_in(GIVER)
+    tips = np.array([forward_kinematics(q)[:3, 3] for q in trajectory.q])
+    off_axis = np.linalg.norm(lateral(skills, GIVER, tips - start[:3, 3]), axis=1)
+    bottom = np.array([height_above_pegs(cell, GIVER, tip) for tip in tips]) - (
+        cell.block.height - cell.block.grasp_depth
+    )
+    over = int(np.argmax(off_axis > 0.002))  # the first row well off the peg's axis
+    assert over > 0 and np.any((off_axis[:over] < 1e-4) & (bottom[:over] > 0.0))
+    meeting = values["handover/meeting"][:3, 3]
+    arrival = int(np.argmin(np.linalg.norm(tips - (meeting + HANDOVER_ARRIVAL * up), axis=1)))
+    assert np.linalg.norm(tips[arrival] - (meeting + HANDOVER_ARRIVAL * up)) < 1e-4
+    assert np.linalg.norm(lateral(skills, GIVER, tips[arrival:] - meeting), axis=1).max() < 1e-4
+    assert np.all(tips @ up >= start[:3, 3] @ up - 1e-4)  # never pushed down onto the board
+    assert arm.jaw.sent == []  # it keeps holding
+
+
+def test_carry_to_handover_fails_at_once_and_stops_the_arm_when_the_block_slips(
+    tmp_path, robot, skills, seen, clock
+):
+    arm, values = giver_holding(robot, skills, seen)
+    built = build(tmp_path, robot, skills, TO_HANDOVER, **values)
+    assert run(built, clock, seconds=0.5) == Status.RUNNING
+    arm.drop_block()
+    assert run(built, clock, seconds=0.5) == Status.FAILURE
+    assert clock.now() < 0.5 + 0.2  # noticed within a slip check
+    assert "slipped from PSM2's jaw (jaw at " in feedback(built)
+    assert feedback(built).endswith("during carry_to_handover")
+    assert arm.sent[-1].kind == "hold"
+
+
+def receiver_at(robot: Robot, skills: Skills, seen, pose=None):
+    """The receiver (at `pose`, else home), the giver holding the block out at the meeting, and the
+    blackboard of the receiver's leaves."""
+    block, grasp, meeting = giving(skills, seen)
+    receiver, giver = robot.arms[RECEIVER], robot.arms[GIVER]
+    at(giver, solve_ik(meeting.tip, skills.settings[GIVER]))
+    giver.block_in_jaw = True
+    if pose is not None:
+        at(receiver, solve_ik(pose(meeting.receiver_grasp), skills.settings[RECEIVER]))
+    values = {
+        "board": seen[0],
+        "handover/receiver_grasp": meeting.receiver_grasp,
+        "handover/block_pose": meeting.block_pose,
+    }
+    return receiver, meeting, values
+
+
+def test_go_to_handover_waits_open_straight_above_the_receivers_grasp(tmp_path, robot, skills, seen, clock):
+    arm, meeting, values = receiver_at(robot, skills, seen)
+    built = build(tmp_path, robot, skills, GO_TO_HANDOVER, **values)
+    assert run(built, clock) == Status.SUCCESS
+    (trajectory,) = arm.trajectories
+    assert np.allclose(
+        forward_kinematics(trajectory.q[-1]), wait_pose(skills, meeting.receiver_grasp), atol=1e-4
+    )
+    assert [sent.target for sent in arm.jaw.sent] == [skills.motion.transfer.jaw_open]
+    assert robot.arms[GIVER].sent == []
+
+
+def test_go_to_handover_from_low_among_the_pegs_rises_before_moving_over(
+    tmp_path, robot, skills, seen, clock
+):
+    low = transfer_for(skills.cell, skills.motion, RECEIVER, seen[0], *grasp_of(skills, seen)).poses[0]
+    arm, meeting, values = receiver_at(robot, skills, seen, pose=lambda _: low)
+    built = build(tmp_path, robot, skills, GO_TO_HANDOVER, **values)
+    assert run(built, clock) == Status.SUCCESS
+    (trajectory,) = arm.trajectories
+    tips = np.array([forward_kinematics(q)[:3, 3] for q in trajectory.q])
+    risen = np.array([height_above_pegs(skills.cell, RECEIVER, tip) for tip in tips])
+    first_up = np.argmax(risen >= skills.motion.transfer.transfer_height_above_peg_top - 1e-4)
+    assert first_up > 0 and np.linalg.norm(lateral(skills, RECEIVER, tips[first_up] - tips[0])) < 0.001
+
+
+def test_descend_to_grasp_goes_straight_down_onto_the_grasp_clear_of_the_giver(
+    tmp_path, robot, skills, seen, clock
+):
+    arm, meeting, values = receiver_at(robot, skills, seen, pose=partial(wait_pose, skills))
+    built = build(tmp_path, robot, skills, DESCEND, **values)
+    assert run(built, clock) == Status.SUCCESS
+    (trajectory,) = arm.trajectories
+    grasp = meeting.receiver_grasp.pose
+    assert np.allclose(forward_kinematics(trajectory.q[-1]), grasp, atol=1e-4)
+    tips = np.array([forward_kinematics(q)[:3, 3] for q in trajectory.q])
+    assert np.linalg.norm(lateral(skills, RECEIVER, tips - grasp[:3, 3]), axis=1).max() < 0.0005
+    # every row sent keeps the tools' surfaces `grasp_clearance` apart, the giver holding still
+    cell, giver = skills.cell, robot.arms[GIVER].rest
+    gaps = tool_gap(
+        trajectory.q,
+        cell.board_to_arm(RECEIVER),
+        np.repeat(giver[None], len(trajectory.q), axis=0),
+        cell.board_to_arm(GIVER),
+        cell.tool,
+    )
+    assert gaps.min() >= skills.motion.handover.grasp_clearance
+    assert arm.jaw.sent == [] and robot.arms[GIVER].sent == []
+
+
+def receiver_holding(robot: Robot, skills: Skills, seen):
+    arm, meeting, values = receiver_at(robot, skills, seen, pose=lambda grasp: grasp.pose)
+    arm.block_in_jaw = True
+    return arm, meeting, values
+
+
+def test_carry_from_handover_lowers_the_block_onto_its_goal_peg_keeping_its_yaw(
+    tmp_path, robot, skills, seen, clock
+):
+    arm, meeting, values = receiver_holding(robot, skills, seen)
+    built = build(tmp_path, robot, skills, FROM_HANDOVER, **values)
+    assert run(built, clock) == Status.SUCCESS
+    (trajectory,) = arm.trajectories
+    assert read("/PSM1/plan_s") == round(trajectory.duration, 3)
+    start, end = (forward_kinematics(q) for q in (trajectory.q[0], trajectory.q[-1]))
+    grasp = meeting.receiver_grasp.pose
+    assert np.allclose(start, grasp, atol=1e-4)
+    assert np.allclose(end[:3, :3], grasp[:3, :3], atol=1e-4)  # the block keeps its yaw
+    # its axis ends on the goal peg's: the tip as far across it as the grasp was from the block's axis
+    peg = skills.cell.board_to_arm(RECEIVER) @ np.append(seen[0].peg_tops[PLACE], 1.0)
+    axis = skills.cell.board_to_arm(RECEIVER) @ meeting.block_pose[:, 3]
+    assert np.allclose(
+        lateral(skills, RECEIVER, end[:3, 3] - peg[:3]),
+        lateral(skills, RECEIVER, grasp[:3, 3] - axis[:3]),
+        atol=2e-4,
+    )
+    # and lowered until the peg is inside its hole: the block's bottom below the peg's top
+    block = skills.cell.block
+    assert height_above_pegs(skills.cell, RECEIVER, end[:3, 3]) < block.height - block.grasp_depth
+
+
+def test_carry_from_handover_fails_at_once_and_stops_the_arm_when_the_block_slips(
+    tmp_path, robot, skills, seen, clock
+):
+    arm, _, values = receiver_holding(robot, skills, seen)
+    built = build(tmp_path, robot, skills, FROM_HANDOVER, **values)
+    assert run(built, clock, seconds=0.5) == Status.RUNNING
+    arm.drop_block()
+    assert run(built, clock, seconds=0.5) == Status.FAILURE
+    assert clock.now() < 0.5 + 0.2
+    assert "slipped from PSM1's jaw (jaw at " in feedback(built)
+    assert feedback(built).endswith("during carry_from_handover")
+    assert arm.sent[-1].kind == "hold"
+
+
+def handover_motion(leaf: str, robot: Robot, skills: Skills, seen):
+    """The arm that `leaf` moves, its tree and its blackboard, set up as the handover finds them."""
+    if leaf == "carry_to_handover":
+        arm, values = giver_holding(robot, skills, seen)
+        return arm, TO_HANDOVER, values
+    if leaf == "carry_from_handover":
+        arm, _, values = receiver_holding(robot, skills, seen)
+        return arm, FROM_HANDOVER, values
+    if leaf == "descend_to_grasp":
+        arm, _, values = receiver_at(robot, skills, seen, pose=partial(wait_pose, skills))
+        return arm, DESCEND, values
+    arm, _, values = receiver_at(robot, skills, seen)
+    return arm, GO_TO_HANDOVER, values
+
+
+HANDOVER_MOTIONS = ["carry_to_handover", "go_to_handover", "descend_to_grasp", "carry_from_handover"]
+
+
+@pytest.mark.parametrize("leaf", HANDOVER_MOTIONS)
+def test_a_handover_motion_refused_by_the_arm_fails_with_its_reason(
+    leaf, tmp_path, robot, skills, seen, clock
+):
+    arm, tree, values = handover_motion(leaf, robot, skills, seen)
+    built = build(tmp_path, robot, skills, tree, **values)
+    arm.refuse_next = "the arm is not homed"
+    assert run(built, clock) == Status.FAILURE
+    assert re.fullmatch(rf"{arm.name} .+: trajectory refused: the arm is not homed", feedback(built))
+    assert len(arm.trajectories) == 1  # not sent again
+    opening = ["jaw", "hold"] if leaf == "go_to_handover" else []  # a jaw opening alongside is stopped
+    assert [sent.kind for sent in arm.jaw.sent] == opening
+    assert all(other.sent == [] for other in robot.arms.values() if other is not arm)
+
+
+@pytest.mark.parametrize("leaf", HANDOVER_MOTIONS)
+def test_a_handover_motion_whose_end_never_comes_fails_and_stops_the_arm(
+    leaf, tmp_path, robot, skills, seen, clock
+):
+    arm, tree, values = handover_motion(leaf, robot, skills, seen)
+    built = build(tmp_path, robot, skills, tree, **values)
+    arm.never_ends = True
+    assert run(built, clock, seconds=60.0) == Status.FAILURE
+    duration = arm.trajectories[0].duration
+    assert duration + MOTION_OVERTIME < clock.now() < duration + MOTION_OVERTIME + 2 * STEP
+    assert "no end reported" in feedback(built) and arm.sent[-1].kind == "hold"
+
+
+@pytest.mark.parametrize("leaf", HANDOVER_MOTIONS)
+def test_a_halted_handover_motion_stops_its_arm(leaf, tmp_path, robot, skills, seen, clock):
+    arm, tree, values = handover_motion(leaf, robot, skills, seen)
+    built = build(tmp_path, robot, skills, tree, **values)
+    assert run(built, clock, seconds=0.3) == Status.RUNNING
+    moving = arm.position()
+    built.root.stop(Status.INVALID)
+    assert arm.sent[-1].kind == "hold" and np.allclose(arm.sent[-1].target, moving)
+    clock.advance(5.0)
+    assert np.allclose(arm.position(), moving)  # it stays where it was stopped
+
+
+# ---------------------------------------------------------------------------------------------- coverage
+TESTS = Path(__file__).resolve().parent
+# every leaf type the registry exposes, and the module of fast tests (no simulator) that builds it
+UNIT_TESTED = {
+    "approach": "test_leaves.py",
+    "await_arrival": "test_handover_protocol.py",
+    "await_closed": "test_handover_protocol.py",
+    "await_offer": "test_handover_protocol.py",
+    "await_ready": "test_handover_protocol.py",
+    "await_release": "test_handover_protocol.py",
+    "await_taker": "test_handover_protocol.py",
+    "back_off": "test_handover_protocol.py",
+    "begin_transfer": "test_leaves.py",
+    "capture": "test_leaves.py",
+    "carry_from_handover": "test_leaves.py",
+    "carry_to_handover": "test_leaves.py",
+    "check_blackboard": "test_executive_nodes.py",
+    "check_placed": "test_leaves.py",
+    "close_on": "test_handover_protocol.py",
+    "collect_calibration": "test_leaves.py",
+    "descend_to_grasp": "test_leaves.py",
+    "find_blocks": "test_leaves.py",
+    "finish_transfer": "test_leaves.py",
+    "give_up": "test_handover_protocol.py",
+    "go_to_handover": "test_leaves.py",
+    "grasp": "test_leaves.py",
+    "hand_over": "test_handover_protocol.py",
+    "handover_poses": "test_leaves.py",
+    "hold_out": "test_handover_protocol.py",
+    "is_held_out": "test_handover_protocol.py",
+    "is_offered": "test_handover_protocol.py",
+    "is_taken": "test_handover_protocol.py",
+    "is_withdrawn": "test_handover_protocol.py",
+    "keep_holding": "test_leaves.py",
+    "log": "test_executive_nodes.py",
+    "not_given_up": "test_handover_protocol.py",
+    "offer": "test_handover_protocol.py",
+    "park": "test_leaves.py",
+    "ready_for": "test_handover_protocol.py",
+    "receiver_waits": "test_handover_protocol.py",
+    "refuse": "test_handover_protocol.py",
+    "register_board": "test_leaves.py",
+    "release": "test_leaves.py",
+    "rise": "test_leaves.py",
+    "scripted": "test_executive_nodes.py",
+    "select_grasp": "test_leaves.py",
+    "set_blackboard": "test_executive_nodes.py",
+    "take": "test_handover_protocol.py",
+    "transfer": "test_leaves.py",
+    "unless_refused": "test_handover_protocol.py",
+    "wait": "test_executive_nodes.py",
+    "wait_blackboard": "test_executive_wake.py",
+    "withdraw": "test_handover_protocol.py",
+}
+
+
+def test_every_registered_leaf_has_a_fast_test_that_builds_it():
+    registered = {spec.name for spec in REGISTRY if spec.factory.__module__.startswith("pegbt.")}
+    assert sorted(registered - set(UNIT_TESTED)) == [], "leaves without a test: add one here"
+    assert sorted(set(UNIT_TESTED) - registered) == []
+    for name, module in UNIT_TESTED.items():
+        source = (TESTS / module).read_text()
+        assert re.search(rf"(?<![\w/]){name}: \{{", source), f"{module} builds no `{name}` node"
+        assert not re.search(r"^(from|import) pegbt\.sim\.process|^@pytest\.mark\.slow", source, re.M), module
