@@ -176,6 +176,16 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
         help="local worker processes (0: none)",
     )
     outcomes.add_argument("--cluster", metavar="ADDRESS", help="simulate on this Dask scheduler instead")
+    outcomes.add_argument(
+        "--confirm",
+        action=NumberOption,
+        type=int,
+        at_least=0,
+        default=0,
+        metavar="TRIALS",
+        help="then run TRIALS whole trials per cell in each fitted world (pegbt eval --world-effects) and "
+        "report them beside the prediction (default 0: none)",
+    )
     outcomes.set_defaults(handler=_outcomes)
 
 

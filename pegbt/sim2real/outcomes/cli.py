@@ -33,6 +33,8 @@ def read_outcomes(real: str | None, table: str | None) -> Outcomes:
 
 
 def run_outcomes(args: argparse.Namespace) -> int:
+    if args.confirm and not args.out:
+        raise PegbtError("--confirm writes its campaigns beside the report: give --out", field="--confirm")
     outcomes = read_outcomes(args.real, args.table)
     settings = Settings(fit=args.fit, transfers=args.transfers, located=args.located, points=args.points)
     split(outcomes.cells, settings.fit)  # a bad --fit is said before any simulation
@@ -47,6 +49,16 @@ def run_outcomes(args: argparse.Namespace) -> int:
     commands = ["pegbt " + shlex.join(sys.argv[1:])] if sys.argv[1:2] == ["sim2real"] else []
     if args.out:
         data = write_report(diagnosis, Path(args.out), commands)
+        if args.confirm and data["world_files"]:
+            from pegbt.sim2real.outcomes.confirm import confirm
+
+            confirmed = {
+                world: confirm(
+                    Path(world), outcomes.cells, args.confirm, Path(args.out) / "confirm", args.workers
+                )
+                for world in data["world_files"]
+            }
+            data = write_report(diagnosis, Path(args.out), commands, confirmed)
         print(
             f"wrote {args.out}/report.md, report.json, outcomes.png"
             + "".join(f", {w}" for w in data["world_files"]),

@@ -22,6 +22,7 @@ from pegbt.behaviours.resources.arm_motion import ArmMotion
 from pegbt.behaviours.resources.skills import SIMULATOR_CALIBRATION, Skills
 from pegbt.behaviours.actions.handover import Meeting, plan_meeting
 from pegbt.behaviours.poses import approach_for, from_handover, to_handover, transfer_for
+from pegbt.errors import PegbtError
 from pegbt.frames import yaw_of
 from pegbt.motion.ik import inverse_kinematics
 from pegbt.motion.settings import motion_settings
@@ -247,10 +248,15 @@ def _attempt(
     motion = skills.arm(arm)
     grasp = skills.selectors[arm].pick(seen)
     meeting = None
-    if grasp is not None and handover:
-        meeting = plan_meeting(skills, arm, RECEIVER[arm], grasp, seen)
-    if grasp is None or (handover and meeting is None):
+    if grasp is None:
         return _Bench.failed_before(world, arm, motion, "sense")
+    if handover:
+        try:
+            meeting = plan_meeting(skills, arm, RECEIVER[arm], grasp, seen)
+        except PegbtError:  # the giver cannot reach the meeting point with this grasp
+            meeting = None
+        if meeting is None:
+            return _Bench.failed_before(world, arm, motion, "handover")
     if meeting is None:
         waypoints = transfer_for(world.cell, skills.motion, arm, None, seen, grasp, goal_peg)
     else:
@@ -262,13 +268,21 @@ def _attempt(
     if not ik.ok.all():
         return _Bench.failed_before(world, arm, motion, "reach")
     bench = _Bench(world, arm, motion, ik.q[0])
-    approach = approach_for(world.cell, skills.motion, arm, start, waypoints)
-    bench.play(motion.transfer(approach), [(0.0, "reach")])
+    try:
+        reach = motion.transfer(approach_for(world.cell, skills.motion, arm, start, waypoints))
+    except PegbtError:  # the approach leaf fails to plan: nothing moves
+        bench.failed = "reach"
+        return bench
+    bench.play(reach, [(0.0, "reach")])
     bench.jaw(skills.motion.transfer.jaw_closed, "grasp")
     if world.held_by(arm) != block:
         bench.failed = "grasp"
         return bench
-    planned = motion.transfer(waypoints)
+    try:
+        planned = motion.transfer(waypoints)
+    except PegbtError:  # the carrying leaf fails to plan (a goal out of reach): the tick log says carry
+        bench.failed = "carry"
+        return bench
     lifted, lowering = _segment_times(planned)
     bench.play(planned, [(0.0, "lift"), (lifted, "carry"), (lowering, "lower")], holding=block)
     bench.held = world.held_by(arm) == block
@@ -301,7 +315,10 @@ def _hand_over(
     waypoints = from_handover(
         world.cell, skills.motion, receiver, None, meeting.receiver_grasp, meeting.block_pose, goal_peg
     )
-    planned = motion.transfer(waypoints)
+    try:
+        planned = motion.transfer(waypoints)
+    except PegbtError:  # the receiver's carry fails to plan
+        return TransferResult(False, first or "carry", world.time)
     _, lowering = _segment_times(planned)
     taker.play(planned, [(0.0, "carry"), (lowering, "lower")], holding=block)
     if world.held_by(receiver) != block:

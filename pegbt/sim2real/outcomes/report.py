@@ -280,10 +280,35 @@ def _after_bottom(d: Diagnosis, cells: list[Cell], upto: int) -> list[float]:
     ]
 
 
-def write_report(d: Diagnosis, out: Path, commands: list[str] | None = None) -> dict[str, Any]:
-    """Everything into `out`: report.json, report.md, outcomes.png and the fitted world file(s)."""
+Confirmed = dict[str, dict[tuple[str, str], dict[str, Any]]]
+
+
+def write_report(
+    d: Diagnosis, out: Path, commands: list[str] | None = None, confirmed: Confirmed | None = None
+) -> dict[str, Any]:
+    """Everything into `out`: report.json, report.md, outcomes.png and the fitted world file(s); with
+    `confirmed` (per world file, per cell: whole trials in it) those too."""
     out.mkdir(parents=True, exist_ok=True)
     data = report_dict(d, commands)
+    markdown = report_markdown(d, commands)
+    if confirmed:
+        lines = [
+            "",
+            "## Confirmed by whole trials (`pegbt eval --world-effects`)",
+            "| world | variant | condition | placed | mean transfer | errored trials |",
+            "|---|---|---|---|---|---|",
+        ]
+        for world, cells in confirmed.items():
+            for (variant, condition), f in cells.items():
+                rate = f["succeeded"] / f["attempted"] if f["attempted"] else float("nan")
+                time = "–" if f["mean_transfer_s"] is None else f"{f['mean_transfer_s']:.1f} s"
+                lines.append(
+                    f"| {world} | {variant} | {condition} | {f['succeeded']}/{f['attempted']} ({_pct(rate)}) | {time} | {f['errors']} of {f['trials']} |"
+                )
+                for entry in data["cells"]:
+                    if (entry["variant"], entry["condition"]) == (variant, condition):
+                        entry.setdefault("confirmed", {})[world] = f
+        markdown += "\n".join(lines) + "\n"
     worlds = []
     if d.verdict.named:
         worlds.append(str(write_world_file(d.world(), out / "world.yaml")))
@@ -291,6 +316,6 @@ def write_report(d: Diagnosis, out: Path, commands: list[str] | None = None) -> 
         worlds.append(str(write_world_file(tied.world(), out / f"world-{tied.candidate.kind}.yaml")))
     data["world_files"] = worlds
     (out / "report.json").write_text(json.dumps(data, indent=2) + "\n")
-    (out / "report.md").write_text(report_markdown(d, commands))
+    (out / "report.md").write_text(markdown)
     write_figure(d, out / "outcomes.png")
     return data

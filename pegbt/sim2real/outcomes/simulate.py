@@ -13,6 +13,7 @@ from typing import Protocol
 
 import numpy as np
 
+from pegbt.errors import PegbtError
 from pegbt.sim.world_effects import WorldEffects
 from pegbt.sim2real.outcomes.cells import PHASES
 from pegbt.sim2real.outcomes.phasesim import TransferResult, simulate_transfer
@@ -58,7 +59,12 @@ class Mapper(Protocol):
 
 
 def _run(task: Task) -> TransferResult:
-    return simulate_transfer(*task)
+    """One simulated transfer; a motion the planner refuses (a target out of reach in that world) is a
+    transfer that failed where it started, never the end of the whole fit."""
+    try:
+        return simulate_transfer(*task)
+    except PegbtError:
+        return TransferResult(False, "reach", 0.0)
 
 
 class LocalMapper:
