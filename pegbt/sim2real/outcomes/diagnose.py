@@ -95,7 +95,7 @@ def diagnose(
     counting = _Counting(mapper, progress)
     cells = outcomes.cells
     fit_cells, held_out = split(cells, settings.fit)
-    before = _located(counting, cells, settings)
+    before = _located(counting, cells, fit_cells, settings)
     rows = locate(cells, before)
     flagged = [r for r in locate(fit_cells, before) if r.disagrees]  # chance judged over the fit cells alone
     if flagged:
@@ -142,12 +142,14 @@ def diagnose(
     )
 
 
-def _located(mapper: Mapper, cells: Sequence[Cell], settings: Settings) -> dict[Key, SimCounts]:
-    """The default world's transfers per cell: `transfers` each, topped up to `located` where the real
-    rate is more than `CLOSE` away (where a disagreement may be)."""
+def _located(
+    mapper: Mapper, cells: Sequence[Cell], fit_cells: Sequence[Cell], settings: Settings
+) -> dict[Key, SimCounts]:
+    """The default world's transfers per cell: `transfers` each, and for a fit cell whose real rate is more
+    than `CLOSE` away (where the fit may start), topped up to `located`."""
     keys = [c.key for c in cells]
     before = simulate_cells(mapper, [WorldEffects()], keys, settings.transfers)[0]
-    far = [c.key for c in cells if abs(c.rate - before[c.key].rate) > CLOSE]
+    far = [c.key for c in fit_cells if abs(c.rate - before[c.key].rate) > CLOSE]
     extra = settings.located - settings.transfers
     if far and extra > 0:
         more = simulate_cells(mapper, [WorldEffects()], far, extra, first_seed=settings.transfers)[0]
