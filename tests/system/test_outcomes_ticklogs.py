@@ -30,7 +30,7 @@ def test_tick_logs_of_a_campaign_are_diagnosed_from_the_logs_alone(tmp_path: Pat
         "--json",
         "--out",
         str(tmp_path / "eval"),
-        cwd=tmp_path,
+        timeout=900,
     )
     assert ran.returncode == 0, ran.stderr
     real = tmp_path / "real"
@@ -55,7 +55,7 @@ def test_tick_logs_of_a_campaign_are_diagnosed_from_the_logs_alone(tmp_path: Pat
         "--out",
         str(out),
         "--json",
-        cwd=tmp_path,
+        timeout=900,
     )
     assert diagnosed.returncode == 0, diagnosed.stderr
     report = json.loads((out / "report.json").read_text())
