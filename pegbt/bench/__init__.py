@@ -29,6 +29,7 @@ BENCHMARKS: dict[str, str] = {
     "sim2real-outcomes": "pegbt.bench.sim2real_outcomes:run",
     "eval": "pegbt.bench.eval:run",
     "monitor": "pegbt.bench.monitor:run",
+    "monitor-limits": "pegbt.bench.monitor_limits:run",
     "servo": "pegbt.bench.servo:run",
     "offload": "pegbt.bench.offload:run",
     "fuzz": "pegbt.bench.fuzz:run",

@@ -47,6 +47,9 @@ class TrialSpec:
     realtime: bool = False  # the simulator in real time and the run on the wall clock (else lockstep)
     interface: str = "pegbt"  # what the simulator serves and the run speaks (`INTERFACES`)
     world_effects: Path | None = None  # world file for the simulator (`pegbt sim --world-effects`)
+    camera: str = "stream"  # the dVRK interface's depth camera: streaming, or a Zivid's capture service
+    speed: float = 1.0  # the fraction of the planner's speed (`pegbt run --speed`)
+    robot_clock_offset: float = 0.0  # s the simulated robot's clock is from this one's (`--interface dvrk`)
 
 
 @dataclass
@@ -167,6 +170,7 @@ def _run(spec: TrialSpec, truth: Path) -> RunOutput:
             "simlog": str(truth),
             "faults": None if spec.faults is None else str(spec.faults),
             "world-effects": None if spec.world_effects is None else str(spec.world_effects),
+            "speed": spec.speed,
         }
         return run_tree_file(trial_run_options(spec, options))
     with SimProcess(simulator_args(spec, truth)) as simulator:
@@ -176,7 +180,11 @@ def _run(spec: TrialSpec, truth: Path) -> RunOutput:
 def trial_run_options(spec: TrialSpec, options: dict[str, Any]) -> RunOptions:
     """The run of a trial with the providers' `options`: its variant, its simulator's world in the header."""
     clock = "wall" if spec.realtime else None
-    faults = None if spec.faults is None else str(spec.faults)
+    started = {
+        "seed": spec.seed,
+        "faults": None if spec.faults is None else str(spec.faults),
+        "world-effects": None if spec.world_effects is None else str(spec.world_effects),
+    }
     return RunOptions(
         spec.tree or tree_path(spec.variant),
         spec.log,
@@ -184,7 +192,7 @@ def trial_run_options(spec: TrialSpec, options: dict[str, Any]) -> RunOptions:
         clock=clock,
         timeout=TRIAL_TIMEOUT_S,
         variant=spec.variant,
-        world=simulated_world(options, clock, spec.seed, faults),
+        world=simulated_world(options, clock, started),
     )
 
 
@@ -195,12 +203,14 @@ def simulator_args(spec: TrialSpec, truth: Path) -> list[str]:
         *SIMULATOR_ARGS,
         *([] if spec.realtime else ["--lockstep"]),
         *([] if spec.interface == "pegbt" else ["--interface", spec.interface]),
+        *([] if spec.camera == "stream" else ["--camera", spec.camera]),
         "--seed",
         str(spec.seed),
         "--log",
         str(truth),
         *([] if spec.faults is None else ["--faults", str(spec.faults)]),
         *([] if spec.world_effects is None else ["--world-effects", str(spec.world_effects)]),
+        *(["--robot-clock-offset", repr(spec.robot_clock_offset)] if spec.robot_clock_offset else []),
     ]
 
 
@@ -219,6 +229,8 @@ def run_options(spec: TrialSpec, endpoint: str) -> dict[str, Any]:
         "interface": spec.interface,
         "simlog": str(truth_path(spec.log)),  # the judge: the simulator's log file (no `sim/truth` here)
         "liveness": SIMULATOR_LIVENESS_S,
+        "camera": spec.camera,
+        "speed": spec.speed,
     }
 
 

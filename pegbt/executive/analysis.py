@@ -67,22 +67,32 @@ def summary(log: TickLog, slowest: int = 5) -> str:
     """Outcome, duration, ticks, per-node counts and the slowest leaves, as text."""
     stats = node_stats(log)
     leaves = [node["id"] for node in log.nodes if not log.children(node["id"])]
+    world = log.run.get("world")
+    world = world if isinstance(world, dict) else {}
     lines = [
         f"tree:     {log.header.get('tree')}",
+        f"run:      variant {log.variant}, condition {log.condition or 'not recorded'}"
+        + (f", {world.get('physics')} physics ({world.get('speed')})" if world.get("physics") else ""),
         f"started:  {log.header.get('start_time')} ({log.header.get('clock')} clock)",
         f"outcome:  {log.outcome}",
         f"duration: {log.last_t:.3f} s over {log.last_n} ticks",
     ]
     if log.crash:
         lines.append(f"crash:    {log.crash.get('error')}")
+    current = [message for message in log.messages if not message.get("before_run")]
     if log.messages:
-        levels = [message["level"] for message in log.messages]
+        levels = [message["level"] for message in current]
+        history = len(log.messages) - len(current)
         lines.append(
-            "robot:    " + ", ".join(f"{levels.count(level)} {level}" for level in sorted(set(levels)))
+            "robot:    "
+            + ", ".join(
+                [f"{levels.count(level)} {level}" for level in sorted(set(levels))]
+                + ([f"{history} from before this run"] if history else [])
+            )
         )
         lines += [
             f"  {m['t']:8.3f} s  {m['level']:<7}  {message_line(m)}"
-            for m in [m for m in log.messages if m["level"] in ("error", "warning")][-MESSAGES_SHOWN:]
+            for m in [m for m in current if m["level"] in ("error", "warning")][-MESSAGES_SHOWN:]
         ]
     lines += [""] + _table(log, stats, [node["id"] for node in log.nodes])
     ranked = sorted(leaves, key=lambda node: stats[node].running_time, reverse=True)[:slowest]

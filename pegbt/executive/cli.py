@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING
 from pegbt.bagoptions import add_record_arguments, record_options
 from pegbt.errors import PegbtError
 from pegbt.executive.providers import RUN_OPTIONS
-from pegbt.monitor.cli import add_port_option
+from pegbt.monitor.cli import add_no_token_option, add_port_option
 from pegbt.numbers import NumberOption
 from pegbt.stopsignals import stop_signals
 
@@ -72,6 +72,7 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
         "--verbose", action="store_true", help="a line for every leaf that finishes, not only failures"
     )
     add_port_option(run, "--monitor", default=None)
+    add_no_token_option(run)
     add_record_arguments(run)
     _include_option(run)
     for option in RUN_OPTIONS.values():
@@ -193,7 +194,7 @@ def _run(args: argparse.Namespace) -> int:
         world=simulated_world(options, args.clock),
         **record_options(args),
     )
-    monitor = _start_monitor(args.monitor, log_path) if args.monitor is not None else None
+    monitor = _start_monitor(args.monitor, args.no_token, log_path) if args.monitor is not None else None
     try:
         with stop_signals() as received:
             output = run_tree_file(
@@ -226,11 +227,11 @@ def _run(args: argparse.Namespace) -> int:
     return 0 if output.ok else 1
 
 
-def _start_monitor(port: int, log_path: Path) -> LiveMonitor:
+def _start_monitor(port: int, no_token: bool, log_path: Path) -> LiveMonitor:
+    from pegbt.monitor.cli import start_server
     from pegbt.monitor.live import LiveMonitor
-    from pegbt.monitor.server import MonitorServer
 
-    server = MonitorServer(int(port)).start()
+    server = start_server(int(port), no_token)
     print(f"monitor: {server.url}", flush=True)
     return LiveMonitor(server, log_path)
 

@@ -145,9 +145,11 @@ _UNSET = object()
 
 def message_line(message: dict[str, Any]) -> str:
     """A `message` record's `source: text`, the source not repeated where the text opens with it (the dVRK
-    starts its messages with the arm's name: `mtsIntuitiveResearchKitArm.cpp`, `SendError(GetName() + ...)`)."""
+    starts its messages with the arm's name: `mtsIntuitiveResearchKitArm.cpp`, `SendError(GetName() + ...)`);
+    a message the robot had sent before the run (a latched topic's history) says so."""
     source, text = str(message["source"]), str(message["text"])
-    return text if text.startswith(f"{source}: ") else f"{source}: {text}"
+    line = text if text.startswith(f"{source}: ") else f"{source}: {text}"
+    return f"{line} (before this run)" if message.get("before_run") else line
 
 
 def read_tick_log(path: str | Path, *, keep_records: bool = False) -> TickLog:

@@ -212,6 +212,7 @@ def _found_empty(log: TickLog, peg: object, after: int) -> bool:
             seen = _NONE_SEEN.search(change.feedback) if change.after == "FAILURE" else None
             return seen is not None and int(seen.group(1)) == peg
         if node["type"] == "check_placed" and change.after in ("SUCCESS", "FAILURE"):
-            if peg in (node["params"].get("pegs") or []):
+            pegs = node["params"].get("pegs")
+            if isinstance(pegs, list) and peg in pegs:
                 return change.after == "FAILURE" and str(peg) in _EMPTY_PEG.findall(change.feedback)
     return False

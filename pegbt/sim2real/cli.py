@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 
 from pegbt.errors import PegbtError
 from pegbt.numbers import NumberOption
@@ -59,7 +60,7 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
         metavar="R1,...,R6",
         help="what the measurement resolves per joint, in the joints' units (the paper's fiducial set-up: "
         "0.01,0.01,0.0005,0.01,0.01,0.01); effects smaller are listed below resolution, not named "
-        "(default: the recording's meta.json, when it says)",
+        "(default: the recording's meta.json, when it says; else, for a dVRK arm's recording, the paper's)",
     )
     diagnose.set_defaults(handler=_diagnose)
 
@@ -192,15 +193,26 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
 def _diagnose(args: argparse.Namespace) -> int:
     from pegbt.physics.recording import load_recording, parse_resolution
     from pegbt.sim2real.diagnose import diagnose
+    from pegbt.sim2real.practical import PAPER_RESOLUTION
     from pegbt.sim2real.report import ZERO_OFFSET_LABEL, read_named_effects, report_dict, write_report
 
     resolution = None if args.resolution is None else parse_resolution(args.resolution)
     recording = load_recording(args.recording, arm=args.arm, **bag_options(args))
     if args.compare:
         read_named_effects(args.compare)  # refuse a bad report before the work, not after it
+    note = ""
+    if resolution is None and recording.resolution is None and (args.arm or recording.arm) in ARMS:
+        resolution = PAPER_RESOLUTION
+        note = (
+            f"the recording states no resolution: diagnosed at the paper's fiducial tracker's "
+            f"{','.join(f'{r:g}' for r in resolution)} (q1-q6; rad, q3 m); change it with --resolution R1,...,R6"
+        )
+        print(f"pegbt: {note}", file=sys.stderr)
     diagnosis = diagnose(recording, args.sim, args.arm, n_bootstrap=args.bootstrap, resolution=resolution)
     report = (
-        write_report(diagnosis, args.out, args.compare) if args.out else report_dict(diagnosis, args.compare)
+        write_report(diagnosis, args.out, args.compare, resolution_note=note)
+        if args.out
+        else report_dict(diagnosis, args.compare, resolution_note=note)
     )
     if args.json:
         print(json.dumps(report, indent=2))

@@ -15,6 +15,7 @@ REPO = Path(__file__).resolve().parents[2]
 
 @pytest.mark.slow
 def test_world_samples_of_a_simulated_trial_agree_with_the_simulators_truth(tmp_path):
+    from pegbt.executive.runoptions import RunOptions
     from pegbt.executive.session import run_tree_file
     from pegbt.monitor.live import LiveMonitor
     from pegbt.monitor.server import MonitorServer

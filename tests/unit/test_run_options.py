@@ -30,6 +30,9 @@ def test_pegbt_run_records_its_options_in_the_header(tmp_path, capsys):
     assert (run["clock"], run["period"], run["timeout"]) == ("manual", 0.05, 30.0)
     assert run["world"] == {}  # the example tree meets no robot and no simulator
     assert parsed.header["tree"] == str(EXAMPLE) and parsed.header["pegbt"]
+    capsys.readouterr()
+    assert main(["log", "summary", str(log)]) == 0
+    assert "run:      variant example, condition uncalibrated\n" in capsys.readouterr().out
 
 
 def test_a_run_from_code_names_its_variant_and_world(tmp_path):
@@ -58,11 +61,16 @@ def test_a_trial_records_its_cell_and_the_simulator_it_ran_on(tmp_path):
         "speed": "real time",
         "seed": 7,
         "faults": None,
+        "world_effects": None,
     }
+    world_file = str(tmp_path / "soft.yaml")
     lockstep = trial_run_options(
-        TrialSpec("unilateral", "optimized", 3, tmp_path / "u.jsonl"), {"endpoint": "auto", "seed": 3}
+        TrialSpec("unilateral", "optimized", 3, tmp_path / "u.jsonl", world_effects=Path(world_file)),
+        {"endpoint": "auto", "seed": 3, "world-effects": world_file},
     )
-    assert lockstep.record_fields()["run"]["world"]["speed"] == "lockstep"
+    run = lockstep.record_fields()["run"]
+    assert (run["world"]["speed"], run["world"]["world_effects"]) == ("lockstep", world_file)
+    assert run["options"]["world-effects"] == world_file
 
 
 def test_bad_options_are_refused_when_built(tmp_path):

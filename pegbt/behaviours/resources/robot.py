@@ -40,6 +40,8 @@ from pegbt.transport.session import Session, open_session, reaches_anyone
 from pegbt.transport.streaming import Streamer
 from pegbt.transport.ros2 import Ros2Wire, Topic
 from pegbt.transport.wires import make_wire, wire_session_settings
+from pegbt.transport.zivid_camera import POINTS_XYZ as ZIVID_POINTS
+from pegbt.transport.zivid_camera import ZividCamera
 
 SIMULATOR_PHYSICS = "dvrk-real"
 SIMULATOR_ARGS = ("--physics", SIMULATOR_PHYSICS)
@@ -159,21 +161,24 @@ class Robot:
 
 
 def simulated_world(
-    options: Mapping[str, Any], clock: str | None, seed: int | None = None, faults: str | None = None
+    options: Mapping[str, Any], clock: str | None, started: Mapping[str, Any] | None = None
 ) -> dict[str, Any]:
     """What a tick log's header records of the world a run meets (`RunOptions.world`): for a simulator
-    started for the run (`--endpoint auto` with pegbt's interface, or `seed` given: one the caller
-    started), its physics, speed (lockstep, or real time with `--clock`), seed and fault plan; nothing
-    for an endpoint at an address (a robot, or a simulator that knows its own)."""
+    started for the run (`--endpoint auto` with pegbt's interface, as `options` say; or one the caller
+    started, with the `seed`, `faults` and `world-effects` of `started`), its physics, speed (lockstep, or
+    real time with `--clock`), seed, fault plan and world file; nothing for an endpoint at an address (a
+    robot, or a simulator that knows its own)."""
     embedded = options.get("interface", "pegbt") == "pegbt" and options.get("endpoint", "auto") == "auto"
-    if not embedded and seed is None:
+    if not embedded and started is None:
         return {}
+    given = options if started is None else started
     return {
         "simulator": "embedded" if embedded else "pegbt sim",
         "physics": SIMULATOR_PHYSICS,
         "speed": "lockstep" if clock is None else "real time",
-        "seed": int(options.get("seed") or 0) if seed is None else seed,
-        "faults": options.get("faults") if faults is None else faults,
+        "seed": int(given.get("seed") or 0),
+        "faults": given.get("faults"),
+        "world_effects": given.get("world-effects"),
     }
 
 
@@ -280,16 +285,21 @@ def connect_crtk_robot(
     liveness: float = LIVENESS_S,
     ros2: str = "bridge",
     simlog: str | None = None,
+    camera_kind: str = "stream",
+    speed: float = 1.0,
 ) -> Robot:
     """A `Robot` of CRTK arms at `endpoint` (a zenoh-bridge-ros2dds, a `pegbt sim --interface dvrk`), its
-    arms enabled and homed, limits narrowed by the dVRK's `robot_config` folder when given."""
+    arms enabled and homed, limits narrowed by the dVRK's `robot_config` folder when given; its camera
+    streams on the topic `camera`, or for `camera_kind` zivid is a Zivid driver's capture service; the jaw's
+    streamed ramps at `speed` of its velocity (`ArmSettings.at_speed`)."""
     if endpoint == "auto":
         raise PegbtError(
             "--interface dvrk talks to a robot: give its bridge's address (--endpoint tcp/HOST:PORT)",
             field="--endpoint",
         )
     check_namespace(namespace, "--namespace")
-    settings = {arm: robot_arm_settings(arm, robot_config, robot_tool) for arm in ARMS}
+    speed = checked_number(speed, "--speed", above=0.0, at_most=1.0)
+    settings = {arm: robot_arm_settings(arm, robot_config, robot_tool).at_speed(speed) for arm in ARMS}
     period = min(arm.control_period for arm in settings.values())
     session = open_session(wire_session_settings(ros2, [endpoint]))
     try:
@@ -306,9 +316,14 @@ def connect_crtk_robot(
             )
             for arm in ARMS
         }
+        depth_camera: StreamingCamera | ZividCamera = (
+            ZividCamera(wire, clock=clock)
+            if camera_kind == "zivid"
+            else StreamingCamera(wire, point_cloud_topic(camera), clock=clock)
+        )
         robot = Robot(
             arms,
-            StreamingCamera(wire, point_cloud_topic(camera), clock=clock),
+            depth_camera,
             clock,
             endpoint=endpoint,
             truth=SimulatorLogTruth(simlog) if simlog else None,
@@ -318,7 +333,7 @@ def connect_crtk_robot(
         robot.wire = wire  # what a recording listens to (`pegbt run --record`)
         robot.ros2_topics = (
             *(topic for arm in ARMS for topic in (*PsmTopics(arm).published(), *PsmTopics(arm).subscribed())),
-            point_cloud_topic(camera),
+            *((ZIVID_POINTS,) if camera_kind == "zivid" else (point_cloud_topic(camera),)),
         )
         try:
             robot.wait_until_ready()
@@ -359,8 +374,8 @@ def _robot_silent(
 
 def provide_robot(setup: ProviderSetup) -> Robot:
     """The `robot` resource for `pegbt run` (options `interface`, `endpoint`, `seed`, `faults`,
-    `world-effects`, `simlog`;
-    for `dvrk` also `namespace`, `ros2`, `robot-config`, `robot-tool`, `camera-topic`). `--clock` may only
+    `world-effects`, `simlog`; for `dvrk` also `namespace`, `ros2`, `robot-config`, `robot-tool`, `camera`,
+    `camera-topic`, `speed`). `--clock` may only
     ask for a clock in real time (the robot's time passes on its own): `--clock wall` runs the embedded
     simulator in real time."""
     options = setup.options
@@ -387,6 +402,8 @@ def provide_robot(setup: ProviderSetup) -> Robot:
             checked_number(float(options.get("liveness") or LIVENESS_S), "--liveness", above=0.0),
             ros2=str(options.get("ros2") or "bridge"),
             simlog=options.get("simlog"),
+            camera_kind=str(options.get("camera") or "stream"),
+            speed=1.0 if options.get("speed") is None else float(options["speed"]),
         )
     return connect_robot(
         str(options.get("endpoint") or "auto"),
