@@ -76,3 +76,14 @@ def test_the_default_world_names_nothing():
     outcomes = _outcomes(WorldEffects(), seed=11)
     d = diagnose(outcomes, Settings(fit="all", transfers=200, points=5), fake_mapper)
     assert d.verdict.named == () and d.verdict.tied == ()
+
+
+def test_transfers_lost_to_perception_are_left_out_of_the_likelihood():
+    from pegbt.sim2real.outcomes.likelihood import log_likelihood
+    from pegbt.sim2real.outcomes.simulate import SimCounts
+
+    sim = SimCounts()
+    sim.counts.update(placed=3, lift=20, grasp=5)
+    seen = Cell("unilateral", "uncalibrated", 28, 11, failures={"grasp": 5, "lower": 12})
+    blind = Cell("unilateral", "uncalibrated", 36, 11, failures={"grasp": 5, "lower": 12, "sense": 8})
+    assert log_likelihood(blind, sim) == log_likelihood(seen, sim)
