@@ -26,6 +26,7 @@ BENCHMARKS: dict[str, str] = {
     "motion": "pegbt.bench.motion:run",
     "sim2real": "pegbt.bench.sim2real:run",
     "sim2real-real": "pegbt.bench.sim2real_real:run",
+    "sim2real-outcomes": "pegbt.bench.sim2real_outcomes:run",
     "eval": "pegbt.bench.eval:run",
     "monitor": "pegbt.bench.monitor:run",
     "monitor-limits": "pegbt.bench.monitor_limits:run",

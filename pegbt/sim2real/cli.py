@@ -121,14 +121,72 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
 
     outcomes = commands.add_parser(
         "outcomes",
-        help="task-level sim to real: the world effects the simulator can add",
-        description="--effects lists the registered world effects (pegbt sim --world-effects) with their "
-        "parameters, units, ranges and inert defaults.",
+        help="task-level sim to real: where trial outcomes disagree, the world effects that explain it",
+        description="REAL is a folder of tick logs of real runs (their headers say variant and condition), or an "
+        "outcome table (YAML or CSV: variant, condition, attempted, succeeded, optional mean_transfer_s and "
+        "failures per phase); --table paper uses the reference paper's Tables II-IV. Locates the cells and phases "
+        "where real and simulated outcomes disagree, names the world effects that explain it, writes the fitted "
+        "world file, and predicts the cells the fit did not see (--fit). --effects lists the registered world "
+        "effects (pegbt sim --world-effects) with their parameters, units, ranges and inert defaults.",
     )
+    outcomes.add_argument("real", metavar="REAL", nargs="?", help="tick-log folder or outcome table")
+    outcomes.add_argument("--table", choices=("paper",), help="a built-in outcome table instead of REAL")
     outcomes.add_argument(
         "--effects", action="store_true", help="list the registered world effects and their parameters"
     )
-    outcomes.add_argument("--json", action="store_true", help="print the listing as JSON")
+    outcomes.add_argument("--json", action="store_true", help="print the listing (or report.json) as JSON")
+    outcomes.add_argument(
+        "--out", metavar="DIR", help="write report.json, report.md, outcomes.png, world.yaml here"
+    )
+    outcomes.add_argument(
+        "--fit",
+        default="all",
+        metavar="all|VARIANT|CONDITION",
+        help="fit on these cells and predict the others (default: all, nothing held out)",
+    )
+    outcomes.add_argument(
+        "--transfers",
+        action=NumberOption,
+        type=int,
+        at_least=2,
+        default=16,
+        help="simulated transfers per cell and world (default 16)",
+    )
+    outcomes.add_argument(
+        "--located",
+        action=NumberOption,
+        type=int,
+        at_least=2,
+        default=48,
+        help="simulated transfers per cell in the default world, the comparison every cell is located by (default 48)",
+    )
+    outcomes.add_argument(
+        "--points",
+        action=NumberOption,
+        type=int,
+        at_least=2,
+        default=5,
+        help="grid values per fitted parameter (default 5, plus one)",
+    )
+    outcomes.add_argument(
+        "--workers",
+        action=NumberOption,
+        type=int,
+        at_least=0,
+        default=2,
+        help="local worker processes (0: none)",
+    )
+    outcomes.add_argument("--cluster", metavar="ADDRESS", help="simulate on this Dask scheduler instead")
+    outcomes.add_argument(
+        "--confirm",
+        action=NumberOption,
+        type=int,
+        at_least=0,
+        default=0,
+        metavar="TRIALS",
+        help="then run TRIALS whole trials per cell in each fitted world (pegbt eval --world-effects) and "
+        "report them beside the prediction (default 0: none)",
+    )
     outcomes.set_defaults(handler=_outcomes)
 
 
@@ -191,10 +249,16 @@ def _diagnose(args: argparse.Namespace) -> int:
 def _outcomes(args: argparse.Namespace) -> int:
     from pegbt.sim2real.world_listing import listing_json, listing_text
 
-    if not args.effects:
-        raise PegbtError("say what to do: --effects lists the world effects", field="outcomes")
-    print(listing_json() if args.json else listing_text())
-    return 0
+    if args.effects:
+        print(listing_json() if args.json else listing_text())
+        return 0
+    if (args.real is None) == (args.table is None):
+        raise PegbtError(
+            "give REAL (a tick-log folder or an outcome table) or --table paper", field="outcomes"
+        )
+    from pegbt.sim2real.outcomes.cli import run_outcomes
+
+    return run_outcomes(args)
 
 
 def _preset(args: argparse.Namespace) -> int:

@@ -1,0 +1,107 @@
+"""`pegbt bench sim2real-outcomes`: does the task-level tool find world effects it was not told about?
+
+Per family (each world effect alone, two together, none) and seed, "real" outcomes are made by the phase
+simulator in a world with the family's concealed effects, on seeds the fit never uses, with the phase of
+each failure (what tick logs give); `pegbt sim2real outcomes` then fits them on the unilateral cells and
+predicts the bilateral and handover cells. Figures per family: how often every concealed effect is named
+(naming rate), how often something else is (false discoveries), the median relative error of the fitted
+parameters, and the share of held-out cells inside their 95 % predictive interval.
+"""
+
+from __future__ import annotations
+
+import statistics
+import time
+from collections.abc import Mapping, Sequence
+
+from pegbt.sim.world_effects import WorldEffects
+from pegbt.sim2real.outcomes.cells import Cell, Outcomes
+from pegbt.sim2real.outcomes.diagnose import Diagnosis, Settings, diagnose
+from pegbt.sim2real.outcomes.simulate import CATEGORIES, LocalMapper, Mapper, simulate_cells
+
+FAMILIES: dict[str, dict[str, dict[str, float]]] = {
+    "peg_compliance": {"peg_compliance": {"deflection": 0.0015}},
+    "chamfer_capture": {"chamfer_capture": {"capture_radius": 0.0032}},
+    "grip_compliance": {"grip_compliance": {"displacement": 0.0015}},
+    "registration_offset": {"registration_offset": {"x": 0.002}},
+    "peg_and_chamfer": {
+        "peg_compliance": {"deflection": 0.0015},
+        "chamfer_capture": {"capture_radius": 0.0032},
+    },
+    "null": {},
+}
+CELLS = [(v, c) for v in ("unilateral", "bilateral", "handover") for c in ("uncalibrated", "calibrated")]
+SEEDS = 5
+REAL_TRANSFERS = 40  # "real" transfers per cell
+SETTINGS = Settings(fit="unilateral", transfers=12, points=4)
+REAL_SEED = 100_000  # the real runs' seeds start here, far from the fit's
+
+
+def concealed_outcomes(mapper: Mapper, hidden: WorldEffects, seed: int, transfers: int) -> Outcomes:
+    """Cells of `transfers` transfers in the `hidden` world, with the phase of each failure."""
+    sims = simulate_cells(mapper, [hidden], CELLS, transfers, first_seed=REAL_SEED + 1000 * seed)[0]
+    cells = tuple(
+        Cell(
+            v, c, s.attempted, s.succeeded, s.seconds, {k: s.counts[k] for k in CATEGORIES[1:] if s.counts[k]}
+        )
+        for (v, c), s in sims.items()
+    )
+    return Outcomes(cells, f"concealed world, seed {seed}")
+
+
+def score(d: Diagnosis, hidden: Mapping[str, Mapping[str, float]]) -> dict[str, float]:
+    """Whether every concealed kind was named, whether another was, the fitted parameters' relative errors
+    (median) and the share of held-out cells inside their predictive intervals."""
+    named = {p.candidate.kind: p for p in d.verdict.named}
+    errors = [
+        abs(p.value - hidden[kind][p.candidate.parameter]) / abs(hidden[kind][p.candidate.parameter])
+        for kind, p in named.items()
+        if kind in hidden and p.candidate.parameter in hidden[kind]
+    ]
+    inside = [d.predictions[c.key].inside for c in d.held_out]
+    return {
+        "named": float(bool(hidden) and set(hidden) <= set(named)),
+        "false": float(bool(set(named) - set(hidden))),
+        "error": statistics.median(errors) if errors else float("nan"),
+        "inside": sum(inside) / len(inside) if inside else float("nan"),
+    }
+
+
+def measure(
+    families: Sequence[str], seeds: int, real_transfers: int, settings: Settings, workers: int = 2
+) -> dict[str, float | int | str]:
+    """The figures of `families` over `seeds` seeds each."""
+    mapper = LocalMapper(workers)
+    figures: dict[str, float | int | str] = {}
+    started = time.monotonic()
+    try:
+        for family in families:
+            hidden = FAMILIES[family]
+            scores = [
+                score(
+                    diagnose(
+                        concealed_outcomes(mapper, WorldEffects.of(hidden), seed, real_transfers),
+                        settings,
+                        mapper,
+                    ),
+                    hidden,
+                )
+                for seed in range(seeds)
+            ]
+            for name in ("named", "false", "inside"):
+                figures[f"{family}_{name}"] = statistics.mean(s[name] for s in scores)
+            errors = [s["error"] for s in scores if s["error"] == s["error"]]
+            figures[f"{family}_parameter_error_median"] = (
+                statistics.median(errors) if errors else "none named"
+            )
+    finally:
+        mapper.close()
+    figures["seeds_per_family"] = seeds
+    figures["real_transfers_per_cell"] = real_transfers
+    figures["simulated_transfers_per_cell"] = settings.transfers
+    figures["wall_s"] = time.monotonic() - started
+    return figures
+
+
+def run() -> dict[str, float | int | str]:
+    return measure(list(FAMILIES), SEEDS, REAL_TRANSFERS, SETTINGS)

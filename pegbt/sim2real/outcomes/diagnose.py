@@ -1,0 +1,172 @@
+"""The whole diagnosis of one set of real outcomes: locate, name, model, prove."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from pegbt.errors import PegbtError
+from pegbt.sim.world_effects import WorldEffects
+from pegbt.sim2real.outcomes.cells import CONDITIONS, VARIANTS, Cell, Outcomes
+from pegbt.sim2real.outcomes.fit import Profile, Verdict, fit
+from pegbt.sim2real.outcomes.locate import Row, locate
+from pegbt.sim2real.outcomes.predict import Prediction, predict, predict_null
+from pegbt.sim2real.outcomes.likelihood import log_likelihood
+from pegbt.sim2real.outcomes.phasesim import TransferResult
+from pegbt.sim2real.outcomes.simulate import Key, Mapper, SimCounts, Task, simulate_cells
+
+
+CLOSE = 0.05  # real and simulated rates this close need no more simulated transfers to be compared
+
+
+@dataclass(frozen=True)
+class Settings:
+    """`fit`: which cells the fit sees (`all`, a variant or a condition); the rest are predicted.
+    `transfers`: simulated transfers per cell and world in the fit; `located`: in the default world, which
+    every comparison is against (more, so a disagreement is seen); `points`: grid values per parameter."""
+
+    fit: str = "all"
+    transfers: int = 16
+    located: int = 48
+    points: int = 5
+    phases: bool = True
+
+
+@dataclass
+class Diagnosis:
+    outcomes: Outcomes
+    settings: Settings
+    fit_cells: tuple[Cell, ...]
+    held_out: tuple[Cell, ...]
+    before: dict[Key, SimCounts]
+    rows: list[Row]
+    verdict: Verdict
+    predictions: dict[Key, Prediction]
+    predicted_by: dict[str, dict[Key, Prediction]] = field(default_factory=dict)
+    remaining: list[Row] = field(default_factory=list)  # fit cells' rows at the fitted world
+    seconds: float = 0.0
+    simulated: int = 0
+
+    @property
+    def unexplained(self) -> list[Row]:
+        """Fit-cell rows that still disagree beyond chance once the fitted world is simulated."""
+        return [row for row in self.remaining if row.disagrees]
+
+    def world(self) -> WorldEffects:
+        return self.verdict.world()
+
+
+def split(cells: Sequence[Cell], fit_on: str) -> tuple[tuple[Cell, ...], tuple[Cell, ...]]:
+    """The cells the fit sees (`fit_on`: all, a variant or a condition) and the rest."""
+    if fit_on not in ("all", *VARIANTS, *CONDITIONS):
+        raise PegbtError(
+            f"expected all, a variant ({', '.join(VARIANTS)}) or a condition ({', '.join(CONDITIONS)}), got {fit_on!r}",
+            field="--fit",
+        )
+    seen = tuple(c for c in cells if fit_on in ("all", c.variant, c.condition))
+    if not seen:
+        raise PegbtError(f"no cell of the outcomes is {fit_on}: nothing to fit on", field="--fit")
+    return seen, tuple(c for c in cells if c not in seen)
+
+
+class _Counting:
+    """A mapper that counts the transfers it simulated, telling `progress` after each batch."""
+
+    def __init__(self, mapper: Mapper, progress: Callable[[str], None] | None) -> None:
+        self.mapper, self.count, self.progress = mapper, 0, progress
+        self.started = time.monotonic()
+
+    def __call__(self, tasks: Sequence[Task]) -> list[TransferResult]:
+        results = self.mapper(tasks)
+        self.count += len(tasks)
+        if self.progress is not None:
+            self.progress(f"{self.count} transfers simulated ({time.monotonic() - self.started:.0f} s)")
+        return results
+
+
+def diagnose(
+    outcomes: Outcomes, settings: Settings, mapper: Mapper, progress: Callable[[str], None] | None = None
+) -> Diagnosis:
+    """Locate, name and fit on the fit cells, then predict every cell with the fitted world(s)."""
+    started = time.monotonic()
+    counting = _Counting(mapper, progress)
+    cells = outcomes.cells
+    fit_cells, held_out = split(cells, settings.fit)
+    before = _located(counting, cells, fit_cells, settings)
+    rows = locate(cells, before)
+    flagged = [r for r in locate(fit_cells, before) if r.disagrees]  # chance judged over the fit cells alone
+    if flagged:
+        phased = settings.phases and any(r.phase for r in rows)
+        disagreeing = frozenset(r.phase for r in flagged if r.phase) if phased else None
+        loud = {(r.variant, r.condition) for r in flagged}
+        ordered = [c for c in fit_cells if c.key in loud] + [c for c in fit_cells if c.key not in loud]
+        verdict = fit(
+            counting,
+            ordered,
+            before,
+            settings.transfers,
+            settings.points,
+            settings.phases,
+            disagreeing or None,
+            len(loud),
+        )
+        fit_cells = tuple(ordered)
+    else:
+        verdict = Verdict((), (), (), _null(fit_cells, before, settings.phases), ())
+    predicted_by: dict[str, dict[Key, Prediction]] = {}
+    if verdict.named:
+        predictions, _ = predict(counting, [verdict.named[-1]], cells, settings.transfers)
+    elif verdict.tied:
+        predictions, each = predict(counting, list(verdict.tied), cells, settings.transfers)
+        predicted_by = {tied.candidate.name: alone for tied, alone in zip(verdict.tied, each)}
+    else:
+        predictions = predict_null(before, cells)
+    after = {key: p.at_best for key, p in predictions.items()}
+    remaining = locate(fit_cells, after) if verdict.named else []
+    return Diagnosis(
+        outcomes,
+        settings,
+        fit_cells,
+        held_out,
+        before,
+        rows,
+        verdict,
+        predictions,
+        predicted_by,
+        remaining,
+        time.monotonic() - started,
+        counting.count,
+    )
+
+
+def _located(
+    mapper: Mapper, cells: Sequence[Cell], fit_cells: Sequence[Cell], settings: Settings
+) -> dict[Key, SimCounts]:
+    """The default world's transfers per cell: `transfers` each, and for a fit cell whose real rate is more
+    than `CLOSE` away (where the fit may start), topped up to `located`."""
+    keys = [c.key for c in cells]
+    before = simulate_cells(mapper, [WorldEffects()], keys, settings.transfers)[0]
+    far = [c.key for c in fit_cells if abs(c.rate - before[c.key].rate) > CLOSE]
+    extra = settings.located - settings.transfers
+    if far and extra > 0:
+        more = simulate_cells(mapper, [WorldEffects()], far, extra, first_seed=settings.transfers)[0]
+        for key, counts in more.items():
+            for category, n in counts.counts.items():
+                before[key].counts[category] += n
+            total = before[key].attempted
+            before[key].seconds = (before[key].seconds * (total - extra) + counts.seconds * extra) / total
+    return before
+
+
+def _null(cells: Sequence[Cell], before: dict[Key, SimCounts], phases: bool) -> np.ndarray:
+    return np.array([log_likelihood(c, before[c.key], phases) for c in cells])
+
+
+def profile_parameters(fitted: Profile) -> tuple[dict[str, float], dict[str, list[float]]]:
+    """The fitted effect's parameters (all, defaults filled in) and the interval of the one fitted."""
+    effect = next(e for e in fitted.world() if e.kind == fitted.candidate.kind)
+    low, high = fitted.interval()
+    return dict(effect.values), {fitted.candidate.parameter: [low, high]}

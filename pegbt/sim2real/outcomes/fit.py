@@ -1,0 +1,233 @@
+"""Name and fit the world effects that explain where real outcomes disagree with the simulator's.
+
+Each registered world effect is a candidate through the parameters that make it act (`FITTED`): the
+fit cells are simulated on a grid of each parameter's range (the same seeds at every value) and the real
+counts weigh each value (`likelihood`). An effect is named only if it fits the fit cells better than the
+default world beyond chance (likelihood ratio, χ² at 95 %) and improves the held-out fit (each fit cell
+predicted from the others, leave-one-out); two effects the data cannot tell apart (log-likelihoods within
+`TIE`) are reported as such and neither is named; a second effect is added to the first only if the pair
+again passes both tests.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import stats
+from scipy.special import logsumexp
+
+from pegbt.sim.world_effects import WORLD_EFFECT_KINDS, WorldEffects
+from pegbt.sim2real.outcomes.cells import Cell
+from pegbt.sim2real.outcomes.likelihood import log_likelihood
+from pegbt.sim2real.outcomes.simulate import Key, Mapper, SimCounts, simulate_cells
+
+# The parameters fitted per kind: one dimension each, the others at their defaults. Registration is
+# fitted per axis of the board (z moves a grasp along the tool, which the bite tolerates).
+FITTED: dict[str, tuple[str, ...]] = {
+    "peg_compliance": ("deflection",),
+    "chamfer_capture": ("capture_radius",),
+    "grip_compliance": ("displacement", "angle"),
+    "jaw_friction": ("max_load",),
+    "registration_offset": ("x", "y"),
+    "depth_bias": ("bias",),
+}
+# The phases each kind can change an outcome in: with failures per phase, a candidate is simulated only if
+# the real and simulated rates disagree in one of its phases (a kind that cannot act there cannot explain it).
+PHASES_OF: dict[str, frozenset[str]] = {
+    "peg_compliance": frozenset({"lift", "lower"}),
+    "chamfer_capture": frozenset({"lower", "release"}),
+    "grip_compliance": frozenset({"lift", "carry", "lower"}),
+    "jaw_friction": frozenset({"lift", "carry", "handover", "lower"}),
+    "registration_offset": frozenset({"grasp", "lift", "handover", "lower", "release"}),
+    "depth_bias": frozenset({"grasp", "lift", "handover", "lower", "release"}),
+}
+LR_95 = float(stats.chi2.ppf(0.95, 1))  # one fitted parameter
+TIE = 1.0  # log-likelihoods closer than this: the data do not tell the two effects apart
+
+
+@dataclass(frozen=True)
+class Candidate:
+    """One parameter of one world effect, and the grid of values it is simulated at."""
+
+    kind: str
+    parameter: str
+    grid: tuple[float, ...]
+
+    @property
+    def name(self) -> str:
+        return f"{self.kind}.{self.parameter}"
+
+    def world(self, value: float, base: WorldEffects = WorldEffects()) -> WorldEffects:
+        """`base` with this parameter set to `value` (a second effect joins the first)."""
+        effects = {effect.kind: dict(effect.values) for effect in base}
+        effects.setdefault(self.kind, {})[self.parameter] = value
+        return WorldEffects.of(effects)
+
+
+def candidates(points: int) -> list[Candidate]:
+    """Every fitted parameter of every registered kind on `points` + 1 values spanning its range, less its
+    inert default (log-spaced where the range spans decades)."""
+    out = []
+    for kind, names in FITTED.items():
+        if kind not in WORLD_EFFECT_KINDS:
+            continue
+        for name in names:
+            p = WORLD_EFFECT_KINDS[kind].parameters[name]
+            if p.low > 0 and p.high / p.low > 100:
+                values = np.geomspace(p.low, p.high, points + 1)
+            else:
+                values = np.linspace(p.low, p.high, points + 1)
+            grid = tuple(float(v) for v in values if not math.isclose(v, p.default, abs_tol=1e-12))
+            out.append(Candidate(kind, name, grid))
+    return out
+
+
+@dataclass
+class Profile:
+    """A candidate's fit: the simulated fit cells and the log-likelihood at each grid value."""
+
+    candidate: Candidate
+    values: tuple[float, ...]
+    sims: list[dict[Key, SimCounts]]
+    per_cell: np.ndarray  # (values, cells) log-likelihoods
+    base: WorldEffects = WorldEffects()
+
+    @property
+    def total(self) -> np.ndarray:
+        return self.per_cell.sum(axis=1)
+
+    @property
+    def best(self) -> int:
+        return int(np.argmax(self.total))
+
+    @property
+    def value(self) -> float:
+        return self.values[self.best]
+
+    def weights(self, without: int | None = None) -> np.ndarray:
+        """Posterior weights of the grid values (flat prior), leaving out fit cell `without` if given."""
+        total = self.total if without is None else self.total - self.per_cell[:, without]
+        return np.exp(total - logsumexp(total))
+
+    def interval(self) -> tuple[float, float]:
+        """The values within the 95 % likelihood-ratio bound of the best (the grid's resolution)."""
+        inside = [v for v, t in zip(self.values, self.total) if 2 * (self.total.max() - t) <= LR_95]
+        return min(inside), max(inside)
+
+    def world(self) -> WorldEffects:
+        return self.candidate.world(self.value, self.base)
+
+
+@dataclass(frozen=True)
+class Verdict:
+    """What the fit found: the profiles named, tied (indistinguishable), tried, and the null's fit."""
+
+    named: tuple[Profile, ...]
+    tied: tuple[Profile, ...]
+    tried: tuple[Profile, ...]
+    null: np.ndarray  # (cells,) the default world's log-likelihood per fit cell
+    passing: tuple[str, ...]  # candidates that passed both tests on their own
+
+    def world(self) -> WorldEffects:
+        """The fitted world (the last named profile holds every named effect)."""
+        return self.named[-1].world() if self.named else WorldEffects()
+
+
+def profile(
+    mapper: Mapper,
+    candidate: Candidate,
+    cells: Sequence[Cell],
+    transfers: int,
+    null: np.ndarray,
+    informative: int,
+    base: WorldEffects = WorldEffects(),
+    phases: bool = True,
+) -> Profile:
+    """Simulate the fit `cells` at every grid value of `candidate` (on top of `base`) and weigh each. The
+    first `informative` cells (those that disagree) get `transfers` each; the others, which agree with the
+    default world, are simulated (with a third as many) only for a candidate that fits the informative
+    ones beyond chance, and otherwise keep the default world's likelihood, which they agree with."""
+    worlds = [candidate.world(v, base) for v in candidate.grid]
+    loud, quiet = list(cells[:informative]), list(cells[informative:])
+    sims = simulate_cells(mapper, worlds, [c.key for c in loud], transfers)
+    per_cell = np.array([[log_likelihood(c, sim[c.key], phases) for c in loud] for sim in sims])
+    rest = np.tile(null[informative:], (len(worlds), 1))
+    if quiet and 2 * (per_cell.sum(axis=1).max() - null[:informative].sum()) >= LR_95:
+        more = simulate_cells(mapper, worlds, [c.key for c in quiet], max(2, transfers // 3))
+        rest = np.array([[log_likelihood(c, sim[c.key], phases) for c in quiet] for sim in more])
+        sims = [{**a, **b} for a, b in zip(sims, more)]
+    return Profile(candidate, candidate.grid, sims, np.hstack([per_cell, rest]), base)
+
+
+def loo_gain(fitted: Profile, null: np.ndarray) -> float:
+    """How much better each fit cell is predicted from the other fit cells than by the null (log units)."""
+    gain = 0.0
+    for index in range(fitted.per_cell.shape[1]):
+        weights = fitted.weights(without=index)
+        predicted = logsumexp(fitted.per_cell[:, index], b=weights)
+        gain += float(predicted - null[index])
+    return gain
+
+
+def passes(fitted: Profile, null: np.ndarray) -> bool:
+    """Better than `null` beyond chance on the fit cells, and on each fit cell held out in turn."""
+    return 2 * (fitted.total.max() - null.sum()) >= LR_95 and loo_gain(fitted, null) > 0
+
+
+def fit(
+    mapper: Mapper,
+    cells: Sequence[Cell],
+    null_sims: dict[Key, SimCounts],
+    transfers: int,
+    points: int,
+    phases: bool = True,
+    disagreeing: frozenset[str] | None = None,
+    informative: int | None = None,
+) -> Verdict:
+    """Profile every candidate (only those that can act in a `disagreeing` phase, when phases are known)
+    on the fit `cells` (the first `informative` of them disagree; all, if not given); name the best that
+    passes unless another ties with it; then try a second effect beside a named one."""
+    informative = len(cells) if informative is None else informative
+    null = np.array([log_likelihood(c, null_sims[c.key], phases) for c in cells])
+    tried = [
+        profile(mapper, candidate, cells, transfers, null, informative, phases=phases)
+        for candidate in candidates(points)
+        if disagreeing is None or PHASES_OF.get(candidate.kind, disagreeing) & disagreeing
+    ]
+    passing = sorted((p for p in tried if passes(p, null)), key=lambda p: -p.total.max())
+    if not passing:
+        return Verdict((), (), tuple(tried), null, ())
+    best = passing[0]
+    rivals = [
+        p
+        for p in passing[1:]
+        if p.candidate.kind != best.candidate.kind and best.total.max() - p.total.max() < TIE
+    ]
+    names = tuple(p.candidate.name for p in passing)
+    if rivals:
+        return Verdict((), (best, *rivals), tuple(tried), null, names)
+    named = [best]
+    second = [p for p in passing if p.candidate.kind != best.candidate.kind]
+    for other in second[:2]:
+        pair = profile(
+            mapper,
+            other.candidate,
+            cells,
+            transfers,
+            best.per_cell[best.best],
+            informative,
+            best.world(),
+            phases,
+        )
+        if passes(pair, best.per_cell[best.best]) and not _ties_alone(pair, other):
+            named.append(pair)
+            break
+    return Verdict(tuple(named), (), tuple(tried), null, names)
+
+
+def _ties_alone(pair: Profile, alone: Profile) -> bool:
+    """Whether the second effect alone explains the data as well as the pair (the first adds nothing)."""
+    return pair.total.max() - alone.total.max() < TIE

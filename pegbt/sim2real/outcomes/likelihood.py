@@ -1,0 +1,55 @@
+"""How likely the real counts of a cell are under a simulated world, simulation noise included.
+
+With failures per phase (tick logs, a table that gives them) a cell is a multinomial over `CATEGORIES`
+(placed, or failed first in a phase) and the simulated counts give it a Dirichlet posterior (Jeffreys);
+with only attempted and succeeded it is the beta-binomial of the same. Phases tell apart effects that act
+on different phases (a bending peg on the lift, chamfers on the lowering); a bare count cannot.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy import stats
+
+from pegbt.sim2real.outcomes.cells import Cell
+from pegbt.sim2real.outcomes.intervals import count_log_likelihood
+from pegbt.sim2real.outcomes.simulate import CATEGORIES, SimCounts
+
+
+UNSIMULATED = (
+    "sense",
+)  # the phase simulator hands the executive what perception would see: never lost there
+
+
+def simulated_part(cell: Cell) -> Cell:
+    """The cell without the transfers lost in phases the phase simulator does not model (perception's)."""
+    lost = sum(cell.failures.get(phase, 0) for phase in UNSIMULATED)
+    if not lost:
+        return cell
+    failures = {phase: n for phase, n in cell.failures.items() if phase not in UNSIMULATED}
+    return Cell(
+        cell.variant, cell.condition, cell.attempted - lost, cell.succeeded, cell.mean_transfer_s, failures
+    )
+
+
+def has_phases(cell: Cell) -> bool:
+    """Whether `cell` says where every failed transfer failed (in phases the simulator tells apart)."""
+    known = set(cell.failures) <= set(CATEGORIES[1:])
+    return bool(cell.failures) and known and sum(cell.failures.values()) == cell.attempted - cell.succeeded
+
+
+def real_vector(cell: Cell) -> np.ndarray:
+    """The cell's counts per category (placed first)."""
+    return np.array([cell.succeeded, *(cell.failures.get(c, 0) for c in CATEGORIES[1:])], dtype=float)
+
+
+def log_likelihood(cell: Cell, sim: SimCounts, phases: bool = True) -> float:
+    """log P(the cell's real counts | `sim`), by phase when the cell has them and `phases`; transfers lost
+    where the simulator does not look (`UNSIMULATED`) are left out of both."""
+    cell = simulated_part(cell)
+    if cell.attempted == 0:
+        return 0.0
+    if phases and has_phases(cell):
+        alpha = sim.vector() + 0.5
+        return float(stats.dirichlet_multinomial.logpmf(real_vector(cell), alpha, np.array(cell.attempted)))
+    return count_log_likelihood(cell.succeeded, cell.attempted, sim.succeeded, sim.attempted)

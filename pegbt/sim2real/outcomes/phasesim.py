@@ -1,0 +1,349 @@
+"""One transfer's phases simulated directly on the world: no zenoh, no tree, no camera.
+
+An arm with the fitted cable physics (`dvrk-real`, `pegbt.sim.arm.SimArm`) plays the commands the
+executive's `ArmMotion` would send under the condition (rest-to-rest cubics as planned, or pre-compensated
+by the simulator's calibration models, or the optimised plan), and each control tick the world sees the tool
+where the physical joints put it, as `pegbt.sim.scene.Scene.update` does: descend onto the grasp, close,
+lift off the peg, carry, lower onto the goal peg, open. What perception would have seen is the block's
+pose with its noise (`PERCEPTION_SD`), displaced as the camera's world effects displace what it sees
+(`seen_point`); the arms stand where the world's registration offset puts them (`World.arm_to_board`). The phase of a failure is read from the world's events here (this is
+the simulator's side, where the truth is known).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import cache
+
+import numpy as np
+from numpy.typing import NDArray
+
+from pegbt.behaviours.resources.arm_motion import ArmMotion
+from pegbt.behaviours.resources.skills import SIMULATOR_CALIBRATION, Skills
+from pegbt.behaviours.actions.handover import Meeting, plan_meeting
+from pegbt.behaviours.poses import approach_for, from_handover, to_handover, transfer_for
+from pegbt.errors import PegbtError
+from pegbt.frames import yaw_of
+from pegbt.motion.ik import inverse_kinematics
+from pegbt.motion.settings import motion_settings
+from pegbt.motion.trajectory import Trajectory
+from pegbt.perception.blocks import BlockEstimate
+from pegbt.physics import ArmPhysics
+from pegbt.sim.arm import DEFAULT_JOINTS, SimArm
+from pegbt.sim.events import Event
+from pegbt.sim.tools import ToolState, wrist_give
+from pegbt.sim.world import World
+from pegbt.sim.world_effects import WorldEffects
+from pegbt.sim2real.outcomes.cells import PHASES
+
+PHYSICS = "dvrk-real"  # the arm as fitted on the real recordings: never refitted here
+PERCEPTION_SD = 0.0003  # m per axis: the block's position as perception fits it (0.3 mm depth noise)
+START = np.array(
+    DEFAULT_JOINTS
+)  # each arm comes from where the simulator starts it, its cables at rest there
+REGRASPS = 3  # recoveries before a transfer is given up (`trees/shared/one_transfer.yaml`)
+SETTLE_S = 0.1  # s at rest after each motion: the executive starts the next leaf a tick or two later
+
+# Forward transfers (arm, start peg, goal peg) of each variant: `trees/shared/orders.yaml`.
+TRANSFERS: dict[str, tuple[tuple[str, int, int], ...]] = {
+    "unilateral": (
+        ("PSM1", 1, 7),
+        ("PSM1", 0, 6),
+        ("PSM1", 3, 8),
+        ("PSM1", 2, 9),
+        ("PSM1", 5, 11),
+        ("PSM1", 4, 10),
+    ),
+    "bilateral": (
+        ("PSM2", 0, 7),
+        ("PSM2", 2, 6),
+        ("PSM2", 4, 9),
+        ("PSM1", 1, 8),
+        ("PSM1", 3, 11),
+        ("PSM1", 5, 10),
+    ),
+    "handover": (
+        ("PSM2", 1, 7),
+        ("PSM2", 0, 6),
+        ("PSM2", 3, 8),
+        ("PSM2", 2, 9),
+        ("PSM2", 5, 11),
+        ("PSM2", 4, 10),
+    ),
+}
+RECEIVER = {"PSM1": "PSM2", "PSM2": "PSM1"}
+
+
+@dataclass(frozen=True)
+class TransferResult:
+    """A simulated transfer: placed or not, the phase of its first failure (a placed transfer may have
+    recovered from one), and its simulated seconds."""
+
+    succeeded: bool
+    phase: str | None
+    seconds: float
+
+
+@cache
+def _skills(condition: str) -> Skills:
+    return Skills(condition, calibration=SIMULATOR_CALIBRATION)
+
+
+class _Bench:
+    """One arm acting in one world, ticked at the control period as the simulator's endpoint does."""
+
+    def __init__(self, world: World, arm: str, motion: ArmMotion, q0: NDArray[np.float64]) -> None:
+        self.world, self.name, self.motion = world, arm, motion
+        self.arm = SimArm(
+            arm,
+            motion.settings,
+            ArmPhysics.load(PHYSICS, arm),
+            q0=q0,
+            jaw0=motion_settings().transfer.jaw_open,
+        )
+        self.to_board = world.arm_to_board(
+            arm
+        )  # where the base truly stands (a registration offset moves it)
+        self.events: list[tuple[str, Event]] = []
+        self.clock = world.time
+        self.segment = "reach"
+        self.held = False  # holds the block lowered over its goal peg (or at the meeting point)
+        self.meeting: Meeting | None = None
+        self.failed: str | None = None  # the phase in which this attempt lost the block
+        motion.desired = q0.copy()
+        motion.active = None
+        if motion.compensator is not None:
+            motion.compensator.reset(q0)
+        self.tick(SETTLE_S)
+
+    @classmethod
+    def failed_before(cls, world: World, arm: str, motion: ArmMotion, phase: str) -> _Bench:
+        """An attempt that could not start (no feasible grasp, out of reach)."""
+        bench = cls.__new__(cls)
+        bench.world, bench.name, bench.motion, bench.events = world, arm, motion, []
+        bench.held, bench.failed, bench.meeting = False, phase, None
+        return bench
+
+    def tick(self, seconds: float) -> None:
+        """Advance the arm, and the world with it; an approach holding nothing (`reach`) shows the world
+        only where it ends, since no contact on the way decides an outcome."""
+        for _ in range(max(1, round(seconds / self.arm.period))):
+            self.arm.advance(self.arm.period)
+            self.clock = max(self.clock, self.world.time) + self.arm.period
+            if self.segment == "reach" and self.arm.is_busy:
+                continue
+            tool = ToolState.from_joints(
+                self.arm.physical,
+                float(self.arm.jaw.encoder[0]),
+                self.to_board,
+                wrist_give(self.arm.physics, float(self.arm.physical[5]), self.world.cell.tool),
+            )
+            self.events += [(self.segment, e) for e in self.world.update(self.clock, {self.name: tool})]
+            self.arm.jaw.stop_at(self.world.jaw_stop(self.name))
+
+    def play(
+        self, planned: Trajectory, segments: list[tuple[float, str]], holding: int | None = None
+    ) -> None:
+        """Send `planned` as the condition sends it; `segments` names the phase from each planned time on.
+        A carry of block `holding` stops the moment the block leaves the jaw, as the carry leaves do."""
+        prepared = self.motion.prepare(planned)
+        if prepared.compensator is not None:
+            self.motion.compensator = prepared.compensator
+        sent = prepared.sent
+        self.arm.follow_jt(sent.t - sent.t[0] + self.arm.period, sent.q, sent.qd, "motion")
+        self.motion.desired = planned.q[-1].copy()
+        start = self.world.time
+        while self.arm.is_busy:
+            elapsed = self.world.time - start
+            self.segment = next((name for at, name in reversed(segments) if elapsed >= at), segments[0][1])
+            self.tick(self.arm.period)
+            if holding is not None and self.world.held_by(self.name) != holding:
+                self.arm.hold(False, "lost")
+                break
+        self.tick(SETTLE_S)
+
+    def jaw(self, angle: float, segment: str) -> None:
+        self.segment = segment
+        self.arm.jaw_move_jp([angle], "jaw")
+        while self.arm.is_busy:
+            self.tick(self.arm.period)
+        self.tick(SETTLE_S)
+
+
+def simulate_transfer(effects: WorldEffects, variant: str, condition: str, seed: int) -> TransferResult:
+    """Transfer number `seed` of `variant`'s forward transfers (cycling), on a world of layout `seed`: the
+    grasp the executive would choose for the block perception would see, and the motions it would send,
+    picked and carried again after a failure up to `REGRASPS` times as `trees/shared/one_transfer.yaml`
+    recovers (from wherever the block fell; the arm starts each attempt from `START`)."""
+    order = TRANSFERS[variant]
+    arm, start_peg, goal_peg = order[seed % len(order)]
+    previous_peg = next(
+        goal for other, _, goal in reversed(order + order[: seed % len(order)]) if other == arm
+    )
+    world = World(seed, effects=effects)
+    skills = _skills(condition)
+    block = next(b for b in world.blocks if b.peg == start_peg)
+    rng = np.random.default_rng([seed, 7])
+    events: list[tuple[str, Event]] = []
+    first: str | None = None
+    for _ in range(1 + REGRASPS):
+        if block.lost:
+            break
+        bench = _attempt(
+            world, skills, arm, block.index, goal_peg, rng, previous_peg, handover=variant == "handover"
+        )
+        events += bench.events
+        if bench.held and bench.meeting is not None:
+            return _hand_over(world, skills, bench, block.index, goal_peg, first)
+        if bench.held:
+            bench.jaw(skills.motion.transfer.jaw_open, "release")
+            events += bench.events[len(events) :]
+            if block.peg == goal_peg and not block.grips:
+                return TransferResult(True, first, world.time)
+            return TransferResult(False, first or _failed_phase(bench.events, block.index), world.time)
+        first = first or bench.failed
+        if world.held_by(arm) is not None:
+            bench.jaw(skills.motion.transfer.jaw_open, "grasp")
+    return TransferResult(False, first or "grasp", world.time)
+
+
+def seen_point(world: World, point: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Where perception finds a block's point (board frame): `depth_bias` farther along the camera's ray
+    (`pegbt.sim.camera` lengthens the rays meeting blocks; the board and its pegs are measured true)."""
+    bias = world.effects.values("depth_bias")["bias"]
+    ray = point - world.cell.camera.board_from_camera[:3, 3]
+    return point + bias * ray / np.linalg.norm(ray)
+
+
+def _previous_release(
+    world: World, arm: str, dropped: NDArray[np.float64], goal_peg: int, previous_peg: int
+) -> NDArray[np.float64]:
+    """Where `arm` let go of the block before (its tip pose in its frame, as `dropped` over `goal_peg` but
+    over `previous_peg`): each attempt starts there, its cables at rest, and approaches as the executive
+    does (`pegbt.behaviours.poses.approach_for`)."""
+    to_arm = world.cell.board_to_arm(arm)
+    shift = to_arm[:3, :3] @ (world.cell.pegs.tops[previous_peg] - world.cell.pegs.tops[goal_peg])
+    start = dropped.copy()
+    start[:3, 3] += shift
+    return start
+
+
+def _attempt(
+    world: World,
+    skills: Skills,
+    arm: str,
+    block: int,
+    goal_peg: int,
+    rng: np.random.Generator,
+    previous_peg: int,
+    handover: bool = False,
+) -> _Bench:
+    """One pick and carry of `block` as it lies, seen with perception's noise: the bench afterwards says
+    whether the arm holds it lowered over `goal_peg`, or at the meeting point for a `handover` (`held`,
+    with `meeting`), or in which phase it was lost (`failed`)."""
+    truth = world.blocks[block]
+    noise = rng.normal(0.0, PERCEPTION_SD, 2)
+    position = seen_point(world, truth.pose[:3, 3]) + [noise[0], noise[1], 0.0]
+    seen = BlockEstimate(position, yaw_of(truth.pose), truth.peg, 1.0, 0.0, 0, True, "")
+    motion = skills.arm(arm)
+    grasp = skills.selectors[arm].pick(seen)
+    meeting = None
+    if grasp is None:
+        return _Bench.failed_before(world, arm, motion, "sense")
+    if handover:
+        try:
+            meeting = plan_meeting(skills, arm, RECEIVER[arm], grasp, seen)
+        except PegbtError:  # the giver cannot reach the meeting point with this grasp
+            meeting = None
+        if meeting is None:
+            return _Bench.failed_before(world, arm, motion, "handover")
+    if meeting is None:
+        waypoints = transfer_for(world.cell, skills.motion, arm, None, seen, grasp, goal_peg)
+    else:
+        waypoints = to_handover(world.cell, skills.motion, arm, None, seen, grasp, meeting.tip)
+    if waypoints.approach is None:
+        return _Bench.failed_before(world, arm, motion, "reach")
+    start = _previous_release(world, arm, waypoints.poses[3], goal_peg, previous_peg)
+    ik = inverse_kinematics(start[None], motion.settings)
+    if not ik.ok.all():
+        return _Bench.failed_before(world, arm, motion, "reach")
+    bench = _Bench(world, arm, motion, ik.q[0])
+    try:
+        reach = motion.transfer(approach_for(world.cell, skills.motion, arm, start, waypoints))
+    except PegbtError:  # the approach leaf fails to plan: nothing moves
+        bench.failed = "reach"
+        return bench
+    bench.play(reach, [(0.0, "reach")])
+    bench.jaw(skills.motion.transfer.jaw_closed, "grasp")
+    if world.held_by(arm) != block:
+        bench.failed = "grasp"
+        return bench
+    try:
+        planned = motion.transfer(waypoints)
+    except PegbtError:  # the carrying leaf fails to plan (a goal out of reach): the tick log says carry
+        bench.failed = "carry"
+        return bench
+    lifted, lowering = _segment_times(planned)
+    bench.play(planned, [(0.0, "lift"), (lifted, "carry"), (lowering, "lower")], holding=block)
+    bench.held = world.held_by(arm) == block
+    bench.meeting = meeting
+    if not bench.held:
+        bench.failed = _failed_phase(bench.events, block)
+    return bench
+
+
+def _hand_over(
+    world: World, skills: Skills, giver: _Bench, block: int, goal_peg: int, first: str | None
+) -> TransferResult:
+    """The giver holds `block` at the meeting point: the receiver waits open above its grasp, descends and
+    closes; the giver opens and withdraws; the receiver carries the block over `goal_peg`, lowers it and
+    opens (`pegbt.motion.handover`'s order). The exchange is not retried here."""
+    assert giver.meeting is not None  # only a held block at the meeting point is handed over
+    meeting, receiver = giver.meeting, RECEIVER[giver.name]
+    motion = skills.arm(receiver)
+    wait = meeting.receiver_grasp.pose.copy()
+    wait[:3, 3] += skills.motion.handover.receiver_wait_above * world.cell.up_in(receiver)
+    ik = inverse_kinematics(np.stack([wait, meeting.receiver_grasp.pose]), motion.settings)
+    if not ik.ok.all():
+        return TransferResult(False, first or "handover", world.time)
+    taker = _Bench(world, receiver, motion, START)
+    taker.play(motion.through(START, list(ik.q), ["waiting", "handover grasp"]), [(0.0, "handover")])
+    taker.jaw(skills.motion.transfer.jaw_closed, "handover")
+    giver.jaw(skills.motion.transfer.jaw_open, "handover")
+    if world.held_by(receiver) != block:
+        return TransferResult(False, first or "handover", world.time)
+    waypoints = from_handover(
+        world.cell, skills.motion, receiver, None, meeting.receiver_grasp, meeting.block_pose, goal_peg
+    )
+    try:
+        planned = motion.transfer(waypoints)
+    except PegbtError:  # the receiver's carry fails to plan
+        return TransferResult(False, first or "carry", world.time)
+    _, lowering = _segment_times(planned)
+    taker.play(planned, [(0.0, "carry"), (lowering, "lower")], holding=block)
+    if world.held_by(receiver) != block:
+        return TransferResult(False, first or _failed_phase(taker.events, block), world.time)
+    taker.jaw(skills.motion.transfer.jaw_open, "release")
+    placed = world.blocks[block].peg == goal_peg and not world.blocks[block].grips
+    return TransferResult(placed, first if placed else first or "release", world.time)
+
+
+def _segment_times(planned: Trajectory) -> tuple[float, float]:
+    """Planned times (s from the start) at which the lift ends and the lowering starts: where the joint
+    speed first dips (the cubics stop at each waypoint; a spline slows through them)."""
+    speed = np.linalg.norm(planned.qd, axis=1)
+    stops = [i for i in range(1, len(speed) - 1) if speed[i] <= speed[i - 1] and speed[i] <= speed[i + 1]]
+    stops = (stops + [len(speed) - 1, len(speed) - 1])[:2]
+    return float(planned.t[stops[0]] - planned.t[0]), float(planned.t[stops[1]] - planned.t[0])
+
+
+def _failed_phase(events: list[tuple[str, Event]], block: int) -> str:
+    """The segment in which the block was first lost: knocked loose, slipped, dropped or misplaced."""
+    for segment, event in events:
+        if (
+            event.block == block
+            and event.kind in ("collision", "slip", "drop")
+            and (event.kind != "collision" or "block-peg" in event.detail)
+        ):
+            return segment if segment in PHASES else "carry"
+    return "release"

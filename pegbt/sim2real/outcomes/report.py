@@ -1,0 +1,321 @@
+"""`report.json`, `report.md`, the figure and the fitted world file(s) of a diagnosis."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+from pegbt.sim.world_effects import write_world_file
+from pegbt.sim2real.outcomes.cells import Cell
+from pegbt.sim2real.outcomes.diagnose import Diagnosis, profile_parameters
+from pegbt.sim2real.outcomes.intervals import rate_interval
+from pegbt.sim2real.outcomes.simulate import CATEGORIES
+
+
+def _pct(rate: float) -> str:
+    return f"{100 * rate:.1f} %"
+
+
+def report_dict(diagnosis: Diagnosis, commands: list[str] | None = None) -> dict[str, Any]:
+    """The report as JSON-ready data: `cells`, `named`, and what could not be named or explained."""
+    d = diagnosis
+    held = {c.key for c in d.held_out}
+    cells = []
+    for cell in d.outcomes.cells:
+        before, p = d.before[cell.key], d.predictions[cell.key]
+        entry: dict[str, Any] = {
+            "variant": cell.variant,
+            "condition": cell.condition,
+            "real": {"attempted": cell.attempted, "succeeded": cell.succeeded},
+            "real_interval": list(rate_interval(cell.succeeded, cell.attempted)),
+            "simulated_before": before.rate,
+            "simulated_after": p.at_best.rate,
+            "predicted": {"rate": p.rate, "low": p.low, "high": p.high},
+            "held_out": cell.key in held,
+            "inside": p.inside,
+            "simulated_transfers": before.attempted,
+            "simulated_phases_before": dict(before.counts),
+            "simulated_phases_after": dict(p.at_best.counts),
+            "simulated_seconds_before": before.seconds,
+            "simulated_seconds_after": p.at_best.seconds,
+        }
+        if cell.mean_transfer_s is not None:
+            entry["real_mean_transfer_s"] = cell.mean_transfer_s
+        if cell.failures:
+            entry["real"]["failures"] = dict(cell.failures)
+        for name, predictions in d.predicted_by.items():
+            q = predictions[cell.key]
+            entry.setdefault("predicted_by", {})[name] = {
+                "rate": q.rate,
+                "low": q.low,
+                "high": q.high,
+                "inside": q.inside,
+            }
+        cells.append(entry)
+    named = []
+    for fitted in d.verdict.named:
+        values, intervals = profile_parameters(fitted)
+        named.append({"effect": fitted.candidate.kind, "parameters": values, "intervals": intervals})
+    return {
+        "source": d.outcomes.source,
+        "counting": "until_lost" if d.outcomes.attempts_end_at_lost_block else "every_attempt",
+        "fit_on": d.settings.fit,
+        "transfers_per_cell": d.settings.transfers,
+        "transfers_per_cell_default_world": d.settings.located,
+        "grid_points": d.settings.points,
+        "cells": cells,
+        "disagreements": [
+            {
+                "variant": r.variant,
+                "condition": r.condition,
+                "phase": r.phase,
+                "real": list(r.real),
+                "simulated": list(r.simulated),
+                "real_interval": list(r.real_interval),
+                "simulated_interval": list(r.simulated_interval),
+                "p_value": r.p_value,
+                "beyond_chance": r.disagrees,
+            }
+            for r in d.rows
+        ],
+        "named": named,
+        "indistinguishable": [
+            {
+                "effect": t.candidate.kind,
+                "parameter": t.candidate.parameter,
+                "value": t.value,
+                "interval": list(t.interval()),
+                "log_likelihood": float(t.total.max()),
+            }
+            for t in d.verdict.tied
+        ],
+        "candidates": [
+            {
+                "candidate": p.candidate.name,
+                "best": p.value,
+                "log_likelihood": float(p.total.max()),
+                "passed": p.candidate.name in d.verdict.passing,
+            }
+            for p in d.verdict.tried
+        ],
+        "null_log_likelihood": float(d.verdict.null.sum()),
+        "unexplained": [
+            {"variant": r.variant, "condition": r.condition, "phase": r.phase, "p_value": r.p_value}
+            for r in d.unexplained
+        ],
+        "simulated_transfers": d.simulated,
+        "seconds": d.seconds,
+        "commands": commands or [],
+    }
+
+
+def _finding(d: Diagnosis) -> list[str]:
+    lines = []
+    if not d.verdict.tried and not d.verdict.named:
+        return ["No fit cell disagrees with the default world beyond chance: nothing is named."]
+    if d.verdict.named:
+        for fitted in d.verdict.named:
+            low, high = fitted.interval()
+            lines.append(
+                f"**Named: {fitted.candidate.kind}**, {fitted.candidate.parameter} = {fitted.value:.4g} "
+                f"(95 % interval {low:.4g}–{high:.4g} on the grid)."
+            )
+    elif d.verdict.tied:
+        names = ", ".join(
+            f"{t.candidate.kind} ({t.candidate.parameter} ≈ {t.value:.4g})" for t in d.verdict.tied
+        )
+        lines.append(
+            f"**Not told apart:** {names} explain the fit cells equally well (log-likelihoods within 1); with "
+            + (
+                "one informative count per cell and no phases"
+                if not any(c.failures for c in d.fit_cells)
+                else "these phases"
+            )
+            + " the data cannot say which, so neither is named and each predicts the other cells below."
+        )
+    else:
+        lines.append(
+            "**Unexplained:** the fit cells disagree, and no registered world effect fits them better beyond chance and on held-out cells."
+        )
+    for row in d.unexplained:
+        lines.append(
+            f"Still unexplained at the fitted world: {row.variant} {row.condition} {row.what} (p = {row.p_value:.3g})."
+        )
+    return lines
+
+
+def report_markdown(d: Diagnosis, commands: list[str] | None = None) -> str:
+    lines = [
+        "# Sim to real at the task level",
+        "",
+        f"Real outcomes: {d.outcomes.source}"
+        + (" (attempts end at a block lost for good)" if d.outcomes.attempts_end_at_lost_block else "")
+        + f". Simulator: each transfer's phases on the world with the `dvrk-real` arm, {d.settings.located} "
+        f"transfers per cell in the default world and {d.settings.transfers} per cell and fitted world, "
+        f"{d.simulated} in all, {d.seconds:.0f} s. Fitted on: {d.settings.fit}.",
+        "",
+        "## Locate",
+        "| variant | condition | what | real | 95 % | simulated (default world) | 95 % | p | beyond chance |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
+    for r in d.rows:
+        lines.append(
+            f"| {r.variant} | {r.condition} | {r.what} | {r.real[0]}/{r.real[1]} | "
+            f"{_pct(r.real_interval[0])}–{_pct(r.real_interval[1])} | {r.simulated[0]}/{r.simulated[1]} | "
+            f"{_pct(r.simulated_interval[0])}–{_pct(r.simulated_interval[1])} | {r.p_value:.3g} | {'yes' if r.disagrees else 'no'} |"
+        )
+    lines += ["", "## Name", *_finding(d), ""]
+    if d.verdict.tried:
+        lines += [
+            "| candidate | best value | log-likelihood (null " + f"{d.verdict.null.sum():.1f}) | passed |",
+            "|---|---|---|---|",
+        ]
+        for p in d.verdict.tried:
+            lines.append(
+                f"| {p.candidate.name} | {p.value:.4g} | {p.total.max():.1f} | {'yes' if p.candidate.name in d.verdict.passing else 'no'} |"
+            )
+        lines.append("")
+    lines += [
+        "## Prove",
+        "| variant | condition | real | simulated before | after | predicted (95 %) | held out | inside |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    held = {c.key for c in d.held_out}
+    for cell in d.outcomes.cells:
+        q = d.predictions[cell.key]
+        lines.append(
+            f"| {cell.variant} | {cell.condition} | {cell.succeeded}/{cell.attempted} ({_pct(cell.rate)}) | "
+            f"{_pct(d.before[cell.key].rate)} | {_pct(q.at_best.rate)} | {_pct(q.rate)} ({_pct(q.low)}–{_pct(q.high)}) | "
+            f"{'yes' if cell.key in held else 'no'} | {'yes' if q.inside else '**no**'} |"
+        )
+    for name, predictions in d.predicted_by.items():
+        lines += ["", f"Predicted with {name} alone:"]
+        for cell in d.held_out:
+            q = predictions[cell.key]
+            lines.append(
+                f"- {cell.variant} {cell.condition}: {_pct(q.rate)} ({_pct(q.low)}–{_pct(q.high)}), real {_pct(cell.rate)}: {'inside' if q.inside else 'outside'}"
+            )
+    inside = [d.predictions[c.key].inside for c in d.held_out]
+    if inside:
+        lines += ["", f"{sum(inside)} of {len(inside)} held-out cells inside their 95 % predictive interval."]
+    if commands:
+        lines += ["", "## Commands", "```bash", *commands, "```"]
+    return "\n".join(lines) + "\n"
+
+
+def write_figure(d: Diagnosis, path: Path) -> Path:
+    """Real against simulated success per cell, before and after, with intervals, and the phases."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    cells: list[Cell] = list(d.outcomes.cells)
+    figure, (rates, phases) = plt.subplots(1, 2, figsize=(13, 4.8))
+    x = range(len(cells))
+    labels = [
+        f"{c.variant[:4]}\n{c.condition[:5]}" + ("\n(held out)" if c in d.held_out else "") for c in cells
+    ]
+    real = [c.rate for c in cells]
+    err = [
+        [c.rate - rate_interval(c.succeeded, c.attempted)[0] for c in cells],
+        [rate_interval(c.succeeded, c.attempted)[1] - c.rate for c in cells],
+    ]
+    rates.errorbar([i - 0.2 for i in x], real, yerr=err, fmt="o", color="black", label="real (95 %)")
+    rates.plot(
+        [i - 0.05 for i in x],
+        [d.before[c.key].rate for c in cells],
+        "x",
+        color="tab:red",
+        label="simulated, default world",
+    )
+    predicted = [d.predictions[c.key] for c in cells]
+    rates.errorbar(
+        [i + 0.15 for i in x],
+        [p.rate for p in predicted],
+        yerr=[[p.rate - p.low for p in predicted], [p.high - p.rate for p in predicted]],
+        fmt="s",
+        color="tab:blue",
+        label="fitted world (95 % predictive)",
+    )
+    rates.set_xticks(list(x), labels, fontsize=7)
+    rates.set_ylabel("transfers placed")
+    rates.set_ylim(-0.02, 1.05)
+    rates.legend(fontsize=7)
+    rates.set_title("success per cell")
+    bottom = [0.0] * len(cells)
+    width = 0.35
+    for k, category in enumerate(CATEGORIES[1:]):
+        before = [d.before[c.key].counts[category] / max(d.before[c.key].attempted, 1) for c in cells]
+        after = [
+            d.predictions[c.key].at_best.counts[category] / max(d.predictions[c.key].at_best.attempted, 1)
+            for c in cells
+        ]
+        color = plt.get_cmap("tab10")(k)
+        phases.bar([i - width / 2 for i in x], before, width, bottom=bottom, color=color, label=category)
+        phases.bar(
+            [i + width / 2 for i in x],
+            after,
+            width,
+            bottom=[0.0] * len(cells) if k == 0 else _after_bottom(d, cells, k),
+            color=color,
+            hatch="//",
+        )
+        bottom = [b + v for b, v in zip(bottom, before)]
+    phases.set_xticks(list(x), labels, fontsize=7)
+    phases.set_ylabel("simulated transfers failed, by phase (left before, hatched after)")
+    phases.legend(fontsize=7)
+    figure.tight_layout()
+    figure.savefig(path, dpi=110)
+    plt.close(figure)
+    return path
+
+
+def _after_bottom(d: Diagnosis, cells: list[Cell], upto: int) -> list[float]:
+    return [
+        sum(d.predictions[c.key].at_best.counts[cat] for cat in CATEGORIES[1 : upto + 1])
+        / max(d.predictions[c.key].at_best.attempted, 1)
+        for c in cells
+    ]
+
+
+Confirmed = dict[str, dict[tuple[str, str], dict[str, Any]]]
+
+
+def write_report(
+    d: Diagnosis, out: Path, commands: list[str] | None = None, confirmed: Confirmed | None = None
+) -> dict[str, Any]:
+    """Everything into `out`: report.json, report.md, outcomes.png and the fitted world file(s); with
+    `confirmed` (per world file, per cell: whole trials in it) those too."""
+    out.mkdir(parents=True, exist_ok=True)
+    data = report_dict(d, commands)
+    markdown = report_markdown(d, commands)
+    if confirmed:
+        lines = [
+            "",
+            "## Confirmed by whole trials (`pegbt eval --world-effects`)",
+            "| world | variant | condition | placed | mean transfer | errored trials |",
+            "|---|---|---|---|---|---|",
+        ]
+        for world, cells in confirmed.items():
+            for (variant, condition), f in cells.items():
+                rate = f["succeeded"] / f["attempted"] if f["attempted"] else float("nan")
+                time = "–" if f["mean_transfer_s"] is None else f"{f['mean_transfer_s']:.1f} s"
+                lines.append(
+                    f"| {world} | {variant} | {condition} | {f['succeeded']}/{f['attempted']} ({_pct(rate)}) | {time} | {f['errors']} of {f['trials']} |"
+                )
+                for entry in data["cells"]:
+                    if (entry["variant"], entry["condition"]) == (variant, condition):
+                        entry.setdefault("confirmed", {})[world] = f
+        markdown += "\n".join(lines) + "\n"
+    worlds = []
+    if d.verdict.named:
+        worlds.append(str(write_world_file(d.world(), out / "world.yaml")))
+    for tied in d.verdict.tied:
+        worlds.append(str(write_world_file(tied.world(), out / f"world-{tied.candidate.kind}.yaml")))
+    data["world_files"] = worlds
+    (out / "report.json").write_text(json.dumps(data, indent=2) + "\n")
+    (out / "report.md").write_text(markdown)
+    write_figure(d, out / "outcomes.png")
+    return data

@@ -1,0 +1,123 @@
+"""Many simulated transfers per cell, in local worker processes (or on a Dask cluster), summed into counts.
+
+Seeds are shared across the worlds compared (common random numbers): the same layouts and the same
+perception noise for every parameter value, so differences between worlds are the effects', not luck's.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Sequence
+from concurrent.futures import Executor, ProcessPoolExecutor
+from dataclasses import dataclass, field
+from typing import Protocol
+
+import numpy as np
+
+from pegbt.errors import PegbtError
+from pegbt.sim.world_effects import WorldEffects
+from pegbt.sim2real.outcomes.cells import PHASES
+from pegbt.sim2real.outcomes.phasesim import TransferResult, simulate_transfer
+
+CATEGORIES = ("placed", *PHASES)  # a transfer placed, or failed for good in this phase (its first failure)
+Key = tuple[str, str]
+
+
+@dataclass
+class SimCounts:
+    """Simulated transfers of one cell in one world: per category, and their mean seconds."""
+
+    counts: dict[str, int] = field(default_factory=lambda: dict.fromkeys(CATEGORIES, 0))
+    seconds: float = 0.0
+
+    @property
+    def attempted(self) -> int:
+        return sum(self.counts.values())
+
+    @property
+    def succeeded(self) -> int:
+        return self.counts["placed"]
+
+    @property
+    def rate(self) -> float:
+        return self.succeeded / self.attempted if self.attempted else float("nan")
+
+    def vector(self) -> np.ndarray:
+        return np.array([self.counts[c] for c in CATEGORIES], dtype=float)
+
+    def add(self, result: TransferResult) -> None:
+        category = "placed" if result.succeeded else (result.phase or "grasp")
+        n = self.attempted
+        self.counts[category] += 1
+        self.seconds = (self.seconds * n + result.seconds) / (n + 1)
+
+
+Task = tuple[WorldEffects, str, str, int]
+
+
+class Mapper(Protocol):
+    def __call__(self, tasks: Sequence[Task]) -> list[TransferResult]: ...
+
+
+def _run(task: Task) -> TransferResult:
+    """One simulated transfer; a motion the planner refuses (a target out of reach in that world) is a
+    transfer that failed where it started, never the end of the whole fit."""
+    try:
+        return simulate_transfer(*task)
+    except PegbtError:
+        return TransferResult(False, "reach", 0.0)
+
+
+class LocalMapper:
+    """Simulated transfers in `workers` local processes (in this process when `workers` is 0)."""
+
+    def __init__(self, workers: int) -> None:
+        self._pool: Executor | None = ProcessPoolExecutor(workers) if workers > 0 else None
+
+    def __call__(self, tasks: Sequence[Task]) -> list[TransferResult]:
+        if self._pool is None:
+            return [_run(task) for task in tasks]
+        return list(self._pool.map(_run, tasks, chunksize=max(1, len(tasks) // 32)))
+
+    def close(self) -> None:
+        if self._pool is not None:
+            self._pool.shutdown()
+
+
+class ClusterMapper:
+    """Simulated transfers as tasks on a Dask scheduler (`pegbt eval --cluster`'s `connect`)."""
+
+    def __init__(self, address: str) -> None:
+        from pegbt.evaluation.cluster import connect
+
+        self._client = connect(address)
+
+    def __call__(self, tasks: Sequence[Task]) -> list[TransferResult]:
+        futures = self._client.map(_run, list(tasks), pure=False)
+        return list(self._client.gather(futures))
+
+    def close(self) -> None:
+        self._client.close()
+
+
+def simulate_cells(
+    mapper: Mapper, worlds: Sequence[WorldEffects], keys: Iterable[Key], transfers: int, first_seed: int = 0
+) -> list[dict[Key, SimCounts]]:
+    """For each world, `transfers` simulated transfers of each cell (seeds `first_seed`…), as counts."""
+    keys = list(keys)
+    tasks = [
+        (world, variant, condition, first_seed + seed)
+        for world in worlds
+        for variant, condition in keys
+        for seed in range(transfers)
+    ]
+    results = iter(mapper(tasks))
+    out: list[dict[Key, SimCounts]] = []
+    for _ in worlds:
+        per_cell: dict[Key, SimCounts] = {}
+        for key in keys:
+            counts = SimCounts()
+            for _ in range(transfers):
+                counts.add(next(results))
+            per_cell[key] = counts
+        out.append(per_cell)
+    return out

@@ -1,0 +1,39 @@
+"""A stand-in for the phase simulator whose outcome rates are known functions of the world effects, so the
+fit's statistics can be checked without simulating arms."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from pegbt.sim.world_effects import WorldEffects
+from pegbt.sim2real.outcomes.phasesim import TransferResult
+
+BASE = {"unilateral": 0.05, "bilateral": 0.10, "handover": 0.02}  # the default world's lift success
+REACH = {"unilateral": 1.0, "bilateral": 1.2, "handover": 0.6}  # how much a bending peg helps each variant
+
+
+def lift_success(effects: WorldEffects, variant: str, condition: str) -> float:
+    """A bending peg raises the uncalibrated lift's success in proportion to its deflection; a calibrated
+    arm lifts every time; chamfers help only the lowering, which never fails here."""
+    if condition != "uncalibrated":
+        return 1.0
+    deflection = effects.values("peg_compliance")["deflection"]
+    return min(1.0, BASE[variant] + REACH[variant] * deflection / 0.003 * 0.5)
+
+
+def fake_mapper(tasks: Sequence[tuple[WorldEffects, str, str, int]]) -> list[TransferResult]:
+    out = []
+    for effects, variant, condition, seed in tasks:
+        u = np.random.default_rng([seed, 99]).random()
+        placed = bool(u < lift_success(effects, variant, condition))
+        out.append(TransferResult(placed, None if placed else "lift", 4.0))
+    return out
+
+
+def real_counts(effects: WorldEffects, variant: str, condition: str, attempted: int, seed: int) -> int:
+    """What a robot in that world would place of `attempted` transfers."""
+    return int(
+        np.random.default_rng([seed, 5]).binomial(attempted, lift_success(effects, variant, condition))
+    )

@@ -1,0 +1,89 @@
+"""The task-level fit's statistics on a simulator with known answers: intervals, naming, the null, and
+predictions of cells the fit never saw."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from pegbt.sim.world_effects import WorldEffects
+from pegbt.sim2real.outcomes.cells import Cell, Outcomes
+from pegbt.sim2real.outcomes.diagnose import Settings, diagnose
+from pegbt.sim2real.outcomes.intervals import beyond_chance, mixture_pmf, predictive_interval, rate_interval
+from tests.outcomes_helpers import fake_mapper, real_counts
+
+
+def test_exact_intervals_match_the_papers_counts():
+    low, high = rate_interval(37, 68)
+    assert low == pytest.approx(0.42, abs=0.01) and high == pytest.approx(0.66, abs=0.01)
+    low, high = rate_interval(14, 79)
+    assert low == pytest.approx(0.10, abs=0.01) and high == pytest.approx(0.28, abs=0.01)
+
+
+def test_a_predictive_interval_is_wider_than_the_binomial_alone():
+    certain = mixture_pmf(100, np.array([[5000.0, 10000.0]]), np.ones(1))
+    unsure = mixture_pmf(100, np.array([[3.0, 10.0], [7.0, 10.0]]), np.ones(2))
+    _, low_c, high_c = predictive_interval(certain)
+    _, low_u, high_u = predictive_interval(unsure)
+    assert 0.38 <= low_c <= 0.42 and 0.58 <= high_c <= 0.62
+    assert high_u - low_u > high_c - low_c + 0.2
+
+
+def test_benjamini_hochberg_keeps_what_is_beyond_chance():
+    assert beyond_chance([0.001, 0.5, 0.04, 0.9]) == [True, False, False, False]
+
+
+def _outcomes(world: WorldEffects, seed: int, attempted: int = 80) -> Outcomes:
+    cells = [
+        Cell(v, c, attempted, real_counts(world, v, c, attempted, seed + i))
+        for i, (v, c) in enumerate(
+            [(v, c) for v in ("unilateral", "bilateral", "handover") for c in ("uncalibrated", "calibrated")]
+        )
+    ]
+    return Outcomes(tuple(cells), "test")
+
+
+def test_a_concealed_effect_is_named_with_its_parameter_and_held_out_cells_predicted():
+    hidden = WorldEffects.of({"peg_compliance": {"deflection": 0.0018}})
+    outcomes = _outcomes(hidden, seed=3)
+    d = diagnose(outcomes, Settings(fit="unilateral", transfers=200, points=5, phases=True), fake_mapper)
+    assert [p.candidate.kind for p in d.verdict.named] == ["peg_compliance"]
+    low, high = d.verdict.named[0].interval()
+    assert low <= 0.0018 <= high
+    assert abs(d.verdict.named[0].value - 0.0018) <= 0.3 * 0.0018
+    assert {c.variant for c in d.held_out} == {"bilateral", "handover"}
+    assert all(d.predictions[c.key].inside for c in d.held_out)
+
+
+def test_held_out_cells_never_reach_the_fit():
+    hidden = WorldEffects.of({"peg_compliance": {"deflection": 0.0018}})
+    outcomes = _outcomes(hidden, seed=3)
+    changed = Outcomes(
+        tuple(
+            c if c.variant == "unilateral" else Cell(c.variant, c.condition, c.attempted, 0)
+            for c in outcomes.cells
+        ),
+        "test",
+    )
+    settings = Settings(fit="unilateral", transfers=200, points=5)
+    first, second = diagnose(outcomes, settings, fake_mapper), diagnose(changed, settings, fake_mapper)
+    assert first.verdict.named[0].value == second.verdict.named[0].value
+    bilateral = ("bilateral", "uncalibrated")
+    assert first.predictions[bilateral].inside and not second.predictions[bilateral].inside
+
+
+def test_the_default_world_names_nothing():
+    outcomes = _outcomes(WorldEffects(), seed=11)
+    d = diagnose(outcomes, Settings(fit="all", transfers=200, points=5), fake_mapper)
+    assert d.verdict.named == () and d.verdict.tied == ()
+
+
+def test_transfers_lost_to_perception_are_left_out_of_the_likelihood():
+    from pegbt.sim2real.outcomes.likelihood import log_likelihood
+    from pegbt.sim2real.outcomes.simulate import SimCounts
+
+    sim = SimCounts()
+    sim.counts.update(placed=3, lift=20, grasp=5)
+    seen = Cell("unilateral", "uncalibrated", 28, 11, failures={"grasp": 5, "lower": 12})
+    blind = Cell("unilateral", "uncalibrated", 36, 11, failures={"grasp": 5, "lower": 12, "sense": 8})
+    assert log_likelihood(blind, sim) == log_likelihood(seen, sim)
