@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from pegbt.numbers import NumberOption
+from pegbt.monitor.options import add_port_option
 
 
 def add_commands(subparsers: argparse._SubParsersAction) -> None:
@@ -16,25 +16,12 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
     monitor.set_defaults(handler=_monitor)
 
 
-def add_port_option(parser: argparse.ArgumentParser, name: str, default: int | None) -> None:
-    parser.add_argument(
-        name,
-        action=NumberOption,
-        type=int,
-        at_least=1,
-        at_most=65535,
-        default=default,
-        metavar="PORT",
-        help=f"serve the monitor page on http://127.0.0.1:PORT/{f' (default {default})' if default else ''}",
-    )
-
-
 def _monitor(args: argparse.Namespace) -> int:
-    from pegbt.executive.cli import read_log
+    from pegbt.executive.logfile import read_log_warning
     from pegbt.monitor.replay import replay_messages
     from pegbt.monitor.server import MonitorServer
 
-    messages = replay_messages(read_log(args.log, keep_records=True))
+    messages = replay_messages(read_log_warning(args.log, keep_records=True))
     server = MonitorServer(int(args.port)).start()
     for message in messages:
         server.publish(message)
