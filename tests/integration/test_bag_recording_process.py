@@ -1,6 +1,4 @@
-"""Recordings read from ROS 2 bags: bags written here by the `mcap-ros2-support` writer (a lone MCAP file)
-and by `rosbags`' rosbag2 writer (sqlite3 and MCAP storage), never by pegbt, read through
-`load_recording` and diagnosed as the same set-points in the folder layout are."""
+"""A bad bag given to the real `pegbt` process: one line naming the bag and the topic, never a traceback."""
 
 from __future__ import annotations
 

@@ -1,5 +1,4 @@
-"""The `pegbt sim2real` commands end to end: reports, closing the loop, bad input, the generator. The commands
-run in this process (`main`); one test runs the real process for its exit status."""
+"""`pegbt sim2real diagnose` as a real process: bad input exits non-zero without a traceback."""
 
 import numpy as np
 

@@ -1,5 +1,5 @@
-"""`--record FILE.mcap` read back by the `mcap` library's readers and `mcap-ros2-support`'s decoder, which
-know nothing of pegbt: topics, ROS 2 types, CDR payloads, log times, and a file cut short by a crash."""
+"""`pegbt sim --record FILE.mcap`: the simulator records the commands it takes and the states it sends, read
+back by the `mcap` library's readers, which know nothing of pegbt."""
 
 from __future__ import annotations
 

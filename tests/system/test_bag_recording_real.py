@@ -1,5 +1,5 @@
-"""Recordings read from ROS 2 bags: bags written here by the `mcap-ros2-support` writer (a lone MCAP file)
-and by `rosbags`' rosbag2 writer (sqlite3 and MCAP storage), never by pegbt, read through
+"""Bags of a real dVRK recording (`../shared/data/dvrk`), written here by the `mcap-ros2-support` writer (a
+lone MCAP file) and by `rosbags`' rosbag2 writer (sqlite3 and MCAP storage), never by pegbt, read through
 `load_recording` and diagnosed as the same set-points in the folder layout are."""
 
 from __future__ import annotations

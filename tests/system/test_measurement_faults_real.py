@@ -1,8 +1,5 @@
-"""Measurement faults are not physics: on set-point recordings whose truth is known, with tracker glitches
-(every joint jumps at once for a sample) and a window where the tracker lost the tool injected, the faults
-are found and reported, left out of selection and fit, and the physics is still named; a real effect the
-faults would hide is found once they are left out; `pegbt calibrate train` leaves out the same samples and
-says so."""
+"""Measurement faults on a real recording: injected tracker faults are found and change nothing of the physics
+it names."""
 
 from pathlib import Path
 

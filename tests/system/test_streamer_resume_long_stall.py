@@ -1,14 +1,5 @@
-"""The servo streamer resumes a trajectory after a stall instead of jumping to where it would be by now.
-
-`Streamer.tick` is driven with explicit times against the CRTK robot double (raw zenoh and rosbags,
-`crtk_double.py`), which decodes every `servo_jp` it receives. Times and the period are powers of two, so a
-tick lands exactly on a row of the trajectory and the robot must receive that row unchanged. The set-point
-publishers drop what a congested queue cannot take (a set-point stream: the next one replaces it; rmw_zenoh
-does the same for a KEEP_LAST topic, `rmw_publisher_data.cpp`); on a loaded machine a set-point may be lost on
-the way, so the rig counts what never arrived and the rows must reach the robot in order with no more missing
-than were lost. The last test stalls the real streamer process with
-SIGSTOP and follows the warning into the robot's tick-log messages.
-"""
+"""A stall of the servo streamer process longer than a motion's margin extends the motion's time bound by the
+stall: SIGSTOP on the real streamer, against the CRTK robot double (`crtk_double.py`)."""
 
 from __future__ import annotations
 

@@ -1,5 +1,6 @@
-"""`--record FILE.mcap` read back by the `mcap` library's readers and `mcap-ros2-support`'s decoder, which
-know nothing of pegbt: topics, ROS 2 types, CDR payloads, log times, and a file cut short by a crash."""
+"""`--record FILE.mcap` of whole runs, read back by the `mcap` library's readers and `mcap-ros2-support`'s
+decoder, which know nothing of pegbt: a unilateral trial's every topic and type, and a calibration collection
+recorded as a bag holding every sample of its folder."""
 
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
-"""The `pegbt sim2real` commands end to end: reports, closing the loop, bad input, the generator. The commands
-run in this process (`main`); one test runs the real process for its exit status."""
+"""The `pegbt sim2real` commands in this process (`main`): reports, closing the loop, bad input, the
+generator."""
 
 import contextlib
 import io
