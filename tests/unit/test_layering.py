@@ -213,7 +213,7 @@ def imported_tests(source: str) -> list[tuple[int, str]]:
 
 def test_no_test_module_imports_another():
     """Shared test code lives in helper modules (`tests/*_helpers.py`) and `conftest.py`: a test module
-    imported by another breaks it when renamed or moved to another tier, and is collected twice."""
+    imported by another breaks it when renamed or moved to another tier, and runs as a second module object."""
     problems = [
         f"{path.relative_to(REPO)}:{line}: imports {name}"
         for path in sorted((REPO / "tests").rglob("*.py"))
