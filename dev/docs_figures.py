@@ -18,9 +18,10 @@ from playwright.sync_api import sync_playwright
 
 from pegbt.cli import main
 from pegbt.executive.session import run_tree_file
+from pegbt.monitor.history import History
 from pegbt.monitor.live import LiveMonitor
 from pegbt.monitor.replay import replay_messages
-from pegbt.monitor.server import MonitorServer
+from pegbt.monitor.server import MonitorServer, start_ephemeral
 from pegbt.sim.process import free_port
 
 REPO = Path(__file__).resolve().parents[1]
@@ -72,9 +73,7 @@ def live_page(browser, work: Path) -> None:
 
 def replay_page(browser, log: Path, out: str, button: str) -> None:
     """A screenshot of the replay of `log` after clicking `button` (first cause, fold subtrees)."""
-    server = MonitorServer(free_port()).start()
-    for message in replay_messages(log):
-        server.publish(message)
+    server = start_ephemeral(replay_messages(log), history=History.whole())
     page = browser.new_page(viewport={"width": 1500, "height": 900})
     page.goto(server.url)
     page.wait_for_function("window.pegbtMonitor.loadedAt !== null")

@@ -5,6 +5,7 @@ diagnose`, `pegbt calibrate train|eval`) and those that record one (`pegbt run`,
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 from typing import TypedDict
 
 from pegbt.numbers import NumberOption
@@ -41,9 +42,9 @@ class BagOptions(TypedDict):
 
 
 class RecordOptions(TypedDict):
-    """`run_tree_file`'s keywords for a recording."""
+    """`RunOptions`' keywords for a recording."""
 
-    record: str | None
+    record: Path | None
     record_cloud_step: int
 
 
@@ -71,5 +72,8 @@ def add_record_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def record_options(args: argparse.Namespace) -> RecordOptions:
-    """The arguments of `add_record_arguments` as `run_tree_file` keywords."""
-    return {"record": args.record, "record_cloud_step": args.record_cloud_step}
+    """The arguments of `add_record_arguments` as `RunOptions` keywords."""
+    return {
+        "record": None if args.record is None else Path(args.record),
+        "record_cloud_step": args.record_cloud_step,
+    }

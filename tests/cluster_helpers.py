@@ -1,6 +1,7 @@
 """A Dask cluster on loopback from the real command lines (`python -m dask scheduler`, `... worker`), as a
 user starts one: every socket, dashboards included, on 127.0.0.1; each process in its own session so a
-test can kill one worker whole (nanny, worker process and the trial's simulator), as a lost machine."""
+test can kill one worker whole (nanny, worker process and the trial's simulator), as a lost machine.
+With `tls`, over TLS as the README's recipe starts one (certificates from `temporary_certificates`)."""
 
 from __future__ import annotations
 
@@ -15,21 +16,42 @@ from typing import Self
 
 import psutil
 
+from pegbt.evaluation.cluster import ClusterTls
 from pegbt.sim.process import free_port
 
 REPO = Path(__file__).resolve().parents[1]
 START_TIMEOUT_S = 120.0  # a loaded machine imports slowly
 
 
+def temporary_certificates(folder: Path) -> ClusterTls:
+    """A self-signed CA, certificate and key (Dask's `Security.temporary()`) written as PEM files."""
+    from distributed.security import Security
+
+    made = Security.temporary()
+    files = ClusterTls(folder / "ca.pem", folder / "cert.pem", folder / "key.pem")
+    files.ca_file.write_text(made.tls_ca_file)
+    files.cert.write_text(made.tls_client_cert)
+    files.key.write_text(made.tls_client_key)
+    return files
+
+
 class LocalDaskCluster:
-    def __init__(self, workers: int, pythonpath: Path = REPO) -> None:
+    def __init__(self, workers: int, pythonpath: Path = REPO, tls: ClusterTls | None = None) -> None:
         self.port = free_port()
-        self.address = f"tcp://127.0.0.1:{self.port}"
+        self.address = f"{'tls' if tls else 'tcp'}://127.0.0.1:{self.port}"
+        self.tls = tls
+        self.tls_args = (
+            []
+            if tls is None
+            else ["--tls-ca-file", str(tls.ca_file), "--tls-cert", str(tls.cert), "--tls-key", str(tls.key)]
+        )
         self.env = {**os.environ, "PYTHONPATH": str(pythonpath)}
         self.cwd = pythonpath  # `python -m` puts the working directory first on the path
+        protocol = ["--protocol", "tls"] if tls else []
         self.scheduler = self._start(
-            "scheduler", "--host", "127.0.0.1", "--port", str(self.port), "--dashboard-address", "127.0.0.1:0"
-        )
+            "scheduler", "--host", "127.0.0.1", "--port", str(self.port), "--dashboard-address", "127.0.0.1:0",
+            *protocol, *self.tls_args,
+        )  # fmt: skip
         self.workers: list[subprocess.Popen] = []
         self._wait_for_port()
         for index in range(workers):
@@ -49,7 +71,7 @@ class LocalDaskCluster:
     def add_worker(self, name: str) -> subprocess.Popen:
         worker = self._start(
             "worker", self.address, "--host", "127.0.0.1", "--nthreads", "1", "--name", name,
-            "--dashboard-address", "127.0.0.1:0",
+            "--dashboard-address", "127.0.0.1:0", *self.tls_args,
         )  # fmt: skip
         self.workers.append(worker)
         return worker
@@ -65,8 +87,17 @@ class LocalDaskCluster:
 
     def wait_for_workers(self, count: int) -> None:
         from distributed import Client
+        from distributed.security import Security
 
-        with Client(self.address, timeout=START_TIMEOUT_S, set_as_default=False) as client:
+        security = None
+        if self.tls is not None:
+            security = Security(
+                tls_ca_file=str(self.tls.ca_file),
+                tls_client_cert=str(self.tls.cert),
+                tls_client_key=str(self.tls.key),
+                require_encryption=True,
+            )
+        with Client(self.address, timeout=START_TIMEOUT_S, set_as_default=False, security=security) as client:
             client.wait_for_workers(count, timeout=START_TIMEOUT_S)
 
     def kill_worker_mid_trial(self, worker: subprocess.Popen, timeout: float = 120.0) -> None:

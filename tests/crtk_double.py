@@ -6,7 +6,12 @@ DISABLED at start; `enable` powers up (busy, then ENABLED); `home` is a motion t
 then homed), or never ends with an error; `operating_state` published on change only, from a zenoh-ext
 advanced publisher's cache (latched); a command to an arm not ready is dropped with a throttled
 "arm not ready" warning (`ArmIsReady`); a set-point outside the joint limits is clipped (`clip_jp`);
-`hold` stays at the set-point. It records every command it receives, with its zenoh attachment.
+`hold` stays at the set-point; until the arm is enabled and homed its joints are invalid: seven zeros
+stamped 0 (`get_robot_data`; cisst-ros writes an invalid datum's stamp as 0); the clutch (`clutch`) puts a
+ready arm in MANUAL, ENABLED, homed and busy, where a `servo_jp` is still executed
+(`mtsIntuitiveResearchKitPSM.cpp`, `EventHandlerManipClutch`, `RunManual`); `error`, `warning` and
+`status` are latched with a depth of 100 (cisst-ros `mtsROSBridge.h`), and `old_errors` of them were said
+before anybody joined. It records every command it receives, with its zenoh attachment.
 """
 
 from __future__ import annotations
@@ -111,6 +116,12 @@ class ArmDouble:
     last_warning: float = -10.0
     clips: int = 0
     setpoint_quiet_until: float = 0.0  # monotonic time before which setpoint_js is not published
+    manual: bool = False  # its clutch is pressed
+    biased: bool = False  # its encoders biased: on `home`, before the homing motion
+
+    @property
+    def joints_valid(self) -> bool:
+        return self.state == "ENABLED" and (self.homed or self.biased)
 
 
 class CrtkDouble:
@@ -129,6 +140,7 @@ class CrtkDouble:
         clock_offset: float = 0.0,
         latched: bool = True,
         setpoint_lag: float = 0.0,
+        old_errors: int = 0,
     ) -> None:
         self.session = zenoh.open(session_config(listen))
         self.home_seconds, self.homes, self.move_seconds = home_seconds, homes, move_seconds
@@ -145,16 +157,15 @@ class CrtkDouble:
         self._pub: dict[str, Any] = {}
         self._entities: list[Any] = []
         for arm in self.arms:
-            for topic in (
-                "measured_js",
-                "setpoint_js",
-                "jaw/measured_js",
-                "jaw/setpoint_js",
-                "error",
-                "warning",
-                "status",
-            ):
+            for topic in ("measured_js", "setpoint_js", "jaw/measured_js", "jaw/setpoint_js"):
                 self._pub[f"{arm}/{topic}"] = self.session.declare_publisher(f"{arm}/{topic}")
+            for topic in ("error", "warning", "status"):  # latched, depth 100
+                self._pub[f"{arm}/{topic}"] = zenoh.ext.declare_advanced_publisher(
+                    self.session,
+                    f"{arm}/{topic}",
+                    cache=zenoh.ext.CacheConfig(max_samples=100),
+                    publisher_detection=True,
+                )
             # unlatched: a bridge whose cache a late joiner's advanced subscriber cannot query
             self._pub[f"{arm}/operating_state"] = (
                 zenoh.ext.declare_advanced_publisher(
@@ -173,6 +184,8 @@ class CrtkDouble:
                     )
                 )
             self._publish_state(self.arms[arm])
+            for n in range(old_errors):
+                self.say(arm, "error", f"old error {n}, from before the run")
         self._camera = self.session.declare_publisher(camera_topic)
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, daemon=True)
@@ -246,7 +259,7 @@ class CrtkDouble:
             arm.state, arm.busy = "DISABLED", False
             self._publish_state(arm)
         elif command == "home":
-            arm.busy = True
+            arm.busy, arm.biased = True, True
             self._publish_state(arm)
 
             def homed() -> None:
@@ -271,11 +284,16 @@ class CrtkDouble:
                 for action in due:
                     action()
                 for name, arm in self.arms.items():
+                    valid = arm.joints_valid
+                    stamp = self.now() if valid else 0.0
+                    joints = arm.setpoint if valid else np.zeros(7)
                     for topic in ("measured_js", "setpoint_js"):
                         if topic == "measured_js" or now >= arm.setpoint_quiet_until:
-                            self._pub[f"{name}/{topic}"].put(joint_state(arm.setpoint, self.now()))
+                            self._pub[f"{name}/{topic}"].put(joint_state(joints, stamp))
                     for topic in ("jaw/measured_js", "jaw/setpoint_js"):
-                        self._pub[f"{name}/{topic}"].put(joint_state(np.array([arm.jaw]), self.now()))
+                        self._pub[f"{name}/{topic}"].put(
+                            joint_state(np.array([arm.jaw if valid else 0.0]), stamp)
+                        )
             if now >= next_cloud:
                 next_cloud = now + 0.1
                 points = rng.normal(size=(200, 3))
@@ -286,6 +304,17 @@ class CrtkDouble:
         """A state command from elsewhere (the dVRK's console, another ROS 2 node), not through pegbt."""
         with self._lock:
             self._state_command(self.arms[arm], command)
+
+    def clutch(self, arm: str, pressed: bool) -> None:
+        """A person presses or releases the arm's clutch button."""
+        with self._lock:
+            double = self.arms[arm]
+            if pressed and double.joints_valid and not double.manual:
+                double.manual, double.busy = True, True
+                self._publish_state(double)
+            elif not pressed and double.manual:
+                double.manual, double.busy = False, False
+                self._publish_state(double)
 
     def commands(self, suffix: str) -> list[Received]:
         with self._lock:

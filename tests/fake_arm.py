@@ -8,7 +8,8 @@ What stays real: every command is checked by the transport's own guards (`pegbt.
 from a real one (an outcome per command id: done, refused, aborted). What a test scripts is the endpoint's
 side: a command it refuses (`refuse_next`), a motion whose end it never reports (`never_ends`) or that
 stood still on the way (`stalled`), a block
-between the jaws (`block_in_jaw`) or slipping out of them (`drop_block()`), a camera that never answers.
+between the jaws (`block_in_jaw`) or slipping out of them (`drop_block()`, or `slips_at`: once the arm's
+motion in progress is that far through), a camera that never answers.
 A sent trajectory is followed row by row on the clock; the jaw moves at the arm's jaw velocity.
 """
 
@@ -103,6 +104,13 @@ class FakeAxis:
         now = self.arm.clock.now()
         return np.array([np.interp(now, times, rows[:, joint]) for joint in range(rows.shape[1])])
 
+    def progress(self) -> float:
+        """How far (0 to 1) the motion in progress is through its time; at rest, 1 after a motion, else 0."""
+        if self._motion is None:
+            return 1.0 if any(fate == ("done", "") for fate in self._fates.values()) else 0.0
+        times = self._motion[1]
+        return float(np.clip((self.arm.clock.now() - times[0]) / (times[-1] - times[0]), 0.0, 1.0))
+
     def sample(self, position: NDArray[np.float64]) -> JointSample:
         if self.arm.silent:
             raise EndpointSilent(f"{self.arm.name}: nothing heard on {self.key}", field=self.key)
@@ -154,6 +162,9 @@ class FakeJaw(FakeAxis):
     @property
     def measured_js(self) -> JointSample:
         angle = self.position()
+        arm = self.arm
+        if arm.block_in_jaw and arm.slips_at is not None and arm.progress() >= arm.slips_at:
+            arm.block_in_jaw = False
         if self.arm.block_in_jaw:
             angle = np.maximum(angle, BLOCK_WALL_ANGLE)
         return self.sample(angle)
@@ -179,6 +190,7 @@ class FakeArm(FakeAxis):
         self.never_ends = False  # the endpoint never reports a motion's end
         self.stalled = 0.0  # s each motion stands at its start (a streamer not scheduled), ending that late
         self.block_in_jaw = False
+        self.slips_at: float | None = None  # the block slips out this far (0 to 1) through a motion
         self.silent = False  # every read raises EndpointSilent, as the client does for a quiet endpoint
         self.fiducial_offset = np.zeros(6)  # where the physical joints are, from the set-point
         super().__init__(self, f"{name}/follow_jt", start)

@@ -25,6 +25,14 @@ MESSAGES = {
     ),
     "crtk_msgs/msg/OperatingState.msg": "std_msgs/Header header\nstring state\nbool is_homed\nbool is_busy\n",
     "crtk_msgs/msg/StringStamped.msg": "std_msgs/Header header\nstring string\n",
+    "sensor_msgs/msg/PointField.msg": (
+        "uint8 INT8=1\nuint8 UINT8=2\nuint8 INT16=3\nuint8 UINT16=4\nuint8 INT32=5\nuint8 UINT32=6\n"
+        "uint8 FLOAT32=7\nuint8 FLOAT64=8\nstring name\nuint32 offset\nuint8 datatype\nuint32 count\n"
+    ),
+    "sensor_msgs/msg/PointCloud2.msg": (
+        "std_msgs/Header header\nuint32 height\nuint32 width\nsensor_msgs/PointField[] fields\n"
+        "bool is_bigendian\nuint32 point_step\nuint32 row_step\nuint8[] data\nbool is_dense\n"
+    ),
 }
 
 

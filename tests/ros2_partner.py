@@ -6,6 +6,8 @@ environment, so each role gets a process of its own.
     python ros2_partner.py MESSAGES_DIR ROUTER_PORT pub TOPIC TYPE JSON_FIELDS RATE SECONDS
     python ros2_partner.py MESSAGES_DIR ROUTER_PORT info TOPIC...
     python ros2_partner.py MESSAGES_DIR ROUTER_PORT drive ARM DELTA TIMEOUT
+    python ros2_partner.py MESSAGES_DIR ROUTER_PORT capture SERVICE CLOUD_TOPIC TIMEOUT
+    python ros2_partner.py MESSAGES_DIR ROUTER_PORT serve SERVICE MESSAGE SECONDS
 
 Every result is one JSON line on standard output.
 """
@@ -20,7 +22,14 @@ import time
 from typing import Any
 
 import numpy as np
-from zenoh_ros2_sdk import ROS2Publisher, ROS2Subscriber, get_message_class, get_registry
+from zenoh_ros2_sdk import (
+    ROS2Publisher,
+    ROS2ServiceClient,
+    ROS2ServiceServer,
+    ROS2Subscriber,
+    get_message_class,
+    get_registry,
+)
 from zenoh_ros2_sdk.discovery import get_topic_info
 
 
@@ -160,6 +169,78 @@ def _drive(port: int, arm: str, delta: float, timeout: float) -> None:
     os._exit(0)  # the SDK's shared session keeps threads that would hold the interpreter open
 
 
+def _capture(port: int, service: str, topic: str, timeout: float) -> None:
+    """Subscribe to a Zivid's cloud topic, listen 2 s (no cloud comes unasked), call its Trigger service, and
+    report the response, the service's type hash as the SDK computes it and the clouds' shapes. The request's
+    definition is given: an empty ROS 2 structure holds one placeholder field (rosidl), which the SDK's
+    reading of an empty .srv section does not add."""
+    clouds: list[dict[str, Any]] = []
+
+    def on_cloud(message: Any) -> None:
+        data = np.frombuffer(bytes(message.data), dtype="<f4").reshape(message.height, message.width, -1)
+        clouds.append(
+            {
+                "height": int(message.height),
+                "width": int(message.width),
+                "point_step": int(message.point_step),
+                "frame_id": message.header.frame_id,
+                "valid": int(np.isfinite(data[..., 2]).sum()),
+                "since_call": time.monotonic() - called[0] if called else None,
+            }
+        )
+
+    called: list[float] = []
+    ROS2Subscriber(
+        topic, "sensor_msgs/msg/PointCloud2", on_cloud, router_port=port, node_name="sdk_camera_user"
+    )
+    client = ROS2ServiceClient(
+        service,
+        "std_srvs/srv/Trigger",
+        request_definition="uint8 structure_needs_at_least_one_member",
+        response_definition="bool success\nstring message",
+        router_port=port,
+        node_name="sdk_camera_user",
+        timeout=timeout,
+    )
+    time.sleep(2.0)
+    unasked = len(clouds)
+    called.append(time.monotonic())
+    response = client.call()
+    end = time.monotonic() + 5.0
+    while not clouds and time.monotonic() < end:
+        time.sleep(0.05)
+    answer = None if response is None else {"success": bool(response.success), "message": response.message}
+    print(
+        json.dumps({"unasked": unasked, "response": answer, "hash": client.type_hash, "clouds": clouds}),
+        flush=True,
+    )
+    os._exit(0)  # the SDK's shared session keeps threads that would hold the interpreter open
+
+
+def _serve(port: int, service: str, message: str, seconds: float) -> None:
+    """Serve a Trigger service that answers `success` false with `message` (a camera that cannot capture),
+    for `seconds`; report how many requests came."""
+    served: list[int] = []
+
+    def answer(request: Any) -> Any:
+        served.append(1)
+        return server.response_msg_class(success=False, message=message)
+
+    server = ROS2ServiceServer(
+        service,
+        "std_srvs/srv/Trigger",
+        answer,
+        request_definition="uint8 structure_needs_at_least_one_member",
+        response_definition="bool success\nstring message",
+        router_port=port,
+        node_name="sdk_camera",
+    )
+    print(json.dumps({"ready": True}), flush=True)
+    time.sleep(seconds)
+    print(json.dumps({"served": len(served)}), flush=True)
+    os._exit(0)
+
+
 def main(argv: list[str]) -> None:
     messages_dir, port, role, *rest = argv
     get_registry(messages_dir)
@@ -169,6 +250,10 @@ def main(argv: list[str]) -> None:
         _publish(int(port), rest[0], rest[1], rest[2], float(rest[3]), float(rest[4]))
     elif role == "drive":
         _drive(int(port), rest[0], float(rest[1]), float(rest[2]))
+    elif role == "capture":
+        _capture(int(port), rest[0], rest[1], float(rest[2]))
+    elif role == "serve":
+        _serve(int(port), rest[0], rest[1], float(rest[2]))
     else:
         _info(int(port), rest)
 

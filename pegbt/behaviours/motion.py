@@ -18,7 +18,7 @@ from pegbt.behaviours.base import MotionLeaf, arm_param, keep_apart_param, key_p
 from pegbt.behaviours.poses import height_above_pegs
 from pegbt.executive.params import Param
 from pegbt.motion.ik import solve_ik
-from pegbt.motion.kinematics import forward_kinematics
+from pegbt.motion.kinematics import forward_kinematics, tip_position
 from pegbt.motion.limits import ArmSettings
 from pegbt.motion.settings import MotionSettings
 from pegbt.motion.trajectory import Trajectory
@@ -45,21 +45,58 @@ def above_pegs_first(
 
 class CarryLeaf(MotionLeaf):
     """A motion carrying a held block: planned through `waypoints()` as the condition says, and failed at
-    once, with the arm stopped, if the jaw closes past `held_above` (the block slipped out)."""
+    once, with the arm stopped, if the jaw closes past `held_above` (the block slipped out).
+
+    As it finishes, its `log_detail` says which segment of its motion was playing (`SEGMENTS`: from the
+    grasp to lifted, on to above the goal, down onto it; by the planned tip's closest pass by each
+    waypoint, and the time since the motion was sent less its stalls) and whether the jaw held the block:
+    where a block was lost, in the robot's own terms."""
 
     may_step_back = False
+    SEGMENTS = ("lift", "carry", "lower")  # named after the waypoint each segment ends at
 
     def waypoints(self) -> TransferWaypoints:
         raise NotImplementedError
 
+    def initialise(self) -> None:
+        self.log_detail = None
+        self.segment_ends: tuple[int, int] | None = None  # planned rows where lift and carry end
+        self.sent_at = 0.0
+        super().initialise()
+
     def begin(self) -> None:
         arm = self.param("arm")
-        self.move(arm, partial(self.motion(arm).transfer, self.waypoints()), f"{arm} {self.name}")
+        waypoints = self.waypoints()
+        self.poses = waypoints.poses
+        self.move(arm, partial(self.motion(arm).transfer, waypoints), f"{arm} {self.name}")
 
     def started(self, trajectories: list[Trajectory]) -> None:
-        duration = trajectories[0].duration
+        planned = trajectories[0]
+        duration = planned.duration
         self.put("plan_s", round(duration, 3))
         self.feedback_message = f"planned in {duration:.2f} s ({self.skills.condition})"
+        self.sent_at, self.period = self.context.clock.now(), planned.period
+        tips = tip_position(planned.q)
+        lifted = int(np.argmin(np.linalg.norm(tips - self.poses[1][:3, 3], axis=1)))
+        above = lifted + int(np.argmin(np.linalg.norm(tips[lifted:] - self.poses[2][:3, 3], axis=1)))
+        self.segment_ends = (lifted, above)
+
+    def segment(self, paused: float) -> str | None:
+        """The segment of the motion playing now, `paused` seconds of stalls after it was sent (None before)."""
+        if self.segment_ends is None:
+            return None
+        row = (self.context.clock.now() - self.sent_at - paused) / self.period
+        lifted, above = self.segment_ends
+        return self.SEGMENTS[0] if row < lifted else self.SEGMENTS[1] if row < above else self.SEGMENTS[2]
+
+    def update(self) -> Status:
+        paused = max((motion.handle.paused for motion in self.running), default=0.0)  # a failure stops them
+        status = super().update()
+        if status != Status.RUNNING:
+            jaw = self.client(self.param("arm")).jaw.measured_js.position[0]
+            held = slip(jaw, self.param("held_above")) is None
+            self.log_detail = {"segment": self.segment(paused), "held": held}
+        return status
 
     def watch(self) -> Status:
         slipped = slip(self.client(self.param("arm")).jaw.measured_js.position[0], self.param("held_above"))

@@ -28,6 +28,7 @@ BENCHMARKS: dict[str, str] = {
     "sim2real-real": "pegbt.bench.sim2real_real:run",
     "eval": "pegbt.bench.eval:run",
     "monitor": "pegbt.bench.monitor:run",
+    "monitor-limits": "pegbt.bench.monitor_limits:run",
     "servo": "pegbt.bench.servo:run",
     "offload": "pegbt.bench.offload:run",
     "fuzz": "pegbt.bench.fuzz:run",

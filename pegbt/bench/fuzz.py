@@ -399,10 +399,11 @@ def fuzz_tick_logs(count: int, rng: random.Random, work: Path) -> Tally:
     from pegbt.executive.analysis import replay, summary, why
     from pegbt.executive.btlog import export_btlog
     from pegbt.executive.logfile import read_tick_log
+    from pegbt.executive.runoptions import RunOptions
     from pegbt.executive.session import run_tree_file
 
     valid = work / "valid.jsonl"
-    run_tree_file(REPO / "trees" / "example.yaml", valid, clock="manual")
+    run_tree_file(RunOptions(REPO / "trees" / "example.yaml", valid, clock="manual"))
     records = [json.loads(line) for line in valid.read_text().splitlines()]
     tally = Tally()
 

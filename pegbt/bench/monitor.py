@@ -48,10 +48,11 @@ def wide_tree(branches: int = 50, checks: int = 38) -> str:
 
 
 def run() -> Figures:
+    from pegbt.executive.runoptions import RunOptions
     from pegbt.executive.session import run_tree_file
+    from pegbt.monitor.history import History
     from pegbt.monitor.replay import replay_messages
-    from pegbt.monitor.server import MonitorServer
-    from pegbt.sim.process import free_port
+    from pegbt.monitor.server import start_ephemeral
 
     try:
         from playwright.sync_api import sync_playwright
@@ -63,11 +64,10 @@ def run() -> Figures:
         logs = {}
         for name, tree in (("2001", big_tree), ("example", TREES / "example.yaml")):
             logs[name] = Path(folder) / f"{name}.jsonl"
-            run_tree_file(tree, logs[name], clock="manual")
-        servers = {name: MonitorServer(free_port()).start() for name in logs}
-        for name, server in servers.items():
-            for message in replay_messages(logs[name]):
-                server.publish(message)
+            run_tree_file(RunOptions(tree, logs[name], clock="manual"))
+        servers = {
+            name: start_ephemeral(replay_messages(log), history=History.whole()) for name, log in logs.items()
+        }
         loads: dict[str, list[float]] = {name: [] for name in logs}
         with sync_playwright() as playwright:
             browser = playwright.chromium.launch(executable_path=CHROMIUM, headless=True, args=CHROMIUM_FLAGS)
@@ -101,8 +101,7 @@ def run() -> Figures:
 
 
 def _publish_us() -> float:
-    from pegbt.monitor.server import MonitorServer
-    from pegbt.sim.process import free_port
+    from pegbt.monitor.server import start_ephemeral
 
     record = {
         "type": "tick",
@@ -111,7 +110,7 @@ def _publish_us() -> float:
         "dt_us": 40.0,
         "changes": [[3, "INVALID", "RUNNING", "moving"]],
     }
-    server = MonitorServer(free_port()).start()
+    server = start_ephemeral()
     try:
         times = []
         for _ in range(2000):

@@ -23,6 +23,7 @@ from pegbt.psm import JOINT_NAMES
 from pegbt.sim2real.baselines import linear_window, lstm_window, neighbours_of_commands
 from pegbt.sim2real.compare import compare
 from pegbt.sim2real.diagnose import Diagnosis, diagnose, identify_physics
+from pegbt.sim2real.practical import PAPER_RESOLUTION
 from pegbt.sim2real.synth import effect_label, with_tracker_faults
 
 RECORDINGS = (
@@ -38,7 +39,6 @@ SAME_ARM = {
 TRAIN_FRACTION = 0.7
 # The fiducial tracker's resolution per joint (../shared/data/dvrk/README.md, "Measurement resolution": the
 # paper's 0.32 mm per sphere and under 0.01 rad per joint; insertion rounded up to 0.5 mm).
-PAPER_RESOLUTION = (0.01, 0.01, 0.0005, 0.01, 0.01, 0.01)
 WRIST = ("q4", "q5", "q6")
 FAULT_GLITCHES = 181  # as many as a raw recording of the paper's set-up holds (issue 16)
 # Raw q_phy − q_cmd RMSE of the wrist joints as tabulated in ../shared/data/dvrk/README.md (Table I data).

@@ -160,6 +160,8 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
 
 def _collect(args: argparse.Namespace) -> int:
     from pegbt.calibration.collect import SETTLE_S, setpoints_for_minutes
+    from pegbt.behaviours.resources.robot import simulated_world
+    from pegbt.executive.runoptions import RunOptions
     from pegbt.executive.session import default_log_path, run_tree_file
     from pegbt.physics.recording import MIN_SAMPLES, load_recording
 
@@ -187,11 +189,11 @@ def _collect(args: argparse.Namespace) -> int:
             flush=True,
         )
     log_path = args.log or default_log_path(COLLECT_TREE)
-    output = run_tree_file(
+    options = {"endpoint": args.endpoint, "seed": args.seed}
+    run = RunOptions(
         COLLECT_TREE,
-        log_path,
-        options={"endpoint": args.endpoint, "seed": args.seed},
-        quiet=False,
+        Path(log_path),
+        options,
         blackboard={
             "arm": args.arm,
             "setpoints": count,
@@ -199,8 +201,10 @@ def _collect(args: argparse.Namespace) -> int:
             "out": str(out),
             "seed": args.seed,
         },
+        world=simulated_world(options, None),
         **record_options(args),
     )
+    output = run_tree_file(run, quiet=False)
     print(f"outcome: {output.result.outcome} in {output.result.duration:.1f} s of the run's clock")
     if output.ok:
         print(f"recording: {out}")

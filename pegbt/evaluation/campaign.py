@@ -32,6 +32,12 @@ class Cell:
     inject_faults: bool = False  # a plan per seed from `pegbt.evaluation.faultgen`
     realtime: bool = False  # simulators in real time, runs on the wall clock (else lockstep)
     interface: str = "pegbt"
+    world_effects: Path | None = (
+        None  # a world file for every trial's simulator (`pegbt sim --world-effects`)
+    )
+    camera: str = "stream"
+    speed: float = 1.0  # the fraction of the planner's speed (`pegbt run --speed`)
+    robot_clock_offset: float = 0.0  # s the simulated robot's clock is from this one's (`--interface dvrk`)
 
     @property
     def name(self) -> str:
@@ -40,6 +46,9 @@ class Cell:
             + ("-faults" if self.faults or self.inject_faults else "")
             + ("-realtime" if self.realtime else "")
             + ("" if self.interface == "pegbt" else f"-{self.interface}")
+            + ("" if self.camera == "stream" else f"-{self.camera}")
+            + ("" if self.speed == 1.0 else f"-speed{self.speed:g}")
+            + ("" if not self.robot_clock_offset else f"-clock{self.robot_clock_offset:+g}")
         )
 
     @property
@@ -65,6 +74,10 @@ def trial_specs(cell: Cell, out: Path, keep_logs: bool = False) -> list[TrialSpe
                 keep_logs,
                 realtime=cell.realtime,
                 interface=cell.interface,
+                world_effects=cell.world_effects,
+                camera=cell.camera,
+                speed=cell.speed,
+                robot_clock_offset=cell.robot_clock_offset,
             )
         )
     return specs

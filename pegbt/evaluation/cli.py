@@ -11,8 +11,10 @@ from typing import TYPE_CHECKING
 
 from pegbt.errors import PegbtError
 from pegbt.evaluation.paper import CONDITIONS, VARIANTS
+from pegbt.numbers import NumberOption
 
 if TYPE_CHECKING:
+    from pegbt.evaluation.cluster import ClusterTls
     from pegbt.evaluation.trial import TrialRecord
 
 INTERFACES = ("pegbt", "dvrk")  # as `pegbt.evaluation.trial.INTERFACES` (not imported: it pulls in the robot)
@@ -49,6 +51,13 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
         help="a fault plan per seed: a missed grasp, slips, depth-noise bursts (written to DIR/faults/)",
     )
     parser.add_argument(
+        "--world-effects",
+        type=Path,
+        metavar="YAML",
+        help="world file for every trial's simulator: the contact physics it adds (as `pegbt sim "
+        "--world-effects`; `pegbt sim2real outcomes --effects` lists them)",
+    )
+    parser.add_argument(
         "--realtime",
         action="store_true",
         help="each trial's simulator runs in real time and the run on the wall clock (default: lockstep)",
@@ -60,6 +69,31 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
         help="what the simulator serves and the run speaks: pegbt (its own topics and extensions, the "
         "default) or dvrk (what a dVRK serves through zenoh-bridge-ros2dds); passed to `pegbt sim "
         "--interface` and `pegbt run --interface`",
+    )
+    parser.add_argument(
+        "--speed",
+        action=NumberOption,
+        above=0.0,
+        at_most=1.0,
+        default=1.0,
+        metavar="F",
+        help="every run moves at this fraction of the planner's speed, as `pegbt run --speed` (default 1)",
+    )
+    parser.add_argument(
+        "--robot-clock-offset",
+        action=NumberOption,
+        default=0.0,
+        metavar="SECONDS",
+        help="--interface dvrk: each simulator stamps what its robot sends on a clock this far from this "
+        "computer's (`pegbt sim --robot-clock-offset`; default 0)",
+    )
+    parser.add_argument(
+        "--camera",
+        choices=("stream", "zivid"),
+        default="stream",
+        help="--interface dvrk: the simulator's depth camera and the run's client of it: stream (a streaming "
+        "camera, the default) or zivid (a Zivid's capture service); passed to `pegbt sim --camera` and "
+        "`pegbt run --camera`",
     )
     parser.add_argument(
         "--out",
@@ -78,8 +112,18 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument(
         "--cluster",
         metavar="ADDRESS",
-        help="run each trial as a task on this Dask scheduler (tcp://HOST:PORT; needs the cluster extra) "
-        "instead of --workers local processes; logs come back here unless the workers see --out",
+        help="run each trial as a task on this Dask scheduler (tls://HOST:PORT with the --tls options, or "
+        "tcp://HOST:PORT on a trusted network; needs the cluster extra) instead of --workers local "
+        "processes; logs come back here unless the workers see --out",
+    )
+    parser.add_argument(
+        "--tls-ca-file", type=Path, metavar="PEM", help="--cluster tls://: the CA certificate"
+    )
+    parser.add_argument(
+        "--tls-cert", type=Path, metavar="PEM", help="--cluster tls://: this client's certificate"
+    )
+    parser.add_argument(
+        "--tls-key", type=Path, metavar="PEM", help="--cluster tls://: this client's private key"
     )
     parser.add_argument(
         "--keep-logs",
@@ -104,15 +148,43 @@ def check_arguments(args: argparse.Namespace) -> None:
             raise PegbtError(f"must be at least 1, got {getattr(args, name)}", field=f"--{name}")
     if args.seed < 0:
         raise PegbtError(f"seeds are non-negative, got {args.seed}", field="--seed")
+    tls_files = (args.tls_ca_file, args.tls_cert, args.tls_key)
+    if any(tls_files) and args.cluster is None:
+        raise PegbtError("the --tls options are for --cluster tls://HOST:PORT", field="--tls-ca-file")
     if args.cluster is not None:
         from pegbt.evaluation.cluster import check_address
 
-        check_address(args.cluster)
+        check_address(args.cluster, cluster_tls(args))
     if args.faults is not None:
         from pegbt.sim.fault_plan import FaultPlan
 
         FaultPlan.load(args.faults)  # unreadable or invalid: its error names the file, line and field
+    if args.world_effects is not None:
+        from pegbt.sim.world_effects import read_world_file
+
+        read_world_file(args.world_effects)  # refused here, with its location, not in every trial
     check_interface(args.interface, args.realtime)
+    if args.robot_clock_offset and args.interface != "dvrk":
+        raise PegbtError(
+            "a robot clock offset is the dVRK interface's: add --interface dvrk", field="--robot-clock-offset"
+        )
+    if args.camera != "stream" and args.interface == "pegbt":
+        raise PegbtError(
+            f"--camera {args.camera} is a ROS 2 camera's: add --interface dvrk", field="--camera"
+        )
+
+
+def cluster_tls(args: argparse.Namespace) -> ClusterTls | None:
+    """The three --tls files, None if none is given, or a `PegbtError` naming the one missing."""
+    from pegbt.evaluation.cluster import TLS_OPTIONS, ClusterTls
+
+    files = (args.tls_ca_file, args.tls_cert, args.tls_key)
+    if not any(files):
+        return None
+    for option, path in zip(TLS_OPTIONS, files, strict=True):
+        if path is None:
+            raise PegbtError(f"give all of {', '.join(TLS_OPTIONS)}, or none", field=option)
+    return ClusterTls(*files)
 
 
 def check_interface(interface: str, realtime: bool) -> None:
@@ -139,6 +211,10 @@ def _eval(args: argparse.Namespace) -> int:
         args.inject_faults,
         realtime=args.realtime,
         interface=args.interface,
+        world_effects=None if args.world_effects is None else args.world_effects.resolve(),
+        camera=args.camera,
+        speed=args.speed,
+        robot_clock_offset=args.robot_clock_offset,
     )
     specs = trial_specs(cell, args.out, keep_logs=args.keep_logs)
     done = None if args.quiet else _report_trial
@@ -147,7 +223,7 @@ def _eval(args: argparse.Namespace) -> int:
     else:
         from pegbt.evaluation.cluster import run_trials_on_cluster
 
-        records, workers = run_trials_on_cluster(specs, args.cluster, done=done)
+        records, workers = run_trials_on_cluster(specs, args.cluster, done=done, tls=cluster_tls(args))
     figures = summarise(cell, records, min(workers, args.trials))
     paths = write_cell(args.out, cell, records, figures)
     if not (args.faults or args.inject_faults):

@@ -9,14 +9,21 @@ their own checkout): any other worker is refused before a trial is sent, and a w
 refuses its tasks. Tick logs and simulator logs are written straight to `--out` when the workers see it
 (a shared file system), else in the worker's scratch space and sent back with the record.
 
+Whoever reaches a Dask scheduler can have its workers run any code. Over `tls://` (`ClusterTls`: a CA and
+this client's certificate and key, or Dask's `distributed.comm.tls` configuration) client, scheduler and
+workers prove to each other that they hold certificates of the same CA, and everything they send is
+encrypted (`distributed.security.Security`); a `tcp://` scheduler off loopback is warned about.
+
 Dask is imported only here, and this module only with `--cluster`.
 """
 
 from __future__ import annotations
 
+import ipaddress
 import re
 import secrets
 import subprocess
+import sys
 import tempfile
 from collections.abc import Callable
 from dataclasses import dataclass, replace
@@ -30,8 +37,10 @@ from pegbt.evaluation.trial import TrialRecord, TrialSpec, run_trial, truth_path
 
 if TYPE_CHECKING:
     from distributed import Client, Future
+    from distributed.security import Security
 
-ADDRESS = re.compile(r"^(tcp|tls)://[^\s/:]+:\d{1,5}$")
+ADDRESS = re.compile(r"^(tcp|tls)://([^\s/:]+):\d{1,5}$")
+TLS_OPTIONS = ("--tls-ca-file", "--tls-cert", "--tls-key")
 CONNECT_TIMEOUT_S = 30.0
 WORKER_WAIT_S = 60.0  # for the first worker of a scheduler that has none yet
 TRIAL_RESOURCE = "trial"  # a worker started with `--resources trial=1` runs one trial at a time
@@ -82,14 +91,16 @@ def mismatch_message(worker: str, theirs: Checkout, ours: Checkout) -> str:
 
 @dataclass(frozen=True)
 class RemoteTrial:
-    """What a task needs: the trial, its fault plan's text (the worker may not see the client's files),
-    the client's checkout, and the marker file whose token shows the worker sees `--out` itself."""
+    """What a task needs: the trial, its fault plan's and world file's texts (the worker may not see the
+    client's files), the client's checkout, and the marker file whose token shows the worker sees `--out`
+    itself."""
 
     spec: TrialSpec
     plan: str | None
     client: Checkout
     marker: Path | None
     token: str
+    world: str | None = None  # the world file's text, as the plan's
 
 
 @dataclass
@@ -107,11 +118,14 @@ def run_remote_trial(task: RemoteTrial) -> RemoteResult:
         return RemoteResult(run_trial(task.spec), {})
     with tempfile.TemporaryDirectory(prefix="pegbt-trial-") as scratch:
         local = Path(scratch)
-        plan = None
+        plan = world = None
         if task.plan is not None:
             plan = local / "faults.yaml"
             plan.write_text(task.plan)
-        spec = replace(task.spec, log=local / task.spec.log.name, faults=plan)
+        if task.world is not None:
+            world = local / "world.yaml"
+            world.write_text(task.world)
+        spec = replace(task.spec, log=local / task.spec.log.name, faults=plan, world_effects=world)
         record = run_trial(spec)
         kept = [spec.log, truth_path(spec.log)] if record.log else []
         return RemoteResult(record, {path.name: path.read_bytes() for path in kept if path.exists()})
@@ -130,18 +144,29 @@ def _worker_address() -> str:
     return get_worker().address
 
 
+@dataclass(frozen=True)
+class ClusterTls:
+    """The files of `--tls-ca-file`, `--tls-cert` and `--tls-key` (PEM), as `dask worker` takes them."""
+
+    ca_file: Path
+    cert: Path
+    key: Path
+
+
 def run_trials_on_cluster(
     specs: list[TrialSpec],
     address: str,
     done: Callable[[TrialRecord], None] | None = None,
     one_per_worker: bool = False,
     shared: bool = True,
+    tls: ClusterTls | None = None,
 ) -> tuple[list[TrialRecord], int]:
     """Run every spec as a task on the Dask scheduler at `address`; return the records in spec order and
     how many trials could run at once. `done` is called with each record as it comes back.
     `one_per_worker`: each task takes the workers' `trial` resource (real-time trials must not share a
-    worker). `shared=False`: send every log back, even to a worker that sees `--out`."""
-    client = connect(address)
+    worker). `shared=False`: send every log back, even to a worker that sees `--out`. `tls`: the
+    certificates for a `tls://` address (else Dask's configuration)."""
+    client = connect(address, tls)
     try:
         workers = check_workers(client, one_per_worker)
         records = _run(client, specs, done, one_per_worker, shared)
@@ -150,24 +175,91 @@ def run_trials_on_cluster(
     return records, workers
 
 
-def check_address(address: str) -> None:
-    if not ADDRESS.match(address):
-        raise PegbtError(f"expected a scheduler address tcp://HOST:PORT, got {address!r}", field="--cluster")
+def check_address(address: str, tls: ClusterTls | None = None) -> None:
+    """A `PegbtError` for an address that is not `tcp://HOST:PORT` or `tls://HOST:PORT`, for certificates
+    given with a `tcp://` address, or for a certificate file that cannot be read."""
+    match = ADDRESS.match(address)
+    if match is None:
+        raise PegbtError(
+            f"expected a scheduler address tls://HOST:PORT or tcp://HOST:PORT, got {address!r}",
+            field="--cluster",
+        )
+    if tls is None:
+        return
+    if match.group(1) != "tls":
+        raise PegbtError(
+            f"{', '.join(TLS_OPTIONS)} are for a tls:// scheduler, not {address}", field="--cluster"
+        )
+    for option, path in zip(TLS_OPTIONS, (tls.ca_file, tls.cert, tls.key), strict=True):
+        if not path.is_file():
+            raise PegbtError("no such certificate file", file=path, field=option)
 
 
-def connect(address: str) -> Client:
+def exposure_warning(address: str) -> str | None:
+    """What a `tcp://` scheduler off loopback exposes, or None (loopback, or `tls://`)."""
+    match = ADDRESS.match(address)
+    if match is None or match.group(1) != "tcp" or _is_loopback(match.group(2)):
+        return None
+    return (
+        f"pegbt: warning: {address} is plain TCP: anyone who can reach that port can run any code on the "
+        "workers and read the trials; use tls:// with --tls-ca-file, --tls-cert and --tls-key "
+        "(dask scheduler --protocol tls ...)"
+    )
+
+
+def _is_loopback(host: str) -> bool:
+    if host == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:  # a host name: where it leads is not known here
+        return False
+
+
+def connect(address: str, tls: ClusterTls | None = None) -> Client:
     """A client of the scheduler at `address`, or a `PegbtError` saying what is wrong."""
-    check_address(address)
+    check_address(address, tls)
     try:
         from distributed import Client
     except ImportError:
         raise PegbtError("needs Dask's distributed: pip install -e '.[cluster]'", field="--cluster") from None
+    warning = exposure_warning(address)
+    if warning is not None:
+        print(warning, file=sys.stderr, flush=True)
+    security = _security(address, tls)
     try:
-        return Client(address, timeout=CONNECT_TIMEOUT_S, set_as_default=False)
+        return Client(address, timeout=CONNECT_TIMEOUT_S, set_as_default=False, security=security)
     except (OSError, TimeoutError) as error:
         raise PegbtError(
             f"cannot reach the Dask scheduler at {address}: {error}", field="--cluster"
         ) from None
+
+
+def _security(address: str, tls: ClusterTls | None) -> Security | None:
+    """The client's `Security` for a `tls://` address: from `tls`, else from Dask's configuration."""
+    if not address.startswith("tls://"):
+        return None
+    from distributed.security import Security
+
+    if tls is not None:
+        return Security(
+            tls_ca_file=str(tls.ca_file),
+            tls_client_cert=str(tls.cert),
+            tls_client_key=str(tls.key),
+            require_encryption=True,
+        )
+    configured = Security(require_encryption=True)
+    # its fields are __slots__ set from the configuration by name, which the stubs do not declare
+    if (
+        getattr(configured, "tls_ca_file", None) is None
+        or getattr(configured, "tls_client_cert", None) is None
+    ):
+        raise PegbtError(
+            f"{address} needs {', '.join(TLS_OPTIONS)} (or Dask's distributed.comm.tls configuration: "
+            "ca-file, client.cert, client.key)",
+            field="--cluster",
+        )
+    return configured
 
 
 def check_workers(client: Client, one_per_worker: bool) -> int:
@@ -221,8 +313,12 @@ def _run(
     for spec in specs:
         plan = None if spec.faults is None else Path(spec.faults).read_text()
         faults = None if spec.faults is None else Path(spec.faults).resolve()
-        absolute = replace(spec, log=spec.log.resolve(), faults=faults)  # a worker's directory is its own
-        task = RemoteTrial(absolute, plan, ours, marker, token)
+        world = None if spec.world_effects is None else Path(spec.world_effects).read_text()
+        effects = None if spec.world_effects is None else Path(spec.world_effects).resolve()
+        absolute = replace(  # a worker's directory is its own
+            spec, log=spec.log.resolve(), faults=faults, world_effects=effects
+        )
+        task = RemoteTrial(absolute, plan, ours, marker, token, world)
         key = f"pegbt-trial-{spec.seed}-{token}"
         futures[client.submit(run_remote_trial, task, key=key, pure=False, resources=resources)] = spec
     by_seed: dict[int, TrialRecord] = {}

@@ -54,8 +54,10 @@ def summarise(cell: Cell, records: Sequence[TrialRecord], workers: int = 1) -> d
         "trials": len(records),
         "seeds": [cell.seed, cell.seed + cell.trials - 1],
         "faults": "per-seed plans" if cell.inject_faults else (str(cell.faults) if cell.faults else "none"),
+        "world_effects": str(cell.world_effects) if cell.world_effects else "none",
         "realtime": cell.realtime,
         "interface": cell.interface,
+        "camera": cell.camera,
         "errors": len(records) - len(ran),
         "transfers_attempted": attempted,
         "transfers_succeeded": succeeded,
@@ -110,7 +112,11 @@ def table(figures: dict[str, Any]) -> str:
     mode = "real time, wall clock" if f["realtime"] else "lockstep"
     title = (
         f"pegbt eval: {f['variant']}, {f['condition']}, {f['trials']} trial(s), seeds {f['seeds'][0]}..{f['seeds'][1]}, "
-        f"faults: {f['faults']}, {mode}, {f['interface']} interface (judged by the simulator's ground truth)"
+        f"faults: {f['faults']}, "
+        + (f"world effects: {f['world_effects']}, " if f.get("world_effects", "none") != "none" else "")
+        + f"{mode}, {f['interface']} interface"
+        + (f", {f['camera']} camera" if f.get("camera", "stream") != "stream" else "")
+        + " (judged by the simulator's ground truth)"
     )
     grid = Table()
     for column in ("", "measured", "paper", "goal"):

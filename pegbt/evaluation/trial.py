@@ -16,11 +16,12 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from pegbt.behaviours.resources.robot import SIMULATOR_ARGS
+from pegbt.behaviours.resources.robot import SIMULATOR_ARGS, simulated_world
 from pegbt.behaviours.resources.skills import SIMULATOR_CALIBRATION
 from pegbt.behaviours.resources.trial import count_contacts
 from pegbt.errors import PegbtError
 from pegbt.evaluation.truth import count_safety, failure_cause, injected_faults
+from pegbt.executive.runoptions import RunOptions
 from pegbt.sim.log import read_sim_log
 from pegbt.sim.process import SimProcess
 
@@ -45,6 +46,10 @@ class TrialSpec:
     tree: Path | None = None  # another tree than the variant's (tests: a short task)
     realtime: bool = False  # the simulator in real time and the run on the wall clock (else lockstep)
     interface: str = "pegbt"  # what the simulator serves and the run speaks (`INTERFACES`)
+    world_effects: Path | None = None  # world file for the simulator (`pegbt sim --world-effects`)
+    camera: str = "stream"  # the dVRK interface's depth camera: streaming, or a Zivid's capture service
+    speed: float = 1.0  # the fraction of the planner's speed (`pegbt run --speed`)
+    robot_clock_offset: float = 0.0  # s the simulated robot's clock is from this one's (`--interface dvrk`)
 
 
 @dataclass
@@ -157,8 +162,6 @@ def _run(spec: TrialSpec, truth: Path) -> RunOutput:
     machine). Another interface: on a simulator started here with `--interface`, at its address."""
     from pegbt.executive.session import run_tree_file
 
-    tree = spec.tree or tree_path(spec.variant)
-    clock = "wall" if spec.realtime else None
     if spec.interface == "pegbt":
         options = {
             "endpoint": "auto",
@@ -166,11 +169,31 @@ def _run(spec: TrialSpec, truth: Path) -> RunOutput:
             "seed": spec.seed,
             "simlog": str(truth),
             "faults": None if spec.faults is None else str(spec.faults),
+            "world-effects": None if spec.world_effects is None else str(spec.world_effects),
+            "speed": spec.speed,
         }
-        return run_tree_file(tree, spec.log, options=options, clock=clock, timeout=TRIAL_TIMEOUT_S)
+        return run_tree_file(trial_run_options(spec, options))
     with SimProcess(simulator_args(spec, truth)) as simulator:
-        options = run_options(spec, simulator.endpoint)
-        return run_tree_file(tree, spec.log, options=options, clock=clock, timeout=TRIAL_TIMEOUT_S)
+        return run_tree_file(trial_run_options(spec, run_options(spec, simulator.endpoint)))
+
+
+def trial_run_options(spec: TrialSpec, options: dict[str, Any]) -> RunOptions:
+    """The run of a trial with the providers' `options`: its variant, its simulator's world in the header."""
+    clock = "wall" if spec.realtime else None
+    started = {
+        "seed": spec.seed,
+        "faults": None if spec.faults is None else str(spec.faults),
+        "world-effects": None if spec.world_effects is None else str(spec.world_effects),
+    }
+    return RunOptions(
+        spec.tree or tree_path(spec.variant),
+        spec.log,
+        options,
+        clock=clock,
+        timeout=TRIAL_TIMEOUT_S,
+        variant=spec.variant,
+        world=simulated_world(options, clock, started),
+    )
 
 
 def simulator_args(spec: TrialSpec, truth: Path) -> list[str]:
@@ -180,11 +203,14 @@ def simulator_args(spec: TrialSpec, truth: Path) -> list[str]:
         *SIMULATOR_ARGS,
         *([] if spec.realtime else ["--lockstep"]),
         *([] if spec.interface == "pegbt" else ["--interface", spec.interface]),
+        *([] if spec.camera == "stream" else ["--camera", spec.camera]),
         "--seed",
         str(spec.seed),
         "--log",
         str(truth),
         *([] if spec.faults is None else ["--faults", str(spec.faults)]),
+        *([] if spec.world_effects is None else ["--world-effects", str(spec.world_effects)]),
+        *(["--robot-clock-offset", repr(spec.robot_clock_offset)] if spec.robot_clock_offset else []),
     ]
 
 
@@ -203,6 +229,8 @@ def run_options(spec: TrialSpec, endpoint: str) -> dict[str, Any]:
         "interface": spec.interface,
         "simlog": str(truth_path(spec.log)),  # the judge: the simulator's log file (no `sim/truth` here)
         "liveness": SIMULATOR_LIVENESS_S,
+        "camera": spec.camera,
+        "speed": spec.speed,
     }
 
 

@@ -44,13 +44,31 @@ Entry = Mapping[str, Any]
 Transfer = Mapping[str, Any]
 
 
+# The phase (`pegbt.executive.phases`) a step stands for; a carry's is where its block was (`_carry_phase`).
+PHASE_OF_STEP = {
+    "grasp": "grasp",
+    "carry": "carry",
+    "place": "release",
+    "handover": "handover",
+    "sense": "sense",
+    "reach": "reach",
+    "none": "",
+}
+
+
 @dataclass(frozen=True)
 class Cause:
-    """Why a transfer failed, by the simulator: the step and the event that ended it."""
+    """Why a transfer failed, by the simulator: the step and the event that ended it, and its phase ("" for
+    none: by the step, or for a carry where the block was: on its start peg, its goal peg, or between)."""
 
     step: str  # grasp, carry, place, handover, sense, reach (none: the simulator saw nothing go wrong)
     event: str  # the deciding event, e.g. "collision: block-peg: caught on peg 1: hole 2.1 mm off its axis"
     time: float | None = None  # when it happened; None for a state (a peg that was empty)
+    phase: str = ""
+
+    def __post_init__(self) -> None:
+        if not self.phase:
+            object.__setattr__(self, "phase", PHASE_OF_STEP.get(self.step, ""))
 
 
 @dataclass(frozen=True)
@@ -213,10 +231,10 @@ def failure_cause(transfer: Transfer, entries: Sequence[Entry], others: Sequence
     )
 
 
-def confirms(step: str, time: float, causes: Sequence[Cause]) -> bool:
-    """Whether the simulator saw a setback of `step` shortly before `time` (or throughout, for a state)."""
+def confirms(phase: str, time: float, causes: Sequence[Cause]) -> bool:
+    """Whether the simulator saw a setback of `phase` shortly before `time` (or throughout, for a state)."""
     return any(
-        cause.step == step and (cause.time is None or time - CONFIRM_WINDOW <= cause.time <= time + GRACE)
+        cause.phase == phase and (cause.time is None or time - CONFIRM_WINDOW <= cause.time <= time + GRACE)
         for cause in causes
     )
 
@@ -280,7 +298,7 @@ def _adverse(events: Sequence[Entry], transfer: Transfer) -> list[Cause]:
     taken: set[object] = set()
     for entry in events:
         kind, detail, block = entry["kind"], str(entry.get("detail", "")), entry.get("block")
-        step = None
+        step, phase = None, ""
         if (
             kind == "grasp"
             and receiver is not None
@@ -292,6 +310,7 @@ def _adverse(events: Sequence[Entry], transfer: Transfer) -> list[Cause]:
             step = "grasp"
         elif kind == "slip" or kind == "collision" and detail.startswith("block-peg"):
             step = "carry"
+            phase = _carry_phase(entry, transfer)
         elif kind in ("drop", "place") and receiver is not None and previous.get(block) == ("release", giver):
             step = None if block in taken else "handover"
         elif kind == "drop" and previous.get(block, ("",))[0] == "release":
@@ -299,9 +318,17 @@ def _adverse(events: Sequence[Entry], transfer: Transfer) -> list[Cause]:
         elif kind == "place" and entry.get("peg") != transfer["place"]:
             step = "place"
         if step is not None:
-            causes.append(Cause(step, _describe(entry), entry["time"]))
+            causes.append(Cause(step, _describe(entry), entry["time"], phase))
         previous[block] = (kind, entry.get("arm"))
     return causes
+
+
+def _carry_phase(entry: Entry, transfer: Transfer) -> str:
+    """Where a block left its jaw: on (or striking) the transfer's start peg (`lift`) or goal peg (`lower`),
+    else between them (`carry`). A slip or a catch names the peg the block was threaded on, a strike the
+    peg it struck."""
+    peg = entry.get("peg")
+    return "lift" if peg == transfer["pick"] else "lower" if peg == transfer["place"] else "carry"
 
 
 def _describe(entry: Entry) -> str:

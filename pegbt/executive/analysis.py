@@ -7,7 +7,8 @@ stopped holding). For each of those origins it shows the time, the feedback mess
 values the node reads. Failures the tree absorbed are listed too: each recovery that ran, each failure
 a selector or a retry got over, and each failure it gave up on (a `recover` node out of retries, a `force_success` over a failed child) so the
 run could go on, traced back to its first cause: the earliest origin in its chain that is not control
-flow (a blackboard check that steered the tree, a failure raised on purpose), with what followed.
+flow (a blackboard check that steered the tree, a failure raised on purpose), with what followed. Last,
+each transfer the run began, placed or the phase it failed in (`pegbt.executive.phases`).
 `pegbt.executive.causes` has the same chains as data, for tools that check them (`pegbt eval`).
 """
 
@@ -20,6 +21,7 @@ from typing import Any
 from pegbt.errors import PegbtError
 from pegbt.executive.causes import Recovery, Timeline, failure_chains, fallbacks, recoveries
 from pegbt.executive.logfile import TickLog, Transition, message_line
+from pegbt.executive.phases import begun_transfers, transfer_outcomes
 
 SHOWN_WIDTH = 160  # characters of a blackboard value shown beside a failure
 MESSAGES_SHOWN = 10  # a robot's last errors and warnings listed by `pegbt log summary`
@@ -65,22 +67,32 @@ def summary(log: TickLog, slowest: int = 5) -> str:
     """Outcome, duration, ticks, per-node counts and the slowest leaves, as text."""
     stats = node_stats(log)
     leaves = [node["id"] for node in log.nodes if not log.children(node["id"])]
+    world = log.run.get("world")
+    world = world if isinstance(world, dict) else {}
     lines = [
         f"tree:     {log.header.get('tree')}",
+        f"run:      variant {log.variant}, condition {log.condition or 'not recorded'}"
+        + (f", {world.get('physics')} physics ({world.get('speed')})" if world.get("physics") else ""),
         f"started:  {log.header.get('start_time')} ({log.header.get('clock')} clock)",
         f"outcome:  {log.outcome}",
         f"duration: {log.last_t:.3f} s over {log.last_n} ticks",
     ]
     if log.crash:
         lines.append(f"crash:    {log.crash.get('error')}")
+    current = [message for message in log.messages if not message.get("before_run")]
     if log.messages:
-        levels = [message["level"] for message in log.messages]
+        levels = [message["level"] for message in current]
+        history = len(log.messages) - len(current)
         lines.append(
-            "robot:    " + ", ".join(f"{levels.count(level)} {level}" for level in sorted(set(levels)))
+            "robot:    "
+            + ", ".join(
+                [f"{levels.count(level)} {level}" for level in sorted(set(levels))]
+                + ([f"{history} from before this run"] if history else [])
+            )
         )
         lines += [
             f"  {m['t']:8.3f} s  {m['level']:<7}  {message_line(m)}"
-            for m in [m for m in log.messages if m["level"] in ("error", "warning")][-MESSAGES_SHOWN:]
+            for m in [m for m in current if m["level"] in ("error", "warning")][-MESSAGES_SHOWN:]
         ]
     lines += [""] + _table(log, stats, [node["id"] for node in log.nodes])
     ranked = sorted(leaves, key=lambda node: stats[node].running_time, reverse=True)[:slowest]
@@ -154,7 +166,26 @@ def why(log: TickLog) -> str:
     lines += _recoveries(timeline)
     lines += _fallback_lines(timeline)
     lines += _given_up_lines(log, timeline)
+    lines += _transfer_lines(log)
     return "\n".join(lines)
+
+
+def _transfer_lines(log: TickLog) -> list[str]:
+    """Each transfer the run began, as the log alone tells it: placed, or the phase it failed in."""
+    outcomes = transfer_outcomes(log)
+    if not outcomes:
+        return []
+    lines = [
+        f"transfers ({sum(o.succeeded for o in outcomes)} of {len(outcomes)} placed, as the log tells; a failure "
+        "by the phase of its first cause):"
+    ]
+    for outcome, node in zip(outcomes, begun_transfers(log)):
+        params = node["params"]
+        said = "placed" if outcome.succeeded else f"failed at {outcome.phase or 'an unnamed phase'}"
+        lines.append(
+            f"  {outcome.transfer}: {params.get('arms')} peg {params.get('pick')} → {params.get('place')}: {said}"
+        )
+    return lines
 
 
 def _still_running_leaves(log: TickLog) -> list[Transition]:

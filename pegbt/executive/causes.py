@@ -278,6 +278,7 @@ class FailureStep:
     source: str
     reads: tuple[tuple[str, Any], ...]  # (key, value); a key unset then is left out
     halted: tuple[str, ...] = ()  # "leaf name: its feedback" of each leaf below it halted as it failed
+    detail: dict[str, Any] | None = None  # what the leaf said beside its feedback (`Leaf.log_detail`)
 
 
 @dataclass(frozen=True)
@@ -323,6 +324,7 @@ def failure_step(timeline: Timeline, origin: Transition) -> FailureStep:
         node["source"],
         reads,
         halted,
+        origin.detail,
     )
 
 

@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING
 from pegbt.bagoptions import add_record_arguments, record_options
 from pegbt.errors import PegbtError
 from pegbt.executive.providers import RUN_OPTIONS
-from pegbt.monitor.options import add_port_option
+from pegbt.monitor.options import add_no_token_option, add_port_option
 from pegbt.numbers import NumberOption
 from pegbt.stopsignals import stop_signals
 
@@ -71,6 +71,7 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
         "--verbose", action="store_true", help="a line for every leaf that finishes, not only failures"
     )
     add_port_option(run, "--monitor", default=None)
+    add_no_token_option(run)
     add_record_arguments(run)
     _include_option(run)
     for option in RUN_OPTIONS.values():
@@ -173,27 +174,33 @@ def _tree_schema(args: argparse.Namespace) -> int:
 
 
 def _run(args: argparse.Namespace) -> int:
+    from pegbt.behaviours.resources.robot import simulated_world
     from pegbt.executive.analysis import result_table
     from pegbt.executive.logfile import read_tick_log
+    from pegbt.executive.runoptions import RunOptions
     from pegbt.executive.session import default_log_path, run_tree_file
 
     options = {name: getattr(args, f"option_{name}") for name in RUN_OPTIONS}
     log_path = Path(args.log) if args.log else default_log_path(args.tree)
-    monitor = _start_monitor(args.monitor, log_path) if args.monitor is not None else None
+    run_options = RunOptions(
+        Path(args.tree),
+        log_path,
+        options,
+        clock=args.clock,
+        period=args.period,
+        timeout=args.timeout,
+        allow_include_outside=args.allow_include_outside,
+        world=simulated_world(options, args.clock),
+        **record_options(args),
+    )
+    monitor = _start_monitor(args.monitor, args.no_token, log_path) if args.monitor is not None else None
     try:
         with stop_signals() as received:
             output = run_tree_file(
-                args.tree,
-                log_path,
-                options=options,
-                clock=args.clock,
-                period=args.period,
-                timeout=args.timeout,
+                run_options,
                 quiet=args.quiet,
                 verbose=args.verbose,
                 watch=monitor.watch if monitor else None,
-                allow_include_outside=args.allow_include_outside,
-                **record_options(args),
             )
     except BaseException:
         if monitor:
@@ -219,11 +226,11 @@ def _run(args: argparse.Namespace) -> int:
     return 0 if output.ok else 1
 
 
-def _start_monitor(port: int, log_path: Path) -> LiveMonitor:
+def _start_monitor(port: int, no_token: bool, log_path: Path) -> LiveMonitor:
+    from pegbt.monitor.options import start_server
     from pegbt.monitor.live import LiveMonitor
-    from pegbt.monitor.server import MonitorServer
 
-    server = MonitorServer(int(port)).start()
+    server = start_server(int(port), no_token)
     print(f"monitor: {server.url}", flush=True)
     return LiveMonitor(server, log_path)
 

@@ -46,8 +46,11 @@ class Leaf(py_trees.behaviour.Behaviour):
     """A py_trees behaviour built from a tree file's leaf node.
 
     Attributes: `context` (the run's clock and resources), `params` (checked parameter values),
-    `blackboard` (its client), `setup_info` (the whole `LeafSetup`: spec, namespace, ...).
+    `blackboard` (its client), `setup_info` (the whole `LeafSetup`: spec, namespace, ...). A leaf may set
+    `log_detail` (JSON-ready values) before it finishes: the tick log records it beside the feedback.
     """
+
+    log_detail: dict[str, Any] | None = None
 
     def __init__(self, setup: LeafSetup) -> None:
         super().__init__(name=setup.name)

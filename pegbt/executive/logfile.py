@@ -13,7 +13,7 @@ import datetime
 import json
 import math
 import sys
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import cached_property
 from pathlib import Path
 from typing import Any
@@ -24,6 +24,7 @@ from pegbt.executive.spec import MAX_TREE_DEPTH
 from pegbt.executive.ticklog import FORMAT, FORMAT_VERSION
 
 STATUSES = ("INVALID", "RUNNING", "SUCCESS", "FAILURE")
+_DONE = ("SUCCESS", "FAILURE")
 _EVENT_TYPES = ("tick", "halt", "crash", "end", "message")
 MAX_LOG_BYTES = 512 * 2**20
 MAX_TICK = 2**53  # ticks are counted exactly in a float too
@@ -35,6 +36,15 @@ _OTHER_FORMATS = {
     b"BTCPP4-FileLogger2": "a BT.CPP FileLogger2 .btlog (`pegbt log export`): open it in Groot2",
 }
 _NODE_KEYS = ("reads", "writes")
+# header fields that may be missing (older logs, logs not written by `run_tree_file`), and their types if present
+_HEADER_FIELDS: dict[str, tuple[type, ...]] = {
+    "blackboard": (dict,),
+    "tree": (str, type(None)),
+    "variant": (str,),
+    "condition": (str, type(None)),
+    "run": (dict,),
+}
+_TYPE_NAMES: dict[type, str] = {dict: "a mapping", str: "a string"}
 
 
 class TickLogError(PegbtError):
@@ -53,6 +63,9 @@ class Transition:
     after: str
     feedback: str
     halted: str | None = None  # the halt reason when a halt caused it
+    detail: dict[str, Any] | None = (
+        None  # what the leaf said beside its feedback as it finished (`log_detail`)
+    )
 
 
 @dataclass
@@ -73,6 +86,21 @@ class TickLog:
     last_t: float = 0.0
     warnings: list[str] = field(default_factory=list)  # what was skipped or cut while reading
     records: list[dict[str, Any]] | None = None  # every record read, header first (`keep_records`)
+
+    @property
+    def variant(self) -> str:
+        """The task variant the header names; for a log written before headers named it, the tree file's name."""
+        return self.header.get("variant") or Path(str(self.header.get("tree", ""))).stem
+
+    @property
+    def condition(self) -> str | None:
+        """The skills' condition the run had (None: not recorded, a log from before headers named it)."""
+        return self.header.get("condition")
+
+    @property
+    def run(self) -> dict[str, Any]:
+        """The run's options as the header records them (`RunOptions.record_fields`); empty if it has none."""
+        return self.header.get("run") or {}
 
     @property
     def outcome(self) -> str:
@@ -118,9 +146,11 @@ _UNSET = object()
 
 def message_line(message: dict[str, Any]) -> str:
     """A `message` record's `source: text`, the source not repeated where the text opens with it (the dVRK
-    starts its messages with the arm's name: `mtsIntuitiveResearchKitArm.cpp`, `SendError(GetName() + ...)`)."""
+    starts its messages with the arm's name: `mtsIntuitiveResearchKitArm.cpp`, `SendError(GetName() + ...)`);
+    a message the robot had sent before the run (a latched topic's history) says so."""
     source, text = str(message["source"]), str(message["text"])
-    return text if text.startswith(f"{source}: ") else f"{source}: {text}"
+    line = text if text.startswith(f"{source}: ") else f"{source}: {text}"
+    return f"{line} (before this run)" if message.get("before_run") else line
 
 
 def read_tick_log(path: str | Path, *, keep_records: bool = False) -> TickLog:
@@ -242,8 +272,15 @@ def _header(record: dict[str, Any], path: Path) -> TickLog:
             line=1,
             field="nodes",
         )
-    if not isinstance(record.get("blackboard", {}), dict):
-        raise TickLogError("corrupt record: expected a mapping", file=path, line=1, field="blackboard")
+    for key, kinds in _HEADER_FIELDS.items():
+        if key in record and not isinstance(record[key], kinds):
+            names = " or ".join("null" if kind is type(None) else _TYPE_NAMES[kind] for kind in kinds)
+            raise TickLogError(
+                f"corrupt record: expected {names}, found {brief(record.get(key))}",
+                file=path,
+                line=1,
+                field=key,
+            )
     start = record.get("start_time", "1970-01-01T00:00:00+00:00")
     try:
         datetime.datetime.fromisoformat(start).timestamp()
@@ -326,8 +363,15 @@ def _event(log: TickLog, record: dict[str, Any], line: int, path: Path) -> None:
         log.messages.append(record)
         return
     halted = record.get("reason") if kind == "halt" else None
+    details = _details(log, record, path, line)
+    first = len(log.transitions)
     for change in _require(record, "changes", list, path, line):
         log.transitions.append(_transition(log, change, n, t, halted, path, line))
+    for node, detail in details.items():  # on the node's last finish in this record
+        mine = (c for c in reversed(log.transitions[first:]) if c.node == node and c.after in _DONE)
+        change = next(mine, None)
+        if change is not None:
+            log.transitions[change.seq] = replace(change, detail=detail)
     written = record.get("bb") or {}
     if not isinstance(written, dict):
         raise TickLogError(
@@ -343,6 +387,23 @@ def _event(log: TickLog, record: dict[str, Any], line: int, path: Path) -> None:
         log.writes.append((n, t, key, value))
     for key in unset:
         log.writes.append((n, t, key, _UNSET))
+
+
+def _details(log: TickLog, record: dict[str, Any], path: Path, line: int) -> dict[int, dict[str, Any]]:
+    """A tick's `detail` record: {node id: mapping}, checked."""
+    details = record.get("detail") or {}
+    valid = isinstance(details, dict) and all(
+        key.isdigit() and int(key) < len(log.nodes) and isinstance(value, dict)
+        for key, value in details.items()
+    )
+    if not valid:
+        raise TickLogError(
+            f"corrupt record: expected a mapping of node ids to mappings, found {brief(details)}",
+            file=path,
+            line=line,
+            field="detail",
+        )
+    return {int(key): value for key, value in details.items()}
 
 
 def _transition(

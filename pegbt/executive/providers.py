@@ -120,6 +120,14 @@ RUN_OPTIONS: dict[str, RunOption] = {
             type=float,
         ),
         RunOption(
+            "camera",
+            "robot (--interface dvrk): the depth camera's ROS 2 driver: stream (a camera that streams "
+            "PointCloud2 on --camera-topic, as realsense2_camera does) or zivid (zivid_camera: pegbt calls its "
+            "/capture service for each cloud and thins the full-resolution cloud on /points/xyz)",
+            "stream",
+            choices=("stream", "zivid"),
+        ),
+        RunOption(
             "camera-topic",
             "robot (--interface dvrk): the streaming PointCloud2 topic of the depth camera "
             "(None: /camera/camera/depth/color/points, a RealSense's)",
@@ -131,10 +139,21 @@ RUN_OPTIONS: dict[str, RunOption] = {
             "optimized",
             choices=("uncalibrated", "calibrated", "optimized"),
         ),
+        RunOption(
+            "speed",
+            "skills and robot: move at this fraction (0, 1] of the planner's speed, for a first run on a "
+            "robot: velocities × F, accelerations × F², every motion 1/F as long (None: 1)",
+            type=float,
+        ),
         RunOption("seed", "robot: seed of the embedded simulator's world", 0, type=int),
         RunOption(
             "faults",
             "robot: fault plan (YAML) for the embedded simulator to inject (see `pegbt sim --faults`)",
+        ),
+        RunOption(
+            "world-effects",
+            "robot: world file (YAML) of the world effects the embedded simulator adds (see `pegbt sim "
+            "--world-effects`)",
         ),
         RunOption(
             "simlog",

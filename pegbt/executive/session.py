@@ -1,8 +1,9 @@
 """One run of a tree file, from loading to the resources' reports: what `pegbt run` does, callable from code.
 
-`run_tree_file` loads and checks the tree, provides its resources (with the run's options), takes the
-clock a resource supplies (else the one asked for), builds, runs with a tick log, collects each
-resource's `report()` while the resources are still open, and closes them whatever happens.
+`run_tree_file` runs one `RunOptions`: it loads and checks the tree, provides its resources (with the
+run's options), takes the clock a resource supplies (else the one asked for), builds, runs with a tick
+log whose header records the options, collects each resource's `report()` while the resources are still
+open, and closes them whatever happens.
 """
 
 from __future__ import annotations
@@ -28,11 +29,10 @@ from pegbt.executive.providers import (
     make_clock,
     provide_resources,
     resource_clock,
-    run_options,
 )
 from pegbt.executive.runner import RunResult, run
+from pegbt.executive.runoptions import RunOptions
 from pegbt.executive.ticklog import Record, TickLogWriter
-from pegbt.numbers import checked_number
 
 
 def default_log_path(tree: str | Path) -> Path:
@@ -58,36 +58,23 @@ class RunOutput:
 
 
 def run_tree_file(
-    tree: str | Path,
-    log_path: str | Path,
+    options: RunOptions,
     *,
-    options: Mapping[str, Any] | None = None,
-    clock: str | None = None,
-    period: float = 0.02,
-    timeout: float | None = None,
     quiet: bool = True,
     out: IO[str] | None = None,
-    blackboard: Mapping[str, Any] | None = None,
     verbose: bool = False,
     watch: Callable[[BuiltTree, Mapping[str, Any]], list[Callable[[dict[str, Any]], None]]] | None = None,
-    record: str | Path | None = None,
-    record_cloud_step: int = 10,
-    allow_include_outside: bool = False,
 ) -> RunOutput:
-    """Run the tree file `tree` once; see the module docstring. `quiet=False` prints progress to `out`
-    (default: `sys.stdout` as it is when called); `blackboard` replaces initial values the file declares
-    (`LoadedTree.set_blackboard`); `verbose` prints every leaf's result, not only failures and
-    recoveries; `watch(built, resources)` returns more tick-log listeners (`pegbt run --monitor`);
-    `record` names an MCAP file for what the resources' links carry and the tick log's status changes
-    (`pegbt.transport.recorder`)."""
+    """Run the tree file of `options` once; see the module docstring. `quiet=False` prints progress to
+    `out` (default: `sys.stdout` as it is when called); `verbose` prints every leaf's result, not only
+    failures and recoveries; `watch(built, resources)` returns more tick-log listeners (`pegbt run
+    --monitor`). A recording (`options.record`) holds what the resources' links carry and the tick
+    log's status changes (`pegbt.transport.recorder`)."""
     out = out or sys.stdout
-    checked_number(period, "--period", above=0.0)
-    if timeout is not None:
-        checked_number(timeout, "--timeout", above=0.0)
-    log_path = Path(log_path)
-    loaded = load_tree(tree, allow_include_outside=allow_include_outside)
-    loaded.set_blackboard(blackboard or {})
-    setup = ProviderSetup(clock=make_clock(clock or "wall"), options=run_options(options), clock_name=clock)
+    tree, log_path, clock = options.tree, options.log, options.clock
+    loaded = load_tree(tree, allow_include_outside=options.allow_include_outside)
+    loaded.set_blackboard(options.blackboard)
+    setup = ProviderSetup(clock=make_clock(clock or "wall"), options=options.options, clock_name=clock)
     resources = provide_resources(loaded.resource_users(), setup)
     recorder = None
     try:
@@ -96,8 +83,10 @@ def run_tree_file(
         listeners: list[Callable[[Record], None]] = (
             [] if quiet else [ProgressPrinter(built, out, verbose=verbose)]
         )
-        if record is not None:
-            recorder = _recorder(record, supplied or setup.clock, clock_kind, record_cloud_step, resources)
+        if options.record is not None:
+            recorder = _recorder(
+                options.record, supplied or setup.clock, clock_kind, options.record_cloud_step, resources
+            )
             listeners.append(recorder.tick_record)
         if not quiet:
             bars = [
@@ -111,6 +100,7 @@ def run_tree_file(
                 log_path,
                 built,
                 clock_kind=clock_kind,
+                run=options.record_fields(met_world=bool(resources)),
                 listeners=listeners,
                 messages=[
                     resource.log_messages
@@ -120,9 +110,10 @@ def run_tree_file(
             )
         except OSError as error:
             raise PegbtError(f"cannot write the tick log: {error.strerror}", file=log_path) from None
+        period = options.period
         if not quiet:
             print(f"running {tree} (period {period:g} s, {clock_kind} clock); tick log {log_path}", file=out)
-        result = run(built, period=period, timeout=timeout, log=writer)
+        result = run(built, period=period, timeout=options.timeout, log=writer)
         reports = {
             name: resource.report() for name, resource in resources.items() if isinstance(resource, Reports)
         }

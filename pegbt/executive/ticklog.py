@@ -4,11 +4,14 @@ Records (one JSON object per line, flushed as written so that a crash loses noth
 
 - `header`: format version, pegbt version, tree file, start time (wall clock, ISO 8601), the clock's
   kind, initial blackboard, and `nodes`: id, parent, path, name, type, py_trees class, source
-  `file:line:column`, parameters, blackboard keys read and written, subtree instance.
+  `file:line:column`, parameters, blackboard keys read and written, subtree instance. A run of
+  `run_tree_file` adds `variant`, `condition` and `run`, its options (`RunOptions.record_fields`).
 - `tick`: `n` (tick number from 1), `t` (executive-clock seconds since the start), `dt_us` (wall
   cost of the tick, for profiling), `changes` as `[id, from, to, feedback]` and `bb` as
   `{key: compact value}` (`bb_unset` lists deleted keys); `late_s` when the tick overran its period
-  on the run's clock (such a tick is always written).
+  on the run's clock (such a tick is always written); `detail` as `{id: {...}}`: what a leaf that
+  finished in the tick says beside its feedback (its `log_detail`: a carry, which segment of its motion
+  was playing and whether the jaw held the block).
 - `halt`: the tree was halted (`reason`: `interrupt`, `timeout`, `crash`), with the status changes the
   halt caused (running nodes going to INVALID had `terminate` called).
 - `crash`: an exception escaped a tick (`error`, `traceback`).
@@ -33,7 +36,7 @@ from __future__ import annotations
 import datetime
 import json
 import operator
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import IO, Any
 
@@ -52,6 +55,7 @@ _same = comparison("==")
 _ENCODER = json.JSONEncoder(separators=(",", ":"))
 _status_of = operator.attrgetter("status")
 _NAME = {status: status.value for status in py_trees.common.Status}  # Enum.value is a slow descriptor
+_FINISHED = (py_trees.common.Status.SUCCESS, py_trees.common.Status.FAILURE)
 
 Record = dict[str, Any]
 
@@ -91,10 +95,12 @@ class TickLogWriter:
         built: BuiltTree,
         *,
         clock_kind: str,
+        run: Mapping[str, Any] | None = None,
         listeners: Sequence[Callable[[Record], None]] = (),
         messages: Sequence[Callable[[], list[Record]]] = (),
     ) -> None:
-        """`messages`: sources of `message` records (each returns what arrived since it was last asked),
+        """`run`: the run's options, as `RunOptions.record_fields` gives them, added to the header;
+        `messages`: sources of `message` records (each returns what arrived since it was last asked),
         drained before every tick, halt and end record."""
         self.path = Path(path)
         self.path.parent.mkdir(parents=True, exist_ok=True)
@@ -106,6 +112,7 @@ class TickLogWriter:
         self._index = {behaviour: index for index, behaviour in enumerate(self._behaviours)}
         self._status = [behaviour.status for behaviour in self._behaviours]
         self._changes: list[list[Any]] = []
+        self._details: dict[str, Any] = {}
         self._blackboard: dict[str, Any] = {}
         self._listeners = list(listeners)
         self._messages = list(messages)
@@ -119,6 +126,7 @@ class TickLogWriter:
                 "start_time": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="milliseconds"),
                 "clock": clock_kind,
                 "blackboard": {key: compact(value) for key, value in built.initial_blackboard.items()},
+                **(run or {}),
                 "nodes": node_table(built),
             }
         )
@@ -142,6 +150,8 @@ class TickLogWriter:
             if status is not previous[i]:
                 changes.append([i, name[previous[i]], name[status], node.feedback_message])
                 previous[i] = status
+                if status in _FINISHED and (detail := getattr(node, "log_detail", None)) is not None:
+                    self._details[str(i)] = compact(detail)
 
     def _status_changes(self) -> list[list[Any]]:
         """Changes noted during the tick, then those of nodes that changed without being ticked (halted)."""
@@ -193,6 +203,8 @@ class TickLogWriter:
             }
             if late > 0:
                 record["late_s"] = round(late, 6)
+            if self._details:
+                record["detail"], self._details = self._details, {}
             if written:
                 record["bb"] = written
             if unset:

@@ -6,7 +6,7 @@ leaves them; all read them through `arm_settings()`.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import lru_cache
 from pathlib import Path
 
@@ -36,6 +36,20 @@ class ArmSettings:
     jaw_velocity: float
     control_period: float
     home_tip: NDArray[np.float64]
+
+    def at_speed(self, fraction: float) -> "ArmSettings":
+        """These settings for motions at `fraction` (0, 1] of the planner's speed, for a first run on a robot:
+        velocities × fraction and accelerations × fraction², so that every planned motion keeps its path and
+        takes 1 / fraction as long; the jaw at fraction of its velocity. The joint and velocity limits that
+        guard every command stay as they are."""
+        if fraction == 1.0:
+            return self
+        return replace(
+            self,
+            planner_velocity=self.planner_velocity * fraction,
+            planner_acceleration=self.planner_acceleration * fraction**2,
+            jaw_velocity=self.jaw_velocity * fraction,
+        )
 
     def joint_violations(self, q: ArrayLike) -> list[str]:
         """Human-readable joint-limit violations of one joint vector; empty when it is inside."""

@@ -3,8 +3,13 @@
 Each capture casts one ray per pixel (Open3D's `RaycastingScene`) into the board, pegs, blocks and,
 optionally, the instruments, keeps the first hit, and adds Gaussian noise along the ray, so hidden
 faces and the board behind blocks are missing exactly as for a real camera. Only the pixels that can
-see the board are cast (`image_shape`: that region of the image, rows by columns). Noise bursts can be
+see the board are cast (`image_shape`: that region of the image, rows by columns), or, for a camera that
+sends its whole image (a Zivid's organised cloud), every pixel (`full_frame`). Noise bursts can be
 injected (scheduled or at random); each is logged in the world's event log.
+
+A world's `depth_bias` (`pegbt.sim.world_effects`) acts on what the camera sees, never on the world: it
+lengthens the rays that meet the blocks and the instruments (not the pegboard, which perception registers
+and measures the pegs on).
 
 A capture is taken whole (`capture`) or in parts (`expose`, then `Exposure.cast` a few rays at a time, then
 `Exposure.points`): the streaming camera of the simulator's dVRK interface renders a frame over several
@@ -23,7 +28,7 @@ from pegbt.sim.faults import CameraFaults, NoiseBurst
 from pegbt.sim.interfaces import SimWorld
 from pegbt.sim.meshes import Mesh, block_mesh, cylinder_mesh, merge, static_scene_mesh, transformed
 from pegbt.sim.world import World
-from pegbt.workcell import Workcell, workcell
+from pegbt.workcell import CameraModel, Workcell, workcell
 
 ROI_MARGIN_PX = 8
 
@@ -39,20 +44,26 @@ class DepthCamera:
         faults: CameraFaults = CameraFaults(),
         include_arms: bool = True,
         depth_noise: float | None = None,
+        model: CameraModel | None = None,
+        full_frame: bool = False,
     ) -> None:
         self.cell = cell or workcell()
+        self.model = model or self.cell.camera  # the work cell's camera, or another sensor at its pose
         self.faults = faults
         self.include_arms = include_arms
-        self.depth_noise = self.cell.camera.depth_noise if depth_noise is None else depth_noise
+        self.depth_noise = self.model.depth_noise if depth_noise is None else depth_noise
         self._rng = np.random.default_rng(np.random.SeedSequence([seed, 0xCA3E7A]))
         self._static = static_scene_mesh(self.cell)
         self._block = block_mesh(self.cell.block)
-        self._directions, self.image_shape = self._pixel_directions()  # (n, 3) camera frame, z = 1
-        board_from_camera = self.cell.camera.board_from_camera
-        origins = np.broadcast_to(board_from_camera[:3, 3], self._directions.shape)
-        self._rays = o3d.core.Tensor.from_numpy(
-            np.hstack([origins, self._directions @ board_from_camera[:3, :3].T]).astype(np.float32)
+        self._directions, self.image_shape = (  # (n, 3) camera frame, z = 1
+            self._all_pixel_directions() if full_frame else self._pixel_directions()
         )
+        board_from_camera = self.model.board_from_camera
+        rays = np.empty((len(self._directions), 6), dtype=np.float32)
+        rays[:, :3] = board_from_camera[:3, 3]
+        # einsum, not `@`: a busy machine's multi-threaded BLAS takes seconds over a full frame's 2.3 M rays
+        rays[:, 3:] = np.einsum("ij,kj->ik", self._directions, board_from_camera[:3, :3])
+        self._rays = o3d.core.Tensor.from_numpy(rays)
 
     @property
     def ray_count(self) -> int:
@@ -62,7 +73,7 @@ class DepthCamera:
     def _pixel_directions(self) -> tuple[Matrix, tuple[int, int]]:
         """Ray directions (z = 1) of the pixels inside the board's image, padded by a margin, row by row; and
         that region's rows and columns."""
-        camera = self.cell.camera
+        camera = self.model
         board, top = self.cell.board, self.cell.pegs.top_z
         corners = np.array(
             [[x, y, z] for x in board.extent_x for y in board.extent_y for z in (board.surface_z, top)]
@@ -76,14 +87,25 @@ class DepthCamera:
         v_range = np.clip([v.min() - ROI_MARGIN_PX, v.max() + ROI_MARGIN_PX], 0, camera.height - 1).astype(
             int
         )
-        us, vs = np.meshgrid(np.arange(u_range[0], u_range[1] + 1), np.arange(v_range[0], v_range[1] + 1))
+        return self._directions_of(
+            np.arange(u_range[0], u_range[1] + 1), np.arange(v_range[0], v_range[1] + 1)
+        )
+
+    def _all_pixel_directions(self) -> tuple[Matrix, tuple[int, int]]:
+        """Ray directions (z = 1) of every pixel of the image, row by row; and its rows and columns."""
+        return self._directions_of(np.arange(self.model.width), np.arange(self.model.height))
+
+    def _directions_of(self, columns: np.ndarray, rows: np.ndarray) -> tuple[Matrix, tuple[int, int]]:
+        camera = self.model
+        us, vs = np.meshgrid(columns, rows)
         directions = np.column_stack(
             [(us.ravel() - camera.cx) / camera.fx, (vs.ravel() - camera.cy) / camera.fy, np.ones(us.size)]
         )
         return directions, (int(us.shape[0]), int(us.shape[1]))
 
     def scene_mesh(self, world: World) -> Mesh:
-        """Everything the camera can see now, in the board frame."""
+        """Everything the camera can see now, in the board frame: the pegboard first (`board_triangles`
+        triangles), then the blocks and the instruments."""
         meshes = [self._static] + [transformed(self._block, block.pose) for block in world.blocks]
         if self.include_arms:
             tool = self.cell.tool
@@ -96,22 +118,37 @@ class DepthCamera:
                 ]
         return merge(meshes)
 
+    @property
+    def board_triangles(self) -> int:
+        """How many triangles of a scene mesh are the pegboard's (board and pegs)."""
+        return len(self._static[1])
+
     def capture(self, world: SimWorld, time: float | None = None) -> np.ndarray:
         """A point cloud (N, 3) float32 in the camera frame (metres) of the world at `time` (default: now)."""
+        points = self.capture_organised(world, time)
+        return points[np.isfinite(points[:, 0])]
+
+    def capture_organised(self, world: SimWorld, time: float | None = None) -> np.ndarray:
+        """Every pixel's point (n, 3) float32, row by row over `image_shape`, NaN where nothing is seen."""
         exposure = self.expose(world, time)
         exposure.cast(self.ray_count)
-        points = exposure.points()
-        return points[np.isfinite(points[:, 0])]
+        return exposure.points()
 
     def expose(self, world: SimWorld, time: float | None = None) -> Exposure:
         """A capture of the world as it is now, stamped `time` (default: the world's); no ray cast yet."""
         assert isinstance(world, World)  # the camera renders pegbt's world, its blocks where they are
         return Exposure(self, world, world.time if time is None else time)
 
-    def _develop(self, depth: np.ndarray, world: World, time: float) -> np.ndarray:
-        """Every pixel's point (n, 3) float32 from its ray's hit distance, noisy; NaN where nothing is hit."""
+    def _develop(
+        self, depth: np.ndarray, world: World, time: float, biased: np.ndarray | None = None
+    ) -> np.ndarray:
+        """Every pixel's point (n, 3) float32 from its ray's hit distance, noisy (and biased where `biased`
+        says a ray met a surface a depth bias lengthens); NaN where nothing is hit."""
         seen = np.isfinite(depth)
         hits = depth[seen].astype(np.float64)
+        bias = world.effects.values("depth_bias")["bias"]
+        if bias and biased is not None:
+            hits += bias * biased[seen]
         if self.depth_noise > 0:
             hits += self._rng.normal(0.0, self.depth_noise, hits.shape)
         burst = self._burst(world, time)
@@ -152,6 +189,8 @@ class Exposure:
             o3d.core.Tensor.from_numpy(triangles.astype(np.uint32)),
         )
         self._depth = np.empty(camera.ray_count, dtype=np.float32)
+        biased = world.effects.values("depth_bias")["bias"] != 0
+        self._biased = np.zeros(camera.ray_count, dtype=bool) if biased else None
         self._cast = 0
 
     @property
@@ -163,7 +202,10 @@ class Exposure:
         """Cast the next `count` rays (the first call also builds the scene's search structure)."""
         start, stop = self._cast, min(self._cast + count, len(self._depth))
         rays = self._camera._rays[start:stop]
-        self._depth[start:stop] = self._scene.cast_rays(rays)["t_hit"].numpy()
+        hits = self._scene.cast_rays(rays)
+        self._depth[start:stop] = hits["t_hit"].numpy()
+        if self._biased is not None:  # rays that met a block or an instrument
+            self._biased[start:stop] = hits["primitive_ids"].numpy() >= self._camera.board_triangles
         self._cast = stop
 
     def points(self) -> np.ndarray:
@@ -171,4 +213,4 @@ class Exposure:
         surface was hit (as a depth camera's organised cloud marks invalid pixels)."""
         if not self.done:
             raise PegbtError("the exposure's rays are not all cast yet", field="camera")
-        return self._camera._develop(self._depth, self._world, self.time)
+        return self._camera._develop(self._depth, self._world, self.time, self._biased)

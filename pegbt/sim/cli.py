@@ -95,6 +95,13 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
         help="fault plan (loss, latency, crash, world and camera faults)",
     )
     parser.add_argument(
+        "--world-effects",
+        type=Path,
+        metavar="YAML",
+        help="world file: the contact physics the world adds (bending pegs, chamfers, a compliant or "
+        "slipping grip, a registration offset, a depth bias; `pegbt sim2real outcomes --effects` lists them)",
+    )
+    parser.add_argument(
         "--seed",
         action=NumberOption,
         type=int,
@@ -127,6 +134,16 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
         "--log", type=Path, metavar="JSONL", help="append the simulator's log (world events, faults) here"
     )
     parser.add_argument(
+        "--camera",
+        choices=("stream", "zivid"),
+        default="stream",
+        help="--interface dvrk: stream: a depth camera streaming PointCloud2 on --camera-topic at --camera-rate, "
+        "as realsense2_camera does (the default); zivid: a Zivid 2 as `ros2 run zivid_camera zivid_camera` "
+        "serves it: the service /capture (std_srvs/srv/Trigger) captures one organised, full-resolution "
+        "cloud (1944 x 1200 points, NaN where a pixel sees nothing, frame zivid_optical_frame) and publishes "
+        "it on /points/xyzrgba and /points/xyz, each only if somebody subscribes, before it responds",
+    )
+    parser.add_argument(
         "--camera-topic",
         default=DEFAULT_POINTS_TOPIC,
         metavar="TOPIC",
@@ -149,6 +166,14 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
         at_most=100.0,
         metavar="HZ",
         help="--interface dvrk: joint and Cartesian states per second (default 100, the dVRK's ROS period)",
+    )
+    parser.add_argument(
+        "--robot-clock-offset",
+        action=NumberOption,
+        default=0.0,
+        metavar="SECONDS",
+        help="--interface dvrk: stamp everything the robot sends on a clock this far ahead of this computer's "
+        "(negative: behind), as a robot computer whose clock is not synchronised (default 0)",
     )
     parser.add_argument(
         "--stop-with-parent",
@@ -175,6 +200,16 @@ def _sim(args: argparse.Namespace) -> int:
     check_namespace(args.namespace, "--namespace")
     if args.interface == "dvrk":
         _refuse_pegbt_only_options(args)
+    elif args.robot_clock_offset:
+        raise PegbtError(
+            "--robot-clock-offset is the dVRK interface's (pegbt's stamps on the simulator's clock): add "
+            "--interface dvrk",
+            field="--robot-clock-offset",
+        )
+    elif args.camera != "stream":
+        raise PegbtError(
+            f"--camera {args.camera} is a ROS 2 camera driver's: add --interface dvrk", field="--camera"
+        )
     if args.ros2 == "rmw_zenoh":
         settings = _graph_settings(args)
     else:
@@ -188,7 +223,9 @@ def _sim(args: argparse.Namespace) -> int:
         "crash_at": args.crash_at,
     }
     plan = dataclasses.replace(plan, **{k: v for k, v in overrides.items() if v is not None})
-    world, camera = _world(plan) if args.world else (None, None)
+    if args.world_effects is not None and not args.world:
+        raise PegbtError("--world-effects act on the world: drop --no-world", field="--world-effects")
+    world, camera = _world(plan, args.world_effects, args.camera) if args.world else (None, None)
     # before the session opens, so that zenoh's threads inherit it
     wanted = not args.lockstep and args.priority == "realtime"
     with realtime_priority(ROBOT_PRIORITY if wanted else None) as realtime:
@@ -311,7 +348,10 @@ def _announce(
         if args.ros2 == "rmw_zenoh"
         else ", ".join(settings.listen)
     )
-    scene = f"world and camera, seed {plan.seed}" if world is not None else "no world"
+    scene = "no world"
+    if world is not None:
+        effects = ", ".join(effect.kind for effect in world.effects) or "none"
+        scene = f"world and camera, seed {plan.seed}, world effects: {effects}"
     print(
         f"pegbt sim: serving {', '.join(endpoint.arms)} on {where} ({mode}, {args.interface} "
         f"interface, physics {args.physics}, {scene})",
@@ -334,12 +374,21 @@ def _stop_at_stdin_eof(endpoint: SimEndpoint | DvrkEndpoint) -> None:
     endpoint.stop()
 
 
-def _world(plan: FaultPlan) -> tuple[World, DepthCamera]:
-    """The pegboard world and its camera, seeded and faulted as the plan says."""
+def _world(plan: FaultPlan, world_file: Path | None, kind: str = "stream") -> tuple[World, DepthCamera]:
+    """The pegboard world and its camera (a Zivid 2's whole image for `zivid`), seeded and faulted as the plan
+    says, with the world file's effects."""
     from pegbt.sim.camera import DepthCamera
     from pegbt.sim.world import World
+    from pegbt.sim.world_effects import WorldEffects, read_world_file
 
-    return World(plan.seed, faults=plan.world), DepthCamera(seed=plan.seed, faults=plan.camera)
+    effects = WorldEffects() if world_file is None else read_world_file(world_file)
+    world = World(plan.seed, faults=plan.world, effects=effects)
+    if kind == "zivid":
+        from pegbt.sim.zivid import zivid2_model
+
+        model = zivid2_model(world.cell.camera)
+        return world, DepthCamera(seed=plan.seed, faults=plan.camera, model=model, full_frame=True)
+    return world, DepthCamera(seed=plan.seed, faults=plan.camera)
 
 
 def _graph_settings(args: argparse.Namespace) -> SessionSettings:
@@ -410,6 +459,8 @@ def _dvrk_endpoint(
         state_period=1.0 / args.state_rate,
         camera_topic=args.camera_topic,
         camera_period=1.0 / args.camera_rate,
+        camera=args.camera,
+        robot_clock_offset=args.robot_clock_offset,
     )
     wire = make_wire(args.ros2, session, args.namespace, node_name="pegbt_sim")
     return DvrkEndpoint(wire, config, world=world, camera=camera)

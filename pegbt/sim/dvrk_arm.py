@@ -22,12 +22,25 @@ sawIntuitiveResearchKit `core/components/code/mtsIntuitiveResearchKitArm.cpp` (A
   trajectory (`pegbt.sim.dvrk_trajectory`) and the arm is busy until it ends; switching from a move to
   `servo_jp` or `hold` ends the move where it is (Arm.cpp `SetControlSpaceAndMode`);
 - FAULT when an actuator's set-point and measured position differ by more than its tolerance (jhu-saw/
-  sawControllers `core/components/code/mtsPID.cpp`, relayed by Arm.cpp `ErrorEventHandler`); in FAULT
-  the power is off and the arm holds where it is until it is disabled and enabled again.
+  sawControllers `core/components/code/mtsPID.cpp`, relayed by Arm.cpp `ErrorEventHandler`); entering
+  FAULT powers the arm off (Arm.cpp `EnterFault`, `IO.PowerOffSequence`), and a PSM has no brakes: nothing
+  holds it until it is disabled and enabled again;
+- every `UpdateOperatingStateAndBusy` and `UpdateIsBusy` of Arm.cpp publishes the operating state, changed
+  or not, the homing sequence's intermediate ones too (`state_events`): a `move_jp` while busy republishes busy (Arm.cpp
+  `control_move_jp_on_start`);
+- the joints are valid only once the arm is powered and its encoders biased (PSM.cpp `is_joint_ready`),
+  the tool's joints and the jaw only once the tool engages (PSM.cpp `is_cartesian_ready`); until then the
+  dVRK sends zeros marked invalid, and the PID's seven joints (Arm.cpp `get_robot_data`,
+  `UpdateStateJointKinematics`), which `pegbt.sim.dvrk_endpoint` publishes as the dVRK's bridge does;
+- the clutch (PSM.cpp `EventHandlerManipClutch`): pressed on a ready arm, MANUAL (still ENABLED, homed and
+  busy: PSM.cpp `EnterManual`), the PID off so that a person moves the arm (`free`), though a `servo_jp`
+  that comes meanwhile is executed (PSM.cpp `RunManual` runs the control callback); released, back to the
+  state before, holding where the arm is (PSM.cpp `LeaveManual`: `hold`).
 
-Until HOMING (DISABLED, POWERING, ENABLED, the encoders' calibration) the PID is off (Arm.cpp
-`EnterDisabled`, `EnterEnabled`): the set-point follows the encoders; in FAULT it stays where they were. Status, warning and error texts follow the dVRK's (`reports`); what the simulator's
-judge needs (clips, dropped commands, faults) is in `safety`.
+Until HOMING (DISABLED, POWERING, ENABLED, the encoders' calibration), in FAULT and in MANUAL the PID is off
+(Arm.cpp `EnterDisabled`, `EnterEnabled`, `EnterFault`; PSM.cpp `EnterManual`): the set-point follows the
+encoders. Status, warning and error texts follow the dVRK's (`reports`); what the simulator's judge needs
+(clips, dropped commands, faults) is in `safety`.
 """
 
 from __future__ import annotations
@@ -64,6 +77,16 @@ class Report:
 
     topic: str
     text: str
+
+
+@dataclass(frozen=True)
+class StateEvent:
+    """An operating state the arm published: CRTK's state, homed, busy, and the dVRK's own state name."""
+
+    state: str
+    is_homed: bool
+    is_busy: bool
+    substate: str
 
 
 @dataclass(frozen=True)
@@ -114,12 +137,25 @@ class DvrkArm:
         self._not_ready_last = -np.inf
         self.now = 0.0
         self._tracking_checked_from = 0.0
+        self.state_events: list[StateEvent] = []  # operating states to publish (each `_operating`)
+        self._clutch_from = ""  # the state MANUAL returns to when the clutch is released
+        self._operating("DISABLED", False)  # Arm.cpp `EnterDisabled` at start
 
     # ------------------------------------------------------------------ what it reports
     @property
     def is_homed(self) -> bool:
         """PSM.cpp `is_homed` with a tool present: powered, encoders biased, adapter and tool engaged."""
         return self._powered and self._biased and self._adapter_engaged and self._tool_engaged
+
+    @property
+    def joint_ready(self) -> bool:
+        """PSM.cpp `is_joint_ready`: the joints the dVRK reports are valid (powered, encoders biased)."""
+        return self._powered and self._biased
+
+    @property
+    def cartesian_ready(self) -> bool:
+        """PSM.cpp `is_cartesian_ready`: the tool's joints, the jaw and the tip's pose are valid."""
+        return self.joint_ready and self._tool_engaged
 
     @property
     def setpoint(self) -> NDArray[np.float64]:
@@ -134,8 +170,9 @@ class DvrkArm:
         self.reports.append(Report(topic, f"{self.name}: {text}"))
 
     def _operating(self, state: str, busy: bool) -> None:
-        """Arm.cpp `UpdateOperatingStateAndBusy`."""
+        """Arm.cpp `UpdateOperatingStateAndBusy` (and `UpdateIsBusy`): published, changed or not."""
         self.state, self.is_busy = state, busy
+        self.state_events.append(StateEvent(state, self.is_homed, busy, self.current))
 
     # ------------------------------------------------------------------ the state machine
     def _set_desired(self, state: str) -> None:
@@ -159,16 +196,16 @@ class DvrkArm:
             enter()
 
     def _enter_disabled(self) -> None:
-        self._operating("DISABLED", False)
         self._powered = False
+        self._operating("DISABLED", False)
 
     def _enter_powering(self) -> None:
         self._operating("DISABLED", True)
         self._report("status", "power requested")
 
     def _enter_enabled(self) -> None:
-        self._operating("ENABLED", False)
         self._powered = True
+        self._operating("ENABLED", False)
 
     def _enter_calibrating_encoders_from_pots(self) -> None:
         self._operating("ENABLED", True)
@@ -206,18 +243,17 @@ class DvrkArm:
         self._enter("TOOL_ENGAGED")
 
     def _enter_tool_engaged(self) -> None:
-        self._operating("ENABLED", False)
         self._tool_engaged = True
+        self._operating("ENABLED", False)
 
     def _enter_paused(self) -> None:
         self._operating("PAUSED", False)
 
     def _enter_fault(self) -> None:
-        self._operating("FAULT", False)
         self._powered = False
+        self._operating("FAULT", False)
         self._mode = ""
         self._trajectory.active = False
-        self._hold_where_measured()
 
     def _transition(self) -> bool:
         """One `Transition*` callback of the current state; whether the state changed."""
@@ -268,9 +304,31 @@ class DvrkArm:
             self._set_desired("PAUSED")
         elif command == "unhome":
             self._tool_engaged = False  # PSM.cpp `unhome` with a tool present
+            self._operating(self.state, self.is_busy)
         else:  # resume
             current, self.desired = self._resume
             self._enter(current)
+
+    def clutch(self, pressed: bool) -> None:
+        """The arm's clutch button (PSM.cpp `EventHandlerManipClutch`): pressed on an arm ENABLED with valid
+        joints, MANUAL; released, back to the state it was in, holding where the arm is."""
+        if pressed and self.current != "MANUAL":
+            if self.state == "ENABLED" and self.joint_ready:
+                self._clutch_from = self.current
+                self._enter("MANUAL")
+            else:
+                self._report("warning", "arm not ready yet, manipulator clutch ignored")
+        elif not pressed and self.current == "MANUAL":
+            self._operating("ENABLED", False)  # PSM.cpp `LeaveManual`
+            self._hold_where_measured()
+            self._mode = "position"
+            self._enter(self._clutch_from)
+
+    def _enter_manual(self) -> None:
+        """PSM.cpp `EnterManual`: busy, and `free`: the PID off until a command comes."""
+        self._operating("ENABLED", True)
+        self._mode = ""
+        self._trajectory.active = False
 
     # ------------------------------------------------------------------ motion commands
     def _ready(self, method: str, cartesian: bool) -> bool:
@@ -280,7 +338,7 @@ class DvrkArm:
         ready = self.state == "ENABLED" and self._powered and self._biased
         if ready and (self._tool_engaged or not cartesian):
             self._not_ready_count, self._not_ready_last = 0, -np.inf
-            if self.current == "HOMED":
+            if self.current in ("HOMED", "MANUAL"):  # PSM.cpp `RunManual` runs the control callback too
                 return True
             self.safety.append(SafetyEvent("ignored", method, {"substate": self.current}))
             return False
@@ -307,7 +365,7 @@ class DvrkArm:
         goal = self._trajectory_mode()
         goal[:6] = self._clip_joints(q, "move_jp")
         self._trajectory.retarget(goal)
-        self.is_busy = True
+        self._operating(self.state, True)
 
     def hold(self) -> None:
         if self._ready("hold", cartesian=False):
@@ -327,7 +385,7 @@ class DvrkArm:
         goal = self._trajectory_mode()
         goal[6] = self._clip_jaw(angle, "jaw/move_jp")[0]
         self._trajectory.retarget(goal)
-        self.is_busy = True
+        self._operating(self.state, True)
 
     def _positions(self, values: ArrayLike, size: int, command: str) -> NDArray[np.float64] | None:
         """The command's positions; None (refused, and said on `warning`) if they are not `size` finite
@@ -369,7 +427,7 @@ class DvrkArm:
             return
         if self._trajectory.active:
             self._trajectory.active = False
-            self.is_busy = False
+            self._operating(self.state, False)
         self._mode = "position"
         self._report("status", "control JOINT_SPACE/POSITION_MODE")
 
@@ -395,12 +453,16 @@ class DvrkArm:
     def advance(self, now: float) -> None:
         """One control period ending at `now` (s since the simulator started)."""
         self.now = now
-        if self.current == "HOMING" or (self.current == "HOMED" and self._mode == "trajectory"):
+        if self.current == "HOMING" or (self.current in ("HOMED", "MANUAL") and self._mode == "trajectory"):
             self._run_trajectory()
         for _ in range(12):  # a chain of immediate transitions settles within one period
             if not self._transition():
                 break
-        if self.current in PID_OFF:
+        if (
+            self.current in PID_OFF
+            or self.current == "FAULT"
+            or (self.current == "MANUAL" and not self._mode)
+        ):
             self._hold_where_measured()
         elif self.current not in ("FAULT", "PAUSED") and self.now >= self._tracking_checked_from:
             self._check_tracking()
@@ -424,8 +486,8 @@ class DvrkArm:
 
     def _trajectory_ended(self) -> None:
         """Arm.cpp `control_move_jp_on_stop`, and `RunHoming`'s goal check."""
-        if self.current == "HOMED":
-            self.is_busy = False
+        if self.current == "HOMED" and self.is_busy:
+            self._operating(self.state, False)  # Arm.cpp `control_move_jp_on_stop`
         elif self.current == "HOMING":
             error = np.abs(self._trajectory.goal - self.measured)
             if np.all(error < dvrk.HOMING_TOLERANCE):

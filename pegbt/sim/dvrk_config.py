@@ -17,6 +17,11 @@ from pegbt.motion.limits import ArmSettings
 # (core/components/code/mtsIntuitiveResearchKitPSM.cpp, ConfigureTool).
 JOINT_NAMES = ("yaw", "pitch", "insertion", "roll", "wrist_pitch", "wrist_yaw")
 JAW_NAMES = ("jaw",)
+# Until the tool engages, measured_js and setpoint_js carry the PID's seven joints, the tool's four as its
+# actuators' discs (share/pid/sawControllersPID-PSM.json, "name"; mtsIntuitiveResearchKitArm.cpp
+# `UpdateStateJointKinematics` copies the PID's joints when mtsIntuitiveResearchKitPSM.cpp's
+# `is_cartesian_ready` is false).
+PID_NAMES = ("yaw", "pitch", "insertion", "disc_1", "disc_2", "disc_3", "disc_4")
 
 # Position limits ("qmin", "qmax"): share/kinematic/PSM.json for the first three joints,
 # share/tool/LARGE_NEEDLE_DRIVER_400006.json for the tool's three and its "jaw".
@@ -77,7 +82,12 @@ _JOINT_TO_ACTUATOR = np.linalg.inv(TOOL_ACTUATOR_TO_JOINT)
 
 def actuator_errors(joint_errors: np.ndarray) -> np.ndarray:
     """Set-point minus measured of the seven actuators, from that of the six joints and the jaw (7,)."""
-    return np.concatenate([joint_errors[:3], _JOINT_TO_ACTUATOR @ joint_errors[3:7]])
+    return pid_positions(joint_errors)
+
+
+def pid_positions(joints: np.ndarray) -> np.ndarray:
+    """The PID's seven positions (three joints, then the tool's four actuators) of the six joints and the jaw."""
+    return np.concatenate([joints[:3], _JOINT_TO_ACTUATOR @ joints[3:7]])
 
 
 def clip_bounds(settings: ArmSettings) -> tuple[np.ndarray, np.ndarray, float, float]:

@@ -1,18 +1,24 @@
 """`pegbt sim --interface dvrk`: the simulator behind the topics a dVRK 2.x PSM serves, and a depth camera
-that streams as a RealSense does, in real time.
+that streams as a RealSense does or captures when asked as a Zivid does (`pegbt.sim.zivid`), in real time.
 
 Every topic is declared through a `Ros2Wire` (`pegbt.transport.dvrk_topics` names them), so the same
 endpoint serves zenoh-bridge-ros2dds's keys (`BridgeWire`) or another wire's; it builds no key itself, and
-serves nothing else: no `follow_jt`, no `sim/*` key, no attachment. The arms are `DvrkArm`s (the dVRK's
+serves nothing else: no `follow_jt`, no `sim/*` key, no attachment; it takes one command a dVRK takes from a
+person, not a topic: each arm's clutch button (`clutch_button_topic`). The arms are `DvrkArm`s (the dVRK's
 controller over the simulator's joints and cable physics), acting in the same world as the pegbt
 interface's arms (`Scene`).
 
 One thread owns the simulation. Zenoh callbacks only put what arrives in an inbox; the loop applies each
 command as it comes (what the arm says about it goes out at once), and every control period advances the
 arms, moves the world, publishes the joint and Cartesian states (every `state_period`), the operating
-state when it changed, and a point cloud every `camera_period`. A control period that starts a period or
-more late is an overrun, written to the simulator's log with how late it was; so is every safety event
-of the arms (a clip, a dropped command, a tracking-error fault). The log (`--log`) stays the judge.
+state whenever the arm updates it (changed or not, as the dVRK does), and a point cloud every
+`camera_period` (a Zivid: once per capture request). What the robot sends is stamped on the robot computer's
+clock, `robot_clock_offset` s from this one's (the dVRK stamps with its own ROS clock: cisst-ros
+`cisst_ros_bridge/include/cisst_ros_bridge/mtsCISSTToROS.h`, `cisst_header_to_ros_header`, which writes an
+invalid datum's stamp as 0); the camera, another device, stamps on this computer's. A control period that
+starts a period or more late is an overrun, written to the simulator's log with how late it was; so is
+every safety event of the arms (a clip, a dropped command, a tracking-error fault). The log (`--log`) stays
+the judge.
 """
 
 from __future__ import annotations
@@ -40,8 +46,9 @@ from pegbt.sim.dvrk_arm import DvrkArm
 from pegbt.sim.interfaces import SimWorld, StreamingCamera
 from pegbt.sim.log import SimLog
 from pegbt.sim.scene import Scene
+from pegbt.sim.zivid import ZividDriver
 from pegbt.transport import codec
-from pegbt.transport.dvrk_topics import PsmTopics, point_cloud_topic
+from pegbt.transport.dvrk_topics import PsmTopics, clutch_button_topic, point_cloud_topic
 from pegbt.transport.endpoints import DEFAULT_POINTS_TOPIC
 from pegbt.transport.ros2 import Ros2Wire, Topic, TopicPublisher, TopicSubscriber
 
@@ -62,6 +69,8 @@ class DvrkEndpointConfig:
     state_period: float = dvrk.PUBLISH_PERIOD
     camera_topic: str = DEFAULT_POINTS_TOPIC
     camera_period: float = 0.1
+    camera: str = "stream"  # "stream": a RealSense's; "zivid": the Zivid driver's capture service
+    robot_clock_offset: float = 0.0  # s the robot computer's clock is ahead of this one's
 
 
 class OverrunWatch:
@@ -136,22 +145,27 @@ class DvrkEndpoint:
         self.time = self.start_time
         self._inbox: queue.Queue[tuple[str, Callable[[bytes], None], bytes]] = queue.Queue()
         self._stop = threading.Event()
-        self._operating: dict[str, tuple[str, bool, bool]] = {}
+        self._logged_states: dict[str, tuple[str, str, bool, bool]] = {}
         self._publishers: dict[str, TopicPublisher] = {}
         self._subscribers: list[TopicSubscriber] = []
         self._overrun = OverrunWatch(self.period, self.log)
+        zivid = config.camera == "zivid" and camera is not None and world is not None
         self._camera = (
             CameraStream(camera, world, config.camera_period, self.period, CAMERA_BUDGET, CAMERA_FRAME)
-            if camera is not None and world is not None
+            if camera is not None and world is not None and not zivid
             else None
         )
+        self._zivid: ZividDriver | None = None
+        if zivid:
+            assert camera is not None and world is not None  # zivid says so
+            self._zivid = ZividDriver(wire, camera, world, self.period, CAMERA_BUDGET)
         self._declare(wire)
 
     # ------------------------------------------------------------------ wiring
     def _declare(self, wire: Ros2Wire) -> None:
         """A publisher for every topic the arms (and the camera) publish, a subscriber for every command."""
         published = [topic for topics in self.topics.values() for topic in topics.published()]
-        if self.camera is not None:
+        if self._camera is not None:
             published.append(point_cloud_topic(self.config.camera_topic))
         for topic in published:
             self._publishers[topic.name] = wire.publisher(topic)
@@ -164,6 +178,7 @@ class DvrkEndpoint:
                 topics.jaw_move_jp: _joint_command(arm.jaw_move_jp),
                 topics.hold: _void_command(arm.hold),
                 topics.state_command: _string_command(arm.state_command),
+                clutch_button_topic(name): _button(arm.clutch),
             }
             for topic, handler in handlers.items():
                 self._subscribers.append(wire.subscriber(topic, partial(self._arrived, name, handler)))
@@ -191,7 +206,8 @@ class DvrkEndpoint:
             physics=self.config.physics,
             arms=list(self.arms),
             state_period=self.config.state_period,
-            camera_period=self.config.camera_period if self.camera is not None else None,
+            camera_period=self.config.camera_period if self._camera is not None else None,
+            camera=self.config.camera if self.camera is not None else None,
         )
         if self._scene is not None:
             self._scene.update(0.0)
@@ -220,6 +236,8 @@ class DvrkEndpoint:
                 next_state = max(next_state, self.elapsed) + self.config.state_period
             if self._camera is not None:
                 self._stream()
+            if self._zivid is not None and self._zivid.step(self.elapsed) and self._scene is not None:
+                self._scene.log_events()  # a noise burst is the capture's event
             next_tick += self.period
         return "stopped"
 
@@ -252,9 +270,15 @@ class DvrkEndpoint:
     def _put(self, topic: Topic, payload: bytes) -> None:
         self._publishers[topic.name].put(payload)
 
+    @property
+    def robot_time(self) -> float:
+        """Now on the robot computer's clock: the time the loop is at, `robot_clock_offset` from this one's."""
+        return self.time + self.config.robot_clock_offset
+
     def _report(self) -> None:
-        """What each arm said (status, warning, error), its safety events and its operating state if changed."""
-        stamp = max(self.time, time.time())
+        """What each arm said (status, warning, error), its safety events and its operating state if the arm
+        updated it."""
+        stamp = max(self.time, time.time()) + self.config.robot_clock_offset
         for name, arm in self.arms.items():
             topics = self.topics[name]
             for report in arm.reports:
@@ -270,35 +294,65 @@ class DvrkEndpoint:
                 )
             arm.reports.clear()
             arm.safety.clear()
-            operating = (arm.state, arm.is_homed, arm.is_busy)
-            if self._operating.get(name) != operating:
-                self._operating[name] = operating
-                state = codec.OperatingState(stamp, *operating)
+            for update in arm.state_events:
+                state = codec.OperatingState(stamp, update.state, update.is_homed, update.is_busy)
                 self._put(topics.operating_state, codec.encode_operating_state(state))
-                self.log.record(
-                    self.elapsed,
-                    "arm_state",
-                    arm=name,
-                    state=arm.state,
-                    substate=arm.current,
-                    is_homed=arm.is_homed,
-                    is_busy=arm.is_busy,
-                )
+                logged = (update.state, update.substate, update.is_homed, update.is_busy)
+                if self._logged_states.get(name) != logged:
+                    self._logged_states[name] = logged
+                    self.log.record(
+                        self.elapsed,
+                        "arm_state",
+                        arm=name,
+                        state=update.state,
+                        substate=update.substate,
+                        is_homed=update.is_homed,
+                        is_busy=update.is_busy,
+                    )
+            arm.state_events.clear()
 
     def _publish_states(self) -> None:
-        """Joint and Cartesian states of every arm and its jaw, and the fiducial tracker's joints."""
-        stamp = self.time
+        """Joint and Cartesian states of every arm and its jaw, and the fiducial tracker's joints; what the
+        arm does not have valid yet is sent as the dVRK sends it (`_joint_states`)."""
+        stamp = self.robot_time
         for name, arm in self.arms.items():
-            topics, joints, jaw = self.topics[name], arm.sim.joints, arm.sim.jaw
-            names, jaw_names, base = dvrk.JOINT_NAMES, dvrk.JAW_NAMES, f"{name}_base"
-            encode_js, encode_cp = codec.encode_joint_state, codec.encode_pose_stamped
-            self._put(topics.measured_js, encode_js(stamp, joints.encoder, joints.velocity, names=names))
-            self._put(topics.setpoint_js, encode_js(stamp, joints.setpoint, names=names))
-            self._put(topics.measured_cp, encode_cp(stamp, forward_kinematics(joints.encoder), base))
-            self._put(topics.setpoint_cp, encode_cp(stamp, forward_kinematics(joints.setpoint), base))
-            self._put(topics.jaw_measured_js, encode_js(stamp, jaw.encoder, jaw.velocity, names=jaw_names))
-            self._put(topics.jaw_setpoint_js, encode_js(stamp, jaw.setpoint, names=jaw_names))
-            self._put(topics.fiducial_js, encode_js(stamp, arm.sim.physical, names=names))
+            topics = self.topics[name]
+            for topic, payload in self._joint_states(arm, stamp):
+                self._put(getattr(topics, topic), payload)
+            self._put(
+                topics.fiducial_js, codec.encode_joint_state(stamp, arm.sim.physical, names=dvrk.JOINT_NAMES)
+            )
+
+    @staticmethod
+    def _joint_states(arm: DvrkArm, stamp: float) -> list[tuple[str, bytes]]:
+        """What the dVRK's bridge sends of `arm` (mtsIntuitiveResearchKitArm.cpp `get_robot_data`,
+        mtsIntuitiveResearchKitPSM.cpp `UpdateStateJointKinematics`): before its joints are ready, seven
+        zeros stamped 0 (invalid); then, until the tool engages, the PID's seven joints; then the six joints.
+        The jaw and the Cartesian poses are stamped 0 until the tool engages."""
+        joints, jaw, base = arm.sim.joints, arm.sim.jaw, f"{arm.name}_base"
+        encode_js, encode_cp = codec.encode_joint_state, codec.encode_pose_stamped
+        if arm.cartesian_ready:
+            measured, setpoint, velocity = joints.encoder, joints.setpoint, joints.velocity
+            names: tuple[str, ...] = dvrk.JOINT_NAMES
+            kinematic = stamp
+        elif arm.joint_ready:
+            measured, setpoint = dvrk.pid_positions(arm.measured), dvrk.pid_positions(arm.setpoint)
+            velocity = dvrk.pid_positions(np.concatenate([joints.velocity, jaw.velocity]))
+            names, kinematic = dvrk.PID_NAMES, stamp
+        else:
+            measured = setpoint = velocity = np.zeros(len(dvrk.PID_NAMES))
+            names, kinematic = dvrk.PID_NAMES, 0.0
+        cartesian = stamp if arm.cartesian_ready else 0.0
+        jaw_measured = jaw.encoder if arm.cartesian_ready else np.zeros(1)
+        jaw_setpoint = jaw.setpoint if arm.cartesian_ready else np.zeros(1)
+        return [
+            ("measured_js", encode_js(kinematic, measured, velocity, names=names)),
+            ("setpoint_js", encode_js(kinematic, setpoint, names=names)),
+            ("measured_cp", encode_cp(cartesian, forward_kinematics(joints.encoder), base)),
+            ("setpoint_cp", encode_cp(cartesian, forward_kinematics(joints.setpoint), base)),
+            ("jaw_measured_js", encode_js(cartesian, jaw_measured, jaw.velocity, names=dvrk.JAW_NAMES)),
+            ("jaw_setpoint_js", encode_js(cartesian, jaw_setpoint, names=dvrk.JAW_NAMES)),
+        ]
 
     def _stream(self) -> None:
         assert self._camera is not None and self._scene is not None
@@ -309,6 +363,8 @@ class DvrkEndpoint:
 
     # ------------------------------------------------------------------ shutdown
     def close(self) -> None:
+        if self._zivid is not None:
+            self._zivid.close()
         for entity in (*self._subscribers, *self._publishers.values()):
             entity.close()
         self._subscribers.clear()
@@ -324,6 +380,11 @@ def _joint_command(command: Callable[[NDArray[np.float64]], None]) -> Callable[[
 def _string_command(command: Callable[[str], None]) -> Callable[[bytes], None]:
     """A crtk_msgs/StringStamped command (state_command): its string."""
     return lambda payload: command(codec.decode_string_stamped(payload)[1])
+
+
+def _button(command: Callable[[bool], None]) -> Callable[[bytes], None]:
+    """A button event (sensor_msgs/Joy): pressed or released."""
+    return lambda payload: command(codec.decode_button(payload))
 
 
 def _void_command(command: Callable[[], None]) -> Callable[[bytes], None]:

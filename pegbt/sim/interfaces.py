@@ -38,6 +38,10 @@ class SimWorld(Protocol):
         """Advance to `time` with the tools where they are; the new events are also appended to `events`."""
         ...
 
+    def arm_to_board(self, arm: str) -> NDArray[np.float64]:
+        """(4, 4) where `arm`'s base truly stands in the board frame (its tools are placed by it)."""
+        ...
+
     def jaw_stop(self, arm: str) -> float | None:
         """The angle below which a gripped block stops `arm`'s jaw; None when it grips nothing."""
         ...

@@ -22,7 +22,7 @@ class Scene:
         self.world = world
         self._arms = arms
         self._log = log
-        self._arm_to_board = {name: world.cell.arm_to_board(name) for name in arms}
+        self._arm_to_board = {name: world.arm_to_board(name) for name in arms}
         self._events_logged = 0  # world events already in the log
 
     def update(self, elapsed: float) -> None:

@@ -128,8 +128,14 @@ class Driver:
         self.poses = {arm: parked(world, arm) for arm in ARMS}
 
     def tool(self, arm: str, frame: Keyframe) -> ToolState:
-        cell = self.world.cell
-        return tool_pointing_down(frame.position, frame.yaw, frame.jaw, cell.remote_centre(arm), cell.tool)
+        """The tool at `frame`, where it truly is: off by the world's registration offset, if any."""
+        cell, world = self.world.cell, self.world
+        position = (
+            frame.position + world.registration_offset
+            if world.effects.has("registration_offset")
+            else frame.position
+        )
+        return tool_pointing_down(position, frame.yaw, frame.jaw, cell.remote_centre(arm), cell.tool)
 
     def play(self, paths: dict[str, list[Keyframe]]) -> list[Event]:
         """Move the named arms along their paths together (each starting from where it is); returns the events."""

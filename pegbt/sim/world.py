@@ -9,6 +9,12 @@ holding it, aside as far as the wrist's cable play gives: `ToolState.give`); a r
 peg only if its hole is over one within the clearance, and otherwise drops onto the board (or off it).
 Every such outcome, every collision and every injected fault is appended to `World.events`, the ground
 truth of a trial.
+
+That world is rigid. `World(effects=...)` relaxes it with the world effects of `pegbt.sim.world_effects`:
+a peg that bends, chamfers that catch a hole near a peg, a block that slides and turns in the jaws, jaws
+that let a block slip under load, and a camera-to-robot registration offset (the arms' bases truly stand
+off the work cell's figures, `arm_to_board`; the camera applies the depth bias). With none, or all at
+their defaults, the world takes exactly the rigid paths, outcome for outcome.
 """
 
 from __future__ import annotations
@@ -26,11 +32,15 @@ from pegbt.sim.events import Event, EventLog
 from pegbt.sim.faults import WorldFaults
 from pegbt.sim.interfaces import WorldSnapshot
 from pegbt.sim.tools import ToolState
+from pegbt.sim.world_effects import BLOCK_MASS, GRAVITY, WorldEffects
 from pegbt.workcell import Workcell, workcell
 
 _LOST_BELOW_BOARD = 0.1  # where a block that left the workspace lies: on the floor, 10 cm below the board
 _SLIDE_STEP = 0.0005  # m: a block that fell against pegs slides off them in steps this long
 _SLIDE_STEPS = 200  # at most this many (10 cm): a block cannot rest inside a peg
+_GUIDED_INSIDE = 1e-6  # m: a block the chamfers guide ends this far inside the clearance, clear of the peg
+_YIELD_ROUNDS = 8  # alternations between what the arm's compliance takes and what the peg still pushes
+_ACCELERATION_WINDOW = 0.02  # s between the tip positions a held block's acceleration is taken from
 
 
 @dataclass(frozen=True)
@@ -63,10 +73,12 @@ class World:
         cell: Workcell | None = None,
         config: WorldConfig = WorldConfig(),
         faults: WorldFaults = WorldFaults(),
+        effects: WorldEffects = WorldEffects(),
     ) -> None:
         self.cell = cell or workcell()
         self.config = config
         self.faults = faults
+        self.effects = effects
         self.seed = seed
         layout_seed, fault_seed = np.random.SeedSequence(seed).spawn(2)
         self._rng = np.random.default_rng(fault_seed)
@@ -84,6 +96,14 @@ class World:
         self._peg_low = self._peg_tops - [pegs.radius, pegs.radius, 0.0]  # bounding boxes of the pegs
         self._peg_high = self._peg_feet + [pegs.radius, pegs.radius, 0.0]
         self._clearance = self.cell.block.hole_radius - pegs.radius + config.peg_slack
+        self._capture = max(self._clearance, effects.values("chamfer_capture")["capture_radius"])
+        bending, grip = effects.values("peg_compliance"), effects.values("grip_compliance")
+        self._peg_bend, self._peg_stiffness = bending["deflection"], bending["stiffness"]
+        self._grip_angle, self._grip_slide = grip["angle"], grip["displacement"]
+        self._yielding = self._peg_bend > 0 or self._grip_angle > 0 or self._grip_slide > 0
+        self._friction = effects.values("jaw_friction") if effects.has("jaw_friction") else None
+        self._peg_load: dict[int, float] = {}  # N: what a bent peg pushes each threaded block with
+        self._tip_samples: dict[str, list[tuple[float, Matrix]]] = {}  # (time, tip position), the last 3
         layout = np.random.default_rng(layout_seed)
         self.blocks: list[Block] = []
         for index, peg in enumerate(pegs.left_group):
@@ -113,6 +133,21 @@ class World:
         wall = self.cell.block.edge_distance - self.cell.block.hole_radius
         return 2.0 * math.asin(min(1.0, wall / 2.0 / self.cell.tool.jaw_length))
 
+    @property
+    def registration_offset(self) -> Matrix:
+        """(3,) m, board frame: how far every instrument truly is from where the robot places it
+        (`registration_offset`; zero by default)."""
+        offset = self.effects.values("registration_offset")
+        return np.array([offset["x"], offset["y"], offset["z"]])
+
+    def arm_to_board(self, arm: str) -> Matrix:
+        """Where `arm`'s base truly stands in the board frame: the work cell's figure, displaced by the
+        registration offset. The robot plans by the work cell's, so each of its targets is off by it."""
+        nominal = self.cell.arm_to_board(arm)
+        if not self.effects.has("registration_offset"):
+            return nominal
+        return rigid_transform(None, self.registration_offset) @ nominal
+
     def snapshot(self) -> WorldSnapshot:
         """JSON-ready state of the world: time and every block."""
         return {"time": self.time, "blocks": [block.to_dict() for block in self.blocks]}
@@ -125,6 +160,8 @@ class World:
         elapsed = max(0.0, time - self.time)
         self.time = time
         self.tools.update(tools)
+        if self._friction is not None:
+            self._sample_tips(tools)
         for block in self.blocks:
             if block.grips:
                 self._carry(block)
@@ -297,7 +334,10 @@ class World:
             if np.linalg.norm(pulled[:3, 3] - carried[:3, 3]) > self.config.handover_pull_apart:
                 self._slip(other, block, f"pulled out of the jaw by {holders[0]}")
         block.pose = carried
+        self._peg_load.pop(block.index, None)
         self._check_pegs(block)
+        if self._friction is not None and block.grips:
+            self._hold_or_slip(block)
 
     def _hole_axis(self, block: Block) -> tuple[Matrix, Matrix]:
         """Board-frame points where the hole's axis leaves the bottom and the top face."""
@@ -336,16 +376,17 @@ class World:
             push = self._peg_push(offsets)
             if push is None:
                 return
-            guided = (
-                np.linalg.norm(offsets + push, axis=1).max() <= self._clearance + 1e-9
-            )  # not tipped across it
-            if guided and self._holders_give(block, push):
+            if self._yielding:
+                if self._yield_to_peg(block, offsets, np.array(points), push):
+                    return
+            elif (
+                np.linalg.norm(offsets + push, axis=1).max() <= self._clearance + 1e-9  # not tipped across it
+                and self._holders_give(block, push)
+            ):
                 block.pose[:2, 3] += push  # the peg guides the hole; the holders' wrists yield
-            else:
-                offset = float(np.linalg.norm(offsets, axis=1).max())
-                self._knock_loose(
-                    block, peg, f"caught on peg {peg}: hole {offset * 1000:.1f} mm off its axis"
-                )
+                return
+            offset = float(np.linalg.norm(offsets, axis=1).max())
+            self._knock_loose(block, peg, f"caught on peg {peg}: hole {offset * 1000:.1f} mm off its axis")
             return
         if bottom[2] <= peg_top_z:
             return  # above every peg
@@ -354,6 +395,10 @@ class World:
         entering = np.flatnonzero(radial <= self._clearance)
         if len(entering):
             block.peg = int(entering[0])
+            return
+        caught = np.flatnonzero(radial <= self._capture)
+        if len(caught):
+            self._guide_onto(block, int(caught[np.argmin(radial[caught])]), local)
             return
         struck = np.flatnonzero(self._in_footprint(local))
         if len(struck):
@@ -379,6 +424,102 @@ class World:
                 return False
         return True
 
+    def _yield_to_peg(self, block: Block, offsets: Matrix, points: Matrix, push: Matrix) -> bool:
+        """Whether the peg keeps the hole of `block` around it with the world effects' compliance: the
+        holders' wrists take what they can (their play), then a single holder's grip (the block sliding
+        along the jaws, and turning about their closing axis as far as that moves the point the peg
+        presses), then the peg bends; the block moves by what the wrists and the grip took (found by
+        alternating between them and the peg's push). False when the peg would have to bend further than
+        it can, or the hole is tipped across it."""
+        room, along = 0.0, np.zeros(2)
+        if len(block.grips) == 1 and (self._grip_slide > 0 or self._grip_angle > 0):
+            tip = self.tools[next(iter(block.grips))].tip
+            along = tip[:2, 1] / max(float(np.linalg.norm(tip[:2, 1])), 1e-9)
+            pressed = points[int(np.argmax(np.linalg.norm(offsets, axis=1)))]
+            lever = float(np.linalg.norm(np.cross(tip[:3, 0], pressed - tip[:3, 3])))
+            room = self._grip_slide + lever * math.sin(self._grip_angle)
+        moved = np.zeros(2)
+        rest: Matrix | None = push
+        for _ in range(_YIELD_ROUNDS):
+            assert rest is not None  # the loop ends once the peg pushes no more
+            wanted = moved + rest
+            taken = self._wrists_take(block, wanted)
+            taken = taken + float(np.clip((wanted - taken) @ along, -room, room)) * along
+            settled = np.allclose(taken, moved, rtol=0.0, atol=1e-12)
+            moved = taken
+            rest = self._peg_push(offsets + moved)
+            if rest is None or settled:
+                break
+        bend = 0.0 if rest is None else float(np.linalg.norm(rest))
+        if bend > self._peg_bend + 1e-12:
+            return False
+        if np.linalg.norm(offsets + moved, axis=1).max() > self._clearance + bend + 1e-9:
+            return False  # tipped across the peg
+        block.pose[:2, 3] += moved
+        self._peg_load[block.index] = self._peg_stiffness * bend
+        return True
+
+    def _wrists_take(self, block: Block, push: Matrix) -> Matrix:
+        """The part of `push` (board x, y) within every holder's wrist play (`ToolState.give`)."""
+        taken = np.array(push, dtype=float)
+        for arm in block.grips:
+            tool = self.tools[arm]
+            axes = tool.tip[:2, :2]  # the tip's x and y, in board x, y
+            x, y = axes.T @ taken
+            minus_x, plus_x, minus_y, plus_y = tool.give
+            taken = (
+                taken
+                - (x - np.clip(x, -minus_x, plus_x)) * axes[:, 0]
+                - (y - np.clip(y, -minus_y, plus_y)) * axes[:, 1]
+            )
+        return taken
+
+    def _guide_onto(self, block: Block, peg: int, local: Matrix) -> None:
+        """The chamfers of hole and peg catch a block lowered within the capture radius: it slides (in
+        the jaws holding it) until the peg is within the clearance, threaded on it."""
+        radial = float(np.linalg.norm(local[peg]))
+        shift = (radial - self._clearance + _GUIDED_INSIDE) * local[peg] / radial  # block x, y
+        block.pose[:3, 3] += block.pose[:3, :2] @ shift
+        for arm in block.grips:
+            block.grips[arm] = invert_rigid(self.tools[arm].tip) @ block.pose
+        block.peg = peg
+
+    def _sample_tips(self, tools: Mapping[str, ToolState]) -> None:
+        """Keep each tip's last three positions, `_ACCELERATION_WINDOW` apart, for its acceleration."""
+        for arm, tool in tools.items():
+            samples = self._tip_samples.setdefault(arm, [])
+            if not samples or self.time - samples[-1][0] >= _ACCELERATION_WINDOW:
+                samples.append((self.time, tool.tip[:3, 3].copy()))
+                del samples[:-3]
+
+    def _acceleration(self, arm: str) -> Matrix:
+        """`arm`'s tip acceleration (board frame, m/s²) over its last three samples; zero before it has them."""
+        samples = self._tip_samples.get(arm, [])
+        if len(samples) < 3:
+            return np.zeros(3)
+        (t0, p0), (t1, p1), (t2, p2) = samples
+        return 2.0 * ((p2 - p1) / (t2 - t1) - (p1 - p0) / (t1 - t0)) / (t2 - t0)
+
+    def _hold_or_slip(self, block: Block) -> None:
+        """`jaw_friction`: a holder whose tip accelerates beyond the grip's limit, or whose share of the load
+        (a carried block's weight as the tip accelerates, a bent peg's push) exceeds it, loses the block."""
+        assert self._friction is not None  # only called with jaw friction configured
+        holders = list(block.grips)
+        for arm in holders:
+            acceleration = self._acceleration(arm)
+            carried = block.peg is None
+            weight = (
+                BLOCK_MASS * float(np.linalg.norm(acceleration - [0.0, 0.0, GRAVITY])) if carried else 0.0
+            )
+            load = (weight + self._peg_load.get(block.index, 0.0)) / len(holders)
+            shaken = float(np.linalg.norm(acceleration)) if carried else 0.0
+            if shaken > self._friction["max_acceleration"]:
+                self._slip(arm, block, f"shaken out of the jaw: tip accelerating {shaken:.2f} m/s²")
+            elif load > self._friction["max_load"]:
+                self._slip(arm, block, f"slipped out of the jaw: load {load:.3f} N")
+            if not block.grips:
+                return
+
     def _knock_loose(self, block: Block, peg: int, detail: str) -> None:
         """A peg stops a carried block: the contact tears it out of every jaw and it falls."""
         holders = "+".join(block.grips)
@@ -392,7 +533,7 @@ class World:
         peg = block.peg
         if peg is None:
             offsets = np.linalg.norm(self.cell.pegs.positions - block.pose[:2, 3], axis=1)
-            peg = int(np.argmin(offsets)) if offsets.min() <= self._clearance else None
+            peg = int(np.argmin(offsets)) if offsets.min() <= self._capture else None
         if peg is not None:
             self._rest_on_peg(block, peg, yaw)
             if deliberate:

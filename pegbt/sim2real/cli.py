@@ -1,10 +1,12 @@
-"""`pegbt sim2real diagnose`, `pegbt sim2real synth` and `pegbt sim2real preset`."""
+"""`pegbt sim2real diagnose`, `pegbt sim2real synth`, `pegbt sim2real preset` and `pegbt sim2real outcomes`."""
 
 from __future__ import annotations
 
 import argparse
 import json
+import sys
 
+from pegbt.errors import PegbtError
 from pegbt.numbers import NumberOption
 from pegbt.bagoptions import add_bag_arguments, bag_options
 from pegbt.psm import ARMS
@@ -58,7 +60,7 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
         metavar="R1,...,R6",
         help="what the measurement resolves per joint, in the joints' units (the paper's fiducial set-up: "
         "0.01,0.01,0.0005,0.01,0.01,0.01); effects smaller are listed below resolution, not named "
-        "(default: the recording's meta.json, when it says)",
+        "(default: the recording's meta.json, when it says; else, for a dVRK arm's recording, the paper's)",
     )
     diagnose.set_defaults(handler=_diagnose)
 
@@ -117,19 +119,42 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
     )
     preset.set_defaults(handler=_preset)
 
+    outcomes = commands.add_parser(
+        "outcomes",
+        help="task-level sim to real: the world effects the simulator can add",
+        description="--effects lists the registered world effects (pegbt sim --world-effects) with their "
+        "parameters, units, ranges and inert defaults.",
+    )
+    outcomes.add_argument(
+        "--effects", action="store_true", help="list the registered world effects and their parameters"
+    )
+    outcomes.add_argument("--json", action="store_true", help="print the listing as JSON")
+    outcomes.set_defaults(handler=_outcomes)
+
 
 def _diagnose(args: argparse.Namespace) -> int:
     from pegbt.physics.recording import load_recording, parse_resolution
     from pegbt.sim2real.diagnose import diagnose
+    from pegbt.sim2real.practical import PAPER_RESOLUTION
     from pegbt.sim2real.report import ZERO_OFFSET_LABEL, read_named_effects, report_dict, write_report
 
     resolution = None if args.resolution is None else parse_resolution(args.resolution)
     recording = load_recording(args.recording, arm=args.arm, **bag_options(args))
     if args.compare:
         read_named_effects(args.compare)  # refuse a bad report before the work, not after it
+    note = ""
+    if resolution is None and recording.resolution is None and (args.arm or recording.arm) in ARMS:
+        resolution = PAPER_RESOLUTION
+        note = (
+            f"the recording states no resolution: diagnosed at the paper's fiducial tracker's "
+            f"{','.join(f'{r:g}' for r in resolution)} (q1-q6; rad, q3 m); change it with --resolution R1,...,R6"
+        )
+        print(f"pegbt: {note}", file=sys.stderr)
     diagnosis = diagnose(recording, args.sim, args.arm, n_bootstrap=args.bootstrap, resolution=resolution)
     report = (
-        write_report(diagnosis, args.out, args.compare) if args.out else report_dict(diagnosis, args.compare)
+        write_report(diagnosis, args.out, args.compare, resolution_note=note)
+        if args.out
+        else report_dict(diagnosis, args.compare, resolution_note=note)
     )
     if args.json:
         print(json.dumps(report, indent=2))
@@ -159,6 +184,15 @@ def _diagnose(args: argparse.Namespace) -> int:
         )
     if args.out:
         print(f"report: {args.out}/report.md")
+    return 0
+
+
+def _outcomes(args: argparse.Namespace) -> int:
+    from pegbt.sim2real.world_listing import listing_json, listing_text
+
+    if not args.effects:
+        raise PegbtError("say what to do: --effects lists the world effects", field="outcomes")
+    print(listing_json() if args.json else listing_text())
     return 0
 
 

@@ -27,6 +27,9 @@ from pegbt.sim2real.select import Chosen, JointSelection
 Array = NDArray[np.float64]
 
 PRACTICAL_GAIN = 0.02
+# The paper's fiducial tracker's per-joint resolution (rad, rad, m, rad, rad, rad; `../shared/data/dvrk/README.md`,
+# "Measurement resolution"): a dVRK arm's recording that states none is diagnosed at it.
+PAPER_RESOLUTION = (0.01, 0.01, 0.0005, 0.01, 0.01, 0.01)
 
 
 @dataclass(frozen=True)

@@ -41,9 +41,12 @@ def read_named_effects(path: str | Path) -> list[Effect]:
         raise PegbtError(error.message, file=path, field=error.field) from None
 
 
-def report_dict(diagnosis: Diagnosis, compared_with: str | Path | None = None) -> dict[str, Any]:
+def report_dict(
+    diagnosis: Diagnosis, compared_with: str | Path | None = None, resolution_note: str = ""
+) -> dict[str, Any]:
     """The report; with `compared_with` (an earlier report, e.g. of the same arm after re-homing), also
-    which kinds of effect both name and which parameters differ."""
+    which kinds of effect both name and which parameters differ; `resolution_note` says where the
+    resolution came from when the recording did not state it."""
     recording = diagnosis.recording
     times = recording.times
     comparison = None
@@ -66,6 +69,7 @@ def report_dict(diagnosis: Diagnosis, compared_with: str | Path | None = None) -
         "mismatch": [m.to_dict() for m in diagnosis.mismatch],
         "effects": [e.to_dict() for e in diagnosis.effects],
         "resolution": None if diagnosis.resolution is None else dict(zip(JOINT_NAMES, diagnosis.resolution)),
+        "resolution_note": resolution_note,
         "below_resolution": [b.to_dict() for b in diagnosis.below_resolution],
         "measurement_faults": diagnosis.faults.to_dict(diagnosis.times_before_exclusion),
         "geometry": None if diagnosis.geometry is None else diagnosis.geometry.to_dict(),
@@ -122,6 +126,7 @@ def report_markdown(report: dict[str, Any], plots: list[str]) -> str:
         *([f"- Geometry: {report['geometry']['text']}."] if report.get("geometry") else []),
         *[f"- {ZERO_OFFSET_LABEL}: {e['text']}." for e in report["zero_offsets"]],
         f"- Simulator physics: `{report['sim']}` (arm {report['arm']}).",
+        *([f"- Resolution: {report['resolution_note']}."] if report.get("resolution_note") else []),
         f"- Effects chosen by blocked cross-validation; each must gain in every held-out fold and beat "
         f"circularly shifted data at α = {report['selection']['alpha']} / {report['selection']['hypotheses']} "
         f"tests (joints × effects, Bonferroni).",
@@ -205,10 +210,10 @@ def report_markdown(report: dict[str, Any], plots: list[str]) -> str:
 
 
 def write_report(
-    diagnosis: Diagnosis, out: str | Path, compared_with: str | Path | None = None
+    diagnosis: Diagnosis, out: str | Path, compared_with: str | Path | None = None, resolution_note: str = ""
 ) -> dict[str, Any]:
     """Write report.json, report.md and the plots into `out`; return the report dictionary."""
-    report = report_dict(diagnosis, compared_with)
+    report = report_dict(diagnosis, compared_with, resolution_note)
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     from pegbt.sim2real.plots import write_plots

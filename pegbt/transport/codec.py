@@ -1,8 +1,9 @@
 """CDR payloads: ROS 2 messages serialised by `rosbags`' typestore, so a zenoh–ROS 2 bridge carries them as is.
 
-Standard types come from the typestore's ROS 2 Humble set; `crtk_msgs` types are registered from their
-`.msg` text. Each function turns one message into plain Python/numpy values or back; nothing here
-knows the wire format itself.
+Standard types come from the typestore's ROS 2 Humble set; `crtk_msgs` types and the service
+`std_srvs/srv/Trigger` (with the event type ROS 2 Iron and later describe every service by, so that its
+RIHS01 hash is the one rmw_zenoh keys by) are registered from their definitions' text. Each function
+turns one message into plain Python/numpy values or back; nothing here knows the wire format itself.
 """
 
 from __future__ import annotations
@@ -24,12 +25,34 @@ CRTK_MSGS = {
     "crtk_msgs/msg/StringStamped": "std_msgs/Header header\nstring string\n",
 }
 
+# std_srvs/srv/Trigger.srv and service_msgs/msg/ServiceEventInfo.msg (ros2/common_interfaces, ros2/rcl_interfaces);
+# a service is described as a message of its request, response and event (rosidl_generator_type_description),
+# and a .msg `char` is IDL's uint8 (rosidl_adapter)
+TRIGGER = "std_srvs/srv/Trigger"
+SERVICE_DEFINITIONS = {
+    "service_msgs/msg/ServiceEventInfo": (
+        "uint8 REQUEST_SENT = 0\nuint8 REQUEST_RECEIVED = 1\nuint8 RESPONSE_SENT = 2\n"
+        "uint8 RESPONSE_RECEIVED = 3\nuint8 event_type\nbuiltin_interfaces/Time stamp\n"
+        "uint8[16] client_gid\nint64 sequence_number\n"
+    ),
+    f"{TRIGGER}_Request": "uint8 structure_needs_at_least_one_member\n",
+    f"{TRIGGER}_Response": "bool success\nstring message\n",
+    f"{TRIGGER}_Event": (
+        f"service_msgs/ServiceEventInfo info\n{TRIGGER}_Request[<=1] request\n{TRIGGER}_Response[<=1] response\n"
+    ),
+    TRIGGER: (
+        f"{TRIGGER}_Request request_message\n{TRIGGER}_Response response_message\n"
+        f"{TRIGGER}_Event event_message\n"
+    ),
+}
+
 JOINT_STATE = "sensor_msgs/msg/JointState"
 OPERATING_STATE = "crtk_msgs/msg/OperatingState"
 STRING_STAMPED = "crtk_msgs/msg/StringStamped"
 STRING = "std_msgs/msg/String"
 EMPTY = "std_msgs/msg/Empty"
 POSE_STAMPED = "geometry_msgs/msg/PoseStamped"
+JOY = "sensor_msgs/msg/Joy"
 POINT_CLOUD2 = "sensor_msgs/msg/PointCloud2"
 JOINT_TRAJECTORY = "trajectory_msgs/msg/JointTrajectory"
 
@@ -40,7 +63,20 @@ def typestore() -> Any:
     store = get_typestore(Stores.ROS2_HUMBLE)
     for name, text in CRTK_MSGS.items():
         store.register(get_types_from_msg(text, name))
+    services: dict[str, Any] = {}
+    for name, text in SERVICE_DEFINITIONS.items():
+        services.update(get_types_from_msg(text, name))
+    store.register({_srv_name(name): _srv_name(definition) for name, definition in services.items()})
     return store
+
+
+def _srv_name(value: Any) -> Any:
+    """`value` with rosbags' `pkg/srv/msg/Type` (how it names a type read from .msg text) as `pkg/srv/Type`."""
+    if isinstance(value, str):
+        return value.replace("/srv/msg/", "/srv/")
+    if isinstance(value, (tuple, list)):
+        return type(value)(_srv_name(item) for item in value)
+    return value
 
 
 def serialize(message: Any) -> bytes:
@@ -48,7 +84,7 @@ def serialize(message: Any) -> bytes:
     return bytes(typestore().serialize_cdr(message, message.__msgtype__))
 
 
-def deserialize(data: bytes, typename: str) -> Any:
+def deserialize(data: bytes | memoryview, typename: str) -> Any:
     """A typestore message from CDR bytes; a `PegbtError` naming the type if the payload is not one."""
     try:
         return typestore().deserialize_cdr(data, typename)
@@ -169,6 +205,23 @@ def encode_empty() -> bytes:
     return serialize(_type(EMPTY)())
 
 
+def encode_button(stamp: float, pressed: bool) -> bytes:
+    """A button event as the dVRK's bridge writes one (cisst-ros `cisst_ros_bridge/src/mtsCISSTToROS.cpp`,
+    prmEventButton to sensor_msgs/Joy): one button, 1 pressed, 0 released."""
+    message = _type(JOY)(
+        header=_header(stamp), axes=np.zeros(0, dtype=np.float32), buttons=np.array([int(pressed)], np.int32)
+    )
+    return serialize(message)
+
+
+def decode_button(data: bytes) -> bool:
+    """Whether a sensor_msgs/Joy button event says pressed (its first button is 1)."""
+    buttons = deserialize(data, JOY).buttons
+    if len(buttons) < 1:
+        raise PegbtError("a button event needs one button (1 pressed, 0 released)", field="buttons")
+    return bool(buttons[0] == 1)
+
+
 # ----------------------------------------------------------------------------- poses
 def encode_pose_stamped(stamp: float, transform: ArrayLike, frame_id: str = "") -> bytes:
     """A 4×4 homogeneous transform as geometry_msgs/PoseStamped (quaternion x, y, z, w)."""
@@ -233,6 +286,84 @@ def decode_point_cloud(data: bytes) -> tuple[float, NDArray[np.float32]]:
     )
     columns = [raw[:, offsets[axis] : offsets[axis] + 4].copy().view("<f4").reshape(-1) for axis in "xyz"]
     return _stamp(message.header), np.column_stack(columns).astype(np.float32)
+
+
+ORGANISED_POINT_STEP = 16  # bytes: x, y, z float32 and rgba (or padding), as the Zivid driver sends
+_FLOAT32, _UINT32 = 7, 6  # sensor_msgs/PointField datatypes
+
+
+def encode_organised_cloud(
+    stamp: float, points: NDArray[np.float32], frame_id: str, rgba: NDArray[np.uint32] | None = None
+) -> bytes:
+    """An organised (H, W, 3) cloud as a PointCloud2 of 16 bytes per point: x, y, z and, given `rgba` (H, W),
+    a UINT32 rgba field at offset 12, else 4 bytes of padding (zivid-ros `zivid_camera.cpp`:
+    `makePointCloud2Msg` for points/xyzrgba, `publishPointCloudXYZ` with `Zivid::PointXYZW` for points/xyz).
+    NaN marks the invalid pixels; the cloud is never dense."""
+    if points.ndim != 3 or points.shape[-1] != 3:
+        raise PegbtError(f"an organised cloud is H×W×3, got shape {points.shape}", field="points")
+    height, width = points.shape[:2]
+    packed = np.zeros((height, width, 4), dtype="<f4")
+    packed[..., :3] = points
+    if rgba is not None:
+        packed[..., 3] = np.asarray(rgba, dtype="<u4").view("<f4")
+    field_type = _type("sensor_msgs/msg/PointField")
+    fields = [field_type(name=axis, offset=4 * i, datatype=_FLOAT32, count=1) for i, axis in enumerate("xyz")]
+    if rgba is not None:
+        fields.append(field_type(name="rgba", offset=12, datatype=_UINT32, count=1))
+    message = _type(POINT_CLOUD2)(
+        header=_header(stamp, frame_id),
+        height=height,
+        width=width,
+        fields=fields,
+        is_bigendian=False,
+        point_step=ORGANISED_POINT_STEP,
+        row_step=ORGANISED_POINT_STEP * width,
+        data=packed.view(np.uint8).reshape(-1),
+        is_dense=False,
+    )
+    return serialize(message)
+
+
+def decode_organised_cloud(data: bytes, stride: int = 1) -> tuple[float, NDArray[np.float32]]:
+    """(stamp, (h, w, 3) float32) from an organised PointCloud2 with float32 x, y, z, every `stride`-th row
+    and column of its grid: only those points are copied out of the message."""
+    message = deserialize(memoryview(data), POINT_CLOUD2)  # rosbags slices it: a view, not a 37 MB copy
+    offsets = {f.name: f.offset for f in message.fields if f.datatype == _FLOAT32 and f.count == 1}
+    if not {"x", "y", "z"} <= offsets.keys() or message.is_bigendian:
+        raise PegbtError("point cloud needs little-endian float32 x, y, z fields", field="fields")
+    step, height, width = message.point_step, message.height, message.width
+    if message.row_step < step * width or len(message.data) < message.row_step * height:
+        raise PegbtError(
+            f"point cloud holds {len(message.data)} bytes, not {height} rows of {message.row_step}",
+            field="data",
+        )
+    if step % 4 or message.row_step % 4 or any(offsets[a] % 4 for a in "xyz"):
+        raise PegbtError("an organised cloud's fields must be 4-byte aligned", field="point_step")
+    words = np.asarray(message.data, dtype=np.uint8)[: message.row_step * height].view("<f4")
+    grid = np.lib.stride_tricks.as_strided(  # a view of the rows (padded or not) as pixels of 4-byte words
+        words, shape=(height, width, step // 4), strides=(message.row_step, step, 4), writeable=False
+    )
+    words_xyz = [offsets[a] // 4 for a in "xyz"]
+    first = words_xyz[0]
+    thinned = grid[::stride, ::stride]
+    if words_xyz == [first, first + 1, first + 2]:  # x, y, z side by side (every driver's layout): a slice
+        return _stamp(message.header), np.ascontiguousarray(thinned[..., first : first + 3])
+    return _stamp(message.header), thinned[..., words_xyz]
+
+
+def encode_trigger_request() -> bytes:
+    """A std_srvs/srv/Trigger request (no fields but the placeholder every empty ROS 2 structure has)."""
+    return serialize(_type(f"{TRIGGER}_Request")(structure_needs_at_least_one_member=0))
+
+
+def encode_trigger_response(success: bool, message: str = "") -> bytes:
+    return serialize(_type(f"{TRIGGER}_Response")(success=success, message=message))
+
+
+def decode_trigger_response(data: bytes) -> tuple[bool, str]:
+    """(success, message) of a std_srvs/srv/Trigger response."""
+    response = deserialize(data, f"{TRIGGER}_Response")
+    return bool(response.success), str(response.message)
 
 
 # ----------------------------------------------------------------------------- joint trajectories

@@ -13,7 +13,14 @@ use on `ArmClient`, and no pegbt extension: no trajectory topic, no attachment, 
   `jaw/servo_jp` set-points (a jaw `move_jp` would take a dVRK PSM out of position mode mid-stream:
   `mtsIntuitiveResearchKitPSM::jaw_move_jp`).
 - `stop`: the robot's `hold` (`mtsIntuitiveResearchKitArm::hold`: servo to the current set-point).
-- The robot's `error`, `warning` and `status` messages are kept for the tick log (`drain_messages`).
+- The robot's `error`, `warning` and `status` messages are kept for the tick log (`drain_messages`). The
+  three topics are latched with a depth of 100 (cisst-ros `cisst_ros_bridge/include/cisst_ros_bridge/
+  mtsROSBridge.h`), so a client joining gets up to 100 old messages of each, unstamped: what comes before
+  `begin_run` (the joining history) is history, logged with `before_run` and never a stop's cause.
+- Time: the robot stamps on its own computer's clock, and a datum it marks invalid (joints before the
+  encoders are biased) with 0 (cisst-ros `cisst_ros_bridge/include/cisst_ros_bridge/mtsCISSTToROS.h`,
+  `cisst_header_to_ros_header`); no robot stamp is ever compared with this computer's clock (`robot_now`),
+  and the current operating state is the newest by its stamp, whatever order the history replays in.
 """
 
 from __future__ import annotations
@@ -55,6 +62,8 @@ ENABLE_TIMEOUT = (
     10.0  # s for an arm to power up (the dVRK allows 2 × TimeToPower, mtsIntuitiveResearchKitArm.cpp)
 )
 HOME_TIMEOUT = 60.0  # s for a homing motion (seconds on a dVRK; more when it first calibrates on pots)
+HISTORY_QUIET = 0.2  # s without a message that ends the joining history of the latched message topics
+HISTORY_WAIT = 2.0  # s at most to wait for it
 # The dVRK PSM's move_jp trajectory limits (mtsIntuitiveResearchKitPSM.cpp, m_trajectory_j.v_max/a_max): 90°/s and
 # 90°/s² for yaw and pitch, 0.2 m/s and 0.2 m/s² for insertion, 1080°/s and 720°/s² for roll and the wrist
 DVRK_MOVE_VELOCITY = np.array([np.pi / 2, np.pi / 2, 0.2, 6 * np.pi, 6 * np.pi, 6 * np.pi])
@@ -75,17 +84,26 @@ def rest_to_rest_bound(start: ArrayLike, goal: ArrayLike) -> float:
 
 
 class Latest(Generic[T]):
-    """The latest message of one topic (decoded on first read) and when it came."""
+    """The latest message of one topic (decoded on first read) and when it came; with `stamp`, the newest by
+    that stamp (a latched topic's history may replay after a newer message)."""
 
-    def __init__(self, topic: str, decode: Callable[[bytes], T]) -> None:
+    def __init__(
+        self, topic: str, decode: Callable[[bytes], T], stamp: Callable[[T], float] | None = None
+    ) -> None:
         self.topic = topic
         self._decode = decode
+        self._stamp = stamp
         self._latest: Received[T] | None = None
         self._changed = threading.Condition()
 
     def take(self, payload: bytes) -> None:
+        received = Received(payload, self._decode, None, time.monotonic())
         with self._changed:
-            self._latest = Received(payload, self._decode, None, time.monotonic())
+            latest = self._latest
+            if self._stamp is not None and latest is not None:
+                if self._stamp(received.value) < self._stamp(latest.value):
+                    return
+            self._latest = received
             self._changed.notify_all()
 
     def latest(self) -> Received[T] | None:
@@ -194,12 +212,16 @@ class CrtkArm:
         self._streamer = streamer
         self._messages: list[dict[str, Any]] = []
         self._last_error: str | None = None
+        self._running = False  # `begin_run` was called: messages from then on are this run's
+        self._last_message = time.monotonic()
         self._messages_lock = threading.Lock()
         self._kept_ready = False  # set once enabled and homed: from then on it must stay so
         topics = self.topics
         self._measured = self._latest(wire, topics.measured_js, codec.decode_joint_state)
         self._setpoint = self._latest(wire, topics.setpoint_js, codec.decode_joint_state)
-        self._state = self._latest(wire, topics.operating_state, codec.decode_operating_state)
+        self._state = self._latest(
+            wire, topics.operating_state, codec.decode_operating_state, lambda state: state.stamp
+        )
         jaw_measured = self._latest(wire, topics.jaw_measured_js, codec.decode_joint_state)
         jaw_setpoint = self._latest(wire, topics.jaw_setpoint_js, codec.decode_joint_state)
         self.jaw = CrtkJaw(self, jaw_measured, jaw_setpoint)
@@ -210,8 +232,10 @@ class CrtkArm:
         self._state_command = wire.publisher(topics.state_command)
 
     @staticmethod
-    def _latest(wire: Ros2Wire, topic: Any, decode: Callable[[bytes], T]) -> Latest[T]:
-        latest = Latest(topic.name, decode)
+    def _latest(
+        wire: Ros2Wire, topic: Any, decode: Callable[[bytes], T], stamp: Callable[[T], float] | None = None
+    ) -> Latest[T]:
+        latest = Latest(topic.name, decode, stamp)
         wire.subscriber(topic, latest.take)
         return latest
 
@@ -221,11 +245,28 @@ class CrtkArm:
         except PegbtError as error:
             text = str(error)
         with self._messages_lock:
-            if level == "error":
+            self._last_message = time.monotonic()
+            message = {"source": self.name, "level": level, "text": text, "stamp": self.clock.now()}
+            if not self._running:
+                message["before_run"] = True
+            elif level == "error":
                 self._last_error = text
-            self._messages.append(
-                {"source": self.name, "level": level, "text": text, "stamp": self.clock.now()}
-            )
+            self._messages.append(message)
+
+    def begin_run(self) -> None:
+        """From now on the robot's messages are this run's. What its latched `error`, `warning` and `status`
+        topics replayed on joining (up to 100 each, unstamped) is history: this waits until the replay is
+        over (no message for `HISTORY_QUIET`, at most `HISTORY_WAIT`)."""
+        deadline = time.monotonic() + HISTORY_WAIT
+        while time.monotonic() < deadline:
+            with self._messages_lock:
+                quiet = time.monotonic() - self._last_message
+                if quiet >= HISTORY_QUIET:
+                    self._running = True
+                    return
+            time.sleep(HISTORY_QUIET - quiet)
+        with self._messages_lock:
+            self._running = True
 
     def drain_messages(self) -> list[dict[str, Any]]:
         """The robot's error, warning and status messages since the last call, oldest first."""
@@ -282,17 +323,22 @@ class CrtkArm:
         return self.read(self._measured)
 
     def robot_now(self) -> float:
-        """Now on the robot's clock: the stamp of its latest `measured_js` plus the time since it came (early by
-        that message's age and latency, a few ms). The dVRK stamps what it publishes with its own computer's
-        ROS clock (cisst-ros `cisst_ros_bridge/include/cisst_ros_bridge/mtsCISSTToROS.h`,
-        `cisst_header_to_ros_header`: now minus the data's age), so an `operating_state` is compared with a
-        command's time on that clock, never on this computer's. A zero stamp (data the robot marks invalid)
-        says nothing of its clock: this computer's is used then."""
-        latest = self._measured.latest()
+        """Now on the robot's clock, as far as the robot has said: the newest of its valid stamps (`measured_js`,
+        `setpoint_js`, `operating_state`) plus the time since that message came. The dVRK stamps what it
+        publishes with its own computer's ROS clock (cisst-ros `cisst_ros_bridge/include/cisst_ros_bridge/
+        mtsCISSTToROS.h`, `cisst_header_to_ros_header`: now minus the data's age), so an `operating_state` is
+        compared with a command's time on that clock, never on this computer's. A zero stamp (data the robot
+        marks invalid: joints before the encoders are biased) says nothing of its clock and is skipped; the
+        latched `operating_state`, stamped when it last changed, is then the newest: every state after it
+        is newer. -inf if nothing stamped has come."""
         self.check_alive()
-        assert latest is not None, "check_alive raises while no measured_js came"
-        stamp = latest.value.stamp
-        return stamp + (time.monotonic() - latest.received_at) if stamp > 0 else self.clock.now()
+        now = time.monotonic()
+        stamps = [
+            received.value.stamp + (now - received.received_at)
+            for received in (self._measured.latest(), self._setpoint.latest(), self._state.latest())
+            if received is not None and received.value.stamp > 0
+        ]
+        return max(stamps, default=-np.inf)
 
     @property
     def setpoint_js(self) -> JointSample:
@@ -334,7 +380,7 @@ class CrtkArm:
             (
                 f"; the robot said: {m['text']}"
                 for m in reversed(self._messages)
-                if m["level"] in ("error", "warning")
+                if m["level"] in ("error", "warning") and not m.get("before_run")
             ),
             "",
         )
@@ -343,6 +389,19 @@ class CrtkArm:
             f"{'homed' if state.is_homed else 'not homed'}{', busy' if state.is_busy else ''}{said}",
             field=self.name,
         )
+
+    def await_valid_joints(self, timeout: float) -> None:
+        """Block until the joints and the jaw are valid: stamped no earlier than the homed state (the dVRK
+        sends zeros stamped 0 before its encoders are biased, and the PID's seven joints until the tool
+        engages: `mtsIntuitiveResearchKitArm.cpp` `get_robot_data`), six joints, one jaw angle."""
+        homed = self.operating_state.stamp
+        for latest, size in ((self._measured, 6), (self._setpoint, 6), (self.jaw._setpoint, 1)):
+            if not latest.wait_until(lambda js: js.stamp >= homed and js.position.size == size, timeout):
+                raise PegbtError(
+                    f"homed, but no valid {latest.topic} within {timeout:g} s (stamped after the homed state, "
+                    f"{size} joint{'s' if size > 1 else ''})",
+                    field=self.name,
+                )
 
     # ------------------------------------------------------------------ commands
     def hold(self) -> None:
@@ -407,6 +466,8 @@ def make_ready(
     An arm just enabled is homed too, even if it says it is: a dVRK arm homed, disabled and enabled again
     reports `is_homed` (its encoders are still biased) but acts only once homed again, which is then quick
     (`mtsIntuitiveResearchKitArm.cpp`: `TransitionEnabled`, `RunHomed`; `is_homed` in `...PSM.cpp`)."""
+    for arm in arms:
+        arm.begin_run()
     enabled = [arm for arm in arms if arm.operating_state.state != "ENABLED"]
     for arm in enabled:
         arm.state_command("enable")
@@ -425,4 +486,5 @@ def make_ready(
             home_timeout,
         )
     for arm in arms:
+        arm.await_valid_joints(enable_timeout)
         arm.keep_ready()

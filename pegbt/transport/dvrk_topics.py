@@ -142,6 +142,12 @@ class PsmTopics:
         )
 
 
+def clutch_button_topic(arm: str) -> Topic:
+    """Not the dVRK's: the simulator's stand-in for a person pressing and releasing `arm`'s clutch button
+    (sensor_msgs/Joy, as the dVRK's own button events, `PSMn/IO/arm_clutch`: 1 pressed, 0 released)."""
+    return Topic(f"/pegbt_sim/{arm}/arm_clutch", codec.JOY, command=True)
+
+
 def point_cloud_topic(name: str = DEFAULT_POINTS_TOPIC) -> Topic:
     """A depth camera's stream of sensor_msgs/PointCloud2 (best effort, volatile, as realsense2_camera's)."""
     return Topic(name, codec.POINT_CLOUD2)

@@ -13,7 +13,11 @@ What a ROS 2 node running `rmw_zenoh_cpp` expects of a peer, from ros2/rmw_zenoh
   with the fields equal to rmw_zenoh's default left empty (`liveliness_utils.cpp`, `qos_to_keyexpr`);
   an entity's GID is the XXH3-128 hash of its token (low 64 bits first);
 - TRANSIENT_LOCAL topics through zenoh-ext advanced publishers (a cache) and subscribers (history with
-  late-publisher detection) (`docs/design.md`, "Quality of Service").
+  late-publisher detection) (`docs/design.md`, "Quality of Service");
+- a service keyed as a topic of its type, served by a complete queryable with a token `SS`, called by
+  queries with a token `SC`; a request's attachment is the client's (sequence number, timestamp, GID), a
+  reply's the same sequence number and client GID with the server's timestamp, and a server drops a request
+  without one (`rmw_service_data.cpp`, `rmw_client_data.cpp`; see `pegbt.transport.ros2_service`).
 """
 
 from __future__ import annotations
@@ -23,7 +27,7 @@ import os
 import threading
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import xxhash
 import zenoh
@@ -39,6 +43,16 @@ from pegbt.transport.ros2 import (
     TopicSubscriber,
     declare_publisher,
     declare_subscriber,
+    matched,
+)
+from pegbt.transport.ros2_service import (
+    SERVICE_DEPTH,
+    Service,
+    ServiceCall,
+    ServiceRequest,
+    ServiceServer,
+    QueryRequest,
+    ServedQueryable,
 )
 
 ADMIN_SPACE = "@ros2_lv"
@@ -134,6 +148,10 @@ class _Publisher:
             attachment = encode_attachment(next(self._sequence), time.time_ns(), self.gid)
             self._entity.put(payload, attachment=attachment)
 
+    @property
+    def matched(self) -> bool:
+        return matched(self._entity)
+
     def close(self) -> None:
         self._entity.undeclare()
         self._token.undeclare()
@@ -148,6 +166,20 @@ class _Subscriber:
     def close(self) -> None:
         self._entity.undeclare()
         self._token.undeclare()
+
+
+@dataclass
+class _Client:
+    """A service client's token, GID and request sequence numbers."""
+
+    token: zenoh.LivelinessToken
+    gid: bytes
+    sequence: itertools.count[int] = field(default_factory=lambda: itertools.count(1))
+
+
+def _service_topic(service: Service) -> Topic:
+    """`service` named, typed and with the QoS (`rmw_qos_profile_services_default`) of its keys and tokens."""
+    return Topic(service.name, service.typename, depth=SERVICE_DEPTH)
 
 
 class RmwZenohWire:
@@ -175,6 +207,7 @@ class RmwZenohWire:
         self._entity_ids = itertools.count(1)
         self.dropped = 0
         self._endpoints: list[_Publisher | _Subscriber] = []
+        self._clients: dict[str, _Client] = {}
         self._node_token = session.liveliness().declare_token(self._token(self.node_id, "NN"))
 
     def _token(self, entity_id: int, kind: str, topic: Topic | None = None) -> str:
@@ -228,9 +261,52 @@ class RmwZenohWire:
         self._endpoints.append(subscriber)
         return subscriber
 
+    def serve(self, service: Service, on_request: Callable[[ServiceRequest], None]) -> ServiceServer:
+        """A server of `service`: a complete queryable and its `SS` token; a request without a valid
+        attachment is dropped (counted in `dropped`), a reply carries the request's sequence number and
+        client GID. Undeclared by its own `close()`."""
+        as_topic = _service_topic(service)
+        key = self.key(as_topic)
+
+        def received(query: zenoh.Query) -> None:
+            request = decode_attachment(query.attachment)
+            if request is None:
+                self.dropped += 1
+                return
+            reply = encode_attachment(request.sequence_number, time.time_ns(), request.gid)
+            on_request(QueryRequest(query, key, reply))
+
+        token = self._token(next(self._entity_ids), "SS", as_topic)
+        queryable = self.session.declare_queryable(key, received, complete=True)
+        return ServedQueryable(queryable, self.session.liveliness().declare_token(token))
+
+    def call(self, service: Service, request: bytes, timeout: float) -> ServiceCall:
+        """Send one request to `service` with this client's attachment; its `SC` token is declared on the
+        first call and held until `close()`."""
+        as_topic = _service_topic(service)
+        client = self._clients.get(service.name)
+        if client is None:
+            token = self._token(next(self._entity_ids), "SC", as_topic)
+            client = _Client(self.session.liveliness().declare_token(token), gid_of(token))
+            self._clients[service.name] = client
+        call = ServiceCall(service, timeout)
+        self.session.get(
+            self.key(as_topic),
+            zenoh.handlers.Callback(call.on_reply, call.on_finished),
+            payload=request,
+            attachment=encode_attachment(next(client.sequence), time.time_ns(), client.gid),
+            target=zenoh.QueryTarget.ALL_COMPLETE,
+            consolidation=zenoh.ConsolidationMode.NONE,
+            timeout=timeout,
+        )
+        return call
+
     def close(self) -> None:
         """Withdraw the node and every endpoint it declared from the graph."""
         for endpoint in self._endpoints:
             endpoint.close()
         self._endpoints.clear()
+        for client in self._clients.values():
+            client.token.undeclare()
+        self._clients.clear()
         self._node_token.undeclare()

@@ -24,25 +24,40 @@ import zenoh
 import zenoh.ext
 
 from pegbt.transport.keys import scoped
+from pegbt.transport.ros2_service import (
+    Service,
+    ServiceCall,
+    ServiceRequest,
+    ServiceServer,
+    call_on_bridge,
+    serve_on_bridge,
+)
 
 
 @dataclass(frozen=True)
 class Topic:
     """A ROS 2 topic: its name (`/PSM1/measured_js`), its type (`sensor_msgs/msg/JointState`), whether
-    it is latched (TRANSIENT_LOCAL durability, the last `depth` messages kept for late joiners), and whether
-    it carries commands, each of which matters (not a stream whose next message replaces the last)."""
+    it is latched (TRANSIENT_LOCAL durability, the last `depth` messages kept for late joiners), whether
+    it carries commands, each of which matters (not a stream whose next message replaces the last), and
+    whether, not a command, each message still matters (a camera's cloud taken on request)."""
 
     name: str
     typename: str
     latched: bool = False
     depth: int = 1
     command: bool = False
+    reliable: bool = False
 
 
 class TopicPublisher(Protocol):
     """Publishes CDR bytes on one topic."""
 
     def put(self, payload: bytes) -> None: ...
+
+    @property
+    def matched(self) -> bool:
+        """Whether any subscriber listens (a publisher may then skip work nobody would receive)."""
+        ...
 
     def close(self) -> None: ...
 
@@ -61,6 +76,10 @@ class Ros2Wire(Protocol):
 
     def subscriber(self, topic: Topic, on_payload: Callable[[bytes], None]) -> TopicSubscriber: ...
 
+    def serve(self, service: Service, on_request: Callable[[ServiceRequest], None]) -> ServiceServer: ...
+
+    def call(self, service: Service, request: bytes, timeout: float) -> ServiceCall: ...
+
     def close(self) -> None: ...
 
 
@@ -78,6 +97,10 @@ class _Closing:
 
     def put(self, payload: bytes) -> None:
         self._entity.put(payload)  # type: ignore[union-attr]
+
+    @property
+    def matched(self) -> bool:
+        return matched(self._entity)  # type: ignore[arg-type]
 
     def close(self) -> None:
         self._entity.undeclare()
@@ -114,9 +137,26 @@ class BridgeWire:
 
         return self._held(_Closing(declare_subscriber(self.session, self.key(topic), topic, deliver)))
 
+    def serve(self, service: Service, on_request: Callable[[ServiceRequest], None]) -> ServiceServer:
+        """A server of `service` on the bridge's key (a queryable); undeclared by its own `close()`."""
+        return serve_on_bridge(self.session, self.namespace, service, on_request)
+
+    def call(self, service: Service, request: bytes, timeout: float) -> ServiceCall:
+        """Send one request to `service`; the handle has its response, or why none came."""
+        return call_on_bridge(self.session, self.namespace, service, request, timeout)
+
 
 Publisher = zenoh.Publisher | zenoh.ext.AdvancedPublisher
 Subscriber = zenoh.Subscriber | zenoh.ext.AdvancedSubscriber
+
+
+def matched(publisher: Publisher) -> bool:
+    """Whether a subscriber matches `publisher`'s key (a latched publisher's cache serves late joiners, so it
+    counts as matched)."""
+    if isinstance(publisher, zenoh.Publisher):
+        # the stub says bool; zenoh 1.10 returns a MatchingStatus, whose `matching` is the bool
+        return publisher.matching_status.matching  # type: ignore[attr-defined]
+    return True
 
 
 def declare_publisher(session: zenoh.Session, key: str, topic: Topic) -> Publisher:
@@ -124,7 +164,8 @@ def declare_publisher(session: zenoh.Session, key: str, topic: Topic) -> Publish
     serves late joiners (what a bridge and rmw_zenoh both do for TRANSIENT_LOCAL), else a plain one. A
     command blocks under congestion rather than be dropped, as the bridge routes a RELIABLE writer
     (zenoh-plugin-ros2dds `route_publisher.rs`, `reliable_routes_blocking`); a stream drops what a congested
-    link cannot take, as rmw_zenoh does for KEEP_LAST (`rmw_publisher_data.cpp`)."""
+    link cannot take, as rmw_zenoh does for KEEP_LAST (`rmw_publisher_data.cpp`); a `reliable` topic blocks
+    too (a RELIABLE writer through the bridge)."""
     if topic.latched:
         return zenoh.ext.declare_advanced_publisher(
             session,
@@ -134,7 +175,9 @@ def declare_publisher(session: zenoh.Session, key: str, topic: Topic) -> Publish
             reliability=zenoh.Reliability.RELIABLE,
             congestion_control=zenoh.CongestionControl.BLOCK,
         )
-    congestion = zenoh.CongestionControl.BLOCK if topic.command else zenoh.CongestionControl.DROP
+    congestion = (
+        zenoh.CongestionControl.BLOCK if topic.command or topic.reliable else zenoh.CongestionControl.DROP
+    )
     return session.declare_publisher(key, express=True, congestion_control=congestion)
 
 

@@ -9,13 +9,23 @@ frames (a 4-byte little-endian length, then a pickle; both ends are pegbt):
 
 - in: `("configure", {...})` first, then `("play", id, arm, axis, t, q)` (axis `arm` or `jaw`; `t` from 0,
   `q` one row per time), `("stop", id)`, `("quit",)`;
-- out: `("ready", realtime)`, `("started", id)`, `("stalled", id, seconds)`, `("done", id)`,
-  `("failed", id, reason)`.
+- out: `("ready", realtime)`, `("started", id)`, `("stalled", id, seconds)`, `("paused", id, reason)`,
+  `("resumed", id, seconds)`, `("done", id)`, `("failed", id, reason)`.
 
 Every set-point is checked before it leaves (`guards`: joint limits, and velocity from the last one sent, or
 from the robot's `setpoint_js` for the first of a motion): one that fails is never sent; the motion fails,
 and the arm is told to `hold`. A motion also fails if the arm leaves ENABLED. When the executive dies (its
 end of the pipe closes), every arm is told to `hold` and the streamer exits.
+
+The clutch: a person pressing an arm's clutch puts it in MANUAL, which a CRTK client sees as ENABLED, homed
+and busy (sawIntuitiveResearchKit `core/components/code/mtsIntuitiveResearchKitPSM.cpp`, `EnterManual`);
+the dVRK would still execute a `servo_jp` (`RunManual`), and the arm would work against the person. An arm
+that turns busy while its motion streams (a state stamped after the motion began, on the robot's clock) is
+in MANUAL: at once no set-point goes to any arm, and every running motion is paused (reported, not
+failed). Once the arm is released (a newer state, not busy, and a set-point stamped no earlier: the dVRK
+holds where the person left it, `LeaveManual`), each paused motion goes on from where its arm is: a
+rest-to-rest cubic back to where it was paused (`pegbt.motion.cubic`), then the rest of its trajectory, as
+one motion that ends that much later (reported as `resumed` with the seconds it waited).
 
 A stall (the process not scheduled for more than `STALL_PERIODS` control periods) pauses each running
 motion rather than skipping ahead: the first set-point after it is the one a period after the last one sent,
@@ -50,6 +60,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
+from pegbt.errors import PegbtError
 from pegbt.scheduling import STREAMER_PRIORITY, run_realtime
 
 if TYPE_CHECKING:
@@ -90,6 +101,9 @@ class _Motion:
     t: NDArray[np.float64]
     q: NDArray[np.float64]
     start: float  # monotonic time of row 0
+    robot_start: float  # the robot's time when it began: its latest set-point's stamp
+    paused_at: float | None = None  # monotonic time it was paused (its arm in MANUAL)
+    paused_for: float = 0.0  # s it has waited
 
 
 class _Axis:
@@ -106,6 +120,9 @@ class _Axis:
         self.problems = problems
         self.step_problems = step_problems
         self.reference = reference  # the robot's latest set-point, None before the first
+        self.return_leg: Callable[[NDArray[np.float64], NDArray[np.float64]], NDArray[np.float64]] | None = (
+            None
+        )
         self.motion: _Motion | None = None
         self.last: tuple[float, NDArray[np.float64]] | None = None  # (monotonic time, set-point) last sent
 
@@ -130,6 +147,8 @@ class Streamer:
         self._holds: dict[str, Any] = {}
         self._states: dict[str, Any] = {}
         self._latest: dict[Any, bytes] = {}
+        self._setpoints: dict[str, Any] = {}
+        self._manual: tuple[str, float] | None = None  # the arm in MANUAL and its state's stamp
 
         def add_arm(arm: str, settings: ArmSettings) -> None:
             topics = PsmTopics(arm)
@@ -137,6 +156,7 @@ class Streamer:
             for topic in (topics.setpoint_js, topics.jaw_setpoint_js, topics.operating_state):
                 wire.subscriber(topic, partial(self._latest.__setitem__, topic))
             self._states[arm] = topics.operating_state
+            self._setpoints[arm] = topics.setpoint_js
             arm_servo, jaw_servo = wire.publisher(topics.servo_jp), wire.publisher(topics.jaw_servo_jp)
             self.axes[(arm, "arm")] = _Axis(
                 lambda q: arm_servo.put(codec.encode_joint_state(time.time(), q, names=ARM_JOINT_NAMES)),
@@ -150,6 +170,8 @@ class Streamer:
                 lambda q, ref, dt: guards.jaw_step_problems(float(q[0]), float(ref[0]), settings, dt),
                 lambda: self._position(topics.jaw_setpoint_js),
             )
+            self.axes[(arm, "arm")].return_leg = partial(_arm_return, settings)
+            self.axes[(arm, "jaw")].return_leg = partial(_jaw_return, settings)
 
         for arm, settings in config["arms"].items():
             add_arm(arm, settings)
@@ -167,8 +189,16 @@ class Streamer:
         return None if payload is None else self._codec.decode_joint_state(payload).position
 
     def _state(self, arm: str) -> str | None:
+        state = self._operating_state(arm)
+        return None if state is None else state.state
+
+    def _operating_state(self, arm: str) -> Any:
         payload = self._latest.get(self._states[arm])
-        return None if payload is None else self._codec.decode_operating_state(payload).state
+        return None if payload is None else self._codec.decode_operating_state(payload)
+
+    def _setpoint_stamp(self, arm: str) -> float:
+        payload = self._latest.get(self._setpoints[arm])
+        return 0.0 if payload is None else float(self._codec.decode_joint_state(payload).stamp)
 
     # ------------------------------------------------------------------ commands
     def handle(self, message: Frame, next_tick: float) -> bool:
@@ -208,9 +238,12 @@ class Streamer:
             self._report(("failed", motion_id, f"{arm} {axis_name} start refused: {'; '.join(problems)}"))
             return
         start = max(start, time.monotonic())  # rows before it would be skipped, not sent
-        axis.motion = _Motion(motion_id, t, q, start)
+        axis.motion = _Motion(motion_id, t, q, start, self._setpoint_stamp(arm))
         axis.last = (start - self.period, reference)
         self._report(("started", motion_id))
+        if self._manual is not None:  # it waits with the others
+            axis.motion.paused_at = start
+            self._report(("paused", motion_id, f"{arm} {axis_name}: {self._manual[0]} is in MANUAL"))
 
     def _reference(self, axis: _Axis, now: float) -> NDArray[np.float64] | None:
         """Where the axis's set-point is: the last one sent if the stream is still going, else the robot's."""
@@ -224,14 +257,17 @@ class Streamer:
     # ------------------------------------------------------------------ set-points
     def tick(self, now: float) -> None:
         """Send each running motion's set-point for time `now` (monotonic); after a stall, each motion's
-        next row instead (see the module docstring)."""
+        next row instead; nothing while an arm is in MANUAL (see the module docstring)."""
+        self._watch_clutch(now)
         for (arm, axis_name), axis in self.axes.items():
             motion = axis.motion
             if motion is None:
                 continue
-            if axis_name == "arm" and self._state(arm) not in (None, "ENABLED"):
+            if self._state(arm) not in (None, "ENABLED"):
                 axis.motion = None
                 self._report(("failed", motion.id, f"{arm} is {self._state(arm)}, no longer ENABLED"))
+                continue
+            if motion.paused_at is not None:
                 continue
             assert axis.last is not None
             since = now - axis.last[0]
@@ -257,8 +293,82 @@ class Streamer:
                 axis.motion = None
                 self._report(("done", motion.id))
 
+    def _watch_clutch(self, now: float) -> None:
+        """Pause every motion when an arm whose motion streams turns busy (MANUAL); resume them once it is
+        released."""
+        if self._manual is None:
+            for (arm, _), axis in self.axes.items():
+                state = self._operating_state(arm)
+                motion = axis.motion
+                if motion is None or state is None or not (state.state == "ENABLED" and state.is_busy):
+                    continue
+                if state.stamp > motion.robot_start:
+                    self._pause_all(arm, state.stamp, now)
+                    return
+            return
+        arm, since = self._manual
+        state = self._operating_state(arm)
+        if state is None or state.stamp <= since or state.is_busy or state.state != "ENABLED":
+            return
+        if self._setpoint_stamp(arm) < state.stamp:  # the set-point where it was released is yet to come
+            return
+        self._manual = None
+        for key, axis in self.axes.items():
+            if axis.motion is not None and axis.motion.paused_at is not None:
+                self._resume(key, axis, now)
+
+    def _pause_all(self, arm: str, stamp: float, now: float) -> None:
+        self._manual = (arm, stamp)
+        for (other, axis_name), axis in self.axes.items():
+            motion = axis.motion
+            if motion is not None and motion.paused_at is None:
+                motion.paused_at = now
+                why = "its clutch is pressed" if other == arm else f"{arm}'s clutch is pressed"
+                self._report(("paused", motion.id, f"{other} {axis_name}: {arm} is in MANUAL ({why})"))
+
+    def _resume(self, key: tuple[str, str], axis: _Axis, now: float) -> None:
+        """The paused motion on from where its arm is: back to where it stopped, then the rest."""
+        motion = axis.motion
+        assert motion is not None and motion.paused_at is not None and axis.last is not None
+        arm, axis_name = key
+        waited = now - motion.paused_at
+        elapsed = axis.last[0] - motion.start  # the trajectory's time of the last set-point sent
+        where = axis.reference()
+        assert axis.return_leg is not None
+        try:
+            leg = axis.return_leg(where if where is not None else axis.last[1], axis.last[1])
+        except PegbtError as error:
+            axis.motion = None
+            self._report(("failed", motion.id, f"{arm} {axis_name}: cannot return after MANUAL: {error}"))
+            return
+        rest = motion.t > elapsed
+        duration = float(leg[-1, 0])
+        t = np.concatenate([leg[:, 0], duration + motion.t[rest] - elapsed])
+        q = np.concatenate([leg[:, 1:], motion.q[rest]])
+        axis.motion = _Motion(motion.id, t, q, now, self._setpoint_stamp(arm), paused_for=motion.paused_for)
+        axis.motion.paused_for += waited + duration
+        axis.last = (now - self.period, leg[0, 1:])
+        self._report(("resumed", motion.id, waited + duration))
+
     def close(self) -> None:
         self._session.close()
+
+
+def _arm_return(settings: ArmSettings, start: NDArray[np.float64], goal: NDArray[np.float64]) -> NDArray:
+    """Rows of (t, q) of a rest-to-rest cubic from `start` to `goal` at the planner's limits."""
+    from pegbt.motion.cubic import rest_to_rest_path
+
+    path = rest_to_rest_path([start, goal], settings, ["where MANUAL left the arm", "where it was paused"])
+    trajectory = path.sample(settings.control_period)
+    return np.column_stack([trajectory.t - trajectory.t[0], trajectory.q])
+
+
+def _jaw_return(settings: ArmSettings, start: NDArray[np.float64], goal: NDArray[np.float64]) -> NDArray:
+    """Rows of (t, angle) of a ramp from `start` to `goal` at the jaw's velocity."""
+    distance = abs(float(goal[0]) - float(start[0]))
+    duration = max(distance / settings.jaw_velocity, settings.control_period)
+    t = np.append(np.arange(0.0, duration, settings.control_period), duration)
+    return np.column_stack([t, float(start[0]) + (float(goal[0]) - float(start[0])) * t / duration])
 
 
 def _sample(t: NDArray[np.float64], q: NDArray[np.float64], at: float) -> NDArray[np.float64]:

@@ -1,7 +1,8 @@
 """The executive's side of the servo streamer (`pegbt.transport.streamer`): start it, hand it whole
 trajectories, and follow each one to its end with a `StreamedMotion` that behaviours poll like any motion.
-The streamer's stalls (it was not scheduled, and resumed the motions it was playing) become warnings for the
-tick log (`drain_messages`)."""
+The streamer's stalls (it was not scheduled, and resumed the motions it was playing) and its pauses (an arm
+in MANUAL: its clutch pressed) become warnings for the tick log (`drain_messages`); a motion's time bound
+grows by both."""
 
 from __future__ import annotations
 
@@ -63,7 +64,10 @@ class Streamer:
         self._outcomes: dict[int, tuple[str, str]] = {}
         self._started: set[int] = set()
         self._axes: dict[int, str] = {}  # what each motion moves ("PSM1 arm"), to say which one stalled
-        self._stalled: dict[int, float] = {}  # s each motion stood still, the streamer not scheduled
+        self._stalled: dict[
+            int, float
+        ] = {}  # s each motion stood still, the streamer not scheduled or paused
+        self._paused_since: dict[int, float] = {}  # monotonic time each paused motion was paused
         self._messages: list[dict[str, Any]] = []
         self._changed = threading.Condition()
         self._ready = False
@@ -117,19 +121,35 @@ class Streamer:
                     elif frame[0] == "stalled":
                         self._messages.append(self._stall_message(frame[1], frame[2]))
                         self._stalled[frame[1]] = self._stalled.get(frame[1], 0.0) + float(frame[2])
+                    elif frame[0] == "paused":
+                        self._paused_since.setdefault(frame[1], time.monotonic())
+                        self._messages.append(self._message(f"{frame[2]}: no set-point until it is released"))
+                    elif frame[0] == "resumed":
+                        self._paused_since.pop(frame[1], None)
+                        self._stalled[frame[1]] = self._stalled.get(frame[1], 0.0) + float(frame[2])
+                        self._messages.append(
+                            self._message(
+                                f"{self._axes.get(frame[1], 'a motion')}: released; goes on from where the arm "
+                                f"is, {float(frame[2]):.1f} s later"
+                            )
+                        )
                     else:
                         self._outcomes[frame[1]] = (frame[0], frame[2] if len(frame) > 2 else "")
                         self._axes.pop(frame[1], None)
+                        self._paused_since.pop(frame[1], None)
                     self._changed.notify_all()
         with self._changed:
             self._gone = True
             self._changed.notify_all()
 
     def _stall_message(self, motion_id: int, seconds: float) -> dict[str, Any]:
-        text = (
+        return self._message(
             f"{self._axes.get(motion_id, 'a motion')}: no set-point for {seconds:.3f} s (the streamer was "
             "not scheduled); the trajectory resumed from its last set-point and ends that much later"
         )
+
+    @staticmethod
+    def _message(text: str) -> dict[str, Any]:
         return {"source": "streamer", "level": "warning", "text": text, "stamp": time.time()}
 
     def drain_messages(self) -> list[dict[str, Any]]:
@@ -153,9 +173,11 @@ class Streamer:
         self._send(("stop", motion_id))
 
     def stalled(self, motion_id: int) -> float:
-        """Seconds the motion stood still because the streamer was not scheduled, as it reported them."""
+        """Seconds the motion stood still because the streamer was not scheduled or its arms were in MANUAL,
+        as it reported them, and the time of a pause still going on."""
         with self._changed:
-            return self._stalled.get(motion_id, 0.0)
+            since = self._paused_since.get(motion_id)
+            return self._stalled.get(motion_id, 0.0) + (0.0 if since is None else time.monotonic() - since)
 
     def outcome(self, motion_id: int) -> tuple[str, str] | None:
         """`("done", "")` or `("failed", reason)` once the streamer has said; None while it plays."""

@@ -25,6 +25,7 @@ from pegbt.behaviours.resources.robot import connect_crtk_robot
 from pegbt.errors import PegbtError
 from pegbt.executive.analysis import summary
 from pegbt.executive.logfile import read_tick_log
+from pegbt.executive.runoptions import RunOptions
 from pegbt.executive.session import run_tree_file
 from pegbt.motion.limits import arm_settings
 from pegbt.sim.process import free_port
@@ -101,12 +102,14 @@ def test_a_run_enables_and_homes_the_arms_logs_what_the_robot_says_and_touches_n
     try:
         time.sleep(0.3)  # the sniffer's declarations reach the double's side
         output = run_tree_file(
-            tree,
-            tmp_path / "look.jsonl",
-            options={"interface": "dvrk", "endpoint": endpoint, "condition": "uncalibrated"},
+            RunOptions(
+                tree,
+                tmp_path / "look.jsonl",
+                {"interface": "dvrk", "endpoint": endpoint, "condition": "uncalibrated"},
+                timeout=20,
+            ),
             quiet=False,
             out=out,
-            timeout=20,
         )
         assert output.result.outcome == "success"
         for arm in ("PSM1", "PSM2"):
@@ -345,11 +348,13 @@ def test_a_recording_of_a_crtk_run_holds_the_robots_topics_as_an_independent_rea
     )
     try:
         output = run_tree_file(
-            tree,
-            tmp_path / "look.jsonl",
-            options={"interface": "dvrk", "endpoint": endpoint, "condition": "uncalibrated"},
-            timeout=20,
-            record=tmp_path / "look.mcap",
+            RunOptions(
+                tree,
+                tmp_path / "look.jsonl",
+                {"interface": "dvrk", "endpoint": endpoint, "condition": "uncalibrated"},
+                timeout=20,
+                record=tmp_path / "look.mcap",
+            )
         )
     finally:
         double.close()

@@ -19,7 +19,7 @@ import pytest
         ),
         (
             ["--variant", "unilateral", "--trials", "2", "--cluster", "127.0.0.1:8786"],
-            "expected a scheduler address tcp://HOST:PORT",
+            "expected a scheduler address tls://HOST:PORT or tcp://HOST:PORT",
         ),
     ],
 )

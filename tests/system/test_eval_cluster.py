@@ -13,7 +13,7 @@ import threading
 from pathlib import Path
 
 import pytest
-from cluster_helpers import REPO, LocalDaskCluster
+from cluster_helpers import REPO, LocalDaskCluster, temporary_certificates
 
 from pegbt.evaluation.campaign import Cell, trial_specs
 from pegbt.evaluation.output import write_cell
@@ -99,6 +99,36 @@ def test_a_campaign_on_two_workers_gives_the_local_results_seed_for_seed(local, 
     for seed in CELL.seeds:
         assert (out / "logs" / f"{CELL.name}-{seed}.jsonl").stat().st_size > 0
         assert (out / "logs" / f"{CELL.name}-{seed}.truth.jsonl").stat().st_size > 0
+
+
+def test_a_campaign_over_tls_on_loopback_gives_the_local_results_seed_for_seed(local, tmp_path, pegbt_cli):
+    certificates = temporary_certificates(tmp_path)
+    tls = [
+        "--tls-ca-file",
+        certificates.ca_file,
+        "--tls-cert",
+        certificates.cert,
+        "--tls-key",
+        certificates.key,
+    ]
+    out = tmp_path / "cluster"
+    with LocalDaskCluster(workers=2, tls=certificates) as cluster:
+        assert cluster.address.startswith("tls://127.0.0.1:")
+        run = pegbt_cli(*eval_args(out), "--cluster", cluster.address, *tls, timeout=300)
+        (tmp_path / "other").mkdir()
+        other = temporary_certificates(tmp_path / "other")  # a CA the cluster does not trust
+        stranger = [
+            "--tls-ca-file", other.ca_file, "--tls-cert", other.cert, "--tls-key", other.key,
+        ]  # fmt: skip
+        refused = pegbt_cli(
+            *eval_args(tmp_path / "refused"), "--cluster", cluster.address, *stranger, timeout=300
+        )
+    assert run.returncode == 0, run.stderr
+    assert results(out) == results(local[0])
+    assert json.loads(run.stdout)["workers"] == 2
+    assert "warning" not in run.stderr
+    assert refused.returncode == 2 and refused.stderr.count("\n") == 1, refused.stderr
+    assert f"cannot reach the Dask scheduler at {cluster.address}" in refused.stderr
 
 
 def test_a_worker_killed_mid_trial_costs_a_retry_and_the_logs_come_back(local, tmp_path):

@@ -16,8 +16,9 @@ from playwright.sync_api import Page, sync_playwright
 
 from pegbt.bench.monitor import wide_tree
 from pegbt.cli import main
+from pegbt.monitor.history import History
 from pegbt.monitor.replay import replay_messages
-from pegbt.monitor.server import MonitorServer
+from pegbt.monitor.server import MonitorServer, start_ephemeral
 from pegbt.sim.process import free_port
 
 REPO = Path(__file__).resolve().parents[2]
@@ -67,10 +68,7 @@ def page(browser):
 
 
 def serve_replay(log: Path) -> MonitorServer:
-    server = MonitorServer(free_port()).start()
-    for message in replay_messages(log):
-        server.publish(message)
-    return server
+    return start_ephemeral(replay_messages(log), history=History.whole())
 
 
 def run_log(tmp_path: Path, tree_text: str | None, name: str, capsys) -> Path:
@@ -123,8 +121,9 @@ def test_live_page_shows_the_tick_count_and_the_running_node_change(tmp_path, pe
     port = free_port()
     process = pegbt_cli.start("run", tree, "--monitor", port, "--log", tmp_path / "waits.jsonl")
     try:
-        assert process.stdout.readline().strip() == f"monitor: http://127.0.0.1:{port}/"
-        page.goto(f"http://127.0.0.1:{port}/")
+        url = re.fullmatch(r"monitor: (\S+)", process.stdout.readline().strip()).group(1)
+        assert re.fullmatch(rf"http://127\.0\.0\.1:{port}/\?token=[\w-]{{43}}", url)
+        page.goto(url)
         ticks, running = set(), set()
         deadline = time.monotonic() + 60
         while time.monotonic() < deadline and page.text_content("#outcome") != "success":
@@ -258,5 +257,37 @@ def test_jumping_to_a_time_and_playing(tmp_path, page, capsys):
         last = page.evaluate("window.pegbtMonitor.state.lastTick")
         page.wait_for_function(f"window.pegbtMonitor.shownTick === {last}", timeout=30_000)
         assert page.text_content("#play") == "▶"  # stopped at the end
+    finally:
+        server.stop()
+
+
+def test_a_page_that_joins_a_long_run_late_shows_what_log_replay_prints_after_its_last_tick(
+    tmp_path, page, capsys
+):
+    log = run_log(tmp_path, FAILING, "failing", capsys)
+    messages = replay_messages(log)
+    last = max(message["n"] for message in messages if message["type"] in ("tick", "end"))
+    expected = replayed_statuses(log, last, capsys)
+    live = [{**messages[0], "mode": "live"}, *messages[1:]]
+    server = start_ephemeral(live, history=History(window=1, world_window=1))  # all but the end left out
+    try:
+        page.goto(server.url)
+        page.wait_for_function("window.pegbtMonitor.loadedAt !== null")
+        assert page.evaluate("window.pegbtMonitor.state.events.length") == 1
+        shown = rendered_statuses(page)
+        assert [shown[node] for node in range(len(expected))] == expected
+        first_failure = page.evaluate("window.pegbtMonitor.state.firstFailure()")
+        assert first_failure["n"] == 2 and page.text_content("#outcome") == "failure"
+        assert "/failing/pick one way or another/first try" in page.text_content("#cause-banner")
+    finally:
+        server.stop()
+
+
+def test_a_page_opened_without_the_token_gets_no_run(tmp_path, page, capsys):
+    server = serve_replay(run_log(tmp_path, None, "example", capsys))
+    try:
+        page.goto(server.url.split("?")[0])
+        page.wait_for_function("document.getElementById('mode').textContent.includes('disconnected')")
+        assert page.evaluate("window.pegbtMonitor.state.header") is None
     finally:
         server.stop()

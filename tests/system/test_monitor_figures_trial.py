@@ -15,6 +15,7 @@ REPO = Path(__file__).resolve().parents[2]
 
 @pytest.mark.slow
 def test_world_samples_of_a_simulated_trial_agree_with_the_simulators_truth(tmp_path):
+    from pegbt.executive.runoptions import RunOptions
     from pegbt.executive.session import run_tree_file
     from pegbt.monitor.live import LiveMonitor
     from pegbt.monitor.server import MonitorServer
@@ -26,9 +27,11 @@ def test_world_samples_of_a_simulated_trial_agree_with_the_simulators_truth(tmp_
     monitor = LiveMonitor(server, log)
     try:
         output = run_tree_file(
-            REPO / "trees" / "unilateral.yaml",
-            log,
-            options={"endpoint": "auto", "condition": "optimized", "seed": 1000},
+            RunOptions(
+                REPO / "trees" / "unilateral.yaml",
+                log,
+                {"endpoint": "auto", "condition": "optimized", "seed": 1000},
+            ),
             watch=monitor.watch,
         )
     finally:

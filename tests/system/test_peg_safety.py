@@ -13,6 +13,7 @@ from executive_helpers import with_shared_trees
 
 from pegbt.behaviours.resources.skills import SIMULATOR_CALIBRATION
 from pegbt.cli import main
+from pegbt.executive.runoptions import RunOptions
 from pegbt.executive.session import run_tree_file
 from pegbt.motion.kinematics import forward_kinematics
 from pegbt.motion.limits import arm_settings
@@ -35,7 +36,7 @@ def test_halting_a_running_motion_stops_the_arm(tmp_path):
     tree.write_text("tree:\n  timeout:\n    seconds: 0.7\n    child:\n      park: {name: park, arm: PSM1}\n")
     with SimProcess([*SIMULATOR, "--no-world"]) as sim:
         output = run_tree_file(
-            tree, tmp_path / "halt.jsonl", options={"endpoint": sim.endpoint, "condition": "uncalibrated"}
+            RunOptions(tree, tmp_path / "halt.jsonl", {"endpoint": sim.endpoint, "condition": "uncalibrated"})
         )
         assert output.result.outcome == "failure"
         with connect([sim.endpoint]) as link:

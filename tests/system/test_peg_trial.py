@@ -9,6 +9,7 @@ from pathlib import Path
 import pytest
 
 from pegbt.behaviours.resources.skills import SIMULATOR_CALIBRATION
+from pegbt.executive.runoptions import RunOptions
 from pegbt.executive.session import run_tree_file
 from pegbt.sim.process import SimProcess
 
@@ -24,9 +25,11 @@ def simulator():
 
 def trial(endpoint: str, variant: str, tmp_path: Path, condition: str = "optimized"):
     output = run_tree_file(
-        REPO / "trees" / f"{variant}.yaml",
-        tmp_path / f"{variant}.jsonl",
-        options={"endpoint": endpoint, "condition": condition, "calibration": str(SIMULATOR_CALIBRATION)},
+        RunOptions(
+            REPO / "trees" / f"{variant}.yaml",
+            tmp_path / f"{variant}.jsonl",
+            {"endpoint": endpoint, "condition": condition, "calibration": str(SIMULATOR_CALIBRATION)},
+        )
     )
     return output, output.reports["robot"]
 

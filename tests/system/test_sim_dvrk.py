@@ -270,7 +270,7 @@ def test_the_simulator_process_streams_clouds_and_states_at_the_rates_asked(tmp_
         try:
             tap = client.subscribe("**")
             clouds = client.subscribe(topic.lstrip("/"))
-            states = client.subscribe("PSM2/measured_js")
+            states = client.subscribe("PSM2/fiducial_js")  # stamped; the arm's joints are 0 until homed
             assert wait_for(lambda: clouds.all() and states.all(), timeout=20)
             first, clouds_before, states_before = time.monotonic(), len(clouds.all()), len(states.all())
             time.sleep(3.0)

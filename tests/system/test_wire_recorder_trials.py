@@ -21,15 +21,18 @@ JOINT_STATE = "sensor_msgs/msg/JointState"
 @pytest.mark.slow
 def test_a_recorded_unilateral_trial_reads_back_with_every_topic_and_type(tmp_path):
     from pegbt.executive.logfile import read_tick_log
+    from pegbt.executive.runoptions import RunOptions
     from pegbt.executive.session import run_tree_file
 
     path = tmp_path / "trial.mcap"
     output = run_tree_file(
-        REPO / "trees" / "unilateral.yaml",
-        tmp_path / "trial.jsonl",
-        options={"endpoint": "auto", "seed": 3},
-        record=path,
-        record_cloud_step=10,
+        RunOptions(
+            REPO / "trees" / "unilateral.yaml",
+            tmp_path / "trial.jsonl",
+            {"endpoint": "auto", "seed": 3},
+            record=path,
+            record_cloud_step=10,
+        )
     )
     assert output.ok
     with path.open("rb") as stream:

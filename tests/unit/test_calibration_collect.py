@@ -9,6 +9,7 @@ import pytest
 from pegbt.cli import main
 from pegbt.errors import PegbtError
 from pegbt.executive.loader import load_tree
+from pegbt.executive.runoptions import RunOptions
 from pegbt.executive.session import run_tree_file
 from pegbt.physics.recording import MIN_SAMPLES
 
@@ -56,10 +57,10 @@ def test_a_blackboard_value_is_checked_like_a_literal_when_the_leaf_reads_it(tmp
     """`seconds: $pause` set to a negative number by the command fails when the leaf reads it, naming the parameter."""
     tree = tmp_path / "pause.yaml"
     tree.write_text("blackboard: {pause: 0.1}\ntree: {wait: {name: pause, seconds: $pause}}\n")
-    done = run_tree_file(tree, tmp_path / "ok.jsonl", clock="manual", blackboard={"pause": 0.2})
+    done = run_tree_file(RunOptions(tree, tmp_path / "ok.jsonl", clock="manual", blackboard={"pause": 0.2}))
     assert done.result.outcome == "success" and done.result.duration == pytest.approx(0.2)
     with pytest.raises(
         PegbtError,
         match=r"pause: parameter 'seconds' should be a number >= 0 and <= 86400; blackboard key 'pause' holds -1\.0",
     ):
-        run_tree_file(tree, tmp_path / "bad.jsonl", clock="manual", blackboard={"pause": -1.0})
+        run_tree_file(RunOptions(tree, tmp_path / "bad.jsonl", clock="manual", blackboard={"pause": -1.0}))

@@ -9,6 +9,7 @@ import pytest
 
 from pegbt.errors import PegbtError
 from pegbt.evaluation.trial import TrialSpec, run_options, simulator_args
+from pegbt.executive.runoptions import RunOptions
 from pegbt.executive.session import run_tree_file
 
 REPO = Path(__file__).resolve().parents[2]
@@ -16,7 +17,7 @@ REPO = Path(__file__).resolve().parents[2]
 
 def test_a_robot_cannot_run_on_a_clock_that_only_moves_when_asked(tmp_path):
     with pytest.raises(PegbtError, match="--clock.*manual clock"):
-        run_tree_file(REPO / "trees" / "unilateral.yaml", tmp_path / "run.jsonl", clock="manual")
+        run_tree_file(RunOptions(REPO / "trees" / "unilateral.yaml", tmp_path / "run.jsonl", clock="manual"))
 
 
 def test_eval_passes_realtime_and_the_interface_to_the_simulator_and_the_run(tmp_path):

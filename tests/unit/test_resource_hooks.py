@@ -13,6 +13,7 @@ from pegbt.behaviours.resources.robot import Robot
 from pegbt.behaviours.resources.skills import Skills
 from pegbt.executive import providers
 from pegbt.executive.providers import LogsMessages, Reports, ShowsProgress
+from pegbt.executive.runoptions import RunOptions
 from pegbt.executive.session import run_tree_file
 
 
@@ -52,11 +53,15 @@ def test_a_run_uses_every_hook_a_resource_has_and_none_it_lacks(tmp_path, monkey
     tree.write_text("tree:\n  sequence: [{test_counting: {name: count}}]\nblackboard: {step: 41}\n")
     monkeypatch.setitem(providers.RESOURCE_PROVIDERS, "counter", f"{__name__}:Hooked")
     Counter.instances.clear()
-    output = run_tree_file(tree, tmp_path / "hooked.jsonl", clock="manual", quiet=False, out=io.StringIO())
+    output = run_tree_file(
+        RunOptions(tree, tmp_path / "hooked.jsonl", clock="manual"), quiet=False, out=io.StringIO()
+    )
     (hooked,) = Counter.instances
     assert output.result.outcome == "success" and not output.ok  # the report's ok is False
     assert hooked.records and hooked.records[-1]["type"] == "end"  # its progress listener saw the run
     assert "heard once" in (tmp_path / "hooked.jsonl").read_text()
     monkeypatch.setitem(providers.RESOURCE_PROVIDERS, "counter", f"{__name__}:Unhooked")
-    output = run_tree_file(tree, tmp_path / "unhooked.jsonl", clock="manual", quiet=False, out=io.StringIO())
+    output = run_tree_file(
+        RunOptions(tree, tmp_path / "unhooked.jsonl", clock="manual"), quiet=False, out=io.StringIO()
+    )
     assert output.ok and output.reports == {}

@@ -158,3 +158,57 @@ def test_a_jump_while_the_simulator_excuses_its_own_lateness_is_not_faulted_and_
     homed.run(homed.arm.period)
     assert homed.arm.current == "FAULT"
     assert [event.event for event in homed.arm.safety] == ["tracking_error"]
+
+
+def test_a_move_while_busy_republishes_busy(homed: Ticking) -> None:
+    """mtsIntuitiveResearchKitArm.cpp `move_jp` → `control_move_jp_on_start` → `UpdateIsBusy(true)`: every
+    move publishes the operating state, busy already or not."""
+    homed.arm.move_jp([0.2, 0.0, 0.12, 0.0, 0.0, 0.0])
+    homed.run(0.1)
+    assert homed.arm.is_busy
+    homed.arm.state_events.clear()
+    homed.arm.move_jp([0.3, 0.0, 0.12, 0.0, 0.0, 0.0])
+    assert [(event.state, event.is_busy) for event in homed.arm.state_events] == [("ENABLED", True)]
+
+
+def test_after_a_fault_the_unpowered_arm_is_not_held(homed: Ticking) -> None:
+    """mtsIntuitiveResearchKitArm.cpp `EnterFault` powers the arm off, and a PSM has no brakes: whatever moves
+    it (a person, gravity) is not resisted."""
+    homed.arm.servo_jp([0.0, 0.0, 0.18, 0.0, 0.0, 0.0])  # insertion 6 cm at once: a tracking error
+    homed.run(homed.arm.period)
+    assert homed.arm.current == "FAULT" and homed.arm.state == "FAULT"
+    homed.run(0.2)
+    homed.arm.sim.joints.encoder[0] += 0.05  # somebody pushes the yaw
+    homed.run(0.5)
+    assert homed.arm.measured[0] == pytest.approx(0.05, abs=1e-3)  # it stays where it was pushed
+    assert homed.arm.setpoint[0] == pytest.approx(homed.arm.measured[0])
+
+
+def test_the_clutch_makes_a_ready_arm_manual_busy_and_its_release_holds_where_it_was_left(
+    homed: Ticking,
+) -> None:
+    """mtsIntuitiveResearchKitPSM.cpp `EventHandlerManipClutch`, `EnterManual`, `RunManual`, `LeaveManual`."""
+    homed.arm.state_events.clear()
+    homed.arm.clutch(True)
+    assert (homed.arm.current, homed.arm.state, homed.arm.is_homed, homed.arm.is_busy) == (
+        "MANUAL",
+        "ENABLED",
+        True,
+        True,
+    )
+    homed.run(0.1)
+    homed.arm.sim.joints.encoder[1] += 0.1  # the person moves the arm: nothing resists
+    homed.run(0.3)
+    assert homed.arm.measured[1] == pytest.approx(0.1, abs=1e-3)
+    homed.arm.servo_jp([0.0, 0.15, 0.12, 0.0, 0.0, 0.0])  # executed, as on the robot
+    homed.run(0.3)
+    assert homed.arm.measured[1] == pytest.approx(0.15, abs=1e-3) and homed.arm.current == "MANUAL"
+    homed.arm.clutch(False)
+    assert (homed.arm.current, homed.arm.is_busy) == ("HOMED", False)
+    homed.run(0.3)
+    assert homed.arm.setpoint[1] == pytest.approx(0.15, abs=1e-3)  # held where it was left
+    assert [(event.state, event.is_busy) for event in homed.arm.state_events][:1] == [("ENABLED", True)]
+    disabled = Ticking()
+    disabled.arm.clutch(True)
+    assert disabled.arm.current == "DISABLED"
+    assert disabled.texts("warning") == ["PSM1: arm not ready yet, manipulator clutch ignored"]

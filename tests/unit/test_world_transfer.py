@@ -1,9 +1,9 @@
 """Grasp, lift, transfer, place and handover in the simulated world, decided by geometry alone."""
 
 import copy
-import dataclasses
 import numpy as np
 import pytest
+from world_effects_helpers import YieldingDriver
 
 from pegbt.motion.handover import handover_meeting_point
 from pegbt.motion.settings import motion_settings
@@ -141,17 +141,6 @@ def test_lifting_sideways_catches_the_block_on_its_peg():
     assert events[0].detail.startswith("block-peg: caught on peg 1")
     assert events[1].peg == 1  # it falls back down its peg
     assert world.blocks[1].state == "on_peg" and world.held_by("PSM1") is None
-
-
-class YieldingDriver(Driver):
-    """Scripted tools whose wrists give `give` (m) along the tip's -x, +x, -y and +y, as cable play lets them."""
-
-    def __init__(self, world, give):
-        super().__init__(world)
-        self.give = give
-
-    def tool(self, arm, frame):
-        return dataclasses.replace(super().tool(arm, frame), give=self.give)
 
 
 @pytest.mark.parametrize(("give", "caught"), [(0.0, True), (0.0003, True), (0.001, False)])

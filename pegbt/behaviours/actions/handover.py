@@ -165,6 +165,12 @@ class HandoverPoses(ComputeLeaf):
     resources=RESOURCES,
 )
 class CarryToHandover(CarryLeaf):
+    SEGMENTS = (
+        "lift",
+        "carry",
+        "carry",
+    )  # the last arrives at the meeting point: there is no peg to lower onto
+
     def waypoints(self) -> TransferWaypoints:
         return to_handover(
             self.skills.cell,

@@ -15,7 +15,7 @@ believes), runs on the wall clock.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any, Protocol
 
@@ -40,8 +40,11 @@ from pegbt.transport.session import Session, open_session, reaches_anyone
 from pegbt.transport.streaming import Streamer
 from pegbt.transport.ros2 import Ros2Wire, Topic
 from pegbt.transport.wires import make_wire, wire_session_settings
+from pegbt.transport.zivid_camera import POINTS_XYZ as ZIVID_POINTS
+from pegbt.transport.zivid_camera import ZividCamera
 
-SIMULATOR_ARGS = ("--physics", "dvrk-real")
+SIMULATOR_PHYSICS = "dvrk-real"
+SIMULATOR_ARGS = ("--physics", SIMULATOR_PHYSICS)
 PROBE_TIMEOUT = 2.0  # s to wait for a simulator to answer `sim/clock` at an address (no answer: a robot)
 STEP_TIMEOUT = 5.0  # s to wait for a lockstep step: a camera capture on a loaded 2-core machine took over 2
 READY_TIMEOUT = 5.0  # s to wait for each arm's first state
@@ -157,6 +160,28 @@ class Robot:
             self.simulator.stop()
 
 
+def simulated_world(
+    options: Mapping[str, Any], clock: str | None, started: Mapping[str, Any] | None = None
+) -> dict[str, Any]:
+    """What a tick log's header records of the world a run meets (`RunOptions.world`): for a simulator
+    started for the run (`--endpoint auto` with pegbt's interface, as `options` say; or one the caller
+    started, with the `seed`, `faults` and `world-effects` of `started`), its physics, speed (lockstep, or
+    real time with `--clock`), seed, fault plan and world file; nothing for an endpoint at an address (a
+    robot, or a simulator that knows its own)."""
+    embedded = options.get("interface", "pegbt") == "pegbt" and options.get("endpoint", "auto") == "auto"
+    if not embedded and started is None:
+        return {}
+    given = options if started is None else started
+    return {
+        "simulator": "embedded" if embedded else "pegbt sim",
+        "physics": SIMULATOR_PHYSICS,
+        "speed": "lockstep" if clock is None else "real time",
+        "seed": int(given.get("seed") or 0),
+        "faults": given.get("faults"),
+        "world_effects": given.get("world-effects"),
+    }
+
+
 def _probe_simulator(link: Link) -> SimClock | None:
     """The simulator's clock if a simulator answers at the other end of `link`, else None (a robot). Only
     the probe is short: a step (a camera capture, say) may take longer on a busy machine."""
@@ -172,12 +197,18 @@ def connect_robot(
     faults: str | None = None,
     simlog: str | None = None,
     wall_clock: Clock | None = None,
+    world_effects: str | None = None,
 ) -> Robot:
     """A `Robot` on `endpoint` (`auto`: a fresh embedded simulator seeded with `seed`, injecting the fault
-    plan `faults` if given, appending its log to `simlog` if given). With `wall_clock` (a clock in real
-    time) the embedded simulator runs in real time and a simulator at an address must too; without it,
-    a robot or a simulator in real time runs on a new `WallClock`."""
-    for value, flag, sim_flag in ((faults, "--faults", "--faults"), (simlog, "--simlog", "--log")):
+    plan `faults` if given, adding the world file's `world_effects` if given, appending its log to
+    `simlog` if given). With `wall_clock` (a clock in real time) the embedded simulator runs in real time
+    and a simulator at an address must too; without it, a robot or a simulator in real time runs on a new
+    `WallClock`."""
+    for value, flag, sim_flag in (
+        (faults, "--faults", "--faults"),
+        (simlog, "--simlog", "--log"),
+        (world_effects, "--world-effects", "--world-effects"),
+    ):
         if value is not None and endpoint != "auto":
             raise PegbtError(
                 f"{flag} is for the embedded simulator (--endpoint auto); give `pegbt sim {sim_flag}` to a "
@@ -193,6 +224,7 @@ def connect_robot(
                 "--seed",
                 str(seed),
                 *(["--faults", faults] if faults else []),
+                *(["--world-effects", world_effects] if world_effects else []),
                 *(["--log", simlog] if simlog else []),
             ]
         )
@@ -253,16 +285,21 @@ def connect_crtk_robot(
     liveness: float = LIVENESS_S,
     ros2: str = "bridge",
     simlog: str | None = None,
+    camera_kind: str = "stream",
+    speed: float = 1.0,
 ) -> Robot:
     """A `Robot` of CRTK arms at `endpoint` (a zenoh-bridge-ros2dds, a `pegbt sim --interface dvrk`), its
-    arms enabled and homed, limits narrowed by the dVRK's `robot_config` folder when given."""
+    arms enabled and homed, limits narrowed by the dVRK's `robot_config` folder when given; its camera
+    streams on the topic `camera`, or for `camera_kind` zivid is a Zivid driver's capture service; the jaw's
+    streamed ramps at `speed` of its velocity (`ArmSettings.at_speed`)."""
     if endpoint == "auto":
         raise PegbtError(
             "--interface dvrk talks to a robot: give its bridge's address (--endpoint tcp/HOST:PORT)",
             field="--endpoint",
         )
     check_namespace(namespace, "--namespace")
-    settings = {arm: robot_arm_settings(arm, robot_config, robot_tool) for arm in ARMS}
+    speed = checked_number(speed, "--speed", above=0.0, at_most=1.0)
+    settings = {arm: robot_arm_settings(arm, robot_config, robot_tool).at_speed(speed) for arm in ARMS}
     period = min(arm.control_period for arm in settings.values())
     session = open_session(wire_session_settings(ros2, [endpoint]))
     try:
@@ -279,9 +316,14 @@ def connect_crtk_robot(
             )
             for arm in ARMS
         }
+        depth_camera: StreamingCamera | ZividCamera = (
+            ZividCamera(wire, clock=clock)
+            if camera_kind == "zivid"
+            else StreamingCamera(wire, point_cloud_topic(camera), clock=clock)
+        )
         robot = Robot(
             arms,
-            StreamingCamera(wire, point_cloud_topic(camera), clock=clock),
+            depth_camera,
             clock,
             endpoint=endpoint,
             truth=SimulatorLogTruth(simlog) if simlog else None,
@@ -291,7 +333,7 @@ def connect_crtk_robot(
         robot.wire = wire  # what a recording listens to (`pegbt run --record`)
         robot.ros2_topics = (
             *(topic for arm in ARMS for topic in (*PsmTopics(arm).published(), *PsmTopics(arm).subscribed())),
-            point_cloud_topic(camera),
+            *((ZIVID_POINTS,) if camera_kind == "zivid" else (point_cloud_topic(camera),)),
         )
         try:
             robot.wait_until_ready()
@@ -331,8 +373,9 @@ def _robot_silent(
 
 
 def provide_robot(setup: ProviderSetup) -> Robot:
-    """The `robot` resource for `pegbt run` (options `interface`, `endpoint`, `seed`, `faults`, `simlog`;
-    for `dvrk` also `namespace`, `ros2`, `robot-config`, `robot-tool`, `camera-topic`). `--clock` may only
+    """The `robot` resource for `pegbt run` (options `interface`, `endpoint`, `seed`, `faults`,
+    `world-effects`, `simlog`; for `dvrk` also `namespace`, `ros2`, `robot-config`, `robot-tool`, `camera`,
+    `camera-topic`, `speed`). `--clock` may only
     ask for a clock in real time (the robot's time passes on its own): `--clock wall` runs the embedded
     simulator in real time."""
     options = setup.options
@@ -343,11 +386,13 @@ def provide_robot(setup: ProviderSetup) -> Robot:
             field="--clock",
         )
     if options.get("interface") == "dvrk":
-        if options.get("faults") is not None:
-            raise PegbtError(
-                "--faults is for the embedded simulator (--interface pegbt); give it to `pegbt sim --faults`",
-                field="--faults",
-            )
+        for name in ("faults", "world-effects"):
+            if options.get(name) is not None:
+                raise PegbtError(
+                    f"--{name} is for the embedded simulator (--interface pegbt); give it to `pegbt sim "
+                    f"--{name}`",
+                    field=f"--{name}",
+                )
         return connect_crtk_robot(
             str(options.get("endpoint") or "auto"),
             str(options.get("namespace") or ""),
@@ -357,6 +402,8 @@ def provide_robot(setup: ProviderSetup) -> Robot:
             checked_number(float(options.get("liveness") or LIVENESS_S), "--liveness", above=0.0),
             ros2=str(options.get("ros2") or "bridge"),
             simlog=options.get("simlog"),
+            camera_kind=str(options.get("camera") or "stream"),
+            speed=1.0 if options.get("speed") is None else float(options["speed"]),
         )
     return connect_robot(
         str(options.get("endpoint") or "auto"),
@@ -364,4 +411,5 @@ def provide_robot(setup: ProviderSetup) -> Robot:
         options.get("faults"),
         options.get("simlog"),
         setup.clock if setup.clock_name is not None else None,
+        options.get("world-effects"),
     )

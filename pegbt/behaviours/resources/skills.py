@@ -37,6 +37,7 @@ from pegbt.motion.transfer import TransferPlanner
 from pegbt.perception.blocks import BlockLocator
 from pegbt.perception.board import PegboardRegistration
 from pegbt.perception.grasp import GraspSelector
+from pegbt.numbers import checked_number
 from pegbt.psm import ARMS
 from pegbt.workcell import Workcell, workcell
 
@@ -69,8 +70,10 @@ class Skills:
         motion: MotionSettings | None = None,
         robot_config: Path | None = None,
         robot_tool: str = DEFAULT_TOOL,
+        speed: float = 1.0,
     ) -> None:
-        """`robot_config`: a dVRK's share/ folder, whose limits narrow skills/psm.yaml's (`robot_arm_settings`)."""
+        """`robot_config`: a dVRK's share/ folder, whose limits narrow skills/psm.yaml's (`robot_arm_settings`);
+        `speed`: the fraction of the planner's speed every motion is planned at (`ArmSettings.at_speed`)."""
         if condition not in CONDITIONS:
             raise PegbtError(
                 f"unknown condition {condition!r}; known: {', '.join(CONDITIONS)}", field="--condition"
@@ -79,7 +82,10 @@ class Skills:
         self.cell = cell or workcell()
         self.motion = motion or motion_settings()
         self.arms: dict[str, ArmMotion] = {}
-        self.settings = {arm: robot_arm_settings(arm, robot_config, robot_tool) for arm in ARMS}
+        self.speed = checked_number(speed, "--speed", above=0.0, at_most=1.0)
+        self.settings = {
+            arm: robot_arm_settings(arm, robot_config, robot_tool).at_speed(self.speed) for arm in ARMS
+        }
         for arm in ARMS:
             settings = self.settings[arm]
             compensator = None
@@ -167,7 +173,7 @@ class SkillsReport:
 
 def provide_skills(setup: ProviderSetup) -> Skills:
     """The `skills` resource for `pegbt run` (options `condition`, `calibration`, `endpoint`, `robot-config`,
-    `robot-tool`)."""
+    `robot-tool`, `speed`)."""
     options = setup.options
     directory = options.get("calibration")
     if directory is None:
@@ -178,4 +184,5 @@ def provide_skills(setup: ProviderSetup) -> Skills:
         Path(directory),
         robot_config=None if robot_config is None else Path(robot_config),
         robot_tool=str(options.get("robot-tool") or DEFAULT_TOOL),
+        speed=1.0 if options.get("speed") is None else float(options["speed"]),
     )

@@ -1,5 +1,6 @@
 // The monitor page: one WebSocket brings the tick log's records (live as they are written, or a whole log to
 // replay), the first causes and the world; the page keeps the run in a RunState and shows it after one tick.
+// A page that joins a long live run late gets a snapshot of the state before the server's window first.
 
 import { RunState } from "./state.js";
 import { TreeView } from "./tree.js";
@@ -31,6 +32,9 @@ function handle(message) {
       state.countChildren();
       $("tree-file").textContent = message.tree;
       tree.build();
+      break;
+    case "snapshot":
+      state.setBase(message);
       break;
     case "tick": case "halt": case "crash": case "end":
       state.push(message);
@@ -151,7 +155,10 @@ function frame() {
 }
 
 function connect() {
-  const socket = new WebSocket(`ws://${location.host}/ws`);
+  // The run is sent only to a page that shows the token the monitor printed in its URL (`?token=…`).
+  const token = new URLSearchParams(location.search).get("token");
+  const query = token === null ? "" : `?token=${encodeURIComponent(token)}`;
+  const socket = new WebSocket(`ws://${location.host}/ws${query}`);
   socket.onmessage = (event) => {
     for (const message of JSON.parse(event.data)) handle(message);
     if (!frameRequested) { frameRequested = true; requestAnimationFrame(frame); }

@@ -13,17 +13,31 @@ export class RunState {
     this.feedback = [];
     this.blackboard = new Map();
     this.changedKeys = new Set();
+    this.base = null; // a late page's snapshot: the state after the records the server no longer keeps
   }
 
   setHeader(header) {
     this.header = header;
     this.nodes = header.nodes;
     this.events = [];
+    this.base = null;
+    this.reset();
+  }
+
+  setBase(snapshot) {
+    this.base = snapshot;
+    this.events = [];
     this.reset();
   }
 
   reset() {
     this.applied = 0;
+    if (this.base) {
+      this.status = this.base.status.slice();
+      this.feedback = this.base.feedback.slice();
+      this.blackboard = new Map(Object.entries(this.base.blackboard));
+      return;
+    }
     this.status = this.nodes.map(() => "INVALID");
     this.feedback = this.nodes.map(() => "");
     this.blackboard = new Map(Object.entries(this.header ? this.header.blackboard || {} : {}));
@@ -34,11 +48,13 @@ export class RunState {
   }
 
   get lastTick() {
-    return this.events.length ? this.events[this.events.length - 1].n : 0;
+    if (this.events.length) return this.events[this.events.length - 1].n;
+    return this.base ? this.base.n : 0;
   }
 
   get lastTime() {
-    return this.events.length ? this.events[this.events.length - 1].t : 0;
+    if (this.events.length) return this.events[this.events.length - 1].t;
+    return this.base ? this.base.t : 0;
   }
 
   // How many events have n <= tick (events are in tick order).
@@ -93,10 +109,15 @@ export class RunState {
 
   // The time of the last status change at or before the applied events (as `pegbt log replay` reports it).
   timeOfApplied() {
-    return this.applied ? this.events[this.applied - 1].t : 0;
+    if (this.applied) return this.events[this.applied - 1].t;
+    return this.base ? this.base.t : 0;
   }
 
   firstFailure() {
+    if (this.base && this.base.failures.length) {
+      const [node, n] = this.base.failures[0];
+      return { n, node };
+    }
     for (const event of this.events) {
       for (const change of event.changes || []) if (change[2] === "FAILURE") return { n: event.n, node: change[0] };
     }
@@ -104,7 +125,7 @@ export class RunState {
   }
 
   failureTicks() {
-    const ticks = [];
+    const ticks = this.base ? this.base.failures.map((failure) => failure[1]) : [];
     for (const event of this.events) {
       if ((event.changes || []).some((change) => change[2] === "FAILURE")) ticks.push(event.n);
     }

@@ -1,0 +1,183 @@
+"""`ZividCamera`: point clouds from a Zivid camera's ROS 2 driver, which captures only when asked, with the verbs
+behaviours use on `CameraClient`.
+
+The driver (zivid/zivid-ros `zivid_camera.cpp`; see `pegbt.sim.zivid`) captures when its `capture` service
+(`std_srvs/srv/Trigger`) is called, publishes the frame on the point topics somebody subscribes to, then
+responds. So a capture is one call: the cloud that arrives after the request went out is the one it took (a
+camera that captures nothing unasked sends no other), matched by arrival, so a camera computer's clock need not
+agree with this one's; a response with `success` false, no response, or no cloud soon after a response is an
+error naming the service.
+
+A full-resolution frame is 2.3 M points (Zivid 2), 16 bytes each; perception was tuned on about 130 k. The
+cloud is thinned on its organised grid as it is decoded: every `stride`-th row and column is copied out of the
+message (the rest never leaves it), then the invalid pixels (NaN) are dropped. Decoding runs on a thread of its
+own, not on zenoh's, which also carry the arms' states.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+
+import numpy as np
+from numpy.typing import NDArray
+
+from pegbt.clock import Clock, WallClock
+from pegbt.errors import PegbtError
+from pegbt.transport import codec
+from pegbt.transport.ros2 import Ros2Wire, Topic
+from pegbt.transport.ros2_service import Service, ServiceCall, ServiceFailed
+
+CAPTURE = Service("/capture", codec.TRIGGER)
+# rmw_qos_profile_default (the driver's `getQoSLatched(false)`): reliable, volatile, keep last 10
+POINTS_XYZRGBA = Topic("/points/xyzrgba", codec.POINT_CLOUD2, depth=10, reliable=True)
+POINTS_XYZ = Topic(
+    "/points/xyz", codec.POINT_CLOUD2, depth=10, reliable=True
+)  # "recommended if you don't need the RGBA values"
+STRIDE = 2  # every 2nd row and column: 0.6 mm between points at the board (see `pegbt bench perception`)
+CLOUD_GRACE_S = 2.0  # after the response, for the cloud published before it to arrive
+
+
+def organised_points(payload: bytes, stride: int = STRIDE) -> tuple[float, NDArray[np.float32]]:
+    """(stamp, (N, 3) float32 valid points) of an organised PointCloud2, thinned to every `stride`-th row and
+    column of its grid."""
+    stamp, grid = codec.decode_organised_cloud(payload, stride)
+    points = grid.reshape(-1, 3)
+    return stamp, points[np.isfinite(points).all(axis=1)]
+
+
+class ZividCapture:
+    """A requested capture: `ready` once its cloud came or it failed; then `points` ((N, 3) float32), or the
+    error naming the service."""
+
+    def __init__(self, camera: ZividCamera, call: ServiceCall) -> None:
+        self.camera = camera
+        self.call = call
+        self.stamp: float | None = None
+        self._points: NDArray[np.float32] | None = None
+        self._error: PegbtError | None = None
+        self._answered_at: float | None = None
+        self._arrived = threading.Event()
+
+    def fulfil(self, stamp: float, points: NDArray[np.float32]) -> None:
+        self.stamp, self._points = stamp, points
+        self._arrived.set()
+
+    def refuse(self, error: PegbtError) -> None:
+        if not self._arrived.is_set():
+            self._error = error
+            self._arrived.set()
+
+    @property
+    def sent(self) -> bool:
+        """Whether the service took the request (it responded); until then, no cloud is on its way."""
+        self._check_response()
+        return self._answered_at is not None
+
+    @property
+    def ready(self) -> bool:
+        self._check_response()
+        return self._arrived.is_set()
+
+    def _check_response(self) -> None:
+        """Fail the capture on a refusal, or once its cloud is overdue after the response."""
+        if self._arrived.is_set() or not self.call.done:
+            return
+        service, topic = self.camera.service.name, self.camera.topic.name
+        try:
+            success, message = codec.decode_trigger_response(self.call.result())
+        except PegbtError as error:
+            self.refuse(ServiceFailed(f"capture failed: {error.message}", field=service))
+            return
+        if not success:
+            self.refuse(ServiceFailed(f"capture failed: service {service} said: {message}", field=service))
+            return
+        now = time.monotonic()
+        if self._answered_at is None:
+            self._answered_at = now
+        elif now - self._answered_at > CLOUD_GRACE_S:
+            self.refuse(
+                ServiceFailed(
+                    f"capture failed: service {service} responded, but no cloud came on {topic} within "
+                    f"{CLOUD_GRACE_S:g} s (the driver publishes only to topics with subscribers: is {topic} "
+                    "routed here?)",
+                    field=topic,
+                )
+            )
+
+    def result(self, timeout: float) -> NDArray[np.float32]:
+        """The thinned cloud, waiting up to `timeout` s; `ServiceFailed` naming the service if none came."""
+        deadline = time.monotonic() + timeout
+        while not self.ready and time.monotonic() < deadline:
+            self._arrived.wait(min(0.05, max(0.0, deadline - time.monotonic())))
+        if self._error is not None:
+            raise self._error
+        if self._points is None:
+            if not self.call.done:
+                self.call.result(0.0)  # ServiceFailed: no response yet, naming the service
+            raise ServiceFailed(
+                f"capture failed: no cloud on {self.camera.topic.name} within {timeout:g} s",
+                field=self.camera.topic.name,
+            )
+        return self._points
+
+    @property
+    def points(self) -> NDArray[np.float32]:
+        return self.result(0.0)
+
+
+class ZividCamera:
+    """A Zivid driver's capture `service` and its cloud on `topic` through `wire`, each cloud thinned by
+    `stride`; a capture waits up to `timeout` s."""
+
+    def __init__(
+        self,
+        wire: Ros2Wire,
+        *,
+        service: Service = CAPTURE,
+        topic: Topic = POINTS_XYZ,
+        stride: int = STRIDE,
+        clock: Clock | None = None,
+        timeout: float = 10.0,
+    ) -> None:
+        if stride < 1:
+            raise PegbtError(f"the thinning stride must be at least 1, got {stride}", field="stride")
+        self.wire = wire
+        self.service, self.topic, self.stride = service, topic, stride
+        self.clock: Clock = clock or WallClock()
+        self.timeout = timeout
+        self.last_error: str | None = None
+        self._pending: list[ZividCapture] = []
+        self._lock = threading.Lock()
+        wire.subscriber(topic, self._on_cloud)
+
+    def _on_cloud(self, payload: bytes) -> None:
+        """A cloud for every capture requested before it arrived; decoded off zenoh's thread."""
+        with self._lock:
+            waiting, self._pending = self._pending, []
+        if waiting:
+            threading.Thread(target=self._decode, args=(payload, waiting), name="zivid-decode").start()
+
+    def _decode(self, payload: bytes, waiting: list[ZividCapture]) -> None:
+        try:
+            stamp, points = organised_points(payload, self.stride)
+        except PegbtError as error:
+            self.last_error = str(error)
+            for handle in waiting:
+                handle.refuse(ServiceFailed(f"capture failed: {error}", field=self.topic.name))
+            return
+        for handle in waiting:
+            handle.fulfil(stamp, points)
+
+    def capture_async(self) -> ZividCapture:
+        """Call the capture service; poll the handle's `ready` in later ticks."""
+        with self._lock:
+            handle = ZividCapture(
+                self, self.wire.call(self.service, codec.encode_trigger_request(), self.timeout)
+            )
+            self._pending.append(handle)
+        return handle
+
+    def capture(self) -> NDArray[np.float32]:
+        """The next cloud, blocking up to `timeout` s."""
+        return self.capture_async().result(self.timeout)

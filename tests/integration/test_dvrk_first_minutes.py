@@ -1,0 +1,269 @@
+"""A real dVRK's first minutes, against the simulator's dVRK interface (`pegbt sim --interface dvrk`, checked
+by an independent peer where it says what the robot sends) and against the CRTK double (`crtk_double.py`):
+joints invalid until the encoders are biased, a robot computer whose clock is an hour off, the clutch
+(MANUAL) mid-motion, and latched messages from before the run."""
+
+from __future__ import annotations
+
+import json
+import time
+from collections.abc import Callable, Iterator
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+from crtk_double import CrtkDouble
+from dvrk_peer import STORE, DvrkPeer, state_command, wait_for
+from dvrk_sim_helpers import ServedSim
+
+from pegbt.behaviours.resources.arm_motion import ArmMotion
+from pegbt.behaviours.resources.robot import Robot, connect_crtk_robot
+from pegbt.executive.analysis import summary
+from pegbt.executive.logfile import read_tick_log
+from pegbt.executive.runoptions import RunOptions
+from pegbt.executive.session import run_tree_file
+from pegbt.sim.process import free_port
+from pegbt.transport.arm import ArmLeftReady
+
+HOUR = 3600.0
+JOINT_STATE = "sensor_msgs/msg/JointState"
+OPERATING_STATE = "crtk_msgs/msg/OperatingState"
+
+
+class Robots:
+    """The simulator's dVRK interface or the CRTK double at `address`, with what a test does to each."""
+
+    def __init__(self, kind: str, tmp_path: Path, clock_offset: float = 0.0, old_errors: int = 0) -> None:
+        self.kind = kind
+        if kind == "sim":
+            self.sim: ServedSim | None = ServedSim(tmp_path / "sim.jsonl", robot_clock_offset=clock_offset)
+            self.address = self.sim.address
+            self.double: CrtkDouble | None = None
+            self.peer = DvrkPeer(self.address)
+            for _ in range(old_errors):  # each an unknown state command: a warning, latched
+                self.peer.put("PSM1/state_command", state_command("dance"))
+        else:
+            self.sim = None
+            self.address = f"tcp/127.0.0.1:{free_port()}"
+            self.double = CrtkDouble(self.address, clock_offset=clock_offset, old_errors=old_errors)
+            self.peer = DvrkPeer(self.address)
+
+    def clutch(self, arm: str, pressed: bool) -> None:
+        """A person presses or releases the clutch: the simulator's documented stand-in for the button
+        (`/pegbt_sim/PSMn/arm_clutch`, sensor_msgs/Joy), or the double's."""
+        if self.double is not None:
+            self.double.clutch(arm, pressed)
+            return
+        now = time.time()
+        header = STORE.types["std_msgs/msg/Header"](
+            stamp=STORE.types["builtin_interfaces/msg/Time"](sec=int(now), nanosec=0), frame_id=""
+        )
+        joy = STORE.types["sensor_msgs/msg/Joy"](
+            header=header, axes=np.zeros(0, np.float32), buttons=np.array([int(pressed)], np.int32)
+        )
+        self.peer.put(f"pegbt_sim/{arm}/arm_clutch", joy)
+
+    def close(self) -> None:
+        self.peer.close()
+        if self.sim is not None:
+            self.sim.close()
+        if self.double is not None:
+            self.double.close()
+
+
+@pytest.fixture
+def robots(tmp_path: Path) -> Iterator[Callable[..., Robots]]:
+    made: list[Robots] = []
+
+    def make(kind: str, **kwargs: Any) -> Robots:
+        made.append(Robots(kind, tmp_path, **kwargs))
+        return made[-1]
+
+    yield make
+    for robot in made:
+        robot.close()
+
+
+def test_joints_are_invalid_until_the_encoders_are_biased_then_seven_until_the_tool_engages(
+    tmp_path: Path,
+) -> None:
+    sim = ServedSim(tmp_path / "sim.jsonl", robot_clock_offset=HOUR)
+    peer = DvrkPeer(sim.address)
+    try:
+        measured = peer.subscribe("PSM1/measured_js")
+        states = peer.subscribe_latched("PSM1/operating_state")
+        assert wait_for(lambda: measured.all())
+        first = measured.decoded(JOINT_STATE)[-1]
+        assert (first.header.stamp.sec, first.header.stamp.nanosec) == (0, 0)  # invalid: stamp 0
+        assert len(first.position) == 7 and not np.any(first.position)  # the PID's seven joints, zeros
+        peer.put("PSM1/state_command", state_command("enable"))
+        peer.put("PSM1/state_command", state_command("home"))
+        assert wait_for(lambda: (s := states.decoded(OPERATING_STATE)) and s[-1].is_homed, timeout=20)
+        time.sleep(0.1)
+        seen = measured.decoded(JOINT_STATE)
+        last = seen[-1]
+        assert len(last.position) == 6 and list(last.name)[:3] == ["yaw", "pitch", "insertion"]
+        stamp = last.header.stamp.sec + last.header.stamp.nanosec * 1e-9
+        assert stamp == pytest.approx(time.time() + HOUR, abs=2.0)  # the robot's clock, an hour ahead
+        homing = [s for s in states.decoded(OPERATING_STATE)]
+        assert all(s.header.stamp.sec > time.time() + HOUR - 60 for s in homing)
+        assert [(s.state, s.is_busy) for s in homing][:3] == [
+            ("DISABLED", False),
+            ("DISABLED", True),  # powering
+            ("ENABLED", False),
+        ]
+        assert sum(s.is_busy for s in homing) >= 3  # powering, calibrating from pots, homing, engaging
+    finally:
+        peer.close()
+        sim.close()
+
+
+@pytest.mark.parametrize("offset", [-HOUR, HOUR], ids=["robot clock 1 h behind", "robot clock 1 h ahead"])
+@pytest.mark.parametrize("kind", ["sim", "double"])
+def test_the_first_homing_after_start_up_ends_whatever_the_robot_clock(
+    robots: Callable[..., Robots], kind: str, offset: float
+) -> None:
+    """Until the encoders are biased the robot sends joints stamped 0; homing is judged by what the robot
+    stamped, never against this computer's clock (before: 'did not home within 60 s' an hour behind)."""
+    robot = robots(kind, clock_offset=offset)
+    client = connect_crtk_robot(robot.address, liveness=5.0)
+    try:
+        arm = client.arm("PSM1")
+        assert arm.operating_state.is_homed and arm.operating_state.stamp == pytest.approx(
+            time.time() + offset, abs=60
+        )
+        goal = arm.setpoint_js.position + np.array([0.0, 0.0, -0.01, 0.0, 0.0, 0.0])
+        move = arm.move_jp(goal)
+        assert move.busy
+        assert wait_for(lambda: not move.busy, 20) and move.done, move.error
+    finally:
+        client.close()
+
+
+def _clutched_mid_motion(robot: Robots) -> tuple[Robot, Any, float, float]:
+    """A 4 s motion of PSM1 streamed, its clutch pressed 1 s in and released 2 s later; the client, the
+    motion and the monotonic times of press and release."""
+    client = connect_crtk_robot(robot.address, liveness=5.0)
+    arm = client.arm("PSM1")
+    motion = ArmMotion(arm.settings.at_speed(0.3))
+    start = arm.setpoint_js.position
+    goal = start + np.array([0.8, -0.4, 0.04, 0.0, 0.0, 0.0])
+    trajectory = motion.through(start, [goal], ["goal"])
+    assert trajectory.t[-1] > 3.0
+    handle = arm.move_jp(trajectory)
+    time.sleep(1.0)
+    pressed = time.monotonic()
+    robot.clutch("PSM1", True)
+    time.sleep(2.0)
+    assert handle.busy, handle.error  # paused, not failed, although its time bound was 4 s + 2 s
+    released = time.monotonic()
+    robot.clutch("PSM1", False)
+    assert wait_for(lambda: not handle.busy, 20) and handle.done, handle.error
+    assert np.allclose(arm.setpoint_js.position, goal, atol=1e-6)
+    arm.check_alive()  # ENABLED and homed all along: nothing stopped the run
+    return client, handle, pressed, released
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("kind", ["sim", "double"])
+def test_the_clutch_mid_motion_pauses_it_and_it_completes_after_release_without_a_jump(
+    robots: Callable[..., Robots], kind: str
+) -> None:
+    robot = robots(kind)
+    setpoints = robot.peer.subscribe("PSM1/setpoint_js")
+    states = robot.peer.subscribe_latched("PSM1/operating_state")
+    measured = robot.peer.subscribe("PSM1/measured_js")
+    client, _, pressed, released = _clutched_mid_motion(robot)
+    try:
+        busy = [
+            at
+            for at, sample in states.samples
+            if at > pressed and STORE.deserialize_cdr(sample.payload.to_bytes(), OPERATING_STATE).is_busy
+        ]
+        assert busy, "the arm never said MANUAL (busy)"
+        manual_from = busy[0]
+        messages = client.log_messages()
+        assert any("MANUAL" in m["text"] for m in messages), [m["text"] for m in messages][-20:]
+        if robot.double is not None:  # what the robot received
+            sent = [(r.at, np.asarray(r.message.position)) for r in robot.double.commands("PSM1/servo_jp")]
+        else:  # what the robot's set-point did: it moves with every servo_jp, MANUAL or not
+            sent = [
+                (at, np.asarray(STORE.deserialize_cdr(s.payload.to_bytes(), JOINT_STATE).position))
+                for at, s in setpoints.samples
+            ]
+        sent = [(at, q) for at, q in sent if len(q) == 6]
+        during = [q for at, q in sent if manual_from + 0.05 < at < released]
+        if robot.double is None:  # the arm only settles where MANUAL stopped it (the trajectory: ~0.4 rad)
+            assert during and np.ptp(np.array(during), axis=0).max() < 0.02, np.ptp(np.array(during), axis=0)
+        else:
+            assert not during
+        after = [q for at, q in sent if at > released + 0.1]
+        assert np.ptp(np.array(after), axis=0).max() > 0.01  # streaming went on after the release
+        decoded = [
+            STORE.deserialize_cdr(s.payload.to_bytes(), JOINT_STATE).position for _, s in measured.samples
+        ]
+        positions = np.array([p for p in decoded if len(p) == 6])
+        steps = np.abs(np.diff(positions, axis=0))
+        assert steps[:, :2].max() < 0.1 and steps[:, 2].max() < 0.01  # rad, m between two states: no jump
+        path = np.array([q for _, q in sent])
+        assert np.abs(np.diff(path, axis=0))[:, :2].max() < 0.05  # nor in the set-points
+    finally:
+        client.close()
+
+
+@pytest.mark.parametrize("kind", ["sim", "double"])
+def test_messages_latched_before_the_run_are_history_never_a_stops_cause(
+    robots: Callable[..., Robots], kind: str, tmp_path: Path
+) -> None:
+    robot = robots(kind, old_errors=100)
+    level = "error" if kind == "double" else "warning"
+    if kind == "sim":  # 100 warnings said before the client joined
+        assert wait_for(lambda: len(robot.peer.subscribe_latched("PSM1/warning").all()) >= 100)
+        client = connect_crtk_robot(robot.address, liveness=5.0)
+        try:
+            messages = client.log_messages()
+        finally:
+            client.close()
+        old = [m for m in messages if m["source"] == "PSM1" and m["level"] == level]
+        assert len(old) == 100 and all(m.get("before_run") is True for m in old)
+        assert all(not m.get("before_run") for m in messages if "power on" in m["text"])
+        return
+    tree = tmp_path / "look.yaml"
+    tree.write_text("doc: one capture from the robot's camera\ntree:\n  capture: {}\n")
+    output = run_tree_file(
+        RunOptions(
+            tree,
+            tmp_path / "look.jsonl",
+            {"interface": "dvrk", "endpoint": robot.address, "condition": "uncalibrated", "liveness": 5.0},
+            timeout=60,
+        ),
+        quiet=True,
+    )
+    assert output.result.outcome == "success"
+    records = [json.loads(line) for line in (tmp_path / "look.jsonl").read_text().splitlines()]
+    old = [r for r in records if r["type"] == "message" and r["source"] == "PSM1" and r["level"] == level]
+    assert len(old) == 100 and all(r.get("before_run") is True for r in old)
+    current = [r for r in records if r["type"] == "message" and not r.get("before_run")]
+    assert current and all("old error" not in r["text"] for r in current)
+    text = summary(read_tick_log(tmp_path / "look.jsonl"))
+    assert "200 from before this run" in text and "old error" not in text
+    client = connect_crtk_robot(robot.address, liveness=5.0)  # a stop's cause is never the history
+    try:
+        assert robot.double is not None
+        robot.double.console("PSM1", "disable")
+        with pytest.raises(ArmLeftReady) as stopped:
+            wait_for(lambda: client.arm("PSM1").check_alive(), 5)
+        assert "old error" not in str(stopped.value)
+    finally:
+        client.close()
+
+
+def test_a_robot_clock_offset_is_the_dvrk_interfaces_option(capsys: pytest.CaptureFixture[str]) -> None:
+    from pegbt.cli import main
+
+    assert main(["sim", "--robot-clock-offset", "5", "--no-world"]) == 2
+    assert main(["eval", "--variant", "unilateral", "--trials", "1", "--robot-clock-offset", "5"]) == 2
+    assert main(["sim", "--interface", "dvrk", "--robot-clock-offset", "nan", "--no-world"]) == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 3 and all("--robot-clock-offset" in line for line in lines), lines

@@ -1,0 +1,173 @@
+"""pegbt's Zivid client (`pegbt run --interface dvrk --camera zivid`) end to end with the simulator's Zivid over
+zenoh on loopback: a capture calls `/capture`, takes the cloud that comes, thins it on its grid to what
+perception registers the board on; a capture that fails (refused, nobody serving, no response, no cloud) is an
+error naming the service or topic."""
+
+from __future__ import annotations
+
+import threading
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+import numpy as np
+import pytest
+import zenoh
+from zivid_helpers import ZividSim, zivid_camera
+
+from pegbt.perception.board import PegboardRegistration
+from pegbt.sim.process import free_port
+from pegbt.sim.world import World
+from pegbt.transport import codec
+from pegbt.transport.ros2 import BridgeWire
+from pegbt.transport.ros2_service import ServiceFailed, ServiceRequest
+from pegbt.transport.session import client_settings, endpoint_settings, open_session
+from pegbt.transport.zivid_camera import CAPTURE, ZividCamera
+
+
+@pytest.fixture
+def sim(tmp_path: Path) -> Iterator[ZividSim]:
+    running = ZividSim(tmp_path / "sim.jsonl", zivid_camera())
+    yield running
+    running.close()
+
+
+@pytest.fixture
+def client_wire(sim: ZividSim) -> Iterator[BridgeWire]:
+    session = open_session(client_settings([sim.address]))
+    wire = BridgeWire(session)
+    yield wire
+    wire.close()
+    session.close()
+
+
+def test_a_capture_is_the_called_cloud_thinned_and_perception_registers_the_board_on_it(
+    sim: ZividSim, client_wire: BridgeWire
+) -> None:
+    camera = ZividCamera(client_wire, stride=2, timeout=20.0)
+    time.sleep(0.5)
+    asked = time.time()
+    capture = camera.capture_async()
+    points = capture.result(20.0)
+    assert capture.ready and capture.sent and capture.stamp is not None and capture.stamp > asked
+    assert np.isfinite(points).all() and points.dtype == np.float32
+    full = zivid_camera().capture(World(0))  # every valid pixel of a full-resolution frame
+    assert 0.2 < len(points) / len(full) < 0.3  # every 2nd row and column: a quarter
+    board = PegboardRegistration(World(0).cell).fit(points)
+    assert board.ok, board.reason
+    second = camera.capture()  # each capture calls again and gets its own cloud
+    assert len(second) == pytest.approx(len(points), rel=0.05)
+
+
+class FakeDriver:
+    """A capture service that answers as told (a stand-in for a driver that fails), on a bridge's key."""
+
+    def __init__(self, answer: tuple[bool, str] | None) -> None:
+        self.address = f"tcp/127.0.0.1:{free_port()}"
+        self.session = open_session(endpoint_settings([self.address]))
+        self.answer = answer
+        self.requests: list[ServiceRequest] = []
+        self.server = BridgeWire(self.session).serve(CAPTURE, self._received)
+
+    def _received(self, request: ServiceRequest) -> None:
+        self.requests.append(request)
+        if self.answer is not None:
+            request.reply(codec.encode_trigger_response(*self.answer))
+
+    def close(self) -> None:
+        self.server.close()
+        self.session.close()
+
+
+def _client(address: str, timeout: float) -> tuple[zenoh.Session, ZividCamera]:
+    session = open_session(client_settings([address]))
+    camera = ZividCamera(BridgeWire(session), timeout=timeout)
+    time.sleep(0.5)
+    return session, camera
+
+
+def _failure(camera: ZividCamera, wait: float) -> ServiceFailed:
+    capture = camera.capture_async()
+    deadline = time.monotonic() + wait
+    while not capture.ready and time.monotonic() < deadline:
+        time.sleep(0.05)
+    with pytest.raises(ServiceFailed) as raised:
+        capture.result(0.0)
+    return raised.value
+
+
+def test_a_refused_capture_says_what_the_driver_said() -> None:
+    driver = FakeDriver((False, "Unable to capture since the camera is not connected."))
+    session, camera = _client(driver.address, timeout=5.0)
+    try:
+        error = _failure(camera, wait=5.0)
+    finally:
+        session.close()
+        driver.close()
+    assert error.field == "/capture" and error.exit_status == 3
+    assert "service /capture said: Unable to capture since the camera is not connected." in error.message
+
+
+def test_a_capture_nobody_serves_fails_at_once_naming_the_service() -> None:
+    address = f"tcp/127.0.0.1:{free_port()}"
+    listener = open_session(endpoint_settings([address]))  # a bridge with no Zivid behind it
+    session, camera = _client(address, timeout=5.0)
+    try:
+        started = time.monotonic()
+        error = _failure(camera, wait=5.0)
+        took = time.monotonic() - started
+    finally:
+        session.close()
+        listener.close()
+    assert took < 2.0
+    assert error.field == "/capture" and "no server answered" in error.message
+
+
+def test_a_capture_without_a_response_times_out_naming_the_service() -> None:
+    driver = FakeDriver(None)  # takes the request and never answers
+    session, camera = _client(driver.address, timeout=1.0)
+    try:
+        capture = camera.capture_async()
+        assert not capture.sent
+        with pytest.raises(ServiceFailed) as raised:
+            capture.result(3.0)
+    finally:
+        session.close()
+        driver.close()
+    assert raised.value.field == "/capture" and "no response within 1 s" in raised.value.message
+    assert len(driver.requests) == 1
+
+
+def test_a_response_without_a_cloud_is_an_error_naming_the_topic() -> None:
+    driver = FakeDriver((True, ""))  # responds, publishes nothing
+    session, camera = _client(driver.address, timeout=5.0)
+    try:
+        error = _failure(camera, wait=5.0)
+    finally:
+        session.close()
+        driver.close()
+    assert error.field == "/points/xyz"
+    assert "service /capture responded, but no cloud came on /points/xyz" in error.message
+
+
+def test_a_capture_waits_for_a_slow_driver() -> None:
+    driver = FakeDriver(None)
+    session, camera = _client(driver.address, timeout=5.0)
+    publisher = BridgeWire(driver.session).publisher(camera.topic)
+    cloud = np.full((4, 6, 3), np.nan, dtype=np.float32)
+    cloud[2, 4] = (0.01, 0.02, 0.5)  # on the thinned grid (every 2nd row and column)
+    cloud[1, 3] = (0.03, 0.04, 0.5)  # off it
+
+    def answer_later() -> None:
+        time.sleep(1.0)
+        publisher.put(codec.encode_organised_cloud(time.time(), cloud, "zivid_optical_frame"))
+        driver.requests[0].reply(codec.encode_trigger_response(True))
+
+    try:
+        capture = camera.capture_async()
+        threading.Thread(target=answer_later).start()
+        points = capture.result(5.0)
+    finally:
+        session.close()
+        driver.close()
+    np.testing.assert_array_equal(points, np.array([[0.01, 0.02, 0.5]], dtype=np.float32))

@@ -1,0 +1,119 @@
+"""A run's options are one `RunOptions`, and the tick log's header records them: a folder of tick logs sorts
+itself into cells (variant × condition) from the headers alone; logs written before keep reading."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from pegbt.cli import main
+from pegbt.errors import PegbtError
+from pegbt.evaluation.trial import TrialSpec, run_options, trial_run_options
+from pegbt.executive.logfile import TickLogError, read_tick_log
+from pegbt.executive.runoptions import RunOptions
+from pegbt.executive.session import run_tree_file
+
+REPO = Path(__file__).resolve().parents[2]
+EXAMPLE = REPO / "trees" / "example.yaml"
+
+
+def test_pegbt_run_records_its_options_in_the_header(tmp_path, capsys):
+    log = tmp_path / "run.jsonl"
+    argv = ["run", str(EXAMPLE), "--clock", "manual", "--quiet", "--log", str(log), "--period", "0.05"]
+    assert main([*argv, "--condition", "uncalibrated", "--seed", "4", "--timeout", "30"]) == 0
+    parsed = read_tick_log(log)
+    assert (parsed.variant, parsed.condition) == ("example", "uncalibrated")
+    run = parsed.run
+    assert run["options"]["seed"] == 4 and run["options"]["interface"] == "pegbt"
+    assert (run["clock"], run["period"], run["timeout"]) == ("manual", 0.05, 30.0)
+    assert run["world"] == {}  # the example tree meets no robot and no simulator
+    assert parsed.header["tree"] == str(EXAMPLE) and parsed.header["pegbt"]
+    capsys.readouterr()
+    assert main(["log", "summary", str(log)]) == 0
+    assert "run:      variant example, condition uncalibrated\n" in capsys.readouterr().out
+
+
+def test_a_run_from_code_names_its_variant_and_world(tmp_path):
+    options = RunOptions(
+        EXAMPLE,
+        tmp_path / "a.jsonl",
+        {"condition": "calibrated"},
+        clock="manual",
+        variant="bilateral",
+        world={"physics": "dvrk-real", "speed": "lockstep"},
+    )
+    run_tree_file(options)
+    parsed = read_tick_log(options.log)
+    assert (parsed.variant, parsed.condition) == ("bilateral", "calibrated")
+
+
+def test_a_trial_records_its_cell_and_the_simulator_it_ran_on(tmp_path):
+    spec = TrialSpec("handover", "uncalibrated", 7, tmp_path / "t.jsonl", realtime=True, interface="dvrk")
+    options = trial_run_options(spec, run_options(spec, "tcp/127.0.0.1:7447"))
+    fields = options.record_fields()
+    assert (fields["variant"], fields["condition"]) == ("handover", "uncalibrated")
+    assert fields["run"]["tree"].endswith("trees/handover.yaml")
+    assert fields["run"]["world"] == {
+        "simulator": "pegbt sim",
+        "physics": "dvrk-real",
+        "speed": "real time",
+        "seed": 7,
+        "faults": None,
+        "world_effects": None,
+    }
+    world_file = str(tmp_path / "soft.yaml")
+    lockstep = trial_run_options(
+        TrialSpec("unilateral", "optimized", 3, tmp_path / "u.jsonl", world_effects=Path(world_file)),
+        {"endpoint": "auto", "seed": 3, "world-effects": world_file},
+    )
+    run = lockstep.record_fields()["run"]
+    assert (run["world"]["speed"], run["world"]["world_effects"]) == ("lockstep", world_file)
+    assert run["options"]["world-effects"] == world_file
+
+
+def test_bad_options_are_refused_when_built(tmp_path):
+    with pytest.raises(PegbtError, match="'sideways' is not one of uncalibrated"):
+        RunOptions(EXAMPLE, tmp_path / "x.jsonl", {"condition": "sideways"})
+    with pytest.raises(PegbtError, match="unknown run option 'colour'"):
+        RunOptions(EXAMPLE, tmp_path / "x.jsonl", {"colour": "red"})
+    with pytest.raises(PegbtError) as raised:
+        RunOptions(EXAMPLE, tmp_path / "x.jsonl", period=0.0)
+    assert raised.value.field == "--period"
+
+
+def _old_header(tmp_path: Path, **extra: object) -> Path:
+    header = {
+        "type": "header",
+        "format": "pegbt-ticklog",
+        "format_version": 1,
+        "pegbt": "0.1.0",
+        "tree": "trees/unilateral.yaml",
+        "start_time": "2026-01-01T00:00:00+00:00",
+        "clock": "wall",
+        "blackboard": {},
+        "nodes": [
+            {"id": 0, "parent": None, "path": "/r", "name": "r", "type": "sequence", "source": "t:1:1"}
+        ],
+        **extra,
+    }
+    path = tmp_path / "old.jsonl"
+    path.write_text(
+        json.dumps(header) + "\n" + json.dumps({"type": "end", "n": 1, "t": 0.0, "outcome": "success"}) + "\n"
+    )
+    return path
+
+
+def test_a_log_written_before_headers_named_the_run_still_reads(tmp_path):
+    parsed = read_tick_log(_old_header(tmp_path))
+    assert (parsed.variant, parsed.condition, parsed.run) == ("unilateral", None, {})
+
+
+def test_a_header_whose_run_is_not_a_mapping_is_refused_with_its_field(tmp_path):
+    with pytest.raises(TickLogError, match="expected a mapping, found") as raised:
+        read_tick_log(_old_header(tmp_path, run=[1, 2]))
+    assert (raised.value.line, raised.value.field) == (1, "run")
+    with pytest.raises(TickLogError, match="expected a string or null") as raised:
+        read_tick_log(_old_header(tmp_path, condition=3))
+    assert raised.value.field == "condition"

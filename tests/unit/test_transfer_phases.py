@@ -1,0 +1,119 @@
+"""A failed transfer's phase, from its tick log alone: one transfer run on the in-memory robot (`fake_arm`)
+whose block is scripted to slip out of the jaw at a point of the carrying motion, or is not between the
+jaws at all. `transfer_outcomes` and `pegbt log why` name grasp, lift, lower, or release (the block placed
+by the executive, and its goal peg empty at the next look)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import py_trees
+import pytest
+from executive_helpers import write_tree
+from fake_arm import fake_robot
+
+from pegbt.behaviours.poses import transfer_for
+from pegbt.behaviours.resources.skills import Skills
+from pegbt.clock import ManualClock
+from pegbt.executive.analysis import why
+from pegbt.executive.context import RunContext
+from pegbt.executive.loader import load_tree
+from pegbt.executive.logfile import read_tick_log
+from pegbt.executive.phases import TransferOutcome, transfer_outcomes
+from pegbt.executive.runner import run
+from pegbt.executive.ticklog import TickLogWriter
+from pegbt.executive.work import WorkPool
+from pegbt.motion.ik import solve_ik
+from pegbt.perception.blocks import block_on_peg
+from pegbt.sim.camera import DepthCamera
+from pegbt.sim.world import World
+
+PICK, PLACE = 1, 7
+TREE = f"""
+blackboard: {{/board: null, /blocks: null, /PSM1/block: null, /PSM1/grasp: null}}
+tree:
+  sequence:
+    name: task
+    children:
+      - sequence:
+          name: transfer
+          children:
+            - begin_transfer: {{name: begin, arms: PSM1, pick: {PICK}, place: {PLACE}, transfer: /PSM1/transfer}}
+            - selector:
+                name: move it or give up
+                children:
+                  - sequence:
+                      name: move it
+                      children:
+                        - grasp: {{name: close and check, arm: PSM1, holding: /PSM1/holding}}
+                        - transfer: {{name: lift carry and lower, arm: PSM1, place: {PLACE}, block: /PSM1/block, grasp: /PSM1/grasp, plan_s: /PSM1/plan_s}}
+                        - release: {{name: release, arm: PSM1, holding: /PSM1/holding}}
+                        - finish_transfer: {{name: placed, outcome: placed, transfer: /PSM1/transfer}}
+                  - finish_transfer: {{name: failed, outcome: failed, transfer: /PSM1/transfer}}
+      - check_placed: {{name: block home, pegs: [{PLACE}]}}
+"""
+
+
+@pytest.fixture(scope="module")
+def scene():
+    """The starting scene as perception sees it: the board and the blocks (peg 7 empty)."""
+    cloud = DepthCamera(seed=0).capture(World(seed=0))
+    skills = Skills("uncalibrated")
+    board = skills.registration.fit(cloud)
+    return cloud, board, skills.locator.locate(cloud, board)
+
+
+@pytest.fixture(autouse=True)
+def fresh_blackboard():
+    py_trees.blackboard.Blackboard.clear()
+    yield
+    py_trees.blackboard.Blackboard.clear()
+
+
+def one_transfer(tmp_path: Path, scene, *, held: bool, slips_at: float | None) -> Path:
+    """Run the transfer with the block between the jaws (`held`) and slipping out `slips_at` of the way
+    through the arm's motion; the tick log's path."""
+    cloud, board, blocks = scene
+    clock, skills = ManualClock(), Skills("uncalibrated")
+    robot = fake_robot(clock, skills.settings, skills.cell, cloud)
+    block = block_on_peg(blocks, PICK)
+    grasp = skills.selectors["PSM1"].pick(block)
+    arm = robot.arms["PSM1"]
+    arm.rest = solve_ik(
+        transfer_for(skills.cell, skills.motion, "PSM1", board, block, grasp).poses[0], arm.settings
+    )
+    arm.block_in_jaw, arm.slips_at = held, slips_at
+    context = RunContext(
+        clock=clock, resources={"robot": robot, "skills": skills}, work=WorkPool(inline=True)
+    )
+    built = load_tree(write_tree(tmp_path, TREE)).build(context)
+    built.initial_blackboard.update(
+        {"/board": board, "/blocks": blocks, "/PSM1/block": block, "/PSM1/grasp": grasp}
+    )
+    log = tmp_path / "run.jsonl"
+    run(built, period=0.05, timeout=60.0, log=TickLogWriter(log, built, clock_kind="manual"))
+    return log
+
+
+@pytest.mark.parametrize(
+    ("held", "slips_at", "phase"),
+    [
+        (False, None, "grasp"),  # the jaw closes on nothing
+        (True, 0.1, "lift"),  # lost as the block leaves its start peg
+        (True, 0.93, "lower"),  # lost as it is lowered onto its goal peg
+        (True, None, "release"),  # carried and let go, and not on its peg when next seen
+    ],
+)
+def test_a_failed_transfer_names_its_phase(tmp_path, scene, held, slips_at, phase):
+    log = read_tick_log(one_transfer(tmp_path, scene, held=held, slips_at=slips_at))
+    assert transfer_outcomes(log) == [TransferOutcome(1, False, phase)]
+    assert why(log).endswith(f"1: PSM1 peg {PICK} → {PLACE}: failed at {phase}")
+
+
+def test_a_block_lost_as_the_lowering_ends_failed_at_lower(tmp_path, scene):
+    """The jaw empty when the lowering ended (the leaf succeeded; its detail says the jaw held nothing),
+    and the goal peg empty at the next look: lost while lowered, not at the release."""
+    log = read_tick_log(one_transfer(tmp_path, scene, held=True, slips_at=0.9999))
+    (carried,) = [change for change in log.transitions if change.detail is not None]
+    assert carried.after == "SUCCESS" and carried.detail == {"segment": "lower", "held": False}
+    assert transfer_outcomes(log) == [TransferOutcome(1, False, "lower")]
