@@ -10,14 +10,13 @@ from typing import TYPE_CHECKING
 from pegbt.bagoptions import add_record_arguments, record_options
 from pegbt.errors import PegbtError
 from pegbt.executive.providers import RUN_OPTIONS
-from pegbt.monitor.cli import add_no_token_option, add_port_option
+from pegbt.monitor.options import add_no_token_option, add_port_option
 from pegbt.numbers import NumberOption
 from pegbt.stopsignals import stop_signals
 
 INTERRUPTED = 130  # 128 + SIGINT: a Ctrl-C that reached the runner as KeyboardInterrupt
 
 if TYPE_CHECKING:
-    from pegbt.executive.logfile import TickLog
     from pegbt.monitor.live import LiveMonitor
 
 
@@ -228,7 +227,7 @@ def _run(args: argparse.Namespace) -> int:
 
 
 def _start_monitor(port: int, no_token: bool, log_path: Path) -> LiveMonitor:
-    from pegbt.monitor.cli import start_server
+    from pegbt.monitor.options import start_server
     from pegbt.monitor.live import LiveMonitor
 
     server = start_server(int(port), no_token)
@@ -238,26 +237,30 @@ def _start_monitor(port: int, no_token: bool, log_path: Path) -> LiveMonitor:
 
 def _log_summary(args: argparse.Namespace) -> int:
     from pegbt.executive.analysis import summary
+    from pegbt.executive.logfile import read_log_warning
 
-    print(summary(read_log(args.log)))
+    print(summary(read_log_warning(args.log)))
     return 0
 
 
 def _log_why(args: argparse.Namespace) -> int:
     from pegbt.executive.analysis import why
+    from pegbt.executive.logfile import read_log_warning
 
-    print(why(read_log(args.log)))
+    print(why(read_log_warning(args.log)))
     return 0
 
 
 def _log_replay(args: argparse.Namespace) -> int:
     from pegbt.executive.analysis import replay
+    from pegbt.executive.logfile import read_log_warning
 
-    print(replay(read_log(args.log), tick=args.tick, time=args.time))
+    print(replay(read_log_warning(args.log), tick=args.tick, time=args.time))
     return 0
 
 
 def _log_plot(args: argparse.Namespace) -> int:
+    from pegbt.executive.logfile import read_log_warning
     from pegbt.executive.logplot import figure_format, plot_timeline
     from pegbt.monitor.world import read_world_log, world_log_path
 
@@ -270,7 +273,7 @@ def _log_plot(args: argparse.Namespace) -> int:
         for fault in sample.get("faults", [])
     ]
     try:
-        plot_timeline(read_log(args.log), out, faults)
+        plot_timeline(read_log_warning(args.log), out, faults)
     except OSError as error:
         raise PegbtError(f"cannot write the figure: {error.strerror}", file=out, field="--out") from None
     print(f"wrote {out}")
@@ -279,17 +282,8 @@ def _log_plot(args: argparse.Namespace) -> int:
 
 def _log_export(args: argparse.Namespace) -> int:
     from pegbt.executive.btlog import export_btlog
+    from pegbt.executive.logfile import read_log_warning
 
-    count = export_btlog(read_log(args.log), Path(args.out))
+    count = export_btlog(read_log_warning(args.log), Path(args.out))
     print(f"wrote {args.out} ({count} transitions)")
     return 0
-
-
-def read_log(path: str, *, keep_records: bool = False) -> TickLog:
-    """The tick log, saying on stderr what the reader skipped or cut (a crash's last line, a repeat)."""
-    from pegbt.executive.logfile import read_tick_log
-
-    log = read_tick_log(path, keep_records=keep_records)
-    for warning in log.warnings:
-        print(f"pegbt: warning: {path}: {warning}", file=sys.stderr)
-    return log

@@ -12,6 +12,7 @@ from __future__ import annotations
 import datetime
 import json
 import math
+import sys
 from dataclasses import dataclass, field, replace
 from functools import cached_property
 from pathlib import Path
@@ -197,6 +198,15 @@ def read_tick_log(path: str | Path, *, keep_records: bool = False) -> TickLog:
             f"read up to line {len(lines)}, tick {log.last_n}"
         )
     assert log is not None  # the file is not blank, so it has a first line, or a cut one refused above
+    return log
+
+
+def read_log_warning(path: str | Path, *, keep_records: bool = False) -> TickLog:
+    """`read_tick_log` for a command: what the reader skipped or cut (a crash's last line, a repeat) is said
+    on stderr, where the user sees it beside the command's output."""
+    log = read_tick_log(path, keep_records=keep_records)
+    for warning in log.warnings:
+        print(f"pegbt: warning: {path}: {warning}", file=sys.stderr)
     return log
 
 

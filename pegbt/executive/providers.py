@@ -9,26 +9,53 @@ Packages register here, so that adding a resource never edits the run command:
   provider all of them (a provider ignores those it does not know).
 - `CLOCKS`: clocks by name, for `--clock`.
 
-A resource may take part in the run beyond serving its behaviours (each is optional, found by name):
+A resource may take part in the run beyond serving its behaviours (each is optional):
 
 - `run_clock`: a resource that is itself the time source (a simulator in lockstep) supplies the run's clock;
-- `progress()`: returns a tick-log listener that shows progress (used unless the run is quiet);
-- `report()`: a result printed after the run, while the resource is still open; a result whose `ok` is
-  False makes the run exit non-zero;
-- `log_messages()`: what the resource heard since it was last asked (a robot's warnings), as tick-log
-  `message` records (`source`, `level`, `text`, `stamp`), logged and shown as the run goes;
+- `progress()`, `report()`, `log_messages()`: the hooks declared below (`ShowsProgress`, `Reports`,
+  `LogsMessages`), which a resource follows by having the method;
 - `close()`: called at the end of the run, always.
 """
 
 from __future__ import annotations
 
 import importlib
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Protocol, runtime_checkable
 
 from pegbt.clock import Clock
 from pegbt.errors import PegbtError
+
+
+@runtime_checkable
+class ShowsProgress(Protocol):
+    """A resource with a progress display of its own (the trial's transfers), shown instead of the tick bar
+    unless the run is quiet."""
+
+    def progress(self) -> Callable[[dict[str, Any]], None]:
+        """A tick-log listener that shows the run's progress."""
+        ...
+
+
+@runtime_checkable
+class Reports(Protocol):
+    """A resource with a result to print after the run, asked while it is still open."""
+
+    def report(self) -> Any:
+        """The result (None: nothing to report); one whose `ok` is False makes the run exit non-zero."""
+        ...
+
+
+@runtime_checkable
+class LogsMessages(Protocol):
+    """A resource that hears messages (a robot's errors and warnings), logged and shown as the run goes."""
+
+    def log_messages(self) -> list[dict[str, Any]]:
+        """What it heard since it was last asked, as tick-log `message` records (`source`, `level`, `text`,
+        `stamp`)."""
+        ...
+
 
 CLOCKS: dict[str, str] = {
     "wall": "pegbt.clock:WallClock",

@@ -21,7 +21,10 @@ from pegbt.executive.context import RunContext
 from pegbt.executive.loader import load_tree
 from pegbt.executive.progress import ProgressPrinter, tick_bar
 from pegbt.executive.providers import (
+    LogsMessages,
     ProviderSetup,
+    Reports,
+    ShowsProgress,
     close_resources,
     make_clock,
     provide_resources,
@@ -87,9 +90,7 @@ def run_tree_file(
             listeners.append(recorder.tick_record)
         if not quiet:
             bars = [
-                resource.progress()
-                for resource in resources.values()
-                if callable(getattr(resource, "progress", None))
+                resource.progress() for resource in resources.values() if isinstance(resource, ShowsProgress)
             ]
             listeners += bars or [tick_bar(out)]
         if watch is not None:
@@ -104,7 +105,7 @@ def run_tree_file(
                 messages=[
                     resource.log_messages
                     for resource in resources.values()
-                    if callable(getattr(resource, "log_messages", None))
+                    if isinstance(resource, LogsMessages)
                 ],
             )
         except OSError as error:
@@ -114,9 +115,7 @@ def run_tree_file(
             print(f"running {tree} (period {period:g} s, {clock_kind} clock); tick log {log_path}", file=out)
         result = run(built, period=period, timeout=options.timeout, log=writer)
         reports = {
-            name: resource.report()
-            for name, resource in resources.items()
-            if callable(getattr(resource, "report", None))
+            name: resource.report() for name, resource in resources.items() if isinstance(resource, Reports)
         }
         reports = {name: report for name, report in reports.items() if report is not None}
     finally:

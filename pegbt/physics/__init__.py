@@ -5,10 +5,20 @@ and names the effects it lacks, and calibration inverts it. One implementation, 
 """
 
 from pegbt.physics import kinds as _kinds  # noqa: F401  (registers the built-in effect kinds)
-from pegbt.physics.effects import Effect, EffectKind, effect_kinds, joint_index, kind_of, register, registered
+from pegbt.physics.effects import (
+    ArmParameters,
+    Effect,
+    EffectKind,
+    effect_kinds,
+    joint_index,
+    kind_of,
+    register,
+    registered,
+)
 from pegbt.physics.model import ArmPhysics
 
 __all__ = [
+    "ArmParameters",
     "Effect",
     "EffectKind",
     "effect_kinds",

@@ -15,16 +15,13 @@ from __future__ import annotations
 from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, ClassVar
+from typing import Any, ClassVar, Protocol
 
 import numpy as np
 from numpy.typing import NDArray
 
 from pegbt.errors import PegbtError
 from pegbt.psm import JOINT_NAMES
-
-if TYPE_CHECKING:
-    from pegbt.physics.model import ArmPhysics
 
 Array = NDArray[np.float64]
 
@@ -35,6 +32,25 @@ Array = NDArray[np.float64]
 STAGES = ("delay", "linear", "drive", "target", "play", "output")
 TRANSFORM_STAGES = ("target", "play", "output")
 UNITS = {"q3": "m"}
+
+
+class ArmParameters(Protocol):
+    """What an effect kind may read and write on an arm's physics (`pegbt.physics.model.ArmPhysics`): the
+    parameters of the structured stages, which `EffectKind.install` writes and `to_effect` reads back from
+    the model sim-to-real searches against (its `base`), and the list of per-joint transforms a kind of a
+    transform stage joins. Per joint, in `pegbt.psm.JOINT_NAMES` order; neutral values change nothing."""
+
+    scale: Array  # (6,) static gain of each joint's command; neutral 1
+    offset: Array  # (6,) added to each joint's target; rad (m for q3)
+    coupling: Array  # (6, 6) coupling[j, s]: gain of source s's command into joint j
+    half_width: Array  # (6,) half the backlash of each joint's own drive
+    tau: Array  # (6,) first-order lag of each joint, s
+    delay: Array  # (6,) transport delay of each joint's command, s
+    hysteresis: list[tuple[int, int, float, float]]  # play in a drive: (joint, source, half_width, k)
+
+    def add_transform(self, kind: EffectKind, effect: Effect) -> None:
+        """Run `effect` as a per-joint transform of its kind's stage."""
+        ...
 
 
 def joint_unit(joint: str) -> str:
@@ -109,7 +125,7 @@ class EffectKind:
         return f"{effect.joint} shows {self.name} ({values})"
 
     # ------------------------------------------------------------------ physics
-    def install(self, arm: "ArmPhysics", effect: "Effect") -> None:
+    def install(self, arm: ArmParameters, effect: "Effect") -> None:
         """Enter the effect into `arm`; transform stages are applied by `sequence` and `step`."""
         arm.add_transform(self, effect)
 
@@ -139,7 +155,7 @@ class EffectKind:
         return np.column_stack([self.column(signal, t, float(w)) for w in widths])
 
     def to_effect(
-        self, joint: int, source: int, width: float, coef: float, fixed: bool, base: "ArmPhysics"
+        self, joint: int, source: int, width: float, coef: float, fixed: bool, base: ArmParameters
     ) -> "Effect":
         """The effect a fitted candidate stands for, merged with the base model's effect in its slot."""
         params: dict[str, Any] = {}

@@ -16,17 +16,14 @@
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
 from pegbt.errors import PegbtError
-from pegbt.physics.effects import Array, Effect, EffectKind, joint_index, joint_unit, register
+from pegbt.physics.effects import ArmParameters, Array, Effect, EffectKind, joint_index, joint_unit, register
 from pegbt.physics.kernels import delay_series, lag_series, play_grid
 from pegbt.psm import JOINT_NAMES
-
-if TYPE_CHECKING:
-    from pegbt.physics.model import ArmPhysics
 
 EXACT = 1e-12  # rad or m: below this a joint counts as not moving
 MAX_BACKLASH_FRACTION = 0.15  # of the joint's range: more play than this and the joint hardly moves
@@ -62,11 +59,11 @@ class Offset(EffectKind):
     signal = "constant"
     gains = (False,)
 
-    def install(self, arm: "ArmPhysics", effect: Effect) -> None:
+    def install(self, arm: ArmParameters, effect: Effect) -> None:
         arm.offset[effect.index] = effect.params["value"]
 
     def to_effect(
-        self, joint: int, source: int, width: float, coef: float, fixed: bool, base: "ArmPhysics"
+        self, joint: int, source: int, width: float, coef: float, fixed: bool, base: ArmParameters
     ) -> Effect:
         return Effect("offset", JOINT_NAMES[joint], {"value": float(base.offset[joint] + coef)})
 
@@ -100,11 +97,11 @@ class Scale(EffectKind):
     signal = "command"
     gains = (False,)
 
-    def install(self, arm: "ArmPhysics", effect: Effect) -> None:
+    def install(self, arm: ArmParameters, effect: Effect) -> None:
         arm.scale[effect.index] = effect.params["value"]
 
     def to_effect(
-        self, joint: int, source: int, width: float, coef: float, fixed: bool, base: "ArmPhysics"
+        self, joint: int, source: int, width: float, coef: float, fixed: bool, base: ArmParameters
     ) -> Effect:
         return Effect("scale", JOINT_NAMES[joint], {"value": float(base.scale[joint] + coef)})
 
@@ -132,11 +129,11 @@ class Coupling(EffectKind):
         if joint_index(effect.params["source"]) == effect.index:
             raise PegbtError(f"coupling on {effect.joint} cannot take itself as source", field="source")
 
-    def install(self, arm: "ArmPhysics", effect: Effect) -> None:
+    def install(self, arm: ArmParameters, effect: Effect) -> None:
         arm.coupling[effect.index, joint_index(effect.params["source"])] = effect.params["k"]
 
     def to_effect(
-        self, joint: int, source: int, width: float, coef: float, fixed: bool, base: "ArmPhysics"
+        self, joint: int, source: int, width: float, coef: float, fixed: bool, base: ArmParameters
     ) -> Effect:
         return Effect(
             "coupling",
@@ -169,7 +166,7 @@ class Backlash(PlayKind):
     needs_reversals = True
     family = "play"
 
-    def install(self, arm: "ArmPhysics", effect: Effect) -> None:
+    def install(self, arm: ArmParameters, effect: Effect) -> None:
         arm.half_width[effect.index] = effect.params["half_width"]
         arm.add_transform(self, effect)
 
@@ -193,7 +190,7 @@ class Backlash(PlayKind):
         return min(max(previous, y - h), y + h)
 
     def to_effect(
-        self, joint: int, source: int, width: float, coef: float, fixed: bool, base: "ArmPhysics"
+        self, joint: int, source: int, width: float, coef: float, fixed: bool, base: ArmParameters
     ) -> Effect:
         name = JOINT_NAMES[joint]
         if fixed:
@@ -231,12 +228,12 @@ class Hysteresis(PlayKind):
         of any shape, as in a Prandtl–Ishlinskii operator."""
         return (self.name, effect.joint, str(effect.params["source"]), float(effect.params["half_width"]))
 
-    def install(self, arm: "ArmPhysics", effect: Effect) -> None:
+    def install(self, arm: ArmParameters, effect: Effect) -> None:
         p = effect.params
         arm.hysteresis.append((effect.index, joint_index(p["source"]), float(p["half_width"]), float(p["k"])))
 
     def to_effect(
-        self, joint: int, source: int, width: float, coef: float, fixed: bool, base: "ArmPhysics"
+        self, joint: int, source: int, width: float, coef: float, fixed: bool, base: ArmParameters
     ) -> Effect:
         params = {"source": JOINT_NAMES[source], "half_width": float(width), "k": float(coef)}
         return Effect("hysteresis", JOINT_NAMES[joint], params)
@@ -285,7 +282,7 @@ class Lag(EffectKind):
     grid = "time"
     streams_only = True
 
-    def install(self, arm: "ArmPhysics", effect: Effect) -> None:
+    def install(self, arm: ArmParameters, effect: Effect) -> None:
         arm.tau[effect.index] = effect.params["tau"]
         arm.add_transform(self, effect)
 
@@ -328,7 +325,7 @@ class Delay(EffectKind):
     grid = "time"
     streams_only = True
 
-    def install(self, arm: "ArmPhysics", effect: Effect) -> None:
+    def install(self, arm: ArmParameters, effect: Effect) -> None:
         arm.delay[effect.index] = effect.params["seconds"]
 
     def column(self, signal: Array, t: Array | None, width: float) -> Array:
@@ -336,7 +333,7 @@ class Delay(EffectKind):
         return delay_series(signal, t, width) - signal
 
     def to_effect(
-        self, joint: int, source: int, width: float, coef: float, fixed: bool, base: "ArmPhysics"
+        self, joint: int, source: int, width: float, coef: float, fixed: bool, base: ArmParameters
     ) -> Effect:
         return Effect("delay", JOINT_NAMES[joint], {"seconds": float(base.delay[joint] + width)})
 

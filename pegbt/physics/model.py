@@ -23,15 +23,16 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from pegbt.errors import PegbtError
-from pegbt.physics.effects import TRANSFORM_STAGES, Effect, EffectKind, joint_index
+from pegbt.physics.effects import TRANSFORM_STAGES, ArmParameters, Effect, EffectKind, joint_index
 from pegbt.physics.kernels import delay_series, play_grid
 from pegbt.psm import N_JOINTS
 
 PRESET_DIR = Path(__file__).parent / "presets"
 
 
-class ArmPhysics:
-    """Cable physics of one arm, built from a list of `Effect`s (none: the ideal arm)."""
+class ArmPhysics(ArmParameters):
+    """Cable physics of one arm, built from a list of `Effect`s (none: the ideal arm); its kinds install
+    themselves through `ArmParameters`, the part of it they may read and write."""
 
     def __init__(self, effects: Iterable[Effect] = ()) -> None:
         self.effects: tuple[Effect, ...] = tuple(effects)

@@ -1,4 +1,4 @@
-"""`pegbt calibrate train|eval`, the recording layout, and the real dVRK recordings."""
+"""`pegbt calibrate` run as a real process: bad input is one line and exit status 2, never a traceback."""
 
 import numpy as np
 from calibration_helpers import synthetic, write

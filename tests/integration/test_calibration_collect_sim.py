@@ -1,4 +1,5 @@
-"""`pegbt calibrate collect`: the collection tree on the executive, parameterised by the command's options."""
+"""`pegbt calibrate collect` on the embedded simulator: the chosen arm's set-points recorded in the dataset
+layout."""
 
 from __future__ import annotations
 

@@ -1,8 +1,6 @@
-"""Bad input to any command is one line naming the file and field, and a non-zero exit; never a traceback.
-
-Most cases call `pegbt.cli.main` in this process (an exception escaping it would fail the test, as a
-traceback would); the pipe and one end-to-end case run the real command.
-"""
+"""Bad input to a command run as a real process is one line and a non-zero exit, never a traceback; a reader
+that stops early (a closed pipe) ends the command quietly. The in-process cases are in
+`tests/unit/test_cli_bad_input.py`."""
 
 from __future__ import annotations
 

@@ -1,23 +1,9 @@
-"""`pegbt eval`: its JSON and files from a real trial on the embedded simulator, the same result for the same
-seed whether run by the command or in-process, and bad input as one line and a non-zero exit."""
+"""`pegbt eval` run as a real process: bad input, and a fault plan that is not valid, are one line (naming its
+line and field) and a non-zero exit."""
 
 from __future__ import annotations
 
-import subprocess
-import sys
-from pathlib import Path
-
 import pytest
-
-
-REPO = Path(__file__).resolve().parents[2]
-
-
-def pegbt(*args: str, timeout: float = 600) -> subprocess.CompletedProcess:
-    """`python -m pegbt ARGS`; whole trials, which a loaded machine can slow several times over."""
-    return subprocess.run(
-        [sys.executable, "-m", "pegbt", *args], capture_output=True, text=True, cwd=REPO, timeout=timeout
-    )
 
 
 @pytest.mark.parametrize(
@@ -37,17 +23,17 @@ def pegbt(*args: str, timeout: float = 600) -> subprocess.CompletedProcess:
         ),
     ],
 )
-def test_bad_input_is_one_line_and_a_non_zero_exit(tmp_path, args, words):
-    run = pegbt("eval", *args, "--out", str(tmp_path))
+def test_bad_input_is_one_line_and_a_non_zero_exit(tmp_path, pegbt_cli, args, words):
+    run = pegbt_cli("eval", *args, "--out", str(tmp_path))
     assert run.returncode == 2
     assert run.stderr.count("\n") == 1 and words in run.stderr and "Traceback" not in run.stderr
     assert run.stdout == "" and not list(tmp_path.iterdir())  # nothing ran, nothing written
 
 
-def test_a_fault_plan_that_is_not_valid_names_its_line_and_field(tmp_path):
+def test_a_fault_plan_that_is_not_valid_names_its_line_and_field(tmp_path, pegbt_cli):
     plan = tmp_path / "plan.yaml"
     plan.write_text("seed: 1\nworld:\n  miss_probability: 2.5\n")
-    run = pegbt(
+    run = pegbt_cli(
         "eval",
         "--variant",
         "handover",

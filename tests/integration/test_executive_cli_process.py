@@ -1,4 +1,5 @@
-"""The executive's commands end to end: `pegbt tree ...`, `pegbt run`, `pegbt log ...`; bad input never shows a traceback."""
+"""The executive's commands as real processes: bad tree files give located errors, never tracebacks; Ctrl-C
+halts a running tree and the log records it."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Tick logs: what the runner records (transitions, blackboard, halts, crashes) and what analysis reads back."""
+"""The tick log of a run killed outright (no halt or end written): `log why` names the leaves still running."""
 
 from __future__ import annotations
 

@@ -1,6 +1,5 @@
-"""Peg transfer in real time: a trial against `pegbt sim` in real time (not lockstep), the run on the wall
-clock, judged by the simulator's own log; `--clock` and `--interface` as `pegbt run` and `pegbt eval`
-take them."""
+"""`pegbt eval --interface dvrk` without real time is refused by the real process: one line and a non-zero
+exit."""
 
 from __future__ import annotations
 

@@ -27,6 +27,7 @@ from pegbt.behaviours.resources.robot import connect_crtk_robot
 from pegbt.motion.limits import arm_settings
 from pegbt.sim.process import free_port
 from pegbt.transport.streamer import STALL_PERIODS, Frame, Streamer
+from pegbt.transport.streaming import MOTION_MARGIN
 
 PERIOD = 2.0**-7  # s: about 8 ms, exact in binary like every tick time below
 ROWS = 60
@@ -214,3 +215,19 @@ def test_a_stalled_streamer_process_resumes_and_the_run_logs_a_warning(robot_dou
     assert stalls and all(m["level"] == "warning" and m["text"].startswith("PSM1 arm: ") for m in stalls)
     seconds = [float(m["text"].split("no set-point for ")[1].split(" s")[0]) for m in stalls]
     assert max(seconds) >= 0.3
+
+
+@pytest.mark.slow
+def test_a_stall_longer_than_the_margin_extends_the_motions_bound_by_the_stall(robot_double) -> None:
+    double, robot = robot_double
+    arm = robot.arm("PSM1")
+    t = np.arange(0.0, 0.5, arm.settings.control_period)
+    q = np.repeat(START[None], len(t), axis=0)
+    q[:, 0] += 0.1 * np.sin(np.pi * t)
+    streamer = arm._streamer
+    stall = 0.5 + max(MOTION_MARGIN, 2 * arm.liveness_timeout) + 1.0  # past the motion's bound
+    handle = _stream_and_stop(double, arm, t, q, stall)
+    assert stall > handle.bound
+    assert _until(lambda: streamer.stalled(handle.motion_id) >= stall - 0.1)
+    assert _until(lambda: not handle.busy, 30) and handle.done, handle.error
+    assert handle.paused == streamer.stalled(handle.motion_id)

@@ -1,27 +1,13 @@
-"""`--record FILE.mcap` read back by the `mcap` library's readers and `mcap-ros2-support`'s decoder, which
-know nothing of pegbt: topics, ROS 2 types, CDR payloads, log times, and a file cut short by a crash."""
+"""`pegbt sim --record FILE.mcap`: the simulator records the commands it takes and the states it sends, read
+back by the `mcap` library's readers, which know nothing of pegbt."""
 
 from __future__ import annotations
 
 import json
-from pathlib import Path
+from bag_helpers import read_all
 
 import numpy as np
 import pytest
-
-
-mcap_reader = pytest.importorskip("mcap.reader")
-from mcap_ros2.decoder import DecoderFactory
-
-
-def read_all(path: Path) -> list[tuple[str, str, int, object]]:
-    """(topic, schema name, log time, decoded message) of every message, by mcap's seeking reader."""
-    with path.open("rb") as stream:
-        reader = mcap_reader.make_reader(stream, decoder_factories=[DecoderFactory()])
-        return [
-            (channel.topic, schema.name, message.log_time, decoded)
-            for schema, channel, message, decoded in reader.iter_decoded_messages(log_time_order=False)
-        ]
 
 
 def test_the_simulator_records_the_commands_it_takes_and_the_state_it_sends(tmp_path):

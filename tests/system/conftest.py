@@ -1,6 +1,7 @@
-"""The system tier: whole trials, real time, a browser, Dask, ROS 2 and real recordings. Every test here
-carries the `system` marker, so `pytest -m "not system"` is the fast loop and the whole suite still runs
-them all."""
+"""The system tier: whole trials, real time, a browser, Dask, ROS 2, real recordings, and whole sim-to-real
+diagnoses (a cross-validated search of a synthetic recording: tens of seconds of CPU each, half the in-process
+tests' time). Every test here carries the `system` marker, so `pytest -m "not system"` is the fast loop and
+the whole suite still runs them all."""
 
 from __future__ import annotations
 

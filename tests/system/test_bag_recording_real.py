@@ -1,53 +1,18 @@
-"""Recordings read from ROS 2 bags: bags written here by the `mcap-ros2-support` writer (a lone MCAP file)
-and by `rosbags`' rosbag2 writer (sqlite3 and MCAP storage), never by pegbt, read through
+"""Bags of a real dVRK recording (`../shared/data/dvrk`), written here by the `mcap-ros2-support` writer (a
+lone MCAP file) and by `rosbags`' rosbag2 writer (sqlite3 and MCAP storage), never by pegbt, read through
 `load_recording` and diagnosed as the same set-points in the folder layout are."""
 
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
 
+from bag_helpers import JOINT_STATE, STORE, setpoint_streams, write_mcap
 from pegbt.physics.recording import dvrk_data_dir, load_recording
 
-mcap_ros2_writer = pytest.importorskip("mcap_ros2.writer")
 from rosbags.rosbag2 import StoragePlugin, Writer
-from rosbags.typesys import Stores, get_typestore
-
-STORE = get_typestore(Stores.ROS2_JAZZY)
-JOINT_STATE = "sensor_msgs/msg/JointState"
-
-
-def joint_state(t: float, q) -> dict:
-    sec = math.floor(t)
-    return {
-        "header": {"stamp": {"sec": sec, "nanosec": round((t - sec) * 1e9)}, "frame_id": ""},
-        "name": [f"q{i + 1}" for i in range(len(q))],
-        "position": [float(v) for v in q],
-        "velocity": [],
-        "effort": [],
-    }
-
-
-def write_mcap(path: Path, streams: dict[str, list[tuple[float, object]]], kind: str = JOINT_STATE) -> Path:
-    """A lone MCAP file written by mcap-ros2-support: `streams` maps a topic to (stamp, message) pairs."""
-    with path.open("wb") as out:
-        writer = mcap_ros2_writer.Writer(out)
-        schema = writer.register_msgdef(kind, STORE.generate_msgdef(kind, ros_version=2)[0])
-        for topic, messages in streams.items():
-            for stamp, message in messages:
-                writer.write_message(topic, schema, message, log_time=round(stamp * 1e9))
-        writer.finish()
-    return path
-
-
-def setpoint_streams(t, q_cmd, q_phy, arm="PSM1") -> dict[str, list[tuple[float, object]]]:
-    return {
-        f"/{arm}/setpoint_js": [(s, joint_state(s, q)) for s, q in zip(t, q_cmd)],
-        f"/{arm}/fiducial_js": [(s, joint_state(s, q)) for s, q in zip(t, q_phy)],
-    }
 
 
 @pytest.fixture(scope="module")

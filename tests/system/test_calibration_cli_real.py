@@ -1,4 +1,4 @@
-"""`pegbt calibrate train|eval`, the recording layout, and the real dVRK recordings."""
+"""Calibration on the real dVRK recordings: the physics and hybrid models reduce the held-out wrist error."""
 
 import pytest
 

@@ -1,5 +1,5 @@
-"""`pegbt eval`: its JSON and files from a real trial on the embedded simulator, the same result for the same
-seed whether run by the command or in-process, and bad input as one line and a non-zero exit."""
+"""`pegbt eval`: its JSON and files from a real trial on the embedded simulator, and the same result for the
+same seed whether run by the command or in-process."""
 
 from __future__ import annotations
 

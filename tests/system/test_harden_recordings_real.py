@@ -1,4 +1,4 @@
-"""Recordings: only an arm's joints, in rad and m, read within bounds, reach a fit or a report."""
+"""The four real dVRK recordings load, though their wrists pass the limits."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""`pegbt run`'s console, `pegbt log plot`, `pegbt eval`'s trial figures, and the monitor's world on the simulator."""
+"""The monitor's 3D world on a simulated trial: its samples agree with the simulator's ground truth."""
 
 from __future__ import annotations
 

@@ -1,6 +1,5 @@
 """Peg transfer in real time: a trial against `pegbt sim` in real time (not lockstep), the run on the wall
-clock, judged by the simulator's own log; `--clock` and `--interface` as `pegbt run` and `pegbt eval`
-take them."""
+clock, judged by the simulator's own log."""
 
 from __future__ import annotations
 

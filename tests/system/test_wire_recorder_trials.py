@@ -1,30 +1,21 @@
-"""`--record FILE.mcap` read back by the `mcap` library's readers and `mcap-ros2-support`'s decoder, which
-know nothing of pegbt: topics, ROS 2 types, CDR payloads, log times, and a file cut short by a crash."""
+"""`--record FILE.mcap` of whole runs, read back by the `mcap` library's readers and `mcap-ros2-support`'s
+decoder, which know nothing of pegbt: a unilateral trial's every topic and type, and a calibration collection
+recorded as a bag holding every sample of its folder."""
 
 from __future__ import annotations
 
 import json
 from pathlib import Path
+from bag_helpers import read_all
 
 import numpy as np
 import pytest
 
 
 mcap_reader = pytest.importorskip("mcap.reader")
-from mcap_ros2.decoder import DecoderFactory
 
 REPO = Path(__file__).resolve().parents[2]
 JOINT_STATE = "sensor_msgs/msg/JointState"
-
-
-def read_all(path: Path) -> list[tuple[str, str, int, object]]:
-    """(topic, schema name, log time, decoded message) of every message, by mcap's seeking reader."""
-    with path.open("rb") as stream:
-        reader = mcap_reader.make_reader(stream, decoder_factories=[DecoderFactory()])
-        return [
-            (channel.topic, schema.name, message.log_time, decoded)
-            for schema, channel, message, decoded in reader.iter_decoded_messages(log_time_order=False)
-        ]
 
 
 @pytest.mark.slow

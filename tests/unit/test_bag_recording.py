@@ -4,73 +4,16 @@ and by `rosbags`' rosbag2 writer (sqlite3 and MCAP storage), never by pegbt, rea
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+from bag_helpers import JOINT_STATE, STORE, joint_state, setpoint_streams, stream_bag, write_mcap
 from pegbt.errors import PegbtError
-from pegbt.physics.recording import dvrk_data_dir, load_recording
+from pegbt.physics.recording import load_recording
 
 mcap_ros2_writer = pytest.importorskip("mcap_ros2.writer")
-from rosbags.typesys import Stores, get_typestore
-
-STORE = get_typestore(Stores.ROS2_JAZZY)
-JOINT_STATE = "sensor_msgs/msg/JointState"
-
-
-def joint_state(t: float, q) -> dict:
-    sec = math.floor(t)
-    return {
-        "header": {"stamp": {"sec": sec, "nanosec": round((t - sec) * 1e9)}, "frame_id": ""},
-        "name": [f"q{i + 1}" for i in range(len(q))],
-        "position": [float(v) for v in q],
-        "velocity": [],
-        "effort": [],
-    }
-
-
-def write_mcap(path: Path, streams: dict[str, list[tuple[float, object]]], kind: str = JOINT_STATE) -> Path:
-    """A lone MCAP file written by mcap-ros2-support: `streams` maps a topic to (stamp, message) pairs."""
-    with path.open("wb") as out:
-        writer = mcap_ros2_writer.Writer(out)
-        schema = writer.register_msgdef(kind, STORE.generate_msgdef(kind, ros_version=2)[0])
-        for topic, messages in streams.items():
-            for stamp, message in messages:
-                writer.write_message(topic, schema, message, log_time=round(stamp * 1e9))
-        writer.finish()
-    return path
-
-
-def setpoint_streams(t, q_cmd, q_phy, arm="PSM1") -> dict[str, list[tuple[float, object]]]:
-    return {
-        f"/{arm}/setpoint_js": [(s, joint_state(s, q)) for s, q in zip(t, q_cmd)],
-        f"/{arm}/fiducial_js": [(s, joint_state(s, q)) for s, q in zip(t, q_phy)],
-    }
-
-
-@pytest.fixture(scope="module")
-def folder():
-    path = dvrk_data_dir() / "random_smooth_grey1_PSM1"
-    if not (path / "q_cmd.npy").exists():
-        pytest.skip(f"real dVRK recordings not found at {path}")
-    return load_recording(path).slice(0, 400)
-
-
-def stream_bag(tmp_path: Path) -> tuple[Path, np.ndarray]:
-    """Commands at 100 Hz holding each of 60 set-points for 0.5 s; the tracker at 10 Hz, 5 ms off the grid."""
-    t_cmd = np.arange(3000) * 0.01
-    # within the arm's limits: insertion from 0.12 m, the rest from 0 rad
-    scale, base = np.array([1.0, 1.0, 0.1, 1.0, 1.0, 1.0]), np.array([0.0, 0.0, 0.12, 0.0, 0.0, 0.0])
-    q_cmd = np.repeat(np.linspace(0.0, 0.6, 60), 50)[:, None] * scale + base
-    t_phy = np.arange(300) * 0.1 + 0.005
-    q_phy = np.column_stack([np.interp(t_phy, t_cmd, q_cmd[:, j]) for j in range(6)]) + 0.001
-    streams = {
-        "/PSM1/setpoint_js": [(s, joint_state(s, q)) for s, q in zip(t_cmd, q_cmd)],
-        "/tracker/PSM1": [(s, joint_state(s, q)) for s, q in zip(t_phy, q_phy)],
-    }
-    return write_mcap(tmp_path / "stream.mcap", streams), q_cmd
 
 
 def test_each_physical_sample_takes_the_latest_command_and_settled_keeps_held_ones(tmp_path):

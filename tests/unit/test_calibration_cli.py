@@ -1,4 +1,4 @@
-"""`pegbt calibrate train|eval`, the recording layout, and the real dVRK recordings."""
+"""`pegbt calibrate train|eval` in this process, the recording layout, and the stored skill models."""
 
 import json
 

@@ -1,8 +1,6 @@
 """Bad input to any command is one line naming the file and field, and a non-zero exit; never a traceback.
-
-Most cases call `pegbt.cli.main` in this process (an exception escaping it would fail the test, as a
-traceback would); the pipe and one end-to-end case run the real command.
-"""
+Each case calls `pegbt.cli.main` in this process (an exception escaping it would fail the test, as a
+traceback would); `tests/integration/test_cli_bad_input_process.py` runs the real command."""
 
 from __future__ import annotations
 

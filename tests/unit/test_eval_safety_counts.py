@@ -1,5 +1,5 @@
-"""A campaign counts, per trial, the commands the simulator clipped to the dVRK's limits and the FAULTs its
-arms entered, from the simulator's own log (`--interface dvrk`), and keeps that log when either happened."""
+"""A campaign's safety counts from the simulator's log: a FAULT counts once however many state changes follow
+it, and only clips count as clips."""
 
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
-"""Stops: SIGTERM and SIGINT halt the tree, write the halt and end records and exit with their own
-status; a stop is a command the endpoint always accepts."""
+"""A stop is a command the endpoint always accepts: a hold is accepted in a fast move where a servo at a stale
+set-point is refused."""
 
 from __future__ import annotations
 

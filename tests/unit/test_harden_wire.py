@@ -1,5 +1,4 @@
-"""Wire corners: a malformed attachment is refused and counted, and every refusal reaches `PSMn/error`
-even under a burst."""
+"""Wire corners: an attachment that is not a tag is a bad tag, and tagged and untagged messages still decode."""
 
 from __future__ import annotations
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import ast
+import graphlib
 import re
 from pathlib import Path
 
@@ -144,3 +145,88 @@ def test_a_condition_writes_nothing_and_moves_nothing():
         or (isinstance(spec.factory, type) and issubclass(spec.factory, MotionLeaf))
     ]
     assert writing == []
+
+
+def import_graph(sources: dict[str, tuple[str, bool]]) -> dict[str, dict[str, int]]:
+    """For each pegbt module, the pegbt modules it imports (a package as its `__init__`) and the line of the
+    first such import: every import counts, inside functions and under `TYPE_CHECKING` too."""
+    graph: dict[str, dict[str, int]] = {}
+    for module, (source, is_package) in sources.items():
+        edges = graph.setdefault(module, {})
+        for line, target in imported(source, module, is_package):
+            if target in sources and target != module:
+                edges.setdefault(target, line)
+    return graph
+
+
+def import_cycle(graph: dict[str, dict[str, int]]) -> list[str]:
+    """One cycle of imports, as `module:line: imports target` lines; empty when there is none."""
+    try:
+        graphlib.TopologicalSorter(graph).prepare()
+    except graphlib.CycleError as error:
+        cycle = error.args[1]  # [a, ..., a], each importing the one before it
+        return [
+            f"{cycle[i + 1]}:{graph[cycle[i + 1]][cycle[i]]}: imports {cycle[i]}"
+            for i in range(len(cycle) - 1)
+        ]
+    return []
+
+
+def test_no_import_cycle_among_pegbt_modules():
+    sources = {
+        module_name(path): (path.read_text(), path.name == "__init__.py")
+        for path in (REPO / "pegbt").rglob("*.py")
+    }
+    assert import_cycle(import_graph(sources)) == []
+
+
+def test_the_check_finds_a_cycle_through_a_function_and_type_checking():
+    sources = {
+        "pegbt.a": ("def f():\n    import pegbt.b\n", False),
+        "pegbt.b": ("from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n    import pegbt.c\n", False),
+        "pegbt.c": ("from pegbt.a import f\n", False),
+        "pegbt.d": ("import pegbt.a\n", False),
+    }
+    cycle = import_cycle(import_graph(sources))
+    assert sorted(cycle) == [
+        "pegbt.a:2: imports pegbt.b",
+        "pegbt.b:3: imports pegbt.c",
+        "pegbt.c:1: imports pegbt.a",
+    ]
+
+
+def imported_tests(source: str) -> list[tuple[int, str]]:
+    """(line, module) of every import of a test module (`test_*`) in `source`."""
+    found = []
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.Import):
+            names = [alias.name for alias in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            names = [node.module or ""] + [f"{node.module or ''}.{alias.name}" for alias in node.names]
+        else:
+            continue
+        found += [
+            (node.lineno, name) for name in names if any(p.startswith("test_") for p in name.split("."))
+        ]
+    return found
+
+
+def test_no_test_module_imports_another():
+    """Shared test code lives in helper modules (`tests/*_helpers.py`) and `conftest.py`: a test module
+    imported by another breaks it when renamed or moved to another tier, and runs as a second module object."""
+    problems = [
+        f"{path.relative_to(REPO)}:{line}: imports {name}"
+        for path in sorted((REPO / "tests").rglob("*.py"))
+        for line, name in imported_tests(path.read_text())
+    ]
+    assert problems == []
+    assert imported_tests("from tests.test_eval_why import short_task\nimport test_perception_grasp\n") == [
+        (1, "tests.test_eval_why"),
+        (1, "tests.test_eval_why.short_task"),
+        (2, "test_perception_grasp"),
+    ]
+
+
+def test_every_test_module_is_in_a_tier():
+    """A test module sits in `tests/unit/`, `tests/integration/` or `tests/system/`, never loose in `tests/`."""
+    assert sorted(path.name for path in (REPO / "tests").glob("test_*.py")) == []

@@ -16,7 +16,7 @@ from pegbt.bench.monitor_clients import (
     read_messages,
     upgrade_status,
 )
-from pegbt.monitor.cli import start_server
+from pegbt.monitor.options import start_server
 from pegbt.monitor.server import CLIENT_BUFFER, MAX_CLIENTS, MAX_MESSAGE, start_ephemeral
 
 HEADER = {"type": "header", "tree": "t.yaml", "nodes": [], "blackboard": {}}

@@ -1,6 +1,5 @@
-"""Peg transfer in real time: a trial against `pegbt sim` in real time (not lockstep), the run on the wall
-clock, judged by the simulator's own log; `--clock` and `--interface` as `pegbt run` and `pegbt eval`
-take them."""
+"""`--clock` and `--interface` as `pegbt run` and `pegbt eval` take them: a robot cannot run on a clock that
+only moves when asked, and `eval` hands real time and the interface to the simulator and the run."""
 
 from __future__ import annotations
 

@@ -1,4 +1,5 @@
-"""A pick again after a missed grasp tries another of the block's grasp candidates, not the one that missed."""
+"""The grasp selector avoids a candidate that missed while another is feasible, and picks the same again when
+nothing else is."""
 
 from __future__ import annotations
 

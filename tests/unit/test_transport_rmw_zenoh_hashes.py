@@ -1,7 +1,5 @@
-"""pegbt as a node of a ROS 2 graph on rmw_zenoh, tested against zenoh-ros2-sdk (ROBOTIS's rmw_zenoh
-client): it receives what pegbt publishes, pegbt receives what it publishes, and its discovery lists
-pegbt's publishers and subscribers. A zenoh session in router mode on 127.0.0.1 stands in for
-rmw_zenohd; every session stays on loopback."""
+"""pegbt's rmw_zenoh type hashes and attachments are the ones zenoh-ros2-sdk (ROBOTIS's rmw_zenoh client)
+computes and decodes."""
 
 from __future__ import annotations
 

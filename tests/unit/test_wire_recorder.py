@@ -8,12 +8,12 @@ import io
 import json
 import struct
 import time
-from pathlib import Path
 
 import numpy as np
 import pytest
 import zenoh
 
+from bag_helpers import read_all
 from pegbt.clock import ManualClock
 from pegbt.transport import codec, recorder
 from pegbt.transport.recorder import WireRecorder
@@ -26,16 +26,6 @@ from mcap.stream_reader import StreamReader
 from mcap_ros2.decoder import DecoderFactory
 
 JOINT_STATE = "sensor_msgs/msg/JointState"
-
-
-def read_all(path: Path) -> list[tuple[str, str, int, object]]:
-    """(topic, schema name, log time, decoded message) of every message, by mcap's seeking reader."""
-    with path.open("rb") as stream:
-        reader = mcap_reader.make_reader(stream, decoder_factories=[DecoderFactory()])
-        return [
-            (channel.topic, schema.name, message.log_time, decoded)
-            for schema, channel, message, decoded in reader.iter_decoded_messages(log_time_order=False)
-        ]
 
 
 def test_a_file_cut_short_reads_up_to_the_cut(tmp_path, monkeypatch):

@@ -16,9 +16,9 @@ import pegbt.sim2real.diagnose as diagnose_module
 from pegbt.cli import main
 from pegbt.physics import ArmPhysics, Effect
 from pegbt.physics.faults import MeasurementFaults, detect_faults
-from pegbt.physics.recording import Recording, write_recording
+from pegbt.physics.recording import Recording, load_recording, write_recording
 from pegbt.sim2real.diagnose import diagnose
-from pegbt.sim2real.synth import with_tracker_faults
+from pegbt.sim2real.synth import effect_label, with_tracker_faults
 from tests.sim2real_helpers import commands
 
 RESOLUTION = (0.01, 0.01, 0.0005, 0.01, 0.01, 0.01)
@@ -123,3 +123,19 @@ def test_calibrate_train_leaves_out_the_same_samples_and_says_so(faulty, tmp_pat
     expected = detect_faults(recording.q_cmd, recording.q_phy)
     assert f"; {expected.count} samples excluded" in printed.getvalue()
     assert expected.count > 0
+
+
+@pytest.mark.slow
+def test_on_a_real_recording_injected_faults_are_found_and_change_nothing_it_names(dvrk_data):
+    """grey2 (PSM2), with as many glitches as a raw recording of the paper's set-up and a lost-tracking
+    window injected: the faults are found, and the same physics is named as on the clean recording."""
+    recording = load_recording(dvrk_data / "random_smooth_grey2_PSM2")
+    faulty, truth = with_tracker_faults(recording, 181, np.random.default_rng(0))
+    clean, diagnosis = (diagnose(r, n_bootstrap=0, resolution=RESOLUTION) for r in (recording, faulty))
+    found = diagnosis.faults.mask
+    assert (found & truth).sum() >= 0.95 * truth.sum() and (found & ~truth).sum() <= 0.02 * (~truth).sum()
+    assert {effect_label(e.effect) for e in diagnosis.effects} == {
+        effect_label(e.effect) for e in clean.effects
+    }
+    before, after = diagnosis.rmse_before(), diagnosis.rmse_after()
+    assert all(after[q] <= 0.3 * before[q] for q in ("q4", "q5", "q6"))
