@@ -27,7 +27,7 @@ from pegbt.bench.fuzz_bags import fuzz_mcap, fuzz_rosbag2
 from pegbt.bench.fuzz_btlog import fuzz_btlog
 from pegbt.bench.fuzz_rmw_zenoh import fuzz_rmw_zenoh
 from pegbt.bench.fuzz_robot_config import fuzz_robot_config
-from pegbt.bench.fuzzing import REPORTED, SILENT, Tally, mutate_text
+from pegbt.bench.fuzzing import REPORTED, SILENT, Tally, mutate_records, mutate_text
 from pegbt.errors import PegbtError
 
 REPO = Path(__file__).resolve().parents[2]
@@ -346,39 +346,6 @@ def _json_lines(lines: list[str]) -> bool:
     except (ValueError, RecursionError):
         return False
     return True
-
-
-def mutate_records(records: list[Any], rng: random.Random) -> tuple[bool, str]:
-    index = rng.randrange(len(records))
-    record = records[index]
-    kind = rng.choice(["value", "value", "delete", "duplicate", "node", "deep", "huge", "nan t", "raw"])
-    absurd_values: list[object] = [None, "x", [], {}, -1, 2**70, 1.5, True, float("nan"), "9" * 5000]
-    if kind == "nan t" and index > 0:
-        record["t"] = rng.choice([float("nan"), float("inf"), -1.0, 1e308])
-        return True, f"line {index + 1}: t made absurd"
-    if kind == "node":
-        node = rng.choice(records[0]["nodes"])
-        key = rng.choice(sorted(node))
-        node[key] = rng.choice(absurd_values) if rng.random() < 0.7 else node.pop(key, None)
-        return False, f"node {node.get('id')}.{key} changed"
-    if kind == "duplicate":
-        records.insert(index, json.loads(json.dumps(record)))
-        return False, f"line {index + 1} duplicated"
-    if kind == "deep":
-        records.insert(index + 1, "[" * 100_000 + "]" * 100_000)
-        return False, f"deep JSON after line {index + 1}"
-    if kind == "huge":
-        records.insert(index + 1, '{"type": "tick", "n": ' + "9" * 5000 + ', "t": 0.0, "changes": []}')
-        return False, f"huge integer after line {index + 1}"
-    if kind == "raw":
-        records[index] = json.dumps(record)[: rng.randrange(1, 200)]
-        return False, f"line {index + 1} cut"
-    key = rng.choice(sorted(record))
-    if kind == "delete":
-        record.pop(key)
-        return False, f"line {index + 1}: {key} deleted"
-    record[key] = rng.choice(absurd_values)
-    return False, f"line {index + 1}: {key} replaced"
 
 
 def fuzz_payloads(count: int, rng: random.Random, work: Path) -> Tally:

@@ -41,7 +41,7 @@ def _well_formed(data: bytes, nodes: int) -> bool:
 
 
 def fuzz_btlog(count: int, rng: random.Random, work: Path) -> Tally:
-    from pegbt.bench.fuzz import mutate_records
+    from pegbt.bench.fuzzing import mutate_records
     from pegbt.bench.fuzz_bags import damage_bytes
     from pegbt.executive.btlog import export_btlog
     from pegbt.executive.logfile import read_tick_log

@@ -7,6 +7,7 @@ as `absurd_accepted`; one accepted with the damage said (`reported`) does not.
 
 from __future__ import annotations
 
+import json
 import random
 import re
 import signal
@@ -175,3 +176,37 @@ def _numbers(line: str) -> list[re.Match[str]]:
             code,
         )
     )
+
+
+def mutate_records(records: list[Any], rng: random.Random) -> tuple[bool, str]:
+    """One mutation of a tick log's records in place: whether it made a value absurd, and what it did."""
+    index = rng.randrange(len(records))
+    record = records[index]
+    kind = rng.choice(["value", "value", "delete", "duplicate", "node", "deep", "huge", "nan t", "raw"])
+    absurd_values: list[object] = [None, "x", [], {}, -1, 2**70, 1.5, True, float("nan"), "9" * 5000]
+    if kind == "nan t" and index > 0:
+        record["t"] = rng.choice([float("nan"), float("inf"), -1.0, 1e308])
+        return True, f"line {index + 1}: t made absurd"
+    if kind == "node":
+        node = rng.choice(records[0]["nodes"])
+        key = rng.choice(sorted(node))
+        node[key] = rng.choice(absurd_values) if rng.random() < 0.7 else node.pop(key, None)
+        return False, f"node {node.get('id')}.{key} changed"
+    if kind == "duplicate":
+        records.insert(index, json.loads(json.dumps(record)))
+        return False, f"line {index + 1} duplicated"
+    if kind == "deep":
+        records.insert(index + 1, "[" * 100_000 + "]" * 100_000)
+        return False, f"deep JSON after line {index + 1}"
+    if kind == "huge":
+        records.insert(index + 1, '{"type": "tick", "n": ' + "9" * 5000 + ', "t": 0.0, "changes": []}')
+        return False, f"huge integer after line {index + 1}"
+    if kind == "raw":
+        records[index] = json.dumps(record)[: rng.randrange(1, 200)]
+        return False, f"line {index + 1} cut"
+    key = rng.choice(sorted(record))
+    if kind == "delete":
+        record.pop(key)
+        return False, f"line {index + 1}: {key} deleted"
+    record[key] = rng.choice(absurd_values)
+    return False, f"line {index + 1}: {key} replaced"
