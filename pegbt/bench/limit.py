@@ -6,8 +6,10 @@ interface). The bound is that of the transfers each trial made, in the order the
 per transfer over the trials. The lockstep difference is split, for the arm busiest in the transfers, into
 - `waypoints`: the bound through pegbt's own waypoints (transfer height, drop height, the approach from
   just above the block) less the bound;
-- `path`: the time pegbt's arm moved in its transfers less that (its path's shape, the channels, timing);
-- `jaw`: the time its jaw leaves ran (full opening, squeeze, the check of the hold) less the bound's jaw;
+- `path`: the time pegbt's arm moved in its transfers less the motion of that waypoint bound (its path's
+  shape, the channels, timing);
+- `jaw`: the time its jaw leaves ran (full opening, squeeze, the check of the hold) less that waypoint
+  bound's jaw (closing on the wall, the block's fall from the drop height);
 - `waits`: the time its other leaves ran in its transfers (perception, planning, waiting for the way);
 - `sequencing`: the rest (the arm idle in a transfer: the other arm, the handover's order, ticks).
 The table prints with the figures; the figure (a stacked bar per variant) is written to `FIGURE`.
@@ -110,9 +112,9 @@ def breakdown(records: list[TrialRecord], bound: Bound, through_waypoints: Bound
         arm = max(lowest.arms, key=lambda name: lowest.arms[name].total)
         pegbt = times.get(arm, ArmTime())
         parts = {
-            "waypoints": waypoints.arms[arm].motion - lowest.arms[arm].motion,
+            "waypoints": waypoints.arms[arm].total - lowest.arms[arm].total,
             "path": pegbt.motion - waypoints.arms[arm].motion,
-            "jaw": pegbt.jaw - lowest.arms[arm].jaw,
+            "jaw": pegbt.jaw - waypoints.arms[arm].jaw,
             "waits": pegbt.waits,
         }
         parts["sequencing"] = achieved - floor - sum(parts.values())

@@ -4,10 +4,10 @@ with perception and planning free.
 
 A transfer meets only the constraints no way of doing it escapes: the tool reaches the block (at rest, for
 the jaw to close on it), the jaw closes from an opening that passes the block's wall to the wall, the block
-rises until its hole clears its peg (the tip at `channel_clear_above_peg_top` over the pick peg), comes down
-until its hole is on the goal peg (the same height over that peg), stops, and falls the rest of the way
+rises until its hole clears its peg (its bottom at the peg's top: the tip `block_below_tip` above it), comes
+down until its hole is on the goal peg (the same height over that peg), stops, and falls the rest of the way
 when the jaw lets go. Everything else pegbt does (the transfer height, the drop height, the approach from
-above, the peg channels, the jaw's full opening and squeeze) is its choice, and the breakdown of
+above, the peg channels and their margin, the jaw's full opening and squeeze) is its choice, and the breakdown of
 `pegbt bench limit` charges it there. The block is carried at the clear height, above every peg and block
 on the board; the other arm is taken as out of the way.
 
@@ -27,38 +27,46 @@ of the transfers' start-to-placement intervals over their number, so the busier 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
+from functools import partial
 
 import numpy as np
 from numpy.typing import NDArray
 
-from pegbt.frames import apply_rigid
+from pegbt.frames import apply_rigid, rigid_transform
 from pegbt.motion.handover import handover_meeting_point
 from pegbt.motion.ik import solve_ik
 from pegbt.motion.limits import ArmSettings, arm_settings
 from pegbt.motion.settings import MotionSettings, motion_settings
 from pegbt.motion.waypoints import tool_down_rotation
 from pegbt.workcell import Workcell, workcell
-from pegbt.frames import rigid_transform
 
 GRAVITY = 9.81  # m/s², the block's fall onto the goal peg
 TRANSFERS_PER_HALF = 6  # the reference trials park both arms and look again after six transfers
+LOWER_GRID = 8  # heights tried for where the jaw opens over the goal peg
 
 
 @dataclass(frozen=True)
 class Heights:
-    """Tip heights above the peg tops (m) a transfer's bound goes through: where the block clears the pick
-    peg, where the carry ends over the goal peg (the jaw opens there), and where the approach ends above
-    the block (None: straight onto the grasp)."""
+    """Tip heights above the peg tops (m) a transfer's bound may go through: where the block is lifted
+    clear of the pick peg, where the carry ends over the goal peg (the jaw opens there; the block falls the
+    rest), and where the approach passes above the block (None: straight onto the grasp). Where several
+    heights are allowed, each segment takes its quickest: the least of each segment is below the least
+    of their sum."""
 
-    lift: float
-    lower: float
+    lifts: tuple[float, ...]
+    lowers: tuple[float, ...]
     approach: float | None = None
 
     @staticmethod
     def minimal(motion: MotionSettings) -> Heights:
-        clear = motion.transfer.channel_clear_above_peg_top
-        return Heights(clear, clear)
+        """The block's bottom at or above the peg's top going up, at or below it coming down (any height
+        down to resting, on a grid that holds pegbt's own)."""
+        transfer = motion.transfer
+        hanging, resting = transfer.block_below_tip, -transfer.block_top_below_peg_top - transfer.grasp_depth
+        lowers = {*np.linspace(resting, hanging, LOWER_GRID).tolist(), transfer.drop_height_above_peg_top}
+        return Heights((hanging, transfer.transfer_height_above_peg_top), tuple(sorted(lowers)))
 
     @staticmethod
     def pegbt(motion: MotionSettings) -> Heights:
@@ -66,8 +74,8 @@ class Heights:
         above the block (the bound of a motion through them, not pegbt's path)."""
         transfer = motion.transfer
         return Heights(
-            transfer.transfer_height_above_peg_top,
-            transfer.drop_height_above_peg_top,
+            (transfer.transfer_height_above_peg_top,),
+            (transfer.drop_height_above_peg_top,),
             -transfer.block_top_below_peg_top + transfer.approach_above_block,
         )
 
@@ -155,9 +163,6 @@ class Bound:
         gripped = 2.0 * math.asin(min(1.0, wall / 2.0 / tool.jaw_length))
         passes = 2.0 * math.asin(min(1.0, (wall + 2.0 * tool.jaw_radius) / 2.0 / tool.jaw_length))
         self.jaw_close_s = (passes - gripped) / jaw
-        transfer = self.motion.transfer
-        fall = self.heights.lower + transfer.block_top_below_peg_top + transfer.grasp_depth
-        self.fall_s = math.sqrt(2.0 * max(fall, 0.0) / GRAVITY)
 
     def joints(self, arm: str, peg: int, height: float) -> NDArray[np.float64]:
         """The arm's joints with the tip `height` above peg `peg`'s top, tool down."""
@@ -180,18 +185,36 @@ class Bound:
         pose = rigid_transform(tool_down_rotation(0.0, self.cell.up_in(arm)), point)
         return solve_ik(pose, self.settings[arm])
 
-    def approach(self, arm: str, start: NDArray[np.float64], peg: int) -> tuple[NDArray[np.float64], float]:
-        """The grasp's joints and the least time to them from rest at `start`."""
+    def fall_s(self, height: float) -> float:
+        """The block's fall onto its goal peg when the jaw opens with the tip `height` above the peg's top."""
+        fall = height - self.grasp_height()
+        return math.sqrt(2.0 * max(fall, 0.0) / GRAVITY)
+
+    def approach(
+        self, arm: str, starts: list[NDArray[np.float64]], peg: int
+    ) -> tuple[NDArray[np.float64], float]:
+        """The grasp's joints and the least time to them from rest at the quickest of `starts`."""
         grasp = self.joints(arm, peg, self.grasp_height())
         via = [] if self.heights.approach is None else [self.joints(arm, peg, self.heights.approach)]
-        return grasp, through(start, via, grasp, self.settings[arm])
+        return grasp, min(through(start, via, grasp, self.settings[arm]) for start in starts)
 
-    def carry(
-        self, arm: str, grasp: NDArray[np.float64], pick: int, place: int
-    ) -> tuple[NDArray[np.float64], float]:
-        """The joints where the jaw opens over `place` and the least time to them from rest at `grasp`."""
-        lifted, over = self.joints(arm, pick, self.heights.lift), self.joints(arm, place, self.heights.lower)
-        return over, through(grasp, [lifted], over, self.settings[arm])
+    def lift_to(self, arm: str, grasp: NDArray[np.float64], pick: int, goal: NDArray[np.float64]) -> float:
+        """The least time from rest at `grasp` on peg `pick`, lifting the block clear, to rest at `goal`."""
+        return min(
+            through(grasp, [self.joints(arm, pick, lift)], goal, self.settings[arm])
+            for lift in self.heights.lifts
+        )
+
+    def lower(
+        self, arm: str, place: int, moved: Callable[[NDArray[np.float64]], float]
+    ) -> tuple[list[NDArray[np.float64]], float, float]:
+        """Where the jaw may open over `place`, and the least motion `moved` (seconds to one of them) and
+        block's fall over those heights, as (joints, motion, fall)."""
+        ends = [self.joints(arm, place, height) for height in self.heights.lowers]
+        motion, fall = min(
+            ((moved(end), self.fall_s(height)) for end, height in zip(ends, self.heights.lowers)), key=sum
+        )
+        return ends, motion, fall
 
 
 def trial_bound(transfers: list[tuple[str, int, int]], bound: Bound | None = None) -> TrialBound:
@@ -200,41 +223,36 @@ def trial_bound(transfers: list[tuple[str, int, int]], bound: Bound | None = Non
     bound = bound or Bound()
     result = TrialBound(arms={arm: SegmentTimes() for arm in bound.settings})
     free = dict.fromkeys(bound.settings, 0.0)
-    at: dict[str, NDArray[np.float64]] = {}
+    at: dict[str, list[NDArray[np.float64]]] = {}
     for index, (arms, pick, place) in enumerate(transfers):
         if index % TRANSFERS_PER_HALF == 0:  # both arms park and the camera looks: a fresh start
-            start_all = max(free.values())
-            free = dict.fromkeys(free, start_all)
-            at = {arm: bound.home(arm) for arm in bound.settings}
-        names = arms.split("→")
-        giver = names[0]
+            free = dict.fromkeys(free, max(free.values()))
+            at = {arm: [bound.home(arm)] for arm in bound.settings}
+        giver, *others = arms.split("→")
         grasp, reach = bound.approach(giver, at[giver], pick)
         started = free[giver]
         times = result.arms[giver]
         times.motion += reach
         times.jaw += bound.jaw_close_s
-        if len(names) == 1:
-            over, carry = bound.carry(giver, grasp, pick, place)
+        if not others:
+            ends, carry, fall = bound.lower(giver, place, partial(bound.lift_to, giver, grasp, pick))
             times.motion += carry
-            times.jaw += bound.fall_s
-            free[giver] = started + reach + bound.jaw_close_s + carry
-            at[giver] = over
-            result.intervals.append((started, free[giver] + bound.fall_s))
+            times.jaw += fall
+            free[giver], at[giver] = started + reach + bound.jaw_close_s + carry, ends
+            result.intervals.append((started, free[giver] + fall))
             continue
-        receiver = names[1]
-        meet_g = bound.meeting(giver)
-        lifted = bound.joints(giver, pick, bound.heights.lift)
-        to_meet = through(grasp, [lifted], meet_g, bound.settings[giver])
-        meet_r = bound.meeting(receiver)
-        to_receive = rest_to_rest(at[receiver], meet_r, bound.settings[receiver])
+        receiver = others[0]
+        meet_g, meet_r = bound.meeting(giver), bound.meeting(receiver)
+        to_meet = bound.lift_to(giver, grasp, pick, meet_g)
+        settings = bound.settings[receiver]
+        to_receive = min(rest_to_rest(start, meet_r, settings) for start in at[receiver])
         arrived = max(started + reach + bound.jaw_close_s + to_meet, free[receiver] + to_receive)
         taken = arrived + bound.jaw_close_s
-        over = bound.joints(receiver, place, bound.heights.lower)
-        place_s = rest_to_rest(meet_r, over, bound.settings[receiver])
+        ends, place_s, fall = bound.lower(receiver, place, partial(rest_to_rest, meet_r, settings=settings))
         times.motion += to_meet
         result.arms[receiver].motion += to_receive + place_s
-        result.arms[receiver].jaw += bound.jaw_close_s + bound.fall_s
-        free[giver], at[giver] = taken, meet_g
-        free[receiver], at[receiver] = taken + place_s, over
-        result.intervals.append((started, free[receiver] + bound.fall_s))
+        result.arms[receiver].jaw += bound.jaw_close_s + fall
+        free[giver], at[giver] = taken, [meet_g]
+        free[receiver], at[receiver] = taken + place_s, ends
+        result.intervals.append((started, free[receiver] + fall))
     return result
