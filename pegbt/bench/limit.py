@@ -204,6 +204,9 @@ def run() -> Figures:
                 )
             ]
             records = run_trials(specs, WORKERS)
+            failed = [f"{r.variant} seed {r.seed}: {r.error}" for r in records if not r.complete]
+            if failed:
+                raise RuntimeError(f"a trial did not place every block: {failed}")
             rows[variant] = variant_row(records[:TRIALS], records[TRIALS:], bound, waypoints)
     figures: Figures = {}
     for variant, row in rows.items():
