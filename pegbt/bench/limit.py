@@ -62,6 +62,17 @@ def windows_of(record: TrialRecord) -> list[tuple[float, float]]:
     ]
 
 
+def merged(windows: list[tuple[float, float]]) -> list[tuple[float, float]]:
+    """The union of intervals as disjoint intervals (two arms' transfers overlap)."""
+    union: list[tuple[float, float]] = []
+    for start, end in sorted(windows):
+        if union and start <= union[-1][1]:
+            union[-1] = (union[-1][0], max(union[-1][1], end))
+        else:
+            union.append((start, end))
+    return union
+
+
 def _overlap(start: float, end: float, windows: list[tuple[float, float]]) -> float:
     return sum(max(0.0, min(end, b) - max(start, a)) for a, b in windows)
 
@@ -82,6 +93,7 @@ def arm_times(log: TickLog, windows: list[tuple[float, float]]) -> dict[str, Arm
         moving = isinstance(factory, type) and issubclass(factory, MotionLeaf)
         kind = "jaw" if node["type"] in JAW_LEAVES else "motion" if moving else "waits"
         kinds[node["id"]] = (arm, kind)
+    windows = merged(windows)
     times: dict[str, ArmTime] = {}
     started: dict[int, float] = {}
     for change in log.transitions:

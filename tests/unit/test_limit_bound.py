@@ -71,3 +71,9 @@ def test_a_handover_waits_for_both_arms() -> None:
     assert handover.arms["PSM1"].motion > 0 and handover.arms["PSM2"].motion > 0
     ((start, end),) = handover.intervals
     assert end - start >= handover.arms["PSM2"].total
+
+
+def test_two_arms_transfers_overlapping_count_an_arms_time_once() -> None:
+    from pegbt.bench.limit import merged
+
+    assert merged([(2.0, 5.0), (0.0, 3.0), (6.0, 7.0)]) == [(0.0, 5.0), (6.0, 7.0)]
