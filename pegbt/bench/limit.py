@@ -10,7 +10,8 @@ per transfer over the trials. The lockstep difference is split, for the arm busi
   shape, the channels, timing);
 - `jaw`: the time its jaw leaves ran (full opening, squeeze, the check of the hold) less that waypoint
   bound's jaw (closing on the wall, the block's fall from the drop height);
-- `waits`: the time its other leaves ran in its transfers (perception, planning, waiting for the way);
+- `waits`: the time its other leaves ran in its transfers (perception, planning, waiting for the way or,
+  in a handover, for the other arm: zero in lockstep for computation, which takes no simulated time);
 - `sequencing`: the rest (the arm idle in a transfer: the other arm, the handover's order, ticks).
 The table prints with the figures; the figure (a stacked bar per variant) is written to `FIGURE`.
 """
