@@ -24,6 +24,7 @@ BENCHMARKS: dict[str, str] = {
     "sim": "pegbt.bench.sim:run",
     "dvrk-sim": "pegbt.bench.dvrk_sim:run",
     "motion": "pegbt.bench.motion:run",
+    "limit": "pegbt.bench.limit:run",
     "sim2real": "pegbt.bench.sim2real:run",
     "sim2real-real": "pegbt.bench.sim2real_real:run",
     "sim2real-outcomes": "pegbt.bench.sim2real_outcomes:run",

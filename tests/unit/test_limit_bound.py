@@ -1,0 +1,79 @@
+"""The physical bound of `pegbt bench limit`: below what pegbt's planner achieves, and exact where it can be."""
+
+from __future__ import annotations
+
+import math
+from functools import partial
+
+import numpy as np
+import pytest
+
+from pegbt.bench.limit_bound import Bound, Heights, rest_to_rest, through, trial_bound
+from pegbt.motion.limits import arm_settings
+from pegbt.motion.transfer import TransferPlanner
+from pegbt.motion.waypoints import transfer_waypoints
+from pegbt.workcell import UNILATERAL_ORDER, workcell
+
+
+def test_rest_to_rest_is_bang_coast_bang_on_the_slowest_joint() -> None:
+    settings = arm_settings("PSM1")
+    start, goal = np.zeros(6), np.zeros(6)
+    goal[2] = 0.1  # insertion: v 0.2 m/s, a 0.2 m/s², so it reaches v at 1 s over 0.1 m: no coast
+    assert rest_to_rest(start, goal, settings) == pytest.approx(2 * math.sqrt(0.1 / 0.2), rel=1e-6)
+
+
+def test_a_via_point_off_the_straight_line_costs_time() -> None:
+    settings = arm_settings("PSM1")
+    start, via, goal = np.zeros(6), np.zeros(6), np.zeros(6)
+    goal[0], via[2] = 0.5, 0.05
+    straight = rest_to_rest(start, goal, settings)
+    assert through(start, [via], goal, settings) > straight
+    # going out along one joint and back: reach it from rest, then stop back at the start
+    assert through(start, [via], start, settings) == pytest.approx(2 * math.sqrt(2 * 0.05 / 0.2), rel=1e-6)
+
+
+@pytest.mark.parametrize("arm", ["PSM1", "PSM2"])
+def test_carry_bound_is_below_pegbts_planned_carry(arm: str) -> None:
+    bound, cell, settings = Bound(), workcell(), arm_settings(arm)
+    planner = TransferPlanner(settings)
+    tops, up = cell.peg_tops_in(arm), cell.up_in(arm)
+    for pick, place in UNILATERAL_ORDER:
+        grasp = bound.joints(arm, pick, bound.grasp_height())
+        _, carry, fall = bound.lower(arm, place, partial(bound.lift_to, arm, grasp, pick))
+        planned = planner.plan(transfer_waypoints(tops[pick], tops[place], up=up)).trajectory.duration
+        assert 0 < carry and carry + fall <= planned + bound.fall_s(bound.heights.lowers[-1]), (pick, place)
+        assert carry <= planned, (pick, place, carry, planned)
+
+
+def test_pegbts_waypoints_cost_more_than_the_fewest_constraints() -> None:
+    transfers = [("PSM1", pick, place) for pick, place in UNILATERAL_ORDER]
+    least = trial_bound(transfers)
+    through_pegbts = trial_bound(transfers, Bound(Heights.pegbt(Bound().motion)))
+    assert 0 < least.arms["PSM1"].total < through_pegbts.arms["PSM1"].total
+    assert least.arms["PSM2"].total == 0.0
+    assert len(least.intervals) == 12 and least.per_transfer_s > 0
+
+
+def test_two_arms_at_once_take_the_busier_arms_time() -> None:
+    one = [("PSM1", 1, 7)]
+    both = [("PSM1", 1, 7), ("PSM2", 5, 11)]
+    alone, together = trial_bound(one), trial_bound(both)
+    assert together.arms["PSM1"].total == pytest.approx(alone.arms["PSM1"].total)
+    busiest = max(arm.total for arm in together.arms.values())
+    assert together.per_transfer_s * 2 == pytest.approx(
+        max(end for _, end in together.intervals) - min(start for start, _ in together.intervals)
+    )
+    assert together.per_transfer_s * 2 <= busiest + 0.2  # the block's fall after the last placement
+
+
+def test_a_handover_waits_for_both_arms() -> None:
+    handover = trial_bound([("PSM2→PSM1", 1, 7)])
+    assert handover.arms["PSM1"].motion > 0 and handover.arms["PSM2"].motion > 0
+    ((start, end),) = handover.intervals
+    assert end - start >= handover.arms["PSM2"].total
+
+
+def test_two_arms_transfers_overlapping_count_an_arms_time_once() -> None:
+    from pegbt.bench.limit import merged
+
+    assert merged([(2.0, 5.0), (0.0, 3.0), (6.0, 7.0)]) == [(0.0, 5.0), (6.0, 7.0)]
