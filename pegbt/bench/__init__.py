@@ -34,6 +34,7 @@ BENCHMARKS: dict[str, str] = {
     "servo": "pegbt.bench.servo:run",
     "offload": "pegbt.bench.offload:run",
     "fuzz": "pegbt.bench.fuzz:run",
+    "startup": "pegbt.bench.startup:run",
 }
 
 

@@ -18,8 +18,6 @@ from pathlib import Path
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.interpolate import PchipInterpolator
-from scipy.stats import qmc
 
 from pegbt.errors import PegbtError
 from pegbt.motion.limits import ArmSettings
@@ -47,6 +45,8 @@ def _box(lower: ArrayLike, upper: ArrayLike, count: int) -> tuple[Array, Array]:
 
 def random_setpoints(lower: ArrayLike, upper: ArrayLike, count: int, rng: np.random.Generator) -> Array:
     """`count` smooth random set-points (count, 6) inside [lower, upper], each joint reversing often."""
+    from scipy.interpolate import PchipInterpolator
+
     lower, upper = _box(lower, upper, count)
     points = np.empty((count, len(lower)))
     index = np.arange(count)
@@ -63,6 +63,8 @@ def spread_setpoints(lower: ArrayLike, upper: ArrayLike, count: int, rng: np.ran
     (a Latin hypercube: one set-point in each of `count` slices of every joint, in random order), for a
     refit: a few set-points along a smooth path often leave a joint in a corner of its range, where no
     gain can be identified (`pegbt.calibration.refit.MIN_SPAN`)."""
+    from scipy.stats import qmc
+
     lower, upper = _box(lower, upper, count)
     unit = qmc.LatinHypercube(d=len(lower), rng=rng).random(count)
     return np.asarray(qmc.scale(unit, lower, upper), dtype=float)

@@ -40,10 +40,9 @@ planner and updated, and each QP of a refinement starts from the previous one's 
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
-import osqp
-from osqp import SolverStatus
-import scipy.sparse as sparse
 from numpy.typing import NDArray
 
 from pegbt.motion.channel import Channel, Upright
@@ -56,6 +55,9 @@ from pegbt.motion.settings import SqpSettings
 from pegbt.motion.straighten import upright_configurations
 from pegbt.motion.trajectory import HermitePath, Trajectory, fit_to_limits
 
+if TYPE_CHECKING:
+    import scipy.sparse as sparse
+
 N = 6  # joints
 CHANNEL_ROWS = 5  # per path sample: lateral position (2), height, tool tilt (2)
 # Channel rows are written in units of 30 mm (30 mrad), so that OSQP's absolute tolerance (1e-3) is
@@ -66,13 +68,6 @@ INSIDE_TOLERANCE = 0.5  # fraction of the channel tolerance the samples may use 
 # Samples by which the block leaves the start peg later than on the spline. Over the 24 reference
 # transfers (both arms), 0 gives a median of 1.66 s, 1 gives 1.60 s, 2 gives 1.71 s (measured).
 LIFT_LATER = 1
-# OSQP answers with a certificate, not a step, when a linearisation has no solution.
-NO_SOLUTION = (
-    SolverStatus.OSQP_PRIMAL_INFEASIBLE,
-    SolverStatus.OSQP_PRIMAL_INFEASIBLE_INACCURATE,
-    SolverStatus.OSQP_DUAL_INFEASIBLE,
-    SolverStatus.OSQP_DUAL_INFEASIBLE_INACCURATE,
-)
 
 
 class _FixedPattern:
@@ -92,15 +87,31 @@ class _FixedPattern:
         return np.bincount(self._inverse, weights=values, minlength=self._count).astype(np.float64)
 
     def matrix(self, values: NDArray[np.float64]) -> sparse.csc_matrix:
+        import scipy.sparse as sparse
+
         return sparse.csc_matrix((self.data(values), self.indices, self.indptr), shape=self.shape)
 
 
 def _differences(count: int, order: int) -> sparse.csr_matrix:
     """The `order`-th forward difference operator on `count` points, ((count − order) × count)."""
+    import scipy.sparse as sparse
+
     D = sparse.identity(count, format="csr")
     for _ in range(order):
         D = D[1:] - D[:-1]
     return D
+
+
+def _no_solution(status: int) -> bool:
+    """Whether OSQP answered with a certificate, not a step: the linearisation has no solution."""
+    from osqp import SolverStatus
+
+    return status in (
+        SolverStatus.OSQP_PRIMAL_INFEASIBLE,
+        SolverStatus.OSQP_PRIMAL_INFEASIBLE_INACCURATE,
+        SolverStatus.OSQP_DUAL_INFEASIBLE,
+        SolverStatus.OSQP_DUAL_INFEASIBLE_INACCURATE,
+    )
 
 
 def _sample_weights(segments: int) -> NDArray[np.float64]:
@@ -122,6 +133,8 @@ class SqpRefiner:
     """The SQP stage for one arm: one OSQP problem, set up once, updated for every solve."""
 
     def __init__(self, settings: ArmSettings, sqp: SqpSettings) -> None:
+        import osqp
+
         self.settings = settings
         self.sqp = sqp
         self.segments = sqp.segments
@@ -158,6 +171,8 @@ class SqpRefiner:
         """Rows: the control point changes (joint limits, trust region, fixed ends) and λ ≥ 0;
         velocities; the definition of each segment's acceleration (equalities); each acceleration
         within ±λ; then the channel rows per sample. Joints never mix except in the channel rows."""
+        import scipy.sparse as sparse
+
         eye, acc, moves = sparse.identity(N), self.n_acceleration, N * (self.points - 1)
 
         def row_block(
@@ -208,6 +223,8 @@ class SqpRefiner:
     def _cost(self) -> sparse.csc_matrix:
         """λ² plus `jerk_weight` times the squared acceleration jumps between segments, from rest and
         back to rest; upper triangle."""
+        import scipy.sparse as sparse
+
         zero = sparse.csr_matrix((1, self.segments))
         jumps = _differences(self.segments + 2, 1) @ sparse.vstack(
             [zero, sparse.identity(self.segments), zero]
@@ -347,7 +364,7 @@ class SqpRefiner:
             result = self._solver.solve(raise_error=False)
             self.solves += 1
             x = result.x
-            if result.info.status_val in NO_SOLUTION or x is None or not np.all(np.isfinite(x)):
+            if _no_solution(result.info.status_val) or x is None or not np.all(np.isfinite(x)):
                 raise PegbtError(
                     f"the SQP's linearisation {iteration} has no solution (OSQP: {result.info.status})",
                     field="sqp",

@@ -16,7 +16,6 @@ from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
-import open3d as o3d
 from numpy.typing import ArrayLike, NDArray
 
 from pegbt.errors import PegbtError
@@ -28,7 +27,6 @@ from pegbt.perception.segment import block_segments, clusters, split_by_nearest_
 from pegbt.perception.settings import BlockSettings, perception_settings
 from pegbt.workcell import Workcell, workcell
 
-_registration = o3d.pipelines.registration
 SYMMETRY = 2 * math.pi / 3  # the block looks the same turned by 120°
 RESTART_YAWS = tuple(math.radians(turn) for turn in (0.0, 30.0, 60.0, 90.0))  # within the 120° symmetry
 
@@ -127,13 +125,15 @@ class BlockLocator:
     def _fit_from_yaws(self, segment: Points, initial: NDArray[np.float64]) -> NDArray[np.float64]:
         """The best of ICP fits from `initial` turned by each of `RESTART_YAWS`: the other block's points
         spoil the yaw read off the top face, and ICP started 60° out settles on a wrong fit."""
+        import open3d as o3d
+
         source = to_open3d(segment)
         fits = [
             self._fit(segment, initial @ yaw_pose([0.0, 0.0, 0.0], turn), robust=True)
             for turn in RESTART_YAWS
         ]
         fitness = [
-            _registration.evaluate_registration(
+            o3d.pipelines.registration.evaluate_registration(
                 source, self._model, self.settings.quality_distance, invert_rigid(fit)
             ).fitness
             for fit in fits
@@ -164,29 +164,36 @@ class BlockLocator:
     ) -> NDArray[np.float64]:
         """The block pose (board frame) that ICP fits to `segment` from `initial`, coarse to fine; `robust`:
         with a Tukey loss, so points of another block touching this one do not pull the fit towards it."""
+        import open3d as o3d
+
+        registration = o3d.pipelines.registration
         source = to_open3d(segment)
         T = invert_rigid(initial)  # ICP moves the segment into the block frame
         for distance in self.settings.distances:
-            loss = _registration.TukeyLoss(k=distance / 2) if robust else _registration.L2Loss()
-            T = _registration.registration_icp(
+            loss = registration.TukeyLoss(k=distance / 2) if robust else registration.L2Loss()
+            T = registration.registration_icp(
                 source,
                 self._model,
                 distance,
                 T,
-                _registration.TransformationEstimationPointToPlane(loss),
-                _registration.ICPConvergenceCriteria(max_iteration=self.settings.max_iterations),
+                registration.TransformationEstimationPointToPlane(loss),
+                registration.ICPConvergenceCriteria(max_iteration=self.settings.max_iterations),
             ).transformation
         return invert_rigid(T)
 
     def register(self, segment: Points, peg_xy: Points) -> BlockEstimate:
         """The block whose visible surface is `segment` (board frame)."""
+        import open3d as o3d
+
         settings = self.settings
         if len(segment) > settings.max_points:
             return self._failure(segment, peg_xy, f"{len(segment)} points are too many for one block")
         source = to_open3d(segment)
         pose = self._fit(segment, self.initial_pose(segment, peg_xy))
         T = invert_rigid(pose)
-        quality = _registration.evaluate_registration(source, self._model, settings.quality_distance, T)
+        quality = o3d.pipelines.registration.evaluate_registration(
+            source, self._model, settings.quality_distance, T
+        )
         position, yaw = pose[:3, 3], wrap_symmetric(yaw_of(pose))
         tilt = math.acos(min(1.0, pose[2, 2]))
         reason = ""

@@ -12,9 +12,9 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
-import open3d as o3d
 from numpy.typing import ArrayLike, NDArray
 
 from pegbt.perception.cloud import Points, checked_points, to_open3d, transform_points
@@ -22,7 +22,8 @@ from pegbt.perception.models import board_model
 from pegbt.perception.settings import BoardSettings, perception_settings
 from pegbt.workcell import Workcell, workcell
 
-_registration = o3d.t.pipelines.registration
+if TYPE_CHECKING:
+    import open3d as o3d
 
 
 @dataclass(frozen=True)
@@ -64,12 +65,17 @@ class PegboardRegistration:
             else nominal_board_from_camera
         )
         self.nominal_board_from_camera = np.array(nominal, dtype=np.float64)
+        import open3d as o3d
+
         self._model = o3d.t.geometry.PointCloud.from_legacy(
             board_model(self.cell, self.settings.model_points)
         )
 
     def fit(self, cloud: ArrayLike) -> BoardEstimate:
         """Register the board in a camera-frame capture (N, 3, metres) and find its pegs."""
+        import open3d as o3d
+
+        registration = o3d.t.pipelines.registration
         points = checked_points(cloud)
         settings = self.settings
         thinned = to_open3d(points).voxel_down_sample(settings.voxels[-1])  # the legacy grid is ~4× faster
@@ -80,21 +86,21 @@ class PegboardRegistration:
                 f"only {len(thinned.points)} points left after thinning: not a view of the board"
             )
         source = o3d.t.geometry.PointCloud.from_legacy(thinned)
-        result = _registration.multi_scale_icp(
+        result = registration.multi_scale_icp(
             source,
             self._model,
             o3d.utility.DoubleVector(settings.voxels),
-            [_registration.ICPConvergenceCriteria(max_iteration=settings.max_iterations)]
+            [registration.ICPConvergenceCriteria(max_iteration=settings.max_iterations)]
             * len(settings.voxels),
             o3d.utility.DoubleVector(settings.distances),
             o3d.core.Tensor.from_numpy(self.nominal_board_from_camera.copy()),
-            _registration.TransformationEstimationPointToPlane(
-                _registration.robust_kernel.RobustKernel(
-                    _registration.robust_kernel.RobustKernelMethod.TukeyLoss, settings.tukey_k
+            registration.TransformationEstimationPointToPlane(
+                registration.robust_kernel.RobustKernel(
+                    registration.robust_kernel.RobustKernelMethod.TukeyLoss, settings.tukey_k
                 )
             ),
         )
-        quality = _registration.evaluate_registration(
+        quality = registration.evaluate_registration(
             source, self._model, settings.quality_distance, result.transformation
         )
         T = result.transformation.numpy().astype(np.float64)
@@ -141,7 +147,10 @@ class PegboardRegistration:
         return tops, counts
 
     def _doubt(
-        self, quality: _registration.RegistrationResult, peg_tops: Points, counts: NDArray[np.int64]
+        self,
+        quality: o3d.t.pipelines.registration.RegistrationResult,
+        peg_tops: Points,
+        counts: NDArray[np.int64],
     ) -> str:
         """Why this registration should not be trusted ("" if it should)."""
         settings = self.settings

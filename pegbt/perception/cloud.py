@@ -2,11 +2,15 @@
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
-import open3d as o3d
 from numpy.typing import ArrayLike, NDArray
 
 from pegbt.errors import PegbtError
+
+if TYPE_CHECKING:
+    import open3d as o3d
 
 Points = NDArray[np.float64]
 
@@ -37,6 +41,8 @@ def checked_points(cloud: ArrayLike, field: str = "cloud") -> Points:
 
 def to_open3d(points: Points) -> o3d.geometry.PointCloud:
     """An Open3D point cloud holding `points`."""
+    import open3d as o3d
+
     return o3d.geometry.PointCloud(o3d.utility.Vector3dVector(points))
 
 

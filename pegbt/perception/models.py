@@ -7,17 +7,23 @@ leaving it in lets ICP lock the board's top onto its underside, a slab thickness
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
-import open3d as o3d
 
 from pegbt.sim.meshes import Mesh, block_mesh, static_scene_mesh
 from pegbt.workcell import Workcell
+
+if TYPE_CHECKING:
+    import open3d as o3d
 
 _FACING_DOWN = 0.5  # z component (board z points down) above which a face's normal faces the board
 
 
 def visible_surface_samples(mesh: Mesh, count: int, seed: int = 0) -> o3d.geometry.PointCloud:
     """`count` points spread uniformly over the faces of `mesh` that do not face down, with normals."""
+    import open3d as o3d
+
     vertices, triangles = mesh
     surface = o3d.geometry.TriangleMesh(
         o3d.utility.Vector3dVector(vertices), o3d.utility.Vector3iVector(triangles.astype(np.int32))

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.signal import lfilter
 
 Array = NDArray[np.float64]
 
@@ -79,6 +78,8 @@ def lag_series(u: ArrayLike, t: ArrayLike, tau: float) -> Array:
         return u.copy()
     t = np.asarray(t, dtype=float)
     if is_uniform(t):
+        from scipy.signal import lfilter  # seconds to import: only where a lag is computed
+
         alpha = 1.0 - np.exp(-float(t[1] - t[0]) / tau)
         y, _ = lfilter([alpha], [1.0, alpha - 1.0], u, zi=[(1.0 - alpha) * u[0]])
         return np.asarray(y)

@@ -4,7 +4,9 @@ The recording is cut into `N_BLOCKS` contiguous blocks; `N_FOLDS` folds each hol
 consecutive blocks, so held-out data are a contiguous segment (neighbouring samples, correlated by
 the noise, never sit on both sides of a fit). Each block keeps its Gram matrix MᵀM, MᵀY and YᵀY, so
 a model on any column subset is fitted on the training blocks and scored on the held-out ones in
-O(p³), independent of the recording's length: thousands of candidate fits cost milliseconds.
+O(p³), independent of the recording's length: thousands of candidate fits cost milliseconds. The bank
+itself is kept once (columns added later, widths refined between grid values, are kept beside it, not
+copied into a grown bank), since at 100 Hz it is most of what an hour of recording takes in memory.
 """
 
 from __future__ import annotations
@@ -35,13 +37,13 @@ def fold_ranges(n: int, n_blocks: int = N_BLOCKS, n_folds: int = N_FOLDS) -> lis
 
 
 class BlockedGrams:
-    """Per-block Gram matrices of a column bank M (N, m) and targets Y (N, J)."""
+    """Per-block Gram matrices of a column bank M (N, m) and targets Y (N, J); `column_values` reads M."""
 
     def __init__(
         self, columns: Array, targets: Array, n_blocks: int = N_BLOCKS, n_folds: int = N_FOLDS
     ) -> None:
-        self._storage = columns
-        self.columns = columns
+        self._bank = columns
+        self._added: list[Array] = []  # columns appended after the bank, in order
         self.targets = targets
         self.edges = block_edges(len(columns), n_blocks)
         pairs = list(zip(self.edges[:-1], self.edges[1:]))
@@ -66,7 +68,14 @@ class BlockedGrams:
         """Append a column (a width refined between grid values) to the bank; returns its index."""
         pairs = list(zip(self.edges[:-1], self.edges[1:]))
         m = self.gram.shape[1]
-        cross = np.stack([self.columns[a:b].T @ column[a:b] for a, b in pairs])  # (B, m)
+        cross = np.stack(
+            [
+                np.concatenate(
+                    [self._bank[a:b].T @ column[a:b], [added[a:b] @ column[a:b] for added in self._added]]
+                )
+                for a, b in pairs
+            ]
+        )  # (B, m)
         gram = np.empty((len(pairs), m + 1, m + 1))
         gram[:, :m, :m] = self.gram
         gram[:, :m, m] = gram[:, m, :m] = cross
@@ -75,14 +84,17 @@ class BlockedGrams:
         self.rhs = np.concatenate(
             [self.rhs, np.stack([column[a:b] @ self.targets[a:b] for a, b in pairs])[:, None]], 1
         )
-        if m == self._storage.shape[1]:  # grow the column store geometrically, not one copy per column
-            grown = np.empty((len(column), 2 * m))
-            grown[:, :m] = self._storage
-            self._storage = grown
-        self._storage[:, m] = column
-        self.columns = self._storage[:, : m + 1]
+        self._added.append(np.asarray(column, dtype=np.float64))
         self._derive()
         return m
+
+    def column_values(self, columns: NDArray[np.int64] | list[int]) -> Array:
+        """The values (N, k) of bank columns `columns`, in order."""
+        index = np.asarray(columns, dtype=np.int64)
+        m = self._bank.shape[1]
+        if np.all(index < m):
+            return self._bank[:, index]
+        return np.stack([self._bank[:, i] if i < m else self._added[i - m] for i in index], axis=1)
 
     def fold_energy(self, column: int) -> Array:
         """Sum of squares of one column within each held-out fold (n_folds,)."""

@@ -174,23 +174,37 @@ def choose_effects(
     """Selection, repeated once with each joint's driver updated by the scale and couplings it found."""
     base_drivers = base.static_map(q_cmd)
     drivers = base_drivers
+    chosen: tuple[list[JointSelection], int, BlockedGrams, Array] | None = None
     for _ in range(SELECTION_ROUNDS):
-        columns, candidates = build_columns(q_cmd, t, drivers)
-        grams = BlockedGrams(columns, residual)
-        selections, hypotheses = select(grams, t, candidates, unidentifiable)
-        updated = base_drivers.copy()
-        for selection in selections:
-            free = selection.free_columns()
-            beta = grams.fit(
-                selection.joint, np.array(free), np.array(selection.fixed_columns(), dtype=np.int64)
-            )
-            for column, b in zip(free[1:], beta[1:]):
-                if 1 <= column <= q_cmd.shape[1]:  # a command column: scale or coupling
-                    updated[:, selection.joint] += b * columns[:, column]
-        if np.array_equal(updated, drivers):
+        chosen = None  # the previous round's bank goes before this one is built: never both at once
+        chosen = _selection_round(q_cmd, t, residual, base_drivers, drivers, unidentifiable)
+        if np.array_equal(chosen[3], drivers):
             break
-        drivers = updated
-    return selections, hypotheses, grams
+        drivers = chosen[3]
+    assert chosen is not None, "SELECTION_ROUNDS is at least 1"
+    return chosen[0], chosen[1], chosen[2]
+
+
+def _selection_round(
+    q_cmd: Array,
+    t: Array | None,
+    residual: Array,
+    base_drivers: Array,
+    drivers: Array,
+    unidentifiable: Unidentifiable,
+) -> tuple[list[JointSelection], int, BlockedGrams, Array]:
+    """One selection on the bank built from `drivers`, and the drivers its scales and couplings give."""
+    columns, candidates = build_columns(q_cmd, t, drivers)
+    grams = BlockedGrams(columns, residual)
+    selections, hypotheses = select(grams, t, candidates, unidentifiable)
+    updated = base_drivers.copy()
+    for selection in selections:
+        free = selection.free_columns()
+        beta = grams.fit(selection.joint, np.array(free), np.array(selection.fixed_columns(), dtype=np.int64))
+        for column, b in zip(free[1:], beta[1:]):
+            if 1 <= column <= q_cmd.shape[1]:  # a command column: scale or coupling
+                updated[:, selection.joint] += b * columns[:, column]
+    return selections, hypotheses, grams, updated
 
 
 @dataclass(frozen=True)

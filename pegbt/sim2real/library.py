@@ -98,15 +98,15 @@ def build_columns(q_cmd: Array, t: Array | None, drivers: Array) -> tuple[Array,
     """
     n_joints = q_cmd.shape[1]
     kinds = [kind for kind in effect_kinds() if t is not None or not kind.streams_only]
-    blocks: list[Array] = [np.ones((len(q_cmd), 1)), q_cmd]
     groups: dict[tuple[str, int], tuple[NDArray[np.int64], Array, Array]] = {}
+    computed: list[tuple[EffectKind, tuple[str, int]]] = []  # the groups with columns of their own
     start = 1 + n_joints
 
     def add(kind: EffectKind, joint: int, signal: Array) -> None:
         nonlocal start
         widths = _grid(kind, signal, t)
-        blocks.append(kind.columns(signal, t, widths))
         groups[(kind.name, joint)] = (np.arange(start, start + len(widths)), widths, signal)
+        computed.append((kind, (kind.name, joint)))
         start += len(widths)
 
     commanded = [k for k in kinds if k.width is not None and k.signal == "command"]
@@ -120,6 +120,12 @@ def build_columns(q_cmd: Array, t: Array | None, drivers: Array) -> tuple[Array,
                 groups[(kind.name, j)] = groups[(twin.name, j)]
             else:
                 add(kind, j, drivers[:, j])
+    bank = np.empty((len(q_cmd), start))  # filled in place: the bank is never held twice
+    bank[:, 0] = 1.0
+    bank[:, 1 : 1 + n_joints] = q_cmd
+    for kind, key in computed:
+        columns, widths, signal = groups[key]
+        bank[:, columns] = kind.columns(signal, t, widths)
     none = np.array([np.nan])
     candidates: list[Candidate] = []
     for j in range(n_joints):
@@ -133,4 +139,4 @@ def build_columns(q_cmd: Array, t: Array | None, drivers: Array) -> tuple[Array,
                     candidates.append(Candidate(kind.name, j, s, np.array([0]), none, q_cmd[:, j]))
                 else:
                     candidates.append(Candidate(kind.name, j, s, np.array([1 + s]), none, q_cmd[:, s]))
-    return np.column_stack(blocks), candidates
+    return bank, candidates

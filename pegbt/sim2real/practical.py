@@ -62,11 +62,11 @@ def _size(grams: BlockedGrams, joint: int, item: Chosen, free: list[int], fixed:
     """The item's largest contribution in the in-sample fit of the model it enters: an offset's value,
     half the peak-to-peak of any other effect's term."""
     if item.fixed:
-        return 0.5 * float(np.ptp(grams.columns[:, item.column]))
+        return 0.5 * float(np.ptp(grams.column_values([item.column])))
     beta = grams.fit(joint, np.array(free), np.array(fixed, dtype=np.int64))[free.index(item.column)]
     if item.column == 0:
         return abs(float(beta))
-    return 0.5 * abs(float(beta)) * float(np.ptp(grams.columns[:, item.column]))
+    return 0.5 * abs(float(beta)) * float(np.ptp(grams.column_values([item.column])))
 
 
 def settle_joint(

@@ -216,7 +216,7 @@ def select_joint(
             ):
                 reason = "does not gain in every fold that excites it"
             else:
-                pvalue = shift_pvalue(residual, grams.columns[:, cand.columns])
+                pvalue = shift_pvalue(residual, grams.column_values(cand.columns))
                 if pvalue <= level:
                     accepted = index, pvalue
                     break
@@ -284,7 +284,7 @@ def _score_options(
 def _residual(grams: BlockedGrams, joint: int, free: list[int], fixed: list[int]) -> Array:
     """In-sample residual of the current model (fixed columns at coefficient 1)."""
     beta = grams.fit(joint, np.array(free), np.array(fixed, dtype=np.int64))
-    return grams.targets[:, joint] - grams.columns[:, fixed].sum(1) - grams.columns[:, free] @ beta
+    return grams.targets[:, joint] - grams.column_values(fixed).sum(1) - grams.column_values(free) @ beta
 
 
 def _refine_width(
