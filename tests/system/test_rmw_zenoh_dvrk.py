@@ -5,15 +5,14 @@ every block. The router is a zenoh session in router mode on 127.0.0.1."""
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import pytest
+from dvrk_trial_helpers import assert_every_block_placed_cleanly, unilateral_on_dvrk
 from rmw_zenoh_helpers import lines, partner
 
 from pegbt.sim.process import SimProcess
 from pegbt.transport.codec import JOINT_STATE
-from pegbt.workcell import UNILATERAL_ORDER
 
 
 @pytest.mark.slow
@@ -38,37 +37,9 @@ def test_a_ros2_node_reads_enables_homes_and_servos_the_simulated_arm(messages_d
 
 @pytest.mark.slow
 def test_a_unilateral_trial_over_rmw_zenoh_places_every_block(pegbt_cli, router, tmp_path: Path) -> None:
-    simlog = tmp_path / "sim.jsonl"
     graph = f"tcp/127.0.0.1:{router}"
-    simulator = SimProcess(
-        ["--physics", "dvrk-real", "--seed", "0", "--log", str(simlog)], interface="dvrk", router=graph
-    )
-    try:
-        run = pegbt_cli(
-            "run",
-            "trees/unilateral.yaml",
-            "--interface",
-            "dvrk",
-            "--ros2",
-            "rmw_zenoh",
-            "--endpoint",
-            graph,
-            "--calibration",
-            "skills/calibration/sim-dvrk-real",
-            "--liveness",
-            5,  # the simulator shares this loaded machine with the run: it may stall for a second
-            "--log",
-            tmp_path / "run.jsonl",
-            "--quiet",
-            timeout=600,
-        )
-    finally:
-        simulator.stop()
-    assert run.returncode == 0, run.stdout[-3000:] + run.stderr[-3000:]
-    entries = [json.loads(line) for line in simlog.read_text().splitlines()]
-    placed = [entry["peg"] for entry in entries if entry["kind"] == "place"]
-    assert placed == [goal for _, goal in UNILATERAL_ORDER]
-    assert not [entry for entry in entries if entry["kind"] == "safety"]
+    entries = unilateral_on_dvrk(pegbt_cli, tmp_path, run_options=["--ros2", "rmw_zenoh"], router=graph)
+    assert_every_block_placed_cleanly(entries)
 
 
 def _sim_stderr(connect: str, seconds: float) -> str:

@@ -7,44 +7,13 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-
-from pegbt.sim.process import SimProcess
-from pegbt.workcell import UNILATERAL_ORDER
+from dvrk_trial_helpers import assert_every_block_placed_cleanly, unilateral_on_dvrk
 
 
 def test_a_unilateral_trial_with_a_zivid_places_all_twelve(pegbt_cli, tmp_path: Path) -> None:
-    simlog = tmp_path / "sim.jsonl"
-    simulator = SimProcess(
-        ["--physics", "dvrk-real", "--seed", "0", "--camera", "zivid", "--log", str(simlog)], interface="dvrk"
-    )
-    try:
-        run = pegbt_cli(
-            "run",
-            "trees/unilateral.yaml",
-            "--interface",
-            "dvrk",
-            "--camera",
-            "zivid",
-            "--endpoint",
-            simulator.endpoint,
-            "--calibration",
-            "skills/calibration/sim-dvrk-real",
-            "--liveness",
-            5,  # the simulator shares this loaded machine with the run: it may stall for a second
-            "--log",
-            tmp_path / "run.jsonl",
-            "--quiet",
-            timeout=600,
-        )
-    finally:
-        simulator.stop()
-    assert run.returncode == 0, run.stdout[-3000:] + run.stderr[-3000:]
-    entries = [json.loads(line) for line in simlog.read_text().splitlines()]
+    entries = unilateral_on_dvrk(pegbt_cli, tmp_path, ["--camera", "zivid"], ["--camera", "zivid"])
     assert entries[0]["kind"] == "start" and entries[0]["camera"] == "zivid"
-    placed = [(entry["block"], entry["peg"]) for entry in entries if entry["kind"] == "place"]
-    assert [peg for _, peg in placed] == [goal for _, goal in UNILATERAL_ORDER]
-    assert not [entry for entry in entries if entry["kind"] == "safety"]
-    assert not [entry for entry in entries if entry["kind"] == "arm_state" and entry["state"] == "FAULT"]
+    assert_every_block_placed_cleanly(entries)
     ticks = [json.loads(line) for line in (tmp_path / "run.jsonl").read_text().splitlines()]
     clouds = [
         r["bb"]["/cloud"]["shape"] for r in ticks if r.get("type") == "tick" and "/cloud" in r.get("bb", {})
