@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from functools import cached_property, lru_cache
+from functools import cache, cached_property, lru_cache
 from pathlib import Path
 
 import numpy as np
@@ -332,7 +332,7 @@ def load_workcell(path: Path | str = WORKCELL_FILE) -> Workcell:
     )
 
 
-@lru_cache(maxsize=None)
+@cache
 def workcell(path: Path = WORKCELL_FILE) -> Workcell:
     """The work cell, loaded once per file (the default: `skills/workcell.yaml`)."""
     return load_workcell(path)

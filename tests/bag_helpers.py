@@ -12,7 +12,6 @@ from mcap_ros2 import writer as mcap_ros2_writer
 from mcap_ros2.decoder import DecoderFactory
 from rosbags.typesys import Stores, get_typestore
 
-
 STORE = get_typestore(Stores.ROS2_JAZZY)
 
 

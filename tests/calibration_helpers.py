@@ -6,10 +6,10 @@ from pathlib import Path
 
 import numpy as np
 
-from pegbt.physics.recording import Recording, RecordingWriter
 from pegbt.calibration.collect import random_setpoints
 from pegbt.motion.limits import arm_settings
 from pegbt.physics import ArmPhysics, Effect
+from pegbt.physics.recording import Recording, RecordingWriter
 
 TRUTH = [
     Effect("offset", "q1", {"value": 0.004}),

@@ -8,8 +8,8 @@ from pathlib import Path
 import py_trees
 from py_trees.common import Status
 
-from pegbt.executive.build import BuiltTree
 from pegbt.clock import ManualClock
+from pegbt.executive.build import BuiltTree
 from pegbt.executive.context import RunContext
 from pegbt.executive.leaf import Leaf
 from pegbt.executive.loader import load_tree

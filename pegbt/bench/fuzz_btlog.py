@@ -41,8 +41,8 @@ def _well_formed(data: bytes, nodes: int) -> bool:
 
 
 def fuzz_btlog(count: int, rng: random.Random, work: Path) -> Tally:
-    from pegbt.bench.fuzzing import mutate_records
     from pegbt.bench.fuzz_bags import damage_bytes
+    from pegbt.bench.fuzzing import mutate_records
     from pegbt.executive.btlog import export_btlog
     from pegbt.executive.logfile import read_tick_log
     from pegbt.executive.runoptions import RunOptions

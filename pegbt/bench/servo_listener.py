@@ -15,11 +15,11 @@ import time
 
 import numpy as np
 
+from pegbt.scheduling import ROBOT_PRIORITY, run_realtime
 from pegbt.transport import codec
 from pegbt.transport.dvrk_topics import PsmTopics
 from pegbt.transport.ros2 import BridgeWire
 from pegbt.transport.session import endpoint_settings, open_session
-from pegbt.scheduling import ROBOT_PRIORITY, run_realtime
 
 SETPOINT = np.array([0.0, 0.0, 0.12, 0.0, 0.0, 0.0])
 PERIOD = 0.01  # s between the robot's set-point messages

@@ -22,9 +22,9 @@ SEED = 0
 
 def _trial(endpoint: str, trial: list, tick: float) -> tuple[float, float, int]:
     """Play the trial at `tick`; (simulated seconds, wall seconds, blocks placed)."""
+    from pegbt.psm import ARMS
     from pegbt.sim.arm_script import MotionPlayer
     from pegbt.sim.truth import ask_truth
-    from pegbt.psm import ARMS
     from pegbt.transport import ArmClient, SimClock, connect
 
     with connect([endpoint]) as link:

@@ -16,8 +16,8 @@ from pathlib import Path
 import numpy as np
 
 from pegbt.physics import ArmPhysics
-from pegbt.sim2real.diagnose import diagnose
 from pegbt.physics.recording import Recording
+from pegbt.sim2real.diagnose import diagnose
 from pegbt.sim2real.report import write_report
 from pegbt.sim2real.scoring import Score, detection_threshold, score
 from pegbt.sim2real.synth import NOISE_SIGMA, generate, smooth_commands

@@ -118,7 +118,7 @@ def run() -> dict[str, float | int | str]:
     folder = dvrk_data_dir(required=True)
     figures: dict[str, float | int | str] = {}
     wrist: dict[str, list[float]] = {method: [] for method in ("raw", "sim2real", "linear", "lstm")}
-    seconds = {method: 0.0 for method in ("sim2real", "linear", "lstm")}
+    seconds = dict.fromkeys(("sim2real", "linear", "lstm"), 0.0)
     effects = {}
     for name in RECORDINGS:
         recording = load_recording(folder / name)

@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import importlib
 from abc import ABC, abstractmethod
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any, ClassVar
 
@@ -53,7 +53,7 @@ class CalibrationModel(ABC):
         self.metadata: ModelMetadata | None = None
 
     # ------------------------------------------------------------------ fit and predict
-    def fit(self, recording: Recording) -> "CalibrationModel":
+    def fit(self, recording: Recording) -> CalibrationModel:
         """Learn the arm's effects from a recording of commanded and physical joints."""
         check_arm(recording, self.arm, f"this {self.kind} model")
         check_trainable(recording, self.outputs, MIN_TRAIN_SAMPLES)
@@ -65,7 +65,7 @@ class CalibrationModel(ABC):
             training={
                 "recording": recording.path.name,  # its name, not where it sat on the machine that trained
                 "samples": len(recording),
-                "created": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+                "created": datetime.now(UTC).isoformat(timespec="seconds"),
             },
         )
         return self
@@ -104,7 +104,7 @@ class CalibrationModel(ABC):
         return write_document(path, self.metadata, self._body())
 
     @staticmethod
-    def load(path: str | Path, arm: str | None = None) -> "CalibrationModel":
+    def load(path: str | Path, arm: str | None = None) -> CalibrationModel:
         """Read any kind of model file; refuses one made for another arm (when `arm` is given)."""
         metadata, document = read_document(path, arm)
         cls = model_class(metadata.kind, Path(path))

@@ -159,8 +159,8 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
 
 
 def _collect(args: argparse.Namespace) -> int:
-    from pegbt.calibration.collect import SETTLE_S, setpoints_for_minutes
     from pegbt.behaviours.resources.robot import simulated_world
+    from pegbt.calibration.collect import SETTLE_S, setpoints_for_minutes
     from pegbt.executive.runoptions import RunOptions
     from pegbt.executive.session import default_log_path, run_tree_file
     from pegbt.physics.recording import MIN_SAMPLES, load_recording

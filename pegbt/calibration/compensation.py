@@ -89,7 +89,7 @@ class Compensator:
         self._correction = np.zeros_like(q_now)
         self._active.clear()
 
-    def fork(self) -> "Compensator":
+    def fork(self) -> Compensator:
         """A copy that compensates on from this one's history without changing it (the model is shared:
         models are not changed by compensating)."""
         twin = copy.copy(self)

@@ -14,9 +14,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pegbt.calibration.base import CalibrationModel, check_arm
-from pegbt.physics.recording import Recording
 from pegbt.errors import PegbtError
 from pegbt.motion.kinematics import tip_position
+from pegbt.physics.recording import Recording
 from pegbt.psm import JOINT_NAMES
 
 

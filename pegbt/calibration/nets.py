@@ -73,11 +73,11 @@ class Scaling:
     spread: NDArray[np.float32]
 
     @classmethod
-    def identity(cls, n: int) -> "Scaling":
+    def identity(cls, n: int) -> Scaling:
         return cls(np.zeros(n, np.float32), np.ones(n, np.float32))
 
     @classmethod
-    def of(cls, x: NDArray[np.float64]) -> "Scaling":
+    def of(cls, x: NDArray[np.float64]) -> Scaling:
         flat = x.reshape(-1, x.shape[-1])
         return cls(
             flat.mean(axis=0).astype(np.float32), np.maximum(flat.std(axis=0), 1e-6).astype(np.float32)
@@ -93,7 +93,7 @@ class Scaling:
         return {f"{prefix}.mean": self.mean, f"{prefix}.spread": self.spread}
 
     @classmethod
-    def from_arrays(cls, arrays: dict[str, NDArray[np.float32]], prefix: str) -> "Scaling":
+    def from_arrays(cls, arrays: dict[str, NDArray[np.float32]], prefix: str) -> Scaling:
         return cls(arrays[f"{prefix}.mean"], arrays[f"{prefix}.spread"])
 
 

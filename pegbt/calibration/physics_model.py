@@ -29,7 +29,7 @@ from __future__ import annotations
 import itertools
 from collections.abc import Iterable
 from dataclasses import dataclass
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
@@ -203,7 +203,7 @@ class PhysicsModel(CalibrationModel):
         self.settled = SettledArm(ArmPhysics())
 
     @classmethod
-    def from_effects(cls, arm: str, effects: Iterable[Effect], source: str) -> "PhysicsModel":
+    def from_effects(cls, arm: str, effects: Iterable[Effect], source: str) -> PhysicsModel:
         """A model from effects identified elsewhere (a sim-to-real report, a preset); `source` names them."""
         model = cls(arm)
         model._set_effects(effects)
@@ -213,7 +213,7 @@ class PhysicsModel(CalibrationModel):
             outputs=JOINT_NAMES,
             training={
                 "effects_from": source,
-                "created": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+                "created": datetime.now(UTC).isoformat(timespec="seconds"),
             },
         )
         return model

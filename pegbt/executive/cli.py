@@ -227,8 +227,8 @@ def _run(args: argparse.Namespace) -> int:
 
 
 def _start_monitor(port: int, no_token: bool, log_path: Path) -> LiveMonitor:
-    from pegbt.monitor.options import start_server
     from pegbt.monitor.live import LiveMonitor
+    from pegbt.monitor.options import start_server
 
     server = start_server(int(port), no_token)
     print(f"monitor: {server.url}", flush=True)

@@ -11,8 +11,8 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any, TypeVar
 
-from pegbt.errors import PegbtError
 from pegbt.clock import Clock, WallClock
+from pegbt.errors import PegbtError
 from pegbt.executive.work import WorkPool
 
 T = TypeVar("T")

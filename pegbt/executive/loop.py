@@ -32,8 +32,7 @@ class ForEach(py_trees.composites.Sequence):
         index = self.children.index(self.current_child) if self.current_child is not None else 0
         for child in self.children[index:]:
             self.current_child = child
-            for node in child.tick():
-                yield node
+            yield from child.tick()
             if child.status == Status.RUNNING or (child.status == Status.FAILURE and not self.keep_going):
                 if child.status == Status.RUNNING:
                     self.status = Status.RUNNING

@@ -32,8 +32,8 @@ from pegbt.executive.params import (
 )
 from pegbt.executive.problems import Problems, did_you_mean
 from pegbt.executive.registry import REGISTRY, BehaviourRegistry, BehaviourSpec
-from pegbt.yamlfile import Located, Mark
 from pegbt.executive.spec import MAX_TREE_DEPTH, KeyUse, NodeSpec
+from pegbt.yamlfile import Located, Mark
 
 _ARG_PATTERN = re.compile(r"\$\{([^}]*)\}")
 _NAMESPACE_CHARS = re.compile(r"[^A-Za-z0-9_]+")
@@ -458,7 +458,7 @@ class Resolver:
                 "name": Located(f"{position}: {shown}" if shown else str(position), item.mark),
                 "namespace": Located(f"loop_{local}/item_{position}", item.mark),
             }
-            child = self._subtree(item, instance, {key: item.mark for key in instance}, child_scope, children)
+            child = self._subtree(item, instance, dict.fromkeys(instance, item.mark), child_scope, children)
             if child is not None:
                 spec.children.append(child)
         return spec

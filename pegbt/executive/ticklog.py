@@ -123,7 +123,7 @@ class TickLogWriter:
                 "format_version": FORMAT_VERSION,
                 "pegbt": __version__,
                 "tree": built.source,
-                "start_time": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="milliseconds"),
+                "start_time": datetime.datetime.now(datetime.UTC).isoformat(timespec="milliseconds"),
                 "clock": clock_kind,
                 "blackboard": {key: compact(value) for key, value in built.initial_blackboard.items()},
                 **(run or {}),

@@ -34,7 +34,7 @@ class Job(Generic[T]):
     """One computation on a worker: `done` once it finished, `result()` its value (or its exception)."""
 
     def __init__(
-        self, pool: "WorkPool", executor: ThreadPoolExecutor | None, fn: Callable[..., T], args: tuple
+        self, pool: WorkPool, executor: ThreadPoolExecutor | None, fn: Callable[..., T], args: tuple
     ) -> None:
         """On `executor`'s threads, or at once in the caller when there is none (`WorkPool.inline`)."""
         self._pool = pool

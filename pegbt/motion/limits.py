@@ -7,7 +7,7 @@ leaves them; all read them through `arm_settings()`.
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from functools import lru_cache
+from functools import cache
 from pathlib import Path
 
 import numpy as np
@@ -37,7 +37,7 @@ class ArmSettings:
     control_period: float
     home_tip: NDArray[np.float64]
 
-    def at_speed(self, fraction: float) -> "ArmSettings":
+    def at_speed(self, fraction: float) -> ArmSettings:
         """These settings for motions at `fraction` (0, 1] of the planner's speed, for a first run on a robot:
         velocities × fraction and accelerations × fraction², so that every planned motion keeps its path and
         takes 1 / fraction as long; the jaw at fraction of its velocity. The joint and velocity limits that
@@ -76,7 +76,7 @@ class ArmSettings:
         return q
 
 
-@lru_cache(maxsize=None)
+@cache
 def arm_settings(arm: str, path: Path = PSM_SETTINGS) -> ArmSettings:
     """Settings of `arm` (PSM1 or PSM2) from the skills file."""
     document = read_settings_file(path)

@@ -9,7 +9,7 @@ block are derived from it here, not written twice.
 from __future__ import annotations
 
 from dataclasses import dataclass, fields
-from functools import lru_cache
+from functools import cache
 from pathlib import Path
 from typing import Any
 
@@ -105,7 +105,7 @@ def _section(document: Located, name: str, kind: type, derived: dict[str, float]
     return kind(**values, **(derived or {}))
 
 
-@lru_cache(maxsize=None)
+@cache
 def motion_settings(path: Path = MOTION_SETTINGS, workcell_file: Path = WORKCELL_FILE) -> MotionSettings:
     """The motion settings of `path` (default `skills/motion.yaml`), with the block's heights from
     `workcell_file` (default `skills/workcell.yaml`)."""

@@ -45,12 +45,12 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
+from pegbt.errors import PegbtError
 from pegbt.motion.channel import Channel, Upright
 from pegbt.motion.checks import trajectory_problems
 from pegbt.motion.jacobian import cross, jacobian_from_frames
 from pegbt.motion.kinematics import link_frames, tip_position
 from pegbt.motion.limits import ArmSettings
-from pegbt.errors import PegbtError
 from pegbt.motion.settings import SqpSettings
 from pegbt.motion.straighten import upright_configurations
 from pegbt.motion.trajectory import HermitePath, Trajectory, fit_to_limits

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, fields
-from functools import lru_cache
+from functools import cache
 from pathlib import Path
 from typing import Any
 
@@ -95,7 +95,7 @@ def _section(
     return {f.name: _value(section[renamed.get(f.name, f.name)], str(f.type)) for f in wanted}
 
 
-@lru_cache(maxsize=None)
+@cache
 def perception_settings(path: Path = PERCEPTION_SETTINGS) -> PerceptionSettings:
     """The settings of `path` (default `skills/perception.yaml`); a `PegbtError` naming file, line and field."""
     document = read_settings_file(path)

@@ -111,37 +111,37 @@ class EffectKind:
         return self.family or self.name
 
     # ------------------------------------------------------------------ data
-    def check(self, effect: "Effect") -> None:
+    def check(self, effect: Effect) -> None:
         """Refuse parameter values the physics cannot take (beyond finite numbers and `non_negative`)."""
 
-    def slot(self, effect: "Effect") -> tuple[str, str, str, float]:
+    def slot(self, effect: Effect) -> tuple[str, str, str, float]:
         """What the effect occupies in a model: one of each kind per joint (and per source, if it has one)."""
         return (effect.effect, effect.joint, str(effect.params.get("source", "")), 0.0)
 
-    def sentence(self, effect: "Effect", before: "Effect | None" = None) -> str:
+    def sentence(self, effect: Effect, before: Effect | None = None) -> str:
         """What the effect means physically, with its parameters, in one sentence (`before`: the same
         slot in the model it was found against)."""
         values = ", ".join(f"{k} = {v:.4g}" for k, v in effect.params.items() if k != "source")
         return f"{effect.joint} shows {self.name} ({values})"
 
     # ------------------------------------------------------------------ physics
-    def install(self, arm: ArmParameters, effect: "Effect") -> None:
+    def install(self, arm: ArmParameters, effect: Effect) -> None:
         """Enter the effect into `arm`; transform stages are applied by `sequence` and `step`."""
         arm.add_transform(self, effect)
 
-    def sequence(self, effect: "Effect", x: Array, t: Array | None) -> Array:
+    def sequence(self, effect: Effect, x: Array, t: Array | None) -> Array:
         """The transformed signal (N,) of one joint; `t=None`: settled set-points."""
         raise NotImplementedError(f"{self.name} gives no sequence kernel")
 
-    def start(self, effect: "Effect", x: float) -> Any:
+    def start(self, effect: Effect, x: float) -> Any:
         """The kernel's state with the joint settled at input `x` (None for a stateless kind)."""
         return None
 
-    def step(self, effect: "Effect", state: Any, x: float, dt: float) -> tuple[float, Any]:
+    def step(self, effect: Effect, state: Any, x: float, dt: float) -> tuple[float, Any]:
         """(output, next state) after `dt` seconds with the input at `x`."""
         return float(self.sequence(effect, np.array([x]), None)[0]), state
 
-    def inverse(self, effect: "Effect", y: float, state: Any, previous: float) -> float:
+    def inverse(self, effect: Effect, y: float, state: Any, previous: float) -> float:
         """The input after which a settled `step` outputs `y` (`previous`: the last input)."""
         raise NotImplementedError(f"{self.name} cannot be inverted")
 
@@ -156,7 +156,7 @@ class EffectKind:
 
     def to_effect(
         self, joint: int, source: int, width: float, coef: float, fixed: bool, base: ArmParameters
-    ) -> "Effect":
+    ) -> Effect:
         """The effect a fitted candidate stands for, merged with the base model's effect in its slot."""
         params: dict[str, Any] = {}
         if self.takes_source:
@@ -168,22 +168,22 @@ class EffectKind:
                 params[name] = float(coef)
         return Effect(self.name, JOINT_NAMES[joint], params)
 
-    def term(self, effect: "Effect") -> tuple[str, int, float, bool]:
+    def term(self, effect: Effect) -> tuple[str, int, float, bool]:
         """(candidate kind, source index, width, fixed) of the fit structure that names this effect."""
         source = joint_index(effect.params["source"]) if self.takes_source else effect.index
         width = float(effect.params[self.width]) if self.width else float("nan")
         return self.name, source, width, self.width is not None and self.signal == "driver"
 
-    def candidate_key(self, effect: "Effect") -> tuple[str, int, int]:
+    def candidate_key(self, effect: Effect) -> tuple[str, int, int]:
         """The candidate this effect of a base model occupies (so it is not searched again)."""
         return self.term(effect)[0], effect.index, self.term(effect)[1]
 
     # ------------------------------------------------------------------ synthetic recordings
-    def plausible(self, joint: int, source: int, q_cmd: Array, rng: np.random.Generator) -> "Effect":
+    def plausible(self, joint: int, source: int, q_cmd: Array, rng: np.random.Generator) -> Effect:
         """An effect of this kind with parameters in the range a cable-driven arm shows."""
         raise NotImplementedError(f"{self.name} cannot be synthesised")
 
-    def resized(self, effect: "Effect", ratio: float) -> "Effect | None":
+    def resized(self, effect: Effect, ratio: float) -> Effect | None:
         """The effect with its contribution scaled by `ratio`, if that is linear in a parameter; else
         None and its `width` is searched instead, up to `largest`."""
         return None
@@ -283,7 +283,7 @@ class Effect:
         return {"effect": self.effect, "joint": self.joint, "params": dict(self.params)}
 
     @classmethod
-    def from_dict(cls, data: Mapping[str, Any]) -> "Effect":
+    def from_dict(cls, data: Mapping[str, Any]) -> Effect:
         """Read an effect from its report / preset form; extra keys (ci, text, ...) are ignored."""
         if not isinstance(data, Mapping):
             raise PegbtError(f"an effect entry is an object with effect, joint and params; got {data!r}")

@@ -74,7 +74,7 @@ class ArmPhysics(ArmParameters):
 
     # ----------------------------------------------------------------- construction helpers
     @classmethod
-    def from_dicts(cls, entries: object) -> "ArmPhysics":
+    def from_dicts(cls, entries: object) -> ArmPhysics:
         """The model of effect entries in report / preset form (a list of objects), as files store them."""
         if not isinstance(entries, list):
             raise PegbtError(f"effects is a list of effect entries; got {entries!r}", field="effects")
@@ -90,7 +90,7 @@ class ArmPhysics(ArmParameters):
         return cls(effects)
 
     @classmethod
-    def load(cls, source: str | Path, arm: str = "PSM1") -> "ArmPhysics":
+    def load(cls, source: str | Path, arm: str = "PSM1") -> ArmPhysics:
         """Effects for `arm` from a preset name (`ideal`, `dvrk-real`) or a JSON file.
 
         A file may be a preset (`{"arms": {"PSM1": [effects...]}}`) or a sim-to-real report, which

@@ -32,7 +32,7 @@ import os
 import re
 import sys
 from dataclasses import dataclass, replace
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 from pathlib import Path
 
 import numpy as np
@@ -139,14 +139,14 @@ class Recording:
             raise PegbtError(f"a share of the recording must be in (0, 1], got {fraction}", field="fraction")
         return int(round(fraction * self.n))
 
-    def subset(self, keep: NDArray[np.bool_]) -> "Recording":
+    def subset(self, keep: NDArray[np.bool_]) -> Recording:
         """The samples where `keep` is true, as a recording of their own (itself if it keeps all)."""
         if keep.all():
             return self
         t = None if self.t is None else self.t[keep]
         return replace(self, q_cmd=self.q_cmd[keep], q_phy=self.q_phy[keep], t=t)
 
-    def slice(self, start: int, stop: int | None = None) -> "Recording":
+    def slice(self, start: int, stop: int | None = None) -> Recording:
         """The samples [start, stop) as a recording of their own."""
         t = None if self.t is None else self.t[start:stop]
         return replace(self, q_cmd=self.q_cmd[start:stop], q_phy=self.q_phy[start:stop], t=t)
@@ -425,7 +425,7 @@ def write_recording(
         meta |= {
             "joints": list(JOINT_NAMES),
             "samples": len(q_cmd),
-            "written": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+            "written": datetime.now(UTC).isoformat(timespec="seconds"),
         }
         if resolution is not None:
             meta["resolution"] = list(parse_resolution(resolution))

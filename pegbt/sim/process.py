@@ -99,7 +99,7 @@ class SimProcess:
             if stream is not None:
                 stream.close()
 
-    def __enter__(self) -> "SimProcess":
+    def __enter__(self) -> SimProcess:
         return self
 
     def __exit__(self, *exc: object) -> None:

@@ -61,7 +61,7 @@ def lstm_window(
             self.lstm = torch.nn.LSTM(q_cmd.shape[1], hidden, batch_first=True)
             self.head = torch.nn.Linear(hidden, q_cmd.shape[1])
 
-        def forward(self, batch: "torch.Tensor") -> "torch.Tensor":
+        def forward(self, batch: torch.Tensor) -> torch.Tensor:
             out, _ = self.lstm(batch)
             return self.head(out[:, -1])
 

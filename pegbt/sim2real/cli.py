@@ -6,9 +6,9 @@ import argparse
 import json
 import sys
 
+from pegbt.bagoptions import add_bag_arguments, bag_options
 from pegbt.errors import PegbtError
 from pegbt.numbers import NumberOption
-from pegbt.bagoptions import add_bag_arguments, bag_options
 from pegbt.psm import ARMS
 
 PRESET_OUT = "runs/sim2real/preset.json"  # never a shipped preset unless --out names it

@@ -102,7 +102,7 @@ class JointFit:
             ([self.intercept_value] if self.intercept else []) + [t.coef for t in self.terms if not t.fixed]
         )
 
-    def with_coefficients(self, beta: Array) -> "JointFit":
+    def with_coefficients(self, beta: Array) -> JointFit:
         values = iter(beta[1:] if self.intercept else beta)
         terms = [term if term.fixed else replace(term, coef=float(next(values))) for term in self.terms]
         return JointFit(self.joint, self.intercept, terms, float(beta[0]) if self.intercept else 0.0)

@@ -13,8 +13,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from pegbt.psm import JOINT_NAMES
 from pegbt.physics.kernels import play_grid
+from pegbt.psm import JOINT_NAMES
 
 Array = NDArray[np.float64]
 

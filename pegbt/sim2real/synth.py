@@ -27,8 +27,8 @@ from scipy.optimize import brentq
 
 from pegbt.errors import PegbtError
 from pegbt.physics import ArmPhysics, Effect, effect_kinds, kind_of
-from pegbt.psm import JOINT_NAMES
 from pegbt.physics.recording import Recording, write_recording
+from pegbt.psm import JOINT_NAMES
 
 Array = NDArray[np.float64]
 

@@ -20,11 +20,11 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from pegbt.clock import Clock, WallClock
 from pegbt.errors import PegbtError
 from pegbt.motion.limits import ArmSettings, arm_settings
 from pegbt.psm import JOINT_LABELS
 from pegbt.transport import codec, guards
-from pegbt.clock import Clock, WallClock
 from pegbt.transport.clock import SimClock
 from pegbt.transport.codec import JointSample, OperatingState, TrajectoryLike
 from pegbt.transport.keys import ArmKeys
@@ -117,7 +117,7 @@ class _Outcomes:
 class MotionHandle(StatusFlags):
     """A motion in progress: poll `status` (busy, done, failed) in later ticks, or `stop()` it."""
 
-    def __init__(self, axis: "_Axis", command_id: str, sent_at: float, what: str) -> None:
+    def __init__(self, axis: _Axis, command_id: str, sent_at: float, what: str) -> None:
         self._axis = axis
         self.command_id = command_id
         self.sent_at = sent_at
@@ -153,7 +153,7 @@ class _Axis:
 
     def __init__(
         self,
-        arm: "ArmClient",
+        arm: ArmClient,
         measured_key: str,
         setpoint_key: str,
         servo_key: str,

@@ -15,9 +15,9 @@ import time
 import numpy as np
 from numpy.typing import NDArray
 
+from pegbt.clock import Clock, WallClock
 from pegbt.transport import codec
 from pegbt.transport.arm import EndpointSilent
-from pegbt.clock import Clock, WallClock
 from pegbt.transport.keys import CameraKeys
 from pegbt.transport.link import Link
 from pegbt.transport.sequencing import Received
@@ -31,7 +31,7 @@ class CaptureHandle:
     `sent` says whether the trigger has gone out; until a camera listens it has not, and each poll of
     `ready` tries again."""
 
-    def __init__(self, camera: "CameraClient", requested_at: float) -> None:
+    def __init__(self, camera: CameraClient, requested_at: float) -> None:
         self.camera = camera
         self.request_id: str | None = None
         self.requested_at = requested_at

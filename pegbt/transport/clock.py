@@ -22,9 +22,9 @@ import zenoh
 
 from pegbt.clock import Clock, WallClock  # noqa: F401 (pegbt.transport re-exports them from here)
 from pegbt.errors import PegbtError
+from pegbt.transport import codec
 from pegbt.transport.keys import SimKeys
 from pegbt.transport.link import EndpointSilent, Link
-from pegbt.transport import codec
 from pegbt.transport.sequencing import Tag, unbundle
 
 CONNECTION_CHECK_S = 0.1  # while awaiting a step's reply, how often to check that anyone is still connected

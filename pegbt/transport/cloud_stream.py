@@ -24,7 +24,7 @@ class StreamedCapture:
 
     sent = True  # nothing to send: the camera streams
 
-    def __init__(self, camera: "StreamingCamera", requested_at: float) -> None:
+    def __init__(self, camera: StreamingCamera, requested_at: float) -> None:
         self.camera = camera
         self.requested_at = requested_at
         self.stamp: float | None = None

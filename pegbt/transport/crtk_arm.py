@@ -122,7 +122,7 @@ class RobotMove(StatusFlags):
     has come too (a `setpoint_js` stamped no earlier than the not-busy state: the two are topics of their own,
     and the state may come first); failed past its time bound."""
 
-    def __init__(self, arm: "CrtkArm", sent_at: float, what: str, bound: float) -> None:
+    def __init__(self, arm: CrtkArm, sent_at: float, what: str, bound: float) -> None:
         self._arm = arm
         self.sent_at = sent_at
         self.what = what
@@ -160,7 +160,7 @@ class RobotMove(StatusFlags):
 class CrtkJaw:
     """The jaw of a CRTK PSM: `measured_js`, `setpoint_js`, `move_jp(angle)` (streamed)."""
 
-    def __init__(self, arm: "CrtkArm", measured: Latest[JointSample], setpoint: Latest[JointSample]) -> None:
+    def __init__(self, arm: CrtkArm, measured: Latest[JointSample], setpoint: Latest[JointSample]) -> None:
         self._arm = arm
         self._measured = measured
         self._setpoint = setpoint

@@ -14,9 +14,9 @@ from typing import Any, TypeVar
 import zenoh
 
 from pegbt.errors import PegbtError
+from pegbt.transport.endpoints import DEFAULT_ENDPOINT
 from pegbt.transport.keys import check_namespace
 from pegbt.transport.sequencing import Inlet, Outlet, Received, Source, Tag
-from pegbt.transport.endpoints import DEFAULT_ENDPOINT
 from pegbt.transport.session import client_settings, open_session
 
 
@@ -110,7 +110,7 @@ class Link:
         if self._owns_session:
             self.session.close()
 
-    def __enter__(self) -> "Link":
+    def __enter__(self) -> Link:
         return self
 
     def __exit__(self, *exc: object) -> None:

@@ -20,8 +20,8 @@ import struct
 import threading
 import time
 from collections.abc import Callable, Iterable
-from pathlib import Path
 from functools import cache, partial
+from pathlib import Path
 from typing import Any
 
 import numpy as np

@@ -47,12 +47,12 @@ from pegbt.transport.ros2 import (
 )
 from pegbt.transport.ros2_service import (
     SERVICE_DEPTH,
+    QueryRequest,
+    ServedQueryable,
     Service,
     ServiceCall,
     ServiceRequest,
     ServiceServer,
-    QueryRequest,
-    ServedQueryable,
 )
 
 ADMIN_SPACE = "@ros2_lv"

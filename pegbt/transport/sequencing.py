@@ -50,7 +50,7 @@ class Tag:
         return f"{self.source}|{self.seq}|{self.cause}|{self.outcome}".encode()
 
     @classmethod
-    def decode(cls, raw: zenoh.ZBytes | bytes | None) -> "Tag | None":
+    def decode(cls, raw: zenoh.ZBytes | bytes | None) -> Tag | None:
         """The tag of an attachment, or None for untagged messages and foreign attachments (a ROS 2 bridge,
         rmw_zenoh's own); `BadTag` for one shaped as a tag (four `|` fields) whose number is not 1 to 19
         ASCII digits, or that is longer than any tag."""

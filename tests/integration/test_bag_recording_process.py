@@ -5,8 +5,8 @@ from __future__ import annotations
 import subprocess
 import sys
 from pathlib import Path
-from bag_helpers import stream_bag
 
+from bag_helpers import stream_bag
 
 REPO = Path(__file__).resolve().parents[2]
 

@@ -3,7 +3,6 @@ layout."""
 
 from __future__ import annotations
 
-
 import numpy as np
 
 from pegbt.calibration.collect import SETTLE_S, setpoints_for_minutes

@@ -9,7 +9,6 @@ import subprocess
 import sys
 from pathlib import Path
 
-
 from pegbt.cli import BROKEN_PIPE_STATUS
 
 REPO = Path(__file__).resolve().parents[2]

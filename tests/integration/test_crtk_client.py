@@ -18,8 +18,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 import zenoh
-
 from crtk_double import LOWER, UPPER, CrtkDouble
+
 from pegbt.behaviours.resources.arm_motion import ArmMotion
 from pegbt.behaviours.resources.robot import connect_crtk_robot
 from pegbt.errors import PegbtError

@@ -106,7 +106,7 @@ def test_joints_are_invalid_until_the_encoders_are_biased_then_seven_until_the_t
         assert len(last.position) == 6 and list(last.name)[:3] == ["yaw", "pitch", "insertion"]
         stamp = last.header.stamp.sec + last.header.stamp.nanosec * 1e-9
         assert stamp == pytest.approx(time.time() + HOUR, abs=2.0)  # the robot's clock, an hour ahead
-        homing = [s for s in states.decoded(OPERATING_STATE)]
+        homing = list(states.decoded(OPERATING_STATE))
         assert all(s.header.stamp.sec > time.time() + HOUR - 60 for s in homing)
         assert [(s.state, s.is_busy) for s in homing][:3] == [
             ("DISABLED", False),

@@ -8,7 +8,6 @@ import sys
 import time
 from pathlib import Path
 
-
 from pegbt.executive.analysis import why
 from pegbt.executive.logfile import read_tick_log
 

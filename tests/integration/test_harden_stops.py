@@ -9,7 +9,6 @@ import time
 
 import pytest
 
-
 LONG_WAIT = (
     "tree:\n  sequence:\n    children:\n      - log: {message: started}\n      - wait: {seconds: 600.0}\n"
 )

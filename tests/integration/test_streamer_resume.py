@@ -21,8 +21,8 @@ from typing import Any
 
 import numpy as np
 import pytest
-
 from crtk_double import START, CrtkDouble
+
 from pegbt.behaviours.resources.robot import connect_crtk_robot
 from pegbt.motion.limits import arm_settings
 from pegbt.sim.process import free_port

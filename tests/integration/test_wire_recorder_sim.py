@@ -4,10 +4,10 @@ back by the `mcap` library's readers, which know nothing of pegbt."""
 from __future__ import annotations
 
 import json
-from bag_helpers import read_all
 
 import numpy as np
 import pytest
+from bag_helpers import read_all
 
 
 def test_the_simulator_records_the_commands_it_takes_and_the_state_it_sends(tmp_path):

@@ -8,11 +8,10 @@ import math
 
 import numpy as np
 import pytest
-
 from bag_helpers import JOINT_STATE, STORE, setpoint_streams, write_mcap
-from pegbt.physics.recording import dvrk_data_dir, load_recording
-
 from rosbags.rosbag2 import StoragePlugin, Writer
+
+from pegbt.physics.recording import dvrk_data_dir, load_recording
 
 
 @pytest.fixture(scope="module")

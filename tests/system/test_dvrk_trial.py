@@ -7,7 +7,6 @@ import json
 from pathlib import Path
 
 import pytest
-
 from dvrk_trial_helpers import assert_every_block_placed_cleanly, unilateral_on_dvrk
 
 

@@ -3,7 +3,6 @@ trial goes on."""
 
 from __future__ import annotations
 
-
 from trial_helpers import one_handover
 
 from pegbt.evaluation.trial import TrialSpec, run_trial

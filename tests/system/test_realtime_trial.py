@@ -3,7 +3,6 @@ clock, judged by the simulator's own log."""
 
 from __future__ import annotations
 
-
 import pytest
 
 from pegbt.evaluation.trial import TrialSpec, run_trial, truth_path

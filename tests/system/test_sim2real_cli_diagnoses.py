@@ -9,8 +9,8 @@ import pytest
 
 from pegbt.cli import main
 from pegbt.physics import ArmPhysics
-from pegbt.sim2real.diagnose import diagnose
 from pegbt.physics.recording import load_recording
+from pegbt.sim2real.diagnose import diagnose
 from tests.sim2real_helpers import wrist_recording
 
 

@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 
 from pegbt.physics import ArmPhysics, Effect
-from pegbt.sim2real.diagnose import diagnose
 from pegbt.physics.recording import Recording
+from pegbt.sim2real.diagnose import diagnose
 from tests.sim2real_helpers import recording_with
 
 

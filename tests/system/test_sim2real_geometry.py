@@ -13,10 +13,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from pegbt.cli import main
 from pegbt.motion.ik import inverse_kinematics
 from pegbt.motion.kinematics import forward_kinematics
 from pegbt.physics import ArmPhysics, Effect
-from pegbt.cli import main
 from pegbt.physics.recording import Recording, write_recording
 from pegbt.sim2real.diagnose import diagnose
 from tests.sim2real_helpers import commands

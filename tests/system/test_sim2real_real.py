@@ -1,16 +1,16 @@
 """On the real dVRK recordings the diagnosis finds the wrist physics and the held-out fit improves."""
 
-from functools import lru_cache
+from functools import cache
 from pathlib import Path
 
 import pytest
 
 from pegbt.physics import ArmPhysics
-from pegbt.sim2real.diagnose import Diagnosis, diagnose
 from pegbt.physics.recording import load_recording
+from pegbt.sim2real.diagnose import Diagnosis, diagnose
 
 
-@lru_cache(maxsize=None)
+@cache
 def _diagnosed(folder: Path) -> Diagnosis:
     return diagnose(load_recording(folder), n_bootstrap=20)
 

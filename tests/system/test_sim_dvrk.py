@@ -12,10 +12,10 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
-import zenoh
 import pytest
-from numpy.typing import NDArray
+import zenoh
 from dvrk_peer import STORE, DvrkPeer, Received, empty, joint_state, state_command, wait_for
+from numpy.typing import NDArray
 
 from pegbt.cli import main
 from pegbt.sim import dvrk_config as dvrk

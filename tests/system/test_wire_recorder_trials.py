@@ -6,11 +6,10 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
-from bag_helpers import read_all
 
 import numpy as np
 import pytest
-
+from bag_helpers import read_all
 
 mcap_reader = pytest.importorskip("mcap.reader")
 

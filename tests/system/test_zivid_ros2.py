@@ -15,8 +15,8 @@ from rmw_zenoh_helpers import await_ready, lines, partner
 
 from pegbt.sim.process import SimProcess
 from pegbt.transport.rmw_zenoh import type_hash
-from pegbt.transport.session import open_session, ros2_graph_settings
 from pegbt.transport.ros2_service import ServiceFailed
+from pegbt.transport.session import open_session, ros2_graph_settings
 from pegbt.transport.wires import make_wire
 from pegbt.transport.zivid_camera import ZividCamera
 

@@ -8,8 +8,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from bag_helpers import JOINT_STATE, STORE, joint_state, setpoint_streams, stream_bag, write_mcap
+
 from pegbt.errors import PegbtError
 from pegbt.physics.recording import load_recording
 

@@ -14,6 +14,7 @@ import time
 from xml.etree import ElementTree
 
 import pytest
+from executive_helpers import build_text
 
 from pegbt.clock import ManualClock
 from pegbt.errors import PegbtError
@@ -21,7 +22,6 @@ from pegbt.executive.btlog import export_btlog
 from pegbt.executive.logfile import read_tick_log
 from pegbt.executive.runner import run
 from pegbt.executive.ticklog import TickLogWriter
-from executive_helpers import build_text
 
 bt = pytest.importorskip("behaviortreepy")
 

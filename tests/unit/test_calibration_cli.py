@@ -8,8 +8,8 @@ from calibration_helpers import synthetic, write
 
 from pegbt.calibration.base import CalibrationModel
 from pegbt.cli import main
-from pegbt.physics.recording import RecordingWriter, load_recording
 from pegbt.errors import PegbtError
+from pegbt.physics.recording import RecordingWriter, load_recording
 
 
 def test_train_then_eval_on_a_written_recording(tmp_path, capsys):

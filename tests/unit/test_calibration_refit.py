@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 
 from pegbt.calibration.base import CalibrationModel
+from pegbt.calibration.collect import random_setpoints, spread_setpoints
 from pegbt.calibration.evaluation import evaluate
 from pegbt.calibration.physics_model import PhysicsModel
-from pegbt.calibration.collect import random_setpoints, spread_setpoints
 from pegbt.calibration.refit import MIN_REFIT_SAMPLES, MIN_SPAN, refit, refit_at
 from pegbt.calibration.task import task_box
 from pegbt.cli import main

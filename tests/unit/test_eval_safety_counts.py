@@ -3,7 +3,6 @@ it, and only clips count as clips."""
 
 from __future__ import annotations
 
-
 from pegbt.evaluation.truth import count_safety
 
 

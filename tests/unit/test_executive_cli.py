@@ -98,6 +98,7 @@ def test_usage_errors_exit_2(argv, capsys):
 
 def test_run_provides_declared_resources_and_closes_them(tmp_path, monkeypatch, capsys):
     from executive_helpers import Counter
+
     from pegbt.executive import providers
 
     tree = tmp_path / "uses.yaml"

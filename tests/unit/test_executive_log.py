@@ -7,11 +7,11 @@ import json
 import numpy as np
 import py_trees
 import pytest
-
 from executive_helpers import build_text, motion_class
+
+from pegbt.clock import ManualClock
 from pegbt.errors import PegbtError
 from pegbt.executive.analysis import replay, summary, why
-from pegbt.clock import ManualClock
 from pegbt.executive.logfile import read_tick_log
 from pegbt.executive.runner import run
 from pegbt.executive.ticklog import TickLogWriter

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import py_trees
 import pytest
+from executive_helpers import build_text, motion_class, node, tick_statuses
 from py_trees.common import Status
 
-from executive_helpers import build_text, motion_class, node, tick_statuses
 from pegbt.clock import ManualClock
 from pegbt.executive.guard import BlackboardGuard
 from pegbt.executive.recover import Recover

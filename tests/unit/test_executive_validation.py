@@ -6,8 +6,8 @@ import shutil
 from pathlib import Path
 
 import pytest
-
 from executive_helpers import write_tree
+
 from pegbt.errors import PegbtError
 from pegbt.executive.loader import check_tree, load_tree
 

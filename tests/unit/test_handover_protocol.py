@@ -8,8 +8,8 @@ import json
 from executive_helpers import build_text, node
 from py_trees.common import Status
 
-from pegbt.clock import ManualClock
 from pegbt.cli import main
+from pegbt.clock import ManualClock
 from pegbt.handover_protocol import CONDITIONS, Giver, Handover, Receiver, key
 
 

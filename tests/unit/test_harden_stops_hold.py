@@ -3,7 +3,6 @@ set-point is refused."""
 
 from __future__ import annotations
 
-
 import numpy as np
 
 from pegbt.motion.limits import arm_settings

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-
 import pytest
 
 from pegbt.transport.sequencing import BadTag, Tag

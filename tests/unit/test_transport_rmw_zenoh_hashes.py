@@ -3,7 +3,6 @@ computes and decodes."""
 
 from __future__ import annotations
 
-
 from zenoh_ros2_sdk.attachment import Attachment as SdkAttachment
 
 from pegbt.transport.codec import JOINT_STATE

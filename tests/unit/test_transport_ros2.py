@@ -7,9 +7,9 @@ import time
 
 import zenoh
 
+from pegbt.sim.process import free_port
 from pegbt.transport.ros2 import BridgeWire, Topic
 from pegbt.transport.session import client_settings, endpoint_settings, open_session
-from pegbt.sim.process import free_port
 
 
 def _wait_for(condition, timeout: float = 20.0) -> bool:

@@ -8,13 +8,13 @@ from pathlib import Path
 import pytest
 import yaml
 from executive_helpers import build_text, node
+from py_trees.common import Status
 
+from pegbt.cli import main
 from pegbt.clock import ManualClock
+from pegbt.executive.causes import failure_chains
 from pegbt.executive.loader import check_tree, load_tree
 from pegbt.executive.logfile import read_tick_log
-from pegbt.executive.causes import failure_chains
-from pegbt.cli import main
-from py_trees.common import Status
 
 REPO = Path(__file__).resolve().parents[2]
 

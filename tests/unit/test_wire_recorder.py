@@ -12,8 +12,8 @@ import time
 import numpy as np
 import pytest
 import zenoh
-
 from bag_helpers import read_all
+
 from pegbt.clock import ManualClock
 from pegbt.transport import codec, recorder
 from pegbt.transport.recorder import WireRecorder

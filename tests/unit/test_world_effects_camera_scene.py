@@ -5,6 +5,7 @@ never the world's truth."""
 import numpy as np
 import pytest
 
+from pegbt.evaluation.trial import TrialSpec, simulator_args
 from pegbt.motion.limits import arm_settings
 from pegbt.perception.blocks import locate_blocks
 from pegbt.perception.board import PegboardRegistration
@@ -15,7 +16,6 @@ from pegbt.sim.log import SimLog
 from pegbt.sim.scene import Scene
 from pegbt.sim.world import World
 from pegbt.sim.world_effects import WorldEffects
-from pegbt.evaluation.trial import TrialSpec, simulator_args
 
 
 def test_the_scene_puts_each_tool_where_the_offset_base_puts_it():

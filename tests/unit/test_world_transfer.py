@@ -1,10 +1,12 @@
 """Grasp, lift, transfer, place and handover in the simulated world, decided by geometry alone."""
 
 import copy
+
 import numpy as np
 import pytest
 from world_effects_helpers import YieldingDriver
 
+from pegbt.frames import yaw_pose
 from pegbt.motion.handover import handover_meeting_point
 from pegbt.motion.settings import motion_settings
 from pegbt.sim.scripted import (
@@ -16,7 +18,6 @@ from pegbt.sim.scripted import (
     place_keyframes,
     transfer_keyframes,
 )
-from pegbt.frames import yaw_pose
 from pegbt.sim.world import World
 
 

@@ -13,6 +13,7 @@ from functools import partial
 import numpy as np
 from py_trees.common import Status
 
+from pegbt.behaviours.actions.handover import plan_meeting
 from pegbt.behaviours.base import (
     RESOURCES,
     MotionLeaf,
@@ -22,7 +23,6 @@ from pegbt.behaviours.base import (
     key_param,
     peg_param,
 )
-from pegbt.behaviours.actions.handover import plan_meeting
 from pegbt.behaviours.motion import above_pegs_first, held_param
 from pegbt.behaviours.poses import approach_for, transfer_for
 from pegbt.executive.params import Param

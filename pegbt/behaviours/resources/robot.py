@@ -36,9 +36,9 @@ from pegbt.transport.crtk_arm import LIVENESS_S, CrtkArm, make_ready
 from pegbt.transport.dvrk_topics import PsmTopics, point_cloud_topic
 from pegbt.transport.endpoints import DEFAULT_POINTS_TOPIC
 from pegbt.transport.keys import check_namespace
+from pegbt.transport.ros2 import Ros2Wire, Topic
 from pegbt.transport.session import Session, open_session, reaches_anyone
 from pegbt.transport.streaming import Streamer
-from pegbt.transport.ros2 import Ros2Wire, Topic
 from pegbt.transport.wires import make_wire, wire_session_settings
 from pegbt.transport.zivid_camera import POINTS_XYZ as ZIVID_POINTS
 from pegbt.transport.zivid_camera import ZividCamera

@@ -34,10 +34,10 @@ from pegbt.motion.robot_config import DEFAULT_TOOL, robot_arm_settings
 from pegbt.motion.settings import MotionSettings, motion_settings
 from pegbt.motion.trajectory import Trajectory
 from pegbt.motion.transfer import TransferPlanner
+from pegbt.numbers import checked_number
 from pegbt.perception.blocks import BlockLocator
 from pegbt.perception.board import PegboardRegistration
 from pegbt.perception.grasp import GraspSelector
-from pegbt.numbers import checked_number
 from pegbt.psm import ARMS
 from pegbt.workcell import Workcell, workcell
 
@@ -129,7 +129,7 @@ class Skills:
             closest = min(closest, float(distance.min()))
         return closest
 
-    def report(self) -> "SkillsReport | None":
+    def report(self) -> SkillsReport | None:
         """How the motions went (None if nothing moved): trajectories sent, fallbacks, planned tool-tip paths."""
         if not any(motion.plans for motion in self.arms.values()):
             return None

@@ -12,12 +12,11 @@ from pegbt.errors import PegbtError
 from pegbt.sim.world_effects import WorldEffects
 from pegbt.sim2real.outcomes.cells import CONDITIONS, VARIANTS, Cell, Outcomes
 from pegbt.sim2real.outcomes.fit import Profile, Verdict, fit
-from pegbt.sim2real.outcomes.locate import Row, locate
-from pegbt.sim2real.outcomes.predict import Prediction, predict, predict_null
 from pegbt.sim2real.outcomes.likelihood import log_likelihood
+from pegbt.sim2real.outcomes.locate import Row, locate
 from pegbt.sim2real.outcomes.phasesim import TransferResult
+from pegbt.sim2real.outcomes.predict import Prediction, predict, predict_null
 from pegbt.sim2real.outcomes.simulate import Key, Mapper, SimCounts, Task, simulate_cells
-
 
 CLOSE = 0.05  # real and simulated rates this close need no more simulated transfers to be compared
 

@@ -15,7 +15,6 @@ from pegbt.sim2real.outcomes.cells import Cell
 from pegbt.sim2real.outcomes.intervals import count_log_likelihood
 from pegbt.sim2real.outcomes.simulate import CATEGORIES, SimCounts
 
-
 UNSIMULATED = (
     "sense",
 )  # the phase simulator hands the executive what perception would see: never lost there

@@ -18,10 +18,10 @@ from functools import cache
 import numpy as np
 from numpy.typing import NDArray
 
-from pegbt.behaviours.resources.arm_motion import ArmMotion
-from pegbt.behaviours.resources.skills import SIMULATOR_CALIBRATION, Skills
 from pegbt.behaviours.actions.handover import Meeting, plan_meeting
 from pegbt.behaviours.poses import approach_for, from_handover, to_handover, transfer_for
+from pegbt.behaviours.resources.arm_motion import ArmMotion
+from pegbt.behaviours.resources.skills import SIMULATOR_CALIBRATION, Skills
 from pegbt.errors import PegbtError
 from pegbt.frames import yaw_of
 from pegbt.motion.ik import inverse_kinematics
