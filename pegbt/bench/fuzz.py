@@ -25,6 +25,7 @@ import numpy as np
 
 from pegbt.bench.fuzz_bags import fuzz_mcap, fuzz_rosbag2
 from pegbt.bench.fuzz_btlog import fuzz_btlog
+from pegbt.bench.fuzz_monitor import fuzz_monitor_requests
 from pegbt.bench.fuzz_outcomes import fuzz_outcome_tables
 from pegbt.bench.fuzz_rmw_zenoh import fuzz_rmw_zenoh
 from pegbt.bench.fuzz_robot_config import fuzz_robot_config
@@ -434,6 +435,7 @@ READERS: dict[str, Callable[[int, random.Random, Path], Tally]] = {
     "rmw_zenoh_wire": fuzz_rmw_zenoh,
     "world_files": fuzz_world_files,
     "outcome_tables": fuzz_outcome_tables,
+    "monitor_requests": fuzz_monitor_requests,
 }
 
 
