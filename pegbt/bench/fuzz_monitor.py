@@ -24,6 +24,7 @@ from pegbt.bench.fuzzing import SILENT, Hang, Tally
 
 ANSWER_S = 3.0
 READ_LIMIT = 1 << 20  # bytes of an answer read before judging it
+CLOSE_LIMIT = 64 << 20  # bytes of frames read while waiting for a socket to be closed
 
 
 class _Errors(logging.Handler):
@@ -310,18 +311,21 @@ class _Campaign:
         return read, f"frame: {what}", True
 
     def _closes(self, connection: socket.socket) -> bool:
-        """Whether the server closes the socket (a close frame or end of stream) within `ANSWER_S`."""
-        seen = b""
-        while len(seen) < READ_LIMIT:
+        """Whether the server closes the socket (a close frame or end of stream) within `ANSWER_S` of
+        silence, the frames it sends first skipped (at most `CLOSE_LIMIT` bytes of them)."""
+        from pegbt.bench.monitor_clients import read_frame
+
+        skipped = 0
+        while skipped < CLOSE_LIMIT:
             try:
-                chunk = connection.recv(65536)
+                opcode, payload = read_frame(connection)
             except TimeoutError:
                 return False
             except ConnectionError:
                 return True
-            if not chunk or b"\x88" in chunk[:1]:
+            if opcode == 0x8:
                 return True
-            seen += chunk
+            skipped += len(payload)
         return False
 
     def stall(self) -> tuple[Callable[[], object], str, bool]:
@@ -339,7 +343,9 @@ class _Campaign:
                 if _status(connection.recv(12)) != 101:
                     return False
                 for n in range(count):
-                    self.server.publish({"type": "tick", "tick": n, "padding": "p" * size})
+                    self.server.publish(
+                        {"type": "padding", "n": n, "padding": "p" * size}
+                    )  # not kept for later pages
                 self.probe()
             return True
 
