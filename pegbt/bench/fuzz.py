@@ -25,8 +25,11 @@ import numpy as np
 
 from pegbt.bench.fuzz_bags import fuzz_mcap, fuzz_rosbag2
 from pegbt.bench.fuzz_btlog import fuzz_btlog
+from pegbt.bench.fuzz_monitor import fuzz_monitor_requests
+from pegbt.bench.fuzz_outcomes import fuzz_outcome_tables
 from pegbt.bench.fuzz_rmw_zenoh import fuzz_rmw_zenoh
 from pegbt.bench.fuzz_robot_config import fuzz_robot_config
+from pegbt.bench.fuzz_world import fuzz_world_files
 from pegbt.bench.fuzzing import REPORTED, SILENT, Tally, mutate_records, mutate_text
 from pegbt.errors import PegbtError
 
@@ -430,6 +433,9 @@ READERS: dict[str, Callable[[int, random.Random, Path], Tally]] = {
     "btlog_files": fuzz_btlog,
     "robot_config_folders": fuzz_robot_config,
     "rmw_zenoh_wire": fuzz_rmw_zenoh,
+    "world_files": fuzz_world_files,
+    "outcome_tables": fuzz_outcome_tables,
+    "monitor_requests": fuzz_monitor_requests,
 }
 
 

@@ -21,6 +21,7 @@ from __future__ import annotations
 import asyncio
 import hmac
 import json
+import logging
 import secrets
 import threading
 import time
@@ -31,6 +32,7 @@ from pathlib import Path
 from typing import Any
 
 from aiohttp import WSMsgType, web
+from aiohttp.http_exceptions import HttpProcessingError
 
 from pegbt.errors import PegbtError
 from pegbt.monitor.history import History
@@ -95,6 +97,7 @@ class MonitorServer:
         return len(self._clients)
 
     def start(self) -> MonitorServer:
+        logging.getLogger("aiohttp.server").addFilter(_answered_malformed)
         self._thread.start()
         self._started.wait(30)
         if self._error is not None:
@@ -232,6 +235,11 @@ class MonitorServer:
         client.queued = 0
         if client.request.transport is not None:
             client.request.transport.abort()
+
+
+def _answered_malformed(record: logging.LogRecord) -> bool:
+    """Leave out aiohttp's traceback for a request it could not parse: the client's error, answered 400."""
+    return not (record.exc_info and isinstance(record.exc_info[1], HttpProcessingError))
 
 
 def _frame(texts: Iterable[str]) -> bytes:

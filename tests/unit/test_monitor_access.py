@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import logging
 import socket
 import time
 
@@ -74,6 +75,23 @@ def test_a_request_for_another_host_is_refused(server, host):
         assert http_status(server.port, "/", host) == 403
         assert http_status(server.port, "/static/dist/monitor.js", host) == 403
     assert http_status(server.port, "/", f"localhost:{server.port}") == 200
+
+
+@pytest.mark.parametrize(
+    "request_bytes",
+    [
+        b"GET / HTTP/1.1\r\nHost: 127.0.0.1:{port}\x00\r\n\r\n",
+        b"GET / HTTP/1.1\r\nHost: " + b"h" * 9000 + b"\r\n\r\n",
+        b"GET / HTTP/9.9\r\nHost: 127.0.0.1:{port}\r\n\r\n",
+        b"POST / HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\nTransfer-Encoding: chunked\r\n\r\nzz\r\n\r\n",
+    ],
+)
+def test_a_malformed_request_is_answered_400_without_a_logged_traceback(server, request_bytes, caplog):
+    with socket.create_connection(("127.0.0.1", server.port), timeout=10) as connection:
+        connection.sendall(request_bytes.replace(b"{port}", str(server.port).encode()))
+        assert connection.recv(12)[8:] == b" 400"
+    time.sleep(0.1)
+    assert [r for r in caplog.records if r.levelno >= logging.ERROR] == []
 
 
 def test_without_a_token_the_origin_is_still_checked(capsys):

@@ -104,6 +104,13 @@ def test_yaml_errors_name_line_and_field(tmp_path: Path, text: str, line: int, f
             3,
             "condition",
         ),
+        (
+            "variant,condition,attempted,succeeded\nbilateral,uncalibrated," + "9" * 5000 + ",1\n",
+            2,
+            "attempted",
+        ),
+        ("variant,condition,attempted,succeeded\nbilateral,uncalibrated,3,\u00b2\n", 2, "succeeded"),
+        ("variant,condition,attempted,succeeded\nbilateral,uncali\rbrated,3,1\n", 2, None),
     ],
 )
 def test_csv_errors_name_line_and_field(tmp_path: Path, text: str, line: int, field: str):

@@ -105,7 +105,10 @@ def _read_csv(path: Path) -> Outcomes:
     except UnicodeDecodeError as error:
         raise PegbtError(f"not UTF-8 text ({error.reason})", file=name) from None
     reader = csv.DictReader(io.StringIO(content))
-    header = [column.strip() for column in reader.fieldnames or []]
+    try:
+        header = [column.strip() for column in reader.fieldnames or []]
+    except csv.Error as error:
+        raise PegbtError(f"not CSV ({error})", file=name, line=reader.line_num + 1) from None
     known = {"variant", "condition", "attempted", "succeeded", "mean_transfer_s", "counting"}
     known |= {f"failures_{phase}" for phase in PHASES}
     for column in header:
@@ -123,8 +126,11 @@ def _read_csv(path: Path) -> Outcomes:
     cells: list[Cell] = []
     countings: set[str] = set()
     seen: set[tuple[str, str]] = set()
-    for row in reader:
-        line = reader.line_num
+    try:
+        rows = [(reader.line_num, row) for row in reader]
+    except csv.Error as error:
+        raise PegbtError(f"not CSV ({error})", file=name, line=reader.line_num + 1) from None
+    for line, row in rows:
         values = {key: (value or "").strip() for key, value in row.items() if key is not None}
         if None in row:
             raise PegbtError("more values than columns", file=name, line=line)
@@ -139,7 +145,8 @@ def _read_csv(path: Path) -> Outcomes:
 
         def count(column: str) -> int:
             value = values.get(column, "")
-            if not value.isdigit() or int(value) > _MAX_COUNT:
+            digits = value.isascii() and value.isdigit() and len(value) <= len(str(_MAX_COUNT))
+            if not digits or int(value) > _MAX_COUNT:
                 raise PegbtError(
                     f"expected a whole number ≥ 0, got {value!r}", file=name, line=line, field=column
                 )
