@@ -56,7 +56,7 @@ def _subscribe(port: int, topic: str, typename: str, count: int, timeout: float)
     subscriber = ROS2Subscriber(topic, typename, on_message, router_port=port, node_name="sdk_listener")
     print(json.dumps({"ready": True}), flush=True)
     done.wait(timeout)
-    print(json.dumps({"messages": got}), flush=True)
+    print(json.dumps({"messages": got[:count]}), flush=True)  # more may come while it prints
     subscriber.close()
 
 

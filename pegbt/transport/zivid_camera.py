@@ -80,8 +80,9 @@ class ZividCapture:
         return self._arrived.is_set()
 
     def _check_response(self) -> None:
-        """Fail the capture on a refusal, or once its cloud is overdue after the response."""
-        if self._arrived.is_set() or not self.call.done:
+        """Note the response, then fail the capture on a refusal or once its cloud is overdue after it. The
+        driver publishes before it responds, so the cloud may well have come first."""
+        if not self.call.done or (self._answered_at is not None and self._arrived.is_set()):
             return
         service, topic = self.camera.service.name, self.camera.topic.name
         try:
@@ -95,7 +96,7 @@ class ZividCapture:
         now = time.monotonic()
         if self._answered_at is None:
             self._answered_at = now
-        elif now - self._answered_at > CLOUD_GRACE_S:
+        elif not self._arrived.is_set() and now - self._answered_at > CLOUD_GRACE_S:
             self.refuse(
                 ServiceFailed(
                     f"capture failed: service {service} responded, but no cloud came on {topic} within "
