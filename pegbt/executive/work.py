@@ -39,7 +39,7 @@ class Job(Generic[T]):
         """On `executor`'s threads, or at once in the caller when there is none (`WorkPool.inline`)."""
         self._pool = pool
         self.kind = getattr(fn, "func", fn).__qualname__  # what computes (a partial's function)
-        self.submitted = time.perf_counter()
+        self.submitted = self.wanted_from = time.perf_counter()
         self.started: float | None = None
         self.finished: float | None = None
         self.discarded = False
@@ -67,12 +67,17 @@ class Job(Generic[T]):
 
     def result(self) -> T:
         """The job's value, or the exception it raised; blocks if it is not done. The first call counts the
-        time from submission to now as time the tree waited for this job."""
+        time from submission (or from when a leaf came to want it, `wanted`) to now as time the tree
+        waited for this job."""
         value = self._future.result()
         if not self._picked:
             self._picked = True
             self._pool.count(self)
         return value
+
+    def wanted(self) -> None:
+        """A leaf wants the result from now: a job submitted ahead of need counts the wait from here."""
+        self.wanted_from = time.perf_counter()
 
     def discard(self) -> None:
         """Nobody wants the result any more (its leaf was halted): cancel it if it has not started."""
@@ -166,7 +171,7 @@ class WorkPool:
     def count(self, job: Job) -> None:
         computed = 0.0 if job.started is None or job.finished is None else job.finished - job.started
         with self._lock:
-            self.stats.add(job.kind, computed, time.perf_counter() - job.submitted)
+            self.stats.add(job.kind, computed, time.perf_counter() - job.wanted_from)
 
     def close(self) -> None:
         """Drop queued jobs and let running ones end on their own (their results are discarded)."""

@@ -182,7 +182,11 @@ class Approach(MotionLeaf):
     """From low among the pegs (having just placed a block) with a planner (optimized): along an
     SQP-refined spline that rises, moves over and keeps the final descent on the block's axis. Otherwise
     (no planner, or from high up, where the cubics are as quick): rest-to-rest cubics, rising first if
-    low, stopping above the grasp and just above the block so the descent stays straight."""
+    low, stopping above the grasp and just above the block so the descent stays straight.
+
+    Once it is sent, the carry that follows in a transfer (the arm's transfer under way, its goal peg) is
+    planned and pre-compensated while the approach and the grasp play: its inputs (board, block, grasp)
+    are known; `transfer` takes that plan if its own inputs are the same, and checks it as it is sent."""
 
     def begin(self) -> None:
         arm = self.param("arm")
@@ -213,6 +217,20 @@ class Approach(MotionLeaf):
 
     def started(self, trajectories: list[Trajectory]) -> None:
         self.feedback_message = f"approaching in {trajectories[0].duration:.2f} s"
+        arm = self.param("arm")
+        record = self.robot.trial.under_way(arm)
+        if record is None:
+            return
+        motion, board, block, grasp = (
+            self.motion(arm),
+            self.read("/board"),
+            self.get("block"),
+            self.get("grasp"),
+        )
+        waypoints = transfer_for(self.skills.cell, self.skills.motion, arm, board, block, grasp, record.place)
+        motion.plan_early(
+            self.context.work, (board, block, grasp, record.place), partial(motion.transfer, waypoints)
+        )
 
 
 @behaviour(

@@ -36,6 +36,9 @@ MAX_RISE = 0.165  # m: the PSM's whole insertion travel (0.08-0.245 m, skills/ps
     resources=RESOURCES,
 )
 class Transfer(CarryLeaf):
+    """Planned early, while the approach plays, when that approach knew this transfer's goal peg
+    (`approach`)."""
+
     def waypoints(self) -> TransferWaypoints:
         return transfer_for(
             self.skills.cell,
@@ -46,6 +49,9 @@ class Transfer(CarryLeaf):
             self.get("grasp"),
             int(self.param("place")),
         )
+
+    def inputs(self) -> tuple[object, ...]:
+        return (self.read("/board"), self.get("block"), self.get("grasp"), int(self.param("place")))
 
 
 @behaviour(

@@ -174,6 +174,11 @@ class Trial:
         self.transfers.append(record)
         return record
 
+    def under_way(self, arms: str) -> TransferRecord | None:
+        """The transfer `arms` (an arm, or giver→receiver) began last, if it has not finished."""
+        record = next((r for r in reversed(self.transfers) if r.arms == arms), None)
+        return record if record is not None and record.ended is None else None
+
     def finish(self, index: int, outcome: str, note: str = "") -> TransferRecord:
         record = self.transfers[index - 1]
         record.ended, record.outcome, record.note = self.clock.now(), outcome, note
