@@ -159,13 +159,17 @@ def test_a_carry_planned_early_from_a_block_seen_again_is_planned_anew(tmp_path,
     early = skills.arm("PSM1").early
     assert early is not None
     block = values["/PSM1/block"]
-    py_trees.blackboard.Blackboard.set("/PSM1/block", type(block)(**vars(block)))  # seen again: a new estimate
+    py_trees.blackboard.Blackboard.set(
+        "/PSM1/block", type(block)(**vars(block))
+    )  # seen again: a new estimate
     assert run(built, clock, pool) == Status.SUCCESS
     assert early.job.discarded
     assert len(pool.submitted) == 3 and pool.submitted[2] > 1.0  # the carry made anew once the grasp held
 
 
-def test_a_plan_the_arm_has_moved_away_from_is_made_again_from_where_it_is(tmp_path, robot, skills, seen, clock):
+def test_a_plan_the_arm_has_moved_away_from_is_made_again_from_where_it_is(
+    tmp_path, robot, skills, seen, clock
+):
     pool = GatedPool(clock)
     arm = psm1(robot)
     built = build(tmp_path, robot, skills, APPROACH, pool, chosen(skills, seen))

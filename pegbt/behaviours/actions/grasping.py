@@ -218,7 +218,7 @@ class Approach(MotionLeaf):
     def started(self, trajectories: list[Trajectory]) -> None:
         self.feedback_message = f"approaching in {trajectories[0].duration:.2f} s"
         arm = self.param("arm")
-        record = self.robot.trial.under_way(arm)
+        record = self.robot.trial.under_way(arm, placing=True)
         if record is None:
             return
         motion, board, block, grasp = (
