@@ -191,6 +191,7 @@ class MotionLeaf(RobotLeaf):
         self.stepped_back = False
         self.job: Job | None = None
         self.replans = 0
+        self.early_at: int | None = None  # where a plan made early stands among the motions
         self._start()
 
     def _start(self) -> None:
@@ -226,9 +227,15 @@ class MotionLeaf(RobotLeaf):
             self._pick_up()
 
     def _early(self) -> Job | None:
-        """The job of the plan made early for this leaf's one arm motion, if one was made from its inputs."""
-        inputs = self.outgoing[0].inputs if len(self.outgoing) == 1 else None
-        return None if inputs is None else self.motion(self.outgoing[0].arm).take_early(inputs)
+        """The job of the plan made early for this leaf's one arm motion (beside jaw motions), if one was
+        made from its inputs; its result, one plan, stands at that motion's place (`_pick_up`)."""
+        self.early_at = None
+        arms = [i for i, outgoing in enumerate(self.outgoing) if outgoing.trajectory is not None]
+        inputs = self.outgoing[arms[0]].inputs if len(arms) == 1 else None
+        job = None if inputs is None else self.motion(self.outgoing[arms[0]].arm).take_early(inputs)
+        if job is not None:
+            self.early_at = arms[0]
+        return job
 
     def _stale(self, prepared: list[Prepared | None]) -> str | None:
         """Why a plan may not be sent as it is (made from a state the arm has left), or None."""
@@ -287,6 +294,9 @@ class MotionLeaf(RobotLeaf):
             self.problem = str(error)
             self.halt_motions()
             return
+        if self.early_at is not None:
+            (plan,) = prepared
+            prepared = [plan if i == self.early_at else None for i in range(len(self.outgoing))]
         self._send(prepared)
 
     def _wait_for_the_way(self) -> Status:

@@ -104,7 +104,8 @@ def fresh_blackboard():
 
 def chosen(skills: Skills, seen) -> dict[str, object]:
     block = block_on_peg(seen[1], PICK)
-    return {"/board": seen[0], "/PSM1/block": block, "/PSM1/grasp": skills.selectors["PSM1"].pick(block)}
+    grasp = skills.selectors["PSM1"].pick(block)
+    return {"/board": seen[0], "/blocks": seen[1], "/PSM1/block": block, "/PSM1/grasp": grasp}
 
 
 def build(tmp_path: Path, robot: Robot, skills: Skills, tree: str, pool: WorkPool, values: dict) -> BuiltTree:
@@ -200,3 +201,44 @@ def test_a_motion_aborted_by_a_late_hold_does_not_poison_the_next(tmp_path, robo
     again = build(tmp_path, robot, skills, APPROACH, pool, values)  # pick again
     assert run(again, clock, pool) == Status.SUCCESS, again.root.feedback_message
     assert np.allclose(arm.trajectories[-1].q[0], held)
+
+
+LOOP = f"""
+lists:
+  two: [{{pick: {PICK}, place: {PLACE}}}, {{pick: 0, place: 6}}]
+subtrees:
+  one:
+    args:
+      pick: {{type: int, doc: start peg}}
+      place: {{type: int, doc: goal peg}}
+      next: {{type: any, default: {{}}, doc: the next item}}
+    tree:
+      sequence:
+        children:
+          - begin_transfer: {{arms: PSM1, pick: "${{pick}}", place: "${{place}}", transfer: /n}}
+          - select_grasp: {{arm: PSM1, peg: "${{pick}}", block: /PSM1/block, grasp: /PSM1/grasp}}
+          - approach: {{arm: PSM1, block: /PSM1/block, grasp: /PSM1/grasp}}
+          - grasp: {{arm: PSM1, holding: /PSM1/holding}}
+          - transfer: {{arm: PSM1, place: "${{place}}", block: /PSM1/block, grasp: /PSM1/grasp, plan_s: /PSM1/plan_s, then: "${{next}}"}}
+          - release: {{arm: PSM1, holding: /PSM1/holding}}
+"""
+
+
+def test_the_next_blocks_approach_is_planned_while_this_carry_plays(tmp_path, robot, skills, seen, clock):
+    pool = GatedPool(clock)
+    arm = psm1(robot)
+    arm.block_in_jaw = True
+    context = RunContext(clock=clock, resources={"robot": robot, "skills": skills}, work=pool)
+    text = (
+        f"blackboard: {{/board: null, /blocks: null}}\n{LOOP}\ntree: {{for_each: {{list: two, use: one}}}}\n"
+    )
+    built = load_tree(write_tree(tmp_path, text)).build(context)
+    set_initial_blackboard(built)
+    py_trees.blackboard.Blackboard.set("/board", seen[0])
+    py_trees.blackboard.Blackboard.set("/blocks", seen[1])
+    built.root.setup_with_descendants()
+    assert run(built, clock, pool, seconds=60.0) == Status.SUCCESS, built.root.feedback_message
+    approach, carry, approach_again, carry_again = (sent for sent in arm.sent if sent.kind == "trajectory")
+    assert np.allclose(approach_again.target.q[0], carry.target.q[-1])
+    # each plan made as the motion before it was sent: the second approach while the first carry played
+    assert pool.submitted == [0.0, 0.0, carry.at, approach_again.at]

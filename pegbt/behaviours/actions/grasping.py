@@ -8,9 +8,11 @@ block's wall, one closing on nothing goes all the way.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from functools import partial
 
 import numpy as np
+from numpy.typing import NDArray
 from py_trees.common import Status
 
 from pegbt.behaviours.actions.handover import plan_meeting
@@ -25,6 +27,7 @@ from pegbt.behaviours.base import (
 )
 from pegbt.behaviours.motion import above_pegs_first, held_param
 from pegbt.behaviours.poses import approach_for, transfer_for
+from pegbt.behaviours.resources.skills import Skills
 from pegbt.executive.params import Param
 from pegbt.executive.registry import behaviour
 from pegbt.executive.work import Job
@@ -32,6 +35,7 @@ from pegbt.motion.ik import solve_ik
 from pegbt.motion.kinematics import forward_kinematics
 from pegbt.motion.trajectory import Trajectory
 from pegbt.perception.blocks import BlockEstimate, block_on_peg, stack_level
+from pegbt.perception.board import BoardEstimate
 from pegbt.perception.grasp import Grasp
 from pegbt.psm import ARMS
 from pegbt.workcell import N_PEGS
@@ -166,6 +170,33 @@ class SelectGrasp(RobotLeaf):
         return (last_grasp.candidate,)
 
 
+def approach_plan(
+    skills: Skills,
+    arm: str,
+    start: NDArray[np.float64],
+    board: BoardEstimate | None,
+    block: BlockEstimate,
+    grasp: Grasp,
+) -> Callable[[], Trajectory]:
+    """The planning (for a worker) of `arm`'s approach from joints `start` onto `grasp` of `block` (see
+    `Approach`); what `transfer` plans ahead for the loop's next block."""
+    motion, cell = skills.arm(arm), skills.cell
+    waypoints = transfer_for(cell, skills.motion, arm, board, block, grasp)
+    stops = above_pegs_first(cell, skills.motion, arm, start, motion.settings)
+    if motion.planner is not None and stops:
+        return partial(
+            motion.transfer, approach_for(cell, skills.motion, arm, forward_kinematics(start), waypoints)
+        )
+    names = [f"above the grasp {i}" for i in range(len(stops))] + [
+        "over the grasp",
+        "just above the block",
+        "grasp",
+    ]
+    poses = [waypoints.poses[1], waypoints.approach, waypoints.poses[0]]
+    joints = stops + [solve_ik(pose, motion.settings, what=name) for pose, name in zip(poses, names[-3:])]
+    return partial(motion.through, start, joints, names[: len(joints)])
+
+
 @behaviour(
     "approach",
     "move `arm` over its chosen grasp at the transfer height and down onto it, opening the jaw on the way",
@@ -190,29 +221,12 @@ class Approach(MotionLeaf):
 
     def begin(self) -> None:
         arm = self.param("arm")
-        motion, cell = self.motion(arm), self.skills.cell
-        waypoints = transfer_for(
-            cell, self.skills.motion, arm, self.read("/board"), self.get("block"), self.get("grasp")
+        block, grasp = self.get("block"), self.get("grasp")
+        board = self.read("/board")
+        plan = approach_plan(
+            self.skills, arm, self.motion(arm).start_from(self.client(arm)), board, block, grasp
         )
-        start = motion.start_from(self.client(arm))
-        stops = above_pegs_first(cell, self.skills.motion, arm, start, motion.settings)
-        if motion.planner is not None and stops:
-            plan = partial(
-                motion.transfer,
-                approach_for(cell, self.skills.motion, arm, forward_kinematics(start), waypoints),
-            )
-        else:
-            names = [f"above the grasp {i}" for i in range(len(stops))] + [
-                "over the grasp",
-                "just above the block",
-                "grasp",
-            ]
-            poses = [waypoints.poses[1], waypoints.approach, waypoints.poses[0]]
-            joints = stops + [
-                solve_ik(pose, motion.settings, what=name) for pose, name in zip(poses, names[-3:])
-            ]
-            plan = partial(motion.through, start, joints, names[: len(joints)])
-        self.move(arm, plan, f"{arm} approach")
+        self.move(arm, plan, f"{arm} approach", (board, block, grasp.candidate))
         self.move_jaw(arm, self.skills.motion.transfer.jaw_open, f"{arm} jaw opening")
 
     def started(self, trajectories: list[Trajectory]) -> None:
