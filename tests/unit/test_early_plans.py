@@ -55,13 +55,19 @@ class GatedPool(WorkPool):
         self.submitted: list[float] = []  # the clock time of each job's submission
 
     def submit(self, fn: Callable[..., Any], *args: Any) -> Job[Any]:
+        return super().submit(self._gated(fn), *args)
+
+    def submit_ahead(self, fn: Callable[..., Any], *args: Any) -> Job[Any]:
+        return super().submit_ahead(self._gated(fn), *args)
+
+    def _gated(self, fn: Callable[..., Any]) -> Callable[..., Any]:
         def gated(*inner: Any) -> Any:
             assert self.gate.wait(10.0), "the test never opened the gate"
             return fn(*inner)
 
         gated.__qualname__ = getattr(fn, "func", fn).__qualname__
         self.submitted.append(self.clock.now())
-        return super().submit(gated, *args)
+        return gated
 
     def settle(self) -> None:
         """Wait (bounded) until every job submitted has ended."""

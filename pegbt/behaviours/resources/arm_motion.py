@@ -211,7 +211,7 @@ class ArmMotion:
         computing takes no time and there is nothing to hide."""
         self.discard_early()
         if not pool.inline:
-            self.early = EarlyPlan(inputs, pool.submit(prepare_all, [self.preparation(planned)]))
+            self.early = EarlyPlan(inputs, pool.submit_ahead(prepare_all, [self.preparation(planned)]))
 
     def take_early(self, inputs: tuple[object, ...]) -> Job[list[Prepared | None]] | None:
         """The job preparing the motion planned early from `inputs`, if it was (else None; a plan early
