@@ -149,10 +149,10 @@ def test_the_carry_planned_while_the_approach_plays_is_the_one_sent(tmp_path, ro
     arm.block_in_jaw = True
     built = build(tmp_path, robot, skills, PICK_AND_CARRY, pool, chosen(skills, seen))
     assert run(built, clock, pool) == Status.SUCCESS
-    approach, carry = arm.trajectories
-    assert np.allclose(carry.q[0], approach.q[-1])
-    # two plans, both made as the approach began: the carry's did not wait for the approach and the grasp
-    assert pool.submitted == [0.0, 0.0]
+    approach, carry = (sent for sent in arm.sent if sent.kind == "trajectory")
+    assert np.allclose(carry.target.q[0], approach.target.q[-1])
+    # the carry's plan made as the approach was sent: it did not wait for the approach and the grasp
+    assert pool.submitted == [0.0, approach.at]
     assert pool.stats.by_kind["prepare_all"][0] == 2
 
 
@@ -247,4 +247,4 @@ def test_the_next_blocks_approach_is_planned_while_this_carry_plays(tmp_path, ro
     approach, carry, approach_again, carry_again = (sent for sent in arm.sent if sent.kind == "trajectory")
     assert np.allclose(approach_again.target.q[0], carry.target.q[-1])
     # each plan made as the motion before it was sent: the second approach while the first carry played
-    assert pool.submitted == [0.0, 0.0, carry.at, approach_again.at]
+    assert pool.submitted == [0.0, approach.at, carry.at, approach_again.at]
