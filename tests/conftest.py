@@ -81,3 +81,13 @@ def _interruptible() -> None:
 def pegbt_cli() -> PegbtCommand:
     """Runs `python -m pegbt` in a child process; see `PegbtCommand`."""
     return PegbtCommand()
+
+
+@pytest.fixture
+def short_connect_waits(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A run that finds nobody at its address gives up after 0.5 s instead of the 2 s probe and the 5 s
+    per-arm wait a loaded robot or simulator is allowed: what the error says does not depend on how long."""
+    from pegbt.behaviours.resources import robot
+
+    monkeypatch.setattr(robot, "PROBE_TIMEOUT", 0.5)
+    monkeypatch.setattr(robot, "READY_TIMEOUT", 0.5)
