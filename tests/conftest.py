@@ -18,6 +18,18 @@ from pegbt.physics.recording import dvrk_data_dir
 REPO = Path(__file__).resolve().parents[1]
 
 
+@pytest.hookimpl(trylast=True)
+def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+    """Longest first: modules holding a `slow` test, then the rest of the system tier, then the others. On two
+    workers the suite's wall is the longer worker's: a long trial started last keeps one worker busy while
+    the other idles. A module stays in one piece (its fixtures are set up once) and in its own order."""
+    rank: dict[Path, int] = {}
+    for item in items:
+        own = 0 if item.get_closest_marker("slow") else 1 if item.get_closest_marker("system") else 2
+        rank[item.path] = min(rank.get(item.path, 2), own)
+    items.sort(key=lambda item: rank[item.path])
+
+
 @pytest.fixture(autouse=True)
 def ordinary_scheduling() -> Iterator[None]:
     """A test that leaves the worker in SCHED_FIFO fails: every simulator or run the worker starts after it

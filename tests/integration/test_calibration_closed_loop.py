@@ -21,6 +21,7 @@ def collected(tmp_path_factory):
     )
 
 
+@pytest.mark.slow  # the module's collection on the simulator
 def test_a_collected_recording_is_in_the_dataset_layout_and_covers_the_task(collected):
     assert collected.arm == "PSM1" and len(collected) == 1000
     assert json.loads((collected.path / "meta.json").read_text())["arm"] == "PSM1"

@@ -7,9 +7,11 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import pytest
 from dvrk_trial_helpers import assert_every_block_placed_cleanly, unilateral_on_dvrk
 
 
+@pytest.mark.slow
 def test_a_unilateral_trial_with_a_zivid_places_all_twelve(pegbt_cli, tmp_path: Path) -> None:
     entries = unilateral_on_dvrk(pegbt_cli, tmp_path, ["--camera", "zivid"], ["--camera", "zivid"])
     assert entries[0]["kind"] == "start" and entries[0]["camera"] == "zivid"
