@@ -431,7 +431,9 @@ def test_no_bridge_at_the_address_is_one_line_naming_the_address_and_what_should
         assert "Traceback" not in stderr and len(stderr.strip().splitlines()) == 1
 
 
-def test_a_robot_under_another_namespace_is_told_apart_from_no_robot(endpoint: str) -> None:
+def test_a_robot_under_another_namespace_is_told_apart_from_no_robot(
+    endpoint: str, short_connect_waits
+) -> None:
     double = CrtkDouble(endpoint)  # its topics without a namespace, as a bridge started without one
     try:
         with pytest.raises(
@@ -443,7 +445,7 @@ def test_a_robot_under_another_namespace_is_told_apart_from_no_robot(endpoint: s
 
 
 def test_joints_without_the_latched_operating_state_name_the_bridge_version_that_serves_it(
-    endpoint: str,
+    endpoint: str, short_connect_waits
 ) -> None:
     """The dVRK sends `operating_state` only when it changes (cisst-ros `mtsROSBridge.h`, an event publisher,
     latched): a late joiner has it only from the bridge's cache of latched topics."""
