@@ -20,13 +20,15 @@ REPO = Path(__file__).resolve().parents[1]
 
 @pytest.hookimpl(trylast=True)
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
-    """Longest first: modules holding a `slow` test, then the rest of the system tier, then the others. On two
-    workers the suite's wall is the longer worker's: a long trial started last keeps one worker busy while
-    the other idles. A module stays in one piece (its fixtures are set up once) and in its own order."""
+    """Longest first: modules holding a `slow` test (the system tier's first), then the rest of the system
+    tier, then the others, each module in one piece and in its own order. `--dist loadfile` (pyproject) hands
+    a free worker the next module in this order: on two workers the suite's wall is the longer worker's,
+    and a long trial started last keeps one busy while the other idles."""
     rank: dict[Path, int] = {}
     for item in items:
-        own = 0 if item.get_closest_marker("slow") else 1 if item.get_closest_marker("system") else 2
-        rank[item.path] = min(rank.get(item.path, 2), own)
+        system = item.get_closest_marker("system") is not None
+        own = (0 if system else 1) if item.get_closest_marker("slow") else 2 if system else 3
+        rank[item.path] = min(rank.get(item.path, 3), own)
     items.sort(key=lambda item: rank[item.path])
 
 

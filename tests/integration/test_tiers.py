@@ -23,8 +23,9 @@ def test_modules_with_a_slow_test_run_first_then_the_system_tier_each_module_in_
     for item in request.session.items:
         if not modules or modules[-1] != item.path:
             modules.append(item.path)
-            ranks.append(2)
-        own = 0 if item.get_closest_marker("slow") else 1 if item.get_closest_marker("system") else 2
+            ranks.append(3)
+        system = item.get_closest_marker("system") is not None
+        own = (0 if system else 1) if item.get_closest_marker("slow") else 2 if system else 3
         ranks[-1] = min(ranks[-1], own)
     assert len(set(modules)) == len(modules), "a module split in two"
     assert ranks == sorted(ranks), list(zip(ranks, modules, strict=True))
