@@ -263,7 +263,6 @@ def test_the_streamer_holds_the_arm_and_exits_when_its_executive_is_killed(endpo
         import numpy as np
         from pegbt.behaviours.resources.arm_motion import ArmMotion
         from pegbt.behaviours.resources.robot import connect_crtk_robot
-from pegbt.cli import main
         robot = connect_crtk_robot("{endpoint}")
         arm = robot.arm("PSM1")
         motion = ArmMotion(arm.settings)
