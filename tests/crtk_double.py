@@ -9,7 +9,8 @@ advanced publisher's cache (latched); a command to an arm not ready is dropped w
 `hold` stays at the set-point; until the arm is enabled and homed its joints are invalid: seven zeros
 stamped 0 (`get_robot_data`; cisst-ros writes an invalid datum's stamp as 0); the clutch (`clutch`) puts a
 ready arm in MANUAL, ENABLED, homed and busy, where a `servo_jp` is still executed
-(`mtsIntuitiveResearchKitPSM.cpp`, `EventHandlerManipClutch`, `RunManual`); `error`, `warning` and
+(`mtsIntuitiveResearchKitPSM.cpp`, `EventHandlerManipClutch`, `RunManual`), the button reported on
+`PSMn/IO/arm_clutch` (sensor_msgs/Joy, latched); `error`, `warning` and
 `status` are latched with a depth of 100 (cisst-ros `mtsROSBridge.h`), and `old_errors` of them were said
 before anybody joined. It records every command it receives, with its zenoh attachment.
 """
@@ -159,7 +160,7 @@ class CrtkDouble:
         for arm in self.arms:
             for topic in ("measured_js", "setpoint_js", "jaw/measured_js", "jaw/setpoint_js"):
                 self._pub[f"{arm}/{topic}"] = self.session.declare_publisher(f"{arm}/{topic}")
-            for topic in ("error", "warning", "status"):  # latched, depth 100
+            for topic in ("error", "warning", "status", "IO/arm_clutch"):  # latched, depth 100
                 self._pub[f"{arm}/{topic}"] = zenoh.ext.declare_advanced_publisher(
                     self.session,
                     f"{arm}/{topic}",
@@ -306,8 +307,14 @@ class CrtkDouble:
             self._state_command(self.arms[arm], command)
 
     def clutch(self, arm: str, pressed: bool) -> None:
-        """A person presses or releases the arm's clutch button."""
+        """A person presses or releases the arm's clutch button: its IO board reports it whatever the arm's
+        state (`ros/dvrk_robot/src/system_ROS.cpp`, `add_topics_PSM_IO`), then the arm reacts."""
         with self._lock:
+            buttons = np.array([int(pressed)], np.int32)
+            joy = T["sensor_msgs/msg/Joy"](
+                header=header(self.now()), axes=np.zeros(0, np.float32), buttons=buttons
+            )
+            self._pub[f"{arm}/IO/arm_clutch"].put(cdr(joy))
             double = self.arms[arm]
             if pressed and double.joints_valid and not double.manual:
                 double.manual, double.busy = True, True

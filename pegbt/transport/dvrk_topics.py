@@ -84,6 +84,14 @@ class PsmTopics:
         return _event(self._name("status"), codec.STRING)
 
     @property
+    def io_arm_clutch(self) -> Topic:
+        """The arm's clutch button as its IO board reports each press and release (sensor_msgs/Joy, 1 pressed,
+        0 released), whatever the arm's state: dVRK 2.4's `PSMn/IO/arm_clutch` (sawIntuitiveResearchKit
+        `ros/dvrk_robot/src/system_ROS.cpp`, `add_topics_PSM_IO`, an event publisher: latched, depth 100);
+        2.3 named it `PSMn/io/manip_clutch` (`ros/dvrk_robot/src/dvrk_console.cpp`, `add_topics_psm_io`)."""
+        return _event(self._name("IO/arm_clutch"), codec.JOY)
+
+    @property
     def fiducial_js(self) -> Topic:
         """Not the dVRK's: the physical joints as an external tracker sees them (the simulator's ground truth
         of the cable effects, the paper's RGBD fiducials)."""
@@ -127,6 +135,7 @@ class PsmTopics:
             self.error,
             self.warning,
             self.status,
+            self.io_arm_clutch,
             self.fiducial_js,
         )
 
@@ -144,7 +153,8 @@ class PsmTopics:
 
 def clutch_button_topic(arm: str) -> Topic:
     """Not the dVRK's: the simulator's stand-in for a person pressing and releasing `arm`'s clutch button
-    (sensor_msgs/Joy, as the dVRK's own button events, `PSMn/IO/arm_clutch`: 1 pressed, 0 released)."""
+    (sensor_msgs/Joy, 1 pressed, 0 released); the simulator then publishes what a dVRK's IO board does
+    (`PsmTopics.io_arm_clutch`). A robot takes no such command: on it, the button is pressed by hand."""
     return Topic(f"/pegbt_sim/{arm}/arm_clutch", codec.JOY, command=True)
 
 

@@ -213,6 +213,31 @@ def test_the_clutch_mid_motion_pauses_it_and_it_completes_after_release_without_
 
 
 @pytest.mark.parametrize("kind", ["sim", "double"])
+def test_the_clutch_button_is_reported_on_the_io_topic_a_dvrk_2_4_publishes(
+    robots: Callable[..., Robots], kind: str
+) -> None:
+    """Each press and release on `PSMn/IO/arm_clutch` (sensor_msgs/Joy: 1, then 0), the arm MANUAL between
+    them; a press on an arm not ready is reported too, though the arm ignores it."""
+    robot = robots(kind)
+    buttons = robot.peer.subscribe_latched("PSM1/IO/arm_clutch")
+    robot.clutch("PSM1", True)  # DISABLED: the IO board reports it, the arm ignores it
+    robot.clutch("PSM1", False)
+    client = connect_crtk_robot(robot.address, liveness=5.0)
+    try:
+        robot.clutch("PSM1", True)
+        manual = client.arm("PSM1").operating_state
+        assert wait_for(lambda: client.arm("PSM1").operating_state.is_busy, 5), "never MANUAL"
+        assert manual.state == "ENABLED" and manual.is_homed
+        robot.clutch("PSM1", False)
+        assert wait_for(lambda: not client.arm("PSM1").operating_state.is_busy, 5)
+        assert wait_for(lambda: len(buttons.all()) >= 4, 5)
+        pressed = [int(m.buttons[0]) for m in buttons.decoded("sensor_msgs/msg/Joy")]
+        assert pressed == [1, 0, 1, 0]
+    finally:
+        client.close()
+
+
+@pytest.mark.parametrize("kind", ["sim", "double"])
 def test_messages_latched_before_the_run_are_history_never_a_stops_cause(
     robots: Callable[..., Robots], kind: str, tmp_path: Path
 ) -> None:
