@@ -180,6 +180,8 @@ class DvrkEndpoint:
                 topics.hold: _void_command(arm.hold),
                 topics.state_command: _string_command(arm.state_command),
                 clutch_button_topic(name): _button(partial(self._clutch, name)),
+                topics.trajectory_j_set_ratio_v: _float_command(partial(self._ratio, name, "v")),
+                topics.trajectory_j_set_ratio_a: _float_command(partial(self._ratio, name, "a")),
             }
             for topic, handler in handlers.items():
                 self._subscribers.append(wire.subscriber(topic, partial(self._arrived, name, handler)))
@@ -190,6 +192,11 @@ class DvrkEndpoint:
         arm reacts (`DvrkArm.clutch`)."""
         self._put(self.topics[name].io_arm_clutch, codec.encode_button(self.robot_time, pressed))
         self.arms[name].clutch(pressed)
+
+    def _ratio(self, name: str, kind: str, ratio: float) -> None:
+        """Arm.cpp `trajectory_j_set_ratio_v` / `_a`: taken, the arm publishes its new ratio (an event)."""
+        if self.arms[name].trajectory_j_set_ratio(kind, ratio):
+            self._put(getattr(self.topics[name], f"trajectory_j_ratio_{kind}"), codec.encode_float64(ratio))
 
     def _arrived(self, arm: str, handler: Callable[[bytes], None], payload: bytes) -> None:
         self._inbox.put((arm, handler, payload))
@@ -393,6 +400,11 @@ def _string_command(command: Callable[[str], None]) -> Callable[[bytes], None]:
 def _button(command: Callable[[bool], None]) -> Callable[[bytes], None]:
     """A button event (sensor_msgs/Joy): pressed or released."""
     return lambda payload: command(codec.decode_button(payload))
+
+
+def _float_command(command: Callable[[float], None]) -> Callable[[bytes], None]:
+    """A std_msgs/Float64 command (a trajectory ratio)."""
+    return lambda payload: command(codec.decode_float64(payload))
 
 
 def _void_command(command: Callable[[], None]) -> Callable[[bytes], None]:

@@ -53,6 +53,7 @@ STRING = "std_msgs/msg/String"
 EMPTY = "std_msgs/msg/Empty"
 POSE_STAMPED = "geometry_msgs/msg/PoseStamped"
 JOY = "sensor_msgs/msg/Joy"
+FLOAT64 = "std_msgs/msg/Float64"
 POINT_CLOUD2 = "sensor_msgs/msg/PointCloud2"
 JOINT_TRAJECTORY = "trajectory_msgs/msg/JointTrajectory"
 
@@ -199,6 +200,14 @@ def encode_string(text: str) -> bytes:
 
 def decode_string(data: bytes) -> str:
     return deserialize(data, STRING).data
+
+
+def encode_float64(value: float) -> bytes:
+    return serialize(_type(FLOAT64)(data=float(value)))
+
+
+def decode_float64(data: bytes) -> float:
+    return float(deserialize(data, FLOAT64).data)
 
 
 def encode_empty() -> bytes:

@@ -84,6 +84,18 @@ class PsmTopics:
         return _event(self._name("status"), codec.STRING)
 
     @property
+    def trajectory_j_ratio_v(self) -> Topic:
+        """The fraction of its own velocity limits the arm's `move_jp` and homing run at (std_msgs/Float64,
+        an event: latched); dVRK 2.3 and later (`mtsIntuitiveResearchKitArm.cpp`, `trajectory_j_set_ratio_v`;
+        `ros/dvrk_robot/src/system_ROS.cpp`, `bridge_interface_provided_arm`)."""
+        return _event(self._name("trajectory_j/ratio_v"), codec.FLOAT64)
+
+    @property
+    def trajectory_j_ratio_a(self) -> Topic:
+        """The same for its acceleration limits."""
+        return _event(self._name("trajectory_j/ratio_a"), codec.FLOAT64)
+
+    @property
     def io_arm_clutch(self) -> Topic:
         """The arm's clutch button as its IO board reports each press and release (sensor_msgs/Joy, 1 pressed,
         0 released), whatever the arm's state: dVRK 2.4's `PSMn/IO/arm_clutch` (sawIntuitiveResearchKit
@@ -122,6 +134,15 @@ class PsmTopics:
     def jaw_move_jp(self) -> Topic:
         return Topic(self._name("jaw/move_jp"), codec.JOINT_STATE, command=True)
 
+    @property
+    def trajectory_j_set_ratio_v(self) -> Topic:
+        """Set `trajectory_j/ratio_v`, within ]0, 1] (else the arm warns and keeps its ratio)."""
+        return Topic(self._name("trajectory_j/set_ratio_v"), codec.FLOAT64, command=True)
+
+    @property
+    def trajectory_j_set_ratio_a(self) -> Topic:
+        return Topic(self._name("trajectory_j/set_ratio_a"), codec.FLOAT64, command=True)
+
     def published(self) -> tuple[Topic, ...]:
         """What the PSM publishes (with the simulator's `fiducial_js`)."""
         return (
@@ -135,6 +156,8 @@ class PsmTopics:
             self.error,
             self.warning,
             self.status,
+            self.trajectory_j_ratio_v,
+            self.trajectory_j_ratio_a,
             self.io_arm_clutch,
             self.fiducial_js,
         )
@@ -148,6 +171,8 @@ class PsmTopics:
             self.state_command,
             self.jaw_servo_jp,
             self.jaw_move_jp,
+            self.trajectory_j_set_ratio_v,
+            self.trajectory_j_set_ratio_a,
         )
 
 

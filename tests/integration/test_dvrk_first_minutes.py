@@ -25,6 +25,7 @@ from pegbt.executive.runoptions import RunOptions
 from pegbt.executive.session import run_tree_file
 from pegbt.sim.process import free_port
 from pegbt.transport.arm import ArmLeftReady
+from pegbt.transport.crtk_arm import rest_to_rest_bound
 
 HOUR = 3600.0
 JOINT_STATE = "sensor_msgs/msg/JointState"
@@ -208,6 +209,34 @@ def test_the_clutch_mid_motion_pauses_it_and_it_completes_after_release_without_
         assert steps[:, :2].max() < 0.1 and steps[:, 2].max() < 0.01  # rad, m between two states: no jump
         path = np.array([q for _, q in sent])
         assert np.abs(np.diff(path, axis=0))[:, :2].max() < 0.05  # nor in the set-points
+    finally:
+        client.close()
+
+
+@pytest.mark.parametrize("kind", ["sim", "double"])
+def test_speed_slows_the_robots_own_move_jp_through_its_trajectory_ratios(
+    robots: Callable[..., Robots], kind: str
+) -> None:
+    """`--speed 0.5`: before homing the client sets the robot's `trajectory_j` ratios (velocity 0.5,
+    acceleration 0.25) and the robot confirms them; its own `move_jp` then takes twice as long."""
+    robot = robots(kind)
+    ratios = {kind: robot.peer.subscribe_latched(f"PSM1/trajectory_j/ratio_{kind}") for kind in "va"}
+    client = connect_crtk_robot(robot.address, liveness=5.0, speed=0.5)
+    try:
+        for which, ratio in (("v", 0.5), ("a", 0.25)):
+            assert [m.data for m in ratios[which].decoded("std_msgs/msg/Float64")][-1] == ratio
+        arm = client.arm("PSM1")
+        start = arm.setpoint_js.position
+        goal = start + np.array([0.6, 0.0, 0.0, 0.0, 0.0, 0.0])
+        began = time.monotonic()
+        move = arm.move_jp(goal)
+        assert wait_for(lambda: not move.busy, 20) and move.done, move.error
+        took = time.monotonic() - began
+        if robot.double is None:  # the dVRK's profile: 1.24 s at full speed, 2.47 s at half
+            full = rest_to_rest_bound(start, goal)
+            assert took > 1.8 * full, (took, full)
+        else:
+            assert took > 1.8 * robot.double.move_seconds
     finally:
         client.close()
 
