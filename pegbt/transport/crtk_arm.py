@@ -431,7 +431,7 @@ class CrtkArm:
             self._set_ratio[kind].put(codec.encode_float64(ratio))
         for kind, ratio in wanted.items() if speed < 1.0 else ():
             latest = self._ratios[kind]
-            if not latest.wait_until(lambda value, r=ratio: abs(value - r) < 1e-9, RATIO_CONFIRM_S):
+            if not latest.wait_until(partial(_is_ratio, ratio), RATIO_CONFIRM_S):
                 raise PegbtError(
                     f"the robot did not confirm its move_jp and homing at {ratio:g} of its "
                     f"{'velocity' if kind == 'v' else 'acceleration'} limits within {RATIO_CONFIRM_S:g} s on "
@@ -492,6 +492,10 @@ class CrtkArm:
         disabled or paused, stops the run."""
         self._state.wait_until(lambda state: state.state != "ENABLED", STATE_CONFIRM_S)
         self.check_alive()
+
+
+def _is_ratio(wanted: float, value: float) -> bool:
+    return abs(value - wanted) < 1e-9
 
 
 def make_ready(
