@@ -56,7 +56,9 @@ class ZividCloud:
         return points[np.isfinite(points).all(axis=1)]
 
     def __array__(self, dtype: Any = None, copy: bool | None = None) -> NDArray[Any]:
-        return self.points if dtype is None else self.points.astype(dtype)
+        if dtype is not None and dtype != self.points.dtype:
+            return self.points.astype(dtype)
+        return self.points.copy() if copy else self.points
 
     def __len__(self) -> int:
         return self.grid.shape[0] * self.grid.shape[1]
