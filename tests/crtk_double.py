@@ -144,8 +144,10 @@ class CrtkDouble:
         latched: bool = True,
         setpoint_lag: float = 0.0,
         old_errors: int = 0,
+        ratios: bool = True,
     ) -> None:
         self.session = zenoh.open(session_config(listen))
+        self.ratios = ratios  # False: a dVRK before 2.3, which has no trajectory_j ratio
         self.home_seconds, self.homes, self.move_seconds = home_seconds, homes, move_seconds
         self.clock_offset = clock_offset
         # s a move_jp's not-busy state goes ahead of the set-point at its goal: setpoint_js is a topic of its
@@ -246,6 +248,8 @@ class CrtkDouble:
             if topic == "state_command":
                 self._state_command(arm, message.string)
             elif topic.startswith("trajectory_j/set_ratio_"):  # Arm.cpp trajectory_j_set_ratio_v, _a
+                if not self.ratios:
+                    return
                 kind = topic[-1]
                 if 0.0 < message.data <= 1.0:
                     arm.ratio[kind] = float(message.data)

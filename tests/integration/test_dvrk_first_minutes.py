@@ -19,6 +19,7 @@ from dvrk_sim_helpers import ServedSim
 
 from pegbt.behaviours.resources.arm_motion import ArmMotion
 from pegbt.behaviours.resources.robot import Robot, connect_crtk_robot
+from pegbt.errors import PegbtError
 from pegbt.executive.analysis import summary
 from pegbt.executive.logfile import read_tick_log
 from pegbt.executive.runoptions import RunOptions
@@ -239,6 +240,20 @@ def test_speed_slows_the_robots_own_move_jp_through_its_trajectory_ratios(
             assert took > 1.8 * robot.double.move_seconds
     finally:
         client.close()
+
+
+def test_speed_below_one_on_a_robot_without_trajectory_ratios_stops_before_anything_moves() -> None:
+    """A dVRK 2.1 or 2.2 has no `trajectory_j` ratio: its homing would go at full speed, so `--speed 0.5`
+    stops, naming the option, before any arm is enabled."""
+    address = f"tcp/127.0.0.1:{free_port()}"
+    double = CrtkDouble(address, ratios=False)
+    try:
+        with pytest.raises(PegbtError) as refused:
+            connect_crtk_robot(address, liveness=5.0, speed=0.5)
+        assert refused.value.field == "--speed" and "dVRK 2.3 or later" in refused.value.message
+        assert not double.commands("state_command") and double.arms["PSM1"].state == "DISABLED"
+    finally:
+        double.close()
 
 
 @pytest.mark.parametrize("kind", ["sim", "double"])
