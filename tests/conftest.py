@@ -18,6 +18,20 @@ from pegbt.physics.recording import dvrk_data_dir
 REPO = Path(__file__).resolve().parents[1]
 
 
+@pytest.hookimpl(trylast=True)
+def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+    """Longest first: modules holding a `slow` test (the system tier's first), then the rest of the system
+    tier, then the others, each module in one piece and in its own order. `--dist loadfile` (pyproject) hands
+    a free worker the next module in this order: on two workers the suite's wall is the longer worker's,
+    and a long trial started last keeps one busy while the other idles."""
+    rank: dict[Path, int] = {}
+    for item in items:
+        system = item.get_closest_marker("system") is not None
+        own = (0 if system else 1) if item.get_closest_marker("slow") else 2 if system else 3
+        rank[item.path] = min(rank.get(item.path, 3), own)
+    items.sort(key=lambda item: rank[item.path])
+
+
 @pytest.fixture(autouse=True)
 def ordinary_scheduling() -> Iterator[None]:
     """A test that leaves the worker in SCHED_FIFO fails: every simulator or run the worker starts after it
@@ -81,3 +95,14 @@ def _interruptible() -> None:
 def pegbt_cli() -> PegbtCommand:
     """Runs `python -m pegbt` in a child process; see `PegbtCommand`."""
     return PegbtCommand()
+
+
+@pytest.fixture
+def short_connect_waits(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A connection that finds nobody, or not all a robot should send, gives up after 1 s instead of the 2 s
+    probe and the 5 s per topic a loaded robot or simulator is allowed: what the error says does not depend
+    on how long (what does come, a double's joints at its rate, comes well within 1 s)."""
+    from pegbt.behaviours.resources import robot
+
+    monkeypatch.setattr(robot, "PROBE_TIMEOUT", 1.0)
+    monkeypatch.setattr(robot, "READY_TIMEOUT", 1.0)

@@ -9,7 +9,9 @@ advanced publisher's cache (latched); a command to an arm not ready is dropped w
 `hold` stays at the set-point; until the arm is enabled and homed its joints are invalid: seven zeros
 stamped 0 (`get_robot_data`; cisst-ros writes an invalid datum's stamp as 0); the clutch (`clutch`) puts a
 ready arm in MANUAL, ENABLED, homed and busy, where a `servo_jp` is still executed
-(`mtsIntuitiveResearchKitPSM.cpp`, `EventHandlerManipClutch`, `RunManual`); `error`, `warning` and
+(`mtsIntuitiveResearchKitPSM.cpp`, `EventHandlerManipClutch`, `RunManual`), the button reported on
+`PSMn/IO/arm_clutch` (sensor_msgs/Joy, latched); `trajectory_j/set_ratio_v` and `_a` slow its `move_jp` and
+homing, each ratio confirmed on `trajectory_j/ratio_v`, `_a` (dVRK 2.3+, `trajectory_j_set_ratio_v`); `error`, `warning` and
 `status` are latched with a depth of 100 (cisst-ros `mtsROSBridge.h`), and `old_errors` of them were said
 before anybody joined. It records every command it receives, with its zenoh attachment.
 """
@@ -118,6 +120,7 @@ class ArmDouble:
     setpoint_quiet_until: float = 0.0  # monotonic time before which setpoint_js is not published
     manual: bool = False  # its clutch is pressed
     biased: bool = False  # its encoders biased: on `home`, before the homing motion
+    ratio: dict[str, float] = field(default_factory=lambda: {"v": 1.0, "a": 1.0})  # trajectory_j ratios
 
     @property
     def joints_valid(self) -> bool:
@@ -141,8 +144,10 @@ class CrtkDouble:
         latched: bool = True,
         setpoint_lag: float = 0.0,
         old_errors: int = 0,
+        ratios: bool = True,
     ) -> None:
         self.session = zenoh.open(session_config(listen))
+        self.ratios = ratios  # False: a dVRK before 2.3, which has no trajectory_j ratio
         self.home_seconds, self.homes, self.move_seconds = home_seconds, homes, move_seconds
         self.clock_offset = clock_offset
         # s a move_jp's not-busy state goes ahead of the set-point at its goal: setpoint_js is a topic of its
@@ -159,7 +164,14 @@ class CrtkDouble:
         for arm in self.arms:
             for topic in ("measured_js", "setpoint_js", "jaw/measured_js", "jaw/setpoint_js"):
                 self._pub[f"{arm}/{topic}"] = self.session.declare_publisher(f"{arm}/{topic}")
-            for topic in ("error", "warning", "status"):  # latched, depth 100
+            for topic in (
+                "error",
+                "warning",
+                "status",
+                "IO/arm_clutch",
+                "trajectory_j/ratio_v",
+                "trajectory_j/ratio_a",
+            ):  # latched, depth 100
                 self._pub[f"{arm}/{topic}"] = zenoh.ext.declare_advanced_publisher(
                     self.session,
                     f"{arm}/{topic}",
@@ -177,7 +189,16 @@ class CrtkDouble:
                 if latched
                 else self.session.declare_publisher(f"{arm}/operating_state")
             )
-            for topic in ("servo_jp", "jaw/servo_jp", "move_jp", "jaw/move_jp", "hold", "state_command"):
+            for topic in (
+                "servo_jp",
+                "jaw/servo_jp",
+                "move_jp",
+                "jaw/move_jp",
+                "hold",
+                "state_command",
+                "trajectory_j/set_ratio_v",
+                "trajectory_j/set_ratio_a",
+            ):
                 self._entities.append(
                     self.session.declare_subscriber(
                         f"{arm}/{topic}", lambda s, a=arm, t=topic: self._on(a, t, s)
@@ -213,7 +234,12 @@ class CrtkDouble:
     # ------------------------------------------------------------------ commands
     def _on(self, name: str, topic: str, sample: zenoh.Sample) -> None:
         payload = sample.payload.to_bytes()
-        kinds = {"state_command": "crtk_msgs/msg/StringStamped", "hold": "std_msgs/msg/Empty"}
+        kinds = {
+            "state_command": "crtk_msgs/msg/StringStamped",
+            "hold": "std_msgs/msg/Empty",
+            "trajectory_j/set_ratio_v": "std_msgs/msg/Float64",
+            "trajectory_j/set_ratio_a": "std_msgs/msg/Float64",
+        }
         message = _STORE.deserialize_cdr(payload, kinds.get(topic, "sensor_msgs/msg/JointState"))
         attachment = None if sample.attachment is None else sample.attachment.to_bytes()
         with self._lock:
@@ -221,6 +247,14 @@ class CrtkDouble:
             arm = self.arms[name]
             if topic == "state_command":
                 self._state_command(arm, message.string)
+            elif topic.startswith("trajectory_j/set_ratio_"):  # Arm.cpp trajectory_j_set_ratio_v, _a
+                if not self.ratios:
+                    return
+                kind = topic[-1]
+                if 0.0 < message.data <= 1.0:
+                    arm.ratio[kind] = float(message.data)
+                    ratio = T["std_msgs/msg/Float64"](data=float(message.data))
+                    self._pub[f"{name}/trajectory_j/ratio_{kind}"].put(cdr(ratio))
             elif not (arm.state == "ENABLED" and arm.homed):
                 if time.monotonic() - arm.last_warning > 2.0:  # throttled, as ArmIsReady does
                     arm.last_warning = time.monotonic()
@@ -236,7 +270,9 @@ class CrtkDouble:
                 arm.busy = True
                 self._publish_state(arm)
                 goal = np.clip(np.asarray(message.position, dtype=float), LOWER, UPPER)
-                self._later(self.move_seconds, lambda: self._arrive(arm, goal))
+                # the profile's cruise at ratio_v, its ramps at ratio_a: no faster than the slower of them
+                slowest = min(arm.ratio["v"], arm.ratio["a"] ** 0.5)
+                self._later(self.move_seconds / slowest, lambda: self._arrive(arm, goal))
 
     def _arrive(self, arm: ArmDouble, goal: np.ndarray) -> None:
         arm.setpoint, arm.busy = goal, False
@@ -270,7 +306,7 @@ class CrtkDouble:
                     self.say(arm.name, "error", "unable to reach home position during calibration on pots")
                 self._publish_state(arm)
 
-            self._later(self.home_seconds, homed)
+            self._later(self.home_seconds / min(arm.ratio["v"], arm.ratio["a"] ** 0.5), homed)
 
     # ------------------------------------------------------------------ streams
     def _run(self) -> None:
@@ -306,8 +342,14 @@ class CrtkDouble:
             self._state_command(self.arms[arm], command)
 
     def clutch(self, arm: str, pressed: bool) -> None:
-        """A person presses or releases the arm's clutch button."""
+        """A person presses or releases the arm's clutch button: its IO board reports it whatever the arm's
+        state (`ros/dvrk_robot/src/system_ROS.cpp`, `add_topics_PSM_IO`), then the arm reacts."""
         with self._lock:
+            buttons = np.array([int(pressed)], np.int32)
+            joy = T["sensor_msgs/msg/Joy"](
+                header=header(self.now()), axes=np.zeros(0, np.float32), buttons=buttons
+            )
+            self._pub[f"{arm}/IO/arm_clutch"].put(cdr(joy))
             double = self.arms[arm]
             if pressed and double.joints_valid and not double.manual:
                 double.manual, double.busy = True, True

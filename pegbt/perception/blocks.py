@@ -23,6 +23,7 @@ from pegbt.frames import invert_rigid, yaw_of, yaw_pose
 from pegbt.perception.board import BoardEstimate
 from pegbt.perception.cloud import Points, to_open3d
 from pegbt.perception.models import block_model
+from pegbt.perception.organised import OrganisedCloud, raised_points
 from pegbt.perception.segment import block_segments, clusters, split_by_nearest_peg
 from pegbt.perception.settings import BlockSettings, perception_settings
 from pegbt.workcell import Workcell, workcell
@@ -63,8 +64,9 @@ class BlockLocator:
         self.settings = settings or perception_settings().block
         self._model = block_model(self.cell, self.settings.model_points)
 
-    def locate(self, cloud: ArrayLike, board: BoardEstimate) -> list[BlockEstimate]:
-        """Every block in a camera-frame capture (N, 3, metres), given the registered board.
+    def locate(self, cloud: ArrayLike | OrganisedCloud, board: BoardEstimate) -> list[BlockEstimate]:
+        """Every block in a camera-frame capture (N, 3, metres), given the registered board; of an organised
+        capture (a Zivid's), only the pixels near something raised, at full resolution (`raised_points`).
 
         `PegbtError` if the board's registration failed: positions from it would be guesses.
         """
@@ -72,6 +74,14 @@ class BlockLocator:
             raise PegbtError(
                 f"the board registration failed ({board.reason}); register it again", field="board"
             )
+        if isinstance(cloud, OrganisedCloud):
+            segment, surface = self.settings.segment, self.cell.board.surface_z
+            highest = segment.max_stack * self.cell.block.height + segment.plane_margin
+            cloud = raised_points(
+                cloud.grid, board.board_from_camera, surface - segment.plane_margin, surface - highest
+            )
+            if len(cloud) == 0:
+                return []
         board_points = board.to_board(cloud)
         peg_xy = board.peg_tops[:, :2]
         segments = block_segments(board_points, peg_xy, self.cell, self.settings.segment)
@@ -247,7 +257,7 @@ def _default_locator() -> BlockLocator:
     return BlockLocator()
 
 
-def locate_blocks(cloud: ArrayLike, board: BoardEstimate) -> list[BlockEstimate]:
+def locate_blocks(cloud: ArrayLike | OrganisedCloud, board: BoardEstimate) -> list[BlockEstimate]:
     """Every block in a camera-frame capture of the default work cell, given the board registered once
     per trial (a `BlockLocator` serves another work cell or other settings)."""
     return _default_locator().locate(cloud, board)

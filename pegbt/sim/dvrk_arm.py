@@ -129,6 +129,7 @@ class DvrkArm:
         self._trajectory = OnlineTrajectory(
             self.period, dvrk.TRAJECTORY_VELOCITY, dvrk.TRAJECTORY_ACCELERATION
         )
+        self.trajectory_ratio = {"v": 1.0, "a": 1.0}  # of the limits the trajectory runs at
         self._velocity = np.zeros(7)  # the trajectory's velocity at the last set-point
         self._homing_end = 0.0
         self._entered = 0.0
@@ -323,6 +324,22 @@ class DvrkArm:
             self._hold_where_measured()
             self._mode = "position"
             self._enter(self._clutch_from)
+
+    def trajectory_j_set_ratio(self, kind: str, ratio: float) -> bool:
+        """Arm.cpp `trajectory_j_set_ratio_v` (`kind` "v") or `_a` ("a"): `move_jp` and homing run at `ratio`
+        of the trajectory's velocity (acceleration) limits from now on; a ratio outside ]0, 1] is refused
+        with a warning. True if taken (the arm then publishes its ratio)."""
+        if not 0.0 < ratio <= 1.0:
+            self._report(
+                "warning", f"trajectory_j_set_ratio_{kind}, ratio must be within ]0;1], received {ratio:g}"
+            )
+            return False
+        self.trajectory_ratio[kind] = ratio
+        self._trajectory.limit(
+            dvrk.TRAJECTORY_VELOCITY * self.trajectory_ratio["v"],
+            dvrk.TRAJECTORY_ACCELERATION * self.trajectory_ratio["a"],
+        )
+        return True
 
     def _enter_manual(self) -> None:
         """PSM.cpp `EnterManual`: busy, and `free`: the PID off until a command comes."""

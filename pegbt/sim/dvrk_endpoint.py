@@ -4,7 +4,8 @@ that streams as a RealSense does or captures when asked as a Zivid does (`pegbt.
 Every topic is declared through a `Ros2Wire` (`pegbt.transport.dvrk_topics` names them), so the same
 endpoint serves zenoh-bridge-ros2dds's keys (`BridgeWire`) or another wire's; it builds no key itself, and
 serves nothing else: no `follow_jt`, no `sim/*` key, no attachment; it takes one command a dVRK takes from a
-person, not a topic: each arm's clutch button (`clutch_button_topic`). The arms are `DvrkArm`s (the dVRK's
+person, not a topic: each arm's clutch button (`clutch_button_topic`), which it reports as the dVRK's IO
+board does (`PSMn/IO/arm_clutch`). The arms are `DvrkArm`s (the dVRK's
 controller over the simulator's joints and cable physics), acting in the same world as the pegbt
 interface's arms (`Scene`).
 
@@ -178,10 +179,24 @@ class DvrkEndpoint:
                 topics.jaw_move_jp: _joint_command(arm.jaw_move_jp),
                 topics.hold: _void_command(arm.hold),
                 topics.state_command: _string_command(arm.state_command),
-                clutch_button_topic(name): _button(arm.clutch),
+                clutch_button_topic(name): _button(partial(self._clutch, name)),
+                topics.trajectory_j_set_ratio_v: _float_command(partial(self._ratio, name, "v")),
+                topics.trajectory_j_set_ratio_a: _float_command(partial(self._ratio, name, "a")),
             }
             for topic, handler in handlers.items():
                 self._subscribers.append(wire.subscriber(topic, partial(self._arrived, name, handler)))
+
+    def _clutch(self, name: str, pressed: bool) -> None:
+        """A person presses or releases `name`'s clutch: its IO board reports the button whatever the arm's
+        state (sawIntuitiveResearchKit `ros/dvrk_robot/src/system_ROS.cpp`, `add_topics_PSM_IO`), then the
+        arm reacts (`DvrkArm.clutch`)."""
+        self._put(self.topics[name].io_arm_clutch, codec.encode_button(self.robot_time, pressed))
+        self.arms[name].clutch(pressed)
+
+    def _ratio(self, name: str, kind: str, ratio: float) -> None:
+        """Arm.cpp `trajectory_j_set_ratio_v` / `_a`: taken, the arm publishes its new ratio (an event)."""
+        if self.arms[name].trajectory_j_set_ratio(kind, ratio):
+            self._put(getattr(self.topics[name], f"trajectory_j_ratio_{kind}"), codec.encode_float64(ratio))
 
     def _arrived(self, arm: str, handler: Callable[[bytes], None], payload: bytes) -> None:
         self._inbox.put((arm, handler, payload))
@@ -385,6 +400,11 @@ def _string_command(command: Callable[[str], None]) -> Callable[[bytes], None]:
 def _button(command: Callable[[bool], None]) -> Callable[[bytes], None]:
     """A button event (sensor_msgs/Joy): pressed or released."""
     return lambda payload: command(codec.decode_button(payload))
+
+
+def _float_command(command: Callable[[float], None]) -> Callable[[bytes], None]:
+    """A std_msgs/Float64 command (a trajectory ratio)."""
+    return lambda payload: command(codec.decode_float64(payload))
 
 
 def _void_command(command: Callable[[], None]) -> Callable[[bytes], None]:

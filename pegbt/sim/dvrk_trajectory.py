@@ -34,6 +34,11 @@ class OnlineTrajectory:
         self._input.synchronization = Synchronization.Time
         self.active = False
 
+    def limit(self, max_velocity: ArrayLike, max_acceleration: ArrayLike) -> None:
+        """New limits, from the next step on."""
+        self._input.max_velocity = np.asarray(max_velocity, dtype=float).tolist()
+        self._input.max_acceleration = np.asarray(max_acceleration, dtype=float).tolist()
+
     @property
     def goal(self) -> NDArray[np.float64]:
         return np.array(self._input.target_position)

@@ -11,8 +11,8 @@ Every such outcome, every collision and every injected fault is appended to `Wor
 truth of a trial.
 
 That world is rigid. `World(effects=...)` relaxes it with the world effects of `pegbt.sim.world_effects`:
-a peg that bends, chamfers that catch a hole near a peg, a block that slides and turns in the jaws, jaws
-that let a block slip under load, and a camera-to-robot registration offset (the arms' bases truly stand
+a peg that bends, chamfers that catch a hole near a peg, closing jaws that grip a wall off their centre
+as far as the wrist yields, a block that slides and turns in the jaws, jaws that let a block slip under load, and a camera-to-robot registration offset (the arms' bases truly stand
 off the work cell's figures, `arm_to_board`; the camera applies the depth bias). With none, or all at
 their defaults, the world takes exactly the rigid paths, outcome for outcome.
 """
@@ -97,6 +97,7 @@ class World:
         self._peg_high = self._peg_feet + [pegs.radius, pegs.radius, 0.0]
         self._clearance = self.cell.block.hole_radius - pegs.radius + config.peg_slack
         self._capture = max(self._clearance, effects.values("chamfer_capture")["capture_radius"])
+        self._grasp_capture = effects.values("grasp_capture")["width"]
         bending, grip = effects.values("peg_compliance"), effects.values("grip_compliance")
         self._peg_bend, self._peg_stiffness = bending["deflection"], bending["stiffness"]
         self._grip_angle, self._grip_slide = grip["angle"], grip["displacement"]
@@ -279,12 +280,24 @@ class World:
         if block.peg is not None and not block.grips:
             peg_xy = self._pegs_in_block_frame(block)[block.peg]  # where the peg stands in the hole
             if np.linalg.norm(peg_xy - slide) > self._clearance:
-                return (
-                    f"jaw {abs(off_centre) * 1000:.1f} mm off the wall's centre: peg {block.peg} stops the block",
-                    edge,
-                    no_slide,
-                )
+                stopped = self._slide_until_stopped(peg_xy, normal, off_centre)
+                if abs(off_centre - stopped) > self._grasp_capture:
+                    return (
+                        f"jaw {abs(off_centre) * 1000:.1f} mm off the wall's centre: peg {block.peg} stops the block",
+                        edge,
+                        no_slide,
+                    )
+                slide = stopped * normal  # the wrist yields the rest (`grasp_capture`)
         return None, edge, slide
+
+    def _slide_until_stopped(self, peg_xy: Matrix, normal: Matrix, off_centre: float) -> float:
+        """How far (m, signed as `off_centre`) a block on a peg standing at `peg_xy` in its hole slides
+        along `normal` towards `off_centre` before the hole meets the peg."""
+        along = float(peg_xy @ normal)
+        inside = self._clearance - _GUIDED_INSIDE  # stopped just clear of the peg
+        room = math.sqrt(max(0.0, along**2 - float(peg_xy @ peg_xy) + inside**2))
+        stopped = along + math.copysign(room, off_centre)
+        return max(0.0, stopped) if off_centre > 0 else min(0.0, stopped)
 
     def _slip(self, arm: str, block: Block, detail: str) -> None:
         """`arm`'s grip on `block` is lost without its jaw opening."""

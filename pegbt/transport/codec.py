@@ -53,6 +53,7 @@ STRING = "std_msgs/msg/String"
 EMPTY = "std_msgs/msg/Empty"
 POSE_STAMPED = "geometry_msgs/msg/PoseStamped"
 JOY = "sensor_msgs/msg/Joy"
+FLOAT64 = "std_msgs/msg/Float64"
 POINT_CLOUD2 = "sensor_msgs/msg/PointCloud2"
 JOINT_TRAJECTORY = "trajectory_msgs/msg/JointTrajectory"
 
@@ -201,6 +202,14 @@ def decode_string(data: bytes) -> str:
     return deserialize(data, STRING).data
 
 
+def encode_float64(value: float) -> bytes:
+    return serialize(_type(FLOAT64)(data=float(value)))
+
+
+def decode_float64(data: bytes) -> float:
+    return float(deserialize(data, FLOAT64).data)
+
+
 def encode_empty() -> bytes:
     return serialize(_type(EMPTY)())
 
@@ -327,6 +336,14 @@ def encode_organised_cloud(
 def decode_organised_cloud(data: bytes, stride: int = 1) -> tuple[float, NDArray[np.float32]]:
     """(stamp, (h, w, 3) float32) from an organised PointCloud2 with float32 x, y, z, every `stride`-th row
     and column of its grid: only those points are copied out of the message."""
+    stamp, grid = organised_grid(data)
+    return stamp, np.ascontiguousarray(grid[::stride, ::stride])
+
+
+def organised_grid(data: bytes) -> tuple[float, NDArray[np.float32]]:
+    """(stamp, (H, W, 3) float32) of an organised PointCloud2 with float32 x, y, z: a read-only view of the
+    message's bytes where x, y, z lie side by side (every driver's layout), so that a part of the image is
+    copied out only when taken; a copy otherwise."""
     message = deserialize(memoryview(data), POINT_CLOUD2)  # rosbags slices it: a view, not a 37 MB copy
     offsets = {f.name: f.offset for f in message.fields if f.datatype == _FLOAT32 and f.count == 1}
     if not {"x", "y", "z"} <= offsets.keys() or message.is_bigendian:
@@ -345,10 +362,9 @@ def decode_organised_cloud(data: bytes, stride: int = 1) -> tuple[float, NDArray
     )
     words_xyz = [offsets[a] // 4 for a in "xyz"]
     first = words_xyz[0]
-    thinned = grid[::stride, ::stride]
-    if words_xyz == [first, first + 1, first + 2]:  # x, y, z side by side (every driver's layout): a slice
-        return _stamp(message.header), np.ascontiguousarray(thinned[..., first : first + 3])
-    return _stamp(message.header), thinned[..., words_xyz]
+    if words_xyz == [first, first + 1, first + 2]:
+        return _stamp(message.header), grid[..., first : first + 3]
+    return _stamp(message.header), grid[..., words_xyz]
 
 
 def encode_trigger_request() -> bytes:

@@ -12,6 +12,11 @@ use on `ArmClient`, and no pegbt extension: no trajectory topic, no attachment, 
 - `move_jp(trajectory)` and the jaw's `move_jp(angle)`: played by the servo streamer as `servo_jp`/
   `jaw/servo_jp` set-points (a jaw `move_jp` would take a dVRK PSM out of position mode mid-stream:
   `mtsIntuitiveResearchKitPSM::jaw_move_jp`).
+- `slow_down(F)` (`--speed`): the robot's own `move_jp` and homing run at F of its velocity and F² of its
+  acceleration limits (`trajectory_j/set_ratio_v`, `set_ratio_a`: dVRK 2.3 and later,
+  `mtsIntuitiveResearchKitArm.cpp`), as pegbt's streamed trajectories do (`ArmSettings.at_speed`); the
+  robot confirms each ratio on `trajectory_j/ratio_v`, `ratio_a`, and a robot that does not is an error
+  rather than a first run at full speed.
 - `stop`: the robot's `hold` (`mtsIntuitiveResearchKitArm::hold`: servo to the current set-point).
 - The robot's `error`, `warning` and `status` messages are kept for the tick log (`drain_messages`). The
   three topics are latched with a depth of 100 (cisst-ros `cisst_ros_bridge/include/cisst_ros_bridge/
@@ -73,12 +78,14 @@ ARRIVED = (
 )
 MOVE_MARGIN = 2.0  # s beyond twice the rest-to-rest time a robot's move_jp may take before it fails
 STATE_CONFIRM_S = 0.5  # s to wait for the operating state the streamer saw, once it stops a motion
+RATIO_CONFIRM_S = 2.0  # s for the robot to confirm a trajectory ratio
 
 
-def rest_to_rest_bound(start: ArrayLike, goal: ArrayLike) -> float:
-    """Seconds the dVRK's own rest-to-rest profile needs from `start` to `goal` (the slowest joint)."""
+def rest_to_rest_bound(start: ArrayLike, goal: ArrayLike, speed: float = 1.0) -> float:
+    """Seconds the dVRK's own rest-to-rest profile needs from `start` to `goal` (the slowest joint), its
+    velocity limits × `speed` and acceleration limits × `speed`²."""
     distance = np.abs(np.asarray(goal, dtype=float) - np.asarray(start, dtype=float))
-    v, a = DVRK_MOVE_VELOCITY, DVRK_MOVE_ACCELERATION
+    v, a = DVRK_MOVE_VELOCITY * speed, DVRK_MOVE_ACCELERATION * speed**2
     seconds = np.where(distance <= v * v / a, 2 * np.sqrt(distance / a), distance / v + v / a)
     return float(seconds.max())
 
@@ -216,6 +223,9 @@ class CrtkArm:
         self._last_message = time.monotonic()
         self._messages_lock = threading.Lock()
         self._kept_ready = False  # set once enabled and homed: from then on it must stay so
+        self.speed = (
+            1.0  # the fraction of its own trajectory limits the robot's move_jp runs at (`slow_down`)
+        )
         topics = self.topics
         self._measured = self._latest(wire, topics.measured_js, codec.decode_joint_state)
         self._setpoint = self._latest(wire, topics.setpoint_js, codec.decode_joint_state)
@@ -227,6 +237,13 @@ class CrtkArm:
         self.jaw = CrtkJaw(self, jaw_measured, jaw_setpoint)
         for level in MESSAGE_LEVELS:
             wire.subscriber(getattr(topics, level), partial(self._on_message, level))
+        self._ratios = {
+            kind: self._latest(wire, getattr(topics, f"trajectory_j_ratio_{kind}"), codec.decode_float64)
+            for kind in ("v", "a")
+        }
+        self._set_ratio = {
+            kind: wire.publisher(getattr(topics, f"trajectory_j_set_ratio_{kind}")) for kind in ("v", "a")
+        }
         self._move = wire.publisher(topics.move_jp)
         self._hold = wire.publisher(topics.hold)
         self._state_command = wire.publisher(topics.state_command)
@@ -404,6 +421,26 @@ class CrtkArm:
                 )
 
     # ------------------------------------------------------------------ commands
+    def slow_down(self, speed: float) -> None:
+        """The robot's own `move_jp` and homing at `speed` (0, 1] of its velocity limits and `speed`² of its
+        acceleration limits, so each takes 1 / `speed` as long. At 1 the ratios are only sent (a previous
+        run may have left the robot slow; a dVRK before 2.3 has no such setting and ignores them); below 1,
+        `PegbtError` if the robot does not confirm both within `RATIO_CONFIRM_S`."""
+        wanted = {"v": speed, "a": speed**2}
+        for kind, ratio in wanted.items():
+            self._set_ratio[kind].put(codec.encode_float64(ratio))
+        for kind, ratio in wanted.items() if speed < 1.0 else ():
+            latest = self._ratios[kind]
+            if not latest.wait_until(partial(_is_ratio, ratio), RATIO_CONFIRM_S):
+                raise PegbtError(
+                    f"the robot did not confirm its move_jp and homing at {ratio:g} of its "
+                    f"{'velocity' if kind == 'v' else 'acceleration'} limits within {RATIO_CONFIRM_S:g} s on "
+                    f"{latest.topic}: --speed below 1 needs a dVRK 2.3 or later (its own moves would run "
+                    "at full speed)",
+                    field="--speed",
+                )
+        self.speed = speed
+
     def hold(self) -> None:
         """The robot's `hold`: stay at the current set-point."""
         self._hold.put(codec.encode_empty())
@@ -426,7 +463,7 @@ class CrtkArm:
     def _move_goal(self, goal: NDArray[np.float64]) -> RobotMove:
         what = f"{self.name} move_jp to {np.round(goal, 4).tolist()}"
         guards.refuse_if(guards.joint_problems(goal, self.settings), what, self.topics.move_jp.name)
-        bound = 2 * rest_to_rest_bound(self.setpoint_js.position, goal) + MOVE_MARGIN
+        bound = 2 * rest_to_rest_bound(self.setpoint_js.position, goal, self.speed) + MOVE_MARGIN
         sent_at = self.robot_now()
         self._move.put(codec.encode_joint_state(self.clock.now(), goal))
         return RobotMove(self, sent_at, what, bound)
@@ -457,17 +494,28 @@ class CrtkArm:
         self.check_alive()
 
 
+def _is_ratio(wanted: float, value: float) -> bool:
+    return abs(value - wanted) < 1e-9
+
+
 def make_ready(
-    arms: list[CrtkArm], enable_timeout: float = ENABLE_TIMEOUT, home_timeout: float = HOME_TIMEOUT
+    arms: list[CrtkArm],
+    enable_timeout: float = ENABLE_TIMEOUT,
+    home_timeout: float = HOME_TIMEOUT,
+    speed: float = 1.0,
 ) -> None:
     """Enable every arm that is not, then home every arm that is not homed; each step bounded in time; from
-    then on each must stay enabled and homed (`CrtkArm.keep_ready`).
+    then on each must stay enabled and homed (`CrtkArm.keep_ready`). First each arm's own moves are set to
+    `speed` (`CrtkArm.slow_down`), homing too, whose bound grows as it slows.
 
     An arm just enabled is homed too, even if it says it is: a dVRK arm homed, disabled and enabled again
     reports `is_homed` (its encoders are still biased) but acts only once homed again, which is then quick
     (`mtsIntuitiveResearchKitArm.cpp`: `TransitionEnabled`, `RunHomed`; `is_homed` in `...PSM.cpp`)."""
     for arm in arms:
         arm.begin_run()
+    for arm in arms:
+        arm.slow_down(speed)
+    home_timeout /= speed
     enabled = [arm for arm in arms if arm.operating_state.state != "ENABLED"]
     for arm in enabled:
         arm.state_command("enable")

@@ -84,6 +84,26 @@ class PsmTopics:
         return _event(self._name("status"), codec.STRING)
 
     @property
+    def trajectory_j_ratio_v(self) -> Topic:
+        """The fraction of its own velocity limits the arm's `move_jp` and homing run at (std_msgs/Float64,
+        an event: latched); dVRK 2.3 and later (`mtsIntuitiveResearchKitArm.cpp`, `trajectory_j_set_ratio_v`;
+        `ros/dvrk_robot/src/system_ROS.cpp`, `bridge_interface_provided_arm`)."""
+        return _event(self._name("trajectory_j/ratio_v"), codec.FLOAT64)
+
+    @property
+    def trajectory_j_ratio_a(self) -> Topic:
+        """The same for its acceleration limits."""
+        return _event(self._name("trajectory_j/ratio_a"), codec.FLOAT64)
+
+    @property
+    def io_arm_clutch(self) -> Topic:
+        """The arm's clutch button as its IO board reports each press and release (sensor_msgs/Joy, 1 pressed,
+        0 released), whatever the arm's state: dVRK 2.4's `PSMn/IO/arm_clutch` (sawIntuitiveResearchKit
+        `ros/dvrk_robot/src/system_ROS.cpp`, `add_topics_PSM_IO`, an event publisher: latched, depth 100);
+        2.3 named it `PSMn/io/manip_clutch` (`ros/dvrk_robot/src/dvrk_console.cpp`, `add_topics_psm_io`)."""
+        return _event(self._name("IO/arm_clutch"), codec.JOY)
+
+    @property
     def fiducial_js(self) -> Topic:
         """Not the dVRK's: the physical joints as an external tracker sees them (the simulator's ground truth
         of the cable effects, the paper's RGBD fiducials)."""
@@ -114,6 +134,15 @@ class PsmTopics:
     def jaw_move_jp(self) -> Topic:
         return Topic(self._name("jaw/move_jp"), codec.JOINT_STATE, command=True)
 
+    @property
+    def trajectory_j_set_ratio_v(self) -> Topic:
+        """Set `trajectory_j/ratio_v`, within ]0, 1] (else the arm warns and keeps its ratio)."""
+        return Topic(self._name("trajectory_j/set_ratio_v"), codec.FLOAT64, command=True)
+
+    @property
+    def trajectory_j_set_ratio_a(self) -> Topic:
+        return Topic(self._name("trajectory_j/set_ratio_a"), codec.FLOAT64, command=True)
+
     def published(self) -> tuple[Topic, ...]:
         """What the PSM publishes (with the simulator's `fiducial_js`)."""
         return (
@@ -127,6 +156,9 @@ class PsmTopics:
             self.error,
             self.warning,
             self.status,
+            self.trajectory_j_ratio_v,
+            self.trajectory_j_ratio_a,
+            self.io_arm_clutch,
             self.fiducial_js,
         )
 
@@ -139,12 +171,15 @@ class PsmTopics:
             self.state_command,
             self.jaw_servo_jp,
             self.jaw_move_jp,
+            self.trajectory_j_set_ratio_v,
+            self.trajectory_j_set_ratio_a,
         )
 
 
 def clutch_button_topic(arm: str) -> Topic:
     """Not the dVRK's: the simulator's stand-in for a person pressing and releasing `arm`'s clutch button
-    (sensor_msgs/Joy, as the dVRK's own button events, `PSMn/IO/arm_clutch`: 1 pressed, 0 released)."""
+    (sensor_msgs/Joy, 1 pressed, 0 released); the simulator then publishes what a dVRK's IO board does
+    (`PsmTopics.io_arm_clutch`). A robot takes no such command: on it, the button is pressed by hand."""
     return Topic(f"/pegbt_sim/{arm}/arm_clutch", codec.JOY, command=True)
 
 

@@ -8,16 +8,19 @@ camera that captures nothing unasked sends no other), matched by arrival, so a c
 agree with this one's; a response with `success` false, no response, or no cloud soon after a response is an
 error naming the service.
 
-A full-resolution frame is 2.3 M points (Zivid 2), 16 bytes each; perception was tuned on about 130 k. The
-cloud is thinned on its organised grid as it is decoded: every `stride`-th row and column is copied out of the
-message (the rest never leaves it), then the invalid pixels (NaN) are dropped. Decoding runs on a thread of its
-own, not on zenoh's, which also carry the arms' states.
+A full-resolution frame is 2.3 M points (Zivid 2), 16 bytes each, of which the board is about 130 k. A capture
+is a `ZividCloud`: the image itself, a view of the message, from which block search takes every pixel near a
+block (`pegbt.perception.organised`), and, read as an array (by the board's registration), the valid points
+of every `stride`-th row and column, copied out of the message when first asked for. Decoding runs on a
+thread of its own, not on zenoh's, which also carry the arms' states.
 """
 
 from __future__ import annotations
 
 import threading
 import time
+from functools import cached_property
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -38,29 +41,54 @@ STRIDE = 2  # every 2nd row and column: 0.6 mm between points at the board (see 
 CLOUD_GRACE_S = 2.0  # after the response, for the cloud published before it to arrive
 
 
-def organised_points(payload: bytes, stride: int = STRIDE) -> tuple[float, NDArray[np.float32]]:
-    """(stamp, (N, 3) float32 valid points) of an organised PointCloud2, thinned to every `stride`-th row and
-    column of its grid."""
-    stamp, grid = codec.decode_organised_cloud(payload, stride)
-    points = grid.reshape(-1, 3)
-    return stamp, points[np.isfinite(points).all(axis=1)]
+class ZividCloud:
+    """A Zivid capture: `grid` (H, W, 3) float32, the whole image (NaN where no depth), a view of the message;
+    `points` (N, 3) float32, the valid points of every `stride`-th row and column, thinned when first read (by
+    the board's registration, say: block search reads the image), and what the cloud is as an array. Its
+    length is the image's (width × height, as the PointCloud2 says), valid or not."""
+
+    def __init__(self, stamp: float, grid: NDArray[np.float32], stride: int = STRIDE) -> None:
+        self.stamp, self.grid, self.stride = stamp, grid, stride
+
+    @cached_property
+    def points(self) -> NDArray[np.float32]:
+        points = np.ascontiguousarray(self.grid[:: self.stride, :: self.stride]).reshape(-1, 3)
+        return points[np.isfinite(points).all(axis=1)]
+
+    def __array__(self, dtype: Any = None, copy: bool | None = None) -> NDArray[Any]:
+        if dtype is not None and dtype != self.points.dtype:
+            return self.points.astype(dtype)
+        return self.points.copy() if copy else self.points
+
+    def __len__(self) -> int:
+        return self.grid.shape[0] * self.grid.shape[1]
+
+    def __repr__(self) -> str:
+        rows, columns, _ = self.grid.shape
+        return f"ZividCloud({rows}×{columns} image, thinned every {self.stride})"
+
+
+def organised_cloud(payload: bytes, stride: int = STRIDE) -> ZividCloud:
+    """An organised PointCloud2 as a `ZividCloud` thinned to every `stride`-th row and column."""
+    stamp, grid = codec.organised_grid(payload)
+    return ZividCloud(stamp, grid, stride)
 
 
 class ZividCapture:
-    """A requested capture: `ready` once its cloud came or it failed; then `points` ((N, 3) float32), or the
+    """A requested capture: `ready` once its cloud came or it failed; then `points` (a `ZividCloud`), or the
     error naming the service."""
 
     def __init__(self, camera: ZividCamera, call: ServiceCall) -> None:
         self.camera = camera
         self.call = call
         self.stamp: float | None = None
-        self._points: NDArray[np.float32] | None = None
+        self._points: ZividCloud | None = None
         self._error: PegbtError | None = None
         self._answered_at: float | None = None
         self._arrived = threading.Event()
 
-    def fulfil(self, stamp: float, points: NDArray[np.float32]) -> None:
-        self.stamp, self._points = stamp, points
+    def fulfil(self, cloud: ZividCloud) -> None:
+        self.stamp, self._points = cloud.stamp, cloud
         self._arrived.set()
 
     def refuse(self, error: PegbtError) -> None:
@@ -106,8 +134,8 @@ class ZividCapture:
                 )
             )
 
-    def result(self, timeout: float) -> NDArray[np.float32]:
-        """The thinned cloud, waiting up to `timeout` s; `ServiceFailed` naming the service if none came."""
+    def result(self, timeout: float) -> ZividCloud:
+        """The cloud, waiting up to `timeout` s; `ServiceFailed` naming the service if none came."""
         deadline = time.monotonic() + timeout
         while not self.ready and time.monotonic() < deadline:
             self._arrived.wait(min(0.05, max(0.0, deadline - time.monotonic())))
@@ -123,7 +151,7 @@ class ZividCapture:
         return self._points
 
     @property
-    def points(self) -> NDArray[np.float32]:
+    def points(self) -> ZividCloud:
         return self.result(0.0)
 
 
@@ -161,14 +189,14 @@ class ZividCamera:
 
     def _decode(self, payload: bytes, waiting: list[ZividCapture]) -> None:
         try:
-            stamp, points = organised_points(payload, self.stride)
+            cloud = organised_cloud(payload, self.stride)
         except PegbtError as error:
             self.last_error = str(error)
             for handle in waiting:
                 handle.refuse(ServiceFailed(f"capture failed: {error}", field=self.topic.name))
             return
         for handle in waiting:
-            handle.fulfil(stamp, points)
+            handle.fulfil(cloud)
 
     def capture_async(self) -> ZividCapture:
         """Call the capture service; poll the handle's `ready` in later ticks."""
@@ -179,6 +207,6 @@ class ZividCamera:
             self._pending.append(handle)
         return handle
 
-    def capture(self) -> NDArray[np.float32]:
+    def capture(self) -> ZividCloud:
         """The next cloud, blocking up to `timeout` s."""
         return self.capture_async().result(self.timeout)

@@ -15,14 +15,15 @@ from pegbt.sim.arm import DEFAULT_JOINTS
 
 @pytest.fixture(scope="module")
 def collected(tmp_path_factory):
-    """1000 set-points of PSM1 collected from a lockstep simulator with the dvrk-real cables."""
+    """400 set-points of PSM1 collected from a lockstep simulator with the dvrk-real cables."""
     return load_recording(
-        collect_on_simulator("PSM1", tmp_path_factory.mktemp("sim") / "sim_PSM1", 1000, seed=0)
+        collect_on_simulator("PSM1", tmp_path_factory.mktemp("sim") / "sim_PSM1", 400, seed=0)
     )
 
 
+@pytest.mark.slow  # the module's collection on the simulator
 def test_a_collected_recording_is_in_the_dataset_layout_and_covers_the_task(collected):
-    assert collected.arm == "PSM1" and len(collected) == 1000
+    assert collected.arm == "PSM1" and len(collected) == 400
     assert json.loads((collected.path / "meta.json").read_text())["arm"] == "PSM1"
     assert collected.sampling.mode == "setpoints"  # each sample after 0.3 s of rest, as the dVRK recordings
     lower, upper = task_box("PSM1")

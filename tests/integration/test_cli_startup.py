@@ -10,6 +10,7 @@ import time
 from pathlib import Path
 
 import pytest
+from startup_helpers import modules_loaded_after
 
 from pegbt.errors import PegbtError
 from pegbt.sim import process
@@ -20,20 +21,7 @@ HEAVY = ("zenoh", "scipy", "torch", "open3d", "matplotlib", "rosbags", "py_trees
 
 def test_the_parser_loads_no_heavy_library():
     """Handlers import what they need; building every command's parser (what --help does) must not."""
-    probe = (
-        "import sys; from pegbt.cli import build_parser; build_parser(); "
-        f"print(sorted({{m.split('.')[0] for m in sys.modules}} & set({HEAVY!r})))"
-    )
-    done = subprocess.run(
-        [sys.executable, "-c", probe],
-        capture_output=True,
-        text=True,
-        cwd=REPO,
-        timeout=60,
-        env=dict(os.environ, PYTHONPATH=str(REPO)),
-    )
-    assert done.returncode == 0, done.stderr
-    assert done.stdout.strip() == "[]"
+    assert modules_loaded_after("from pegbt.cli import build_parser; build_parser()", HEAVY) == []
 
 
 def test_a_simulator_that_prints_nothing_in_time_is_killed_with_a_clear_error(monkeypatch):

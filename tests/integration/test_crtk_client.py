@@ -22,6 +22,7 @@ from crtk_double import LOWER, UPPER, CrtkDouble
 
 from pegbt.behaviours.resources.arm_motion import ArmMotion
 from pegbt.behaviours.resources.robot import connect_crtk_robot
+from pegbt.cli import main
 from pegbt.errors import PegbtError
 from pegbt.executive.analysis import summary
 from pegbt.executive.logfile import read_tick_log
@@ -416,28 +417,22 @@ def test_a_goal_is_done_once_the_set_point_the_next_motion_plans_from_has_come(e
 
 
 def test_no_bridge_at_the_address_is_one_line_naming_the_address_and_what_should_listen(
-    pegbt_cli, tmp_path: Path
+    short_connect_waits, capsys, tmp_path: Path
 ) -> None:
     address = f"tcp/127.0.0.1:{free_port()}"
     for ros2, listener in (("bridge", "zenoh-bridge-ros2dds"), ("rmw_zenoh", "rmw_zenohd")):
-        done = pegbt_cli(
-            "run",
-            "trees/unilateral.yaml",
-            "--interface",
-            "dvrk",
-            "--ros2",
-            ros2,
-            "--endpoint",
-            address,
-            "--log",
-            tmp_path / f"{ros2}.jsonl",
-        )
-        assert done.returncode == 3, done.stderr
-        assert f"nothing answers at {address}" in done.stderr and listener in done.stderr
-        assert "Traceback" not in done.stderr and len(done.stderr.strip().splitlines()) == 1
+        log = tmp_path / f"{ros2}.jsonl"
+        tree = str(REPO / "trees" / "unilateral.yaml")
+        argv = ["run", tree, "--interface", "dvrk", "--ros2", ros2, "--endpoint", address]
+        assert main([*argv, "--log", str(log)]) == 3
+        stderr = capsys.readouterr().err
+        assert f"nothing answers at {address}" in stderr and listener in stderr
+        assert "Traceback" not in stderr and len(stderr.strip().splitlines()) == 1
 
 
-def test_a_robot_under_another_namespace_is_told_apart_from_no_robot(endpoint: str) -> None:
+def test_a_robot_under_another_namespace_is_told_apart_from_no_robot(
+    endpoint: str, short_connect_waits
+) -> None:
     double = CrtkDouble(endpoint)  # its topics without a namespace, as a bridge started without one
     try:
         with pytest.raises(
@@ -449,7 +444,7 @@ def test_a_robot_under_another_namespace_is_told_apart_from_no_robot(endpoint: s
 
 
 def test_joints_without_the_latched_operating_state_name_the_bridge_version_that_serves_it(
-    endpoint: str,
+    endpoint: str, short_connect_waits
 ) -> None:
     """The dVRK sends `operating_state` only when it changes (cisst-ros `mtsROSBridge.h`, an event publisher,
     latched): a late joiner has it only from the bridge's cache of latched topics."""

@@ -19,12 +19,14 @@ from dvrk_sim_helpers import ServedSim
 
 from pegbt.behaviours.resources.arm_motion import ArmMotion
 from pegbt.behaviours.resources.robot import Robot, connect_crtk_robot
+from pegbt.errors import PegbtError
 from pegbt.executive.analysis import summary
 from pegbt.executive.logfile import read_tick_log
 from pegbt.executive.runoptions import RunOptions
 from pegbt.executive.session import run_tree_file
 from pegbt.sim.process import free_port
 from pegbt.transport.arm import ArmLeftReady
+from pegbt.transport.crtk_arm import rest_to_rest_bound
 
 HOUR = 3600.0
 JOINT_STATE = "sensor_msgs/msg/JointState"
@@ -208,6 +210,73 @@ def test_the_clutch_mid_motion_pauses_it_and_it_completes_after_release_without_
         assert steps[:, :2].max() < 0.1 and steps[:, 2].max() < 0.01  # rad, m between two states: no jump
         path = np.array([q for _, q in sent])
         assert np.abs(np.diff(path, axis=0))[:, :2].max() < 0.05  # nor in the set-points
+    finally:
+        client.close()
+
+
+@pytest.mark.parametrize("kind", ["sim", "double"])
+def test_speed_slows_the_robots_own_move_jp_through_its_trajectory_ratios(
+    robots: Callable[..., Robots], kind: str
+) -> None:
+    """`--speed 0.5`: before homing the client sets the robot's `trajectory_j` ratios (velocity 0.5,
+    acceleration 0.25) and the robot confirms them; its own `move_jp` then takes twice as long."""
+    robot = robots(kind)
+    ratios = {kind: robot.peer.subscribe_latched(f"PSM1/trajectory_j/ratio_{kind}") for kind in "va"}
+    client = connect_crtk_robot(robot.address, liveness=5.0, speed=0.5)
+    try:
+        for which, ratio in (("v", 0.5), ("a", 0.25)):
+            assert [m.data for m in ratios[which].decoded("std_msgs/msg/Float64")][-1] == ratio
+        arm = client.arm("PSM1")
+        start = arm.setpoint_js.position
+        goal = start + np.array([0.6, 0.0, 0.0, 0.0, 0.0, 0.0])
+        began = time.monotonic()
+        move = arm.move_jp(goal)
+        assert wait_for(lambda: not move.busy, 20) and move.done, move.error
+        took = time.monotonic() - began
+        if robot.double is None:  # the dVRK's profile: 1.24 s at full speed, 2.47 s at half
+            full = rest_to_rest_bound(start, goal)
+            assert took > 1.8 * full, (took, full)
+        else:
+            assert took > 1.8 * robot.double.move_seconds
+    finally:
+        client.close()
+
+
+def test_speed_below_one_on_a_robot_without_trajectory_ratios_stops_before_anything_moves() -> None:
+    """A dVRK 2.1 or 2.2 has no `trajectory_j` ratio: its homing would go at full speed, so `--speed 0.5`
+    stops, naming the option, before any arm is enabled."""
+    address = f"tcp/127.0.0.1:{free_port()}"
+    double = CrtkDouble(address, ratios=False)
+    try:
+        with pytest.raises(PegbtError) as refused:
+            connect_crtk_robot(address, liveness=5.0, speed=0.5)
+        assert refused.value.field == "--speed" and "dVRK 2.3 or later" in refused.value.message
+        assert not double.commands("state_command") and double.arms["PSM1"].state == "DISABLED"
+    finally:
+        double.close()
+
+
+@pytest.mark.parametrize("kind", ["sim", "double"])
+def test_the_clutch_button_is_reported_on_the_io_topic_a_dvrk_2_4_publishes(
+    robots: Callable[..., Robots], kind: str
+) -> None:
+    """Each press and release on `PSMn/IO/arm_clutch` (sensor_msgs/Joy: 1, then 0), the arm MANUAL between
+    them; a press on an arm not ready is reported too, though the arm ignores it."""
+    robot = robots(kind)
+    buttons = robot.peer.subscribe_latched("PSM1/IO/arm_clutch")
+    robot.clutch("PSM1", True)  # DISABLED: the IO board reports it, the arm ignores it
+    robot.clutch("PSM1", False)
+    client = connect_crtk_robot(robot.address, liveness=5.0)
+    try:
+        robot.clutch("PSM1", True)
+        manual = client.arm("PSM1").operating_state
+        assert wait_for(lambda: client.arm("PSM1").operating_state.is_busy, 5), "never MANUAL"
+        assert manual.state == "ENABLED" and manual.is_homed
+        robot.clutch("PSM1", False)
+        assert wait_for(lambda: not client.arm("PSM1").operating_state.is_busy, 5)
+        assert wait_for(lambda: len(buttons.all()) >= 4, 5)
+        pressed = [int(m.buttons[0]) for m in buttons.decoded("sensor_msgs/msg/Joy")]
+        assert pressed == [1, 0, 1, 0]
     finally:
         client.close()
 

@@ -3,13 +3,10 @@
 
 from __future__ import annotations
 
-import json
-import os
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
+from startup_helpers import modules_loaded_after
 
 from pegbt.cli import main
 
@@ -18,25 +15,9 @@ HEAVY = ("torch", "open3d", "scipy.signal", "matplotlib", "dask", "distributed",
 
 
 def _heavy_modules_loaded_by(argv: list[str], cwd: Path) -> list[str]:
-    """Runs `pegbt ARGV` in a fresh interpreter; the heavy modules in its `sys.modules` afterwards."""
-    probe = (
-        "import json, sys\n"
-        "from pegbt.cli import main\n"
-        f"status = main({argv!r})\n"
-        f"print(json.dumps([status, sorted(m for m in {HEAVY!r} if m in sys.modules)]))\n"
-    )
-    done = subprocess.run(
-        [sys.executable, "-c", probe],
-        capture_output=True,
-        text=True,
-        cwd=cwd,
-        timeout=120,
-        env=dict(os.environ, PYTHONPATH=str(REPO)),
-    )
-    assert done.returncode == 0, done.stderr
-    status, loaded = json.loads(done.stdout.strip().splitlines()[-1])
-    assert status == 0, done.stdout + done.stderr
-    return loaded
+    """The heavy modules a fresh interpreter holds after `pegbt ARGV` ran there and succeeded."""
+    run = f"from pegbt.cli import main\nif main({argv!r}) != 0:\n    raise SystemExit('pegbt failed')"
+    return modules_loaded_after(run, HEAVY, cwd)
 
 
 @pytest.mark.parametrize(

@@ -15,6 +15,7 @@ import pytest
 import zenoh
 from zivid_helpers import ZividSim, zivid_camera
 
+from pegbt.perception.blocks import locate_blocks
 from pegbt.perception.board import PegboardRegistration
 from pegbt.sim.process import free_port
 from pegbt.sim.world import World
@@ -48,15 +49,19 @@ def test_a_capture_is_the_called_cloud_thinned_and_perception_registers_the_boar
     time.sleep(0.5)
     asked = time.time()
     capture = camera.capture_async()
-    points = capture.result(20.0)
+    cloud = capture.result(20.0)
     assert capture.ready and capture.sent and capture.stamp is not None and capture.stamp > asked
+    points = cloud.points
     assert np.isfinite(points).all() and points.dtype == np.float32
+    assert cloud.grid.shape == (1200, 1944, 3) and len(cloud) == 1944 * 1200  # the whole image, as sent
     full = zivid_camera().capture(World(0))  # every valid pixel of a full-resolution frame
     assert 0.2 < len(points) / len(full) < 0.3  # every 2nd row and column: a quarter
-    board = PegboardRegistration(World(0).cell).fit(points)
+    board = PegboardRegistration(World(0).cell).fit(cloud)  # read as an array: the thinned points
     assert board.ok, board.reason
+    blocks = locate_blocks(cloud, board)  # every pixel near a block, from the image
+    assert sum(block.ok for block in blocks) == 6
     second = camera.capture()  # each capture calls again and gets its own cloud
-    assert len(second) == pytest.approx(len(points), rel=0.05)
+    assert len(second.points) == pytest.approx(len(points), rel=0.05)
 
 
 class FakeDriver:
@@ -166,7 +171,7 @@ def test_a_capture_waits_for_a_slow_driver() -> None:
     try:
         capture = camera.capture_async()
         threading.Thread(target=answer_later).start()
-        points = capture.result(5.0)
+        points = capture.result(5.0).points
     finally:
         session.close()
         driver.close()

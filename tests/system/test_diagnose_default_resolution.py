@@ -11,7 +11,7 @@ import pytest
 
 from pegbt.cli import main
 
-pytestmark = pytest.mark.system
+pytestmark = [pytest.mark.system, pytest.mark.slow]
 
 
 def test_a_copied_real_recording_is_diagnosed_at_the_papers_resolution(dvrk_data, tmp_path, capsys):

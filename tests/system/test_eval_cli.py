@@ -35,6 +35,7 @@ def pegbt(*args: str, timeout: float = 600) -> subprocess.CompletedProcess:
     )
 
 
+@pytest.mark.slow
 def test_eval_prints_the_figures_writes_csv_and_plots_and_repeats_a_seed_exactly(tmp_path):
     out = tmp_path / "results"
     run = pegbt(

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-pytestmark = pytest.mark.system
+pytestmark = [pytest.mark.system, pytest.mark.slow]
 
 
 def test_tick_logs_of_a_campaign_are_diagnosed_from_the_logs_alone(tmp_path: Path, pegbt_cli):

@@ -1,14 +1,13 @@
 """The simulator's dVRK interface as a node of a ROS 2 graph on rmw_zenoh, driven by zenoh-ros2-sdk
 (ROBOTIS's rmw_zenoh client) as a ROS 2 operator's node would: it reads `/PSM1/measured_js`, enables and
-homes the arm with `state_command`, and moves it with `servo_jp`; and a pegbt run over rmw_zenoh places
-every block. The router is a zenoh session in router mode on 127.0.0.1."""
+homes the arm with `state_command`, and moves it with `servo_jp`. The router is a zenoh session in router mode
+on 127.0.0.1. A whole pegbt trial over rmw_zenoh, with a Zivid, is `test_zivid_trial.py`'s."""
 
 from __future__ import annotations
 
 from pathlib import Path
 
 import pytest
-from dvrk_trial_helpers import assert_every_block_placed_cleanly, unilateral_on_dvrk
 from rmw_zenoh_helpers import lines, partner
 
 from pegbt.sim.process import SimProcess
@@ -33,13 +32,6 @@ def test_a_ros2_node_reads_enables_homes_and_servos_the_simulated_arm(messages_d
     assert any(s["state"] == "ENABLED" and s["is_homed"] for s in states)
     assert drove["after"] is not None
     assert drove["after"][0] - drove["before"][0] == pytest.approx(0.05, abs=0.01)
-
-
-@pytest.mark.slow
-def test_a_unilateral_trial_over_rmw_zenoh_places_every_block(pegbt_cli, router, tmp_path: Path) -> None:
-    graph = f"tcp/127.0.0.1:{router}"
-    entries = unilateral_on_dvrk(pegbt_cli, tmp_path, run_options=["--ros2", "rmw_zenoh"], router=graph)
-    assert_every_block_placed_cleanly(entries)
 
 
 def _sim_stderr(connect: str, seconds: float) -> str:

@@ -176,3 +176,36 @@ def test_a_transfer_in_a_world_with_inert_effects_is_the_rigid_world_s():
             driver.play({"PSM1": transfer_keyframes(world, 1, 7, grasp_candidate_facing(world, 1, "PSM1"))})
         )
     assert events[0] == events[1]
+
+
+def _grasp_off_centre(effects, by=0.0024):
+    """PSM1 closes on block 1's wall `by` (m) outward of its centre, further than the peg lets it slide."""
+    world = World(1, effects=effects)
+    driver = Driver(world)
+    events, holding = grasp_block(world, driver, 1, error=by * _outward(world))
+    return world, driver, events, holding
+
+
+def test_jaws_closing_off_a_wall_the_peg_stops_grip_it_within_the_wrist_s_capture_width():
+    rigid, _, events, _ = _grasp_off_centre(WorldEffects())
+    assert kinds(events) == ["grasp_miss"] and "peg 1 stops the block" in events[0].detail
+
+    world, _, events, _ = _grasp_off_centre(WorldEffects.of({"grasp_capture": {"width": 0.0015}}))
+    assert kinds(events) == ["grasp"] and world.held_by("PSM1") == 1
+    hole = world.blocks[1].pose[:2, 3] - world.cell.pegs.positions[1]
+    assert np.linalg.norm(hole) == pytest.approx(CLEARANCE, abs=1e-5)  # slid until the peg stopped it
+
+    narrow, _, events, _ = _grasp_off_centre(WorldEffects.of({"grasp_capture": {"width": 0.0003}}))
+    assert kinds(events) == ["grasp_miss"] and narrow.held_by("PSM1") is None
+
+
+def test_a_captured_grip_holds_the_wall_off_centre_so_a_lift_drifting_outward_catches_on_the_peg():
+    drift = 0.0004 * _outward(World(1))[:2]
+    world, driver, _, holding = _grasp_off_centre(WorldEffects.of({"grasp_capture": {"width": 0.0015}}))
+    events = lift_block(world, driver, holding, drift=drift)
+    assert kinds(events)[:2] == ["collision", "drop"] and "caught on peg 1" in events[0].detail
+
+    centred = World(1)
+    driver = Driver(centred)
+    _, holding = grasp_block(centred, driver, 1)
+    assert kinds(lift_block(centred, driver, holding, drift=drift)) == ["lift"]

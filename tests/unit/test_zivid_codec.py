@@ -10,7 +10,7 @@ from zenoh_ros2_sdk.utils import compute_service_type_hash
 from pegbt.transport import codec
 from pegbt.transport.rmw_zenoh import dds_type_name, type_hash
 from pegbt.transport.ros2_service import bridge_service_key
-from pegbt.transport.zivid_camera import CAPTURE, organised_points
+from pegbt.transport.zivid_camera import CAPTURE, organised_cloud
 
 STORE = get_typestore(Stores.ROS2_HUMBLE)
 STORE.register(get_types_from_msg("bool success\nstring message\n", "std_srvs/srv/Trigger_Response"))
@@ -61,8 +61,14 @@ def test_another_producers_organised_cloud_is_thinned_on_its_grid() -> None:
     np.testing.assert_array_equal(grid, points[::2, ::2])
     _, reordered = codec.decode_organised_cloud(_pcl_cloud(points, axes="zxy"), stride=2)
     np.testing.assert_array_equal(reordered, points[::2, ::2])
-    _, thinned = organised_points(_pcl_cloud(points), stride=3)
+    cloud = organised_cloud(_pcl_cloud(points), stride=3)
+    np.testing.assert_array_equal(cloud.grid, points)  # the whole image, for block search
+    assert len(cloud) == 5 * 7
+    thinned = cloud.points
     np.testing.assert_array_equal(thinned, points[::3, ::3].reshape(-1, 3)[1:])  # the NaN pixel dropped
+    assert np.asarray(cloud) is thinned and np.asarray(cloud, dtype=np.float64).dtype == np.float64
+    np.array(cloud)[0] = -1.0  # a copy asked for is one
+    assert thinned[0, 0] != -1.0
 
 
 def test_the_trigger_messages_and_the_services_keys() -> None:

@@ -339,7 +339,7 @@ def connect_crtk_robot(
             robot.wait_until_ready()
         except EndpointSilent as error:
             raise _robot_silent(error, session, endpoint, ros2, namespace) from None
-        make_ready(list(arms.values()))
+        make_ready(list(arms.values()), speed=speed)
     except BaseException:
         streamer.close()
         session.close()

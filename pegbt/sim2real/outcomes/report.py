@@ -44,6 +44,8 @@ def report_dict(diagnosis: Diagnosis, commands: list[str] | None = None) -> dict
             entry["real_mean_transfer_s"] = cell.mean_transfer_s
         if cell.failures:
             entry["real"]["failures"] = dict(cell.failures)
+        if d.predicted_by:
+            entry["predicted_span"] = list(tie_span(d, cell))
         for name, predictions in d.predicted_by.items():
             q = predictions[cell.key]
             entry.setdefault("predicted_by", {})[name] = {
@@ -108,6 +110,12 @@ def report_dict(diagnosis: Diagnosis, commands: list[str] | None = None) -> dict
         "seconds": d.seconds,
         "commands": commands or [],
     }
+
+
+def tie_span(d: Diagnosis, cell: Cell) -> tuple[float, float]:
+    """The lowest and highest rate the effects the data cannot tell apart predict for `cell`."""
+    rates = [predictions[cell.key].rate for predictions in d.predicted_by.values()]
+    return min(rates), max(rates)
 
 
 def _finding(d: Diagnosis) -> list[str]:
@@ -195,6 +203,20 @@ def report_markdown(d: Diagnosis, commands: list[str] | None = None) -> str:
             q = predictions[cell.key]
             lines.append(
                 f"- {cell.variant} {cell.condition}: {_pct(q.rate)} ({_pct(q.low)}–{_pct(q.high)}), real {_pct(cell.rate)}: {'inside' if q.inside else 'outside'}"
+            )
+    if d.predicted_by and d.held_out:
+        lines += ["", "Across the tie (the prediction is this span of rates, not one effect's):"]
+        for cell in d.held_out:
+            low, high = tie_span(d, cell)
+            real_low, real_high = rate_interval(cell.succeeded, cell.attempted)
+            reaches = (
+                "inside"
+                if real_low <= low and high <= real_high
+                else ("overlapping" if low <= real_high and real_low <= high else "outside")
+            )
+            lines.append(
+                f"- {cell.variant} {cell.condition}: {_pct(low)}–{_pct(high)}; real {_pct(cell.rate)} "
+                f"({_pct(real_low)}–{_pct(real_high)}): {reaches}"
             )
     inside = [d.predictions[c.key].inside for c in d.held_out]
     if inside:

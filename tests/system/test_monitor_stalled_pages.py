@@ -1,6 +1,7 @@
 """Twenty pages that connect to `pegbt run --monitor` and never read cost the run nothing: the server drops
 them once their frames pile up, and the run ticks as often, with as few overruns, as with no page at all.
-The same figures, with medians over rounds, are `pegbt bench monitor-limits`."""
+The same figures, with medians over rounds, are `pegbt bench monitor-limits`. Real time: two 5 s runs on the
+wall clock, judged by their overruns (the system tier)."""
 
 from __future__ import annotations
 
