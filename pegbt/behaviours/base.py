@@ -10,7 +10,10 @@ run. Other exceptions are bugs and crash the run the same way.
 A `MotionLeaf` plans its motions in `initialise` (`begin()`: one per arm or jaw), computes the heavy part
 (SQP planning, pre-compensating every row) on a worker thread, sends them all on the tick that finds that
 done, polls them in `update` and, when halted, stops whatever still moves in `terminate` (and discards
-a plan still computing). It never blocks a tick. A `ComputeLeaf` is one computation off the tick
+a plan still computing). It never blocks a tick. A plan made early (`ArmMotion.plan_early`) for the inputs
+a leaf's motion is made from (`move(..., inputs=)`) is taken instead of planning again, and every plan is
+checked as it is sent (`ArmMotion.stale`): one made from a state the arm is no longer in is made again
+from where the arm is (at most `REPLANS` times in a row), never sent. A `ComputeLeaf` is one computation off the tick
 (perception, a handover's meeting), picked up by a later tick.
 Before an arm motion is sent, it is checked against where the other arm is meant to be at the same
 times (moving or at rest): if the tools would come closer than `keep_apart`, nothing is sent and the
@@ -29,7 +32,7 @@ from typing import Any, Literal
 
 from py_trees.common import Status
 
-from pegbt.behaviours.resources.arm_motion import ArmMotion, Prepared
+from pegbt.behaviours.resources.arm_motion import ArmMotion, Prepared, prepare_all
 from pegbt.behaviours.resources.robot import Robot
 from pegbt.behaviours.resources.skills import Skills
 from pegbt.errors import PegbtError
@@ -47,6 +50,7 @@ BLOCKED_RETRY = 0.1  # s between attempts of a motion that would come too close 
 BLOCKED_PATIENCE = 15.0  # s a motion waits for the other arm to clear its way before the leaf fails
 MAX_KEEP_APART = 0.1  # m between the tools' axes: farther apart than the two arms' shared workspace allows
 STEP_BACK = 0.03  # m of insertion an arm gives up to let the other arm past
+REPLANS = 3  # plans in a row found stale as they were sent before the leaf fails
 # s a motion may run past its planned end before the leaf gives up on it: in real time an endpoint's
 # report of the end can be lost (a busy machine), and every motion is bounded in time
 MOTION_OVERTIME = 3.0
@@ -159,14 +163,7 @@ class Outgoing:
     arm: str
     trajectory: Trajectory | Callable[[], Trajectory] | None = None
     jaw_angle: float | None = None
-
-
-def prepare_all(motions: list[tuple[ArmMotion, Outgoing]]) -> list[Prepared | None]:
-    """On a worker: every arm trajectory planned and pre-compensated (None for a jaw motion)."""
-    return [
-        None if outgoing.trajectory is None else motion.prepare(outgoing.trajectory)
-        for motion, outgoing in motions
-    ]
+    inputs: tuple[object, ...] | None = None  # what the trajectory is planned from, to take a plan made early
 
 
 @dataclass
@@ -193,6 +190,8 @@ class MotionLeaf(RobotLeaf):
         self.stepping_back: Running | None = None
         self.stepped_back = False
         self.job: Job | None = None
+        self.replans = 0
+        self.early_at: int | None = None  # where a plan made early stands among the motions
         self._start()
 
     def _start(self) -> None:
@@ -207,18 +206,61 @@ class MotionLeaf(RobotLeaf):
             self.problem = str(error)
             self.halt_motions()
             return
-        motions = [(self.motion(outgoing.arm), outgoing) for outgoing in self.outgoing]
-        if not any(outgoing.trajectory is not None for outgoing in self.outgoing):
-            self._send([None] * len(motions))
+        arms = [outgoing for outgoing in self.outgoing if outgoing.trajectory is not None]
+        if not arms:
+            self._send([None] * len(self.outgoing))
             return
-        self.job = self.offload(prepare_all, motions)
+        for outgoing in arms:
+            self.motion(outgoing.arm).start_from(self.client(outgoing.arm))  # after a failure: from here
+        early = self._early()
+        if early is not None:
+            self.job = self.adopt(early)
+        else:
+            self.job = self.offload(
+                prepare_all,
+                [
+                    None if o.trajectory is None else self.motion(o.arm).preparation(o.trajectory)
+                    for o in self.outgoing
+                ],
+            )
         if self.job.done:  # computed in this tick (lockstep): send now, as a later tick would
             self._pick_up()
 
+    def _early(self) -> Job | None:
+        """The job of the plan made early for this leaf's one arm motion (beside jaw motions), if one was
+        made from its inputs; its result, one plan, stands at that motion's place (`_pick_up`)."""
+        self.early_at = None
+        arms = [i for i, outgoing in enumerate(self.outgoing) if outgoing.trajectory is not None]
+        inputs = self.outgoing[arms[0]].inputs if len(arms) == 1 else None
+        job = None if inputs is None else self.motion(self.outgoing[arms[0]].arm).take_early(inputs)
+        if job is not None:
+            self.early_at = arms[0]
+        return job
+
+    def _stale(self, prepared: list[Prepared | None]) -> str | None:
+        """Why a plan may not be sent as it is (made from a state the arm has left), or None."""
+        for outgoing, ready in zip(self.outgoing, prepared):
+            if ready is not None:
+                why = self.motion(outgoing.arm).stale(ready, self.client(outgoing.arm))
+                if why is not None:
+                    return f"{outgoing.what}: {why}"
+        return None
+
     def _send(self, prepared: list[Prepared | None]) -> None:
-        """Send what `begin()` asked for, unless an arm motion would come too close to the other arm (then
-        nothing is sent and the leaf waits)."""
+        """Send what `begin()` asked for, unless a plan is stale (then it is made again) or an arm motion
+        would come too close to the other arm (then nothing is sent and the leaf waits)."""
         arm = self.param("arm")
+        stale = self._stale(prepared)
+        if stale is not None:
+            self.replans += 1
+            if self.replans > REPLANS:
+                self.problem = f"{stale}, {REPLANS} plans in a row"
+                return
+            log.info("%s: planning again: %s", self.name, stale)
+            self.feedback_message = f"planning again: {stale}"
+            self._start()
+            return
+        self.replans = 0
         try:
             for outgoing, ready in zip(self.outgoing, prepared):
                 if ready is not None:
@@ -252,6 +294,9 @@ class MotionLeaf(RobotLeaf):
             self.problem = str(error)
             self.halt_motions()
             return
+        if self.early_at is not None:
+            (plan,) = prepared
+            prepared = [plan if i == self.early_at else None for i in range(len(self.outgoing))]
         self._send(prepared)
 
     def _wait_for_the_way(self) -> Status:
@@ -308,11 +353,18 @@ class MotionLeaf(RobotLeaf):
     def started(self, trajectories: list[Trajectory]) -> None:
         """Called once the arm trajectories (as planned, in `move` order) were sent; a subclass may report them."""
 
-    def move(self, arm: str, trajectory: Trajectory | Callable[[], Trajectory], what: str) -> None:
+    def move(
+        self,
+        arm: str,
+        trajectory: Trajectory | Callable[[], Trajectory],
+        what: str,
+        inputs: tuple[object, ...] | None = None,
+    ) -> None:
         """Send a trajectory for `arm` (or the one a function plans, called on a worker thread: it must use
         its own inputs alone), pre-compensated by the condition's skills, unless it would bring the tools
-        closer than `keep_apart` (then nothing is sent and the leaf waits)."""
-        self.outgoing.append(Outgoing(what, arm, trajectory=trajectory))
+        closer than `keep_apart` (then nothing is sent and the leaf waits). `inputs`: what it is planned
+        from, so that a plan made early from the same inputs is taken instead (`ArmMotion.plan_early`)."""
+        self.outgoing.append(Outgoing(what, arm, trajectory=trajectory, inputs=inputs))
 
     def move_jaw(self, arm: str, angle: float, what: str) -> None:
         self.outgoing.append(Outgoing(what, arm, jaw_angle=angle))
@@ -362,6 +414,9 @@ class MotionLeaf(RobotLeaf):
                 self.wake_at = None
                 return Status.RUNNING
             self._pick_up()
+            if self.job is not None:  # the plan was stale: planning again
+                self.wake_at = None
+                return Status.RUNNING
         if self.problem is not None:
             return self.fail(self.problem)
         if self.blocked_since is not None:

@@ -58,6 +58,10 @@ class CarryLeaf(MotionLeaf):
     def waypoints(self) -> TransferWaypoints:
         raise NotImplementedError
 
+    def inputs(self) -> tuple[object, ...] | None:
+        """What `waypoints()` are made from, to take a plan made early from the same (None: never early)."""
+        return None
+
     def initialise(self) -> None:
         self.log_detail = None
         self.segment_ends: tuple[int, int] | None = None  # planned rows where lift and carry end
@@ -68,7 +72,7 @@ class CarryLeaf(MotionLeaf):
         arm = self.param("arm")
         waypoints = self.waypoints()
         self.poses = waypoints.poses
-        self.move(arm, partial(self.motion(arm).transfer, waypoints), f"{arm} {self.name}")
+        self.move(arm, partial(self.motion(arm).transfer, waypoints), f"{arm} {self.name}", self.inputs())
 
     def started(self, trajectories: list[Trajectory]) -> None:
         planned = trajectories[0]

@@ -72,6 +72,13 @@ class Leaf(py_trees.behaviour.Behaviour):
         self._jobs.append(job)
         return job
 
+    def adopt(self, job: Job[T]) -> Job[T]:
+        """Take over `job`, submitted before this leaf wanted it (work done ahead): discarded as this
+        leaf's own jobs are, and the tree counted as waiting for it only from now."""
+        job.wanted()
+        self._jobs.append(job)
+        return job
+
     def stop(self, new_status: Status = Status.INVALID) -> None:
         super().stop(new_status)
         for job in self._jobs:

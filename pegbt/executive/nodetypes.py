@@ -231,7 +231,8 @@ NODE_TYPES: dict[str, NodeType] = {
             "for_each",
             "an instance of subtree `use` per item of list `list` (the tree files' `lists:`), in order: the "
             "item's fields are its arguments (those it declares), with `args` and, if it declares `n`, the "
-            "item's position in the list",
+            "item's position in the list, and if it declares `next`, the next item of the loop (its fields; "
+            "the last item gets the declared default), for work done ahead",
             "loop",
             (
                 Param("list", str, "name of the list (in `lists:` of this file or an included one)"),

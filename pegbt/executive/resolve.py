@@ -442,11 +442,13 @@ class Resolver:
         local = _NAMESPACE_CHARS.sub("_", path).strip("_")  # the path: unique, where the name may not be
         child_scope = Scope(path=path, namespace=scope.namespace, args=scope.args, stack=scope.stack)
         children = Siblings()
-        for position, item in items:
+        for index, (position, item) in enumerate(items):
             taken = {key: value for key, value in item.value.items() if key in definition.args}
             args = {**fixed, **taken}
             if "n" in definition.args and "n" not in args:
                 args["n"] = Located(position, item.mark)
+            if "next" in definition.args and "next" not in args and index + 1 < len(items):
+                args["next"] = items[index + 1][1]
             shown = " ".join(
                 f"{key} {value.plain()}"
                 for key, value in taken.items()

@@ -6,6 +6,9 @@ and Open3D, numpy and OSQP release the GIL in their heavy loops (`pegbt bench of
 much of a job's time the ticking thread still gets). A leaf calls `Leaf.offload(fn, *args)`; a job
 must compute from its arguments alone (no blackboard, no transport), since the tree runs on meanwhile.
 
+Work done ahead of need (`submit_ahead`: a motion planned while the one before it plays) runs on a thread
+of its own, so that it never queues a job the tree waits for now behind it.
+
 The run's ticking sleeps between ticks through `WorkPool.wait`, which a job ending cuts short: its leaf
 gets the result on the next tick at once, not up to a period later.
 
@@ -39,7 +42,7 @@ class Job(Generic[T]):
         """On `executor`'s threads, or at once in the caller when there is none (`WorkPool.inline`)."""
         self._pool = pool
         self.kind = getattr(fn, "func", fn).__qualname__  # what computes (a partial's function)
-        self.submitted = time.perf_counter()
+        self.submitted = self.wanted_from = time.perf_counter()
         self.started: float | None = None
         self.finished: float | None = None
         self.discarded = False
@@ -67,12 +70,17 @@ class Job(Generic[T]):
 
     def result(self) -> T:
         """The job's value, or the exception it raised; blocks if it is not done. The first call counts the
-        time from submission to now as time the tree waited for this job."""
+        time from submission (or from when a leaf came to want it, `wanted`) to now as time the tree
+        waited for this job."""
         value = self._future.result()
         if not self._picked:
             self._picked = True
             self._pool.count(self)
         return value
+
+    def wanted(self) -> None:
+        """A leaf wants the result from now: a job submitted ahead of need counts the wait from here."""
+        self.wanted_from = time.perf_counter()
 
     def discard(self) -> None:
         """Nobody wants the result any more (its leaf was halted): cancel it if it has not started."""
@@ -119,6 +127,7 @@ class WorkPool:
         self._workers = workers
         self.inline = inline
         self._executor: ThreadPoolExecutor | None = None
+        self._ahead: ThreadPoolExecutor | None = None
         self._jobs: list[Job] = []
         self._lock = threading.Lock()
         self.stats = WorkStats()
@@ -154,7 +163,15 @@ class WorkPool:
     def submit(self, fn: Callable[..., T], *args: Any) -> Job[T]:
         if self._executor is None and not self.inline:
             self._executor = ThreadPoolExecutor(self._workers, thread_name_prefix="pegbt-work")
-        job: Job[T] = Job(self, None if self.inline else self._executor, fn, args)
+        return self._add(Job(self, None if self.inline else self._executor, fn, args))
+
+    def submit_ahead(self, fn: Callable[..., T], *args: Any) -> Job[T]:
+        """As `submit`, for work nobody waits for yet: on its own thread, behind no job wanted now."""
+        if self._ahead is None and not self.inline:
+            self._ahead = ThreadPoolExecutor(1, thread_name_prefix="pegbt-ahead")
+        return self._add(Job(self, None if self.inline else self._ahead, fn, args))
+
+    def _add(self, job: Job[T]) -> Job[T]:
         with self._lock:
             self._jobs = [other for other in self._jobs if not other.done and not other.discarded] + [job]
         return job
@@ -166,13 +183,14 @@ class WorkPool:
     def count(self, job: Job) -> None:
         computed = 0.0 if job.started is None or job.finished is None else job.finished - job.started
         with self._lock:
-            self.stats.add(job.kind, computed, time.perf_counter() - job.submitted)
+            self.stats.add(job.kind, computed, time.perf_counter() - job.wanted_from)
 
     def close(self) -> None:
         """Drop queued jobs and let running ones end on their own (their results are discarded)."""
-        if self._executor is not None:
-            self._executor.shutdown(wait=False, cancel_futures=True)
-            self._executor = None
+        for executor in (self._executor, self._ahead):
+            if executor is not None:
+                executor.shutdown(wait=False, cancel_futures=True)
+        self._executor = self._ahead = None
         with self._lock:
             for job in self._jobs:
                 job.discarded = True

@@ -350,7 +350,7 @@ def holding_at_the_grasp(robot: Robot, skills: Skills, seen):
     start = transfer_for(skills.cell, skills.motion, "PSM1", seen[0], block, grasp).poses[0]
     at(arm, solve_ik(start, skills.settings["PSM1"]))
     arm.block_in_jaw = True
-    return arm, {"board": seen[0], "PSM1/block": block, "PSM1/grasp": grasp}
+    return arm, {"board": seen[0], "blocks": seen[1], "PSM1/block": block, "PSM1/grasp": grasp}
 
 
 def test_transfer_carries_the_block_over_its_place_peg_and_writes_the_plan(

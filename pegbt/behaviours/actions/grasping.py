@@ -8,9 +8,11 @@ block's wall, one closing on nothing goes all the way.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from functools import partial
 
 import numpy as np
+from numpy.typing import NDArray
 from py_trees.common import Status
 
 from pegbt.behaviours.actions.handover import plan_meeting
@@ -25,6 +27,7 @@ from pegbt.behaviours.base import (
 )
 from pegbt.behaviours.motion import above_pegs_first, held_param
 from pegbt.behaviours.poses import approach_for, transfer_for
+from pegbt.behaviours.resources.skills import Skills
 from pegbt.executive.params import Param
 from pegbt.executive.registry import behaviour
 from pegbt.executive.work import Job
@@ -32,6 +35,7 @@ from pegbt.motion.ik import solve_ik
 from pegbt.motion.kinematics import forward_kinematics
 from pegbt.motion.trajectory import Trajectory
 from pegbt.perception.blocks import BlockEstimate, block_on_peg, stack_level
+from pegbt.perception.board import BoardEstimate
 from pegbt.perception.grasp import Grasp
 from pegbt.psm import ARMS
 from pegbt.workcell import N_PEGS
@@ -166,6 +170,33 @@ class SelectGrasp(RobotLeaf):
         return (last_grasp.candidate,)
 
 
+def approach_plan(
+    skills: Skills,
+    arm: str,
+    start: NDArray[np.float64],
+    board: BoardEstimate | None,
+    block: BlockEstimate,
+    grasp: Grasp,
+) -> Callable[[], Trajectory]:
+    """The planning (for a worker) of `arm`'s approach from joints `start` onto `grasp` of `block` (see
+    `Approach`); what `transfer` plans ahead for the loop's next block."""
+    motion, cell = skills.arm(arm), skills.cell
+    waypoints = transfer_for(cell, skills.motion, arm, board, block, grasp)
+    stops = above_pegs_first(cell, skills.motion, arm, start, motion.settings)
+    if motion.planner is not None and stops:
+        return partial(
+            motion.transfer, approach_for(cell, skills.motion, arm, forward_kinematics(start), waypoints)
+        )
+    names = [f"above the grasp {i}" for i in range(len(stops))] + [
+        "over the grasp",
+        "just above the block",
+        "grasp",
+    ]
+    poses = [waypoints.poses[1], waypoints.approach, waypoints.poses[0]]
+    joints = stops + [solve_ik(pose, motion.settings, what=name) for pose, name in zip(poses, names[-3:])]
+    return partial(motion.through, start, joints, names[: len(joints)])
+
+
 @behaviour(
     "approach",
     "move `arm` over its chosen grasp at the transfer height and down onto it, opening the jaw on the way",
@@ -182,37 +213,38 @@ class Approach(MotionLeaf):
     """From low among the pegs (having just placed a block) with a planner (optimized): along an
     SQP-refined spline that rises, moves over and keeps the final descent on the block's axis. Otherwise
     (no planner, or from high up, where the cubics are as quick): rest-to-rest cubics, rising first if
-    low, stopping above the grasp and just above the block so the descent stays straight."""
+    low, stopping above the grasp and just above the block so the descent stays straight.
+
+    Once it is sent, the carry that follows in a transfer (the arm's transfer under way, its goal peg) is
+    planned and pre-compensated while the approach and the grasp play: its inputs (board, block, grasp)
+    are known; `transfer` takes that plan if its own inputs are the same, and checks it as it is sent."""
 
     def begin(self) -> None:
         arm = self.param("arm")
-        motion, cell = self.motion(arm), self.skills.cell
-        waypoints = transfer_for(
-            cell, self.skills.motion, arm, self.read("/board"), self.get("block"), self.get("grasp")
+        block, grasp = self.get("block"), self.get("grasp")
+        board = self.read("/board")
+        plan = approach_plan(
+            self.skills, arm, self.motion(arm).start_from(self.client(arm)), board, block, grasp
         )
-        start = motion.start_from(self.client(arm))
-        stops = above_pegs_first(cell, self.skills.motion, arm, start, motion.settings)
-        if motion.planner is not None and stops:
-            plan = partial(
-                motion.transfer,
-                approach_for(cell, self.skills.motion, arm, forward_kinematics(start), waypoints),
-            )
-        else:
-            names = [f"above the grasp {i}" for i in range(len(stops))] + [
-                "over the grasp",
-                "just above the block",
-                "grasp",
-            ]
-            poses = [waypoints.poses[1], waypoints.approach, waypoints.poses[0]]
-            joints = stops + [
-                solve_ik(pose, motion.settings, what=name) for pose, name in zip(poses, names[-3:])
-            ]
-            plan = partial(motion.through, start, joints, names[: len(joints)])
-        self.move(arm, plan, f"{arm} approach")
+        self.move(arm, plan, f"{arm} approach", (board, block, grasp.candidate))
         self.move_jaw(arm, self.skills.motion.transfer.jaw_open, f"{arm} jaw opening")
 
     def started(self, trajectories: list[Trajectory]) -> None:
         self.feedback_message = f"approaching in {trajectories[0].duration:.2f} s"
+        arm = self.param("arm")
+        record = self.robot.trial.under_way(arm, placing=True)
+        if record is None:
+            return
+        motion, board, block, grasp = (
+            self.motion(arm),
+            self.read("/board"),
+            self.get("block"),
+            self.get("grasp"),
+        )
+        waypoints = transfer_for(self.skills.cell, self.skills.motion, arm, board, block, grasp, record.place)
+        motion.plan_early(
+            self.context.work, (board, block, grasp, record.place), partial(motion.transfer, waypoints)
+        )
 
 
 @behaviour(

@@ -36,6 +36,7 @@ from pegbt.executive.registry import behaviour
 from pegbt.frames import invert_rigid
 from pegbt.motion.handover import descent_clearance, handover_meeting_point
 from pegbt.motion.ik import solve_ik
+from pegbt.motion.trajectory import Trajectory
 from pegbt.motion.waypoints import TransferWaypoints
 from pegbt.perception.blocks import BlockEstimate
 from pegbt.perception.grasp import Grasp
@@ -210,10 +211,25 @@ class GoToHandover(MotionLeaf):
 @behaviour(
     "descend_to_grasp",
     "move `arm` straight down onto its grasp (the receiver taking the block at the meeting point)",
-    params=(arm_param(), key_param("grasp", "read", "the grasp to descend onto"), keep_apart_param(0.0)),
+    params=(
+        arm_param(),
+        key_param("grasp", "read", "the grasp to descend onto"),
+        key_param(
+            "block_pose",
+            "read",
+            "the block's pose at the meeting point, from which the carry that follows is planned while "
+            "the receiver descends and takes the block (unset: planned when it starts)",
+        ),
+        keep_apart_param(0.0),
+    ),
+    reads=("/board",),
     resources=RESOURCES,
 )
 class DescendToGrasp(MotionLeaf):
+    """Once sent, the carry that follows (`carry_from_handover` to the goal peg of the receiver's transfer
+    under way) is planned and pre-compensated while the receiver descends, closes and waits for the giver
+    to let go."""
+
     def begin(self) -> None:
         arm = self.param("arm")
         motion = self.motion(arm)
@@ -221,6 +237,22 @@ class DescendToGrasp(MotionLeaf):
         target = solve_ik(self.get("grasp").pose, motion.settings, what="the handover grasp")
         self.move(
             arm, partial(motion.through, start, [target], ["grasp"]), f"{arm} descending onto the grasp"
+        )
+
+    def started(self, trajectories: list[Trajectory]) -> None:
+        arm = self.param("arm")
+        record = self.robot.trial.under_way(arm, placing=True)
+        try:
+            block_pose = self.get("block_pose")
+        except KeyError:
+            return
+        if record is None:
+            return
+        motion, board, grasp = self.motion(arm), self.read("/board"), self.get("grasp")
+        cell, settings = self.skills.cell, self.skills.motion
+        waypoints = from_handover(cell, settings, arm, board, grasp, block_pose, record.place)
+        motion.plan_early(
+            self.context.work, (board, grasp, block_pose, record.place), partial(motion.transfer, waypoints)
         )
 
 
@@ -248,3 +280,6 @@ class CarryFromHandover(CarryLeaf):
             self.get("block_pose"),
             int(self.param("place")),
         )
+
+    def inputs(self) -> tuple[object, ...]:
+        return (self.read("/board"), self.get("grasp"), self.get("block_pose"), int(self.param("place")))

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from functools import partial
 
+from pegbt.behaviours.actions.grasping import approach_plan
 from pegbt.behaviours.base import RESOURCES, MotionLeaf, arm_param, keep_apart_param, key_param, peg_param
 from pegbt.behaviours.motion import CarryLeaf, above_pegs_first, carry_params
 from pegbt.behaviours.poses import tool_pose, transfer_for
@@ -18,6 +19,7 @@ from pegbt.motion.ik import solve_ik
 from pegbt.motion.kinematics import forward_kinematics
 from pegbt.motion.trajectory import Trajectory
 from pegbt.motion.waypoints import TransferWaypoints
+from pegbt.perception.blocks import block_on_peg
 
 MAX_RISE = 0.165  # m: the PSM's whole insertion travel (0.08-0.245 m, skills/psm.yaml)
 
@@ -31,11 +33,21 @@ MAX_RISE = 0.165  # m: the PSM's whole insertion travel (0.08-0.245 m, skills/ps
         peg_param("place", "goal peg"),
         key_param("grasp", "read", "the grasp holding the block"),
         key_param("block", "read", "the block held"),
+        Param(
+            "then",
+            dict,
+            "the transfer that follows with this arm (a loop's next item: its `pick`), whose approach is "
+            "planned while this carry plays, onto the grasp `select_grasp` will choose; {}: none",
+            default={},
+        ),
     ),
-    reads=("/board",),
+    reads=("/board", "/blocks"),
     resources=RESOURCES,
 )
 class Transfer(CarryLeaf):
+    """Planned early, while the approach plays, when that approach knew this transfer's goal peg
+    (`approach`); once sent, it plans the approach of the next transfer (`then`) from where it ends."""
+
     def waypoints(self) -> TransferWaypoints:
         return transfer_for(
             self.skills.cell,
@@ -46,6 +58,23 @@ class Transfer(CarryLeaf):
             self.get("grasp"),
             int(self.param("place")),
         )
+
+    def inputs(self) -> tuple[object, ...]:
+        return (self.read("/board"), self.get("block"), self.get("grasp"), int(self.param("place")))
+
+    def started(self, trajectories: list[Trajectory]) -> None:
+        super().started(trajectories)
+        pick = self.param("then").get("pick")
+        if not isinstance(pick, int):
+            return
+        arm, board = self.param("arm"), self.read("/board")
+        block = block_on_peg(self.read("/blocks"), pick)
+        grasp = None if block is None or not block.ok else self.skills.selectors[arm].pick(block)
+        if block is None or grasp is None:
+            return
+        motion = self.motion(arm)
+        plan = approach_plan(self.skills, arm, motion.start_from(self.client(arm)), board, block, grasp)
+        motion.plan_early(self.context.work, (board, block, grasp.candidate), plan)
 
 
 @behaviour(

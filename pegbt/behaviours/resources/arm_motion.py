@@ -11,6 +11,15 @@ Planning and pre-compensation are the heavy part of a motion (tens of millisecon
 off the tick (`MotionLeaf` runs it on a worker thread) on a fork of the compensator, touching nothing
 shared, and `dispatch`, on the tick, sends the result and makes it this arm's state. Planning holds the
 arm's lock: the SQP refiner is one OSQP problem per arm.
+
+A motion may also be planned early, while the one before it plays (`plan_early`: the transfer's carry
+once its grasp is chosen), from where that one will end. Every plan, early or not, is checked against the
+arm as it is when it is sent (`stale`): made from the arm's state of now (`epoch`: no motion sent,
+stopped or aborted since), with the arm's set-point where the last command left it (within one control
+period's step at the velocity limits, what the robot itself accepts as a trajectory's start). A plan that
+fails the check is made again from the arm's measured state, never sent. A motion that failed (refused,
+aborted by a late hold) leaves no trace: the next plan starts from where the arm is, not from the end
+that motion never reached.
 """
 
 from __future__ import annotations
@@ -19,19 +28,21 @@ import logging
 import threading
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from pegbt.calibration.compensation import Compensator
 from pegbt.errors import PegbtError
+from pegbt.executive.work import Job, WorkPool
 from pegbt.motion.cubic import rest_to_rest_path
 from pegbt.motion.kinematics import tip_position
 from pegbt.motion.limits import ArmSettings
 from pegbt.motion.trajectory import Trajectory
 from pegbt.motion.transfer import TransferPlanner, cubic_transfer
 from pegbt.motion.waypoints import TransferWaypoints
-from pegbt.transport import ArmClient, MotionHandle
+from pegbt.transport import ArmClient, MotionHandle, guards
 
 log = logging.getLogger("pegbt.behaviours")
 
@@ -59,6 +70,29 @@ class Prepared:
     planned: Trajectory
     sent: Trajectory
     compensator: Compensator | None
+    epoch: int = -1  # the arm's state it was made from (`ArmMotion.epoch`)
+
+
+@dataclass(frozen=True)
+class EarlyPlan:
+    """A motion being prepared before its leaf asks for it: the inputs it was planned from (compared by
+    identity: a block seen again is another object), and the job preparing it."""
+
+    inputs: tuple[object, ...]
+    job: Job[list[Prepared | None]]
+
+    def matches(self, inputs: tuple[object, ...]) -> bool:
+        return len(inputs) == len(self.inputs) and all(map(_same, inputs, self.inputs))
+
+
+def _same(a: object, b: object) -> bool:
+    """The same input: the same object, or equal numbers and names (a peg, an arm)."""
+    return a is b or (isinstance(a, int | float | str) and type(a) is type(b) and a == b)
+
+
+def prepare_all(preparations: list[Callable[[], Prepared] | None]) -> list[Prepared | None]:
+    """On a worker: each arm trajectory planned and pre-compensated (None for a jaw motion)."""
+    return [None if prepare is None else prepare() for prepare in preparations]
 
 
 class ArmMotion:
@@ -79,15 +113,22 @@ class ArmMotion:
         self.fallbacks = 0  # optimised plans that fell back to cubics
         self.plans = 0  # trajectories sent
         self.tip_path = 0.0  # m: length of the planned tool-tip paths sent
+        self.epoch = 0  # changes whenever a plan's start changes: a motion sent, stopped or aborted
+        self.commanded: NDArray[np.float64] | None = None  # the set-point the last command leaves
+        self.early: EarlyPlan | None = None
         self._planning = threading.Lock()
 
     def start_from(self, arm: ArmClient) -> NDArray[np.float64]:
         """Where the next plan starts: where the last one ended, or (first use) where the arm is now: its
         set-point, or with a calibration model, where the model says that set-point puts the tool (so the
-        first compensated command continues from the set-point instead of jumping)."""
+        first compensated command continues from the set-point instead of jumping). After a motion that
+        failed, where the arm is now, as on first use."""
+        if self.active is not None and self.active.handle.failed:
+            self.forget()
         if self.desired is None:
             setpoint = np.array(arm.setpoint_js.position, dtype=float)
-            self.desired = setpoint
+            self.desired, self.commanded = setpoint, setpoint.copy()
+            self.epoch += 1
             if self.compensator is not None:
                 self.compensator.reset(setpoint)
                 self.desired = self.settings.require_within(
@@ -145,12 +186,70 @@ class ArmMotion:
         at = resting if self.desired is None else self.desired
         return np.repeat(np.asarray(at, dtype=float)[None], len(times), axis=0)
 
+    def preparation(self, planned: Trajectory | Callable[[], Trajectory]) -> Callable[[], Prepared]:
+        """The preparation of `planned` (see `prepare`) from the arm's state of now, to run on a worker:
+        the compensator is forked here, on the tick, so that the worker shares nothing that changes."""
+        compensator = None if self.compensator is None else self.compensator.fork()
+        return partial(self._prepare, planned, compensator, self.epoch)
+
     def prepare(self, planned: Trajectory | Callable[[], Trajectory]) -> Prepared:
         """`planned` (or the trajectory it plans, when it is the planning still to do), pre-compensated on a
-        fork of the compensator: safe on a worker thread, nothing shared changes until `dispatch`."""
+        fork of the compensator: nothing shared changes until `dispatch`."""
+        return self.preparation(planned)()
+
+    def _prepare(
+        self, planned: Trajectory | Callable[[], Trajectory], compensator: Compensator | None, epoch: int
+    ) -> Prepared:
         trajectory = planned() if callable(planned) else planned
-        compensator = None if self.compensator is None else self.compensator.fork()
-        return Prepared(trajectory, self.commands(trajectory, compensator), compensator)
+        return Prepared(trajectory, self.commands(trajectory, compensator), compensator, epoch)
+
+    def plan_early(
+        self, pool: WorkPool, inputs: tuple[object, ...], planned: Callable[[], Trajectory]
+    ) -> None:
+        """Start preparing the motion that follows the one just sent, from where that one ends, while it
+        plays; its leaf takes it with `take_early(inputs)`. Not in lockstep (`pool.inline`), where
+        computing takes no time and there is nothing to hide."""
+        self.discard_early()
+        if not pool.inline:
+            self.early = EarlyPlan(inputs, pool.submit_ahead(prepare_all, [self.preparation(planned)]))
+
+    def take_early(self, inputs: tuple[object, ...]) -> Job[list[Prepared | None]] | None:
+        """The job preparing the motion planned early from `inputs`, if it was (else None; a plan early
+        from other inputs is discarded)."""
+        early, self.early = self.early, None
+        if early is None or not early.matches(inputs):
+            if early is not None:
+                early.job.discard()
+            return None
+        return early.job
+
+    def discard_early(self) -> None:
+        if self.early is not None:
+            self.early.job.discard()
+            self.early = None
+
+    def stale(self, prepared: Prepared, arm: ArmClient) -> str | None:
+        """Why `prepared` may not be sent as it is (None: it may): the arm's state changed since it was
+        made, or the arm's set-point is not where the last command left it (then the next plan starts
+        from where it is)."""
+        self.start_from(arm)  # forgets a failed motion
+        if prepared.epoch != self.epoch:
+            return "the arm's last motion changed while this one was planned"
+        if self.active is not None and self.active.handle.busy:
+            return None  # it replaces the motion under way, from the end planned for it
+        assert self.commanded is not None  # set with `desired` by `start_from`
+        setpoint = np.asarray(arm.setpoint_js.position, dtype=float)
+        problems = guards.step_problems(setpoint, self.commanded, self.settings, self.settings.control_period)
+        if problems:
+            self.forget()
+            return f"the arm is not where its last command left it ({'; '.join(problems)})"
+        return None
+
+    def forget(self) -> None:
+        """The arm is not where the last plan ended: the next plan starts from where it is."""
+        self.active = self.desired = self.commanded = None
+        self.epoch += 1
+        self.discard_early()
 
     def send(self, arm: ArmClient, planned: Trajectory) -> MotionHandle:
         """Prepare and send `planned` at once (a short motion, on the tick)."""
@@ -166,11 +265,17 @@ class ArmMotion:
                 "where the last motion ended",
                 field="trajectory",
             )
-        handle = arm.move_jp(prepared.sent)
+        try:
+            handle = arm.move_jp(prepared.sent)
+        except PegbtError:
+            self.forget()
+            raise
         if prepared.compensator is not None:
             self.compensator = prepared.compensator
         self.active = SentMotion(planned, prepared.sent, handle, arm.clock.now())
-        self.desired = planned.q[-1].copy()
+        self.desired, self.commanded = planned.q[-1].copy(), prepared.sent.q[-1].copy()
+        self.epoch += 1
+        self.discard_early()
         self.plans += 1
         self.tip_path += float(np.linalg.norm(np.diff(tip_position(planned.q), axis=0), axis=1).sum())
         return handle
@@ -178,8 +283,9 @@ class ArmMotion:
     def stop(self, arm: ArmClient) -> None:
         """Stop the active motion where it is. No plan ended there, and the set-point read now may be a
         step behind the one the arm holds, so the next plan starts where the arm is then, as on first use."""
+        self.discard_early()
         active, self.active = self.active, None
         if active is None or not active.handle.busy:
             return
         active.handle.stop()
-        self.desired = None
+        self.forget()

@@ -24,6 +24,7 @@ from rich.table import Table
 from rich.text import Text
 
 from pegbt.clock import Clock
+from pegbt.psm import ARMS
 
 ARM_ARM_CONTACTS = ("tool-tool", "shaft-shaft")
 GRACE = 0.5  # s after a transfer's end in which its placement still counts (the block settles)
@@ -173,6 +174,13 @@ class Trial:
         record = TransferRecord(len(self.transfers) + 1, arms, pick, place, self.clock.now())
         self.transfers.append(record)
         return record
+
+    def under_way(self, arm: str, *, placing: bool = False) -> TransferRecord | None:
+        """The transfer `arm` began last, if it has not finished: its own (`arms` the arm), or with
+        `placing`, a handover in which it is the receiver (`arms` giver→arm)."""
+        mine = [arm] + ([f"{other}→{arm}" for other in ARMS] if placing else [])
+        record = next((r for r in reversed(self.transfers) if r.arms in mine), None)
+        return record if record is not None and record.ended is None else None
 
     def finish(self, index: int, outcome: str, note: str = "") -> TransferRecord:
         record = self.transfers[index - 1]

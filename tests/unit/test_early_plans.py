@@ -1,0 +1,250 @@
+"""Plans made ahead of their motion and checked as they are sent (`ArmMotion.plan_early`, `stale`), against
+the in-memory robot of `fake_arm`: the carry planned while the approach plays is the one sent; a plan
+made from a state the arm has left (a late hold, inputs seen again) is made again, never sent; a motion
+aborted by a late hold does not make every later plan start where that motion never arrived."""
+
+from __future__ import annotations
+
+import threading
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import py_trees
+import pytest
+from executive_helpers import write_tree
+from fake_arm import FakeArm, fake_robot
+from py_trees.common import Status
+
+from pegbt.behaviours.resources.robot import Robot
+from pegbt.behaviours.resources.skills import Skills
+from pegbt.clock import ManualClock
+from pegbt.executive.build import BuiltTree
+from pegbt.executive.context import RunContext
+from pegbt.executive.loader import load_tree
+from pegbt.executive.runner import set_initial_blackboard
+from pegbt.executive.work import Job, WorkPool
+from pegbt.perception.blocks import block_on_peg
+from pegbt.sim.camera import DepthCamera
+from pegbt.sim.world import World
+
+STEP = 0.05  # s of clock between ticks
+PICK, PLACE = 1, 7
+APPROACH = "{approach: {arm: PSM1, block: /PSM1/block, grasp: /PSM1/grasp}}"
+PICK_AND_CARRY = f"""
+  sequence:
+    children:
+      - begin_transfer: {{arms: PSM1, pick: {PICK}, place: {PLACE}, transfer: /n}}
+      - approach: {{arm: PSM1, block: /PSM1/block, grasp: /PSM1/grasp}}
+      - grasp: {{arm: PSM1, holding: /PSM1/holding}}
+      - transfer: {{arm: PSM1, place: {PLACE}, block: /PSM1/block, grasp: /PSM1/grasp, plan_s: /PSM1/plan_s}}
+"""
+
+
+class GatedPool(WorkPool):
+    """Worker threads whose jobs start only once the test opens the gate: what a tick finds is decided
+    by the test, not by how fast a thread runs."""
+
+    def __init__(self, clock: ManualClock) -> None:
+        super().__init__()
+        self.gate = threading.Event()
+        self.gate.set()
+        self.clock = clock
+        self.submitted: list[float] = []  # the clock time of each job's submission
+
+    def submit(self, fn: Callable[..., Any], *args: Any) -> Job[Any]:
+        return super().submit(self._gated(fn), *args)
+
+    def submit_ahead(self, fn: Callable[..., Any], *args: Any) -> Job[Any]:
+        return super().submit_ahead(self._gated(fn), *args)
+
+    def _gated(self, fn: Callable[..., Any]) -> Callable[..., Any]:
+        def gated(*inner: Any) -> Any:
+            assert self.gate.wait(10.0), "the test never opened the gate"
+            return fn(*inner)
+
+        gated.__qualname__ = getattr(fn, "func", fn).__qualname__
+        self.submitted.append(self.clock.now())
+        return gated
+
+    def settle(self) -> None:
+        """Wait (bounded) until every job submitted has ended."""
+        deadline = time.monotonic() + 10.0
+        while self.pending():
+            assert time.monotonic() < deadline, "a job did not end"
+            time.sleep(0.001)
+
+
+@pytest.fixture(scope="module")
+def seen():
+    skills = Skills("uncalibrated")
+    cloud = DepthCamera(seed=0).capture(World(seed=0))
+    board = skills.registration.fit(cloud)
+    assert board.ok, board.reason
+    return board, skills.locator.locate(cloud, board)
+
+
+@pytest.fixture
+def skills() -> Skills:
+    return Skills("uncalibrated")
+
+
+@pytest.fixture
+def clock() -> ManualClock:
+    return ManualClock()
+
+
+@pytest.fixture
+def robot(clock, skills) -> Robot:
+    return fake_robot(clock, skills.settings, skills.cell)
+
+
+@pytest.fixture(autouse=True)
+def fresh_blackboard():
+    py_trees.blackboard.Blackboard.clear()
+    yield
+    py_trees.blackboard.Blackboard.clear()
+
+
+def chosen(skills: Skills, seen) -> dict[str, object]:
+    block = block_on_peg(seen[1], PICK)
+    grasp = skills.selectors["PSM1"].pick(block)
+    return {"/board": seen[0], "/blocks": seen[1], "/PSM1/block": block, "/PSM1/grasp": grasp}
+
+
+def build(tmp_path: Path, robot: Robot, skills: Skills, tree: str, pool: WorkPool, values: dict) -> BuiltTree:
+    context = RunContext(clock=robot.trial.clock, resources={"robot": robot, "skills": skills}, work=pool)
+    declared = "".join(f"  {key}: null\n" for key in values)
+    built = load_tree(write_tree(tmp_path, f"blackboard:\n{declared}tree: {tree}\n")).build(context)
+    set_initial_blackboard(built)
+    for key, value in values.items():
+        py_trees.blackboard.Blackboard.set(key, value)
+    built.root.setup_with_descendants()
+    return built
+
+
+def run(built: BuiltTree, clock: ManualClock, pool: WorkPool, seconds: float = 30.0) -> Status:
+    """Tick every `STEP` of the clock until the tree ends (at most `seconds`), letting open jobs end first."""
+    end = clock.now() + seconds
+    while True:
+        built.root.tick_once()
+        if built.root.status != Status.RUNNING or clock.now() >= end:
+            return built.root.status
+        if isinstance(pool, GatedPool) and pool.gate.is_set():
+            pool.settle()
+        clock.advance(STEP)
+
+
+def psm1(robot: Robot) -> FakeArm:
+    arm = robot.arms["PSM1"]
+    assert isinstance(arm, FakeArm)
+    return arm
+
+
+def test_the_carry_planned_while_the_approach_plays_is_the_one_sent(tmp_path, robot, skills, seen, clock):
+    pool = GatedPool(clock)
+    arm = psm1(robot)
+    arm.block_in_jaw = True
+    built = build(tmp_path, robot, skills, PICK_AND_CARRY, pool, chosen(skills, seen))
+    assert run(built, clock, pool) == Status.SUCCESS
+    approach, carry = (sent for sent in arm.sent if sent.kind == "trajectory")
+    assert np.allclose(carry.target.q[0], approach.target.q[-1])
+    # the carry's plan made as the approach was sent: it did not wait for the approach and the grasp
+    assert pool.submitted == [0.0, approach.at]
+    assert pool.stats.by_kind["prepare_all"][0] == 2
+
+
+def test_a_carry_planned_early_from_a_block_seen_again_is_planned_anew(tmp_path, robot, skills, seen, clock):
+    pool = GatedPool(clock)
+    arm = psm1(robot)
+    arm.block_in_jaw = True
+    values = chosen(skills, seen)
+    built = build(tmp_path, robot, skills, PICK_AND_CARRY, pool, values)
+    assert run(built, clock, pool, seconds=0.2) == Status.RUNNING  # approaching
+    early = skills.arm("PSM1").early
+    assert early is not None
+    block = values["/PSM1/block"]
+    py_trees.blackboard.Blackboard.set(
+        "/PSM1/block", type(block)(**vars(block))
+    )  # seen again: a new estimate
+    assert run(built, clock, pool) == Status.SUCCESS
+    assert early.job.discarded
+    assert len(pool.submitted) == 3 and pool.submitted[2] > 1.0  # the carry made anew once the grasp held
+
+
+def test_a_plan_the_arm_has_moved_away_from_is_made_again_from_where_it_is(
+    tmp_path, robot, skills, seen, clock
+):
+    pool = GatedPool(clock)
+    arm = psm1(robot)
+    built = build(tmp_path, robot, skills, APPROACH, pool, chosen(skills, seen))
+    pool.gate.clear()
+    assert run(built, clock, pool, seconds=0.0) == Status.RUNNING  # planning from where the arm rests
+    moved = arm.rest.copy()
+    moved[0] += 0.05  # a late hold left the arm elsewhere while the plan was made
+    arm.rest = moved
+    pool.gate.set()
+    pool.settle()
+    assert run(built, clock, pool) == Status.SUCCESS
+    (sent,) = arm.trajectories
+    assert np.allclose(sent.q[0], moved)
+
+
+def test_a_motion_aborted_by_a_late_hold_does_not_poison_the_next(tmp_path, robot, skills, seen, clock):
+    """The order seen once under load: the hold that stopped a failed carry reached the robot after the next
+    approach had started, and aborted it; every plan after that started where that approach would have
+    ended, and the robot refused each ("trajectory start")."""
+    pool = WorkPool(inline=True)
+    arm = psm1(robot)
+    values = chosen(skills, seen)
+    first = build(tmp_path, robot, skills, APPROACH, pool, values)
+    assert run(first, clock, pool, seconds=0.5) == Status.RUNNING
+    arm.hold()  # the late hold
+    held = arm.rest.copy()
+    assert run(first, clock, pool) == Status.FAILURE
+    again = build(tmp_path, robot, skills, APPROACH, pool, values)  # pick again
+    assert run(again, clock, pool) == Status.SUCCESS, again.root.feedback_message
+    assert np.allclose(arm.trajectories[-1].q[0], held)
+
+
+LOOP = f"""
+lists:
+  two: [{{pick: {PICK}, place: {PLACE}}}, {{pick: 0, place: 6}}]
+subtrees:
+  one:
+    args:
+      pick: {{type: int, doc: start peg}}
+      place: {{type: int, doc: goal peg}}
+      next: {{type: any, default: {{}}, doc: the next item}}
+    tree:
+      sequence:
+        children:
+          - begin_transfer: {{arms: PSM1, pick: "${{pick}}", place: "${{place}}", transfer: /n}}
+          - select_grasp: {{arm: PSM1, peg: "${{pick}}", block: /PSM1/block, grasp: /PSM1/grasp}}
+          - approach: {{arm: PSM1, block: /PSM1/block, grasp: /PSM1/grasp}}
+          - grasp: {{arm: PSM1, holding: /PSM1/holding}}
+          - transfer: {{arm: PSM1, place: "${{place}}", block: /PSM1/block, grasp: /PSM1/grasp, plan_s: /PSM1/plan_s, then: "${{next}}"}}
+          - release: {{arm: PSM1, holding: /PSM1/holding}}
+"""
+
+
+def test_the_next_blocks_approach_is_planned_while_this_carry_plays(tmp_path, robot, skills, seen, clock):
+    pool = GatedPool(clock)
+    arm = psm1(robot)
+    arm.block_in_jaw = True
+    context = RunContext(clock=clock, resources={"robot": robot, "skills": skills}, work=pool)
+    text = (
+        f"blackboard: {{/board: null, /blocks: null}}\n{LOOP}\ntree: {{for_each: {{list: two, use: one}}}}\n"
+    )
+    built = load_tree(write_tree(tmp_path, text)).build(context)
+    set_initial_blackboard(built)
+    py_trees.blackboard.Blackboard.set("/board", seen[0])
+    py_trees.blackboard.Blackboard.set("/blocks", seen[1])
+    built.root.setup_with_descendants()
+    assert run(built, clock, pool, seconds=60.0) == Status.SUCCESS, built.root.feedback_message
+    approach, carry, approach_again, carry_again = (sent for sent in arm.sent if sent.kind == "trajectory")
+    assert np.allclose(approach_again.target.q[0], carry.target.q[-1])
+    # each plan made as the motion before it was sent: the second approach while the first carry played
+    assert pool.submitted == [0.0, approach.at, carry.at, approach_again.at]
