@@ -167,8 +167,7 @@ class BlockLocator:
         """Distance from each of `points` (board frame) to the nearest point of the block model placed at
         `block_to_board`, inf beyond `within`."""
         local = transform_points(invert_rigid(block_to_board), points)
-        distances: NDArray[np.float64] = self._model_tree.query(local, distance_upper_bound=within)[0]
-        return distances
+        return np.asarray(self._model_tree.query(local, distance_upper_bound=within)[0])
 
     def _quality(self, segment: Points, block_to_board: NDArray[np.float64]) -> tuple[float, float]:
         """Open3D's `evaluate_registration` of the block model placed at `block_to_board` against `segment`:
