@@ -17,11 +17,12 @@ from functools import lru_cache
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from scipy.spatial import cKDTree
 
 from pegbt.errors import PegbtError
 from pegbt.frames import invert_rigid, yaw_of, yaw_pose
 from pegbt.perception.board import BoardEstimate
-from pegbt.perception.cloud import Points, to_open3d
+from pegbt.perception.cloud import Points, to_open3d, transform_points
 from pegbt.perception.models import block_model
 from pegbt.perception.organised import OrganisedCloud, raised_points
 from pegbt.perception.segment import block_segments, clusters, split_by_nearest_peg
@@ -57,12 +58,14 @@ class BlockEstimate:
 
 
 class BlockLocator:
-    """Finds blocks in captures; holds the sampled block model so it is built once."""
+    """Finds blocks in captures; holds the sampled block model and its KD-tree, so both are built once
+    (Open3D's evaluation rebuilds the tree at every call, the larger part of its cost)."""
 
     def __init__(self, cell: Workcell | None = None, settings: BlockSettings | None = None) -> None:
         self.cell = cell or workcell()
         self.settings = settings or perception_settings().block
         self._model = block_model(self.cell, self.settings.model_points)
+        self._model_tree = cKDTree(np.asarray(self._model.points))
 
     def locate(self, cloud: ArrayLike | OrganisedCloud, board: BoardEstimate) -> list[BlockEstimate]:
         """Every block in a camera-frame capture (N, 3, metres), given the registered board; of an organised
@@ -135,20 +138,11 @@ class BlockLocator:
     def _fit_from_yaws(self, segment: Points, initial: NDArray[np.float64]) -> NDArray[np.float64]:
         """The best of ICP fits from `initial` turned by each of `RESTART_YAWS`: the other block's points
         spoil the yaw read off the top face, and ICP started 60° out settles on a wrong fit."""
-        import open3d as o3d
-
-        source = to_open3d(segment)
         fits = [
             self._fit(segment, initial @ yaw_pose([0.0, 0.0, 0.0], turn), robust=True)
             for turn in RESTART_YAWS
         ]
-        fitness = [
-            o3d.pipelines.registration.evaluate_registration(
-                source, self._model, self.settings.quality_distance, invert_rigid(fit)
-            ).fitness
-            for fit in fits
-        ]
-        return fits[int(np.argmax(fitness))]
+        return fits[int(np.argmax([self._quality(segment, fit)[0] for fit in fits]))]
 
     def _surrounded_pegs(self, cluster: Points, peg_xy: Points) -> list[int]:
         """Pegs whose axis the cluster surrounds (points all round it, centred on it), most points first."""
@@ -165,9 +159,23 @@ class BlockLocator:
 
     def _near_model(self, points: Points, block_to_board: NDArray[np.float64]) -> NDArray[np.bool_]:
         """Which `points` (board frame) lie within `part_distance` of the block model placed at `block_to_board`."""
-        local = to_open3d(points)
-        local.transform(invert_rigid(block_to_board))
-        return np.asarray(local.compute_point_cloud_distance(self._model)) < self.settings.part_distance
+        return np.isfinite(self._distances(points, block_to_board, self.settings.part_distance))
+
+    def _distances(
+        self, points: Points, block_to_board: NDArray[np.float64], within: float
+    ) -> NDArray[np.float64]:
+        """Distance from each of `points` (board frame) to the nearest point of the block model placed at
+        `block_to_board`, inf beyond `within`."""
+        local = transform_points(invert_rigid(block_to_board), points)
+        return np.asarray(self._model_tree.query(local, distance_upper_bound=within)[0])
+
+    def _quality(self, segment: Points, block_to_board: NDArray[np.float64]) -> tuple[float, float]:
+        """Open3D's `evaluate_registration` of the block model placed at `block_to_board` against `segment`:
+        the share of its points within `quality_distance` of the model (fitness), and their RMSE."""
+        distances = self._distances(segment, block_to_board, self.settings.quality_distance)
+        inliers = distances[np.isfinite(distances)]
+        rmse = math.sqrt(float(np.mean(inliers**2))) if len(inliers) else 0.0
+        return len(inliers) / len(segment), rmse
 
     def _fit(
         self, segment: Points, initial: NDArray[np.float64], robust: bool = False
@@ -193,32 +201,26 @@ class BlockLocator:
 
     def register(self, segment: Points, peg_xy: Points) -> BlockEstimate:
         """The block whose visible surface is `segment` (board frame)."""
-        import open3d as o3d
-
         settings = self.settings
         if len(segment) > settings.max_points:
             return self._failure(segment, peg_xy, f"{len(segment)} points are too many for one block")
-        source = to_open3d(segment)
         pose = self._fit(segment, self.initial_pose(segment, peg_xy))
-        T = invert_rigid(pose)
-        quality = o3d.pipelines.registration.evaluate_registration(
-            source, self._model, settings.quality_distance, T
-        )
+        fitness, rmse = self._quality(segment, pose)
         position, yaw = pose[:3, 3], wrap_symmetric(yaw_of(pose))
         tilt = math.acos(min(1.0, pose[2, 2]))
         reason = ""
-        if quality.fitness < settings.min_fitness:
-            reason = f"block model fits only {quality.fitness:.0%} of {len(segment)} points"
-        elif quality.inlier_rmse > settings.max_rmse:
-            reason = f"block fit RMSE {quality.inlier_rmse * 1000:.2f} mm"
+        if fitness < settings.min_fitness:
+            reason = f"block model fits only {fitness:.0%} of {len(segment)} points"
+        elif rmse > settings.max_rmse:
+            reason = f"block fit RMSE {rmse * 1000:.2f} mm"
         elif tilt > settings.max_tilt:
             reason = f"block tilted {math.degrees(tilt):.0f}°"
         return BlockEstimate(
             position=position,
             yaw=yaw,
             peg=self._peg_through_hole(position, peg_xy),
-            fitness=float(quality.fitness),
-            rmse=float(quality.inlier_rmse),
+            fitness=fitness,
+            rmse=rmse,
             points=len(segment),
             ok=not reason,
             reason=reason,

@@ -38,8 +38,8 @@ def block_segments(
     z = board_points[:, 2]
     highest = settings.max_stack * block.height + settings.plane_margin
     raised = board_points[(z < surface - settings.plane_margin) & (z > surface - highest)]
-    peg_distance = np.linalg.norm(raised[:, None, :2] - peg_xy[None], axis=2)
-    off_pegs = peg_distance.min(axis=1) > (cell.pegs.radius + block.hole_radius) / 2
+    shaft = (cell.pegs.radius + block.hole_radius) / 2
+    off_pegs = squared_peg_distances(raised, peg_xy).min(axis=1) > shaft**2
     points = np.asarray(to_open3d(raised[off_pegs]).voxel_down_sample(settings.voxel).points)
     found = clusters(points, settings)
     wide = [xy_span(cluster) > 2 * block.corner_distance + settings.wide_margin for cluster in found]
@@ -67,8 +67,17 @@ def xy_span(points: Points) -> float:
     return float(np.linalg.norm(xy - extreme, axis=1).max())
 
 
+def squared_peg_distances(points: Points, peg_xy: Points) -> Points:
+    """(N, pegs) squared distances in x, y from each of `points` to each peg's axis: a column per
+    coordinate, since `np.linalg.norm` over an (N, pegs, 2) array costs six times as much."""
+    dx = points[:, 0, None] - peg_xy[None, :, 0]
+    dy = points[:, 1, None] - peg_xy[None, :, 1]
+    distances: Points = dx * dx + dy * dy
+    return distances
+
+
 def split_by_nearest_peg(cluster: Points, peg_xy: Points) -> list[Points]:
     """`cluster` cut into the parts nearest to each peg (each peg's Voronoi cell): the paper's per-peg crop,
     for touching blocks none of which is on a peg."""
-    nearest = np.argmin(np.linalg.norm(cluster[:, None, :2] - peg_xy[None], axis=2), axis=1)
+    nearest = np.argmin(squared_peg_distances(cluster, peg_xy), axis=1)
     return [cluster[nearest == peg] for peg in np.unique(nearest)]
