@@ -24,8 +24,8 @@ from pegbt.executive.conditions import OPERATORS
 from pegbt.executive.params import MAX_SECONDS, Param
 from pegbt.executive.registry import declare
 from pegbt.handover_protocol import Giver, Receiver
+from pegbt.pegboard import N_PEGS
 from pegbt.psm import ARMS
-from pegbt.workcell import N_PEGS
 
 MAX_SAMPLES = 1_000_000  # set-points: about 95 hours of collection at 174 a minute
 MAX_SETTLE = 60.0  # s a set-point is held before it is sampled

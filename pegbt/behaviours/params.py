@@ -9,8 +9,8 @@ from typing import Literal
 
 from pegbt.executive.params import MAX_COUNT, MAX_SECONDS, Param
 from pegbt.handover_protocol import key
+from pegbt.pegboard import N_PEGS
 from pegbt.psm import ARMS
-from pegbt.workcell import N_PEGS
 
 RESOURCES = ("robot", "skills")
 MAX_KEEP_APART = 0.1  # m between the tools' axes: farther apart than the two arms' shared workspace allows
