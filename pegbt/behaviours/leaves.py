@@ -454,9 +454,9 @@ STEERING = frozenset({*CHECKS, *WATCHES})
 
 _SAY = "pegbt.behaviours.actions.handover_protocol:say"
 _LOOK = "pegbt.behaviours.conditions.handover_protocol:look"
-for _name, (_, _doc) in SAYINGS.items():
+for _name, (_word, _doc) in SAYINGS.items():
     declare(_name, _doc + "; succeeds", _SAY, params=(handover_number("write"),))
-for _name, (_, _doc) in AWAITS.items():
+for _name, (_condition, _doc) in AWAITS.items():
     declare(_name, _doc, _LOOK, params=(handover_number("read"), PATIENCE))
-for _name, (_, _doc) in (CHECKS | WATCHES).items():
+for _name, (_condition, _doc) in (CHECKS | WATCHES).items():
     declare(_name, _doc, _LOOK, params=(handover_number("read"),))
