@@ -120,7 +120,9 @@ def test_every_registered_leaf_lives_in_the_package_of_its_kind():
         for path in (REPO / "pegbt" / "behaviours" / kind).glob("*.py")
         if path.name != "__init__.py"
     }
-    declared = {spec.implementation.partition(":")[0] for spec in REGISTRY if isinstance(spec.implementation, str)}
+    declared = {
+        spec.implementation.partition(":")[0] for spec in REGISTRY if isinstance(spec.implementation, str)
+    }
     assert declared == grouped
     modules = {spec.name: spec.factory.__module__ for spec in REGISTRY}
     misplaced = [
