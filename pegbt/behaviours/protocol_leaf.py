@@ -1,8 +1,9 @@
 """What every leaf of the handover protocol shares (`pegbt.handover_protocol`): the handover's number `n`,
 whose record alone a leaf reads or writes (so a side never mistakes a handover the other gave up on for the
-next one), and how a leaf shows the record in the tick log and `pegbt log why` (`n` and a wait's `patience`
-are declared in `pegbt.behaviours.params`, the leaves' names in `pegbt.behaviours.leaves`). The leaves are in `actions/handover_protocol.py` (a side says where it is) and `conditions/handover_protocol.py`
-(it waits for or checks what the other side said); they move no arm.
+next one), and how a leaf shows the record in the tick log and `pegbt log why` (`n` and a wait's
+`patience` are declared in `pegbt.behaviours.params`, the leaves' names in `pegbt.behaviours.leaves`).
+The leaves are in `actions/handover_protocol.py` (a side says where it is) and
+`conditions/handover_protocol.py` (it waits for or checks what the other side said); they move no arm.
 """
 
 from __future__ import annotations
