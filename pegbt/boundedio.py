@@ -12,11 +12,13 @@ import errno
 import os
 import stat
 from pathlib import Path
-
-import numpy as np
-from numpy.typing import NDArray
+from typing import TYPE_CHECKING
 
 from pegbt.errors import PegbtError
+
+if TYPE_CHECKING:
+    import numpy as np
+    from numpy.typing import NDArray
 
 _NPY_MAGIC = b"\x93NUMPY"
 
@@ -59,6 +61,8 @@ def load_npy(path: Path, limit: int) -> NDArray[np.floating]:
 
     Integers (a recording in counts or ticks), complex numbers (whose imaginary part a cast drops),
     timedeltas, objects and zip archives (`.npz` named `.npy`) are refused, never cast."""
+    import numpy as np  # here, not at the top: the YAML readers share this module and need no NumPy
+
     size = file_size(path, limit + 4096, "NumPy file")
     try:
         with open(path, "rb") as handle:

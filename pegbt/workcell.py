@@ -18,11 +18,11 @@ from pathlib import Path
 import numpy as np
 
 from pegbt.frames import Matrix, apply_rigid, invert_rigid
+from pegbt.pegboard import N_PEGS
 from pegbt.psm import ARMS, known_arm
 from pegbt.yamlfile import Located, read_settings_file
 
 WORKCELL_FILE = Path(__file__).resolve().parents[1] / "skills" / "workcell.yaml"
-N_PEGS = 12
 ORDERS_FILE = Path(__file__).resolve().parents[1] / "trees" / "shared" / "orders.yaml"
 
 

@@ -12,15 +12,16 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-import numpy as np
 import yaml
-from numpy.typing import NDArray
 
 from pegbt.boundedio import read_bytes
 from pegbt.errors import PegbtError, brief
-from pegbt.frames import rigid_transform
+
+if TYPE_CHECKING:
+    import numpy as np
+    from numpy.typing import NDArray
 
 MAX_FILE_BYTES = 2_000_000
 MAX_DEPTH = 100
@@ -187,6 +188,8 @@ class Located:
     # ----------------------------------------------------------------------------------------- arrays
     def array(self, shape: tuple[int, ...], *, positive: bool = False) -> NDArray[np.float64]:
         """Nested lists of finite numbers of exactly `shape` (a bad element is named by its index)."""
+        import numpy as np  # here, not at the top: checking a tree reads YAML without arrays
+
         wanted = " x ".join(map(str, shape))
         if not shape:
             return np.array(self.number(positive=positive))
@@ -198,6 +201,10 @@ class Located:
 
     def rigid(self) -> NDArray[np.float64]:
         """A 4×4 transform from this mapping's `rotation` (projected onto SO(3)) and `translation`."""
+        import numpy as np
+
+        from pegbt.frames import rigid_transform
+
         rotation = self["rotation"].array((3, 3))
         u, _, vt = np.linalg.svd(rotation)
         exact = u @ np.diag([1.0, 1.0, np.linalg.det(u @ vt)]) @ vt

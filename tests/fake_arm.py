@@ -36,7 +36,7 @@ from pegbt.transport.codec import JointSample, OperatingState
 from pegbt.transport.sequencing import Tag
 from pegbt.workcell import Workcell
 
-# a closing jaw stops on a block's wall at about +12° (`pegbt.behaviours.motion.HELD_ABOVE`'s comment)
+# a closing jaw stops on a block's wall at about +12° (`pegbt.behaviours.params.HELD_ABOVE`'s comment)
 BLOCK_WALL_ANGLE = math.radians(12.0)
 
 

@@ -28,7 +28,7 @@ from __future__ import annotations
 import logging
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any, Literal
+from typing import Any
 
 from py_trees.common import Status
 
@@ -37,18 +37,13 @@ from pegbt.behaviours.resources.robot import Robot
 from pegbt.behaviours.resources.skills import Skills
 from pegbt.errors import PegbtError
 from pegbt.executive.leaf import Leaf
-from pegbt.executive.params import Param
 from pegbt.executive.work import Job
 from pegbt.motion.trajectory import Trajectory
-from pegbt.psm import ARMS
 from pegbt.transport import ArmClient, EndpointSilent, MotionHandle
-from pegbt.workcell import N_PEGS
 
 log = logging.getLogger("pegbt.behaviours")
-RESOURCES = ("robot", "skills")
 BLOCKED_RETRY = 0.1  # s between attempts of a motion that would come too close to the other arm
 BLOCKED_PATIENCE = 15.0  # s a motion waits for the other arm to clear its way before the leaf fails
-MAX_KEEP_APART = 0.1  # m between the tools' axes: farther apart than the two arms' shared workspace allows
 STEP_BACK = 0.03  # m of insertion an arm gives up to let the other arm past
 REPLANS = 3  # plans in a row found stale as they were sent before the leaf fails
 # s a motion may run past its planned end before the leaf gives up on it: in real time an endpoint's
@@ -58,36 +53,6 @@ MOTION_OVERTIME = 3.0
 
 class Blocked(Exception):
     """A motion not sent because it would bring the arms too close; the leaf waits and tries again."""
-
-
-def arm_param(doc: str = "which arm", *, blackboard: bool = False) -> Param:
-    return Param("arm", str, doc, choices=ARMS, blackboard=blackboard)
-
-
-def peg_param(name: str, doc: str) -> Param:
-    return Param(name, int, doc, choices=tuple(range(N_PEGS)), blackboard=True)
-
-
-def keep_apart_param(default: float | None = None) -> Param:
-    """`keep_apart`, by default skills/motion.yaml's `two_arms.keep_apart` (read when the leaf runs)."""
-    from_skills = " (None: two_arms.keep_apart of skills/motion.yaml)" if default is None else ""
-    return Param(
-        "keep_apart",
-        float,
-        f"m: an arm motion waits until it keeps the tools this far apart{from_skills}; 0: "
-        "no check, for the handover, where the tools meet on purpose",
-        default=default,
-        minimum=0.0,
-        maximum=MAX_KEEP_APART,
-    )
-
-
-def key_param(name: str, access: Literal["read", "write"], doc: str) -> Param:
-    """A parameter naming the blackboard key where a leaf reads or writes `name` (default: `name` itself,
-    in the leaf's namespace; shared subtrees use per-arm keys such as `/PSM1/grasp`)."""
-    return Param(
-        name, str, f"key {'read' if access == 'read' else 'written'}: {doc}", default=name, key=access
-    )
 
 
 class RobotLeaf(Leaf):

@@ -14,9 +14,8 @@ import numpy as np
 from numpy.typing import NDArray
 from py_trees.common import Status
 
-from pegbt.behaviours.base import MotionLeaf, arm_param, keep_apart_param, key_param
+from pegbt.behaviours.base import MotionLeaf
 from pegbt.behaviours.poses import height_above_pegs
-from pegbt.executive.params import Param
 from pegbt.motion.ik import solve_ik
 from pegbt.motion.kinematics import forward_kinematics, tip_position
 from pegbt.motion.limits import ArmSettings
@@ -25,7 +24,6 @@ from pegbt.motion.trajectory import Trajectory
 from pegbt.motion.waypoints import TransferWaypoints
 from pegbt.workcell import Workcell
 
-HELD_ABOVE = 0.0  # rad: closed is -15°; a block stops a closing jaw at about +12°
 LOW = 0.001  # m: a tip more than this below the transfer height rises before moving sideways
 SLIP_CHECK = 0.1  # s: how often a transfer looks at the jaw for a slipping block
 
@@ -117,24 +115,3 @@ def slip(jaw_angle: float, held_above: float) -> str | None:
     """How the jaw shows that its block slipped out (it closed past `held_above`), or None if it still holds it."""
     angle = float(jaw_angle)
     return f"jaw at {math.degrees(angle):.0f}°" if angle <= held_above else None
-
-
-def held_param() -> Param:
-    return Param(
-        "held_above",
-        float,
-        "a closed jaw stopped above this angle (rad) holds a block; one closing past it has lost its block",
-        default=HELD_ABOVE,
-        minimum=-0.3491,  # the jaw's range, skills/psm.yaml
-        maximum=1.3963,
-    )
-
-
-def carry_params(*extra: Param, keep_apart: Param = keep_apart_param()) -> tuple[Param, ...]:
-    return (
-        arm_param(),
-        *extra,
-        held_param(),
-        key_param("plan_s", "write", "the planned motion's duration, s"),
-        keep_apart,
-    )

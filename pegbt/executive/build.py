@@ -15,7 +15,7 @@ from py_trees.behaviour import Behaviour
 
 from pegbt.errors import PegbtError
 from pegbt.executive.context import RunContext
-from pegbt.executive.nodetypes import NODE_TYPES
+from pegbt.executive.nodebuild import BUILDERS
 from pegbt.executive.registry import REGISTRY, BehaviourRegistry, LeafSetup
 from pegbt.executive.spec import NodeSpec
 
@@ -65,10 +65,8 @@ def _build(
     children = [_build(child, node_id, context, registry, nodes) for child in spec.children]
     if spec.type == "subtree":
         behaviour: Behaviour = py_trees.decorators.PassThrough(name=spec.name, child=children[0])
-    elif spec.type in NODE_TYPES:
-        build = NODE_TYPES[spec.type].build
-        assert build is not None  # only `subtree` has no builder, and it is built above
-        behaviour = build(spec, children, context)
+    elif spec.type in BUILDERS:
+        behaviour = BUILDERS[spec.type](spec, children, context)
     else:
         behaviour = _leaf(spec, context, registry)
     nodes[node_id] = BuiltNode(node_id, parent, spec, behaviour)

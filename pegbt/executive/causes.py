@@ -24,7 +24,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from pegbt.behaviours.conditions.handover_protocol import STEERING
+from pegbt.behaviours.leaves import STEERING
 from pegbt.executive.logfile import TickLog, Transition
 
 CONTROL_FLOW = frozenset({"check_blackboard", "force_failure", "inverter", *STEERING})

@@ -9,11 +9,9 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from pegbt.errors import PegbtError
-from pegbt.executive.build import BuiltTree, build_tree
-from pegbt.executive.context import RunContext
 from pegbt.executive.document import TreeDocument, load_document
 from pegbt.executive.keys import check_keys
 from pegbt.executive.params import check_type, describe
@@ -21,6 +19,10 @@ from pegbt.executive.problems import Problems
 from pegbt.executive.registry import REGISTRY, BehaviourRegistry
 from pegbt.executive.resolve import Resolver
 from pegbt.executive.spec import NodeSpec
+
+if TYPE_CHECKING:
+    from pegbt.executive.build import BuiltTree
+    from pegbt.executive.context import RunContext
 
 
 @dataclass
@@ -63,6 +65,9 @@ class LoadedTree:
 
     def build(self, context: RunContext | None = None, registry: BehaviourRegistry = REGISTRY) -> BuiltTree:
         """The py_trees tree; a `PegbtError` if the file has no `tree:` or the context lacks a declared resource."""
+        from pegbt.executive.build import build_tree  # py_trees, which checking a tree does without
+        from pegbt.executive.context import RunContext
+
         context = context or RunContext()
         if self.root is None:
             raise PegbtError(

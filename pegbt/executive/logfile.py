@@ -21,8 +21,9 @@ from typing import Any
 from pegbt.boundedio import read_bytes
 from pegbt.errors import PegbtError, brief
 from pegbt.executive.spec import MAX_TREE_DEPTH
-from pegbt.executive.ticklog import FORMAT, FORMAT_VERSION
 
+FORMAT = "pegbt-ticklog"  # what the writer (`pegbt.executive.ticklog`) puts in the header, and this reads
+FORMAT_VERSION = 1
 STATUSES = ("INVALID", "RUNNING", "SUCCESS", "FAILURE")
 _DONE = ("SUCCESS", "FAILURE")
 _EVENT_TYPES = ("tick", "halt", "crash", "end", "message")

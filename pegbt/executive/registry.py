@@ -17,9 +17,11 @@ A behaviour module registers each leaf once, with a decorator::
     class Grasp(Leaf): ...
 
 The decorated object is called with one `LeafSetup` and returns a py_trees `Behaviour` (a `Leaf`
-subclass, or a function returning any py_trees behaviour). The validator checks trees against these
-declarations without constructing anything; `pegbt tree schema` prints them. Modules that register
-behaviours are listed in `BEHAVIOUR_MODULES` and imported on first use.
+subclass, or a function returning any py_trees behaviour). pegbt's own leaves are declared instead in a
+table (`pegbt.behaviours.leaves`), with `declare` and the implementation named `module:attribute`: the
+validator checks trees against these declarations without constructing anything, or importing what the
+leaves run with, and `pegbt tree schema` prints them. Modules that register or declare behaviours are
+listed in `BEHAVIOUR_MODULES` and imported on first use.
 """
 
 from __future__ import annotations
@@ -27,28 +29,18 @@ from __future__ import annotations
 import importlib
 from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass
-from typing import Any, TypeVar
+from typing import TYPE_CHECKING, Any, TypeVar
 
-import py_trees
-
-from pegbt.executive.context import RunContext
 from pegbt.executive.params import Param
 
-BEHAVIOUR_MODULES: tuple[str, ...] = (
-    "pegbt.behaviours.actions.generic",
-    "pegbt.behaviours.actions.sensing",
-    "pegbt.behaviours.actions.grasping",
-    "pegbt.behaviours.actions.moving",
-    "pegbt.behaviours.actions.transfer_records",
-    "pegbt.behaviours.actions.collect_calibration",
-    "pegbt.behaviours.conditions.blackboard",
-    "pegbt.behaviours.conditions.blocks",
-    "pegbt.behaviours.actions.handover",
-    "pegbt.behaviours.actions.handover_protocol",
-    "pegbt.behaviours.conditions.handover_protocol",
-)
+if TYPE_CHECKING:
+    import py_trees
 
-Factory = Callable[["LeafSetup"], py_trees.behaviour.Behaviour]
+    from pegbt.executive.context import RunContext
+
+BEHAVIOUR_MODULES: tuple[str, ...] = ("pegbt.behaviours.leaves",)
+
+Factory = Callable[["LeafSetup"], "py_trees.behaviour.Behaviour"]
 F = TypeVar("F", bound=Callable[..., Any])
 
 
@@ -58,11 +50,20 @@ class BehaviourSpec:
 
     name: str
     doc: str
-    factory: Factory
+    implementation: Factory | str  # the factory, or `module:attribute` naming it (imported when first asked)
     params: tuple[Param, ...] = ()
     reads: tuple[str, ...] = ()
     writes: tuple[str, ...] = ()
     resources: tuple[str, ...] = ()
+
+    @property
+    def factory(self) -> Factory:
+        """What builds the leaf, its module imported now if the declaration only named it."""
+        if not isinstance(self.implementation, str):
+            return self.implementation
+        module, _, attribute = self.implementation.partition(":")
+        factory: Factory = getattr(importlib.import_module(module), attribute)
+        return factory
 
 
 @dataclass(frozen=True)
@@ -81,6 +82,8 @@ class LeafSetup:
 
     def absolute_key(self, key: str) -> str:
         """`key` as an absolute blackboard name in this node's namespace (`/` keys stay as they are)."""
+        import py_trees
+
         return py_trees.blackboard.Blackboard.absolute_name(self.namespace, key)
 
 
@@ -141,3 +144,18 @@ def behaviour(
         return factory
 
     return register
+
+
+def declare(
+    name: str,
+    doc: str,
+    implementation: str,
+    *,
+    params: tuple[Param, ...] = (),
+    reads: tuple[str, ...] = (),
+    writes: tuple[str, ...] = (),
+    resources: tuple[str, ...] = (),
+    registry: BehaviourRegistry = REGISTRY,
+) -> None:
+    """Register leaf behaviour `name` built by `implementation` (`module:attribute`), without importing it."""
+    registry.add(BehaviourSpec(name, doc, implementation, params, reads, writes, resources))

@@ -15,8 +15,6 @@ import re
 from dataclasses import dataclass
 from typing import Any
 
-import py_trees
-
 from pegbt.executive.document import SubtreeDef, TreeDocument
 from pegbt.executive.nodetypes import NODE_TYPES, NodeType
 from pegbt.executive.params import (
@@ -59,8 +57,15 @@ class Scope:
 
 
 def absolute_key(namespace: str, key: str) -> str:
-    """The absolute blackboard key (without attribute suffix) that `key` names in `namespace`."""
-    return py_trees.blackboard.Blackboard.absolute_name(namespace, key).split(".", 1)[0]
+    """The absolute blackboard key (without attribute suffix) that `key` names in `namespace`.
+
+    As py_trees' `Blackboard.absolute_name` names it when the tree runs (a unit test holds the two
+    together), without importing py_trees to check a tree."""
+    if key.startswith("/"):
+        name = key
+    else:
+        name = (namespace if namespace.endswith("/") else namespace + "/") + key.strip("/")
+    return name.split(".", 1)[0]
 
 
 class Resolver:

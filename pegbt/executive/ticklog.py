@@ -46,10 +46,9 @@ from pegbt import __version__
 from pegbt.executive.build import BuiltTree
 from pegbt.executive.compact import compact
 from pegbt.executive.conditions import comparison
+from pegbt.executive.logfile import FORMAT, FORMAT_VERSION
 from pegbt.executive.params import BlackboardRef
 
-FORMAT = "pegbt-ticklog"
-FORMAT_VERSION = 1
 _MISSING = object()
 _same = comparison("==")
 _ENCODER = json.JSONEncoder(separators=(",", ":"))

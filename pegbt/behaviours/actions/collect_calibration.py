@@ -13,60 +13,17 @@ from pathlib import Path
 import numpy as np
 from py_trees.common import Status
 
-from pegbt.behaviours.base import arm_param
 from pegbt.behaviours.resources.robot import Robot
-from pegbt.calibration.collect import DESIGNS, SETTLE_S, straight_move
+from pegbt.calibration.collect import DESIGNS, straight_move
 from pegbt.calibration.task import task_box
 from pegbt.errors import PegbtError
 from pegbt.executive.leaf import Leaf
-from pegbt.executive.params import Param
-from pegbt.executive.registry import behaviour
 from pegbt.physics.recording import RecordingWriter
 from pegbt.transport.arm import MotionHandle
 from pegbt.transport.crtk_arm import RobotMove
 from pegbt.transport.streaming import StreamedMotion
 
-MAX_SAMPLES = 1_000_000  # set-points: about 95 hours of collection at 174 a minute
-MAX_SETTLE = 60.0  # s a set-point is held before it is sampled
 
-
-@behaviour(
-    "collect_calibration",
-    "drive `arm` through `samples` set-points over the task's joints (uncompensated; `design` smooth: a random "
-    "smooth path, spread: each joint's range covered, for a refit), hold each `settle` s, and record set-point "
-    "and physical joints to the recording folder `out`",
-    params=(
-        arm_param(blackboard=True),
-        Param("samples", int, "set-points to record", minimum=2, maximum=MAX_SAMPLES, blackboard=True),
-        Param(
-            "settle",
-            float,
-            "seconds to hold each set-point before sampling it",
-            default=SETTLE_S,
-            minimum=0.0,
-            maximum=MAX_SETTLE,
-        ),
-        Param(
-            "design",
-            str,
-            "how the set-points are drawn: smooth (to train a model) or spread (to refit one)",
-            default="smooth",
-            choices=tuple(DESIGNS),
-            blackboard=True,
-        ),
-        Param("out", str, "recording folder to write (relative to the working directory)", blackboard=True),
-        Param(
-            "seed",
-            int,
-            "seed of the random set-points",
-            default=0,
-            minimum=0,
-            maximum=2**32 - 1,
-            blackboard=True,
-        ),
-    ),
-    resources=("robot",),
-)
 class CollectCalibration(Leaf):
     handle: MotionHandle | RobotMove | StreamedMotion | None
 

@@ -8,24 +8,18 @@ read from the blackboard.
 from __future__ import annotations
 
 import logging
-from typing import Any
 
 import py_trees
 from py_trees.common import Status
 
 from pegbt.executive.leaf import Leaf
-from pegbt.executive.params import MAX_SECONDS, BlackboardRef, Param
-from pegbt.executive.registry import LeafSetup, behaviour
+from pegbt.executive.params import BlackboardRef
+from pegbt.executive.registry import LeafSetup
 
 TREE_LOG = logging.getLogger("pegbt.tree")
 _STATUSES = {"success": Status.SUCCESS, "failure": Status.FAILURE, "running": Status.RUNNING}
 
 
-@behaviour(
-    "wait",
-    "run for `seconds` of the executive's clock, then succeed",
-    params=(Param("seconds", float, "how long, s", minimum=0.0, maximum=MAX_SECONDS, blackboard=True),),
-)
 class Wait(Leaf):
     """Running until the clock has advanced `seconds` since the node started."""
 
@@ -39,14 +33,6 @@ class Wait(Leaf):
         return Status.SUCCESS if self.context.clock.now() >= self.end else Status.RUNNING
 
 
-@behaviour(
-    "set_blackboard",
-    "write `value` (or the value of another key, `$key`) to blackboard `key`, then succeed",
-    params=(
-        Param("key", str, "key to write", key="write"),
-        Param("value", Any, "value to write; `$other` copies key `other`", blackboard=True),
-    ),
-)
 def set_blackboard(setup: LeafSetup) -> py_trees.behaviour.Behaviour:
     value = setup.params["value"]
     if isinstance(value, BlackboardRef):
@@ -62,21 +48,6 @@ def set_blackboard(setup: LeafSetup) -> py_trees.behaviour.Behaviour:
     )
 
 
-@behaviour(
-    "log",
-    "log `message` (and `value`, e.g. `$key`) to the run's output and the tick log, then succeed",
-    params=(
-        Param("message", str, "text to log"),
-        Param(
-            "value",
-            Any,
-            "optional value appended to the message; `$key` shows a blackboard value",
-            default=None,
-            blackboard=True,
-        ),
-        Param("level", str, "log level", default="info", choices=("debug", "info", "warning", "error")),
-    ),
-)
 class Log(Leaf):
     """Logs once per tick and succeeds; the message is also its feedback message."""
 
@@ -105,21 +76,6 @@ class ScriptedOutcomes(py_trees.behaviours.StatusQueue):
         return status
 
 
-@behaviour(
-    "scripted",
-    "return the given outcomes one per tick, across retries (for testing recovery logic)",
-    params=(
-        Param("outcomes", list[str], "outcomes in order", choices=tuple(_STATUSES), minimum=1),
-        Param(
-            "then",
-            str,
-            "after the list: repeat the last outcome, or start the list again",
-            default="last",
-            choices=("last", "cycle"),
-        ),
-        Param("message", str, "feedback message when the outcome is failure (why it failed)", default=""),
-    ),
-)
 def scripted(setup: LeafSetup) -> py_trees.behaviour.Behaviour:
     queue = [_STATUSES[outcome] for outcome in setup.params["outcomes"]]
     eventually = queue[-1] if setup.params["then"] == "last" else None

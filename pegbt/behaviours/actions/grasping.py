@@ -17,19 +17,12 @@ from py_trees.common import Status
 
 from pegbt.behaviours.actions.handover import plan_meeting
 from pegbt.behaviours.base import (
-    RESOURCES,
     MotionLeaf,
     RobotLeaf,
-    arm_param,
-    keep_apart_param,
-    key_param,
-    peg_param,
 )
-from pegbt.behaviours.motion import above_pegs_first, held_param
+from pegbt.behaviours.motion import above_pegs_first
 from pegbt.behaviours.poses import approach_for, transfer_for
 from pegbt.behaviours.resources.skills import Skills
-from pegbt.executive.params import Param
-from pegbt.executive.registry import behaviour
 from pegbt.executive.work import Job
 from pegbt.motion.ik import solve_ik
 from pegbt.motion.kinematics import forward_kinematics
@@ -37,59 +30,12 @@ from pegbt.motion.trajectory import Trajectory
 from pegbt.perception.blocks import BlockEstimate, block_on_peg, stack_level
 from pegbt.perception.board import BoardEstimate
 from pegbt.perception.grasp import Grasp
-from pegbt.psm import ARMS
-from pegbt.workcell import N_PEGS
 
 SAME_BLOCK = (
     0.005  # m: a block seen this near where the last pick chose one is that block (a miss may nudge it)
 )
 
 
-@behaviour(
-    "select_grasp",
-    "choose `arm`'s grasp of the block on peg `peg` from `/blocks` (or, with `dropped`, of a block lying off "
-    "the pegs, nearest to that peg); writes `block` and `grasp`",
-    params=(
-        arm_param(),
-        peg_param("peg", "peg the block should be on"),
-        Param(
-            "dropped",
-            bool,
-            "if the peg is empty, take the block lying on the board nearest to it (`$key`: only "
-            "once the transfer has lost its block, so an empty pick peg is reported, not covered up)",
-            default=False,
-            blackboard=True,
-        ),
-        Param(
-            "strays",
-            list[int],
-            "with `dropped`: pegs a lost block may have fallen onto and no block belongs on yet "
-            "(the peg under the handover's meeting point); a block there is taken if none lies on the board",
-            choices=tuple(range(N_PEGS)),
-            default=[],
-        ),
-        Param(
-            "another",
-            bool,
-            "pick again: if the block is the one last chosen (still within `SAME_BLOCK` of "
-            "where it was seen), prefer another of its candidates than the one that failed (`$key`)",
-            default=False,
-            blackboard=True,
-        ),
-        Param(
-            "handover_to",
-            str,
-            "a giver's pick: only grasps from which the block can be handed to this arm "
-            "(`handover_poses` finds a grasp of the receiver clear of the giver's tool); '': any grasp",
-            default="",
-            choices=("", *ARMS),
-        ),
-        key_param("block", "write", "the block chosen (perception's estimate)"),
-        key_param("grasp", "write", "the grasp chosen (tip pose in the arm frame)"),
-    ),
-    reads=("/blocks", "/board"),
-    resources=RESOURCES,
-)
 class SelectGrasp(RobotLeaf):
     """Choosing among the candidates runs off the tick when it plans a handover for each (`handover_to`)."""
 
@@ -197,18 +143,6 @@ def approach_plan(
     return partial(motion.through, start, joints, names[: len(joints)])
 
 
-@behaviour(
-    "approach",
-    "move `arm` over its chosen grasp at the transfer height and down onto it, opening the jaw on the way",
-    params=(
-        arm_param(),
-        key_param("grasp", "read", "the chosen grasp"),
-        key_param("block", "read", "the block to grasp"),
-        keep_apart_param(),
-    ),
-    reads=("/board",),
-    resources=RESOURCES,
-)
 class Approach(MotionLeaf):
     """From low among the pegs (having just placed a block) with a planner (optimized): along an
     SQP-refined spline that rises, moves over and keeps the final descent on the block's axis. Otherwise
@@ -247,12 +181,6 @@ class Approach(MotionLeaf):
         )
 
 
-@behaviour(
-    "grasp",
-    "close `arm`'s jaw and check from the jaw's encoder that it stopped on a block; writes `holding`",
-    params=(arm_param(), held_param(), key_param("holding", "write", "whether the jaw holds a block")),
-    resources=RESOURCES,
-)
 class CloseOnBlock(MotionLeaf):
     def begin(self) -> None:
         self.move_jaw(
@@ -272,12 +200,6 @@ class CloseOnBlock(MotionLeaf):
         return Status.SUCCESS
 
 
-@behaviour(
-    "release",
-    "open `arm`'s jaw, letting go of whatever it holds; writes `holding` false",
-    params=(arm_param(), key_param("holding", "write", "whether the jaw holds a block (now false)")),
-    resources=RESOURCES,
-)
 class Release(MotionLeaf):
     def begin(self) -> None:
         self.move_jaw(

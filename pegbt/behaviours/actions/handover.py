@@ -19,20 +19,13 @@ from numpy.typing import NDArray
 from py_trees.common import Status
 
 from pegbt.behaviours.base import (
-    RESOURCES,
     ComputeLeaf,
     MotionLeaf,
-    arm_param,
-    keep_apart_param,
-    key_param,
-    peg_param,
 )
-from pegbt.behaviours.motion import CarryLeaf, above_pegs_first, carry_params
+from pegbt.behaviours.motion import CarryLeaf, above_pegs_first
 from pegbt.behaviours.poses import from_handover, to_arm, to_handover, tool_pose
 from pegbt.behaviours.resources.skills import Skills
 from pegbt.errors import PegbtError
-from pegbt.executive.params import Param
-from pegbt.executive.registry import behaviour
 from pegbt.frames import invert_rigid
 from pegbt.motion.handover import descent_clearance, handover_meeting_point
 from pegbt.motion.ik import solve_ik
@@ -40,7 +33,6 @@ from pegbt.motion.trajectory import Trajectory
 from pegbt.motion.waypoints import TransferWaypoints
 from pegbt.perception.blocks import BlockEstimate
 from pegbt.perception.grasp import Grasp
-from pegbt.psm import ARMS
 from pegbt.workcell import Workcell
 
 
@@ -106,22 +98,6 @@ def _clear_descent(
     return clearance >= settings.grasp_clearance
 
 
-@behaviour(
-    "handover_poses",
-    "where the handover happens: the giver's tip pose at the meeting point, the pose the block it holds will "
-    "have there, and the receiver's grasp of it (nearest the receiver, on another wall than the giver's jaw, "
-    "clear of the giver's tool)",
-    params=(
-        arm_param("the giver"),
-        Param("receiver", str, "the receiver", choices=ARMS),
-        key_param("grasp", "read", "the giver's grasp"),
-        key_param("block", "read", "the block the giver holds (as perceived on its peg)"),
-        key_param("meeting", "write", "the giver's tip pose at the meeting point (giver frame)"),
-        key_param("block_pose", "write", "the block's pose at the meeting point (board frame)"),
-        key_param("receiver_grasp", "write", "the receiver's grasp of the block there"),
-    ),
-    resources=RESOURCES,
-)
 class HandoverPoses(ComputeLeaf):
     """Planning the meeting (IK and a clearance sweep per candidate grasp) runs off the tick."""
 
@@ -152,19 +128,6 @@ class HandoverPoses(ComputeLeaf):
         return Status.SUCCESS
 
 
-@behaviour(
-    "carry_to_handover",
-    "lift the block held by `arm` (the giver) off its peg and carry it to the meeting pose; fails at once "
-    "if the block slips",
-    params=carry_params(
-        key_param("grasp", "read", "the giver's grasp"),
-        key_param("block", "read", "the block held"),
-        key_param("meeting", "read", "the giver's tip pose at the meeting point"),
-        keep_apart=keep_apart_param(0.0),
-    ),
-    reads=("/board",),
-    resources=RESOURCES,
-)
 class CarryToHandover(CarryLeaf):
     SEGMENTS = (
         "lift",
@@ -184,16 +147,6 @@ class CarryToHandover(CarryLeaf):
         )
 
 
-@behaviour(
-    "go_to_handover",
-    "move `arm` (the receiver) to wait, jaw open, straight above its grasp of the block at the meeting point",
-    params=(
-        arm_param(),
-        key_param("grasp", "read", "the receiver's grasp at the meeting point"),
-        keep_apart_param(0.0),
-    ),
-    resources=RESOURCES,
-)
 class GoToHandover(MotionLeaf):
     def begin(self) -> None:
         arm = self.param("arm")
@@ -208,23 +161,6 @@ class GoToHandover(MotionLeaf):
         self.move_jaw(arm, self.skills.motion.transfer.jaw_open, f"{arm} jaw opening")
 
 
-@behaviour(
-    "descend_to_grasp",
-    "move `arm` straight down onto its grasp (the receiver taking the block at the meeting point)",
-    params=(
-        arm_param(),
-        key_param("grasp", "read", "the grasp to descend onto"),
-        key_param(
-            "block_pose",
-            "read",
-            "the block's pose at the meeting point, from which the carry that follows is planned while "
-            "the receiver descends and takes the block (unset: planned when it starts)",
-        ),
-        keep_apart_param(0.0),
-    ),
-    reads=("/board",),
-    resources=RESOURCES,
-)
 class DescendToGrasp(MotionLeaf):
     """Once sent, the carry that follows (`carry_from_handover` to the goal peg of the receiver's transfer
     under way) is planned and pre-compensated while the receiver descends, closes and waits for the giver
@@ -256,19 +192,6 @@ class DescendToGrasp(MotionLeaf):
         )
 
 
-@behaviour(
-    "carry_from_handover",
-    "carry the block that `arm` (the receiver) took at the meeting point over peg `place` and lower it onto "
-    "the peg; fails at once if the block slips",
-    params=carry_params(
-        peg_param("place", "goal peg"),
-        key_param("grasp", "read", "the receiver's grasp"),
-        key_param("block_pose", "read", "the block's pose at the meeting point (board frame)"),
-        keep_apart=keep_apart_param(0.0),
-    ),
-    reads=("/board",),
-    resources=RESOURCES,
-)
 class CarryFromHandover(CarryLeaf):
     def waypoints(self) -> TransferWaypoints:
         return from_handover(

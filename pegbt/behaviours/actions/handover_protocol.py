@@ -5,7 +5,10 @@ from __future__ import annotations
 
 from py_trees.common import Status
 
-from pegbt.behaviours.protocol_leaf import ProtocolLeaf, handover_number, register_protocol_leaf
+from pegbt.behaviours.leaves import SAYINGS
+from pegbt.behaviours.protocol_leaf import ProtocolLeaf, protocol_leaf
+from pegbt.executive.leaf import Leaf
+from pegbt.executive.registry import LeafSetup
 from pegbt.handover_protocol import Giver, Receiver, key
 
 
@@ -23,20 +26,9 @@ class _Say(ProtocolLeaf):
         return Status.SUCCESS
 
 
-for _name, _word, _doc in (
-    (
-        "offer",
-        Giver.OFFERED,
-        "the giver offers handover `n`: picked, the meeting planned; the receiver may come",
-    ),
-    ("hold_out", Giver.ARRIVED, "the giver says it holds the block out at the meeting point"),
-    ("withdraw", Giver.WITHDRAWN, "the giver withdraws its offer: the block slipped, it fetches it again"),
-    ("hand_over", Giver.RELEASED, "the giver says it let go of the block the receiver took"),
-    ("give_up", Giver.GIVEN_UP, "the giver gives handover `n` up"),
-    ("ready_for", Receiver.READY, "the receiver is ready for handover `n` (done with the one before)"),
-    ("close_on", Receiver.CLOSING, "the receiver's jaw closes on the block"),
-    ("back_off", Receiver.READY, "the receiver backs off: its jaw no longer closes on the block"),
-    ("take", Receiver.TAKEN, "the receiver says it holds the block"),
-    ("refuse", Receiver.REFUSED, "the receiver gives handover `n` up"),
-):
-    register_protocol_leaf(_name, _doc + "; succeeds", _Say, (handover_number("write"),), word=_word)
+SAYS = {name: protocol_leaf(name, _Say, word=word) for name, (word, _) in SAYINGS.items()}
+
+
+def say(setup: LeafSetup) -> Leaf:
+    """The leaf that says the word its declaration names (`SAYINGS`)."""
+    return SAYS[setup.spec.name](setup)

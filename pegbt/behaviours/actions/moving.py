@@ -10,40 +10,16 @@ from __future__ import annotations
 from functools import partial
 
 from pegbt.behaviours.actions.grasping import approach_plan
-from pegbt.behaviours.base import RESOURCES, MotionLeaf, arm_param, keep_apart_param, key_param, peg_param
-from pegbt.behaviours.motion import CarryLeaf, above_pegs_first, carry_params
+from pegbt.behaviours.base import MotionLeaf
+from pegbt.behaviours.motion import CarryLeaf, above_pegs_first
 from pegbt.behaviours.poses import tool_pose, transfer_for
-from pegbt.executive.params import Param
-from pegbt.executive.registry import behaviour
 from pegbt.motion.ik import solve_ik
 from pegbt.motion.kinematics import forward_kinematics
 from pegbt.motion.trajectory import Trajectory
 from pegbt.motion.waypoints import TransferWaypoints
 from pegbt.perception.blocks import block_on_peg
 
-MAX_RISE = 0.165  # m: the PSM's whole insertion travel (0.08-0.245 m, skills/psm.yaml)
 
-
-@behaviour(
-    "transfer",
-    "lift the held block off its peg, carry it over peg `place` and lower it onto the peg (one trajectory: "
-    "SQP-optimised or rest-to-rest cubics, as the condition says); fails at once if the block slips from "
-    "the jaw; writes the plan's duration to `plan_s`",
-    params=carry_params(
-        peg_param("place", "goal peg"),
-        key_param("grasp", "read", "the grasp holding the block"),
-        key_param("block", "read", "the block held"),
-        Param(
-            "then",
-            dict,
-            "the transfer that follows with this arm (a loop's next item: its `pick`), whose approach is "
-            "planned while this carry plays, onto the grasp `select_grasp` will choose; {}: none",
-            default={},
-        ),
-    ),
-    reads=("/board", "/blocks"),
-    resources=RESOURCES,
-)
 class Transfer(CarryLeaf):
     """Planned early, while the approach plays, when that approach knew this transfer's goal peg
     (`approach`); once sent, it plans the approach of the next transfer (`then`) from where it ends."""
@@ -77,16 +53,6 @@ class Transfer(CarryLeaf):
         motion.plan_early(self.context.work, (board, block, grasp.candidate), plan)
 
 
-@behaviour(
-    "rise",
-    "move `arm` straight up along the pegs' axis by `height` metres (a giver letting go, a tool backing off)",
-    params=(
-        arm_param(),
-        Param("height", float, "how far, m", minimum=0.0, maximum=MAX_RISE),
-        keep_apart_param(),
-    ),
-    resources=RESOURCES,
-)
 class Rise(MotionLeaf):
     def begin(self) -> None:
         arm = self.param("arm")
@@ -98,12 +64,6 @@ class Rise(MotionLeaf):
         self.move(arm, partial(motion.through, start, [risen], ["risen"]), f"{arm} rising")
 
 
-@behaviour(
-    "park",
-    "move `arm` out of the camera's view: rise to the transfer height if low, then to its home pose (tool down)",
-    params=(arm_param(), keep_apart_param()),
-    resources=RESOURCES,
-)
 class Park(MotionLeaf):
     def begin(self) -> None:
         arm = self.param("arm")

@@ -13,18 +13,11 @@ import time
 from numpy.typing import ArrayLike
 from py_trees.common import Status
 
-from pegbt.behaviours.base import RESOURCES, ComputeLeaf, RobotLeaf
-from pegbt.executive.registry import behaviour
+from pegbt.behaviours.base import ComputeLeaf, RobotLeaf
 from pegbt.perception.blocks import BlockEstimate
 from pegbt.perception.board import BoardEstimate
 
 
-@behaviour(
-    "capture",
-    "request a point cloud from the depth camera and wait for it; writes it to `/cloud`",
-    writes=("/cloud",),
-    resources=RESOURCES,
-)
 class Capture(RobotLeaf):
     def initialise(self) -> None:
         self.handle = self.robot.camera.capture_async()
@@ -48,14 +41,6 @@ class Capture(RobotLeaf):
         return Status.SUCCESS
 
 
-@behaviour(
-    "register_board",
-    "register the pegboard model to `/cloud` (refines the camera's extrinsics, finds the pegs); writes `/board` "
-    "and sets `/board_registered`",
-    reads=("/cloud",),
-    writes=("/board", "/board_registered"),
-    resources=RESOURCES,
-)
 class RegisterBoard(ComputeLeaf):
     def inputs(self) -> tuple:
         return (self.read("/cloud"),)
@@ -74,14 +59,6 @@ class RegisterBoard(ComputeLeaf):
         return Status.SUCCESS
 
 
-@behaviour(
-    "find_blocks",
-    "segment and register every block in `/cloud` on the registered `/board`; writes `/blocks`; fails on a "
-    "capture in which no block is trustworthy (a noise burst, say), so that `sense` takes another",
-    reads=("/cloud", "/board"),
-    writes=("/blocks",),
-    resources=RESOURCES,
-)
 class FindBlocks(ComputeLeaf):
     def inputs(self) -> tuple:
         return self.read("/cloud"), self.read("/board")

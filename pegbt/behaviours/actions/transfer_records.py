@@ -8,22 +8,9 @@ from __future__ import annotations
 
 from py_trees.common import Status
 
-from pegbt.behaviours.base import RobotLeaf, key_param, peg_param
-from pegbt.executive.params import Param
-from pegbt.executive.registry import behaviour
+from pegbt.behaviours.base import RobotLeaf
 
 
-@behaviour(
-    "begin_transfer",
-    "record the start of a transfer from peg `pick` to peg `place` by `arms`; writes its number to `transfer`",
-    params=(
-        Param("arms", str, "the arm, or giver→receiver for a handover"),
-        peg_param("pick", "start peg"),
-        peg_param("place", "goal peg"),
-        key_param("transfer", "write", "the transfer's number"),
-    ),
-    resources=("robot", "skills"),
-)
 class BeginTransfer(RobotLeaf):
     def act(self) -> Status:
         record = self.robot.trial.begin(self.param("arms"), int(self.param("pick")), int(self.param("place")))
@@ -32,16 +19,6 @@ class BeginTransfer(RobotLeaf):
         return Status.SUCCESS
 
 
-@behaviour(
-    "finish_transfer",
-    "record how transfer `transfer` ended, as the executive believes (placed, skipped or failed); succeeds",
-    params=(
-        Param("outcome", str, "the verdict", choices=("placed", "skipped", "failed")),
-        Param("note", str, "why, for the result table", default=""),
-        key_param("transfer", "read", "the transfer's number"),
-    ),
-    resources=("robot", "skills"),
-)
 class FinishTransfer(RobotLeaf):
     def act(self) -> Status:
         record = self.robot.trial.finish(int(self.get("transfer")), self.param("outcome"), self.param("note"))

@@ -8,26 +8,15 @@ is a `Leaf` because it reads keys written `$key` and says what it waits for in i
 from __future__ import annotations
 
 import math
-from typing import Any
 
 import py_trees
 from py_trees.common import Status
 
-from pegbt.executive.conditions import OPERATORS, comparison
+from pegbt.executive.conditions import comparison
 from pegbt.executive.leaf import Leaf
-from pegbt.executive.params import Param
-from pegbt.executive.registry import LeafSetup, behaviour
+from pegbt.executive.registry import LeafSetup
 
 
-@behaviour(
-    "check_blackboard",
-    "succeed if blackboard `key` compares true with `value` (`op`), fail otherwise or if it is unset",
-    params=(
-        Param("key", str, "key to test", key="read"),
-        Param("op", str, "comparison", default="==", choices=tuple(OPERATORS)),
-        Param("value", Any, "value compared with", default=True),
-    ),
-)
 def check_blackboard(setup: LeafSetup) -> py_trees.behaviour.Behaviour:
     check = py_trees.common.ComparisonExpression(
         variable=setup.absolute_key(setup.params["key"]),
@@ -37,16 +26,6 @@ def check_blackboard(setup: LeafSetup) -> py_trees.behaviour.Behaviour:
     return py_trees.behaviours.CheckBlackboardVariableValue(name=setup.name, check=check)
 
 
-@behaviour(
-    "wait_blackboard",
-    "run until blackboard `key` compares true with `value` (`op`), then succeed; an unset key is waited for "
-    "(another branch of a parallel sets it: how subtrees synchronise); wrap it in `timeout` to bound the wait",
-    params=(
-        Param("key", str, "key to watch", key="read"),
-        Param("op", str, "comparison", default="==", choices=tuple(OPERATORS)),
-        Param("value", Any, "value compared with", default=True),
-    ),
-)
 class WaitBlackboard(Leaf):
     """Running until the condition holds; it needs no tick of its own (only another node can change the key)."""
 

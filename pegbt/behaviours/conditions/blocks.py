@@ -6,25 +6,11 @@ from __future__ import annotations
 
 from py_trees.common import Status
 
-from pegbt.behaviours.base import RESOURCES, RobotLeaf, arm_param
-from pegbt.behaviours.motion import SLIP_CHECK, held_param, slip
-from pegbt.executive.params import Param
-from pegbt.executive.registry import behaviour
+from pegbt.behaviours.base import RobotLeaf
+from pegbt.behaviours.motion import SLIP_CHECK, slip
 from pegbt.perception.blocks import block_on_peg
-from pegbt.workcell import N_PEGS
 
 
-@behaviour(
-    "check_placed",
-    "succeed if the latest `/blocks` shows a trustworthy block on every peg in `pegs`",
-    params=(
-        Param(
-            "pegs", list[int], "pegs that should each hold a block", choices=tuple(range(N_PEGS)), minimum=1
-        ),
-    ),
-    reads=("/blocks",),
-    resources=RESOURCES,
-)
 class CheckPlaced(RobotLeaf):
     def act(self) -> Status:
         blocks = self.read("/blocks")
@@ -39,14 +25,6 @@ class CheckPlaced(RobotLeaf):
         return Status.SUCCESS
 
 
-@behaviour(
-    "keep_holding",
-    "run while `arm`'s jaw still holds its block (looking every few ticks' worth of time); fail at once if "
-    "the block slipped out: a giver waiting at the meeting point must notice a slip there, or the receiver "
-    "closes on nothing and nobody fetches the block",
-    params=(arm_param(), held_param()),
-    resources=RESOURCES,
-)
 class KeepHolding(RobotLeaf):
     def act(self) -> Status:
         arm = self.param("arm")

@@ -7,7 +7,10 @@ import math
 
 from py_trees.common import Status
 
-from pegbt.behaviours.protocol_leaf import PATIENCE, ProtocolLeaf, handover_number, register_protocol_leaf
+from pegbt.behaviours.leaves import AWAITS, CHECKS, WATCHES
+from pegbt.behaviours.protocol_leaf import ProtocolLeaf, protocol_leaf
+from pegbt.executive.leaf import Leaf
+from pegbt.executive.registry import LeafSetup
 from pegbt.handover_protocol import CONDITIONS
 
 
@@ -64,45 +67,13 @@ class _While(ProtocolLeaf):
         return Status.FAILURE
 
 
-for _name, _condition, _doc in (
-    ("await_ready", "ready", "the giver waits until the receiver is ready for handover `n`"),
-    ("await_taker", "taken", "the giver waits until the receiver holds the block"),
-    ("await_closed", "not closing", "the giver waits until the receiver's jaw is not closing on the block"),
-    (
-        "await_offer",
-        "offered or given up",
-        "the receiver waits until the giver offers the block or gives it up",
-    ),
-    (
-        "await_arrival",
-        "arrived",
-        "the receiver waits until the giver holds the block out at the meeting point",
-    ),
-    ("await_release", "released", "the receiver waits until the giver let go"),
-):
-    register_protocol_leaf(_name, _doc, _Await, (handover_number("read"), PATIENCE), condition=_condition)
-
-CHECKS = {
-    "is_taken": ("taken", "whether the receiver holds the block"),
-    "receiver_waits": (
-        "not refused",
-        "whether the receiver still waits for handover `n` (has not refused it)",
-    ),
-    "not_given_up": ("not given up", "whether the giver still gives handover `n` (has not given it up)"),
-    "is_offered": ("offered", "whether the giver offers the block (offered or holding it out)"),
-    "is_withdrawn": ("withdrawn", "whether the giver's offer is withdrawn (or was never made, or given up)"),
-    "is_held_out": ("arrived", "whether the giver holds the block out at the meeting point"),
-}
-for _name, (_condition, _doc) in CHECKS.items():
-    register_protocol_leaf(_name, _doc, _Check, (handover_number("read"),), condition=_condition)
-
-# The leaves that only steer the tree: their failure echoes the other side's, never a cause of its own.
-STEERING = frozenset({*CHECKS, "unless_refused"})
-
-register_protocol_leaf(
-    "unless_refused",
-    "run while the receiver has not refused handover `n`; fail when it does",
-    _While,
-    (handover_number("read"),),
-    condition="not refused",
+LOOKS = (
+    {name: protocol_leaf(name, _Await, condition=condition) for name, (condition, _) in AWAITS.items()}
+    | {name: protocol_leaf(name, _Check, condition=condition) for name, (condition, _) in CHECKS.items()}
+    | {name: protocol_leaf(name, _While, condition=condition) for name, (condition, _) in WATCHES.items()}
 )
+
+
+def look(setup: LeafSetup) -> Leaf:
+    """The leaf that waits for, checks or watches the condition its declaration names."""
+    return LOOKS[setup.spec.name](setup)
