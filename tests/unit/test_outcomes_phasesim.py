@@ -4,7 +4,7 @@ command it, and the world effects changing what happens in them."""
 from __future__ import annotations
 
 from pegbt.sim.world_effects import WorldEffects
-from pegbt.sim2real.outcomes.phasesim import simulate_transfer
+from pegbt.sim2real.outcomes.phasesim import Replay, simulate_transfer
 
 SEEDS = range(4)
 
@@ -22,3 +22,20 @@ def test_a_calibrated_transfer_is_placed_and_a_handover_passes_the_block():
     for variant in ("unilateral", "handover"):
         result = simulate_transfer(WorldEffects(), variant, "calibrated", 1)
         assert result.succeeded and result.seconds > 1.0, variant
+
+
+def test_the_arm_replayed_across_worlds_gives_each_world_its_own_outcome():
+    """One `Replay` shared by a transfer's worlds (the arm's motion simulated once) gives the outcomes,
+    phases and seconds of simulating each world alone, including worlds where the block's fate differs."""
+    worlds = [
+        WorldEffects(),
+        WorldEffects.of({"peg_compliance": {"deflection": 0.0012}}),
+        WorldEffects.of({"peg_compliance": {"deflection": 0.0024}}),
+        WorldEffects.of({"registration_offset": {"x": 0.002}}),
+    ]
+    for variant, condition, seed in (("unilateral", "uncalibrated", 3), ("bilateral", "uncalibrated", 2)):
+        alone = [simulate_transfer(w, variant, condition, seed) for w in worlds]
+        replay = Replay()
+        shared = [simulate_transfer(w, variant, condition, seed, replay) for w in worlds]
+        assert shared == alone, (variant, seed)
+        assert len({(r.succeeded, r.phase) for r in alone}) > 1  # the block's fate differs across worlds

@@ -12,6 +12,7 @@ the simulator's side, where the truth is known).
 
 from __future__ import annotations
 
+import hashlib
 from dataclasses import dataclass
 from functools import cache
 
@@ -20,7 +21,7 @@ from numpy.typing import NDArray
 
 from pegbt.behaviours.actions.handover import Meeting, plan_meeting
 from pegbt.behaviours.poses import approach_for, from_handover, to_handover, transfer_for
-from pegbt.behaviours.resources.arm_motion import ArmMotion
+from pegbt.behaviours.resources.arm_motion import ArmMotion, Prepared
 from pegbt.behaviours.resources.skills import SIMULATOR_CALIBRATION, Skills
 from pegbt.errors import PegbtError
 from pegbt.frames import yaw_of
@@ -31,7 +32,7 @@ from pegbt.perception.blocks import BlockEstimate
 from pegbt.physics import ArmPhysics
 from pegbt.sim.arm import DEFAULT_JOINTS, SimArm
 from pegbt.sim.events import Event
-from pegbt.sim.tools import ToolState, wrist_give
+from pegbt.sim.tools import Give, ToolState, wrist_give
 from pegbt.sim.world import World
 from pegbt.sim.world_effects import WorldEffects
 from pegbt.sim2real.outcomes.cells import PHASES
@@ -89,11 +90,27 @@ def _skills(condition: str) -> Skills:
     return Skills(condition, calibration=SIMULATOR_CALIBRATION)
 
 
+class Replay:
+    """What the arm did, kept across the worlds of one transfer: the physical joints reached after each
+    history of encoder positions, and the compensated commands sent for each plan from each history.
+
+    The cable model and the compensator see only the commands, never the world, so a world whose effects
+    change no command (the contact physics, a registration offset) replays the arm of the world before it
+    until the block's fate makes the commands differ (a carry stopped when the block falls); from there the
+    arm is simulated again, its cable model first caught up on the positions it was replayed through."""
+
+    def __init__(self) -> None:
+        self.physical: dict[bytes, tuple[NDArray[np.float64], Give]] = {}
+        self.prepared: dict[tuple[bytes, bytes], Prepared] = {}
+
+
 class _Bench:
     """One arm acting in one world, ticked at the control period as the simulator's endpoint does."""
 
-    def __init__(self, world: World, arm: str, motion: ArmMotion, q0: NDArray[np.float64]) -> None:
-        self.world, self.name, self.motion = world, arm, motion
+    def __init__(
+        self, world: World, arm: str, motion: ArmMotion, q0: NDArray[np.float64], replay: Replay
+    ) -> None:
+        self.world, self.name, self.motion, self.replay = world, arm, motion, replay
         self.arm = SimArm(
             arm,
             motion.settings,
@@ -110,6 +127,8 @@ class _Bench:
         self.held = False  # holds the block lowered over its goal peg (or at the meeting point)
         self.meeting: Meeting | None = None
         self.failed: str | None = None  # the phase in which this attempt lost the block
+        self.history = hashlib.sha1(arm.encode() + q0.tobytes())
+        self.behind: list[NDArray[np.float64]] = []  # encoder positions replayed, not yet through the model
         motion.desired = q0.copy()
         motion.active = None
         if motion.compensator is not None:
@@ -128,27 +147,52 @@ class _Bench:
         """Advance the arm, and the world with it; an approach holding nothing (`reach`) shows the world
         only where it ends, since no contact on the way decides an outcome."""
         for _ in range(max(1, round(seconds / self.arm.period))):
-            self.arm.advance(self.arm.period)
+            self._advance()
             self.clock = max(self.clock, self.world.time) + self.arm.period
             if self.segment == "reach" and self.arm.is_busy:
                 continue
             tool = ToolState.from_joints(
-                self.arm.physical,
-                float(self.arm.jaw.encoder[0]),
-                self.to_board,
-                wrist_give(self.arm.physics, float(self.arm.physical[5]), self.world.cell.tool),
+                self.arm.physical, float(self.arm.jaw.encoder[0]), self.to_board, self.give
             )
             self.events += [(self.segment, e) for e in self.world.update(self.clock, {self.name: tool})]
             self.arm.jaw.stop_at(self.world.jaw_stop(self.name))
+
+    def _advance(self) -> None:
+        """`SimArm.advance`, with the cable model's answer (the physical joints and the wrist's play) replayed
+        when this encoder history has one."""
+        arm, period = self.arm, self.arm.period
+        arm.joints.advance(period)
+        arm.jaw.advance(period)
+        self.history.update(arm.joints.encoder.tobytes())
+        key = self.history.digest()
+        known = self.replay.physical.get(key)
+        if known is None:
+            for encoder in self.behind:
+                arm.physics.step(encoder, period)
+            self.behind.clear()
+            physical = arm.physics.step(arm.joints.encoder, period).copy()
+            give = wrist_give(arm.physics, float(physical[5]), self.world.cell.tool)
+            known = self.replay.physical[key] = (physical, give)
+        else:
+            self.behind.append(arm.joints.encoder.copy())
+        arm.physical, self.give = known
+
+    def _prepare(self, planned: Trajectory) -> Prepared:
+        """`ArmMotion.prepare`, replayed when this history already sent this plan."""
+        key = (self.history.digest(), planned.t.tobytes() + planned.q.tobytes())
+        prepared = self.replay.prepared.get(key)
+        if prepared is None:
+            prepared = self.replay.prepared[key] = self.motion.prepare(planned)
+        if prepared.compensator is not None:
+            self.motion.compensator = prepared.compensator.fork()
+        return prepared
 
     def play(
         self, planned: Trajectory, segments: list[tuple[float, str]], holding: int | None = None
     ) -> None:
         """Send `planned` as the condition sends it; `segments` names the phase from each planned time on.
         A carry of block `holding` stops the moment the block leaves the jaw, as the carry leaves do."""
-        prepared = self.motion.prepare(planned)
-        if prepared.compensator is not None:
-            self.motion.compensator = prepared.compensator
+        prepared = self._prepare(planned)
         sent = prepared.sent
         self.arm.follow_jt(sent.t - sent.t[0] + self.arm.period, sent.q, sent.qd, "motion")
         self.motion.desired = planned.q[-1].copy()
@@ -170,11 +214,15 @@ class _Bench:
         self.tick(SETTLE_S)
 
 
-def simulate_transfer(effects: WorldEffects, variant: str, condition: str, seed: int) -> TransferResult:
+def simulate_transfer(
+    effects: WorldEffects, variant: str, condition: str, seed: int, replay: Replay | None = None
+) -> TransferResult:
     """Transfer number `seed` of `variant`'s forward transfers (cycling), on a world of layout `seed`: the
-    grasp the executive would choose for the block perception would see, and the motions it would send,
-    picked and carried again after a failure up to `REGRASPS` times as `trees/shared/one_transfer.yaml`
-    recovers (from wherever the block fell; the arm starts each attempt from `START`)."""
+        grasp the executive would choose for the block perception would see, and the motions it would send,
+        picked and carried again after a failure up to `REGRASPS` times as `trees/shared/one_transfer.yaml`
+        recovers (from wherever the block fell; the arm starts each attempt from `START`). `replay`: the arm's
+    motion in other worlds of this same transfer (variant, condition, seed), to reuse where it is the same."""
+    replay = Replay() if replay is None else replay
     order = TRANSFERS[variant]
     arm, start_peg, goal_peg = order[seed % len(order)]
     previous_peg = next(
@@ -190,11 +238,11 @@ def simulate_transfer(effects: WorldEffects, variant: str, condition: str, seed:
         if block.lost:
             break
         bench = _attempt(
-            world, skills, arm, block.index, goal_peg, rng, previous_peg, handover=variant == "handover"
+            world, skills, arm, block.index, goal_peg, rng, previous_peg, replay, variant == "handover"
         )
         events += bench.events
         if bench.held and bench.meeting is not None:
-            return _hand_over(world, skills, bench, block.index, goal_peg, first)
+            return _hand_over(world, skills, bench, block.index, goal_peg, first, replay)
         if bench.held:
             bench.jaw(skills.motion.transfer.jaw_open, "release")
             events += bench.events[len(events) :]
@@ -236,6 +284,7 @@ def _attempt(
     goal_peg: int,
     rng: np.random.Generator,
     previous_peg: int,
+    replay: Replay,
     handover: bool = False,
 ) -> _Bench:
     """One pick and carry of `block` as it lies, seen with perception's noise: the bench afterwards says
@@ -267,7 +316,7 @@ def _attempt(
     ik = inverse_kinematics(start[None], motion.settings)
     if not ik.ok.all():
         return _Bench.failed_before(world, arm, motion, "reach")
-    bench = _Bench(world, arm, motion, ik.q[0])
+    bench = _Bench(world, arm, motion, ik.q[0], replay)
     try:
         reach = motion.transfer(approach_for(world.cell, skills.motion, arm, start, waypoints))
     except PegbtError:  # the approach leaf fails to plan: nothing moves
@@ -293,7 +342,13 @@ def _attempt(
 
 
 def _hand_over(
-    world: World, skills: Skills, giver: _Bench, block: int, goal_peg: int, first: str | None
+    world: World,
+    skills: Skills,
+    giver: _Bench,
+    block: int,
+    goal_peg: int,
+    first: str | None,
+    replay: Replay,
 ) -> TransferResult:
     """The giver holds `block` at the meeting point: the receiver waits open above its grasp, descends and
     closes; the giver opens and withdraws; the receiver carries the block over `goal_peg`, lowers it and
@@ -306,7 +361,7 @@ def _hand_over(
     ik = inverse_kinematics(np.stack([wait, meeting.receiver_grasp.pose]), motion.settings)
     if not ik.ok.all():
         return TransferResult(False, first or "handover", world.time)
-    taker = _Bench(world, receiver, motion, START)
+    taker = _Bench(world, receiver, motion, START, replay)
     taker.play(motion.through(START, list(ik.q), ["waiting", "handover grasp"]), [(0.0, "handover")])
     taker.jaw(skills.motion.transfer.jaw_closed, "handover")
     giver.jaw(skills.motion.transfer.jaw_open, "handover")
