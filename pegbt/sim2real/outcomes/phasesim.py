@@ -24,7 +24,7 @@ from pegbt.behaviours.poses import approach_for, from_handover, to_handover, tra
 from pegbt.behaviours.resources.arm_motion import ArmMotion, Prepared
 from pegbt.behaviours.resources.skills import SIMULATOR_CALIBRATION, Skills
 from pegbt.errors import PegbtError
-from pegbt.frames import yaw_of
+from pegbt.frames import yaw_of, yaw_pose
 from pegbt.motion.ik import inverse_kinematics
 from pegbt.motion.settings import motion_settings
 from pegbt.motion.trajectory import Trajectory
@@ -45,7 +45,7 @@ START = np.array(
 REGRASPS = 3  # recoveries before a transfer is given up (`trees/shared/one_transfer.yaml`)
 SETTLE_S = 0.1  # s at rest after each motion: the executive starts the next leaf a tick or two later
 
-# Forward transfers (arm, start peg, goal peg) of each variant: `trees/shared/orders.yaml`.
+# Transfers (arm, start peg, goal peg) of each variant, out and back: `trees/shared/orders.yaml`.
 TRANSFERS: dict[str, tuple[tuple[str, int, int], ...]] = {
     "unilateral": (
         ("PSM1", 1, 7),
@@ -54,6 +54,12 @@ TRANSFERS: dict[str, tuple[tuple[str, int, int], ...]] = {
         ("PSM1", 2, 9),
         ("PSM1", 5, 11),
         ("PSM1", 4, 10),
+        ("PSM1", 7, 1),
+        ("PSM1", 6, 0),
+        ("PSM1", 8, 3),
+        ("PSM1", 9, 2),
+        ("PSM1", 11, 5),
+        ("PSM1", 10, 4),
     ),
     "bilateral": (
         ("PSM2", 0, 7),
@@ -62,6 +68,12 @@ TRANSFERS: dict[str, tuple[tuple[str, int, int], ...]] = {
         ("PSM1", 1, 8),
         ("PSM1", 3, 11),
         ("PSM1", 5, 10),
+        ("PSM2", 7, 0),
+        ("PSM2", 6, 2),
+        ("PSM2", 9, 4),
+        ("PSM1", 8, 1),
+        ("PSM1", 11, 3),
+        ("PSM1", 10, 5),
     ),
     "handover": (
         ("PSM2", 1, 7),
@@ -70,6 +82,12 @@ TRANSFERS: dict[str, tuple[tuple[str, int, int], ...]] = {
         ("PSM2", 2, 9),
         ("PSM2", 5, 11),
         ("PSM2", 4, 10),
+        ("PSM1", 7, 1),
+        ("PSM1", 6, 0),
+        ("PSM1", 8, 3),
+        ("PSM1", 9, 2),
+        ("PSM1", 11, 5),
+        ("PSM1", 10, 4),
     ),
 }
 RECEIVER = {"PSM1": "PSM2", "PSM2": "PSM1"}
@@ -217,7 +235,8 @@ class _Bench:
 def simulate_transfer(
     effects: WorldEffects, variant: str, condition: str, seed: int, replay: Replay | None = None
 ) -> TransferResult:
-    """Transfer number `seed` of `variant`'s forward transfers (cycling), on a world of layout `seed`: the
+    """Transfer number `seed` of `variant`'s transfers (cycling; on the way back every block starts where
+    its outward transfer placed it), on a world of layout `seed`: the
         grasp the executive would choose for the block perception would see, and the motions it would send,
         picked and carried again after a failure up to `REGRASPS` times as `trees/shared/one_transfer.yaml`
         recovers (from wherever the block fell; the arm starts each attempt from `START`). `replay`: the arm's
@@ -229,6 +248,8 @@ def simulate_transfer(
         goal for other, _, goal in reversed(order + order[: seed % len(order)]) if other == arm
     )
     world = World(seed, effects=effects)
+    if seed % len(order) >= len(order) // 2:
+        _moved_out(world, order)
     skills = _skills(condition)
     block = next(b for b in world.blocks if b.peg == start_peg)
     rng = np.random.default_rng([seed, 7])
@@ -253,6 +274,17 @@ def simulate_transfer(
         if world.held_by(arm) is not None:
             bench.jaw(skills.motion.transfer.jaw_open, "grasp")
     return TransferResult(False, first or "grasp", world.time)
+
+
+def _moved_out(world: World, order: tuple[tuple[str, int, int], ...]) -> None:
+    """Seat every block on the peg its outward transfer places it on, as a trial's way back finds them
+    (each at its layout's yaw: where a placement leaves it turned is the lowering's business)."""
+    goal_of = {start: goal for _, start, goal in order[: len(order) // 2]}
+    for block in world.blocks:
+        assert block.peg is not None  # a new world's blocks all rest on their pegs
+        x, y = world.cell.pegs.positions[goal_of[block.peg]]
+        block.pose = yaw_pose([x, y, world.cell.board.surface_z], yaw_of(block.pose))
+        block.peg = goal_of[block.peg]
 
 
 def seen_point(world: World, point: NDArray[np.float64]) -> NDArray[np.float64]:
