@@ -87,13 +87,12 @@ class _Counting:
             for worlds, v, c, seed in tasks
         ]
         new = [task for task in new if task[0]]
-        for (worlds, v, c, seed), results in zip(new, self.mapper(new) if new else []):
-            self.known.update({(w, v, c, seed): r for w, r in zip(worlds, results)})
+        for (worlds, v, c, seed), simulated in zip(new, self.mapper(new) if new else []):
+            self.known.update({(w, v, c, seed): r for w, r in zip(worlds, simulated)})
         self.count += sum(len(worlds) for worlds, *_ in new)
-        results = [[self.known[(w, v, c, seed)] for w in worlds] for worlds, v, c, seed in tasks]
         if self.progress is not None and new:
             self.progress(f"{self.count} transfers simulated ({time.monotonic() - self.started:.0f} s)")
-        return results
+        return [[self.known[(w, v, c, seed)] for w in worlds] for worlds, v, c, seed in tasks]
 
 
 def diagnose(
