@@ -23,12 +23,14 @@ def lift_success(effects: WorldEffects, variant: str, condition: str) -> float:
     return min(1.0, BASE[variant] + REACH[variant] * deflection / 0.003 * 0.5)
 
 
-def fake_mapper(tasks: Sequence[tuple[WorldEffects, str, str, int]]) -> list[TransferResult]:
+def fake_mapper(
+    tasks: Sequence[tuple[tuple[WorldEffects, ...], str, str, int]],
+) -> list[list[TransferResult]]:
     out = []
-    for effects, variant, condition, seed in tasks:
+    for worlds, variant, condition, seed in tasks:
         u = np.random.default_rng([seed, 99]).random()
-        placed = bool(u < lift_success(effects, variant, condition))
-        out.append(TransferResult(placed, None if placed else "lift", 4.0))
+        placed = [bool(u < lift_success(effects, variant, condition)) for effects in worlds]
+        out.append([TransferResult(p, None if p else "lift", 4.0) for p in placed])
     return out
 
 

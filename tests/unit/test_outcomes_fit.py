@@ -87,3 +87,22 @@ def test_transfers_lost_to_perception_are_left_out_of_the_likelihood():
     seen = Cell("unilateral", "uncalibrated", 28, 11, failures={"grasp": 5, "lower": 12})
     blind = Cell("unilateral", "uncalibrated", 36, 11, failures={"grasp": 5, "lower": 12, "sense": 8})
     assert log_likelihood(blind, sim) == log_likelihood(seen, sim)
+
+
+def test_each_transfer_is_simulated_once_per_world_in_one_batch_per_transfer():
+    """The diagnosis asks for a (world, transfer) at most once, and the fit hands every candidate's grid
+    over as one task per transfer, so one process can replay the arm's motion across all of them."""
+    asked: list[tuple[object, str, str, int]] = []
+    widest = 0
+
+    def recording(tasks):
+        nonlocal widest
+        for worlds, variant, condition, seed in tasks:
+            asked.extend((w, variant, condition, seed) for w in worlds)
+            widest = max(widest, len(worlds))
+        return fake_mapper(tasks)
+
+    hidden = WorldEffects.of({"peg_compliance": {"deflection": 0.0018}})
+    diagnose(_outcomes(hidden, seed=3), Settings(fit="unilateral", transfers=20, points=5), recording)
+    assert len(asked) == len(set(asked))
+    assert widest >= 5 * 2  # at least two candidates' grids in one task

@@ -72,18 +72,27 @@ def split(cells: Sequence[Cell], fit_on: str) -> tuple[tuple[Cell, ...], tuple[C
 
 
 class _Counting:
-    """A mapper that counts the transfers it simulated, telling `progress` after each batch."""
+    """A mapper that simulates each transfer in each world once (the fit simulates every candidate's grid
+    in one batch, so the arm's motion is shared, and its profiles then find them here), counts the
+    transfers it simulated and tells `progress` after each batch."""
 
     def __init__(self, mapper: Mapper, progress: Callable[[str], None] | None) -> None:
         self.mapper, self.count, self.progress = mapper, 0, progress
         self.started = time.monotonic()
+        self.known: dict[tuple[WorldEffects, str, str, int], TransferResult] = {}
 
-    def __call__(self, tasks: Sequence[Task]) -> list[TransferResult]:
-        results = self.mapper(tasks)
-        self.count += len(tasks)
-        if self.progress is not None:
+    def __call__(self, tasks: Sequence[Task]) -> list[list[TransferResult]]:
+        new = [
+            (tuple(w for w in worlds if (w, v, c, seed) not in self.known), v, c, seed)
+            for worlds, v, c, seed in tasks
+        ]
+        new = [task for task in new if task[0]]
+        for (worlds, v, c, seed), simulated in zip(new, self.mapper(new) if new else []):
+            self.known.update({(w, v, c, seed): r for w, r in zip(worlds, simulated)})
+        self.count += sum(len(worlds) for worlds, *_ in new)
+        if self.progress is not None and new:
             self.progress(f"{self.count} transfers simulated ({time.monotonic() - self.started:.0f} s)")
-        return results
+        return [[self.known[(w, v, c, seed)] for w in worlds] for worlds, v, c, seed in tasks]
 
 
 def diagnose(

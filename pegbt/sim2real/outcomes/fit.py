@@ -194,10 +194,15 @@ def fit(
     passes unless another ties with it; then try a second effect beside a named one."""
     informative = len(cells) if informative is None else informative
     null = np.array([log_likelihood(c, null_sims[c.key], phases) for c in cells])
-    tried = [
-        profile(mapper, candidate, cells, transfers, null, informative, phases=phases)
+    chosen = [
+        candidate
         for candidate in candidates(points)
         if disagreeing is None or PHASES_OF.get(candidate.kind, disagreeing) & disagreeing
+    ]
+    worlds = [candidate.world(value) for candidate in chosen for value in candidate.grid]
+    simulate_cells(mapper, worlds, [c.key for c in cells[:informative]], transfers)  # one batch
+    tried = [
+        profile(mapper, candidate, cells, transfers, null, informative, phases=phases) for candidate in chosen
     ]
     passing = sorted((p for p in tried if passes(p, null)), key=lambda p: -p.total.max())
     if not passing:

@@ -12,6 +12,7 @@ the simulator's side, where the truth is known).
 
 from __future__ import annotations
 
+import hashlib
 from dataclasses import dataclass
 from functools import cache
 
@@ -20,10 +21,10 @@ from numpy.typing import NDArray
 
 from pegbt.behaviours.actions.handover import Meeting, plan_meeting
 from pegbt.behaviours.poses import approach_for, from_handover, to_handover, transfer_for
-from pegbt.behaviours.resources.arm_motion import ArmMotion
+from pegbt.behaviours.resources.arm_motion import ArmMotion, Prepared
 from pegbt.behaviours.resources.skills import SIMULATOR_CALIBRATION, Skills
 from pegbt.errors import PegbtError
-from pegbt.frames import yaw_of
+from pegbt.frames import yaw_of, yaw_pose
 from pegbt.motion.ik import inverse_kinematics
 from pegbt.motion.settings import motion_settings
 from pegbt.motion.trajectory import Trajectory
@@ -31,7 +32,7 @@ from pegbt.perception.blocks import BlockEstimate
 from pegbt.physics import ArmPhysics
 from pegbt.sim.arm import DEFAULT_JOINTS, SimArm
 from pegbt.sim.events import Event
-from pegbt.sim.tools import ToolState, wrist_give
+from pegbt.sim.tools import Give, ToolState, wrist_give
 from pegbt.sim.world import World
 from pegbt.sim.world_effects import WorldEffects
 from pegbt.sim2real.outcomes.cells import PHASES
@@ -44,7 +45,7 @@ START = np.array(
 REGRASPS = 3  # recoveries before a transfer is given up (`trees/shared/one_transfer.yaml`)
 SETTLE_S = 0.1  # s at rest after each motion: the executive starts the next leaf a tick or two later
 
-# Forward transfers (arm, start peg, goal peg) of each variant: `trees/shared/orders.yaml`.
+# Transfers (arm, start peg, goal peg) of each variant, out and back: `trees/shared/orders.yaml`.
 TRANSFERS: dict[str, tuple[tuple[str, int, int], ...]] = {
     "unilateral": (
         ("PSM1", 1, 7),
@@ -53,6 +54,12 @@ TRANSFERS: dict[str, tuple[tuple[str, int, int], ...]] = {
         ("PSM1", 2, 9),
         ("PSM1", 5, 11),
         ("PSM1", 4, 10),
+        ("PSM1", 7, 1),
+        ("PSM1", 6, 0),
+        ("PSM1", 8, 3),
+        ("PSM1", 9, 2),
+        ("PSM1", 11, 5),
+        ("PSM1", 10, 4),
     ),
     "bilateral": (
         ("PSM2", 0, 7),
@@ -61,6 +68,12 @@ TRANSFERS: dict[str, tuple[tuple[str, int, int], ...]] = {
         ("PSM1", 1, 8),
         ("PSM1", 3, 11),
         ("PSM1", 5, 10),
+        ("PSM2", 7, 0),
+        ("PSM2", 6, 2),
+        ("PSM2", 9, 4),
+        ("PSM1", 8, 1),
+        ("PSM1", 11, 3),
+        ("PSM1", 10, 5),
     ),
     "handover": (
         ("PSM2", 1, 7),
@@ -69,6 +82,12 @@ TRANSFERS: dict[str, tuple[tuple[str, int, int], ...]] = {
         ("PSM2", 2, 9),
         ("PSM2", 5, 11),
         ("PSM2", 4, 10),
+        ("PSM1", 7, 1),
+        ("PSM1", 6, 0),
+        ("PSM1", 8, 3),
+        ("PSM1", 9, 2),
+        ("PSM1", 11, 5),
+        ("PSM1", 10, 4),
     ),
 }
 RECEIVER = {"PSM1": "PSM2", "PSM2": "PSM1"}
@@ -89,11 +108,27 @@ def _skills(condition: str) -> Skills:
     return Skills(condition, calibration=SIMULATOR_CALIBRATION)
 
 
+class Replay:
+    """What the arm did, kept across the worlds of one transfer: the physical joints reached after each
+    history of encoder positions, and the compensated commands sent for each plan from each history.
+
+    The cable model and the compensator see only the commands, never the world, so a world whose effects
+    change no command (the contact physics, a registration offset) replays the arm of the world before it
+    until the block's fate makes the commands differ (a carry stopped when the block falls); from there the
+    arm is simulated again, its cable model first caught up on the positions it was replayed through."""
+
+    def __init__(self) -> None:
+        self.physical: dict[bytes, tuple[NDArray[np.float64], Give]] = {}
+        self.prepared: dict[tuple[bytes, bytes], Prepared] = {}
+
+
 class _Bench:
     """One arm acting in one world, ticked at the control period as the simulator's endpoint does."""
 
-    def __init__(self, world: World, arm: str, motion: ArmMotion, q0: NDArray[np.float64]) -> None:
-        self.world, self.name, self.motion = world, arm, motion
+    def __init__(
+        self, world: World, arm: str, motion: ArmMotion, q0: NDArray[np.float64], replay: Replay
+    ) -> None:
+        self.world, self.name, self.motion, self.replay = world, arm, motion, replay
         self.arm = SimArm(
             arm,
             motion.settings,
@@ -110,6 +145,8 @@ class _Bench:
         self.held = False  # holds the block lowered over its goal peg (or at the meeting point)
         self.meeting: Meeting | None = None
         self.failed: str | None = None  # the phase in which this attempt lost the block
+        self.history = hashlib.sha1(arm.encode() + q0.tobytes())
+        self.behind: list[NDArray[np.float64]] = []  # encoder positions replayed, not yet through the model
         motion.desired = q0.copy()
         motion.active = None
         if motion.compensator is not None:
@@ -128,27 +165,52 @@ class _Bench:
         """Advance the arm, and the world with it; an approach holding nothing (`reach`) shows the world
         only where it ends, since no contact on the way decides an outcome."""
         for _ in range(max(1, round(seconds / self.arm.period))):
-            self.arm.advance(self.arm.period)
+            self._advance()
             self.clock = max(self.clock, self.world.time) + self.arm.period
             if self.segment == "reach" and self.arm.is_busy:
                 continue
             tool = ToolState.from_joints(
-                self.arm.physical,
-                float(self.arm.jaw.encoder[0]),
-                self.to_board,
-                wrist_give(self.arm.physics, float(self.arm.physical[5]), self.world.cell.tool),
+                self.arm.physical, float(self.arm.jaw.encoder[0]), self.to_board, self.give
             )
             self.events += [(self.segment, e) for e in self.world.update(self.clock, {self.name: tool})]
             self.arm.jaw.stop_at(self.world.jaw_stop(self.name))
+
+    def _advance(self) -> None:
+        """`SimArm.advance`, with the cable model's answer (the physical joints and the wrist's play) replayed
+        when this encoder history has one."""
+        arm, period = self.arm, self.arm.period
+        arm.joints.advance(period)
+        arm.jaw.advance(period)
+        self.history.update(arm.joints.encoder.tobytes())
+        key = self.history.digest()
+        known = self.replay.physical.get(key)
+        if known is None:
+            for encoder in self.behind:
+                arm.physics.step(encoder, period)
+            self.behind.clear()
+            physical = arm.physics.step(arm.joints.encoder, period).copy()
+            give = wrist_give(arm.physics, float(physical[5]), self.world.cell.tool)
+            known = self.replay.physical[key] = (physical, give)
+        else:
+            self.behind.append(arm.joints.encoder.copy())
+        arm.physical, self.give = known
+
+    def _prepare(self, planned: Trajectory) -> Prepared:
+        """`ArmMotion.prepare`, replayed when this history already sent this plan."""
+        key = (self.history.digest(), planned.t.tobytes() + planned.q.tobytes())
+        prepared = self.replay.prepared.get(key)
+        if prepared is None:
+            prepared = self.replay.prepared[key] = self.motion.prepare(planned)
+        if prepared.compensator is not None:
+            self.motion.compensator = prepared.compensator.fork()
+        return prepared
 
     def play(
         self, planned: Trajectory, segments: list[tuple[float, str]], holding: int | None = None
     ) -> None:
         """Send `planned` as the condition sends it; `segments` names the phase from each planned time on.
         A carry of block `holding` stops the moment the block leaves the jaw, as the carry leaves do."""
-        prepared = self.motion.prepare(planned)
-        if prepared.compensator is not None:
-            self.motion.compensator = prepared.compensator
+        prepared = self._prepare(planned)
         sent = prepared.sent
         self.arm.follow_jt(sent.t - sent.t[0] + self.arm.period, sent.q, sent.qd, "motion")
         self.motion.desired = planned.q[-1].copy()
@@ -170,17 +232,24 @@ class _Bench:
         self.tick(SETTLE_S)
 
 
-def simulate_transfer(effects: WorldEffects, variant: str, condition: str, seed: int) -> TransferResult:
-    """Transfer number `seed` of `variant`'s forward transfers (cycling), on a world of layout `seed`: the
-    grasp the executive would choose for the block perception would see, and the motions it would send,
-    picked and carried again after a failure up to `REGRASPS` times as `trees/shared/one_transfer.yaml`
-    recovers (from wherever the block fell; the arm starts each attempt from `START`)."""
+def simulate_transfer(
+    effects: WorldEffects, variant: str, condition: str, seed: int, replay: Replay | None = None
+) -> TransferResult:
+    """Transfer number `seed` of `variant`'s transfers (cycling; on the way back every block starts where
+    its outward transfer placed it), on a world of layout `seed`: the
+        grasp the executive would choose for the block perception would see, and the motions it would send,
+        picked and carried again after a failure up to `REGRASPS` times as `trees/shared/one_transfer.yaml`
+        recovers (from wherever the block fell; the arm starts each attempt from `START`). `replay`: the arm's
+    motion in other worlds of this same transfer (variant, condition, seed), to reuse where it is the same."""
+    replay = Replay() if replay is None else replay
     order = TRANSFERS[variant]
     arm, start_peg, goal_peg = order[seed % len(order)]
     previous_peg = next(
         goal for other, _, goal in reversed(order + order[: seed % len(order)]) if other == arm
     )
     world = World(seed, effects=effects)
+    if seed % len(order) >= len(order) // 2:
+        _moved_out(world, order)
     skills = _skills(condition)
     block = next(b for b in world.blocks if b.peg == start_peg)
     rng = np.random.default_rng([seed, 7])
@@ -190,11 +259,11 @@ def simulate_transfer(effects: WorldEffects, variant: str, condition: str, seed:
         if block.lost:
             break
         bench = _attempt(
-            world, skills, arm, block.index, goal_peg, rng, previous_peg, handover=variant == "handover"
+            world, skills, arm, block.index, goal_peg, rng, previous_peg, replay, variant == "handover"
         )
         events += bench.events
         if bench.held and bench.meeting is not None:
-            return _hand_over(world, skills, bench, block.index, goal_peg, first)
+            return _hand_over(world, skills, bench, block.index, goal_peg, first, replay)
         if bench.held:
             bench.jaw(skills.motion.transfer.jaw_open, "release")
             events += bench.events[len(events) :]
@@ -205,6 +274,17 @@ def simulate_transfer(effects: WorldEffects, variant: str, condition: str, seed:
         if world.held_by(arm) is not None:
             bench.jaw(skills.motion.transfer.jaw_open, "grasp")
     return TransferResult(False, first or "grasp", world.time)
+
+
+def _moved_out(world: World, order: tuple[tuple[str, int, int], ...]) -> None:
+    """Seat every block on the peg its outward transfer places it on, as a trial's way back finds them
+    (each at its layout's yaw: where a placement leaves it turned is the lowering's business)."""
+    goal_of = {start: goal for _, start, goal in order[: len(order) // 2]}
+    for block in world.blocks:
+        assert block.peg is not None  # a new world's blocks all rest on their pegs
+        x, y = world.cell.pegs.positions[goal_of[block.peg]]
+        block.pose = yaw_pose([x, y, world.cell.board.surface_z], yaw_of(block.pose))
+        block.peg = goal_of[block.peg]
 
 
 def seen_point(world: World, point: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -236,6 +316,7 @@ def _attempt(
     goal_peg: int,
     rng: np.random.Generator,
     previous_peg: int,
+    replay: Replay,
     handover: bool = False,
 ) -> _Bench:
     """One pick and carry of `block` as it lies, seen with perception's noise: the bench afterwards says
@@ -267,7 +348,7 @@ def _attempt(
     ik = inverse_kinematics(start[None], motion.settings)
     if not ik.ok.all():
         return _Bench.failed_before(world, arm, motion, "reach")
-    bench = _Bench(world, arm, motion, ik.q[0])
+    bench = _Bench(world, arm, motion, ik.q[0], replay)
     try:
         reach = motion.transfer(approach_for(world.cell, skills.motion, arm, start, waypoints))
     except PegbtError:  # the approach leaf fails to plan: nothing moves
@@ -293,7 +374,13 @@ def _attempt(
 
 
 def _hand_over(
-    world: World, skills: Skills, giver: _Bench, block: int, goal_peg: int, first: str | None
+    world: World,
+    skills: Skills,
+    giver: _Bench,
+    block: int,
+    goal_peg: int,
+    first: str | None,
+    replay: Replay,
 ) -> TransferResult:
     """The giver holds `block` at the meeting point: the receiver waits open above its grasp, descends and
     closes; the giver opens and withdraws; the receiver carries the block over `goal_peg`, lowers it and
@@ -306,7 +393,7 @@ def _hand_over(
     ik = inverse_kinematics(np.stack([wait, meeting.receiver_grasp.pose]), motion.settings)
     if not ik.ok.all():
         return TransferResult(False, first or "handover", world.time)
-    taker = _Bench(world, receiver, motion, START)
+    taker = _Bench(world, receiver, motion, START, replay)
     taker.play(motion.through(START, list(ik.q), ["waiting", "handover grasp"]), [(0.0, "handover")])
     taker.jaw(skills.motion.transfer.jaw_closed, "handover")
     giver.jaw(skills.motion.transfer.jaw_open, "handover")

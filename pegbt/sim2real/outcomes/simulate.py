@@ -2,6 +2,8 @@
 
 Seeds are shared across the worlds compared (common random numbers): the same layouts and the same
 perception noise for every parameter value, so differences between worlds are the effects', not luck's.
+A task is one transfer (variant, condition, seed) in every world at once, so one process simulates the
+arm's motion once and replays it in the worlds where it is the same (`phasesim.Replay`).
 """
 
 from __future__ import annotations
@@ -16,7 +18,7 @@ import numpy as np
 from pegbt.errors import PegbtError
 from pegbt.sim.world_effects import WorldEffects
 from pegbt.sim2real.outcomes.cells import PHASES
-from pegbt.sim2real.outcomes.phasesim import TransferResult, simulate_transfer
+from pegbt.sim2real.outcomes.phasesim import Replay, TransferResult, simulate_transfer
 
 CATEGORIES = ("placed", *PHASES)  # a transfer placed, or failed for good in this phase (its first failure)
 Key = tuple[str, str]
@@ -51,20 +53,25 @@ class SimCounts:
         self.seconds = (self.seconds * n + result.seconds) / (n + 1)
 
 
-Task = tuple[WorldEffects, str, str, int]
+Task = tuple[tuple[WorldEffects, ...], str, str, int]  # worlds, variant, condition, seed
 
 
 class Mapper(Protocol):
-    def __call__(self, tasks: Sequence[Task]) -> list[TransferResult]: ...
+    def __call__(self, tasks: Sequence[Task]) -> list[list[TransferResult]]: ...
 
 
-def _run(task: Task) -> TransferResult:
-    """One simulated transfer; a motion the planner refuses (a target out of reach in that world) is a
-    transfer that failed where it started, never the end of the whole fit."""
-    try:
-        return simulate_transfer(*task)
-    except PegbtError:
-        return TransferResult(False, "reach", 0.0)
+def _run(task: Task) -> list[TransferResult]:
+    """One transfer simulated in each world; a motion the planner refuses (a target out of reach in that
+    world) is a transfer that failed where it started, never the end of the whole fit."""
+    worlds, variant, condition, seed = task
+    replay = Replay()
+    results = []
+    for world in worlds:
+        try:
+            results.append(simulate_transfer(world, variant, condition, seed, replay))
+        except PegbtError:
+            results.append(TransferResult(False, "reach", 0.0))
+    return results
 
 
 class LocalMapper:
@@ -73,7 +80,7 @@ class LocalMapper:
     def __init__(self, workers: int) -> None:
         self._pool: Executor | None = ProcessPoolExecutor(workers) if workers > 0 else None
 
-    def __call__(self, tasks: Sequence[Task]) -> list[TransferResult]:
+    def __call__(self, tasks: Sequence[Task]) -> list[list[TransferResult]]:
         if self._pool is None:
             return [_run(task) for task in tasks]
         return list(self._pool.map(_run, tasks, chunksize=max(1, len(tasks) // 32)))
@@ -91,7 +98,7 @@ class ClusterMapper:
 
         self._client = connect(address)
 
-    def __call__(self, tasks: Sequence[Task]) -> list[TransferResult]:
+    def __call__(self, tasks: Sequence[Task]) -> list[list[TransferResult]]:
         futures = self._client.map(_run, list(tasks), pure=False)
         return list(self._client.gather(futures))
 
@@ -105,19 +112,14 @@ def simulate_cells(
     """For each world, `transfers` simulated transfers of each cell (seeds `first_seed`…), as counts."""
     keys = list(keys)
     tasks = [
-        (world, variant, condition, first_seed + seed)
-        for world in worlds
+        (tuple(worlds), variant, condition, first_seed + seed)
         for variant, condition in keys
         for seed in range(transfers)
     ]
     results = iter(mapper(tasks))
-    out: list[dict[Key, SimCounts]] = []
-    for _ in worlds:
-        per_cell: dict[Key, SimCounts] = {}
-        for key in keys:
-            counts = SimCounts()
-            for _ in range(transfers):
-                counts.add(next(results))
-            per_cell[key] = counts
-        out.append(per_cell)
+    out: list[dict[Key, SimCounts]] = [{key: SimCounts() for key in keys} for _ in worlds]
+    for key in keys:
+        for _ in range(transfers):
+            for per_cell, result in zip(out, next(results)):
+                per_cell[key].add(result)
     return out
