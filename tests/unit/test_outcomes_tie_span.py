@@ -14,15 +14,19 @@ from pegbt.sim2real.outcomes.report import report_dict, report_markdown
 GAIN = {"unilateral": (0.6, 0.6), "bilateral": (0.6, 0.0)}
 
 
+def _rate(effects, variant: str, condition: str) -> float:
+    bend = effects.values("peg_compliance")["deflection"] / 0.003
+    chamfer = (effects.values("chamfer_capture")["capture_radius"] - 0.002) / 0.002
+    peg, cham = GAIN[variant]
+    return 1.0 if condition != "uncalibrated" else 0.05 + peg * bend + cham * chamfer
+
+
 def _twin_mapper(tasks):
     out = []
-    for effects, variant, condition, seed in tasks:
-        bend = effects.values("peg_compliance")["deflection"] / 0.003
-        chamfer = (effects.values("chamfer_capture")["capture_radius"] - 0.002) / 0.002
-        peg, cham = GAIN[variant]
-        rate = 1.0 if condition != "uncalibrated" else 0.05 + peg * bend + cham * chamfer
-        placed = bool(np.random.default_rng([seed, 99]).random() < rate)
-        out.append(TransferResult(placed, None if placed else "lift", 4.0))
+    for worlds, variant, condition, seed in tasks:
+        u = np.random.default_rng([seed, 99]).random()
+        placed = [bool(u < _rate(effects, variant, condition)) for effects in worlds]
+        out.append([TransferResult(p, None if p else "lift", 4.0) for p in placed])
     return out
 
 
