@@ -26,10 +26,11 @@ WORKCELL_FILE = Path(__file__).resolve().parents[1] / "skills" / "workcell.yaml"
 ORDERS_FILE = Path(__file__).resolve().parents[1] / "trees" / "shared" / "orders.yaml"
 
 
-@lru_cache(maxsize=1)
-def _reference_order(path: Path = ORDERS_FILE) -> tuple[tuple[int, int], ...]:
-    """(start peg, goal peg) of each transfer of the reference order, from the trees' list of it."""
-    items = read_settings_file(path).section("lists")["reference"].sequence()
+@lru_cache(maxsize=4)
+def transfer_list(name: str, path: Path = ORDERS_FILE) -> tuple[tuple[int, int], ...]:
+    """(start peg, goal peg) of each transfer of list `name` of the trees' orders (`reference`,
+    `bilateral_PSM1`, `bilateral_PSM2`), as the trees loop over it."""
+    items = read_settings_file(path).section("lists")[name].sequence()
     return tuple(
         (item["pick"].integer(low=0, high=N_PEGS - 1), item["place"].integer(low=0, high=N_PEGS - 1))
         for item in items
@@ -41,7 +42,7 @@ def __getattr__(name: str) -> tuple[tuple[int, int], ...]:
     12 transfers, read from `trees/shared/orders.yaml` (the list the trees loop over) when first asked for,
     so importing this module reads no tree file."""
     if name == "UNILATERAL_ORDER":
-        return _reference_order()
+        return transfer_list("reference")
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 

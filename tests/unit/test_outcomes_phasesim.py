@@ -8,7 +8,7 @@ from pathlib import Path
 import yaml
 
 from pegbt.sim.world_effects import WorldEffects
-from pegbt.sim2real.outcomes.phasesim import TRANSFERS, Replay, simulate_transfer
+from pegbt.sim2real.outcomes.phasesim import Replay, simulate_transfer, transfers
 
 SEEDS = range(4)
 ROOT = Path(__file__).resolve().parents[2]
@@ -60,5 +60,5 @@ def test_the_transfers_simulated_are_the_trees_out_and_back():
     }
     for variant, arms in per_arm.items():
         for arm, expected in arms.items():
-            simulated = [(start, goal) for who, start, goal in TRANSFERS[variant] if who == arm]
+            simulated = [(start, goal) for who, start, goal in transfers(variant) if who == arm]
             assert simulated == expected, (variant, arm)

@@ -36,6 +36,7 @@ from pegbt.sim.tools import Give, ToolState, wrist_give
 from pegbt.sim.world import World
 from pegbt.sim.world_effects import WorldEffects
 from pegbt.sim2real.outcomes.cells import PHASES
+from pegbt.workcell import transfer_list
 
 PHYSICS = "dvrk-real"  # the arm as fitted on the real recordings: never refitted here
 PERCEPTION_SD = 0.0003  # m per axis: the block's position as perception fits it (0.3 mm depth noise)
@@ -45,51 +46,27 @@ START = np.array(
 REGRASPS = 3  # recoveries before a transfer is given up (`trees/shared/one_transfer.yaml`)
 SETTLE_S = 0.1  # s at rest after each motion: the executive starts the next leaf a tick or two later
 
-# Transfers (arm, start peg, goal peg) of each variant, out and back: `trees/shared/orders.yaml`.
-TRANSFERS: dict[str, tuple[tuple[str, int, int], ...]] = {
-    "unilateral": (
-        ("PSM1", 1, 7),
-        ("PSM1", 0, 6),
-        ("PSM1", 3, 8),
-        ("PSM1", 2, 9),
-        ("PSM1", 5, 11),
-        ("PSM1", 4, 10),
-        ("PSM1", 7, 1),
-        ("PSM1", 6, 0),
-        ("PSM1", 8, 3),
-        ("PSM1", 9, 2),
-        ("PSM1", 11, 5),
-        ("PSM1", 10, 4),
-    ),
-    "bilateral": (
-        ("PSM2", 0, 7),
-        ("PSM2", 2, 6),
-        ("PSM2", 4, 9),
-        ("PSM1", 1, 8),
-        ("PSM1", 3, 11),
-        ("PSM1", 5, 10),
-        ("PSM2", 7, 0),
-        ("PSM2", 6, 2),
-        ("PSM2", 9, 4),
-        ("PSM1", 8, 1),
-        ("PSM1", 11, 3),
-        ("PSM1", 10, 5),
-    ),
-    "handover": (
-        ("PSM2", 1, 7),
-        ("PSM2", 0, 6),
-        ("PSM2", 3, 8),
-        ("PSM2", 2, 9),
-        ("PSM2", 5, 11),
-        ("PSM2", 4, 10),
-        ("PSM1", 7, 1),
-        ("PSM1", 6, 0),
-        ("PSM1", 8, 3),
-        ("PSM1", 9, 2),
-        ("PSM1", 11, 5),
-        ("PSM1", 10, 4),
-    ),
-}
+
+def transfers(variant: str) -> tuple[tuple[str, int, int], ...]:
+    """(arm, start peg, goal peg) of each of `variant`'s transfers, out and back, from the lists the trees
+    loop over (`trees/shared/orders.yaml`): the handover's giver is PSM2 for the first six, PSM1 after;
+    bilateral's arms take their halves in turn."""
+    reference = transfer_list("reference")
+    if variant == "unilateral":
+        return tuple(("PSM1", *pegs) for pegs in reference)
+    if variant == "handover":
+        half = len(reference) // 2
+        return tuple(("PSM2" if i < half else "PSM1", *pegs) for i, pegs in enumerate(reference))
+    psm2, psm1 = transfer_list("bilateral_PSM2"), transfer_list("bilateral_PSM1")
+    half = len(psm2) // 2
+    return tuple(
+        [("PSM2", *p) for p in psm2[:half]]
+        + [("PSM1", *p) for p in psm1[:half]]
+        + [("PSM2", *p) for p in psm2[half:]]
+        + [("PSM1", *p) for p in psm1[half:]]
+    )
+
+
 RECEIVER = {"PSM1": "PSM2", "PSM2": "PSM1"}
 
 
@@ -242,7 +219,7 @@ def simulate_transfer(
         recovers (from wherever the block fell; the arm starts each attempt from `START`). `replay`: the arm's
     motion in other worlds of this same transfer (variant, condition, seed), to reuse where it is the same."""
     replay = Replay() if replay is None else replay
-    order = TRANSFERS[variant]
+    order = transfers(variant)
     arm, start_peg, goal_peg = order[seed % len(order)]
     previous_peg = next(
         goal for other, _, goal in reversed(order + order[: seed % len(order)]) if other == arm
