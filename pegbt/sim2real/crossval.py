@@ -78,7 +78,7 @@ class ColumnFile:
             data = np.ascontiguousarray(values[:, k]).view(np.uint8)
             done = 0
             while done < data.size:
-                done += os.pwrite(self._fd, data[done:], ((first + k) * self.n + start) * 8 + done)
+                done += os.pwrite(self._fd, data[done:].data, ((first + k) * self.n + start) * 8 + done)
 
     def read(self, column: int, start: int = 0, stop: int | None = None, out: Array | None = None) -> Array:
         """Rows start:stop of one column (into `out` when given)."""
@@ -87,7 +87,7 @@ class ColumnFile:
         data = values.view(np.uint8)
         done = 0
         while done < data.size:
-            got = os.preadv(self._fd, [data[done:]], (column * self.n + start) * 8 + done)
+            got = os.preadv(self._fd, [data[done:].data], (column * self.n + start) * 8 + done)
             if got <= 0:
                 raise OSError(f"the column file ended at column {column}, row {start + done // 8}")
             done += got
