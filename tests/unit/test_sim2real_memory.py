@@ -20,8 +20,8 @@ from pegbt.sim2real import crossval
 from pegbt.sim2real.crossval import BlockedGrams, block_edges
 from pegbt.sim2real.library import build_columns
 
-SHORT, LONG = 6_000, 12_000
-CHUNK = 100  # rows: three chunks a block at SHORT, six at LONG
+SHORT, LONG = 3_000, 6_000
+CHUNK = 50  # rows: three chunks a block at SHORT, six at LONG
 
 
 @pytest.fixture(autouse=True)
