@@ -84,6 +84,7 @@ def run(minutes: tuple[int, ...] = MINUTES) -> dict[str, float | int | str]:
             figures[f"diagnose_{length}min_s"] = round(seconds, 1)
             figures[f"diagnose_{length}min_peak_mb"] = round(peak, 1)
             figures[f"bank_{length}min_mb"] = round(BANK_COLUMNS * 8 * 6000 * length / 1e6, 1)
+            print(f"{length} min: {seconds:.1f} s, peak {peak:.1f} MB", file=sys.stderr, flush=True)
             if length == min(minutes):
                 seconds, peak = measured(
                     _pegbt("sim2real", "diagnose", recording, "--out", f"{folder}/b{length}")
