@@ -27,6 +27,7 @@ BENCHMARKS: dict[str, str] = {
     "limit": "pegbt.bench.limit:run",
     "sim2real": "pegbt.bench.sim2real:run",
     "sim2real-real": "pegbt.bench.sim2real_real:run",
+    "sim2real-scale": "pegbt.bench.sim2real_scale:run",
     "sim2real-outcomes": "pegbt.bench.sim2real_outcomes:run",
     "eval": "pegbt.bench.eval:run",
     "monitor": "pegbt.bench.monitor:run",

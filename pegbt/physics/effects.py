@@ -12,7 +12,7 @@ effect is one class (`register(MyKind())`). The built-in kinds are in `pegbt.phy
 
 from __future__ import annotations
 
-from collections.abc import Iterator, Mapping
+from collections.abc import Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import Any, ClassVar, Protocol
@@ -153,6 +153,16 @@ class EffectKind:
     def columns(self, signal: Array, t: Array | None, widths: Array) -> Array:
         """The columns (N, G) of a grid of widths."""
         return np.column_stack([self.column(signal, t, float(w)) for w in widths])
+
+    def column_blocks(
+        self, signal: Array, t: Array | None, widths: Array, edges: Sequence[int]
+    ) -> Iterator[Array]:
+        """`columns` block by block (rows edges[k]:edges[k+1]), in order, so that a long recording's bank
+        is never held whole. A kind whose kernel keeps state carries it across each boundary (the
+        built-ins do); this default computes the columns whole and slices them."""
+        whole = self.columns(signal, t, widths)
+        for a, b in zip(edges[:-1], edges[1:]):
+            yield whole[a:b]
 
     def to_effect(
         self, joint: int, source: int, width: float, coef: float, fixed: bool, base: ArmParameters

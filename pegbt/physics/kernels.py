@@ -8,6 +8,8 @@ vectorised step, for a whole grid of half-widths at once (what width searches ne
 
 from __future__ import annotations
 
+from collections.abc import Iterator, Sequence
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -48,6 +50,16 @@ def play_grid(u: ArrayLike, half_widths: ArrayLike, initial: ArrayLike | None = 
     following = u[1:, None]
     out[1:] = np.where(rising[:, None], np.maximum(held, following - h), np.minimum(held, following + h))
     return out
+
+
+def play_blocks(u: Array, half_widths: Array, edges: Sequence[int]) -> Iterator[Array]:
+    """`play_grid(u, half_widths)` block by block (rows edges[k]:edges[k+1]), each block starting from
+    the last output of the one before: the same values, without the (N, G) output held at once."""
+    state = None
+    for a, b in zip(edges[:-1], edges[1:]):
+        out = play_grid(u[a:b], half_widths, state)
+        state = out[-1]
+        yield out
 
 
 def apply_play(u: ArrayLike, half_width: ArrayLike, initial: ArrayLike | None = None) -> Array:
@@ -93,6 +105,37 @@ def lag_series(u: ArrayLike, t: ArrayLike, tau: float) -> Array:
     return np.asarray(y)
 
 
+def lag_blocks(u: Array, t: Array, tau: float, edges: Sequence[int]) -> Iterator[Array]:
+    """`lag_series(u, t, tau)` block by block (rows edges[k]:edges[k+1]), the filter's state carried
+    across each boundary: the same values, in memory bounded by a block."""
+    if tau <= 0 or len(u) < 2:
+        for a, b in zip(edges[:-1], edges[1:]):
+            yield u[a:b].copy()
+        return
+    if is_uniform(t):
+        from scipy.signal import lfilter  # seconds to import: only where a lag is computed
+
+        alpha = 1.0 - np.exp(-float(t[1] - t[0]) / tau)
+        state = np.array([(1.0 - alpha) * u[0]])
+        for a, b in zip(edges[:-1], edges[1:]):
+            y, state = lfilter([alpha], [1.0, alpha - 1.0], u[a:b], zi=state)
+            yield np.asarray(y)
+        return
+    last = float(u[0])
+    for a, b in zip(edges[:-1], edges[1:]):
+        steps = np.diff(t[max(a - 1, 0) : b])
+        alphas = (1.0 - np.exp(-steps / tau)).tolist()
+        values = u[a:b].tolist()
+        y = []
+        if a == 0:
+            y.append(last)
+            values = values[1:]
+        for alpha, value in zip(alphas, values):
+            last += alpha * (value - last)
+            y.append(last)
+        yield np.asarray(y)
+
+
 def apply_lag(u: ArrayLike, t: ArrayLike, tau: ArrayLike) -> Array:
     """First-order lag along a sequence u (N, J) sampled at times t, per-column time constants."""
     u = np.asarray(u, dtype=float)
@@ -112,3 +155,9 @@ def delay_series(u: ArrayLike, t: ArrayLike, seconds: float) -> Array:
     flat = u.reshape(len(u), -1)
     shifted = np.column_stack([np.interp(t - seconds, t, flat[:, k]) for k in range(flat.shape[1])])
     return shifted.reshape(u.shape)
+
+
+def delay_blocks(u: Array, t: Array, seconds: float, edges: Sequence[int]) -> Iterator[Array]:
+    """`delay_series(u, t, seconds)` of one sequence (N,), block by block (rows edges[k]:edges[k+1])."""
+    for a, b in zip(edges[:-1], edges[1:]):
+        yield u[a:b].copy() if seconds <= 0 else np.interp(t[a:b] - seconds, t, u)

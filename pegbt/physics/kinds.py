@@ -16,13 +16,21 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator, Sequence
 from typing import Any
 
 import numpy as np
 
 from pegbt.errors import PegbtError
 from pegbt.physics.effects import ArmParameters, Array, Effect, EffectKind, joint_index, joint_unit, register
-from pegbt.physics.kernels import delay_series, lag_series, play_grid
+from pegbt.physics.kernels import (
+    delay_blocks,
+    delay_series,
+    lag_blocks,
+    lag_series,
+    play_blocks,
+    play_grid,
+)
 from pegbt.psm import JOINT_NAMES
 
 EXACT = 1e-12  # rad or m: below this a joint counts as not moving
@@ -50,6 +58,12 @@ class PlayKind(EffectKind):
 
     def columns(self, signal: Array, t: Array | None, widths: Array) -> Array:
         return play_grid(signal, widths) - signal[:, None]
+
+    def column_blocks(
+        self, signal: Array, t: Array | None, widths: Array, edges: Sequence[int]
+    ) -> Iterator[Array]:
+        for (a, b), play in zip(zip(edges[:-1], edges[1:]), play_blocks(signal, widths, edges)):
+            yield play - signal[a:b, None]
 
 
 class Offset(EffectKind):
@@ -305,6 +319,14 @@ class Lag(EffectKind):
         assert t is not None, "lag needs sample times"
         return lag_series(signal, t, width) - signal
 
+    def column_blocks(
+        self, signal: Array, t: Array | None, widths: Array, edges: Sequence[int]
+    ) -> Iterator[Array]:
+        assert t is not None, "lag needs sample times"
+        lagged = [lag_blocks(signal, t, float(w), edges) for w in widths]
+        for a, b in zip(edges[:-1], edges[1:]):
+            yield np.column_stack([next(each) for each in lagged]) - signal[a:b, None]
+
     def sentence(self, effect: Effect, before: Effect | None = None) -> str:
         return (
             f"{effect.joint} trails its command like a first-order system with time constant "
@@ -331,6 +353,14 @@ class Delay(EffectKind):
     def column(self, signal: Array, t: Array | None, width: float) -> Array:
         assert t is not None, "delay needs sample times"
         return delay_series(signal, t, width) - signal
+
+    def column_blocks(
+        self, signal: Array, t: Array | None, widths: Array, edges: Sequence[int]
+    ) -> Iterator[Array]:
+        assert t is not None, "delay needs sample times"
+        delayed = [delay_blocks(signal, t, float(w), edges) for w in widths]
+        for a, b in zip(edges[:-1], edges[1:]):
+            yield np.column_stack([next(each) for each in delayed]) - signal[a:b, None]
 
     def to_effect(
         self, joint: int, source: int, width: float, coef: float, fixed: bool, base: ArmParameters

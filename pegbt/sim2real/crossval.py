@@ -5,11 +5,19 @@ consecutive blocks, so held-out data are a contiguous segment (neighbouring samp
 the noise, never sit on both sides of a fit). Each block keeps its Gram matrix MᵀM, MᵀY and YᵀY, so
 a model on any column subset is fitted on the training blocks and scored on the held-out ones in
 O(p³), independent of the recording's length: thousands of candidate fits cost milliseconds. The bank
-itself is kept once (columns added later, widths refined between grid values, are kept beside it, not
-copied into a grown bank), since at 100 Hz it is most of what an hour of recording takes in memory.
+itself is never held in memory: its rows come in chunks of at most `CHUNK_ROWS` (the kernels' state
+carried across chunks, `pegbt.sim2real.library.Bank`), each summed into its block's Gram matrix and
+spilled, column by column, to an unnamed temporary file, from which columns added later (widths refined
+between grid values) are crossed with it and any column is read back. At 100 Hz the bank (223 columns)
+is 1.8 kB a sample: an hour would be 640 MB, a day would not fit.
 """
 
 from __future__ import annotations
+
+import os
+import tempfile
+from collections.abc import Iterator, Sequence
+from typing import Protocol
 
 import numpy as np
 from numpy.typing import NDArray
@@ -18,6 +26,7 @@ Array = NDArray[np.float64]
 
 N_BLOCKS = 20
 N_FOLDS = 5
+CHUNK_ROWS = 8192  # rows of the bank computed and summed at once: 15 MB of 223 columns
 RIDGE = 1e-9  # relative to each column's energy: keeps near-collinear grids solvable, biases nothing visible
 
 
@@ -36,23 +45,96 @@ def fold_ranges(n: int, n_blocks: int = N_BLOCKS, n_folds: int = N_FOLDS) -> lis
     return [(int(edges[f * per_fold]), int(edges[(f + 1) * per_fold])) for f in range(n_folds)]
 
 
+class Columns(Protocol):
+    """A column bank (n, m) given chunk by chunk: what `BlockedGrams` reads (an array is one too)."""
+
+    @property
+    def shape(self) -> tuple[int, ...]: ...
+
+    def blocks(self, edges: Sequence[int]) -> Iterator[Array]:
+        """The bank's rows edges[k]:edges[k+1], for each k in order."""
+        ...
+
+
+def chunk_edges(edges: NDArray[np.int64], rows: int | None = None) -> NDArray[np.int64]:
+    """The block `edges` with each block cut into pieces of at most `rows` (`CHUNK_ROWS`) samples."""
+    rows = CHUNK_ROWS if rows is None else rows
+    cuts = [np.arange(a, b, rows) for a, b in zip(edges[:-1], edges[1:])]
+    return np.concatenate([*cuts, edges[-1:]]).astype(np.int64)
+
+
+class ColumnFile:
+    """Columns of `n` samples in an unnamed temporary file, each stored whole (column-major), so one is
+    read back in a single read and a chunk of rows in one read per column. The file goes when this does."""
+
+    def __init__(self, n: int) -> None:
+        self.n = n
+        self._file = tempfile.TemporaryFile(prefix="pegbt-bank-", buffering=0)
+        self._fd = self._file.fileno()
+
+    def write(self, first: int, start: int, values: Array) -> None:
+        """Store rows start:start+len(values) of columns first, first+1, … (values (c, k))."""
+        for k in range(values.shape[1]):
+            data = np.ascontiguousarray(values[:, k]).view(np.uint8)
+            done = 0
+            while done < data.size:
+                done += os.pwrite(self._fd, data[done:].data, ((first + k) * self.n + start) * 8 + done)
+
+    def read(self, column: int, start: int = 0, stop: int | None = None, out: Array | None = None) -> Array:
+        """Rows start:stop of one column (into `out` when given)."""
+        stop = self.n if stop is None else stop
+        values = np.empty(stop - start) if out is None else out
+        data = values.view(np.uint8)
+        done = 0
+        while done < data.size:
+            got = os.preadv(self._fd, [data[done:].data], (column * self.n + start) * 8 + done)
+            if got <= 0:
+                raise OSError(f"the column file ended at column {column}, row {start + done // 8}")
+            done += got
+        return values
+
+    def rows(self, count: int, start: int, stop: int) -> Array:
+        """Rows start:stop of columns 0…count−1, as a C-ordered (stop − start, count) array."""
+        rows = np.empty((stop - start, count))
+        column = np.empty(stop - start)
+        for k in range(count):
+            rows[:, k] = self.read(k, start, stop, column)
+        return rows
+
+
 class BlockedGrams:
     """Per-block Gram matrices of a column bank M (N, m) and targets Y (N, J); `column_values` reads M."""
 
     def __init__(
-        self, columns: Array, targets: Array, n_blocks: int = N_BLOCKS, n_folds: int = N_FOLDS
+        self, columns: Columns | Array, targets: Array, n_blocks: int = N_BLOCKS, n_folds: int = N_FOLDS
     ) -> None:
-        self._bank = columns
-        self._added: list[Array] = []  # columns appended after the bank, in order
+        n, m = columns.shape[:2]
         self.targets = targets
-        self.edges = block_edges(len(columns), n_blocks)
-        pairs = list(zip(self.edges[:-1], self.edges[1:]))
-        self.gram = np.stack([columns[a:b].T @ columns[a:b] for a, b in pairs])
-        self.rhs = np.stack([columns[a:b].T @ targets[a:b] for a, b in pairs])
-        self.yy = np.stack([(targets[a:b] ** 2).sum(0) for a, b in pairs])
+        self.edges = block_edges(n, n_blocks)
+        self._chunks = chunk_edges(self.edges)
+        self._block_of_chunk = np.searchsorted(self.edges, self._chunks[:-1], side="right") - 1
+        self._store = ColumnFile(n)
+        self._bank_width = m
+        self._width = m  # columns in the store: the bank's, then those added
+        self.gram = np.zeros((n_blocks, m, m))
+        self.rhs = np.zeros((n_blocks, m, targets.shape[1]))
+        self.yy = np.zeros((n_blocks, targets.shape[1]))
+        blocks = (
+            (columns[a:b] for a, b in zip(self._chunks[:-1], self._chunks[1:]))
+            if isinstance(columns, np.ndarray)
+            else columns.blocks(self._chunks.tolist())
+        )
+        for (a, b), block, rows in zip(self._pairs(), self._block_of_chunk, blocks):
+            self.gram[block] += rows.T @ rows
+            self.rhs[block] += rows.T @ targets[a:b]
+            self.yy[block] += (targets[a:b] ** 2).sum(0)
+            self._store.write(0, a, rows)
         self.fold_of_block = np.repeat(np.arange(n_folds), n_blocks // n_folds)
         self.n_folds = n_folds
         self._derive()
+
+    def _pairs(self) -> list[tuple[int, int]]:
+        return list(zip(self._chunks[:-1].tolist(), self._chunks[1:].tolist()))
 
     def _derive(self) -> None:
         """Fold and total sums of the per-block terms, and the column scales used in solves."""
@@ -66,35 +148,43 @@ class BlockedGrams:
 
     def add_column(self, column: Array) -> int:
         """Append a column (a width refined between grid values) to the bank; returns its index."""
-        pairs = list(zip(self.edges[:-1], self.edges[1:]))
-        m = self.gram.shape[1]
-        cross = np.stack(
-            [
-                np.concatenate(
-                    [self._bank[a:b].T @ column[a:b], [added[a:b] @ column[a:b] for added in self._added]]
-                )
-                for a, b in pairs
-            ]
-        )  # (B, m)
-        gram = np.empty((len(pairs), m + 1, m + 1))
+        return self.add_columns([column])[0]
+
+    def add_columns(self, columns: list[Array]) -> list[int]:
+        """Append columns to the bank, crossed with it in one pass over its rows; returns their indices."""
+        m, k = self._width, len(columns)
+        if not k:
+            return []
+        gram = np.zeros((len(self.gram), m + k, m + k))
         gram[:, :m, :m] = self.gram
-        gram[:, :m, m] = gram[:, m, :m] = cross
-        gram[:, m, m] = [column[a:b] @ column[a:b] for a, b in pairs]
-        self.gram = gram
-        self.rhs = np.concatenate(
-            [self.rhs, np.stack([column[a:b] @ self.targets[a:b] for a, b in pairs])[:, None]], 1
-        )
-        self._added.append(np.asarray(column, dtype=np.float64))
+        rhs = np.zeros((len(self.gram), m + k, self.targets.shape[1]))
+        rhs[:, :m] = self.rhs
+        for (a, b), block in zip(self._pairs(), self._block_of_chunk):
+            rows = self._store.rows(self._bank_width, a, b)
+            added = [self._store.read(j, a, b) for j in range(self._bank_width, m)] + [
+                c[a:b] for c in columns
+            ]
+            for i, column in enumerate(columns):
+                earlier = [previous @ column[a:b] for previous in added[: m - self._bank_width + i]]
+                cross = np.concatenate([rows.T @ column[a:b], earlier])
+                gram[block, : m + i, m + i] += cross
+                gram[block, m + i, : m + i] += cross
+                gram[block, m + i, m + i] += column[a:b] @ column[a:b]
+                rhs[block, m + i] += column[a:b] @ self.targets[a:b]
+        for i, column in enumerate(columns):
+            self._store.write(m + i, 0, np.asarray(column, dtype=np.float64)[:, None])
+        self.gram, self.rhs = gram, rhs
+        self._width = m + k
         self._derive()
-        return m
+        return list(range(m, m + k))
 
     def column_values(self, columns: NDArray[np.int64] | list[int]) -> Array:
         """The values (N, k) of bank columns `columns`, in order."""
-        index = np.asarray(columns, dtype=np.int64)
-        m = self._bank.shape[1]
-        if np.all(index < m):
-            return self._bank[:, index]
-        return np.stack([self._bank[:, i] if i < m else self._added[i - m] for i in index], axis=1)
+        index = np.asarray(columns, dtype=np.int64).reshape(-1)
+        values = np.empty((self._store.n, len(index)))
+        for k, column in enumerate(index.tolist()):
+            values[:, k] = self._store.read(column)
+        return values
 
     def fold_energy(self, column: int) -> Array:
         """Sum of squares of one column within each held-out fold (n_folds,)."""

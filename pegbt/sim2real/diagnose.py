@@ -194,8 +194,8 @@ def _selection_round(
     unidentifiable: Unidentifiable,
 ) -> tuple[list[JointSelection], int, BlockedGrams, Array]:
     """One selection on the bank built from `drivers`, and the drivers its scales and couplings give."""
-    columns, candidates = build_columns(q_cmd, t, drivers)
-    grams = BlockedGrams(columns, residual)
+    bank, candidates = build_columns(q_cmd, t, drivers)
+    grams = BlockedGrams(bank, residual)
     selections, hypotheses = select(grams, t, candidates, unidentifiable)
     updated = base_drivers.copy()
     for selection in selections:
@@ -203,7 +203,7 @@ def _selection_round(
         beta = grams.fit(selection.joint, np.array(free), np.array(selection.fixed_columns(), dtype=np.int64))
         for column, b in zip(free[1:], beta[1:]):
             if 1 <= column <= q_cmd.shape[1]:  # a command column: scale or coupling
-                updated[:, selection.joint] += b * columns[:, column]
+                updated[:, selection.joint] += b * q_cmd[:, column - 1]
     return selections, hypotheses, grams, updated
 
 

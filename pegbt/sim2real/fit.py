@@ -273,10 +273,12 @@ def bootstrap(
     block = max(10, correlation_length(residual))
     n_static = blocks[0].shape[1]
     local = len(BOOTSTRAP_LOCAL)
-    resamples = np.column_stack(
-        [prediction + residual[block_bootstrap_indices(len(target), block, rng)] for _ in range(n_resamples)]
-    )
-    rhs_all = bank.T @ resamples
+    rhs_all = np.column_stack(  # one resample at a time: all of them at once are 100 numbers a sample
+        [
+            bank.T @ (prediction + residual[block_bootstrap_indices(len(target), block, rng)])
+            for _ in range(n_resamples)
+        ]
+    ).reshape(bank.shape[1], n_resamples)
     refits = []
     for b in range(n_resamples):
         rhs = rhs_all[:, b]

@@ -32,6 +32,7 @@ Array = NDArray[np.float64]
 ARM_JOINTS = 3  # q1–q3: the joints a displacement is fitted on (the wrist's cable errors are far larger)
 GUARD = 0.8  # the displacement's held-out squared error over the named physics', at most, on q1–q3
 STEP = 1e-6  # rad or m: finite-difference step of the Jacobian
+CHUNK_ROWS = 8192
 
 
 def is_arm_zero(effect: Effect) -> bool:
@@ -42,8 +43,17 @@ def is_arm_zero(effect: Effect) -> bool:
 def displacement_columns(q_cmd: Array) -> Array:
     """(N, 6, 3): how each joint (rows) changes per metre of tool displacement along x, y, z (columns),
     the tool's orientation unchanged: J(q)⁻¹ of the tip pose's Jacobian (position and rotation rows) on
-    a displacement with no rotation. q1–q3 carry it; the wrist turns back what their change tilts."""
-    q = np.asarray(q_cmd, dtype=float)
+    a displacement with no rotation. q1–q3 carry it; the wrist turns back what their change tilts.
+    Computed `CHUNK_ROWS` samples at a time: each sample's Jacobian and its transients (130 numbers) would
+    otherwise be held for the whole recording at once."""
+    q_cmd = np.asarray(q_cmd, dtype=float)
+    columns = np.empty((len(q_cmd), q_cmd.shape[1], 3))
+    for a in range(0, len(q_cmd), CHUNK_ROWS):
+        columns[a : a + CHUNK_ROWS] = _displacement_columns(q_cmd[a : a + CHUNK_ROWS])
+    return columns
+
+
+def _displacement_columns(q: Array) -> Array:
     pose = forward_kinematics(q)
     jacobian = np.empty((len(q), 6, q.shape[1]))
     for j in range(q.shape[1]):

@@ -12,6 +12,7 @@ fits. Kinds only streams can show (lag, delay) are left out on settled set-point
 
 from __future__ import annotations
 
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -90,7 +91,35 @@ def width_column(kind: str, signal: Array, t: Array | None, width: float) -> Arr
     return kind_of(kind).column(signal, t, width)
 
 
-def build_columns(q_cmd: Array, t: Array | None, drivers: Array) -> tuple[Array, list[Candidate]]:
+class Bank:
+    """The regressor bank (N, m) as what computes it: the constant, the commands, and each group of width
+    columns (a kind on one signal over its grid). Its rows are given a chunk at a time (`blocks`), each
+    kind's kernel state carried from one chunk to the next, so the bank is never held whole."""
+
+    def __init__(
+        self, q_cmd: Array, t: Array | None, groups: list[tuple[EffectKind, NDArray[np.int64], Array, Array]]
+    ) -> None:
+        self.q_cmd = q_cmd
+        self.t = t
+        self.groups = groups  # (kind, bank columns, widths, signal)
+        self.shape = (len(q_cmd), 1 + q_cmd.shape[1] + sum(len(g[1]) for g in groups))
+
+    def blocks(self, edges: Sequence[int]) -> Iterator[Array]:
+        """The bank's rows edges[k]:edges[k+1], for each k in order."""
+        n_joints = self.q_cmd.shape[1]
+        kernels = [
+            kind.column_blocks(signal, self.t, widths, edges) for kind, _, widths, signal in self.groups
+        ]
+        for a, b in zip(edges[:-1], edges[1:]):
+            rows = np.empty((b - a, self.shape[1]))
+            rows[:, 0] = 1.0
+            rows[:, 1 : 1 + n_joints] = self.q_cmd[a:b]
+            for (_, columns, _, _), kernel in zip(self.groups, kernels):
+                rows[:, columns] = next(kernel)
+            yield rows
+
+
+def build_columns(q_cmd: Array, t: Array | None, drivers: Array) -> tuple[Bank, list[Candidate]]:
     """The regressor bank (N, m) and every candidate with its columns; stream-only kinds for streams only.
 
     `drivers` (N, J) are the joints' static targets; where one equals the joint's command, a driven
@@ -120,12 +149,7 @@ def build_columns(q_cmd: Array, t: Array | None, drivers: Array) -> tuple[Array,
                 groups[(kind.name, j)] = groups[(twin.name, j)]
             else:
                 add(kind, j, drivers[:, j])
-    bank = np.empty((len(q_cmd), start))  # filled in place: the bank is never held twice
-    bank[:, 0] = 1.0
-    bank[:, 1 : 1 + n_joints] = q_cmd
-    for kind, key in computed:
-        columns, widths, signal = groups[key]
-        bank[:, columns] = kind.columns(signal, t, widths)
+    bank = Bank(q_cmd, t, [(kind, *groups[key]) for kind, key in computed])
     none = np.array([np.nan])
     candidates: list[Candidate] = []
     for j in range(n_joints):

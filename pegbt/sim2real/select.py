@@ -186,23 +186,36 @@ def select_joint(
         shortlist = _best_per_candidate(options, gain)[:TRIES_PER_STEP]
         refined: dict[int, tuple[int, float]] = {}  # option → (bank column, width) between grid values
 
-        def refine(index: int) -> None:
-            cand, g, unit_gain = options[index]
-            if cand.has_width and gain[index] >= MIN_GAIN and index not in refined:
-                width = _refine_width(cand, float(cand.widths[g]), residual, t, unit_gain)
-                column = grams.add_column(width_column(cand.kind, cand.signal, t, width))
+        def refine(indices: list[int]) -> None:
+            """Each option's width refined between grid values, its column added (all in one pass over
+            the bank) and its held-out error taken again."""
+            chosen = [
+                i
+                for i in dict.fromkeys(indices)
+                if options[i][0].has_width and gain[i] >= MIN_GAIN and i not in refined
+            ]
+            widths = [
+                _refine_width(
+                    options[i][0], float(options[i][0].widths[options[i][1]]), residual, t, options[i][2]
+                )
+                for i in chosen
+            ]
+            columns = grams.add_columns(
+                [width_column(options[i][0].kind, options[i][0].signal, t, w) for i, w in zip(chosen, widths)]
+            )
+            for index, column, width in zip(chosen, columns, widths):
                 refined[index] = column, width
+                unit_gain = options[index][2]
                 trial_free, trial_fixed = (free, fixed + [column]) if unit_gain else (free + [column], fixed)
                 sse[index] = grams.cv_sse(joint, np.array(trial_free), np.array(trial_fixed, dtype=np.int64))
                 gain[index] = (current.sum() - sse[index].sum()) / max(float(current.sum()), 1e-300)
 
-        for index in shortlist:
-            refine(index)
+        refine(shortlist)
         shortlist.sort(key=lambda index: -gain[index])
         parsimonious: dict[int, str] = {}  # a simpler option chosen over a richer one → the richer's label
         simpler = _simpler(options, sse, gain, shortlist[0]) if shortlist else None
         if simpler is not None:
-            refine(simpler)
+            refine([simpler])
             if not _richer_wins(sse, gain, shortlist[0], simpler):
                 parsimonious[simpler] = options[shortlist[0]][0].label + _mode(options[shortlist[0]])
                 shortlist = [simpler] + [index for index in shortlist if index != simpler]

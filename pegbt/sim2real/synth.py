@@ -26,7 +26,9 @@ from scipy.interpolate import PchipInterpolator
 from scipy.optimize import brentq
 
 from pegbt.errors import PegbtError
+from pegbt.motion.robot_config import DVRK_LIMITS, RobotLimits
 from pegbt.physics import ArmPhysics, Effect, effect_kinds, kind_of
+from pegbt.physics.faults import TRACKING_TOLERANCE
 from pegbt.physics.recording import Recording, write_recording
 from pegbt.psm import JOINT_NAMES
 
@@ -226,7 +228,7 @@ def generate(
         effects.append(conceal(_pick(rng, sourced), joint, other, 1.0, 3.0))
     noise_kind = "ar1" if family == "null-ar1" or (family != "null-white" and seed % 2) else "white"
     noise = _noise(rng, len(t), noise_kind) * sigma
-    q_phy = ArmPhysics(effects).simulate(q_cmd, stream_t) + noise
+    q_phy = within_reach(ArmPhysics(effects).simulate(q_cmd, stream_t) + noise, q_cmd)
     recording = Recording(Path(f"<synth {family} {seed}>"), q_cmd, q_phy, t)
     return Synthetic(
         recording,
@@ -237,6 +239,18 @@ def generate(
         family,
         seed,
     )
+
+
+def within_reach(q_phy: Array, q_cmd: Array, limits: RobotLimits = DVRK_LIMITS) -> Array:
+    """The measured joints as the robot could be: within its joint limits, and q1–q3 within the distance
+    from their command its controller allows (`pegbt.physics.faults`). The noise an SNR sets can be a
+    large fraction of a radian, and over an hour its tails would reach where no arm is."""
+    lower = np.broadcast_to(limits.lower, q_phy.shape).copy()
+    upper = np.broadcast_to(limits.upper, q_phy.shape).copy()
+    arm = slice(0, len(TRACKING_TOLERANCE))
+    lower[:, arm] = np.maximum(lower[:, arm], q_cmd[:, arm] - TRACKING_TOLERANCE)
+    upper[:, arm] = np.minimum(upper[:, arm], q_cmd[:, arm] + TRACKING_TOLERANCE)
+    return np.clip(q_phy, lower, upper)
 
 
 def _noise(rng: np.random.Generator, n: int, kind: str) -> Array:

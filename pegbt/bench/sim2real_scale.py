@@ -1,0 +1,101 @@
+"""`pegbt bench sim2real-scale`: peak memory and time of `pegbt sim2real diagnose` as recordings grow.
+
+A synthetic recording of each length in `MINUTES` (`pegbt sim2real synth --seconds`, 100 Hz, seed 0) is
+diagnosed with `--bootstrap 0` in a child process, as a person runs it; the 10-minute one also with the
+default bootstrap. Peak memory is that of the child's whole process tree: the sum of its processes'
+resident sets, sampled every `SAMPLE_S`, or the child's own peak (`wait4`) if larger. The bank a
+diagnosis would hold were it kept (223 columns at 8 bytes a sample) is given beside it.
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from pathlib import Path
+
+import psutil
+
+MINUTES = (10, 60)
+SAMPLE_S = 0.05
+BANK_COLUMNS = 223  # a 6-joint stream's regressor bank
+
+
+def tree_rss(process: psutil.Process) -> int:
+    """Bytes resident in a process and all its descendants now (0 once it is gone)."""
+    total = 0
+    for each in [process, *process.children(recursive=True)]:
+        try:
+            total += each.memory_info().rss
+        except psutil.Error:
+            continue  # ended between the listing and the reading
+    return total
+
+
+def measured(command: list[str]) -> tuple[float, float]:
+    """(seconds, peak MB of the process tree) of one command, which must succeed."""
+    start = time.perf_counter()
+    child = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    process = psutil.Process(child.pid)
+    peak = [0]
+    done = threading.Event()
+
+    def sample() -> None:
+        while not done.wait(SAMPLE_S):
+            try:
+                peak[0] = max(peak[0], tree_rss(process))
+            except psutil.Error:
+                return
+
+    sampler = threading.Thread(target=sample, daemon=True)
+    sampler.start()
+    stderr = child.stderr.read() if child.stderr else b""
+    _, status, usage = os.wait4(child.pid, 0)
+    child.returncode = os.waitstatus_to_exitcode(status)
+    seconds = time.perf_counter() - start
+    done.set()
+    sampler.join()
+    if child.returncode:
+        raise RuntimeError(f"{' '.join(command)} failed ({child.returncode}): {stderr.decode()[-2000:]}")
+    return seconds, max(peak[0], usage.ru_maxrss * 1024) / 1e6
+
+
+def _pegbt(*args: str) -> list[str]:
+    return [sys.executable, "-m", "pegbt", *args]
+
+
+def run(minutes: tuple[int, ...] = MINUTES) -> dict[str, float | int | str]:
+    figures: dict[str, float | int | str] = {"rate_hz": 100, "seed": 0}
+    with tempfile.TemporaryDirectory(prefix="pegbt-scale-") as folder:
+        for length in minutes:
+            synth = Path(folder) / f"synth{length}"
+            subprocess.run(
+                _pegbt("sim2real", "synth", str(synth), "--seconds", str(60 * length)),
+                check=True,
+                stdout=subprocess.DEVNULL,
+            )
+            recording = str(synth / "recording")
+            seconds, peak = measured(
+                _pegbt("sim2real", "diagnose", recording, "--bootstrap", "0", "--out", f"{folder}/d{length}")
+            )
+            figures[f"diagnose_{length}min_s"] = round(seconds, 1)
+            figures[f"diagnose_{length}min_peak_mb"] = round(peak, 1)
+            figures[f"bank_{length}min_mb"] = round(BANK_COLUMNS * 8 * 6000 * length / 1e6, 1)
+            print(f"{length} min: {seconds:.1f} s, peak {peak:.1f} MB", file=sys.stderr, flush=True)
+            if length == min(minutes):
+                seconds, peak = measured(
+                    _pegbt("sim2real", "diagnose", recording, "--out", f"{folder}/b{length}")
+                )
+                figures[f"diagnose_{length}min_bootstrap_s"] = round(seconds, 1)
+                figures[f"diagnose_{length}min_bootstrap_peak_mb"] = round(peak, 1)
+        if len(minutes) > 1:
+            short, long = min(minutes), max(minutes)
+            figures["peak_ratio_longest_over_shortest"] = round(
+                float(figures[f"diagnose_{long}min_peak_mb"])
+                / float(figures[f"diagnose_{short}min_peak_mb"]),
+                3,
+            )
+    return figures
