@@ -238,7 +238,9 @@ def test_a_jump_beyond_the_tracking_tolerance_faults_the_arm_until_it_is_enabled
     peer.put("PSM1/state_command", state_command("disable"))
     assert wait_for(lambda: _state(states).state == "DISABLED")
     peer.put("PSM1/state_command", state_command("home"))
-    assert wait_for(lambda: (s := _state(states)) and s.is_homed and not s.is_busy, timeout=20)
+    # ready: the state the homing ends in (ENABLED, homed, idle), whatever came between
+    ready = lambda: (s := _state(states)) and s.state == "ENABLED" and s.is_homed and not s.is_busy  # noqa: E731
+    assert wait_for(ready, timeout=20)
     start = _last_position(setpoints)[0]
     peer.put("PSM1/servo_jp", joint_state([start + 0.05, 0.0, 0.12, 0.0, 0.0, 0.0]))
     assert wait_for(lambda: _last_position(setpoints)[0] == pytest.approx(start + 0.05))

@@ -41,7 +41,8 @@ def test_a_ros2_node_calls_capture_and_gets_one_organised_cloud(router: int, mes
     assert (cloud["height"], cloud["width"], cloud["point_step"]) == (1200, 1944, 16)
     assert cloud["frame_id"] == "zivid_optical_frame"
     assert 50_000 < cloud["valid"] < 1200 * 1944 / 2
-    assert np.isfinite(points).all() and 0.2 < len(points) / cloud["valid"] < 0.3
+    thinned = np.asarray(points)  # the capture as an array: every 2nd row and column, valid points only
+    assert np.isfinite(thinned).all() and 0.2 < len(thinned) / cloud["valid"] < 0.3
 
 
 def test_pegbts_client_calls_a_ros2_nodes_trigger_service(router: int, messages_dir: Path) -> None:
