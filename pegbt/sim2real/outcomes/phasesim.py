@@ -211,16 +211,22 @@ class _Bench:
 
 
 def simulate_transfer(
-    effects: WorldEffects, variant: str, condition: str, seed: int, replay: Replay | None = None
+    effects: WorldEffects,
+    variant: str,
+    condition: str,
+    seed: int,
+    replay: Replay | None = None,
+    index: int | None = None,
 ) -> TransferResult:
-    """Transfer number `seed` of `variant`'s transfers (cycling), on a world of layout `seed`. A transfer on
+    """Transfer number `index` of `variant`'s transfers (by default `seed`, cycling), on a world of layout
+    `seed` (a trial's transfers, one for one, with the same `seed` and each `index`). A transfer on
     the way back first simulates the outward transfer of its block: if that one was not placed, the way
     back finds its start peg empty and fails at `sense`, as a trial's tick log says (the recovery fetches
     strays only for a block the transfer itself lost). `replay`: the arm's motion in other worlds of this
     same transfer (variant, condition, seed), to reuse where it is the same."""
     replay = Replay() if replay is None else replay
     order = transfers(variant)
-    index = seed % len(order)
+    index = seed % len(order) if index is None else index
     if index >= len(order) // 2:
         start_peg = order[index][1]
         outward = next(i for i, (_, _, goal) in enumerate(order[: len(order) // 2]) if goal == start_peg)
