@@ -306,6 +306,43 @@ def test_the_simulator_process_streams_clouds_and_states_at_the_rates_asked(tmp_
     assert (start["kind"], start["interface"], start["camera_period"]) == ("start", "dvrk", 0.2)
 
 
+class _CountingCamera:
+    """A depth camera that counts the frames the simulator exposes (each one costs a ray cast)."""
+
+    def __init__(self) -> None:
+        from pegbt.sim.camera import DepthCamera
+
+        self.camera = DepthCamera(seed=0)
+        self.image_shape = self.camera.image_shape
+        self.exposed = 0
+
+    def expose(self, world: object, elapsed: float) -> object:
+        self.exposed += 1
+        return self.camera.expose(world, elapsed)  # type: ignore[arg-type]
+
+
+def test_no_frame_is_rendered_while_nobody_listens_and_one_comes_when_someone_does(tmp_path: Path) -> None:
+    """Rendering is the simulator's cost, not the camera's: a frame nobody would receive is not exposed,
+    and a subscriber that joins gets frames at the rate asked."""
+    from pegbt.sim.world import World
+
+    camera = _CountingCamera()
+    running = Running(tmp_path / "sim.jsonl", world=World(0), camera=camera, camera_period=0.2)
+    client = DvrkPeer(running.address)
+    try:
+        states = client.subscribe("PSM1/measured_js")
+        assert wait_for(lambda: len(states.all()) > 20, timeout=20)
+        time.sleep(1.0)
+        assert camera.exposed == 0
+        clouds = client.subscribe(running.endpoint.config.camera_topic.lstrip("/"))
+        assert wait_for(lambda: len(clouds.all()) >= 3, timeout=20)
+    finally:
+        client.close()
+        running.close()
+    stamps = _stamps(clouds.all(), POINT_CLOUD)
+    assert np.diff(stamps).min() > 0.2 - 0.005 and camera.exposed >= 3
+
+
 def test_lockstep_is_refused_with_the_dvrk_interface(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["sim", "--interface", "dvrk", "--lockstep", "--no-world"]) == 2
     err = capsys.readouterr().err
