@@ -57,6 +57,7 @@ class SqpSettings:
     eps: float
     rho: float
     max_solver_iterations: int
+    warm_above_clear: float  # m: the warm start passes over the pegs this far above the clearing height
 
 
 @dataclass(frozen=True)
