@@ -13,7 +13,9 @@ from pegbt.motion.limits import ArmSettings
 from pegbt.motion.trajectory import Trajectory
 from pegbt.psm import joint_label
 
-CLEARANCE_SLACK = 0.0005  # m the tip may sag below the clearing height in transit (the channel margin is 2.8 mm)
+CLEARANCE_SLACK = (
+    0.0005  # m the tip may sag below the clearing height in transit (the channel margin is 2.8 mm)
+)
 RELATIVE_SLACK = 1e-6  # rounding allowed on velocity and acceleration limits
 ABSOLUTE_SLACK = 1e-9
 
