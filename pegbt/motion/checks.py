@@ -90,7 +90,10 @@ def _channel_problems(tips: np.ndarray, channel: Channel, leaving: bool) -> list
 
 def _clearance_problems(tips: np.ndarray, leaving: Channel | None, arriving: Channel) -> list[str]:
     """Between leaving the start peg's channel (from the first sample without one) and entering the goal
-    peg's, the tip stays above both clearing heights: the block hangs clear of every peg top it passes."""
+    peg's, the tip stays above both clearing heights: the block hangs clear of every peg top it passes. A
+    goal in the air (a clearing height at or below it: the handover's meeting point) sets none."""
+    if arriving.clear <= 0.0:
+        return []
     heights = arriving.height(tips)
     above = heights >= arriving.clear
     if not above.any():
