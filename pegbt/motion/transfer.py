@@ -65,9 +65,10 @@ def cubic_transfer(waypoints: TransferWaypoints, settings: ArmSettings) -> Traje
 
 def lowered(waypoints: TransferWaypoints, above_clear: float) -> TransferWaypoints:
     """`waypoints` with the poses over the pegs (lifted, above the goal) brought down to `above_clear`
-    over the clearing height of the transit (the higher of the two pegs'), never raised; the grasp, the
-    goal and a start held in the air (a placement's lifted pose is its start) stay where they are. A
-    transit without a clearing height above its goal (a carry to the handover point) is left as it is."""
+    over the clearing height of the transit (the higher of the two pegs'), never raised, and the lifted
+    pose never below the start (a motion from high up does not dip first); the start and the goal stay
+    where they are. A transit without a clearing height above its goal (a carry to the handover point)
+    is left as it is."""
     place = waypoints.place
     if place.clear <= 0.0:
         return waypoints
@@ -75,10 +76,9 @@ def lowered(waypoints: TransferWaypoints, above_clear: float) -> TransferWaypoin
     if waypoints.pick is not None:
         floor = max(floor, waypoints.pick.clear + float((waypoints.pick.point - place.point) @ place.axis))
     poses = waypoints.poses.copy()
-    for index in (1, 2):
-        if index == 1 and np.allclose(poses[1], poses[0]):
-            continue
-        excess = float((poses[index][:3, 3] - place.point) @ place.axis) - (floor + above_clear)
+    start = float((poses[0][:3, 3] - place.point) @ place.axis)
+    for index, lowest in ((1, max(floor + above_clear, start)), (2, floor + above_clear)):
+        excess = float((poses[index][:3, 3] - place.point) @ place.axis) - lowest
         if excess > 0.0:
             poses[index][:3, 3] -= excess * place.axis
     return replace(waypoints, poses=poses)
