@@ -99,14 +99,15 @@ class TransferPlanner:
         up = waypoints.upright.axis
         return plan_spline(q, joint_direction(q[1], up), joint_direction(q[2], -up), self.settings)
 
-    def plan(self, waypoints: TransferWaypoints) -> TransferPlan:
+    def plan(self, waypoints: TransferWaypoints, *, above_clear: float | None = None) -> TransferPlan:
         """The checked transfer, never slower than the rest-to-rest cubics: the SQP's, else the spline's,
         else the cubics' (see the module's docstring); a `PegbtError` (and no trajectory) if the
-        waypoints are out of reach or none passes the checks (limits, channels, upright tool, C1),
-        naming why each failed."""
+        waypoints are out of reach or none passes the checks (limits, channels, upright tool, C1,
+        clearance), naming why each failed. The spline passes over the pegs `above_clear` over the
+        clearing height (`lowered`; default `sqp.warm_above_clear`)."""
         joints = joint_waypoints(waypoints, self.settings)
-        low = lowered(waypoints, self.warm_above_clear)
-        spline = self.spline(low, joints if low is waypoints else None)
+        warm = lowered(waypoints, self.warm_above_clear if above_clear is None else above_clear)
+        spline = self.spline(warm, joints if warm is waypoints else None)
         cubic = rest_to_rest_path(joints, self.settings, list(WAYPOINT_NAMES))
         reasons: list[str] = []
         try:

@@ -130,9 +130,8 @@ def approach_plan(
     waypoints = transfer_for(cell, skills.motion, arm, board, block, grasp)
     stops = above_pegs_first(cell, skills.motion, arm, start, motion.settings)
     if motion.planner is not None:
-        return partial(
-            motion.transfer, approach_for(cell, skills.motion, arm, forward_kinematics(start), waypoints)
-        )
+        approach = approach_for(cell, skills.motion, arm, forward_kinematics(start), waypoints)
+        return partial(motion.transfer, approach, above_clear=skills.motion.sqp.approach_above_clear)
     names = [f"above the grasp {i}" for i in range(len(stops))] + [
         "over the grasp",
         "just above the block",
