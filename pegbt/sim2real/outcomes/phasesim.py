@@ -327,7 +327,8 @@ def _attempt(
         return _Bench.failed_before(world, arm, motion, "reach")
     bench = _Bench(world, arm, motion, ik.q[0], replay)
     try:
-        reach = motion.transfer(approach_for(world.cell, skills.motion, arm, start, waypoints))
+        approach = approach_for(world.cell, skills.motion, arm, start, waypoints)
+        reach = motion.transfer(approach, above_clear=skills.motion.sqp.approach_above_clear)
     except PegbtError:  # the approach leaf fails to plan: nothing moves
         bench.failed = "reach"
         return bench
