@@ -210,14 +210,20 @@ class _Bench:
 
 
 def simulate_transfer(
-    effects: WorldEffects, variant: str, condition: str, seed: int, replay: Replay | None = None
+    effects: WorldEffects,
+    variant: str,
+    condition: str,
+    seed: int,
+    replay: Replay | None = None,
+    attempts: int = 1 + REGRASPS,
 ) -> TransferResult:
     """Transfer number `seed` of `variant`'s transfers (cycling; on the way back every block starts where
     its outward transfer placed it), on a world of layout `seed`: the
         grasp the executive would choose for the block perception would see, and the motions it would send,
-        picked and carried again after a failure up to `REGRASPS` times as `trees/shared/one_transfer.yaml`
-        recovers (from wherever the block fell; the arm starts each attempt from `START`). `replay`: the arm's
-    motion in other worlds of this same transfer (variant, condition, seed), to reuse where it is the same."""
+        picked and carried again after a failure, `attempts` in all (`trees/shared/one_transfer.yaml`
+        recovers `REGRASPS` times, from wherever the block fell; the arm starts each attempt from `START`).
+    `replay`: the arm's motion in other worlds of this same transfer (variant, condition, seed), to reuse
+    where it is the same."""
     replay = Replay() if replay is None else replay
     order = transfers(variant)
     arm, start_peg, goal_peg = order[seed % len(order)]
@@ -232,7 +238,7 @@ def simulate_transfer(
     rng = np.random.default_rng([seed, 7])
     events: list[tuple[str, Event]] = []
     first: str | None = None
-    for _ in range(1 + REGRASPS):
+    for _ in range(attempts):
         if block.lost:
             break
         bench = _attempt(
