@@ -32,3 +32,10 @@ def test_one_attempt_fails_where_the_recovery_places() -> None:
     [[first]] = once
     assert not first.succeeded and first.phase == "lower"
     assert first.seconds < recovered.seconds
+
+
+def test_a_meeting_the_planning_refuses_is_planned_again_not_counted_as_the_one_attempt() -> None:
+    logging.getLogger("pegbt").setLevel(logging.ERROR)
+    # calibrated handover transfer 2: the first grasp perception offers cannot reach the meeting point
+    once = simulate_transfer(WorldEffects(), "handover", "calibrated", 2, None, attempts_for(paper_table()))
+    assert once.succeeded and once.phase == "handover"

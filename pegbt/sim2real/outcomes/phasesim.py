@@ -120,6 +120,7 @@ class _Bench:
         self.clock = world.time
         self.segment = "reach"
         self.held = False  # holds the block lowered over its goal peg (or at the meeting point)
+        self.moved = True  # the arm set out: an attempt the robot made, not one its planning refused
         self.meeting: Meeting | None = None
         self.failed: str | None = None  # the phase in which this attempt lost the block
         self.history = hashlib.sha1(arm.encode() + q0.tobytes())
@@ -135,7 +136,7 @@ class _Bench:
         """An attempt that could not start (no feasible grasp, out of reach)."""
         bench = cls.__new__(cls)
         bench.world, bench.name, bench.motion, bench.events = world, arm, motion, []
-        bench.held, bench.failed, bench.meeting = False, phase, None
+        bench.held, bench.failed, bench.meeting, bench.moved = False, phase, None, False
         return bench
 
     def tick(self, seconds: float) -> None:
@@ -221,7 +222,8 @@ def simulate_transfer(
     its outward transfer placed it), on a world of layout `seed`: the
         grasp the executive would choose for the block perception would see, and the motions it would send,
         picked and carried again after a failure, `attempts` in all (`trees/shared/one_transfer.yaml`
-        recovers `REGRASPS` times, from wherever the block fell; the arm starts each attempt from `START`).
+        recovers `REGRASPS` times, from wherever the block fell; the arm starts each attempt from `START`);
+        a grasp the planning refuses before the arm moves is sensed and planned again without counting.
     `replay`: the arm's motion in other worlds of this same transfer (variant, condition, seed), to reuse
     where it is the same."""
     replay = Replay() if replay is None else replay
@@ -238,13 +240,15 @@ def simulate_transfer(
     rng = np.random.default_rng([seed, 7])
     events: list[tuple[str, Event]] = []
     first: str | None = None
-    for _ in range(attempts):
-        if block.lost:
+    made = 0  # attempts the arm set out on (a grasp or meeting refused before moving is planned again)
+    for _ in range(1 + REGRASPS):
+        if block.lost or made == attempts:
             break
         bench = _attempt(
             world, skills, arm, block.index, goal_peg, rng, previous_peg, replay, variant == "handover"
         )
         events += bench.events
+        made += bench.moved
         if bench.held and bench.meeting is not None:
             return _hand_over(world, skills, bench, block.index, goal_peg, first, replay)
         if bench.held:
@@ -335,7 +339,7 @@ def _attempt(
     try:
         reach = motion.transfer(approach_for(world.cell, skills.motion, arm, start, waypoints))
     except PegbtError:  # the approach leaf fails to plan: nothing moves
-        bench.failed = "reach"
+        bench.failed, bench.moved = "reach", False
         return bench
     bench.play(reach, [(0.0, "reach")])
     bench.jaw(skills.motion.transfer.jaw_closed, "grasp")
