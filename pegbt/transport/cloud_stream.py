@@ -2,7 +2,9 @@
 RealSense on `/camera/camera/depth/color/points`), with the verbs behaviours use on `CameraClient`.
 
 Nobody triggers it: a capture is the first cloud stamped after the request. Invalid points (NaN, as a
-RealSense sends for pixels without depth) are dropped. Clouds are decoded only while a capture waits.
+RealSense sends for pixels without depth) are dropped. The camera's topic is subscribed only while a capture
+waits: a cloud of a few MB ten times a second, received, copied out of zenoh and decoded by a callback
+holding the GIL, would otherwise take time from the tick and the planning threads for nothing.
 """
 
 from __future__ import annotations
@@ -16,7 +18,7 @@ from pegbt.clock import Clock, WallClock
 from pegbt.errors import PegbtError
 from pegbt.transport import codec
 from pegbt.transport.arm import EndpointSilent
-from pegbt.transport.ros2 import Ros2Wire, Topic
+from pegbt.transport.ros2 import Ros2Wire, Topic, TopicSubscriber
 
 
 class StreamedCapture:
@@ -55,6 +57,7 @@ class StreamedCapture:
                 field=self.camera.topic.name,
             )
         assert self._points is not None
+        self.camera.settle()
         return self._points
 
     @property
@@ -63,7 +66,7 @@ class StreamedCapture:
 
 
 class StreamingCamera:
-    """A streaming depth camera on `wire`'s `topic`."""
+    """A streaming depth camera on `wire`'s `topic`, listened to while a capture waits."""
 
     def __init__(
         self, wire: Ros2Wire, topic: Topic, *, clock: Clock | None = None, timeout: float = 2.0
@@ -71,10 +74,27 @@ class StreamingCamera:
         self.topic = topic
         self.clock: Clock = clock or WallClock()
         self.timeout = timeout
+        self._wire = wire
         self._pending: list[StreamedCapture] = []
         self._lock = threading.Lock()
+        self._listening = threading.Lock()  # held while the subscriber is declared or undeclared
+        self._subscriber: TopicSubscriber | None = None
         self.last_error: str | None = None
-        wire.subscriber(topic, self._on_cloud)
+
+    @property
+    def listening(self) -> bool:
+        """Whether the camera's topic is subscribed (a capture waits, or one was answered and not yet taken)."""
+        return self._subscriber is not None
+
+    def settle(self) -> None:
+        """Unsubscribe once no capture waits. Called on the thread that takes a cloud, never on zenoh's
+        callback thread, which may not undeclare the subscriber it is running for."""
+        with self._listening:
+            with self._lock:
+                if self._pending or self._subscriber is None:
+                    return
+                subscriber, self._subscriber = self._subscriber, None
+            subscriber.close()
 
     def _on_cloud(self, payload: bytes) -> None:
         with self._lock:
@@ -99,8 +119,11 @@ class StreamingCamera:
     def capture_async(self) -> StreamedCapture:
         """Ask for the next cloud stamped from now on; poll the handle's `ready` in later ticks."""
         handle = StreamedCapture(self, self.clock.now())
-        with self._lock:
-            self._pending.append(handle)
+        with self._listening:
+            with self._lock:
+                self._pending.append(handle)
+            if self._subscriber is None:
+                self._subscriber = self._wire.subscriber(self.topic, self._on_cloud)
         return handle
 
     def capture(self) -> NDArray[np.float32]:

@@ -148,6 +148,7 @@ class _Publisher:
         self._entity, self._token, self.gid = entity, token, gid
         self._sequence = itertools.count(1)
         self._lock = threading.Lock()
+        self.closed = False
 
     def put(self, payload: bytes) -> None:
         with self._lock:
@@ -159,19 +160,25 @@ class _Publisher:
         return matched(self._entity)
 
     def close(self) -> None:
-        self._entity.undeclare()
-        self._token.undeclare()
+        if not self.closed:
+            self.closed = True
+            self._entity.undeclare()
+            self._token.undeclare()
 
 
 class _Subscriber:
-    """One topic's subscriber with its liveliness token."""
+    """One topic's subscriber with its liveliness token (withdrawn once: a subscriber closed by its user is
+    closed again by its wire's `close()`)."""
 
     def __init__(self, entity: Subscriber, token: zenoh.LivelinessToken) -> None:
         self._entity, self._token = entity, token
+        self.closed = False
 
     def close(self) -> None:
-        self._entity.undeclare()
-        self._token.undeclare()
+        if not self.closed:
+            self.closed = True
+            self._entity.undeclare()
+            self._token.undeclare()
 
 
 @dataclass
@@ -264,6 +271,7 @@ class RmwZenohWire:
 
         entity = declare_subscriber(self.session, self.key(topic), topic, deliver)
         subscriber = _Subscriber(entity, self.session.liveliness().declare_token(token))
+        self._endpoints = [held for held in self._endpoints if not held.closed]
         self._endpoints.append(subscriber)
         return subscriber
 

@@ -84,7 +84,8 @@ class Ros2Wire(Protocol):
 
 
 class _Closing:
-    """A declared zenoh entity that `close()` undeclares."""
+    """A declared zenoh entity that `close()` undeclares (once: a subscriber closed by its user is closed
+    again by its wire's `close()`)."""
 
     def __init__(
         self,
@@ -94,6 +95,7 @@ class _Closing:
         | zenoh.ext.AdvancedSubscriber,
     ) -> None:
         self._entity = entity
+        self.closed = False
 
     def put(self, payload: bytes) -> None:
         self._entity.put(payload)  # type: ignore[union-attr]
@@ -103,7 +105,9 @@ class _Closing:
         return matched(self._entity)  # type: ignore[arg-type]
 
     def close(self) -> None:
-        self._entity.undeclare()
+        if not self.closed:
+            self.closed = True
+            self._entity.undeclare()
 
 
 class BridgeWire:
@@ -115,7 +119,7 @@ class BridgeWire:
         self._endpoints: list[_Closing] = []
 
     def _held(self, endpoint: _Closing) -> _Closing:
-        self._endpoints.append(endpoint)
+        self._endpoints = [held for held in self._endpoints if not held.closed] + [endpoint]
         return endpoint
 
     def close(self) -> None:

@@ -313,6 +313,28 @@ def test_a_capture_is_the_first_cloud_stamped_after_the_request_without_its_nan_
         double.close()
 
 
+def test_the_streaming_cameras_clouds_reach_the_client_only_while_a_capture_waits(endpoint: str) -> None:
+    double = CrtkDouble(endpoint)
+    robot = connect_crtk_robot(endpoint)
+    clouds = double._camera  # the double's publisher of the camera's clouds
+
+    def matching() -> bool:
+        return bool(clouds.matching_status.matching)
+
+    try:
+        time.sleep(0.5)  # a subscriber declared at connection would have reached the double by now
+        assert not matching()
+        for _ in range(2):  # and again once unsubscribed
+            handle = robot.camera.capture_async()
+            assert _until(matching)
+            points = handle.result(10.0)
+            assert handle.stamp > handle.requested_at and points.shape == (180, 3)
+            assert _until(lambda: not matching())
+    finally:
+        robot.close()
+        double.close()
+
+
 def test_bad_dvrk_options_are_one_clear_line_each(pegbt_cli, tmp_path: Path) -> None:
     auto = pegbt_cli("run", "trees/unilateral.yaml", "--interface", "dvrk", "--log", tmp_path / "a.jsonl")
     assert auto.returncode == 2 and "give its bridge's address" in auto.stderr

@@ -95,7 +95,7 @@ def test_a_way_back_whose_block_was_not_placed_on_the_way_out_fails_at_sense():
     """A trial's way back finds a peg empty where its outward transfer lost the block, and its tick log
     names that transfer's failure `sense`; a block placed on the way out is carried back as before."""
     half = len(transfers("unilateral")) // 2
-    out = phasesim._transfer(WorldEffects(), "unilateral", "uncalibrated", half, 0, Replay())
+    out = simulate_transfer(WorldEffects(), "unilateral", "uncalibrated", half, index=0)
     assert not out.succeeded
     assert simulate_transfer(WorldEffects(), "unilateral", "uncalibrated", half).phase == "sense"
     assert simulate_transfer(WorldEffects(), "unilateral", "calibrated", half + 1).succeeded

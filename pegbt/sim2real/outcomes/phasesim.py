@@ -121,6 +121,7 @@ class _Bench:
         self.clock = world.time
         self.segment = "reach"
         self.held = False  # holds the block lowered over its goal peg (or at the meeting point)
+        self.moved = True  # the arm set out: an attempt the robot made, not one its planning refused
         self.meeting: Meeting | None = None
         self.failed: str | None = None  # the phase in which this attempt lost the block
         self.history = hashlib.sha1(arm.encode() + q0.tobytes())
@@ -136,7 +137,7 @@ class _Bench:
         """An attempt that could not start (no feasible grasp, out of reach)."""
         bench = cls.__new__(cls)
         bench.world, bench.name, bench.motion, bench.events = world, arm, motion, []
-        bench.held, bench.failed, bench.meeting = False, phase, None
+        bench.held, bench.failed, bench.meeting, bench.moved = False, phase, None, False
         return bench
 
     def tick(self, seconds: float) -> None:
@@ -217,33 +218,41 @@ def simulate_transfer(
     seed: int,
     replay: Replay | None = None,
     index: int | None = None,
+    attempts: int = 1 + REGRASPS,
 ) -> TransferResult:
     """Transfer number `index` of `variant`'s transfers (by default `seed`, cycling), on a world of layout
-    `seed` (a trial's transfers, one for one, with the same `seed` and each `index`). A transfer on
-    the way back first simulates the outward transfer of its block: if that one was not placed, the way
-    back finds its start peg empty and fails at `sense`, as a trial's tick log says (the recovery fetches
-    strays only for a block the transfer itself lost). `replay`: the arm's motion in other worlds of this
-    same transfer (variant, condition, seed), to reuse where it is the same."""
+    `seed` (a trial's transfers, one for one, with the same `seed` and each `index`), `attempts` in all.
+    A transfer on the way back first simulates the outward transfer of its block: if that one was not
+    placed, the way back finds its start peg empty and fails at `sense`, as a trial's tick log says (the
+    recovery fetches strays only for a block the transfer itself lost). `replay`: the arm's motion in
+    other worlds of this same transfer (variant, condition, seed), to reuse where it is the same."""
     replay = Replay() if replay is None else replay
     order = transfers(variant)
     index = seed % len(order) if index is None else index
     if index >= len(order) // 2:
         start_peg = order[index][1]
         outward = next(i for i, (_, _, goal) in enumerate(order[: len(order) // 2]) if goal == start_peg)
-        there = _transfer(effects, variant, condition, seed, outward, replay)
+        there = _transfer(effects, variant, condition, seed, outward, replay, attempts)
         if not there.succeeded:
             return TransferResult(False, "sense", there.seconds)
-    return _transfer(effects, variant, condition, seed, index, replay)
+    return _transfer(effects, variant, condition, seed, index, replay, attempts)
 
 
 def _transfer(
-    effects: WorldEffects, variant: str, condition: str, seed: int, index: int, replay: Replay
+    effects: WorldEffects,
+    variant: str,
+    condition: str,
+    seed: int,
+    index: int,
+    replay: Replay,
+    attempts: int,
 ) -> TransferResult:
     """Transfer `index` of `variant`'s transfers on a world of layout `seed` (on the way back every block
     starts where its outward transfer placed it): the grasp the executive would choose for the block
-    perception would see, and the motions it would send, picked and carried again after a failure up to
-    `REGRASPS` times as `trees/shared/one_transfer.yaml` recovers (from wherever the block fell; each
-    attempt starts where the arm let go of its previous block)."""
+    perception would see, and the motions it would send, picked and carried again after a failure,
+    `attempts` in all (`trees/shared/one_transfer.yaml` recovers `REGRASPS` times, from wherever the block
+    fell; each attempt starts where the arm let go of its previous block); a grasp the planning refuses
+    before the arm moves is sensed and planned again without counting."""
     order = transfers(variant)
     arm, start_peg, goal_peg = order[index]
     previous_peg = next(goal for other, _, goal in reversed(order + order[:index]) if other == arm)
@@ -255,13 +264,15 @@ def _transfer(
     rng = np.random.default_rng([seed, 7])
     events: list[tuple[str, Event]] = []
     first: str | None = None
+    made = 0  # attempts the arm set out on (a grasp or meeting refused before moving is planned again)
     for _ in range(1 + REGRASPS):
-        if block.lost:
+        if block.lost or made == attempts:
             break
         bench = _attempt(
             world, skills, arm, block.index, goal_peg, rng, previous_peg, replay, variant == "handover"
         )
         events += bench.events
+        made += bench.moved
         if bench.held and bench.meeting is not None:
             return _hand_over(world, skills, bench, block.index, goal_peg, first, replay)
         if bench.held:
@@ -352,7 +363,7 @@ def _attempt(
     try:
         reach = approach_plan(skills, arm, ik.q[0], None, seen, grasp)()
     except PegbtError:  # the approach leaf fails to plan: nothing moves
-        bench.failed = "reach"
+        bench.failed, bench.moved = "reach", False
         return bench
     bench.play(reach, [(0.0, "reach")])
     bench.jaw(skills.motion.transfer.jaw_closed, "grasp")
