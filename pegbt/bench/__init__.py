@@ -53,6 +53,6 @@ def load_benchmark(name: str) -> Callable[[], Figures]:
     return getattr(importlib.import_module(module_name), function_name)
 
 
-def run_benchmark(name: str) -> Figures:
-    """Run benchmark NAME and return its figures."""
-    return load_benchmark(name)()
+def run_benchmark(name: str, **options: object) -> Figures:
+    """Run benchmark NAME (with the reduced-size `options` it takes, if any) and return its figures."""
+    return load_benchmark(name)(**options)

@@ -7,6 +7,7 @@ import json
 import math
 
 from pegbt.bench import Figures, benchmark_names, run_benchmark
+from pegbt.errors import PegbtError
 
 
 def add_commands(subparsers: argparse._SubParsersAction) -> None:
@@ -18,6 +19,18 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
     )
     parser.add_argument("names", nargs="*", metavar="NAME", help="benchmark(s) to run")
     parser.add_argument("--json", action="store_true", help="print one JSON object")
+    parser.add_argument(
+        "--seeds",
+        type=int,
+        metavar="N",
+        help="sim2real-outcomes only: seeds per family (default 5, the goal's size; fewer to fit a session)",
+    )
+    parser.add_argument(
+        "--families",
+        metavar="A,B",
+        help="sim2real-outcomes only: the families to run, comma-separated (default all; names in "
+        "`pegbt.bench.sim2real_outcomes.FAMILIES`)",
+    )
     parser.set_defaults(handler=_bench)
 
 
@@ -31,7 +44,17 @@ def _bench(args: argparse.Namespace) -> int:
     if not args.names:
         print("\n".join(benchmark_names()) or "no benchmarks registered")
         return 0
-    results: dict[str, Figures] = {name: run_benchmark(name) for name in args.names}
+    options: dict[str, object] = {}
+    if args.seeds is not None:
+        options["seeds"] = args.seeds
+    if args.families is not None:
+        options["families"] = [f.strip() for f in args.families.split(",") if f.strip()]
+    if options and args.names != ["sim2real-outcomes"]:
+        raise PegbtError(
+            "--seeds and --families size the sim2real-outcomes benchmark alone: name only it",
+            field="--seeds" if args.seeds is not None else "--families",
+        )
+    results: dict[str, Figures] = {name: run_benchmark(name, **options) for name in args.names}
     if args.json:
         payload = results[args.names[0]] if len(args.names) == 1 else results
         print(json.dumps(payload, sort_keys=False))

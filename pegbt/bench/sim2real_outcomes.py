@@ -14,6 +14,7 @@ import statistics
 import time
 from collections.abc import Mapping, Sequence
 
+from pegbt.errors import PegbtError
 from pegbt.sim.world_effects import WorldEffects
 from pegbt.sim2real.outcomes.cells import Cell, Outcomes
 from pegbt.sim2real.outcomes.diagnose import Diagnosis, Settings, diagnose
@@ -103,5 +104,19 @@ def measure(
     return figures
 
 
-def run() -> dict[str, float | int | str]:
-    return measure(list(FAMILIES), SEEDS, REAL_TRANSFERS, SETTINGS)
+def run(seeds: int = SEEDS, families: Sequence[str] | None = None) -> dict[str, float | int | str]:
+    """The benchmark at the goal's size by default (every family, `SEEDS` seeds); `seeds` and `families`
+    (`pegbt bench sim2real-outcomes --seeds N --families A,B`) run a reduced one, named in its figures."""
+    chosen = list(FAMILIES) if families is None else list(families)
+    unknown = [f for f in chosen if f not in FAMILIES]
+    if unknown or not chosen:
+        raise PegbtError(
+            f"unknown families {', '.join(unknown) or '(none given)'}; known: {', '.join(FAMILIES)}",
+            field="--families",
+        )
+    if seeds < 1:
+        raise PegbtError(f"expected at least 1 seed, got {seeds}", field="--seeds")
+    figures = measure(chosen, seeds, REAL_TRANSFERS, SETTINGS)
+    figures["families"] = ",".join(chosen)
+    figures["full_size"] = str(seeds >= SEEDS and set(chosen) == set(FAMILIES)).lower()
+    return figures

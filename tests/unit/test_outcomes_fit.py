@@ -78,15 +78,18 @@ def test_the_default_world_names_nothing():
     assert d.verdict.named == () and d.verdict.tied == ()
 
 
-def test_transfers_lost_to_perception_are_left_out_of_the_likelihood():
+def test_a_way_back_lost_at_sense_is_fitted_like_any_other_phase():
+    """A trial's way back fails at sense where its way out lost the block; the phase simulator now does
+    too, so a world that loses them there explains a real cell with sense failures better than one that
+    calls them grasp failures."""
     from pegbt.sim2real.outcomes.likelihood import log_likelihood
     from pegbt.sim2real.outcomes.simulate import SimCounts
 
-    sim = SimCounts()
-    sim.counts.update(placed=3, lift=20, grasp=5)
-    seen = Cell("unilateral", "uncalibrated", 28, 11, failures={"grasp": 5, "lower": 12})
-    blind = Cell("unilateral", "uncalibrated", 36, 11, failures={"grasp": 5, "lower": 12, "sense": 8})
-    assert log_likelihood(blind, sim) == log_likelihood(seen, sim)
+    real = Cell("unilateral", "uncalibrated", 36, 11, failures={"grasp": 5, "lower": 12, "sense": 8})
+    at_sense, at_grasp = SimCounts(), SimCounts()
+    at_sense.counts.update(placed=110, grasp=50, lower=120, sense=80)
+    at_grasp.counts.update(placed=110, grasp=130, lower=120)
+    assert log_likelihood(real, at_sense) > log_likelihood(real, at_grasp) + 5
 
 
 def test_each_transfer_is_simulated_once_per_world_in_one_batch_per_transfer():

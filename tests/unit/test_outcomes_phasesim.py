@@ -5,9 +5,12 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
 import yaml
 
+from pegbt.motion.kinematics import forward_kinematics
 from pegbt.sim.world_effects import WorldEffects
+from pegbt.sim2real.outcomes import phasesim
 from pegbt.sim2real.outcomes.phasesim import Replay, simulate_transfer, transfers
 
 SEEDS = range(4)
@@ -62,3 +65,37 @@ def test_the_transfers_simulated_are_the_trees_out_and_back():
         for arm, expected in arms.items():
             simulated = [(start, goal) for who, start, goal in transfers(variant) if who == arm]
             assert simulated == expected, (variant, arm)
+
+
+def test_the_reach_is_the_approach_leafs_cubics_stopping_just_above_the_block(monkeypatch):
+    """Without a planner the `approach` leaf stops over the grasp and again just above the block, so the
+    open jaw's last descent is short and straight (`approach_plan`); the phase simulator reaches the same
+    way, where the transfer-shaped approach it used instead came down from over the grasp in one go and
+    missed grasps whole trials make."""
+    played = []
+    original = phasesim._Bench.play
+
+    def record(bench, planned, segments, holding=None):
+        played.append((segments[0][1], planned))
+        original(bench, planned, segments, holding)
+
+    monkeypatch.setattr(phasesim._Bench, "play", record)
+    simulate_transfer(WorldEffects(), "unilateral", "uncalibrated", 5)
+    reach = next(planned for segment, planned in played if segment == "reach")
+    speed = np.linalg.norm(reach.qd, axis=1)
+    slow = speed < 0.02 * speed.max()
+    stops = [i for i in range(1, len(speed) - 1) if slow[i] and speed[i] <= min(speed[i - 1], speed[i + 1])]
+    tips = [forward_kinematics(reach.q[i])[:3, 3] for i in (*stops, -1)]
+    over, above, grasp = tips[-3:]
+    assert len(stops) == 3  # straight above the tool, over the grasp, just above the block
+    assert np.linalg.norm(above - grasp) < np.linalg.norm(over - grasp) / 2
+
+
+def test_a_way_back_whose_block_was_not_placed_on_the_way_out_fails_at_sense():
+    """A trial's way back finds a peg empty where its outward transfer lost the block, and its tick log
+    names that transfer's failure `sense`; a block placed on the way out is carried back as before."""
+    half = len(transfers("unilateral")) // 2
+    out = simulate_transfer(WorldEffects(), "unilateral", "uncalibrated", half, index=0)
+    assert not out.succeeded
+    assert simulate_transfer(WorldEffects(), "unilateral", "uncalibrated", half).phase == "sense"
+    assert simulate_transfer(WorldEffects(), "unilateral", "calibrated", half + 1).succeeded

@@ -15,21 +15,6 @@ from pegbt.sim2real.outcomes.cells import Cell
 from pegbt.sim2real.outcomes.intervals import count_log_likelihood
 from pegbt.sim2real.outcomes.simulate import CATEGORIES, SimCounts
 
-UNSIMULATED = (
-    "sense",
-)  # the phase simulator hands the executive what perception would see: never lost there
-
-
-def simulated_part(cell: Cell) -> Cell:
-    """The cell without the transfers lost in phases the phase simulator does not model (perception's)."""
-    lost = sum(cell.failures.get(phase, 0) for phase in UNSIMULATED)
-    if not lost:
-        return cell
-    failures = {phase: n for phase, n in cell.failures.items() if phase not in UNSIMULATED}
-    return Cell(
-        cell.variant, cell.condition, cell.attempted - lost, cell.succeeded, cell.mean_transfer_s, failures
-    )
-
 
 def has_phases(cell: Cell) -> bool:
     """Whether `cell` says where every failed transfer failed (in phases the simulator tells apart)."""
@@ -43,9 +28,9 @@ def real_vector(cell: Cell) -> np.ndarray:
 
 
 def log_likelihood(cell: Cell, sim: SimCounts, phases: bool = True) -> float:
-    """log P(the cell's real counts | `sim`), by phase when the cell has them and `phases`; transfers lost
-    where the simulator does not look (`UNSIMULATED`) are left out of both."""
-    cell = simulated_part(cell)
+    """log P(the cell's real counts | `sim`), by phase when the cell has them and `phases`. Failures at
+    `sense` count as the others do: the phase simulator's way back finds a peg empty where the way out lost
+    its block, as a trial does."""
     if cell.attempted == 0:
         return 0.0
     if phases and has_phases(cell):

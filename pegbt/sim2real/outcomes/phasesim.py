@@ -19,8 +19,9 @@ from functools import cache
 import numpy as np
 from numpy.typing import NDArray
 
+from pegbt.behaviours.actions.grasping import approach_plan
 from pegbt.behaviours.actions.handover import Meeting, plan_meeting
-from pegbt.behaviours.poses import approach_for, from_handover, to_handover, transfer_for
+from pegbt.behaviours.poses import from_handover, to_handover, transfer_for
 from pegbt.behaviours.resources.arm_motion import ArmMotion, Prepared
 from pegbt.behaviours.resources.skills import SIMULATOR_CALIBRATION, Skills
 from pegbt.errors import PegbtError
@@ -216,24 +217,47 @@ def simulate_transfer(
     condition: str,
     seed: int,
     replay: Replay | None = None,
+    index: int | None = None,
     attempts: int = 1 + REGRASPS,
 ) -> TransferResult:
-    """Transfer number `seed` of `variant`'s transfers (cycling; on the way back every block starts where
-    its outward transfer placed it), on a world of layout `seed`: the
-        grasp the executive would choose for the block perception would see, and the motions it would send,
-        picked and carried again after a failure, `attempts` in all (`trees/shared/one_transfer.yaml`
-        recovers `REGRASPS` times, from wherever the block fell; the arm starts each attempt from `START`);
-        a grasp the planning refuses before the arm moves is sensed and planned again without counting.
-    `replay`: the arm's motion in other worlds of this same transfer (variant, condition, seed), to reuse
-    where it is the same."""
+    """Transfer number `index` of `variant`'s transfers (by default `seed`, cycling), on a world of layout
+    `seed` (a trial's transfers, one for one, with the same `seed` and each `index`), `attempts` in all.
+    A transfer on the way back first simulates the outward transfer of its block: if that one was not
+    placed, the way back finds its start peg empty and fails at `sense`, as a trial's tick log says (the
+    recovery fetches strays only for a block the transfer itself lost). `replay`: the arm's motion in
+    other worlds of this same transfer (variant, condition, seed), to reuse where it is the same."""
     replay = Replay() if replay is None else replay
     order = transfers(variant)
-    arm, start_peg, goal_peg = order[seed % len(order)]
-    previous_peg = next(
-        goal for other, _, goal in reversed(order + order[: seed % len(order)]) if other == arm
-    )
+    index = seed % len(order) if index is None else index
+    if index >= len(order) // 2:
+        start_peg = order[index][1]
+        outward = next(i for i, (_, _, goal) in enumerate(order[: len(order) // 2]) if goal == start_peg)
+        there = _transfer(effects, variant, condition, seed, outward, replay, attempts)
+        if not there.succeeded:
+            return TransferResult(False, "sense", there.seconds)
+    return _transfer(effects, variant, condition, seed, index, replay, attempts)
+
+
+def _transfer(
+    effects: WorldEffects,
+    variant: str,
+    condition: str,
+    seed: int,
+    index: int,
+    replay: Replay,
+    attempts: int,
+) -> TransferResult:
+    """Transfer `index` of `variant`'s transfers on a world of layout `seed` (on the way back every block
+    starts where its outward transfer placed it): the grasp the executive would choose for the block
+    perception would see, and the motions it would send, picked and carried again after a failure,
+    `attempts` in all (`trees/shared/one_transfer.yaml` recovers `REGRASPS` times, from wherever the block
+    fell; each attempt starts where the arm let go of its previous block); a grasp the planning refuses
+    before the arm moves is sensed and planned again without counting."""
+    order = transfers(variant)
+    arm, start_peg, goal_peg = order[index]
+    previous_peg = next(goal for other, _, goal in reversed(order + order[:index]) if other == arm)
     world = World(seed, effects=effects)
-    if seed % len(order) >= len(order) // 2:
+    if index >= len(order) // 2:
         _moved_out(world, order)
     skills = _skills(condition)
     block = next(b for b in world.blocks if b.peg == start_peg)
@@ -337,8 +361,7 @@ def _attempt(
         return _Bench.failed_before(world, arm, motion, "reach")
     bench = _Bench(world, arm, motion, ik.q[0], replay)
     try:
-        approach = approach_for(world.cell, skills.motion, arm, start, waypoints)
-        reach = motion.transfer(approach, above_clear=skills.motion.sqp.approach_above_clear)
+        reach = approach_plan(skills, arm, ik.q[0], None, seen, grasp)()
     except PegbtError:  # the approach leaf fails to plan: nothing moves
         bench.failed, bench.moved = "reach", False
         return bench

@@ -1,0 +1,41 @@
+"""`pegbt bench sim2real-outcomes --seeds N --families A,B`: a reduced benchmark the command line states,
+each bad choice one clear line."""
+
+from __future__ import annotations
+
+import pytest
+
+from pegbt.bench import sim2real_outcomes
+from pegbt.cli import main
+
+
+@pytest.mark.parametrize(
+    ("argv", "words"),
+    [
+        (["--families", "peg_compliance,nope"], "--families: unknown families nope"),
+        (["--seeds", "0"], "--seeds: expected at least 1 seed"),
+    ],
+)
+def test_a_bad_size_is_one_clear_line(
+    argv: list[str], words: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert main(["bench", "sim2real-outcomes", *argv]) == 2
+    err = capsys.readouterr().err.strip()
+    assert words in err and len(err.splitlines()) == 1
+
+
+def test_the_size_options_belong_to_sim2real_outcomes_alone(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["bench", "world", "--seeds", "1"]) == 2
+    assert "sim2real-outcomes benchmark alone" in capsys.readouterr().err
+
+
+def test_the_reduced_run_measures_the_families_and_seeds_asked_for(monkeypatch: pytest.MonkeyPatch) -> None:
+    asked = []
+    monkeypatch.setattr(
+        sim2real_outcomes, "measure", lambda families, seeds, *_: asked.append((families, seeds)) or {}
+    )
+    assert main(["bench", "sim2real-outcomes", "--seeds", "2", "--families", "null,peg_compliance"]) == 0
+    assert asked == [(["null", "peg_compliance"], 2)]
+    figures = sim2real_outcomes.run()
+    assert asked[-1] == (list(sim2real_outcomes.FAMILIES), sim2real_outcomes.SEEDS)
+    assert figures["full_size"] == "true"
