@@ -294,19 +294,21 @@ def nested_predict(
     for a, b in fold_ranges:
         keep = np.ones(recording.n, dtype=bool)
         keep[a:b] = False
-        shift = np.zeros_like(residual) if removal is None else removal(keep)
+        shift = None if removal is None else removal(keep)
         choice = choose_and_fit(
             recording.q_cmd[keep],
             None if t is None else t[keep],
-            (residual - shift)[keep],
+            (residual if shift is None else residual - shift)[keep],
             base,
             recording.sampling.is_stream,
             resolution,
         )
-        replay = merged_physics(choice.fits, base).simulate(recording.q_cmd, t)
-        prediction[a:b] = replay[a:b] + shift[a:b]
-        named_replay = merged_physics(choice.named_fits(), base).simulate(recording.q_cmd, t)
-        named_prediction[a:b] = named_replay[a:b] + shift[a:b]
+        # each replay is cut to its segment at once: a whole one (N, 6) never outlives its line
+        prediction[a:b] = merged_physics(choice.fits, base).simulate(recording.q_cmd, t)[a:b]
+        named_prediction[a:b] = merged_physics(choice.named_fits(), base).simulate(recording.q_cmd, t)[a:b]
+        if shift is not None:
+            prediction[a:b] += shift[a:b]
+            named_prediction[a:b] += shift[a:b]
         named.append(choice.labels())
     return prediction, named_prediction, named
 
