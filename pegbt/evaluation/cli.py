@@ -12,6 +12,7 @@ from typing import TYPE_CHECKING
 from pegbt.errors import PegbtError
 from pegbt.evaluation.paper import CONDITIONS, VARIANTS
 from pegbt.numbers import NumberOption
+from pegbt.simoptions import add_sim_world_arguments, refuse_dvrk_only
 
 if TYPE_CHECKING:
     from pegbt.evaluation.cluster import ClusterTls
@@ -50,13 +51,7 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
         action="store_true",
         help="a fault plan per seed: a missed grasp, slips, depth-noise bursts (written to DIR/faults/)",
     )
-    parser.add_argument(
-        "--world-effects",
-        type=Path,
-        metavar="YAML",
-        help="world file for every trial's simulator: the contact physics it adds (as `pegbt sim "
-        "--world-effects`; `pegbt sim2real outcomes --effects` lists them)",
-    )
+    add_sim_world_arguments(parser, for_trials=True)
     parser.add_argument(
         "--realtime",
         action="store_true",
@@ -78,22 +73,6 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
         default=1.0,
         metavar="F",
         help="every run moves at this fraction of the planner's speed, as `pegbt run --speed` (default 1)",
-    )
-    parser.add_argument(
-        "--robot-clock-offset",
-        action=NumberOption,
-        default=0.0,
-        metavar="SECONDS",
-        help="--interface dvrk: each simulator stamps what its robot sends on a clock this far from this "
-        "computer's (`pegbt sim --robot-clock-offset`; default 0)",
-    )
-    parser.add_argument(
-        "--camera",
-        choices=("stream", "zivid"),
-        default="stream",
-        help="--interface dvrk: the simulator's depth camera and the run's client of it: stream (a streaming "
-        "camera, the default) or zivid (a Zivid's capture service); passed to `pegbt sim --camera` and "
-        "`pegbt run --camera`",
     )
     parser.add_argument(
         "--out",
@@ -164,14 +143,7 @@ def check_arguments(args: argparse.Namespace) -> None:
 
         read_world_file(args.world_effects)  # refused here, with its location, not in every trial
     check_interface(args.interface, args.realtime)
-    if args.robot_clock_offset and args.interface != "dvrk":
-        raise PegbtError(
-            "a robot clock offset is the dVRK interface's: add --interface dvrk", field="--robot-clock-offset"
-        )
-    if args.camera != "stream" and args.interface == "pegbt":
-        raise PegbtError(
-            f"--camera {args.camera} is a ROS 2 camera's: add --interface dvrk", field="--camera"
-        )
+    refuse_dvrk_only(args)
 
 
 def cluster_tls(args: argparse.Namespace) -> ClusterTls | None:

@@ -17,6 +17,7 @@ from pegbt.bagoptions import add_record_arguments
 from pegbt.errors import PegbtError
 from pegbt.numbers import NumberOption
 from pegbt.scheduling import ROBOT_PRIORITY, realtime_priority
+from pegbt.simoptions import add_sim_world_arguments, refuse_dvrk_only
 from pegbt.transport.endpoints import DEFAULT_ENDPOINT, DEFAULT_POINTS_TOPIC
 
 if TYPE_CHECKING:
@@ -94,13 +95,7 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
         metavar="YAML",
         help="fault plan (loss, latency, crash, world and camera faults)",
     )
-    parser.add_argument(
-        "--world-effects",
-        type=Path,
-        metavar="YAML",
-        help="world file: the contact physics the world adds (bending pegs, chamfers, a compliant or "
-        "slipping grip, a registration offset, a depth bias; `pegbt sim2real outcomes --effects` lists them)",
-    )
+    add_sim_world_arguments(parser)
     parser.add_argument(
         "--seed",
         action=NumberOption,
@@ -134,16 +129,6 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
         "--log", type=Path, metavar="JSONL", help="append the simulator's log (world events, faults) here"
     )
     parser.add_argument(
-        "--camera",
-        choices=("stream", "zivid"),
-        default="stream",
-        help="--interface dvrk: stream: a depth camera streaming PointCloud2 on --camera-topic at --camera-rate, "
-        "as realsense2_camera does (the default); zivid: a Zivid 2 as `ros2 run zivid_camera zivid_camera` "
-        "serves it: the service /capture (std_srvs/srv/Trigger) captures one organised, full-resolution "
-        "cloud (1944 x 1200 points, NaN where a pixel sees nothing, frame zivid_optical_frame) and publishes "
-        "it on /points/xyzrgba and /points/xyz, each only if somebody subscribes, before it responds",
-    )
-    parser.add_argument(
         "--camera-topic",
         default=DEFAULT_POINTS_TOPIC,
         metavar="TOPIC",
@@ -166,14 +151,6 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
         at_most=100.0,
         metavar="HZ",
         help="--interface dvrk: joint and Cartesian states per second (default 100, the dVRK's ROS period)",
-    )
-    parser.add_argument(
-        "--robot-clock-offset",
-        action=NumberOption,
-        default=0.0,
-        metavar="SECONDS",
-        help="--interface dvrk: stamp everything the robot sends on a clock this far ahead of this computer's "
-        "(negative: behind), as a robot computer whose clock is not synchronised (default 0)",
     )
     parser.add_argument(
         "--stop-with-parent",
@@ -200,16 +177,8 @@ def _sim(args: argparse.Namespace) -> int:
     check_namespace(args.namespace, "--namespace")
     if args.interface == "dvrk":
         _refuse_pegbt_only_options(args)
-    elif args.robot_clock_offset:
-        raise PegbtError(
-            "--robot-clock-offset is the dVRK interface's (pegbt's stamps on the simulator's clock): add "
-            "--interface dvrk",
-            field="--robot-clock-offset",
-        )
-    elif args.camera != "stream":
-        raise PegbtError(
-            f"--camera {args.camera} is a ROS 2 camera driver's: add --interface dvrk", field="--camera"
-        )
+    else:
+        refuse_dvrk_only(args)
     if args.ros2 == "rmw_zenoh":
         settings = _graph_settings(args)
     else:

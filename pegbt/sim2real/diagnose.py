@@ -294,21 +294,46 @@ def nested_predict(
     for a, b in fold_ranges:
         keep = np.ones(recording.n, dtype=bool)
         keep[a:b] = False
-        shift = np.zeros_like(residual) if removal is None else removal(keep)
-        choice = choose_and_fit(
-            recording.q_cmd[keep],
-            None if t is None else t[keep],
-            (residual - shift)[keep],
-            base,
-            recording.sampling.is_stream,
-            resolution,
+        shift = None if removal is None else removal(keep)
+        named.append(
+            _predict_segment(
+                recording, t, residual, shift, base, resolution, (a, b), (prediction, named_prediction)
+            )
         )
-        replay = merged_physics(choice.fits, base).simulate(recording.q_cmd, t)
-        prediction[a:b] = replay[a:b] + shift[a:b]
-        named_replay = merged_physics(choice.named_fits(), base).simulate(recording.q_cmd, t)
-        named_prediction[a:b] = named_replay[a:b] + shift[a:b]
-        named.append(choice.labels())
+        if shift is not None:
+            prediction[a:b] += shift[a:b]
+            named_prediction[a:b] += shift[a:b]
     return prediction, named_prediction, named
+
+
+def _predict_segment(
+    recording: Recording,
+    t: Array | None,
+    residual: Array,
+    shift: Array | None,
+    base: ArmPhysics,
+    resolution: tuple[float, ...] | None,
+    segment: tuple[int, int],
+    out: tuple[Array, Array],
+) -> list[str]:
+    """One segment of `nested_predict`: the choice made without it (on `residual − shift`), its whole
+    model's and its named effects' replays written into the segment's rows of `out`, and its labels. A
+    function of its own so that the choice (and the training copies its fits keep) and each whole replay
+    are gone before the next segment's choice."""
+    a, b = segment
+    keep = np.ones(recording.n, dtype=bool)
+    keep[a:b] = False
+    choice = choose_and_fit(
+        recording.q_cmd[keep],
+        None if t is None else t[keep],
+        (residual if shift is None else residual - shift)[keep],
+        base,
+        recording.sampling.is_stream,
+        resolution,
+    )
+    for fits, prediction in zip((choice.fits, choice.named_fits()), out):
+        prediction[a:b] = merged_physics(fits, base).simulate(recording.q_cmd, t)[a:b]
+    return choice.labels()
 
 
 def diagnose(

@@ -229,7 +229,9 @@ def select_joint(
             ):
                 reason = "does not gain in every fold that excites it"
             else:
-                pvalue = shift_pvalue(residual, grams.column_values(cand.columns))
+                pvalue = shift_pvalue(
+                    residual, lambda k: grams.column_values(cand.columns[k : k + 1])[:, 0], len(cand.columns)
+                )
                 if pvalue <= level:
                     accepted = index, pvalue
                     break

@@ -13,6 +13,8 @@ cannot resolve the small p-values a Bonferroni level asks for in short recording
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 from numpy.typing import NDArray
 from scipy import stats
@@ -31,8 +33,9 @@ def autocorrelation(x: Array) -> Array:
     return acf / np.maximum(acf[:1], 1e-300)
 
 
-def effective_samples(noise: Array, columns: Array) -> Array:
-    """N_eff of the correlation between the noise (N,) and each column (N, G), by Bartlett's formula.
+def effective_samples(noise: Array, column: Callable[[int], Array], count: int) -> Array:
+    """N_eff of the correlation between the noise (N,) and each of `count` columns (`column(k)`, N), by
+    Bartlett's formula; the columns are read one at a time, so a candidate is never held whole.
 
     The noise's autocorrelation enters twice: as measured (to the lag where it is still correlated,
     ×LAG_HORIZON) and as an AR(1) model with its lag-1 value; the larger variance is kept, because a
@@ -42,30 +45,41 @@ def effective_samples(noise: Array, columns: Array) -> Array:
     rho_noise = autocorrelation(noise)
     below = np.flatnonzero(rho_noise < CORRELATED)
     horizon = int(min(n // 2, LAG_HORIZON * max(1, below[0] if below.size else n)))
-    rho_columns = autocorrelation(columns)[1 : horizon + 1]
     lags = np.arange(1, horizon + 1)
     modelled = np.clip(rho_noise[1], 0.0, 0.999) ** lags
-    measured = (rho_noise[1 : horizon + 1, None] * rho_columns).sum(0)
-    variance = (1 + 2 * np.maximum(measured, (modelled[:, None] * rho_columns).sum(0))) / n
+    variance = np.empty(count)
+    for k in range(count):
+        rho_column = autocorrelation(column(k))[1 : horizon + 1]
+        measured = float(rho_noise[1 : horizon + 1] @ rho_column)
+        variance[k] = (1 + 2 * max(measured, float(modelled @ rho_column))) / n
     return np.clip(1.0 / np.maximum(variance, 1e-300), 3.0, float(n))
 
 
-def shift_pvalue(residual: Array, columns: Array) -> float:
-    """p-value that the residual is associated with any of a candidate's columns (one per width).
+def shift_pvalue(residual: Array, column: Callable[[int], Array], count: int) -> float:
+    """p-value that the residual is associated with any of a candidate's `count` columns (one per width,
+    `column(k)` the k-th, read when needed: an hour's candidate held whole would be 100 MB).
 
     Each column's correlation gets a t-test on its effective sample size; the smallest p-value is
     Bonferroni-corrected over the columns.
     """
     e = residual - residual.mean()
-    phi = columns - columns.mean(0)
-    energy = np.maximum((phi**2).sum(0), 1e-300)
-    r = (phi.T @ e) / np.sqrt(energy * max(float(e @ e), 1e-300))
+    ee = max(float(e @ e), 1e-300)
+    energy, r = np.empty(count), np.empty(count)
+    for k in range(count):
+        phi = _centred(column(k))
+        energy[k] = max(float(phi @ phi), 1e-300)
+        r[k] = float(phi @ e) / np.sqrt(energy[k] * ee)
     best = int(np.argmax(np.abs(r)))
-    noise = e - phi[:, best] * (phi[:, best] @ e) / energy[best]
-    n_eff = effective_samples(noise, phi)
+    phi = _centred(column(best))
+    noise = e - phi * (phi @ e) / energy[best]
+    n_eff = effective_samples(noise, lambda k: _centred(column(k)), count)
     r = np.clip(r, -0.999999, 0.999999)
     t = np.abs(r) * np.sqrt((n_eff - 2) / (1 - r**2))
-    return float(min(1.0, columns.shape[1] * float(np.min(2 * stats.t.sf(t, n_eff - 2)))))
+    return float(min(1.0, count * float(np.min(2 * stats.t.sf(t, n_eff - 2)))))
+
+
+def _centred(x: Array) -> Array:
+    return x - x.mean()
 
 
 def t_pvalue(estimate: float, standard_error: float, dof: int) -> float:

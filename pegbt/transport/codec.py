@@ -9,6 +9,7 @@ turns one message into plain Python/numpy values or back; nothing here knows the
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import lru_cache
 from typing import Any, Protocol, runtime_checkable
@@ -256,37 +257,25 @@ def decode_pose_stamped(data: bytes) -> tuple[float, NDArray[np.float64]]:
 
 
 # ----------------------------------------------------------------------------- point clouds
+ORGANISED_POINT_STEP = 16  # bytes: x, y, z float32 and rgba (or padding), as the Zivid driver sends
+_FLOAT32, _UINT32 = 7, 6  # sensor_msgs/PointField datatypes
+_XYZ_FIELDS = (("x", _FLOAT32), ("y", _FLOAT32), ("z", _FLOAT32))
+
+
 def encode_point_cloud(stamp: float, points: ArrayLike, frame_id: str = "camera") -> bytes:
     """Points in metres as a sensor_msgs/PointCloud2 of float32 x, y, z: (N, 3) unorganised, or (H, W, 3)
     organised as an image's pixels, row by row, NaN marking the invalid ones (then not dense)."""
     points = np.ascontiguousarray(points, dtype="<f4")
     if points.ndim not in (2, 3) or points.shape[-1] != 3:
         raise PegbtError(f"point cloud must be N×3 or H×W×3, got shape {points.shape}", field="points")
-    height, width = points.shape[:2] if points.ndim == 3 else (1, len(points))
-    points = points.reshape(-1, 3)
-    field_type = _type("sensor_msgs/msg/PointField")
-    fields = [
-        field_type(name=axis, offset=4 * i, datatype=field_type.FLOAT32, count=1)
-        for i, axis in enumerate("xyz")
-    ]
-    message = _type(POINT_CLOUD2)(
-        header=_header(stamp, frame_id),
-        height=height,
-        width=width,
-        fields=fields,
-        is_bigendian=False,
-        point_step=12,
-        row_step=12 * width,
-        data=points.view(np.uint8).reshape(-1),
-        is_dense=bool(np.isfinite(points).all()),
-    )
-    return serialize(message)
+    grid = points if points.ndim == 3 else points[None]
+    return _point_cloud2(stamp, frame_id, grid, _XYZ_FIELDS, is_dense=bool(np.isfinite(points).all()))
 
 
 def decode_point_cloud(data: bytes) -> tuple[float, NDArray[np.float32]]:
     """(stamp, (N, 3) float32 points) from a PointCloud2 with float32 x, y, z fields at any offsets."""
     message = deserialize(data, POINT_CLOUD2)
-    offsets = {f.name: f.offset for f in message.fields if f.datatype == 7 and f.count == 1}
+    offsets = {f.name: f.offset for f in message.fields if f.datatype == _FLOAT32 and f.count == 1}
     if not {"x", "y", "z"} <= offsets.keys() or message.is_bigendian:
         raise PegbtError("point cloud needs little-endian float32 x, y, z fields", field="fields")
     count = message.width * message.height
@@ -295,10 +284,6 @@ def decode_point_cloud(data: bytes) -> tuple[float, NDArray[np.float32]]:
     )
     columns = [raw[:, offsets[axis] : offsets[axis] + 4].copy().view("<f4").reshape(-1) for axis in "xyz"]
     return _stamp(message.header), np.column_stack(columns).astype(np.float32)
-
-
-ORGANISED_POINT_STEP = 16  # bytes: x, y, z float32 and rgba (or padding), as the Zivid driver sends
-_FLOAT32, _UINT32 = 7, 6  # sensor_msgs/PointField datatypes
 
 
 def encode_organised_cloud(
@@ -310,25 +295,38 @@ def encode_organised_cloud(
     NaN marks the invalid pixels; the cloud is never dense."""
     if points.ndim != 3 or points.shape[-1] != 3:
         raise PegbtError(f"an organised cloud is H×W×3, got shape {points.shape}", field="points")
-    height, width = points.shape[:2]
-    packed = np.zeros((height, width, 4), dtype="<f4")
+    packed = np.zeros((*points.shape[:2], ORGANISED_POINT_STEP // 4), dtype="<f4")
     packed[..., :3] = points
     if rgba is not None:
         packed[..., 3] = np.asarray(rgba, dtype="<u4").view("<f4")
+    fields = _XYZ_FIELDS if rgba is None else (*_XYZ_FIELDS, ("rgba", _UINT32))
+    return _point_cloud2(stamp, frame_id, packed, fields, is_dense=False)
+
+
+def _point_cloud2(
+    stamp: float,
+    frame_id: str,
+    packed: NDArray[np.float32],
+    fields: Sequence[tuple[str, int]],
+    is_dense: bool,
+) -> bytes:
+    """A PointCloud2 of the (H, W, words) 4-byte words `packed`, the `fields` (name, datatype) at offsets
+    0, 4, 8, … and any words after them padding: the one builder of every cloud layout sent."""
+    height, width, words = packed.shape
     field_type = _type("sensor_msgs/msg/PointField")
-    fields = [field_type(name=axis, offset=4 * i, datatype=_FLOAT32, count=1) for i, axis in enumerate("xyz")]
-    if rgba is not None:
-        fields.append(field_type(name="rgba", offset=12, datatype=_UINT32, count=1))
     message = _type(POINT_CLOUD2)(
         header=_header(stamp, frame_id),
         height=height,
         width=width,
-        fields=fields,
+        fields=[
+            field_type(name=name, offset=4 * i, datatype=datatype, count=1)
+            for i, (name, datatype) in enumerate(fields)
+        ],
         is_bigendian=False,
-        point_step=ORGANISED_POINT_STEP,
-        row_step=ORGANISED_POINT_STEP * width,
-        data=packed.view(np.uint8).reshape(-1),
-        is_dense=False,
+        point_step=4 * words,
+        row_step=4 * words * width,
+        data=np.ascontiguousarray(packed, dtype="<f4").view(np.uint8).reshape(-1),
+        is_dense=is_dense,
     )
     return serialize(message)
 

@@ -19,6 +19,7 @@ from pegbt.physics.kernels import delay_blocks, delay_series, lag_blocks, lag_se
 from pegbt.sim2real import crossval
 from pegbt.sim2real.crossval import BlockedGrams, block_edges
 from pegbt.sim2real.library import build_columns
+from pegbt.sim2real.significance import shift_pvalue
 
 SHORT, LONG = 3_000, 6_000
 CHUNK = 50  # rows: three chunks a block at SHORT, six at LONG
@@ -121,3 +122,30 @@ def test_added_columns_do_not_load_the_bank():
     )
     block = slice(0, LONG // 20)  # the first of the 20 blocks
     np.testing.assert_allclose(grams.gram[0], whole[block].T @ whole[block], rtol=1e-12, atol=1e-9)
+
+
+def _pvalue_peak(n: int) -> tuple[int, float]:
+    """Peak traced bytes of the p-value of a 12-width candidate over `n` samples of a bank's file."""
+    q_cmd, t, drivers = _stream(n)
+    bank, candidates = build_columns(q_cmd, t, drivers)
+    grams = BlockedGrams(bank, _targets(n))
+    candidate = next(c for c in candidates if c.kind == "lag" and c.joint == 2)
+    column = grams.column_values(candidate.columns[4:5])[:, 0]
+    residual = column + 0.1 * column.std() * grams.targets[:, 2]
+    return _peak_bytes(
+        lambda: shift_pvalue(
+            residual,
+            lambda k: grams.column_values(candidate.columns[k : k + 1])[:, 0],
+            len(candidate.columns),
+        )
+    )
+
+
+def test_a_candidates_p_value_reads_its_columns_one_at_a_time():
+    _pvalue_peak(300)
+    short, _ = _pvalue_peak(SHORT)
+    long, pvalue = _pvalue_peak(LONG)
+    # per sample: a few columns' worth (the residual, the noise, one column and its FFT), not the twelve
+    # columns centred and transformed together (70 of them at once)
+    assert long - short < 12 * 8 * (LONG - SHORT)
+    assert pvalue < 1e-6  # the residual holds one of the candidate's columns
