@@ -4,7 +4,9 @@ Each frame is exposed (the world frozen as it is) when due and rendered over the
 follow, a few thousand rays at a time within a budget of wall time per period, so that ray casting never
 delays the arms; a finished frame is an organised cloud (the camera's region of the image, row by row,
 NaN for the pixels that see nothing) stamped with its exposure time. If rendering falls behind, frames
-are skipped, never queued: the stream's rate drops, its latency does not grow.
+are skipped, never queued: the stream's rate drops, its latency does not grow. A frame nobody listens for
+is not exposed: rendering is the simulator's cost, not the camera's, and a subscriber sees the same
+stream (its first frame is exposed when it joins, as a running camera's next one would be).
 """
 
 from __future__ import annotations
@@ -40,10 +42,10 @@ class CameraStream:
         self._stamp = 0.0
         self._next = 0.0
 
-    def step(self, elapsed: float, stamp: float) -> bytes | None:
-        """Expose a frame if one is due at `elapsed` (simulated s; `stamp` its epoch time), render within the
-        budget; the encoded PointCloud2 of a frame finished now, else None."""
-        if self._exposure is None and elapsed >= self._next - self._slack:
+    def step(self, elapsed: float, stamp: float, *, listened: bool = True) -> bytes | None:
+        """Expose a frame if one is due at `elapsed` (simulated s; `stamp` its epoch time) and someone
+        `listened`, render within the budget; the encoded PointCloud2 of a frame finished now, else None."""
+        if self._exposure is None and listened and elapsed >= self._next - self._slack:
             self._exposure = self._camera.expose(self._world, elapsed)
             self._stamp = stamp
             self._next = max(self._next, elapsed) + self._period

@@ -371,10 +371,11 @@ class DvrkEndpoint:
 
     def _stream(self) -> None:
         assert self._camera is not None and self._scene is not None
-        cloud = self._camera.step(self.elapsed, self.time)
+        topic = point_cloud_topic(self.config.camera_topic)
+        cloud = self._camera.step(self.elapsed, self.time, listened=self._publishers[topic.name].matched)
         if cloud is not None:
             self._scene.log_events()  # a noise burst is the camera's event
-            self._put(point_cloud_topic(self.config.camera_topic), cloud)
+            self._put(topic, cloud)
 
     # ------------------------------------------------------------------ shutdown
     def close(self) -> None:

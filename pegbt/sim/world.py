@@ -98,6 +98,7 @@ class World:
         self._clearance = self.cell.block.hole_radius - pegs.radius + config.peg_slack
         self._capture = max(self._clearance, effects.values("chamfer_capture")["capture_radius"])
         self._grasp_capture = effects.values("grasp_capture")["width"]
+        self._tip_slide = effects.values("jaw_tip_slide")["width"]
         bending, grip = effects.values("peg_compliance"), effects.values("grip_compliance")
         self._peg_bend, self._peg_stiffness = bending["deflection"], bending["stiffness"]
         self._grip_angle, self._grip_slide = grip["angle"], grip["displacement"]
@@ -270,7 +271,7 @@ class World:
         wall_half = (model.edge_distance - model.hole_radius) / 2
         off_centre = float(tip[:2] @ normal) - (model.hole_radius + wall_half)
         reach = self.cell.tool.jaw_length * math.sin(max(opened, 0.0) / 2) * alignment[edge] - wall_half
-        if abs(off_centre) >= reach:
+        if abs(off_centre) >= reach + self._tip_slide:  # a tip on the wall's top slides off its edge
             return (
                 f"jaws open {max(reach, 0.0) * 1000:.1f} mm either side of the wall's centre miss it by {abs(off_centre) * 1000:.1f} mm",
                 edge,

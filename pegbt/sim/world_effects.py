@@ -163,6 +163,26 @@ class GraspCapture(WorldEffectKind):
     }
 
 
+class JawTipSlide(WorldEffectKind):
+    name = "jaw_tip_slide"
+    acts_on = "world"
+    summary = (
+        "an open jaw's tip that comes down on a wall's top within `width` of the edge it reached over "
+        "slides back off the rounded edge beside the wall, so the jaws straddle it and close on it"
+    )
+    parameters = {
+        "width": Parameter(
+            "m",
+            0.0,
+            0.001,
+            0.0,
+            "the rounding of a jaw's tip (about 0.5 mm radius on the dVRK's 8 mm instruments' jaws, "
+            "estimated) and of a printed wall's top edge (0.2–0.4 mm of FDM layers, estimated) (0: a tip "
+            "on the wall's top stays there and the jaws miss)",
+        ),
+    }
+
+
 class JawFriction(WorldEffectKind):
     name = "jaw_friction"
     acts_on = "world"
@@ -247,6 +267,7 @@ for _kind in (
     ChamferCapture(),
     GripCompliance(),
     GraspCapture(),
+    JawTipSlide(),
     JawFriction(),
     RegistrationOffset(),
     DepthBias(),

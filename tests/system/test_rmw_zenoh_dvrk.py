@@ -34,33 +34,46 @@ def test_a_ros2_node_reads_enables_homes_and_servos_the_simulated_arm(messages_d
     assert drove["after"][0] - drove["before"][0] == pytest.approx(0.05, abs=0.01)
 
 
-def _sim_stderr(connect: str, seconds: float) -> str:
-    """What `pegbt sim --interface dvrk --ros2 rmw_zenoh --connect CONNECT` says on stderr in its first
-    `seconds` after start-up."""
+def _sims_stderr(*connects: str) -> list[str]:
+    """What `pegbt sim --interface dvrk --ros2 rmw_zenoh --connect CONNECT` says on stderr, one simulator per
+    CONNECT, all started at once: from the moment each says it serves, the simulator gives a router
+    `CONNECT_GRACE` to answer before it says that nothing does; they are stopped 3 s after that."""
     import os
+    import selectors
     import subprocess
     import sys
     import time
 
+    from pegbt.sim.cli import CONNECT_GRACE
+
     env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[2])}
     command = [sys.executable, "-m", "pegbt", "sim", "--interface", "dvrk", "--ros2", "rmw_zenoh"]
-    command += ["--connect", connect, "--no-world", "--priority", "normal"]
-    simulator = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+    command += ["--no-world", "--priority", "normal", "--connect"]
+    simulators = [
+        subprocess.Popen(
+            [*command, connect], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env
+        )
+        for connect in connects
+    ]
     try:
-        time.sleep(seconds)
+        for simulator in simulators:
+            assert simulator.stdout is not None
+            with selectors.DefaultSelector() as selector:
+                selector.register(simulator.stdout, selectors.EVENT_READ)
+                assert selector.select(120), "the simulator did not start within 120 s"
+            assert simulator.stdout.readline().startswith("pegbt sim: serving")
+        time.sleep(CONNECT_GRACE + 3.0)
     finally:
-        simulator.terminate()
-        _, stderr = simulator.communicate(timeout=20)
-    return stderr
+        for simulator in simulators:
+            simulator.terminate()
+    return [simulator.communicate(timeout=20)[1] for simulator in simulators]
 
 
 @pytest.mark.slow
 def test_a_simulator_whose_router_is_absent_says_so_and_not_when_it_is_there(router) -> None:
     from pegbt.sim.process import free_port
 
-    wait = (
-        11.0  # s: start-up, then the 3 s the simulator gives a router to answer (pegbt.sim.cli.CONNECT_GRACE)
-    )
     absent = f"tcp/127.0.0.1:{free_port()}"
-    assert f"nothing answers at {absent}" in _sim_stderr(absent, wait)
-    assert "nothing answers" not in _sim_stderr(f"tcp/127.0.0.1:{router}", wait)
+    unanswered, answered = _sims_stderr(absent, f"tcp/127.0.0.1:{router}")
+    assert f"nothing answers at {absent}" in unanswered
+    assert "nothing answers" not in answered

@@ -209,3 +209,18 @@ def test_a_captured_grip_holds_the_wall_off_centre_so_a_lift_drifting_outward_ca
     driver = Driver(centred)
     _, holding = grasp_block(centred, driver, 1)
     assert kinds(lift_block(centred, driver, holding, drift=drift)) == ["lift"]
+
+
+def test_an_open_jaw_s_tip_landing_on_a_wall_s_top_slides_off_its_edge_within_the_tip_slide_width():
+    capturing = {"grasp_capture": {"width": 0.003}}  # so the peg does not stop the block either
+    # 0.2 mm onto the wall's top: the jaws 3.0 mm either side of the tip miss a wall 3.2 mm off their centre
+    world, _, events, _ = _grasp_off_centre(WorldEffects.of(capturing), by=0.0028)
+    assert kinds(events) == ["grasp_miss"] and "jaws open" in events[0].detail
+
+    sliding = WorldEffects.of({**capturing, "jaw_tip_slide": {"width": 0.0005}})
+    world, _, events, _ = _grasp_off_centre(sliding, by=0.0028)
+    assert kinds(events) == ["grasp"] and world.held_by("PSM1") == 1
+
+    # 0.6 mm onto the top, beyond the 0.5 mm the tip slides back: still on the wall, still a miss
+    deep, _, events, _ = _grasp_off_centre(sliding, by=0.0032)
+    assert kinds(events) == ["grasp_miss"] and deep.held_by("PSM1") is None

@@ -120,6 +120,7 @@ class _Bench:
         self.clock = world.time
         self.segment = "reach"
         self.held = False  # holds the block lowered over its goal peg (or at the meeting point)
+        self.moved = True  # the arm set out: an attempt the robot made, not one its planning refused
         self.meeting: Meeting | None = None
         self.failed: str | None = None  # the phase in which this attempt lost the block
         self.history = hashlib.sha1(arm.encode() + q0.tobytes())
@@ -135,7 +136,7 @@ class _Bench:
         """An attempt that could not start (no feasible grasp, out of reach)."""
         bench = cls.__new__(cls)
         bench.world, bench.name, bench.motion, bench.events = world, arm, motion, []
-        bench.held, bench.failed, bench.meeting = False, phase, None
+        bench.held, bench.failed, bench.meeting, bench.moved = False, phase, None, False
         return bench
 
     def tick(self, seconds: float) -> None:
@@ -210,14 +211,21 @@ class _Bench:
 
 
 def simulate_transfer(
-    effects: WorldEffects, variant: str, condition: str, seed: int, replay: Replay | None = None
+    effects: WorldEffects,
+    variant: str,
+    condition: str,
+    seed: int,
+    replay: Replay | None = None,
+    attempts: int = 1 + REGRASPS,
 ) -> TransferResult:
     """Transfer number `seed` of `variant`'s transfers (cycling; on the way back every block starts where
     its outward transfer placed it), on a world of layout `seed`: the
         grasp the executive would choose for the block perception would see, and the motions it would send,
-        picked and carried again after a failure up to `REGRASPS` times as `trees/shared/one_transfer.yaml`
-        recovers (from wherever the block fell; the arm starts each attempt from `START`). `replay`: the arm's
-    motion in other worlds of this same transfer (variant, condition, seed), to reuse where it is the same."""
+        picked and carried again after a failure, `attempts` in all (`trees/shared/one_transfer.yaml`
+        recovers `REGRASPS` times, from wherever the block fell; the arm starts each attempt from `START`);
+        a grasp the planning refuses before the arm moves is sensed and planned again without counting.
+    `replay`: the arm's motion in other worlds of this same transfer (variant, condition, seed), to reuse
+    where it is the same."""
     replay = Replay() if replay is None else replay
     order = transfers(variant)
     arm, start_peg, goal_peg = order[seed % len(order)]
@@ -232,13 +240,15 @@ def simulate_transfer(
     rng = np.random.default_rng([seed, 7])
     events: list[tuple[str, Event]] = []
     first: str | None = None
+    made = 0  # attempts the arm set out on (a grasp or meeting refused before moving is planned again)
     for _ in range(1 + REGRASPS):
-        if block.lost:
+        if block.lost or made == attempts:
             break
         bench = _attempt(
             world, skills, arm, block.index, goal_peg, rng, previous_peg, replay, variant == "handover"
         )
         events += bench.events
+        made += bench.moved
         if bench.held and bench.meeting is not None:
             return _hand_over(world, skills, bench, block.index, goal_peg, first, replay)
         if bench.held:
@@ -327,9 +337,10 @@ def _attempt(
         return _Bench.failed_before(world, arm, motion, "reach")
     bench = _Bench(world, arm, motion, ik.q[0], replay)
     try:
-        reach = motion.transfer(approach_for(world.cell, skills.motion, arm, start, waypoints))
+        approach = approach_for(world.cell, skills.motion, arm, start, waypoints)
+        reach = motion.transfer(approach, above_clear=skills.motion.sqp.approach_above_clear)
     except PegbtError:  # the approach leaf fails to plan: nothing moves
-        bench.failed = "reach"
+        bench.failed, bench.moved = "reach", False
         return bench
     bench.play(reach, [(0.0, "reach")])
     bench.jaw(skills.motion.transfer.jaw_closed, "grasp")

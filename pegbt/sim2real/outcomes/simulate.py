@@ -4,6 +4,10 @@ Seeds are shared across the worlds compared (common random numbers): the same la
 perception noise for every parameter value, so differences between worlds are the effects', not luck's.
 A task is one transfer (variant, condition, seed) in every world at once, so one process simulates the
 arm's motion once and replays it in the worlds where it is the same (`phasesim.Replay`).
+
+How many attempts a transfer gets is the real protocol's, not a fitted knob (`attempts_for`): pegbt's trees
+regrasp a dropped block; the reference paper's robot moved each block once and skipped a transfer whose
+block was no longer on its peg, which is why its attempts end at a block lost for good.
 """
 
 from __future__ import annotations
@@ -11,14 +15,15 @@ from __future__ import annotations
 from collections.abc import Iterable, Sequence
 from concurrent.futures import Executor, ProcessPoolExecutor
 from dataclasses import dataclass, field
+from functools import partial
 from typing import Protocol
 
 import numpy as np
 
 from pegbt.errors import PegbtError
 from pegbt.sim.world_effects import WorldEffects
-from pegbt.sim2real.outcomes.cells import PHASES
-from pegbt.sim2real.outcomes.phasesim import Replay, TransferResult, simulate_transfer
+from pegbt.sim2real.outcomes.cells import PHASES, Outcomes
+from pegbt.sim2real.outcomes.phasesim import REGRASPS, Replay, TransferResult, simulate_transfer
 
 CATEGORIES = ("placed", *PHASES)  # a transfer placed, or failed for good in this phase (its first failure)
 Key = tuple[str, str]
@@ -60,30 +65,44 @@ class Mapper(Protocol):
     def __call__(self, tasks: Sequence[Task]) -> list[list[TransferResult]]: ...
 
 
-def _run(task: Task) -> list[TransferResult]:
-    """One transfer simulated in each world; a motion the planner refuses (a target out of reach in that
-    world) is a transfer that failed where it started, never the end of the whole fit."""
+ONE_ATTEMPT = 1  # the paper's robot: `FLSPegTransfer_single.py` (BerkeleyAutomation/FLSpegtransferHO)
+# runs `move_block` once per action order and skips an order whose block it no longer finds on its peg
+WITH_RECOVERY = 1 + REGRASPS  # pegbt's trees (`trees/shared/one_transfer.yaml`)
+
+
+def attempts_for(outcomes: Outcomes) -> int:
+    """Attempts per simulated transfer under the real outcomes' protocol: one where a trial's attempts end
+    at a block lost for good (the paper's robot never retried a transfer), else pegbt's recovery."""
+    return ONE_ATTEMPT if outcomes.attempts_end_at_lost_block else WITH_RECOVERY
+
+
+def _run(task: Task, attempts: int = WITH_RECOVERY) -> list[TransferResult]:
+    """One transfer simulated in each world, with up to `attempts` picks; a motion the planner refuses (a
+    target out of reach in that world) is a transfer that failed where it started, never the end of the
+    whole fit."""
     worlds, variant, condition, seed = task
     replay = Replay()
     results = []
     for world in worlds:
         try:
-            results.append(simulate_transfer(world, variant, condition, seed, replay))
+            results.append(simulate_transfer(world, variant, condition, seed, replay, attempts))
         except PegbtError:
             results.append(TransferResult(False, "reach", 0.0))
     return results
 
 
 class LocalMapper:
-    """Simulated transfers in `workers` local processes (in this process when `workers` is 0)."""
+    """Simulated transfers in `workers` local processes (in this process when `workers` is 0), each with up
+    to `attempts` picks."""
 
-    def __init__(self, workers: int) -> None:
+    def __init__(self, workers: int, attempts: int = WITH_RECOVERY) -> None:
         self._pool: Executor | None = ProcessPoolExecutor(workers) if workers > 0 else None
+        self._run = partial(_run, attempts=attempts)
 
     def __call__(self, tasks: Sequence[Task]) -> list[list[TransferResult]]:
         if self._pool is None:
-            return [_run(task) for task in tasks]
-        return list(self._pool.map(_run, tasks, chunksize=max(1, len(tasks) // 32)))
+            return [self._run(task) for task in tasks]
+        return list(self._pool.map(self._run, tasks, chunksize=max(1, len(tasks) // 32)))
 
     def close(self) -> None:
         if self._pool is not None:
@@ -91,15 +110,17 @@ class LocalMapper:
 
 
 class ClusterMapper:
-    """Simulated transfers as tasks on a Dask scheduler (`pegbt eval --cluster`'s `connect`)."""
+    """Simulated transfers as tasks on a Dask scheduler (`pegbt eval --cluster`'s `connect`), each with up
+    to `attempts` picks."""
 
-    def __init__(self, address: str) -> None:
+    def __init__(self, address: str, attempts: int = WITH_RECOVERY) -> None:
         from pegbt.evaluation.cluster import connect
 
         self._client = connect(address)
+        self._run = partial(_run, attempts=attempts)
 
     def __call__(self, tasks: Sequence[Task]) -> list[list[TransferResult]]:
-        futures = self._client.map(_run, list(tasks), pure=False)
+        futures = self._client.map(self._run, list(tasks), pure=False)
         return list(self._client.gather(futures))
 
     def close(self) -> None:

@@ -1,0 +1,41 @@
+"""The real outcomes' protocol sets how many attempts a simulated transfer gets: the paper's robot moved
+each block once, pegbt's trees regrasp a dropped block."""
+
+import logging
+from pathlib import Path
+
+from pegbt.sim.world_effects import WorldEffects
+from pegbt.sim2real.outcomes.phasesim import simulate_transfer
+from pegbt.sim2real.outcomes.simulate import LocalMapper, attempts_for
+from pegbt.sim2real.outcomes.table import paper_table, read_table
+
+# Transfer 2 of the unilateral order in a world whose wrist yields to the grasp: the first pick is lost
+# lowering onto the goal peg, the regrasp from where it fell places it.
+CAPTURING = WorldEffects.of({"grasp_capture": {"width": 0.003}})
+SEED = 2
+
+
+def test_the_paper_counts_one_attempt_per_transfer(tmp_path: Path) -> None:
+    assert attempts_for(paper_table()) == 1
+    table = tmp_path / "ours.yaml"
+    table.write_text(
+        "cells:\n  - {variant: unilateral, condition: uncalibrated, attempted: 10, succeeded: 3}\n"
+    )
+    assert attempts_for(read_table(table)) == 4
+
+
+def test_one_attempt_fails_where_the_recovery_places() -> None:
+    logging.getLogger("pegbt").setLevel(logging.ERROR)
+    recovered = simulate_transfer(CAPTURING, "unilateral", "uncalibrated", SEED)
+    assert recovered.succeeded and recovered.phase == "lower"
+    once = LocalMapper(0, attempts_for(paper_table()))([((CAPTURING,), "unilateral", "uncalibrated", SEED)])
+    [[first]] = once
+    assert not first.succeeded and first.phase == "lower"
+    assert first.seconds < recovered.seconds
+
+
+def test_a_meeting_the_planning_refuses_is_planned_again_not_counted_as_the_one_attempt() -> None:
+    logging.getLogger("pegbt").setLevel(logging.ERROR)
+    # calibrated handover transfer 2: the first grasp perception offers cannot reach the meeting point
+    once = simulate_transfer(WorldEffects(), "handover", "calibrated", 2, None, attempts_for(paper_table()))
+    assert once.succeeded and once.phase == "handover"
