@@ -216,6 +216,7 @@ declare(
         key_param("block_pose", "write", "the block's pose at the meeting point (board frame)"),
         key_param("receiver_grasp", "write", "the receiver's grasp of the block there"),
     ),
+    reads=("/board",),  # the giver's carry to the meeting point is planned as soon as it is known
     resources=RESOURCES,
 )
 

@@ -6,6 +6,9 @@ pre-compensated, numpy and Python). Each runs inline (as it did in the tick: the
 whole job) and on the run's worker pool while this thread ticks every `PERIOD` (as the runner does in
 real time), recording how late each tick wakes. Late ticks mean the job holds the GIL; the job's own
 slow-down against inline says what sharing the core costs it. Medians over `REPEATS` runs of each.
+
+Pre-compensation of the transfer's rows is also timed alone, in µs per 10 ms row: the whole trajectory
+at once (`Compensator.trajectory`, what a transfer's preparation runs) and `step` row by row.
 """
 
 from __future__ import annotations
@@ -22,6 +25,7 @@ from pegbt.bench import Figures
 
 PERIOD = 0.02  # s: the runner's default tick period
 REPEATS = 5
+COMPENSATION_REPEATS = 15
 SEED = 3
 
 
@@ -55,6 +59,32 @@ def _jobs() -> dict[str, Callable[[], object]]:
     return {"perception": perceive, "transfer": partial(motion.prepare, partial(motion.transfer, waypoints))}
 
 
+def _compensations(transfer: Callable[[], object]) -> Figures:
+    """µs per row of pre-compensating the transfer's planned rows: at once, and row by row (medians)."""
+    from pegbt.behaviours.resources.arm_motion import Prepared
+    from pegbt.calibration.compensation import Compensator
+
+    prepared = transfer()
+    assert isinstance(prepared, Prepared) and prepared.compensator is not None
+    rows, model = prepared.planned.q, prepared.compensator.model
+    runs: dict[str, Callable[[Compensator], object]] = {
+        "compensation_trajectory_us_per_row": lambda c: c.trajectory(rows),
+        "compensation_step_us_per_row": lambda c: [c.step(row) for row in rows],
+    }
+    seconds: dict[str, list[float]] = {name: [] for name in runs}
+    for _ in range(COMPENSATION_REPEATS):  # alternated: a change in the machine's load hits both alike
+        for name, compensate in runs.items():
+            compensator = Compensator(model, settings=prepared.compensator.settings)
+            compensator.reset(rows[0])
+            began = time.perf_counter()
+            compensate(compensator)
+            seconds[name].append(time.perf_counter() - began)
+    figures: Figures = {"compensation_rows": len(rows)}
+    for name, taken in seconds.items():
+        figures[name] = statistics.median(taken) / len(rows) * 1e6
+    return figures
+
+
 def _ticking(job: Callable[[], object]) -> tuple[float, list[float]]:
     """Run `job` on a worker while this thread ticks every PERIOD: (job seconds, each tick's lateness)."""
     from pegbt.executive.work import WorkPool
@@ -77,7 +107,8 @@ def _ticking(job: Callable[[], object]) -> tuple[float, list[float]]:
 
 def run() -> Figures:
     figures: Figures = {"period_ms": PERIOD * 1e3}
-    for name, job in _jobs().items():
+    jobs = _jobs()
+    for name, job in jobs.items():
         inline, threaded, late = [], [], []
         for _ in range(REPEATS):
             start = time.perf_counter()
@@ -95,4 +126,4 @@ def run() -> Figures:
             f"{name}_tick_late_p99_ms": float(np.percentile(late_ms, 99)) if len(late_ms) else 0.0,
             f"{name}_tick_late_max_ms": float(late_ms.max()) if len(late_ms) else 0.0,
         }
-    return figures
+    return figures | _compensations(jobs["transfer"])

@@ -1,4 +1,5 @@
-"""Pre-compensation of joint commands (the reference paper's Alg. 1), one command at a time.
+"""Pre-compensation of joint commands (the reference paper's Alg. 1), one command at a time or a whole
+streamed trajectory at once (`trajectory`: the same commands, its limits checked once for the array).
 
 To make the arm reach q_d, issue the q_c a forward model says lands there: iterate
 q_c ← q_c + α (q_d − f(q_c; history)) M times, issue q_c, and record what was actually
@@ -72,6 +73,7 @@ class Compensator:
         self.iterations = {False: goal, True: stream}
         self.settings = settings or arm_settings(model.arm)
         self.max_step = self.settings.velocity * self.settings.control_period
+        self._predicted = f"the {model.kind} model's prediction"
         self.state: Any = None
         self.last_issued: NDArray[np.float64] | None = None
         self._last_entry: NDArray[np.float64] | None = None
@@ -104,6 +106,27 @@ class Compensator:
         """The command to issue for a single goal (a set-point the arm settles at)."""
         return self._issue(q_desired, streamed=False)
 
+    def trajectory(self, desired: ArrayLike) -> NDArray[np.float64]:
+        """The commands (N, 6) of a streamed trajectory's desired rows (N, 6), as `step` gives them row by
+        row. The rows are checked against the joint limits all at once, before any is issued: a trajectory
+        with a row outside them is refused whole, and leaves the history as it was."""
+        rows = np.asarray(desired, dtype=float)
+        if rows.ndim != 2 or rows.shape[1] != len(JOINT_NAMES) or len(rows) == 0:
+            raise PegbtError(
+                f"a desired trajectory must be N×{len(JOINT_NAMES)} with N > 0, got shape {rows.shape}",
+                field="q",
+            )
+        inside = ((rows >= self.settings.lower) & (rows <= self.settings.upper)).all(axis=1)  # NaN: outside
+        if not inside.all():
+            row = int(np.argmin(inside))
+            self._checked(rows[row], f"row {row} of the desired trajectory")
+        if self.state is None:
+            self.reset(rows[0])
+        commands = np.empty_like(rows)
+        for n, q_d in enumerate(rows):
+            commands[n] = self._compensate(q_d, streamed=True)
+        return commands
+
     # ------------------------------------------------------------------ internals
     def _checked(self, q: ArrayLike, what: str) -> NDArray[np.float64]:
         q = np.asarray(q, dtype=float)
@@ -120,34 +143,40 @@ class Compensator:
         q_d = self._checked(q_desired, "the desired command")
         if self.state is None:
             self.reset(q_d)
+        return self._compensate(q_d, streamed).copy()
+
+    def _compensate(self, q_d: NDArray[np.float64], streamed: bool) -> NDArray[np.float64]:
+        """The command for `q_d` (already checked), clamped, with the history advanced past it. The clamps
+        are np.clip's minimum of maximum, without its per-call overhead (the command is finite)."""
         assert self.last_issued is not None and self._last_entry is not None
+        lower, upper = self.settings.lower, self.settings.upper
         q_c = self._solve(q_d, self.iterations[streamed])
         self._note(
             "joint_limit",
-            bool(np.any((q_c < self.settings.lower) | (q_c > self.settings.upper))),
+            bool(((q_c < lower) | (q_c > upper)).any()),
             "compensated command clamped into the joint limits",
         )
-        q_c = np.clip(q_c, self.settings.lower, self.settings.upper)
+        q_c = np.minimum(np.maximum(q_c, lower), upper)
         if streamed:
             move = q_c - self.last_issued
             self._note(
                 "velocity_limit",
-                bool(np.any(np.abs(move) > self.max_step)),
+                bool((np.abs(move) > self.max_step).any()),
                 "compensated command clamped to the velocity limits",
             )
-            q_c = self.last_issued + np.clip(move, -self.max_step, self.max_step)
+            q_c = self.last_issued + np.minimum(np.maximum(move, -self.max_step), self.max_step)
         self.last_issued = q_c
         spacing = self.model.history_spacing
         if not streamed or spacing <= 0 or np.max(np.abs(q_c - self._last_entry)) >= spacing:
             self.state = self.model.advance(self.state, q_c)
             self._last_entry = q_c
-        return q_c.copy()
+        return q_c
 
     def _solve(self, q_d: NDArray[np.float64], iterations: Iterations) -> NDArray[np.float64]:
         """Alg. 1 on the target of the model's explicit physics, which is inverted exactly: with none
         (lstm) this is the paper's q_c ← q_c + α (q_d − f(q_c)); with physics alone it is exact at once.
         The raw command is returned if the iteration ended further from q_d (by the model)."""
-        what = f"the {self.model.kind} model's prediction"
+        what = self._predicted
         target = q_d + self._correction
         q_c = self.model.command_for(target, self.state)
         predicted = require_finite(self.model.forward(q_c, self.state), what)

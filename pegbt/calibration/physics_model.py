@@ -84,9 +84,11 @@ class SettledArm:
         self.drive_rows = np.where(own[:, None], self.matrix[joints], np.eye(len(JOINT_NAMES))[sources])
         self.drive_offsets = np.where(own, physics.offset[joints], 0.0)
         # Compensation asks for the same few pieces and steps again and again (100 commands a second):
-        # the linear system of each set of pieces, and the last steps, are kept (the same values).
+        # the linear system of each set of pieces, the last steps, and the last target (the inverse checks
+        # the command it found, then compensation steps the arm with it) are kept (the same values).
         self._systems: dict[tuple[tuple[int, ...], bytes], tuple[Array, NDArray[np.bool_], Array]] = {}
         self._last_steps: list[tuple[bytes, PhysicsState, PhysicsState]] = []
+        self._last_target: tuple[bytes, Array, tuple[Array, Array]] | None = None
 
     # ------------------------------------------------------------------ forward
     def settle(self, q: Array) -> PhysicsState:
@@ -102,7 +104,8 @@ class SettledArm:
 
     def step(self, q_c: Array, state: PhysicsState) -> PhysicsState:
         """The state after issuing `q_c`."""
-        key = np.asarray(q_c, dtype=float).tobytes()
+        q_c = np.asarray(q_c, dtype=float)
+        key = q_c.tobytes()
         for known, before, after in self._last_steps:
             if before is state and known == key:
                 return after
@@ -121,9 +124,16 @@ class SettledArm:
         return PhysicsState(signal, drives, target, tuple(inputs), tuple(kernels))
 
     def _target(self, q: Array, drives: Array) -> tuple[Array, Array]:
+        """The target of command `q` and the plays' state after it (neither to be written to)."""
+        key = q.tobytes()
+        last = self._last_target
+        if last is not None and last[1] is drives and last[0] == key:
+            return last[2]
         x = self.drive_rows @ q + self.drive_offsets
         moved = np.minimum(np.maximum(drives, x - self.play), x + self.play)  # np.clip's values, sooner
-        return self.physics.static_map(q) + self.into @ (self.gain * (moved - x)), moved
+        found = self.physics.static_map(q) + self.into @ (self.gain * (moved - x)), moved
+        self._last_target = (key, drives, found)
+        return found
 
     # ------------------------------------------------------------------ inverse
     def inverse(self, q_d: Array, state: PhysicsState) -> Array:
@@ -142,7 +152,7 @@ class SettledArm:
         pieces = self._pieces(np.linalg.solve(self.matrix, target - self.physics.offset), drives)
         candidates, seen = [], set()
         for _ in range(NEWTON_ITERATIONS):
-            q = self._solve_pieces(pieces[None], target, drives)[0]
+            q = self._solve_one(pieces, target, drives)
             if self._miss(q, target, drives) < REACHED:
                 return q
             candidates.append(q)
@@ -159,6 +169,16 @@ class SettledArm:
         """Which piece each hysteresis is on at command q: +1 saturated high, −1 low, 0 in its band."""
         gap = drives - (self.drive_rows @ q + self.drive_offsets)
         return np.where(gap >= self.play, 1, np.where(gap <= -self.play, -1, 0)).astype(np.int8)
+
+    def _solve_one(self, pieces: NDArray[np.int8], target: Array, drives: Array) -> Array:
+        """`_solve_pieces` of one row of pieces (H,), the same arithmetic on the same shapes, without
+        masking a batch of one."""
+        matrices, regular, in_band = self._system(pieces[None])
+        if not regular[0]:
+            return np.full(len(target), np.nan)
+        constant = in_band * (drives - self.drive_offsets) + (1.0 - in_band) * pieces[None] * self.play
+        rhs = target - self.physics.offset - (constant * self.gain) @ self.into.T
+        return np.linalg.solve(matrices, rhs[..., None])[0, :, 0]
 
     def _solve_pieces(self, pieces: NDArray[np.int8], target: Array, drives: Array) -> Array:
         """Commands (K, 6) solving the linear target equation of each row of pieces (K, H); NaN if singular."""

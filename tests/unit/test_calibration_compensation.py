@@ -7,8 +7,8 @@ import pytest
 import torch
 from calibration_helpers import TRUTH, set_points, synthetic
 
-from pegbt.calibration.base import new_model
-from pegbt.calibration.compensation import Compensator
+from pegbt.calibration.base import CalibrationModel, new_model
+from pegbt.calibration.compensation import CALIBRATION_DIR, Compensator
 from pegbt.calibration.physics_model import PhysicsModel
 from pegbt.errors import PegbtError
 from pegbt.motion.limits import arm_settings
@@ -107,3 +107,44 @@ def test_a_diverging_model_falls_back_to_the_raw_command_with_a_warning(caplog):
         issued = compensator.goal(set_points(2, seed=2)[1])
     assert np.array_equal(issued, set_points(2, seed=2)[1])
     assert compensator.counts["fallback"] == 1 and "uncompensated" in caplog.text
+
+
+@pytest.mark.parametrize(
+    "path", ["sim-dvrk-real/PSM1-physics.json", "sim-dvrk-real/PSM2-physics.json", "PSM1-hybrid.json"]
+)
+def test_a_trajectory_at_once_is_what_step_gives_row_by_row(path, caplog):
+    """The shipped models (the simulator's and a real arm's), along a stream through the wrist's plays;
+    the limits bite on the way (the clamp counts and warnings match too)."""
+    model = CalibrationModel.load(CALIBRATION_DIR / path)
+    limits = arm_settings(model.arm)
+    desired = _stream(set_points(12, seed=21, margin=0.05), steps=15)
+    desired[40:60, 4] = limits.upper[4]  # compensation pushes past the limit here
+    by_row, at_once = Compensator(model), Compensator(model)
+    by_row.reset(desired[0])
+    at_once.reset(desired[0])
+    with caplog.at_level(logging.WARNING, logger="pegbt.calibration"):
+        expected = np.array([by_row.step(q) for q in desired])
+        warned, caplog.records[:] = len(caplog.records), []
+        got = at_once.trajectory(desired)
+    assert got.tobytes() == expected.tobytes()
+    assert by_row.counts["joint_limit"] > 0 and by_row.counts["velocity_limit"] > 0 and warned > 0
+    assert at_once.counts == by_row.counts and len(caplog.records) == warned
+    assert at_once.step(desired[-1]).tobytes() == by_row.step(desired[-1]).tobytes()  # the same history
+
+
+def test_a_trajectory_with_a_row_outside_the_limits_is_refused_whole():
+    model = CalibrationModel.load(CALIBRATION_DIR / "sim-dvrk-real/PSM1-physics.json")
+    desired = _stream(set_points(4, seed=22, margin=0.3))
+    compensator = Compensator(model)
+    compensator.reset(desired[0])
+    before = compensator.state
+    outside, broken = desired.copy(), desired.copy()
+    outside[37, 2] = 0.5
+    broken[12, 4] = float("nan")
+    with pytest.raises(PegbtError, match="row 37 .*q3 \\(insertion\\)"):
+        compensator.trajectory(outside)
+    with pytest.raises(PegbtError, match="row 12 .*is nan"):
+        compensator.trajectory(broken)
+    with pytest.raises(PegbtError, match="N×6"):
+        compensator.trajectory(desired[:, :5])
+    assert compensator.state is before

@@ -248,3 +248,33 @@ def test_the_next_blocks_approach_is_planned_while_this_carry_plays(tmp_path, ro
     assert np.allclose(approach_again.target.q[0], carry.target.q[-1])
     # each plan made as the motion before it was sent: the second approach while the first carry played
     assert pool.submitted == [0.0, approach.at, carry.at, approach_again.at]
+
+
+GIVE = f"""
+  sequence:
+    children:
+      - begin_transfer: {{arms: "PSM1→PSM2", pick: {PICK}, place: {PLACE}, transfer: /n}}
+      - approach: {{arm: PSM1, block: /PSM1/block, grasp: /PSM1/grasp}}
+      - grasp: {{arm: PSM1, holding: /PSM1/holding}}
+      - handover_poses: {{arm: PSM1, receiver: PSM2, grasp: /PSM1/grasp, block: /PSM1/block, meeting: /meeting, block_pose: /block_pose, receiver_grasp: /receiver_grasp}}
+      - wait: {{seconds: 1.0}}  # for the receiver to be ready
+      - carry_to_handover: {{arm: PSM1, grasp: /PSM1/grasp, block: /PSM1/block, meeting: /meeting, plan_s: /PSM1/plan_s}}
+"""
+
+
+def test_the_givers_carry_is_planned_once_the_meeting_is_known(tmp_path, robot, skills, seen, clock):
+    """In a handover the giver waits for the receiver between planning the meeting and carrying the block
+    there: its carry is prepared meanwhile, from where its grasp left it, and that plan is the one sent."""
+    pool = GatedPool(clock)
+    arm = psm1(robot)
+    arm.block_in_jaw = True
+    values = chosen(skills, seen) | {"/meeting": None, "/block_pose": None, "/receiver_grasp": None}
+    built = build(tmp_path, robot, skills, GIVE, pool, values)
+    assert run(built, clock, pool) == Status.SUCCESS, built.root.feedback_message
+    approach, carry = (sent for sent in arm.sent if sent.kind == "trajectory")
+    assert np.allclose(carry.target.q[0], approach.target.q[-1])
+    assert pool.stats.by_kind["prepare_all"][0] == 2  # the approach, and the carry once: made early
+    meeting, early = pool.submitted[1:]
+    assert (
+        early - meeting <= 2 * STEP and early < carry.at - 0.9
+    )  # as the meeting was known, not after the wait

@@ -543,7 +543,7 @@ def test_handover_poses_writes_the_meeting_the_block_there_and_a_receiver_grasp_
 ):
     block, grasp, _ = giving(skills, seen)
     cell = skills.cell
-    built = build(tmp_path, robot, skills, POSES, **{"PSM2/block": block, "PSM2/grasp": grasp})
+    built = build(tmp_path, robot, skills, POSES, board=seen[0], **{"PSM2/block": block, "PSM2/grasp": grasp})
     assert run(built, clock) == Status.SUCCESS
     meeting, block_pose, taken = (
         read("/handover/meeting"),
@@ -583,13 +583,15 @@ def test_handover_poses_writes_the_meeting_the_block_there_and_a_receiver_grasp_
 def test_handover_poses_fails_naming_why_there_is_no_handover(tmp_path, robot, skills, seen, clock):
     block, grasp, _ = giving(skills, seen)
     values = {"PSM2/block": block, "PSM2/grasp": grasp}
-    built = build(tmp_path, robot, skills, POSES.replace("receiver: PSM1", "receiver: PSM2"), **values)
+    built = build(
+        tmp_path, robot, skills, POSES.replace("receiver: PSM1", "receiver: PSM2"), board=seen[0], **values
+    )
     assert run(built, clock) == Status.FAILURE
     assert feedback(built) == "PSM2 cannot hand a block to itself"
     # a meeting point out of the giver's reach (30 cm above the transfer height)
     handover = replace(skills.motion.handover, meeting_above_transfer=0.3)
     high = Skills("uncalibrated", motion=replace(skills.motion, handover=handover))
-    built = build(tmp_path, robot, high, POSES, **values)
+    built = build(tmp_path, robot, high, POSES, board=seen[0], **values)
     assert run(built, clock) == Status.FAILURE
     assert feedback(built).startswith("the giver at the meeting point: not reachable by PSM2: ")
     # a robot whose outer yaw turns no further than 0.85 rad (its share/ folder narrowing skills/psm.yaml,
@@ -602,7 +604,7 @@ def test_handover_poses_fails_naming_why_there_is_no_handover(tmp_path, robot, s
     )
     narrow = Skills("uncalibrated", robot_config=share)
     assert narrow.settings[RECEIVER].upper[0] == 0.85
-    built = build(tmp_path, robot, narrow, POSES, **values)
+    built = build(tmp_path, robot, narrow, POSES, board=seen[0], **values)
     assert run(built, clock) == Status.FAILURE
     assert feedback(built) == (
         "PSM1 can reach no grasp of the block at the meeting point that keeps clear of PSM2's tool"
@@ -622,7 +624,9 @@ def test_handover_poses_fails_naming_why_there_is_no_handover(tmp_path, robot, s
         if plan_meeting(skills, "PSM1", "PSM2", option, lying) is None
     )
     tree = POSES.replace("arm: PSM2", "arm: PSM1").replace("receiver: PSM1", "receiver: PSM2")
-    built = build(tmp_path, robot, skills, tree, **{"PSM2/block": lying, "PSM2/grasp": blocked})
+    built = build(
+        tmp_path, robot, skills, tree, board=seen[0], **{"PSM2/block": lying, "PSM2/grasp": blocked}
+    )
     assert run(built, clock) == Status.FAILURE
     assert feedback(built) == (
         "PSM2 can reach no grasp of the block at the meeting point that keeps clear of PSM1's tool"

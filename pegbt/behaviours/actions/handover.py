@@ -99,7 +99,9 @@ def _clear_descent(
 
 
 class HandoverPoses(ComputeLeaf):
-    """Planning the meeting (IK and a clearance sweep per candidate grasp) runs off the tick."""
+    """Planning the meeting (IK and a clearance sweep per candidate grasp) runs off the tick. Once it is
+    known, the giver's carry to it is planned and pre-compensated while the giver waits for the receiver
+    (`carry_to_handover` takes that plan if its own inputs are the same, and checks it as it is sent)."""
 
     def inputs(self) -> tuple:
         return self.param("arm"), self.param("receiver"), self.get("grasp"), self.get("block")
@@ -125,7 +127,18 @@ class HandoverPoses(ComputeLeaf):
             f"meeting at {np.round(point * 1000, 1).tolist()} mm (board); {receiver} takes candidate "
             f"{taken.candidate}, yaw {math.degrees(taken.yaw):.0f}°"
         )
+        self._plan_carry_early(giver, meeting.tip)
         return Status.SUCCESS
+
+    def _plan_carry_early(self, giver: str, tip: NDArray[np.float64]) -> None:
+        motion, board, block, grasp = (
+            self.motion(giver),
+            self.read("/board"),
+            self.get("block"),
+            self.get("grasp"),
+        )
+        waypoints = to_handover(self.skills.cell, self.skills.motion, giver, board, block, grasp, tip)
+        motion.plan_early(self.context.work, (board, block, grasp, tip), partial(motion.transfer, waypoints))
 
 
 class CarryToHandover(CarryLeaf):
@@ -145,6 +158,9 @@ class CarryToHandover(CarryLeaf):
             self.get("grasp"),
             self.get("meeting"),
         )
+
+    def inputs(self) -> tuple[object, ...]:
+        return (self.read("/board"), self.get("block"), self.get("grasp"), self.get("meeting"))
 
 
 class GoToHandover(MotionLeaf):

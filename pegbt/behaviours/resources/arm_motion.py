@@ -173,7 +173,7 @@ class ArmMotion:
         advances), or `planned` itself without one."""
         if compensator is None:
             return planned
-        q = np.array([compensator.step(row) for row in planned.q])
+        q = compensator.trajectory(planned.q)
         qd = np.gradient(q, planned.t, axis=0)
         qd[[0, -1]] = 0.0
         return Trajectory(planned.t, q, qd, np.gradient(qd, planned.t, axis=0))
