@@ -44,7 +44,7 @@ def _growth(action: Callable[[np.ndarray, np.ndarray], Any]) -> float:
 
 
 @pytest.mark.parametrize("stream", [True, False])
-def test_the_ideal_replay_holds_no_copy_of_the_commands(stream: bool):
+def test_the_ideal_replay_holds_no_copy_of_the_commands(stream: bool) -> None:
     physics = ArmPhysics()
     # the output and one term of the static map while it is summed; it was 12 such arrays a sample
     # (a delayed copy and a static map per joint, the targets and their copy)
@@ -52,7 +52,7 @@ def test_the_ideal_replay_holds_no_copy_of_the_commands(stream: bool):
     assert growth <= 2.5 * ROW
 
 
-def test_joints_with_one_delay_share_its_replay():
+def test_joints_with_one_delay_share_its_replay() -> None:
     effects = [Effect("delay", j, {"seconds": 0.02}) for j in ("q1", "q2")]
     physics = ArmPhysics(effects)
     # one delayed copy for q1 and q2, the commands themselves for q3–q6, the output and a static map
@@ -70,7 +70,7 @@ def _geometry(q_cmd: np.ndarray, columns: np.ndarray) -> tuple[np.ndarray, list[
     return error, [(k * n // 5, (k + 1) * n // 5) for k in range(5)]
 
 
-def test_the_displacement_removal_keeps_no_design_matrix():
+def test_the_displacement_removal_keeps_no_design_matrix() -> None:
     held = []
     for n in (SHORT, LONG):
         q_cmd, _ = _commands(n)
@@ -85,7 +85,7 @@ def test_the_displacement_removal_keeps_no_design_matrix():
     assert held[1] - held[0] < 8 * (LONG - SHORT)
 
 
-def test_the_geometry_check_builds_its_design_fold_by_fold():
+def test_the_geometry_check_builds_its_design_fold_by_fold() -> None:
     peaks = []
     for n in (SHORT, LONG):
         q_cmd, _ = _commands(n)
