@@ -154,7 +154,10 @@ class ArmPhysics(ArmParameters):
     def static_map(self, q_cmd: ArrayLike) -> NDArray[np.float64]:
         """Scale, coupling and offset applied to commands (..., 6): the settled joints without any play."""
         q_cmd = np.asarray(q_cmd, dtype=float)
-        return self.scale * q_cmd + q_cmd @ self.coupling.T + self.offset
+        mapped = q_cmd @ self.coupling.T  # summed in place: one array the commands' size, not three
+        mapped += self.scale * q_cmd
+        mapped += self.offset
+        return mapped
 
     def reset(self, q_cmd: ArrayLike, time: float = 0.0) -> NDArray[np.float64]:
         """Settle the arm at command `q_cmd` (no play taken up) and return its physical joints."""
@@ -237,25 +240,38 @@ class ArmPhysics(ArmParameters):
         if t is None:
             return self._transformed(self.settled_targets(q_cmd), None)
         t = np.asarray(t, dtype=float)
-        delayed = [delay_series(q_cmd, t, float(self.delay[j])) for j in range(N_JOINTS)]
-        return self._transformed(self._with_hysteresis(delayed), t)
+        by_delay: dict[float, NDArray[np.float64]] = {}
+        for seconds in map(float, self.delay):
+            if seconds not in by_delay:
+                by_delay[seconds] = q_cmd if seconds <= 0 else delay_series(q_cmd, t, seconds)
+        return self._transformed(self._with_hysteresis([by_delay[float(d)] for d in self.delay]), t)
 
     def _transformed(
         self, targets: NDArray[np.float64], t: NDArray[np.float64] | None
     ) -> NDArray[np.float64]:
-        """Each joint's targets (N, 6) through its transforms' sequence kernels (settled: no dynamics)."""
-        out = targets.copy()
+        """Each joint's targets (N, 6) through its transforms' sequence kernels (settled: no dynamics),
+        in place: callers pass an array of their own, and a recording's length is not copied again."""
         for j, kind, effect in self.transforms if t is not None else self.settled_transforms():
-            out[:, j] = kind.sequence(effect, out[:, j], t)
-        return out
+            targets[:, j] = kind.sequence(effect, targets[:, j], t)
+        return targets
 
     def settled_targets(self, q_cmd: NDArray[np.float64]) -> NDArray[np.float64]:
         """What each joint's backlash sees along settled set-points (N, 6): the static map plus hysteresis."""
         return self._with_hysteresis([q_cmd] * N_JOINTS)
 
     def _with_hysteresis(self, seen_by: list[NDArray[np.float64]]) -> NDArray[np.float64]:
-        """Static targets (N, 6) from the commands each joint sees, plus the hysteresis terms."""
-        static = np.column_stack([self.static_map(seen_by[j])[:, j] for j in range(N_JOINTS)])
+        """Static targets (N, 6) from the commands each joint sees, plus the hysteresis terms. Joints that
+        see the same commands (all of them without delays) share one static map of them."""
+        distinct = list({id(seen): seen for seen in seen_by}.values())
+        if len(distinct) == 1:
+            static = self.static_map(distinct[0])
+        else:
+            static = np.empty((len(seen_by[0]), N_JOINTS))
+            for seen in distinct:
+                joints = [j for j in range(N_JOINTS) if seen_by[j] is seen]
+                static[:, joints] = self.static_map(seen)[:, joints]
+        if not self.hysteresis:
+            return static
         target = static.copy()
         for j, source, half_width, k in self.hysteresis:
             seen = self._drive(j, source, seen_by[j], static)

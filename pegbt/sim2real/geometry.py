@@ -96,7 +96,8 @@ class GeometryCheck:
 
 
 def _design(columns: Array) -> Array:
-    """(N, 3, 6): per q1–q3 row, its own offset and the displacement's three columns."""
+    """(N, 3, 6): per q1–q3 row, its own offset and the displacement's three columns. Built from the
+    rows a fit uses when it needs them, never held for the whole diagnosis (144 bytes a sample)."""
     offsets = np.broadcast_to(np.eye(ARM_JOINTS), (len(columns), ARM_JOINTS, ARM_JOINTS))
     return np.concatenate([offsets, columns[:, :ARM_JOINTS]], axis=2)
 
@@ -129,17 +130,16 @@ def check_geometry(
     weights = _weights(error, resolution)
     if np.any(weights <= 0) or np.any(scale <= 0):
         return None
-    design = _design(columns)
     left = np.empty_like(error)
     for a, b in folds:
         rows = np.ones(len(error), dtype=bool)
         rows[a:b] = False
-        coefficients = _fit(design[rows], error[rows], weights)
-        left[a:b] = error[a:b] - design[a:b] @ coefficients
+        coefficients = _fit(_design(columns[rows]), error[rows], weights)
+        left[a:b] = error[a:b] - _design(columns[a:b]) @ coefficients
     if _weighted(left, weights) > GUARD * _weighted(physics_error, weights):
         return None
-    displacement = _fit(design.copy(), error, weights)[ARM_JOINTS:]
-    moved = design[:, :, ARM_JOINTS:] @ displacement
+    displacement = _fit(_design(columns), error, weights)[ARM_JOINTS:]
+    moved = columns[:, :ARM_JOINTS] @ displacement
     moved -= moved.mean(axis=0)  # the part an offset cannot take up
     if resolution and not np.any(np.abs(moved).max(axis=0) >= weights):
         return None
@@ -158,10 +158,9 @@ def displacement_removal(
     prediction, fold by fold in nested cross-validation."""
     error = np.asarray(error, dtype=float)[:, :ARM_JOINTS]
     weights = _weights(error, resolution)
-    design = _design(columns)
 
     def removal(rows: NDArray[np.bool_]) -> Array:
-        shift = columns @ _fit(design[rows], error[rows], weights)[ARM_JOINTS:]
+        shift = columns @ _fit(_design(columns[rows]), error[rows], weights)[ARM_JOINTS:]
         return np.asarray(shift - shift[rows].mean(axis=0), dtype=float)
 
     return removal
