@@ -31,9 +31,7 @@ class EventMark:
     arm: str | None = None
 
     def matches(self, event: Event) -> bool:
-        return event.kind == self.kind and (
-            self.arm is None or self.arm in (event.arm or "").split("+")
-        )
+        return event.kind == self.kind and (self.arm is None or self.arm in (event.arm or "").split("+"))
 
 
 @dataclass(frozen=True)
