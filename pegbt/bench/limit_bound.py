@@ -6,7 +6,12 @@ A transfer meets only the constraints no way of doing it escapes: the tool reach
 the jaw to close on it), the jaw closes from an opening that passes the block's wall to the wall, the block
 rises until its hole clears its peg (its bottom at the peg's top: the tip `block_below_tip` above it), comes
 down until its hole is on the goal peg (the same height over that peg), stops, and falls the rest of the way
-when the jaw lets go. Everything else pegbt does (the transfer height, the drop height, the approach from
+when the jaw lets go. A jaw that grips the wall has one jaw inside the block's hole: that jaw (2 ×
+`jaw_radius` thick) fills the gap between the peg and the hole's wall (hole radius less peg radius), so it
+can only move along the peg's axis while its tip is below the block's top. The approach therefore passes
+through the grasp's point at the block's top (the jaw entering the hole), and a tool that let go of a block
+below the fallen block's top first rises along that axis to it (the jaw leaving the hole) before it
+moves over. Everything else pegbt does (the transfer height, the drop height, the approach from
 above, the peg channels and their margin, the jaw's full opening and squeeze) is its choice, and the breakdown of
 `pegbt bench limit` charges it there. The block is carried at the clear height, above every peg and block
 on the board; the other arm is taken as out of the way.
@@ -62,11 +67,15 @@ class Heights:
     @staticmethod
     def minimal(motion: MotionSettings) -> Heights:
         """The block's bottom at or above the peg's top going up, at or below it coming down (any height
-        down to resting, on a grid that holds pegbt's own)."""
+        down to resting, on a grid that holds pegbt's own); the jaw entering the block's hole from its top."""
         transfer = motion.transfer
         hanging, resting = transfer.block_below_tip, -transfer.block_top_below_peg_top - transfer.grasp_depth
         lowers = {*np.linspace(resting, hanging, LOWER_GRID).tolist(), transfer.drop_height_above_peg_top}
-        return Heights((hanging, transfer.transfer_height_above_peg_top), tuple(sorted(lowers)))
+        return Heights(
+            (hanging, transfer.transfer_height_above_peg_top),
+            tuple(sorted(lowers)),
+            -transfer.block_top_below_peg_top,
+        )
 
     @staticmethod
     def pegbt(motion: MotionSettings) -> Heights:
@@ -78,6 +87,18 @@ class Heights:
             (transfer.drop_height_above_peg_top,),
             -transfer.block_top_below_peg_top + transfer.approach_above_block,
         )
+
+
+@dataclass(frozen=True)
+class Start:
+    """Where an arm's next motion may start from: its joints at rest, and the joints it must pass first
+    (its jaw leaving a block's hole along the peg's axis), if any."""
+
+    joints: NDArray[np.float64]
+    exit: NDArray[np.float64] | None = None
+
+    def via(self) -> list[NDArray[np.float64]]:
+        return [] if self.exit is None else [self.exit]
 
 
 @dataclass
@@ -190,13 +211,17 @@ class Bound:
         fall = height - self.grasp_height()
         return math.sqrt(2.0 * max(fall, 0.0) / GRAVITY)
 
-    def approach(
-        self, arm: str, starts: list[NDArray[np.float64]], peg: int
-    ) -> tuple[NDArray[np.float64], float]:
+    def approach(self, arm: str, starts: list[Start], peg: int) -> tuple[NDArray[np.float64], float]:
         """The grasp's joints and the least time to them from rest at the quickest of `starts`."""
         grasp = self.joints(arm, peg, self.grasp_height())
         via = [] if self.heights.approach is None else [self.joints(arm, peg, self.heights.approach)]
-        return grasp, min(through(start, via, grasp, self.settings[arm]) for start in starts)
+        return grasp, min(
+            through(start.joints, start.via() + via, grasp, self.settings[arm]) for start in starts
+        )
+
+    def reach(self, arm: str, starts: list[Start], goal: NDArray[np.float64]) -> float:
+        """The least time from rest at the quickest of `starts` to rest at `goal`."""
+        return min(through(start.joints, start.via(), goal, self.settings[arm]) for start in starts)
 
     def lift_to(self, arm: str, grasp: NDArray[np.float64], pick: int, goal: NDArray[np.float64]) -> float:
         """The least time from rest at `grasp` on peg `pick`, lifting the block clear, to rest at `goal`."""
@@ -207,12 +232,19 @@ class Bound:
 
     def lower(
         self, arm: str, place: int, moved: Callable[[NDArray[np.float64]], float]
-    ) -> tuple[list[NDArray[np.float64]], float, float]:
-        """Where the jaw may open over `place`, and the least motion `moved` (seconds to one of them) and
-        block's fall over those heights, as (joints, motion, fall)."""
-        ends = [self.joints(arm, place, height) for height in self.heights.lowers]
+    ) -> tuple[list[Start], float, float]:
+        """Where the jaw may open over `place` (each with the way out of the fallen block's hole), and the
+        least motion `moved` (seconds to one of them) and block's fall over those heights, as (starts of
+        the next motion, motion, fall)."""
+        top = -self.motion.transfer.block_top_below_peg_top  # the fallen block's top
+        out = self.joints(arm, place, top)
+        ends = [
+            Start(self.joints(arm, place, height), out if height < top else None)
+            for height in self.heights.lowers
+        ]
         motion, fall = min(
-            ((moved(end), self.fall_s(height)) for end, height in zip(ends, self.heights.lowers)), key=sum
+            ((moved(end.joints), self.fall_s(height)) for end, height in zip(ends, self.heights.lowers)),
+            key=sum,
         )
         return ends, motion, fall
 
@@ -223,11 +255,11 @@ def trial_bound(transfers: list[tuple[str, int, int]], bound: Bound | None = Non
     bound = bound or Bound()
     result = TrialBound(arms={arm: SegmentTimes() for arm in bound.settings})
     free = dict.fromkeys(bound.settings, 0.0)
-    at: dict[str, list[NDArray[np.float64]]] = {}
+    at: dict[str, list[Start]] = {}
     for index, (arms, pick, place) in enumerate(transfers):
         if index % TRANSFERS_PER_HALF == 0:  # both arms park and the camera looks: a fresh start
             free = dict.fromkeys(free, max(free.values()))
-            at = {arm: [bound.home(arm)] for arm in bound.settings}
+            at = {arm: [Start(bound.home(arm))] for arm in bound.settings}
         giver, *others = arms.split("→")
         grasp, reach = bound.approach(giver, at[giver], pick)
         started = free[giver]
@@ -245,14 +277,14 @@ def trial_bound(transfers: list[tuple[str, int, int]], bound: Bound | None = Non
         meet_g, meet_r = bound.meeting(giver), bound.meeting(receiver)
         to_meet = bound.lift_to(giver, grasp, pick, meet_g)
         settings = bound.settings[receiver]
-        to_receive = min(rest_to_rest(start, meet_r, settings) for start in at[receiver])
+        to_receive = bound.reach(receiver, at[receiver], meet_r)
         arrived = max(started + reach + bound.jaw_close_s + to_meet, free[receiver] + to_receive)
         taken = arrived + bound.jaw_close_s
         ends, place_s, fall = bound.lower(receiver, place, partial(rest_to_rest, meet_r, settings=settings))
         times.motion += to_meet
         result.arms[receiver].motion += to_receive + place_s
         result.arms[receiver].jaw += bound.jaw_close_s + fall
-        free[giver], at[giver] = taken, [meet_g]
+        free[giver], at[giver] = taken, [Start(meet_g)]
         free[receiver], at[receiver] = taken + place_s, ends
         result.intervals.append((started, free[receiver] + fall))
     return result

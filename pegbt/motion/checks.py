@@ -1,6 +1,6 @@
 """Every sampled trajectory is checked before it may be streamed: joint, velocity and acceleration
-limits, the peg channel, the upright tool while it carries a block, and C1 continuity (no jump in
-position or velocity between set-points)."""
+limits, the peg channel, the block's clearance over the pegs between its two channels, the upright tool
+while it carries a block, and C1 continuity (no jump in position or velocity between set-points)."""
 
 from __future__ import annotations
 
@@ -13,6 +13,9 @@ from pegbt.motion.limits import ArmSettings
 from pegbt.motion.trajectory import Trajectory
 from pegbt.psm import joint_label
 
+CLEARANCE_SLACK = (
+    0.0005  # m the tip may sag below the clearing height in transit (the channel margin is 2.8 mm)
+)
 RELATIVE_SLACK = 1e-6  # rounding allowed on velocity and acceleration limits
 ABSOLUTE_SLACK = 1e-9
 
@@ -85,6 +88,38 @@ def _channel_problems(tips: np.ndarray, channel: Channel, leaving: bool) -> list
     return []
 
 
+def _clearance_problems(tips: np.ndarray, leaving: Channel | None, arriving: Channel) -> list[str]:
+    """Between leaving the start peg's channel (from the first sample without one) and entering the goal
+    peg's, the tip stays above both clearing heights: the block hangs clear of every peg top it passes. A
+    goal in the air (a clearing height at or below it: the handover's meeting point) sets none."""
+    if arriving.clear <= 0.0:
+        return []
+    heights = arriving.height(tips)
+    above = heights >= arriving.clear
+    if not above.any():
+        return []  # reported by the goal channel's check
+    start = 0
+    if leaving is not None:
+        left = leaving.height(tips) >= leaving.clear
+        if not left.any():
+            return []  # reported by the start channel's check
+        start = int(np.argmax(left))
+    end = len(tips) - 1 - int(np.argmax(above[::-1]))
+    if end <= start:
+        return []
+    floor = np.full(end + 1 - start, arriving.clear)
+    if leaving is not None:
+        floor = np.maximum(floor, leaving.clear + float((leaving.point - arriving.point) @ arriving.axis))
+    sag = floor - heights[start : end + 1]
+    worst = int(np.argmax(sag))
+    if sag[worst] > CLEARANCE_SLACK:
+        return [
+            f"the tip sags {sag[worst] * 1000:.2f} mm below the clearing height between the pegs "
+            f"(allowed {CLEARANCE_SLACK * 1000:.2f} mm)"
+        ]
+    return []
+
+
 def _upright_problems(t: np.ndarray, tool_axes: np.ndarray, upright: Upright) -> list[str]:
     tilt = upright.tilt(tool_axes)
     worst = int(np.argmax(tilt))
@@ -114,6 +149,7 @@ def trajectory_problems(
             problems += _channel_problems(tips, leaving, leaving=True)
         if arriving is not None:
             problems += _channel_problems(tips, arriving, leaving=False)
+            problems += _clearance_problems(tips, leaving, arriving)
         if upright is not None:
             problems += _upright_problems(trajectory.t, poses[:, :3, 2], upright)
     return problems

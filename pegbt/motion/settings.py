@@ -57,6 +57,8 @@ class SqpSettings:
     eps: float
     rho: float
     max_solver_iterations: int
+    warm_above_clear: float  # m: the warm start passes over the pegs this far above the clearing height
+    approach_above_clear: float  # m: the same for an approach (the empty tool passes the other arm's)
 
 
 @dataclass(frozen=True)

@@ -1,6 +1,9 @@
 """Planning one transfer: waypoints → IK → the paper's spline (Alg. 2) → SQP refinement → checked trajectory.
 
 Also the paper's unoptimised baseline for the same waypoints: rest-to-rest cubics, stopping at each.
+The spline (and so the SQP's path) passes over the pegs lower than the cubics' transfer height: at the
+block's clearing height plus `sqp.warm_above_clear` (`lowered`), since the SQP and the checks keep the
+block clear of the pegs all along; the transfer height is the paper's, kept by the cubics.
 The planner's answer always passes the checks and is never slower than that baseline: the SQP's path
 if it passes them and is no slower, else the spline (never slower: its magnitudes' grid starts at rest)
 or else the cubics, whichever first passes the checks; if none does, an error gives every reason.
@@ -8,7 +11,7 @@ or else the cubics, whichever first passes the checks; if none does, an error gi
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -60,12 +63,35 @@ def cubic_transfer(waypoints: TransferWaypoints, settings: ArmSettings) -> Traje
     return path.sample(settings.control_period)
 
 
+def lowered(waypoints: TransferWaypoints, above_clear: float) -> TransferWaypoints:
+    """`waypoints` with the poses over the pegs (lifted, above the goal) brought down to `above_clear`
+    over the clearing height of the transit (the higher of the two pegs'), never raised, and the lifted
+    pose never below the start (a motion from high up does not dip first); the start and the goal stay
+    where they are. A transit without a clearing height above its goal (a carry to the handover point)
+    is left as it is."""
+    place = waypoints.place
+    if place.clear <= 0.0:
+        return waypoints
+    floor = place.clear
+    if waypoints.pick is not None:
+        floor = max(floor, waypoints.pick.clear + float((waypoints.pick.point - place.point) @ place.axis))
+    poses = waypoints.poses.copy()
+    start = float((poses[0][:3, 3] - place.point) @ place.axis)
+    for index, lowest in ((1, max(floor + above_clear, start)), (2, floor + above_clear)):
+        excess = float((poses[index][:3, 3] - place.point) @ place.axis) - lowest
+        if excess > 0.0:
+            poses[index][:3, 3] -= excess * place.axis
+    return replace(waypoints, poses=poses)
+
+
 class TransferPlanner:
     """Plans transfers for one arm; owns that arm's OSQP problem so consecutive plans reuse it."""
 
     def __init__(self, settings: ArmSettings, motion: MotionSettings | None = None) -> None:
         self.settings = settings
-        self.refiner = SqpRefiner(settings, (motion or motion_settings()).sqp)
+        sqp = (motion or motion_settings()).sqp
+        self.refiner = SqpRefiner(settings, sqp)
+        self.warm_above_clear = sqp.warm_above_clear
 
     def spline(self, waypoints: TransferWaypoints, joints: NDArray[np.float64] | None = None) -> HermitePath:
         """The paper's Alg. 2 spline through the waypoints (the SQP's warm start)."""
@@ -73,13 +99,15 @@ class TransferPlanner:
         up = waypoints.upright.axis
         return plan_spline(q, joint_direction(q[1], up), joint_direction(q[2], -up), self.settings)
 
-    def plan(self, waypoints: TransferWaypoints) -> TransferPlan:
+    def plan(self, waypoints: TransferWaypoints, *, above_clear: float | None = None) -> TransferPlan:
         """The checked transfer, never slower than the rest-to-rest cubics: the SQP's, else the spline's,
         else the cubics' (see the module's docstring); a `PegbtError` (and no trajectory) if the
-        waypoints are out of reach or none passes the checks (limits, channels, upright tool, C1),
-        naming why each failed."""
+        waypoints are out of reach or none passes the checks (limits, channels, upright tool, C1,
+        clearance), naming why each failed. The spline passes over the pegs `above_clear` over the
+        clearing height (`lowered`; default `sqp.warm_above_clear`)."""
         joints = joint_waypoints(waypoints, self.settings)
-        spline = self.spline(waypoints, joints)
+        warm = lowered(waypoints, self.warm_above_clear if above_clear is None else above_clear)
+        spline = self.spline(warm, joints if warm is waypoints else None)
         cubic = rest_to_rest_path(joints, self.settings, list(WAYPOINT_NAMES))
         reasons: list[str] = []
         try:

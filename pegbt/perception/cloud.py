@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+from contextlib import contextmanager
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -44,6 +46,25 @@ def to_open3d(points: Points) -> o3d.geometry.PointCloud:
     import open3d as o3d
 
     return o3d.geometry.PointCloud(o3d.utility.Vector3dVector(points))
+
+
+@contextmanager
+def open3d_threads(count: int | None) -> Iterator[None]:
+    """Open3D on at most `count` threads inside (None: as it is), its previous limit back after. The limit
+    is the process's: while one thread holds it, no other may run Open3D. One thread makes Open3D's
+    parallel sums (ICP's normal equations) add up in one order, so the same cloud gives the same pose bit
+    for bit in any process; on two threads the board's pose moves by ~3e-8 from run to run."""
+    if count is None:
+        yield
+        return
+    import open3d as o3d
+
+    previous = o3d.utility.get_max_threads()
+    o3d.utility.set_max_threads(count)
+    try:
+        yield
+    finally:
+        o3d.utility.set_max_threads(previous)
 
 
 def transform_points(T: Points, points: Points) -> Points:

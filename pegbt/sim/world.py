@@ -20,6 +20,7 @@ their defaults, the world takes exactly the rigid paths, outcome for outcome.
 from __future__ import annotations
 
 import math
+from bisect import insort
 from collections.abc import Mapping
 from dataclasses import dataclass
 from itertools import combinations
@@ -29,7 +30,7 @@ import numpy as np
 from pegbt.frames import Matrix, invert_rigid, rigid_transform, segment_distances, yaw_of, yaw_pose
 from pegbt.sim.blocks import Block
 from pegbt.sim.events import Event, EventLog
-from pegbt.sim.faults import WorldFaults
+from pegbt.sim.faults import SlipAt, WorldFaults
 from pegbt.sim.interfaces import WorldSnapshot
 from pegbt.sim.tools import ToolState
 from pegbt.sim.world_effects import BLOCK_MASS, GRAVITY, WorldEffects
@@ -89,7 +90,9 @@ class World:
         self._widest: dict[str, float] = {}  # widest jaw angle of each arm since its jaw last opened
         self._contacts: set[tuple[str, str, int, int]] = set()
         self._attempts = 0
-        self._next_slip = 0
+        self._timed = [slip for slip in faults.slips if slip.after is None]  # sorted by time
+        self._marked = [slip for slip in faults.slips if slip.after is not None]
+        self._counted = [0] * len(self._marked)  # events each marked slip's mark has seen
         pegs, board = self.cell.pegs, self.cell.board
         self._peg_tops = pegs.tops
         self._peg_feet = np.column_stack([pegs.positions, np.full(len(pegs.positions), board.surface_z)])
@@ -181,7 +184,19 @@ class World:
         peg: int | None = None,
         detail: str = "",
     ) -> None:
-        self.events.append(Event(self.time, kind, arm, block, peg, detail))
+        event = Event(self.time, kind, arm, block, peg, detail)
+        self.events.append(event)
+        self._schedule_marked_slips(event)
+
+    def _schedule_marked_slips(self, event: Event) -> None:
+        """A slip timed after the nth event of a kind is scheduled when that event happens."""
+        for index, slip in enumerate(self._marked):
+            mark = slip.after
+            if mark is None or not mark.matches(event):
+                continue
+            self._counted[index] += 1
+            if self._counted[index] == mark.nth:
+                insort(self._timed, SlipAt(event.time + slip.time, slip.arm), key=lambda s: s.time)
 
     # ----------------------------------------------------------------------------------- jaw and grips
 
@@ -308,10 +323,8 @@ class World:
             self._settle(block, arm, deliberate=False)
 
     def _inject_slips(self, elapsed: float) -> None:
-        slips = self.faults.slips
-        while self._next_slip < len(slips) and slips[self._next_slip].time <= self.time:
-            scheduled = slips[self._next_slip]
-            self._next_slip += 1
+        while self._timed and self._timed[0].time <= self.time:
+            scheduled = self._timed.pop(0)
             arms = [scheduled.arm] if scheduled.arm else sorted(self.tools)
             held = [(arm, index) for arm in arms if (index := self.held_by(arm)) is not None]
             if not held:

@@ -11,8 +11,10 @@ from trial_helpers import one_handover
 
 from pegbt.evaluation.trial import TrialSpec, run_trial
 
-RECEIVER_GRIPS = 6.30  # s: the receiver's jaw gripped the block at 6.27 s, its check ends at 6.36 s (seed 3)
-RECEIVER_CARRIES = 7.20  # s: the receiver carries the block away from the meeting point from 7.00 s
+# When the slips fall, as (seconds after, the world event): in the window the test names whatever path led
+# there (seed 3).
+RECEIVER_GRIPS = (0.03, "{event: grasp, arm: PSM1}")  # the receiver's check of its grip ends 0.09 s after it
+RECEIVER_CARRIES = (0.7, "{event: release, arm: PSM2}")  # it carries the block off 0.51 s to 1.17 s after
 
 
 def two_handovers(tmp_path: Path) -> Path:
@@ -32,9 +34,9 @@ def two_handovers(tmp_path: Path) -> Path:
     return tree
 
 
-def trial(tmp_path: Path, slip_time: float, arm: str, tree: Path):
+def trial(tmp_path: Path, slip: tuple[float, str], arm: str, tree: Path):
     faults = tmp_path / "slip.yaml"
-    faults.write_text(f"world: {{slips: [{{time: {slip_time}, arm: {arm}}}]}}\n")
+    faults.write_text(f"world: {{slips: [{{time: {slip[0]}, arm: {arm}, after: {slip[1]}}}]}}\n")
     return run_trial(TrialSpec("handover", "optimized", 3, tmp_path / "trial.jsonl", faults, tree=tree))
 
 

@@ -7,12 +7,16 @@ from trial_helpers import one_handover
 
 from pegbt.evaluation.trial import TrialSpec, run_trial
 
-HELD_OUT = 5.8  # s: the giver has held the block out since 5.68 s, the receiver closes on it at 6.36 s
+# s after the giver's block cleared its peg (seed 3: at 3.59 s): the giver has held it out at the meeting point
+# since 4.52 s, the receiver closes on it at 5.00 s
+HELD_OUT = 1.05
 
 
 def test_a_block_slipping_at_the_meeting_point_is_fetched_again_and_handed_over(tmp_path):
     faults = tmp_path / "slip.yaml"
-    faults.write_text(f"world: {{slips: [{{time: {HELD_OUT}, arm: PSM2}}]}}\n")
+    faults.write_text(
+        f"world: {{slips: [{{time: {HELD_OUT}, arm: PSM2, after: {{event: lift, arm: PSM2}}}}]}}\n"
+    )
     spec = TrialSpec(
         "handover", "optimized", 3, tmp_path / "slip.jsonl", faults, tree=one_handover(tmp_path, regrasps=2)
     )

@@ -118,7 +118,9 @@ def one_transfer(
 
 def test_a_block_that_slips_from_the_jaw_is_found_and_moved_again(tmp_path, capsys):
     log = tmp_path / "slip.jsonl"
-    status, printed = one_transfer(tmp_path, "{slips: [{time: 5.2, arm: PSM1}]}", log, capsys)
+    status, printed = one_transfer(
+        tmp_path, "{slips: [{time: 0.2, arm: PSM1, after: {event: lift, arm: PSM1}}]}", log, capsys
+    )
     assert status == 0, printed
     assert "transfers 1/1 succeeded" in printed
     why = log_why(log, capsys)

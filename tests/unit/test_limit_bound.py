@@ -8,7 +8,7 @@ from functools import partial
 import numpy as np
 import pytest
 
-from pegbt.bench.limit_bound import Bound, Heights, rest_to_rest, through, trial_bound
+from pegbt.bench.limit_bound import Bound, Heights, Start, rest_to_rest, through, trial_bound
 from pegbt.motion.limits import arm_settings
 from pegbt.motion.transfer import TransferPlanner
 from pegbt.motion.waypoints import transfer_waypoints
@@ -77,3 +77,14 @@ def test_two_arms_transfers_overlapping_count_an_arms_time_once() -> None:
     from pegbt.bench.limit import merged
 
     assert merged([(2.0, 5.0), (0.0, 3.0), (6.0, 7.0)]) == [(0.0, 5.0), (6.0, 7.0)]
+
+
+def test_the_jaw_enters_and_leaves_a_blocks_hole_along_the_peg_axis() -> None:
+    bound = Bound()
+    top = -bound.motion.transfer.block_top_below_peg_top
+    assert bound.heights.approach == pytest.approx(top)  # the grasp is approached through the block's top
+    ends, _, _ = bound.lower("PSM1", 7, lambda joints: 0.0)
+    assert [end.exit is not None for end in ends] == [height < top for height in bound.heights.lowers]
+    low = next(end for end in ends if end.exit is not None)
+    aside = low.joints + np.array([0.01, 0.0, 0.0, 0.0, 0.0, 0.0])  # a few millimetres over, as low
+    assert bound.reach("PSM1", [low], aside) > 2 * bound.reach("PSM1", [Start(low.joints)], aside)

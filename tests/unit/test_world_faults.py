@@ -103,3 +103,27 @@ def test_the_event_log_round_trips_through_json_lines(tmp_path):
     with pytest.raises(PegbtError) as caught:
         read_events(path)
     assert (caught.value.line, caught.value.field) == (1, "kind")
+
+
+def test_a_slip_timed_after_an_event_falls_that_long_after_it_whenever_it_happens():
+    clean = World(seed=1)
+    lift_time = next(event.time for event in _transfer(clean) if event.kind == "lift")
+    world = World(seed=1, faults=_world_faults("slips: [{time: 0.2, after: {event: lift, arm: PSM1}}]\n"))
+    world.update(1.5, {})  # time passes before the transfer: the slip moves with the lift
+    events = _transfer(world)
+    assert kinds(events) == ["grasp", "lift", "fault", "slip", "drop"]
+    lift, fault = events[1], events[2]
+    assert lift.time == pytest.approx(lift_time + 1.5, abs=0.011)
+    assert fault.arm == "PSM1" and fault.time == pytest.approx(lift.time + 0.2, abs=0.011)
+
+
+def test_a_slip_after_the_nth_event_waits_for_it():
+    world = World(seed=1, faults=_world_faults("slips: [{time: 0.1, after: {event: lift, nth: 2}}]\n"))
+    assert kinds(_transfer(world)) == ["grasp", "lift", "release", "place"]
+    assert kinds(_transfer(world, 0, 6)) == ["grasp", "lift", "fault", "slip", "drop"]
+
+
+def test_an_unknown_event_to_time_a_slip_after_is_named():
+    with pytest.raises(PegbtError) as caught:
+        _world_faults("slips:\n  - {time: 1, after: {event: lifted}}\n")
+    assert (caught.value.line, caught.value.field) == (2, "slips[0].after.event")

@@ -129,10 +129,9 @@ def approach_plan(
     motion, cell = skills.arm(arm), skills.cell
     waypoints = transfer_for(cell, skills.motion, arm, board, block, grasp)
     stops = above_pegs_first(cell, skills.motion, arm, start, motion.settings)
-    if motion.planner is not None and stops:
-        return partial(
-            motion.transfer, approach_for(cell, skills.motion, arm, forward_kinematics(start), waypoints)
-        )
+    if motion.planner is not None:
+        approach = approach_for(cell, skills.motion, arm, forward_kinematics(start), waypoints)
+        return partial(motion.transfer, approach, above_clear=skills.motion.sqp.approach_above_clear)
     names = [f"above the grasp {i}" for i in range(len(stops))] + [
         "over the grasp",
         "just above the block",
@@ -144,10 +143,11 @@ def approach_plan(
 
 
 class Approach(MotionLeaf):
-    """From low among the pegs (having just placed a block) with a planner (optimized): along an
-    SQP-refined spline that rises, moves over and keeps the final descent on the block's axis. Otherwise
-    (no planner, or from high up, where the cubics are as quick): rest-to-rest cubics, rising first if
-    low, stopping above the grasp and just above the block so the descent stays straight.
+    """With a planner (optimized), from low among the pegs (having just placed a block) or from high up
+    (parked): along an SQP-refined spline that moves over the pegs, clear of their tops, and keeps the
+    final descent on the block's axis (from high up it is 0.6-0.8 s quicker than the cubics in lockstep).
+    Without one: rest-to-rest cubics, rising first if low, stopping above the grasp and just above the
+    block so the descent stays straight.
 
     Once it is sent, the carry that follows in a transfer (the arm's transfer under way, its goal peg) is
     planned and pre-compensated while the approach and the grasp play: its inputs (board, block, grasp)

@@ -3,7 +3,9 @@
 The capture is asynchronous: requested in `initialise`, collected by a later tick. Registration and
 block search run on the cloud on the blackboard, off the tick (on a worker thread: Open3D's ICP and
 DBSCAN take a few hundred milliseconds); their results go back to the blackboard (`/board`, `/blocks`)
-with a summary as feedback, so a tick log shows what was seen.
+with a summary as feedback, so a tick log shows what was seen. In lockstep (the run's work inline) they run
+Open3D on one thread: a seed then gives the same poses, and so the same trial, in any process (a campaign
+on a Dask cluster equals the local one seed for seed).
 """
 
 from __future__ import annotations
@@ -16,6 +18,7 @@ from py_trees.common import Status
 from pegbt.behaviours.base import ComputeLeaf, RobotLeaf
 from pegbt.perception.blocks import BlockEstimate
 from pegbt.perception.board import BoardEstimate
+from pegbt.perception.cloud import open3d_threads
 
 
 class Capture(RobotLeaf):
@@ -46,7 +49,8 @@ class RegisterBoard(ComputeLeaf):
         return (self.read("/cloud"),)
 
     def compute(self, cloud: ArrayLike) -> BoardEstimate:
-        return self.skills.registration.fit(cloud)
+        with open3d_threads(1 if self.context.work.inline else None):
+            return self.skills.registration.fit(cloud)
 
     def finish(self, board: BoardEstimate) -> Status:
         if not board.ok:
@@ -64,7 +68,8 @@ class FindBlocks(ComputeLeaf):
         return self.read("/cloud"), self.read("/board")
 
     def compute(self, cloud: ArrayLike, board: BoardEstimate) -> list[BlockEstimate]:
-        return self.skills.locator.locate(cloud, board)
+        with open3d_threads(1 if self.context.work.inline else None):
+            return self.skills.locator.locate(cloud, board)
 
     def finish(self, blocks: list[BlockEstimate]) -> Status:
         self.write("/blocks", blocks)

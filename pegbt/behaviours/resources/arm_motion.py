@@ -138,7 +138,7 @@ class ArmMotion:
         return self.desired.copy()
 
     # ------------------------------------------------------------------ planning
-    def transfer(self, waypoints: TransferWaypoints) -> Trajectory:
+    def transfer(self, waypoints: TransferWaypoints, *, above_clear: float | None = None) -> Trajectory:
         """The transfer through `waypoints`: with a planner, its checked plan (the SQP-refined spline, or
         the first of spline and cubics that passes the checks); rest-to-rest cubics without one, or, with
         a warning, when no plan passes the checks. Each plan that is not the SQP's is logged with the
@@ -146,7 +146,7 @@ class ArmMotion:
         if self.planner is not None:
             try:
                 with self._planning:
-                    plan = self.planner.plan(waypoints)
+                    plan = self.planner.plan(waypoints, above_clear=above_clear)
             except PegbtError as error:
                 self.fallbacks += 1
                 log.warning(

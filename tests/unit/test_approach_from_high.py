@@ -1,0 +1,57 @@
+"""With a planner, an approach from high up (the arm parked) is one SQP-planned motion over the pegs, quicker
+than the rest-to-rest cubics through the transfer height that it was before, and it keeps the tool clear of
+the peg tops."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from pegbt.behaviours.actions.grasping import approach_plan
+from pegbt.behaviours.resources.skills import Skills
+from pegbt.frames import rigid_transform
+from pegbt.motion.ik import solve_ik
+from pegbt.motion.kinematics import forward_kinematics
+from pegbt.motion.waypoints import tool_down_rotation
+from pegbt.perception.blocks import BlockEstimate
+
+PEG = 1
+
+
+def _parked(skills: Skills) -> np.ndarray:
+    settings, cell = skills.arm("PSM1").settings, skills.cell
+    return solve_ik(rigid_transform(tool_down_rotation(0.0, cell.up_in("PSM1")), settings.home_tip), settings)
+
+
+def _approach(condition: str):
+    skills = Skills(condition)
+    top = skills.cell.pegs.positions[PEG]
+    block = BlockEstimate(
+        np.array([top[0], top[1], skills.cell.board.surface_z]),
+        math.radians(10.0),
+        PEG,
+        1.0,
+        3e-4,
+        1000,
+        True,
+        "",
+    )
+    grasp = skills.selectors["PSM1"].pick(block)
+    assert grasp is not None
+    start = _parked(skills)
+    return skills, grasp, approach_plan(skills, "PSM1", start, None, block, grasp)()
+
+
+def test_an_approach_from_high_up_is_one_motion_quicker_than_the_cubics_and_clear_of_the_peg_tops():
+    skills, grasp, optimised = _approach("optimized")
+    _, _, cubics = _approach("uncalibrated")
+    assert np.allclose(forward_kinematics(optimised.q[-1]), grasp.pose, atol=1e-4)
+    assert optimised.duration < cubics.duration - 0.3
+    cell = skills.cell
+    tips = forward_kinematics(optimised.q)[:, :3, 3]
+    above = (tips - cell.peg_tops_in("PSM1")[0]) @ cell.up_in("PSM1")
+    grasp_tip = grasp.pose[:3, 3]
+    off_axis = np.linalg.norm(np.cross(tips - grasp_tip, cell.up_in("PSM1")), axis=1)
+    # below the peg tops only on the block's axis (the final descent onto it)
+    assert off_axis[above < 0.0].max() <= skills.motion.transfer.channel_tolerance + 1e-6

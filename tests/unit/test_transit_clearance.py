@@ -1,0 +1,87 @@
+"""The optimised transfer passes over the pegs low, so the block's clearance over the pegs between its two
+channels is planned for and checked on every set-point."""
+
+import re
+
+import numpy as np
+import pytest
+
+from pegbt.motion.checks import CLEARANCE_SLACK, trajectory_problems
+from pegbt.motion.cubic import rest_to_rest_path
+from pegbt.motion.ik import solve_ik
+from pegbt.motion.kinematics import forward_kinematics
+from pegbt.motion.limits import arm_settings
+from pegbt.motion.settings import motion_settings
+from pegbt.motion.transfer import TransferPlanner, joint_waypoints, lowered
+from pegbt.motion.waypoints import transfer_waypoints
+from pegbt.workcell import workcell
+
+PSM1 = arm_settings("PSM1")
+CELL = workcell()
+TRANSFER = motion_settings().transfer
+
+
+def _waypoints(pick: int, place: int):
+    tops = CELL.peg_tops_in("PSM1")
+    return transfer_waypoints(tops[pick], tops[place], up=CELL.up_in("PSM1"))
+
+
+def _above_peg_tops(tips: np.ndarray) -> np.ndarray:
+    """Tip heights above the peg tops (the board is flat: every peg top is at the same height)."""
+    top = CELL.peg_tops_in("PSM1")[0]
+    return (tips - top) @ CELL.up_in("PSM1")
+
+
+@pytest.fixture(scope="module")
+def planner():
+    return TransferPlanner(PSM1)
+
+
+@pytest.mark.parametrize(("pick", "place"), [(1, 7), (0, 6), (5, 11), (2, 9)])
+def test_the_refined_transfer_carries_the_block_clear_of_the_peg_tops(planner, pick, place):
+    waypoints = _waypoints(pick, place)
+    plan = planner.plan(waypoints)
+    assert plan.refined
+    tips = forward_kinematics(plan.trajectory.q)[:, :3, 3]
+    bottom = _above_peg_tops(tips) - TRANSFER.block_below_tip  # the hanging block's bottom
+    off_pick = np.linalg.norm(np.cross(tips - waypoints.pick.point, waypoints.pick.axis), axis=1)
+    off_place = np.linalg.norm(np.cross(tips - waypoints.place.point, waypoints.place.axis), axis=1)
+    # away from both pegs' axes (more than the channel's tolerance), the block is above every peg top
+    between = (off_pick > 2 * waypoints.pick.tolerance) & (off_place > 2 * waypoints.place.tolerance)
+    assert between.sum() > 10
+    assert bottom[between].min() >= TRANSFER.channel_margin - CLEARANCE_SLACK
+
+
+def test_a_carry_sagging_between_the_pegs_is_refused_and_one_over_them_passes():
+    waypoints = lowered(_waypoints(1, 7), 0.002)
+    q = joint_waypoints(waypoints, PSM1)
+    clear = TRANSFER.channel_clear_above_peg_top
+
+    def through_middle(height: float) -> list[str]:
+        middle = waypoints.poses[1].copy()
+        middle[:3, 3] = (waypoints.poses[1][:3, 3] + waypoints.poses[2][:3, 3]) / 2
+        middle[:3, 3] += (height - _above_peg_tops(middle[:3, 3])) * CELL.up_in("PSM1")
+        joints = [q[0], q[1], solve_ik(middle, PSM1), q[2], q[3]]
+        path = rest_to_rest_path(joints, PSM1, ["grasp", "lifted", "middle", "above", "lowered"])
+        problems = trajectory_problems(
+            path.sample(PSM1.control_period),
+            PSM1,
+            leaving=waypoints.pick,
+            arriving=waypoints.place,
+            upright=waypoints.upright,
+        )
+        return [problem for problem in problems if "clearing height" in problem]
+
+    assert through_middle(clear + 0.002) == []
+    (problem,) = through_middle(clear - 0.003)
+    sag = float(re.search(r"sags ([0-9.]+) mm below the clearing height", problem).group(1))
+    assert sag >= 3.0
+
+
+def test_lowering_keeps_the_ends_and_never_raises():
+    waypoints = _waypoints(1, 7)
+    low = lowered(waypoints, 0.004)
+    assert np.array_equal(low.poses[[0, 3]], waypoints.poses[[0, 3]])
+    heights = _above_peg_tops(low.poses[1:3, :3, 3])
+    assert np.allclose(heights, TRANSFER.channel_clear_above_peg_top + 0.004)
+    assert np.array_equal(lowered(waypoints, 1.0).poses, waypoints.poses)
