@@ -11,6 +11,7 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
+from schedule_helpers import LONGEST_S
 
 from pegbt.errors import PegbtError
 from pegbt.physics.recording import dvrk_data_dir
@@ -20,15 +21,16 @@ REPO = Path(__file__).resolve().parents[1]
 
 @pytest.hookimpl(trylast=True)
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
-    """Longest first: modules holding a `slow` test (the system tier's first), then the rest of the system
-    tier, then the others, each module in one piece and in its own order. `--dist loadfile` (pyproject) hands
-    a free worker the next module in this order: on two workers the suite's wall is the longer worker's,
-    and a long trial started last keeps one busy while the other idles."""
-    rank: dict[Path, int] = {}
+    """Longest first: the modules `LONGEST_S` times, longest first, then those holding a `slow` test (the
+    system tier's first), then the rest of the system tier, then the others, each module in one piece and in
+    its own order. `--dist loadfile` (pyproject) hands a free worker the next module in this order: the
+    suite's wall is the last worker's, and a long module started last keeps one busy while the others idle."""
+    rank: dict[Path, tuple[int, int]] = {}
     for item in items:
         system = item.get_closest_marker("system") is not None
         own = (0 if system else 1) if item.get_closest_marker("slow") else 2 if system else 3
-        rank[item.path] = min(rank.get(item.path, 3), own)
+        longest = -LONGEST_S.get(item.path.relative_to(REPO).as_posix(), 0)
+        rank[item.path] = min(rank.get(item.path, (0, 3)), (longest, own))
     items.sort(key=lambda item: rank[item.path])
 
 

@@ -1,7 +1,7 @@
 """The simulator's dVRK interface as a node of a ROS 2 graph on rmw_zenoh, driven by zenoh-ros2-sdk
 (ROBOTIS's rmw_zenoh client) as a ROS 2 operator's node would: it reads `/PSM1/measured_js`, enables and
 homes the arm with `state_command`, and moves it with `servo_jp`. The router is a zenoh session in router mode
-on 127.0.0.1. A whole pegbt trial over rmw_zenoh, with a Zivid, is `test_zivid_trial.py`'s."""
+on 127.0.0.1. A whole pegbt trial over rmw_zenoh, with a Zivid, is in `test_realtime_trials.py`."""
 
 from __future__ import annotations
 
