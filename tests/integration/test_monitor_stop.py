@@ -1,6 +1,6 @@
 """`pegbt run --monitor` keeps its page up after the run until Ctrl-C, even when started where SIGINT is ignored
-(a shell script's background job, as a whole-suite run in the background is): it used to inherit the
-ignored SIGINT once the run's own handlers were gone and serve for ever."""
+(a shell script's background job, as a whole-suite run in the background is): the run's own handlers are
+gone by then, and the ignored SIGINT it inherited would leave it serving for ever."""
 
 from __future__ import annotations
 
