@@ -76,7 +76,10 @@ class DvrkPeer:
         return received
 
     def put(self, key: str, message: Any) -> None:
-        self.session.put(key, bytes(STORE.serialize_cdr(message, message.__msgtype__)))
+        """A command, as the bridge routes a RELIABLE writer: it waits out a congested link rather than be
+        dropped (a put's default), which a loaded machine's burst of commands would otherwise lose."""
+        payload = bytes(STORE.serialize_cdr(message, message.__msgtype__))
+        self.session.put(key, payload, congestion_control=zenoh.CongestionControl.BLOCK)
 
     def close(self) -> None:
         for entity in self._held:

@@ -43,6 +43,7 @@ _KIND = {
 _SIMPLE = {"inverter": "Inverter", "force_success": "ForceSuccess", "force_failure": "ForceFailure"}
 _REACTIVE = {"ReactiveSequence", "ReactiveFallback"}  # a running child halts its siblings
 _XML_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_.-]{0,199}")  # XML names, as far as BT.CPP's are ASCII
+_NOT_XML_CHAR = re.compile("[^\t\n\r\x20-\ud7ff\ue000-\ufffd\U00010000-\U0010ffff]")  # XML 1.0's Char
 
 
 @dataclass(frozen=True)
@@ -99,8 +100,9 @@ def btcpp_node(node: dict[str, Any]) -> BtcppNode:
 
 def btcpp_nodes(log: TickLog) -> list[BtcppNode]:
     """Every node as BT.CPP sees it; a `PegbtError` naming the node for one that cannot be written: a
-    parameter its BT.CPP node needs missing or not a number, or a type or parameter name that is not an XML
-    name (BT.CPP's node IDs and ports are element and attribute names)."""
+    parameter its BT.CPP node needs missing or not a number, a type or parameter name that is not an XML
+    name (BT.CPP's node IDs and ports are element and attribute names), or a name or parameter value holding
+    a character no XML 1.0 document can carry (a control character, even escaped)."""
     converted = []
     for node in log.nodes:
         where = f"node {node.get('id')}"
@@ -120,6 +122,13 @@ def btcpp_nodes(log: TickLog) -> list[BtcppNode]:
                 file=log.path,
                 field=where,
             )
+        for text in (node["name"], *btcpp.ports.values()):
+            if (char := _NOT_XML_CHAR.search(text)) is not None:
+                raise PegbtError(
+                    f"{where}: {text[:40]!r} holds {char.group()!r}, a character XML cannot carry",
+                    file=log.path,
+                    field=where,
+                )
         converted.append(btcpp)
     return converted
 

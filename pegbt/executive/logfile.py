@@ -293,7 +293,8 @@ def _header(record: dict[str, Any], path: Path) -> TickLog:
 
 
 def _check_node(node: Any, index: int, path: Path) -> None:
-    """A node table entry as the analyses use it: id, parent (an earlier node, or null), texts, keys."""
+    """A node table entry as the analyses use it: id, parent (an earlier node; null for the root, node 0,
+    alone), texts, keys (absent ones read as none)."""
     where = f"nodes[{index}]"
     if not isinstance(node, dict) or node.get("id") != index:
         raise TickLogError(
@@ -302,8 +303,8 @@ def _check_node(node: Any, index: int, path: Path) -> None:
     if "parent" not in node:
         raise TickLogError(f"node {index} has no parent field", file=path, line=1, field=f"{where}.parent")
     parent = node["parent"]
-    if parent is not None and not (
-        isinstance(parent, int) and not isinstance(parent, bool) and 0 <= parent < index
+    if (parent is None) != (index == 0) or not (
+        parent is None or isinstance(parent, int) and not isinstance(parent, bool) and 0 <= parent < index
     ):
         raise TickLogError(
             f"node {index} has a bad parent {brief(parent)}", file=path, line=1, field=f"{where}.parent"
@@ -312,7 +313,7 @@ def _check_node(node: Any, index: int, path: Path) -> None:
         if not isinstance(node.get(name), str):
             raise TickLogError(f"node {index}: expected a string", file=path, line=1, field=f"{where}.{name}")
     for name in _NODE_KEYS:
-        keys = node.get(name, [])
+        keys = node.setdefault(name, [])
         if not isinstance(keys, list) or not all(isinstance(key, str) for key in keys):
             raise TickLogError(
                 f"node {index}: expected a list of keys", file=path, line=1, field=f"{where}.{name}"

@@ -36,6 +36,7 @@ from aiohttp.http_exceptions import HttpProcessingError
 
 from pegbt.errors import PegbtError
 from pegbt.monitor.history import History
+from pegbt.stopsignals import stop_signals
 
 WEB_DIR = Path(__file__).resolve().parent / "web"
 BUNDLE = WEB_DIR / "dist" / "monitor.js"
@@ -110,10 +111,13 @@ class MonitorServer:
         self._loop.call_soon_threadsafe(self._pending.append, (message, text))
 
     def serve_until_interrupted(self, what: str) -> None:
-        """Block until Ctrl-C, saying where the page is."""
-        print(f"monitor: {what} at {self.url} (Ctrl-C to stop)", flush=True)
+        """Block until Ctrl-C or SIGTERM, saying where the page is. The handlers are installed for the wait:
+        a process started where SIGINT is ignored (a shell script's background job inherits that) would
+        otherwise serve for ever, deaf to the Ctrl-C it asks for."""
         try:
-            threading.Event().wait()
+            with stop_signals():
+                print(f"monitor: {what} at {self.url} (Ctrl-C to stop)", flush=True)
+                threading.Event().wait()
         except KeyboardInterrupt:
             pass
 

@@ -98,9 +98,10 @@ class ZividCapture:
 
     @property
     def sent(self) -> bool:
-        """Whether the service took the request (it responded); until then, no cloud is on its way."""
+        """Whether the service took the request: it responded, or its cloud came (the driver publishes before
+        it responds, so under load the cloud is often here first); until then, no cloud is on its way."""
         self._check_response()
-        return self._answered_at is not None
+        return self._answered_at is not None or self._points is not None
 
     @property
     def ready(self) -> bool:

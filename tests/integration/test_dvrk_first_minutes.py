@@ -288,7 +288,13 @@ def test_messages_latched_before_the_run_are_history_never_a_stops_cause(
     robot = robots(kind, old_errors=100)
     level = "error" if kind == "double" else "warning"
     if kind == "sim":  # 100 warnings said before the client joined
-        assert wait_for(lambda: len(robot.peer.subscribe_latched("PSM1/warning").all()) >= 100)
+
+        def cached() -> bool:
+            """Whether a subscriber joining now is sent all 100: its history comes after it joins, not at once."""
+            history = robot.peer.subscribe_latched("PSM1/warning")
+            return wait_for(lambda: len(history.all()) >= 100, timeout=2.0)
+
+        assert wait_for(cached, timeout=30.0)
         client = connect_crtk_robot(robot.address, liveness=5.0)
         try:
             messages = client.log_messages()

@@ -25,6 +25,8 @@ from pegbt.transport.ros2_service import ServiceFailed, ServiceRequest
 from pegbt.transport.session import client_settings, endpoint_settings, open_session
 from pegbt.transport.zivid_camera import CAPTURE, ZividCamera
 
+CAPTURE_WAIT_S = 60.0
+
 
 @pytest.fixture
 def sim(tmp_path: Path) -> Iterator[ZividSim]:
@@ -45,11 +47,13 @@ def client_wire(sim: ZividSim) -> Iterator[BridgeWire]:
 def test_a_capture_is_the_called_cloud_thinned_and_perception_registers_the_board_on_it(
     sim: ZividSim, client_wire: BridgeWire
 ) -> None:
-    camera = ZividCamera(client_wire, stride=2, timeout=20.0)
+    # the simulator casts a frame's 2.3 M rays within a share of each of its control periods, in this process:
+    # a capture's wall time grows with the load, which this test does not measure (the perception bench does)
+    camera = ZividCamera(client_wire, stride=2, timeout=CAPTURE_WAIT_S)
     time.sleep(0.5)
     asked = time.time()
     capture = camera.capture_async()
-    cloud = capture.result(20.0)
+    cloud = capture.result(CAPTURE_WAIT_S)
     assert capture.ready and capture.sent and capture.stamp is not None and capture.stamp > asked
     points = cloud.points
     assert np.isfinite(points).all() and points.dtype == np.float32

@@ -52,3 +52,13 @@ def test_a_subtree_without_its_use_is_refused_naming_the_node(tmp_path: Path, re
         return subtree
 
     assert "cannot be written for BT.CPP: KeyError 'use'" in _export(tmp_path, records, change).message
+
+
+@pytest.mark.parametrize("kind", ["subtree", "scripted"])
+def test_a_name_with_a_control_character_is_refused_naming_the_node(tmp_path: Path, records, kind) -> None:
+    def change(nodes: list[dict]) -> dict:
+        node = next(node for node in nodes if node["type"] == kind)
+        node["name"] += "\x01"  # no XML 1.0 document can carry it, not even as &#1;
+        return node
+
+    assert "a character XML cannot carry" in _export(tmp_path, records, change).message
