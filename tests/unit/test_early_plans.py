@@ -262,9 +262,10 @@ GIVE = f"""
 """
 
 
-def test_the_givers_carry_is_planned_once_the_meeting_is_known(tmp_path, robot, skills, seen, clock):
-    """In a handover the giver waits for the receiver between planning the meeting and carrying the block
-    there: its carry is prepared meanwhile, from where its grasp left it, and that plan is the one sent."""
+def test_the_givers_carry_is_planned_as_its_approach_is_sent(tmp_path, robot, skills, seen, clock):
+    """In a handover the meeting tip is fixed, so the giver's carry to it is prepared while the approach and
+    the grasp play, from where the approach ends; planning the meeting keeps that plan (the same inputs,
+    the tip computed again equal), and it is the one sent."""
     pool = GatedPool(clock)
     arm = psm1(robot)
     arm.block_in_jaw = True
@@ -274,7 +275,5 @@ def test_the_givers_carry_is_planned_once_the_meeting_is_known(tmp_path, robot, 
     approach, carry = (sent for sent in arm.sent if sent.kind == "trajectory")
     assert np.allclose(carry.target.q[0], approach.target.q[-1])
     assert pool.stats.by_kind["prepare_all"][0] == 2  # the approach, and the carry once: made early
-    meeting, early = pool.submitted[1:]
-    assert (
-        early - meeting <= 2 * STEP and early < carry.at - 0.9
-    )  # as the meeting was known, not after the wait
+    assert pool.submitted[:2] == [0.0, approach.at]  # the carry's plan began as the approach was sent
+    assert pool.stats.by_kind["HandoverPoses.compute"][0] == 1

@@ -15,7 +15,7 @@ import numpy as np
 from numpy.typing import NDArray
 from py_trees.common import Status
 
-from pegbt.behaviours.actions.handover import plan_meeting
+from pegbt.behaviours.actions.handover import meeting_tip, plan_carry_to_meeting, plan_meeting
 from pegbt.behaviours.base import (
     MotionLeaf,
     RobotLeaf,
@@ -149,9 +149,10 @@ class Approach(MotionLeaf):
     (no planner, or from high up, where the cubics are as quick): rest-to-rest cubics, rising first if
     low, stopping above the grasp and just above the block so the descent stays straight.
 
-    Once it is sent, the carry that follows in a transfer (the arm's transfer under way, its goal peg) is
-    planned and pre-compensated while the approach and the grasp play: its inputs (board, block, grasp)
-    are known; `transfer` takes that plan if its own inputs are the same, and checks it as it is sent."""
+    Once it is sent, the carry that follows in a transfer (the arm's transfer under way, its goal peg), or
+    a giver's carry to the handover's meeting point, is planned and pre-compensated while the approach and
+    the grasp play: its inputs (board, block, grasp; the meeting tip) are known; `transfer` or
+    `carry_to_handover` takes that plan if its own inputs are the same, and checks it as it is sent."""
 
     def begin(self) -> None:
         arm = self.param("arm")
@@ -166,15 +167,17 @@ class Approach(MotionLeaf):
     def started(self, trajectories: list[Trajectory]) -> None:
         self.feedback_message = f"approaching in {trajectories[0].duration:.2f} s"
         arm = self.param("arm")
-        record = self.robot.trial.under_way(arm, placing=True)
-        if record is None:
-            return
         motion, board, block, grasp = (
             self.motion(arm),
             self.read("/board"),
             self.get("block"),
             self.get("grasp"),
         )
+        record = self.robot.trial.under_way(arm, placing=True)
+        if record is None:
+            if self.robot.trial.giving(arm) is not None:
+                plan_carry_to_meeting(self, arm, board, block, grasp, meeting_tip(self.skills, arm))
+            return
         waypoints = transfer_for(self.skills.cell, self.skills.motion, arm, board, block, grasp, record.place)
         motion.plan_early(
             self.context.work, (board, block, grasp, record.place), partial(motion.transfer, waypoints)
