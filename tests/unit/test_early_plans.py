@@ -18,6 +18,7 @@ from executive_helpers import write_tree
 from fake_arm import FakeArm, fake_robot
 from py_trees.common import Status
 
+from pegbt.behaviours.actions.handover import plan_meeting
 from pegbt.behaviours.resources.robot import Robot
 from pegbt.behaviours.resources.skills import Skills
 from pegbt.clock import ManualClock
@@ -277,3 +278,35 @@ def test_the_givers_carry_is_planned_as_its_approach_is_sent(tmp_path, robot, sk
     assert pool.stats.by_kind["prepare_all"][0] == 2  # the approach, and the carry once: made early
     assert pool.submitted[:2] == [0.0, approach.at]  # the carry's plan began as the approach was sent
     assert pool.stats.by_kind["HandoverPoses.compute"][0] == 1
+
+
+RISE_THEN_PICK = f"""
+  sequence:
+    children:
+      - rise: {{arm: PSM1, height: 0.01, keep_apart: 0.0, then: {{pick: {PICK}}}, handover_to: PSM2}}
+      - select_grasp: {{arm: PSM1, peg: {PICK}, handover_to: PSM2, block: /PSM1/block, grasp: /PSM1/grasp}}
+      - approach: {{arm: PSM1, block: /PSM1/block, grasp: /PSM1/grasp}}
+"""
+
+
+def test_a_givers_next_grasp_and_approach_are_chosen_and_planned_while_it_rises(
+    tmp_path, robot, skills, seen, clock
+):
+    """After letting go, a giver chose its next block's grasp (a clearance sweep per candidate) and only
+    then planned the approach to it, while it stood still: both are now made while it rises, and they are
+    the grasp and the approach `select_grasp` and `approach` would have made."""
+    pool = GatedPool(clock)
+    arm = psm1(robot)
+    values = {"/board": seen[0], "/blocks": seen[1], "/PSM1/block": None, "/PSM1/grasp": None}
+    built = build(tmp_path, robot, skills, RISE_THEN_PICK, pool, values)
+    assert run(built, clock, pool) == Status.SUCCESS, built.root.feedback_message
+    rise, approach = (sent for sent in arm.sent if sent.kind == "trajectory")
+    assert np.allclose(approach.target.q[0], rise.target.q[-1])
+    assert pool.submitted == [0.0, rise.at]  # the rise, then grasp and approach together as it was sent
+    assert "GraspSelector.pick" not in pool.stats.by_kind
+    block = block_on_peg(seen[1], PICK)
+    expected = skills.selectors["PSM1"].pick(
+        block, acceptable=lambda option: plan_meeting(skills, "PSM1", "PSM2", option, block) is not None
+    )
+    grasp = py_trees.blackboard.Blackboard.get("/PSM1/grasp")
+    assert expected is not None and grasp.candidate == expected.candidate

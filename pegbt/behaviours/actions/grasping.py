@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from dataclasses import dataclass
 from functools import partial
 
 import numpy as np
@@ -23,13 +24,15 @@ from pegbt.behaviours.base import (
 from pegbt.behaviours.motion import above_pegs_first
 from pegbt.behaviours.poses import approach_for, transfer_for
 from pegbt.behaviours.resources.skills import Skills
-from pegbt.executive.work import Job
+from pegbt.errors import PegbtError
+from pegbt.executive.work import Job, WorkPool
 from pegbt.motion.ik import solve_ik
 from pegbt.motion.kinematics import forward_kinematics
 from pegbt.motion.trajectory import Trajectory
 from pegbt.perception.blocks import BlockEstimate, block_on_peg, stack_level
 from pegbt.perception.board import BoardEstimate
 from pegbt.perception.grasp import Grasp
+from pegbt.transport import ArmClient
 
 SAME_BLOCK = (
     0.005  # m: a block seen this near where the last pick chose one is that block (a miss may nudge it)
@@ -41,6 +44,7 @@ class SelectGrasp(RobotLeaf):
 
     def initialise(self) -> None:
         self.job: Job | None = None
+        self.ahead: GraspAhead | None = None
 
     def act(self) -> Status:
         if self.job is None:
@@ -50,7 +54,7 @@ class SelectGrasp(RobotLeaf):
         assert self.job is not None
         if not self.job.done:
             return Status.RUNNING
-        return self._chosen(self.job.result())
+        return self._picked(self.job)
 
     def _choose(self) -> Status | None:
         """Find the block and choose its grasp (None: the choice was handed to a worker)."""
@@ -79,13 +83,43 @@ class SelectGrasp(RobotLeaf):
         selector, avoid = self.skills.selectors[arm], self._failed_candidate(block)
         if not receiver:
             return self._chosen(selector.pick(block, avoid=avoid))
-        skills = self.skills
-
-        def handed(option: Grasp) -> bool:
-            return plan_meeting(skills, arm, receiver, option, block) is not None
-
-        self.job = self.offload(partial(selector.pick, block, avoid=avoid, acceptable=handed))
+        self.ahead = None if avoid else self._chosen_ahead(arm, receiver, block)
+        if self.ahead is None:
+            handed = partial(_handed, self.skills, arm, receiver, block)
+            self.job = self.offload(partial(selector.pick, block, avoid=avoid, acceptable=handed))
         return None
+
+    def _chosen_ahead(self, arm: str, receiver: str, block: BlockEstimate) -> GraspAhead | None:
+        """The choice made ahead for this block and receiver (`choose_and_approach_early`), adopted."""
+        motion, board = self.skills.arm(arm), self.read("/board")
+        early = motion.early
+        if early is None or not isinstance(early.inputs[-1], GraspAhead):
+            return None
+        ahead = early.inputs[-1]
+        job = motion.take_early((board, block, receiver, ahead))
+        if job is None:
+            return None
+        self.job = self.adopt(job)
+        ahead.inputs = (board, block)
+        return ahead
+
+    def _picked(self, job: Job) -> Status:
+        """The grasp a job chose: its own, or one chosen ahead (then its approach, planned with it, is
+        left for `approach` to take; if choosing failed there, it is chosen again here)."""
+        ahead, self.ahead = self.ahead, None
+        if ahead is None:
+            return self._chosen(job.result())
+        try:
+            job.result()
+        except PegbtError:
+            ahead.grasp = None
+        if ahead.grasp is None:
+            self.job = None
+            return self._choose() or Status.RUNNING
+        assert ahead.inputs is not None  # set as the job was adopted
+        board, block = ahead.inputs
+        self.skills.arm(self.param("arm")).adopt_early((board, block, ahead.grasp.candidate), job)
+        return self._chosen(ahead.grasp)
 
     def _chosen(self, grasp: Grasp | None) -> Status:
         arm, receiver = self.param("arm"), self.param("handover_to")
@@ -114,6 +148,48 @@ class SelectGrasp(RobotLeaf):
         if np.linalg.norm(last_block.position[:2] - block.position[:2]) > SAME_BLOCK:
             return ()
         return (last_grasp.candidate,)
+
+
+def _handed(skills: Skills, arm: str, receiver: str, block: BlockEstimate, option: Grasp) -> bool:
+    """Whether `receiver` can take `block` from `arm` holding it by `option`."""
+    return plan_meeting(skills, arm, receiver, option, block) is not None
+
+
+@dataclass
+class GraspAhead:
+    """A giver's grasp chosen ahead of its `select_grasp` (set by the job that chooses it, None until
+    then or if none is), and the board and block `select_grasp` found it for."""
+
+    grasp: Grasp | None = None
+    inputs: tuple[BoardEstimate | None, BlockEstimate] | None = None
+
+
+def choose_and_approach_early(
+    skills: Skills,
+    pool: WorkPool,
+    arm: str,
+    receiver: str,
+    board: BoardEstimate | None,
+    block: BlockEstimate,
+    client: ArmClient,
+) -> None:
+    """While a giver's last motion plays, choose its grasp of `block` for `receiver` as `select_grasp` does
+    (no candidate to avoid) and plan the approach to it from where that motion ends, in one job made
+    early (`ArmMotion.plan_early`): `select_grasp` takes the grasp if its block is the same, and
+    `approach` the plan if it is for that grasp."""
+    motion = skills.arm(arm)
+    start = motion.start_from(client)
+    ahead = GraspAhead()
+    handed = partial(_handed, skills, arm, receiver, block)
+
+    def planned() -> Trajectory:
+        grasp = skills.selectors[arm].pick(block, acceptable=handed)
+        if grasp is None:
+            raise PegbtError(f"no grasp of the next block lets {receiver} take it")
+        ahead.grasp = grasp
+        return approach_plan(skills, arm, start, board, block, grasp)()
+
+    motion.plan_early(pool, (board, block, receiver, ahead), planned)
 
 
 def approach_plan(

@@ -234,6 +234,12 @@ class ArmMotion:
             return None
         return early.job
 
+    def adopt_early(self, inputs: tuple[object, ...], job: Job[list[Prepared | None]]) -> None:
+        """Make `job` (its plan made early under other inputs, now known to be for `inputs`) the plan made
+        early for `inputs`, from the arm's state it was made from (its `stale` check stands)."""
+        self.discard_early()
+        self.early = EarlyPlan(inputs, job, self.epoch)
+
     def discard_early(self) -> None:
         if self.early is not None:
             self.early.job.discard()
