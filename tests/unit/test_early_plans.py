@@ -310,3 +310,31 @@ def test_a_givers_next_grasp_and_approach_are_chosen_and_planned_while_it_rises(
     )
     grasp = py_trees.blackboard.Blackboard.get("/PSM1/grasp")
     assert expected is not None and grasp.candidate == expected.candidate
+
+
+RECEIVE = """
+  sequence:
+    children:
+      - go_to_handover: {arm: PSM1, grasp: /receiver_grasp}
+      - descend_to_grasp: {arm: PSM1, grasp: /receiver_grasp, block_pose: /block_pose}
+"""
+
+
+def test_the_receivers_descent_is_planned_while_it_goes_to_wait_above_the_grasp(
+    tmp_path, robot, skills, seen, clock
+):
+    """The receiver's descent onto its grasp was planned only once it waited above it, with the giver
+    arrived: it is now planned as the receiver sets off, and that plan is the one sent."""
+    pool = GatedPool(clock)
+    arm = psm1(robot)
+    block = block_on_peg(seen[1], PICK)
+    giver_grasp = skills.selectors["PSM2"].pick(block)
+    meeting = plan_meeting(skills, "PSM2", "PSM1", giver_grasp, block)
+    assert meeting is not None
+    values = {"/board": seen[0], "/receiver_grasp": meeting.receiver_grasp, "/block_pose": meeting.block_pose}
+    built = build(tmp_path, robot, skills, RECEIVE, pool, values)
+    assert run(built, clock, pool) == Status.SUCCESS, built.root.feedback_message
+    wait, descent = (sent for sent in arm.sent if sent.kind == "trajectory")
+    assert np.allclose(descent.target.q[0], wait.target.q[-1])
+    assert pool.submitted == [0.0, wait.at]  # the descent's plan began as the receiver set off
+    assert pool.stats.by_kind["prepare_all"][0] == 2

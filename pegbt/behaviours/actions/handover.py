@@ -11,6 +11,7 @@ never call each other: each step is a leaf, and the trees synchronise them throu
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from functools import partial
 
@@ -25,6 +26,7 @@ from pegbt.behaviours.base import (
 )
 from pegbt.behaviours.motion import CarryLeaf, above_pegs_first
 from pegbt.behaviours.poses import from_handover, to_arm, to_handover, tool_pose
+from pegbt.behaviours.resources.arm_motion import ArmMotion
 from pegbt.behaviours.resources.skills import Skills
 from pegbt.errors import PegbtError
 from pegbt.frames import invert_rigid
@@ -193,19 +195,34 @@ class GoToHandover(MotionLeaf):
         self.move(arm, partial(motion.through, start, joints, names), f"{arm} going to the handover")
         self.move_jaw(arm, self.skills.motion.transfer.jaw_open, f"{arm} jaw opening")
 
+    def started(self, trajectories: list[Trajectory]) -> None:
+        """The descent onto the grasp that follows is planned while the receiver goes to wait above it."""
+        arm = self.param("arm")
+        motion, grasp = self.motion(arm), self.get("grasp")
+        motion.plan_early(
+            self.context.work, (grasp,), descent(self.skills, motion, trajectories[0].q[-1], grasp)
+        )
+
+
+def descent(
+    skills: Skills, motion: ArmMotion, start: NDArray[np.float64], grasp: Grasp
+) -> Callable[[], Trajectory]:
+    """The planning of the receiver's descent from joints `start` onto `grasp`."""
+    target = solve_ik(grasp.pose, motion.settings, what="the handover grasp")
+    return partial(motion.through, start, [target], ["grasp"])
+
 
 class DescendToGrasp(MotionLeaf):
-    """Once sent, the carry that follows (`carry_from_handover` to the goal peg of the receiver's transfer
+    """Planned early, while the receiver goes to wait above the grasp (`go_to_handover`). Once sent, the carry that follows (`carry_from_handover` to the goal peg of the receiver's transfer
     under way) is planned and pre-compensated while the receiver descends, closes and waits for the giver
     to let go."""
 
     def begin(self) -> None:
         arm = self.param("arm")
-        motion = self.motion(arm)
+        motion, grasp = self.motion(arm), self.get("grasp")
         start = motion.start_from(self.client(arm))
-        target = solve_ik(self.get("grasp").pose, motion.settings, what="the handover grasp")
         self.move(
-            arm, partial(motion.through, start, [target], ["grasp"]), f"{arm} descending onto the grasp"
+            arm, descent(self.skills, motion, start, grasp), f"{arm} descending onto the grasp", (grasp,)
         )
 
     def started(self, trajectories: list[Trajectory]) -> None:
