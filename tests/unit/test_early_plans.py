@@ -338,3 +338,18 @@ def test_the_receivers_descent_is_planned_while_it_goes_to_wait_above_the_grasp(
     assert np.allclose(descent.target.q[0], wait.target.q[-1])
     assert pool.submitted == [0.0, wait.at]  # the descent's plan began as the receiver set off
     assert pool.stats.by_kind["prepare_all"][0] == 2
+
+
+def test_a_motion_the_other_arm_blocks_is_tried_again_with_its_plan_not_planned_anew(
+    tmp_path, robot, skills, seen, clock, monkeypatch
+):
+    """While the other arm is in the way, a blocked motion was planned and pre-compensated again every
+    retry (0.1 s) although this arm had not moved; the plan is now kept and checked again as it is sent."""
+    pool = WorkPool(inline=True)
+    monkeypatch.setattr(skills, "clearance", lambda *args: 0.0)  # the other arm's tool is in the way
+    tree = "{rise: {arm: PSM1, height: 0.01, keep_apart: 0.05}}"
+    built = build(tmp_path, robot, skills, tree, pool, {"/board": seen[0]})
+    assert run(built, clock, pool, seconds=1.0) == Status.RUNNING
+    assert "would bring the tools within" in built.root.feedback_message
+    assert pool.stats.by_kind["prepare_all"][0] == 1  # ten tries, one plan
+    assert not psm1(robot).trajectories
