@@ -152,6 +152,7 @@ class MotionLeaf(RobotLeaf):
         self.expected_end: float | None = None
         self.wake_at: float | None = None
         self.blocked_since: float | None = None
+        self.blocked_plans: list[Prepared | None] | None = None  # what was not sent for the other arm
         self.stepping_back: Running | None = None
         self.stepped_back = False
         self.job: Job | None = None
@@ -243,6 +244,7 @@ class MotionLeaf(RobotLeaf):
                 self.blocked_since = self.skills.waiting[arm] = now
             self.feedback_message = f"waiting: {blocked}"
             self.wake_at = now + BLOCKED_RETRY
+            self.blocked_plans = prepared
         except EndpointSilent:
             raise
         except PegbtError as error:
@@ -280,8 +282,17 @@ class MotionLeaf(RobotLeaf):
         if now - self.blocked_since > BLOCKED_PATIENCE:
             return self.fail(f"gave up after {BLOCKED_PATIENCE:g} s {self.feedback_message}")
         if now >= self.wake_at - 1e-9:
-            self._start()
+            self._try_again()
         return Status.RUNNING if self.problem is None else self.fail(self.problem)
+
+    def _try_again(self) -> None:
+        """Send the motions the other arm blocked: the same plans while this arm has not moved since
+        (`_send` checks them as any plan, and plans anew if they are stale), not planned again each try."""
+        plans, self.blocked_plans = self.blocked_plans, None
+        if plans is None:
+            self._start()
+        else:
+            self._send(plans)
 
     def _should_step_back(self) -> bool:
         """This arm gives way when the other arm waits too, and waited first (or as long)."""

@@ -311,6 +311,19 @@ declare(
         arm_param(),
         Param("height", float, "how far, m", minimum=0.0, maximum=MAX_RISE),
         keep_apart_param(),
+        Param(
+            "then",
+            dict,
+            "a giver's next handover (a loop's next item: its `pick`), whose grasp is chosen and whose "
+            "approach is planned while this rise plays, as `select_grasp` and `approach` will; {}: none",
+            default={},
+        ),
+        Param(
+            "handover_to",
+            str,
+            "with `then`: the arm that next handover is for (then it reads `/board` and `/blocks`)",
+            default="",
+        ),
     ),
     resources=RESOURCES,
 )

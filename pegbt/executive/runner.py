@@ -16,11 +16,17 @@ in the tick, a loaded machine) is recorded (the tick log's `late_s`, `RunResult.
 tick starts at once; time never has to run backwards. Work a leaf offloads (`pegbt.executive.work`)
 runs while the tree keeps ticking; with a clock whose time stands still while the tree computes
 (lockstep), it runs in the tick that asks for it instead, so runs stay deterministic and unchanged.
+
+In real time the interpreter's switch interval is lowered while the tree runs (`SWITCH_INTERVAL`): a
+worker busy in Python code (a grasp choice sweeping clearances, IK) holds the GIL for up to the switch
+interval each time the ticking thread (or the transport's streamer) wants it back after sending or
+waiting, and at the default 5 ms a tick that sends a trajectory while a job computes overran its 20 ms.
 """
 
 from __future__ import annotations
 
 import math
+import sys
 import time
 import traceback
 from dataclasses import dataclass, field
@@ -32,6 +38,8 @@ from pegbt.clock import is_realtime
 from pegbt.executive.build import BuiltTree
 from pegbt.executive.ticklog import TickLogWriter
 from pegbt.executive.work import WorkStats
+
+SWITCH_INTERVAL = 0.0005  # s: the longest a thread keeps the GIL from one that waits for it, in real time
 
 
 @dataclass(frozen=True)
@@ -63,6 +71,9 @@ def run(
     clock = built.context.clock
     work = built.context.work
     work.inline = not is_realtime(clock)
+    switch_interval = sys.getswitchinterval()
+    if not work.inline:
+        sys.setswitchinterval(min(switch_interval, SWITCH_INTERVAL))
     root = built.root
     start = clock.now()
     ticks = overruns = 0
@@ -106,6 +117,7 @@ def run(
         _halt(root, log, ticks, clock.now() - start, "crash")
         raise
     finally:
+        sys.setswitchinterval(switch_interval)
         work.close()
         if log is not None:
             log.end(ticks, clock.now() - start, outcome, overruns=overruns, work=work.stats.as_dict())

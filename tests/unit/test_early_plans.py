@@ -18,6 +18,7 @@ from executive_helpers import write_tree
 from fake_arm import FakeArm, fake_robot
 from py_trees.common import Status
 
+from pegbt.behaviours.actions.handover import plan_meeting
 from pegbt.behaviours.resources.robot import Robot
 from pegbt.behaviours.resources.skills import Skills
 from pegbt.clock import ManualClock
@@ -262,9 +263,10 @@ GIVE = f"""
 """
 
 
-def test_the_givers_carry_is_planned_once_the_meeting_is_known(tmp_path, robot, skills, seen, clock):
-    """In a handover the giver waits for the receiver between planning the meeting and carrying the block
-    there: its carry is prepared meanwhile, from where its grasp left it, and that plan is the one sent."""
+def test_the_givers_carry_is_planned_as_its_approach_is_sent(tmp_path, robot, skills, seen, clock):
+    """In a handover the meeting tip is fixed, so the giver's carry to it is prepared while the approach and
+    the grasp play, from where the approach ends; planning the meeting keeps that plan (the same inputs,
+    the tip computed again equal), and it is the one sent."""
     pool = GatedPool(clock)
     arm = psm1(robot)
     arm.block_in_jaw = True
@@ -274,7 +276,80 @@ def test_the_givers_carry_is_planned_once_the_meeting_is_known(tmp_path, robot, 
     approach, carry = (sent for sent in arm.sent if sent.kind == "trajectory")
     assert np.allclose(carry.target.q[0], approach.target.q[-1])
     assert pool.stats.by_kind["prepare_all"][0] == 2  # the approach, and the carry once: made early
-    meeting, early = pool.submitted[1:]
-    assert (
-        early - meeting <= 2 * STEP and early < carry.at - 0.9
-    )  # as the meeting was known, not after the wait
+    assert pool.submitted[:2] == [0.0, approach.at]  # the carry's plan began as the approach was sent
+    assert pool.stats.by_kind["HandoverPoses.compute"][0] == 1
+
+
+RISE_THEN_PICK = f"""
+  sequence:
+    children:
+      - rise: {{arm: PSM1, height: 0.01, keep_apart: 0.0, then: {{pick: {PICK}}}, handover_to: PSM2}}
+      - select_grasp: {{arm: PSM1, peg: {PICK}, handover_to: PSM2, block: /PSM1/block, grasp: /PSM1/grasp}}
+      - approach: {{arm: PSM1, block: /PSM1/block, grasp: /PSM1/grasp}}
+"""
+
+
+def test_a_givers_next_grasp_and_approach_are_chosen_and_planned_while_it_rises(
+    tmp_path, robot, skills, seen, clock
+):
+    """After letting go, a giver chose its next block's grasp (a clearance sweep per candidate) and only
+    then planned the approach to it, while it stood still: both are now made while it rises, and they are
+    the grasp and the approach `select_grasp` and `approach` would have made."""
+    pool = GatedPool(clock)
+    arm = psm1(robot)
+    values = {"/board": seen[0], "/blocks": seen[1], "/PSM1/block": None, "/PSM1/grasp": None}
+    built = build(tmp_path, robot, skills, RISE_THEN_PICK, pool, values)
+    assert run(built, clock, pool) == Status.SUCCESS, built.root.feedback_message
+    rise, approach = (sent for sent in arm.sent if sent.kind == "trajectory")
+    assert np.allclose(approach.target.q[0], rise.target.q[-1])
+    assert pool.submitted == [0.0, rise.at]  # the rise, then grasp and approach together as it was sent
+    assert "GraspSelector.pick" not in pool.stats.by_kind
+    block = block_on_peg(seen[1], PICK)
+    expected = skills.selectors["PSM1"].pick(
+        block, acceptable=lambda option: plan_meeting(skills, "PSM1", "PSM2", option, block) is not None
+    )
+    grasp = py_trees.blackboard.Blackboard.get("/PSM1/grasp")
+    assert expected is not None and grasp.candidate == expected.candidate
+
+
+RECEIVE = """
+  sequence:
+    children:
+      - go_to_handover: {arm: PSM1, grasp: /receiver_grasp}
+      - descend_to_grasp: {arm: PSM1, grasp: /receiver_grasp, block_pose: /block_pose}
+"""
+
+
+def test_the_receivers_descent_is_planned_while_it_goes_to_wait_above_the_grasp(
+    tmp_path, robot, skills, seen, clock
+):
+    """The receiver's descent onto its grasp was planned only once it waited above it, with the giver
+    arrived: it is now planned as the receiver sets off, and that plan is the one sent."""
+    pool = GatedPool(clock)
+    arm = psm1(robot)
+    block = block_on_peg(seen[1], PICK)
+    giver_grasp = skills.selectors["PSM2"].pick(block)
+    meeting = plan_meeting(skills, "PSM2", "PSM1", giver_grasp, block)
+    assert meeting is not None
+    values = {"/board": seen[0], "/receiver_grasp": meeting.receiver_grasp, "/block_pose": meeting.block_pose}
+    built = build(tmp_path, robot, skills, RECEIVE, pool, values)
+    assert run(built, clock, pool) == Status.SUCCESS, built.root.feedback_message
+    wait, descent = (sent for sent in arm.sent if sent.kind == "trajectory")
+    assert np.allclose(descent.target.q[0], wait.target.q[-1])
+    assert pool.submitted == [0.0, wait.at]  # the descent's plan began as the receiver set off
+    assert pool.stats.by_kind["prepare_all"][0] == 2
+
+
+def test_a_motion_the_other_arm_blocks_is_tried_again_with_its_plan_not_planned_anew(
+    tmp_path, robot, skills, seen, clock, monkeypatch
+):
+    """While the other arm is in the way, a blocked motion was planned and pre-compensated again every
+    retry (0.1 s) although this arm had not moved; the plan is now kept and checked again as it is sent."""
+    pool = WorkPool(inline=True)
+    monkeypatch.setattr(skills, "clearance", lambda *args: 0.0)  # the other arm's tool is in the way
+    tree = "{rise: {arm: PSM1, height: 0.01, keep_apart: 0.05}}"
+    built = build(tmp_path, robot, skills, tree, pool, {"/board": seen[0]})
+    assert run(built, clock, pool, seconds=1.0) == Status.RUNNING
+    assert "would bring the tools within" in built.root.feedback_message
+    assert pool.stats.by_kind["prepare_all"][0] == 1  # ten tries, one plan
+    assert not psm1(robot).trajectories

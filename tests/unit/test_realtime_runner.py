@@ -4,6 +4,7 @@ work a leaf offloads runs while the tree keeps ticking (in lockstep, the clock w
 from __future__ import annotations
 
 import json
+import sys
 import threading
 import time
 
@@ -17,7 +18,7 @@ from pegbt.executive.leaf import Leaf
 from pegbt.executive.loader import load_tree
 from pegbt.executive.params import Param
 from pegbt.executive.registry import REGISTRY, behaviour
-from pegbt.executive.runner import run
+from pegbt.executive.runner import SWITCH_INTERVAL, run
 from pegbt.executive.ticklog import TickLogWriter
 
 if REGISTRY.get("test_slow_tick") is None:
@@ -61,6 +62,14 @@ if REGISTRY.get("test_slow_tick") is None:
         def compute(value: int) -> int:
             HeavyLeaf.release.wait(10.0)
             return value + 1
+
+    @behaviour(
+        "test_switch_interval", "writes the interpreter's switch interval to `/switch`", writes=("/switch",)
+    )
+    class SwitchInterval(Leaf):
+        def update(self) -> Status:
+            self.write("/switch", sys.getswitchinterval())
+            return Status.SUCCESS
 
     @behaviour("test_ticks", "counts its ticks into `/ticks`; runs until halted", writes=("/ticks",))
     class TickCounter(Leaf):
@@ -148,3 +157,18 @@ def test_a_job_that_ends_wakes_the_tree_at_once_instead_of_a_period_later(tmp_pa
     assert [record["n"] for record in ticks] == [1, 2]  # asked, then picked up: no tick in between
     assert ticks[1]["t"] < 2.5  # half the period: the job's end woke the runner, not the period
     assert result.work.by_kind == {"HeavyLeaf.compute": [1, result.work.compute_s, result.work.waited_s]}
+
+
+def test_in_real_time_a_busy_worker_yields_the_gil_to_the_tick_within_the_lowered_switch_interval(tmp_path):
+    """At the default 5 ms a worker in Python code kept the ticking thread waiting for the GIL each time it
+    had let it go (sending, waiting), and ticks that sent a trajectory while a job computed overran."""
+    before = sys.getswitchinterval()
+    _, result, log = _run(tmp_path, "tree: {test_switch_interval: {name: switch}}", WallClock())
+    assert result.outcome == "success"
+    (during,) = [record["bb"]["/switch"] for record in log if "/switch" in record.get("bb", {})]
+    assert during <= SWITCH_INTERVAL < before
+    assert sys.getswitchinterval() == before  # restored once the run ends
+
+    _, result, log = _run(tmp_path, "tree: {test_switch_interval: {name: switch}}", ManualClock())
+    (during,) = [record["bb"]["/switch"] for record in log if "/switch" in record.get("bb", {})]
+    assert during == before  # lockstep: nothing computes beside the tick

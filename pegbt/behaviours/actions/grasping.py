@@ -9,13 +9,14 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from dataclasses import dataclass
 from functools import partial
 
 import numpy as np
 from numpy.typing import NDArray
 from py_trees.common import Status
 
-from pegbt.behaviours.actions.handover import plan_meeting
+from pegbt.behaviours.actions.handover import meeting_tip, plan_carry_to_meeting, plan_meeting
 from pegbt.behaviours.base import (
     MotionLeaf,
     RobotLeaf,
@@ -23,13 +24,15 @@ from pegbt.behaviours.base import (
 from pegbt.behaviours.motion import above_pegs_first
 from pegbt.behaviours.poses import approach_for, transfer_for
 from pegbt.behaviours.resources.skills import Skills
-from pegbt.executive.work import Job
+from pegbt.errors import PegbtError
+from pegbt.executive.work import Job, WorkPool
 from pegbt.motion.ik import solve_ik
 from pegbt.motion.kinematics import forward_kinematics
 from pegbt.motion.trajectory import Trajectory
 from pegbt.perception.blocks import BlockEstimate, block_on_peg, stack_level
 from pegbt.perception.board import BoardEstimate
 from pegbt.perception.grasp import Grasp
+from pegbt.transport import ArmClient
 
 SAME_BLOCK = (
     0.005  # m: a block seen this near where the last pick chose one is that block (a miss may nudge it)
@@ -41,6 +44,7 @@ class SelectGrasp(RobotLeaf):
 
     def initialise(self) -> None:
         self.job: Job | None = None
+        self.ahead: GraspAhead | None = None
 
     def act(self) -> Status:
         if self.job is None:
@@ -50,7 +54,7 @@ class SelectGrasp(RobotLeaf):
         assert self.job is not None
         if not self.job.done:
             return Status.RUNNING
-        return self._chosen(self.job.result())
+        return self._picked(self.job)
 
     def _choose(self) -> Status | None:
         """Find the block and choose its grasp (None: the choice was handed to a worker)."""
@@ -79,13 +83,43 @@ class SelectGrasp(RobotLeaf):
         selector, avoid = self.skills.selectors[arm], self._failed_candidate(block)
         if not receiver:
             return self._chosen(selector.pick(block, avoid=avoid))
-        skills = self.skills
-
-        def handed(option: Grasp) -> bool:
-            return plan_meeting(skills, arm, receiver, option, block) is not None
-
-        self.job = self.offload(partial(selector.pick, block, avoid=avoid, acceptable=handed))
+        self.ahead = None if avoid else self._chosen_ahead(arm, receiver, block)
+        if self.ahead is None:
+            handed = partial(_handed, self.skills, arm, receiver, block)
+            self.job = self.offload(partial(selector.pick, block, avoid=avoid, acceptable=handed))
         return None
+
+    def _chosen_ahead(self, arm: str, receiver: str, block: BlockEstimate) -> GraspAhead | None:
+        """The choice made ahead for this block and receiver (`choose_and_approach_early`), adopted."""
+        motion, board = self.skills.arm(arm), self.read("/board")
+        early = motion.early
+        if early is None or not isinstance(early.inputs[-1], GraspAhead):
+            return None
+        ahead = early.inputs[-1]
+        job = motion.take_early((board, block, receiver, ahead))
+        if job is None:
+            return None
+        self.job = self.adopt(job)
+        ahead.inputs = (board, block)
+        return ahead
+
+    def _picked(self, job: Job) -> Status:
+        """The grasp a job chose: its own, or one chosen ahead (then its approach, planned with it, is
+        left for `approach` to take; if choosing failed there, it is chosen again here)."""
+        ahead, self.ahead = self.ahead, None
+        if ahead is None:
+            return self._chosen(job.result())
+        try:
+            job.result()
+        except PegbtError:
+            ahead.grasp = None
+        if ahead.grasp is None:
+            self.job = None
+            return self._choose() or Status.RUNNING
+        assert ahead.inputs is not None  # set as the job was adopted
+        board, block = ahead.inputs
+        self.skills.arm(self.param("arm")).adopt_early((board, block, ahead.grasp.candidate), job)
+        return self._chosen(ahead.grasp)
 
     def _chosen(self, grasp: Grasp | None) -> Status:
         arm, receiver = self.param("arm"), self.param("handover_to")
@@ -114,6 +148,48 @@ class SelectGrasp(RobotLeaf):
         if np.linalg.norm(last_block.position[:2] - block.position[:2]) > SAME_BLOCK:
             return ()
         return (last_grasp.candidate,)
+
+
+def _handed(skills: Skills, arm: str, receiver: str, block: BlockEstimate, option: Grasp) -> bool:
+    """Whether `receiver` can take `block` from `arm` holding it by `option`."""
+    return plan_meeting(skills, arm, receiver, option, block) is not None
+
+
+@dataclass
+class GraspAhead:
+    """A giver's grasp chosen ahead of its `select_grasp` (set by the job that chooses it, None until
+    then or if none is), and the board and block `select_grasp` found it for."""
+
+    grasp: Grasp | None = None
+    inputs: tuple[BoardEstimate | None, BlockEstimate] | None = None
+
+
+def choose_and_approach_early(
+    skills: Skills,
+    pool: WorkPool,
+    arm: str,
+    receiver: str,
+    board: BoardEstimate | None,
+    block: BlockEstimate,
+    client: ArmClient,
+) -> None:
+    """While a giver's last motion plays, choose its grasp of `block` for `receiver` as `select_grasp` does
+    (no candidate to avoid) and plan the approach to it from where that motion ends, in one job made
+    early (`ArmMotion.plan_early`): `select_grasp` takes the grasp if its block is the same, and
+    `approach` the plan if it is for that grasp."""
+    motion = skills.arm(arm)
+    start = motion.start_from(client)
+    ahead = GraspAhead()
+    handed = partial(_handed, skills, arm, receiver, block)
+
+    def planned() -> Trajectory:
+        grasp = skills.selectors[arm].pick(block, acceptable=handed)
+        if grasp is None:
+            raise PegbtError(f"no grasp of the next block lets {receiver} take it")
+        ahead.grasp = grasp
+        return approach_plan(skills, arm, start, board, block, grasp)()
+
+    motion.plan_early(pool, (board, block, receiver, ahead), planned)
 
 
 def approach_plan(
@@ -149,9 +225,10 @@ class Approach(MotionLeaf):
     Without one: rest-to-rest cubics, rising first if low, stopping above the grasp and just above the
     block so the descent stays straight.
 
-    Once it is sent, the carry that follows in a transfer (the arm's transfer under way, its goal peg) is
-    planned and pre-compensated while the approach and the grasp play: its inputs (board, block, grasp)
-    are known; `transfer` takes that plan if its own inputs are the same, and checks it as it is sent."""
+    Once it is sent, the carry that follows in a transfer (the arm's transfer under way, its goal peg), or
+    a giver's carry to the handover's meeting point, is planned and pre-compensated while the approach and
+    the grasp play: its inputs (board, block, grasp; the meeting tip) are known; `transfer` or
+    `carry_to_handover` takes that plan if its own inputs are the same, and checks it as it is sent."""
 
     def begin(self) -> None:
         arm = self.param("arm")
@@ -166,15 +243,17 @@ class Approach(MotionLeaf):
     def started(self, trajectories: list[Trajectory]) -> None:
         self.feedback_message = f"approaching in {trajectories[0].duration:.2f} s"
         arm = self.param("arm")
-        record = self.robot.trial.under_way(arm, placing=True)
-        if record is None:
-            return
         motion, board, block, grasp = (
             self.motion(arm),
             self.read("/board"),
             self.get("block"),
             self.get("grasp"),
         )
+        record = self.robot.trial.under_way(arm, placing=True)
+        if record is None:
+            if self.robot.trial.giving(arm) is not None:
+                plan_carry_to_meeting(self, arm, board, block, grasp, meeting_tip(self.skills, arm))
+            return
         waypoints = transfer_for(self.skills.cell, self.skills.motion, arm, board, block, grasp, record.place)
         motion.plan_early(
             self.context.work, (board, block, grasp, record.place), partial(motion.transfer, waypoints)

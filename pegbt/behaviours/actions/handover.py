@@ -11,6 +11,7 @@ never call each other: each step is a leaf, and the trees synchronise them throu
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from functools import partial
 
@@ -21,9 +22,11 @@ from py_trees.common import Status
 from pegbt.behaviours.base import (
     ComputeLeaf,
     MotionLeaf,
+    RobotLeaf,
 )
 from pegbt.behaviours.motion import CarryLeaf, above_pegs_first
 from pegbt.behaviours.poses import from_handover, to_arm, to_handover, tool_pose
+from pegbt.behaviours.resources.arm_motion import ArmMotion
 from pegbt.behaviours.resources.skills import Skills
 from pegbt.errors import PegbtError
 from pegbt.frames import invert_rigid
@@ -32,6 +35,7 @@ from pegbt.motion.ik import solve_ik
 from pegbt.motion.trajectory import Trajectory
 from pegbt.motion.waypoints import TransferWaypoints
 from pegbt.perception.blocks import BlockEstimate
+from pegbt.perception.board import BoardEstimate
 from pegbt.perception.grasp import Grasp
 from pegbt.workcell import Workcell
 
@@ -55,7 +59,7 @@ def plan_meeting(
     on the giver's grasp: a block held on some walls hangs so that every grasp of the receiver strikes the
     giver's tool (never one held as the paper picks it off its peg; often one picked off the board)."""
     cell = skills.cell
-    tip = tool_pose(to_arm(cell, giver, handover_meeting_point(cell, skills.motion)), 0.0, cell.up_in(giver))
+    tip = meeting_tip(skills, giver)
     q_giver = solve_ik(tip, skills.arm(giver).settings, what="the giver at the meeting point")
     block_pose = (
         cell.arm_to_board(giver) @ tip @ invert_rigid(cell.arm_to_board(giver) @ grasp.pose) @ block.pose
@@ -75,6 +79,13 @@ def plan_meeting(
         None,
     )
     return None if taken is None else Meeting(tip, block_pose, taken)
+
+
+def meeting_tip(skills: Skills, giver: str) -> NDArray[np.float64]:
+    """The giver's tip pose at the meeting point (its arm frame): fixed by the cell and the motion settings,
+    so the carry to it can be planned before the meeting itself is."""
+    cell = skills.cell
+    return tool_pose(to_arm(cell, giver, handover_meeting_point(cell, skills.motion)), 0.0, cell.up_in(giver))
 
 
 def _distance_to(cell: Workcell, arm: str, option: Grasp) -> float:
@@ -99,8 +110,9 @@ def _clear_descent(
 
 
 class HandoverPoses(ComputeLeaf):
-    """Planning the meeting (IK and a clearance sweep per candidate grasp) runs off the tick. Once it is
-    known, the giver's carry to it is planned and pre-compensated while the giver waits for the receiver
+    """Planning the meeting (IK and a clearance sweep per candidate grasp) runs off the tick. The giver's
+    carry to it is planned and pre-compensated early (`plan_carry_to_meeting`): usually from the approach
+    already, since the meeting tip is fixed; else here, while the giver waits for the receiver
     (`carry_to_handover` takes that plan if its own inputs are the same, and checks it as it is sent)."""
 
     def inputs(self) -> tuple:
@@ -127,18 +139,25 @@ class HandoverPoses(ComputeLeaf):
             f"meeting at {np.round(point * 1000, 1).tolist()} mm (board); {receiver} takes candidate "
             f"{taken.candidate}, yaw {math.degrees(taken.yaw):.0f}°"
         )
-        self._plan_carry_early(giver, meeting.tip)
+        plan_carry_to_meeting(
+            self, giver, self.read("/board"), self.get("block"), self.get("grasp"), meeting.tip
+        )
         return Status.SUCCESS
 
-    def _plan_carry_early(self, giver: str, tip: NDArray[np.float64]) -> None:
-        motion, board, block, grasp = (
-            self.motion(giver),
-            self.read("/board"),
-            self.get("block"),
-            self.get("grasp"),
-        )
-        waypoints = to_handover(self.skills.cell, self.skills.motion, giver, board, block, grasp, tip)
-        motion.plan_early(self.context.work, (board, block, grasp, tip), partial(motion.transfer, waypoints))
+
+def plan_carry_to_meeting(
+    leaf: RobotLeaf,
+    giver: str,
+    board: BoardEstimate | None,
+    block: BlockEstimate,
+    grasp: Grasp,
+    tip: NDArray[np.float64],
+) -> None:
+    """Start preparing the giver's carry to the meeting `tip` from where its last motion ends (kept if it
+    is already being prepared from the same inputs)."""
+    motion = leaf.motion(giver)
+    waypoints = to_handover(leaf.skills.cell, leaf.skills.motion, giver, board, block, grasp, tip)
+    motion.plan_early(leaf.context.work, (board, block, grasp, tip), partial(motion.transfer, waypoints))
 
 
 class CarryToHandover(CarryLeaf):
@@ -176,19 +195,34 @@ class GoToHandover(MotionLeaf):
         self.move(arm, partial(motion.through, start, joints, names), f"{arm} going to the handover")
         self.move_jaw(arm, self.skills.motion.transfer.jaw_open, f"{arm} jaw opening")
 
+    def started(self, trajectories: list[Trajectory]) -> None:
+        """The descent onto the grasp that follows is planned while the receiver goes to wait above it."""
+        arm = self.param("arm")
+        motion, grasp = self.motion(arm), self.get("grasp")
+        motion.plan_early(
+            self.context.work, (grasp,), descent(self.skills, motion, trajectories[0].q[-1], grasp)
+        )
+
+
+def descent(
+    skills: Skills, motion: ArmMotion, start: NDArray[np.float64], grasp: Grasp
+) -> Callable[[], Trajectory]:
+    """The planning of the receiver's descent from joints `start` onto `grasp`."""
+    target = solve_ik(grasp.pose, motion.settings, what="the handover grasp")
+    return partial(motion.through, start, [target], ["grasp"])
+
 
 class DescendToGrasp(MotionLeaf):
-    """Once sent, the carry that follows (`carry_from_handover` to the goal peg of the receiver's transfer
+    """Planned early, while the receiver goes to wait above the grasp (`go_to_handover`). Once sent, the carry that follows (`carry_from_handover` to the goal peg of the receiver's transfer
     under way) is planned and pre-compensated while the receiver descends, closes and waits for the giver
     to let go."""
 
     def begin(self) -> None:
         arm = self.param("arm")
-        motion = self.motion(arm)
+        motion, grasp = self.motion(arm), self.get("grasp")
         start = motion.start_from(self.client(arm))
-        target = solve_ik(self.get("grasp").pose, motion.settings, what="the handover grasp")
         self.move(
-            arm, partial(motion.through, start, [target], ["grasp"]), f"{arm} descending onto the grasp"
+            arm, descent(self.skills, motion, start, grasp), f"{arm} descending onto the grasp", (grasp,)
         )
 
     def started(self, trajectories: list[Trajectory]) -> None:

@@ -9,7 +9,9 @@ from __future__ import annotations
 
 from functools import partial
 
-from pegbt.behaviours.actions.grasping import approach_plan
+import py_trees
+
+from pegbt.behaviours.actions.grasping import approach_plan, choose_and_approach_early
 from pegbt.behaviours.base import MotionLeaf
 from pegbt.behaviours.motion import CarryLeaf, above_pegs_first
 from pegbt.behaviours.poses import tool_pose, transfer_for
@@ -54,6 +56,17 @@ class Transfer(CarryLeaf):
 
 
 class Rise(MotionLeaf):
+    """Once sent, a giver's rise (`then` the loop's next handover, `handover_to` its receiver) chooses the
+    grasp of that next block and plans the approach to it from where the rise ends, while the rise plays
+    (`choose_and_approach_early`). Only then does it read `/board` and `/blocks` (a plain rise needs no
+    board seen)."""
+
+    def setup(self, **kwargs: object) -> None:
+        super().setup(**kwargs)
+        if self.params["then"] and self.params["handover_to"]:
+            for key in ("/board", "/blocks"):
+                self.blackboard.register_key(key=key, access=py_trees.common.Access.READ)
+
     def begin(self) -> None:
         arm = self.param("arm")
         motion = self.motion(arm)
@@ -62,6 +75,18 @@ class Rise(MotionLeaf):
         target[:3, 3] += self.param("height") * self.skills.cell.up_in(arm)
         risen = solve_ik(target, motion.settings, what="risen")
         self.move(arm, partial(motion.through, start, [risen], ["risen"]), f"{arm} rising")
+
+    def started(self, trajectories: list[Trajectory]) -> None:
+        pick, receiver = self.param("then").get("pick"), self.param("handover_to")
+        if not isinstance(pick, int) or not receiver:
+            return
+        block = block_on_peg(self.read("/blocks"), pick)
+        if block is None or not block.ok:
+            return
+        arm = self.param("arm")
+        choose_and_approach_early(
+            self.skills, self.context.work, arm, receiver, self.read("/board"), block, self.client(arm)
+        )
 
 
 class Park(MotionLeaf):

@@ -76,18 +76,25 @@ class Prepared:
 @dataclass(frozen=True)
 class EarlyPlan:
     """A motion being prepared before its leaf asks for it: the inputs it was planned from (compared by
-    identity: a block seen again is another object), and the job preparing it."""
+    identity: a block seen again is another object; poses by value), the arm's state it was planned
+    from (`ArmMotion.epoch`), and the job preparing it."""
 
     inputs: tuple[object, ...]
     job: Job[list[Prepared | None]]
+    epoch: int
 
     def matches(self, inputs: tuple[object, ...]) -> bool:
         return len(inputs) == len(self.inputs) and all(map(_same, inputs, self.inputs))
 
 
 def _same(a: object, b: object) -> bool:
-    """The same input: the same object, or equal numbers and names (a peg, an arm)."""
-    return a is b or (isinstance(a, int | float | str) and type(a) is type(b) and a == b)
+    """The same input: the same object, equal numbers and names (a peg, an arm), or equal poses (a
+    meeting tip computed again from the same settings)."""
+    if a is b:
+        return True
+    if isinstance(a, np.ndarray) and isinstance(b, np.ndarray):
+        return a.shape == b.shape and bool(np.array_equal(a, b))
+    return isinstance(a, int | float | str) and type(a) is type(b) and a == b
 
 
 def prepare_all(preparations: list[Callable[[], Prepared] | None]) -> list[Prepared | None]:
@@ -207,11 +214,15 @@ class ArmMotion:
         self, pool: WorkPool, inputs: tuple[object, ...], planned: Callable[[], Trajectory]
     ) -> None:
         """Start preparing the motion that follows the one just sent, from where that one ends, while it
-        plays; its leaf takes it with `take_early(inputs)`. Not in lockstep (`pool.inline`), where
-        computing takes no time and there is nothing to hide."""
+        plays; its leaf takes it with `take_early(inputs)`. One already under way from the same inputs
+        and the same state of the arm is kept. Not in lockstep (`pool.inline`), where computing takes no
+        time and there is nothing to hide."""
+        if self.early is not None and self.early.epoch == self.epoch and self.early.matches(inputs):
+            return
         self.discard_early()
         if not pool.inline:
-            self.early = EarlyPlan(inputs, pool.submit_ahead(prepare_all, [self.preparation(planned)]))
+            job = pool.submit_ahead(prepare_all, [self.preparation(planned)])
+            self.early = EarlyPlan(inputs, job, self.epoch)
 
     def take_early(self, inputs: tuple[object, ...]) -> Job[list[Prepared | None]] | None:
         """The job preparing the motion planned early from `inputs`, if it was (else None; a plan early
@@ -222,6 +233,12 @@ class ArmMotion:
                 early.job.discard()
             return None
         return early.job
+
+    def adopt_early(self, inputs: tuple[object, ...], job: Job[list[Prepared | None]]) -> None:
+        """Make `job` (its plan made early under other inputs, now known to be for `inputs`) the plan made
+        early for `inputs`, from the arm's state it was made from (its `stale` check stands)."""
+        self.discard_early()
+        self.early = EarlyPlan(inputs, job, self.epoch)
 
     def discard_early(self) -> None:
         if self.early is not None:

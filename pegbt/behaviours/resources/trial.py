@@ -182,6 +182,11 @@ class Trial:
         record = next((r for r in reversed(self.transfers) if r.arms in mine), None)
         return record if record is not None and record.ended is None else None
 
+    def giving(self, arm: str) -> TransferRecord | None:
+        """The handover `arm` began last as its giver (`arms` arm→receiver), if it has not finished."""
+        record = next((r for r in reversed(self.transfers) if r.arms.startswith(f"{arm}→")), None)
+        return record if record is not None and record.ended is None else None
+
     def finish(self, index: int, outcome: str, note: str = "") -> TransferRecord:
         record = self.transfers[index - 1]
         record.ended, record.outcome, record.note = self.clock.now(), outcome, note
