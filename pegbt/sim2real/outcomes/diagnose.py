@@ -168,6 +168,9 @@ def _replicated(
     default world, or for a second effect the first), `located` transfers per fit cell each, and kept only
     if it still fits the fit cells better beyond chance (the same χ² test). A named effect that fails takes
     those named after it along; of tied effects, the one that alone holds is named."""
+    worlds = [WorldEffects(), *(p.world() for p in (*verdict.named, *verdict.tied))]
+    if len(worlds) > 1:  # one batch: each transfer's arm simulated once for every world (`phasesim.Replay`)
+        simulate_cells(mapper, worlds, [c.key for c in cells], settings.located, first_seed=FRESH_SEED)
     kept: list[Profile] = []
     dropped: list[str] = []
     base = WorldEffects()
