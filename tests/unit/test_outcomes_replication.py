@@ -12,6 +12,7 @@ from pegbt.sim.world_effects import WorldEffects
 from pegbt.sim2real.outcomes.cells import Cell, Outcomes
 from pegbt.sim2real.outcomes.diagnose import Settings, diagnose
 from pegbt.sim2real.outcomes.phasesim import TransferResult
+from pegbt.sim2real.outcomes.report import report_dict, report_markdown
 from tests.outcomes_helpers import lift_success, real_counts
 
 CELLS = [(v, c) for v in ("unilateral", "bilateral", "handover") for c in ("uncalibrated", "calibrated")]
@@ -39,9 +40,7 @@ def reshuffling_mapper(
 
 def _outcomes(world: WorldEffects, seed: int) -> Outcomes:
     return Outcomes(
-        tuple(
-            Cell(v, c, 120, real_counts(world, v, c, 120, seed + i)) for i, (v, c) in enumerate(CELLS)
-        ),
+        tuple(Cell(v, c, 120, real_counts(world, v, c, 120, seed + i)) for i, (v, c) in enumerate(CELLS)),
         "test",
     )
 
@@ -58,3 +57,10 @@ def test_an_offset_lucky_on_the_fits_seeds_is_not_a_rival_of_the_true_effect():
 def test_the_default_world_with_a_reshuffling_offset_names_nothing():
     d = diagnose(_outcomes(WorldEffects(), seed=0), SETTINGS, reshuffling_mapper)
     assert d.verdict.named == () and d.verdict.tied == ()
+
+
+def test_the_report_says_what_the_fit_chose_and_did_not_name():
+    hidden = WorldEffects.of({"peg_compliance": {"deflection": 0.0015}})
+    d = diagnose(_outcomes(hidden, seed=0), SETTINGS, reshuffling_mapper)
+    assert set(report_dict(d)["unreplicated"]) == set(d.unreplicated)
+    assert "registration_offset.x" in report_markdown(d)
