@@ -4,14 +4,14 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from pegbt.errors import PegbtError
 from pegbt.sim.world_effects import WorldEffects
 from pegbt.sim2real.outcomes.cells import CONDITIONS, VARIANTS, Cell, Outcomes
-from pegbt.sim2real.outcomes.fit import Profile, Verdict, fit
+from pegbt.sim2real.outcomes.fit import LR_95, Profile, Verdict, fit
 from pegbt.sim2real.outcomes.likelihood import log_likelihood
 from pegbt.sim2real.outcomes.locate import Row, locate
 from pegbt.sim2real.outcomes.phasesim import TransferResult
@@ -19,6 +19,7 @@ from pegbt.sim2real.outcomes.predict import Prediction, predict, predict_null
 from pegbt.sim2real.outcomes.simulate import Key, Mapper, SimCounts, Task, simulate_cells
 
 CLOSE = 0.05  # real and simulated rates this close need no more simulated transfers to be compared
+FRESH_SEED = 1_000_000  # the replication's simulated transfers: seeds no other simulation here uses
 
 
 @dataclass(frozen=True)
@@ -48,6 +49,7 @@ class Diagnosis:
     remaining: list[Row] = field(default_factory=list)  # fit cells' rows at the fitted world
     seconds: float = 0.0
     simulated: int = 0
+    unreplicated: tuple[str, ...] = ()  # effects the fit chose whose gain did not hold on fresh seeds
 
     @property
     def unexplained(self) -> list[Row]:
@@ -124,6 +126,7 @@ def diagnose(
         fit_cells = tuple(ordered)
     else:
         verdict = Verdict((), (), (), _null(fit_cells, before, settings.phases), ())
+    verdict, unreplicated = _replicated(counting, verdict, fit_cells, settings, progress)
     predicted_by: dict[str, dict[Key, Prediction]] = {}
     if verdict.named:
         predictions, _ = predict(counting, [verdict.named[-1]], cells, settings.transfers)
@@ -147,7 +150,64 @@ def diagnose(
         remaining,
         time.monotonic() - started,
         counting.count,
+        unreplicated,
     )
+
+
+def _replicated(
+    mapper: Mapper,
+    verdict: Verdict,
+    cells: Sequence[Cell],
+    settings: Settings,
+    progress: Callable[[str], None] | None,
+) -> tuple[Verdict, tuple[str, ...]]:
+    """The named and tied effects whose gain holds on simulations the choice never saw. The fit picks the
+    best of every candidate's grid on the same simulated transfers, so its likelihood ratio is biased
+    upwards by the pick (most where an effect only reshuffles chaotic outcomes, as a registration offset
+    does). Each is simulated again at its fitted value on fresh seeds beside the world before it (the
+    default world, or for a second effect the first), `located` transfers per fit cell each, and kept only
+    if it still fits the fit cells better beyond chance (the same χ² test). A named effect that fails takes
+    those named after it along; of tied effects, the one that alone holds is named."""
+    worlds = [WorldEffects(), *(p.world() for p in (*verdict.named, *verdict.tied))]
+    if len(worlds) > 1:  # one batch: each transfer's arm simulated once for every world (`phasesim.Replay`)
+        simulate_cells(mapper, worlds, [c.key for c in cells], settings.located, first_seed=FRESH_SEED)
+    kept: list[Profile] = []
+    dropped: list[str] = []
+    base = WorldEffects()
+    for fitted in verdict.named:
+        if not dropped and _holds(mapper, base, fitted, cells, settings, progress):
+            kept.append(fitted)
+            base = fitted.world()
+        else:
+            dropped.append(fitted.candidate.name)
+    tied = [t for t in verdict.tied if _holds(mapper, WorldEffects(), t, cells, settings, progress)]
+    dropped += [t.candidate.name for t in verdict.tied if t not in tied]
+    if not dropped:
+        return verdict, ()
+    if len(tied) == 1:
+        return replace(verdict, named=(tied[0],), tied=()), tuple(dropped)
+    return replace(verdict, named=tuple(kept), tied=tuple(tied)), tuple(dropped)
+
+
+def _holds(
+    mapper: Mapper,
+    base: WorldEffects,
+    fitted: Profile,
+    cells: Sequence[Cell],
+    settings: Settings,
+    progress: Callable[[str], None] | None,
+) -> bool:
+    """Whether `fitted`'s world fits `cells` better than `base` beyond chance on fresh seeds."""
+    keys = [c.key for c in cells]
+    sims = simulate_cells(mapper, [base, fitted.world()], keys, settings.located, first_seed=FRESH_SEED)
+    before, after = (sum(log_likelihood(c, sim[c.key], settings.phases) for c in cells) for sim in sims)
+    holds = 2 * (after - before) >= LR_95
+    if progress is not None:
+        progress(
+            f"{fitted.candidate.name} = {fitted.value:.4g} on fresh seeds: {after - before:+.1f} log units "
+            f"(needs {LR_95 / 2:.1f}): {'holds' if holds else 'not named'}"
+        )
+    return holds
 
 
 def _located(

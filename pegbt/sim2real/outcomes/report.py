@@ -102,6 +102,7 @@ def report_dict(diagnosis: Diagnosis, commands: list[str] | None = None) -> dict
             for p in d.verdict.tried
         ],
         "null_log_likelihood": float(d.verdict.null.sum()),
+        "unreplicated": list(d.unreplicated),
         "unexplained": [
             {"variant": r.variant, "condition": r.condition, "phase": r.phase, "p_value": r.p_value}
             for r in d.unexplained
@@ -145,6 +146,12 @@ def _finding(d: Diagnosis) -> list[str]:
     else:
         lines.append(
             "**Unexplained:** the fit cells disagree, and no registered world effect fits them better beyond chance and on held-out cells."
+        )
+    if d.unreplicated:
+        lines.append(
+            f"Chosen by the fit but not named: {', '.join(d.unreplicated)}; simulated again on fresh seeds, "
+            "its gain over the world before it was within chance (the grid's best on the fit's own "
+            "simulations is biased upwards by the pick)."
         )
     for row in d.unexplained:
         lines.append(

@@ -85,7 +85,7 @@ def _run(task: Task, attempts: int = WITH_RECOVERY) -> list[TransferResult]:
     results = []
     for world in worlds:
         try:
-            results.append(simulate_transfer(world, variant, condition, seed, replay, attempts))
+            results.append(simulate_transfer(world, variant, condition, seed, replay, attempts=attempts))
         except PegbtError:
             results.append(TransferResult(False, "reach", 0.0))
     return results
