@@ -85,6 +85,7 @@ def report_dict(diagnosis: Diagnosis, commands: list[str] | None = None) -> dict
         "indistinguishable": [
             {
                 "effect": t.candidate.kind,
+                "world": t.label,
                 "parameter": t.candidate.parameter,
                 "value": t.value,
                 "interval": list(t.interval()),
@@ -130,9 +131,7 @@ def _finding(d: Diagnosis) -> list[str]:
                 f"(95 % interval {low:.4g}–{high:.4g} on the grid)."
             )
     elif d.verdict.tied:
-        names = ", ".join(
-            f"{t.candidate.kind} ({t.candidate.parameter} ≈ {t.value:.4g})" for t in d.verdict.tied
-        )
+        names = ", ".join(f"{t.label} ({t.candidate.name} ≈ {t.value:.4g})" for t in d.verdict.tied)
         lines.append(
             f"**Not told apart:** {names} explain the fit cells equally well (log-likelihoods within 1); with "
             + (
@@ -335,7 +334,7 @@ def write_report(
     if d.verdict.named:
         worlds.append(str(write_world_file(d.world(), out / "world.yaml")))
     for tied in d.verdict.tied:
-        worlds.append(str(write_world_file(tied.world(), out / f"world-{tied.candidate.kind}.yaml")))
+        worlds.append(str(write_world_file(tied.world(), out / f"world-{tied.label}.yaml")))
     data["world_files"] = worlds
     (out / "report.json").write_text(json.dumps(data, indent=2) + "\n")
     (out / "report.md").write_text(markdown)
