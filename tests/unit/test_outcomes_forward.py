@@ -63,3 +63,20 @@ def test_an_effect_that_adds_nothing_beyond_chance_is_not_named():
         _cells(hidden), Settings(fit="unilateral", transfers=200, points=5, phases=False), _serial_mapper
     )
     assert [p.candidate.kind for p in d.verdict.named] == ["peg_compliance"]
+
+
+def test_a_cell_placed_in_full_is_simulated_until_its_success_is_shown_kept():
+    """The paper's calibrated rows placed 120 of 120: the fitted world must be shown to keep ≥ 98 % there,
+    which takes 189 simulated transfers without a failure, not the fit's handful."""
+    from pegbt.sim2real.outcomes.predict import transfers_to_keep
+    from pegbt.sim2real.outcomes.report import report_markdown
+
+    assert transfers_to_keep() == 189
+    hidden = WorldEffects.of({"peg_compliance": {"deflection": 0.0024}})
+    settings = Settings(fit="unilateral", transfers=40, points=5, phases=False)
+    d = diagnose(_cells(hidden), settings, _serial_mapper)
+    calibrated = d.predictions[("bilateral", "calibrated")]
+    assert (calibrated.at_best.succeeded, calibrated.at_best.attempted) == (189, 189)
+    assert calibrated.keeps >= 0.98
+    assert d.predictions[("bilateral", "uncalibrated")].at_best.attempted == 40
+    assert "bilateral calibrated: 189/189 placed" in report_markdown(d)

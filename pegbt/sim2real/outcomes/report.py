@@ -10,6 +10,7 @@ from pegbt.sim.world_effects import write_world_file
 from pegbt.sim2real.outcomes.cells import Cell
 from pegbt.sim2real.outcomes.diagnose import Diagnosis, profile_parameters
 from pegbt.sim2real.outcomes.intervals import rate_interval
+from pegbt.sim2real.outcomes.predict import KEEPS
 from pegbt.sim2real.outcomes.simulate import CATEGORIES
 
 
@@ -31,6 +32,8 @@ def report_dict(diagnosis: Diagnosis, commands: list[str] | None = None) -> dict
             "real_interval": list(rate_interval(cell.succeeded, cell.attempted)),
             "simulated_before": before.rate,
             "simulated_after": p.at_best.rate,
+            "simulated_after_counts": [p.at_best.succeeded, p.at_best.attempted],
+            "simulated_after_wilson_low": p.keeps,
             "predicted": {"rate": p.rate, "low": p.low, "high": p.high},
             "held_out": cell.key in held,
             "inside": p.inside,
@@ -216,6 +219,18 @@ def report_markdown(d: Diagnosis, commands: list[str] | None = None) -> str:
             lines.append(
                 f"- {cell.variant} {cell.condition}: {_pct(low)}–{_pct(high)}; real {_pct(cell.rate)} "
                 f"({_pct(real_low)}–{_pct(real_high)}): {reaches}"
+            )
+    full = [c for c in d.outcomes.cells if c.attempted and c.succeeded == c.attempted]
+    if full:
+        lines += [
+            "",
+            f"Cells the real robot placed in full, at the fitted world (goal: ≥ {_pct(KEEPS)} kept):",
+        ]
+        for cell in full:
+            q = d.predictions[cell.key]
+            lines.append(
+                f"- {cell.variant} {cell.condition}: {q.at_best.succeeded}/{q.at_best.attempted} placed, "
+                f"Wilson 95 % lower bound {_pct(q.keeps)}: {'kept' if q.keeps >= KEEPS else '**not shown**'}"
             )
     inside = [d.predictions[c.key].inside for c in d.held_out]
     if inside:

@@ -51,6 +51,13 @@ class SimCounts:
     def vector(self) -> np.ndarray:
         return np.array([self.counts[c] for c in CATEGORIES], dtype=float)
 
+    def merge(self, other: SimCounts) -> None:
+        """`other`'s transfers (of the same cell and world, other seeds) added to these."""
+        n, m = self.attempted, other.attempted
+        for category, count in other.counts.items():
+            self.counts[category] += count
+        self.seconds = (self.seconds * n + other.seconds * m) / (n + m) if n + m else 0.0
+
     def add(self, result: TransferResult) -> None:
         category = "placed" if result.succeeded else (result.phase or "grasp")
         n = self.attempted
