@@ -39,3 +39,17 @@ def test_a_meeting_the_planning_refuses_is_planned_again_not_counted_as_the_one_
     # calibrated handover transfer 2: the first grasp perception offers cannot reach the meeting point
     once = simulate_transfer(WorldEffects(), "handover", "calibrated", 2, None, attempts_for(paper_table()))
     assert once.succeeded and once.phase == "handover"
+
+
+def test_a_way_back_whose_block_was_lost_is_no_attempt_under_the_papers_protocol() -> None:
+    """The paper's attempts (75, 68, 79 of 120) leave out the ways back it skipped; pegbt's trees try them
+    and fail at sense, as their tick logs say."""
+    from pegbt.sim2real.outcomes.simulate import simulate_cells
+
+    logging.getLogger("pegbt").setLevel(logging.ERROR)
+    way_back = 6 + 1  # the way back of the unilateral order's second block, which the default world loses
+    key = ("unilateral", "uncalibrated")
+    paper = simulate_cells(LocalMapper(0, attempts_for(paper_table())), [WorldEffects()], [key], 1, way_back)
+    ours = simulate_cells(LocalMapper(0, 4), [WorldEffects()], [key], 1, way_back)
+    assert (paper[0][key].attempted, paper[0][key].skipped) == (0, 1)
+    assert (ours[0][key].attempted, ours[0][key].counts["sense"]) == (1, 1)

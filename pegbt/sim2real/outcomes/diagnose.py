@@ -132,7 +132,7 @@ def diagnose(
         predictions, _ = predict(counting, [verdict.named[-1]], cells, settings.transfers)
     elif verdict.tied:
         predictions, each = predict(counting, list(verdict.tied), cells, settings.transfers)
-        predicted_by = {tied.candidate.name: alone for tied, alone in zip(verdict.tied, each)}
+        predicted_by = {tied.label: alone for tied, alone in zip(verdict.tied, each)}
     else:
         predictions = predict_null(before, cells)
     after = {key: p.at_best for key, p in predictions.items()}

@@ -3,10 +3,12 @@
 Each registered world effect is a candidate through the parameters that make it act (`FITTED`): the
 fit cells are simulated on a grid of each parameter's range (the same seeds at every value) and the real
 counts weigh each value (`likelihood`). An effect is named only if it fits the fit cells better than the
-default world beyond chance (likelihood ratio, χ² at 95 %) and improves the held-out fit (each fit cell
-predicted from the others, leave-one-out); two effects the data cannot tell apart (log-likelihoods within
-`TIE`) are reported as such and neither is named; a second effect is added to the first only if the pair
-again passes both tests.
+world before it beyond chance (likelihood ratio, χ² at 95 %) and improves the held-out fit (each fit cell
+predicted from the others, leave-one-out). Effects are added one at a time (greedy forward selection):
+a transfer passes its phases in turn, so one that fails at the grasp and again at the lift is placed only
+when two effects act together, and each step profiles every candidate on top of the world chosen so far.
+Where the data cannot tell two additions apart (log-likelihoods within `TIE`) each is followed as its own
+path; paths that end in different worlds are reported as a tie, none of them named, and each predicts.
 """
 
 from __future__ import annotations
@@ -50,6 +52,8 @@ PHASES_OF: dict[str, frozenset[str]] = {
 }
 LR_95 = float(stats.chi2.ppf(0.95, 1))  # one fitted parameter
 TIE = 1.0  # log-likelihoods closer than this: the data do not tell the two effects apart
+MAX_EFFECTS = 4  # effects in one fitted world: the phases a transfer can fail in that several kinds share
+MAX_PATHS = 4  # tied paths followed at once (the rest, less likely, are dropped)
 
 
 @dataclass(frozen=True)
@@ -124,6 +128,11 @@ class Profile:
     def world(self) -> WorldEffects:
         return self.candidate.world(self.value, self.base)
 
+    @property
+    def label(self) -> str:
+        """The kinds of its fitted world, in order (a path of several effects is named by all of them)."""
+        return "+".join(effect.kind for effect in self.world())
+
 
 @dataclass(frozen=True)
 class Verdict:
@@ -192,8 +201,8 @@ def fit(
     informative: int | None = None,
 ) -> Verdict:
     """Profile every candidate (only those that can act in a `disagreeing` phase, when phases are known)
-    on the fit `cells` (the first `informative` of them disagree; all, if not given); name the best that
-    passes unless another ties with it; then try a second effect beside a named one."""
+    on the fit `cells` (the first `informative` of them disagree; all, if not given), then add effects one
+    at a time while the best addition passes; a tie is followed down each of its paths."""
     informative = len(cells) if informative is None else informative
     null = np.array([log_likelihood(c, null_sims[c.key], phases) for c in cells])
     chosen = [
@@ -201,42 +210,63 @@ def fit(
         for candidate in candidates(points)
         if disagreeing is None or PHASES_OF.get(candidate.kind, disagreeing) & disagreeing
     ]
-    worlds = [candidate.world(value) for candidate in chosen for value in candidate.grid]
-    simulate_cells(mapper, worlds, [c.key for c in cells[:informative]], transfers)  # one batch
-    tried = [
-        profile(mapper, candidate, cells, transfers, null, informative, phases=phases) for candidate in chosen
-    ]
-    passing = sorted((p for p in tried if passes(p, null)), key=lambda p: -p.total.max())
+
+    def step(base: WorldEffects, before: np.ndarray) -> list[Profile]:
+        """Every candidate of a kind not yet in `base` profiled on top of it, the best first, that passes
+        against `before` (the per-cell log-likelihoods of `base`)."""
+        others = [c for c in chosen if c.kind not in {e.kind for e in base}]
+        worlds = [candidate.world(value, base) for candidate in others for value in candidate.grid]
+        simulate_cells(mapper, worlds, [c.key for c in cells[:informative]], transfers)  # one batch
+        profiles = [profile(mapper, c, cells, transfers, before, informative, base, phases) for c in others]
+        if not base:
+            tried.extend(profiles)
+        return sorted((p for p in profiles if passes(p, before)), key=lambda p: -p.total.max())
+
+    tried: list[Profile] = []
+    alone = step(WorldEffects(), null)
+    paths: list[list[Profile]] = [[p] for p in _leaders(alone)]
+    done: list[list[Profile]] = []
+    while paths:
+        path = paths.pop(0)
+        last = path[-1]
+        ahead = [] if len(path) == MAX_EFFECTS else step(last.world(), last.per_cell[last.best])
+        ahead = [p for p in ahead if not _ties_alone(p, tried)]
+        if not ahead:
+            done.append(path)
+        paths = (paths + [[*path, p] for p in _leaders(ahead)])[:MAX_PATHS]
+    names = tuple(p.candidate.name for p in alone)
+    ends = _distinct([path[-1] for path in done])
+    if len(ends) > 1:
+        return Verdict((), tuple(ends), tuple(tried), null, names)
+    if not ends:
+        return Verdict((), (), tuple(tried), null, names)
+    path = next(path for path in done if path[-1] is ends[0])
+    return Verdict(tuple(path), (), tuple(tried), null, names)
+
+
+def _leaders(passing: list[Profile]) -> list[Profile]:
+    """The best of `passing` (sorted, best first) and those of other kinds the data cannot tell from it."""
     if not passing:
-        return Verdict((), (), tuple(tried), null, ())
+        return []
     best = passing[0]
-    rivals = [
+    return [best] + [
         p
         for p in passing[1:]
         if p.candidate.kind != best.candidate.kind and best.total.max() - p.total.max() < TIE
     ]
-    names = tuple(p.candidate.name for p in passing)
-    if rivals:
-        return Verdict((), (best, *rivals), tuple(tried), null, names)
-    named = [best]
-    second = [p for p in passing if p.candidate.kind != best.candidate.kind]
-    for other in second[:2]:
-        pair = profile(
-            mapper,
-            other.candidate,
-            cells,
-            transfers,
-            best.per_cell[best.best],
-            informative,
-            best.world(),
-            phases,
-        )
-        if passes(pair, best.per_cell[best.best]) and not _ties_alone(pair, other):
-            named.append(pair)
-            break
-    return Verdict(tuple(named), (), tuple(tried), null, names)
 
 
-def _ties_alone(pair: Profile, alone: Profile) -> bool:
-    """Whether the second effect alone explains the data as well as the pair (the first adds nothing)."""
-    return pair.total.max() - alone.total.max() < TIE
+def _distinct(ends: list[Profile]) -> list[Profile]:
+    """One end per fitted world's set of kinds (two orders of the same effects are one world), the most
+    likely first."""
+    best: dict[frozenset[str], Profile] = {}
+    for end in sorted(ends, key=lambda p: -p.total.max()):
+        best.setdefault(frozenset(e.kind for e in end.world()), end)
+    return list(best.values())
+
+
+def _ties_alone(pair: Profile, alone: list[Profile]) -> bool:
+    """Whether the last effect added explains the data alone as well as with the effects before it (they
+    add nothing)."""
+    own = next((p for p in alone if p.candidate.name == pair.candidate.name), None)
+    return own is not None and pair.total.max() - own.total.max() < TIE

@@ -74,11 +74,13 @@ RECEIVER = {"PSM1": "PSM2", "PSM2": "PSM1"}
 @dataclass(frozen=True)
 class TransferResult:
     """A simulated transfer: placed or not, the phase of its first failure (a placed transfer may have
-    recovered from one), and its simulated seconds."""
+    recovered from one), its simulated seconds, and whether it was a way back whose block was never
+    placed on its start peg (a tick log's `sense`; the paper's robot skipped it)."""
 
     succeeded: bool
     phase: str | None
     seconds: float
+    skipped: bool = False
 
 
 @cache
@@ -234,7 +236,7 @@ def simulate_transfer(
         outward = next(i for i, (_, _, goal) in enumerate(order[: len(order) // 2]) if goal == start_peg)
         there = _transfer(effects, variant, condition, seed, outward, replay, attempts)
         if not there.succeeded:
-            return TransferResult(False, "sense", there.seconds)
+            return TransferResult(False, "sense", there.seconds, skipped=True)
     return _transfer(effects, variant, condition, seed, index, replay, attempts)
 
 

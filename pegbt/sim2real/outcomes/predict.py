@@ -1,13 +1,18 @@
 """Predict the cells a fit never saw: a predictive interval per cell from the fitted parameter's posterior
 (the grid values the fit cells weigh) mixed with each value's simulated rate and the cell's own binomial
-draw, and whether the real count falls inside."""
+draw, and whether the real count falls inside. A real cell that placed every transfer (the paper's
+calibrated and optimised rows) is simulated at the best value until no failure there would show it keeps
+`KEEPS` success (Wilson's lower bound): a fitted world that helps the uncalibrated arm must not cost the
+calibrated one its grasps."""
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from scipy import stats
 
 from pegbt.sim2real.outcomes.cells import Cell
 from pegbt.sim2real.outcomes.fit import Profile
@@ -15,6 +20,22 @@ from pegbt.sim2real.outcomes.intervals import mixture_pmf, predictive_interval
 from pegbt.sim2real.outcomes.simulate import Key, Mapper, SimCounts, simulate_cells
 
 MIN_WEIGHT = 0.02  # grid values weighing less than this (relative to the best) are not simulated to predict
+KEEPS = 0.98  # the success a world must keep where the real robot placed every transfer
+Z = float(stats.norm.ppf(0.975))
+
+
+def transfers_to_keep(level: float = KEEPS) -> int:
+    """The fewest transfers whose Wilson 95 % lower bound reaches `level` when every one is placed
+    (n / (n + z²) ≥ `level`): 189 for 98 %."""
+    return math.ceil(level * Z**2 / (1.0 - level))
+
+
+def wilson_low(succeeded: int, attempted: int) -> float:
+    """The Wilson 95 % lower bound of a simulated rate."""
+    if attempted == 0:
+        return 0.0
+    ci = stats.binomtest(succeeded, attempted).proportion_ci(confidence_level=0.95, method="wilson")
+    return float(ci.low)
 
 
 @dataclass(frozen=True)
@@ -27,6 +48,11 @@ class Prediction:
     high: float
     inside: bool
     at_best: SimCounts
+
+    @property
+    def keeps(self) -> float:
+        """The Wilson 95 % lower bound of the rate simulated at the best value."""
+        return wilson_low(self.at_best.succeeded, self.at_best.attempted)
 
 
 def _mixture(cell: Cell, sims: Sequence[SimCounts], weights: np.ndarray) -> np.ndarray:
@@ -47,6 +73,7 @@ def predict(
         worlds = [fitted.candidate.world(fitted.values[i], fitted.base) for i in keep]
         sims = simulate_cells(mapper, worlds, [c.key for c in cells], transfers, first_seed=10_000)
         best.append(sims[keep.index(fitted.best)])
+        _keep_up(mapper, fitted, cells, transfers, best[-1])
         for cell in cells:
             pmfs[cell.key].append(_mixture(cell, [s[cell.key] for s in sims], weights[keep]))
     each = [
@@ -54,6 +81,20 @@ def predict(
     ]
     mixed = {c.key: _prediction(c, np.mean(pmfs[c.key], axis=0), best[0][c.key]) for c in cells}
     return mixed, each
+
+
+def _keep_up(
+    mapper: Mapper, fitted: Profile, cells: Sequence[Cell], transfers: int, at_best: dict[Key, SimCounts]
+) -> None:
+    """More transfers at the best value for every cell the real robot placed in full, to
+    `transfers_to_keep()` in all (other seeds than the mixture's)."""
+    full = [c.key for c in cells if c.attempted and c.succeeded == c.attempted]
+    extra = transfers_to_keep() - transfers
+    if not full or extra <= 0:
+        return
+    more = simulate_cells(mapper, [fitted.world()], full, extra, first_seed=10_000 + transfers)[0]
+    for key, counts in more.items():
+        at_best[key].merge(counts)
 
 
 def predict_null(null_sims: dict[Key, SimCounts], cells: Sequence[Cell]) -> dict[Key, Prediction]:

@@ -10,6 +10,7 @@ from pegbt.sim.world_effects import write_world_file
 from pegbt.sim2real.outcomes.cells import Cell
 from pegbt.sim2real.outcomes.diagnose import Diagnosis, profile_parameters
 from pegbt.sim2real.outcomes.intervals import rate_interval
+from pegbt.sim2real.outcomes.predict import KEEPS
 from pegbt.sim2real.outcomes.simulate import CATEGORIES
 
 
@@ -31,6 +32,8 @@ def report_dict(diagnosis: Diagnosis, commands: list[str] | None = None) -> dict
             "real_interval": list(rate_interval(cell.succeeded, cell.attempted)),
             "simulated_before": before.rate,
             "simulated_after": p.at_best.rate,
+            "simulated_after_counts": [p.at_best.succeeded, p.at_best.attempted],
+            "simulated_after_wilson_low": p.keeps,
             "predicted": {"rate": p.rate, "low": p.low, "high": p.high},
             "held_out": cell.key in held,
             "inside": p.inside,
@@ -85,6 +88,7 @@ def report_dict(diagnosis: Diagnosis, commands: list[str] | None = None) -> dict
         "indistinguishable": [
             {
                 "effect": t.candidate.kind,
+                "world": t.label,
                 "parameter": t.candidate.parameter,
                 "value": t.value,
                 "interval": list(t.interval()),
@@ -131,9 +135,7 @@ def _finding(d: Diagnosis) -> list[str]:
                 f"(95 % interval {low:.4g}–{high:.4g} on the grid)."
             )
     elif d.verdict.tied:
-        names = ", ".join(
-            f"{t.candidate.kind} ({t.candidate.parameter} ≈ {t.value:.4g})" for t in d.verdict.tied
-        )
+        names = ", ".join(f"{t.label} ({t.candidate.name} ≈ {t.value:.4g})" for t in d.verdict.tied)
         lines.append(
             f"**Not told apart:** {names} explain the fit cells equally well (log-likelihoods within 1); with "
             + (
@@ -224,6 +226,18 @@ def report_markdown(d: Diagnosis, commands: list[str] | None = None) -> str:
             lines.append(
                 f"- {cell.variant} {cell.condition}: {_pct(low)}–{_pct(high)}; real {_pct(cell.rate)} "
                 f"({_pct(real_low)}–{_pct(real_high)}): {reaches}"
+            )
+    full = [c for c in d.outcomes.cells if c.attempted and c.succeeded == c.attempted]
+    if full:
+        lines += [
+            "",
+            f"Cells the real robot placed in full, at the fitted world (goal: ≥ {_pct(KEEPS)} kept):",
+        ]
+        for cell in full:
+            q = d.predictions[cell.key]
+            lines.append(
+                f"- {cell.variant} {cell.condition}: {q.at_best.succeeded}/{q.at_best.attempted} placed, "
+                f"Wilson 95 % lower bound {_pct(q.keeps)}: {'kept' if q.keeps >= KEEPS else '**not shown**'}"
             )
     inside = [d.predictions[c.key].inside for c in d.held_out]
     if inside:
@@ -342,7 +356,7 @@ def write_report(
     if d.verdict.named:
         worlds.append(str(write_world_file(d.world(), out / "world.yaml")))
     for tied in d.verdict.tied:
-        worlds.append(str(write_world_file(tied.world(), out / f"world-{tied.candidate.kind}.yaml")))
+        worlds.append(str(write_world_file(tied.world(), out / f"world-{tied.label}.yaml")))
     data["world_files"] = worlds
     (out / "report.json").write_text(json.dumps(data, indent=2) + "\n")
     (out / "report.md").write_text(markdown)

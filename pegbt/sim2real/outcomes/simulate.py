@@ -7,14 +7,16 @@ arm's motion once and replays it in the worlds where it is the same (`phasesim.R
 
 How many attempts a transfer gets is the real protocol's, not a fitted knob (`attempts_for`): pegbt's trees
 regrasp a dropped block; the reference paper's robot moved each block once and skipped a transfer whose
-block was no longer on its peg, which is why its attempts end at a block lost for good.
+block was no longer on its peg, which is why its attempts end at a block lost for good. Under that
+protocol a way back whose block was never placed is not an attempt at all (the paper's 75, 68 and 79
+attempts of 120): it is counted apart (`SimCounts.skipped`), not as a failure at `sense`.
 """
 
 from __future__ import annotations
 
 from collections.abc import Iterable, Sequence
 from concurrent.futures import Executor, ProcessPoolExecutor
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import partial
 from typing import Protocol
 
@@ -35,6 +37,7 @@ class SimCounts:
 
     counts: dict[str, int] = field(default_factory=lambda: dict.fromkeys(CATEGORIES, 0))
     seconds: float = 0.0
+    skipped: int = 0  # transfers the protocol never attempted (their block was lost on the way out)
 
     @property
     def attempted(self) -> int:
@@ -51,7 +54,18 @@ class SimCounts:
     def vector(self) -> np.ndarray:
         return np.array([self.counts[c] for c in CATEGORIES], dtype=float)
 
+    def merge(self, other: SimCounts) -> None:
+        """`other`'s transfers (of the same cell and world, other seeds) added to these."""
+        n, m = self.attempted, other.attempted
+        for category, count in other.counts.items():
+            self.counts[category] += count
+        self.skipped += other.skipped
+        self.seconds = (self.seconds * n + other.seconds * m) / (n + m) if n + m else 0.0
+
     def add(self, result: TransferResult) -> None:
+        if result.skipped:
+            self.skipped += 1
+            return
         category = "placed" if result.succeeded else (result.phase or "grasp")
         n = self.attempted
         self.counts[category] += 1
@@ -79,15 +93,17 @@ def attempts_for(outcomes: Outcomes) -> int:
 def _run(task: Task, attempts: int = WITH_RECOVERY) -> list[TransferResult]:
     """One transfer simulated in each world, with up to `attempts` picks; a motion the planner refuses (a
     target out of reach in that world) is a transfer that failed where it started, never the end of the
-    whole fit."""
+    whole fit. A way back whose block was lost is skipped only under the paper's protocol (one attempt);
+    pegbt's trees try it and fail at `sense`."""
     worlds, variant, condition, seed = task
     replay = Replay()
     results = []
     for world in worlds:
         try:
-            results.append(simulate_transfer(world, variant, condition, seed, replay, attempts=attempts))
+            result = simulate_transfer(world, variant, condition, seed, replay, attempts=attempts)
         except PegbtError:
-            results.append(TransferResult(False, "reach", 0.0))
+            result = TransferResult(False, "reach", 0.0)
+        results.append(result if attempts == ONE_ATTEMPT else replace(result, skipped=False))
     return results
 
 
