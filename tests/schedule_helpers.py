@@ -11,7 +11,6 @@ LONGEST_S = {
     "tests/system/test_sim2real_real.py": 76,
     "tests/system/test_measurement_faults.py": 68,
     "tests/system/test_realtime_trials.py": 66,
-    "tests/integration/test_monitor_huge_frame.py": 65,
     "tests/system/test_world_effects_eval.py": 57,
     "tests/system/test_sim2real_effects.py": 46,
     "tests/system/test_outcomes_ticklogs.py": 38,

@@ -6,7 +6,10 @@ from __future__ import annotations
 
 from pathlib import Path
 
-SYSTEM = Path(__file__).resolve().parents[1] / "system"
+from schedule_helpers import LONGEST_S
+
+TESTS = Path(__file__).resolve().parents[1]
+SYSTEM = TESTS / "system"
 
 
 def test_every_system_test_carries_the_system_marker(request) -> None:
@@ -18,14 +21,17 @@ def test_every_system_test_carries_the_system_marker(request) -> None:
     assert not unmarked, unmarked  # under `-m "not system"` such a test would run in the fast loop
 
 
-def test_modules_with_a_slow_test_run_first_then_the_system_tier_each_module_in_one_piece(request) -> None:
-    ranks, modules = [], []
+def test_the_longest_modules_run_first_then_those_with_a_slow_test_then_the_system_tier_each_in_one_piece(
+    request,
+) -> None:
+    ranks: list[tuple[int, int]] = []
+    modules: list[Path] = []
     for item in request.session.items:
         if not modules or modules[-1] != item.path:
             modules.append(item.path)
-            ranks.append(3)
+            ranks.append((-LONGEST_S.get(item.path.relative_to(TESTS.parent).as_posix(), 0), 3))
         system = item.get_closest_marker("system") is not None
         own = (0 if system else 1) if item.get_closest_marker("slow") else 2 if system else 3
-        ranks[-1] = min(ranks[-1], own)
+        ranks[-1] = (ranks[-1][0], min(ranks[-1][1], own))
     assert len(set(modules)) == len(modules), "a module split in two"
     assert ranks == sorted(ranks), list(zip(ranks, modules, strict=True))
