@@ -4,7 +4,6 @@ number. Each is one `PegbtError` naming the log and node, not an XML ParseError 
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import pytest
@@ -12,24 +11,16 @@ import pytest
 from pegbt.errors import PegbtError
 from pegbt.executive.btlog import export_btlog
 from pegbt.executive.logfile import read_tick_log
-from pegbt.executive.runoptions import RunOptions
-from pegbt.executive.session import run_tree_file
-
-REPO = Path(__file__).resolve().parents[2]
+from tests.ticklog_helpers import changed_log, example_records
 
 
 @pytest.fixture(scope="module")
 def records(tmp_path_factory: pytest.TempPathFactory) -> list[dict]:
-    log = tmp_path_factory.mktemp("log") / "valid.jsonl"
-    run_tree_file(RunOptions(REPO / "trees" / "example.yaml", log, clock="manual"))
-    return [json.loads(line) for line in log.read_text().splitlines()]
+    return example_records(tmp_path_factory.mktemp("log"))
 
 
 def _export(tmp_path: Path, records: list[dict], change) -> PegbtError:
-    changed = json.loads(json.dumps(records))
-    node = change(changed[0]["nodes"])
-    log = tmp_path / "changed.jsonl"
-    log.write_text("".join(json.dumps(record) + "\n" for record in changed))
+    log, node = changed_log(tmp_path, records, change)
     with pytest.raises(PegbtError) as raised:
         export_btlog(read_tick_log(log), tmp_path / "out.btlog")
     assert raised.value.file == str(log) and raised.value.field == f"node {node['id']}"

@@ -4,32 +4,22 @@ or `writes` (a log from another writer) reads as one that reads and writes nothi
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import pytest
 
 from pegbt.executive.analysis import replay, summary, why
 from pegbt.executive.logfile import TickLogError, read_tick_log
-from pegbt.executive.runoptions import RunOptions
-from pegbt.executive.session import run_tree_file
-
-REPO = Path(__file__).resolve().parents[2]
+from tests.ticklog_helpers import changed_log, example_records
 
 
 @pytest.fixture(scope="module")
 def records(tmp_path_factory: pytest.TempPathFactory) -> list[dict]:
-    log = tmp_path_factory.mktemp("log") / "valid.jsonl"
-    run_tree_file(RunOptions(REPO / "trees" / "example.yaml", log, clock="manual"))
-    return [json.loads(line) for line in log.read_text().splitlines()]
+    return example_records(tmp_path_factory.mktemp("log"))
 
 
 def _written(tmp_path: Path, records: list[dict], change) -> Path:
-    changed = json.loads(json.dumps(records))
-    change(changed[0]["nodes"])
-    log = tmp_path / "changed.jsonl"
-    log.write_text("".join(json.dumps(record) + "\n" for record in changed))
-    return log
+    return changed_log(tmp_path, records, change)[0]
 
 
 def test_a_second_root_is_refused_naming_the_node(tmp_path: Path, records) -> None:
