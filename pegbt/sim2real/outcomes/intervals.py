@@ -15,11 +15,14 @@ from scipy import stats
 LEVEL = 0.95
 
 
-def rate_interval(succeeded: int, attempted: int, level: float = LEVEL) -> tuple[float, float]:
-    """The exact (Clopper–Pearson) interval of a success rate: the paper's 37/68 gives about 42–66 %."""
+def rate_interval(
+    succeeded: int, attempted: int, level: float = LEVEL, method: str = "exact"
+) -> tuple[float, float]:
+    """The interval of a success rate, exact (Clopper–Pearson) by default: the paper's 37/68 gives about
+    42–66 %; "wilson" for the bound a simulated rate is held to (`predict.transfers_to_keep`)."""
     if attempted == 0:
         return 0.0, 1.0
-    ci = stats.binomtest(succeeded, attempted).proportion_ci(confidence_level=level, method="exact")
+    ci = stats.binomtest(succeeded, attempted).proportion_ci(confidence_level=level, method=method)
     return float(ci.low), float(ci.high)
 
 

@@ -16,7 +16,7 @@ from scipy import stats
 
 from pegbt.sim2real.outcomes.cells import Cell
 from pegbt.sim2real.outcomes.fit import Profile
-from pegbt.sim2real.outcomes.intervals import mixture_pmf, predictive_interval
+from pegbt.sim2real.outcomes.intervals import mixture_pmf, predictive_interval, rate_interval
 from pegbt.sim2real.outcomes.simulate import Key, Mapper, SimCounts, simulate_cells
 
 MIN_WEIGHT = 0.02  # grid values weighing less than this (relative to the best) are not simulated to predict
@@ -28,14 +28,6 @@ def transfers_to_keep(level: float = KEEPS) -> int:
     """The fewest transfers whose Wilson 95 % lower bound reaches `level` when every one is placed
     (n / (n + z²) ≥ `level`): 189 for 98 %."""
     return math.ceil(level * Z**2 / (1.0 - level))
-
-
-def wilson_low(succeeded: int, attempted: int) -> float:
-    """The Wilson 95 % lower bound of a simulated rate."""
-    if attempted == 0:
-        return 0.0
-    ci = stats.binomtest(succeeded, attempted).proportion_ci(confidence_level=0.95, method="wilson")
-    return float(ci.low)
 
 
 @dataclass(frozen=True)
@@ -52,7 +44,7 @@ class Prediction:
     @property
     def keeps(self) -> float:
         """The Wilson 95 % lower bound of the rate simulated at the best value."""
-        return wilson_low(self.at_best.succeeded, self.at_best.attempted)
+        return rate_interval(self.at_best.succeeded, self.at_best.attempted, method="wilson")[0]
 
 
 def _mixture(cell: Cell, sims: Sequence[SimCounts], weights: np.ndarray) -> np.ndarray:
