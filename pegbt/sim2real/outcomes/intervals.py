@@ -7,6 +7,7 @@ observed under a simulated rate is beta-binomial (the rate's Jeffreys posterior 
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import Literal
 
 import numpy as np
 from numpy.typing import NDArray
@@ -16,7 +17,7 @@ LEVEL = 0.95
 
 
 def rate_interval(
-    succeeded: int, attempted: int, level: float = LEVEL, method: str = "exact"
+    succeeded: int, attempted: int, level: float = LEVEL, method: Literal["exact", "wilson"] = "exact"
 ) -> tuple[float, float]:
     """The interval of a success rate, exact (Clopper–Pearson) by default: the paper's 37/68 gives about
     42–66 %; "wilson" for the bound a simulated rate is held to (`predict.transfers_to_keep`)."""
