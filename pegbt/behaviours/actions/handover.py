@@ -30,8 +30,10 @@ from pegbt.behaviours.resources.arm_motion import ArmMotion
 from pegbt.behaviours.resources.skills import Skills
 from pegbt.errors import PegbtError
 from pegbt.frames import invert_rigid
+from pegbt.handover_protocol import Giver, key, record_of
 from pegbt.motion.handover import descent_clearance, handover_meeting_point
 from pegbt.motion.ik import solve_ik
+from pegbt.motion.kinematics import tip_position
 from pegbt.motion.trajectory import Trajectory
 from pegbt.motion.waypoints import TransferWaypoints
 from pegbt.perception.blocks import BlockEstimate
@@ -210,6 +212,62 @@ def descent(
     """The planning of the receiver's descent from joints `start` onto `grasp`."""
     target = solve_ik(grasp.pose, motion.settings, what="the handover grasp")
     return partial(motion.through, start, [target], ["grasp"])
+
+
+class AwaitMeeting(RobotLeaf):
+    """The receiver, waiting above its grasp, begins its descent while the giver's carry still plays, as
+    late as lets its tip stay `approach_above_block` above the block's top until the carry's planned end:
+    the descent above the block is hidden behind the carry. Only the tip's height is relied on, so the
+    receiver's tool is where the clearance check of the meeting (`plan_meeting`) already put it, higher.
+    The jaw closes only once the giver says it holds the block out (`await_arrival` after the descent)."""
+
+    def initialise(self) -> None:
+        patience = self.params["patience"]
+        self.deadline = math.inf if patience is None else self.context.clock.now() + patience
+        self.wake_at: float | None = self.deadline
+        self.lead: float | None = None
+
+    def act(self) -> Status:
+        n = self.params["n"]
+        try:
+            record = record_of(n, self.read(key(n)))
+        except KeyError:
+            record = record_of(n, None)
+        now = self.context.clock.now()
+        if record.giver is Giver.ARRIVED:
+            self.feedback_message = "the giver holds the block out"
+            return Status.SUCCESS
+        end = self.carry_end() if record.giver is Giver.OFFERED else None
+        if end is not None:
+            if self.lead is None:
+                self.lead = self.descent_lead()
+            if now >= end - self.lead:
+                self.feedback_message = f"the giver arrives in {end - now:.2f} s: descending"
+                return Status.SUCCESS
+            self.wake_at = min(self.deadline, end - self.lead)
+        if now > self.deadline:
+            return self.fail(f"the giver has not brought the block after {self.params['patience']:g} s ({record})")
+        self.feedback_message = f"waiting for the giver to bring the block ({record})"
+        return Status.RUNNING
+
+    def carry_end(self) -> float | None:
+        """When the giver's motion under way (its carry, once it offered the block) is planned to end."""
+        giver = next(arm for arm in self.robot.arms if arm != self.param("arm"))
+        active = self.motion(giver).active
+        if active is None or not active.handle.busy:
+            return None
+        return active.sent_at + active.planned.duration
+
+    def descent_lead(self) -> float:
+        """How long the descent from here onto the grasp keeps the tip `approach_above_block` above the
+        block's top (the grasp is `grasp_depth` below it)."""
+        arm, grasp = self.param("arm"), self.get("grasp")
+        motion, cell = self.motion(arm), self.skills.cell
+        trajectory = descent(self.skills, motion, motion.start_from(self.client(arm)), grasp)()
+        heights = (tip_position(trajectory.q) - grasp.pose[:3, 3]) @ cell.up_in(arm)
+        clear = cell.block.grasp_depth + self.skills.motion.transfer.approach_above_block
+        below = np.flatnonzero(heights < clear)
+        return float(trajectory.t[below[0]]) if below.size else trajectory.duration
 
 
 class DescendToGrasp(MotionLeaf):
