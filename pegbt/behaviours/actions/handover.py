@@ -26,7 +26,7 @@ from pegbt.behaviours.base import (
 )
 from pegbt.behaviours.motion import CarryLeaf, above_pegs_first
 from pegbt.behaviours.poses import from_handover, to_arm, to_handover, tool_pose
-from pegbt.behaviours.resources.arm_motion import ArmMotion
+from pegbt.behaviours.resources.arm_motion import ArmMotion, SentMotion
 from pegbt.behaviours.resources.skills import Skills
 from pegbt.errors import PegbtError
 from pegbt.frames import invert_rigid
@@ -215,17 +215,18 @@ def descent(
 
 
 class AwaitMeeting(RobotLeaf):
-    """The receiver, waiting above its grasp, begins its descent while the giver's carry still plays, as
-    late as lets its tip stay `approach_above_block` above the block's top until the carry's planned end:
-    the descent above the block is hidden behind the carry. Only the tip's height is relied on, so the
-    receiver's tool is where the clearance check of the meeting (`plan_meeting`) already put it, higher.
-    The jaw closes only once the giver says it holds the block out (`await_arrival` after the descent)."""
+    """The receiver, waiting above its grasp, begins its descent while the giver's carry still plays: at
+    the first moment from which its tip, descending, stays `approach_above_block` above the top of the
+    block as the giver's planned carry moves it (it arrives from above) until the carry ends. The part of
+    the descent above the block is hidden behind the carry; below it, the receiver moves only once the
+    block is still, as it did after the giver's word. The jaw closes only once the giver says it holds the
+    block out (`await_arrival` after the descent)."""
 
     def initialise(self) -> None:
         patience = self.params["patience"]
         self.deadline = math.inf if patience is None else self.context.clock.now() + patience
         self.wake_at: float | None = self.deadline
-        self.lead: float | None = None
+        self.planned: tuple[float, float] | None = None  # (the carry's send time, when to set off)
 
     def act(self) -> Status:
         n = self.params["n"]
@@ -237,37 +238,45 @@ class AwaitMeeting(RobotLeaf):
         if record.giver is Giver.ARRIVED:
             self.feedback_message = "the giver holds the block out"
             return Status.SUCCESS
-        end = self.carry_end() if record.giver is Giver.OFFERED else None
-        if end is not None:
-            if self.lead is None:
-                self.lead = self.descent_lead()
-            if now >= end - self.lead:
+        carry = self.carry() if record.giver is Giver.OFFERED else None
+        if carry is not None:
+            if self.planned is None or self.planned[0] != carry.sent_at:
+                self.planned = (carry.sent_at, self.set_off(carry, now))
+            if now >= self.planned[1]:
+                end = carry.sent_at + carry.planned.duration
                 self.feedback_message = f"the giver arrives in {end - now:.2f} s: descending"
                 return Status.SUCCESS
-            self.wake_at = min(self.deadline, end - self.lead)
+            self.wake_at = min(self.deadline, self.planned[1])
         if now > self.deadline:
-            return self.fail(f"the giver has not brought the block after {self.params['patience']:g} s ({record})")
+            return self.fail(
+                f"the giver has not brought the block after {self.params['patience']:g} s ({record})"
+            )
         self.feedback_message = f"waiting for the giver to bring the block ({record})"
         return Status.RUNNING
 
-    def carry_end(self) -> float | None:
-        """When the giver's motion under way (its carry, once it offered the block) is planned to end."""
+    def carry(self) -> SentMotion | None:
+        """The giver's motion under way (its carry, once it offered the block), if any."""
         giver = next(arm for arm in self.robot.arms if arm != self.param("arm"))
         active = self.motion(giver).active
-        if active is None or not active.handle.busy:
-            return None
-        return active.sent_at + active.planned.duration
+        return active if active is not None and active.handle.busy else None
 
-    def descent_lead(self) -> float:
-        """How long the descent from here onto the grasp keeps the tip `approach_above_block` above the
-        block's top (the grasp is `grasp_depth` below it)."""
+    def set_off(self, carry: SentMotion, now: float) -> float:
+        """The first clock time from `now` (on the control period) from which the descent onto the grasp
+        keeps the tip `approach_above_block` above the block's top, as `carry` moves it, until it ends."""
         arm, grasp = self.param("arm"), self.get("grasp")
         motion, cell = self.motion(arm), self.skills.cell
-        trajectory = descent(self.skills, motion, motion.start_from(self.client(arm)), grasp)()
-        heights = (tip_position(trajectory.q) - grasp.pose[:3, 3]) @ cell.up_in(arm)
+        giver = next(name for name in self.robot.arms if name != arm)
+        descent_plan = descent(self.skills, motion, motion.start_from(self.client(arm)), grasp)()
+        heights = (tip_position(descent_plan.q) - grasp.pose[:3, 3]) @ cell.up_in(arm)
+        times = carry.sent_at + carry.planned.t
+        tips = tip_position(carry.planned.q)
+        above = (tips - tips[-1]) @ cell.up_in(giver)  # the block over where it will be held out
         clear = cell.block.grasp_depth + self.skills.motion.transfer.approach_above_block
-        below = np.flatnonzero(heights < clear)
-        return float(trajectory.t[below[0]]) if below.size else trajectory.duration
+        starts = np.arange(now, times[-1] + descent_plan.period, descent_plan.period)
+        later = times[None, :] - starts[:, None]
+        tip = np.interp(np.maximum(later, 0.0), descent_plan.t, heights)
+        safe = np.all((later < 0.0) | (tip >= clear + above[None, :] - 1e-9), axis=1)
+        return float(starts[np.argmax(safe)]) if safe.any() else float(times[-1])
 
 
 class DescendToGrasp(MotionLeaf):
