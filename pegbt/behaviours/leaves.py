@@ -248,6 +248,20 @@ declare(
 )
 
 declare(
+    "await_meeting",
+    "the receiver `arm`, waiting above its grasp, waits until it may descend: once the giver holds the block "
+    "out, or as late in the giver's carry as lets its tip keep above the block's top until the carry ends",
+    "pegbt.behaviours.actions.handover:AwaitMeeting",
+    params=(
+        arm_param(),
+        key_param("grasp", "read", "the receiver's grasp at the meeting point"),
+        handover_number("read"),
+        PATIENCE,
+    ),
+    resources=RESOURCES,
+)
+
+declare(
     "descend_to_grasp",
     "move `arm` straight down onto its grasp (the receiver taking the block at the meeting point)",
     "pegbt.behaviours.actions.handover:DescendToGrasp",

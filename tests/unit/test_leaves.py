@@ -32,9 +32,10 @@ from pegbt.executive.loader import load_tree
 from pegbt.executive.registry import REGISTRY
 from pegbt.executive.runner import set_initial_blackboard
 from pegbt.executive.work import WorkPool
+from pegbt.handover_protocol import Giver, Handover, Receiver
 from pegbt.motion.handover import descent_clearance, handover_meeting_point, tool_gap
 from pegbt.motion.ik import solve_ik
-from pegbt.motion.kinematics import forward_kinematics
+from pegbt.motion.kinematics import forward_kinematics, tip_position
 from pegbt.perception.blocks import BlockEstimate, block_on_peg
 from pegbt.perception.grasp import grasp_options
 from pegbt.physics.recording import MIN_SAMPLES, load_recording
@@ -507,6 +508,7 @@ TO_HANDOVER = (
 )
 GO_TO_HANDOVER = "{go_to_handover: {arm: PSM1, grasp: /handover/receiver_grasp}}"
 DESCEND = "{descend_to_grasp: {arm: PSM1, grasp: /handover/receiver_grasp}}"
+MEETING = "{await_meeting: {arm: PSM1, grasp: /handover/receiver_grasp, n: 1, patience: 5.0}}"
 FROM_HANDOVER = (
     f"{{carry_from_handover: {{arm: PSM1, place: {PLACE}, grasp: /handover/receiver_grasp, "
     "block_pose: /handover/block_pose, plan_s: /PSM1/plan_s}}"
@@ -756,6 +758,62 @@ def test_descend_to_grasp_goes_straight_down_onto_the_grasp_clear_of_the_giver(
     assert arm.jaw.sent == [] and robot.arms[GIVER].sent == []
 
 
+def meeting_under_way(robot: Robot, skills: Skills, seen, said: Giver):
+    """The receiver waiting above its grasp, the giver's last motion of its carry (down onto the meeting
+    pose, as a carry arrives) playing from now (clock 0), and handover 1's giver word `said`."""
+    arm, meeting, values = receiver_at(robot, skills, seen, pose=partial(wait_pose, skills))
+    giver, settings = robot.arms[GIVER], skills.settings[GIVER]
+    arrival = meeting.tip.copy()
+    arrival[:3, 3] += HANDOVER_ARRIVAL * skills.cell.up_in(GIVER)
+    at(giver, solve_ik(arrival, settings))
+    carry = skills.arm(GIVER).through(giver.rest, [solve_ik(meeting.tip, settings)], ["meeting"])
+    skills.arm(GIVER).send(giver, carry)
+    values["handover/state_1"] = Handover(1, receiver=Receiver.READY).said(said)
+    return arm, meeting, values, carry
+
+
+def test_await_meeting_lets_the_receiver_descend_during_the_carry_keeping_above_the_block(
+    tmp_path, robot, skills, seen, clock
+):
+    arm, meeting, values, carry = meeting_under_way(robot, skills, seen, Giver.OFFERED)
+    built = build(tmp_path, robot, skills, MEETING, **values)
+    assert run(built, clock) == Status.SUCCESS
+    start = clock.now()
+    assert 0.0 < start < carry.duration  # before the giver has arrived: part of the descent is hidden
+    assert feedback(built).startswith("the giver arrives in ")
+    # descending from now, the tip keeps `approach_above_block` above the block's top as the giver brings
+    # it down onto the meeting pose, until it is there
+    grasp = meeting.receiver_grasp
+    descent = skills.arm(RECEIVER).through(arm.rest, [solve_ik(grasp.pose, skills.settings[RECEIVER])], ["g"])
+    heights = (tip_position(descent.q) - grasp.pose[:3, 3]) @ skills.cell.up_in(RECEIVER)
+    giver_tips = tip_position(carry.q)
+    block_above = (giver_tips - giver_tips[-1]) @ skills.cell.up_in(GIVER)
+    later = carry.t >= start
+    tip = np.interp(carry.t[later] - start, descent.t, heights)
+    clear = skills.cell.block.grasp_depth + skills.motion.transfer.approach_above_block
+    assert np.all(tip >= clear + block_above[later] - 1e-9)
+    # and no later than it must: within one tick (`STEP`) of the descent's travel
+    travel = np.abs(np.diff(heights)).max() / descent.period * STEP
+    assert np.any(tip < clear + block_above[later] + travel)
+    assert arm.sent == []
+
+
+def test_await_meeting_waits_while_the_giver_is_not_carrying_and_goes_once_it_holds_the_block_out(
+    tmp_path, robot, skills, seen, clock
+):
+    arm, meeting, values, _ = meeting_under_way(robot, skills, seen, Giver.OFFERED)
+    robot.arms[GIVER].hold()  # the giver's motion ended: its carry not yet sent
+    built = build(tmp_path, robot, skills, MEETING, **values)
+    assert run(built, clock, seconds=1.0) == Status.RUNNING
+    assert feedback(built).startswith("waiting for the giver to bring the block")
+    assert run(built, clock) == Status.FAILURE
+    assert feedback(built).startswith("the giver has not brought the block after 5 s")
+    values["handover/state_1"] = values["handover/state_1"].said(Giver.ARRIVED)
+    built = build(tmp_path, robot, skills, MEETING, **values)
+    assert run(built, clock) == Status.SUCCESS
+    assert feedback(built) == "the giver holds the block out"
+
+
 def receiver_holding(robot: Robot, skills: Skills, seen):
     arm, meeting, values = receiver_at(robot, skills, seen, pose=lambda grasp: grasp.pose)
     arm.block_in_jaw = True
@@ -868,6 +926,7 @@ UNIT_TESTED = {
     "await_closed": "test_handover_protocol.py",
     "await_offer": "test_handover_protocol.py",
     "await_ready": "test_handover_protocol.py",
+    "await_meeting": "test_leaves.py",
     "await_release": "test_handover_protocol.py",
     "await_taker": "test_handover_protocol.py",
     "back_off": "test_handover_protocol.py",

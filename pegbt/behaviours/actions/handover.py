@@ -26,12 +26,14 @@ from pegbt.behaviours.base import (
 )
 from pegbt.behaviours.motion import CarryLeaf, above_pegs_first
 from pegbt.behaviours.poses import from_handover, to_arm, to_handover, tool_pose
-from pegbt.behaviours.resources.arm_motion import ArmMotion
+from pegbt.behaviours.resources.arm_motion import ArmMotion, SentMotion
 from pegbt.behaviours.resources.skills import Skills
 from pegbt.errors import PegbtError
 from pegbt.frames import invert_rigid
+from pegbt.handover_protocol import Giver, key, record_of
 from pegbt.motion.handover import descent_clearance, handover_meeting_point
 from pegbt.motion.ik import solve_ik
+from pegbt.motion.kinematics import tip_position
 from pegbt.motion.trajectory import Trajectory
 from pegbt.motion.waypoints import TransferWaypoints
 from pegbt.perception.blocks import BlockEstimate
@@ -210,6 +212,71 @@ def descent(
     """The planning of the receiver's descent from joints `start` onto `grasp`."""
     target = solve_ik(grasp.pose, motion.settings, what="the handover grasp")
     return partial(motion.through, start, [target], ["grasp"])
+
+
+class AwaitMeeting(RobotLeaf):
+    """The receiver, waiting above its grasp, begins its descent while the giver's carry still plays: at
+    the first moment from which its tip, descending, stays `approach_above_block` above the top of the
+    block as the giver's planned carry moves it (it arrives from above) until the carry ends. The part of
+    the descent above the block is hidden behind the carry; below it, the receiver moves only once the
+    block is still, as it did after the giver's word. The jaw closes only once the giver says it holds the
+    block out (`await_arrival` after the descent)."""
+
+    def initialise(self) -> None:
+        patience = self.params["patience"]
+        self.deadline = math.inf if patience is None else self.context.clock.now() + patience
+        self.wake_at: float | None = self.deadline
+        self.planned: tuple[float, float] | None = None  # (the carry's send time, when to set off)
+
+    def act(self) -> Status:
+        n = self.params["n"]
+        try:
+            record = record_of(n, self.read(key(n)))
+        except KeyError:
+            record = record_of(n, None)
+        now = self.context.clock.now()
+        if record.giver is Giver.ARRIVED:
+            self.feedback_message = "the giver holds the block out"
+            return Status.SUCCESS
+        carry = self.carry() if record.giver is Giver.OFFERED else None
+        if carry is not None:
+            if self.planned is None or self.planned[0] != carry.sent_at:
+                self.planned = (carry.sent_at, self.set_off(carry, now))
+            if now >= self.planned[1]:
+                end = carry.sent_at + carry.planned.duration
+                self.feedback_message = f"the giver arrives in {end - now:.2f} s: descending"
+                return Status.SUCCESS
+            self.wake_at = min(self.deadline, self.planned[1])
+        if now > self.deadline:
+            return self.fail(
+                f"the giver has not brought the block after {self.params['patience']:g} s ({record})"
+            )
+        self.feedback_message = f"waiting for the giver to bring the block ({record})"
+        return Status.RUNNING
+
+    def carry(self) -> SentMotion | None:
+        """The giver's motion under way (its carry, once it offered the block), if any."""
+        giver = next(arm for arm in self.robot.arms if arm != self.param("arm"))
+        active = self.motion(giver).active
+        return active if active is not None and active.handle.busy else None
+
+    def set_off(self, carry: SentMotion, now: float) -> float:
+        """The first clock time from `now` (on the control period) from which the descent onto the grasp
+        keeps the tip `approach_above_block` above the block's top, as `carry` moves it, until it ends."""
+        arm, grasp = self.param("arm"), self.get("grasp")
+        motion, cell = self.motion(arm), self.skills.cell
+        giver = next(name for name in self.robot.arms if name != arm)
+        descent_plan = descent(self.skills, motion, motion.start_from(self.client(arm)), grasp)()
+        heights = (tip_position(descent_plan.q) - grasp.pose[:3, 3]) @ cell.up_in(arm)
+        times = carry.sent_at + carry.planned.t
+        tips = tip_position(carry.planned.q)
+        above = (tips - tips[-1]) @ cell.up_in(giver)  # the block over where it will be held out
+        clear = cell.block.grasp_depth + self.skills.motion.transfer.approach_above_block
+        starts = np.arange(now, times[-1] + descent_plan.period, descent_plan.period)
+        later = times[None, :] - starts[:, None]
+        tip = np.interp(np.maximum(later, 0.0), descent_plan.t, heights)
+        safe = np.all((later < 0.0) | (tip >= clear + above[None, :] - 1e-9), axis=1)
+        return float(starts[np.argmax(safe)]) if safe.any() else float(times[-1])
 
 
 class DescendToGrasp(MotionLeaf):
