@@ -6,15 +6,16 @@ A transfer meets only the constraints no way of doing it escapes: the tool reach
 the jaw to close on it), the jaw closes from an opening that passes the block's wall to the wall, the block
 rises until its hole clears its peg (its bottom at the peg's top: the tip `block_below_tip` above it), comes
 down until its hole is on the goal peg (the same height over that peg), stops, and falls the rest of the way
-when the jaw lets go. A jaw that grips the wall has one jaw inside the block's hole: that jaw (2 ×
-`jaw_radius` thick) fills the gap between the peg and the hole's wall (hole radius less peg radius), so it
-can only move along the peg's axis while its tip is below the block's top. The approach therefore passes
-through the grasp's point at the block's top (the jaw entering the hole), and a tool that let go of a block
-below the fallen block's top first rises along that axis to it (the jaw leaving the hole) before it
-moves over. Everything else pegbt does (the transfer height, the drop height, the approach from
-above, the peg channels and their margin, the jaw's full opening and squeeze) is its choice, and the breakdown of
-`pegbt bench limit` charges it there. The block is carried at the clear height, above every peg and block
-on the board; the other arm is taken as out of the way.
+when the jaw lets go. Carrying it clear of the other pegs and blocks adds nothing: they end at or below
+the peg tops, under the lifted block, and a lower path between them is not the bound's to exclude; the
+other arm is taken as out of the way. A jaw that grips the wall has one jaw inside the block's hole: that
+jaw (2 × `jaw_radius` thick) fills the gap between the peg and the hole's wall (hole radius less peg
+radius), so it can only move along the peg's axis while its tip is below the block's top. The approach
+therefore passes through the grasp's point at the block's top (the jaw entering the hole), and a tool that
+let go of a block below the fallen block's top first rises along that axis to it (the jaw leaving the
+hole) before it moves over. Everything else pegbt does (the transfer height, the drop height, the approach
+from above, the peg channels and their margin, the jaw's opening, squeeze and opening to let go) is its
+choice, and the breakdown of `pegbt bench limit` charges it there.
 
 Each segment is time-optimal under the planner's limits (infinite jerk, as `pegbt bench motion`'s
 rest-to-rest bound, which is ruckig's). A motion from rest at A that must pass through B and end at rest at C
@@ -259,7 +260,7 @@ def _via_cached(
 ) -> float:
     """`via_s` remembered: a trial's bound and the bench's meet the same poses again and again."""
     vmax, amax = (np.array(values) for values in limits)
-    return _via_s(*(np.array(pose) for pose in (start, via, goal)), vmax, amax)
+    return _via_s(np.array(start), np.array(via), np.array(goal), vmax, amax)
 
 
 def through(
