@@ -6,22 +6,24 @@ A transfer meets only the constraints no way of doing it escapes: the tool reach
 the jaw to close on it), the jaw closes from an opening that passes the block's wall to the wall, the block
 rises until its hole clears its peg (its bottom at the peg's top: the tip `block_below_tip` above it), comes
 down until its hole is on the goal peg (the same height over that peg), stops, and falls the rest of the way
-when the jaw lets go. A jaw that grips the wall has one jaw inside the block's hole: that jaw (2 ×
-`jaw_radius` thick) fills the gap between the peg and the hole's wall (hole radius less peg radius), so it
-can only move along the peg's axis while its tip is below the block's top. The approach therefore passes
-through the grasp's point at the block's top (the jaw entering the hole), and a tool that let go of a block
-below the fallen block's top first rises along that axis to it (the jaw leaving the hole) before it
-moves over. Everything else pegbt does (the transfer height, the drop height, the approach from
-above, the peg channels and their margin, the jaw's full opening and squeeze) is its choice, and the breakdown of
-`pegbt bench limit` charges it there. The block is carried at the clear height, above every peg and block
-on the board; the other arm is taken as out of the way.
+when the jaw lets go. Carrying it clear of the other pegs and blocks adds nothing: they end at or below
+the peg tops, under the lifted block, and a lower path between them is not the bound's to exclude; the
+other arm is taken as out of the way. A jaw that grips the wall has one jaw inside the block's hole: that
+jaw (2 × `jaw_radius` thick) fills the gap between the peg and the hole's wall (hole radius less peg
+radius), so it can only move along the peg's axis while its tip is below the block's top. The approach
+therefore passes through the grasp's point at the block's top (the jaw entering the hole), and a tool that
+let go of a block below the fallen block's top first rises along that axis to it (the jaw leaving the
+hole) before it moves over. Everything else pegbt does (the transfer height, the drop height, the approach
+from above, the peg channels and their margin, the jaw's opening, squeeze and opening to let go) is its
+choice, and the breakdown of `pegbt bench limit` charges it there.
 
-Each segment is time-optimal under the planner's limits with ruckig (infinite jerk, as `pegbt bench motion`'s
-rest-to-rest bound). A motion from rest at A that must pass through B and end at rest at C takes at least
-the time to reach B from rest plus the time from B to rest at C, each without stopping at B; with
-bang-coast-bang joints, reaching B from rest with any speed takes half the rest-to-rest time to 2B − A
-(the first half of that symmetric profile), so both halves are ruckig durations too. The carry's bound is
-the larger of that and the rest-to-rest time from A to C.
+Each segment is time-optimal under the planner's limits (infinite jerk, as `pegbt bench motion`'s
+rest-to-rest bound, which is ruckig's). A motion from rest at A that must pass through B and end at rest at C
+passes B at some joint velocity v (within the velocity limits) at some time t₁, and ends t₂ later: each
+joint j must reach (B_j, v_j) from rest in at most t₁ and stop from there at C_j in at most t₂ (its
+time-optimal bang-coast-bang durations, `_reach_s`). Whatever v is, t₁ + t₂ is at least the least sum that
+every joint admits with its own v_j (`via_s`): a relaxation, so never above a feasible motion, and the
+velocity at B is continuous (no jump, as a sum of two rest-to-rest halves would allow).
 
 Two arms: each arm's transfers follow one another; arms work at once; a handover is a rendezvous: the giver
 holds the block at pegbt's meeting point, the receiver's jaw closes there once both have arrived, then the
@@ -34,7 +36,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from functools import partial
+from functools import lru_cache, partial
 
 import numpy as np
 from numpy.typing import NDArray
@@ -146,20 +148,137 @@ def rest_to_rest(start: NDArray[np.float64], goal: NDArray[np.float64], settings
     return float(trajectory.duration)
 
 
+def _rest_to_rest_1d(
+    distance: NDArray[np.float64], vmax: NDArray[np.float64], amax: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """One joint's time-optimal rest-to-rest duration over `distance` ≥ 0 (bang-coast-bang)."""
+    short = distance <= vmax**2 / amax
+    return np.where(short, 2.0 * np.sqrt(distance / amax), distance / vmax + vmax / amax)
+
+
+def _reach_s(
+    distance: NDArray[np.float64],
+    velocity: NDArray[np.float64],
+    vmax: NDArray[np.float64],
+    amax: NDArray[np.float64],
+) -> NDArray[np.float64]:
+    """One joint's least time from rest to `distance` away, arriving with `velocity` (|velocity| ≤ vmax):
+    accelerate and brake (coasting at vmax if it gets there), overshoot and come back to arrive moving
+    backwards, or back up first to arrive faster than accelerating all the way allows."""
+    flip = distance < 0
+    d, v = np.where(flip, -distance, distance), np.where(flip, -velocity, velocity)
+    backwards = _rest_to_rest_1d(d + v**2 / (2 * amax), vmax, amax) + np.abs(v) / amax
+    run_up = _rest_to_rest_1d(np.maximum(v**2 / (2 * amax) - d, 0.0), vmax, amax) + np.abs(v) / amax
+    peak = np.sqrt(amax * d + v**2 / 2)
+    braked = np.where(
+        peak <= vmax,
+        (2 * peak - v) / amax,
+        (2 * vmax - v) / amax + (d - (2 * vmax**2 - v**2) / (2 * amax)) / vmax,
+    )
+    return np.where(v < 0, backwards, np.where(v**2 <= 2 * amax * d, braked, run_up))
+
+
+VIA_GRIDS = (512, 64)  # arrival times tried through a via point, then within each interval split again
+VIA_SPLIT = 8  # intervals split again: those with the least rounded-down value (the others stay so)
+BISECTIONS = 30
+
+
+def via_s(
+    start: NDArray[np.float64], via: NDArray[np.float64], goal: NDArray[np.float64], settings: ArmSettings
+) -> float:
+    """Least time from rest at `start` through `via` (at any velocity) to rest at `goal`, rounded down."""
+    vmax, amax = settings.planner_velocity.astype(float), settings.planner_acceleration.astype(float)
+    return _via_s(start, via, goal, vmax, amax)
+
+
+def _via_s(
+    start: NDArray[np.float64],
+    via: NDArray[np.float64],
+    goal: NDArray[np.float64],
+    vmax: NDArray[np.float64],
+    amax: NDArray[np.float64],
+) -> float:
+    """Least time from rest at `start` through `via` (at any velocity) to rest at `goal`, rounded down.
+
+    For joint j, f_j(v) = `_reach_s` to (via_j, v) and g_j(v) the time from (via_j, v) to rest at goal_j
+    (the reverse of reaching via_j from rest at goal_j with −v) fall then rise in v, so the velocities
+    reached by t₁ form an interval around f_j's minimiser, and h_j(t₁), the least g_j over it, is g_j at
+    the point of that interval nearest g_j's minimiser. The bound is min over t₁ of t₁ + max_j h_j(t₁);
+    h_j falls with t₁, so on a grid t₀ < t₁ < … it is at least min_k t_k + max_j h_j(t_{k+1}); each
+    interval is taken at the outer end of its bisection bracket (wider: h smaller)."""
+    d_in, d_out = via - start, via - goal
+
+    def f(v: NDArray[np.float64]) -> NDArray[np.float64]:
+        return _reach_s(d_in, v, vmax, amax)
+
+    def g(v: NDArray[np.float64]) -> NDArray[np.float64]:
+        return _reach_s(d_out, -v, vmax, amax)
+
+    best_in = np.sign(d_in) * np.minimum(np.sqrt(2 * amax * np.abs(d_in)), vmax)
+    best_out = -np.sign(d_out) * np.minimum(np.sqrt(2 * amax * np.abs(d_out)), vmax)
+    first, last = float(np.max(f(best_in))), float(np.max(f(best_out)))
+    if last <= first:
+        return first + float(np.max(g(best_out)))
+
+    def least_out(times: NDArray[np.float64]) -> NDArray[np.float64]:
+        """max_j h_j(t) per time t, h_j's interval taken at the outer end of its bisection bracket."""
+        column = times[:, None]
+        shape = (len(times), len(vmax))
+        ends = []
+        for limit in (-vmax, vmax):  # bisect each side of f_j's minimiser
+            outside, inside = np.broadcast_to(limit, shape).copy(), np.broadcast_to(best_in, shape).copy()
+            for _ in range(BISECTIONS):
+                mid = (outside + inside) / 2
+                reached = f(mid) <= column
+                inside, outside = np.where(reached, mid, inside), np.where(reached, outside, mid)
+            ends.append(outside)
+        return np.max(g(np.clip(best_out, *ends)), axis=1)
+
+    # on [t_k, t_k+1], t₁ + max_j h_j(t₁) ≥ t_k + max_j h_j(t_k+1); past `last` it only grows. Intervals
+    # whose rounded-down value is above one the sum reaches are settled; the others are split again.
+    reached = last + float(np.max(g(best_out)))
+    settled, intervals = reached, np.array([[first, last]])
+    for grid in VIA_GRIDS:
+        times = np.linspace(intervals[:, 0], intervals[:, 1], grid + 1, axis=1)
+        ends = least_out(times.ravel()).reshape(times.shape)
+        reached = min(reached, float(np.min(times + ends)))
+        lows = (times[:, :-1] + ends[:, 1:]).ravel()
+        split = lows < min(reached, np.sort(lows)[min(VIA_SPLIT, lows.size) - 1] + 1e-12)
+        settled = min([settled, *lows[~split]])
+        intervals = np.stack([times[:, :-1].ravel()[split], times[:, 1:].ravel()[split]], axis=1)
+        if not split.any():
+            return settled
+    return min(settled, float(np.min(lows[split])))
+
+
+@lru_cache(maxsize=1 << 14)
+def _via_cached(
+    start: tuple[float, ...],
+    via: tuple[float, ...],
+    goal: tuple[float, ...],
+    limits: tuple[tuple[float, ...], tuple[float, ...]],
+) -> float:
+    """`via_s` remembered: a trial's bound and the bench's meet the same poses again and again."""
+    vmax, amax = (np.array(values) for values in limits)
+    return _via_s(np.array(start), np.array(via), np.array(goal), vmax, amax)
+
+
 def through(
     start: NDArray[np.float64],
     via: list[NDArray[np.float64]],
     goal: NDArray[np.float64],
     settings: ArmSettings,
 ) -> float:
-    """Least time from rest at `start` through each of `via` (at most two) to rest at `goal` (module
-    docstring): each way of splitting the path at the via points gives a bound; the largest holds."""
+    """Least time from rest at `start` through each of `via` (at most two) to rest at `goal`: the
+    rest-to-rest time, the bound through each via point on its own (`via_s`), and with two, reaching the
+    first and leaving the last at any velocity with the straight line between them at full speed; each
+    drops constraints, so the largest holds."""
     bounds = [rest_to_rest(start, goal, settings)]
-    if via:
-        first, last = via[0], via[-1]
-        middle = 0.0
-        if len(via) == 2:
-            middle = float(np.max(np.abs(last - first) / settings.planner_velocity))
+    limits = (tuple(settings.planner_velocity), tuple(settings.planner_acceleration))
+    bounds += [_via_cached(tuple(start), tuple(point), tuple(goal), limits) for point in via]
+    if len(via) == 2:
+        first, last = via
+        middle = float(np.max(np.abs(last - first) / settings.planner_velocity))
         reach = 0.5 * rest_to_rest(start, 2 * first - start, settings)
         stop = 0.5 * rest_to_rest(goal, 2 * last - goal, settings)
         bounds.append(reach + middle + stop)

@@ -37,6 +37,7 @@ class TransferSettings:
     channel_tolerance: float
     upright_tilt: float
     jaw_open: float
+    jaw_release: float
     jaw_closed: float
 
     @property

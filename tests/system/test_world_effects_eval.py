@@ -1,7 +1,7 @@
 """`pegbt eval --world-effects`: the default world is today's on fixed seeds, event for event (fingerprints
 of the simulator's ground truth recorded without a world file with `pegbt eval --variant unilateral --trials
-1 --seed S [--condition C] --keep-logs`: uncalibrated on main at 5c5ab95, optimized on branch limit2 after
-the transfer was lowered), and a world file's effects reach the trials' simulator."""
+1 --seed S [--condition C] --keep-logs`: both on branch limit3 after `release` opened the jaw to 30°, not 50°,
+the same events as before at earlier times), and a world file's effects reach the trials' simulator."""
 
 import hashlib
 import json
@@ -14,10 +14,10 @@ from pegbt.sim.world_effects import WORLD_EFFECT_KINDS, WorldEffects, write_worl
 
 pytestmark = pytest.mark.system
 
-# (condition, seed): (world events, fingerprint of them, transfers placed of 12) on main
+# (condition, seed): (world events, fingerprint of them, transfers placed of 12), recorded as above
 BEFORE = {
-    ("uncalibrated", 6): (68, "ffc0c743dcd11469", 1),
-    ("optimized", 5): (48, "7346e29550d79860", 12),
+    ("uncalibrated", 6): (68, "f6e4786eadf3414b", 1),
+    ("optimized", 5): (48, "4f45cff11c8d2f28", 12),
 }
 
 

@@ -320,15 +320,22 @@ def test_grasp_fails_when_the_jaw_closes_on_nothing(tmp_path, robot, skills, clo
     assert read("/PSM1/holding") is False and "on nothing" in feedback(built)
 
 
-def test_release_opens_the_jaw_and_writes_that_it_holds_nothing(tmp_path, robot, skills, clock):
+def test_release_opens_the_jaw_past_the_wall_only_and_writes_that_it_holds_nothing(
+    tmp_path, robot, skills, clock
+):
     arm = psm1(robot)
     arm.block_in_jaw = True
     built = build(
         tmp_path, robot, skills, "{release: {arm: PSM1, holding: /PSM1/holding}}", **{"PSM1/holding": True}
     )
     assert run(built, clock) == Status.SUCCESS
-    assert [sent.target for sent in arm.jaw.sent] == [skills.motion.transfer.jaw_open]
+    opened = skills.motion.transfer.jaw_release
+    assert [sent.target for sent in arm.jaw.sent] == [opened]
     assert read("/PSM1/holding") is False
+    # the tips clear the wall and the jaws' own thickness, short of the approach's full opening
+    block, tool = skills.cell.block, skills.cell.tool
+    gap = 2 * tool.jaw_length * math.sin(opened / 2) - (block.edge_distance - block.hole_radius)
+    assert 2 * tool.jaw_radius < gap and opened < skills.motion.transfer.jaw_open
 
 
 def test_release_fails_when_the_jaw_command_is_refused(tmp_path, robot, skills, clock):

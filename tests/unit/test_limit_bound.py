@@ -7,9 +7,10 @@ from functools import partial
 
 import numpy as np
 import pytest
+import ruckig
 
-from pegbt.bench.limit_bound import Bound, Heights, Start, rest_to_rest, through, trial_bound
-from pegbt.motion.limits import arm_settings
+from pegbt.bench.limit_bound import Bound, Heights, Start, _reach_s, rest_to_rest, through, trial_bound, via_s
+from pegbt.motion.limits import ArmSettings, arm_settings
 from pegbt.motion.transfer import TransferPlanner
 from pegbt.motion.waypoints import transfer_waypoints
 from pegbt.workcell import UNILATERAL_ORDER, workcell
@@ -28,8 +29,61 @@ def test_a_via_point_off_the_straight_line_costs_time() -> None:
     goal[0], via[2] = 0.5, 0.05
     straight = rest_to_rest(start, goal, settings)
     assert through(start, [via], goal, settings) > straight
-    # going out along one joint and back: reach it from rest, then stop back at the start
-    assert through(start, [via], start, settings) == pytest.approx(2 * math.sqrt(2 * 0.05 / 0.2), rel=1e-6)
+    # out along one joint and back: it must stop at the via point (passing it moving would overshoot), so
+    # twice the rest-to-rest time, not two halves of a profile whose velocity jumps from +0.14 to -0.14 m/s
+    # (rounded down by at most a step of the arrival times tried, 1/512 of their range)
+    assert through(start, [via], start, settings) == pytest.approx(2 * 2 * math.sqrt(0.05 / 0.2), abs=3e-3)
+    assert through(start, [via], start, settings) <= 2 * 2 * math.sqrt(0.05 / 0.2)
+
+
+def _ruckig_s(
+    start: np.ndarray, start_v: np.ndarray, goal: np.ndarray, goal_v: np.ndarray, settings: ArmSettings
+) -> float | None:
+    """ruckig's time-optimal duration between two states (None where it finds none)."""
+    generator, inputs, trajectory = ruckig.Ruckig(6), ruckig.InputParameter(6), ruckig.Trajectory(6)
+    inputs.current_position, inputs.current_velocity = start.tolist(), start_v.tolist()
+    inputs.target_position, inputs.target_velocity = goal.tolist(), goal_v.tolist()
+    inputs.max_velocity = settings.planner_velocity.tolist()
+    inputs.max_acceleration = settings.planner_acceleration.tolist()
+    inputs.max_jerk = [math.inf] * 6
+    if generator.calculate(inputs, trajectory) not in (ruckig.Result.Working, ruckig.Result.Finished):
+        return None
+    return float(trajectory.duration)
+
+
+def test_one_joints_reach_is_rucking_time_optimal_duration() -> None:
+    rng = np.random.default_rng(3)
+    settings = arm_settings("PSM1")
+    for _ in range(50):
+        distance, velocity = rng.normal() * 0.05, rng.uniform(-0.2, 0.2)
+        goal, goal_v = np.zeros(6), np.zeros(6)
+        goal[2], goal_v[2] = distance, velocity
+        expected = _ruckig_s(np.zeros(6), np.zeros(6), goal, goal_v, settings)
+        reached = _reach_s(np.array([distance]), np.array([velocity]), np.array([0.2]), np.array([0.2]))
+        assert reached[0] == pytest.approx(expected, abs=1e-6), (distance, velocity)
+
+
+def test_a_via_point_bound_is_below_every_motion_through_it_and_above_the_velocity_jump() -> None:
+    """Any velocity at the via point gives a feasible motion (two ruckig segments): the bound is below
+    the quickest of those tried, and never below the bound that lets the velocity jump."""
+    rng = np.random.default_rng(7)
+    settings = arm_settings("PSM1")
+    scale = np.array([0.3, 0.3, 0.03, 0.3, 0.3, 0.3])
+    for _ in range(8):
+        start, via, goal = (rng.normal(size=6) * scale for _ in range(3))
+        bound = via_s(start, via, goal, settings)
+        jump = 0.5 * rest_to_rest(start, 2 * via - start, settings)
+        jump += 0.5 * rest_to_rest(goal, 2 * via - goal, settings)
+        assert bound >= jump - 1e-9
+        best = math.inf
+        for fraction in np.linspace(-1.0, 1.0, 41):
+            for direction in (goal - start, rng.normal(size=6)):
+                velocity = np.clip(fraction * direction, -1, 1) * settings.planner_velocity
+                there = _ruckig_s(start, np.zeros(6), via, velocity, settings)
+                back = _ruckig_s(via, velocity, goal, np.zeros(6), settings)
+                if there is not None and back is not None:
+                    best = min(best, there + back)
+        assert bound <= best
 
 
 @pytest.mark.parametrize("arm", ["PSM1", "PSM2"])

@@ -280,9 +280,12 @@ class CloseOnBlock(MotionLeaf):
 
 
 class Release(MotionLeaf):
+    """Opens the jaw only as far as lets the block go and the tool rise out of its hole
+    (`transfer.jaw_release`): the next approach opens it fully while it moves."""
+
     def begin(self) -> None:
         self.move_jaw(
-            self.param("arm"), self.skills.motion.transfer.jaw_open, f"{self.param('arm')} jaw opening"
+            self.param("arm"), self.skills.motion.transfer.jaw_release, f"{self.param('arm')} jaw opening"
         )
 
     def done(self) -> Status:
