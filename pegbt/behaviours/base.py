@@ -151,6 +151,7 @@ class MotionLeaf(RobotLeaf):
         self.feedback_message = ""
         self.expected_end: float | None = None
         self.wake_at: float | None = None
+        self.wake_when: Callable[[], bool] | None = None
         self.blocked_since: float | None = None
         self.blocked_plans: list[Prepared | None] | None = None  # what was not sent for the other arm
         self.stepping_back: Running | None = None
@@ -385,6 +386,7 @@ class MotionLeaf(RobotLeaf):
         self.expected_end = end if self.expected_end is None else max(self.expected_end, end)
 
     def act(self) -> Status:
+        self.wake_when = None
         if self.job is not None:
             if not self.job.done:
                 self.wake_at = None
@@ -413,9 +415,18 @@ class MotionLeaf(RobotLeaf):
                 )
             ahead = self.expected_end is not None and now < self.expected_end
             self.wake_at = self.expected_end if ahead else None
+            self.wake_when = None if ahead else self._motions_over
             return self.watch()
-        self.wake_at = None
+        self.wake_at = self.wake_when = None
         return self.done()
+
+    def _motions_over(self) -> bool:
+        """Whether a tick would find no motion of this leaf busy any more (the runner ticks at once then,
+        not a period later); a motion whose state cannot be read is the tick's to report."""
+        try:
+            return bool(self.running) and not any(motion.handle.busy for motion in self.running)
+        except PegbtError:
+            return True
 
     def watch(self) -> Status:
         """Called on ticks while motions run; a subclass may fail early (a slipping block) and may ask to be

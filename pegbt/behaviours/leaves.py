@@ -229,6 +229,15 @@ declare(
         key_param("grasp", "read", "the giver's grasp"),
         key_param("block", "read", "the block held"),
         key_param("meeting", "read", "the giver's tip pose at the meeting point"),
+        Param(
+            "rise",
+            float,
+            "how far the `rise` after letting go moves up, m: planned while this carry plays and the block "
+            "is held out (taken by a `rise` of that height); 0: none",
+            default=0.0,
+            minimum=0.0,
+            maximum=MAX_RISE,
+        ),
         keep_apart=keep_apart_param(0.0),
     ),
     reads=("/board",),

@@ -16,6 +16,7 @@ from py_trees.common import Status
 
 from pegbt.behaviours.base import MotionLeaf
 from pegbt.behaviours.poses import height_above_pegs
+from pegbt.behaviours.resources.arm_motion import ArmMotion
 from pegbt.motion.ik import solve_ik
 from pegbt.motion.kinematics import forward_kinematics, tip_position
 from pegbt.motion.limits import ArmSettings
@@ -26,6 +27,18 @@ from pegbt.workcell import Workcell
 
 LOW = 0.001  # m: a tip more than this below the transfer height rises before moving sideways
 SLIP_CHECK = 0.1  # s: how often a transfer looks at the jaw for a slipping block
+
+
+def rise(
+    cell: Workcell, motion: ArmMotion, arm: str, start: NDArray[np.float64], height: float
+) -> Trajectory:
+    """`arm`'s motion straight up along the pegs' axis by `height` from joints `start`: the same plan
+    whether made when the rise begins or early, while the giver holds its block out (`rise` of
+    `carry_to_handover`)."""
+    target = forward_kinematics(start)
+    target[:3, 3] += height * cell.up_in(arm)
+    risen = solve_ik(target, motion.settings, what="risen")
+    return motion.through(start, [risen], ["risen"])
 
 
 def above_pegs_first(

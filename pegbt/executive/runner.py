@@ -9,7 +9,15 @@ clock; `math.inf`: only when something else changes, e.g. a blackboard wait). Wh
 has such a hint and the tick wrote nothing to the blackboard, the runner lets the clock run to the
 earliest hint (in whole periods) instead of ticking every period: a trajectory of 1.5 s is one wait,
 not 75. Running nodes that are not leaves (a timeout) constrain the wait with their own hints. Without
-hints the runner ticks every period.
+hints the runner ticks every period. In real time the hint is kept as it is, not rounded up: a robot's
+motion ends when it ends, not on the tick grid.
+
+Ticking as soon as a leaf can go on (real time): a leaf may also set `wake_when`, a test that is true once
+a tick would find it changed (its motions reported done). While the runner waits it checks these every
+`POLL` s and ticks at once when one is true. A motion reported done between two ticks was otherwise seen
+up to a period later, each motion of a transfer: in lockstep the clock stops exactly at a motion's end
+(its duration is a whole number of the simulator's steps), so each costs real time a period that lockstep
+never spends.
 
 Overruns: a tick that takes longer than the period on the run's clock (real time: perception or planning
 in the tick, a loaded machine) is recorded (the tick log's `late_s`, `RunResult.overruns`) and the next
@@ -29,6 +37,7 @@ import math
 import sys
 import time
 import traceback
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import py_trees
@@ -40,6 +49,7 @@ from pegbt.executive.ticklog import TickLogWriter
 from pegbt.executive.work import WorkStats
 
 SWITCH_INTERVAL = 0.0005  # s: the longest a thread keeps the GIL from one that waits for it, in real time
+POLL = 0.002  # s between checks of the running leaves' `wake_when` while the runner waits, in real time
 
 
 @dataclass(frozen=True)
@@ -104,10 +114,14 @@ def run(
                 outcome = "timeout"
                 _halt(root, log, ticks, clock.now() - start, "timeout")
                 break
-            wake = tick_start + period if _changed(before) else next_wake(built, tick_start, period)
+            if _changed(before):
+                wake = tick_start + period
+            else:
+                wake = next_wake(built, tick_start, period, whole_periods=work.inline)
             if timeout is not None:
                 wake = min(wake, start + timeout)
-            work.wait(clock, max(0.0, max(tick_start + period, wake) - clock.now()))
+            seconds = max(0.0, max(tick_start + period, wake) - clock.now())
+            work.wait(clock, seconds, until=None if work.inline else wake_when(built), poll=POLL)
     except KeyboardInterrupt:
         _halt(root, log, ticks, clock.now() - start, "interrupt")
     except Exception as error:
@@ -133,9 +147,10 @@ def _changed(before: dict) -> bool:
     )
 
 
-def next_wake(built: BuiltTree, now: float, period: float) -> float:
-    """When the tree next needs a tick: the earliest `wake_at` of its running nodes, rounded up to whole
-    periods after `now`, if every running leaf gave one; else one period after `now`."""
+def next_wake(built: BuiltTree, now: float, period: float, *, whole_periods: bool = True) -> float:
+    """When the tree next needs a tick: the earliest `wake_at` of its running nodes (rounded up to whole
+    periods after `now` with `whole_periods`, never sooner than a period), if every running leaf gave one;
+    else one period after `now`."""
     hints = []
     for node in built.nodes:
         behaviour = node.behaviour
@@ -150,7 +165,22 @@ def next_wake(built: BuiltTree, now: float, period: float) -> float:
     earliest = min(hints, default=math.inf)
     if not math.isfinite(earliest) or earliest <= now + period:
         return now + period
+    if not whole_periods:
+        return earliest
     return now + period * math.ceil((earliest - now) / period - 1e-9)
+
+
+def wake_when(built: BuiltTree) -> Callable[[], bool] | None:
+    """A test that is true once any running leaf's `wake_when` is (None if no running leaf gave one)."""
+    tests = [
+        test
+        for node in built.nodes
+        if node.behaviour.status is Status.RUNNING
+        and (test := getattr(node.behaviour, "wake_when", None)) is not None
+    ]
+    if not tests:
+        return None
+    return lambda: any(test() for test in tests)
 
 
 def _halt(

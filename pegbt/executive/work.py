@@ -10,7 +10,8 @@ Work done ahead of need (`submit_ahead`: a motion planned while the one before i
 of its own, so that it never queues a job the tree waits for now behind it.
 
 The run's ticking sleeps between ticks through `WorkPool.wait`, which a job ending cuts short: its leaf
-gets the result on the next tick at once, not up to a period later.
+gets the result on the next tick at once, not up to a period later; so does a test the runner gives it
+(`until`: a running leaf's motion reported done), checked every `poll` seconds.
 
 With a clock whose time stands still while the tree computes (a lockstep simulator, `ManualClock`), the
 runner makes the pool `inline`: a job then runs at once, in the tick that asks for it, and the leaf finds
@@ -140,10 +141,12 @@ class WorkPool:
             self._ends += 1
             self._ended.set()
 
-    def wait(self, clock: Clock, seconds: float) -> None:
+    def wait(
+        self, clock: Clock, seconds: float, until: Callable[[], bool] | None = None, poll: float = 0.002
+    ) -> None:
         """Wait `seconds` on `clock`, or less if a job ends meanwhile or has ended since the last wait (the
-        tick before may have looked too early), so that the tree picks its result up at once instead of
-        up to a period later. The run's ticking sleeps through this."""
+        tick before may have looked too early), or `until()` turns true (checked every `poll` s), so that
+        the tree goes on at once instead of up to a period later. The run's ticking sleeps through this."""
         if self.inline:
             clock.wait(seconds)
             return
@@ -151,14 +154,23 @@ class WorkPool:
             ended_since = self._ends != self._ends_seen
             self._ended.clear()
         if not ended_since:
-            if self.pending():
-                until = clock.now() + seconds
+            if until is not None and not until():  # one already true: the tick just made saw it, went on
+                self._poll(clock, seconds, until, poll)
+            elif self.pending():
+                end = clock.now() + seconds
                 if not self._ended.wait(seconds):
-                    clock.wait(max(0.0, until - clock.now()))
+                    clock.wait(max(0.0, end - clock.now()))
             else:
                 clock.wait(seconds)
         with self._lock:
             self._ends_seen = self._ends
+
+    def _poll(self, clock: Clock, seconds: float, until: Callable[[], bool], poll: float) -> None:
+        """Wait up to `seconds` on `clock`, in slices of `poll`, until a job ends or `until()` is true."""
+        deadline = clock.now() + seconds
+        while (left := deadline - clock.now()) > 0:
+            if self._ended.wait(min(poll, left)) or until():
+                return
 
     def submit(self, fn: Callable[..., T], *args: Any) -> Job[T]:
         if self._executor is None and not self.inline:

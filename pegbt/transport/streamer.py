@@ -37,7 +37,8 @@ the measured position than the joint's `p_measured_setpoint_tolerance` (jhu-saw/
 `core/components/code/mtsPID.cpp`; 0.05 m on a PSM's insertion in sawIntuitiveResearchKit
 `share/pid/sawControllersPID-PSM.json`).
 
-Timing (measured by `pegbt bench servo`): the loop waits for commands with `epoll`, whose timeout Python
+Timing (measured by `pegbt bench servo`): a motion that arrives while nothing streams starts at once, the
+ticks' grid with it (`Streamer.next_tick_for`); the loop waits for commands with `epoll`, whose timeout Python
 rounds up to whole milliseconds, so it wakes from it up to 1 ms early and sleeps the rest with
 `time.sleep` (`clock_nanosleep`, about 0.1 ms late). Where the system permits it (root, or an `rtprio`
 limit), the process, with zenoh's threads that send for it, runs under `SCHED_FIFO`, so that neither the
@@ -201,6 +202,15 @@ class Streamer:
         return 0.0 if payload is None else float(self._codec.decode_joint_state(payload).stamp)
 
     # ------------------------------------------------------------------ commands
+    def next_tick_for(self, message: Frame, next_tick: float, now: float) -> float:
+        """When the tick after `message` comes: `now` for a motion that arrives while nothing streams (the
+        grid of ticks starts with it, its first set-point at once), else the grid's `next_tick`. A motion
+        began at the next tick of a grid no other motion kept, so up to a period after it was sent: each
+        motion of a transfer ended that much later, half a period on average."""
+        if message[0] == "play" and all(axis.motion is None for axis in self.axes.values()):
+            return min(now, next_tick)
+        return next_tick
+
     def handle(self, message: Frame, next_tick: float) -> bool:
         """Act on one command; False when told to quit."""
         kind = message[0]
@@ -237,7 +247,9 @@ class Streamer:
         if problems:
             self._report(("failed", motion_id, f"{arm} {axis_name} start refused: {'; '.join(problems)}"))
             return
-        start = max(start, time.monotonic())  # rows before it would be skipped, not sent
+        # a tick more than a period past would skip rows (the loop skips ahead, never bursts); a later one
+        # keeps the motion on the grid of ticks: its last row is sent on a tick, not a period after it
+        start = max(start, time.monotonic() - self.period)
         axis.motion = _Motion(motion_id, t, q, start, self._setpoint_stamp(arm))
         axis.last = (start - self.period, reference)
         self._report(("started", motion_id))
@@ -407,6 +419,7 @@ def main() -> int:
     try:
         while running:
             for message in frames:
+                next_tick = streamer.next_tick_for(message, next_tick, time.monotonic())
                 running = running and streamer.handle(message, next_tick)
             frames = []
             if not running:

@@ -231,3 +231,29 @@ def test_a_stall_longer_than_the_margin_extends_the_motions_bound_by_the_stall(r
     assert _until(lambda: streamer.stalled(handle.motion_id) >= stall - 0.1)
     assert _until(lambda: not handle.busy, 30) and handle.done, handle.error
     assert handle.paused == streamer.stalled(handle.motion_id)
+
+
+def test_a_motion_that_arrives_while_nothing_streams_starts_at_once_not_at_the_next_tick(rig: Rig) -> None:
+    """The grid of ticks starts with a motion that finds the streamer idle; while another motion streams,
+    the new one joins the grid (no axis gets two set-points within a period)."""
+    q = _yaw_sway()
+    t = np.arange(len(q)) * PERIOD
+    now, next_tick = rig.t0 + 0.25 * PERIOD, rig.t0 + PERIOD
+    assert rig.streamer.next_tick_for(("play", 1, "PSM1", "arm", t, q), next_tick, now) == now
+    assert rig.streamer.next_tick_for(("stop", 1), next_tick, now) == next_tick
+    rig.play(1, "arm", q)
+    jaw = 0.02 * np.arange(20.0)[:, None]
+    play_jaw = ("play", 2, "PSM1", "jaw", np.arange(20) * PERIOD, jaw)
+    assert rig.streamer.next_tick_for(play_jaw, next_tick, now) == next_tick
+
+
+def test_a_motion_given_a_tick_just_past_stays_on_the_grid_and_ends_on_its_last_rows_tick(rig: Rig) -> None:
+    """Started at the time the loop read (a moment ago) rather than the clock's now, so its rows fall on
+    the ticks: its last row was otherwise a moment after its tick, and sent a period later."""
+    q = _yaw_sway(20)
+    t = np.arange(len(q)) * PERIOD
+    start = time.monotonic() - PERIOD / 4
+    assert rig.streamer.handle(("play", 1, "PSM1", "arm", t, q), start)
+    for k in range(len(q)):
+        rig.streamer.tick(start + k * PERIOD)
+    assert rig.reports[-1] == ("done", 1)

@@ -353,3 +353,27 @@ def test_a_motion_the_other_arm_blocks_is_tried_again_with_its_plan_not_planned_
     assert "would bring the tools within" in built.root.feedback_message
     assert pool.stats.by_kind["prepare_all"][0] == 1  # ten tries, one plan
     assert not psm1(robot).trajectories
+
+
+def test_a_givers_rise_is_planned_while_it_carries_the_block_to_the_meeting_point(
+    tmp_path, robot, skills, seen, clock
+):
+    """The receiver carries the block away only once the giver has let go and risen: the rise was planned
+    when it began, with the receiver waiting; it is now planned as the carry is sent, and that plan is the
+    one sent."""
+    pool = GatedPool(clock)
+    arm = psm1(robot)
+    arm.block_in_jaw = True
+    tree = GIVE.replace("plan_s: /PSM1/plan_s}", "plan_s: /PSM1/plan_s, rise: 0.01}") + (
+        "      - release: {arm: PSM1, holding: /PSM1/holding}\n"
+        "      - rise: {arm: PSM1, height: 0.01, keep_apart: 0.0}\n"
+    )
+    values = chosen(skills, seen) | {"/meeting": None, "/block_pose": None, "/receiver_grasp": None}
+    built = build(tmp_path, robot, skills, tree, pool, values)
+    assert run(built, clock, pool) == Status.SUCCESS, built.root.feedback_message
+    approach, carry, risen = (sent for sent in arm.sent if sent.kind == "trajectory")
+    assert np.allclose(risen.target.q[0], carry.target.q[-1])
+    assert pool.stats.by_kind["prepare_all"][0] == 3  # approach, carry, rise: each once
+    assert (
+        pool.submitted[-1] == carry.at < risen.at
+    )  # the rise's plan, the last job, began as the carry was sent

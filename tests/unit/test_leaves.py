@@ -338,6 +338,29 @@ def test_release_opens_the_jaw_past_the_wall_only_and_writes_that_it_holds_nothi
     assert 2 * tool.jaw_radius < gap and opened < skills.motion.transfer.jaw_open
 
 
+def test_a_motion_past_its_planned_end_asks_to_be_ticked_as_soon_as_it_is_reported_done(
+    tmp_path, robot, skills, clock
+):
+    """A robot reports a motion's end a little after its planned end (the command's way there, the state's
+    period): the leaf then asks the runner to tick it once that report came (`wake_when`), not a period later."""
+    arm = psm1(robot)
+    built = build(
+        tmp_path, robot, skills, "{release: {arm: PSM1, holding: /PSM1/holding}}", **{"PSM1/holding": True}
+    )
+    (leaf,) = [node.behaviour for node in built.nodes]
+    built.root.tick_once()
+    assert leaf.status == Status.RUNNING and leaf.wake_at is not None and leaf.wake_when is None
+    clock.advance(leaf.wake_at - clock.now())
+    arm.never_ends = True  # at the planned end, not reported done yet
+    built.root.tick_once()
+    assert leaf.status == Status.RUNNING and leaf.wake_at is None
+    assert leaf.wake_when is not None and not leaf.wake_when()
+    arm.never_ends = False
+    assert leaf.wake_when()
+    built.root.tick_once()
+    assert leaf.status == Status.SUCCESS
+
+
 def test_release_fails_when_the_jaw_command_is_refused(tmp_path, robot, skills, clock):
     psm1(robot).refuse_next = "jaw fault"
     built = build(

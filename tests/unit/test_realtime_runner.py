@@ -83,6 +83,34 @@ if REGISTRY.get("test_slow_tick") is None:
                 HeavyLeaf.release.set()
             return Status.RUNNING
 
+    @behaviour(
+        "test_ends_between_ticks",
+        "RUNNING until `seconds` after its first tick, a motion's end that only a poll sees at once",
+        params=(Param("seconds", float, "s until it ends"),),
+    )
+    class EndsBetweenTicks(Leaf):
+        def initialise(self) -> None:
+            self.end = time.monotonic() + self.params["seconds"]
+            self.wake_when = self.over
+
+        def over(self) -> bool:
+            return time.monotonic() >= self.end
+
+        def update(self) -> Status:
+            return Status.SUCCESS if self.over() else Status.RUNNING
+
+    @behaviour(
+        "test_wakes_at",
+        "RUNNING until `seconds` after its first tick, with that end as its `wake_at`",
+        params=(Param("seconds", float, "s until it ends"),),
+    )
+    class WakesAt(Leaf):
+        def initialise(self) -> None:
+            self.wake_at = self.context.clock.now() + self.params["seconds"]
+
+        def update(self) -> Status:
+            return Status.SUCCESS if self.context.clock.now() >= self.wake_at else Status.RUNNING
+
 
 class StrictWallClock(WallClock):
     """Wall time that refuses a negative wait, as the simulator's clock does, and records every wait."""
@@ -172,3 +200,27 @@ def test_in_real_time_a_busy_worker_yields_the_gil_to_the_tick_within_the_lowere
     _, result, log = _run(tmp_path, "tree: {test_switch_interval: {name: switch}}", ManualClock())
     (during,) = [record["bb"]["/switch"] for record in log if "/switch" in record.get("bb", {})]
     assert during == before  # lockstep: nothing computes beside the tick
+
+
+def test_in_real_time_a_leaf_that_can_go_on_between_ticks_is_ticked_at_once_not_a_period_later(tmp_path):
+    """A motion reported done between two ticks was seen a period later: 20 ms for each motion of a transfer
+    that lockstep, stopping its clock at the motion's end, never spent."""
+    _, result, log = _run(
+        tmp_path, "tree: {test_ends_between_ticks: {name: motion, seconds: 0.3}}", WallClock(), 2.0
+    )
+    assert result.outcome == "success"
+    ticks = [record for record in log if record["type"] == "tick"]
+    assert [record["n"] for record in ticks] == [1, 2]
+    assert 0.3 <= ticks[1]["t"] < 1.0  # its end, polled; not the period's 2 s
+
+
+def test_in_real_time_a_wake_hint_is_kept_as_it_is_in_lockstep_rounded_up_to_whole_periods(tmp_path):
+    text = "tree: {test_wakes_at: {name: motion, seconds: 0.5}}"
+    _, result, log = _run(tmp_path, text, WallClock(), 0.4)
+    ticks = [record for record in log if record["type"] == "tick"]
+    assert result.outcome == "success" and [record["n"] for record in ticks] == [1, 2]
+    assert 0.5 <= ticks[1]["t"] < 0.7  # at the hint, not at the second period's 0.8 s
+
+    _, result, log = _run(tmp_path, text, ManualClock(), 0.4)
+    ticks = [record for record in log if record["type"] == "tick"]
+    assert result.outcome == "success" and [record["t"] for record in ticks] == [0.0, 0.8]

@@ -24,7 +24,7 @@ from pegbt.behaviours.base import (
     MotionLeaf,
     RobotLeaf,
 )
-from pegbt.behaviours.motion import CarryLeaf, above_pegs_first
+from pegbt.behaviours.motion import CarryLeaf, above_pegs_first, rise
 from pegbt.behaviours.poses import from_handover, to_arm, to_handover, tool_pose
 from pegbt.behaviours.resources.arm_motion import ArmMotion, SentMotion
 from pegbt.behaviours.resources.skills import Skills
@@ -182,6 +182,17 @@ class CarryToHandover(CarryLeaf):
 
     def inputs(self) -> tuple[object, ...]:
         return (self.read("/board"), self.get("block"), self.get("grasp"), self.get("meeting"))
+
+    def started(self, trajectories: list[Trajectory]) -> None:
+        """The giver's rise once it lets go (`rise`, 0: none) is planned while it carries the block and
+        holds it out: the receiver waits for that rise before it carries the block away."""
+        super().started(trajectories)
+        height = self.param("rise")
+        if height > 0:
+            arm = self.param("arm")
+            motion, end = self.motion(arm), trajectories[0].q[-1].copy()
+            planned = partial(rise, self.skills.cell, motion, arm, end, height)
+            motion.plan_early(self.context.work, (end, height), planned)
 
 
 class GoToHandover(MotionLeaf):

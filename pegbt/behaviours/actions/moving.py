@@ -13,10 +13,9 @@ import py_trees
 
 from pegbt.behaviours.actions.grasping import approach_plan, choose_and_approach_early
 from pegbt.behaviours.base import MotionLeaf
-from pegbt.behaviours.motion import CarryLeaf, above_pegs_first
+from pegbt.behaviours.motion import CarryLeaf, above_pegs_first, rise
 from pegbt.behaviours.poses import tool_pose, transfer_for
 from pegbt.motion.ik import solve_ik
-from pegbt.motion.kinematics import forward_kinematics
 from pegbt.motion.trajectory import Trajectory
 from pegbt.motion.waypoints import TransferWaypoints
 from pegbt.perception.blocks import block_on_peg
@@ -71,10 +70,9 @@ class Rise(MotionLeaf):
         arm = self.param("arm")
         motion = self.motion(arm)
         start = motion.start_from(self.client(arm))
-        target = forward_kinematics(start)
-        target[:3, 3] += self.param("height") * self.skills.cell.up_in(arm)
-        risen = solve_ik(target, motion.settings, what="risen")
-        self.move(arm, partial(motion.through, start, [risen], ["risen"]), f"{arm} rising")
+        height = self.param("height")
+        planned = partial(rise, self.skills.cell, motion, arm, start, height)
+        self.move(arm, planned, f"{arm} rising", (start, height))
 
     def started(self, trajectories: list[Trajectory]) -> None:
         pick, receiver = self.param("then").get("pick"), self.param("handover_to")
