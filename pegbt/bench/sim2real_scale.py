@@ -2,7 +2,8 @@
 
 A synthetic recording of each length in `MINUTES` (`pegbt sim2real synth --seconds`, 100 Hz, seed 0) is
 diagnosed with `--bootstrap 0` in a child process, as a person runs it; the 10-minute one also with the
-default bootstrap. Peak memory is that of the child's whole process tree: the sum of its processes'
+default bootstrap. `growth_kb_per_sample` is the peak's growth from the shortest to the longest, per sample:
+what a longer recording costs beyond the fixed part (imports, Gram matrices, chunk buffers). Peak memory is that of the child's whole process tree: the sum of its processes'
 resident sets, sampled every `SAMPLE_S`, or the child's own peak (`wait4`) if larger. The bank a
 diagnosis would hold were it kept (223 columns at 8 bytes a sample) is given beside it.
 """
@@ -19,7 +20,7 @@ from pathlib import Path
 
 import psutil
 
-MINUTES = (10, 60)
+MINUTES = (10, 30, 60, 120)
 SAMPLE_S = 0.05
 BANK_COLUMNS = 223  # a 6-joint stream's regressor bank
 
@@ -93,6 +94,15 @@ def run(minutes: tuple[int, ...] = MINUTES) -> dict[str, float | int | str]:
                 figures[f"diagnose_{length}min_bootstrap_peak_mb"] = round(peak, 1)
         if len(minutes) > 1:
             short, long = min(minutes), max(minutes)
+            figures["growth_kb_per_sample"] = round(
+                (
+                    float(figures[f"diagnose_{long}min_peak_mb"])
+                    - float(figures[f"diagnose_{short}min_peak_mb"])
+                )
+                * 1e3
+                / (6000 * (long - short)),
+                3,
+            )
             figures["peak_ratio_longest_over_shortest"] = round(
                 float(figures[f"diagnose_{long}min_peak_mb"])
                 / float(figures[f"diagnose_{short}min_peak_mb"]),

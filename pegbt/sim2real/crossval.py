@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import os
 import tempfile
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterable, Iterator, Sequence
 from typing import Protocol
 
 import numpy as np
@@ -150,9 +150,16 @@ class BlockedGrams:
         """Append a column (a width refined between grid values) to the bank; returns its index."""
         return self.add_columns([column])[0]
 
-    def add_columns(self, columns: list[Array]) -> list[int]:
-        """Append columns to the bank, crossed with it in one pass over its rows; returns their indices."""
-        m, k = self._width, len(columns)
+    def add_columns(self, columns: Iterable[Array]) -> list[int]:
+        """Append columns to the bank, crossed with it in one pass over its rows; returns their indices.
+
+        Each column is spilled to the store as it comes, before the next is asked for, and the pass reads
+        them back a chunk at a time: given lazily, never more than one of them is held whole."""
+        m = self._width
+        k = 0
+        for column in columns:
+            self._store.write(m + k, 0, np.asarray(column, dtype=np.float64)[:, None])
+            k += 1
         if not k:
             return []
         gram = np.zeros((len(self.gram), m + k, m + k))
@@ -161,18 +168,15 @@ class BlockedGrams:
         rhs[:, :m] = self.rhs
         for (a, b), block in zip(self._pairs(), self._block_of_chunk):
             rows = self._store.rows(self._bank_width, a, b)
-            added = [self._store.read(j, a, b) for j in range(self._bank_width, m)] + [
-                c[a:b] for c in columns
-            ]
-            for i, column in enumerate(columns):
-                earlier = [previous @ column[a:b] for previous in added[: m - self._bank_width + i]]
-                cross = np.concatenate([rows.T @ column[a:b], earlier])
+            added = [self._store.read(j, a, b) for j in range(self._bank_width, m + k)]
+            for i in range(k):
+                column = added[m - self._bank_width + i]
+                earlier = [previous @ column for previous in added[: m - self._bank_width + i]]
+                cross = np.concatenate([rows.T @ column, earlier])
                 gram[block, : m + i, m + i] += cross
                 gram[block, m + i, : m + i] += cross
-                gram[block, m + i, m + i] += column[a:b] @ column[a:b]
-                rhs[block, m + i] += column[a:b] @ self.targets[a:b]
-        for i, column in enumerate(columns):
-            self._store.write(m + i, 0, np.asarray(column, dtype=np.float64)[:, None])
+                gram[block, m + i, m + i] += column @ column
+                rhs[block, m + i] += column @ self.targets[a:b]
         self.gram, self.rhs = gram, rhs
         self._width = m + k
         self._derive()

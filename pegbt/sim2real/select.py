@@ -201,7 +201,7 @@ def select_joint(
                 for i in chosen
             ]
             columns = grams.add_columns(
-                [width_column(options[i][0].kind, options[i][0].signal, t, w) for i, w in zip(chosen, widths)]
+                width_column(options[i][0].kind, options[i][0].signal, t, w) for i, w in zip(chosen, widths)
             )
             for index, column, width in zip(chosen, columns, widths):
                 refined[index] = column, width

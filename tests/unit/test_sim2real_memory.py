@@ -16,13 +16,19 @@ import pytest
 
 from pegbt.physics import ArmPhysics
 from pegbt.physics.kernels import delay_blocks, delay_series, lag_blocks, lag_series, play_blocks, play_grid
-from pegbt.sim2real import crossval
+from pegbt.sim2real import crossval, geometry
 from pegbt.sim2real.crossval import BlockedGrams, block_edges
+from pegbt.sim2real.diagnose import diagnose
 from pegbt.sim2real.library import build_columns
 from pegbt.sim2real.significance import shift_pvalue
+from pegbt.sim2real.synth import generate
 
 SHORT, LONG = 3_000, 6_000
 CHUNK = 50  # rows: three chunks a block at SHORT, six at LONG
+DIAGNOSIS_CHUNK = 300  # a whole diagnosis in chunks of 50 takes minutes
+GROWTH_BYTES_PER_SAMPLE = (
+    210  # a diagnosis's traced peak per added sample: 189 now, 231 with refined columns held
+)
 
 
 @pytest.fixture(autouse=True)
@@ -149,3 +155,22 @@ def test_a_candidates_p_value_reads_its_columns_one_at_a_time():
     # columns centred and transformed together (70 of them at once)
     assert long - short < 12 * 8 * (LONG - SHORT)
     assert pvalue < 1e-6  # the residual holds one of the candidate's columns
+
+
+def _diagnosis_peak(seconds: float) -> tuple[int, int]:
+    """(samples, peak traced bytes) of diagnosing a synthetic recording of `seconds` at 100 Hz."""
+    recording = generate("weak", 0, seconds).recording
+    peak, _ = _peak_bytes(lambda: diagnose(recording, n_bootstrap=0))
+    return recording.n, peak
+
+
+def test_a_diagnosis_holds_no_more_than_a_few_whole_arrays(monkeypatch: pytest.MonkeyPatch):
+    monkeypatch.setattr(crossval, "CHUNK_ROWS", DIAGNOSIS_CHUNK)
+    monkeypatch.setattr(geometry, "CHUNK_ROWS", DIAGNOSIS_CHUNK)
+    _diagnosis_peak(20)  # imports and caches
+    n_short, short = _diagnosis_peak(SHORT / 100)
+    n_long, long = _diagnosis_peak(LONG / 100)
+    # what grows is the recording's own arrays and its replays (N × 6 each, 48 bytes a sample), the
+    # geometry's displacement columns (144) and their fits' copies; the width columns a selection step
+    # refines are spilled one at a time, not held together
+    assert (long - short) / (n_long - n_short) < GROWTH_BYTES_PER_SAMPLE
