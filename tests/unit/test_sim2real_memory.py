@@ -21,8 +21,8 @@ from pegbt.sim2real.crossval import BlockedGrams, block_edges
 from pegbt.sim2real.library import build_columns
 from pegbt.sim2real.significance import shift_pvalue
 
-SHORT, LONG = 3_000, 6_000
-CHUNK = 50  # rows: three chunks a block at SHORT, six at LONG
+SHORT, LONG = 2_000, 4_000
+CHUNK = 50  # rows: two chunks a block at SHORT, four at LONG
 
 
 @pytest.fixture(autouse=True)
