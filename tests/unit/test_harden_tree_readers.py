@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import os
 import threading
-import time
 from pathlib import Path
 
 import pytest
@@ -88,11 +87,9 @@ def test_naming_unnamed_siblings_takes_linear_time(tmp_path, monkeypatch):
         return dict.__contains__(self, name)
 
     monkeypatch.setattr(resolve.Siblings, "__contains__", counting)
-    path = write_tree(tmp_path, _siblings(12_000), name="s12000.yaml")
-    start = time.perf_counter()
+    path = write_tree(tmp_path, _siblings(3_000), name="s3000.yaml")
     assert check_tree(path) == []
-    assert len(lookups) < 3 * 12_000
-    assert time.perf_counter() - start < 120  # generous for a loaded machine
+    assert len(lookups) < 3 * 3_000  # quadratic naming: 4.5 million
 
 
 def test_includes_stay_in_the_trees_folder_unless_allowed_and_never_echo_a_file(tmp_path, capsys):

@@ -64,18 +64,19 @@ def test_a_late_page_sees_the_last_tick_and_the_first_failure_as_the_log_has_the
     assert kinds[:3] == ["mode", "header", "snapshot"] and "causes" in kinds
 
 
-def test_six_minutes_of_ticking_keep_no_more_than_one_did(tmp_path):
-    """The whole hour is `pegbt bench monitor-limits` (tracing every allocation is slow)."""
+def test_two_minutes_of_ticking_keep_no_more_than_twenty_seconds_did(tmp_path):
+    """Both past the windows (10 s of ticks, 5 s of world samples); the whole hour is `pegbt bench
+    monitor-limits` (tracing every allocation is slow)."""
     header, records = example_records(tmp_path)
     tracemalloc.start()
     try:
         history = History()
         history.add(header, json.dumps(header))
-        n, _ = synthetic_run(history, 60, records)
-        one_minute = tracemalloc.get_traced_memory()[0]
-        synthetic_run(history, 300, records, start=n)
-        six_minutes = tracemalloc.get_traced_memory()[0]
+        n, _ = synthetic_run(history, 20, records)
+        twenty_seconds = tracemalloc.get_traced_memory()[0]
+        synthetic_run(history, 100, records, start=n)
+        two_minutes = tracemalloc.get_traced_memory()[0]
     finally:
         tracemalloc.stop()
-    assert six_minutes < one_minute * 1.1, (one_minute, six_minutes)
-    assert six_minutes < 1024 * 1024  # the window's records and the tree's state; the ticks were 6 MB
+    assert two_minutes < twenty_seconds * 1.1, (twenty_seconds, two_minutes)
+    assert two_minutes < 1024 * 1024  # the windows and the tree's state; everything kept would be 5 MB

@@ -7,42 +7,26 @@ samples hold several of them per block."""
 
 from __future__ import annotations
 
-import tracemalloc
-from collections.abc import Callable
 from typing import Any
 
 import numpy as np
 import pytest
+from memory_helpers import peak_bytes
 
 from pegbt.physics import ArmPhysics
 from pegbt.physics.kernels import delay_blocks, delay_series, lag_blocks, lag_series, play_blocks, play_grid
-from pegbt.sim2real import crossval, geometry
+from pegbt.sim2real import crossval
 from pegbt.sim2real.crossval import BlockedGrams, block_edges
-from pegbt.sim2real.diagnose import diagnose
 from pegbt.sim2real.library import build_columns
 from pegbt.sim2real.significance import shift_pvalue
-from pegbt.sim2real.synth import generate
 
-SHORT, LONG = 3_000, 6_000
-CHUNK = 50  # rows: three chunks a block at SHORT, six at LONG
-DIAGNOSIS_CHUNK = 300  # a whole diagnosis in chunks of 50 takes minutes
-GROWTH_BYTES_PER_SAMPLE = (
-    210  # a diagnosis's traced peak per added sample: 189 now, 231 with refined columns held
-)
+SHORT, LONG = 2_000, 4_000
+CHUNK = 50  # rows: two chunks a block at SHORT, four at LONG
 
 
 @pytest.fixture(autouse=True)
 def small_chunks(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(crossval, "CHUNK_ROWS", CHUNK)
-
-
-def _peak_bytes(action: Callable[[], Any]) -> tuple[int, Any]:
-    tracemalloc.start()
-    try:
-        result = action()
-        return tracemalloc.get_traced_memory()[1], result
-    finally:
-        tracemalloc.stop()
 
 
 def _stream(n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -90,10 +74,27 @@ def test_grams_by_chunks_equal_the_whole_bank():
     np.testing.assert_array_equal(grams.column_values([5, 0, 100]), whole[:, [5, 0, 100]])
 
 
+def test_a_fit_on_some_blocks_is_least_squares_on_their_rows():
+    """What a jackknife fits: the free columns on the chosen blocks' rows, the fixed ones subtracted."""
+    q_cmd, t, drivers = _stream(SHORT)
+    bank, _ = build_columns(q_cmd, t, drivers)
+    targets = _targets(SHORT)
+    grams = BlockedGrams(bank, targets)
+    whole = _whole(bank)
+    blocks = np.ones(len(grams.gram), dtype=bool)
+    blocks[[2, 7]] = False
+    edges = block_edges(SHORT)
+    rows = np.concatenate([np.arange(edges[k], edges[k + 1]) for k in np.flatnonzero(blocks)])
+    free, fixed = np.array([40, 3, 100]), np.array([7, 60])
+    target = targets[rows, 1] - whole[np.ix_(rows, fixed)].sum(1)
+    expected = np.linalg.lstsq(whole[np.ix_(rows, free)], target, rcond=None)[0]
+    np.testing.assert_allclose(grams.fit(1, free, fixed, blocks), expected, rtol=1e-6)
+
+
 def _grams_peak(n: int) -> tuple[int, int]:
     q_cmd, t, drivers = _stream(n)
     targets = _targets(n)
-    peak, grams = _peak_bytes(lambda: BlockedGrams(build_columns(q_cmd, t, drivers)[0], targets))
+    peak, grams = peak_bytes(lambda: BlockedGrams(build_columns(q_cmd, t, drivers)[0], targets))
     return peak, grams.gram.shape[1] * 8 * n  # the bank's bytes, were it held
 
 
@@ -112,7 +113,7 @@ def _add_three_columns(n: int) -> tuple[int, BlockedGrams, list[np.ndarray], Any
     m = grams.gram.shape[1]
     rng = np.random.default_rng(1)
     added = [rng.normal(size=n) for _ in range(3)]
-    peak, indices = _peak_bytes(lambda: [grams.add_column(added[0]), *grams.add_columns(added[1:])])
+    peak, indices = peak_bytes(lambda: [grams.add_column(added[0]), *grams.add_columns(added[1:])])
     assert indices == [m, m + 1, m + 2]
     return peak, grams, added, bank
 
@@ -138,7 +139,7 @@ def _pvalue_peak(n: int) -> tuple[int, float]:
     candidate = next(c for c in candidates if c.kind == "lag" and c.joint == 2)
     column = grams.column_values(candidate.columns[4:5])[:, 0]
     residual = column + 0.1 * column.std() * grams.targets[:, 2]
-    return _peak_bytes(
+    return peak_bytes(
         lambda: shift_pvalue(
             residual,
             lambda k: grams.column_values(candidate.columns[k : k + 1])[:, 0],
@@ -155,22 +156,3 @@ def test_a_candidates_p_value_reads_its_columns_one_at_a_time():
     # columns centred and transformed together (70 of them at once)
     assert long - short < 12 * 8 * (LONG - SHORT)
     assert pvalue < 1e-6  # the residual holds one of the candidate's columns
-
-
-def _diagnosis_peak(seconds: float) -> tuple[int, int]:
-    """(samples, peak traced bytes) of diagnosing a synthetic recording of `seconds` at 100 Hz."""
-    recording = generate("weak", 0, seconds).recording
-    peak, _ = _peak_bytes(lambda: diagnose(recording, n_bootstrap=0))
-    return recording.n, peak
-
-
-def test_a_diagnosis_holds_no_more_than_a_few_whole_arrays(monkeypatch: pytest.MonkeyPatch):
-    monkeypatch.setattr(crossval, "CHUNK_ROWS", DIAGNOSIS_CHUNK)
-    monkeypatch.setattr(geometry, "CHUNK_ROWS", DIAGNOSIS_CHUNK)
-    _diagnosis_peak(20)  # imports and caches
-    n_short, short = _diagnosis_peak(SHORT / 100)
-    n_long, long = _diagnosis_peak(LONG / 100)
-    # what grows is the recording's own arrays and its replays (N × 6 each, 48 bytes a sample), the
-    # geometry's displacement columns (144) and their fits' copies; the width columns a selection step
-    # refines are spilled one at a time, not held together
-    assert (long - short) / (n_long - n_short) < GROWTH_BYTES_PER_SAMPLE
