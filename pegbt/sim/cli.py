@@ -32,6 +32,8 @@ if TYPE_CHECKING:
     from pegbt.transport.session import SessionSettings
 
 CRASH_EXIT_STATUS = 3
+STAGE_PREFIX = "pegbt sim: reached "  # a start-up stage (--report-stages), before the serving line
+SERVING_PREFIX = "pegbt sim: serving"  # the line that ends start-up: clients may connect
 CONNECT_GRACE = 3.0  # s after start-up before saying that nothing answers where the simulator connects
 
 
@@ -158,6 +160,12 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
         help="stop when standard input closes: a parent process that pipes it is gone (even killed)",
     )
     parser.add_argument(
+        "--report-stages",
+        action="store_true",
+        help="print each start-up stage reached on standard output before the serving line, for a parent "
+        "that bounds the start-up by its progress (as `SimProcess` does on a loaded machine)",
+    )
+    parser.add_argument(
         "--priority",
         choices=("realtime", "normal"),
         default="realtime",
@@ -174,6 +182,7 @@ def _sim(args: argparse.Namespace) -> int:
     from pegbt.transport.keys import check_namespace
     from pegbt.transport.session import endpoint_settings
 
+    _stage(args, "started")
     check_namespace(args.namespace, "--namespace")
     if args.interface == "dvrk":
         _refuse_pegbt_only_options(args)
@@ -194,7 +203,7 @@ def _sim(args: argparse.Namespace) -> int:
     plan = dataclasses.replace(plan, **{k: v for k, v in overrides.items() if v is not None})
     if args.world_effects is not None and not args.world:
         raise PegbtError("--world-effects act on the world: drop --no-world", field="--world-effects")
-    world, camera = _world(plan, args.world_effects, args.camera) if args.world else (None, None)
+    world, camera = _world(args, plan) if args.world else (None, None)
     # before the session opens, so that zenoh's threads inherit it
     wanted = not args.lockstep and args.priority == "realtime"
     with realtime_priority(ROBOT_PRIORITY if wanted else None) as realtime:
@@ -214,9 +223,11 @@ def _serve(
 
     session = open_session(settings)
     try:
+        _stage(args, "session open")
         endpoint = (_dvrk_endpoint if args.interface == "dvrk" else _pegbt_endpoint)(
             args, plan, session, world, camera
         )
+        _stage(args, "endpoint built")
     except BaseException:
         session.close()
         raise
@@ -322,10 +333,16 @@ def _announce(
         effects = ", ".join(effect.kind for effect in world.effects) or "none"
         scene = f"world and camera, seed {plan.seed}, world effects: {effects}"
     print(
-        f"pegbt sim: serving {', '.join(endpoint.arms)} on {where} ({mode}, {args.interface} "
+        f"{SERVING_PREFIX} {', '.join(endpoint.arms)} on {where} ({mode}, {args.interface} "
         f"interface, physics {args.physics}, {scene})",
         flush=True,
     )
+
+
+def _stage(args: argparse.Namespace, stage: str) -> None:
+    """With --report-stages, say that start-up reached `stage`: each line restarts its parent's bound."""
+    if args.report_stages:
+        print(f"{STAGE_PREFIX}{stage}", flush=True)
 
 
 def _quit_on_the_next_stop() -> None:
@@ -343,16 +360,19 @@ def _stop_at_stdin_eof(endpoint: SimEndpoint | DvrkEndpoint) -> None:
     endpoint.stop()
 
 
-def _world(plan: FaultPlan, world_file: Path | None, kind: str = "stream") -> tuple[World, DepthCamera]:
-    """The pegboard world and its camera (a Zivid 2's whole image for `zivid`), seeded and faulted as the plan
-    says, with the world file's effects."""
+def _world(args: argparse.Namespace, plan: FaultPlan) -> tuple[World, DepthCamera]:
+    """The pegboard world and its camera (a Zivid 2's whole image for `--camera zivid`), seeded and faulted as
+    the plan says, with the world file's effects (`--world-effects`)."""
     from pegbt.sim.camera import DepthCamera
+
+    _stage(args, "camera library loaded")  # open3d: the longest import of a start-up
     from pegbt.sim.world import World
     from pegbt.sim.world_effects import WorldEffects, read_world_file
 
-    effects = WorldEffects() if world_file is None else read_world_file(world_file)
+    effects = WorldEffects() if args.world_effects is None else read_world_file(args.world_effects)
     world = World(plan.seed, faults=plan.world, effects=effects)
-    if kind == "zivid":
+    _stage(args, "world built")
+    if args.camera == "zivid":
         from pegbt.sim.zivid import zivid2_model
 
         model = zivid2_model(world.cell.camera)

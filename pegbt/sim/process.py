@@ -10,10 +10,14 @@ import subprocess
 import sys
 from collections.abc import Sequence
 from pathlib import Path
+from typing import NoReturn
 
 from pegbt.errors import PegbtError
+from pegbt.sim.cli import SERVING_PREFIX, STAGE_PREFIX
 
-STARTUP_TIMEOUT = 30.0  # s for the child to say it serves
+# s for the child to reach its next start-up stage (or to serve, from the last). The longest stage, loading
+# open3d, takes 2.8 s on a quiet core: this leaves room for a machine 20 times slower (load 20 on 2 cores).
+STAGE_TIMEOUT = 60.0
 EXIT_TIMEOUT = 5.0  # s for a killed or terminated child to be gone
 
 
@@ -56,6 +60,7 @@ class SimProcess:
                 interface,
                 *where,
                 "--stop-with-parent",
+                "--report-stages",
                 *args,
             ],
             stdin=subprocess.PIPE,
@@ -64,21 +69,11 @@ class SimProcess:
             text=True,
             env=env,
         )
-        line = self._first_line(STARTUP_TIMEOUT)
-        if not line.startswith("pegbt sim: serving"):
-            self.process.kill()
-            _, err = self.process.communicate(timeout=EXIT_TIMEOUT)
-            said = f"{line.strip()} {err.strip()}".strip() or f"nothing within {STARTUP_TIMEOUT:g} s"
-            raise PegbtError(f"pegbt sim did not start: {said}", field="sim")
-
-    def _first_line(self, timeout: float) -> str:
-        """The child's first line of output, or "" if it prints none within `timeout` s (a hung start-up)."""
-        assert self.process.stdout is not None
-        with selectors.DefaultSelector() as selector:
-            selector.register(self.process.stdout, selectors.EVENT_READ)
-            if not selector.select(timeout):
-                return ""
-        return self.process.stdout.readline()  # the child prints its line whole and flushes it
+        try:
+            await_serving(self.process, STAGE_TIMEOUT)
+        except PegbtError:
+            self.stop()
+            raise
 
     def kill(self) -> None:
         """SIGKILL: the endpoint vanishes without a word, as a crashed one does."""
@@ -104,3 +99,45 @@ class SimProcess:
 
     def __exit__(self, *exc: object) -> None:
         self.stop()
+
+
+def await_serving(child: subprocess.Popen[str], stage_timeout: float) -> None:
+    """Return once `child` (a `pegbt sim --report-stages`) says it serves. Its start-up is bounded by its
+    progress, not by a fixed time: each stage it reports restarts the bound, so a loaded machine's slow but
+    steady start succeeds, while a child that reaches no next stage within `stage_timeout` s is killed.
+    That child, one that exits, or one that prints anything else is a `PegbtError` naming the last stage."""
+    assert child.stdout is not None
+    fd = child.stdout.fileno()  # read raw: a text reader's buffer would hide lines from the selector
+    pending = b""
+    stage = ""
+    with selectors.DefaultSelector() as selector:
+        selector.register(fd, selectors.EVENT_READ)
+        while True:
+            while b"\n" not in pending:
+                if not selector.select(stage_timeout):
+                    stuck = f"no progress within {stage_timeout:g} s after {stage!r}" if stage else ""
+                    _give_up(child, stuck or f"nothing within {stage_timeout:g} s")
+                chunk = os.read(fd, 4096)
+                if not chunk:
+                    child.wait(timeout=EXIT_TIMEOUT)
+                    _give_up(
+                        child,
+                        f"it exited (status {child.returncode})" + (f" after {stage!r}" if stage else ""),
+                    )
+                pending += chunk
+            raw, pending = pending.split(b"\n", 1)
+            line = raw.decode(errors="replace").strip()
+            if line.startswith(SERVING_PREFIX):
+                return
+            if not line.startswith(STAGE_PREFIX):
+                _give_up(child, line)
+            stage = line.removeprefix(STAGE_PREFIX)
+
+
+def _give_up(child: subprocess.Popen[str], said: str) -> NoReturn:
+    """Kill a child that did not start and raise what it reached, with what it wrote on stderr."""
+    child.kill()
+    _, err = child.communicate(timeout=EXIT_TIMEOUT)
+    raise PegbtError(
+        f"pegbt sim did not start: {said}{': ' + err.strip() if err.strip() else ''}", field="sim"
+    )

@@ -14,6 +14,7 @@ is 1.8 kB a sample: an hour would be 640 MB, a day would not fit.
 
 from __future__ import annotations
 
+import functools
 import os
 import tempfile
 from collections.abc import Iterable, Iterator, Sequence
@@ -226,22 +227,31 @@ class BlockedGrams:
         blocks: NDArray[np.bool_] | None = None,
     ) -> Array:
         """Coefficients of the `free` columns for target `joint` (the `fixed` ones at 1), on all or some blocks."""
-        free = np.asarray(free, dtype=np.int64)[None]
-        fixed = np.zeros((1, 0), dtype=np.int64) if fixed is None else np.asarray(fixed, dtype=np.int64)[None]
+        free = np.asarray(free, dtype=np.int64)
+        fixed = np.zeros(0, dtype=np.int64) if fixed is None else np.asarray(fixed, dtype=np.int64)
         if blocks is None:
-            g_ff, b, _ = self._reduced(self.total_gram, self.total_rhs[:, joint], np.zeros(()), free, fixed)
-            return self._solve(g_ff, b, free)[0]
-        # only the model's own columns summed over the blocks, block by block as a sum over the whole
-        # bank's would add them (the same figures): a jackknife fits one model on 20 subsets of blocks,
-        # and each block's Gram is 223 × 223
-        used = np.unique(np.concatenate([free.ravel(), fixed.ravel()]))
-        gram, rhs = np.zeros((len(used), len(used))), np.zeros(len(used))
-        for k in np.flatnonzero(blocks):
-            gram += self.gram[k][np.ix_(used, used)]
-            rhs += self.rhs[k, used, joint]
-        at = np.searchsorted(used, free), np.searchsorted(used, fixed)
-        g_ff, b, _ = self._reduced(gram, rhs, np.zeros(()), *at)
-        return self._solve(g_ff, b, free)[0]
+            gram, rhs, local = self.total_gram, self.total_rhs[:, joint], np.r_[free, fixed]
+        else:
+            gram, rhs, local = self._summed(blocks, joint, np.r_[free, fixed])
+        g_ff, b, _ = self._reduced(
+            gram, rhs, np.zeros(()), local[None, : len(free)], local[None, len(free) :]
+        )
+        return self._solve(g_ff, b, free[None])[0]
+
+    def _summed(
+        self, blocks: NDArray[np.bool_], joint: int, columns: NDArray[np.int64]
+    ) -> tuple[Array, Array, NDArray[np.int64]]:
+        """The Gram and right-hand side of target `joint` summed over `blocks`, only where `columns` meet
+        (a jackknife fits a few columns of a bank of hundreds, once per block left out), with `columns`
+        as indices into them. Summed block after block, the order NumPy sums the whole (blocks, m, m)
+        stack in, so the figures are the same to the last bit; a one-column bank NumPy sums pairwise."""
+        kept = np.flatnonzero(blocks)
+        if self.gram.shape[1] == 1 or kept.size == 0:
+            return self.gram[blocks].sum(0), self.rhs[blocks].sum(0)[:, joint], columns
+        used, local = np.unique(columns, return_inverse=True)
+        gram = functools.reduce(np.add, self.gram[np.ix_(kept, used, used)])
+        rhs = functools.reduce(np.add, self.rhs[np.ix_(kept, used, np.array([joint]))])[:, 0]
+        return gram, rhs, local.astype(np.int64)
 
     def cv_sse(self, joint: int, free: NDArray[np.int64], fixed: NDArray[np.int64] | None = None) -> Array:
         """Held-out sum of squared errors per fold (n_folds,) of one model."""

@@ -25,7 +25,7 @@ def test_the_parser_loads_no_heavy_library():
 
 
 def test_a_simulator_that_prints_nothing_in_time_is_killed_with_a_clear_error(monkeypatch):
-    monkeypatch.setattr(process, "STARTUP_TIMEOUT", 0.01)  # far less than the child needs to import anything
+    monkeypatch.setattr(process, "STAGE_TIMEOUT", 0.01)  # far less than the child needs to import anything
     with pytest.raises(PegbtError, match=r"pegbt sim did not start: nothing within 0\.01 s"):
         process.SimProcess(["--no-world"])
 

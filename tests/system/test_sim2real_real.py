@@ -1,11 +1,12 @@
 """On the real dVRK recordings the diagnosis finds the wrist physics and the held-out fit improves."""
 
+from __future__ import annotations
+
 import contextlib
 import io
 import json
 import shutil
 from dataclasses import dataclass
-from functools import cache
 from pathlib import Path
 from typing import Any
 
@@ -21,14 +22,11 @@ from pegbt.sim2real.diagnose import Diagnosis, diagnose
 PAPERS_RESOLUTION = (0.01, 0.01, 0.0005, 0.01, 0.01, 0.01)
 
 
-@cache
-def _diagnosed(folder: Path) -> Diagnosis:
-    return diagnose(load_recording(folder), n_bootstrap=20)
-
-
 @pytest.fixture
-def grey1(dvrk_data):
-    return _diagnosed(dvrk_data / "random_smooth_grey1_PSM1")
+def grey1(grey1_copied: CopiedDiagnosis) -> Diagnosis:
+    """grey1 as `pegbt sim2real diagnose` diagnoses it (the paper's resolution, no bootstrap: no test here
+    reads an interval), computed once for the module (`grey1_copied`)."""
+    return grey1_copied.diagnosis
 
 
 def test_wrist_heldout_error_falls_to_a_few_hundredths_of_a_radian(grey1):

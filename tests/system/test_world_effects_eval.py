@@ -1,63 +1,129 @@
-"""`pegbt eval --world-effects`: the default world is today's on fixed seeds, event for event (fingerprints
-of the simulator's ground truth recorded without a world file with `pegbt eval --variant unilateral --trials
-1 --seed S [--condition C] --keep-logs`: both on branch limit3 after `release` opened the jaw to 30°, not 50°,
-the same events as before at earlier times), and a world file's effects reach the trials' simulator."""
+"""`pegbt eval --world-effects` and what reads a trial's logs afterwards, on shared trials (each whole trial
+costs tens of seconds of CPU, so a trial serves every test that reads it):
+
+- the default world is today's on fixed seeds, event for event (fingerprints of the simulator's ground
+  truth recorded without a world file with `pegbt eval --variant unilateral --trials 1 --seed S
+  [--condition C] --keep-logs`: both on branch limit3 after `release` opened the jaw to 30°, not 50°, the
+  same events as before at earlier times), and a world file's effects reach the trials' simulator;
+- `pegbt sim2real outcomes` end to end: the default world's tick logs (and nothing else) read into cells,
+  diagnosed against the phase simulator, and the report written."""
+
+from __future__ import annotations
 
 import hashlib
 import json
-import subprocess
-import sys
+import shutil
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
 
 import pytest
 
 from pegbt.sim.world_effects import WORLD_EFFECT_KINDS, WorldEffects, write_world_file
 
-pytestmark = pytest.mark.system
+pytestmark = [pytest.mark.system, pytest.mark.slow]
 
 # (condition, seed): (world events, fingerprint of them, transfers placed of 12), recorded as above
 BEFORE = {
     ("uncalibrated", 6): (68, "f6e4786eadf3414b", 1),
     ("optimized", 5): (48, "4f45cff11c8d2f28", 12),
 }
+BEND = {"peg_compliance": {"deflection": 0.0015}}  # the uncalibrated arm's blocks catch 0.1–0.4 mm past it
 
 
-def _eval(tmp_path, condition, seed, *extra):
-    out = tmp_path / f"{condition}-{seed}"
-    done = subprocess.run(
-        [sys.executable, "-m", "pegbt", "eval", "--variant", "unilateral", "--condition", condition]
-        + ["--trials", "1", "--seed", str(seed), "--workers", "1", "--keep-logs", "--json", "--quiet"]
-        + ["--out", str(out), *extra],
-        capture_output=True,
-        text=True,
+@dataclass(frozen=True)
+class Evaluated:
+    """One `pegbt eval --keep-logs` trial: its JSON figures, the simulator's ground-truth events and their
+    fingerprint, its output folder and the executive's tick log there."""
+
+    figures: dict[str, Any]
+    events: list[dict[str, Any]]
+    fingerprint: str
+    out: Path
+    tick_log: Path
+
+
+def _eval(pegbt_cli: Any, out: Path, condition: str, seed: int, *extra: str) -> Evaluated:
+    done = pegbt_cli(
+        *("eval", "--variant", "unilateral", "--condition", condition, "--trials", "1", "--seed", seed),
+        *("--workers", "1", "--keep-logs", "--json", "--quiet", "--out", out, *extra),
         timeout=600,
     )
     assert done.returncode == 0, done.stderr
-    truth = out / "logs" / f"unilateral-{condition}-{seed}.truth.jsonl"
+    log = out / "logs" / f"unilateral-{condition}-{seed}.jsonl"
+    truth = log.with_name(f"{log.stem}.truth.jsonl")
     events = [
         entry for line in truth.read_text().splitlines() if (entry := json.loads(line))["kind"] != "start"
     ]
     text = "\n".join(json.dumps(event, sort_keys=True) for event in events)
-    return json.loads(done.stdout), events, hashlib.sha256(text.encode()).hexdigest()[:16]
-
-
-@pytest.mark.parametrize(("condition", "seed", "inert"), [("uncalibrated", 6, False), ("optimized", 5, True)])
-def test_the_default_world_gives_the_same_trial_event_for_event(tmp_path, condition, seed, inert):
-    extra = []
-    if inert:  # every effect listed, each at its inert default
-        world = write_world_file(
-            WorldEffects.of({name: {} for name in WORLD_EFFECT_KINDS}), tmp_path / "inert.yaml"
-        )
-        extra = ["--world-effects", str(world)]
-    figures, events, fingerprint = _eval(tmp_path, condition, seed, *extra)
-    assert (len(events), fingerprint, figures["transfers_succeeded"]) == BEFORE[condition, seed]
-    assert figures["world_effects"] == (extra[1] if inert else "none")
-
-
-def test_a_world_file_s_effects_reach_the_trial_s_simulator(tmp_path):
-    # the uncalibrated arm catches its blocks on their pegs 0.1 to 0.4 mm past the clearance (seed 6: 11 of 12)
-    world = write_world_file(
-        WorldEffects.of({"peg_compliance": {"deflection": 0.0015}}), tmp_path / "bend.yaml"
+    return Evaluated(
+        json.loads(done.stdout), events, hashlib.sha256(text.encode()).hexdigest()[:16], out, log
     )
-    figures, events, _ = _eval(tmp_path, "uncalibrated", 6, "--world-effects", str(world))
-    caught = [event for event in events if event["detail"].startswith("block-peg: caught on peg")]
-    assert figures["transfers_succeeded"] > BEFORE["uncalibrated", 6][2] and len(caught) < 5
+
+
+@pytest.fixture(scope="module")
+def uncalibrated_6(tmp_path_factory: pytest.TempPathFactory, pegbt_cli: Any) -> Evaluated:
+    """Uncalibrated, seed 6, no world file."""
+    return _eval(pegbt_cli, tmp_path_factory.mktemp("default"), "uncalibrated", 6)
+
+
+@pytest.fixture(scope="module")
+def bent_6(tmp_path_factory: pytest.TempPathFactory, pegbt_cli: Any) -> Evaluated:
+    """Uncalibrated, seed 6, its pegs bending 1.5 mm (`BEND`)."""
+    out = tmp_path_factory.mktemp("bend")
+    world = write_world_file(WorldEffects.of(BEND), out / "bend.yaml")
+    return _eval(pegbt_cli, out, "uncalibrated", 6, "--world-effects", str(world))
+
+
+def test_the_default_world_gives_the_same_trial_event_for_event(uncalibrated_6: Evaluated) -> None:
+    trial = uncalibrated_6
+    assert (len(trial.events), trial.fingerprint, trial.figures["transfers_succeeded"]) == BEFORE[
+        "uncalibrated", 6
+    ]
+    assert trial.figures["world_effects"] == "none"
+
+
+def test_every_world_effect_at_its_inert_default_gives_the_same_trial_event_for_event(
+    tmp_path: Path, pegbt_cli: Any
+) -> None:
+    world = write_world_file(
+        WorldEffects.of({name: {} for name in WORLD_EFFECT_KINDS}), tmp_path / "inert.yaml"
+    )
+    trial = _eval(pegbt_cli, tmp_path, "optimized", 5, "--world-effects", str(world))
+    assert (len(trial.events), trial.fingerprint, trial.figures["transfers_succeeded"]) == BEFORE[
+        "optimized", 5
+    ]
+    assert trial.figures["world_effects"] == str(world)
+
+
+def test_a_world_file_s_effects_reach_the_trial_s_simulator(bent_6: Evaluated) -> None:
+    # the uncalibrated arm catches its blocks on their pegs 0.1 to 0.4 mm past the clearance (seed 6: 11 of 12)
+    caught = [event for event in bent_6.events if event["detail"].startswith("block-peg: caught on peg")]
+    assert bent_6.figures["transfers_succeeded"] > BEFORE["uncalibrated", 6][2] and len(caught) < 5
+
+
+def test_tick_logs_of_a_campaign_are_diagnosed_from_the_logs_alone(
+    uncalibrated_6: Evaluated, tmp_path: Path, pegbt_cli: Any
+) -> None:
+    real = tmp_path / "real"
+    real.mkdir()
+    logs = [p for p in uncalibrated_6.out.rglob("*.jsonl") if not p.name.endswith(".truth.jsonl")]
+    assert uncalibrated_6.tick_log in logs
+    for log in logs:  # the executive's logs alone: no ground truth, no figures
+        shutil.copy(log, real / log.name)
+    out = tmp_path / "report"
+    diagnosed = pegbt_cli(
+        *("sim2real", "outcomes", real, "--transfers", "2", "--located", "2", "--points", "2"),
+        *("--workers", "0", "--out", out, "--json"),
+        timeout=900,
+    )
+    assert diagnosed.returncode == 0, diagnosed.stderr
+    report = json.loads((out / "report.json").read_text())
+    (cell,) = report["cells"]
+    assert (cell["variant"], cell["condition"]) == ("unilateral", "uncalibrated")
+    assert cell["real"]["attempted"] == 12
+    failed = cell["real"]["attempted"] - cell["real"]["succeeded"]
+    assert sum(cell["real"].get("failures", {}).values()) == failed
+    assert 0.0 <= cell["simulated_before"] <= 1.0 and cell["held_out"] is False
+    assert (out / "report.md").exists() and (out / "outcomes.png").stat().st_size > 0
+    assert json.loads(diagnosed.stdout)["cells"] == report["cells"]

@@ -100,15 +100,16 @@ def _naive_play(u, half_width, start):
     return np.array(out)
 
 
-def test_run_wise_play_matches_the_sample_by_sample_operator():
+@pytest.mark.parametrize("n_widths", [1, 3, 12])  # a few widths step on floats, a grid on NumPy
+def test_run_wise_play_matches_the_sample_by_sample_operator(n_widths):
     from pegbt.physics.kernels import play_grid
 
     rng = np.random.default_rng(0)
     for _ in range(100):
         u = np.round(rng.normal(size=int(rng.integers(1, 60))).cumsum(), 1)  # with repeats and reversals
-        widths, starts = rng.uniform(0, 1, 3), rng.normal(size=3) * 2
+        widths, starts = rng.uniform(0, 1, n_widths), rng.normal(size=n_widths) * 2
         grid = play_grid(u, widths, starts)
-        for k in range(3):
+        for k in range(n_widths):
             assert np.allclose(grid[:, k], _naive_play(u, widths[k], starts[k]))
 
 

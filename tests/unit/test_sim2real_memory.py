@@ -74,23 +74,6 @@ def test_grams_by_chunks_equal_the_whole_bank():
     np.testing.assert_array_equal(grams.column_values([5, 0, 100]), whole[:, [5, 0, 100]])
 
 
-def test_a_fit_on_some_blocks_is_least_squares_on_their_rows():
-    """What a jackknife fits: the free columns on the chosen blocks' rows, the fixed ones subtracted."""
-    q_cmd, t, drivers = _stream(SHORT)
-    bank, _ = build_columns(q_cmd, t, drivers)
-    targets = _targets(SHORT)
-    grams = BlockedGrams(bank, targets)
-    whole = _whole(bank)
-    blocks = np.ones(len(grams.gram), dtype=bool)
-    blocks[[2, 7]] = False
-    edges = block_edges(SHORT)
-    rows = np.concatenate([np.arange(edges[k], edges[k + 1]) for k in np.flatnonzero(blocks)])
-    free, fixed = np.array([40, 3, 100]), np.array([7, 60])
-    target = targets[rows, 1] - whole[np.ix_(rows, fixed)].sum(1)
-    expected = np.linalg.lstsq(whole[np.ix_(rows, free)], target, rcond=None)[0]
-    np.testing.assert_allclose(grams.fit(1, free, fixed, blocks), expected, rtol=1e-6)
-
-
 def _grams_peak(n: int) -> tuple[int, int]:
     q_cmd, t, drivers = _stream(n)
     targets = _targets(n)
