@@ -17,6 +17,7 @@ from pegbt.bagoptions import add_record_arguments
 from pegbt.errors import PegbtError
 from pegbt.numbers import NumberOption
 from pegbt.scheduling import ROBOT_PRIORITY, realtime_priority
+from pegbt.sim.process import SERVING_PREFIX, STAGE_PREFIX
 from pegbt.simoptions import add_sim_world_arguments, refuse_dvrk_only
 from pegbt.transport.endpoints import DEFAULT_ENDPOINT, DEFAULT_POINTS_TOPIC
 
@@ -32,8 +33,6 @@ if TYPE_CHECKING:
     from pegbt.transport.session import SessionSettings
 
 CRASH_EXIT_STATUS = 3
-STAGE_PREFIX = "pegbt sim: reached "  # a start-up stage (--report-stages), before the serving line
-SERVING_PREFIX = "pegbt sim: serving"  # the line that ends start-up: clients may connect
 CONNECT_GRACE = 3.0  # s after start-up before saying that nothing answers where the simulator connects
 
 

@@ -13,8 +13,9 @@ from pathlib import Path
 from typing import NoReturn
 
 from pegbt.errors import PegbtError
-from pegbt.sim.cli import SERVING_PREFIX, STAGE_PREFIX
 
+STAGE_PREFIX = "pegbt sim: reached "  # a start-up stage (--report-stages), before the serving line
+SERVING_PREFIX = "pegbt sim: serving"  # the line that ends start-up: clients may connect
 # s for the child to reach its next start-up stage (or to serve, from the last). The longest stage, loading
 # open3d, takes 2.8 s on a quiet core: this leaves room for a machine 20 times slower (load 20 on 2 cores).
 STAGE_TIMEOUT = 60.0
