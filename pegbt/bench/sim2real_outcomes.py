@@ -98,12 +98,15 @@ def measure(
         for seed in range(seeds):
             worlds = [WorldEffects.of(FAMILIES[family]) for family in families]
             for family, real in zip(families, concealed_outcomes(memo, worlds, seed, real_transfers)):
+                before = memo.simulated
                 d = diagnose(real, settings, memo)
                 needed += d.simulated
                 scores[family].append(score(d, FAMILIES[family]))
                 print(
-                    f"{family} seed {seed}: named {', '.join(p.label for p in d.verdict.named) or 'nothing'}; "
-                    f"{d.simulated} transfers, {d.seconds:.0f} s ({time.monotonic() - started:.0f} s in all)",
+                    f"{family} seed {seed}: named {', '.join(p.label for p in d.verdict.named) or 'nothing'} "
+                    f"{scores[family][-1]}; {d.simulated} transfers needed, "
+                    f"{memo.simulated - before} simulated, {d.seconds:.0f} s "
+                    f"({time.monotonic() - started:.0f} s in all)",
                     file=sys.stderr,
                     flush=True,
                 )
