@@ -10,12 +10,15 @@ parameters, and the share of held-out cells inside their 95 % predictive interva
 
 from __future__ import annotations
 
+import resource
 import statistics
+import sys
 import time
 from collections.abc import Mapping, Sequence
 
 from pegbt.errors import PegbtError
 from pegbt.sim.world_effects import WorldEffects
+from pegbt.sim2real.outcomes.cache import MemoMapper
 from pegbt.sim2real.outcomes.cells import Cell, Outcomes
 from pegbt.sim2real.outcomes.diagnose import Diagnosis, Settings, diagnose
 from pegbt.sim2real.outcomes.simulate import CATEGORIES, LocalMapper, Mapper, simulate_cells
@@ -38,16 +41,29 @@ SETTINGS = Settings(fit="unilateral", transfers=12, points=4)
 REAL_SEED = 100_000  # the real runs' seeds start here, far from the fit's
 
 
-def concealed_outcomes(mapper: Mapper, hidden: WorldEffects, seed: int, transfers: int) -> Outcomes:
-    """Cells of `transfers` transfers in the `hidden` world, with the phase of each failure."""
-    sims = simulate_cells(mapper, [hidden], CELLS, transfers, first_seed=REAL_SEED + 1000 * seed)[0]
-    cells = tuple(
-        Cell(
-            v, c, s.attempted, s.succeeded, s.seconds, {k: s.counts[k] for k in CATEGORIES[1:] if s.counts[k]}
+def concealed_outcomes(
+    mapper: Mapper, hidden: Sequence[WorldEffects], seed: int, transfers: int
+) -> list[Outcomes]:
+    """Cells of `transfers` transfers in each of the `hidden` worlds, with the phase of each failure (one
+    batch: each transfer's arm simulated once for every world)."""
+    sims = simulate_cells(mapper, list(hidden), CELLS, transfers, first_seed=REAL_SEED + 1000 * seed)
+    return [
+        Outcomes(
+            tuple(
+                Cell(
+                    v,
+                    c,
+                    s.attempted,
+                    s.succeeded,
+                    s.seconds,
+                    {k: s.counts[k] for k in CATEGORIES[1:] if s.counts[k]},
+                )
+                for (v, c), s in sim.items()
+            ),
+            f"concealed world, seed {seed}",
         )
-        for (v, c), s in sims.items()
-    )
-    return Outcomes(cells, f"concealed world, seed {seed}")
+        for sim in sims
+    ]
 
 
 def score(d: Diagnosis, hidden: Mapping[str, Mapping[str, float]]) -> dict[str, float]:
@@ -71,37 +87,51 @@ def score(d: Diagnosis, hidden: Mapping[str, Mapping[str, float]]) -> dict[str, 
 def measure(
     families: Sequence[str], seeds: int, real_transfers: int, settings: Settings, workers: int = 2
 ) -> dict[str, float | int | str]:
-    """The figures of `families` over `seeds` seeds each."""
-    mapper = LocalMapper(workers)
+    """The figures of `families` over `seeds` seeds each. One memo of simulated transfers serves every
+    diagnosis (`cache.MemoMapper`): their fits simulate the same worlds on the same seeds."""
+    pool = LocalMapper(workers)
+    memo = MemoMapper(pool)
     figures: dict[str, float | int | str] = {}
-    started = time.monotonic()
+    started, cpu = time.monotonic(), _cpu_seconds()
+    scores: dict[str, list[dict[str, float]]] = {family: [] for family in families}
+    needed = 0
     try:
-        for family in families:
-            hidden = FAMILIES[family]
-            scores = [
-                score(
-                    diagnose(
-                        concealed_outcomes(mapper, WorldEffects.of(hidden), seed, real_transfers),
-                        settings,
-                        mapper,
-                    ),
-                    hidden,
+        for seed in range(seeds):
+            worlds = [WorldEffects.of(FAMILIES[family]) for family in families]
+            for family, real in zip(families, concealed_outcomes(memo, worlds, seed, real_transfers)):
+                before = memo.simulated
+                d = diagnose(real, settings, memo)
+                needed += d.simulated
+                scores[family].append(score(d, FAMILIES[family]))
+                print(
+                    f"{family} seed {seed}: named {', '.join(p.label for p in d.verdict.named) or 'nothing'} "
+                    f"{scores[family][-1]}; {d.simulated} transfers needed, "
+                    f"{memo.simulated - before} simulated, {d.seconds:.0f} s "
+                    f"({time.monotonic() - started:.0f} s in all)",
+                    file=sys.stderr,
+                    flush=True,
                 )
-                for seed in range(seeds)
-            ]
-            for name in ("named", "false", "inside"):
-                figures[f"{family}_{name}"] = statistics.mean(s[name] for s in scores)
-            errors = [s["error"] for s in scores if s["error"] == s["error"]]
-            figures[f"{family}_parameter_error_median"] = (
-                statistics.median(errors) if errors else "none named"
-            )
     finally:
-        mapper.close()
+        pool.close()
+    for family in families:
+        for name in ("named", "false", "inside"):
+            figures[f"{family}_{name}"] = statistics.mean(s[name] for s in scores[family])
+        errors = [s["error"] for s in scores[family] if s["error"] == s["error"]]
+        figures[f"{family}_parameter_error_median"] = statistics.median(errors) if errors else "none named"
     figures["seeds_per_family"] = seeds
     figures["real_transfers_per_cell"] = real_transfers
     figures["simulated_transfers_per_cell"] = settings.transfers
+    figures["transfers_the_diagnoses_simulate"] = needed
+    figures["transfers_simulated"] = memo.simulated
     figures["wall_s"] = time.monotonic() - started
+    figures["cpu_s"] = _cpu_seconds() - cpu  # workers included: what 2 idle cores would take, times 2
     return figures
+
+
+def _cpu_seconds() -> float:
+    """CPU seconds of this process and of its ended children (the worker pool, once closed)."""
+    own, children = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
+    return own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime
 
 
 def run(seeds: int = SEEDS, families: Sequence[str] | None = None) -> dict[str, float | int | str]:

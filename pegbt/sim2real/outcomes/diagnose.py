@@ -10,13 +10,13 @@ import numpy as np
 
 from pegbt.errors import PegbtError
 from pegbt.sim.world_effects import WorldEffects
+from pegbt.sim2real.outcomes.cache import MemoMapper
 from pegbt.sim2real.outcomes.cells import CONDITIONS, VARIANTS, Cell, Outcomes
 from pegbt.sim2real.outcomes.fit import LR_95, Profile, Verdict, fit
 from pegbt.sim2real.outcomes.likelihood import log_likelihood
 from pegbt.sim2real.outcomes.locate import Row, locate
-from pegbt.sim2real.outcomes.phasesim import TransferResult
 from pegbt.sim2real.outcomes.predict import Prediction, predict, predict_null
-from pegbt.sim2real.outcomes.simulate import Key, Mapper, SimCounts, Task, simulate_cells
+from pegbt.sim2real.outcomes.simulate import Key, Mapper, SimCounts, simulate_cells
 
 CLOSE = 0.05  # real and simulated rates this close need no more simulated transfers to be compared
 FRESH_SEED = 1_000_000  # the replication's simulated transfers: seeds no other simulation here uses
@@ -73,28 +73,18 @@ def split(cells: Sequence[Cell], fit_on: str) -> tuple[tuple[Cell, ...], tuple[C
     return seen, tuple(c for c in cells if c not in seen)
 
 
-class _Counting:
-    """A mapper that simulates each transfer in each world once (the fit simulates every candidate's grid
-    in one batch, so the arm's motion is shared, and its profiles then find them here), counts the
-    transfers it simulated and tells `progress` after each batch."""
+class _Counting(MemoMapper):
+    """The diagnosis's own memo (the fit simulates every candidate's grid in one batch, so the arm's motion
+    is shared, and its profiles then find them here), telling `progress` after each batch that simulated."""
 
     def __init__(self, mapper: Mapper, progress: Callable[[str], None] | None) -> None:
-        self.mapper, self.count, self.progress = mapper, 0, progress
+        super().__init__(mapper)
+        self.progress = progress
         self.started = time.monotonic()
-        self.known: dict[tuple[WorldEffects, str, str, int], TransferResult] = {}
 
-    def __call__(self, tasks: Sequence[Task]) -> list[list[TransferResult]]:
-        new = [
-            (tuple(w for w in worlds if (w, v, c, seed) not in self.known), v, c, seed)
-            for worlds, v, c, seed in tasks
-        ]
-        new = [task for task in new if task[0]]
-        for (worlds, v, c, seed), simulated in zip(new, self.mapper(new) if new else []):
-            self.known.update({(w, v, c, seed): r for w, r in zip(worlds, simulated)})
-        self.count += sum(len(worlds) for worlds, *_ in new)
-        if self.progress is not None and new:
-            self.progress(f"{self.count} transfers simulated ({time.monotonic() - self.started:.0f} s)")
-        return [[self.known[(w, v, c, seed)] for w in worlds] for worlds, v, c, seed in tasks]
+    def batch(self, simulated: int) -> None:
+        if self.progress is not None and simulated:
+            self.progress(f"{self.simulated} transfers simulated ({time.monotonic() - self.started:.0f} s)")
 
 
 def diagnose(
@@ -149,7 +139,7 @@ def diagnose(
         predicted_by,
         remaining,
         time.monotonic() - started,
-        counting.count,
+        counting.simulated,
         unreplicated,
     )
 

@@ -1,0 +1,48 @@
+"""Simulated transfers remembered by their inputs, so a transfer is simulated once however often it recurs.
+
+A simulated transfer is a function of the world's effects (kinds and parameters), the variant, the
+condition, the seed and the mapper's attempts, and of nothing else (`phasesim` draws every random number
+from the seed; `tests/unit/test_outcomes_cache.py` holds it to that). The fit simulates the same candidate
+worlds on the same seeds whatever the real outcomes are, so the diagnoses of a benchmark, which differ only
+in their real outcomes, share most of their simulations: one `MemoMapper` over the worker pool serves them
+all. The key is the simulation's inputs, never its code: a changed simulator starts with an empty memo.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+from pegbt.sim.world_effects import WorldEffects
+from pegbt.sim2real.outcomes.phasesim import TransferResult
+from pegbt.sim2real.outcomes.simulate import Mapper, Task
+
+Known = tuple[WorldEffects, str, str, int]  # world, variant, condition, seed
+
+
+class MemoMapper:
+    """`mapper` (whose attempts are fixed, so they need no key) with every transfer it simulated remembered
+    per world, variant, condition and seed; `simulated` counts the transfers it passed on. A task's worlds
+    already known are left out of what it passes on, so the arm is simulated only for the others."""
+
+    def __init__(self, mapper: Mapper) -> None:
+        self.mapper = mapper
+        self.known: dict[Known, TransferResult] = {}
+        self.simulated = 0
+
+    def __call__(self, tasks: Sequence[Task]) -> list[list[TransferResult]]:
+        new: list[Task] = []
+        for worlds, variant, condition, seed in tasks:
+            unknown = tuple(w for w in worlds if (w, variant, condition, seed) not in self.known)
+            if unknown:
+                new.append((unknown, variant, condition, seed))
+        for (worlds, variant, condition, seed), results in zip(new, self.mapper(new) if new else []):
+            self.known.update({(w, variant, condition, seed): r for w, r in zip(worlds, results)})
+        self.simulated += sum(len(task[0]) for task in new)
+        self.batch(sum(len(task[0]) for task in new))
+        return [
+            [self.known[(w, variant, condition, seed)] for w in worlds]
+            for worlds, variant, condition, seed in tasks
+        ]
+
+    def batch(self, simulated: int) -> None:
+        """Called after each call with the transfers it simulated (a hook for progress)."""
