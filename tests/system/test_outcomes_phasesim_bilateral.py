@@ -31,7 +31,10 @@ def test_bilateral_per_phase_totals_agree_with_whole_trials(tmp_path: Path) -> N
     trial, simulated = Counter[str](), Counter[str]()
     for seed in SEEDS:
         log_path = tmp_path / f"trial-{seed}.jsonl"
-        run_trial(TrialSpec("bilateral", "uncalibrated", seed, log_path, keep_log=True, world_effects=world))
+        record = run_trial(
+            TrialSpec("bilateral", "uncalibrated", seed, log_path, keep_log=True, world_effects=world)
+        )
+        assert record.log, record.error
         log = read_tick_log(log_path)
         for outcome, begin in zip(transfer_outcomes(log), begun_transfers(log)):
             index = order.index((begin["params"]["pick"], begin["params"]["place"]))

@@ -53,7 +53,7 @@ def _profile(candidate: Candidate, base: WorldEffects = WorldEffects()) -> Profi
     return Profile(candidate, candidate.grid, [{}], np.zeros((1, 2)), base)
 
 
-def test_an_effect_that_only_stood_in_for_the_next_is_dropped():
+def test_an_effect_that_only_stood_in_for_the_next_is_dropped() -> None:
     cells = _cells()
     offset = _profile(OFFSET)
     both = _profile(BENDING, offset.world())
@@ -64,7 +64,7 @@ def test_an_effect_that_only_stood_in_for_the_next_is_dropped():
     assert dropped == ("registration_offset.x",)
 
 
-def test_two_effects_that_both_act_are_both_kept():
+def test_two_effects_that_both_act_are_both_kept() -> None:
     cells = _cells()
     slight = Candidate("peg_compliance", "deflection", (0.0003,))
     offset = _profile(OFFSET)
@@ -76,9 +76,11 @@ def test_two_effects_that_both_act_are_both_kept():
         swapped = [
             (
                 tuple(PEG if w.has("registration_offset") and w.has("peg_compliance") else w for w in worlds),
-                *rest,
+                variant,
+                condition,
+                seed,
             )
-            for worlds, *rest in tasks
+            for worlds, variant, condition, seed in tasks
         ]
         return stand_in_mapper(swapped)
 

@@ -102,7 +102,7 @@ def test_a_way_back_whose_block_was_not_placed_on_the_way_out_fails_at_sense():
     assert simulate_transfer(WorldEffects(), "unilateral", "calibrated", half + 1).succeeded
 
 
-def test_a_pick_again_of_the_block_that_was_missed_tries_another_grasp_candidate():
+def test_a_pick_again_of_the_block_that_was_missed_tries_another_grasp_candidate() -> None:
     """`select_grasp` with `another` (`trees/shared/grasp.yaml`, on a recovery) avoids the candidate that
     just missed; the phase simulator's next attempt does the same."""
     world = World(500, effects=WorldEffects.of({"peg_compliance": {"deflection": 0.0015}}))
