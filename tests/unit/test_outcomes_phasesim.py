@@ -9,6 +9,7 @@ import numpy as np
 import yaml
 
 from pegbt.motion.kinematics import forward_kinematics
+from pegbt.sim.world import World
 from pegbt.sim.world_effects import WorldEffects
 from pegbt.sim2real.outcomes import phasesim
 from pegbt.sim2real.outcomes.phasesim import Replay, simulate_transfer, transfers
@@ -99,3 +100,16 @@ def test_a_way_back_whose_block_was_not_placed_on_the_way_out_fails_at_sense():
     assert not out.succeeded
     assert simulate_transfer(WorldEffects(), "unilateral", "uncalibrated", half).phase == "sense"
     assert simulate_transfer(WorldEffects(), "unilateral", "calibrated", half + 1).succeeded
+
+
+def test_a_pick_again_of_the_block_that_was_missed_tries_another_grasp_candidate() -> None:
+    """`select_grasp` with `another` (`trees/shared/grasp.yaml`, on a recovery) avoids the candidate that
+    just missed; the phase simulator's next attempt does the same."""
+    world = World(500, effects=WorldEffects.of({"peg_compliance": {"deflection": 0.0015}}))
+    skills = phasesim._skills("uncalibrated")
+    block = next(b.index for b in world.blocks if b.peg == 0)
+    rng, replay = np.random.default_rng(0), Replay()
+    first = phasesim._attempt(world, skills, "PSM2", block, 7, rng, 4, replay)
+    assert first.failed == "grasp" and first.chose is not None  # PSM2 misses this block uncalibrated
+    again = phasesim._attempt(world, skills, "PSM2", block, 7, rng, 4, replay, chose=first.chose)
+    assert again.chose is not None and again.chose.candidate != first.chose.candidate

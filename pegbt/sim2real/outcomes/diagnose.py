@@ -157,7 +157,10 @@ def _replicated(
     does). Each is simulated again at its fitted value on fresh seeds beside the world before it (the
     default world, or for a second effect the first), `located` transfers per fit cell each, and kept only
     if it still fits the fit cells better beyond chance (the same χ² test). A named effect that fails takes
-    those named after it along; of tied effects, the one that alone holds is named."""
+    those named after it along; of tied effects, the one that alone holds is named. Of two named effects
+    the first is kept only if the pair also fits better than the second alone on fresh seeds: the first was
+    chosen before the second was in the world, so an effect that only stood in for it (a registration
+    offset beside a bending peg) is dropped, and the second is named at the value it was fitted alone."""
     worlds = [WorldEffects(), *(p.world() for p in (*verdict.named, *verdict.tied))]
     if len(worlds) > 1:  # one batch: each transfer's arm simulated once for every world (`phasesim.Replay`)
         simulate_cells(mapper, worlds, [c.key for c in cells], settings.located, first_seed=FRESH_SEED)
@@ -170,6 +173,13 @@ def _replicated(
             base = fitted.world()
         else:
             dropped.append(fitted.candidate.name)
+    if len(kept) == 2 and not _holds(
+        mapper, _without(kept[-1].world(), kept[0]), kept[-1], cells, settings, progress
+    ):
+        alone = next((p for p in verdict.tried if p.candidate.name == kept[-1].candidate.name), None)
+        if alone is not None:
+            dropped.append(kept[0].candidate.name)
+            kept = [alone]
     tied = [t for t in verdict.tied if _holds(mapper, WorldEffects(), t, cells, settings, progress)]
     dropped += [t.candidate.name for t in verdict.tied if t not in tied]
     if not dropped:
@@ -177,6 +187,11 @@ def _replicated(
     if len(tied) == 1:
         return replace(verdict, named=(tied[0],), tied=()), tuple(dropped)
     return replace(verdict, named=tuple(kept), tied=tuple(tied)), tuple(dropped)
+
+
+def _without(world: WorldEffects, named: Profile) -> WorldEffects:
+    """`world` less the effect `named` fitted."""
+    return WorldEffects.of({e.kind: dict(e.values) for e in world if e.kind != named.candidate.kind})
 
 
 def _holds(

@@ -19,7 +19,7 @@ from functools import cache
 import numpy as np
 from numpy.typing import NDArray
 
-from pegbt.behaviours.actions.grasping import approach_plan
+from pegbt.behaviours.actions.grasping import SAME_BLOCK, approach_plan
 from pegbt.behaviours.actions.handover import Meeting, plan_meeting
 from pegbt.behaviours.poses import from_handover, to_handover, transfer_for
 from pegbt.behaviours.resources.arm_motion import ArmMotion, Prepared
@@ -69,6 +69,15 @@ def transfers(variant: str) -> tuple[tuple[str, int, int], ...]:
 
 
 RECEIVER = {"PSM1": "PSM2", "PSM2": "PSM1"}
+
+
+@dataclass(frozen=True)
+class Chosen:
+    """Where an attempt saw its block (board frame) and the grasp candidate it chose there: a pick again
+    of the same block tries another candidate (`select_grasp`'s `another`)."""
+
+    position: NDArray[np.float64]
+    candidate: int
 
 
 @dataclass(frozen=True)
@@ -126,6 +135,7 @@ class _Bench:
         self.moved = True  # the arm set out: an attempt the robot made, not one its planning refused
         self.meeting: Meeting | None = None
         self.failed: str | None = None  # the phase in which this attempt lost the block
+        self.chose: Chosen | None = None
         self.history = hashlib.sha1(arm.encode() + q0.tobytes())
         self.behind: list[NDArray[np.float64]] = []  # encoder positions replayed, not yet through the model
         motion.desired = q0.copy()
@@ -140,6 +150,7 @@ class _Bench:
         bench = cls.__new__(cls)
         bench.world, bench.name, bench.motion, bench.events = world, arm, motion, []
         bench.held, bench.failed, bench.meeting, bench.moved = False, phase, None, False
+        bench.chose = None
         return bench
 
     def tick(self, seconds: float) -> None:
@@ -267,14 +278,16 @@ def _transfer(
     events: list[tuple[str, Event]] = []
     first: str | None = None
     made = 0  # attempts the arm set out on (a grasp or meeting refused before moving is planned again)
+    chose: Chosen | None = None
     for _ in range(1 + REGRASPS):
         if block.lost or made == attempts:
             break
         bench = _attempt(
-            world, skills, arm, block.index, goal_peg, rng, previous_peg, replay, variant == "handover"
+            world, skills, arm, block.index, goal_peg, rng, previous_peg, replay, variant == "handover", chose
         )
         events += bench.events
         made += bench.moved
+        chose = bench.chose or chose
         if bench.held and bench.meeting is not None:
             return _hand_over(world, skills, bench, block.index, goal_peg, first, replay)
         if bench.held:
@@ -331,16 +344,20 @@ def _attempt(
     previous_peg: int,
     replay: Replay,
     handover: bool = False,
+    chose: Chosen | None = None,
 ) -> _Bench:
     """One pick and carry of `block` as it lies, seen with perception's noise: the bench afterwards says
     whether the arm holds it lowered over `goal_peg`, or at the meeting point for a `handover` (`held`,
-    with `meeting`), or in which phase it was lost (`failed`)."""
+    with `meeting`), or in which phase it was lost (`failed`). A pick again of the block seen where the
+    last attempt `chose` its grasp avoids that candidate, as `SelectGrasp` does
+    (`pegbt/behaviours/actions/grasping.py`, `trees/shared/grasp.yaml`'s `another`)."""
     truth = world.blocks[block]
     noise = rng.normal(0.0, PERCEPTION_SD, 2)
     position = seen_point(world, truth.pose[:3, 3]) + [noise[0], noise[1], 0.0]
     seen = BlockEstimate(position, yaw_of(truth.pose), truth.peg, 1.0, 0.0, 0, True, "")
     motion = skills.arm(arm)
-    grasp = skills.selectors[arm].pick(seen)
+    same = chose is not None and np.linalg.norm(chose.position[:2] - position[:2]) <= SAME_BLOCK
+    grasp = skills.selectors[arm].pick(seen, avoid=(chose.candidate,) if same and chose else ())
     meeting = None
     if grasp is None:
         return _Bench.failed_before(world, arm, motion, "sense")
@@ -362,6 +379,7 @@ def _attempt(
     if not ik.ok.all():
         return _Bench.failed_before(world, arm, motion, "reach")
     bench = _Bench(world, arm, motion, ik.q[0], replay)
+    bench.chose = Chosen(position, grasp.candidate)
     try:
         reach = approach_plan(skills, arm, ik.q[0], None, seen, grasp)()
     except PegbtError:  # the approach leaf fails to plan: nothing moves

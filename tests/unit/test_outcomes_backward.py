@@ -1,0 +1,90 @@
+"""Of two effects named one after the other, the first must still earn its place once the second is in the
+world: a registration offset chosen first (it raises the rate part of the way) and a bending peg added on
+top is, where the peg alone does as well, the peg alone (the concealed campaign's false discovery)."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from pegbt.sim.world_effects import WorldEffects
+from pegbt.sim2real.outcomes.cells import Cell
+from pegbt.sim2real.outcomes.diagnose import Settings, _replicated
+from pegbt.sim2real.outcomes.fit import Candidate, Profile, Verdict
+from pegbt.sim2real.outcomes.phasesim import TransferResult
+from tests.outcomes_helpers import lift_success
+
+PEG = WorldEffects.of({"peg_compliance": {"deflection": 0.0015}})
+OFFSET = Candidate("registration_offset", "x", (0.001,))
+BENDING = Candidate("peg_compliance", "deflection", (0.0015,))
+SETTINGS = Settings(fit="unilateral", transfers=16, located=240, points=4)
+
+
+def stand_in_mapper(
+    tasks: Sequence[tuple[tuple[WorldEffects, ...], str, str, int]],
+) -> list[list[TransferResult]]:
+    """A bending peg sets the rate (`lift_success`); an offset without it raises the rate a third of the way
+    there, and adds nothing beside it."""
+    out = []
+    for worlds, variant, condition, seed in tasks:
+        u = np.random.default_rng([seed, 99]).random()
+        row = []
+        for world in worlds:
+            rate = lift_success(world, variant, condition)
+            if world.has("registration_offset") and not world.has("peg_compliance"):
+                base = lift_success(WorldEffects(), variant, condition)
+                rate = base + (lift_success(PEG, variant, condition) - base) / 3
+            placed = bool(u < rate)
+            row.append(TransferResult(placed, None if placed else "lift", 4.0))
+        out.append(row)
+    return out
+
+
+def _cells() -> list[Cell]:
+    """The bending peg's expected counts, 480 transfers a condition."""
+    return [
+        Cell("unilateral", c, 480, round(480 * lift_success(PEG, "unilateral", c)))
+        for c in ("uncalibrated", "calibrated")
+    ]
+
+
+def _profile(candidate: Candidate, base: WorldEffects = WorldEffects()) -> Profile:
+    return Profile(candidate, candidate.grid, [{}], np.zeros((1, 2)), base)
+
+
+def test_an_effect_that_only_stood_in_for_the_next_is_dropped() -> None:
+    cells = _cells()
+    offset = _profile(OFFSET)
+    both = _profile(BENDING, offset.world())
+    alone = _profile(BENDING)
+    verdict = Verdict((offset, both), (), (offset, alone), np.zeros(2), ())
+    kept, dropped = _replicated(stand_in_mapper, verdict, cells, SETTINGS, None)
+    assert [p.world() for p in kept.named] == [PEG]
+    assert dropped == ("registration_offset.x",)
+
+
+def test_two_effects_that_both_act_are_both_kept() -> None:
+    cells = _cells()
+    slight = Candidate("peg_compliance", "deflection", (0.0003,))
+    offset = _profile(OFFSET)
+    both = _profile(slight, offset.world())
+    alone = _profile(slight)
+
+    def adding(tasks: Sequence[tuple[tuple[WorldEffects, ...], str, str, int]]) -> list[list[TransferResult]]:
+        """An offset beside a slightly bending peg places as the bending peg does: the pair is needed."""
+        swapped = [
+            (
+                tuple(PEG if w.has("registration_offset") and w.has("peg_compliance") else w for w in worlds),
+                variant,
+                condition,
+                seed,
+            )
+            for worlds, variant, condition, seed in tasks
+        ]
+        return stand_in_mapper(swapped)
+
+    verdict = Verdict((offset, both), (), (offset, alone), np.zeros(2), ())
+    kept, dropped = _replicated(adding, verdict, cells, SETTINGS, None)
+    assert [p.candidate.kind for p in kept.named] == ["registration_offset", "peg_compliance"]
+    assert dropped == ()
