@@ -10,11 +10,13 @@ from __future__ import annotations
 # jackknife's few-column sums (0.70 on set-points, 0.66 on streams; measured at load 15-20, not quiet)
 LONGEST_S = {
     "tests/system/test_eval_cluster.py": 96,
+    "tests/system/test_outcomes_phasesim_bilateral.py": 90,
     "tests/system/test_world_effects_eval.py": 75,
     "tests/system/test_realtime_trials.py": 66,
     "tests/system/test_measurement_faults.py": 48,
     "tests/system/test_sim2real_real.py": 40,
     "tests/system/test_sim2real_effects.py": 31,
+    "tests/system/test_sim2real_diagnosis_memory.py": 30,
     "tests/system/test_outcomes_phasesim_vs_trial.py": 25,
     "tests/system/test_eval_cli.py": 23,
     "tests/system/test_sim2real_geometry.py": 19,
