@@ -1,6 +1,8 @@
 """An effect the fit picks must hold on simulations the pick never saw: a registration offset that only
 reshuffles outcomes (chaotic, as a millimetre moves a grasp across a wall's edge) can look as good as the
-true effect on the seeds it was picked on, and then either ties with it or is named beside it."""
+true effect on the seeds it was picked on, and then tie with it or be named beside it. Where both pass it
+is ranked below the true effect on fresh seeds (`tests/unit/test_outcomes_ranking.py`, which also shows a
+chosen effect refused and reported)."""
 
 from __future__ import annotations
 
@@ -12,7 +14,6 @@ from pegbt.sim.world_effects import WorldEffects
 from pegbt.sim2real.outcomes.cells import Cell, Outcomes
 from pegbt.sim2real.outcomes.diagnose import Settings, diagnose
 from pegbt.sim2real.outcomes.phasesim import TransferResult
-from pegbt.sim2real.outcomes.report import report_dict, report_markdown
 from tests.outcomes_helpers import lift_success, real_counts
 
 CELLS = [(v, c) for v in ("unilateral", "bilateral", "handover") for c in ("uncalibrated", "calibrated")]
@@ -50,17 +51,9 @@ def test_an_offset_lucky_on_the_fits_seeds_is_not_a_rival_of_the_true_effect():
     d = diagnose(_outcomes(hidden, seed=0), SETTINGS, reshuffling_mapper)
     assert [p.candidate.kind for p in d.verdict.named] == ["peg_compliance"]
     assert d.verdict.tied == ()
-    assert {"registration_offset.x", "registration_offset.y"} & set(d.unreplicated)  # chosen, then refused
     assert abs(d.verdict.named[0].value - 0.0015) <= 0.3 * 0.0015
 
 
 def test_the_default_world_with_a_reshuffling_offset_names_nothing():
     d = diagnose(_outcomes(WorldEffects(), seed=0), SETTINGS, reshuffling_mapper)
     assert d.verdict.named == () and d.verdict.tied == ()
-
-
-def test_the_report_says_what_the_fit_chose_and_did_not_name():
-    hidden = WorldEffects.of({"peg_compliance": {"deflection": 0.0015}})
-    d = diagnose(_outcomes(hidden, seed=0), SETTINGS, reshuffling_mapper)
-    assert set(report_dict(d)["unreplicated"]) == set(d.unreplicated)
-    assert "registration_offset.x" in report_markdown(d)

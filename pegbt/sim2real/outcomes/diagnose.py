@@ -12,7 +12,7 @@ from pegbt.errors import PegbtError
 from pegbt.sim.world_effects import WorldEffects
 from pegbt.sim2real.outcomes.cache import MemoMapper
 from pegbt.sim2real.outcomes.cells import CONDITIONS, VARIANTS, Cell, Outcomes
-from pegbt.sim2real.outcomes.fit import LR_95, Profile, Verdict, fit
+from pegbt.sim2real.outcomes.fit import LR_95, Fresh, Profile, Verdict, fit
 from pegbt.sim2real.outcomes.likelihood import log_likelihood
 from pegbt.sim2real.outcomes.locate import Row, locate
 from pegbt.sim2real.outcomes.predict import Prediction, predict, predict_null
@@ -20,6 +20,7 @@ from pegbt.sim2real.outcomes.simulate import Key, Mapper, SimCounts, simulate_ce
 
 CLOSE = 0.05  # real and simulated rates this close need no more simulated transfers to be compared
 FRESH_SEED = 1_000_000  # the replication's simulated transfers: seeds no other simulation here uses
+RANK_SEED = 2_000_000  # where the fit ranks the additions that pass: neither the fit's nor the replication's
 
 
 @dataclass(frozen=True)
@@ -112,6 +113,7 @@ def diagnose(
             settings.phases,
             disagreeing or None,
             len(loud),
+            Fresh(RANK_SEED, settings.located),
         )
         fit_cells = tuple(ordered)
     else:

@@ -9,13 +9,16 @@ a transfer passes its phases in turn, so one that fails at the grasp and again a
 when two effects act together, and each step profiles every candidate on top of the world chosen so far.
 Where the data cannot tell two additions apart (log-likelihoods within `TIE`) each is followed as its own
 path; paths that end in different worlds are reported as a tie, none of them named, and each predicts.
+The additions that pass are ranked on fresh seeds, not on the ones their best value was picked on: the
+pick favours whichever candidate's grid drew the luckiest outcomes (a registration offset reshuffles
+them), and the first choice decides every later step.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy import stats
@@ -102,10 +105,16 @@ class Profile:
     sims: list[dict[Key, SimCounts]]
     per_cell: np.ndarray  # (values, cells) log-likelihoods
     base: WorldEffects = WorldEffects()
+    fresh_total: float | None = None  # the fitted world's log-likelihood on fresh seeds, once ranked there
 
     @property
     def total(self) -> np.ndarray:
         return self.per_cell.sum(axis=1)
+
+    @property
+    def score(self) -> float:
+        """What additions are ranked by: the fresh seeds' log-likelihood if known, else the best total."""
+        return float(self.total.max()) if self.fresh_total is None else self.fresh_total
 
     @property
     def best(self) -> int:
@@ -190,6 +199,14 @@ def passes(fitted: Profile, null: np.ndarray) -> bool:
     return 2 * (fitted.total.max() - null.sum()) >= LR_95 and loo_gain(fitted, null) > 0
 
 
+@dataclass(frozen=True)
+class Fresh:
+    """Seeds no fit simulation uses, `transfers` per fit cell from `first_seed`, to rank passing additions."""
+
+    first_seed: int
+    transfers: int
+
+
 def fit(
     mapper: Mapper,
     cells: Sequence[Cell],
@@ -199,10 +216,12 @@ def fit(
     phases: bool = True,
     disagreeing: frozenset[str] | None = None,
     informative: int | None = None,
+    fresh: Fresh | None = None,
 ) -> Verdict:
     """Profile every candidate (only those that can act in a `disagreeing` phase, when phases are known)
     on the fit `cells` (the first `informative` of them disagree; all, if not given), then add effects one
-    at a time while the best addition passes; a tie is followed down each of its paths."""
+    at a time while the best addition passes (best on `fresh` seeds, when given); a tie is followed down
+    each of its paths."""
     informative = len(cells) if informative is None else informative
     null = np.array([log_likelihood(c, null_sims[c.key], phases) for c in cells])
     chosen = [
@@ -220,7 +239,8 @@ def fit(
         profiles = [profile(mapper, c, cells, transfers, before, informative, base, phases) for c in others]
         if not base:
             tried.extend(profiles)
-        return sorted((p for p in profiles if passes(p, before)), key=lambda p: -p.total.max())
+        passing = sorted((p for p in profiles if passes(p, before)), key=lambda p: -p.total.max())
+        return passing if fresh is None else ranked_on_fresh_seeds(mapper, passing, cells, fresh, phases)
 
     tried: list[Profile] = []
     alone = step(WorldEffects(), null)
@@ -244,15 +264,32 @@ def fit(
     return Verdict(tuple(path), (), tuple(tried), null, names)
 
 
+def ranked_on_fresh_seeds(
+    mapper: Mapper, passing: list[Profile], cells: Sequence[Cell], fresh: Fresh, phases: bool
+) -> list[Profile]:
+    """`passing`, each with its fitted world simulated on `fresh` seeds, best first by the fit cells'
+    log-likelihood there; each profile's own scores are kept (its interval and later steps use them)."""
+    if len(passing) < 2:
+        return passing
+    sims = simulate_cells(
+        mapper,
+        [p.world() for p in passing],
+        [c.key for c in cells],
+        fresh.transfers,
+        first_seed=fresh.first_seed,
+    )
+    scores = [sum(log_likelihood(c, sim[c.key], phases) for c in cells) for sim in sims]
+    order = sorted(range(len(passing)), key=lambda i: -scores[i])
+    return [replace(passing[i], fresh_total=scores[i]) for i in order]
+
+
 def _leaders(passing: list[Profile]) -> list[Profile]:
     """The best of `passing` (sorted, best first) and those of other kinds the data cannot tell from it."""
     if not passing:
         return []
     best = passing[0]
     return [best] + [
-        p
-        for p in passing[1:]
-        if p.candidate.kind != best.candidate.kind and best.total.max() - p.total.max() < TIE
+        p for p in passing[1:] if p.candidate.kind != best.candidate.kind and best.score - p.score < TIE
     ]
 
 
