@@ -3,17 +3,13 @@
 from __future__ import annotations
 
 import math
-from functools import partial
 
 import numpy as np
 import pytest
 import ruckig
 
-from pegbt.bench.limit_bound import Bound, Heights, Start, _reach_s, rest_to_rest, through, trial_bound, via_s
+from pegbt.bench.limit_bound import Bound, Start, _reach_s, rest_to_rest, through, trial_bound, via_s
 from pegbt.motion.limits import ArmSettings, arm_settings
-from pegbt.motion.transfer import TransferPlanner
-from pegbt.motion.waypoints import transfer_waypoints
-from pegbt.workcell import UNILATERAL_ORDER, workcell
 
 
 def test_rest_to_rest_is_bang_coast_bang_on_the_slowest_joint() -> None:
@@ -84,28 +80,6 @@ def test_a_via_point_bound_is_below_every_motion_through_it_and_above_the_veloci
                 if there is not None and back is not None:
                     best = min(best, there + back)
         assert bound <= best
-
-
-@pytest.mark.parametrize("arm", ["PSM1", "PSM2"])
-def test_carry_bound_is_below_pegbts_planned_carry(arm: str) -> None:
-    bound, cell, settings = Bound(), workcell(), arm_settings(arm)
-    planner = TransferPlanner(settings)
-    tops, up = cell.peg_tops_in(arm), cell.up_in(arm)
-    for pick, place in UNILATERAL_ORDER:
-        grasp = bound.joints(arm, pick, bound.grasp_height())
-        _, carry, fall = bound.lower(arm, place, partial(bound.lift_to, arm, grasp, pick))
-        planned = planner.plan(transfer_waypoints(tops[pick], tops[place], up=up)).trajectory.duration
-        assert 0 < carry and carry + fall <= planned + bound.fall_s(bound.heights.lowers[-1]), (pick, place)
-        assert carry <= planned, (pick, place, carry, planned)
-
-
-def test_pegbts_waypoints_cost_more_than_the_fewest_constraints() -> None:
-    transfers = [("PSM1", pick, place) for pick, place in UNILATERAL_ORDER]
-    least = trial_bound(transfers)
-    through_pegbts = trial_bound(transfers, Bound(Heights.pegbt(Bound().motion)))
-    assert 0 < least.arms["PSM1"].total < through_pegbts.arms["PSM1"].total
-    assert least.arms["PSM2"].total == 0.0
-    assert len(least.intervals) == 12 and least.per_transfer_s > 0
 
 
 def test_two_arms_at_once_take_the_busier_arms_time() -> None:
