@@ -1,5 +1,5 @@
 """The phase simulator beside whole bilateral trials on the same worlds: a bending peg (1.5 mm), bilateral
-uncalibrated, worlds 500–503. Each trial's transfers are read from its tick log alone; the two arms' run at
+uncalibrated, worlds 500 and 501. Each trial's transfers are read from its tick log alone; the two arms' run at
 once, so each is matched to the phase simulator's by its pegs (`transfers("bilateral")`), simulated on its
 own. The per-phase totals are what the fit compares: they must agree within chance."""
 
@@ -19,7 +19,7 @@ from pegbt.sim2real.outcomes.phasesim import simulate_transfer, transfers
 
 pytestmark = [pytest.mark.system, pytest.mark.slow]
 
-SEEDS = range(500, 504)
+SEEDS = range(500, 502)  # about 22 transfers: each whole trial with its recoveries costs about 45 s of CPU
 LEVEL = 0.01  # a χ² test of the two tables of totals: they differ beyond chance below this p-value
 
 
@@ -43,6 +43,6 @@ def test_bilateral_per_phase_totals_agree_with_whole_trials(tmp_path: Path) -> N
             simulated["placed" if result.succeeded else str(result.phase)] += 1
     categories = sorted(set(trial) | set(simulated))
     table = [[trial[c] for c in categories], [simulated[c] for c in categories]]
-    assert sum(table[0]) >= 40, trial
+    assert sum(table[0]) >= 20, trial
     p = stats.chi2_contingency(table).pvalue
     assert p > LEVEL, (trial, simulated, p)

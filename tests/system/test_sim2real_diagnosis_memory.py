@@ -28,7 +28,7 @@ def _diagnosis_peak(seconds: float) -> tuple[int, int]:
 def test_a_diagnosis_holds_no_more_than_a_few_whole_arrays(monkeypatch: pytest.MonkeyPatch):
     monkeypatch.setattr(crossval, "CHUNK_ROWS", CHUNK)
     monkeypatch.setattr(geometry, "CHUNK_ROWS", CHUNK)
-    _diagnosis_peak(20)  # imports and caches
+    _diagnosis_peak(5)  # imports and caches
     n_short, short = _diagnosis_peak(SHORT_S)
     n_long, long = _diagnosis_peak(LONG_S)
     assert (long - short) / (n_long - n_short) < GROWTH_BYTES_PER_SAMPLE
