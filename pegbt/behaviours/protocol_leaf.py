@@ -16,15 +16,19 @@ class ProtocolLeaf(Leaf):
     """A leaf on one handover's record, `n`."""
 
     def record(self) -> Handover:
-        n = self.params["n"]
-        try:
-            value = self.read(key(n))
-        except KeyError:
-            value = None
-        return record_of(n, value)
+        return read_record(self, self.params["n"])
 
     def shown(self, record: Handover) -> str:
         return f"{key(record.n)}: {record}"
+
+
+def read_record(leaf: Leaf, n: int) -> Handover:
+    """Handover `n`'s record as `leaf` reads it (empty before either side said anything)."""
+    try:
+        value = leaf.read(key(n))
+    except KeyError:
+        value = None
+    return record_of(n, value)
 
 
 def protocol_leaf(name: str, base: type[ProtocolLeaf], **fixed: object) -> type[ProtocolLeaf]:

@@ -26,11 +26,12 @@ from pegbt.behaviours.base import (
 )
 from pegbt.behaviours.motion import CarryLeaf, above_pegs_first, rise
 from pegbt.behaviours.poses import from_handover, to_arm, to_handover, tool_pose
+from pegbt.behaviours.protocol_leaf import read_record
 from pegbt.behaviours.resources.arm_motion import ArmMotion, SentMotion
 from pegbt.behaviours.resources.skills import Skills
 from pegbt.errors import PegbtError
 from pegbt.frames import invert_rigid
-from pegbt.handover_protocol import Giver, key, record_of
+from pegbt.handover_protocol import Giver
 from pegbt.motion.handover import descent_clearance, handover_meeting_point
 from pegbt.motion.ik import solve_ik
 from pegbt.motion.kinematics import tip_position
@@ -240,11 +241,7 @@ class AwaitMeeting(RobotLeaf):
         self.planned: tuple[float, float] | None = None  # (the carry's send time, when to set off)
 
     def act(self) -> Status:
-        n = self.params["n"]
-        try:
-            record = record_of(n, self.read(key(n)))
-        except KeyError:
-            record = record_of(n, None)
+        record = read_record(self, self.params["n"])
         now = self.context.clock.now()
         if record.giver is Giver.ARRIVED:
             self.feedback_message = "the giver holds the block out"
@@ -265,10 +262,13 @@ class AwaitMeeting(RobotLeaf):
         self.feedback_message = f"waiting for the giver to bring the block ({record})"
         return Status.RUNNING
 
+    def giver(self) -> str:
+        """The other arm: the one bringing the block."""
+        return next(name for name in self.robot.arms if name != self.param("arm"))
+
     def carry(self) -> SentMotion | None:
         """The giver's motion under way (its carry, once it offered the block), if any."""
-        giver = next(arm for arm in self.robot.arms if arm != self.param("arm"))
-        active = self.motion(giver).active
+        active = self.motion(self.giver()).active
         return active if active is not None and active.handle.busy else None
 
     def set_off(self, carry: SentMotion, now: float) -> float:
@@ -276,7 +276,7 @@ class AwaitMeeting(RobotLeaf):
         keeps the tip `approach_above_block` above the block's top, as `carry` moves it, until it ends."""
         arm, grasp = self.param("arm"), self.get("grasp")
         motion, cell = self.motion(arm), self.skills.cell
-        giver = next(name for name in self.robot.arms if name != arm)
+        giver = self.giver()
         descent_plan = descent(self.skills, motion, motion.start_from(self.client(arm)), grasp)()
         heights = (tip_position(descent_plan.q) - grasp.pose[:3, 3]) @ cell.up_in(arm)
         times = carry.sent_at + carry.planned.t

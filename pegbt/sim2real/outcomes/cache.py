@@ -37,8 +37,9 @@ class MemoMapper:
                 new.append((unknown, variant, condition, seed))
         for (worlds, variant, condition, seed), results in zip(new, self.mapper(new) if new else []):
             self.known.update({(w, variant, condition, seed): r for w, r in zip(worlds, results)})
-        self.simulated += sum(len(task[0]) for task in new)
-        self.batch(sum(len(task[0]) for task in new))
+        simulated = sum(len(task[0]) for task in new)
+        self.simulated += simulated
+        self.batch(simulated)
         return [
             [self.known[(w, variant, condition, seed)] for w in worlds]
             for worlds, variant, condition, seed in tasks
