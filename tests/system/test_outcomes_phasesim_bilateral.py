@@ -19,7 +19,10 @@ from pegbt.sim2real.outcomes.phasesim import simulate_transfer, transfers
 
 pytestmark = [pytest.mark.system, pytest.mark.slow]
 
-SEEDS = range(500, 502)  # about 22 transfers: each whole trial with its recoveries costs about 45 s of CPU
+SEEDS = range(500, 502)  # about 24 transfers: each whole trial with its recoveries costs about 45 s of CPU
+# a trial whose look at half time finds no trustworthy block (every block of the first half dropped around
+# the board) ends there, which the tree allows: each trial still begins its first half's six transfers
+LEAST_TRANSFERS = 6 * len(SEEDS)
 LEVEL = 0.01  # a χ² test of the two tables of totals: they differ beyond chance below this p-value
 
 
@@ -34,7 +37,7 @@ def test_bilateral_per_phase_totals_agree_with_whole_trials(tmp_path: Path) -> N
         record = run_trial(
             TrialSpec("bilateral", "uncalibrated", seed, log_path, keep_log=True, world_effects=world)
         )
-        assert record.log, record.error
+        assert record.log and not record.error, record.error
         log = read_tick_log(log_path)
         for outcome, begin in zip(transfer_outcomes(log), begun_transfers(log)):
             index = order.index((begin["params"]["pick"], begin["params"]["place"]))
@@ -43,6 +46,6 @@ def test_bilateral_per_phase_totals_agree_with_whole_trials(tmp_path: Path) -> N
             simulated["placed" if result.succeeded else str(result.phase)] += 1
     categories = sorted(set(trial) | set(simulated))
     table = [[trial[c] for c in categories], [simulated[c] for c in categories]]
-    assert sum(table[0]) >= 20, trial
+    assert sum(table[0]) >= LEAST_TRANSFERS, trial
     p = stats.chi2_contingency(table).pvalue
     assert p > LEVEL, (trial, simulated, p)
