@@ -30,6 +30,7 @@ from pegbt.sim.world_effects import WorldEffects
 from pegbt.sim2real.outcomes.cache import MemoMapper
 from pegbt.sim2real.outcomes.cells import Cell, Outcomes
 from pegbt.sim2real.outcomes.diagnose import Diagnosis, Settings, diagnose
+from pegbt.sim2real.outcomes.fit import Profile
 from pegbt.sim2real.outcomes.simulate import CATEGORIES, LocalMapper, Mapper, simulate_cells
 
 FAMILIES: dict[str, dict[str, dict[str, float]]] = {
@@ -156,7 +157,7 @@ def measure(
                 needed += d.simulated
                 scores[family].append(score(d, FAMILIES[family]))
                 print(
-                    f"{family} seed {seed}: named {', '.join(p.label for p in d.verdict.named) or 'nothing'} "
+                    f"{family} seed {seed}: named {', '.join(map(_named, d.verdict.named)) or 'nothing'} "
                     f"{scores[family][-1]}; {d.simulated} transfers needed, "
                     f"{memo.simulated - before} simulated, {d.seconds:.0f} s "
                     f"({time.monotonic() - started:.0f} s in all)",
@@ -180,6 +181,12 @@ def measure(
     figures["wall_s"] = time.monotonic() - started
     figures["cpu_s"] = _cpu_seconds() - cpu  # workers included: what 2 idle cores would take, times 2
     return figures
+
+
+def _named(fitted: Profile) -> str:
+    """A named effect as the progress line gives it: its estimate and interval."""
+    low, high = fitted.interval()
+    return f"{fitted.label} ({fitted.candidate.parameter} {fitted.estimate:.4g}, 95 % {low:.4g}–{high:.4g})"
 
 
 def _cpu_seconds() -> float:
