@@ -241,7 +241,8 @@ def _null(cells: Sequence[Cell], before: dict[Key, SimCounts], phases: bool) -> 
 
 
 def profile_parameters(fitted: Profile) -> tuple[dict[str, float], dict[str, list[float]]]:
-    """The fitted effect's parameters (all, defaults filled in) and the interval of the one fitted."""
-    effect = next(e for e in fitted.world() if e.kind == fitted.candidate.kind)
+    """The fitted effect's parameters (all, defaults filled in; the fitted one at its estimate) and the
+    interval of the one fitted."""
+    effect = next(e for e in fitted.estimated_world() if e.kind == fitted.candidate.kind)
     low, high = fitted.interval()
     return dict(effect.values), {fitted.candidate.parameter: [low, high]}

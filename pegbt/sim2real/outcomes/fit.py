@@ -12,6 +12,10 @@ path; paths that end in different worlds are reported as a tie, none of them nam
 The additions that pass are ranked on fresh seeds, not on the ones their best value was picked on: the
 pick favours whichever candidate's grid drew the luckiest outcomes (a registration offset reshuffles
 them), and the first choice decides every later step.
+
+What is named is decided on the grid; the value named is not limited to it: a grid coarse enough to be
+affordable steps a parameter by half its value, so the estimate and its interval are read from the
+profile log-likelihood between grid values (`between`, `estimate`), with no more simulation.
 """
 
 from __future__ import annotations
@@ -26,7 +30,7 @@ from scipy.special import logsumexp
 
 from pegbt.sim.world_effects import WORLD_EFFECT_KINDS, WorldEffects
 from pegbt.sim2real.outcomes.cells import Cell
-from pegbt.sim2real.outcomes.likelihood import log_likelihood
+from pegbt.sim2real.outcomes.likelihood import log_likelihood, vector_log_likelihood
 from pegbt.sim2real.outcomes.simulate import Key, Mapper, SimCounts, simulate_cells
 
 # The parameters fitted per kind: one dimension each, the others at their defaults. Registration is
@@ -57,6 +61,7 @@ LR_95 = float(stats.chi2.ppf(0.95, 1))  # one fitted parameter
 TIE = 1.0  # log-likelihoods closer than this: the data do not tell the two effects apart
 MAX_EFFECTS = 4  # effects in one fitted world: the phases a transfer can fail in that several kinds share
 MAX_PATHS = 4  # tied paths followed at once (the rest, less likely, are dropped)
+STEPS = 16  # points per grid step at which the profile is read between grid values (`between`)
 
 
 @dataclass(frozen=True)
@@ -106,6 +111,7 @@ class Profile:
     per_cell: np.ndarray  # (values, cells) log-likelihoods
     base: WorldEffects = WorldEffects()
     fresh_total: float | None = None  # the fitted world's log-likelihood on fresh seeds, once ranked there
+    dense: tuple[np.ndarray, np.ndarray] | None = None  # the profile between grid values (`between`)
 
     @property
     def total(self) -> np.ndarray:
@@ -129,13 +135,24 @@ class Profile:
         total = self.total if without is None else self.total - self.per_cell[:, without]
         return np.exp(total - logsumexp(total))
 
+    @property
+    def estimate(self) -> float:
+        """The parameter's estimate: the maximum of the profile between grid values (of the grid's, if
+        not known)."""
+        return estimate(*(self.dense or (self.values, self.total)))[0]
+
     def interval(self) -> tuple[float, float]:
-        """The values within the 95 % likelihood-ratio bound of the best (the grid's resolution)."""
-        inside = [v for v, t in zip(self.values, self.total) if 2 * (self.total.max() - t) <= LR_95]
-        return min(inside), max(inside)
+        """The 95 % likelihood-ratio interval of the profile between grid values (`estimate`)."""
+        _, low, high = estimate(*(self.dense or (self.values, self.total)))
+        return low, high
 
     def world(self) -> WorldEffects:
+        """`base` with the best grid value (what the fit simulated)."""
         return self.candidate.world(self.value, self.base)
+
+    def estimated_world(self, base: WorldEffects | None = None) -> WorldEffects:
+        """`base` (its own base by default) with the estimate: the world the fit names."""
+        return self.candidate.world(self.estimate, self.base if base is None else base)
 
     @property
     def label(self) -> str:
@@ -154,8 +171,58 @@ class Verdict:
     passing: tuple[str, ...]  # candidates that passed both tests on their own
 
     def world(self) -> WorldEffects:
-        """The fitted world (the last named profile holds every named effect)."""
-        return self.named[-1].world() if self.named else WorldEffects()
+        """The fitted world: every named effect at its estimate."""
+        world = WorldEffects()
+        for fitted in self.named:
+            world = fitted.estimated_world(world)
+        return world
+
+
+def estimate(
+    values: Sequence[float] | np.ndarray, totals: Sequence[float] | np.ndarray
+) -> tuple[float, float, float]:
+    """The value of a profile log-likelihood's maximum, and its 95 % interval: where the profile, linear
+    between `values` (ascending), is within χ²₁,₀.₉₅ / 2 of the maximum. A profile with two maxima (a
+    registration offset of either sign) gets the interval spanning both, as the grid's did. Nothing is
+    extrapolated beyond the values given: an interval that reaches an end of them ends there."""
+    x = np.asarray(values, dtype=float)
+    y = np.asarray(totals, dtype=float)
+    best = int(np.argmax(y))
+    dense = np.linspace(x[0], x[-1], 4001)
+    inside = dense[np.interp(dense, x, y) >= y[best] - LR_95 / 2]
+    return float(x[best]), float(min(inside.min(), x[best])), float(max(inside.max(), x[best]))
+
+
+def between(
+    values: Sequence[float],
+    sims: Sequence[dict[Key, SimCounts]],
+    cells: Sequence[Cell],
+    per_cell: np.ndarray,
+    phases: bool,
+    steps: int = STEPS,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The profile between grid values: each fit cell's simulated counts per category interpolated
+    linearly between neighbouring grid values (in the log of the value on a log-spaced grid), and the real
+    counts weighed against them. The grid's worlds share their seeds, so a cell's counts change with the
+    parameter through the transfers the effect tips over, not through luck, and a rate between two grid
+    values lies between theirs; the likelihood itself is far from linear (sharp where real transfers are
+    many), which is why the counts are interpolated and not the log-likelihood. A cell not simulated at
+    the grid keeps its one log-likelihood (`per_cell`'s)."""
+    x = np.asarray(values, dtype=float)
+    log = bool(x[0] > 0 and x[-1] / x[0] > 100)
+    u = np.log(x) if log else x
+    t = np.linspace(0.0, 1.0, steps + 1)[:-1]
+    dense = np.concatenate([*(u[i] + t * (u[i + 1] - u[i]) for i in range(len(u) - 1)), u[-1:]])
+    totals = np.zeros(len(dense))
+    for j, cell in enumerate(cells):
+        if not all(cell.key in sim for sim in sims):
+            totals += per_cell[0, j]
+            continue
+        counts = np.array([sim[cell.key].vector() for sim in sims])
+        for k, point in enumerate(dense):
+            vector = np.array([np.interp(point, u, counts[:, c]) for c in range(counts.shape[1])])
+            totals[k] += vector_log_likelihood(cell, vector, phases)
+    return (np.exp(dense) if log else dense), totals
 
 
 def profile(
@@ -181,7 +248,9 @@ def profile(
         more = simulate_cells(mapper, worlds, [c.key for c in quiet], max(2, transfers // 3))
         rest = np.array([[log_likelihood(c, sim[c.key], phases) for c in quiet] for sim in more])
         sims = [{**a, **b} for a, b in zip(sims, more)]
-    return Profile(candidate, candidate.grid, sims, np.hstack([per_cell, rest]), base)
+    per_cell = np.hstack([per_cell, rest])
+    dense = between(candidate.grid, sims, cells, per_cell, phases)
+    return Profile(candidate, candidate.grid, sims, per_cell, base, dense=dense)
 
 
 def loo_gain(fitted: Profile, null: np.ndarray) -> float:

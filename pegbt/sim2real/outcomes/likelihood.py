@@ -31,9 +31,15 @@ def log_likelihood(cell: Cell, sim: SimCounts, phases: bool = True) -> float:
     """log P(the cell's real counts | `sim`), by phase when the cell has them and `phases`. Failures at
     `sense` count as the others do: the phase simulator's way back finds a peg empty where the way out lost
     its block, as a trial does."""
+    return vector_log_likelihood(cell, sim.vector(), phases)
+
+
+def vector_log_likelihood(cell: Cell, simulated: np.ndarray, phases: bool = True) -> float:
+    """`log_likelihood` from the simulated counts per category (placed first; fractional counts, as an
+    interpolation between simulated worlds gives, are weighed as counts)."""
     if cell.attempted == 0:
         return 0.0
     if phases and has_phases(cell):
-        alpha = sim.vector() + 0.5
+        alpha = simulated + 0.5
         return float(stats.dirichlet_multinomial.logpmf(real_vector(cell), alpha, np.array(cell.attempted)))
-    return count_log_likelihood(cell.succeeded, cell.attempted, sim.succeeded, sim.attempted)
+    return count_log_likelihood(cell.succeeded, cell.attempted, float(simulated[0]), float(simulated.sum()))

@@ -90,7 +90,7 @@ def report_dict(diagnosis: Diagnosis, commands: list[str] | None = None) -> dict
                 "effect": t.candidate.kind,
                 "world": t.label,
                 "parameter": t.candidate.parameter,
-                "value": t.value,
+                "value": t.estimate,
                 "interval": list(t.interval()),
                 "log_likelihood": float(t.total.max()),
             }
@@ -131,11 +131,11 @@ def _finding(d: Diagnosis) -> list[str]:
         for fitted in d.verdict.named:
             low, high = fitted.interval()
             lines.append(
-                f"**Named: {fitted.candidate.kind}**, {fitted.candidate.parameter} = {fitted.value:.4g} "
+                f"**Named: {fitted.candidate.kind}**, {fitted.candidate.parameter} = {fitted.estimate:.4g} "
                 f"(95 % interval {low:.4g}–{high:.4g} on the grid)."
             )
     elif d.verdict.tied:
-        names = ", ".join(f"{t.label} ({t.candidate.name} ≈ {t.value:.4g})" for t in d.verdict.tied)
+        names = ", ".join(f"{t.label} ({t.candidate.name} ≈ {t.estimate:.4g})" for t in d.verdict.tied)
         lines.append(
             f"**Not told apart:** {names} explain the fit cells equally well (log-likelihoods within 1); with "
             + (
@@ -356,7 +356,7 @@ def write_report(
     if d.verdict.named:
         worlds.append(str(write_world_file(d.world(), out / "world.yaml")))
     for tied in d.verdict.tied:
-        worlds.append(str(write_world_file(tied.world(), out / f"world-{tied.label}.yaml")))
+        worlds.append(str(write_world_file(tied.estimated_world(), out / f"world-{tied.label}.yaml")))
     data["world_files"] = worlds
     (out / "report.json").write_text(json.dumps(data, indent=2) + "\n")
     (out / "report.md").write_text(markdown)
