@@ -73,7 +73,7 @@ HISTORY_WAIT = 2.0  # s at most to wait for it
 # 90°/s² for yaw and pitch, 0.2 m/s and 0.2 m/s² for insertion, 1080°/s and 720°/s² for roll and the wrist
 DVRK_MOVE_VELOCITY = np.array([np.pi / 2, np.pi / 2, 0.2, 6 * np.pi, 6 * np.pi, 6 * np.pi])
 DVRK_MOVE_ACCELERATION = np.array([np.pi / 2, np.pi / 2, 0.2, 4 * np.pi, 4 * np.pi, 4 * np.pi])
-ARRIVED = 1e-6  # rad: the jaw's set-point is the last one streamed (the robot takes servo_jp as its set-point)
+ARRIVED = 1e-6  # rad: the jaw's set-point is the last one streamed (servo_jp becomes its set-point)
 MOVE_MARGIN = 2.0  # s beyond twice the rest-to-rest time a robot's move_jp may take before it fails
 STATE_CONFIRM_S = 0.5  # s to wait for the operating state the streamer saw, once it stops a motion
 RATIO_CONFIRM_S = 2.0  # s for the robot to confirm a trajectory ratio
