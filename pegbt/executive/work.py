@@ -79,6 +79,11 @@ class Job(Generic[T]):
             self._pool.count(self)
         return value
 
+    def outcome(self) -> T:
+        """The job's value, or the exception it raised, for work that builds on it ahead of need (blocks
+        until it is done); unlike `result()`, counts no wait: no leaf waited for it."""
+        return self._future.result()
+
     def wanted(self) -> None:
         """A leaf wants the result from now: a job submitted ahead of need counts the wait from here."""
         self.wanted_from = time.perf_counter()

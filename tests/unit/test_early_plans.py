@@ -18,7 +18,7 @@ from executive_helpers import write_tree
 from fake_arm import FakeArm, fake_robot
 from py_trees.common import Status
 
-from pegbt.behaviours.actions.handover import plan_meeting
+from pegbt.behaviours.actions.handover import plan_meeting, way_to_wait
 from pegbt.behaviours.resources.robot import Robot
 from pegbt.behaviours.resources.skills import Skills
 from pegbt.clock import ManualClock
@@ -277,7 +277,8 @@ def test_the_givers_carry_is_planned_as_its_approach_is_sent(tmp_path, robot, sk
     assert np.allclose(carry.target.q[0], approach.target.q[-1])
     assert pool.stats.by_kind["prepare_all"][0] == 2  # the approach, and the carry once: made early
     assert pool.submitted[:2] == [0.0, approach.at]  # the carry's plan began as the approach was sent
-    assert pool.stats.by_kind["HandoverPoses.compute"][0] == 1
+    assert pool.stats.by_kind["plan_meeting"][0] == 1  # the meeting too, taken by `handover_poses`
+    assert "HandoverPoses.compute" not in pool.stats.by_kind
 
 
 RISE_THEN_PICK = f"""
@@ -377,3 +378,51 @@ def test_a_givers_rise_is_planned_while_it_carries_the_block_to_the_meeting_poin
     assert (
         pool.submitted[-1] == carry.at < risen.at
     )  # the rise's plan, the last job, began as the carry was sent
+
+
+HAND_OVER_AGAIN = f"""
+  sequence:
+    children:
+      - begin_transfer: {{arms: "PSM1→PSM2", pick: {PICK}, place: {PLACE}, transfer: /n}}
+      - go_to_handover: {{arm: PSM2, grasp: /last_grasp}}
+      - descend_to_grasp: {{arm: PSM2, grasp: /last_grasp, block_pose: /last_block_pose}}
+      - approach: {{arm: PSM1, block: /PSM1/block, grasp: /PSM1/grasp, keep_apart: 0.0}}
+      - carry_from_handover: {{arm: PSM2, place: 8, grasp: /last_grasp, block_pose: /last_block_pose, plan_s: /PSM2/plan_s}}
+      - grasp: {{arm: PSM1, holding: /PSM1/holding}}
+      - handover_poses: {{arm: PSM1, receiver: PSM2, grasp: /PSM1/grasp, block: /PSM1/block, meeting: /meeting, block_pose: /block_pose, receiver_grasp: /receiver_grasp}}
+      - go_to_handover: {{arm: PSM2, grasp: /receiver_grasp}}
+"""
+
+
+def test_the_receivers_way_to_the_next_meeting_is_planned_while_it_carries_the_last_block(
+    tmp_path, robot, skills, seen, clock
+):
+    """The receiver went to wait above its grasp only once the giver held the block and the meeting was
+    planned, and planned that way then (its way and descent are the handover's critical path). The meeting
+    is now computed as the giver's approach is sent, the way planned from it while the receiver carries its
+    last block, and that is the plan sent, to where planning it then would have gone."""
+    pool = GatedPool(clock)
+    giver, receiver = psm1(robot), robot.arms["PSM2"]
+    assert isinstance(receiver, FakeArm)
+    giver.block_in_jaw = receiver.block_in_jaw = True
+    last = block_on_peg(seen[1], 3)
+    last_meeting = plan_meeting(skills, "PSM1", "PSM2", skills.selectors["PSM1"].pick(last), last)
+    assert last_meeting is not None
+    values = chosen(skills, seen) | {
+        "/meeting": None,
+        "/block_pose": None,
+        "/receiver_grasp": None,
+        "/last_grasp": last_meeting.receiver_grasp,
+        "/last_block_pose": last_meeting.block_pose,
+    }
+    built = build(tmp_path, robot, skills, HAND_OVER_AGAIN, pool, values)
+    assert run(built, clock, pool) == Status.SUCCESS, built.root.feedback_message
+    *_, carry, way = (sent for sent in receiver.sent if sent.kind == "trajectory")
+    assert (
+        way.at > carry.at and carry.at in pool.submitted
+    )  # planned as the carry was sent, not as it set off
+    assert "HandoverPoses.compute" not in pool.stats.by_kind  # the meeting computed early was taken
+    assert pool.stats.by_kind["plan_meeting"][0] == 1
+    grasp = py_trees.blackboard.Blackboard.get("/receiver_grasp")
+    expected = way_to_wait(skills, skills.arm("PSM2"), "PSM2", carry.target.q[-1], grasp)
+    assert np.allclose(way.target.q, expected.q)

@@ -16,7 +16,12 @@ import numpy as np
 from numpy.typing import NDArray
 from py_trees.common import Status
 
-from pegbt.behaviours.actions.handover import meeting_tip, plan_carry_to_meeting, plan_meeting
+from pegbt.behaviours.actions.handover import (
+    meeting_tip,
+    plan_carry_to_meeting,
+    plan_meeting,
+    plan_meeting_early,
+)
 from pegbt.behaviours.base import (
     MotionLeaf,
     RobotLeaf,
@@ -251,8 +256,10 @@ class Approach(MotionLeaf):
         )
         record = self.robot.trial.under_way(arm, placing=True)
         if record is None:
-            if self.robot.trial.giving(arm) is not None:
+            giving = self.robot.trial.giving(arm)
+            if giving is not None:
                 plan_carry_to_meeting(self, arm, board, block, grasp, meeting_tip(self.skills, arm))
+                plan_meeting_early(self, arm, giving.arms.split("→")[1], grasp, block)
             return
         waypoints = transfer_for(self.skills.cell, self.skills.motion, arm, board, block, grasp, record.place)
         motion.plan_early(

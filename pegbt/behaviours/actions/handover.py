@@ -27,9 +27,10 @@ from pegbt.behaviours.base import (
 from pegbt.behaviours.motion import CarryLeaf, above_pegs_first, rise
 from pegbt.behaviours.poses import from_handover, to_arm, to_handover, tool_pose
 from pegbt.behaviours.protocol_leaf import read_record
-from pegbt.behaviours.resources.arm_motion import ArmMotion, SentMotion
+from pegbt.behaviours.resources.arm_motion import ArmMotion, EarlyResult, SentMotion
 from pegbt.behaviours.resources.skills import Skills
 from pegbt.errors import PegbtError
+from pegbt.executive.work import Job
 from pegbt.frames import invert_rigid
 from pegbt.handover_protocol import Giver
 from pegbt.motion.handover import descent_clearance, handover_meeting_point
@@ -113,10 +114,31 @@ def _clear_descent(
 
 
 class HandoverPoses(ComputeLeaf):
-    """Planning the meeting (IK and a clearance sweep per candidate grasp) runs off the tick. The giver's
-    carry to it is planned and pre-compensated early (`plan_carry_to_meeting`): usually from the approach
-    already, since the meeting tip is fixed; else here, while the giver waits for the receiver
-    (`carry_to_handover` takes that plan if its own inputs are the same, and checks it as it is sent)."""
+    """Planning the meeting (IK and a clearance sweep per candidate grasp) runs off the tick; in real time
+    it began as the giver's approach was sent (`plan_meeting_early`), and is taken if made from the same
+    grasp and block. The giver's carry to it is planned and pre-compensated early (`plan_carry_to_meeting`):
+    usually from the approach already, since the meeting tip is fixed; else here, while the giver waits for
+    the receiver (`carry_to_handover` takes that plan if its own inputs are the same, and checks it as it is
+    sent). The receiver's way to wait above its grasp, planned early from that meeting while it carried its
+    last block (`plan_way_to_meeting`), becomes the plan of that grasp (`go_to_handover` takes it)."""
+
+    def act(self) -> Status:
+        if self.job is None:
+            self.job = self.early_meeting()
+        return super().act()
+
+    def early_meeting(self) -> Job[Meeting | None] | None:
+        """The meeting computed early from this leaf's inputs, if it was (one from other inputs is dropped)."""
+        giver, receiver, grasp, block = self.inputs()
+        if giver == receiver:
+            return None
+        motion = self.motion(receiver)
+        early, motion.meeting = motion.meeting, None
+        if early is None or not early.matches((giver, grasp, block)):
+            if early is not None:
+                early.job.discard()
+            return None
+        return self.adopt(early.job)
 
     def inputs(self) -> tuple:
         return self.param("arm"), self.param("receiver"), self.get("grasp"), self.get("block")
@@ -145,7 +167,63 @@ class HandoverPoses(ComputeLeaf):
         plan_carry_to_meeting(
             self, giver, self.read("/board"), self.get("block"), self.get("grasp"), meeting.tip
         )
+        way = self.motion(receiver)
+        if way.early is not None and way.early.matches((self.job,)):
+            way.adopt_early((taken,), way.early.job)
         return Status.SUCCESS
+
+
+def plan_meeting_early(
+    leaf: RobotLeaf, giver: str, receiver: str, grasp: Grasp, block: BlockEstimate
+) -> None:
+    """Start computing the handover of `block` held at `grasp` as the giver's approach to it is sent (its
+    inputs are known then, the offer comes only once the block is held): `handover_poses` takes it if its
+    own inputs are the same, and the receiver plans its way to the meeting from it while it carries its
+    last block (`plan_way_to_meeting`). Not in lockstep, where computing takes no time."""
+    pool, motion = leaf.context.work, leaf.motion(receiver)
+    if pool.inline or (motion.meeting is not None and motion.meeting.matches((giver, grasp, block))):
+        return
+    if motion.meeting is not None:
+        motion.meeting.job.discard()
+    job = pool.submit_ahead(plan_meeting, leaf.skills, giver, receiver, grasp, block)
+    motion.meeting = EarlyResult((giver, grasp, block), job)
+
+
+def plan_way_to_meeting(leaf: RobotLeaf, receiver: str, start: NDArray[np.float64]) -> None:
+    """Start planning the receiver's way from `start` (where the motion just sent ends) to wait above its
+    grasp at the meeting being computed early, if one is. The receiver went there only once the giver held
+    the block out and the meeting was planned, then planned the way: on the handover's critical path,
+    since its way and descent take longer than the giver's carry. `handover_poses` makes it the plan of
+    the grasp the meeting gives."""
+    motion = leaf.motion(receiver)
+    early = motion.meeting
+    if early is None:
+        return
+    planned = partial(_way_from, leaf.skills, motion, receiver, start, early.job)
+    motion.plan_early(leaf.context.work, (early.job,), planned)
+
+
+def _way_from(
+    skills: Skills, motion: ArmMotion, arm: str, start: NDArray[np.float64], meeting: Job[Meeting | None]
+) -> Trajectory:
+    found = meeting.outcome()
+    if found is None:
+        raise PegbtError(f"{arm} can take the block at no grasp of the meeting point", field="meeting")
+    return way_to_wait(skills, motion, arm, start, found.receiver_grasp)
+
+
+def way_to_wait(
+    skills: Skills, motion: ArmMotion, arm: str, start: NDArray[np.float64], grasp: Grasp
+) -> Trajectory:
+    """The receiver's way from joints `start` to wait `receiver_wait_above` its `grasp`: rest-to-rest
+    cubics, rising first if it is low among the pegs."""
+    cell = skills.cell
+    wait = grasp.pose.copy()
+    wait[:3, 3] += skills.motion.handover.receiver_wait_above * cell.up_in(arm)
+    stops = above_pegs_first(cell, skills.motion, arm, start, motion.settings)
+    joints = stops + [solve_ik(wait, motion.settings, what="waiting above the handover grasp")]
+    names = [f"stop {i}" for i in range(len(stops))] + ["waiting pose"]
+    return motion.through(start, joints, names)
 
 
 def plan_carry_to_meeting(
@@ -197,16 +275,14 @@ class CarryToHandover(CarryLeaf):
 
 
 class GoToHandover(MotionLeaf):
+    """Planned early, in real time, while the receiver carried its last block (`plan_way_to_meeting`)."""
+
     def begin(self) -> None:
-        arm = self.param("arm")
-        motion, cell = self.motion(arm), self.skills.cell
+        arm, grasp = self.param("arm"), self.get("grasp")
+        motion = self.motion(arm)
         start = motion.start_from(self.client(arm))
-        wait = self.get("grasp").pose.copy()
-        wait[:3, 3] += self.skills.motion.handover.receiver_wait_above * cell.up_in(arm)
-        stops = above_pegs_first(cell, self.skills.motion, arm, start, motion.settings)
-        joints = stops + [solve_ik(wait, motion.settings, what="waiting above the handover grasp")]
-        names = [f"stop {i}" for i in range(len(stops))] + ["waiting pose"]
-        self.move(arm, partial(motion.through, start, joints, names), f"{arm} going to the handover")
+        planned = partial(way_to_wait, self.skills, motion, arm, start, grasp)
+        self.move(arm, planned, f"{arm} going to the handover", (grasp,))
         self.move_jaw(arm, self.skills.motion.transfer.jaw_open, f"{arm} jaw opening")
 
     def started(self, trajectories: list[Trajectory]) -> None:
@@ -321,6 +397,11 @@ class DescendToGrasp(MotionLeaf):
 
 
 class CarryFromHandover(CarryLeaf):
+    def started(self, trajectories: list[Trajectory]) -> None:
+        """The way to the next handover's meeting, if it is being computed, is planned while this carry plays."""
+        super().started(trajectories)
+        plan_way_to_meeting(self, self.param("arm"), trajectories[0].q[-1].copy())
+
     def waypoints(self) -> TransferWaypoints:
         return from_handover(
             self.skills.cell,

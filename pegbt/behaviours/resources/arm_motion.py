@@ -29,6 +29,7 @@ import threading
 from collections.abc import Callable
 from dataclasses import dataclass
 from functools import partial
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -87,6 +88,18 @@ class EarlyPlan:
         return len(inputs) == len(self.inputs) and all(map(_same, inputs, self.inputs))
 
 
+@dataclass(frozen=True)
+class EarlyResult:
+    """A computation started before the leaf that needs it asks for it (a handover's meeting, while the
+    giver approaches its block), with the inputs it was started from (compared as `EarlyPlan`'s)."""
+
+    inputs: tuple[object, ...]
+    job: Job[Any]
+
+    def matches(self, inputs: tuple[object, ...]) -> bool:
+        return len(inputs) == len(self.inputs) and all(map(_same, inputs, self.inputs))
+
+
 def _same(a: object, b: object) -> bool:
     """The same input: the same object, equal numbers and names (a peg, an arm), or equal poses (a
     meeting tip computed again from the same settings)."""
@@ -123,6 +136,9 @@ class ArmMotion:
         self.epoch = 0  # changes whenever a plan's start changes: a motion sent, stopped or aborted
         self.commanded: NDArray[np.float64] | None = None  # the set-point the last command leaves
         self.early: EarlyPlan | None = None
+        self.meeting: EarlyResult | None = (
+            None  # the next handover's meeting, this arm receiving, computed early
+        )
         self._planning = threading.Lock()
 
     def start_from(self, arm: ArmClient) -> NDArray[np.float64]:

@@ -1,0 +1,84 @@
+"""When a streamed arm trajectory counts as done against a CRTK robot: once the streamer has sent its last
+set-point and the robot's `setpoint_js` is within the step the next trajectory may start from (the
+robot's own check of a trajectory's start), not only once the echo of that last row itself has come, a
+state message later. A jaw motion still waits for its last row (the grasp check reads the jaw after it)."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+
+from pegbt.motion.limits import arm_settings
+from pegbt.transport import codec
+from pegbt.transport.crtk_arm import CrtkArm
+from pegbt.transport.guards import step_problems
+
+
+class Wire:
+    """Keeps each topic's callback, so the test can play what the robot publishes."""
+
+    def __init__(self) -> None:
+        self.topics: dict[str, Callable[[bytes], None]] = {}
+
+    def publisher(self, topic: object) -> Wire:
+        return self
+
+    def subscriber(self, topic: object, on_payload: Callable[[bytes], None]) -> Wire:
+        self.topics[topic.name] = on_payload  # type: ignore[attr-defined]
+        return self
+
+    def put(self, payload: bytes) -> None:
+        pass
+
+    def robot_says(self, topic: str, position: np.ndarray) -> None:
+        self.topics[f"/{topic}"](codec.encode_joint_state(0.0, position))
+
+
+class Streamer:
+    """A streamer that has sent every set-point of every motion it was handed."""
+
+    running = True
+
+    def play(self, arm: str, axis: str, t: object, q: object) -> int:
+        return 1
+
+    def outcome(self, motion_id: int) -> tuple[str, str]:
+        return ("done", "")
+
+    def stalled(self, motion_id: int) -> float:
+        return 0.0
+
+
+def arm() -> tuple[CrtkArm, Wire]:
+    wire = Wire()
+    client = CrtkArm(wire, "PSM1", settings=arm_settings("PSM1"), streamer=Streamer())  # type: ignore[arg-type]
+    return client, wire
+
+
+def test_an_arm_trajectory_is_done_once_the_robots_set_point_is_a_start_the_next_one_may_take() -> None:
+    client, wire = arm()
+    settings = client.settings
+    end = np.array([0.1, -0.05, 0.12, 0.2, 0.1, -0.1])
+    row_before = end - 0.2 * settings.velocity * settings.control_period  # slowing to rest at the end
+    assert not step_problems(end, row_before, settings, settings.control_period)
+    wire.robot_says("PSM1/measured_js", row_before)
+    wire.robot_says("PSM1/setpoint_js", row_before)
+    handle = client.stream("arm", np.array([0.0, 0.01]), np.array([row_before, end]), "PSM1 trajectory", 0.01)
+    assert handle.done  # the echo of the last row is not waited for
+
+    far = end - 3.0 * settings.velocity * settings.control_period  # three steps at the limits away
+    wire.robot_says("PSM1/setpoint_js", far)
+    handle = client.stream("arm", np.array([0.0, 0.03]), np.array([far, end]), "PSM1 trajectory", 0.03)
+    assert handle.busy  # the robot has not taken the end: the next trajectory would be refused its start
+
+
+def test_a_jaw_motion_still_waits_for_its_last_set_point() -> None:
+    client, wire = arm()
+    step = client.settings.jaw_velocity * client.settings.control_period
+    wire.robot_says("PSM1/measured_js", np.zeros(6))
+    wire.robot_says("PSM1/jaw/setpoint_js", np.array([0.5 - step]))
+    handle = client.stream("jaw", np.array([0.0, 0.01]), np.array([[0.5 - step], [0.5]]), "PSM1 jaw", 0.01)
+    assert handle.busy
+    wire.robot_says("PSM1/jaw/setpoint_js", np.array([0.5]))
+    assert handle.done
