@@ -5,6 +5,7 @@ import pytest
 import yaml
 
 from pegbt.errors import PegbtError
+from pegbt.motion import sqp
 from pegbt.motion.channel import Upright
 from pegbt.motion.checks import check_trajectory, trajectory_problems
 from pegbt.motion.cubic import joint_move, rest_to_rest_path
@@ -16,7 +17,7 @@ from pegbt.motion.spline import shortest_segment_times
 from pegbt.motion.trajectory import HermitePath, Trajectory, concatenate, segment_extremes
 from pegbt.motion.transfer import TransferPlanner, cubic_transfer, joint_waypoints
 from pegbt.motion.waypoints import placement_waypoints, transfer_waypoints
-from pegbt.workcell import workcell
+from pegbt.workcell import UNILATERAL_ORDER, workcell
 
 PSM1 = arm_settings("PSM1")
 CELL = workcell()
@@ -218,3 +219,19 @@ def test_shortest_segment_times_match_a_dense_scan_and_the_rest_to_rest_formulas
     v, a = PSM1.planner_velocity[0], PSM1.planner_acceleration[0]
     assert times[0] == pytest.approx(np.sqrt(6 * 0.1 / a), rel=1e-9)  # closed form
     assert times[1] == pytest.approx(1.5 * 10.0 / v, rel=3e-4)  # bisected to 0.03 %
+
+
+def test_the_refinement_is_faster_than_its_first_passing_path_on_the_warm_starts_phases(monkeypatch):
+    def carries() -> np.ndarray:
+        planner = TransferPlanner(PSM1)
+        plans = [planner.plan(_waypoints(pick, place)) for pick, place in UNILATERAL_ORDER]
+        assert all(plan.refined for plan in plans)
+        return np.array([plan.trajectory.duration for plan in plans])
+
+    refined = carries()
+    with monkeypatch.context() as patch:
+        patch.setattr(sqp, "PHASE_SHIFTS", (0,), raising=False)
+        patch.setattr(sqp, "IMPROVEMENT", np.inf, raising=False)
+        first = carries()
+    assert np.all(refined <= first + 1e-9)
+    assert refined.mean() <= 0.98 * first.mean()
