@@ -26,10 +26,9 @@ smoothest of the fastest paths. The constraints:
   of the channel holds (without it the QP turns roll against wrist pitch, which cancel to first order
   but tilt the tool by tens of degrees).
 The channel is re-linearised until the path, retimed exactly to its limits and sampled at the control
-period, passes the trajectory checks (sequential QP), and then again while each passing path is faster
-than the one before by more than `IMPROVEMENT` (the first to pass is seldom the fastest: the trust region
-holds each step short). The samples on the pegs' channels are fixed by the warm start (`_phases`), and the
-fastest path depends on them: the refinement runs from each of `PHASE_SHIFTS` and keeps the fastest. The warm path's control points are first turned
+period, passes the trajectory checks (sequential QP). The samples on the pegs' channels are fixed by the
+warm start (`_phases`), and the path found depends on them: the refinement runs from each of
+`PHASE_SHIFTS` and keeps the fastest. The warm path's control points are first turned
 upright (`pegbt.motion.straighten`): the trust region could not take back the lean of a joint-space
 spline that turns the roll, and the first QP would be infeasible. A QP without a solution ends the
 refinement with that reason: OSQP's answer then is a certificate of infeasibility, not a step.
@@ -71,11 +70,10 @@ INSIDE_TOLERANCE = 0.5  # fraction of the channel tolerance the samples may use 
 # Samples by which the block leaves the start peg later than on the spline. Over the 24 reference
 # transfers (both arms), 0 gives a median of 1.66 s, 1 gives 1.60 s, 2 gives 1.71 s (measured).
 LIFT_LATER = 1
-# Samples by which the block reaches the goal peg earlier than on the warm start, each tried: over the 12
-# unilateral carries and the 11 approaches between them (PSM1), the warm start's own phases alone give
-# 1.46 / 1.14 s, the best of it and one sample earlier 1.45 / 1.09 s (measured; more shifts gain < 5 ms).
+# Samples by which the tool reaches the goal channel earlier than on the warm start, each tried: over the
+# 11 approaches of the unilateral trial (PSM1) the warm start's own phases give 1.15 s, the best of them
+# and one sample earlier 1.10 s (its 12 carries stay at 1.52 s; measured, more shifts gain < 5 ms).
 PHASE_SHIFTS = (0, 1)
-IMPROVEMENT = 0.001  # a passing path replaces the previous one only if this much faster (relative)
 
 
 class _FixedPattern:
@@ -380,14 +378,12 @@ class SqpRefiner:
         floor: float,
     ) -> tuple[HermitePath, Trajectory]:
         """The sequential QP from the warm `control` points with the block on the pegs' channels up to
-        and from the samples `phases`: the fastest passing path of the iterates, as long as each is
-        faster (see the module's docstring)."""
+        and from the samples `phases`: the first iterate that passes the checks."""
         scale = self._scale(h)
         acceleration = _accelerations(control / scale)
         slow_down = float(np.max(np.abs(acceleration)))
         start, goal = control[0], control[-1]
         problems: list[str] = []
-        best: tuple[HermitePath, Trajectory] | None = None
         for iteration in range(1, self.sqp.max_iterations + 1):
             physical, channel_lo, channel_hi = self._linearise(
                 control, phases, leaving, place, upright, floor
@@ -405,8 +401,6 @@ class SqpRefiner:
             self.solves += 1
             x = result.x
             if _no_solution(result.info.status_val) or x is None or not np.all(np.isfinite(x)):
-                if best is not None:
-                    return best
                 raise PegbtError(
                     f"the SQP's linearisation {iteration} has no solution (OSQP: {result.info.status})",
                     field="sqp",
@@ -428,15 +422,8 @@ class SqpRefiner:
             problems = trajectory_problems(
                 trajectory, self.settings, leaving=pick, arriving=place, upright=upright
             )
-            if problems:
-                if best is not None:
-                    return best
-            elif best is None or trajectory.duration < best[1].duration * (1.0 - IMPROVEMENT):
-                best = (path, trajectory)
-            else:
-                return best
-        if best is not None:
-            return best
+            if not problems:
+                return path, trajectory
         raise PegbtError(
             f"after {self.sqp.max_iterations} linearisations the SQP's path still fails: "
             + "; ".join(problems),
