@@ -66,8 +66,10 @@ def cubic_transfer(waypoints: TransferWaypoints, settings: ArmSettings) -> Traje
 def lowered(waypoints: TransferWaypoints, above_clear: float) -> TransferWaypoints:
     """`waypoints` with the poses over the pegs (lifted, above the goal) brought down to `above_clear`
     over the clearing height of the transit (the higher of the two pegs'), never raised, and the lifted
-    pose never below the start (a motion from high up does not dip first); the start and the goal stay
-    where they are. A transit without a clearing height above its goal (a carry to the handover point)
+    pose never below the start (a motion from high up does not dip first); with nothing held (an
+    approach) from a start already above the clearing height, the lifted pose is the start: a rise there
+    only makes the warm start stop and turn, and the SQP's path is the slower for it (0.11 s an
+    approach over the unilateral trial). The start and the goal stay where they are. A transit without a clearing height above its goal (a carry to the handover point)
     is left as it is."""
     place = waypoints.place
     if place.clear <= 0.0:
@@ -77,7 +79,10 @@ def lowered(waypoints: TransferWaypoints, above_clear: float) -> TransferWaypoin
         floor = max(floor, waypoints.pick.clear + float((waypoints.pick.point - place.point) @ place.axis))
     poses = waypoints.poses.copy()
     start = float((poses[0][:3, 3] - place.point) @ place.axis)
-    for index, lowest in ((1, max(floor + above_clear, start)), (2, floor + above_clear)):
+    lifted = max(floor + above_clear, start)
+    if waypoints.pick is None and start >= floor:
+        lifted = start  # nothing held and already clear: no rise, the motion sets off sideways
+    for index, lowest in ((1, lifted), (2, floor + above_clear)):
         excess = float((poses[index][:3, 3] - place.point) @ place.axis) - lowest
         if excess > 0.0:
             poses[index][:3, 3] -= excess * place.axis

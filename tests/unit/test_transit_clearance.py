@@ -6,6 +6,7 @@ import re
 import numpy as np
 import pytest
 
+from pegbt.behaviours.poses import approach_for
 from pegbt.motion.checks import CLEARANCE_SLACK, trajectory_problems
 from pegbt.motion.cubic import rest_to_rest_path
 from pegbt.motion.ik import solve_ik
@@ -85,3 +86,18 @@ def test_lowering_keeps_the_ends_and_never_raises():
     heights = _above_peg_tops(low.poses[1:3, :3, 3])
     assert np.allclose(heights, TRANSFER.channel_clear_above_peg_top + 0.004)
     assert np.array_equal(lowered(waypoints, 1.0).poses, waypoints.poses)
+
+
+def test_an_approach_from_clear_of_the_pegs_sets_off_sideways_and_one_from_low_rises_first(planner):
+    carry = planner.plan(_waypoints(1, 7)).trajectory
+    pick = _waypoints(0, 6)
+    released = approach_for(CELL, motion_settings(), "PSM1", forward_kinematics(carry.q[-1]), pick)
+    warm = lowered(released, motion_settings().sqp.approach_above_clear)
+    assert np.array_equal(warm.poses[1], warm.poses[0])
+    approach = planner.plan(released, above_clear=motion_settings().sqp.approach_above_clear)
+    assert approach.refined
+    tips = forward_kinematics(approach.trajectory.q)[:, :3, 3]
+    assert _above_peg_tops(tips[: len(tips) // 2]).min() >= _above_peg_tops(tips[0]) - CLEARANCE_SLACK
+    # from among the blocks (a grasp that closed on nothing), the warm start still rises over the pegs
+    low = approach_for(CELL, motion_settings(), "PSM1", _waypoints(1, 7).poses[0], pick)
+    assert _above_peg_tops(lowered(low, 0.007).poses[1, :3, 3]) > _above_peg_tops(low.poses[0, :3, 3]) + 0.02
