@@ -34,7 +34,6 @@ from pegbt.sim2real.fit import (
 from pegbt.sim2real.geometry import (
     GeometryCheck,
     check_geometry,
-    displacement_columns,
     displacement_removal,
     is_arm_zero,
 )
@@ -364,11 +363,10 @@ def diagnose(
     folds = fold_ranges(recording.n)
     choice = choose_and_fit(q_cmd, t, residual, base, sampling.is_stream, resolution)
     heldout, named_heldout, fold_named = nested_predict(recording, t, residual, base, resolution, folds)
-    displacement = displacement_columns(q_cmd)
-    geometry = check_geometry(displacement, residual, recording.q_phy - named_heldout, folds, resolution)
+    geometry = check_geometry(q_cmd, residual, recording.q_phy - named_heldout, folds, resolution)
     cable_residual = residual
     if geometry is not None:
-        removal = displacement_removal(displacement, residual, resolution)
+        removal = displacement_removal(q_cmd, residual, resolution)
         cable_residual = residual - removal(np.ones(recording.n, dtype=bool))
         choice = choose_and_fit(q_cmd, t, cable_residual, base, sampling.is_stream, resolution)
         heldout, _, fold_named = nested_predict(recording, t, residual, base, resolution, folds, removal)

@@ -18,7 +18,7 @@ any offset, and the physics model keeps it, but reports it apart from the cable 
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 
 import numpy as np
@@ -96,34 +96,60 @@ class GeometryCheck:
 
 
 def _design(columns: Array) -> Array:
-    """(N, 3, 6): per q1–q3 row, its own offset and the displacement's three columns. Built from the
-    rows a fit uses when it needs them, never held for the whole diagnosis (144 bytes a sample)."""
+    """(k, 3, 6): per q1–q3 row, its own offset and the displacement's three columns."""
     offsets = np.broadcast_to(np.eye(ARM_JOINTS), (len(columns), ARM_JOINTS, ARM_JOINTS))
     return np.concatenate([offsets, columns[:, :ARM_JOINTS]], axis=2)
 
 
-def _fit(design: Array, error: Array, weights: Array) -> Array:
-    """Weighted least squares of `error` on `design`, which it weighs in place: callers give it a copy
-    (rows picked out of the whole), not copied once more for an hour's 100 numbers a sample."""
-    design /= weights[None, :, None]
-    x = design.reshape(-1, design.shape[2])
-    y = (error / weights).reshape(-1)
-    return np.asarray(np.linalg.lstsq(x, y, rcond=None)[0], dtype=float)
+def _pieces(segments: list[tuple[int, int]]) -> Iterator[tuple[int, int]]:
+    """The rows of `segments` as pieces of at most `CHUNK_ROWS`."""
+    for a, b in segments:
+        for start in range(a, b, CHUNK_ROWS):
+            yield start, min(b, start + CHUNK_ROWS)
+
+
+def _fit(q_cmd: Array, error: Array, weights: Array, segments: list[tuple[int, int]]) -> Array:
+    """Weighted least squares of q1–q3's `error` on their offsets and one displacement, over the rows of
+    `segments`. The design (144 bytes a sample) is built a piece at a time from the commands and folded
+    into a QR factor (`numpy.linalg.qr` of the factor so far stacked on the piece), so no more than a
+    piece of it is ever held; the small triangular system left is solved by `numpy.linalg.lstsq` with
+    the cut-off it would have applied to the whole design."""
+    factor, projected, rows = np.zeros((0, 2 * ARM_JOINTS)), np.zeros(0), 0
+    for a, b in _pieces(segments):
+        design = _design(_displacement_columns(q_cmd[a:b])) / weights[None, :, None]
+        x = np.vstack([factor, design.reshape(-1, design.shape[2])])
+        q, factor = np.linalg.qr(x)
+        projected = q.T @ np.concatenate([projected, (error[a:b] / weights).reshape(-1)])
+        rows += design.shape[0] * design.shape[1]
+    rcond = np.finfo(float).eps * max(rows, factor.shape[1])
+    return np.asarray(np.linalg.lstsq(factor, projected, rcond=rcond)[0], dtype=float)
+
+
+def _moved(q_cmd: Array, coefficients: Array, joints: int) -> Array:
+    """(N, joints): what the displacement in `coefficients` moves each joint by, piece by piece."""
+    moved = np.empty((len(q_cmd), joints))
+    for a, b in _pieces([(0, len(q_cmd))]):
+        moved[a:b] = _displacement_columns(q_cmd[a:b])[:, :joints] @ coefficients[ARM_JOINTS:]
+    return moved
+
+
+def _without(n: int, segment: tuple[int, int]) -> list[tuple[int, int]]:
+    """The rows outside `segment`, as the segments before and after it."""
+    return [(0, segment[0]), (segment[1], n)]
 
 
 def check_geometry(
-    columns: Array,
+    q_cmd: Array,
     error: Array,
     physics_error: Array,
     folds: list[tuple[int, int]],
     resolution: tuple[float, ...] | None,
 ) -> GeometryCheck | None:
-    """The displacement q1–q3's `error` (N, 3: measured minus simulated; `columns` from
-    `displacement_columns` of the commands) shows, if offsets plus one
-    displacement, refitted without each of `folds` in turn, predict q1–q3 held out with at most `GUARD`
-    of the squared error the named physics leaves (`physics_error`, N, 3, held out the same way), and the
-    displacement moves some joint by its resolution or more; else None. Joints are weighed by their
-    resolution (else by their error), so metres and radians add up."""
+    """The displacement q1–q3's `error` (N, 3: measured minus simulated for the commands `q_cmd`) shows,
+    if offsets plus one displacement, refitted without each of `folds` in turn, predict q1–q3 held out
+    with at most `GUARD` of the squared error the named physics leaves (`physics_error`, N, 3, held out
+    the same way), and the displacement moves some joint by its resolution or more; else None. Joints
+    are weighed by their resolution (else by their error), so metres and radians add up."""
     error = np.asarray(error, dtype=float)[:, :ARM_JOINTS]
     physics_error = np.asarray(physics_error, dtype=float)[:, :ARM_JOINTS]
     scale = np.sqrt((error**2).mean(axis=0))
@@ -132,38 +158,43 @@ def check_geometry(
         return None
     left = np.empty_like(error)
     for a, b in folds:
-        rows = np.ones(len(error), dtype=bool)
-        rows[a:b] = False
-        coefficients = _fit(_design(columns[rows]), error[rows], weights)
-        left[a:b] = error[a:b] - _design(columns[a:b]) @ coefficients
+        coefficients = _fit(q_cmd, error, weights, _without(len(error), (a, b)))
+        for c, d in _pieces([(a, b)]):
+            left[c:d] = error[c:d] - _design(_displacement_columns(q_cmd[c:d])) @ coefficients
     if _weighted(left, weights) > GUARD * _weighted(physics_error, weights):
         return None
-    displacement = _fit(_design(columns), error, weights)[ARM_JOINTS:]
-    moved = columns[:, :ARM_JOINTS] @ displacement
+    coefficients = _fit(q_cmd, error, weights, [(0, len(error))])
+    moved = _moved(q_cmd, coefficients, ARM_JOINTS)
     moved -= moved.mean(axis=0)  # the part an offset cannot take up
     if resolution and not np.any(np.abs(moved).max(axis=0) >= weights):
         return None
     ratio = np.sqrt((left**2).mean(axis=0)) / scale
     physics = np.sqrt((physics_error**2).mean(axis=0)) / scale
-    return GeometryCheck(_triple(displacement), _triple(ratio), _triple(physics))
+    return GeometryCheck(_triple(coefficients[ARM_JOINTS:]), _triple(ratio), _triple(physics))
 
 
 def displacement_removal(
-    columns: Array, error: Array, resolution: tuple[float, ...] | None
+    q_cmd: Array, error: Array, resolution: tuple[float, ...] | None
 ) -> Callable[[NDArray[np.bool_]], Array]:
-    """A function of samples `rows`: the displacement (`columns` as for `check_geometry`) fitted on them
-    alone (with the joints' offsets), as
-    it shows in every joint of every sample (N, 6; its mean over `rows` left to the joints' offsets).
-    The diagnosis takes it out of the error before choosing the cable effects and adds it back to their
-    prediction, fold by fold in nested cross-validation."""
+    """A function of samples `rows` (all of them, or all but one contiguous segment): the displacement
+    fitted on them alone (with the joints' offsets, as for `check_geometry`), as it shows in every joint
+    of every sample (N, 6; its mean over `rows` left to the joints' offsets). The diagnosis takes it out
+    of the error before choosing the cable effects and adds it back to their prediction, fold by fold in
+    nested cross-validation."""
     error = np.asarray(error, dtype=float)[:, :ARM_JOINTS]
     weights = _weights(error, resolution)
 
     def removal(rows: NDArray[np.bool_]) -> Array:
-        shift = columns @ _fit(_design(columns[rows]), error[rows], weights)[ARM_JOINTS:]
+        shift = _moved(q_cmd, _fit(q_cmd, error, weights, _segments(rows)), q_cmd.shape[1])
         return np.asarray(shift - shift[rows].mean(axis=0), dtype=float)
 
     return removal
+
+
+def _segments(rows: NDArray[np.bool_]) -> list[tuple[int, int]]:
+    """The runs of true values in `rows`, as [start, stop) pairs."""
+    edges = np.flatnonzero(np.diff(np.r_[0, rows.astype(np.int8), 0]))
+    return [(int(a), int(b)) for a, b in zip(edges[::2], edges[1::2])]
 
 
 def _weights(error: Array, resolution: tuple[float, ...] | None) -> Array:

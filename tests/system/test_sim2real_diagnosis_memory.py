@@ -1,5 +1,5 @@
 """A whole diagnosis's memory per sample of recording: what grows with the length is a few whole arrays
-(the recording, its replays, the geometry's displacement columns), never a bank of columns held together.
+(the recording, its replays, each held-out segment's training copy), never a bank of columns held together.
 A system test: two diagnoses under tracemalloc take about half a minute on a quiet core."""
 
 from __future__ import annotations

@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 from pegbt.physics import ArmPhysics, Effect
+from pegbt.sim2real import geometry
 from pegbt.sim2real.geometry import check_geometry, displacement_columns, displacement_removal
 
 SHORT, LONG = 5_000, 10_000
@@ -74,10 +75,9 @@ def test_the_displacement_removal_keeps_no_design_matrix() -> None:
     held = []
     for n in (SHORT, LONG):
         q_cmd, _ = _commands(n)
-        columns = displacement_columns(q_cmd)
-        error, _ = _geometry(q_cmd, columns)
+        error, _ = _geometry(q_cmd, displacement_columns(q_cmd))
         tracemalloc.start()
-        removal = displacement_removal(columns, error, None)
+        removal = displacement_removal(q_cmd, error, None)
         held.append(tracemalloc.get_traced_memory()[0])
         tracemalloc.stop()
         assert removal(np.ones(n, dtype=bool)).shape == (n, 6)
@@ -85,15 +85,37 @@ def test_the_displacement_removal_keeps_no_design_matrix() -> None:
     assert held[1] - held[0] < 8 * (LONG - SHORT)
 
 
-def test_the_geometry_check_builds_its_design_fold_by_fold() -> None:
+def test_the_geometry_check_holds_no_displacement_columns(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(geometry, "CHUNK_ROWS", 500)
     peaks = []
     for n in (SHORT, LONG):
         q_cmd, _ = _commands(n)
-        columns = displacement_columns(q_cmd)
-        error, folds = _geometry(q_cmd, columns)
+        error, folds = _geometry(q_cmd, displacement_columns(q_cmd))
         physics_error = 3 * error
-        peaks.append(_peak_bytes(lambda: check_geometry(columns, error, physics_error, folds, None)))
-        assert check_geometry(columns, error, physics_error, folds, None) is not None
-    # the whole design, weighed and copied by the least squares (2 × 144 bytes a sample), and small
-    # (N, 3) arrays; the design of the whole and that of the rows fitted (4/5 of it) were held together
-    assert (peaks[1] - peaks[0]) / (LONG - SHORT) <= 330
+        peaks.append(_peak_bytes(lambda: check_geometry(q_cmd, error, physics_error, folds, None)))
+        removal = displacement_removal(q_cmd, error, None)
+        keep = np.ones(n, dtype=bool)
+        keep[folds[1][0] : folds[1][1]] = False
+        peaks[-1] = max(peaks[-1], _peak_bytes(lambda: removal(keep)))
+    # q1–q3's held-out error and a few (N, 3) or (N, 6) arrays of the shift; the displacement columns
+    # (N, 6, 3, 144 bytes a sample), their design and its least-squares copy were 447 together (76 now)
+    assert (peaks[1] - peaks[0]) / (LONG - SHORT) <= 2.5 * ROW
+
+
+def test_the_displacement_fitted_piece_by_piece_is_the_least_squares_one(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    q_cmd, _ = _commands(SHORT)
+    columns = displacement_columns(q_cmd)
+    error, folds = _geometry(q_cmd, columns)
+    weights = np.sqrt((error[:, :3] ** 2).mean(axis=0))
+    design = np.concatenate([np.broadcast_to(np.eye(3), (SHORT, 3, 3)), columns[:, :3]], axis=2)
+    design /= weights[None, :, None]
+    whole = np.linalg.lstsq(design.reshape(-1, 6), (error[:, :3] / weights).reshape(-1), rcond=None)[0]
+    monkeypatch.setattr(geometry, "CHUNK_ROWS", 97)  # pieces that cut no fold at its edge
+    found = check_geometry(q_cmd, error, 3 * error, folds, None)
+    assert found is not None
+    np.testing.assert_allclose(found.displacement_m, whole[3:], rtol=1e-12)
+    shift = displacement_removal(q_cmd, error, None)(np.ones(SHORT, dtype=bool))
+    expected = columns @ whole[3:]
+    np.testing.assert_allclose(shift, expected - expected.mean(axis=0), rtol=1e-9, atol=1e-15)
