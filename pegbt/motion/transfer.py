@@ -69,8 +69,8 @@ def lowered(waypoints: TransferWaypoints, above_clear: float) -> TransferWaypoin
     pose never below the start (a motion from high up does not dip first); with nothing held (an
     approach) from a start already above the clearing height, the lifted pose is the start: a rise there
     only makes the warm start stop and turn, and the SQP's path is the slower for it (0.11 s an
-    approach over the unilateral trial). The start and the goal stay where they are. A transit without a clearing height above its goal (a carry to the handover point)
-    is left as it is."""
+    approach over the unilateral trial). The start and the goal stay where they are. A transit without
+    a clearing height above its goal (a carry to the handover point) is left as it is."""
     place = waypoints.place
     if place.clear <= 0.0:
         return waypoints

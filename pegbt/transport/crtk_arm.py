@@ -497,8 +497,8 @@ def taken_up(setpoint: ArrayLike, end: ArrayLike, settings: ArmSettings) -> bool
     """Whether a streamed arm trajectory whose last set-point has been sent may count as done with the robot's
     `setpoint_js` at `setpoint`: within one control period's step of the `end` at the velocity limits,
     what the robot accepts as the next trajectory's start (`move_jp`'s check) and the next plan's
-    (`ArmMotion.stale`). Waiting for the echo of the last row itself cost each motion one more state
-    message (about 8 ms a motion against the simulator, 2026-11-29), every motion of a transfer in turn."""
+    (`ArmMotion.stale`). The echo of the last row itself comes a state message later (about 8 ms a motion
+    against the simulator), which every motion of a transfer would add in turn."""
     return not guards.step_problems(end, setpoint, settings, settings.control_period)
 
 

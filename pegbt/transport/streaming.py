@@ -202,10 +202,10 @@ class StreamedMotion(StatusFlags):
     """A trajectory the streamer plays: poll `status` (busy, done, failed), or `stop()` it.
 
     It is done once the streamer has sent its last set-point and `arrived()` says the robot has taken it
-    (its `setpoint_js` where the next motion may start: `crtk_arm.taken_up` for an arm). It fails if the streamer refuses a set-point,
-    if it is not done `margin` s after its duration and the stalls the streamer reported (the arm held
-    still through them; it is then stopped), or when `check_alive`
-    (the robot's liveness) raises. When the streamer gives up on it, `check_failure` may raise what the
+    (its `setpoint_js` where the next motion may start: `crtk_arm.taken_up` for an arm). It fails if
+    the streamer refuses a set-point, if it is not done `margin` s after its duration and the stalls the
+    streamer reported (the arm held still through them; it is then stopped), or when `check_alive` (the
+    robot's liveness) raises. When the streamer gives up on it, `check_failure` may raise what the
     robot's own state says (an arm the robot faulted stops the run rather than failing one motion)."""
 
     def __init__(

@@ -239,7 +239,7 @@ def test_the_refinement_tries_the_goal_channel_entered_earlier_and_keeps_the_fas
 
     both = approaches()
     with monkeypatch.context() as patch:
-        patch.setattr(sqp, "PHASE_SHIFTS", (0,), raising=False)
+        patch.setattr(sqp, "PHASE_SHIFTS", (0,))
         warm_only = approaches()
     assert np.all(both <= warm_only + 1e-9)
     assert both.mean() <= 0.97 * warm_only.mean()

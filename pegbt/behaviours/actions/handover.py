@@ -398,7 +398,8 @@ class DescendToGrasp(MotionLeaf):
 
 class CarryFromHandover(CarryLeaf):
     def started(self, trajectories: list[Trajectory]) -> None:
-        """The way to the next handover's meeting, if it is being computed, is planned while this carry plays."""
+        """The way to the next handover's meeting, if it is being computed, is planned while this carry
+        plays."""
         super().started(trajectories)
         plan_way_to_meeting(self, self.param("arm"), trajectories[0].q[-1].copy())
 

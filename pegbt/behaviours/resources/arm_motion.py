@@ -75,29 +75,25 @@ class Prepared:
 
 
 @dataclass(frozen=True)
-class EarlyPlan:
-    """A motion being prepared before its leaf asks for it: the inputs it was planned from (compared by
-    identity: a block seen again is another object; poses by value), the arm's state it was planned
-    from (`ArmMotion.epoch`), and the job preparing it."""
-
-    inputs: tuple[object, ...]
-    job: Job[list[Prepared | None]]
-    epoch: int
-
-    def matches(self, inputs: tuple[object, ...]) -> bool:
-        return len(inputs) == len(self.inputs) and all(map(_same, inputs, self.inputs))
-
-
-@dataclass(frozen=True)
 class EarlyResult:
     """A computation started before the leaf that needs it asks for it (a handover's meeting, while the
-    giver approaches its block), with the inputs it was started from (compared as `EarlyPlan`'s)."""
+    giver approaches its block), with the inputs it was started from (compared by identity: a block seen
+    again is another object; poses by value)."""
 
     inputs: tuple[object, ...]
     job: Job[Any]
 
     def matches(self, inputs: tuple[object, ...]) -> bool:
         return len(inputs) == len(self.inputs) and all(map(_same, inputs, self.inputs))
+
+
+@dataclass(frozen=True)
+class EarlyPlan(EarlyResult):
+    """A motion being prepared before its leaf asks for it: the inputs it was planned from, the job
+    preparing it, and the arm's state it was planned from (`ArmMotion.epoch`)."""
+
+    job: Job[list[Prepared | None]]
+    epoch: int
 
 
 def _same(a: object, b: object) -> bool:
@@ -136,9 +132,8 @@ class ArmMotion:
         self.epoch = 0  # changes whenever a plan's start changes: a motion sent, stopped or aborted
         self.commanded: NDArray[np.float64] | None = None  # the set-point the last command leaves
         self.early: EarlyPlan | None = None
-        self.meeting: EarlyResult | None = (
-            None  # the next handover's meeting, this arm receiving, computed early
-        )
+        # the next handover's meeting, this arm receiving, computed early
+        self.meeting: EarlyResult | None = None
         self._planning = threading.Lock()
 
     def start_from(self, arm: ArmClient) -> NDArray[np.float64]:

@@ -132,7 +132,7 @@ def _finding(d: Diagnosis) -> list[str]:
             low, high = fitted.interval()
             lines.append(
                 f"**Named: {fitted.candidate.kind}**, {fitted.candidate.parameter} = {fitted.estimate:.4g} "
-                f"(95 % interval {low:.4g}–{high:.4g} on the grid)."
+                f"(95 % interval {low:.4g}–{high:.4g}, read between grid values)."
             )
     elif d.verdict.tied:
         names = ", ".join(f"{t.label} ({t.candidate.name} ≈ {t.estimate:.4g})" for t in d.verdict.tied)
