@@ -225,12 +225,14 @@ def test_shortest_segment_times_match_a_dense_scan_and_the_rest_to_rest_formulas
 def test_the_refinement_tries_the_goal_channel_entered_earlier_and_keeps_the_faster(monkeypatch):
     settings = motion_settings()
     carries = [_waypoints(pick, place) for pick, place in UNILATERAL_ORDER]
+    planner = TransferPlanner(PSM1)
+    # where each carry lets go is its goal, whatever path the refinement takes to it
+    releases = [forward_kinematics(planner.plan(carry).trajectory.q[-1]) for carry in carries[:-1]]
 
     def approaches() -> np.ndarray:
         """The approaches between the unilateral trial's carries, from where each carry let go."""
-        planner, durations = TransferPlanner(PSM1), []
-        for carry, pick in zip(carries, carries[1:]):
-            released = forward_kinematics(planner.plan(carry).trajectory.q[-1])
+        durations = []
+        for released, pick in zip(releases, carries[1:]):
             approach = approach_for(CELL, settings, "PSM1", released, pick)
             plan = planner.plan(approach, above_clear=settings.sqp.approach_above_clear)
             assert plan.refined
