@@ -12,7 +12,7 @@ import pytest
 from pegbt.errors import PegbtError
 from pegbt.sim import process
 
-BOUND = 3.0  # s the fake child may take to reach its next stage
+BOUND = 1.5  # s the fake child may take to reach its next stage
 
 
 def _fake_sim(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, body: str) -> None:
@@ -31,14 +31,14 @@ def _fake_sim(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, body: str) -> Non
 
 
 def test_a_slow_but_steady_start_up_longer_than_the_bound_starts(tmp_path, monkeypatch):
-    """Six stages 0.75 s apart: 4.5 s in all, more than the bound, none of them slower than it."""
+    """Six stages 0.3 s apart: 1.8 s in all, more than the bound, none of them slower than it."""
     _fake_sim(
         tmp_path,
         monkeypatch,
         """
         for name in ("started", "camera library loaded", "world built", "session open", "endpoint built"):
-            stage(name, 0.75)
-        time.sleep(0.75)
+            stage(name, 0.3)
+        time.sleep(0.3)
         print("pegbt sim: serving PSM1, PSM2 on tcp/127.0.0.1:1 (lockstep)", flush=True)
         sys.stdin.read()
         """,
@@ -60,7 +60,7 @@ def test_a_child_that_stops_progressing_is_killed_naming_its_last_stage(tmp_path
     )
     with pytest.raises(
         PegbtError,
-        match=r"pegbt sim did not start: no progress within 3 s after 'camera library loaded': loading meshes$",
+        match=r"pegbt sim did not start: no progress within 1.5 s after 'camera library loaded': loading meshes$",
     ):
         process.SimProcess()
 

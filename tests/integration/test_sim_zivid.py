@@ -81,15 +81,19 @@ def test_a_call_publishes_one_organised_full_resolution_cloud_with_nans(
 
 
 def test_no_cloud_without_a_call(sim: ZividSim, peer: zenoh.Session) -> None:
+    """Nothing in 3 s (a camera that streamed would render and send a frame in less), then one cloud on each
+    topic for the call: counted where it is sent, which is done before the call is answered."""
+    assert isinstance(sim.wire, CountingWire)
     clouds, plain = Received(), Received()
     peer.declare_subscriber("points/xyzrgba", clouds)
     peer.declare_subscriber("points/xyz", plain)
     time.sleep(3.0)
     assert clouds.all() == [] and plain.all() == []
+    assert (sim.wire.sent["/points/xyzrgba"], sim.wire.sent["/points/xyz"]) == (0, 0)
     responses = call_capture(peer)
     assert [r.success for r in responses] == [True]
+    assert (sim.wire.sent["/points/xyzrgba"], sim.wire.sent["/points/xyz"]) == (1, 1)
     assert wait_for(lambda: clouds.all() and plain.all(), timeout=5.0)
-    time.sleep(1.0)
     assert (len(clouds.all()), len(plain.all())) == (1, 1)  # one capture, one cloud on each
 
 

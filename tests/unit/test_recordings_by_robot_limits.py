@@ -17,6 +17,7 @@ import pytest
 from pegbt.cli import main
 from pegbt.physics import ArmPhysics, Effect
 from pegbt.physics.recording import RecordingError, load_recording, write_recording
+from pegbt.sim2real.report import report_markdown
 from tests.sim2real_helpers import commands
 
 SHARE = Path(__file__).parents[1] / "data" / "dvrk-share"
@@ -66,17 +67,18 @@ def test_an_insertion_of_0_2412_m_for_three_samples_loads_and_far_beyond_is_refu
 
 
 def test_a_tracker_that_loses_the_tool_is_diagnosed_with_its_faults_reported(tmp_path: Path) -> None:
+    """The report as `--json` prints it (what `--out` writes, without its plots) and its markdown."""
     folder = _tracker_lost(tmp_path)
     recording = load_recording(folder)
-    out = tmp_path / "report"
     printed = io.StringIO()
     with contextlib.redirect_stdout(printed):
-        assert main(["sim2real", "diagnose", str(folder), "--bootstrap", "0", "--out", str(out)]) == 0
-    faults = json.loads((out / "report.json").read_text())["measurement_faults"]
+        assert main(["sim2real", "diagnose", str(folder), "--bootstrap", "0", "--json"]) == 0
+    report = json.loads(printed.getvalue())
+    faults = report["measurement_faults"]
     assert faults["windows"][0][:2] == [recording.times[LOST.start], recording.times[LOST.stop - 1]]
     assert faults["unreachable"] == LOST.stop - LOST.start <= faults["samples_excluded"]
-    assert "the tracker lost the tool from 240 to 287.2 s (60 samples)" in printed.getvalue()
-    assert "where no arm could be" in (out / "report.md").read_text()
+    assert "the tracker lost the tool from 240 to 287.2 s (60 samples)" in faults["text"]
+    assert "where no arm could be" in report_markdown(report, [])
 
 
 def test_calibrate_train_reports_and_leaves_out_the_lost_tool(tmp_path: Path) -> None:

@@ -15,6 +15,7 @@ believes), runs on the wall clock.
 
 from __future__ import annotations
 
+import time
 from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any, Protocol
@@ -303,6 +304,7 @@ def connect_crtk_robot(
     period = min(arm.control_period for arm in settings.values())
     session = open_session(wire_session_settings(ros2, [endpoint]))
     try:
+        _await_anyone(session, endpoint, ros2)
         streamer = Streamer([endpoint], namespace, settings, period, ros2=ros2)
     except BaseException:
         session.close()
@@ -345,6 +347,21 @@ def connect_crtk_robot(
         session.close()
         raise
     return robot
+
+
+def _await_anyone(session: Session, endpoint: str, ros2: str) -> None:
+    """Return once `session` reaches a bridge or router at `endpoint` (zenoh connects while the session
+    opens, and retries in the background); `EndpointSilent` naming what should listen there if none comes
+    within `READY_TIMEOUT`, before a servo streamer is started for a robot nobody serves."""
+    deadline = time.monotonic() + READY_TIMEOUT
+    while not reaches_anyone(session):
+        if time.monotonic() > deadline:
+            raise EndpointSilent(
+                f"nobody connected within {READY_TIMEOUT:g} s; nothing answers at {endpoint}: "
+                f"{WHAT_ANSWERS[ros2]}",
+                field="--endpoint",
+            )
+        time.sleep(0.05)
 
 
 def _robot_silent(
