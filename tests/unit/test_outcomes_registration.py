@@ -8,6 +8,7 @@ import numpy as np
 
 from pegbt.frames import invert_rigid
 from pegbt.motion.kinematics import shaft_end_and_tip
+from pegbt.sim.world import World
 from pegbt.sim.world_effects import WorldEffects
 from pegbt.sim2real.outcomes.registration import registered_arm_from_board
 from pegbt.sim2real.outcomes.simulate import LocalMapper, attempts_for, registered_for
@@ -50,3 +51,14 @@ def test_psm2_registered_as_the_papers_grips_the_block_it_misses_on_the_work_cel
     [[registered]] = LocalMapper(0, attempts_for(paper), registered_for(paper))([task])
     assert not unregistered.succeeded and unregistered.phase == "grasp"
     assert registered.succeeded
+
+
+def test_a_compensated_arm_is_not_registered_again() -> None:
+    """The simulator's calibration corrects the whole cable error, the rigid part a registration would
+    take up included: registering a calibrated arm too would correct that part twice."""
+    from pegbt.sim2real.outcomes.phasesim import START, Replay, _Bench, _skills
+
+    world = World(0, effects=WorldEffects())
+    for condition, moved in (("uncalibrated", True), ("calibrated", False), ("optimized", False)):
+        bench = _Bench(world, "PSM1", _skills(condition).arm("PSM1"), START, Replay(), registered=True)
+        assert np.allclose(bench.to_board, world.arm_to_board("PSM1")) != moved, condition

@@ -135,7 +135,10 @@ class _Bench:
         self.to_board = world.arm_to_board(
             arm
         )  # where the base truly stands (a registration offset moves it)
-        if registered:  # the robot plans where the paper's registration with this arm put the base
+        if registered and motion.compensator is None:
+            # the robot plans where the paper's registration with this arm put the base; a compensated arm
+            # is not moved: its calibration corrects the whole error, the part a registration takes up too
+            # (the paper's models learnt what its registration left: the same tip either way)
             self.to_board = registered_arm_to_board(arm, PHYSICS, self.to_board)
         self.events: list[tuple[str, Event]] = []
         self.clock = world.time
@@ -245,7 +248,8 @@ def simulate_transfer(
 ) -> TransferResult:
     """Transfer number `index` of `variant`'s transfers (by default `seed`, cycling), on a world of layout
     `seed` (a trial's transfers, one for one, with the same `seed` and each `index`), `attempts` in all;
-    `registered`: each arm registered to the camera as the paper's were, with itself (`registration`).
+    `registered`: each uncalibrated arm registered to the camera as the paper's were, with itself
+    (`registration`).
     A transfer on the way back first simulates the outward transfer of its block: if that one was not
     placed, the way back finds its start peg empty and fails at `sense`, as a trial's tick log says (the
     recovery fetches strays only for a block the transfer itself lost). `replay`: the arm's motion in

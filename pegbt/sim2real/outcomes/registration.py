@@ -29,10 +29,8 @@ from pegbt.workcell import workcell
 
 SAMPLES = 100  # positions the paper's script visits per arm
 SETTLE_S = 0.3  # s the paper's script waits at each before the camera captures
-HEIGHT = (
-    0.0,
-    0.03,
-)  # m above the peg tops (the tip; the pitch axis a wrist above): the paper's boxes are 17–39 mm tall
+# m above the peg tops, the tip's (its pitch axis a wrist above): the paper's boxes are 17–39 mm tall
+HEIGHT = (0.0, 0.03)
 SEED = 2022  # one registration per arm, as the paper made once for all its trials
 # m, the arm's frame: the paper's two-arm scripts move PSM2's registration by hand before every trial
 # (`Trc2[:3, -1] += [-0.001, 0, 0]`, `FLSPegTransfer_dual.py` and `FLSPegTransfer_handover.py`); the
