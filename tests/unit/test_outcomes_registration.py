@@ -3,6 +3,7 @@ its own, with the uncalibrated arm itself (`calibration_dvrk_RGBD.py`) and PSM2'
 (`FLSPegTransfer_dual.py`): the registration absorbs the rigid part of the arm's cable error."""
 
 import logging
+from pathlib import Path
 
 import numpy as np
 
@@ -32,7 +33,7 @@ def test_the_registration_takes_up_psm1s_static_error_where_it_was_made() -> Non
     assert 0.001 < np.linalg.norm(moved) < 0.004
 
 
-def test_only_the_papers_protocol_registers_the_arms(tmp_path) -> None:  # type: ignore[no-untyped-def]
+def test_only_the_papers_protocol_registers_the_arms(tmp_path: Path) -> None:
     assert registered_for(paper_table())
     table = tmp_path / "ours.yaml"
     table.write_text(
