@@ -15,10 +15,10 @@ from pegbt.sim2real.outcomes.phasesim import TransferResult
 def test_a_task_simulates_its_seeds_transfer_with_the_protocols_attempts(monkeypatch, attempts):
     asked = []
 
-    def record(effects, variant, condition, seed, replay=None, index=None, attempts=4):
-        asked.append((seed, index, attempts))
+    def record(effects, variant, condition, seed, replay=None, index=None, attempts=4, registered=False):
+        asked.append((seed, index, attempts, registered))
         return TransferResult(True, None, 1.0)
 
     monkeypatch.setattr(simulate, "simulate_transfer", record)
-    simulate._run(((WorldEffects(),), "unilateral", "uncalibrated", 7), attempts=attempts)
-    assert asked == [(7, None, attempts)]
+    simulate._run(((WorldEffects(),), "unilateral", "uncalibrated", 7), attempts=attempts, registered=True)
+    assert asked == [(7, None, attempts, True)]

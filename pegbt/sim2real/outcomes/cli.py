@@ -13,7 +13,7 @@ from pegbt.errors import PegbtError
 from pegbt.sim2real.outcomes.cells import Outcomes
 from pegbt.sim2real.outcomes.diagnose import Settings, diagnose, split
 from pegbt.sim2real.outcomes.report import report_dict, report_markdown, write_report
-from pegbt.sim2real.outcomes.simulate import ClusterMapper, LocalMapper, attempts_for
+from pegbt.sim2real.outcomes.simulate import ClusterMapper, LocalMapper, attempts_for, registered_for
 from pegbt.sim2real.outcomes.table import paper_table, read_table
 
 
@@ -39,8 +39,12 @@ def run_outcomes(args: argparse.Namespace) -> int:
     settings = Settings(fit=args.fit, transfers=args.transfers, located=args.located, points=args.points)
     split(outcomes.cells, settings.fit)  # a bad --fit is said before any simulation
     logging.getLogger("pegbt").setLevel(logging.ERROR)  # compensation clamps, once per simulated transfer
-    attempts = attempts_for(outcomes)
-    mapper = ClusterMapper(args.cluster, attempts) if args.cluster else LocalMapper(args.workers, attempts)
+    attempts, registered = attempts_for(outcomes), registered_for(outcomes)
+    mapper = (
+        ClusterMapper(args.cluster, attempts, registered)
+        if args.cluster
+        else LocalMapper(args.workers, attempts, registered)
+    )
     try:
         diagnosis = diagnose(
             outcomes, settings, mapper, progress=lambda line: print(line, file=sys.stderr, flush=True)

@@ -37,6 +37,7 @@ from pegbt.sim.tools import Give, ToolState, wrist_give
 from pegbt.sim.world import World
 from pegbt.sim.world_effects import WorldEffects
 from pegbt.sim2real.outcomes.cells import PHASES
+from pegbt.sim2real.outcomes.registration import registered_arm_to_board
 from pegbt.workcell import transfer_list
 
 PHYSICS = "dvrk-real"  # the arm as fitted on the real recordings: never refitted here
@@ -115,7 +116,13 @@ class _Bench:
     """One arm acting in one world, ticked at the control period as the simulator's endpoint does."""
 
     def __init__(
-        self, world: World, arm: str, motion: ArmMotion, q0: NDArray[np.float64], replay: Replay
+        self,
+        world: World,
+        arm: str,
+        motion: ArmMotion,
+        q0: NDArray[np.float64],
+        replay: Replay,
+        registered: bool = False,
     ) -> None:
         self.world, self.name, self.motion, self.replay = world, arm, motion, replay
         self.arm = SimArm(
@@ -128,6 +135,11 @@ class _Bench:
         self.to_board = world.arm_to_board(
             arm
         )  # where the base truly stands (a registration offset moves it)
+        if registered and motion.compensator is None:
+            # the robot plans where the paper's registration with this arm put the base; a compensated arm
+            # is not moved: its calibration corrects the whole error, the part a registration takes up too
+            # (the paper's models learnt what its registration left: the same tip either way)
+            self.to_board = registered_arm_to_board(arm, PHYSICS, self.to_board)
         self.events: list[tuple[str, Event]] = []
         self.clock = world.time
         self.segment = "reach"
@@ -232,9 +244,12 @@ def simulate_transfer(
     replay: Replay | None = None,
     index: int | None = None,
     attempts: int = 1 + REGRASPS,
+    registered: bool = False,
 ) -> TransferResult:
     """Transfer number `index` of `variant`'s transfers (by default `seed`, cycling), on a world of layout
-    `seed` (a trial's transfers, one for one, with the same `seed` and each `index`), `attempts` in all.
+    `seed` (a trial's transfers, one for one, with the same `seed` and each `index`), `attempts` in all;
+    `registered`: each uncalibrated arm registered to the camera as the paper's were, with itself
+    (`registration`).
     A transfer on the way back first simulates the outward transfer of its block: if that one was not
     placed, the way back finds its start peg empty and fails at `sense`, as a trial's tick log says (the
     recovery fetches strays only for a block the transfer itself lost). `replay`: the arm's motion in
@@ -245,10 +260,10 @@ def simulate_transfer(
     if index >= len(order) // 2:
         start_peg = order[index][1]
         outward = next(i for i, (_, _, goal) in enumerate(order[: len(order) // 2]) if goal == start_peg)
-        there = _transfer(effects, variant, condition, seed, outward, replay, attempts)
+        there = _transfer(effects, variant, condition, seed, outward, replay, attempts, registered)
         if not there.succeeded:
             return TransferResult(False, "sense", there.seconds, skipped=True)
-    return _transfer(effects, variant, condition, seed, index, replay, attempts)
+    return _transfer(effects, variant, condition, seed, index, replay, attempts, registered)
 
 
 def _transfer(
@@ -259,6 +274,7 @@ def _transfer(
     index: int,
     replay: Replay,
     attempts: int,
+    registered: bool = False,
 ) -> TransferResult:
     """Transfer `index` of `variant`'s transfers on a world of layout `seed` (on the way back every block
     starts where its outward transfer placed it): the grasp the executive would choose for the block
@@ -283,13 +299,23 @@ def _transfer(
         if block.lost or made == attempts:
             break
         bench = _attempt(
-            world, skills, arm, block.index, goal_peg, rng, previous_peg, replay, variant == "handover", chose
+            world,
+            skills,
+            arm,
+            block.index,
+            goal_peg,
+            rng,
+            previous_peg,
+            replay,
+            variant == "handover",
+            chose,
+            registered,
         )
         events += bench.events
         made += bench.moved
         chose = bench.chose or chose
         if bench.held and bench.meeting is not None:
-            return _hand_over(world, skills, bench, block.index, goal_peg, first, replay)
+            return _hand_over(world, skills, bench, block.index, goal_peg, first, replay, registered)
         if bench.held:
             bench.jaw(skills.motion.transfer.jaw_open, "release")
             events += bench.events[len(events) :]
@@ -345,6 +371,7 @@ def _attempt(
     replay: Replay,
     handover: bool = False,
     chose: Chosen | None = None,
+    registered: bool = False,
 ) -> _Bench:
     """One pick and carry of `block` as it lies, seen with perception's noise: the bench afterwards says
     whether the arm holds it lowered over `goal_peg`, or at the meeting point for a `handover` (`held`,
@@ -378,7 +405,7 @@ def _attempt(
     ik = inverse_kinematics(start[None], motion.settings)
     if not ik.ok.all():
         return _Bench.failed_before(world, arm, motion, "reach")
-    bench = _Bench(world, arm, motion, ik.q[0], replay)
+    bench = _Bench(world, arm, motion, ik.q[0], replay, registered)
     bench.chose = Chosen(position, grasp.candidate)
     try:
         reach = approach_plan(skills, arm, ik.q[0], None, seen, grasp)()
@@ -412,6 +439,7 @@ def _hand_over(
     goal_peg: int,
     first: str | None,
     replay: Replay,
+    registered: bool = False,
 ) -> TransferResult:
     """The giver holds `block` at the meeting point: the receiver waits open above its grasp, descends and
     closes; the giver opens and withdraws; the receiver carries the block over `goal_peg`, lowers it and
@@ -424,7 +452,7 @@ def _hand_over(
     ik = inverse_kinematics(np.stack([wait, meeting.receiver_grasp.pose]), motion.settings)
     if not ik.ok.all():
         return TransferResult(False, first or "handover", world.time)
-    taker = _Bench(world, receiver, motion, START, replay)
+    taker = _Bench(world, receiver, motion, START, replay, registered)
     taker.play(motion.through(START, list(ik.q), ["waiting", "handover grasp"]), [(0.0, "handover")])
     taker.jaw(skills.motion.transfer.jaw_closed, "handover")
     giver.jaw(skills.motion.transfer.jaw_open, "handover")

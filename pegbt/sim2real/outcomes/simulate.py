@@ -9,7 +9,8 @@ How many attempts a transfer gets is the real protocol's, not a fitted knob (`at
 regrasp a dropped block; the reference paper's robot moved each block once and skipped a transfer whose
 block was no longer on its peg, which is why its attempts end at a block lost for good. Under that
 protocol a way back whose block was never placed is not an attempt at all (the paper's 75, 68 and 79
-attempts of 120): it is counted apart (`SimCounts.skipped`), not as a failure at `sense`.
+attempts of 120): it is counted apart (`SimCounts.skipped`), not as a failure at `sense`. Under that
+protocol each arm is also registered to the camera as the paper's were, with itself (`registered_for`).
 """
 
 from __future__ import annotations
@@ -90,17 +91,26 @@ def attempts_for(outcomes: Outcomes) -> int:
     return ONE_ATTEMPT if outcomes.attempts_end_at_lost_block else WITH_RECOVERY
 
 
-def _run(task: Task, attempts: int = WITH_RECOVERY) -> list[TransferResult]:
-    """One transfer simulated in each world, with up to `attempts` picks; a motion the planner refuses (a
-    target out of reach in that world) is a transfer that failed where it started, never the end of the
-    whole fit. A way back whose block was lost is skipped only under the paper's protocol (one attempt);
-    pegbt's trees try it and fail at `sense`."""
+def registered_for(outcomes: Outcomes) -> bool:
+    """Whether the simulated arms are registered to the camera as the paper's robot registered its own
+    (`registration`): under the paper's protocol, the counting its table states. pegbt's own outcomes were
+    run on the work cell's figures."""
+    return outcomes.attempts_end_at_lost_block
+
+
+def _run(task: Task, attempts: int = WITH_RECOVERY, registered: bool = False) -> list[TransferResult]:
+    """One transfer simulated in each world, with up to `attempts` picks, the arms `registered` as the
+    paper's were or not; a motion the planner refuses (a target out of reach in that world) is a transfer
+    that failed where it started, never the end of the whole fit. A way back whose block was lost is
+    skipped only under the paper's protocol (one attempt); pegbt's trees try it and fail at `sense`."""
     worlds, variant, condition, seed = task
     replay = Replay()
     results = []
     for world in worlds:
         try:
-            result = simulate_transfer(world, variant, condition, seed, replay, attempts=attempts)
+            result = simulate_transfer(
+                world, variant, condition, seed, replay, attempts=attempts, registered=registered
+            )
         except PegbtError:
             result = TransferResult(False, "reach", 0.0)
         results.append(result if attempts == ONE_ATTEMPT else replace(result, skipped=False))
@@ -109,11 +119,11 @@ def _run(task: Task, attempts: int = WITH_RECOVERY) -> list[TransferResult]:
 
 class LocalMapper:
     """Simulated transfers in `workers` local processes (in this process when `workers` is 0), each with up
-    to `attempts` picks."""
+    to `attempts` picks, the arms `registered` as the paper's were or not."""
 
-    def __init__(self, workers: int, attempts: int = WITH_RECOVERY) -> None:
+    def __init__(self, workers: int, attempts: int = WITH_RECOVERY, registered: bool = False) -> None:
         self._pool: Executor | None = ProcessPoolExecutor(workers) if workers > 0 else None
-        self._run = partial(_run, attempts=attempts)
+        self._run = partial(_run, attempts=attempts, registered=registered)
 
     def __call__(self, tasks: Sequence[Task]) -> list[list[TransferResult]]:
         if self._pool is None:
@@ -127,13 +137,13 @@ class LocalMapper:
 
 class ClusterMapper:
     """Simulated transfers as tasks on a Dask scheduler (`pegbt eval --cluster`'s `connect`), each with up
-    to `attempts` picks."""
+    to `attempts` picks, the arms `registered` as the paper's were or not."""
 
-    def __init__(self, address: str, attempts: int = WITH_RECOVERY) -> None:
+    def __init__(self, address: str, attempts: int = WITH_RECOVERY, registered: bool = False) -> None:
         from pegbt.evaluation.cluster import connect
 
         self._client = connect(address)
-        self._run = partial(_run, attempts=attempts)
+        self._run = partial(_run, attempts=attempts, registered=registered)
 
     def __call__(self, tasks: Sequence[Task]) -> list[list[TransferResult]]:
         futures = self._client.map(self._run, list(tasks), pure=False)
