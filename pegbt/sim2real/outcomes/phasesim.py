@@ -297,7 +297,7 @@ def _transfer(
     half = len(order) // 2
     own = [i for i, (other, _, _) in enumerate(order) if other == arm]
     came_from: int | None = None if index == own[0] else previous_peg
-    parks = index in (own[0], next(i for i in own if i >= half))  # parked before each half
+    parks = index in (own[0], next((i for i in own if i >= half), None))  # parked before each half
     failed: _Bench | None = None  # the last attempt the arm set out on
     for _ in range(1 + REGRASPS):
         if block.lost or made == attempts:
