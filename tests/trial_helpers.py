@@ -8,8 +8,9 @@ from pathlib import Path
 from executive_helpers import with_shared_trees
 
 
-def short_task(tmp_path: Path) -> Path:
-    """Look, then move the block on peg 1 to peg 7 with PSM1, one recovery allowed, then check it arrived."""
+def short_task(tmp_path: Path, regrasps: int = 1) -> Path:
+    """Look, then move the block on peg 1 to peg 7 with PSM1, `regrasps` recoveries allowed, then check it
+    arrived."""
     tree = tmp_path / "short.yaml"
     with_shared_trees(tree.parent)
     tree.write_text(
@@ -17,7 +18,7 @@ def short_task(tmp_path: Path) -> Path:
         "blackboard: {/policy/skip_failed_blocks: true, /PSM1/may_carry: true, /PSM2/may_carry: true}\n"
         "tree:\n  sequence:\n"
         "    - subtree: {use: clear_view}\n"
-        "    - subtree: {use: transfer_block, args: {arm: PSM1, pick: 1, place: 7, regrasps: 1}}\n"
+        f"    - subtree: {{use: transfer_block, args: {{arm: PSM1, pick: 1, place: 7, regrasps: {regrasps}}}}}\n"
         "    - subtree: {use: clear_view, name: look at the result}\n"
         "    - check_placed: {name: block home, pegs: [7]}\n"
     )

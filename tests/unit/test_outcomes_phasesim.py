@@ -96,9 +96,10 @@ def test_a_way_back_whose_block_was_not_placed_on_the_way_out_fails_at_sense():
     """A trial's way back finds a peg empty where its outward transfer lost the block, and its tick log
     names that transfer's failure `sense`; a block placed on the way out is carried back as before."""
     half = len(transfers("unilateral")) // 2
-    out = simulate_transfer(WorldEffects(), "unilateral", "uncalibrated", half, index=0)
+    back = 3 * half  # world 18's first way back, whose block the first transfer lifts off its peg and loses
+    out = simulate_transfer(WorldEffects(), "unilateral", "uncalibrated", back, index=0)
     assert not out.succeeded
-    assert simulate_transfer(WorldEffects(), "unilateral", "uncalibrated", half).phase == "sense"
+    assert simulate_transfer(WorldEffects(), "unilateral", "uncalibrated", back).phase == "sense"
     assert simulate_transfer(WorldEffects(), "unilateral", "calibrated", half + 1).succeeded
 
 

@@ -21,12 +21,13 @@ from numpy.typing import NDArray
 
 from pegbt.behaviours.actions.grasping import SAME_BLOCK, approach_plan
 from pegbt.behaviours.actions.handover import Meeting, plan_meeting
-from pegbt.behaviours.poses import from_handover, to_handover, transfer_for
+from pegbt.behaviours.motion import above_pegs_first
+from pegbt.behaviours.poses import from_handover, to_handover, tool_pose, transfer_for
 from pegbt.behaviours.resources.arm_motion import ArmMotion, Prepared
 from pegbt.behaviours.resources.skills import SIMULATOR_CALIBRATION, Skills
 from pegbt.errors import PegbtError
 from pegbt.frames import yaw_of, yaw_pose
-from pegbt.motion.ik import inverse_kinematics
+from pegbt.motion.ik import inverse_kinematics, solve_ik
 from pegbt.motion.settings import motion_settings
 from pegbt.motion.trajectory import Trajectory
 from pegbt.perception.blocks import BlockEstimate
@@ -156,6 +157,16 @@ class _Bench:
             motion.compensator.reset(q0)
         self.tick(SETTLE_S)
 
+    def again(self, jaw_open: float) -> _Bench:
+        """This arm, its cables as the failed attempt left them, ready for the next attempt: the jaw opened
+        where it stopped (`look_again` lets go first)."""
+        self.events, self.segment, self.held, self.moved = [], "reach", False, True
+        self.meeting, self.failed, self.chose = None, None, None
+        self.motion.desired, self.motion.active = self.arm.joints.setpoint.copy(), None
+        if self.world.held_by(self.name) is None:
+            self.jaw(jaw_open, "reach")
+        return self
+
     @classmethod
     def failed_before(cls, world: World, arm: str, motion: ArmMotion, phase: str) -> _Bench:
         """An attempt that could not start (no feasible grasp, out of reach)."""
@@ -280,8 +291,12 @@ def _transfer(
     starts where its outward transfer placed it): the grasp the executive would choose for the block
     perception would see, and the motions it would send, picked and carried again after a failure,
     `attempts` in all (`trees/shared/one_transfer.yaml` recovers `REGRASPS` times, from wherever the block
-    fell; each attempt starts where the arm let go of its previous block); a grasp the planning refuses
-    before the arm moves is sensed and planned again without counting."""
+    fell); a grasp the planning refuses before the arm moves is sensed and planned again without counting.
+    The arm's cables carry the history the tree gives them: the arm's first transfer of each half starts
+    from the home pose the trees park it at before each half (the very first, parked from the simulator's
+    start joints), the others from where the arm let go of its previous block, and an attempt after a failure
+    from home, parked from where the failed attempt stopped the arm, its cables as they were there
+    (`trees/shared/recover.yaml`'s `look_again`: let go, `park`, sense)."""
     order = transfers(variant)
     arm, start_peg, goal_peg = order[index]
     previous_peg = next(goal for other, _, goal in reversed(order + order[:index]) if other == arm)
@@ -295,6 +310,11 @@ def _transfer(
     first: str | None = None
     made = 0  # attempts the arm set out on (a grasp or meeting refused before moving is planned again)
     chose: Chosen | None = None
+    half = len(order) // 2
+    own = [i for i, (other, _, _) in enumerate(order) if other == arm]
+    came_from: int | None = None if index == own[0] else previous_peg
+    parks = index in (own[0], next((i for i in own if i >= half), None))  # parked before each half
+    failed: _Bench | None = None  # the last attempt the arm set out on
     for _ in range(1 + REGRASPS):
         if block.lost or made == attempts:
             break
@@ -305,15 +325,18 @@ def _transfer(
             block.index,
             goal_peg,
             rng,
-            previous_peg,
+            came_from,
             replay,
             variant == "handover",
             chose,
             registered,
+            parks,
+            failed,
         )
         events += bench.events
         made += bench.moved
         chose = bench.chose or chose
+        failed = bench if bench.moved else failed
         if bench.held and bench.meeting is not None:
             return _hand_over(world, skills, bench, block.index, goal_peg, first, replay, registered)
         if bench.held:
@@ -350,9 +373,8 @@ def seen_point(world: World, point: NDArray[np.float64]) -> NDArray[np.float64]:
 def _previous_release(
     world: World, arm: str, dropped: NDArray[np.float64], goal_peg: int, previous_peg: int
 ) -> NDArray[np.float64]:
-    """Where `arm` let go of the block before (its tip pose in its frame, as `dropped` over `goal_peg` but
-    over `previous_peg`): each attempt starts there, its cables at rest, and approaches as the executive
-    does (`pegbt.behaviours.poses.approach_for`)."""
+    """Where `arm` let go of a block lowered over `previous_peg` (its tip pose in its frame, as `dropped`
+    over `goal_peg` but over `previous_peg`): an attempt starts there, its cables at rest."""
     to_arm = world.cell.board_to_arm(arm)
     shift = to_arm[:3, :3] @ (world.cell.pegs.tops[previous_peg] - world.cell.pegs.tops[goal_peg])
     start = dropped.copy()
@@ -367,17 +389,22 @@ def _attempt(
     block: int,
     goal_peg: int,
     rng: np.random.Generator,
-    previous_peg: int,
+    came_from: int | None,
     replay: Replay,
     handover: bool = False,
     chose: Chosen | None = None,
     registered: bool = False,
+    parks: bool = False,
+    after: _Bench | None = None,
 ) -> _Bench:
     """One pick and carry of `block` as it lies, seen with perception's noise: the bench afterwards says
     whether the arm holds it lowered over `goal_peg`, or at the meeting point for a `handover` (`held`,
     with `meeting`), or in which phase it was lost (`failed`). A pick again of the block seen where the
     last attempt `chose` its grasp avoids that candidate, as `SelectGrasp` does
-    (`pegbt/behaviours/actions/grasping.py`, `trees/shared/grasp.yaml`'s `another`)."""
+    (`pegbt/behaviours/actions/grasping.py`, `trees/shared/grasp.yaml`'s `another`). The arm starts lowered
+    over peg `came_from` (None: at the simulator's start joints) and, when it `parks`, first goes home as
+    `Park` does (`pegbt/behaviours/actions/moving.py`); it approaches as `Approach` does. An attempt `after`
+    one that failed goes on with that attempt's arm from where it stopped, and parks."""
     truth = world.blocks[block]
     noise = rng.normal(0.0, PERCEPTION_SD, 2)
     position = seen_point(world, truth.pose[:3, 3]) + [noise[0], noise[1], 0.0]
@@ -401,14 +428,26 @@ def _attempt(
         waypoints = to_handover(world.cell, skills.motion, arm, None, seen, grasp, meeting.tip)
     if waypoints.approach is None:
         return _Bench.failed_before(world, arm, motion, "reach")
-    start = _previous_release(world, arm, waypoints.poses[3], goal_peg, previous_peg)
-    ik = inverse_kinematics(start[None], motion.settings)
-    if not ik.ok.all():
-        return _Bench.failed_before(world, arm, motion, "reach")
-    bench = _Bench(world, arm, motion, ik.q[0], replay, registered)
+    if after is not None:
+        bench = after.again(skills.motion.transfer.jaw_open)
+        q0, parks = bench.arm.joints.setpoint.copy(), True
+    elif came_from is None:
+        q0 = START
+    else:
+        start = _previous_release(world, arm, waypoints.poses[3], goal_peg, came_from)
+        ik = inverse_kinematics(start[None], motion.settings)
+        if not ik.ok.all():
+            return _Bench.failed_before(world, arm, motion, "reach")
+        q0 = ik.q[0]
+    if after is None:
+        bench = _Bench(world, arm, motion, q0, replay, registered)
     bench.chose = Chosen(position, grasp.candidate)
     try:
-        reach = approach_plan(skills, arm, ik.q[0], None, seen, grasp)()
+        if parks:
+            park = _park(world, skills, arm, q0)
+            bench.play(park, [(0.0, "reach")])
+            q0 = park.q[-1]
+        reach = approach_plan(skills, arm, q0, None, seen, grasp)()
     except PegbtError:  # the approach leaf fails to plan: nothing moves
         bench.failed, bench.moved = "reach", False
         return bench
@@ -429,6 +468,17 @@ def _attempt(
     if not bench.held:
         bench.failed = _failed_phase(bench.events, block)
     return bench
+
+
+def _park(world: World, skills: Skills, arm: str, start: NDArray[np.float64]) -> Trajectory:
+    """`arm` from joints `start` to its home pose out of the camera's view, straight up first if low
+    among the pegs (`Park`, `pegbt/behaviours/actions/moving.py`)."""
+    motion, cell = skills.arm(arm), world.cell
+    home = tool_pose(motion.settings.home_tip, 0.0, cell.up_in(arm))
+    joints = above_pegs_first(cell, skills.motion, arm, start, motion.settings)
+    joints.append(solve_ik(home, motion.settings, what=f"{arm} home pose"))
+    names = [f"stop {i}" for i in range(len(joints) - 1)] + ["home"]
+    return motion.through(start, joints, names)
 
 
 def _hand_over(
