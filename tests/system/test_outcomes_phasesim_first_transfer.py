@@ -1,9 +1,9 @@
 """The phase simulator beside a trial's first transfer, world for world: a bending peg (1.5 mm), the unilateral
-task uncalibrated, worlds 500–509, each trial one transfer (peg 1 to peg 7) with its three recoveries, read
+task uncalibrated, worlds 500–504, each trial one transfer (peg 1 to peg 7) with its three recoveries, read
 from its tick log alone. The trial's arm starts at the simulator's start joints and parks before it looks;
 a recovery lets go, parks and looks again with the arm as the failed attempt left it. Where the phase
 simulator started every attempt at rest over the previous goal peg, its first attempts all placed the
-block, where six trials in ten lost it at `lower`."""
+block, where three trials of these five lost it at `lower` (six of ten on worlds 500–509)."""
 
 from __future__ import annotations
 
@@ -20,7 +20,7 @@ from pegbt.sim2real.outcomes.phasesim import simulate_transfer
 
 pytestmark = [pytest.mark.system, pytest.mark.slow]
 
-SEEDS = range(500, 510)  # a one-transfer trial costs about 10 s of CPU
+SEEDS = range(500, 505)  # a one-transfer trial costs about 10 s of CPU
 
 
 def _trial(tmp_path: Path, tree: Path, world: Path, seed: int) -> tuple[str, str]:
@@ -55,5 +55,5 @@ def test_first_transfers_agree_with_trials_attempt_for_attempt(tmp_path: Path) -
         ("placed" if f.succeeded else str(f.phase), "placed" if w.succeeded else str(w.phase))
         for f, w in zip(first, whole)
     ]
-    assert sum(t[0] == s[0] for t, s in zip(trials, simulated)) >= 9, (trials, simulated)
-    assert sum(t[1] == s[1] for t, s in zip(trials, simulated)) >= 8, (trials, simulated)
+    assert sum(t[0] == s[0] for t, s in zip(trials, simulated)) >= 4, (trials, simulated)
+    assert sum(t[1] == s[1] for t, s in zip(trials, simulated)) >= 4, (trials, simulated)
