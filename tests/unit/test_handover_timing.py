@@ -12,9 +12,11 @@ from pegbt.behaviours.poses import tool_pose
 from pegbt.behaviours.resources.arm_motion import ArmMotion
 from pegbt.bench.limit_bound import rest_to_rest
 from pegbt.motion.checks import check_trajectory
+from pegbt.motion.handover import handover_meeting_point
 from pegbt.motion.ik import solve_ik
 from pegbt.motion.limits import arm_settings
 from pegbt.motion.quickest import quickest_move, quickest_through
+from pegbt.motion.settings import MOTION_SETTINGS, motion_settings
 from pegbt.workcell import workcell
 
 
@@ -49,3 +51,21 @@ def test_the_givers_rise_takes_no_longer_than_the_time_optimal_move(start: np.nd
     risen = rise(cell, ArmMotion(settings), "PSM1", start, 0.007)
     check_trajectory(risen, settings, what="rise")
     assert risen.duration < rest_to_rest(start, risen.q[-1], settings) + settings.control_period
+
+
+def test_a_meeting_point_below_the_transfer_height_is_good_data(tmp_path) -> None:
+    """The meeting may lie below the transfer height (`meeting_above_transfer` < 0): the held block only
+    needs to clear the peg tops under it, and every millimetre up to it is insertion the giver's carry and
+    approach and the receiver's carry spend."""
+    text = MOTION_SETTINGS.read_text()
+    line = next(row for row in text.splitlines() if row.strip().startswith("meeting_above_transfer:"))
+    path = tmp_path / "motion.yaml"
+    path.write_text(text.replace(line, "  meeting_above_transfer: -0.006"))
+    assert motion_settings(path).handover.meeting_above_transfer == pytest.approx(-0.006)
+
+
+def test_the_block_held_at_the_meeting_point_clears_the_pegs_under_it() -> None:
+    cell, motion = workcell(), motion_settings()
+    point = handover_meeting_point(cell, motion)
+    bottom = (cell.pegs.tops[:, 2] - point[2]).min() - motion.transfer.block_below_tip  # board z is down
+    assert bottom >= motion.transfer.channel_margin + motion.transfer.approach_above_block
