@@ -32,13 +32,14 @@ SLIP_CHECK = 0.1  # s: how often a transfer looks at the jaw for a slipping bloc
 def rise(
     cell: Workcell, motion: ArmMotion, arm: str, start: NDArray[np.float64], height: float
 ) -> Trajectory:
-    """`arm`'s motion straight up along the pegs' axis by `height` from joints `start`: the same plan
+    """`arm`'s quickest motion straight up along the pegs' axis by `height` from joints `start` (it is on
+    a handover's critical path: the receiver and the giver's next pick wait for it): the same plan
     whether made when the rise begins or early, while the giver holds its block out (`rise` of
     `carry_to_handover`)."""
     target = forward_kinematics(start)
     target[:3, 3] += height * cell.up_in(arm)
     risen = solve_ik(target, motion.settings, what="risen")
-    return motion.through(start, [risen], ["risen"])
+    return motion.quickest(start, [risen], ["risen"])
 
 
 def above_pegs_first(

@@ -48,7 +48,8 @@ class HandoverPlan:
 
 def handover_meeting_point(cell: Workcell, motion: MotionSettings | None = None) -> NDArray[np.float64]:
     """The giver's tip position at the handover, board frame: the mean of the work cell's handover peg
-    tops (the reference uses pegs 3, 6 and 9), shifted in board y, raised above the transfer height."""
+    tops (the reference uses pegs 3, 6 and 9), shifted in board y, `meeting_above_transfer` above the
+    transfer height (below it if negative)."""
     motion = motion or motion_settings()
     point = cell.pegs.tops[list(cell.handover_pegs)].mean(axis=0)
     point[1] += motion.handover.meeting_offset_board_y

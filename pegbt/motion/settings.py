@@ -18,7 +18,11 @@ from pegbt.workcell import WORKCELL_FILE, workcell
 from pegbt.yamlfile import Located, read_settings_file
 
 MOTION_SETTINGS = SKILLS_DIR / "motion.yaml"
-SIGNED = {"meeting_offset_board_y", "jaw_closed"}  # settings that may be zero or negative
+SIGNED = {
+    "meeting_offset_board_y",
+    "meeting_above_transfer",
+    "jaw_closed",
+}  # settings that may be zero or negative
 
 
 @dataclass(frozen=True)

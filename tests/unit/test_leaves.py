@@ -626,16 +626,16 @@ def test_handover_poses_fails_naming_why_there_is_no_handover(tmp_path, robot, s
     built = build(tmp_path, robot, high, POSES, board=seen[0], **values)
     assert run(built, clock) == Status.FAILURE
     assert feedback(built).startswith("the giver at the meeting point: not reachable by PSM2: ")
-    # a robot whose outer yaw turns no further than 0.85 rad (its share/ folder narrowing skills/psm.yaml,
+    # a robot whose outer yaw turns no further than 0.8 rad (its share/ folder narrowing skills/psm.yaml,
     # as `test_robot_config` does): the giver reaches the meeting point, the receiver none of its grasps there
     share = tmp_path / "share"
     shutil.copytree(DVRK_SHARE, share)
     kinematic = share / "kinematic" / "PSM.json"
     kinematic.write_text(
-        kinematic.read_text().replace('"qmin": -1.588, "qmax": 1.588', '"qmin": -1.588, "qmax": 0.85')
+        kinematic.read_text().replace('"qmin": -1.588, "qmax": 1.588', '"qmin": -1.588, "qmax": 0.8')
     )
     narrow = Skills("uncalibrated", robot_config=share)
-    assert narrow.settings[RECEIVER].upper[0] == 0.85
+    assert narrow.settings[RECEIVER].upper[0] == 0.8
     built = build(tmp_path, robot, narrow, POSES, board=seen[0], **values)
     assert run(built, clock) == Status.FAILURE
     assert feedback(built) == (
@@ -814,7 +814,9 @@ def test_await_meeting_lets_the_receiver_descend_during_the_carry_keeping_above_
     # descending from now, the tip keeps `approach_above_block` above the block's top as the giver brings
     # it down onto the meeting pose, until it is there
     grasp = meeting.receiver_grasp
-    descent = skills.arm(RECEIVER).through(arm.rest, [solve_ik(grasp.pose, skills.settings[RECEIVER])], ["g"])
+    descent = skills.arm(RECEIVER).quickest(
+        arm.rest, [solve_ik(grasp.pose, skills.settings[RECEIVER])], ["g"]
+    )
     heights = (tip_position(descent.q) - grasp.pose[:3, 3]) @ skills.cell.up_in(RECEIVER)
     giver_tips = tip_position(carry.q)
     block_above = (giver_tips - giver_tips[-1]) @ skills.cell.up_in(GIVER)

@@ -215,15 +215,15 @@ def _way_from(
 def way_to_wait(
     skills: Skills, motion: ArmMotion, arm: str, start: NDArray[np.float64], grasp: Grasp
 ) -> Trajectory:
-    """The receiver's way from joints `start` to wait `receiver_wait_above` its `grasp`: rest-to-rest
-    cubics, rising first if it is low among the pegs."""
+    """The receiver's way from joints `start` to wait `receiver_wait_above` its `grasp`: time-optimal
+    rest-to-rest moves, rising first if it is low among the pegs."""
     cell = skills.cell
     wait = grasp.pose.copy()
     wait[:3, 3] += skills.motion.handover.receiver_wait_above * cell.up_in(arm)
     stops = above_pegs_first(cell, skills.motion, arm, start, motion.settings)
     joints = stops + [solve_ik(wait, motion.settings, what="waiting above the handover grasp")]
     names = [f"stop {i}" for i in range(len(stops))] + ["waiting pose"]
-    return motion.through(start, joints, names)
+    return motion.quickest(start, joints, names)
 
 
 def plan_carry_to_meeting(
@@ -297,9 +297,10 @@ class GoToHandover(MotionLeaf):
 def descent(
     skills: Skills, motion: ArmMotion, start: NDArray[np.float64], grasp: Grasp
 ) -> Callable[[], Trajectory]:
-    """The planning of the receiver's descent from joints `start` onto `grasp`."""
+    """The planning of the receiver's descent from joints `start` onto `grasp`: time-optimal, since its
+    part below the block's top plays only once the giver holds the block still (`await_meeting`)."""
     target = solve_ik(grasp.pose, motion.settings, what="the handover grasp")
-    return partial(motion.through, start, [target], ["grasp"])
+    return partial(motion.quickest, start, [target], ["grasp"])
 
 
 class AwaitMeeting(RobotLeaf):

@@ -40,6 +40,7 @@ from pegbt.executive.work import Job, WorkPool
 from pegbt.motion.cubic import rest_to_rest_path
 from pegbt.motion.kinematics import tip_position
 from pegbt.motion.limits import ArmSettings
+from pegbt.motion.quickest import quickest_through
 from pegbt.motion.trajectory import Trajectory
 from pegbt.motion.transfer import TransferPlanner, cubic_transfer
 from pegbt.motion.waypoints import TransferWaypoints
@@ -184,6 +185,10 @@ class ArmMotion:
         """Rest-to-rest cubics from `start` through joint `joints` (each stop named for errors)."""
         path = rest_to_rest_path([np.asarray(start, dtype=float), *joints], self.settings, ["start", *names])
         return path.sample(self.settings.control_period)
+
+    def quickest(self, start: ArrayLike, joints: list[NDArray[np.float64]], names: list[str]) -> Trajectory:
+        """Time-optimal rest-to-rest moves on the same joint lines as `through` (a handover's short moves)."""
+        return quickest_through([np.asarray(start, dtype=float), *joints], self.settings, ["start", *names])
 
     # ------------------------------------------------------------------ execution
     def commands(self, planned: Trajectory, compensator: Compensator | None) -> Trajectory:
