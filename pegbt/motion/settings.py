@@ -18,7 +18,7 @@ from pegbt.workcell import WORKCELL_FILE, workcell
 from pegbt.yamlfile import Located, read_settings_file
 
 MOTION_SETTINGS = SKILLS_DIR / "motion.yaml"
-SIGNED = {"meeting_offset_board_y", "jaw_closed"}  # settings that may be zero or negative
+SIGNED = {"meeting_offset_board_y", "jaw_closed", "jaw_loosened"}  # settings that may be zero or negative
 
 
 @dataclass(frozen=True)
@@ -37,8 +37,11 @@ class TransferSettings:
     channel_tolerance: float
     upright_tilt: float
     jaw_open: float
+    jaw_at_grasp: float
     jaw_release: float
+    jaw_loosened: float
     jaw_closed: float
+    grip_confirmed_below: float
 
     @property
     def channel_clear_above_peg_top(self) -> float:

@@ -36,6 +36,12 @@ class Transfer(CarryLeaf):
             int(self.param("place")),
         )
 
+    def begin(self) -> None:
+        super().begin()
+        arm, transfer = self.param("arm"), self.skills.motion.transfer
+        easing = (transfer.jaw_loosened - transfer.jaw_closed) / self.motion(arm).settings.jaw_velocity
+        self.move_jaw(arm, transfer.jaw_loosened, f"{arm} squeeze easing", before_end=easing)
+
     def inputs(self) -> tuple[object, ...]:
         return (self.read("/board"), self.get("block"), self.get("grasp"), int(self.param("place")))
 
