@@ -18,7 +18,7 @@ from pegbt.workcell import WORKCELL_FILE, workcell
 from pegbt.yamlfile import Located, read_settings_file
 
 MOTION_SETTINGS = SKILLS_DIR / "motion.yaml"
-SIGNED = {"meeting_offset_board_y", "jaw_closed", "jaw_loosened"}  # settings that may be zero or negative
+SIGNED = {"meeting_offset_board_y", "jaw_closed"}  # settings that may be zero or negative
 
 
 @dataclass(frozen=True)
@@ -39,7 +39,6 @@ class TransferSettings:
     jaw_open: float
     jaw_at_grasp: float
     jaw_release: float
-    jaw_loosened: float
     jaw_closed: float
     grip_confirmed_below: float
 

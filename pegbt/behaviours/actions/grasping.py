@@ -42,6 +42,7 @@ from pegbt.transport import ArmClient
 SAME_BLOCK = (
     0.005  # m: a block seen this near where the last pick chose one is that block (a miss may nudge it)
 )
+OPENED = 1e-4  # rad: a jaw's set-point this near its target needs no motion there
 STILL = 0.005  # rad between two readings of a jaw's encoder a period apart: stopped (it closes at 0.06)
 
 
@@ -318,12 +319,13 @@ def gripping(last: float, angle: float, setpoint: float, held_above: float, belo
 
 class Release(MotionLeaf):
     """Opens the jaw only as far as lets the block go and the tool rise out of its hole
-    (`transfer.jaw_release`): the next approach opens it fully while it moves."""
+    (`transfer.jaw_release`): the next approach opens it fully while it moves. A jaw the transfer already
+    opened there (`transfer`) is left as it is."""
 
     def begin(self) -> None:
-        self.move_jaw(
-            self.param("arm"), self.skills.motion.transfer.jaw_release, f"{self.param('arm')} jaw opening"
-        )
+        arm, angle = self.param("arm"), self.skills.motion.transfer.jaw_release
+        if abs(float(self.client(arm).jaw.setpoint_js.position[0]) - angle) > OPENED:
+            self.move_jaw(arm, angle, f"{arm} jaw opening")
 
     def done(self) -> Status:
         self.put("holding", False)
