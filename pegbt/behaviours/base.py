@@ -446,9 +446,13 @@ class MotionLeaf(RobotLeaf):
             at = self.arm_end + paused - outgoing.before_end
             if now >= at - 1e-9:
                 self.pending_jaws.remove(outgoing)
+                self.jaw_due(outgoing)
                 self._send_jaw(outgoing)
             elif self.wake_at is not None:
                 self.wake_at = min(self.wake_at, at)
+
+    def jaw_due(self, outgoing: Outgoing) -> None:
+        """Called as a jaw motion given `before_end` is about to be sent; a subclass may read the jaw first."""
 
     def _motions_over(self) -> bool:
         """Whether a tick would find no motion of this leaf busy any more (the runner ticks at once then,
