@@ -129,6 +129,7 @@ class Outgoing:
     trajectory: Trajectory | Callable[[], Trajectory] | None = None
     jaw_angle: float | None = None
     inputs: tuple[object, ...] | None = None  # what the trajectory is planned from, to take a plan made early
+    before_end: float | None = None  # a jaw motion sent this long before the arm motion's planned end
 
 
 @dataclass
@@ -138,6 +139,7 @@ class Running:
     what: str
     handle: MotionHandle
     stop: Callable[[], None]
+    jaw: str = ""  # the arm whose jaw this motion moves ("": an arm motion)
 
 
 class MotionLeaf(RobotLeaf):
@@ -159,6 +161,8 @@ class MotionLeaf(RobotLeaf):
         self.job: Job | None = None
         self.replans = 0
         self.early_at: int | None = None  # where a plan made early stands among the motions
+        self.arm_end: float | None = None  # when the arm motion sent last is planned to end
+        self.pending_jaws: list[Outgoing] = []  # jaw motions due before that end (`move_jaw(before_end=)`)
         self._start()
 
     def _start(self) -> None:
@@ -173,6 +177,8 @@ class MotionLeaf(RobotLeaf):
             self.problem = str(error)
             self.halt_motions()
             return
+        self.pending_jaws = [outgoing for outgoing in self.outgoing if outgoing.before_end is not None]
+        self.outgoing = [outgoing for outgoing in self.outgoing if outgoing.before_end is None]
         arms = [outgoing for outgoing in self.outgoing if outgoing.trajectory is not None]
         if not arms:
             self._send([None] * len(self.outgoing))
@@ -343,8 +349,10 @@ class MotionLeaf(RobotLeaf):
         from, so that a plan made early from the same inputs is taken instead (`ArmMotion.plan_early`)."""
         self.outgoing.append(Outgoing(what, arm, trajectory=trajectory, inputs=inputs))
 
-    def move_jaw(self, arm: str, angle: float, what: str) -> None:
-        self.outgoing.append(Outgoing(what, arm, jaw_angle=angle))
+    def move_jaw(self, arm: str, angle: float, what: str, before_end: float | None = None) -> None:
+        """Move `arm`'s jaw to `angle`: at once, or `before_end` seconds before the arm motion of this leaf
+        is planned to end (stalls included), so that a jaw action overlaps the end of the arm's motion."""
+        self.outgoing.append(Outgoing(what, arm, jaw_angle=angle, before_end=before_end))
 
     def _check_clearance(self, outgoing: Outgoing, trajectory: Trajectory) -> None:
         """`Blocked` if `trajectory`, starting now, would bring the tools closer than `keep_apart`."""
@@ -368,8 +376,11 @@ class MotionLeaf(RobotLeaf):
         handle = motion.dispatch(client, prepared)
         self.running.append(Running(outgoing.what, handle, lambda: motion.stop(client)))
         self._expect(prepared.planned.duration)
+        self.arm_end = self.context.clock.now() + prepared.planned.duration
 
     def _send_jaw(self, outgoing: Outgoing) -> None:
+        """Send a jaw motion; it takes over from this leaf's earlier one on that jaw, which stops tracking."""
+        self.running = [motion for motion in self.running if motion.jaw != outgoing.arm]
         jaw = self.client(outgoing.arm).jaw
         angle = outgoing.jaw_angle
         assert angle is not None
@@ -377,7 +388,7 @@ class MotionLeaf(RobotLeaf):
             abs(angle - float(jaw.setpoint_js.position[0])) / self.motion(outgoing.arm).settings.jaw_velocity
         )
         handle = jaw.move_jp(angle)
-        self.running.append(Running(outgoing.what, handle, handle.stop))
+        self.running.append(Running(outgoing.what, handle, handle.stop, jaw=outgoing.arm))
         self._expect(seconds)
 
     def _expect(self, seconds: float) -> None:
@@ -416,9 +427,32 @@ class MotionLeaf(RobotLeaf):
             ahead = self.expected_end is not None and now < self.expected_end
             self.wake_at = self.expected_end if ahead else None
             self.wake_when = None if ahead else self._motions_over
+            self._send_timed_jaws(now, paused)
             return self.watch()
         self.wake_at = self.wake_when = None
+        if self.arm_end is not None and self.pending_jaws:  # the arm ended before they were due
+            for outgoing in self.pending_jaws:
+                self._send_jaw(outgoing)
+            self.pending_jaws = []
+            return Status.RUNNING
         return self.done()
+
+    def _send_timed_jaws(self, now: float, paused: float) -> None:
+        """Send the jaw motions due before the arm motion's end; ask to be ticked when the next one is due."""
+        if self.arm_end is None or not self.pending_jaws:
+            return
+        for outgoing in list(self.pending_jaws):
+            assert outgoing.before_end is not None  # only such motions wait here
+            at = self.arm_end + paused - outgoing.before_end
+            if now >= at - 1e-9:
+                self.pending_jaws.remove(outgoing)
+                self.jaw_due(outgoing)
+                self._send_jaw(outgoing)
+            elif self.wake_at is not None:
+                self.wake_at = min(self.wake_at, at)
+
+    def jaw_due(self, outgoing: Outgoing) -> None:
+        """Called as a jaw motion given `before_end` is about to be sent; a subclass may read the jaw first."""
 
     def _motions_over(self) -> bool:
         """Whether a tick would find no motion of this leaf busy any more (the runner ticks at once then,

@@ -14,7 +14,7 @@ import numpy as np
 from numpy.typing import NDArray
 from py_trees.common import Status
 
-from pegbt.behaviours.base import MotionLeaf
+from pegbt.behaviours.base import MotionLeaf, Outgoing
 from pegbt.behaviours.poses import height_above_pegs
 from pegbt.behaviours.resources.arm_motion import ArmMotion
 from pegbt.motion.ik import solve_ik
@@ -76,6 +76,7 @@ class CarryLeaf(MotionLeaf):
 
     def initialise(self) -> None:
         self.log_detail = None
+        self.held_at_let_go: bool | None = None  # the jaw's hold as it began to open on purpose
         self.segment_ends: tuple[int, int] | None = None  # planned rows where lift and carry end
         self.sent_at = 0.0
         super().initialise()
@@ -109,12 +110,22 @@ class CarryLeaf(MotionLeaf):
         paused = max((motion.handle.paused for motion in self.running), default=0.0)  # a failure stops them
         status = super().update()
         if status != Status.RUNNING:
-            jaw = self.client(self.param("arm")).jaw.measured_js.position[0]
-            held = slip(jaw, self.param("held_above")) is None
+            held = self.held_at_let_go
+            if held is None:
+                jaw = self.client(self.param("arm")).jaw.measured_js.position[0]
+                held = slip(jaw, self.param("held_above")) is None
             self.log_detail = {"segment": self.segment(paused), "held": held}
         return status
 
+    def jaw_due(self, outgoing: Outgoing) -> None:
+        """A jaw opening as the motion ends lets go on purpose: whether the block was still held is read
+        now, and no slip is looked for after it."""
+        jaw = self.client(self.param("arm")).jaw.measured_js.position[0]
+        self.held_at_let_go = slip(jaw, self.param("held_above")) is None
+
     def watch(self) -> Status:
+        if self.held_at_let_go is not None:
+            return Status.RUNNING
         slipped = slip(self.client(self.param("arm")).jaw.measured_js.position[0], self.param("held_above"))
         if slipped:
             return self.fail(

@@ -41,8 +41,10 @@ class TransferSettings:
     channel_tolerance: float
     upright_tilt: float
     jaw_open: float
+    jaw_at_grasp: float
     jaw_release: float
     jaw_closed: float
+    grip_confirmed_below: float
 
     @property
     def channel_clear_above_peg_top(self) -> float:

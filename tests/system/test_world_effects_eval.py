@@ -3,10 +3,9 @@ costs tens of seconds of CPU, so a trial serves every test that reads it):
 
 - the default world is today's on fixed seeds, event for event (fingerprints of the simulator's ground
   truth recorded without a world file with `pegbt eval --variant unilateral --trials 1 --seed S
-  [--condition C] --keep-logs`: the uncalibrated one on branch limit3 after `release` opened the jaw to
-  30°, not 50°; the optimised one at 23d30df, after approaches set off sideways and the SQP refined from
-  two phases of its warm start, the same events at other times), and a world file's effects reach the
-  trials' simulator;
+  [--condition C] --keep-logs` on branch limuni, after the jaw's actions overlapped the arm's motions
+  and the SQP took 10 segments: as many events and placements as before, and the same events with
+  every effect at its inert default), and a world file's effects reach the trials' simulator;
 - `pegbt sim2real outcomes` end to end: the default world's tick logs (and nothing else) read into cells,
   diagnosed against the phase simulator, and the report written."""
 
@@ -27,8 +26,8 @@ pytestmark = [pytest.mark.system, pytest.mark.slow]
 
 # (condition, seed): (world events, fingerprint of them, transfers placed of 12), recorded as above
 BEFORE = {
-    ("uncalibrated", 6): (68, "f6e4786eadf3414b", 1),
-    ("optimized", 5): (48, "02e70d8bb520fb4f", 12),
+    ("uncalibrated", 6): (68, "3a488ba7aa14f79e", 1),
+    ("optimized", 5): (48, "61b404c96ec494a9", 12),
 }
 BEND = {"peg_compliance": {"deflection": 0.0015}}  # the uncalibrated arm's blocks catch 0.1–0.4 mm past it
 

@@ -20,6 +20,7 @@ from executive_helpers import write_tree
 from fake_arm import BLOCK_WALL_ANGLE, FakeArm, fake_robot
 from py_trees.common import Status
 
+from pegbt.behaviours.actions.grasping import gripping
 from pegbt.behaviours.actions.handover import plan_meeting
 from pegbt.behaviours.base import MOTION_OVERTIME
 from pegbt.behaviours.poses import HANDOVER_ARRIVAL, height_above_pegs, transfer_for, yaw_about
@@ -290,11 +291,43 @@ def test_a_motion_that_stood_still_is_still_bounded_in_time(tmp_path, robot, ski
     built, arm = _stalled_approach(tmp_path, robot, skills, seen)
     arm.never_ends = arm.jaw.never_ends = True
     assert run(built, clock) == Status.FAILURE
-    end = arm.trajectories[0].duration + 2 * MOTION_OVERTIME + MOTION_OVERTIME
+    # the jaw's narrowing, sent as the stalled approach arrives, stands still as long on its own
+    end = arm.trajectories[0].duration + 2 * (2 * MOTION_OVERTIME) + MOTION_OVERTIME
     assert end < clock.now() < end + 2 * STEP
     assert "no end reported" in feedback(built) and f"and {2 * MOTION_OVERTIME:.1f} s of stalls" in feedback(
         built
     )
+
+
+def test_approach_narrows_the_open_jaw_as_the_tool_arrives_still_straddling_the_wall(
+    tmp_path, robot, skills, seen, clock
+):
+    block, grasp = grasp_of(skills, seen)
+    built = build(
+        tmp_path, robot, skills, APPROACH, board=seen[0], **{"PSM1/block": block, "PSM1/grasp": grasp}
+    )
+    arm, transfer = psm1(robot), skills.motion.transfer
+    assert run(built, clock) == Status.SUCCESS
+    (trajectory,) = arm.trajectories
+    opening, narrowing = arm.jaw.sent
+    assert (opening.target, narrowing.target) == (transfer.jaw_open, transfer.jaw_at_grasp)
+    lead = (transfer.jaw_open - transfer.jaw_at_grasp) / skills.settings["PSM1"].jaw_velocity
+    assert trajectory.duration - lead - 1e-9 <= narrowing.at < trajectory.duration - lead + STEP
+    assert arm.jaw.position()[0] == pytest.approx(transfer.jaw_at_grasp)
+    # narrowed, the tips still clear the wall and the jaws' own thickness
+    wall, tool = skills.cell.block.edge_distance - skills.cell.block.hole_radius, skills.cell.tool
+    assert 2 * tool.jaw_radius < 2 * tool.jaw_length * math.sin(transfer.jaw_at_grasp / 2) - wall
+
+
+def tick_each_period(built: BuiltTree, clock: ManualClock, period: float, seconds: float = 2.0) -> Status:
+    """Tick every control `period` of the clock (as the runner does while a leaf asks to be woken)
+    until the leaf ends."""
+    end = clock.now() + seconds
+    while True:
+        built.root.tick_once()
+        if built.root.status != Status.RUNNING or clock.now() >= end:
+            return built.root.status
+        clock.advance(period)
 
 
 def closing(robot: Robot, skills: Skills) -> FakeArm:
@@ -311,6 +344,41 @@ def test_grasp_closes_the_jaw_and_holds_a_block_between_its_jaws(tmp_path, robot
     assert [sent.target for sent in arm.jaw.sent] == [skills.motion.transfer.jaw_closed]
     assert read("/PSM1/holding") is True
     assert feedback(built) == f"PSM1 holds a block (jaw stopped at {math.degrees(BLOCK_WALL_ANGLE):.0f}°)"
+
+
+def test_grasp_succeeds_once_the_jaw_stopped_on_the_wall_and_the_squeeze_goes_on(
+    tmp_path, robot, skills, clock
+):
+    arm, transfer = closing(robot, skills), skills.motion.transfer
+    arm.block_in_jaw = True
+    built = build(tmp_path, robot, skills, "{grasp: {arm: PSM1, holding: /PSM1/holding}}")
+    period, velocity = skills.settings["PSM1"].control_period, skills.settings["PSM1"].jaw_velocity
+    assert tick_each_period(built, clock, period) == Status.SUCCESS
+    assert read("/PSM1/holding") is True
+    confirmed = (transfer.jaw_open - (BLOCK_WALL_ANGLE - transfer.grip_confirmed_below)) / velocity
+    assert confirmed <= clock.now() <= confirmed + 2 * period
+    assert clock.now() < (transfer.jaw_open - transfer.jaw_closed) / velocity  # still squeezing
+    assert arm.jaw.position()[0] > transfer.jaw_closed and arm.jaw.sent[-1].kind == "jaw"
+
+
+def test_grasp_closing_on_nothing_fails_however_often_it_looks(tmp_path, robot, skills, clock):
+    closing(robot, skills)
+    built = build(tmp_path, robot, skills, "{grasp: {arm: PSM1, holding: /PSM1/holding}}")
+    assert tick_each_period(built, clock, skills.settings["PSM1"].control_period) == Status.FAILURE
+    assert read("/PSM1/holding") is False and "on nothing" in feedback(built)
+
+
+@pytest.mark.parametrize(
+    ("last", "angle", "setpoint", "grips"),
+    [
+        (0.21, 0.21, 0.10, True),  # stopped on the wall, the set-point 0.11 rad under it
+        (0.21, 0.21, 0.15, False),  # not yet squeezing
+        (0.27, 0.21, 0.10, False),  # still moving (a jaw lagging its set-point)
+        (-0.2, -0.2, -0.26, False),  # closed past held_above: nothing between the jaws
+    ],
+)
+def test_a_jaw_grips_once_it_stopped_above_held_above_with_its_set_point_below(last, angle, setpoint, grips):
+    assert gripping(last, angle, setpoint, held_above=0.0, below=0.1) is grips
 
 
 def test_grasp_fails_when_the_jaw_closes_on_nothing(tmp_path, robot, skills, clock):
@@ -361,6 +429,17 @@ def test_a_motion_past_its_planned_end_asks_to_be_ticked_as_soon_as_it_is_report
     assert leaf.status == Status.SUCCESS
 
 
+def test_release_sends_nothing_when_the_transfer_already_opened_the_jaw(tmp_path, robot, skills, clock):
+    arm = psm1(robot)
+    arm.jaw.rest = np.array([skills.motion.transfer.jaw_release])
+    built = build(
+        tmp_path, robot, skills, "{release: {arm: PSM1, holding: /PSM1/holding}}", **{"PSM1/holding": True}
+    )
+    built.root.tick_once()
+    assert built.root.status == Status.SUCCESS and arm.jaw.sent == []
+    assert read("/PSM1/holding") is False
+
+
 def test_release_fails_when_the_jaw_command_is_refused(tmp_path, robot, skills, clock):
     psm1(robot).refuse_next = "jaw fault"
     built = build(
@@ -398,6 +477,27 @@ def test_transfer_carries_the_block_over_its_place_peg_and_writes_the_plan(
     up = skills.cell.up_in("PSM1")
     across = (tops[1] - tops[0])[:3]
     assert np.allclose(moved - (moved @ up) * up, across - (across @ up) * up, atol=2e-4)
+
+
+def test_transfer_lets_go_as_the_block_comes_down_onto_its_goal_peg(tmp_path, robot, skills, seen, clock):
+    arm, values = holding_at_the_grasp(robot, skills, seen)
+    transfer, settings = skills.motion.transfer, skills.settings["PSM1"]
+    arm.jaw.rest = np.array([transfer.jaw_closed])
+    built = build(tmp_path, robot, skills, TRANSFER, **values)
+    assert run(built, clock) == Status.SUCCESS
+    (trajectory,) = arm.trajectories
+    (opening,) = arm.jaw.sent
+    assert opening.target == transfer.jaw_release
+    lead = (transfer.jaw_release - transfer.jaw_closed) / settings.jaw_velocity
+    assert trajectory.duration - lead - 1e-9 <= opening.at < trajectory.duration - lead + STEP
+    # the jaw passes the wall with the tip within a millimetre of where it stops, below where the
+    # block's hole meets the peg's top
+    passes = opening.at + (BLOCK_WALL_ANGLE - transfer.jaw_closed) / settings.jaw_velocity
+    tips = tip_position(trajectory.q)
+    there = tips[min(int(round(passes / trajectory.period)), len(tips) - 1)]
+    assert np.linalg.norm(there - tips[-1]) < 0.001
+    on_peg = transfer.block_below_tip - transfer.drop_height_above_peg_top
+    assert float((there - tips[-1]) @ skills.cell.up_in("PSM1")) < on_peg
 
 
 def test_transfer_fails_at_once_and_stops_the_arm_when_the_block_slips(tmp_path, robot, skills, seen, clock):

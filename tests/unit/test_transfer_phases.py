@@ -110,10 +110,24 @@ def test_a_failed_transfer_names_its_phase(tmp_path, scene, held, slips_at, phas
     assert why(log).endswith(f"1: PSM1 peg {PICK} → {PLACE}: failed at {phase}")
 
 
+def let_go_at(scene) -> float:
+    """How far through the transfer's motion its jaw begins to let go of the block (`transfer`)."""
+    _, board, blocks = scene
+    skills = Skills("uncalibrated")
+    block = block_on_peg(blocks, PICK)
+    grasp = skills.selectors["PSM1"].pick(block)
+    waypoints = transfer_for(skills.cell, skills.motion, "PSM1", board, block, grasp, PLACE)
+    duration = skills.arm("PSM1").transfer(waypoints).duration
+    transfer = skills.motion.transfer
+    lead = (transfer.jaw_release - transfer.jaw_closed) / skills.settings["PSM1"].jaw_velocity
+    return (duration - lead) / duration
+
+
 def test_a_block_lost_as_the_lowering_ends_failed_at_lower(tmp_path, scene):
-    """The jaw empty when the lowering ended (the leaf succeeded; its detail says the jaw held nothing),
-    and the goal peg empty at the next look: lost while lowered, not at the release."""
-    log = read_tick_log(one_transfer(tmp_path, scene, held=True, slips_at=0.9999))
+    """The jaw empty as the lowering ended, when it began to let go (the leaf succeeded; its detail
+    says the jaw held nothing), and the goal peg empty at the next look: lost while lowered, not at the
+    release."""
+    log = read_tick_log(one_transfer(tmp_path, scene, held=True, slips_at=let_go_at(scene) - 1e-4))
     (carried,) = [change for change in log.transitions if change.detail is not None]
     assert carried.after == "SUCCESS" and carried.detail == {"segment": "lower", "held": False}
     assert transfer_outcomes(log) == [TransferOutcome(1, False, "lower")]

@@ -42,6 +42,8 @@ from pegbt.transport import ArmClient
 SAME_BLOCK = (
     0.005  # m: a block seen this near where the last pick chose one is that block (a miss may nudge it)
 )
+OPENED = 1e-4  # rad: a jaw's set-point this near its target needs no motion there
+STILL = 0.005  # rad between two readings of a jaw's encoder a period apart: stopped (it closes at 0.06)
 
 
 class SelectGrasp(RobotLeaf):
@@ -243,7 +245,10 @@ class Approach(MotionLeaf):
             self.skills, arm, self.motion(arm).start_from(self.client(arm)), board, block, grasp
         )
         self.move(arm, plan, f"{arm} approach", (board, block, grasp.candidate))
-        self.move_jaw(arm, self.skills.motion.transfer.jaw_open, f"{arm} jaw opening")
+        transfer = self.skills.motion.transfer
+        self.move_jaw(arm, transfer.jaw_open, f"{arm} jaw opening")
+        narrowing = (transfer.jaw_open - transfer.jaw_at_grasp) / self.motion(arm).settings.jaw_velocity
+        self.move_jaw(arm, transfer.jaw_at_grasp, f"{arm} jaw narrowing", before_end=narrowing)
 
     def started(self, trajectories: list[Trajectory]) -> None:
         self.feedback_message = f"approaching in {trajectories[0].duration:.2f} s"
@@ -268,14 +273,34 @@ class Approach(MotionLeaf):
 
 
 class CloseOnBlock(MotionLeaf):
+    """Succeeds as soon as the jaw grips (`gripping`): the squeeze goes on to `jaw_closed` while the
+    next motion starts; fails once the jaw closed past `held_above` on nothing."""
+
     def begin(self) -> None:
+        self.last_angle: float | None = None
         self.move_jaw(
             self.param("arm"), self.skills.motion.transfer.jaw_closed, f"{self.param('arm')} jaw closing"
         )
 
+    def watch(self) -> Status:
+        jaw = self.client(self.param("arm")).jaw
+        angle, setpoint = float(jaw.measured_js.position[0]), float(jaw.setpoint_js.position[0])
+        last, self.last_angle = self.last_angle, angle
+        below = self.skills.motion.transfer.grip_confirmed_below
+        if last is not None and gripping(last, angle, setpoint, self.param("held_above"), below):
+            return self._held(angle)
+        if self.wake_at is not None:
+            self.wake_at = min(
+                self.wake_at,
+                self.context.clock.now() + self.motion(self.param("arm")).settings.control_period,
+            )
+        return Status.RUNNING
+
     def done(self) -> Status:
+        return self._held(float(self.client(self.param("arm")).jaw.measured_js.position[0]))
+
+    def _held(self, angle: float) -> Status:
         arm = self.param("arm")
-        angle = float(self.client(arm).jaw.measured_js.position[0])
         holding = angle > self.param("held_above")
         self.put("holding", holding)
         if not holding:
@@ -286,14 +311,21 @@ class CloseOnBlock(MotionLeaf):
         return Status.SUCCESS
 
 
+def gripping(last: float, angle: float, setpoint: float, held_above: float, below: float) -> bool:
+    """Whether a closing jaw grips a block: its encoder stopped (the same `last` and now: a jaw closing
+    on nothing moves every period) above `held_above`, with its set-point `below` under it."""
+    return angle > held_above and setpoint <= angle - below and abs(angle - last) < STILL
+
+
 class Release(MotionLeaf):
     """Opens the jaw only as far as lets the block go and the tool rise out of its hole
-    (`transfer.jaw_release`): the next approach opens it fully while it moves."""
+    (`transfer.jaw_release`): the next approach opens it fully while it moves. A jaw the transfer already
+    opened there (`transfer`) is left as it is."""
 
     def begin(self) -> None:
-        self.move_jaw(
-            self.param("arm"), self.skills.motion.transfer.jaw_release, f"{self.param('arm')} jaw opening"
-        )
+        arm, angle = self.param("arm"), self.skills.motion.transfer.jaw_release
+        if abs(float(self.client(arm).jaw.setpoint_js.position[0]) - angle) > OPENED:
+            self.move_jaw(arm, angle, f"{arm} jaw opening")
 
     def done(self) -> Status:
         self.put("holding", False)

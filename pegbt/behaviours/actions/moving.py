@@ -23,7 +23,12 @@ from pegbt.perception.blocks import block_on_peg
 
 class Transfer(CarryLeaf):
     """Planned early, while the approach plays, when that approach knew this transfer's goal peg
-    (`approach`); once sent, it plans the approach of the next transfer (`then`) from where it ends."""
+    (`approach`); once sent, it plans the approach of the next transfer (`then`) from where it ends.
+
+    The jaw opens to `jaw_release` as the block comes down onto its goal peg, reaching it as the arm
+    stops: it passes the wall (lets go) some 50 ms before, with the tip within a millimetre of the drop
+    height and the block's hole 3 mm on the peg (it is on it from 3.2 mm above), so `release` finds the
+    jaw open."""
 
     def waypoints(self) -> TransferWaypoints:
         return transfer_for(
@@ -35,6 +40,12 @@ class Transfer(CarryLeaf):
             self.get("grasp"),
             int(self.param("place")),
         )
+
+    def begin(self) -> None:
+        super().begin()
+        arm, transfer = self.param("arm"), self.skills.motion.transfer
+        opening = (transfer.jaw_release - transfer.jaw_closed) / self.motion(arm).settings.jaw_velocity
+        self.move_jaw(arm, transfer.jaw_release, f"{arm} letting go", before_end=opening)
 
     def inputs(self) -> tuple[object, ...]:
         return (self.read("/board"), self.get("block"), self.get("grasp"), int(self.param("place")))
