@@ -1,0 +1,76 @@
+"""Work done ahead of need gives way to work the tree waits for (`WorkPool.give_way`): on two shared
+cores two jobs at once each take about twice as long, so a plan made ahead must not slow the plan an
+arm is waiting for; once a leaf wants it, it runs at once."""
+
+from __future__ import annotations
+
+import threading
+import time
+
+from pegbt.executive.work import WorkPool
+
+BOUND = 5.0  # s: every wait in these tests is bounded
+
+
+def _wait_for(test, what: str) -> None:
+    deadline = time.monotonic() + BOUND
+    while not test():
+        assert time.monotonic() < deadline, what
+        time.sleep(0.001)
+
+
+def test_a_job_submitted_ahead_waits_until_no_wanted_job_computes():
+    pool = WorkPool()
+    release = threading.Event()
+    order: list[str] = []
+    wanted = pool.submit(lambda: (release.wait(BOUND), order.append("wanted")))
+    ahead = pool.submit_ahead(lambda: order.append("ahead"))
+    try:
+        time.sleep(0.05)
+        assert ahead.started is None and not ahead.done  # it has not begun beside the wanted job
+        release.set()
+        _wait_for(lambda: ahead.done, "the job ahead never ran")
+        assert order == ["wanted", "ahead"]
+        assert wanted.done
+    finally:
+        release.set()
+        pool.close()
+
+
+def test_a_job_ahead_that_a_leaf_comes_to_want_runs_at_once():
+    pool = WorkPool()
+    release = threading.Event()
+    pool.submit(release.wait, BOUND)
+    ahead = pool.submit_ahead(lambda: "plan")
+    try:
+        time.sleep(0.02)
+        assert not ahead.done
+        ahead.wanted()
+        _wait_for(lambda: ahead.done, "a wanted job ahead still gave way")
+        assert ahead.result() == "plan"
+    finally:
+        release.set()
+        pool.close()
+
+
+def test_a_job_ahead_does_not_wait_for_jobs_discarded_before_they_began_nor_after_close():
+    pool = WorkPool(workers=1)
+    release = threading.Event()
+    pool.submit(release.wait, BOUND)
+    queued = pool.submit(lambda: None)  # behind the first on the one worker
+    queued.discard()
+    ahead = pool.submit_ahead(lambda: "plan")
+    try:
+        time.sleep(0.02)
+        assert not ahead.done  # the first still computes
+        release.set()
+        _wait_for(lambda: ahead.done, "the job ahead waited for a cancelled job")
+        blocker = threading.Event()
+        pool.submit(blocker.wait, BOUND)
+        late = pool.submit_ahead(lambda: "late")
+        pool.close()
+        _wait_for(lambda: late.done, "closing the pool left a job ahead waiting")
+        blocker.set()
+    finally:
+        release.set()
+        pool.close()
