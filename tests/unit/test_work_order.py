@@ -1,6 +1,6 @@
-"""Work done ahead of need gives way to work the tree waits for (`WorkPool.give_way`): on two shared
-cores two jobs at once each take about twice as long, so a plan made ahead must not slow the plan an
-arm is waiting for; once a leaf wants it, it runs at once."""
+"""The order of work off the tick: on two shared cores two jobs at once each take about twice as long, so
+the jobs the tree waits for run one at a time, first asked first done, and work done ahead of need gives
+way to them (`WorkPool.give_way`) until a leaf wants it."""
 
 from __future__ import annotations
 
@@ -71,6 +71,23 @@ def test_a_job_ahead_does_not_wait_for_jobs_discarded_before_they_began_nor_afte
         pool.close()
         _wait_for(lambda: late.done, "closing the pool left a job ahead waiting")
         blocker.set()
+    finally:
+        release.set()
+        pool.close()
+
+
+def test_jobs_the_tree_waits_for_run_one_at_a_time_in_the_order_asked():
+    pool = WorkPool()
+    release = threading.Event()
+    first = pool.submit(release.wait, BOUND)
+    second = pool.submit(lambda: "second plan")
+    try:
+        time.sleep(0.05)
+        assert second.started is None  # queued behind the first, not sharing the cores with it
+        release.set()
+        _wait_for(lambda: second.done, "the second job never ran")
+        assert first.finished is not None and second.started is not None
+        assert first.finished <= second.started
     finally:
         release.set()
         pool.close()
