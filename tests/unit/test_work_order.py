@@ -6,24 +6,30 @@ from __future__ import annotations
 
 import threading
 import time
+from collections.abc import Callable
 
 from pegbt.executive.work import WorkPool
 
 BOUND = 5.0  # s: every wait in these tests is bounded
 
 
-def _wait_for(test, what: str) -> None:
+def _wait_for(test: Callable[[], bool], what: str) -> None:
     deadline = time.monotonic() + BOUND
     while not test():
         assert time.monotonic() < deadline, what
         time.sleep(0.001)
 
 
-def test_a_job_submitted_ahead_waits_until_no_wanted_job_computes():
+def test_a_job_submitted_ahead_waits_until_no_wanted_job_computes() -> None:
     pool = WorkPool()
     release = threading.Event()
     order: list[str] = []
-    wanted = pool.submit(lambda: (release.wait(BOUND), order.append("wanted")))
+
+    def plan() -> None:
+        release.wait(BOUND)
+        order.append("wanted")
+
+    wanted = pool.submit(plan)
     ahead = pool.submit_ahead(lambda: order.append("ahead"))
     try:
         time.sleep(0.05)
@@ -37,7 +43,7 @@ def test_a_job_submitted_ahead_waits_until_no_wanted_job_computes():
         pool.close()
 
 
-def test_a_job_ahead_that_a_leaf_comes_to_want_runs_at_once():
+def test_a_job_ahead_that_a_leaf_comes_to_want_runs_at_once() -> None:
     pool = WorkPool()
     release = threading.Event()
     pool.submit(release.wait, BOUND)
@@ -53,7 +59,7 @@ def test_a_job_ahead_that_a_leaf_comes_to_want_runs_at_once():
         pool.close()
 
 
-def test_a_job_ahead_does_not_wait_for_jobs_discarded_before_they_began_nor_after_close():
+def test_a_job_ahead_does_not_wait_for_jobs_discarded_before_they_began_nor_after_close() -> None:
     pool = WorkPool(workers=1)
     release = threading.Event()
     pool.submit(release.wait, BOUND)
@@ -76,7 +82,7 @@ def test_a_job_ahead_does_not_wait_for_jobs_discarded_before_they_began_nor_afte
         pool.close()
 
 
-def test_jobs_the_tree_waits_for_run_one_at_a_time_in_the_order_asked():
+def test_jobs_the_tree_waits_for_run_one_at_a_time_in_the_order_asked() -> None:
     pool = WorkPool()
     release = threading.Event()
     first = pool.submit(release.wait, BOUND)
