@@ -7,14 +7,14 @@ much of a job's time the ticking thread still gets). A leaf calls `Leaf.offload(
 must compute from its arguments alone (no blackboard, no transport), since the tree runs on meanwhile.
 
 Work done ahead of need (`submit_ahead`: a motion planned while the one before it plays) runs on a thread
-of its own, so that it never queues a job the tree waits for now behind it; and it starts only once no job
-the tree waits for is computing or queued (or once a leaf comes to want it). On two cores shared with the
-robot, and with pure-Python pre-compensation holding the GIL, two jobs at once each take about twice as
-long: a bilateral arm's first approach after a look waited for the other arm's carry, planned ahead as
-soon as that arm's approach was sent, as long as for its own plan. For the same reason the jobs the tree
-waits for run one at a time, in the order they were asked for (`WORKERS`): the arm asking first sets off
-after its own plan, not after both (two transfers' planning and pre-compensation, load 13: the first done
-after 200 ms and the second after 253 ms at once, 102 and 218 ms one after the other).
+of its own, so that it never queues a job the tree waits for now behind it; and it starts only once the
+jobs the tree was waiting for when it was submitted have ended (or once a leaf comes to want it). On two
+cores shared with the robot, and with pure-Python pre-compensation holding the GIL, two jobs at once each
+take about twice as long (two transfers' planning and pre-compensation, load 13: done after 200 and 253
+ms at once, 102 and 218 ms one after the other): a bilateral arm's first approach after a look waited for
+the other arm's carry, planned ahead as soon as that arm's approach was sent, as long as for its own plan.
+Only those it finds: a handover's plans ahead are on its critical path, and made to wait for every job
+asked for later too (or run with the tree's jobs one at a time) its transfers took longer.
 
 The run's ticking sleeps between ticks through `WorkPool.wait`, which a job ending cuts short: its leaf
 gets the result on the next tick at once, not up to a period later; so does a test the runner gives it
@@ -38,7 +38,7 @@ from typing import Any, Generic, TypeVar
 from pegbt.clock import Clock
 
 T = TypeVar("T")
-WORKERS = 1  # one job at a time: two at once (two arms' plans) each ended about twice as late
+WORKERS = 2  # two arms may plan at once
 
 
 class Job(Generic[T]):
@@ -52,12 +52,13 @@ class Job(Generic[T]):
         args: tuple,
         *,
         ahead: bool = False,
+        behind: list[Job] | None = None,
     ) -> None:
         """On `executor`'s threads, or at once in the caller when there is none (`WorkPool.inline`);
-        `ahead`: nobody wants it yet, so it gives way to jobs that are wanted (`WorkPool.give_way`)."""
+        `ahead`: nobody wants it yet, so it gives way to the jobs `behind` (`WorkPool.give_way`)."""
         self._pool = pool
         self.ahead = ahead  # not wanted yet
-        self.given_way_to = not ahead  # a job `submit`ted: what an ahead job gives way to
+        self.behind = [job for job in behind or [] if not job.ahead]  # wanted jobs computing before it
         self.kind = getattr(fn, "func", fn).__qualname__  # what computes (a partial's function)
         self.submitted = self.wanted_from = time.perf_counter()
         self.started: float | None = None
@@ -181,16 +182,12 @@ class WorkPool:
             self._turn.notify_all()
 
     def give_way(self, job: Job) -> None:
-        """On the ahead thread, before `job` (submitted ahead) computes: wait until no job submitted with
-        `submit` is computing or queued, unless a leaf comes to want `job` meanwhile. A wanted job always
-        ends, so this wait does too."""
+        """On the ahead thread, before `job` (submitted ahead) computes: wait until the wanted jobs it was
+        submitted behind (`Job.behind`) have ended, unless a leaf comes to want `job` meanwhile. A wanted
+        job always ends, so this wait does too."""
         with self._turn:
             self._turn.wait_for(
-                lambda: (
-                    self._closed
-                    or not job.ahead
-                    or not any(other.computing for other in self._jobs if other.given_way_to)
-                )
+                lambda: self._closed or not job.ahead or not any(other.computing for other in job.behind)
             )
 
     def wait(
@@ -235,7 +232,7 @@ class WorkPool:
             self._ahead = ThreadPoolExecutor(1, thread_name_prefix="pegbt-ahead")
         if self.inline:
             return self._add(Job(self, None, fn, args))
-        return self._add(Job(self, self._ahead, fn, args, ahead=True))
+        return self._add(Job(self, self._ahead, fn, args, ahead=True, behind=self.pending()))
 
     def _add(self, job: Job[T]) -> Job[T]:
         with self._lock:
