@@ -229,10 +229,7 @@ def _located(
     if far and extra > 0:
         more = simulate_cells(mapper, [WorldEffects()], far, extra, first_seed=settings.transfers)[0]
         for key, counts in more.items():
-            for category, n in counts.counts.items():
-                before[key].counts[category] += n
-            total = before[key].attempted
-            before[key].seconds = (before[key].seconds * (total - extra) + counts.seconds * extra) / total
+            before[key].merge(counts)
     return before
 
 

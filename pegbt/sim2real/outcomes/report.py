@@ -11,11 +11,32 @@ from pegbt.sim2real.outcomes.cells import Cell
 from pegbt.sim2real.outcomes.diagnose import Diagnosis, profile_parameters
 from pegbt.sim2real.outcomes.intervals import rate_interval
 from pegbt.sim2real.outcomes.predict import KEEPS
-from pegbt.sim2real.outcomes.simulate import CATEGORIES
+from pegbt.sim2real.outcomes.simulate import CATEGORIES, SimCounts
+
+TIME_TOLERANCE = 0.2  # a simulated mean transfer time this close to the real one (relative) agrees with it
 
 
 def _pct(rate: float) -> str:
     return f"{100 * rate:.1f} %"
+
+
+def time_agrees(real: float | None, simulated: float | None) -> bool | None:
+    """Whether a simulated mean transfer time (of the transfers placed) is within `TIME_TOLERANCE` of the
+    real one; None where either is unknown (no real time, or nothing placed)."""
+    if real is None or simulated is None:
+        return None
+    return abs(simulated - real) <= TIME_TOLERANCE * real
+
+
+def _seconds(real: float | None, before: SimCounts, after: SimCounts) -> str:
+    """A cell's mean transfer times, real / simulated before / after, and whether after agrees."""
+
+    def show(value: float | None) -> str:
+        return "–" if value is None else f"{value:.1f}"
+
+    agrees = time_agrees(real, after.mean_transfer_s)
+    verdict = "" if agrees is None else (" (within 20 %)" if agrees else " (**off by > 20 %**)")
+    return f"{show(real)} / {show(before.mean_transfer_s)} / {show(after.mean_transfer_s)}{verdict}"
 
 
 def report_dict(diagnosis: Diagnosis, commands: list[str] | None = None) -> dict[str, Any]:
@@ -42,9 +63,14 @@ def report_dict(diagnosis: Diagnosis, commands: list[str] | None = None) -> dict
             "simulated_phases_after": dict(p.at_best.counts),
             "simulated_seconds_before": before.seconds,
             "simulated_seconds_after": p.at_best.seconds,
+            "simulated_mean_transfer_s_before": before.mean_transfer_s,
+            "simulated_mean_transfer_s_after": p.at_best.mean_transfer_s,
         }
         if cell.mean_transfer_s is not None:
             entry["real_mean_transfer_s"] = cell.mean_transfer_s
+            entry["mean_transfer_s_within_20_percent"] = time_agrees(
+                cell.mean_transfer_s, p.at_best.mean_transfer_s
+            )
         if cell.failures:
             entry["real"]["failures"] = dict(cell.failures)
         if d.predicted_by:
@@ -195,8 +221,9 @@ def report_markdown(d: Diagnosis, commands: list[str] | None = None) -> str:
         lines.append("")
     lines += [
         "## Prove",
-        "| variant | condition | real | simulated before | after | predicted (95 %) | held out | inside |",
-        "|---|---|---|---|---|---|---|---|",
+        "| variant | condition | real | simulated before | after | predicted (95 %) | held out | inside "
+        "| mean transfer s, placed: real / before / after |",
+        "|---|---|---|---|---|---|---|---|---|",
     ]
     held = {c.key for c in d.held_out}
     for cell in d.outcomes.cells:
@@ -204,7 +231,8 @@ def report_markdown(d: Diagnosis, commands: list[str] | None = None) -> str:
         lines.append(
             f"| {cell.variant} | {cell.condition} | {cell.succeeded}/{cell.attempted} ({_pct(cell.rate)}) | "
             f"{_pct(d.before[cell.key].rate)} | {_pct(q.at_best.rate)} | {_pct(q.rate)} ({_pct(q.low)}–{_pct(q.high)}) | "
-            f"{'yes' if cell.key in held else 'no'} | {'yes' if q.inside else '**no**'} |"
+            f"{'yes' if cell.key in held else 'no'} | {'yes' if q.inside else '**no**'} | "
+            f"{_seconds(cell.mean_transfer_s, d.before[cell.key], q.at_best)} |"
         )
     for name, predictions in d.predicted_by.items():
         lines += ["", f"Predicted with {name} alone:"]
