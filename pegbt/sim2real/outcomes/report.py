@@ -132,6 +132,15 @@ def report_dict(diagnosis: Diagnosis, commands: list[str] | None = None) -> dict
             for p in d.verdict.tried
         ],
         "null_log_likelihood": float(d.verdict.null.sum()),
+        "open": [
+            {
+                "candidate": a.name,
+                "allowed": [min(a.allowed), max(a.allowed)],
+                "value": a.value,
+                "world": a.label,
+            }
+            for a in d.alternatives
+        ],
         "unreplicated": list(d.unreplicated),
         "unexplained": [
             {"variant": r.variant, "condition": r.condition, "phase": r.phase, "p_value": r.p_value}
@@ -174,6 +183,16 @@ def _finding(d: Diagnosis) -> list[str]:
     else:
         lines.append(
             "**Unexplained:** the fit cells disagree, and no registered world effect fits them better beyond chance and on held-out cells."
+        )
+    if d.alternatives:
+        opened = "; ".join(
+            f"{a.name} (any of {min(a.allowed):.4g}–{max(a.allowed):.4g} fits as well)"
+            for a in d.alternatives
+        )
+        lines.append(
+            f"**Not told apart:** the fit cells leave open {opened}. Each changes the held-out cells: at its "
+            "farthest allowed value it predicts them otherwise than the world without it, so no value is "
+            "named and the held-out cells are predicted with each below."
         )
     if d.unreplicated:
         lines.append(
@@ -235,7 +254,7 @@ def report_markdown(d: Diagnosis, commands: list[str] | None = None) -> str:
             f"{_seconds(cell.mean_transfer_s, d.before[cell.key], q.at_best)} |"
         )
     for name, predictions in d.predicted_by.items():
-        lines += ["", f"Predicted with {name} alone:"]
+        lines += ["", f"Predicted with {name}" + ("" if d.alternatives else " alone") + ":"]
         for cell in d.held_out:
             q = predictions[cell.key]
             lines.append(
