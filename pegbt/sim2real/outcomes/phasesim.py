@@ -70,6 +70,14 @@ def transfers(variant: str) -> tuple[tuple[str, int, int], ...]:
     )
 
 
+def arms_at_once(variant: str) -> int:
+    """How many of `variant`'s transfers run at once: bilateral's two arms each carry a block together
+    (the paper's `FLSPegTransfer_dual.py` moves an action pair, one block per arm, in parallel threads,
+    `motion/dvrkPegTransferMotionDualArm.py`; pegbt's bilateral trees run each arm's list in parallel), so a
+    trial's time per transfer is half of one arm's; the others move one block at a time."""
+    return 2 if variant == "bilateral" else 1
+
+
 RECEIVER = {"PSM1": "PSM2", "PSM2": "PSM1"}
 
 
