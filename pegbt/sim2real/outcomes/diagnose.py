@@ -132,7 +132,7 @@ def diagnose(
     else:
         predictions = predict_null(before, cells)
     alternatives: list[Alternative] = []
-    if verdict.tried and not verdict.tied:
+    if verdict.tried and not verdict.tied and held_out:
         alternatives = _alternatives(counting, verdict, fit_cells, held_out, settings, informative)
     if alternatives:
         fitted = verdict.named[-1].label if verdict.named else "default world"
