@@ -3,15 +3,19 @@ open: not named, its allowed range given, and the held-out cells predicted with 
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 
+from pegbt.sim.world_effects import WorldEffects
 from pegbt.sim2real.outcomes.cells import Cell, Outcomes
 from pegbt.sim2real.outcomes.diagnose import Settings, diagnose
 from pegbt.sim2real.outcomes.phasesim import TransferResult
 from pegbt.sim2real.outcomes.report import report_dict, report_markdown
+from pegbt.sim2real.outcomes.simulate import Mapper, Task
 
 
-def _rate(effects, variant: str, condition: str, capture_acts: bool) -> float:
+def _rate(effects: WorldEffects, variant: str, condition: str, capture_acts: bool) -> float:
     """Uncalibrated success rises with a bending peg in both variants; bilateral also with a wider grasp
     capture (the other arm's grasps), which unilateral never needs."""
     if condition != "uncalibrated":
@@ -21,8 +25,8 @@ def _rate(effects, variant: str, condition: str, capture_acts: bool) -> float:
     return 0.05 + 0.4 * bend + (0.5 * capture if variant == "bilateral" else 0.0)
 
 
-def _mapper(capture_acts: bool):
-    def run(tasks):
+def _mapper(capture_acts: bool) -> Mapper:
+    def run(tasks: Sequence[Task]) -> list[list[TransferResult]]:
         out = []
         for worlds, variant, condition, seed in tasks:
             u = np.random.default_rng([seed, 11]).random()
@@ -40,7 +44,7 @@ CELLS = (
 )
 
 
-def test_an_effect_the_fit_cells_cannot_see_is_left_open_and_predicts_the_held_out_cells():
+def test_an_effect_the_fit_cells_cannot_see_is_left_open_and_predicts_the_held_out_cells() -> None:
     d = diagnose(Outcomes(CELLS, "test"), Settings(fit="unilateral", transfers=120, points=3), _mapper(True))
     assert [p.candidate.kind for p in d.verdict.named] == ["peg_compliance"]
     opened = {a.name: a for a in d.alternatives}
@@ -56,7 +60,7 @@ def test_an_effect_the_fit_cells_cannot_see_is_left_open_and_predicts_the_held_o
     assert "leave open" in report_markdown(d) and "Across the tie" in report_markdown(d)
 
 
-def test_an_open_effect_that_changes_no_held_out_cell_is_not_reported():
+def test_an_open_effect_that_changes_no_held_out_cell_is_not_reported() -> None:
     d = diagnose(Outcomes(CELLS, "test"), Settings(fit="unilateral", transfers=120, points=3), _mapper(False))
     assert [p.candidate.kind for p in d.verdict.named] == ["peg_compliance"]
     assert "grasp_capture.width" not in {a.name for a in d.alternatives}

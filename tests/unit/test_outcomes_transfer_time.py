@@ -3,18 +3,20 @@ placed (a failed one ends where the failure stopped the arm, which no real table
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 
 from pegbt.sim2real.outcomes.cells import Cell, Outcomes
 from pegbt.sim2real.outcomes.diagnose import Settings, diagnose
 from pegbt.sim2real.outcomes.phasesim import TransferResult
 from pegbt.sim2real.outcomes.report import report_dict, report_markdown, time_agrees
-from pegbt.sim2real.outcomes.simulate import SimCounts
+from pegbt.sim2real.outcomes.simulate import SimCounts, Task
 
 PLACED_S = {"unilateral": 5.0, "bilateral": 3.0}  # a placed transfer's seconds; a failed one takes 1 s
 
 
-def _mapper(tasks):
+def _mapper(tasks: Sequence[Task]) -> list[list[TransferResult]]:
     out = []
     for worlds, variant, _condition, seed in tasks:
         placed = np.random.default_rng([seed, 5]).random() < 0.5
@@ -25,7 +27,7 @@ def _mapper(tasks):
     return out
 
 
-def test_simulated_mean_transfer_time_counts_placed_transfers_only():
+def test_simulated_mean_transfer_time_counts_placed_transfers_only() -> None:
     counts = SimCounts()
     for result in (
         TransferResult(True, None, 6.0),
@@ -40,7 +42,7 @@ def test_simulated_mean_transfer_time_counts_placed_transfers_only():
     assert SimCounts().mean_transfer_s is None
 
 
-def test_the_report_sets_simulated_mean_transfer_times_beside_the_real_ones():
+def test_the_report_sets_simulated_mean_transfer_times_beside_the_real_ones() -> None:
     cells = (
         Cell("unilateral", "uncalibrated", 40, 20, mean_transfer_s=5.6),
         Cell("bilateral", "uncalibrated", 40, 20, mean_transfer_s=3.6),
