@@ -167,6 +167,11 @@ def tie_span(d: Diagnosis, cell: Cell) -> tuple[float, float]:
     return min(rates), max(rates)
 
 
+def _allowed(values: tuple[float, ...]) -> str:
+    low, high = min(values), max(values)
+    return f"{low:.4g}" if low == high else f"any of {low:.4g}–{high:.4g}"
+
+
 def _finding(d: Diagnosis) -> list[str]:
     lines = []
     if not d.verdict.tried and not d.verdict.named:
@@ -194,10 +199,7 @@ def _finding(d: Diagnosis) -> list[str]:
             "**Unexplained:** the fit cells disagree, and no registered world effect fits them better beyond chance and on held-out cells."
         )
     if d.alternatives:
-        opened = "; ".join(
-            f"{a.name} (any of {min(a.allowed):.4g}–{max(a.allowed):.4g} fits as well)"
-            for a in d.alternatives
-        )
+        opened = "; ".join(f"{a.name} ({_allowed(a.allowed)} fits as well)" for a in d.alternatives)
         lines.append(
             f"**Not told apart:** the fit cells leave open {opened}. Each changes the held-out cells: at its "
             "farthest allowed value it predicts them otherwise than the world without it, so no value is "
