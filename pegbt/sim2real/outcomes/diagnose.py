@@ -10,12 +10,13 @@ import numpy as np
 
 from pegbt.errors import PegbtError
 from pegbt.sim.world_effects import WorldEffects
+from pegbt.sim2real.outcomes.alternatives import Alternative, changes_held_out, open_effects
 from pegbt.sim2real.outcomes.cache import MemoMapper
 from pegbt.sim2real.outcomes.cells import CONDITIONS, VARIANTS, Cell, Outcomes
 from pegbt.sim2real.outcomes.fit import LR_95, Fresh, Profile, Verdict, fit
 from pegbt.sim2real.outcomes.likelihood import log_likelihood
 from pegbt.sim2real.outcomes.locate import Row, locate
-from pegbt.sim2real.outcomes.predict import Prediction, predict, predict_null
+from pegbt.sim2real.outcomes.predict import PREDICT_SEED, Prediction, predict, predict_null, predict_world
 from pegbt.sim2real.outcomes.simulate import Key, Mapper, SimCounts, simulate_cells
 
 CLOSE = 0.05  # real and simulated rates this close need no more simulated transfers to be compared
@@ -51,6 +52,7 @@ class Diagnosis:
     seconds: float = 0.0
     simulated: int = 0
     unreplicated: tuple[str, ...] = ()  # effects the fit chose whose gain did not hold on fresh seeds
+    alternatives: tuple[Alternative, ...] = ()  # effects the fit cells leave open that change a held-out cell
 
     @property
     def unexplained(self) -> list[Row]:
@@ -116,7 +118,9 @@ def diagnose(
             Fresh(RANK_SEED, settings.located),
         )
         fit_cells = tuple(ordered)
+        informative = len(loud)
     else:
+        informative = len(fit_cells)
         verdict = Verdict((), (), (), _null(fit_cells, before, settings.phases), ())
     verdict, unreplicated = _replicated(counting, verdict, fit_cells, settings, progress)
     predicted_by: dict[str, dict[Key, Prediction]] = {}
@@ -127,6 +131,17 @@ def diagnose(
         predicted_by = {tied.label: alone for tied, alone in zip(verdict.tied, each)}
     else:
         predictions = predict_null(before, cells)
+    alternatives: list[Alternative] = []
+    if verdict.tried and not verdict.tied and held_out:
+        alternatives = _alternatives(counting, verdict, fit_cells, held_out, settings, informative)
+    if alternatives:
+        fitted = verdict.named[-1].label if verdict.named else "default world"
+        predicted_by = {
+            fitted: predictions
+            if verdict.named
+            else predict_world(counting, WorldEffects(), cells, settings.transfers),
+            **{a.label: predict_world(counting, a.world(), cells, settings.transfers) for a in alternatives},
+        }
     after = {key: p.at_best for key, p in predictions.items()}
     remaining = locate(fit_cells, after) if verdict.named else []
     return Diagnosis(
@@ -143,7 +158,27 @@ def diagnose(
         time.monotonic() - started,
         counting.simulated,
         unreplicated,
+        tuple(alternatives),
     )
+
+
+def _alternatives(
+    mapper: Mapper,
+    verdict: Verdict,
+    fit_cells: Sequence[Cell],
+    held_out: Sequence[Cell],
+    settings: Settings,
+    informative: int,
+) -> list[Alternative]:
+    """The effects the fit cells leave open on top of the fitted world (the default world if nothing is
+    named) that change a held-out cell's simulated counts."""
+    last = verdict.named[-1] if verdict.named else None
+    base = last.world() if last is not None else WorldEffects()
+    before = last.per_cell[last.best] if last is not None else verdict.null
+    allowed = open_effects(
+        mapper, base, before, fit_cells, settings.transfers, settings.points, informative, settings.phases
+    )
+    return changes_held_out(mapper, base, allowed, held_out, settings.transfers, PREDICT_SEED)
 
 
 def _replicated(
@@ -229,10 +264,7 @@ def _located(
     if far and extra > 0:
         more = simulate_cells(mapper, [WorldEffects()], far, extra, first_seed=settings.transfers)[0]
         for key, counts in more.items():
-            for category, n in counts.counts.items():
-                before[key].counts[category] += n
-            total = before[key].attempted
-            before[key].seconds = (before[key].seconds * (total - extra) + counts.seconds * extra) / total
+            before[key].merge(counts)
     return before
 
 

@@ -70,6 +70,14 @@ def transfers(variant: str) -> tuple[tuple[str, int, int], ...]:
     )
 
 
+def arms_at_once(variant: str) -> int:
+    """How many of `variant`'s transfers run at once: bilateral's two arms each carry a block together
+    (the paper's `FLSPegTransfer_dual.py` moves an action pair, one block per arm, in parallel threads,
+    `motion/dvrkPegTransferMotionDualArm.py`; pegbt's bilateral trees run each arm's list in parallel), so a
+    trial's time per transfer is half of one arm's; the others move one block at a time."""
+    return 2 if variant == "bilateral" else 1
+
+
 RECEIVER = {"PSM1": "PSM2", "PSM2": "PSM1"}
 
 
@@ -503,25 +511,30 @@ def _hand_over(
     if not ik.ok.all():
         return TransferResult(False, first or "handover", world.time)
     taker = _Bench(world, receiver, motion, START, replay, registered)
-    taker.play(motion.through(START, list(ik.q), ["waiting", "handover grasp"]), [(0.0, "handover")])
+    approach = motion.through(START, list(ik.q), ["waiting", "handover grasp"])
+    # The receiver gets ready while the giver picks and carries (the paper's `run_place` thread moves it
+    # to `handover_ready` at once, FLSPegTransfer_handover.py; pegbt's trees run the arms in parallel):
+    # its way to the waiting pose is simulated after the giver's, but its seconds are not the transfer's.
+    ahead = min(_segment_times(approach)[0], world.time)
+    taker.play(approach, [(0.0, "handover")])
     taker.jaw(skills.motion.transfer.jaw_closed, "handover")
     giver.jaw(skills.motion.transfer.jaw_open, "handover")
     if world.held_by(receiver) != block:
-        return TransferResult(False, first or "handover", world.time)
+        return TransferResult(False, first or "handover", world.time - ahead)
     waypoints = from_handover(
         world.cell, skills.motion, receiver, None, meeting.receiver_grasp, meeting.block_pose, goal_peg
     )
     try:
         planned = motion.transfer(waypoints)
     except PegbtError:  # the receiver's carry fails to plan
-        return TransferResult(False, first or "carry", world.time)
+        return TransferResult(False, first or "carry", world.time - ahead)
     _, lowering = _segment_times(planned)
     taker.play(planned, [(0.0, "carry"), (lowering, "lower")], holding=block)
     if world.held_by(receiver) != block:
-        return TransferResult(False, first or _failed_phase(taker.events, block), world.time)
+        return TransferResult(False, first or _failed_phase(taker.events, block), world.time - ahead)
     taker.jaw(skills.motion.transfer.jaw_open, "release")
     placed = world.blocks[block].peg == goal_peg and not world.blocks[block].grips
-    return TransferResult(placed, first if placed else first or "release", world.time)
+    return TransferResult(placed, first if placed else first or "release", world.time - ahead)
 
 
 def _segment_times(planned: Trajectory) -> tuple[float, float]:

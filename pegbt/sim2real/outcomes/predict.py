@@ -14,6 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import stats
 
+from pegbt.sim.world_effects import WorldEffects
 from pegbt.sim2real.outcomes.cells import Cell
 from pegbt.sim2real.outcomes.fit import Profile
 from pegbt.sim2real.outcomes.intervals import mixture_pmf, predictive_interval, rate_interval
@@ -21,6 +22,7 @@ from pegbt.sim2real.outcomes.simulate import Key, Mapper, SimCounts, simulate_ce
 
 MIN_WEIGHT = 0.02  # grid values weighing less than this (relative to the best) are not simulated to predict
 KEEPS = 0.98  # the success a world must keep where the real robot placed every transfer
+PREDICT_SEED = 10_000  # the predictions' simulated transfers: seeds the fit never scored
 Z = float(stats.norm.ppf(0.975))
 
 
@@ -63,7 +65,7 @@ def predict(
         weights = fitted.weights()
         keep = [i for i, w in enumerate(weights) if w >= MIN_WEIGHT * weights.max()]
         worlds = [fitted.candidate.world(fitted.values[i], fitted.base) for i in keep]
-        sims = simulate_cells(mapper, worlds, [c.key for c in cells], transfers, first_seed=10_000)
+        sims = simulate_cells(mapper, worlds, [c.key for c in cells], transfers, first_seed=PREDICT_SEED)
         best.append(sims[keep.index(fitted.best)])
         _keep_up(mapper, fitted, cells, transfers, best[-1])
         for cell in cells:
@@ -84,9 +86,18 @@ def _keep_up(
     extra = transfers_to_keep() - transfers
     if not full or extra <= 0:
         return
-    more = simulate_cells(mapper, [fitted.world()], full, extra, first_seed=10_000 + transfers)[0]
+    more = simulate_cells(mapper, [fitted.world()], full, extra, first_seed=PREDICT_SEED + transfers)[0]
     for key, counts in more.items():
         at_best[key].merge(counts)
+
+
+def predict_world(
+    mapper: Mapper, world: WorldEffects, cells: Sequence[Cell], transfers: int
+) -> dict[Key, Prediction]:
+    """Each of `cells` as one world predicts it (its simulated rate and the cell's binomial draw), on the
+    seeds `predict` uses."""
+    sims = simulate_cells(mapper, [world], [c.key for c in cells], transfers, first_seed=PREDICT_SEED)[0]
+    return {c.key: _prediction(c, _mixture(c, [sims[c.key]], np.ones(1)), sims[c.key]) for c in cells}
 
 
 def predict_null(null_sims: dict[Key, SimCounts], cells: Sequence[Cell]) -> dict[Key, Prediction]:

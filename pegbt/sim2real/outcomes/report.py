@@ -10,12 +10,42 @@ from pegbt.sim.world_effects import write_world_file
 from pegbt.sim2real.outcomes.cells import Cell
 from pegbt.sim2real.outcomes.diagnose import Diagnosis, profile_parameters
 from pegbt.sim2real.outcomes.intervals import rate_interval
+from pegbt.sim2real.outcomes.phasesim import arms_at_once
 from pegbt.sim2real.outcomes.predict import KEEPS
-from pegbt.sim2real.outcomes.simulate import CATEGORIES
+from pegbt.sim2real.outcomes.simulate import CATEGORIES, SimCounts
+
+TIME_TOLERANCE = 0.2  # a simulated mean transfer time this close to the real one (relative) agrees with it
 
 
 def _pct(rate: float) -> str:
     return f"{100 * rate:.1f} %"
+
+
+def time_agrees(real: float | None, simulated: float | None) -> bool | None:
+    """Whether a simulated mean transfer time (of the transfers placed) is within `TIME_TOLERANCE` of the
+    real one; None where either is unknown (no real time, or nothing placed)."""
+    if real is None or simulated is None:
+        return None
+    return abs(simulated - real) <= TIME_TOLERANCE * real
+
+
+def trial_seconds(variant: str, counts: SimCounts) -> float | None:
+    """A trial's seconds per transfer placed, as a real table states it: one simulated transfer's seconds
+    shared among the transfers that run at once (`arms_at_once`)."""
+    seconds = counts.mean_transfer_s
+    return None if seconds is None else seconds / arms_at_once(variant)
+
+
+def _seconds(cell: Cell, before: SimCounts, after: SimCounts) -> str:
+    """A cell's mean transfer times, real / simulated before / after, and whether after agrees."""
+
+    def show(value: float | None) -> str:
+        return "–" if value is None else f"{value:.1f}"
+
+    simulated = trial_seconds(cell.variant, after)
+    agrees = time_agrees(cell.mean_transfer_s, simulated)
+    verdict = "" if agrees is None else (" (within 20 %)" if agrees else " (**off by > 20 %**)")
+    return f"{show(cell.mean_transfer_s)} / {show(trial_seconds(cell.variant, before))} / {show(simulated)}{verdict}"
 
 
 def report_dict(diagnosis: Diagnosis, commands: list[str] | None = None) -> dict[str, Any]:
@@ -42,9 +72,14 @@ def report_dict(diagnosis: Diagnosis, commands: list[str] | None = None) -> dict
             "simulated_phases_after": dict(p.at_best.counts),
             "simulated_seconds_before": before.seconds,
             "simulated_seconds_after": p.at_best.seconds,
+            "simulated_mean_transfer_s_before": trial_seconds(cell.variant, before),
+            "simulated_mean_transfer_s_after": trial_seconds(cell.variant, p.at_best),
         }
         if cell.mean_transfer_s is not None:
             entry["real_mean_transfer_s"] = cell.mean_transfer_s
+            entry["mean_transfer_s_within_20_percent"] = time_agrees(
+                cell.mean_transfer_s, trial_seconds(cell.variant, p.at_best)
+            )
         if cell.failures:
             entry["real"]["failures"] = dict(cell.failures)
         if d.predicted_by:
@@ -106,6 +141,15 @@ def report_dict(diagnosis: Diagnosis, commands: list[str] | None = None) -> dict
             for p in d.verdict.tried
         ],
         "null_log_likelihood": float(d.verdict.null.sum()),
+        "open": [
+            {
+                "candidate": a.name,
+                "allowed": [min(a.allowed), max(a.allowed)],
+                "value": a.value,
+                "world": a.label,
+            }
+            for a in d.alternatives
+        ],
         "unreplicated": list(d.unreplicated),
         "unexplained": [
             {"variant": r.variant, "condition": r.condition, "phase": r.phase, "p_value": r.p_value}
@@ -121,6 +165,11 @@ def tie_span(d: Diagnosis, cell: Cell) -> tuple[float, float]:
     """The lowest and highest rate the effects the data cannot tell apart predict for `cell`."""
     rates = [predictions[cell.key].rate for predictions in d.predicted_by.values()]
     return min(rates), max(rates)
+
+
+def _allowed(values: tuple[float, ...]) -> str:
+    low, high = min(values), max(values)
+    return f"{low:.4g}" if low == high else f"any of {low:.4g}–{high:.4g}"
 
 
 def _finding(d: Diagnosis) -> list[str]:
@@ -148,6 +197,13 @@ def _finding(d: Diagnosis) -> list[str]:
     else:
         lines.append(
             "**Unexplained:** the fit cells disagree, and no registered world effect fits them better beyond chance and on held-out cells."
+        )
+    if d.alternatives:
+        opened = "; ".join(f"{a.name} ({_allowed(a.allowed)} fits as well)" for a in d.alternatives)
+        lines.append(
+            f"**Not told apart:** the fit cells leave open {opened}. Each changes the held-out cells: at its "
+            "farthest allowed value it predicts them otherwise than the world without it, so no value is "
+            "named and the held-out cells are predicted with each below."
         )
     if d.unreplicated:
         lines.append(
@@ -195,8 +251,9 @@ def report_markdown(d: Diagnosis, commands: list[str] | None = None) -> str:
         lines.append("")
     lines += [
         "## Prove",
-        "| variant | condition | real | simulated before | after | predicted (95 %) | held out | inside |",
-        "|---|---|---|---|---|---|---|---|",
+        "| variant | condition | real | simulated before | after | predicted (95 %) | held out | inside "
+        "| s per transfer placed (trial): real / before / after |",
+        "|---|---|---|---|---|---|---|---|---|",
     ]
     held = {c.key for c in d.held_out}
     for cell in d.outcomes.cells:
@@ -204,10 +261,11 @@ def report_markdown(d: Diagnosis, commands: list[str] | None = None) -> str:
         lines.append(
             f"| {cell.variant} | {cell.condition} | {cell.succeeded}/{cell.attempted} ({_pct(cell.rate)}) | "
             f"{_pct(d.before[cell.key].rate)} | {_pct(q.at_best.rate)} | {_pct(q.rate)} ({_pct(q.low)}–{_pct(q.high)}) | "
-            f"{'yes' if cell.key in held else 'no'} | {'yes' if q.inside else '**no**'} |"
+            f"{'yes' if cell.key in held else 'no'} | {'yes' if q.inside else '**no**'} | "
+            f"{_seconds(cell, d.before[cell.key], q.at_best)} |"
         )
     for name, predictions in d.predicted_by.items():
-        lines += ["", f"Predicted with {name} alone:"]
+        lines += ["", f"Predicted with {name}" + ("" if d.alternatives else " alone") + ":"]
         for cell in d.held_out:
             q = predictions[cell.key]
             lines.append(

@@ -34,10 +34,13 @@ Key = tuple[str, str]
 
 @dataclass
 class SimCounts:
-    """Simulated transfers of one cell in one world: per category, and their mean seconds."""
+    """Simulated transfers of one cell in one world: per category, and their mean seconds (of all, which
+    end where a failure stops the arm, and of those placed, which went through every phase: what a real
+    table's mean transfer time compares with)."""
 
     counts: dict[str, int] = field(default_factory=lambda: dict.fromkeys(CATEGORIES, 0))
     seconds: float = 0.0
+    placed_seconds: float = 0.0
     skipped: int = 0  # transfers the protocol never attempted (their block was lost on the way out)
 
     @property
@@ -58,19 +61,28 @@ class SimCounts:
     def merge(self, other: SimCounts) -> None:
         """`other`'s transfers (of the same cell and world, other seeds) added to these."""
         n, m = self.attempted, other.attempted
+        k, j = self.succeeded, other.succeeded
         for category, count in other.counts.items():
             self.counts[category] += count
         self.skipped += other.skipped
         self.seconds = (self.seconds * n + other.seconds * m) / (n + m) if n + m else 0.0
+        self.placed_seconds = (self.placed_seconds * k + other.placed_seconds * j) / (k + j) if k + j else 0.0
+
+    @property
+    def mean_transfer_s(self) -> float | None:
+        """The mean seconds of the transfers placed, if any were."""
+        return self.placed_seconds if self.succeeded else None
 
     def add(self, result: TransferResult) -> None:
         if result.skipped:
             self.skipped += 1
             return
         category = "placed" if result.succeeded else (result.phase or "grasp")
-        n = self.attempted
+        n, k = self.attempted, self.succeeded
         self.counts[category] += 1
         self.seconds = (self.seconds * n + result.seconds) / (n + 1)
+        if result.succeeded:
+            self.placed_seconds = (self.placed_seconds * k + result.seconds) / (k + 1)
 
 
 Task = tuple[tuple[WorldEffects, ...], str, str, int]  # worlds, variant, condition, seed

@@ -1,0 +1,100 @@
+"""What the fit cells leave open: effects they neither name nor exclude, which may still change the cells
+they never saw.
+
+An effect the fit cells cannot see (a grasp effect where every fit cell is one arm, whose grasps already
+hold) has a flat profile there: every value fits as well as the fitted world, so the fit rightly names none
+of them, but the held-out cells may depend on it (the other arm's grasps). Each such effect is profiled on
+top of the fitted world; its values that fit no worse beyond chance (χ² at 95 %, the fit's own criterion)
+are the range the data allow, and the one farthest from its default is the alternative. The simulations
+share their seeds (common random numbers), so an alternative whose held-out cells' simulated counts differ
+from the fitted world's changes the prediction by the effect, not by luck; the report then says the data
+cannot tell the two apart, names neither value, and predicts with each.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from pegbt.sim.world_effects import WORLD_EFFECT_KINDS, WorldEffects
+from pegbt.sim2real.outcomes.cells import Cell
+from pegbt.sim2real.outcomes.fit import LR_95, Profile, candidates, profile
+from pegbt.sim2real.outcomes.simulate import Mapper, simulate_cells
+
+
+@dataclass(frozen=True)
+class Alternative:
+    """An effect the fit cells leave open: the values they allow (grid values no worse than the fitted
+    world beyond chance) and the world with the one farthest from the default."""
+
+    profile: Profile
+    allowed: tuple[float, ...]
+    value: float
+
+    @property
+    def name(self) -> str:
+        return self.profile.candidate.name
+
+    @property
+    def label(self) -> str:
+        return f"{self.name} = {self.value:.4g}"
+
+    def world(self) -> WorldEffects:
+        return self.profile.candidate.world(self.value, self.profile.base)
+
+
+def allowed_values(fitted: Profile, before: float) -> tuple[float, ...]:
+    """The grid values of `fitted` whose fit-cell log-likelihood is within χ²₁,₀.₉₅ / 2 of `before` (the
+    world without it) or better: those the fit cells cannot exclude."""
+    return tuple(v for v, total in zip(fitted.values, fitted.total) if 2 * (before - total) < LR_95)
+
+
+def open_effects(
+    mapper: Mapper,
+    base: WorldEffects,
+    before: np.ndarray,
+    cells: Sequence[Cell],
+    transfers: int,
+    points: int,
+    informative: int,
+    phases: bool,
+) -> list[Alternative]:
+    """Every candidate of a kind not in `base` (the fitted world; `before` its per-cell log-likelihoods on
+    the fit `cells`) profiled on top of it, and those whose values the fit cells cannot exclude as
+    alternatives, each at its allowed value farthest from the default."""
+    others = [c for c in candidates(points) if c.kind not in {effect.kind for effect in base}]
+    worlds = [candidate.world(value, base) for candidate in others for value in candidate.grid]
+    simulate_cells(mapper, worlds, [c.key for c in cells[:informative]], transfers)  # one batch
+    out = []
+    for candidate in others:
+        fitted = profile(mapper, candidate, cells, transfers, before, informative, base, phases)
+        allowed = allowed_values(fitted, float(before.sum()))
+        if not allowed:
+            continue
+        p = WORLD_EFFECT_KINDS[candidate.kind].parameters[candidate.parameter]
+        value = max(allowed, key=lambda v: abs(v - p.default) / (p.high - p.low))
+        out.append(Alternative(fitted, allowed, value))
+    return out
+
+
+def changes_held_out(
+    mapper: Mapper,
+    base: WorldEffects,
+    alternatives: Sequence[Alternative],
+    held_out: Sequence[Cell],
+    transfers: int,
+    first_seed: int,
+) -> list[Alternative]:
+    """Those of `alternatives` whose simulated counts in a `held_out` cell differ from `base`'s on the same
+    seeds: the alternatives that change a prediction."""
+    keys = [c.key for c in held_out]
+    if not keys or not alternatives:
+        return []
+    sims = simulate_cells(mapper, [base, *(a.world() for a in alternatives)], keys, transfers, first_seed)
+    return [
+        a
+        for a, sim in zip(alternatives, sims[1:])
+        if any(not np.array_equal(sim[k].vector(), sims[0][k].vector()) for k in keys)
+    ]

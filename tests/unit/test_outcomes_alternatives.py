@@ -1,0 +1,66 @@
+"""An effect the fit cells cannot see (flat profile there) but which changes a held-out cell is reported as
+open: not named, its allowed range given, and the held-out cells predicted with it and without it."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from pegbt.sim.world_effects import WorldEffects
+from pegbt.sim2real.outcomes.cells import Cell, Outcomes
+from pegbt.sim2real.outcomes.diagnose import Settings, diagnose
+from pegbt.sim2real.outcomes.phasesim import TransferResult
+from pegbt.sim2real.outcomes.report import report_dict, report_markdown
+from pegbt.sim2real.outcomes.simulate import Mapper, Task
+
+
+def _rate(effects: WorldEffects, variant: str, condition: str, capture_acts: bool) -> float:
+    """Uncalibrated success rises with a bending peg in both variants; bilateral also with a wider grasp
+    capture (the other arm's grasps), which unilateral never needs."""
+    if condition != "uncalibrated":
+        return 1.0
+    bend = effects.values("peg_compliance")["deflection"] / 0.003
+    capture = effects.values("grasp_capture")["width"] / 0.003 if capture_acts else 0.0
+    return 0.05 + 0.4 * bend + (0.5 * capture if variant == "bilateral" else 0.0)
+
+
+def _mapper(capture_acts: bool) -> Mapper:
+    def run(tasks: Sequence[Task]) -> list[list[TransferResult]]:
+        out = []
+        for worlds, variant, condition, seed in tasks:
+            u = np.random.default_rng([seed, 11]).random()
+            placed = [bool(u < _rate(e, variant, condition, capture_acts)) for e in worlds]
+            out.append([TransferResult(p, None if p else "grasp", 4.0) for p in placed])
+        return out
+
+    return run
+
+
+CELLS = (
+    Cell("unilateral", "uncalibrated", 80, 28),
+    Cell("unilateral", "calibrated", 80, 80),
+    Cell("bilateral", "uncalibrated", 80, 50),
+)
+
+
+def test_an_effect_the_fit_cells_cannot_see_is_left_open_and_predicts_the_held_out_cells() -> None:
+    d = diagnose(Outcomes(CELLS, "test"), Settings(fit="unilateral", transfers=120, points=3), _mapper(True))
+    assert [p.candidate.kind for p in d.verdict.named] == ["peg_compliance"]
+    opened = {a.name: a for a in d.alternatives}
+    assert "grasp_capture.width" in opened
+    assert opened["grasp_capture.width"].value == 0.003  # every value fits the unilateral cells as well
+    report = report_dict(d)
+    assert "grasp_capture.width" not in {n["effect"] for n in report["named"]}
+    assert any(o["candidate"] == "grasp_capture.width" for o in report["open"])
+    bilateral = next(c for c in report["cells"] if c["variant"] == "bilateral")
+    with_capture = bilateral["predicted_by"]["grasp_capture.width = 0.003"]["rate"]
+    without = bilateral["predicted_by"]["peg_compliance"]["rate"]
+    assert with_capture > without + 0.2
+    assert "leave open" in report_markdown(d) and "Across the tie" in report_markdown(d)
+
+
+def test_an_open_effect_that_changes_no_held_out_cell_is_not_reported() -> None:
+    d = diagnose(Outcomes(CELLS, "test"), Settings(fit="unilateral", transfers=120, points=3), _mapper(False))
+    assert [p.candidate.kind for p in d.verdict.named] == ["peg_compliance"]
+    assert "grasp_capture.width" not in {a.name for a in d.alternatives}
