@@ -134,12 +134,20 @@ def score(d: Diagnosis, hidden: Mapping[str, Mapping[str, float]]) -> dict[str, 
 
 
 def measure(
-    families: Sequence[str], seeds: int, real_transfers: int, settings: Settings, workers: int = 2
+    families: Sequence[str],
+    seeds: int,
+    real_transfers: int,
+    settings: Settings,
+    workers: int = 2,
+    simulator: Mapper | None = None,
 ) -> dict[str, float | int | str]:
-    """The figures of `families` over `seeds` seeds each. One memo of simulated transfers serves every
-    diagnosis (`cache.MemoMapper`): their fits simulate the same worlds on the same seeds."""
-    pool = LocalMapper(workers)
-    memo = MemoMapper(pool)
+    """The figures of `families` over `seeds` seeds each, simulated by `simulator` (by default the phase
+    simulator in `workers` local processes). One memo of simulated transfers serves every diagnosis
+    (`cache.MemoMapper`): their fits simulate the same worlds on the same seeds."""
+    pool = None
+    if simulator is None:
+        pool = simulator = LocalMapper(workers)
+    memo = MemoMapper(simulator)
     figures: dict[str, float | int | str] = {}
     started, cpu = time.monotonic(), _cpu_seconds()
     scores: dict[str, list[dict[str, float]]] = {family: [] for family in families}
@@ -165,7 +173,8 @@ def measure(
                     flush=True,
                 )
     finally:
-        pool.close()
+        if pool is not None:
+            pool.close()
     for family in families:
         for name in ("named", "false", "inside"):
             figures[f"{family}_{name}"] = statistics.mean(s[name] for s in scores[family])

@@ -1,0 +1,42 @@
+"""`pegbt bench sim2real-outcomes` runs every diagnosis of every family and seed through one memo of
+simulated transfers; its figures must be those of diagnoses that each simulate everything afresh."""
+
+from __future__ import annotations
+
+import math
+import statistics
+
+from pegbt.bench import sim2real_outcomes as bench
+from pegbt.sim.world_effects import WorldEffects
+from pegbt.sim2real.outcomes.diagnose import diagnose
+from tests.outcomes_helpers import fake_mapper
+
+FAMILIES = ["peg_compliance", "null"]
+SEEDS = 2
+REAL = 40
+
+
+def _same(a: float | int | str, b: float | int | str) -> bool:
+    if isinstance(a, float) and isinstance(b, float) and math.isnan(a) and math.isnan(b):
+        return True
+    return a == b
+
+
+def test_the_shared_memo_gives_the_figures_of_unshared_diagnoses() -> None:
+    figures = bench.measure(FAMILIES, SEEDS, REAL, bench.SETTINGS, simulator=fake_mapper)
+    scores: dict[str, list[dict[str, float]]] = {family: [] for family in FAMILIES}
+    needed = 0
+    for seed in range(SEEDS):
+        worlds = [WorldEffects.of(bench.FAMILIES[family]) for family in FAMILIES]
+        for family, real in zip(FAMILIES, bench.concealed_outcomes(fake_mapper, worlds, seed, REAL)):
+            alone = diagnose(real, bench.SETTINGS, fake_mapper)
+            needed += alone.simulated
+            scores[family].append(bench.score(alone, bench.FAMILIES[family]))
+    for family in FAMILIES:
+        for name in ("named", "false", "inside"):
+            assert _same(figures[f"{family}_{name}"], statistics.mean(s[name] for s in scores[family]))
+    assert figures["peg_compliance_named"] == 1.0 and figures["null_false"] == 0.0
+    errors = [s["error"] for s in scores["peg_compliance"]]
+    assert figures["peg_compliance_parameter_error_median"] == statistics.median(errors)
+    assert figures["transfers_the_diagnoses_simulate"] == needed
+    assert isinstance(figures["transfers_simulated"], int) and figures["transfers_simulated"] < needed
