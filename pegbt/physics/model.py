@@ -249,9 +249,13 @@ class ArmPhysics(ArmParameters):
         return self._transformed(self._with_hysteresis([by_delay[float(d)] for d in self.delay]), t)
 
     def replay(
-        self, q_cmd: ArrayLike, t: ArrayLike | None = None, stop: int | None = None, rows: int = REPLAY_ROWS
+        self,
+        q_cmd: ArrayLike,
+        t: ArrayLike | None = None,
+        stop: int | None = None,
+        rows: int | None = None,
     ) -> Iterator[tuple[int, NDArray[np.float64]]]:
-        """`simulate(q_cmd, t)` `rows` samples at a time, each chunk from the state the one before left:
+        """`simulate(q_cmd, t)` `rows` (`REPLAY_ROWS`) samples at a time, each chunk from the state the one before left:
         (its first row, its physical joints), the same values as one `simulate`, in memory bounded by a
         chunk (commands and times are only read: they may be memory-mapped). A replay is causal, so
         `stop` ends it there: rows [0, stop) are those of the whole replay."""
@@ -263,6 +267,7 @@ class ArmPhysics(ArmParameters):
         kernel_states: list[Any] = [None] * len(transforms)
         play_states: list[Any] = [None] * len(self.hysteresis)
         end = len(q_cmd) if stop is None else stop
+        rows = REPLAY_ROWS if rows is None else rows
         for a in range(0, end, rows):
             b = min(a + rows, end)
             if times is None:
