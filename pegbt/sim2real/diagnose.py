@@ -380,7 +380,6 @@ def diagnose(
     mismatch = locate(residual, q_cmd, recording.times, sampling.is_stream)
     resolution = resolution if resolution is not None else recording.resolution
     folds = fold_ranges(recording.n)
-    choice = choose_and_fit(q_cmd, t, residual, base, sampling.is_stream, resolution)
     heldout, named_heldout, fold_named = nested_predict(recording, t, residual, base, resolution, folds)
     assert named_heldout is not None, "asked for"
     np.subtract(recording.q_phy, named_heldout, out=named_heldout)  # its error, in place: held once
@@ -388,13 +387,15 @@ def diagnose(
     del named_heldout
     cable_residual = residual
     if geometry is not None:
-        del heldout  # this choice's predictions go before the next one's are made
+        del heldout  # the first held-out predictions go before the second are made
         removal = displacement_removal(q_cmd, residual, resolution)
         cable_residual = residual - removal(np.ones(recording.n, dtype=bool))
-        choice = choose_and_fit(q_cmd, t, cable_residual, base, sampling.is_stream, resolution)
         heldout, _, fold_named = nested_predict(
             recording, t, residual, base, resolution, folds, removal, with_named=False
         )
+    # made once the held-out work is done (what it keeps is not held through it), and only on the
+    # residual the effects are named from: with a displacement, the one it leaves
+    choice = choose_and_fit(q_cmd, t, cable_residual, base, sampling.is_stream, resolution)
     fits = choice.fits
     drivers = base.static_map(q_cmd)
     rng = np.random.default_rng(seed)
@@ -504,4 +505,6 @@ def _prepare(
     faults = detect_faults(recording.q_cmd, recording.q_phy, recording.limits)
     kept = recording.subset(faults.kept)
     t = kept.t if kept.sampling.is_stream else None
-    return base, faults, kept, t, base.simulate(kept.q_cmd, t)
+    simulated = np.empty_like(kept.q_cmd)
+    replay_segment(base, kept.q_cmd, t, (0, kept.n), simulated)
+    return base, faults, kept, t, simulated
