@@ -133,6 +133,14 @@ class EffectKind:
         """The transformed signal (N,) of one joint; `t=None`: settled set-points."""
         raise NotImplementedError(f"{self.name} gives no sequence kernel")
 
+    def sequence_from(
+        self, effect: Effect, x: Array, t: Array | None, start: int, state: Any
+    ) -> tuple[Array, Any]:
+        """Rows start:start+len(x) of `sequence` over a whole recording (`t` its whole times), from the
+        `state` the rows before left (None at row 0), and the state they leave: a replay a chunk at a
+        time. This default suits a stateless kind (the target stage); a kind with state carries it."""
+        return self.sequence(effect, x, None if t is None else t[start : start + len(x)]), state
+
     def start(self, effect: Effect, x: float) -> Any:
         """The kernel's state with the joint settled at input `x` (None for a stateless kind)."""
         return None

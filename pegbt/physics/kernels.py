@@ -9,6 +9,7 @@ vectorised step, for a whole grid of half-widths at once (what width searches ne
 from __future__ import annotations
 
 from collections.abc import Iterator, Sequence
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -154,6 +155,48 @@ def lag_blocks(u: Array, t: Array, tau: float, edges: Sequence[int]) -> Iterator
             last += alpha * (value - last)
             y.append(last)
         yield np.asarray(y)
+
+
+def lag_chunk(u: Array, t: Array, start: int, tau: float, state: Any) -> tuple[Array, Any]:
+    """Rows start:start+len(u) of `lag_series(whole, t, tau)` (`t` the whole sequence's times), from the
+    `state` the rows before left (None at row 0), and the state these rows leave: the same values as one
+    call, a chunk at a time (a replay through the physics in memory bounded by a chunk)."""
+    u = np.asarray(u, dtype=float)
+    if tau <= 0 or len(t) < 2:
+        return u.copy(), state
+    if state is None:
+        uniform = is_uniform(t)
+        alpha = 1.0 - np.exp(-float(t[1] - t[0]) / tau) if uniform else 0.0
+        state = (uniform, alpha, np.array([(1.0 - alpha) * u[0]]) if uniform else float(u[0]))
+    uniform, alpha, carried = state
+    if uniform:
+        from scipy.signal import lfilter  # seconds to import: only where a lag is computed
+
+        y, carried = lfilter([alpha], [1.0, alpha - 1.0], u, zi=carried)
+        return np.asarray(y), (uniform, alpha, carried)
+    alphas = (1.0 - np.exp(-np.diff(t[max(start - 1, 0) : start + len(u)]) / tau)).tolist()
+    values = u.tolist()
+    last = carried
+    y = []
+    if start == 0:
+        y.append(last)
+        values = values[1:]
+    for step, value in zip(alphas, values):
+        last += step * (value - last)
+        y.append(last)
+    return np.asarray(y), (uniform, alpha, last)
+
+
+def delay_chunk(u: Array, t: Array, start: int, stop: int, seconds: float) -> Array:
+    """Rows start:stop of `delay_series(u, t, seconds)` (u (N, J), `t` whole), reading only the rows of
+    `u` those samples interpolate between."""
+    if seconds <= 0:
+        return np.array(u[start:stop], dtype=float)
+    when = t[start:stop] - seconds
+    lo = max(int(np.searchsorted(t, when[0], side="right")) - 2, 0)
+    hi = min(int(np.searchsorted(t, when[-1], side="right")) + 2, len(t))
+    window, values = t[lo:hi], u[lo:hi]
+    return np.column_stack([np.interp(when, window, values[:, k]) for k in range(u.shape[1])])
 
 
 def apply_lag(u: ArrayLike, t: ArrayLike, tau: ArrayLike) -> Array:

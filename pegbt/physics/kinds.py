@@ -27,6 +27,7 @@ from pegbt.physics.kernels import (
     delay_blocks,
     delay_series,
     lag_blocks,
+    lag_chunk,
     lag_series,
     play_blocks,
     play_grid,
@@ -187,6 +188,12 @@ class Backlash(PlayKind):
     def sequence(self, effect: Effect, x: Array, t: Array | None) -> Array:
         return play_grid(x, effect.params["half_width"], x[0])[:, 0]
 
+    def sequence_from(
+        self, effect: Effect, x: Array, t: Array | None, start: int, state: Any
+    ) -> tuple[Array, Any]:
+        y = play_grid(x, effect.params["half_width"], x[0] if state is None else state)[:, 0]
+        return y, y[-1]
+
     def start(self, effect: Effect, x: float) -> float:
         return x
 
@@ -302,6 +309,11 @@ class Lag(EffectKind):
 
     def sequence(self, effect: Effect, x: Array, t: Array | None) -> Array:
         return x.copy() if t is None else lag_series(x, t, float(effect.params["tau"]))
+
+    def sequence_from(
+        self, effect: Effect, x: Array, t: Array | None, start: int, state: Any
+    ) -> tuple[Array, Any]:
+        return (x.copy(), state) if t is None else lag_chunk(x, t, start, float(effect.params["tau"]), state)
 
     def start(self, effect: Effect, x: float) -> float:
         return x

@@ -16,18 +16,20 @@ from __future__ import annotations
 
 import json
 from collections import deque
-from collections.abc import Iterable
+from collections.abc import Iterable, Iterator
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from pegbt.errors import PegbtError
 from pegbt.physics.effects import TRANSFORM_STAGES, ArmParameters, Effect, EffectKind, joint_index
-from pegbt.physics.kernels import delay_series, play_grid
+from pegbt.physics.kernels import delay_chunk, delay_series, play_grid
 from pegbt.psm import N_JOINTS
 
 PRESET_DIR = Path(__file__).parent / "presets"
+REPLAY_ROWS = 8192  # samples a chunked replay computes at once: a few MB however long the recording
 
 
 class ArmPhysics(ArmParameters):
@@ -246,6 +248,42 @@ class ArmPhysics(ArmParameters):
                 by_delay[seconds] = q_cmd if seconds <= 0 else delay_series(q_cmd, t, seconds)
         return self._transformed(self._with_hysteresis([by_delay[float(d)] for d in self.delay]), t)
 
+    def replay(
+        self,
+        q_cmd: ArrayLike,
+        t: ArrayLike | None = None,
+        stop: int | None = None,
+        rows: int | None = None,
+    ) -> Iterator[tuple[int, NDArray[np.float64]]]:
+        """`simulate(q_cmd, t)` `rows` (`REPLAY_ROWS`) samples at a time, each chunk from the state the one before left:
+        (its first row, its physical joints), the same values as one `simulate`, in memory bounded by a
+        chunk (commands and times are only read: they may be memory-mapped). A replay is causal, so
+        `stop` ends it there: rows [0, stop) are those of the whole replay."""
+        q_cmd = np.asarray(q_cmd, dtype=float)
+        if q_cmd.ndim != 2 or q_cmd.shape[1] != N_JOINTS:
+            raise PegbtError(f"commands must be N×{N_JOINTS}, got shape {q_cmd.shape}", field="q_cmd")
+        times = None if t is None else np.asarray(t, dtype=float)
+        transforms = self.transforms if times is not None else self.settled_transforms()
+        kernel_states: list[Any] = [None] * len(transforms)
+        play_states: list[Any] = [None] * len(self.hysteresis)
+        end = len(q_cmd) if stop is None else stop
+        rows = REPLAY_ROWS if rows is None else rows
+        for a in range(0, end, rows):
+            b = min(a + rows, end)
+            if times is None:
+                seen_by = [q_cmd[a:b]] * N_JOINTS
+            else:
+                by_delay = {
+                    s: delay_chunk(q_cmd, times, a, b, s) for s in dict.fromkeys(map(float, self.delay))
+                }
+                seen_by = [by_delay[float(d)] for d in self.delay]
+            targets = self._with_hysteresis(seen_by, play_states)
+            for n, (j, kind, effect) in enumerate(transforms):
+                targets[:, j], kernel_states[n] = kind.sequence_from(
+                    effect, targets[:, j], times, a, kernel_states[n]
+                )
+            yield a, targets
+
     def _transformed(
         self, targets: NDArray[np.float64], t: NDArray[np.float64] | None
     ) -> NDArray[np.float64]:
@@ -259,9 +297,12 @@ class ArmPhysics(ArmParameters):
         """What each joint's backlash sees along settled set-points (N, 6): the static map plus hysteresis."""
         return self._with_hysteresis([q_cmd] * N_JOINTS)
 
-    def _with_hysteresis(self, seen_by: list[NDArray[np.float64]]) -> NDArray[np.float64]:
+    def _with_hysteresis(
+        self, seen_by: list[NDArray[np.float64]], play_states: list[Any] | None = None
+    ) -> NDArray[np.float64]:
         """Static targets (N, 6) from the commands each joint sees, plus the hysteresis terms. Joints that
-        see the same commands (all of them without delays) share one static map of them."""
+        see the same commands (all of them without delays) share one static map of them. `play_states`
+        (one per hysteresis, None at the start) carry each play's output across chunks of a replay."""
         distinct = list({id(seen): seen for seen in seen_by}.values())
         if len(distinct) == 1:
             static = self.static_map(distinct[0])
@@ -273,9 +314,12 @@ class ArmPhysics(ArmParameters):
         if not self.hysteresis:
             return static
         target = static.copy()
-        for j, source, half_width, k in self.hysteresis:
+        for n, (j, source, half_width, k) in enumerate(self.hysteresis):
             seen = self._drive(j, source, seen_by[j], static)
-            target[:, j] += k * (play_grid(seen, half_width)[:, 0] - seen)
+            play = play_grid(seen, half_width, None if play_states is None else play_states[n])[:, 0]
+            if play_states is not None:
+                play_states[n] = play[-1]
+            target[:, j] += k * (play - seen)
         return target
 
     @staticmethod

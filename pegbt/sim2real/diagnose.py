@@ -160,8 +160,20 @@ def crossval_predict(
             fit_joint(s, recording.q_cmd, t, residual[:, s.joint], drivers[:, s.joint], rows, refine=False)
             for s in structures
         ]
-        prediction[a:b] = merged_physics(fits, base).simulate(recording.q_cmd, t)[a:b]
+        replay_segment(merged_physics(fits, base), recording.q_cmd, t, (a, b), prediction)
     return prediction
+
+
+def replay_segment(
+    physics: ArmPhysics, q_cmd: Array, t: Array | None, segment: tuple[int, int], out: Array
+) -> None:
+    """Write rows `segment` of `physics`'s replay of the whole command sequence into `out`, replaying a
+    chunk at a time up to the segment's end (`ArmPhysics.replay`): a recording's length is never held."""
+    a, b = segment
+    for start, rows in physics.replay(q_cmd, t, stop=b):
+        first = max(a, start)
+        if first < start + len(rows):
+            out[first : start + len(rows)] = rows[first - start :]
 
 
 SELECTION_ROUNDS = 2
@@ -278,9 +290,11 @@ def nested_predict(
     resolution: tuple[float, ...] | None,
     fold_ranges: list[tuple[int, int]],
     removal: Callable[[NDArray[np.bool_]], Array] | None = None,
-) -> tuple[Array, Array, list[list[str]]]:
+    with_named: bool = True,
+) -> tuple[Array, Array | None, list[list[str]]]:
     """Held-out predictions by nested cross-validation, of the whole model and of its named effects
-    alone, and the effects each training part named.
+    alone (None without `with_named`: a replay a segment less, and no array the recording's size),
+    and the effects each training part named.
 
     For each segment the whole choice (effects, widths, coefficients; its own inner folds) is made on
     the rest of the recording, and the merged physics model replays the whole command sequence (commands
@@ -288,7 +302,7 @@ def nested_predict(
     With a `removal` (`pegbt.sim2real.geometry.displacement_removal`), what it fits on the rest is taken
     out of the residual before the choice and added back to the prediction."""
     prediction = np.empty_like(recording.q_phy)
-    named_prediction = np.empty_like(recording.q_phy)
+    named_prediction = np.empty_like(recording.q_phy) if with_named else None
     named = []
     for a, b in fold_ranges:
         keep = np.ones(recording.n, dtype=bool)
@@ -301,7 +315,8 @@ def nested_predict(
         )
         if shift is not None:
             prediction[a:b] += shift[a:b]
-            named_prediction[a:b] += shift[a:b]
+            if named_prediction is not None:
+                named_prediction[a:b] += shift[a:b]
     return prediction, named_prediction, named
 
 
@@ -313,7 +328,7 @@ def _predict_segment(
     base: ArmPhysics,
     resolution: tuple[float, ...] | None,
     segment: tuple[int, int],
-    out: tuple[Array, Array],
+    out: tuple[Array, Array | None],
 ) -> list[str]:
     """One segment of `nested_predict`: the choice made without it (on `residual − shift`), its whole
     model's and its named effects' replays written into the segment's rows of `out`, and its labels. A
@@ -322,16 +337,20 @@ def _predict_segment(
     a, b = segment
     keep = np.ones(recording.n, dtype=bool)
     keep[a:b] = False
+    training = residual[keep]
+    if shift is not None:
+        training -= shift[keep]
     choice = choose_and_fit(
         recording.q_cmd[keep],
         None if t is None else t[keep],
-        (residual if shift is None else residual - shift)[keep],
+        training,
         base,
         recording.sampling.is_stream,
         resolution,
     )
-    for fits, prediction in zip((choice.fits, choice.named_fits()), out):
-        prediction[a:b] = merged_physics(fits, base).simulate(recording.q_cmd, t)[a:b]
+    replay_segment(merged_physics(choice.fits, base), recording.q_cmd, t, (a, b), out[0])
+    if out[1] is not None:
+        replay_segment(merged_physics(choice.named_fits(), base), recording.q_cmd, t, (a, b), out[1])
     return choice.labels()
 
 
@@ -361,15 +380,22 @@ def diagnose(
     mismatch = locate(residual, q_cmd, recording.times, sampling.is_stream)
     resolution = resolution if resolution is not None else recording.resolution
     folds = fold_ranges(recording.n)
-    choice = choose_and_fit(q_cmd, t, residual, base, sampling.is_stream, resolution)
     heldout, named_heldout, fold_named = nested_predict(recording, t, residual, base, resolution, folds)
-    geometry = check_geometry(q_cmd, residual, recording.q_phy - named_heldout, folds, resolution)
+    assert named_heldout is not None, "asked for"
+    np.subtract(recording.q_phy, named_heldout, out=named_heldout)  # its error, in place: held once
+    geometry = check_geometry(q_cmd, residual, named_heldout, folds, resolution)
+    del named_heldout
     cable_residual = residual
     if geometry is not None:
+        del heldout  # the first held-out predictions go before the second are made
         removal = displacement_removal(q_cmd, residual, resolution)
         cable_residual = residual - removal(np.ones(recording.n, dtype=bool))
-        choice = choose_and_fit(q_cmd, t, cable_residual, base, sampling.is_stream, resolution)
-        heldout, _, fold_named = nested_predict(recording, t, residual, base, resolution, folds, removal)
+        heldout, _, fold_named = nested_predict(
+            recording, t, residual, base, resolution, folds, removal, with_named=False
+        )
+    # made once the held-out work is done (what it keeps is not held through it), and only on the
+    # residual the effects are named from: with a displacement, the one it leaves
+    choice = choose_and_fit(q_cmd, t, cable_residual, base, sampling.is_stream, resolution)
     fits = choice.fits
     drivers = base.static_map(q_cmd)
     rng = np.random.default_rng(seed)
@@ -479,4 +505,6 @@ def _prepare(
     faults = detect_faults(recording.q_cmd, recording.q_phy, recording.limits)
     kept = recording.subset(faults.kept)
     t = kept.t if kept.sampling.is_stream else None
-    return base, faults, kept, t, base.simulate(kept.q_cmd, t)
+    simulated = np.empty_like(kept.q_cmd)
+    replay_segment(base, kept.q_cmd, t, (0, kept.n), simulated)
+    return base, faults, kept, t, simulated

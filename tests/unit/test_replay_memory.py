@@ -119,3 +119,29 @@ def test_the_displacement_fitted_piece_by_piece_is_the_least_squares_one(
     shift = displacement_removal(q_cmd, error, None)(np.ones(SHORT, dtype=bool))
     expected = columns @ whole[3:]
     np.testing.assert_allclose(shift, expected - expected.mean(axis=0), rtol=1e-9, atol=1e-15)
+
+
+def test_a_held_out_segment_is_replayed_without_the_whole_replay(monkeypatch: pytest.MonkeyPatch) -> None:
+    from pegbt.physics import model
+    from pegbt.sim2real.diagnose import replay_segment
+
+    monkeypatch.setattr(model, "REPLAY_ROWS", 500)
+    physics = ArmPhysics(
+        [
+            Effect("hysteresis", "q6", {"source": "q6", "half_width": 0.02, "k": 0.6}),
+            Effect("backlash", "q4", {"half_width": 0.01}),
+            Effect("lag", "q5", {"tau": 0.04}),
+        ]
+    )
+    peaks = []
+    for n in (300, SHORT, LONG):  # the first imports what a lag needs
+        q_cmd, t = _commands(n)
+        out = np.zeros_like(q_cmd)  # the caller's: only what the replay adds is traced
+        peaks.append(_peak_bytes(lambda: replay_segment(physics, q_cmd, t, (4 * n // 5, n), out)))
+    # a whole replay sliced to the segment held its output and a static map: 2 ROW a sample or more
+    assert (peaks[2] - peaks[1]) / (LONG - SHORT) <= 0.25 * ROW
+    q_cmd, t = _commands(SHORT)
+    out = np.zeros_like(q_cmd)
+    replay_segment(physics, q_cmd, t, (1234, 3456), out)
+    assert np.array_equal(out[1234:3456], physics.simulate(q_cmd, t)[1234:3456])
+    assert not out[:1234].any() and not out[3456:].any()
