@@ -426,3 +426,36 @@ def test_the_receivers_way_to_the_next_meeting_is_planned_while_it_carries_the_l
     grasp = py_trees.blackboard.Blackboard.get("/receiver_grasp")
     expected = way_to_wait(skills, skills.arm("PSM2"), "PSM2", carry.target.q[-1], grasp)
     assert np.allclose(way.target.q, expected.q)
+
+
+FIRST_HANDOVER = f"""
+  sequence:
+    children:
+      - begin_transfer: {{arms: "PSM1→PSM2", pick: {PICK}, place: {PLACE}, transfer: /n}}
+      - approach: {{arm: PSM1, block: /PSM1/block, grasp: /PSM1/grasp, keep_apart: 0.0}}
+      - grasp: {{arm: PSM1, holding: /PSM1/holding}}
+      - handover_poses: {{arm: PSM1, receiver: PSM2, grasp: /PSM1/grasp, block: /PSM1/block, meeting: /meeting, block_pose: /block_pose, receiver_grasp: /receiver_grasp}}
+      - go_to_handover: {{arm: PSM2, grasp: /receiver_grasp, keep_apart: 0.0}}
+"""
+
+
+def test_a_receiver_with_nothing_to_carry_plans_its_way_to_the_meeting_as_the_givers_approach_is_sent(
+    tmp_path, robot, skills, seen, clock
+):
+    """The first handover after a look has no carry before the receiver's way to the meeting: that way
+    was planned only as it began, on the handover's critical path. It is now planned from where the
+    receiver rests as the giver's approach is sent (with the meeting), and is the plan sent."""
+    pool = GatedPool(clock)
+    giver, receiver = psm1(robot), robot.arms["PSM2"]
+    assert isinstance(receiver, FakeArm)
+    giver.block_in_jaw = True
+    values = chosen(skills, seen) | {"/meeting": None, "/block_pose": None, "/receiver_grasp": None}
+    built = build(tmp_path, robot, skills, FIRST_HANDOVER, pool, values)
+    resting = receiver.rest.copy()
+    assert run(built, clock, pool) == Status.SUCCESS, built.root.feedback_message
+    approach = next(sent for sent in giver.sent if sent.kind == "trajectory")
+    (way,) = (sent for sent in receiver.sent if sent.kind == "trajectory")
+    assert sorted(set(pool.submitted)) == [0.0, approach.at, way.at]  # the last: the descent's plan
+    grasp = py_trees.blackboard.Blackboard.get("/receiver_grasp")
+    expected = way_to_wait(skills, skills.arm("PSM2"), "PSM2", resting, grasp)
+    assert np.allclose(way.target.q, expected.q)

@@ -361,6 +361,37 @@ def test_grasp_succeeds_once_the_jaw_stopped_on_the_wall_and_the_squeeze_goes_on
     assert arm.jaw.position()[0] > transfer.jaw_closed and arm.jaw.sent[-1].kind == "jaw"
 
 
+class RealtimeManualClock(ManualClock):
+    """A manual clock whose time passes while a tick computes, as a wall clock's does."""
+
+    realtime = True
+
+
+def test_grasp_in_real_time_is_ticked_as_a_new_jaw_reading_comes_and_sees_the_grip_within_a_period(
+    tmp_path, skills, cloud
+):
+    """Ticked only every tree period (20 ms), a real-time grasp saw the grip up to two periods after the
+    jaw stopped on the wall; it now asks for a tick as each new reading comes (the runner's `wake_when`)."""
+    clock = RealtimeManualClock()
+    robot = fake_robot(clock, skills.settings, skills.cell, cloud)
+    arm, transfer = closing(robot, skills), skills.motion.transfer
+    arm.block_in_jaw = True
+    built = build(tmp_path, robot, skills, "{grasp: {arm: PSM1, holding: /PSM1/holding}}")
+    (leaf,) = [node.behaviour for node in built.nodes]
+    tree_period, poll = 0.02, 0.002
+    while True:  # as the runner in real time: a tick a tree period after the last, sooner if wake_when
+        built.root.tick_once()
+        if leaf.status != Status.RUNNING or clock.now() > 1.0:
+            break
+        last_tick = clock.now()
+        while clock.now() < last_tick + tree_period - 1e-9 and not (leaf.wake_when and leaf.wake_when()):
+            clock.advance(poll)
+    assert leaf.status == Status.SUCCESS and read("/PSM1/holding") is True
+    velocity, period = skills.settings["PSM1"].jaw_velocity, skills.settings["PSM1"].control_period
+    confirmed = (transfer.jaw_open - (BLOCK_WALL_ANGLE - transfer.grip_confirmed_below)) / velocity
+    assert confirmed <= clock.now() <= confirmed + period
+
+
 def test_grasp_closing_on_nothing_fails_however_often_it_looks(tmp_path, robot, skills, clock):
     closing(robot, skills)
     built = build(tmp_path, robot, skills, "{grasp: {arm: PSM1, holding: /PSM1/holding}}")

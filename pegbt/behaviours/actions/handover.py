@@ -187,6 +187,22 @@ def plan_meeting_early(
         motion.meeting.job.discard()
     job = pool.submit_ahead(plan_meeting, leaf.skills, giver, receiver, grasp, block)
     motion.meeting = EarlyResult((giver, grasp, block), job)
+    if _waits_empty_handed(leaf, receiver):
+        plan_way_to_meeting(leaf, receiver, motion.start_from(leaf.client(receiver)))
+
+
+def _waits_empty_handed(leaf: RobotLeaf, receiver: str) -> bool:
+    """Whether `receiver` stands still with nothing in its jaw (parked for a look): it has no carry before
+    its way to the meeting (`plan_way_to_meeting`), so that way is planned from where it is now; planned
+    only once it began, it was on the critical path of each first handover after a look (74-91 ms,
+    2026-11-29). A jaw stopped on a block above its set-point (as `gripping` sees a grip: a carry comes next) or a
+    motion under way leaves the way to be planned as that carry is sent."""
+    motion = leaf.motion(receiver)
+    if motion.early is not None or (motion.active is not None and motion.active.handle.busy):
+        return False
+    jaw = leaf.client(receiver).jaw
+    holding = float(jaw.measured_js.position[0]) - float(jaw.setpoint_js.position[0])
+    return holding < leaf.skills.motion.transfer.grip_confirmed_below
 
 
 def plan_way_to_meeting(leaf: RobotLeaf, receiver: str, start: NDArray[np.float64]) -> None:
