@@ -8,25 +8,33 @@ acceleration, so T = max over joints of max(1.5|Δ|/v_max, √(6|Δ|/a_max)).
 from __future__ import annotations
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 from pegbt.errors import PegbtError
 from pegbt.motion.limits import ArmSettings
 from pegbt.motion.trajectory import HermitePath, Trajectory
 
 
-def rest_to_rest_path(
+def checked_waypoints(
     waypoints: ArrayLike, settings: ArmSettings, names: list[str] | None = None
-) -> HermitePath:
-    """Cubic segments through joint `waypoints` (K, 6), stopping at each; `names` label them in errors."""
+) -> NDArray[np.float64]:
+    """Joint `waypoints` as a (K, 6) array of at least two rows, each within the arm's limits (an error
+    names the row by `names`, else by its index)."""
     q = np.asarray(waypoints, dtype=float)
     if q.ndim != 2 or q.shape[1] != 6 or len(q) < 2:
         raise PegbtError(
             f"expected at least two joint waypoints of shape (K, 6), got {q.shape}", field="waypoints"
         )
-    names = names or [f"waypoint {i}" for i in range(len(q))]
-    for name, row in zip(names, q):
+    for name, row in zip(names or [f"waypoint {i}" for i in range(len(q))], q):
         settings.require_within(row, name)
+    return q
+
+
+def rest_to_rest_path(
+    waypoints: ArrayLike, settings: ArmSettings, names: list[str] | None = None
+) -> HermitePath:
+    """Cubic segments through joint `waypoints` (K, 6), stopping at each; `names` label them in errors."""
+    q = checked_waypoints(waypoints, settings, names)
     delta = np.abs(np.diff(q, axis=0))
     durations = np.max(
         np.maximum(

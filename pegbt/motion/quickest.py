@@ -13,6 +13,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from pegbt.errors import PegbtError
+from pegbt.motion.cubic import checked_waypoints
 from pegbt.motion.limits import ArmSettings
 from pegbt.motion.trajectory import Trajectory, concatenate
 
@@ -47,13 +48,7 @@ def quickest_through(
     waypoints: ArrayLike, settings: ArmSettings, names: list[str] | None = None
 ) -> Trajectory:
     """`quickest_move`s through joint `waypoints` (K, 6), stopping at each; `names` label them in errors."""
-    q = np.asarray(waypoints, dtype=float)
-    if q.ndim != 2 or q.shape[1] != 6 or len(q) < 2:
-        raise PegbtError(
-            f"expected at least two joint waypoints of shape (K, 6), got {q.shape}", field="waypoints"
-        )
-    for name, row in zip(names or [f"waypoint {i}" for i in range(len(q))], q):
-        settings.require_within(row, name)
+    q = checked_waypoints(waypoints, settings, names)
     return concatenate([quickest_move(a, b, settings) for a, b in zip(q[:-1], q[1:])])
 
 

@@ -128,33 +128,11 @@ def lag_series(u: ArrayLike, t: ArrayLike, tau: float) -> Array:
 
 def lag_blocks(u: Array, t: Array, tau: float, edges: Sequence[int]) -> Iterator[Array]:
     """`lag_series(u, t, tau)` block by block (rows edges[k]:edges[k+1]), the filter's state carried
-    across each boundary: the same values, in memory bounded by a block."""
-    if tau <= 0 or len(u) < 2:
-        for a, b in zip(edges[:-1], edges[1:]):
-            yield u[a:b].copy()
-        return
-    if is_uniform(t):
-        from scipy.signal import lfilter  # seconds to import: only where a lag is computed
-
-        alpha = 1.0 - np.exp(-float(t[1] - t[0]) / tau)
-        state = np.array([(1.0 - alpha) * u[0]])
-        for a, b in zip(edges[:-1], edges[1:]):
-            y, state = lfilter([alpha], [1.0, alpha - 1.0], u[a:b], zi=state)
-            yield np.asarray(y)
-        return
-    last = float(u[0])
+    across each boundary (`lag_chunk`): the same values, in memory bounded by a block."""
+    state: Any = None
     for a, b in zip(edges[:-1], edges[1:]):
-        steps = np.diff(t[max(a - 1, 0) : b])
-        alphas = (1.0 - np.exp(-steps / tau)).tolist()
-        values = u[a:b].tolist()
-        y = []
-        if a == 0:
-            y.append(last)
-            values = values[1:]
-        for alpha, value in zip(alphas, values):
-            last += alpha * (value - last)
-            y.append(last)
-        yield np.asarray(y)
+        y, state = lag_chunk(u[a:b], t, a, tau, state)
+        yield y
 
 
 def lag_chunk(u: Array, t: Array, start: int, tau: float, state: Any) -> tuple[Array, Any]:
