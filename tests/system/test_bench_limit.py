@@ -29,4 +29,5 @@ def test_bound_is_below_a_lockstep_trial_and_the_parts_add_up(tmp_path: Path, tr
     parts = breakdown([record], bound, Bound(Heights.pegbt(bound.motion)))
     assert parts["achieved"] == pytest.approx(record.mean_transfer_time_s)
     assert parts["bound"] + sum(parts[part] for part in PARTS) == pytest.approx(parts["achieved"])
-    assert parts["waypoints"] >= 0 and parts["path"] > 0 and parts["jaw"] > 0
+    # the jaw's part may fall below zero: pegbt moves the jaw while the arm moves, the bound does not
+    assert parts["waypoints"] >= 0 and parts["path"] > 0
