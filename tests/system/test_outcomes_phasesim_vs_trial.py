@@ -21,8 +21,8 @@ SEED = 501
 
 @pytest.mark.xfail(
     reason="issue 24: with the trees of 2026-11-29 whole uncalibrated trials fail at the lowering where the "
-    "phase simulator places (seed 501; worlds 500-504); cause not found yet: the approach narrowing the jaw and "
-    "the early lift ruled out, the carry letting go early mirrored",
+    "phase simulator places (seed 501; worlds 500-504); cause not found yet: neither the approach narrowing the "
+    "jaw nor the early lift",
     strict=True,
 )
 def test_the_phase_simulator_agrees_with_a_whole_trial_transfer_for_transfer(tmp_path: Path) -> None:
