@@ -278,8 +278,8 @@ class CloseOnBlock(MotionLeaf):
     next motion starts; fails once the jaw closed past `held_above` on nothing.
 
     In real time it compares each encoder reading with the one about a control period before it, and asks
-    to be ticked as the next such reading comes (`wake_when`): ticked only every tree period, the grip was
-    seen 21-39 ms after lockstep saw it (a giver's grasp, 2026-11-29), a reading and a tick late."""
+    to be ticked as the next such reading comes (`wake_when`): ticked only every tree period, it would see
+    the grip a reading and a tick later than lockstep does."""
 
     def begin(self) -> None:
         self.last_angle: float | None = None
