@@ -206,7 +206,9 @@ def _held_out_by_world(d: Diagnosis) -> list[str]:
         "Held-out cells per world (predicted rate, 95 % predictive interval: whether the real count is "
         "inside; whether the predicted rate is in the real count's 95 % interval):",
         "",
-        "| world | " + " | ".join(f"{c.variant} {c.condition} (real {_pct(c.rate)})" for c in d.held_out) + " |",
+        "| world | "
+        + " | ".join(f"{c.variant} {c.condition} (real {_pct(c.rate)})" for c in d.held_out)
+        + " |",
         "|---|" + "---|" * len(d.held_out),
     ]
     for world in worlds:
