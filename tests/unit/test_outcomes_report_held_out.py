@@ -38,6 +38,7 @@ CELLS = (
     Cell("unilateral", "uncalibrated", 80, 28),
     Cell("unilateral", "calibrated", 80, 80),
     Cell("bilateral", "uncalibrated", 80, 46),
+    Cell("bilateral", "calibrated", 80, 80),
 )
 
 
@@ -54,10 +55,15 @@ def test_a_held_out_cell_only_an_alternative_reaches_is_said_so_and_not_counted_
     assert bilateral["predicted_by"]["grasp_capture.width = 0.003"]["rate_in_real_interval"]
     markdown = report_markdown(d)
     assert "With peg_compliance (the prediction above): " in markdown
-    assert "the predicted rate inside the real count's 95 % interval in 0 of 1" in markdown
+    assert (
+        "of the 1 the real robot did not place in full, the predicted rate inside the real count's 95 % interval in 0."
+        in markdown
+    )
     assert (
         "- bilateral uncalibrated: the predicted rate reaches the real count's 95 % interval only with "
         "grasp_capture.width = 0.003" in markdown
     )
     assert "with peg_compliance it does not" in markdown
     assert "| grasp_capture.width = 0.003 | " in markdown
+    assert "2 held-out cells inside" in markdown
+    assert "| 120/120 placed |" in markdown  # a cell placed in full is judged by what it keeps

@@ -179,7 +179,13 @@ def fitted_world_name(d: Diagnosis) -> str:
     return "the default world"
 
 
+def _placed_in_full(cell: Cell) -> bool:
+    return bool(cell.attempted) and cell.succeeded == cell.attempted
+
+
 def _verdict(cell: Cell, q: Prediction) -> str:
+    if _placed_in_full(cell):  # judged by what it keeps (`KEEPS`), not by a rate a few transfers estimate
+        return f"{q.at_best.succeeded}/{q.at_best.attempted} placed"
     in_real = "in" if rate_in_real_interval(cell, q) else "**not in**"
     return f"{_pct(q.rate)} ({_pct(q.low)}–{_pct(q.high)}): {'inside' if q.inside else '**outside**'}; rate {in_real} real 95 %"
 
@@ -192,11 +198,18 @@ def _held_out_by_world(d: Diagnosis) -> list[str]:
         return []
     fitted = fitted_world_name(d)
     main = [d.predictions[c.key] for c in d.held_out]
+    partial = [(c, d.predictions[c.key]) for c in d.held_out if not _placed_in_full(c)]
     lines = [
         "",
         f"With {fitted} (the prediction above): {sum(q.inside for q in main)} of {len(main)} held-out cells "
-        f"inside their 95 % predictive interval; the predicted rate inside the real count's 95 % interval "
-        f"in {sum(rate_in_real_interval(c, q) for c, q in zip(d.held_out, main))} of {len(main)}.",
+        "inside their 95 % predictive interval"
+        + (
+            f"; of the {len(partial)} the real robot did not place in full, the predicted rate inside the "
+            f"real count's 95 % interval in {sum(rate_in_real_interval(c, q) for c, q in partial)}"
+            if partial
+            else ""
+        )
+        + ".",
     ]
     if not d.predicted_by:
         return lines
@@ -216,7 +229,7 @@ def _held_out_by_world(d: Diagnosis) -> list[str]:
         lines.append(f"| {world} | " + " | ".join(row) + " |")
     label = "alternatives" if d.alternatives else "tied worlds"
     lines.append("")
-    for cell, q in zip(d.held_out, main):
+    for cell, q in partial:
         reaching = [w for w in worlds if rate_in_real_interval(cell, d.predicted_by[w][cell.key])]
         if rate_in_real_interval(cell, q):
             continue
