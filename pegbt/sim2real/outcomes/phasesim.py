@@ -501,7 +501,8 @@ def _hand_over(
 ) -> TransferResult:
     """The giver holds `block` at the meeting point: the receiver waits open above its grasp, descends and
     closes; the giver opens and withdraws; the receiver carries the block over `goal_peg`, lowers it and
-    opens (`pegbt.motion.handover`'s order). The exchange is not retried here."""
+    opens (`pegbt.motion.handover`'s order). The exchange is not retried here. The seconds are the
+    trial's per transfer (`_overlapped`)."""
     assert giver.meeting is not None  # only a held block at the meeting point is handed over
     meeting, receiver = giver.meeting, RECEIVER[giver.name]
     motion = skills.arm(receiver)
@@ -516,25 +517,52 @@ def _hand_over(
     # to `handover_ready` at once, FLSPegTransfer_handover.py; pegbt's trees run the arms in parallel):
     # its way to the waiting pose is simulated after the giver's, but its seconds are not the transfer's.
     ahead = min(_segment_times(approach)[0], world.time)
+    met = world.time
     taker.play(approach, [(0.0, "handover")])
     taker.jaw(skills.motion.transfer.jaw_closed, "handover")
     giver.jaw(skills.motion.transfer.jaw_open, "handover")
     if world.held_by(receiver) != block:
         return TransferResult(False, first or "handover", world.time - ahead)
+    let_go = world.time
+
+    def result(placed: bool, phase: str | None) -> TransferResult:
+        seconds = _overlapped(let_go - ahead, met, world.time - let_go, _way_back(taker, ik.q[0]))
+        return TransferResult(placed, phase, seconds)
+
     waypoints = from_handover(
         world.cell, skills.motion, receiver, None, meeting.receiver_grasp, meeting.block_pose, goal_peg
     )
     try:
         planned = motion.transfer(waypoints)
     except PegbtError:  # the receiver's carry fails to plan
-        return TransferResult(False, first or "carry", world.time - ahead)
+        return result(False, first or "carry")
     _, lowering = _segment_times(planned)
     taker.play(planned, [(0.0, "carry"), (lowering, "lower")], holding=block)
     if world.held_by(receiver) != block:
-        return TransferResult(False, first or _failed_phase(taker.events, block), world.time - ahead)
+        return result(False, first or _failed_phase(taker.events, block))
     taker.jaw(skills.motion.transfer.jaw_open, "release")
     placed = world.blocks[block].peg == goal_peg and not world.blocks[block].grips
-    return TransferResult(placed, first if placed else first or "release", world.time - ahead)
+    return result(placed, first if placed else first or "release")
+
+
+def _way_back(taker: _Bench, waiting: NDArray[np.float64]) -> float:
+    """Planned seconds of the receiver's way from where it stopped back to the waiting pose
+    (`handover_ready`), or 0 when it cannot be planned."""
+    try:
+        back = taker.motion.through(taker.arm.joints.setpoint.copy(), [waiting], ["waiting"])
+    except PegbtError:
+        return 0.0
+    return float(back.t[-1] - back.t[0])
+
+
+def _overlapped(exchanged: float, picked: float, placing: float, back: float) -> float:
+    """A handover's seconds in a trial: until the giver has let go (`exchanged`), plus whatever of the
+    receiver's `placing` and its way `back` to the waiting pose outlasts the giver's next pick, taken as
+    long as this one (`picked`, the giver's start to the meeting point). The paper's two threads
+    (`FLSPegTransfer_handover.py`, BerkeleyAutomation/FLSpegtransferHO) overlap them: `run_pick` moves on
+    to the next order once the giver has escaped, while `run_place` goes on to `go_place`,
+    `servoing_block` and `handover_ready`; pegbt's trees run the two arms' lists in parallel too."""
+    return exchanged + max(0.0, placing + back - picked)
 
 
 def _segment_times(planned: Trajectory) -> tuple[float, float]:

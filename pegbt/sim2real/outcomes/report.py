@@ -11,7 +11,7 @@ from pegbt.sim2real.outcomes.cells import Cell
 from pegbt.sim2real.outcomes.diagnose import Diagnosis, profile_parameters
 from pegbt.sim2real.outcomes.intervals import rate_interval
 from pegbt.sim2real.outcomes.phasesim import arms_at_once
-from pegbt.sim2real.outcomes.predict import KEEPS
+from pegbt.sim2real.outcomes.predict import KEEPS, Prediction
 from pegbt.sim2real.outcomes.simulate import CATEGORIES, SimCounts
 
 TIME_TOLERANCE = 0.2  # a simulated mean transfer time this close to the real one (relative) agrees with it
@@ -67,6 +67,7 @@ def report_dict(diagnosis: Diagnosis, commands: list[str] | None = None) -> dict
             "predicted": {"rate": p.rate, "low": p.low, "high": p.high},
             "held_out": cell.key in held,
             "inside": p.inside,
+            "rate_in_real_interval": rate_in_real_interval(cell, p),
             "simulated_transfers": before.attempted,
             "simulated_phases_before": dict(before.counts),
             "simulated_phases_after": dict(p.at_best.counts),
@@ -91,6 +92,7 @@ def report_dict(diagnosis: Diagnosis, commands: list[str] | None = None) -> dict
                 "low": q.low,
                 "high": q.high,
                 "inside": q.inside,
+                "rate_in_real_interval": rate_in_real_interval(cell, q),
             }
         cells.append(entry)
     named = []
@@ -159,6 +161,90 @@ def report_dict(diagnosis: Diagnosis, commands: list[str] | None = None) -> dict
         "seconds": d.seconds,
         "commands": commands or [],
     }
+
+
+def rate_in_real_interval(cell: Cell, prediction: Prediction) -> bool:
+    """Whether the predicted rate lies in the real count's 95 % interval: the issue's test of a prediction,
+    stricter than the real count lying in the (wider) predictive interval."""
+    low, high = rate_interval(cell.succeeded, cell.attempted)
+    return low <= prediction.rate <= high
+
+
+def fitted_world_name(d: Diagnosis) -> str:
+    """What the cells' main prediction (`predictions`) was made with."""
+    if d.verdict.named:
+        return " + ".join(f.candidate.kind for f in d.verdict.named)
+    if d.verdict.tied:
+        return "the tie, mixed"
+    return "the default world"
+
+
+def _placed_in_full(cell: Cell) -> bool:
+    return bool(cell.attempted) and cell.succeeded == cell.attempted
+
+
+def _verdict(cell: Cell, q: Prediction) -> str:
+    if _placed_in_full(cell):  # judged by what it keeps (`KEEPS`), not by a rate a few transfers estimate
+        return f"{q.at_best.succeeded}/{q.at_best.attempted} placed"
+    in_real = "in" if rate_in_real_interval(cell, q) else "**not in**"
+    return f"{_pct(q.rate)} ({_pct(q.low)}–{_pct(q.high)}): {'inside' if q.inside else '**outside**'}; rate {in_real} real 95 %"
+
+
+def _held_out_by_world(d: Diagnosis) -> list[str]:
+    """Per held-out cell, each world's prediction and both tests, and the summary: how many cells the
+    fitted world alone gets inside, and which cells only a world the fit cells cannot tell from it
+    reaches."""
+    if not d.held_out:
+        return []
+    fitted = fitted_world_name(d)
+    main = [d.predictions[c.key] for c in d.held_out]
+    partial = [(c, d.predictions[c.key]) for c in d.held_out if not _placed_in_full(c)]
+    lines = [
+        "",
+        f"With {fitted} (the prediction above): {sum(q.inside for q in main)} of {len(main)} held-out cells "
+        "inside their 95 % predictive interval"
+        + (
+            f"; of the {len(partial)} the real robot did not place in full, the predicted rate inside the "
+            f"real count's 95 % interval in {sum(rate_in_real_interval(c, q) for c, q in partial)}"
+            if partial
+            else ""
+        )
+        + ".",
+    ]
+    if not d.predicted_by:
+        return lines
+    worlds = list(d.predicted_by)
+    lines += [
+        "",
+        "Held-out cells per world (predicted rate, 95 % predictive interval: whether the real count is "
+        "inside; whether the predicted rate is in the real count's 95 % interval):",
+        "",
+        "| world | "
+        + " | ".join(f"{c.variant} {c.condition} (real {_pct(c.rate)})" for c in d.held_out)
+        + " |",
+        "|---|" + "---|" * len(d.held_out),
+    ]
+    for world in worlds:
+        row = [_verdict(c, d.predicted_by[world][c.key]) for c in d.held_out]
+        lines.append(f"| {world} | " + " | ".join(row) + " |")
+    label = "alternatives" if d.alternatives else "tied worlds"
+    lines.append("")
+    for cell, q in partial:
+        reaching = [w for w in worlds if rate_in_real_interval(cell, d.predicted_by[w][cell.key])]
+        if rate_in_real_interval(cell, q):
+            continue
+        if reaching:
+            lines.append(
+                f"- {cell.variant} {cell.condition}: the predicted rate reaches the real count's 95 % interval "
+                f"only with {', '.join(reaching)}, which the fit cells cannot tell apart from the rest; "
+                f"with {fitted} it does not."
+            )
+        else:
+            lines.append(
+                f"- {cell.variant} {cell.condition}: no world here (neither {fitted} nor the {label}) "
+                "predicts a rate in the real count's 95 % interval."
+            )
+    return lines
 
 
 def tie_span(d: Diagnosis, cell: Cell) -> tuple[float, float]:
@@ -264,13 +350,7 @@ def report_markdown(d: Diagnosis, commands: list[str] | None = None) -> str:
             f"{'yes' if cell.key in held else 'no'} | {'yes' if q.inside else '**no**'} | "
             f"{_seconds(cell, d.before[cell.key], q.at_best)} |"
         )
-    for name, predictions in d.predicted_by.items():
-        lines += ["", f"Predicted with {name}" + ("" if d.alternatives else " alone") + ":"]
-        for cell in d.held_out:
-            q = predictions[cell.key]
-            lines.append(
-                f"- {cell.variant} {cell.condition}: {_pct(q.rate)} ({_pct(q.low)}–{_pct(q.high)}), real {_pct(cell.rate)}: {'inside' if q.inside else 'outside'}"
-            )
+    lines += _held_out_by_world(d)
     if d.predicted_by and d.held_out:
         lines += ["", "Across the tie (the prediction is this span of rates, not one effect's):"]
         for cell in d.held_out:
@@ -289,7 +369,7 @@ def report_markdown(d: Diagnosis, commands: list[str] | None = None) -> str:
     if full:
         lines += [
             "",
-            f"Cells the real robot placed in full, at the fitted world (goal: ≥ {_pct(KEEPS)} kept):",
+            f"Cells the real robot placed in full, at {fitted_world_name(d)} (goal: ≥ {_pct(KEEPS)} kept):",
         ]
         for cell in full:
             q = d.predictions[cell.key]
@@ -297,9 +377,6 @@ def report_markdown(d: Diagnosis, commands: list[str] | None = None) -> str:
                 f"- {cell.variant} {cell.condition}: {q.at_best.succeeded}/{q.at_best.attempted} placed, "
                 f"Wilson 95 % lower bound {_pct(q.keeps)}: {'kept' if q.keeps >= KEEPS else '**not shown**'}"
             )
-    inside = [d.predictions[c.key].inside for c in d.held_out]
-    if inside:
-        lines += ["", f"{sum(inside)} of {len(inside)} held-out cells inside their 95 % predictive interval."]
     if commands:
         lines += ["", "## Commands", "```bash", *commands, "```"]
     return "\n".join(lines) + "\n"
