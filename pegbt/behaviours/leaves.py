@@ -33,6 +33,8 @@ SETTLE = 0.3  # s: `pegbt.calibration.collect.SETTLE_S`, as the dVRK recordings 
 DESIGNS = ("smooth", "spread")  # `pegbt.calibration.collect.DESIGNS`: how a collection picks its set-points
 MAX_RISE = 0.165  # m: the PSM's whole insertion travel (0.08-0.245 m, skills/psm.yaml)
 OUTCOMES = ("success", "failure", "running")  # what a `scripted` leaf may return
+CONDITIONS = ("uncalibrated", "calibrated", "optimized")  # `pegbt.behaviours.resources.skills.CONDITIONS`
+COMPENSATED = ("calibrated", "optimized")  # conditions whose commands correct the cables' error at the tip
 
 declare(
     "collect_calibration",
@@ -320,6 +322,15 @@ declare(
             "the transfer that follows with this arm (a loop's next item: its `pick`), whose approach is "
             "planned while this carry plays, onto the grasp `select_grasp` will choose; {}: none",
             default={},
+        ),
+        Param(
+            "let_go_early",
+            list[str],
+            "the conditions under which the jaw opens as the block comes down onto the peg, reaching "
+            "`jaw_release` as the arm stops (their commands put the tip within a millimetre of the plan); "
+            "under the others the jaw stays closed until the arm is at rest and `release` opens it",
+            default=list(COMPENSATED),
+            choices=CONDITIONS,
         ),
     ),
     reads=("/board", "/blocks"),

@@ -77,6 +77,7 @@ class CarryLeaf(MotionLeaf):
     def initialise(self) -> None:
         self.log_detail = None
         self.held_at_let_go: bool | None = None  # the jaw's hold as it began to open on purpose
+        self.slipped_before_let_go: str | None = None  # how the jaw showed the block gone by then
         self.segment_ends: tuple[int, int] | None = None  # planned rows where lift and carry end
         self.sent_at = 0.0
         super().initialise()
@@ -119,18 +120,26 @@ class CarryLeaf(MotionLeaf):
 
     def jaw_due(self, outgoing: Outgoing) -> None:
         """A jaw opening as the motion ends lets go on purpose: whether the block was still held is read
-        now, and no slip is looked for after it."""
-        jaw = self.client(self.param("arm")).jaw.measured_js.position[0]
-        self.held_at_let_go = slip(jaw, self.param("held_above")) is None
+        now (a jaw already closed past the wall lost it on the way down: `watch` fails as for any slip),
+        and no slip is looked for after it, as an opening jaw no longer shows one."""
+        self.slipped_before_let_go = slip(
+            self.client(self.param("arm")).jaw.measured_js.position[0], self.param("held_above")
+        )
+        self.held_at_let_go = self.slipped_before_let_go is None
 
     def watch(self) -> Status:
-        if self.held_at_let_go is not None:
-            return Status.RUNNING
-        slipped = slip(self.client(self.param("arm")).jaw.measured_js.position[0], self.param("held_above"))
+        if self.held_at_let_go is None:
+            slipped = slip(
+                self.client(self.param("arm")).jaw.measured_js.position[0], self.param("held_above")
+            )
+        else:
+            slipped = self.slipped_before_let_go
         if slipped:
             return self.fail(
                 f"the block slipped from {self.param('arm')}'s jaw ({slipped}) during {self.name}"
             )
+        if self.held_at_let_go:
+            return Status.RUNNING
         if self.wake_at is not None:
             self.wake_at = min(self.wake_at, self.context.clock.now() + SLIP_CHECK)
         return Status.RUNNING

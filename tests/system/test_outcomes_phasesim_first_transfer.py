@@ -41,12 +41,6 @@ def _trial(tmp_path: Path, tree: Path, world: Path, seed: int) -> tuple[str, str
     return str(first or "placed"), "placed" if outcome.succeeded else str(outcome.phase)
 
 
-@pytest.mark.xfail(
-    reason="issue 24: with the trees of 2026-11-29 whole uncalibrated trials fail at the lowering where the "
-    "phase simulator places (seed 501; worlds 500-504); cause not found yet: neither the approach narrowing the "
-    "jaw nor the early lift",
-    strict=True,
-)
 def test_first_transfers_agree_with_trials_attempt_for_attempt(tmp_path: Path) -> None:
     world = tmp_path / "hidden.yaml"
     world.write_text("effects:\n  - {kind: peg_compliance, deflection: 0.0015}\n")

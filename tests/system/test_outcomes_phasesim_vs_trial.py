@@ -19,12 +19,6 @@ pytestmark = [pytest.mark.system, pytest.mark.slow]
 SEED = 501
 
 
-@pytest.mark.xfail(
-    reason="issue 24: with the trees of 2026-11-29 whole uncalibrated trials fail at the lowering where the "
-    "phase simulator places (seed 501; worlds 500-504); cause not found yet: neither the approach narrowing the "
-    "jaw nor the early lift",
-    strict=True,
-)
 def test_the_phase_simulator_agrees_with_a_whole_trial_transfer_for_transfer(tmp_path: Path) -> None:
     world = tmp_path / "hidden.yaml"
     world.write_text("effects:\n  - {kind: peg_compliance, deflection: 0.0015}\n")

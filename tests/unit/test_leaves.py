@@ -511,10 +511,13 @@ def test_transfer_carries_the_block_over_its_place_peg_and_writes_the_plan(
 
 
 def test_transfer_lets_go_as_the_block_comes_down_onto_its_goal_peg(tmp_path, robot, skills, seen, clock):
+    """Under a condition `let_go_early` names (here the test's own, uncalibrated)."""
     arm, values = holding_at_the_grasp(robot, skills, seen)
     transfer, settings = skills.motion.transfer, skills.settings["PSM1"]
     arm.jaw.rest = np.array([transfer.jaw_closed])
-    built = build(tmp_path, robot, skills, TRANSFER, **values)
+    built = build(
+        tmp_path, robot, skills, TRANSFER.replace("}}", ", let_go_early: [uncalibrated]}}"), **values
+    )
     assert run(built, clock) == Status.SUCCESS
     (trajectory,) = arm.trajectories
     (opening,) = arm.jaw.sent
@@ -529,6 +532,44 @@ def test_transfer_lets_go_as_the_block_comes_down_onto_its_goal_peg(tmp_path, ro
     assert np.linalg.norm(there - tips[-1]) < 0.001
     on_peg = transfer.block_below_tip - transfer.drop_height_above_peg_top
     assert float((there - tips[-1]) @ skills.cell.up_in("PSM1")) < on_peg
+
+
+def test_uncalibrated_the_transfer_keeps_the_jaw_closed_until_the_arm_is_at_rest(
+    tmp_path, robot, skills, seen, clock
+):
+    """As the trees run it (`let_go_early` by default calibrated and optimised): an uncalibrated tip is
+    millimetres off the plan, so `release` opens the jaw once the arm stopped, and a block the goal peg
+    knocks out of the jaw as the lowering ends is still seen to go."""
+    arm, values = holding_at_the_grasp(robot, skills, seen)
+    arm.jaw.rest = np.array([skills.motion.transfer.jaw_closed])
+    built = build(tmp_path, robot, skills, TRANSFER, **values)
+    assert run(built, clock) == Status.SUCCESS
+    assert arm.jaw.sent == []
+    py_trees.blackboard.Blackboard.clear()
+    arm, values = holding_at_the_grasp(robot, skills, seen)
+    arm.slips_at = 0.97  # after the moment a jaw letting go early would have begun to open
+    built = build(tmp_path, robot, skills, TRANSFER, **values)
+    assert run(built, clock) == Status.FAILURE and "slipped" in feedback(built)
+
+
+def test_a_transfer_whose_jaw_is_already_empty_as_it_lets_go_fails(tmp_path, robot, skills, seen, clock):
+    """A block knocked out of the jaw just before the let-go is lost on the way down, as a slip the
+    watch saw earlier would be: the leaf fails, so the transfer recovers."""
+    arm, values = holding_at_the_grasp(robot, skills, seen)
+    transfer = skills.motion.transfer
+    arm.jaw.rest = np.array([transfer.jaw_closed])
+    built = build(
+        tmp_path, robot, skills, TRANSFER.replace("}}", ", let_go_early: [uncalibrated]}}"), **values
+    )
+    built.root.tick_once()
+    (leaf,) = [node.behaviour for node in built.nodes]
+    assert leaf.status == Status.RUNNING and leaf.arm_end is not None
+    lead = (transfer.jaw_release - transfer.jaw_closed) / skills.settings["PSM1"].jaw_velocity
+    clock.advance(leaf.arm_end - lead - clock.now())  # the let-go is due, and no slip check came since
+    arm.drop_block()
+    built.root.tick_once()
+    assert leaf.status == Status.FAILURE and "slipped" in feedback(built)
+    assert leaf.log_detail == {"segment": "lower", "held": False}
 
 
 def test_transfer_fails_at_once_and_stops_the_arm_when_the_block_slips(tmp_path, robot, skills, seen, clock):

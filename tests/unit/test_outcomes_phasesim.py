@@ -76,9 +76,9 @@ def test_the_reach_is_the_approach_leafs_cubics_stopping_just_above_the_block(mo
     played = []
     original = phasesim._Bench.play
 
-    def record(bench, planned, segments, holding=None):
+    def record(bench, planned, segments, holding=None, let_go=None):
         played.append((segments[0][1], planned))
-        original(bench, planned, segments, holding)
+        original(bench, planned, segments, holding, let_go)
 
     monkeypatch.setattr(phasesim._Bench, "play", record)
     simulate_transfer(WorldEffects(), "unilateral", "uncalibrated", 5)
@@ -114,3 +114,26 @@ def test_a_pick_again_of_the_block_that_was_missed_tries_another_grasp_candidate
     assert first.failed == "grasp" and first.chose is not None  # PSM2 misses this block uncalibrated
     again = phasesim._attempt(world, skills, "PSM2", block, 7, rng, 4, replay, chose=first.chose)
     assert again.chose is not None and again.chose.candidate != first.chose.candidate
+
+
+def test_the_carry_lets_go_as_it_comes_down_only_under_the_conditions_the_trees_do() -> None:
+    """The trees' transfer opens the jaw as the block comes down onto the goal peg when calibrated or
+    optimised, and only once the arm is at rest when uncalibrated (`trees/shared/lift.yaml`'s
+    `let_go_early`); the simulated carry does the same: its block leaves the jaw before the carry ends,
+    or not until after it."""
+    lift = yaml.safe_load((ROOT / "trees" / "shared" / "lift.yaml").read_text())
+    (carry,) = [
+        c["transfer"] for c in lift["subtrees"]["lift"]["tree"]["sequence"]["children"] if "transfer" in c
+    ]
+    assert tuple(carry["let_go_early"]) == phasesim.LETS_GO_EARLY
+    for condition, early in (("calibrated", True), ("uncalibrated", False)):
+        world = World(1, effects=WorldEffects.of({"peg_compliance": {"deflection": 0.003}}))
+        block = next(b.index for b in world.blocks if b.peg == 1)
+        bench = phasesim._attempt(
+            world, phasesim._skills(condition), "PSM1", block, 7, np.random.default_rng(0), None, Replay()
+        )
+        assert bench.held, condition
+        released = [event for _, event in bench.events if event.kind == "release"]
+        assert bool(released) is early, condition
+        if early:
+            assert [segment for segment, event in bench.events if event.kind == "release"] == ["release"]

@@ -46,7 +46,7 @@ tree:
                       name: move it
                       children:
                         - grasp: {{name: close and check, arm: PSM1, holding: /PSM1/holding}}
-                        - transfer: {{name: lift carry and lower, arm: PSM1, place: {PLACE}, block: /PSM1/block, grasp: /PSM1/grasp, plan_s: /PSM1/plan_s}}
+                        - transfer: {{name: lift carry and lower, arm: PSM1, place: {PLACE}, block: /PSM1/block, grasp: /PSM1/grasp, plan_s: /PSM1/plan_s, let_go_early: LET_GO}}
                         - release: {{name: release, arm: PSM1, holding: /PSM1/holding}}
                         - finish_transfer: {{name: placed, outcome: placed, transfer: /PSM1/transfer}}
                   - finish_transfer: {{name: failed, outcome: failed, transfer: /PSM1/transfer}}
@@ -70,9 +70,12 @@ def fresh_blackboard():
     py_trees.blackboard.Blackboard.clear()
 
 
-def one_transfer(tmp_path: Path, scene, *, held: bool, slips_at: float | None) -> Path:
+def one_transfer(
+    tmp_path: Path, scene, *, held: bool, slips_at: float | None, let_go: tuple[str, ...] = ()
+) -> Path:
     """Run the transfer with the block between the jaws (`held`) and slipping out `slips_at` of the way
-    through the arm's motion; the tick log's path."""
+    through the arm's motion, letting go early under the conditions `let_go` (the trees: at rest, as
+    uncalibrated); the tick log's path."""
     cloud, board, blocks = scene
     clock, skills = ManualClock(), Skills("uncalibrated")
     robot = fake_robot(clock, skills.settings, skills.cell, cloud)
@@ -86,7 +89,8 @@ def one_transfer(tmp_path: Path, scene, *, held: bool, slips_at: float | None) -
     context = RunContext(
         clock=clock, resources={"robot": robot, "skills": skills}, work=WorkPool(inline=True)
     )
-    built = load_tree(write_tree(tmp_path, TREE)).build(context)
+    tree = TREE.replace("LET_GO", f"[{', '.join(let_go)}]")
+    built = load_tree(write_tree(tmp_path, tree)).build(context)
     built.initial_blackboard.update(
         {"/board": board, "/blocks": blocks, "/PSM1/block": block, "/PSM1/grasp": grasp}
     )
@@ -124,10 +128,21 @@ def let_go_at(scene) -> float:
 
 
 def test_a_block_lost_as_the_lowering_ends_failed_at_lower(tmp_path, scene):
-    """The jaw empty as the lowering ended, when it began to let go (the leaf succeeded; its detail
+    """The jaw empty as the lowering ended, after the last look for a slip (the leaf succeeded; its detail
     says the jaw held nothing), and the goal peg empty at the next look: lost while lowered, not at the
     release."""
-    log = read_tick_log(one_transfer(tmp_path, scene, held=True, slips_at=let_go_at(scene) - 1e-4))
+    log = read_tick_log(one_transfer(tmp_path, scene, held=True, slips_at=0.9999))
     (carried,) = [change for change in log.transitions if change.detail is not None]
     assert carried.after == "SUCCESS" and carried.detail == {"segment": "lower", "held": False}
+    assert transfer_outcomes(log) == [TransferOutcome(1, False, "lower")]
+
+
+def test_a_block_lost_just_before_the_jaw_lets_go_fails_the_carry_at_lower(tmp_path, scene):
+    """A carry that lets go as it comes down finds its jaw already empty: it fails there, as for a slip
+    seen earlier (so a transfer's recovery picks the block again), and names the lowering."""
+    log = read_tick_log(
+        one_transfer(tmp_path, scene, held=True, slips_at=let_go_at(scene) - 1e-4, let_go=("uncalibrated",))
+    )
+    (carried,) = [change for change in log.transitions if change.detail is not None]
+    assert carried.after == "FAILURE" and carried.detail == {"segment": "lower", "held": False}
     assert transfer_outcomes(log) == [TransferOutcome(1, False, "lower")]

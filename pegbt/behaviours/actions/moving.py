@@ -25,10 +25,14 @@ class Transfer(CarryLeaf):
     """Planned early, while the approach plays, when that approach knew this transfer's goal peg
     (`approach`); once sent, it plans the approach of the next transfer (`then`) from where it ends.
 
-    The jaw opens to `jaw_release` as the block comes down onto its goal peg, reaching it as the arm
-    stops: it passes the wall (lets go) some 50 ms before, with the tip within a millimetre of the drop
-    height and the block's hole 3 mm on the peg (it is on it from 3.2 mm above), so `release` finds the
-    jaw open."""
+    Under the conditions of `let_go_early` the jaw opens to `jaw_release` as the block comes down onto its
+    goal peg, reaching it as the arm stops: it passes the wall (lets go) some 50 ms before, with the tip
+    within a millimetre of the drop height and the block's hole 3 mm on the peg (it is on it from 3.2 mm
+    above), so `release` finds the jaw open. That holds only where the commands correct the cables'
+    error: uncalibrated, a dVRK's tip lags and strays by millimetres its encoders do not show, so a jaw
+    opened on the plan's clock may drop the block before its hole is on the peg, and an opening jaw can
+    no longer tell that a peg knocked the block out; there the jaw stays closed, watched, until the arm
+    is at rest, and `release` opens it."""
 
     def waypoints(self) -> TransferWaypoints:
         return transfer_for(
@@ -43,6 +47,8 @@ class Transfer(CarryLeaf):
 
     def begin(self) -> None:
         super().begin()
+        if self.skills.condition not in self.param("let_go_early"):
+            return
         arm, transfer = self.param("arm"), self.skills.motion.transfer
         opening = (transfer.jaw_release - transfer.jaw_closed) / self.motion(arm).settings.jaw_velocity
         self.move_jaw(arm, transfer.jaw_release, f"{arm} letting go", before_end=opening)

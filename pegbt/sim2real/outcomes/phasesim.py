@@ -47,6 +47,9 @@ START = np.array(
     DEFAULT_JOINTS
 )  # each arm comes from where the simulator starts it, its cables at rest there
 REGRASPS = 3  # recoveries before a transfer is given up (`trees/shared/one_transfer.yaml`)
+# the conditions under which the carry opens the jaw as it comes down (`trees/shared/lift.yaml`'s
+# `let_go_early`); under the others it lets go at rest
+LETS_GO_EARLY = ("calibrated", "optimized")
 SETTLE_S = 0.1  # s at rest after each motion: the executive starts the next leaf a tick or two later
 
 
@@ -153,6 +156,7 @@ class _Bench:
         self.clock = world.time
         self.segment = "reach"
         self.held = False  # holds the block lowered over its goal peg (or at the meeting point)
+        self.let_go = False  # the last carry opened the jaw as it came down (`play`'s `let_go`)
         self.moved = True  # the arm set out: an attempt the robot made, not one its planning refused
         self.meeting: Meeting | None = None
         self.failed: str | None = None  # the phase in which this attempt lost the block
@@ -181,6 +185,7 @@ class _Bench:
         bench = cls.__new__(cls)
         bench.world, bench.name, bench.motion, bench.events = world, arm, motion, []
         bench.held, bench.failed, bench.meeting, bench.moved = False, phase, None, False
+        bench.let_go = False
         bench.chose = None
         return bench
 
@@ -229,20 +234,33 @@ class _Bench:
         return prepared
 
     def play(
-        self, planned: Trajectory, segments: list[tuple[float, str]], holding: int | None = None
+        self,
+        planned: Trajectory,
+        segments: list[tuple[float, str]],
+        holding: int | None = None,
+        let_go: tuple[float, float] | None = None,
     ) -> None:
         """Send `planned` as the condition sends it; `segments` names the phase from each planned time on.
-        A carry of block `holding` stops the moment the block leaves the jaw, as the carry leaves do."""
+        A carry of block `holding` stops the moment the block leaves the jaw, as the carry leaves do;
+        `let_go` (seconds before the planned end, jaw angle) opens the jaw as the arm comes down, as
+        `Transfer` does (`pegbt/behaviours/actions/moving.py`): from then on the carry no longer watches
+        the jaw, and a block lost is lost at `release`, as the tick log's carry reads it."""
         prepared = self._prepare(planned)
         sent = prepared.sent
         self.arm.follow_jt(sent.t - sent.t[0] + self.arm.period, sent.q, sent.qd, "motion")
         self.motion.desired = planned.q[-1].copy()
-        start = self.world.time
+        start, self.let_go = self.world.time, False
+        due = None if let_go is None else float(planned.t[-1] - planned.t[0]) - let_go[0]
         while self.arm.is_busy:
             elapsed = self.world.time - start
             self.segment = next((name for at, name in reversed(segments) if elapsed >= at), segments[0][1])
+            if let_go is not None and due is not None and elapsed >= due - 1e-9:
+                if not self.let_go:
+                    self.arm.jaw_move_jp([let_go[1]], "jaw")
+                    self.let_go = True
+                self.segment = "release"
             self.tick(self.arm.period)
-            if holding is not None and self.world.held_by(self.name) != holding:
+            if holding is not None and not self.let_go and self.world.held_by(self.name) != holding:
                 self.arm.hold(False, "lost")
                 break
         self.tick(SETTLE_S)
@@ -470,8 +488,11 @@ def _attempt(
         bench.failed = "carry"
         return bench
     lifted, lowering = _segment_times(planned)
-    bench.play(planned, [(0.0, "lift"), (lifted, "carry"), (lowering, "lower")], holding=block)
-    bench.held = world.held_by(arm) == block
+    let_go = None
+    if skills.condition in LETS_GO_EARLY and not registered and meeting is None:
+        let_go = _letting_go(skills, motion)  # the paper's robot, and a giver, let go at rest
+    bench.play(planned, [(0.0, "lift"), (lifted, "carry"), (lowering, "lower")], holding=block, let_go=let_go)
+    bench.held = world.held_by(arm) == block or bench.let_go
     bench.meeting = meeting
     if not bench.held:
         bench.failed = _failed_phase(bench.events, block)
@@ -563,6 +584,13 @@ def _overlapped(exchanged: float, picked: float, placing: float, back: float) ->
     to the next order once the giver has escaped, while `run_place` goes on to `go_place`,
     `servoing_block` and `handover_ready`; pegbt's trees run the two arms' lists in parallel too."""
     return exchanged + max(0.0, placing + back - picked)
+
+
+def _letting_go(skills: Skills, motion: ArmMotion) -> tuple[float, float]:
+    """When (s before a carry's planned end) and how far the trees' carry opens the jaw as it comes down:
+    reaching `jaw_release` as the arm stops (`Transfer.begin`)."""
+    transfer = skills.motion.transfer
+    return (transfer.jaw_release - transfer.jaw_closed) / motion.settings.jaw_velocity, transfer.jaw_release
 
 
 def _segment_times(planned: Trajectory) -> tuple[float, float]:
