@@ -386,7 +386,8 @@ class AwaitMeeting(RobotLeaf):
 class DescendToGrasp(MotionLeaf):
     """Planned early, while the receiver goes to wait above the grasp (`go_to_handover`). Once sent, the carry that follows (`carry_from_handover` to the goal peg of the receiver's transfer
     under way) is planned and pre-compensated while the receiver descends, closes and waits for the giver
-    to let go."""
+    to let go. The open jaw narrows as the tip arrives, as an approach's does: the close that follows, on
+    the handover's critical path (the giver holds the block out until it ends), starts nearer the wall."""
 
     def begin(self) -> None:
         arm = self.param("arm")
@@ -395,6 +396,9 @@ class DescendToGrasp(MotionLeaf):
         self.move(
             arm, descent(self.skills, motion, start, grasp), f"{arm} descending onto the grasp", (grasp,)
         )
+        transfer = self.skills.motion.transfer
+        narrowing = (transfer.jaw_open - transfer.jaw_at_grasp) / motion.settings.jaw_velocity
+        self.move_jaw(arm, transfer.jaw_at_grasp, f"{arm} jaw narrowing", before_end=narrowing)
 
     def started(self, trajectories: list[Trajectory]) -> None:
         arm = self.param("arm")
