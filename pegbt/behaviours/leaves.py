@@ -285,6 +285,7 @@ declare(
             "the block's pose at the meeting point, from which the carry that follows is planned while "
             "the receiver descends and takes the block (unset: planned when it starts)",
         ),
+        handover_number("read"),
         keep_apart_param(0.0),
     ),
     reads=("/board",),

@@ -42,7 +42,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pegbt.frames import apply_rigid, rigid_transform
-from pegbt.motion.handover import handover_meeting_point
+from pegbt.motion.handover import handover_meeting_point, jaw_on_wall
 from pegbt.motion.ik import solve_ik
 from pegbt.motion.limits import ArmSettings, arm_settings
 from pegbt.motion.settings import MotionSettings, motion_settings
@@ -300,7 +300,7 @@ class Bound:
         jaw = self.settings["PSM1"].jaw_velocity
         block, tool = self.cell.block, self.cell.tool
         wall = block.edge_distance - block.hole_radius
-        gripped = 2.0 * math.asin(min(1.0, wall / 2.0 / tool.jaw_length))
+        gripped = jaw_on_wall(self.cell)
         passes = 2.0 * math.asin(min(1.0, (wall + 2.0 * tool.jaw_radius) / 2.0 / tool.jaw_length))
         self.jaw_close_s = (passes - gripped) / jaw
 

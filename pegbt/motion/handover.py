@@ -10,6 +10,7 @@ tools (shafts and jaws, as segments) never come closer than the minimum distance
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -57,6 +58,13 @@ def handover_meeting_point(cell: Workcell, motion: MotionSettings | None = None)
         motion.transfer.transfer_height_above_peg_top + motion.handover.meeting_above_transfer
     )  # board z is down
     return point
+
+
+def jaw_on_wall(cell: Workcell) -> float:
+    """The jaw angle (rad) at which jaws closing astride a block's wall touch it: their tips the wall's
+    thickness apart. A jaw sent closing that long before the tool arrives meets the wall as it does."""
+    wall = cell.block.edge_distance - cell.block.hole_radius
+    return 2.0 * math.asin(min(1.0, wall / 2.0 / cell.tool.jaw_length))
 
 
 def tool_segments(

@@ -27,6 +27,7 @@ from pegbt.executive.context import RunContext
 from pegbt.executive.loader import load_tree
 from pegbt.executive.runner import set_initial_blackboard
 from pegbt.executive.work import Job, WorkPool
+from pegbt.handover_protocol import Giver, Handover, Receiver
 from pegbt.perception.blocks import block_on_peg
 from pegbt.sim.camera import DepthCamera
 from pegbt.sim.world import World
@@ -313,11 +314,12 @@ def test_a_givers_next_grasp_and_approach_are_chosen_and_planned_while_it_rises(
     assert expected is not None and grasp.candidate == expected.candidate
 
 
+OFFERED = Handover(1, receiver=Receiver.READY).said(Giver.OFFERED)  # the giver on its way to the meeting
 RECEIVE = """
   sequence:
     children:
       - go_to_handover: {arm: PSM1, grasp: /receiver_grasp}
-      - descend_to_grasp: {arm: PSM1, grasp: /receiver_grasp, block_pose: /block_pose}
+      - descend_to_grasp: {arm: PSM1, grasp: /receiver_grasp, block_pose: /block_pose, n: 1}
 """
 
 
@@ -332,7 +334,12 @@ def test_the_receivers_descent_is_planned_while_it_goes_to_wait_above_the_grasp(
     giver_grasp = skills.selectors["PSM2"].pick(block)
     meeting = plan_meeting(skills, "PSM2", "PSM1", giver_grasp, block)
     assert meeting is not None
-    values = {"/board": seen[0], "/receiver_grasp": meeting.receiver_grasp, "/block_pose": meeting.block_pose}
+    values = {
+        "/board": seen[0],
+        "/receiver_grasp": meeting.receiver_grasp,
+        "/block_pose": meeting.block_pose,
+        "/handover/state_1": OFFERED,
+    }
     built = build(tmp_path, robot, skills, RECEIVE, pool, values)
     assert run(built, clock, pool) == Status.SUCCESS, built.root.feedback_message
     wait, descent = (sent for sent in arm.sent if sent.kind == "trajectory")
@@ -385,7 +392,7 @@ HAND_OVER_AGAIN = f"""
     children:
       - begin_transfer: {{arms: "PSM1→PSM2", pick: {PICK}, place: {PLACE}, transfer: /n}}
       - go_to_handover: {{arm: PSM2, grasp: /last_grasp}}
-      - descend_to_grasp: {{arm: PSM2, grasp: /last_grasp, block_pose: /last_block_pose}}
+      - descend_to_grasp: {{arm: PSM2, grasp: /last_grasp, block_pose: /last_block_pose, n: 1}}
       - approach: {{arm: PSM1, block: /PSM1/block, grasp: /PSM1/grasp, keep_apart: 0.0}}
       - carry_from_handover: {{arm: PSM2, place: 8, grasp: /last_grasp, block_pose: /last_block_pose, plan_s: /PSM2/plan_s}}
       - grasp: {{arm: PSM1, holding: /PSM1/holding}}
@@ -414,6 +421,7 @@ def test_the_receivers_way_to_the_next_meeting_is_planned_while_it_carries_the_l
         "/receiver_grasp": None,
         "/last_grasp": last_meeting.receiver_grasp,
         "/last_block_pose": last_meeting.block_pose,
+        "/handover/state_1": OFFERED,
     }
     built = build(tmp_path, robot, skills, HAND_OVER_AGAIN, pool, values)
     assert run(built, clock, pool) == Status.SUCCESS, built.root.feedback_message

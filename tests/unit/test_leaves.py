@@ -34,7 +34,7 @@ from pegbt.executive.registry import REGISTRY
 from pegbt.executive.runner import set_initial_blackboard
 from pegbt.executive.work import WorkPool
 from pegbt.handover_protocol import Giver, Handover, Receiver
-from pegbt.motion.handover import descent_clearance, handover_meeting_point, tool_gap
+from pegbt.motion.handover import descent_clearance, handover_meeting_point, jaw_on_wall, tool_gap
 from pegbt.motion.ik import solve_ik
 from pegbt.motion.kinematics import forward_kinematics, tip_position
 from pegbt.perception.blocks import BlockEstimate, block_on_peg
@@ -709,7 +709,7 @@ TO_HANDOVER = (
     "plan_s: /PSM2/plan_s}}"
 )
 GO_TO_HANDOVER = "{go_to_handover: {arm: PSM1, grasp: /handover/receiver_grasp}}"
-DESCEND = "{descend_to_grasp: {arm: PSM1, grasp: /handover/receiver_grasp}}"
+DESCEND = "{descend_to_grasp: {arm: PSM1, grasp: /handover/receiver_grasp, n: 1}}"
 MEETING = "{await_meeting: {arm: PSM1, grasp: /handover/receiver_grasp, n: 1, patience: 5.0}}"
 FROM_HANDOVER = (
     f"{{carry_from_handover: {{arm: PSM1, place: {PLACE}, grasp: /handover/receiver_grasp, "
@@ -906,6 +906,7 @@ def receiver_at(robot: Robot, skills: Skills, seen, pose=None):
         "board": seen[0],
         "handover/receiver_grasp": meeting.receiver_grasp,
         "handover/block_pose": meeting.block_pose,
+        "handover/state_1": Handover(1, receiver=Receiver.READY).said(Giver.OFFERED),
     }
     return receiver, meeting, values
 
@@ -957,7 +958,41 @@ def test_descend_to_grasp_goes_straight_down_onto_the_grasp_clear_of_the_giver(
         cell.tool,
     )
     assert gaps.min() >= skills.motion.handover.grasp_clearance
-    assert arm.jaw.sent == [] and robot.arms[GIVER].sent == []
+    assert robot.arms[GIVER].sent == []
+    # the giver not holding the block out yet: the open jaw only narrows as the tip arrives, still
+    # straddling the wall, so the close that follows starts nearer it
+    transfer = skills.motion.transfer
+    (narrowing,) = arm.jaw.sent
+    lead = (transfer.jaw_open - jaw_on_wall(skills.cell)) / skills.settings[RECEIVER].jaw_velocity
+    assert narrowing.target == transfer.jaw_at_grasp
+    assert trajectory.duration - lead - 1e-9 <= narrowing.at < trajectory.duration - lead + STEP
+
+
+def test_descend_to_grasp_closes_as_it_arrives_on_a_block_held_out_meeting_the_wall_as_the_tip_does(
+    tmp_path, robot, skills, seen, clock
+):
+    arm, _, values = receiver_at(robot, skills, seen, pose=partial(wait_pose, skills))
+    transfer, velocity = skills.motion.transfer, skills.settings[RECEIVER].jaw_velocity
+    arm.jaw.rest = np.array([transfer.jaw_open])  # opened on its way to wait above the grasp
+    values["handover/state_1"] = Handover(1, receiver=Receiver.READY).said(Giver.ARRIVED)
+    built = build(tmp_path, robot, skills, DESCEND, **values)
+    while clock.now() < 5.0:
+        built.root.tick_once()
+        if built.root.status != Status.RUNNING:
+            break
+        if arm.jaw.sent:  # the runner is asked to tick it as the arm arrives, not as the jaw's ramp ends
+            assert built.root.wake_at <= max(arm.sent[0].at + arm.trajectories[0].duration, clock.now())
+        clock.advance(STEP)
+    assert built.root.status == Status.SUCCESS
+    (trajectory,) = arm.trajectories
+    (closing,) = arm.jaw.sent
+    assert closing.target == transfer.jaw_closed
+    # sent so that the jaw reaches the wall as the tip reaches the grasp, within a tick
+    at_wall = closing.at + (transfer.jaw_open - jaw_on_wall(skills.cell)) / velocity
+    assert trajectory.duration - 1e-9 <= at_wall < trajectory.duration + STEP
+    # the leaf ends with the arm's motion, the jaw still closing on (the grip is `grasp`'s to confirm)
+    assert trajectory.duration - 1e-9 <= clock.now() < trajectory.duration + STEP
+    assert arm.jaw.position()[0] > transfer.jaw_closed
 
 
 def meeting_under_way(robot: Robot, skills: Skills, seen, said: Giver):
@@ -1103,8 +1138,13 @@ def test_a_handover_motion_whose_end_never_comes_fails_and_stops_the_arm(
     arm, tree, values = handover_motion(leaf, robot, skills, seen)
     built = build(tmp_path, robot, skills, tree, **values)
     arm.never_ends = True
+    jaw = float(arm.jaw.position()[0])
     assert run(built, clock, seconds=60.0) == Status.FAILURE
     duration = arm.trajectories[0].duration
+    # the latest planned end: the motion's, or a jaw motion's sent before it (the descent's narrowing)
+    velocity = skills.settings[arm.name].jaw_velocity
+    ends = [s.at + abs(s.target - jaw) / velocity for s in arm.jaw.sent if s.kind == "jaw"]
+    duration = max([duration, *ends])
     assert duration + MOTION_OVERTIME < clock.now() < duration + MOTION_OVERTIME + 2 * STEP
     assert "no end reported" in feedback(built) and arm.sent[-1].kind == "hold"
 

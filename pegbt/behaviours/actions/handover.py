@@ -22,6 +22,7 @@ from py_trees.common import Status
 from pegbt.behaviours.base import (
     ComputeLeaf,
     MotionLeaf,
+    Outgoing,
     RobotLeaf,
 )
 from pegbt.behaviours.motion import CarryLeaf, above_pegs_first, rise
@@ -33,7 +34,7 @@ from pegbt.errors import PegbtError
 from pegbt.executive.work import Job
 from pegbt.frames import invert_rigid
 from pegbt.handover_protocol import Giver
-from pegbt.motion.handover import descent_clearance, handover_meeting_point
+from pegbt.motion.handover import descent_clearance, handover_meeting_point, jaw_on_wall
 from pegbt.motion.ik import solve_ik
 from pegbt.motion.kinematics import tip_position
 from pegbt.motion.trajectory import Trajectory
@@ -386,7 +387,14 @@ class AwaitMeeting(RobotLeaf):
 class DescendToGrasp(MotionLeaf):
     """Planned early, while the receiver goes to wait above the grasp (`go_to_handover`). Once sent, the carry that follows (`carry_from_handover` to the goal peg of the receiver's transfer
     under way) is planned and pre-compensated while the receiver descends, closes and waits for the giver
-    to let go."""
+    to let go.
+
+    The giver holds the block out until the receiver's jaw grips it, so the close is on the handover's
+    critical path: the open jaw is sent on as the tip arrives, timed to meet the wall as the tip gets there
+    (`jaw_on_wall`): closing if the giver already holds the block out still by then (handover `n`),
+    narrowing to `jaw_at_grasp` otherwise, as an approach's does. Once the arm has arrived the leaf
+    succeeds while the jaw goes on closing; `grasp` confirms the grip. A giver whose block slips meanwhile
+    finds the receiver not yet closing and fetches it again, as before any close."""
 
     def begin(self) -> None:
         arm = self.param("arm")
@@ -395,6 +403,25 @@ class DescendToGrasp(MotionLeaf):
         self.move(
             arm, descent(self.skills, motion, start, grasp), f"{arm} descending onto the grasp", (grasp,)
         )
+        transfer = self.skills.motion.transfer
+        lead = (transfer.jaw_open - jaw_on_wall(self.skills.cell)) / motion.settings.jaw_velocity
+        self.move_jaw(arm, transfer.jaw_at_grasp, f"{arm} jaw narrowing", before_end=lead)
+        self.closing = False
+
+    def jaw_due(self, outgoing: Outgoing) -> None:
+        if read_record(self, self.params["n"]).giver is Giver.ARRIVED:
+            outgoing.jaw_angle = self.skills.motion.transfer.jaw_closed
+            outgoing.what = f"{self.param('arm')} jaw closing on the block held out"
+            self.closing = True
+
+    def watch(self) -> Status:
+        if not self.closing:
+            return Status.RUNNING
+        if not any(motion.handle.busy for motion in self.running if not motion.jaw):
+            return Status.SUCCESS
+        if self.arm_end is not None:  # ticked as the arm arrives, not once the jaw's ramp ends
+            self.wake_at = self.arm_end if self.wake_at is None else min(self.wake_at, self.arm_end)
+        return Status.RUNNING
 
     def started(self, trajectories: list[Trajectory]) -> None:
         arm = self.param("arm")
