@@ -53,6 +53,7 @@ class JointGroup:
         self.lowest: NDArray[np.float64] | None = None  # the encoders cannot go below it (a block in the jaw)
         self._elapsed = 0.0
         self._servo_tau = servo_tau
+        self._alpha_dt, self._alpha = math.nan, 1.0  # the servo gain of the last tick's period
         self._problems = problems
         self._step_problems = step_problems
 
@@ -99,7 +100,10 @@ class JointGroup:
                 transitions.append(Transition(self.motion.command_id, "done"))
                 self.motion = None
         self.previous_tick_setpoint, self.tick_setpoint = self.tick_setpoint, self.setpoint.copy()
-        alpha = 1.0 - math.exp(-dt / self._servo_tau) if self._servo_tau > 0 else 1.0
+        if dt != self._alpha_dt:  # the period hardly ever changes: its servo gain is kept
+            self._alpha_dt = dt
+            self._alpha = 1.0 - math.exp(-dt / self._servo_tau) if self._servo_tau > 0 else 1.0
+        alpha = self._alpha
         previous = self.encoder
         self.encoder = previous + alpha * (self.setpoint - previous)
         if self.lowest is not None:

@@ -56,10 +56,8 @@ class ToolState:
 
     def segments(self, tool: ToolGeometry) -> tuple[Matrix, Matrix, Matrix]:
         """Start points (3, 3), end points (3, 3) and radii (3,) of shaft, wrist and jaw, for collisions."""
-        hinge = self.jaw_hinge(tool)
-        starts = np.array([self.shaft[0], self.shaft[1], hinge])
-        ends = np.array([self.shaft[1], hinge, self.tip[:3, 3]])
-        return starts, ends, np.array([tool.shaft_radius, tool.wrist_radius, tool.jaw_radius])
+        points = np.concatenate((self.shaft, self.jaw_hinge(tool)[None], self.tip[None, :3, 3]))
+        return points[:3], points[1:], np.array([tool.shaft_radius, tool.wrist_radius, tool.jaw_radius])
 
 
 def wrist_give(physics: ArmPhysics, wrist_yaw: float, tool: ToolGeometry) -> Give:
