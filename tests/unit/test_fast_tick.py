@@ -1,0 +1,161 @@
+"""The simulated tick's optimised pieces give, bit for bit, what their reference formulas give on random
+inputs: each reference is the straightforward per-joint (per-sample) form, kept here and not in pegbt, so
+a tick that costs less is held to change no number."""
+
+import math
+
+import numpy as np
+import pytest
+
+from pegbt.physics import ArmPhysics, Effect
+from pegbt.sim.arm import JointGroup
+from pegbt.sim.playback import Playback
+from pegbt.sim.tools import ToolState
+from pegbt.workcell import workcell
+
+MIXED = [
+    Effect("offset", "q1", {"value": 0.01}),
+    Effect("scale", "q2", {"value": 1.03}),
+    Effect("coupling", "q6", {"source": "q5", "k": 0.2}),
+    Effect("hysteresis", "q5", {"source": "q6", "half_width": 0.05, "k": -0.6}),
+    Effect("hysteresis", "q5", {"source": "q5", "half_width": 0.02, "k": 0.3}),
+    Effect("hysteresis", "q6", {"source": "q6", "half_width": 0.04, "k": 0.6}),
+    Effect("hysteresis", "q1", {"source": "q2", "half_width": 0.03, "k": 0.1}),
+    Effect("backlash", "q3", {"half_width": 0.0005}),
+    Effect("backlash", "q6", {"half_width": 0.01}),
+    Effect("lag", "q4", {"tau": 0.05}),
+    Effect("delay", "q2", {"seconds": 0.023}),
+]
+
+
+class ReferenceArm:
+    """`ArmPhysics.reset`, `step` and `play_room` as first written: the static map, then each hysteresis in
+    turn on scalars (its drive clipped by `np.clip`, its term added to its joint), then each transform."""
+
+    def __init__(self, physics: ArmPhysics, q0: np.ndarray) -> None:
+        self.p = physics
+        static = physics.static_map(q0)
+        self.play = np.array([static[j] if s == j else q0[s] for j, s, _, _ in physics.hysteresis])
+        self.seen = self.play.copy()
+        self.kernels: list[object] = [None] * len(physics.transforms)
+        self._stages(static, 0.0, starting=True)
+
+    def step(self, delayed: np.ndarray, dt: float) -> np.ndarray:
+        target = self.p.static_map(delayed)
+        if target.ndim == 2:
+            target = np.diagonal(target).copy()
+        static = target.copy()
+        for n, (j, source, half_width, k) in enumerate(self.p.hysteresis):
+            commands = delayed[j] if delayed.ndim == 2 else delayed
+            seen = static[j] if source == j else commands[source]
+            self.play[n] = np.clip(self.play[n], seen - half_width, seen + half_width)
+            self.seen[n] = seen
+            target[j] += k * (self.play[n] - seen)
+        return self._stages(target, dt)
+
+    def _stages(self, target: np.ndarray, dt: float, starting: bool = False) -> np.ndarray:
+        signal = target.copy()
+        play_input = play_output = None
+        for n, (j, kind, effect) in enumerate(self.p.transforms):
+            if play_input is None and kind.stage != "target":
+                play_input = signal.copy()
+            if play_output is None and kind.stage == "output":
+                play_output = signal.copy()
+            if starting:
+                self.kernels[n] = kind.start(effect, float(signal[j]))
+            signal[j], self.kernels[n] = kind.step(effect, self.kernels[n], float(signal[j]), dt)
+        self.target = signal.copy() if play_input is None else play_input
+        self.state = signal.copy() if play_output is None else play_output
+        return signal
+
+    def play_room(self, j: int) -> tuple[float, float]:
+        down = float(self.state[j] - (self.target[j] - self.p.half_width[j]))
+        up = float(self.target[j] + self.p.half_width[j] - self.state[j])
+        for n, (target, source, half_width, k) in enumerate(self.p.hysteresis):
+            if target == source == j:
+                below = k * (self.play[n] - (self.seen[n] - half_width))
+                above = k * (self.seen[n] + half_width - self.play[n])
+                down, up = down + max(below, -above), up + max(above, -below)
+        return down, up
+
+
+def _walk(rng: np.random.Generator, n: int) -> np.ndarray:
+    steps = rng.normal(size=(n, 6)) * [0.01, 0.01, 0.0005, 0.02, 0.02, 0.02]
+    return np.cumsum(steps, axis=0) + [0.0, 0.0, 0.12, 0.0, 0.0, 0.0]
+
+
+@pytest.mark.parametrize("arm", ["PSM1", "PSM2", "mixed"])
+def test_a_step_and_the_play_room_equal_the_per_joint_formula(arm):
+    rng = np.random.default_rng(11)
+    model = (lambda: ArmPhysics(MIXED)) if arm == "mixed" else (lambda: ArmPhysics.load("dvrk-real", arm))
+    physics, twin = model(), model()  # the twin gives the command each joint sees (its delays)
+    q = _walk(rng, 600)
+    assert physics.reset(q[0]).tobytes() == twin.reset(q[0]).tobytes()
+    reference = ReferenceArm(physics, q[0])
+    for row in q[1:]:
+        dt = float(rng.choice([0.01, 0.001, 0.0137]))
+        twin._time += dt
+        seen = twin._delayed_command(row)
+        assert physics.step(row, dt).tobytes() == reference.step(seen, dt).tobytes()
+        for j in range(6):
+            assert physics.play_room(j) == reference.play_room(j)
+
+
+def test_every_hysteresis_is_clipped_in_one_call_a_tick(monkeypatch):
+    physics = ArmPhysics.load("dvrk-real", "PSM1")
+    physics.reset(np.array([0.0, 0.0, 0.12, 0.0, 0.0, 0.0]))
+    calls = []
+    clip = np.clip
+    monkeypatch.setattr(np, "clip", lambda *args, **kwargs: calls.append(1) or clip(*args, **kwargs))
+    physics.step(np.array([0.01, -0.02, 0.121, 0.1, 0.05, -0.05]), 0.01)
+    assert len(physics.hysteresis) == 8 and len(calls) == 1
+
+
+def test_a_playback_interpolates_as_a_search_of_its_times():
+    rng = np.random.default_rng(5)
+    for _ in range(50):
+        times = np.cumsum(rng.uniform(0.001, 0.02, rng.integers(1, 40)))
+        positions = rng.normal(size=(len(times), 6))
+        playback = Playback("m", times, positions)
+        assert playback.duration == float(times[-1])
+        for elapsed in [*rng.uniform(-0.01, times[-1] + 0.01, 60), *times, 0.0]:
+            if elapsed >= times[-1]:
+                expected = positions[-1]
+            else:
+                i = int(np.searchsorted(times, elapsed, side="right"))
+                if i == 0:
+                    expected = positions[0]
+                else:
+                    t0, t1 = times[i - 1], times[i]
+                    w = (elapsed - t0) / (t1 - t0)
+                    expected = (1 - w) * positions[i - 1] + w * positions[i]
+            assert playback.at(float(elapsed)).tobytes() == np.asarray(expected).tobytes()
+
+
+def test_the_servo_follows_its_first_order_response_whatever_the_period():
+    rng = np.random.default_rng(6)
+    group = JointGroup(np.zeros(6), 0.004, lambda q: [], lambda *a: [])
+    encoder = group.encoder.copy()
+    for _ in range(200):
+        group.setpoint = rng.normal(size=6)
+        dt = float(rng.choice([0.01, 0.01, 0.005, 0.001]))
+        alpha = 1.0 - math.exp(-dt / 0.004)
+        expected = encoder + alpha * (group.setpoint - encoder)
+        velocity = (expected - encoder) / dt
+        group.advance(dt)
+        assert group.encoder.tobytes() == expected.tobytes()
+        assert group.velocity.tobytes() == velocity.tobytes()
+        encoder = expected
+
+
+def test_a_tools_segments_are_its_shaft_wrist_and_jaw():
+    rng = np.random.default_rng(7)
+    cell = workcell()
+    for _ in range(100):
+        q = rng.uniform(-0.5, 0.5, 6) + [0.0, 0.0, 0.12, 0.0, 0.0, 0.0]
+        state = ToolState.from_joints(q, 0.5, cell.arm_to_board("PSM1"))
+        hinge = state.tip[:3, 3] + cell.tool.jaw_length * state.tip[:3, 2]
+        starts, ends, radii = state.segments(cell.tool)
+        assert starts.tobytes() == np.array([state.shaft[0], state.shaft[1], hinge]).tobytes()
+        assert ends.tobytes() == np.array([state.shaft[1], hinge, state.tip[:3, 3]]).tobytes()
+        assert radii.tolist() == [cell.tool.shaft_radius, cell.tool.wrist_radius, cell.tool.jaw_radius]
