@@ -132,20 +132,72 @@ def test_a_playback_interpolates_as_a_search_of_its_times():
             assert playback.at(float(elapsed)).tobytes() == np.asarray(expected).tobytes()
 
 
-def test_the_servo_follows_its_first_order_response_whatever_the_period():
-    rng = np.random.default_rng(6)
-    group = JointGroup(np.zeros(6), 0.004, lambda q: [], lambda *a: [])
-    encoder = group.encoder.copy()
-    for _ in range(200):
-        group.setpoint = rng.normal(size=6)
-        dt = float(rng.choice([0.01, 0.01, 0.005, 0.001]))
+class ReferenceGroup:
+    """`JointGroup.advance` as first written: every tick plays the motion, moves the encoders by the
+    servo's first-order response (its gain from the period), stops them at `lowest`, takes the velocity."""
+
+    def __init__(self, q0: np.ndarray) -> None:
+        self.setpoint = q0.copy()
+        self.tick_setpoint, self.previous_tick_setpoint = q0.copy(), q0.copy()
+        self.encoder, self.velocity = q0.copy(), np.zeros_like(q0)
+        self.motion: Playback | None = None
+        self.lowest: np.ndarray | None = None
+        self.elapsed = 0.0
+
+    def advance(self, dt: float) -> None:
+        if self.motion is not None:
+            self.elapsed += dt
+            self.setpoint = self.motion.at(self.elapsed)
+            if self.elapsed >= self.motion.duration - 1e-9:
+                self.motion = None
+        self.previous_tick_setpoint, self.tick_setpoint = self.tick_setpoint, self.setpoint.copy()
         alpha = 1.0 - math.exp(-dt / 0.004)
-        expected = encoder + alpha * (group.setpoint - encoder)
-        velocity = (expected - encoder) / dt
+        previous = self.encoder
+        self.encoder = previous + alpha * (self.setpoint - previous)
+        if self.lowest is not None:
+            self.encoder = np.maximum(self.encoder, self.lowest)
+        self.velocity = (self.encoder - previous) / dt
+
+
+def _state(group: JointGroup | ReferenceGroup) -> bytes:
+    arrays = (
+        group.setpoint,
+        group.tick_setpoint,
+        group.previous_tick_setpoint,
+        group.encoder,
+        group.velocity,
+    )
+    return b"".join(a.tobytes() for a in arrays)
+
+
+@pytest.mark.parametrize("size", [6, 1])
+def test_the_servo_follows_its_first_order_response_moving_held_or_settled(size):
+    rng = np.random.default_rng(6 + size)
+    q0 = np.zeros(size)
+    group, reference = JointGroup(q0, 0.004, lambda q: [], lambda *a: []), ReferenceGroup(q0)
+    settled = 0
+    for _ in range(3000):
+        event = rng.random()
+        if event < 0.01:  # a new set-point (a servo command), sometimes -0.0 or exactly where it was
+            target = rng.choice([rng.normal(size=size), -0.0 * np.ones(size), group.setpoint.copy()])
+            group.setpoint, reference.setpoint = target.copy(), target.copy()
+        elif event < 0.015:  # a motion played over the next ticks
+            times = np.cumsum(rng.uniform(0.005, 0.02, int(rng.integers(2, 30))))
+            motion = Playback("m", times, rng.normal(size=(len(times), size)))
+            group.start(motion)
+            reference.motion, reference.elapsed = motion, 0.0
+        elif event < 0.02:  # a block stops the encoders from below, or no longer
+            lowest = None if rng.random() < 0.5 else float(rng.normal())
+            group.stop_at(lowest)
+            reference.lowest = None if lowest is None else np.full_like(reference.encoder, lowest)
+            if reference.lowest is not None:
+                reference.encoder = np.maximum(reference.encoder, reference.lowest)
+        dt = float(rng.choice([0.01, 0.01, 0.01, 0.005]))
         group.advance(dt)
-        assert group.encoder.tobytes() == expected.tobytes()
-        assert group.velocity.tobytes() == velocity.tobytes()
-        encoder = expected
+        reference.advance(dt)
+        settled += group._settled is not None
+        assert _state(group) == _state(reference)
+    assert settled > 500  # the settled ticks were exercised
 
 
 def test_a_tools_segments_are_its_shaft_wrist_and_jaw():
