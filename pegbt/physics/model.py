@@ -69,6 +69,7 @@ class ArmPhysics(ArmParameters):
             ]
             for j in range(N_JOINTS)
         }
+        self._delays = bool(self.delay.any())
         stages = [kind.stage for _, kind, _ in self.transforms]
         self._play_from = next((n for n, stage in enumerate(stages) if stage != "target"), len(stages))
         self._output_from = next((n for n, stage in enumerate(stages) if stage == "output"), len(stages))
@@ -237,7 +238,7 @@ class ArmPhysics(ArmParameters):
 
     def _delayed_command(self, q_cmd: NDArray[np.float64]) -> NDArray[np.float64]:
         """The command as each joint sees it: (6,) without delays, else (6, 6), row j delayed by delay[j]."""
-        if not self.delay.any():
+        if not self._delays:
             return q_cmd
         self._history.append((self._time, q_cmd.copy()))
         horizon = self._time - float(self.delay.max())

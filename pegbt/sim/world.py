@@ -99,6 +99,8 @@ class World:
         self._peg_low = self._peg_tops - [pegs.radius, pegs.radius, 0.0]  # bounding boxes of the pegs
         self._peg_high = self._peg_feet + [pegs.radius, pegs.radius, 0.0]
         self._clearance = self.cell.block.hole_radius - pegs.radius + config.peg_slack
+        wall = self.cell.block.edge_distance - self.cell.block.hole_radius
+        self._jaw_on_wall = 2.0 * math.asin(min(1.0, wall / 2.0 / self.cell.tool.jaw_length))  # `jaw_stop`
         self._capture = max(self._clearance, effects.values("chamfer_capture")["capture_radius"])
         self._grasp_capture = effects.values("grasp_capture")["width"]
         self._tip_slide = effects.values("jaw_tip_slide")["width"]
@@ -135,8 +137,7 @@ class World:
         """
         if self.held_by(arm) is None:
             return None
-        wall = self.cell.block.edge_distance - self.cell.block.hole_radius
-        return 2.0 * math.asin(min(1.0, wall / 2.0 / self.cell.tool.jaw_length))
+        return self._jaw_on_wall
 
     @property
     def registration_offset(self) -> Matrix:

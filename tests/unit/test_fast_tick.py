@@ -211,3 +211,46 @@ def test_a_tools_segments_are_its_shaft_wrist_and_jaw():
         assert starts.tobytes() == np.array([state.shaft[0], state.shaft[1], hinge]).tobytes()
         assert ends.tobytes() == np.array([state.shaft[1], hinge, state.tip[:3, 3]]).tobytes()
         assert radii.tolist() == [cell.tool.shaft_radius, cell.tool.wrist_radius, cell.tool.jaw_radius]
+
+
+def _reference_shaft_end_and_tip(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The modified-DH chain on floats, each link's cos and sin of α taken afresh."""
+    from pegbt.motion.kinematics import _dh_table
+
+    xx, xy, xz, yx, yy, yz, zx, zy, zz = 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0
+    px = py = pz = 0.0
+    shaft_end = (0.0, 0.0, 0.0)
+    for link, (a, alpha, d, theta) in enumerate(_dh_table(q.tolist(), zero=0.0)):
+        ca, sa, ct, st = math.cos(alpha), math.sin(alpha), math.cos(theta), math.sin(theta)
+        px, py, pz = px + a * xx, py + a * xy, pz + a * xz
+        yx, yy, yz, zx, zy, zz = (
+            ca * yx + sa * zx,
+            ca * yy + sa * zy,
+            ca * yz + sa * zz,
+            ca * zx - sa * yx,
+            ca * zy - sa * yy,
+            ca * zz - sa * yz,
+        )
+        xx, xy, xz, yx, yy, yz = (
+            ct * xx + st * yx,
+            ct * xy + st * yy,
+            ct * xz + st * yz,
+            ct * yx - st * xx,
+            ct * yy - st * xy,
+            ct * yz - st * xz,
+        )
+        px, py, pz = px + d * zx, py + d * zy, pz + d * zz
+        if link == 2:
+            shaft_end = (px, py, pz)
+    tip = np.array([[xx, yx, zx, px], [xy, yy, zy, py], [xz, yz, zz, pz], [0.0, 0.0, 0.0, 1.0]])
+    return np.array(shaft_end), tip
+
+
+def test_the_tools_kinematics_equal_the_chain_with_each_links_twist_taken_afresh():
+    from pegbt.motion.kinematics import shaft_end_and_tip
+
+    rng = np.random.default_rng(8)
+    for q in rng.uniform(-1.0, 1.0, (200, 6)) + [0.0, 0.0, 0.12, 0.0, 0.0, 0.0]:
+        shaft_end, tip = shaft_end_and_tip(q)
+        reference_end, reference_tip = _reference_shaft_end_and_tip(q)
+        assert shaft_end.tobytes() == reference_end.tobytes() and tip.tobytes() == reference_tip.tobytes()
