@@ -254,3 +254,21 @@ def test_the_tools_kinematics_equal_the_chain_with_each_links_twist_taken_afresh
         shaft_end, tip = shaft_end_and_tip(q)
         reference_end, reference_tip = _reference_shaft_end_and_tip(q)
         assert shaft_end.tobytes() == reference_end.tobytes() and tip.tobytes() == reference_tip.tobytes()
+
+
+def test_contacts_are_the_same_with_the_segments_of_an_arm_not_updated_kept():
+    from pegbt.sim.tools import tool_pointing_down
+    from pegbt.sim.world import World
+
+    rng = np.random.default_rng(9)
+    cell = workcell()
+    kept, fresh = World(3), World(3)
+    for step in range(600):
+        arm = ("PSM1", "PSM2")[step % 2 if step % 7 else 0]  # now and then one arm several steps running
+        near = cell.pegs.tops[int(rng.integers(len(cell.pegs.tops)))] + rng.normal(0.0, 0.004, 3)
+        centre = cell.arm_to_board(arm)[:3, 3]
+        tool = tool_pointing_down(near, float(rng.uniform(0, np.pi)), 0.5, centre, cell.tool)
+        fresh._segments.clear()
+        events = kept.update(0.01 * step, {arm: tool}), fresh.update(0.01 * step, {arm: tool})
+        assert events[0] == events[1]
+    assert {event.detail for event in kept.events} >= {"tool-peg", "tool-tool"}
