@@ -272,3 +272,18 @@ def test_contacts_are_the_same_with_the_segments_of_an_arm_not_updated_kept():
         events = kept.update(0.01 * step, {arm: tool}), fresh.update(0.01 * step, {arm: tool})
         assert events[0] == events[1]
     assert {event.detail for event in kept.events} >= {"tool-peg", "tool-tool"}
+
+
+def test_a_tool_from_joints_seen_before_is_the_tool_computed_afresh():
+    from pegbt.motion.kinematics import shaft_end_and_tip
+
+    rng = np.random.default_rng(10)
+    cell = workcell()
+    to_board = cell.arm_to_board("PSM2")
+    joints = rng.uniform(-0.5, 0.5, (50, 6)) + [0.0, 0.0, 0.12, 0.0, 0.0, 0.0]
+    for q in [*joints, *joints[::-1], *joints]:  # each seen again, as another world replays the arm
+        state = ToolState.from_joints(q.copy(), 0.4, to_board)
+        shaft_end, tip = shaft_end_and_tip(q)
+        rotation, origin = to_board[:3, :3], to_board[:3, 3]
+        assert state.tip.tobytes() == (to_board @ tip).tobytes()
+        assert state.shaft.tobytes() == np.array([origin, rotation @ shaft_end + origin]).tobytes()
