@@ -22,6 +22,7 @@ BENCHMARKS: dict[str, str] = {
     "perception": "pegbt.bench.perception:run",
     "transport": "pegbt.bench.transport:run",
     "sim": "pegbt.bench.sim:run",
+    "tick": "pegbt.bench.tick:run",
     "dvrk-sim": "pegbt.bench.dvrk_sim:run",
     "motion": "pegbt.bench.motion:run",
     "limit": "pegbt.bench.limit:run",

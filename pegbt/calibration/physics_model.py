@@ -86,7 +86,7 @@ class SettledArm:
         # Compensation asks for the same few pieces and steps again and again (100 commands a second):
         # the linear system of each set of pieces, the last steps, and the last target (the inverse checks
         # the command it found, then compensation steps the arm with it) are kept (the same values).
-        self._systems: dict[tuple[tuple[int, ...], bytes], tuple[Array, NDArray[np.bool_], Array]] = {}
+        self._systems: dict[tuple[tuple[int, ...], bytes], tuple[Array, NDArray[np.bool_], Array, Array]] = {}
         self._last_steps: list[tuple[bytes, PhysicsState, PhysicsState]] = []
         self._last_target: tuple[bytes, Array, tuple[Array, Array]] | None = None
 
@@ -149,10 +149,12 @@ class SettledArm:
 
         Where no command reaches it (effects whose map folds over), the closest one found is returned;
         compensation then sees that it does not land and falls back to the raw command."""
-        pieces = self._pieces(np.linalg.solve(self.matrix, target - self.physics.offset), drives)
+        free = target - self.physics.offset  # what the static map and the hysteresis terms must add up to
+        pieces = self._pieces(np.linalg.solve(self.matrix, free), drives)
+        relative = drives - self.drive_offsets
         candidates, seen = [], set()
         for _ in range(NEWTON_ITERATIONS):
-            q = self._solve_one(pieces, target, drives)
+            q = self._solve_one(pieces, free, relative)
             if self._miss(q, target, drives) < REACHED:
                 return q
             candidates.append(q)
@@ -170,28 +172,29 @@ class SettledArm:
         gap = drives - (self.drive_rows @ q + self.drive_offsets)
         return np.where(gap >= self.play, 1, np.where(gap <= -self.play, -1, 0)).astype(np.int8)
 
-    def _solve_one(self, pieces: NDArray[np.int8], target: Array, drives: Array) -> Array:
+    def _solve_one(self, pieces: NDArray[np.int8], free: Array, relative: Array) -> Array:
         """`_solve_pieces` of one row of pieces (H,), the same arithmetic on the same shapes, without
-        masking a batch of one."""
-        matrices, regular, in_band = self._system(pieces[None])
+        masking a batch of one; `free` is the target less the offsets, `relative` the drives less theirs
+        (the same for every Newton step of one target)."""
+        matrices, regular, in_band, saturated = self._system(pieces[None])
         if not regular[0]:
-            return np.full(len(target), np.nan)
-        constant = in_band * (drives - self.drive_offsets) + (1.0 - in_band) * pieces[None] * self.play
-        rhs = target - self.physics.offset - (constant * self.gain) @ self.into.T
+            return np.full(len(free), np.nan)
+        constant = in_band * relative + saturated
+        rhs = free - (constant * self.gain) @ self.into.T
         return np.linalg.solve(matrices, rhs[..., None])[0, :, 0]
 
     def _solve_pieces(self, pieces: NDArray[np.int8], target: Array, drives: Array) -> Array:
         """Commands (K, 6) solving the linear target equation of each row of pieces (K, H); NaN if singular."""
-        matrices, regular, in_band = self._system(pieces)
-        constant = in_band * (drives - self.drive_offsets) + (1.0 - in_band) * pieces * self.play
+        matrices, regular, in_band, saturated = self._system(pieces)
+        constant = in_band * (drives - self.drive_offsets) + saturated
         rhs = target - self.physics.offset - (constant * self.gain) @ self.into.T
         solved = np.full(rhs.shape, np.nan)
         solved[regular] = np.linalg.solve(matrices, rhs[regular][..., None])[..., 0]
         return solved
 
-    def _system(self, pieces: NDArray[np.int8]) -> tuple[Array, NDArray[np.bool_], Array]:
-        """The regular matrices of `pieces`' linear systems, which rows are regular, and which hysteresis
-        terms are in their band (kept per set of pieces)."""
+    def _system(self, pieces: NDArray[np.int8]) -> tuple[Array, NDArray[np.bool_], Array, Array]:
+        """The regular matrices of `pieces`' linear systems, which rows are regular, which hysteresis
+        terms are in their band, and the saturated terms' ±h (kept per set of pieces)."""
         key = (pieces.shape, pieces.tobytes())
         system = self._systems.get(key)
         if system is None:
@@ -201,7 +204,8 @@ class SettledArm:
                 "jn,kn,ni->kji", self.into, in_band * self.gain, self.drive_rows
             )
             regular = np.abs(np.linalg.det(matrices)) > 1e-12
-            system = self._systems[key] = (matrices[regular], regular, in_band)
+            saturated = (1.0 - in_band) * pieces * self.play
+            system = self._systems[key] = (matrices[regular], regular, in_band, saturated)
         return system
 
     def _miss(self, q: Array, target: Array, drives: Array) -> float:

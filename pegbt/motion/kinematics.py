@@ -42,6 +42,9 @@ def _dh_table(q: Sequence[Joint], zero: Joint) -> list[tuple[float, float, Joint
     ]
 
 
+_ALPHA_TRIG = [(math.cos(alpha), math.sin(alpha)) for _, alpha, _, _ in _dh_table([0.0] * N_JOINTS, zero=0.0)]
+
+
 def _dh_rows(q: NDArray[np.float64]) -> list[tuple[float, float, NDArray[np.float64], NDArray[np.float64]]]:
     """(a, α, d, θ) per link for joint batch `q` (..., 6); d and θ are arrays."""
     return _dh_table([q[..., i] for i in range(N_JOINTS)], zero=np.zeros(q.shape[:-1]))
@@ -97,8 +100,9 @@ def shaft_end_and_tip(q: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.flo
     xx, xy, xz, yx, yy, yz, zx, zy, zz = 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0  # frame axes (columns)
     px = py = pz = 0.0  # frame origin
     shaft_end = (0.0, 0.0, 0.0)
-    for link, (a, alpha, d, theta) in enumerate(_dh_table(np.asarray(q, dtype=float).tolist(), zero=0.0)):
-        ca, sa, ct, st = cos(alpha), sin(alpha), cos(theta), sin(theta)
+    table = _dh_table(np.asarray(q, dtype=float).tolist(), zero=0.0)
+    for link, ((a, _, d, theta), (ca, sa)) in enumerate(zip(table, _ALPHA_TRIG)):
+        ct, st = cos(theta), sin(theta)
         px, py, pz = px + a * xx, py + a * xy, pz + a * xz  # TransX(a)
         yx, yy, yz, zx, zy, zz = (  # RotX(α)
             ca * yx + sa * zx,

@@ -54,6 +54,25 @@ class ArmPhysics(ArmParameters):
             effect.kind.install(self, effect)
         self.transforms.sort(key=lambda entry: TRANSFORM_STAGES.index(entry[1].stage))
         self._kernel_states: list[object] = [None] * len(self.transforms)
+        # What `step` reads 100 times a second, laid out once: each hysteresis as arrays, so a tick clips
+        # every play in one call, and where the transforms' stages begin (they are sorted by stage).
+        self._drive_joint = np.array([h[0] for h in self.hysteresis], dtype=np.intp)
+        self._drive_source = np.array([h[1] for h in self.hysteresis], dtype=np.intp)
+        self._drive_own = self._drive_joint == self._drive_source
+        self._drive_half = np.array([h[2] for h in self.hysteresis], dtype=float)
+        self._drive_gain = np.array([h[3] for h in self.hysteresis], dtype=float)
+        self._own_drives = {
+            j: [
+                (n, half, k)
+                for n, (target, source, half, k) in enumerate(self.hysteresis)
+                if target == source == j
+            ]
+            for j in range(N_JOINTS)
+        }
+        self._delays = bool(self.delay.any())
+        stages = [kind.stage for _, kind, _ in self.transforms]
+        self._play_from = next((n for n, stage in enumerate(stages) if stage != "target"), len(stages))
+        self._output_from = next((n for n, stage in enumerate(stages) if stage == "output"), len(stages))
         self._state: NDArray[np.float64] | None = None  # output of the play stage
         self._target: NDArray[np.float64] = np.zeros(N_JOINTS)  # input of the play stage
         self._drive_seen: NDArray[np.float64] = np.zeros(len(self.hysteresis))  # input of each hysteresis
@@ -143,13 +162,12 @@ class ArmPhysics(ArmParameters):
         j = joint_index(joint)
         if self._state is None:
             return 0.0, 0.0
-        down = float(self._state[j] - (self._target[j] - self.half_width[j]))
-        up = float(self._target[j] + self.half_width[j] - self._state[j])
-        for n, (target, source, half_width, k) in enumerate(self.hysteresis):
-            if target == source == j:
-                below = k * (self._drive_play[n] - (self._drive_seen[n] - half_width))
-                above = k * (self._drive_seen[n] + half_width - self._drive_play[n])
-                down, up = down + max(below, -above), up + max(above, -below)  # k < 0 swaps the sides
+        state, target, half = float(self._state[j]), float(self._target[j]), float(self.half_width[j])
+        down, up = state - (target - half), target + half - state
+        for n, half_width, k in self._own_drives[j]:
+            play, seen = float(self._drive_play[n]), float(self._drive_seen[n])
+            below, above = k * (play - (seen - half_width)), k * (seen + half_width - play)
+            down, up = down + max(below, -above), up + max(above, -below)  # k < 0 swaps the sides
         return down, up
 
     # ----------------------------------------------------------------- the physics
@@ -183,40 +201,44 @@ class ArmPhysics(ArmParameters):
         target = self.static_map(delayed)
         if target.ndim == 2:  # row j is the map of the command joint j sees; keep joint j of it
             target = np.diagonal(target).copy()
-        static = target.copy()
-        for n, (j, source, half_width, k) in enumerate(self.hysteresis):
-            seen = self._drive(j, source, delayed[j] if delayed.ndim == 2 else delayed, static)
-            self._drive_play[n] = np.clip(self._drive_play[n], seen - half_width, seen + half_width)
-            self._drive_seen[n] = seen
-            target[j] += k * (self._drive_play[n] - seen)
+        if self.hysteresis:
+            joints, sources = self._drive_joint, self._drive_source
+            commands = delayed[joints, sources] if delayed.ndim == 2 else delayed[sources]
+            seen = np.where(self._drive_own, target[joints], commands)  # read before any term is added
+            self._drive_play = np.clip(self._drive_play, seen - self._drive_half, seen + self._drive_half)
+            self._drive_seen = seen
+            np.add.at(
+                target, joints, self._drive_gain * (self._drive_play - seen)
+            )  # in order, as a loop would
         self._output = self._run_stages(target, dt)
         return self._output.copy()
 
     def _run_stages(
         self, target: NDArray[np.float64], dt: float, starting: bool = False
     ) -> NDArray[np.float64]:
-        """Pass the target through each transform's step kernel (`starting`: settle each kernel at its
-        input first), keeping the play stage's input (`_target`) and output (`_state`)."""
-        signal = target.copy()
-        play_input: NDArray[np.float64] | None = None
-        play_output: NDArray[np.float64] | None = None
+        """Pass the target (taken over, not copied) through each transform's step kernel (`starting`:
+        settle each kernel at its input first), keeping the play stage's input (`_target`) and output
+        (`_state`)."""
+        signal = target
         for n, (j, kind, effect) in enumerate(self.transforms):
-            if play_input is None and kind.stage != "target":
-                play_input = signal.copy()
-            if play_output is None and kind.stage == "output":
-                play_output = signal.copy()
+            if n == self._play_from:
+                self._target = signal.copy()
+            if n == self._output_from:
+                self._state = signal.copy()
             if starting:
                 self._kernel_states[n] = kind.start(effect, float(signal[j]))
             signal[j], self._kernel_states[n] = kind.step(
                 effect, self._kernel_states[n], float(signal[j]), dt
             )
-        self._target = signal.copy() if play_input is None else play_input
-        self._state = signal.copy() if play_output is None else play_output
+        if self._play_from == len(self.transforms):
+            self._target = signal.copy()
+        if self._output_from == len(self.transforms):
+            self._state = signal  # the output, which is never written to in place
         return signal
 
     def _delayed_command(self, q_cmd: NDArray[np.float64]) -> NDArray[np.float64]:
         """The command as each joint sees it: (6,) without delays, else (6, 6), row j delayed by delay[j]."""
-        if not self.delay.any():
+        if not self._delays:
             return q_cmd
         self._history.append((self._time, q_cmd.copy()))
         horizon = self._time - float(self.delay.max())

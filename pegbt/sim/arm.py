@@ -53,6 +53,8 @@ class JointGroup:
         self.lowest: NDArray[np.float64] | None = None  # the encoders cannot go below it (a block in the jaw)
         self._elapsed = 0.0
         self._servo_tau = servo_tau
+        self._alpha_dt, self._alpha = math.nan, 1.0  # the servo gain of the last tick's period
+        self._settled: tuple[float, bytes, bytes, bytes] | None = None  # `_settled_key` of a settled tick
         self._problems = problems
         self._step_problems = step_problems
 
@@ -91,6 +93,8 @@ class JointGroup:
         return (self.tick_setpoint - self.previous_tick_setpoint) / period
 
     def advance(self, dt: float) -> list[Transition]:
+        if self.motion is None and self._settled == self._settled_key(dt):
+            return []  # settled: this tick would give every value again, bit for bit
         transitions = []
         if self.motion is not None:
             self._elapsed += dt
@@ -99,13 +103,37 @@ class JointGroup:
                 transitions.append(Transition(self.motion.command_id, "done"))
                 self.motion = None
         self.previous_tick_setpoint, self.tick_setpoint = self.tick_setpoint, self.setpoint.copy()
-        alpha = 1.0 - math.exp(-dt / self._servo_tau) if self._servo_tau > 0 else 1.0
+        if dt != self._alpha_dt:  # the period hardly ever changes: its servo gain is kept
+            self._alpha_dt = dt
+            self._alpha = 1.0 - math.exp(-dt / self._servo_tau) if self._servo_tau > 0 else 1.0
+        alpha = self._alpha
         previous = self.encoder
         self.encoder = previous + alpha * (self.setpoint - previous)
         if self.lowest is not None:
             self.encoder = np.maximum(self.encoder, self.lowest)
         self.velocity = (self.encoder - previous) / dt
+        self._settled = self._settled_key(dt) if self.motion is None and self._is_settled() else None
         return transitions
+
+    def _settled_key(self, dt: float) -> tuple[float, bytes, bytes, bytes]:
+        """What a settled tick depends on: its period, the set-point, the encoders, the stop."""
+        stop = b"" if self.lowest is None else self.lowest.tobytes()
+        return dt, self.setpoint.tobytes(), self.encoder.tobytes(), stop
+
+    def _is_settled(self) -> bool:
+        """Whether a tick without a motion would change nothing: the encoders sit exactly at the set-point
+        (none at -0.0, which adding the servo's zero step would turn to +0.0), as did the last two ticks'
+        set-points, and they stand still. The stop (`lowest`) then holds them where they are."""
+        at = self.setpoint.tobytes()
+        return (
+            at
+            == self.encoder.tobytes()
+            == self.tick_setpoint.tobytes()
+            == self.previous_tick_setpoint.tobytes()
+            and not self.velocity.any()
+            and not np.signbit(self.velocity).any()
+            and not np.signbit(self.encoder[self.encoder == 0.0]).any()
+        )
 
 
 class SimArm:

@@ -8,7 +8,8 @@ the jaw's speed; a client's trajectory is played back as given, linearly between
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from bisect import bisect_right
+from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -24,19 +25,28 @@ class Playback:
     command_id: str
     times: NDArray[np.float64]
     positions: NDArray[np.float64]
+    _knots: list[float] = field(
+        init=False, repr=False, compare=False
+    )  # `times` as floats, searched each tick
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "_knots", np.asarray(self.times, dtype=float).tolist())
 
     @property
     def duration(self) -> float:
-        return float(self.times[-1])
+        return self._knots[-1]
 
     def at(self, elapsed: float) -> NDArray[np.float64]:
-        """Linear interpolation between samples; the goal once `elapsed` reaches the end."""
-        if elapsed >= self.times[-1]:
+        """Linear interpolation between samples; the goal once `elapsed` reaches the end. The times
+        increase (the guards refuse others), so a bisection of their floats finds the sample
+        `np.searchsorted(side="right")` would, without a NumPy call a tick."""
+        knots = self._knots
+        if elapsed >= knots[-1]:
             return self.positions[-1].copy()
-        i = int(np.searchsorted(self.times, elapsed, side="right"))
+        i = bisect_right(knots, elapsed)
         if i == 0:
             return self.positions[0].copy()
-        t0, t1 = self.times[i - 1], self.times[i]
+        t0, t1 = knots[i - 1], knots[i]
         w = (elapsed - t0) / (t1 - t0)
         return (1 - w) * self.positions[i - 1] + w * self.positions[i]
 

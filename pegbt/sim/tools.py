@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 
@@ -17,6 +18,9 @@ from pegbt.motion.kinematics import shaft_end_and_tip
 from pegbt.physics import ArmPhysics
 from pegbt.workcell import ToolGeometry
 
+KINEMATICS_MEMO = (
+    8192  # tool frames remembered: a transfer's ticks, which the phase simulator's worlds replay
+)
 Give = tuple[float, float, float, float]  # how far the tip yields along its -x, +x, -y, +y (m)
 RIGID: Give = (0.0, 0.0, 0.0, 0.0)
 
@@ -41,7 +45,7 @@ class ToolState:
     def from_joints(cls, q: Matrix, jaw: float, arm_to_board: Matrix, give: Give = RIGID) -> ToolState:
         """The tool of an arm at joints `q` (its physical joints), by the arm's forward kinematics: the
         shaft runs from the remote centre (the base origin) to the wrist pitch axis."""
-        shaft_end, tip = shaft_end_and_tip(q)
+        shaft_end, tip = _frames(np.asarray(q, dtype=float).tobytes())
         rotation, origin = arm_to_board[:3, :3], arm_to_board[:3, 3]
         return cls(
             tip=arm_to_board @ tip,
@@ -56,10 +60,15 @@ class ToolState:
 
     def segments(self, tool: ToolGeometry) -> tuple[Matrix, Matrix, Matrix]:
         """Start points (3, 3), end points (3, 3) and radii (3,) of shaft, wrist and jaw, for collisions."""
-        hinge = self.jaw_hinge(tool)
-        starts = np.array([self.shaft[0], self.shaft[1], hinge])
-        ends = np.array([self.shaft[1], hinge, self.tip[:3, 3]])
-        return starts, ends, np.array([tool.shaft_radius, tool.wrist_radius, tool.jaw_radius])
+        points = np.concatenate((self.shaft, self.jaw_hinge(tool)[None], self.tip[None, :3, 3]))
+        return points[:3], points[1:], np.array([tool.shaft_radius, tool.wrist_radius, tool.jaw_radius])
+
+
+@lru_cache(maxsize=KINEMATICS_MEMO)
+def _frames(joints: bytes) -> tuple[Matrix, Matrix]:
+    """`shaft_end_and_tip` of the joints given as their bytes, remembered (never to be written to): the
+    phase simulator's worlds replay one arm's physical joints, each world asking for its tool again."""
+    return shaft_end_and_tip(np.frombuffer(joints))
 
 
 def wrist_give(physics: ArmPhysics, wrist_yaw: float, tool: ToolGeometry) -> Give:

@@ -41,6 +41,7 @@ _SLIDE_STEP = 0.0005  # m: a block that fell against pegs slides off them in ste
 _SLIDE_STEPS = 200  # at most this many (10 cm): a block cannot rest inside a peg
 _GUIDED_INSIDE = 1e-6  # m: a block the chamfers guide ends this far inside the clearance, clear of the peg
 _YIELD_ROUNDS = 8  # alternations between what the arm's compliance takes and what the peg still pushes
+Segments = tuple[Matrix, Matrix, Matrix, Matrix, Matrix]  # a tool's starts, ends, radii, boxes' low, high
 _ACCELERATION_WINDOW = 0.02  # s between the tip positions a held block's acceleration is taken from
 
 
@@ -86,6 +87,7 @@ class World:
         self.events = EventLog()
         self.time = 0.0
         self.tools: dict[str, ToolState] = {}
+        self._segments: dict[str, tuple[ToolState, Segments]] = {}  # `_tool_segments` of each tool
         self._closed: dict[str, bool] = {}
         self._widest: dict[str, float] = {}  # widest jaw angle of each arm since its jaw last opened
         self._contacts: set[tuple[str, str, int, int]] = set()
@@ -99,6 +101,8 @@ class World:
         self._peg_low = self._peg_tops - [pegs.radius, pegs.radius, 0.0]  # bounding boxes of the pegs
         self._peg_high = self._peg_feet + [pegs.radius, pegs.radius, 0.0]
         self._clearance = self.cell.block.hole_radius - pegs.radius + config.peg_slack
+        wall = self.cell.block.edge_distance - self.cell.block.hole_radius
+        self._jaw_on_wall = 2.0 * math.asin(min(1.0, wall / 2.0 / self.cell.tool.jaw_length))  # `jaw_stop`
         self._capture = max(self._clearance, effects.values("chamfer_capture")["capture_radius"])
         self._grasp_capture = effects.values("grasp_capture")["width"]
         self._tip_slide = effects.values("jaw_tip_slide")["width"]
@@ -135,8 +139,7 @@ class World:
         """
         if self.held_by(arm) is None:
             return None
-        wall = self.cell.block.edge_distance - self.cell.block.hole_radius
-        return 2.0 * math.asin(min(1.0, wall / 2.0 / self.cell.tool.jaw_length))
+        return self._jaw_on_wall
 
     @property
     def registration_offset(self) -> Matrix:
@@ -619,7 +622,7 @@ class World:
     def _detect_contacts(self) -> None:
         """Log each contact when it begins: tool-peg, tool-tool, shaft-shaft, block-board."""
         current: set[tuple[str, str, int, int]] = set()
-        segments = {arm: self._tool_segments(state) for arm, state in sorted(self.tools.items())}
+        segments = {arm: self._tool_segments(arm, state) for arm, state in sorted(self.tools.items())}
         for arm, (starts, ends, radii, low, high) in segments.items():
             if high[:, 2].max() < self._peg_low[0, 2]:  # the whole tool is above the peg tops (z points down)
                 continue
@@ -655,11 +658,23 @@ class World:
             self._log("collision", arm, block_or_none, peg_or_none, kind)
         self._contacts = current
 
-    def _tool_segments(self, state: ToolState) -> tuple[Matrix, Matrix, Matrix, Matrix, Matrix]:
-        """Shaft, wrist and jaw segments: starts, ends, radii, and each one's bounding box (low, high)."""
+    def _tool_segments(self, arm: str, state: ToolState) -> Segments:
+        """Shaft, wrist and jaw segments: starts, ends, radii, and each one's bounding box (low, high);
+        kept for a tool state seen before (an arm that was not updated this step)."""
+        known = self._segments.get(arm)
+        if known is not None and known[0] is state:
+            return known[1]
         starts, ends, radii = state.segments(self.cell.tool)
         reach = radii[:, None]
-        return starts, ends, radii, np.minimum(starts, ends) - reach, np.maximum(starts, ends) + reach
+        found: Segments = (
+            starts,
+            ends,
+            radii,
+            np.minimum(starts, ends) - reach,
+            np.maximum(starts, ends) + reach,
+        )
+        self._segments[arm] = (state, found)
+        return found
 
 
 def _unit(vector: Matrix) -> Matrix:
