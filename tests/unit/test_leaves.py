@@ -319,6 +319,37 @@ def test_approach_narrows_the_open_jaw_as_the_tool_arrives_still_straddling_the_
     assert 2 * tool.jaw_radius < 2 * tool.jaw_length * math.sin(transfer.jaw_at_grasp / 2) - wall
 
 
+def test_approach_in_real_time_sends_the_narrowing_to_end_on_the_arms_last_tick_as_soon_as_it_is_due(
+    tmp_path, skills, cloud, seen
+):
+    """A robot plays the jaw's ramp on its control period's ticks, its last row on the first tick at or
+    after the ramp's length: sent that length before the arm's end, it ended up to a period after the
+    arm; and ticked on the tree's period (another leaf running), up to a period later still."""
+    clock = RealtimeManualClock()
+    robot = fake_robot(clock, skills.settings, skills.cell, cloud)
+    block, grasp = grasp_of(skills, seen)
+    built = build(
+        tmp_path, robot, skills, APPROACH, board=seen[0], **{"PSM1/block": block, "PSM1/grasp": grasp}
+    )
+    (leaf,) = [node.behaviour for node in built.nodes]
+    tree_period, poll = 0.02, 0.002
+    while True:  # as the runner in real time beside a leaf that asks for every period, or at wake_when
+        built.root.tick_once()
+        if leaf.status != Status.RUNNING or clock.now() > 5.0:
+            break
+        last_tick = clock.now()
+        while clock.now() < last_tick + tree_period - 1e-9 and not (leaf.wake_when and leaf.wake_when()):
+            clock.advance(poll)
+    assert leaf.status == Status.SUCCESS
+    arm, transfer, settings = psm1(robot), skills.motion.transfer, skills.settings["PSM1"]
+    (trajectory,) = arm.trajectories
+    _, narrowing = arm.jaw.sent
+    ramp = (transfer.jaw_open - transfer.jaw_at_grasp) / settings.jaw_velocity
+    rows = math.ceil(ramp / settings.control_period)  # the ramp's last row goes on this tick
+    due = trajectory.duration - (rows + 0.25) * settings.control_period
+    assert due - 1e-9 <= narrowing.at <= due + poll + 1e-9
+
+
 def tick_each_period(built: BuiltTree, clock: ManualClock, period: float, seconds: float = 2.0) -> Status:
     """Tick every control `period` of the clock (as the runner does while a leaf asks to be woken)
     until the leaf ends."""
