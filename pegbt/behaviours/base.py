@@ -49,7 +49,9 @@ BLOCKED_RETRY = 0.1  # s between attempts of a motion that would come too close 
 BLOCKED_PATIENCE = 15.0  # s a motion waits for the other arm to clear its way before the leaf fails
 STEP_BACK = 0.03  # m of insertion an arm gives up to let the other arm past
 REPLANS = 3  # plans in a row found stale as they were sent before the leaf fails
-JAW_DISPATCH = 0.25  # control periods a timed jaw motion is sent early in real time, for its own dispatch
+# control periods more a timed jaw motion is sent ahead in real time: one for the robot's word that the jaw
+# reached its goal (a state message after the last row), a quarter for the jaw motion's own dispatch
+JAW_AHEAD = 1.25
 # s a motion may run past its planned end before the leaf gives up on it: in real time an endpoint's
 # report of the end can be lost (a busy machine), and every motion is bounded in time
 MOTION_OVERTIME = 3.0
@@ -355,7 +357,8 @@ class MotionLeaf(RobotLeaf):
 
     def move_jaw(self, arm: str, angle: float, what: str, before_end: float | None = None) -> None:
         """Move `arm`'s jaw to `angle`: at once, or `before_end` seconds before the arm motion of this leaf
-        is planned to end (stalls included), so that a jaw action overlaps the end of the arm's motion."""
+        is planned to end (stalls included; in real time a little more, `_jaw_lead`), so that a jaw action
+        overlaps the end of the arm's motion."""
         self.outgoing.append(Outgoing(what, arm, jaw_angle=angle, before_end=before_end))
 
     def _check_clearance(self, outgoing: Outgoing, trajectory: Trajectory) -> None:
@@ -461,14 +464,16 @@ class MotionLeaf(RobotLeaf):
     def _jaw_lead(self, outgoing: Outgoing) -> float:
         """How long before the arm motion's end a jaw motion given `before_end` is sent. In real time a
         robot plays it on the control period's ticks, the arm's last row on one of them: the jaw's last row
-        goes on the first tick at or after `before_end`, and it is sent that many whole periods, and a
-        quarter period for its own dispatch, ahead, so that both last rows share a tick. `before_end` alone
-        let the jaw end up to a period after the arm, and the leaf wait for it."""
+        goes on the first tick at or after `before_end`, and the jaw is done once the robot says its
+        set-point is there, a state message later (the arm once it is within a step of its end, at once).
+        So it is sent that many whole periods and `JAW_AHEAD` more ahead, and is done by the time the arm
+        is: sent `before_end` ahead, it ended up to a period after the arm, and the leaf waited 20-30 ms
+        for it."""
         assert outgoing.before_end is not None  # only such motions wait to be sent
         if not is_realtime(self.context.clock):
             return outgoing.before_end
         period = self.motion(outgoing.arm).settings.control_period
-        return period * (math.ceil(outgoing.before_end / period - 1e-9) + JAW_DISPATCH)
+        return period * (math.ceil(outgoing.before_end / period - 1e-9) + JAW_AHEAD)
 
     def jaw_due(self, outgoing: Outgoing) -> None:
         """Called as a jaw motion given `before_end` is about to be sent; a subclass may read the jaw first."""

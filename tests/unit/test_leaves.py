@@ -22,7 +22,7 @@ from py_trees.common import Status
 
 from pegbt.behaviours.actions.grasping import gripping
 from pegbt.behaviours.actions.handover import plan_meeting
-from pegbt.behaviours.base import MOTION_OVERTIME
+from pegbt.behaviours.base import JAW_AHEAD, MOTION_OVERTIME
 from pegbt.behaviours.poses import HANDOVER_ARRIVAL, height_above_pegs, transfer_for, yaw_about
 from pegbt.behaviours.resources.robot import Robot
 from pegbt.behaviours.resources.skills import Skills
@@ -323,8 +323,9 @@ def test_approach_in_real_time_sends_the_narrowing_to_end_on_the_arms_last_tick_
     tmp_path, skills, cloud, seen
 ):
     """A robot plays the jaw's ramp on its control period's ticks, its last row on the first tick at or
-    after the ramp's length: sent that length before the arm's end, it ended up to a period after the
-    arm; and ticked on the tree's period (another leaf running), up to a period later still."""
+    after the ramp's length, and says the jaw is there a state message later: sent that length before
+    the arm's end, it ended up to two periods after the arm; and ticked on the tree's period (another
+    leaf running), up to a tree period later still."""
     clock = RealtimeManualClock()
     robot = fake_robot(clock, skills.settings, skills.cell, cloud)
     block, grasp = grasp_of(skills, seen)
@@ -346,7 +347,7 @@ def test_approach_in_real_time_sends_the_narrowing_to_end_on_the_arms_last_tick_
     _, narrowing = arm.jaw.sent
     ramp = (transfer.jaw_open - transfer.jaw_at_grasp) / settings.jaw_velocity
     rows = math.ceil(ramp / settings.control_period)  # the ramp's last row goes on this tick
-    due = trajectory.duration - (rows + 0.25) * settings.control_period
+    due = trajectory.duration - (rows + JAW_AHEAD) * settings.control_period
     assert due - 1e-9 <= narrowing.at <= due + poll + 1e-9
 
 
