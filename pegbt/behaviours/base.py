@@ -462,17 +462,23 @@ class MotionLeaf(RobotLeaf):
                 self.wake_when = partial(_reached, self.context.clock, at, self.wake_when)
 
     def _jaw_lead(self, outgoing: Outgoing) -> float:
-        """How long before the arm motion's end a jaw motion given `before_end` is sent. In real time a
-        robot plays it on the control period's ticks, the arm's last row on one of them: the jaw's last row
-        goes on the first tick at or after `before_end`, and the jaw is done once the robot says its
-        set-point is there, a state message later (the arm once it is within a step of its end, at once).
-        So it is sent that many whole periods and `JAW_AHEAD` more ahead, and is done by the time the arm
-        is: sent `before_end` ahead, it ended up to a period after the arm, and the leaf waited 20-30 ms
-        for it."""
-        assert outgoing.before_end is not None  # only such motions wait to be sent
+        """How long before the arm motion's end a jaw motion given `before_end` is sent. In real time, for
+        a jaw meant to end as the arm does (`before_end` its ramp's length): a robot plays the ramp on the
+        control period's ticks, the arm's last row on one of them, the jaw's last row on the first tick at
+        or after `before_end`, and the jaw is done once the robot says its set-point is there, a state
+        message later (the arm once it is within a step of its end, at once). So it is sent that many
+        whole periods and `JAW_AHEAD` more ahead, and is done by the time the arm is: sent `before_end`
+        ahead, it ended up to a period after the arm, and the leaf waited 20-30 ms for it. A jaw timed to
+        pass an angle on its way as the arm arrives (a close meeting a wall) keeps `before_end`."""
+        assert outgoing.before_end is not None and outgoing.jaw_angle is not None  # a timed jaw motion
         if not is_realtime(self.context.clock):
             return outgoing.before_end
-        period = self.motion(outgoing.arm).settings.control_period
+        settings = self.motion(outgoing.arm).settings
+        angle = float(self.client(outgoing.arm).jaw.setpoint_js.position[0])
+        ramp = abs(outgoing.jaw_angle - angle) / settings.jaw_velocity
+        period = settings.control_period
+        if abs(ramp - outgoing.before_end) > period / 2:
+            return outgoing.before_end
         return period * (math.ceil(outgoing.before_end / period - 1e-9) + JAW_AHEAD)
 
     def jaw_due(self, outgoing: Outgoing) -> None:

@@ -22,7 +22,7 @@ from py_trees.common import Status
 
 from pegbt.behaviours.actions.grasping import gripping
 from pegbt.behaviours.actions.handover import plan_meeting
-from pegbt.behaviours.base import JAW_AHEAD, MOTION_OVERTIME
+from pegbt.behaviours.base import JAW_AHEAD, MOTION_OVERTIME, Outgoing
 from pegbt.behaviours.poses import HANDOVER_ARRIVAL, height_above_pegs, transfer_for, yaw_about
 from pegbt.behaviours.resources.robot import Robot
 from pegbt.behaviours.resources.skills import Skills
@@ -349,6 +349,9 @@ def test_approach_in_real_time_sends_the_narrowing_to_end_on_the_arms_last_tick_
     rows = math.ceil(ramp / settings.control_period)  # the ramp's last row goes on this tick
     due = trajectory.duration - (rows + JAW_AHEAD) * settings.control_period
     assert due - 1e-9 <= narrowing.at <= due + poll + 1e-9
+    # a jaw timed to pass an angle as the arm arrives, its ramp going on past it, keeps its own lead
+    through = Outgoing("PSM1 jaw closing", "PSM1", jaw_angle=transfer.jaw_closed, before_end=ramp)
+    assert leaf._jaw_lead(through) == ramp
 
 
 def tick_each_period(built: BuiltTree, clock: ManualClock, period: float, seconds: float = 2.0) -> Status:
