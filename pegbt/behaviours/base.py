@@ -26,8 +26,10 @@ which takes the tool away from everything), and plans again from there.
 from __future__ import annotations
 
 import logging
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import partial
 from typing import Any
 
 from py_trees.common import Status
@@ -35,6 +37,7 @@ from py_trees.common import Status
 from pegbt.behaviours.resources.arm_motion import ArmMotion, Prepared, prepare_all
 from pegbt.behaviours.resources.robot import Robot
 from pegbt.behaviours.resources.skills import Skills
+from pegbt.clock import Clock, is_realtime
 from pegbt.errors import PegbtError
 from pegbt.executive.leaf import Leaf
 from pegbt.executive.work import Job
@@ -46,6 +49,9 @@ BLOCKED_RETRY = 0.1  # s between attempts of a motion that would come too close 
 BLOCKED_PATIENCE = 15.0  # s a motion waits for the other arm to clear its way before the leaf fails
 STEP_BACK = 0.03  # m of insertion an arm gives up to let the other arm past
 REPLANS = 3  # plans in a row found stale as they were sent before the leaf fails
+# control periods more a timed jaw motion is sent ahead in real time: one for the robot's word that the jaw
+# reached its goal (a state message after the last row), a quarter for the jaw motion's own dispatch
+JAW_AHEAD = 1.25
 # s a motion may run past its planned end before the leaf gives up on it: in real time an endpoint's
 # report of the end can be lost (a busy machine), and every motion is bounded in time
 MOTION_OVERTIME = 3.0
@@ -351,7 +357,8 @@ class MotionLeaf(RobotLeaf):
 
     def move_jaw(self, arm: str, angle: float, what: str, before_end: float | None = None) -> None:
         """Move `arm`'s jaw to `angle`: at once, or `before_end` seconds before the arm motion of this leaf
-        is planned to end (stalls included), so that a jaw action overlaps the end of the arm's motion."""
+        is planned to end (stalls included; in real time a little more, `_jaw_lead`), so that a jaw action
+        overlaps the end of the arm's motion."""
         self.outgoing.append(Outgoing(what, arm, jaw_angle=angle, before_end=before_end))
 
     def _check_clearance(self, outgoing: Outgoing, trajectory: Trajectory) -> None:
@@ -438,18 +445,41 @@ class MotionLeaf(RobotLeaf):
         return self.done()
 
     def _send_timed_jaws(self, now: float, paused: float) -> None:
-        """Send the jaw motions due before the arm motion's end; ask to be ticked when the next one is due."""
+        """Send the jaw motions due before the arm motion's end; ask to be ticked when the next one is due
+        (in real time also as soon as it is, not on the tree's next period)."""
         if self.arm_end is None or not self.pending_jaws:
             return
         for outgoing in list(self.pending_jaws):
-            assert outgoing.before_end is not None  # only such motions wait here
-            at = self.arm_end + paused - outgoing.before_end
+            at = self.arm_end + paused - self._jaw_lead(outgoing)
             if now >= at - 1e-9:
                 self.pending_jaws.remove(outgoing)
                 self.jaw_due(outgoing)
                 self._send_jaw(outgoing)
-            elif self.wake_at is not None:
+                continue
+            if self.wake_at is not None:
                 self.wake_at = min(self.wake_at, at)
+            if is_realtime(self.context.clock):
+                self.wake_when = partial(_reached, self.context.clock, at, self.wake_when)
+
+    def _jaw_lead(self, outgoing: Outgoing) -> float:
+        """How long before the arm motion's end a jaw motion given `before_end` is sent. In real time, for
+        a jaw meant to end as the arm does (`before_end` its ramp's length): a robot plays the ramp on the
+        control period's ticks, the arm's last row on one of them, the jaw's last row on the first tick at
+        or after `before_end`, and the jaw is done once the robot says its set-point is there, a state
+        message later (the arm once it is within a step of its end, at once). So it is sent that many
+        whole periods and `JAW_AHEAD` more ahead, and is done by the time the arm is: sent `before_end`
+        ahead, it ended up to a period after the arm, and the leaf waited 20-30 ms for it. A jaw timed to
+        pass an angle on its way as the arm arrives (a close meeting a wall) keeps `before_end`."""
+        assert outgoing.before_end is not None and outgoing.jaw_angle is not None  # a timed jaw motion
+        if not is_realtime(self.context.clock):
+            return outgoing.before_end
+        settings = self.motion(outgoing.arm).settings
+        angle = float(self.client(outgoing.arm).jaw.setpoint_js.position[0])
+        ramp = abs(outgoing.jaw_angle - angle) / settings.jaw_velocity
+        period = settings.control_period
+        if abs(ramp - outgoing.before_end) > period / 2:
+            return outgoing.before_end
+        return period * (math.ceil(outgoing.before_end / period - 1e-9) + JAW_AHEAD)
 
     def jaw_due(self, outgoing: Outgoing) -> None:
         """Called as a jaw motion given `before_end` is about to be sent; a subclass may read the jaw first."""
@@ -492,3 +522,8 @@ class MotionLeaf(RobotLeaf):
             except PegbtError as error:
                 log.warning("%s: could not stop %s: %s", self.name, motion.what, error)
         self.running = []
+
+
+def _reached(clock: Clock, at: float, then: Callable[[], bool] | None) -> bool:
+    """Whether `clock` reached `at` (a timed jaw motion is due) or `then` holds."""
+    return clock.now() >= at or (then is not None and then())

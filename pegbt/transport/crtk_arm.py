@@ -73,7 +73,6 @@ HISTORY_WAIT = 2.0  # s at most to wait for it
 # 90°/s² for yaw and pitch, 0.2 m/s and 0.2 m/s² for insertion, 1080°/s and 720°/s² for roll and the wrist
 DVRK_MOVE_VELOCITY = np.array([np.pi / 2, np.pi / 2, 0.2, 6 * np.pi, 6 * np.pi, 6 * np.pi])
 DVRK_MOVE_ACCELERATION = np.array([np.pi / 2, np.pi / 2, 0.2, 4 * np.pi, 4 * np.pi, 4 * np.pi])
-ARRIVED = 1e-6  # rad: the jaw's set-point is the last one streamed (servo_jp becomes its set-point)
 MOVE_MARGIN = 2.0  # s beyond twice the rest-to-rest time a robot's move_jp may take before it fails
 STATE_CONFIRM_S = 0.5  # s to wait for the operating state the streamer saw, once it stops a motion
 RATIO_CONFIRM_S = 2.0  # s for the robot to confirm a trajectory ratio
@@ -169,6 +168,7 @@ class CrtkJaw:
         self._arm = arm
         self._measured = measured
         self._setpoint = setpoint
+        self._last: tuple[StreamedMotion, float] | None = None  # the last ramp streamed, and its goal
 
     @property
     def measured_js(self) -> JointSample:
@@ -187,13 +187,26 @@ class CrtkJaw:
         guards.refuse_if(
             guards.jaw_problems(angle, settings), f"jaw goal {angle}", self._arm.topics.jaw_servo_jp.name
         )
-        start = float(self.setpoint_js.position[0])
+        start = self._start()
         distance = abs(angle - start)
         duration = max(distance / settings.jaw_velocity, settings.control_period)
         t = np.append(np.arange(0.0, duration, settings.control_period), duration)
         q = start + np.sign(angle - start) * np.minimum(t * settings.jaw_velocity, distance)
         q[-1] = angle
-        return self._arm.stream("jaw", t, q[:, None], f"{self._arm.name} jaw to {angle:.3f} rad", duration)
+        motion = self._arm.stream("jaw", t, q[:, None], f"{self._arm.name} jaw to {angle:.3f} rad", duration)
+        self._last = (motion, angle)
+        return motion
+
+    def _start(self) -> float:
+        """Where the next ramp starts: the robot's set-point, or the goal of the last ramp once that is done
+        and the set-point within a step of its goal (`taken_up`: the echo of the last row yet to come); a
+        ramp from the row before would first step the jaw back."""
+        setpoint = float(self.setpoint_js.position[0])
+        if self._last is not None:
+            motion, goal = self._last
+            if motion.done and jaw_taken_up(setpoint, goal, self._arm.settings):
+                return goal
+        return setpoint
 
 
 class CrtkArm:
@@ -477,7 +490,9 @@ class CrtkArm:
         def arrived() -> bool:
             if axis == "arm":
                 return taken_up(self.read(self._setpoint).position, end, self.settings)
-            return bool(np.allclose(self.read(self.jaw._setpoint).position, end, atol=ARRIVED))
+            return jaw_taken_up(
+                float(self.read(self.jaw._setpoint).position[0]), float(end[0]), self.settings
+            )
 
         # a robot allowed to fall silent for the liveness timeout may report its set-point that much later
         margin = max(MOTION_MARGIN, 2 * self.liveness_timeout)
@@ -500,6 +515,14 @@ def taken_up(setpoint: ArrayLike, end: ArrayLike, settings: ArmSettings) -> bool
     (`ArmMotion.stale`). The echo of the last row itself comes a state message later (about 8 ms a motion
     against the simulator), which every motion of a transfer would add in turn."""
     return not guards.step_problems(end, setpoint, settings, settings.control_period)
+
+
+def jaw_taken_up(setpoint: float, goal: float, settings: ArmSettings) -> bool:
+    """Whether a streamed jaw ramp whose last set-point has been sent may count as done with the robot's jaw
+    set-point at `setpoint`: within one control period's step of the `goal` at the jaw's velocity, as an arm
+    (`taken_up`); the next ramp starts from the goal (`CrtkJaw._start`). The echo of the last row came a
+    state message later, which each jaw-only leaf (a handover's release) waited for."""
+    return not guards.jaw_step_problems(goal, setpoint, settings, settings.control_period)
 
 
 def _is_ratio(wanted: float, value: float) -> bool:

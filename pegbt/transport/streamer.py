@@ -70,6 +70,9 @@ if TYPE_CHECKING:
 _LENGTH = struct.Struct("<I")
 EPOLL_RESOLUTION = 0.001  # s: epoll's timeout is whole milliseconds
 STALL_PERIODS = 2  # a longer gap since an axis's last set-point is a stall: its stream is no longer going
+# s: a tick this close before a motion's last row sends it. The loop's ticks are a running sum of periods,
+# which in binary falls short of the row's time by a few ulps; the last row then went a period late
+ROW_TOLERANCE = 1e-6
 Frame = tuple[Any, ...]
 
 
@@ -289,7 +292,7 @@ class Streamer:
                 since = self.period
                 self._report(("stalled", motion.id, stall))
             elapsed = now - motion.start
-            last_row = elapsed >= motion.t[-1]
+            last_row = elapsed >= motion.t[-1] - ROW_TOLERANCE
             q = motion.q[-1] if last_row else _sample(motion.t, motion.q, elapsed)
             problems = axis.problems(q) + axis.step_problems(q, axis.last[1], since)
             if problems:

@@ -45,12 +45,12 @@ def _until(condition, timeout: float = 10.0, poll: float = 0.01) -> bool:
 class Rig:
     """An in-process `Streamer` for PSM1 on the robot double, its reports, and a tick clock of its own."""
 
-    def __init__(self) -> None:
+    def __init__(self, period: float = PERIOD) -> None:
         endpoint = f"tcp/127.0.0.1:{free_port()}"
         self.double = CrtkDouble(endpoint, enabled=True, homed=True)
         self.reports: list[Frame] = []
         config = {
-            "period": PERIOD,
+            "period": period,
             "connect": [endpoint],
             "namespace": "",
             "arms": {"PSM1": arm_settings("PSM1")},
@@ -257,3 +257,21 @@ def test_a_motion_given_a_tick_just_past_stays_on_the_grid_and_ends_on_its_last_
     for k in range(len(q)):
         rig.streamer.tick(start + k * PERIOD)
     assert rig.reports[-1] == ("done", 1)
+
+
+def test_the_last_row_goes_on_its_tick_when_the_ticks_are_a_running_sum_of_a_decimal_period() -> None:
+    """The loop's ticks add a period at a time (`main`); at 0.01 s that sum falls short of a row's time by
+    a few ulps, and every motion's last row, sent a period late, held its end back by 10 ms."""
+    period = 0.01
+    rig = Rig(period)
+    try:
+        q = _yaw_sway(20)
+        start = time.monotonic()
+        assert rig.streamer.handle(("play", 1, "PSM1", "arm", np.arange(len(q)) * period, q), start)
+        tick = start
+        for _ in range(len(q)):
+            rig.streamer.tick(tick)
+            tick += period
+        assert rig.reports[-1] == ("done", 1)
+    finally:
+        rig.close()

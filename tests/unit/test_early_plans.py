@@ -18,6 +18,7 @@ from executive_helpers import write_tree
 from fake_arm import FakeArm, fake_robot
 from py_trees.common import Status
 
+from pegbt.behaviours.actions import grasping
 from pegbt.behaviours.actions.handover import plan_meeting, way_to_wait
 from pegbt.behaviours.resources.robot import Robot
 from pegbt.behaviours.resources.skills import Skills
@@ -250,6 +251,35 @@ def test_the_next_blocks_approach_is_planned_while_this_carry_plays(tmp_path, ro
     assert np.allclose(approach_again.target.q[0], carry.target.q[-1])
     # each plan made as the motion before it was sent: the second approach while the first carry played
     assert pool.submitted == [0.0, approach.at, carry.at, approach_again.at]
+
+
+def test_an_approach_planned_early_is_sent_with_none_of_its_waypoints_computed_on_the_tick(
+    tmp_path, robot, skills, seen, clock, monkeypatch
+):
+    """The tick that sends an approach (or the carry's tick that plans the next one early) used to compute
+    the approach's waypoints and its stops above the pegs (inverse kinematics) before the motion left,
+    though the plan made early needed none of it."""
+    on_the_tick = []
+    stops = grasping.above_pegs_first
+
+    def counted(*args: Any, **kwargs: Any) -> Any:
+        on_the_tick.append(threading.current_thread() is threading.main_thread())
+        return stops(*args, **kwargs)
+
+    monkeypatch.setattr(grasping, "above_pegs_first", counted)
+    pool = GatedPool(clock)
+    psm1(robot).block_in_jaw = True
+    context = RunContext(clock=clock, resources={"robot": robot, "skills": skills}, work=pool)
+    text = (
+        f"blackboard: {{/board: null, /blocks: null}}\n{LOOP}\ntree: {{for_each: {{list: two, use: one}}}}\n"
+    )
+    built = load_tree(write_tree(tmp_path, text)).build(context)
+    set_initial_blackboard(built)
+    py_trees.blackboard.Blackboard.set("/board", seen[0])
+    py_trees.blackboard.Blackboard.set("/blocks", seen[1])
+    built.root.setup_with_descendants()
+    assert run(built, clock, pool, seconds=60.0) == Status.SUCCESS, built.root.feedback_message
+    assert on_the_tick == [False, False]  # the first approach's plan and the second's, made early
 
 
 GIVE = f"""

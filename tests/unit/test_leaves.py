@@ -22,7 +22,7 @@ from py_trees.common import Status
 
 from pegbt.behaviours.actions.grasping import gripping
 from pegbt.behaviours.actions.handover import plan_meeting
-from pegbt.behaviours.base import MOTION_OVERTIME
+from pegbt.behaviours.base import JAW_AHEAD, MOTION_OVERTIME, Outgoing
 from pegbt.behaviours.poses import HANDOVER_ARRIVAL, height_above_pegs, transfer_for, yaw_about
 from pegbt.behaviours.resources.robot import Robot
 from pegbt.behaviours.resources.skills import Skills
@@ -317,6 +317,41 @@ def test_approach_narrows_the_open_jaw_as_the_tool_arrives_still_straddling_the_
     # narrowed, the tips still clear the wall and the jaws' own thickness
     wall, tool = skills.cell.block.edge_distance - skills.cell.block.hole_radius, skills.cell.tool
     assert 2 * tool.jaw_radius < 2 * tool.jaw_length * math.sin(transfer.jaw_at_grasp / 2) - wall
+
+
+def test_approach_in_real_time_sends_the_narrowing_to_end_on_the_arms_last_tick_as_soon_as_it_is_due(
+    tmp_path, skills, cloud, seen
+):
+    """A robot plays the jaw's ramp on its control period's ticks, its last row on the first tick at or
+    after the ramp's length, and says the jaw is there a state message later: sent that length before
+    the arm's end, it ended up to two periods after the arm; and ticked on the tree's period (another
+    leaf running), up to a tree period later still."""
+    clock = RealtimeManualClock()
+    robot = fake_robot(clock, skills.settings, skills.cell, cloud)
+    block, grasp = grasp_of(skills, seen)
+    built = build(
+        tmp_path, robot, skills, APPROACH, board=seen[0], **{"PSM1/block": block, "PSM1/grasp": grasp}
+    )
+    (leaf,) = [node.behaviour for node in built.nodes]
+    tree_period, poll = 0.02, 0.002
+    while True:  # as the runner in real time beside a leaf that asks for every period, or at wake_when
+        built.root.tick_once()
+        if leaf.status != Status.RUNNING or clock.now() > 5.0:
+            break
+        last_tick = clock.now()
+        while clock.now() < last_tick + tree_period - 1e-9 and not (leaf.wake_when and leaf.wake_when()):
+            clock.advance(poll)
+    assert leaf.status == Status.SUCCESS
+    arm, transfer, settings = psm1(robot), skills.motion.transfer, skills.settings["PSM1"]
+    (trajectory,) = arm.trajectories
+    _, narrowing = arm.jaw.sent
+    ramp = (transfer.jaw_open - transfer.jaw_at_grasp) / settings.jaw_velocity
+    rows = math.ceil(ramp / settings.control_period)  # the ramp's last row goes on this tick
+    due = trajectory.duration - (rows + JAW_AHEAD) * settings.control_period
+    assert due - 1e-9 <= narrowing.at <= due + poll + 1e-9
+    # a jaw timed to pass an angle as the arm arrives, its ramp going on past it, keeps its own lead
+    through = Outgoing("PSM1 jaw closing", "PSM1", jaw_angle=transfer.jaw_closed, before_end=ramp)
+    assert leaf._jaw_lead(through) == ramp
 
 
 def tick_each_period(built: BuiltTree, clock: ManualClock, period: float, seconds: float = 2.0) -> Status:

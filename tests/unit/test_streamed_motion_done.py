@@ -1,7 +1,7 @@
 """When a streamed arm trajectory counts as done against a CRTK robot: once the streamer has sent its last
 set-point and the robot's `setpoint_js` is within the step the next trajectory may start from (the
 robot's own check of a trajectory's start), not only once the echo of that last row itself has come, a
-state message later. A jaw motion still waits for its last row (the grasp check reads the jaw after it)."""
+state message later; a jaw ramp likewise, at the jaw's velocity."""
 
 from __future__ import annotations
 
@@ -40,8 +40,12 @@ class Streamer:
 
     running = True
 
+    def __init__(self) -> None:
+        self.played: list[tuple[str, str, int, np.ndarray, np.ndarray]] = []
+
     def play(self, arm: str, axis: str, t: object, q: object) -> int:
-        return 1
+        self.played.append((arm, axis, len(self.played) + 1, np.asarray(t), np.asarray(q)))
+        return len(self.played)
 
     def outcome(self, motion_id: int) -> tuple[str, str]:
         return ("done", "")
@@ -73,12 +77,21 @@ def test_an_arm_trajectory_is_done_once_the_robots_set_point_is_a_start_the_next
     assert handle.busy  # the robot has not taken the end: the next trajectory would be refused its start
 
 
-def test_a_jaw_motion_still_waits_for_its_last_set_point() -> None:
+def test_a_jaw_ramp_is_done_once_the_robots_set_point_is_within_a_step_and_the_next_starts_at_its_goal() -> (
+    None
+):
+    """A jaw ramp waited for the echo of its last row, a state message after it went: each jaw-only leaf (a
+    handover's release) took that much longer than lockstep. Done a step short, the next ramp must still
+    start where the last one ended, not step the jaw back to the row before."""
     client, wire = arm()
     step = client.settings.jaw_velocity * client.settings.control_period
     wire.robot_says("PSM1/measured_js", np.zeros(6))
-    wire.robot_says("PSM1/jaw/setpoint_js", np.array([0.5 - step]))
-    handle = client.stream("jaw", np.array([0.0, 0.01]), np.array([[0.5 - step], [0.5]]), "PSM1 jaw", 0.01)
-    assert handle.busy
-    wire.robot_says("PSM1/jaw/setpoint_js", np.array([0.5]))
-    assert handle.done
+    wire.robot_says("PSM1/jaw/setpoint_js", np.array([0.5 - 0.9 * step]))
+    handle = client.jaw.move_jp(0.5)
+    assert handle.done  # the echo of the last row is not waited for
+    assert client.jaw.move_jp(0.2)
+    _, _, _, t, q = client._streamer.played[-1]  # type: ignore[attr-defined]
+    assert q[0, 0] == 0.5 and np.all(np.diff(q[:, 0]) < 0)  # from the goal, closing all the way
+
+    wire.robot_says("PSM1/jaw/setpoint_js", np.array([0.2 - 3 * step]))  # three steps short: not taken up
+    assert client.jaw.move_jp(0.2).busy

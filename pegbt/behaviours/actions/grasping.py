@@ -226,6 +226,19 @@ def approach_plan(
     return partial(motion.through, start, joints, names[: len(joints)])
 
 
+def planned_approach(
+    skills: Skills,
+    arm: str,
+    start: NDArray[np.float64],
+    board: BoardEstimate | None,
+    block: BlockEstimate,
+    grasp: Grasp,
+) -> Trajectory:
+    """`approach_plan`'s waypoints, stops and planning in one call, for a worker: the tick that takes a
+    plan made early for the same inputs computes none of it before it sends the approach."""
+    return approach_plan(skills, arm, start, board, block, grasp)()
+
+
 class Approach(MotionLeaf):
     """With a planner (optimized), from low among the pegs (having just placed a block) or from high up
     (parked): along an SQP-refined spline that moves over the pegs, clear of their tops, and keeps the
@@ -242,9 +255,8 @@ class Approach(MotionLeaf):
         arm = self.param("arm")
         block, grasp = self.get("block"), self.get("grasp")
         board = self.read("/board")
-        plan = approach_plan(
-            self.skills, arm, self.motion(arm).start_from(self.client(arm)), board, block, grasp
-        )
+        start = self.motion(arm).start_from(self.client(arm))
+        plan = partial(planned_approach, self.skills, arm, start, board, block, grasp)
         self.move(arm, plan, f"{arm} approach", (board, block, grasp.candidate))
         transfer = self.skills.motion.transfer
         self.move_jaw(arm, transfer.jaw_open, f"{arm} jaw opening")

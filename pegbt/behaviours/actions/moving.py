@@ -11,7 +11,7 @@ from functools import partial
 
 import py_trees
 
-from pegbt.behaviours.actions.grasping import approach_plan, choose_and_approach_early
+from pegbt.behaviours.actions.grasping import choose_and_approach_early, planned_approach
 from pegbt.behaviours.base import MotionLeaf
 from pegbt.behaviours.motion import CarryLeaf, above_pegs_first, rise
 from pegbt.behaviours.poses import tool_pose, transfer_for
@@ -67,7 +67,8 @@ class Transfer(CarryLeaf):
         if block is None or grasp is None:
             return
         motion = self.motion(arm)
-        plan = approach_plan(self.skills, arm, motion.start_from(self.client(arm)), board, block, grasp)
+        start = motion.start_from(self.client(arm))
+        plan = partial(planned_approach, self.skills, arm, start, board, block, grasp)
         motion.plan_early(self.context.work, (board, block, grasp.candidate), plan)
 
 
