@@ -17,6 +17,10 @@ from pegbt.motion.cubic import checked_waypoints
 from pegbt.motion.limits import ArmSettings
 from pegbt.motion.trajectory import Trajectory, concatenate
 
+# rad or m: a joint's travel below which it is taken as still; far under the encoders' resolution, and the
+# fraction-of-line limits of a travel of 1e-15 overflow ruckig's arithmetic
+STILL = 1e-9
+
 
 def quickest_move(q_from: ArrayLike, q_to: ArrayLike, settings: ArmSettings) -> Trajectory:
     """The quickest rest-to-rest move from `q_from` to `q_to` on the straight joint line under the planner's
@@ -27,7 +31,7 @@ def quickest_move(q_from: ArrayLike, q_to: ArrayLike, settings: ArmSettings) -> 
 
     start, goal = np.asarray(q_from, dtype=float), np.asarray(q_to, dtype=float)
     delta, period = goal - start, settings.control_period
-    moving = np.abs(delta) > 0.0
+    moving = np.abs(delta) > STILL
     if not moving.any():
         return Trajectory(np.array([0.0, period]), np.stack([start, goal]), *np.zeros((2, 2, len(start))))
     generator, inputs = ruckig.Ruckig(1), ruckig.InputParameter(1)
@@ -56,7 +60,10 @@ def _calculate(generator: Any, inputs: Any) -> Any:
     import ruckig
 
     trajectory = ruckig.Trajectory(inputs.degrees_of_freedom)
-    result = generator.calculate(inputs, trajectory)
+    try:
+        result = generator.calculate(inputs, trajectory)
+    except ruckig.RuckigError as error:
+        raise PegbtError(f"ruckig could not time a rest-to-rest move: {error}", field="trajectory") from None
     if result not in (ruckig.Result.Working, ruckig.Result.Finished):
         raise PegbtError(f"ruckig could not time a rest-to-rest move: {result}", field="trajectory")
     return trajectory

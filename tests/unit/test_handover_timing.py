@@ -37,6 +37,18 @@ def test_a_quickest_move_is_time_optimal_on_its_joint_line(start: np.ndarray) ->
     assert np.allclose(move.q, start + along[:, None] * (goal - start), atol=1e-9)  # the straight line
 
 
+@pytest.mark.parametrize("travel", [1e-15, 1e-17])
+def test_a_move_of_a_rounding_error_is_a_period_at_the_goal(start: np.ndarray, travel: float) -> None:
+    """A start read back from the robot a femtoradian off the goal: ruckig's limits on the fraction of the
+    line overflow there (it raised, and the trial with it)."""
+    settings = arm_settings("PSM1")
+    goal = start.copy()
+    goal[0] += travel
+    move = quickest_move(start, goal, settings)
+    assert move.duration == pytest.approx(settings.control_period)
+    assert np.array_equal(move.q[-1], goal)
+
+
 def test_moves_through_stops_rest_at_each(start: np.ndarray) -> None:
     settings = arm_settings("PSM1")
     via, goal = start + 0.01, start - 0.01
