@@ -134,7 +134,9 @@ def _motion(q_cmd: Array, times: Array, is_stream: bool) -> _Motion:
     rising = np.zeros((n, joints), dtype=bool)
     after = np.zeros((n, joints), dtype=bool)
     fast = np.zeros((n, joints), dtype=bool)
-    hold = max(1, int(round(AFTER_REVERSAL_S / float(np.median(dt))))) if is_stream else AFTER_REVERSAL_SAMPLES
+    hold = (
+        max(1, int(round(AFTER_REVERSAL_S / float(np.median(dt))))) if is_stream else AFTER_REVERSAL_SAMPLES
+    )
     total = np.zeros(n)  # every joint's step over its range, summed joint after joint
     for j in range(joints):
         path = play_grid(q_cmd[:, j], 0.005 * span[j])[:, 0]  # ignores dithering below 1 % of the range
@@ -174,9 +176,7 @@ def _regimes(j: int, r: Array, q_cmd: Array, motion: _Motion) -> list[Regime]:
     found: list[Regime | None] = []
     for k, other in enumerate(JOINT_NAMES):
         found.append(_compare(r, motion.after_reversal[:, k], f"just after {other} reverses"))
-        found.append(
-            _compare(r, motion.rising[:, k], f"while {other} rises (against falls and rests)")
-        )
+        found.append(_compare(r, motion.rising[:, k], f"while {other} rises (against falls and rests)"))
     found.append(_compare(r, motion.fast[:, j], f"when {name} moves fast (top third of its speeds)"))
     high = q_cmd[:, j] > np.percentile(q_cmd[:, j], 67)
     low = q_cmd[:, j] < np.percentile(q_cmd[:, j], 33)
