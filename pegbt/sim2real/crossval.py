@@ -23,6 +23,8 @@ from typing import Protocol
 import numpy as np
 from numpy.typing import NDArray
 
+from pegbt.sim2real.scratch import scratch
+
 Array = NDArray[np.float64]
 
 N_BLOCKS = 20
@@ -184,9 +186,10 @@ class BlockedGrams:
         return list(range(m, m + k))
 
     def column_values(self, columns: NDArray[np.int64] | list[int]) -> Array:
-        """The values (N, k) of bank columns `columns`, in order."""
+        """The values (N, k) of bank columns `columns`, in order, in scratch (`pegbt.sim2real.scratch`):
+        a model's dozen columns at once would be a hundred bytes a sample."""
         index = np.asarray(columns, dtype=np.int64).reshape(-1)
-        values = np.empty((self._store.n, len(index)))
+        values = scratch((self._store.n, len(index)))
         for k, column in enumerate(index.tolist()):
             values[:, k] = self._store.read(column)
         return values

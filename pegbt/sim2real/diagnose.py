@@ -18,6 +18,7 @@ from numpy.typing import NDArray
 
 from pegbt.physics import ArmPhysics, Effect
 from pegbt.physics.faults import MeasurementFaults, detect_faults
+from pegbt.physics.model import REPLAY_ROWS
 from pegbt.physics.recording import Recording, Sampling, validate
 from pegbt.psm import JOINT_NAMES
 from pegbt.sim2real.crossval import BlockedGrams, fold_ranges
@@ -40,6 +41,7 @@ from pegbt.sim2real.geometry import (
 from pegbt.sim2real.library import build_columns
 from pegbt.sim2real.locate import JointMismatch, locate
 from pegbt.sim2real.practical import BelowResolution, settle_joint
+from pegbt.sim2real.scratch import scratch, scratch_rows
 from pegbt.sim2real.select import JointSelection, Unidentifiable, find_unidentifiable, select
 
 Array = NDArray[np.float64]
@@ -96,17 +98,17 @@ class Diagnosis:
 
     @property
     def residual_before(self) -> Array:
-        return self.recording.q_phy - self.simulated
+        return np.subtract(self.recording.q_phy, self.simulated, out=scratch(self.simulated.shape))
 
     @property
     def residual_after(self) -> Array:
-        return self.recording.q_phy - self.heldout_prediction
+        return np.subtract(self.recording.q_phy, self.heldout_prediction, out=scratch(self.simulated.shape))
 
     def rmse_before(self) -> dict[str, float]:
-        return dict(zip(JOINT_NAMES, np.sqrt((self.residual_before**2).mean(0)).tolist()))
+        return dict(zip(JOINT_NAMES, rms(self.residual_before).tolist()))
 
     def rmse_after(self) -> dict[str, float]:
-        return dict(zip(JOINT_NAMES, np.sqrt((self.residual_after**2).mean(0)).tolist()))
+        return dict(zip(JOINT_NAMES, rms(self.residual_after).tolist()))
 
     def remaining(self) -> list[str]:
         after_located = locate(
@@ -115,6 +117,11 @@ class Diagnosis:
         before, after = self.rmse_before(), self.rmse_after()
         unit = "s" if self.recording.t is not None else "samples"
         return [remaining_sentence(m, after[m.joint], before[m.joint], unit) for m in after_located]
+
+
+def rms(values: Array) -> Array:
+    """Root mean square of each column, its squares in scratch (`pegbt.sim2real.scratch`), not memory."""
+    return np.asarray(np.sqrt(np.square(values, out=scratch(values.shape)).mean(0)), dtype=float)
 
 
 def structure_of(selection: JointSelection) -> JointFit:
@@ -179,11 +186,19 @@ def replay_segment(
 SELECTION_ROUNDS = 2
 
 
+def static_drivers(base: ArmPhysics, q_cmd: Array) -> Array:
+    """`base.static_map(q_cmd)` (each joint's driver) in scratch, mapped a replay's chunk at a time."""
+    drivers = scratch(q_cmd.shape)
+    for a in range(0, len(q_cmd), REPLAY_ROWS):
+        drivers[a : a + REPLAY_ROWS] = base.static_map(q_cmd[a : a + REPLAY_ROWS])
+    return drivers
+
+
 def choose_effects(
     q_cmd: Array, t: Array | None, residual: Array, base: ArmPhysics, unidentifiable: Unidentifiable
 ) -> tuple[list[JointSelection], int, BlockedGrams]:
     """Selection, repeated once with each joint's driver updated by the scale and couplings it found."""
-    base_drivers = base.static_map(q_cmd)
+    base_drivers = static_drivers(base, q_cmd)
     drivers = base_drivers
     chosen: tuple[list[JointSelection], int, BlockedGrams, Array] | None = None
     for _ in range(SELECTION_ROUNDS):
@@ -208,7 +223,8 @@ def _selection_round(
     bank, candidates = build_columns(q_cmd, t, drivers)
     grams = BlockedGrams(bank, residual)
     selections, hypotheses = select(grams, t, candidates, unidentifiable)
-    updated = base_drivers.copy()
+    updated = scratch(base_drivers.shape)
+    updated[:] = base_drivers
     for selection in selections:
         free = selection.free_columns()
         beta = grams.fit(selection.joint, np.array(free), np.array(selection.fixed_columns(), dtype=np.int64))
@@ -271,7 +287,7 @@ def choose_and_fit(
         named.append(settled)
         below += dropped
     folds = grams.fold_ranges()
-    drivers = base.static_map(q_cmd)
+    drivers = static_drivers(base, q_cmd)
 
     def fit(s: JointSelection) -> JointFit:
         target, driver = residual[:, s.joint], drivers[:, s.joint]
@@ -301,8 +317,8 @@ def nested_predict(
     are inputs, known everywhere), scored on the segment. No figure sees its own segment's measurements.
     With a `removal` (`pegbt.sim2real.geometry.displacement_removal`), what it fits on the rest is taken
     out of the residual before the choice and added back to the prediction."""
-    prediction = np.empty_like(recording.q_phy)
-    named_prediction = np.empty_like(recording.q_phy) if with_named else None
+    prediction = scratch(recording.q_phy.shape)
+    named_prediction = scratch(recording.q_phy.shape) if with_named else None
     named = []
     for a, b in fold_ranges:
         keep = np.ones(recording.n, dtype=bool)
@@ -335,14 +351,13 @@ def _predict_segment(
     function of its own so that the choice (and the training copies its fits keep) and each whole replay
     are gone before the next segment's choice."""
     a, b = segment
-    keep = np.ones(recording.n, dtype=bool)
-    keep[a:b] = False
-    training = residual[keep]
+    training = scratch_rows(residual, segment)
     if shift is not None:
-        training -= shift[keep]
+        training[:a] -= shift[:a]
+        training[a:] -= shift[b:]
     choice = choose_and_fit(
-        recording.q_cmd[keep],
-        None if t is None else t[keep],
+        scratch_rows(recording.q_cmd, segment),
+        None if t is None else scratch_rows(t, segment),
         training,
         base,
         recording.sampling.is_stream,
@@ -376,7 +391,7 @@ def diagnose(
     base, faults, recording, t, simulated = _prepare(recording, sim, arm)
     sampling = recording.sampling
     q_cmd = recording.q_cmd
-    residual = recording.q_phy - simulated
+    residual = np.subtract(recording.q_phy, simulated, out=scratch(simulated.shape))
     mismatch = locate(residual, q_cmd, recording.times, sampling.is_stream)
     resolution = resolution if resolution is not None else recording.resolution
     folds = fold_ranges(recording.n)
@@ -397,7 +412,7 @@ def diagnose(
     # residual the effects are named from: with a displacement, the one it leaves
     choice = choose_and_fit(q_cmd, t, cable_residual, base, sampling.is_stream, resolution)
     fits = choice.fits
-    drivers = base.static_map(q_cmd)
+    drivers = static_drivers(base, q_cmd)
     rng = np.random.default_rng(seed)
     effects: list[NamedEffect] = []
     statements = list(choice.unidentifiable.statements)
@@ -420,7 +435,7 @@ def diagnose(
             if chosen.rival:
                 statements.append(rival_sentence(chosen.candidate.label, chosen.rival))
     physics = merged_physics(fits, base)
-    error_before = np.sqrt((residual**2).mean(0))
+    error_before = rms(residual)
     effects = sorted(
         (
             replace(e, contribution=float(error_before[e.effect.index] * np.sqrt(max(e.explains, 0.0))))
@@ -492,7 +507,7 @@ def identify_physics(
     report (what a calibration or a benchmark's training part needs)."""
     base, _, kept, t, simulated = _prepare(recording, sim, arm or recording.arm or "PSM1")
     resolution = resolution if resolution is not None else kept.resolution
-    residual = kept.q_phy - simulated
+    residual = np.subtract(kept.q_phy, simulated, out=scratch(simulated.shape))
     choice = choose_and_fit(kept.q_cmd, t, residual, base, kept.sampling.is_stream, resolution)
     return merged_physics(choice.fits, base)
 
@@ -505,6 +520,6 @@ def _prepare(
     faults = detect_faults(recording.q_cmd, recording.q_phy, recording.limits)
     kept = recording.subset(faults.kept)
     t = kept.t if kept.sampling.is_stream else None
-    simulated = np.empty_like(kept.q_cmd)
+    simulated = scratch(kept.q_cmd.shape)
     replay_segment(base, kept.q_cmd, t, (0, kept.n), simulated)
     return base, faults, kept, t, simulated

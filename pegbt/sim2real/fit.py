@@ -24,6 +24,7 @@ from scipy.optimize import minimize_scalar
 
 from pegbt.physics import ArmPhysics, Effect, EffectKind, effect_kinds, kind_of
 from pegbt.sim2real.library import play_widths, width_bounds, width_column
+from pegbt.sim2real.scratch import scratch
 from pegbt.sim2real.significance import block_bootstrap_indices, correlation_length
 
 Array = NDArray[np.float64]
@@ -259,20 +260,21 @@ def bootstrap(
     driver = fit.driver(q_cmd, base_driver)
     static = JointFit(fit.joint, fit.intercept, [term for term in fit.terms if not term.has_width])
     width_terms = [term for term in fit.terms if term.has_width]
-    blocks = [static.columns(q_cmd, t, base_driver)[0]]
-    for term in width_terms:
+    static_columns = static.columns(q_cmd, t, base_driver)[0]
+    n_static = static_columns.shape[1]
+    local = len(BOOTSTRAP_LOCAL)
+    bank = scratch((len(q_cmd), n_static + local * len(width_terms)))  # 8 bytes a sample a column
+    bank[:, :n_static] = static_columns
+    del static_columns
+    for k, term in enumerate(width_terms):
         signal = driver if term.driven else q_cmd[:, term.source]
-        blocks.append(
-            np.column_stack([width_column(term.kind, signal, t, term.width * r) for r in BOOTSTRAP_LOCAL])
-        )
-    bank = np.column_stack(blocks)
+        for i, r in enumerate(BOOTSTRAP_LOCAL):
+            bank[:, n_static + k * local + i] = width_column(term.kind, signal, t, term.width * r)
     gram = bank.T @ bank
     gram += 1e-12 * np.trace(gram) / len(gram) * np.eye(len(gram))
     prediction = fit.correction(q_cmd, t, base_driver)
     residual = target - prediction
     block = max(10, correlation_length(residual))
-    n_static = blocks[0].shape[1]
-    local = len(BOOTSTRAP_LOCAL)
     rhs_all = np.column_stack(  # one resample at a time: all of them at once are 100 numbers a sample
         [
             bank.T @ (prediction + residual[block_bootstrap_indices(len(target), block, rng)])

@@ -118,35 +118,44 @@ def _windows(r: Array, times: Array) -> list[tuple[float, float, float]]:
 
 @dataclass(frozen=True)
 class _Motion:
-    direction: Array  # (N, J) +1 rising, -1 falling, 0 still (per step into the sample)
-    after_reversal: NDArray[np.bool_]  # (N, J)
-    speed: Array  # (N, J)
-    others_moving: NDArray[np.bool_]  # (N, J): the other joints move more than usual
+    """Each joint's motion regimes as masks (N, J), a byte a sample each: as float arrays of directions,
+    speeds and the other joints' motion they were 0.3 kB a sample, more than the recording itself."""
+
+    rising: NDArray[np.bool_]  # the joint's last move was up (the step into the sample, carried)
+    after_reversal: NDArray[np.bool_]
+    fast: NDArray[np.bool_]  # top third of the joint's speeds
+    others_moving: NDArray[np.bool_]  # the other joints move more than usual
 
 
 def _motion(q_cmd: Array, times: Array, is_stream: bool) -> _Motion:
     n, joints = q_cmd.shape
-    step = np.diff(q_cmd, axis=0, prepend=q_cmd[:1])
     dt = np.diff(times, prepend=times[0] - (times[1] - times[0]))
     span = np.maximum(np.ptp(q_cmd, axis=0), 1e-12)
-    direction = np.zeros((n, joints))
+    rising = np.zeros((n, joints), dtype=bool)
     after = np.zeros((n, joints), dtype=bool)
+    fast = np.zeros((n, joints), dtype=bool)
     hold = (
         max(1, int(round(AFTER_REVERSAL_S / float(np.median(dt))))) if is_stream else AFTER_REVERSAL_SAMPLES
     )
+    total = np.zeros(n)  # every joint's step over its range, summed joint after joint
     for j in range(joints):
         path = play_grid(q_cmd[:, j], 0.005 * span[j])[:, 0]  # ignores dithering below 1 % of the range
         moves = np.sign(np.diff(path, prepend=path[0]))
         last_move = np.maximum.accumulate(np.where(moves != 0, np.arange(n), 0))
         carried = moves[last_move]
-        direction[:, j] = carried
+        rising[:, j] = carried > 0
         reversals = np.flatnonzero((carried[1:] * carried[:-1]) < 0) + 1
         for start in reversals:
             after[start : start + hold, j] = True
-    speed = np.abs(step) / np.maximum(dt, 1e-12)[:, None]
-    relative = np.abs(step) / span
-    others = relative.sum(1, keepdims=True) - relative
-    return _Motion(direction, after, speed, others > np.median(others, axis=0))
+        step = np.abs(np.diff(q_cmd[:, j], prepend=q_cmd[:1, j]))
+        speed = step / np.maximum(dt, 1e-12)
+        fast[:, j] = speed > np.percentile(speed, 67)
+        total += step / span[j]
+    others_moving = np.zeros((n, joints), dtype=bool)
+    for j in range(joints):
+        others = total - np.abs(np.diff(q_cmd[:, j], prepend=q_cmd[:1, j])) / span[j]
+        others_moving[:, j] = others > np.median(others)
+    return _Motion(rising, after, fast, others_moving)
 
 
 def _compare(r: Array, inside: NDArray[np.bool_], label: str) -> Regime | None:
@@ -167,11 +176,8 @@ def _regimes(j: int, r: Array, q_cmd: Array, motion: _Motion) -> list[Regime]:
     found: list[Regime | None] = []
     for k, other in enumerate(JOINT_NAMES):
         found.append(_compare(r, motion.after_reversal[:, k], f"just after {other} reverses"))
-        found.append(
-            _compare(r, motion.direction[:, k] > 0, f"while {other} rises (against falls and rests)")
-        )
-    fast = motion.speed[:, j] > np.percentile(motion.speed[:, j], 67)
-    found.append(_compare(r, fast, f"when {name} moves fast (top third of its speeds)"))
+        found.append(_compare(r, motion.rising[:, k], f"while {other} rises (against falls and rests)"))
+    found.append(_compare(r, motion.fast[:, j], f"when {name} moves fast (top third of its speeds)"))
     high = q_cmd[:, j] > np.percentile(q_cmd[:, j], 67)
     low = q_cmd[:, j] < np.percentile(q_cmd[:, j], 33)
     found.append(_compare(r, high, f"when {name} is commanded high (top third of its range)"))
