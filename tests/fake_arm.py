@@ -62,6 +62,8 @@ class FakeAxis:
         self._motion: tuple[str, NDArray[np.float64], NDArray[np.float64]] | None = None  # id, times, rows
         self._fates: dict[str, tuple[str, str]] = {}
         self._commands = 0
+        self.holds_overtaken = False  # a hold reaches it after the next command (zenoh orders keys apart)
+        self._late: list[str] = []  # the holds so overtaken, by the motion each names
 
     # ------------------------------------------------------------------ what MotionHandle reads
     @property
@@ -86,14 +88,21 @@ class FakeAxis:
         state = OperatingState(self.arm.clock.now(), "ENABLED", True, busy)
         return SimpleNamespace(tag=Tag("fake", self._commands), value=state)
 
-    def hold(self) -> None:
-        """Stop at the set-point of now: the motion in progress is aborted."""
+    def hold(self, stopping: str = "") -> None:
+        """Stop at the set-point of now: the motion in progress is aborted, unless the hold names another
+        (`stopping`: a later command took over, as the simulator's `JointGroup.hold`). With
+        `holds_overtaken`, the hold comes after the next command on this axis instead."""
+        if self.holds_overtaken:
+            self._late.append(stopping)
+            return
         here = self.position()
+        self.sent.append(Sent("hold", here, self.arm.clock.now()))
+        if stopping and (self._motion is None or self._motion[0] != stopping):
+            return
         if self._motion is not None:
             self._fates[self._motion[0]] = ("aborted", "held")
             self._motion = None
         self.rest = here
-        self.sent.append(Sent("hold", here, self.arm.clock.now()))
 
     # ------------------------------------------------------------------ state
     def position(self) -> NDArray[np.float64]:
@@ -130,6 +139,7 @@ class FakeAxis:
         self._commands += 1
         command_id = f"fake:{self.key}:{self._commands}"
         self.sent.append(Sent(kind, target, now))
+        handle = MotionHandle(self, command_id, now, kind)
         if self.arm.refuse_next is not None:
             self._fates[command_id] = ("refused", self.arm.refuse_next)
             self.arm.refuse_next = None
@@ -140,8 +150,11 @@ class FakeAxis:
             stalled = self.arm.stalled
             self._motion = (command_id, now + np.r_[times[:1], times[1:] + stalled], rows)
             if stalled:
-                return StalledHandle(self, command_id, now, kind, stalled)
-        return MotionHandle(self, command_id, now, kind)
+                handle = StalledHandle(self, command_id, now, kind, stalled)
+        late, self._late, self.holds_overtaken = self._late, [], False
+        for stopping in late:
+            self.hold(stopping)
+        return handle
 
 
 class StalledHandle(MotionHandle):

@@ -66,8 +66,16 @@ class JointGroup:
         self.setpoint = q.copy()
         return transitions
 
-    def hold(self, command_id: str) -> list[Transition]:
-        """Stop at the set-point of the last control tick: a step of zero, which no guard can refuse."""
+    def hold(self, command_id: str, stopping: str = "") -> list[Transition]:
+        """Stop at the set-point of the last control tick: a step of zero, which no guard can refuse.
+
+        A hold that names the motion it stops (`stopping`) does nothing once another command took over:
+        it was sent before that command and overtook it on the way (other keys), and the later command
+        already ended the motion, as a dVRK's `move_jp` restarts its trajectory from where the arm is
+        (sawIntuitiveResearchKit 9e535e6, core/components/code/mtsIntuitiveResearchKitArm.cpp
+        `move_jp`, `control_move_jp_on_start`). Unnamed, it stops whatever runs, as the dVRK's `hold`."""
+        if stopping and (self.motion is None or self.motion.command_id != stopping):
+            return [Transition(command_id, "done")]
         transitions = self.abort("held")
         self.setpoint = self.tick_setpoint.copy()
         return transitions + [Transition(command_id, "done")]
@@ -241,9 +249,10 @@ class SimArm:
         angle, problems = self._sized(angle, 1)
         return self._refusal(command_id, problems) or self.jaw.servo(angle, command_id, self.period)
 
-    def hold(self, jaw: bool, command_id: str) -> list[Transition]:
-        """The robot's `hold`: the arm (or jaw) stops where it is commanded now; always accepted."""
-        return (self.jaw if jaw else self.joints).hold(command_id)
+    def hold(self, jaw: bool, command_id: str, stopping: str = "") -> list[Transition]:
+        """The robot's `hold`: the arm (or jaw) stops where it is commanded now (only the motion `stopping`,
+        if named: `JointGroup.hold`); always accepted."""
+        return (self.jaw if jaw else self.joints).hold(command_id, stopping)
 
     def jaw_move_jp(self, angle: ArrayLike, command_id: str) -> list[Transition]:
         angle, problems = self._sized(angle, 1)

@@ -1196,6 +1196,31 @@ def test_a_halted_handover_motion_stops_its_arm(leaf, tmp_path, robot, skills, s
     assert np.allclose(arm.position(), moving)  # it stays where it was stopped
 
 
+def test_the_stop_of_a_halted_descents_jaw_overtaken_by_the_next_open_leaves_the_open_be(
+    tmp_path, robot, skills, seen, clock
+):
+    """The block slipped from the giver as the receiver closed on it: the guard halts the descent and the
+    receiver opens to back off. Zenoh keeps no order across keys, so the hold that stops the halted
+    close may reach the arm after the open sent on its heels; it must not stop the open (the back-off
+    failed before `park` and the giver waited 15 s for the way)."""
+    arm, _, values = receiver_at(robot, skills, seen, pose=partial(wait_pose, skills))
+    transfer = skills.motion.transfer
+    arm.jaw.rest = np.array([transfer.jaw_open])
+    values["handover/state_1"] = Handover(1, receiver=Receiver.READY).said(Giver.ARRIVED)
+    descent = build(tmp_path, robot, skills, DESCEND, **values)
+    while not arm.jaw.sent:
+        assert run(descent, clock, seconds=STEP) == Status.RUNNING
+    while arm.jaw.position()[0] > transfer.jaw_release - 0.1:  # closing, past the angle the open goes to
+        clock.advance(STEP / 5)
+    assert arm.jaw.position()[0] > transfer.jaw_closed
+    arm.jaw.holds_overtaken = True
+    descent.root.stop(Status.INVALID)
+    release = build(tmp_path, robot, skills, "{release: {arm: PSM1, holding: /PSM1/holding}}")
+    assert run(release, clock) == Status.SUCCESS, feedback(release)
+    assert [sent.kind for sent in arm.jaw.sent] == ["jaw", "jaw", "hold"]  # close, open, the late hold
+    assert arm.jaw.position()[0] == pytest.approx(transfer.jaw_release)
+
+
 # ---------------------------------------------------------------------------------------------- coverage
 TESTS = Path(__file__).resolve().parent
 # every leaf type the registry exposes, and the module of fast tests (no simulator) that builds it
