@@ -8,7 +8,7 @@ import math
 
 import numpy as np
 
-from pegbt.behaviours.actions.grasping import approach_plan
+from pegbt.behaviours.actions.grasping import planned_approach
 from pegbt.behaviours.resources.skills import Skills
 from pegbt.frames import rigid_transform
 from pegbt.motion.ik import solve_ik
@@ -40,7 +40,7 @@ def _approach(condition: str):
     grasp = skills.selectors["PSM1"].pick(block)
     assert grasp is not None
     start = _parked(skills)
-    return skills, grasp, approach_plan(skills, "PSM1", start, None, block, grasp)()
+    return skills, grasp, planned_approach(skills, "PSM1", start, None, block, grasp)
 
 
 def test_an_approach_from_high_up_is_one_motion_quicker_than_the_cubics_and_clear_of_the_peg_tops():

@@ -233,10 +233,8 @@ subtrees:
 """
 
 
-def test_the_next_blocks_approach_is_planned_while_this_carry_plays(tmp_path, robot, skills, seen, clock):
-    pool = GatedPool(clock)
-    arm = psm1(robot)
-    arm.block_in_jaw = True
+def _run_two_loops(tmp_path, robot, skills, seen, clock, pool) -> None:
+    """Two blocks through the loop's approach and carry, the board seen once, to success."""
     context = RunContext(clock=clock, resources={"robot": robot, "skills": skills}, work=pool)
     text = (
         f"blackboard: {{/board: null, /blocks: null}}\n{LOOP}\ntree: {{for_each: {{list: two, use: one}}}}\n"
@@ -247,6 +245,13 @@ def test_the_next_blocks_approach_is_planned_while_this_carry_plays(tmp_path, ro
     py_trees.blackboard.Blackboard.set("/blocks", seen[1])
     built.root.setup_with_descendants()
     assert run(built, clock, pool, seconds=60.0) == Status.SUCCESS, built.root.feedback_message
+
+
+def test_the_next_blocks_approach_is_planned_while_this_carry_plays(tmp_path, robot, skills, seen, clock):
+    pool = GatedPool(clock)
+    arm = psm1(robot)
+    arm.block_in_jaw = True
+    _run_two_loops(tmp_path, robot, skills, seen, clock, pool)
     approach, carry, approach_again, carry_again = (sent for sent in arm.sent if sent.kind == "trajectory")
     assert np.allclose(approach_again.target.q[0], carry.target.q[-1])
     # each plan made as the motion before it was sent: the second approach while the first carry played
@@ -269,16 +274,7 @@ def test_an_approach_planned_early_is_sent_with_none_of_its_waypoints_computed_o
     monkeypatch.setattr(grasping, "above_pegs_first", counted)
     pool = GatedPool(clock)
     psm1(robot).block_in_jaw = True
-    context = RunContext(clock=clock, resources={"robot": robot, "skills": skills}, work=pool)
-    text = (
-        f"blackboard: {{/board: null, /blocks: null}}\n{LOOP}\ntree: {{for_each: {{list: two, use: one}}}}\n"
-    )
-    built = load_tree(write_tree(tmp_path, text)).build(context)
-    set_initial_blackboard(built)
-    py_trees.blackboard.Blackboard.set("/board", seen[0])
-    py_trees.blackboard.Blackboard.set("/blocks", seen[1])
-    built.root.setup_with_descendants()
-    assert run(built, clock, pool, seconds=60.0) == Status.SUCCESS, built.root.feedback_message
+    _run_two_loops(tmp_path, robot, skills, seen, clock, pool)
     assert on_the_tick == [False, False]  # the first approach's plan and the second's, made early
 
 

@@ -70,7 +70,7 @@ def test_the_transfers_simulated_are_the_trees_out_and_back():
 
 def test_the_reach_is_the_approach_leafs_cubics_stopping_just_above_the_block(monkeypatch):
     """Without a planner the `approach` leaf stops over the grasp and again just above the block, so the
-    open jaw's last descent is short and straight (`approach_plan`); the phase simulator reaches the same
+    open jaw's last descent is short and straight (`planned_approach`); the phase simulator reaches the same
     way, where the transfer-shaped approach it used instead came down from over the grasp in one go and
     missed grasps whole trials make."""
     played = []

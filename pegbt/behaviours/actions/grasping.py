@@ -195,35 +195,9 @@ def choose_and_approach_early(
         if grasp is None:
             raise PegbtError(f"no grasp of the next block lets {receiver} take it")
         ahead.grasp = grasp
-        return approach_plan(skills, arm, start, board, block, grasp)()
+        return planned_approach(skills, arm, start, board, block, grasp)
 
     motion.plan_early(pool, (board, block, receiver, ahead), planned)
-
-
-def approach_plan(
-    skills: Skills,
-    arm: str,
-    start: NDArray[np.float64],
-    board: BoardEstimate | None,
-    block: BlockEstimate,
-    grasp: Grasp,
-) -> Callable[[], Trajectory]:
-    """The planning (for a worker) of `arm`'s approach from joints `start` onto `grasp` of `block` (see
-    `Approach`); what `transfer` plans ahead for the loop's next block."""
-    motion, cell = skills.arm(arm), skills.cell
-    waypoints = transfer_for(cell, skills.motion, arm, board, block, grasp)
-    stops = above_pegs_first(cell, skills.motion, arm, start, motion.settings)
-    if motion.planner is not None:
-        approach = approach_for(cell, skills.motion, arm, forward_kinematics(start), waypoints)
-        return partial(motion.transfer, approach, above_clear=skills.motion.sqp.approach_above_clear)
-    names = [f"above the grasp {i}" for i in range(len(stops))] + [
-        "over the grasp",
-        "just above the block",
-        "grasp",
-    ]
-    poses = [waypoints.poses[1], waypoints.approach, waypoints.poses[0]]
-    joints = stops + [solve_ik(pose, motion.settings, what=name) for pose, name in zip(poses, names[-3:])]
-    return partial(motion.through, start, joints, names[: len(joints)])
 
 
 def planned_approach(
@@ -234,9 +208,23 @@ def planned_approach(
     block: BlockEstimate,
     grasp: Grasp,
 ) -> Trajectory:
-    """`approach_plan`'s waypoints, stops and planning in one call, for a worker: the tick that takes a
-    plan made early for the same inputs computes none of it before it sends the approach."""
-    return approach_plan(skills, arm, start, board, block, grasp)()
+    """`arm`'s approach from joints `start` onto `grasp` of `block` (see `Approach`), planned on a worker with
+    its waypoints and stops: the tick that sends it, or takes a plan made early for the same inputs, computes
+    none of it; what `transfer` plans ahead for the loop's next block."""
+    motion, cell = skills.arm(arm), skills.cell
+    waypoints = transfer_for(cell, skills.motion, arm, board, block, grasp)
+    stops = above_pegs_first(cell, skills.motion, arm, start, motion.settings)
+    if motion.planner is not None:
+        approach = approach_for(cell, skills.motion, arm, forward_kinematics(start), waypoints)
+        return motion.transfer(approach, above_clear=skills.motion.sqp.approach_above_clear)
+    names = [f"above the grasp {i}" for i in range(len(stops))] + [
+        "over the grasp",
+        "just above the block",
+        "grasp",
+    ]
+    poses = [waypoints.poses[1], waypoints.approach, waypoints.poses[0]]
+    joints = stops + [solve_ik(pose, motion.settings, what=name) for pose, name in zip(poses, names[-3:])]
+    return motion.through(start, joints, names[: len(joints)])
 
 
 class Approach(MotionLeaf):

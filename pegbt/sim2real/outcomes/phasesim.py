@@ -19,7 +19,7 @@ from functools import cache
 import numpy as np
 from numpy.typing import NDArray
 
-from pegbt.behaviours.actions.grasping import SAME_BLOCK, approach_plan
+from pegbt.behaviours.actions.grasping import SAME_BLOCK, planned_approach
 from pegbt.behaviours.actions.handover import Meeting, plan_meeting
 from pegbt.behaviours.motion import above_pegs_first
 from pegbt.behaviours.poses import from_handover, to_handover, tool_pose, transfer_for
@@ -473,7 +473,7 @@ def _attempt(
             park = _park(world, skills, arm, q0)
             bench.play(park, [(0.0, "reach")])
             q0 = park.q[-1]
-        reach = approach_plan(skills, arm, q0, None, seen, grasp)()
+        reach = planned_approach(skills, arm, q0, None, seen, grasp)
     except PegbtError:  # the approach leaf fails to plan: nothing moves
         bench.failed, bench.moved = "reach", False
         return bench
