@@ -86,8 +86,9 @@ class FakeAxis:
         state = OperatingState(self.arm.clock.now(), "ENABLED", True, busy)
         return SimpleNamespace(tag=Tag("fake", self._commands), value=state)
 
-    def hold(self) -> None:
-        """Stop at the set-point of now: the motion in progress is aborted."""
+    def hold(self, motion: str = "") -> None:
+        """Stop at the set-point of now: the motion in progress is aborted (`motion`, the one it names, is
+        the one in progress: this endpoint applies commands in the order they were sent)."""
         here = self.position()
         if self._motion is not None:
             self._fates[self._motion[0]] = ("aborted", "held")

@@ -66,8 +66,12 @@ class JointGroup:
         self.setpoint = q.copy()
         return transitions
 
-    def hold(self, command_id: str) -> list[Transition]:
-        """Stop at the set-point of the last control tick: a step of zero, which no guard can refuse."""
+    def hold(self, command_id: str, motion: str = "") -> list[Transition]:
+        """Stop at the set-point of the last control tick: a step of zero, which no guard can refuse. A hold
+        naming its `motion` leaves any other alone: that one already ended, or a later command replaced it
+        (which, sent on another key, may arrive first)."""
+        if motion and (self.motion is None or self.motion.command_id != motion):
+            return [Transition(command_id, "done")]
         transitions = self.abort("held")
         self.setpoint = self.tick_setpoint.copy()
         return transitions + [Transition(command_id, "done")]
@@ -241,9 +245,10 @@ class SimArm:
         angle, problems = self._sized(angle, 1)
         return self._refusal(command_id, problems) or self.jaw.servo(angle, command_id, self.period)
 
-    def hold(self, jaw: bool, command_id: str) -> list[Transition]:
-        """The robot's `hold`: the arm (or jaw) stops where it is commanded now; always accepted."""
-        return (self.jaw if jaw else self.joints).hold(command_id)
+    def hold(self, jaw: bool, command_id: str, motion: str = "") -> list[Transition]:
+        """The robot's `hold`: the arm (or jaw) stops where it is commanded now (only if it still plays
+        `motion`, when named); always accepted."""
+        return (self.jaw if jaw else self.joints).hold(command_id, motion)
 
     def jaw_move_jp(self, angle: ArrayLike, command_id: str) -> list[Transition]:
         angle, problems = self._sized(angle, 1)

@@ -46,12 +46,14 @@ def command_keys(keys: ArmKeys) -> tuple[str, ...]:
 
 @dataclass(frozen=True)
 class Command:
-    """A command as it arrived: for `arm` (empty for the camera) on `key`, its payload and its id."""
+    """A command as it arrived: for `arm` (empty for the camera) on `key`, its payload and its id, and the
+    command it is about (`cause`: the motion a hold stops)."""
 
     arm: str
     key: str
     payload: bytes
     command_id: str
+    cause: str = ""
 
 
 class CommandIntake:
@@ -70,7 +72,11 @@ class CommandIntake:
         """The command to apply now; None if it is lost or delayed (then `due` hands it over later)."""
         number = tag.seq if tag is not None else next(self._untagged)
         command = Command(
-            arm, key, payload, tag.command_id(key) if tag is not None else f"untagged:{key}:{number}"
+            arm,
+            key,
+            payload,
+            tag.command_id(key) if tag is not None else f"untagged:{key}:{number}",
+            tag.cause if tag is not None else "",
         )
         identity = str(number)
         if self._faults.lost(key, identity):
@@ -101,7 +107,7 @@ def dispatch(arm: SimArm, keys: ArmKeys, command: Command) -> list[Transition]:
         if key == keys.state_command:
             return arm.state_command(codec.decode_string_stamped(payload)[1], command_id)
         if key in (keys.hold, keys.jaw_hold):
-            return arm.hold(key == keys.jaw_hold, command_id)
+            return arm.hold(key == keys.jaw_hold, command_id, command.cause)
         position = codec.decode_joint_state(payload).position
         handler = {
             keys.servo_jp: arm.servo_jp,

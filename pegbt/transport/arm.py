@@ -144,7 +144,7 @@ class MotionHandle(StatusFlags):
     def stop(self) -> None:
         """Hold at the current set-point (a servo command preempts the motion); the handle then fails."""
         if self.status is MotionStatus.BUSY:
-            self._axis.hold()
+            self._axis.hold(self.command_id)
             self.error = f"{self.what} stopped by the client"
 
 
@@ -216,12 +216,14 @@ class _Axis:
         tag = self._arm.send(outlet, payload)
         return MotionHandle(self, tag.command_id(outlet.key), sent_at, what)
 
-    def hold(self) -> None:
+    def hold(self, motion: str = "") -> None:
         """Stop where the endpoint's set-point is now. The endpoint's own `hold` when it has one: a servo
         at the last `setpoint_js` received is a step from where the set-point was a tick or two ago,
-        which in a fast move the endpoint's velocity guard refuses, and the arm travels on."""
+        which in a fast move the endpoint's velocity guard refuses, and the arm travels on. `motion`: the
+        id of the motion to stop, named in the hold's tag (its `cause`): zenoh may deliver a hold after a
+        motion sent later on another key, which the hold must not stop."""
         if self._hold.matched:
-            self._arm.send(self._hold, codec.encode_empty())
+            self._arm.send(self._hold, codec.encode_empty(), cause=motion)
         else:
             self.servo_jp(self.setpoint_js.position)
 
@@ -334,14 +336,15 @@ class ArmClient(_Axis):
     def read(self, inlet: Inlet) -> Any:
         return self.read_received(inlet).value
 
-    def send(self, outlet: Outlet, payload: bytes) -> Tag:
-        """Publish a command, only to a live endpoint that listens on its key; its tag (which names it)."""
+    def send(self, outlet: Outlet, payload: bytes, cause: str = "") -> Tag:
+        """Publish a command, only to a live endpoint that listens on its key; its tag (which names it,
+        and `cause`: the command it is about, as a hold names the motion it stops)."""
         self.check_alive()
         if not outlet.matched:
             raise EndpointSilent(
                 f"{self.name}: nobody subscribes to {outlet.key}; command not sent", field=outlet.key
             )
-        return outlet.put(payload)
+        return outlet.put(payload, cause)
 
     # ------------------------------------------------------------------ reads
     @property

@@ -39,7 +39,7 @@ class Tag:
 
     source: str
     seq: int
-    cause: str = ""  # id of the command this message reports on
+    cause: str = ""  # id of the command this message reports on (a hold's: the motion it stops)
     outcome: str = ""  # accepted, refused, done or aborted
 
     def command_id(self, key: str) -> str:
