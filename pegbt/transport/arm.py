@@ -49,21 +49,24 @@ class ArmLeftReady(EndpointSilent):
     a person makes it ready again, so, as for a FAULT, no recovery in a tree applies and the run halts."""
 
 
-def check_recent(arm: str, topic: str, received_at: float | None, timeout: float, who: str) -> None:
-    """Raise `EndpointSilent` unless `topic` (an arm's `measured_js`) arrived within `timeout` s of now
-    (monotonic `received_at`; None: never); `who` is what went silent (an endpoint, a robot)."""
+def check_recent(
+    arm: str, topic: str, received_at: float | None, timeout: float, who: str, now: float | None = None
+) -> None:
+    """Raise `EndpointSilent` unless `topic` (an arm's `measured_js`) arrived within `timeout` s of `now`
+    (monotonic, default now; `received_at` None: never); `who` is what went silent (an endpoint, a robot)."""
     if received_at is None:
         raise EndpointSilent(f"{arm}: no {topic} received yet", field=topic)
-    age = time.monotonic() - received_at
+    age = (time.monotonic() if now is None else now) - received_at
     if age > timeout:
         raise EndpointSilent(
             f"{arm}: {who} silent, no {topic} for {age:.3f} s (liveness timeout {timeout} s)", field=topic
         )
 
 
-def is_recent(received_at: float | None, timeout: float) -> bool:
-    """Whether a message received at monotonic `received_at` (None: never) is at most `timeout` s old."""
-    return received_at is not None and time.monotonic() - received_at <= timeout
+def is_recent(received_at: float | None, timeout: float, now: float | None = None) -> bool:
+    """Whether a message received at monotonic `received_at` (None: never) is at most `timeout` s old at
+    monotonic `now` (default now)."""
+    return received_at is not None and (time.monotonic() if now is None else now) - received_at <= timeout
 
 
 class MotionStatus(str, Enum):
@@ -312,13 +315,22 @@ class ArmClient(_Axis):
     @property
     def is_alive(self) -> bool:
         latest = self._measured.latest()
-        return is_recent(None if latest is None else latest.received_at, self.liveness_timeout)
+        return is_recent(None if latest is None else latest.received_at, self.liveness_timeout, self._heard())
 
     def check_alive(self) -> None:
         """Raise `EndpointSilent` unless `measured_js` arrived within the liveness timeout."""
         latest = self._measured.latest()
         received_at = None if latest is None else latest.received_at
-        check_recent(self.name, self.keys.measured_js, received_at, self.liveness_timeout, "endpoint")
+        check_recent(
+            self.name, self.keys.measured_js, received_at, self.liveness_timeout, "endpoint", self._heard()
+        )
+
+    def _heard(self) -> float | None:
+        """When a message's age is measured: now (None), or with a lockstep simulator, when its last step
+        came back. The wall time this run has computed since is no silence of the simulator (a tick took
+        2.8 s at load 14, as long as a fifth of a core gives), and a simulator that died fails the next step."""
+        clock = self.clock
+        return clock.stepped_at if isinstance(clock, SimClock) and clock.lockstep else None
 
     def wait_until_ready(self, timeout: float = 5.0) -> None:
         """Block until the arm has published its joints, set-points and operating state."""

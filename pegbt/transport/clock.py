@@ -58,6 +58,7 @@ class SimClock:
         self._reply: tuple[int, bytes] | None = None
         self._replied = threading.Condition()
         self._request_number = 0
+        self.stepped_at: float | None = None  # monotonic time the last step's state had all arrived
         self._bases: dict[
             str, tuple[int, bytes]
         ] = {}  # per key: number and payload of the last full state received
@@ -120,6 +121,7 @@ class SimClock:
         self._target = target
         self._time = reply["time"]
         self._await_published(reply["source"], reply["sent"])
+        self.stepped_at = time.monotonic()
 
     def _restamp(self, key: str, tag: Tag, note: dict[str, Any]) -> None:
         """The simulator's note that the state on `key` is unchanged but for its stamp: the last full

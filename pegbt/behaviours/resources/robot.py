@@ -47,7 +47,9 @@ from pegbt.transport.zivid_camera import ZividCamera
 SIMULATOR_PHYSICS = "dvrk-real"
 SIMULATOR_ARGS = ("--physics", SIMULATOR_PHYSICS)
 PROBE_TIMEOUT = 2.0  # s to wait for a simulator to answer `sim/clock` at an address (no answer: a robot)
-STEP_TIMEOUT = 5.0  # s to wait for a lockstep step: a camera capture on a loaded 2-core machine took over 2
+# s to wait for a lockstep step: a backstop, never what decides a trial on a loaded machine (a camera capture
+# on a loaded 2-core machine took over 2 s); a simulator that died is seen at once, its connection gone
+STEP_TIMEOUT = 30.0
 READY_TIMEOUT = 5.0  # s to wait for each arm's first state
 WHAT_ANSWERS = {
     "bridge": "is zenoh-bridge-ros2dds running and listening there?",
