@@ -182,11 +182,16 @@ class CrtkJaw:
         """Open or close to `angle` at the jaw's velocity limit: the constant-speed ramp pegbt's simulator
         plays for a jaw `move_jp` (`pegbt.sim.playback.ramp_playback`), so that a jaw takes as long on
         either interface. Each set-point moves at most the limit's step (0.06 rad at 6 rad/s and 100 Hz),
-        a tenth of the jaw actuator's tracking tolerance (`pegbt.sim.dvrk_config.ACTUATOR_TOLERANCE`)."""
+        a tenth of the jaw actuator's tracking tolerance (`pegbt.sim.dvrk_config.ACTUATOR_TOLERANCE`).
+        A ramp to `angle` still under way is that motion: the robot's set-point lags the rows streamed, so a
+        new ramp from it would step the jaw back by more than the limit allows (a handover's receiver closes
+        as its tip arrives and `grasp` then asks for the same close: refused, the grasp failed and retried)."""
         settings = self._arm.settings
         guards.refuse_if(
             guards.jaw_problems(angle, settings), f"jaw goal {angle}", self._arm.topics.jaw_servo_jp.name
         )
+        if self._last is not None and self._last[1] == angle and self._last[0].busy:
+            return self._last[0]  # already on its way there: a ramp from the set-point echoed would step back
         start = self._start()
         distance = abs(angle - start)
         duration = max(distance / settings.jaw_velocity, settings.control_period)

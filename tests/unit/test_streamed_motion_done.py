@@ -95,3 +95,25 @@ def test_a_jaw_ramp_is_done_once_the_robots_set_point_is_within_a_step_and_the_n
 
     wire.robot_says("PSM1/jaw/setpoint_js", np.array([0.2 - 3 * step]))  # three steps short: not taken up
     assert client.jaw.move_jp(0.2).busy
+
+
+class Playing(Streamer):
+    """A streamer still sending every motion it was handed."""
+
+    def outcome(self, motion_id: int) -> None:  # type: ignore[override]
+        return None
+
+
+def test_a_jaw_asked_for_the_goal_its_ramp_is_still_playing_toward_keeps_that_ramp() -> None:
+    """The robot's set-point lags the rows streamed: a second ramp to the same goal started from it stepped
+    the jaw back by twice the limit, the robot refused it and the handover's grasp failed."""
+    wire = Wire()
+    client = CrtkArm(wire, "PSM1", settings=arm_settings("PSM1"), streamer=Playing())  # type: ignore[arg-type]
+    wire.robot_says("PSM1/measured_js", np.zeros(6))
+    wire.robot_says("PSM1/jaw/setpoint_js", np.array([0.5]))
+    closing = client.jaw.move_jp(-0.26)
+    assert closing.busy
+    wire.robot_says("PSM1/jaw/setpoint_js", np.array([0.2]))
+    assert client.jaw.move_jp(-0.26) is closing
+    assert len(client._streamer.played) == 1  # type: ignore[attr-defined]
+    assert client.jaw.move_jp(0.5) is not closing  # another goal: a ramp of its own
