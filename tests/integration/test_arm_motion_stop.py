@@ -6,10 +6,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from lockstep_helpers import lockstep_psm1
 
 from pegbt.behaviours.resources.skills import SIMULATOR_CALIBRATION, Skills
-from pegbt.sim.process import SimProcess
-from pegbt.transport import ArmClient, SimClock, connect
 
 TICK = 0.02  # the executive's tick
 
@@ -17,13 +16,8 @@ TICK = 0.02  # the executive's tick
 @pytest.fixture(scope="module")
 def arm():
     """A lockstep simulator of the arms alone (dvrk-real cable physics), PSM1's client and its clock."""
-    with SimProcess(["--lockstep", "--physics", "dvrk-real", "--no-world"]) as sim:
-        link = connect([sim.endpoint])
-        clock = SimClock(link)
-        psm1 = ArmClient(link, "PSM1", clock=clock)
-        psm1.wait_until_ready(30.0)
-        yield clock, psm1
-        link.close()
+    with lockstep_psm1("--physics", "dvrk-real") as stepped:
+        yield stepped
 
 
 @pytest.mark.parametrize("stop_after", [0.31, 0.47, 0.62])

@@ -8,9 +8,9 @@ import time
 from types import SimpleNamespace
 
 import pytest
+from lockstep_helpers import lockstep_psm1
 
-from pegbt.sim.process import SimProcess
-from pegbt.transport import ArmClient, EndpointSilent, SimClock, connect
+from pegbt.transport import EndpointSilent
 from pegbt.transport import arm as arm_module
 
 TICK = 0.02
@@ -19,13 +19,8 @@ TICK = 0.02
 @pytest.fixture(scope="module")
 def arm():
     """A lockstep simulator of the arms alone, PSM1's client (its simulator liveness, 5 s) and its clock."""
-    with SimProcess(["--lockstep", "--no-world"]) as sim:
-        link = connect([sim.endpoint])
-        clock = SimClock(link)
-        psm1 = ArmClient(link, "PSM1", clock=clock)
-        psm1.wait_until_ready(30.0)
-        yield clock, psm1
-        link.close()
+    with lockstep_psm1() as stepped:
+        yield stepped
 
 
 def _later(monkeypatch: pytest.MonkeyPatch, seconds: float) -> None:
