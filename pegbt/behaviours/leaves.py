@@ -26,6 +26,7 @@ from pegbt.executive.registry import declare
 from pegbt.handover_protocol import Giver, Receiver
 from pegbt.pegboard import N_PEGS
 from pegbt.psm import ARMS
+from pegbt.runconditions import COMPENSATED, CONDITIONS
 
 MAX_SAMPLES = 1_000_000  # set-points: about 95 hours of collection at 174 a minute
 MAX_SETTLE = 60.0  # s a set-point is held before it is sampled
@@ -33,8 +34,6 @@ SETTLE = 0.3  # s: `pegbt.calibration.collect.SETTLE_S`, as the dVRK recordings 
 DESIGNS = ("smooth", "spread")  # `pegbt.calibration.collect.DESIGNS`: how a collection picks its set-points
 MAX_RISE = 0.165  # m: the PSM's whole insertion travel (0.08-0.245 m, skills/psm.yaml)
 OUTCOMES = ("success", "failure", "running")  # what a `scripted` leaf may return
-CONDITIONS = ("uncalibrated", "calibrated", "optimized")  # `pegbt.behaviours.resources.skills.CONDITIONS`
-COMPENSATED = ("calibrated", "optimized")  # conditions whose commands correct the cables' error at the tip
 
 declare(
     "collect_calibration",

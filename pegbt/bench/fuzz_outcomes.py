@@ -59,7 +59,8 @@ def _semantic(text: str, csv: bool, rng: random.Random) -> tuple[str, str]:
     line = lines[at]
     if kind.startswith("unknown"):
         word = "variant" if kind == "unknown variant" else "condition"
-        from pegbt.sim2real.outcomes.cells import CONDITIONS, VARIANTS
+        from pegbt.runconditions import CONDITIONS
+        from pegbt.sim2real.outcomes.cells import VARIANTS
 
         names = VARIANTS if word == "variant" else CONDITIONS
         name = next(n for n in names if n in line)
@@ -89,7 +90,8 @@ def _absurd_count(kind: str, attempted: int, rng: random.Random) -> str:
 
 def _broken(outcomes: object) -> bool:
     """Whether an accepted table holds a cell no trial could give."""
-    from pegbt.sim2real.outcomes.cells import CONDITIONS, PHASES, VARIANTS, Outcomes
+    from pegbt.runconditions import CONDITIONS
+    from pegbt.sim2real.outcomes.cells import PHASES, VARIANTS, Outcomes
 
     assert isinstance(outcomes, Outcomes)
     for cell in outcomes.cells:

@@ -10,8 +10,9 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from pegbt.errors import PegbtError
-from pegbt.evaluation.paper import CONDITIONS, VARIANTS
+from pegbt.evaluation.paper import VARIANTS
 from pegbt.numbers import NumberOption
+from pegbt.runconditions import CONDITIONS, known_condition
 from pegbt.simoptions import add_sim_world_arguments, refuse_dvrk_only
 
 if TYPE_CHECKING:
@@ -118,10 +119,7 @@ def check_arguments(args: argparse.Namespace) -> None:
     """Bad input as one `PegbtError` (the CLI prints one line and exits 2)."""
     if args.variant not in VARIANTS:
         raise PegbtError(f"unknown variant {args.variant!r}; known: {', '.join(VARIANTS)}", field="--variant")
-    if args.condition not in CONDITIONS:
-        raise PegbtError(
-            f"unknown condition {args.condition!r}; known: {', '.join(CONDITIONS)}", field="--condition"
-        )
+    known_condition(args.condition)
     for name in ("trials", "workers"):
         if getattr(args, name) <= 0:
             raise PegbtError(f"must be at least 1, got {getattr(args, name)}", field=f"--{name}")

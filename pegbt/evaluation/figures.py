@@ -13,7 +13,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from pegbt.evaluation.paper import CONDITIONS, PAPER, PAPER_COLLISIONS, SURGEON, VARIANTS
+from pegbt.evaluation.paper import PAPER, PAPER_COLLISIONS, SURGEON, VARIANTS
+from pegbt.runconditions import CONDITIONS
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes

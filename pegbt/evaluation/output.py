@@ -13,8 +13,9 @@ from typing import Any
 
 from pegbt.errors import PegbtError
 from pegbt.evaluation.campaign import Cell
-from pegbt.evaluation.paper import CONDITIONS, PAPER, VARIANTS
+from pegbt.evaluation.paper import PAPER, VARIANTS
 from pegbt.evaluation.trial import TrialRecord
+from pegbt.runconditions import CONDITIONS
 
 TRIAL_COLUMNS = (
     "variant",

@@ -8,7 +8,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 VARIANTS = ("unilateral", "bilateral", "handover")
-CONDITIONS = ("uncalibrated", "calibrated", "optimized")
 
 
 @dataclass(frozen=True)

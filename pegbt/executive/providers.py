@@ -26,6 +26,7 @@ from typing import Any, Protocol, runtime_checkable
 
 from pegbt.clock import Clock
 from pegbt.errors import PegbtError
+from pegbt.runconditions import CONDITIONS
 
 
 @runtime_checkable
@@ -137,7 +138,7 @@ RUN_OPTIONS: dict[str, RunOption] = {
             "skills: uncalibrated (cubic motion), calibrated (cubic + compensation), "
             "optimized (spline + SQP + compensation)",
             "optimized",
-            choices=("uncalibrated", "calibrated", "optimized"),
+            choices=CONDITIONS,
         ),
         RunOption(
             "speed",

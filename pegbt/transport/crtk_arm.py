@@ -179,33 +179,31 @@ class CrtkJaw:
         return self._arm.read(self._setpoint)
 
     def move_jp(self, angle: float) -> StreamedMotion:
-        """Open or close to `angle` at the jaw's velocity limit: the constant-speed ramp pegbt's simulator
-        plays for a jaw `move_jp` (`pegbt.sim.playback.ramp_playback`), so that a jaw takes as long on
-        either interface. Each set-point moves at most the limit's step (0.06 rad at 6 rad/s and 100 Hz),
-        a tenth of the jaw actuator's tracking tolerance (`pegbt.sim.dvrk_config.ACTUATOR_TOLERANCE`).
-        A ramp to `angle` still under way is that motion: the robot's set-point lags the rows streamed, so a
-        new ramp from it would step the jaw back by more than the limit allows (a handover's receiver closes
-        as its tip arrives and `grasp` then asks for the same close: refused, the grasp failed and retried)."""
+        """Open or close to `angle` at the jaw's velocity limit, the streamer's ramp (`streamer.jaw_ramp`):
+        each set-point moves at most the limit's step (0.06 rad at 6 rad/s and 100 Hz), a tenth of the jaw
+        actuator's tracking tolerance (`pegbt.sim.dvrk_config.ACTUATOR_TOLERANCE`). A ramp to `angle` still
+        under way is that motion (a handover's receiver closes as its tip arrives and `grasp` then asks for
+        the same close); a ramp to another goal takes over from the row the running one last sent, which
+        only the streamer knows: the robot's set-point lags it, and a ramp from there would step the jaw
+        back by more than the limit allows (refused, a handover's grasp failed and retried)."""
         settings = self._arm.settings
         guards.refuse_if(
             guards.jaw_problems(angle, settings), f"jaw goal {angle}", self._arm.topics.jaw_servo_jp.name
         )
         if self._last is not None and self._last[1] == angle and self._last[0].busy:
-            return self._last[0]  # already on its way there: a ramp from the set-point echoed would step back
+            return self._last[0]
         start = self._start()
-        distance = abs(angle - start)
+        # the jaw is between the robot's set-point and the last ramp's goal: the ramp is at most the longer
+        distance = max(abs(angle - start), 0.0 if self._last is None else abs(angle - self._last[1]))
         duration = max(distance / settings.jaw_velocity, settings.control_period)
-        t = np.append(np.arange(0.0, duration, settings.control_period), duration)
-        q = start + np.sign(angle - start) * np.minimum(t * settings.jaw_velocity, distance)
-        q[-1] = angle
-        motion = self._arm.stream("jaw", t, q[:, None], f"{self._arm.name} jaw to {angle:.3f} rad", duration)
+        motion = self._arm.ramp_jaw(start, angle, f"{self._arm.name} jaw to {angle:.3f} rad", duration)
         self._last = (motion, angle)
         return motion
 
     def _start(self) -> float:
-        """Where the next ramp starts: the robot's set-point, or the goal of the last ramp once that is done
-        and the set-point within a step of its goal (`taken_up`: the echo of the last row yet to come); a
-        ramp from the row before would first step the jaw back."""
+        """Where the next ramp starts unless the streamer still streams the jaw: the robot's set-point, or the
+        goal of the last ramp once that is done and the set-point within a step of its goal (`taken_up`: the
+        echo of the last row yet to come); a ramp from the row before would first step the jaw back."""
         setpoint = float(self.setpoint_js.position[0])
         if self._last is not None:
             motion, goal = self._last
@@ -490,7 +488,19 @@ class CrtkArm:
         """Hand a checked trajectory of `axis` (`arm` or `jaw`) to the streamer."""
         self.check_alive()
         motion_id = self._streamer.play(self.name, axis, t, q)
-        end = np.asarray(q, dtype=float)[-1]
+        return self._follow(axis, motion_id, np.asarray(q, dtype=float)[-1], what, duration)
+
+    def ramp_jaw(self, start: float, goal: float, what: str, duration: float) -> StreamedMotion:
+        """Hand a checked jaw goal to the streamer's ramp (`Streamer.ramp`), from `start` unless the jaw's
+        stream is still going; it takes at most `duration`."""
+        self.check_alive()
+        motion_id = self._streamer.ramp(self.name, start, goal)
+        return self._follow("jaw", motion_id, np.array([goal]), what, duration)
+
+    def _follow(
+        self, axis: str, motion_id: int, end: NDArray[np.float64], what: str, duration: float
+    ) -> StreamedMotion:
+        """The handle of a streamed motion of `axis` ending at `end`."""
 
         def arrived() -> bool:
             if axis == "arm":

@@ -8,9 +8,15 @@ The executive (`pegbt.transport.streaming.Streamer`) talks to it over its standa
 frames (a 4-byte little-endian length, then a pickle; both ends are pegbt):
 
 - in: `("configure", {...})` first, then `("play", id, arm, axis, t, q)` (axis `arm` or `jaw`; `t` from 0,
-  `q` one row per time), `("stop", id)`, `("quit",)`;
+  `q` one row per time), `("ramp", id, arm, start, goal)` (a jaw ramp, below), `("stop", id)`, `("quit",)`;
 - out: `("ready", realtime)`, `("started", id)`, `("stalled", id, seconds)`, `("paused", id, reason)`,
   `("resumed", id, seconds)`, `("done", id)`, `("failed", id, reason)`.
+
+A jaw ramp goes to its goal at the jaw's velocity from where the jaw's set-point is: the last one sent while
+the jaw's stream is going (a ramp it supersedes, or one just ended), else `start` (the client's view of the
+robot's). Only the streamer knows that last row: the robot's set-point echoes it a state message or more
+later, and a ramp from the echo would first step the jaw back, which the check below refuses (the dVRK's
+`servo_jp` takes each set-point as given, `mtsIntuitiveResearchKitArm.cpp`, so continuity is ours to keep).
 
 Every set-point is checked before it leaves (`guards`: joint limits, and velocity from the last one sent, or
 from the robot's `setpoint_js` for the first of a motion): one that fails is never sent; the motion fails,
@@ -124,9 +130,8 @@ class _Axis:
         self.problems = problems
         self.step_problems = step_problems
         self.reference = reference  # the robot's latest set-point, None before the first
-        self.return_leg: Callable[[NDArray[np.float64], NDArray[np.float64]], NDArray[np.float64]] | None = (
-            None
-        )
+        # rows of (t, q) from a position to another at the axis's limits: back after MANUAL, a jaw ramp
+        self.leg: Callable[[NDArray[np.float64], NDArray[np.float64]], NDArray[np.float64]] | None = None
         self.motion: _Motion | None = None
         self.last: tuple[float, NDArray[np.float64]] | None = None  # (monotonic time, set-point) last sent
 
@@ -174,8 +179,8 @@ class Streamer:
                 lambda q, ref, dt: guards.jaw_step_problems(float(q[0]), float(ref[0]), settings, dt),
                 lambda: self._position(topics.jaw_setpoint_js),
             )
-            self.axes[(arm, "arm")].return_leg = partial(_arm_return, settings)
-            self.axes[(arm, "jaw")].return_leg = partial(_jaw_return, settings)
+            self.axes[(arm, "arm")].leg = partial(_arm_return, settings)
+            self.axes[(arm, "jaw")].leg = partial(jaw_ramp, settings)
 
         for arm, settings in config["arms"].items():
             add_arm(arm, settings)
@@ -210,7 +215,7 @@ class Streamer:
         grid of ticks starts with it, its first set-point at once), else the grid's `next_tick`. A motion
         began at the next tick of a grid no other motion kept, so up to a period after it was sent: each
         motion of a transfer ended that much later, half a period on average."""
-        if message[0] == "play" and all(axis.motion is None for axis in self.axes.values()):
+        if message[0] in ("play", "ramp") and all(axis.motion is None for axis in self.axes.values()):
             return min(now, next_tick)
         return next_tick
 
@@ -222,6 +227,9 @@ class Streamer:
             self._play(
                 motion_id, arm, axis_name, np.asarray(t, dtype=float), np.asarray(q, dtype=float), next_tick
             )
+        elif kind == "ramp":
+            _, motion_id, arm, start, goal = message
+            self._ramp(motion_id, arm, float(start), float(goal), next_tick)
         elif kind == "stop":
             for (arm, axis_name), axis in self.axes.items():
                 if axis.motion is not None and axis.motion.id == message[1]:
@@ -260,9 +268,24 @@ class Streamer:
             axis.motion.paused_at = start
             self._report(("paused", motion_id, f"{arm} {axis_name}: {self._manual[0]} is in MANUAL"))
 
+    def _ramp(self, motion_id: int, arm: str, start: float, goal: float, tick: float) -> None:
+        """A jaw ramp to `goal` from the last set-point sent while the jaw's stream is going, else `start`."""
+        axis = self.axes[(arm, "jaw")]
+        if self._going(axis, tick):
+            assert axis.last is not None
+            start = float(axis.last[1][0])
+        assert axis.leg is not None
+        rows = axis.leg(np.array([start]), np.array([goal]))
+        self._play(motion_id, arm, "jaw", rows[:, 0], rows[:, 1:], tick)
+
+    def _going(self, axis: _Axis, now: float) -> bool:
+        """Whether the axis's stream is still going: a set-point sent within a stall's periods of `now`."""
+        return axis.last is not None and now - axis.last[0] <= STALL_PERIODS * self.period
+
     def _reference(self, axis: _Axis, now: float) -> NDArray[np.float64] | None:
         """Where the axis's set-point is: the last one sent if the stream is still going, else the robot's."""
-        if axis.last is not None and now - axis.last[0] <= STALL_PERIODS * self.period:
+        if self._going(axis, now):
+            assert axis.last is not None
             return axis.last[1]
         return axis.reference()
 
@@ -349,9 +372,9 @@ class Streamer:
         waited = now - motion.paused_at
         elapsed = axis.last[0] - motion.start  # the trajectory's time of the last set-point sent
         where = axis.reference()
-        assert axis.return_leg is not None
+        assert axis.leg is not None
         try:
-            leg = axis.return_leg(where if where is not None else axis.last[1], axis.last[1])
+            leg = axis.leg(where if where is not None else axis.last[1], axis.last[1])
         except PegbtError as error:
             axis.motion = None
             self._report(("failed", motion.id, f"{arm} {axis_name}: cannot return after MANUAL: {error}"))
@@ -378,12 +401,16 @@ def _arm_return(settings: ArmSettings, start: NDArray[np.float64], goal: NDArray
     return np.column_stack([trajectory.t - trajectory.t[0], trajectory.q])
 
 
-def _jaw_return(settings: ArmSettings, start: NDArray[np.float64], goal: NDArray[np.float64]) -> NDArray:
-    """Rows of (t, angle) of a ramp from `start` to `goal` at the jaw's velocity."""
+def jaw_ramp(settings: ArmSettings, start: NDArray[np.float64], goal: NDArray[np.float64]) -> NDArray:
+    """Rows of (t, angle) of a ramp from `start` to `goal` at the jaw's velocity, a row a control period:
+    the constant-speed ramp pegbt's simulator plays for a jaw `move_jp` (`pegbt.sim.playback.ramp_playback`),
+    so that a jaw takes as long on either interface; it ends on `goal` exactly."""
     distance = abs(float(goal[0]) - float(start[0]))
     duration = max(distance / settings.jaw_velocity, settings.control_period)
     t = np.append(np.arange(0.0, duration, settings.control_period), duration)
-    return np.column_stack([t, float(start[0]) + (float(goal[0]) - float(start[0])) * t / duration])
+    q = float(start[0]) + (float(goal[0]) - float(start[0])) * t / duration
+    q[-1] = float(goal[0])
+    return np.column_stack([t, q])
 
 
 def _sample(t: NDArray[np.float64], q: NDArray[np.float64], at: float) -> NDArray[np.float64]:

@@ -169,6 +169,15 @@ class Streamer:
         self._send(("play", motion_id, arm, axis, np.asarray(t, dtype=float), np.asarray(q, dtype=float)))
         return motion_id
 
+    def ramp(self, arm: str, start: float, goal: float) -> int:
+        """Hand `arm`'s jaw a ramp to `goal` at its velocity to the streamer; its id. It starts from the last
+        set-point the streamer sent while the jaw's stream is going (it knows that row, the robot's echo
+        comes later), else from `start`."""
+        motion_id = next(self._ids)
+        self._axes[motion_id] = f"{arm} jaw"
+        self._send(("ramp", motion_id, arm, float(start), float(goal)))
+        return motion_id
+
     def stop(self, motion_id: int) -> None:
         self._send(("stop", motion_id))
 

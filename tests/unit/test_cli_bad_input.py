@@ -140,6 +140,10 @@ CASES = {
     ),
     "loss above 1": (lambda tmp, log: _sim("--loss", "2"), "--loss: must be a finite number >= 0 and <= 1"),
     "negative seed": (lambda tmp, log: _sim("--seed", "-1"), "--seed: must be a finite number >= 0"),
+    "eval under an unknown condition": (
+        lambda tmp, log: ["eval", "--variant", "unilateral", "--trials", "1", "--condition", "compensated"],
+        "--condition: unknown condition 'compensated'; known: uncalibrated, calibrated, optimized",
+    ),
     "namespace with a wildcard": (
         lambda tmp, log: _sim("--namespace", "lab/*"),
         "--namespace: 'lab/*' is not a key prefix",

@@ -1,10 +1,8 @@
 """The `skills` resource: motion, calibration and perception as the run's condition asks for them.
 
-Conditions, as in the reference paper's experiments:
-
-- `uncalibrated`: rest-to-rest cubic motions, commands sent as planned;
-- `calibrated`: the same motions, every commanded row pre-compensated by the arm's calibration model;
-- `optimized`: transfers planned as the paper's spline refined by SQP, pre-compensated.
+The conditions are the reference paper's (`pegbt.runconditions`): a compensated one pre-compensates every
+commanded row by the arm's calibration model, an optimised one plans transfers as the paper's spline
+refined by SQP.
 
 Calibration models are read from the directory `--calibration` (by default `skills/calibration/`, and
 for `--endpoint auto` `skills/calibration/sim-dvrk-real/`: models fitted on recordings of the simulator's
@@ -39,9 +37,9 @@ from pegbt.perception.blocks import BlockLocator
 from pegbt.perception.board import PegboardRegistration
 from pegbt.perception.grasp import GraspSelector
 from pegbt.psm import ARMS
+from pegbt.runconditions import COMPENSATED, OPTIMIZED, known_condition
 from pegbt.workcell import Workcell, workcell
 
-CONDITIONS = ("uncalibrated", "calibrated", "optimized")
 SIMULATOR_CALIBRATION = CALIBRATION_DIR / "sim-dvrk-real"
 MODEL_PREFERENCE = ("hybrid", "physics", "lstm")
 CLEARANCE_STRIDE = 3  # check every third 10 ms row: tools move well under a millimetre in 30 ms
@@ -74,11 +72,7 @@ class Skills:
     ) -> None:
         """`robot_config`: a dVRK's share/ folder, whose limits narrow skills/psm.yaml's (`robot_arm_settings`);
         `speed`: the fraction of the planner's speed every motion is planned at (`ArmSettings.at_speed`)."""
-        if condition not in CONDITIONS:
-            raise PegbtError(
-                f"unknown condition {condition!r}; known: {', '.join(CONDITIONS)}", field="--condition"
-            )
-        self.condition = condition
+        self.condition = known_condition(condition)
         self.cell = cell or workcell()
         self.motion = motion or motion_settings()
         self.arms: dict[str, ArmMotion] = {}
@@ -89,11 +83,11 @@ class Skills:
         for arm in ARMS:
             settings = self.settings[arm]
             compensator = None
-            if condition != "uncalibrated":
+            if condition in COMPENSATED:
                 compensator = Compensator(
                     calibration_model(calibration or CALIBRATION_DIR, arm), settings=settings
                 )
-            planner = TransferPlanner(settings, self.motion) if condition == "optimized" else None
+            planner = TransferPlanner(settings, self.motion) if condition in OPTIMIZED else None
             self.arms[arm] = ArmMotion(settings, planner=planner, compensator=compensator)
         self.registration = PegboardRegistration(self.cell)
         self.locator = BlockLocator(self.cell)

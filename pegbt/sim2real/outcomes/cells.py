@@ -9,7 +9,6 @@ from dataclasses import dataclass, field
 from pegbt.executive.phases import PHASES as PHASES  # the phases of a failure, as a tick log tells them
 
 VARIANTS = ("unilateral", "bilateral", "handover")
-CONDITIONS = ("uncalibrated", "calibrated", "optimized")
 
 
 @dataclass(frozen=True)

@@ -16,7 +16,8 @@ from pathlib import Path
 from pegbt.boundedio import read_bytes
 from pegbt.errors import PegbtError
 from pegbt.evaluation.paper import PAPER
-from pegbt.sim2real.outcomes.cells import CONDITIONS, PHASES, VARIANTS, Cell, Outcomes
+from pegbt.runconditions import CONDITIONS
+from pegbt.sim2real.outcomes.cells import PHASES, VARIANTS, Cell, Outcomes
 from pegbt.yamlfile import Located, read_settings_file
 
 MAX_TABLE_BYTES = 1 << 20
