@@ -26,19 +26,19 @@ every joint admits with its own v_j (`via_s`): a relaxation, so never above a fe
 velocity at B is continuous (no jump, as a sum of two rest-to-rest halves would allow).
 
 Two arms: each arm's transfers follow one another; arms work at once; a handover is a rendezvous at pegbt's
-meeting point, the block held still there from the moment the receiver's jaw enters its hole until the
-giver's has left it (the reference's exchange: the receiver descends and closes, the giver opens and rises;
-the bound is of a handover at pegbt's meeting point as it is of a transfer at pegbt's pegs). Each arm's
-jaw enters and leaves the hole along its axis through the block's top, as over a peg: the hole is empty
-here, but the jaws straddle the wall with nothing to spare on either face (opened just past it, the
-least the bound allows), and a tool leaving downwards would take its shaft (8.4 mm) through the hole
-(7.2 mm). So the receiver passes its grasp's point at the block's top on its way to the grasp, not before
-the giver holds the block there, and comes to rest at the grasp; its jaw closes; the giver's jaw opens past
-the wall and the giver passes its own grasp's point at the block's top on its way to its next pick (the
-opening, `jaw_close_s`, may overlap that rise: it is shorter than the rise from rest with the planner's
-limits); the receiver carries the block off only once the giver's jaw has opened and left the hole (both
-done), then to the goal peg. The receiver's grasp is
-taken at the giver's point. A trial's bound per transfer is, as for pegbt's own figure, the union of the
+meeting point (the reference's exchange: the receiver descends and closes, the giver opens and rises; the
+bound is of a handover at pegbt's meeting point as it is of a transfer at pegbt's pegs; the receiver's
+grasp is taken at the giver's point). Each arm's jaw enters and leaves the block's hole along its axis
+through the block's top, as over a peg: the hole is empty here, but a jaw straddling the wall can move
+sideways only as far as its opening leaves room either side (at the least opening the bound allows,
+none), and a tool leaving downwards would take its shaft (8.4 mm) through the hole (7.2 mm). So the
+receiver passes its grasp's point at the block's top on its way to the grasp (its jaw may enter while
+the giver still brings the block down that axis, as pegbt's does) and comes to rest there no sooner than
+the giver holds the block out; its jaw closes; then the giver's jaw opens past the wall and the giver passes
+its own grasp's point at the block's top on its way to its next pick (the opening, `jaw_close_s`, may
+overlap that rise: with the planner's limits it is shorter than the rise from rest), the block held still
+meanwhile; the receiver carries the block off only once the giver's jaw has opened and left the hole (both
+done), then to the goal peg. A trial's bound per transfer is, as for pegbt's own figure, the union of the
 transfers' start-to-placement intervals over their number, so the busier arm sets it.
 """
 
@@ -360,13 +360,11 @@ class Bound:
         out = self.meeting(giver, depth)
         entry = self.entry_above_grasp()
         via = () if entry is None else (self.meeting(receiver, entry),)
-        settings = self.settings[receiver]
         return Exchange(
             giver=meet_g,
             giver_out=out,
             receiver=meet_r,
             to_receive=self.reach(receiver, starts, meet_r, via),
-            settle=max((pass_s(meet_r, point, settings) for point in via), default=0.0),
             let_go=max(self.jaw_close_s, pass_s(meet_g, out, self.settings[giver])),
         )
 
@@ -428,7 +426,6 @@ class Exchange:
     giver_out: NDArray[np.float64]  # its jaw out of the hole: passed on the way to its next pick
     receiver: NDArray[np.float64]
     to_receive: float  # the receiver's least time from its starts, in through the block's top, to its grasp
-    settle: float  # from passing the block's top to rest at its grasp: after the giver holds the block there
     let_go: float  # from the receiver's close to the giver's jaw opened and out of the hole
 
 
@@ -460,9 +457,8 @@ def trial_bound(transfers: list[tuple[str, int, int]], bound: Bound | None = Non
         exchange = bound.exchange(giver, receiver, at[receiver])
         to_meet = bound.lift_to(giver, grasp, pick, exchange.giver)
         held_out = started + reach + bound.jaw_close_s + to_meet
-        # the receiver's jaw enters the block's hole only once the giver holds the block there
-        received = max(free[receiver] + exchange.to_receive, held_out + exchange.settle)
-        taken = received + bound.jaw_close_s
+        # both at rest, the receiver's jaw closes
+        taken = max(free[receiver] + exchange.to_receive, held_out) + bound.jaw_close_s
         ends, place_s, fall = bound.lower(
             receiver, place, partial(rest_to_rest, exchange.receiver, settings=bound.settings[receiver])
         )
