@@ -30,7 +30,9 @@ from pegbt.workcell import Workcell
 UP_BOARD = np.array([0.0, 0.0, -1.0])
 APPROACH_CLEAR_ABOVE_PEG_TOP = 0.002  # m: an approaching jaw is on the block's axis from this high down
 ALREADY_CLEAR = 0.001  # m: a channel whose clearing height lies this far below its start constrains nothing
-HANDOVER_ARRIVAL = 0.005  # m: a carry to the handover point arrives from this far above it
+# m: a carry to the handover point arrives from this far above it: just above, as every millimetre more is
+# one up and one down for the insertion joint (the receiver's descent keeps clear of the block: `await_meeting`)
+HANDOVER_ARRIVAL = 0.001
 MIN_RISE = 0.005  # m: an approach rises at least this much before it moves over
 
 

@@ -25,10 +25,21 @@ time-optimal bang-coast-bang durations, `_reach_s`). Whatever v is, t₁ + t₂ 
 every joint admits with its own v_j (`via_s`): a relaxation, so never above a feasible motion, and the
 velocity at B is continuous (no jump, as a sum of two rest-to-rest halves would allow).
 
-Two arms: each arm's transfers follow one another; arms work at once; a handover is a rendezvous: the giver
-holds the block at pegbt's meeting point, the receiver's jaw closes there once both have arrived, then the
-receiver carries it to the goal peg. A trial's bound per transfer is, as for pegbt's own figure, the union
-of the transfers' start-to-placement intervals over their number, so the busier arm sets it.
+Two arms: each arm's transfers follow one another; arms work at once; a handover is a rendezvous at pegbt's
+meeting point (the reference's exchange: the receiver descends and closes, the giver opens and rises; the
+bound is of a handover at pegbt's meeting point as it is of a transfer at pegbt's pegs; the receiver's
+grasp is taken at the giver's point). Each arm's jaw enters and leaves the block's hole along its axis
+through the block's top, as over a peg: the hole is empty here, but a jaw straddling the wall can move
+sideways only as far as its opening leaves room either side (at the least opening the bound allows,
+none), and a tool leaving downwards would take its shaft (8.4 mm) through the hole (7.2 mm). So the
+receiver passes its grasp's point at the block's top on its way to the grasp (its jaw may enter while
+the giver still brings the block down that axis, as pegbt's does) and comes to rest there no sooner than
+the giver holds the block out; its jaw closes; then the giver's jaw opens past the wall and the giver passes
+its own grasp's point at the block's top on its way to its next pick (the opening, `jaw_close_s`, may
+overlap that rise: with the planner's limits it is shorter than the rise from rest), the block held still
+meanwhile; the receiver carries the block off only once the giver's jaw has opened and left the hole (both
+done), then to the goal peg. A trial's bound per transfer is, as for pegbt's own figure, the union of the
+transfers' start-to-placement intervals over their number, so the busier arm sets it.
 """
 
 from __future__ import annotations
@@ -178,6 +189,15 @@ def _reach_s(
     return np.where(v < 0, backwards, np.where(v**2 <= 2 * amax * d, braked, run_up))
 
 
+def pass_s(start: NDArray[np.float64], via: NDArray[np.float64], settings: ArmSettings) -> float:
+    """Least time from rest at `start` to pass `via` at any velocity, each joint at its own best (so also, run
+    backwards, the least from passing `via` to rest at `start`)."""
+    vmax, amax = settings.planner_velocity.astype(float), settings.planner_acceleration.astype(float)
+    distance = via - start
+    best = np.sign(distance) * np.minimum(np.sqrt(2 * amax * np.abs(distance)), vmax)
+    return float(np.max(_reach_s(distance, best, vmax, amax)))
+
+
 VIA_GRIDS = (512, 64)  # arrival times tried through a via point, then within each interval split again
 VIA_SPLIT = 8  # intervals split again: those with the least rounded-down value (the others stay so)
 BISECTIONS = 30
@@ -319,11 +339,34 @@ class Bound:
         pose = rigid_transform(tool_down_rotation(0.0, up), self.settings[arm].home_tip)
         return solve_ik(pose, self.settings[arm])
 
-    def meeting(self, arm: str) -> NDArray[np.float64]:
-        """The arm's joints with its tip at pegbt's handover meeting point, tool down."""
+    def meeting(self, arm: str, above: float = 0.0) -> NDArray[np.float64]:
+        """The arm's joints with its tip `above` pegbt's handover meeting point along the pegs' axis, tool down."""
+        up = self.cell.up_in(arm)
         point = apply_rigid(self.cell.board_to_arm(arm), handover_meeting_point(self.cell, self.motion))
-        pose = rigid_transform(tool_down_rotation(0.0, self.cell.up_in(arm)), point)
+        pose = rigid_transform(tool_down_rotation(0.0, up), point + above * up)
         return solve_ik(pose, self.settings[arm])
+
+    def entry_above_grasp(self) -> float | None:
+        """How far above its grasp the tool passes on its way to it: the block's top (where its jaw enters the
+        hole) plus what `heights.approach` adds over it; None where the heights approach straight."""
+        if self.heights.approach is None:
+            return None
+        return self.heights.approach - self.grasp_height()
+
+    def exchange(self, giver: str, receiver: str, starts: list[Start]) -> Exchange:
+        """The rendezvous of a handover from `giver` to `receiver` (at rest at the quickest of `starts`)."""
+        depth = self.motion.transfer.grasp_depth  # the grip below the block's top
+        meet_g, meet_r = self.meeting(giver), self.meeting(receiver)
+        out = self.meeting(giver, depth)
+        entry = self.entry_above_grasp()
+        via = () if entry is None else (self.meeting(receiver, entry),)
+        return Exchange(
+            giver=meet_g,
+            giver_out=out,
+            receiver=meet_r,
+            to_receive=self.reach(receiver, starts, meet_r, via),
+            let_go=max(self.jaw_close_s, pass_s(meet_g, out, self.settings[giver])),
+        )
 
     def fall_s(self, height: float) -> float:
         """The block's fall onto its goal peg when the jaw opens with the tip `height` above the peg's top."""
@@ -338,9 +381,15 @@ class Bound:
             through(start.joints, start.via() + via, grasp, self.settings[arm]) for start in starts
         )
 
-    def reach(self, arm: str, starts: list[Start], goal: NDArray[np.float64]) -> float:
-        """The least time from rest at the quickest of `starts` to rest at `goal`."""
-        return min(through(start.joints, start.via(), goal, self.settings[arm]) for start in starts)
+    def reach(
+        self,
+        arm: str,
+        starts: list[Start],
+        goal: NDArray[np.float64],
+        via: tuple[NDArray[np.float64], ...] = (),
+    ) -> float:
+        """The least time from rest at the quickest of `starts`, through `via`, to rest at `goal`."""
+        return min(through(start.joints, [*start.via(), *via], goal, self.settings[arm]) for start in starts)
 
     def lift_to(self, arm: str, grasp: NDArray[np.float64], pick: int, goal: NDArray[np.float64]) -> float:
         """The least time from rest at `grasp` on peg `pick`, lifting the block clear, to rest at `goal`."""
@@ -368,6 +417,18 @@ class Bound:
         return ends, motion, fall
 
 
+@dataclass(frozen=True)
+class Exchange:
+    """A handover's rendezvous at the meeting point: both arms' joints there and where each jaw is at the
+    block's top over its grasp, with the times the exchange cannot do without."""
+
+    giver: NDArray[np.float64]
+    giver_out: NDArray[np.float64]  # its jaw out of the hole: passed on the way to its next pick
+    receiver: NDArray[np.float64]
+    to_receive: float  # the receiver's least time from its starts, in through the block's top, to its grasp
+    let_go: float  # from the receiver's close to the giver's jaw opened and out of the hole
+
+
 def trial_bound(transfers: list[tuple[str, int, int]], bound: Bound | None = None) -> TrialBound:
     """The bound of a trial whose transfers are (arms, pick peg, place peg) in the order they began (arms:
     `PSM1`, or `GIVER→RECEIVER` for a handover)."""
@@ -393,17 +454,18 @@ def trial_bound(transfers: list[tuple[str, int, int]], bound: Bound | None = Non
             result.intervals.append((started, free[giver] + fall))
             continue
         receiver = others[0]
-        meet_g, meet_r = bound.meeting(giver), bound.meeting(receiver)
-        to_meet = bound.lift_to(giver, grasp, pick, meet_g)
-        settings = bound.settings[receiver]
-        to_receive = bound.reach(receiver, at[receiver], meet_r)
-        arrived = max(started + reach + bound.jaw_close_s + to_meet, free[receiver] + to_receive)
-        taken = arrived + bound.jaw_close_s
-        ends, place_s, fall = bound.lower(receiver, place, partial(rest_to_rest, meet_r, settings=settings))
+        exchange = bound.exchange(giver, receiver, at[receiver])
+        to_meet = bound.lift_to(giver, grasp, pick, exchange.giver)
+        held_out = started + reach + bound.jaw_close_s + to_meet
+        # both at rest, the receiver's jaw closes
+        taken = max(free[receiver] + exchange.to_receive, held_out) + bound.jaw_close_s
+        ends, place_s, fall = bound.lower(
+            receiver, place, partial(rest_to_rest, exchange.receiver, settings=bound.settings[receiver])
+        )
         times.motion += to_meet
-        result.arms[receiver].motion += to_receive + place_s
+        result.arms[receiver].motion += exchange.to_receive + place_s
         result.arms[receiver].jaw += bound.jaw_close_s + fall
-        free[giver], at[giver] = taken, [Start(meet_g)]
-        free[receiver], at[receiver] = taken + place_s, ends
+        free[giver], at[giver] = taken, [Start(exchange.giver, exchange.giver_out)]
+        free[receiver], at[receiver] = taken + exchange.let_go + place_s, ends
         result.intervals.append((started, free[receiver] + fall))
     return result

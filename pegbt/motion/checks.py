@@ -91,9 +91,10 @@ def _channel_problems(tips: np.ndarray, channel: Channel, leaving: bool) -> list
 def _clearance_problems(tips: np.ndarray, leaving: Channel | None, arriving: Channel) -> list[str]:
     """Between leaving the start peg's channel (from the first sample without one) and entering the goal
     peg's, the tip stays above both clearing heights: the block hangs clear of every peg top it passes. A
-    goal in the air (a clearing height at or below it: the handover's meeting point) sets none."""
+    goal in the air (a clearing height at or below it: the handover's meeting point) sets none: from the
+    start peg, the tip stays above its clearing height to the end."""
     if arriving.clear <= 0.0:
-        return []
+        return [] if leaving is None else _clearance_to_the_air(tips, leaving)
     heights = arriving.height(tips)
     above = heights >= arriving.clear
     if not above.any():
@@ -115,6 +116,20 @@ def _clearance_problems(tips: np.ndarray, leaving: Channel | None, arriving: Cha
     if sag[worst] > CLEARANCE_SLACK:
         return [
             f"the tip sags {sag[worst] * 1000:.2f} mm below the clearing height between the pegs "
+            f"(allowed {CLEARANCE_SLACK * 1000:.2f} mm)"
+        ]
+    return []
+
+
+def _clearance_to_the_air(tips: np.ndarray, leaving: Channel) -> list[str]:
+    left = leaving.height(tips) >= leaving.clear
+    if not left.any():
+        return []  # reported by the start channel's check
+    sag = leaving.clear - leaving.height(tips[int(np.argmax(left)) :])
+    worst = int(np.argmax(sag))
+    if sag[worst] > CLEARANCE_SLACK:
+        return [
+            f"the tip sags {sag[worst] * 1000:.2f} mm below the start peg's clearing height on its way "
             f"(allowed {CLEARANCE_SLACK * 1000:.2f} mm)"
         ]
     return []

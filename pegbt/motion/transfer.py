@@ -25,7 +25,7 @@ from pegbt.motion.settings import MotionSettings, motion_settings
 from pegbt.motion.spline import joint_direction, plan_spline
 from pegbt.motion.sqp import SqpRefiner
 from pegbt.motion.trajectory import HermitePath, Trajectory
-from pegbt.motion.waypoints import WAYPOINT_NAMES, TransferWaypoints
+from pegbt.motion.waypoints import WAYPOINT_NAMES, Channel, TransferWaypoints
 
 
 @dataclass(frozen=True)
@@ -70,14 +70,16 @@ def lowered(waypoints: TransferWaypoints, above_clear: float) -> TransferWaypoin
     approach) from a start already above the clearing height, the lifted pose is the start: a rise there
     only makes the warm start stop and turn, and the SQP's path is the slower for it (0.11 s an
     approach over the unilateral trial). The start and the goal stay where they are. A transit without
-    a clearing height above its goal (a carry to the handover point) is left as it is."""
-    place = waypoints.place
+    a clearing height above its goal (a carry to the handover point) has only its lifted pose lowered,
+    over its start peg's clearing height (`_lift_lowered`)."""
+    place, poses = waypoints.place, waypoints.poses.copy()
     if place.clear <= 0.0:
-        return waypoints
+        if waypoints.pick is None:
+            return waypoints
+        return replace(waypoints, poses=_lift_lowered(poses, waypoints.pick, above_clear))
     floor = place.clear
     if waypoints.pick is not None:
         floor = max(floor, waypoints.pick.clear + float((waypoints.pick.point - place.point) @ place.axis))
-    poses = waypoints.poses.copy()
     start = float((poses[0][:3, 3] - place.point) @ place.axis)
     lifted = max(floor + above_clear, start)
     if waypoints.pick is None and start >= floor:
@@ -87,6 +89,16 @@ def lowered(waypoints: TransferWaypoints, above_clear: float) -> TransferWaypoin
         if excess > 0.0:
             poses[index][:3, 3] -= excess * place.axis
     return replace(waypoints, poses=poses)
+
+
+def _lift_lowered(poses: NDArray[np.float64], pick: Channel, above_clear: float) -> NDArray[np.float64]:
+    """`poses` of a carry to a goal in the air (the handover's meeting point) with the lifted pose brought
+    down to `above_clear` over the start peg's clearing height, never raised: lifted to the transfer height
+    over its peg, the SQP's path rose the block there and came down to the meeting point again."""
+    excess = float((poses[1][:3, 3] - pick.point) @ pick.axis) - (pick.clear + above_clear)
+    if excess > 0.0:
+        poses[1][:3, 3] -= excess * pick.axis
+    return poses
 
 
 class TransferPlanner:

@@ -1,6 +1,6 @@
 """With a planner, an approach from high up (the arm parked) is one SQP-planned motion over the pegs, quicker
 than the rest-to-rest cubics through the transfer height that it was before, and it keeps the tool clear of
-the peg tops."""
+the peg tops; a handover's giver, risen from the meeting point, passes over them lower."""
 
 from __future__ import annotations
 
@@ -9,8 +9,10 @@ import math
 import numpy as np
 
 from pegbt.behaviours.actions.grasping import planned_approach
+from pegbt.behaviours.poses import to_arm, tool_pose
 from pegbt.behaviours.resources.skills import Skills
 from pegbt.frames import rigid_transform
+from pegbt.motion.handover import handover_meeting_point
 from pegbt.motion.ik import solve_ik
 from pegbt.motion.kinematics import forward_kinematics
 from pegbt.motion.waypoints import tool_down_rotation
@@ -24,19 +26,23 @@ def _parked(skills: Skills) -> np.ndarray:
     return solve_ik(rigid_transform(tool_down_rotation(0.0, cell.up_in("PSM1")), settings.home_tip), settings)
 
 
-def _approach(condition: str):
-    skills = Skills(condition)
-    top = skills.cell.pegs.positions[PEG]
-    block = BlockEstimate(
+def _block(skills: Skills, peg: int) -> BlockEstimate:
+    top = skills.cell.pegs.positions[peg]
+    return BlockEstimate(
         np.array([top[0], top[1], skills.cell.board.surface_z]),
         math.radians(10.0),
-        PEG,
+        peg,
         1.0,
         3e-4,
         1000,
         True,
         "",
     )
+
+
+def _approach(condition: str):
+    skills = Skills(condition)
+    block = _block(skills, PEG)
     grasp = skills.selectors["PSM1"].pick(block)
     assert grasp is not None
     start = _parked(skills)
@@ -55,3 +61,22 @@ def test_an_approach_from_high_up_is_one_motion_quicker_than_the_cubics_and_clea
     off_axis = np.linalg.norm(np.cross(tips - grasp_tip, cell.up_in("PSM1")), axis=1)
     # below the peg tops only on the block's axis (the final descent onto it)
     assert off_axis[above < 0.0].max() <= skills.motion.transfer.channel_tolerance + 1e-6
+
+
+def test_a_givers_approach_from_the_meeting_point_over_the_pegs_as_low_as_a_carry_is_never_slower():
+    skills = Skills("optimized")
+    cell, arm = skills.cell, "PSM2"
+    risen = tool_pose(to_arm(cell, arm, handover_meeting_point(cell, skills.motion)), 0.0, cell.up_in(arm))
+    risen[:3, 3] += 0.007 * cell.up_in(arm)  # the giver's rise after letting go
+    start = solve_ik(risen, skills.arm(arm).settings)
+    quicker = 0
+    for peg in (1, 3, 0):
+        block = _block(skills, peg)
+        grasp = skills.selectors[arm].pick(block)
+        assert grasp is not None
+        giver = planned_approach(skills, arm, start, None, block, grasp, giving=True)
+        other = planned_approach(skills, arm, start, None, block, grasp)
+        assert np.allclose(forward_kinematics(giver.q[-1]), grasp.pose, atol=1e-4)
+        assert giver.duration <= other.duration + 1e-9
+        quicker += giver.duration < other.duration - 0.02
+    assert quicker >= 1

@@ -1030,13 +1030,15 @@ def test_descend_to_grasp_closes_as_it_arrives_on_a_block_held_out_meeting_the_w
     assert arm.jaw.position()[0] > transfer.jaw_closed
 
 
-def meeting_under_way(robot: Robot, skills: Skills, seen, said: Giver):
+def meeting_under_way(robot: Robot, skills: Skills, seen, said: Giver, aside: float = 0.004):
     """The receiver waiting above its grasp, the giver's last motion of its carry (down onto the meeting
-    pose, as a carry arrives) playing from now (clock 0), and handover 1's giver word `said`."""
+    pose from `aside` over in board x, as a carry arrives) playing from now (clock 0), and handover 1's
+    giver word `said`."""
     arm, meeting, values = receiver_at(robot, skills, seen, pose=partial(wait_pose, skills))
     giver, settings = robot.arms[GIVER], skills.settings[GIVER]
     arrival = meeting.tip.copy()
     arrival[:3, 3] += HANDOVER_ARRIVAL * skills.cell.up_in(GIVER)
+    arrival[:3, 3] += aside * skills.cell.board_to_arm(GIVER)[:3, 0]
     at(giver, solve_ik(arrival, settings))
     carry = skills.arm(GIVER).through(giver.rest, [solve_ik(meeting.tip, settings)], ["meeting"])
     skills.arm(GIVER).send(giver, carry)
@@ -1054,22 +1056,48 @@ def test_await_meeting_lets_the_receiver_descend_during_the_carry_keeping_above_
     assert 0.0 < start < carry.duration  # before the giver has arrived: part of the descent is hidden
     assert feedback(built).startswith("the giver arrives in ")
     # descending from now, the tip keeps `approach_above_block` above the block's top as the giver brings
-    # it down onto the meeting pose, until it is there
+    # it over and down onto the meeting pose, until the block is within a channel's tolerance of it
+    # sideways, and from then on above its grasp of the block, until it is there
+    descent, heights, above, aside, later = descent_against_carry(arm, skills, meeting, carry, start)
+    clear = skills.cell.block.grasp_depth + skills.motion.transfer.approach_above_block
+    over = aside > skills.motion.transfer.channel_tolerance
+    assert over.any() and not over.all()
+    tip = np.interp(carry.t[later] - start, descent.t, heights)
+    floor = np.where(over, clear, 0.0)[later] + above[later]
+    assert np.all(tip >= floor - 1e-9)
+    # and no later than it must: within one tick (`STEP`) of the descent's travel
+    travel = np.abs(np.diff(heights)).max() / descent.period * STEP
+    assert np.any(tip < floor + travel)
+    assert arm.sent == []
+
+
+def test_await_meeting_lets_the_receiver_descend_at_once_onto_a_block_brought_straight_down(
+    tmp_path, robot, skills, seen, clock
+):
+    """Brought down along its axis, the block leaves the receiver's open jaw room either side of its wall:
+    the receiver descends with it, its tip never below its grasp of the block."""
+    arm, meeting, values, carry = meeting_under_way(robot, skills, seen, Giver.OFFERED, aside=0.0)
+    built = build(tmp_path, robot, skills, MEETING, **values)
+    assert run(built, clock) == Status.SUCCESS
+    assert clock.now() == 0.0
+    descent, heights, above, _, _ = descent_against_carry(arm, skills, meeting, carry, 0.0)
+    assert np.all(np.interp(carry.t, descent.t, heights) >= above - 1e-9)
+
+
+def descent_against_carry(arm, skills: Skills, meeting, carry, start: float):
+    """The receiver's descent from its rest onto its grasp and its tip's heights over the grasp, and per
+    sample of the giver's `carry`, the block's height over and distance aside from where it will be held,
+    and whether the sample comes after `start`."""
     grasp = meeting.receiver_grasp
     descent = skills.arm(RECEIVER).quickest(
         arm.rest, [solve_ik(grasp.pose, skills.settings[RECEIVER])], ["g"]
     )
     heights = (tip_position(descent.q) - grasp.pose[:3, 3]) @ skills.cell.up_in(RECEIVER)
-    giver_tips = tip_position(carry.q)
-    block_above = (giver_tips - giver_tips[-1]) @ skills.cell.up_in(GIVER)
-    later = carry.t >= start
-    tip = np.interp(carry.t[later] - start, descent.t, heights)
-    clear = skills.cell.block.grasp_depth + skills.motion.transfer.approach_above_block
-    assert np.all(tip >= clear + block_above[later] - 1e-9)
-    # and no later than it must: within one tick (`STEP`) of the descent's travel
-    travel = np.abs(np.diff(heights)).max() / descent.period * STEP
-    assert np.any(tip < clear + block_above[later] + travel)
-    assert arm.sent == []
+    offset = tip_position(carry.q) - tip_position(carry.q)[-1]
+    up = skills.cell.up_in(GIVER)
+    above = offset @ up
+    aside = np.linalg.norm(offset - np.outer(above, up), axis=1)
+    return descent, heights, above, aside, carry.t >= start
 
 
 def test_await_meeting_waits_while_the_giver_is_not_carrying_and_goes_once_it_holds_the_block_out(

@@ -9,6 +9,8 @@ import pytest
 import ruckig
 
 from pegbt.bench.limit_bound import Bound, Start, _reach_s, rest_to_rest, through, trial_bound, via_s
+from pegbt.frames import apply_rigid
+from pegbt.motion.kinematics import tip_position
 from pegbt.motion.limits import ArmSettings, arm_settings
 
 
@@ -116,3 +118,65 @@ def test_the_jaw_enters_and_leaves_a_blocks_hole_along_the_peg_axis() -> None:
     low = next(end for end in ends if end.exit is not None)
     aside = low.joints + np.array([0.01, 0.0, 0.0, 0.0, 0.0, 0.0])  # a few millimetres over, as low
     assert bound.reach("PSM1", [low], aside) > 2 * bound.reach("PSM1", [Start(low.joints)], aside)
+
+
+def test_a_handovers_jaws_enter_and_leave_the_block_through_its_top_along_the_axis() -> None:
+    """The receiver's jaw enters the held block's hole, and the giver's leaves it, through the block's top
+    over each grasp (the grip `grasp_depth` below it), both tools down; the receiver grasps at the giver's point."""
+    bound = Bound()
+    cell, depth = bound.cell, bound.motion.transfer.grasp_depth
+    exchange = bound.exchange("PSM2", "PSM1", [Start(bound.home("PSM1"))])
+    in_board = {arm: cell.arm_to_board(arm) for arm in ("PSM1", "PSM2")}
+    giver = apply_rigid(in_board["PSM2"], tip_position(exchange.giver))
+    out = apply_rigid(in_board["PSM2"], tip_position(exchange.giver_out))
+    receiver = apply_rigid(in_board["PSM1"], tip_position(exchange.receiver))
+    up = np.array([0.0, 0.0, -1.0])  # board z points down
+    assert out - giver == pytest.approx(depth * up, abs=1e-7)
+    assert receiver == pytest.approx(giver, abs=1e-7)
+    entry = bound.meeting("PSM1", bound.entry_above_grasp() or 0.0)
+    assert apply_rigid(in_board["PSM1"], tip_position(entry)) - receiver == pytest.approx(
+        depth * up, abs=1e-7
+    )
+
+
+def test_the_giver_leaving_the_hole_costs_at_least_its_jaw_opening_and_rising_its_grip_depth() -> None:
+    """Independently of the bound's via arithmetic: from rest, a joint at its acceleration limit covers a
+    distance d in no less than √(2d/a) even passing it at full speed. The giver's jaw must have opened
+    and left the hole before the receiver may carry the block off; yet that costs no more than a
+    rest-to-rest rise."""
+    bound = Bound()
+    exchange = bound.exchange("PSM2", "PSM1", [Start(bound.home("PSM1"))])
+    settings = bound.settings["PSM2"]
+    one_joint = np.sqrt(2 * np.abs(exchange.giver_out - exchange.giver) / settings.planner_acceleration)
+    assert exchange.let_go >= float(np.max(one_joint)) - 1e-9
+    assert exchange.let_go >= bound.jaw_close_s
+    assert exchange.let_go <= rest_to_rest(exchange.giver, exchange.giver_out, settings)
+
+
+def test_the_receiver_enters_the_hole_through_the_blocks_top() -> None:
+    """From beside its grasp, at its height, the receiver's way passes over the block's top first: more
+    than twice as long as straight across (up and down again)."""
+    bound = Bound()
+    grasp = bound.exchange("PSM2", "PSM1", [Start(bound.home("PSM1"))]).receiver
+    beside = [Start(grasp + np.array([0.01, 0.0, 0.0, 0.0, 0.0, 0.0]))]  # a millimetre or two over
+    assert bound.exchange("PSM2", "PSM1", beside).to_receive > 2 * bound.reach("PSM1", beside, grasp)
+
+
+def test_a_giver_is_not_free_before_its_jaw_has_opened_and_left_the_hole() -> None:
+    """Two handovers by one giver: its second pick starts only once the receiver has closed on the first
+    block, leaving from where its jaw is out of that block's hole (dearer than leaving from the meeting
+    point itself), and the receiver carries the first block off only once that jaw is out."""
+    bound = Bound()
+    trial = trial_bound([("PSM2→PSM1", 1, 7), ("PSM2→PSM1", 0, 6)], bound)
+    (_, first_end), (second_start, _) = trial.intervals
+    exchange = bound.exchange("PSM2", "PSM1", [Start(bound.home("PSM1"))])
+    _, from_the_hole = bound.approach("PSM2", [Start(exchange.giver, exchange.giver_out)], 0)
+    _, from_the_meeting = bound.approach("PSM2", [Start(exchange.giver)], 0)
+    assert from_the_hole > from_the_meeting
+    lowered = min(
+        rest_to_rest(exchange.receiver, bound.joints("PSM1", 7, height), bound.settings["PSM1"])
+        + bound.fall_s(height)
+        for height in bound.heights.lowers
+    )
+    # the first block lands no sooner than the giver's jaw is out and the receiver has lowered it onto peg 7
+    assert first_end - second_start >= exchange.let_go + lowered - 1e-9

@@ -6,15 +6,16 @@ import re
 import numpy as np
 import pytest
 
-from pegbt.behaviours.poses import approach_for
+from pegbt.behaviours.poses import HANDOVER_ARRIVAL, approach_for, to_arm, tool_pose
 from pegbt.motion.checks import CLEARANCE_SLACK, trajectory_problems
 from pegbt.motion.cubic import rest_to_rest_path
+from pegbt.motion.handover import handover_meeting_point
 from pegbt.motion.ik import solve_ik
 from pegbt.motion.kinematics import forward_kinematics
 from pegbt.motion.limits import arm_settings
 from pegbt.motion.settings import motion_settings
 from pegbt.motion.transfer import TransferPlanner, joint_waypoints, lowered
-from pegbt.motion.waypoints import transfer_waypoints
+from pegbt.motion.waypoints import Channel, TransferWaypoints, transfer_waypoints
 from pegbt.workcell import workcell
 
 PSM1 = arm_settings("PSM1")
@@ -101,3 +102,51 @@ def test_an_approach_from_clear_of_the_pegs_sets_off_sideways_and_one_from_low_r
     # from among the blocks (a grasp that closed on nothing), the warm start still rises over the pegs
     low = approach_for(CELL, motion_settings(), "PSM1", _waypoints(1, 7).poses[0], pick)
     assert _above_peg_tops(lowered(low, 0.007).poses[1, :3, 3]) > _above_peg_tops(low.poses[0, :3, 3]) + 0.02
+
+
+def _to_meeting(pick: int) -> TransferWaypoints:
+    """A giver's carry from peg `pick` to the handover's meeting point (a goal in the air: no channel)."""
+    up = CELL.up_in("PSM1")
+    meeting = tool_pose(to_arm(CELL, "PSM1", handover_meeting_point(CELL)), 0.0, up)
+    above = meeting.copy()
+    above[:3, 3] += HANDOVER_ARRIVAL * up
+    lift = _waypoints(pick, pick)
+    in_the_air = Channel(meeting[:3, 3], up, -0.001, TRANSFER.channel_tolerance)
+    poses = np.stack([lift.poses[0], lift.poses[1], above, meeting])
+    return TransferWaypoints(poses, lift.approach, lift.pick, in_the_air, lift.upright)
+
+
+@pytest.mark.parametrize("pick", [7, 6])
+def test_a_carry_to_the_meeting_point_is_lifted_only_clear_of_its_peg_and_stays_above_it(planner, pick):
+    waypoints = _to_meeting(pick)
+    low = lowered(waypoints, 0.004)
+    assert np.array_equal(low.poses[[0, 2, 3]], waypoints.poses[[0, 2, 3]])
+    clear = TRANSFER.channel_clear_above_peg_top
+    assert _above_peg_tops(low.poses[1, :3, 3]) == pytest.approx(clear + 0.004)
+    plan = planner.plan(waypoints)
+    assert plan.refined
+    tips = forward_kinematics(plan.trajectory.q)[:, :3, 3]
+    heights = _above_peg_tops(tips)
+    cleared = int(np.argmax(heights >= clear))
+    assert cleared > 0 and heights[cleared:].min() >= clear - CLEARANCE_SLACK
+
+
+def test_a_carry_to_the_air_sagging_below_its_pegs_clearing_height_on_the_way_is_refused():
+    waypoints = _to_meeting(7)
+    q = joint_waypoints(waypoints, PSM1)
+    clear = TRANSFER.channel_clear_above_peg_top
+
+    def through_middle(height: float) -> list[str]:
+        middle = waypoints.poses[1].copy()
+        middle[:3, 3] = (waypoints.poses[1][:3, 3] + waypoints.poses[2][:3, 3]) / 2
+        middle[:3, 3] += (height - _above_peg_tops(middle[:3, 3])) * CELL.up_in("PSM1")
+        joints = [q[0], q[1], solve_ik(middle, PSM1), q[2], q[3]]
+        path = rest_to_rest_path(joints, PSM1, ["grasp", "lifted", "middle", "above", "meeting"])
+        problems = trajectory_problems(
+            path.sample(PSM1.control_period), PSM1, leaving=waypoints.pick, arriving=waypoints.place
+        )
+        return [problem for problem in problems if "clearing height" in problem]
+
+    assert through_middle(clear + 0.002) == []
+    (problem,) = through_middle(clear - 0.003)
+    assert "below the start peg's clearing height" in problem

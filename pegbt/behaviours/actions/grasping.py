@@ -195,7 +195,7 @@ def choose_and_approach_early(
         if grasp is None:
             raise PegbtError(f"no grasp of the next block lets {receiver} take it")
         ahead.grasp = grasp
-        return planned_approach(skills, arm, start, board, block, grasp)
+        return planned_approach(skills, arm, start, board, block, grasp, giving=True)
 
     motion.plan_early(pool, (board, block, receiver, ahead), planned)
 
@@ -207,16 +207,23 @@ def planned_approach(
     board: BoardEstimate | None,
     block: BlockEstimate,
     grasp: Grasp,
+    *,
+    giving: bool = False,
 ) -> Trajectory:
     """`arm`'s approach from joints `start` onto `grasp` of `block` (see `Approach`), planned on a worker with
     its waypoints and stops: the tick that sends it, or takes a plan made early for the same inputs, computes
-    none of it; what `transfer` plans ahead for the loop's next block."""
+    none of it; what `transfer` plans ahead for the loop's next block. A handover's giver (`giving`) passes
+    over the pegs as low as a carry does (`warm_above_clear`): the receiver works above the meeting point
+    and its own side's pegs, not over the giver's."""
     motion, cell = skills.arm(arm), skills.cell
     waypoints = transfer_for(cell, skills.motion, arm, board, block, grasp)
     stops = above_pegs_first(cell, skills.motion, arm, start, motion.settings)
     if motion.planner is not None:
         approach = approach_for(cell, skills.motion, arm, forward_kinematics(start), waypoints)
-        return motion.transfer(approach, above_clear=skills.motion.sqp.approach_above_clear)
+        sqp = skills.motion.sqp
+        return motion.transfer(
+            approach, above_clear=sqp.warm_above_clear if giving else sqp.approach_above_clear
+        )
     names = [f"above the grasp {i}" for i in range(len(stops))] + [
         "over the grasp",
         "just above the block",
@@ -244,7 +251,8 @@ class Approach(MotionLeaf):
         block, grasp = self.get("block"), self.get("grasp")
         board = self.read("/board")
         start = self.motion(arm).start_from(self.client(arm))
-        plan = partial(planned_approach, self.skills, arm, start, board, block, grasp)
+        giving = self.robot.trial.giving(arm) is not None
+        plan = partial(planned_approach, self.skills, arm, start, board, block, grasp, giving=giving)
         self.move(arm, plan, f"{arm} approach", (board, block, grasp.candidate))
         transfer = self.skills.motion.transfer
         self.move_jaw(arm, transfer.jaw_open, f"{arm} jaw opening")

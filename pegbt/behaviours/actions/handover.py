@@ -323,10 +323,11 @@ def descent(
 class AwaitMeeting(RobotLeaf):
     """The receiver, waiting above its grasp, begins its descent while the giver's carry still plays: at
     the first moment from which its tip, descending, stays `approach_above_block` above the top of the
-    block as the giver's planned carry moves it (it arrives from above) until the carry ends. The part of
-    the descent above the block is hidden behind the carry; below it, the receiver moves only once the
-    block is still, as it did after the giver's word. The jaw closes only once the giver says it holds the
-    block out (`await_arrival` after the descent)."""
+    block as the giver's planned carry moves it (it arrives from above) until the carry ends, or, once the
+    block is within `channel_tolerance` of where it will be held out sideways (coming down the last
+    millimetres, its wall between the open jaws with millimetres to spare either side), only above its
+    grasp of the block. The descent is hidden behind the carry as far as that allows. The jaw closes only
+    once the giver says it holds the block out (`await_arrival` after the descent)."""
 
     def initialise(self) -> None:
         patience = self.params["patience"]
@@ -367,7 +368,9 @@ class AwaitMeeting(RobotLeaf):
 
     def set_off(self, carry: SentMotion, now: float) -> float:
         """The first clock time from `now` (on the control period) from which the descent onto the grasp
-        keeps the tip `approach_above_block` above the block's top, as `carry` moves it, until it ends."""
+        keeps the tip `approach_above_block` above the block's top, as `carry` moves it, until it ends,
+        except once the block is within `channel_tolerance` of where it will be held out, sideways: then
+        only above its grasp of the block."""
         arm, grasp = self.param("arm"), self.get("grasp")
         motion, cell = self.motion(arm), self.skills.cell
         giver = self.giver()
@@ -375,8 +378,14 @@ class AwaitMeeting(RobotLeaf):
         heights = (tip_position(descent_plan.q) - grasp.pose[:3, 3]) @ cell.up_in(arm)
         times = carry.sent_at + carry.planned.t
         tips = tip_position(carry.planned.q)
-        above = (tips - tips[-1]) @ cell.up_in(giver)  # the block over where it will be held out
-        clear = cell.block.grasp_depth + self.skills.motion.transfer.approach_above_block
+        up, transfer = cell.up_in(giver), self.skills.motion.transfer
+        above = (tips - tips[-1]) @ up  # the block over where it will be held out
+        aside = np.linalg.norm(tips - tips[-1] - np.outer(above, up), axis=1)
+        # its jaw may enter the block's hole once the block is within a channel's tolerance of where it will
+        # be held, as a tip on a peg's axis (the open jaw has millimetres either side of the wall there)
+        clear = np.where(
+            aside > transfer.channel_tolerance, cell.block.grasp_depth + transfer.approach_above_block, 0.0
+        )
         starts = np.arange(now, times[-1] + descent_plan.period, descent_plan.period)
         later = times[None, :] - starts[:, None]
         tip = np.interp(np.maximum(later, 0.0), descent_plan.t, heights)
