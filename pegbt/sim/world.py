@@ -305,7 +305,7 @@ class World:
             if np.linalg.norm(peg_xy - slide) > self._clearance:
                 stopped = self._slide_until_stopped(peg_xy, normal, off_centre)
                 beyond_play = _beyond_play(-(off_centre - stopped) * normal, local[:2, :2], give)
-                if beyond_play > self._grasp_capture:
+                if beyond_play > self._grasp_capture + 1e-9:  # what the play takes is rounded
                     return (
                         f"jaw {abs(off_centre) * 1000:.1f} mm off the wall's centre: peg {block.peg} stops the block",
                         edge,
