@@ -3,8 +3,9 @@
 The endpoint calls `World.update(time, tools)` every simulation step with each arm's tool state (from
 its physical joints). Nothing is scripted: a closing jaw grips a block only if its open jaws straddle one
 of the block's walls and the block can slide (on its peg, within the hole's clearance) until the wall
-sits centred between them; a gripped block moves rigidly with the jaw; lifting it clears its peg only if
-the hole stays around the peg all the way up (a peg pressing on the hole pushes the block, and the jaw
+sits centred between them, the wrist's cable play (`ToolState.give`) taking what the peg stops; a
+gripped block moves rigidly with the jaw; lifting it clears its peg only if the hole stays around the
+peg all the way up (a peg pressing on the hole pushes the block, and the jaw
 holding it, aside as far as the wrist's cable play gives: `ToolState.give`); a released block lands on a
 peg only if its hole is over one within the clearance, and otherwise drops onto the board (or off it).
 Every such outcome, every collision and every injected fault is appended to `World.events`, the ground
