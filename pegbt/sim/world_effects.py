@@ -4,9 +4,8 @@ The default world (`pegbt.sim.world`) is rigid: a peg never bends, a hole must c
 clearance to go over a peg, closing jaws grip a block on a peg only as far off its wall's centre as the
 block can slide and the wrist's cable play (the arm's, `ToolState.give`) yields, a gripped block never
 moves in the jaws and never slips out, the arms stand where the work cell says and the camera measures
-every surface true. Each kind here relaxes one of those,
-with parameters in physical units, their range, the value that leaves the world as it is (the default) and
-where a value comes from. The world (`World(effects=...)`) and its camera (`acts_on`) apply them;
+every surface true. Each kind here relaxes one of those, with parameters in physical units, their range,
+the value that leaves the world as it is (the default) and where a value comes from. The world (`World(effects=...)`) and its camera (`acts_on`) apply them;
 `WorldEffects()` (none) is today's world.
 
 A world file lists them (YAML, read with `pegbt.yamlfile`, so every error names file, line and field):
