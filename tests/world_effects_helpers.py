@@ -27,6 +27,12 @@ UNILATERAL = (
 )  # the paper's first half (start peg, goal peg)
 
 
+def outward(world, block=1, arm="PSM1"):
+    """The outward normal (board x, y, 0) of the wall `arm` grasps block `block` by."""
+    candidate = grasp_candidate_facing(world, block, arm)
+    return np.append(world.blocks[block].pose[:2, :2] @ world.cell.block.edge_normals[candidate // 2], 0.0)
+
+
 def shifted(frame, by):
     """`frame` moved by `by` (board x, y[, z], metres)."""
     return Keyframe(frame.position + np.resize(np.append(by, [0.0] * (3 - len(by))), 3), frame.yaw, frame.jaw)

@@ -3,8 +3,9 @@
 The endpoint calls `World.update(time, tools)` every simulation step with each arm's tool state (from
 its physical joints). Nothing is scripted: a closing jaw grips a block only if its open jaws straddle one
 of the block's walls and the block can slide (on its peg, within the hole's clearance) until the wall
-sits centred between them; a gripped block moves rigidly with the jaw; lifting it clears its peg only if
-the hole stays around the peg all the way up (a peg pressing on the hole pushes the block, and the jaw
+sits centred between them, the wrist's cable play (`ToolState.give`) taking what the peg stops; a
+gripped block moves rigidly with the jaw; lifting it clears its peg only if the hole stays around the
+peg all the way up (a peg pressing on the hole pushes the block, and the jaw
 holding it, aside as far as the wrist's cable play gives: `ToolState.give`); a released block lands on a
 peg only if its hole is over one within the clearance, and otherwise drops onto the board (or off it).
 Every such outcome, every collision and every injected fault is appended to `World.events`, the ground
@@ -32,7 +33,7 @@ from pegbt.sim.blocks import Block
 from pegbt.sim.events import Event, EventLog
 from pegbt.sim.faults import SlipAt, WorldFaults
 from pegbt.sim.interfaces import WorldSnapshot
-from pegbt.sim.tools import ToolState
+from pegbt.sim.tools import RIGID, Give, ToolState
 from pegbt.sim.world_effects import BLOCK_MASS, GRAVITY, WorldEffects
 from pegbt.workcell import Workcell, workcell
 
@@ -233,7 +234,7 @@ class World:
             distance = float(np.linalg.norm(local[:3, 3] + [0.0, 0.0, self.cell.block.height / 2]))
             if distance > self.config.grasp_search_radius:
                 continue
-            problem, edge, slide = self._grip_problem(block, local, opened)
+            problem, edge, slide = self._grip_problem(block, local, opened, tool.give)
             candidate = (int(problem is not None), distance)
             if best is None or candidate < (int(best[2] is not None), best[0]):
                 best = (distance, block, problem, edge, slide)
@@ -256,7 +257,9 @@ class World:
         detail = f"edge {edge}" + (f", handover from {giver}" if giver else "")
         self._log("grasp", arm, block.index, block.peg, detail)
 
-    def _grip_problem(self, block: Block, local: Matrix, opened: float) -> tuple[str | None, int, Matrix]:
+    def _grip_problem(
+        self, block: Block, local: Matrix, opened: float, give: Give = RIGID
+    ) -> tuple[str | None, int, Matrix]:
         """Why a jaw opened to `opened` and closing at `local` (tip pose in the block frame) would not
         grip `block`, which edge it closes on, and how far (block x, y) the block slides into the jaws.
 
@@ -264,9 +267,11 @@ class World:
         they straddle a wall (one tip in the hole, the other beyond the flat edge), the closing axis
         crosses that wall, the tool stands roughly along the block's axis and the tips bite below the
         top face. The first jaw to touch pushes the block until the wall is centred between the jaws:
-        a free block slides that far, a block on a peg only as far as the hole's clearance lets it
-        (beyond, the peg holds the wall against one jaw and the other closes beside it). A block held
-        by another jaw cannot slide; the holders' disagreement is judged as it is carried.
+        a free block slides that far, a block on a peg only as far as the hole's clearance lets it; the
+        rest pushes the tip aside, as a peg pressing on a held block does, within the wrist's cable play
+        (`give`, the tool's along its x and y) and then its compliance (`grasp_capture`); beyond both, the
+        peg holds the wall against one jaw and the other closes beside it. A block held by another jaw
+        cannot slide; the holders' disagreement is judged as it is carried.
         """
         model, config = self.cell.block, self.config
         rotation, tip = local[:3, :3], local[:3, 3]
@@ -300,13 +305,14 @@ class World:
             peg_xy = self._pegs_in_block_frame(block)[block.peg]  # where the peg stands in the hole
             if np.linalg.norm(peg_xy - slide) > self._clearance:
                 stopped = self._slide_until_stopped(peg_xy, normal, off_centre)
-                if abs(off_centre - stopped) > self._grasp_capture:
+                beyond_play = _beyond_play(-(off_centre - stopped) * normal, local[:2, :2], give)
+                if beyond_play > self._grasp_capture + 1e-9:  # what the play takes is rounded
                     return (
                         f"jaw {abs(off_centre) * 1000:.1f} mm off the wall's centre: peg {block.peg} stops the block",
                         edge,
                         no_slide,
                     )
-                slide = stopped * normal  # the wrist yields the rest (`grasp_capture`)
+                slide = stopped * normal  # the wrist yields the rest (its play, then `grasp_capture`)
         return None, edge, slide
 
     def _slide_until_stopped(self, peg_xy: Matrix, normal: Matrix, off_centre: float) -> float:
@@ -675,6 +681,19 @@ class World:
         )
         self._segments[arm] = (state, found)
         return found
+
+
+def _beyond_play(move: Matrix, axes: Matrix, give: Give) -> float:
+    """How far (m) the tip must still move by `move` (x, y) once the wrist's play `give` (along the tip's
+    -x, +x, -y, +y, whose axes are the columns of `axes` in the same frame) has taken what it can: the
+    share of the move left over in the tip's axes, of the move's length (all of it for a rigid wrist)."""
+    x, y = axes.T @ move
+    minus_x, plus_x, minus_y, plus_y = give
+    whole = math.hypot(x, y)
+    if whole == 0.0:
+        return float(np.linalg.norm(move))
+    left = math.hypot(x - np.clip(x, -minus_x, plus_x), y - np.clip(y, -minus_y, plus_y))
+    return float(np.linalg.norm(move)) * left / whole
 
 
 def _unit(vector: Matrix) -> Matrix:

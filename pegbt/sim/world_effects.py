@@ -2,10 +2,10 @@
 
 The default world (`pegbt.sim.world`) is rigid: a peg never bends, a hole must come within the 2.0 mm
 clearance to go over a peg, closing jaws grip a block on a peg only as far off its wall's centre as the
-block can slide, a gripped block never moves in the jaws and never slips out, the arms stand
-where the work cell says and the camera measures every surface true. Each kind here relaxes one of those,
-with parameters in physical units, their range, the value that leaves the world as it is (the default) and
-where a value comes from. The world (`World(effects=...)`) and its camera (`acts_on`) apply them;
+block can slide and the wrist's cable play (the arm's, `ToolState.give`) yields, a gripped block never
+moves in the jaws and never slips out, the arms stand where the work cell says and the camera measures
+every surface true. Each kind here relaxes one of those, with parameters in physical units, their range,
+the value that leaves the world as it is (the default) and where a value comes from. The world (`World(effects=...)`) and its camera (`acts_on`) apply them;
 `WorldEffects()` (none) is today's world.
 
 A world file lists them (YAML, read with `pegbt.yamlfile`, so every error names file, line and field):
@@ -146,9 +146,9 @@ class GraspCapture(WorldEffectKind):
     name = "grasp_capture"
     acts_on = "world"
     summary = (
-        "jaws closing off the centre of a wall further than the block can slide on its peg still grip it "
-        "when the rest is within `width`: the first jaw to touch is pushed aside against the wrist's cable "
-        "compliance and the grip closes on the wall off the tip's centre"
+        "jaws closing off the centre of a wall further than the block can slide on its peg and the wrist's "
+        "cable play yields still grip it when the rest is within `width`: the first jaw to touch is pushed "
+        "aside against the wrist's cable compliance and the grip closes on the wall off the tip's centre"
     )
     parameters = {
         "width": Parameter(
@@ -158,7 +158,7 @@ class GraspCapture(WorldEffectKind):
             0.0,
             "the wrist joints' deflection from their commands under cable load, 0.13–0.21 rad RMSE on q5 "
             "and q6 (the paper's Table I, shared/data/dvrk/README.md), on the 9.5 mm jaw: 1.2–2.0 mm; up "
-            "to 0.3 rad, 3 mm (0: the peg stops the block and the jaws miss)",
+            "to 0.3 rad, 3 mm (0: beyond the wrist's play the peg stops the block and the jaws miss)",
         ),
     }
 

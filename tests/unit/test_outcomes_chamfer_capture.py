@@ -1,14 +1,16 @@
-"""Chamfer capture acts in the phase simulator where it acts in a whole trial: on world 501, the unilateral
-task uncalibrated, transfer 4 (peg 5 to 11) strikes its goal peg 2–4 mm off the axis when lowered; with
-the chamfers at the top of their range (4 mm) the trial's tick log placed it (`pegbt eval --world-effects`,
-2026-11-29), and so must the phase simulator, where the default world fails it at `lower`."""
+"""Chamfer capture acts in the phase simulator where it acts in a whole trial: on world 503, the unilateral
+task uncalibrated, transfer 3 (peg 2 to 9) strikes its goal peg when lowered; with the chamfers at the top
+of their range (4 mm) the trial's first lowering was caught 2.1 mm off the axis and the block placed
+(`pegbt eval --variant unilateral --condition uncalibrated --trials 1 --seed 503 --world-effects W
+--keep-logs`, branch bilat, 2026-11-29; without W it struck peg 9), and so must the phase simulator, where
+the default world fails it at `lower`."""
 
 from __future__ import annotations
 
 from pegbt.sim.world_effects import WorldEffects
 from pegbt.sim2real.outcomes.phasesim import Replay, simulate_transfer
 
-SEED, INDEX = 501, 4
+SEED, INDEX = 503, 3
 CHAMFERS = WorldEffects.of({"chamfer_capture": {"capture_radius": 0.004}})
 
 

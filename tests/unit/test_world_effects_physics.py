@@ -3,7 +3,7 @@ rigid world and succeeds with the effect, and the reverse where the effect can d
 
 import numpy as np
 import pytest
-from world_effects_helpers import YieldingDriver, grasp_block, lift_block, place_block, shifted
+from world_effects_helpers import YieldingDriver, grasp_block, lift_block, outward, place_block, shifted
 
 from pegbt.sim.scripted import Driver, grasp_candidate_facing, transfer_keyframes
 from pegbt.sim.tools import ToolState
@@ -128,12 +128,6 @@ def test_a_bent_peg_pushes_on_the_grip_and_tears_the_block_out_of_weak_jaws():
     assert weak.blocks[1].peg == 1 and weak.held_by("PSM1") is None  # it falls back down its peg
 
 
-def _outward(world, block=1):
-    """The outward normal (board x, y, 0) of the wall PSM1 grasps block `block` by."""
-    candidate = grasp_candidate_facing(world, block, "PSM1")
-    return np.append(world.blocks[block].pose[:2, :2] @ world.cell.block.edge_normals[candidate // 2], 0.0)
-
-
 def test_a_registration_offset_sends_every_tool_off_its_target():
     offset = WorldEffects.of({"registration_offset": {"x": 0.003, "y": 0.0, "z": 0.0}})
     world = World(1, effects=offset)
@@ -150,9 +144,7 @@ def test_a_registration_offset_sends_every_tool_off_its_target():
 
 def test_a_registration_offset_makes_a_grasp_on_target_miss_and_one_off_target_hit():
     rigid = World(1)
-    error = 0.0028 * _outward(
-        rigid
-    )  # an arm that misses the wall's centre by 2.8 mm: the peg stops the block
+    error = 0.0028 * outward(rigid)  # an arm that misses the wall's centre by 2.8 mm: the peg stops the block
     assert kinds(grasp_block(rigid, Driver(rigid), 1, error=error)[0]) == ["grasp_miss"]
     assert kinds(grasp_block(World(1), Driver(World(1)), 1)[0]) == ["grasp"]
 
@@ -182,7 +174,7 @@ def _grasp_off_centre(effects, by=0.0024):
     """PSM1 closes on block 1's wall `by` (m) outward of its centre, further than the peg lets it slide."""
     world = World(1, effects=effects)
     driver = Driver(world)
-    events, holding = grasp_block(world, driver, 1, error=by * _outward(world))
+    events, holding = grasp_block(world, driver, 1, error=by * outward(world))
     return world, driver, events, holding
 
 
@@ -200,7 +192,7 @@ def test_jaws_closing_off_a_wall_the_peg_stops_grip_it_within_the_wrist_s_captur
 
 
 def test_a_captured_grip_holds_the_wall_off_centre_so_a_lift_drifting_outward_catches_on_the_peg():
-    drift = 0.0004 * _outward(World(1))[:2]
+    drift = 0.0004 * outward(World(1))[:2]
     world, driver, _, holding = _grasp_off_centre(WorldEffects.of({"grasp_capture": {"width": 0.0015}}))
     events = lift_block(world, driver, holding, drift=drift)
     assert kinds(events)[:2] == ["collision", "drop"] and "caught on peg 1" in events[0].detail
