@@ -35,8 +35,7 @@ def test_the_phase_simulator_agrees_with_a_whole_trial_transfer_for_transfer(tmp
     assert len(trial) == 12, trial
     # a way back whose block the way out lost: the trial finds the peg empty, and so does the simulator
     assert all(s == "sense" for t, s in zip(trial, simulated) if t == "sense"), (trial, simulated)
-    # 9 of 12 until jaws closing on a wall their peg holds yielded within the wrist's play (branch bilat):
-    # the trial's transfer 1 (0 -> 6) then grips and places where it missed, while the phase simulator,
-    # which gripped it before too, strikes peg 6 when lowering; the way back (6 -> 0) follows. Worlds
-    # 501-503 agree on 24 of 36 transfers (29 before), their per-phase totals within a transfer or two
+    # where both grip, they may still disagree at the lowering: on world 501 the trial's transfer 1 (0 -> 6)
+    # is placed while the phase simulator strikes peg 6 lowering it, and the way back (6 -> 0) follows;
+    # worlds 501-503 agree on 24 of 36 transfers, their per-phase totals within a transfer or two
     assert sum(t == s for t, s in zip(trial, simulated)) >= 7, (trial, simulated)
