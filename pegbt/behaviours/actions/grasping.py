@@ -7,6 +7,7 @@ block's wall, one closing on nothing goes all the way.
 
 from __future__ import annotations
 
+import logging
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -26,7 +27,7 @@ from pegbt.behaviours.base import (
     MotionLeaf,
     RobotLeaf,
 )
-from pegbt.behaviours.motion import above_pegs_first
+from pegbt.behaviours.motion import above_pegs_first, rise
 from pegbt.behaviours.poses import approach_for, transfer_for
 from pegbt.behaviours.resources.skills import Skills
 from pegbt.clock import is_realtime
@@ -40,6 +41,7 @@ from pegbt.perception.board import BoardEstimate
 from pegbt.perception.grasp import Grasp
 from pegbt.transport import ArmClient, JawClient
 
+log = logging.getLogger("pegbt.behaviours")
 SAME_BLOCK = (
     0.005  # m: a block seen this near where the last pick chose one is that block (a miss may nudge it)
 )
@@ -200,6 +202,44 @@ def choose_and_approach_early(
     motion.plan_early(pool, (board, block, receiver, ahead), planned)
 
 
+@dataclass
+class WayOut:
+    """The grasp of the next block a giver's way out of the block it handed over goes on to (set by the
+    job that plans it; None: none, the way out is a plain rise)."""
+
+    grasp: Grasp | None = None
+
+
+def rise_into_approach(
+    skills: Skills,
+    arm: str,
+    receiver: str,
+    start: NDArray[np.float64],
+    height: float,
+    board: BoardEstimate | None,
+    block: BlockEstimate,
+    way: WayOut,
+) -> Trajectory:
+    """A giver's way out of the block it handed over (its jaw in the block's hole at joints `start`): up
+    the block's axis by `height`, then on, in the same motion, into the approach of its next `block`, onto
+    the grasp `select_grasp` will choose for `receiver` (`way.grasp`); a plain rise if there is none or
+    nothing plans it (without a planner: the cubics stop above the pegs first anyway)."""
+    motion = skills.arm(arm)
+    if motion.planner is not None:
+        grasp = skills.selectors[arm].pick(block, acceptable=partial(_handed, skills, arm, receiver, block))
+        if grasp is not None:
+            try:
+                planned = planned_approach(
+                    skills, arm, start, board, block, grasp, giving=True, out_of=height
+                )
+            except PegbtError as error:
+                log.info("%s: rising alone: %s", arm, error)
+            else:
+                way.grasp = grasp
+                return planned
+    return rise(skills.cell, motion, arm, start, height)
+
+
 def planned_approach(
     skills: Skills,
     arm: str,
@@ -209,17 +249,19 @@ def planned_approach(
     grasp: Grasp,
     *,
     giving: bool = False,
+    out_of: float = 0.0,
 ) -> Trajectory:
     """`arm`'s approach from joints `start` onto `grasp` of `block` (see `Approach`), planned on a worker with
     its waypoints and stops: the tick that sends it, or takes a plan made early for the same inputs, computes
     none of it; what `transfer` plans ahead for the loop's next block. A handover's giver (`giving`) passes
     over the pegs as low as a carry does (`warm_above_clear`): the receiver works above the meeting point
-    and its own side's pegs, not over the giver's."""
+    and its own side's pegs, not over the giver's. `out_of`: it starts in the hole of the block it just
+    handed over, which it leaves along the axis by that much first (`approach_for`)."""
     motion, cell = skills.arm(arm), skills.cell
     waypoints = transfer_for(cell, skills.motion, arm, board, block, grasp)
     stops = above_pegs_first(cell, skills.motion, arm, start, motion.settings)
     if motion.planner is not None:
-        approach = approach_for(cell, skills.motion, arm, forward_kinematics(start), waypoints)
+        approach = approach_for(cell, skills.motion, arm, forward_kinematics(start), waypoints, out_of)
         sqp = skills.motion.sqp
         return motion.transfer(
             approach, above_clear=sqp.warm_above_clear if giving else sqp.approach_above_clear
