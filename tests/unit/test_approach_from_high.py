@@ -9,8 +9,7 @@ import math
 
 import numpy as np
 
-from pegbt.behaviours.actions.grasping import planned_approach
-from pegbt.behaviours.motion import rise
+from pegbt.behaviours.motion import planned_approach, rise
 from pegbt.behaviours.poses import to_arm, tool_pose
 from pegbt.behaviours.resources.skills import Skills
 from pegbt.frames import rigid_transform

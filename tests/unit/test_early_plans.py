@@ -18,7 +18,7 @@ from executive_helpers import write_tree
 from fake_arm import FakeArm, fake_robot
 from py_trees.common import Status
 
-from pegbt.behaviours.actions import grasping
+from pegbt.behaviours import motion as shared_motion
 from pegbt.behaviours.actions.handover import plan_meeting, way_to_wait
 from pegbt.behaviours.resources.robot import Robot
 from pegbt.behaviours.resources.skills import Skills
@@ -265,13 +265,13 @@ def test_an_approach_planned_early_is_sent_with_none_of_its_waypoints_computed_o
     the approach's waypoints and its stops above the pegs (inverse kinematics) before the motion left,
     though the plan made early needed none of it."""
     on_the_tick = []
-    stops = grasping.above_pegs_first
+    stops = shared_motion.above_pegs_first
 
     def counted(*args: Any, **kwargs: Any) -> Any:
         on_the_tick.append(threading.current_thread() is threading.main_thread())
         return stops(*args, **kwargs)
 
-    monkeypatch.setattr(grasping, "above_pegs_first", counted)
+    monkeypatch.setattr(shared_motion, "above_pegs_first", counted)
     pool = GatedPool(clock)
     psm1(robot).block_in_jaw = True
     _run_two_loops(tmp_path, robot, skills, seen, clock, pool)

@@ -7,41 +7,36 @@ block's wall, one closing on nothing goes all the way.
 
 from __future__ import annotations
 
-import logging
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from functools import partial
 
 import numpy as np
-from numpy.typing import NDArray
 from py_trees.common import Status
 
 from pegbt.behaviours.actions.handover import (
+    handed,
     meeting_tip,
     plan_carry_to_meeting,
-    plan_meeting,
     plan_meeting_early,
 )
 from pegbt.behaviours.base import (
     MotionLeaf,
     RobotLeaf,
 )
-from pegbt.behaviours.motion import above_pegs_first, rise
-from pegbt.behaviours.poses import approach_for, transfer_for
+from pegbt.behaviours.motion import planned_approach
+from pegbt.behaviours.poses import transfer_for
 from pegbt.behaviours.resources.skills import Skills
 from pegbt.clock import is_realtime
 from pegbt.errors import PegbtError
 from pegbt.executive.work import Job, WorkPool
-from pegbt.motion.ik import solve_ik
-from pegbt.motion.kinematics import forward_kinematics
 from pegbt.motion.trajectory import Trajectory
 from pegbt.perception.blocks import BlockEstimate, block_on_peg, stack_level
 from pegbt.perception.board import BoardEstimate
 from pegbt.perception.grasp import Grasp
 from pegbt.transport import ArmClient, JawClient
 
-log = logging.getLogger("pegbt.behaviours")
 SAME_BLOCK = (
     0.005  # m: a block seen this near where the last pick chose one is that block (a miss may nudge it)
 )
@@ -95,8 +90,8 @@ class SelectGrasp(RobotLeaf):
             return self._chosen(selector.pick(block, avoid=avoid))
         self.ahead = None if avoid else self._chosen_ahead(arm, receiver, block)
         if self.ahead is None:
-            handed = partial(_handed, self.skills, arm, receiver, block)
-            self.job = self.offload(partial(selector.pick, block, avoid=avoid, acceptable=handed))
+            acceptable = partial(handed, self.skills, arm, receiver, block)
+            self.job = self.offload(partial(selector.pick, block, avoid=avoid, acceptable=acceptable))
         return None
 
     def _chosen_ahead(self, arm: str, receiver: str, block: BlockEstimate) -> GraspAhead | None:
@@ -160,11 +155,6 @@ class SelectGrasp(RobotLeaf):
         return (last_grasp.candidate,)
 
 
-def _handed(skills: Skills, arm: str, receiver: str, block: BlockEstimate, option: Grasp) -> bool:
-    """Whether `receiver` can take `block` from `arm` holding it by `option`."""
-    return plan_meeting(skills, arm, receiver, option, block) is not None
-
-
 @dataclass
 class GraspAhead:
     """A giver's grasp chosen ahead of its `select_grasp` (set by the job that chooses it, None until
@@ -190,90 +180,16 @@ def choose_and_approach_early(
     motion = skills.arm(arm)
     start = motion.start_from(client)
     ahead = GraspAhead()
-    handed = partial(_handed, skills, arm, receiver, block)
+    acceptable = partial(handed, skills, arm, receiver, block)
 
     def planned() -> Trajectory:
-        grasp = skills.selectors[arm].pick(block, acceptable=handed)
+        grasp = skills.selectors[arm].pick(block, acceptable=acceptable)
         if grasp is None:
             raise PegbtError(f"no grasp of the next block lets {receiver} take it")
         ahead.grasp = grasp
         return planned_approach(skills, arm, start, board, block, grasp, giving=True)
 
     motion.plan_early(pool, (board, block, receiver, ahead), planned)
-
-
-@dataclass
-class WayOut:
-    """The grasp of the next block a giver's way out of the block it handed over goes on to (set by the
-    job that plans it; None: none, the way out is a plain rise)."""
-
-    grasp: Grasp | None = None
-
-
-def rise_into_approach(
-    skills: Skills,
-    arm: str,
-    receiver: str,
-    start: NDArray[np.float64],
-    height: float,
-    board: BoardEstimate | None,
-    block: BlockEstimate,
-    way: WayOut,
-) -> Trajectory:
-    """A giver's way out of the block it handed over (its jaw in the block's hole at joints `start`): up
-    the block's axis by `height`, then on, in the same motion, into the approach of its next `block`, onto
-    the grasp `select_grasp` will choose for `receiver` (`way.grasp`); a plain rise if there is none or
-    nothing plans it (without a planner: the cubics stop above the pegs first anyway)."""
-    motion = skills.arm(arm)
-    if motion.planner is not None:
-        grasp = skills.selectors[arm].pick(block, acceptable=partial(_handed, skills, arm, receiver, block))
-        if grasp is not None:
-            try:
-                planned = planned_approach(
-                    skills, arm, start, board, block, grasp, giving=True, out_of=height
-                )
-            except PegbtError as error:
-                log.info("%s: rising alone: %s", arm, error)
-            else:
-                way.grasp = grasp
-                return planned
-    return rise(skills.cell, motion, arm, start, height)
-
-
-def planned_approach(
-    skills: Skills,
-    arm: str,
-    start: NDArray[np.float64],
-    board: BoardEstimate | None,
-    block: BlockEstimate,
-    grasp: Grasp,
-    *,
-    giving: bool = False,
-    out_of: float = 0.0,
-) -> Trajectory:
-    """`arm`'s approach from joints `start` onto `grasp` of `block` (see `Approach`), planned on a worker with
-    its waypoints and stops: the tick that sends it, or takes a plan made early for the same inputs, computes
-    none of it; what `transfer` plans ahead for the loop's next block. A handover's giver (`giving`) passes
-    over the pegs as low as a carry does (`warm_above_clear`): the receiver works above the meeting point
-    and its own side's pegs, not over the giver's. `out_of`: it starts in the hole of the block it just
-    handed over, which it leaves along the axis by that much first (`approach_for`)."""
-    motion, cell = skills.arm(arm), skills.cell
-    waypoints = transfer_for(cell, skills.motion, arm, board, block, grasp)
-    stops = above_pegs_first(cell, skills.motion, arm, start, motion.settings)
-    if motion.planner is not None:
-        approach = approach_for(cell, skills.motion, arm, forward_kinematics(start), waypoints, out_of)
-        sqp = skills.motion.sqp
-        return motion.transfer(
-            approach, above_clear=sqp.warm_above_clear if giving else sqp.approach_above_clear
-        )
-    names = [f"above the grasp {i}" for i in range(len(stops))] + [
-        "over the grasp",
-        "just above the block",
-        "grasp",
-    ]
-    poses = [waypoints.poses[1], waypoints.approach, waypoints.poses[0]]
-    joints = stops + [solve_ik(pose, motion.settings, what=name) for pose, name in zip(poses, names[-3:])]
-    return motion.through(start, joints, names[: len(joints)])
 
 
 class Approach(MotionLeaf):

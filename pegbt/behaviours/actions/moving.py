@@ -13,14 +13,10 @@ import numpy as np
 import py_trees
 from py_trees.common import Status
 
-from pegbt.behaviours.actions.grasping import (
-    WayOut,
-    choose_and_approach_early,
-    planned_approach,
-    rise_into_approach,
-)
+from pegbt.behaviours.actions.grasping import choose_and_approach_early
+from pegbt.behaviours.actions.handover import WayOut, next_block, rise_into_approach
 from pegbt.behaviours.base import MotionLeaf
-from pegbt.behaviours.motion import CarryLeaf, above_pegs_first, rise
+from pegbt.behaviours.motion import CarryLeaf, above_pegs_first, planned_approach, rise
 from pegbt.behaviours.poses import tool_pose, transfer_for
 from pegbt.motion.ik import solve_ik
 from pegbt.motion.kinematics import tip_position
@@ -108,6 +104,9 @@ class Rise(MotionLeaf):
         block = self.next_block()
         if block is not None and motion.planner is not None:
             board, way = self.read("/board"), WayOut()
+            early = motion.early
+            if early is not None and isinstance(early.inputs[-1], WayOut):
+                way = early.inputs[-1]  # planned as the carry was sent, if from these inputs
             self.way = (board, block, way)
             planned = partial(
                 rise_into_approach,
@@ -120,18 +119,17 @@ class Rise(MotionLeaf):
                 block,
                 way,
             )
-            self.move(arm, planned, f"{arm} rising out of the block into its next approach")
+            inputs = (start, height, board, block, way)
+            self.move(arm, planned, f"{arm} rising out of the block into its next approach", inputs)
             return
         planned = partial(rise, self.skills.cell, motion, arm, start, height)
         self.move(arm, planned, f"{arm} rising", (start, height))
 
     def next_block(self) -> BlockEstimate | None:
         """The block of the giver's next handover, if it is seen where it should be."""
-        pick, receiver = self.param("then").get("pick"), self.param("handover_to")
-        if not isinstance(pick, int) or not receiver:
+        if not self.param("then") or not self.param("handover_to"):
             return None
-        block = block_on_peg(self.read("/blocks"), pick)
-        return block if block is not None and block.ok else None
+        return next_block(self.param("then"), self.read("/blocks"))
 
     def started(self, trajectories: list[Trajectory]) -> None:
         arm = self.param("arm")
