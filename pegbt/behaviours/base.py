@@ -191,6 +191,8 @@ class MotionLeaf(RobotLeaf):
             return
         for outgoing in arms:
             self.motion(outgoing.arm).start_from(self.client(outgoing.arm))  # after a failure: from here
+        if self._take_sent(arms):
+            return
         early = self._early()
         if early is not None:
             self.job = self.adopt(early)
@@ -204,6 +206,26 @@ class MotionLeaf(RobotLeaf):
             )
         if self.job.done:  # computed in this tick (lockstep): send now, as a later tick would
             self._pick_up()
+
+    def _take_sent(self, arms: list[Outgoing]) -> bool:
+        """Whether this leaf's one arm motion is already under way, sent ahead from its inputs by a leaf
+        before it (`ArmMotion.send_ahead`): then it watches that motion as its own and sends its jaw
+        motions, planning nothing."""
+        outgoing = arms[0]
+        if len(arms) != 1 or outgoing.inputs is None:
+            return False
+        client, motion = self.client(outgoing.arm), self.motion(outgoing.arm)
+        sent = motion.take_sent(outgoing.inputs)
+        if sent is None:
+            return False
+        self.running.append(Running(outgoing.what, sent.handle, lambda: motion.stop(client)))
+        self.arm_end = sent.sent_at + sent.planned.duration
+        self._expect(max(self.arm_end - self.context.clock.now(), 0.0))
+        for jaw in self.outgoing:
+            if jaw.trajectory is None:
+                self._send_jaw(jaw)
+        self.started([sent.planned])
+        return True
 
     def _early(self) -> Job | None:
         """The job of the plan made early for this leaf's one arm motion (beside jaw motions), if one was

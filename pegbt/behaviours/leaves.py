@@ -239,6 +239,14 @@ declare(
             minimum=0.0,
             maximum=MAX_RISE,
         ),
+        Param(
+            "then",
+            dict,
+            "the giver's next handover (a loop's next item: its `pick`): with a planner, the `rise` planned "
+            "here goes on into the approach of that block, as a `rise` given the same `then` plans it (then "
+            "it reads `/blocks`); {}: none",
+            default={},
+        ),
         keep_apart=keep_apart_param(0.0),
     ),
     reads=("/board",),
@@ -348,8 +356,10 @@ declare(
         Param(
             "then",
             dict,
-            "a giver's next handover (a loop's next item: its `pick`), whose grasp is chosen and whose "
-            "approach is planned while this rise plays, as `select_grasp` and `approach` will; {}: none",
+            "a giver's next handover (a loop's next item: its `pick`): with a planner the rise goes on into "
+            "the approach of that block in one motion (up the held block's axis, then over), which "
+            "`approach` takes, and ends as the jaw is out of the block; without one its grasp is chosen "
+            "and its approach planned while this rise plays, as `select_grasp` and `approach` will; {}: none",
             default={},
         ),
         Param(

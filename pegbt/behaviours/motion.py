@@ -1,5 +1,6 @@
 """What the motion leaves share: `CarryLeaf`, the base of every motion that carries a block (failed at
-once when the block slips out of the jaw), the jaw's test of a hold, and rising straight up first.
+once when the block slips out of the jaw), the jaw's test of a hold, rising straight up first, and the
+approach of a grasp (planned by the leaf that sends it or ahead of it).
 
 Every motion that starts low among the pegs first rises straight up to the transfer height
 (`above_pegs_first`), so a tool never sweeps sideways through pegs and blocks.
@@ -15,14 +16,18 @@ from numpy.typing import NDArray
 from py_trees.common import Status
 
 from pegbt.behaviours.base import MotionLeaf, Outgoing
-from pegbt.behaviours.poses import height_above_pegs
+from pegbt.behaviours.poses import approach_for, height_above_pegs, transfer_for
 from pegbt.behaviours.resources.arm_motion import ArmMotion
+from pegbt.behaviours.resources.skills import Skills
 from pegbt.motion.ik import solve_ik
 from pegbt.motion.kinematics import forward_kinematics, tip_position
 from pegbt.motion.limits import ArmSettings
 from pegbt.motion.settings import MotionSettings
 from pegbt.motion.trajectory import Trajectory
 from pegbt.motion.waypoints import TransferWaypoints
+from pegbt.perception.blocks import BlockEstimate
+from pegbt.perception.board import BoardEstimate
+from pegbt.perception.grasp import Grasp
 from pegbt.workcell import Workcell
 
 LOW = 0.001  # m: a tip more than this below the transfer height rises before moving sideways
@@ -53,6 +58,42 @@ def above_pegs_first(
     above = tip.copy()
     above[:3, 3] += rise * cell.up_in(arm)
     return [solve_ik(above, settings, what="straight above the tool")]
+
+
+def planned_approach(
+    skills: Skills,
+    arm: str,
+    start: NDArray[np.float64],
+    board: BoardEstimate | None,
+    block: BlockEstimate,
+    grasp: Grasp,
+    *,
+    giving: bool = False,
+    out_of: float = 0.0,
+) -> Trajectory:
+    """`arm`'s approach from joints `start` onto `grasp` of `block` (see `Approach`), planned on a worker with
+    its waypoints and stops: the tick that sends it, or takes a plan made early for the same inputs, computes
+    none of it; what `transfer` plans ahead for the loop's next block. A handover's giver (`giving`) passes
+    over the pegs as low as a carry does (`warm_above_clear`): the receiver works above the meeting point
+    and its own side's pegs, not over the giver's. `out_of`: it starts in the hole of the block it just
+    handed over, which it leaves along the axis by that much first (`approach_for`)."""
+    motion, cell = skills.arm(arm), skills.cell
+    waypoints = transfer_for(cell, skills.motion, arm, board, block, grasp)
+    stops = above_pegs_first(cell, skills.motion, arm, start, motion.settings)
+    if motion.planner is not None:
+        approach = approach_for(cell, skills.motion, arm, forward_kinematics(start), waypoints, out_of)
+        sqp = skills.motion.sqp
+        return motion.transfer(
+            approach, above_clear=sqp.warm_above_clear if giving else sqp.approach_above_clear
+        )
+    names = [f"above the grasp {i}" for i in range(len(stops))] + [
+        "over the grasp",
+        "just above the block",
+        "grasp",
+    ]
+    poses = [waypoints.poses[1], waypoints.approach, waypoints.poses[0]]
+    joints = stops + [solve_ik(pose, motion.settings, what=name) for pose, name in zip(poses, names[-3:])]
+    return motion.through(start, joints, names[: len(joints)])
 
 
 class CarryLeaf(MotionLeaf):

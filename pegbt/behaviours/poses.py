@@ -107,24 +107,32 @@ def height_above_pegs(cell: Workcell, arm: str, tip_arm: ArrayLike) -> float:
 
 
 def approach_for(
-    cell: Workcell, motion: MotionSettings, arm: str, start: NDArray[np.float64], pick: TransferWaypoints
+    cell: Workcell,
+    motion: MotionSettings,
+    arm: str,
+    start: NDArray[np.float64],
+    pick: TransferWaypoints,
+    out_of: float = 0.0,
 ) -> TransferWaypoints:
     """The approach from a tool at `start` (tip pose, arm frame; low among the pegs, having just let go of
     a block) to the grasp of `pick`, shaped like a transfer so the same planner serves: rise straight up
     to the transfer height (at least `MIN_RISE`), move over the grasp, descend onto it along the
     block's axis. The descent is a channel from just above the peg tops down: the open jaw comes down
-    around the block's wall."""
+    around the block's wall. With `out_of`, the jaw starts in the hole of a block the other arm holds (a
+    giver that just handed it over): it leaves along the pegs' axis until `out_of` up, then the transit's
+    own clearance applies (a channel that is no floor), in one motion with the rest."""
     heights = motion.transfer
     up = cell.up_in(arm)
     rise = max(heights.transfer_height_above_peg_top - height_above_pegs(cell, arm, start[:3, 3]), MIN_RISE)
     risen = start.copy()
-    risen[:3, 3] += rise * up
+    risen[:3, 3] += (out_of or rise) * up
     grasp = pick.poses[0][:3, 3]
     descent = heights.block_top_below_peg_top + heights.grasp_depth + APPROACH_CLEAR_ABOVE_PEG_TOP
+    exit_hole = Channel(start[:3, 3], up, out_of, heights.channel_tolerance, floor=False) if out_of else None
     return TransferWaypoints(
         poses=np.stack([start, risen, pick.poses[1], pick.poses[0]]),
         approach=pick.approach,
-        pick=None,  # nothing is held: the tool is free to leave
+        pick=exit_hole,  # nothing is held: the tool is free to leave, out of a hole first
         place=Channel(grasp, up, descent, heights.channel_tolerance),
         upright=pick.upright,
     )

@@ -4,7 +4,10 @@ straight.
 
 A channel is the line through `point` (the tip's position when the block sits on the peg) along the
 unit `axis` (the peg's "up"), for heights below `clear` (m above `point` along the axis, where the block
-leaves the peg); `tolerance` is how far off the line the tip may be.
+leaves the peg); `tolerance` is how far off the line the tip may be. A peg's channel is a `floor` too: the
+block hangs below the tip, so the transit after it stays above its clearing height; a jaw's way out of a
+block another arm holds is not (the block stays behind: the transit's own clearance applies once the jaw
+is out).
 """
 
 from __future__ import annotations
@@ -32,6 +35,7 @@ class Channel:
     axis: NDArray[np.float64]
     clear: float
     tolerance: float
+    floor: bool = True
 
     def __post_init__(self) -> None:
         point, axis = np.asarray(self.point, dtype=float), np.asarray(self.axis, dtype=float)

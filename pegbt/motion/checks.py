@@ -90,7 +90,8 @@ def _channel_problems(tips: np.ndarray, channel: Channel, leaving: bool) -> list
 
 def _clearance_problems(tips: np.ndarray, leaving: Channel | None, arriving: Channel) -> list[str]:
     """Between leaving the start peg's channel (from the first sample without one) and entering the goal
-    peg's, the tip stays above both clearing heights: the block hangs clear of every peg top it passes. A
+    peg's, the tip stays above both clearing heights: the block hangs clear of every peg top it passes
+    (above the goal's alone after a jaw's way out of a held block's hole, not a `floor`). A
     goal in the air (a clearing height at or below it: the handover's meeting point) sets none: from the
     start peg, the tip stays above its clearing height to the end."""
     if arriving.clear <= 0.0:
@@ -109,7 +110,7 @@ def _clearance_problems(tips: np.ndarray, leaving: Channel | None, arriving: Cha
     if end <= start:
         return []
     floor = np.full(end + 1 - start, arriving.clear)
-    if leaving is not None:
+    if leaving is not None and leaving.floor:
         floor = np.maximum(floor, leaving.clear + float((leaving.point - arriving.point) @ arriving.axis))
     sag = floor - heights[start : end + 1]
     worst = int(np.argmax(sag))

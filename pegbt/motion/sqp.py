@@ -348,7 +348,7 @@ class SqpRefiner:
         if pick is None:  # only the start sample is "on" the start: it stays where it is
             leaving = Channel(tips[0], place.axis, 0.0, place.tolerance)
         else:
-            leaving, floor = pick, max(pick.clear, floor)
+            leaving, floor = pick, max(pick.clear, floor) if pick.floor else floor
         failures: list[PegbtError] = []
         best: tuple[HermitePath, Trajectory] | None = None
         for shift in PHASE_SHIFTS:

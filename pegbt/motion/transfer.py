@@ -67,7 +67,8 @@ def lowered(waypoints: TransferWaypoints, above_clear: float) -> TransferWaypoin
     """`waypoints` with the poses over the pegs (lifted, above the goal) brought down to `above_clear`
     over the clearing height of the transit (the higher of the two pegs'), never raised, and the lifted
     pose never below the start (a motion from high up does not dip first); with nothing held (an
-    approach) from a start already above the clearing height, the lifted pose is the start: a rise there
+    approach, or a jaw's way out of a block the other arm holds: not a `floor`) from a start already above
+    the clearing height, the lifted pose is the start (or the top of the way out of the hole): a rise there
     only makes the warm start stop and turn, and the SQP's path is the slower for it (0.11 s an
     approach over the unilateral trial). The start and the goal stay where they are. A transit without
     a clearing height above its goal (a carry to the handover point) has only its lifted pose lowered,
@@ -77,13 +78,16 @@ def lowered(waypoints: TransferWaypoints, above_clear: float) -> TransferWaypoin
         if waypoints.pick is None:
             return waypoints
         return replace(waypoints, poses=_lift_lowered(poses, waypoints.pick, above_clear))
-    floor = place.clear
-    if waypoints.pick is not None:
-        floor = max(floor, waypoints.pick.clear + float((waypoints.pick.point - place.point) @ place.axis))
+    floor, held = place.clear, waypoints.pick if waypoints.pick is not None and waypoints.pick.floor else None
+    if held is not None:
+        floor = max(floor, held.clear + float((held.point - place.point) @ place.axis))
     start = float((poses[0][:3, 3] - place.point) @ place.axis)
     lifted = max(floor + above_clear, start)
-    if waypoints.pick is None and start >= floor:
+    if held is None and start >= floor:
         lifted = start  # nothing held and already clear: no rise, the motion sets off sideways
+    way_out = waypoints.pick
+    if way_out is not None and not way_out.floor:  # out of a held block's hole first
+        lifted = max(lifted, way_out.clear + float((way_out.point - place.point) @ place.axis))
     for index, lowest in ((1, lifted), (2, floor + above_clear)):
         excess = float((poses[index][:3, 3] - place.point) @ place.axis) - lowest
         if excess > 0.0:

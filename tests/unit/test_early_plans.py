@@ -18,8 +18,9 @@ from executive_helpers import write_tree
 from fake_arm import FakeArm, fake_robot
 from py_trees.common import Status
 
-from pegbt.behaviours.actions import grasping
-from pegbt.behaviours.actions.handover import plan_meeting, way_to_wait
+from pegbt.behaviours import motion as shared_motion
+from pegbt.behaviours.actions.handover import meeting_tip, plan_meeting, way_to_wait
+from pegbt.behaviours.poses import transfer_for
 from pegbt.behaviours.resources.robot import Robot
 from pegbt.behaviours.resources.skills import Skills
 from pegbt.clock import ManualClock
@@ -29,6 +30,8 @@ from pegbt.executive.loader import load_tree
 from pegbt.executive.runner import set_initial_blackboard
 from pegbt.executive.work import Job, WorkPool
 from pegbt.handover_protocol import Giver, Handover, Receiver
+from pegbt.motion.ik import solve_ik
+from pegbt.motion.kinematics import forward_kinematics
 from pegbt.perception.blocks import block_on_peg
 from pegbt.sim.camera import DepthCamera
 from pegbt.sim.world import World
@@ -265,13 +268,13 @@ def test_an_approach_planned_early_is_sent_with_none_of_its_waypoints_computed_o
     the approach's waypoints and its stops above the pegs (inverse kinematics) before the motion left,
     though the plan made early needed none of it."""
     on_the_tick = []
-    stops = grasping.above_pegs_first
+    stops = shared_motion.above_pegs_first
 
     def counted(*args: Any, **kwargs: Any) -> Any:
         on_the_tick.append(threading.current_thread() is threading.main_thread())
         return stops(*args, **kwargs)
 
-    monkeypatch.setattr(grasping, "above_pegs_first", counted)
+    monkeypatch.setattr(shared_motion, "above_pegs_first", counted)
     pool = GatedPool(clock)
     psm1(robot).block_in_jaw = True
     _run_two_loops(tmp_path, robot, skills, seen, clock, pool)
@@ -493,3 +496,46 @@ def test_a_receiver_with_nothing_to_carry_plans_its_way_to_the_meeting_as_the_gi
     grasp = py_trees.blackboard.Blackboard.get("/receiver_grasp")
     expected = way_to_wait(skills, skills.arm("PSM2"), "PSM2", resting, grasp)
     assert np.allclose(way.target.q, expected.q)
+
+
+CARRY_THEN_GO = f"""
+  sequence:
+    children:
+      - begin_transfer: {{arms: "PSM1→PSM2", pick: {PICK}, place: {PLACE}, transfer: /n}}
+      - carry_to_handover: {{arm: PSM1, grasp: /PSM1/grasp, block: /PSM1/block, meeting: /meeting, plan_s: /PSM1/plan_s, rise: 0.007, then: {{pick: {PICK}}}}}
+      - release: {{arm: PSM1, holding: /PSM1/holding}}
+      - rise: {{arm: PSM1, height: 0.007, keep_apart: 0.0, then: {{pick: {PICK}}}, handover_to: PSM2}}
+"""
+
+
+def test_a_givers_way_out_into_its_next_approach_is_planned_as_its_carry_is_sent(tmp_path, seen, clock):
+    """With a planner, the giver's rise after the handover goes on into its next approach; planning that
+    (the next grasp's clearance sweeps and the approach) when the rise began put it on the handover's
+    critical path in real time. It is planned as the carry to the meeting point is sent, and the rise
+    sends that plan."""
+    skills = Skills("optimized")
+    skills.arm("PSM1").compensator = None  # the fake arm goes where it is sent: no cable error to correct
+    robot = fake_robot(clock, skills.settings, skills.cell)
+    arm = psm1(robot)
+    values = chosen(skills, seen)
+    block, grasp = values["/PSM1/block"], values["/PSM1/grasp"]
+    start = transfer_for(skills.cell, skills.motion, "PSM1", seen[0], block, grasp).poses[0]
+    arm.rest = solve_ik(start, skills.settings["PSM1"])  # where its approach and grasp left it
+    arm.block_in_jaw = True
+    values |= {"/meeting": meeting_tip(skills, "PSM1"), "/PSM1/holding": True}
+    pool = GatedPool(clock)
+    built = build(tmp_path, robot, skills, CARRY_THEN_GO, pool, values)
+    status = run(built, clock, pool)
+    assert status == Status.SUCCESS, "; ".join(
+        f"{n.name}: {n.feedback_message}" for n in built.root.iterate()
+    )
+    carry, way = (sent for sent in arm.sent if sent.kind == "trajectory")
+    assert np.allclose(way.target.q[0], carry.target.q[-1])
+    assert pool.submitted == [
+        0.0,
+        carry.at,
+    ]  # the carry, then the way out as it was sent: nothing at the rise
+    expected = skills.selectors["PSM1"].pick(
+        block, acceptable=lambda option: plan_meeting(skills, "PSM1", "PSM2", option, block) is not None
+    )
+    assert np.allclose(forward_kinematics(way.target.q[-1]), expected.pose, atol=1e-4)

@@ -1314,3 +1314,62 @@ def test_every_registered_leaf_has_a_fast_test_that_builds_it():
         source = (TESTS / module).read_text()
         assert re.search(rf"(?<![\w/]){name}: \{{", source), f"{module} builds no `{name}` node"
         assert not re.search(r"^(from|import) pegbt\.sim\.process|^@pytest\.mark\.slow", source, re.M), module
+
+
+GIVE_NEXT = 0  # the reference order's second pick peg: the giver's next block after the first handover
+
+
+def test_a_givers_rise_goes_on_into_its_next_approach_and_ends_as_its_jaw_leaves_the_block(
+    tmp_path, clock, cloud, seen
+):
+    """With a planner, the rise after a handover is one motion with the next approach: up the block's
+    axis, then over onto the next grasp; it ends as the planned tip is `height` up (the receiver may carry
+    the block off then), and `approach` takes the motion under way as its own, sending no other."""
+    skills = Skills("optimized")
+    skills.arm(GIVER).compensator = None  # the fake arm goes where it is sent: no cable error to correct
+    robot = fake_robot(clock, skills.settings, skills.cell, cloud)
+    board, blocks = seen
+    block, grasp, meeting = giving(skills, seen)
+    giver = robot.arms[GIVER]
+    at(giver, solve_ik(meeting.tip, skills.settings[GIVER]))
+    built = build(
+        tmp_path,
+        robot,
+        skills,
+        f"{{rise: {{arm: {GIVER}, height: 0.007, keep_apart: 0.0, then: {{pick: {GIVE_NEXT}}}, "
+        f"handover_to: {RECEIVER}}}}}",
+        board=board,
+        blocks=blocks,
+    )
+    assert run(built, clock) == Status.SUCCESS
+    (trajectory,) = giver.trajectories
+    up = skills.cell.up_in(GIVER)
+    tips = tip_position(trajectory.q)
+    risen = (tips - tips[0]) @ up
+    out = int(np.argmax(risen >= 0.007 - 1e-9))
+    assert trajectory.t[out] <= clock.now() < trajectory.t[out] + STEP  # ended as the jaw left the hole
+    assert clock.now() < trajectory.duration - 0.3  # while the motion goes on
+    assert np.linalg.norm(lateral(skills, GIVER, tips[:out] - tips[0]), axis=1).max() <= (
+        skills.motion.transfer.channel_tolerance
+    )  # up the block's axis first
+    assert risen[out:].min() < 0.0  # then down over the pegs: the block's top was no floor
+    following = block_on_peg(blocks, GIVE_NEXT)
+    chosen = skills.selectors[GIVER].pick(
+        following,
+        acceptable=lambda option: plan_meeting(skills, GIVER, RECEIVER, option, following) is not None,
+    )
+    assert np.allclose(forward_kinematics(trajectory.q[-1]), chosen.pose, atol=1e-4)
+
+    py_trees.blackboard.Blackboard.clear()
+    approach = build(
+        tmp_path,
+        robot,
+        skills,
+        f"{{approach: {{arm: {GIVER}, block: /{GIVER}/block, grasp: /{GIVER}/grasp}}}}",
+        board=board,
+        **{f"{GIVER}/block": following, f"{GIVER}/grasp": chosen},
+    )
+    assert run(approach, clock) == Status.SUCCESS
+    assert giver.trajectories == [trajectory]  # nothing else sent: it took the motion under way
+    assert clock.now() >= trajectory.duration - 1e-9
+    assert skills.motion.transfer.jaw_open in [sent.target for sent in giver.jaw.sent]

@@ -2,6 +2,7 @@
 channels is planned for and checked on every set-point."""
 
 import re
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -150,3 +151,22 @@ def test_a_carry_to_the_air_sagging_below_its_pegs_clearing_height_on_the_way_is
     assert through_middle(clear + 0.002) == []
     (problem,) = through_middle(clear - 0.003)
     assert "below the start peg's clearing height" in problem
+
+
+def test_a_jaws_way_out_of_a_held_block_is_no_floor_for_the_transit_after_it(planner):
+    """A giver leaves the block it handed over up the block's axis; after that the block stays behind, so
+    only the transit's own clearance over the pegs applies (a peg's channel, whose block hangs below the
+    tip, would hold the tip above its clearing height all the way)."""
+    up = CELL.up_in("PSM1")
+    meeting = tool_pose(to_arm(CELL, "PSM1", handover_meeting_point(CELL)), 0.0, up)
+    way = approach_for(CELL, motion_settings(), "PSM1", meeting, _waypoints(7, 7), out_of=0.007)
+    assert way.pick is not None and not way.pick.floor
+    warm = lowered(way, motion_settings().sqp.warm_above_clear)
+    assert np.allclose(warm.poses[1][:3, 3], meeting[:3, 3] + 0.007 * up)  # it rises out of the hole first
+    plan = planner.plan(way, above_clear=motion_settings().sqp.warm_above_clear)
+    assert plan.refined
+    args = {"arriving": way.place, "upright": way.upright}
+    assert trajectory_problems(plan.trajectory, PSM1, leaving=way.pick, **args) == []
+    as_a_peg = replace(way.pick, floor=True)
+    problems = trajectory_problems(plan.trajectory, PSM1, leaving=as_a_peg, **args)
+    assert any("below the clearing height" in problem for problem in problems)

@@ -13,27 +13,24 @@ from dataclasses import dataclass
 from functools import partial
 
 import numpy as np
-from numpy.typing import NDArray
 from py_trees.common import Status
 
 from pegbt.behaviours.actions.handover import (
+    handed,
     meeting_tip,
     plan_carry_to_meeting,
-    plan_meeting,
     plan_meeting_early,
 )
 from pegbt.behaviours.base import (
     MotionLeaf,
     RobotLeaf,
 )
-from pegbt.behaviours.motion import above_pegs_first
-from pegbt.behaviours.poses import approach_for, transfer_for
+from pegbt.behaviours.motion import planned_approach
+from pegbt.behaviours.poses import transfer_for
 from pegbt.behaviours.resources.skills import Skills
 from pegbt.clock import is_realtime
 from pegbt.errors import PegbtError
 from pegbt.executive.work import Job, WorkPool
-from pegbt.motion.ik import solve_ik
-from pegbt.motion.kinematics import forward_kinematics
 from pegbt.motion.trajectory import Trajectory
 from pegbt.perception.blocks import BlockEstimate, block_on_peg, stack_level
 from pegbt.perception.board import BoardEstimate
@@ -93,8 +90,8 @@ class SelectGrasp(RobotLeaf):
             return self._chosen(selector.pick(block, avoid=avoid))
         self.ahead = None if avoid else self._chosen_ahead(arm, receiver, block)
         if self.ahead is None:
-            handed = partial(_handed, self.skills, arm, receiver, block)
-            self.job = self.offload(partial(selector.pick, block, avoid=avoid, acceptable=handed))
+            acceptable = partial(handed, self.skills, arm, receiver, block)
+            self.job = self.offload(partial(selector.pick, block, avoid=avoid, acceptable=acceptable))
         return None
 
     def _chosen_ahead(self, arm: str, receiver: str, block: BlockEstimate) -> GraspAhead | None:
@@ -158,11 +155,6 @@ class SelectGrasp(RobotLeaf):
         return (last_grasp.candidate,)
 
 
-def _handed(skills: Skills, arm: str, receiver: str, block: BlockEstimate, option: Grasp) -> bool:
-    """Whether `receiver` can take `block` from `arm` holding it by `option`."""
-    return plan_meeting(skills, arm, receiver, option, block) is not None
-
-
 @dataclass
 class GraspAhead:
     """A giver's grasp chosen ahead of its `select_grasp` (set by the job that chooses it, None until
@@ -188,50 +180,16 @@ def choose_and_approach_early(
     motion = skills.arm(arm)
     start = motion.start_from(client)
     ahead = GraspAhead()
-    handed = partial(_handed, skills, arm, receiver, block)
+    acceptable = partial(handed, skills, arm, receiver, block)
 
     def planned() -> Trajectory:
-        grasp = skills.selectors[arm].pick(block, acceptable=handed)
+        grasp = skills.selectors[arm].pick(block, acceptable=acceptable)
         if grasp is None:
             raise PegbtError(f"no grasp of the next block lets {receiver} take it")
         ahead.grasp = grasp
         return planned_approach(skills, arm, start, board, block, grasp, giving=True)
 
     motion.plan_early(pool, (board, block, receiver, ahead), planned)
-
-
-def planned_approach(
-    skills: Skills,
-    arm: str,
-    start: NDArray[np.float64],
-    board: BoardEstimate | None,
-    block: BlockEstimate,
-    grasp: Grasp,
-    *,
-    giving: bool = False,
-) -> Trajectory:
-    """`arm`'s approach from joints `start` onto `grasp` of `block` (see `Approach`), planned on a worker with
-    its waypoints and stops: the tick that sends it, or takes a plan made early for the same inputs, computes
-    none of it; what `transfer` plans ahead for the loop's next block. A handover's giver (`giving`) passes
-    over the pegs as low as a carry does (`warm_above_clear`): the receiver works above the meeting point
-    and its own side's pegs, not over the giver's."""
-    motion, cell = skills.arm(arm), skills.cell
-    waypoints = transfer_for(cell, skills.motion, arm, board, block, grasp)
-    stops = above_pegs_first(cell, skills.motion, arm, start, motion.settings)
-    if motion.planner is not None:
-        approach = approach_for(cell, skills.motion, arm, forward_kinematics(start), waypoints)
-        sqp = skills.motion.sqp
-        return motion.transfer(
-            approach, above_clear=sqp.warm_above_clear if giving else sqp.approach_above_clear
-        )
-    names = [f"above the grasp {i}" for i in range(len(stops))] + [
-        "over the grasp",
-        "just above the block",
-        "grasp",
-    ]
-    poses = [waypoints.poses[1], waypoints.approach, waypoints.poses[0]]
-    joints = stops + [solve_ik(pose, motion.settings, what=name) for pose, name in zip(poses, names[-3:])]
-    return motion.through(start, joints, names[: len(joints)])
 
 
 class Approach(MotionLeaf):

@@ -10,12 +10,14 @@ never call each other: each step is a leaf, and the trees synchronise them throu
 
 from __future__ import annotations
 
+import logging
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from functools import partial
 
 import numpy as np
+import py_trees
 from numpy.typing import NDArray
 from py_trees.common import Status
 
@@ -25,7 +27,7 @@ from pegbt.behaviours.base import (
     Outgoing,
     RobotLeaf,
 )
-from pegbt.behaviours.motion import CarryLeaf, above_pegs_first, rise
+from pegbt.behaviours.motion import CarryLeaf, above_pegs_first, planned_approach, rise
 from pegbt.behaviours.poses import from_handover, to_arm, to_handover, tool_pose
 from pegbt.behaviours.protocol_leaf import read_record
 from pegbt.behaviours.resources.arm_motion import ArmMotion, EarlyResult, SentMotion
@@ -39,10 +41,12 @@ from pegbt.motion.ik import solve_ik
 from pegbt.motion.kinematics import tip_position
 from pegbt.motion.trajectory import Trajectory
 from pegbt.motion.waypoints import TransferWaypoints
-from pegbt.perception.blocks import BlockEstimate
+from pegbt.perception.blocks import BlockEstimate, block_on_peg
 from pegbt.perception.board import BoardEstimate
 from pegbt.perception.grasp import Grasp
 from pegbt.workcell import Workcell
+
+log = logging.getLogger("pegbt.behaviours")
 
 
 @dataclass(frozen=True)
@@ -258,6 +262,49 @@ def plan_carry_to_meeting(
     motion.plan_early(leaf.context.work, (board, block, grasp, tip), partial(motion.transfer, waypoints))
 
 
+@dataclass
+class WayOut:
+    """The grasp of the next block a giver's way out of the block it handed over goes on to (set by the
+    job that plans it; None: none, the way out is a plain rise)."""
+
+    grasp: Grasp | None = None
+
+
+def rise_into_approach(
+    skills: Skills,
+    arm: str,
+    receiver: str,
+    start: NDArray[np.float64],
+    height: float,
+    board: BoardEstimate | None,
+    block: BlockEstimate,
+    way: WayOut,
+) -> Trajectory:
+    """A giver's way out of the block it handed over (its jaw in the block's hole at joints `start`): up
+    the block's axis by `height`, then on, in the same motion, into the approach of its next `block`, onto
+    the grasp `select_grasp` will choose for `receiver` (`way.grasp`); a plain rise if there is none or
+    nothing plans it (without a planner: the cubics stop above the pegs first anyway)."""
+    motion = skills.arm(arm)
+    if motion.planner is not None:
+        grasp = skills.selectors[arm].pick(block, acceptable=partial(handed, skills, arm, receiver, block))
+        if grasp is not None:
+            try:
+                planned = planned_approach(
+                    skills, arm, start, board, block, grasp, giving=True, out_of=height
+                )
+            except PegbtError as error:
+                log.info("%s: rising alone: %s", arm, error)
+            else:
+                way.grasp = grasp
+                return planned
+    return rise(skills.cell, motion, arm, start, height)
+
+
+def handed(skills: Skills, arm: str, receiver: str, block: BlockEstimate, option: Grasp) -> bool:
+    """Whether `receiver` can take `block` from `arm` holding it by `option`."""
+    return plan_meeting(skills, arm, receiver, option, block) is not None
+
+
 class CarryToHandover(CarryLeaf):
     SEGMENTS = (
         "lift",
@@ -279,16 +326,38 @@ class CarryToHandover(CarryLeaf):
     def inputs(self) -> tuple[object, ...]:
         return (self.read("/board"), self.get("block"), self.get("grasp"), self.get("meeting"))
 
+    def setup(self, **kwargs: object) -> None:
+        super().setup(**kwargs)
+        if self.params["then"]:
+            self.blackboard.register_key(key="/blocks", access=py_trees.common.Access.READ)
+
     def started(self, trajectories: list[Trajectory]) -> None:
         """The giver's rise once it lets go (`rise`, 0: none) is planned while it carries the block and
-        holds it out: the receiver waits for that rise before it carries the block away."""
+        holds it out: the receiver waits for that rise before it carries the block away. With a planner
+        and the loop's next block (`then`), that rise goes on into the approach of the next block
+        (`rise_into_approach`), planned here as `rise` will plan it."""
         super().started(trajectories)
         height = self.param("rise")
-        if height > 0:
-            arm = self.param("arm")
-            motion, end = self.motion(arm), trajectories[0].q[-1].copy()
+        if height <= 0:
+            return
+        arm = self.param("arm")
+        motion, end = self.motion(arm), trajectories[0].q[-1].copy()
+        giving = self.robot.trial.giving(arm)
+        following = next_block(self.param("then"), self.read("/blocks")) if self.param("then") else None
+        if giving is None or following is None or motion.planner is None:
             planned = partial(rise, self.skills.cell, motion, arm, end, height)
             motion.plan_early(self.context.work, (end, height), planned)
+            return
+        board, way, receiver = self.read("/board"), WayOut(), giving.arms.split("→")[1]
+        way_out = partial(rise_into_approach, self.skills, arm, receiver, end, height, board, following, way)
+        motion.plan_early(self.context.work, (end, height, board, following, way), way_out)
+
+
+def next_block(then: dict, blocks: list[BlockEstimate]) -> BlockEstimate | None:
+    """The block of a giver's next handover (`then`, the loop's next item), if it is seen where it should be."""
+    pick = then.get("pick")
+    block = block_on_peg(blocks, pick) if isinstance(pick, int) else None
+    return block if block is not None and block.ok else None
 
 
 class GoToHandover(MotionLeaf):

@@ -9,16 +9,21 @@ from __future__ import annotations
 
 from functools import partial
 
+import numpy as np
 import py_trees
+from py_trees.common import Status
 
-from pegbt.behaviours.actions.grasping import choose_and_approach_early, planned_approach
+from pegbt.behaviours.actions.grasping import choose_and_approach_early
+from pegbt.behaviours.actions.handover import WayOut, next_block, rise_into_approach
 from pegbt.behaviours.base import MotionLeaf
-from pegbt.behaviours.motion import CarryLeaf, above_pegs_first, rise
+from pegbt.behaviours.motion import CarryLeaf, above_pegs_first, planned_approach, rise
 from pegbt.behaviours.poses import tool_pose, transfer_for
 from pegbt.motion.ik import solve_ik
+from pegbt.motion.kinematics import tip_position
 from pegbt.motion.trajectory import Trajectory
 from pegbt.motion.waypoints import TransferWaypoints
-from pegbt.perception.blocks import block_on_peg
+from pegbt.perception.blocks import BlockEstimate, block_on_peg
+from pegbt.perception.board import BoardEstimate
 
 
 class Transfer(CarryLeaf):
@@ -76,7 +81,12 @@ class Rise(MotionLeaf):
     """Once sent, a giver's rise (`then` the loop's next handover, `handover_to` its receiver) chooses the
     grasp of that next block and plans the approach to it from where the rise ends, while the rise plays
     (`choose_and_approach_early`). Only then does it read `/board` and `/blocks` (a plain rise needs no
-    board seen)."""
+    board seen).
+
+    With a planner, a giver's rise is not a stop: it goes on into the approach of that next block in one
+    motion (`rise_into_approach`: up the block's axis, then over), which `approach` takes as its own
+    (`ArmMotion.send_ahead`); the rise succeeds as the planned tip passes `height` up, out of the hole, so
+    the receiver, told the block is released, carries it off only once the giver's jaw has left it."""
 
     def setup(self, **kwargs: object) -> None:
         super().setup(**kwargs)
@@ -89,20 +99,70 @@ class Rise(MotionLeaf):
         motion = self.motion(arm)
         start = motion.start_from(self.client(arm))
         height = self.param("height")
+        self.out_at: float | None = None
+        self.way: tuple[BoardEstimate | None, BlockEstimate, WayOut] | None = None
+        block = self.next_block()
+        if block is not None and motion.planner is not None:
+            board, way = self.read("/board"), WayOut()
+            early = motion.early
+            if early is not None and isinstance(early.inputs[-1], WayOut):
+                way = early.inputs[-1]  # planned as the carry was sent, if from these inputs
+            self.way = (board, block, way)
+            planned = partial(
+                rise_into_approach,
+                self.skills,
+                arm,
+                self.param("handover_to"),
+                start,
+                height,
+                board,
+                block,
+                way,
+            )
+            inputs = (start, height, board, block, way)
+            self.move(arm, planned, f"{arm} rising out of the block into its next approach", inputs)
+            return
         planned = partial(rise, self.skills.cell, motion, arm, start, height)
         self.move(arm, planned, f"{arm} rising", (start, height))
 
+    def next_block(self) -> BlockEstimate | None:
+        """The block of the giver's next handover, if it is seen where it should be."""
+        if not self.param("then") or not self.param("handover_to"):
+            return None
+        return next_block(self.param("then"), self.read("/blocks"))
+
     def started(self, trajectories: list[Trajectory]) -> None:
-        pick, receiver = self.param("then").get("pick"), self.param("handover_to")
-        if not isinstance(pick, int) or not receiver:
-            return
-        block = block_on_peg(self.read("/blocks"), pick)
-        if block is None or not block.ok:
-            return
         arm = self.param("arm")
-        choose_and_approach_early(
-            self.skills, self.context.work, arm, receiver, self.read("/board"), block, self.client(arm)
-        )
+        if self.way is not None and self.way[2].grasp is not None:
+            board, block, way = self.way
+            assert way.grasp is not None  # the approach was planned onto it
+            self.motion(arm).send_ahead((board, block, way.grasp.candidate))
+            planned = trajectories[0]
+            up = self.skills.cell.up_in(arm)
+            heights = (tip_position(planned.q) - tip_position(planned.q[0])) @ up
+            out = int(np.argmax(heights >= self.param("height") - 1e-9))
+            self.out_at = self.context.clock.now() + float(planned.t[out])
+            self.feedback_message = f"out of the block in {planned.t[out]:.2f} s, on into the next approach"
+            return
+        following = self.next_block()
+        if following is not None:
+            choose_and_approach_early(
+                self.skills,
+                self.context.work,
+                arm,
+                self.param("handover_to"),
+                self.read("/board"),
+                following,
+                self.client(arm),
+            )
+
+    def watch(self) -> Status:
+        if self.out_at is None:
+            return Status.RUNNING
+        if self.context.clock.now() >= self.out_at - 1e-9:
+            return Status.SUCCESS
+        self.wake_at = self.out_at if self.wake_at is None else min(self.wake_at, self.out_at)
+        return Status.RUNNING
 
 
 class Park(MotionLeaf):

@@ -85,7 +85,7 @@ class EarlyResult:
     job: Job[Any]
 
     def matches(self, inputs: tuple[object, ...]) -> bool:
-        return len(inputs) == len(self.inputs) and all(map(_same, inputs, self.inputs))
+        return same_inputs(inputs, self.inputs)
 
 
 @dataclass(frozen=True)
@@ -95,6 +95,11 @@ class EarlyPlan(EarlyResult):
 
     job: Job[list[Prepared | None]]
     epoch: int
+
+
+def same_inputs(a: tuple[object, ...], b: tuple[object, ...]) -> bool:
+    """Whether two plans were made from the same inputs (`_same`, one by one)."""
+    return len(a) == len(b) and all(map(_same, a, b))
 
 
 def _same(a: object, b: object) -> bool:
@@ -133,6 +138,8 @@ class ArmMotion:
         self.epoch = 0  # changes whenever a plan's start changes: a motion sent, stopped or aborted
         self.commanded: NDArray[np.float64] | None = None  # the set-point the last command leaves
         self.early: EarlyPlan | None = None
+        # the motion under way sent ahead of the leaf it belongs to, and that leaf's inputs (`send_ahead`)
+        self.ahead: tuple[tuple[object, ...], SentMotion] | None = None
         # the next handover's meeting, this arm receiving, computed early
         self.meeting: EarlyResult | None = None
         self._planning = threading.Lock()
@@ -255,6 +262,20 @@ class ArmMotion:
         early for `inputs`, from the arm's state it was made from (its `stale` check stands)."""
         self.discard_early()
         self.early = EarlyPlan(inputs, job, self.epoch)
+
+    def send_ahead(self, inputs: tuple[object, ...]) -> None:
+        """The motion just sent is also the motion of a leaf still to come, made from `inputs` (a giver's
+        way out of the block it handed over, on into the approach of its next pick): that leaf takes it
+        (`take_sent`) instead of planning another."""
+        assert self.active is not None  # called as a motion is sent
+        self.ahead = (inputs, self.active)
+
+    def take_sent(self, inputs: tuple[object, ...]) -> SentMotion | None:
+        """The motion sent ahead from `inputs`, if it is still this arm's motion (else None)."""
+        ahead, self.ahead = self.ahead, None
+        if ahead is None or ahead[1] is not self.active or ahead[1].handle.failed:
+            return None
+        return ahead[1] if same_inputs(ahead[0], inputs) else None
 
     def discard_early(self) -> None:
         if self.early is not None:

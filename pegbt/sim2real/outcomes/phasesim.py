@@ -19,9 +19,9 @@ from functools import cache
 import numpy as np
 from numpy.typing import NDArray
 
-from pegbt.behaviours.actions.grasping import SAME_BLOCK, planned_approach
+from pegbt.behaviours.actions.grasping import SAME_BLOCK
 from pegbt.behaviours.actions.handover import Meeting, plan_meeting
-from pegbt.behaviours.motion import above_pegs_first
+from pegbt.behaviours.motion import above_pegs_first, planned_approach
 from pegbt.behaviours.poses import from_handover, to_handover, tool_pose, transfer_for
 from pegbt.behaviours.resources.arm_motion import ArmMotion, Prepared
 from pegbt.behaviours.resources.skills import SIMULATOR_CALIBRATION, Skills
