@@ -59,7 +59,12 @@ def run_outcomes(args: argparse.Namespace) -> int:
 
             confirmed = {
                 world: confirm(
-                    Path(world), outcomes.cells, args.confirm, Path(args.out) / "confirm", args.workers
+                    Path(world),
+                    outcomes.cells,
+                    args.confirm,
+                    Path(args.out) / "confirm",
+                    args.workers,
+                    until_lost=outcomes.attempts_end_at_lost_block,
                 )
                 for world in data["world_files"]
             }
