@@ -25,7 +25,7 @@ CAL = Cell("unilateral", "calibrated", 120, 120, mean_transfer_s=5.7)
 
 @pytest.mark.parametrize(
     ("placed", "holds", "below_beyond_chance"),
-    [(120, True, False), (118, True, False), (117, False, False), (112, False, True)],
+    [(120, True, False), (118, True, False), (115, False, False), (114, False, True)],
 )
 def test_a_cell_placed_in_full_keeps_98_percent_by_its_point_rate(
     placed: int, holds: bool, below_beyond_chance: bool
