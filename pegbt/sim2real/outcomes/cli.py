@@ -71,7 +71,7 @@ def run_outcomes(args: argparse.Namespace) -> int:
             data = write_report(diagnosis, Path(args.out), commands, confirmed)
         print(
             f"wrote {args.out}/report.md, report.json, outcomes.png"
-            + "".join(f", {w}" for w in data["world_files"]),
+            + "".join(f", {w}" for w in data["world_files"] + data["open_world_files"]),
             file=sys.stderr,
         )
     if args.json:

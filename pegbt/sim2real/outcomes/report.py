@@ -497,8 +497,10 @@ def _confirmed(d: Diagnosis, data: dict[str, Any], confirmed: Confirmed) -> list
 def write_report(
     d: Diagnosis, out: Path, commands: list[str] | None = None, confirmed: Confirmed | None = None
 ) -> dict[str, Any]:
-    """Everything into `out`: report.json, report.md, outcomes.png and the fitted world file(s); with
-    `confirmed` (per world file, per cell: whole trials in it) those too, with their verdicts."""
+    """Everything into `out`: report.json, report.md, outcomes.png, the fitted world file(s) and each open
+    alternative's world (`world-open-NAME.yaml`, for `pegbt eval --world-effects`; never confirmed here, a
+    campaign each); with `confirmed` (per world file, per cell: whole trials in it) those too, with their
+    verdicts."""
     out.mkdir(parents=True, exist_ok=True)
     data = report_dict(d, commands)
     markdown = report_markdown(d, commands)
@@ -510,6 +512,9 @@ def write_report(
     for tied in d.verdict.tied:
         worlds.append(str(write_world_file(tied.estimated_world(), out / f"world-{tied.label}.yaml")))
     data["world_files"] = worlds
+    data["open_world_files"] = [
+        str(write_world_file(a.world(), out / f"world-open-{a.name}.yaml")) for a in d.alternatives
+    ]
     (out / "report.json").write_text(json.dumps(data, indent=2) + "\n")
     (out / "report.md").write_text(markdown)
     write_figure(d, out / "outcomes.png")
