@@ -8,11 +8,15 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
+from pegbt.behaviours.resources.trial import busy_seconds
 from pegbt.evaluation.campaign import Cell as Campaign
 from pegbt.evaluation.campaign import run_trials, trial_specs
 from pegbt.evaluation.summary import summarise
+from pegbt.evaluation.trial import TrialRecord
+from pegbt.executive.logfile import read_tick_log
+from pegbt.executive.phases import retried
 from pegbt.sim2real.outcomes.cells import Cell
-from pegbt.sim2real.outcomes.goals import Trials
+from pegbt.sim2real.outcomes.goals import TIMED_CONDITIONS, Trials
 
 CONFIRM_SEED = 7000  # whole-trial seeds, apart from the phase simulator's
 
@@ -33,6 +37,23 @@ def ways_back_skipped(transfers: Sequence[Mapping[str, Any]]) -> int:
     return skipped
 
 
+def first_tries(records: Sequence[TrialRecord]) -> tuple[int, float | None]:
+    """The transfers placed without a recovery inside them (`retried`, from each trial's tick log) and
+    their mean time as `pegbt eval` pools it (time transferring over transfers placed)."""
+    busy, placed = 0.0, 0
+    for record in records:
+        if record.outcome == "error" or not record.log:
+            continue
+        again = retried(read_tick_log(Path(record.log)))
+        intervals = [
+            (t["started"], t["started"] + t["seconds"])
+            for t in record.transfers
+            if t["succeeded"] and t["seconds"] is not None and int(t["index"]) not in again
+        ]
+        busy, placed = busy + busy_seconds(intervals), placed + len(intervals)
+    return placed, (busy / placed if placed else None)
+
+
 def confirm(
     world_file: Path,
     cells: Sequence[Cell],
@@ -49,11 +70,14 @@ def confirm(
         campaign = Campaign(
             cell.variant, cell.condition, trials, CONFIRM_SEED, world_effects=world_file.resolve()
         )
-        records = run_trials(trial_specs(campaign, out / f"{cell.variant}-{cell.condition}"), workers)
+        timed = cell.condition in TIMED_CONDITIONS  # its tick logs are kept and read for the first tries
+        specs = trial_specs(campaign, out / f"{cell.variant}-{cell.condition}", keep_logs=timed)
+        records = run_trials(specs, workers)
         summary = summarise(campaign, records, workers)
         skipped = (
             sum(ways_back_skipped(r.transfers) for r in records if r.outcome != "error") if until_lost else 0
         )
+        tries, first_s = first_tries(records) if timed else (0, None)
         figures[cell.key] = Trials(
             attempted=summary["transfers_attempted"] - skipped,
             succeeded=summary["transfers_succeeded"],
@@ -61,5 +85,7 @@ def confirm(
             trials=trials,
             errors=summary["errors"],
             skipped=skipped,
+            first_tries=tries,
+            first_try_mean_transfer_s=first_s,
         )
     return figures

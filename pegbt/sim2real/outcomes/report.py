@@ -476,6 +476,8 @@ def _confirmed(d: Diagnosis, data: dict[str, Any], confirmed: Confirmed) -> list
                 "attempted": trials.attempted,
                 "succeeded": trials.succeeded,
                 "skipped": trials.skipped,
+                "first_tries": trials.first_tries,
+                "first_try_mean_transfer_s": trials.first_try_mean_transfer_s,
                 "mean_transfer_s": trials.mean_transfer_s,
                 "trials": trials.trials,
                 "errors": trials.errors,
