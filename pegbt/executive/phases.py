@@ -190,6 +190,13 @@ def transfer_outcomes(log: TickLog) -> list[TransferOutcome]:
     return outcomes
 
 
+def retried(log: TickLog) -> set[int]:
+    """The transfers (numbered as `transfer_outcomes` numbers them) inside which a recover node ran its
+    recovery: tried again after a miss, a slip or a lost block, which the paper's robot never did."""
+    paths = [log.nodes[recovery.node]["path"] for recovery in recoveries(Timeline(log))]
+    return {index for index, scope in transfer_scopes(log).items() if any(inside(p, scope) for p in paths)}
+
+
 def _found_empty(log: TickLog, peg: object, after: int) -> bool:
     """Whether the next look at `peg` after seq `after` found it empty: a pick from it that saw no block, or
     a check naming it empty, before any other transfer began to place a block on it."""

@@ -5,14 +5,15 @@ reached by a chamfer or a grasp capture on top of the bending peg, never by the 
 from __future__ import annotations
 
 from collections.abc import Sequence
+from pathlib import Path
 
 import numpy as np
 
-from pegbt.sim.world_effects import WorldEffects
+from pegbt.sim.world_effects import WorldEffects, read_world_file
 from pegbt.sim2real.outcomes.cells import Cell, Outcomes
 from pegbt.sim2real.outcomes.diagnose import Settings, diagnose
 from pegbt.sim2real.outcomes.phasesim import TransferResult
-from pegbt.sim2real.outcomes.report import report_dict, report_markdown
+from pegbt.sim2real.outcomes.report import report_dict, report_markdown, write_report
 from pegbt.sim2real.outcomes.simulate import Mapper, Task
 
 
@@ -67,3 +68,13 @@ def test_a_held_out_cell_only_an_alternative_reaches_is_said_so_and_not_counted_
     assert "| grasp_capture.width = 0.003 | " in markdown
     assert "2 held-out cells inside" in markdown
     assert "| 120/120 placed |" in markdown  # a cell placed in full is judged by what it keeps
+
+
+def test_each_open_alternative_is_written_as_a_world_a_campaign_can_run(tmp_path: Path) -> None:
+    d = diagnose(Outcomes(CELLS, "test"), Settings(fit="unilateral", transfers=120, points=3), _mapper)
+    data = write_report(d, tmp_path)
+    path = tmp_path / "world-open-grasp_capture.width.yaml"
+    assert str(path) in data["open_world_files"] and str(path) not in data["world_files"]
+    world = read_world_file(path)
+    assert world.values("grasp_capture")["width"] == 0.003  # the alternative, on top of the fitted peg
+    assert world.values("peg_compliance")["deflection"] > 0  # the peg the prediction bent, kept

@@ -9,8 +9,9 @@ import numpy as np
 
 from pegbt.sim2real.outcomes.cells import Cell, Outcomes
 from pegbt.sim2real.outcomes.diagnose import Settings, diagnose
+from pegbt.sim2real.outcomes.goals import time_agrees
 from pegbt.sim2real.outcomes.phasesim import TransferResult
-from pegbt.sim2real.outcomes.report import report_dict, report_markdown, time_agrees
+from pegbt.sim2real.outcomes.report import report_dict, report_markdown
 from pegbt.sim2real.outcomes.simulate import SimCounts, Task
 
 PLACED_S = {"unilateral": 5.0, "bilateral": 3.0}  # a placed transfer's seconds; a failed one takes 1 s

@@ -14,7 +14,7 @@ from __future__ import annotations
 import io
 import math
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -59,6 +59,16 @@ class TransferOutcome:
     ended: float | None = None  # when the executive finished it (None: never finished)
 
 
+def busy_seconds(intervals: Iterable[tuple[float, float]]) -> float:
+    """The union of transfers' start-to-placement intervals: transfers that overlap, two arms at once or a
+    pipelined handover, count their shared time once; for one arm at a time, the sum of their times."""
+    busy, reach = 0.0, -math.inf
+    for start, end in sorted(intervals):
+        busy += max(0.0, end - max(start, reach))
+        reach = max(reach, end)
+    return busy
+
+
 @dataclass(frozen=True)
 class TrialResult:
     """The judged trial: per-transfer outcomes and the paper's figures."""
@@ -88,19 +98,13 @@ class TrialResult:
 
     @property
     def mean_transfer_time_s(self) -> float | None:
-        """Time spent transferring per successful transfer: the union of their start-to-placement intervals
-        (transfers that overlap, two arms at once or a pipelined handover, count their shared time once)
-        over their number. For one arm at a time it is the mean of the transfer times."""
-        intervals = sorted(
+        """Time spent transferring per successful transfer (`busy_seconds` over their number)."""
+        intervals = [
             (o.started, o.started + o.seconds)
             for o in self.transfers
             if o.succeeded and o.seconds is not None
-        )
-        busy, reach = 0.0, -math.inf
-        for start, end in intervals:
-            busy += max(0.0, end - max(start, reach))
-            reach = max(reach, end)
-        return busy / len(intervals) if intervals else None
+        ]
+        return busy_seconds(intervals) / len(intervals) if intervals else None
 
     @property
     def ok(self) -> bool:

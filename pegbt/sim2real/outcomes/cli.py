@@ -59,14 +59,19 @@ def run_outcomes(args: argparse.Namespace) -> int:
 
             confirmed = {
                 world: confirm(
-                    Path(world), outcomes.cells, args.confirm, Path(args.out) / "confirm", args.workers
+                    Path(world),
+                    outcomes.cells,
+                    args.confirm,
+                    Path(args.out) / "confirm",
+                    args.workers,
+                    until_lost=outcomes.attempts_end_at_lost_block,
                 )
                 for world in data["world_files"]
             }
             data = write_report(diagnosis, Path(args.out), commands, confirmed)
         print(
             f"wrote {args.out}/report.md, report.json, outcomes.png"
-            + "".join(f", {w}" for w in data["world_files"]),
+            + "".join(f", {w}" for w in data["world_files"] + data["open_world_files"]),
             file=sys.stderr,
         )
     if args.json:

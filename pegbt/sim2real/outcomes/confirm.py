@@ -1,38 +1,91 @@
 """Confirm a fitted world with whole trials: `pegbt eval --world-effects` campaigns of the cells, judged by
 the simulator's ground truth, beside the phase simulator's prediction (which leaves out what a whole trial
-adds: perception on captures, the arms' turns, the way back)."""
+adds: perception on captures, the arms' turns, the way back, the trees' regrasps)."""
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
+from pegbt.behaviours.resources.trial import busy_seconds
 from pegbt.evaluation.campaign import Cell as Campaign
 from pegbt.evaluation.campaign import run_trials, trial_specs
 from pegbt.evaluation.summary import summarise
+from pegbt.evaluation.trial import TrialRecord
+from pegbt.executive.logfile import read_tick_log
+from pegbt.executive.phases import retried
 from pegbt.sim2real.outcomes.cells import Cell
+from pegbt.sim2real.outcomes.goals import TIMED_CONDITIONS, Trials
 
 CONFIRM_SEED = 7000  # whole-trial seeds, apart from the phase simulator's
 
 
+def ways_back_skipped(transfers: Sequence[Mapping[str, Any]]) -> int:
+    """How many of a trial's transfers the paper's robot would not have attempted: their pick peg no
+    longer held a block, an earlier transfer of the trial having lost it (`FLSPegTransfer_single.py`,
+    BerkeleyAutomation/FLSpegtransferHO, skips an order whose block it does not find). A peg no earlier
+    transfer touched holds its starting block; a transfer that placed its block found it."""
+    holds: dict[int, bool] = {}
+    skipped = 0
+    for transfer in sorted(transfers, key=lambda t: int(t["index"])):
+        if not (holds.get(int(transfer["pick"]), True) or transfer["succeeded"]):
+            skipped += 1
+            continue
+        holds[int(transfer["pick"])] = False
+        holds[int(transfer["place"])] = bool(transfer["succeeded"])
+    return skipped
+
+
+def first_tries(records: Sequence[TrialRecord]) -> tuple[int, float | None]:
+    """The transfers placed without a recovery inside them (`retried`, from each trial's tick log) and
+    their mean time as `pegbt eval` pools it (time transferring over transfers placed)."""
+    busy, placed = 0.0, 0
+    for record in records:
+        if record.outcome == "error" or not record.log:
+            continue
+        again = retried(read_tick_log(Path(record.log)))
+        intervals = [
+            (t["started"], t["started"] + t["seconds"])
+            for t in record.transfers
+            if t["succeeded"] and t["seconds"] is not None and int(t["index"]) not in again
+        ]
+        busy, placed = busy + busy_seconds(intervals), placed + len(intervals)
+    return placed, (busy / placed if placed else None)
+
+
 def confirm(
-    world_file: Path, cells: Sequence[Cell], trials: int, out: Path, workers: int
-) -> dict[tuple[str, str], dict[str, Any]]:
-    """Per cell, `trials` whole trials in the world of `world_file`: transfers attempted and placed, their
-    mean time, and trials that errored."""
+    world_file: Path,
+    cells: Sequence[Cell],
+    trials: int,
+    out: Path,
+    workers: int,
+    until_lost: bool = False,
+) -> dict[tuple[str, str], Trials]:
+    """Per cell, `trials` whole trials in the world of `world_file`: transfers attempted and placed (with
+    `until_lost`, a way back whose block was lost is skipped, not attempted, as the real cells count),
+    their mean time, and trials that errored."""
     figures = {}
     for cell in cells:
         campaign = Campaign(
             cell.variant, cell.condition, trials, CONFIRM_SEED, world_effects=world_file.resolve()
         )
-        records = run_trials(trial_specs(campaign, out / f"{cell.variant}-{cell.condition}"), workers)
+        timed = cell.condition in TIMED_CONDITIONS  # its tick logs are kept and read for the first tries
+        specs = trial_specs(campaign, out / f"{cell.variant}-{cell.condition}", keep_logs=timed)
+        records = run_trials(specs, workers)
         summary = summarise(campaign, records, workers)
-        figures[cell.key] = {
-            "attempted": summary["transfers_attempted"],
-            "succeeded": summary["transfers_succeeded"],
-            "mean_transfer_s": summary["mean_transfer_time_s"],
-            "trials": trials,
-            "errors": summary["errors"],
-        }
+        skipped = (
+            sum(ways_back_skipped(r.transfers) for r in records if r.outcome != "error") if until_lost else 0
+        )
+        tries, first_s = first_tries(records) if timed else (0, None)
+        figures[cell.key] = Trials(
+            attempted=summary["transfers_attempted"] - skipped,
+            succeeded=summary["transfers_succeeded"],
+            mean_transfer_s=summary["mean_transfer_time_s"],
+            trials=trials,
+            errors=summary["errors"],
+            skipped=skipped,
+            first_tries=tries,
+            first_try_mean_transfer_s=first_s,
+        )
     return figures

@@ -9,24 +9,11 @@ from typing import Any
 from pegbt.sim.world_effects import write_world_file
 from pegbt.sim2real.outcomes.cells import Cell
 from pegbt.sim2real.outcomes.diagnose import Diagnosis, profile_parameters
+from pegbt.sim2real.outcomes.goals import Trials, judge, percent, placed_in_full, time_agrees, verdict_text
 from pegbt.sim2real.outcomes.intervals import rate_interval
 from pegbt.sim2real.outcomes.phasesim import arms_at_once
 from pegbt.sim2real.outcomes.predict import KEEPS, Prediction
 from pegbt.sim2real.outcomes.simulate import CATEGORIES, SimCounts
-
-TIME_TOLERANCE = 0.2  # a simulated mean transfer time this close to the real one (relative) agrees with it
-
-
-def _pct(rate: float) -> str:
-    return f"{100 * rate:.1f} %"
-
-
-def time_agrees(real: float | None, simulated: float | None) -> bool | None:
-    """Whether a simulated mean transfer time (of the transfers placed) is within `TIME_TOLERANCE` of the
-    real one; None where either is unknown (no real time, or nothing placed)."""
-    if real is None or simulated is None:
-        return None
-    return abs(simulated - real) <= TIME_TOLERANCE * real
 
 
 def trial_seconds(variant: str, counts: SimCounts) -> float | None:
@@ -179,15 +166,11 @@ def fitted_world_name(d: Diagnosis) -> str:
     return "the default world"
 
 
-def _placed_in_full(cell: Cell) -> bool:
-    return bool(cell.attempted) and cell.succeeded == cell.attempted
-
-
 def _verdict(cell: Cell, q: Prediction) -> str:
-    if _placed_in_full(cell):  # judged by what it keeps (`KEEPS`), not by a rate a few transfers estimate
+    if placed_in_full(cell):  # judged by what it keeps (`KEEPS`), not by a rate a few transfers estimate
         return f"{q.at_best.succeeded}/{q.at_best.attempted} placed"
     in_real = "in" if rate_in_real_interval(cell, q) else "**not in**"
-    return f"{_pct(q.rate)} ({_pct(q.low)}–{_pct(q.high)}): {'inside' if q.inside else '**outside**'}; rate {in_real} real 95 %"
+    return f"{percent(q.rate)} ({percent(q.low)}–{percent(q.high)}): {'inside' if q.inside else '**outside**'}; rate {in_real} real 95 %"
 
 
 def _held_out_by_world(d: Diagnosis) -> list[str]:
@@ -198,7 +181,7 @@ def _held_out_by_world(d: Diagnosis) -> list[str]:
         return []
     fitted = fitted_world_name(d)
     main = [d.predictions[c.key] for c in d.held_out]
-    partial = [(c, d.predictions[c.key]) for c in d.held_out if not _placed_in_full(c)]
+    partial = [(c, d.predictions[c.key]) for c in d.held_out if not placed_in_full(c)]
     lines = [
         "",
         f"With {fitted} (the prediction above): {sum(q.inside for q in main)} of {len(main)} held-out cells "
@@ -220,7 +203,7 @@ def _held_out_by_world(d: Diagnosis) -> list[str]:
         "inside; whether the predicted rate is in the real count's 95 % interval):",
         "",
         "| world | "
-        + " | ".join(f"{c.variant} {c.condition} (real {_pct(c.rate)})" for c in d.held_out)
+        + " | ".join(f"{c.variant} {c.condition} (real {percent(c.rate)})" for c in d.held_out)
         + " |",
         "|---|" + "---|" * len(d.held_out),
     ]
@@ -321,8 +304,8 @@ def report_markdown(d: Diagnosis, commands: list[str] | None = None) -> str:
     for r in d.rows:
         lines.append(
             f"| {r.variant} | {r.condition} | {r.what} | {r.real[0]}/{r.real[1]} | "
-            f"{_pct(r.real_interval[0])}–{_pct(r.real_interval[1])} | {r.simulated[0]}/{r.simulated[1]} | "
-            f"{_pct(r.simulated_interval[0])}–{_pct(r.simulated_interval[1])} | {r.p_value:.3g} | {'yes' if r.disagrees else 'no'} |"
+            f"{percent(r.real_interval[0])}–{percent(r.real_interval[1])} | {r.simulated[0]}/{r.simulated[1]} | "
+            f"{percent(r.simulated_interval[0])}–{percent(r.simulated_interval[1])} | {r.p_value:.3g} | {'yes' if r.disagrees else 'no'} |"
         )
     lines += ["", "## Name", *_finding(d), ""]
     if d.verdict.tried:
@@ -345,8 +328,8 @@ def report_markdown(d: Diagnosis, commands: list[str] | None = None) -> str:
     for cell in d.outcomes.cells:
         q = d.predictions[cell.key]
         lines.append(
-            f"| {cell.variant} | {cell.condition} | {cell.succeeded}/{cell.attempted} ({_pct(cell.rate)}) | "
-            f"{_pct(d.before[cell.key].rate)} | {_pct(q.at_best.rate)} | {_pct(q.rate)} ({_pct(q.low)}–{_pct(q.high)}) | "
+            f"| {cell.variant} | {cell.condition} | {cell.succeeded}/{cell.attempted} ({percent(cell.rate)}) | "
+            f"{percent(d.before[cell.key].rate)} | {percent(q.at_best.rate)} | {percent(q.rate)} ({percent(q.low)}–{percent(q.high)}) | "
             f"{'yes' if cell.key in held else 'no'} | {'yes' if q.inside else '**no**'} | "
             f"{_seconds(cell, d.before[cell.key], q.at_best)} |"
         )
@@ -362,20 +345,20 @@ def report_markdown(d: Diagnosis, commands: list[str] | None = None) -> str:
                 else ("overlapping" if low <= real_high and real_low <= high else "outside")
             )
             lines.append(
-                f"- {cell.variant} {cell.condition}: {_pct(low)}–{_pct(high)}; real {_pct(cell.rate)} "
-                f"({_pct(real_low)}–{_pct(real_high)}): {reaches}"
+                f"- {cell.variant} {cell.condition}: {percent(low)}–{percent(high)}; real {percent(cell.rate)} "
+                f"({percent(real_low)}–{percent(real_high)}): {reaches}"
             )
-    full = [c for c in d.outcomes.cells if c.attempted and c.succeeded == c.attempted]
+    full = [c for c in d.outcomes.cells if placed_in_full(c)]
     if full:
         lines += [
             "",
-            f"Cells the real robot placed in full, at {fitted_world_name(d)} (goal: ≥ {_pct(KEEPS)} kept):",
+            f"Cells the real robot placed in full, at {fitted_world_name(d)} (goal: ≥ {percent(KEEPS)} kept):",
         ]
         for cell in full:
             q = d.predictions[cell.key]
             lines.append(
                 f"- {cell.variant} {cell.condition}: {q.at_best.succeeded}/{q.at_best.attempted} placed, "
-                f"Wilson 95 % lower bound {_pct(q.keeps)}: {'kept' if q.keeps >= KEEPS else '**not shown**'}"
+                f"Wilson 95 % lower bound {percent(q.keeps)}: {'kept' if q.keeps >= KEEPS else '**not shown**'}"
             )
     if commands:
         lines += ["", "## Commands", "```bash", *commands, "```"]
@@ -458,41 +441,82 @@ def _after_bottom(d: Diagnosis, cells: list[Cell], upto: int) -> list[float]:
     ]
 
 
-Confirmed = dict[str, dict[tuple[str, str], dict[str, Any]]]
+Confirmed = dict[str, dict[tuple[str, str], Trials]]
+
+
+def _confirmed(d: Diagnosis, data: dict[str, Any], confirmed: Confirmed) -> list[str]:
+    """Each world's whole trials per cell and their verdicts, into `data`'s cells (`confirmed`, per world
+    file) and as the report's last section."""
+    lines = [
+        "",
+        "## Confirmed by whole trials (`pegbt eval --world-effects`)",
+        f"Goals: a cell the real robot placed in full keeps ≥ {percent(KEEPS)}, judged by the rate placed, "
+        "its Wilson 95 % interval beside it; any other cell's rate inside the real count's 95 % interval, "
+        "and uncalibrated, its mean transfer time within 20 % of the real one."
+        + (
+            " Counted as the real cells are: a way back whose block was lost on the way out is skipped, "
+            "not attempted."
+            if d.outcomes.attempts_end_at_lost_block
+            else ""
+        ),
+        "",
+        "| world | variant | condition | placed (95 %) | real | mean transfer: trials / real | verdict "
+        "| errored trials |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    entries = {(e["variant"], e["condition"]): e for e in data["cells"]}
+    for world, cells in confirmed.items():
+        held = 0
+        for key, trials in cells.items():
+            real = d.outcomes.cell(*key)
+            assert real is not None  # confirm ran the diagnosis's own cells
+            verdict = judge(real, trials)
+            held += verdict["holds"]
+            entries[key].setdefault("confirmed", {})[world] = {
+                "attempted": trials.attempted,
+                "succeeded": trials.succeeded,
+                "skipped": trials.skipped,
+                "first_tries": trials.first_tries,
+                "first_try_mean_transfer_s": trials.first_try_mean_transfer_s,
+                "mean_transfer_s": trials.mean_transfer_s,
+                "trials": trials.trials,
+                "errors": trials.errors,
+                **verdict,
+            }
+            low, high = verdict["interval"]
+            time = "–" if trials.mean_transfer_s is None else f"{trials.mean_transfer_s:.2f}"
+            real_time = "–" if real.mean_transfer_s is None else f"{real.mean_transfer_s:.1f}"
+            lines.append(
+                f"| {world} | {real.variant} | {real.condition} | {trials.succeeded}/{trials.attempted} "
+                f"({percent(trials.rate)}; {percent(low)}–{percent(high)}) | "
+                f"{real.succeeded}/{real.attempted} | {time} / {real_time} s | {verdict_text(verdict)} | "
+                f"{trials.errors} of {trials.trials} |"
+            )
+        lines += ["", f"At {world}: the goals hold in {held} of {len(cells)} cells.", ""]
+    return lines
 
 
 def write_report(
     d: Diagnosis, out: Path, commands: list[str] | None = None, confirmed: Confirmed | None = None
 ) -> dict[str, Any]:
-    """Everything into `out`: report.json, report.md, outcomes.png and the fitted world file(s); with
-    `confirmed` (per world file, per cell: whole trials in it) those too."""
+    """Everything into `out`: report.json, report.md, outcomes.png, the fitted world file(s) and each open
+    alternative's world (`world-open-NAME.yaml`, for `pegbt eval --world-effects`; never confirmed here, a
+    campaign each); with `confirmed` (per world file, per cell: whole trials in it) those too, with their
+    verdicts."""
     out.mkdir(parents=True, exist_ok=True)
     data = report_dict(d, commands)
     markdown = report_markdown(d, commands)
     if confirmed:
-        lines = [
-            "",
-            "## Confirmed by whole trials (`pegbt eval --world-effects`)",
-            "| world | variant | condition | placed | mean transfer | errored trials |",
-            "|---|---|---|---|---|---|",
-        ]
-        for world, cells in confirmed.items():
-            for (variant, condition), f in cells.items():
-                rate = f["succeeded"] / f["attempted"] if f["attempted"] else float("nan")
-                time = "–" if f["mean_transfer_s"] is None else f"{f['mean_transfer_s']:.1f} s"
-                lines.append(
-                    f"| {world} | {variant} | {condition} | {f['succeeded']}/{f['attempted']} ({_pct(rate)}) | {time} | {f['errors']} of {f['trials']} |"
-                )
-                for entry in data["cells"]:
-                    if (entry["variant"], entry["condition"]) == (variant, condition):
-                        entry.setdefault("confirmed", {})[world] = f
-        markdown += "\n".join(lines) + "\n"
+        markdown += "\n".join(_confirmed(d, data, confirmed))
     worlds = []
     if d.verdict.named:
         worlds.append(str(write_world_file(d.world(), out / "world.yaml")))
     for tied in d.verdict.tied:
         worlds.append(str(write_world_file(tied.estimated_world(), out / f"world-{tied.label}.yaml")))
     data["world_files"] = worlds
+    data["open_world_files"] = [
+        str(write_world_file(a.world(), out / f"world-open-{a.name}.yaml")) for a in d.alternatives
+    ]
     (out / "report.json").write_text(json.dumps(data, indent=2) + "\n")
     (out / "report.md").write_text(markdown)
     write_figure(d, out / "outcomes.png")
