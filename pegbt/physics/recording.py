@@ -38,12 +38,13 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from pegbt.boundedio import load_npy, read_bytes
+from pegbt.boundedio import map_npy, read_bytes
 from pegbt.errors import PegbtError
 from pegbt.motion.robot_config import DEFAULT_TOOL, DVRK_LIMITS, RobotLimits, robot_limits
 from pegbt.physics.bagfile import is_bag, read_bag
 from pegbt.physics.plausible import check_arm_joints, check_times
 from pegbt.psm import JOINT_NAMES, N_JOINTS, known_arm
+from pegbt.scratch import scratch_copy, scratch_where
 
 Array = NDArray[np.float64]
 
@@ -140,11 +141,12 @@ class Recording:
         return int(round(fraction * self.n))
 
     def subset(self, keep: NDArray[np.bool_]) -> Recording:
-        """The samples where `keep` is true, as a recording of their own (itself if it keeps all)."""
+        """The samples where `keep` is true, as a recording of their own in scratch (itself if it keeps
+        all)."""
         if keep.all():
             return self
-        t = None if self.t is None else self.t[keep]
-        return replace(self, q_cmd=self.q_cmd[keep], q_phy=self.q_phy[keep], t=t)
+        t = None if self.t is None else scratch_where(self.t, keep)
+        return replace(self, q_cmd=scratch_where(self.q_cmd, keep), q_phy=scratch_where(self.q_phy, keep), t=t)
 
     def slice(self, start: int, stop: int | None = None) -> Recording:
         """The samples [start, stop) as a recording of their own."""
@@ -226,10 +228,13 @@ def _load_recording(
 
 
 def _load_npy(path: Path) -> Array:
+    """The array mapped from its file (`map_npy`), or, not in float64 as this machine orders it, cast
+    into scratch (`pegbt.scratch`): never a recording's length in the process's own memory."""
     try:
-        return load_npy(path, MAX_ARRAY_BYTES).astype(np.float64, copy=False)
+        values = map_npy(path, MAX_ARRAY_BYTES)
     except PegbtError as error:
         raise PegbtError(f"not a recording: {error.message}", file=path) from None
+    return values if values.dtype == np.float64 else scratch_copy(values)
 
 
 def _read_folder(folder: Path) -> tuple[Array, Array, Array | None]:

@@ -41,7 +41,7 @@ from pegbt.sim2real.geometry import (
 from pegbt.sim2real.library import build_columns
 from pegbt.sim2real.locate import JointMismatch, locate
 from pegbt.sim2real.practical import BelowResolution, settle_joint
-from pegbt.sim2real.scratch import scratch, scratch_rows
+from pegbt.scratch import scratch, scratch_rows
 from pegbt.sim2real.select import JointSelection, Unidentifiable, find_unidentifiable, select
 
 Array = NDArray[np.float64]
@@ -120,7 +120,7 @@ class Diagnosis:
 
 
 def rms(values: Array) -> Array:
-    """Root mean square of each column, its squares in scratch (`pegbt.sim2real.scratch`), not memory."""
+    """Root mean square of each column, its squares in scratch (`pegbt.scratch`), not memory."""
     return np.asarray(np.sqrt(np.square(values, out=scratch(values.shape)).mean(0)), dtype=float)
 
 

@@ -1,5 +1,5 @@
 """A diagnosis's stages hold no recording-sized array of their own: the nested cross-validation's
-training parts, drivers and held-out predictions are in scratch files (`pegbt.sim2real.scratch`), and
+training parts, drivers and held-out predictions are in scratch files (`pegbt.scratch`), and
 `locate` keeps its motion regimes as masks.
 
 As in `test_sim2real_memory.py`, each memory test measures the peak of traced memory at two lengths:
@@ -19,7 +19,7 @@ from pegbt.sim2real import diagnose
 from pegbt.sim2real.crossval import BlockedGrams
 from pegbt.sim2real.diagnose import nested_predict, rms, static_drivers
 from pegbt.sim2real.locate import locate
-from pegbt.sim2real.scratch import scratch, scratch_rows
+from pegbt.scratch import scratch, scratch_rows
 from pegbt.sim2real.select import JointSelection
 
 ROW = 6 * 8  # bytes of one sample of (N, 6) floats
