@@ -96,7 +96,9 @@ def map_npy(path: Path, limit: int) -> NDArray[np.floating]:
             if count == 0 or not shape:  # nothing to map (mmap refuses an empty mapping), or one number
                 return np.fromfile(handle, dtype=dtype, count=count).reshape(shape)
             offset = handle.tell()
-        mapped = np.memmap(path, dtype=dtype, mode="r", offset=offset, shape=shape, order="F" if fortran else "C")
+        mapped = np.memmap(
+            path, dtype=dtype, mode="r", offset=offset, shape=shape, order="F" if fortran else "C"
+        )
     except PegbtError:
         raise
     except (OSError, ValueError, EOFError, SyntaxError, TypeError) as error:

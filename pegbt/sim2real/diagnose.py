@@ -21,6 +21,7 @@ from pegbt.physics.faults import MeasurementFaults, detect_faults
 from pegbt.physics.model import REPLAY_ROWS
 from pegbt.physics.recording import Recording, Sampling, validate
 from pegbt.psm import JOINT_NAMES
+from pegbt.scratch import scratch, scratch_rows
 from pegbt.sim2real.crossval import BlockedGrams, fold_ranges
 from pegbt.sim2real.explain import effect_sentence, remaining_sentence, rival_sentence
 from pegbt.sim2real.fit import (
@@ -41,7 +42,6 @@ from pegbt.sim2real.geometry import (
 from pegbt.sim2real.library import build_columns
 from pegbt.sim2real.locate import JointMismatch, locate
 from pegbt.sim2real.practical import BelowResolution, settle_joint
-from pegbt.scratch import scratch, scratch_rows
 from pegbt.sim2real.select import JointSelection, Unidentifiable, find_unidentifiable, select
 
 Array = NDArray[np.float64]

@@ -15,11 +15,11 @@ from memory_helpers import peak_bytes
 from sim2real_helpers import recording_with
 
 from pegbt.physics import ArmPhysics, Effect
+from pegbt.scratch import scratch, scratch_rows
 from pegbt.sim2real import diagnose
 from pegbt.sim2real.crossval import BlockedGrams
 from pegbt.sim2real.diagnose import nested_predict, rms, static_drivers
 from pegbt.sim2real.locate import locate
-from pegbt.scratch import scratch, scratch_rows
 from pegbt.sim2real.select import JointSelection
 
 ROW = 6 * 8  # bytes of one sample of (N, 6) floats

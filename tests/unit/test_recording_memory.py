@@ -1,0 +1,73 @@
+"""A recording read from its folder is mapped from its files, not copied into the process's memory, and
+checking it (validation, measurement faults, the samples kept) holds a byte or two a sample: the traced
+peak at two lengths, as in `test_diagnose_memory.py`; what grows with the recording is the difference.
+Reading it held 104 bytes a sample (its commands, measured joints and times) and checking it about 350
+more at once. The checks run a chunk of rows at a time; chunks of a few rows find what one chunk does."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from memory_helpers import peak_bytes
+from sim2real_helpers import bad_recordings, recording_with
+
+from pegbt.errors import PegbtError
+from pegbt.physics import faults, plausible, recording
+from pegbt.physics.faults import detect_faults
+from pegbt.physics.recording import Recording, load_recording, write_recording
+from pegbt.sim2real.synth import with_tracker_faults
+
+ROW = 6 * 8  # bytes of one sample of (N, 6) floats
+
+
+def _faulty(seconds: float) -> Recording:
+    """A 100 Hz stream with tracker glitches and a window where the tracker lost the tool."""
+    return with_tracker_faults(recording_with([], seconds=seconds), 40, np.random.default_rng(3))[0]
+
+
+def _checked_peak(folder: Path) -> tuple[int, int]:
+    """(samples, traced peak of reading the folder, finding its faults and keeping the other samples)."""
+
+    def read_and_check() -> Recording:
+        read = load_recording(folder)
+        return read.subset(detect_faults(read.q_cmd, read.q_phy, read.limits).kept)
+
+    peak, kept = peak_bytes(read_and_check)
+    return len(kept), peak
+
+
+def test_reading_and_checking_a_recording_holds_no_copy_of_it(tmp_path: Path) -> None:
+    folders = {}
+    for seconds in (300.0, 900.0):  # beyond a few chunks of rows: what a chunk holds no longer grows
+        rec = _faulty(seconds)
+        folders[seconds] = write_recording(tmp_path / f"r{seconds:g}", rec.q_cmd, rec.q_phy, rec.t)
+    n_short, short = _checked_peak(folders[300.0])
+    n_long, long = _checked_peak(folders[900.0])
+    assert n_long > 2.9 * n_short  # the faults left out are a small share of either
+    assert (long - short) / (n_long - n_short) < 0.25 * ROW
+
+
+def test_faults_found_a_few_rows_at_a_time_are_those_found_at_once(monkeypatch: pytest.MonkeyPatch) -> None:
+    rec = _faulty(60.0)
+    whole = detect_faults(rec.q_cmd, rec.q_phy)
+    assert whole.windows and whole.glitches  # the chunks below cut through both
+    monkeypatch.setattr(faults, "ROWS", 37)
+    chunked = detect_faults(rec.q_cmd, rec.q_phy)
+    np.testing.assert_array_equal(chunked.mask, whole.mask)
+    assert (chunked.windows, chunked.glitches, chunked.unreachable) == (
+        whole.windows,
+        whole.glitches,
+        whole.unreachable,
+    )
+
+
+def test_refusals_name_the_same_sample_whatever_the_chunk(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    for module in (recording, plausible, faults):
+        monkeypatch.setattr(module, "ROWS", 5)
+    for path, problem in bad_recordings(tmp_path).values():
+        with pytest.raises(PegbtError, match=problem):
+            load_recording(path)
