@@ -11,11 +11,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 from memory_helpers import peak_bytes
+from scipy.ndimage import median_filter
 from sim2real_helpers import bad_recordings, recording_with
 
 from pegbt.errors import PegbtError
 from pegbt.physics import faults, plausible, recording
-from pegbt.physics.faults import detect_faults
+from pegbt.physics.faults import NEIGHBOURS, Errors, detect_faults
 from pegbt.physics.recording import Recording, load_recording, write_recording
 from pegbt.sim2real.synth import with_tracker_faults
 
@@ -61,6 +62,16 @@ def test_faults_found_a_few_rows_at_a_time_are_those_found_at_once(monkeypatch: 
         whole.glitches,
         whole.unreachable,
     )
+
+
+def test_running_medians_a_few_rows_at_a_time_are_those_of_the_whole_column() -> None:
+    rec = _faulty(10.0)
+    errors = Errors.of(rec.q_cmd, rec.q_phy)
+    error = rec.q_phy - rec.q_cmd
+    whole = np.abs(error - median_filter(error, size=(NEIGHBOURS, 1), mode="nearest")) / errors.spread
+    pieces = np.concatenate([errors.local(a, min(a + 37, rec.n)) for a in range(0, rec.n, 37)])
+    np.testing.assert_array_equal(pieces, whole)
+    np.testing.assert_array_equal(errors.centre, np.median(error, axis=0))
 
 
 def test_refusals_name_the_same_sample_whatever_the_chunk(
