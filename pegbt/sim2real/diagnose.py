@@ -404,7 +404,9 @@ def diagnose(
     if geometry is not None:
         del heldout  # the first held-out predictions go before the second are made
         removal = displacement_removal(q_cmd, residual, resolution)
-        cable_residual = residual - removal(np.ones(recording.n, dtype=bool))
+        cable_residual = np.subtract(
+            residual, removal(np.ones(recording.n, dtype=bool)), out=scratch(residual.shape)
+        )
         heldout, _, fold_named = nested_predict(
             recording, t, residual, base, resolution, folds, removal, with_named=False
         )
