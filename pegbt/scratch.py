@@ -10,6 +10,7 @@ the values are the same float64s.
 from __future__ import annotations
 
 import tempfile
+from collections.abc import Sequence
 
 import numpy as np
 from numpy.typing import NDArray
@@ -58,3 +59,34 @@ def scratch_where(values: Array, keep: NDArray[np.bool_]) -> Array:
         out[written : written + len(rows)] = rows
         written += len(rows)
     return out
+
+
+class ScratchRows:
+    """Rows of `width` float64s appended one at a time (a decoder's, whose count is known only at the
+    end), gathered `ROWS` at a time and written to an unnamed temporary file, mapped once done: a list of
+    them would hold a Python float object per number."""
+
+    def __init__(self, width: int) -> None:
+        self._file = tempfile.TemporaryFile(prefix="pegbt-scratch-")
+        self._buffer = np.empty((ROWS, width))
+        self._filled = 0
+        self.count = 0
+
+    def append(self, row: Sequence[float] | Array) -> None:
+        self._buffer[self._filled] = row
+        self._filled += 1
+        self.count += 1
+        if self._filled == ROWS:
+            self._spill()
+
+    def _spill(self) -> None:
+        self._buffer[: self._filled].tofile(self._file)
+        self._filled = 0
+
+    def array(self) -> Array:
+        """The rows appended so far, (count, width), mapped from the file."""
+        self._spill()
+        self._file.flush()
+        if self.count == 0:
+            return np.empty((0, self._buffer.shape[1]))
+        return np.memmap(self._file, dtype=np.float64, mode="r+", shape=(self.count, self._buffer.shape[1]))

@@ -1,8 +1,9 @@
-"""A recording read from its folder is mapped from its files, not copied into the process's memory, and
-checking it (validation, measurement faults, the samples kept) holds a byte or two a sample: the traced
-peak at two lengths, as in `test_diagnose_memory.py`; what grows with the recording is the difference.
-Reading it held 104 bytes a sample (its commands, measured joints and times) and checking it about 350
-more at once. The checks run a chunk of rows at a time; chunks of a few rows find what one chunk does."""
+"""A recording read from its folder is mapped from its files, not copied into the process's memory (a
+bag's is decoded into scratch files), and checking it (validation, measurement faults, the samples
+kept) holds a byte or two a sample: the traced peak at two lengths, as in `test_diagnose_memory.py`;
+what grows with the recording is the difference. Reading it held 104 bytes a sample (its commands,
+measured joints and times) and checking it about 350 more at once. The checks run a chunk of rows at a
+time; chunks of a few rows find what one chunk does."""
 
 from __future__ import annotations
 
@@ -10,12 +11,14 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from bag_helpers import setpoint_streams, write_mcap
 from memory_helpers import peak_bytes
 from scipy.ndimage import median_filter
 from sim2real_helpers import bad_recordings, recording_with
 
 from pegbt.errors import PegbtError
 from pegbt.physics import faults, plausible, recording
+from pegbt.physics.bagfile import read_bag
 from pegbt.physics.faults import NEIGHBOURS, Errors, detect_faults
 from pegbt.physics.recording import Recording, load_recording, write_recording
 from pegbt.sim2real.synth import with_tracker_faults
@@ -48,6 +51,22 @@ def test_reading_and_checking_a_recording_holds_no_copy_of_it(tmp_path: Path) ->
     n_long, long = _checked_peak(folders[900.0])
     assert n_long > 2.9 * n_short  # the faults left out are a small share of either
     assert (long - short) / (n_long - n_short) < 0.25 * ROW
+
+
+def _bag_peak(folder: Path, seconds: float) -> tuple[int, int]:
+    """(samples, traced peak of reading them) of a 100 Hz stream written as an MCAP bag."""
+    rec = recording_with([], seconds=seconds)
+    bag = write_mcap(folder / f"b{seconds:g}.mcap", setpoint_streams(rec.t, rec.q_cmd, rec.q_phy))
+    peak, samples = peak_bytes(lambda: read_bag(bag))
+    np.testing.assert_array_equal(samples.q_phy, rec.q_phy)
+    return len(samples.t), peak
+
+
+def test_a_bag_is_decoded_into_scratch_not_lists(tmp_path: Path) -> None:
+    n_short, short = _bag_peak(tmp_path, 100.0)
+    n_long, long = _bag_peak(tmp_path, 300.0)
+    # it was 965 bytes a sample: each message's stamp and joints as Python floats in a list, per topic
+    assert (long - short) / (n_long - n_short) < ROW
 
 
 def test_faults_found_a_few_rows_at_a_time_are_those_found_at_once(monkeypatch: pytest.MonkeyPatch) -> None:
