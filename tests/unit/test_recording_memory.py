@@ -20,7 +20,7 @@ from pegbt.errors import PegbtError
 from pegbt.physics import faults, plausible, recording
 from pegbt.physics.bagfile import read_bag
 from pegbt.physics.faults import NEIGHBOURS, Errors, detect_faults
-from pegbt.physics.recording import Recording, load_recording, write_recording
+from pegbt.physics.recording import FILES, Recording, load_recording, write_recording
 from pegbt.sim2real.synth import with_tracker_faults
 
 ROW = 6 * 8  # bytes of one sample of (N, 6) floats
@@ -51,6 +51,21 @@ def test_reading_and_checking_a_recording_holds_no_copy_of_it(tmp_path: Path) ->
     n_long, long = _checked_peak(folders[900.0])
     assert n_long > 2.9 * n_short  # the faults left out are a small share of either
     assert (long - short) / (n_long - n_short) < 0.25 * ROW
+
+
+@pytest.mark.parametrize("layout", ["<f8", ">f8", "<f4", "fortran"])
+def test_arrays_of_any_float_layout_read_as_their_numbers(tmp_path: Path, layout: str) -> None:
+    rec = recording_with([], seconds=100.0)  # more rows than a chunk: a cast goes a chunk at a time
+    folder = write_recording(tmp_path / layout, rec.q_cmd, rec.q_phy, rec.t)
+    as_written = {"q_cmd": rec.q_cmd, "q_phy": rec.q_phy, "t": rec.t}
+    for name, values in as_written.items():
+        stored = np.asfortranarray(values) if layout == "fortran" else values.astype(layout)
+        np.save(folder / FILES[name], stored)
+    read = load_recording(folder)
+    for name, values in as_written.items():
+        expected = values.astype(np.float32) if layout == "<f4" else values
+        np.testing.assert_array_equal(getattr(read, name), expected)
+        assert getattr(read, name).dtype == np.float64
 
 
 def _bag_peak(folder: Path, seconds: float) -> tuple[int, int]:
