@@ -2,9 +2,9 @@
 
 A diagnosis keeps a few arrays as long as the recording (its held-out predictions, the base replay and
 the residual, each nested training part's copy; a recording decoded from a bag or cast from float32):
-at 100 Hz each N × 6 one is 48 bytes a sample, 4 GB a day together. Mapped from a file the kernel may write their pages out and drop them, so what the
-process itself holds stays bounded by its chunks whatever the length; the figures are the same, since
-the values are the same float64s.
+at 100 Hz each N × 6 one is 48 bytes a sample, 4 GB a day together. Mapped from a file the kernel may
+write their pages out and drop them, so what the process itself holds stays bounded by its chunks
+whatever the length; the figures are the same, since the values are the same float64s.
 """
 
 from __future__ import annotations
