@@ -2,7 +2,7 @@
 
 Why: a reader that reads a file whole and then checks it dies of MemoryError on `/dev/zero`, hangs
 on a FIFO, and lets a NumPy header that claims 44 GiB allocate it. Every reader of user files goes
-through `file_size` (what the file is, before it is opened) and `read_bytes` or `load_npy` (never
+through `file_size` (what the file is, before it is opened) and `read_bytes` or `map_npy` (never
 more than the limit), so a bad file is a `PegbtError` naming it, never a hang or a traceback.
 """
 
@@ -56,8 +56,10 @@ def read_bytes(path: str | os.PathLike[str], limit: int, what: str = "file") -> 
     return data
 
 
-def load_npy(path: Path, limit: int) -> NDArray[np.floating]:
-    """A floating-point `.npy` array whose header, read first, promises at most `limit` bytes of data.
+def map_npy(path: Path, limit: int) -> NDArray[np.floating]:
+    """A floating-point `.npy` array whose header, read first, promises at most `limit` bytes of data,
+    mapped read-only from the file: its pages are the kernel's to read in and drop, not the process's
+    own memory, so an hour of recording costs what its chunks in use do.
 
     Integers (a recording in counts or ticks), complex numbers (whose imaginary part a cast drops),
     timedeltas, objects and zip archives (`.npz` named `.npy`) are refused, never cast."""
@@ -91,10 +93,14 @@ def load_npy(path: Path, limit: int) -> NDArray[np.floating]:
                     f"{size - handle.tell()} (limit {limit})",
                     file=path,
                 )
-            data = np.fromfile(handle, dtype=dtype, count=count)
+            if count == 0 or not shape:  # nothing to map (mmap refuses an empty mapping), or one number
+                return np.fromfile(handle, dtype=dtype, count=count).reshape(shape)
+            offset = handle.tell()
+        mapped = np.memmap(
+            path, dtype=dtype, mode="r", offset=offset, shape=shape, order="F" if fortran else "C"
+        )
     except PegbtError:
         raise
     except (OSError, ValueError, EOFError, SyntaxError, TypeError) as error:
         raise PegbtError(f"cannot read it as a NumPy array ({error})", file=path) from None
-    data = data.reshape(shape, order="F" if fortran else "C")
-    return np.asarray(data, dtype=float)
+    return np.asarray(mapped)  # an ordinary array over the mapping, which it keeps open

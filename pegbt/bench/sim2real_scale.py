@@ -7,7 +7,7 @@ what a longer recording costs beyond the fixed part (imports, Gram matrices, chu
 resident sets, sampled every `SAMPLE_S`, or the child's own peak (`wait4`) if larger. Beside it, the
 peak of their anonymous memory (resident less file-backed: `psutil`'s rss − shared), what the process
 itself must hold: the recording-sized intermediates a diagnosis maps from scratch files
-(`pegbt.sim2real.scratch`) are resident only while the kernel has room for them, and
+(`pegbt.scratch`) are resident only while the kernel has room for them, and
 `anon_growth_kb_per_sample` is that peak's growth. The bank a diagnosis would hold were it kept (223
 columns at 8 bytes a sample) is given beside it.
 """

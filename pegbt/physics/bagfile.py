@@ -25,6 +25,7 @@ from numpy.typing import NDArray
 from pegbt.bagoptions import DEFAULT_CMD, DEFAULT_PHY
 from pegbt.errors import PegbtError
 from pegbt.psm import ARMS, N_JOINTS
+from pegbt.scratch import ROWS, ScratchRows, scratch, scratch_where
 from pegbt.yamlfile import read_yaml_file
 
 JOINT_STATE = "sensor_msgs/msg/JointState"
@@ -192,24 +193,32 @@ def _one_line(error: Exception) -> str:
     return " ".join(str(error).split()) or type(error).__name__
 
 
-def _joint_stream(path: Path, topic: str, kind: str, rows: list[tuple[float, list[float]]]) -> Array:
+def _joint_stream(
+    path: Path, topic: str, kind: str, rows: ScratchRows | None, malformed: tuple[int, int] | None
+) -> Array:
+    """A topic's (stamp, six joints) rows in order of stamp, a state re-sent unchanged once, in scratch."""
     if kind != JOINT_STATE:
         raise PegbtError(
             f"topic {topic} holds {kind or 'untyped messages'}, not {JOINT_STATE}", file=path, field=topic
         )
-    if not rows:
+    if rows is None:
         raise PegbtError(f"topic {topic} has no messages", file=path, field=topic)
-    bad = next((i for i, (_, q) in enumerate(rows) if len(q) != N_JOINTS), None)
-    if bad is not None:
+    if malformed is not None:
         raise PegbtError(
-            f"message {bad} of {topic} has {len(rows[bad][1])} joint positions; an arm has {N_JOINTS}",
+            f"message {malformed[0]} of {topic} has {malformed[1]} joint positions; an arm has {N_JOINTS}",
             file=path,
             field=topic,
         )
-    order = np.argsort([stamp for stamp, _ in rows], kind="stable")
-    stream = np.array([[rows[i][0], *rows[i][1]] for i in order], dtype=float)
+    stream = rows.array()
+    stamps = stream[:, 0]
+    if not np.all(stamps[1:] >= stamps[:-1]):  # a bag's messages in the order logged, not stamped
+        order = np.argsort(stamps, kind="stable")
+        ordered = scratch(stream.shape)
+        for a in range(0, len(order), ROWS):
+            ordered[a : a + ROWS] = stream[order[a : a + ROWS]]
+        stream = ordered
     last_of_stamp = np.r_[stream[1:, 0] != stream[:-1, 0], True]  # a state re-sent unchanged counts once
-    return stream[last_of_stamp]
+    return stream if last_of_stamp.all() else scratch_where(stream, last_of_stamp)
 
 
 def _bag_arm(path: Path, arm: str | None, cmd: str | None, phy: str | None) -> str | None:
@@ -237,7 +246,9 @@ def read_bag(
 
     arm = _bag_arm(path, arm, cmd, phy)
     topics: dict[str, str] = {}
-    rows: dict[str, list[tuple[float, list[float]]]] = {}
+    rows: dict[str, ScratchRows] = {}  # each topic's (stamp, six joints), decoded into scratch
+    counts: dict[str, int] = {}
+    malformed: dict[str, tuple[int, int]] = {}  # a topic's first message without six joints, and its count
     notes: list[str] = []
     store = get_typestore(Stores.ROS2_JAZZY)
     wanted = None if arm is None else {cmd or DEFAULT_CMD.format(arm=arm), phy or DEFAULT_PHY.format(arm=arm)}
@@ -247,13 +258,19 @@ def read_bag(
         try:
             message = store.deserialize_cdr(data, JOINT_STATE)
         except (SerdeError, ValueError, IndexError, struct.error, UnicodeDecodeError, MemoryError) as error:
-            index = len(rows.get(topic, []))
+            index = counts.get(topic, 0)
             raise PegbtError(
                 f"message {index} of {topic} is not valid CDR: {_one_line(error)}", file=path, field=topic
             ) from None
         assert isinstance(message, sensor_msgs__msg__JointState)  # the store's class for JOINT_STATE
         stamp = message.header.stamp.sec + message.header.stamp.nanosec * 1e-9 or log_time * 1e-9
-        rows.setdefault(topic, []).append((stamp, [float(q) for q in message.position]))
+        index = counts.get(topic, 0)
+        counts[topic] = index + 1
+        stream = rows.get(topic) or rows.setdefault(topic, ScratchRows(1 + N_JOINTS))
+        if len(message.position) != N_JOINTS:
+            malformed.setdefault(topic, (index, len(message.position)))
+        elif topic not in malformed:
+            stream.append((stamp, *message.position))
     if not topics:
         raise PegbtError("the bag is empty: no topics, no messages", file=path)
     if arm is None:
@@ -273,33 +290,51 @@ def read_bag(
             raise PegbtError(
                 f"no topic {topic} in the bag (it has {', '.join(sorted(topics))})", file=path, field=topic
             )
-    commands = _joint_stream(path, cmd, topics[cmd], rows.get(cmd, []))
-    physical = _joint_stream(path, phy, topics[phy], rows.get(phy, []))
+    commands = _joint_stream(path, cmd, topics[cmd], rows.get(cmd), malformed.get(cmd))
+    physical = _joint_stream(path, phy, topics[phy], rows.get(phy), malformed.get(phy))
     return replace(_paired(path, cmd, phy, commands, physical, arm, settled), notes=tuple(notes))
 
 
 def _paired(
     path: Path, cmd: str, phy: str, commands: Array, physical: Array, arm: str, settled: float | None
 ) -> BagSamples:
-    """Each physical sample with the latest command at or before it; with `settled`, only held commands."""
-    latest = np.searchsorted(commands[:, 0], physical[:, 0], side="right") - 1
-    keep = latest >= 0
-    if not keep.any():
+    """Each physical sample with the latest command at or before it; with `settled`, only held commands.
+    Paired `ROWS` physical samples at a time into scratch (`pegbt.scratch`)."""
+    command_stamps = scratch((len(commands),))
+    command_stamps[:] = commands[:, 0]
+    since = None
+    if settled is not None:
+        changed = np.r_[True, (np.diff(commands[:, 1:], axis=0) != 0).any(axis=1)]
+        since = np.maximum.accumulate(np.where(changed, np.arange(len(commands)), 0))
+    q_cmd, q_phy, t = (
+        scratch((len(physical), N_JOINTS)),
+        scratch((len(physical), N_JOINTS)),
+        scratch((len(physical),)),
+    )
+    overlap, kept = False, 0
+    for a in range(0, len(physical), ROWS):
+        stamps = physical[a : a + ROWS, 0]
+        latest = np.searchsorted(command_stamps, stamps, side="right") - 1
+        keep = latest >= 0
+        overlap |= bool(keep.any())
+        if since is not None and settled is not None:
+            keep &= stamps - commands[since[np.maximum(latest, 0)], 0] >= settled
+        count = int(keep.sum())
+        q_cmd[kept : kept + count] = commands[latest[keep], 1:]
+        q_phy[kept : kept + count] = physical[a : a + ROWS][keep, 1:]
+        t[kept : kept + count] = stamps[keep]
+        kept += count
+    if not overlap:
         raise PegbtError(
             f"no overlap in time: every {phy} message ({physical[0, 0]:.9g}–{physical[-1, 0]:.9g} s) is "
             f"stamped before the first {cmd} message ({commands[0, 0]:.9g} s)",
             file=path,
             field=phy,
         )
-    if settled is not None:
-        changed = np.r_[True, (np.diff(commands[:, 1:], axis=0) != 0).any(axis=1)]
-        since = np.maximum.accumulate(np.where(changed, np.arange(len(commands)), 0))
-        held = physical[:, 0] - commands[since[np.maximum(latest, 0)], 0]
-        keep &= held >= settled
-        if not keep.any():
-            raise PegbtError(
-                f"no {phy} sample comes {settled:g} s or more after its command last changed",
-                file=path,
-                field="settled",
-            )
-    return BagSamples(commands[latest[keep], 1:], physical[keep, 1:], physical[keep, 0], arm)
+    if not kept:
+        raise PegbtError(
+            f"no {phy} sample comes {settled:g} s or more after its command last changed",
+            file=path,
+            field="settled",
+        )
+    return BagSamples(q_cmd[:kept], q_phy[:kept], t[:kept], arm)

@@ -24,6 +24,7 @@ from numpy.typing import NDArray
 from scipy.ndimage import median_filter
 
 from pegbt.motion.robot_config import DVRK_LIMITS, RobotLimits
+from pegbt.scratch import ROWS, scratch
 
 Array = NDArray[np.float64]
 
@@ -87,21 +88,52 @@ class MeasurementFaults:
         }
 
 
-def _spread(error: Array) -> Array:
-    """Each joint's typical error: 1.4826 × the median absolute deviation of its whole recording."""
-    spread = 1.4826 * np.median(np.abs(error - np.median(error, axis=0)), axis=0)
-    return np.maximum(spread, 1e-9)
+@dataclass(frozen=True)
+class Errors:
+    """Measured − commanded joints (N, 6) in scratch (`pegbt.scratch`), with each joint's centre (median)
+    and typical error (1.4826 × its median absolute deviation): the yardstick of the whole recording, found
+    a column at a time, so a long recording's error is never the process's own memory."""
+
+    values: Array
+    centre: Array
+    spread: Array
+
+    @classmethod
+    def of(cls, q_cmd: Array, q_phy: Array) -> Errors:
+        error = scratch(q_cmd.shape)
+        for a in range(0, len(error), ROWS):
+            np.subtract(q_phy[a : a + ROWS], q_cmd[a : a + ROWS], out=error[a : a + ROWS])
+        column = scratch((len(error),))
+        centre, spread = np.empty(error.shape[1]), np.empty(error.shape[1])
+        for j in range(error.shape[1]):
+            column[:] = error[:, j]
+            centre[j] = np.median(column, overwrite_input=True)  # sorts the copy in place, not a new one
+            np.abs(np.subtract(error[:, j], centre[j], out=column), out=column)
+            spread[j] = 1.4826 * np.median(column, overwrite_input=True)
+        return cls(error, centre, np.maximum(spread, 1e-9))
+
+    def departure(self, a: int, b: int) -> Array:
+        """(b − a, 6): how many robust deviations rows [a, b) lie from where their joints usually sit."""
+        with np.errstate(over="ignore"):  # a reading of 1e308 departs infinitely far: so it does
+            return np.abs(self.values[a:b] - self.centre) / self.spread
+
+    def local(self, a: int, b: int) -> Array:
+        """(b − a, 6): how many robust deviations rows [a, b) lie from their running median (`NEIGHBOURS`
+        samples, the ends repeated), from the rows around them: the same as over the whole recording."""
+        halo = NEIGHBOURS // 2
+        lo, hi = max(a - halo, 0), min(b + halo, len(self.values))
+        around = self.values[lo:hi]
+        median = median_filter(around, size=(NEIGHBOURS, 1), mode="nearest")[a - lo : b - lo]
+        with np.errstate(over="ignore"):
+            return np.abs(around[a - lo : b - lo] - median) / self.spread
 
 
-def _departure(error: Array) -> Array:
-    """(N, 6): how many robust deviations each error lies from where its joint usually sits."""
-    with np.errstate(over="ignore"):  # a reading of 1e308 departs infinitely far: so it does
-        return np.abs(error - np.median(error, axis=0)) / _spread(error)
-
-
-def outlying(q_cmd: Array, q_phy: Array) -> NDArray[np.bool_]:
-    """(N, 6): where a joint's error lies more than `LIMIT` robust deviations from where it usually sits."""
-    return _departure(np.asarray(q_phy, float) - np.asarray(q_cmd, float)) > LIMIT
+def outlying(errors: Errors, joint: int) -> NDArray[np.bool_]:
+    """(N,): where `joint`'s error lies more than `LIMIT` robust deviations from where it usually sits."""
+    n = len(errors.values)
+    return np.concatenate(
+        [errors.departure(a, a + ROWS)[:, joint] > LIMIT for a in range(0, n, ROWS)] or [np.zeros(0, bool)]
+    )
 
 
 def unreachable(q_cmd: Array, q_phy: Array, limits: RobotLimits = DVRK_LIMITS) -> NDArray[np.bool_]:
@@ -115,16 +147,22 @@ def unreachable(q_cmd: Array, q_phy: Array, limits: RobotLimits = DVRK_LIMITS) -
 
 
 def detect_faults(q_cmd: Array, q_phy: Array, limits: RobotLimits = DVRK_LIMITS) -> MeasurementFaults:
-    """The samples of a recording no arm could produce (see the module docstring); `limits` are the robot's."""
-    error = np.asarray(q_phy, float) - np.asarray(q_cmd, float)
-    n = len(error)
-    impossible: NDArray[np.bool_] = np.any(unreachable(q_cmd, q_phy, limits), axis=1)
+    """The samples of a recording no arm could produce (see the module docstring); `limits` are the robot's.
+    Found `ROWS` samples at a time: what it holds beyond its scratch is a byte a sample, the mask."""
+    n = len(q_cmd)
+    impossible = np.empty(n, dtype=bool)
+    for a in range(0, n, ROWS):
+        impossible[a : a + ROWS] = np.any(
+            unreachable(q_cmd[a : a + ROWS], q_phy[a : a + ROWS], limits), axis=1
+        )
     if n < NEIGHBOURS:
         return MeasurementFaults(impossible, (), int(impossible.sum()), int(impossible.sum()))
-    with np.errstate(over="ignore"):
-        local = np.abs(error - median_filter(error, size=(NEIGHBOURS, 1), mode="nearest")) / _spread(error)
-    departs = np.maximum(local, _departure(error)) > LIMIT
-    mask = (departs.sum(axis=1) >= MIN_JOINTS) | impossible
+    errors = Errors.of(q_cmd, q_phy)
+    mask = impossible.copy()
+    for a in range(0, n, ROWS):
+        b = min(a + ROWS, n)
+        departs = np.maximum(errors.local(a, b), errors.departure(a, b)) > LIMIT
+        mask[a:b] |= departs.sum(axis=1) >= MIN_JOINTS
     windows = []
     glitches = 0
     index = np.flatnonzero(mask)

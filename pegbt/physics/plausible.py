@@ -21,8 +21,9 @@ from numpy.typing import NDArray
 
 from pegbt.errors import PegbtError
 from pegbt.motion.robot_config import RobotLimits
-from pegbt.physics.faults import PHYSICAL_TOLERANCE, outlying, unreachable
+from pegbt.physics.faults import PHYSICAL_TOLERANCE, Errors, outlying, unreachable
 from pegbt.psm import N_JOINTS, joint_label
+from pegbt.scratch import ROWS, scratch, scratch_where
 
 # How far a recorded command may pass the robot's limits: rad for rotary joints, m for insertion (5 mm
 # covers dVRK 1.x's 0.2412 m; a recording in millimetres is off by a factor of 1000).
@@ -55,12 +56,13 @@ def check_arm_joints(
         file_of,
         line_of,
     )
-    own = ~outlying(q_cmd, q_phy)  # a tracker that lost the tool does not make the joint unfollowing
+    errors = Errors.of(q_cmd, q_phy)
     for joint in range(N_JOINTS):
-        command, physical = q_cmd[own[:, joint], joint], q_phy[own[:, joint], joint]
+        own = ~outlying(errors, joint)  # a tracker that lost the tool does not make the joint unfollowing
+        command, physical = scratch_where(q_cmd[:, joint], own), scratch_where(q_phy[:, joint], own)
         if command.size < 2 or np.ptp(command) < MOVED[joint] or np.ptp(physical) == 0:
             continue
-        correlation = float(np.corrcoef(command, physical)[0, 1])
+        correlation = _correlation(command, physical)
         if not correlation >= MIN_CORRELATION[joint]:
             raise PegbtError(
                 f"{joint_label(joint)} does not follow its commands (correlation {correlation:.2f}, an arm's "
@@ -68,10 +70,19 @@ def check_arm_joints(
                 file=file_of("q_phy"),
                 field=f"q_phy.{joint_label(joint).split()[0]}",
             )
-    beyond = unreachable(q_cmd, q_phy, limits)
-    share = float(beyond.any(axis=1).mean())
+    first: tuple[int, int] | None = None
+    count = 0
+    for a in range(0, len(q_cmd), ROWS):
+        beyond = unreachable(q_cmd[a : a + ROWS], q_phy[a : a + ROWS], limits)
+        rows = beyond.any(axis=1)
+        count += int(rows.sum())
+        if first is None and rows.any():
+            sample, joint = (int(i) for i in np.argwhere(beyond)[0])
+            first = (a + sample, joint)
+    share = count / len(q_cmd)
     if share > MAX_UNREACHABLE_SHARE:
-        sample, joint = (int(i) for i in np.argwhere(beyond)[0])
+        assert first is not None, "a share above one half has a first sample"
+        sample, joint = first
         unit = "m" if joint == 2 else "rad"
         raise PegbtError(
             f"{joint_label(joint)} is {q_phy[sample, joint]:.6g} {unit} at sample {sample} (commanded "
@@ -85,6 +96,15 @@ def check_arm_joints(
         )
 
 
+def _correlation(x: NDArray[np.float64], y: NDArray[np.float64]) -> float:
+    """`np.corrcoef(x, y)[0, 1]` with its centred copy in scratch (`pegbt.scratch`), not in memory."""
+    centred = scratch((2, len(x)))
+    centred[0], centred[1] = x, y
+    centred -= centred.mean(axis=1)[:, None]
+    c = np.dot(centred, centred.T) / (len(x) - 1)
+    return float(np.clip(c[0, 1] / np.sqrt(c[0, 0]) / np.sqrt(c[1, 1]), -1.0, 1.0))
+
+
 def _within(
     q: NDArray[np.float64],
     lower: NDArray[np.float64],
@@ -94,11 +114,17 @@ def _within(
     file_of: Callable[[str], Path],
     line_of: Callable[[int], int | None],
 ) -> None:
-    outside = (q < lower) | (q > upper)
-    if not outside.any():
+    first: tuple[int, int] | None = None
+    count = 0
+    for a in range(0, len(q), ROWS):  # a chunk at a time: the comparisons are bytes a sample each
+        outside = (q[a : a + ROWS] < lower) | (q[a : a + ROWS] > upper)
+        count += int(outside.any(axis=1).sum())
+        if first is None and outside.any():
+            sample, joint = (int(i) for i in np.argwhere(outside)[0])
+            first = (a + sample, joint)
+    if first is None:
         return
-    sample, joint = (int(i) for i in np.argwhere(outside)[0])
-    count = int(outside.any(axis=1).sum())
+    sample, joint = first
     unit = "m" if joint == 2 else "rad"
     raise PegbtError(
         f"{joint_label(joint)} is {q[sample, joint]:.6g} {unit} at sample {sample}, outside {bound} "
@@ -118,18 +144,17 @@ MIN_STEP = 1e-6  # s
 
 def check_times(t: NDArray[np.float64], file: Path, line_of: Callable[[int], int | None]) -> None:
     """A `PegbtError` unless the (increasing) timestamps are seconds of a plausible size and step."""
-    beyond = np.flatnonzero(np.abs(t) > MAX_TIME)
-    if beyond.size:
-        sample = int(beyond[0])
+    sample = first_where(len(t), lambda a, b: np.abs(t[a:b]) > MAX_TIME)
+    if sample is not None:
         raise PegbtError(
             f"timestamp {t[sample]:.6g} s at sample {sample} is beyond ±{MAX_TIME:g} s: not seconds",
             file=file,
             line=line_of(sample),
             field="t",
         )
-    short = np.flatnonzero(np.diff(t) < MIN_STEP)
-    if short.size:
-        sample = int(short[0]) + 1
+    step = first_where(len(t) - 1, lambda a, b: np.diff(t[a : b + 1]) < MIN_STEP)
+    if step is not None:
+        sample = step + 1
         raise PegbtError(
             f"timestamps {t[sample] - t[sample - 1]:.3g} s apart at sample {sample}: samples must be at "
             f"least {MIN_STEP:g} s apart",
@@ -137,3 +162,14 @@ def check_times(t: NDArray[np.float64], file: Path, line_of: Callable[[int], int
             line=line_of(sample),
             field="t",
         )
+
+
+def first_where(n: int, test: Callable[[int, int], NDArray[np.bool_]]) -> int | None:
+    """The first of `n` indices where `test(a, b)` (a mask of rows [a, b), found `ROWS` at a time, so a
+    long recording's comparisons are never held whole) is true anywhere in its row, or None."""
+    for a in range(0, n, ROWS):
+        hits = test(a, min(a + ROWS, n))
+        rows = np.flatnonzero(hits.reshape(len(hits), -1).any(axis=1))
+        if rows.size:
+            return a + int(rows[0])
+    return None

@@ -38,12 +38,13 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from pegbt.boundedio import load_npy, read_bytes
+from pegbt.boundedio import map_npy, read_bytes
 from pegbt.errors import PegbtError
 from pegbt.motion.robot_config import DEFAULT_TOOL, DVRK_LIMITS, RobotLimits, robot_limits
 from pegbt.physics.bagfile import is_bag, read_bag
-from pegbt.physics.plausible import check_arm_joints, check_times
+from pegbt.physics.plausible import check_arm_joints, check_times, first_where
 from pegbt.psm import JOINT_NAMES, N_JOINTS, known_arm
+from pegbt.scratch import ROWS, scratch_copy, scratch_where
 
 Array = NDArray[np.float64]
 
@@ -140,11 +141,14 @@ class Recording:
         return int(round(fraction * self.n))
 
     def subset(self, keep: NDArray[np.bool_]) -> Recording:
-        """The samples where `keep` is true, as a recording of their own (itself if it keeps all)."""
+        """The samples where `keep` is true, as a recording of their own in scratch (itself if it keeps
+        all)."""
         if keep.all():
             return self
-        t = None if self.t is None else self.t[keep]
-        return replace(self, q_cmd=self.q_cmd[keep], q_phy=self.q_phy[keep], t=t)
+        t = None if self.t is None else scratch_where(self.t, keep)
+        return replace(
+            self, q_cmd=scratch_where(self.q_cmd, keep), q_phy=scratch_where(self.q_phy, keep), t=t
+        )
 
     def slice(self, start: int, stop: int | None = None) -> Recording:
         """The samples [start, stop) as a recording of their own."""
@@ -226,10 +230,13 @@ def _load_recording(
 
 
 def _load_npy(path: Path) -> Array:
+    """The array mapped from its file (`map_npy`), or, not in float64 as this machine orders it, cast
+    into scratch (`pegbt.scratch`): never a recording's length in the process's own memory."""
     try:
-        return load_npy(path, MAX_ARRAY_BYTES).astype(np.float64, copy=False)
+        values = map_npy(path, MAX_ARRAY_BYTES)
     except PegbtError as error:
         raise PegbtError(f"not a recording: {error.message}", file=path) from None
+    return np.asarray(values, dtype=np.float64) if values.dtype == np.float64 else scratch_copy(values)
 
 
 def _read_folder(folder: Path) -> tuple[Array, Array, Array | None]:
@@ -356,19 +363,21 @@ def validate(
     for name, array in (("q_cmd", q_cmd), ("q_phy", q_phy), ("t", t)):
         if array is None:
             continue
-        bad = np.flatnonzero(~np.isfinite(array.reshape(len(array), -1)).all(axis=1))
-        if bad.size:
-            more = f" and {bad.size - 1} more" if bad.size > 1 else ""
+        first = first_where(len(array), lambda a, b: _nonfinite_rows(array, a, b))
+        if first is not None:
+            n = len(array)
+            bad = sum(int(_nonfinite_rows(array, a, min(a + ROWS, n)).sum()) for a in range(first, n, ROWS))
+            more = f" and {bad - 1} more" if bad > 1 else ""
             raise PegbtError(
-                f"NaN or infinite value in sample {bad[0]}{more}",
+                f"NaN or infinite value in sample {first}{more}",
                 file=_file(where, name),
-                line=_line(where, bad[0]),
+                line=_line(where, first),
                 field=name,
             )
     if t is not None:
-        steps = np.diff(t)
-        if (steps <= 0).any():
-            n = int(np.flatnonzero(steps <= 0)[0]) + 1
+        step = first_where(len(t) - 1, lambda a, b: np.diff(t[a : b + 1]) <= 0)
+        if step is not None:
+            n = step + 1
             raise PegbtError(
                 f"timestamps not increasing at sample {n} ({t[n]:.6g} s after {t[n - 1]:.6g} s)",
                 file=_file(where, "t"),
@@ -386,6 +395,11 @@ def validate(
     check_arm_joints(
         q_cmd, q_phy, limits, lambda name: _file(where, name), lambda sample: _line(where, sample)
     )
+
+
+def _nonfinite_rows(array: Array, a: int, b: int) -> NDArray[np.bool_]:
+    """Which of rows [a, b) hold a NaN or an infinity."""
+    return np.asarray(~np.isfinite(array[a:b].reshape(b - a, -1)).all(axis=1), dtype=bool)
 
 
 def _is_csv(where: Path) -> bool:

@@ -23,7 +23,7 @@ from typing import Protocol
 import numpy as np
 from numpy.typing import NDArray
 
-from pegbt.sim2real.scratch import scratch
+from pegbt.scratch import scratch
 
 Array = NDArray[np.float64]
 
@@ -186,7 +186,7 @@ class BlockedGrams:
         return list(range(m, m + k))
 
     def column_values(self, columns: NDArray[np.int64] | list[int]) -> Array:
-        """The values (N, k) of bank columns `columns`, in order, in scratch (`pegbt.sim2real.scratch`):
+        """The values (N, k) of bank columns `columns`, in order, in scratch (`pegbt.scratch`):
         a model's dozen columns at once would be a hundred bytes a sample."""
         index = np.asarray(columns, dtype=np.int64).reshape(-1)
         values = scratch((self._store.n, len(index)))

@@ -21,6 +21,7 @@ from pegbt.physics.faults import MeasurementFaults, detect_faults
 from pegbt.physics.model import REPLAY_ROWS
 from pegbt.physics.recording import Recording, Sampling, validate
 from pegbt.psm import JOINT_NAMES
+from pegbt.scratch import scratch, scratch_rows
 from pegbt.sim2real.crossval import BlockedGrams, fold_ranges
 from pegbt.sim2real.explain import effect_sentence, remaining_sentence, rival_sentence
 from pegbt.sim2real.fit import (
@@ -41,7 +42,6 @@ from pegbt.sim2real.geometry import (
 from pegbt.sim2real.library import build_columns
 from pegbt.sim2real.locate import JointMismatch, locate
 from pegbt.sim2real.practical import BelowResolution, settle_joint
-from pegbt.sim2real.scratch import scratch, scratch_rows
 from pegbt.sim2real.select import JointSelection, Unidentifiable, find_unidentifiable, select
 
 Array = NDArray[np.float64]
@@ -120,7 +120,7 @@ class Diagnosis:
 
 
 def rms(values: Array) -> Array:
-    """Root mean square of each column, its squares in scratch (`pegbt.sim2real.scratch`), not memory."""
+    """Root mean square of each column, its squares in scratch (`pegbt.scratch`), not memory."""
     return np.asarray(np.sqrt(np.square(values, out=scratch(values.shape)).mean(0)), dtype=float)
 
 
@@ -404,7 +404,9 @@ def diagnose(
     if geometry is not None:
         del heldout  # the first held-out predictions go before the second are made
         removal = displacement_removal(q_cmd, residual, resolution)
-        cable_residual = residual - removal(np.ones(recording.n, dtype=bool))
+        cable_residual = np.subtract(
+            residual, removal(np.ones(recording.n, dtype=bool)), out=scratch(residual.shape)
+        )
         heldout, _, fold_named = nested_predict(
             recording, t, residual, base, resolution, folds, removal, with_named=False
         )

@@ -23,8 +23,8 @@ from numpy.typing import NDArray
 from scipy.optimize import minimize_scalar
 
 from pegbt.physics import ArmPhysics, Effect, EffectKind, effect_kinds, kind_of
+from pegbt.scratch import scratch
 from pegbt.sim2real.library import play_widths, width_bounds, width_column
-from pegbt.sim2real.scratch import scratch
 from pegbt.sim2real.significance import block_bootstrap_indices, correlation_length
 
 Array = NDArray[np.float64]

@@ -26,6 +26,7 @@ from numpy.typing import NDArray
 
 from pegbt.motion.kinematics import forward_kinematics
 from pegbt.physics import Effect
+from pegbt.scratch import scratch, scratch_where
 
 Array = NDArray[np.float64]
 
@@ -127,7 +128,7 @@ def _fit(q_cmd: Array, error: Array, weights: Array, segments: list[tuple[int, i
 
 def _moved(q_cmd: Array, coefficients: Array, joints: int) -> Array:
     """(N, joints): what the displacement in `coefficients` moves each joint by, piece by piece."""
-    moved = np.empty((len(q_cmd), joints))
+    moved = scratch((len(q_cmd), joints))
     for a, b in _pieces([(0, len(q_cmd))]):
         moved[a:b] = _displacement_columns(q_cmd[a:b])[:, :joints] @ coefficients[ARM_JOINTS:]
     return moved
@@ -152,11 +153,11 @@ def check_geometry(
     are weighed by their resolution (else by their error), so metres and radians add up."""
     error = np.asarray(error, dtype=float)[:, :ARM_JOINTS]
     physics_error = np.asarray(physics_error, dtype=float)[:, :ARM_JOINTS]
-    scale = np.sqrt((error**2).mean(axis=0))
+    scale = _rms(error)
     weights = _weights(error, resolution)
     if np.any(weights <= 0) or np.any(scale <= 0):
         return None
-    left = np.empty_like(error)
+    left = scratch(error.shape)
     for a, b in folds:
         coefficients = _fit(q_cmd, error, weights, _without(len(error), (a, b)))
         for c, d in _pieces([(a, b)]):
@@ -166,10 +167,10 @@ def check_geometry(
     coefficients = _fit(q_cmd, error, weights, [(0, len(error))])
     moved = _moved(q_cmd, coefficients, ARM_JOINTS)
     moved -= moved.mean(axis=0)  # the part an offset cannot take up
-    if resolution and not np.any(np.abs(moved).max(axis=0) >= weights):
+    if resolution and not np.any(_largest(moved) >= weights):
         return None
-    ratio = np.sqrt((left**2).mean(axis=0)) / scale
-    physics = np.sqrt((physics_error**2).mean(axis=0)) / scale
+    ratio = _rms(left) / scale
+    physics = _rms(physics_error) / scale
     return GeometryCheck(_triple(coefficients[ARM_JOINTS:]), _triple(ratio), _triple(physics))
 
 
@@ -186,7 +187,7 @@ def displacement_removal(
 
     def removal(rows: NDArray[np.bool_]) -> Array:
         shift = _moved(q_cmd, _fit(q_cmd, error, weights, _segments(rows)), q_cmd.shape[1])
-        return np.asarray(shift - shift[rows].mean(axis=0), dtype=float)
+        return np.subtract(shift, scratch_where(shift, rows).mean(axis=0), out=shift)
 
     return removal
 
@@ -201,11 +202,25 @@ def _weights(error: Array, resolution: tuple[float, ...] | None) -> Array:
     """How q1–q3 are weighed against one another: by resolution, else by their error."""
     if resolution:
         return np.asarray(resolution[:ARM_JOINTS], dtype=float)
-    return np.asarray(np.sqrt((error**2).mean(axis=0)), dtype=float)
+    return _rms(error)
+
+
+def _rms(error: Array) -> Array:
+    """Each column's root mean square, its squares in scratch (`pegbt.scratch`), not memory."""
+    return np.asarray(np.sqrt(np.square(error, out=scratch(error.shape)).mean(axis=0)), dtype=float)
+
+
+def _largest(values: Array) -> Array:
+    """Each column's largest absolute value, a chunk of rows at a time."""
+    return np.max(
+        [np.abs(values[a : a + CHUNK_ROWS]).max(axis=0) for a in range(0, len(values), CHUNK_ROWS)], axis=0
+    )
 
 
 def _weighted(error: Array, weights: Array) -> float:
-    return float(((error / weights) ** 2).sum())
+    """The sum of squares of `error` over `weights`, computed in scratch."""
+    scaled = np.divide(error, weights, out=scratch(error.shape))
+    return float(np.square(scaled, out=scaled).sum())
 
 
 def _triple(values: Array) -> tuple[float, float, float]:

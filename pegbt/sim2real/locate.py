@@ -15,6 +15,7 @@ from numpy.typing import NDArray
 
 from pegbt.physics.kernels import play_grid
 from pegbt.psm import JOINT_NAMES
+from pegbt.scratch import ROWS, scratch, scratch_where
 
 Array = NDArray[np.float64]
 
@@ -78,7 +79,7 @@ class JointMismatch:
 
 def locate(residual: Array, q_cmd: Array, times: Array, is_stream: bool) -> list[JointMismatch]:
     """Per-joint size, windows and regimes of the residual (real − sim)."""
-    mse = (residual**2).mean(0)
+    mse = np.square(residual, out=scratch(residual.shape)).mean(0)
     total = float(mse.sum()) or 1.0
     motion = _motion(q_cmd, times, is_stream)
     return [
@@ -98,13 +99,13 @@ def _windows(r: Array, times: Array) -> list[tuple[float, float, float]]:
     """Stretches where the local mean square error exceeds the joint's by WINDOW_THRESHOLD."""
     n = len(r)
     width = max(3, int(WINDOW_FRACTION * n))
-    energy = r**2
+    energy = np.square(r, out=scratch((n,)))
     total = float(energy.sum())
     if total == 0:
         return []
-    local = np.convolve(energy, np.ones(width) / width, mode="same")
-    hot = local > WINDOW_THRESHOLD * energy.mean()
-    edges = np.flatnonzero(np.diff(np.r_[0, hot.astype(int), 0]))
+    hot = np.zeros(n + 2, dtype=bool)  # padded by a cold sample at each end
+    hot[1:-1] = np.convolve(energy, np.ones(width) / width, mode="same") > WINDOW_THRESHOLD * energy.mean()
+    edges = np.flatnonzero(hot[1:] != hot[:-1])
     runs = [[a, b] for a, b in zip(edges[::2], edges[1::2])]
     merged: list[list[int]] = []
     for run in runs:
@@ -128,46 +129,94 @@ class _Motion:
 
 
 def _motion(q_cmd: Array, times: Array, is_stream: bool) -> _Motion:
+    """The masks, found `ROWS` samples at a time from the state the chunk before left (play's last output,
+    the last move, a reversal's hold running on); what is read whole (a median, a percentile, the summed
+    motion) is in scratch (`pegbt.scratch`): it holds the masks, not the recording's length in floats."""
     n, joints = q_cmd.shape
-    dt = np.diff(times, prepend=times[0] - (times[1] - times[0]))
+    dt = scratch((n,))
+    dt[0] = times[0] - (times[0] - (times[1] - times[0]))  # as `np.diff(times, prepend=...)` gives it
+    for a in range(1, n, ROWS):
+        b = min(a + ROWS, n)
+        np.subtract(times[a:b], times[a - 1 : b - 1], out=dt[a:b])
     span = np.maximum(np.ptp(q_cmd, axis=0), 1e-12)
+    hold = max(1, int(round(AFTER_REVERSAL_S / float(_median(dt))))) if is_stream else AFTER_REVERSAL_SAMPLES
     rising = np.zeros((n, joints), dtype=bool)
     after = np.zeros((n, joints), dtype=bool)
     fast = np.zeros((n, joints), dtype=bool)
-    hold = (
-        max(1, int(round(AFTER_REVERSAL_S / float(np.median(dt))))) if is_stream else AFTER_REVERSAL_SAMPLES
-    )
-    total = np.zeros(n)  # every joint's step over its range, summed joint after joint
+    total = scratch((n,))  # every joint's step over its range, summed joint after joint
+    total[:] = 0.0
     for j in range(joints):
-        path = play_grid(q_cmd[:, j], 0.005 * span[j])[:, 0]  # ignores dithering below 1 % of the range
-        moves = np.sign(np.diff(path, prepend=path[0]))
-        last_move = np.maximum.accumulate(np.where(moves != 0, np.arange(n), 0))
-        carried = moves[last_move]
-        rising[:, j] = carried > 0
-        reversals = np.flatnonzero((carried[1:] * carried[:-1]) < 0) + 1
-        for start in reversals:
-            after[start : start + hold, j] = True
-        step = np.abs(np.diff(q_cmd[:, j], prepend=q_cmd[:1, j]))
-        speed = step / np.maximum(dt, 1e-12)
-        fast[:, j] = speed > np.percentile(speed, 67)
-        total += step / span[j]
+        _directions(q_cmd[:, j], 0.005 * span[j], hold, rising[:, j], after[:, j])
+        speed = scratch((n,))
+        for a in range(0, n, ROWS):
+            step = _step(q_cmd[:, j], a)
+            np.divide(step, np.maximum(dt[a : a + ROWS], 1e-12), out=speed[a : a + ROWS])
+            total[a : a + ROWS] += step / span[j]
+        top = _percentile(speed, 67)
+        for a in range(0, n, ROWS):
+            fast[a : a + ROWS, j] = speed[a : a + ROWS] > top
     others_moving = np.zeros((n, joints), dtype=bool)
+    others = scratch((n,))
     for j in range(joints):
-        others = total - np.abs(np.diff(q_cmd[:, j], prepend=q_cmd[:1, j])) / span[j]
-        others_moving[:, j] = others > np.median(others)
+        for a in range(0, n, ROWS):
+            np.subtract(total[a : a + ROWS], _step(q_cmd[:, j], a) / span[j], out=others[a : a + ROWS])
+        middle = _median(others)
+        for a in range(0, n, ROWS):
+            others_moving[a : a + ROWS, j] = others[a : a + ROWS] > middle
     return _Motion(rising, after, fast, others_moving)
+
+
+def _directions(
+    command: Array, half_width: float, hold: int, rising: NDArray[np.bool_], after: NDArray[np.bool_]
+) -> None:
+    """Into `rising` and `after`: where the joint's last move (of its play path, which ignores dithering
+    below `half_width`) was up, and the `hold` samples from each reversal of that move."""
+    n = len(command)
+    last_output: float | None = None
+    previous, carry = command[0], 0.0  # the path's sample before the chunk, the last nonzero move
+    for a in range(0, n, ROWS):
+        path = play_grid(command[a : a + ROWS], half_width, last_output)[:, 0]
+        moves = np.sign(np.diff(path, prepend=previous if a else path[0]))
+        last_move = np.maximum.accumulate(np.where(moves != 0, np.arange(len(moves)), -1))
+        carried = np.where(last_move >= 0, moves[np.maximum(last_move, 0)], carry)
+        rising[a : a + len(path)] = carried > 0
+        before = np.r_[carry, carried[:-1]]
+        for start in np.flatnonzero(carried * before < 0) + a:
+            after[start : start + hold] = True
+        last_output, previous, carry = path[-1], path[-1], carried[-1]
+
+
+def _step(command: Array, a: int) -> Array:
+    """|command[i] − command[i − 1]| for the chunk's samples i from `a` (0 for the first sample)."""
+    chunk = command[a : a + ROWS]
+    return np.abs(np.diff(chunk, prepend=command[a - 1] if a else chunk[0]))
+
+
+def _median(values: Array) -> float:
+    """`np.median(values)`, sorting a scratch copy in place, not one in memory."""
+    copy = scratch(values.shape)
+    copy[:] = values
+    return float(np.median(copy, overwrite_input=True))
+
+
+def _percentile(values: Array, q: float) -> float:
+    """`np.percentile(values, q)`, sorting a scratch copy in place, not one in memory."""
+    copy = scratch(values.shape)
+    copy[:] = values
+    return float(np.percentile(copy, q, overwrite_input=True))
 
 
 def _compare(r: Array, inside: NDArray[np.bool_], label: str) -> Regime | None:
     if inside.sum() < 5 or (~inside).sum() < 5:
         return None
+    r_in, r_out = scratch_where(r, inside), scratch_where(r, ~inside)  # what `r[inside]` would copy
     return Regime(
         label,
         float(inside.mean()),
-        float(np.sqrt((r[inside] ** 2).mean())),
-        float(np.sqrt((r[~inside] ** 2).mean())),
-        float(r[inside].mean()),
-        float(r[~inside].mean()),
+        float(np.sqrt(np.square(r_in, out=scratch(r_in.shape)).mean())),
+        float(np.sqrt(np.square(r_out, out=scratch(r_out.shape)).mean())),
+        float(r_in.mean()),
+        float(r_out.mean()),
     )
 
 
@@ -178,8 +227,8 @@ def _regimes(j: int, r: Array, q_cmd: Array, motion: _Motion) -> list[Regime]:
         found.append(_compare(r, motion.after_reversal[:, k], f"just after {other} reverses"))
         found.append(_compare(r, motion.rising[:, k], f"while {other} rises (against falls and rests)"))
     found.append(_compare(r, motion.fast[:, j], f"when {name} moves fast (top third of its speeds)"))
-    high = q_cmd[:, j] > np.percentile(q_cmd[:, j], 67)
-    low = q_cmd[:, j] < np.percentile(q_cmd[:, j], 33)
+    high = q_cmd[:, j] > _percentile(q_cmd[:, j], 67)
+    low = q_cmd[:, j] < _percentile(q_cmd[:, j], 33)
     found.append(_compare(r, high, f"when {name} is commanded high (top third of its range)"))
     found.append(_compare(r, low, f"when {name} is commanded low (bottom third of its range)"))
     found.append(_compare(r, motion.others_moving[:, j], "when the other joints move more than usual"))

@@ -70,6 +70,22 @@ def test_bad_bags_say_which_file_and_topic(tmp_path):
     assert raised.value.line == 2
 
 
+def test_messages_logged_out_of_stamp_order_or_resent_are_read_once_in_stamp_order(tmp_path):
+    t = np.arange(100) * 0.01
+    q = np.array([0.0, 0.0, 0.12, 0.0, 0.0, 0.0]) + np.linspace(0.0, 0.5, 100)[:, None] * [1, 1, 0.1, 1, 1, 1]
+    streams = setpoint_streams(t, q, q + 0.001)
+    shuffled = np.random.default_rng(0).permutation(100)
+    streams["/PSM1/fiducial_js"] = [streams["/PSM1/fiducial_js"][i] for i in shuffled]
+    streams["/PSM1/setpoint_js"] += streams["/PSM1/setpoint_js"][40:45]  # re-sent unchanged
+    read = load_recording(write_mcap(tmp_path / "shuffled.mcap", streams))
+    np.testing.assert_allclose(read.t, t, rtol=0, atol=1e-9)  # stamps are whole nanoseconds
+    np.testing.assert_array_equal(read.q_cmd, q)
+    np.testing.assert_array_equal(read.q_phy, q + 0.001)
+    streams["/PSM1/fiducial_js"][7] = (5.0, joint_state(5.0, np.ones(5)))
+    with pytest.raises(PegbtError, match="message 7 of /PSM1/fiducial_js has 5 joint positions"):
+        load_recording(write_mcap(tmp_path / "five.mcap", streams))
+
+
 def write_recording_folder(tmp_path: Path) -> Path:
     from pegbt.physics.recording import write_recording
 

@@ -1,5 +1,5 @@
 """A diagnosis's stages hold no recording-sized array of their own: the nested cross-validation's
-training parts, drivers and held-out predictions are in scratch files (`pegbt.sim2real.scratch`), and
+training parts, drivers and held-out predictions are in scratch files (`pegbt.scratch`), and
 `locate` keeps its motion regimes as masks.
 
 As in `test_sim2real_memory.py`, each memory test measures the peak of traced memory at two lengths:
@@ -15,11 +15,12 @@ from memory_helpers import peak_bytes
 from sim2real_helpers import recording_with
 
 from pegbt.physics import ArmPhysics, Effect
+from pegbt.scratch import scratch, scratch_rows
 from pegbt.sim2real import diagnose
+from pegbt.sim2real import locate as locate_module
 from pegbt.sim2real.crossval import BlockedGrams
 from pegbt.sim2real.diagnose import nested_predict, rms, static_drivers
 from pegbt.sim2real.locate import locate
-from pegbt.sim2real.scratch import scratch, scratch_rows
 from pegbt.sim2real.select import JointSelection
 
 ROW = 6 * 8  # bytes of one sample of (N, 6) floats
@@ -55,9 +56,23 @@ def _locate_peak(n: int) -> int:
 def test_locate_keeps_masks_not_float_arrays_of_the_motion() -> None:
     _locate_peak(500)
     growth = (_locate_peak(40_000) - _locate_peak(10_000)) / 30_000
-    # a few columns while one joint's regimes are found, and four masks; it was 324 bytes a sample
-    # (directions, speeds, steps and the other joints' motion as (N, 6) floats)
-    assert growth < 3.5 * ROW
+    # four masks (24 bytes a sample) and one joint's moving mean square; it was 324 bytes a sample
+    # (directions, speeds, steps and the other joints' motion as (N, 6) floats), then 148 with the
+    # play path, moves, speeds and the regimes' residuals of one joint at a time in memory
+    assert growth < ROW
+
+
+def test_locate_a_few_rows_at_a_time_finds_what_it_finds_at_once(monkeypatch: pytest.MonkeyPatch) -> None:
+    effects = [
+        Effect("backlash", "q6", {"half_width": 0.04}),
+        Effect("coupling", "q5", {"source": "q4", "k": 0.2}),
+    ]
+    recording = recording_with(effects, seconds=60.0)
+    residual = recording.q_phy - ArmPhysics().simulate(recording.q_cmd, recording.t)
+    whole = [m.to_dict() for m in locate(residual, recording.q_cmd, recording.t, True)]
+    assert any(m["regimes"] for m in whole)  # the chunks below cut through reversals and their holds
+    monkeypatch.setattr(locate_module, "ROWS", 97)
+    assert [m.to_dict() for m in locate(residual, recording.q_cmd, recording.t, True)] == whole
 
 
 def _held_at_selection(monkeypatch: pytest.MonkeyPatch, seconds: float) -> tuple[int, int]:
