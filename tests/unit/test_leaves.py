@@ -20,13 +20,16 @@ from executive_helpers import write_tree
 from fake_arm import BLOCK_WALL_ANGLE, FakeArm, fake_robot
 from py_trees.common import Status
 
+from pegbt.behaviours.actions import handover
 from pegbt.behaviours.actions.grasping import gripping
-from pegbt.behaviours.actions.handover import plan_meeting
+from pegbt.behaviours.actions.handover import WayOut, plan_meeting
 from pegbt.behaviours.base import JAW_AHEAD, MOTION_OVERTIME, Outgoing
 from pegbt.behaviours.poses import HANDOVER_ARRIVAL, height_above_pegs, transfer_for, yaw_about
+from pegbt.behaviours.resources.arm_motion import EarlyPlan
 from pegbt.behaviours.resources.robot import Robot
 from pegbt.behaviours.resources.skills import Skills
 from pegbt.clock import ManualClock
+from pegbt.errors import PegbtError
 from pegbt.executive.build import BuiltTree
 from pegbt.executive.context import RunContext
 from pegbt.executive.loader import load_tree
@@ -1373,3 +1376,60 @@ def test_a_givers_rise_goes_on_into_its_next_approach_and_ends_as_its_jaw_leaves
     assert giver.trajectories == [trajectory]  # nothing else sent: it took the motion under way
     assert clock.now() >= trajectory.duration - 1e-9
     assert skills.motion.transfer.jaw_open in [sent.target for sent in giver.jaw.sent]
+
+
+def test_a_givers_rise_that_falls_back_to_rising_alone_is_no_approach_whatever_a_stale_early_plan_chose(
+    tmp_path, clock, cloud, seen, monkeypatch
+):
+    """A way out planned early from other inputs (a job that may still run on a worker and set its grasp)
+    is not the rise's: a rise whose own plan falls back to rising alone is not sent ahead as the next
+    approach, which `approach` plans and sends itself."""
+    skills = Skills("optimized")
+    skills.arm(GIVER).compensator = None  # the fake arm goes where it is sent: no cable error to correct
+    robot = fake_robot(clock, skills.settings, skills.cell, cloud)
+    board, blocks = seen
+    block, grasp, meeting = giving(skills, seen)
+    giver = robot.arms[GIVER]
+    at(giver, solve_ik(meeting.tip, skills.settings[GIVER]))
+    following = block_on_peg(blocks, GIVE_NEXT)
+    chosen = skills.selectors[GIVER].pick(
+        following,
+        acceptable=lambda option: plan_meeting(skills, GIVER, RECEIVER, option, following) is not None,
+    )
+    elsewhere = skills.arm(GIVER).start_from(giver) + 0.01
+    stale = WayOut(grasp=chosen)  # what the early plan's job chose, from another start
+    done = WorkPool(inline=True).submit(lambda: [None])
+    skills.arm(GIVER).early = EarlyPlan(
+        (elsewhere, 0.007, board, following, stale), done, skills.arm(GIVER).epoch
+    )
+
+    def unplannable(*args: object, **kwargs: object) -> None:
+        raise PegbtError("no approach from here")
+
+    monkeypatch.setattr(handover, "planned_approach", unplannable)
+    built = build(
+        tmp_path,
+        robot,
+        skills,
+        f"{{rise: {{arm: {GIVER}, height: 0.007, keep_apart: 0.0, then: {{pick: {GIVE_NEXT}}}, "
+        f"handover_to: {RECEIVER}}}}}",
+        board=board,
+        blocks=blocks,
+    )
+    assert run(built, clock) == Status.SUCCESS
+    (rise,) = giver.trajectories
+    tips = tip_position(rise.q)
+    assert (tips[-1] - tips[0]) @ skills.cell.up_in(GIVER) == pytest.approx(0.007, abs=1e-4)  # alone
+
+    py_trees.blackboard.Blackboard.clear()
+    approach = build(
+        tmp_path,
+        robot,
+        skills,
+        f"{{approach: {{arm: {GIVER}, block: /{GIVER}/block, grasp: /{GIVER}/grasp}}}}",
+        board=board,
+        **{f"{GIVER}/block": following, f"{GIVER}/grasp": chosen},
+    )
+    assert run(approach, clock) == Status.SUCCESS
+    assert len(giver.trajectories) == 2  # its own approach: the rise was not taken for it
+    assert np.allclose(forward_kinematics(giver.trajectories[-1].q[-1]), chosen.pose, atol=1e-4)

@@ -103,10 +103,8 @@ class Rise(MotionLeaf):
         self.way: tuple[BoardEstimate | None, BlockEstimate, WayOut] | None = None
         block = self.next_block()
         if block is not None and motion.planner is not None:
-            board, way = self.read("/board"), WayOut()
-            early = motion.early
-            if early is not None and isinstance(early.inputs[-1], WayOut):
-                way = early.inputs[-1]  # planned as the carry was sent, if from these inputs
+            board = self.read("/board")
+            way = self.early_way((start, height, board, block))
             self.way = (board, block, way)
             planned = partial(
                 rise_into_approach,
@@ -124,6 +122,17 @@ class Rise(MotionLeaf):
             return
         planned = partial(rise, self.skills.cell, motion, arm, start, height)
         self.move(arm, planned, f"{arm} rising", (start, height))
+
+    def early_way(self, inputs: tuple[object, ...]) -> WayOut:
+        """The `WayOut` of the way out planned as the carry was sent, if from these `inputs`, else a fresh
+        one: a plan from other inputs may still be running on a worker (a discarded job runs on once
+        started) and set its grasp, which would make a plain rise pass for the next approach."""
+        early = self.motion(self.param("arm")).early
+        if early is not None and isinstance(early.inputs[-1], WayOut):
+            way = early.inputs[-1]
+            if early.matches((*inputs, way)):
+                return way
+        return WayOut()
 
     def next_block(self) -> BlockEstimate | None:
         """The block of the giver's next handover, if it is seen where it should be."""
