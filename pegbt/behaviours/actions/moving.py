@@ -80,7 +80,7 @@ class Transfer(CarryLeaf):
 class Rise(MotionLeaf):
     """Once sent, a giver's rise (`then` the loop's next handover, `handover_to` its receiver) chooses the
     grasp of that next block and plans the approach to it from where the rise ends, while the rise plays
-    (`choose_and_approach_early`). Only then does it read `/board` and `/blocks` (a plain rise needs no
+    (`choose_and_approach_early`). Only a giver's rise reads `/blocks` and `/board` (a plain rise needs no
     board seen).
 
     With a planner, a giver's rise is not a stop: it goes on into the approach of that next block in one
