@@ -1413,3 +1413,19 @@ def test_a_givers_rise_that_falls_back_to_rising_alone_is_no_approach_whatever_a
     assert run(approach, clock) == Status.SUCCESS
     assert len(giver.trajectories) == 2  # its own approach: the rise was not taken for it
     assert np.allclose(forward_kinematics(giver.trajectories[-1].q[-1]), chosen.pose, atol=1e-4)
+
+
+def test_a_givers_way_out_that_stood_still_on_the_way_ends_that_much_later(tmp_path, clock, cloud, seen):
+    """A streamed motion that stood still (its streamer not scheduled, an arm in MANUAL) is that much
+    behind its plan: the rise says the jaw is out of the block, and the receiver may carry it off, only
+    once the motion's tip is there, not at the planned time."""
+    skills, robot, _, _ = handed_over(clock, cloud, seen)
+    giver = robot.arms[GIVER]
+    giver.stalled = 0.2  # s the motion stands at its start
+    built = build(tmp_path, robot, skills, RISE_INTO_NEXT, board=seen[0], blocks=seen[1])
+    assert run(built, clock) == Status.SUCCESS
+    (trajectory,) = giver.trajectories
+    tips = tip_position(trajectory.q)
+    out = int(np.argmax((tips - tips[0]) @ skills.cell.up_in(GIVER) >= 0.007 - 1e-9))
+    assert trajectory.t[out] + 0.2 <= clock.now() < trajectory.t[out] + 0.2 + STEP
+    assert (tip_position(giver.position()) - tips[0]) @ skills.cell.up_in(GIVER) >= 0.007 - 1e-6

@@ -166,11 +166,14 @@ class Rise(MotionLeaf):
             )
 
     def watch(self) -> Status:
+        """A way out into the next approach succeeds once its jaw is out of the block: at the planned time,
+        later by as long as the motion stood still on the way (its streamer's stalls and pauses)."""
         if self.out_at is None:
             return Status.RUNNING
-        if self.context.clock.now() >= self.out_at - 1e-9:
+        out_at = self.out_at + max((motion.handle.paused for motion in self.running), default=0.0)
+        if self.context.clock.now() >= out_at - 1e-9:
             return Status.SUCCESS
-        self.wake_at = self.out_at if self.wake_at is None else min(self.wake_at, self.out_at)
+        self.wake_at = out_at if self.wake_at is None else min(self.wake_at, out_at)
         return Status.RUNNING
 
 
