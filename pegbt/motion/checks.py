@@ -112,27 +112,24 @@ def _clearance_problems(tips: np.ndarray, leaving: Channel | None, arriving: Cha
     floor = np.full(end + 1 - start, arriving.clear)
     if leaving is not None and leaving.floor:
         floor = np.maximum(floor, leaving.clear + float((leaving.point - arriving.point) @ arriving.axis))
-    sag = floor - heights[start : end + 1]
-    worst = int(np.argmax(sag))
-    if sag[worst] > CLEARANCE_SLACK:
-        return [
-            f"the tip sags {sag[worst] * 1000:.2f} mm below the clearing height between the pegs "
-            f"(allowed {CLEARANCE_SLACK * 1000:.2f} mm)"
-        ]
-    return []
+    return _sag_problems(floor - heights[start : end + 1], "the clearing height between the pegs")
 
 
 def _clearance_to_the_air(tips: np.ndarray, leaving: Channel) -> list[str]:
+    """From leaving the start peg's channel to a goal in the air, the tip stays above that peg's clearing
+    height: the block hangs clear of the pegs it passes on its way up to the meeting point."""
     left = leaving.height(tips) >= leaving.clear
     if not left.any():
         return []  # reported by the start channel's check
     sag = leaving.clear - leaving.height(tips[int(np.argmax(left)) :])
-    worst = int(np.argmax(sag))
-    if sag[worst] > CLEARANCE_SLACK:
-        return [
-            f"the tip sags {sag[worst] * 1000:.2f} mm below the start peg's clearing height on its way "
-            f"(allowed {CLEARANCE_SLACK * 1000:.2f} mm)"
-        ]
+    return _sag_problems(sag, "the start peg's clearing height on its way")
+
+
+def _sag_problems(sag: np.ndarray, below: str) -> list[str]:
+    """The worst of `sag` (m under a clearing height, per sample) if it is beyond `CLEARANCE_SLACK`."""
+    worst = float(np.max(sag))
+    if worst > CLEARANCE_SLACK:
+        return [f"the tip sags {worst * 1000:.2f} mm below {below} (allowed {CLEARANCE_SLACK * 1000:.2f} mm)"]
     return []
 
 

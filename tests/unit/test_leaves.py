@@ -20,13 +20,16 @@ from executive_helpers import write_tree
 from fake_arm import BLOCK_WALL_ANGLE, FakeArm, fake_robot
 from py_trees.common import Status
 
+from pegbt.behaviours.actions import handover
 from pegbt.behaviours.actions.grasping import gripping
-from pegbt.behaviours.actions.handover import plan_meeting
+from pegbt.behaviours.actions.handover import WayOut, plan_meeting
 from pegbt.behaviours.base import JAW_AHEAD, MOTION_OVERTIME, Outgoing
 from pegbt.behaviours.poses import HANDOVER_ARRIVAL, height_above_pegs, transfer_for, yaw_about
+from pegbt.behaviours.resources.arm_motion import EarlyPlan
 from pegbt.behaviours.resources.robot import Robot
 from pegbt.behaviours.resources.skills import Skills
 from pegbt.clock import ManualClock
+from pegbt.errors import PegbtError
 from pegbt.executive.build import BuiltTree
 from pegbt.executive.context import RunContext
 from pegbt.executive.loader import load_tree
@@ -1317,6 +1320,40 @@ def test_every_registered_leaf_has_a_fast_test_that_builds_it():
 
 
 GIVE_NEXT = 0  # the reference order's second pick peg: the giver's next block after the first handover
+RISE_INTO_NEXT = (
+    f"{{rise: {{arm: {GIVER}, height: 0.007, keep_apart: 0.0, then: {{pick: {GIVE_NEXT}}}, "
+    f"handover_to: {RECEIVER}}}}}"
+)
+APPROACH_NEXT = f"{{approach: {{arm: {GIVER}, block: /{GIVER}/block, grasp: /{GIVER}/grasp}}}}"
+
+
+def handed_over(clock, cloud, seen):
+    """Optimized skills, and a robot whose giver rests at the meeting point having handed its block over;
+    the block of its next handover and the grasp `select_grasp` will choose of it."""
+    skills = Skills("optimized")
+    skills.arm(GIVER).compensator = None  # the fake arm goes where it is sent: no cable error to correct
+    robot = fake_robot(clock, skills.settings, skills.cell, cloud)
+    _, _, meeting = giving(skills, seen)
+    at(robot.arms[GIVER], solve_ik(meeting.tip, skills.settings[GIVER]))
+    following = block_on_peg(seen[1], GIVE_NEXT)
+    chosen = skills.selectors[GIVER].pick(
+        following,
+        acceptable=lambda option: plan_meeting(skills, GIVER, RECEIVER, option, following) is not None,
+    )
+    return skills, robot, following, chosen
+
+
+def approach_next(tmp_path, robot, skills, seen, following, chosen) -> BuiltTree:
+    """The giver's `approach` of its next block, on a cleared blackboard."""
+    py_trees.blackboard.Blackboard.clear()
+    return build(
+        tmp_path,
+        robot,
+        skills,
+        APPROACH_NEXT,
+        board=seen[0],
+        **{f"{GIVER}/block": following, f"{GIVER}/grasp": chosen},
+    )
 
 
 def test_a_givers_rise_goes_on_into_its_next_approach_and_ends_as_its_jaw_leaves_the_block(
@@ -1325,22 +1362,9 @@ def test_a_givers_rise_goes_on_into_its_next_approach_and_ends_as_its_jaw_leaves
     """With a planner, the rise after a handover is one motion with the next approach: up the block's
     axis, then over onto the next grasp; it ends as the planned tip is `height` up (the receiver may carry
     the block off then), and `approach` takes the motion under way as its own, sending no other."""
-    skills = Skills("optimized")
-    skills.arm(GIVER).compensator = None  # the fake arm goes where it is sent: no cable error to correct
-    robot = fake_robot(clock, skills.settings, skills.cell, cloud)
-    board, blocks = seen
-    block, grasp, meeting = giving(skills, seen)
+    skills, robot, following, chosen = handed_over(clock, cloud, seen)
     giver = robot.arms[GIVER]
-    at(giver, solve_ik(meeting.tip, skills.settings[GIVER]))
-    built = build(
-        tmp_path,
-        robot,
-        skills,
-        f"{{rise: {{arm: {GIVER}, height: 0.007, keep_apart: 0.0, then: {{pick: {GIVE_NEXT}}}, "
-        f"handover_to: {RECEIVER}}}}}",
-        board=board,
-        blocks=blocks,
-    )
+    built = build(tmp_path, robot, skills, RISE_INTO_NEXT, board=seen[0], blocks=seen[1])
     assert run(built, clock) == Status.SUCCESS
     (trajectory,) = giver.trajectories
     up = skills.cell.up_in(GIVER)
@@ -1353,23 +1377,55 @@ def test_a_givers_rise_goes_on_into_its_next_approach_and_ends_as_its_jaw_leaves
         skills.motion.transfer.channel_tolerance
     )  # up the block's axis first
     assert risen[out:].min() < 0.0  # then down over the pegs: the block's top was no floor
-    following = block_on_peg(blocks, GIVE_NEXT)
-    chosen = skills.selectors[GIVER].pick(
-        following,
-        acceptable=lambda option: plan_meeting(skills, GIVER, RECEIVER, option, following) is not None,
-    )
     assert np.allclose(forward_kinematics(trajectory.q[-1]), chosen.pose, atol=1e-4)
 
-    py_trees.blackboard.Blackboard.clear()
-    approach = build(
-        tmp_path,
-        robot,
-        skills,
-        f"{{approach: {{arm: {GIVER}, block: /{GIVER}/block, grasp: /{GIVER}/grasp}}}}",
-        board=board,
-        **{f"{GIVER}/block": following, f"{GIVER}/grasp": chosen},
-    )
+    approach = approach_next(tmp_path, robot, skills, seen, following, chosen)
     assert run(approach, clock) == Status.SUCCESS
     assert giver.trajectories == [trajectory]  # nothing else sent: it took the motion under way
     assert clock.now() >= trajectory.duration - 1e-9
     assert skills.motion.transfer.jaw_open in [sent.target for sent in giver.jaw.sent]
+
+
+def test_a_givers_rise_that_falls_back_to_rising_alone_is_no_approach_whatever_a_stale_early_plan_chose(
+    tmp_path, clock, cloud, seen, monkeypatch
+):
+    """A way out planned early from other inputs (a job that may still run on a worker and set its grasp)
+    is not the rise's: a rise whose own plan falls back to rising alone is not sent ahead as the next
+    approach, which `approach` plans and sends itself."""
+    skills, robot, following, chosen = handed_over(clock, cloud, seen)
+    giver, motion = robot.arms[GIVER], skills.arm(GIVER)
+    elsewhere = motion.start_from(giver) + 0.01
+    stale = WayOut(grasp=chosen)  # what the early plan's job chose, from another start
+    done = WorkPool(inline=True).submit(lambda: [None])
+    motion.early = EarlyPlan((elsewhere, 0.007, seen[0], following, stale), done, motion.epoch)
+
+    def unplannable(*args: object, **kwargs: object) -> None:
+        raise PegbtError("no approach from here")
+
+    monkeypatch.setattr(handover, "planned_approach", unplannable)
+    built = build(tmp_path, robot, skills, RISE_INTO_NEXT, board=seen[0], blocks=seen[1])
+    assert run(built, clock) == Status.SUCCESS
+    (rise,) = giver.trajectories
+    tips = tip_position(rise.q)
+    assert (tips[-1] - tips[0]) @ skills.cell.up_in(GIVER) == pytest.approx(0.007, abs=1e-4)  # alone
+
+    approach = approach_next(tmp_path, robot, skills, seen, following, chosen)
+    assert run(approach, clock) == Status.SUCCESS
+    assert len(giver.trajectories) == 2  # its own approach: the rise was not taken for it
+    assert np.allclose(forward_kinematics(giver.trajectories[-1].q[-1]), chosen.pose, atol=1e-4)
+
+
+def test_a_givers_way_out_that_stood_still_on_the_way_ends_that_much_later(tmp_path, clock, cloud, seen):
+    """A streamed motion that stood still (its streamer not scheduled, an arm in MANUAL) is that much
+    behind its plan: the rise says the jaw is out of the block, and the receiver may carry it off, only
+    once the motion's tip is there, not at the planned time."""
+    skills, robot, _, _ = handed_over(clock, cloud, seen)
+    giver = robot.arms[GIVER]
+    giver.stalled = 0.2  # s the motion stands at its start
+    built = build(tmp_path, robot, skills, RISE_INTO_NEXT, board=seen[0], blocks=seen[1])
+    assert run(built, clock) == Status.SUCCESS
+    (trajectory,) = giver.trajectories
+    tips = tip_position(trajectory.q)
+    out = int(np.argmax((tips - tips[0]) @ skills.cell.up_in(GIVER) >= 0.007 - 1e-9))
+    assert trajectory.t[out] + 0.2 <= clock.now() < trajectory.t[out] + 0.2 + STEP
+    assert (tip_position(giver.position()) - tips[0]) @ skills.cell.up_in(GIVER) >= 0.007 - 1e-6

@@ -35,6 +35,25 @@ def _above_peg_tops(tips: np.ndarray) -> np.ndarray:
     return (tips - top) @ CELL.up_in("PSM1")
 
 
+def _through_middle(waypoints: TransferWaypoints, height: float) -> list[str]:
+    """The clearance problems of rest-to-rest cubics through `waypoints` with a stop halfway between the
+    lifted pose and the one over the goal, `height` above the peg tops."""
+    q = joint_waypoints(waypoints, PSM1)
+    middle = waypoints.poses[1].copy()
+    middle[:3, 3] = (waypoints.poses[1][:3, 3] + waypoints.poses[2][:3, 3]) / 2
+    middle[:3, 3] += (height - _above_peg_tops(middle[:3, 3])) * CELL.up_in("PSM1")
+    joints = [q[0], q[1], solve_ik(middle, PSM1), q[2], q[3]]
+    path = rest_to_rest_path(joints, PSM1, ["grasp", "lifted", "middle", "above", "goal"])
+    problems = trajectory_problems(
+        path.sample(PSM1.control_period),
+        PSM1,
+        leaving=waypoints.pick,
+        arriving=waypoints.place,
+        upright=waypoints.upright,
+    )
+    return [problem for problem in problems if "clearing height" in problem]
+
+
 @pytest.fixture(scope="module")
 def planner():
     return TransferPlanner(PSM1)
@@ -57,26 +76,9 @@ def test_the_refined_transfer_carries_the_block_clear_of_the_peg_tops(planner, p
 
 def test_a_carry_sagging_between_the_pegs_is_refused_and_one_over_them_passes():
     waypoints = lowered(_waypoints(1, 7), 0.002)
-    q = joint_waypoints(waypoints, PSM1)
     clear = TRANSFER.channel_clear_above_peg_top
-
-    def through_middle(height: float) -> list[str]:
-        middle = waypoints.poses[1].copy()
-        middle[:3, 3] = (waypoints.poses[1][:3, 3] + waypoints.poses[2][:3, 3]) / 2
-        middle[:3, 3] += (height - _above_peg_tops(middle[:3, 3])) * CELL.up_in("PSM1")
-        joints = [q[0], q[1], solve_ik(middle, PSM1), q[2], q[3]]
-        path = rest_to_rest_path(joints, PSM1, ["grasp", "lifted", "middle", "above", "lowered"])
-        problems = trajectory_problems(
-            path.sample(PSM1.control_period),
-            PSM1,
-            leaving=waypoints.pick,
-            arriving=waypoints.place,
-            upright=waypoints.upright,
-        )
-        return [problem for problem in problems if "clearing height" in problem]
-
-    assert through_middle(clear + 0.002) == []
-    (problem,) = through_middle(clear - 0.003)
+    assert _through_middle(waypoints, clear + 0.002) == []
+    (problem,) = _through_middle(waypoints, clear - 0.003)
     sag = float(re.search(r"sags ([0-9.]+) mm below the clearing height", problem).group(1))
     assert sag >= 3.0
 
@@ -134,22 +136,9 @@ def test_a_carry_to_the_meeting_point_is_lifted_only_clear_of_its_peg_and_stays_
 
 def test_a_carry_to_the_air_sagging_below_its_pegs_clearing_height_on_the_way_is_refused():
     waypoints = _to_meeting(7)
-    q = joint_waypoints(waypoints, PSM1)
     clear = TRANSFER.channel_clear_above_peg_top
-
-    def through_middle(height: float) -> list[str]:
-        middle = waypoints.poses[1].copy()
-        middle[:3, 3] = (waypoints.poses[1][:3, 3] + waypoints.poses[2][:3, 3]) / 2
-        middle[:3, 3] += (height - _above_peg_tops(middle[:3, 3])) * CELL.up_in("PSM1")
-        joints = [q[0], q[1], solve_ik(middle, PSM1), q[2], q[3]]
-        path = rest_to_rest_path(joints, PSM1, ["grasp", "lifted", "middle", "above", "meeting"])
-        problems = trajectory_problems(
-            path.sample(PSM1.control_period), PSM1, leaving=waypoints.pick, arriving=waypoints.place
-        )
-        return [problem for problem in problems if "clearing height" in problem]
-
-    assert through_middle(clear + 0.002) == []
-    (problem,) = through_middle(clear - 0.003)
+    assert _through_middle(waypoints, clear + 0.002) == []
+    (problem,) = _through_middle(waypoints, clear - 0.003)
     assert "below the start peg's clearing height" in problem
 
 

@@ -8,10 +8,9 @@ from world_effects_helpers import YieldingDriver, grasp_block, outward
 from pegbt.sim.world import World
 from pegbt.sim.world_effects import WorldEffects
 
-OFF_CENTRE = (
-    0.002  # m further out than the grasp candidate (itself 0.4 mm out): 2.4 mm off the wall's centre,
-)
-# where the peg stops the block 0.4 mm short of centring the wall between the jaws
+# m further out than the grasp candidate (itself 0.4 mm out): 2.4 mm off the wall's centre, where the peg
+# stops the block 0.4 mm short of centring the wall between the jaws
+OFF_CENTRE = 0.002
 PLAY = 0.0006  # m of the wrist's play on one side
 
 
@@ -27,7 +26,7 @@ def _sides():
     other side."""
     world = World(1)
     driver = YieldingDriver(world, (0.0,) * 4)
-    _, frame = grasp_block(World(1), driver, 1, error=OFF_CENTRE * outward(world))
+    _, frame = grasp_block(world, driver, 1, error=OFF_CENTRE * outward(world))
     tip_x = driver.tool("PSM1", frame).tip[:2, 0]
     inward_is_plus_x = float(-outward(world)[:2] @ tip_x) > 0
     plus, minus = (0.0, PLAY, 0.0, 0.0), (PLAY, 0.0, 0.0, 0.0)

@@ -80,7 +80,7 @@ class Transfer(CarryLeaf):
 class Rise(MotionLeaf):
     """Once sent, a giver's rise (`then` the loop's next handover, `handover_to` its receiver) chooses the
     grasp of that next block and plans the approach to it from where the rise ends, while the rise plays
-    (`choose_and_approach_early`). Only then does it read `/board` and `/blocks` (a plain rise needs no
+    (`choose_and_approach_early`). Only a giver's rise reads `/blocks` and `/board` (a plain rise needs no
     board seen).
 
     With a planner, a giver's rise is not a stop: it goes on into the approach of that next block in one
@@ -103,10 +103,8 @@ class Rise(MotionLeaf):
         self.way: tuple[BoardEstimate | None, BlockEstimate, WayOut] | None = None
         block = self.next_block()
         if block is not None and motion.planner is not None:
-            board, way = self.read("/board"), WayOut()
-            early = motion.early
-            if early is not None and isinstance(early.inputs[-1], WayOut):
-                way = early.inputs[-1]  # planned as the carry was sent, if from these inputs
+            board = self.read("/board")
+            way = self.early_way((start, height, board, block))
             self.way = (board, block, way)
             planned = partial(
                 rise_into_approach,
@@ -124,6 +122,17 @@ class Rise(MotionLeaf):
             return
         planned = partial(rise, self.skills.cell, motion, arm, start, height)
         self.move(arm, planned, f"{arm} rising", (start, height))
+
+    def early_way(self, inputs: tuple[object, ...]) -> WayOut:
+        """The `WayOut` of the way out planned as the carry was sent, if from these `inputs`, else a fresh
+        one: a plan from other inputs may still be running on a worker (a discarded job runs on once
+        started) and set its grasp, which would make a plain rise pass for the next approach."""
+        early = self.motion(self.param("arm")).early
+        if early is not None and isinstance(early.inputs[-1], WayOut):
+            way = early.inputs[-1]
+            if early.matches((*inputs, way)):
+                return way
+        return WayOut()
 
     def next_block(self) -> BlockEstimate | None:
         """The block of the giver's next handover, if it is seen where it should be."""
@@ -157,11 +166,14 @@ class Rise(MotionLeaf):
             )
 
     def watch(self) -> Status:
+        """A way out into the next approach succeeds once its jaw is out of the block: at the planned time,
+        later by as long as the motion stood still on the way (its streamer's stalls and pauses)."""
         if self.out_at is None:
             return Status.RUNNING
-        if self.context.clock.now() >= self.out_at - 1e-9:
+        out_at = self.out_at + max((motion.handle.paused for motion in self.running), default=0.0)
+        if self.context.clock.now() >= out_at - 1e-9:
             return Status.SUCCESS
-        self.wake_at = self.out_at if self.wake_at is None else min(self.wake_at, self.out_at)
+        self.wake_at = out_at if self.wake_at is None else min(self.wake_at, out_at)
         return Status.RUNNING
 
 
