@@ -105,12 +105,13 @@ class FakeAxis:
         self.rest = here
 
     # ------------------------------------------------------------------ state
-    def position(self) -> NDArray[np.float64]:
-        """The set-point now: along the motion in progress (rows at clock times), else at rest."""
+    def position(self, at: float | None = None) -> NDArray[np.float64]:
+        """The set-point now (or at clock time `at`): along the motion in progress (rows at clock times),
+        else at rest."""
         if self._motion is None:
             return self.rest.copy()
         _, times, rows = self._motion
-        now = self.arm.clock.now()
+        now = self.arm.clock.now() if at is None else at
         return np.array([np.interp(now, times, rows[:, joint]) for joint in range(rows.shape[1])])
 
     def progress(self) -> float:
@@ -206,8 +207,13 @@ class FakeArm(FakeAxis):
         self.slips_at: float | None = None  # the block slips out this far (0 to 1) through a motion
         self.silent = False  # every read raises EndpointSilent, as the client does for a quiet endpoint
         self.fiducial_offset = np.zeros(6)  # where the physical joints are, from the set-point
+        self.lag = 0.0  # s the encoders trail the set-point (a servo loop's tracking lag)
         super().__init__(self, f"{name}/follow_jt", start)
         self.jaw = FakeJaw(self, f"{name}/jaw/move_jp", np.array([jaw]))
+
+    @property
+    def measured_js(self) -> JointSample:
+        return self.sample(self.position(self.clock.now() - self.lag))
 
     @property
     def fiducial_js(self) -> JointSample:

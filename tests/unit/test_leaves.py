@@ -1415,6 +1415,24 @@ def test_a_givers_rise_that_falls_back_to_rising_alone_is_no_approach_whatever_a
     assert np.allclose(forward_kinematics(giver.trajectories[-1].q[-1]), chosen.pose, atol=1e-4)
 
 
+def test_a_givers_way_out_ends_once_the_encoders_put_the_tip_out_of_the_block(tmp_path, clock, cloud, seen):
+    """The arm trails its set-points: the rise says the jaw is out of the block, and the receiver may carry
+    it off, only once the measured joints put the tip there (within half a millimetre), not when the
+    set-point passes."""
+    skills, robot, _, _ = handed_over(clock, cloud, seen)
+    giver = robot.arms[GIVER]
+    giver.lag = 0.1  # s the encoders trail the set-point
+    built = build(tmp_path, robot, skills, RISE_INTO_NEXT, board=seen[0], blocks=seen[1])
+    assert run(built, clock) == Status.SUCCESS
+    (trajectory,) = giver.trajectories
+    tips = tip_position(trajectory.q)
+    up = skills.cell.up_in(GIVER)
+    out = int(np.argmax((tips - tips[0]) @ up >= 0.007 - 1e-9))
+    assert clock.now() > trajectory.t[out] + STEP  # later than the set-point's passing
+    measured = tip_position(giver.measured_js.position)
+    assert (measured - tips[0]) @ up >= 0.007 - 0.0005 - 1e-9
+
+
 def test_a_givers_way_out_that_stood_still_on_the_way_ends_that_much_later(tmp_path, clock, cloud, seen):
     """A streamed motion that stood still (its streamer not scheduled, an arm in MANUAL) is that much
     behind its plan: the rise says the jaw is out of the block, and the receiver may carry it off, only

@@ -77,6 +77,11 @@ class Transfer(CarryLeaf):
         motion.plan_early(self.context.work, (board, block, grasp.candidate), plan)
 
 
+OUT_TOLERANCE = (
+    0.0005  # m: the measured tip may be this short of the way out's height (a channel's tolerance)
+)
+
+
 class Rise(MotionLeaf):
     """Once sent, a giver's rise (`then` the loop's next handover, `handover_to` its receiver) chooses the
     grasp of that next block and plans the approach to it from where the rise ends, while the rise plays
@@ -100,6 +105,7 @@ class Rise(MotionLeaf):
         start = motion.start_from(self.client(arm))
         height = self.param("height")
         self.out_at: float | None = None
+        self.out_from: tuple[float, np.ndarray] = (0.0, np.zeros(3))  # the tip's height where it began, up
         self.way: tuple[BoardEstimate | None, BlockEstimate, WayOut] | None = None
         block = self.next_block()
         if block is not None and motion.planner is not None:
@@ -151,6 +157,7 @@ class Rise(MotionLeaf):
             heights = (tip_position(planned.q) - tip_position(planned.q[0])) @ up
             out = int(np.argmax(heights >= self.param("height") - 1e-9))
             self.out_at = self.context.clock.now() + float(planned.t[out])
+            self.out_from = (tip_position(planned.q[0]) @ up, up)
             self.feedback_message = f"out of the block in {planned.t[out]:.2f} s, on into the next approach"
             return
         following = self.next_block()
@@ -167,14 +174,25 @@ class Rise(MotionLeaf):
 
     def watch(self) -> Status:
         """A way out into the next approach succeeds once its jaw is out of the block: at the planned time,
-        later by as long as the motion stood still on the way (its streamer's stalls and pauses)."""
+        later by as long as the motion stood still on the way (its streamer's stalls and pauses), and once
+        the arm's encoders put the tip there too (within `OUT_TOLERANCE`): the arm lags its set-points, and
+        the receiver carries the block off as soon as this succeeds."""
         if self.out_at is None:
             return Status.RUNNING
+        now = self.context.clock.now()
         out_at = self.out_at + max((motion.handle.paused for motion in self.running), default=0.0)
-        if self.context.clock.now() >= out_at - 1e-9:
-            return Status.SUCCESS
+        if now >= out_at - 1e-9:
+            if self._measured_out():
+                return Status.SUCCESS
+            out_at = now + self.motion(self.param("arm")).settings.control_period
         self.wake_at = out_at if self.wake_at is None else min(self.wake_at, out_at)
         return Status.RUNNING
+
+    def _measured_out(self) -> bool:
+        """Whether the measured joints put the tip `height` above where the way out began."""
+        start, up = self.out_from
+        tip = tip_position(np.asarray(self.client(self.param("arm")).measured_js.position, dtype=float))
+        return float(tip @ up) - start >= self.param("height") - OUT_TOLERANCE
 
 
 class Park(MotionLeaf):
