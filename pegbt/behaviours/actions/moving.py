@@ -157,7 +157,7 @@ class Rise(MotionLeaf):
             heights = (tip_position(planned.q) - tip_position(planned.q[0])) @ up
             out = int(np.argmax(heights >= self.param("height") - 1e-9))
             self.out_at = self.context.clock.now() + float(planned.t[out])
-            self.out_from = (tip_position(planned.q[0]) @ up, up)
+            self.out_from = (float(tip_position(planned.q[0]) @ up), up)
             self.feedback_message = f"out of the block in {planned.t[out]:.2f} s, on into the next approach"
             return
         following = self.next_block()
