@@ -371,7 +371,7 @@ def _transfer(
         chose = bench.chose or chose
         failed = bench if bench.moved else failed
         if bench.held and bench.meeting is not None:
-            return _hand_over(world, skills, bench, block.index, goal_peg, first, replay, registered, rng)
+            return _hand_over(world, skills, bench, block.index, goal_peg, first, replay, rng, registered)
         if bench.held:
             bench.jaw(skills.motion.transfer.jaw_open, "release")
             events += bench.events[len(events) :]
@@ -573,8 +573,8 @@ def _hand_over(
     goal_peg: int,
     first: str | None,
     replay: Replay,
+    rng: np.random.Generator,
     registered: bool = False,
-    rng: np.random.Generator | None = None,
 ) -> TransferResult:
     """The giver holds `block` at the meeting point: the receiver waits open above its grasp, descends and
     closes; the giver opens and withdraws; the receiver carries the block over `goal_peg`, lowers it and
@@ -617,8 +617,7 @@ def _hand_over(
         return result(False, first or "carry")
     _, lowering = _segment_times(planned)
     if registered:
-        looks = np.random.default_rng() if rng is None else rng
-        _paper_place(taker, planned, waypoints, block, goal_peg, looks, [(0.0, "carry")])
+        _paper_place(taker, planned, waypoints, block, goal_peg, rng, [(0.0, "carry")])
     else:
         taker.play(planned, [(0.0, "carry"), (lowering, "lower")], holding=block)
     if world.held_by(receiver) != block:
