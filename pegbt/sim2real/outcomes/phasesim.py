@@ -449,6 +449,7 @@ def _attempt(
     position = seen_point(world, truth.pose[:3, 3]) + [noise[0], noise[1], 0.0]
     seen = BlockEstimate(position, yaw_of(truth.pose), truth.peg, 1.0, 0.0, 0, True, "")
     motion = skills.arm(arm)
+    looks = _looks(registered, motion)
     same = chose is not None and np.linalg.norm(chose.position[:2] - position[:2]) <= SAME_BLOCK
     grasp = skills.selectors[arm].pick(seen, avoid=(chose.candidate,) if same and chose else ())
     meeting = None
@@ -462,7 +463,7 @@ def _attempt(
         if meeting is None:
             return _Bench.failed_before(world, arm, motion, "handover")
     if meeting is None:
-        heights = paper_heights(skills.motion, variant) if registered else skills.motion
+        heights = paper_heights(skills.motion, variant) if looks else skills.motion
         waypoints = transfer_for(world.cell, heights, arm, None, seen, grasp, goal_peg)
     else:
         waypoints = to_handover(world.cell, skills.motion, arm, None, seen, grasp, meeting.tip)
@@ -505,7 +506,7 @@ def _attempt(
     let_go = None
     if skills.condition in LETS_GO_EARLY and not registered and meeting is None:
         let_go = _letting_go(skills, motion)  # the paper's robot, and a giver, let go at rest
-    if registered and meeting is None:
+    if looks and meeting is None:
         _paper_place(bench, planned, waypoints, block, goal_peg, rng, [(0.0, "lift"), (lifted, "carry")])
     else:
         segments = [(0.0, "lift"), (lifted, "carry"), (lowering, "lower")]
@@ -515,6 +516,14 @@ def _attempt(
     if not bench.held:
         bench.failed = _failed_phase(bench.events, block)
     return bench
+
+
+def _looks(registered: bool, motion: ArmMotion) -> bool:
+    """Whether a transfer is placed as the paper's robot placed it (`_paper_place`): under its protocol,
+    with the rest-to-rest cubics of its `transfer_block_traj` (`use_optimization = False`), which stop
+    over the goal peg. Its optimised trajectory went on down to `height_drop` and looked there, then rose
+    again; that is not played here: an optimised paper-protocol transfer lowers without looking."""
+    return registered and motion.planner is None
 
 
 def _paper_place(
@@ -607,7 +616,8 @@ def _hand_over(
         seconds = _overlapped(let_go - ahead, met, world.time - let_go, _way_back(taker, ik.q[0]))
         return TransferResult(placed, phase, seconds)
 
-    heights = paper_heights(skills.motion, "handover") if registered else skills.motion
+    looks = _looks(registered, motion)
+    heights = paper_heights(skills.motion, "handover") if looks else skills.motion
     waypoints = from_handover(
         world.cell, heights, receiver, None, meeting.receiver_grasp, meeting.block_pose, goal_peg
     )
@@ -616,7 +626,7 @@ def _hand_over(
     except PegbtError:  # the receiver's carry fails to plan
         return result(False, first or "carry")
     _, lowering = _segment_times(planned)
-    if registered:
+    if looks:
         _paper_place(taker, planned, waypoints, block, goal_peg, rng, [(0.0, "carry")])
     else:
         taker.play(planned, [(0.0, "carry"), (lowering, "lower")], holding=block)
