@@ -439,7 +439,8 @@ def _attempt(
     over peg `came_from` (None: at the simulator's start joints) and, when it `parks`, first goes home as
     `Park` does (`pegbt/behaviours/actions/moving.py`); it approaches as `Approach` does. An attempt `after`
     one that failed goes on with that attempt's arm from where it stopped, and parks. A `registered` arm
-    (the paper's protocol) carries at the paper's heights and looks before it lowers (`_paper_place`)."""
+    (the paper's protocol) on rest-to-rest cubics carries at the paper's heights and looks before it
+    lowers (`_looks`, `_paper_place`)."""
     handover = variant == "handover"
     truth = world.blocks[block]
     if chose is not None and np.array_equal(chose.truth, truth.pose):
