@@ -123,6 +123,11 @@ class DepthCamera:
         """How many triangles of a scene mesh are the pegboard's (board and pegs)."""
         return len(self._static[1])
 
+    @property
+    def block_triangles(self) -> int:
+        """How many triangles of a scene mesh each block has (the blocks follow the pegboard, in order)."""
+        return len(self._block[1])
+
     def capture(self, world: SimWorld, time: float | None = None) -> np.ndarray:
         """A point cloud (N, 3) float32 in the camera frame (metres) of the world at `time` (default: now)."""
         points = self.capture_organised(world, time)

@@ -30,6 +30,7 @@ from pegbt.frames import yaw_of, yaw_pose
 from pegbt.motion.ik import inverse_kinematics, solve_ik
 from pegbt.motion.settings import motion_settings
 from pegbt.motion.trajectory import Trajectory
+from pegbt.motion.waypoints import TransferWaypoints
 from pegbt.perception.blocks import BlockEstimate
 from pegbt.physics import ArmPhysics
 from pegbt.sim.arm import DEFAULT_JOINTS, SimArm
@@ -38,6 +39,7 @@ from pegbt.sim.tools import Give, ToolState, wrist_give
 from pegbt.sim.world import World
 from pegbt.sim.world_effects import WorldEffects
 from pegbt.sim2real.outcomes.cells import PHASES
+from pegbt.sim2real.outcomes.placelook import correction, paper_heights, visible_points
 from pegbt.sim2real.outcomes.registration import registered_arm_to_board
 from pegbt.workcell import transfer_list
 
@@ -358,7 +360,7 @@ def _transfer(
             rng,
             came_from,
             replay,
-            variant == "handover",
+            variant,
             chose,
             registered,
             parks,
@@ -369,7 +371,7 @@ def _transfer(
         chose = bench.chose or chose
         failed = bench if bench.moved else failed
         if bench.held and bench.meeting is not None:
-            return _hand_over(world, skills, bench, block.index, goal_peg, first, replay, registered)
+            return _hand_over(world, skills, bench, block.index, goal_peg, first, replay, rng, registered)
         if bench.held:
             bench.jaw(skills.motion.transfer.jaw_open, "release")
             events += bench.events[len(events) :]
@@ -422,7 +424,7 @@ def _attempt(
     rng: np.random.Generator,
     came_from: int | None,
     replay: Replay,
-    handover: bool = False,
+    variant: str = "unilateral",
     chose: Chosen | None = None,
     registered: bool = False,
     parks: bool = False,
@@ -436,7 +438,10 @@ def _attempt(
     (`pegbt/behaviours/actions/grasping.py`, `trees/shared/grasp.yaml`'s `another`). The arm starts lowered
     over peg `came_from` (None: at the simulator's start joints) and, when it `parks`, first goes home as
     `Park` does (`pegbt/behaviours/actions/moving.py`); it approaches as `Approach` does. An attempt `after`
-    one that failed goes on with that attempt's arm from where it stopped, and parks."""
+    one that failed goes on with that attempt's arm from where it stopped, and parks. A `registered` arm
+    (the paper's protocol) on rest-to-rest cubics carries at the paper's heights and looks before it
+    lowers (`_looks`, `_paper_place`)."""
+    handover = variant == "handover"
     truth = world.blocks[block]
     if chose is not None and np.array_equal(chose.truth, truth.pose):
         noise = chose.error  # the block lies as it did at the last look: perception sees it as then
@@ -445,6 +450,7 @@ def _attempt(
     position = seen_point(world, truth.pose[:3, 3]) + [noise[0], noise[1], 0.0]
     seen = BlockEstimate(position, yaw_of(truth.pose), truth.peg, 1.0, 0.0, 0, True, "")
     motion = skills.arm(arm)
+    looks = _looks(registered, motion)
     same = chose is not None and np.linalg.norm(chose.position[:2] - position[:2]) <= SAME_BLOCK
     grasp = skills.selectors[arm].pick(seen, avoid=(chose.candidate,) if same and chose else ())
     meeting = None
@@ -458,7 +464,8 @@ def _attempt(
         if meeting is None:
             return _Bench.failed_before(world, arm, motion, "handover")
     if meeting is None:
-        waypoints = transfer_for(world.cell, skills.motion, arm, None, seen, grasp, goal_peg)
+        heights = paper_heights(skills.motion, variant) if looks else skills.motion
+        waypoints = transfer_for(world.cell, heights, arm, None, seen, grasp, goal_peg)
     else:
         waypoints = to_handover(world.cell, skills.motion, arm, None, seen, grasp, meeting.tip)
     if waypoints.approach is None:
@@ -500,12 +507,61 @@ def _attempt(
     let_go = None
     if skills.condition in LETS_GO_EARLY and not registered and meeting is None:
         let_go = _letting_go(skills, motion)  # the paper's robot, and a giver, let go at rest
-    bench.play(planned, [(0.0, "lift"), (lifted, "carry"), (lowering, "lower")], holding=block, let_go=let_go)
-    bench.held = world.held_by(arm) == block or bench.let_go
+    if looks and meeting is None:
+        _paper_place(bench, planned, waypoints, block, goal_peg, rng, [(0.0, "lift"), (lifted, "carry")])
+    else:
+        segments = [(0.0, "lift"), (lifted, "carry"), (lowering, "lower")]
+        bench.play(planned, segments, holding=block, let_go=let_go)
+    bench.held = (world.held_by(arm) == block or bench.let_go) and bench.failed is None
     bench.meeting = meeting
     if not bench.held:
         bench.failed = _failed_phase(bench.events, block)
     return bench
+
+
+def _looks(registered: bool, motion: ArmMotion) -> bool:
+    """Whether a transfer is placed as the paper's robot placed it (`_paper_place`): under its protocol,
+    with the rest-to-rest cubics of its `transfer_block_traj` (`use_optimization = False`), which stop
+    over the goal peg. Its optimised trajectory went on down to `height_drop` and looked there, then rose
+    again; that is not played here: an optimised paper-protocol transfer lowers without looking."""
+    return registered and motion.planner is None
+
+
+def _paper_place(
+    bench: _Bench,
+    planned: Trajectory,
+    waypoints: TransferWaypoints,
+    block: int,
+    goal_peg: int,
+    rng: np.random.Generator,
+    segments: list[tuple[float, str]],
+) -> None:
+    """The paper's placing (`placelook`): `planned` played up to its stop above `goal_peg` (`segments`
+    name its phases), the held block seen there as perception sees a block (`seen_point`, `PERCEPTION_SD`
+    in board x, y), the arm moved by `servoing_block`'s correction over the peg (a rest-to-rest move of
+    the arm as it is, so imperfect too) and down to the drop height, where `_transfer` opens the jaw."""
+    _, lowering = _segment_times(planned)
+    stop = int(np.searchsorted(planned.t - planned.t[0], lowering + 1e-9))
+    carry = Trajectory(planned.t[:stop], planned.q[:stop], planned.qd[:stop], planned.qdd[:stop])
+    bench.play(carry, segments, holding=block)
+    world = bench.world
+    if world.held_by(bench.name) != block:
+        return
+    noise = rng.normal(0.0, PERCEPTION_SD, 2)
+    bottom = seen_point(world, world.blocks[block].pose[:3, 3]) + [noise[0], noise[1], 0.0]
+    move = correction(world, bench.name, bottom, goal_peg, visible_points(world, goal_peg))
+    above, dropped = waypoints.poses[2].copy(), waypoints.poses[3].copy()
+    above[:3, 3] += move
+    dropped[:3, 3] += move
+    settings = bench.motion.settings
+    try:
+        joints = [solve_ik(pose, settings, what=f"{bench.name} place") for pose in (above, dropped)]
+        servo = bench.motion.through(bench.arm.joints.setpoint.copy(), joints, ["servo", "drop"])
+    except PegbtError:  # the corrected place is out of reach: the robot's command fails there
+        bench.failed = "lower"
+        return
+    moved, _ = _segment_times(servo)
+    bench.play(servo, [(0.0, "carry"), (moved, "lower")], holding=block)
 
 
 def _park(world: World, skills: Skills, arm: str, start: NDArray[np.float64]) -> Trajectory:
@@ -527,12 +583,14 @@ def _hand_over(
     goal_peg: int,
     first: str | None,
     replay: Replay,
+    rng: np.random.Generator,
     registered: bool = False,
 ) -> TransferResult:
     """The giver holds `block` at the meeting point: the receiver waits open above its grasp, descends and
     closes; the giver opens and withdraws; the receiver carries the block over `goal_peg`, lowers it and
-    opens (`pegbt.motion.handover`'s order). The exchange is not retried here. The seconds are the
-    trial's per transfer (`_overlapped`)."""
+    opens (`pegbt.motion.handover`'s order); `registered` (the paper's protocol), at the paper's heights
+    and looking before it lowers, with `rng`'s perception noise (`_paper_place`). The exchange is not
+    retried here. The seconds are the trial's per transfer (`_overlapped`)."""
     assert giver.meeting is not None  # only a held block at the meeting point is handed over
     meeting, receiver = giver.meeting, RECEIVER[giver.name]
     motion = skills.arm(receiver)
@@ -559,15 +617,20 @@ def _hand_over(
         seconds = _overlapped(let_go - ahead, met, world.time - let_go, _way_back(taker, ik.q[0]))
         return TransferResult(placed, phase, seconds)
 
+    looks = _looks(registered, motion)
+    heights = paper_heights(skills.motion, "handover") if looks else skills.motion
     waypoints = from_handover(
-        world.cell, skills.motion, receiver, None, meeting.receiver_grasp, meeting.block_pose, goal_peg
+        world.cell, heights, receiver, None, meeting.receiver_grasp, meeting.block_pose, goal_peg
     )
     try:
         planned = motion.transfer(waypoints)
     except PegbtError:  # the receiver's carry fails to plan
         return result(False, first or "carry")
     _, lowering = _segment_times(planned)
-    taker.play(planned, [(0.0, "carry"), (lowering, "lower")], holding=block)
+    if looks:
+        _paper_place(taker, planned, waypoints, block, goal_peg, rng, [(0.0, "carry")])
+    else:
+        taker.play(planned, [(0.0, "carry"), (lowering, "lower")], holding=block)
     if world.held_by(receiver) != block:
         return result(False, first or _failed_phase(taker.events, block))
     taker.jaw(skills.motion.transfer.jaw_open, "release")
