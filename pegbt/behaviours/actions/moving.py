@@ -77,9 +77,8 @@ class Transfer(CarryLeaf):
         motion.plan_early(self.context.work, (board, block, grasp.candidate), plan)
 
 
-OUT_TOLERANCE = (
-    0.0005  # m: the measured tip may be this short of the way out's height (a channel's tolerance)
-)
+# m: the measured tip may be this short of the way out's height (a channel's tolerance)
+OUT_TOLERANCE = 0.0005
 
 
 class Rise(MotionLeaf):
@@ -153,11 +152,11 @@ class Rise(MotionLeaf):
             assert way.grasp is not None  # the approach was planned onto it
             self.motion(arm).send_ahead((board, block, way.grasp.candidate))
             planned = trajectories[0]
-            up = self.skills.cell.up_in(arm)
-            heights = (tip_position(planned.q) - tip_position(planned.q[0])) @ up
+            up, begun = self.skills.cell.up_in(arm), tip_position(planned.q[0])
+            heights = (tip_position(planned.q) - begun) @ up
             out = int(np.argmax(heights >= self.param("height") - 1e-9))
             self.out_at = self.context.clock.now() + float(planned.t[out])
-            self.out_from = (float(tip_position(planned.q[0]) @ up), up)
+            self.out_from = (float(begun @ up), up)
             self.feedback_message = f"out of the block in {planned.t[out]:.2f} s, on into the next approach"
             return
         following = self.next_block()
