@@ -87,15 +87,17 @@ class DepthCamera:
         v_range = np.clip([v.min() - ROI_MARGIN_PX, v.max() + ROI_MARGIN_PX], 0, camera.height - 1).astype(
             int
         )
-        return self._directions_of(
+        return self.directions_of(
             np.arange(u_range[0], u_range[1] + 1), np.arange(v_range[0], v_range[1] + 1)
         )
 
     def _all_pixel_directions(self) -> tuple[Matrix, tuple[int, int]]:
         """Ray directions (z = 1) of every pixel of the image, row by row; and its rows and columns."""
-        return self._directions_of(np.arange(self.model.width), np.arange(self.model.height))
+        return self.directions_of(np.arange(self.model.width), np.arange(self.model.height))
 
-    def _directions_of(self, columns: np.ndarray, rows: np.ndarray) -> tuple[Matrix, tuple[int, int]]:
+    def directions_of(self, columns: np.ndarray, rows: np.ndarray) -> tuple[Matrix, tuple[int, int]]:
+        """Ray directions (z = 1, camera frame) of the pixels at `columns` × `rows`, row by row; and the
+        region's rows and columns."""
         camera = self.model
         us, vs = np.meshgrid(columns, rows)
         directions = np.column_stack(

@@ -67,13 +67,7 @@ def visible_points(world: World, peg: int) -> int:
     v = model.fy * in_camera[:, 1] / in_camera[:, 2] + model.cy
     columns = np.arange(max(int(np.floor(u.min())), 0), min(int(np.ceil(u.max())) + 1, model.width))
     rows = np.arange(max(int(np.floor(v.min())), 0), min(int(np.ceil(v.max())) + 1, model.height))
-    us, vs = np.meshgrid(columns, rows)
-    directions = (
-        np.column_stack(
-            [(us.ravel() - model.cx) / model.fx, (vs.ravel() - model.cy) / model.fy, np.ones(us.size)]
-        )
-        @ rotation.T
-    )
+    directions = camera.directions_of(columns, rows)[0] @ rotation.T
     rays = np.hstack([np.broadcast_to(origin, directions.shape), directions]).astype(np.float32)
     vertices, triangles = camera.scene_mesh(world)
     scene = o3d.t.geometry.RaycastingScene()
