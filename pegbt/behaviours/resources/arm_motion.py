@@ -270,18 +270,17 @@ class ArmMotion:
         assert self.active is not None  # called as a motion is sent
         self.ahead = (inputs, self.active)
 
-    def take_sent(self, inputs: tuple[object, ...] | None) -> SentMotion | None:
+    def take_sent(self, inputs: tuple[object, ...]) -> SentMotion | None:
         """The motion sent ahead from `inputs`, if it is still this arm's motion (else None; one sent ahead
-        from other inputs stays known as such, `sent_ahead`)."""
-        if not self.sent_ahead():
-            self.ahead = None
+        from other inputs stays known as such while it plays, `sent_ahead`)."""
+        playing = self.sent_ahead()
+        ahead, self.ahead = self.ahead, None
+        if ahead is None or ahead[1] is not self.active or ahead[1].handle.failed:
             return None
-        assert self.ahead is not None  # `sent_ahead` says there is one
-        inputs_ahead, sent = self.ahead
-        if inputs is None or not same_inputs(inputs_ahead, inputs):
+        if not same_inputs(ahead[0], inputs):
+            self.ahead = ahead if playing else None
             return None
-        self.ahead = None
-        return sent
+        return ahead[1]
 
     def sent_ahead(self) -> bool:
         """Whether the arm's motion under way was sent ahead as the motion of a leaf still to come."""
