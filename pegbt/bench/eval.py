@@ -35,8 +35,8 @@ THROUGHPUT_ROUNDS = 3
 
 def run() -> Figures:
     from pegbt.evaluation.campaign import Cell, run_trials, trial_specs
-    from pegbt.evaluation.paper import VARIANTS
     from pegbt.evaluation.summary import summarise
+    from pegbt.runconditions import VARIANTS
 
     figures: Figures = {}
     faulty = {"faults_injected": 0, "faults_recovered": 0, "why_checked": 0, "why_agreed": 0}

@@ -59,8 +59,7 @@ def _semantic(text: str, csv: bool, rng: random.Random) -> tuple[str, str]:
     line = lines[at]
     if kind.startswith("unknown"):
         word = "variant" if kind == "unknown variant" else "condition"
-        from pegbt.runconditions import CONDITIONS
-        from pegbt.sim2real.outcomes.cells import VARIANTS
+        from pegbt.runconditions import CONDITIONS, VARIANTS
 
         names = VARIANTS if word == "variant" else CONDITIONS
         name = next(n for n in names if n in line)
@@ -90,8 +89,8 @@ def _absurd_count(kind: str, attempted: int, rng: random.Random) -> str:
 
 def _broken(outcomes: object) -> bool:
     """Whether an accepted table holds a cell no trial could give."""
-    from pegbt.runconditions import CONDITIONS
-    from pegbt.sim2real.outcomes.cells import PHASES, VARIANTS, Outcomes
+    from pegbt.runconditions import CONDITIONS, VARIANTS
+    from pegbt.sim2real.outcomes.cells import PHASES, Outcomes
 
     assert isinstance(outcomes, Outcomes)
     for cell in outcomes.cells:

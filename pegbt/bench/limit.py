@@ -202,8 +202,8 @@ def variant_row(
 
 def run() -> Figures:
     from pegbt.evaluation.campaign import Cell, trial_specs
-    from pegbt.evaluation.paper import VARIANTS
     from pegbt.evaluation.trial import run_trial
+    from pegbt.runconditions import VARIANTS
 
     bound = Bound()
     waypoints = Bound(Heights.pegbt(bound.motion))

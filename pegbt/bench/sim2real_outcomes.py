@@ -26,6 +26,7 @@ from collections.abc import Mapping, Sequence
 from scipy import stats
 
 from pegbt.errors import PegbtError
+from pegbt.runconditions import VARIANTS
 from pegbt.sim.world_effects import WorldEffects
 from pegbt.sim2real.outcomes.cache import MemoMapper
 from pegbt.sim2real.outcomes.cells import Cell, Outcomes
@@ -44,7 +45,7 @@ FAMILIES: dict[str, dict[str, dict[str, float]]] = {
     },
     "null": {},
 }
-CELLS = [(v, c) for v in ("unilateral", "bilateral", "handover") for c in ("uncalibrated", "calibrated")]
+CELLS = [(v, c) for v in VARIANTS for c in ("uncalibrated", "calibrated")]
 SEEDS = 5
 REAL_TRANSFERS = 120  # "real" transfers per cell: the concealed campaign's 10 trials × 12 transfers
 SETTINGS = Settings(fit="unilateral", transfers=12, points=4)

@@ -10,9 +10,8 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from pegbt.errors import PegbtError
-from pegbt.evaluation.paper import VARIANTS
 from pegbt.numbers import NumberOption
-from pegbt.runconditions import CONDITIONS, known_condition
+from pegbt.runconditions import CONDITIONS, VARIANTS, known_condition
 from pegbt.simoptions import add_sim_world_arguments, refuse_dvrk_only
 
 if TYPE_CHECKING:

@@ -13,8 +13,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from pegbt.evaluation.paper import PAPER, PAPER_COLLISIONS, SURGEON, VARIANTS
-from pegbt.runconditions import CONDITIONS
+from pegbt.evaluation.paper import PAPER, PAPER_COLLISIONS, SURGEON
+from pegbt.runconditions import CONDITIONS, VARIANTS
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes

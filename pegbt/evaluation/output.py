@@ -13,9 +13,9 @@ from typing import Any
 
 from pegbt.errors import PegbtError
 from pegbt.evaluation.campaign import Cell
-from pegbt.evaluation.paper import PAPER, VARIANTS
+from pegbt.evaluation.paper import PAPER
 from pegbt.evaluation.trial import TrialRecord
-from pegbt.runconditions import CONDITIONS
+from pegbt.runconditions import CONDITIONS, VARIANTS
 
 TRIAL_COLUMNS = (
     "variant",

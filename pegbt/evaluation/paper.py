@@ -7,8 +7,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-VARIANTS = ("unilateral", "bilateral", "handover")
-
 
 @dataclass(frozen=True)
 class PaperCell:

@@ -4,7 +4,10 @@ straight.
 
 A channel is the line through `point` (the tip's position when the block sits on the peg) along the
 unit `axis` (the peg's "up"), for heights below `clear` (m above `point` along the axis, where the block
-leaves the peg); `tolerance` is how far off the line the tip may be. A peg's channel is a `floor` too: the
+leaves the peg); `tolerance` is how far off the line the tip may be. The tip grips the block's wall `lever`
+from the hole's axis: turning the tool about the axis by ψ carries the hole lever·ψ round the tip, so on the
+peg the tool turns at most `max_twist` (the hole moved by no more than the tip's own tolerance; a simulated
+block whose hole came 2 mm off its peg caught on it, `pegbt.sim.world`). A peg's channel is a `floor` too: the
 block hangs below the tip, so the transit after it stays above its clearing height; a jaw's way out of a
 block another arm holds is not (the block stays behind: the transit's own clearance applies once the jaw
 is out).
@@ -36,6 +39,7 @@ class Channel:
     clear: float
     tolerance: float
     floor: bool = True
+    lever: float = 0.0  # m; 0: the tool may turn about the axis (nothing held off the tip's line)
 
     def __post_init__(self) -> None:
         point, axis = np.asarray(self.point, dtype=float), np.asarray(self.axis, dtype=float)
@@ -56,6 +60,16 @@ class Channel:
     def normals(self) -> NDArray[np.float64]:
         """Two unit vectors (2, 3) perpendicular to the axis and to each other."""
         return perpendiculars(self.axis)
+
+    @property
+    def max_twist(self) -> float:
+        """How far (rad) the tool may turn about the axis while the block is on the peg."""
+        return self.tolerance / self.lever if self.lever > 0 else np.inf
+
+    def twist(self, tool_x: ArrayLike, reference_x: ArrayLike) -> NDArray[np.float64]:
+        """The turn (...) about the axis from the tool x axis `reference_x` (3,) to each of `tool_x` (..., 3)."""
+        tool_x, reference_x = np.asarray(tool_x), np.asarray(reference_x)
+        return np.arctan2(np.cross(reference_x, tool_x) @ self.axis, tool_x @ reference_x)
 
     def height(self, tip: ArrayLike) -> NDArray[np.float64]:
         """Height (...) of tip positions (..., 3) above `point` along the axis."""

@@ -1,6 +1,7 @@
 """Every sampled trajectory is checked before it may be streamed: joint, velocity and acceleration
-limits, the peg channel, the block's clearance over the pegs between its two channels, the upright tool
-while it carries a block, and C1 continuity (no jump in position or velocity between set-points)."""
+limits, the peg channel (the tip on the peg's axis, the tool not turning the block's hole off it), the
+block's clearance over the pegs between its two channels, the upright tool while it carries a block, and
+C1 continuity (no jump in position or velocity between set-points)."""
 
 from __future__ import annotations
 
@@ -69,7 +70,9 @@ def _continuity_problems(trajectory: Trajectory, settings: ArmSettings) -> list[
     return problems
 
 
-def _channel_problems(tips: np.ndarray, channel: Channel, leaving: bool) -> list[str]:
+def _channel_problems(tips: np.ndarray, tool_x: np.ndarray, channel: Channel, leaving: bool) -> list[str]:
+    """The tip off the channel's line, or the tool turned about it by more than `max_twist` from the
+    channel's end (the start's, leaving; the goal's, arriving), while the block is on the peg."""
     heights = channel.height(tips)
     above = heights >= channel.clear
     if not above.any():
@@ -79,11 +82,16 @@ def _channel_problems(tips: np.ndarray, channel: Channel, leaving: bool) -> list
         if leaving
         else np.arange(len(tips)) > len(tips) - 1 - int(np.argmax(above[::-1]))
     )
+    peg = "start" if leaving else "goal"
     distance = channel.distance(tips[on_peg])
     if distance.size and distance.max() > channel.tolerance:
-        peg = "start" if leaving else "goal"
         return [
             f"leaves the {peg} peg's axis by {distance.max() * 1000:.2f} mm (channel tolerance {channel.tolerance * 1000:.2f} mm)"
+        ]
+    twist = np.abs(channel.twist(tool_x[on_peg], tool_x[0 if leaving else -1]))
+    if twist.size and twist.max() > channel.max_twist + ABSOLUTE_SLACK:
+        return [
+            f"turns the block's hole {twist.max() * channel.lever * 1000:.2f} mm round the tip on the {peg} peg (channel tolerance {channel.tolerance * 1000:.2f} mm)"
         ]
     return []
 
@@ -157,11 +165,11 @@ def trajectory_problems(
     problems = _limit_problems(trajectory, settings) + _continuity_problems(trajectory, settings)
     if leaving is not None or arriving is not None or upright is not None:
         poses = forward_kinematics(trajectory.q)
-        tips = poses[:, :3, 3]
+        tips, tool_x = poses[:, :3, 3], poses[:, :3, 0]
         if leaving is not None:
-            problems += _channel_problems(tips, leaving, leaving=True)
+            problems += _channel_problems(tips, tool_x, leaving, leaving=True)
         if arriving is not None:
-            problems += _channel_problems(tips, arriving, leaving=False)
+            problems += _channel_problems(tips, tool_x, arriving, leaving=False)
             problems += _clearance_problems(tips, leaving, arriving)
         if upright is not None:
             problems += _upright_problems(trajectory.t, poses[:, :3, 2], upright)

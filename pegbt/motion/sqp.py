@@ -19,9 +19,11 @@ smoothest of the fastest paths. The constraints:
   settles any difference);
 - the channel, linearised with the Jacobian at the previous iterate and imposed at every knot and
   segment middle (each a fixed combination of three control points): while the block is on a peg, the
-  tip stays on the peg axis (within half the tolerance); the tool stays upright all along; the sample
-  where the block leaves the start peg, every later one in transit, and the one where it reaches the
-  goal peg are above the clearing height; none on a peg goes below the grasp or drop point;
+  tip stays on the peg axis (within half the tolerance) and the tool turns about it by at most the
+  channel's `max_twist` (the block's hole, gripped off the tip's line, swings round it as the tool turns);
+  the tool stays upright all along; the sample where the block leaves the start peg, every later one in
+  transit, and the one where it reaches the goal peg are above the clearing height; none on a peg goes
+  below the grasp or drop point;
 - a trust region: each joint moves at most `step_limit` per linearisation, so that the linear model
   of the channel holds (without it the QP turns roll against wrist pitch, which cancel to first order
   but tilt the tool by tens of degrees).
@@ -61,7 +63,7 @@ if TYPE_CHECKING:
     import scipy.sparse as sparse
 
 N = 6  # joints
-CHANNEL_ROWS = 5  # per path sample: lateral position (2), height, tool tilt (2)
+CHANNEL_ROWS = 6  # per path sample: lateral position (2), height, tool tilt (2), turn about the axis
 # Channel rows are written in units of 30 mm (30 mrad), so that OSQP's absolute tolerance (1e-3) is
 # 30 µm there, about a sixth of what the samples may use; in millimetres ADMM took 2-7x more
 # iterations for the same accuracy of λ (measured).
@@ -249,7 +251,7 @@ class SqpRefiner:
         )
 
     def _constraint_values(self, channel: NDArray[np.float64]) -> NDArray[np.float64]:
-        """All values of A; `channel` (samples, 5, 6) are the rows' coefficients on a path sample's
+        """All values of A; `channel` (samples, 6, 6) are the rows' coefficients on a path sample's
         position, shared out over its three control points by the sample's weights."""
         shares = channel[:, :, None, :] * self._weights[:, None, :, None]
         return np.concatenate([self._limit_rows.data, shares.ravel()])
@@ -264,8 +266,8 @@ class SqpRefiner:
         upright: Upright,
         floor: float,
     ) -> tuple[NDArray, NDArray, NDArray]:
-        """Channel coefficients (samples, 5, 6) on the change of a path sample's physical position,
-        linearised at the samples of `control` points, and the bounds (samples, 5) on those changes;
+        """Channel coefficients (samples, 6, 6) on the change of a path sample's physical position,
+        linearised at the samples of `control` points, and the bounds (samples, 6) on those changes;
         `floor` is the lowest height above `pick.point` of the samples in transit."""
         lift, lower = phases
         c = self._sample(control)
@@ -281,12 +283,16 @@ class SqpRefiner:
         vertical = np.einsum("c,kcj->kj", place.axis, Jp)
         # The tool axis turns by ω×axis: its components across the upright axis change by (axis × n)·ω.
         tilt = np.einsum("kic,kcj->kij", cross(tool[:, None, :], upright.normals), Jw)
-        physical = np.concatenate([lateral, vertical[:, None], tilt], axis=1) / CHANNEL_UNIT
+        turn = np.einsum("c,kcj->kj", place.axis, Jw)  # about the pegs' axis, the tool near upright
+        physical = np.concatenate([lateral, vertical[:, None], tilt, turn[:, None]], axis=1) / CHANNEL_UNIT
         # Each row's value at the linearisation point: the bounds on its change are what is left.
         value = np.empty((self.sample_count, CHANNEL_ROWS))
         value[:, 0:2] = np.einsum("kic,kc->ki", normals, tip - point)
         value[:, 2] = (tip - point) @ place.axis
         value[:, 3:5] = tool @ upright.normals.T
+        # the turn from the tool's orientation where the block sits on each peg: the start, the goal
+        jaws = pose[:, :3, 0]
+        value[:, 5] = np.where(on_place, place.twist(jaws, jaws[-1]), pick.twist(jaws, jaws[0]))
         required = np.zeros(self.sample_count)  # never below the grasp or drop point while on a peg
         required[lift + 1 : lower] = floor
         required[lift] = pick.clear
@@ -298,6 +304,9 @@ class SqpRefiner:
         lo[on_peg, 0:2], hi[on_peg, 0:2] = -lateral_allowed, lateral_allowed
         lo[:, 2] = required
         lo[:, 3:5], hi[:, 3:5] = -tilt_allowed, tilt_allowed
+        # the whole turn at the samples: it varies slowly between them, and the checks hold every set-point
+        turn_allowed = np.where(on_place, place.max_twist, pick.max_twist)
+        lo[on_peg, 5], hi[on_peg, 5] = -turn_allowed[on_peg], turn_allowed[on_peg]
         return physical, (lo - value) / CHANNEL_UNIT, (hi - value) / CHANNEL_UNIT
 
     def _bounds(self, h: float, scaled: NDArray, slow_down: float) -> tuple[NDArray, NDArray]:

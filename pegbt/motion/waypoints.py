@@ -78,7 +78,8 @@ def _placing(
     heights: TransferSettings,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], Channel]:
     """The poses above the goal peg and lowered onto it, and the goal peg's channel."""
-    place = _vector(place_peg_top, "place_peg_top") + _lateral(place_offset, up, "place_offset")
+    offset = _lateral(place_offset, up, "place_offset")
+    place = _vector(place_peg_top, "place_peg_top") + offset
     dropped = place + heights.drop_height_above_peg_top * up
     rotation = tool_down_rotation(place_yaw, up)
     channel = Channel(
@@ -86,6 +87,7 @@ def _placing(
         up,
         heights.channel_clear_above_peg_top - heights.drop_height_above_peg_top,
         heights.channel_tolerance,
+        lever=float(np.linalg.norm(offset)),
     )
     return (
         rigid_transform(rotation, place + heights.transfer_height_above_peg_top * up),
@@ -111,7 +113,8 @@ def transfer_waypoints(
     yaws `pick_yaw` and `place_yaw` (rad) about `up`, the pegs' axis direction."""
     heights = heights or motion_settings().transfer
     up = _unit_up(up)
-    pick = _vector(pick_peg_top, "pick_peg_top") + _lateral(pick_offset, up, "pick_offset")
+    offset = _lateral(pick_offset, up, "pick_offset")
+    pick = _vector(pick_peg_top, "pick_peg_top") + offset
     above, dropped, place = _placing(place_peg_top, place_offset, place_yaw, up, heights)
     block_top = -heights.block_top_below_peg_top
     grasp = pick + (block_top - heights.grasp_depth) * up
@@ -128,7 +131,13 @@ def transfer_waypoints(
     return TransferWaypoints(
         poses=poses,
         approach=rigid_transform(pick_rotation, pick + (block_top + heights.approach_above_block) * up),
-        pick=Channel(grasp, up, clear - (block_top - heights.grasp_depth), heights.channel_tolerance),
+        pick=Channel(
+            grasp,
+            up,
+            clear - (block_top - heights.grasp_depth),
+            heights.channel_tolerance,
+            lever=float(np.linalg.norm(offset)),
+        ),
         place=place,
         upright=Upright(up, heights.upright_tilt),
     )

@@ -5,13 +5,15 @@ from dataclasses import replace
 import numpy as np
 import pytest
 import yaml
+from scipy.spatial.transform import Rotation
 
 from pegbt.behaviours.poses import approach_for
 from pegbt.errors import PegbtError
 from pegbt.motion import sqp
-from pegbt.motion.channel import Upright
+from pegbt.motion.channel import Channel, Upright
 from pegbt.motion.checks import check_trajectory, trajectory_problems
 from pegbt.motion.cubic import joint_move, rest_to_rest_path
+from pegbt.motion.ik import solve_ik
 from pegbt.motion.jacobian import jacobian
 from pegbt.motion.kinematics import forward_kinematics
 from pegbt.motion.limits import PSM_SETTINGS, arm_settings
@@ -63,6 +65,14 @@ def test_transfer_goes_from_the_grasp_to_the_place_pose_within_every_check(plan)
     assert waypoints.pick.distance(tips[:cleared]).max() <= waypoints.pick.tolerance
     up = waypoints.pick.axis
     assert np.degrees(np.arccos(np.clip(poses[:, :3, 2] @ up, -1.0, 1.0))).max() <= 2.0 + 1e-6
+    # The block's hole, 4 mm from the tip, stays round its peg (the tip's tolerance, and as much again
+    # for the tool turning about the axis) until the block has cleared it.
+    hole = tips[0] - np.array([0.0, 0.004, 0.0])
+    in_tool = poses[0, :3, :3].T @ (hole - tips[0])
+    holes = tips[:cleared] + np.einsum("kij,j->ki", poses[:cleared, :3, :3], in_tool)
+    off = holes - hole
+    off -= np.outer(off @ up, up)
+    assert np.linalg.norm(off, axis=1).max() <= 2 * waypoints.pick.tolerance + 1e-4
 
 
 def test_refined_transfer_beats_the_spline_and_the_cubic_baseline(plan):
@@ -144,6 +154,29 @@ def test_checker_names_a_tool_leaning_beyond_the_upright_limit():
     assert trajectory_problems(move, PSM1) == []  # without the limit nothing else is wrong
     with pytest.raises(PegbtError, match="upright.max_tilt"):
         Upright(waypoints.upright.axis, 2.0)
+
+
+def test_checker_names_a_tool_turning_the_blocks_hole_off_its_peg():
+    """The tip grips the wall 4 mm from the hole's axis: turning the tool about the peg's axis while the
+    block is on the peg swings the hole round the tip (a simulated block 2 mm off caught on its peg)."""
+    waypoints = _waypoints(3, 8, pick_offset=(0.0, 0.004, 0.0))
+    up = waypoints.pick.axis
+    grasp = waypoints.poses[0]
+    q_grasp = joint_waypoints(waypoints, PSM1)[0]
+
+    def lifted_turning(turn: float) -> Trajectory:
+        """Up past the clearing height, turning `turn` about the axis on the way."""
+        pose = grasp.copy()
+        pose[:3, :3] = Rotation.from_rotvec(turn * up).as_matrix() @ grasp[:3, :3]
+        pose[:3, 3] += (waypoints.pick.clear + 0.001) * up
+        return joint_move(q_grasp, solve_ik(pose, PSM1), PSM1)
+
+    wide = Channel(waypoints.pick.point, up, waypoints.pick.clear, 0.002, lever=0.004)  # turns ≤ 0.5 rad
+    assert wide.max_twist == pytest.approx(0.5)
+    problems = trajectory_problems(lifted_turning(0.6), PSM1, leaving=wide)
+    assert problems and problems[0].startswith("turns the block's hole 2.")
+    assert trajectory_problems(lifted_turning(0.4), PSM1, leaving=wide) == []
+    assert trajectory_problems(lifted_turning(0.6), PSM1, leaving=replace(wide, lever=0.0)) == []
 
 
 def test_unreachable_waypoint_is_refused_naming_it_and_the_limit(planner):
@@ -263,3 +296,20 @@ def test_the_refined_carries_of_the_unilateral_trial_beat_those_on_eight_segment
 
     eight = replace(settings, sqp=replace(settings.sqp, segments=8))
     assert mean_carry(settings) <= 0.96 * mean_carry(eight)
+
+
+def test_the_refinement_holds_the_blocks_hole_on_its_peg_where_the_warm_start_turns_the_tool():
+    """A warm start turning the tool about the pegs' axis as it lifts (its lifted pose turned 0.2 rad)
+    swings the hole, gripped off the tip's line, 0.78 mm round it on the peg: the refined path keeps it
+    within the tip's own tolerance (without the SQP's rows for it, none of its 8 linearisations does)."""
+    waypoints = _waypoints(3, 8, pick_offset=(0.0, 0.004, 0.0))
+    up, lever = waypoints.pick.axis, waypoints.pick.lever
+    poses = waypoints.poses.copy()
+    poses[1, :3, :3] = Rotation.from_rotvec(0.2 * up).as_matrix() @ poses[1, :3, :3]
+    plan = TransferPlanner(PSM1).plan(replace(waypoints, poses=poses))
+    assert plan.refined
+    frames = forward_kinematics(plan.trajectory.q)
+    on_peg = waypoints.pick.height(frames[:, :3, 3]) < waypoints.pick.clear
+    jaws = frames[on_peg, :3, 0]
+    turn = np.arctan2(np.cross(jaws[0], jaws) @ up, jaws @ jaws[0])
+    assert np.abs(turn).max() * lever <= waypoints.pick.tolerance + 1e-6

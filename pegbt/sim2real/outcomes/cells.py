@@ -8,8 +8,6 @@ from dataclasses import dataclass, field
 
 from pegbt.executive.phases import PHASES as PHASES  # the phases of a failure, as a tick log tells them
 
-VARIANTS = ("unilateral", "bilateral", "handover")
-
 
 @dataclass(frozen=True)
 class Cell:

@@ -9,11 +9,11 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from pegbt.errors import PegbtError
-from pegbt.runconditions import CONDITIONS
+from pegbt.runconditions import CONDITIONS, VARIANTS
 from pegbt.sim.world_effects import WorldEffects
 from pegbt.sim2real.outcomes.alternatives import Alternative, changes_held_out, open_effects
 from pegbt.sim2real.outcomes.cache import MemoMapper
-from pegbt.sim2real.outcomes.cells import VARIANTS, Cell, Outcomes
+from pegbt.sim2real.outcomes.cells import Cell, Outcomes
 from pegbt.sim2real.outcomes.fit import LR_95, Fresh, Profile, Verdict, fit
 from pegbt.sim2real.outcomes.likelihood import log_likelihood
 from pegbt.sim2real.outcomes.locate import Row, locate

@@ -16,8 +16,8 @@ from pathlib import Path
 from pegbt.boundedio import read_bytes
 from pegbt.errors import PegbtError
 from pegbt.evaluation.paper import PAPER
-from pegbt.runconditions import CONDITIONS
-from pegbt.sim2real.outcomes.cells import PHASES, VARIANTS, Cell, Outcomes
+from pegbt.runconditions import CONDITIONS, VARIANTS
+from pegbt.sim2real.outcomes.cells import PHASES, Cell, Outcomes
 from pegbt.yamlfile import Located, read_settings_file
 
 MAX_TABLE_BYTES = 1 << 20

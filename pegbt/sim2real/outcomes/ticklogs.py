@@ -11,8 +11,8 @@ from pathlib import Path
 from pegbt.errors import PegbtError
 from pegbt.executive.logfile import read_tick_log
 from pegbt.executive.phases import transfer_outcomes
-from pegbt.runconditions import CONDITIONS
-from pegbt.sim2real.outcomes.cells import VARIANTS, Cell, Outcomes
+from pegbt.runconditions import CONDITIONS, VARIANTS
+from pegbt.sim2real.outcomes.cells import Cell, Outcomes
 
 TRUTH_SUFFIX = ".truth.jsonl"
 
