@@ -9,6 +9,7 @@ Every motion that starts low among the pegs first rises straight up to the trans
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from functools import partial
 
 import numpy as np
@@ -22,6 +23,7 @@ from pegbt.behaviours.resources.skills import Skills
 from pegbt.motion.ik import solve_ik
 from pegbt.motion.kinematics import forward_kinematics, tip_position
 from pegbt.motion.limits import ArmSettings
+from pegbt.motion.placing import stopped_above
 from pegbt.motion.settings import MotionSettings
 from pegbt.motion.trajectory import Trajectory
 from pegbt.motion.waypoints import TransferWaypoints
@@ -123,11 +125,20 @@ class CarryLeaf(MotionLeaf):
         self.sent_at = 0.0
         super().initialise()
 
+    def stops_above(self) -> bool:
+        """Whether this carry stops at rest over its goal peg, for a look at the held block before it is
+        lowered (`stop_above`, as the tree's policy says; a carry without the parameter never does)."""
+        return "stop_above" in self.params and bool(self.param("stop_above"))
+
     def begin(self) -> None:
         arm = self.param("arm")
         waypoints = self.waypoints()
         self.poses = waypoints.poses
-        self.move(arm, partial(self.motion(arm).transfer, waypoints), f"{arm} {self.name}", self.inputs())
+        planned = partial(self.motion(arm).transfer, waypoints)
+        if self.stops_above():  # never the plan made early, which goes on down
+            self.move(arm, partial(_stopped, planned), f"{arm} {self.name}, stopping above", None)
+            return
+        self.move(arm, planned, f"{arm} {self.name}", self.inputs())
 
     def started(self, trajectories: list[Trajectory]) -> None:
         planned = trajectories[0]
@@ -184,6 +195,10 @@ class CarryLeaf(MotionLeaf):
         if self.wake_at is not None:
             self.wake_at = min(self.wake_at, self.context.clock.now() + SLIP_CHECK)
         return Status.RUNNING
+
+
+def _stopped(planned: Callable[[], Trajectory]) -> Trajectory:
+    return stopped_above(planned())
 
 
 def slip(jaw_angle: float, held_above: float) -> str | None:

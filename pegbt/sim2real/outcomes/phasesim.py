@@ -549,7 +549,9 @@ def _paper_place(
     noise = rng.normal(0.0, PERCEPTION_SD, 2)
     bottom = seen_point(world, world.blocks[block].pose[:3, 3]) + [noise[0], noise[1], 0.0]
     points = visible_points(world, goal_peg)
-    move = correction(world.cell.board_to_arm(bench.name), world.cell.pegs.positions[goal_peg], bottom, points)
+    move = correction(
+        world.cell.board_to_arm(bench.name), world.cell.pegs.positions[goal_peg], bottom, points
+    )
     above, dropped = waypoints.poses[2].copy(), waypoints.poses[3].copy()
     above[:3, 3] += move
     dropped[:3, 3] += move
