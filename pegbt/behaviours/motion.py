@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from dataclasses import replace
 from functools import partial
 
 import numpy as np
@@ -17,7 +18,7 @@ from numpy.typing import NDArray
 from py_trees.common import Status
 
 from pegbt.behaviours.base import MotionLeaf, Outgoing
-from pegbt.behaviours.poses import approach_for, height_above_pegs, transfer_for
+from pegbt.behaviours.poses import approach_for, height_above_pegs, peg_top_board, to_arm, transfer_for
 from pegbt.behaviours.resources.arm_motion import ArmMotion
 from pegbt.behaviours.resources.skills import Skills
 from pegbt.motion.ik import solve_ik
@@ -130,14 +131,28 @@ class CarryLeaf(MotionLeaf):
         lowered (`stop_above`, as the tree's policy says; a carry without the parameter never does)."""
         return "stop_above" in self.params and bool(self.param("stop_above"))
 
+    def _stopping_at_place_height(self, waypoints: TransferWaypoints) -> TransferWaypoints:
+        """`waypoints` with the stop over the goal peg at `place_motion`'s carry height above its top (the
+        paper's under its protocol), where a carry made with other heights (the receiver's) would stop."""
+        arm, cell = self.param("arm"), self.skills.cell
+        up = cell.up_in(arm)
+        top = to_arm(cell, arm, peg_top_board(cell, self.read("/board"), int(self.param("place"))))
+        poses = waypoints.poses.copy()
+        height = self.skills.place_motion.transfer.transfer_height_above_peg_top
+        poses[2, :3, 3] += (height - (poses[2, :3, 3] - top) @ up) * up
+        return replace(waypoints, poses=poses)
+
     def begin(self) -> None:
         arm = self.param("arm")
         waypoints = self.waypoints()
         self.poses = waypoints.poses
-        planned = partial(self.motion(arm).transfer, waypoints)
         if self.stops_above():  # never the plan made early, which goes on down
-            self.move(arm, partial(_stopped, planned), f"{arm} {self.name}, stopping above", None)
+            waypoints = self._stopping_at_place_height(waypoints)
+            self.poses = waypoints.poses
+            planned = partial(_stopped, partial(self.motion(arm).transfer, waypoints))
+            self.move(arm, planned, f"{arm} {self.name}, stopping above", None)
             return
+        planned = partial(self.motion(arm).transfer, waypoints)
         self.move(arm, planned, f"{arm} {self.name}", self.inputs())
 
     def started(self, trajectories: list[Trajectory]) -> None:

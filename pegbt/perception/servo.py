@@ -8,8 +8,8 @@ and with fewer than 400 points nothing is corrected. Otherwise the block's botto
 the peg's axis, in the board's plane (`delta_rob[2] = 0` in the arm's frame).
 
 The paper's colour mask kept the red block's points and dropped the grey tool's; a cloud without colour
-(the simulated camera's) drops the points on the robot's own tool instead, where its encoders put it
-(`off_the_tool`).
+(the simulated camera's) drops the points on the robot's own tool instead, where the robot believes it
+is (`off_the_tool`).
 """
 
 from __future__ import annotations
@@ -26,10 +26,10 @@ from pegbt.workcell import ToolGeometry
 MIN_POINTS = 400  # `place_servoing`: fewer seen points leave the block uncorrected
 BAND = (0.030, 0.060)  # m above the board: `depth_block_servo = [-60, -30]` (mm, pegboard z down)
 HALF_BOX = 0.010  # m either side of the peg in board x and y: `mask_around_peg`
-# m beyond the tool's radii: where its encoders put it, a registered uncalibrated arm's tool is within a
-# millimetre or two of where it is
+# m beyond the tool's radii: where the robot believes it is (its plan, a registered uncalibrated arm's, a
+# compensated arm's), its tool is within a millimetre or two
 TOOL_MARGIN = 0.002
-STARTS = (-0.003, 0.0, 0.003)  # m: ICP's starts around the top face's centre, in board x and y each
+STARTS = (-0.004, 0.0, 0.004)  # m: ICP's starts around the top face's centre, in board x and y each
 
 
 def off_the_tool(

@@ -27,11 +27,12 @@ Look = tuple[NDArray[np.float64], int, str]  # the move (arm frame, m), the poin
 
 class FindHeldBlock(ComputeLeaf):
     """`find_block_servo` and `servoing_block`'s correction on `/cloud`, less the points on `arm`'s own
-    tool where its encoders put it (`off_the_tool`): writes the move to `servo`."""
+    tool where its plan put it (`off_the_tool`; a compensated arm's encoders read the cables' error away
+    from where its tool is, the plan does not): writes the move to `servo`."""
 
     def inputs(self) -> tuple[object, ...]:
         arm = self.param("arm")
-        joints = np.array(self.client(arm).measured_js.position, dtype=float)
+        joints = self.motion(arm).start_from(self.client(arm))  # as planned: where a compensated tool is
         return self.read("/cloud"), self.read("/board"), arm, int(self.param("place")), joints
 
     def compute(
