@@ -2,10 +2,11 @@
 world the paper's table fits (grip compliance 2 mm): unilateral, uncalibrated, seeds 7000 and 7001. Each
 trial's outcomes are read from its tick log alone; each of its transfers is simulated on its own.
 
-The bar: over seeds 7000-7009 the two agreed on 97 of 120 transfers (81 %; no seed below 7 of 12) and
-placed 27 and 28; on these two seeds 20 of 24, placed 7 and 6. 18 of 24 (75 %) leaves a transfer or two of
-the other seeds' spread, and fails the trees' own protocol on the same seeds and world (recovering, never
-looking before lowering: 15 of 24, placed 3 against 7), so it tells the protocols apart."""
+The bar: over seeds 7000-7009 the two agreed on 93 of 120 transfers (77.5 %; per seed 7 to 11 of 12) and
+placed 24 and 28; on these two seeds 18 of 24, placed 6 and 7. 16 of 24 and placed within 2 leave a
+transfer or two of the seeds' spread, and the trees' own protocol fails both on the same seeds and world
+(recovering, never looking before lowering: 15 of 24, placed 3 against 7), so they tell the protocols
+apart."""
 
 from __future__ import annotations
 
@@ -63,7 +64,7 @@ def test_whole_trials_under_the_paper_s_protocol_agree_with_the_phase_simulator(
         agree += sum(t == s for t, s in zip(trial, simulated))
         placed += trial.count("placed")
         simulated_placed += simulated.count("placed")
-    assert agree >= 18, (agree, placed, simulated_placed)
+    assert agree >= 16, (agree, placed, simulated_placed)
     assert abs(placed - simulated_placed) <= 2
 
 
