@@ -1254,6 +1254,29 @@ def test_carry_from_handover_lowers_the_block_onto_its_goal_peg_keeping_its_yaw(
     assert height_above_pegs(skills.cell, RECEIVER, end[:3, 3]) < block.height - block.grasp_depth
 
 
+def test_carry_from_handover_stopping_above_stops_at_the_place_height_over_its_goal_peg(
+    tmp_path, clock, cloud, seen
+):
+    """The receiver's carry made at pegbt's heights, stopped for the look (`stop_above`): its stop is moved
+    to the paper's `height_ready` over the goal peg, 28 mm above its top, as the giver-less carries'."""
+    skills = Skills("uncalibrated", protocol="paper", variant="handover")
+    robot = fake_robot(clock, skills.settings, skills.cell, cloud)
+    arm, meeting, values = receiver_holding(robot, skills, seen)
+    built = build(tmp_path, robot, skills, FROM_HANDOVER.replace("}}", ", stop_above: true}}"), **values)
+    assert run(built, clock) == Status.SUCCESS
+    (trajectory,) = arm.trajectories
+    end = forward_kinematics(trajectory.q[-1])
+    peg = skills.cell.board_to_arm(RECEIVER) @ np.append(seen[0].peg_tops[PLACE], 1.0)
+    assert (end[:3, 3] - peg[:3]) @ skills.cell.up_in(RECEIVER) == pytest.approx(0.028, abs=1e-4)
+    axis = skills.cell.board_to_arm(RECEIVER) @ meeting.block_pose[:, 3]
+    grasp = meeting.receiver_grasp.pose
+    assert np.allclose(
+        lateral(skills, RECEIVER, end[:3, 3] - peg[:3]),
+        lateral(skills, RECEIVER, grasp[:3, 3] - axis[:3]),
+        atol=2e-4,
+    )
+
+
 def test_carry_from_handover_fails_at_once_and_stops_the_arm_when_the_block_slips(
     tmp_path, robot, skills, seen, clock
 ):
