@@ -5,6 +5,11 @@ cells): a cell of the paper's Tables II-IV is a variant under a condition.
 - `uncalibrated`: rest-to-rest cubic motions, commands sent as planned;
 - `calibrated`: the same motions, every commanded row pre-compensated by the arm's calibration model;
 - `optimized`: transfers planned as the paper's spline refined by SQP, pre-compensated.
+
+And the protocols a trial runs by (`--protocol`): `pegbt`, the trees' own (recovery, pegbt's heights); `paper`,
+the reference paper's (one attempt per block, the arms registered to the camera as the paper's were, and,
+planned as rest-to-rest cubics, the carry stopped at the paper's height over the goal peg, where the held
+block is looked at before it is lowered: `PAPER_POLICIES`).
 """
 
 from __future__ import annotations
@@ -15,6 +20,9 @@ VARIANTS = ("unilateral", "bilateral", "handover")  # one tree each: trees/VARIA
 CONDITIONS = ("uncalibrated", "calibrated", "optimized")
 COMPENSATED = ("calibrated", "optimized")  # their commands correct the cables' error at the tip
 OPTIMIZED = ("optimized",)  # their transfers are planned by the optimiser
+PROTOCOLS = ("pegbt", "paper")
+LOOK_POLICY = "/policy/look_before_lowering"  # `trees/shared/place.yaml`: look at the held block, then lower
+RECOVER_POLICY = "/policy/recover_lost_blocks"  # `trees/shared/recover.yaml`: pick a lost block again
 
 
 def known_condition(condition: object) -> str:
@@ -24,3 +32,20 @@ def known_condition(condition: object) -> str:
             f"unknown condition {condition!r}; known: {', '.join(CONDITIONS)}", field="--condition"
         )
     return str(condition)
+
+
+def protocol_policies(protocol: str, condition: str | None) -> dict[str, bool]:
+    """The blackboard policies `protocol` sets for a run under `condition`: under the paper's, no recovery
+    (`FLSPegTransfer_single.py`, BerkeleyAutomation/FLSpegtransferHO, moves each block once) and, where the
+    transfer is rest-to-rest cubics (its `use_optimization = False`), the look before lowering; none under
+    pegbt's, whose trees declare their own."""
+    if protocol != "paper":
+        return {}
+    return {RECOVER_POLICY: False, LOOK_POLICY: condition not in OPTIMIZED}
+
+
+def known_protocol(protocol: object) -> str:
+    """`protocol` if it names a protocol, else a `PegbtError` on `--protocol`."""
+    if protocol not in PROTOCOLS:
+        raise PegbtError(f"unknown protocol {protocol!r}; known: {', '.join(PROTOCOLS)}", field="--protocol")
+    return str(protocol)

@@ -19,6 +19,7 @@ from pegbt.behaviours.params import (
     keep_apart_param,
     key_param,
     peg_param,
+    stop_above_param,
 )
 from pegbt.executive.conditions import OPERATORS
 from pegbt.executive.params import MAX_SECONDS, Param
@@ -308,6 +309,7 @@ declare(
         peg_param("place", "goal peg"),
         key_param("grasp", "read", "the receiver's grasp"),
         key_param("block_pose", "read", "the block's pose at the meeting point (board frame)"),
+        stop_above_param(),
         keep_apart=keep_apart_param(0.0),
     ),
     reads=("/board",),
@@ -340,8 +342,37 @@ declare(
             default=list(COMPENSATED),
             choices=CONDITIONS,
         ),
+        stop_above_param(),
     ),
     reads=("/board", "/blocks"),
+    resources=RESOURCES,
+)
+
+declare(
+    "find_held_block",
+    "the paper's look at the block `arm` holds at rest over peg `place` (`find_block_servo`): `/cloud`'s "
+    "points 30–60 mm above the board within 10 mm of the peg, the block model registered to them, and the "
+    "move (arm frame) that puts the block's bottom on the peg's axis written to `servo`; none with fewer "
+    "than 400 points",
+    "pegbt.behaviours.actions.placing:FindHeldBlock",
+    params=(
+        arm_param(),
+        peg_param("place", "goal peg"),
+        key_param("servo", "write", "the move (arm frame, m) over the peg"),
+    ),
+    reads=("/cloud", "/board"),
+    resources=RESOURCES,
+)
+
+declare(
+    "servo_over_peg",
+    "move `arm`, at rest over peg `place`, by `servo` and lower the block to the drop height (rest-to-rest, "
+    "as the paper's `servoing_block`); fails at once if the block slips",
+    "pegbt.behaviours.actions.placing:ServoOverPeg",
+    params=carry_params(
+        peg_param("place", "goal peg"),
+        key_param("servo", "read", "the move (arm frame, m) over the peg (`find_held_block`)"),
+    ),
     resources=RESOURCES,
 )
 

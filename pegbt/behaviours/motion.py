@@ -9,6 +9,8 @@ Every motion that starts low among the pegs first rises straight up to the trans
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
+from dataclasses import replace
 from functools import partial
 
 import numpy as np
@@ -16,12 +18,13 @@ from numpy.typing import NDArray
 from py_trees.common import Status
 
 from pegbt.behaviours.base import MotionLeaf, Outgoing
-from pegbt.behaviours.poses import approach_for, height_above_pegs, transfer_for
+from pegbt.behaviours.poses import approach_for, height_above_pegs, peg_top_board, to_arm, transfer_for
 from pegbt.behaviours.resources.arm_motion import ArmMotion
 from pegbt.behaviours.resources.skills import Skills
 from pegbt.motion.ik import solve_ik
 from pegbt.motion.kinematics import forward_kinematics, tip_position
 from pegbt.motion.limits import ArmSettings
+from pegbt.motion.placing import stopped_above
 from pegbt.motion.settings import MotionSettings
 from pegbt.motion.trajectory import Trajectory
 from pegbt.motion.waypoints import TransferWaypoints
@@ -123,11 +126,34 @@ class CarryLeaf(MotionLeaf):
         self.sent_at = 0.0
         super().initialise()
 
+    def stops_above(self) -> bool:
+        """Whether this carry stops at rest over its goal peg, for a look at the held block before it is
+        lowered (`stop_above`, as the tree's policy says; a carry without the parameter never does)."""
+        return "stop_above" in self.params and bool(self.param("stop_above"))
+
+    def _stopping_at_place_height(self, waypoints: TransferWaypoints) -> TransferWaypoints:
+        """`waypoints` with the stop over the goal peg at `place_motion`'s carry height above its top (the
+        paper's under its protocol), where a carry made with other heights (the receiver's) would stop."""
+        arm, cell = self.param("arm"), self.skills.cell
+        up = cell.up_in(arm)
+        top = to_arm(cell, arm, peg_top_board(cell, self.read("/board"), int(self.param("place"))))
+        poses = waypoints.poses.copy()
+        height = self.skills.place_motion.transfer.transfer_height_above_peg_top
+        poses[2, :3, 3] += (height - (poses[2, :3, 3] - top) @ up) * up
+        return replace(waypoints, poses=poses)
+
     def begin(self) -> None:
         arm = self.param("arm")
         waypoints = self.waypoints()
         self.poses = waypoints.poses
-        self.move(arm, partial(self.motion(arm).transfer, waypoints), f"{arm} {self.name}", self.inputs())
+        if self.stops_above():  # never the plan made early, which goes on down
+            waypoints = self._stopping_at_place_height(waypoints)
+            self.poses = waypoints.poses
+            planned = partial(_stopped, partial(self.motion(arm).transfer, waypoints))
+            self.move(arm, planned, f"{arm} {self.name}, stopping above", None)
+            return
+        planned = partial(self.motion(arm).transfer, waypoints)
+        self.move(arm, planned, f"{arm} {self.name}", self.inputs())
 
     def started(self, trajectories: list[Trajectory]) -> None:
         planned = trajectories[0]
@@ -184,6 +210,10 @@ class CarryLeaf(MotionLeaf):
         if self.wake_at is not None:
             self.wake_at = min(self.wake_at, self.context.clock.now() + SLIP_CHECK)
         return Status.RUNNING
+
+
+def _stopped(planned: Callable[[], Trajectory]) -> Trajectory:
+    return stopped_above(planned())
 
 
 def slip(jaw_angle: float, held_above: float) -> str | None:

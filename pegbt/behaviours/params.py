@@ -89,3 +89,16 @@ PATIENCE = Param(
     minimum=0.0,
     maximum=MAX_SECONDS,
 )
+
+
+def stop_above_param() -> Param:
+    """`stop_above`: the carry stops at rest over its goal peg, for the look before lowering."""
+    return Param(
+        "stop_above",
+        bool,
+        "stop at rest over the goal peg instead of lowering (the paper's `place_servoing`: the look at the "
+        "held block, `find_held_block` and `servo_over_peg`, lowers it); a tree passes its policy, "
+        "`$/policy/look_before_lowering`",
+        default=False,
+        blackboard=True,
+    )

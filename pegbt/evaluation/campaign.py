@@ -38,6 +38,7 @@ class Cell:
     camera: str = "stream"
     speed: float = 1.0  # the fraction of the planner's speed (`pegbt run --speed`)
     robot_clock_offset: float = 0.0  # s the simulated robot's clock is from this one's (`--interface dvrk`)
+    protocol: str = "pegbt"  # the trees' own, or the reference paper's (`pegbt run --protocol`)
 
     @property
     def name(self) -> str:
@@ -49,6 +50,7 @@ class Cell:
             + ("" if self.camera == "stream" else f"-{self.camera}")
             + ("" if self.speed == 1.0 else f"-speed{self.speed:g}")
             + ("" if not self.robot_clock_offset else f"-clock{self.robot_clock_offset:+g}")
+            + ("" if self.protocol == "pegbt" else f"-{self.protocol}")
         )
 
     @property
@@ -78,6 +80,7 @@ def trial_specs(cell: Cell, out: Path, keep_logs: bool = False) -> list[TrialSpe
                 camera=cell.camera,
                 speed=cell.speed,
                 robot_clock_offset=cell.robot_clock_offset,
+                protocol=cell.protocol,
             )
         )
     return specs

@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING
 
 from pegbt.errors import PegbtError
 from pegbt.numbers import NumberOption
-from pegbt.runconditions import CONDITIONS, VARIANTS, known_condition
+from pegbt.runconditions import CONDITIONS, PROTOCOLS, VARIANTS, known_condition, known_protocol
 from pegbt.simoptions import add_sim_world_arguments, refuse_dvrk_only
 
 if TYPE_CHECKING:
@@ -39,6 +39,14 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
         "--condition", default="optimized", metavar="C", help=f"{', '.join(CONDITIONS)} (default optimized)"
     )
     parser.add_argument("--seed", type=int, default=0, metavar="S", help="first seed (default 0)")
+    parser.add_argument(
+        "--protocol",
+        default="pegbt",
+        metavar="P",
+        help=f"{' or '.join(PROTOCOLS)}: the trees' own (recovery, pegbt's heights; the default) or the reference "
+        "paper's (one attempt per block, the arms registered to the camera as its were, with cubic motions a "
+        "look at the held block before lowering it), as `pegbt run --protocol`",
+    )
     faults = parser.add_mutually_exclusive_group()
     faults.add_argument(
         "--faults",
@@ -119,6 +127,7 @@ def check_arguments(args: argparse.Namespace) -> None:
     if args.variant not in VARIANTS:
         raise PegbtError(f"unknown variant {args.variant!r}; known: {', '.join(VARIANTS)}", field="--variant")
     known_condition(args.condition)
+    known_protocol(args.protocol)
     for name in ("trials", "workers"):
         if getattr(args, name) <= 0:
             raise PegbtError(f"must be at least 1, got {getattr(args, name)}", field=f"--{name}")
@@ -184,6 +193,7 @@ def _eval(args: argparse.Namespace) -> int:
         camera=args.camera,
         speed=args.speed,
         robot_clock_offset=args.robot_clock_offset,
+        protocol=args.protocol,
     )
     specs = trial_specs(cell, args.out, keep_logs=args.keep_logs)
     done = None if args.quiet else _report_trial

@@ -50,6 +50,7 @@ class TrialSpec:
     camera: str = "stream"  # the dVRK interface's depth camera: streaming, or a Zivid's capture service
     speed: float = 1.0  # the fraction of the planner's speed (`pegbt run --speed`)
     robot_clock_offset: float = 0.0  # s the simulated robot's clock is from this one's (`--interface dvrk`)
+    protocol: str = "pegbt"  # the trees' own, or the reference paper's (`pegbt run --protocol`)
 
 
 @dataclass
@@ -171,6 +172,7 @@ def _run(spec: TrialSpec, truth: Path) -> RunOutput:
             "faults": None if spec.faults is None else str(spec.faults),
             "world-effects": None if spec.world_effects is None else str(spec.world_effects),
             "speed": spec.speed,
+            "protocol": spec.protocol,
         }
         return run_tree_file(trial_run_options(spec, options))
     with SimProcess(simulator_args(spec, truth)) as simulator:
@@ -231,6 +233,7 @@ def run_options(spec: TrialSpec, endpoint: str) -> dict[str, Any]:
         "liveness": SIMULATOR_LIVENESS_S,
         "camera": spec.camera,
         "speed": spec.speed,
+        "protocol": spec.protocol,
     }
 
 

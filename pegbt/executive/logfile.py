@@ -99,6 +99,11 @@ class TickLog:
         return self.header.get("condition")
 
     @property
+    def protocol(self) -> str:
+        """The protocol the run followed (`--protocol`): pegbt's for a log from before headers recorded it."""
+        return str((self.run.get("options") or {}).get("protocol") or "pegbt")
+
+    @property
     def run(self) -> dict[str, Any]:
         """The run's options as the header records them (`RunOptions.record_fields`); empty if it has none."""
         return self.header.get("run") or {}

@@ -34,12 +34,19 @@ from pegbt.executive.causes import (
 from pegbt.executive.logfile import TickLog
 
 PHASES = ("sense", "reach", "grasp", "lift", "carry", "handover", "lower", "release")
-CARRY_LEAVES = ("transfer", "carry_to_handover", "carry_from_handover")  # their detail names the segment
+CARRY_LEAVES = (
+    "transfer",
+    "carry_to_handover",
+    "carry_from_handover",
+    "servo_over_peg",
+)  # their detail names the segment
 PHASE_OF_LEAF = {
     "grasp": "grasp",  # the jaw closed on nothing (a giver's pick, or a receiver's take at the handover)
     "transfer": "carry",  # refined by the segment its detail names: lift, carry, lower
     "carry_to_handover": "carry",
     "carry_from_handover": "carry",
+    "servo_over_peg": "carry",  # refined as a carry's: the move over the peg is its carry, then lower
+    "find_held_block": "sense",
     "keep_holding": "handover",  # the giver's block slipped while it held it out
     "go_to_handover": "handover",  # the receiver did not get to the block held out
     "descend_to_grasp": "handover",

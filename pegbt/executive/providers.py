@@ -26,7 +26,7 @@ from typing import Any, Protocol, runtime_checkable
 
 from pegbt.clock import Clock
 from pegbt.errors import PegbtError
-from pegbt.runconditions import CONDITIONS
+from pegbt.runconditions import CONDITIONS, PROTOCOLS
 
 
 @runtime_checkable
@@ -141,6 +141,14 @@ RUN_OPTIONS: dict[str, RunOption] = {
             choices=CONDITIONS,
         ),
         RunOption(
+            "protocol",
+            "skills and tree: pegbt (the trees' recovery and heights) or paper (the reference paper's: one "
+            "attempt per block, the arms registered to the camera as its were, and with cubic motions the "
+            "carry stopped at its height over the goal peg to look at the held block before lowering it)",
+            "pegbt",
+            choices=PROTOCOLS,
+        ),
+        RunOption(
             "speed",
             "skills and robot: move at this fraction (0, 1] of the planner's speed, for a first run on a "
             "robot: velocities × F, accelerations × F², every motion 1/F as long (None: 1)",
@@ -174,11 +182,13 @@ RUN_OPTIONS: dict[str, RunOption] = {
 @dataclass(frozen=True)
 class ProviderSetup:
     """What a provider receives: the run's options (every `RUN_OPTIONS` name, defaults filled in), its clock
-    and the clock's name if `--clock` asked for one (None: the default, or whatever a resource supplies)."""
+    and the clock's name if `--clock` asked for one (None: the default, or whatever a resource supplies),
+    and the run's variant (the paper's protocol places each variant at its own height)."""
 
     clock: Clock
     options: Mapping[str, Any] = field(default_factory=dict)
     clock_name: str | None = None
+    variant: str = ""
 
 
 def _load(target: str) -> Any:

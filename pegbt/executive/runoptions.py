@@ -17,13 +17,15 @@ from typing import Any
 from pegbt.executive.compact import compact
 from pegbt.executive.providers import run_options
 from pegbt.numbers import checked_number
+from pegbt.runconditions import protocol_policies
 
 
 @dataclass(frozen=True)
 class RunOptions:
     """One run's options. `options` are the providers' (`RUN_OPTIONS` names; defaults filled in and checked
     on construction); `clock` None takes the clock a resource supplies, else the wall clock; `blackboard`
-    replaces initial values the tree file declares; `record` names an MCAP file for what the resources'
+    replaces initial values the tree file declares, over the policies of the `protocol` option
+    (`protocol_policies`); `record` names an MCAP file for what the resources'
     links carry; `variant` defaults to the tree file's name; `world` is recorded, never acted on."""
 
     tree: Path
@@ -47,9 +49,15 @@ class RunOptions:
         object.__setattr__(self, "log", Path(self.log))
         object.__setattr__(self, "record", None if self.record is None else Path(self.record))
         object.__setattr__(self, "options", run_options(self.options))
-        object.__setattr__(self, "blackboard", dict(self.blackboard))
+        policies = protocol_policies(self.options["protocol"], self.condition)
+        object.__setattr__(self, "blackboard", policies | dict(self.blackboard))
         object.__setattr__(self, "world", dict(self.world))
         object.__setattr__(self, "variant", self.variant or self.tree.stem)
+
+    @property
+    def protocol(self) -> str:
+        """The protocol the run follows (pegbt, paper)."""
+        return str(self.options["protocol"])
 
     @property
     def condition(self) -> str | None:

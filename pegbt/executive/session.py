@@ -74,7 +74,9 @@ def run_tree_file(
     tree, log_path, clock = options.tree, options.log, options.clock
     loaded = load_tree(tree, allow_include_outside=options.allow_include_outside)
     loaded.set_blackboard(options.blackboard)
-    setup = ProviderSetup(clock=make_clock(clock or "wall"), options=options.options, clock_name=clock)
+    setup = ProviderSetup(
+        clock=make_clock(clock or "wall"), options=options.options, clock_name=clock, variant=options.variant
+    )
     resources = provide_resources(loaded.resource_users(), setup)
     recorder = None
     try:

@@ -12,6 +12,7 @@ is reported as a failure with its reason, never passed on as a pose.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import lru_cache
 
@@ -143,6 +144,16 @@ class BlockLocator:
             for turn in RESTART_YAWS
         ]
         return fits[int(np.argmax([self._quality(segment, fit)[0] for fit in fits]))]
+
+    def best_fit(
+        self, segment: Points, starts: Sequence[NDArray[np.float64]]
+    ) -> tuple[NDArray[np.float64], float]:
+        """The block pose (board frame) of the best of the ICP fits of `segment` from each of `starts`, by
+        its fitness (`_quality`), and that fitness."""
+        fits = [self._fit(segment, start) for start in starts]
+        fitness = [self._quality(segment, fit)[0] for fit in fits]
+        best = int(np.argmax(fitness))
+        return fits[best], fitness[best]
 
     def _surrounded_pegs(self, cluster: Points, peg_xy: Points) -> list[int]:
         """Pegs whose axis the cluster surrounds (points all round it, centred on it), most points first."""

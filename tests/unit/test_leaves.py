@@ -24,7 +24,7 @@ from pegbt.behaviours.actions import handover
 from pegbt.behaviours.actions.grasping import gripping
 from pegbt.behaviours.actions.handover import WayOut, plan_meeting
 from pegbt.behaviours.base import JAW_AHEAD, LONE_PATIENCE, MOTION_OVERTIME, Outgoing, parts
-from pegbt.behaviours.poses import HANDOVER_ARRIVAL, height_above_pegs, transfer_for, yaw_about
+from pegbt.behaviours.poses import HANDOVER_ARRIVAL, height_above_pegs, tool_pose, transfer_for, yaw_about
 from pegbt.behaviours.resources.arm_motion import EarlyPlan
 from pegbt.behaviours.resources.robot import Robot
 from pegbt.behaviours.resources.skills import Skills
@@ -36,6 +36,7 @@ from pegbt.executive.loader import load_tree
 from pegbt.executive.registry import REGISTRY
 from pegbt.executive.runner import set_initial_blackboard
 from pegbt.executive.work import WorkPool
+from pegbt.frames import yaw_pose
 from pegbt.handover_protocol import Giver, Handover, Receiver
 from pegbt.motion.handover import (
     descent_clearance,
@@ -51,6 +52,7 @@ from pegbt.perception.grasp import grasp_options
 from pegbt.physics.recording import MIN_SAMPLES, load_recording
 from pegbt.sim.camera import DepthCamera
 from pegbt.sim.faults import CameraFaults, NoiseBurst
+from pegbt.sim.tools import ToolState
 from pegbt.sim.world import World
 from pegbt.transport import EndpointSilent
 
@@ -614,6 +616,108 @@ def test_a_transfer_whose_jaw_is_already_empty_as_it_lets_go_fails(tmp_path, rob
     built.root.tick_once()
     assert leaf.status == Status.FAILURE and "slipped" in feedback(built)
     assert leaf.log_detail == {"segment": "lower", "held": False}
+
+
+# ------------------------------------------------------------------- the paper's look before lowering
+LOOK = f"{{find_held_block: {{arm: PSM1, place: {PLACE}, servo: /PSM1/servo}}}}"
+SERVO = f"{{servo_over_peg: {{arm: PSM1, place: {PLACE}, servo: /PSM1/servo, plan_s: /PSM1/plan_s}}}}"
+
+
+def paper_skills() -> Skills:
+    return Skills("uncalibrated", protocol="paper", variant="unilateral")
+
+
+def test_under_the_paper_s_policy_the_transfer_stops_at_rest_at_its_height_over_the_goal_peg(
+    tmp_path, clock, cloud, seen
+):
+    """`stop_above` (the tree's `/policy/look_before_lowering`): the carry ends where the paper's
+    `transfer_block_traj` ends, 28 mm over the peg tops, and never opens the jaw, even under a condition
+    `let_go_early` names."""
+    skills = paper_skills()
+    robot = fake_robot(clock, skills.settings, skills.cell, cloud)
+    arm, values = holding_at_the_grasp(robot, skills, seen)
+    arm.jaw.rest = np.array([skills.motion.transfer.jaw_closed])
+    tree = TRANSFER.replace("}}", ", let_go_early: [uncalibrated], stop_above: true}}")
+    built = build(tmp_path, robot, skills, tree, **values)
+    assert run(built, clock) == Status.SUCCESS
+    (trajectory,) = arm.trajectories
+    tip, top = tip_position(trajectory.q[-1]), skills.cell.peg_tops_in("PSM1")[PLACE]
+    assert (tip - top) @ skills.cell.up_in("PSM1") == pytest.approx(0.028, abs=1e-4)
+    block, grasp = values["PSM1/block"], values["PSM1/grasp"]
+    above = transfer_for(skills.cell, skills.place_motion, "PSM1", seen[0], block, grasp, PLACE).poses[2]
+    assert np.linalg.norm(tip - above[:3, 3]) < 1e-4  # over the peg, as the grasp holds the block
+    # at rest within a sample of the cubics' stop there (their knots fall between the 10 ms samples)
+    assert np.linalg.norm(trajectory.qd[-1]) < 0.01 and arm.jaw.sent == []
+
+
+def holding_over(world: World, skills: Skills, bottom_above_board: float, offset) -> np.ndarray:
+    """Block 0 of `world` held by PSM1 over peg `PLACE`, its bottom `bottom_above_board` (m) above the
+    board and `offset` (board x, y) off the peg's axis, and the tool that holds it in the camera's view;
+    the arm's joints."""
+    cell = world.cell
+    x, y = cell.pegs.positions[PLACE]
+    pose = yaw_pose([x + offset[0], y + offset[1], cell.board.surface_z - bottom_above_board], 0.3)
+    block = world.blocks[0]
+    block.pose, block.peg = pose, None
+    seen = BlockEstimate(pose[:3, 3].copy(), 0.3, None, 1.0, 0.0, 0, True, "")
+    joints = solve_ik(skills.selectors["PSM1"].pick(seen).pose, skills.settings["PSM1"])
+    world.tools["PSM1"] = ToolState.from_joints(joints, 0.2, cell.arm_to_board("PSM1"))
+    return joints
+
+
+def test_the_look_finds_the_held_block_off_the_peg_and_writes_the_move_that_centres_it(
+    tmp_path, robot, skills, seen, clock
+):
+    """The camera sees the block held 38 mm up (where the paper's carry stops it), 2 mm and -1 mm off the
+    peg, with the tool in front of it: the move written puts its bottom on the peg's axis within 0.2 mm."""
+    world = World(seed=0)
+    at(psm1(robot), holding_over(world, skills, 0.038, (0.002, -0.001)))
+    cloud = DepthCamera(seed=1).capture(world)
+    built = build(tmp_path, robot, skills, LOOK, cloud=cloud, board=seen[0])
+    assert run(built, clock) == Status.SUCCESS
+    move = skills.cell.board_to_arm("PSM1")[:3, :3].T @ np.asarray(read("/PSM1/servo"))
+    assert np.linalg.norm(move[:2] + [0.002, -0.001]) < 0.0002
+    assert "mm off its axis" in feedback(built)
+
+
+def test_the_look_corrects_nothing_when_it_sees_fewer_than_400_points_of_the_block(
+    tmp_path, robot, skills, seen, clock
+):
+    """A block carried above the paper's band (its bottom 65 mm up): the box over the peg holds the tool
+    alone, which the look leaves out, so nothing is moved."""
+    world = World(seed=0)
+    at(psm1(robot), holding_over(world, skills, 0.065, (0.002, -0.001)))
+    cloud = DepthCamera(seed=1).capture(world)
+    built = build(tmp_path, robot, skills, LOOK, cloud=cloud, board=seen[0])
+    assert run(built, clock) == Status.SUCCESS
+    assert read("/PSM1/servo") == [0.0, 0.0, 0.0]
+    assert "fewer than 400: no correction" in feedback(built)
+
+
+def test_servo_over_peg_moves_by_the_look_at_rest_then_lowers_to_the_paper_s_drop_height(
+    tmp_path, clock, cloud
+):
+    skills = paper_skills()
+    robot = fake_robot(clock, skills.settings, skills.cell, cloud)
+    arm, cell = psm1(robot), skills.cell
+    up, top = cell.up_in("PSM1"), cell.peg_tops_in("PSM1")[PLACE]
+    stop = tool_pose(top + 0.028 * up, 0.4, up)
+    at(arm, solve_ik(stop, skills.settings["PSM1"]))
+    arm.block_in_jaw = True
+    move = [0.0015, -0.001, 0.0]
+    built = build(tmp_path, robot, skills, SERVO, **{"PSM1/servo": move})
+    assert run(built, clock) == Status.SUCCESS
+    (trajectory,) = arm.trajectories
+    tips = tip_position(trajectory.q)
+    lateral = tips - top - ((tips - top) @ up)[:, None] * up
+    moved = np.asarray(move) - (np.asarray(move) @ up) * up
+    assert np.allclose(lateral[-1], moved, atol=1e-4)  # moved by the look, along the board
+    assert (tips[-1] - top) @ up == pytest.approx(0.018, abs=1e-4)  # `height_drop`, unilateral: -0.130 m
+    # rest-to-rest: the arm stops at the stop's height, moved, before it lowers
+    moved_above = stop[:3, 3] + move
+    there = int(np.argmin(np.linalg.norm(tips - moved_above, axis=1)))
+    assert np.linalg.norm(tips[there] - moved_above) < 2e-4 and 0 < there < len(tips) - 1
+    assert np.linalg.norm(trajectory.qd[there]) < 0.01
 
 
 def test_transfer_fails_at_once_and_stops_the_arm_when_the_block_slips(tmp_path, robot, skills, seen, clock):
@@ -1232,6 +1336,29 @@ def test_carry_from_handover_lowers_the_block_onto_its_goal_peg_keeping_its_yaw(
     assert height_above_pegs(skills.cell, RECEIVER, end[:3, 3]) < block.height - block.grasp_depth
 
 
+def test_carry_from_handover_stopping_above_stops_at_the_place_height_over_its_goal_peg(
+    tmp_path, clock, cloud, seen
+):
+    """The receiver's carry made at pegbt's heights, stopped for the look (`stop_above`): its stop is moved
+    to the paper's `height_ready` over the goal peg, 28 mm above its top, as the giver-less carries'."""
+    skills = Skills("uncalibrated", protocol="paper", variant="handover")
+    robot = fake_robot(clock, skills.settings, skills.cell, cloud)
+    arm, meeting, values = receiver_holding(robot, skills, seen)
+    built = build(tmp_path, robot, skills, FROM_HANDOVER.replace("}}", ", stop_above: true}}"), **values)
+    assert run(built, clock) == Status.SUCCESS
+    (trajectory,) = arm.trajectories
+    end = forward_kinematics(trajectory.q[-1])
+    peg = skills.cell.board_to_arm(RECEIVER) @ np.append(seen[0].peg_tops[PLACE], 1.0)
+    assert (end[:3, 3] - peg[:3]) @ skills.cell.up_in(RECEIVER) == pytest.approx(0.028, abs=1e-4)
+    axis = skills.cell.board_to_arm(RECEIVER) @ meeting.block_pose[:, 3]
+    grasp = meeting.receiver_grasp.pose
+    assert np.allclose(
+        lateral(skills, RECEIVER, end[:3, 3] - peg[:3]),
+        lateral(skills, RECEIVER, grasp[:3, 3] - axis[:3]),
+        atol=2e-4,
+    )
+
+
 def test_carry_from_handover_fails_at_once_and_stops_the_arm_when_the_block_slips(
     tmp_path, robot, skills, seen, clock
 ):
@@ -1357,6 +1484,7 @@ UNIT_TESTED = {
     "collect_calibration": "test_leaves.py",
     "descend_to_grasp": "test_leaves.py",
     "find_blocks": "test_leaves.py",
+    "find_held_block": "test_leaves.py",
     "finish_transfer": "test_leaves.py",
     "give_up": "test_handover_protocol.py",
     "go_to_handover": "test_leaves.py",
@@ -1381,6 +1509,7 @@ UNIT_TESTED = {
     "rise": "test_leaves.py",
     "scripted": "test_executive_nodes.py",
     "select_grasp": "test_leaves.py",
+    "servo_over_peg": "test_leaves.py",
     "set_blackboard": "test_executive_nodes.py",
     "take": "test_handover_protocol.py",
     "transfer": "test_leaves.py",

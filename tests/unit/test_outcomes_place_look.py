@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from pegbt.frames import yaw_pose
+from pegbt.perception import servo
 from pegbt.sim.world import World
 from pegbt.sim2real.outcomes import phasesim, placelook
 from pegbt.sim2real.outcomes.phasesim import Replay
@@ -17,11 +18,12 @@ def test_the_camera_sees_a_block_held_over_the_peg_and_nothing_over_an_empty_peg
     world = World(0)
     empty = next(p for p in range(len(world.cell.pegs.positions)) if all(b.peg != p for b in world.blocks))
     assert placelook.visible_points(world, empty) == 0
-    assert not placelook.correction(world, "PSM1", np.zeros(3), empty, 0).any()
+    peg_xy = world.cell.pegs.positions[empty]
+    assert not servo.correction(world.cell.board_to_arm("PSM1"), peg_xy, np.zeros(3), 0).any()
     x, y = world.cell.pegs.positions[empty]
     bottom = world.cell.board.surface_z - 0.038  # where the paper's carry stops it (board z runs down)
     world.blocks[0].pose = yaw_pose([x + 0.002, y - 0.001, bottom], 0.3)
-    assert placelook.visible_points(world, empty) >= placelook.MIN_POINTS
+    assert placelook.visible_points(world, empty) >= servo.MIN_POINTS
 
 
 @pytest.fixture
@@ -35,10 +37,10 @@ def lowered(monkeypatch):
         block = next(b.index for b in world.blocks if b.peg == start)
         moves, offsets = [], []
 
-        def correction(world, arm, seen, peg, points):
-            offsets.append(world.blocks[block].pose[:2, 3] - world.cell.pegs.positions[peg])
-            move = placelook.correction(world, arm, seen, peg, points if look else placelook.MIN_POINTS - 1)
-            moves.append(world.cell.board_to_arm(arm)[:3, :3].T @ move)
+        def correction(to_arm, peg_xy, seen, points):
+            offsets.append(world.blocks[block].pose[:2, 3] - peg_xy)
+            move = servo.correction(to_arm, peg_xy, seen, points if look else servo.MIN_POINTS - 1)
+            moves.append(to_arm[:3, :3].T @ move)
             return move
 
         monkeypatch.setattr(phasesim, "correction", correction)

@@ -7,11 +7,11 @@ from pathlib import Path
 
 import numpy as np
 
+from pegbt.calibration.registration import registered_arm_from_board
 from pegbt.frames import invert_rigid
 from pegbt.motion.kinematics import shaft_end_and_tip
 from pegbt.sim.world import World
 from pegbt.sim.world_effects import WorldEffects
-from pegbt.sim2real.outcomes.registration import registered_arm_from_board
 from pegbt.sim2real.outcomes.simulate import LocalMapper, attempts_for, registered_for
 from pegbt.sim2real.outcomes.table import paper_table, read_table
 from pegbt.workcell import workcell

@@ -8,6 +8,7 @@ from pathlib import Path
 
 import pytest
 
+from pegbt.behaviours.resources.skills import Skills
 from pegbt.cli import main
 from pegbt.errors import PegbtError
 from pegbt.evaluation.trial import TrialSpec, run_options, trial_run_options
@@ -117,3 +118,37 @@ def test_a_header_whose_run_is_not_a_mapping_is_refused_with_its_field(tmp_path)
     with pytest.raises(TickLogError, match="expected a string or null") as raised:
         read_tick_log(_old_header(tmp_path, condition=3))
     assert raised.value.field == "condition"
+
+
+def test_the_paper_s_protocol_is_recorded_with_the_policies_it_sets(tmp_path):
+    """`--protocol paper`: the header records it among the options, and the blackboard policies it sets
+    (no recovery; the look before lowering with the cubic motions only, as the paper's optimised
+    trajectory did not stop over the peg), which a trial's tree declares."""
+    for condition, looks in (("uncalibrated", True), ("calibrated", True), ("optimized", False)):
+        spec = TrialSpec("unilateral", condition, 1, tmp_path / "t.jsonl", protocol="paper")
+        fields = trial_run_options(spec, run_options(spec, "tcp/127.0.0.1:7447")).record_fields()
+        assert fields["run"]["options"]["protocol"] == "paper"
+        assert fields["run"]["blackboard"] == {
+            "/policy/recover_lost_blocks": False,
+            "/policy/look_before_lowering": looks,
+        }
+    spec = TrialSpec("unilateral", "uncalibrated", 1, tmp_path / "t.jsonl")
+    fields = trial_run_options(spec, run_options(spec, "tcp/127.0.0.1:7447")).record_fields()
+    assert fields["run"]["options"]["protocol"] == "pegbt" and fields["run"]["blackboard"] == {}
+    assert read_tick_log(_old_header(tmp_path)).protocol == "pegbt"  # a log from before the option
+
+
+def test_a_bad_protocol_is_refused_naming_the_option_or_the_tree_file(tmp_path, capsys):
+    with pytest.raises(PegbtError, match="'sideways' is not one of pegbt, paper") as raised:
+        RunOptions(EXAMPLE, tmp_path / "x.jsonl", {"protocol": "sideways"})
+    assert raised.value.field == "--protocol"
+    out = ["--out", str(tmp_path / "e")]
+    assert main(["eval", "--variant", "unilateral", "--trials", "1", "--protocol", "sideways", *out]) == 2
+    assert "--protocol: unknown protocol 'sideways'; known: pegbt, paper" in capsys.readouterr().err
+    # a tree that declares none of the policies cannot run under the paper's protocol
+    with pytest.raises(PegbtError, match="declares no blackboard key '/policy/") as raised:
+        run_tree_file(RunOptions(EXAMPLE, tmp_path / "x.jsonl", {"protocol": "paper"}, clock="manual"))
+    assert raised.value.file == str(EXAMPLE) and str(raised.value.field).startswith("/policy/")
+    with pytest.raises(PegbtError, match="has heights for unilateral, bilateral, handover only") as raised:
+        Skills("uncalibrated", protocol="paper", variant="example")
+    assert raised.value.field == "variant"

@@ -37,12 +37,13 @@ class Transfer(CarryLeaf):
     error: uncalibrated, a dVRK's tip lags and strays by millimetres its encoders do not show, so a jaw
     opened on the plan's clock may drop the block before its hole is on the peg, and an opening jaw can
     no longer tell that a peg knocked the block out; there the jaw stays closed, watched, until the arm
-    is at rest, and `release` opens it."""
+    is at rest, and `release` opens it. Under the paper's protocol the jaw always stays closed, and a carry
+    that stops above the goal peg to look first (`stop_above`) goes at the paper's heights."""
 
     def waypoints(self) -> TransferWaypoints:
         return transfer_for(
             self.skills.cell,
-            self.skills.motion,
+            self.skills.place_motion if self.stops_above() else self.skills.motion,
             self.param("arm"),
             self.read("/board"),
             self.get("block"),
@@ -52,8 +53,8 @@ class Transfer(CarryLeaf):
 
     def begin(self) -> None:
         super().begin()
-        if self.skills.condition not in self.param("let_go_early"):
-            return
+        if self.skills.condition not in self.param("let_go_early") or self.skills.protocol == "paper":
+            return  # the paper's robot let go at rest
         arm, transfer = self.param("arm"), self.skills.motion.transfer
         opening = (transfer.jaw_release - transfer.jaw_closed) / self.motion(arm).settings.jaw_velocity
         self.move_jaw(arm, transfer.jaw_release, f"{arm} letting go", before_end=opening)
@@ -64,7 +65,7 @@ class Transfer(CarryLeaf):
     def started(self, trajectories: list[Trajectory]) -> None:
         super().started(trajectories)
         pick = self.param("then").get("pick")
-        if not isinstance(pick, int):
+        if not isinstance(pick, int) or self.stops_above():  # the look moves the arm before it sets out
             return
         arm, board = self.param("arm"), self.read("/board")
         block = block_on_peg(self.read("/blocks"), pick)

@@ -9,12 +9,17 @@ for `--endpoint auto` `skills/calibration/sim-dvrk-real/`: models fitted on reco
 arms made by `trees/calibrate_collect.yaml`): per arm the first of `ARM-hybrid.json`, `ARM-physics.json`,
 `ARM-lstm.json` found. Models are per set-up: a model fitted on one robot (or on the simulator) does not
 fit another.
+
+Under the paper's protocol (`--protocol paper`) an uncalibrated arm plans where the paper's hand-eye
+registration, made with that arm, puts its base (`pegbt.calibration.registration`, with the simulator's
+`dvrk-real` physics: a robot would be registered for real), and a carry that stops to look before lowering
+goes at the paper's heights for the run's variant (`place_motion`, `pegbt.motion.placing`).
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -24,10 +29,12 @@ from pegbt.behaviours.resources.arm_motion import ArmMotion
 from pegbt.calibration.base import CalibrationModel
 from pegbt.calibration.compensation import CALIBRATION_DIR, Compensator
 from pegbt.calibration.modelfile import model_file_name
+from pegbt.calibration.registration import registered_arm_from_board
 from pegbt.errors import PegbtError
 from pegbt.executive.providers import ProviderSetup
 from pegbt.motion.handover import tool_distance
 from pegbt.motion.ik import inverse_kinematics
+from pegbt.motion.placing import paper_heights
 from pegbt.motion.robot_config import DEFAULT_TOOL, robot_arm_settings
 from pegbt.motion.settings import MotionSettings, motion_settings
 from pegbt.motion.trajectory import Trajectory
@@ -37,11 +44,12 @@ from pegbt.perception.blocks import BlockLocator
 from pegbt.perception.board import PegboardRegistration
 from pegbt.perception.grasp import GraspSelector
 from pegbt.psm import ARMS
-from pegbt.runconditions import COMPENSATED, OPTIMIZED, known_condition
+from pegbt.runconditions import COMPENSATED, OPTIMIZED, known_condition, known_protocol
 from pegbt.workcell import Workcell, workcell
 
 SIMULATOR_CALIBRATION = CALIBRATION_DIR / "sim-dvrk-real"
 MODEL_PREFERENCE = ("hybrid", "physics", "lstm")
+REGISTRATION_PHYSICS = "dvrk-real"  # the embedded simulator's arms, which the paper's protocol registers
 CLEARANCE_STRIDE = 3  # check every third 10 ms row: tools move well under a millimetre in 30 ms
 
 
@@ -69,12 +77,22 @@ class Skills:
         robot_config: Path | None = None,
         robot_tool: str = DEFAULT_TOOL,
         speed: float = 1.0,
+        protocol: str = "pegbt",
+        variant: str = "",
     ) -> None:
         """`robot_config`: a dVRK's share/ folder, whose limits narrow skills/psm.yaml's (`robot_arm_settings`);
-        `speed`: the fraction of the planner's speed every motion is planned at (`ArmSettings.at_speed`)."""
+        `speed`: the fraction of the planner's speed every motion is planned at (`ArmSettings.at_speed`);
+        `protocol` and `variant`: the paper's protocol registers the arms and places at its heights."""
         self.condition = known_condition(condition)
+        self.protocol = known_protocol(protocol)
         self.cell = cell or workcell()
+        if protocol == "paper" and condition not in COMPENSATED:
+            # a compensated arm is not registered: its calibration corrects the whole error, the part a
+            # registration takes up too (the paper's models learnt what its registration left)
+            registered = {arm: registered_arm_from_board(arm, REGISTRATION_PHYSICS) for arm in ARMS}
+            self.cell = replace(self.cell, arm_from_board=registered)
         self.motion = motion or motion_settings()
+        self.place_motion = paper_heights(self.motion, variant) if protocol == "paper" else self.motion
         self.arms: dict[str, ArmMotion] = {}
         self.speed = checked_number(speed, "--speed", above=0.0, at_most=1.0)
         self.settings = {
@@ -170,7 +188,7 @@ class SkillsReport:
 
 def provide_skills(setup: ProviderSetup) -> Skills:
     """The `skills` resource for `pegbt run` (options `condition`, `calibration`, `endpoint`, `robot-config`,
-    `robot-tool`, `speed`)."""
+    `robot-tool`, `speed`, `protocol`; the run's variant)."""
     options = setup.options
     directory = options.get("calibration")
     if directory is None:
@@ -182,4 +200,6 @@ def provide_skills(setup: ProviderSetup) -> Skills:
         robot_config=None if robot_config is None else Path(robot_config),
         robot_tool=str(options.get("robot-tool") or DEFAULT_TOOL),
         speed=1.0 if options.get("speed") is None else float(options["speed"]),
+        protocol=str(options.get("protocol") or "pegbt"),
+        variant=setup.variant,
     )

@@ -65,6 +65,7 @@ def run_outcomes(args: argparse.Namespace) -> int:
                     Path(args.out) / "confirm",
                     args.workers,
                     until_lost=outcomes.attempts_end_at_lost_block,
+                    protocol="paper" if registered else "pegbt",
                 )
                 for world in data["world_files"]
             }

@@ -1,6 +1,7 @@
 """Confirm a fitted world with whole trials: `pegbt eval --world-effects` campaigns of the cells, judged by
 the simulator's ground truth, beside the phase simulator's prediction (which leaves out what a whole trial
-adds: perception on captures, the arms' turns, the way back, the trees' regrasps)."""
+adds: perception on captures, the arms' turns, the way back, the trees' regrasps). Real cells counted as the
+paper counted them are confirmed under its protocol (`--protocol paper`), as the phase simulator fits them."""
 
 from __future__ import annotations
 
@@ -21,16 +22,16 @@ from pegbt.sim2real.outcomes.goals import TIMED_CONDITIONS, Trials
 CONFIRM_SEED = 7000  # whole-trial seeds, apart from the phase simulator's
 
 
-def ways_back_skipped(transfers: Sequence[Mapping[str, Any]]) -> int:
-    """How many of a trial's transfers the paper's robot would not have attempted: their pick peg no
-    longer held a block, an earlier transfer of the trial having lost it (`FLSPegTransfer_single.py`,
+def ways_back_skipped(transfers: Sequence[Mapping[str, Any]]) -> set[int]:
+    """The transfers (their `index`) of a trial the paper's robot would not have attempted: their pick peg
+    no longer held a block, an earlier transfer of the trial having lost it (`FLSPegTransfer_single.py`,
     BerkeleyAutomation/FLSpegtransferHO, skips an order whose block it does not find). A peg no earlier
     transfer touched holds its starting block; a transfer that placed its block found it."""
     holds: dict[int, bool] = {}
-    skipped = 0
+    skipped = set()
     for transfer in sorted(transfers, key=lambda t: int(t["index"])):
         if not (holds.get(int(transfer["pick"]), True) or transfer["succeeded"]):
-            skipped += 1
+            skipped.add(int(transfer["index"]))
             continue
         holds[int(transfer["pick"])] = False
         holds[int(transfer["place"])] = bool(transfer["succeeded"])
@@ -61,21 +62,29 @@ def confirm(
     out: Path,
     workers: int,
     until_lost: bool = False,
+    protocol: str = "pegbt",
 ) -> dict[tuple[str, str], Trials]:
-    """Per cell, `trials` whole trials in the world of `world_file`: transfers attempted and placed (with
-    `until_lost`, a way back whose block was lost is skipped, not attempted, as the real cells count),
-    their mean time, and trials that errored."""
+    """Per cell, `trials` whole trials in the world of `world_file` under `protocol` (`pegbt run
+    --protocol`): transfers attempted and placed (with `until_lost`, a way back whose block was lost is
+    skipped, not attempted, as the real cells count), their mean time, and trials that errored."""
     figures = {}
     for cell in cells:
         campaign = Campaign(
-            cell.variant, cell.condition, trials, CONFIRM_SEED, world_effects=world_file.resolve()
+            cell.variant,
+            cell.condition,
+            trials,
+            CONFIRM_SEED,
+            world_effects=world_file.resolve(),
+            protocol=protocol,
         )
         timed = cell.condition in TIMED_CONDITIONS  # its tick logs are kept and read for the first tries
         specs = trial_specs(campaign, out / f"{cell.variant}-{cell.condition}", keep_logs=timed)
         records = run_trials(specs, workers)
         summary = summarise(campaign, records, workers)
         skipped = (
-            sum(ways_back_skipped(r.transfers) for r in records if r.outcome != "error") if until_lost else 0
+            sum(len(ways_back_skipped(r.transfers)) for r in records if r.outcome != "error")
+            if until_lost
+            else 0
         )
         tries, first_s = first_tries(records) if timed else (0, None)
         figures[cell.key] = Trials(

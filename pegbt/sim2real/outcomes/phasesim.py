@@ -25,13 +25,16 @@ from pegbt.behaviours.motion import above_pegs_first, planned_approach
 from pegbt.behaviours.poses import from_handover, to_handover, tool_pose, transfer_for
 from pegbt.behaviours.resources.arm_motion import ArmMotion, Prepared
 from pegbt.behaviours.resources.skills import SIMULATOR_CALIBRATION, Skills
+from pegbt.calibration.registration import registered_arm_to_board
 from pegbt.errors import PegbtError
 from pegbt.frames import yaw_of, yaw_pose
 from pegbt.motion.ik import inverse_kinematics, solve_ik
+from pegbt.motion.placing import paper_heights, segment_times, stopped_above
 from pegbt.motion.settings import motion_settings
 from pegbt.motion.trajectory import Trajectory
 from pegbt.motion.waypoints import TransferWaypoints
 from pegbt.perception.blocks import BlockEstimate
+from pegbt.perception.servo import correction
 from pegbt.physics import ArmPhysics
 from pegbt.sim.arm import DEFAULT_JOINTS, SimArm
 from pegbt.sim.events import Event
@@ -39,8 +42,7 @@ from pegbt.sim.tools import Give, ToolState, wrist_give
 from pegbt.sim.world import World
 from pegbt.sim.world_effects import WorldEffects
 from pegbt.sim2real.outcomes.cells import PHASES
-from pegbt.sim2real.outcomes.placelook import correction, paper_heights, visible_points
-from pegbt.sim2real.outcomes.registration import registered_arm_to_board
+from pegbt.sim2real.outcomes.placelook import visible_points
 from pegbt.workcell import transfer_list
 
 PHYSICS = "dvrk-real"  # the arm as fitted on the real recordings: never refitted here
@@ -503,7 +505,7 @@ def _attempt(
     except PegbtError:  # the carrying leaf fails to plan (a goal out of reach): the tick log says carry
         bench.failed = "carry"
         return bench
-    lifted, lowering = _segment_times(planned)
+    lifted, lowering = segment_times(planned)
     let_go = None
     if skills.condition in LETS_GO_EARLY and not registered and meeting is None:
         let_go = _letting_go(skills, motion)  # the paper's robot, and a giver, let go at rest
@@ -540,16 +542,16 @@ def _paper_place(
     name its phases), the held block seen there as perception sees a block (`seen_point`, `PERCEPTION_SD`
     in board x, y), the arm moved by `servoing_block`'s correction over the peg (a rest-to-rest move of
     the arm as it is, so imperfect too) and down to the drop height, where `_transfer` opens the jaw."""
-    _, lowering = _segment_times(planned)
-    stop = int(np.searchsorted(planned.t - planned.t[0], lowering + 1e-9))
-    carry = Trajectory(planned.t[:stop], planned.q[:stop], planned.qd[:stop], planned.qdd[:stop])
-    bench.play(carry, segments, holding=block)
+    bench.play(stopped_above(planned), segments, holding=block)
     world = bench.world
     if world.held_by(bench.name) != block:
         return
     noise = rng.normal(0.0, PERCEPTION_SD, 2)
     bottom = seen_point(world, world.blocks[block].pose[:3, 3]) + [noise[0], noise[1], 0.0]
-    move = correction(world, bench.name, bottom, goal_peg, visible_points(world, goal_peg))
+    points = visible_points(world, goal_peg)
+    move = correction(
+        world.cell.board_to_arm(bench.name), world.cell.pegs.positions[goal_peg], bottom, points
+    )
     above, dropped = waypoints.poses[2].copy(), waypoints.poses[3].copy()
     above[:3, 3] += move
     dropped[:3, 3] += move
@@ -560,7 +562,7 @@ def _paper_place(
     except PegbtError:  # the corrected place is out of reach: the robot's command fails there
         bench.failed = "lower"
         return
-    moved, _ = _segment_times(servo)
+    moved, _ = segment_times(servo)
     bench.play(servo, [(0.0, "carry"), (moved, "lower")], holding=block)
 
 
@@ -604,7 +606,7 @@ def _hand_over(
     # The receiver gets ready while the giver picks and carries (the paper's `run_place` thread moves it
     # to `handover_ready` at once, FLSPegTransfer_handover.py; pegbt's trees run the arms in parallel):
     # its way to the waiting pose is simulated after the giver's, but its seconds are not the transfer's.
-    ahead = min(_segment_times(approach)[0], world.time)
+    ahead = min(segment_times(approach)[0], world.time)
     met = world.time
     taker.play(approach, [(0.0, "handover")])
     taker.jaw(skills.motion.transfer.jaw_closed, "handover")
@@ -626,7 +628,7 @@ def _hand_over(
         planned = motion.transfer(waypoints)
     except PegbtError:  # the receiver's carry fails to plan
         return result(False, first or "carry")
-    _, lowering = _segment_times(planned)
+    _, lowering = segment_times(planned)
     if looks:
         _paper_place(taker, planned, waypoints, block, goal_peg, rng, [(0.0, "carry")])
     else:
@@ -663,15 +665,6 @@ def _letting_go(skills: Skills, motion: ArmMotion) -> tuple[float, float]:
     reaching `jaw_release` as the arm stops (`Transfer.begin`)."""
     transfer = skills.motion.transfer
     return (transfer.jaw_release - transfer.jaw_closed) / motion.settings.jaw_velocity, transfer.jaw_release
-
-
-def _segment_times(planned: Trajectory) -> tuple[float, float]:
-    """Planned times (s from the start) at which the lift ends and the lowering starts: where the joint
-    speed first dips (the cubics stop at each waypoint; a spline slows through them)."""
-    speed = np.linalg.norm(planned.qd, axis=1)
-    stops = [i for i in range(1, len(speed) - 1) if speed[i] <= speed[i - 1] and speed[i] <= speed[i + 1]]
-    stops = (stops + [len(speed) - 1, len(speed) - 1])[:2]
-    return float(planned.t[stops[0]] - planned.t[0]), float(planned.t[stops[1]] - planned.t[0])
 
 
 def _failed_phase(events: list[tuple[str, Event]], block: int) -> str:

@@ -1,6 +1,8 @@
 """A folder of tick logs of real runs as outcome cells: each log's header names its variant and condition,
 and `pegbt.executive.phases.transfer_outcomes` reads from the log alone whether each transfer succeeded
-and the phase it failed in. Nothing else is read: no simulator log (`*.truth.jsonl` files beside the tick
+and the phase it failed in. The header's protocol (`pegbt run --protocol`) says how the cells count: logs
+of the paper's protocol (one attempt per block) as the paper's table does, a way back whose block was
+lost not attempted; a folder holds one protocol, as one table does. Nothing else is read: no simulator log (`*.truth.jsonl` files beside the tick
 logs of `pegbt eval --keep-logs` are passed over unread), no ground truth."""
 
 from __future__ import annotations
@@ -9,10 +11,11 @@ from collections import Counter, defaultdict
 from pathlib import Path
 
 from pegbt.errors import PegbtError
-from pegbt.executive.logfile import read_tick_log
-from pegbt.executive.phases import transfer_outcomes
+from pegbt.executive.logfile import TickLog, read_tick_log
+from pegbt.executive.phases import TransferOutcome, begun_transfers, transfer_outcomes
 from pegbt.runconditions import CONDITIONS, VARIANTS
 from pegbt.sim2real.outcomes.cells import Cell, Outcomes
+from pegbt.sim2real.outcomes.confirm import ways_back_skipped
 
 TRUTH_SUFFIX = ".truth.jsonl"
 
@@ -23,9 +26,20 @@ def read_tick_logs(folder: Path) -> Outcomes:
     if not paths:
         raise PegbtError("no tick logs (*.jsonl) in this folder", file=folder)
     tallies: dict[tuple[str, str], Counter[str]] = defaultdict(Counter)
+    protocols: dict[str, Path] = {}
     for path in paths:
         log = read_tick_log(path)
         variant, condition = log.variant, log.condition
+        protocols.setdefault(log.protocol, path)
+        if len(protocols) > 1:
+            other = next(first for name, first in protocols.items() if name != log.protocol)
+            raise PegbtError(
+                f"its header names protocol {log.protocol!r}, and {other} another: a folder holds the "
+                "cells of one protocol, counted one way",
+                file=path,
+                line=1,
+                field="run.options.protocol",
+            )
         if variant not in VARIANTS:
             raise PegbtError(
                 f"its header names variant {variant!r}; expected one of {', '.join(VARIANTS)}",
@@ -42,7 +56,11 @@ def read_tick_logs(folder: Path) -> Outcomes:
                 field="condition",
             )
         tally = tallies[(variant, condition)]
-        for outcome in transfer_outcomes(log):
+        outcomes = transfer_outcomes(log)
+        skipped = _skipped(log, outcomes) if log.protocol == "paper" else set()
+        for outcome in outcomes:
+            if outcome.transfer in skipped:
+                continue
             tally["attempted"] += 1
             if outcome.succeeded:
                 tally["succeeded"] += 1
@@ -61,4 +79,22 @@ def read_tick_logs(folder: Path) -> Outcomes:
             tallies.items(), key=lambda item: (VARIANTS.index(item[0][0]), CONDITIONS.index(item[0][1]))
         )
     )
-    return Outcomes(cells, f"{len(paths)} tick logs in {folder}")
+    return Outcomes(
+        cells, f"{len(paths)} tick logs in {folder}", attempts_end_at_lost_block="paper" in protocols
+    )
+
+
+def _skipped(log: TickLog, outcomes: list[TransferOutcome]) -> set[int]:
+    """The transfers of `log` the paper's robot would have skipped (`ways_back_skipped`)."""
+    begun = begun_transfers(log)
+    return ways_back_skipped(
+        [
+            {
+                "index": outcome.transfer,
+                "pick": begin["params"]["pick"],
+                "place": begin["params"]["place"],
+                "succeeded": outcome.succeeded,
+            }
+            for begin, outcome in zip(begun, outcomes, strict=True)
+        ]
+    )

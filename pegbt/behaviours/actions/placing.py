@@ -1,0 +1,96 @@
+"""The reference paper's look at the held block before lowering it (`place_servoing`,
+BerkeleyAutomation/FLSpegtransferHO; `pegbt.perception.servo`): with the carry at rest over the goal peg
+(`stop_above`), a capture's points in the box over the peg are registered to the block model, and the arm
+moves the block's bottom onto the peg's axis by a rest-to-rest move, then lowers it to the drop height.
+"""
+
+from __future__ import annotations
+
+from functools import partial
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from py_trees.common import Status
+
+from pegbt.behaviours.base import ComputeLeaf
+from pegbt.behaviours.motion import CarryLeaf
+from pegbt.motion.ik import solve_ik
+from pegbt.motion.kinematics import forward_kinematics
+from pegbt.motion.waypoints import TransferWaypoints
+from pegbt.perception.board import BoardEstimate
+from pegbt.perception.cloud import open3d_threads
+from pegbt.perception.organised import OrganisedCloud
+from pegbt.perception.servo import MIN_POINTS, correction, held_block, off_the_tool
+
+Look = tuple[NDArray[np.float64], int, str]  # the move (arm frame, m), the points seen, what was seen
+
+
+class FindHeldBlock(ComputeLeaf):
+    """`find_block_servo` and `servoing_block`'s correction on `/cloud`, less the points on `arm`'s own
+    tool where its plan put it (`off_the_tool`; a compensated arm's encoders read the cables' error away
+    from where its tool is, the plan does not): writes the move to `servo`."""
+
+    def inputs(self) -> tuple[object, ...]:
+        arm = self.param("arm")
+        joints = self.motion(arm).start_from(self.client(arm))  # as planned: where a compensated tool is
+        return self.read("/cloud"), self.read("/board"), arm, int(self.param("place")), joints
+
+    def compute(
+        self,
+        cloud: ArrayLike | OrganisedCloud,
+        board: BoardEstimate,
+        arm: str,
+        peg: int,
+        joints: NDArray[np.float64],
+    ) -> Look:
+        raw = cloud.grid.reshape(-1, 3) if isinstance(cloud, OrganisedCloud) else np.asarray(cloud)
+        points = board.to_board(raw[np.isfinite(raw).all(axis=1)])
+        cell = self.skills.cell
+        points = points[off_the_tool(points, joints, cell.arm_to_board(arm), cell.tool)]
+        peg_xy = board.peg_tops[:, :2]
+        with open3d_threads(1 if self.context.work.inline else None):
+            pose, count = held_block(self.skills.locator, points, peg_xy[peg])
+        if pose is None:
+            return (
+                np.zeros(3),
+                count,
+                f"{count} points over peg {peg}, fewer than {MIN_POINTS}: no correction",
+            )
+        bottom = pose[:3, 3]
+        move = correction(cell.board_to_arm(arm), peg_xy[peg], bottom, count)
+        off = 1000 * np.linalg.norm(bottom[:2] - peg_xy[peg])
+        return move, count, f"{count} points over peg {peg}: the block's bottom {off:.1f} mm off its axis"
+
+    def finish(self, result: Look) -> Status:
+        move, _, seen = result
+        self.put("servo", [float(x) for x in move])
+        self.feedback_message = f"{seen}; moving {1000 * np.linalg.norm(move):.1f} mm"
+        return Status.SUCCESS
+
+
+class ServoOverPeg(CarryLeaf):
+    """From the stop over peg `place`, the arm moves by `servo` (a rest-to-rest move, as the paper's
+    `servoing_block`), then lowers the block to the drop height above the peg tops (of `place_motion`:
+    the paper's under its protocol); fails at once if the block slips, as every carry does."""
+
+    SEGMENTS = ("carry", "carry", "lower")
+
+    def waypoints(self) -> TransferWaypoints:
+        raise NotImplementedError  # its poses come from where the carry stopped (`begin`)
+
+    def begin(self) -> None:
+        arm, peg = self.param("arm"), int(self.param("place"))
+        motion, cell = self.motion(arm), self.skills.cell
+        start = motion.start_from(self.client(arm))
+        stop = forward_kinematics(start)
+        above = stop.copy()
+        above[:3, 3] += np.asarray(self.get("servo"), dtype=float)
+        up = cell.up_in(arm)
+        drop = self.skills.place_motion.transfer.drop_height_above_peg_top
+        dropped = above.copy()
+        dropped[:3, 3] -= ((above[:3, 3] - cell.peg_tops_in(arm)[peg]) @ up - drop) * up
+        self.poses = np.stack([stop, above, above, dropped])
+        joints = [solve_ik(pose, motion.settings, what=f"{arm} place") for pose in (above, dropped)]
+        self.move(
+            arm, partial(motion.through, start, joints, ["servo", "drop"]), f"{arm} servoing and lowering"
+        )

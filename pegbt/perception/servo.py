@@ -1,0 +1,103 @@
+"""The reference paper's look at the held block before it lowers it onto the goal peg.
+
+BerkeleyAutomation/FLSpegtransferHO, `vision/BlockDetection3D.py`'s `find_block_servo` and
+`FLSPegTransfer_*.py`'s `place_servoing` / `motion/dvrkPegTransferMotion*.py`'s `servoing_block`: with the
+carry at rest over the goal peg, the camera's red points 30–60 mm above the board (`depth_block_servo`)
+within ±10 mm of the peg (`mask_around_peg`) are the held block's; the block model is registered to them,
+and with fewer than 400 points nothing is corrected. Otherwise the block's bottom on its axis is moved onto
+the peg's axis, in the board's plane (`delta_rob[2] = 0` in the arm's frame).
+
+The paper's colour mask kept the red block's points and dropped the grey tool's; a cloud without colour
+(the simulated camera's) drops the points on the robot's own tool instead, where the robot believes it
+is (`off_the_tool`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+from pegbt.frames import segment_distances, yaw_pose
+from pegbt.motion.kinematics import shaft_end_and_tip
+from pegbt.perception.blocks import RESTART_YAWS, BlockLocator, three_fold_yaw
+from pegbt.perception.cloud import Points
+from pegbt.workcell import ToolGeometry
+
+MIN_POINTS = 400  # `place_servoing`: fewer seen points leave the block uncorrected
+BAND = (0.030, 0.060)  # m above the board: `depth_block_servo = [-60, -30]` (mm, pegboard z down)
+HALF_BOX = 0.010  # m either side of the peg in board x and y: `mask_around_peg`
+# m beyond the tool's radii: where the robot believes it is (its plan, a registered uncalibrated arm's, a
+# compensated arm's), its tool is within a millimetre or two
+TOOL_MARGIN = 0.002
+STARTS = (-0.004, 0.0, 0.004)  # m: ICP's starts around the top face's centre, in board x and y each
+
+
+def off_the_tool(
+    points: Points, joints: NDArray[np.float64], arm_to_board: NDArray[np.float64], tool: ToolGeometry
+) -> NDArray[np.bool_]:
+    """Which board-frame `points` lie farther than `TOOL_MARGIN` beyond the tool of an arm at `joints`
+    (its shaft, wrist and jaw, as `arm_to_board` places the arm)."""
+    shaft_end, tip = shaft_end_and_tip(joints)
+    hinge = tip[:3, 3] + tool.jaw_length * tip[:3, 2]
+    chain = (
+        np.array([np.zeros(3), shaft_end, hinge, tip[:3, 3]]) @ arm_to_board[:3, :3].T + arm_to_board[:3, 3]
+    )
+    keep = np.ones(len(points), dtype=bool)
+    for start, end, radius in zip(
+        chain[:-1], chain[1:], (tool.shaft_radius, tool.wrist_radius, tool.jaw_radius), strict=True
+    ):
+        keep &= segment_distances(points, points, start, end) > radius + TOOL_MARGIN
+    return keep
+
+
+def in_servo_box(points: Points, peg_xy: NDArray[np.float64], surface_z: float) -> NDArray[np.bool_]:
+    """Which board-frame `points` lie in `find_block_servo`'s box over the peg at `peg_xy`."""
+    above = surface_z - points[:, 2]  # board z runs down
+    return (
+        (np.abs(points[:, 0] - peg_xy[0]) < HALF_BOX)
+        & (np.abs(points[:, 1] - peg_xy[1]) < HALF_BOX)
+        & (above > BAND[0])
+        & (above < BAND[1])
+    )
+
+
+def held_block(
+    locator: BlockLocator, points: Points, peg_xy: NDArray[np.float64]
+) -> tuple[NDArray[np.float64] | None, int]:
+    """The pose (board frame) of the held block registered to the `points` (board frame) in the box over
+    the peg at `peg_xy`, and how many there were; None when fewer than `MIN_POINTS` (the paper corrects
+    nothing). The box crops the block, and ICP from its top face's centre alone settles millimetres off
+    as often as not: it starts from a grid around that centre (`STARTS`) at each of the restart yaws, and
+    the best fit is kept."""
+    seen = points[in_servo_box(points, peg_xy, locator.cell.board.surface_z)]
+    if len(seen) < MIN_POINTS:
+        return None, len(seen)
+    top = seen[seen[:, 2] < seen[:, 2].min() + locator.settings.top_face_depth]  # board z runs down
+    centre = top[:, :2].mean(axis=0)
+    z = float(np.median(top[:, 2])) + locator.cell.block.height
+    yaw = three_fold_yaw(top[:, :2] - centre, locator.cell.block.edge_directions[0])
+    starts = [
+        yaw_pose([centre[0] + dx, centre[1] + dy, z], yaw + turn)
+        for dx in STARTS
+        for dy in STARTS
+        for turn in RESTART_YAWS
+    ]
+    return locator.best_fit(seen, starts)[0], len(seen)
+
+
+def correction(
+    board_to_arm: NDArray[np.float64],
+    peg_xy: NDArray[np.float64],
+    seen_bottom: NDArray[np.float64],
+    points: int,
+) -> NDArray[np.float64]:
+    """The move (arm frame, m) `servoing_block` adds to the place position: the seen block's bottom on its
+    axis (`seen_bottom`, board frame) onto the peg's axis at `peg_xy`, along the board as the robot believes
+    its arm stands (`board_to_arm`), its arm-frame z dropped; none when fewer than `MIN_POINTS` were seen."""
+    if points < MIN_POINTS:
+        return np.zeros(3)
+    delta = np.zeros(3)
+    delta[:2] = np.asarray(peg_xy, dtype=float) - seen_bottom[:2]
+    move = board_to_arm[:3, :3] @ delta
+    move[2] = 0.0
+    return move
