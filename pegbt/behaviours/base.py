@@ -18,9 +18,12 @@ from where the arm is (at most `REPLANS` times in a row), never sent. A `Compute
 Before an arm motion is sent, it is checked against where the other arm is meant to be at the same
 times (moving or at rest): if the tools would come closer than `keep_apart`, nothing is sent and the
 leaf waits, planning again a little later, until the way is clear (or fails after `BLOCKED_PATIENCE`).
+Tools already closer than that (a handover's) may only part: a motion that never brings them closer than
+they start and ends `keep_apart` apart is sent (`parts`).
 Two arms can block each other, each resting in the other's way; then the one that is not carrying a
 block and started waiting last steps back: it withdraws its tool along its own shaft (insertion only,
-which takes the tool away from everything), and plans again from there.
+which takes the tool away from everything), and plans again from there. One blocked by an arm that waits
+for nothing steps back after `LONE_PATIENCE`.
 """
 
 from __future__ import annotations
@@ -32,6 +35,8 @@ from dataclasses import dataclass
 from functools import partial
 from typing import Any
 
+import numpy as np
+from numpy.typing import NDArray
 from py_trees.common import Status
 
 from pegbt.behaviours.resources.arm_motion import ArmMotion, Prepared, prepare_all
@@ -47,7 +52,11 @@ from pegbt.transport import ArmClient, EndpointSilent, MotionHandle
 log = logging.getLogger("pegbt.behaviours")
 BLOCKED_RETRY = 0.1  # s between attempts of a motion that would come too close to the other arm
 BLOCKED_PATIENCE = 15.0  # s a motion waits for the other arm to clear its way before the leaf fails
+PARTING_SLACK = 1e-6  # m: rounding, in whether a motion brings the tools closer than they start (`parts`)
 STEP_BACK = 0.03  # m of insertion an arm gives up to let the other arm past
+# s an arm waits for one that waits for nothing before it steps back: longer than the other's motions take
+# to pass (2.1 s at most in bilateral trials, 2026-11-29)
+LONE_PATIENCE = 5.0
 REPLANS = 3  # plans in a row found stale as they were sent before the leaf fails
 # control periods more a timed jaw motion is sent ahead in real time: one for the robot's word that the jaw
 # reached its goal (a state message after the last row), a quarter for the jaw motion's own dispatch
@@ -193,6 +202,9 @@ class MotionLeaf(RobotLeaf):
             self.motion(outgoing.arm).start_from(self.client(outgoing.arm))  # after a failure: from here
         if self._take_sent(arms):
             return
+        if self._stop_sent_ahead(arms):
+            self._start()
+            return
         early = self._early()
         if early is not None:
             self.job = self.adopt(early)
@@ -226,6 +238,20 @@ class MotionLeaf(RobotLeaf):
                 self._send_jaw(jaw)
         self.started([sent.planned])
         return True
+
+    def _stop_sent_ahead(self, arms: list[Outgoing]) -> bool:
+        """Whether it stopped an arm's motion under way that was sent ahead as another leaf's (a giver's way
+        out into the approach of a grasp other than this approach's, a look after it): this leaf's plan
+        starts where that motion ends, which the arm has not reached, and the arm refuses a plan that would
+        make it jump there. Stopped, the arm is planned for again from where it stops."""
+        stopped = False
+        for outgoing in arms:
+            motion = self.motion(outgoing.arm)
+            if motion.sent_ahead():
+                log.info("%s: stopping %s's motion sent ahead for another leaf", self.name, outgoing.arm)
+                motion.stop(self.client(outgoing.arm))
+                stopped = True
+        return stopped
 
     def _early(self) -> Job | None:
         """The job of the plan made early for this leaf's one arm motion (beside jaw motions), if one was
@@ -302,7 +328,7 @@ class MotionLeaf(RobotLeaf):
         self._send(prepared)
 
     def _wait_for_the_way(self) -> Status:
-        """A tick while blocked by the other arm: step back if both arms wait on each other, try again, give up."""
+        """A tick while blocked by the other arm: step back (`_should_step_back`), try again, give up."""
         assert self.blocked_since is not None and self.wake_at is not None  # both set by `Blocked` in `_send`
         now = self.context.clock.now()
         if self.stepping_back is not None:
@@ -330,7 +356,9 @@ class MotionLeaf(RobotLeaf):
             self._send(plans)
 
     def _should_step_back(self) -> bool:
-        """This arm gives way when the other arm waits too, and waited first (or as long)."""
+        """This arm gives way when the other arm waits too, and waited first (or as long), or when it has
+        waited `LONE_PATIENCE` for an arm that waits for nothing: resting in its way, that arm may never move
+        (a giver after its last handover, above the block the receiver lost)."""
         if not self.may_step_back or self.stepped_back:
             return False
         assert self.blocked_since is not None  # asked only while blocked
@@ -339,22 +367,33 @@ class MotionLeaf(RobotLeaf):
             for arm, since in self.skills.waiting.items()
             if arm != self.param("arm") and since is not None
         ]
-        return bool(others) and min(others) <= self.blocked_since
+        if others:
+            return min(others) <= self.blocked_since
+        return self.context.clock.now() - self.blocked_since >= LONE_PATIENCE
 
     def _step_back(self) -> None:
-        """Withdraw the tool along its shaft by `STEP_BACK` (insertion only: away from everything around it)."""
+        """Withdraw the tool along its shaft by `STEP_BACK` (insertion only: away from everything around it),
+        unless that brings it closer to the other arm's tool than it is (then it goes on waiting)."""
         arm = self.param("arm")
         client, motion = self.client(arm), self.motion(arm)
         start = motion.start_from(client)
         target = start.copy()
         target[2] = max(motion.settings.lower[2], start[2] - STEP_BACK)
-        handle = motion.send(client, motion.through(start, [target], ["stepped back"]))
+        back = motion.through(start, [target], ["stepped back"])
+        self.stepped_back = True
+        others = {name: other.setpoint_js.position for name, other in self.robot.arms.items() if name != arm}
+        gaps = self.skills.clearances(arm, back, self.context.clock.now(), others)
+        if gaps.min() < gaps[0] - PARTING_SLACK:
+            return
+        waited = "both arms were waiting for each other"
+        if not any(since is not None for name, since in self.skills.waiting.items() if name != arm):
+            waited = f"the other arm has stayed in its way for {LONE_PATIENCE:g} s"
+        handle = motion.send(client, back)
         self.stepping_back = Running(
             f"{arm} stepping back for the other arm", handle, lambda: motion.stop(client)
         )
         self.running.append(self.stepping_back)
-        self.stepped_back = True
-        self.feedback_message = f"{arm} steps back along its shaft: both arms were waiting for each other"
+        self.feedback_message = f"{arm} steps back along its shaft: {waited}"
 
     def begin(self) -> None:
         """Ask for this leaf's motions with `move` and `move_jaw` (runs on the tick: keep heavy planning in a
@@ -384,21 +423,27 @@ class MotionLeaf(RobotLeaf):
         self.outgoing.append(Outgoing(what, arm, jaw_angle=angle, before_end=before_end))
 
     def _check_clearance(self, outgoing: Outgoing, trajectory: Trajectory) -> None:
-        """`Blocked` if `trajectory`, starting now, would bring the tools closer than `keep_apart`."""
+        """`Blocked` if `trajectory`, starting now, would bring the tools closer than `keep_apart`, unless it
+        only takes apart tools that already are (`parts`)."""
         arm = outgoing.arm
         keep_apart = self.params.get("keep_apart", 0.0)
         if keep_apart is None:
-            keep_apart = self.skills.motion.two_arms.keep_apart
+            keep_apart = self.default_keep_apart()
         if keep_apart > 0:
             others = {
                 name: other.setpoint_js.position for name, other in self.robot.arms.items() if name != arm
             }
-            gap = self.skills.clearance(arm, trajectory, self.context.clock.now(), others)
-            if gap < keep_apart:
+            gaps = self.skills.clearances(arm, trajectory, self.context.clock.now(), others)
+            if gaps.min() < keep_apart and not parts(gaps, keep_apart):
+                start = f", {gaps[0] * 1000:.1f} mm at its start" if gaps[0] < keep_apart else ""
                 raise Blocked(
-                    f"{outgoing.what} would bring the tools within {gap * 1000:.1f} mm of each other "
-                    f"(keep apart {keep_apart * 1000:.0f} mm)"
+                    f"{outgoing.what} would bring the tools within {gaps.min() * 1000:.1f} mm of each other "
+                    f"(keep apart {keep_apart * 1000:.0f} mm{start})"
                 )
+
+    def default_keep_apart(self) -> float:
+        """The `keep_apart` of a leaf given none: `two_arms.keep_apart` (skills/motion.yaml)."""
+        return self.skills.motion.two_arms.keep_apart
 
     def _send_arm(self, outgoing: Outgoing, prepared: Prepared) -> None:
         client, motion = self.client(outgoing.arm), self.motion(outgoing.arm)
@@ -544,6 +589,15 @@ class MotionLeaf(RobotLeaf):
             except PegbtError as error:
                 log.warning("%s: could not stop %s: %s", self.name, motion.what, error)
         self.running = []
+
+
+def parts(gaps: NDArray[np.float64], keep_apart: float) -> bool:
+    """Whether a motion along which the tools are `gaps` apart (m, from its start to its end) only takes
+    them apart: it starts closer than `keep_apart`, never brings them closer than they start, and ends
+    `keep_apart` apart. Two tools that met (a handover) or stopped close (a step of either cut short) are
+    let out that way; kept to `keep_apart` from their start, neither was sent anything, even away (each
+    waited 15 s in turn, 2026-11-29)."""
+    return bool(gaps[0] < keep_apart and gaps.min() >= gaps[0] - PARTING_SLACK and gaps[-1] >= keep_apart)
 
 
 def _reached(clock: Clock, at: float, then: Callable[[], bool] | None) -> bool:

@@ -396,7 +396,9 @@ declare(
         Param(
             "handover_to",
             str,
-            "with `then`: the arm that next handover is for (then it reads `/board` and `/blocks`)",
+            "a giver's way out of the block it handed over: the receiver; with `then`, the arm that next "
+            "handover is for (then it reads `/board` and `/blocks`); without `keep_apart`, the tools keep "
+            "`handover.min_tool_distance` apart, not `two_arms.keep_apart` (skills/motion.yaml)",
             default="",
         ),
     ),

@@ -383,7 +383,7 @@ def test_a_motion_the_other_arm_blocks_is_tried_again_with_its_plan_not_planned_
     """While the other arm is in the way, a blocked motion was planned and pre-compensated again every
     retry (0.1 s) although this arm had not moved; the plan is now kept and checked again as it is sent."""
     pool = WorkPool(inline=True)
-    monkeypatch.setattr(skills, "clearance", lambda *args: 0.0)  # the other arm's tool is in the way
+    monkeypatch.setattr(skills, "clearances", lambda *args: np.zeros(3))  # the other arm's tool is in the way
     tree = "{rise: {arm: PSM1, height: 0.01, keep_apart: 0.05}}"
     built = build(tmp_path, robot, skills, tree, pool, {"/board": seen[0]})
     assert run(built, clock, pool, seconds=1.0) == Status.RUNNING

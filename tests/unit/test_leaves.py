@@ -23,7 +23,7 @@ from py_trees.common import Status
 from pegbt.behaviours.actions import handover
 from pegbt.behaviours.actions.grasping import gripping
 from pegbt.behaviours.actions.handover import WayOut, plan_meeting
-from pegbt.behaviours.base import JAW_AHEAD, MOTION_OVERTIME, Outgoing
+from pegbt.behaviours.base import JAW_AHEAD, LONE_PATIENCE, MOTION_OVERTIME, Outgoing, parts
 from pegbt.behaviours.poses import HANDOVER_ARRIVAL, height_above_pegs, tool_pose, transfer_for, yaw_about
 from pegbt.behaviours.resources.arm_motion import EarlyPlan
 from pegbt.behaviours.resources.robot import Robot
@@ -38,7 +38,13 @@ from pegbt.executive.runner import set_initial_blackboard
 from pegbt.executive.work import WorkPool
 from pegbt.frames import yaw_pose
 from pegbt.handover_protocol import Giver, Handover, Receiver
-from pegbt.motion.handover import descent_clearance, handover_meeting_point, jaw_on_wall, tool_gap
+from pegbt.motion.handover import (
+    descent_clearance,
+    handover_meeting_point,
+    jaw_on_wall,
+    tool_distance,
+    tool_gap,
+)
 from pegbt.motion.ik import solve_ik
 from pegbt.motion.kinematics import forward_kinematics, tip_position
 from pegbt.perception.blocks import BlockEstimate, block_on_peg
@@ -1110,6 +1116,82 @@ def test_descend_to_grasp_goes_straight_down_onto_the_grasp_clear_of_the_giver(
     assert trajectory.duration - lead - 1e-9 <= narrowing.at < trajectory.duration - lead + STEP
 
 
+def gaps_from(skills: Skills, robot: Robot, trajectory) -> np.ndarray:
+    """The tools' distance (m, as `keep_apart` measures it) along the receiver's `trajectory`, the giver at rest."""
+    cell, giver = skills.cell, robot.arms[GIVER].rest
+    return tool_distance(
+        trajectory.q,
+        cell.board_to_arm(RECEIVER),
+        np.repeat(giver[None], len(trajectory.q), axis=0),
+        cell.board_to_arm(GIVER),
+    )
+
+
+def test_tools_that_met_closer_than_keep_apart_may_only_part(tmp_path, robot, skills, seen, clock):
+    """The receiver at its grasp is closer to the giver than `keep_apart` (8.9 mm in trials): a motion that
+    never brings the tools closer than they start and ends `keep_apart` apart is sent (its way to park
+    waited 15 s, twice, sent nothing, 2026-11-29); one that brings them closer still is not."""
+    keep_apart = skills.motion.two_arms.keep_apart
+    arm, meeting, _ = receiver_at(robot, skills, seen, pose=lambda grasp: grasp.pose)
+    built = build(tmp_path, robot, skills, f"{{park: {{arm: {RECEIVER}}}}}")
+    assert run(built, clock) == Status.SUCCESS
+    (parking,) = arm.trajectories
+    gaps = gaps_from(skills, robot, parking)
+    assert gaps[0] < keep_apart <= gaps[-1]
+    assert gaps.min() >= gaps[0] - 1e-6
+
+    py_trees.blackboard.Blackboard.clear()
+    lower = wait_pose(skills, meeting.receiver_grasp)
+    lower[:3, 3] -= (skills.motion.handover.receiver_wait_above - 0.002) * skills.cell.up_in(RECEIVER)
+    at(arm, solve_ik(lower, skills.settings[RECEIVER]))  # 2 mm above its grasp
+    sent = len(arm.trajectories)
+    _, _, values = receiver_at(robot, skills, seen)
+    descend = DESCEND.replace("n: 1}", f"n: 1, keep_apart: {keep_apart}}}")
+    built = build(tmp_path, robot, skills, descend, **values)
+    assert run(built, clock, seconds=1.0) == Status.RUNNING
+    assert "mm at its start)" in feedback(built)
+    assert len(arm.trajectories) == sent
+
+
+def test_an_arm_kept_from_parking_by_one_that_waits_for_nothing_steps_back_then_parks(
+    tmp_path, robot, skills, seen, clock
+):
+    """The giver rests 7 mm above the meeting point after its last handover; the receiver, its block lost,
+    parks from its grasp, a way that passes closer to the giver than it starts. It waited 15 s and failed,
+    twice (a trial with injected faults, 2026-11-29); it now steps back along its shaft after
+    `LONE_PATIENCE` (parting the tools) and parks from there."""
+    keep_apart = skills.motion.two_arms.keep_apart
+    arm, meeting, _ = receiver_at(robot, skills, seen, pose=lambda grasp: grasp.pose)
+    risen = meeting.tip.copy()
+    risen[:3, 3] += 0.007 * skills.cell.up_in(GIVER)
+    at(robot.arms[GIVER], solve_ik(risen, skills.settings[GIVER]))
+    built = build(tmp_path, robot, skills, f"{{park: {{arm: {RECEIVER}}}}}")
+    assert run(built, clock, seconds=LONE_PATIENCE - 2 * STEP) == Status.RUNNING
+    assert "would bring the tools within" in feedback(built) and arm.trajectories == []
+    assert run(built, clock) == Status.SUCCESS
+    back, parking = arm.trajectories
+    assert LONE_PATIENCE <= arm.sent[0].at < LONE_PATIENCE + 2 * STEP
+    assert np.allclose((back.q[-1] - back.q[0])[[0, 1, 3, 4, 5]], 0.0)  # along its shaft only
+    stepping = gaps_from(skills, robot, back)
+    assert stepping.min() >= stepping[0] - 1e-6
+    assert gaps_from(skills, robot, parking).min() >= keep_apart
+
+
+@pytest.mark.parametrize(
+    "gaps, sent",
+    [
+        ([0.0089, 0.0095, 0.0120], True),  # from where they met, apart
+        ([0.0089, 0.0089, 0.0101], True),  # not closer at first, then apart
+        ([0.0089, 0.0088, 0.0120], False),  # closer first
+        ([0.0089, 0.0095, 0.0098], False),  # never `keep_apart` apart
+        ([0.0120, 0.0095, 0.0120], False),  # from apart, too close on the way
+        ([0.0089, 0.0130, 0.0095], False),  # apart on the way, back within `keep_apart` at the end
+    ],
+)
+def test_a_motion_from_closer_than_keep_apart_is_sent_only_if_it_parts_the_tools(gaps, sent):
+    assert parts(np.array(gaps), 0.010) is sent
+
+
 def test_descend_to_grasp_closes_as_it_arrives_on_a_block_held_out_meeting_the_wall_as_the_tip_does(
     tmp_path, robot, skills, seen, clock
 ):
@@ -1576,3 +1658,30 @@ def test_a_givers_way_out_that_stood_still_on_the_way_ends_that_much_later(tmp_p
     out = int(np.argmax((tips - tips[0]) @ skills.cell.up_in(GIVER) >= 0.007 - 1e-9))
     assert trajectory.t[out] + 0.2 <= clock.now() < trajectory.t[out] + 0.2 + STEP
     assert (tip_position(giver.position()) - tips[0]) @ skills.cell.up_in(GIVER) >= 0.007 - 1e-6
+
+
+def test_an_approach_onto_another_grasp_than_the_way_out_planned_stops_it_and_plans_from_where_it_is(
+    tmp_path, clock, cloud, seen
+):
+    """The giver's way out goes on into the approach of the grasp `select_grasp` was to choose; `approach`
+    given another (a block seen again, another candidate) does not take it, and planned its own from where
+    that way out ends, which the arm had not reached: the arm refused it as a jump and the approach failed
+    while the way out went on. It stops the way out and plans from where the arm stopped."""
+    skills, robot, following, chosen = handed_over(clock, cloud, seen)
+    giver = robot.arms[GIVER]
+    built = build(tmp_path, robot, skills, RISE_INTO_NEXT, board=seen[0], blocks=seen[1])
+    assert run(built, clock) == Status.SUCCESS
+    (way_out,) = giver.trajectories
+    other = next(
+        option
+        for option in skills.selectors[GIVER].feasible(following.pose)
+        if option.candidate != chosen.candidate
+    )
+    approach = approach_next(tmp_path, robot, skills, seen, following, other)
+    stopped_at = clock.now()
+    assert run(approach, clock) == Status.SUCCESS
+    assert [sent.kind for sent in giver.sent] == ["trajectory", "hold", "trajectory"]
+    hold, own = giver.sent[1:]
+    assert hold.at == own.at == stopped_at < way_out.duration  # stopped on its way, at once
+    assert np.allclose(own.target.q[0], hold.target)  # from where it stopped: no jump
+    assert np.allclose(forward_kinematics(own.target.q[-1]), other.pose, atol=1e-4)

@@ -129,6 +129,13 @@ class Rise(MotionLeaf):
         planned = partial(rise, self.skills.cell, motion, arm, start, height)
         self.move(arm, planned, f"{arm} rising", (start, height))
 
+    def default_keep_apart(self) -> float:
+        """A giver's way out of the block it handed over (`handover_to`) keeps the tools
+        `handover.min_tool_distance` apart: they met closer than `two_arms.keep_apart`."""
+        if self.param("handover_to"):
+            return self.skills.motion.handover.min_tool_distance
+        return super().default_keep_apart()
+
     def early_way(self, inputs: tuple[object, ...]) -> WayOut:
         """The `WayOut` of the way out planned as the carry was sent, if from these `inputs`, else a fresh
         one: a plan from other inputs may still be running on a worker (a discarded job runs on once

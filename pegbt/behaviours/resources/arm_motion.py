@@ -271,11 +271,20 @@ class ArmMotion:
         self.ahead = (inputs, self.active)
 
     def take_sent(self, inputs: tuple[object, ...]) -> SentMotion | None:
-        """The motion sent ahead from `inputs`, if it is still this arm's motion (else None)."""
+        """The motion sent ahead from `inputs`, if it is still this arm's motion (else None; one sent ahead
+        from other inputs stays known as such while it plays, `sent_ahead`)."""
+        playing = self.sent_ahead()
         ahead, self.ahead = self.ahead, None
         if ahead is None or ahead[1] is not self.active or ahead[1].handle.failed:
             return None
-        return ahead[1] if same_inputs(ahead[0], inputs) else None
+        if not same_inputs(ahead[0], inputs):
+            self.ahead = ahead if playing else None
+            return None
+        return ahead[1]
+
+    def sent_ahead(self) -> bool:
+        """Whether the arm's motion under way was sent ahead as the motion of a leaf still to come."""
+        return self.ahead is not None and self.ahead[1] is self.active and self.ahead[1].handle.busy
 
     def discard_early(self) -> None:
         if self.early is not None:

@@ -125,20 +125,23 @@ class Skills:
             raise PegbtError(f"unknown arm {name!r}; known: {', '.join(self.arms)}", field="arm")
         return self.arms[name]
 
-    def clearance(
+    def clearances(
         self, arm: str, planned: Trajectory, start: float, others: dict[str, NDArray[np.float64]]
-    ) -> float:
-        """Closest distance (m) between `arm`'s tool along `planned` (starting at clock time `start`) and
-        each other arm's tool where it is meant to be at the same times (along its own motion, or at rest:
-        `others` gives each other arm's set-point in case it has not moved yet). Tools are their shafts and
-        wrist-to-tip segments, as `pegbt.motion.handover.tool_distance` measures them."""
-        rows = planned.q[::CLEARANCE_STRIDE]
-        times = start + planned.t[::CLEARANCE_STRIDE]
-        closest = np.inf
+    ) -> NDArray[np.float64]:
+        """Closest distance (m) between `arm`'s tool and any other arm's tool at every third row of `planned`
+        and its last (starting at clock time `start`), each other arm where it is meant to be at the same
+        times (along its own motion, or at rest: `others` gives each other arm's set-point in case it has
+        not moved yet). Tools are their shafts and wrist-to-tip segments, as
+        `pegbt.motion.handover.tool_distance` measures them."""
+        rows = np.unique(np.r_[np.arange(0, len(planned), CLEARANCE_STRIDE), len(planned) - 1])
+        times = start + planned.t[rows]
+        closest = np.full(len(rows), np.inf)
         for other, resting in others.items():
             theirs = self.arms[other].joints_at(times, resting)
-            distance = tool_distance(rows, self.cell.board_to_arm(arm), theirs, self.cell.board_to_arm(other))
-            closest = min(closest, float(distance.min()))
+            distance = tool_distance(
+                planned.q[rows], self.cell.board_to_arm(arm), theirs, self.cell.board_to_arm(other)
+            )
+            closest = np.minimum(closest, distance)
         return closest
 
     def report(self) -> SkillsReport | None:
