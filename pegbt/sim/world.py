@@ -42,7 +42,6 @@ _SLIDE_STEP = 0.0005  # m: a block that fell against pegs slides off them in ste
 _SLIDE_STEPS = 200  # at most this many (10 cm): a block cannot rest inside a peg
 _GUIDED_INSIDE = 1e-6  # m: a block the chamfers guide ends this far inside the clearance, clear of the peg
 _YIELD_ROUNDS = 8  # alternations between what the arm's compliance takes and what the peg still pushes
-Segments = tuple[Matrix, Matrix, Matrix, Matrix, Matrix]  # a tool's starts, ends, radii, boxes' low, high
 _ACCELERATION_WINDOW = 0.02  # s between the tip positions a held block's acceleration is taken from
 
 
@@ -88,7 +87,6 @@ class World:
         self.events = EventLog()
         self.time = 0.0
         self.tools: dict[str, ToolState] = {}
-        self._segments: dict[str, tuple[ToolState, Segments]] = {}  # `_tool_segments` of each tool
         self._closed: dict[str, bool] = {}
         self._widest: dict[str, float] = {}  # widest jaw angle of each arm since its jaw last opened
         self._contacts: set[tuple[str, str, int, int]] = set()
@@ -101,6 +99,8 @@ class World:
         self._peg_feet = np.column_stack([pegs.positions, np.full(len(pegs.positions), board.surface_z)])
         self._peg_low = self._peg_tops - [pegs.radius, pegs.radius, 0.0]  # bounding boxes of the pegs
         self._peg_high = self._peg_feet + [pegs.radius, pegs.radius, 0.0]
+        self._peg_boxes = self._peg_low[None], self._peg_high[None]  # as `boxes_overlap` broadcasts them
+        self._peg_top_z = float(self._peg_low[0, 2])
         self._clearance = self.cell.block.hole_radius - pegs.radius + config.peg_slack
         wall = self.cell.block.edge_distance - self.cell.block.hole_radius
         self._jaw_on_wall = 2.0 * math.asin(min(1.0, wall / 2.0 / self.cell.tool.jaw_length))  # `jaw_stop`
@@ -628,19 +628,19 @@ class World:
     def _detect_contacts(self) -> None:
         """Log each contact when it begins: tool-peg, tool-tool, shaft-shaft, block-board."""
         current: set[tuple[str, str, int, int]] = set()
-        segments = {arm: self._tool_segments(arm, state) for arm, state in sorted(self.tools.items())}
-        for arm, (starts, ends, radii, low, high) in segments.items():
-            if high[:, 2].max() < self._peg_low[0, 2]:  # the whole tool is above the peg tops (z points down)
+        tool = self.cell.tool
+        segments = [(arm, self.tools[arm].boxes(tool)) for arm in sorted(self.tools)]
+        peg_low, peg_high = self._peg_boxes
+        for arm, (starts, ends, radii, low, high, deepest) in segments:
+            if deepest < self._peg_top_z:  # the whole tool is above the peg tops (z points down)
                 continue
-            pairs = np.nonzero(
-                boxes_overlap(low[:, None], high[:, None], self._peg_low[None], self._peg_high[None])
-            )
+            pairs = np.nonzero(boxes_overlap(low[:, None], high[:, None], peg_low, peg_high))
             if pairs[0].size:
                 seg, peg = pairs
                 gaps = segment_distances(starts[seg], ends[seg], self._peg_tops[peg], self._peg_feet[peg])
                 for touched in np.unique(peg[gaps < radii[seg] + self.cell.pegs.radius]):
                     current.add(("tool-peg", arm, -1, int(touched)))
-        for (arm_a, a), (arm_b, b) in combinations(segments.items(), 2):
+        for (arm_a, a), (arm_b, b) in combinations(segments, 2):
             first, second = np.nonzero(boxes_overlap(a[3][:, None], a[4][:, None], b[3][None], b[4][None]))
             if not first.size:
                 continue
@@ -658,29 +658,12 @@ class World:
         for block in self.blocks:
             if block.grips and block.pose[2, 3] > surface:
                 current.add(("block-board", "+".join(block.grips), block.index, -1))
-        for kind, arm, block_index, peg_index in sorted(current - self._contacts):
-            block_or_none = None if block_index < 0 else block_index
-            peg_or_none = None if peg_index < 0 else peg_index
-            self._log("collision", arm, block_or_none, peg_or_none, kind)
-        self._contacts = current
-
-    def _tool_segments(self, arm: str, state: ToolState) -> Segments:
-        """Shaft, wrist and jaw segments: starts, ends, radii, and each one's bounding box (low, high);
-        kept for a tool state seen before (an arm that was not updated this step)."""
-        known = self._segments.get(arm)
-        if known is not None and known[0] is state:
-            return known[1]
-        starts, ends, radii = state.segments(self.cell.tool)
-        reach = radii[:, None]
-        found: Segments = (
-            starts,
-            ends,
-            radii,
-            np.minimum(starts, ends) - reach,
-            np.maximum(starts, ends) + reach,
-        )
-        self._segments[arm] = (state, found)
-        return found
+        if current != self._contacts:
+            for kind, arm, block_index, peg_index in sorted(current - self._contacts):
+                block_or_none = None if block_index < 0 else block_index
+                peg_or_none = None if peg_index < 0 else peg_index
+                self._log("collision", arm, block_or_none, peg_or_none, kind)
+            self._contacts = current
 
 
 def _beyond_play(move: Matrix, axes: Matrix, give: Give) -> float:
@@ -704,4 +687,4 @@ def _unit(vector: Matrix) -> Matrix:
 
 def boxes_overlap(low_a: Matrix, high_a: Matrix, low_b: Matrix, high_b: Matrix) -> Matrix:
     """Whether axis-aligned boxes overlap, broadcast over leading dimensions (…, 3) -> (…)."""
-    return np.all((low_a <= high_b) & (low_b <= high_a), axis=-1)
+    return ((low_a <= high_b) & (low_b <= high_a)).all(axis=-1)

@@ -3,6 +3,7 @@ inputs: each reference is the straightforward per-joint (per-sample) form, kept 
 a tick that costs less is held to change no number."""
 
 import math
+import struct
 
 import numpy as np
 import pytest
@@ -200,6 +201,33 @@ def test_the_servo_follows_its_first_order_response_moving_held_or_settled(size)
     assert settled > 500  # the settled ticks were exercised
 
 
+def test_a_stop_asked_again_each_tick_changes_nothing():
+    rng = np.random.default_rng(13)
+    group, reference = (
+        JointGroup(np.zeros(1), 0.004, lambda q: [], lambda *a: []),
+        ReferenceGroup(np.zeros(1)),
+    )
+    lowest: float | None = None
+    for _ in range(3000):
+        event = rng.random()
+        if event < 0.02:  # a new stop, at times on the encoders or at a zero of either sign
+            lowest = rng.choice([None, float(rng.normal()), float(group.encoder[0]), 0.0, -0.0])
+        elif event < 0.04:  # the jaw driven on, through or away from the stop
+            target = rng.choice([rng.normal(size=1), -0.0 * np.ones(1), np.zeros(1)])
+            group.setpoint, reference.setpoint = target.copy(), target.copy()
+        group.stop_at(lowest)  # asked each tick, as the phase simulator asks the world's jaw stop
+        reference.lowest = None if lowest is None else np.full_like(reference.encoder, lowest)
+        if reference.lowest is not None:
+            reference.encoder = np.maximum(reference.encoder, reference.lowest)
+        assert _state(group) == _state(reference)
+        assert (group.lowest is None and reference.lowest is None) or (
+            group.lowest.tobytes() == reference.lowest.tobytes()
+        )
+        group.advance(0.01)
+        reference.advance(0.01)
+        assert _state(group) == _state(reference)
+
+
 def test_a_tools_segments_are_its_shaft_wrist_and_jaw():
     rng = np.random.default_rng(7)
     cell = workcell()
@@ -256,7 +284,7 @@ def test_the_tools_kinematics_equal_the_chain_with_each_links_twist_taken_afresh
         assert shaft_end.tobytes() == reference_end.tobytes() and tip.tobytes() == reference_tip.tobytes()
 
 
-def test_contacts_are_the_same_with_the_segments_of_an_arm_not_updated_kept():
+def test_contacts_are_the_same_with_the_boxes_of_a_tool_state_kept():
     from pegbt.sim.tools import tool_pointing_down
     from pegbt.sim.world import World
 
@@ -268,10 +296,31 @@ def test_contacts_are_the_same_with_the_segments_of_an_arm_not_updated_kept():
         near = cell.pegs.tops[int(rng.integers(len(cell.pegs.tops)))] + rng.normal(0.0, 0.004, 3)
         centre = cell.arm_to_board(arm)[:3, 3]
         tool = tool_pointing_down(near, float(rng.uniform(0, np.pi)), 0.5, centre, cell.tool)
-        fresh._segments.clear()
-        events = kept.update(0.01 * step, {arm: tool}), fresh.update(0.01 * step, {arm: tool})
+        fresh.tools = {name: _copied(state) for name, state in fresh.tools.items()}  # nothing remembered
+        events = kept.update(0.01 * step, {arm: tool}), fresh.update(0.01 * step, {arm: _copied(tool)})
         assert events[0] == events[1]
     assert {event.detail for event in kept.events} >= {"tool-peg", "tool-tool"}
+
+
+def _copied(state: ToolState) -> ToolState:
+    return ToolState(state.tip.copy(), state.jaw, state.shaft.copy(), state.give)
+
+
+def test_a_tools_boxes_bound_its_segments_and_are_kept_for_its_geometry():
+    rng = np.random.default_rng(12)
+    cell = workcell()
+    thick = type(cell.tool)(**{**vars(cell.tool), "shaft_radius": 0.01})
+    for _ in range(100):
+        q = rng.uniform(-0.5, 0.5, 6) + [0.0, 0.0, 0.12, 0.0, 0.0, 0.0]
+        state = _copied(ToolState.from_joints(q, 0.5, cell.arm_to_board("PSM1")))
+        for tool in (cell.tool, thick, cell.tool, cell.tool):
+            starts, ends, radii = state.segments(tool)
+            low = np.array([np.minimum(s, e) - r for s, e, r in zip(starts, ends, radii)])
+            high = np.array([np.maximum(s, e) + r for s, e, r in zip(starts, ends, radii)])
+            boxes = state.boxes(tool)
+            assert [b.tobytes() for b in boxes[:5]] == [a.tobytes() for a in (starts, ends, radii, low, high)]
+            assert boxes[5] == max(high[:, 2].tolist())
+        assert state.boxes(cell.tool) is state.boxes(cell.tool)
 
 
 def test_a_tool_from_joints_seen_before_is_the_tool_computed_afresh():
@@ -281,12 +330,21 @@ def test_a_tool_from_joints_seen_before_is_the_tool_computed_afresh():
     cell = workcell()
     to_board = cell.arm_to_board("PSM2")
     joints = rng.uniform(-0.5, 0.5, (50, 6)) + [0.0, 0.0, 0.12, 0.0, 0.0, 0.0]
+    moved = to_board.copy()
+    moved[0, 3] += 0.003  # another world's registration offset
+    inputs = [
+        (jaw, give) for jaw in (0.4, -0.0, 0.0) for give in ((0.0, 0.0, 0.0, 0.0), (1e-3, 0.0, -0.0, 2e-3))
+    ]
     for q in [*joints, *joints[::-1], *joints]:  # each seen again, as another world replays the arm
-        state = ToolState.from_joints(q.copy(), 0.4, to_board)
-        shaft_end, tip = shaft_end_and_tip(q)
-        rotation, origin = to_board[:3, :3], to_board[:3, 3]
-        assert state.tip.tobytes() == (to_board @ tip).tobytes()
-        assert state.shaft.tobytes() == np.array([origin, rotation @ shaft_end + origin]).tobytes()
+        for board in (to_board, moved):
+            for jaw, give in inputs:
+                state = ToolState.from_joints(q.copy(), jaw, board.copy(), give)
+                shaft_end, tip = shaft_end_and_tip(q)
+                rotation, origin = board[:3, :3], board[:3, 3]
+                assert state.tip.tobytes() == (board @ tip).tobytes()
+                assert state.shaft.tobytes() == np.array([origin, rotation @ shaft_end + origin]).tobytes()
+                assert struct.pack("5d", state.jaw, *state.give) == struct.pack("5d", jaw, *give)
+                assert not state.tip.flags.writeable and not state.shaft.flags.writeable  # shared
 
 
 def _reference_command_for_target(arm, target: np.ndarray, drives: np.ndarray) -> np.ndarray:
