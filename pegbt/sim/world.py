@@ -131,7 +131,10 @@ class World:
 
     def held_by(self, arm: str) -> int | None:
         """Index of the block `arm` grips, if any."""
-        return next((block.index for block in self.blocks if arm in block.grips), None)
+        for block in self.blocks:
+            if arm in block.grips:
+                return block.index
+        return None
 
     def jaw_stop(self, arm: str) -> float | None:
         """The jaw angle at which the gripped block's wall stops `arm`'s jaw (None when it grips nothing).
