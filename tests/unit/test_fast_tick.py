@@ -392,3 +392,49 @@ def test_the_compensators_newton_steps_equal_their_formula(name):
             assert found.tobytes() == expected.tobytes()
         state = arm.step(found, state)
     assert reached > 250
+
+
+def _reference_segment_distances(p0, p1, q0, q1):
+    """`segment_distances` as first written: every clamp by `np.clip`, the nearest point to p's start
+    clamped twice."""
+    d1, d2, r = p1 - p0, q1 - q0, p0 - q0
+    a, e = np.einsum("...i,...i->...", d1, d1), np.einsum("...i,...i->...", d2, d2)
+    b, c = np.einsum("...i,...i->...", d1, d2), np.einsum("...i,...i->...", d1, r)
+    f = np.einsum("...i,...i->...", d2, r)
+    eps = 1e-12
+    safe_a, safe_e = np.maximum(a, eps), np.maximum(e, eps)
+    denominator = a * e - b * b
+    s = np.where(
+        denominator > eps,
+        np.clip((b * f - c * e) / np.maximum(denominator, eps), 0.0, 1.0),
+        np.clip(-c / safe_a, 0.0, 1.0),
+    )
+    t = (b * s + f) / safe_e
+    s = np.where(
+        t < 0.0, np.clip(-c / safe_a, 0.0, 1.0), np.where(t > 1.0, np.clip((b - c) / safe_a, 0.0, 1.0), s)
+    )
+    t = np.clip(t, 0.0, 1.0)
+    s, t = np.where(a > eps, s, 0.0), np.where(e > eps, t, 0.0)
+    return np.linalg.norm((p0 + s[..., None] * d1) - (q0 + t[..., None] * d2), axis=-1)
+
+
+def test_segment_distances_equal_their_formula_with_every_clamp_by_np_clip():
+    from pegbt.frames import _EPS, segment_distances
+
+    assert _EPS == 1e-12
+    rng = np.random.default_rng(14)
+    for _ in range(300):
+        n = int(rng.integers(1, 8))
+        p0, p1, q0, q1 = (rng.normal(0.0, 0.02, (n, 3)) for _ in range(4))
+        points = rng.random(n) < 0.2
+        p1[points] = p0[points]  # some of p points
+        q1[::3] = q0[::3]  # some of q points
+        p1[1::4] = p0[1::4] + 2.0 * (q1[1::4] - q0[1::4])  # some parallel pairs
+        p1[2::5] = -0.0 * p1[2::5]  # signed zeros
+        assert (
+            segment_distances(p0, p1, q0, q1).tobytes()
+            == _reference_segment_distances(p0, p1, q0, q1).tobytes()
+        )
+        assert float(segment_distances(p0[0], p1[0], q0[0], q1[0])) == float(
+            _reference_segment_distances(p0[0], p1[0], q0[0], q1[0])
+        )
