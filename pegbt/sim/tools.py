@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 import struct
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from functools import lru_cache
 
@@ -45,6 +46,9 @@ class ToolState:
     _boxes: list[tuple[ToolGeometry, Boxes]] = field(
         default_factory=list, init=False, repr=False, compare=False
     )  # `boxes` of the last tool geometry asked
+    _pegs: list[tuple[object, tuple[int, ...]]] = field(
+        default_factory=list, init=False, repr=False, compare=False
+    )  # `touched_pegs` of the last owner asked
 
     @classmethod
     def from_joints(cls, q: Matrix, jaw: float, arm_to_board: Matrix, give: Give = RIGID) -> ToolState:
@@ -89,6 +93,16 @@ class ToolState:
         found = (starts, ends, radii, np.minimum(starts, ends) - reach, high, float(high[:, 2].max()))
         self._boxes[:] = [(tool, found)]
         return found
+
+    def touched_pegs(self, owner: object, compute: Callable[[], tuple[int, ...]]) -> tuple[int, ...]:
+        """The pegs this state touches, as `compute` finds them for `owner` (the world's work cell, from
+        which alone it computes them), kept while the same owner asks again: the phase simulator's worlds,
+        with one work cell, ask in turn for one state."""
+        if self._pegs and self._pegs[0][0] is owner:
+            return self._pegs[0][1]
+        touched = compute()
+        self._pegs[:] = [(owner, touched)]
+        return touched
 
 
 _STATES: dict[bytes, ToolState] = {}  # `from_joints`' states, oldest first

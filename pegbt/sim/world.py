@@ -24,6 +24,7 @@ import math
 from bisect import insort
 from collections.abc import Mapping
 from dataclasses import dataclass
+from functools import partial
 from itertools import combinations
 
 import numpy as np
@@ -33,7 +34,7 @@ from pegbt.sim.blocks import Block
 from pegbt.sim.events import Event, EventLog
 from pegbt.sim.faults import SlipAt, WorldFaults
 from pegbt.sim.interfaces import WorldSnapshot
-from pegbt.sim.tools import RIGID, Give, ToolState
+from pegbt.sim.tools import RIGID, Boxes, Give, ToolState
 from pegbt.sim.world_effects import BLOCK_MASS, GRAVITY, WorldEffects
 from pegbt.workcell import Workcell, workcell
 
@@ -628,21 +629,26 @@ class World:
 
     # ------------------------------------------------------------------------------------- collisions
 
+    def _pegs_touched(self, boxes: Boxes) -> tuple[int, ...]:
+        """The pegs, in increasing order, that a tool's segments (`ToolState.boxes`) touch: a result of the
+        tool and the work cell alone."""
+        starts, ends, radii, low, high, _ = boxes
+        seg, peg = np.nonzero(boxes_overlap(low[:, None], high[:, None], *self._peg_boxes))
+        if not seg.size:
+            return ()
+        gaps = segment_distances(starts[seg], ends[seg], self._peg_tops[peg], self._peg_feet[peg])
+        return tuple(int(touched) for touched in np.unique(peg[gaps < radii[seg] + self.cell.pegs.radius]))
+
     def _detect_contacts(self) -> None:
         """Log each contact when it begins: tool-peg, tool-tool, shaft-shaft, block-board."""
         current: set[tuple[str, str, int, int]] = set()
         tool = self.cell.tool
         segments = [(arm, self.tools[arm].boxes(tool)) for arm in sorted(self.tools)]
-        peg_low, peg_high = self._peg_boxes
-        for arm, (starts, ends, radii, low, high, deepest) in segments:
-            if deepest < self._peg_top_z:  # the whole tool is above the peg tops (z points down)
+        for arm, boxes in segments:
+            if boxes[5] < self._peg_top_z:  # the whole tool is above the peg tops (z points down)
                 continue
-            pairs = np.nonzero(boxes_overlap(low[:, None], high[:, None], peg_low, peg_high))
-            if pairs[0].size:
-                seg, peg = pairs
-                gaps = segment_distances(starts[seg], ends[seg], self._peg_tops[peg], self._peg_feet[peg])
-                for touched in np.unique(peg[gaps < radii[seg] + self.cell.pegs.radius]):
-                    current.add(("tool-peg", arm, -1, int(touched)))
+            for touched in self.tools[arm].touched_pegs(self.cell, partial(self._pegs_touched, boxes)):
+                current.add(("tool-peg", arm, -1, touched))
         for (arm_a, a), (arm_b, b) in combinations(segments, 2):
             first, second = np.nonzero(boxes_overlap(a[3][:, None], a[4][:, None], b[3][None], b[4][None]))
             if not first.size:

@@ -4,6 +4,7 @@ a tick that costs less is held to change no number."""
 
 import math
 import struct
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -290,16 +291,23 @@ def test_contacts_are_the_same_with_the_boxes_of_a_tool_state_kept():
 
     rng = np.random.default_rng(9)
     cell = workcell()
-    kept, fresh = World(3), World(3)
+    moved = replace(cell, pegs=replace(cell.pegs, positions=cell.pegs.positions + [0.002, -0.001]))
+    kept, fresh = World(3), World(3)  # the same tool states, asked again; each step's states afresh
+    kept_moved, fresh_moved = World(3, cell=moved), World(3, cell=moved)  # another cell, the same states
     for step in range(600):
         arm = ("PSM1", "PSM2")[step % 2 if step % 7 else 0]  # now and then one arm several steps running
         near = cell.pegs.tops[int(rng.integers(len(cell.pegs.tops)))] + rng.normal(0.0, 0.004, 3)
         centre = cell.arm_to_board(arm)[:3, 3]
         tool = tool_pointing_down(near, float(rng.uniform(0, np.pi)), 0.5, centre, cell.tool)
-        fresh.tools = {name: _copied(state) for name, state in fresh.tools.items()}  # nothing remembered
-        events = kept.update(0.01 * step, {arm: tool}), fresh.update(0.01 * step, {arm: _copied(tool)})
-        assert events[0] == events[1]
+        for world in (fresh, fresh_moved):
+            world.tools = {name: _copied(state) for name, state in world.tools.items()}  # nothing kept
+        events = [world.update(0.01 * step, {arm: tool}) for world in (kept, kept_moved)]
+        afresh = [world.update(0.01 * step, {arm: _copied(tool)}) for world in (fresh, fresh_moved)]
+        assert events == afresh
     assert {event.detail for event in kept.events} >= {"tool-peg", "tool-tool"}
+    assert [e for e in kept.events if e.detail == "tool-peg"] != [
+        e for e in kept_moved.events if e.detail == "tool-peg"
+    ]
 
 
 def _copied(state: ToolState) -> ToolState:
