@@ -49,6 +49,9 @@ class ToolState:
     _pegs: list[tuple[object, tuple[int, ...]]] = field(
         default_factory=list, init=False, repr=False, compare=False
     )  # `touched_pegs` of the last owner asked
+    _touching: list[tuple[ToolState, object, tuple[bool, bool]]] = field(
+        default_factory=list, init=False, repr=False, compare=False
+    )  # `touching` of the last other state and owner asked
 
     @classmethod
     def from_joints(cls, q: Matrix, jaw: float, arm_to_board: Matrix, give: Give = RIGID) -> ToolState:
@@ -103,6 +106,18 @@ class ToolState:
         touched = compute()
         self._pegs[:] = [(owner, touched)]
         return touched
+
+    def touching(
+        self, other: ToolState, owner: object, compute: Callable[[], tuple[bool, bool]]
+    ) -> tuple[bool, bool]:
+        """Whether this state's shaft touches `other`'s, and whether any other of their segments touch, as
+        `compute` finds them for `owner` (the world's work cell), kept while the same other state and owner
+        ask again."""
+        if self._touching and self._touching[0][0] is other and self._touching[0][1] is owner:
+            return self._touching[0][2]
+        found = compute()
+        self._touching[:] = [(other, owner, found)]
+        return found
 
 
 _STATES: dict[bytes, ToolState] = {}  # `from_joints`' states, oldest first

@@ -650,18 +650,13 @@ class World:
             for touched in self.tools[arm].touched_pegs(self.cell, partial(self._pegs_touched, boxes)):
                 current.add(("tool-peg", arm, -1, touched))
         for (arm_a, a), (arm_b, b) in combinations(segments, 2):
-            first, second = np.nonzero(boxes_overlap(a[3][:, None], a[4][:, None], b[3][None], b[4][None]))
-            if not first.size:
-                continue
-            touching = (
-                segment_distances(a[0][first], a[1][first], b[0][second], b[1][second])
-                < a[2][first] + b[2][second]
+            shafts, others = self.tools[arm_a].touching(
+                self.tools[arm_b], self.cell, partial(_tools_touching, a, b)
             )
-            shafts = (first == 0) & (second == 0)
             pair = f"{arm_a}+{arm_b}"
-            if (touching & shafts).any():
+            if shafts:
                 current.add(("shaft-shaft", pair, -1, -1))
-            if (touching & ~shafts).any():
+            if others:
                 current.add(("tool-tool", pair, -1, -1))
         surface = self.cell.board.surface_z + self.config.board_press_tolerance
         for block in self.blocks:
@@ -673,6 +668,18 @@ class World:
                 peg_or_none = None if peg_index < 0 else peg_index
                 self._log("collision", arm, block_or_none, peg_or_none, kind)
             self._contacts = current
+
+
+def _tools_touching(a: Boxes, b: Boxes) -> tuple[bool, bool]:
+    """Whether two tools' shafts touch, and whether any other of their segments (`ToolState.boxes`) do."""
+    first, second = np.nonzero(boxes_overlap(a[3][:, None], a[4][:, None], b[3][None], b[4][None]))
+    if not first.size:
+        return False, False
+    touching = (
+        segment_distances(a[0][first], a[1][first], b[0][second], b[1][second]) < a[2][first] + b[2][second]
+    )
+    shafts = (first == 0) & (second == 0)
+    return bool((touching & shafts).any()), bool((touching & ~shafts).any())
 
 
 def _beyond_play(move: Matrix, axes: Matrix, give: Give) -> float:

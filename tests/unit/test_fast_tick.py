@@ -304,10 +304,29 @@ def test_contacts_are_the_same_with_the_boxes_of_a_tool_state_kept():
         events = [world.update(0.01 * step, {arm: tool}) for world in (kept, kept_moved)]
         afresh = [world.update(0.01 * step, {arm: _copied(tool)}) for world in (fresh, fresh_moved)]
         assert events == afresh
+        assert [kept._contacts, kept_moved._contacts] == [fresh._contacts, fresh_moved._contacts]
     assert {event.detail for event in kept.events} >= {"tool-peg", "tool-tool"}
     assert [e for e in kept.events if e.detail == "tool-peg"] != [
         e for e in kept_moved.events if e.detail == "tool-peg"
     ]
+
+
+def test_a_tool_kept_while_the_other_moves_is_checked_against_the_other_as_it_is_now():
+    from pegbt.sim.tools import tool_pointing_down
+    from pegbt.sim.world import World
+
+    cell = workcell()
+    world = World(3)
+    centre = {arm: cell.arm_to_board(arm)[:3, 3] for arm in ("PSM1", "PSM2")}
+    meeting, apart = np.array([0.06, 0.04, -0.03]), np.array([-0.03, 0.04, -0.03])
+    still = tool_pointing_down(meeting, 0.0, 0.5, centre["PSM1"], cell.tool)
+    world.update(0.0, {"PSM1": still})
+    seen = []
+    for step, where in enumerate([meeting, apart, meeting, apart]):
+        moving = tool_pointing_down(where, 0.3, 0.5, centre["PSM2"], cell.tool)
+        world.update(0.01 * (step + 1), {"PSM2": moving})
+        seen.append(sorted(kind for kind, *_ in world._contacts))
+    assert seen == [["tool-tool"], [], ["tool-tool"], []]
 
 
 def _copied(state: ToolState) -> ToolState:
