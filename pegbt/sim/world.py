@@ -703,4 +703,4 @@ def _unit(vector: Matrix) -> Matrix:
 
 def boxes_overlap(low_a: Matrix, high_a: Matrix, low_b: Matrix, high_b: Matrix) -> Matrix:
     """Whether axis-aligned boxes overlap, broadcast over leading dimensions (…, 3) -> (…)."""
-    return ((low_a <= high_b) & (low_b <= high_a)).all(axis=-1)
+    return np.all((low_a <= high_b) & (low_b <= high_a), axis=-1)
