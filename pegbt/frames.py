@@ -75,17 +75,15 @@ def segment_distances(p0: Matrix, p1: Matrix, q0: Matrix, q1: Matrix) -> Matrix:
     f = np.einsum("...i,...i->...", d2, r)
     safe_a, safe_e = np.maximum(a, _EPS), np.maximum(e, _EPS)
     denominator = a * e - b * b
-    nearest_to_point = np.clip(-c / safe_a, 0.0, 1.0)  # when q is a point, or p and q are parallel
+    nearest_to_point = (-c / safe_a).clip(0.0, 1.0)  # when q is a point, or p and q are parallel
     s = np.where(
         denominator > _EPS,
-        np.clip((b * f - c * e) / np.maximum(denominator, _EPS), 0.0, 1.0),
+        ((b * f - c * e) / np.maximum(denominator, _EPS)).clip(0.0, 1.0),
         nearest_to_point,
     )
     t = (b * s + f) / safe_e
-    s = np.where(
-        t < 0.0, np.clip(-c / safe_a, 0.0, 1.0), np.where(t > 1.0, np.clip((b - c) / safe_a, 0.0, 1.0), s)
-    )
-    t = np.clip(t, 0.0, 1.0)
+    s = np.where(t < 0.0, nearest_to_point, np.where(t > 1.0, ((b - c) / safe_a).clip(0.0, 1.0), s))
+    t = t.clip(0.0, 1.0)
     s = np.where(a > _EPS, s, 0.0)
     t = np.where(e > _EPS, t, 0.0)
     gap = (p0 + s[..., None] * d1) - (q0 + t[..., None] * d2)

@@ -162,10 +162,10 @@ class ArmPhysics(ArmParameters):
         j = joint_index(joint)
         if self._state is None:
             return 0.0, 0.0
-        state, target, half = float(self._state[j]), float(self._target[j]), float(self.half_width[j])
+        state, target, half = self._state.item(j), self._target.item(j), self.half_width.item(j)
         down, up = state - (target - half), target + half - state
         for n, half_width, k in self._own_drives[j]:
-            play, seen = float(self._drive_play[n]), float(self._drive_seen[n])
+            play, seen = self._drive_play.item(n), self._drive_seen.item(n)
             below, above = k * (play - (seen - half_width)), k * (seen + half_width - play)
             down, up = down + max(below, -above), up + max(above, -below)  # k < 0 swaps the sides
         return down, up

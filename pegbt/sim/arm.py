@@ -10,6 +10,7 @@ world). Each command's fate comes back as `Transition`s for the endpoint to publ
 from __future__ import annotations
 
 import math
+import struct
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -51,6 +52,7 @@ class JointGroup:
         self.velocity = np.zeros_like(self.setpoint)
         self.motion: Playback | None = None
         self.lowest: NDArray[np.float64] | None = None  # the encoders cannot go below it (a block in the jaw)
+        self._stop_bytes = b""  # the stop's value as bytes, while `lowest` is set
         self._elapsed = 0.0
         self._servo_tau = servo_tau
         self._alpha_dt, self._alpha = math.nan, 1.0  # the servo gain of the last tick's period
@@ -92,10 +94,18 @@ class JointGroup:
         return [Transition(command_id, "aborted", reason)]
 
     def stop_at(self, lowest: float | None) -> None:
-        """Keep the encoders at or above `lowest` from now on (None: free), as a gripped block stops a jaw."""
-        self.lowest = None if lowest is None else np.full_like(self.encoder, lowest)
-        if self.lowest is not None:
-            self.encoder = np.maximum(self.encoder, self.lowest)
+        """Keep the encoders at or above `lowest` from now on (None: free), as a gripped block stops a jaw.
+
+        The same stop again (asked each tick) changes nothing: the encoders were kept above it since it
+        was set, and the maximum of them and it is them, bit for bit."""
+        if lowest is None:
+            self.lowest = None
+            return
+        if self.lowest is not None and self._stop_bytes == struct.pack("d", lowest):
+            return
+        self.lowest = np.full_like(self.encoder, lowest)
+        self._stop_bytes = self.lowest[:1].tobytes()
+        self.encoder = np.maximum(self.encoder, self.lowest)
 
     def setpoint_velocity(self, period: float) -> NDArray[np.float64]:
         return (self.tick_setpoint - self.previous_tick_setpoint) / period

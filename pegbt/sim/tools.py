@@ -8,7 +8,9 @@ not where the encoders say it is.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+import struct
+from collections.abc import Callable
+from dataclasses import dataclass, field
 from functools import lru_cache
 
 import numpy as np
@@ -23,6 +25,7 @@ KINEMATICS_MEMO = (
 )
 Give = tuple[float, float, float, float]  # how far the tip yields along its -x, +x, -y, +y (m)
 RIGID: Give = (0.0, 0.0, 0.0, 0.0)
+Boxes = tuple[Matrix, Matrix, Matrix, Matrix, Matrix, float]  # `ToolState.boxes`
 
 
 @dataclass(frozen=True)
@@ -40,19 +43,37 @@ class ToolState:
     jaw: float
     shaft: Matrix
     give: Give = RIGID
+    _boxes: list[tuple[ToolGeometry, Boxes]] = field(
+        default_factory=list, init=False, repr=False, compare=False
+    )  # `boxes` of the last tool geometry asked
+    _pegs: list[tuple[object, tuple[int, ...]]] = field(
+        default_factory=list, init=False, repr=False, compare=False
+    )  # `touched_pegs` of the last owner asked
+    _touching: list[tuple[ToolState, object, tuple[bool, bool]]] = field(
+        default_factory=list, init=False, repr=False, compare=False
+    )  # `touching` of the last other state and owner asked
 
     @classmethod
     def from_joints(cls, q: Matrix, jaw: float, arm_to_board: Matrix, give: Give = RIGID) -> ToolState:
         """The tool of an arm at joints `q` (its physical joints), by the arm's forward kinematics: the
-        shaft runs from the remote centre (the base origin) to the wrist pitch axis."""
-        shaft_end, tip = _frames(np.asarray(q, dtype=float).tobytes())
+        shaft runs from the remote centre (the base origin) to the wrist pitch axis.
+
+        One state (read-only arrays) is kept for each exact set of inputs, by their bytes: the phase
+        simulator's worlds replay one arm, each asking for the same tool again."""
+        joints = np.asarray(q, dtype=float).tobytes()
+        key = joints + arm_to_board.tobytes() + struct.pack("5d", jaw, *give)
+        known = _STATES.get(key)
+        if known is not None:
+            return known
+        shaft_end, tip = _frames(joints)
         rotation, origin = arm_to_board[:3, :3], arm_to_board[:3, 3]
-        return cls(
-            tip=arm_to_board @ tip,
-            jaw=float(jaw),
-            shaft=np.array([origin, rotation @ shaft_end + origin]),
-            give=give,
-        )
+        tip, shaft = arm_to_board @ tip, np.array([origin, rotation @ shaft_end + origin])
+        tip.setflags(write=False)
+        shaft.setflags(write=False)
+        state = _STATES[key] = cls(tip=tip, jaw=float(jaw), shaft=shaft, give=give)
+        if len(_STATES) > KINEMATICS_MEMO:
+            del _STATES[next(iter(_STATES))]  # the oldest
+        return state
 
     def jaw_hinge(self, tool: ToolGeometry) -> Matrix:
         """(3,) the wrist yaw axis, where the jaws hinge: `jaw_length` back up the tool from the tip."""
@@ -62,6 +83,44 @@ class ToolState:
         """Start points (3, 3), end points (3, 3) and radii (3,) of shaft, wrist and jaw, for collisions."""
         points = np.concatenate((self.shaft, self.jaw_hinge(tool)[None], self.tip[None, :3, 3]))
         return points[:3], points[1:], np.array([tool.shaft_radius, tool.wrist_radius, tool.jaw_radius])
+
+    def boxes(self, tool: ToolGeometry) -> Boxes:
+        """`segments` with each one's bounding box (low, high corners, (3, 3) each) and the boxes' greatest
+        z (the tool's lowest reach, z pointing down), for the world's contact checks; computed once for a
+        state (never to be written to)."""
+        if self._boxes and (self._boxes[0][0] is tool or self._boxes[0][0] == tool):
+            return self._boxes[0][1]
+        starts, ends, radii = self.segments(tool)
+        reach = radii[:, None]
+        high = np.maximum(starts, ends) + reach
+        found = (starts, ends, radii, np.minimum(starts, ends) - reach, high, float(high[:, 2].max()))
+        self._boxes[:] = [(tool, found)]
+        return found
+
+    def touched_pegs(self, owner: object, compute: Callable[[], tuple[int, ...]]) -> tuple[int, ...]:
+        """The pegs this state touches, as `compute` finds them for `owner` (the world's work cell, from
+        which alone it computes them), kept while the same owner asks again: the phase simulator's worlds,
+        with one work cell, ask in turn for one state."""
+        if self._pegs and self._pegs[0][0] is owner:
+            return self._pegs[0][1]
+        touched = compute()
+        self._pegs[:] = [(owner, touched)]
+        return touched
+
+    def touching(
+        self, other: ToolState, owner: object, compute: Callable[[], tuple[bool, bool]]
+    ) -> tuple[bool, bool]:
+        """Whether this state's shaft touches `other`'s, and whether any other of their segments touch, as
+        `compute` finds them for `owner` (the world's work cell), kept while the same other state and owner
+        ask again."""
+        if self._touching and self._touching[0][0] is other and self._touching[0][1] is owner:
+            return self._touching[0][2]
+        found = compute()
+        self._touching[:] = [(other, owner, found)]
+        return found
+
+
+_STATES: dict[bytes, ToolState] = {}  # `from_joints`' states, oldest first
 
 
 @lru_cache(maxsize=KINEMATICS_MEMO)
@@ -77,8 +136,8 @@ def wrist_give(physics: ArmPhysics, wrist_yaw: float, tool: ToolGeometry) -> Giv
 
     Wrist yaw turns the jaws about the hinge (y): +q6 swings the tip along +x on the jaw's length. Wrist
     pitch (q5): +q5 swings it along -y on the wrist's length plus the jaw's, shortened as the jaw turns."""
-    yaw_down, yaw_up = physics.play_room("q6")
-    pitch_down, pitch_up = physics.play_room("q5")
+    yaw_down, yaw_up = physics.play_room(5)  # q6
+    pitch_down, pitch_up = physics.play_room(4)  # q5
     lever = abs(tool.wrist_length + tool.jaw_length * math.cos(wrist_yaw))
     return tool.jaw_length * yaw_down, tool.jaw_length * yaw_up, lever * pitch_up, lever * pitch_down
 

@@ -24,6 +24,7 @@ import math
 from bisect import insort
 from collections.abc import Mapping
 from dataclasses import dataclass
+from functools import partial
 from itertools import combinations
 
 import numpy as np
@@ -33,7 +34,7 @@ from pegbt.sim.blocks import Block
 from pegbt.sim.events import Event, EventLog
 from pegbt.sim.faults import SlipAt, WorldFaults
 from pegbt.sim.interfaces import WorldSnapshot
-from pegbt.sim.tools import RIGID, Give, ToolState
+from pegbt.sim.tools import RIGID, Boxes, Give, ToolState
 from pegbt.sim.world_effects import BLOCK_MASS, GRAVITY, WorldEffects
 from pegbt.workcell import Workcell, workcell
 
@@ -42,7 +43,6 @@ _SLIDE_STEP = 0.0005  # m: a block that fell against pegs slides off them in ste
 _SLIDE_STEPS = 200  # at most this many (10 cm): a block cannot rest inside a peg
 _GUIDED_INSIDE = 1e-6  # m: a block the chamfers guide ends this far inside the clearance, clear of the peg
 _YIELD_ROUNDS = 8  # alternations between what the arm's compliance takes and what the peg still pushes
-Segments = tuple[Matrix, Matrix, Matrix, Matrix, Matrix]  # a tool's starts, ends, radii, boxes' low, high
 _ACCELERATION_WINDOW = 0.02  # s between the tip positions a held block's acceleration is taken from
 
 
@@ -88,7 +88,6 @@ class World:
         self.events = EventLog()
         self.time = 0.0
         self.tools: dict[str, ToolState] = {}
-        self._segments: dict[str, tuple[ToolState, Segments]] = {}  # `_tool_segments` of each tool
         self._closed: dict[str, bool] = {}
         self._widest: dict[str, float] = {}  # widest jaw angle of each arm since its jaw last opened
         self._contacts: set[tuple[str, str, int, int]] = set()
@@ -101,6 +100,8 @@ class World:
         self._peg_feet = np.column_stack([pegs.positions, np.full(len(pegs.positions), board.surface_z)])
         self._peg_low = self._peg_tops - [pegs.radius, pegs.radius, 0.0]  # bounding boxes of the pegs
         self._peg_high = self._peg_feet + [pegs.radius, pegs.radius, 0.0]
+        self._peg_boxes = self._peg_low[None], self._peg_high[None]  # as `boxes_overlap` broadcasts them
+        self._peg_top_z = float(self._peg_low[0, 2])
         self._clearance = self.cell.block.hole_radius - pegs.radius + config.peg_slack
         wall = self.cell.block.edge_distance - self.cell.block.hole_radius
         self._jaw_on_wall = 2.0 * math.asin(min(1.0, wall / 2.0 / self.cell.tool.jaw_length))  # `jaw_stop`
@@ -131,7 +132,10 @@ class World:
 
     def held_by(self, arm: str) -> int | None:
         """Index of the block `arm` grips, if any."""
-        return next((block.index for block in self.blocks if arm in block.grips), None)
+        for block in self.blocks:
+            if arm in block.grips:
+                return block.index
+        return None
 
     def jaw_stop(self, arm: str) -> float | None:
         """The jaw angle at which the gripped block's wall stops `arm`'s jaw (None when it grips nothing).
@@ -625,62 +629,57 @@ class World:
 
     # ------------------------------------------------------------------------------------- collisions
 
+    def _pegs_touched(self, boxes: Boxes) -> tuple[int, ...]:
+        """The pegs, in increasing order, that a tool's segments (`ToolState.boxes`) touch: a result of the
+        tool and the work cell alone."""
+        starts, ends, radii, low, high, _ = boxes
+        seg, peg = np.nonzero(boxes_overlap(low[:, None], high[:, None], *self._peg_boxes))
+        if not seg.size:
+            return ()
+        gaps = segment_distances(starts[seg], ends[seg], self._peg_tops[peg], self._peg_feet[peg])
+        return tuple(int(touched) for touched in np.unique(peg[gaps < radii[seg] + self.cell.pegs.radius]))
+
     def _detect_contacts(self) -> None:
         """Log each contact when it begins: tool-peg, tool-tool, shaft-shaft, block-board."""
         current: set[tuple[str, str, int, int]] = set()
-        segments = {arm: self._tool_segments(arm, state) for arm, state in sorted(self.tools.items())}
-        for arm, (starts, ends, radii, low, high) in segments.items():
-            if high[:, 2].max() < self._peg_low[0, 2]:  # the whole tool is above the peg tops (z points down)
+        tool = self.cell.tool
+        segments = [(arm, self.tools[arm].boxes(tool)) for arm in sorted(self.tools)]
+        for arm, boxes in segments:
+            if boxes[5] < self._peg_top_z:  # the whole tool is above the peg tops (z points down)
                 continue
-            pairs = np.nonzero(
-                boxes_overlap(low[:, None], high[:, None], self._peg_low[None], self._peg_high[None])
+            for touched in self.tools[arm].touched_pegs(self.cell, partial(self._pegs_touched, boxes)):
+                current.add(("tool-peg", arm, -1, touched))
+        for (arm_a, a), (arm_b, b) in combinations(segments, 2):
+            shafts, others = self.tools[arm_a].touching(
+                self.tools[arm_b], self.cell, partial(_tools_touching, a, b)
             )
-            if pairs[0].size:
-                seg, peg = pairs
-                gaps = segment_distances(starts[seg], ends[seg], self._peg_tops[peg], self._peg_feet[peg])
-                for touched in np.unique(peg[gaps < radii[seg] + self.cell.pegs.radius]):
-                    current.add(("tool-peg", arm, -1, int(touched)))
-        for (arm_a, a), (arm_b, b) in combinations(segments.items(), 2):
-            first, second = np.nonzero(boxes_overlap(a[3][:, None], a[4][:, None], b[3][None], b[4][None]))
-            if not first.size:
-                continue
-            touching = (
-                segment_distances(a[0][first], a[1][first], b[0][second], b[1][second])
-                < a[2][first] + b[2][second]
-            )
-            shafts = (first == 0) & (second == 0)
             pair = f"{arm_a}+{arm_b}"
-            if (touching & shafts).any():
+            if shafts:
                 current.add(("shaft-shaft", pair, -1, -1))
-            if (touching & ~shafts).any():
+            if others:
                 current.add(("tool-tool", pair, -1, -1))
         surface = self.cell.board.surface_z + self.config.board_press_tolerance
         for block in self.blocks:
             if block.grips and block.pose[2, 3] > surface:
                 current.add(("block-board", "+".join(block.grips), block.index, -1))
-        for kind, arm, block_index, peg_index in sorted(current - self._contacts):
-            block_or_none = None if block_index < 0 else block_index
-            peg_or_none = None if peg_index < 0 else peg_index
-            self._log("collision", arm, block_or_none, peg_or_none, kind)
-        self._contacts = current
+        if current != self._contacts:
+            for kind, arm, block_index, peg_index in sorted(current - self._contacts):
+                block_or_none = None if block_index < 0 else block_index
+                peg_or_none = None if peg_index < 0 else peg_index
+                self._log("collision", arm, block_or_none, peg_or_none, kind)
+            self._contacts = current
 
-    def _tool_segments(self, arm: str, state: ToolState) -> Segments:
-        """Shaft, wrist and jaw segments: starts, ends, radii, and each one's bounding box (low, high);
-        kept for a tool state seen before (an arm that was not updated this step)."""
-        known = self._segments.get(arm)
-        if known is not None and known[0] is state:
-            return known[1]
-        starts, ends, radii = state.segments(self.cell.tool)
-        reach = radii[:, None]
-        found: Segments = (
-            starts,
-            ends,
-            radii,
-            np.minimum(starts, ends) - reach,
-            np.maximum(starts, ends) + reach,
-        )
-        self._segments[arm] = (state, found)
-        return found
+
+def _tools_touching(a: Boxes, b: Boxes) -> tuple[bool, bool]:
+    """Whether two tools' shafts touch, and whether any other of their segments (`ToolState.boxes`) do."""
+    first, second = np.nonzero(boxes_overlap(a[3][:, None], a[4][:, None], b[3][None], b[4][None]))
+    if not first.size:
+        return False, False
+    touching = (
+        segment_distances(a[0][first], a[1][first], b[0][second], b[1][second]) < a[2][first] + b[2][second]
+    )
+    shafts = (first == 0) & (second == 0)
+    return bool((touching & shafts).any()), bool((touching & ~shafts).any())
 
 
 def _beyond_play(move: Matrix, axes: Matrix, give: Give) -> float:

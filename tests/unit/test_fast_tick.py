@@ -3,6 +3,8 @@ inputs: each reference is the straightforward per-joint (per-sample) form, kept 
 a tick that costs less is held to change no number."""
 
 import math
+import struct
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -200,6 +202,33 @@ def test_the_servo_follows_its_first_order_response_moving_held_or_settled(size)
     assert settled > 500  # the settled ticks were exercised
 
 
+def test_a_stop_asked_again_each_tick_changes_nothing():
+    rng = np.random.default_rng(13)
+    group, reference = (
+        JointGroup(np.zeros(1), 0.004, lambda q: [], lambda *a: []),
+        ReferenceGroup(np.zeros(1)),
+    )
+    lowest: float | None = None
+    for _ in range(3000):
+        event = rng.random()
+        if event < 0.02:  # a new stop, at times on the encoders or at a zero of either sign
+            lowest = rng.choice([None, float(rng.normal()), float(group.encoder[0]), 0.0, -0.0])
+        elif event < 0.04:  # the jaw driven on, through or away from the stop
+            target = rng.choice([rng.normal(size=1), -0.0 * np.ones(1), np.zeros(1)])
+            group.setpoint, reference.setpoint = target.copy(), target.copy()
+        group.stop_at(lowest)  # asked each tick, as the phase simulator asks the world's jaw stop
+        reference.lowest = None if lowest is None else np.full_like(reference.encoder, lowest)
+        if reference.lowest is not None:
+            reference.encoder = np.maximum(reference.encoder, reference.lowest)
+        assert _state(group) == _state(reference)
+        assert (group.lowest is None and reference.lowest is None) or (
+            group.lowest.tobytes() == reference.lowest.tobytes()
+        )
+        group.advance(0.01)
+        reference.advance(0.01)
+        assert _state(group) == _state(reference)
+
+
 def test_a_tools_segments_are_its_shaft_wrist_and_jaw():
     rng = np.random.default_rng(7)
     cell = workcell()
@@ -256,22 +285,69 @@ def test_the_tools_kinematics_equal_the_chain_with_each_links_twist_taken_afresh
         assert shaft_end.tobytes() == reference_end.tobytes() and tip.tobytes() == reference_tip.tobytes()
 
 
-def test_contacts_are_the_same_with_the_segments_of_an_arm_not_updated_kept():
+def test_contacts_are_the_same_with_the_boxes_of_a_tool_state_kept():
     from pegbt.sim.tools import tool_pointing_down
     from pegbt.sim.world import World
 
     rng = np.random.default_rng(9)
     cell = workcell()
-    kept, fresh = World(3), World(3)
+    moved = replace(cell, pegs=replace(cell.pegs, positions=cell.pegs.positions + [0.002, -0.001]))
+    kept, fresh = World(3), World(3)  # the same tool states, asked again; each step's states afresh
+    kept_moved, fresh_moved = World(3, cell=moved), World(3, cell=moved)  # another cell, the same states
     for step in range(600):
         arm = ("PSM1", "PSM2")[step % 2 if step % 7 else 0]  # now and then one arm several steps running
         near = cell.pegs.tops[int(rng.integers(len(cell.pegs.tops)))] + rng.normal(0.0, 0.004, 3)
         centre = cell.arm_to_board(arm)[:3, 3]
         tool = tool_pointing_down(near, float(rng.uniform(0, np.pi)), 0.5, centre, cell.tool)
-        fresh._segments.clear()
-        events = kept.update(0.01 * step, {arm: tool}), fresh.update(0.01 * step, {arm: tool})
-        assert events[0] == events[1]
+        for world in (fresh, fresh_moved):
+            world.tools = {name: _copied(state) for name, state in world.tools.items()}  # nothing kept
+        events = [world.update(0.01 * step, {arm: tool}) for world in (kept, kept_moved)]
+        afresh = [world.update(0.01 * step, {arm: _copied(tool)}) for world in (fresh, fresh_moved)]
+        assert events == afresh
+        assert [kept._contacts, kept_moved._contacts] == [fresh._contacts, fresh_moved._contacts]
     assert {event.detail for event in kept.events} >= {"tool-peg", "tool-tool"}
+    assert [e for e in kept.events if e.detail == "tool-peg"] != [
+        e for e in kept_moved.events if e.detail == "tool-peg"
+    ]
+
+
+def test_a_tool_kept_while_the_other_moves_is_checked_against_the_other_as_it_is_now():
+    from pegbt.sim.tools import tool_pointing_down
+    from pegbt.sim.world import World
+
+    cell = workcell()
+    world = World(3)
+    centre = {arm: cell.arm_to_board(arm)[:3, 3] for arm in ("PSM1", "PSM2")}
+    meeting, apart = np.array([0.06, 0.04, -0.03]), np.array([-0.03, 0.04, -0.03])
+    still = tool_pointing_down(meeting, 0.0, 0.5, centre["PSM1"], cell.tool)
+    world.update(0.0, {"PSM1": still})
+    seen = []
+    for step, where in enumerate([meeting, apart, meeting, apart]):
+        moving = tool_pointing_down(where, 0.3, 0.5, centre["PSM2"], cell.tool)
+        world.update(0.01 * (step + 1), {"PSM2": moving})
+        seen.append(sorted(kind for kind, *_ in world._contacts))
+    assert seen == [["tool-tool"], [], ["tool-tool"], []]
+
+
+def _copied(state: ToolState) -> ToolState:
+    return ToolState(state.tip.copy(), state.jaw, state.shaft.copy(), state.give)
+
+
+def test_a_tools_boxes_bound_its_segments_and_are_kept_for_its_geometry():
+    rng = np.random.default_rng(12)
+    cell = workcell()
+    thick = type(cell.tool)(**{**vars(cell.tool), "shaft_radius": 0.01})
+    for _ in range(100):
+        q = rng.uniform(-0.5, 0.5, 6) + [0.0, 0.0, 0.12, 0.0, 0.0, 0.0]
+        state = _copied(ToolState.from_joints(q, 0.5, cell.arm_to_board("PSM1")))
+        for tool in (cell.tool, thick, cell.tool, cell.tool):
+            starts, ends, radii = state.segments(tool)
+            low = np.array([np.minimum(s, e) - r for s, e, r in zip(starts, ends, radii)])
+            high = np.array([np.maximum(s, e) + r for s, e, r in zip(starts, ends, radii)])
+            boxes = state.boxes(tool)
+            assert [b.tobytes() for b in boxes[:5]] == [a.tobytes() for a in (starts, ends, radii, low, high)]
+            assert boxes[5] == max(high[:, 2].tolist())
+        assert state.boxes(cell.tool) is state.boxes(cell.tool)
 
 
 def test_a_tool_from_joints_seen_before_is_the_tool_computed_afresh():
@@ -281,12 +357,21 @@ def test_a_tool_from_joints_seen_before_is_the_tool_computed_afresh():
     cell = workcell()
     to_board = cell.arm_to_board("PSM2")
     joints = rng.uniform(-0.5, 0.5, (50, 6)) + [0.0, 0.0, 0.12, 0.0, 0.0, 0.0]
+    moved = to_board.copy()
+    moved[0, 3] += 0.003  # another world's registration offset
+    inputs = [
+        (jaw, give) for jaw in (0.4, -0.0, 0.0) for give in ((0.0, 0.0, 0.0, 0.0), (1e-3, 0.0, -0.0, 2e-3))
+    ]
     for q in [*joints, *joints[::-1], *joints]:  # each seen again, as another world replays the arm
-        state = ToolState.from_joints(q.copy(), 0.4, to_board)
-        shaft_end, tip = shaft_end_and_tip(q)
-        rotation, origin = to_board[:3, :3], to_board[:3, 3]
-        assert state.tip.tobytes() == (to_board @ tip).tobytes()
-        assert state.shaft.tobytes() == np.array([origin, rotation @ shaft_end + origin]).tobytes()
+        for board in (to_board, moved):
+            for jaw, give in inputs:
+                state = ToolState.from_joints(q.copy(), jaw, board.copy(), give)
+                shaft_end, tip = shaft_end_and_tip(q)
+                rotation, origin = board[:3, :3], board[:3, 3]
+                assert state.tip.tobytes() == (board @ tip).tobytes()
+                assert state.shaft.tobytes() == np.array([origin, rotation @ shaft_end + origin]).tobytes()
+                assert struct.pack("5d", state.jaw, *state.give) == struct.pack("5d", jaw, *give)
+                assert not state.tip.flags.writeable and not state.shaft.flags.writeable  # shared
 
 
 def _reference_command_for_target(arm, target: np.ndarray, drives: np.ndarray) -> np.ndarray:
@@ -334,3 +419,49 @@ def test_the_compensators_newton_steps_equal_their_formula(name):
             assert found.tobytes() == expected.tobytes()
         state = arm.step(found, state)
     assert reached > 250
+
+
+def _reference_segment_distances(p0, p1, q0, q1):
+    """`segment_distances` as first written: every clamp by `np.clip`, the nearest point to p's start
+    clamped twice."""
+    d1, d2, r = p1 - p0, q1 - q0, p0 - q0
+    a, e = np.einsum("...i,...i->...", d1, d1), np.einsum("...i,...i->...", d2, d2)
+    b, c = np.einsum("...i,...i->...", d1, d2), np.einsum("...i,...i->...", d1, r)
+    f = np.einsum("...i,...i->...", d2, r)
+    eps = 1e-12
+    safe_a, safe_e = np.maximum(a, eps), np.maximum(e, eps)
+    denominator = a * e - b * b
+    s = np.where(
+        denominator > eps,
+        np.clip((b * f - c * e) / np.maximum(denominator, eps), 0.0, 1.0),
+        np.clip(-c / safe_a, 0.0, 1.0),
+    )
+    t = (b * s + f) / safe_e
+    s = np.where(
+        t < 0.0, np.clip(-c / safe_a, 0.0, 1.0), np.where(t > 1.0, np.clip((b - c) / safe_a, 0.0, 1.0), s)
+    )
+    t = np.clip(t, 0.0, 1.0)
+    s, t = np.where(a > eps, s, 0.0), np.where(e > eps, t, 0.0)
+    return np.linalg.norm((p0 + s[..., None] * d1) - (q0 + t[..., None] * d2), axis=-1)
+
+
+def test_segment_distances_equal_their_formula_with_every_clamp_by_np_clip():
+    from pegbt.frames import _EPS, segment_distances
+
+    assert _EPS == 1e-12
+    rng = np.random.default_rng(14)
+    for _ in range(300):
+        n = int(rng.integers(1, 8))
+        p0, p1, q0, q1 = (rng.normal(0.0, 0.02, (n, 3)) for _ in range(4))
+        points = rng.random(n) < 0.2
+        p1[points] = p0[points]  # some of p points
+        q1[::3] = q0[::3]  # some of q points
+        p1[1::4] = p0[1::4] + 2.0 * (q1[1::4] - q0[1::4])  # some parallel pairs
+        p1[2::5] = -0.0 * p1[2::5]  # signed zeros
+        assert (
+            segment_distances(p0, p1, q0, q1).tobytes()
+            == _reference_segment_distances(p0, p1, q0, q1).tobytes()
+        )
+        assert float(segment_distances(p0[0], p1[0], q0[0], q1[0])) == float(
+            _reference_segment_distances(p0[0], p1[0], q0[0], q1[0])
+        )
