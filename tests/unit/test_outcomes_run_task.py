@@ -1,6 +1,6 @@
 """A task's transfer is the one its seed names, with the protocol's attempts: `_run` once passed the
 attempts where `simulate_transfer` takes the transfer's index, so every task simulated transfer 4 (1
-with the paper's protocol), never the way back. Under pegbt's trees a unilateral or handover seed is one
+with the paper's protocol), never the way back. Under pegbt's trees a unilateral seed is one
 transfer of a trial played in order (`trialsim`), so the trial is played up to it."""
 
 from __future__ import annotations
@@ -32,8 +32,7 @@ def test_a_task_simulates_its_seeds_transfer_with_the_protocols_attempts(monkeyp
     assert asked == [(7, None, attempts, True)]
 
 
-@pytest.mark.parametrize("variant", ["unilateral", "handover"])
-def test_under_the_trees_a_task_plays_its_trial_up_to_its_seeds_transfer(monkeypatch, variant):
+def test_under_the_trees_a_task_plays_its_trial_up_to_its_seeds_transfer(monkeypatch):
     asked = []
 
     def record(worlds, variant, condition, layout, count, attempts=4, registered=False):
@@ -41,7 +40,7 @@ def test_under_the_trees_a_task_plays_its_trial_up_to_its_seeds_transfer(monkeyp
         return [[TransferResult(k == count - 1, None, 1.0) for _ in worlds] for k in range(count)]
 
     monkeypatch.setattr(simulate, "simulate_trial", record)
-    (result,) = simulate._run(((WorldEffects(),), variant, "uncalibrated", 12 * 3 + 7), attempts=4)
+    (result,) = simulate._run(((WorldEffects(),), "unilateral", "uncalibrated", 12 * 3 + 7), attempts=4)
     assert asked == [(3, 8, 4, False)]  # trial 3's transfers 0-7: seed 43 is its transfer 7
     assert result.succeeded
 

@@ -4,7 +4,7 @@ Seeds are shared across the worlds compared (common random numbers): the same la
 perception noise for every parameter value, so differences between worlds are the effects', not luck's.
 A task is one transfer (variant, condition, seed) in every world at once, so one process simulates the
 arm's motion once and replays it in the worlds where it is the same (`phasesim.Replay`). Under pegbt's
-trees a unilateral or handover transfer is simulated within its trial, in order (`trialsim`): the seeds of
+trees a unilateral transfer is simulated within its trial, in order (`trialsim`): the seeds of
 one trial in the same worlds are one job, the trial simulated once for them all.
 
 How many attempts a transfer gets is the real protocol's, not a fitted knob (`attempts_for`): pegbt's trees
@@ -123,7 +123,7 @@ def _run(task: Task, attempts: int = WITH_RECOVERY, registered: bool = False) ->
 
 def _in_trials(attempts: int, variant: str) -> bool:
     """Whether a task's transfer is simulated as part of its trial (`trialsim`): under pegbt's trees (the
-    paper's robot skipped a lost block and never recovered), where one arm moves at a time."""
+    paper's robot skipped a lost block and never recovered), for the variants `in_order` names."""
     return attempts != ONE_ATTEMPT and in_order(variant)
 
 
