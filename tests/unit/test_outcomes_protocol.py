@@ -6,12 +6,12 @@ from pathlib import Path
 
 from pegbt.sim.world_effects import WorldEffects
 from pegbt.sim2real.outcomes.phasesim import simulate_transfer
-from pegbt.sim2real.outcomes.simulate import LocalMapper, attempts_for
+from pegbt.sim2real.outcomes.simulate import LocalMapper, attempts_for, registered_for
 from pegbt.sim2real.outcomes.table import paper_table, read_table
 
-# Transfer 2 of the unilateral order in a world whose wrist yields to the grasp: the first pick is lost
-# lowering onto the goal peg, the regrasp from where it fell places it.
-CAPTURING = WorldEffects.of({"grasp_capture": {"width": 0.003}})
+# Transfer 2 of the unilateral order in a world whose pegs bend: the first pick is lost lowering onto the
+# goal peg, the regrasp from where it fell places it.
+BENDING = WorldEffects.of({"peg_compliance": {"deflection": 0.0015}})
 SEED = 2
 
 
@@ -26,9 +26,9 @@ def test_the_paper_counts_one_attempt_per_transfer(tmp_path: Path) -> None:
 
 def test_one_attempt_fails_where_the_recovery_places() -> None:
     logging.getLogger("pegbt").setLevel(logging.ERROR)
-    recovered = simulate_transfer(CAPTURING, "unilateral", "uncalibrated", SEED)
+    recovered = simulate_transfer(BENDING, "unilateral", "uncalibrated", SEED)
     assert recovered.succeeded and recovered.phase == "lower"
-    once = LocalMapper(0, attempts_for(paper_table()))([((CAPTURING,), "unilateral", "uncalibrated", SEED)])
+    once = LocalMapper(0, attempts_for(paper_table()))([((BENDING,), "unilateral", "uncalibrated", SEED)])
     [[first]] = once
     assert not first.succeeded and first.phase == "lower"
     assert first.seconds < recovered.seconds
@@ -36,8 +36,17 @@ def test_one_attempt_fails_where_the_recovery_places() -> None:
 
 def test_a_meeting_the_planning_refuses_is_planned_again_not_counted_as_the_one_attempt() -> None:
     logging.getLogger("pegbt").setLevel(logging.ERROR)
-    # calibrated handover transfer 2: the first grasp perception offers cannot reach the meeting point
-    once = simulate_transfer(WorldEffects(), "handover", "calibrated", 2, None, attempts_for(paper_table()))
+    # calibrated handover transfer 2 under the paper's protocol: the first grasp perception offers cannot
+    # reach the meeting point
+    paper = paper_table()
+    once = simulate_transfer(
+        WorldEffects(),
+        "handover",
+        "calibrated",
+        2,
+        attempts=attempts_for(paper),
+        registered=registered_for(paper),
+    )
     assert once.succeeded and once.phase == "handover"
 
 

@@ -43,11 +43,10 @@ def test_only_the_papers_protocol_registers_the_arms(tmp_path: Path) -> None:
 
 
 def test_psm2_registered_as_the_papers_grips_the_block_it_misses_on_the_work_cells_figures() -> None:
-    """Bilateral transfer 0 (PSM2, peg 0 to 7) on layout 0 (seed 0), default world, the arm parked home
-    first as the tree parks it: on the work cell's figures PSM2's open jaws miss the wall; registered as
-    the paper's, it places the block."""
+    """Bilateral transfer 1 (PSM2, peg 2 to 6) on layout 13 (seed 13), default world: on the work cell's
+    figures PSM2's open jaws miss the wall; registered as the paper's, it places the block."""
     logging.getLogger("pegbt").setLevel(logging.ERROR)
-    task = ((WorldEffects(),), "bilateral", "uncalibrated", 0)
+    task = ((WorldEffects(),), "bilateral", "uncalibrated", 13)
     paper = paper_table()
     [[unregistered]] = LocalMapper(0, attempts_for(paper))([task])
     [[registered]] = LocalMapper(0, attempts_for(paper), registered_for(paper))([task])

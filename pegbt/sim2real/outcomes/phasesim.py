@@ -5,7 +5,7 @@ executive's `ArmMotion` would send under the condition (rest-to-rest cubics as p
 by the simulator's calibration models, or the optimised plan), and each control tick the world sees the tool
 where the physical joints put it, as `pegbt.sim.scene.Scene.update` does: descend onto the grasp, close,
 lift off the peg, carry, lower onto the goal peg, open. What perception would have seen is the block's
-pose with its noise (`PERCEPTION_SD`), displaced as the camera's world effects displace what it sees
+pose with its noise (`PERCEPTION_SD`; the paper's, `PAPER_PERCEPTION_SD`), displaced as the camera's world effects displace what it sees
 (`seen_point`); the arms stand where the world's registration offset puts them (`World.arm_to_board`). The phase of a failure is read from the world's events here (this is
 the simulator's side, where the truth is known).
 """
@@ -13,6 +13,7 @@ the simulator's side, where the truth is known).
 from __future__ import annotations
 
 import hashlib
+from collections.abc import Callable
 from dataclasses import dataclass
 from functools import cache
 
@@ -46,7 +47,12 @@ from pegbt.sim2real.outcomes.placelook import visible_points
 from pegbt.workcell import transfer_list
 
 PHYSICS = "dvrk-real"  # the arm as fitted on the real recordings: never refitted here
-PERCEPTION_SD = 0.0003  # m per axis: the block's position as perception fits it (0.3 mm depth noise)
+# m per axis: the error of a block's position as pegbt's perception fits it in a whole trial (its fit
+# averages the camera's 0.3 mm depth noise over some 1,200 points): 0.04-0.08 mm rms in the concealed
+# campaign's first looks (docs/guides/sim-to-real.md)
+PERCEPTION_SD = 0.00005
+# the paper's robot: its own perception on its Zivid's clouds, never measured here; its depth noise
+PAPER_PERCEPTION_SD = 0.0003
 START = np.array(
     DEFAULT_JOINTS
 )  # each arm comes from where the simulator starts it, its cables at rest there
@@ -322,11 +328,37 @@ def _transfer(
     attempts: int,
     registered: bool = False,
 ) -> TransferResult:
-    """Transfer `index` of `variant`'s transfers on a world of layout `seed` (on the way back every block
-    starts where its outward transfer placed it): the grasp the executive would choose for the block
-    perception would see, and the motions it would send, picked and carried again after a failure,
-    `attempts` in all (`trees/shared/one_transfer.yaml` recovers `REGRASPS` times, from wherever the block
-    fell); a grasp the planning refuses before the arm moves is sensed and planned again without counting.
+    """Transfer `index` of `variant`'s transfers alone on a world of layout `seed` (on the way back every
+    block starts where its outward transfer placed it), its recoveries going after its own block."""
+    world = World(seed, effects=effects)
+    if index >= len(transfers(variant)) // 2:
+        _moved_out(world, transfers(variant))
+    rng = np.random.default_rng([seed, 7])
+    return carry_out(world, variant, condition, index, replay, attempts, registered, rng)
+
+
+# which block an attempt goes after: (world, pick peg, whether the transfer lost its block already) -> the
+# block's index, or None when it finds none
+Pick = Callable[[World, int, bool], int | None]
+
+
+def carry_out(
+    world: World,
+    variant: str,
+    condition: str,
+    index: int,
+    replay: Replay,
+    attempts: int,
+    registered: bool,
+    rng: np.random.Generator,
+    pick: Pick | None = None,
+) -> TransferResult:
+    """Transfer `index` of `variant`'s transfers on `world` as it lies: the grasp the executive would
+    choose for the block perception would see, and the motions it would send, picked and carried again
+    after a failure, `attempts` in all (`trees/shared/one_transfer.yaml` recovers `REGRASPS` times, from
+    wherever the block fell); a grasp the planning refuses before the arm moves is sensed and planned again
+    without counting. Each attempt goes after the block `pick` names (none found: a failure at `sense`,
+    and the next attempt looks again); without `pick`, after the block on the pick peg wherever it falls.
     The arm's cables carry the history the tree gives them: the arm's first transfer of each half starts
     from the home pose the trees park it at before each half (the very first, parked from the simulator's
     start joints), the others from where the arm let go of its previous block, and an attempt after a failure
@@ -335,29 +367,32 @@ def _transfer(
     order = transfers(variant)
     arm, start_peg, goal_peg = order[index]
     previous_peg = next(goal for other, _, goal in reversed(order + order[:index]) if other == arm)
-    world = World(seed, effects=effects)
-    if index >= len(order) // 2:
-        _moved_out(world, order)
     skills = _skills(condition)
-    block = next(b for b in world.blocks if b.peg == start_peg)
-    rng = np.random.default_rng([seed, 7])
+    began = world.time
+    own = next((b.index for b in world.blocks if b.peg == start_peg), None)
     events: list[tuple[str, Event]] = []
     first: str | None = None
     made = 0  # attempts the arm set out on (a grasp or meeting refused before moving is planned again)
     chose: Chosen | None = None
     half = len(order) // 2
-    own = [i for i, (other, _, _) in enumerate(order) if other == arm]
-    came_from: int | None = None if index == own[0] else previous_peg
-    parks = index in (own[0], next((i for i in own if i >= half), None))  # parked before each half
+    mine = [i for i, (other, _, _) in enumerate(order) if other == arm]
+    came_from: int | None = None if index == mine[0] else previous_peg
+    parks = index in (mine[0], next((i for i in mine if i >= half), None))  # parked before each half
     failed: _Bench | None = None  # the last attempt the arm set out on
-    for _ in range(1 + REGRASPS):
-        if block.lost or made == attempts:
+    for attempt in range(1 + REGRASPS):
+        if made == attempts:
             break
+        block = own if pick is None else pick(world, start_peg, attempt > 0)
+        if block is None or world.blocks[block].lost:
+            if pick is None:
+                break
+            first, parks = first or "sense", True  # the recovery parks before it looks again
+            continue
         bench = _attempt(
             world,
             skills,
             arm,
-            block.index,
+            block,
             goal_peg,
             rng,
             came_from,
@@ -373,17 +408,18 @@ def _transfer(
         chose = bench.chose or chose
         failed = bench if bench.moved else failed
         if bench.held and bench.meeting is not None:
-            return _hand_over(world, skills, bench, block.index, goal_peg, first, replay, rng, registered)
+            return _hand_over(world, skills, bench, block, goal_peg, first, replay, rng, registered, began)
         if bench.held:
             bench.jaw(skills.motion.transfer.jaw_open, "release")
             events += bench.events[len(events) :]
-            if block.peg == goal_peg and not block.grips:
-                return TransferResult(True, first, world.time)
-            return TransferResult(False, first or _failed_phase(bench.events, block.index), world.time)
+            placed = world.blocks[block]
+            if placed.peg == goal_peg and not placed.grips:
+                return TransferResult(True, first, world.time - began)
+            return TransferResult(False, first or _failed_phase(bench.events, block), world.time - began)
         first = first or bench.failed
         if world.held_by(arm) is not None:
             bench.jaw(skills.motion.transfer.jaw_open, "grasp")
-    return TransferResult(False, first or "grasp", world.time)
+    return TransferResult(False, first or "grasp", world.time - began)
 
 
 def _moved_out(world: World, order: tuple[tuple[str, int, int], ...]) -> None:
@@ -448,7 +484,7 @@ def _attempt(
     if chose is not None and np.array_equal(chose.truth, truth.pose):
         noise = chose.error  # the block lies as it did at the last look: perception sees it as then
     else:
-        noise = rng.normal(0.0, PERCEPTION_SD, 2)
+        noise = rng.normal(0.0, PAPER_PERCEPTION_SD if registered else PERCEPTION_SD, 2)
     position = seen_point(world, truth.pose[:3, 3]) + [noise[0], noise[1], 0.0]
     seen = BlockEstimate(position, yaw_of(truth.pose), truth.peg, 1.0, 0.0, 0, True, "")
     motion = skills.arm(arm)
@@ -539,14 +575,14 @@ def _paper_place(
     segments: list[tuple[float, str]],
 ) -> None:
     """The paper's placing (`placelook`): `planned` played up to its stop above `goal_peg` (`segments`
-    name its phases), the held block seen there as perception sees a block (`seen_point`, `PERCEPTION_SD`
+    name its phases), the held block seen there as perception sees a block (`seen_point`, `PAPER_PERCEPTION_SD`
     in board x, y), the arm moved by `servoing_block`'s correction over the peg (a rest-to-rest move of
     the arm as it is, so imperfect too) and down to the drop height, where `_transfer` opens the jaw."""
     bench.play(stopped_above(planned), segments, holding=block)
     world = bench.world
     if world.held_by(bench.name) != block:
         return
-    noise = rng.normal(0.0, PERCEPTION_SD, 2)
+    noise = rng.normal(0.0, PAPER_PERCEPTION_SD, 2)
     bottom = seen_point(world, world.blocks[block].pose[:3, 3]) + [noise[0], noise[1], 0.0]
     points = visible_points(world, goal_peg)
     move = correction(
@@ -587,6 +623,7 @@ def _hand_over(
     replay: Replay,
     rng: np.random.Generator,
     registered: bool = False,
+    began: float = 0.0,
 ) -> TransferResult:
     """The giver holds `block` at the meeting point: the receiver waits open above its grasp, descends and
     closes; the giver opens and withdraws; the receiver carries the block over `goal_peg`, lowers it and
@@ -600,14 +637,14 @@ def _hand_over(
     wait[:3, 3] += skills.motion.handover.receiver_wait_above * world.cell.up_in(receiver)
     ik = inverse_kinematics(np.stack([wait, meeting.receiver_grasp.pose]), motion.settings)
     if not ik.ok.all():
-        return TransferResult(False, first or "handover", world.time)
+        return TransferResult(False, first or "handover", world.time - began)
     taker = _Bench(world, receiver, motion, START, replay, registered)
     approach = motion.through(START, list(ik.q), ["waiting", "handover grasp"])
     # The receiver gets ready while the giver picks and carries (the paper's `run_place` thread moves it
     # to `handover_ready` at once, FLSPegTransfer_handover.py; pegbt's trees run the arms in parallel):
     # its way to the waiting pose is simulated after the giver's, but its seconds are not the transfer's.
-    ahead = min(segment_times(approach)[0], world.time)
-    met = world.time
+    ahead = began + min(segment_times(approach)[0], world.time - began)
+    met = world.time - began
     taker.play(approach, [(0.0, "handover")])
     taker.jaw(skills.motion.transfer.jaw_closed, "handover")
     giver.jaw(skills.motion.transfer.jaw_open, "handover")

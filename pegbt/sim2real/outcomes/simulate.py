@@ -3,7 +3,9 @@
 Seeds are shared across the worlds compared (common random numbers): the same layouts and the same
 perception noise for every parameter value, so differences between worlds are the effects', not luck's.
 A task is one transfer (variant, condition, seed) in every world at once, so one process simulates the
-arm's motion once and replays it in the worlds where it is the same (`phasesim.Replay`).
+arm's motion once and replays it in the worlds where it is the same (`phasesim.Replay`). Under pegbt's
+trees a unilateral transfer is simulated within its trial, in order (`trialsim`): the seeds of
+one trial in the same worlds are one job, the trial simulated once for them all.
 
 How many attempts a transfer gets is the real protocol's, not a fitted knob (`attempts_for`): pegbt's trees
 regrasp a dropped block; the reference paper's robot moved each block once and skipped a transfer whose
@@ -27,6 +29,7 @@ from pegbt.errors import PegbtError
 from pegbt.sim.world_effects import WorldEffects
 from pegbt.sim2real.outcomes.cells import PHASES, Outcomes
 from pegbt.sim2real.outcomes.phasesim import REGRASPS, Replay, TransferResult, simulate_transfer
+from pegbt.sim2real.outcomes.trialsim import in_order, simulate_trial, trial_of
 
 CATEGORIES = ("placed", *PHASES)  # a transfer placed, or failed for good in this phase (its first failure)
 Key = tuple[str, str]
@@ -115,7 +118,40 @@ def _run(task: Task, attempts: int = WITH_RECOVERY, registered: bool = False) ->
     paper's were or not; a motion the planner refuses (a target out of reach in that world) is a transfer
     that failed where it started, never the end of the whole fit. A way back whose block was lost is
     skipped only under the paper's protocol (one attempt); pegbt's trees try it and fail at `sense`."""
-    worlds, variant, condition, seed = task
+    return _run_job([task], attempts, registered)[0]
+
+
+def _in_trials(attempts: int, variant: str) -> bool:
+    """Whether a task's transfer is simulated as part of its trial (`trialsim`): under pegbt's trees (the
+    paper's robot skipped a lost block and never recovered), for the variants `in_order` names."""
+    return attempts != ONE_ATTEMPT and in_order(variant)
+
+
+def _jobs(tasks: Sequence[Task], attempts: int) -> list[list[int]]:
+    """The tasks (by index) grouped so that a trial's seeds with the same worlds are one job, simulated
+    once in order; every other task is a job of its own. The longest trials come first, so the workers
+    finish together."""
+    groups: dict[object, list[int]] = {}
+    for i, (worlds, variant, condition, seed) in enumerate(tasks):
+        trial = (worlds, variant, condition, trial_of(variant, seed)[0])
+        groups.setdefault(trial if _in_trials(attempts, variant) else i, []).append(i)
+
+    def size(job: list[int]) -> int:
+        worlds, variant, _, _ = tasks[job[0]]
+        return max(trial_of(variant, tasks[i][3])[1] for i in job) * len(worlds)
+
+    return sorted(groups.values(), key=size, reverse=True)
+
+
+def _run_job(tasks: Sequence[Task], attempts: int, registered: bool) -> list[list[TransferResult]]:
+    """`tasks` (one task, or the seeds of one trial in the same worlds) simulated: per task, per world."""
+    worlds, variant, condition, seed = tasks[0]
+    if _in_trials(attempts, variant):
+        layout, _ = trial_of(variant, seed)
+        indices = [trial_of(variant, task[3])[1] for task in tasks]
+        played = simulate_trial(worlds, variant, condition, layout, max(indices) + 1, attempts, registered)
+        return [played[index] for index in indices]
+    assert len(tasks) == 1  # only a trial's seeds are grouped
     replay = Replay()
     results = []
     for world in worlds:
@@ -126,6 +162,17 @@ def _run(task: Task, attempts: int = WITH_RECOVERY, registered: bool = False) ->
         except PegbtError:
             result = TransferResult(False, "reach", 0.0)
         results.append(result if attempts == ONE_ATTEMPT else replace(result, skipped=False))
+    return [results]
+
+
+def _gathered(
+    tasks: Sequence[Task], jobs: list[list[int]], done: Iterable[list[list[TransferResult]]]
+) -> list[list[TransferResult]]:
+    """The jobs' results back in the order of `tasks`."""
+    results: list[list[TransferResult]] = [[] for _ in tasks]
+    for job, outcome in zip(jobs, done):
+        for i, result in zip(job, outcome):
+            results[i] = result
     return results
 
 
@@ -135,12 +182,15 @@ class LocalMapper:
 
     def __init__(self, workers: int, attempts: int = WITH_RECOVERY, registered: bool = False) -> None:
         self._pool: Executor | None = ProcessPoolExecutor(workers) if workers > 0 else None
-        self._run = partial(_run, attempts=attempts, registered=registered)
+        self._attempts = attempts
+        self._run = partial(_run_job, attempts=attempts, registered=registered)
 
     def __call__(self, tasks: Sequence[Task]) -> list[list[TransferResult]]:
+        jobs = _jobs(tasks, self._attempts)
+        grouped = [[tasks[i] for i in job] for job in jobs]
         if self._pool is None:
-            return [self._run(task) for task in tasks]
-        return list(self._pool.map(self._run, tasks, chunksize=max(1, len(tasks) // 32)))
+            return _gathered(tasks, jobs, map(self._run, grouped))
+        return _gathered(tasks, jobs, self._pool.map(self._run, grouped, chunksize=max(1, len(jobs) // 32)))
 
     def close(self) -> None:
         if self._pool is not None:
@@ -155,11 +205,13 @@ class ClusterMapper:
         from pegbt.evaluation.cluster import connect
 
         self._client = connect(address)
-        self._run = partial(_run, attempts=attempts, registered=registered)
+        self._attempts = attempts
+        self._run = partial(_run_job, attempts=attempts, registered=registered)
 
     def __call__(self, tasks: Sequence[Task]) -> list[list[TransferResult]]:
-        futures = self._client.map(self._run, list(tasks), pure=False)
-        return list(self._client.gather(futures))
+        jobs = _jobs(tasks, self._attempts)
+        futures = self._client.map(self._run, [[tasks[i] for i in job] for job in jobs], pure=False)
+        return _gathered(tasks, jobs, self._client.gather(futures))
 
     def close(self) -> None:
         self._client.close()

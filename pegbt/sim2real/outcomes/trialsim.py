@@ -1,0 +1,85 @@
+"""A unilateral trial's transfers in order on one world, as pegbt's tree runs them.
+
+The phase simulator alone (`phasesim.simulate_transfer`) gives each transfer a world where only its own
+block has moved, and its recoveries go after that block. In a whole trial a block an earlier transfer lost
+stays where it fell, and a recovery picks the loose block nearest its pick peg, whichever that is
+(`SelectGrasp` with `dropped`, `pegbt/behaviours/actions/grasping.py`); a way back finds its block where
+the way out left it, or finds no block (`sense`), and its recoveries then fetch a loose one. The unilateral
+tree moves one block at a time, so one world played in order is its trial (`in_order`). Bilateral's two
+arms carry at once, which one world played in order does not reproduce; the handover's trees move one
+block at a time, but the phase simulator never retries an exchange, so the blocks a trial's receiver
+fetches again stay lost, and in order it agreed with whole trials no better than alone
+(`docs/guides/sim-to-real.md`). Both stay alone.
+
+Seed `s` of a cell is transfer `s mod n` of the trial on layout `s // n` (`n` transfers a trial), so a
+simulated transfer stays a function of its world, variant, condition and seed, and consecutive seeds share
+one trial, simulated once for all of them (`simulate_trial`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from pegbt.errors import PegbtError
+from pegbt.sim.world import World
+from pegbt.sim.world_effects import WorldEffects
+from pegbt.sim2real.outcomes.phasesim import REGRASPS, Replay, TransferResult, carry_out, transfers
+
+
+def in_order(variant: str) -> bool:
+    """Whether `variant`'s trial is simulated in order: the unilateral one (see the module's docstring)."""
+    return variant == "unilateral"
+
+
+def trial_of(variant: str, seed: int) -> tuple[int, int]:
+    """The layout of the trial seed `seed` stands for, and which of its transfers it is."""
+    return divmod(seed, len(transfers(variant)))
+
+
+def chosen_block(world: World, peg: int, dropped: bool) -> int | None:
+    """The block a pick from `peg` goes after, as `select_grasp` chooses it from what it sees: the top one
+    on `peg`, else, once the transfer has lost its block (`dropped`), the loose block (on the board, or on
+    another block) nearest to the peg; None when there is none."""
+    free = [b for b in world.blocks if not b.lost and not b.grips]
+    on_peg = [b for b in free if b.peg == peg]
+    if on_peg:
+        return min(on_peg, key=lambda b: float(b.pose[2, 3])).index  # board z points down: the top one
+    if not dropped:
+        return None
+    surface, height = world.cell.board.surface_z, world.cell.block.height
+    loose = [b for b in free if b.peg is None or b.pose[2, 3] < surface - height / 2]
+    target = world.cell.pegs.positions[peg]
+    nearest = min(loose, key=lambda b: float(np.linalg.norm(b.pose[:2, 3] - target)), default=None)
+    return None if nearest is None else nearest.index
+
+
+def simulate_trial(
+    worlds: Sequence[WorldEffects],
+    variant: str,
+    condition: str,
+    layout: int,
+    count: int,
+    attempts: int = 1 + REGRASPS,
+    registered: bool = False,
+) -> list[list[TransferResult]]:
+    """The first `count` transfers of `variant`'s trial on layout `layout`, in order, in each of `worlds`
+    (per transfer, per world). The worlds share each transfer's perception noise and replay the arm's
+    motion where it is the same (`phasesim.Replay`); a motion the planner refuses is a transfer failed
+    where it started, and the trial goes on."""
+    states = [World(layout, effects=effects) for effects in worlds]
+    results = []
+    for index in range(count):
+        replay, row = Replay(), []
+        for world in states:
+            rng = np.random.default_rng([layout, index, 7])
+            try:
+                result = carry_out(
+                    world, variant, condition, index, replay, attempts, registered, rng, chosen_block
+                )
+            except PegbtError:
+                result = TransferResult(False, "reach", 0.0)
+            row.append(result)
+        results.append(row)
+    return results
