@@ -3,7 +3,8 @@
 Why: a reader that reads a file whole and then checks it dies of MemoryError on `/dev/zero`, hangs
 on a FIFO, and lets a NumPy header that claims 44 GiB allocate it. Every reader of user files goes
 through `file_size` (what the file is, before it is opened) and `read_bytes` or `map_npy` (never
-more than the limit), so a bad file is a `PegbtError` naming it, never a hang or a traceback.
+more than the limit), so a bad file is a `PegbtError` naming it, never a hang or a traceback;
+nor a SIGBUS when another program truncates it while it is used (`map_npy` maps a private copy).
 """
 
 from __future__ import annotations
