@@ -9,7 +9,6 @@ whatever the length; the figures are the same, since the values are the same flo
 
 from __future__ import annotations
 
-import ctypes
 import tempfile
 from collections.abc import Sequence
 
@@ -91,24 +90,3 @@ class ScratchRows:
         if self.count == 0:
             return np.empty((0, self._buffer.shape[1]))
         return np.memmap(self._file, dtype=np.float64, mode="r+", shape=(self.count, self._buffer.shape[1]))
-
-
-M_MMAP_THRESHOLD = -3  # glibc's malloc.h: the size from which malloc maps a block on its own
-MMAP_THRESHOLD = 128 * 1024  # glibc's own starting value
-
-
-def pin_mmap_threshold(size: int = MMAP_THRESHOLD) -> bool:
-    """Have glibc's malloc map every block of `size` bytes or more on its own and unmap it when freed
-    (false where the C library is not glibc).
-
-    Why: glibc raises this threshold to the largest mapped block freed so far (up to 32 MB,
-    `mallopt(3)`); a diagnosis frees chunk buffers of several MB early, after which its recording-sized
-    temporaries (a column of 8 bytes a sample, a mask) come from the heap, and the heap keeps what they
-    leave between live blocks: the anonymous peak of `pegbt sim2real diagnose --bootstrap 0` grew by
-    110 bytes a sample from 10 to 60 minutes, by 54 with the threshold held (`MALLOC_MMAP_THRESHOLD_`)."""
-    try:
-        mallopt = ctypes.CDLL(None).mallopt
-    except (OSError, AttributeError):
-        return False
-    mallopt.argtypes, mallopt.restype = [ctypes.c_int, ctypes.c_int], ctypes.c_int
-    return bool(mallopt(M_MMAP_THRESHOLD, size))

@@ -192,12 +192,10 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
 
 def _diagnose(args: argparse.Namespace) -> int:
     from pegbt.physics.recording import load_recording, parse_resolution
-    from pegbt.scratch import pin_mmap_threshold
     from pegbt.sim2real.diagnose import diagnose
     from pegbt.sim2real.practical import PAPER_RESOLUTION
     from pegbt.sim2real.report import ZERO_OFFSET_LABEL, read_named_effects, report_dict, write_report
 
-    pin_mmap_threshold()  # before the recording's first temporaries: freed, they go back to the system
     resolution = None if args.resolution is None else parse_resolution(args.resolution)
     recording = load_recording(args.recording, arm=args.arm, **bag_options(args))
     recording.warn()
