@@ -8,6 +8,8 @@ import os
 import time
 from pathlib import Path
 
+import pytest
+
 from pegbt.sim2real.synth import generate, write_synthetic
 
 ARRAY = "q_phy.npy"
@@ -23,6 +25,7 @@ def _reading(pid: int, array: Path) -> bool:
     return str(array) in maps or str(array) in opened or "pegbt-npy-" in maps
 
 
+@pytest.mark.slow  # a two-minute recording made, and diagnosed in a child: 8 to 18 s
 def test_a_recording_truncated_under_a_diagnosis_is_reported_not_a_crash(tmp_path: Path, pegbt_cli) -> None:
     folder, _ = write_synthetic(generate("weak", 0, seconds=120.0), tmp_path / "synth")
     array = (folder / ARRAY).resolve()
