@@ -1,7 +1,7 @@
 """A `.npy` array read through `map_npy` is a private copy of the file as it was: a file truncated or
 rewritten in place while it is copied is a `PegbtError` naming it, never numbers from two versions of it
-(a diagnosis mapping the file itself died of SIGBUS when it was truncated: `tests/integration/
-test_recording_changed.py`)."""
+(a diagnosis mapping the file itself died of SIGBUS when it was truncated:
+`tests/integration/test_recording_changed.py`)."""
 
 from __future__ import annotations
 
