@@ -3,7 +3,8 @@
 Why: a reader that reads a file whole and then checks it dies of MemoryError on `/dev/zero`, hangs
 on a FIFO, and lets a NumPy header that claims 44 GiB allocate it. Every reader of user files goes
 through `file_size` (what the file is, before it is opened) and `read_bytes` or `map_npy` (never
-more than the limit), so a bad file is a `PegbtError` naming it, never a hang or a traceback.
+more than the limit), so a bad file is a `PegbtError` naming it, never a hang or a traceback;
+nor a SIGBUS when another program truncates it while it is used (`map_npy` maps a private copy).
 """
 
 from __future__ import annotations
@@ -11,8 +12,9 @@ from __future__ import annotations
 import errno
 import os
 import stat
+import tempfile
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, BinaryIO
 
 from pegbt.errors import PegbtError
 
@@ -56,38 +58,31 @@ def read_bytes(path: str | os.PathLike[str], limit: int, what: str = "file") -> 
     return data
 
 
+COPY_BYTES = 2**20  # read at a time into a recording array's private copy
+
+
 def map_npy(path: Path, limit: int) -> NDArray[np.floating]:
     """A floating-point `.npy` array whose header, read first, promises at most `limit` bytes of data,
-    mapped read-only from the file: its pages are the kernel's to read in and drop, not the process's
-    own memory, so an hour of recording costs what its chunks in use do.
+    mapped read-only from a private copy: an unnamed temporary file its data is copied into with
+    positional reads. Its pages are the kernel's to read in and drop, not the process's own memory, so an
+    hour of recording costs what its chunks in use do; and a recording truncated or rewritten while it is
+    diagnosed cannot end the process with SIGBUS, as a mapping of the file itself would (a page past the
+    file's new end): the copy is what the file held when it was read, or a `PegbtError` naming the file
+    when it changed while it was copied.
 
     Integers (a recording in counts or ticks), complex numbers (whose imaginary part a cast drops),
     timedeltas, objects and zip archives (`.npz` named `.npy`) are refused, never cast."""
     import numpy as np  # here, not at the top: the YAML readers share this module and need no NumPy
 
-    size = file_size(path, limit + 4096, "NumPy file")
+    file_size(path, limit + 4096, "NumPy file")
     try:
         with open(path, "rb") as handle:
-            if handle.read(len(_NPY_MAGIC)) != _NPY_MAGIC:
-                raise PegbtError(
-                    "cannot read it as a NumPy array: no .npy header (an .npz archive, or another format?)",
-                    file=path,
-                )
-            handle.seek(0)
-            version = np.lib.format.read_magic(handle)
-            if version == (1, 0):
-                shape, fortran, dtype = np.lib.format.read_array_header_1_0(handle)
-            elif version in ((2, 0), (3, 0)):
-                shape, fortran, dtype = np.lib.format.read_array_header_2_0(handle)
-            else:
-                raise PegbtError(f"unsupported .npy format version {version}", file=path)
-            if dtype.kind != "f" or dtype.hasobject:
-                raise PegbtError(
-                    f"holds {dtype} values; joints and times must be floating point (rad, m, s)", file=path
-                )
+            shape, fortran, dtype = _npy_header(path, handle)
+            before = os.fstat(handle.fileno())
+            size = before.st_size
             count = int(np.prod(shape, dtype=object))
             claimed = count * dtype.itemsize
-            if claimed > limit or claimed > size - handle.tell():
+            if not stat.S_ISREG(before.st_mode) or claimed > limit or claimed > size - handle.tell():
                 raise PegbtError(
                     f"the header claims {claimed} bytes of data for shape {shape}, but the file holds "
                     f"{size - handle.tell()} (limit {limit})",
@@ -95,12 +90,66 @@ def map_npy(path: Path, limit: int) -> NDArray[np.floating]:
                 )
             if count == 0 or not shape:  # nothing to map (mmap refuses an empty mapping), or one number
                 return np.fromfile(handle, dtype=dtype, count=count).reshape(shape)
-            offset = handle.tell()
-        mapped = np.memmap(
-            path, dtype=dtype, mode="r", offset=offset, shape=shape, order="F" if fortran else "C"
-        )
+            with tempfile.TemporaryFile(prefix="pegbt-npy-") as copy:
+                _copy_data(path, handle.fileno(), handle.tell(), claimed, before, copy)
+                return np.asarray(
+                    np.memmap(copy, dtype=dtype, mode="r", shape=shape, order="F" if fortran else "C")
+                )  # an ordinary array over the mapping, which keeps the copy open
     except PegbtError:
         raise
     except (OSError, ValueError, EOFError, SyntaxError, TypeError) as error:
         raise PegbtError(f"cannot read it as a NumPy array ({error})", file=path) from None
-    return np.asarray(mapped)  # an ordinary array over the mapping, which it keeps open
+
+
+def _npy_header(path: Path, handle: BinaryIO) -> tuple[tuple[int, ...], bool, np.dtype]:
+    """(shape, Fortran order, dtype) of a floating-point `.npy` file's header, leaving `handle` at its data."""
+    import numpy as np
+
+    if handle.read(len(_NPY_MAGIC)) != _NPY_MAGIC:
+        raise PegbtError(
+            "cannot read it as a NumPy array: no .npy header (an .npz archive, or another format?)", file=path
+        )
+    handle.seek(0)
+    version = np.lib.format.read_magic(handle)
+    if version == (1, 0):
+        shape, fortran, dtype = np.lib.format.read_array_header_1_0(handle)
+    elif version in ((2, 0), (3, 0)):
+        shape, fortran, dtype = np.lib.format.read_array_header_2_0(handle)
+    else:
+        raise PegbtError(f"unsupported .npy format version {version}", file=path)
+    if dtype.kind != "f" or dtype.hasobject:
+        raise PegbtError(
+            f"holds {dtype} values; joints and times must be floating point (rad, m, s)", file=path
+        )
+    return shape, fortran, dtype
+
+
+def _copy_data(
+    path: Path, source: int, offset: int, length: int, before: os.stat_result, copy: BinaryIO
+) -> None:
+    """Copy `length` bytes from `offset` of the open file `source` into `copy`, `COPY_BYTES` at a time by
+    positional reads, checking after each that the file is the one `before` described: the same size and
+    modification time (a truncation, or a rewrite in place, while it is copied is a `PegbtError`)."""
+    buffer = memoryview(bytearray(min(COPY_BYTES, length)))
+    done = 0
+    try:
+        while done < length:
+            want = min(len(buffer), length - done)
+            got = os.preadv(source, [buffer[:want]], offset + done)
+            now = os.fstat(source)
+            if got < want or (now.st_size, now.st_mtime_ns) != (before.st_size, before.st_mtime_ns):
+                raise PegbtError(
+                    f"changed while it was read: {before.st_size} bytes when opened, {now.st_size} after "
+                    f"{offset + done + got} were read; read it again once whatever writes it is done",
+                    file=path,
+                )
+            copy.write(buffer[:got])
+            done += got
+        copy.flush()
+    except OSError as error:
+        if error.errno not in (errno.ENOSPC, errno.EDQUOT):
+            raise
+        raise PegbtError(
+            f"no room for its private copy in the temporary folder {tempfile.gettempdir()} ({error.strerror})",
+            file=path,
+        ) from None

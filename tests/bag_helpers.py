@@ -29,10 +29,16 @@ def joint_state(t: float, q) -> dict:
     }
 
 
-def write_mcap(path: Path, streams: dict[str, list[tuple[float, object]]], kind: str = JOINT_STATE) -> Path:
-    """A lone MCAP file written by mcap-ros2-support: `streams` maps a topic to (stamp, message) pairs."""
+def write_mcap(
+    path: Path,
+    streams: dict[str, list[tuple[float, object]]],
+    kind: str = JOINT_STATE,
+    chunk_size: int = 2**20,
+) -> Path:
+    """A lone MCAP file written by mcap-ros2-support: `streams` maps a topic to (stamp, message) pairs; a
+    reader holds a chunk of `chunk_size` bytes (the library's default) at a time."""
     with path.open("wb") as out:
-        writer = mcap_ros2_writer.Writer(out)
+        writer = mcap_ros2_writer.Writer(out, chunk_size=chunk_size)
         schema = writer.register_msgdef(kind, STORE.generate_msgdef(kind, ros_version=2)[0])
         for topic, messages in streams.items():
             for stamp, message in messages:

@@ -2,7 +2,7 @@
 
 A synthetic recording of each length in `MINUTES` (`pegbt sim2real synth --seconds`, 100 Hz, seed 0) is
 diagnosed with `--bootstrap 0` in a child process, as a person runs it; the 10-minute one also with the
-default bootstrap. `growth_kb_per_sample` is the peak's growth from the shortest to the longest, per sample:
+default bootstrap. Each diagnosis's wall seconds and its CPU seconds (user and system, `wait4`). `growth_kb_per_sample` is the peak's growth from the shortest to the longest, per sample:
 what a longer recording costs beyond the fixed part (imports, Gram matrices, chunk buffers). Peak memory is that of the child's whole process tree: the sum of its processes'
 resident sets, sampled every `SAMPLE_S`, or the child's own peak (`wait4`) if larger. Beside it, the
 peak of their anonymous memory (resident less file-backed: `psutil`'s rss − shared), what the process
@@ -43,9 +43,9 @@ def tree_rss(process: psutil.Process) -> tuple[int, int]:
     return total, anonymous
 
 
-def measured(command: list[str]) -> tuple[float, float, float]:
-    """(seconds, peak MB of the process tree, peak MB of its anonymous memory) of one command, which
-    must succeed."""
+def measured(command: list[str]) -> tuple[float, float, float, float]:
+    """(seconds, CPU seconds of the child, peak MB of the process tree, peak MB of its anonymous memory)
+    of one command, which must succeed. CPU is the figure to compare on a loaded machine."""
     start = time.perf_counter()
     child = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     process = psutil.Process(child.pid)
@@ -70,7 +70,8 @@ def measured(command: list[str]) -> tuple[float, float, float]:
     sampler.join()
     if child.returncode:
         raise RuntimeError(f"{' '.join(command)} failed ({child.returncode}): {stderr.decode()[-2000:]}")
-    return seconds, max(peak[0], usage.ru_maxrss * 1024) / 1e6, peak[1] / 1e6
+    cpu = usage.ru_utime + usage.ru_stime
+    return seconds, cpu, max(peak[0], usage.ru_maxrss * 1024) / 1e6, peak[1] / 1e6
 
 
 def _pegbt(*args: str) -> list[str]:
@@ -88,19 +89,21 @@ def run(minutes: tuple[int, ...] = MINUTES) -> dict[str, float | int | str]:
                 stdout=subprocess.DEVNULL,
             )
             recording = str(synth / "recording")
-            seconds, peak, anonymous = measured(
+            seconds, cpu, peak, anonymous = measured(
                 _pegbt("sim2real", "diagnose", recording, "--bootstrap", "0", "--out", f"{folder}/d{length}")
             )
             figures[f"diagnose_{length}min_s"] = round(seconds, 1)
+            figures[f"diagnose_{length}min_cpu_s"] = round(cpu, 1)
             figures[f"diagnose_{length}min_peak_mb"] = round(peak, 1)
             figures[f"diagnose_{length}min_anon_peak_mb"] = round(anonymous, 1)
             figures[f"bank_{length}min_mb"] = round(BANK_COLUMNS * 8 * 6000 * length / 1e6, 1)
             print(f"{length} min: {seconds:.1f} s, peak {peak:.1f} MB", file=sys.stderr, flush=True)
             if length == min(minutes):
-                seconds, peak, anonymous = measured(
+                seconds, cpu, peak, anonymous = measured(
                     _pegbt("sim2real", "diagnose", recording, "--out", f"{folder}/b{length}")
                 )
                 figures[f"diagnose_{length}min_bootstrap_s"] = round(seconds, 1)
+                figures[f"diagnose_{length}min_bootstrap_cpu_s"] = round(cpu, 1)
                 figures[f"diagnose_{length}min_bootstrap_peak_mb"] = round(peak, 1)
                 figures[f"diagnose_{length}min_bootstrap_anon_peak_mb"] = round(anonymous, 1)
         if len(minutes) > 1:

@@ -230,8 +230,9 @@ def _load_recording(
 
 
 def _load_npy(path: Path) -> Array:
-    """The array mapped from its file (`map_npy`), or, not in float64 as this machine orders it, cast
-    into scratch (`pegbt.scratch`): never a recording's length in the process's own memory."""
+    """The array mapped from its private copy (`map_npy`: the file may change under a diagnosis), or,
+    not in float64 as this machine orders it, cast into scratch (`pegbt.scratch`): never a recording's
+    length in the process's own memory."""
     try:
         values = map_npy(path, MAX_ARRAY_BYTES)
     except PegbtError as error:

@@ -16,8 +16,9 @@ from memory_helpers import peak_bytes
 from scipy.ndimage import median_filter
 from sim2real_helpers import bad_recordings, recording_with
 
+from pegbt import scratch
 from pegbt.errors import PegbtError
-from pegbt.physics import faults, plausible, recording
+from pegbt.physics import bagfile, faults, plausible, recording
 from pegbt.physics.bagfile import read_bag
 from pegbt.physics.faults import NEIGHBOURS, Errors, detect_faults
 from pegbt.physics.recording import FILES, Recording, load_recording, write_recording
@@ -69,17 +70,22 @@ def test_arrays_of_any_float_layout_read_as_their_numbers(tmp_path: Path, layout
 
 
 def _bag_peak(folder: Path, seconds: float) -> tuple[int, int]:
-    """(samples, traced peak of reading them) of a 100 Hz stream written as an MCAP bag."""
+    """(samples, traced peak of reading them) of a 100 Hz stream written as an MCAP bag in chunks of
+    16 kB, which the MCAP reader holds one at a time (at its default 1 MB, what it holds grows with a
+    bag shorter than a few chunks)."""
     rec = recording_with([], seconds=seconds)
-    bag = write_mcap(folder / f"b{seconds:g}.mcap", setpoint_streams(rec.t, rec.q_cmd, rec.q_phy))
+    streams = setpoint_streams(rec.t, rec.q_cmd, rec.q_phy)
+    bag = write_mcap(folder / f"b{seconds:g}.mcap", streams, chunk_size=2**14)
     peak, samples = peak_bytes(lambda: read_bag(bag))
     np.testing.assert_array_equal(samples.q_phy, rec.q_phy)
     return len(samples.t), peak
 
 
-def test_a_bag_is_decoded_into_scratch_not_lists(tmp_path: Path) -> None:
-    n_short, short = _bag_peak(tmp_path, 100.0)
-    n_long, long = _bag_peak(tmp_path, 300.0)
+def test_a_bag_is_decoded_into_scratch_not_lists(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    for module in (scratch, bagfile):  # chunks of rows fewer than the samples, as in a long bag
+        monkeypatch.setattr(module, "ROWS", 256)
+    n_short, short = _bag_peak(tmp_path, 10.0)
+    n_long, long = _bag_peak(tmp_path, 30.0)
     # it was 965 bytes a sample: each message's stamp and joints as Python floats in a list, per topic
     assert (long - short) / (n_long - n_short) < ROW
 
