@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from collections import Counter, defaultdict
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeGuard
 
 from pegbt.errors import PegbtError
 from pegbt.executive.logfile import TickLog, TickLogError, read_tick_log
@@ -101,13 +101,17 @@ def _pegs(log: TickLog, begin: dict[str, Any]) -> dict[str, int]:
     """The pick and place pegs a `begin_transfer` node of `log` names, else a `TickLogError` on the node:
     the paper's count follows the blocks from peg to peg."""
     params = begin.get("params")
-    pegs = {name: params.get(name) if isinstance(params, dict) else None for name in ("pick", "place")}
-    if not all(isinstance(peg, int) and not isinstance(peg, bool) for peg in pegs.values()):
-        raise TickLogError(
-            f"its begin_transfer node {begin.get('id')} names pick {pegs['pick']!r} and place "
-            f"{pegs['place']!r}, not two pegs",
-            file=log.path,
-            line=1,
-            field=f"nodes[{begin.get('id')}].params",
-        )
-    return {name: int(peg) for name, peg in pegs.items()}
+    pick, place = (params.get(name) if isinstance(params, dict) else None for name in ("pick", "place"))
+    if _peg(pick) and _peg(place):
+        return {"pick": pick, "place": place}
+    raise TickLogError(
+        f"its begin_transfer node {begin.get('id')} names pick {pick!r} and place {place!r}, not two pegs",
+        file=log.path,
+        line=1,
+        field=f"nodes[{begin.get('id')}].params",
+    )
+
+
+def _peg(value: object) -> TypeGuard[int]:
+    """Whether `value` is a peg's number (an int, not a bool)."""
+    return isinstance(value, int) and not isinstance(value, bool)
