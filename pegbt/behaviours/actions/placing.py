@@ -17,7 +17,6 @@ from pegbt.behaviours.motion import CarryLeaf
 from pegbt.errors import PegbtError
 from pegbt.motion.ik import solve_ik
 from pegbt.motion.kinematics import forward_kinematics
-from pegbt.motion.waypoints import TransferWaypoints
 from pegbt.perception.board import BoardEstimate
 from pegbt.perception.cloud import open3d_threads
 from pegbt.perception.organised import OrganisedCloud
@@ -72,9 +71,6 @@ class ServoOverPeg(CarryLeaf):
     moving if `servo` is longer than a look can ask (`reach` in board x and y)."""
 
     SEGMENTS = ("carry", "carry", "lower")
-
-    def waypoints(self) -> TransferWaypoints:
-        raise NotImplementedError  # its poses come from where the carry stopped (`begin`)
 
     def begin(self) -> None:
         arm, peg = self.param("arm"), int(self.param("place"))
