@@ -595,8 +595,8 @@ def parts(gaps: NDArray[np.float64], keep_apart: float) -> bool:
     """Whether a motion along which the tools are `gaps` apart (m, from its start to its end) only takes
     them apart: it starts closer than `keep_apart`, never brings them closer than they start, and ends
     `keep_apart` apart. Two tools that met (a handover) or stopped close (a step of either cut short) are
-    let out that way; kept to `keep_apart` from their start, neither was sent anything, even away (each
-    waited 15 s in turn, 2026-11-29)."""
+    let out that way; held to `keep_apart` from their start, neither could be sent anything, even away, and
+    each would wait `BLOCKED_PATIENCE` in turn."""
     return bool(gaps[0] < keep_apart and gaps.min() >= gaps[0] - PARTING_SLACK and gaps[-1] >= keep_apart)
 
 

@@ -353,7 +353,7 @@ declare(
     "the paper's look at the block `arm` holds at rest over peg `place` (`find_block_servo`): `/cloud`'s "
     "points 30–60 mm above the board within 10 mm of the peg, the block model registered to them, and the "
     "move (arm frame) that puts the block's bottom on the peg's axis written to `servo`; none with fewer "
-    "than 400 points",
+    "than 400 points or a fit that cannot be the held block's (`pegbt.perception.servo.plausible`)",
     "pegbt.behaviours.actions.placing:FindHeldBlock",
     params=(
         arm_param(),
@@ -367,7 +367,8 @@ declare(
 declare(
     "servo_over_peg",
     "move `arm`, at rest over peg `place`, by `servo` and lower the block to the drop height (rest-to-rest, "
-    "as the paper's `servoing_block`); fails at once if the block slips",
+    "as the paper's `servoing_block`); fails at once if the block slips, and without moving if `servo` is "
+    "longer than a look can ask",
     "pegbt.behaviours.actions.placing:ServoOverPeg",
     params=carry_params(
         peg_param("place", "goal peg"),

@@ -213,6 +213,7 @@ class CarryLeaf(MotionLeaf):
 
 
 def _stopped(planned: Callable[[], Trajectory]) -> Trajectory:
+    """The carry `planned` makes, cut at its stop over the goal peg (planned on a worker, cut there too)."""
     return stopped_above(planned())
 
 

@@ -21,6 +21,7 @@ from typing import Any
 from pegbt.boundedio import read_bytes
 from pegbt.errors import PegbtError, brief
 from pegbt.executive.spec import MAX_TREE_DEPTH
+from pegbt.runconditions import PROTOCOLS
 
 FORMAT = "pegbt-ticklog"  # what the writer (`pegbt.executive.ticklog`) puts in the header, and this reads
 FORMAT_VERSION = 1
@@ -100,8 +101,18 @@ class TickLog:
 
     @property
     def protocol(self) -> str:
-        """The protocol the run followed (`--protocol`): pegbt's for a log from before headers recorded it."""
-        return str((self.run.get("options") or {}).get("protocol") or "pegbt")
+        """The protocol the run followed (`--protocol`): pegbt's for a log from before headers recorded it;
+        one that names no known protocol is refused, never counted as another protocol's."""
+        options = self.run.get("options") or {}
+        protocol = (options.get("protocol") or "pegbt") if isinstance(options, dict) else options
+        if protocol not in PROTOCOLS:
+            raise TickLogError(
+                f"its header names protocol {protocol!r}; expected one of {', '.join(PROTOCOLS)}",
+                file=self.path,
+                line=1,
+                field="run.options.protocol",
+            )
+        return str(protocol)
 
     @property
     def run(self) -> dict[str, Any]:

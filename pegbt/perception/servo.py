@@ -7,6 +7,11 @@ within ±10 mm of the peg (`mask_around_peg`) are the held block's; the block mo
 and with fewer than 400 points nothing is corrected. Otherwise the block's bottom on its axis is moved onto
 the peg's axis, in the board's plane (`delta_rob[2] = 0` in the arm's frame).
 
+The paper's scripts move the arm by whatever the registration gives. Here a fit whose axis lies where no
+block with points in the box could be is not acted on (`plausible`), so a wild registration moves the arm
+no farther than a true one could (`reach`); any other fit is moved by, as the paper's was (a fitness
+threshold would turn away fits the paper acted on: one seen at 78 % moved the block 3.9 mm).
+
 The paper's colour mask kept the red block's points and dropped the grey tool's; a cloud without colour
 (the simulated camera's) drops the points on the robot's own tool instead, where the robot believes it
 is (`off_the_tool`).
@@ -21,7 +26,7 @@ from pegbt.frames import segment_distances, yaw_pose
 from pegbt.motion.kinematics import shaft_end_and_tip
 from pegbt.perception.blocks import RESTART_YAWS, BlockLocator, three_fold_yaw
 from pegbt.perception.cloud import Points
-from pegbt.workcell import ToolGeometry
+from pegbt.workcell import BlockModel, ToolGeometry
 
 MIN_POINTS = 400  # `place_servoing`: fewer seen points leave the block uncorrected
 BAND = (0.030, 0.060)  # m above the board: `depth_block_servo = [-60, -30]` (mm, pegboard z down)
@@ -61,17 +66,35 @@ def in_servo_box(points: Points, peg_xy: NDArray[np.float64], surface_z: float) 
     )
 
 
+def reach(block: BlockModel) -> float:
+    """How far (m, in board x and in board y each) from the peg's axis the axis of a block with points in
+    the box can lie: the box's half width and the block's corners' distance from its axis."""
+    return HALF_BOX + block.corner_distance
+
+
+def plausible(block: BlockModel, pose: NDArray[np.float64], peg_xy: NDArray[np.float64]) -> str:
+    """Why the fit `pose` (board frame) cannot be the held block over the peg at `peg_xy`, or "" if it can:
+    a wild registration must not move the arm."""
+    off = np.abs(pose[:2, 3] - peg_xy)
+    if off.max() > reach(block):
+        return (
+            f"the fit's axis is {1000 * off.max():.1f} mm off the peg's, farther than a block with points "
+            f"in the box can be ({1000 * reach(block):.1f} mm)"
+        )
+    return ""
+
+
 def held_block(
     locator: BlockLocator, points: Points, peg_xy: NDArray[np.float64]
-) -> tuple[NDArray[np.float64] | None, int]:
+) -> tuple[NDArray[np.float64] | None, int, str]:
     """The pose (board frame) of the held block registered to the `points` (board frame) in the box over
-    the peg at `peg_xy`, and how many there were; None when fewer than `MIN_POINTS` (the paper corrects
-    nothing). The box crops the block, and ICP from its top face's centre alone settles millimetres off
-    as often as not: it starts from a grid around that centre (`STARTS`) at each of the restart yaws, and
-    the best fit is kept."""
+    the peg at `peg_xy`, how many there were, and why there is no pose: fewer than `MIN_POINTS` (the
+    paper corrects nothing) or a fit that cannot be the block's (`plausible`). The box crops the block,
+    and ICP from its top face's centre alone settles millimetres off as often as not: it starts from a
+    grid around that centre (`STARTS`) at each of the restart yaws, and the best fit is kept."""
     seen = points[in_servo_box(points, peg_xy, locator.cell.board.surface_z)]
     if len(seen) < MIN_POINTS:
-        return None, len(seen)
+        return None, len(seen), f"fewer than {MIN_POINTS}"
     top = seen[seen[:, 2] < seen[:, 2].min() + locator.settings.top_face_depth]  # board z runs down
     centre = top[:, :2].mean(axis=0)
     z = float(np.median(top[:, 2])) + locator.cell.block.height
@@ -82,7 +105,9 @@ def held_block(
         for dy in STARTS
         for turn in RESTART_YAWS
     ]
-    return locator.best_fit(seen, starts)[0], len(seen)
+    pose = locator.best_fit(seen, starts)[0]
+    why = plausible(locator.cell.block, pose, peg_xy)
+    return (None if why else pose), len(seen), why
 
 
 def correction(

@@ -694,6 +694,36 @@ def test_the_look_corrects_nothing_when_it_sees_fewer_than_400_points_of_the_blo
     assert "fewer than 400: no correction" in feedback(built)
 
 
+@pytest.mark.parametrize(("off", "moved"), [(0.025, 0.0), (0.0189, 0.0189)])
+def test_the_look_corrects_nothing_by_a_fit_that_cannot_be_the_held_block(
+    tmp_path, robot, skills, seen, clock, off, moved
+):
+    """A registration that settled 25 mm off the peg in board x (no block with points in the ±10 mm box has
+    its axis there) is not acted on: the paper's scripts would move the arm by it. One 18.9 mm off is."""
+    world = World(seed=0)
+    at(psm1(robot), holding_over(world, skills, 0.038, (0.002, -0.001)))
+    cloud = DepthCamera(seed=1).capture(world)
+    x, y = seen[0].peg_tops[PLACE, :2]
+    fit = yaw_pose([x + off, y, world.cell.board.surface_z - 0.023], 0.3)
+    skills.locator.best_fit = lambda segment, starts: (fit, 1.0)
+    built = build(tmp_path, robot, skills, LOOK, cloud=cloud, board=seen[0])
+    assert run(built, clock) == Status.SUCCESS
+    assert np.linalg.norm(read("/PSM1/servo")) == pytest.approx(moved, abs=1e-4)  # along the arm's xy
+    assert ("farther than a block with points in the box can be" in feedback(built)) == (moved == 0.0)
+
+
+def test_servo_over_peg_refuses_a_move_longer_than_a_look_can_ask_and_sends_nothing(tmp_path, clock, cloud):
+    skills = paper_skills()
+    robot = fake_robot(clock, skills.settings, skills.cell, cloud)
+    arm, cell = psm1(robot), skills.cell
+    up, top = cell.up_in("PSM1"), cell.peg_tops_in("PSM1")[PLACE]
+    at(arm, solve_ik(tool_pose(top + 0.028 * up, 0.4, up), skills.settings["PSM1"]))
+    arm.block_in_jaw = True
+    built = build(tmp_path, robot, skills, SERVO, **{"PSM1/servo": [0.03, 0.0, 0.0]})
+    assert run(built, clock) == Status.FAILURE
+    assert arm.sent == [] and "is not a look's" in feedback(built)
+
+
 def test_servo_over_peg_moves_by_the_look_at_rest_then_lowers_to_the_paper_s_drop_height(
     tmp_path, clock, cloud
 ):

@@ -15,6 +15,7 @@ from pegbt.evaluation.trial import TrialSpec, run_options, trial_run_options
 from pegbt.executive.logfile import TickLogError, read_tick_log
 from pegbt.executive.runoptions import RunOptions
 from pegbt.executive.session import run_tree_file
+from pegbt.sim2real.outcomes.ticklogs import read_tick_logs
 
 REPO = Path(__file__).resolve().parents[2]
 EXAMPLE = REPO / "trees" / "example.yaml"
@@ -152,3 +153,33 @@ def test_a_bad_protocol_is_refused_naming_the_option_or_the_tree_file(tmp_path, 
     with pytest.raises(PegbtError, match="has heights for unilateral, bilateral, handover only") as raised:
         Skills("uncalibrated", protocol="paper", variant="example")
     assert raised.value.field == "variant"
+
+
+@pytest.mark.parametrize("options", [{"protocol": "sideways"}, ["paper"]])
+def test_a_tick_log_whose_header_names_no_known_protocol_is_refused_not_counted_as_pegbt_s(tmp_path, options):
+    """Its cells would be counted by another protocol's rule (`pegbt sim2real outcomes --tick-logs`)."""
+    path = _old_header(tmp_path, variant="unilateral", condition="uncalibrated", run={"options": options})
+    with pytest.raises(TickLogError, match="expected one of pegbt, paper") as raised:
+        read_tick_logs(tmp_path)
+    assert (raised.value.file, raised.value.line, raised.value.field) == (
+        str(path),
+        1,
+        "run.options.protocol",
+    )
+
+
+def test_a_paper_protocol_tick_log_whose_transfer_names_no_pick_peg_is_refused_on_its_node(tmp_path):
+    """The paper's count follows each block from its pick peg: a transfer without one cannot be counted."""
+    nodes = [
+        {"id": 0, "parent": None, "path": "/r", "name": "r", "type": "sequence", "source": "t:1:1"},
+        {"id": 1, "parent": 0, "path": "/r/b", "name": "b", "type": "begin_transfer", "source": "t:2:1"},
+    ]
+    nodes[1]["params"] = {"place": 7}
+    run = {"options": {"protocol": "paper"}}
+    path = _old_header(tmp_path, variant="unilateral", condition="uncalibrated", run=run, nodes=nodes)
+    end = path.read_text().splitlines()[1]
+    tick = {"type": "tick", "n": 1, "t": 0.0, "changes": [[1, "INVALID", "SUCCESS", ""]]}
+    path.write_text(path.read_text().splitlines()[0] + "\n" + json.dumps(tick) + "\n" + end + "\n")
+    with pytest.raises(TickLogError, match="names pick None and place 7, not two pegs") as raised:
+        read_tick_logs(tmp_path)
+    assert (raised.value.file, raised.value.field) == (str(path), "nodes[1].params")

@@ -14,13 +14,13 @@ from py_trees.common import Status
 
 from pegbt.behaviours.base import ComputeLeaf
 from pegbt.behaviours.motion import CarryLeaf
+from pegbt.errors import PegbtError
 from pegbt.motion.ik import solve_ik
 from pegbt.motion.kinematics import forward_kinematics
-from pegbt.motion.waypoints import TransferWaypoints
 from pegbt.perception.board import BoardEstimate
 from pegbt.perception.cloud import open3d_threads
 from pegbt.perception.organised import OrganisedCloud
-from pegbt.perception.servo import MIN_POINTS, correction, held_block, off_the_tool
+from pegbt.perception.servo import correction, held_block, off_the_tool, reach
 
 Look = tuple[NDArray[np.float64], int, str]  # the move (arm frame, m), the points seen, what was seen
 
@@ -49,13 +49,9 @@ class FindHeldBlock(ComputeLeaf):
         points = points[off_the_tool(points, joints, cell.arm_to_board(arm), cell.tool)]
         peg_xy = board.peg_tops[:, :2]
         with open3d_threads(1 if self.context.work.inline else None):
-            pose, count = held_block(self.skills.locator, points, peg_xy[peg])
+            pose, count, why = held_block(self.skills.locator, points, peg_xy[peg])
         if pose is None:
-            return (
-                np.zeros(3),
-                count,
-                f"{count} points over peg {peg}, fewer than {MIN_POINTS}: no correction",
-            )
+            return np.zeros(3), count, f"{count} points over peg {peg}, {why}: no correction"
         bottom = pose[:3, 3]
         move = correction(cell.board_to_arm(arm), peg_xy[peg], bottom, count)
         off = 1000 * np.linalg.norm(bottom[:2] - peg_xy[peg])
@@ -71,20 +67,24 @@ class FindHeldBlock(ComputeLeaf):
 class ServoOverPeg(CarryLeaf):
     """From the stop over peg `place`, the arm moves by `servo` (a rest-to-rest move, as the paper's
     `servoing_block`), then lowers the block to the drop height above the peg tops (of `place_motion`:
-    the paper's under its protocol); fails at once if the block slips, as every carry does."""
+    the paper's under its protocol); fails at once if the block slips, as every carry does, and without
+    moving if `servo` is longer than a look can ask (`reach` in board x and y)."""
 
     SEGMENTS = ("carry", "carry", "lower")
-
-    def waypoints(self) -> TransferWaypoints:
-        raise NotImplementedError  # its poses come from where the carry stopped (`begin`)
 
     def begin(self) -> None:
         arm, peg = self.param("arm"), int(self.param("place"))
         motion, cell = self.motion(arm), self.skills.cell
         start = motion.start_from(self.client(arm))
         stop = forward_kinematics(start)
+        move = np.asarray(self.get("servo"), dtype=float)
+        longest = np.sqrt(2) * reach(cell.block)
+        if move.shape != (3,) or not np.linalg.norm(move) <= longest:
+            raise PegbtError(
+                f"{arm}: a move of {move} m over the peg is not a look's (at most {longest:.3f} m)"
+            )
         above = stop.copy()
-        above[:3, 3] += np.asarray(self.get("servo"), dtype=float)
+        above[:3, 3] += move
         up = cell.up_in(arm)
         drop = self.skills.place_motion.transfer.drop_height_above_peg_top
         dropped = above.copy()

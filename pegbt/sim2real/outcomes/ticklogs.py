@@ -2,16 +2,18 @@
 and `pegbt.executive.phases.transfer_outcomes` reads from the log alone whether each transfer succeeded
 and the phase it failed in. The header's protocol (`pegbt run --protocol`) says how the cells count: logs
 of the paper's protocol (one attempt per block) as the paper's table does, a way back whose block was
-lost not attempted; a folder holds one protocol, as one table does. Nothing else is read: no simulator log (`*.truth.jsonl` files beside the tick
-logs of `pegbt eval --keep-logs` are passed over unread), no ground truth."""
+lost not attempted; a folder holds one protocol, as one table does. Nothing else is read: no simulator log
+(`*.truth.jsonl` files beside the tick logs of `pegbt eval --keep-logs` are passed over unread), no ground
+truth."""
 
 from __future__ import annotations
 
 from collections import Counter, defaultdict
 from pathlib import Path
+from typing import Any, TypeGuard
 
 from pegbt.errors import PegbtError
-from pegbt.executive.logfile import TickLog, read_tick_log
+from pegbt.executive.logfile import TickLog, TickLogError, read_tick_log
 from pegbt.executive.phases import TransferOutcome, begun_transfers, transfer_outcomes
 from pegbt.runconditions import CONDITIONS, VARIANTS
 from pegbt.sim2real.outcomes.cells import Cell, Outcomes
@@ -89,12 +91,27 @@ def _skipped(log: TickLog, outcomes: list[TransferOutcome]) -> set[int]:
     begun = begun_transfers(log)
     return ways_back_skipped(
         [
-            {
-                "index": outcome.transfer,
-                "pick": begin["params"]["pick"],
-                "place": begin["params"]["place"],
-                "succeeded": outcome.succeeded,
-            }
+            {"index": outcome.transfer, **_pegs(log, begin), "succeeded": outcome.succeeded}
             for begin, outcome in zip(begun, outcomes, strict=True)
         ]
     )
+
+
+def _pegs(log: TickLog, begin: dict[str, Any]) -> dict[str, int]:
+    """The pick and place pegs a `begin_transfer` node of `log` names, else a `TickLogError` on the node:
+    the paper's count follows the blocks from peg to peg."""
+    params = begin.get("params")
+    pick, place = (params.get(name) if isinstance(params, dict) else None for name in ("pick", "place"))
+    if _peg(pick) and _peg(place):
+        return {"pick": pick, "place": place}
+    raise TickLogError(
+        f"its begin_transfer node {begin.get('id')} names pick {pick!r} and place {place!r}, not two pegs",
+        file=log.path,
+        line=1,
+        field=f"nodes[{begin.get('id')}].params",
+    )
+
+
+def _peg(value: object) -> TypeGuard[int]:
+    """Whether `value` is a peg's number (an int, not a bool)."""
+    return isinstance(value, int) and not isinstance(value, bool)
