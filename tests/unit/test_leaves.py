@@ -712,14 +712,17 @@ def test_the_look_corrects_nothing_by_a_fit_that_cannot_be_the_held_block(
     assert ("farther than a block with points in the box can be" in feedback(built)) == (moved == 0.0)
 
 
-def test_servo_over_peg_refuses_a_move_longer_than_a_look_can_ask_and_sends_nothing(tmp_path, clock, cloud):
+@pytest.mark.parametrize(
+    "servo", [[0.03, 0.0, 0.0], "over there", [0.001, 0.0]], ids=["long", "text", "short"]
+)
+def test_servo_over_peg_refuses_a_move_a_look_cannot_ask_and_sends_nothing(tmp_path, clock, cloud, servo):
     skills = paper_skills()
     robot = fake_robot(clock, skills.settings, skills.cell, cloud)
     arm, cell = psm1(robot), skills.cell
     up, top = cell.up_in("PSM1"), cell.peg_tops_in("PSM1")[PLACE]
     at(arm, solve_ik(tool_pose(top + 0.028 * up, 0.4, up), skills.settings["PSM1"]))
     arm.block_in_jaw = True
-    built = build(tmp_path, robot, skills, SERVO, **{"PSM1/servo": [0.03, 0.0, 0.0]})
+    built = build(tmp_path, robot, skills, SERVO, **{"PSM1/servo": servo})
     assert run(built, clock) == Status.FAILURE
     assert arm.sent == [] and "is not a look's" in feedback(built)
 

@@ -77,8 +77,11 @@ class ServoOverPeg(CarryLeaf):
         motion, cell = self.motion(arm), self.skills.cell
         start = motion.start_from(self.client(arm))
         stop = forward_kinematics(start)
-        move = np.asarray(self.get("servo"), dtype=float)
         longest = np.sqrt(2) * reach(cell.block)
+        try:
+            move = np.asarray(self.get("servo"), dtype=float)
+        except (TypeError, ValueError):
+            move = np.full(3, np.nan)
         if move.shape != (3,) or not np.linalg.norm(move) <= longest:
             raise PegbtError(
                 f"{arm}: a move of {move} m over the peg is not a look's (at most {longest:.3f} m)"
