@@ -71,6 +71,7 @@ PHASE_OF_WORDS = (
 )
 _EMPTY_PEG = re.compile(r"peg (\d+) \(empty\)")
 _NONE_SEEN = re.compile(r"no block seen on peg (\d+)")
+_SEEN_ON = re.compile(r"trustworthy on pegs: ([^;]*)")  # `find_blocks`' feedback: a peg or "board" per block
 
 
 class TransferOutcome(NamedTuple):
@@ -166,6 +167,11 @@ def transfer_outcomes(log: TickLog) -> list[TransferOutcome]:
     causes = TransferCauses(log)
     scopes = transfer_scopes(log)
     nodes = log.nodes
+    began = [
+        change.seq
+        for change in log.transitions
+        if change.after == "SUCCESS" and nodes[change.node]["type"] == "begin_transfer"
+    ]
     outcomes = []
     for index, begin in enumerate(begun_transfers(log), 1):
         scope = scopes[index]
@@ -180,6 +186,11 @@ def transfer_outcomes(log: TickLog) -> list[TransferOutcome]:
         verdict = nodes[finishes[-1].node]["params"].get("outcome") if finishes else None
         if verdict != "placed":
             outcomes.append(TransferOutcome(index, False, failure_phase(causes.first_cause(scope))))
+            continue
+        if _seen_occupied(log, place, began[index - 1]):
+            outcomes.append(
+                TransferOutcome(index, False, failure_phase(causes.first_cause(scope)) or "release")
+            )
             continue
         if not _found_empty(log, place, finishes[-1].seq):
             outcomes.append(TransferOutcome(index, True, None))
@@ -202,6 +213,27 @@ def retried(log: TickLog) -> set[int]:
     recovery: tried again after a miss, a slip or a lost block, which the paper's robot never did."""
     paths = [log.nodes[recovery.node]["path"] for recovery in recoveries(Timeline(log))]
     return {index for index, scope in transfer_scopes(log).items() if any(inside(p, scope) for p in paths)}
+
+
+def _seen_occupied(log: TickLog, peg: object, began: int) -> bool:
+    """Whether the last look at the board before seq `began` saw a block on `peg` that no transfer began
+    to pick from it since: its goal peg already held a block, so a block seen there later is no sign that
+    this transfer's went down on it (a block lowered onto a taken peg ends beside it)."""
+    nodes = log.nodes
+    for change in reversed(log.transitions):
+        if change.seq >= began:
+            continue
+        node = nodes[change.node]
+        if (
+            node["type"] == "begin_transfer"
+            and change.after == "SUCCESS"
+            and node["params"].get("pick") == peg
+        ):
+            return False
+        if node["type"] == "find_blocks" and change.after == "SUCCESS":
+            seen = _SEEN_ON.search(change.feedback)
+            return seen is not None and str(peg) in seen.group(1).split(", ")
+    return False
 
 
 def _found_empty(log: TickLog, peg: object, after: int) -> bool:
