@@ -9,11 +9,14 @@ Phases (`PHASES`): `sense` (the block was not seen where it should be), `reach` 
 
 A transfer is the subtree around its `begin_transfer` leaf, numbered in the order those leaves ran (as a
 judge counts them; a handover's receiver finishes the giver's transfer from a subtree of its own). It
-succeeded when the executive recorded it placed (`finish_transfer`) and the next look at its goal peg did
-not find it empty (a later pick from that peg that saw no block, or the final check naming it empty). A
+succeeded when the executive recorded it placed (`finish_transfer`), the last look before it began did not
+see a block on its goal peg already (then a block seen there later is that one, and the carried block,
+lowered onto a taken peg, ended beside it), and the next look at its goal peg did not find it empty (a later
+pick from that peg that saw no block, or the final check naming it empty). A
 failed transfer's phase is that of the first cause of the failures inside it the tree did not get over
 (else of those it got over); one recorded placed and then found missing failed at `lower` if its jaw was
-empty when the lowering ended, else at `release`.
+empty when the lowering ended, else at `release`; one placed on a goal peg seen taken failed at its first
+cause's phase (a way back that found its pick peg empty: `sense`), else at `release`.
 """
 
 from __future__ import annotations
