@@ -184,3 +184,29 @@ def test_a_block_let_go_over_a_goal_peg_seen_taken_before_is_not_placed(tmp_path
     (checked,) = [c for c in ended if log.nodes[c.node]["type"] == "check_placed"]
     assert checked.after == "SUCCESS"  # a block is seen on the goal peg at the end
     assert transfer_outcomes(log) == [TransferOutcome(1, False, "release")]
+
+
+def test_a_look_before_the_goal_peg_was_emptied_says_nothing_of_it(tmp_path, scene):
+    """A way back (peg 7 to 1) whose goal peg a look saw taken, but before the way out picked its block
+    off it: that look is stale, and the block the final check sees on peg 1 counts as placed. (The way
+    back here only begins and is recorded placed: what is read is the looks and the record.)"""
+    way_back = (
+        "      - sequence:\n          name: way back\n          children:\n"
+        f"            - begin_transfer: {{name: begin back, arms: PSM1, pick: {PLACE}, place: {PICK}, "
+        "transfer: /PSM1/back}\n"
+        "            - finish_transfer: {name: placed back, outcome: placed, transfer: /PSM1/back}\n"
+    )
+    looking = (
+        TREE.replace("      - check_placed:", f"{way_back}{LOOK.format('look again')}      - check_placed:")
+        .replace(
+            "            - selector:",
+            LOOK.format("look").replace("      - ", "            - ") + "            - selector:",
+            1,
+        )
+        .replace(f"pegs: [{PLACE}]", f"pegs: [{PICK}]")
+    )
+    log = read_tick_log(one_transfer(tmp_path, scene, held=True, slips_at=None, tree=looking))
+    ended = [change for change in log.transitions if change.after in ("SUCCESS", "FAILURE")]
+    looks = [c.feedback for c in ended if log.nodes[c.node]["type"] == "find_blocks"]
+    assert len(looks) == 2 and str(PICK) in looks[0].split("pegs: ")[1].split(", ")
+    assert transfer_outcomes(log) == [TransferOutcome(1, True, None), TransferOutcome(2, True, None)]
