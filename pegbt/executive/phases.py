@@ -9,15 +9,20 @@ Phases (`PHASES`): `sense` (the block was not seen where it should be), `reach` 
 
 A transfer is the subtree around its `begin_transfer` leaf, numbered in the order those leaves ran (as a
 judge counts them; a handover's receiver finishes the giver's transfer from a subtree of its own). It
-succeeded when the executive recorded it placed (`finish_transfer`) and the next look at its goal peg did
-not find it empty (a later pick from that peg that saw no block, or the final check naming it empty). A
-failed transfer's phase is that of the first cause of the failures inside it the tree did not get over
-(else of those it got over); one recorded placed and then found missing failed at `lower` if its jaw was
-empty when the lowering ended, else at `release`.
+succeeded when the executive recorded it placed (`finish_transfer`), the last look before it began (since
+a transfer picking from its goal peg ended) did not see a block on that peg already (then a block seen
+there later is that one, and the carried block, lowered onto a taken peg, ended beside it), and the next
+look at its goal peg did not find it empty (a later pick from that peg that saw no block, or the final
+check naming it empty). A failed transfer's phase is that of the first cause of the failures inside it the
+tree did not get over (else of those it got over); one recorded placed and then found missing failed at
+`lower` if its jaw was empty when the lowering ended, else at `release`; one placed on a goal peg seen
+taken failed at its first cause's phase (a way back that found its pick peg empty: `sense`), else at
+`release`.
 """
 
 from __future__ import annotations
 
+import math
 import re
 from collections.abc import Sequence
 from typing import Any, NamedTuple
@@ -71,6 +76,7 @@ PHASE_OF_WORDS = (
 )
 _EMPTY_PEG = re.compile(r"peg (\d+) \(empty\)")
 _NONE_SEEN = re.compile(r"no block seen on peg (\d+)")
+_SEEN_ON = re.compile(r"trustworthy on pegs: ([^;]*)")  # `find_blocks`' feedback: a peg or "board" per block
 
 
 class TransferOutcome(NamedTuple):
@@ -166,20 +172,42 @@ def transfer_outcomes(log: TickLog) -> list[TransferOutcome]:
     causes = TransferCauses(log)
     scopes = transfer_scopes(log)
     nodes = log.nodes
-    outcomes = []
-    for index, begin in enumerate(begun_transfers(log), 1):
-        scope = scopes[index]
-        place = begin["params"].get("place")
-        finishes = [
+    began = [
+        change.seq
+        for change in log.transitions
+        if change.after == "SUCCESS" and nodes[change.node]["type"] == "begin_transfer"
+    ]
+    begun = begun_transfers(log)
+    finished = [
+        [
             change
             for change in log.transitions
             if change.after == "SUCCESS"
             and nodes[change.node]["type"] == "finish_transfer"
-            and inside(nodes[change.node]["path"], scope)
+            and inside(nodes[change.node]["path"], scopes[index])
         ]
+        for index in range(1, len(begun) + 1)
+    ]
+    outcomes = []
+    for index, begin in enumerate(begun, 1):
+        scope, finishes = scopes[index], finished[index - 1]
+        place = begin["params"].get("place")
+        emptied = max(  # when the last transfer to pick from this goal peg before this one ended
+            (
+                ends[-1].seq if ends else math.inf
+                for other, ends in zip(begun[: index - 1], finished[: index - 1], strict=True)
+                if other["params"].get("pick") == place
+            ),
+            default=-1,
+        )
         verdict = nodes[finishes[-1].node]["params"].get("outcome") if finishes else None
         if verdict != "placed":
             outcomes.append(TransferOutcome(index, False, failure_phase(causes.first_cause(scope))))
+            continue
+        if _seen_occupied(log, place, began[index - 1], emptied):
+            outcomes.append(
+                TransferOutcome(index, False, failure_phase(causes.first_cause(scope)) or "release")
+            )
             continue
         if not _found_empty(log, place, finishes[-1].seq):
             outcomes.append(TransferOutcome(index, True, None))
@@ -202,6 +230,21 @@ def retried(log: TickLog) -> set[int]:
     recovery: tried again after a miss, a slip or a lost block, which the paper's robot never did."""
     paths = [log.nodes[recovery.node]["path"] for recovery in recoveries(Timeline(log))]
     return {index for index, scope in transfer_scopes(log).items() if any(inside(p, scope) for p in paths)}
+
+
+def _seen_occupied(log: TickLog, peg: object, began: int, emptied: float) -> bool:
+    """Whether the last look at the board between seqs `emptied` (when a transfer picking from `peg` last
+    ended) and `began` saw a block on `peg`: the goal peg already held one, so a block seen there later is
+    no sign that this transfer's went down on it (a block lowered onto a taken peg ends beside it)."""
+    for change in reversed(log.transitions):
+        if change.seq >= began:
+            continue
+        if change.seq <= emptied:
+            return False
+        if log.nodes[change.node]["type"] == "find_blocks" and change.after == "SUCCESS":
+            seen = _SEEN_ON.search(change.feedback)
+            return seen is not None and str(peg) in seen.group(1).split(", ")
+    return False
 
 
 def _found_empty(log: TickLog, peg: object, after: int) -> bool:

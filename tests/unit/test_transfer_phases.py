@@ -63,6 +63,22 @@ def scene():
     return cloud, board, skills.locator.locate(cloud, board)
 
 
+LOOK = "      - capture: {{name: {0}}}\n      - find_blocks: {{name: {0} for blocks}}\n"
+
+
+@pytest.fixture(scope="module")
+def taken_scene():
+    """The starting scene with the block of peg 0 moved onto the goal peg (7) already."""
+    world = World(seed=0)
+    block, pegs = world.blocks[0], world.cell.pegs.positions
+    block.pose[:2, 3] += pegs[PLACE] - pegs[block.peg]
+    block.peg = PLACE
+    cloud = DepthCamera(seed=0).capture(world)
+    skills = Skills("uncalibrated")
+    board = skills.registration.fit(cloud)
+    return cloud, board, skills.locator.locate(cloud, board)
+
+
 @pytest.fixture(autouse=True)
 def fresh_blackboard():
     py_trees.blackboard.Blackboard.clear()
@@ -71,11 +87,17 @@ def fresh_blackboard():
 
 
 def one_transfer(
-    tmp_path: Path, scene, *, held: bool, slips_at: float | None, let_go: tuple[str, ...] = ()
+    tmp_path: Path,
+    scene,
+    *,
+    held: bool,
+    slips_at: float | None,
+    let_go: tuple[str, ...] = (),
+    tree: str = TREE,
 ) -> Path:
-    """Run the transfer with the block between the jaws (`held`) and slipping out `slips_at` of the way
-    through the arm's motion, letting go early under the conditions `let_go` (the trees: at rest, as
-    uncalibrated); the tick log's path."""
+    """Run the transfer of `tree` with the block between the jaws (`held`) and slipping out `slips_at` of
+    the way through the arm's motion, letting go early under the conditions `let_go` (the trees: at rest,
+    as uncalibrated); the tick log's path."""
     cloud, board, blocks = scene
     clock, skills = ManualClock(), Skills("uncalibrated")
     robot = fake_robot(clock, skills.settings, skills.cell, cloud)
@@ -89,8 +111,7 @@ def one_transfer(
     context = RunContext(
         clock=clock, resources={"robot": robot, "skills": skills}, work=WorkPool(inline=True)
     )
-    tree = TREE.replace("LET_GO", f"[{', '.join(let_go)}]")
-    built = load_tree(write_tree(tmp_path, tree)).build(context)
+    built = load_tree(write_tree(tmp_path, tree.replace("LET_GO", f"[{', '.join(let_go)}]"))).build(context)
     built.initial_blackboard.update(
         {"/board": board, "/blocks": blocks, "/PSM1/block": block, "/PSM1/grasp": grasp}
     )
@@ -146,3 +167,46 @@ def test_a_block_lost_just_before_the_jaw_lets_go_fails_the_carry_at_lower(tmp_p
     (carried,) = [change for change in log.transitions if change.detail is not None]
     assert carried.after == "FAILURE" and carried.detail == {"segment": "lower", "held": False}
     assert transfer_outcomes(log) == [TransferOutcome(1, False, "lower")]
+
+
+def test_a_block_let_go_over_a_goal_peg_seen_taken_before_is_not_placed(tmp_path, taken_scene):
+    """The look before the transfer saw a block on its goal peg already (a way back whose block's way out
+    never left it): the final check's block there is that one, no sign the carried block went down on it
+    (the simulator drops a block lowered onto a taken peg beside it). Unseen, it would count as placed."""
+    looking = TREE.replace(
+        "    children:\n      - sequence:",
+        f"    children:\n{LOOK.format('look')}      - sequence:",
+    ).replace("      - check_placed:", f"{LOOK.format('look again')}      - check_placed:")
+    log = read_tick_log(one_transfer(tmp_path, taken_scene, held=True, slips_at=None, tree=looking))
+    ended = [change for change in log.transitions if change.after in ("SUCCESS", "FAILURE")]
+    looks = [c.feedback for c in ended if log.nodes[c.node]["type"] == "find_blocks"]
+    assert len(looks) == 2 and all(str(PLACE) in look.split("pegs: ")[1].split(", ") for look in looks)
+    (checked,) = [c for c in ended if log.nodes[c.node]["type"] == "check_placed"]
+    assert checked.after == "SUCCESS"  # a block is seen on the goal peg at the end
+    assert transfer_outcomes(log) == [TransferOutcome(1, False, "release")]
+
+
+def test_a_look_before_the_goal_peg_was_emptied_says_nothing_of_it(tmp_path, scene):
+    """A way back (peg 7 to 1) whose goal peg a look saw taken, but before the way out picked its block
+    off it: that look is stale, and the block the final check sees on peg 1 counts as placed. (The way
+    back here only begins and is recorded placed: what is read is the looks and the record.)"""
+    way_back = (
+        "      - sequence:\n          name: way back\n          children:\n"
+        f"            - begin_transfer: {{name: begin back, arms: PSM1, pick: {PLACE}, place: {PICK}, "
+        "transfer: /PSM1/back}\n"
+        "            - finish_transfer: {name: placed back, outcome: placed, transfer: /PSM1/back}\n"
+    )
+    looking = (
+        TREE.replace("      - check_placed:", f"{way_back}{LOOK.format('look again')}      - check_placed:")
+        .replace(
+            "            - selector:",
+            LOOK.format("look").replace("      - ", "            - ") + "            - selector:",
+            1,
+        )
+        .replace(f"pegs: [{PLACE}]", f"pegs: [{PICK}]")
+    )
+    log = read_tick_log(one_transfer(tmp_path, scene, held=True, slips_at=None, tree=looking))
+    ended = [change for change in log.transitions if change.after in ("SUCCESS", "FAILURE")]
+    looks = [c.feedback for c in ended if log.nodes[c.node]["type"] == "find_blocks"]
+    assert len(looks) == 2 and str(PICK) in looks[0].split("pegs: ")[1].split(", ")
+    assert transfer_outcomes(log) == [TransferOutcome(1, True, None), TransferOutcome(2, True, None)]
