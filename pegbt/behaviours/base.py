@@ -381,8 +381,7 @@ class MotionLeaf(RobotLeaf):
         target[2] = max(motion.settings.lower[2], start[2] - STEP_BACK)
         back = motion.through(start, [target], ["stepped back"])
         self.stepped_back = True
-        others = {name: other.setpoint_js.position for name, other in self.robot.arms.items() if name != arm}
-        gaps = self.skills.clearances(arm, back, self.context.clock.now(), others)
+        gaps = self.skills.clearances(arm, back, self.context.clock.now(), self._other_setpoints(arm))
         if gaps.min() < gaps[0] - PARTING_SLACK:
             return
         waited = "both arms were waiting for each other"
@@ -430,16 +429,19 @@ class MotionLeaf(RobotLeaf):
         if keep_apart is None:
             keep_apart = self.default_keep_apart()
         if keep_apart > 0:
-            others = {
-                name: other.setpoint_js.position for name, other in self.robot.arms.items() if name != arm
-            }
-            gaps = self.skills.clearances(arm, trajectory, self.context.clock.now(), others)
+            gaps = self.skills.clearances(
+                arm, trajectory, self.context.clock.now(), self._other_setpoints(arm)
+            )
             if gaps.min() < keep_apart and not parts(gaps, keep_apart):
                 start = f", {gaps[0] * 1000:.1f} mm at its start" if gaps[0] < keep_apart else ""
                 raise Blocked(
                     f"{outgoing.what} would bring the tools within {gaps.min() * 1000:.1f} mm of each other "
                     f"(keep apart {keep_apart * 1000:.0f} mm{start})"
                 )
+
+    def _other_setpoints(self, arm: str) -> dict[str, Any]:
+        """The joint set-points of every arm but `arm`: where the clearance checks take them to be."""
+        return {name: other.setpoint_js.position for name, other in self.robot.arms.items() if name != arm}
 
     def default_keep_apart(self) -> float:
         """The `keep_apart` of a leaf given none: `two_arms.keep_apart` (skills/motion.yaml)."""

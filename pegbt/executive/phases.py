@@ -36,7 +36,7 @@ from pegbt.executive.causes import (
     first_cause,
     recoveries,
 )
-from pegbt.executive.logfile import TickLog
+from pegbt.executive.logfile import TickLog, Transition
 
 PHASES = ("sense", "reach", "grasp", "lift", "carry", "handover", "lower", "release")
 CARRY_LEAVES = (
@@ -157,13 +157,18 @@ class TransferCauses:
         return first_cause(found) if found else None
 
 
-def begun_transfers(log: TickLog) -> list[dict[str, Any]]:
-    """The `begin_transfer` node of each transfer the run began, in the order they began (transfer 1 first)."""
+def _beginnings(log: TickLog) -> list[Transition]:
+    """The success of each transfer's `begin_transfer` leaf, in the order they began (transfer 1 first)."""
     return [
-        log.nodes[change.node]
+        change
         for change in log.transitions
         if change.after == "SUCCESS" and log.nodes[change.node]["type"] == "begin_transfer"
     ]
+
+
+def begun_transfers(log: TickLog) -> list[dict[str, Any]]:
+    """The `begin_transfer` node of each transfer the run began, in the order they began (transfer 1 first)."""
+    return [log.nodes[change.node] for change in _beginnings(log)]
 
 
 def transfer_outcomes(log: TickLog) -> list[TransferOutcome]:
@@ -172,11 +177,7 @@ def transfer_outcomes(log: TickLog) -> list[TransferOutcome]:
     causes = TransferCauses(log)
     scopes = transfer_scopes(log)
     nodes = log.nodes
-    began = [
-        change.seq
-        for change in log.transitions
-        if change.after == "SUCCESS" and nodes[change.node]["type"] == "begin_transfer"
-    ]
+    began = [change.seq for change in _beginnings(log)]
     begun = begun_transfers(log)
     finished = [
         [
