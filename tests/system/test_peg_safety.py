@@ -133,7 +133,10 @@ def test_a_block_that_slips_from_the_jaw_is_found_and_moved_again(tmp_path, caps
 
 @pytest.mark.parametrize(
     ("protocol", "note", "recoveries"),
-    [("pegbt", "gave up after at most 1 recoveries", 1), ("paper", "gave up: recovery off, one attempt", 0)],
+    [
+        ("pegbt", "gave up after at most 1 recoveries", 1),
+        ("paper", "gave up after its one attempt (recovery off)", 0),
+    ],
 )
 def test_a_block_not_where_perception_says_fails_the_trial_with_the_reason(
     tmp_path, capsys, protocol, note, recoveries
