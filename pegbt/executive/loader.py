@@ -37,8 +37,9 @@ class LoadedTree:
     def initial_blackboard(self) -> dict[str, Any]:
         return {key: value.plain() for key, value in self.document.blackboard.items()} | self.overrides
 
-    def set_blackboard(self, values: Mapping[str, Any]) -> None:
-        """Replace initial values of keys the file's `blackboard:` declares, as a command's parameters.
+    def set_blackboard(self, values: Mapping[str, Any], *, asked_by: str = "") -> None:
+        """Replace initial values of keys the file's `blackboard:` declares, as a command's parameters;
+        `asked_by` names the option that set them (`--protocol paper`), for the error when one is missing.
 
         Why only declared keys, each keeping its type: the file's values are what the validator checked
         the tree against, so a command can change a value but not what the tree reads."""
@@ -46,8 +47,10 @@ class LoadedTree:
         for key, value in values.items():
             absolute = key if key.startswith("/") else "/" + key
             if absolute not in declared:
+                needs = f"{asked_by} sets it, but " if asked_by else ""
                 raise PegbtError(
-                    f"the tree declares no blackboard key {key!r}; it has {', '.join(sorted(declared)) or 'none'}",
+                    f"{needs}the tree declares no blackboard key {key!r}; "
+                    f"it has {', '.join(sorted(declared)) or 'none'}",
                     file=self.document.path,
                     field=key,
                 )

@@ -49,8 +49,7 @@ class RunOptions:
         object.__setattr__(self, "log", Path(self.log))
         object.__setattr__(self, "record", None if self.record is None else Path(self.record))
         object.__setattr__(self, "options", run_options(self.options))
-        policies = protocol_policies(self.options["protocol"], self.condition)
-        object.__setattr__(self, "blackboard", policies | dict(self.blackboard))
+        object.__setattr__(self, "blackboard", self.protocol_policies | dict(self.blackboard))
         object.__setattr__(self, "world", dict(self.world))
         object.__setattr__(self, "variant", self.variant or self.tree.stem)
 
@@ -58,6 +57,11 @@ class RunOptions:
     def protocol(self) -> str:
         """The protocol the run follows (pegbt, paper)."""
         return str(self.options["protocol"])
+
+    @property
+    def protocol_policies(self) -> dict[str, bool]:
+        """The blackboard policies the protocol sets under the run's condition (`runconditions`)."""
+        return protocol_policies(self.protocol, self.condition)
 
     @property
     def condition(self) -> str | None:

@@ -73,7 +73,12 @@ def run_tree_file(
     out = out or sys.stdout
     tree, log_path, clock = options.tree, options.log, options.clock
     loaded = load_tree(tree, allow_include_outside=options.allow_include_outside)
-    loaded.set_blackboard(options.blackboard)
+    policies = options.protocol_policies
+    loaded.set_blackboard(
+        {key: value for key, value in options.blackboard.items() if key in policies},
+        asked_by=f"--protocol {options.protocol}",
+    )
+    loaded.set_blackboard({key: value for key, value in options.blackboard.items() if key not in policies})
     setup = ProviderSetup(
         clock=make_clock(clock or "wall"), options=options.options, clock_name=clock, variant=options.variant
     )

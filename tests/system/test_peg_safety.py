@@ -13,6 +13,7 @@ from executive_helpers import with_shared_trees
 
 from pegbt.behaviours.resources.skills import SIMULATOR_CALIBRATION
 from pegbt.cli import main
+from pegbt.executive.logfile import read_tick_log
 from pegbt.executive.runoptions import RunOptions
 from pegbt.executive.session import run_tree_file
 from pegbt.motion.kinematics import forward_kinematics
@@ -82,13 +83,14 @@ def test_an_endpoint_that_dies_mid_trial_ends_the_run_with_its_cause(tmp_path, p
 
 
 def one_transfer(
-    tmp_path: Path, world_faults: str, log: Path, capsys: pytest.CaptureFixture[str]
+    tmp_path: Path, world_faults: str, log: Path, capsys: pytest.CaptureFixture[str], protocol: str = "pegbt"
 ) -> tuple[int, str]:
-    """Transfer 1 → 7 with PSM1 (one recovery allowed, no skipping) on a simulator injecting `world_faults`:
-    `pegbt run`'s exit status and what it printed."""
+    """Transfer 1 → 7 with PSM1 (one recovery allowed, no skipping) on a simulator injecting `world_faults`,
+    under `protocol` (the paper's places at the unilateral's heights, the tree's name): `pegbt run`'s exit
+    status and what it printed."""
     faults = tmp_path / "faults.yaml"
     faults.write_text(f"world: {world_faults}\n")
-    tree = tmp_path / "one.yaml"
+    tree = tmp_path / "unilateral.yaml"
     with_shared_trees(tree.parent)
     tree.write_text(
         "include: [shared/one_transfer.yaml, shared/sense.yaml]\n"
@@ -109,6 +111,8 @@ def one_transfer(
                 str(SIMULATOR_CALIBRATION),
                 "--log",
                 str(log),
+                "--protocol",
+                protocol,
                 "--quiet",
             ]
         )
@@ -127,11 +131,28 @@ def test_a_block_that_slips_from_the_jaw_is_found_and_moved_again(tmp_path, caps
     assert "the block slipped from PSM1's jaw" in why and "it helped" in why
 
 
-def test_a_block_not_where_perception_says_fails_the_trial_with_the_reason(tmp_path, capsys):
+@pytest.mark.parametrize(
+    ("protocol", "note", "recoveries"),
+    [
+        ("pegbt", "gave up after at most 1 recoveries", 1),
+        ("paper", "gave up after its one attempt (recovery off)", 0),
+    ],
+)
+def test_a_block_not_where_perception_says_fails_the_trial_with_the_reason(
+    tmp_path, capsys, protocol, note, recoveries
+):
+    """The failed transfer's note says what its protocol allowed: the paper's moves each block once."""
     log = tmp_path / "miss.jsonl"
-    status, printed = one_transfer(tmp_path, "{miss_probability: 1.0}", log, capsys)
+    status, printed = one_transfer(tmp_path, "{miss_probability: 1.0}", log, capsys, protocol)
     assert status == 1, printed
-    assert "transfers 0/1 succeeded" in printed and "gave up after 1 recoveries" in printed
+    assert "transfers 0/1 succeeded" in printed and note in printed
+    assert "recoveries" not in printed.replace(note, "")  # the other protocol's note is not printed
+    parsed = read_tick_log(log)
+    looks_again = {index for index, node in enumerate(parsed.nodes) if node["name"] == "look again"}
+    ran = [
+        change for change in parsed.transitions if change.node in looks_again and change.after == "SUCCESS"
+    ]
+    assert len(ran) == recoveries
     why = log_why(log, capsys)
     assert "outcome: failure" in why and "policy says skip it" in why
     assert "jaw closed to" in why and "on nothing" in why  # the pick's reason, as the recoveries saw it

@@ -146,10 +146,17 @@ def test_a_bad_protocol_is_refused_naming_the_option_or_the_tree_file(tmp_path, 
     out = ["--out", str(tmp_path / "e")]
     assert main(["eval", "--variant", "unilateral", "--trials", "1", "--protocol", "sideways", *out]) == 2
     assert "--protocol: unknown protocol 'sideways'; known: pegbt, paper" in capsys.readouterr().err
-    # a tree that declares none of the policies cannot run under the paper's protocol
-    with pytest.raises(PegbtError, match="declares no blackboard key '/policy/") as raised:
+    # a tree that declares none of the policies cannot run under the paper's protocol, which the error names
+    with pytest.raises(
+        PegbtError, match="--protocol paper sets it, but the tree declares no blackboard key '/policy/"
+    ) as raised:
         run_tree_file(RunOptions(EXAMPLE, tmp_path / "x.jsonl", {"protocol": "paper"}, clock="manual"))
     assert raised.value.file == str(EXAMPLE) and str(raised.value.field).startswith("/policy/")
+    # a key a command asked for is still refused in its own words
+    with pytest.raises(PegbtError) as raised:
+        run_tree_file(RunOptions(EXAMPLE, tmp_path / "x.jsonl", blackboard={"/nowhere": 1}, clock="manual"))
+    assert raised.value.message.startswith("the tree declares no blackboard key '/nowhere'")
+    assert raised.value.field == "/nowhere"
     with pytest.raises(PegbtError, match="has heights for unilateral, bilateral, handover only") as raised:
         Skills("uncalibrated", protocol="paper", variant="example")
     assert raised.value.field == "variant"
