@@ -29,8 +29,9 @@ from pegbt.sim2real.outcomes.phasesim import REGRASPS, Replay, TransferResult, c
 
 
 def in_order(variant: str) -> bool:
-    """Whether `variant`'s trial is simulated in order: the unilateral one (see the module's docstring)."""
-    return variant == "unilateral"
+    """Whether `variant`'s trial is simulated in order: the unilateral and the handover ones (see the
+    module's docstring)."""
+    return variant in ("unilateral", "handover")
 
 
 def trial_of(variant: str, seed: int) -> tuple[int, int]:
@@ -38,21 +39,27 @@ def trial_of(variant: str, seed: int) -> tuple[int, int]:
     return divmod(seed, len(transfers(variant)))
 
 
-def chosen_block(world: World, peg: int, dropped: bool) -> int | None:
+def chosen_block(world: World, peg: int, dropped: bool, strays: Sequence[int] = ()) -> int | None:
     """The block a pick from `peg` goes after, as `select_grasp` chooses it from what it sees: the top one
     on `peg`, else, once the transfer has lost its block (`dropped`), the loose block (on the board, or on
-    another block) nearest to the peg; None when there is none."""
+    another block) nearest to the peg, else the top one on the first of `strays` that holds one (a
+    handover's block dropped at the meeting point falls onto peg 6); None when there is none."""
     free = [b for b in world.blocks if not b.lost and not b.grips]
-    on_peg = [b for b in free if b.peg == peg]
-    if on_peg:
-        return min(on_peg, key=lambda b: float(b.pose[2, 3])).index  # board z points down: the top one
-    if not dropped:
-        return None
+
+    def top(on: int) -> int | None:
+        on_peg = [b for b in free if b.peg == on]
+        return min(on_peg, key=lambda b: float(b.pose[2, 3])).index if on_peg else None  # board z: down
+
+    found = top(peg)
+    if found is not None or not dropped:
+        return found
     surface, height = world.cell.board.surface_z, world.cell.block.height
     loose = [b for b in free if b.peg is None or b.pose[2, 3] < surface - height / 2]
     target = world.cell.pegs.positions[peg]
     nearest = min(loose, key=lambda b: float(np.linalg.norm(b.pose[:2, 3] - target)), default=None)
-    return None if nearest is None else nearest.index
+    if nearest is not None:
+        return nearest.index
+    return next((block for block in map(top, strays) if block is not None), None)
 
 
 def simulate_trial(
