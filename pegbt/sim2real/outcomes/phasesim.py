@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import hashlib
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import cache, partial
 
 import numpy as np
@@ -372,7 +372,9 @@ def carry_out(
     from home, parked from where the failed attempt stopped the arm, its cables as they were there
     (`trees/shared/recover.yaml`'s `look_again`: let go, `park`, sense). A handover's exchange and its
     receiver's carry are `_hand_over`'s, retried and fetched again as the trees do when `attempts` allow a
-    recovery (pegbt's trees; the paper's robot tried each block once)."""
+    recovery (pegbt's trees; the paper's robot tried each block once). A transfer whose goal peg held a
+    block as it began is not placed, whatever it put there (`pegbt.executive.phases.transfer_outcomes`: the
+    robot's look before it began saw the peg taken; a fetch picks the block on its goal peg first)."""
     order = transfers(variant)
     arm, start_peg, goal_peg = order[index]
     previous_peg = next(goal for other, _, goal in reversed(order + order[:index]) if other == arm)
@@ -390,7 +392,11 @@ def carry_out(
     trying.looks_again = pick is not None
     trying.fetch = pick or (lambda *_: own)
     trying.strays = strays
-    return trying.run(start_peg, goal_peg, 1 + REGRASPS)
+    taken = any(b.peg == goal_peg and not b.lost for b in world.blocks)
+    result = trying.run(start_peg, goal_peg, 1 + REGRASPS)
+    if result.succeeded and taken:  # as a tick log is read: a block put on a peg seen taken is no placing
+        return replace(result, succeeded=False, phase=result.phase or "release")
+    return result
 
 
 class _Trying:
