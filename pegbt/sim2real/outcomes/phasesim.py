@@ -760,15 +760,16 @@ def _hand_over(trying: _Trying, giver: _Bench, block: int, goal_peg: int) -> Tra
         _paper_place(taker, planned, waypoints, block, goal_peg, trying.rng, [(0.0, "carry")])
     else:
         taker.play(planned, [(0.0, "carry"), (lowering, "lower")], holding=block)
+    # the block handed over, the failures before were got over: a failure from here is the receiver's own
     if world.held_by(receiver) != block:
-        phase = first or _failed_phase(taker.events, block)
+        phase = _failed_phase(taker.events, block)
         if not recovers:
             return result(False, phase)
         fetched = trying.fetched(taker, goal_peg, phase)
-        return result(fetched.succeeded, fetched.phase)
+        return result(fetched.succeeded, first or phase if fetched.succeeded else fetched.phase)
     taker.jaw(skills.motion.transfer.jaw_open, "release")
     placed = world.blocks[block].peg == goal_peg and not world.blocks[block].grips
-    return result(placed, first if placed else first or "release")
+    return result(placed, first if placed else "release")
 
 
 def _way_back(taker: _Bench, waiting: NDArray[np.float64]) -> float:
