@@ -392,6 +392,10 @@ def carry_out(
     trying.looks_again = pick is not None
     trying.fetch = pick or (lambda *_: own)
     trying.strays = strays
+    if pick is not None and variant == "handover":  # the receiver's history in its trial
+        first_of_half = index in (0, half)
+        trying.receiver_from = None if first_of_half else order[index - 1][2]
+        trying.receiver_parks = first_of_half
     taken = any(b.peg == goal_peg and not b.lost for b in world.blocks)
     result = trying.run(start_peg, goal_peg, 1 + REGRASPS)
     if result.succeeded and taken:  # as a tick log is read: a block put on a peg seen taken is no placing
@@ -425,6 +429,8 @@ class _Trying:
         self.looks_again = True
         self.fetch: Pick = lambda *_: None
         self.strays: tuple[int, ...] = ()
+        self.receiver_from: int | None = None  # a handover's receiver let go over this peg last
+        self.receiver_parks = False  # a handover's receiver parks before it goes to the meeting
 
     def run(self, start_peg: int, goal_peg: int, tries: int) -> TransferResult:
         """Up to `tries` picks (`self.attempts` of them set out) of the block `choose` names, each carried
@@ -720,12 +726,26 @@ def _hand_over(trying: _Trying, giver: _Bench, block: int, goal_peg: int) -> Tra
     ik = inverse_kinematics(np.stack([wait, meeting.receiver_grasp.pose]), motion.settings)
     if not ik.ok.all():
         return TransferResult(False, first or "handover", world.time - began)
-    taker = _Bench(world, receiver, motion, START, trying.replay, trying.registered)
-    approach = motion.through(START, list(ik.q), ["waiting", "handover grasp"])
+    looks = _looks(trying.registered, motion)
+    heights = paper_heights(skills.motion, "handover") if looks else skills.motion
+    waypoints = from_handover(
+        world.cell, heights, receiver, None, meeting.receiver_grasp, meeting.block_pose, goal_peg
+    )
+    q0 = _receiver_start(trying, receiver, waypoints.poses[3], goal_peg)
+    taker = _Bench(world, receiver, motion, q0, trying.replay, trying.registered)
+    parked = 0.0
+    if trying.receiver_from is None and trying.receiver_parks:
+        park = _park(world, skills, receiver, q0)
+        taker.play(park, [(0.0, "handover")])
+        q0, parked = park.q[-1], float(park.t[-1] - park.t[0])
+    stops = above_pegs_first(world.cell, skills.motion, receiver, q0, motion.settings)
+    names = [f"stop {i}" for i in range(len(stops))] + ["waiting", "handover grasp"]
+    approach = motion.through(q0, stops + list(ik.q), names)
     # The receiver gets ready while the giver picks and carries (the paper's `run_place` thread moves it
     # to `handover_ready` at once, FLSPegTransfer_handover.py; pegbt's trees run the arms in parallel):
     # its way to the waiting pose is simulated after the giver's, but its seconds are not the transfer's.
-    ahead = began + min(segment_times(approach)[0], world.time - began)
+    waiting = segment_times(approach)[len(stops)]
+    ahead = began + min(parked + waiting, world.time - began)
     met = world.time - began
     taker.play(approach, [(0.0, "handover")])
     taker.jaw(skills.motion.transfer.jaw_closed, "handover")
@@ -746,11 +766,6 @@ def _hand_over(trying: _Trying, giver: _Bench, block: int, goal_peg: int) -> Tra
         seconds = _overlapped(let_go - ahead, met, world.time - let_go, _way_back(taker, ik.q[0]))
         return TransferResult(placed, phase, seconds)
 
-    looks = _looks(trying.registered, motion)
-    heights = paper_heights(skills.motion, "handover") if looks else skills.motion
-    waypoints = from_handover(
-        world.cell, heights, receiver, None, meeting.receiver_grasp, meeting.block_pose, goal_peg
-    )
     try:
         planned = motion.transfer(waypoints)
     except PegbtError:  # the receiver's carry fails to plan
@@ -770,6 +785,20 @@ def _hand_over(trying: _Trying, giver: _Bench, block: int, goal_peg: int) -> Tra
     taker.jaw(skills.motion.transfer.jaw_open, "release")
     placed = world.blocks[block].peg == goal_peg and not world.blocks[block].grips
     return result(placed, first if placed else "release")
+
+
+def _receiver_start(
+    trying: _Trying, receiver: str, dropped: NDArray[np.float64], goal_peg: int
+) -> NDArray[np.float64]:
+    """Where the receiver comes from to the meeting: in a trial played in order, lowered over the goal peg of
+    its last handover (`receiver_from`), where it let go (as `_previous_release`, its cables at rest there;
+    `receive` goes to the meeting from where it is), or home, parked from the simulator's start joints,
+    before the first of each half; alone, from the simulator's start joints."""
+    if trying.receiver_from is None:
+        return START
+    start = _previous_release(trying.world, receiver, dropped, goal_peg, trying.receiver_from)
+    ik = inverse_kinematics(start[None], trying.skills.arm(receiver).settings)
+    return ik.q[0] if ik.ok.all() else START
 
 
 def _way_back(taker: _Bench, waiting: NDArray[np.float64]) -> float:
