@@ -16,7 +16,7 @@ from pegbt.sim.world import World
 from pegbt.sim.world_effects import WorldEffects
 from pegbt.sim2real.outcomes import phasesim
 from pegbt.sim2real.outcomes.phasesim import TAKES, simulate_transfer, transfers
-from pegbt.sim2real.outcomes.trialsim import chosen_block, in_order
+from pegbt.sim2real.outcomes.trialsim import chosen_block
 
 GIVER = transfers("handover")[0][0]  # PSM2 gives the first six
 RECEIVER = phasesim.RECEIVER[GIVER]
@@ -37,10 +37,6 @@ def test_a_giver_looks_at_the_strays_pegs_only_once_nothing_lies_loose() -> None
     assert chosen_block(world, 7, dropped=False, strays=(6,)) is None  # nor before it lost its block
     _on_board(world, 1, (0.078, 0.026))
     assert chosen_block(world, 7, dropped=True, strays=(6,)) == 1  # a loose block comes first
-
-
-def test_the_handover_is_played_in_order() -> None:
-    assert in_order("handover") and not in_order("bilateral")
 
 
 @pytest.fixture

@@ -575,12 +575,8 @@ def _attempt(
     if grasp is None:
         return _Bench.failed_before(world, arm, motion, "sense")
     if handover:
-        try:
-            meeting = plan_meeting(skills, arm, RECEIVER[arm], grasp, seen)
-        except PegbtError:  # the giver cannot reach the meeting point with this grasp
-            meeting = None
-        if meeting is None:
-            return _Bench.failed_before(world, arm, motion, "handover")
+        meeting = plan_meeting(skills, arm, RECEIVER[arm], grasp, seen)
+        assert meeting is not None  # the grasp was chosen among those `_handed` accepts
     if meeting is None:
         heights = paper_heights(skills.motion, variant) if looks else skills.motion
         waypoints = transfer_for(world.cell, heights, arm, None, seen, grasp, goal_peg)

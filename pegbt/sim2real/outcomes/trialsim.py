@@ -1,15 +1,15 @@
-"""A unilateral trial's transfers in order on one world, as pegbt's tree runs them.
+"""A unilateral or handover trial's transfers in order on one world, as pegbt's trees run them.
 
 The phase simulator alone (`phasesim.simulate_transfer`) gives each transfer a world where only its own
 block has moved, and its recoveries go after that block. In a whole trial a block an earlier transfer lost
 stays where it fell, and a recovery picks the loose block nearest its pick peg, whichever that is
 (`SelectGrasp` with `dropped`, `pegbt/behaviours/actions/grasping.py`); a way back finds its block where
 the way out left it, or finds no block (`sense`), and its recoveries then fetch a loose one. The unilateral
-tree moves one block at a time, so one world played in order is its trial (`in_order`). Bilateral's two
-arms carry at once, which one world played in order does not reproduce; the handover's trees move one
-block at a time, but the phase simulator never retries an exchange, so the blocks a trial's receiver
-fetches again stay lost, and in order it agreed with whole trials no better than alone
-(`docs/guides/sim-to-real.md`). Both stay alone.
+tree moves one block at a time, so one world played in order is its trial (`in_order`). So do the handover's
+trees (`trees/handover.yaml`): the giver picks (from the board, or a `strays` peg under the meeting point,
+once it lost its block), the receiver takes the block again after a miss and fetches one that slipped
+(`phasesim._hand_over`), and it comes to the meeting from its last placing. Bilateral's two arms carry at
+once, which one world played in order does not reproduce: it stays alone.
 
 Seed `s` of a cell is transfer `s mod n` of the trial on layout `s // n` (`n` transfers a trial), so a
 simulated transfer stays a function of its world, variant, condition and seed, and consecutive seeds share
