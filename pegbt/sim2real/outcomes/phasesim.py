@@ -58,12 +58,10 @@ START = np.array(
     DEFAULT_JOINTS
 )  # each arm comes from where the simulator starts it, its cables at rest there
 REGRASPS = 3  # recoveries before a transfer is given up (`trees/shared/one_transfer.yaml`)
-TAKES = (
-    5  # a handover's receiver's tries at taking the block held out (`trees/shared/handover.yaml`'s `receive`)
-)
-FETCH_REGRASPS = (
-    2  # recoveries of the receiver's fetch of a block that slipped (`trees/shared/handover.yaml`)
-)
+# a handover's receiver's tries at taking the block held out, and the recoveries of its fetch of a block
+# that slipped from it (`trees/shared/handover.yaml`'s `receive` and `fetch`)
+TAKES = 5
+FETCH_REGRASPS = 2
 # the conditions under which the carry opens the jaw as it comes down (`trees/shared/lift.yaml`'s
 # `let_go_early`); under the others it lets go at rest
 LETS_GO_EARLY = ("calibrated", "optimized")
@@ -481,8 +479,9 @@ class _Trying:
 
     def fetched(self, taker: _Bench, goal_peg: int, first: str) -> TransferResult:
         """The receiver's block slipped on its way to `goal_peg` (its first failure `first`): it looks again,
-        picks the block nearest that peg and carries it there, recovering `FETCH_REGRASPS` times
-        (`trees/shared/handover.yaml`'s `fetch`, its `pick` and `lift` as a one-arm transfer's)."""
+        picks the block on that peg, else the loose one nearest it, and carries it there, recovering
+        `FETCH_REGRASPS` times (`trees/shared/handover.yaml`'s `fetch`, its `pick` and `lift` as a one-arm
+        transfer's)."""
         fetching = _Trying(
             self.world,
             self.skills,
@@ -765,7 +764,7 @@ def _hand_over(trying: _Trying, giver: _Bench, block: int, goal_peg: int) -> Tra
     try:
         planned = motion.transfer(waypoints)
     except PegbtError:  # the receiver's carry fails to plan
-        return result(False, first or "carry")
+        return result(False, "carry")
     _, lowering = segment_times(planned)
     if looks:
         _paper_place(taker, planned, waypoints, block, goal_peg, trying.rng, [(0.0, "carry")])
