@@ -6,10 +6,12 @@ the paper's protocol (one attempt) none of that happens."""
 from __future__ import annotations
 
 import logging
+from pathlib import Path
 from typing import Any
 
 import pytest
 
+from pegbt.errors import PegbtError
 from pegbt.frames import yaw_of, yaw_pose
 from pegbt.motion.settings import motion_settings
 from pegbt.sim.world import World
@@ -17,6 +19,7 @@ from pegbt.sim.world_effects import WorldEffects
 from pegbt.sim2real.outcomes import phasesim
 from pegbt.sim2real.outcomes.phasesim import TAKES, simulate_transfer, transfers
 from pegbt.sim2real.outcomes.trialsim import chosen_block
+from pegbt.workcell import transfer_strays
 
 GIVER = transfers("handover")[0][0]  # PSM2 gives the first six
 RECEIVER = phasesim.RECEIVER[GIVER]
@@ -26,6 +29,16 @@ def _on_board(world: World, block: int, xy: tuple[float, float]) -> None:
     lying = world.blocks[block]
     lying.pose = yaw_pose([*xy, world.cell.board.surface_z], yaw_of(lying.pose))
     lying.peg = None
+
+
+def test_each_transfers_strays_are_read_from_the_trees_orders(tmp_path: Path) -> None:
+    orders = tmp_path / "orders.yaml"
+    orders.write_text("lists:\n  mine:\n    - {pick: 1, place: 7, strays: [6]}\n    - {pick: 0, place: 6}\n")
+    assert transfer_strays("mine", orders) == ((6,), ())
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("lists:\n  mine:\n    - {pick: 1, place: 7, strays: [12]}\n")
+    with pytest.raises(PegbtError, match=r"bad.yaml:3.*strays"):
+        transfer_strays("mine", bad)
 
 
 def test_a_giver_looks_at_the_strays_pegs_only_once_nothing_lies_loose() -> None:
