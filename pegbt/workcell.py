@@ -37,6 +37,19 @@ def transfer_list(name: str, path: Path = ORDERS_FILE) -> tuple[tuple[int, int],
     )
 
 
+@lru_cache(maxsize=4)
+def transfer_strays(name: str, path: Path = ORDERS_FILE) -> tuple[tuple[int, ...], ...]:
+    """The `strays` of each transfer of list `name`: pegs a block dropped at the handover's meeting point may
+    fall onto, which the trees' picks of that transfer look at once no loose block is seen."""
+    items = read_settings_file(path).section("lists")[name].sequence()
+    return tuple(
+        tuple(stray.integer(low=0, high=N_PEGS - 1) for stray in strays.sequence())
+        if (strays := item.get("strays")) is not None
+        else ()
+        for item in items
+    )
+
+
 def __getattr__(name: str) -> tuple[tuple[int, int], ...]:
     """`UNILATERAL_ORDER`: the reference's unilateral trial (one arm), (start peg, goal peg) of each of its
     12 transfers, read from `trees/shared/orders.yaml` (the list the trees loop over) when first asked for,

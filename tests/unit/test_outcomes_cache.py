@@ -25,7 +25,7 @@ WORLDS = (
 )
 
 
-@pytest.mark.parametrize(("variant", "seed"), [("unilateral", 3), ("bilateral", 8)])
+@pytest.mark.parametrize(("variant", "seed"), [("unilateral", 3), ("bilateral", 8), ("handover", 15)])
 def test_a_transfer_is_the_same_alone_among_other_worlds_and_again(variant: str, seed: int) -> None:
     together = _run((WORLDS, variant, "uncalibrated", seed))
     alone = [_run(((world,), variant, "uncalibrated", seed))[0] for world in reversed(WORLDS)][::-1]

@@ -14,14 +14,14 @@ from __future__ import annotations
 
 import hashlib
 from collections.abc import Callable
-from dataclasses import dataclass
-from functools import cache
+from dataclasses import dataclass, replace
+from functools import cache, partial
 
 import numpy as np
 from numpy.typing import NDArray
 
 from pegbt.behaviours.actions.grasping import SAME_BLOCK
-from pegbt.behaviours.actions.handover import Meeting, plan_meeting
+from pegbt.behaviours.actions.handover import Meeting, handed, plan_meeting
 from pegbt.behaviours.motion import above_pegs_first, planned_approach
 from pegbt.behaviours.poses import from_handover, to_handover, tool_pose, transfer_for
 from pegbt.behaviours.resources.arm_motion import ArmMotion, Prepared
@@ -35,6 +35,7 @@ from pegbt.motion.settings import motion_settings
 from pegbt.motion.trajectory import Trajectory
 from pegbt.motion.waypoints import TransferWaypoints
 from pegbt.perception.blocks import BlockEstimate
+from pegbt.perception.grasp import Grasp
 from pegbt.perception.servo import correction
 from pegbt.physics import ArmPhysics
 from pegbt.sim.arm import DEFAULT_JOINTS, SimArm
@@ -44,7 +45,7 @@ from pegbt.sim.world import World
 from pegbt.sim.world_effects import WorldEffects
 from pegbt.sim2real.outcomes.cells import PHASES
 from pegbt.sim2real.outcomes.placelook import visible_points
-from pegbt.workcell import transfer_list
+from pegbt.workcell import transfer_list, transfer_strays
 
 PHYSICS = "dvrk-real"  # the arm as fitted on the real recordings: never refitted here
 # m per axis: the error of a block's position as pegbt's perception fits it in a whole trial (its fit
@@ -57,6 +58,10 @@ START = np.array(
     DEFAULT_JOINTS
 )  # each arm comes from where the simulator starts it, its cables at rest there
 REGRASPS = 3  # recoveries before a transfer is given up (`trees/shared/one_transfer.yaml`)
+# a handover's receiver's tries at taking the block held out, and the recoveries of its fetch of a block
+# that slipped from it (`trees/shared/handover.yaml`'s `receive` and `fetch`)
+TAKES = 5
+FETCH_REGRASPS = 2
 # the conditions under which the carry opens the jaw as it comes down (`trees/shared/lift.yaml`'s
 # `let_go_early`); under the others it lets go at rest
 LETS_GO_EARLY = ("calibrated", "optimized")
@@ -337,9 +342,9 @@ def _transfer(
     return carry_out(world, variant, condition, index, replay, attempts, registered, rng)
 
 
-# which block an attempt goes after: (world, pick peg, whether the transfer lost its block already) -> the
-# block's index, or None when it finds none
-Pick = Callable[[World, int, bool], int | None]
+# which block an attempt goes after: (world, pick peg, whether the transfer lost its block already, the
+# pegs a lost block may have fallen onto alone) -> the block's index, or None when it finds none
+Pick = Callable[[World, int, bool, tuple[int, ...]], int | None]
 
 
 def carry_out(
@@ -363,63 +368,133 @@ def carry_out(
     from the home pose the trees park it at before each half (the very first, parked from the simulator's
     start joints), the others from where the arm let go of its previous block, and an attempt after a failure
     from home, parked from where the failed attempt stopped the arm, its cables as they were there
-    (`trees/shared/recover.yaml`'s `look_again`: let go, `park`, sense)."""
+    (`trees/shared/recover.yaml`'s `look_again`: let go, `park`, sense). A handover's exchange and its
+    receiver's carry are `_hand_over`'s, retried and fetched again as the trees do when `attempts` allow a
+    recovery (pegbt's trees; the paper's robot tried each block once). A transfer whose goal peg held a
+    block as it began is not placed, whatever it put there (`pegbt.executive.phases.transfer_outcomes`: the
+    robot's look before it began saw the peg taken; a fetch picks the block on its goal peg first)."""
     order = transfers(variant)
     arm, start_peg, goal_peg = order[index]
     previous_peg = next(goal for other, _, goal in reversed(order + order[:index]) if other == arm)
-    skills = _skills(condition)
-    began = world.time
+    strays = transfer_strays("reference")[index] if variant == "handover" else ()
     own = next((b.index for b in world.blocks if b.peg == start_peg), None)
-    events: list[tuple[str, Event]] = []
-    first: str | None = None
-    made = 0  # attempts the arm set out on (a grasp or meeting refused before moving is planned again)
-    chose: Chosen | None = None
     half = len(order) // 2
     mine = [i for i, (other, _, _) in enumerate(order) if other == arm]
-    came_from: int | None = None if index == mine[0] else previous_peg
-    parks = index in (mine[0], next((i for i in mine if i >= half), None))  # parked before each half
-    failed: _Bench | None = None  # the last attempt the arm set out on
-    for attempt in range(1 + REGRASPS):
-        if made == attempts:
-            break
-        block = own if pick is None else pick(world, start_peg, attempt > 0)
-        if block is None or world.blocks[block].lost:
-            if pick is None:
+    trying = _Trying(world, _skills(condition), variant, arm, replay, rng, registered, attempts)
+    trying.came_from = None if index == mine[0] else previous_peg
+    trying.parks = index in (mine[0], next((i for i in mine if i >= half), None))  # parked before each half
+    if pick is not None:
+        trying.choose = lambda again: pick(world, start_peg, again, strays)
+    else:
+        trying.choose = lambda again: own
+    trying.looks_again = pick is not None
+    trying.fetch = pick or (lambda *_: own)
+    trying.strays = strays
+    if pick is not None and variant == "handover":  # the receiver's history in its trial
+        first_of_half = index in (0, half)
+        trying.receiver_from = None if first_of_half else order[index - 1][2]
+        trying.receiver_parks = first_of_half
+    taken = any(b.peg == goal_peg and not b.lost for b in world.blocks)
+    result = trying.run(start_peg, goal_peg, 1 + REGRASPS)
+    if result.succeeded and taken:  # as a tick log is read: a block put on a peg seen taken is no placing
+        return replace(result, succeeded=False, phase=result.phase or "release")
+    return result
+
+
+class _Trying:
+    """One arm's picks and carries of a transfer's block, each after the last failed (`carry_out`): what
+    they share across attempts."""
+
+    def __init__(
+        self,
+        world: World,
+        skills: Skills,
+        variant: str,
+        arm: str,
+        replay: Replay,
+        rng: np.random.Generator,
+        registered: bool,
+        attempts: int,
+    ) -> None:
+        self.world, self.skills, self.variant, self.arm = world, skills, variant, arm
+        self.replay, self.rng, self.registered, self.attempts = replay, rng, registered, attempts
+        self.began = world.time
+        self.came_from: int | None = None
+        self.parks = True
+        self.failed: _Bench | None = None  # the last attempt the arm set out on
+        self.first: str | None = None
+        self.choose: Callable[[bool], int | None] = lambda again: None
+        self.looks_again = True
+        self.fetch: Pick = lambda *_: None
+        self.strays: tuple[int, ...] = ()
+        self.receiver_from: int | None = None  # a handover's receiver let go over this peg last
+        self.receiver_parks = False  # a handover's receiver parks before it goes to the meeting
+
+    def run(self, start_peg: int, goal_peg: int, tries: int) -> TransferResult:
+        """Up to `tries` picks (`self.attempts` of them set out) of the block `choose` names, each carried
+        to `goal_peg`; the first held at a handover's meeting point is handed over."""
+        world, skills, arm = self.world, self.skills, self.arm
+        made = 0  # attempts the arm set out on (a grasp or meeting refused before moving is planned again)
+        chose: Chosen | None = None
+        for attempt in range(tries):
+            if made == self.attempts:
                 break
-            first, parks = first or "sense", True  # the recovery parks before it looks again
-            continue
-        bench = _attempt(
-            world,
-            skills,
-            arm,
-            block,
-            goal_peg,
-            rng,
-            came_from,
-            replay,
-            variant,
-            chose,
-            registered,
-            parks,
-            failed,
+            block = self.choose(attempt > 0)
+            if block is None or world.blocks[block].lost:
+                if not self.looks_again:
+                    break
+                self.first, self.parks = self.first or "sense", True  # the recovery parks before it looks
+                continue
+            bench = _attempt(
+                world,
+                skills,
+                arm,
+                block,
+                goal_peg,
+                self.rng,
+                self.came_from,
+                self.replay,
+                self.variant,
+                chose,
+                self.registered,
+                self.parks,
+                self.failed,
+            )
+            made += bench.moved
+            chose = bench.chose or chose
+            self.failed = bench if bench.moved else self.failed
+            if bench.held and bench.meeting is not None:
+                return _hand_over(self, bench, block, goal_peg)
+            if bench.held:
+                bench.jaw(skills.motion.transfer.jaw_open, "release")
+                placed = world.blocks[block]
+                if placed.peg == goal_peg and not placed.grips:
+                    return TransferResult(True, self.first, world.time - self.began)
+                phase = self.first or _failed_phase(bench.events, block)
+                return TransferResult(False, phase, world.time - self.began)
+            self.first = self.first or bench.failed
+            if world.held_by(arm) is not None:
+                bench.jaw(skills.motion.transfer.jaw_open, "grasp")
+        return TransferResult(False, self.first or "grasp", world.time - self.began)
+
+    def fetched(self, taker: _Bench, goal_peg: int, first: str) -> TransferResult:
+        """The receiver's block slipped on its way to `goal_peg` (its first failure `first`): it looks again,
+        picks the block on that peg, else the loose one nearest it, and carries it there, recovering
+        `FETCH_REGRASPS` times (`trees/shared/handover.yaml`'s `fetch`, its `pick` and `lift` as a one-arm
+        transfer's)."""
+        fetching = _Trying(
+            self.world,
+            self.skills,
+            "unilateral",  # one arm's pick and carry: no meeting
+            taker.name,
+            self.replay,
+            self.rng,
+            self.registered,
+            1 + FETCH_REGRASPS,
         )
-        events += bench.events
-        made += bench.moved
-        chose = bench.chose or chose
-        failed = bench if bench.moved else failed
-        if bench.held and bench.meeting is not None:
-            return _hand_over(world, skills, bench, block, goal_peg, first, replay, rng, registered, began)
-        if bench.held:
-            bench.jaw(skills.motion.transfer.jaw_open, "release")
-            events += bench.events[len(events) :]
-            placed = world.blocks[block]
-            if placed.peg == goal_peg and not placed.grips:
-                return TransferResult(True, first, world.time - began)
-            return TransferResult(False, first or _failed_phase(bench.events, block), world.time - began)
-        first = first or bench.failed
-        if world.held_by(arm) is not None:
-            bench.jaw(skills.motion.transfer.jaw_open, "grasp")
-    return TransferResult(False, first or "grasp", world.time - began)
+        fetching.failed, fetching.first, fetching.began = taker, first, self.began
+        fetching.choose = lambda again: self.fetch(self.world, goal_peg, True, self.strays)
+        return fetching.run(goal_peg, goal_peg, 1 + FETCH_REGRASPS)
 
 
 def _moved_out(world: World, order: tuple[tuple[str, int, int], ...]) -> None:
@@ -490,17 +565,17 @@ def _attempt(
     motion = skills.arm(arm)
     looks = _looks(registered, motion)
     same = chose is not None and np.linalg.norm(chose.position[:2] - position[:2]) <= SAME_BLOCK
-    grasp = skills.selectors[arm].pick(seen, avoid=(chose.candidate,) if same and chose else ())
+    # a giver chooses among the grasps its receiver can take the block from (`select_grasp`'s `handover_to`)
+    acceptable = partial(_handed, skills, arm, seen) if handover else None
+    grasp = skills.selectors[arm].pick(
+        seen, avoid=(chose.candidate,) if same and chose else (), acceptable=acceptable
+    )
     meeting = None
     if grasp is None:
         return _Bench.failed_before(world, arm, motion, "sense")
     if handover:
-        try:
-            meeting = plan_meeting(skills, arm, RECEIVER[arm], grasp, seen)
-        except PegbtError:  # the giver cannot reach the meeting point with this grasp
-            meeting = None
-        if meeting is None:
-            return _Bench.failed_before(world, arm, motion, "handover")
+        meeting = plan_meeting(skills, arm, RECEIVER[arm], grasp, seen)
+        assert meeting is not None  # the grasp was chosen among those `_handed` accepts
     if meeting is None:
         heights = paper_heights(skills.motion, variant) if looks else skills.motion
         waypoints = transfer_for(world.cell, heights, arm, None, seen, grasp, goal_peg)
@@ -555,6 +630,15 @@ def _attempt(
     if not bench.held:
         bench.failed = _failed_phase(bench.events, block)
     return bench
+
+
+def _handed(skills: Skills, arm: str, seen: BlockEstimate, option: Grasp) -> bool:
+    """Whether `arm`'s receiver can take the block `seen` from it holding it by `option` (`handed`); a
+    meeting the giver cannot reach is none."""
+    try:
+        return handed(skills, arm, RECEIVER[arm], seen, option)
+    except PegbtError:
+        return False
 
 
 def _looks(registered: bool, motion: ArmMotion) -> bool:
@@ -613,40 +697,61 @@ def _park(world: World, skills: Skills, arm: str, start: NDArray[np.float64]) ->
     return motion.through(start, joints, names)
 
 
-def _hand_over(
-    world: World,
-    skills: Skills,
-    giver: _Bench,
-    block: int,
-    goal_peg: int,
-    first: str | None,
-    replay: Replay,
-    rng: np.random.Generator,
-    registered: bool = False,
-    began: float = 0.0,
-) -> TransferResult:
+def _hand_over(trying: _Trying, giver: _Bench, block: int, goal_peg: int) -> TransferResult:
     """The giver holds `block` at the meeting point: the receiver waits open above its grasp, descends and
     closes; the giver opens and withdraws; the receiver carries the block over `goal_peg`, lowers it and
     opens (`pegbt.motion.handover`'s order); `registered` (the paper's protocol), at the paper's heights
-    and looking before it lowers, with `rng`'s perception noise (`_paper_place`). The exchange is not
-    retried here. The seconds are the trial's per transfer (`_overlapped`)."""
+    and looking before it lowers, with `rng`'s perception noise (`_paper_place`). The seconds are the
+    trial's per transfer (`_overlapped`).
+
+    Where the trial recovers (`trying.attempts` more than one), as `trees/shared/handover.yaml` does: a
+    receiver whose jaw closed on nothing while the giver holds the block out (`try_to_take`'s `back off`)
+    opens, rises back to wait above its grasp and descends again, up to `TAKES` times in all (`receive`'s
+    `takes`), the tick log naming a miss `grasp` (the receiver's `grasp` leaf); after the last the giver
+    lets go where it is (`give`'s `let go of it`: the block falls under the meeting point, `strays`); a
+    block that slips from the receiver on its way to the goal peg is fetched (`carry it, or fetch it if it
+    fell`, `trying.fetched`). The paper's robot took each block once."""
+    world, skills, first, began = trying.world, trying.skills, trying.first, trying.began
     assert giver.meeting is not None  # only a held block at the meeting point is handed over
     meeting, receiver = giver.meeting, RECEIVER[giver.name]
     motion = skills.arm(receiver)
+    recovers = trying.attempts > 1
     wait = meeting.receiver_grasp.pose.copy()
     wait[:3, 3] += skills.motion.handover.receiver_wait_above * world.cell.up_in(receiver)
     ik = inverse_kinematics(np.stack([wait, meeting.receiver_grasp.pose]), motion.settings)
     if not ik.ok.all():
         return TransferResult(False, first or "handover", world.time - began)
-    taker = _Bench(world, receiver, motion, START, replay, registered)
-    approach = motion.through(START, list(ik.q), ["waiting", "handover grasp"])
+    looks = _looks(trying.registered, motion)
+    heights = paper_heights(skills.motion, "handover") if looks else skills.motion
+    waypoints = from_handover(
+        world.cell, heights, receiver, None, meeting.receiver_grasp, meeting.block_pose, goal_peg
+    )
+    q0 = _receiver_start(trying, receiver, waypoints.poses[3], goal_peg)
+    taker = _Bench(world, receiver, motion, q0, trying.replay, trying.registered)
+    parked = 0.0
+    if trying.receiver_from is None and trying.receiver_parks:
+        park = _park(world, skills, receiver, q0)
+        taker.play(park, [(0.0, "handover")])
+        q0, parked = park.q[-1], float(park.t[-1] - park.t[0])
+    stops = above_pegs_first(world.cell, skills.motion, receiver, q0, motion.settings)
+    names = [f"stop {i}" for i in range(len(stops))] + ["waiting", "handover grasp"]
+    approach = motion.through(q0, stops + list(ik.q), names)
     # The receiver gets ready while the giver picks and carries (the paper's `run_place` thread moves it
     # to `handover_ready` at once, FLSPegTransfer_handover.py; pegbt's trees run the arms in parallel):
     # its way to the waiting pose is simulated after the giver's, but its seconds are not the transfer's.
-    ahead = began + min(segment_times(approach)[0], world.time - began)
+    waiting = segment_times(approach)[len(stops)]
+    ahead = began + min(parked + waiting, world.time - began)
     met = world.time - began
     taker.play(approach, [(0.0, "handover")])
     taker.jaw(skills.motion.transfer.jaw_closed, "handover")
+    for _ in range(TAKES - 1 if recovers else 0):
+        if world.held_by(receiver) == block or world.held_by(giver.name) != block:
+            break
+        first = first or "grasp"
+        taker.jaw(skills.motion.transfer.jaw_open, "handover")
+        again = motion.through(taker.arm.joints.setpoint.copy(), list(ik.q), ["waiting", "handover grasp"])
+        taker.play(again, [(0.0, "handover")])
+        taker.jaw(skills.motion.transfer.jaw_closed, "handover")
     giver.jaw(skills.motion.transfer.jaw_open, "handover")
     if world.held_by(receiver) != block:
         return TransferResult(False, first or "handover", world.time - ahead)
@@ -656,25 +761,39 @@ def _hand_over(
         seconds = _overlapped(let_go - ahead, met, world.time - let_go, _way_back(taker, ik.q[0]))
         return TransferResult(placed, phase, seconds)
 
-    looks = _looks(registered, motion)
-    heights = paper_heights(skills.motion, "handover") if looks else skills.motion
-    waypoints = from_handover(
-        world.cell, heights, receiver, None, meeting.receiver_grasp, meeting.block_pose, goal_peg
-    )
     try:
         planned = motion.transfer(waypoints)
     except PegbtError:  # the receiver's carry fails to plan
-        return result(False, first or "carry")
+        return result(False, "carry")
     _, lowering = segment_times(planned)
     if looks:
-        _paper_place(taker, planned, waypoints, block, goal_peg, rng, [(0.0, "carry")])
+        _paper_place(taker, planned, waypoints, block, goal_peg, trying.rng, [(0.0, "carry")])
     else:
         taker.play(planned, [(0.0, "carry"), (lowering, "lower")], holding=block)
+    # the block handed over, the failures before were got over: a failure from here is the receiver's own
     if world.held_by(receiver) != block:
-        return result(False, first or _failed_phase(taker.events, block))
+        phase = _failed_phase(taker.events, block)
+        if not recovers:
+            return result(False, phase)
+        fetched = trying.fetched(taker, goal_peg, phase)
+        return result(fetched.succeeded, first or phase if fetched.succeeded else fetched.phase)
     taker.jaw(skills.motion.transfer.jaw_open, "release")
     placed = world.blocks[block].peg == goal_peg and not world.blocks[block].grips
-    return result(placed, first if placed else first or "release")
+    return result(placed, first if placed else "release")
+
+
+def _receiver_start(
+    trying: _Trying, receiver: str, dropped: NDArray[np.float64], goal_peg: int
+) -> NDArray[np.float64]:
+    """Where the receiver comes from to the meeting: in a trial played in order, lowered over the goal peg of
+    its last handover (`receiver_from`), where it let go (as `_previous_release`, its cables at rest there;
+    `receive` goes to the meeting from where it is), or home, parked from the simulator's start joints,
+    before the first of each half; alone, from the simulator's start joints."""
+    if trying.receiver_from is None:
+        return START
+    start = _previous_release(trying.world, receiver, dropped, goal_peg, trying.receiver_from)
+    ik = inverse_kinematics(start[None], trying.skills.arm(receiver).settings)
+    return ik.q[0] if ik.ok.all() else START
 
 
 def _way_back(taker: _Bench, waiting: NDArray[np.float64]) -> float:

@@ -1,0 +1,103 @@
+"""A handover played as `trees/shared/handover.yaml` runs it: the receiver takes the block again after a
+miss while the giver holds it out (`receive`'s `takes`), fetches a block that slipped on its way to the goal
+peg (`fetch`), and a giver's pick from the board looks at the `strays` pegs once nothing lies loose; under
+the paper's protocol (one attempt) none of that happens."""
+
+from __future__ import annotations
+
+import logging
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from pegbt.errors import PegbtError
+from pegbt.frames import yaw_of, yaw_pose
+from pegbt.motion.settings import motion_settings
+from pegbt.sim.world import World
+from pegbt.sim.world_effects import WorldEffects
+from pegbt.sim2real.outcomes import phasesim
+from pegbt.sim2real.outcomes.phasesim import TAKES, simulate_transfer, transfers
+from pegbt.sim2real.outcomes.trialsim import chosen_block
+from pegbt.workcell import transfer_strays
+
+GIVER = transfers("handover")[0][0]  # PSM2 gives the first six
+RECEIVER = phasesim.RECEIVER[GIVER]
+
+
+def _on_board(world: World, block: int, xy: tuple[float, float]) -> None:
+    lying = world.blocks[block]
+    lying.pose = yaw_pose([*xy, world.cell.board.surface_z], yaw_of(lying.pose))
+    lying.peg = None
+
+
+def test_each_transfers_strays_are_read_from_the_trees_orders(tmp_path: Path) -> None:
+    orders = tmp_path / "orders.yaml"
+    orders.write_text("lists:\n  mine:\n    - {pick: 1, place: 7, strays: [6]}\n    - {pick: 0, place: 6}\n")
+    assert transfer_strays("mine", orders) == ((6,), ())
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("lists:\n  mine:\n    - {pick: 1, place: 7, strays: [12]}\n")
+    with pytest.raises(PegbtError, match=r"bad.yaml:3.*strays"):
+        transfer_strays("mine", bad)
+
+
+def test_a_giver_looks_at_the_strays_pegs_only_once_nothing_lies_loose() -> None:
+    world = World(0)
+    world.blocks[0].pose[:2, 3] = world.cell.pegs.positions[6]
+    world.blocks[0].peg = 6  # dropped at the meeting point onto peg 6
+    assert chosen_block(world, 7, dropped=True, strays=(6,)) == 0
+    assert chosen_block(world, 7, dropped=True) is None  # a transfer without strays does not look there
+    assert chosen_block(world, 7, dropped=False, strays=(6,)) is None  # nor before it lost its block
+    _on_board(world, 1, (0.078, 0.026))
+    assert chosen_block(world, 7, dropped=True, strays=(6,)) == 1  # a loose block comes first
+
+
+@pytest.fixture
+def receiver_jaw(monkeypatch: pytest.MonkeyPatch) -> list[float]:
+    """The receiver's jaw angles at the meeting point, as the simulated handover commands them."""
+    angles: list[float] = []
+    jaw = phasesim._Bench.jaw
+
+    def counted(bench: phasesim._Bench, angle: float, segment: str) -> None:
+        if bench.name == RECEIVER and segment == "handover":
+            angles.append(angle)
+        jaw(bench, angle, segment)
+
+    monkeypatch.setattr(phasesim._Bench, "jaw", counted)
+    return angles
+
+
+def test_a_receiver_that_misses_takes_the_block_again_up_to_its_takes(receiver_jaw: list[float]) -> None:
+    """Default world, uncalibrated, layout 0, transfer 3: the receiver's jaw closes beside the block held
+    out every time."""
+    logging.getLogger("pegbt").setLevel(logging.ERROR)
+    closed = motion_settings().transfer.jaw_closed
+    once = simulate_transfer(WorldEffects(), "handover", "uncalibrated", 0, index=3, attempts=1)
+    assert not once.succeeded and once.phase == "handover"
+    assert receiver_jaw.count(closed) == 1
+    receiver_jaw.clear()
+    recovering = simulate_transfer(WorldEffects(), "handover", "uncalibrated", 0, index=3, attempts=4)
+    assert not recovering.succeeded and recovering.phase == "grasp"  # as the tick log names the miss
+    assert receiver_jaw.count(closed) == TAKES
+    assert recovering.seconds > once.seconds
+
+
+def test_a_block_that_slips_from_the_receiver_is_fetched(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Default world, uncalibrated, layout 1, transfer 0: the block strikes peg 7 as the receiver lowers it;
+    the receiver picks it off the board and places it."""
+    logging.getLogger("pegbt").setLevel(logging.ERROR)
+    picks: list[str] = []
+    attempt = phasesim._attempt
+
+    def recorded(*args: Any, **kwargs: Any) -> Any:
+        picks.append(args[2])  # the arm
+        return attempt(*args, **kwargs)
+
+    monkeypatch.setattr(phasesim, "_attempt", recorded)
+    once = simulate_transfer(WorldEffects(), "handover", "uncalibrated", 1, index=0, attempts=1)
+    assert not once.succeeded and once.phase == "lower"
+    assert picks == [GIVER]
+    picks.clear()
+    fetched = simulate_transfer(WorldEffects(), "handover", "uncalibrated", 1, index=0, attempts=4)
+    assert fetched.succeeded and fetched.phase == "lower"  # placed, after its first failure
+    assert picks[0] == GIVER and picks[1:] and set(picks[1:]) == {RECEIVER}
