@@ -24,6 +24,13 @@ def test_a_record_says_each_sides_last_word_by_name():
     assert Handover(3) == Handover(3) and key(3) == "/handover/state_3"
 
 
+def test_a_giver_coming_with_the_block_lets_the_receiver_come_but_holds_nothing_out_yet():
+    coming = Handover(2).said(Receiver.READY).said(Giver.COMING)
+    assert CONDITIONS["offered"](coming) and CONDITIONS["offered or given up"](coming)
+    assert not CONDITIONS["arrived"](coming) and not CONDITIONS["withdrawn"](coming)
+    assert CONDITIONS["withdrawn"](coming.said(Giver.WITHDRAWN))
+
+
 def test_a_giver_that_gave_up_is_neither_offering_nor_waited_for():
     given_up = Handover(1).said(Giver.OFFERED).said(Giver.GIVEN_UP)
     assert not CONDITIONS["offered"](given_up)
