@@ -99,6 +99,41 @@ def test_giver_and_receiver_meet_only_through_the_record(tmp_path):
     assert node(built, "until ready").feedback_message.startswith("ready (")
 
 
+CALLED_OVER = """
+tree:
+  parallel:
+    name: one handover
+    children:
+      - sequence:
+          name: giver
+          children:
+            - call_over: {name: come, n: 1}
+            - wait: {name: picking, seconds: 0.5}
+            - offer: {name: offer, n: 1}
+      - sequence:
+          name: receiver
+          children:
+            - ready_for: {name: ready, n: 1}
+            - await_offer: {name: called over, n: 1, patience: 5.0}
+"""
+
+
+def test_a_receiver_called_over_sets_off_while_the_giver_still_picks(tmp_path):
+    clock = ManualClock()
+    built = build_text(tmp_path, CALLED_OVER, clock)
+    came_at = None
+    while built.root.status != Status.SUCCESS and clock.now() < 2.0:
+        built.root.tick_once()
+        if came_at is None and node(built, "called over").status == Status.SUCCESS:
+            came_at = clock.now()
+            assert node(built, "called over").feedback_message == (
+                "offered or given up (/handover/state_1: handover 1: giver coming, receiver ready)"
+            )
+        clock.advance(0.1)
+    assert came_at is not None and came_at < 0.5  # before the giver offers the block it picked
+    assert built.root.status == Status.SUCCESS
+
+
 def test_a_receiver_that_refuses_ends_the_givers_wait_at_once(tmp_path):
     built, clock = _tree(tmp_path, "- refuse: {name: refuse it, n: 1}")
     assert _run(built, clock) == Status.FAILURE

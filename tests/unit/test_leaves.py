@@ -1520,6 +1520,7 @@ UNIT_TESTED = {
     "await_taker": "test_handover_protocol.py",
     "back_off": "test_handover_protocol.py",
     "begin_transfer": "test_leaves.py",
+    "call_over": "test_handover_protocol.py",
     "capture": "test_leaves.py",
     "carry_from_handover": "test_leaves.py",
     "carry_to_handover": "test_leaves.py",
