@@ -18,6 +18,9 @@ from enum import StrEnum
 class Giver(StrEnum):
     """What the giver said about one handover."""
 
+    COMING = (
+        "coming"  # its grasp chosen, the meeting planned, picking: the receiver may come to wait above it
+    )
     OFFERED = "offered"  # picked, the meeting planned: the receiver may come to the meeting point
     ARRIVED = "arrived"  # holding the block out at the meeting point
     WITHDRAWN = "withdrawn"  # the block slipped: the giver fetches it again; the receiver keeps away
@@ -67,7 +70,7 @@ def record_of(n: int, value: object) -> Handover:
 
 
 def _offered(record: Handover) -> bool:
-    return record.giver in (Giver.OFFERED, Giver.ARRIVED)
+    return record.giver in (Giver.COMING, Giver.OFFERED, Giver.ARRIVED)
 
 
 # Named conditions on one record: what a side waits for or checks.

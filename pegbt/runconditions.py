@@ -17,6 +17,7 @@ from __future__ import annotations
 from pegbt.errors import PegbtError
 
 VARIANTS = ("unilateral", "bilateral", "handover")  # one tree each: trees/VARIANT.yaml
+LONE_VARIANTS = ("unilateral",)  # one arm works; the other stays parked, over none of the pegs
 CONDITIONS = ("uncalibrated", "calibrated", "optimized")
 COMPENSATED = ("calibrated", "optimized")  # their commands correct the cables' error at the tip
 OPTIMIZED = ("optimized",)  # their transfers are planned by the optimiser

@@ -514,6 +514,11 @@ declare(
 )
 
 SAYINGS: dict[str, tuple[Giver | Receiver, str]] = {
+    "call_over": (
+        Giver.COMING,
+        "the giver calls the receiver over for handover `n`: its grasp chosen and the meeting planned, it picks "
+        "the block",
+    ),
     "offer": (
         Giver.OFFERED,
         "the giver offers handover `n`: picked, the meeting planned; the receiver may come",
@@ -549,7 +554,10 @@ CHECKS: dict[str, tuple[str, str]] = {
         "whether the receiver still waits for handover `n` (has not refused it)",
     ),
     "not_given_up": ("not given up", "whether the giver still gives handover `n` (has not given it up)"),
-    "is_offered": ("offered", "whether the giver offers the block (offered or holding it out)"),
+    "is_offered": (
+        "offered",
+        "whether the giver offers the block (coming with it, offered or holding it out)",
+    ),
     "is_withdrawn": ("withdrawn", "whether the giver's offer is withdrawn (or was never made, or given up)"),
     "is_held_out": ("arrived", "whether the giver holds the block out at the meeting point"),
 }

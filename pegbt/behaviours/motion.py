@@ -63,6 +63,16 @@ def above_pegs_first(
     return [solve_ik(above, settings, what="straight above the tool")]
 
 
+def approach_above_clear(skills: Skills, giving: bool) -> float:
+    """How far over the clearing height an approach's warm start passes over the pegs: as a carry for a
+    handover's giver, lower still with the other arm parked (`Skills.other_arm_parked`), higher where the
+    other arm may rest over them (bilateral). The checks hold the same floor whichever it is."""
+    sqp = skills.motion.sqp
+    if giving:
+        return sqp.warm_above_clear
+    return sqp.lone_approach_above_clear if skills.other_arm_parked else sqp.approach_above_clear
+
+
 def planned_approach(
     skills: Skills,
     arm: str,
@@ -85,10 +95,7 @@ def planned_approach(
     stops = above_pegs_first(cell, skills.motion, arm, start, motion.settings)
     if motion.planner is not None:
         approach = approach_for(cell, skills.motion, arm, forward_kinematics(start), waypoints, out_of)
-        sqp = skills.motion.sqp
-        return motion.transfer(
-            approach, above_clear=sqp.warm_above_clear if giving else sqp.approach_above_clear
-        )
+        return motion.transfer(approach, above_clear=approach_above_clear(skills, giving))
     names = [f"above the grasp {i}" for i in range(len(stops))] + [
         "over the grasp",
         "just above the block",

@@ -66,6 +66,7 @@ class SqpSettings:
     max_solver_iterations: int
     warm_above_clear: float  # m: the warm start passes over the pegs this far above the clearing height
     approach_above_clear: float  # m: the same for an approach (the empty tool passes the other arm's)
+    lone_approach_above_clear: float  # m: the same for an approach with the other arm parked
 
 
 @dataclass(frozen=True)

@@ -109,3 +109,30 @@ def test_a_givers_way_out_of_the_block_it_handed_over_into_its_next_approach_bea
         saved.append(risen.duration + after.duration - way.duration)
     assert min(saved) > 0.02, saved
     assert motion.fallbacks == 0
+
+
+def test_with_the_other_arm_parked_an_approach_passes_lower_never_slower_and_on_the_axis_below_the_pegs():
+    """Unilateral's second half: from letting go over a left-group peg to the block on a right-group peg,
+    the approach's warm start passes 2 mm over the descent's channel top, not 7 (bilateral's, whose other
+    arm may rest over the pegs): no slower for any, quicker for some, and as clear of the peg tops."""
+    alone, shared = Skills("optimized", variant="unilateral"), Skills("optimized", variant="bilateral")
+    cell, arm = alone.cell, "PSM1"
+    up = cell.up_in(arm)
+    quicker = 0
+    for dropped, peg in ((1, 6), (3, 9), (5, 10)):
+        over = cell.peg_tops_in(arm)[dropped] + alone.motion.transfer.drop_height_above_peg_top * up
+        start = solve_ik(tool_pose(over, 0.0, up), alone.arm(arm).settings)
+        block = _block(alone, peg)
+        grasp = alone.selectors[arm].pick(block)
+        assert grasp is not None
+        low = planned_approach(alone, arm, start, None, block, grasp)
+        high = planned_approach(shared, arm, start, None, block, grasp)
+        assert np.allclose(forward_kinematics(low.q[-1]), grasp.pose, atol=1e-4)
+        assert low.duration <= high.duration + 1e-9
+        quicker += low.duration < high.duration - 0.02
+        tips = forward_kinematics(low.q)[:, :3, 3]
+        above = (tips - cell.peg_tops_in(arm)[0]) @ up
+        off_axis = np.linalg.norm(np.cross(tips - grasp.pose[:3, 3], up), axis=1)
+        assert off_axis[above < 0.0].max() <= alone.motion.transfer.channel_tolerance + 1e-6
+    assert quicker >= 1
+    assert alone.arm(arm).fallbacks == 0

@@ -24,6 +24,13 @@ def test_a_record_says_each_sides_last_word_by_name():
     assert Handover(3) == Handover(3) and key(3) == "/handover/state_3"
 
 
+def test_a_giver_coming_with_the_block_lets_the_receiver_come_but_holds_nothing_out_yet():
+    coming = Handover(2).said(Receiver.READY).said(Giver.COMING)
+    assert CONDITIONS["offered"](coming) and CONDITIONS["offered or given up"](coming)
+    assert not CONDITIONS["arrived"](coming) and not CONDITIONS["withdrawn"](coming)
+    assert CONDITIONS["withdrawn"](coming.said(Giver.WITHDRAWN))
+
+
 def test_a_giver_that_gave_up_is_neither_offering_nor_waited_for():
     given_up = Handover(1).said(Giver.OFFERED).said(Giver.GIVEN_UP)
     assert not CONDITIONS["offered"](given_up)
@@ -90,6 +97,41 @@ def test_giver_and_receiver_meet_only_through_the_record(tmp_path):
         == "/handover/state_1: handover 1: giver released, receiver taken"
     )
     assert node(built, "until ready").feedback_message.startswith("ready (")
+
+
+CALLED_OVER = """
+tree:
+  parallel:
+    name: one handover
+    children:
+      - sequence:
+          name: giver
+          children:
+            - call_over: {name: come, n: 1}
+            - wait: {name: picking, seconds: 0.5}
+            - offer: {name: offer, n: 1}
+      - sequence:
+          name: receiver
+          children:
+            - ready_for: {name: ready, n: 1}
+            - await_offer: {name: called over, n: 1, patience: 5.0}
+"""
+
+
+def test_a_receiver_called_over_sets_off_while_the_giver_still_picks(tmp_path):
+    clock = ManualClock()
+    built = build_text(tmp_path, CALLED_OVER, clock)
+    came_at = None
+    while built.root.status != Status.SUCCESS and clock.now() < 2.0:
+        built.root.tick_once()
+        if came_at is None and node(built, "called over").status == Status.SUCCESS:
+            came_at = clock.now()
+            assert node(built, "called over").feedback_message == (
+                "offered or given up (/handover/state_1: handover 1: giver coming, receiver ready)"
+            )
+        clock.advance(0.1)
+    assert came_at is not None and came_at < 0.5  # before the giver offers the block it picked
+    assert built.root.status == Status.SUCCESS
 
 
 def test_a_receiver_that_refuses_ends_the_givers_wait_at_once(tmp_path):

@@ -1306,6 +1306,18 @@ def test_await_meeting_lets_the_receiver_descend_at_once_onto_a_block_brought_st
     assert np.all(np.interp(carry.t, descent.t, heights) >= above - 1e-9)
 
 
+def test_await_meeting_does_not_time_the_descent_on_a_giver_that_only_called_the_receiver_over(
+    tmp_path, robot, skills, seen, clock
+):
+    """A giver that says `coming` (its grasp chosen, the meeting planned) is still picking: the motion it has
+    under way is its approach, not the carry that brings the block, so the receiver waits above its grasp."""
+    arm, meeting, values, carry = meeting_under_way(robot, skills, seen, Giver.COMING)
+    built = build(tmp_path, robot, skills, MEETING, **values)
+    assert run(built, clock, seconds=carry.duration) == Status.RUNNING
+    assert feedback(built).startswith("waiting for the giver to bring the block")
+    assert arm.sent == []
+
+
 def descent_against_carry(arm, skills: Skills, meeting, carry, start: float):
     """The receiver's descent from its rest onto its grasp and its tip's heights over the grasp, and per
     sample of the giver's `carry`, the block's height over and distance aside from where it will be held,
@@ -1508,6 +1520,7 @@ UNIT_TESTED = {
     "await_taker": "test_handover_protocol.py",
     "back_off": "test_handover_protocol.py",
     "begin_transfer": "test_leaves.py",
+    "call_over": "test_handover_protocol.py",
     "capture": "test_leaves.py",
     "carry_from_handover": "test_leaves.py",
     "carry_to_handover": "test_leaves.py",

@@ -44,7 +44,7 @@ from pegbt.perception.blocks import BlockLocator
 from pegbt.perception.board import PegboardRegistration
 from pegbt.perception.grasp import GraspSelector
 from pegbt.psm import ARMS
-from pegbt.runconditions import COMPENSATED, OPTIMIZED, known_condition, known_protocol
+from pegbt.runconditions import COMPENSATED, LONE_VARIANTS, OPTIMIZED, known_condition, known_protocol
 from pegbt.workcell import Workcell, workcell
 
 SIMULATOR_CALIBRATION = CALIBRATION_DIR / "sim-dvrk-real"
@@ -82,8 +82,10 @@ class Skills:
     ) -> None:
         """`robot_config`: a dVRK's share/ folder, whose limits narrow skills/psm.yaml's (`robot_arm_settings`);
         `speed`: the fraction of the planner's speed every motion is planned at (`ArmSettings.at_speed`);
-        `protocol` and `variant`: the paper's protocol registers the arms and places at its heights."""
+        `protocol` and `variant`: the paper's protocol registers the arms and places at its heights; in a
+        variant whose other arm stays parked (`LONE_VARIANTS`) an approach passes lower over the pegs."""
         self.condition = known_condition(condition)
+        self.other_arm_parked = variant in LONE_VARIANTS
         self.protocol = known_protocol(protocol)
         self.cell = cell or workcell()
         if protocol == "paper" and condition not in COMPENSATED:
