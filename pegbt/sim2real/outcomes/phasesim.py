@@ -126,8 +126,9 @@ class TransferResult:
 
 
 @cache
-def _skills(condition: str) -> Skills:
-    return Skills(condition, calibration=SIMULATOR_CALIBRATION)
+def _skills(condition: str, variant: str = "") -> Skills:
+    """The skills a trial of `variant` runs with (a lone arm's approach passes lower over the pegs)."""
+    return Skills(condition, calibration=SIMULATOR_CALIBRATION, variant=variant)
 
 
 class Replay:
@@ -380,7 +381,7 @@ def carry_out(
     own = next((b.index for b in world.blocks if b.peg == start_peg), None)
     half = len(order) // 2
     mine = [i for i, (other, _, _) in enumerate(order) if other == arm]
-    trying = _Trying(world, _skills(condition), variant, arm, replay, rng, registered, attempts)
+    trying = _Trying(world, _skills(condition, variant), variant, arm, replay, rng, registered, attempts)
     trying.came_from = None if index == mine[0] else previous_peg
     trying.parks = index in (mine[0], next((i for i in mine if i >= half), None))  # parked before each half
     if pick is not None:
