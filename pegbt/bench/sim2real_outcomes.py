@@ -210,7 +210,7 @@ def measure(
             figures[f"{family}_detectable_at"] = "never" if at is None else at
             print(
                 f"{family}: detectability {ratio:.2f} (1 or more: detectable), "
-                f"detectable at {at or 'no size'} real transfers a fit cell",
+                + (f"from {at} real transfers a fit cell" if at else "at no size: it changes no fit cell"),
                 file=sys.stderr,
                 flush=True,
             )
