@@ -51,8 +51,8 @@ FAMILIES: dict[str, dict[str, dict[str, float]]] = {
     "depth_bias": {"depth_bias": {"bias": 0.001}},
     # No source measures the grip's friction; the registry's one figure is the block's 0.020 N weight.
     # 0.2 N, ten times it, is a light grip (`max_load`: the parameter the fit searches). With a rigid peg the
-    # grip's only load is that weight as the tip accelerates, beyond 0.2 N only past 10 g: at a grip that
-    # carries blocks at all this effect alone may change nothing, which its detectability says.
+    # grip's only load is that weight as the tip accelerates, so a grip that carries blocks at all is seldom
+    # beaten: alone, this effect tests false discoveries as the null does, which its detectability shows.
     "jaw_friction": {"jaw_friction": {"max_load": 0.2}},
     "peg_and_chamfer": {
         "peg_compliance": {"deflection": 0.0015},
