@@ -1,7 +1,7 @@
 """`pegbt bench tick`: what a simulated tick costs, where `pegbt bench sim2real-outcomes` spends its time.
 
 The concealed campaign of that benchmark simulates, per seed, 120 transfers of each of the six cells in
-the six families' worlds at once (`phasesim`: the arm with `dvrk-real` cables ticked at the control
+every family's world at once (`phasesim`: the arm with `dvrk-real` cables ticked at the control
 period, the world updated each tick). This benchmark runs a fixed slice of it in this process: the first
 `TRANSFERS` seeds of each cell, the same worlds, the same seeds, and reports the CPU per transfer, per
 simulated second (summed over the worlds) and per concealed seed (120 transfers a cell), with the cable
@@ -19,14 +19,14 @@ import numpy as np
 
 from pegbt.bench import Figures
 
-TRANSFERS = 2  # seeds per cell: 12 transfers, each in the six worlds
+TRANSFERS = 2  # seeds per cell: 12 transfers, each in every family's world
 REPEATS = 3
 STEPS = 5000  # cable model steps timed
 CONCEALED_TRANSFERS = 120  # per cell and seed in `pegbt bench sim2real-outcomes`
 
 
-def _campaign_slice() -> tuple[float, float, int]:
-    """(CPU s, simulated s summed over worlds, transfers) of the concealed campaign's first seeds."""
+def _campaign_slice() -> tuple[float, float, int, int]:
+    """(CPU s, simulated s summed over worlds, transfers, worlds) of the concealed campaign's first seeds."""
     from pegbt.bench.sim2real_outcomes import CELLS, FAMILIES, REAL_SEED
     from pegbt.sim.world_effects import WorldEffects
     from pegbt.sim2real.outcomes.simulate import LocalMapper
@@ -37,7 +37,7 @@ def _campaign_slice() -> tuple[float, float, int]:
     started = time.process_time()
     results = mapper(tasks)
     cpu = time.process_time() - started
-    return cpu, sum(r.seconds for per_task in results for r in per_task), len(tasks)
+    return cpu, sum(r.seconds for per_task in results for r in per_task), len(tasks), len(worlds)
 
 
 def _step_us() -> float:
@@ -58,12 +58,12 @@ def run() -> Figures:
     _campaign_slice()  # warm: the imports and skills a worker process pays once
     slices = [_campaign_slice() for _ in range(REPEATS)]
     cpu = statistics.median(s[0] for s in slices)
-    simulated, transfers = slices[0][1], slices[0][2]
+    simulated, transfers, worlds = slices[0][1], slices[0][2], slices[0][3]
     steps = statistics.median(_step_us() for _ in range(REPEATS))
     cells = transfers // TRANSFERS
     return {
         "transfers": transfers,
-        "worlds_per_transfer": 6,
+        "worlds_per_transfer": worlds,
         "cpu_s_median": cpu,
         "cpu_ms_per_transfer": cpu / transfers * 1e3,
         "cpu_ms_per_simulated_s": cpu / simulated * 1e3,
