@@ -47,13 +47,22 @@ def test_the_simulated_recoveries_are_the_trees(tree: str, subtree: str, arg: st
     assert args[arg]["default"].integer() == simulated
 
 
-def test_each_transfers_strays_are_read_from_the_trees_orders(tmp_path: Path) -> None:
+def test_each_transfers_strays_are_read_from_an_orders_file(tmp_path: Path) -> None:
     orders = tmp_path / "orders.yaml"
     orders.write_text("lists:\n  mine:\n    - {pick: 1, place: 7, strays: [6]}\n    - {pick: 0, place: 6}\n")
     assert transfer_strays("mine", orders) == ((6,), ())
+
+
+@pytest.mark.parametrize(
+    ("strays", "field"),
+    [("[12]", r"lists\.mine\[0\]\.strays\[0\]"), ("6", r"lists\.mine\[0\]\.strays: expected a list")],
+)
+def test_malformed_strays_are_refused_naming_file_line_and_field(
+    tmp_path: Path, strays: str, field: str
+) -> None:
     bad = tmp_path / "bad.yaml"
-    bad.write_text("lists:\n  mine:\n    - {pick: 1, place: 7, strays: [12]}\n")
-    with pytest.raises(PegbtError, match=r"bad.yaml:3.*strays"):
+    bad.write_text(f"lists:\n  mine:\n    - {{pick: 1, place: 7, strays: {strays}}}\n")
+    with pytest.raises(PegbtError, match=rf"bad.yaml:3:\d+: {field}"):
         transfer_strays("mine", bad)
 
 
