@@ -1,19 +1,13 @@
 """The phase simulator beside a whole trial on the same world and transfers: a bending peg (1.5 mm), the
-unilateral task uncalibrated, world 501. The trial's outcomes are read from its tick log alone, as a real
-robot's would be; the phase simulator plays the trial's transfers in order on one world
-(`simulate_trial`), as the fit simulates a unilateral trial."""
+unilateral task uncalibrated, world 501 (`trial_beside_simulated`), played in order on one world as the fit
+simulates a unilateral trial."""
 
 from __future__ import annotations
 
 from pathlib import Path
 
 import pytest
-
-from pegbt.evaluation.trial import TrialSpec, run_trial
-from pegbt.executive.logfile import read_tick_log
-from pegbt.executive.phases import transfer_outcomes
-from pegbt.sim.world_effects import WorldEffects
-from pegbt.sim2real.outcomes.trialsim import simulate_trial
+from beside_trial_helpers import trial_beside_simulated
 
 pytestmark = [pytest.mark.system, pytest.mark.slow]
 
@@ -21,14 +15,7 @@ SEED = 501
 
 
 def test_the_phase_simulator_agrees_with_a_whole_trial_transfer_for_transfer(tmp_path: Path) -> None:
-    world = tmp_path / "hidden.yaml"
-    world.write_text("effects:\n  - {kind: peg_compliance, deflection: 0.0015}\n")
-    log = tmp_path / "trial.jsonl"
-    run_trial(TrialSpec("unilateral", "uncalibrated", SEED, log, keep_log=True, world_effects=world))
-    trial = ["placed" if o.succeeded else o.phase for o in transfer_outcomes(read_tick_log(log))]
-    hidden = WorldEffects.of({"peg_compliance": {"deflection": 0.0015}})
-    played = simulate_trial([hidden], "unilateral", "uncalibrated", SEED, len(trial))
-    simulated = ["placed" if r.succeeded else r.phase for (r,) in played]
+    trial, simulated = trial_beside_simulated(tmp_path, "unilateral", SEED)
     assert len(trial) == 12, trial
     # a way back whose block the way out lost: the trial finds the peg empty, and so does the simulator
     assert all(s == "sense" for t, s in zip(trial, simulated) if t == "sense"), (trial, simulated)

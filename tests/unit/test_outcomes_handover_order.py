@@ -17,9 +17,10 @@ from pegbt.motion.settings import motion_settings
 from pegbt.sim.world import World
 from pegbt.sim.world_effects import WorldEffects
 from pegbt.sim2real.outcomes import phasesim
-from pegbt.sim2real.outcomes.phasesim import TAKES, simulate_transfer, transfers
+from pegbt.sim2real.outcomes.phasesim import FETCH_REGRASPS, REGRASPS, TAKES, simulate_transfer, transfers
 from pegbt.sim2real.outcomes.trialsim import chosen_block
-from pegbt.workcell import transfer_strays
+from pegbt.workcell import ORDERS_FILE, transfer_strays
+from pegbt.yamlfile import read_settings_file
 
 GIVER = transfers("handover")[0][0]  # PSM2 gives the first six
 RECEIVER = phasesim.RECEIVER[GIVER]
@@ -31,13 +32,37 @@ def _on_board(world: World, block: int, xy: tuple[float, float]) -> None:
     lying.peg = None
 
 
-def test_each_transfers_strays_are_read_from_the_trees_orders(tmp_path: Path) -> None:
+@pytest.mark.parametrize(
+    ("tree", "subtree", "arg", "simulated"),
+    [
+        ("one_transfer.yaml", "transfer_block", "regrasps", REGRASPS),
+        ("handover.yaml", "give", "regrasps", REGRASPS),
+        ("handover.yaml", "receive", "takes", TAKES),
+        ("handover.yaml", "fetch", "regrasps", FETCH_REGRASPS),
+    ],
+)
+def test_the_simulated_recoveries_are_the_trees(tree: str, subtree: str, arg: str, simulated: int) -> None:
+    """The phase simulator retries as often as the shared subtrees do by default (no tree overrides them)."""
+    args = read_settings_file(ORDERS_FILE.parent / tree).section("subtrees")[subtree]["args"]
+    assert args[arg]["default"].integer() == simulated
+
+
+def test_each_transfers_strays_are_read_from_an_orders_file(tmp_path: Path) -> None:
     orders = tmp_path / "orders.yaml"
     orders.write_text("lists:\n  mine:\n    - {pick: 1, place: 7, strays: [6]}\n    - {pick: 0, place: 6}\n")
     assert transfer_strays("mine", orders) == ((6,), ())
+
+
+@pytest.mark.parametrize(
+    ("strays", "field"),
+    [("[12]", r"lists\.mine\[0\]\.strays\[0\]"), ("6", r"lists\.mine\[0\]\.strays: expected a list")],
+)
+def test_malformed_strays_are_refused_naming_file_line_and_field(
+    tmp_path: Path, strays: str, field: str
+) -> None:
     bad = tmp_path / "bad.yaml"
-    bad.write_text("lists:\n  mine:\n    - {pick: 1, place: 7, strays: [12]}\n")
-    with pytest.raises(PegbtError, match=r"bad.yaml:3.*strays"):
+    bad.write_text(f"lists:\n  mine:\n    - {{pick: 1, place: 7, strays: {strays}}}\n")
+    with pytest.raises(PegbtError, match=rf"bad.yaml:3:\d+: {field}"):
         transfer_strays("mine", bad)
 
 
@@ -67,10 +92,12 @@ def receiver_jaw(monkeypatch: pytest.MonkeyPatch) -> list[float]:
     return angles
 
 
-def test_a_receiver_that_misses_takes_the_block_again_up_to_its_takes(receiver_jaw: list[float]) -> None:
+def test_a_receiver_that_misses_takes_the_block_again_up_to_its_takes(
+    receiver_jaw: list[float], caplog: pytest.LogCaptureFixture
+) -> None:
     """Default world, uncalibrated, layout 0, transfer 3: the receiver's jaw closes beside the block held
     out every time."""
-    logging.getLogger("pegbt").setLevel(logging.ERROR)
+    caplog.set_level(logging.ERROR, logger="pegbt")
     closed = motion_settings().transfer.jaw_closed
     once = simulate_transfer(WorldEffects(), "handover", "uncalibrated", 0, index=3, attempts=1)
     assert not once.succeeded and once.phase == "handover"
@@ -82,10 +109,12 @@ def test_a_receiver_that_misses_takes_the_block_again_up_to_its_takes(receiver_j
     assert recovering.seconds > once.seconds
 
 
-def test_a_block_that_slips_from_the_receiver_is_fetched(monkeypatch: pytest.MonkeyPatch) -> None:
+def test_a_block_that_slips_from_the_receiver_is_fetched(
+    monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture
+) -> None:
     """Default world, uncalibrated, layout 1, transfer 0: the block strikes peg 7 as the receiver lowers it;
     the receiver picks it off the board and places it."""
-    logging.getLogger("pegbt").setLevel(logging.ERROR)
+    caplog.set_level(logging.ERROR, logger="pegbt")
     picks: list[str] = []
     attempt = phasesim._attempt
 

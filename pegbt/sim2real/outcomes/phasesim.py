@@ -396,7 +396,7 @@ def carry_out(
         trying.receiver_from = None if first_of_half else order[index - 1][2]
         trying.receiver_parks = first_of_half
     taken = any(b.peg == goal_peg and not b.lost for b in world.blocks)
-    result = trying.run(start_peg, goal_peg, 1 + REGRASPS)
+    result = trying.run(goal_peg, 1 + REGRASPS)
     if result.succeeded and taken:  # as a tick log is read: a block put on a peg seen taken is no placing
         return replace(result, succeeded=False, phase=result.phase or "release")
     return result
@@ -431,7 +431,7 @@ class _Trying:
         self.receiver_from: int | None = None  # a handover's receiver let go over this peg last
         self.receiver_parks = False  # a handover's receiver parks before it goes to the meeting
 
-    def run(self, start_peg: int, goal_peg: int, tries: int) -> TransferResult:
+    def run(self, goal_peg: int, tries: int) -> TransferResult:
         """Up to `tries` picks (`self.attempts` of them set out) of the block `choose` names, each carried
         to `goal_peg`; the first held at a handover's meeting point is handed over."""
         world, skills, arm = self.world, self.skills, self.arm
@@ -495,7 +495,7 @@ class _Trying:
         )
         fetching.failed, fetching.first, fetching.began = taker, first, self.began
         fetching.choose = lambda again: self.fetch(self.world, goal_peg, True, self.strays)
-        return fetching.run(goal_peg, goal_peg, 1 + FETCH_REGRASPS)
+        return fetching.run(goal_peg, 1 + FETCH_REGRASPS)
 
 
 def _moved_out(world: World, order: tuple[tuple[str, int, int], ...]) -> None:
@@ -701,9 +701,9 @@ def _park(world: World, skills: Skills, arm: str, start: NDArray[np.float64]) ->
 def _hand_over(trying: _Trying, giver: _Bench, block: int, goal_peg: int) -> TransferResult:
     """The giver holds `block` at the meeting point: the receiver waits open above its grasp, descends and
     closes; the giver opens and withdraws; the receiver carries the block over `goal_peg`, lowers it and
-    opens (`pegbt.motion.handover`'s order); `registered` (the paper's protocol), at the paper's heights
-    and looking before it lowers, with `rng`'s perception noise (`_paper_place`). The seconds are the
-    trial's per transfer (`_overlapped`).
+    opens (`pegbt.motion.handover`'s order); `trying.registered` (the paper's protocol), at the paper's
+    heights and looking before it lowers, with `trying.rng`'s perception noise (`_paper_place`). The seconds
+    are the trial's per transfer (`_overlapped`).
 
     Where the trial recovers (`trying.attempts` more than one), as `trees/shared/handover.yaml` does: a
     receiver whose jaw closed on nothing while the giver holds the block out (`try_to_take`'s `back off`)
