@@ -135,6 +135,12 @@ class Profile:
         total = self.total if without is None else self.total - self.per_cell[:, without]
         return np.exp(total - logsumexp(total))
 
+    def posterior(self) -> tuple[np.ndarray, np.ndarray]:
+        """The parameter's posterior (flat prior) over the profile between grid values (`between`; the
+        grid's, if not known): its values and their weights, which sum to 1."""
+        values, totals = self.dense or (np.asarray(self.values), self.total)
+        return np.asarray(values, dtype=float), np.exp(totals - logsumexp(totals))
+
     @property
     def estimate(self) -> float:
         """The parameter's estimate: the maximum of the profile between grid values (of the grid's, if
