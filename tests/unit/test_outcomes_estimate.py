@@ -10,7 +10,7 @@ from scipy import stats
 from pegbt.sim.world_effects import WorldEffects
 from pegbt.sim2real.outcomes.cells import Cell, Outcomes
 from pegbt.sim2real.outcomes.diagnose import Settings, diagnose, profile_parameters
-from pegbt.sim2real.outcomes.fit import between, estimate
+from pegbt.sim2real.outcomes.fit import between, candidates, estimate, with_inert
 from pegbt.sim2real.outcomes.simulate import SimCounts
 from tests.outcomes_helpers import fake_mapper, real_counts
 
@@ -85,3 +85,33 @@ def test_a_diagnosis_names_a_value_between_grid_values() -> None:
     low, high = intervals["deflection"]
     assert low <= truth <= high
     assert d.world().values("peg_compliance")["deflection"] == named.estimate
+
+
+def test_a_value_below_the_first_grid_value_is_read_through_the_inert_default() -> None:
+    """0.5 mm lies between the inert default (0) and the grid's first value (0.75 mm): the profile runs
+    through the default world's counts, so the estimate can fall below the grid and its interval holds it."""
+    truth = 0.0005
+    hidden = WorldEffects.of({"peg_compliance": {"deflection": truth}})
+    outcomes = Outcomes(
+        (
+            Cell(
+                "unilateral", "uncalibrated", 1000, real_counts(hidden, "unilateral", "uncalibrated", 1000, 5)
+            ),
+            Cell("unilateral", "calibrated", 1000, 1000),
+        ),
+        "test",
+    )
+    d = diagnose(outcomes, Settings(fit="unilateral", transfers=1000, located=1000, points=4), fake_mapper)
+    (named,) = d.verdict.named
+    assert named.estimate < GRID[0]
+    low, high = named.interval()
+    assert low <= truth <= high and high < GRID[1]
+
+
+def test_the_inert_default_joins_the_grid_where_it_lies() -> None:
+    (registration,) = [c for c in candidates(4) if c.name == "registration_offset.x"]
+    sims = [{KEY: SimCounts()} for _ in registration.grid]
+    default = {KEY: SimCounts()}
+    values, joined = with_inert(registration, sims, default)
+    assert values == [-0.005, -0.0025, 0.0, registration.grid[2], 0.005]
+    assert joined[2] is default and joined[1] is sims[1] and joined[3] is sims[2]

@@ -15,7 +15,8 @@ them), and the first choice decides every later step.
 
 What is named is decided on the grid; the value named is not limited to it: a grid coarse enough to be
 affordable steps a parameter by half its value, so the estimate and its interval are read from the
-profile log-likelihood between grid values (`between`, `estimate`), with no more simulation.
+profile log-likelihood between grid values and the inert default (`with_inert`, `between`, `estimate`),
+with no more simulation.
 """
 
 from __future__ import annotations
@@ -135,6 +136,12 @@ class Profile:
         total = self.total if without is None else self.total - self.per_cell[:, without]
         return np.exp(total - logsumexp(total))
 
+    def posterior(self) -> tuple[np.ndarray, np.ndarray]:
+        """The parameter's posterior (flat prior) over the profile between grid values (`between`; the
+        grid's, if not known): its values and their weights, which sum to 1."""
+        values, totals = self.dense or (np.asarray(self.values), self.total)
+        return np.asarray(values, dtype=float), np.exp(totals - logsumexp(totals))
+
     @property
     def estimate(self) -> float:
         """The parameter's estimate: the maximum of the profile between grid values (of the grid's, if
@@ -241,16 +248,37 @@ def profile(
     ones beyond chance, and otherwise keep the default world's likelihood, which they agree with."""
     worlds = [candidate.world(v, base) for v in candidate.grid]
     loud, quiet = list(cells[:informative]), list(cells[informative:])
-    sims = simulate_cells(mapper, worlds, [c.key for c in loud], transfers)
+    *sims, at_default = simulate_cells(mapper, [*worlds, base], [c.key for c in loud], transfers)
     per_cell = np.array([[log_likelihood(c, sim[c.key], phases) for c in loud] for sim in sims])
     rest = np.tile(null[informative:], (len(worlds), 1))
     if quiet and 2 * (per_cell.sum(axis=1).max() - null[:informative].sum()) >= LR_95:
-        more = simulate_cells(mapper, worlds, [c.key for c in quiet], max(2, transfers // 3))
+        *more, quiet_default = simulate_cells(
+            mapper, [*worlds, base], [c.key for c in quiet], max(2, transfers // 3)
+        )
         rest = np.array([[log_likelihood(c, sim[c.key], phases) for c in quiet] for sim in more])
         sims = [{**a, **b} for a, b in zip(sims, more)]
+        at_default = {**at_default, **quiet_default}
     per_cell = np.hstack([per_cell, rest])
-    dense = between(candidate.grid, sims, cells, per_cell, phases)
+    values, with_default = with_inert(candidate, sims, at_default)
+    dense = between(values, with_default, cells, per_cell, phases)
     return Profile(candidate, candidate.grid, sims, per_cell, base, dense=dense)
+
+
+def with_inert(
+    candidate: Candidate, sims: list[dict[Key, SimCounts]], at_default: dict[Key, SimCounts]
+) -> tuple[list[float], list[dict[Key, SimCounts]]]:
+    """The grid's values and counts with the parameter's inert default among them (the world before the
+    candidate, `at_default`), for the profile between grid values: the grid leaves the default out (the
+    world before already has it), and without it the profile between the grid values either side of it
+    (a registration offset of −2.5 and +2.5 mm) would read the default world as their average, and none
+    below the grid's first value (a peg bending less than 0.75 mm) at all. A log-spaced grid whose default
+    is not positive keeps its values alone."""
+    default = WORLD_EFFECT_KINDS[candidate.kind].parameters[candidate.parameter].default
+    grid = list(candidate.grid)
+    if default <= 0 and grid[0] > 0 and grid[-1] / grid[0] > 100:
+        return grid, sims
+    at = int(np.searchsorted(grid, default))
+    return [*grid[:at], default, *grid[at:]], [*sims[:at], at_default, *sims[at:]]
 
 
 def loo_gain(fitted: Profile, null: np.ndarray) -> float:

@@ -1,0 +1,80 @@
+"""Held-out cells predicted across the fitted parameter's posterior, not at its best grid value alone: a
+cell that changes within a grid step must find the truth inside its interval, and a cell the parameter
+does not move must keep the interval one world gives it."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+import pytest
+
+from pegbt.sim2real.outcomes.cells import Cell
+from pegbt.sim2real.outcomes.fit import Candidate, Profile
+from pegbt.sim2real.outcomes.phasesim import TransferResult
+from pegbt.sim2real.outcomes.predict import nodes, predict, predict_world
+from pegbt.sim2real.outcomes.simulate import Task
+
+STEP = 0.0012  # deflection (m) from which the stand-in's bilateral transfers all fail at the lowering
+GRID = (0.00075, 0.0015, 0.00225, 0.003)  # peg deflection's grid at `points=4`, less its inert default
+
+
+def _step(tasks: Sequence[Task]) -> list[list[TransferResult]]:
+    """A bilateral transfer is placed below `STEP` and fails above it; a handover is placed on even seeds
+    in every world."""
+    out = []
+    for worlds, variant, _, seed in tasks:
+        row = []
+        for effects in worlds:
+            bends = effects.values("peg_compliance")["deflection"] >= STEP
+            placed = not bends if variant == "bilateral" else seed % 2 == 0
+            row.append(TransferResult(placed, None if placed else "lower", 4.0))
+        out.append(row)
+    return out
+
+
+def _profile(centre: float, spread: float) -> Profile:
+    """A fit of peg deflection whose profile between grid values is a normal log-likelihood."""
+    dense = np.linspace(GRID[0], GRID[-1], 3 * 16 + 1)
+    at = np.array(GRID)
+    per_cell = (-(((at - centre) / spread) ** 2) / 2)[:, None]
+    candidate = Candidate("peg_compliance", "deflection", GRID)
+    return Profile(candidate, GRID, [], per_cell, dense=(dense, -(((dense - centre) / spread) ** 2) / 2))
+
+
+CELLS = [Cell("bilateral", "uncalibrated", 40, 40), Cell("handover", "uncalibrated", 40, 20)]
+
+
+def test_a_cell_that_changes_within_a_grid_step_is_predicted_across_the_posterior() -> None:
+    """Truth 1.0 mm places every bilateral transfer; the best grid value, 1.5 mm, places none, and the
+    profile between grid values (0.9–1.9 mm at 95 %) holds both: the interval must hold the real count."""
+    fitted = _profile(0.0014, 0.00025)
+    assert fitted.value == 0.0015
+    at_best = predict_world(_step, fitted.world(), CELLS, 12)[CELLS[0].key]
+    assert not at_best.inside  # the best grid value alone misses it
+    mixed, _ = predict(_step, [fitted], CELLS, 12)
+    assert mixed[CELLS[0].key].inside and mixed[CELLS[0].key].high == 1.0
+    assert mixed[CELLS[0].key].low == 0.0  # the posterior's worlds above 1.2 mm place none
+    assert mixed[CELLS[0].key].at_best.succeeded == 0  # the best grid value is still what the fit simulated
+
+
+def test_a_cell_the_parameter_does_not_move_keeps_one_worlds_interval() -> None:
+    fitted = _profile(0.0014, 0.00025)
+    mixed, _ = predict(_step, [fitted], CELLS, 12)
+    alone = predict_world(_step, fitted.world(), CELLS, 12)[CELLS[1].key]
+    handover = mixed[CELLS[1].key]
+    assert (handover.low, handover.high) == (alone.low, alone.high)
+    assert handover.inside
+
+
+def test_nodes_stand_for_equal_shares_of_the_posterior() -> None:
+    values = np.linspace(-1.0, 1.0, 9)
+    sharp = np.zeros(9)
+    sharp[6] = 1.0
+    assert nodes(values, sharp)[0].tolist() == [0.5]
+    assert nodes(values, sharp)[1].tolist() == [1.0]
+    both = np.zeros(9)
+    both[[1, 7]] = [0.25, 0.75]  # a registration offset of either sign, one three times as likely
+    picked, weights = nodes(values, both, count=8)
+    assert picked.tolist() == [-0.75, 0.75]
+    assert weights.tolist() == pytest.approx([0.25, 0.75])
