@@ -35,8 +35,9 @@ def test_the_shared_memo_gives_the_figures_of_unshared_diagnoses() -> None:
     for family in FAMILIES:
         for name in ("named", "false", "inside"):
             assert _same(figures[f"{family}_{name}"], statistics.mean(s[name] for s in scores[family]))
-    assert figures["peg_compliance_named"] == 1.0 and figures["null_false"] == 0.0
-    errors = [s["error"] for s in scores["peg_compliance"]]
+    # the peg named on some seed, nothing on the null: the figures compared are not all empty
+    assert figures["peg_compliance_named"] > 0 and figures["null_false"] == 0.0
+    errors = [s["error"] for s in scores["peg_compliance"] if not math.isnan(s["error"])]  # where named
     assert figures["peg_compliance_parameter_error_median"] == statistics.median(errors)
     assert figures["transfers_the_diagnoses_simulate"] == needed
     assert isinstance(figures["transfers_simulated"], int) and figures["transfers_simulated"] < needed
