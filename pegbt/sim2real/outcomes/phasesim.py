@@ -381,20 +381,26 @@ def carry_out(
     own = next((b.index for b in world.blocks if b.peg == start_peg), None)
     half = len(order) // 2
     mine = [i for i, (other, _, _) in enumerate(order) if other == arm]
-    trying = _Trying(world, _skills(condition, variant), variant, arm, replay, rng, registered, attempts)
-    trying.came_from = None if index == mine[0] else previous_peg
-    trying.parks = index in (mine[0], next((i for i in mine if i >= half), None))  # parked before each half
-    if pick is not None:
-        trying.choose = lambda again: pick(world, start_peg, again, strays)
-    else:
-        trying.choose = lambda again: own
-    trying.looks_again = pick is not None
-    trying.fetch = pick or (lambda *_: own)
-    trying.strays = strays
-    if pick is not None and variant == "handover":  # the receiver's history in its trial
-        first_of_half = index in (0, half)
-        trying.receiver_from = None if first_of_half else order[index - 1][2]
-        trying.receiver_parks = first_of_half
+    in_trial = pick is not None and variant == "handover"  # the receiver's history in its trial
+    first_of_half = index in (0, half)
+    trying = _Trying(
+        world,
+        _skills(condition, variant),
+        variant,
+        arm,
+        replay,
+        rng,
+        registered,
+        attempts,
+        came_from=None if index == mine[0] else previous_peg,
+        parks=index in (mine[0], next((i for i in mine if i >= half), None)),  # parked before each half
+        choose=(lambda again: pick(world, start_peg, again, strays)) if pick else (lambda again: own),
+        looks_again=pick is not None,
+        fetch=pick or (lambda *_: own),
+        strays=strays,
+        receiver_from=None if not in_trial or first_of_half else order[index - 1][2],
+        receiver_parks=in_trial and first_of_half,
+    )
     taken = any(b.peg == goal_peg and not b.lost for b in world.blocks)
     result = trying.run(goal_peg, 1 + REGRASPS)
     if result.succeeded and taken:  # as a tick log is read: a block put on a peg seen taken is no placing
@@ -416,20 +422,33 @@ class _Trying:
         rng: np.random.Generator,
         registered: bool,
         attempts: int,
+        *,
+        choose: Callable[[bool], int | None],
+        came_from: int | None = None,
+        parks: bool = True,
+        looks_again: bool = True,
+        fetch: Pick = lambda *_: None,
+        strays: tuple[int, ...] = (),
+        receiver_from: int | None = None,
+        receiver_parks: bool = False,
+        failed: _Bench | None = None,
+        first: str | None = None,
+        began: float | None = None,
     ) -> None:
+        """`choose`: the block an attempt goes after (given whether it is a recovery); `came_from`: the peg
+        the arm let go over last (None: home); `parks`: it parks before its first attempt; `looks_again`: a
+        pick that finds no block recovers; `fetch`, `strays`: a handover receiver's fetch of a slipped block
+        (`fetched`); `receiver_from`, `receiver_parks`: where a handover's receiver let go last, and whether
+        it parks before it goes to the meeting; `failed`, `first`, `began`: the attempt, failure and time
+        an earlier loop left (a fetch goes on from the receiver's carry)."""
         self.world, self.skills, self.variant, self.arm = world, skills, variant, arm
         self.replay, self.rng, self.registered, self.attempts = replay, rng, registered, attempts
-        self.began = world.time
-        self.came_from: int | None = None
-        self.parks = True
-        self.failed: _Bench | None = None  # the last attempt the arm set out on
-        self.first: str | None = None
-        self.choose: Callable[[bool], int | None] = lambda again: None
-        self.looks_again = True
-        self.fetch: Pick = lambda *_: None
-        self.strays: tuple[int, ...] = ()
-        self.receiver_from: int | None = None  # a handover's receiver let go over this peg last
-        self.receiver_parks = False  # a handover's receiver parks before it goes to the meeting
+        self.choose, self.came_from, self.parks, self.looks_again = choose, came_from, parks, looks_again
+        self.fetch, self.strays = fetch, strays
+        self.receiver_from, self.receiver_parks = receiver_from, receiver_parks
+        self.failed = failed  # the last attempt the arm set out on
+        self.first = first
+        self.began = world.time if began is None else began
 
     def run(self, goal_peg: int, tries: int) -> TransferResult:
         """Up to `tries` picks (`self.attempts` of them set out) of the block `choose` names, each carried
@@ -492,9 +511,11 @@ class _Trying:
             self.rng,
             self.registered,
             1 + FETCH_REGRASPS,
+            choose=lambda again: self.fetch(self.world, goal_peg, True, self.strays),
+            failed=taker,
+            first=first,
+            began=self.began,
         )
-        fetching.failed, fetching.first, fetching.began = taker, first, self.began
-        fetching.choose = lambda again: self.fetch(self.world, goal_peg, True, self.strays)
         return fetching.run(goal_peg, 1 + FETCH_REGRASPS)
 
 
@@ -730,7 +751,7 @@ def _hand_over(trying: _Trying, giver: _Bench, block: int, goal_peg: int) -> Tra
     q0 = _receiver_start(trying, receiver, waypoints.poses[3], goal_peg)
     taker = _Bench(world, receiver, motion, q0, trying.replay, trying.registered)
     parked = 0.0
-    if trying.receiver_from is None and trying.receiver_parks:
+    if trying.receiver_parks:  # before the first handover of each half: it comes from home
         park = _park(world, skills, receiver, q0)
         taker.play(park, [(0.0, "handover")])
         q0, parked = park.q[-1], float(park.t[-1] - park.t[0])
