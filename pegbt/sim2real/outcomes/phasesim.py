@@ -117,12 +117,15 @@ class Chosen:
 class TransferResult:
     """A simulated transfer: placed or not, the phase of its first failure (a placed transfer may have
     recovered from one), its simulated seconds, and whether it was a way back whose block was never
-    placed on its start peg (a tick log's `sense`; the paper's robot skipped it)."""
+    placed on its start peg (a tick log's `sense`; the paper's robot skipped it). `over_goal`: the arm
+    that carried the block last let go of it over its goal peg; a handover's receiver that did not was
+    parked by the trees (`receive`'s failure), and the next handover's receiver comes from home."""
 
     succeeded: bool
     phase: str | None
     seconds: float
     skipped: bool = False
+    over_goal: bool = False
 
 
 @cache
@@ -358,6 +361,7 @@ def carry_out(
     registered: bool,
     rng: np.random.Generator,
     pick: Pick | None = None,
+    receiver_parked: bool = False,
 ) -> TransferResult:
     """Transfer `index` of `variant`'s transfers on `world` as it lies: the grasp the executive would
     choose for the block perception would see, and the motions it would send, picked and carried again
@@ -373,7 +377,8 @@ def carry_out(
     receiver's carry are `_hand_over`'s, retried and fetched again as the trees do when `attempts` allow a
     recovery (pegbt's trees; the paper's robot tried each block once). A transfer whose goal peg held a
     block as it began is not placed, whatever it put there (`pegbt.executive.phases.transfer_outcomes`: the
-    robot's look before it began saw the peg taken; a fetch picks the block on its goal peg first)."""
+    robot's look before it began saw the peg taken; a fetch picks the block on its goal peg first).
+    `receiver_parked`: the trial's handover before this one failed, so its receiver was parked at home."""
     order = transfers(variant)
     arm, start_peg, goal_peg = order[index]
     previous_peg = next(goal for other, _, goal in reversed(order + order[:index]) if other == arm)
@@ -382,7 +387,7 @@ def carry_out(
     half = len(order) // 2
     mine = [i for i, (other, _, _) in enumerate(order) if other == arm]
     in_trial = pick is not None and variant == "handover"  # the receiver's history in its trial
-    first_of_half = index in (0, half)
+    from_home = index in (0, half) or receiver_parked  # else from over its last goal peg
     trying = _Trying(
         world,
         _skills(condition, variant),
@@ -398,8 +403,8 @@ def carry_out(
         looks_again=pick is not None,
         fetch=pick or (lambda *_: own),
         strays=strays,
-        receiver_from=None if not in_trial or first_of_half else order[index - 1][2],
-        receiver_parks=in_trial and first_of_half,
+        receiver_from=None if not in_trial or from_home else order[index - 1][2],
+        receiver_parks=in_trial and from_home,
     )
     taken = any(b.peg == goal_peg and not b.lost for b in world.blocks)
     result = trying.run(goal_peg, 1 + REGRASPS)
@@ -489,19 +494,19 @@ class _Trying:
                 bench.jaw(skills.motion.transfer.jaw_open, "release")
                 placed = world.blocks[block]
                 if placed.peg == goal_peg and not placed.grips:
-                    return TransferResult(True, self.first, world.time - self.began)
+                    return TransferResult(True, self.first, world.time - self.began, over_goal=True)
                 phase = self.first or _failed_phase(bench.events, block)
-                return TransferResult(False, phase, world.time - self.began)
+                return TransferResult(False, phase, world.time - self.began, over_goal=True)
             self.first = self.first or bench.failed
             if world.held_by(arm) is not None:
                 bench.jaw(skills.motion.transfer.jaw_open, "grasp")
         return TransferResult(False, self.first or "grasp", world.time - self.began)
 
-    def fetched(self, taker: _Bench, goal_peg: int, first: str) -> TransferResult:
-        """The receiver's block slipped on its way to `goal_peg` (its first failure `first`): it looks again,
+    def fetched(self, taker: _Bench, goal_peg: int, first: str) -> tuple[TransferResult, _Bench]:
+        """The receiver lost its block on its way to `goal_peg` (its first failure `first`): it looks again,
         picks the block on that peg, else the loose one nearest it, and carries it there, recovering
         `FETCH_REGRASPS` times (`trees/shared/handover.yaml`'s `fetch`, its `pick` and `lift` as a one-arm
-        transfer's)."""
+        transfer's); with the receiver's arm as the fetch left it."""
         fetching = _Trying(
             self.world,
             self.skills,
@@ -516,7 +521,7 @@ class _Trying:
             first=first,
             began=self.began,
         )
-        return fetching.run(goal_peg, 1 + FETCH_REGRASPS)
+        return fetching.run(goal_peg, 1 + FETCH_REGRASPS), fetching.failed or taker
 
 
 def _moved_out(world: World, order: tuple[tuple[str, int, int], ...]) -> None:
@@ -732,7 +737,14 @@ def _hand_over(trying: _Trying, giver: _Bench, block: int, goal_peg: int) -> Tra
     `takes`), the tick log naming a miss `grasp` (the receiver's `grasp` leaf); after the last the giver
     lets go where it is (`give`'s `let go of it`: the block falls under the meeting point, `strays`); a
     block that slips from the receiver on its way to the goal peg is fetched (`carry it, or fetch it if it
-    fell`, `trying.fetched`). The paper's robot took each block once."""
+    fell`, `trying.fetched`). The paper's robot took each block once.
+
+    Where the receiver cannot go to wait above its grasp, it gives the handover up (`receive`'s `record
+    the failure`: `refuse it`) and the giver lets go where it holds the block out (`give`'s `let go of
+    it`). A receiver whose carry cannot be planned lets go where it is, then fetches the block from the
+    board as after a slip, or, not recovering, parks (`receive`'s `let go`, `park`). A receiver that
+    did not let go of the block over its goal peg is parked by the trees; its way back to the waiting
+    pose (`_overlapped`'s `back`) is then its park."""
     world, skills, first, began = trying.world, trying.skills, trying.first, trying.began
     assert giver.meeting is not None  # only a held block at the meeting point is handed over
     meeting, receiver = giver.meeting, RECEIVER[giver.name]
@@ -742,6 +754,7 @@ def _hand_over(trying: _Trying, giver: _Bench, block: int, goal_peg: int) -> Tra
     wait[:3, 3] += skills.motion.handover.receiver_wait_above * world.cell.up_in(receiver)
     ik = inverse_kinematics(np.stack([wait, meeting.receiver_grasp.pose]), motion.settings)
     if not ik.ok.all():
+        giver.jaw(skills.motion.transfer.jaw_open, "handover")
         return TransferResult(False, first or "handover", world.time - began)
     looks = _looks(trying.registered, motion)
     heights = paper_heights(skills.motion, "handover") if looks else skills.motion
@@ -751,7 +764,7 @@ def _hand_over(trying: _Trying, giver: _Bench, block: int, goal_peg: int) -> Tra
     q0 = _receiver_start(trying, receiver, waypoints.poses[3], goal_peg)
     taker = _Bench(world, receiver, motion, q0, trying.replay, trying.registered)
     parked = 0.0
-    if trying.receiver_parks:  # before the first handover of each half: it comes from home
+    if trying.receiver_parks:  # before the first handover of each half, or after one failed: from home
         park = _park(world, skills, receiver, q0)
         taker.play(park, [(0.0, "handover")])
         q0, parked = park.q[-1], float(park.t[-1] - park.t[0])
@@ -779,29 +792,34 @@ def _hand_over(trying: _Trying, giver: _Bench, block: int, goal_peg: int) -> Tra
         return TransferResult(False, first or "handover", world.time - ahead)
     let_go = world.time
 
-    def result(placed: bool, phase: str | None) -> TransferResult:
-        seconds = _overlapped(let_go - ahead, met, world.time - let_go, _way_back(taker, ik.q[0]))
-        return TransferResult(placed, phase, seconds)
+    def result(placed: bool, phase: str | None, arm: _Bench, over_goal: bool) -> TransferResult:
+        back = _way_back(arm, ik.q[0]) if over_goal else _parking(world, skills, arm)
+        seconds = _overlapped(let_go - ahead, met, world.time - let_go, back)
+        return TransferResult(placed, phase, seconds, over_goal=over_goal)
 
     try:
-        planned = motion.transfer(waypoints)
-    except PegbtError:  # the receiver's carry fails to plan
-        return result(False, "carry")
-    _, lowering = segment_times(planned)
-    if looks:
-        _paper_place(taker, planned, waypoints, block, goal_peg, trying.rng, [(0.0, "carry")])
-    else:
-        taker.play(planned, [(0.0, "carry"), (lowering, "lower")], holding=block)
-    # the block handed over, the failures before were got over: a failure from here is the receiver's own
-    if world.held_by(receiver) != block:
+        planned: Trajectory | None = motion.transfer(waypoints)
+    except PegbtError:  # the receiver's carry fails to plan: it lets go where it is
+        planned = None
+        taker.jaw(skills.motion.transfer.jaw_open, "carry")
+        phase = "carry"
+    if planned is not None:
+        _, lowering = segment_times(planned)
+        if looks:
+            _paper_place(taker, planned, waypoints, block, goal_peg, trying.rng, [(0.0, "carry")])
+        else:
+            taker.play(planned, [(0.0, "carry"), (lowering, "lower")], holding=block)
+        if world.held_by(receiver) == block:
+            taker.jaw(skills.motion.transfer.jaw_open, "release")
+            placed = world.blocks[block].peg == goal_peg and not world.blocks[block].grips
+            return result(placed, first if placed else "release", taker, True)
         phase = _failed_phase(taker.events, block)
-        if not recovers:
-            return result(False, phase)
-        fetched = trying.fetched(taker, goal_peg, phase)
-        return result(fetched.succeeded, first or phase if fetched.succeeded else fetched.phase)
-    taker.jaw(skills.motion.transfer.jaw_open, "release")
-    placed = world.blocks[block].peg == goal_peg and not world.blocks[block].grips
-    return result(placed, first if placed else "release")
+    # the block handed over, the failures before were got over: a failure from here is the receiver's own
+    if not recovers:
+        return result(False, phase, taker, False)
+    fetched, fetcher = trying.fetched(taker, goal_peg, phase)
+    named = first or phase if fetched.succeeded else fetched.phase
+    return result(fetched.succeeded, named, fetcher, fetched.over_goal)
 
 
 def _receiver_start(
@@ -810,12 +828,22 @@ def _receiver_start(
     """Where the receiver comes from to the meeting: in a trial played in order, lowered over the goal peg of
     its last handover (`receiver_from`), where it let go (as `_previous_release`, its cables at rest there;
     `receive` goes to the meeting from where it is), or home, parked from the simulator's start joints,
-    before the first of each half; alone, from the simulator's start joints."""
+    before the first of each half and after a handover that failed (`receive` parks it); alone, from the
+    simulator's start joints."""
     if trying.receiver_from is None:
         return START
     start = _previous_release(trying.world, receiver, dropped, goal_peg, trying.receiver_from)
     ik = inverse_kinematics(start[None], trying.skills.arm(receiver).settings)
     return ik.q[0] if ik.ok.all() else START
+
+
+def _parking(world: World, skills: Skills, arm: _Bench) -> float:
+    """Planned seconds of `arm`'s park from where it stopped (`Park`), or 0 when it cannot be planned."""
+    try:
+        park = _park(world, skills, arm.name, arm.arm.joints.setpoint.copy())
+    except PegbtError:
+        return 0.0
+    return float(park.t[-1] - park.t[0])
 
 
 def _way_back(taker: _Bench, waiting: NDArray[np.float64]) -> float:
