@@ -1,6 +1,6 @@
 """A receiver that misses the block held out takes it again only where the policy recovers: under the
 paper's protocol (`/policy/recover_lost_blocks` false) it takes it once, as the phase simulator plays the
-paper's robot (`phasesim._hand_over`)."""
+paper's robot (`exchange.hand_over`)."""
 
 from __future__ import annotations
 

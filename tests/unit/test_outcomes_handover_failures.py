@@ -19,8 +19,10 @@ from pegbt.motion.ik import IKSolution
 from pegbt.motion.waypoints import TransferWaypoints
 from pegbt.sim.world import World
 from pegbt.sim.world_effects import WorldEffects
-from pegbt.sim2real.outcomes import phasesim, trialsim
-from pegbt.sim2real.outcomes.phasesim import Replay, TransferResult, carry_out
+from pegbt.sim2real.outcomes import exchange, trialsim
+from pegbt.sim2real.outcomes.bench import START, Replay
+from pegbt.sim2real.outcomes.phasesim import carry_out
+from pegbt.sim2real.outcomes.transfer_result import TransferResult
 
 SEED, INDEX = 1, 1  # calibrated, this handover places its block (PSM2 to PSM1, onto peg 6)
 ARMS = ("PSM1", "PSM2")
@@ -35,7 +37,7 @@ def _handover(world: World, attempts: int) -> TransferResult:
 def no_wait_pose(monkeypatch: pytest.MonkeyPatch) -> Callable[[bool], None]:
     """Refuse the receiver's wait pose and grasp (the one IK of two poses) while switched on."""
     refusing = [False]
-    solve = phasesim.inverse_kinematics
+    solve = exchange.inverse_kinematics
 
     def refused(poses: Any, settings: Any = None) -> IKSolution:
         solution = solve(poses, settings)
@@ -43,7 +45,7 @@ def no_wait_pose(monkeypatch: pytest.MonkeyPatch) -> Callable[[bool], None]:
             return dataclasses.replace(solution, reachable=np.zeros(2, dtype=bool))
         return solution
 
-    monkeypatch.setattr(phasesim, "inverse_kinematics", refused)
+    monkeypatch.setattr(exchange, "inverse_kinematics", refused)
     return lambda on: refusing.__setitem__(0, on)
 
 
@@ -51,7 +53,7 @@ def no_wait_pose(monkeypatch: pytest.MonkeyPatch) -> Callable[[bool], None]:
 def no_receivers_carry(monkeypatch: pytest.MonkeyPatch) -> None:
     """Refuse to plan the receiver's carry from the meeting point (`from_handover`'s waypoints)."""
     made: list[TransferWaypoints] = []
-    waypoints, transfer = phasesim.from_handover, ArmMotion.transfer
+    waypoints, transfer = exchange.from_handover, ArmMotion.transfer
 
     def recorded(*args: Any, **kwargs: Any) -> TransferWaypoints:
         made.append(waypoints(*args, **kwargs))
@@ -62,7 +64,7 @@ def no_receivers_carry(monkeypatch: pytest.MonkeyPatch) -> None:
             raise PegbtError("the carry is out of reach")
         return transfer(self, planned, **kwargs)
 
-    monkeypatch.setattr(phasesim, "from_handover", recorded)
+    monkeypatch.setattr(exchange, "from_handover", recorded)
     monkeypatch.setattr(ArmMotion, "transfer", refused)
 
 
@@ -106,7 +108,7 @@ def test_after_a_handover_failed_the_next_receiver_comes_from_home(
     caplog.set_level(logging.ERROR, logger="pegbt")
     index: list[int] = []
     parks: list[tuple[int, str, bool]] = []
-    carry, park = trialsim.carry_out, phasesim._park
+    carry, park = trialsim.carry_out, exchange.planned_park
 
     def numbered(world: World, variant: str, condition: str, at: int, *args: Any) -> TransferResult:
         index.append(at)
@@ -114,11 +116,11 @@ def test_after_a_handover_failed_the_next_receiver_comes_from_home(
         return carry(world, variant, condition, at, *args)
 
     def parked(world: World, skills: Any, arm: str, start: np.ndarray) -> Any:
-        parks.append((index[-1], arm, bool(np.array_equal(start, phasesim.START))))
+        parks.append((index[-1], arm, bool(np.array_equal(start, START))))
         return park(world, skills, arm, start)
 
     monkeypatch.setattr(trialsim, "carry_out", numbered)
-    monkeypatch.setattr(phasesim, "_park", parked)
+    monkeypatch.setattr(exchange, "planned_park", parked)
     played = trialsim.simulate_trial([WorldEffects()], "handover", "calibrated", 0, 3)
     assert [(row[0].succeeded, row[0].phase) for row in played] == [
         (True, None),
