@@ -39,7 +39,8 @@ class LoadedTree:
 
     def set_blackboard(self, values: Mapping[str, Any], *, asked_by: str = "") -> None:
         """Replace initial values of keys the file's `blackboard:` declares, as a command's parameters;
-        `asked_by` names the option that set them (`--protocol paper`), for the error when one is missing.
+        `asked_by` names the option that set them (`--protocol paper`; `RunOptions.asked_by`), for the
+        error when one is missing; "" for values the caller set itself, refused in the tree's words.
 
         Why only declared keys, each keeping its type: the file's values are what the validator checked
         the tree against, so a command can change a value but not what the tree reads."""

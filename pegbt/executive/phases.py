@@ -228,9 +228,33 @@ def transfer_outcomes(log: TickLog) -> list[TransferOutcome]:
 
 def retried(log: TickLog) -> set[int]:
     """The transfers (numbered as `transfer_outcomes` numbers them) inside which a recover node ran its
-    recovery: tried again after a miss, a slip or a lost block, which the paper's robot never did."""
-    paths = [log.nodes[recovery.node]["path"] for recovery in recoveries(Timeline(log))]
+    recovery or a retry took the block again (`retakes`): tried again after a miss, a slip or a lost
+    block, which the paper's robot never did."""
+    timeline = Timeline(log)
+    paths = [log.nodes[recovery.node]["path"] for recovery in recoveries(timeline)] + retakes(timeline)
     return {index for index, scope in transfer_scopes(log).items() if any(inside(p, scope) for p in paths)}
+
+
+def retakes(timeline: Timeline) -> list[str]:
+    """The paths of the retry nodes that ran their child again after it failed other than at `sense` (a
+    handover's receiver that missed the block, or backed off from an offer withdrawn, tries to take it
+    again: `receive`'s `tries`); a retry of a look that saw nothing usable (`sense`'s captures taken
+    again) is no try again at the block."""
+    log, end = timeline.log, len(timeline.log.transitions)
+    found = []
+    for node in log.nodes:
+        if node["type"] != "retry":
+            continue
+        (child,) = timeline.children[node["id"]]
+        for failure in (change for change in timeline.by_node[child] if change.after == "FAILURE"):
+            again = timeline.first_after(child, failure.seq)
+            finish = timeline.next_finish(node["id"], failure.seq, end)
+            if again is None or finish is not None and finish.seq < again.seq:
+                continue  # the last attempt, or the retry was halted: not tried again
+            if failure_phase(failure_step(timeline, timeline.first_origin(failure))) != "sense":
+                found.append(node["path"])
+                break
+    return found
 
 
 def _seen_occupied(log: TickLog, peg: object, began: int, emptied: float) -> bool:

@@ -40,6 +40,8 @@ class RunOptions:
     allow_include_outside: bool = False
     variant: str = ""
     world: Mapping[str, Any] = field(default_factory=dict)
+    # the keys of `blackboard` the caller set, not the protocol (`asked_by`)
+    callers_keys: frozenset[str] = field(init=False, repr=False, compare=False, default=frozenset())
 
     def __post_init__(self) -> None:
         checked_number(self.period, "--period", above=0.0)
@@ -49,6 +51,7 @@ class RunOptions:
         object.__setattr__(self, "log", Path(self.log))
         object.__setattr__(self, "record", None if self.record is None else Path(self.record))
         object.__setattr__(self, "options", run_options(self.options))
+        object.__setattr__(self, "callers_keys", frozenset(map(_absolute, self.blackboard)))
         object.__setattr__(self, "blackboard", self.protocol_policies | dict(self.blackboard))
         object.__setattr__(self, "world", dict(self.world))
         object.__setattr__(self, "variant", self.variant or self.tree.stem)
@@ -62,6 +65,14 @@ class RunOptions:
     def protocol_policies(self) -> dict[str, bool]:
         """The blackboard policies the protocol sets under the run's condition (`runconditions`)."""
         return protocol_policies(self.protocol, self.condition)
+
+    def asked_by(self, key: str) -> str:
+        """What asked for blackboard `key`, for the error when the tree declares no such key: the protocol
+        option (`--protocol paper`) for a policy it sets, unless the caller set the key itself (then "",
+        and the key is refused in the tree's words: the protocol is not to blame)."""
+        if _absolute(key) in self.callers_keys or key not in self.protocol_policies:
+            return ""
+        return f"--protocol {self.protocol}"
 
     @property
     def condition(self) -> str | None:
@@ -88,3 +99,7 @@ class RunOptions:
                 "world": {key: compact(value) for key, value in self.world.items()} if met_world else {},
             },
         }
+
+
+def _absolute(key: str) -> str:
+    return key if key.startswith("/") else "/" + key

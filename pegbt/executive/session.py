@@ -73,12 +73,11 @@ def run_tree_file(
     out = out or sys.stdout
     tree, log_path, clock = options.tree, options.log, options.clock
     loaded = load_tree(tree, allow_include_outside=options.allow_include_outside)
-    policies = options.protocol_policies
-    loaded.set_blackboard(
-        {key: value for key, value in options.blackboard.items() if key in policies},
-        asked_by=f"--protocol {options.protocol}",
-    )
-    loaded.set_blackboard({key: value for key, value in options.blackboard.items() if key not in policies})
+    asked = {key: options.asked_by(key) for key in options.blackboard}  # the protocol's policies first
+    for by in dict.fromkeys(asked.values()):
+        loaded.set_blackboard(
+            {key: value for key, value in options.blackboard.items() if asked[key] == by}, asked_by=by
+        )
     setup = ProviderSetup(
         clock=make_clock(clock or "wall"), options=options.options, clock_name=clock, variant=options.variant
     )

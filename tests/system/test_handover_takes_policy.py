@@ -1,6 +1,6 @@
 """A receiver that misses the block held out takes it again only where the policy recovers: under the
 paper's protocol (`/policy/recover_lost_blocks` false) it takes it once, as the phase simulator plays the
-paper's robot (`phasesim._hand_over`)."""
+paper's robot (`exchange.hand_over`)."""
 
 from __future__ import annotations
 
@@ -11,6 +11,7 @@ from trial_helpers import one_handover
 
 from pegbt.evaluation.trial import TrialSpec, run_trial
 from pegbt.executive.logfile import read_tick_log
+from pegbt.executive.phases import retried
 
 
 @pytest.mark.parametrize(("protocol", "takes", "placed"), [("pegbt", 2, True), ("paper", 1, False)])
@@ -34,3 +35,4 @@ def test_a_receiver_takes_the_block_again_only_where_the_policy_recovers(
     }
     ended = [c for c in parsed.transitions if c.node in receiver_grasps and c.after in ("SUCCESS", "FAILURE")]
     assert len(ended) == takes
+    assert retried(parsed) == ({1} if takes > 1 else set())  # not a first try: no first-try time

@@ -163,16 +163,61 @@ tree:
 """
 
 
-def test_a_transfer_tried_again_is_not_timed_as_a_first_try(tmp_path: Path) -> None:
+RETAKE_AND_RELOOK = """
+tree:
+  sequence:
+    name: task
+    children:
+      - sequence:
+          name: taken on the second try
+          children:
+            - begin_transfer: {name: begin, arms: PSM2→PSM1, pick: 0, place: 6, transfer: /handover/transfer_1}
+            - retry:
+                name: tries
+                attempts: 5
+                child: {scripted: {name: one try, outcomes: [failure, success], message: missed the block at the handover}}
+            - finish_transfer: {name: placed, outcome: placed, transfer: /handover/transfer_1}
+      - sequence:
+          name: looked at twice
+          children:
+            - begin_transfer: {name: begin, arms: PSM1, pick: 1, place: 7, transfer: /PSM1/transfer}
+            - retry:
+                name: until a usable capture
+                attempts: 3
+                child: {scripted: {name: look, outcomes: [failure, success], message: poor capture}}
+            - retry:
+                name: one take
+                attempts: 1
+                child: {scripted: {name: take, outcomes: [success]}}
+            - finish_transfer: {name: placed, outcome: placed, transfer: /PSM1/transfer}
+"""
+
+
+def _logged(tmp_path: Path, tree: str) -> Path:
+    """`tree` run on the in-memory robot to its end; its tick log."""
     clock = ManualClock()
     skills = Skills("uncalibrated")
     robot = fake_robot(clock, skills.settings, skills.cell)
     context = RunContext(
         clock=clock, resources={"robot": robot, "skills": skills}, work=WorkPool(inline=True)
     )
-    built = load_tree(write_tree(tmp_path, TWO_TRANSFERS)).build(context)
+    built = load_tree(write_tree(tmp_path, tree)).build(context)
     log = tmp_path / "run.jsonl"
     run(built, period=0.1, timeout=10.0, log=TickLogWriter(log, built, clock_kind="manual"))
+    return log
+
+
+def test_a_block_a_receiver_took_on_its_second_try_was_retried_and_a_second_look_was_not(
+    tmp_path: Path,
+) -> None:
+    """A handover's receiver that missed and took the block again (`receive`'s retry of `try_to_take`) tried
+    the transfer again; a capture taken again (`sense`'s retry) did not. A real trial's log:
+    `tests/system/test_handover_takes_policy.py`."""
+    assert retried(read_tick_log(_logged(tmp_path, RETAKE_AND_RELOOK))) == {1}
+
+
+def test_a_transfer_tried_again_is_not_timed_as_a_first_try(tmp_path: Path) -> None:
+    log = _logged(tmp_path, TWO_TRANSFERS)
     assert retried(read_tick_log(log)) == {1}
     transfers = [
         {"index": 1, "succeeded": True, "started": 0.0, "seconds": 12.0},

@@ -16,14 +16,19 @@ from pegbt.frames import yaw_of, yaw_pose
 from pegbt.motion.settings import motion_settings
 from pegbt.sim.world import World
 from pegbt.sim.world_effects import WorldEffects
-from pegbt.sim2real.outcomes import phasesim
-from pegbt.sim2real.outcomes.phasesim import FETCH_REGRASPS, REGRASPS, TAKES, simulate_transfer, transfers
+from pegbt.sim2real.outcomes import trying
+from pegbt.sim2real.outcomes.bench import Bench
+from pegbt.sim2real.outcomes.exchange import TAKES
+from pegbt.sim2real.outcomes.phasesim import REGRASPS, simulate_transfer
+from pegbt.sim2real.outcomes.transfer_order import RECEIVER as RECEIVER_OF
+from pegbt.sim2real.outcomes.transfer_order import transfers
 from pegbt.sim2real.outcomes.trialsim import chosen_block
+from pegbt.sim2real.outcomes.trying import FETCH_REGRASPS
 from pegbt.workcell import ORDERS_FILE, transfer_strays
 from pegbt.yamlfile import read_settings_file
 
 GIVER = transfers("handover")[0][0]  # PSM2 gives the first six
-RECEIVER = phasesim.RECEIVER[GIVER]
+RECEIVER = RECEIVER_OF[GIVER]
 
 
 def _on_board(world: World, block: int, xy: tuple[float, float]) -> None:
@@ -81,14 +86,14 @@ def test_a_giver_looks_at_the_strays_pegs_only_once_nothing_lies_loose() -> None
 def receiver_jaw(monkeypatch: pytest.MonkeyPatch) -> list[float]:
     """The receiver's jaw angles at the meeting point, as the simulated handover commands them."""
     angles: list[float] = []
-    jaw = phasesim._Bench.jaw
+    jaw = Bench.jaw
 
-    def counted(bench: phasesim._Bench, angle: float, segment: str) -> None:
+    def counted(bench: Bench, angle: float, segment: str) -> None:
         if bench.name == RECEIVER and segment == "handover":
             angles.append(angle)
         jaw(bench, angle, segment)
 
-    monkeypatch.setattr(phasesim._Bench, "jaw", counted)
+    monkeypatch.setattr(Bench, "jaw", counted)
     return angles
 
 
@@ -116,13 +121,13 @@ def test_a_block_that_slips_from_the_receiver_is_fetched(
     the receiver picks it off the board and places it."""
     caplog.set_level(logging.ERROR, logger="pegbt")
     picks: list[str] = []
-    attempt = phasesim._attempt
+    attempt = trying.pick_and_carry
 
     def recorded(*args: Any, **kwargs: Any) -> Any:
         picks.append(args[2])  # the arm
         return attempt(*args, **kwargs)
 
-    monkeypatch.setattr(phasesim, "_attempt", recorded)
+    monkeypatch.setattr(trying, "pick_and_carry", recorded)
     once = simulate_transfer(WorldEffects(), "handover", "uncalibrated", 1, index=0, attempts=1)
     assert not once.succeeded and once.phase == "lower"
     assert picks == [GIVER]

@@ -8,7 +8,8 @@ import pytest
 
 from pegbt.sim.world import World
 from pegbt.sim.world_effects import WorldEffects
-from pegbt.sim2real.outcomes import phasesim
+from pegbt.sim2real.outcomes import exchange
+from pegbt.sim2real.outcomes.bench import Bench
 from pegbt.sim2real.outcomes.phasesim import simulate_transfer
 
 
@@ -35,13 +36,13 @@ def test_the_receivers_placing_overlaps_the_givers_next_pick(monkeypatch: pytest
     carries, lowers and opens (FLSPegTransfer_handover.py): a transfer's seconds end at the giver's
     letting go when the receiver's placing and way back take less than the giver's pick."""
     jaws: list[tuple[str, float]] = []
-    jaw = phasesim._Bench.jaw
+    jaw = Bench.jaw
 
-    def tracked(self: phasesim._Bench, angle: float, segment: str) -> None:
+    def tracked(self: Bench, angle: float, segment: str) -> None:
         jaw(self, angle, segment)
         jaws.append((segment, self.world.time))
 
-    monkeypatch.setattr(phasesim._Bench, "jaw", tracked)
+    monkeypatch.setattr(Bench, "jaw", tracked)
     result = simulate_transfer(
         WorldEffects(), "handover", "calibrated", 0, index=1, attempts=1, registered=True
     )
@@ -53,5 +54,5 @@ def test_the_receivers_placing_overlaps_the_givers_next_pick(monkeypatch: pytest
 
 
 def test_a_placing_longer_than_the_next_pick_adds_what_it_outlasts() -> None:
-    assert phasesim._overlapped(5.0, 4.0, 1.5, 1.5) == 5.0
-    assert phasesim._overlapped(5.0, 2.0, 1.5, 1.5) == pytest.approx(6.0)
+    assert exchange._overlapped(5.0, 4.0, 1.5, 1.5) == 5.0
+    assert exchange._overlapped(5.0, 2.0, 1.5, 1.5) == pytest.approx(6.0)

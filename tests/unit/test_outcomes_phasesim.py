@@ -11,8 +11,10 @@ import yaml
 from pegbt.motion.kinematics import forward_kinematics
 from pegbt.sim.world import World
 from pegbt.sim.world_effects import WorldEffects
-from pegbt.sim2real.outcomes import phasesim
-from pegbt.sim2real.outcomes.phasesim import Replay, simulate_transfer, transfers
+from pegbt.sim2real.outcomes import attempt, phasesim
+from pegbt.sim2real.outcomes.bench import Bench, Replay
+from pegbt.sim2real.outcomes.phasesim import simulate_transfer
+from pegbt.sim2real.outcomes.transfer_order import transfers
 
 SEEDS = range(4)
 ROOT = Path(__file__).resolve().parents[2]
@@ -74,13 +76,13 @@ def test_the_reach_is_the_approach_leafs_cubics_stopping_just_above_the_block(mo
     way, where the transfer-shaped approach it used instead came down from over the grasp in one go and
     missed grasps whole trials make."""
     played = []
-    original = phasesim._Bench.play
+    original = Bench.play
 
     def record(bench, planned, segments, holding=None, let_go=None):
         played.append((segments[0][1], planned))
         original(bench, planned, segments, holding, let_go)
 
-    monkeypatch.setattr(phasesim._Bench, "play", record)
+    monkeypatch.setattr(Bench, "play", record)
     simulate_transfer(WorldEffects(), "unilateral", "uncalibrated", 5)
     reach = next(planned for segment, planned in played if segment == "reach")
     speed = np.linalg.norm(reach.qd, axis=1)
@@ -110,9 +112,9 @@ def test_a_pick_again_of_the_block_that_was_missed_tries_another_grasp_candidate
     skills = phasesim._skills("uncalibrated")
     block = next(b.index for b in world.blocks if b.peg == 0)
     rng, replay = np.random.default_rng(0), Replay()
-    first = phasesim._attempt(world, skills, "PSM2", block, 7, rng, 4, replay)
+    first = attempt.pick_and_carry(world, skills, "PSM2", block, 7, rng, 4, replay)
     assert first.failed == "grasp" and first.chose is not None  # PSM2 misses this block uncalibrated
-    again = phasesim._attempt(world, skills, "PSM2", block, 7, rng, 4, replay, chose=first.chose)
+    again = attempt.pick_and_carry(world, skills, "PSM2", block, 7, rng, 4, replay, chose=first.chose)
     assert again.chose is not None and again.chose.candidate != first.chose.candidate
 
 
@@ -125,11 +127,11 @@ def test_the_carry_lets_go_as_it_comes_down_only_under_the_conditions_the_trees_
     (carry,) = [
         c["transfer"] for c in lift["subtrees"]["lift"]["tree"]["sequence"]["children"] if "transfer" in c
     ]
-    assert tuple(carry["let_go_early"]) == phasesim.LETS_GO_EARLY
+    assert tuple(carry["let_go_early"]) == attempt.LETS_GO_EARLY
     for condition, early in (("calibrated", True), ("uncalibrated", False)):
         world = World(1, effects=WorldEffects.of({"peg_compliance": {"deflection": 0.003}}))
         block = next(b.index for b in world.blocks if b.peg == 1)
-        bench = phasesim._attempt(
+        bench = attempt.pick_and_carry(
             world, phasesim._skills(condition), "PSM1", block, 7, np.random.default_rng(0), None, Replay()
         )
         assert bench.held, condition
@@ -148,8 +150,10 @@ def test_a_look_again_at_a_block_that_has_not_moved_sees_it_as_the_last_look_did
     skills = phasesim._skills("uncalibrated")
     block = next(b.index for b in world.blocks if b.peg == 2)
     rng, replay = np.random.default_rng([501, 7]), Replay()
-    first = phasesim._attempt(world, skills, "PSM2", block, 6, rng, 7, replay)
+    first = attempt.pick_and_carry(world, skills, "PSM2", block, 6, rng, 7, replay)
     assert first.failed == "grasp" and first.chose is not None and first.chose.candidate == 2
-    again = phasesim._attempt(world, skills, "PSM2", block, 6, rng, 7, replay, chose=first.chose, after=first)
+    again = attempt.pick_and_carry(
+        world, skills, "PSM2", block, 6, rng, 7, replay, chose=first.chose, after=first
+    )
     assert again.chose is not None
     assert np.array_equal(again.chose.position, first.chose.position) and again.chose.candidate == 3

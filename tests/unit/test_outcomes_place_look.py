@@ -10,8 +10,9 @@ import pytest
 from pegbt.frames import yaw_pose
 from pegbt.perception import servo
 from pegbt.sim.world import World
-from pegbt.sim2real.outcomes import phasesim, placelook
-from pegbt.sim2real.outcomes.phasesim import Replay
+from pegbt.sim2real.outcomes import attempt, phasesim, placelook
+from pegbt.sim2real.outcomes.bench import Replay
+from pegbt.sim2real.outcomes.transfer_order import transfers
 
 
 def test_the_camera_sees_a_block_held_over_the_peg_and_nothing_over_an_empty_peg():
@@ -33,7 +34,7 @@ def lowered(monkeypatch):
 
     def run(look: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         world = World(0)
-        arm, start, goal = phasesim.transfers("bilateral")[2]
+        arm, start, goal = transfers("bilateral")[2]
         block = next(b.index for b in world.blocks if b.peg == start)
         moves, offsets = [], []
 
@@ -43,10 +44,10 @@ def lowered(monkeypatch):
             moves.append(to_arm[:3, :3].T @ move)
             return move
 
-        monkeypatch.setattr(phasesim, "correction", correction)
+        monkeypatch.setattr(attempt, "correction", correction)
         rng = np.random.default_rng([0, 7])
         skills = phasesim._skills("uncalibrated")
-        bench = phasesim._attempt(
+        bench = attempt.pick_and_carry(
             world, skills, arm, block, goal, rng, None, Replay(), "bilateral", registered=True
         )
         assert bench.held and len(moves) == 1

@@ -57,9 +57,10 @@ def test_psm2_registered_as_the_papers_grips_the_block_it_misses_on_the_work_cel
 def test_a_compensated_arm_is_not_registered_again() -> None:
     """The simulator's calibration corrects the whole cable error, the rigid part a registration would
     take up included: registering a calibrated arm too would correct that part twice."""
-    from pegbt.sim2real.outcomes.phasesim import START, Replay, _Bench, _skills
+    from pegbt.sim2real.outcomes.bench import START, Bench, Replay
+    from pegbt.sim2real.outcomes.phasesim import _skills
 
     world = World(0, effects=WorldEffects())
     for condition, moved in (("uncalibrated", True), ("calibrated", False), ("optimized", False)):
-        bench = _Bench(world, "PSM1", _skills(condition).arm("PSM1"), START, Replay(), registered=True)
+        bench = Bench(world, "PSM1", _skills(condition).arm("PSM1"), START, Replay(), registered=True)
         assert np.allclose(bench.to_board, world.arm_to_board("PSM1")) != moved, condition

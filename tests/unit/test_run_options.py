@@ -152,6 +152,17 @@ def test_a_bad_protocol_is_refused_naming_the_option_or_the_tree_file(tmp_path, 
     ) as raised:
         run_tree_file(RunOptions(EXAMPLE, tmp_path / "x.jsonl", {"protocol": "paper"}, clock="manual"))
     assert raised.value.file == str(EXAMPLE) and str(raised.value.field).startswith("/policy/")
+    # a policy the caller set itself is not the protocol's to answer for, whichever protocol runs
+    for protocol in ("paper", "pegbt"):
+        own = {"/policy/recover_lost_blocks": True, "/policy/look_before_lowering": False}
+        with pytest.raises(PegbtError) as raised:
+            run_tree_file(
+                RunOptions(
+                    EXAMPLE, tmp_path / "x.jsonl", {"protocol": protocol}, blackboard=own, clock="manual"
+                )
+            )
+        assert raised.value.message.startswith("the tree declares no blackboard key '/policy/"), protocol
+        assert "--protocol" not in raised.value.message and raised.value.file == str(EXAMPLE)
     # a key a command asked for is still refused in its own words
     with pytest.raises(PegbtError) as raised:
         run_tree_file(RunOptions(EXAMPLE, tmp_path / "x.jsonl", blackboard={"/nowhere": 1}, clock="manual"))

@@ -11,9 +11,9 @@ from pegbt.sim2real.outcomes.cells import Cell
 from pegbt.sim2real.outcomes.diagnose import Diagnosis, profile_parameters
 from pegbt.sim2real.outcomes.goals import Trials, judge, percent, placed_in_full, time_agrees, verdict_text
 from pegbt.sim2real.outcomes.intervals import rate_interval
-from pegbt.sim2real.outcomes.phasesim import arms_at_once
 from pegbt.sim2real.outcomes.predict import KEEPS, Prediction
 from pegbt.sim2real.outcomes.simulate import CATEGORIES, SimCounts
+from pegbt.sim2real.outcomes.transfer_order import arms_at_once
 
 
 def trial_seconds(variant: str, counts: SimCounts) -> float | None:

@@ -8,7 +8,8 @@ the way out left it, or finds no block (`sense`), and its recoveries then fetch 
 tree moves one block at a time, so one world played in order is its trial (`in_order`). So do the handover's
 trees (`trees/handover.yaml`): the giver picks (from the board, or a `strays` peg under the meeting point,
 once it lost its block), the receiver takes the block again after a miss and fetches one that slipped
-(`phasesim._hand_over`), and it comes to the meeting from its last placing. Bilateral's two arms carry at
+(`exchange.hand_over`), and it comes to the meeting from its last placing, or from home after a
+handover that failed (the trees park it). Bilateral's two arms carry at
 once, which one world played in order does not reproduce: it stays alone.
 
 Seed `s` of a cell is transfer `s mod n` of the trial on layout `s // n` (`n` transfers a trial), so a
@@ -25,7 +26,10 @@ import numpy as np
 from pegbt.errors import PegbtError
 from pegbt.sim.world import World
 from pegbt.sim.world_effects import WorldEffects
-from pegbt.sim2real.outcomes.phasesim import REGRASPS, Replay, TransferResult, carry_out, transfers
+from pegbt.sim2real.outcomes.bench import Replay
+from pegbt.sim2real.outcomes.phasesim import REGRASPS, carry_out
+from pegbt.sim2real.outcomes.transfer_order import transfers
+from pegbt.sim2real.outcomes.transfer_result import TransferResult
 
 
 def in_order(variant: str) -> bool:
@@ -76,14 +80,15 @@ def simulate_trial(
     motion where it is the same (`phasesim.Replay`); a motion the planner refuses is a transfer failed
     where it started, and the trial goes on."""
     states = [World(layout, effects=effects) for effects in worlds]
-    results = []
+    results: list[list[TransferResult]] = []
     for index in range(count):
         replay, row = Replay(), []
-        for world in states:
+        for at, world in enumerate(states):
             rng = np.random.default_rng([layout, index, 7])
+            parked = bool(results) and not results[-1][at].over_goal  # the last handover failed
             try:
                 result = carry_out(
-                    world, variant, condition, index, replay, attempts, registered, rng, chosen_block
+                    world, variant, condition, index, replay, attempts, registered, rng, chosen_block, parked
                 )
             except PegbtError:
                 result = TransferResult(False, "reach", 0.0)
