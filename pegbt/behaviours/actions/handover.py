@@ -407,10 +407,14 @@ def _held_descent(
     return concatenate([Trajectory(np.arange(rows + 1) * moving.period, still, zeros, zeros), moving])
 
 
+def giver_of(leaf: RobotLeaf, receiver: str) -> str:
+    """The other arm: the one bringing the block."""
+    return next(name for name in leaf.robot.arms if name != receiver)
+
+
 def giver_carry(leaf: RobotLeaf, receiver: str) -> SentMotion | None:
     """The giver's motion under way (its carry, once it offered the block), if any."""
-    giver = next(name for name in leaf.robot.arms if name != receiver)
-    active = leaf.motion(giver).active
+    active = leaf.motion(giver_of(leaf, receiver)).active
     return active if active is not None and active.handle.busy else None
 
 
@@ -419,8 +423,7 @@ def set_off(leaf: RobotLeaf, receiver: str, grasp: Grasp, carry: SentMotion, now
     `grasp` keeps its tip `approach_above_block` above the block's top, as `carry` moves it, until it ends,
     except once the block is within `channel_tolerance` of where it will be held out, sideways: then only
     above its grasp of the block."""
-    motion, cell = leaf.motion(receiver), leaf.skills.cell
-    giver = next(name for name in leaf.robot.arms if name != receiver)
+    motion, cell, giver = leaf.motion(receiver), leaf.skills.cell, giver_of(leaf, receiver)
     descent_plan = descent(leaf.skills, motion, motion.start_from(leaf.client(receiver)), grasp)()
     heights = (tip_position(descent_plan.q) - grasp.pose[:3, 3]) @ cell.up_in(receiver)
     times = carry.sent_at + carry.planned.t
@@ -498,21 +501,39 @@ class DescendToGrasp(MotionLeaf):
         arm = self.param("arm")
         motion, grasp = self.motion(arm), self.get("grasp")
         start, now = motion.start_from(self.client(arm)), self.context.clock.now()
-        carry = giver_carry(self, arm)
         offered = read_record(self, self.params["n"]).giver is Giver.OFFERED
-        hold = 0.0 if carry is None or not offered else max(0.0, set_off(self, arm, grasp, carry, now) - now)
+        self.carry = giver_carry(self, arm) if offered else None
+        hold = 0.0 if self.carry is None else max(0.0, set_off(self, arm, grasp, self.carry, now) - now)
         planned = descent(self.skills, motion, start, grasp, hold)
         self.move(arm, planned, f"{arm} descending onto the grasp", (grasp, hold) if hold else (grasp,))
         transfer = self.skills.motion.transfer
-        lead = (transfer.jaw_open - jaw_on_wall(self.skills.cell)) / motion.settings.jaw_velocity
+        lead = (
+            transfer.jaw_open - jaw_on_wall(self.skills.cell) + transfer.grip_confirmed_below
+        ) / motion.settings.jaw_velocity
         self.move_jaw(arm, transfer.jaw_at_grasp, f"{arm} jaw narrowing", before_end=lead)
         self.closing = False
 
     def jaw_due(self, outgoing: Outgoing) -> None:
-        if read_record(self, self.params["n"]).giver is Giver.ARRIVED:
+        if self._block_still_by_the_wall():
             outgoing.jaw_angle = self.skills.motion.transfer.jaw_closed
             outgoing.what = f"{self.param('arm')} jaw closing on the block held out"
             self.closing = True
+
+    def _block_still_by_the_wall(self) -> bool:
+        """Whether the giver holds the block out, or its carry to the meeting point will have ended by the
+        time the closing jaw meets the wall."""
+        said, arm, carry = read_record(self, self.params["n"]).giver, self.param("arm"), self.carry
+        if said is Giver.ARRIVED:
+            return True
+        if said is not Giver.OFFERED or carry is None or self.motion(giver_of(self, arm)).active is not carry:
+            return False
+        if carry.handle.done:  # ended where it was planned to, the giver not yet ticked to say so
+            return True
+        jaw = float(self.client(arm).jaw.setpoint_js.position[0])
+        meets = (jaw - jaw_on_wall(self.skills.cell)) / self.motion(arm).settings.jaw_velocity
+        return (
+            carry.handle.busy and carry.sent_at + carry.planned.duration <= self.context.clock.now() + meets
+        )
 
     def watch(self) -> Status:
         if not self.closing:
