@@ -402,9 +402,10 @@ def _held_descent(
     rows = round(hold / moving.period)
     if rows < 1:
         return moving
+    times = np.arange(rows + 1, dtype=np.float64) * moving.period
     still = np.repeat(start[None], rows + 1, axis=0)
     zeros = np.zeros_like(still)
-    return concatenate([Trajectory(np.arange(rows + 1) * moving.period, still, zeros, zeros), moving])
+    return concatenate([Trajectory(times, still, zeros, zeros), moving])
 
 
 def giver_of(leaf: RobotLeaf, receiver: str) -> str:
