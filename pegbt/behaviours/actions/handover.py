@@ -452,8 +452,8 @@ class AwaitMeeting(RobotLeaf):
     millimetres, its wall between the open jaws with millimetres to spare either side), only above its
     grasp of the block. The descent is hidden behind the carry as far as that allows: given the set-off
     (`set_off`), among the descents down the same joint line none ends sooner, and the receiver sends it
-    `HOLD_AHEAD` early, held still until then. The jaw closes only once the giver says it holds the block
-    out (`await_arrival` after the descent)."""
+    `HOLD_AHEAD` early, held still until then. The jaw closes only on a block that is still by the time it
+    meets the wall (`descend_to_grasp`)."""
 
     def initialise(self) -> None:
         patience = self.params["patience"]
@@ -487,15 +487,18 @@ class AwaitMeeting(RobotLeaf):
 
 class DescendToGrasp(MotionLeaf):
     """Planned early, while the receiver goes to wait above the grasp (`go_to_handover`); sent ahead of its
-    set-off while the giver's carry plays (`await_meeting`), it is planned again, held still until then. Once sent, the carry that follows (`carry_from_handover` to the goal peg of the receiver's transfer
+    set-off while the giver's carry plays (`await_meeting`), it is planned again, held still until then.
+    Once sent, the carry that follows (`carry_from_handover` to the goal peg of the receiver's transfer
     under way) is planned and pre-compensated while the receiver descends, closes and waits for the giver
     to let go.
 
     The giver holds the block out until the receiver's jaw grips it, so the close is on the handover's
-    critical path: the open jaw is sent on as the tip arrives, timed to meet the wall as the tip gets there
-    (`jaw_on_wall`): closing if the giver already holds the block out still by then (handover `n`),
-    narrowing to `jaw_at_grasp` otherwise, as an approach's does. Once the arm has arrived the leaf
-    succeeds while the jaw goes on closing; `grasp` confirms the grip. A giver whose block slips meanwhile
+    critical path: the open jaw is sent on as the tip arrives, timed for its set-point to pass
+    `grip_confirmed_below` under the wall (`jaw_on_wall`) as the tip gets there, so that `grasp` confirms the
+    grip as it arrives: closing if by the time it meets the wall the block is still, held out (handover `n`)
+    or at the end of the carry the descent was timed on (the giver says so a tick later), narrowing to
+    `jaw_at_grasp` otherwise, as an approach's does. Once the arm has arrived the leaf succeeds while the
+    jaw goes on closing; `grasp` confirms the grip. A giver whose block slips meanwhile (its carry stopped)
     finds the receiver not yet closing and fetches it again, as before any close."""
 
     def begin(self) -> None:
