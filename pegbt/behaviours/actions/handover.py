@@ -535,9 +535,8 @@ class DescendToGrasp(MotionLeaf):
             return True
         jaw = float(self.client(arm).jaw.setpoint_js.position[0])
         meets = (jaw - jaw_on_wall(self.skills.cell)) / self.motion(arm).settings.jaw_velocity
-        return (
-            carry.handle.busy and carry.sent_at + carry.planned.duration <= self.context.clock.now() + meets
-        )
+        end = carry.sent_at + carry.planned.duration + carry.handle.paused  # stalls put it off
+        return carry.handle.busy and end <= self.context.clock.now() + meets
 
     def watch(self) -> Status:
         if not self.closing:
