@@ -1328,6 +1328,11 @@ def test_the_receiver_closes_on_a_block_still_coming_that_will_be_still_when_the
     (closing,) = arm.jaw.sent
     assert closing.target == transfer.jaw_closed
     assert carry.duration <= closing.at + (transfer.jaw_open - jaw_on_wall(skills.cell)) / velocity
+    # its set-point passes `grip_confirmed_below` under the wall as the tip arrives, within a control period
+    ((trajectory, sent),) = [(c.target, c.at) for c in arm.sent if c.kind == "trajectory"]
+    wall = jaw_on_wall(skills.cell)
+    confirmed = closing.at + (transfer.jaw_open - wall + transfer.grip_confirmed_below) / velocity
+    assert 0.0 <= confirmed - (sent + trajectory.duration) < trajectory.period
 
 
 def test_the_receiver_only_narrows_its_jaw_on_a_block_whose_carry_was_stopped(
