@@ -1283,7 +1283,8 @@ def descent_sent(tmp_path, robot, skills, seen, clock, stop_the_carry: bool = Fa
     period = skills.settings[RECEIVER].control_period
     while built.root.status in (Status.INVALID, Status.RUNNING) and clock.now() < 5.0:
         built.root.tick_once()
-        if stop_the_carry and arm.trajectories and robot.arms[GIVER].position() is not None:
+        if stop_the_carry and arm.trajectories:
+            assert robot.arms[GIVER].progress() < 1.0  # the carry still under way
             robot.arms[GIVER].hold()
             stop_the_carry = False
         clock.advance(period)
