@@ -269,7 +269,8 @@ declare(
 declare(
     "await_meeting",
     "the receiver `arm`, waiting above its grasp, waits until it may descend: once the giver holds the block "
-    "out, or as late in the giver's carry as lets its tip keep above the block's top until the carry ends",
+    "out, or as late in the giver's carry as lets its tip keep above the block's top until the carry ends "
+    "(a tree period ahead: `descend_to_grasp` holds still until then)",
     "pegbt.behaviours.actions.handover:AwaitMeeting",
     params=(
         arm_param(),
@@ -282,7 +283,8 @@ declare(
 
 declare(
     "descend_to_grasp",
-    "move `arm` straight down onto its grasp (the receiver taking the block at the meeting point)",
+    "move `arm` straight down onto its grasp (the receiver taking the block at the meeting point), held "
+    "still until the set-off `await_meeting` waits for while the giver's carry plays",
     "pegbt.behaviours.actions.handover:DescendToGrasp",
     params=(
         arm_param(),

@@ -1244,9 +1244,11 @@ def test_descend_to_grasp_closes_as_it_arrives_on_a_block_held_out_meeting_the_w
     (trajectory,) = arm.trajectories
     (closing,) = arm.jaw.sent
     assert closing.target == transfer.jaw_closed
-    # sent so that the jaw reaches the wall as the tip reaches the grasp, within a tick
-    at_wall = closing.at + (transfer.jaw_open - jaw_on_wall(skills.cell)) / velocity
-    assert trajectory.duration - 1e-9 <= at_wall < trajectory.duration + STEP
+    # sent so that its set-point passes `grip_confirmed_below` under the wall (where `grasp` confirms the
+    # grip) as the tip reaches the grasp, within a tick: the jaw meets the wall just before
+    wall = jaw_on_wall(skills.cell)
+    confirmed = closing.at + (transfer.jaw_open - wall + transfer.grip_confirmed_below) / velocity
+    assert trajectory.duration - 1e-9 <= confirmed < trajectory.duration + STEP
     # the leaf ends with the arm's motion, the jaw still closing on (the grip is `grasp`'s to confirm)
     assert trajectory.duration - 1e-9 <= clock.now() < trajectory.duration + STEP
     assert arm.jaw.position()[0] > transfer.jaw_closed
@@ -1268,29 +1270,79 @@ def meeting_under_way(robot: Robot, skills: Skills, seen, said: Giver, aside: fl
     return arm, meeting, values, carry
 
 
-def test_await_meeting_lets_the_receiver_descend_during_the_carry_keeping_above_the_block(
+MEET_AND_DESCEND = f"{{sequence: {{name: meet it, children: [{MEETING}, {DESCEND}]}}}}"
+
+
+def descent_sent(tmp_path, robot, skills, seen, clock, stop_the_carry: bool = False):
+    """Handover 1 under way (`meeting_under_way`), the receiver's jaw open: `await_meeting` then
+    `descend_to_grasp` ticked every control period until the descent is sent (the giver's carry then
+    stopped, with `stop_the_carry`), then until they end."""
+    arm, meeting, values, carry = meeting_under_way(robot, skills, seen, Giver.OFFERED)
+    arm.jaw.rest = np.array([skills.motion.transfer.jaw_open])
+    built = build(tmp_path, robot, skills, MEET_AND_DESCEND, **values)
+    period = skills.settings[RECEIVER].control_period
+    while built.root.status in (Status.INVALID, Status.RUNNING) and clock.now() < 5.0:
+        built.root.tick_once()
+        if stop_the_carry and arm.trajectories:
+            assert robot.arms[GIVER].progress() < 1.0  # the carry still under way
+            robot.arms[GIVER].hold()
+            stop_the_carry = False
+        clock.advance(period)
+    return arm, meeting, carry, built
+
+
+def test_the_receiver_descends_during_the_carry_keeping_above_the_block_and_no_later_than_it_must(
     tmp_path, robot, skills, seen, clock
 ):
-    arm, meeting, values, carry = meeting_under_way(robot, skills, seen, Giver.OFFERED)
-    built = build(tmp_path, robot, skills, MEETING, **values)
-    assert run(built, clock) == Status.SUCCESS
-    start = clock.now()
-    assert 0.0 < start < carry.duration  # before the giver has arrived: part of the descent is hidden
-    assert feedback(built).startswith("the giver arrives in ")
-    # descending from now, the tip keeps `approach_above_block` above the block's top as the giver brings
-    # it over and down onto the meeting pose, until the block is within a channel's tolerance of it
-    # sideways, and from then on above its grasp of the block, until it is there
-    descent, heights, above, aside, later = descent_against_carry(arm, skills, meeting, carry, start)
+    arm, meeting, carry, built = descent_sent(tmp_path, robot, skills, seen, clock)
+    assert built.root.status == Status.SUCCESS
+    (trajectory,) = arm.trajectories
+    (sent,) = [command for command in arm.sent if command.kind == "trajectory"]
+    # sent ahead of its set-off, held still until then, which comes before the giver has arrived
+    moving = int(np.argmax(np.any(trajectory.q != trajectory.q[0], axis=1))) - 1
+    assert moving >= 1
+    assert 0.0 < sent.at + trajectory.t[moving] < carry.duration
+    # the tip keeps `approach_above_block` above the block's top as the giver brings it over and down
+    # onto the meeting pose, until the block is within a channel's tolerance of it sideways, and from then
+    # on above its grasp of the block, until it is there
+    grasp = meeting.receiver_grasp
+    heights = (tip_position(trajectory.q) - grasp.pose[:3, 3]) @ skills.cell.up_in(RECEIVER)
+    _, _, above, aside, _ = descent_against_carry(arm, skills, meeting, carry, 0.0)
     clear = skills.cell.block.grasp_depth + skills.motion.transfer.approach_above_block
     over = aside > skills.motion.transfer.channel_tolerance
     assert over.any() and not over.all()
-    tip = np.interp(carry.t[later] - start, descent.t, heights)
-    floor = np.where(over, clear, 0.0)[later] + above[later]
-    assert np.all(tip >= floor - 1e-9)
-    # and no later than it must: within one tick (`STEP`) of the descent's travel
-    travel = np.abs(np.diff(heights)).max() / descent.period * STEP
-    assert np.any(tip < floor + travel)
-    assert arm.sent == []
+    floor = np.where(over, clear, 0.0) + above
+    assert np.all(np.interp(carry.t - sent.at, trajectory.t, heights) >= floor - 1e-9)
+    # and no later than it must: the same descent set off a control period sooner goes below that floor
+    sooner = np.interp(carry.t - sent.at + trajectory.period, trajectory.t, heights)
+    assert np.any(sooner < floor - 1e-9)
+
+
+def test_the_receiver_closes_on_a_block_still_coming_that_will_be_still_when_the_jaw_meets_the_wall(
+    tmp_path, robot, skills, seen, clock
+):
+    """The giver says it holds the block out only once its carry has ended and its tree is ticked: the
+    receiver's close, timed on its own descent, goes on the carry its descent was timed on."""
+    arm, _, carry, built = descent_sent(tmp_path, robot, skills, seen, clock)
+    transfer, velocity = skills.motion.transfer, skills.settings[RECEIVER].jaw_velocity
+    assert read("/handover/state_1").giver is Giver.OFFERED  # nobody said `arrived` here
+    (closing,) = arm.jaw.sent
+    assert closing.target == transfer.jaw_closed
+    assert carry.duration <= closing.at + (transfer.jaw_open - jaw_on_wall(skills.cell)) / velocity
+    # its set-point passes `grip_confirmed_below` under the wall as the tip arrives, within a control period
+    ((trajectory, sent),) = [(c.target, c.at) for c in arm.sent if c.kind == "trajectory"]
+    wall = jaw_on_wall(skills.cell)
+    confirmed = closing.at + (transfer.jaw_open - wall + transfer.grip_confirmed_below) / velocity
+    assert 0.0 <= confirmed - (sent + trajectory.duration) < trajectory.period
+
+
+def test_the_receiver_only_narrows_its_jaw_on_a_block_whose_carry_was_stopped(
+    tmp_path, robot, skills, seen, clock
+):
+    arm, _, _, built = descent_sent(tmp_path, robot, skills, seen, clock, stop_the_carry=True)
+    (narrowing,) = arm.jaw.sent
+    assert narrowing.target == skills.motion.transfer.jaw_at_grasp
+    assert built.root.status == Status.SUCCESS
 
 
 def test_await_meeting_lets_the_receiver_descend_at_once_onto_a_block_brought_straight_down(

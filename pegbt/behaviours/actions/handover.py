@@ -39,7 +39,7 @@ from pegbt.handover_protocol import Giver
 from pegbt.motion.handover import descent_clearance, handover_meeting_point, jaw_on_wall
 from pegbt.motion.ik import solve_ik
 from pegbt.motion.kinematics import tip_position
-from pegbt.motion.trajectory import Trajectory
+from pegbt.motion.trajectory import Trajectory, concatenate
 from pegbt.motion.waypoints import TransferWaypoints
 from pegbt.perception.blocks import BlockEstimate, block_on_peg
 from pegbt.perception.board import BoardEstimate
@@ -47,6 +47,11 @@ from pegbt.perception.grasp import Grasp
 from pegbt.workcell import Workcell
 
 log = logging.getLogger("pegbt.behaviours")
+
+# s before its set-off that the receiver's descent is sent, held still until then: a tree period at the
+# default rate, so the tick that sends it is the last before the set-off (sent at the first tick after it,
+# it set off up to a period late: lockstep seeds 1000-1003, 2026-11-29)
+HOLD_AHEAD = 0.02
 
 
 @dataclass(frozen=True)
@@ -381,12 +386,62 @@ class GoToHandover(MotionLeaf):
 
 
 def descent(
-    skills: Skills, motion: ArmMotion, start: NDArray[np.float64], grasp: Grasp
+    skills: Skills, motion: ArmMotion, start: NDArray[np.float64], grasp: Grasp, hold: float = 0.0
 ) -> Callable[[], Trajectory]:
-    """The planning of the receiver's descent from joints `start` onto `grasp`: time-optimal, since its
-    part below the block's top plays only once the giver holds the block still (`await_meeting`)."""
+    """The planning of the receiver's descent from joints `start` onto `grasp`, held still `hold` s first:
+    time-optimal, since its part below the block's top plays only once the giver holds the block still
+    (`await_meeting`)."""
     target = solve_ik(grasp.pose, motion.settings, what="the handover grasp")
-    return partial(motion.quickest, start, [target], ["grasp"])
+    return partial(_held_descent, motion, start, target, hold)
+
+
+def _held_descent(
+    motion: ArmMotion, start: NDArray[np.float64], target: NDArray[np.float64], hold: float
+) -> Trajectory:
+    moving = motion.quickest(start, [target], ["grasp"])
+    rows = round(hold / moving.period)
+    if rows < 1:
+        return moving
+    times = np.arange(rows + 1, dtype=np.float64) * moving.period
+    still = np.repeat(start[None], rows + 1, axis=0)
+    zeros = np.zeros_like(still)
+    return concatenate([Trajectory(times, still, zeros, zeros), moving])
+
+
+def giver_of(leaf: RobotLeaf, receiver: str) -> str:
+    """The other arm: the one bringing the block."""
+    return next(name for name in leaf.robot.arms if name != receiver)
+
+
+def giver_carry(leaf: RobotLeaf, receiver: str) -> SentMotion | None:
+    """The giver's motion under way (its carry, once it offered the block), if any."""
+    active = leaf.motion(giver_of(leaf, receiver)).active
+    return active if active is not None and active.handle.busy else None
+
+
+def set_off(leaf: RobotLeaf, receiver: str, grasp: Grasp, carry: SentMotion, now: float) -> float:
+    """The first clock time from `now` (on the control period) from which the receiver's descent onto
+    `grasp` keeps its tip `approach_above_block` above the block's top, as `carry` moves it, until it ends,
+    except once the block is within `channel_tolerance` of where it will be held out, sideways: then only
+    above its grasp of the block."""
+    motion, cell, giver = leaf.motion(receiver), leaf.skills.cell, giver_of(leaf, receiver)
+    descent_plan = descent(leaf.skills, motion, motion.start_from(leaf.client(receiver)), grasp)()
+    heights = (tip_position(descent_plan.q) - grasp.pose[:3, 3]) @ cell.up_in(receiver)
+    times = carry.sent_at + carry.planned.t
+    tips = tip_position(carry.planned.q)
+    up, transfer = cell.up_in(giver), leaf.skills.motion.transfer
+    above = (tips - tips[-1]) @ up  # the block over where it will be held out
+    aside = np.linalg.norm(tips - tips[-1] - np.outer(above, up), axis=1)
+    # its jaw may enter the block's hole once the block is within a channel's tolerance of where it will
+    # be held, as a tip on a peg's axis (the open jaw has millimetres either side of the wall there)
+    clear = np.where(
+        aside > transfer.channel_tolerance, cell.block.grasp_depth + transfer.approach_above_block, 0.0
+    )
+    starts = np.arange(now, times[-1] + descent_plan.period, descent_plan.period)
+    later = times[None, :] - starts[:, None]
+    tip = np.interp(np.maximum(later, 0.0), descent_plan.t, heights)
+    safe = np.all((later < 0.0) | (tip >= clear + above[None, :] - 1e-9), axis=1)
+    return float(starts[np.argmax(safe)]) if safe.any() else float(times[-1])
 
 
 class AwaitMeeting(RobotLeaf):
@@ -395,8 +450,10 @@ class AwaitMeeting(RobotLeaf):
     block as the giver's planned carry moves it (it arrives from above) until the carry ends, or, once the
     block is within `channel_tolerance` of where it will be held out sideways (coming down the last
     millimetres, its wall between the open jaws with millimetres to spare either side), only above its
-    grasp of the block. The descent is hidden behind the carry as far as that allows. The jaw closes only
-    once the giver says it holds the block out (`await_arrival` after the descent)."""
+    grasp of the block. The descent is hidden behind the carry as far as that allows: given the set-off
+    (`set_off`), among the descents down the same joint line none ends sooner, and the receiver sends it
+    `HOLD_AHEAD` early, held still until then. The jaw closes only on a block that is still by the time it
+    meets the wall (`descend_to_grasp`)."""
 
     def initialise(self) -> None:
         patience = self.params["patience"]
@@ -410,15 +467,16 @@ class AwaitMeeting(RobotLeaf):
         if record.giver is Giver.ARRIVED:
             self.feedback_message = "the giver holds the block out"
             return Status.SUCCESS
-        carry = self.carry() if record.giver is Giver.OFFERED else None
+        arm = self.param("arm")
+        carry = giver_carry(self, arm) if record.giver is Giver.OFFERED else None
         if carry is not None:
             if self.planned is None or self.planned[0] != carry.sent_at:
-                self.planned = (carry.sent_at, self.set_off(carry, now))
-            if now >= self.planned[1]:
+                self.planned = (carry.sent_at, set_off(self, arm, self.get("grasp"), carry, now))
+            if now >= self.planned[1] - HOLD_AHEAD - 1e-9:
                 end = carry.sent_at + carry.planned.duration
                 self.feedback_message = f"the giver arrives in {end - now:.2f} s: descending"
                 return Status.SUCCESS
-            self.wake_at = min(self.deadline, self.planned[1])
+            self.wake_at = min(self.deadline, self.planned[1] - HOLD_AHEAD)
         if now > self.deadline:
             return self.fail(
                 f"the giver has not brought the block after {self.params['patience']:g} s ({record})"
@@ -426,71 +484,59 @@ class AwaitMeeting(RobotLeaf):
         self.feedback_message = f"waiting for the giver to bring the block ({record})"
         return Status.RUNNING
 
-    def giver(self) -> str:
-        """The other arm: the one bringing the block."""
-        return next(name for name in self.robot.arms if name != self.param("arm"))
-
-    def carry(self) -> SentMotion | None:
-        """The giver's motion under way (its carry, once it offered the block), if any."""
-        active = self.motion(self.giver()).active
-        return active if active is not None and active.handle.busy else None
-
-    def set_off(self, carry: SentMotion, now: float) -> float:
-        """The first clock time from `now` (on the control period) from which the descent onto the grasp
-        keeps the tip `approach_above_block` above the block's top, as `carry` moves it, until it ends,
-        except once the block is within `channel_tolerance` of where it will be held out, sideways: then
-        only above its grasp of the block."""
-        arm, grasp = self.param("arm"), self.get("grasp")
-        motion, cell = self.motion(arm), self.skills.cell
-        giver = self.giver()
-        descent_plan = descent(self.skills, motion, motion.start_from(self.client(arm)), grasp)()
-        heights = (tip_position(descent_plan.q) - grasp.pose[:3, 3]) @ cell.up_in(arm)
-        times = carry.sent_at + carry.planned.t
-        tips = tip_position(carry.planned.q)
-        up, transfer = cell.up_in(giver), self.skills.motion.transfer
-        above = (tips - tips[-1]) @ up  # the block over where it will be held out
-        aside = np.linalg.norm(tips - tips[-1] - np.outer(above, up), axis=1)
-        # its jaw may enter the block's hole once the block is within a channel's tolerance of where it will
-        # be held, as a tip on a peg's axis (the open jaw has millimetres either side of the wall there)
-        clear = np.where(
-            aside > transfer.channel_tolerance, cell.block.grasp_depth + transfer.approach_above_block, 0.0
-        )
-        starts = np.arange(now, times[-1] + descent_plan.period, descent_plan.period)
-        later = times[None, :] - starts[:, None]
-        tip = np.interp(np.maximum(later, 0.0), descent_plan.t, heights)
-        safe = np.all((later < 0.0) | (tip >= clear + above[None, :] - 1e-9), axis=1)
-        return float(starts[np.argmax(safe)]) if safe.any() else float(times[-1])
-
 
 class DescendToGrasp(MotionLeaf):
-    """Planned early, while the receiver goes to wait above the grasp (`go_to_handover`). Once sent, the carry that follows (`carry_from_handover` to the goal peg of the receiver's transfer
+    """Planned early, while the receiver goes to wait above the grasp (`go_to_handover`); sent ahead of its
+    set-off while the giver's carry plays (`await_meeting`), it is planned again, held still until then.
+    Once sent, the carry that follows (`carry_from_handover` to the goal peg of the receiver's transfer
     under way) is planned and pre-compensated while the receiver descends, closes and waits for the giver
     to let go.
 
     The giver holds the block out until the receiver's jaw grips it, so the close is on the handover's
-    critical path: the open jaw is sent on as the tip arrives, timed to meet the wall as the tip gets there
-    (`jaw_on_wall`): closing if the giver already holds the block out still by then (handover `n`),
-    narrowing to `jaw_at_grasp` otherwise, as an approach's does. Once the arm has arrived the leaf
-    succeeds while the jaw goes on closing; `grasp` confirms the grip. A giver whose block slips meanwhile
+    critical path: the open jaw is sent on as the tip arrives, timed for its set-point to pass
+    `grip_confirmed_below` under the wall (`jaw_on_wall`) as the tip gets there, so that `grasp` confirms the
+    grip as it arrives: closing if by the time it meets the wall the block is still, held out (handover `n`)
+    or at the end of the carry the descent was timed on (the giver says so a tick later), narrowing to
+    `jaw_at_grasp` otherwise, as an approach's does. Once the arm has arrived the leaf succeeds while the
+    jaw goes on closing; `grasp` confirms the grip. A giver whose block slips meanwhile (its carry stopped)
     finds the receiver not yet closing and fetches it again, as before any close."""
 
     def begin(self) -> None:
         arm = self.param("arm")
         motion, grasp = self.motion(arm), self.get("grasp")
-        start = motion.start_from(self.client(arm))
-        self.move(
-            arm, descent(self.skills, motion, start, grasp), f"{arm} descending onto the grasp", (grasp,)
-        )
+        start, now = motion.start_from(self.client(arm)), self.context.clock.now()
+        offered = read_record(self, self.params["n"]).giver is Giver.OFFERED
+        self.carry = giver_carry(self, arm) if offered else None
+        hold = 0.0 if self.carry is None else max(0.0, set_off(self, arm, grasp, self.carry, now) - now)
+        planned = descent(self.skills, motion, start, grasp, hold)
+        self.move(arm, planned, f"{arm} descending onto the grasp", (grasp, hold) if hold else (grasp,))
         transfer = self.skills.motion.transfer
-        lead = (transfer.jaw_open - jaw_on_wall(self.skills.cell)) / motion.settings.jaw_velocity
+        lead = (
+            transfer.jaw_open - jaw_on_wall(self.skills.cell) + transfer.grip_confirmed_below
+        ) / motion.settings.jaw_velocity
         self.move_jaw(arm, transfer.jaw_at_grasp, f"{arm} jaw narrowing", before_end=lead)
         self.closing = False
 
     def jaw_due(self, outgoing: Outgoing) -> None:
-        if read_record(self, self.params["n"]).giver is Giver.ARRIVED:
+        if self._block_still_by_the_wall():
             outgoing.jaw_angle = self.skills.motion.transfer.jaw_closed
             outgoing.what = f"{self.param('arm')} jaw closing on the block held out"
             self.closing = True
+
+    def _block_still_by_the_wall(self) -> bool:
+        """Whether the giver holds the block out, or its carry to the meeting point will have ended by the
+        time the closing jaw meets the wall."""
+        said, arm, carry = read_record(self, self.params["n"]).giver, self.param("arm"), self.carry
+        if said is Giver.ARRIVED:
+            return True
+        if said is not Giver.OFFERED or carry is None or self.motion(giver_of(self, arm)).active is not carry:
+            return False
+        if carry.handle.done:  # ended where it was planned to, the giver not yet ticked to say so
+            return True
+        jaw = float(self.client(arm).jaw.setpoint_js.position[0])
+        meets = (jaw - jaw_on_wall(self.skills.cell)) / self.motion(arm).settings.jaw_velocity
+        end = carry.sent_at + carry.planned.duration + carry.handle.paused  # stalls put it off
+        return carry.handle.busy and end <= self.context.clock.now() + meets
 
     def watch(self) -> Status:
         if not self.closing:
