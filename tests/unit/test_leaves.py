@@ -1254,16 +1254,19 @@ def test_descend_to_grasp_closes_as_it_arrives_on_a_block_held_out_meeting_the_w
     assert arm.jaw.position()[0] > transfer.jaw_closed
 
 
-def meeting_under_way(robot: Robot, skills: Skills, seen, said: Giver, aside: float = 0.004):
+def meeting_under_way(
+    robot: Robot, skills: Skills, seen, said: Giver, aside: float = 0.004, stalled: float = 0.0
+):
     """The receiver waiting above its grasp, the giver's last motion of its carry (down onto the meeting
-    pose from `aside` over in board x, as a carry arrives) playing from now (clock 0), and handover 1's
-    giver word `said`."""
+    pose from `aside` over in board x, as a carry arrives) playing from now (clock 0), standing still
+    `stalled` s at its start (a streamer not scheduled), and handover 1's giver word `said`."""
     arm, meeting, values = receiver_at(robot, skills, seen, pose=partial(wait_pose, skills))
     giver, settings = robot.arms[GIVER], skills.settings[GIVER]
     arrival = meeting.tip.copy()
     arrival[:3, 3] += HANDOVER_ARRIVAL * skills.cell.up_in(GIVER)
     arrival[:3, 3] += aside * skills.cell.board_to_arm(GIVER)[:3, 0]
     at(giver, solve_ik(arrival, settings))
+    giver.stalled = stalled
     carry = skills.arm(GIVER).through(giver.rest, [solve_ik(meeting.tip, settings)], ["meeting"])
     skills.arm(GIVER).send(giver, carry)
     values["handover/state_1"] = Handover(1, receiver=Receiver.READY).said(said)
@@ -1273,11 +1276,11 @@ def meeting_under_way(robot: Robot, skills: Skills, seen, said: Giver, aside: fl
 MEET_AND_DESCEND = f"{{sequence: {{name: meet it, children: [{MEETING}, {DESCEND}]}}}}"
 
 
-def descent_sent(tmp_path, robot, skills, seen, clock, stop_the_carry: bool = False):
-    """Handover 1 under way (`meeting_under_way`), the receiver's jaw open: `await_meeting` then
-    `descend_to_grasp` ticked every control period until the descent is sent (the giver's carry then
-    stopped, with `stop_the_carry`), then until they end."""
-    arm, meeting, values, carry = meeting_under_way(robot, skills, seen, Giver.OFFERED)
+def descent_sent(tmp_path, robot, skills, seen, clock, stop_the_carry: bool = False, stalled: float = 0.0):
+    """Handover 1 under way (`meeting_under_way`, its carry `stalled`), the receiver's jaw open:
+    `await_meeting` then `descend_to_grasp` ticked every control period until the descent is sent (the
+    giver's carry then stopped, with `stop_the_carry`), then until they end."""
+    arm, meeting, values, carry = meeting_under_way(robot, skills, seen, Giver.OFFERED, stalled=stalled)
     arm.jaw.rest = np.array([skills.motion.transfer.jaw_open])
     built = build(tmp_path, robot, skills, MEET_AND_DESCEND, **values)
     period = skills.settings[RECEIVER].control_period
@@ -1291,17 +1294,21 @@ def descent_sent(tmp_path, robot, skills, seen, clock, stop_the_carry: bool = Fa
     return arm, meeting, carry, built
 
 
+@pytest.mark.parametrize("stalled", [0.0, 0.2])
 def test_the_receiver_descends_during_the_carry_keeping_above_the_block_and_no_later_than_it_must(
-    tmp_path, robot, skills, seen, clock
+    tmp_path, robot, skills, seen, clock, stalled
 ):
-    arm, meeting, carry, built = descent_sent(tmp_path, robot, skills, seen, clock)
+    """A carry that stood still on the way (`stalled` s, as a streamed motion reports it) brings the block
+    that much later: the descent is timed on where the block is, not where its plan had it."""
+    arm, meeting, carry, built = descent_sent(tmp_path, robot, skills, seen, clock, stalled=stalled)
     assert built.root.status == Status.SUCCESS
     (trajectory,) = arm.trajectories
     (sent,) = [command for command in arm.sent if command.kind == "trajectory"]
     # sent ahead of its set-off, held still until then, which comes before the giver has arrived
     moving = int(np.argmax(np.any(trajectory.q != trajectory.q[0], axis=1))) - 1
     assert moving >= 1
-    assert 0.0 < sent.at + trajectory.t[moving] < carry.duration
+    played = carry.t + stalled  # the clock times of the carry's rows, as the giver's arm plays them
+    assert 0.0 < sent.at + trajectory.t[moving] < played[-1]
     # the tip keeps `approach_above_block` above the block's top as the giver brings it over and down
     # onto the meeting pose, until the block is within a channel's tolerance of it sideways, and from then
     # on above its grasp of the block, until it is there
@@ -1312,23 +1319,25 @@ def test_the_receiver_descends_during_the_carry_keeping_above_the_block_and_no_l
     over = aside > skills.motion.transfer.channel_tolerance
     assert over.any() and not over.all()
     floor = np.where(over, clear, 0.0) + above
-    assert np.all(np.interp(carry.t - sent.at, trajectory.t, heights) >= floor - 1e-9)
+    assert np.all(np.interp(played - sent.at, trajectory.t, heights) >= floor - 1e-9)
     # and no later than it must: the same descent set off a control period sooner goes below that floor
-    sooner = np.interp(carry.t - sent.at + trajectory.period, trajectory.t, heights)
+    sooner = np.interp(played - sent.at + trajectory.period, trajectory.t, heights)
     assert np.any(sooner < floor - 1e-9)
 
 
+@pytest.mark.parametrize("stalled", [0.0, 0.2])
 def test_the_receiver_closes_on_a_block_still_coming_that_will_be_still_when_the_jaw_meets_the_wall(
-    tmp_path, robot, skills, seen, clock
+    tmp_path, robot, skills, seen, clock, stalled
 ):
     """The giver says it holds the block out only once its carry has ended and its tree is ticked: the
-    receiver's close, timed on its own descent, goes on the carry its descent was timed on."""
-    arm, _, carry, built = descent_sent(tmp_path, robot, skills, seen, clock)
+    receiver's close, timed on its own descent, goes on the carry its descent was timed on (ending that
+    much later when it stood still on the way)."""
+    arm, _, carry, built = descent_sent(tmp_path, robot, skills, seen, clock, stalled=stalled)
     transfer, velocity = skills.motion.transfer, skills.settings[RECEIVER].jaw_velocity
     assert read("/handover/state_1").giver is Giver.OFFERED  # nobody said `arrived` here
     (closing,) = arm.jaw.sent
     assert closing.target == transfer.jaw_closed
-    assert carry.duration <= closing.at + (transfer.jaw_open - jaw_on_wall(skills.cell)) / velocity
+    assert stalled + carry.duration <= closing.at + (transfer.jaw_open - jaw_on_wall(skills.cell)) / velocity
     # its set-point passes `grip_confirmed_below` under the wall as the tip arrives, within a control period
     ((trajectory, sent),) = [(c.target, c.at) for c in arm.sent if c.kind == "trajectory"]
     wall = jaw_on_wall(skills.cell)
