@@ -1276,20 +1276,20 @@ def meeting_under_way(
 MEET_AND_DESCEND = f"{{sequence: {{name: meet it, children: [{MEETING}, {DESCEND}]}}}}"
 
 
-def descent_sent(tmp_path, robot, skills, seen, clock, stop_the_carry: bool = False, stalled: float = 0.0):
+def descent_sent(tmp_path, robot, skills, seen, clock, meanwhile=None, stalled: float = 0.0):
     """Handover 1 under way (`meeting_under_way`, its carry `stalled`), the receiver's jaw open:
-    `await_meeting` then `descend_to_grasp` ticked every control period until the descent is sent (the
-    giver's carry then stopped, with `stop_the_carry`), then until they end."""
+    `await_meeting` then `descend_to_grasp` ticked every control period until the descent is sent (then
+    `meanwhile(meeting)` done to the giver's carry, still under way), then until they end."""
     arm, meeting, values, carry = meeting_under_way(robot, skills, seen, Giver.OFFERED, stalled=stalled)
     arm.jaw.rest = np.array([skills.motion.transfer.jaw_open])
     built = build(tmp_path, robot, skills, MEET_AND_DESCEND, **values)
     period = skills.settings[RECEIVER].control_period
     while built.root.status in (Status.INVALID, Status.RUNNING) and clock.now() < 5.0:
         built.root.tick_once()
-        if stop_the_carry and arm.trajectories:
+        if meanwhile is not None and arm.trajectories:
             assert robot.arms[GIVER].progress() < 1.0  # the carry still under way
-            robot.arms[GIVER].hold()
-            stop_the_carry = False
+            meanwhile(meeting)
+            meanwhile = None
         clock.advance(period)
     return arm, meeting, carry, built
 
@@ -1345,10 +1345,22 @@ def test_the_receiver_closes_on_a_block_still_coming_that_will_be_still_when_the
     assert 0.0 <= confirmed - (sent + trajectory.duration) < trajectory.period
 
 
-def test_the_receiver_only_narrows_its_jaw_on_a_block_whose_carry_was_stopped(
-    tmp_path, robot, skills, seen, clock
+@pytest.mark.parametrize("change", ["stopped", "replanned"])
+def test_the_receiver_only_narrows_its_jaw_on_a_block_whose_carry_was_stopped_or_replanned(
+    tmp_path, robot, skills, seen, clock, change
 ):
-    arm, _, _, built = descent_sent(tmp_path, robot, skills, seen, clock, stop_the_carry=True)
+    """The close is timed on the carry the descent was timed on: stopped, or replaced by another carry
+    (planned again from where the giver is), that carry says nothing of when the block will be still."""
+    giver = robot.arms[GIVER]
+
+    def replan(meeting) -> None:
+        motion = skills.arm(GIVER)
+        motion.stop(giver)
+        goal = solve_ik(meeting.tip, skills.settings[GIVER])
+        motion.send(giver, motion.through(motion.start_from(giver), [goal], ["meeting"]))
+
+    meanwhile = (lambda meeting: giver.hold()) if change == "stopped" else replan
+    arm, _, _, built = descent_sent(tmp_path, robot, skills, seen, clock, meanwhile=meanwhile)
     (narrowing,) = arm.jaw.sent
     assert narrowing.target == skills.motion.transfer.jaw_at_grasp
     assert built.root.status == Status.SUCCESS
