@@ -1276,14 +1276,17 @@ def meeting_under_way(
 MEET_AND_DESCEND = f"{{sequence: {{name: meet it, children: [{MEETING}, {DESCEND}]}}}}"
 
 
-def descent_sent(tmp_path, robot, skills, seen, clock, meanwhile=None, stalled: float = 0.0):
+def descent_sent(
+    tmp_path, robot, skills, seen, clock, meanwhile=None, stalled: float = 0.0, step: float | None = None
+):
     """Handover 1 under way (`meeting_under_way`, its carry `stalled`), the receiver's jaw open:
-    `await_meeting` then `descend_to_grasp` ticked every control period until the descent is sent (then
-    `meanwhile(meeting)` done to the giver's carry, still under way), then until they end."""
+    `await_meeting` then `descend_to_grasp` ticked every `step` s (default the control period) until the
+    descent is sent (then `meanwhile(meeting)` done to the giver's carry, still under way), then until
+    they end."""
     arm, meeting, values, carry = meeting_under_way(robot, skills, seen, Giver.OFFERED, stalled=stalled)
     arm.jaw.rest = np.array([skills.motion.transfer.jaw_open])
     built = build(tmp_path, robot, skills, MEET_AND_DESCEND, **values)
-    period = skills.settings[RECEIVER].control_period
+    period = skills.settings[RECEIVER].control_period if step is None else step
     while built.root.status in (Status.INVALID, Status.RUNNING) and clock.now() < 5.0:
         built.root.tick_once()
         if meanwhile is not None and arm.trajectories:
@@ -1292,6 +1295,22 @@ def descent_sent(tmp_path, robot, skills, seen, clock, meanwhile=None, stalled: 
             meanwhile = None
         clock.advance(period)
     return arm, meeting, carry, built
+
+
+def floor_under_descent(skills: Skills, meeting, carry, trajectory):
+    """Per row of the giver's `carry`: how far above its grasp the receiver's tip must be (`approach_above_block`
+    over the block's top until the block is within a channel's tolerance of where it is held out sideways,
+    then above its grasp of it), and the heights of the receiver's descent `trajectory` over its grasp."""
+    grasp = meeting.receiver_grasp
+    heights = (tip_position(trajectory.q) - grasp.pose[:3, 3]) @ skills.cell.up_in(RECEIVER)
+    offset = tip_position(carry.q) - tip_position(carry.q)[-1]
+    up = skills.cell.up_in(GIVER)
+    above = offset @ up
+    aside = np.linalg.norm(offset - np.outer(above, up), axis=1)
+    clear = skills.cell.block.grasp_depth + skills.motion.transfer.approach_above_block
+    over = aside > skills.motion.transfer.channel_tolerance
+    assert over.any() and not over.all()
+    return np.where(over, clear, 0.0) + above, heights
 
 
 @pytest.mark.parametrize("stalled", [0.0, 0.2])
@@ -1309,16 +1328,8 @@ def test_the_receiver_descends_during_the_carry_keeping_above_the_block_and_no_l
     assert moving >= 1
     played = carry.t + stalled  # the clock times of the carry's rows, as the giver's arm plays them
     assert 0.0 < sent.at + trajectory.t[moving] < played[-1]
-    # the tip keeps `approach_above_block` above the block's top as the giver brings it over and down
-    # onto the meeting pose, until the block is within a channel's tolerance of it sideways, and from then
-    # on above its grasp of the block, until it is there
-    grasp = meeting.receiver_grasp
-    heights = (tip_position(trajectory.q) - grasp.pose[:3, 3]) @ skills.cell.up_in(RECEIVER)
-    _, _, above, aside, _ = descent_against_carry(arm, skills, meeting, carry, 0.0)
-    clear = skills.cell.block.grasp_depth + skills.motion.transfer.approach_above_block
-    over = aside > skills.motion.transfer.channel_tolerance
-    assert over.any() and not over.all()
-    floor = np.where(over, clear, 0.0) + above
+    # the tip keeps above the floor as the giver brings the block over and down onto the meeting pose
+    floor, heights = floor_under_descent(skills, meeting, carry, trajectory)
     assert np.all(np.interp(played - sent.at, trajectory.t, heights) >= floor - 1e-9)
     # and no later than it must: the same descent set off a control period sooner goes below that floor
     sooner = np.interp(played - sent.at + trajectory.period, trajectory.t, heights)
@@ -1345,12 +1356,31 @@ def test_the_receiver_closes_on_a_block_still_coming_that_will_be_still_when_the
     assert 0.0 <= confirmed - (sent + trajectory.duration) < trajectory.period
 
 
-@pytest.mark.parametrize("change", ["stopped", "replanned"])
-def test_the_receiver_only_narrows_its_jaw_on_a_block_whose_carry_was_stopped_or_replanned(
+def test_on_late_ticks_the_descent_keeps_above_the_block_and_the_jaw_closes_on_it_once_it_is_still(
+    tmp_path, robot, skills, seen, clock
+):
+    """In real time a tick may come late (a loaded machine): ticked every 35 ms, off the grid of the
+    control period and the tree's, the receiver sets off no sooner than the floor allows, and its close,
+    sent late, meets the wall no sooner than the carry ends."""
+    arm, meeting, carry, built = descent_sent(tmp_path, robot, skills, seen, clock, step=0.035)
+    assert built.root.status == Status.SUCCESS
+    ((trajectory, sent),) = [(c.target, c.at) for c in arm.sent if c.kind == "trajectory"]
+    floor, heights = floor_under_descent(skills, meeting, carry, trajectory)
+    assert np.all(np.interp(carry.t - sent, trajectory.t, heights) >= floor - 1e-9)
+    transfer, velocity = skills.motion.transfer, skills.settings[RECEIVER].jaw_velocity
+    (closing,) = arm.jaw.sent
+    assert closing.target == transfer.jaw_closed
+    assert carry.duration <= closing.at + (transfer.jaw_open - jaw_on_wall(skills.cell)) / velocity
+
+
+@pytest.mark.parametrize("change", ["stopped", "replanned", "stalled"])
+def test_the_receiver_only_narrows_its_jaw_on_a_block_whose_carry_was_stopped_replanned_or_stalled(
     tmp_path, robot, skills, seen, clock, change
 ):
     """The close is timed on the carry the descent was timed on: stopped, or replaced by another carry
-    (planned again from where the giver is), that carry says nothing of when the block will be still."""
+    (planned again from where the giver is), that carry says nothing of when the block will be still;
+    standing still on its way (the giver's streamer not scheduled) for longer than the descent has left,
+    it will still be moving as the jaw meets the wall."""
     giver = robot.arms[GIVER]
 
     def replan(meeting) -> None:
@@ -1359,7 +1389,11 @@ def test_the_receiver_only_narrows_its_jaw_on_a_block_whose_carry_was_stopped_or
         goal = solve_ik(meeting.tip, skills.settings[GIVER])
         motion.send(giver, motion.through(motion.start_from(giver), [goal], ["meeting"]))
 
-    meanwhile = (lambda meeting: giver.hold()) if change == "stopped" else replan
+    meanwhile = {
+        "stopped": lambda meeting: giver.hold(),
+        "replanned": replan,
+        "stalled": lambda meeting: giver.stall(1.0),
+    }[change]
     arm, _, _, built = descent_sent(tmp_path, robot, skills, seen, clock, meanwhile=meanwhile)
     (narrowing,) = arm.jaw.sent
     assert narrowing.target == skills.motion.transfer.jaw_at_grasp
