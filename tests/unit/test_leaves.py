@@ -1277,23 +1277,36 @@ MEET_AND_DESCEND = f"{{sequence: {{name: meet it, children: [{MEETING}, {DESCEND
 
 
 def descent_sent(
-    tmp_path, robot, skills, seen, clock, meanwhile=None, stalled: float = 0.0, step: float | None = None
+    tmp_path,
+    robot,
+    skills,
+    seen,
+    clock,
+    meanwhile=None,
+    stalled: float = 0.0,
+    step: float | None = None,
+    aside: float = 0.004,
+    period: float | None = None,
 ):
-    """Handover 1 under way (`meeting_under_way`, its carry `stalled`), the receiver's jaw open:
-    `await_meeting` then `descend_to_grasp` ticked every `step` s (default the control period) until the
-    descent is sent (then `meanwhile(meeting)` done to the giver's carry, still under way), then until
-    they end."""
-    arm, meeting, values, carry = meeting_under_way(robot, skills, seen, Giver.OFFERED, stalled=stalled)
+    """Handover 1 under way (`meeting_under_way`, its carry from `aside`, `stalled`), the receiver's jaw
+    open: `await_meeting` then `descend_to_grasp` of a tree run at `period` (default `RunContext`'s) ticked
+    every `step` s (default the control period) until the descent is sent (then `meanwhile(meeting)` done
+    to the giver's carry, still under way), then until they end."""
+    arm, meeting, values, carry = meeting_under_way(
+        robot, skills, seen, Giver.OFFERED, aside=aside, stalled=stalled
+    )
     arm.jaw.rest = np.array([skills.motion.transfer.jaw_open])
     built = build(tmp_path, robot, skills, MEET_AND_DESCEND, **values)
-    period = skills.settings[RECEIVER].control_period if step is None else step
+    if period is not None:
+        built.context.period = period
+    step = skills.settings[RECEIVER].control_period if step is None else step
     while built.root.status in (Status.INVALID, Status.RUNNING) and clock.now() < 5.0:
         built.root.tick_once()
         if meanwhile is not None and arm.trajectories:
             assert robot.arms[GIVER].progress() < 1.0  # the carry still under way
             meanwhile(meeting)
             meanwhile = None
-        clock.advance(period)
+        clock.advance(step)
     return arm, meeting, carry, built
 
 
@@ -1313,13 +1326,16 @@ def floor_under_descent(skills: Skills, meeting, carry, trajectory):
     return np.where(over, clear, 0.0) + above, heights
 
 
-@pytest.mark.parametrize("stalled", [0.0, 0.2])
+@pytest.mark.parametrize(("stalled", "period"), [(0.0, None), (0.2, None), (0.0, 0.03)])
 def test_the_receiver_descends_during_the_carry_keeping_above_the_block_and_no_later_than_it_must(
-    tmp_path, robot, skills, seen, clock, stalled
+    tmp_path, robot, skills, seen, clock, stalled, period
 ):
     """A carry that stood still on the way (`stalled` s, as a streamed motion reports it) brings the block
-    that much later: the descent is timed on where the block is, not where its plan had it."""
-    arm, meeting, carry, built = descent_sent(tmp_path, robot, skills, seen, clock, stalled=stalled)
+    that much later: the descent is timed on where the block is, not where its plan had it. Ticked at a
+    longer period (`--period`), the receiver sends its descent that much ahead of its set-off."""
+    arm, meeting, carry, built = descent_sent(
+        tmp_path, robot, skills, seen, clock, stalled=stalled, step=period, aside=0.02, period=period
+    )
     assert built.root.status == Status.SUCCESS
     (trajectory,) = arm.trajectories
     (sent,) = [command for command in arm.sent if command.kind == "trajectory"]
@@ -1362,7 +1378,7 @@ def test_on_late_ticks_the_descent_keeps_above_the_block_and_the_jaw_closes_on_i
     """In real time a tick may come late (a loaded machine): ticked every 35 ms, off the grid of the
     control period and the tree's, the receiver sets off no sooner than the floor allows, and its close,
     sent late, meets the wall no sooner than the carry ends."""
-    arm, meeting, carry, built = descent_sent(tmp_path, robot, skills, seen, clock, step=0.035)
+    arm, meeting, carry, built = descent_sent(tmp_path, robot, skills, seen, clock, step=0.035, aside=0.02)
     assert built.root.status == Status.SUCCESS
     ((trajectory, sent),) = [(c.target, c.at) for c in arm.sent if c.kind == "trajectory"]
     floor, heights = floor_under_descent(skills, meeting, carry, trajectory)

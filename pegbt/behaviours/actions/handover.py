@@ -48,11 +48,6 @@ from pegbt.workcell import Workcell
 
 log = logging.getLogger("pegbt.behaviours")
 
-# s before its set-off that the receiver's descent is sent, held still until then: a tree period at the
-# default rate, so the tick that sends it is the last before the set-off (sent at the first tick after it,
-# it set off up to a period late: lockstep seeds 1000-1003, 2026-11-29)
-HOLD_AHEAD = 0.02
-
 
 @dataclass(frozen=True)
 class Meeting:
@@ -452,9 +447,10 @@ class AwaitMeeting(RobotLeaf):
     block is within `channel_tolerance` of where it will be held out sideways (coming down the last
     millimetres, its wall between the open jaws with millimetres to spare either side), only above its
     grasp of the block. The descent is hidden behind the carry as far as that allows: given the set-off
-    (`set_off`), among the descents down the same joint line none ends sooner, and the receiver sends it
-    `HOLD_AHEAD` early, held still until then. The jaw closes only on a block that is still by the time it
-    meets the wall (`descend_to_grasp`)."""
+    (`set_off`), among the descents down the same joint line none ends sooner, and the receiver sends it a
+    tree period early (the context's `period`), held still until then: the tick that sends it is the last
+    before the set-off, where the first after it set it off up to a period late. The jaw closes only on a
+    block that is still by the time it meets the wall (`descend_to_grasp`)."""
 
     def initialise(self) -> None:
         patience = self.params["patience"]
@@ -475,11 +471,12 @@ class AwaitMeeting(RobotLeaf):
             timed_on = (carry.sent_at, carry.handle.paused)
             if self.planned is None or self.planned[0] != timed_on:
                 self.planned = (timed_on, set_off(self, arm, self.get("grasp"), carry, now))
-            if now >= self.planned[1] - HOLD_AHEAD - 1e-9:
+            ahead = self.planned[1] - self.context.period
+            if now >= ahead - 1e-9:
                 end = carry.sent_at + carry.handle.paused + carry.planned.duration
                 self.feedback_message = f"the giver arrives in {end - now:.2f} s: descending"
                 return Status.SUCCESS
-            self.wake_at = min(self.deadline, self.planned[1] - HOLD_AHEAD)
+            self.wake_at = min(self.deadline, ahead)
         if now > self.deadline:
             return self.fail(
                 f"the giver has not brought the block after {self.params['patience']:g} s ({record})"
