@@ -1316,10 +1316,7 @@ def floor_under_descent(skills: Skills, meeting, carry, trajectory):
     then above its grasp of it), and the heights of the receiver's descent `trajectory` over its grasp."""
     grasp = meeting.receiver_grasp
     heights = (tip_position(trajectory.q) - grasp.pose[:3, 3]) @ skills.cell.up_in(RECEIVER)
-    offset = tip_position(carry.q) - tip_position(carry.q)[-1]
-    up = skills.cell.up_in(GIVER)
-    above = offset @ up
-    aside = np.linalg.norm(offset - np.outer(above, up), axis=1)
+    above, aside = block_from_held_out(skills, carry)
     clear = skills.cell.block.grasp_depth + skills.motion.transfer.approach_above_block
     over = aside > skills.motion.transfer.channel_tolerance
     assert over.any() and not over.all()
@@ -1425,7 +1422,7 @@ def test_await_meeting_lets_the_receiver_descend_at_once_onto_a_block_brought_st
     built = build(tmp_path, robot, skills, MEETING, **values)
     assert run(built, clock) == Status.SUCCESS
     assert clock.now() == 0.0
-    descent, heights, above, _, _ = descent_against_carry(arm, skills, meeting, carry, 0.0)
+    descent, heights, above = descent_against_carry(arm, skills, meeting, carry)
     assert np.all(np.interp(carry.t, descent.t, heights) >= above - 1e-9)
 
 
@@ -1441,20 +1438,24 @@ def test_await_meeting_does_not_time_the_descent_on_a_giver_that_only_called_the
     assert arm.sent == []
 
 
-def descent_against_carry(arm, skills: Skills, meeting, carry, start: float):
-    """The receiver's descent from its rest onto its grasp and its tip's heights over the grasp, and per
-    sample of the giver's `carry`, the block's height over and distance aside from where it will be held,
-    and whether the sample comes after `start`."""
+def block_from_held_out(skills: Skills, carry):
+    """Per row of the giver's `carry`: the block's height over, and distance aside from, where it will be
+    held out."""
+    offset = tip_position(carry.q) - tip_position(carry.q)[-1]
+    up = skills.cell.up_in(GIVER)
+    above = offset @ up
+    return above, np.linalg.norm(offset - np.outer(above, up), axis=1)
+
+
+def descent_against_carry(arm, skills: Skills, meeting, carry):
+    """The receiver's descent from its rest onto its grasp, its tip's heights over the grasp, and per row
+    of the giver's `carry` the block's height over where it will be held out."""
     grasp = meeting.receiver_grasp
     descent = skills.arm(RECEIVER).quickest(
         arm.rest, [solve_ik(grasp.pose, skills.settings[RECEIVER])], ["g"]
     )
     heights = (tip_position(descent.q) - grasp.pose[:3, 3]) @ skills.cell.up_in(RECEIVER)
-    offset = tip_position(carry.q) - tip_position(carry.q)[-1]
-    up = skills.cell.up_in(GIVER)
-    above = offset @ up
-    aside = np.linalg.norm(offset - np.outer(above, up), axis=1)
-    return descent, heights, above, aside, carry.t >= start
+    return descent, heights, block_from_held_out(skills, carry)[0]
 
 
 def test_await_meeting_waits_while_the_giver_is_not_carrying_and_goes_once_it_holds_the_block_out(
