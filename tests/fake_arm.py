@@ -7,7 +7,7 @@ What stays real: every command is checked by the transport's own guards (`pegbt.
 `MotionHandle` and captures its `CaptureHandle`, which read their fate from this endpoint as they read it
 from a real one (an outcome per command id: done, refused, aborted). What a test scripts is the endpoint's
 side: a command it refuses (`refuse_next`), a motion whose end it never reports (`never_ends`) or that
-stood still on the way (`stalled`), a block
+stood still on the way (`stalled` from its start, `stall()` from now), a block
 between the jaws (`block_in_jaw`) or slipping out of them (`drop_block()`, or `slips_at`: once the arm's
 motion in progress is that far through), a camera that never answers.
 A sent trajectory is followed row by row on the clock; the jaw moves at the arm's jaw velocity.
@@ -64,6 +64,7 @@ class FakeAxis:
         self._commands = 0
         self.holds_overtaken = False  # a hold reaches it after the next command (zenoh orders keys apart)
         self._late: list[str] = []  # the holds so overtaken, by the motion each names
+        self.paused: dict[str, float] = {}  # s each motion stood still on the way, by its id
 
     # ------------------------------------------------------------------ what MotionHandle reads
     @property
@@ -104,6 +105,17 @@ class FakeAxis:
             self._motion = None
         self.rest = here
 
+    def stall(self, seconds: float) -> None:
+        """The motion in progress stands still `seconds` from now (its streamer not scheduled), ending that
+        much later, its handle saying so."""
+        assert self._motion is not None
+        command_id, times, rows = self._motion
+        now, here = self.arm.clock.now(), self.position()
+        later = times > now
+        times = np.r_[times[~later], now, now + seconds, times[later] + seconds]
+        self._motion = (command_id, times, np.vstack([rows[~later], here, here, rows[later]]))
+        self.paused[command_id] += seconds
+
     # ------------------------------------------------------------------ state
     def position(self, at: float | None = None) -> NDArray[np.float64]:
         """The set-point now (or at clock time `at`): along the motion in progress (rows at clock times),
@@ -140,7 +152,7 @@ class FakeAxis:
         self._commands += 1
         command_id = f"fake:{self.key}:{self._commands}"
         self.sent.append(Sent(kind, target, now))
-        handle = MotionHandle(self, command_id, now, kind)
+        handle = StreamedHandle(self, command_id, now, kind)
         if self.arm.refuse_next is not None:
             self._fates[command_id] = ("refused", self.arm.refuse_next)
             self.arm.refuse_next = None
@@ -150,24 +162,23 @@ class FakeAxis:
             self.rest = self.position()
             stalled = self.arm.stalled
             self._motion = (command_id, now + np.r_[times[:1], times[1:] + stalled], rows)
-            if stalled:
-                handle = StalledHandle(self, command_id, now, kind, stalled)
+            self.paused[command_id] = stalled
         late, self._late, self.holds_overtaken = self._late, [], False
         for stopping in late:
             self.hold(stopping)
         return handle
 
 
-class StalledHandle(MotionHandle):
-    """The handle of a motion that stood still `paused` s at its start, as a streamed one reports it."""
+class StreamedHandle(MotionHandle):
+    """The handle of a motion that reports the seconds it stood still on the way, as a streamed one does."""
 
-    def __init__(self, axis: FakeAxis, command_id: str, sent_at: float, what: str, paused: float) -> None:
+    def __init__(self, axis: FakeAxis, command_id: str, sent_at: float, what: str) -> None:
         super().__init__(axis, command_id, sent_at, what)  # type: ignore[arg-type]
-        self._paused = paused
+        self._fake = axis
 
     @property
     def paused(self) -> float:
-        return self._paused
+        return self._fake.paused.get(self.command_id, 0.0)
 
 
 class FakeJaw(FakeAxis):

@@ -24,12 +24,14 @@ class RunContext:
 
     `resources` maps a name (e.g. `"arms"`, `"camera"`, `"skills"`) to whatever object the
     behaviours that declared that name expect; the runner's caller fills it. `work` runs leaves'
-    heavy computations off the tick (`Leaf.offload`).
+    heavy computations off the tick (`Leaf.offload`). `period`: s between the runner's ticks (`run` sets
+    it), for a leaf that must act a tick ahead of a time it waits for.
     """
 
     clock: Clock = field(default_factory=WallClock)
     resources: Mapping[str, Any] = field(default_factory=dict)
     work: WorkPool = field(default_factory=WorkPool)
+    period: float = 0.02
 
     def resource(self, name: str, kind: type[T] | None = None) -> T:
         """The resource called `name`; a `PegbtError` if this run lacks it or it is not a `kind`."""

@@ -80,6 +80,7 @@ def run(
     """Set up and tick `built` every `period` seconds of its context's clock; see the module docstring for how it ends."""
     clock = built.context.clock
     work = built.context.work
+    built.context.period = period
     work.inline = not is_realtime(clock)
     switch_interval = sys.getswitchinterval()
     if not work.inline:

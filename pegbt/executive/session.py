@@ -73,7 +73,8 @@ def run_tree_file(
     out = out or sys.stdout
     tree, log_path, clock = options.tree, options.log, options.clock
     loaded = load_tree(tree, allow_include_outside=options.allow_include_outside)
-    asked = {key: options.asked_by(key) for key in options.blackboard}  # the protocol's policies first
+    # each key set by what asked for it, so that one the tree lacks is refused in the asker's words
+    asked = {key: options.asked_by(key) for key in options.blackboard}
     for by in dict.fromkeys(asked.values()):
         loaded.set_blackboard(
             {key: value for key, value in options.blackboard.items() if asked[key] == by}, asked_by=by

@@ -1254,16 +1254,19 @@ def test_descend_to_grasp_closes_as_it_arrives_on_a_block_held_out_meeting_the_w
     assert arm.jaw.position()[0] > transfer.jaw_closed
 
 
-def meeting_under_way(robot: Robot, skills: Skills, seen, said: Giver, aside: float = 0.004):
+def meeting_under_way(
+    robot: Robot, skills: Skills, seen, said: Giver, aside: float = 0.004, stalled: float = 0.0
+):
     """The receiver waiting above its grasp, the giver's last motion of its carry (down onto the meeting
-    pose from `aside` over in board x, as a carry arrives) playing from now (clock 0), and handover 1's
-    giver word `said`."""
+    pose from `aside` over in board x, as a carry arrives) playing from now (clock 0), standing still
+    `stalled` s at its start (a streamer not scheduled), and handover 1's giver word `said`."""
     arm, meeting, values = receiver_at(robot, skills, seen, pose=partial(wait_pose, skills))
     giver, settings = robot.arms[GIVER], skills.settings[GIVER]
     arrival = meeting.tip.copy()
     arrival[:3, 3] += HANDOVER_ARRIVAL * skills.cell.up_in(GIVER)
     arrival[:3, 3] += aside * skills.cell.board_to_arm(GIVER)[:3, 0]
     at(giver, solve_ik(arrival, settings))
+    giver.stalled = stalled
     carry = skills.arm(GIVER).through(giver.rest, [solve_ik(meeting.tip, settings)], ["meeting"])
     skills.arm(GIVER).send(giver, carry)
     values["handover/state_1"] = Handover(1, receiver=Receiver.READY).said(said)
@@ -1273,62 +1276,92 @@ def meeting_under_way(robot: Robot, skills: Skills, seen, said: Giver, aside: fl
 MEET_AND_DESCEND = f"{{sequence: {{name: meet it, children: [{MEETING}, {DESCEND}]}}}}"
 
 
-def descent_sent(tmp_path, robot, skills, seen, clock, stop_the_carry: bool = False):
-    """Handover 1 under way (`meeting_under_way`), the receiver's jaw open: `await_meeting` then
-    `descend_to_grasp` ticked every control period until the descent is sent (the giver's carry then
-    stopped, with `stop_the_carry`), then until they end."""
-    arm, meeting, values, carry = meeting_under_way(robot, skills, seen, Giver.OFFERED)
+def descent_sent(
+    tmp_path,
+    robot,
+    skills,
+    seen,
+    clock,
+    meanwhile=None,
+    stalled: float = 0.0,
+    step: float | None = None,
+    aside: float = 0.004,
+    period: float | None = None,
+):
+    """Handover 1 under way (`meeting_under_way`, its carry from `aside`, `stalled`), the receiver's jaw
+    open: `await_meeting` then `descend_to_grasp` of a tree run at `period` (default `RunContext`'s) ticked
+    every `step` s (default the control period) until the descent is sent (then `meanwhile(meeting)` done
+    to the giver's carry, still under way), then until they end."""
+    arm, meeting, values, carry = meeting_under_way(
+        robot, skills, seen, Giver.OFFERED, aside=aside, stalled=stalled
+    )
     arm.jaw.rest = np.array([skills.motion.transfer.jaw_open])
     built = build(tmp_path, robot, skills, MEET_AND_DESCEND, **values)
-    period = skills.settings[RECEIVER].control_period
+    if period is not None:
+        built.context.period = period
+    step = skills.settings[RECEIVER].control_period if step is None else step
     while built.root.status in (Status.INVALID, Status.RUNNING) and clock.now() < 5.0:
         built.root.tick_once()
-        if stop_the_carry and arm.trajectories:
+        if meanwhile is not None and arm.trajectories:
             assert robot.arms[GIVER].progress() < 1.0  # the carry still under way
-            robot.arms[GIVER].hold()
-            stop_the_carry = False
-        clock.advance(period)
+            meanwhile(meeting)
+            meanwhile = None
+        clock.advance(step)
     return arm, meeting, carry, built
 
 
+def floor_under_descent(skills: Skills, meeting, carry, trajectory):
+    """Per row of the giver's `carry`: how far above its grasp the receiver's tip must be (`approach_above_block`
+    over the block's top until the block is within a channel's tolerance of where it is held out sideways,
+    then above its grasp of it), and the heights of the receiver's descent `trajectory` over its grasp."""
+    grasp = meeting.receiver_grasp
+    heights = (tip_position(trajectory.q) - grasp.pose[:3, 3]) @ skills.cell.up_in(RECEIVER)
+    above, aside = block_from_held_out(skills, carry)
+    clear = skills.cell.block.grasp_depth + skills.motion.transfer.approach_above_block
+    over = aside > skills.motion.transfer.channel_tolerance
+    assert over.any() and not over.all()
+    return np.where(over, clear, 0.0) + above, heights
+
+
+@pytest.mark.parametrize(("stalled", "period"), [(0.0, None), (0.2, None), (0.0, 0.03)])
 def test_the_receiver_descends_during_the_carry_keeping_above_the_block_and_no_later_than_it_must(
-    tmp_path, robot, skills, seen, clock
+    tmp_path, robot, skills, seen, clock, stalled, period
 ):
-    arm, meeting, carry, built = descent_sent(tmp_path, robot, skills, seen, clock)
+    """A carry that stood still on the way (`stalled` s, as a streamed motion reports it) brings the block
+    that much later: the descent is timed on where the block is, not where its plan had it. Ticked at a
+    longer period (`--period`), the receiver sends its descent that much ahead of its set-off."""
+    arm, meeting, carry, built = descent_sent(
+        tmp_path, robot, skills, seen, clock, stalled=stalled, step=period, aside=0.02, period=period
+    )
     assert built.root.status == Status.SUCCESS
     (trajectory,) = arm.trajectories
     (sent,) = [command for command in arm.sent if command.kind == "trajectory"]
     # sent ahead of its set-off, held still until then, which comes before the giver has arrived
     moving = int(np.argmax(np.any(trajectory.q != trajectory.q[0], axis=1))) - 1
     assert moving >= 1
-    assert 0.0 < sent.at + trajectory.t[moving] < carry.duration
-    # the tip keeps `approach_above_block` above the block's top as the giver brings it over and down
-    # onto the meeting pose, until the block is within a channel's tolerance of it sideways, and from then
-    # on above its grasp of the block, until it is there
-    grasp = meeting.receiver_grasp
-    heights = (tip_position(trajectory.q) - grasp.pose[:3, 3]) @ skills.cell.up_in(RECEIVER)
-    _, _, above, aside, _ = descent_against_carry(arm, skills, meeting, carry, 0.0)
-    clear = skills.cell.block.grasp_depth + skills.motion.transfer.approach_above_block
-    over = aside > skills.motion.transfer.channel_tolerance
-    assert over.any() and not over.all()
-    floor = np.where(over, clear, 0.0) + above
-    assert np.all(np.interp(carry.t - sent.at, trajectory.t, heights) >= floor - 1e-9)
+    played = carry.t + stalled  # the clock times of the carry's rows, as the giver's arm plays them
+    assert 0.0 < sent.at + trajectory.t[moving] < played[-1]
+    # the tip keeps above the floor as the giver brings the block over and down onto the meeting pose
+    floor, heights = floor_under_descent(skills, meeting, carry, trajectory)
+    assert np.all(np.interp(played - sent.at, trajectory.t, heights) >= floor - 1e-9)
     # and no later than it must: the same descent set off a control period sooner goes below that floor
-    sooner = np.interp(carry.t - sent.at + trajectory.period, trajectory.t, heights)
+    sooner = np.interp(played - sent.at + trajectory.period, trajectory.t, heights)
     assert np.any(sooner < floor - 1e-9)
 
 
+@pytest.mark.parametrize("stalled", [0.0, 0.2])
 def test_the_receiver_closes_on_a_block_still_coming_that_will_be_still_when_the_jaw_meets_the_wall(
-    tmp_path, robot, skills, seen, clock
+    tmp_path, robot, skills, seen, clock, stalled
 ):
     """The giver says it holds the block out only once its carry has ended and its tree is ticked: the
-    receiver's close, timed on its own descent, goes on the carry its descent was timed on."""
-    arm, _, carry, built = descent_sent(tmp_path, robot, skills, seen, clock)
+    receiver's close, timed on its own descent, goes on the carry its descent was timed on (ending that
+    much later when it stood still on the way)."""
+    arm, _, carry, built = descent_sent(tmp_path, robot, skills, seen, clock, stalled=stalled)
     transfer, velocity = skills.motion.transfer, skills.settings[RECEIVER].jaw_velocity
     assert read("/handover/state_1").giver is Giver.OFFERED  # nobody said `arrived` here
     (closing,) = arm.jaw.sent
     assert closing.target == transfer.jaw_closed
-    assert carry.duration <= closing.at + (transfer.jaw_open - jaw_on_wall(skills.cell)) / velocity
+    assert stalled + carry.duration <= closing.at + (transfer.jaw_open - jaw_on_wall(skills.cell)) / velocity
     # its set-point passes `grip_confirmed_below` under the wall as the tip arrives, within a control period
     ((trajectory, sent),) = [(c.target, c.at) for c in arm.sent if c.kind == "trajectory"]
     wall = jaw_on_wall(skills.cell)
@@ -1336,10 +1369,45 @@ def test_the_receiver_closes_on_a_block_still_coming_that_will_be_still_when_the
     assert 0.0 <= confirmed - (sent + trajectory.duration) < trajectory.period
 
 
-def test_the_receiver_only_narrows_its_jaw_on_a_block_whose_carry_was_stopped(
+def test_on_late_ticks_the_descent_keeps_above_the_block_and_the_jaw_closes_on_it_once_it_is_still(
     tmp_path, robot, skills, seen, clock
 ):
-    arm, _, _, built = descent_sent(tmp_path, robot, skills, seen, clock, stop_the_carry=True)
+    """In real time a tick may come late (a loaded machine): ticked every 35 ms, off the grid of the
+    control period and the tree's, the receiver sets off no sooner than the floor allows, and its close,
+    sent late, meets the wall no sooner than the carry ends."""
+    arm, meeting, carry, built = descent_sent(tmp_path, robot, skills, seen, clock, step=0.035, aside=0.02)
+    assert built.root.status == Status.SUCCESS
+    ((trajectory, sent),) = [(c.target, c.at) for c in arm.sent if c.kind == "trajectory"]
+    floor, heights = floor_under_descent(skills, meeting, carry, trajectory)
+    assert np.all(np.interp(carry.t - sent, trajectory.t, heights) >= floor - 1e-9)
+    transfer, velocity = skills.motion.transfer, skills.settings[RECEIVER].jaw_velocity
+    (closing,) = arm.jaw.sent
+    assert closing.target == transfer.jaw_closed
+    assert carry.duration <= closing.at + (transfer.jaw_open - jaw_on_wall(skills.cell)) / velocity
+
+
+@pytest.mark.parametrize("change", ["stopped", "replanned", "stalled"])
+def test_the_receiver_only_narrows_its_jaw_on_a_block_whose_carry_was_stopped_replanned_or_stalled(
+    tmp_path, robot, skills, seen, clock, change
+):
+    """The close is timed on the carry the descent was timed on: stopped, or replaced by another carry
+    (planned again from where the giver is), that carry says nothing of when the block will be still;
+    standing still on its way (the giver's streamer not scheduled) for longer than the descent has left,
+    it will still be moving as the jaw meets the wall."""
+    giver = robot.arms[GIVER]
+
+    def replan(meeting) -> None:
+        motion = skills.arm(GIVER)
+        motion.stop(giver)
+        goal = solve_ik(meeting.tip, skills.settings[GIVER])
+        motion.send(giver, motion.through(motion.start_from(giver), [goal], ["meeting"]))
+
+    meanwhile = {
+        "stopped": lambda meeting: giver.hold(),
+        "replanned": replan,
+        "stalled": lambda meeting: giver.stall(1.0),
+    }[change]
+    arm, _, _, built = descent_sent(tmp_path, robot, skills, seen, clock, meanwhile=meanwhile)
     (narrowing,) = arm.jaw.sent
     assert narrowing.target == skills.motion.transfer.jaw_at_grasp
     assert built.root.status == Status.SUCCESS
@@ -1354,7 +1422,7 @@ def test_await_meeting_lets_the_receiver_descend_at_once_onto_a_block_brought_st
     built = build(tmp_path, robot, skills, MEETING, **values)
     assert run(built, clock) == Status.SUCCESS
     assert clock.now() == 0.0
-    descent, heights, above, _, _ = descent_against_carry(arm, skills, meeting, carry, 0.0)
+    descent, heights, above = descent_against_carry(arm, skills, meeting, carry)
     assert np.all(np.interp(carry.t, descent.t, heights) >= above - 1e-9)
 
 
@@ -1370,20 +1438,24 @@ def test_await_meeting_does_not_time_the_descent_on_a_giver_that_only_called_the
     assert arm.sent == []
 
 
-def descent_against_carry(arm, skills: Skills, meeting, carry, start: float):
-    """The receiver's descent from its rest onto its grasp and its tip's heights over the grasp, and per
-    sample of the giver's `carry`, the block's height over and distance aside from where it will be held,
-    and whether the sample comes after `start`."""
+def block_from_held_out(skills: Skills, carry):
+    """Per row of the giver's `carry`: the block's height over, and distance aside from, where it will be
+    held out."""
+    offset = tip_position(carry.q) - tip_position(carry.q)[-1]
+    up = skills.cell.up_in(GIVER)
+    above = offset @ up
+    return above, np.linalg.norm(offset - np.outer(above, up), axis=1)
+
+
+def descent_against_carry(arm, skills: Skills, meeting, carry):
+    """The receiver's descent from its rest onto its grasp, its tip's heights over the grasp, and per row
+    of the giver's `carry` the block's height over where it will be held out."""
     grasp = meeting.receiver_grasp
     descent = skills.arm(RECEIVER).quickest(
         arm.rest, [solve_ik(grasp.pose, skills.settings[RECEIVER])], ["g"]
     )
     heights = (tip_position(descent.q) - grasp.pose[:3, 3]) @ skills.cell.up_in(RECEIVER)
-    offset = tip_position(carry.q) - tip_position(carry.q)[-1]
-    up = skills.cell.up_in(GIVER)
-    above = offset @ up
-    aside = np.linalg.norm(offset - np.outer(above, up), axis=1)
-    return descent, heights, above, aside, carry.t >= start
+    return descent, heights, block_from_held_out(skills, carry)[0]
 
 
 def test_await_meeting_waits_while_the_giver_is_not_carrying_and_goes_once_it_holds_the_block_out(

@@ -1,7 +1,9 @@
 """The phase simulator's outcomes, first phases and seconds on fixed worlds, variants, conditions and seeds,
 and a handover trial's first transfers played in order: what a refactoring must leave as it is. A change
 that moves any of them changes the simulator, and says so (before and after, on these seeds) where it is
-committed; the figures are then written here again from the changed simulator."""
+committed; the figures are then written here again from the changed simulator: `pytest -vv -n 0
+tests/unit/test_outcomes_phasesim_fingerprint.py` shows every simulated value beside the one written here
+(each test asserts its whole table at once)."""
 
 from __future__ import annotations
 
@@ -74,5 +76,5 @@ def test_single_transfers_keep_their_outcomes_phases_and_seconds() -> None:
 
 def test_a_handover_trial_played_in_order_keeps_its_outcomes_phases_and_seconds() -> None:
     played = simulate_trial(list(WORLDS.values()), "handover", "uncalibrated", 0, len(TRIAL))
-    for row, expected in zip(played, TRIAL, strict=True):
-        assert [(r.succeeded, r.phase, round(r.seconds, 2)) for r in row] == [expected] * len(WORLDS)
+    simulated = [[(r.succeeded, r.phase, round(r.seconds, 2)) for r in row] for row in played]
+    assert simulated == [[expected] * len(WORLDS) for expected in TRIAL]

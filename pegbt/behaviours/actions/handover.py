@@ -48,11 +48,6 @@ from pegbt.workcell import Workcell
 
 log = logging.getLogger("pegbt.behaviours")
 
-# s before its set-off that the receiver's descent is sent, held still until then: a tree period at the
-# default rate, so the tick that sends it is the last before the set-off (sent at the first tick after it,
-# it set off up to a period late: lockstep seeds 1000-1003, 2026-11-29)
-HOLD_AHEAD = 0.02
-
 
 @dataclass(frozen=True)
 class Meeting:
@@ -423,11 +418,12 @@ def set_off(leaf: RobotLeaf, receiver: str, grasp: Grasp, carry: SentMotion, now
     """The first clock time from `now` (on the control period) from which the receiver's descent onto
     `grasp` keeps its tip `approach_above_block` above the block's top, as `carry` moves it, until it ends,
     except once the block is within `channel_tolerance` of where it will be held out, sideways: then only
-    above its grasp of the block."""
+    above its grasp of the block. A carry that stood still on the way (`paused`) is that far behind its
+    plan: the block is higher than planned, and a descent timed on the plan alone would meet it."""
     motion, cell, giver = leaf.motion(receiver), leaf.skills.cell, giver_of(leaf, receiver)
     descent_plan = descent(leaf.skills, motion, motion.start_from(leaf.client(receiver)), grasp)()
     heights = (tip_position(descent_plan.q) - grasp.pose[:3, 3]) @ cell.up_in(receiver)
-    times = carry.sent_at + carry.planned.t
+    times = carry.sent_at + carry.handle.paused + carry.planned.t
     tips = tip_position(carry.planned.q)
     up, transfer = cell.up_in(giver), leaf.skills.motion.transfer
     above = (tips - tips[-1]) @ up  # the block over where it will be held out
@@ -451,15 +447,17 @@ class AwaitMeeting(RobotLeaf):
     block is within `channel_tolerance` of where it will be held out sideways (coming down the last
     millimetres, its wall between the open jaws with millimetres to spare either side), only above its
     grasp of the block. The descent is hidden behind the carry as far as that allows: given the set-off
-    (`set_off`), among the descents down the same joint line none ends sooner, and the receiver sends it
-    `HOLD_AHEAD` early, held still until then. The jaw closes only on a block that is still by the time it
-    meets the wall (`descend_to_grasp`)."""
+    (`set_off`), among the descents down the same joint line none ends sooner, and the receiver sends it a
+    tree period early (the context's `period`), held still until then: the tick that sends it is the last
+    before the set-off, where the first after it set it off up to a period late. The jaw closes only on a
+    block that is still by the time it meets the wall (`descend_to_grasp`)."""
 
     def initialise(self) -> None:
         patience = self.params["patience"]
         self.deadline = math.inf if patience is None else self.context.clock.now() + patience
         self.wake_at: float | None = self.deadline
-        self.planned: tuple[float, float] | None = None  # (the carry's send time, when to set off)
+        # (the carry's send time and stalls so far, when to set off)
+        self.planned: tuple[tuple[float, float], float] | None = None
 
     def act(self) -> Status:
         record = read_record(self, self.params["n"])
@@ -470,13 +468,15 @@ class AwaitMeeting(RobotLeaf):
         arm = self.param("arm")
         carry = giver_carry(self, arm) if record.giver is Giver.OFFERED else None
         if carry is not None:
-            if self.planned is None or self.planned[0] != carry.sent_at:
-                self.planned = (carry.sent_at, set_off(self, arm, self.get("grasp"), carry, now))
-            if now >= self.planned[1] - HOLD_AHEAD - 1e-9:
-                end = carry.sent_at + carry.planned.duration
+            timed_on = (carry.sent_at, carry.handle.paused)
+            if self.planned is None or self.planned[0] != timed_on:
+                self.planned = (timed_on, set_off(self, arm, self.get("grasp"), carry, now))
+            ahead = self.planned[1] - self.context.period
+            if now >= ahead - 1e-9:
+                end = carry.sent_at + carry.handle.paused + carry.planned.duration
                 self.feedback_message = f"the giver arrives in {end - now:.2f} s: descending"
                 return Status.SUCCESS
-            self.wake_at = min(self.deadline, self.planned[1] - HOLD_AHEAD)
+            self.wake_at = min(self.deadline, ahead)
         if now > self.deadline:
             return self.fail(
                 f"the giver has not brought the block after {self.params['patience']:g} s ({record})"

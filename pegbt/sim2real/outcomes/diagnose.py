@@ -200,7 +200,7 @@ def _replicated(
     chosen before the second was in the world, so an effect that only stood in for it (a registration
     offset beside a bending peg) is dropped, and the second is named at the value it was fitted alone."""
     worlds = [WorldEffects(), *(p.world() for p in (*verdict.named, *verdict.tied))]
-    if len(worlds) > 1:  # one batch: each transfer's arm simulated once for every world (`phasesim.Replay`)
+    if len(worlds) > 1:  # one batch: each transfer's arm simulated once for every world (`bench.Replay`)
         simulate_cells(mapper, worlds, [c.key for c in cells], settings.located, first_seed=FRESH_SEED)
     kept: list[Profile] = []
     dropped: list[str] = []

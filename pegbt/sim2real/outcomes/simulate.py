@@ -3,7 +3,7 @@
 Seeds are shared across the worlds compared (common random numbers): the same layouts and the same
 perception noise for every parameter value, so differences between worlds are the effects', not luck's.
 A task is one transfer (variant, condition, seed) in every world at once, so one process simulates the
-arm's motion once and replays it in the worlds where it is the same (`phasesim.Replay`). Under pegbt's
+arm's motion once and replays it in the worlds where it is the same (`bench.Replay`). Under pegbt's
 trees a unilateral transfer is simulated within its trial, in order (`trialsim`): the seeds of
 one trial in the same worlds are one job, the trial simulated once for them all.
 

@@ -77,7 +77,7 @@ def simulate_trial(
 ) -> list[list[TransferResult]]:
     """The first `count` transfers of `variant`'s trial on layout `layout`, in order, in each of `worlds`
     (per transfer, per world). The worlds share each transfer's perception noise and replay the arm's
-    motion where it is the same (`phasesim.Replay`); a motion the planner refuses is a transfer failed
+    motion where it is the same (`bench.Replay`); a motion the planner refuses is a transfer failed
     where it started, and the trial goes on."""
     states = [World(layout, effects=effects) for effects in worlds]
     results: list[list[TransferResult]] = []
