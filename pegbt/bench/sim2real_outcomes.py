@@ -280,10 +280,13 @@ def measure(
         plans = plan(memo, families, real_transfers, settings)
         for family in families:
             p = plans[family]
-            figures[f"{family}_detectability"] = p.detectability
-            figures[f"{family}_detectable_at"] = "never" if p.detectable_at is None else p.detectable_at
             figures[f"{family}_real_transfers_per_fit_cell"] = p.size
+            grown = settings.for_campaign(p.size)  # what its diagnoses simulate (`diagnose`)
+            figures[f"{family}_simulated_transfers_per_fit_cell"] = grown.transfers
+            figures[f"{family}_located_transfers_per_fit_cell"] = grown.located
             if FAMILIES[family]:
+                figures[f"{family}_detectability"] = p.detectability
+                figures[f"{family}_detectable_at"] = "never" if p.detectable_at is None else p.detectable_at
                 print(
                     f"{family}: detectability {p.detectability:.2f} at {real_transfers} (1 or more: "
                     "detectable), "
@@ -329,7 +332,7 @@ def measure(
             figures[f"{family}_named"] = figures[f"{family}_resolved"] = NOT_APPLICABLE
     figures["seeds_per_family"] = seeds
     figures["real_transfers_per_cell"] = real_transfers  # held-out cells; fit cells: per family
-    figures["simulated_transfers_per_cell"] = settings.transfers
+    figures["simulated_transfers_per_cell"] = settings.transfers  # at 120 real; fit cells: per family
     figures["transfers_the_diagnoses_simulate"] = needed
     figures["transfers_simulated"] = memo.simulated
     figures["wall_s"] = time.monotonic() - started
