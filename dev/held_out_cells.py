@@ -5,7 +5,8 @@ prediction mixes: `predict.nodes`) and, per held-out cell, the real count, the p
 and the concealed world's own count on the prediction's seeds (what a perfect fit would predict). `--memo`
 keeps the simulated transfers in a pickle between runs, so a run after a change to the fit or the
 prediction simulates only what changed. Run (docs/guides/sim-to-real.md):
-`PYTHONPATH=$PWD nice -n 5 .venv/bin/python dev/held_out_cells.py --family registration_offset --seed 0`.
+`PYTHONPATH=$PWD nice -n 5 .venv/bin/python dev/held_out_cells.py --family registration_offset --seed 0`
+(`--size N`: the fit cells' real transfers, as the bench plans them for the family).
 """
 
 from __future__ import annotations
@@ -36,6 +37,12 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--family", choices=list(FAMILIES), default="registration_offset")
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument(
+        "--size",
+        type=int,
+        default=REAL_TRANSFERS,
+        help="real transfers a fit cell (the bench plans it per family)",
+    )
     parser.add_argument("--memo", type=Path, help="pickle of simulated transfers, read and written")
     args = parser.parse_args()
     memo = MemoMapper(LocalMapper(0))
@@ -43,7 +50,7 @@ def main() -> None:
         memo.known = pickle.loads(args.memo.read_bytes())
     started = time.process_time()
     hidden = WorldEffects.of(FAMILIES[args.family])
-    (real,) = concealed_outcomes(memo, [hidden], args.seed, REAL_TRANSFERS)
+    (real,) = concealed_outcomes(memo, [hidden], args.seed, args.size, REAL_TRANSFERS)
     for cell in real.cells:
         print(f"real {cell.key}: {cell.succeeded}/{cell.attempted} {dict(cell.failures)}")
     d = diagnose(real, SETTINGS, memo)

@@ -8,11 +8,19 @@ predicts the bilateral and handover cells. Figures per family: how often every c
 parameters (read from the profile between grid values, `fit.estimate`), and the share of held-out cells
 inside their 95 % predictive interval.
 
-The "real" side has the concealed campaign's size: 10 trials of 12 transfers per cell, 120 transfers.
-Whether a family can be named at all depends on that size, not on the method: a concealed value that
-changes no fit cell's outcome beyond what 120 transfers resolve leaves nothing to name. So the benchmark
-reports, per family, whether its concealed world is detectable (`detectability`) and from how many real
-transfers a fit cell it would be (`detectable_at`), beside what was named.
+The size of each family's "real" campaign is fixed before any diagnosis runs, by the power of the test
+that could see its world, not by what the tool names. A pilot (`shifts`) simulates, in the fit cells, what
+each concealed effect alone changes against the default world; from it, `detectable_at` is the fewest real
+transfers a fit cell at which a two-sided 5 % test sees that change nine times in ten (`POWER`, the naming
+rate the goal asks for), the simulated side growing with it in the ratio of the diagnosis's `located` to
+120 real. The family's fit cells then get the smallest whole number of 12-transfer trials at least the
+concealed campaign's 120 transfers and at least every one of its effects' `detectable_at` (`fit_size`);
+its held-out cells keep 120, the concealed campaign's size, since they test the predictions. A naming rate
+at 120 alone measured the sample: three of the realistic concealed values change a fit cell by less than
+120 transfers resolve. A family whose effects change no fit cell at any size (`detectable_at` "never")
+is kept at 120 and scored as a further null: its naming rate is not applicable ("n/a": no method can
+name what changes nothing), its false discoveries count. The diagnosis's own simulated side grows with
+the largest real fit cell (`Settings.for_campaign`).
 """
 
 from __future__ import annotations
@@ -23,6 +31,7 @@ import statistics
 import sys
 import time
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 
 from scipy import stats
 
@@ -63,18 +72,28 @@ FAMILIES: dict[str, dict[str, dict[str, float]]] = {
 }
 CELLS = [(v, c) for v in VARIANTS for c in ("uncalibrated", "calibrated")]
 SEEDS = 5
-REAL_TRANSFERS = 120  # "real" transfers per cell: the concealed campaign's 10 trials × 12 transfers
+REAL_TRANSFERS = 120  # "real" transfers per cell at least: the concealed campaign's 10 trials × 12 transfers
+TRIAL = 12  # transfers in one trial: a fit cell's size is a whole number of them
 SETTINGS = Settings(fit="unilateral", transfers=12, points=4)
 REAL_SEED = 100_000  # the real runs' seeds start here, far from the fit's
+SEED_BLOCK = 10_000  # each seed's real transfers: a block of seeds larger than any family's campaign
+NOT_APPLICABLE = "n/a"  # the naming rate of a family whose world changes no fit cell at any size
 POWER = 0.9  # the naming rate the goal asks for: a difference seen this often is detectable
 
 
 def concealed_outcomes(
-    mapper: Mapper, hidden: Sequence[WorldEffects], seed: int, transfers: int
+    mapper: Mapper, hidden: Sequence[WorldEffects], seed: int, fit_transfers: int, held_out: int
 ) -> list[Outcomes]:
-    """Cells of `transfers` transfers in each of the `hidden` worlds, with the phase of each failure (one
-    batch: each transfer's arm simulated once for every world)."""
-    sims = simulate_cells(mapper, list(hidden), CELLS, transfers, first_seed=REAL_SEED + 1000 * seed)
+    """Cells in each of the `hidden` worlds, with the phase of each failure: `fit_transfers` transfers in
+    each fit cell, `held_out` in the others (one batch per size: each transfer's arm simulated once for
+    every world)."""
+    if max(fit_transfers, held_out) > SEED_BLOCK:
+        raise PegbtError(f"at most {SEED_BLOCK} real transfers a cell, got {fit_transfers}", field="size")
+    first = REAL_SEED + SEED_BLOCK * seed
+    fit_keys = [key for key in CELLS if _fitted(key)]
+    other = [key for key in CELLS if not _fitted(key)]
+    fits = simulate_cells(mapper, list(hidden), fit_keys, fit_transfers, first_seed=first)
+    rest = simulate_cells(mapper, list(hidden), other, held_out, first_seed=first)
     return [
         Outcomes(
             tuple(
@@ -86,12 +105,17 @@ def concealed_outcomes(
                     s.seconds,
                     {k: s.counts[k] for k in CATEGORIES[1:] if s.counts[k]},
                 )
-                for (v, c), s in sim.items()
+                for (v, c), s in ((key, {**a, **b}[key]) for key in CELLS)
             ),
             f"concealed world, seed {seed}",
         )
-        for sim in sims
+        for a, b in zip(fits, rest)
     ]
+
+
+def _fitted(key: tuple[str, str]) -> bool:
+    """Whether the diagnosis fits on cell `key` (`SETTINGS.fit`)."""
+    return SETTINGS.fit in ("all", *key)
 
 
 def detectable_difference(share: float, real: int, simulated: int, power: float = POWER) -> float:
@@ -103,25 +127,74 @@ def detectable_difference(share: float, real: int, simulated: int, power: float 
 
 
 def shifts(
-    mapper: Mapper, families: Sequence[str], settings: Settings
+    mapper: Mapper, worlds: Mapping[str, Mapping[str, Mapping[str, float]]], settings: Settings
 ) -> dict[str, list[tuple[float, float]]]:
-    """Per family with concealed effects, what its world changes in each fit cell: for the share of transfers
-    placed and of those failed first in each phase, (the two worlds' mean share, the concealed world's less
-    the default one's). On the phase simulator, `settings.located` transfers a cell on the seeds the default
-    world is located on, so the two worlds share their random numbers and the change is the effect's."""
-    hidden = [f for f in families if FAMILIES[f]]
-    keys = [(v, c) for v, c in CELLS if settings.fit in ("all", v, c)]
-    worlds = [WorldEffects(), *(WorldEffects.of(FAMILIES[f]) for f in hidden)]
-    sims = simulate_cells(mapper, worlds, keys, settings.located)
+    """Per named world of concealed effects (a family's, or one effect's alone), what it changes in each
+    fit cell: for the share of transfers placed and of those failed first in each phase, (the two worlds'
+    mean share, the concealed world's less the default one's). On the phase simulator, `settings.located`
+    transfers a cell on the seeds the default world is located on, so the two worlds share their random
+    numbers and the change is the effect's."""
+    hidden = [name for name, effects in worlds.items() if effects]
+    keys = [key for key in CELLS if settings.fit in ("all", *key)]
+    sims = simulate_cells(
+        mapper, [WorldEffects(), *(WorldEffects.of(worlds[name]) for name in hidden)], keys, settings.located
+    )
     out = {}
-    for family, sim in zip(hidden, sims[1:]):
+    for name, sim in zip(hidden, sims[1:]):
         changes = []
         for key in keys:
             new, old = sim[key], sims[0][key]
             for category in CATEGORIES:
                 a, b = new.counts[category] / new.attempted, old.counts[category] / old.attempted
                 changes.append(((a + b) / 2, a - b))
-        out[family] = changes
+        out[name] = changes
+    return out
+
+
+def alone(families: Sequence[str]) -> dict[str, dict[str, dict[str, float]]]:
+    """Each concealed effect of `families` alone at its concealed values, named `family:kind`."""
+    return {f"{f}:{kind}": {kind: dict(values)} for f in families for kind, values in FAMILIES[f].items()}
+
+
+def fit_size(needed: Sequence[int | None], least: int = REAL_TRANSFERS) -> int:
+    """The real transfers of a family's fit cells: the smallest whole number of trials at least `least`
+    and at least each of its effects' `detectable_at` (`needed`; None, an effect no size shows, asks for
+    nothing more)."""
+    return TRIAL * math.ceil(max([least, *(n for n in needed if n is not None)]) / TRIAL)
+
+
+@dataclass(frozen=True)
+class Plan:
+    """A family's campaign, fixed from the pilot before any diagnosis: its weakest effect's
+    `detectability` at `least` real transfers, the size at which every effect it conceals that shows at
+    all is detectable (None: none shows at any size, so naming it is not applicable), and the real
+    transfers of its fit cells (`fit_size`)."""
+
+    detectability: float
+    detectable_at: int | None
+    size: int
+
+    @property
+    def applicable(self) -> bool:
+        return self.detectable_at is not None
+
+
+def plan(mapper: Mapper, families: Sequence[str], least: int, settings: Settings) -> dict[str, Plan]:
+    """Each family's `Plan`, from what each of its concealed effects alone changes in the fit cells
+    (`shifts`): its detectability with the diagnosis's `settings.located` simulated transfers against
+    `least` real ones, and the sizes at which they show with the simulated side growing as the
+    diagnosis grows it (`settings.located` per `settings.real` real transfers)."""
+    pilot = shifts(mapper, alone(families), settings)
+    out = {}
+    for family in families:
+        changes = [pilot[f"{family}:{kind}"] for kind in FAMILIES[family]]
+        needed = [detectable_at(c, settings.real, settings.located) for c in changes]
+        shown = [n for n in needed if n is not None]
+        out[family] = Plan(
+            min((detectability(c, least, settings.located) for c in changes), default=0.0),
+            max(shown) if shown else None,
+            fit_size(needed, least),
+        )
     return out
 
 
@@ -204,28 +277,43 @@ def measure(
     scores: dict[str, list[dict[str, float]]] = {family: [] for family in families}
     needed = 0
     try:
-        for family, changes in shifts(memo, families, settings).items():
-            ratio = detectability(changes, real_transfers, settings.located)
-            at = detectable_at(changes, real_transfers, settings.located)
-            figures[f"{family}_detectability"] = ratio
-            figures[f"{family}_detectable_at"] = "never" if at is None else at
-            print(
-                f"{family}: detectability {ratio:.2f} (1 or more: detectable), "
-                + (f"from {at} real transfers a fit cell" if at else "at no size: it changes no fit cell"),
-                file=sys.stderr,
-                flush=True,
-            )
+        plans = plan(memo, families, real_transfers, settings)
+        for family in families:
+            p = plans[family]
+            figures[f"{family}_real_transfers_per_fit_cell"] = p.size
+            grown = settings.for_campaign(p.size)  # what its diagnoses simulate (`diagnose`)
+            figures[f"{family}_simulated_transfers_per_fit_cell"] = grown.transfers
+            figures[f"{family}_located_transfers_per_fit_cell"] = grown.located
+            if FAMILIES[family]:
+                figures[f"{family}_detectability"] = p.detectability
+                figures[f"{family}_detectable_at"] = "never" if p.detectable_at is None else p.detectable_at
+                print(
+                    f"{family}: detectability {p.detectability:.2f} at {real_transfers} (1 or more: "
+                    "detectable), "
+                    + (
+                        f"from {p.detectable_at} real transfers a fit cell; fit cells of {p.size}"
+                        if p.applicable
+                        else f"at no size: it changes no fit cell; fit cells of {p.size}, naming n/a"
+                    ),
+                    file=sys.stderr,
+                    flush=True,
+                )
         for seed in range(seeds):
-            worlds = [WorldEffects.of(FAMILIES[family]) for family in families]
-            for family, real in zip(families, concealed_outcomes(memo, worlds, seed, real_transfers)):
+            real: dict[str, Outcomes] = {}
+            for size in sorted({plans[f].size for f in families}):
+                group = [f for f in families if plans[f].size == size]
+                worlds = [WorldEffects.of(FAMILIES[f]) for f in group]
+                real.update(zip(group, concealed_outcomes(memo, worlds, seed, size, real_transfers)))
+            for family in families:
                 before = memo.simulated
-                d = diagnose(real, settings, memo)
+                d = diagnose(real[family], settings, memo)
                 needed += d.simulated
                 scores[family].append(score(d, FAMILIES[family]))
                 print(
                     f"{family} seed {seed}: named {', '.join(map(_named, d.verdict.named)) or 'nothing'} "
-                    f"{scores[family][-1]}; {d.simulated} transfers needed, "
-                    f"{memo.simulated - before} simulated, {d.seconds:.0f} s "
+                    f"{scores[family][-1]}; {plans[family].size} real transfers a fit cell, "
+                    f"{d.settings.transfers} simulated a world, {d.settings.located} located; "
+                    f"{d.simulated} transfers needed, {memo.simulated - before} simulated, {d.seconds:.0f} s "
                     f"({time.monotonic() - started:.0f} s in all)",
                     file=sys.stderr,
                     flush=True,
@@ -240,9 +328,11 @@ def measure(
         figures[f"{family}_parameter_error_median"] = statistics.median(errors) if errors else "none named"
         if FAMILIES[family]:
             figures[f"{family}_resolved"] = statistics.mean(s["resolved"] for s in scores[family])
+        if not plans[family].applicable:
+            figures[f"{family}_named"] = figures[f"{family}_resolved"] = NOT_APPLICABLE
     figures["seeds_per_family"] = seeds
-    figures["real_transfers_per_cell"] = real_transfers
-    figures["simulated_transfers_per_cell"] = settings.transfers
+    figures["real_transfers_per_cell"] = real_transfers  # held-out cells; fit cells: per family
+    figures["simulated_transfers_per_cell"] = settings.transfers  # at 120 real; fit cells: per family
     figures["transfers_the_diagnoses_simulate"] = needed
     figures["transfers_simulated"] = memo.simulated
     figures["wall_s"] = time.monotonic() - started

@@ -24,7 +24,8 @@ def test_a_world_that_moves_a_fit_cell_is_detectable_and_one_that_does_not_is_no
     """On the stand-in simulator a bending peg lifts more blocks and chamfers change nothing; the null has
     nothing to detect, and a world that changes nothing is detectable at no campaign size."""
     settings = Settings(fit="unilateral", transfers=12, located=200)
-    changes = bench.shifts(fake_mapper, ["peg_compliance", "chamfer_capture", "null"], settings)
+    worlds = {family: bench.FAMILIES[family] for family in ("peg_compliance", "chamfer_capture", "null")}
+    changes = bench.shifts(fake_mapper, worlds, settings)
     assert set(changes) == {"peg_compliance", "chamfer_capture"}
     assert bench.detectability(changes["peg_compliance"], 120, 200) >= 1
     assert bench.detectability(changes["chamfer_capture"], 120, 200) == 0

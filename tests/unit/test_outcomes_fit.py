@@ -9,7 +9,9 @@ import pytest
 from pegbt.sim.world_effects import WorldEffects
 from pegbt.sim2real.outcomes.cells import Cell, Outcomes
 from pegbt.sim2real.outcomes.diagnose import Settings, diagnose
+from pegbt.sim2real.outcomes.fit import FITTED, PHASES_OF, fit
 from pegbt.sim2real.outcomes.intervals import beyond_chance, mixture_pmf, predictive_interval, rate_interval
+from pegbt.sim2real.outcomes.simulate import simulate_cells
 from tests.outcomes_helpers import fake_mapper, real_counts
 
 
@@ -109,3 +111,22 @@ def test_each_transfer_is_simulated_once_per_world_in_one_batch_per_transfer():
     diagnose(_outcomes(hidden, seed=3), Settings(fit="unilateral", transfers=20, points=5), recording)
     assert len(asked) == len(set(asked))
     assert widest >= 5 * 2  # at least two candidates' grids in one task
+
+
+@pytest.mark.parametrize(
+    ("phases", "kinds"),
+    [
+        ({"sense"}, set(FITTED)),
+        ({"sense", "grasp"}, set(FITTED)),
+        ({"grasp"}, {k for k, acts in PHASES_OF.items() if "grasp" in acts}),
+    ],
+)
+def test_a_disagreement_at_sense_admits_every_kind(phases: set[str], kinds: set[str]) -> None:
+    """A way back fails at sense where its way out lost the block, which any kind can cause: a real cell
+    that disagrees at sense (a chamfer that places more on the way out leaves fewer ways back empty) is
+    fitted with every kind, where the phase filter once left none; a disagreement at grasp alone admits
+    the kinds that act there."""
+    cells = list(_outcomes(WorldEffects.of({"peg_compliance": {"deflection": 0.0018}}), seed=3).cells[:2])
+    null = simulate_cells(fake_mapper, [WorldEffects()], [c.key for c in cells], 8)[0]
+    verdict = fit(fake_mapper, cells, null, 8, 2, True, frozenset(phases))
+    assert {p.candidate.kind for p in verdict.tried} == kinds

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
@@ -21,6 +22,7 @@ from pegbt.sim2real.outcomes.predict import PREDICT_SEED, Prediction, predict, p
 from pegbt.sim2real.outcomes.simulate import Key, Mapper, SimCounts, simulate_cells
 
 CLOSE = 0.05  # real and simulated rates this close need no more simulated transfers to be compared
+SIZED_FOR = 120  # real transfers a fit cell the default counts are sized for: 10 trials of 12 transfers
 FRESH_SEED = 1_000_000  # the replication's simulated transfers: seeds no other simulation here uses
 RANK_SEED = 2_000_000  # where the fit ranks the additions that pass: neither the fit's nor the replication's
 
@@ -29,13 +31,34 @@ RANK_SEED = 2_000_000  # where the fit ranks the additions that pass: neither th
 class Settings:
     """`fit`: which cells the fit sees (`all`, a variant or a condition); the rest are predicted.
     `transfers`: simulated transfers per cell and world in the fit; `located`: in the default world, which
-    every comparison is against (more, so a disagreement is seen); `points`: grid values per parameter."""
+    every comparison is against (more, so a disagreement is seen); `points`: grid values per parameter;
+    `close`: a fit cell's real and simulated rates this close need no more than `transfers` to be compared.
+    The counts are sized for fit cells of up to `real` real transfers (`for_campaign`)."""
 
     fit: str = "all"
     transfers: int = 16
     located: int = 48
     points: int = 5
     phases: bool = True
+    close: float = CLOSE
+    real: int = SIZED_FOR
+
+    def for_campaign(self, real: int) -> Settings:
+        """These settings for fit cells of up to `real` real transfers. Above `self.real` the simulated
+        transfers grow in proportion and `close` shrinks as the square root: the real counts resolve
+        differences that shrink so, and a fit whose simulated side stayed fixed would weigh them against
+        simulation noise that does not (`likelihood`: the simulated counts' own uncertainty is in every
+        cell's likelihood), so a large campaign would be fitted no better than a small one."""
+        if real <= self.real:
+            return self
+        scale = real / self.real
+        return replace(
+            self,
+            transfers=math.ceil(self.transfers * scale),
+            located=math.ceil(self.located * scale),
+            close=self.close / math.sqrt(scale),
+            real=real,
+        )
 
 
 @dataclass
@@ -94,11 +117,13 @@ class _Counting(MemoMapper):
 def diagnose(
     outcomes: Outcomes, settings: Settings, mapper: Mapper, progress: Callable[[str], None] | None = None
 ) -> Diagnosis:
-    """Locate, name and fit on the fit cells, then predict every cell with the fitted world(s)."""
+    """Locate, name and fit on the fit cells, then predict every cell with the fitted world(s); the
+    simulated side grows with the largest fit cell (`Settings.for_campaign`)."""
     started = time.monotonic()
     counting = _Counting(mapper, progress)
     cells = outcomes.cells
     fit_cells, held_out = split(cells, settings.fit)
+    settings = settings.for_campaign(max(c.attempted for c in fit_cells))
     before = _located(counting, cells, fit_cells, settings)
     rows = locate(cells, before)
     flagged = [r for r in locate(fit_cells, before) if r.disagrees]  # chance judged over the fit cells alone
@@ -257,10 +282,10 @@ def _located(
     mapper: Mapper, cells: Sequence[Cell], fit_cells: Sequence[Cell], settings: Settings
 ) -> dict[Key, SimCounts]:
     """The default world's transfers per cell: `transfers` each, and for a fit cell whose real rate is more
-    than `CLOSE` away (where the fit may start), topped up to `located`."""
+    than `close` away (where the fit may start), topped up to `located`."""
     keys = [c.key for c in cells]
     before = simulate_cells(mapper, [WorldEffects()], keys, settings.transfers)[0]
-    far = [c.key for c in fit_cells if abs(c.rate - before[c.key].rate) > CLOSE]
+    far = [c.key for c in fit_cells if abs(c.rate - before[c.key].rate) > settings.close]
     extra = settings.located - settings.transfers
     if far and extra > 0:
         more = simulate_cells(mapper, [WorldEffects()], far, extra, first_seed=settings.transfers)[0]

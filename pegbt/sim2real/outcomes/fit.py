@@ -58,6 +58,9 @@ PHASES_OF: dict[str, frozenset[str]] = {
     "registration_offset": frozenset({"grasp", "lift", "handover", "lower", "release"}),
     "depth_bias": frozenset({"grasp", "lift", "handover", "lower", "release"}),
 }
+# A way back fails at `sense` where its way out lost the block (`likelihood`), so every kind that can lose a
+# block changes it: a disagreement there (with the placed rate, the mirror of it) admits every kind.
+AFTER_A_LOSS = frozenset({"sense"})
 LR_95 = float(stats.chi2.ppf(0.95, 1))  # one fitted parameter
 TIE = 1.0  # log-likelihoods closer than this: the data do not tell the two effects apart
 MAX_EFFECTS = 4  # effects in one fitted world: the phases a transfer can fail in that several kinds share
@@ -324,7 +327,7 @@ def fit(
     chosen = [
         candidate
         for candidate in candidates(points)
-        if disagreeing is None or PHASES_OF.get(candidate.kind, disagreeing) & disagreeing
+        if disagreeing is None or (PHASES_OF.get(candidate.kind, disagreeing) | AFTER_A_LOSS) & disagreeing
     ]
 
     def step(base: WorldEffects, before: np.ndarray) -> list[Profile]:
