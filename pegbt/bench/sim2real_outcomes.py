@@ -82,16 +82,23 @@ POWER = 0.9  # the naming rate the goal asks for: a difference seen this often i
 
 
 def concealed_outcomes(
-    mapper: Mapper, hidden: Sequence[WorldEffects], seed: int, fit_transfers: int, held_out: int
+    mapper: Mapper,
+    hidden: Sequence[WorldEffects],
+    seed: int,
+    fit_transfers: int,
+    held_out: int,
+    fit: str = SETTINGS.fit,
 ) -> list[Outcomes]:
     """Cells in each of the `hidden` worlds, with the phase of each failure: `fit_transfers` transfers in
     each fit cell, `held_out` in the others (one batch per size: each transfer's arm simulated once for
-    every world)."""
+    every world). `fit` names the fit cells, as `Settings.fit` does."""
     if max(fit_transfers, held_out) > SEED_BLOCK:
-        raise PegbtError(f"at most {SEED_BLOCK} real transfers a cell, got {fit_transfers}", field="size")
+        raise PegbtError(
+            f"at most {SEED_BLOCK} real transfers a cell, got {max(fit_transfers, held_out)}", field="size"
+        )
     first = REAL_SEED + SEED_BLOCK * seed
-    fit_keys = [key for key in CELLS if _fitted(key)]
-    other = [key for key in CELLS if not _fitted(key)]
+    fit_keys = [key for key in CELLS if _fitted(key, fit)]
+    other = [key for key in CELLS if not _fitted(key, fit)]
     fits = simulate_cells(mapper, list(hidden), fit_keys, fit_transfers, first_seed=first)
     rest = simulate_cells(mapper, list(hidden), other, held_out, first_seed=first)
     return [
@@ -105,17 +112,17 @@ def concealed_outcomes(
                     s.seconds,
                     {k: s.counts[k] for k in CATEGORIES[1:] if s.counts[k]},
                 )
-                for (v, c), s in ((key, {**a, **b}[key]) for key in CELLS)
+                for (v, c), s in ((key, sim[key]) for key in CELLS)
             ),
             f"concealed world, seed {seed}",
         )
-        for a, b in zip(fits, rest)
+        for sim in ({**a, **b} for a, b in zip(fits, rest))
     ]
 
 
-def _fitted(key: tuple[str, str]) -> bool:
-    """Whether the diagnosis fits on cell `key` (`SETTINGS.fit`)."""
-    return SETTINGS.fit in ("all", *key)
+def _fitted(key: tuple[str, str], fit: str) -> bool:
+    """Whether a diagnosis fitting on `fit` (`Settings.fit`: all, a variant or a condition) sees cell `key`."""
+    return fit in ("all", *key)
 
 
 def detectable_difference(share: float, real: int, simulated: int, power: float = POWER) -> float:
@@ -135,7 +142,7 @@ def shifts(
     transfers a cell on the seeds the default world is located on, so the two worlds share their random
     numbers and the change is the effect's."""
     hidden = [name for name, effects in worlds.items() if effects]
-    keys = [key for key in CELLS if settings.fit in ("all", *key)]
+    keys = [key for key in CELLS if _fitted(key, settings.fit)]
     sims = simulate_cells(
         mapper, [WorldEffects(), *(WorldEffects.of(worlds[name]) for name in hidden)], keys, settings.located
     )
@@ -303,7 +310,9 @@ def measure(
             for size in sorted({plans[f].size for f in families}):
                 group = [f for f in families if plans[f].size == size]
                 worlds = [WorldEffects.of(FAMILIES[f]) for f in group]
-                real.update(zip(group, concealed_outcomes(memo, worlds, seed, size, real_transfers)))
+                real.update(
+                    zip(group, concealed_outcomes(memo, worlds, seed, size, real_transfers, settings.fit))
+                )
             for family in families:
                 before = memo.simulated
                 d = diagnose(real[family], settings, memo)
