@@ -6,7 +6,8 @@ A transfer meets only the constraints no way of doing it escapes: the tool reach
 the jaw to close on it), the jaw closes from an opening that passes the block's wall to the wall, the block
 rises until its hole clears its peg (its bottom at the peg's top: the tip `block_below_tip` above it), comes
 down until its hole is on the goal peg (the same height over that peg), stops, and falls the rest of the way
-when the jaw lets go. Carrying it clear of the other pegs and blocks adds nothing: they end at or below
+when the jaw lets go; if the jaw lets go lower, with the hole already round the goal peg, the block came down
+that peg's axis from that height (its hole's wall would strike the peg from the side). Carrying it clear of the other pegs and blocks adds nothing: they end at or below
 the peg tops, under the lifted block, and a lower path between them is not the bound's to exclude; the
 other arm is taken as out of the way. A jaw that grips the wall has one jaw inside the block's hole: that
 jaw (2 × `jaw_radius` thick) fills the gap between the peg and the hole's wall (hole radius less peg
@@ -391,27 +392,46 @@ class Bound:
         """The least time from rest at the quickest of `starts`, through `via`, to rest at `goal`."""
         return min(through(start.joints, [*start.via(), *via], goal, self.settings[arm]) for start in starts)
 
-    def lift_to(self, arm: str, grasp: NDArray[np.float64], pick: int, goal: NDArray[np.float64]) -> float:
-        """The least time from rest at `grasp` on peg `pick`, lifting the block clear, to rest at `goal`."""
+    def lift_to(
+        self,
+        arm: str,
+        grasp: NDArray[np.float64],
+        pick: int,
+        goal: NDArray[np.float64],
+        via: tuple[NDArray[np.float64], ...] = (),
+    ) -> float:
+        """The least time from rest at `grasp` on peg `pick`, lifting the block clear, through `via` (at
+        most one), to rest at `goal`."""
         return min(
-            through(grasp, [self.joints(arm, pick, lift)], goal, self.settings[arm])
+            through(grasp, [self.joints(arm, pick, lift), *via], goal, self.settings[arm])
             for lift in self.heights.lifts
         )
 
     def lower(
-        self, arm: str, place: int, moved: Callable[[NDArray[np.float64]], float]
+        self,
+        arm: str,
+        place: int,
+        moved: Callable[[NDArray[np.float64], tuple[NDArray[np.float64], ...]], float],
     ) -> tuple[list[Start], float, float]:
         """Where the jaw may open over `place` (each with the way out of the fallen block's hole), and the
-        least motion `moved` (seconds to one of them) and block's fall over those heights, as (starts of
-        the next motion, motion, fall)."""
-        top = -self.motion.transfer.block_top_below_peg_top  # the fallen block's top
+        least motion `moved` (seconds to one of them, through the points it is given) and block's fall
+        over those heights, as (starts of the next motion, motion, fall). A jaw opening with the block's
+        bottom below the peg's top has brought the block's hole down onto the peg along its axis (from the
+        side, the hole's wall would strike the peg): the motion passes the tip `block_below_tip` over the
+        peg's top first, where the block's bottom meets it, as the lift leaves the pick peg there."""
+        transfer = self.motion.transfer
+        top = -transfer.block_top_below_peg_top  # the fallen block's top
         out = self.joints(arm, place, top)
+        onto = (self.joints(arm, place, transfer.block_below_tip),)
         ends = [
             Start(self.joints(arm, place, height), out if height < top else None)
             for height in self.heights.lowers
         ]
         motion, fall = min(
-            ((moved(end.joints), self.fall_s(height)) for end, height in zip(ends, self.heights.lowers)),
+            (
+                (moved(end.joints, onto if height < transfer.block_below_tip else ()), self.fall_s(height))
+                for end, height in zip(ends, self.heights.lowers)
+            ),
             key=sum,
         )
         return ends, motion, fall
@@ -460,7 +480,9 @@ def trial_bound(transfers: list[tuple[str, int, int]], bound: Bound | None = Non
         # both at rest, the receiver's jaw closes
         taken = max(free[receiver] + exchange.to_receive, held_out) + bound.jaw_close_s
         ends, place_s, fall = bound.lower(
-            receiver, place, partial(rest_to_rest, exchange.receiver, settings=bound.settings[receiver])
+            receiver,
+            place,
+            lambda goal, via: through(exchange.receiver, [*via], goal, bound.settings[receiver]),
         )
         times.motion += to_meet
         result.arms[receiver].motion += exchange.to_receive + place_s
