@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 import ruckig
 
-from pegbt.bench.limit_bound import Bound, Start, _reach_s, rest_to_rest, through, trial_bound, via_s
+from pegbt.bench.limit_bound import Bound, Start, rest_to_rest, through, trial_bound, via_s
+from pegbt.bench.limit_joint import reach_s
 from pegbt.frames import apply_rigid
 from pegbt.motion.kinematics import tip_position
 from pegbt.motion.limits import ArmSettings, arm_settings
@@ -58,7 +59,7 @@ def test_one_joints_reach_is_rucking_time_optimal_duration() -> None:
         goal, goal_v = np.zeros(6), np.zeros(6)
         goal[2], goal_v[2] = distance, velocity
         expected = _ruckig_s(np.zeros(6), np.zeros(6), goal, goal_v, settings)
-        reached = _reach_s(np.array([distance]), np.array([velocity]), np.array([0.2]), np.array([0.2]))
+        reached = reach_s(np.array([distance]), np.array([velocity]), np.array([0.2]), np.array([0.2]))
         assert reached[0] == pytest.approx(expected, abs=1e-6), (distance, velocity)
 
 
