@@ -136,11 +136,9 @@ def on_axis_s(
     a = a_least[cell] + np.tile(a_index.ravel(), len(cells)) * steps[0]
     c = c_least[cell] + np.tile(c_index.ravel(), len(cells)) * steps[1]
     reached = np.inf
-    for round_ in range(ROUNDS + 1):
+    for _ in range(ROUNDS):
         lows = a + c + chain.middle_s(a + steps[0], c + steps[1], cell)
         reached = min(reached, float(np.min(a + c + chain.middle_s(a, c, cell))))
-        if round_ == ROUNDS:
-            return min(settled, float(np.min(lows)))
         split = lows < min(reached, np.sort(lows)[min(KEEP, lows.size) - 1] + 1e-12)
         settled = min([settled, *lows[~split]])
         if not split.any():
@@ -153,4 +151,4 @@ def on_axis_s(
         a = (a[split][:, None] + a_offset).ravel()
         c = (c[split][:, None] + c_offset).ravel()
         cell = np.repeat(cell[split], SPLIT * SPLIT)
-    return settled
+    return min(settled, float(np.min(a + c + chain.middle_s(a + steps[0], c + steps[1], cell))))
