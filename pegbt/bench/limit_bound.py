@@ -6,7 +6,8 @@ A transfer meets only the constraints no way of doing it escapes: the tool reach
 the jaw to close on it), the jaw closes from an opening that passes the block's wall to the wall, the block
 rises until its hole clears its peg (its bottom at the peg's top: the tip `block_below_tip` above it), comes
 down until its hole is on the goal peg (the same height over that peg), stops, and falls the rest of the way
-when the jaw lets go. Carrying it clear of the other pegs and blocks adds nothing: they end at or below
+when the jaw lets go; if the jaw lets go lower, with the hole already round the goal peg, the block came down
+that peg's axis from that height (its hole's wall would strike the peg from the side). Carrying it clear of the other pegs and blocks adds nothing: they end at or below
 the peg tops, under the lifted block, and a lower path between them is not the bound's to exclude; the
 other arm is taken as out of the way. A jaw that grips the wall has one jaw inside the block's hole: that
 jaw (2 × `jaw_radius` thick) fills the gap between the peg and the hole's wall (hole radius less peg
@@ -21,7 +22,7 @@ Each segment is time-optimal under the planner's limits (infinite jerk, as `pegb
 rest-to-rest bound, which is ruckig's). A motion from rest at A that must pass through B and end at rest at C
 passes B at some joint velocity v (within the velocity limits) at some time t₁, and ends t₂ later: each
 joint j must reach (B_j, v_j) from rest in at most t₁ and stop from there at C_j in at most t₂ (its
-time-optimal bang-coast-bang durations, `_reach_s`). Whatever v is, t₁ + t₂ is at least the least sum that
+time-optimal bang-coast-bang durations, `reach_s`). Whatever v is, t₁ + t₂ is at least the least sum that
 every joint admits with its own v_j (`via_s`): a relaxation, so never above a feasible motion, and the
 velocity at B is continuous (no jump, as a sum of two rest-to-rest halves would allow).
 
@@ -32,9 +33,10 @@ grasp is taken at the giver's point). Each arm's jaw enters and leaves the block
 through the block's top, as over a peg: the hole is empty here, but a jaw straddling the wall can move
 sideways only as far as its opening leaves room either side (at the least opening the bound allows,
 none), and a tool leaving downwards would take its shaft (8.4 mm) through the hole (7.2 mm). So the
-receiver passes its grasp's point at the block's top on its way to the grasp (its jaw may enter while
-the giver still brings the block down that axis, as pegbt's does) and comes to rest there no sooner than
-the giver holds the block out; its jaw closes; then the giver's jaw opens past the wall and the giver passes
+receiver passes its grasp's point at the block's top on its way to the grasp and comes to rest there no
+sooner than the giver holds the block out; its jaw enters the hole only once the block is on its final
+axis (it may while the giver still brings the block along that axis, as pegbt's does), so the giver's
+carry and the receiver's descent meet on that axis (`pegbt.bench.limit_axis`); its jaw closes; then the giver's jaw opens past the wall and the giver passes
 its own grasp's point at the block's top on its way to its next pick (the opening, `jaw_close_s`, may
 overlap that rise: with the planner's limits it is shorter than the rise from rest), the block held still
 meanwhile; the receiver carries the block off only once the giver's jaw has opened and left the hole (both
@@ -52,6 +54,8 @@ from functools import lru_cache, partial
 import numpy as np
 from numpy.typing import NDArray
 
+from pegbt.bench.limit_axis import CELL, CELL_SAMPLES, SPAN, Limits, on_axis_s
+from pegbt.bench.limit_joint import reach_s
 from pegbt.frames import apply_rigid, rigid_transform
 from pegbt.motion.handover import handover_meeting_point, jaw_on_wall
 from pegbt.motion.ik import solve_ik
@@ -159,43 +163,13 @@ def rest_to_rest(start: NDArray[np.float64], goal: NDArray[np.float64], settings
     return float(trajectory.duration)
 
 
-def _rest_to_rest_1d(
-    distance: NDArray[np.float64], vmax: NDArray[np.float64], amax: NDArray[np.float64]
-) -> NDArray[np.float64]:
-    """One joint's time-optimal rest-to-rest duration over `distance` ≥ 0 (bang-coast-bang)."""
-    short = distance <= vmax**2 / amax
-    return np.where(short, 2.0 * np.sqrt(distance / amax), distance / vmax + vmax / amax)
-
-
-def _reach_s(
-    distance: NDArray[np.float64],
-    velocity: NDArray[np.float64],
-    vmax: NDArray[np.float64],
-    amax: NDArray[np.float64],
-) -> NDArray[np.float64]:
-    """One joint's least time from rest to `distance` away, arriving with `velocity` (|velocity| ≤ vmax):
-    accelerate and brake (coasting at vmax if it gets there), overshoot and come back to arrive moving
-    backwards, or back up first to arrive faster than accelerating all the way allows."""
-    flip = distance < 0
-    d, v = np.where(flip, -distance, distance), np.where(flip, -velocity, velocity)
-    backwards = _rest_to_rest_1d(d + v**2 / (2 * amax), vmax, amax) + np.abs(v) / amax
-    run_up = _rest_to_rest_1d(np.maximum(v**2 / (2 * amax) - d, 0.0), vmax, amax) + np.abs(v) / amax
-    peak = np.sqrt(amax * d + v**2 / 2)
-    braked = np.where(
-        peak <= vmax,
-        (2 * peak - v) / amax,
-        (2 * vmax - v) / amax + (d - (2 * vmax**2 - v**2) / (2 * amax)) / vmax,
-    )
-    return np.where(v < 0, backwards, np.where(v**2 <= 2 * amax * d, braked, run_up))
-
-
 def pass_s(start: NDArray[np.float64], via: NDArray[np.float64], settings: ArmSettings) -> float:
     """Least time from rest at `start` to pass `via` at any velocity, each joint at its own best (so also, run
     backwards, the least from passing `via` to rest at `start`)."""
     vmax, amax = settings.planner_velocity.astype(float), settings.planner_acceleration.astype(float)
     distance = via - start
     best = np.sign(distance) * np.minimum(np.sqrt(2 * amax * np.abs(distance)), vmax)
-    return float(np.max(_reach_s(distance, best, vmax, amax)))
+    return float(np.max(reach_s(distance, best, vmax, amax)))
 
 
 VIA_GRIDS = (512, 64)  # arrival times tried through a via point, then within each interval split again
@@ -220,7 +194,7 @@ def _via_s(
 ) -> float:
     """Least time from rest at `start` through `via` (at any velocity) to rest at `goal`, rounded down.
 
-    For joint j, f_j(v) = `_reach_s` to (via_j, v) and g_j(v) the time from (via_j, v) to rest at goal_j
+    For joint j, f_j(v) = `reach_s` to (via_j, v) and g_j(v) the time from (via_j, v) to rest at goal_j
     (the reverse of reaching via_j from rest at goal_j with −v) fall then rise in v, so the velocities
     reached by t₁ form an interval around f_j's minimiser, and h_j(t₁), the least g_j over it, is g_j at
     the point of that interval nearest g_j's minimiser. The bound is min over t₁ of t₁ + max_j h_j(t₁);
@@ -229,10 +203,10 @@ def _via_s(
     d_in, d_out = via - start, via - goal
 
     def f(v: NDArray[np.float64]) -> NDArray[np.float64]:
-        return _reach_s(d_in, v, vmax, amax)
+        return reach_s(d_in, v, vmax, amax)
 
     def g(v: NDArray[np.float64]) -> NDArray[np.float64]:
-        return _reach_s(d_out, -v, vmax, amax)
+        return reach_s(d_out, -v, vmax, amax)
 
     best_in = np.sign(d_in) * np.minimum(np.sqrt(2 * amax * np.abs(d_in)), vmax)
     best_out = -np.sign(d_out) * np.minimum(np.sqrt(2 * amax * np.abs(d_out)), vmax)
@@ -323,6 +297,10 @@ class Bound:
         gripped = jaw_on_wall(self.cell)
         passes = 2.0 * math.asin(min(1.0, (wall + 2.0 * tool.jaw_radius) / 2.0 / tool.jaw_length))
         self.jaw_close_s = (passes - gripped) / jaw
+        self._axis: dict[
+            tuple[str, str], tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]
+        ] = {}
+        self._held: dict[tuple[str, str, int], float] = {}
 
     def joints(self, arm: str, peg: int, height: float) -> NDArray[np.float64]:
         """The arm's joints with the tip `height` above peg `peg`'s top, tool down."""
@@ -368,6 +346,47 @@ class Bound:
             let_go=max(self.jaw_close_s, pass_s(meet_g, out, self.settings[giver])),
         )
 
+    def axis_cells(
+        self, giver: str, receiver: str
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+        """Per cell of the meeting axis (`limit_axis`), the giver's joints' least and greatest values there and
+        the receiver's least time from its tip at the block's top in that cell to rest at its grasp; then
+        the axis at ±`SPAN`, with no such time. Remembered per pair of arms."""
+        key = (giver, receiver)
+        if key not in self._axis:
+            samples = np.linspace(-SPAN, SPAN, round(2 * SPAN / CELL) * CELL_SAMPLES + 1)
+            depth = self.motion.transfer.grasp_depth
+            on_axis = np.array([self.meeting(giver, height) for height in samples])
+            entries = np.array([self.meeting(receiver, depth + height) for height in samples])
+            spans = [slice(k, k + CELL_SAMPLES + 1) for k in range(0, len(samples) - 1, CELL_SAMPLES)]
+            grasp, settings = self.meeting(receiver), self.settings[receiver]
+            after = [pass_s(grasp, np.clip(grasp, *_bounds(entries[span])), settings) for span in spans]
+            bounds = [_bounds(on_axis[span]) for span in spans] + [(on_axis[0],) * 2, (on_axis[-1],) * 2]
+            self._axis[key] = (
+                np.array([low for low, _ in bounds]),
+                np.array([high for _, high in bounds]),
+                np.array([*after, 0.0, 0.0]),
+            )
+        return self._axis[key]
+
+    def held_on_axis(self, giver: str, receiver: str, pick: int) -> float:
+        """The least time from rest at the giver's grasp on `pick` until both arms rest at the meeting point,
+        the receiver's jaw entering the block only on its final axis (`limit_axis.on_axis_s`)."""
+        key = (giver, receiver, pick)
+        if key not in self._held:
+            low, high, after = self.axis_cells(giver, receiver)
+            grasp, settings = self.joints(giver, pick, self.grasp_height()), self.settings[giver]
+            limits = Limits(
+                settings.planner_velocity.astype(float), settings.planner_acceleration.astype(float)
+            )
+            self._held[key] = min(
+                on_axis_s(
+                    grasp, self.joints(giver, pick, lift), low, high, self.meeting(giver), after, limits
+                )
+                for lift in self.heights.lifts
+            )
+        return self._held[key]
+
     def fall_s(self, height: float) -> float:
         """The block's fall onto its goal peg when the jaw opens with the tip `height` above the peg's top."""
         fall = height - self.grasp_height()
@@ -391,27 +410,46 @@ class Bound:
         """The least time from rest at the quickest of `starts`, through `via`, to rest at `goal`."""
         return min(through(start.joints, [*start.via(), *via], goal, self.settings[arm]) for start in starts)
 
-    def lift_to(self, arm: str, grasp: NDArray[np.float64], pick: int, goal: NDArray[np.float64]) -> float:
-        """The least time from rest at `grasp` on peg `pick`, lifting the block clear, to rest at `goal`."""
+    def lift_to(
+        self,
+        arm: str,
+        grasp: NDArray[np.float64],
+        pick: int,
+        goal: NDArray[np.float64],
+        via: tuple[NDArray[np.float64], ...] = (),
+    ) -> float:
+        """The least time from rest at `grasp` on peg `pick`, lifting the block clear, through `via` (at
+        most one), to rest at `goal`."""
         return min(
-            through(grasp, [self.joints(arm, pick, lift)], goal, self.settings[arm])
+            through(grasp, [self.joints(arm, pick, lift), *via], goal, self.settings[arm])
             for lift in self.heights.lifts
         )
 
     def lower(
-        self, arm: str, place: int, moved: Callable[[NDArray[np.float64]], float]
+        self,
+        arm: str,
+        place: int,
+        moved: Callable[[NDArray[np.float64], tuple[NDArray[np.float64], ...]], float],
     ) -> tuple[list[Start], float, float]:
         """Where the jaw may open over `place` (each with the way out of the fallen block's hole), and the
-        least motion `moved` (seconds to one of them) and block's fall over those heights, as (starts of
-        the next motion, motion, fall)."""
-        top = -self.motion.transfer.block_top_below_peg_top  # the fallen block's top
+        least motion `moved` (seconds to one of them, through the points it is given) and block's fall
+        over those heights, as (starts of the next motion, motion, fall). A jaw opening with the block's
+        bottom below the peg's top has brought the block's hole down onto the peg along its axis (from the
+        side, the hole's wall would strike the peg): the motion passes the tip `block_below_tip` over the
+        peg's top first, where the block's bottom meets it, as the lift leaves the pick peg there."""
+        transfer = self.motion.transfer
+        top = -transfer.block_top_below_peg_top  # the fallen block's top
         out = self.joints(arm, place, top)
+        onto = (self.joints(arm, place, transfer.block_below_tip),)
         ends = [
             Start(self.joints(arm, place, height), out if height < top else None)
             for height in self.heights.lowers
         ]
         motion, fall = min(
-            ((moved(end.joints), self.fall_s(height)) for end, height in zip(ends, self.heights.lowers)),
+            (
+                (moved(end.joints, onto if height < transfer.block_below_tip else ()), self.fall_s(height))
+                for end, height in zip(ends, self.heights.lowers)
+            ),
             key=sum,
         )
         return ends, motion, fall
@@ -427,6 +465,11 @@ class Exchange:
     receiver: NDArray[np.float64]
     to_receive: float  # the receiver's least time from its starts, in through the block's top, to its grasp
     let_go: float  # from the receiver's close to the giver's jaw opened and out of the hole
+
+
+def _bounds(joints: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Each joint's least and greatest value over rows of joints."""
+    return joints.min(axis=0), joints.max(axis=0)
 
 
 def trial_bound(transfers: list[tuple[str, int, int]], bound: Bound | None = None) -> TrialBound:
@@ -455,12 +498,16 @@ def trial_bound(transfers: list[tuple[str, int, int]], bound: Bound | None = Non
             continue
         receiver = others[0]
         exchange = bound.exchange(giver, receiver, at[receiver])
-        to_meet = bound.lift_to(giver, grasp, pick, exchange.giver)
+        # both at rest, the receiver's jaw entered the block on its final axis, and closes
+        to_meet = max(
+            bound.lift_to(giver, grasp, pick, exchange.giver), bound.held_on_axis(giver, receiver, pick)
+        )
         held_out = started + reach + bound.jaw_close_s + to_meet
-        # both at rest, the receiver's jaw closes
         taken = max(free[receiver] + exchange.to_receive, held_out) + bound.jaw_close_s
         ends, place_s, fall = bound.lower(
-            receiver, place, partial(rest_to_rest, exchange.receiver, settings=bound.settings[receiver])
+            receiver,
+            place,
+            lambda goal, via: through(exchange.receiver, [*via], goal, bound.settings[receiver]),
         )
         times.motion += to_meet
         result.arms[receiver].motion += exchange.to_receive + place_s

@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 import math
+from functools import partial
 
 import numpy as np
 import pytest
 import ruckig
 
-from pegbt.bench.limit_bound import Bound, Start, _reach_s, rest_to_rest, through, trial_bound, via_s
+from pegbt.bench.limit_bound import Bound, Start, rest_to_rest, through, trial_bound, via_s
+from pegbt.bench.limit_joint import reach_s
 from pegbt.frames import apply_rigid
 from pegbt.motion.kinematics import tip_position
 from pegbt.motion.limits import ArmSettings, arm_settings
@@ -57,7 +59,7 @@ def test_one_joints_reach_is_rucking_time_optimal_duration() -> None:
         goal, goal_v = np.zeros(6), np.zeros(6)
         goal[2], goal_v[2] = distance, velocity
         expected = _ruckig_s(np.zeros(6), np.zeros(6), goal, goal_v, settings)
-        reached = _reach_s(np.array([distance]), np.array([velocity]), np.array([0.2]), np.array([0.2]))
+        reached = reach_s(np.array([distance]), np.array([velocity]), np.array([0.2]), np.array([0.2]))
         assert reached[0] == pytest.approx(expected, abs=1e-6), (distance, velocity)
 
 
@@ -113,7 +115,7 @@ def test_the_jaw_enters_and_leaves_a_blocks_hole_along_the_peg_axis() -> None:
     bound = Bound()
     top = -bound.motion.transfer.block_top_below_peg_top
     assert bound.heights.approach == pytest.approx(top)  # the grasp is approached through the block's top
-    ends, _, _ = bound.lower("PSM1", 7, lambda joints: 0.0)
+    ends, _, _ = bound.lower("PSM1", 7, lambda joints, via: 0.0)
     assert [end.exit is not None for end in ends] == [height < top for height in bound.heights.lowers]
     low = next(end for end in ends if end.exit is not None)
     aside = low.joints + np.array([0.01, 0.0, 0.0, 0.0, 0.0, 0.0])  # a few millimetres over, as low
@@ -180,3 +182,22 @@ def test_a_giver_is_not_free_before_its_jaw_has_opened_and_left_the_hole() -> No
     )
     # the first block lands no sooner than the giver's jaw is out and the receiver has lowered it onto peg 7
     assert first_end - second_start >= exchange.let_go + lowered - 1e-9
+
+
+def test_a_block_let_go_with_its_hole_round_the_goal_peg_came_down_the_pegs_axis() -> None:
+    """Below the height where the block's bottom meets the goal peg's top, the carry passes that point on
+    the peg's axis first: where going straight to a lower point would be quicker (the arm's insertion
+    reaches lower sooner), the bound pays for the way down the axis, and no less than the carry that lets
+    go at that point itself."""
+    bound = Bound()
+    hanging = bound.motion.transfer.block_below_tip
+    arm, pick, place = "PSM1", 0, 6
+    grasp = bound.joints(arm, pick, bound.grasp_height())
+    resting = bound.joints(arm, place, bound.heights.lowers[0])
+    straight = bound.lift_to(arm, grasp, pick, resting)
+    down_the_axis = bound.lift_to(arm, grasp, pick, resting, (bound.joints(arm, place, hanging),))
+    let_go_there = bound.lift_to(arm, grasp, pick, bound.joints(arm, place, hanging)) + bound.fall_s(hanging)
+    assert straight < let_go_there  # straight to the resting height: quicker than letting go over the peg
+    _, carry, fall = bound.lower(arm, place, partial(bound.lift_to, arm, grasp, pick))
+    assert straight < carry + fall <= let_go_there  # the old bound let go at the resting height, straight
+    assert down_the_axis > straight
