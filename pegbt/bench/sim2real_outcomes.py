@@ -16,12 +16,12 @@ the naming rate the goal asks for), the simulated side growing with it in the ra
 `located` to 120 real. The pilot is sequential: a size is only trusted when read from at least as many
 paired transfers as it sets. The family's fit cells then get the smallest whole number of 12-transfer
 trials at least the concealed campaign's 120 transfers and at least every one of its effects'
-`detectable_at` (`fit_size`);
-its held-out cells keep 120, the concealed campaign's size, since they test the predictions. A naming rate
-at 120 alone measured the sample: three of the realistic concealed values change a fit cell by less than
-120 transfers resolve. A family whose effects change no fit cell at any size (`detectable_at` "never")
-is kept at 120 and scored as a further null: its naming rate is not applicable ("n/a": no method can
-name what changes nothing), its false discoveries count. The diagnosis's own simulated side grows with
+`detectable_at` (`fit_size`); its held-out cells keep 120, the concealed campaign's size, since they test
+the predictions. A naming rate at 120 alone measured the sample: three of the realistic concealed values
+change a fit cell by less than 120 transfers resolve. A family whose effects change no fit cell at any
+size (`detectable_at` "never"), or need more than a seed's block of real transfers (too large), is kept
+at 120 and scored as a further null: its naming rate is not applicable ("n/a": no campaign here can show
+what it changes), its false discoveries count. The diagnosis's own simulated side grows with
 the largest real fit cell (`Settings.for_campaign`).
 """
 
@@ -146,17 +146,16 @@ def shifts(
     mean share, the concealed world's less the default one's). On the phase simulator, `transfers` a cell
     (by default `settings.located`) on the seeds the default world is located on, so the two worlds share
     their random numbers and the change is the effect's."""
-    hidden = [name for name, effects in worlds.items() if effects]
+    hidden = {name: WorldEffects.of(effects) for name, effects in worlds.items() if effects}
     keys = [key for key in CELLS if _fitted(key, settings.fit)]
+    unique = list(dict.fromkeys(hidden.values()))  # a pair's effect alone is also its own family's
     sims = simulate_cells(
-        mapper,
-        [WorldEffects(), *(WorldEffects.of(worlds[name]) for name in hidden)],
-        keys,
-        settings.located if transfers is None else transfers,
+        mapper, [WorldEffects(), *unique], keys, settings.located if transfers is None else transfers
     )
+    of = dict(zip(unique, sims[1:]))
     out = {}
-    for name, sim in zip(hidden, sims[1:]):
-        changes = []
+    for name, world in hidden.items():
+        sim, changes = of[world], []
         for key in keys:
             new, old = sim[key], sims[0][key]
             for category in CATEGORIES:
