@@ -62,3 +62,5 @@ def test_the_fit_cells_get_the_planned_size_and_the_held_out_cells_the_campaigns
     assert figures["chamfer_capture_named"] == "n/a" and figures["chamfer_capture_resolved"] == "n/a"
     assert isinstance(figures["chamfer_capture_false"], float)
     assert isinstance(figures["peg_compliance_named"], float)
+    assert figures["peg_compliance_pilot_transfers_per_fit_cell"] == peg.read_from >= peg.detectable_at
+    assert figures["peg_compliance_too_large"] == figures["chamfer_capture_too_large"] == "false"
