@@ -180,9 +180,8 @@ def pilot(
     """Each world's `Reading`, read until the size it sets is read from at least as many paired transfers.
 
     A change in a category of a few per cent read from n paired transfers carries noise of about what n
-    real transfers resolve, so the `detectable_at` it gives is only trusted up to n: 2 → 0 grasp failures
-    of 48 sized depth bias at 432 where its real seeds show 20 → 12 of 432, a change that needs about
-    3,800. So the pilot starts at `settings.located` a cell; each world whose `detectable_at` exceeds the
+    real transfers resolve, so the `detectable_at` it gives is only trusted up to n (depth bias's grasp
+    failures, 2 → 0 of 48, ask for 432; 54 → 18 of 1,152 for 1,141). So the pilot starts at `settings.located` a cell; each world whose `detectable_at` exceeds the
     transfers it was read from is read again from that many, in whole trials (the same seeds grown, so
     the memo keeps what is already simulated), until it is read from at least as many as it asks for or
     from `cap` (then `detectable_at` above `cap` says the family is too large for the benchmark). A world
