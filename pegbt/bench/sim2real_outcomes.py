@@ -9,17 +9,19 @@ parameters (read from the profile between grid values, `fit.estimate`), and the 
 inside their 95 % predictive interval.
 
 The size of each family's "real" campaign is fixed before any diagnosis runs, by the power of the test
-that could see its world, not by what the tool names. A pilot (`shifts`) simulates, in the fit cells, what
-each concealed effect alone changes against the default world; from it, `detectable_at` is the fewest real
-transfers a fit cell at which a two-sided 5 % test sees that change nine times in ten (`POWER`, the naming
-rate the goal asks for), the simulated side growing with it in the ratio of the diagnosis's `located` to
-120 real. The family's fit cells then get the smallest whole number of 12-transfer trials at least the
-concealed campaign's 120 transfers and at least every one of its effects' `detectable_at` (`fit_size`);
-its held-out cells keep 120, the concealed campaign's size, since they test the predictions. A naming rate
-at 120 alone measured the sample: three of the realistic concealed values change a fit cell by less than
-120 transfers resolve. A family whose effects change no fit cell at any size (`detectable_at` "never")
-is kept at 120 and scored as a further null: its naming rate is not applicable ("n/a": no method can
-name what changes nothing), its false discoveries count. The diagnosis's own simulated side grows with
+that could see its world, not by what the tool names. A pilot (`pilot`, `shifts`) simulates, in the fit
+cells, what each concealed effect alone changes against the default world; from it, `detectable_at` is the
+fewest real transfers a fit cell at which a two-sided 5 % test sees that change nine times in ten (`POWER`,
+the naming rate the goal asks for), the simulated side growing with it in the ratio of the diagnosis's
+`located` to 120 real. The pilot is sequential: a size is only trusted when read from at least as many
+paired transfers as it sets. The family's fit cells then get the smallest whole number of 12-transfer
+trials at least the concealed campaign's 120 transfers and at least every one of its effects'
+`detectable_at` (`fit_size`); its held-out cells keep 120, the concealed campaign's size, since they test
+the predictions. A naming rate at 120 alone measured the sample: three of the realistic concealed values
+change a fit cell by less than 120 transfers resolve. A family whose effects change no fit cell at any
+size (`detectable_at` "never"), or need more than a seed's block of real transfers (too large), is kept
+at 120 and scored as a further null: its naming rate is not applicable ("n/a": no campaign here can show
+what it changes), its false discoveries count. The diagnosis's own simulated side grows with
 the largest real fit cell (`Settings.for_campaign`).
 """
 
@@ -133,28 +135,81 @@ def detectable_difference(share: float, real: int, simulated: int, power: float 
     return z * math.sqrt(max(share * (1 - share), 1 / (real + simulated)) * (1 / real + 1 / simulated))
 
 
+World = Mapping[str, Mapping[str, float]]  # concealed effects: kind → parameter → value
+
+
 def shifts(
-    mapper: Mapper, worlds: Mapping[str, Mapping[str, Mapping[str, float]]], settings: Settings
+    mapper: Mapper, worlds: Mapping[str, World], settings: Settings, transfers: int | None = None
 ) -> dict[str, list[tuple[float, float]]]:
     """Per named world of concealed effects (a family's, or one effect's alone), what it changes in each
     fit cell: for the share of transfers placed and of those failed first in each phase, (the two worlds'
-    mean share, the concealed world's less the default one's). On the phase simulator, `settings.located`
-    transfers a cell on the seeds the default world is located on, so the two worlds share their random
-    numbers and the change is the effect's."""
-    hidden = [name for name, effects in worlds.items() if effects]
+    mean share, the concealed world's less the default one's). On the phase simulator, `transfers` a cell
+    (by default `settings.located`) on the seeds the default world is located on, so the two worlds share
+    their random numbers and the change is the effect's."""
+    hidden = {name: WorldEffects.of(effects) for name, effects in worlds.items() if effects}
     keys = [key for key in CELLS if _fitted(key, settings.fit)]
+    unique = list(dict.fromkeys(hidden.values()))  # a pair's effect alone is also its own family's
     sims = simulate_cells(
-        mapper, [WorldEffects(), *(WorldEffects.of(worlds[name]) for name in hidden)], keys, settings.located
+        mapper, [WorldEffects(), *unique], keys, settings.located if transfers is None else transfers
     )
+    of = dict(zip(unique, sims[1:]))
     out = {}
-    for name, sim in zip(hidden, sims[1:]):
-        changes = []
+    for name, world in hidden.items():
+        sim, changes = of[world], []
         for key in keys:
             new, old = sim[key], sims[0][key]
             for category in CATEGORIES:
                 a, b = new.counts[category] / new.attempted, old.counts[category] / old.attempted
                 changes.append(((a + b) / 2, a - b))
         out[name] = changes
+    return out
+
+
+@dataclass(frozen=True)
+class Reading:
+    """What one concealed world changes in the fit cells (`shifts`), read from `transfers` paired
+    transfers a cell."""
+
+    changes: list[tuple[float, float]]
+    transfers: int
+
+
+def pilot(
+    mapper: Mapper, worlds: Mapping[str, World], settings: Settings, cap: int = SEED_BLOCK
+) -> dict[str, Reading]:
+    """Each world's `Reading`, read until the size it sets is read from at least as many paired transfers.
+
+    A change in a category of a few per cent read from n paired transfers carries noise of about what n
+    real transfers resolve, so the `detectable_at` it gives is only trusted up to n (depth bias's grasp
+    failures, 2 → 0 of 48, ask for 432; 54 → 18 of 1,152 for 1,141). So the pilot starts at `settings.located` a cell; each world whose `detectable_at` exceeds the
+    transfers it was read from is read again from that many, in whole trials (the same seeds grown, so
+    the memo keeps what is already simulated), until it is read from at least as many as it asks for or
+    from `cap` (then `detectable_at` above `cap` says the family is too large for the benchmark). A world
+    that changes no transfer of its reading is read once more at the largest size the pilot reaches, where
+    the default world is already simulated: no change in n paired transfers bounds a change only to about
+    3/n. The rule uses the worlds' own changes, never a diagnosis."""
+    out: dict[str, Reading] = {}
+    todo = {name: settings.located for name, effects in worlds.items() if effects}
+    rechecked = False
+    while todo:
+        following: dict[str, int] = {}
+        for size in sorted(set(todo.values())):
+            group = [name for name, n in todo.items() if n == size]
+            read = shifts(mapper, {name: worlds[name] for name in group}, settings, size)
+            for name in group:
+                out[name] = Reading(read[name], size)
+                needed = detectable_at(read[name], settings.real, settings.located)
+                if needed is not None and size < needed and size < cap:
+                    following[name] = min(cap, TRIAL * math.ceil(needed / TRIAL))
+        largest = max(r.transfers for r in out.values())
+        if not following and not rechecked:
+            rechecked = True
+            following = {
+                name: largest
+                for name, r in out.items()
+                if r.transfers < largest and detectable_at(r.changes, settings.real, settings.located) is None
+            }
+        todo = following
     return out
 
 
@@ -174,33 +229,41 @@ def fit_size(needed: Sequence[int | None], least: int = REAL_TRANSFERS) -> int:
 class Plan:
     """A family's campaign, fixed from the pilot before any diagnosis: its weakest effect's
     `detectability` at `least` real transfers, the size at which every effect it conceals that shows at
-    all is detectable (None: none shows at any size, so naming it is not applicable), and the real
-    transfers of its fit cells (`fit_size`)."""
+    all is detectable (None: none shows at any size, so naming it is not applicable), the real transfers of
+    its fit cells (`fit_size`), and the most paired transfers a cell the pilot read its effects from."""
 
     detectability: float
     detectable_at: int | None
     size: int
+    read_from: int = 0
+
+    @property
+    def too_large(self) -> bool:
+        """Whether an effect needs more real transfers a cell than a seed's block holds: no campaign of the
+        benchmark shows it, so naming it is not applicable either."""
+        return self.detectable_at is not None and self.detectable_at > SEED_BLOCK
 
     @property
     def applicable(self) -> bool:
-        return self.detectable_at is not None
+        return self.detectable_at is not None and not self.too_large
 
 
 def plan(mapper: Mapper, families: Sequence[str], least: int, settings: Settings) -> dict[str, Plan]:
     """Each family's `Plan`, from what each of its concealed effects alone changes in the fit cells
-    (`shifts`): its detectability with the diagnosis's `settings.located` simulated transfers against
+    (`pilot`): its detectability with the diagnosis's `settings.located` simulated transfers against
     `least` real ones, and the sizes at which they show with the simulated side growing as the
     diagnosis grows it (`settings.located` per `settings.real` real transfers)."""
-    pilot = shifts(mapper, alone(families), settings)
+    readings = pilot(mapper, alone(families), settings)
     out = {}
     for family in families:
-        changes = [pilot[f"{family}:{kind}"] for kind in FAMILIES[family]]
-        needed = [detectable_at(c, settings.real, settings.located) for c in changes]
+        read = [readings[f"{family}:{kind}"] for kind in FAMILIES[family]]
+        needed = [detectable_at(r.changes, settings.real, settings.located) for r in read]
         shown = [n for n in needed if n is not None]
         out[family] = Plan(
-            min((detectability(c, least, settings.located) for c in changes), default=0.0),
+            min((detectability(r.changes, least, settings.located) for r in read), default=0.0),
             max(shown) if shown else None,
-            fit_size(needed, least),
+            fit_size([n if n is not None and n <= SEED_BLOCK else None for n in needed], least),
+            max((r.transfers for r in read), default=0),
         )
     return out
 
@@ -285,6 +348,7 @@ def measure(
     needed = 0
     try:
         plans = plan(memo, families, real_transfers, settings)
+        figures["pilot_transfers_simulated"] = memo.simulated
         for family in families:
             p = plans[family]
             figures[f"{family}_real_transfers_per_fit_cell"] = p.size
@@ -294,12 +358,17 @@ def measure(
             if FAMILIES[family]:
                 figures[f"{family}_detectability"] = p.detectability
                 figures[f"{family}_detectable_at"] = "never" if p.detectable_at is None else p.detectable_at
+                figures[f"{family}_pilot_transfers_per_fit_cell"] = p.read_from
+                figures[f"{family}_too_large"] = str(p.too_large).lower()
                 print(
                     f"{family}: detectability {p.detectability:.2f} at {real_transfers} (1 or more: "
-                    "detectable), "
+                    f"detectable), read from {p.read_from} paired transfers a fit cell, "
                     + (
                         f"from {p.detectable_at} real transfers a fit cell; fit cells of {p.size}"
                         if p.applicable
+                        else f"beyond the {SEED_BLOCK} of a seed's block, too large; fit cells of {p.size}, "
+                        "naming n/a"
+                        if p.too_large
                         else f"at no size: it changes no fit cell; fit cells of {p.size}, naming n/a"
                     ),
                     file=sys.stderr,

@@ -50,9 +50,8 @@ def test_the_fit_cells_get_the_planned_size_and_the_held_out_cells_the_campaigns
     plans = bench.plan(fake_mapper, families, 12, bench.SETTINGS)
     assert plans["peg_compliance"].detectable_at and plans["peg_compliance"].detectable_at > 12
     assert plans["chamfer_capture"].detectable_at is None
-    assert plans["peg_and_chamfer"] == bench.Plan(
-        0.0, plans["peg_compliance"].detectable_at, plans["peg_compliance"].size
-    )
+    pair, peg = plans["peg_and_chamfer"], plans["peg_compliance"]
+    assert (pair.detectability, pair.detectable_at, pair.size) == (0.0, peg.detectable_at, peg.size)
     monkeypatch.setattr(bench, "diagnose", recorded)
     figures = bench.measure(families, 1, 12, bench.SETTINGS, simulator=fake_mapper)
     size = bench.fit_size([plans["peg_compliance"].detectable_at], 12)
@@ -63,3 +62,5 @@ def test_the_fit_cells_get_the_planned_size_and_the_held_out_cells_the_campaigns
     assert figures["chamfer_capture_named"] == "n/a" and figures["chamfer_capture_resolved"] == "n/a"
     assert isinstance(figures["chamfer_capture_false"], float)
     assert isinstance(figures["peg_compliance_named"], float)
+    assert figures["peg_compliance_pilot_transfers_per_fit_cell"] == peg.read_from >= peg.detectable_at
+    assert figures["peg_compliance_too_large"] == figures["chamfer_capture_too_large"] == "false"
