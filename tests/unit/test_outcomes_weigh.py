@@ -21,23 +21,21 @@ UNCALIBRATED = ("unilateral", "uncalibrated")
 
 def _profile(name: str, gain: float) -> Profile:
     """A screened candidate whose best grid value fits `gain` log units better than the world before it."""
-    return Profile(
-        Candidate(name, "p", (1.0, 2.0)),
-        (1.0, 2.0),
-        [],
-        np.array([[-10.0], [-10.0 + gain]]),
-        reference=np.array([-10.0]),
-    )
+    per_cell = np.array([[-11.0 + gain], [-10.0 + gain]])
+    return Profile(Candidate(name, "p", (1.0, 2.0)), (1.0, 2.0), [], per_cell, reference=np.array([-10.0]))
 
 
-def test_the_leaders_are_positive_and_within_the_chi2_margin_of_the_best() -> None:
+def test_the_leaders_are_positive_or_within_the_chi2_margin_of_the_best() -> None:
+    margin = LR_95 / 2
     screened = [
         _profile("a", 5.0),
-        _profile("b", 5.0 - LR_95 / 2 + 0.01),
-        _profile("c", 5.0 - LR_95 / 2 - 0.01),
+        _profile("b", 5.0 - margin + 0.01),
+        _profile("c", 0.5),
+        _profile("d", -0.5),
     ]
-    assert [p.candidate.kind for p in leaders_to_weigh(screened)] == ["a", "b"]
-    assert [p.candidate.kind for p in leaders_to_weigh([_profile("d", 0.0), _profile("e", -0.5)])] == []
+    assert [p.candidate.kind for p in leaders_to_weigh(screened)] == ["a", "b", "c"]
+    near = [_profile("e", 0.0), _profile("f", -margin + 0.01), _profile("g", -margin - 0.01)]
+    assert [p.candidate.kind for p in leaders_to_weigh(near)] == ["e", "f"]
     assert leaders_to_weigh([]) == []
 
 
