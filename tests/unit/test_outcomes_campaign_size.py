@@ -44,9 +44,13 @@ def test_a_larger_campaign_grows_the_simulated_side_in_proportion() -> None:
 
 def test_the_diagnosis_sizes_itself_by_its_largest_fit_cell() -> None:
     """Unilateral cells of 480 real transfers (held-out ones of 120): the default world is located on four
-    times the transfers in the fit cells that disagree, and the fit simulates four times as many a world."""
+    times the transfers in the fit cells that disagree, and the fit screens on four times as many a world."""
     d = diagnose(_outcomes(480), SETTINGS, fake_mapper)
     assert (d.settings.transfers, d.settings.located) == (48, 192)
     assert d.before[("unilateral", "uncalibrated")].attempted == 192
     assert d.before[("bilateral", "uncalibrated")].attempted == 48
-    assert all(p.sims[0][("unilateral", "uncalibrated")].attempted == 48 for p in d.verdict.tried)
+    screened = {
+        p.candidate.kind: p.sims[0][("unilateral", "uncalibrated")].attempted for p in d.verdict.tried
+    }
+    assert screened.pop("peg_compliance") == 192  # the one leader, weighed as the default world is located
+    assert set(screened.values()) == {48}

@@ -63,14 +63,17 @@ def open_effects(
 ) -> list[Alternative]:
     """Every candidate of a kind not in `base` (the fitted world; `before` its per-cell log-likelihoods on
     the fit `cells`) profiled on top of it, and those whose values the fit cells cannot exclude as
-    alternatives, each at its allowed value farthest from the default."""
+    alternatives, each at its allowed value farthest from the default. A value is judged against `base`
+    simulated on the same seeds and as many transfers (`Profile.reference`): the fitted world was weighed
+    on more (`fit`'s `weighed`)."""
     others = [c for c in candidates(points) if c.kind not in {effect.kind for effect in base}]
     worlds = [candidate.world(value, base) for candidate in others for value in candidate.grid]
     simulate_cells(mapper, worlds, [c.key for c in cells[:informative]], transfers)  # one batch
     out = []
     for candidate in others:
         fitted = profile(mapper, candidate, cells, transfers, before, informative, base, phases)
-        allowed = allowed_values(fitted, float(before.sum()))
+        reference = before if fitted.reference is None else fitted.reference
+        allowed = allowed_values(fitted, float(reference.sum()))
         if not allowed:
             continue
         p = WORLD_EFFECT_KINDS[candidate.kind].parameters[candidate.parameter]

@@ -16,6 +16,7 @@ from pegbt.sim2real.outcomes.alternatives import Alternative, changes_held_out, 
 from pegbt.sim2real.outcomes.cache import MemoMapper
 from pegbt.sim2real.outcomes.cells import Cell, Outcomes
 from pegbt.sim2real.outcomes.fit import LR_95, Fresh, Profile, Verdict, fit
+from pegbt.sim2real.outcomes.gate import gate
 from pegbt.sim2real.outcomes.likelihood import log_likelihood
 from pegbt.sim2real.outcomes.locate import Row, locate
 from pegbt.sim2real.outcomes.predict import PREDICT_SEED, Prediction, predict, predict_null, predict_world
@@ -126,12 +127,11 @@ def diagnose(
     settings = settings.for_campaign(max(c.attempted for c in fit_cells))
     before = _located(counting, cells, fit_cells, settings)
     rows = locate(cells, before)
-    flagged = [r for r in locate(fit_cells, before) if r.disagrees]  # chance judged over the fit cells alone
-    if flagged:
-        phased = settings.phases and any(r.phase for r in rows)
-        disagreeing = frozenset(r.phase for r in flagged if r.phase) if phased else None
-        loud = {(r.variant, r.condition) for r in flagged}
+    opened = gate(fit_cells, before, settings.phases and any(r.phase for r in rows))
+    if opened.opens:
+        loud = set(opened.loud)
         ordered = [c for c in fit_cells if c.key in loud] + [c for c in fit_cells if c.key not in loud]
+        _top_up(counting, before, opened.loud, settings.located)
         verdict = fit(
             counting,
             ordered,
@@ -139,9 +139,10 @@ def diagnose(
             settings.transfers,
             settings.points,
             settings.phases,
-            disagreeing or None,
+            opened.phases,
             len(loud),
             Fresh(RANK_SEED, settings.located),
+            settings.located,
         )
         fit_cells = tuple(ordered)
         informative = len(loud)
@@ -292,6 +293,16 @@ def _located(
         for key, counts in more.items():
             before[key].merge(counts)
     return before
+
+
+def _top_up(mapper: Mapper, before: dict[Key, SimCounts], keys: Sequence[Key], located: int) -> None:
+    """Every cell of `keys` in the default world on `located` transfers (seeds 0…), as the fit's leaders
+    are weighed (a loud cell whose rate was within `close` has `transfers` so far)."""
+    for key in keys:
+        seeds = before[key].attempted + before[key].skipped
+        if located > seeds:
+            more = simulate_cells(mapper, [WorldEffects()], [key], located - seeds, first_seed=seeds)[0]
+            before[key].merge(more[key])
 
 
 def _null(cells: Sequence[Cell], before: dict[Key, SimCounts], phases: bool) -> np.ndarray:

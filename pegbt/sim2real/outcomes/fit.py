@@ -9,6 +9,10 @@ a transfer passes its phases in turn, so one that fails at the grasp and again a
 when two effects act together, and each step profiles every candidate on top of the world chosen so far.
 Where the data cannot tell two additions apart (log-likelihoods within `TIE`) each is followed as its own
 path; paths that end in different worlds are reported as a tie, none of them named, and each predicts.
+A large campaign's real counts resolve more than the grid's simulated transfers do, so each step screens
+every candidate on `transfers` against the world before it on the same seeds, and profiles again only the
+leaders (`leaders_to_weigh`) on as many transfers as the default world is located with; the χ² test, the
+leave-one-out gain and every later step read those (`fit`'s `weighed`).
 The additions that pass are ranked on fresh seeds, not on the ones their best value was picked on: the
 pick favours whichever candidate's grid drew the luckiest outcomes (a registration offset reshuffles
 them), and the first choice decides every later step.
@@ -116,6 +120,14 @@ class Profile:
     base: WorldEffects = WorldEffects()
     fresh_total: float | None = None  # the fitted world's log-likelihood on fresh seeds, once ranked there
     dense: tuple[np.ndarray, np.ndarray] | None = None  # the profile between grid values (`between`)
+    reference: np.ndarray | None = None  # (cells,) `base`'s log-likelihoods on the same seeds and sizes
+
+    @property
+    def paired_gain(self) -> float:
+        """How much better the best grid value fits than `base` simulated on the same seeds and as many
+        transfers (log units): the screen's comparison, at equal precision on both sides."""
+        reference = self.reference if self.reference is not None else np.zeros(self.per_cell.shape[1])
+        return float(self.total.max() - reference.sum())
 
     @property
     def total(self) -> np.ndarray:
@@ -244,27 +256,48 @@ def profile(
     informative: int,
     base: WorldEffects = WorldEffects(),
     phases: bool = True,
+    quiet_transfers: int | None = None,
 ) -> Profile:
     """Simulate the fit `cells` at every grid value of `candidate` (on top of `base`) and weigh each. The
     first `informative` cells (those that disagree) get `transfers` each; the others, which agree with the
-    default world, are simulated (with a third as many) only for a candidate that fits the informative
-    ones beyond chance, and otherwise keep the default world's likelihood, which they agree with."""
+    default world, are simulated (with `quiet_transfers`, a third of `transfers` by default) only for a
+    candidate that fits the informative ones beyond chance, and otherwise keep the default world's
+    likelihood, which they agree with. `base` is simulated beside the grid on the same seeds (the
+    profile's `reference`)."""
+    quiet_transfers = max(2, transfers // 3) if quiet_transfers is None else quiet_transfers
     worlds = [candidate.world(v, base) for v in candidate.grid]
     loud, quiet = list(cells[:informative]), list(cells[informative:])
     *sims, at_default = simulate_cells(mapper, [*worlds, base], [c.key for c in loud], transfers)
     per_cell = np.array([[log_likelihood(c, sim[c.key], phases) for c in loud] for sim in sims])
+    reference = np.array([log_likelihood(c, at_default[c.key], phases) for c in loud])
     rest = np.tile(null[informative:], (len(worlds), 1))
+    quiet_reference = null[informative:]
     if quiet and 2 * (per_cell.sum(axis=1).max() - null[:informative].sum()) >= LR_95:
         *more, quiet_default = simulate_cells(
-            mapper, [*worlds, base], [c.key for c in quiet], max(2, transfers // 3)
+            mapper, [*worlds, base], [c.key for c in quiet], quiet_transfers
         )
         rest = np.array([[log_likelihood(c, sim[c.key], phases) for c in quiet] for sim in more])
+        quiet_reference = np.array([log_likelihood(c, quiet_default[c.key], phases) for c in quiet])
         sims = [{**a, **b} for a, b in zip(sims, more)]
         at_default = {**at_default, **quiet_default}
     per_cell = np.hstack([per_cell, rest])
     values, with_default = with_inert(candidate, sims, at_default)
     dense = between(values, with_default, cells, per_cell, phases)
-    return Profile(candidate, candidate.grid, sims, per_cell, base, dense=dense)
+    reference = np.concatenate([reference, quiet_reference])
+    return Profile(candidate, candidate.grid, sims, per_cell, base, dense=dense, reference=reference)
+
+
+def leaders_to_weigh(screened: Sequence[Profile]) -> list[Profile]:
+    """The screened candidates weighed again on more transfers: those whose paired gain over the world
+    before them (`Profile.paired_gain`, the grid and that world on the same seeds and as many transfers) is
+    positive, or within the χ² margin (χ²₁,₀.₉₅ / 2 log units) of the best one's: a candidate the screen
+    cannot tell from the best, or that already fits better than the world before it. On the screen's
+    transfers a small change (a chamfer's 4 points in 12 %) moves a few simulated transfers, so its gain
+    there may be below 0 and still within the margin of the best."""
+    if not screened:
+        return []
+    best = max(p.paired_gain for p in screened)
+    return [p for p in screened if p.paired_gain > 0 or p.paired_gain >= best - LR_95 / 2]
 
 
 def with_inert(
@@ -317,51 +350,79 @@ def fit(
     disagreeing: frozenset[str] | None = None,
     informative: int | None = None,
     fresh: Fresh | None = None,
+    weighed: int | None = None,
 ) -> Verdict:
     """Profile every candidate (only those that can act in a `disagreeing` phase, when phases are known)
     on the fit `cells` (the first `informative` of them disagree; all, if not given), then add effects one
     at a time while the best addition passes (best on `fresh` seeds, when given); a tie is followed down
-    each of its paths."""
+    each of its paths.
+
+    With `weighed` (the transfers `null_sims` holds in the informative cells), every candidate is first
+    screened on `transfers` against the world before it on the same seeds (`Profile.paired_gain`), and only
+    the leaders (`leaders_to_weigh`) are profiled again on `weighed` transfers, where they are tested
+    against the world before them at the same precision: weighed on fewer simulated transfers than the
+    default world, a candidate saw a large campaign's real counts as a tenth of them and the null as a
+    third, and could not beat it. Without `weighed`, every candidate is tested as screened."""
     informative = len(cells) if informative is None else informative
     null = np.array([log_likelihood(c, null_sims[c.key], phases) for c in cells])
+    loud = [c.key for c in cells[:informative]]
     chosen = [
         candidate
         for candidate in candidates(points)
         if disagreeing is None or (PHASES_OF.get(candidate.kind, disagreeing) | AFTER_A_LOSS) & disagreeing
     ]
+    screened_alone: list[Profile] = []
+    alone: dict[str, Profile] = {}  # each candidate alone, as weighed
+
+    def weigh(candidate: Candidate, base: WorldEffects, before: np.ndarray, size: int) -> Profile:
+        return profile(
+            mapper, candidate, cells, size, before, informative, base, phases, max(2, transfers // 3)
+        )
 
     def step(base: WorldEffects, before: np.ndarray) -> list[Profile]:
         """Every candidate of a kind not yet in `base` profiled on top of it, the best first, that passes
         against `before` (the per-cell log-likelihoods of `base`)."""
         others = [c for c in chosen if c.kind not in {e.kind for e in base}]
         worlds = [candidate.world(value, base) for candidate in others for value in candidate.grid]
-        simulate_cells(mapper, worlds, [c.key for c in cells[:informative]], transfers)  # one batch
-        profiles = [profile(mapper, c, cells, transfers, before, informative, base, phases) for c in others]
+        simulate_cells(mapper, [*worlds, base], loud, transfers)  # one batch
+        screened = [weigh(c, base, before, transfers) for c in others]
+        profiles = screened
+        if weighed is not None:
+            leaders = [p.candidate for p in leaders_to_weigh(screened)]
+            worlds = [candidate.world(value, base) for candidate in leaders for value in candidate.grid]
+            simulate_cells(mapper, [*worlds, base], loud, weighed)  # one batch
+            profiles = [weigh(c, base, before, weighed) for c in leaders]
         if not base:
-            tried.extend(profiles)
+            screened_alone.extend(screened)
+            alone.update({p.candidate.name: p for p in profiles})
         passing = sorted((p for p in profiles if passes(p, before)), key=lambda p: -p.total.max())
         return passing if fresh is None else ranked_on_fresh_seeds(mapper, passing, cells, fresh, phases)
 
-    tried: list[Profile] = []
-    alone = step(WorldEffects(), null)
-    paths: list[list[Profile]] = [[p] for p in _leaders(alone)]
+    def alone_as_weighed(candidate: Candidate) -> Profile:
+        if candidate.name not in alone:
+            alone[candidate.name] = weigh(candidate, WorldEffects(), null, weighed or transfers)
+        return alone[candidate.name]
+
+    first = step(WorldEffects(), null)
+    paths: list[list[Profile]] = [[p] for p in _leaders(first)]
     done: list[list[Profile]] = []
     while paths:
         path = paths.pop(0)
         last = path[-1]
         ahead = [] if len(path) == MAX_EFFECTS else step(last.world(), last.per_cell[last.best])
-        ahead = [p for p in ahead if not _ties_alone(p, tried)]
+        ahead = [p for p in ahead if not _ties_alone(p, alone_as_weighed(p.candidate))]
         if not ahead:
             done.append(path)
         paths = (paths + [[*path, p] for p in _leaders(ahead)])[:MAX_PATHS]
-    names = tuple(p.candidate.name for p in alone)
+    names = tuple(p.candidate.name for p in first)
+    tried = tuple(alone.get(p.candidate.name, p) for p in screened_alone)
     ends = _distinct([path[-1] for path in done])
     if len(ends) > 1:
-        return Verdict((), tuple(ends), tuple(tried), null, names)
+        return Verdict((), tuple(ends), tried, null, names)
     if not ends:
-        return Verdict((), (), tuple(tried), null, names)
+        return Verdict((), (), tried, null, names)
     path = next(path for path in done if path[-1] is ends[0])
-    return Verdict(tuple(path), (), tuple(tried), null, names)
+    return Verdict(tuple(path), (), tried, null, names)
 
 
 def ranked_on_fresh_seeds(
@@ -402,8 +463,7 @@ def _distinct(ends: list[Profile]) -> list[Profile]:
     return list(best.values())
 
 
-def _ties_alone(pair: Profile, alone: list[Profile]) -> bool:
-    """Whether the last effect added explains the data alone as well as with the effects before it (they
-    add nothing)."""
-    own = next((p for p in alone if p.candidate.name == pair.candidate.name), None)
-    return own is not None and pair.total.max() - own.total.max() < TIE
+def _ties_alone(pair: Profile, own: Profile) -> bool:
+    """Whether the last effect added explains the data alone (`own`, weighed as `pair` is) as well as with
+    the effects before it (they add nothing)."""
+    return pair.total.max() - own.total.max() < TIE

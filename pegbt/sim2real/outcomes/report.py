@@ -125,6 +125,7 @@ def report_dict(diagnosis: Diagnosis, commands: list[str] | None = None) -> dict
                 "candidate": p.candidate.name,
                 "best": p.value,
                 "log_likelihood": float(p.total.max()),
+                "paired_gain": p.paired_gain,
                 "passed": p.candidate.name in d.verdict.passing,
             }
             for p in d.verdict.tried
@@ -310,12 +311,13 @@ def report_markdown(d: Diagnosis, commands: list[str] | None = None) -> str:
     lines += ["", "## Name", *_finding(d), ""]
     if d.verdict.tried:
         lines += [
-            "| candidate | best value | log-likelihood (null " + f"{d.verdict.null.sum():.1f}) | passed |",
-            "|---|---|---|---|",
+            "| candidate | best value | log-likelihood (null " + f"{d.verdict.null.sum():.1f}) "
+            "| gain over the default world on the same seeds | passed |",
+            "|---|---|---|---|---|",
         ]
         for p in d.verdict.tried:
             lines.append(
-                f"| {p.candidate.name} | {p.value:.4g} | {p.total.max():.1f} | {'yes' if p.candidate.name in d.verdict.passing else 'no'} |"
+                f"| {p.candidate.name} | {p.value:.4g} | {p.total.max():.1f} | {p.paired_gain:+.1f} | {'yes' if p.candidate.name in d.verdict.passing else 'no'} |"
             )
         lines.append("")
     lines += [
