@@ -1,5 +1,5 @@
-"""The gate before any fit: each fit cell's placed rate is the primary test, its phase rows only say where
-(`gate`)."""
+"""The gate before any fit: each fit cell's placed rate is the primary test, its phase rows say where, and
+open it alone where no placed rate does (`gate`)."""
 
 from __future__ import annotations
 
@@ -40,12 +40,21 @@ def test_a_placed_rate_that_disagrees_opens_the_gate_where_every_row_together_di
     assert opened.phases is None  # no phase row beyond chance: every kind is profiled
 
 
-def test_a_phase_row_alone_does_not_open_the_gate() -> None:
-    """Placed 30 of 120 against 12 of 48 agrees; the lift (0 against 20 of 48) disagrees, but the phase
-    rows are read only in cells whose placed rate disagrees."""
-    cell = Cell(*UNCALIBRATED, 120, 30, 4.0, {"lift": 0, "lower": 90})
-    sims = {UNCALIBRATED: _sim(placed=12, lift=20, lower=16)}
-    assert not gate([cell], sims).opens
+def test_a_phase_row_opens_the_gate_only_where_no_placed_rate_does() -> None:
+    """Placed 30 of 120 against 12 of 48 agrees; the lift (0 against 20 of 48) disagrees: a world that
+    moves failures between phases and places as many. The calibrated cell's placed rate disagreeing
+    instead opens the gate there alone, its phases read only in it."""
+    moved = Cell(*UNCALIBRATED, 120, 30, 4.0, {"lift": 0, "lower": 90})
+    sims = {UNCALIBRATED: _sim(placed=12, lift=20, lower=16), CALIBRATED: _sim(placed=48)}
+    opened = gate([moved], sims)
+    assert opened.loud == (UNCALIBRATED,)
+    assert opened.phases == frozenset({"lift", "lower"})
+    dropping = Cell(*CALIBRATED, 120, 90, 4.0, {"lower": 30})
+    opened = gate([moved, dropping], sims)
+    assert opened.loud == (CALIBRATED,)
+    assert opened.phases == frozenset({"lower"})
+    agreeing = Cell(*UNCALIBRATED, 120, 30, 4.0, {"lift": 50, "lower": 40})
+    assert not gate([agreeing], sims).opens
 
 
 def test_the_phase_rows_of_an_opened_cell_say_where_it_disagrees() -> None:
