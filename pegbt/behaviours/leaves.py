@@ -182,6 +182,15 @@ declare(
         key_param("grasp", "read", "the chosen grasp"),
         key_param("block", "read", "the block to grasp"),
         keep_apart_param(),
+        Param(
+            "close_on_arrival",
+            list[str],
+            "the conditions under which the jaw closes as the tip arrives, meeting the block's wall then (a "
+            "block on a peg or the board stands still); under the others it narrows to `jaw_at_grasp` and "
+            "`grasp` closes it from there",
+            default=[],
+            choices=CONDITIONS,
+        ),
     ),
     reads=("/board",),
     resources=RESOURCES,

@@ -330,6 +330,35 @@ def test_approach_narrows_the_open_jaw_as_the_tool_arrives_still_straddling_the_
     assert 2 * tool.jaw_radius < 2 * tool.jaw_length * math.sin(transfer.jaw_at_grasp / 2) - wall
 
 
+PICK_CLOSING = (
+    "{sequence: {name: pick, children: [{approach: {arm: PSM1, block: /PSM1/block, grasp: /PSM1/grasp, "
+    "close_on_arrival: [uncalibrated]}}, {grasp: {arm: PSM1, holding: /PSM1/holding}}]}}"
+)
+
+
+def test_an_approach_closing_on_arrival_meets_the_wall_as_the_tip_arrives_and_grasp_confirms_it_then(
+    tmp_path, robot, skills, seen, clock
+):
+    block, grasp = grasp_of(skills, seen)
+    built = build(
+        tmp_path, robot, skills, PICK_CLOSING, board=seen[0], **{"PSM1/block": block, "PSM1/grasp": grasp}
+    )
+    arm, transfer = psm1(robot), skills.motion.transfer
+    arm.block_in_jaw = True
+    period, velocity = skills.settings["PSM1"].control_period, skills.settings["PSM1"].jaw_velocity
+    assert tick_each_period(built, clock, period, seconds=5.0) == Status.SUCCESS
+    (trajectory,) = arm.trajectories
+    opening, closing_on_arrival = arm.jaw.sent[:2]
+    assert (opening.target, closing_on_arrival.target) == (transfer.jaw_open, transfer.jaw_closed)
+    # its set-point passes `grip_confirmed_below` under the wall as the tip reaches the grasp
+    wall = jaw_on_wall(skills.cell)
+    passes = closing_on_arrival.at + (transfer.jaw_open - wall + transfer.grip_confirmed_below) / velocity
+    assert trajectory.duration - 1e-9 <= passes < trajectory.duration + period
+    # so the grip is confirmed from the jaw's encoder as the arm arrives, not a narrowed jaw's close later
+    assert read("/PSM1/holding") is True
+    assert trajectory.duration - 1e-9 <= clock.now() <= trajectory.duration + 2 * period
+
+
 def test_approach_in_real_time_sends_the_narrowing_to_end_on_the_arms_last_tick_as_soon_as_it_is_due(
     tmp_path, skills, cloud, seen
 ):
