@@ -1534,6 +1534,39 @@ def test_carry_from_handover_lowers_the_block_onto_its_goal_peg_keeping_its_yaw(
     assert height_above_pegs(skills.cell, RECEIVER, end[:3, 3]) < block.height - block.grasp_depth
 
 
+def test_carry_from_handover_lets_go_as_the_block_comes_down_onto_its_goal_peg(
+    tmp_path, robot, skills, seen, clock
+):
+    """Under a condition `let_go_early` names (here the test's own, uncalibrated), as a transfer does; by
+    default, uncalibrated, the jaw stays closed and `release` opens it once the arm is at rest."""
+    arm, _, values = receiver_holding(robot, skills, seen)
+    transfer, settings = skills.motion.transfer, skills.settings[RECEIVER]
+    arm.jaw.rest = np.array([transfer.jaw_closed])
+    built = build(
+        tmp_path, robot, skills, FROM_HANDOVER.replace("}}", ", let_go_early: [uncalibrated]}}"), **values
+    )
+    assert run(built, clock) == Status.SUCCESS
+    (trajectory,) = arm.trajectories
+    (opening,) = arm.jaw.sent
+    assert opening.target == transfer.jaw_release
+    lead = (transfer.jaw_release - transfer.jaw_closed) / settings.jaw_velocity
+    assert trajectory.duration - lead - 1e-9 <= opening.at < trajectory.duration - lead + STEP
+    # the jaw passes the wall with the tip within a millimetre of where it stops, the block's hole
+    # already round the goal peg
+    passes = opening.at + (BLOCK_WALL_ANGLE - transfer.jaw_closed) / settings.jaw_velocity
+    tips = tip_position(trajectory.q)
+    there = tips[min(int(round(passes / trajectory.period)), len(tips) - 1)]
+    assert np.linalg.norm(there - tips[-1]) < 0.001
+    block = skills.cell.block
+    assert height_above_pegs(skills.cell, RECEIVER, there) < block.height - block.grasp_depth
+    py_trees.blackboard.Blackboard.clear()
+    arm, _, values = receiver_holding(robot, skills, seen)
+    arm.jaw.sent.clear()
+    built = build(tmp_path, robot, skills, FROM_HANDOVER, **values)
+    assert run(built, clock) == Status.SUCCESS
+    assert arm.jaw.sent == []
+
+
 def test_carry_from_handover_stopping_above_stops_at_the_place_height_over_its_goal_peg(
     tmp_path, clock, cloud, seen
 ):
@@ -1542,8 +1575,15 @@ def test_carry_from_handover_stopping_above_stops_at_the_place_height_over_its_g
     skills = Skills("uncalibrated", protocol="paper", variant="handover")
     robot = fake_robot(clock, skills.settings, skills.cell, cloud)
     arm, meeting, values = receiver_holding(robot, skills, seen)
-    built = build(tmp_path, robot, skills, FROM_HANDOVER.replace("}}", ", stop_above: true}}"), **values)
+    built = build(
+        tmp_path,
+        robot,
+        skills,
+        FROM_HANDOVER.replace("}}", ", stop_above: true, let_go_early: [uncalibrated]}}"),
+        **values,
+    )
     assert run(built, clock) == Status.SUCCESS
+    assert arm.jaw.sent == []  # it holds the block above the peg for the look, whatever `let_go_early` says
     (trajectory,) = arm.trajectories
     end = forward_kinematics(trajectory.q[-1])
     peg = skills.cell.board_to_arm(RECEIVER) @ np.append(seen[0].peg_tops[PLACE], 1.0)
