@@ -359,6 +359,33 @@ def test_an_approach_closing_on_arrival_meets_the_wall_as_the_tip_arrives_and_gr
     assert trajectory.duration - 1e-9 <= clock.now() <= trajectory.duration + 2 * period
 
 
+def test_an_approach_closing_on_arrival_is_over_as_the_arm_arrives_not_once_the_jaws_ramp_ends(
+    tmp_path, robot, skills, seen, clock
+):
+    block, grasp = grasp_of(skills, seen)
+    built = build(
+        tmp_path,
+        robot,
+        skills,
+        APPROACH.replace("}}", ", close_on_arrival: [uncalibrated]}}"),
+        board=seen[0],
+        **{"PSM1/block": block, "PSM1/grasp": grasp},
+    )
+    arm, transfer = psm1(robot), skills.motion.transfer
+    arm.block_in_jaw = True
+    while clock.now() < 5.0:
+        built.root.tick_once()
+        if built.root.status != Status.RUNNING:
+            break
+        arrival = arm.sent[0].at + arm.trajectories[0].duration
+        if len(arm.jaw.sent) == 2:  # the close sent: the runner is asked to tick it as the arm arrives
+            assert built.root.wake_at <= max(arrival, clock.now()) + 1e-9
+        clock.advance(STEP)
+    assert built.root.status == Status.SUCCESS
+    assert arrival - 1e-9 <= clock.now() < arrival + STEP
+    assert arm.jaw.position()[0] > transfer.jaw_closed  # still closing: `grasp` confirms the grip
+
+
 def test_approach_in_real_time_sends_the_narrowing_to_end_on_the_arms_last_tick_as_soon_as_it_is_due(
     tmp_path, skills, cloud, seen
 ):

@@ -234,10 +234,14 @@ class Approach(MotionLeaf):
         self.move_jaw(arm, transfer.jaw_at_grasp, f"{arm} jaw narrowing", before_end=narrowing)
 
     def watch(self) -> Status:
-        """Closing on arrival, the approach is over as the arm arrives: `grasp` confirms the grip as the jaw
-        goes on closing."""
-        if self.closing and not any(motion.handle.busy for motion in self.running if not motion.jaw):
+        """Closing on arrival, the approach is over as the arm arrives (it asks to be ticked then, not once
+        the jaw's ramp ends): `grasp` confirms the grip as the jaw goes on closing."""
+        if not self.closing:
+            return Status.RUNNING
+        if not any(motion.handle.busy for motion in self.running if not motion.jaw):
             return Status.SUCCESS
+        if self.arm_end is not None:
+            self.wake_at = self.arm_end if self.wake_at is None else min(self.wake_at, self.arm_end)
         return Status.RUNNING
 
     def started(self, trajectories: list[Trajectory]) -> None:
