@@ -18,6 +18,7 @@ from pegbt.behaviours.params import (
     held_param,
     keep_apart_param,
     key_param,
+    let_go_early_param,
     peg_param,
     stop_above_param,
 )
@@ -27,7 +28,7 @@ from pegbt.executive.registry import declare
 from pegbt.handover_protocol import Giver, Receiver
 from pegbt.pegboard import N_PEGS
 from pegbt.psm import ARMS
-from pegbt.runconditions import COMPENSATED, CONDITIONS
+from pegbt.runconditions import CONDITIONS
 
 MAX_SAMPLES = 1_000_000  # set-points: about 95 hours of collection at 174 a minute
 MAX_SETTLE = 60.0  # s a set-point is held before it is sampled
@@ -182,6 +183,15 @@ declare(
         key_param("grasp", "read", "the chosen grasp"),
         key_param("block", "read", "the block to grasp"),
         keep_apart_param(),
+        Param(
+            "close_on_arrival",
+            list[str],
+            "the conditions under which the jaw closes as the tip arrives, meeting the block's wall then (a "
+            "block on a peg or the board stands still); under the others it narrows to `jaw_at_grasp` and "
+            "`grasp` closes it from there",
+            default=[],
+            choices=CONDITIONS,
+        ),
     ),
     reads=("/board",),
     resources=RESOURCES,
@@ -311,6 +321,7 @@ declare(
         peg_param("place", "goal peg"),
         key_param("grasp", "read", "the receiver's grasp"),
         key_param("block_pose", "read", "the block's pose at the meeting point (board frame)"),
+        let_go_early_param(),
         stop_above_param(),
         keep_apart=keep_apart_param(0.0),
     ),
@@ -335,15 +346,7 @@ declare(
             "planned while this carry plays, onto the grasp `select_grasp` will choose; {}: none",
             default={},
         ),
-        Param(
-            "let_go_early",
-            list[str],
-            "the conditions under which the jaw opens as the block comes down onto the peg, reaching "
-            "`jaw_release` as the arm stops (their commands put the tip within a millimetre of the plan); "
-            "under the others the jaw stays closed until the arm is at rest and `release` opens it",
-            default=list(COMPENSATED),
-            choices=CONDITIONS,
-        ),
+        let_go_early_param(),
         stop_above_param(),
     ),
     reads=("/board", "/blocks"),

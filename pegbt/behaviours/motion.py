@@ -162,6 +162,20 @@ class CarryLeaf(MotionLeaf):
         planned = partial(self.motion(arm).transfer, waypoints)
         self.move(arm, planned, f"{arm} {self.name}", self.inputs())
 
+    def let_go_as_it_lands(self) -> None:
+        """Under the conditions of `let_go_early`, open the jaw to `jaw_release` as the block comes down onto
+        its goal peg, reaching it as the arm stops (see `Transfer`); never under the paper's protocol (its
+        robot let go at rest) nor for a carry that stops above the peg to look first."""
+        if (
+            self.skills.condition not in self.param("let_go_early")
+            or self.skills.protocol == "paper"
+            or self.stops_above()
+        ):
+            return
+        arm, transfer = self.param("arm"), self.skills.motion.transfer
+        opening = (transfer.jaw_release - transfer.jaw_closed) / self.motion(arm).settings.jaw_velocity
+        self.move_jaw(arm, transfer.jaw_release, f"{arm} letting go", before_end=opening)
+
     def started(self, trajectories: list[Trajectory]) -> None:
         planned = trajectories[0]
         duration = planned.duration

@@ -11,6 +11,7 @@ from pegbt.executive.params import MAX_COUNT, MAX_SECONDS, Param
 from pegbt.handover_protocol import key
 from pegbt.pegboard import N_PEGS
 from pegbt.psm import ARMS
+from pegbt.runconditions import COMPENSATED, CONDITIONS
 
 RESOURCES = ("robot", "skills")
 MAX_KEEP_APART = 0.1  # m between the tools' axes: farther apart than the two arms' shared workspace allows
@@ -101,4 +102,17 @@ def stop_above_param() -> Param:
         "`$/policy/look_before_lowering`",
         default=False,
         blackboard=True,
+    )
+
+
+def let_go_early_param() -> Param:
+    """`let_go_early`: the conditions under which a carry lets go as the block lands on its goal peg."""
+    return Param(
+        "let_go_early",
+        list[str],
+        "the conditions under which the jaw opens as the block comes down onto the peg, reaching "
+        "`jaw_release` as the arm stops (their commands put the tip within a millimetre of the plan); "
+        "under the others the jaw stays closed until the arm is at rest and `release` opens it",
+        default=list(COMPENSATED),
+        choices=CONDITIONS,
     )

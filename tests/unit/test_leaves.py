@@ -330,6 +330,62 @@ def test_approach_narrows_the_open_jaw_as_the_tool_arrives_still_straddling_the_
     assert 2 * tool.jaw_radius < 2 * tool.jaw_length * math.sin(transfer.jaw_at_grasp / 2) - wall
 
 
+PICK_CLOSING = (
+    "{sequence: {name: pick, children: [{approach: {arm: PSM1, block: /PSM1/block, grasp: /PSM1/grasp, "
+    "close_on_arrival: [uncalibrated]}}, {grasp: {arm: PSM1, holding: /PSM1/holding}}]}}"
+)
+
+
+def test_an_approach_closing_on_arrival_meets_the_wall_as_the_tip_arrives_and_grasp_confirms_it_then(
+    tmp_path, robot, skills, seen, clock
+):
+    block, grasp = grasp_of(skills, seen)
+    built = build(
+        tmp_path, robot, skills, PICK_CLOSING, board=seen[0], **{"PSM1/block": block, "PSM1/grasp": grasp}
+    )
+    arm, transfer = psm1(robot), skills.motion.transfer
+    arm.block_in_jaw = True
+    period, velocity = skills.settings["PSM1"].control_period, skills.settings["PSM1"].jaw_velocity
+    assert tick_each_period(built, clock, period, seconds=5.0) == Status.SUCCESS
+    (trajectory,) = arm.trajectories
+    opening, closing_on_arrival = arm.jaw.sent[:2]
+    assert (opening.target, closing_on_arrival.target) == (transfer.jaw_open, transfer.jaw_closed)
+    # its set-point passes `grip_confirmed_below` under the wall as the tip reaches the grasp
+    wall = jaw_on_wall(skills.cell)
+    passes = closing_on_arrival.at + (transfer.jaw_open - wall + transfer.grip_confirmed_below) / velocity
+    assert trajectory.duration - 1e-9 <= passes < trajectory.duration + period
+    # so the grip is confirmed from the jaw's encoder as the arm arrives, not a narrowed jaw's close later
+    assert read("/PSM1/holding") is True
+    assert trajectory.duration - 1e-9 <= clock.now() <= trajectory.duration + 2 * period
+
+
+def test_an_approach_closing_on_arrival_is_over_as_the_arm_arrives_not_once_the_jaws_ramp_ends(
+    tmp_path, robot, skills, seen, clock
+):
+    block, grasp = grasp_of(skills, seen)
+    built = build(
+        tmp_path,
+        robot,
+        skills,
+        APPROACH.replace("}}", ", close_on_arrival: [uncalibrated]}}"),
+        board=seen[0],
+        **{"PSM1/block": block, "PSM1/grasp": grasp},
+    )
+    arm, transfer = psm1(robot), skills.motion.transfer
+    arm.block_in_jaw = True
+    while clock.now() < 5.0:
+        built.root.tick_once()
+        if built.root.status != Status.RUNNING:
+            break
+        arrival = arm.sent[0].at + arm.trajectories[0].duration
+        if len(arm.jaw.sent) == 2:  # the close sent: the runner is asked to tick it as the arm arrives
+            assert built.root.wake_at <= max(arrival, clock.now()) + 1e-9
+        clock.advance(STEP)
+    assert built.root.status == Status.SUCCESS
+    assert arrival - 1e-9 <= clock.now() < arrival + STEP
+    assert arm.jaw.position()[0] > transfer.jaw_closed  # still closing: `grasp` confirms the grip
+
+
 def test_approach_in_real_time_sends_the_narrowing_to_end_on_the_arms_last_tick_as_soon_as_it_is_due(
     tmp_path, skills, cloud, seen
 ):
@@ -1505,6 +1561,39 @@ def test_carry_from_handover_lowers_the_block_onto_its_goal_peg_keeping_its_yaw(
     assert height_above_pegs(skills.cell, RECEIVER, end[:3, 3]) < block.height - block.grasp_depth
 
 
+def test_carry_from_handover_lets_go_as_the_block_comes_down_onto_its_goal_peg(
+    tmp_path, robot, skills, seen, clock
+):
+    """Under a condition `let_go_early` names (here the test's own, uncalibrated), as a transfer does; by
+    default, uncalibrated, the jaw stays closed and `release` opens it once the arm is at rest."""
+    arm, _, values = receiver_holding(robot, skills, seen)
+    transfer, settings = skills.motion.transfer, skills.settings[RECEIVER]
+    arm.jaw.rest = np.array([transfer.jaw_closed])
+    built = build(
+        tmp_path, robot, skills, FROM_HANDOVER.replace("}}", ", let_go_early: [uncalibrated]}}"), **values
+    )
+    assert run(built, clock) == Status.SUCCESS
+    (trajectory,) = arm.trajectories
+    (opening,) = arm.jaw.sent
+    assert opening.target == transfer.jaw_release
+    lead = (transfer.jaw_release - transfer.jaw_closed) / settings.jaw_velocity
+    assert trajectory.duration - lead - 1e-9 <= opening.at < trajectory.duration - lead + STEP
+    # the jaw passes the wall with the tip within a millimetre of where it stops, the block's hole
+    # already round the goal peg
+    passes = opening.at + (BLOCK_WALL_ANGLE - transfer.jaw_closed) / settings.jaw_velocity
+    tips = tip_position(trajectory.q)
+    there = tips[min(int(round(passes / trajectory.period)), len(tips) - 1)]
+    assert np.linalg.norm(there - tips[-1]) < 0.001
+    block = skills.cell.block
+    assert height_above_pegs(skills.cell, RECEIVER, there) < block.height - block.grasp_depth
+    py_trees.blackboard.Blackboard.clear()
+    arm, _, values = receiver_holding(robot, skills, seen)
+    arm.jaw.sent.clear()
+    built = build(tmp_path, robot, skills, FROM_HANDOVER, **values)
+    assert run(built, clock) == Status.SUCCESS
+    assert arm.jaw.sent == []
+
+
 def test_carry_from_handover_stopping_above_stops_at_the_place_height_over_its_goal_peg(
     tmp_path, clock, cloud, seen
 ):
@@ -1513,8 +1602,15 @@ def test_carry_from_handover_stopping_above_stops_at_the_place_height_over_its_g
     skills = Skills("uncalibrated", protocol="paper", variant="handover")
     robot = fake_robot(clock, skills.settings, skills.cell, cloud)
     arm, meeting, values = receiver_holding(robot, skills, seen)
-    built = build(tmp_path, robot, skills, FROM_HANDOVER.replace("}}", ", stop_above: true}}"), **values)
+    built = build(
+        tmp_path,
+        robot,
+        skills,
+        FROM_HANDOVER.replace("}}", ", stop_above: true, let_go_early: [uncalibrated]}}"),
+        **values,
+    )
     assert run(built, clock) == Status.SUCCESS
+    assert arm.jaw.sent == []  # it holds the block above the peg for the look, whatever `let_go_early` says
     (trajectory,) = arm.trajectories
     end = forward_kinematics(trajectory.q[-1])
     peg = skills.cell.board_to_arm(RECEIVER) @ np.append(seen[0].peg_tops[PLACE], 1.0)

@@ -31,6 +31,7 @@ from pegbt.behaviours.resources.skills import Skills
 from pegbt.clock import is_realtime
 from pegbt.errors import PegbtError
 from pegbt.executive.work import Job, WorkPool
+from pegbt.motion.handover import jaw_on_wall
 from pegbt.motion.trajectory import Trajectory
 from pegbt.perception.blocks import BlockEstimate, block_on_peg, stack_level
 from pegbt.perception.board import BoardEstimate
@@ -199,6 +200,12 @@ class Approach(MotionLeaf):
     Without one: rest-to-rest cubics, rising first if low, stopping above the grasp and just above the
     block so the descent stays straight.
 
+    The jaw opens on the way and narrows to `jaw_at_grasp` as the tip arrives, for `grasp` to close; under
+    the conditions of `close_on_arrival` (commands that put the tip within a millimetre of the plan) it closes
+    instead, timed as the receiver's `descend_to_grasp` for its set-point to pass `grip_confirmed_below` under
+    the wall as the tip arrives (a block on a peg or the board stands still): the simulated jaw grips with
+    the tip as deep in the block as at rest, and `grasp` confirms the grip from the encoder as it arrives.
+
     Once it is sent, the carry that follows in a transfer (the arm's transfer under way, its goal peg), or
     a giver's carry to the handover's meeting point, is planned and pre-compensated while the approach and
     the grasp play: its inputs (board, block, grasp; the meeting tip) are known; `transfer` or
@@ -212,10 +219,30 @@ class Approach(MotionLeaf):
         giving = self.robot.trial.giving(arm) is not None
         plan = partial(planned_approach, self.skills, arm, start, board, block, grasp, giving=giving)
         self.move(arm, plan, f"{arm} approach", (board, block, grasp.candidate))
-        transfer = self.skills.motion.transfer
+        transfer, velocity = self.skills.motion.transfer, self.motion(arm).settings.jaw_velocity
         self.move_jaw(arm, transfer.jaw_open, f"{arm} jaw opening")
-        narrowing = (transfer.jaw_open - transfer.jaw_at_grasp) / self.motion(arm).settings.jaw_velocity
+        self.closing = (
+            self.skills.condition in self.param("close_on_arrival") and self.skills.protocol != "paper"
+        )
+        if self.closing:  # the set-point passes `grip_confirmed_below` under the wall as the tip arrives
+            lead = (
+                transfer.jaw_open - jaw_on_wall(self.skills.cell) + transfer.grip_confirmed_below
+            ) / velocity
+            self.move_jaw(arm, transfer.jaw_closed, f"{arm} jaw closing on arrival", before_end=lead)
+            return
+        narrowing = (transfer.jaw_open - transfer.jaw_at_grasp) / velocity
         self.move_jaw(arm, transfer.jaw_at_grasp, f"{arm} jaw narrowing", before_end=narrowing)
+
+    def watch(self) -> Status:
+        """Closing on arrival, the approach is over as the arm arrives (it asks to be ticked then, not once
+        the jaw's ramp ends): `grasp` confirms the grip as the jaw goes on closing."""
+        if not self.closing:
+            return Status.RUNNING
+        if not any(motion.handle.busy for motion in self.running if not motion.jaw):
+            return Status.SUCCESS
+        if self.arm_end is not None:
+            self.wake_at = self.arm_end if self.wake_at is None else min(self.wake_at, self.arm_end)
+        return Status.RUNNING
 
     def started(self, trajectories: list[Trajectory]) -> None:
         self.feedback_message = f"approaching in {trajectories[0].duration:.2f} s"

@@ -565,6 +565,13 @@ class DescendToGrasp(MotionLeaf):
 
 
 class CarryFromHandover(CarryLeaf):
+    """The receiver's carry to its goal peg lets go as the block lands under the conditions of
+    `let_go_early`, as a transfer's does."""
+
+    def begin(self) -> None:
+        super().begin()
+        self.let_go_as_it_lands()
+
     def started(self, trajectories: list[Trajectory]) -> None:
         """The way to the next handover's meeting, if it is being computed, is planned while this carry
         plays."""

@@ -53,11 +53,7 @@ class Transfer(CarryLeaf):
 
     def begin(self) -> None:
         super().begin()
-        if self.skills.condition not in self.param("let_go_early") or self.skills.protocol == "paper":
-            return  # the paper's robot let go at rest
-        arm, transfer = self.param("arm"), self.skills.motion.transfer
-        opening = (transfer.jaw_release - transfer.jaw_closed) / self.motion(arm).settings.jaw_velocity
-        self.move_jaw(arm, transfer.jaw_release, f"{arm} letting go", before_end=opening)
+        self.let_go_as_it_lands()
 
     def inputs(self) -> tuple[object, ...]:
         return (self.read("/board"), self.get("block"), self.get("grasp"), int(self.param("place")))
