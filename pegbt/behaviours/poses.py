@@ -34,7 +34,7 @@ ALREADY_CLEAR = 0.001  # m: a channel whose clearing height lies this far below 
 # one up and one down for the insertion joint (the receiver's descent keeps clear of the block: `await_meeting`)
 HANDOVER_ARRIVAL = 0.001
 MIN_RISE = 0.005  # m: an approach rises at least this much before it moves over
-# m off the axis per m risen, leaving a held block's hole once the jaw's tips are over its top (45°)
+# m off the axis per m risen, leaving a held block's hole once the jaw's tips are clear of its top (45°)
 EXIT_WIDENING = 1.0
 
 
@@ -123,9 +123,10 @@ def approach_for(
     around the block's wall. With `out_of`, the jaw starts in the hole of a block the other arm holds (a
     giver that just handed it over): it leaves along the pegs' axis until `out_of` up, then the transit's
     own clearance applies (a channel that is no floor), in one motion with the rest. That channel widens
-    from where the jaw's tips (`jaw_radius` round, `grasp_depth` deep) clear the block's top: the jaw
-    straddles the wall with about the channel's tolerance to spare, so a tip off the axis by more is over
-    the wall, and the funnel keeps it as far above the top as it is beyond that spare (`EXIT_WIDENING`)."""
+    from where the jaw's tips (`jaw_radius` round, `grasp_depth` deep) are the channel's tolerance over the
+    block's top: the released jaw straddles the wall with about that tolerance to spare (`jaw_release`), so
+    a tip off the axis by more is over the wall, and the funnel keeps it that tolerance and as much again as
+    it is beyond the spare above the top (`EXIT_WIDENING`)."""
     heights = motion.transfer
     up = cell.up_in(arm)
     rise = max(heights.transfer_height_above_peg_top - height_above_pegs(cell, arm, start[:3, 3]), MIN_RISE)
@@ -140,7 +141,7 @@ def approach_for(
             out_of,
             heights.channel_tolerance,
             floor=False,
-            widens_from=heights.grasp_depth + cell.tool.jaw_radius,
+            widens_from=heights.grasp_depth + cell.tool.jaw_radius + heights.channel_tolerance,
             widening=EXIT_WIDENING,
         )
         if out_of
