@@ -34,6 +34,8 @@ ALREADY_CLEAR = 0.001  # m: a channel whose clearing height lies this far below 
 # one up and one down for the insertion joint (the receiver's descent keeps clear of the block: `await_meeting`)
 HANDOVER_ARRIVAL = 0.001
 MIN_RISE = 0.005  # m: an approach rises at least this much before it moves over
+# m off the axis per m risen, leaving a held block's hole once the jaw's tips are clear of its top (45°)
+EXIT_WIDENING = 1.0
 
 
 def peg_top_board(cell: Workcell, board: BoardEstimate | None, peg: int) -> NDArray[np.float64]:
@@ -120,7 +122,11 @@ def approach_for(
     block's axis. The descent is a channel from just above the peg tops down: the open jaw comes down
     around the block's wall. With `out_of`, the jaw starts in the hole of a block the other arm holds (a
     giver that just handed it over): it leaves along the pegs' axis until `out_of` up, then the transit's
-    own clearance applies (a channel that is no floor), in one motion with the rest."""
+    own clearance applies (a channel that is no floor), in one motion with the rest. That channel widens
+    from where the jaw's tips (`jaw_radius` round, `grasp_depth` deep) are the channel's tolerance over the
+    block's top: the released jaw straddles the wall with about that tolerance to spare (`jaw_release`), so
+    a tip off the axis by more is over the wall, and the funnel keeps it that tolerance and as much again as
+    it is beyond the spare above the top (`EXIT_WIDENING`)."""
     heights = motion.transfer
     up = cell.up_in(arm)
     rise = max(heights.transfer_height_above_peg_top - height_above_pegs(cell, arm, start[:3, 3]), MIN_RISE)
@@ -128,7 +134,19 @@ def approach_for(
     risen[:3, 3] += (out_of or rise) * up
     grasp = pick.poses[0][:3, 3]
     descent = heights.block_top_below_peg_top + heights.grasp_depth + APPROACH_CLEAR_ABOVE_PEG_TOP
-    exit_hole = Channel(start[:3, 3], up, out_of, heights.channel_tolerance, floor=False) if out_of else None
+    exit_hole = (
+        Channel(
+            start[:3, 3],
+            up,
+            out_of,
+            heights.channel_tolerance,
+            floor=False,
+            widens_from=heights.grasp_depth + cell.tool.jaw_radius + heights.channel_tolerance,
+            widening=EXIT_WIDENING,
+        )
+        if out_of
+        else None
+    )
     return TransferWaypoints(
         poses=np.stack([start, risen, pick.poses[1], pick.poses[0]]),
         approach=pick.approach,

@@ -10,7 +10,8 @@ peg the tool turns at most `max_twist` (the hole moved by no more than the tip's
 block whose hole came 2 mm off its peg caught on it, `pegbt.sim.world`). A peg's channel is a `floor` too: the
 block hangs below the tip, so the transit after it stays above its clearing height; a jaw's way out of a
 block another arm holds is not (the block stays behind: the transit's own clearance applies once the jaw
-is out).
+is out). Such a way out may widen, a funnel: from `widens_from` up the tip may leave the line by `widening`
+for each metre it rises (the jaw's tips then clear the block's top, `pegbt.behaviours.poses.approach_for`).
 """
 
 from __future__ import annotations
@@ -40,6 +41,8 @@ class Channel:
     tolerance: float
     floor: bool = True
     lever: float = 0.0  # m; 0: the tool may turn about the axis (nothing held off the tip's line)
+    widens_from: float = np.inf  # m above `point`: the channel is a cylinder below, a funnel above
+    widening: float = 0.0  # m off the line allowed per m risen above `widens_from`
 
     def __post_init__(self) -> None:
         point, axis = np.asarray(self.point, dtype=float), np.asarray(self.axis, dtype=float)
@@ -74,6 +77,11 @@ class Channel:
     def height(self, tip: ArrayLike) -> NDArray[np.float64]:
         """Height (...) of tip positions (..., 3) above `point` along the axis."""
         return (np.asarray(tip) - self.point) @ self.axis
+
+    def allowed(self, height: ArrayLike) -> NDArray[np.float64]:
+        """How far (...) off the line the tip may be at `height` (...) above `point`."""
+        risen = np.maximum(np.asarray(height, dtype=float) - self.widens_from, 0.0)
+        return self.tolerance + self.widening * np.where(np.isfinite(risen), risen, 0.0)
 
     def distance(self, tip: ArrayLike) -> NDArray[np.float64]:
         """Distance (...) of tip positions (..., 3) from the channel's line."""

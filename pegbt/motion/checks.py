@@ -83,10 +83,12 @@ def _channel_problems(tips: np.ndarray, tool_x: np.ndarray, channel: Channel, le
         else np.arange(len(tips)) > len(tips) - 1 - int(np.argmax(above[::-1]))
     )
     peg = "start" if leaving else "goal"
-    distance = channel.distance(tips[on_peg])
-    if distance.size and distance.max() > channel.tolerance:
+    excess = channel.distance(tips[on_peg]) - channel.allowed(heights[on_peg])
+    if excess.size and excess.max() > 0:
+        worst = int(np.argmax(excess))
         return [
-            f"leaves the {peg} peg's axis by {distance.max() * 1000:.2f} mm (channel tolerance {channel.tolerance * 1000:.2f} mm)"
+            f"leaves the {peg} peg's axis by {channel.distance(tips[on_peg][worst]) * 1000:.2f} mm "
+            f"(channel tolerance {channel.allowed(heights[on_peg][worst]) * 1000:.2f} mm)"
         ]
     twist = np.abs(channel.twist(tool_x[on_peg], tool_x[0 if leaving else -1]))
     if twist.size and twist.max() > channel.max_twist + ABSOLUTE_SLACK:

@@ -297,11 +297,15 @@ class SqpRefiner:
         required[lift + 1 : lower] = floor
         required[lift] = pick.clear
         required[lower] = place.clear
-        lateral_allowed = INSIDE_TOLERANCE * pick.tolerance / np.sqrt(2)  # per direction: inside the circle
+        # per direction, inside the circle; a funnel's widening (at the sample's present height) in full
+        allowed = np.where(on_place, place.allowed(place.height(tip)), pick.allowed(pick.height(tip)))
+        tolerance = np.where(on_place, place.tolerance, pick.tolerance)
+        lateral_allowed = (allowed - (1 - INSIDE_TOLERANCE) * tolerance) / np.sqrt(2)
         tilt_allowed = INSIDE_TOLERANCE * np.sin(upright.max_tilt) / np.sqrt(2)
         lo = np.full((self.sample_count, CHANNEL_ROWS), -np.inf)
         hi = np.full((self.sample_count, CHANNEL_ROWS), np.inf)
-        lo[on_peg, 0:2], hi[on_peg, 0:2] = -lateral_allowed, lateral_allowed
+        lo[on_peg, 0:2] = -lateral_allowed[on_peg, None]
+        hi[on_peg, 0:2] = lateral_allowed[on_peg, None]
         lo[:, 2] = required
         lo[:, 3:5], hi[:, 3:5] = -tilt_allowed, tilt_allowed
         # the whole turn at the samples: it varies slowly between them, and the checks hold every set-point

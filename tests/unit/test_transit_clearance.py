@@ -159,3 +159,28 @@ def test_a_jaws_way_out_of_a_held_block_is_no_floor_for_the_transit_after_it(pla
     as_a_peg = replace(way.pick, floor=True)
     problems = trajectory_problems(plan.trajectory, PSM1, leaving=as_a_peg, **args)
     assert any("below the clearing height" in problem for problem in problems)
+
+
+def test_a_givers_way_out_widens_as_the_jaws_tips_clear_the_blocks_top(planner):
+    """Off the block's axis by more than the jaw's spare round the wall, the tip is over the wall: the
+    planned way out is there only once the jaw's round tips are above the block's top by the spare and as
+    much again as it is off beyond it; and it uses the funnel (the cylinder of the same tolerance fails it)."""
+    up = CELL.up_in("PSM1")
+    meeting = tool_pose(to_arm(CELL, "PSM1", handover_meeting_point(CELL)), 0.0, up)
+    way = approach_for(CELL, motion_settings(), "PSM1", meeting, _waypoints(7, 7), out_of=0.007)
+    plan = planner.plan(way, above_clear=motion_settings().sqp.warm_above_clear)
+    args = {"leaving": way.pick, "arriving": way.place, "upright": way.upright}
+    assert plan.refined and trajectory_problems(plan.trajectory, PSM1, **args) == []
+    tips = forward_kinematics(plan.trajectory.q)[:, :3, 3]
+    offset = tips - meeting[:3, 3]
+    risen = offset @ up
+    inside = np.arange(len(risen)) < np.argmax(risen >= 0.007)  # until the jaw is out
+    off_axis = np.linalg.norm(offset - np.outer(risen, up), axis=1)[inside]
+    over_top = risen[inside] - CELL.block.grasp_depth - CELL.tool.jaw_radius  # the jaw tips' lowest point
+    beyond_spare = off_axis - TRANSFER.channel_tolerance
+    assert beyond_spare.max() > 0.0005  # it turns before it is out: the funnel is used
+    over = beyond_spare > 0
+    assert np.all(over_top[over] >= TRANSFER.channel_tolerance + beyond_spare[over] - 1e-6)
+    cylinder = replace(way.pick, widening=0.0)
+    problems = trajectory_problems(plan.trajectory, PSM1, **(args | {"leaving": cylinder}))
+    assert any("start peg's axis" in problem for problem in problems)
