@@ -3,8 +3,6 @@ the defaults are the concealed campaign's (120 real transfers a fit cell) and st
 
 from __future__ import annotations
 
-import math
-
 import pytest
 
 from pegbt.sim.world_effects import WorldEffects
@@ -34,20 +32,20 @@ def test_up_to_the_concealed_campaigns_size_the_settings_are_unchanged(real: int
 
 
 def test_a_larger_campaign_grows_the_simulated_side_in_proportion() -> None:
-    """1,104 real transfers, 9.2 times 120: 12 → 111 simulated a world, 48 → 442 located, and the closeness
-    that spares the top-up shrinks as the real side's resolution does."""
+    """1,104 real transfers, 9.2 times 120: 12 → 111 simulated a world, 48 → 442 located."""
     grown = SETTINGS.for_campaign(1104)
     assert (grown.transfers, grown.located, grown.real) == (111, 442, 1104)
-    assert grown.close == pytest.approx(SETTINGS.close / math.sqrt(9.2))
     assert grown.for_campaign(1104) is grown and grown.for_campaign(600) is grown
 
 
 def test_the_diagnosis_sizes_itself_by_its_largest_fit_cell() -> None:
     """Unilateral cells of 480 real transfers (held-out ones of 120): the default world is located on four
-    times the transfers in the fit cells that disagree, and the fit screens on four times as many a world."""
+    times the transfers in every fit cell, the calibrated one that agrees with it too, and the fit screens
+    on four times as many a world."""
     d = diagnose(_outcomes(480), SETTINGS, fake_mapper)
     assert (d.settings.transfers, d.settings.located) == (48, 192)
     assert d.before[("unilateral", "uncalibrated")].attempted == 192
+    assert d.before[("unilateral", "calibrated")].attempted == 192
     assert d.before[("bilateral", "uncalibrated")].attempted == 48
     screened = {
         p.candidate.kind: p.sims[0][("unilateral", "uncalibrated")].attempted for p in d.verdict.tried
