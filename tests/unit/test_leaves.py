@@ -619,6 +619,21 @@ def test_transfer_carries_the_block_over_its_place_peg_and_writes_the_plan(
     assert np.allclose(moved - (moved @ up) * up, across - (across @ up) * up, atol=2e-4)
 
 
+def _where_the_jaw_lets_go(arm, transfer, settings):
+    """The one carry's jaw opening, sent to open as the carry ends (its lead the jaw's travel): where the tip
+    is as the jaw passes the wall, within a millimetre of where it stops, and where it stops."""
+    (trajectory,) = arm.trajectories
+    (opening,) = arm.jaw.sent
+    assert opening.target == transfer.jaw_release
+    lead = (transfer.jaw_release - transfer.jaw_closed) / settings.jaw_velocity
+    assert trajectory.duration - lead - 1e-9 <= opening.at < trajectory.duration - lead + STEP
+    passes = opening.at + (BLOCK_WALL_ANGLE - transfer.jaw_closed) / settings.jaw_velocity
+    tips = tip_position(trajectory.q)
+    there = tips[min(int(round(passes / trajectory.period)), len(tips) - 1)]
+    assert np.linalg.norm(there - tips[-1]) < 0.001
+    return there, tips[-1]
+
+
 def test_transfer_lets_go_as_the_block_comes_down_onto_its_goal_peg(tmp_path, robot, skills, seen, clock):
     """Under a condition `let_go_early` names (here the test's own, uncalibrated)."""
     arm, values = holding_at_the_grasp(robot, skills, seen)
@@ -628,19 +643,10 @@ def test_transfer_lets_go_as_the_block_comes_down_onto_its_goal_peg(tmp_path, ro
         tmp_path, robot, skills, TRANSFER.replace("}}", ", let_go_early: [uncalibrated]}}"), **values
     )
     assert run(built, clock) == Status.SUCCESS
-    (trajectory,) = arm.trajectories
-    (opening,) = arm.jaw.sent
-    assert opening.target == transfer.jaw_release
-    lead = (transfer.jaw_release - transfer.jaw_closed) / settings.jaw_velocity
-    assert trajectory.duration - lead - 1e-9 <= opening.at < trajectory.duration - lead + STEP
-    # the jaw passes the wall with the tip within a millimetre of where it stops, below where the
-    # block's hole meets the peg's top
-    passes = opening.at + (BLOCK_WALL_ANGLE - transfer.jaw_closed) / settings.jaw_velocity
-    tips = tip_position(trajectory.q)
-    there = tips[min(int(round(passes / trajectory.period)), len(tips) - 1)]
-    assert np.linalg.norm(there - tips[-1]) < 0.001
+    there, end = _where_the_jaw_lets_go(arm, transfer, settings)
+    # below where the block's hole meets the peg's top
     on_peg = transfer.block_below_tip - transfer.drop_height_above_peg_top
-    assert float((there - tips[-1]) @ skills.cell.up_in("PSM1")) < on_peg
+    assert float((there - end) @ skills.cell.up_in("PSM1")) < on_peg
 
 
 def test_uncalibrated_the_transfer_keeps_the_jaw_closed_until_the_arm_is_at_rest(
@@ -1580,17 +1586,8 @@ def test_carry_from_handover_lets_go_as_the_block_comes_down_onto_its_goal_peg(
         tmp_path, robot, skills, FROM_HANDOVER.replace("}}", ", let_go_early: [uncalibrated]}}"), **values
     )
     assert run(built, clock) == Status.SUCCESS
-    (trajectory,) = arm.trajectories
-    (opening,) = arm.jaw.sent
-    assert opening.target == transfer.jaw_release
-    lead = (transfer.jaw_release - transfer.jaw_closed) / settings.jaw_velocity
-    assert trajectory.duration - lead - 1e-9 <= opening.at < trajectory.duration - lead + STEP
-    # the jaw passes the wall with the tip within a millimetre of where it stops, the block's hole
-    # already round the goal peg
-    passes = opening.at + (BLOCK_WALL_ANGLE - transfer.jaw_closed) / settings.jaw_velocity
-    tips = tip_position(trajectory.q)
-    there = tips[min(int(round(passes / trajectory.period)), len(tips) - 1)]
-    assert np.linalg.norm(there - tips[-1]) < 0.001
+    there, _ = _where_the_jaw_lets_go(arm, transfer, settings)
+    # the block's hole already round the goal peg
     block = skills.cell.block
     assert height_above_pegs(skills.cell, RECEIVER, there) < block.height - block.grasp_depth
     py_trees.blackboard.Blackboard.clear()
