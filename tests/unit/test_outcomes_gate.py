@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from pegbt.sim2real.outcomes.cells import Cell
 from pegbt.sim2real.outcomes.gate import gate
+from pegbt.sim2real.outcomes.intervals import least_p
 from pegbt.sim2real.outcomes.locate import locate
 from pegbt.sim2real.outcomes.simulate import SimCounts
 
@@ -72,3 +73,20 @@ def test_without_phases_the_placed_rate_alone_decides() -> None:
     bare = [Cell(c.variant, c.condition, c.attempted, c.succeeded) for c in cells]
     assert gate(bare, sims).loud == (UNCALIBRATED,) and gate(bare, sims).phases is None
     assert gate(cells, sims, phases=False).phases is None
+
+
+def test_a_cell_that_cannot_disagree_is_not_counted_among_the_many() -> None:
+    """Chamfer capture 3.2 mm at 816 real transfers, seed 0, against the default world located on 327
+    (`/work/campaigns/s13/after/chamfer-816-0.out`): 96/816 placed against 25/327, p = 0.043. The calibrated
+    cell placed every transfer on both sides and can give no p below 1, so the one cell that can differ is
+    judged at 5 %; a calibrated cell that dropped some could differ, and the two share the 5 %."""
+    uncalibrated = Cell(*UNCALIBRATED, 816, 96, 4.0, {"sense": 289, "grasp": 40, "lift": 304, "lower": 87})
+    sims = {
+        UNCALIBRATED: _sim(placed=25, sense=137, grasp=18, lift=114, lower=33),
+        CALIBRATED: _sim(placed=327),
+    }
+    assert least_p((816, 816), (327, 327)) == 1.0
+    assert gate([uncalibrated, Cell(*CALIBRATED, 816, 816, 4.0, {})], sims).loud == (UNCALIBRATED,)
+    dropping = Cell(*CALIBRATED, 816, 806, 4.0, {"lower": 10})
+    assert least_p((806, 816), (327, 327)) < 0.05
+    assert not gate([uncalibrated, dropping], sims).opens

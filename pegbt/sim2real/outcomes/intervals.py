@@ -37,6 +37,30 @@ def disagreement_p(real: tuple[int, int], simulated: tuple[int, int]) -> float:
     return float(stats.fisher_exact(table).pvalue)
 
 
+def least_p(real: tuple[int, int], simulated: tuple[int, int]) -> float:
+    """The smallest p-value `disagreement_p` can give with these margins (attempted on each side, and
+    succeeded on both together), at either end of the counts' range: a row whose every transfer placed on
+    both sides (or none) can never disagree, whatever the world."""
+    (k_real, n_real), (k_sim, n_sim) = real, simulated
+    total = k_real + k_sim
+    ends = {max(0, total - n_sim), min(total, n_real)}
+    return min(disagreement_p((k, n_real), (total - k, n_sim)) for k in ends)
+
+
+def beyond_chance_testable(
+    p_values: Sequence[float], least: Sequence[float], level: float = LEVEL
+) -> list[bool]:
+    """`beyond_chance` over the tests that can reject at all (`least` p-value at most 1 − `level`); the
+    others, which cannot, are not counted among the many (Tarone 1990, Biometrics 46:515; for the false
+    discovery rate, Gilbert 2005, J. R. Stat. Soc. C 54:143)."""
+    testable = [i for i, low in enumerate(least) if low <= 1.0 - level]
+    flags = beyond_chance([p_values[i] for i in testable], level)
+    out = [False] * len(p_values)
+    for i, flag in zip(testable, flags):
+        out[i] = flag
+    return out
+
+
 def beyond_chance(p_values: Sequence[float], level: float = LEVEL) -> list[bool]:
     """Which of many tests reject at the false discovery rate 1 − `level` (Benjamini–Hochberg)."""
     if not p_values:
