@@ -21,6 +21,7 @@ from pegbt.behaviours.base import MotionLeaf, Outgoing
 from pegbt.behaviours.poses import approach_for, height_above_pegs, peg_top_board, to_arm, transfer_for
 from pegbt.behaviours.resources.arm_motion import ArmMotion
 from pegbt.behaviours.resources.skills import Skills
+from pegbt.motion.handover import jaw_on_wall
 from pegbt.motion.ik import solve_ik
 from pegbt.motion.kinematics import forward_kinematics, tip_position
 from pegbt.motion.limits import ArmSettings
@@ -104,6 +105,14 @@ def planned_approach(
     poses = [waypoints.poses[1], waypoints.approach, waypoints.poses[0]]
     joints = stops + [solve_ik(pose, motion.settings, what=name) for pose, name in zip(poses, names[-3:])]
     return motion.through(start, joints, names[: len(joints)])
+
+
+def closing_lead(skills: Skills, jaw_velocity: float) -> float:
+    """Seconds before the arm arrives that an open jaw is sent closing for its set-point to pass
+    `grip_confirmed_below` under the block's wall (`jaw_on_wall`) as the tip gets there: `grasp` then
+    confirms the grip as the tip arrives."""
+    transfer = skills.motion.transfer
+    return (transfer.jaw_open - jaw_on_wall(skills.cell) + transfer.grip_confirmed_below) / jaw_velocity
 
 
 class CarryLeaf(MotionLeaf):

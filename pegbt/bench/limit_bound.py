@@ -2,21 +2,21 @@
 (`skills/psm.yaml`: joint velocity and acceleration, the jaw's velocity) could take for each transfer,
 with perception and planning free.
 
-A transfer meets only the constraints no way of doing it escapes: the tool reaches the block (at rest, for
-the jaw to close on it), the jaw closes from an opening that passes the block's wall to the wall, the block
-rises until its hole clears its peg (its bottom at the peg's top: the tip `block_below_tip` above it), comes
-down until its hole is on the goal peg (the same height over that peg), stops, and falls the rest of the way
-when the jaw lets go; if the jaw lets go lower, with the hole already round the goal peg, the block came down
-that peg's axis from that height (its hole's wall would strike the peg from the side). Carrying it clear of the other pegs and blocks adds nothing: they end at or below
-the peg tops, under the lifted block, and a lower path between them is not the bound's to exclude; the
-other arm is taken as out of the way. A jaw that grips the wall has one jaw inside the block's hole: that
-jaw (2 × `jaw_radius` thick) fills the gap between the peg and the hole's wall (hole radius less peg
-radius), so it can only move along the peg's axis while its tip is below the block's top. The approach
-therefore passes through the grasp's point at the block's top (the jaw entering the hole), and a tool that
-let go of a block below the fallen block's top first rises along that axis to it (the jaw leaving the
-hole) before it moves over. Everything else pegbt does (the transfer height, the drop height, the approach
-from above, the peg channels and their margin, the jaw's opening, squeeze and opening to let go) is its
-choice, and the breakdown of `pegbt bench limit` charges it there.
+A transfer meets only the constraints no way of doing it escapes: the tool reaches the block (at rest, for the
+jaw to close on it), the jaw closes from an opening that passes the block's wall to the wall, the block rises
+until its hole clears its peg (its bottom at the peg's top: the tip `block_below_tip` above it), comes down
+until its hole is on the goal peg (the same height over that peg), stops, and falls the rest of the way when
+the jaw lets go; if the jaw lets go lower, with the hole already round the goal peg, the block came down that
+peg's axis from that height (its hole's wall would strike the peg from the side). Carrying it clear of the
+other pegs and blocks adds nothing: they end at or below the peg tops, under the lifted block, and a lower
+path between them is not the bound's to exclude; the other arm is taken as out of the way. A jaw that grips
+the wall has one jaw inside the block's hole: that jaw (2 × `jaw_radius` thick) fills the gap between the peg
+and the hole's wall (hole radius less peg radius), so it can only move along the peg's axis while its tip is
+below the block's top. The approach therefore passes through the grasp's point at the block's top (the jaw
+entering the hole), and a tool that let go of a block below the fallen block's top first rises along that axis
+to it (the jaw leaving the hole) before it moves over. Everything else pegbt does (the transfer height, the
+drop height, the approach from above, the peg channels and their margin, the jaw's opening, squeeze and
+opening to let go) is its choice, and the breakdown of `pegbt bench limit` charges it there.
 
 Each segment is time-optimal under the planner's limits (infinite jerk, as `pegbt bench motion`'s
 rest-to-rest bound, which is ruckig's). A motion from rest at A that must pass through B and end at rest at C
@@ -28,21 +28,20 @@ velocity at B is continuous (no jump, as a sum of two rest-to-rest halves would 
 
 Two arms: each arm's transfers follow one another; arms work at once; a handover is a rendezvous at pegbt's
 meeting point (the reference's exchange: the receiver descends and closes, the giver opens and rises; the
-bound is of a handover at pegbt's meeting point as it is of a transfer at pegbt's pegs; the receiver's
-grasp is taken at the giver's point). Each arm's jaw enters and leaves the block's hole along its axis
-through the block's top, as over a peg: the hole is empty here, but a jaw straddling the wall can move
-sideways only as far as its opening leaves room either side (at the least opening the bound allows,
-none), and a tool leaving downwards would take its shaft (8.4 mm) through the hole (7.2 mm). So the
-receiver passes its grasp's point at the block's top on its way to the grasp and comes to rest there no
-sooner than the giver holds the block out; its jaw enters the hole only once the block is on its final
-axis (it may while the giver still brings the block along that axis, as pegbt's does), so the giver's
-carry and the receiver's descent meet on that axis (`pegbt.bench.limit_axis`); its jaw closes; then the giver's jaw opens past the wall and the giver passes
-its own grasp's point at the block's top on its way to its next pick (the opening, `jaw_close_s`, may
-overlap that rise: with the planner's limits it is shorter than the rise from rest), the block held still
-meanwhile; the receiver carries the block off only once the giver's jaw has opened and left the hole (both
-done), then to the goal peg. A trial's bound per transfer is, as for pegbt's own figure, the union of the
-transfers' start-to-placement intervals over their number, so the busier arm sets it.
-"""
+bound is of a handover at pegbt's meeting point as it is of a transfer at pegbt's pegs; the receiver's grasp
+is taken at the giver's point). Each arm's jaw enters and leaves the block's hole along its axis through the
+block's top, as over a peg: the hole is empty here, but a jaw straddling the wall can move sideways only as
+far as its opening leaves room either side (at the least opening the bound allows, none), and a tool leaving
+downwards would take its shaft (8.4 mm) through the hole (7.2 mm). So the receiver passes its grasp's point at
+the block's top on its way to the grasp and comes to rest there no sooner than the giver holds the block out;
+its jaw enters the hole only once the block is on its final axis (it may while the giver still brings the
+block along that axis, as pegbt's does), so the giver's carry and the receiver's descent meet on that axis
+(`pegbt.bench.limit_axis`); its jaw closes; then the giver's jaw opens past the wall and the giver passes its
+own grasp's point at the block's top on its way to its next pick (the opening, `jaw_close_s`, may overlap that
+rise: with the planner's limits it is shorter than the rise from rest), the block held still meanwhile; the
+receiver carries the block off only once the giver's jaw has opened and left the hole (both done), then to the
+goal peg. A trial's bound per transfer is, as for pegbt's own figure, the union of the transfers'
+start-to-placement intervals over their number, so the busier arm sets it."""
 
 from __future__ import annotations
 

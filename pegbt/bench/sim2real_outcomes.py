@@ -181,8 +181,9 @@ def pilot(
 
     A change in a category of a few per cent read from n paired transfers carries noise of about what n
     real transfers resolve, so the `detectable_at` it gives is only trusted up to n (depth bias's grasp
-    failures, 2 → 0 of 48, ask for 432; 54 → 18 of 1,152 for 1,141). So the pilot starts at `settings.located` a cell; each world whose `detectable_at` exceeds the
-    transfers it was read from is read again from that many, in whole trials (the same seeds grown, so
+    failures, 2 → 0 of 48, ask for 432; 54 → 18 of 1,152 for 1,141). So the pilot starts at
+    `settings.located` a cell; each world whose `detectable_at` exceeds the transfers it was read from is
+    read again from that many, in whole trials (the same seeds grown, so
     the memo keeps what is already simulated), until it is read from at least as many as it asks for or
     from `cap` (then `detectable_at` above `cap` says the family is too large for the benchmark). A world
     that changes no transfer of its reading is read once more at the largest size the pilot reaches, where

@@ -25,13 +25,12 @@ from pegbt.behaviours.base import (
     MotionLeaf,
     RobotLeaf,
 )
-from pegbt.behaviours.motion import planned_approach
+from pegbt.behaviours.motion import closing_lead, planned_approach
 from pegbt.behaviours.poses import transfer_for
 from pegbt.behaviours.resources.skills import Skills
 from pegbt.clock import is_realtime
 from pegbt.errors import PegbtError
 from pegbt.executive.work import Job, WorkPool
-from pegbt.motion.handover import jaw_on_wall
 from pegbt.motion.trajectory import Trajectory
 from pegbt.perception.blocks import BlockEstimate, block_on_peg, stack_level
 from pegbt.perception.board import BoardEstimate
@@ -211,6 +210,8 @@ class Approach(MotionLeaf):
     the grasp play: its inputs (board, block, grasp; the meeting tip) are known; `transfer` or
     `carry_to_handover` takes that plan if its own inputs are the same, and checks it as it is sent."""
 
+    closing = False  # whether `begin` sent the jaw closing on arrival
+
     def begin(self) -> None:
         arm = self.param("arm")
         block, grasp = self.get("block"), self.get("grasp")
@@ -225,9 +226,7 @@ class Approach(MotionLeaf):
             self.skills.condition in self.param("close_on_arrival") and self.skills.protocol != "paper"
         )
         if self.closing:  # the set-point passes `grip_confirmed_below` under the wall as the tip arrives
-            lead = (
-                transfer.jaw_open - jaw_on_wall(self.skills.cell) + transfer.grip_confirmed_below
-            ) / velocity
+            lead = closing_lead(self.skills, velocity)
             self.move_jaw(arm, transfer.jaw_closed, f"{arm} jaw closing on arrival", before_end=lead)
             return
         narrowing = (transfer.jaw_open - transfer.jaw_at_grasp) / velocity

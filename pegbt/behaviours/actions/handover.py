@@ -27,7 +27,7 @@ from pegbt.behaviours.base import (
     Outgoing,
     RobotLeaf,
 )
-from pegbt.behaviours.motion import CarryLeaf, above_pegs_first, planned_approach, rise
+from pegbt.behaviours.motion import CarryLeaf, above_pegs_first, closing_lead, planned_approach, rise
 from pegbt.behaviours.poses import from_handover, to_arm, to_handover, tool_pose
 from pegbt.behaviours.protocol_leaf import read_record
 from pegbt.behaviours.resources.arm_motion import ArmMotion, EarlyResult, SentMotion
@@ -510,11 +510,8 @@ class DescendToGrasp(MotionLeaf):
         hold = 0.0 if self.carry is None else max(0.0, set_off(self, arm, grasp, self.carry, now) - now)
         planned = descent(self.skills, motion, start, grasp, hold)
         self.move(arm, planned, f"{arm} descending onto the grasp", (grasp, hold) if hold else (grasp,))
-        transfer = self.skills.motion.transfer
-        lead = (
-            transfer.jaw_open - jaw_on_wall(self.skills.cell) + transfer.grip_confirmed_below
-        ) / motion.settings.jaw_velocity
-        self.move_jaw(arm, transfer.jaw_at_grasp, f"{arm} jaw narrowing", before_end=lead)
+        lead = closing_lead(self.skills, motion.settings.jaw_velocity)
+        self.move_jaw(arm, self.skills.motion.transfer.jaw_at_grasp, f"{arm} jaw narrowing", before_end=lead)
         self.closing = False
 
     def jaw_due(self, outgoing: Outgoing) -> None:

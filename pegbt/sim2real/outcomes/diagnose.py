@@ -43,8 +43,8 @@ class Settings:
 
     def for_campaign(self, real: int) -> Settings:
         """These settings for fit cells of up to `real` real transfers. Above `self.real` the simulated
-        transfers grow in proportion: the real counts resolve differences that shrink so, and a fit whose simulated side stayed fixed would weigh them against
-        simulation noise that does not (`likelihood`: the simulated counts' own uncertainty is in every
+        transfers grow in proportion: the real counts resolve differences that shrink so, and a fit whose
+        simulated side stayed fixed would weigh them against simulation noise that does not (`likelihood`: the simulated counts' own uncertainty is in every
         cell's likelihood), so a large campaign would be fitted no better than a small one."""
         if real <= self.real:
             return self

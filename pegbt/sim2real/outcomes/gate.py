@@ -28,9 +28,9 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from pegbt.sim2real.outcomes.cells import PHASES, Cell
-from pegbt.sim2real.outcomes.intervals import beyond_chance_testable, disagreement_p, least_p
-from pegbt.sim2real.outcomes.likelihood import has_phases
+from pegbt.sim2real.outcomes.cells import Cell
+from pegbt.sim2real.outcomes.intervals import beyond_chance_testable, least_p
+from pegbt.sim2real.outcomes.locate import Row, locate
 from pegbt.sim2real.outcomes.simulate import Key, SimCounts
 
 
@@ -48,39 +48,23 @@ class Gate:
 
 
 def gate(fit_cells: Sequence[Cell], sims: dict[Key, SimCounts], phases: bool = True) -> Gate:
-    """The gate of the fit cells' real counts against the default world's `sims`."""
-    pairs = [((c.succeeded, c.attempted), (sims[c.key].succeeded, sims[c.key].attempted)) for c in fit_cells]
-    placed = [disagreement_p(*pair) for pair in pairs]
-    least = [least_p(*pair) for pair in pairs]
-    loud = [c for c, flag in zip(fit_cells, beyond_chance_testable(placed, least)) if flag]
+    """The gate of the fit cells' real counts against the default world's `sims` (the rows `locate`
+    compares, judged here family by family)."""
+    rows = locate(fit_cells, sims)
+    placed = [r for r in rows if r.phase is None]
+    loud = {(r.variant, r.condition) for r in _flagged(placed)}
+    keys = [c.key for c in fit_cells]
     if not phases:
-        return Gate(tuple(c.key for c in loud), None)
-    if loud:
-        rows = _phase_rows(loud, sims)
-        flagged = _flagged(rows)
-        return Gate(tuple(c.key for c in loud), frozenset(phase for _, phase in flagged) or None)
-    flagged = _flagged(_phase_rows(fit_cells, sims))
-    keys = {key for key, _ in flagged}
-    return Gate(
-        tuple(c.key for c in fit_cells if c.key in keys), frozenset(phase for _, phase in flagged) or None
-    )
+        return Gate(tuple(k for k in keys if k in loud), None)
+    phase_rows = [r for r in rows if r.phase is not None and (not loud or (r.variant, r.condition) in loud)]
+    flagged = _flagged(phase_rows)
+    where = frozenset(r.phase for r in flagged if r.phase) or None
+    if not loud:
+        loud = {(r.variant, r.condition) for r in flagged}
+    return Gate(tuple(k for k in keys if k in loud), where)
 
 
-def _phase_rows(cells: Sequence[Cell], sims: dict[Key, SimCounts]) -> list[tuple[Key, str, float, float]]:
-    """Each cell's phase rows (cells with phases; phases neither side failed in left out): its key, the
-    phase, the p-value of its real failures there against the default world's and the least it could be."""
-    rows: list[tuple[Key, str, float, float]] = []
-    for cell in (c for c in cells if has_phases(c)):
-        sim = sims[cell.key]
-        for phase in PHASES:
-            real, simulated = cell.failures.get(phase, 0), sim.counts[phase]
-            if real or simulated:
-                pair = ((real, cell.attempted), (simulated, sim.attempted))
-                rows.append((cell.key, phase, disagreement_p(*pair), least_p(*pair)))
-    return rows
-
-
-def _flagged(rows: list[tuple[Key, str, float, float]]) -> list[tuple[Key, str]]:
+def _flagged(rows: list[Row]) -> list[Row]:
     """The rows beyond chance, Benjamini–Hochberg over those of `rows` that can reject."""
-    flags = beyond_chance_testable([r[2] for r in rows], [r[3] for r in rows])
-    return [(key, phase) for (key, phase, _, _), flag in zip(rows, flags) if flag]
+    flags = beyond_chance_testable([r.p_value for r in rows], [least_p(r.real, r.simulated) for r in rows])
+    return [row for row, flag in zip(rows, flags) if flag]
