@@ -11,8 +11,10 @@ inside their 95 % predictive interval.
 The size of each family's "real" campaign is fixed before any diagnosis runs, by the power of the test
 that could see its world, not by what the tool names. A pilot (`pilot`, `shifts`) simulates, in the fit
 cells, what each concealed effect alone changes against the default world; from it, `detectable_at` is the
-fewest real transfers a fit cell at which a two-sided 5 % test sees that change nine times in ten (`POWER`,
-the naming rate the goal asks for), the simulated side growing with it in the ratio of the diagnosis's
+fewest real transfers a fit cell at which the gate's own test sees one of its changes nine times in ten
+(`outcomes_power.POWER`, the naming rate the goal asks for; at 0.9 a family meets 5 of 5 seeds only about
+59 % of the time), each change tested at α over the testable rows of its family, placed or phase, as the
+gate counts them (`outcomes_power`), the simulated side growing with it in the ratio of the diagnosis's
 `located` to 120 real. The pilot is sequential: a size is only trusted when read from at least as many
 paired transfers as it sets. The family's fit cells then get the smallest whole number of 12-transfer
 trials at least the concealed campaign's 120 transfers and at least every one of its effects'
@@ -22,7 +24,8 @@ change a fit cell by less than 120 transfers resolve. A family whose effects cha
 size (`detectable_at` "never"), or need more than a seed's block of real transfers (too large), is kept
 at 120 and scored as a further null: its naming rate is not applicable ("n/a": no campaign here can show
 what it changes), its false discoveries count. The diagnosis's own simulated side grows with
-the largest real fit cell (`Settings.for_campaign`).
+the largest real fit cell (`Settings.for_campaign`). The sizes are fixed before any diagnosis, from the
+worlds' own changes and the gate's stated test: design, not tuning.
 """
 
 from __future__ import annotations
@@ -35,8 +38,7 @@ import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
-from scipy import stats
-
+from pegbt.bench.outcomes_power import Change, detectability, detectable_at
 from pegbt.errors import PegbtError
 from pegbt.runconditions import VARIANTS
 from pegbt.sim.world_effects import WorldEffects
@@ -80,7 +82,6 @@ SETTINGS = Settings(fit="unilateral", transfers=12, points=4)
 REAL_SEED = 100_000  # the real runs' seeds start here, far from the fit's
 SEED_BLOCK = 10_000  # each seed's real transfers: a block of seeds larger than any family's campaign
 NOT_APPLICABLE = "n/a"  # the naming rate of a family whose world changes no fit cell at any size
-POWER = 0.9  # the naming rate the goal asks for: a difference seen this often is detectable
 
 
 def concealed_outcomes(
@@ -127,23 +128,14 @@ def _fitted(key: tuple[str, str], fit: str) -> bool:
     return fit in ("all", *key)
 
 
-def detectable_difference(share: float, real: int, simulated: int, power: float = POWER) -> float:
-    """The smallest difference between a real and a simulated share (of transfers placed, or failed in
-    one phase) that a two-sided test at 5 % sees with probability `power`, with `real` and `simulated`
-    transfers around a common `share` (normal approximation)."""
-    z = float(stats.norm.ppf(0.975) + stats.norm.ppf(power))
-    return z * math.sqrt(max(share * (1 - share), 1 / (real + simulated)) * (1 / real + 1 / simulated))
-
-
 World = Mapping[str, Mapping[str, float]]  # concealed effects: kind → parameter → value
 
 
 def shifts(
     mapper: Mapper, worlds: Mapping[str, World], settings: Settings, transfers: int | None = None
-) -> dict[str, list[tuple[float, float]]]:
+) -> dict[str, list[Change]]:
     """Per named world of concealed effects (a family's, or one effect's alone), what it changes in each
-    fit cell: for the share of transfers placed and of those failed first in each phase, (the two worlds'
-    mean share, the concealed world's less the default one's). On the phase simulator, `transfers` a cell
+    fit cell: for the share of transfers placed and of those failed first in each phase, a `Change`. On the phase simulator, `transfers` a cell
     (by default `settings.located`) on the seeds the default world is located on, so the two worlds share
     their random numbers and the change is the effect's."""
     hidden = {name: WorldEffects.of(effects) for name, effects in worlds.items() if effects}
@@ -160,7 +152,7 @@ def shifts(
             new, old = sim[key], sims[0][key]
             for category in CATEGORIES:
                 a, b = new.counts[category] / new.attempted, old.counts[category] / old.attempted
-                changes.append(((a + b) / 2, a - b))
+                changes.append(Change(category == CATEGORIES[0], (a + b) / 2, a - b))
         out[name] = changes
     return out
 
@@ -170,7 +162,7 @@ class Reading:
     """What one concealed world changes in the fit cells (`shifts`), read from `transfers` paired
     transfers a cell."""
 
-    changes: list[tuple[float, float]]
+    changes: list[Change]
     transfers: int
 
 
@@ -185,8 +177,7 @@ def pilot(
     `settings.located` a cell; each world whose `detectable_at` exceeds the transfers it was read from is
     read again from that many, in whole trials (the same seeds grown, so
     the memo keeps what is already simulated), until it is read from at least as many as it asks for or
-    from `cap` (then `detectable_at` above `cap` says the family is too large for the benchmark). A world
-    that changes no transfer of its reading is read once more at the largest size the pilot reaches, where
+    from `cap` (then `detectable_at` above `cap` says the family is too large for the benchmark). A world that changes no transfer of its reading is read once more at the largest size the pilot reaches, where
     the default world is already simulated: no change in n paired transfers bounds a change only to about
     3/n. The rule uses the worlds' own changes, never a diagnosis."""
     out: dict[str, Reading] = {}
@@ -267,40 +258,6 @@ def plan(mapper: Mapper, families: Sequence[str], least: int, settings: Settings
             max((r.transfers for r in read), default=0),
         )
     return out
-
-
-def detectability(changes: Sequence[tuple[float, float]], real: int, simulated: int) -> float:
-    """The largest of a family's `changes` (`shifts`) over the smallest difference `real` real transfers
-    against `simulated` simulated ones resolve (`detectable_difference`): 1 or more, the family's world
-    shows in its fit cells; below 1 no method can name it from them."""
-    ratios = (abs(change) / detectable_difference(share, real, simulated) for share, change in changes)
-    return max(ratios, default=0.0)
-
-
-def detectable_at(changes: Sequence[tuple[float, float]], real: int, simulated: int) -> int | None:
-    """The real transfers per fit cell at which a family's `detectability` reaches 1, the simulated ones
-    growing with them in the ratio `real`:`simulated` (a diagnosis of a larger campaign locates the default
-    world on as many more): its ratio grows about as the square root of the size. None if the world
-    changes nothing in the fit cells, at any size."""
-    sizes = [transfers_to_resolve(abs(c), share, real, simulated) for share, c in changes if c]
-    return min(sizes, default=None)
-
-
-def transfers_to_resolve(difference: float, share: float, real: int, simulated: int) -> int:
-    """The fewest real transfers n at which `detectable_difference` is at most `difference` against
-    n·`simulated`/`real` simulated transfers (rounded up); `difference` must be above 0."""
-
-    def resolves(n: int) -> bool:
-        return detectable_difference(share, n, math.ceil(n * simulated / real)) <= difference
-
-    high = 1
-    while not resolves(high):
-        high *= 2
-    low = high // 2  # 0, or a size that does not resolve: the difference shrinks as n grows
-    while high - low > 1:
-        middle = (low + high) // 2
-        low, high = (low, middle) if resolves(middle) else (middle, high)
-    return high
 
 
 def score(d: Diagnosis, hidden: Mapping[str, Mapping[str, float]]) -> dict[str, float]:

@@ -8,6 +8,7 @@ from collections.abc import Sequence
 import pytest
 
 from pegbt.bench import sim2real_outcomes as bench
+from pegbt.bench.outcomes_power import transfers_to_resolve
 from pegbt.sim.world_effects import WorldEffects
 from pegbt.sim2real.outcomes.transfer_result import TransferResult
 
@@ -39,9 +40,10 @@ def _mapper(tasks: Sequence[tuple[tuple[WorldEffects, ...], str, str, int]]) -> 
 
 
 def _resolves(change: float) -> int:
-    """The real transfers the change needs, its share that of the two worlds' lift failures (4 % and less)."""
+    """The real transfers the change needs, its share that of the two worlds' lift failures (4 % and less):
+    one 5 % test, since the lift row and the uncalibrated placed row are each alone in their families."""
     s = bench.SETTINGS
-    return bench.transfers_to_resolve(change, 0.04 - change / 2, s.real, s.located)
+    return transfers_to_resolve(change, 0.04 - change / 2, s.real, s.located)
 
 
 def test_a_small_change_is_sized_from_enough_transfers_not_from_the_first_48() -> None:
