@@ -38,7 +38,7 @@ import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
-from pegbt.bench.outcomes_power import Change, detectability, detectable_at
+from pegbt.bench.outcomes_power import Change, detectability, detectable_at, surely_beyond
 from pegbt.errors import PegbtError
 from pegbt.runconditions import VARIANTS
 from pegbt.sim.world_effects import WorldEffects
@@ -46,7 +46,7 @@ from pegbt.sim2real.outcomes.cache import MemoMapper
 from pegbt.sim2real.outcomes.cells import Cell, Outcomes
 from pegbt.sim2real.outcomes.diagnose import Diagnosis, Settings, diagnose
 from pegbt.sim2real.outcomes.fit import Profile
-from pegbt.sim2real.outcomes.simulate import CATEGORIES, LocalMapper, Mapper, simulate_cells
+from pegbt.sim2real.outcomes.simulate import CATEGORIES, LocalMapper, Mapper, category_of, simulate_cells
 
 # Every concealed value lies between the fit's grid values (`SETTINGS.points`; `fit.candidates`), so a
 # parameter error measures the estimate read between them, not a grid that happens to hold the truth.
@@ -135,24 +135,28 @@ def shifts(
     mapper: Mapper, worlds: Mapping[str, World], settings: Settings, transfers: int | None = None
 ) -> dict[str, list[Change]]:
     """Per named world of concealed effects (a family's, or one effect's alone), what it changes in each
-    fit cell: for the share of transfers placed and of those failed first in each phase, a `Change`. On the phase simulator, `transfers` a cell
-    (by default `settings.located`) on the seeds the default world is located on, so the two worlds share
-    their random numbers and the change is the effect's."""
+    fit cell: for the share of transfers placed and of those failed first in each phase, a `Change`. On
+    the phase simulator, `transfers` a cell (by default `settings.located`) on the seeds the default world
+    is located on, so the two worlds share their random numbers and the change is the effect's; the pairs
+    that differ in a row (`Change.discordant`) say how precisely it is read."""
     hidden = {name: WorldEffects.of(effects) for name, effects in worlds.items() if effects}
     keys = [key for key in CELLS if _fitted(key, settings.fit)]
-    unique = list(dict.fromkeys(hidden.values()))  # a pair's effect alone is also its own family's
-    sims = simulate_cells(
-        mapper, [WorldEffects(), *unique], keys, settings.located if transfers is None else transfers
+    run = [WorldEffects(), *dict.fromkeys(hidden.values())]  # a pair's effect alone is also its own family's
+    n = settings.located if transfers is None else transfers
+    results = mapper(
+        [(tuple(run), variant, condition, seed) for variant, condition in keys for seed in range(n)]
     )
-    of = dict(zip(unique, sims[1:]))
     out = {}
     for name, world in hidden.items():
-        sim, changes = of[world], []
-        for key in keys:
-            new, old = sim[key], sims[0][key]
+        w, changes = run.index(world), []
+        for k in range(len(keys)):
+            pairs = [(category_of(r[0]), category_of(r[w])) for r in results[k * n : (k + 1) * n]]
+            pairs = [(old, new) for old, new in pairs if old is not None and new is not None]
             for category in CATEGORIES:
-                a, b = new.counts[category] / new.attempted, old.counts[category] / old.attempted
-                changes.append(Change(category == CATEGORIES[0], (a + b) / 2, a - b))
+                a = sum(new == category for _, new in pairs) / len(pairs)
+                b = sum(old == category for old, _ in pairs) / len(pairs)
+                apart = sum((old == category) != (new == category) for old, new in pairs) / len(pairs)
+                changes.append(Change(category == CATEGORIES[0], (a + b) / 2, a - b, apart))
         out[name] = changes
     return out
 
@@ -177,7 +181,10 @@ def pilot(
     `settings.located` a cell; each world whose `detectable_at` exceeds the transfers it was read from is
     read again from that many, in whole trials (the same seeds grown, so
     the memo keeps what is already simulated), until it is read from at least as many as it asks for or
-    from `cap` (then `detectable_at` above `cap` says the family is too large for the benchmark). A world that changes no transfer of its reading is read once more at the largest size the pilot reaches, where
+    from `cap` (then `detectable_at` above `cap` says the family is too large for the benchmark), or until
+    even the far end of each change's 95 % interval asks for more than `cap` (`surely_beyond`): then it is
+    too large with 95 % confidence, and reading it at `cap` (grasp capture and jaw tip slide, 53,000 paired
+    transfers) would only confirm it. A world that changes no transfer of its reading is read once more at the largest size the pilot reaches, where
     the default world is already simulated: no change in n paired transfers bounds a change only to about
     3/n. The rule uses the worlds' own changes, never a diagnosis."""
     out: dict[str, Reading] = {}
@@ -191,7 +198,12 @@ def pilot(
             for name in group:
                 out[name] = Reading(read[name], size)
                 needed = detectable_at(read[name], settings.real, settings.located)
-                if needed is not None and size < needed and size < cap:
+                if (
+                    needed is not None
+                    and size < needed
+                    and size < cap
+                    and not surely_beyond(read[name], size, cap, settings.real, settings.located)
+                ):
                     following[name] = min(cap, TRIAL * math.ceil(needed / TRIAL))
         largest = max(r.transfers for r in out.values())
         if not following and not rechecked:

@@ -19,10 +19,10 @@ from pegbt.bench.outcomes_power import (
 )
 from pegbt.sim2real.outcomes.intervals import beyond_chance_testable, disagreement_p, least_p
 
-ALL_PLACED = Change(True, 1.0, 0.0)  # a calibrated cell: every transfer placed in both worlds
+ALL_PLACED = Change(True, 1.0, 0.0, 0.0)  # a calibrated cell: every transfer placed in both worlds
 # Depth bias at 1,152 on the pilot's seeds: grasp failures 54 → 18, lift failures beside them unchanged.
-GRASP = Change(False, 0.031, -0.031)
-LIFT = Change(False, 0.37, 0.0)
+GRASP = Change(False, 0.031, -0.031, 0.031)
+LIFT = Change(False, 0.37, 0.0, 0.0)
 
 
 def test_the_detectable_difference_shrinks_with_the_real_sample_and_the_level() -> None:
@@ -48,7 +48,7 @@ def test_a_row_alone_in_its_family_is_one_test_at_five_per_cent() -> None:
     """A placed row beside one that cannot disagree (every transfer placed): the gate tests it alone, so
     its size is one 5 % test's; its ratio at 120 grows about as the square root of the size."""
     needed = detectable_difference(0.3, 120, 48)
-    changes = [Change(True, 0.3, -0.5 * needed), ALL_PLACED, Change(False, 0.0, 0.0)]
+    changes = [Change(True, 0.3, -0.5 * needed, 0.5 * needed), ALL_PLACED, Change(False, 0.0, 0.0, 0.0)]
     assert row_testable_from(ALL_PLACED, 120, 48) is None
     assert detectability(changes, 120, 48) == pytest.approx(0.5)
     at = detectable_at(changes, 120, 48)
@@ -69,7 +69,7 @@ def test_two_testable_phase_rows_ask_for_more_than_one_five_per_cent_test() -> N
 def test_a_row_the_gate_cannot_yet_test_at_the_size_is_not_counted() -> None:
     """A phase row of a few transfers in ten thousand becomes testable only far beyond the grasp change's
     size, so it does not lower that change's level."""
-    rare = Change(False, 0.0003, 0.0)
+    rare = Change(False, 0.0003, 0.0, 0.0)
     starts = row_testable_from(rare, 120, 48)
     assert starts is not None and starts > 3 * transfers_to_resolve(0.031, 0.031, 120, 48)
     assert detectable_at([GRASP, rare], 120, 48) == detectable_at([GRASP], 120, 48)
