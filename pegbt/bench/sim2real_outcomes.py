@@ -36,9 +36,11 @@ import statistics
 import sys
 import time
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
+from pathlib import Path
 
 from pegbt.bench.outcomes_power import Change, detectability, detectable_at, surely_beyond
+from pegbt.bench.outcomes_records import Records, code_identity
 from pegbt.errors import PegbtError
 from pegbt.runconditions import VARIANTS
 from pegbt.sim.world_effects import WorldEffects
@@ -229,6 +231,9 @@ def fit_size(needed: Sequence[int | None], least: int = REAL_TRANSFERS) -> int:
     return TRIAL * math.ceil(max([least, *(n for n in needed if n is not None)]) / TRIAL)
 
 
+PLAN_FIELDS = ("detectability", "detectable_at", "size", "read_from")
+
+
 @dataclass(frozen=True)
 class Plan:
     """A family's campaign, fixed from the pilot before any diagnosis: its weakest effect's
@@ -304,10 +309,12 @@ def measure(
     settings: Settings,
     workers: int = 2,
     simulator: Mapper | None = None,
+    records: Records | None = None,
 ) -> dict[str, float | int | str]:
     """The figures of `families` over `seeds` seeds each, simulated by `simulator` (by default the phase
     simulator in `workers` local processes). One memo of simulated transfers serves every diagnosis
-    (`cache.MemoMapper`): their fits simulate the same worlds on the same seeds."""
+    (`cache.MemoMapper`): their fits simulate the same worlds on the same seeds. With `records`, the plan
+    and each score are kept as they come, and those already kept are read back, not simulated again."""
     pool = None
     if simulator is None:
         pool = simulator = LocalMapper(workers)
@@ -317,8 +324,9 @@ def measure(
     scores: dict[str, list[dict[str, float]]] = {family: [] for family in families}
     needed = 0
     try:
-        plans = plan(memo, families, real_transfers, settings)
-        figures["pilot_transfers_simulated"] = memo.simulated
+        plans, figures["pilot_transfers_simulated"] = _planned(
+            memo, families, real_transfers, settings, records
+        )
         for family in families:
             p = plans[family]
             figures[f"{family}_real_transfers_per_fit_cell"] = p.size
@@ -345,18 +353,25 @@ def measure(
                     flush=True,
                 )
         for seed in range(seeds):
+            kept = {f: records.scores[(f, seed)] for f in families if records and (f, seed) in records.scores}
+            for family, record in kept.items():
+                needed += record["simulated"]
+                scores[family].append(record["score"])
+            missing = [f for f in families if f not in kept]
             real: dict[str, Outcomes] = {}
-            for size in sorted({plans[f].size for f in families}):
-                group = [f for f in families if plans[f].size == size]
+            for size in sorted({plans[f].size for f in missing}):
+                group = [f for f in missing if plans[f].size == size]
                 worlds = [WorldEffects.of(FAMILIES[f]) for f in group]
                 real.update(
                     zip(group, concealed_outcomes(memo, worlds, seed, size, real_transfers, settings.fit))
                 )
-            for family in families:
+            for family in missing:
                 before = memo.simulated
                 d = diagnose(real[family], settings, memo)
                 needed += d.simulated
                 scores[family].append(score(d, FAMILIES[family]))
+                if records:
+                    records.save_score(family, seed, scores[family][-1], d.simulated)
                 print(
                     f"{family} seed {seed}: named {', '.join(map(_named, d.verdict.named)) or 'nothing'} "
                     f"{scores[family][-1]}; {plans[family].size} real transfers a fit cell, "
@@ -388,6 +403,24 @@ def measure(
     return figures
 
 
+def _planned(
+    memo: MemoMapper, families: Sequence[str], least: int, settings: Settings, records: Records | None
+) -> tuple[dict[str, Plan], int]:
+    """Each family's `Plan` and the transfers its pilot simulated: kept in `records` if it holds them,
+    else from `plan` (and kept there)."""
+    if records and records.plan:
+        kept = records.plan["plans"]
+        return {f: Plan(**{k: kept[f][k] for k in PLAN_FIELDS}) for f in families}, records.plan[
+            "pilot_transfers"
+        ]
+    before = memo.simulated
+    plans = plan(memo, families, least, settings)
+    simulated = memo.simulated - before
+    if records:
+        records.save_plan({f: {**asdict(p), "too_large": p.too_large} for f, p in plans.items()}, simulated)
+    return plans, simulated
+
+
 def _named(fitted: Profile) -> str:
     """A named effect as the progress line gives it: its estimate and interval."""
     low, high = fitted.interval()
@@ -400,9 +433,13 @@ def _cpu_seconds() -> float:
     return own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime
 
 
-def run(seeds: int = SEEDS, families: Sequence[str] | None = None) -> dict[str, float | int | str]:
+def run(
+    seeds: int = SEEDS, families: Sequence[str] | None = None, out: str | None = None
+) -> dict[str, float | int | str]:
     """The benchmark at the goal's size by default (every family, `SEEDS` seeds); `seeds` and `families`
-    (`pegbt bench sim2real-outcomes --seeds N --families A,B`) run a reduced one, named in its figures."""
+    (`pegbt bench sim2real-outcomes --seeds N --families A,B`) run a reduced one, named in its figures.
+    With `out` (`--out DIR`) the run keeps its plan and scores there and resumes from them
+    (`outcomes_records`)."""
     chosen = list(FAMILIES) if families is None else list(families)
     unknown = [f for f in chosen if f not in FAMILIES]
     if unknown or not chosen:
@@ -412,7 +449,8 @@ def run(seeds: int = SEEDS, families: Sequence[str] | None = None) -> dict[str, 
         )
     if seeds < 1:
         raise PegbtError(f"expected at least 1 seed, got {seeds}", field="--seeds")
-    figures = measure(chosen, seeds, REAL_TRANSFERS, SETTINGS)
+    records = None if out is None else Records(Path(out), chosen, code_identity())
+    figures = measure(chosen, seeds, REAL_TRANSFERS, SETTINGS, records=records)
     figures["families"] = ",".join(chosen)
     figures["full_size"] = str(seeds >= SEEDS and set(chosen) == set(FAMILIES)).lower()
     return figures
