@@ -31,6 +31,13 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
         help="sim2real-outcomes only: the families to run, comma-separated (default all; names in "
         "`pegbt.bench.sim2real_outcomes.FAMILIES`)",
     )
+    parser.add_argument(
+        "--out",
+        metavar="DIR",
+        help="sim2real-outcomes only: keep the pilot's plan and each family's and seed's score in "
+        "DIR/records.jsonl as they complete; rerun with the same DIR (same code, same families) to "
+        "simulate only what is missing",
+    )
     parser.set_defaults(handler=_bench)
 
 
@@ -49,10 +56,12 @@ def _bench(args: argparse.Namespace) -> int:
         options["seeds"] = args.seeds
     if args.families is not None:
         options["families"] = [f.strip() for f in args.families.split(",") if f.strip()]
+    if args.out is not None:
+        options["out"] = args.out
     if options and args.names != ["sim2real-outcomes"]:
         raise PegbtError(
-            "--seeds and --families size the sim2real-outcomes benchmark alone: name only it",
-            field="--seeds" if args.seeds is not None else "--families",
+            "--seeds, --families and --out are the sim2real-outcomes benchmark's alone: name only it",
+            field=next(f"--{name}" for name in ("seeds", "families", "out") if name in options),
         )
     results: dict[str, Figures] = {name: run_benchmark(name, **options) for name in args.names}
     if args.json:

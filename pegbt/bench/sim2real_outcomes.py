@@ -11,8 +11,10 @@ inside their 95 % predictive interval.
 The size of each family's "real" campaign is fixed before any diagnosis runs, by the power of the test
 that could see its world, not by what the tool names. A pilot (`pilot`, `shifts`) simulates, in the fit
 cells, what each concealed effect alone changes against the default world; from it, `detectable_at` is the
-fewest real transfers a fit cell at which a two-sided 5 % test sees that change nine times in ten (`POWER`,
-the naming rate the goal asks for), the simulated side growing with it in the ratio of the diagnosis's
+fewest real transfers a fit cell at which the gate's own test sees one of its changes nine times in ten
+(`outcomes_power.POWER`, the naming rate the goal asks for; at 0.9 a family meets 5 of 5 seeds only about
+59 % of the time), each change tested at α over the testable rows of its family, placed or phase, as the
+gate counts them (`outcomes_power`), the simulated side growing with it in the ratio of the diagnosis's
 `located` to 120 real. The pilot is sequential: a size is only trusted when read from at least as many
 paired transfers as it sets. The family's fit cells then get the smallest whole number of 12-transfer
 trials at least the concealed campaign's 120 transfers and at least every one of its effects'
@@ -22,7 +24,8 @@ change a fit cell by less than 120 transfers resolve. A family whose effects cha
 size (`detectable_at` "never"), or need more than a seed's block of real transfers (too large), is kept
 at 120 and scored as a further null: its naming rate is not applicable ("n/a": no campaign here can show
 what it changes), its false discoveries count. The diagnosis's own simulated side grows with
-the largest real fit cell (`Settings.for_campaign`).
+the largest real fit cell (`Settings.for_campaign`). The sizes are fixed before any diagnosis, from the
+worlds' own changes and the gate's stated test: design, not tuning.
 """
 
 from __future__ import annotations
@@ -33,10 +36,11 @@ import statistics
 import sys
 import time
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
+from pathlib import Path
 
-from scipy import stats
-
+from pegbt.bench.outcomes_power import Change, detectability, detectable_at, surely_beyond
+from pegbt.bench.outcomes_records import Records, code_identity
 from pegbt.errors import PegbtError
 from pegbt.runconditions import VARIANTS
 from pegbt.sim.world_effects import WorldEffects
@@ -44,7 +48,7 @@ from pegbt.sim2real.outcomes.cache import MemoMapper
 from pegbt.sim2real.outcomes.cells import Cell, Outcomes
 from pegbt.sim2real.outcomes.diagnose import Diagnosis, Settings, diagnose
 from pegbt.sim2real.outcomes.fit import Profile
-from pegbt.sim2real.outcomes.simulate import CATEGORIES, LocalMapper, Mapper, simulate_cells
+from pegbt.sim2real.outcomes.simulate import CATEGORIES, LocalMapper, Mapper, category_of, simulate_cells
 
 # Every concealed value lies between the fit's grid values (`SETTINGS.points`; `fit.candidates`), so a
 # parameter error measures the estimate read between them, not a grid that happens to hold the truth.
@@ -80,7 +84,6 @@ SETTINGS = Settings(fit="unilateral", transfers=12, points=4)
 REAL_SEED = 100_000  # the real runs' seeds start here, far from the fit's
 SEED_BLOCK = 10_000  # each seed's real transfers: a block of seeds larger than any family's campaign
 NOT_APPLICABLE = "n/a"  # the naming rate of a family whose world changes no fit cell at any size
-POWER = 0.9  # the naming rate the goal asks for: a difference seen this often is detectable
 
 
 def concealed_outcomes(
@@ -127,40 +130,35 @@ def _fitted(key: tuple[str, str], fit: str) -> bool:
     return fit in ("all", *key)
 
 
-def detectable_difference(share: float, real: int, simulated: int, power: float = POWER) -> float:
-    """The smallest difference between a real and a simulated share (of transfers placed, or failed in
-    one phase) that a two-sided test at 5 % sees with probability `power`, with `real` and `simulated`
-    transfers around a common `share` (normal approximation)."""
-    z = float(stats.norm.ppf(0.975) + stats.norm.ppf(power))
-    return z * math.sqrt(max(share * (1 - share), 1 / (real + simulated)) * (1 / real + 1 / simulated))
-
-
 World = Mapping[str, Mapping[str, float]]  # concealed effects: kind → parameter → value
 
 
 def shifts(
     mapper: Mapper, worlds: Mapping[str, World], settings: Settings, transfers: int | None = None
-) -> dict[str, list[tuple[float, float]]]:
+) -> dict[str, list[Change]]:
     """Per named world of concealed effects (a family's, or one effect's alone), what it changes in each
-    fit cell: for the share of transfers placed and of those failed first in each phase, (the two worlds'
-    mean share, the concealed world's less the default one's). On the phase simulator, `transfers` a cell
-    (by default `settings.located`) on the seeds the default world is located on, so the two worlds share
-    their random numbers and the change is the effect's."""
+    fit cell: for the share of transfers placed and of those failed first in each phase, a `Change`. On
+    the phase simulator, `transfers` a cell (by default `settings.located`) on the seeds the default world
+    is located on, so the two worlds share their random numbers and the change is the effect's; the pairs
+    that differ in a row (`Change.discordant`) say how precisely it is read."""
     hidden = {name: WorldEffects.of(effects) for name, effects in worlds.items() if effects}
     keys = [key for key in CELLS if _fitted(key, settings.fit)]
-    unique = list(dict.fromkeys(hidden.values()))  # a pair's effect alone is also its own family's
-    sims = simulate_cells(
-        mapper, [WorldEffects(), *unique], keys, settings.located if transfers is None else transfers
+    run = [WorldEffects(), *dict.fromkeys(hidden.values())]  # a pair's effect alone is also its own family's
+    n = settings.located if transfers is None else transfers
+    results = mapper(
+        [(tuple(run), variant, condition, seed) for variant, condition in keys for seed in range(n)]
     )
-    of = dict(zip(unique, sims[1:]))
     out = {}
     for name, world in hidden.items():
-        sim, changes = of[world], []
-        for key in keys:
-            new, old = sim[key], sims[0][key]
+        w, changes = run.index(world), []
+        for k in range(len(keys)):
+            pairs = [(category_of(r[0]), category_of(r[w])) for r in results[k * n : (k + 1) * n]]
+            pairs = [(old, new) for old, new in pairs if old is not None and new is not None]
             for category in CATEGORIES:
-                a, b = new.counts[category] / new.attempted, old.counts[category] / old.attempted
-                changes.append(((a + b) / 2, a - b))
+                a = sum(new == category for _, new in pairs) / len(pairs)
+                b = sum(old == category for old, _ in pairs) / len(pairs)
+                apart = sum((old == category) != (new == category) for old, new in pairs) / len(pairs)
+                changes.append(Change(category == CATEGORIES[0], (a + b) / 2, a - b, apart))
         out[name] = changes
     return out
 
@@ -170,7 +168,7 @@ class Reading:
     """What one concealed world changes in the fit cells (`shifts`), read from `transfers` paired
     transfers a cell."""
 
-    changes: list[tuple[float, float]]
+    changes: list[Change]
     transfers: int
 
 
@@ -185,8 +183,10 @@ def pilot(
     `settings.located` a cell; each world whose `detectable_at` exceeds the transfers it was read from is
     read again from that many, in whole trials (the same seeds grown, so
     the memo keeps what is already simulated), until it is read from at least as many as it asks for or
-    from `cap` (then `detectable_at` above `cap` says the family is too large for the benchmark). A world
-    that changes no transfer of its reading is read once more at the largest size the pilot reaches, where
+    from `cap` (then `detectable_at` above `cap` says the family is too large for the benchmark), or until
+    even the far end of each change's 95 % interval asks for more than `cap` (`surely_beyond`): then it is
+    too large with 95 % confidence, and reading it at `cap` (grasp capture and jaw tip slide, 53,000 paired
+    transfers) would only confirm it. A world that changes no transfer of its reading is read once more at the largest size the pilot reaches, where
     the default world is already simulated: no change in n paired transfers bounds a change only to about
     3/n. The rule uses the worlds' own changes, never a diagnosis."""
     out: dict[str, Reading] = {}
@@ -200,7 +200,12 @@ def pilot(
             for name in group:
                 out[name] = Reading(read[name], size)
                 needed = detectable_at(read[name], settings.real, settings.located)
-                if needed is not None and size < needed and size < cap:
+                if (
+                    needed is not None
+                    and size < needed
+                    and size < cap
+                    and not surely_beyond(read[name], size, cap, settings.real, settings.located)
+                ):
                     following[name] = min(cap, TRIAL * math.ceil(needed / TRIAL))
         largest = max(r.transfers for r in out.values())
         if not following and not rechecked:
@@ -224,6 +229,9 @@ def fit_size(needed: Sequence[int | None], least: int = REAL_TRANSFERS) -> int:
     and at least each of its effects' `detectable_at` (`needed`; None, an effect no size shows, asks for
     nothing more)."""
     return TRIAL * math.ceil(max([least, *(n for n in needed if n is not None)]) / TRIAL)
+
+
+PLAN_FIELDS = ("detectability", "detectable_at", "size", "read_from")
 
 
 @dataclass(frozen=True)
@@ -269,40 +277,6 @@ def plan(mapper: Mapper, families: Sequence[str], least: int, settings: Settings
     return out
 
 
-def detectability(changes: Sequence[tuple[float, float]], real: int, simulated: int) -> float:
-    """The largest of a family's `changes` (`shifts`) over the smallest difference `real` real transfers
-    against `simulated` simulated ones resolve (`detectable_difference`): 1 or more, the family's world
-    shows in its fit cells; below 1 no method can name it from them."""
-    ratios = (abs(change) / detectable_difference(share, real, simulated) for share, change in changes)
-    return max(ratios, default=0.0)
-
-
-def detectable_at(changes: Sequence[tuple[float, float]], real: int, simulated: int) -> int | None:
-    """The real transfers per fit cell at which a family's `detectability` reaches 1, the simulated ones
-    growing with them in the ratio `real`:`simulated` (a diagnosis of a larger campaign locates the default
-    world on as many more): its ratio grows about as the square root of the size. None if the world
-    changes nothing in the fit cells, at any size."""
-    sizes = [transfers_to_resolve(abs(c), share, real, simulated) for share, c in changes if c]
-    return min(sizes, default=None)
-
-
-def transfers_to_resolve(difference: float, share: float, real: int, simulated: int) -> int:
-    """The fewest real transfers n at which `detectable_difference` is at most `difference` against
-    n·`simulated`/`real` simulated transfers (rounded up); `difference` must be above 0."""
-
-    def resolves(n: int) -> bool:
-        return detectable_difference(share, n, math.ceil(n * simulated / real)) <= difference
-
-    high = 1
-    while not resolves(high):
-        high *= 2
-    low = high // 2  # 0, or a size that does not resolve: the difference shrinks as n grows
-    while high - low > 1:
-        middle = (low + high) // 2
-        low, high = (low, middle) if resolves(middle) else (middle, high)
-    return high
-
-
 def score(d: Diagnosis, hidden: Mapping[str, Mapping[str, float]]) -> dict[str, float]:
     """Whether every concealed kind was named, whether another was, the estimates' relative errors
     (median), whether each concealed parameter was resolved as the goal asks (within ± 30 %, or an
@@ -335,10 +309,12 @@ def measure(
     settings: Settings,
     workers: int = 2,
     simulator: Mapper | None = None,
+    records: Records | None = None,
 ) -> dict[str, float | int | str]:
     """The figures of `families` over `seeds` seeds each, simulated by `simulator` (by default the phase
     simulator in `workers` local processes). One memo of simulated transfers serves every diagnosis
-    (`cache.MemoMapper`): their fits simulate the same worlds on the same seeds."""
+    (`cache.MemoMapper`): their fits simulate the same worlds on the same seeds. With `records`, the plan
+    and each score are kept as they come, and those already kept are read back, not simulated again."""
     pool = None
     if simulator is None:
         pool = simulator = LocalMapper(workers)
@@ -348,8 +324,9 @@ def measure(
     scores: dict[str, list[dict[str, float]]] = {family: [] for family in families}
     needed = 0
     try:
-        plans = plan(memo, families, real_transfers, settings)
-        figures["pilot_transfers_simulated"] = memo.simulated
+        plans, figures["pilot_transfers_simulated"] = _planned(
+            memo, families, real_transfers, settings, records
+        )
         for family in families:
             p = plans[family]
             figures[f"{family}_real_transfers_per_fit_cell"] = p.size
@@ -376,18 +353,25 @@ def measure(
                     flush=True,
                 )
         for seed in range(seeds):
+            kept = {f: records.scores[(f, seed)] for f in families if records and (f, seed) in records.scores}
+            for family, record in kept.items():
+                needed += record["simulated"]
+                scores[family].append(record["score"])
+            missing = [f for f in families if f not in kept]
             real: dict[str, Outcomes] = {}
-            for size in sorted({plans[f].size for f in families}):
-                group = [f for f in families if plans[f].size == size]
+            for size in sorted({plans[f].size for f in missing}):
+                group = [f for f in missing if plans[f].size == size]
                 worlds = [WorldEffects.of(FAMILIES[f]) for f in group]
                 real.update(
                     zip(group, concealed_outcomes(memo, worlds, seed, size, real_transfers, settings.fit))
                 )
-            for family in families:
+            for family in missing:
                 before = memo.simulated
                 d = diagnose(real[family], settings, memo)
                 needed += d.simulated
                 scores[family].append(score(d, FAMILIES[family]))
+                if records:
+                    records.save_score(family, seed, scores[family][-1], d.simulated)
                 print(
                     f"{family} seed {seed}: named {', '.join(map(_named, d.verdict.named)) or 'nothing'} "
                     f"{scores[family][-1]}; {plans[family].size} real transfers a fit cell, "
@@ -419,6 +403,24 @@ def measure(
     return figures
 
 
+def _planned(
+    memo: MemoMapper, families: Sequence[str], least: int, settings: Settings, records: Records | None
+) -> tuple[dict[str, Plan], int]:
+    """Each family's `Plan` and the transfers its pilot simulated: kept in `records` if it holds them,
+    else from `plan` (and kept there)."""
+    if records and records.plan:
+        kept = records.plan["plans"]
+        return {f: Plan(**{k: kept[f][k] for k in PLAN_FIELDS}) for f in families}, records.plan[
+            "pilot_transfers"
+        ]
+    before = memo.simulated
+    plans = plan(memo, families, least, settings)
+    simulated = memo.simulated - before
+    if records:
+        records.save_plan({f: {**asdict(p), "too_large": p.too_large} for f, p in plans.items()}, simulated)
+    return plans, simulated
+
+
 def _named(fitted: Profile) -> str:
     """A named effect as the progress line gives it: its estimate and interval."""
     low, high = fitted.interval()
@@ -431,9 +433,13 @@ def _cpu_seconds() -> float:
     return own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime
 
 
-def run(seeds: int = SEEDS, families: Sequence[str] | None = None) -> dict[str, float | int | str]:
+def run(
+    seeds: int = SEEDS, families: Sequence[str] | None = None, out: str | None = None
+) -> dict[str, float | int | str]:
     """The benchmark at the goal's size by default (every family, `SEEDS` seeds); `seeds` and `families`
-    (`pegbt bench sim2real-outcomes --seeds N --families A,B`) run a reduced one, named in its figures."""
+    (`pegbt bench sim2real-outcomes --seeds N --families A,B`) run a reduced one, named in its figures.
+    With `out` (`--out DIR`) the run keeps its plan and scores there and resumes from them
+    (`outcomes_records`)."""
     chosen = list(FAMILIES) if families is None else list(families)
     unknown = [f for f in chosen if f not in FAMILIES]
     if unknown or not chosen:
@@ -443,7 +449,8 @@ def run(seeds: int = SEEDS, families: Sequence[str] | None = None) -> dict[str, 
         )
     if seeds < 1:
         raise PegbtError(f"expected at least 1 seed, got {seeds}", field="--seeds")
-    figures = measure(chosen, seeds, REAL_TRANSFERS, SETTINGS)
+    records = None if out is None else Records(Path(out), chosen, code_identity())
+    figures = measure(chosen, seeds, REAL_TRANSFERS, SETTINGS, records=records)
     figures["families"] = ",".join(chosen)
     figures["full_size"] = str(seeds >= SEEDS and set(chosen) == set(FAMILIES)).lower()
     return figures

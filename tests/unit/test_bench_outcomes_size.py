@@ -1,11 +1,14 @@
-"""`pegbt bench sim2real-outcomes --seeds N --families A,B`: a reduced benchmark the command line states,
-each bad choice one clear line."""
+"""`pegbt bench sim2real-outcomes --seeds N --families A,B [--out DIR]`: a reduced benchmark the command
+line states, each bad choice one clear line."""
 
 from __future__ import annotations
+
+from pathlib import Path
 
 import pytest
 
 from pegbt.bench import sim2real_outcomes
+from pegbt.bench.outcomes_records import RECORDS, Records, code_identity
 from pegbt.cli import main
 
 
@@ -24,18 +27,34 @@ def test_a_bad_size_is_one_clear_line(
     assert words in err and len(err.splitlines()) == 1
 
 
-def test_the_size_options_belong_to_sim2real_outcomes_alone(capsys: pytest.CaptureFixture[str]) -> None:
-    assert main(["bench", "world", "--seeds", "1"]) == 2
-    assert "sim2real-outcomes benchmark alone" in capsys.readouterr().err
+@pytest.mark.parametrize("option", [["--seeds", "1"], ["--out", "somewhere"]])
+def test_the_size_options_belong_to_sim2real_outcomes_alone(
+    option: list[str], capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert main(["bench", "world", *option]) == 2
+    assert f"{option[0]}: " in capsys.readouterr().err
 
 
 def test_the_reduced_run_measures_the_families_and_seeds_asked_for(monkeypatch: pytest.MonkeyPatch) -> None:
     asked = []
     monkeypatch.setattr(
-        sim2real_outcomes, "measure", lambda families, seeds, *_: asked.append((families, seeds)) or {}
+        sim2real_outcomes, "measure", lambda families, seeds, *_, **__: asked.append((families, seeds)) or {}
     )
     assert main(["bench", "sim2real-outcomes", "--seeds", "2", "--families", "null,peg_compliance"]) == 0
     assert asked == [(["null", "peg_compliance"], 2)]
     figures = sim2real_outcomes.run()
     assert asked[-1] == (list(sim2real_outcomes.FAMILIES), sim2real_outcomes.SEEDS)
     assert figures["full_size"] == "true"
+
+
+def test_out_keeps_the_run_in_the_folder_under_this_codes_identity(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    kept: list[Records | None] = []
+    monkeypatch.setattr(sim2real_outcomes, "measure", lambda *_, records=None: kept.append(records) or {})
+    assert (
+        main(["bench", "sim2real-outcomes", "--seeds", "1", "--families", "null", "--out", str(tmp_path)])
+        == 0
+    )
+    (records,) = kept
+    assert records is not None and records.path == tmp_path / RECORDS and records.code == code_identity()

@@ -2,8 +2,8 @@
 
 The primary family is one test per fit cell, its placed rate against the default world's (Fisher's exact
 test, Benjamini–Hochberg over the fit cells' placed rows alone): the fit runs if one rejects, on the cells
-that reject. A benchmark sizes a campaign so that one 5 % test sees its largest change nine times in ten
-(`pegbt.bench.sim2real_outcomes.detectable_at`); judging the placed rate together with every phase row
+that reject. A benchmark sizes a campaign by this gate's own test (`pegbt.bench.outcomes_power`: a change
+at α over the testable rows of its family, nine times in ten); judging the placed rate together with every phase row
 (six rows a unilateral fit) asked for several times that evidence (chamfer capture at 1,104 real: placed
 p = 0.014, sense p = 0.020, no fit). The phase rows of the cells that pass form the secondary family
 (Benjamini–Hochberg over them alone), read only to say where the cell disagrees: which kinds the fit

@@ -77,15 +77,23 @@ class SimCounts:
         return self.placed_seconds if self.succeeded else None
 
     def add(self, result: TransferResult) -> None:
-        if result.skipped:
+        category = category_of(result)
+        if category is None:
             self.skipped += 1
             return
-        category = "placed" if result.succeeded else (result.phase or "grasp")
         n, k = self.attempted, self.succeeded
         self.counts[category] += 1
         self.seconds = (self.seconds * n + result.seconds) / (n + 1)
         if result.succeeded:
             self.placed_seconds = (self.placed_seconds * k + result.seconds) / (k + 1)
+
+
+def category_of(result: TransferResult) -> str | None:
+    """The `CATEGORIES` entry a transfer counts in: placed, or the phase of its first failure for good;
+    None for a transfer the protocol never attempted."""
+    if result.skipped:
+        return None
+    return "placed" if result.succeeded else (result.phase or "grasp")
 
 
 Task = tuple[tuple[WorldEffects, ...], str, str, int]  # worlds, variant, condition, seed

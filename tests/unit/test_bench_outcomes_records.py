@@ -1,0 +1,125 @@
+"""`pegbt bench sim2real-outcomes --out DIR` keeps its plan and scores as they complete, resumes from them
+with the same code, refuses other code, and survives a line torn by a killed run."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from pathlib import Path
+
+import pytest
+
+from pegbt.bench import sim2real_outcomes as bench
+from pegbt.bench.outcomes_records import RECORDS, Records, code_identity
+from pegbt.errors import PegbtError
+from pegbt.sim.world_effects import WorldEffects
+from pegbt.sim2real.outcomes.cells import Outcomes
+from pegbt.sim2real.outcomes.diagnose import Diagnosis
+from pegbt.sim2real.outcomes.transfer_result import TransferResult
+from tests.outcomes_helpers import fake_mapper
+
+FAMILIES = ["peg_compliance", "null"]
+PER_RUN = ("wall_s", "cpu_s", "transfers_simulated")  # this run's own costs, not the records'
+
+
+class Counting:
+    """The stand-in simulator, counting the transfers asked of it."""
+
+    def __init__(self) -> None:
+        self.transfers = 0
+
+    def __call__(
+        self, tasks: Sequence[tuple[tuple[WorldEffects, ...], str, str, int]]
+    ) -> list[list[TransferResult]]:
+        self.transfers += sum(len(worlds) for worlds, *_ in tasks)
+        return fake_mapper(tasks)
+
+
+def _measure(seeds: int, records: Records | None, simulator: Counting) -> dict[str, float | int | str]:
+    return bench.measure(FAMILIES, seeds, 12, bench.SETTINGS, simulator=simulator, records=records)
+
+
+def _same(a: dict[str, float | int | str], b: dict[str, float | int | str]) -> None:
+    assert a.keys() == b.keys()
+    for key in a:
+        if key not in PER_RUN:
+            x, y = a[key], b[key]
+            assert x == y or (
+                isinstance(x, float) and isinstance(y, float) and math.isnan(x) and math.isnan(y)
+            ), key
+
+
+def test_a_rerun_simulates_only_the_missing_seeds_and_gives_the_uninterrupted_figures(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """One seed kept, then two asked for: the pilot is not run again, only seed 1 is diagnosed, and the
+    figures are those of a run of two seeds straight through."""
+    straight = _measure(2, None, Counting())
+    _measure(1, Records(tmp_path, FAMILIES, "code"), Counting())
+    diagnosed: list[Outcomes] = []
+    diagnose = bench.diagnose
+
+    def counted(outcomes: Outcomes, *args: object) -> Diagnosis:
+        diagnosed.append(outcomes)
+        return diagnose(outcomes, *args)  # type: ignore[arg-type]
+
+    def no_pilot(*args: object) -> None:
+        raise AssertionError("the pilot ran again")
+
+    monkeypatch.setattr(bench, "diagnose", counted)
+    monkeypatch.setattr(bench, "plan", no_pilot)
+    resumed = _measure(2, Records(tmp_path, FAMILIES, "code"), Counting())
+    assert [o.source for o in diagnosed] == ["concealed world, seed 1"] * len(FAMILIES)
+    _same(resumed, straight)
+    diagnosed.clear()
+    again = _measure(2, Records(tmp_path, FAMILIES, "code"), simulator := Counting())
+    assert not diagnosed and simulator.transfers == 0
+    _same(again, straight)
+
+
+def test_a_rerun_of_other_code_is_refused_naming_the_folder_and_both_identities(tmp_path: Path) -> None:
+    Records(tmp_path, FAMILIES, "aaa").save_plan({}, 0)
+    with pytest.raises(PegbtError, match=rf"{tmp_path}.*aaa.*bbb") as error:
+        Records(tmp_path, FAMILIES, "bbb")
+    assert error.value.file == str(tmp_path / RECORDS)
+
+
+def test_a_rerun_of_other_families_is_refused(tmp_path: Path) -> None:
+    Records(tmp_path, FAMILIES, "aaa").save_plan({}, 0)
+    with pytest.raises(PegbtError, match="families"):
+        Records(tmp_path, ["null"], "aaa")
+
+
+def test_a_torn_last_line_is_dropped_with_a_message_and_the_next_record_starts_a_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    records = Records(tmp_path, FAMILIES, "aaa")
+    records.save_plan({}, 7)
+    records.save_score("null", 0, {"named": 0.0, "error": math.nan}, 5)
+    with (tmp_path / RECORDS).open("a") as file:
+        file.write('{"kind": "score", "family": "null", "se')
+    resumed = Records(tmp_path, FAMILIES, "aaa")
+    assert "torn last line" in capsys.readouterr().err
+    assert resumed.plan is not None and resumed.plan["pilot_transfers"] == 7
+    assert list(resumed.scores) == [("null", 0)] and math.isnan(resumed.scores[("null", 0)]["score"]["error"])
+    resumed.save_score("null", 1, {"named": 0.0}, 3)
+    assert list(Records(tmp_path, FAMILIES, "aaa").scores) == [("null", 0), ("null", 1)]
+
+
+def test_a_bad_line_before_the_last_is_an_error_naming_its_line(tmp_path: Path) -> None:
+    (tmp_path / RECORDS).write_text('{"kind": "plan"\n{"kind": "score"}\n')
+    with pytest.raises(PegbtError) as error:
+        Records(tmp_path, FAMILIES, "aaa")
+    assert (error.value.file, error.value.line) == (str(tmp_path / RECORDS), 1)
+
+
+def test_the_code_identity_changes_with_a_source_or_a_tree_and_nothing_else(tmp_path: Path) -> None:
+    for path, text in {"pegbt/a.py": "x = 1\n", "trees/t.yaml": "a: 1\n", "skills/s.yaml": "b: 2\n"}.items():
+        (tmp_path / path).parent.mkdir(parents=True, exist_ok=True)
+        (tmp_path / path).write_text(text)
+    first = code_identity(tmp_path)
+    (tmp_path / "docs").mkdir()
+    (tmp_path / "docs" / "guide.md").write_text("notes\n")
+    assert code_identity(tmp_path) == first
+    (tmp_path / "trees" / "t.yaml").write_text("a: 2\n")
+    assert code_identity(tmp_path) != first
