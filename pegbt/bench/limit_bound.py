@@ -46,7 +46,7 @@ such wait: nobody else holds the block, so its opening may overlap the carry's e
 The jaw's angles: `jaw_on_wall` (12°) puts the jaws' centre lines at the tip on the wall's faces; the jaws are
 `jaw_radius` round (`skills/workcell.yaml`), so there they are a jaw radius into the wall, a squeeze (the least
 the bound grants: the close and the opening run between it and the clearing angle). Each jaw's surface leaves
-the wall at `clears_wall` (24°, as `skills/motion.yaml` has it for `jaw_release`): the wall (the block's flat
+the wall at `jaw_clear_of_wall` (24°, as `skills/motion.yaml` has it for `jaw_release`): the wall (the block's flat
 edge less its hole, `peg-transfer-geometry.md`, "Block") plus a jaw radius either side at the jaw's length
 from its hinge (L4, "PSM kinematics"). A jaw whose faces run straight from the hinge meets the wall's top edge,
 `grasp_depth` above the tip, at 23.1°: the same within 1.2° (0.0035 s of the jaw). A trial's bound per transfer is, as for pegbt's own figure, the union of the transfers'
@@ -65,7 +65,7 @@ from numpy.typing import NDArray
 from pegbt.bench.limit_axis import CELL, CELL_SAMPLES, SPAN, Limits, on_axis_s
 from pegbt.bench.limit_joint import reach_s
 from pegbt.frames import apply_rigid, rigid_transform
-from pegbt.motion.handover import handover_meeting_point, jaw_on_wall
+from pegbt.motion.handover import handover_meeting_point, jaw_clear_of_wall, jaw_on_wall
 from pegbt.motion.ik import solve_ik
 from pegbt.motion.limits import ArmSettings, arm_settings
 from pegbt.motion.settings import MotionSettings, motion_settings
@@ -300,11 +300,7 @@ class Bound:
         self.heights = heights or Heights.minimal(self.motion)
         self.settings = {arm: arm_settings(arm) for arm in ("PSM1", "PSM2")}
         jaw = self.settings["PSM1"].jaw_velocity
-        block, tool = self.cell.block, self.cell.tool
-        wall = block.edge_distance - block.hole_radius
-        gripped = jaw_on_wall(self.cell)
-        self.clears_wall = 2.0 * math.asin(min(1.0, (wall + 2.0 * tool.jaw_radius) / 2.0 / tool.jaw_length))
-        self.jaw_close_s = (self.clears_wall - gripped) / jaw  # from clear of the wall to its squeeze
+        self.jaw_close_s = (jaw_clear_of_wall(self.cell) - jaw_on_wall(self.cell)) / jaw  # to its squeeze
         self.jaw_open_s = self.jaw_close_s  # back again, at the jaw's velocity limit
         self._axis: dict[
             tuple[str, str], tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]
