@@ -209,7 +209,18 @@ declare(
     "release",
     "open `arm`'s jaw, letting go of whatever it holds; writes `holding` false",
     "pegbt.behaviours.actions.grasping:Release",
-    params=(arm_param(), key_param("holding", "write", "whether the jaw holds a block (now false)")),
+    params=(
+        arm_param(),
+        key_param("holding", "write", "whether the jaw holds a block (now false)"),
+        Param(
+            "once_clear",
+            bool,
+            "done once the measured jaw has opened past where it clears the block's wall (24°, "
+            "`jaw_clear_of_wall`), its opening going on: a giver's rise after it starts then, not at the "
+            "opening's end",
+            default=False,
+        ),
+    ),
     resources=RESOURCES,
 )
 
@@ -514,7 +525,17 @@ declare(
     "the block slipped out: a giver waiting at the meeting point must notice a slip there, or the receiver "
     "closes on nothing and nobody fetches the block",
     "pegbt.behaviours.conditions.blocks:KeepHolding",
-    params=(arm_param(), held_param()),
+    params=(
+        arm_param(),
+        held_param(),
+        Param(
+            "ease",
+            bool,
+            "ease the squeeze to `grip_confirmed_below` under the block's wall as it starts (the grip a lift "
+            "carries a block with): a giver holding the block out then lets go from there",
+            default=False,
+        ),
+    ),
     resources=RESOURCES,
 )
 

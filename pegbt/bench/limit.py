@@ -9,7 +9,8 @@ per transfer over the trials. The lockstep difference is split, for the arm busi
 - `path`: the time pegbt's arm moved in its transfers less the motion of that waypoint bound (its path's
   shape, the channels, timing);
 - `jaw`: the time its jaw leaves ran (closing from the approach's opening, squeeze, opening to let go)
-  less that waypoint bound's jaw (closing on the wall, the block's fall from the drop height);
+  less that waypoint bound's jaw (closing on the wall, a giver's opening off it, the block's fall from the
+  drop height);
 - `waits`: the time its other leaves ran in its transfers (perception, planning, waiting for the way or,
   in a handover, for the other arm: zero in lockstep for computation, which takes no simulated time);
 - `sequencing`: the rest (the arm idle in a transfer: the other arm, the handover's order, ticks).

@@ -36,11 +36,20 @@ downwards would take its shaft (8.4 mm) through the hole (7.2 mm). So the receiv
 the block's top on its way to the grasp and comes to rest there no sooner than the giver holds the block out;
 its jaw enters the hole only once the block is on its final axis (it may while the giver still brings the
 block along that axis, as pegbt's does), so the giver's carry and the receiver's descent meet on that axis
-(`pegbt.bench.limit_axis`); its jaw closes; then the giver's jaw opens past the wall and the giver passes its
-own grasp's point at the block's top on its way to its next pick (the opening, `jaw_close_s`, may overlap that
-rise: with the planner's limits it is shorter than the rise from rest), the block held still meanwhile; the
-receiver carries the block off only once the giver's jaw has opened and left the hole (both done), then to the
-goal peg. A trial's bound per transfer is, as for pegbt's own figure, the union of the transfers'
+(`pegbt.bench.limit_axis`); its jaw closes to its squeeze; only then does the giver's jaw open, from its squeeze
+to the angle at which it clears the wall (`jaw_open_s`), its arm still meanwhile: a jaw still on the wall grips,
+and an arm moving while the receiver holds the block still drags it through one of the grips; then the giver
+passes its own grasp's point at the block's top on its way to its next pick; the receiver carries the block off
+only once the giver's jaw has opened and left the hole, then to the goal peg. A jaw letting go onto a peg has no
+such wait: nobody else holds the block, so its opening may overlap the carry's end.
+
+The jaw's angles: `jaw_on_wall` (12°) puts the jaws' centre lines at the tip on the wall's faces; the jaws are
+`jaw_radius` round (`skills/workcell.yaml`), so there they are a jaw radius into the wall, a squeeze (the least
+the bound grants: the close and the opening run between it and the clearing angle). Each jaw's surface leaves
+the wall at `jaw_clear_of_wall` (24°, as `skills/motion.yaml` has it for `jaw_release`): the wall (the block's flat
+edge less its hole, `peg-transfer-geometry.md`, "Block") plus a jaw radius either side at the jaw's length
+from its hinge (L4, "PSM kinematics"). A jaw whose faces run straight from the hinge meets the wall's top edge,
+`grasp_depth` above the tip, at 23.1°: the same within 1.2° (0.0035 s of the jaw). A trial's bound per transfer is, as for pegbt's own figure, the union of the transfers'
 start-to-placement intervals over their number, so the busier arm sets it."""
 
 from __future__ import annotations
@@ -56,7 +65,7 @@ from numpy.typing import NDArray
 from pegbt.bench.limit_axis import CELL, CELL_SAMPLES, SPAN, Limits, on_axis_s
 from pegbt.bench.limit_joint import reach_s
 from pegbt.frames import apply_rigid, rigid_transform
-from pegbt.motion.handover import handover_meeting_point, jaw_on_wall
+from pegbt.motion.handover import handover_meeting_point, jaw_clear_of_wall, jaw_on_wall
 from pegbt.motion.ik import solve_ik
 from pegbt.motion.limits import ArmSettings, arm_settings
 from pegbt.motion.settings import MotionSettings, motion_settings
@@ -291,11 +300,8 @@ class Bound:
         self.heights = heights or Heights.minimal(self.motion)
         self.settings = {arm: arm_settings(arm) for arm in ("PSM1", "PSM2")}
         jaw = self.settings["PSM1"].jaw_velocity
-        block, tool = self.cell.block, self.cell.tool
-        wall = block.edge_distance - block.hole_radius
-        gripped = jaw_on_wall(self.cell)
-        passes = 2.0 * math.asin(min(1.0, (wall + 2.0 * tool.jaw_radius) / 2.0 / tool.jaw_length))
-        self.jaw_close_s = (passes - gripped) / jaw
+        self.jaw_close_s = (jaw_clear_of_wall(self.cell) - jaw_on_wall(self.cell)) / jaw  # to its squeeze
+        self.jaw_open_s = self.jaw_close_s  # back again, at the jaw's velocity limit
         self._axis: dict[
             tuple[str, str], tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]
         ] = {}
@@ -342,7 +348,8 @@ class Bound:
             giver_out=out,
             receiver=meet_r,
             to_receive=self.reach(receiver, starts, meet_r, via),
-            let_go=max(self.jaw_close_s, pass_s(meet_g, out, self.settings[giver])),
+            opening=self.jaw_open_s,
+            let_go=self.jaw_open_s + pass_s(meet_g, out, self.settings[giver]),
         )
 
     def axis_cells(
@@ -463,6 +470,7 @@ class Exchange:
     giver_out: NDArray[np.float64]  # its jaw out of the hole: passed on the way to its next pick
     receiver: NDArray[np.float64]
     to_receive: float  # the receiver's least time from its starts, in through the block's top, to its grasp
+    opening: float  # from the receiver's close to the giver's jaw clear of the wall, its arm still
     let_go: float  # from the receiver's close to the giver's jaw opened and out of the hole
 
 
@@ -509,9 +517,10 @@ def trial_bound(transfers: list[tuple[str, int, int]], bound: Bound | None = Non
             lambda goal, via: through(exchange.receiver, [*via], goal, bound.settings[receiver]),
         )
         times.motion += to_meet
+        times.jaw += exchange.opening
         result.arms[receiver].motion += exchange.to_receive + place_s
         result.arms[receiver].jaw += bound.jaw_close_s + fall
-        free[giver], at[giver] = taken, [Start(exchange.giver, exchange.giver_out)]
+        free[giver], at[giver] = taken + exchange.opening, [Start(exchange.giver, exchange.giver_out)]
         free[receiver], at[receiver] = taken + exchange.let_go + place_s, ends
         result.intervals.append((started, free[receiver] + fall))
     return result

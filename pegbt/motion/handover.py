@@ -67,6 +67,15 @@ def jaw_on_wall(cell: Workcell) -> float:
     return 2.0 * math.asin(min(1.0, wall / 2.0 / cell.tool.jaw_length))
 
 
+def jaw_clear_of_wall(cell: Workcell) -> float:
+    """The jaw angle (rad) past which an opening jaw has let go of a block's wall: its jaws, `jaw_radius`
+    round, a jaw radius clear of the wall either side at their tips (24°). Below it a jaw opening from its
+    squeeze still presses on the wall: an arm moving then drags the block (held by another jaw, through
+    that jaw)."""
+    wall = cell.block.edge_distance - cell.block.hole_radius
+    return 2.0 * math.asin(min(1.0, (wall / 2.0 + cell.tool.jaw_radius) / cell.tool.jaw_length))
+
+
 def tool_segments(
     q: ArrayLike, board_from_arm: NDArray[np.float64], tool: ToolGeometry | None = None
 ) -> list[tuple[NDArray, NDArray]]:

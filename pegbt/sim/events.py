@@ -19,6 +19,7 @@ EVENT_KINDS = (
     "grasp_miss",  # a closing jaw near a block gripped nothing (detail says why)
     "release",  # an opening jaw let go of a block
     "slip",  # a block left a closed jaw (pulled apart in a handover, or an injected fault)
+    "drag",  # a block held by two jaws slid through one still squeezing it (the other moved it)
     "lift",  # a held block's hole cleared the top of its peg
     "place",  # a released block came to rest around a peg
     "drop",  # a block fell other than by a deliberate placement: onto the board, a peg, or off the workspace

@@ -4,7 +4,8 @@ The endpoint calls `World.update(time, tools)` every simulation step with each a
 its physical joints). Nothing is scripted: a closing jaw grips a block only if its open jaws straddle one
 of the block's walls and the block can slide (on its peg, within the hole's clearance) until the wall
 sits centred between them, the wrist's cable play (`ToolState.give`) taking what the peg stops; a
-gripped block moves rigidly with the jaw; lifting it clears its peg only if the hole stays around the
+gripped block moves rigidly with the jaw (held by two, with the jaw that holds it, the other sliding along
+its wall: `World._carry`); lifting it clears its peg only if the hole stays around the
 peg all the way up (a peg pressing on the hole pushes the block, and the jaw
 holding it, aside as far as the wrist's cable play gives: `ToolState.give`); a released block lands on a
 peg only if its hole is over one within the clearance, and otherwise drops onto the board (or off it).
@@ -57,7 +58,8 @@ class WorldConfig:
     grasp_max_tilt: float = math.radians(30)  # between the tool's axis and the block's
     grasp_max_misalignment: float = math.radians(30)  # between the jaw-closing axis and the wall's normal
     grasp_search_radius: float = 0.015  # a closing jaw this near a block's centre is a grasp attempt
-    handover_pull_apart: float = 0.003  # two grips disagreeing by more than this: the later one slips
+    handover_pull_apart: float = 0.003  # a block dragged this far through a squeezing jaw pulls out of it
+    grip_give: float = 0.0002  # m: two grips disagreeing less than this hold the block between them
     peg_slack: float = 0.0  # extra clearance allowed between hole and peg before the block catches
     tip_off_clearance: float = (
         0.003  # m: a block that fell against pegs slides off until this far clear of them
@@ -114,6 +116,8 @@ class World:
         self._yielding = self._peg_bend > 0 or self._grip_angle > 0 or self._grip_slide > 0
         self._friction = effects.values("jaw_friction") if effects.has("jaw_friction") else None
         self._peg_load: dict[int, float] = {}  # N: what a bent peg pushes each threaded block with
+        self._drags: dict[tuple[int, str], tuple[str, float]] = {}  # (block, jaw): (dragged by, m so far)
+        self._bites: dict[tuple[int, str], float] = {}  # (block, jaw): its tip below the top as it gripped
         self._tip_samples: dict[str, list[tuple[float, Matrix]]] = {}  # (time, tip position), the last 3
         layout = np.random.default_rng(layout_seed)
         self.blocks: list[Block] = []
@@ -178,6 +182,8 @@ class World:
         for block in self.blocks:
             if block.grips:
                 self._carry(block)
+            elif self._drags:
+                self._end_drags(block)
         for arm in sorted(tools):
             self._follow_jaw(arm, tools[arm])
         self._inject_slips(elapsed)
@@ -258,6 +264,7 @@ class World:
         if giver is None:  # a free block slides until its wall sits centred between the closing jaws
             block.pose = block.pose @ rigid_transform(None, [slide[0], slide[1], 0.0])
         block.grips[arm] = invert_rigid(tool.tip) @ block.pose
+        self._bites[block.index, arm] = float(invert_rigid(block.grips[arm])[2, 3]) + self.cell.block.height
         detail = f"edge {edge}" + (f", handover from {giver}" if giver else "")
         self._log("grasp", arm, block.index, block.peg, detail)
 
@@ -366,18 +373,72 @@ class World:
     # ------------------------------------------------------------------------------ blocks among pegs
 
     def _carry(self, block: Block) -> None:
-        """Move a gripped block with its first holder; a second grip that disagrees too much slips."""
+        """Move a gripped block with the jaw that holds it (`_holder`). A block held by two jaws that move
+        apart cannot follow both: it slides along its wall in the other jaw, whose grip moves with it. A
+        jaw opened off the wall lets it slide freely; a jaw still squeezing is dragged along it: a `drag`
+        event (its length) once either jaw lets go, a `slip` (pulled out) once it passes
+        `handover_pull_apart`."""
         holders = list(block.grips)
-        carried = self.tools[holders[0]].tip @ block.grips[holders[0]]
-        for other in holders[1:]:
-            pulled = self.tools[other].tip @ block.grips[other]
-            if np.linalg.norm(pulled[:3, 3] - carried[:3, 3]) > self.config.handover_pull_apart:
-                self._slip(other, block, f"pulled out of the jaw by {holders[0]}")
+        poses = {arm: self.tools[arm].tip @ block.grips[arm] for arm in holders}
+        holder = self._holder(block, poses)
+        carried = poses[holder]
+        for other in holders:
+            slide = float(np.linalg.norm(poses[other][:3, 3] - carried[:3, 3]))
+            if other == holder or slide <= self.config.grip_give:
+                continue
+            block.grips[other] = invert_rigid(self.tools[other].tip) @ carried
+            if not self._squeezing(other):
+                continue
+            by, dragged = self._drags.pop((block.index, other), (holder, 0.0))
+            if dragged + slide > self.config.handover_pull_apart:
+                self._slip(
+                    other, block, f"pulled out of the jaw by {by}: dragged {(dragged + slide) * 1000:.1f} mm"
+                )
+                continue
+            self._drags[block.index, other] = (by, dragged + slide)
+        self._end_drags(block)
         block.pose = carried
         self._peg_load.pop(block.index, None)
         self._check_pegs(block)
         if self._friction is not None and block.grips:
             self._hold_or_slip(block)
+
+    def _holder(self, block: Block, poses: dict[str, Matrix]) -> str:
+        """Which of the jaws gripping `block` (`poses`: where each puts it) holds it: the first, unless the
+        grips disagree by more than `grip_give`; then a jaw squeezing the wall (its encoder stopped on it)
+        before one opened off it, then the deepest grip as it closed (more of the wall between its jaws: the
+        tip below the block's top, by more than `grip_give`), then the first. The world reads the jaws'
+        encoders, not their squeeze: two jaws on the wall at one depth leave it with the first."""
+        holders = list(poses)
+        first = poses[holders[0]][:3, 3]
+        if all(np.linalg.norm(pose[:3, 3] - first) <= self.config.grip_give for pose in poses.values()):
+            return holders[0]
+        give = self.config.grip_give
+
+        def hold(arm: str) -> tuple[bool, float, int]:
+            bite = self._bites.get((block.index, arm), 0.0)
+            return (not self._squeezing(arm), -round(bite / give), holders.index(arm))
+
+        return min(holders, key=hold)
+
+    def _squeezing(self, arm: str) -> bool:
+        """Whether `arm`'s jaw presses on the wall it grips: its encoder stopped there (`jaw_stop`), not
+        opened off it (it lets go only at `jaw_open_above`, the wall slides freely in it meanwhile)."""
+        return self.tools[arm].jaw <= self._jaw_on_wall + 1e-9
+
+    def _end_drags(self, block: Block) -> None:
+        """Log each drag of `block` that is over: the jaw it was dragged through, or the one that dragged
+        it, let go."""
+        over = [
+            key
+            for key, (by, _) in self._drags.items()
+            if key[0] == block.index and not {key[1], by} <= set(block.grips)
+        ]
+        for index, arm in over:
+            by, dragged = self._drags.pop((index, arm))
+            self._log(
+                "drag", arm, index, block.peg, f"dragged {dragged * 1000:.1f} mm through {arm}'s jaw by {by}"
+            )
 
     def _hole_axis(self, block: Block) -> tuple[Matrix, Matrix]:
         """Board-frame points where the hole's axis leaves the bottom and the top face."""

@@ -546,6 +546,42 @@ def test_release_opens_the_jaw_past_the_wall_only_and_writes_that_it_holds_nothi
     assert 2 * tool.jaw_radius < gap and opened < skills.motion.transfer.jaw_open
 
 
+@pytest.mark.parametrize("once_clear", [True, False])
+def test_a_release_once_clear_is_done_as_the_measured_jaw_clears_the_wall_its_opening_going_on(
+    tmp_path, robot, skills, clock, once_clear
+):
+    """A giver lets go with its jaw squeezing the block (set-point at `jaw_closed`, encoder stopped on the
+    wall). With `once_clear` the release is over on the first tick its encoder reads the jaw a jaw radius
+    clear of the wall either side (24°, from the wall and the jaw's geometry), the ticks asked for as the
+    runner would (`wake_at`), its opening to `jaw_release` going on; without, at the opening's end."""
+    arm = psm1(robot)
+    transfer = skills.motion.transfer
+    arm.block_in_jaw, arm.jaw.rest = True, np.array([transfer.jaw_closed])
+    tree = f"{{release: {{arm: PSM1, holding: /PSM1/holding, once_clear: {str(once_clear).lower()}}}}}"
+    built = build(tmp_path, robot, skills, tree, **{"PSM1/holding": True})
+    (leaf,) = [node.behaviour for node in built.nodes]
+    start = clock.now()
+    while True:
+        built.root.tick_once()
+        if leaf.status != Status.RUNNING:
+            break
+        clock.advance(max(leaf.wake_at - clock.now(), 0.0) if leaf.wake_at is not None else STEP)
+    assert leaf.status == Status.SUCCESS and read("/PSM1/holding") is False
+    block, tool = skills.cell.block, skills.cell.tool
+    clear = 2 * math.asin(((block.edge_distance - block.hole_radius) / 2 + tool.jaw_radius) / tool.jaw_length)
+    measured = float(arm.jaw.measured_js.position[0])
+    velocity = skills.settings["PSM1"].jaw_velocity
+    ramp = (transfer.jaw_release - transfer.jaw_closed) / velocity
+    if once_clear:
+        period = skills.settings["PSM1"].control_period
+        assert clear <= measured < clear + velocity * period
+        assert clock.now() - start < ramp - (transfer.jaw_release - clear) / velocity + period
+        clock.advance(ramp)
+        assert arm.jaw.measured_js.position[0] == pytest.approx(transfer.jaw_release)  # not stopped
+    else:
+        assert measured == pytest.approx(transfer.jaw_release) and clock.now() - start >= ramp - 1e-9
+
+
 def test_a_motion_past_its_planned_end_asks_to_be_ticked_as_soon_as_it_is_reported_done(
     tmp_path, robot, skills, clock
 ):
@@ -895,6 +931,26 @@ def test_keep_holding_runs_while_the_jaw_holds_and_fails_when_the_block_slips(tm
     arm.drop_block()
     assert run(built, clock) == Status.FAILURE
     assert "slipped from PSM1's jaw" in feedback(built) and arm.sent == [] and arm.jaw.sent == []
+
+
+def test_keep_holding_eased_squeezes_at_the_grip_a_lift_carries_with_and_still_sees_a_slip(
+    tmp_path, robot, skills, clock
+):
+    """`ease`: a giver holding its block out eases its jaw from `jaw_closed` to `grip_confirmed_below` under
+    the wall, where its encoder stays while the block is there; a block slipping out lets the jaw close to
+    that set-point, above `held_above` but below the wall, and the slip is seen all the same."""
+    arm = psm1(robot)
+    transfer = skills.motion.transfer
+    arm.block_in_jaw, arm.jaw.rest = True, np.array([transfer.jaw_closed])
+    built = build(tmp_path, robot, skills, "{keep_holding: {arm: PSM1, ease: true}}")
+    assert run(built, clock, seconds=1.0) == Status.RUNNING
+    eased = BLOCK_WALL_ANGLE - transfer.grip_confirmed_below
+    assert [sent.target for sent in arm.jaw.sent] == [pytest.approx(eased, abs=math.radians(0.2))]
+    assert arm.jaw.measured_js.position[0] == pytest.approx(BLOCK_WALL_ANGLE)
+    arm.drop_block()
+    assert run(built, clock) == Status.FAILURE
+    assert "slipped from PSM1's jaw" in feedback(built) and arm.sent == []
+    assert eased > 0.0  # `held_above` alone would not have seen it
 
 
 # ---------------------------------------------------------------------------------------------- records

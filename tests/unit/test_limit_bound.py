@@ -141,18 +141,49 @@ def test_a_handovers_jaws_enter_and_leave_the_block_through_its_top_along_the_ax
     )
 
 
-def test_the_giver_leaving_the_hole_costs_at_least_its_jaw_opening_and_rising_its_grip_depth() -> None:
+def opening_off_the_wall_s(bound: Bound) -> float:
+    """The jaw's least time from its squeeze (its tips' centre lines on the wall's faces) until its
+    `jaw_radius`-round jaws clear the wall, at the jaw's velocity limit: from the geometry, not the bound."""
+    block, tool = bound.cell.block, bound.cell.tool
+    wall = block.edge_distance - block.hole_radius
+    squeeze = 2 * math.asin(wall / 2 / tool.jaw_length)
+    clear = 2 * math.asin((wall / 2 + tool.jaw_radius) / tool.jaw_length)
+    assert math.degrees(squeeze) == pytest.approx(12.1, abs=0.1)
+    assert math.degrees(clear) == pytest.approx(24.3, abs=0.1)
+    return (clear - squeeze) / bound.settings["PSM2"].jaw_velocity
+
+
+def test_the_giver_leaving_the_hole_costs_at_least_its_jaw_opening_and_then_rising_its_grip_depth() -> None:
     """Independently of the bound's via arithmetic: from rest, a joint at its acceleration limit covers a
-    distance d in no less than √(2d/a) even passing it at full speed. The giver's jaw must have opened
-    and left the hole before the receiver may carry the block off; yet that costs no more than a
-    rest-to-rest rise."""
+    distance d in no less than √(2d/a) even passing it at full speed. The giver's jaw must have opened off
+    the wall before its arm moves (the receiver holds the block still), and left the hole before the
+    receiver may carry the block off; yet that costs no more than the opening and a rest-to-rest rise."""
     bound = Bound()
     exchange = bound.exchange("PSM2", "PSM1", [Start(bound.home("PSM1"))])
     settings = bound.settings["PSM2"]
     one_joint = np.sqrt(2 * np.abs(exchange.giver_out - exchange.giver) / settings.planner_acceleration)
-    assert exchange.let_go >= float(np.max(one_joint)) - 1e-9
-    assert exchange.let_go >= bound.jaw_close_s
-    assert exchange.let_go <= rest_to_rest(exchange.giver, exchange.giver_out, settings)
+    opening = opening_off_the_wall_s(bound)
+    assert exchange.let_go >= opening + float(np.max(one_joint)) - 1e-9
+    assert exchange.let_go <= opening + rest_to_rest(exchange.giver, exchange.giver_out, settings) + 1e-9
+
+
+def test_the_giver_moves_on_only_once_the_receiver_has_closed_and_its_own_jaw_has_opened_off_the_wall() -> (
+    None
+):
+    """The giver's next pick starts no sooner than both arms are at the meeting point (the giver after its
+    approach, its close and its carry; the receiver from its start), the receiver has closed and then the
+    giver's jaw has opened off the wall, one after the other: a jaw opening while the arm rises drags the
+    block the receiver grips (`pegbt/sim/world.py`'s two-jaw drag)."""
+    bound = Bound()
+    giver, receiver, pick = "PSM2", "PSM1", 1
+    trial = trial_bound([(f"{giver}→{receiver}", pick, 7), (f"{giver}→{receiver}", 0, 6)], bound)
+    (first_start, _), (second_start, _) = trial.intervals
+    grasp, reach = bound.approach(giver, [Start(bound.home(giver))], pick)
+    exchange = bound.exchange(giver, receiver, [Start(bound.home(receiver))])
+    carry = max(bound.lift_to(giver, grasp, pick, exchange.giver), bound.held_on_axis(giver, receiver, pick))
+    met = max(reach + bound.jaw_close_s + carry, exchange.to_receive)
+    taken = met + bound.jaw_close_s  # the receiver's close
+    assert second_start - first_start >= taken + opening_off_the_wall_s(bound) - 1e-9
 
 
 def test_the_receiver_enters_the_hole_through_the_blocks_top() -> None:
@@ -166,8 +197,9 @@ def test_the_receiver_enters_the_hole_through_the_blocks_top() -> None:
 
 def test_a_giver_is_not_free_before_its_jaw_has_opened_and_left_the_hole() -> None:
     """Two handovers by one giver: its second pick starts only once the receiver has closed on the first
-    block, leaving from where its jaw is out of that block's hole (dearer than leaving from the meeting
-    point itself), and the receiver carries the first block off only once that jaw is out."""
+    block and its own jaw has opened off the wall, leaving from where its jaw is out of that block's hole
+    (dearer than leaving from the meeting point itself), and the receiver carries the first block off only
+    once that jaw is out."""
     bound = Bound()
     trial = trial_bound([("PSM2→PSM1", 1, 7), ("PSM2→PSM1", 0, 6)], bound)
     (_, first_end), (second_start, _) = trial.intervals
@@ -181,7 +213,7 @@ def test_a_giver_is_not_free_before_its_jaw_has_opened_and_left_the_hole() -> No
         for height in bound.heights.lowers
     )
     # the first block lands no sooner than the giver's jaw is out and the receiver has lowered it onto peg 7
-    assert first_end - second_start >= exchange.let_go + lowered - 1e-9
+    assert first_end - second_start >= exchange.let_go - exchange.opening + lowered - 1e-9
 
 
 def test_a_block_let_go_with_its_hole_round_the_goal_peg_came_down_the_pegs_axis() -> None:

@@ -274,6 +274,61 @@ def test_a_second_grip_pulled_away_slips_and_the_first_keeps_the_block():
     assert world.held_by("PSM2") == 1 and world.held_by("PSM1") is None
 
 
+def _both_holding_at_the_meeting_point(world):
+    """PSM2 holds block 1 out at the meeting point and PSM1 has gripped it too, both jaws squeezing."""
+    driver = Driver(world)
+    grasp = grasp_keyframes(world, 1, grasp_candidate_facing(world, 1, "PSM2"))
+    driver.play({"PSM2": [*grasp, lifted(world, grasp[-1])]})
+    holding = driver.at("PSM2")
+    tip_from_block = holding.position[:2] - world.blocks[1].pose[:2, 3]
+    meeting = np.append(handover_meeting_point(world.cell)[:2] + tip_from_block, holding.position[2])
+    driver.play({"PSM2": [Keyframe(meeting, holding.yaw, holding.jaw)]})
+    events = driver.play({"PSM1": grasp_keyframes(world, 1, grasp_candidate_facing(world, 1, "PSM1"))})
+    assert kinds(events) == ["grasp"] and events[0].detail.endswith("handover from PSM2")
+    return driver
+
+
+def test_a_giver_rising_with_its_jaw_still_squeezing_drags_the_block_through_the_receivers_jaw():
+    """Two jaws squeezing one wall at one depth: the first keeps the block and it slides in the other. The
+    giver rising 2 mm before it opens drags the block 2 mm up through the receiver's grip: a `drag` event
+    once the giver has let go, and the block stays where the receiver's jaw now holds it, not back where it
+    gripped."""
+    world = World(seed=5)
+    driver = _both_holding_at_the_meeting_point(world)
+    before = world.blocks[1].pose.copy()
+    giver = driver.at("PSM2")
+    up = giver.position - [0.0, 0.0, 0.002]  # board z points down
+    events = driver.play({"PSM2": [Keyframe(up, giver.yaw, giver.jaw)]})
+    events += driver.play(
+        {
+            "PSM2": [
+                Keyframe(up, giver.yaw, motion_settings().transfer.jaw_open),
+                Keyframe(up - [0.0, 0.0, 0.01], giver.yaw, motion_settings().transfer.jaw_open),
+            ]
+        }
+    )
+    assert kinds(events) == ["release", "drag"]
+    assert events[1].arm == "PSM1" and events[1].detail == "dragged 2.0 mm through PSM1's jaw by PSM2"
+    assert world.held_by("PSM1") == 1 and world.held_by("PSM2") is None
+    assert world.blocks[1].pose[:3, 3] - before[:3, 3] == pytest.approx([0.0, 0.0, -0.002], abs=1e-6)
+
+
+def test_a_giver_whose_jaw_opened_off_the_wall_rises_without_moving_the_block_the_receiver_squeezes():
+    """The giver's jaw opened past the wall (still short of where the world lets go): the receiver's
+    squeezing jaw holds the block, which slides freely in the giver's; nothing is dragged."""
+    world = World(seed=5)
+    driver = _both_holding_at_the_meeting_point(world)
+    before = world.blocks[1].pose.copy()
+    giver = driver.at("PSM2")
+    off_the_wall = (world.jaw_stop("PSM2") + world.config.jaw_open_above) / 2
+    up = giver.position - [0.0, 0.0, 0.002]
+    events = driver.play(
+        {"PSM2": [Keyframe(giver.position, giver.yaw, off_the_wall), Keyframe(up, giver.yaw, off_the_wall)]}
+    )
+    assert events == [] and world.held_by("PSM2") == 1 and world.held_by("PSM1") == 1
+    assert world.blocks[1].pose == pytest.approx(before, abs=1e-9)
+
+
 @pytest.mark.parametrize("direction_deg", range(0, 360, 45))
 def test_a_block_that_tipped_off_a_peg_rests_clear_of_every_peg_and_any_grasp_lifts_it(direction_deg):
     world = World(seed=1)

@@ -31,6 +31,7 @@ from pegbt.behaviours.resources.skills import Skills
 from pegbt.clock import is_realtime
 from pegbt.errors import PegbtError
 from pegbt.executive.work import Job, WorkPool
+from pegbt.motion.handover import jaw_clear_of_wall
 from pegbt.motion.trajectory import Trajectory
 from pegbt.perception.blocks import BlockEstimate, block_on_peg, stack_level
 from pegbt.perception.board import BoardEstimate
@@ -335,12 +336,30 @@ def gripping(last: float, angle: float, setpoint: float, held_above: float, belo
 class Release(MotionLeaf):
     """Opens the jaw only as far as lets the block go and the tool rise out of its hole
     (`transfer.jaw_release`): the next approach opens it fully while it moves. A jaw the transfer already
-    opened there (`transfer`) is left as it is."""
+    opened there (`transfer`) is left as it is. With `once_clear` it is done as the jaw's encoder passes
+    the angle at which the jaw clears the wall, the opening going on: nothing the arm does next can drag
+    the block then, and waiting for the ramp's end would only delay it."""
 
     def begin(self) -> None:
         arm, angle = self.param("arm"), self.skills.motion.transfer.jaw_release
-        if abs(float(self.client(arm).jaw.setpoint_js.position[0]) - angle) > OPENED:
+        self.clear = jaw_clear_of_wall(self.skills.cell)
+        setpoint = float(self.client(arm).jaw.setpoint_js.position[0])
+        self.clear_at = self.context.clock.now() + max(
+            0.0, (self.clear - setpoint) / self.motion(arm).settings.jaw_velocity
+        )
+        if abs(setpoint - angle) > OPENED:
             self.move_jaw(arm, angle, f"{arm} jaw opening")
+
+    def watch(self) -> Status:
+        if not self.param("once_clear"):
+            return Status.RUNNING
+        arm = self.param("arm")
+        if float(self.client(arm).jaw.measured_js.position[0]) >= self.clear:
+            return self.done()
+        period = self.motion(arm).settings.control_period
+        if self.wake_at is not None:  # ticked as the ramp passes the angle, then each control period
+            self.wake_at = min(self.wake_at, max(self.clear_at, self.context.clock.now() + period))
+        return Status.RUNNING
 
     def done(self) -> Status:
         self.put("holding", False)

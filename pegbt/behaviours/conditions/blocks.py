@@ -8,6 +8,7 @@ from py_trees.common import Status
 
 from pegbt.behaviours.base import RobotLeaf
 from pegbt.behaviours.motion import SLIP_CHECK, slip
+from pegbt.motion.handover import jaw_on_wall
 from pegbt.perception.blocks import block_on_peg
 
 
@@ -26,9 +27,25 @@ class CheckPlaced(RobotLeaf):
 
 
 class KeepHolding(RobotLeaf):
+    """With `ease`, the jaw's squeeze eases as it starts to `grip_confirmed_below` under the wall, the grip
+    the lift already carries a block with: a jaw letting go later opens from there. A block slipping out
+    then lets the jaw close towards that set-point: half of `grip_confirmed_below` under the wall shows it."""
+
+    def initialise(self) -> None:
+        super().initialise()
+        self.held_above = self.param("held_above")
+        if not self.param("ease"):
+            return
+        arm, transfer = self.param("arm"), self.skills.motion.transfer
+        eased = jaw_on_wall(self.skills.cell) - transfer.grip_confirmed_below
+        jaw = self.client(arm).jaw
+        if float(jaw.setpoint_js.position[0]) < eased:
+            jaw.move_jp(eased)
+        self.held_above = max(self.held_above, eased + transfer.grip_confirmed_below / 2)
+
     def act(self) -> Status:
         arm = self.param("arm")
-        slipped = slip(self.client(arm).jaw.measured_js.position[0], self.param("held_above"))
+        slipped = slip(self.client(arm).jaw.measured_js.position[0], self.held_above)
         if slipped:
             return self.fail(f"the block slipped from {arm}'s jaw ({slipped}) while it waited")
         self.wake_at = self.context.clock.now() + SLIP_CHECK
