@@ -48,6 +48,10 @@ class BlockSettings:
     surrounded_points: int
     part_distance: float
     stack_height: float
+    search_radii: tuple[float, ...]
+    search_directions: int
+    search_agreement: float
+    search_rival: float
     segment: SegmentSettings
 
 
