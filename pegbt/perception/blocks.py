@@ -116,7 +116,7 @@ class BlockLocator:
     def resting(self, block: BlockEstimate) -> BlockEstimate:
         """`block`, a segment's only one, doubtful if it is off the pegs and its bottom is above the board: with
         nothing seen under it, it is not at rest (a block a jaw holds, or an instrument's jaw seen as one)."""
-        above = self.cell.board.surface_z - float(block.position[2])  # board z points down
+        above = self._above_board(block.pose)
         if not block.ok or block.peg is not None or above <= self.settings.segment.plane_margin:
             return block
         return replace(
@@ -224,8 +224,9 @@ class BlockLocator:
         return invert_rigid(T)
 
     def register(self, segment: Points, peg_xy: Points, search: bool = False) -> BlockEstimate:
-        """The block whose visible surface is `segment` (board frame); `search`: a lone block's doubtful fit is
-        sought again from starts round the first (`search_hidden`)."""
+        """The block whose visible surface is `segment` (board frame); `search`: a lone block's doubtful fit,
+        its top face at a resting block's height, is sought again from starts round the first
+        (`search_hidden`)."""
         settings = self.settings
         if len(segment) > settings.max_points:
             return self._failure(segment, peg_xy, f"{len(segment)} points are too many for one block")
@@ -233,7 +234,8 @@ class BlockLocator:
         pose = self._fit(segment, initial)
         fitness, rmse = self._quality(segment, pose)
         reason = self._doubt(len(segment), pose, fitness, rmse)
-        found = self.search_hidden(segment, initial) if reason and search else None
+        resting = self._above_board(initial) <= self.settings.segment.plane_margin  # not held, not a jaw
+        found = self.search_hidden(segment, initial) if reason and search and resting else None
         if found is not None:
             pose, fitness, rmse, reason = found
         position, yaw = pose[:3, 3], wrap_symmetric(yaw_of(pose))
@@ -284,6 +286,10 @@ class BlockLocator:
             else ""
         )
         return best, fitness, -negative_rmse, reason
+
+    def _above_board(self, pose: NDArray[np.float64]) -> float:
+        """How far (m) the bottom of a block at `pose` is above the board."""
+        return self.cell.board.surface_z - float(pose[2, 3])  # board z points down
 
     def _outline_apart(self, a: NDArray[np.float64], b: NDArray[np.float64]) -> float:
         """How far (m) the outline of the block at pose `a` lies from that at `b`: the farthest of `a`'s
