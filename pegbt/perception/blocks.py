@@ -257,9 +257,12 @@ class BlockLocator:
         face, so the start read off it is millimetres and tens of degrees out, and ICP settles on a wrong
         fit. Its pose, fitness, RMSE and doubt from the best of the fits from `initial` moved by each of
         `search_radii` in `search_directions` directions and turned by each of `RESTART_YAWS`; None if none
-        passes. Fits that pass, fit nearly as many points as the best (`search_rival`) and disagree leave it
-        doubtful: the part seen fits more than one pose."""
+        passes and explains all but `search_slack` of the points, or if fewer than `search_min_points` are
+        seen. Fits within `search_slack` of the best that disagree with it leave it doubtful: the part seen
+        fits more than one pose."""
         settings = self.settings
+        if len(segment) < settings.search_min_points:
+            return None
         turns = np.linspace(0.0, 2 * math.pi, settings.search_directions, endpoint=False)
         offsets = [np.zeros(2)] + [
             radius * np.array([math.cos(turn), math.sin(turn)])
@@ -275,10 +278,10 @@ class BlockLocator:
                 fitness, rmse = self._quality(segment, pose)
                 if not self._doubt(len(segment), pose, fitness, rmse):
                     passed.append((fitness, -rmse, pose))
-        if not passed:
+        fitness, negative_rmse, best = max(passed, key=lambda fit: fit[:2], default=(0.0, 0.0, initial))
+        if fitness < 1.0 - settings.search_slack:
             return None
-        fitness, negative_rmse, best = max(passed, key=lambda fit: fit[:2])
-        rivals = [pose for share, _, pose in passed if share >= fitness - settings.search_rival]
+        rivals = [pose for share, _, pose in passed if share >= fitness - settings.search_slack]
         apart = max(self._outline_apart(best, pose) for pose in rivals)
         reason = (
             f"a partly hidden block: poses {apart * 1000:.1f} mm apart fit what is seen"

@@ -50,8 +50,9 @@ class BlockSettings:
     stack_height: float
     search_radii: tuple[float, ...]
     search_directions: int
+    search_min_points: int
+    search_slack: float
     search_agreement: float
-    search_rival: float
     segment: SegmentSettings
 
 
