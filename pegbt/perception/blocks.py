@@ -6,14 +6,17 @@ coarse-to-fine schedule). ICP starts from a guess made from the segment itself: 
 axis (or the top face's centre for a block off the pegs), the top face's height, and the yaw of the
 top face's three-fold shape. The block is three-fold symmetric, so yaw is reported modulo 120°; the six
 grasp candidates share that symmetry. A fit that explains too few points, or leaves the block tilted,
-is reported as a failure with its reason, never passed on as a pose.
+is reported as a failure with its reason, never passed on as a pose. A lone block's failed fit is tried
+again from starts round the first: an instrument between the camera and the block hides part of its top
+face and misleads the guess. A lone block off the pegs whose bottom is above the board, nothing under it,
+is not at rest: held, or an instrument's jaw seen block-sized.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import lru_cache
 
 import numpy as np
@@ -101,7 +104,7 @@ class BlockLocator:
         model, settings = self.cell.block, self.settings
         low, high = np.percentile(segment[:, 2], [1.0, 99.0])
         if high - low < settings.stack_height * model.height:
-            return [self.register(segment, peg_xy)]
+            return [self.resting(self.register(segment, peg_xy, search=True))]
         bottom = self._fit(segment, self.initial_pose(segment, peg_xy))[2, 3]
         above = segment[:, 2] < bottom - settings.top_face_depth  # board z points down
         return [
@@ -109,6 +112,16 @@ class BlockLocator:
             for part in (segment[above], segment[~above])
             if len(part) >= settings.segment.min_points
         ]
+
+    def resting(self, block: BlockEstimate) -> BlockEstimate:
+        """`block`, a segment's only one, doubtful if it is off the pegs and its bottom is above the board: with
+        nothing seen under it, it is not at rest (a block a jaw holds, or an instrument's jaw seen as one)."""
+        above = self._above_board(block.pose)
+        if not block.ok or block.peg is not None or above <= self.settings.segment.plane_margin:
+            return block
+        return replace(
+            block, ok=False, reason=f"nothing under it: its bottom {above * 1000:.1f} mm above the board"
+        )
 
     def take_apart(self, cluster: Points, peg_xy: Points) -> list[BlockEstimate]:
         """The blocks of a cluster too wide for one. Blocks touching across neighbouring pegs are cut apart
@@ -210,22 +223,22 @@ class BlockLocator:
             ).transformation
         return invert_rigid(T)
 
-    def register(self, segment: Points, peg_xy: Points) -> BlockEstimate:
-        """The block whose visible surface is `segment` (board frame)."""
+    def register(self, segment: Points, peg_xy: Points, search: bool = False) -> BlockEstimate:
+        """The block whose visible surface is `segment` (board frame); `search`: a lone block's doubtful fit,
+        its top face at a resting block's height, is sought again from starts round the first
+        (`search_hidden`)."""
         settings = self.settings
         if len(segment) > settings.max_points:
             return self._failure(segment, peg_xy, f"{len(segment)} points are too many for one block")
-        pose = self._fit(segment, self.initial_pose(segment, peg_xy))
+        initial = self.initial_pose(segment, peg_xy)
+        pose = self._fit(segment, initial)
         fitness, rmse = self._quality(segment, pose)
+        reason = self._doubt(len(segment), pose, fitness, rmse)
+        resting = self._above_board(initial) <= self.settings.segment.plane_margin  # not held, not a jaw
+        found = self.search_hidden(segment, initial) if reason and search and resting else None
+        if found is not None:
+            pose, fitness, rmse, reason = found
         position, yaw = pose[:3, 3], wrap_symmetric(yaw_of(pose))
-        tilt = math.acos(min(1.0, pose[2, 2]))
-        reason = ""
-        if fitness < settings.min_fitness:
-            reason = f"block model fits only {fitness:.0%} of {len(segment)} points"
-        elif rmse > settings.max_rmse:
-            reason = f"block fit RMSE {rmse * 1000:.2f} mm"
-        elif tilt > settings.max_tilt:
-            reason = f"block tilted {math.degrees(tilt):.0f}°"
         return BlockEstimate(
             position=position,
             yaw=yaw,
@@ -236,6 +249,69 @@ class BlockLocator:
             ok=not reason,
             reason=reason,
         )
+
+    def search_hidden(
+        self, segment: Points, initial: NDArray[np.float64]
+    ) -> tuple[NDArray[np.float64], float, float, str] | None:
+        """A block partly hidden (the other arm's instrument between it and the camera) shows part of its top
+        face, so the start read off it is millimetres and tens of degrees out, and ICP settles on a wrong
+        fit. Its pose, fitness, RMSE and doubt from the best of the fits from `initial` moved by each of
+        `search_radii` in `search_directions` directions and turned by each of `RESTART_YAWS`; None if none
+        passes and explains all but `search_slack` of the points, or if fewer than `search_min_points` are
+        seen. Fits within `search_slack` of the best that disagree with it leave it doubtful: the part seen
+        fits more than one pose."""
+        settings = self.settings
+        if len(segment) < settings.search_min_points:
+            return None
+        turns = np.linspace(0.0, 2 * math.pi, settings.search_directions, endpoint=False)
+        offsets = [np.zeros(2)] + [
+            radius * np.array([math.cos(turn), math.sin(turn)])
+            for radius in settings.search_radii
+            for turn in turns
+        ]
+        passed = []
+        for offset in offsets:
+            for yaw in RESTART_YAWS:
+                start = initial @ yaw_pose([0.0, 0.0, 0.0], yaw)
+                start[:2, 3] += offset
+                pose = self._fit(segment, start)
+                fitness, rmse = self._quality(segment, pose)
+                if not self._doubt(len(segment), pose, fitness, rmse):
+                    passed.append((fitness, -rmse, pose))
+        fitness, negative_rmse, best = max(passed, key=lambda fit: fit[:2], default=(0.0, 0.0, initial))
+        if fitness < 1.0 - settings.search_slack:
+            return None
+        rivals = [pose for share, _, pose in passed if share >= fitness - settings.search_slack]
+        apart = max(self._outline_apart(best, pose) for pose in rivals)
+        reason = (
+            f"a partly hidden block: poses {apart * 1000:.1f} mm apart fit what is seen"
+            if apart > settings.search_agreement
+            else ""
+        )
+        return best, fitness, -negative_rmse, reason
+
+    def _above_board(self, pose: NDArray[np.float64]) -> float:
+        """How far (m) the bottom of a block at `pose` is above the board."""
+        return self.cell.board.surface_z - float(pose[2, 3])  # board z points down
+
+    def _outline_apart(self, a: NDArray[np.float64], b: NDArray[np.float64]) -> float:
+        """How far (m) the outline of the block at pose `a` lies from that at `b`: the farthest of `a`'s
+        corners from the nearest of `b`'s (the outline's three-fold symmetry leaves yaw modulo 120°)."""
+        outline = np.column_stack([self.cell.block.outline, np.zeros(6), np.ones(6)])
+        corners_a, corners_b = ((outline @ pose.T)[:, :2] for pose in (a, b))
+        return float(np.linalg.norm(corners_a[:, None] - corners_b[None], axis=2).min(axis=1).max())
+
+    def _doubt(self, points: int, pose: NDArray[np.float64], fitness: float, rmse: float) -> str:
+        """Why a fit of `points` points at `pose` is not trustworthy, or "" if it is."""
+        settings = self.settings
+        tilt = math.acos(min(1.0, pose[2, 2]))
+        if fitness < settings.min_fitness:
+            return f"block model fits only {fitness:.0%} of {points} points"
+        if rmse > settings.max_rmse:
+            return f"block fit RMSE {rmse * 1000:.2f} mm"
+        if tilt > settings.max_tilt:
+            return f"block tilted {math.degrees(tilt):.0f}°"
+        return ""
 
     def _failure(self, segment: Points, peg_xy: Points, reason: str) -> BlockEstimate:
         """A segment that cannot be a block seen clearly, reported where it lies."""

@@ -48,6 +48,11 @@ class BlockSettings:
     surrounded_points: int
     part_distance: float
     stack_height: float
+    search_radii: tuple[float, ...]
+    search_directions: int
+    search_min_points: int
+    search_slack: float
+    search_agreement: float
     segment: SegmentSettings
 
 

@@ -247,6 +247,36 @@ def test_select_grasp_fails_on_an_empty_peg(tmp_path, robot, skills, seen, clock
         read("/PSM1/grasp")
 
 
+def test_select_grasp_of_a_dropped_block_seen_doubtfully_says_so_and_prefers_one_located_reliably(
+    tmp_path, robot, skills, seen, clock
+):
+    """A block lying loose whose pose perception doubts is named, with why, not passed over as unseen; a
+    loose block located reliably is chosen before it, however much nearer the doubtful one lies."""
+    board, blocks = seen
+    on_pick = block_on_peg(blocks, PICK)
+    others = [block for block in blocks if block is not on_pick]
+    doubtful = replace(
+        on_pick,
+        position=on_pick.position + [0.0, -0.012, 0.0],
+        peg=None,
+        ok=False,
+        reason="block model fits only 72% of 808 points",
+    )
+    tree = (
+        f"{{select_grasp: {{arm: PSM1, peg: {PICK}, dropped: true, block: /PSM1/block, grasp: /PSM1/grasp}}}}"
+    )
+    built = build(tmp_path, robot, skills, tree, blocks=[*others, doubtful], board=board)
+    assert run(built, clock) == Status.FAILURE
+    where = np.round(doubtful.position[:2] * 1000, 1).tolist()
+    assert feedback(built) == (
+        f"the block on the board at {where} mm is not located reliably: block model fits only 72% of 808 points"
+    )
+    reliable = replace(on_pick, position=on_pick.position + [-0.016, -0.012, 0.0], peg=None)
+    built = build(tmp_path, robot, skills, tree, blocks=[*others, doubtful, reliable], board=board)
+    assert run(built, clock) == Status.SUCCESS
+    assert read("/PSM1/block") is reliable
+
+
 APPROACH = "{approach: {arm: PSM1, block: /PSM1/block, grasp: /PSM1/grasp}}"
 
 

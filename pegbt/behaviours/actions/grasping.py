@@ -68,11 +68,17 @@ class SelectGrasp(RobotLeaf):
         blocks: list[BlockEstimate] = self.read("/blocks")
         block = block_on_peg(blocks, peg)
         if block is None and self.param("dropped"):  # a block on another block never belongs there: it fell
-            loose = [b for b in blocks if b.ok and (b.peg is None or stack_level(b, self.skills.cell) > 0)]
             target = self.skills.cell.pegs.positions[peg]
-            block = min(loose, key=lambda b: float(np.linalg.norm(b.position[:2] - target)), default=None)
+            loose = sorted(
+                (b for b in blocks if b.peg is None or stack_level(b, self.skills.cell) > 0),
+                key=lambda b: (not b.ok, float(np.linalg.norm(b.position[:2] - target))),
+            )
+            block = next((b for b in loose if b.ok), None)
             for stray in self.param("strays"):
                 block = block or block_on_peg(blocks, stray)
+            block = block or next(
+                iter(loose), None
+            )  # seen but not located reliably: failed below, saying why
         if block is None:
             return self.fail(
                 f"no block seen on peg {peg}" + (" nor on the board" if self.param("dropped") else "")
