@@ -28,7 +28,9 @@ from pegbt.sim2real.outcomes.intervals import least_p, rate_interval
 
 ALPHA = 0.05  # the gate's false discovery rate, and the level at which a row counts as testable
 POWER = 0.9  # the naming rate the goal asks for: a difference seen this often is detectable
-LARGEST = 1 << 24  # the most real transfers any search here tries: a row testable at no size below is never
+LARGEST = (
+    1 << 24
+)  # the most real transfers `row_testable_from` tries: a row testable at no size below is never
 
 
 @dataclass(frozen=True)
@@ -80,7 +82,8 @@ def transfers_to_resolve(
     """The fewest real transfers n at which `detectable_difference` at `level` is at most `difference`
     against n·`simulated`/`real` simulated transfers (rounded up); `difference` must be above 0."""
     found = _fewest(
-        lambda n: detectable_difference(share, n, _grown(n, real, simulated), level=level) <= difference
+        lambda n: detectable_difference(share, n, _grown(n, real, simulated), level=level) <= difference,
+        limit=None,
     )
     assert found is not None  # the detectable difference shrinks to 0 as n grows
     return found
@@ -173,9 +176,10 @@ def _grown(n: int, real: int, simulated: int) -> int:
     return math.ceil(n * simulated / real)
 
 
-def _fewest(holds: Callable[[int], bool]) -> int | None:
-    """The fewest n ≥ 1 for which `holds(n)`, a condition that once true stays true; None below `LARGEST`."""
-    if not holds(LARGEST):
+def _fewest(holds: Callable[[int], bool], limit: int | None = LARGEST) -> int | None:
+    """The fewest n ≥ 1 for which `holds(n)`, a condition that once true stays true; None if it does not
+    hold at `limit` (None: no limit, for a condition sure to hold at some n)."""
+    if limit is not None and not holds(limit):
         return None
     high = 1
     while not holds(high):

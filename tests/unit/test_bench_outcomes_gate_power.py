@@ -10,6 +10,7 @@ import pytest
 
 from pegbt.bench.outcomes_power import (
     ALPHA,
+    LARGEST,
     Change,
     detectability,
     detectable_at,
@@ -97,3 +98,12 @@ def test_at_the_size_set_the_gates_own_test_sees_the_change_nine_times_in_ten() 
     assert at is not None
     assert power(at) >= 0.9
     assert power(transfers_to_resolve(0.031, 0.031, 120, 48)) < 0.9
+
+
+def test_a_change_too_small_for_any_campaign_still_gets_its_size() -> None:
+    """Grasp capture read at 3,636: a change of a few in a hundred thousand needs more real transfers than
+    any search for a testable row tries; its size is still found (the pilot calls it too large)."""
+    tiny = Change(False, 0.046, -1e-5, 1e-5)
+    at = detectable_at([tiny, LIFT], 120, 48)
+    assert at is not None and at > LARGEST
+    assert at == transfers_to_resolve(1e-5, 0.046, 120, 48, level=ALPHA / 2)
