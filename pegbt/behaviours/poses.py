@@ -29,10 +29,10 @@ from pegbt.workcell import Workcell
 
 UP_BOARD = np.array([0.0, 0.0, -1.0])
 APPROACH_CLEAR_ABOVE_PEG_TOP = 0.002  # m: an approaching jaw is on the block's axis from this high down
-ALREADY_CLEAR = 0.001  # m: a channel whose clearing height lies this far below its start constrains nothing
-# m: a carry to the handover point arrives from this far above it: just above, as every millimetre more is
-# one up and one down for the insertion joint (the receiver's descent keeps clear of the block: `await_meeting`)
-HANDOVER_ARRIVAL = 0.001
+# m: a carry to the handover point comes up the block's final axis onto it from this far below: the block is
+# then on that axis for its last 0.11-0.20 s, when the receiver's jaw may come down onto it (`await_meeting`);
+# arriving from above it came in sideways until its last 0.07-0.12 s, and the receiver landed 0.13-0.24 s late
+HANDOVER_RISE = 0.0005
 MIN_RISE = 0.005  # m: an approach rises at least this much before it moves over
 # m off the axis per m risen, leaving a held block's hole once the jaw's tips are clear of its top (45°)
 EXIT_WIDENING = 1.0
@@ -156,11 +156,6 @@ def approach_for(
     )
 
 
-def _free_channel(point: NDArray[np.float64], up: NDArray[np.float64], tolerance: float) -> Channel:
-    """A channel that constrains nothing: the block is in the air there, not on a peg."""
-    return Channel(point, up, -ALREADY_CLEAR, tolerance)
-
-
 def to_handover(
     cell: Workcell,
     motion: MotionSettings,
@@ -170,18 +165,20 @@ def to_handover(
     grasp: Grasp,
     meeting: NDArray[np.float64],
 ) -> TransferWaypoints:
-    """The giver's carry: lift the block off its peg as in a transfer, then over to the `meeting` tip pose
-    (arm frame), arriving from `HANDOVER_ARRIVAL` above it."""
+    """The giver's carry: lift the block off its peg as in a transfer, then over to `HANDOVER_RISE` below
+    the `meeting` tip pose (arm frame) and up the block's final axis onto it: a channel pointing down, which
+    is no floor (the transit keeps above the start peg's clearing height alone) and which the tip, once on
+    it, never leaves upwards (the block rises into the receiver's open jaw, never past its place)."""
     pick = transfer_for(cell, motion, arm, board, block, grasp)
     up = cell.up_in(arm)
-    above = meeting.copy()
-    above[:3, 3] += HANDOVER_ARRIVAL * up
+    below = meeting.copy()
+    below[:3, 3] -= HANDOVER_RISE * up
     tolerance = motion.transfer.channel_tolerance
     return TransferWaypoints(
-        np.stack([pick.poses[0], pick.poses[1], above, meeting]),
+        np.stack([pick.poses[0], pick.poses[1], below, meeting]),
         pick.approach,
         pick.pick,
-        _free_channel(meeting[:3, 3], up, tolerance),
+        Channel(meeting[:3, 3], -up, HANDOVER_RISE, tolerance, floor=False),
         pick.upright,
     )
 

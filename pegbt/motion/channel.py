@@ -10,7 +10,9 @@ peg the tool turns at most `max_twist` (the hole moved by no more than the tip's
 block whose hole came 2 mm off its peg caught on it, `pegbt.sim.world`). A peg's channel is a `floor` too: the
 block hangs below the tip, so the transit after it stays above its clearing height; a jaw's way out of a
 block another arm holds is not (the block stays behind: the transit's own clearance applies once the jaw
-is out). Such a way out may widen, a funnel: from `widens_from` up the tip may leave the line by `widening`
+is out), nor is the handover's meeting point, a channel pointing down that the block comes up onto (its
+heights count down from there, and the tip on it stays at or below the point; the transit keeps above
+the start peg's clearing height alone). Such a way out may widen, a funnel: from `widens_from` up the tip may leave the line by `widening`
 for each metre it rises (the jaw's tips then clear the block's top, `pegbt.behaviours.poses.approach_for`).
 """
 

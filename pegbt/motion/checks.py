@@ -102,9 +102,10 @@ def _clearance_problems(tips: np.ndarray, leaving: Channel | None, arriving: Cha
     """Between leaving the start peg's channel (from the first sample without one) and entering the goal
     peg's, the tip stays above both clearing heights: the block hangs clear of every peg top it passes
     (above the goal's alone after a jaw's way out of a held block's hole, not a `floor`). A
-    goal in the air (a clearing height at or below it: the handover's meeting point) sets none: from the
-    start peg, the tip stays above its clearing height to the end."""
-    if arriving.clear <= 0.0:
+    goal in the air (a clearing height at or below it, or a goal that is no floor: the handover's meeting
+    point, which the block comes up onto) sets none: from the start peg, the tip stays above its clearing
+    height to the end."""
+    if arriving.clear <= 0.0 or not arriving.floor:
         return [] if leaving is None else _clearance_to_the_air(tips, leaving)
     heights = arriving.height(tips)
     above = heights >= arriving.clear

@@ -279,21 +279,23 @@ class SqpRefiner:
         on_peg = (index <= lift) | on_place
         point = np.where(on_place[:, None], place.point, pick.point)
         normals = np.where(on_place[:, None, None], place.normals, pick.normals)  # (samples, 2, 3)
+        axis = np.where(on_place[:, None], place.axis, pick.axis)  # a goal's may point down: heights are its
         lateral = np.einsum("kic,kcj->kij", normals, Jp)
-        vertical = np.einsum("c,kcj->kj", place.axis, Jp)
+        vertical = np.einsum("kc,kcj->kj", axis, Jp)
         # The tool axis turns by ω×axis: its components across the upright axis change by (axis × n)·ω.
         tilt = np.einsum("kic,kcj->kij", cross(tool[:, None, :], upright.normals), Jw)
-        turn = np.einsum("c,kcj->kj", place.axis, Jw)  # about the pegs' axis, the tool near upright
+        turn = np.einsum("kc,kcj->kj", axis, Jw)  # about the pegs' axis, the tool near upright
         physical = np.concatenate([lateral, vertical[:, None], tilt, turn[:, None]], axis=1) / CHANNEL_UNIT
         # Each row's value at the linearisation point: the bounds on its change are what is left.
         value = np.empty((self.sample_count, CHANNEL_ROWS))
         value[:, 0:2] = np.einsum("kic,kc->ki", normals, tip - point)
-        value[:, 2] = (tip - point) @ place.axis
+        value[:, 2] = np.einsum("kc,kc->k", tip - point, axis)
         value[:, 3:5] = tool @ upright.normals.T
         # the turn from the tool's orientation where the block sits on each peg: the start, the goal
         jaws = pose[:, :3, 0]
         value[:, 5] = np.where(on_place, place.twist(jaws, jaws[-1]), pick.twist(jaws, jaws[0]))
-        required = np.zeros(self.sample_count)  # never below the grasp or drop point while on a peg
+        # never below the grasp or drop point while on a peg (never above a goal pointing down)
+        required = np.zeros(self.sample_count)
         required[lift + 1 : lower] = floor
         required[lift] = pick.clear
         required[lower] = place.clear
@@ -356,10 +358,11 @@ class SqpRefiner:
         control[2:-2] = upright_configurations(control[2:-2], self.settings, upright)
         tips = tip_position(self._sample(control))
         phases = self._phases(tips, pick, place)
-        # In transit the block stays above the goal peg's clearing height, and above the start peg's.
-        floor = place.clear + float((place.point - tips[0]) @ place.axis)
+        # In transit the block stays above the goal peg's clearing height, and above the start peg's; a goal
+        # that is no floor (the block comes up onto it) sets none.
+        floor = place.clear + float((place.point - tips[0]) @ place.axis) if place.floor else -np.inf
         if pick is None:  # only the start sample is "on" the start: it stays where it is
-            leaving = Channel(tips[0], place.axis, 0.0, place.tolerance)
+            leaving = Channel(tips[0], place.axis if place.floor else -place.axis, 0.0, place.tolerance)
         else:
             leaving, floor = pick, max(pick.clear, floor) if pick.floor else floor
         failures: list[PegbtError] = []

@@ -71,10 +71,10 @@ def lowered(waypoints: TransferWaypoints, above_clear: float) -> TransferWaypoin
     the clearing height, the lifted pose is the start (or the top of the way out of the hole): a rise there
     only makes the warm start stop and turn, and the SQP's path is the slower for it (0.11 s an
     approach over the unilateral trial). The start and the goal stay where they are. A transit without
-    a clearing height above its goal (a carry to the handover point) has only its lifted pose lowered,
-    over its start peg's clearing height (`_lift_lowered`)."""
+    a clearing height above its goal (a goal that is no floor: the carry up onto the handover point) has
+    only its lifted pose lowered, over its start peg's clearing height (`_lift_lowered`)."""
     place, poses = waypoints.place, waypoints.poses.copy()
-    if place.clear <= 0.0:
+    if place.clear <= 0.0 or not place.floor:
         if waypoints.pick is None:
             return waypoints
         return replace(waypoints, poses=_lift_lowered(poses, waypoints.pick, above_clear))
@@ -115,10 +115,12 @@ class TransferPlanner:
         self.warm_above_clear = sqp.warm_above_clear
 
     def spline(self, waypoints: TransferWaypoints, joints: NDArray[np.float64] | None = None) -> HermitePath:
-        """The paper's Alg. 2 spline through the waypoints (the SQP's warm start)."""
+        """The paper's Alg. 2 spline through the waypoints (the SQP's warm start): up from the lifted pose,
+        down onto the goal, or up its channel onto a goal that is no floor (the block rises onto it)."""
         q = joint_waypoints(waypoints, self.settings) if joints is None else joints
         up = waypoints.upright.axis
-        return plan_spline(q, joint_direction(q[1], up), joint_direction(q[2], -up), self.settings)
+        arrival = up if waypoints.place.floor else waypoints.place.axis
+        return plan_spline(q, joint_direction(q[1], up), joint_direction(q[2], -arrival), self.settings)
 
     def plan(self, waypoints: TransferWaypoints, *, above_clear: float | None = None) -> TransferPlan:
         """The checked transfer, never slower than the rest-to-rest cubics: the SQP's, else the spline's,

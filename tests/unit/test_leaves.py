@@ -26,7 +26,7 @@ from pegbt.behaviours.actions.handover import WayOut, plan_meeting
 from pegbt.behaviours.base import JAW_AHEAD, LONE_PATIENCE, MOTION_OVERTIME, Outgoing, parts
 from pegbt.behaviours.poses import (
     EXIT_WIDENING,
-    HANDOVER_ARRIVAL,
+    HANDOVER_RISE,
     height_above_pegs,
     tool_pose,
     transfer_for,
@@ -1198,7 +1198,8 @@ def test_carry_to_handover_lifts_the_block_off_its_peg_and_brings_it_to_the_meet
     assert read("/PSM2/plan_s") == round(trajectory.duration, 3)
     assert np.allclose(forward_kinematics(trajectory.q[-1]), values["handover/meeting"], atol=1e-4)
     # it lifts the block straight up its peg's axis until the block's bottom is clear of the peg's top,
-    # before it moves over, and arrives from `HANDOVER_ARRIVAL` straight above the meeting pose
+    # before it moves over, and comes up the block's final axis onto the meeting pose from `HANDOVER_RISE`
+    # below it, never above it once there
     cell, up = skills.cell, skills.cell.up_in(GIVER)
     tips = np.array([forward_kinematics(q)[:3, 3] for q in trajectory.q])
     off_axis = np.linalg.norm(lateral(skills, GIVER, tips - start[:3, 3]), axis=1)
@@ -1208,9 +1209,11 @@ def test_carry_to_handover_lifts_the_block_off_its_peg_and_brings_it_to_the_meet
     over = int(np.argmax(off_axis > 0.002))  # the first row well off the peg's axis
     assert over > 0 and np.any((off_axis[:over] < 1e-4) & (bottom[:over] > 0.0))
     meeting = values["handover/meeting"][:3, 3]
-    arrival = int(np.argmin(np.linalg.norm(tips - (meeting + HANDOVER_ARRIVAL * up), axis=1)))
-    assert np.linalg.norm(tips[arrival] - (meeting + HANDOVER_ARRIVAL * up)) < 1e-4
-    assert np.linalg.norm(lateral(skills, GIVER, tips[arrival:] - meeting), axis=1).max() < 1e-4
+    risen = (tips - meeting) @ up
+    arrival = int(np.flatnonzero(risen <= -HANDOVER_RISE + 1e-6)[-1])
+    on_axis = np.linalg.norm(lateral(skills, GIVER, tips[arrival:] - meeting), axis=1)
+    assert on_axis.max() <= skills.motion.transfer.channel_tolerance + 1e-6
+    assert risen[arrival:].max() <= 1e-6
     assert np.all(tips @ up >= start[:3, 3] @ up - 1e-4)  # never pushed down onto the board
     assert arm.jaw.sent == []  # it keeps holding
 
@@ -1410,15 +1413,21 @@ def test_descend_to_grasp_closes_as_it_arrives_on_a_block_held_out_meeting_the_w
 
 
 def meeting_under_way(
-    robot: Robot, skills: Skills, seen, said: Giver, aside: float = 0.004, stalled: float = 0.0
+    robot: Robot,
+    skills: Skills,
+    seen,
+    said: Giver,
+    aside: float = 0.004,
+    stalled: float = 0.0,
+    below: float = HANDOVER_RISE,
 ):
-    """The receiver waiting above its grasp, the giver's last motion of its carry (down onto the meeting
-    pose from `aside` over in board x, as a carry arrives) playing from now (clock 0), standing still
-    `stalled` s at its start (a streamer not scheduled), and handover 1's giver word `said`."""
+    """The receiver waiting above its grasp, the giver's last motion of its carry (up onto the meeting
+    pose from `below` under it and `aside` over in board x, as a carry arrives) playing from now (clock 0),
+    standing still `stalled` s at its start (a streamer not scheduled), and handover 1's giver word `said`."""
     arm, meeting, values = receiver_at(robot, skills, seen, pose=partial(wait_pose, skills))
     giver, settings = robot.arms[GIVER], skills.settings[GIVER]
     arrival = meeting.tip.copy()
-    arrival[:3, 3] += HANDOVER_ARRIVAL * skills.cell.up_in(GIVER)
+    arrival[:3, 3] -= below * skills.cell.up_in(GIVER)
     arrival[:3, 3] += aside * skills.cell.board_to_arm(GIVER)[:3, 0]
     at(giver, solve_ik(arrival, settings))
     giver.stalled = stalled
@@ -1442,13 +1451,14 @@ def descent_sent(
     step: float | None = None,
     aside: float = 0.004,
     period: float | None = None,
+    below: float = HANDOVER_RISE,
 ):
-    """Handover 1 under way (`meeting_under_way`, its carry from `aside`, `stalled`), the receiver's jaw
+    """Handover 1 under way (`meeting_under_way`, its carry from `aside`, `below`, `stalled`), the receiver's jaw
     open: `await_meeting` then `descend_to_grasp` of a tree run at `period` (default `RunContext`'s) ticked
     every `step` s (default the control period) until the descent is sent (then `meanwhile(meeting)` done
     to the giver's carry, still under way), then until they end."""
     arm, meeting, values, carry = meeting_under_way(
-        robot, skills, seen, Giver.OFFERED, aside=aside, stalled=stalled
+        robot, skills, seen, Giver.OFFERED, aside=aside, stalled=stalled, below=below
     )
     arm.jaw.rest = np.array([skills.motion.transfer.jaw_open])
     built = build(tmp_path, robot, skills, MEET_AND_DESCEND, **values)
@@ -1522,6 +1532,26 @@ def test_the_receiver_closes_on_a_block_still_coming_that_will_be_still_when_the
     wall = jaw_on_wall(skills.cell)
     confirmed = closing.at + (transfer.jaw_open - wall + transfer.grip_confirmed_below) / velocity
     assert 0.0 <= confirmed - (sent + trajectory.duration) < trajectory.period
+
+
+def test_descending_onto_a_block_coming_up_its_axis_the_receiver_arrives_as_its_closing_jaw_finds_it_still(
+    tmp_path, robot, skills, seen, clock
+):
+    """A block brought up its final axis keeps below the receiver's grasp of it all along, so the receiver
+    could descend at once and land before the block is still; it sets off no sooner than brings its tip to
+    the grasp as its closing jaw, meeting the wall, finds the block still: the close goes (not a narrowing)
+    and its set-point passes `grip_confirmed_below` under the wall as the tip arrives."""
+    arm, _, carry, built = descent_sent(tmp_path, robot, skills, seen, clock, aside=0.0, below=0.03)
+    assert built.root.status == Status.SUCCESS
+    ((trajectory, sent),) = [(c.target, c.at) for c in arm.sent if c.kind == "trajectory"]
+    moving = int(np.argmax(np.any(trajectory.q != trajectory.q[0], axis=1))) - 1
+    assert moving >= 1  # held still first: at once, it would have landed first
+    transfer, velocity = skills.motion.transfer, skills.settings[RECEIVER].jaw_velocity
+    (closing,) = arm.jaw.sent
+    assert closing.target == transfer.jaw_closed
+    assert carry.duration <= closing.at + (transfer.jaw_open - jaw_on_wall(skills.cell)) / velocity
+    still = carry.duration + transfer.grip_confirmed_below / velocity
+    assert still - 1e-9 <= sent + trajectory.duration < still + trajectory.period
 
 
 def test_on_late_ticks_the_descent_keeps_above_the_block_and_the_jaw_closes_on_it_once_it_is_still(

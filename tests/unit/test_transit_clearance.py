@@ -7,7 +7,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from pegbt.behaviours.poses import HANDOVER_ARRIVAL, approach_for, to_arm, tool_pose
+from pegbt.behaviours.poses import HANDOVER_RISE, approach_for, to_arm, tool_pose
 from pegbt.motion.checks import CLEARANCE_SLACK, trajectory_problems
 from pegbt.motion.cubic import rest_to_rest_path
 from pegbt.motion.handover import handover_meeting_point
@@ -108,14 +108,15 @@ def test_an_approach_from_clear_of_the_pegs_sets_off_sideways_and_one_from_low_r
 
 
 def _to_meeting(pick: int) -> TransferWaypoints:
-    """A giver's carry from peg `pick` to the handover's meeting point (a goal in the air: no channel)."""
+    """A giver's carry from peg `pick` up onto the handover's meeting point (a goal in the air, which the
+    block comes up onto along its axis: a channel pointing down, no floor), as `to_handover` plans it."""
     up = CELL.up_in("PSM1")
     meeting = tool_pose(to_arm(CELL, "PSM1", handover_meeting_point(CELL)), 0.0, up)
-    above = meeting.copy()
-    above[:3, 3] += HANDOVER_ARRIVAL * up
+    below = meeting.copy()
+    below[:3, 3] -= HANDOVER_RISE * up
     lift = _waypoints(pick, pick)
-    in_the_air = Channel(meeting[:3, 3], up, -0.001, TRANSFER.channel_tolerance)
-    poses = np.stack([lift.poses[0], lift.poses[1], above, meeting])
+    in_the_air = Channel(meeting[:3, 3], -up, HANDOVER_RISE, TRANSFER.channel_tolerance, floor=False)
+    poses = np.stack([lift.poses[0], lift.poses[1], below, meeting])
     return TransferWaypoints(poses, lift.approach, lift.pick, in_the_air, lift.upright)
 
 
@@ -132,6 +133,34 @@ def test_a_carry_to_the_meeting_point_is_lifted_only_clear_of_its_peg_and_stays_
     heights = _above_peg_tops(tips)
     cleared = int(np.argmax(heights >= clear))
     assert cleared > 0 and heights[cleared:].min() >= clear - CLEARANCE_SLACK
+
+
+@pytest.mark.parametrize("pick", [7, 6])
+def test_a_carry_up_onto_the_meeting_point_ends_on_its_axis_never_above_it(planner, pick):
+    """The block comes up its final axis onto the meeting point (its last millimetre within the channel's
+    tolerance of the axis, and never above the point), so the receiver's jaw may come down onto it; the
+    checks refuse a carry that comes in sideways to the point instead."""
+    waypoints = _to_meeting(pick)
+    plan = planner.plan(waypoints)
+    assert plan.refined
+    up, meeting = CELL.up_in("PSM1"), waypoints.poses[-1][:3, 3]
+    offset = forward_kinematics(plan.trajectory.q)[:, :3, 3] - meeting
+    risen = offset @ up
+    arrival = int(np.flatnonzero(risen <= -HANDOVER_RISE + 1e-6)[-1])
+    off_axis = np.linalg.norm(offset - np.outer(risen, up), axis=1)
+    assert off_axis[arrival:].max() <= TRANSFER.channel_tolerance + 1e-6
+    assert risen[arrival:].max() <= 1e-6
+    sideways = waypoints.poses.copy()
+    sideways[2, :3, 3] = meeting + 0.003 * CELL.board_to_arm("PSM1")[:3, 0]
+    path = rest_to_rest_path(joint_waypoints(replace(waypoints, poses=sideways), PSM1), PSM1)
+    problems = trajectory_problems(
+        path.sample(PSM1.control_period),
+        PSM1,
+        leaving=waypoints.pick,
+        arriving=waypoints.place,
+        upright=waypoints.upright,
+    )
+    assert any("goal peg's axis" in problem for problem in problems)
 
 
 def test_a_carry_to_the_air_sagging_below_its_pegs_clearing_height_on_the_way_is_refused():

@@ -418,8 +418,10 @@ def set_off(leaf: RobotLeaf, receiver: str, grasp: Grasp, carry: SentMotion, now
     """The first clock time from `now` (on the control period) from which the receiver's descent onto
     `grasp` keeps its tip `approach_above_block` above the block's top, as `carry` moves it, until it ends,
     except once the block is within `channel_tolerance` of where it will be held out, sideways: then only
-    above its grasp of the block. A carry that stood still on the way (`paused`) is that far behind its
-    plan: the block is higher than planned, and a descent timed on the plan alone would meet it."""
+    above its grasp of the block; and no sooner than brings the tip to its grasp before the carry has ended
+    by the time the closing jaw meets the wall (`descend_to_grasp` would only narrow it). A carry that stood
+    still on the way (`paused`) is that far behind its plan: the block is higher than planned, and a descent
+    timed on the plan alone would meet it."""
     motion, cell, giver = leaf.motion(receiver), leaf.skills.cell, giver_of(leaf, receiver)
     descent_plan = descent(leaf.skills, motion, motion.start_from(leaf.client(receiver)), grasp)()
     heights = (tip_position(descent_plan.q) - grasp.pose[:3, 3]) @ cell.up_in(receiver)
@@ -437,6 +439,10 @@ def set_off(leaf: RobotLeaf, receiver: str, grasp: Grasp, carry: SentMotion, now
     later = times[None, :] - starts[:, None]
     tip = np.interp(np.maximum(later, 0.0), descent_plan.t, heights)
     safe = np.all((later < 0.0) | (tip >= clear + above[None, :] - 1e-9), axis=1)
+    # nor so soon that its tip arrives before the block is still by the time the closing jaw meets the wall
+    # (`descend_to_grasp` would only narrow its jaw): a block coming up its axis lets the descent end early
+    settled = times[-1] + transfer.grip_confirmed_below / motion.settings.jaw_velocity - descent_plan.duration
+    safe &= starts >= settled - 1e-9
     return float(starts[np.argmax(safe)]) if safe.any() else float(times[-1])
 
 
