@@ -84,9 +84,10 @@ def test_every_block_picked_off_its_peg_meets_with_a_grasp_clear_of_the_giver(se
 
 
 def test_a_block_held_on_some_walls_cannot_be_handed_over_and_the_giver_picks_another_wall():
-    """A block lying on the board near peg 7 (where PSM1 drops one it carried): held on two of its walls,
-    every grasp of PSM2 at the meeting point would strike PSM1's tool; the giver's pick avoids those."""
-    block = block_at(0.0606, 0.0232, 0.0)
+    """A block lying on the board between pegs 1 and 6 (where PSM1 drops one it carried): held on two of its
+    walls, every grasp of PSM2 at the meeting point would strike PSM1's tool; the giver's pick avoids those.
+    (It lies 10.7 mm from peg 6: at 2.2 mm, as it was, the grasps but one put PSM1's tool on that peg.)"""
+    block = block_at(0.055, 0.0125, 0.0)
     feasible = SKILLS.selectors["PSM1"].feasible(block.pose)
     handed = {
         option.candidate: plan_meeting(SKILLS, "PSM1", "PSM2", option, block) is not None

@@ -1154,9 +1154,9 @@ def test_handover_poses_fails_naming_why_there_is_no_handover(tmp_path, robot, s
         == []
     )
     # a block held on a wall from which every grasp of the receiver strikes the giver's tool (a block lying
-    # on the board by peg 7, as `test_handover_meeting` finds), PSM1 giving to PSM2
+    # on the board between pegs 1 and 6, as `test_handover_meeting` finds), PSM1 giving to PSM2
     lying = BlockEstimate(
-        np.array([0.0606, 0.0232, skills.cell.board.surface_z]), 0.0, None, 1.0, 0.0003, 1000, True, ""
+        np.array([0.055, 0.0125, skills.cell.board.surface_z]), 0.0, None, 1.0, 0.0003, 1000, True, ""
     )
     blocked = next(
         option

@@ -27,8 +27,21 @@ from pegbt.behaviours.base import (
     Outgoing,
     RobotLeaf,
 )
-from pegbt.behaviours.motion import CarryLeaf, above_pegs_first, closing_lead, planned_approach, rise
-from pegbt.behaviours.poses import from_handover, to_arm, to_handover, tool_pose
+from pegbt.behaviours.motion import (
+    CarryLeaf,
+    above_pegs_first,
+    approach_above_clear,
+    closing_lead,
+    planned_approach,
+    rise,
+)
+from pegbt.behaviours.poses import (
+    from_handover,
+    out_to_wait,
+    to_arm,
+    to_handover,
+    tool_pose,
+)
 from pegbt.behaviours.protocol_leaf import read_record
 from pegbt.behaviours.resources.arm_motion import ArmMotion, EarlyResult, SentMotion
 from pegbt.behaviours.resources.skills import Skills
@@ -38,7 +51,7 @@ from pegbt.frames import invert_rigid
 from pegbt.handover_protocol import Giver
 from pegbt.motion.handover import descent_clearance, handover_meeting_point, jaw_on_wall
 from pegbt.motion.ik import solve_ik
-from pegbt.motion.kinematics import tip_position
+from pegbt.motion.kinematics import forward_kinematics, tip_position
 from pegbt.motion.trajectory import Trajectory, concatenate
 from pegbt.motion.waypoints import TransferWaypoints
 from pegbt.perception.blocks import BlockEstimate, block_on_peg
@@ -236,12 +249,17 @@ def _way_from(
 def way_to_wait(
     skills: Skills, motion: ArmMotion, arm: str, start: NDArray[np.float64], grasp: Grasp
 ) -> Trajectory:
-    """The receiver's way from joints `start` to wait `receiver_wait_above` its `grasp`: time-optimal
-    rest-to-rest moves, rising first if it is low among the pegs."""
+    """The receiver's way from joints `start` to wait `receiver_wait_above` its `grasp`: from low among the
+    pegs (over the block it placed) with a planner, one planned motion up and over (`out_to_wait`); else
+    time-optimal rest-to-rest moves, rising first if it is low among the pegs."""
     cell = skills.cell
     wait = grasp.pose.copy()
     wait[:3, 3] += skills.motion.handover.receiver_wait_above * cell.up_in(arm)
     stops = above_pegs_first(cell, skills.motion, arm, start, motion.settings)
+    if motion.planner is not None and stops:
+        over = approach_above_clear(skills, giving=False)
+        way = out_to_wait(cell, skills.motion, arm, forward_kinematics(start), wait, over)
+        return motion.transfer(way, above_clear=over)
     joints = stops + [solve_ik(wait, motion.settings, what="waiting above the handover grasp")]
     names = [f"stop {i}" for i in range(len(stops))] + ["waiting pose"]
     return motion.quickest(start, joints, names)

@@ -34,6 +34,7 @@ from pegbt.errors import PegbtError
 from pegbt.executive.providers import ProviderSetup
 from pegbt.motion.handover import tool_distance
 from pegbt.motion.ik import inverse_kinematics
+from pegbt.motion.peg_clearance import tool_peg_gap
 from pegbt.motion.placing import paper_heights
 from pegbt.motion.robot_config import DEFAULT_TOOL, robot_arm_settings
 from pegbt.motion.settings import MotionSettings, motion_settings
@@ -115,10 +116,18 @@ class Skills:
         self.waiting: dict[str, float | None] = dict.fromkeys(ARMS)  # since when each arm waits for the other
 
     def _reachable(self, arm: str) -> Callable[[NDArray[np.float64]], NDArray[np.bool_]]:
-        settings = self.settings[arm]
+        """The selectors' predicate: the arm reaches the grasp, and its tool there overlaps no peg
+        (`tool_peg_gap`). The shaft leans back towards the arm's remote centre: gripping a block a slip had
+        dropped beside a peg on its side facing that peg brought the shaft's end onto the peg (3 tool-peg
+        contacts in 60 handovers with `--inject-faults`, docs/internals/motion.md)."""
+        settings, board_from_arm = self.settings[arm], self.cell.arm_to_board(arm)
 
         def reachable(poses: NDArray[np.float64]) -> NDArray[np.bool_]:
-            return np.asarray(inverse_kinematics(poses, settings).ok, dtype=bool).reshape(len(poses))
+            solved = inverse_kinematics(poses, settings)
+            ok = np.asarray(solved.ok, dtype=bool).reshape(len(poses))
+            if ok.any():
+                ok[ok] = tool_peg_gap(solved.q.reshape(len(poses), 6)[ok], board_from_arm, self.cell) >= 0.0
+            return ok
 
         return reachable
 
