@@ -34,24 +34,24 @@ TRANSFERS = {
     ("bilateral", "calibrated", 1, "bending", False): (True, None, 6.42),
     ("bilateral", "calibrated", 5, "default", False): (True, None, 6.02),
     ("bilateral", "calibrated", 5, "bending", False): (True, None, 6.02),
-    ("handover", "uncalibrated", 1, "default", False): (False, "grasp", 13.35),
-    ("handover", "uncalibrated", 1, "bending", False): (False, "grasp", 13.35),
+    ("handover", "uncalibrated", 1, "default", False): (False, "grasp", 13.33),
+    ("handover", "uncalibrated", 1, "bending", False): (False, "grasp", 13.33),
     ("handover", "uncalibrated", 5, "default", False): (False, "grasp", 18.22),
     ("handover", "uncalibrated", 5, "bending", False): (False, "grasp", 18.22),
-    ("handover", "calibrated", 1, "default", False): (True, None, 6.63),
-    ("handover", "calibrated", 1, "bending", False): (True, None, 6.63),
-    ("handover", "calibrated", 5, "default", False): (True, None, 6.78),
-    ("handover", "calibrated", 5, "bending", False): (True, None, 6.78),
-    ("handover", "uncalibrated", 1, "default", True): (False, "handover", 6.62),
-    ("handover", "uncalibrated", 5, "default", True): (True, None, 6.78),
+    ("handover", "calibrated", 1, "default", False): (True, None, 6.61),
+    ("handover", "calibrated", 1, "bending", False): (True, None, 6.61),
+    ("handover", "calibrated", 5, "default", False): (True, None, 6.75),
+    ("handover", "calibrated", 5, "bending", False): (True, None, 6.75),
+    ("handover", "uncalibrated", 1, "default", True): (False, "handover", 6.59),
+    ("handover", "uncalibrated", 5, "default", True): (False, "handover", 6.75),
 }
 # a handover trial, uncalibrated, layout 0, its first five transfers in both worlds (alike there)
 TRIAL = [
-    (False, "lower", 24.44),
+    (False, "lower", 24.43),
     (False, "grasp", 18.31),
-    (False, "lower", 23.8),
-    (False, "grasp", 13.71),
-    (False, "lower", 20.61),
+    (False, "lower", 23.79),
+    (False, "grasp", 13.68),
+    (False, "release", 5.78),
 ]
 
 
