@@ -35,6 +35,17 @@ def _above_peg_tops(tips: np.ndarray) -> np.ndarray:
     return (tips - top) @ CELL.up_in("PSM1")
 
 
+def _problems_of(path, waypoints):
+    """What the checks find in `path` sampled at the control period, leaving and arriving as `waypoints` do."""
+    return trajectory_problems(
+        path.sample(PSM1.control_period),
+        PSM1,
+        leaving=waypoints.pick,
+        arriving=waypoints.place,
+        upright=waypoints.upright,
+    )
+
+
 def _through_middle(waypoints: TransferWaypoints, height: float) -> list[str]:
     """The clearance problems of rest-to-rest cubics through `waypoints` with a stop halfway between the
     lifted pose and the one over the goal, `height` above the peg tops."""
@@ -44,13 +55,7 @@ def _through_middle(waypoints: TransferWaypoints, height: float) -> list[str]:
     middle[:3, 3] += (height - _above_peg_tops(middle[:3, 3])) * CELL.up_in("PSM1")
     joints = [q[0], q[1], solve_ik(middle, PSM1), q[2], q[3]]
     path = rest_to_rest_path(joints, PSM1, ["grasp", "lifted", "middle", "above", "goal"])
-    problems = trajectory_problems(
-        path.sample(PSM1.control_period),
-        PSM1,
-        leaving=waypoints.pick,
-        arriving=waypoints.place,
-        upright=waypoints.upright,
-    )
+    problems = _problems_of(path, waypoints)
     return [problem for problem in problems if "clearing height" in problem]
 
 
@@ -153,13 +158,7 @@ def test_a_carry_up_onto_the_meeting_point_ends_on_its_axis_never_above_it(plann
     sideways = waypoints.poses.copy()
     sideways[2, :3, 3] = meeting + 0.003 * CELL.board_to_arm("PSM1")[:3, 0]
     path = rest_to_rest_path(joint_waypoints(replace(waypoints, poses=sideways), PSM1), PSM1)
-    problems = trajectory_problems(
-        path.sample(PSM1.control_period),
-        PSM1,
-        leaving=waypoints.pick,
-        arriving=waypoints.place,
-        upright=waypoints.upright,
-    )
+    problems = _problems_of(path, waypoints)
     assert any("goal peg's axis" in problem for problem in problems)
 
 

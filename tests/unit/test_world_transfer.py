@@ -229,17 +229,9 @@ def test_a_block_released_beyond_the_board_is_lost():
 
 def test_a_handover_leaves_the_block_with_the_receiver():
     world = World(seed=5)
-    driver = Driver(world)
-    grasp = grasp_keyframes(world, 1, grasp_candidate_facing(world, 1, "PSM2"))
-    driver.play({"PSM2": [*grasp, lifted(world, grasp[-1])]})
+    driver = _both_holding_at_the_meeting_point(world)
     holding = driver.at("PSM2")
-    tip_from_block = holding.position[:2] - world.blocks[1].pose[:2, 3]
-    meeting = np.append(handover_meeting_point(world.cell)[:2] + tip_from_block, holding.position[2])
-    driver.play({"PSM2": [Keyframe(meeting, holding.yaw, holding.jaw)]})
-    assert world.held_by("PSM2") == 1
-
-    events = driver.play({"PSM1": grasp_keyframes(world, 1, grasp_candidate_facing(world, 1, "PSM1"))})
-    assert kinds(events) == ["grasp"] and events[0].detail.endswith("handover from PSM2")
+    meeting = holding.position
     jaw_open = motion_settings().transfer.jaw_open
     events = driver.play(
         {
