@@ -28,9 +28,8 @@ from pegbt.sim2real.outcomes.intervals import least_p, rate_interval
 
 ALPHA = 0.05  # the gate's false discovery rate, and the level at which a row counts as testable
 POWER = 0.9  # the naming rate the goal asks for: a difference seen this often is detectable
-LARGEST = (
-    1 << 24
-)  # the most real transfers `row_testable_from` tries: a row testable at no size below is never
+# the most real transfers `row_testable_from` tries: a row testable at no size below is never
+LARGEST = 1 << 24
 
 
 @dataclass(frozen=True)
