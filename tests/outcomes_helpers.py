@@ -3,7 +3,7 @@ fit's statistics can be checked without simulating arms."""
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 
@@ -23,15 +23,26 @@ def lift_success(effects: WorldEffects, variant: str, condition: str) -> float:
     return min(1.0, BASE[variant] + REACH[variant] * deflection / 0.003 * 0.5)
 
 
-def fake_mapper(
-    tasks: Sequence[tuple[tuple[WorldEffects, ...], str, str, int]],
-) -> list[list[TransferResult]]:
-    out = []
-    for worlds, variant, condition, seed in tasks:
-        u = np.random.default_rng([seed, 99]).random()
-        placed = [bool(u < lift_success(effects, variant, condition)) for effects in worlds]
-        out.append([TransferResult(p, None if p else "lift", 4.0) for p in placed])
-    return out
+Tasks = Sequence[tuple[tuple[WorldEffects, ...], str, str, int]]
+Rate = Callable[[WorldEffects, str, str], float]
+
+
+def rate_mapper(rate: Rate, phase: str, stream: int = 99) -> Callable[[Tasks], list[list[TransferResult]]]:
+    """A mapper placing each transfer with probability `rate(world, variant, condition)`, a failure being
+    at `phase`: one uniform draw per seed (stream `stream`) shared by every world, as common random numbers."""
+
+    def mapper(tasks: Tasks) -> list[list[TransferResult]]:
+        out = []
+        for worlds, variant, condition, seed in tasks:
+            u = np.random.default_rng([seed, stream]).random()
+            placed = [bool(u < rate(effects, variant, condition)) for effects in worlds]
+            out.append([TransferResult(p, None if p else phase, 4.0) for p in placed])
+        return out
+
+    return mapper
+
+
+fake_mapper = rate_mapper(lift_success, "lift")
 
 
 def real_counts(effects: WorldEffects, variant: str, condition: str, attempted: int, seed: int) -> int:
@@ -51,13 +62,5 @@ def chamfer_placed(effects: WorldEffects, variant: str, condition: str) -> float
     return 0.077 + 0.043 * min(1.0, max(0.0, (radius - 0.002) / 0.0012))
 
 
-def chamfer_mapper(
-    tasks: Sequence[tuple[tuple[WorldEffects, ...], str, str, int]],
-) -> list[list[TransferResult]]:
-    """`fake_mapper` with `chamfer_placed` for its rates: a failure is at the lowering."""
-    out = []
-    for worlds, variant, condition, seed in tasks:
-        u = np.random.default_rng([seed, 99]).random()
-        placed = [bool(u < chamfer_placed(effects, variant, condition)) for effects in worlds]
-        out.append([TransferResult(p, None if p else "lower", 4.0) for p in placed])
-    return out
+# `fake_mapper` with `chamfer_placed` for its rates: a failure is at the lowering
+chamfer_mapper = rate_mapper(chamfer_placed, "lower")

@@ -4,17 +4,14 @@ reached by a chamfer or a grasp capture on top of the bending peg, never by the 
 
 from __future__ import annotations
 
-from collections.abc import Sequence
 from pathlib import Path
-
-import numpy as np
 
 from pegbt.sim.world_effects import WorldEffects, read_world_file
 from pegbt.sim2real.outcomes.cells import Cell, Outcomes
 from pegbt.sim2real.outcomes.diagnose import Settings, diagnose
-from pegbt.sim2real.outcomes.phasesim import TransferResult
 from pegbt.sim2real.outcomes.report import report_dict, report_markdown, write_report
-from pegbt.sim2real.outcomes.simulate import Mapper, Task
+from pegbt.sim2real.outcomes.simulate import Mapper
+from tests.outcomes_helpers import rate_mapper
 
 
 def _rate(effects: WorldEffects, variant: str, condition: str) -> float:
@@ -26,13 +23,7 @@ def _rate(effects: WorldEffects, variant: str, condition: str) -> float:
     return 0.05 + 0.4 * bend + (0.3 * capture if variant == "bilateral" else 0.0)
 
 
-def _mapper(tasks: Sequence[Task]) -> list[list[TransferResult]]:
-    out = []
-    for worlds, variant, condition, seed in tasks:
-        u = np.random.default_rng([seed, 11]).random()
-        placed = [bool(u < _rate(e, variant, condition)) for e in worlds]
-        out.append([TransferResult(p, None if p else "grasp", 4.0) for p in placed])
-    return out
+_mapper = rate_mapper(_rate, "grasp", stream=11)
 
 
 CELLS = (

@@ -3,12 +3,10 @@ tied effects give, and says whether the real rate's interval holds it."""
 
 from __future__ import annotations
 
-import numpy as np
-
 from pegbt.sim2real.outcomes.cells import Cell, Outcomes
 from pegbt.sim2real.outcomes.diagnose import Settings, diagnose
-from pegbt.sim2real.outcomes.phasesim import TransferResult
 from pegbt.sim2real.outcomes.report import report_dict, report_markdown
+from tests.outcomes_helpers import rate_mapper
 
 # Uncalibrated unilateral success rises alike with a bending peg and with chamfers; bilateral only with the peg.
 GAIN = {"unilateral": (0.6, 0.6), "bilateral": (0.6, 0.0)}
@@ -21,13 +19,7 @@ def _rate(effects, variant: str, condition: str) -> float:
     return 1.0 if condition != "uncalibrated" else 0.05 + peg * bend + cham * chamfer
 
 
-def _twin_mapper(tasks):
-    out = []
-    for worlds, variant, condition, seed in tasks:
-        u = np.random.default_rng([seed, 99]).random()
-        placed = [bool(u < _rate(effects, variant, condition)) for effects in worlds]
-        out.append([TransferResult(p, None if p else "lift", 4.0) for p in placed])
-    return out
+_twin_mapper = rate_mapper(_rate, "lift")
 
 
 def test_a_tie_predicts_each_held_out_cell_as_the_span_of_its_effects_rates():
