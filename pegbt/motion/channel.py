@@ -67,6 +67,12 @@ class Channel:
         return perpendiculars(self.axis)
 
     @property
+    def in_the_air(self) -> bool:
+        """Whether, as a goal, it sets no clearing height for the transit before it: none above its point,
+        or a channel that is no floor (the handover's meeting point, which the block comes up onto)."""
+        return self.clear <= 0.0 or not self.floor
+
+    @property
     def max_twist(self) -> float:
         """How far (rad) the tool may turn about the axis while the block is on the peg."""
         return self.tolerance / self.lever if self.lever > 0 else np.inf

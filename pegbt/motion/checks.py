@@ -105,7 +105,7 @@ def _clearance_problems(tips: np.ndarray, leaving: Channel | None, arriving: Cha
     goal in the air (a clearing height at or below it, or a goal that is no floor: the handover's meeting
     point, which the block comes up onto) sets none: from the start peg, the tip stays above its clearing
     height to the end."""
-    if arriving.clear <= 0.0 or not arriving.floor:
+    if arriving.in_the_air:
         return [] if leaving is None else _clearance_to_the_air(tips, leaving)
     heights = arriving.height(tips)
     above = heights >= arriving.clear

@@ -63,8 +63,7 @@ def handover_meeting_point(cell: Workcell, motion: MotionSettings | None = None)
 def jaw_on_wall(cell: Workcell) -> float:
     """The jaw angle (rad) at which jaws closing astride a block's wall touch it: their tips the wall's
     thickness apart. A jaw sent closing that long before the tool arrives meets the wall as it does."""
-    wall = cell.block.edge_distance - cell.block.hole_radius
-    return 2.0 * math.asin(min(1.0, wall / 2.0 / cell.tool.jaw_length))
+    return _jaw_angle(cell, _wall(cell) / 2.0)
 
 
 def jaw_clear_of_wall(cell: Workcell) -> float:
@@ -72,8 +71,17 @@ def jaw_clear_of_wall(cell: Workcell) -> float:
     round, a jaw radius clear of the wall either side at their tips (24°). Below it a jaw opening from its
     squeeze still presses on the wall: an arm moving then drags the block (held by another jaw, through
     that jaw)."""
-    wall = cell.block.edge_distance - cell.block.hole_radius
-    return 2.0 * math.asin(min(1.0, (wall / 2.0 + cell.tool.jaw_radius) / cell.tool.jaw_length))
+    return _jaw_angle(cell, _wall(cell) / 2.0 + cell.tool.jaw_radius)
+
+
+def _wall(cell: Workcell) -> float:
+    """The thickness (m) of a block's wall between its edge and its hole."""
+    return cell.block.edge_distance - cell.block.hole_radius
+
+
+def _jaw_angle(cell: Workcell, half_gap: float) -> float:
+    """The jaw angle (rad) at which the jaws' tips are `half_gap` off the jaw's centre line either side."""
+    return 2.0 * math.asin(min(1.0, half_gap / cell.tool.jaw_length))
 
 
 def tool_segments(

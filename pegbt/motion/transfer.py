@@ -74,7 +74,7 @@ def lowered(waypoints: TransferWaypoints, above_clear: float) -> TransferWaypoin
     a clearing height above its goal (a goal that is no floor: the carry up onto the handover point) has
     only its lifted pose lowered, over its start peg's clearing height (`_lift_lowered`)."""
     place, poses = waypoints.place, waypoints.poses.copy()
-    if place.clear <= 0.0 or not place.floor:
+    if place.in_the_air:
         if waypoints.pick is None:
             return waypoints
         return replace(waypoints, poses=_lift_lowered(poses, waypoints.pick, above_clear))
