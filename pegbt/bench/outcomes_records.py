@@ -23,6 +23,7 @@ import pegbt
 from pegbt.errors import PegbtError
 
 RECORDS = "records.jsonl"
+FIELDS = {"plan": ("families", "plans", "pilot_transfers"), "score": ("family", "seed", "score", "simulated")}
 ROOT = Path(pegbt.__file__).resolve().parents[1]
 
 
@@ -79,9 +80,11 @@ class Records:
             try:
                 record = json.loads(line) if line.strip() else None
                 if record is not None and not (
-                    isinstance(record, dict) and record.get("kind") in ("plan", "score")
+                    isinstance(record, dict)
+                    and record.get("kind") in FIELDS
+                    and all(name in record for name in FIELDS[record["kind"]])
                 ):
-                    raise ValueError("not a record")
+                    raise ValueError("not a plan or a score with all its fields")
             except ValueError as error:
                 if not last:
                     raise PegbtError(f"not a record ({error})", file=self.path, line=number) from None

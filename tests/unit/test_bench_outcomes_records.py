@@ -113,6 +113,14 @@ def test_a_bad_line_before_the_last_is_an_error_naming_its_line(tmp_path: Path) 
     assert (error.value.file, error.value.line) == (str(tmp_path / RECORDS), 1)
 
 
+def test_a_score_missing_a_field_is_an_error_naming_its_line_not_a_key_error(tmp_path: Path) -> None:
+    (tmp_path / RECORDS).write_text('{"kind": "score", "family": "null", "code": "aaa"}\n{"kind": "plan"}\n')
+    with pytest.raises(PegbtError) as error:
+        Records(tmp_path, FAMILIES, "aaa")
+    assert (error.value.file, error.value.line) == (str(tmp_path / RECORDS), 1)
+    assert "all its fields" in str(error.value)
+
+
 def test_the_code_identity_changes_with_a_source_or_a_tree_and_nothing_else(tmp_path: Path) -> None:
     for path, text in {"pegbt/a.py": "x = 1\n", "trees/t.yaml": "a: 1\n", "skills/s.yaml": "b: 2\n"}.items():
         (tmp_path / path).parent.mkdir(parents=True, exist_ok=True)
