@@ -269,6 +269,13 @@ declare(
             "it reads `/blocks`); {}: none",
             default={},
         ),
+        Param(
+            "ease",
+            bool,
+            "ease the squeeze to `grip_confirmed_below` under the block's wall (the grip the lift began with) "
+            "by the time the arm stops, as `keep_holding`'s `ease` does once it holds the block out",
+            default=False,
+        ),
         keep_apart=keep_apart_param(0.0),
     ),
     reads=("/board",),

@@ -24,6 +24,8 @@ from pegbt.behaviours.actions import handover
 from pegbt.behaviours.actions.grasping import gripping
 from pegbt.behaviours.actions.handover import WayOut, plan_meeting
 from pegbt.behaviours.base import JAW_AHEAD, LONE_PATIENCE, MOTION_OVERTIME, Outgoing, parts
+from pegbt.behaviours.motion import eased_grip
+from pegbt.behaviours.params import HELD_ABOVE
 from pegbt.behaviours.poses import (
     EXIT_WIDENING,
     HANDOVER_RISE,
@@ -1230,6 +1232,56 @@ def test_carry_to_handover_fails_at_once_and_stops_the_arm_when_the_block_slips(
     assert "slipped from PSM2's jaw (jaw at " in feedback(built)
     assert feedback(built).endswith("during carry_to_handover")
     assert arm.sent[-1].kind == "hold"
+
+
+EASED = TO_HANDOVER.replace("plan_s: /PSM2/plan_s", "plan_s: /PSM2/plan_s, ease: true")
+
+
+def carrying_eased(tmp_path, robot: Robot, skills: Skills, seen, clock: ManualClock):
+    """The giver holding the block, squeezing it at `jaw_closed`, its eased carry built, and a ticker that
+    ticks it every 10 ms until it ends or `until()` holds."""
+    arm, values = giver_holding(robot, skills, seen)
+    arm.jaw.rest = np.array([skills.motion.transfer.jaw_closed])
+    built = build(tmp_path, robot, skills, EASED, **values)
+
+    def carry(until=lambda: False) -> Status:
+        while True:
+            built.root.tick_once()
+            if built.root.status != Status.RUNNING or until():
+                return built.root.status
+            clock.advance(0.01)
+
+    return arm, built, carry
+
+
+def test_carry_to_handover_eased_stops_at_the_meeting_pose_gripping_as_its_lift_began(
+    tmp_path, robot, skills, seen, clock
+):
+    """`ease`: the giver's squeeze eases from `jaw_closed` to `grip_confirmed_below` under the wall (the grip
+    its lift began with) by the time the arm stops at the meeting point, the ramp sent no sooner than a tree
+    period before it must be: a receiver may take the block at once, and the giver's jaw then lets go from
+    there."""
+    arm, built, carry = carrying_eased(tmp_path, robot, skills, seen, clock)
+    assert carry() == Status.SUCCESS
+    (trajectory,), (ease,) = arm.trajectories, arm.jaw.sent
+    eased = eased_grip(skills)
+    ramp = (eased - skills.motion.transfer.jaw_closed) / arm.settings.jaw_velocity
+    stops = arm.sent[0].at + trajectory.duration
+    assert ease.target == pytest.approx(eased)
+    assert stops - ramp - built.root.context.period - 1e-9 <= ease.at <= stops - ramp + 1e-9
+    assert arm.jaw.measured_js.position[0] == pytest.approx(BLOCK_WALL_ANGLE)  # it holds the block
+
+
+def test_carry_to_handover_eased_still_sees_a_slip(tmp_path, robot, skills, seen, clock):
+    """A block slipping out of the eased jaw lets it close only to that set-point, above `held_above` (which
+    alone would not see it), and the carry fails all the same."""
+    arm, built, carry = carrying_eased(tmp_path, robot, skills, seen, clock)
+    eased = eased_grip(skills)
+    assert carry(until=lambda: arm.jaw.setpoint_js.position[0] >= eased - 1e-9) == Status.RUNNING
+    assert clock.now() < arm.sent[0].at + arm.trajectories[0].duration  # the arm still moves
+    arm.drop_block()
+    assert carry() == Status.FAILURE
+    assert "slipped from PSM2's jaw (jaw at 6°)" in feedback(built) and eased > HELD_ABOVE
 
 
 def receiver_at(robot: Robot, skills: Skills, seen, pose=None):
