@@ -24,7 +24,7 @@ from pegbt.behaviours.actions import handover
 from pegbt.behaviours.actions.grasping import gripping
 from pegbt.behaviours.actions.handover import WayOut, plan_meeting
 from pegbt.behaviours.base import JAW_AHEAD, LONE_PATIENCE, MOTION_OVERTIME, Outgoing, parts
-from pegbt.behaviours.motion import eased_grip
+from pegbt.behaviours.motion import eased_grip, rise
 from pegbt.behaviours.params import HELD_ABOVE
 from pegbt.behaviours.poses import (
     EXIT_WIDENING,
@@ -2056,14 +2056,38 @@ def test_a_givers_rise_that_falls_back_to_rising_alone_is_no_approach_whatever_a
     monkeypatch.setattr(handover, "planned_approach", unplannable)
     built = build(tmp_path, robot, skills, RISE_INTO_NEXT, board=seen[0], blocks=seen[1])
     assert run(built, clock) == Status.SUCCESS
-    (rise,) = giver.trajectories
-    tips = tip_position(rise.q)
+    (alone,) = giver.trajectories
+    tips = tip_position(alone.q)
     assert (tips[-1] - tips[0]) @ skills.cell.up_in(GIVER) == pytest.approx(0.007, abs=1e-4)  # alone
 
     approach = approach_next(tmp_path, robot, skills, seen, following, chosen)
     assert run(approach, clock) == Status.SUCCESS
     assert len(giver.trajectories) == 2  # its own approach: the rise was not taken for it
     assert np.allclose(forward_kinematics(giver.trajectories[-1].q[-1]), chosen.pose, atol=1e-4)
+
+
+def test_a_givers_rise_after_the_last_handover_of_its_loop_passes_its_height_at_speed_and_ends_there(
+    tmp_path, clock, cloud, seen
+):
+    """After the last handover of its loop (`handover_to`, no `then`) nothing follows the giver's rise
+    before the arms park: it rises as far again up the block's axis, accelerating all the way to `height`
+    and braking beyond, and ends as the tip passes `height` (the receiver carries the block off then), a
+    good deal sooner than a rise stopping there."""
+    skills, robot, _, _ = handed_over(clock, cloud, seen)
+    giver = robot.arms[GIVER]
+    tree = f"{{rise: {{arm: {GIVER}, height: 0.007, keep_apart: 0.0, handover_to: {RECEIVER}}}}}"
+    built = build(tmp_path, robot, skills, tree)
+    assert run(built, clock) == Status.SUCCESS
+    (trajectory,) = giver.trajectories
+    tips = tip_position(trajectory.q)
+    risen = (tips - tips[0]) @ skills.cell.up_in(GIVER)
+    out = int(np.argmax(risen >= 0.007 - 1e-9))
+    assert trajectory.t[out] <= clock.now() < trajectory.t[out] + STEP  # ended as the tip passed it
+    assert risen[-1] == pytest.approx(0.014, abs=1e-5) and np.all(np.diff(risen) >= -1e-9)
+    off_axis = np.linalg.norm(lateral(skills, GIVER, tips - tips[0]), axis=1)
+    assert off_axis.max() <= skills.motion.transfer.channel_tolerance  # up the block's axis
+    stopping = rise(skills.cell, skills.arm(GIVER), GIVER, trajectory.q[0], 0.007)
+    assert trajectory.t[out] < 0.75 * stopping.duration
 
 
 def test_a_givers_way_out_ends_once_the_encoders_put_the_tip_out_of_the_block(tmp_path, clock, cloud, seen):

@@ -36,6 +36,7 @@ from pegbt.behaviours.motion import (
     eased_grip,
     planned_approach,
     rise,
+    rise_extent,
 )
 from pegbt.behaviours.poses import (
     from_handover,
@@ -392,12 +393,14 @@ class CarryToHandover(CarryLeaf):
         arm = self.param("arm")
         motion, end = self.motion(arm), trajectories[0].q[-1].copy()
         giving = self.robot.trial.giving(arm)
+        receiver = "" if giving is None else giving.arms.split("→")[1]
         following = next_block(self.param("then"), self.read("/blocks")) if self.param("then") else None
         if giving is None or following is None or motion.planner is None:
-            planned = partial(rise, self.skills.cell, motion, arm, end, height)
-            motion.plan_early(self.context.work, (end, height), planned)
+            extent = rise_extent(height, receiver, self.param("then"))
+            planned = partial(rise, self.skills.cell, motion, arm, end, extent)
+            motion.plan_early(self.context.work, (end, extent), planned)
             return
-        board, way, receiver = self.read("/board"), WayOut(), giving.arms.split("→")[1]
+        board, way = self.read("/board"), WayOut()
         way_out = partial(rise_into_approach, self.skills, arm, receiver, end, height, board, following, way)
         motion.plan_early(self.context.work, (end, height, board, following, way), way_out)
 
