@@ -2,7 +2,11 @@
 
 `DIR/records.jsonl` holds JSON lines, each appended and flushed as soon as it is known: first the pilot's
 plan (per family: size, detectable_at, read_from, too_large), then one score per family and seed. A rerun
-with the same DIR reads them back and simulates only what is missing. Every record carries the code's
+with the same DIR reads them back and simulates only what is missing. `DIR/transfers.jsonl` keeps every
+transfer the run simulated (`StoredMemo`), one line a batch: a diagnosis a stopped run left half done
+costs its rerun no simulation again, and neither do the fit's candidate worlds, which every seed's
+diagnoses simulate on the same seeds (about half of a seed's simulations when the memo holds the seed
+before). Every record carries the code's
 identity: a SHA-256 of the files a run reads (the `pegbt` package's Python sources, `trees/` and `skills/`
 beside it), not a git commit, since a commit says nothing of uncommitted edits and "dirty" cannot tell two
 edited trees apart, and the hash holds outside a checkout too. A rerun whose code differs is refused: the
@@ -16,14 +20,24 @@ import json
 import os
 import sys
 from collections.abc import Sequence
+from dataclasses import astuple
 from pathlib import Path
 from typing import Any
 
 import pegbt
 from pegbt.errors import PegbtError
+from pegbt.sim.world_effects import WorldEffects
+from pegbt.sim2real.outcomes.cache import Known, MemoMapper
+from pegbt.sim2real.outcomes.simulate import Mapper
+from pegbt.sim2real.outcomes.transfer_result import TransferResult
 
 RECORDS = "records.jsonl"
-FIELDS = {"plan": ("families", "plans", "pilot_transfers"), "score": ("family", "seed", "score", "simulated")}
+TRANSFERS = "transfers.jsonl"
+FIELDS = {
+    "plan": ("families", "plans", "pilot_transfers"),
+    "score": ("family", "seed", "score", "simulated"),
+    "transfers": ("worlds", "rows"),
+}
 ROOT = Path(pegbt.__file__).resolve().parents[1]
 
 
@@ -48,14 +62,7 @@ class Records:
         folder.mkdir(parents=True, exist_ok=True)
         self.plan: dict[str, Any] | None = None
         self.scores: dict[tuple[str, int], dict[str, Any]] = {}
-        for record in self._read():
-            if record.get("code") != code:
-                raise PegbtError(
-                    f"{folder} holds a run of other code ({record.get('code')}; this code is {code}): "
-                    "use another --out, or rerun that code",
-                    file=self.path,
-                    field="--out",
-                )
+        for record in read_records(self.path, code, ("plan", "score")):
             if record["kind"] == "plan":
                 if record["families"] != self.families:
                     raise PegbtError(
@@ -68,43 +75,8 @@ class Records:
             else:
                 self.scores[(record["family"], record["seed"])] = record
 
-    def _read(self) -> list[dict[str, Any]]:
-        """The complete records; a torn last line is cut off the file (so the next record starts a line)."""
-        if not self.path.exists():
-            return []
-        data = self.path.read_bytes()
-        lines = data.split(b"\n")
-        records, offset = [], 0
-        for number, line in enumerate(lines, 1):
-            last = number == len(lines) or (number == len(lines) - 1 and not lines[-1])
-            try:
-                record = json.loads(line) if line.strip() else None
-                if record is not None and not (
-                    isinstance(record, dict)
-                    and record.get("kind") in FIELDS
-                    and all(name in record for name in FIELDS[record["kind"]])
-                ):
-                    raise ValueError("not a plan or a score with all its fields")
-            except ValueError as error:
-                if not last:
-                    raise PegbtError(f"not a record ({error})", file=self.path, line=number) from None
-                print(
-                    f"{self.path}:{number}: a torn last line (a run stopped while writing it), ignored",
-                    file=sys.stderr,
-                )
-                with self.path.open("r+b") as file:
-                    file.truncate(offset)
-                break
-            if record is not None:
-                records.append(record)
-            offset += len(line) + 1
-        return records
-
     def _append(self, record: dict[str, Any]) -> None:
-        with self.path.open("a", encoding="utf-8") as file:
-            file.write(json.dumps({**record, "code": self.code}) + "\n")
-            file.flush()
-            os.fsync(file.fileno())
+        append_record(self.path, record, self.code)
 
     def save_plan(self, plans: dict[str, dict[str, Any]], pilot_transfers: int) -> None:
         """The pilot's plan, per family, and the transfers the pilot simulated."""
@@ -121,3 +93,87 @@ class Records:
         record = {"kind": "score", "family": family, "seed": seed, "score": score, "simulated": simulated}
         self.scores[(family, seed)] = record
         self._append(record)
+
+
+def read_records(path: Path, code: str, kinds: Sequence[str]) -> list[dict[str, Any]]:
+    """The complete records of `path` (none if it is missing), each of one of `kinds` with all its fields
+    and of code `code`; a torn last line is cut off the file (so the next record starts a line)."""
+    if not path.exists():
+        return []
+    lines = path.read_bytes().split(b"\n")
+    records, offset = [], 0
+    for number, line in enumerate(lines, 1):
+        last = number == len(lines) or (number == len(lines) - 1 and not lines[-1])
+        try:
+            record = json.loads(line) if line.strip() else None
+            if record is not None and not (
+                isinstance(record, dict)
+                and record.get("kind") in kinds
+                and all(name in record for name in FIELDS[record["kind"]])
+            ):
+                raise ValueError(f"not a record of kind {' or '.join(kinds)} with all its fields")
+        except ValueError as error:
+            if not last:
+                raise PegbtError(f"not a record ({error})", file=path, line=number) from None
+            print(
+                f"{path}:{number}: a torn last line (a run stopped while writing it), ignored",
+                file=sys.stderr,
+            )
+            with path.open("r+b") as file:
+                file.truncate(offset)
+            break
+        if record is not None:
+            if record.get("code") != code:
+                raise PegbtError(
+                    f"{path.parent} holds a run of other code ({record.get('code')}; this code is {code}): "
+                    "use another --out, or rerun that code",
+                    file=path,
+                    line=number,
+                    field="--out",
+                )
+            records.append(record)
+        offset += len(line) + 1
+    return records
+
+
+def append_record(path: Path, record: dict[str, Any], code: str) -> None:
+    """`record` as one more line of `path`, on disk before this returns."""
+    with path.open("a", encoding="utf-8") as file:
+        file.write(json.dumps({**record, "code": code}) + "\n")
+        file.flush()
+        os.fsync(file.fileno())
+
+
+class StoredMemo(MemoMapper):
+    """A `MemoMapper` whose transfers are also kept in `folder`'s `transfers.jsonl` under code `code`, and
+    read back from it: what an earlier run of the same code simulated is known from the start."""
+
+    def __init__(self, mapper: Mapper, folder: Path, code: str) -> None:
+        super().__init__(mapper)
+        folder.mkdir(parents=True, exist_ok=True)
+        self.path, self.code = folder / TRANSFERS, code
+        for record in read_records(self.path, code, ("transfers",)):
+            worlds = [WorldEffects.of(w) for w in record["worlds"]]
+            for w, variant, condition, seed, *result in record["rows"]:
+                self.known[(worlds[w], variant, condition, seed)] = TransferResult(*result)
+        self.stored = len(self.known)
+
+    def keep(self, learnt: Sequence[tuple[Known, TransferResult]]) -> None:
+        super().keep(learnt)
+        if not learnt:
+            return
+        worlds = list(dict.fromkeys(world for (world, *_), _ in learnt))
+        index = {world: i for i, world in enumerate(worlds)}
+        rows = [
+            [index[world], variant, condition, seed, *astuple(result)]
+            for (world, variant, condition, seed), result in learnt
+        ]
+        append_record(
+            self.path,
+            {
+                "kind": "transfers",
+                "worlds": [{e.kind: dict(e.values) for e in w} for w in worlds],
+                "rows": rows,
+            },
+            self.code,
+        )

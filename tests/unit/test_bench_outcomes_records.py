@@ -1,5 +1,6 @@
-"""`pegbt bench sim2real-outcomes --out DIR` keeps its plan and scores as they complete, resumes from them
-with the same code, refuses other code, and survives a line torn by a killed run."""
+"""`pegbt bench sim2real-outcomes --out DIR` keeps its plan, scores and simulated transfers as they
+complete, resumes from them with the same code, refuses other code, and survives a line torn by a killed
+run."""
 
 from __future__ import annotations
 
@@ -10,7 +11,7 @@ from pathlib import Path
 import pytest
 
 from pegbt.bench import sim2real_outcomes as bench
-from pegbt.bench.outcomes_records import RECORDS, Records, code_identity
+from pegbt.bench.outcomes_records import RECORDS, TRANSFERS, Records, StoredMemo, code_identity
 from pegbt.errors import PegbtError
 from pegbt.sim.world_effects import WorldEffects
 from pegbt.sim2real.outcomes.cells import Outcomes
@@ -75,6 +76,51 @@ def test_a_rerun_simulates_only_the_missing_seeds_and_gives_the_uninterrupted_fi
     again = _measure(2, Records(tmp_path, FAMILIES, "code"), simulator := Counting())
     assert not diagnosed and simulator.transfers == 0
     _same(again, straight)
+
+
+def test_a_diagnosis_a_stopped_run_left_unfinished_costs_its_rerun_no_simulation(tmp_path: Path) -> None:
+    """Killed after its transfers were simulated but before any score was kept: the rerun diagnoses every
+    family again from the kept transfers, asks the simulator for none, and gives the same figures."""
+    straight = _measure(1, None, Counting())
+    _measure(1, Records(tmp_path, FAMILIES, "code"), Counting())
+    lines = (tmp_path / RECORDS).read_text().splitlines()
+    (tmp_path / RECORDS).write_text(lines[0] + "\n")  # the plan only: the scores never written
+    resumed = _measure(1, Records(tmp_path, FAMILIES, "code"), simulator := Counting())
+    assert simulator.transfers == 0
+    _same(resumed, straight)
+
+
+def _never(tasks: object) -> list[list[TransferResult]]:
+    raise AssertionError("simulated a transfer the store holds")
+
+
+WORLDS = (
+    WorldEffects(),
+    WorldEffects.of({"peg_compliance": {"deflection": 0.0012}}),
+    WorldEffects.of(
+        {"peg_compliance": {"deflection": 0.0012}, "chamfer_capture": {"capture_radius": 0.0032}}
+    ),
+)
+
+
+def test_stored_transfers_read_back_as_simulated_and_a_torn_last_batch_is_dropped(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    tasks = [
+        (WORLDS, v, c, seed)
+        for v in ("unilateral", "handover")
+        for c in ("uncalibrated",)
+        for seed in range(5)
+    ]
+    simulated = StoredMemo(fake_mapper, tmp_path, "aaa")(tasks)
+    with (tmp_path / TRANSFERS).open("a") as file:
+        file.write('{"kind": "transfers", "worlds": [{}], "rows": [[0, "unil')
+    stored = StoredMemo(_never, tmp_path, "aaa")
+    assert "torn last line" in capsys.readouterr().err
+    assert stored.stored == len(tasks) * len(WORLDS)
+    assert stored(tasks) == simulated and stored.simulated == 0
+    with pytest.raises(PegbtError, match="aaa.*bbb"):
+        StoredMemo(_never, tmp_path, "bbb")
 
 
 def test_a_rerun_of_other_code_is_refused_naming_the_folder_and_both_identities(tmp_path: Path) -> None:

@@ -35,15 +35,23 @@ class MemoMapper:
             unknown = tuple(w for w in worlds if (w, variant, condition, seed) not in self.known)
             if unknown:
                 new.append((unknown, variant, condition, seed))
-        for (worlds, variant, condition, seed), results in zip(new, self.mapper(new) if new else []):
-            self.known.update({(w, variant, condition, seed): r for w, r in zip(worlds, results)})
-        simulated = sum(len(task[0]) for task in new)
+        learnt = [
+            ((w, variant, condition, seed), r)
+            for (worlds, variant, condition, seed), results in zip(new, self.mapper(new) if new else [])
+            for w, r in zip(worlds, results)
+        ]
+        self.keep(learnt)
+        simulated = len(learnt)
         self.simulated += simulated
         self.batch(simulated)
         return [
             [self.known[(w, variant, condition, seed)] for w in worlds]
             for worlds, variant, condition, seed in tasks
         ]
+
+    def keep(self, learnt: Sequence[tuple[Known, TransferResult]]) -> None:
+        """Remember the transfers one call simulated (a subclass may also keep them elsewhere)."""
+        self.known.update(learnt)
 
     def batch(self, simulated: int) -> None:
         """Called after each call with the transfers it simulated (a hook for progress)."""
