@@ -40,7 +40,7 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 
 from pegbt.bench.outcomes_power import Change, detectability, detectable_at, surely_beyond
-from pegbt.bench.outcomes_records import Records, StoredMemo, code_identity
+from pegbt.bench.outcomes_records import Records, StoredMemo, code_identity, simulator_identity
 from pegbt.errors import PegbtError
 from pegbt.runconditions import VARIANTS
 from pegbt.sim.world_effects import WorldEffects
@@ -320,7 +320,9 @@ def measure(
     if simulator is None:
         pool = simulator = LocalMapper(workers)
     memo = (
-        MemoMapper(simulator) if records is None else StoredMemo(simulator, records.path.parent, records.code)
+        MemoMapper(simulator)
+        if records is None
+        else StoredMemo(simulator, records.path.parent, simulator_identity())
     )
     figures: dict[str, float | int | str] = {}
     started, cpu = time.monotonic(), _cpu_seconds()
