@@ -252,3 +252,25 @@ def test_the_simulator_identity_leaves_out_the_diagnosis() -> None:
     assert "pegbt/sim2real/outcomes/phasesim.py" in imported and "pegbt/sim/world.py" in imported
     for diagnosis in ("diagnose", "fit", "gate", "predict", "likelihood"):
         assert f"pegbt/sim2real/outcomes/{diagnosis}.py" not in imported
+
+
+def test_a_batch_is_kept_a_part_at_a_time_so_a_run_killed_inside_it_keeps_the_parts_done(
+    tmp_path: Path,
+) -> None:
+    tasks = [((WORLDS[1],), "unilateral", "uncalibrated", seed) for seed in range(10)]
+    calls: list[int] = []
+
+    def killed_on_the_third_part(
+        part: Sequence[tuple[tuple[WorldEffects, ...], str, str, int]],
+    ) -> list[list[TransferResult]]:
+        calls.append(len(part))
+        if len(calls) == 3:
+            raise KeyboardInterrupt
+        return fake_mapper(part)
+
+    memo = StoredMemo(killed_on_the_third_part, tmp_path, "aaa")
+    memo.chunk = 4
+    with pytest.raises(KeyboardInterrupt):
+        memo(tasks)
+    assert calls == [4, 4, 2]
+    assert StoredMemo(_never, tmp_path, "aaa").stored == 8

@@ -24,6 +24,8 @@ class MemoMapper:
     per world, variant, condition and seed; `simulated` counts the transfers it passed on. A task's worlds
     already known are left out of what it passes on, so the arm is simulated only for the others."""
 
+    chunk: int | None = None  # tasks passed on at once (None: all a call has); each part kept as it returns
+
     def __init__(self, mapper: Mapper) -> None:
         self.mapper = mapper
         self.known: dict[Known, TransferResult] = {}
@@ -35,12 +37,17 @@ class MemoMapper:
             unknown = tuple(w for w in worlds if (w, variant, condition, seed) not in self.known)
             if unknown:
                 new.append((unknown, variant, condition, seed))
-        learnt = [
-            ((w, variant, condition, seed), r)
-            for (worlds, variant, condition, seed), results in zip(new, self.mapper(new) if new else [])
-            for w, r in zip(worlds, results)
-        ]
-        self.keep(learnt)
+        learnt: list[tuple[Known, TransferResult]] = []
+        step = self.chunk or max(1, len(new))
+        for start in range(0, len(new), step):
+            part = new[start : start + step]
+            got = [
+                ((w, variant, condition, seed), r)
+                for (worlds, variant, condition, seed), results in zip(part, self.mapper(part))
+                for w, r in zip(worlds, results)
+            ]
+            self.keep(got)
+            learnt += got
         simulated = len(learnt)
         self.simulated += simulated
         self.batch(simulated)
