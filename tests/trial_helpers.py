@@ -25,8 +25,9 @@ def short_task(tmp_path: Path, regrasps: int = 1) -> Path:
     return tree
 
 
-def one_handover(tmp_path: Path, regrasps: int = 0) -> Path:
-    """Look, then hand the block on peg 1 from PSM2 to PSM1 for peg 7, with `regrasps` recoveries of the pick."""
+def one_handover(tmp_path: Path, regrasps: int = 0, pick: int = 1, place: int = 7) -> Path:
+    """Look, then hand the block on peg `pick` from PSM2 to PSM1 for peg `place`, with `regrasps` recoveries
+    of the pick."""
     tree = tmp_path / "one-handover.yaml"
     with_shared_trees(tree.parent)
     tree.write_text(
@@ -34,7 +35,7 @@ def one_handover(tmp_path: Path, regrasps: int = 0) -> Path:
         "tree:\n  sequence:\n"
         "    - subtree: {use: clear_view}\n"
         "    - parallel:\n        name: one handover\n        children:\n"
-        f"          - force_success: {{name: g, child: {{subtree: {{use: give, args: {{giver: PSM2, receiver: PSM1, n: 1, pick: 1, place: 7, regrasps: {regrasps}, strays: [6]}}}}}}}}\n"
-        "          - force_success: {name: r, child: {subtree: {use: receive, args: {receiver: PSM1, n: 1, place: 7, strays: [6]}}}}\n"
+        f"          - force_success: {{name: g, child: {{subtree: {{use: give, args: {{giver: PSM2, receiver: PSM1, n: 1, pick: {pick}, place: {place}, regrasps: {regrasps}, strays: [6]}}}}}}}}\n"
+        f"          - force_success: {{name: r, child: {{subtree: {{use: receive, args: {{receiver: PSM1, n: 1, place: {place}, strays: [6]}}}}}}}}\n"
     )
     return tree

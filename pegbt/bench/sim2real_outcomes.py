@@ -40,7 +40,7 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 
 from pegbt.bench.outcomes_power import Change, detectability, detectable_at, surely_beyond
-from pegbt.bench.outcomes_records import Records, code_identity
+from pegbt.bench.outcomes_records import Records, StoredMemo, code_identity, simulator_identity
 from pegbt.errors import PegbtError
 from pegbt.runconditions import VARIANTS
 from pegbt.sim.world_effects import WorldEffects
@@ -313,12 +313,17 @@ def measure(
 ) -> dict[str, float | int | str]:
     """The figures of `families` over `seeds` seeds each, simulated by `simulator` (by default the phase
     simulator in `workers` local processes). One memo of simulated transfers serves every diagnosis
-    (`cache.MemoMapper`): their fits simulate the same worlds on the same seeds. With `records`, the plan
-    and each score are kept as they come, and those already kept are read back, not simulated again."""
+    (`cache.MemoMapper`): their fits simulate the same worlds on the same seeds. With `records`, the plan,
+    each score and each simulated transfer are kept as they come (`StoredMemo`), and those already kept are
+    read back, not simulated again."""
     pool = None
     if simulator is None:
         pool = simulator = LocalMapper(workers)
-    memo = MemoMapper(simulator)
+    memo = (
+        MemoMapper(simulator)
+        if records is None
+        else StoredMemo(simulator, records.path.parent, simulator_identity())
+    )
     figures: dict[str, float | int | str] = {}
     started, cpu = time.monotonic(), _cpu_seconds()
     scores: dict[str, list[dict[str, float]]] = {family: [] for family in families}

@@ -291,7 +291,7 @@ def _adverse(events: Sequence[Entry], transfer: Transfer) -> list[Cause]:
     """The events that set a transfer back, each with its step. A drop is the consequence of what came just
     before it on its block: a release (the placement missed) or a slip or knock (already counted). In a
     handover, a block the giver let go of that fell had never passed to the receiver (`handover`), unless the
-    receiver had gripped it and lost it (already counted)."""
+    receiver had gripped it and lost it (already counted) or the giver set it back on its start peg."""
     giver, receiver = _roles(transfer)
     causes: list[Cause] = []
     previous: dict[object, tuple[str, object]] = {}  # per block: the kind and arm of its last event
@@ -312,7 +312,7 @@ def _adverse(events: Sequence[Entry], transfer: Transfer) -> list[Cause]:
             step = "carry"
             phase = _carry_phase(entry, transfer)
         elif kind in ("drop", "place") and receiver is not None and previous.get(block) == ("release", giver):
-            step = None if block in taken else "handover"
+            step = None if block in taken or _set_back(entry, transfer) else "handover"
         elif kind == "drop" and previous.get(block, ("",))[0] == "release":
             step = "place"
         elif kind == "place" and entry.get("peg") != transfer["place"]:
@@ -321,6 +321,12 @@ def _adverse(events: Sequence[Entry], transfer: Transfer) -> list[Cause]:
             causes.append(Cause(step, _describe(entry), entry["time"], phase))
         previous[block] = (kind, entry.get("arm"))
     return causes
+
+
+def _set_back(entry: Entry, transfer: Transfer) -> bool:
+    """Whether the giver's block came to rest on the handover's start peg: set back there to be picked again
+    (`trees/shared/set_back.yaml`), no handover lost."""
+    return entry["kind"] == "place" and entry.get("peg") == transfer["pick"]
 
 
 def _carry_phase(entry: Entry, transfer: Transfer) -> str:

@@ -57,4 +57,8 @@ def test_out_keeps_the_run_in_the_folder_under_this_codes_identity(
         == 0
     )
     (records,) = kept
-    assert records is not None and records.path == tmp_path / RECORDS and records.code == code_identity()
+    assert (
+        records is not None
+        and records.path == tmp_path / RECORDS.format(code_identity()[:16])
+        and records.code == code_identity()
+    )

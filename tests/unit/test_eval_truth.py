@@ -80,6 +80,27 @@ def test_a_block_the_giver_let_go_of_that_fell_never_passed_unless_the_receiver_
     ]  # the fall follows from the slip
 
 
+def test_a_block_the_giver_set_back_on_its_start_peg_was_no_handover_lost():
+    """The giver's block slipped onto the board; it set it back on its start peg and picked it again from
+    there (`trees/shared/set_back.yaml`): the slip set the handover back, the set-back did not."""
+    set_back = [
+        *GIVER_HOLDS_IT_OUT,
+        event(23.0, "slip", "PSM2", 2, None, "injected fault"),
+        event(23.0, "drop", "PSM2", 2, None, "onto the board off the top of peg 6"),
+        event(26.0, "grasp", "PSM2", 2, None, "edge 2"),
+        event(27.4, "release", "PSM2", 2, 2),
+        event(27.4, "place", "PSM2", 2, 2),
+        event(30.3, "grasp", "PSM2", 2, 2, "edge 0"),
+        event(30.8, "lift", "PSM2", 2, 2, "cleared peg 2"),
+    ]
+    assert [(c.step, c.time) for c in setbacks(handover(), set_back)] == [
+        ("carry", 23.0),
+        ("handover", None),  # the receiver never gripped it
+    ]
+    taken = [*set_back, event(31.9, "grasp", "PSM1", 2, None, "edge 2, handover from PSM2")]
+    assert [(c.step, c.time) for c in setbacks(handover(), taken)] == [("carry", 23.0)]
+
+
 def test_a_receivers_miss_near_a_block_no_running_transfer_works_on_is_its_transfers():
     """The receiver of handover 12 closes three times near block 5, which transfer 11 had placed: a grasp miss
     of transfer 12. A miss on the block another transfer is working on then belongs to that one."""

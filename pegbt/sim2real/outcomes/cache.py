@@ -24,6 +24,8 @@ class MemoMapper:
     per world, variant, condition and seed; `simulated` counts the transfers it passed on. A task's worlds
     already known are left out of what it passes on, so the arm is simulated only for the others."""
 
+    chunk: int | None = None  # tasks passed on at once (None: all a call has); each part kept as it returns
+
     def __init__(self, mapper: Mapper) -> None:
         self.mapper = mapper
         self.known: dict[Known, TransferResult] = {}
@@ -35,15 +37,28 @@ class MemoMapper:
             unknown = tuple(w for w in worlds if (w, variant, condition, seed) not in self.known)
             if unknown:
                 new.append((unknown, variant, condition, seed))
-        for (worlds, variant, condition, seed), results in zip(new, self.mapper(new) if new else []):
-            self.known.update({(w, variant, condition, seed): r for w, r in zip(worlds, results)})
-        simulated = sum(len(task[0]) for task in new)
+        learnt: list[tuple[Known, TransferResult]] = []
+        step = self.chunk or max(1, len(new))
+        for start in range(0, len(new), step):
+            part = new[start : start + step]
+            got = [
+                ((w, variant, condition, seed), r)
+                for (worlds, variant, condition, seed), results in zip(part, self.mapper(part))
+                for w, r in zip(worlds, results)
+            ]
+            self.keep(got)
+            learnt += got
+        simulated = len(learnt)
         self.simulated += simulated
         self.batch(simulated)
         return [
             [self.known[(w, variant, condition, seed)] for w in worlds]
             for worlds, variant, condition, seed in tasks
         ]
+
+    def keep(self, learnt: Sequence[tuple[Known, TransferResult]]) -> None:
+        """Remember the transfers one call simulated (a subclass may also keep them elsewhere)."""
+        self.known.update(learnt)
 
     def batch(self, simulated: int) -> None:
         """Called after each call with the transfers it simulated (a hook for progress)."""
