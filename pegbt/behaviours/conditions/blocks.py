@@ -27,8 +27,9 @@ class CheckPlaced(RobotLeaf):
 
 class KeepHolding(RobotLeaf):
     """With `ease`, the jaw's squeeze eases as it starts to `grip_confirmed_below` under the wall, the grip
-    the lift already carries a block with: a jaw letting go later opens from there. A block slipping out
-    then lets the jaw close towards that set-point: half of `grip_confirmed_below` under the wall shows it."""
+    the lift already carries a block with (a carry that eased it as it stopped leaves nothing to do): a jaw
+    letting go later opens from there. A block slipping out then lets the jaw close towards that set-point:
+    half of `grip_confirmed_below` under the wall shows it (`ease_grip`)."""
 
     def initialise(self) -> None:
         super().initialise()
