@@ -269,6 +269,13 @@ declare(
             "it reads `/blocks`); {}: none",
             default={},
         ),
+        Param(
+            "ease",
+            bool,
+            "ease the squeeze to `grip_confirmed_below` under the block's wall (the grip the lift began with) "
+            "by the time the arm stops, as `keep_holding`'s `ease` does once it holds the block out",
+            default=False,
+        ),
         keep_apart=keep_apart_param(0.0),
     ),
     reads=("/board",),
@@ -407,7 +414,9 @@ declare(
             "a giver's next handover (a loop's next item: its `pick`): with a planner the rise goes on into "
             "the approach of that block in one motion (up the held block's axis, then over), which "
             "`approach` takes, and ends as the jaw is out of the block; without one its grasp is chosen "
-            "and its approach planned while this rise plays, as `select_grasp` and `approach` will; {}: none",
+            "and its approach planned while this rise plays, as `select_grasp` and `approach` will; {}: none "
+            "(with `handover_to`, the giver's last handover of its loop: it rises as far again and ends as the "
+            "tip passes `height`, `rise_extent`)",
             default={},
         ),
         Param(

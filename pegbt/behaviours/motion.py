@@ -17,7 +17,7 @@ import numpy as np
 from numpy.typing import NDArray
 from py_trees.common import Status
 
-from pegbt.behaviours.base import MotionLeaf, Outgoing
+from pegbt.behaviours.base import MotionLeaf, Outgoing, RobotLeaf
 from pegbt.behaviours.poses import approach_for, height_above_pegs, peg_top_board, to_arm, transfer_for
 from pegbt.behaviours.resources.arm_motion import ArmMotion
 from pegbt.behaviours.resources.skills import Skills
@@ -49,6 +49,15 @@ def rise(
     target[:3, 3] += height * cell.up_in(arm)
     risen = solve_ik(target, motion.settings, what="risen")
     return motion.quickest(start, [risen], ["risen"])
+
+
+def rise_extent(height: float, handover_to: str, then: dict) -> float:
+    """How far a rise by `height` goes: that far, but a giver's after the last handover of its loop
+    (`handover_to`, no `then`) as far again, passing `height` at speed: accelerating all the way there and
+    braking beyond, the quickest way up to `height` from rest, its jaw is out of the block (and the receiver
+    carries it off) 0.21 s after it sets off where a rise stopping there took 0.30. Nothing follows it
+    before the arms park: the receiver still carries that block to its peg."""
+    return 2.0 * height if handover_to and not then else height
 
 
 def above_pegs_first(
@@ -136,6 +145,7 @@ class CarryLeaf(MotionLeaf):
 
     def initialise(self) -> None:
         self.log_detail = None
+        self.held_above = self.param("held_above")  # raised once the squeeze eases (`ease_grip`)
         self.held_at_let_go: bool | None = None  # the jaw's hold as it began to open on purpose
         self.slipped_before_let_go: str | None = None  # how the jaw showed the block gone by then
         self.segment_ends: tuple[int, int] | None = None  # planned rows where lift and carry end
@@ -211,7 +221,7 @@ class CarryLeaf(MotionLeaf):
             held = self.held_at_let_go
             if held is None:
                 jaw = self.client(self.param("arm")).jaw.measured_js.position[0]
-                held = slip(jaw, self.param("held_above")) is None
+                held = slip(jaw, self.held_above) is None
             self.log_detail = {"segment": self.segment(paused), "held": held}
         return status
 
@@ -220,15 +230,13 @@ class CarryLeaf(MotionLeaf):
         now (a jaw already closed past the wall lost it on the way down: `watch` fails as for any slip),
         and no slip is looked for after it, as an opening jaw no longer shows one."""
         self.slipped_before_let_go = slip(
-            self.client(self.param("arm")).jaw.measured_js.position[0], self.param("held_above")
+            self.client(self.param("arm")).jaw.measured_js.position[0], self.held_above
         )
         self.held_at_let_go = self.slipped_before_let_go is None
 
     def watch(self) -> Status:
         if self.held_at_let_go is None:
-            slipped = slip(
-                self.client(self.param("arm")).jaw.measured_js.position[0], self.param("held_above")
-            )
+            slipped = slip(self.client(self.param("arm")).jaw.measured_js.position[0], self.held_above)
         else:
             slipped = self.slipped_before_let_go
         if slipped:
@@ -245,6 +253,22 @@ class CarryLeaf(MotionLeaf):
 def _stopped(planned: Callable[[], Trajectory]) -> Trajectory:
     """The carry `planned` makes, cut at its stop over the goal peg (planned on a worker, cut there too)."""
     return stopped_above(planned())
+
+
+def eased_grip(skills: Skills) -> float:
+    """The jaw's set-point eased to `grip_confirmed_below` under the block's wall: the grip a lift carries a
+    block off its peg with (it starts as the closing set-point passes it), and a giver holds it out with."""
+    return jaw_on_wall(skills.cell) - skills.motion.transfer.grip_confirmed_below
+
+
+def ease_grip(leaf: RobotLeaf, arm: str, held_above: float) -> float:
+    """Ease `arm`'s squeeze on its block to `eased_grip`, if it squeezes harder; the `held_above` that
+    still sees a slip then: a block slipping out lets the eased jaw close only to that set-point, above
+    `held_above`, so half of `grip_confirmed_below` under the wall shows it."""
+    eased, jaw = eased_grip(leaf.skills), leaf.client(arm).jaw
+    if float(jaw.setpoint_js.position[0]) < eased:
+        jaw.move_jp(eased)
+    return max(held_above, eased + leaf.skills.motion.transfer.grip_confirmed_below / 2)
 
 
 def slip(jaw_angle: float, held_above: float) -> str | None:

@@ -24,6 +24,8 @@ from pegbt.behaviours.actions import handover
 from pegbt.behaviours.actions.grasping import gripping
 from pegbt.behaviours.actions.handover import WayOut, plan_meeting
 from pegbt.behaviours.base import JAW_AHEAD, LONE_PATIENCE, MOTION_OVERTIME, Outgoing, parts
+from pegbt.behaviours.motion import eased_grip, rise
+from pegbt.behaviours.params import HELD_ABOVE
 from pegbt.behaviours.poses import (
     EXIT_WIDENING,
     HANDOVER_RISE,
@@ -1232,6 +1234,56 @@ def test_carry_to_handover_fails_at_once_and_stops_the_arm_when_the_block_slips(
     assert arm.sent[-1].kind == "hold"
 
 
+EASED = TO_HANDOVER.replace("plan_s: /PSM2/plan_s", "plan_s: /PSM2/plan_s, ease: true")
+
+
+def carrying_eased(tmp_path, robot: Robot, skills: Skills, seen, clock: ManualClock):
+    """The giver holding the block, squeezing it at `jaw_closed`, its eased carry built, and a ticker that
+    ticks it every 10 ms until it ends or `until()` holds."""
+    arm, values = giver_holding(robot, skills, seen)
+    arm.jaw.rest = np.array([skills.motion.transfer.jaw_closed])
+    built = build(tmp_path, robot, skills, EASED, **values)
+
+    def carry(until=lambda: False) -> Status:
+        while True:
+            built.root.tick_once()
+            if built.root.status != Status.RUNNING or until():
+                return built.root.status
+            clock.advance(0.01)
+
+    return arm, built, carry
+
+
+def test_carry_to_handover_eased_stops_at_the_meeting_pose_gripping_as_its_lift_began(
+    tmp_path, robot, skills, seen, clock
+):
+    """`ease`: the giver's squeeze eases from `jaw_closed` to `grip_confirmed_below` under the wall (the grip
+    its lift began with) by the time the arm stops at the meeting point, the ramp sent no sooner than a tree
+    period before it must be: a receiver may take the block at once, and the giver's jaw then lets go from
+    there."""
+    arm, built, carry = carrying_eased(tmp_path, robot, skills, seen, clock)
+    assert carry() == Status.SUCCESS
+    (trajectory,), (ease,) = arm.trajectories, arm.jaw.sent
+    eased = eased_grip(skills)
+    ramp = (eased - skills.motion.transfer.jaw_closed) / arm.settings.jaw_velocity
+    stops = arm.sent[0].at + trajectory.duration
+    assert ease.target == pytest.approx(eased)
+    assert stops - ramp - built.root.context.period - 1e-9 <= ease.at <= stops - ramp + 1e-9
+    assert arm.jaw.measured_js.position[0] == pytest.approx(BLOCK_WALL_ANGLE)  # it holds the block
+
+
+def test_carry_to_handover_eased_still_sees_a_slip(tmp_path, robot, skills, seen, clock):
+    """A block slipping out of the eased jaw lets it close only to that set-point, above `held_above` (which
+    alone would not see it), and the carry fails all the same."""
+    arm, built, carry = carrying_eased(tmp_path, robot, skills, seen, clock)
+    eased = eased_grip(skills)
+    assert carry(until=lambda: arm.jaw.setpoint_js.position[0] >= eased - 1e-9) == Status.RUNNING
+    assert clock.now() < arm.sent[0].at + arm.trajectories[0].duration  # the arm still moves
+    arm.drop_block()
+    assert carry() == Status.FAILURE
+    assert "slipped from PSM2's jaw (jaw at 6°)" in feedback(built) and eased > HELD_ABOVE
+
+
 def receiver_at(robot: Robot, skills: Skills, seen, pose=None):
     """The receiver (at `pose`, else home), the giver holding the block out at the meeting, and the
     blackboard of the receiver's leaves."""
@@ -2004,14 +2056,38 @@ def test_a_givers_rise_that_falls_back_to_rising_alone_is_no_approach_whatever_a
     monkeypatch.setattr(handover, "planned_approach", unplannable)
     built = build(tmp_path, robot, skills, RISE_INTO_NEXT, board=seen[0], blocks=seen[1])
     assert run(built, clock) == Status.SUCCESS
-    (rise,) = giver.trajectories
-    tips = tip_position(rise.q)
+    (alone,) = giver.trajectories
+    tips = tip_position(alone.q)
     assert (tips[-1] - tips[0]) @ skills.cell.up_in(GIVER) == pytest.approx(0.007, abs=1e-4)  # alone
 
     approach = approach_next(tmp_path, robot, skills, seen, following, chosen)
     assert run(approach, clock) == Status.SUCCESS
     assert len(giver.trajectories) == 2  # its own approach: the rise was not taken for it
     assert np.allclose(forward_kinematics(giver.trajectories[-1].q[-1]), chosen.pose, atol=1e-4)
+
+
+def test_a_givers_rise_after_the_last_handover_of_its_loop_passes_its_height_at_speed_and_ends_there(
+    tmp_path, clock, cloud, seen
+):
+    """After the last handover of its loop (`handover_to`, no `then`) nothing follows the giver's rise
+    before the arms park: it rises as far again up the block's axis, accelerating all the way to `height`
+    and braking beyond, and ends as the tip passes `height` (the receiver carries the block off then), a
+    good deal sooner than a rise stopping there."""
+    skills, robot, _, _ = handed_over(clock, cloud, seen)
+    giver = robot.arms[GIVER]
+    tree = f"{{rise: {{arm: {GIVER}, height: 0.007, keep_apart: 0.0, handover_to: {RECEIVER}}}}}"
+    built = build(tmp_path, robot, skills, tree)
+    assert run(built, clock) == Status.SUCCESS
+    (trajectory,) = giver.trajectories
+    tips = tip_position(trajectory.q)
+    risen = (tips - tips[0]) @ skills.cell.up_in(GIVER)
+    out = int(np.argmax(risen >= 0.007 - 1e-9))
+    assert trajectory.t[out] <= clock.now() < trajectory.t[out] + STEP  # ended as the tip passed it
+    assert risen[-1] == pytest.approx(0.014, abs=1e-5) and np.all(np.diff(risen) >= -1e-9)
+    off_axis = np.linalg.norm(lateral(skills, GIVER, tips - tips[0]), axis=1)
+    assert off_axis.max() <= skills.motion.transfer.channel_tolerance  # up the block's axis
+    stopping = rise(skills.cell, skills.arm(GIVER), GIVER, trajectory.q[0], 0.007)
+    assert trajectory.t[out] < 0.75 * stopping.duration
 
 
 def test_a_givers_way_out_ends_once_the_encoders_put_the_tip_out_of_the_block(tmp_path, clock, cloud, seen):

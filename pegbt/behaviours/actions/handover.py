@@ -32,8 +32,11 @@ from pegbt.behaviours.motion import (
     above_pegs_first,
     approach_above_clear,
     closing_lead,
+    ease_grip,
+    eased_grip,
     planned_approach,
     rise,
+    rise_extent,
 )
 from pegbt.behaviours.poses import (
     from_handover,
@@ -324,11 +327,40 @@ def handed(skills: Skills, arm: str, receiver: str, block: BlockEstimate, option
 
 
 class CarryToHandover(CarryLeaf):
+    """With `ease`, it holds the block out with the grip the lift began with (`eased_grip`) from the moment
+    it stops at the meeting point: a receiver may take the block within the jaw's ramp up from `jaw_closed`
+    (0.06 s), and the giver's opening starts wherever that ramp is. The ramp is sent on the first tick from a
+    tree period before it would end as the arm stops, so it is over by then whichever tick it lands on; a
+    slip is still seen (`ease_grip`)."""
+
     SEGMENTS = (
         "lift",
         "carry",
         "carry",
     )  # the last arrives at the meeting point: there is no peg to lower onto
+
+    def initialise(self) -> None:
+        self.eased = False
+        super().initialise()
+
+    def watch(self) -> Status:
+        if self.param("ease") and not self.eased:
+            self._ease_when_due()
+        return super().watch()
+
+    def _ease_when_due(self) -> None:
+        if self.arm_end is None:
+            return
+        arm, now = self.param("arm"), self.context.clock.now()
+        setpoint = float(self.client(arm).jaw.setpoint_js.position[0])
+        ramp = max(0.0, eased_grip(self.skills) - setpoint) / self.motion(arm).settings.jaw_velocity
+        paused = max(motion.handle.paused for motion in self.running)
+        due = self.arm_end + paused - ramp - self.context.period
+        if now >= due - 1e-9:
+            self.held_above = ease_grip(self, arm, self.held_above)
+            self.eased = True
+        elif self.wake_at is not None:
+            self.wake_at = min(self.wake_at, due)
 
     def waypoints(self) -> TransferWaypoints:
         return to_handover(
@@ -361,12 +393,14 @@ class CarryToHandover(CarryLeaf):
         arm = self.param("arm")
         motion, end = self.motion(arm), trajectories[0].q[-1].copy()
         giving = self.robot.trial.giving(arm)
+        receiver = "" if giving is None else giving.arms.split("→")[1]
         following = next_block(self.param("then"), self.read("/blocks")) if self.param("then") else None
         if giving is None or following is None or motion.planner is None:
-            planned = partial(rise, self.skills.cell, motion, arm, end, height)
-            motion.plan_early(self.context.work, (end, height), planned)
+            extent = rise_extent(height, receiver, self.param("then"))
+            planned = partial(rise, self.skills.cell, motion, arm, end, extent)
+            motion.plan_early(self.context.work, (end, extent), planned)
             return
-        board, way, receiver = self.read("/board"), WayOut(), giving.arms.split("→")[1]
+        board, way = self.read("/board"), WayOut()
         way_out = partial(rise_into_approach, self.skills, arm, receiver, end, height, board, following, way)
         motion.plan_early(self.context.work, (end, height, board, following, way), way_out)
 

@@ -16,7 +16,7 @@ from py_trees.common import Status
 from pegbt.behaviours.actions.grasping import choose_and_approach_early
 from pegbt.behaviours.actions.handover import WayOut, next_block, rise_into_approach
 from pegbt.behaviours.base import MotionLeaf
-from pegbt.behaviours.motion import CarryLeaf, above_pegs_first, planned_approach, rise
+from pegbt.behaviours.motion import CarryLeaf, above_pegs_first, planned_approach, rise, rise_extent
 from pegbt.behaviours.poses import tool_pose, transfer_for
 from pegbt.motion.ik import solve_ik
 from pegbt.motion.kinematics import tip_position
@@ -103,6 +103,7 @@ class Rise(MotionLeaf):
         self.out_at: float | None = None
         self.out_from: tuple[float, np.ndarray] = (0.0, np.zeros(3))  # the tip's height where it began, up
         self.way: tuple[BoardEstimate | None, BlockEstimate, WayOut] | None = None
+        self.extent = height  # how far a rise that is no way out into an approach goes (`rise_extent`)
         block = self.next_block()
         if block is not None and motion.planner is not None:
             board = self.read("/board")
@@ -122,8 +123,9 @@ class Rise(MotionLeaf):
             inputs = (start, height, board, block, way)
             self.move(arm, planned, f"{arm} rising out of the block into its next approach", inputs)
             return
-        planned = partial(rise, self.skills.cell, motion, arm, start, height)
-        self.move(arm, planned, f"{arm} rising", (start, height))
+        self.extent = rise_extent(height, self.param("handover_to"), self.param("then"))
+        planned = partial(rise, self.skills.cell, motion, arm, start, self.extent)
+        self.move(arm, planned, f"{arm} rising", (start, self.extent))
 
     def default_keep_apart(self) -> float:
         """A giver's way out of the block it handed over (`handover_to`) keeps the tools
@@ -155,13 +157,12 @@ class Rise(MotionLeaf):
             board, block, way = self.way
             assert way.grasp is not None  # the approach was planned onto it
             self.motion(arm).send_ahead((board, block, way.grasp.candidate))
-            planned = trajectories[0]
-            up, begun = self.skills.cell.up_in(arm), tip_position(planned.q[0])
-            heights = (tip_position(planned.q) - begun) @ up
-            out = int(np.argmax(heights >= self.param("height") - 1e-9))
-            self.out_at = self.context.clock.now() + float(planned.t[out])
-            self.out_from = (float(begun @ up), up)
-            self.feedback_message = f"out of the block in {planned.t[out]:.2f} s, on into the next approach"
+            self.feedback_message = (
+                f"out of the block in {self._out(trajectories[0]):.2f} s, on into the next approach"
+            )
+            return
+        if self.extent > self.param("height"):
+            self.feedback_message = f"out of the block in {self._out(trajectories[0]):.2f} s, rising on"
             return
         following = self.next_block()
         if following is not None:
@@ -175,8 +176,18 @@ class Rise(MotionLeaf):
                 self.client(arm),
             )
 
+    def _out(self, planned: Trajectory) -> float:
+        """Mark when the planned tip passes `height` up (s from now), for `watch`."""
+        up, begun = self.skills.cell.up_in(self.param("arm")), tip_position(planned.q[0])
+        heights = (tip_position(planned.q) - begun) @ up
+        out = float(planned.t[int(np.argmax(heights >= self.param("height") - 1e-9))])
+        self.out_at = self.context.clock.now() + out
+        self.out_from = (float(begun @ up), up)
+        return out
+
     def watch(self) -> Status:
-        """A way out into the next approach succeeds once its jaw is out of the block: at the planned time,
+        """A way out of a handed-over block that goes on (into the next approach, or up past `height`, see
+        `rise_extent`) succeeds once its jaw is out of the block: at the planned time,
         later by as long as the motion stood still on the way (its streamer's stalls and pauses), and once
         the arm's encoders put the tip there too (within `OUT_TOLERANCE`): the arm lags its set-points, and
         the receiver carries the block off as soon as this succeeds."""

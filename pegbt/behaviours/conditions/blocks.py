@@ -7,8 +7,7 @@ from __future__ import annotations
 from py_trees.common import Status
 
 from pegbt.behaviours.base import RobotLeaf
-from pegbt.behaviours.motion import SLIP_CHECK, slip
-from pegbt.motion.handover import jaw_on_wall
+from pegbt.behaviours.motion import SLIP_CHECK, ease_grip, slip
 from pegbt.perception.blocks import block_on_peg
 
 
@@ -28,20 +27,15 @@ class CheckPlaced(RobotLeaf):
 
 class KeepHolding(RobotLeaf):
     """With `ease`, the jaw's squeeze eases as it starts to `grip_confirmed_below` under the wall, the grip
-    the lift already carries a block with: a jaw letting go later opens from there. A block slipping out
-    then lets the jaw close towards that set-point: half of `grip_confirmed_below` under the wall shows it."""
+    the lift already carries a block with (a carry that eased it as it stopped leaves nothing to do): a jaw
+    letting go later opens from there. A block slipping out then lets the jaw close towards that set-point:
+    half of `grip_confirmed_below` under the wall shows it (`ease_grip`)."""
 
     def initialise(self) -> None:
         super().initialise()
         self.held_above = self.param("held_above")
-        if not self.param("ease"):
-            return
-        arm, transfer = self.param("arm"), self.skills.motion.transfer
-        eased = jaw_on_wall(self.skills.cell) - transfer.grip_confirmed_below
-        jaw = self.client(arm).jaw
-        if float(jaw.setpoint_js.position[0]) < eased:
-            jaw.move_jp(eased)
-        self.held_above = max(self.held_above, eased + transfer.grip_confirmed_below / 2)
+        if self.param("ease"):
+            self.held_above = ease_grip(self, self.param("arm"), self.held_above)
 
     def act(self) -> Status:
         arm = self.param("arm")
