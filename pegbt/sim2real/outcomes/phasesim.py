@@ -147,6 +147,7 @@ def carry_out(
         strays=strays,
         receiver_from=None if not in_trial or from_home else order[index - 1][2],
         receiver_parks=in_trial and from_home,
+        set_back_to=start_peg if variant == "handover" and attempts > 1 else None,
     )
     taken = any(b.peg == goal_peg and not b.lost for b in world.blocks)
     result = trying.run(goal_peg, 1 + REGRASPS)

@@ -3,7 +3,9 @@
 share (the world, the arm's last attempt, the transfer's first failure and its start) and when they stop.
 
 A handover's giver that holds its block at the meeting point hands it over (`exchange`); a receiver whose
-block slipped fetches it with attempts of its own, from here again.
+block slipped fetches it with attempts of its own, from here again. A giver whose fallen block has no grasp
+both clear of the pegs and one the receiver can take sets it back on its start peg first
+(`trees/shared/set_back.yaml`).
 """
 
 from __future__ import annotations
@@ -55,13 +57,15 @@ class Trying:
         failed: Bench | None = None,
         first: str | None = None,
         began: float | None = None,
+        set_back_to: int | None = None,
     ) -> None:
         """`choose`: the block an attempt goes after (given whether it is a recovery); `came_from`: the peg
         the arm let go over last (None: home); `parks`: it parks before its first attempt; `looks_again`: a
         pick that finds no block recovers; `fetch`, `strays`: a handover receiver's fetch of a slipped block
         (`fetched`); `receiver_from`, `receiver_parks`: where a handover's receiver let go last, and whether
         it parks before it goes to the meeting; `failed`, `first`, `began`: the attempt, failure and time
-        an earlier loop left (a fetch goes on from the receiver's carry)."""
+        an earlier loop left (a fetch goes on from the receiver's carry); `set_back_to`: a handover giver's
+        start peg, where it sets back a fallen block it has no grasp to hand over by (None: it gives up)."""
         self.world, self.skills, self.variant, self.arm = world, skills, variant, arm
         self.replay, self.rng, self.registered, self.attempts = replay, rng, registered, attempts
         self.choose, self.came_from, self.parks, self.looks_again = choose, came_from, parks, looks_again
@@ -70,6 +74,7 @@ class Trying:
         self.failed = failed  # the last attempt the arm set out on
         self.first = first
         self.began = world.time if began is None else began
+        self.set_back_to = set_back_to
 
     def run(self, goal_peg: int, tries: int) -> TransferResult:
         """Up to `tries` picks (`self.attempts` of them set out) of the block `choose` names, each carried
@@ -101,6 +106,13 @@ class Trying:
                 self.parks,
                 self.failed,
             )
+            if self._sets_back(bench, block):
+                bench = self._set_back(block, chose)
+                made += bench.moved
+                chose = bench.chose or chose
+                self.failed = bench if bench.moved else self.failed
+                if bench.failed is None:
+                    continue  # it looks again parked, from where the set-back left the arm (`look_again`)
             made += bench.moved
             chose = bench.chose or chose
             self.failed = bench if bench.moved else self.failed
@@ -117,6 +129,46 @@ class Trying:
             if world.held_by(arm) is not None:
                 bench.jaw(skills.motion.transfer.jaw_open, "grasp")
         return TransferResult(False, self.first or "grasp", world.time - self.began)
+
+    def _sets_back(self, bench: Bench, block: int) -> bool:
+        """Whether the giver found no grasp to hand its fallen block over by (`set_back_to` given, the block
+        loose on the board): `select_grasp` failed before the arm moved."""
+        lies = self.world.blocks[block]
+        return (
+            self.set_back_to is not None
+            and bench.failed == "sense"
+            and not bench.moved
+            and lies.peg is None
+            and not lies.lost
+            and not lies.grips
+        )
+
+    def _set_back(self, block: int, chose: Chosen | None) -> Bench:
+        """Pick the fallen block by a grasp clear of the pegs, whatever the receiver could take, carry it onto
+        the start peg and let go (`set_back.yaml`'s `set_back`: `pick`, `lift`, `place`): one arm's pick
+        and carry; the next attempt looks again and picks it there."""
+        assert self.set_back_to is not None
+        bench = pick_and_carry(
+            self.world,
+            self.skills,
+            self.arm,
+            block,
+            self.set_back_to,
+            self.rng,
+            self.came_from,
+            self.replay,
+            "unilateral",
+            chose,
+            self.registered,
+            self.parks,
+            self.failed,
+        )
+        if bench.held:
+            bench.jaw(self.skills.motion.transfer.jaw_open, "release")
+            if self.world.blocks[block].peg != self.set_back_to:
+                bench.failed = failed_phase(bench.events, block)
+        self.first = self.first or bench.failed
+        return bench
 
     def fetched(self, taker: Bench, goal_peg: int, first: str) -> tuple[TransferResult, Bench]:
         """The receiver lost its block on its way to `goal_peg` (its first failure `first`): it looks again,
