@@ -125,17 +125,19 @@ class BlockLocator:
 
     def take_apart(self, cluster: Points, peg_xy: Points) -> list[BlockEstimate]:
         """The blocks of a cluster too wide for one. Blocks touching across neighbouring pegs are cut apart
-        by nearest peg (the paper's per-peg crop). If that leaves a doubtful fit, a block lies loose
-        against another, and the crop cut it in two: then the block on each peg the cluster surrounds is
+        by nearest peg (the paper's per-peg crop), which holds if each part fits a block on its own peg.
+        A part that fits doubtfully, or off that peg, means a block lies loose against another and the
+        crop cut it (a piece of a block fits the model as well as a whole one: the pieces of one loose
+        block were two blocks that were not there): then the block on each peg the cluster surrounds is
         fitted first, by ICP from that peg's axis, and its points taken out; what is left is registered
-        as the blocks lying loose."""
+        as the blocks lying loose. With no peg surrounded, the crop's parts off their pegs are doubtful."""
         cropped = [
-            self.register(part, peg_xy)
-            for part in split_by_nearest_peg(cluster, peg_xy)
+            (peg, self.register(part, peg_xy))
+            for peg, part in split_by_nearest_peg(cluster, peg_xy)
             if len(part) >= self.settings.segment.min_points
         ]
-        if all(estimate.ok for estimate in cropped):
-            return cropped
+        if all(estimate.ok and estimate.peg == peg for peg, estimate in cropped):
+            return [estimate for _, estimate in cropped]
         estimates: list[BlockEstimate] = []
         rest = cluster
         for peg in self._surrounded_pegs(cluster, peg_xy):
@@ -146,8 +148,16 @@ class BlockLocator:
             estimates.append(self.register(rest[mine], peg_xy))
             rest = rest[~mine]
         if not estimates:
-            return cropped
+            return [self._cut(estimate, peg) for peg, estimate in cropped]
         return estimates + [self.register(part, peg_xy) for part in clusters(rest, self.settings.segment)]
+
+    @staticmethod
+    def _cut(estimate: BlockEstimate, peg: int) -> BlockEstimate:
+        """`estimate`, fitted to the part of a touching cluster nearest `peg`, doubtful if it is not a block
+        on that peg: the crop may have cut a loose block, and a piece fits as well as a whole block."""
+        if not estimate.ok or estimate.peg == peg:
+            return estimate
+        return replace(estimate, ok=False, reason=f"a piece of a cluster cut at peg {peg}'s cell")
 
     def _fit_from_yaws(self, segment: Points, initial: NDArray[np.float64]) -> NDArray[np.float64]:
         """The best of ICP fits from `initial` turned by each of `RESTART_YAWS`: the other block's points

@@ -76,8 +76,8 @@ def squared_peg_distances(points: Points, peg_xy: Points) -> Points:
     return distances
 
 
-def split_by_nearest_peg(cluster: Points, peg_xy: Points) -> list[Points]:
-    """`cluster` cut into the parts nearest to each peg (each peg's Voronoi cell): the paper's per-peg crop,
-    for touching blocks none of which is on a peg."""
+def split_by_nearest_peg(cluster: Points, peg_xy: Points) -> list[tuple[int, Points]]:
+    """`cluster` cut into the parts nearest to each peg (each peg's Voronoi cell), with that peg: the paper's
+    per-peg crop, for touching blocks each on its own peg."""
     nearest = np.argmin(squared_peg_distances(cluster, peg_xy), axis=1)
-    return [cluster[nearest == peg] for peg in np.unique(nearest)]
+    return [(int(peg), cluster[nearest == peg]) for peg in np.unique(nearest)]
