@@ -42,8 +42,8 @@ TRANSFERS = {
     ("handover", "calibrated", 1, "bending", False): (True, None, 6.61),
     ("handover", "calibrated", 5, "default", False): (True, None, 6.75),
     ("handover", "calibrated", 5, "bending", False): (True, None, 6.75),
-    ("handover", "uncalibrated", 1, "default", True): (False, "handover", 6.59),
-    ("handover", "uncalibrated", 5, "default", True): (False, "handover", 6.75),
+    ("handover", "uncalibrated", 1, "default", True): (False, "handover", 6.67),
+    ("handover", "uncalibrated", 5, "default", True): (False, "handover", 6.89),
 }
 # a handover trial, uncalibrated, layout 0, its first five transfers in both worlds (alike there)
 TRIAL = [

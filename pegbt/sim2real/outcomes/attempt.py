@@ -8,13 +8,14 @@ attempt knows nothing of what went before except the arm it goes on with and the
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from functools import partial
 
 import numpy as np
 from numpy.typing import NDArray
 
 from pegbt.behaviours.actions.grasping import SAME_BLOCK
-from pegbt.behaviours.actions.handover import handed, plan_meeting
+from pegbt.behaviours.actions.handover import Meeting, plan_meeting
 from pegbt.behaviours.motion import above_pegs_first, planned_approach
 from pegbt.behaviours.poses import to_handover, tool_pose, transfer_for
 from pegbt.behaviours.resources.arm_motion import ArmMotion
@@ -32,6 +33,7 @@ from pegbt.sim.events import Event
 from pegbt.sim.world import World
 from pegbt.sim2real.outcomes.bench import START, Bench, Chosen, Replay
 from pegbt.sim2real.outcomes.cells import PHASES
+from pegbt.sim2real.outcomes.paperhandover import paper_carry, paper_meeting
 from pegbt.sim2real.outcomes.placelook import visible_points
 from pegbt.sim2real.outcomes.transfer_order import RECEIVER
 
@@ -44,6 +46,8 @@ PAPER_PERCEPTION_SD = 0.0003
 # the conditions under which the carry opens the jaw as it comes down (`trees/shared/lift.yaml`'s
 # `let_go_early`); under the others it lets go at rest
 LETS_GO_EARLY = ("calibrated", "optimized")
+# a handover's meeting from the giver's grasp (pegbt's `plan_meeting`, or the paper's `paper_meeting`)
+Meet = Callable[[Skills, str, str, Grasp, BlockEstimate], Meeting | None]
 
 
 def seen_point(world: World, point: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -91,7 +95,8 @@ def pick_and_carry(
     `Park` does (`pegbt/behaviours/actions/moving.py`); it approaches as `Approach` does. An attempt `after`
     one that failed goes on with that attempt's arm from where it stopped, and parks. A `registered` arm
     (the paper's protocol) on rest-to-rest cubics carries at the paper's heights and looks before it
-    lowers (`looks_before_lowering`, `paper_place`)."""
+    lowers (`looks_before_lowering`, `paper_place`); as a handover's giver it carries to the paper's
+    meeting (`paperhandover`)."""
     handover = variant == "handover"
     truth = world.blocks[block]
     if chose is not None and np.array_equal(chose.truth, truth.pose):
@@ -104,7 +109,8 @@ def pick_and_carry(
     looks = looks_before_lowering(registered, motion)
     same = chose is not None and np.linalg.norm(chose.position[:2] - position[:2]) <= SAME_BLOCK
     # a giver chooses among the grasps its receiver can take the block from (`select_grasp`'s `handover_to`)
-    acceptable = partial(_handed, skills, arm, seen) if handover else None
+    meet = paper_meeting if looks else plan_meeting
+    acceptable = partial(_handed, meet, skills, arm, seen) if handover else None
     grasp = skills.selectors[arm].pick(
         seen, avoid=(chose.candidate,) if same and chose else (), acceptable=acceptable
     )
@@ -112,11 +118,13 @@ def pick_and_carry(
     if grasp is None:
         return Bench.failed_before(world, arm, motion, "sense")
     if handover:
-        meeting = plan_meeting(skills, arm, RECEIVER[arm], grasp, seen)
+        meeting = meet(skills, arm, RECEIVER[arm], grasp, seen)
         assert meeting is not None  # the grasp was chosen among those `_handed` accepts
     if meeting is None:
         heights = paper_heights(skills.motion, variant) if looks else skills.motion
         waypoints = transfer_for(world.cell, heights, arm, None, seen, grasp, goal_peg)
+    elif looks:
+        waypoints = paper_carry(world.cell, skills.motion, arm, seen, grasp, meeting.tip)
     else:
         waypoints = to_handover(world.cell, skills.motion, arm, None, seen, grasp, meeting.tip)
     if waypoints.approach is None:
@@ -170,11 +178,11 @@ def pick_and_carry(
     return bench
 
 
-def _handed(skills: Skills, arm: str, seen: BlockEstimate, option: Grasp) -> bool:
-    """Whether `arm`'s receiver can take the block `seen` from it holding it by `option` (`handed`); a
-    meeting the giver cannot reach is none."""
+def _handed(meet: Meet, skills: Skills, arm: str, seen: BlockEstimate, option: Grasp) -> bool:
+    """Whether `arm`'s receiver can take the block `seen` from it holding it by `option` at the meeting
+    `meet` plans (`handed`); a meeting the giver cannot reach is none."""
     try:
-        return handed(skills, arm, RECEIVER[arm], seen, option)
+        return meet(skills, arm, RECEIVER[arm], option, seen) is not None
     except PegbtError:
         return False
 

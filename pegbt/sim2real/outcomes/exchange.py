@@ -21,15 +21,24 @@ from pegbt.errors import PegbtError
 from pegbt.motion.ik import inverse_kinematics
 from pegbt.motion.placing import paper_heights, segment_times
 from pegbt.motion.trajectory import Trajectory
+from pegbt.perception.grasp import Grasp
 from pegbt.sim.world import World
 from pegbt.sim2real.outcomes.attempt import (
+    PAPER_PERCEPTION_SD,
     failed_phase,
     looks_before_lowering,
     paper_place,
     planned_park,
     previous_release,
+    seen_point,
 )
 from pegbt.sim2real.outcomes.bench import START, Bench, Replay
+from pegbt.sim2real.outcomes.paperhandover import (
+    GIVER_RISE,
+    over_grasp,
+    receiver_grasp,
+    seen_held,
+)
 from pegbt.sim2real.outcomes.transfer_order import RECEIVER
 from pegbt.sim2real.outcomes.transfer_result import TransferResult
 
@@ -60,9 +69,12 @@ class Giving(Protocol):
 def hand_over(trying: Giving, giver: Bench, block: int, goal_peg: int) -> TransferResult:
     """The giver holds `block` at the meeting point: the receiver waits open above its grasp, descends and
     closes; the giver opens and withdraws; the receiver carries the block over `goal_peg`, lowers it and
-    opens (`pegbt.motion.handover`'s order); `trying.registered` (the paper's protocol), at the paper's
-    heights and looking before it lowers, with `trying.rng`'s perception noise (`paper_place`). The seconds
-    are the trial's per transfer (`_overlapped`).
+    opens (`pegbt.motion.handover`'s order); `trying.registered` (the paper's protocol, on rest-to-rest
+    cubics) as the paper's robot did (`paperhandover`): the receiver waits above the grasp it planned, the
+    camera looks at the held block and the receiver closes on the grasp of the block it sees, the giver
+    opens and rises before the receiver carries it at the paper's heights, looking before it lowers, with
+    `trying.rng`'s perception noise (`paper_place`). The seconds are the trial's per transfer
+    (`_overlapped`).
 
     Where the trial recovers (`trying.attempts` more than one), as `trees/shared/handover.yaml` does: a
     receiver whose jaw closed on nothing while the giver holds the block out (`try_to_take`'s `back off`)
@@ -103,7 +115,7 @@ def hand_over(trying: Giving, giver: Bench, block: int, goal_peg: int) -> Transf
         q0, parked = park.q[-1], float(park.t[-1] - park.t[0])
     stops = above_pegs_first(world.cell, skills.motion, receiver, q0, motion.settings)
     names = [f"stop {i}" for i in range(len(stops))] + ["waiting", "handover grasp"]
-    approach = motion.through(q0, stops + list(ik.q), names)
+    approach = motion.through(q0, stops + list(ik.q[: 1 if looks else 2]), names)
     # The receiver gets ready while the giver picks and carries (the paper's `run_place` thread moves it
     # to `handover_ready` at once, FLSPegTransfer_handover.py; pegbt's trees run the arms in parallel):
     # its way to the waiting pose is simulated after the giver's, but its seconds are not the transfer's.
@@ -111,6 +123,22 @@ def hand_over(trying: Giving, giver: Bench, block: int, goal_peg: int) -> Transf
     ahead = began + min(parked + waiting, world.time - began)
     met = world.time - began
     taker.play(approach, [(0.0, "handover")])
+    if looks:  # the paper's receiver goes where the camera sees the held block (`paperhandover`)
+        taken = _looked_at(trying, taker, giver, block)
+        if taken is None:
+            giver.jaw(skills.motion.transfer.jaw_open, "handover")
+            return TransferResult(False, first or "handover", world.time - ahead)
+        waypoints = from_handover(world.cell, heights, receiver, None, taken[0], taken[1], goal_peg)
+        ik = inverse_kinematics(
+            np.stack([over_grasp(world.cell, skills.motion, taken[0]), taken[0].pose]), motion.settings
+        )
+        if not ik.ok.all():
+            giver.jaw(skills.motion.transfer.jaw_open, "handover")
+            return TransferResult(False, first or "handover", world.time - ahead)
+        taker.play(
+            motion.through(taker.arm.joints.setpoint.copy(), list(ik.q), ["over the grasp", "grasp"]),
+            [(0.0, "handover")],
+        )
     taker.jaw(skills.motion.transfer.jaw_closed, "handover")
     for _ in range(TAKES - 1 if recovers else 0):
         if world.held_by(receiver) == block or world.held_by(giver.name) != block:
@@ -121,6 +149,8 @@ def hand_over(trying: Giving, giver: Bench, block: int, goal_peg: int) -> Transf
         taker.play(again, [(0.0, "handover")])
         taker.jaw(skills.motion.transfer.jaw_closed, "handover")
     giver.jaw(skills.motion.transfer.jaw_open, "handover")
+    if looks:
+        _escape(giver)
     if world.held_by(receiver) != block:
         return TransferResult(False, first or "handover", world.time - ahead)
     let_go = world.time
@@ -153,6 +183,35 @@ def hand_over(trying: Giving, giver: Bench, block: int, goal_peg: int) -> Transf
     fetched, fetcher = trying.fetched(taker, goal_peg, phase)
     named = first or phase if fetched.succeeded else fetched.phase
     return result(fetched.succeeded, named, fetcher, fetched.over_goal)
+
+
+def _looked_at(
+    trying: Giving, taker: Bench, giver: Bench, block: int
+) -> tuple[Grasp, NDArray[np.float64]] | None:
+    """The paper's look at the block `giver` holds out, once both arms are at rest: the receiver's grasp of
+    the block as seen (`paperhandover.receiver_grasp`), and the seen pose; None if it has none."""
+    world = trying.world
+    truth = world.blocks[block].pose
+    noise = trying.rng.normal(0.0, PAPER_PERCEPTION_SD, 2)
+    seen = seen_held(seen_point(world, truth[:3, 3]), truth, noise)
+    if giver.chose is None:  # a giver holds a block it chose a grasp of
+        return None
+    taken = receiver_grasp(
+        trying.skills, taker.name, giver.name, giver.chose.candidate, seen, giver.arm.joints.setpoint.copy()
+    )
+    return None if taken is None else (taken, seen)
+
+
+def _escape(giver: Bench) -> None:
+    """The giver, opened, rises `GIVER_RISE` (`move_upright` to `height_handover + offset_handover`)."""
+    assert giver.meeting is not None  # only a giver at the meeting point escapes from it
+    here = giver.meeting.tip.copy()
+    here[:3, 3] += GIVER_RISE * giver.world.cell.up_in(giver.name)
+    ik = inverse_kinematics(here[None], giver.motion.settings)
+    if ik.ok.all():
+        giver.play(
+            giver.motion.through(giver.arm.joints.setpoint.copy(), [ik.q[0]], ["escape"]), [(0.0, "handover")]
+        )
 
 
 def _receiver_start(

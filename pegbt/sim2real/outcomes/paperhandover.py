@@ -1,0 +1,168 @@
+"""The paper's handover poses, for the phase simulator's paper protocol (`registered`, rest-to-rest cubics).
+
+BerkeleyAutomation/FLSpegtransferHO, `FLSPegTransfer_handover.py` and
+`motion/dvrkPegTransferMotionHandOver.py`: the giver lifts the block to `height_ready` over its peg and goes
+in one cubic to `height_handover` (10 mm higher), its tool at yaw 0 and the block's hole over the handover
+point (`find_placing_pose` on `pnt_handover`, the mean of pegs 3, 6 and 9 moved −10 mm in y). Only then
+does the camera look at the held block (`find_block_servo_handover`) and the receiver's grasp is worked out
+from what it sees (`find_grasping_pose_handover`, its tool upright at the grasp's yaw); the receiver moves
+to 3 mm over that grasp point, down onto it and closes (`pick_block`); the giver opens and rises 10 mm
+(`offset_handover`), and only then does the receiver carry the block away.
+
+pegbt's own handover (`pegbt.behaviours.poses.to_handover`, `pegbt.behaviours.actions.handover`) meets
+lower, comes up the block's axis onto the meeting point and sends the receiver to the grasp it planned
+from the giver's commanded pose, without a look. Which of the receiver's grasps is taken stays pegbt's
+(another wall than the giver's, clear of the giver's tool, nearest to the receiver): the paper's rule (the
+window of ±70°, then the point farthest to the receiver's side) has the same intent. Not reproduced, as in
+the paper protocol's other transfers: the paper's placing angle is always 0 (`find_placing_pose`), so its
+tool turns to yaw 0 over the goal peg, where this keeps the grasp's yaw; and its cubics are in Cartesian
+pose (`dvrkArm.cubic_cartesian`), where these are in joints (docs/guides/sim-to-real.md).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+from pegbt.behaviours.actions.handover import Meeting
+from pegbt.behaviours.poses import (
+    block_axis_top,
+    to_arm,
+    tool_pose,
+    transfer_for,
+    yaw_about,
+)
+from pegbt.behaviours.resources.skills import Skills
+from pegbt.errors import PegbtError
+from pegbt.frames import apply_rigid, invert_rigid
+from pegbt.motion.channel import Channel
+from pegbt.motion.handover import descent_clearance, handover_meeting_point
+from pegbt.motion.ik import solve_ik
+from pegbt.motion.placing import PEG_TOP_Z, STOP_Z, paper_heights
+from pegbt.motion.settings import MotionSettings
+from pegbt.motion.waypoints import TransferWaypoints, tool_down_rotation
+from pegbt.perception.blocks import BlockEstimate
+from pegbt.perception.grasp import Grasp, grasp_options
+from pegbt.workcell import Workcell
+
+HANDOVER_Z = STOP_Z + 0.010  # m, arm frame: `height_handover`, 38 mm above the peg tops
+ABOVE_GRASP_POINT = 0.003  # m: `pick_block` stops this far over the seen grasp point (`offset_grasp`)
+GIVER_RISE = 0.010  # m: the giver, opened, rises this far before the receiver leaves (`offset_handover`)
+
+
+def paper_meeting(
+    skills: Skills, giver: str, receiver: str, grasp: Grasp, block: BlockEstimate
+) -> Meeting | None:
+    """The paper's meeting for `block` held by `giver` at `grasp`: the tool at yaw 0 and `HANDOVER_Z`, the
+    block's axis through the handover point; the receiver's grasp planned there (`receiver_grasp`), None if
+    it has none or the giver cannot reach it."""
+    cell = skills.cell
+    up = cell.up_in(giver)
+    point = handover_meeting_point(cell, skills.motion)
+    point[2] = cell.pegs.top_z - (HANDOVER_Z - PEG_TOP_Z)  # board z is down
+    offset = grasp.position - to_arm(cell, giver, block_axis_top(cell, None, block))
+    turned = (
+        tool_down_rotation(0.0, up) @ tool_down_rotation(yaw_about(grasp.pose[:3, :3], up), up).T @ offset
+    )
+    tip = tool_pose(to_arm(cell, giver, point) + turned - (turned @ up) * up, 0.0, up)
+    try:
+        q_giver = solve_ik(tip, skills.arm(giver).settings, what="the giver at the paper's meeting point")
+    except PegbtError:
+        return None
+    board_from_giver = cell.arm_to_board(giver)
+    block_pose = board_from_giver @ tip @ invert_rigid(board_from_giver @ grasp.pose) @ block.pose
+    taken = receiver_grasp(skills, receiver, giver, grasp.candidate, block_pose, q_giver)
+    return None if taken is None else Meeting(tip, block_pose, taken)
+
+
+def paper_carry(
+    cell: Workcell,
+    motion: MotionSettings,
+    arm: str,
+    block: BlockEstimate,
+    grasp: Grasp,
+    meeting: NDArray[np.float64],
+) -> TransferWaypoints:
+    """The giver's carry (`go_handover_traj`): lifted to `height_ready` over its peg, then straight to the
+    `meeting` tip pose, where it stops (the last segment has no length)."""
+    pick = transfer_for(cell, paper_heights(motion, "handover"), arm, None, block, grasp)
+    up = cell.up_in(arm)
+    tolerance = motion.transfer.channel_tolerance
+    return TransferWaypoints(
+        np.stack([pick.poses[0], pick.poses[1], meeting, meeting]),
+        pick.approach,
+        pick.pick,
+        Channel(meeting[:3, 3], -up, 0.0, tolerance, floor=False),
+        pick.upright,
+    )
+
+
+def receiver_grasp(
+    skills: Skills,
+    receiver: str,
+    giver: str,
+    giver_candidate: int,
+    block_pose: NDArray[np.float64],
+    q_giver: NDArray[np.float64],
+) -> Grasp | None:
+    """The receiver's grasp of a block at `block_pose` (board frame, tilted as it hangs) held by `giver`
+    (its joints `q_giver`) by candidate `giver_candidate`: at the candidate's point, the tool upright at
+    its yaw, as `pick_block` goes (`euler_to_quaternion([rot, 0, 0])`); on another wall than the giver's,
+    reachable, its descent from `receiver_wait_above` keeping `grasp_clearance` of the giver's tool; the
+    nearest to the receiver. None if there is none."""
+    cell, settings = skills.cell, skills.motion.handover
+    edges, up = cell.block.grasp_candidates.edge, cell.up_in(receiver)
+    selector = skills.selectors[receiver]
+    options = [
+        _upright(cell, option, block_pose)
+        for option in grasp_options(block_pose, receiver, cell)
+        if abs(option.yaw) <= selector.yaw_window and edges[option.candidate] != edges[giver_candidate]
+    ]
+    if not options:
+        return None
+    reachable = np.asarray(selector.reachable(np.array([option.pose for option in options])), dtype=bool)
+    centre = cell.remote_centre(receiver)[:2]
+    for option in sorted(
+        (option for option, ok in zip(options, reachable) if ok),
+        key=lambda option: float(np.linalg.norm(option.board_position[:2] - centre)),
+    ):
+        wait = option.pose.copy()
+        wait[:3, 3] += settings.receiver_wait_above * up
+        try:
+            q_wait, q_grasp = (solve_ik(pose, skills.arm(receiver).settings) for pose in (wait, option.pose))
+        except PegbtError:
+            continue
+        clearance = descent_clearance(
+            q_wait, q_grasp, cell.board_to_arm(receiver), q_giver, cell.board_to_arm(giver), cell.tool
+        )
+        if clearance >= settings.grasp_clearance:
+            return option
+    return None
+
+
+def _upright(cell: Workcell, option: Grasp, block_pose: NDArray[np.float64]) -> Grasp:
+    """`option` as `pick_block` takes it: `grasp_depth` straight down from the candidate's point on the
+    (tilted) top face (`offset_grasp` is along the robot's z), the tool upright at the option's yaw."""
+    local = cell.block.grasp_candidates.positions[option.candidate] - [0.0, 0.0, cell.block.grasp_depth]
+    tip = apply_rigid(block_pose, local) + [0.0, 0.0, cell.block.grasp_depth]  # board z is down
+    pose = tool_pose(to_arm(cell, option.arm, tip), option.yaw, cell.up_in(option.arm))
+    return Grasp(option.arm, option.candidate, pose, option.yaw, tip)
+
+
+def over_grasp(cell: Workcell, motion: MotionSettings, grasp: Grasp) -> NDArray[np.float64]:
+    """Where `pick_block` first takes the receiver: `ABOVE_GRASP_POINT` over the grasp point, which lies
+    `grasp_depth` over the tip at the grasp."""
+    pose = grasp.pose.copy()
+    pose[:3, 3] += (ABOVE_GRASP_POINT + cell.block.grasp_depth) * cell.up_in(grasp.arm)
+    return pose
+
+
+def seen_held(
+    seen_point: NDArray[np.float64], truth: NDArray[np.float64], noise: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """The held block's pose as the look sees it (`find_block_servo_handover` registers the block model to the
+    cloud): `truth` (board frame, tilted as it hangs) at `seen_point`, moved by perception's `noise` in
+    board x and y."""
+    seen = truth.copy()
+    seen[:3, 3] = seen_point + [noise[0], noise[1], 0.0]
+    return seen
