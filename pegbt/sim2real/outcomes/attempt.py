@@ -34,6 +34,7 @@ from pegbt.sim.world import World
 from pegbt.sim2real.outcomes.bench import START, Bench, Chosen, Replay
 from pegbt.sim2real.outcomes.cells import PHASES
 from pegbt.sim2real.outcomes.paperhandover import paper_carry, paper_meeting
+from pegbt.sim2real.outcomes.paperplacing import paper_transfer
 from pegbt.sim2real.outcomes.placelook import visible_points
 from pegbt.sim2real.outcomes.transfer_order import RECEIVER
 
@@ -95,8 +96,8 @@ def pick_and_carry(
     `Park` does (`pegbt/behaviours/actions/moving.py`); it approaches as `Approach` does. An attempt `after`
     one that failed goes on with that attempt's arm from where it stopped, and parks. A `registered` arm
     (the paper's protocol) on rest-to-rest cubics carries at the paper's heights and looks before it
-    lowers (`looks_before_lowering`, `paper_place`); as a handover's giver it carries to the paper's
-    meeting (`paperhandover`)."""
+    lowers (`looks_before_lowering`, `paper_place`) at the paper's placing angle (`paperplacing`); as a
+    handover's giver it carries to the paper's meeting (`paperhandover`)."""
     handover = variant == "handover"
     truth = world.blocks[block]
     if chose is not None and np.array_equal(chose.truth, truth.pose):
@@ -120,9 +121,11 @@ def pick_and_carry(
     if handover:
         meeting = meet(skills, arm, RECEIVER[arm], grasp, seen)
         assert meeting is not None  # the grasp was chosen among those `_handed` accepts
-    if meeting is None:
-        heights = paper_heights(skills.motion, variant) if looks else skills.motion
-        waypoints = transfer_for(world.cell, heights, arm, None, seen, grasp, goal_peg)
+    if meeting is None and looks:
+        heights = paper_heights(skills.motion, variant)
+        waypoints = paper_transfer(world.cell, heights, arm, seen, grasp, goal_peg)
+    elif meeting is None:
+        waypoints = transfer_for(world.cell, skills.motion, arm, None, seen, grasp, goal_peg)
     elif looks:
         waypoints = paper_carry(world.cell, skills.motion, arm, seen, grasp, meeting.tip)
     else:

@@ -39,6 +39,7 @@ from pegbt.sim2real.outcomes.paperhandover import (
     receiver_grasp,
     seen_held,
 )
+from pegbt.sim2real.outcomes.paperplacing import paper_from_handover
 from pegbt.sim2real.outcomes.transfer_order import RECEIVER
 from pegbt.sim2real.outcomes.transfer_result import TransferResult
 
@@ -72,8 +73,9 @@ def hand_over(trying: Giving, giver: Bench, block: int, goal_peg: int) -> Transf
     opens (`pegbt.motion.handover`'s order); `trying.registered` (the paper's protocol, on rest-to-rest
     cubics) as the paper's robot did (`paperhandover`): the receiver waits above the grasp it planned, the
     camera looks at the held block and the receiver closes on the grasp of the block it sees, the giver
-    opens and rises before the receiver carries it at the paper's heights, looking before it lowers, with
-    `trying.rng`'s perception noise (`paper_place`). The seconds are the trial's per transfer
+    opens and rises before the receiver carries it at the paper's heights, turning to the paper's placing
+    angle (`paperplacing`) and looking before it lowers, with `trying.rng`'s perception noise
+    (`paper_place`). The seconds are the trial's per transfer
     (`_overlapped`).
 
     Where the trial recovers (`trying.attempts` more than one), as `trees/shared/handover.yaml` does: a
@@ -103,9 +105,14 @@ def hand_over(trying: Giving, giver: Bench, block: int, goal_peg: int) -> Transf
         return TransferResult(False, first or "handover", world.time - began)
     looks = looks_before_lowering(trying.registered, motion)
     heights = paper_heights(skills.motion, "handover") if looks else skills.motion
-    waypoints = from_handover(
-        world.cell, heights, receiver, None, meeting.receiver_grasp, meeting.block_pose, goal_peg
-    )
+    if looks:  # the receiver last let go at the paper's placing angle too
+        waypoints = paper_from_handover(
+            world.cell, heights, receiver, meeting.receiver_grasp, meeting.block_pose, goal_peg
+        )
+    else:
+        waypoints = from_handover(
+            world.cell, heights, receiver, None, meeting.receiver_grasp, meeting.block_pose, goal_peg
+        )
     q0 = _receiver_start(trying, receiver, waypoints.poses[3], goal_peg)
     taker = Bench(world, receiver, motion, q0, trying.replay, trying.registered)
     parked = 0.0
@@ -128,7 +135,7 @@ def hand_over(trying: Giving, giver: Bench, block: int, goal_peg: int) -> Transf
         if taken is None:
             giver.jaw(skills.motion.transfer.jaw_open, "handover")
             return TransferResult(False, first or "handover", world.time - ahead)
-        waypoints = from_handover(world.cell, heights, receiver, None, taken[0], taken[1], goal_peg)
+        waypoints = paper_from_handover(world.cell, heights, receiver, taken[0], taken[1], goal_peg)
         ik = inverse_kinematics(
             np.stack([over_grasp(world.cell, skills.motion, taken[0]), taken[0].pose]), motion.settings
         )

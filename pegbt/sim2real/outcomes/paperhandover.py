@@ -13,10 +13,9 @@ pegbt's own handover (`pegbt.behaviours.poses.to_handover`, `pegbt.behaviours.ac
 lower, comes up the block's axis onto the meeting point and sends the receiver to the grasp it planned
 from the giver's commanded pose, without a look. Which of the receiver's grasps is taken stays pegbt's
 (another wall than the giver's, clear of the giver's tool, nearest to the receiver): the paper's rule (the
-window of ±70°, then the point farthest to the receiver's side) has the same intent. Not reproduced, as in
-the paper protocol's other transfers: the paper's placing angle is always 0 (`find_placing_pose`), so its
-tool turns to yaw 0 over the goal peg, where this keeps the grasp's yaw; and its cubics are in Cartesian
-pose (`dvrkArm.cubic_cartesian`), where these are in joints (docs/guides/sim-to-real.md).
+window of ±70°, then the point farthest to the receiver's side) has the same intent. The receiver places at
+the paper's placing angle, 0 (`paperplacing`). Not reproduced: the paper's cubics are in Cartesian pose
+(`dvrkArm.cubic_cartesian`), where these are in joints (docs/guides/sim-to-real.md).
 """
 
 from __future__ import annotations
@@ -40,9 +39,10 @@ from pegbt.motion.handover import descent_clearance, handover_meeting_point
 from pegbt.motion.ik import solve_ik
 from pegbt.motion.placing import PEG_TOP_Z, STOP_Z, paper_heights
 from pegbt.motion.settings import MotionSettings
-from pegbt.motion.waypoints import TransferWaypoints, tool_down_rotation
+from pegbt.motion.waypoints import TransferWaypoints
 from pegbt.perception.blocks import BlockEstimate
 from pegbt.perception.grasp import Grasp, grasp_options
+from pegbt.sim2real.outcomes.paperplacing import PLACING_YAW, turned_to_placing
 from pegbt.workcell import Workcell
 
 HANDOVER_Z = STOP_Z + 0.010  # m, arm frame: `height_handover`, 38 mm above the peg tops
@@ -61,10 +61,8 @@ def paper_meeting(
     point = handover_meeting_point(cell, skills.motion)
     point[2] = cell.pegs.top_z - (HANDOVER_Z - PEG_TOP_Z)  # board z is down
     offset = grasp.position - to_arm(cell, giver, block_axis_top(cell, None, block))
-    turned = (
-        tool_down_rotation(0.0, up) @ tool_down_rotation(yaw_about(grasp.pose[:3, :3], up), up).T @ offset
-    )
-    tip = tool_pose(to_arm(cell, giver, point) + turned - (turned @ up) * up, 0.0, up)
+    turned = turned_to_placing(offset, yaw_about(grasp.pose[:3, :3], up), up)
+    tip = tool_pose(to_arm(cell, giver, point) + turned, PLACING_YAW, up)
     try:
         q_giver = solve_ik(tip, skills.arm(giver).settings, what="the giver at the paper's meeting point")
     except PegbtError:

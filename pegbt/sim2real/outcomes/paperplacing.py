@@ -1,0 +1,88 @@
+"""The paper's placing angle, for the phase simulator's paper protocol (`registered`, rest-to-rest cubics).
+
+BerkeleyAutomation/FLSpegtransferHO, `vision/GraspingPose3D.py` `find_placing_pose`: the placing angle is
+always 0, and the placing point is the grasp point's offset from the block's axis turned by minus the
+grasp's angle: the tool turns to roll 0 and the block, held, turns with it about its axis. Roll 0 itself,
+not the nearest of the block's three equivalent yaws (the grasp window, ±70° in `find_grasping_pose`,
+bounds the turn). All three scripts place so (`FLSPegTransfer_single.py`, `_dual.py`, `_handover.py`);
+the turn is made on the way over the goal peg (`transfer_block_traj`'s cubic from the grasp's roll at
+`height_ready` over the pick peg to roll 0 at `height_ready` over the goal, `go_place_traj` from the
+handover), and `servoing_block` lowers at roll 0.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+from pegbt.behaviours.poses import block_axis_top, peg_top_board, to_arm, yaw_about
+from pegbt.motion.settings import MotionSettings
+from pegbt.motion.waypoints import (
+    TransferWaypoints,
+    placement_waypoints,
+    tool_down_rotation,
+    transfer_waypoints,
+)
+from pegbt.perception.blocks import BlockEstimate
+from pegbt.perception.grasp import Grasp
+from pegbt.workcell import Workcell
+
+PLACING_YAW = 0.0  # rad: `find_placing_pose`'s `placing_pose = [0.0] + ...`
+
+
+def turned_to_placing(
+    offset: NDArray[np.float64], yaw: float, up: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """A tip's `offset` from the held block's axis (arm frame) once a tool at `yaw` has turned to
+    `PLACING_YAW` about `up`, the block turning with it; its part across the axis."""
+    turned = tool_down_rotation(PLACING_YAW, up) @ tool_down_rotation(yaw, up).T @ offset
+    return turned - (turned @ up) * up
+
+
+def paper_transfer(
+    cell: Workcell,
+    motion: MotionSettings,
+    arm: str,
+    block: BlockEstimate,
+    grasp: Grasp,
+    place_peg: int,
+) -> TransferWaypoints:
+    """The transfer of `block`, held at `grasp`, onto `place_peg` as `transfer_block` and `servoing_block`
+    go: lifted at the grasp's yaw, over the goal peg and down at `PLACING_YAW`, the tip off the peg's axis by
+    its offset from the block's turned with the tool (`motion`'s heights: the paper's, `paper_heights`)."""
+    up = cell.up_in(arm)
+    pick_top = to_arm(cell, arm, block_axis_top(cell, None, block))
+    offset = grasp.position - pick_top
+    yaw = yaw_about(grasp.pose[:3, :3], up)
+    return transfer_waypoints(
+        pick_top,
+        to_arm(cell, arm, peg_top_board(cell, None, place_peg)),
+        pick_offset=offset,
+        place_offset=turned_to_placing(offset, yaw, up),
+        pick_yaw=yaw,
+        place_yaw=PLACING_YAW,
+        up=up,
+        heights=motion.transfer,
+    )
+
+
+def paper_from_handover(
+    cell: Workcell,
+    motion: MotionSettings,
+    receiver: str,
+    grasp: Grasp,
+    block_pose: NDArray[np.float64],
+    place_peg: int,
+) -> TransferWaypoints:
+    """The receiver's placement (`go_place`, `servoing_block`): from its `grasp` of the block at `block_pose`
+    (board frame) over `place_peg` and down onto it at `PLACING_YAW`, the block turned with the tool."""
+    up = cell.up_in(receiver)
+    offset = grasp.position - to_arm(cell, receiver, block_pose[:3, 3])
+    return placement_waypoints(
+        grasp.pose,
+        to_arm(cell, receiver, peg_top_board(cell, None, place_peg)),
+        place_offset=turned_to_placing(offset, yaw_about(grasp.pose[:3, :3], up), up),
+        place_yaw=PLACING_YAW,
+        up=up,
+        heights=motion.transfer,
+    )
