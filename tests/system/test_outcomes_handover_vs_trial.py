@@ -17,7 +17,8 @@ SEED = 501
 def test_the_handover_played_in_order_agrees_with_a_whole_trial(tmp_path: Path) -> None:
     trial, simulated = trial_beside_simulated(tmp_path, "handover", SEED)
     assert len(trial) == 12, trial
-    # world 501 agrees on 8 of 12 transfers (6 with each transfer alone and no exchange retried, main at
-    # eabb103); the rest differ on ways back, where the trial's giver missed or its receiver refused a block
-    # fetched off the board that the phase simulator handed over and lost lowering it
-    assert sum(t == s for t, s in zip(trial, simulated)) >= 8, (trial, simulated)
+    # world 501 agrees on 7 of 12 transfers (6 with each transfer alone and no exchange retried, main at
+    # eabb103; 9 before the trees set a fallen block back, 9169083); the rest differ on ways back: ways 10 and
+    # 12, whose start pegs are empty, the trial's giver now takes a block lying loose off the board, sets it
+    # back on its start peg and hands it over (`set_back.yaml`), where the phase simulator finds none (`sense`)
+    assert sum(t == s for t, s in zip(trial, simulated)) >= 7, (trial, simulated)
