@@ -401,9 +401,12 @@ def test_a_givers_rise_is_planned_while_it_carries_the_block_to_the_meeting_poin
     pool = GatedPool(clock)
     arm = psm1(robot)
     arm.block_in_jaw = True
-    tree = GIVE.replace("plan_s: /PSM1/plan_s}", "plan_s: /PSM1/plan_s, rise: 0.01}") + (
-        "      - release: {arm: PSM1, holding: /PSM1/holding}\n"
-        "      - rise: {arm: PSM1, height: 0.01, keep_apart: 0.0, handover_to: PSM2}\n"
+    tree = (
+        GIVE.replace("plan_s: /PSM1/plan_s}", "plan_s: /PSM1/plan_s, rise: 0.01}")
+        + (
+            "      - release: {arm: PSM1, holding: /PSM1/holding}\n"
+            "      - rise: {arm: PSM1, height: 0.01, keep_apart: 0.0, handover_to: PSM2}\n"
+        )
     )  # as `trees/shared/handover.yaml`'s giver rises: the carry plans the rise that leaf sends (`rise_extent`)
     values = chosen(skills, seen) | {"/meeting": None, "/block_pose": None, "/receiver_grasp": None}
     built = build(tmp_path, robot, skills, tree, pool, values)

@@ -13,6 +13,7 @@ from pegbt.sim.world_effects import WorldEffects
 from pegbt.sim2real.outcomes.bench import Replay
 from pegbt.sim2real.outcomes.phasesim import REGRASPS, carry_out
 from pegbt.sim2real.outcomes.transfer_order import transfers
+from pegbt.sim2real.outcomes.transfer_result import TransferResult
 
 # seed 1001's handover 2 with `--inject-faults` (`tests/unit/test_set_back.py`): the block PSM2 carried from
 # peg 0 lay 11 mm beside peg 3 (board frame, m; yaw, rad)
@@ -29,20 +30,18 @@ def _dropped(seed: int) -> tuple[World, int]:
     return world, block.index
 
 
+def _carried(seed: int, attempts: int) -> tuple[TransferResult, World, int]:
+    world, block = _dropped(seed)
+    rng = np.random.default_rng([seed, 7])
+    result = carry_out(
+        world, "handover", "optimized", INDEX, Replay(), attempts, False, rng, pick=lambda *_: block
+    )
+    return result, world, block
+
+
 @pytest.mark.parametrize("seed", [0, 1])
 def test_a_fallen_block_with_no_grasp_to_hand_over_is_set_back_and_handed_over(seed: int) -> None:
-    world, block = _dropped(seed)
-    result = carry_out(
-        world,
-        "handover",
-        "optimized",
-        INDEX,
-        Replay(),
-        1 + REGRASPS,
-        False,
-        np.random.default_rng([seed, 7]),
-        pick=lambda *_: block,
-    )
+    result, world, block = _carried(seed, 1 + REGRASPS)
     assert result.succeeded and result.phase is None
     assert world.blocks[block].peg == transfers("handover")[INDEX][2]
     kinds = [e.kind for e in world.events]
@@ -51,17 +50,6 @@ def test_a_fallen_block_with_no_grasp_to_hand_over_is_set_back_and_handed_over(s
 
 
 def test_the_papers_one_attempt_gives_up_on_it() -> None:
-    world, block = _dropped(0)
-    result = carry_out(
-        world,
-        "handover",
-        "optimized",
-        INDEX,
-        Replay(),
-        1,
-        False,
-        np.random.default_rng([0, 7]),
-        pick=lambda *_: block,
-    )
+    result, world, block = _carried(0, 1)
     assert not result.succeeded and result.phase == "sense"
     assert world.blocks[block].peg is None
