@@ -37,7 +37,7 @@ MIN_RISE = 0.005  # m: an approach rises at least this much before it moves over
 # m off the axis per m risen, leaving a held block's hole once the jaw's tips are clear of its top (45°)
 EXIT_WIDENING = 1.0
 # m: a receiver's way to wait above its handover grasp comes down onto that pose from this far above, along
-# the line its descent onto the grasp goes on down (`_clear_descent` of `pegbt.behaviours.actions.handover`)
+# the line its descent onto the grasp goes on down (`clear_descent` of `pegbt.behaviours.actions.handover`)
 WAIT_ARRIVAL = 0.002
 
 

@@ -98,8 +98,8 @@ def plan_meeting(
     taken = next(
         (
             option
-            for option in sorted(options, key=lambda option: _distance_to(cell, receiver, option))
-            if _clear_descent(skills, receiver, option, giver, q_giver)
+            for option in sorted(options, key=lambda option: distance_to(cell, receiver, option))
+            if clear_descent(skills, receiver, option, giver, q_giver)
         ),
         None,
     )
@@ -113,11 +113,12 @@ def meeting_tip(skills: Skills, giver: str) -> NDArray[np.float64]:
     return tool_pose(to_arm(cell, giver, handover_meeting_point(cell, skills.motion)), 0.0, cell.up_in(giver))
 
 
-def _distance_to(cell: Workcell, arm: str, option: Grasp) -> float:
+def distance_to(cell: Workcell, arm: str, option: Grasp) -> float:
+    """How far `option` lies from `arm`'s remote centre on the board: a receiver takes the nearest."""
     return float(np.linalg.norm(option.board_position[:2] - cell.remote_centre(arm)[:2]))
 
 
-def _clear_descent(
+def clear_descent(
     skills: Skills, receiver: str, option: Grasp, giver: str, q_giver: NDArray[np.float64]
 ) -> bool:
     """Whether the receiver, descending from waiting above `option` onto it, keeps `grasp_clearance` from the giver."""

@@ -136,9 +136,7 @@ def hand_over(trying: Giving, giver: Bench, block: int, goal_peg: int) -> Transf
             giver.jaw(skills.motion.transfer.jaw_open, "handover")
             return TransferResult(False, first or "handover", world.time - ahead)
         waypoints = paper_from_handover(world.cell, heights, receiver, taken[0], taken[1], goal_peg)
-        ik = inverse_kinematics(
-            np.stack([over_grasp(world.cell, skills.motion, taken[0]), taken[0].pose]), motion.settings
-        )
+        ik = inverse_kinematics(np.stack([over_grasp(world.cell, taken[0]), taken[0].pose]), motion.settings)
         if not ik.ok.all():
             giver.jaw(skills.motion.transfer.jaw_open, "handover")
             return TransferResult(False, first or "handover", world.time - ahead)

@@ -23,7 +23,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from pegbt.behaviours.actions.handover import Meeting
+from pegbt.behaviours.actions.handover import Meeting, clear_descent, distance_to
 from pegbt.behaviours.poses import (
     block_axis_top,
     to_arm,
@@ -35,7 +35,7 @@ from pegbt.behaviours.resources.skills import Skills
 from pegbt.errors import PegbtError
 from pegbt.frames import apply_rigid, invert_rigid
 from pegbt.motion.channel import Channel
-from pegbt.motion.handover import descent_clearance, handover_meeting_point
+from pegbt.motion.handover import handover_meeting_point
 from pegbt.motion.ik import solve_ik
 from pegbt.motion.placing import PEG_TOP_Z, STOP_Z, paper_heights
 from pegbt.motion.settings import MotionSettings
@@ -108,8 +108,8 @@ def receiver_grasp(
     its yaw, as `pick_block` goes (`euler_to_quaternion([rot, 0, 0])`); on another wall than the giver's,
     reachable, its descent from `receiver_wait_above` keeping `grasp_clearance` of the giver's tool; the
     nearest to the receiver. None if there is none."""
-    cell, settings = skills.cell, skills.motion.handover
-    edges, up = cell.block.grasp_candidates.edge, cell.up_in(receiver)
+    cell = skills.cell
+    edges = cell.block.grasp_candidates.edge
     selector = skills.selectors[receiver]
     options = [
         _upright(cell, option, block_pose)
@@ -119,23 +119,17 @@ def receiver_grasp(
     if not options:
         return None
     reachable = np.asarray(selector.reachable(np.array([option.pose for option in options])), dtype=bool)
-    centre = cell.remote_centre(receiver)[:2]
-    for option in sorted(
-        (option for option, ok in zip(options, reachable) if ok),
-        key=lambda option: float(np.linalg.norm(option.board_position[:2] - centre)),
-    ):
-        wait = option.pose.copy()
-        wait[:3, 3] += settings.receiver_wait_above * up
-        try:
-            q_wait, q_grasp = (solve_ik(pose, skills.arm(receiver).settings) for pose in (wait, option.pose))
-        except PegbtError:
-            continue
-        clearance = descent_clearance(
-            q_wait, q_grasp, cell.board_to_arm(receiver), q_giver, cell.board_to_arm(giver), cell.tool
-        )
-        if clearance >= settings.grasp_clearance:
-            return option
-    return None
+    return next(
+        (
+            option
+            for option in sorted(
+                (option for option, ok in zip(options, reachable) if ok),
+                key=lambda option: distance_to(cell, receiver, option),
+            )
+            if clear_descent(skills, receiver, option, giver, q_giver)
+        ),
+        None,
+    )
 
 
 def _upright(cell: Workcell, option: Grasp, block_pose: NDArray[np.float64]) -> Grasp:
@@ -147,7 +141,7 @@ def _upright(cell: Workcell, option: Grasp, block_pose: NDArray[np.float64]) -> 
     return Grasp(option.arm, option.candidate, pose, option.yaw, tip)
 
 
-def over_grasp(cell: Workcell, motion: MotionSettings, grasp: Grasp) -> NDArray[np.float64]:
+def over_grasp(cell: Workcell, grasp: Grasp) -> NDArray[np.float64]:
     """Where `pick_block` first takes the receiver: `ABOVE_GRASP_POINT` over the grasp point, which lies
     `grasp_depth` over the tip at the grasp."""
     pose = grasp.pose.copy()
