@@ -6,10 +6,9 @@ in one cubic to `height_handover` (10 mm higher, z in its own frame), its tool a
 and the block's hole over the handover point (`find_placing_pose` on `pnt_handover`, the mean of pegs 3, 6
 and 9 moved −10 mm in y; `go_handover_traj`, `dvrkPegTransferMotionHandOver.py` lines 246 and 265). Only then
 does the camera look at the held block (`find_block_servo_handover`) and the receiver's grasp is worked out
-from what it sees (`find_grasping_pose_handover`, its tool along its base's z at the grasp's yaw, lines
-157–167); the receiver moves
-to 3 mm over that grasp point, down onto it and closes (`pick_block`); the giver opens and rises 10 mm
-(`offset_handover`), and only then does the receiver carry the block away.
+from what it sees (`find_grasping_pose_handover`); the receiver moves to 3 mm over that grasp point, down
+onto it and closes, its tool along its base's z at the grasp's yaw (`pick_block`, lines 157–167); the giver
+opens and rises 10 mm (`offset_handover`), and only then does the receiver carry the block away.
 
 pegbt's own handover (`pegbt.behaviours.poses.to_handover`, `pegbt.behaviours.actions.handover`) meets
 lower, comes up the block's axis onto the meeting point and sends the receiver to the grasp it planned
