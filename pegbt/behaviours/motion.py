@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import replace
 from functools import partial
 
 import numpy as np
@@ -18,14 +17,14 @@ from numpy.typing import NDArray
 from py_trees.common import Status
 
 from pegbt.behaviours.base import MotionLeaf, Outgoing, RobotLeaf
-from pegbt.behaviours.poses import approach_for, height_above_pegs, peg_top_board, to_arm, transfer_for
+from pegbt.behaviours.poses import approach_for, height_above_pegs, transfer_for
 from pegbt.behaviours.resources.arm_motion import ArmMotion
 from pegbt.behaviours.resources.skills import Skills
 from pegbt.motion.handover import jaw_on_wall
 from pegbt.motion.ik import solve_ik
 from pegbt.motion.kinematics import forward_kinematics, tip_position
 from pegbt.motion.limits import ArmSettings
-from pegbt.motion.placing import stopped_above
+from pegbt.motion.placing import paper_heights, stopped_above
 from pegbt.motion.settings import MotionSettings
 from pegbt.motion.trajectory import Trajectory
 from pegbt.motion.waypoints import TransferWaypoints
@@ -158,15 +157,12 @@ class CarryLeaf(MotionLeaf):
         return "stop_above" in self.params and bool(self.param("stop_above"))
 
     def _stopping_at_place_height(self, waypoints: TransferWaypoints) -> TransferWaypoints:
-        """`waypoints` with the stop over the goal peg at `place_motion`'s carry height above its top (the
-        paper's under its protocol), where a carry made with other heights (the receiver's) would stop."""
-        arm, cell = self.param("arm"), self.skills.cell
-        up = cell.up_in(arm)
-        top = to_arm(cell, arm, peg_top_board(cell, self.read("/board"), int(self.param("place"))))
-        poses = waypoints.poses.copy()
-        height = self.skills.place_motion.transfer.transfer_height_above_peg_top
-        poses[2, :3, 3] += (height - (poses[2, :3, 3] - top) @ up) * up
-        return replace(waypoints, poses=poses)
+        """`waypoints` lifted, stopping over the goal peg and lowered at the paper's heights under its
+        protocol (`paper_heights`: z in the arm's own frame), as they are under pegbt's."""
+        variant = self.skills.paper_variant
+        if variant is None:
+            return waypoints
+        return paper_heights(waypoints, variant, self.skills.cell.up_in(self.param("arm")))
 
     def begin(self) -> None:
         arm = self.param("arm")

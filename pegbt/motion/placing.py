@@ -1,8 +1,12 @@
 """The reference paper's placing heights, and a carry stopped at rest over its goal peg.
 
 BerkeleyAutomation/FLSpegtransferHO, `motion/dvrkPegTransferMotion*.py` (`transfer_block_traj`): the carry
-ends at rest at `height_ready` (−0.120 m in the arm's frame) over the goal peg, where the camera looks at the
-held block (`place_servoing`, `FLSPegTransfer_*.py`); only then does the arm go down to `height_drop` and open.
+ends at rest at `height_ready` over the goal peg, where the camera looks at the held block (`place_servoing`,
+`FLSPegTransfer_*.py`); only then does the arm go down to `height_drop` and open. Both are z values in each
+arm's own base frame, whatever the peg tops' height there (`posw2 = [pos_place[0], pos_place[1],
+self.height_ready]`, `dvrkPegTransferMotionDualArm.py` lines 155 and 293–307; `HandOver.py` 246, 265, 335 and
+388–390), and the tool there lies along the base's z (`euler_to_quaternion([rot, 0, 0])`). The board leans
+in the arms' frames, so one z is a different height over each arm's pegs (docs/guides/sim-to-real.md).
 """
 
 from __future__ import annotations
@@ -10,29 +14,64 @@ from __future__ import annotations
 from dataclasses import replace
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from pegbt.errors import PegbtError
-from pegbt.motion.settings import MotionSettings
+from pegbt.frames import rigid_transform, yaw_rotation
 from pegbt.motion.trajectory import Trajectory
+from pegbt.motion.waypoints import TransferWaypoints
 
-PEG_TOP_Z = -0.148  # m, the peg tops in the arm's frame (shared/reference/peg-transfer-geometry.md)
 STOP_Z = -0.120  # m, `height_ready` of all three motion scripts: where the carry stops and the look is taken
 # m, `height_drop` by script: where the tip stops before the jaw opens
 DROP_Z = {"unilateral": -0.130, "bilateral": -0.135, "handover": -0.138}
 
 
-def paper_heights(motion: MotionSettings, variant: str) -> MotionSettings:
-    """`motion` with the carry's stop and the lowering at the paper's heights above the peg tops."""
+def paper_variant(variant: str) -> str:
+    """`variant` if the paper's protocol has heights for it (`DROP_Z`), else a `PegbtError`."""
     if variant not in DROP_Z:
         raise PegbtError(
             f"the paper's protocol has heights for {', '.join(DROP_Z)} only, not {variant!r}", field="variant"
         )
-    transfer = replace(
-        motion.transfer,
-        transfer_height_above_peg_top=STOP_Z - PEG_TOP_Z,
-        drop_height_above_peg_top=DROP_Z[variant] - PEG_TOP_Z,
+    return variant
+
+
+def along_to_z(point: ArrayLike, z: float, along: ArrayLike) -> NDArray[np.float64]:
+    """`point` (arm frame) moved along `along` until its z in the arm's frame is `z`."""
+    point, along = np.asarray(point, dtype=float), np.asarray(along, dtype=float)
+    return point + (z - point[2]) / along[2] * along
+
+
+def paper_heights(waypoints: TransferWaypoints, variant: str, up: ArrayLike) -> TransferWaypoints:
+    """`waypoints` with the lift (a transfer's, not a placement's), the stop over the goal peg and the
+    lowering at the paper's z (`STOP_Z`, `STOP_Z`, `variant`'s `DROP_Z`), each pose moved along `up`, the pegs'
+    axis, so the tip keeps to the same peg axes; the goal's channel follows the lowered tip."""
+    targets = {2: STOP_Z, 3: DROP_Z[paper_variant(variant)]} | (
+        {1: STOP_Z} if waypoints.pick is not None else {}
     )
-    return replace(motion, transfer=transfer)
+    poses = waypoints.poses.copy()
+    for row, z in targets.items():
+        poses[row, :3, 3] = along_to_z(poses[row, :3, 3], z, up)
+    return _lowered_to(replace(waypoints, poses=poses), waypoints)
+
+
+def straight_down(waypoints: TransferWaypoints, place: ArrayLike, yaw: float) -> TransferWaypoints:
+    """`waypoints` over the goal peg and lowered as the paper commands them (`servoing_block`): the tip
+    over `place` (arm frame: the peg top and the tip's offset from the block's axis) at the poses' own z,
+    the tool along the base's z at `yaw`; the goal's channel follows the lowered tip."""
+    poses = waypoints.poses.copy()
+    x, y = np.asarray(place, dtype=float)[:2]
+    for row in (2, 3):
+        poses[row] = rigid_transform(yaw_rotation(yaw), [x, y, poses[row, 2, 3]])
+    return _lowered_to(replace(waypoints, poses=poses), waypoints)
+
+
+def _lowered_to(moved: TransferWaypoints, before: TransferWaypoints) -> TransferWaypoints:
+    """`moved` with its goal channel through its lowered tip: as `before`'s, its clearing height counted
+    from there."""
+    channel = before.place
+    dropped = moved.poses[3, :3, 3]
+    rise = float((dropped - channel.point) @ channel.axis)
+    return replace(moved, place=replace(channel, point=dropped, clear=channel.clear - rise))
 
 
 def segment_times(planned: Trajectory) -> tuple[float, float]:

@@ -768,8 +768,8 @@ def test_under_the_paper_s_policy_the_transfer_stops_at_rest_at_its_height_over_
     tmp_path, clock, cloud, seen
 ):
     """`stop_above` (the tree's `/policy/look_before_lowering`): the carry ends where the paper's
-    `transfer_block_traj` ends, 28 mm over the peg tops, and never opens the jaw, even under a condition
-    `let_go_early` names."""
+    `transfer_block_traj` ends, at `height_ready`, z −0.120 m in the arm's own frame, whatever the peg tops'
+    z there, and never opens the jaw, even under a condition `let_go_early` names."""
     skills = paper_skills()
     robot = fake_robot(clock, skills.settings, skills.cell, cloud)
     arm, values = holding_at_the_grasp(robot, skills, seen)
@@ -778,11 +778,12 @@ def test_under_the_paper_s_policy_the_transfer_stops_at_rest_at_its_height_over_
     built = build(tmp_path, robot, skills, tree, **values)
     assert run(built, clock) == Status.SUCCESS
     (trajectory,) = arm.trajectories
-    tip, top = tip_position(trajectory.q[-1]), skills.cell.peg_tops_in("PSM1")[PLACE]
-    assert (tip - top) @ skills.cell.up_in("PSM1") == pytest.approx(0.028, abs=1e-4)
+    tip, up = tip_position(trajectory.q[-1]), skills.cell.up_in("PSM1")
+    assert tip[2] == pytest.approx(-0.120, abs=1e-4)
     block, grasp = values["PSM1/block"], values["PSM1/grasp"]
-    above = transfer_for(skills.cell, skills.place_motion, "PSM1", seen[0], block, grasp, PLACE).poses[2]
-    assert np.linalg.norm(tip - above[:3, 3]) < 1e-4  # over the peg, as the grasp holds the block
+    above = transfer_for(skills.cell, skills.motion, "PSM1", seen[0], block, grasp, PLACE).poses[2, :3, 3]
+    off = tip - above - ((tip - above) @ up) * up
+    assert np.linalg.norm(off) < 1e-4  # over the peg, as the grasp holds the block
     # at rest within a sample of the cubics' stop there (their knots fall between the 10 ms samples)
     assert np.linalg.norm(trajectory.qd[-1]) < 0.01 and arm.jaw.sent == []
 
@@ -882,7 +883,7 @@ def test_servo_over_peg_moves_by_the_look_at_rest_then_lowers_to_the_paper_s_dro
     lateral = tips - top - ((tips - top) @ up)[:, None] * up
     moved = np.asarray(move) - (np.asarray(move) @ up) * up
     assert np.allclose(lateral[-1], moved, atol=1e-4)  # moved by the look, along the board
-    assert (tips[-1] - top) @ up == pytest.approx(0.018, abs=1e-4)  # `height_drop`, unilateral: -0.130 m
+    assert tips[-1][2] == pytest.approx(-0.130, abs=1e-4)  # `height_drop`, unilateral: z in the arm's frame
     # rest-to-rest: the arm stops at the stop's height, moved, before it lowers
     moved_above = stop[:3, 3] + move
     there = int(np.argmin(np.linalg.norm(tips - moved_above, axis=1)))
@@ -1770,7 +1771,8 @@ def test_carry_from_handover_stopping_above_stops_at_the_place_height_over_its_g
     tmp_path, clock, cloud, seen
 ):
     """The receiver's carry made at pegbt's heights, stopped for the look (`stop_above`): its stop is moved
-    to the paper's `height_ready` over the goal peg, 28 mm above its top, as the giver-less carries'."""
+    along the goal peg's axis to the paper's `height_ready`, z −0.120 m in the arm's frame, as the giver-less
+    carries'."""
     skills = Skills("uncalibrated", protocol="paper", variant="handover")
     robot = fake_robot(clock, skills.settings, skills.cell, cloud)
     arm, meeting, values = receiver_holding(robot, skills, seen)
@@ -1785,8 +1787,8 @@ def test_carry_from_handover_stopping_above_stops_at_the_place_height_over_its_g
     assert arm.jaw.sent == []  # it holds the block above the peg for the look, whatever `let_go_early` says
     (trajectory,) = arm.trajectories
     end = forward_kinematics(trajectory.q[-1])
+    assert end[2, 3] == pytest.approx(-0.120, abs=1e-4)
     peg = skills.cell.board_to_arm(RECEIVER) @ np.append(seen[0].peg_tops[PLACE], 1.0)
-    assert (end[:3, 3] - peg[:3]) @ skills.cell.up_in(RECEIVER) == pytest.approx(0.028, abs=1e-4)
     axis = skills.cell.board_to_arm(RECEIVER) @ meeting.block_pose[:, 3]
     grasp = meeting.receiver_grasp.pose
     assert np.allclose(

@@ -1,7 +1,7 @@
 """The paper's handover in the phase simulator's paper protocol (`paperhandover`; BerkeleyAutomation/
-FLSpegtransferHO, `FLSPegTransfer_handover.py`): the giver holds the block out at `height_handover`, 38 mm
-over the peg tops, and the receiver closes where the camera then sees the block, not where the giver was
-sent."""
+FLSpegtransferHO, `FLSPegTransfer_handover.py`): the giver holds the block out at `height_handover`, z
+−0.110 m in its own frame, its tool along its base's z, and the receiver closes where the camera then sees
+the block, not where the giver was sent, its tool along its own base's z."""
 
 from __future__ import annotations
 
@@ -10,15 +10,16 @@ import logging
 import numpy as np
 import pytest
 
-from pegbt.motion.placing import PEG_TOP_Z
+from pegbt.behaviours.actions.handover import Meeting
 from pegbt.sim.world import World
 from pegbt.sim.world_effects import WorldEffects
-from pegbt.sim2real.outcomes import exchange
-from pegbt.sim2real.outcomes.paperhandover import HANDOVER_Z
+from pegbt.sim2real.outcomes import attempt, exchange
+from pegbt.sim2real.outcomes.paperhandover import paper_meeting
 from pegbt.sim2real.outcomes.phasesim import simulate_transfer
 from pegbt.sim2real.outcomes.transfer_order import RECEIVER, transfers
 
 INDEX = 4  # layout 0's fifth transfer: PSM2 hands the block on peg 5 to PSM1 for peg 11
+HANDOVER_Z = -0.110  # m, z in the giver's frame: `height_handover`, `height_ready` + 0.010
 
 
 @pytest.fixture(autouse=True)
@@ -58,13 +59,35 @@ def receiver_closing(monkeypatch: pytest.MonkeyPatch):
     return run
 
 
+def test_the_giver_holds_the_block_out_at_height_handover_in_its_frame_along_its_bases_z(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """`go_handover_traj` sends the giver to `[x, y, height_handover]` at `euler_to_quaternion([0, 0, 0])`,
+    and `pick_block` the receiver to its grasp at `euler_to_quaternion([rot, 0, 0])`: both tools along their
+    base's z, which the paper-era frames lean 1.3 and 1.7 degrees off the pegs' axis."""
+    meetings: list[Meeting] = []
+
+    def recorded(*args) -> Meeting | None:
+        meeting = paper_meeting(*args)
+        meetings.extend([meeting] if meeting is not None else [])
+        return meeting
+
+    monkeypatch.setattr(attempt, "paper_meeting", recorded)
+    simulate_transfer(WorldEffects(), "handover", "uncalibrated", 0, index=INDEX, attempts=1, registered=True)
+    tip, grasp = meetings[-1].tip, meetings[-1].receiver_grasp.pose
+    assert tip[2, 3] == pytest.approx(HANDOVER_Z, abs=1e-9)
+    assert tip[:3, :3] == pytest.approx(np.eye(3), abs=1e-9)  # yaw 0, the tool along the base's z
+    assert grasp[:3, 2] == pytest.approx([0.0, 0.0, 1.0], abs=1e-9)
+
+
 def test_the_receiver_takes_the_block_at_the_papers_handover_height(receiver_closing) -> None:
     world = World(0)
     tip = receiver_closing(np.zeros(3))
-    over_pegs = world.cell.pegs.top_z - tip[2]  # board z runs down
+    giver = transfers("handover")[INDEX][0]
+    in_givers_frame = world.cell.board_to_arm(giver) @ np.append(tip, 1.0)
     # the giver's tip at `height_handover`; the receiver's at its grasp, `grasp_depth` under the block's top,
-    # which is `grasp_depth` over the giver's: level with it, within the arms' errors (pegbt meets 21 mm up)
-    assert over_pegs == pytest.approx(HANDOVER_Z - PEG_TOP_Z, abs=0.004)
+    # which is `grasp_depth` over the giver's: level with it, within the arms' errors
+    assert in_givers_frame[2] == pytest.approx(HANDOVER_Z, abs=0.004)
 
 
 def test_the_receiver_closes_where_the_camera_sees_the_block(receiver_closing) -> None:

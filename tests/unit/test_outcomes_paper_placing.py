@@ -1,7 +1,7 @@
 """The paper's placing angle in the phase simulator's paper protocol (`paperplacing`; BerkeleyAutomation/
 FLSpegtransferHO, `vision/GraspingPose3D.py` `find_placing_pose`): in all three variants the placing arm
 lets go of the block with its tool at roll 0, whatever yaw it grasped at, and the block, turned with the
-tool, still lands on its peg; its wrist there is the paper's recorded one but for the board's tilt."""
+tool, still lands on its peg; its wrist and heights there are the paper's recorded ones."""
 
 from __future__ import annotations
 
@@ -74,17 +74,18 @@ def test_pegbt_places_at_the_grasps_yaw(
     assert math.degrees(abs(yaws[-1])) > 20.0
 
 
-# (variant, transfer index, placing arm): unilateral 3->8 (PSM1), bilateral 0->7 (PSM2)
-@pytest.mark.parametrize(("variant", "index", "arm"), [("unilateral", 2, "PSM1"), ("bilateral", 0, "PSM2")])
-def test_the_paper_places_with_the_recorded_wrist_but_for_the_boards_tilt(
-    monkeypatch: pytest.MonkeyPatch, variant: str, index: int, arm: str
+# (variant, transfer index, placing arm, `height_drop`): unilateral 3->8 (PSM1), bilateral 0->7 (PSM2)
+@pytest.mark.parametrize(
+    ("variant", "index", "arm", "drop"), [("unilateral", 2, "PSM1", -0.130), ("bilateral", 0, "PSM2", -0.135)]
+)
+def test_the_paper_places_with_the_recorded_wrist_at_its_heights_in_the_arms_frame(
+    monkeypatch: pytest.MonkeyPatch, variant: str, index: int, arm: str, drop: float
 ) -> None:
     """The paper's own transfers (FLSpegtransferHO commit 4900558, `record/trajectories_uni_bi_handover/`)
-    reach their goal peg with roll 0 and the tool along the base's z axis: q4 = 0, q5 = −q2, q6 = −q1.
-    The phase simulator's paper placing turns to roll 0 about the pegs' axis instead, which leans off the
-    base's z by the board's tilt in the arm's frame (the one way its placing wrist differs from the paper's,
-    docs/guides/sim-to-real.md): its tool lies along the pegs' axis, and its wrist keeps the paper's relations
-    to within that angle."""
+    reach their goal peg with roll 0 and the tool along the base's z axis: q4 = 0, q5 = −q2, q6 = −q1, as
+    `servoing_block` commands them (`euler_to_quaternion([0, 0, 0])`), not along the pegs' axis, which the
+    paper-era frames lean 1.3 and 1.7 degrees off it. Its heights are z in each arm's own frame
+    (`height_ready` −0.120 m, `height_drop` by script), PSM2's as PSM1's, whatever the peg tops' z there."""
     carries: list[TransferWaypoints] = []
     transfer = ArmMotion.transfer
 
@@ -95,10 +96,11 @@ def test_the_paper_places_with_the_recorded_wrist_but_for_the_boards_tilt(
     monkeypatch.setattr(ArmMotion, "transfer", recorded)
     simulate_transfer(WorldEffects(), variant, "uncalibrated", 0, index=index, attempts=1, registered=True)
     cell = load_workcell()
-    tilt = math.acos(float(cell.up_in(arm)[2]))  # rad: the pegs' axis from the base's z
-    assert tilt > 0.02  # the paper-era frames' board leans 1.3 and 1.7 degrees, so the check can tell
-    for pose in carries[0].poses[2:]:  # over the goal peg, and lowered
+    assert math.acos(float(cell.up_in(arm)[2])) > 0.02  # the board leans, so the check can tell
+    lifted, above, lowered = carries[0].poses[1:]
+    assert [lifted[2, 3], above[2, 3], lowered[2, 3]] == pytest.approx([-0.120, -0.120, drop], abs=1e-9)
+    for pose in (above, lowered):
         q = solve_ik(pose, arm_settings(arm))
         axis = forward_kinematics(q)[:3, 2]  # the tool's axis (R = I points it straight down)
-        assert math.acos(float(axis[2])) == pytest.approx(tilt, abs=1e-3)
-        assert max(abs(q[3]), abs(q[4] + q[1]), abs(q[5] + q[0])) < 1.1 * tilt
+        assert axis == pytest.approx([0.0, 0.0, 1.0], abs=1e-9)
+        assert max(abs(q[3]), abs(q[4] + q[1]), abs(q[5] + q[0])) < 1e-6

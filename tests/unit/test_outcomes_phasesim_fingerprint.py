@@ -43,11 +43,11 @@ TRANSFERS = {
     ("handover", "calibrated", 5, "default", False): (True, None, 6.75),
     ("handover", "calibrated", 5, "bending", False): (True, None, 6.75),
     ("unilateral", "uncalibrated", 1, "default", True): (False, "lift", 3.64),
-    ("unilateral", "uncalibrated", 5, "default", True): (False, "release", 6.74),
-    ("bilateral", "uncalibrated", 1, "default", True): (True, None, 6.68),
-    ("bilateral", "uncalibrated", 5, "default", True): (False, "lift", 3.66),
-    ("handover", "uncalibrated", 1, "default", True): (False, "handover", 6.67),
-    ("handover", "uncalibrated", 5, "default", True): (False, "handover", 6.89),
+    ("unilateral", "uncalibrated", 5, "default", True): (True, None, 6.73),
+    ("bilateral", "uncalibrated", 1, "default", True): (True, None, 6.65),
+    ("bilateral", "uncalibrated", 5, "default", True): (False, "lift", 3.68),
+    ("handover", "uncalibrated", 1, "default", True): (False, "handover", 6.6),
+    ("handover", "uncalibrated", 5, "default", True): (False, "handover", 6.8),
 }
 # a handover trial, uncalibrated, layout 0, its first five transfers in both worlds (alike there)
 TRIAL = [

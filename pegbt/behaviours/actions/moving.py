@@ -38,12 +38,13 @@ class Transfer(CarryLeaf):
     opened on the plan's clock may drop the block before its hole is on the peg, and an opening jaw can
     no longer tell that a peg knocked the block out; there the jaw stays closed, watched, until the arm
     is at rest, and `release` opens it. Under the paper's protocol the jaw always stays closed, and a carry
-    that stops above the goal peg to look first (`stop_above`) goes at the paper's heights."""
+    that stops above the goal peg to look first (`stop_above`) goes at the paper's heights
+    (`CarryLeaf`)."""
 
     def waypoints(self) -> TransferWaypoints:
         return transfer_for(
             self.skills.cell,
-            self.skills.place_motion if self.stops_above() else self.skills.motion,
+            self.skills.motion,
             self.param("arm"),
             self.read("/board"),
             self.get("block"),

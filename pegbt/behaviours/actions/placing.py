@@ -17,6 +17,7 @@ from pegbt.behaviours.motion import CarryLeaf
 from pegbt.errors import PegbtError
 from pegbt.motion.ik import solve_ik
 from pegbt.motion.kinematics import forward_kinematics
+from pegbt.motion.placing import DROP_Z, along_to_z
 from pegbt.perception.board import BoardEstimate
 from pegbt.perception.cloud import open3d_threads
 from pegbt.perception.organised import OrganisedCloud
@@ -66,9 +67,10 @@ class FindHeldBlock(ComputeLeaf):
 
 class ServoOverPeg(CarryLeaf):
     """From the stop over peg `place`, the arm moves by `servo` (a rest-to-rest move, as the paper's
-    `servoing_block`), then lowers the block to the drop height above the peg tops (of `place_motion`:
-    the paper's under its protocol); fails at once if the block slips, as every carry does, and without
-    moving if `servo` is longer than a look can ask (`reach` in board x and y)."""
+    `servoing_block`), then lowers the block to the drop height (the paper's `height_drop` in the arm's
+    frame under its protocol, `pegbt.motion.placing`; else pegbt's above the peg tops); fails at once if
+    the block slips, as every carry does, and without moving if `servo` is longer than a look can ask
+    (`reach` in board x and y)."""
 
     SEGMENTS = ("carry", "carry", "lower")
 
@@ -88,10 +90,13 @@ class ServoOverPeg(CarryLeaf):
             )
         above = stop.copy()
         above[:3, 3] += move
-        up = cell.up_in(arm)
-        drop = self.skills.place_motion.transfer.drop_height_above_peg_top
+        up, variant = cell.up_in(arm), self.skills.paper_variant
         dropped = above.copy()
-        dropped[:3, 3] -= ((above[:3, 3] - cell.peg_tops_in(arm)[peg]) @ up - drop) * up
+        if variant is None:
+            drop = self.skills.motion.transfer.drop_height_above_peg_top
+            dropped[:3, 3] -= ((above[:3, 3] - cell.peg_tops_in(arm)[peg]) @ up - drop) * up
+        else:
+            dropped[:3, 3] = along_to_z(above[:3, 3], DROP_Z[variant], up)
         self.poses = np.stack([stop, above, above, dropped])
         joints = [solve_ik(pose, motion.settings, what=f"{arm} place") for pose in (above, dropped)]
         self.move(

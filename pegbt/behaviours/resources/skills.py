@@ -13,7 +13,7 @@ fit another.
 Under the paper's protocol (`--protocol paper`) an uncalibrated arm plans where the paper's hand-eye
 registration, made with that arm, puts its base (`pegbt.calibration.registration`, with the simulator's
 `dvrk-real` physics: a robot would be registered for real), and a carry that stops to look before lowering
-goes at the paper's heights for the run's variant (`place_motion`, `pegbt.motion.placing`).
+goes at the paper's heights for the run's variant (`paper_variant`, `pegbt.motion.placing`).
 """
 
 from __future__ import annotations
@@ -35,7 +35,7 @@ from pegbt.executive.providers import ProviderSetup
 from pegbt.motion.handover import tool_distance
 from pegbt.motion.ik import inverse_kinematics
 from pegbt.motion.peg_clearance import tool_peg_gap
-from pegbt.motion.placing import paper_heights
+from pegbt.motion.placing import paper_variant
 from pegbt.motion.robot_config import DEFAULT_TOOL, robot_arm_settings
 from pegbt.motion.settings import MotionSettings, motion_settings
 from pegbt.motion.trajectory import Trajectory
@@ -95,7 +95,8 @@ class Skills:
             registered = {arm: registered_arm_from_board(arm, REGISTRATION_PHYSICS) for arm in ARMS}
             self.cell = replace(self.cell, arm_from_board=registered)
         self.motion = motion or motion_settings()
-        self.place_motion = paper_heights(self.motion, variant) if protocol == "paper" else self.motion
+        # the variant whose heights a carry stopping to look goes at: the paper's, under its protocol
+        self.paper_variant = paper_variant(variant) if protocol == "paper" else None
         self.arms: dict[str, ArmMotion] = {}
         self.speed = checked_number(speed, "--speed", above=0.0, at_most=1.0)
         self.settings = {

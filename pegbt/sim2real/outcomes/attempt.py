@@ -23,7 +23,7 @@ from pegbt.behaviours.resources.skills import Skills
 from pegbt.errors import PegbtError
 from pegbt.frames import yaw_of
 from pegbt.motion.ik import inverse_kinematics, solve_ik
-from pegbt.motion.placing import paper_heights, segment_times, stopped_above
+from pegbt.motion.placing import segment_times, stopped_above
 from pegbt.motion.trajectory import Trajectory
 from pegbt.motion.waypoints import TransferWaypoints
 from pegbt.perception.blocks import BlockEstimate
@@ -122,8 +122,7 @@ def pick_and_carry(
         meeting = meet(skills, arm, RECEIVER[arm], grasp, seen)
         assert meeting is not None  # the grasp was chosen among those `_handed` accepts
     if meeting is None and looks:
-        heights = paper_heights(skills.motion, variant)
-        waypoints = paper_transfer(world.cell, heights, arm, seen, grasp, goal_peg)
+        waypoints = paper_transfer(world.cell, skills.motion, arm, seen, grasp, goal_peg, variant)
     elif meeting is None:
         waypoints = transfer_for(world.cell, skills.motion, arm, None, seen, grasp, goal_peg)
     elif looks:

@@ -19,7 +19,7 @@ from pegbt.behaviours.poses import from_handover
 from pegbt.behaviours.resources.skills import Skills
 from pegbt.errors import PegbtError
 from pegbt.motion.ik import inverse_kinematics
-from pegbt.motion.placing import paper_heights, segment_times
+from pegbt.motion.placing import segment_times
 from pegbt.motion.trajectory import Trajectory
 from pegbt.perception.grasp import Grasp
 from pegbt.sim.world import World
@@ -104,14 +104,13 @@ def hand_over(trying: Giving, giver: Bench, block: int, goal_peg: int) -> Transf
         giver.jaw(skills.motion.transfer.jaw_open, "handover")
         return TransferResult(False, first or "handover", world.time - began)
     looks = looks_before_lowering(trying.registered, motion)
-    heights = paper_heights(skills.motion, "handover") if looks else skills.motion
     if looks:  # the receiver last let go at the paper's placing angle too
         waypoints = paper_from_handover(
-            world.cell, heights, receiver, meeting.receiver_grasp, meeting.block_pose, goal_peg
+            world.cell, skills.motion, receiver, meeting.receiver_grasp, meeting.block_pose, goal_peg
         )
     else:
         waypoints = from_handover(
-            world.cell, heights, receiver, None, meeting.receiver_grasp, meeting.block_pose, goal_peg
+            world.cell, skills.motion, receiver, None, meeting.receiver_grasp, meeting.block_pose, goal_peg
         )
     q0 = _receiver_start(trying, receiver, waypoints.poses[3], goal_peg)
     taker = Bench(world, receiver, motion, q0, trying.replay, trying.registered)
@@ -135,7 +134,7 @@ def hand_over(trying: Giving, giver: Bench, block: int, goal_peg: int) -> Transf
         if taken is None:
             giver.jaw(skills.motion.transfer.jaw_open, "handover")
             return TransferResult(False, first or "handover", world.time - ahead)
-        waypoints = paper_from_handover(world.cell, heights, receiver, taken[0], taken[1], goal_peg)
+        waypoints = paper_from_handover(world.cell, skills.motion, receiver, taken[0], taken[1], goal_peg)
         ik = inverse_kinematics(np.stack([over_grasp(world.cell, taken[0]), taken[0].pose]), motion.settings)
         if not ik.ok.all():
             giver.jaw(skills.motion.transfer.jaw_open, "handover")

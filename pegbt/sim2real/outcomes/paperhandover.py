@@ -2,12 +2,13 @@
 
 BerkeleyAutomation/FLSpegtransferHO, `FLSPegTransfer_handover.py` and
 `motion/dvrkPegTransferMotionHandOver.py`: the giver lifts the block to `height_ready` over its peg and goes
-in one cubic to `height_handover` (10 mm higher), its tool at yaw 0 and the block's hole over the handover
-point (`find_placing_pose` on `pnt_handover`, the mean of pegs 3, 6 and 9 moved −10 mm in y). Only then
+in one cubic to `height_handover` (10 mm higher, z in its own frame), its tool along its base's z at yaw 0
+and the block's hole over the handover point (`find_placing_pose` on `pnt_handover`, the mean of pegs 3, 6
+and 9 moved −10 mm in y; `go_handover_traj`, `dvrkPegTransferMotionHandOver.py` lines 246 and 265). Only then
 does the camera look at the held block (`find_block_servo_handover`) and the receiver's grasp is worked out
-from what it sees (`find_grasping_pose_handover`, its tool upright at the grasp's yaw); the receiver moves
-to 3 mm over that grasp point, down onto it and closes (`pick_block`); the giver opens and rises 10 mm
-(`offset_handover`), and only then does the receiver carry the block away.
+from what it sees (`find_grasping_pose_handover`); the receiver moves to 3 mm over that grasp point, down
+onto it and closes, its tool along its base's z at the grasp's yaw (`pick_block`, lines 157–167); the giver
+opens and rises 10 mm (`offset_handover`), and only then does the receiver carry the block away.
 
 pegbt's own handover (`pegbt.behaviours.poses.to_handover`, `pegbt.behaviours.actions.handover`) meets
 lower, comes up the block's axis onto the meeting point and sends the receiver to the grasp it planned
@@ -27,17 +28,16 @@ from pegbt.behaviours.actions.handover import Meeting, clear_descent, distance_t
 from pegbt.behaviours.poses import (
     block_axis_top,
     to_arm,
-    tool_pose,
     transfer_for,
     yaw_about,
 )
 from pegbt.behaviours.resources.skills import Skills
 from pegbt.errors import PegbtError
-from pegbt.frames import apply_rigid, invert_rigid
+from pegbt.frames import apply_rigid, invert_rigid, rigid_transform, yaw_rotation
 from pegbt.motion.channel import Channel
 from pegbt.motion.handover import handover_meeting_point
 from pegbt.motion.ik import solve_ik
-from pegbt.motion.placing import PEG_TOP_Z, STOP_Z, paper_heights
+from pegbt.motion.placing import STOP_Z, paper_heights
 from pegbt.motion.settings import MotionSettings
 from pegbt.motion.waypoints import TransferWaypoints
 from pegbt.perception.blocks import BlockEstimate
@@ -45,7 +45,7 @@ from pegbt.perception.grasp import Grasp, grasp_options
 from pegbt.sim2real.outcomes.paperplacing import PLACING_YAW, turned_to_placing
 from pegbt.workcell import Workcell
 
-HANDOVER_Z = STOP_Z + 0.010  # m, arm frame: `height_handover`, 38 mm above the peg tops
+HANDOVER_Z = STOP_Z + 0.010  # m, z in the arm's frame: `height_handover`
 ABOVE_GRASP_POINT = 0.003  # m: `pick_block` stops this far over the seen grasp point (`offset_grasp`)
 GIVER_RISE = 0.010  # m: the giver, opened, rises this far before the receiver leaves (`offset_handover`)
 
@@ -53,16 +53,17 @@ GIVER_RISE = 0.010  # m: the giver, opened, rises this far before the receiver l
 def paper_meeting(
     skills: Skills, giver: str, receiver: str, grasp: Grasp, block: BlockEstimate
 ) -> Meeting | None:
-    """The paper's meeting for `block` held by `giver` at `grasp`: the tool at yaw 0 and `HANDOVER_Z`, the
-    block's axis through the handover point; the receiver's grasp planned there (`receiver_grasp`), None if
-    it has none or the giver cannot reach it."""
+    """The paper's meeting for `block` held by `giver` at `grasp`: the tool along the base's z at yaw 0 and
+    at `HANDOVER_Z`, the block's axis over the handover point; the receiver's grasp planned there
+    (`receiver_grasp`), None if it has none or the giver cannot reach it."""
     cell = skills.cell
     up = cell.up_in(giver)
     point = handover_meeting_point(cell, skills.motion)
-    point[2] = cell.pegs.top_z - (HANDOVER_Z - PEG_TOP_Z)  # board z is down
+    point[2] = cell.pegs.top_z  # `pnt_handover`: among the peg tops
     offset = grasp.position - to_arm(cell, giver, block_axis_top(cell, None, block))
     turned = turned_to_placing(offset, yaw_about(grasp.pose[:3, :3], up), up)
-    tip = tool_pose(to_arm(cell, giver, point) + turned, PLACING_YAW, up)
+    x, y, _ = to_arm(cell, giver, point) + turned
+    tip = rigid_transform(yaw_rotation(PLACING_YAW), [x, y, HANDOVER_Z])
     try:
         q_giver = solve_ik(tip, skills.arm(giver).settings, what="the giver at the paper's meeting point")
     except PegbtError:
@@ -83,8 +84,8 @@ def paper_carry(
 ) -> TransferWaypoints:
     """The giver's carry (`go_handover_traj`): lifted to `height_ready` over its peg, then straight to the
     `meeting` tip pose, where it stops (the last segment has no length)."""
-    pick = transfer_for(cell, paper_heights(motion, "handover"), arm, None, block, grasp)
     up = cell.up_in(arm)
+    pick = paper_heights(transfer_for(cell, motion, arm, None, block, grasp), "handover", up)
     tolerance = motion.transfer.channel_tolerance
     return TransferWaypoints(
         np.stack([pick.poses[0], pick.poses[1], meeting, meeting]),
@@ -133,19 +134,22 @@ def receiver_grasp(
 
 
 def _upright(cell: Workcell, option: Grasp, block_pose: NDArray[np.float64]) -> Grasp:
-    """`option` as `pick_block` takes it: `grasp_depth` straight down from the candidate's point on the
-    (tilted) top face (`offset_grasp` is along the robot's z), the tool upright at the option's yaw."""
+    """`option` as `pick_block` takes it: `grasp_depth` down the base's z from the candidate's point on the
+    (tilted) top face (`offset_grasp` is along the robot's z), the tool along the base's z at the option's
+    yaw (`euler_to_quaternion([rot, 0, 0])`)."""
     local = cell.block.grasp_candidates.positions[option.candidate] - [0.0, 0.0, cell.block.grasp_depth]
-    tip = apply_rigid(block_pose, local) + [0.0, 0.0, cell.block.grasp_depth]  # board z is down
-    pose = tool_pose(to_arm(cell, option.arm, tip), option.yaw, cell.up_in(option.arm))
-    return Grasp(option.arm, option.candidate, pose, option.yaw, tip)
+    tip = to_arm(cell, option.arm, apply_rigid(block_pose, local)) - [0.0, 0.0, cell.block.grasp_depth]
+    pose = rigid_transform(yaw_rotation(option.yaw), tip)
+    return Grasp(
+        option.arm, option.candidate, pose, option.yaw, apply_rigid(cell.arm_to_board(option.arm), tip)
+    )
 
 
 def over_grasp(cell: Workcell, grasp: Grasp) -> NDArray[np.float64]:
     """Where `pick_block` first takes the receiver: `ABOVE_GRASP_POINT` over the grasp point, which lies
-    `grasp_depth` over the tip at the grasp."""
+    `grasp_depth` over the tip at the grasp, along the base's z."""
     pose = grasp.pose.copy()
-    pose[:3, 3] += (ABOVE_GRASP_POINT + cell.block.grasp_depth) * cell.up_in(grasp.arm)
+    pose[2, 3] += ABOVE_GRASP_POINT + cell.block.grasp_depth
     return pose
 
 

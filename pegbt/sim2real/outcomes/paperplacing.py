@@ -7,7 +7,8 @@ not the nearest of the block's three equivalent yaws (the grasp window, ±70° i
 bounds the turn). All three scripts place so (`FLSPegTransfer_single.py`, `_dual.py`, `_handover.py`);
 the turn is made on the way over the goal peg (`transfer_block_traj`'s cubic from the grasp's roll at
 `height_ready` over the pick peg to roll 0 at `height_ready` over the goal, `go_place_traj` from the
-handover), and `servoing_block` lowers at roll 0.
+handover), and `servoing_block` lowers at roll 0, the tool along the base's z, at the heights of
+`pegbt.motion.placing`.
 """
 
 from __future__ import annotations
@@ -16,6 +17,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pegbt.behaviours.poses import block_axis_top, peg_top_board, to_arm, yaw_about
+from pegbt.motion.placing import paper_heights, straight_down
 from pegbt.motion.settings import MotionSettings
 from pegbt.motion.waypoints import (
     TransferWaypoints,
@@ -46,24 +48,31 @@ def paper_transfer(
     block: BlockEstimate,
     grasp: Grasp,
     place_peg: int,
+    variant: str,
 ) -> TransferWaypoints:
     """The transfer of `block`, held at `grasp`, onto `place_peg` as `transfer_block` and `servoing_block`
     go: lifted at the grasp's yaw, over the goal peg and down at `PLACING_YAW`, the tip off the peg's axis by
-    its offset from the block's turned with the tool (`motion`'s heights: the paper's, `paper_heights`)."""
+    its offset from the block's turned with the tool, at `variant`'s heights (`paper_heights`,
+    `straight_down`); `motion`: the rest of the waypoints' settings."""
     up = cell.up_in(arm)
     pick_top = to_arm(cell, arm, block_axis_top(cell, None, block))
     offset = grasp.position - pick_top
     yaw = yaw_about(grasp.pose[:3, :3], up)
-    return transfer_waypoints(
-        pick_top,
+    place, turned = (
         to_arm(cell, arm, peg_top_board(cell, None, place_peg)),
+        turned_to_placing(offset, yaw, up),
+    )
+    waypoints = transfer_waypoints(
+        pick_top,
+        place,
         pick_offset=offset,
-        place_offset=turned_to_placing(offset, yaw, up),
+        place_offset=turned,
         pick_yaw=yaw,
         place_yaw=PLACING_YAW,
         up=up,
         heights=motion.transfer,
     )
+    return straight_down(paper_heights(waypoints, variant, up), place + turned, PLACING_YAW)
 
 
 def paper_from_handover(
@@ -75,14 +84,18 @@ def paper_from_handover(
     place_peg: int,
 ) -> TransferWaypoints:
     """The receiver's placement (`go_place`, `servoing_block`): from its `grasp` of the block at `block_pose`
-    (board frame) over `place_peg` and down onto it at `PLACING_YAW`, the block turned with the tool."""
+    (board frame) over `place_peg` and down onto it at `PLACING_YAW`, the block turned with the tool, at the
+    handover's heights (`paper_heights`, `straight_down`)."""
     up = cell.up_in(receiver)
     offset = grasp.position - to_arm(cell, receiver, block_pose[:3, 3])
-    return placement_waypoints(
+    place = to_arm(cell, receiver, peg_top_board(cell, None, place_peg))
+    turned = turned_to_placing(offset, yaw_about(grasp.pose[:3, :3], up), up)
+    waypoints = placement_waypoints(
         grasp.pose,
-        to_arm(cell, receiver, peg_top_board(cell, None, place_peg)),
-        place_offset=turned_to_placing(offset, yaw_about(grasp.pose[:3, :3], up), up),
+        place,
+        place_offset=turned,
         place_yaw=PLACING_YAW,
         up=up,
         heights=motion.transfer,
     )
+    return straight_down(paper_heights(waypoints, "handover", up), place + turned, PLACING_YAW)
