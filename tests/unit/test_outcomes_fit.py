@@ -11,6 +11,7 @@ from pegbt.sim2real.outcomes.cells import Cell, Outcomes
 from pegbt.sim2real.outcomes.diagnose import Settings, diagnose
 from pegbt.sim2real.outcomes.fit import FITTED, PHASES_OF, fit
 from pegbt.sim2real.outcomes.intervals import beyond_chance, mixture_pmf, predictive_interval, rate_interval
+from pegbt.sim2real.outcomes.predict import transfers_to_keep
 from pegbt.sim2real.outcomes.simulate import simulate_cells
 from tests.outcomes_helpers import fake_mapper, real_counts
 
@@ -130,3 +131,19 @@ def test_a_disagreement_at_sense_admits_every_kind(phases: set[str], kinds: set[
     null = simulate_cells(fake_mapper, [WorldEffects()], [c.key for c in cells], 8)[0]
     verdict = fit(fake_mapper, cells, null, 8, 2, True, frozenset(phases))
     assert {p.candidate.kind for p in verdict.tried} == kinds
+
+
+def test_with_nothing_named_a_row_placed_in_full_is_simulated_until_it_can_show_it_keeps():
+    """The paper's calibrated rows, 120 of 120, predicted by the default world when nothing is named: each
+    is simulated to the 189 transfers whose Wilson bound can reach 98 %, not left at the fit's few."""
+    outcomes = _outcomes(WorldEffects(), seed=11, attempted=120)
+    d = diagnose(outcomes, Settings(fit="unilateral", transfers=24, located=48, points=3), fake_mapper)
+    assert d.verdict.named == () and d.verdict.tied == ()
+    for cell in outcomes.cells:
+        simulated = d.predictions[cell.key].at_best.attempted
+        if cell.condition == "calibrated":
+            assert simulated == transfers_to_keep() == 189
+            assert d.predictions[cell.key].keeps >= 0.98
+        else:
+            assert simulated == (48 if cell.variant == "unilateral" else 24)
+        assert d.before[cell.key].attempted == (48 if cell.variant == "unilateral" else 24)

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy import stats
@@ -94,7 +94,7 @@ def _keep_up(
 ) -> None:
     """More transfers at the best value for every cell the real robot placed in full, to
     `transfers_to_keep()` in all (other seeds than the mixture's)."""
-    full = [c.key for c in cells if c.attempted and c.succeeded == c.attempted]
+    full = [c.key for c in cells if _full(c)]
     extra = transfers_to_keep() - transfers
     if not full or extra <= 0:
         return
@@ -112,11 +112,26 @@ def predict_world(
     return {c.key: _prediction(c, _mixture(c, [sims[c.key]], np.ones(1)), sims[c.key]) for c in cells}
 
 
-def predict_null(null_sims: dict[Key, SimCounts], cells: Sequence[Cell]) -> dict[Key, Prediction]:
-    """Each of `cells` as the default world predicts it (simulation noise and the binomial draw only)."""
-    return {
-        c.key: _prediction(c, _mixture(c, [null_sims[c.key]], np.ones(1)), null_sims[c.key]) for c in cells
-    }
+def predict_null(
+    mapper: Mapper, null_sims: dict[Key, SimCounts], cells: Sequence[Cell], simulated: dict[Key, int]
+) -> dict[Key, Prediction]:
+    """Each of `cells` as the default world predicts it (simulation noise and the binomial draw only).
+    A cell the real robot placed in full is simulated on, past the `simulated[key]` seeds `null_sims`
+    holds, to `transfers_to_keep()` in all, as a fitted world's are (`_keep_up`): with nothing named the
+    calibrated rows must still show they keep `KEEPS`."""
+    kept = {key: replace(counts, counts=dict(counts.counts)) for key, counts in null_sims.items()}
+    for n in sorted({simulated[c.key] for c in cells if _full(c)}):
+        full = [c.key for c in cells if _full(c) and simulated[c.key] == n]
+        if transfers_to_keep() > n:
+            more = simulate_cells(mapper, [WorldEffects()], full, transfers_to_keep() - n, first_seed=n)[0]
+            for key, counts in more.items():
+                kept[key].merge(counts)
+    return {c.key: _prediction(c, _mixture(c, [null_sims[c.key]], np.ones(1)), kept[c.key]) for c in cells}
+
+
+def _full(cell: Cell) -> bool:
+    """Whether the real robot placed every transfer of `cell` it attempted."""
+    return bool(cell.attempted) and cell.succeeded == cell.attempted
 
 
 def _prediction(cell: Cell, pmf: np.ndarray, at_best: SimCounts) -> Prediction:
