@@ -30,6 +30,7 @@ from pegbt.behaviours.resources.skills import SIMULATOR_CALIBRATION, Skills
 from pegbt.sim.world import World
 from pegbt.sim.world_effects import WorldEffects
 from pegbt.sim2real.outcomes.bench import Replay
+from pegbt.sim2real.outcomes.paperpairs import action_partner
 from pegbt.sim2real.outcomes.transfer_order import moved_out, transfers
 from pegbt.sim2real.outcomes.transfer_result import TransferResult
 from pegbt.sim2real.outcomes.trying import Pick, Trying
@@ -60,17 +61,21 @@ def simulate_transfer(
     (`registration`).
     A transfer on the way back first simulates the outward transfer of its block: if that one was not
     placed, the way back finds its start peg empty and fails at `sense`, as a trial's tick log says (the
-    recovery fetches strays only for a block the transfer itself lost). `replay`: the arm's motion in
-    other worlds of this same transfer (variant, condition, seed), to reuse where it is the same."""
+    recovery fetches strays only for a block the transfer itself lost). Under the paper's protocol
+    (`registered`) a bilateral way back also needs its action pair's other block placed, or the pair is
+    skipped (`paperpairs`). `replay`: the arm's motion in other worlds of this same transfer (variant,
+    condition, seed), to reuse where it is the same."""
     replay = Replay() if replay is None else replay
     order = transfers(variant)
     index = seed % len(order) if index is None else index
     if index >= len(order) // 2:
-        start_peg = order[index][1]
-        outward = next(i for i, (_, _, goal) in enumerate(order[: len(order) // 2]) if goal == start_peg)
-        there = _transfer(effects, variant, condition, seed, outward, replay, attempts, registered)
-        if not there.succeeded:
-            return TransferResult(False, "sense", there.seconds, skipped=True)
+        partner = action_partner(variant, index) if registered else None
+        for back in (index,) if partner is None else (index, partner):
+            start_peg = order[back][1]
+            outward = next(i for i, (_, _, goal) in enumerate(order[: len(order) // 2]) if goal == start_peg)
+            there = _transfer(effects, variant, condition, seed, outward, replay, attempts, registered)
+            if not there.succeeded:
+                return TransferResult(False, "sense", there.seconds, skipped=True)
     return _transfer(effects, variant, condition, seed, index, replay, attempts, registered)
 
 

@@ -11,7 +11,8 @@ How many attempts a transfer gets is the real protocol's, not a fitted knob (`at
 regrasp a dropped block; the reference paper's robot moved each block once and skipped a transfer whose
 block was no longer on its peg, which is why its attempts end at a block lost for good. Under that
 protocol a way back whose block was never placed is not an attempt at all (the paper's 75, 68 and 79
-attempts of 120): it is counted apart (`SimCounts.skipped`), not as a failure at `sense`. Under that
+attempts of 120), nor, in bilateral, one whose action pair's other block was not (`paperpairs`): it is
+counted apart (`SimCounts.skipped`), not as a failure at `sense`. Under that
 protocol each arm is also registered to the camera as the paper's were, with itself (`registered_for`).
 """
 
