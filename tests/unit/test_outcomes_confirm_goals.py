@@ -90,6 +90,23 @@ def test_the_paper_skips_a_way_back_whose_block_was_lost_on_the_way_out() -> Non
     assert ways_back_skipped(found) == set()
 
 
+
+def test_in_bilateral_the_paper_skips_both_transfers_of_a_pair_whose_one_block_was_lost() -> None:
+    """`FLSPegTransfer_dual.py` moves an action pair only when it finds both blocks: PSM2's 0 -> 7 lost, the
+    way back 7 -> 0 is skipped and so is PSM1's 8 -> 1, its pair, though the trial's PSM1 placed it."""
+    trial = [
+        _transfer(0, 0, 7, False),
+        _transfer(1, 1, 8, True),
+        _transfer(2, 7, 0, False),
+        _transfer(3, 8, 1, True),
+    ]
+    assert ways_back_skipped(trial, "bilateral") == {2, 3}
+    assert ways_back_skipped(trial, "unilateral") == {2}  # one block at a time: its own block alone
+    both = [*trial[:1], _transfer(1, 1, 8, False), *trial[2:3], _transfer(3, 8, 1, False)]
+    assert ways_back_skipped(both, "bilateral") == {2, 3}
+    kept = [_transfer(0, 0, 7, True), *trial[1:2], _transfer(2, 7, 0, False), trial[3]]
+    assert ways_back_skipped(kept, "bilateral") == set()  # both found: the pair moves, 7 -> 0 fails
+
 def _mapper(tasks: Sequence[Task]) -> list[list[TransferResult]]:
     """A bending peg raises the uncalibrated lift's success; a calibrated arm always places."""
     out = []

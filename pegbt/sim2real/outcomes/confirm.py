@@ -18,15 +18,17 @@ from pegbt.executive.logfile import read_tick_log
 from pegbt.executive.phases import retried
 from pegbt.sim2real.outcomes.cells import Cell
 from pegbt.sim2real.outcomes.goals import TIMED_CONDITIONS, Trials
+from pegbt.sim2real.outcomes.paperpairs import partners_skipped
 
 CONFIRM_SEED = 7000  # whole-trial seeds, apart from the phase simulator's
 
 
-def ways_back_skipped(transfers: Sequence[Mapping[str, Any]]) -> set[int]:
-    """The transfers (their `index`) of a trial the paper's robot would not have attempted: their pick peg
-    no longer held a block, an earlier transfer of the trial having lost it (`FLSPegTransfer_single.py`,
-    BerkeleyAutomation/FLSpegtransferHO, skips an order whose block it does not find). A peg no earlier
-    transfer touched holds its starting block; a transfer that placed its block found it."""
+def ways_back_skipped(transfers: Sequence[Mapping[str, Any]], variant: str = "unilateral") -> set[int]:
+    """The transfers (their `index`) of a `variant` trial the paper's robot would not have attempted: their
+    pick peg no longer held a block, an earlier transfer of the trial having lost it (`FLSPegTransfer_single.py`,
+    BerkeleyAutomation/FLSpegtransferHO, skips an order whose block it does not find), and in bilateral the
+    other transfer of such a one's action pair (`paperpairs`). A peg no earlier transfer touched holds its
+    starting block; a transfer that placed its block found it."""
     holds: dict[int, bool] = {}
     skipped = set()
     for transfer in sorted(transfers, key=lambda t: int(t["index"])):
@@ -35,7 +37,7 @@ def ways_back_skipped(transfers: Sequence[Mapping[str, Any]]) -> set[int]:
             continue
         holds[int(transfer["pick"])] = False
         holds[int(transfer["place"])] = bool(transfer["succeeded"])
-    return skipped
+    return skipped | partners_skipped(variant, transfers, skipped)
 
 
 def first_tries(records: Sequence[TrialRecord]) -> tuple[int, float | None]:
@@ -81,15 +83,18 @@ def confirm(
         specs = trial_specs(campaign, out / f"{cell.variant}-{cell.condition}", keep_logs=timed)
         records = run_trials(specs, workers)
         summary = summarise(campaign, records, workers)
-        skipped = (
-            sum(len(ways_back_skipped(r.transfers)) for r in records if r.outcome != "error")
-            if until_lost
-            else 0
-        )
+        unattempted = [
+            t
+            for r in records
+            if until_lost and r.outcome != "error"
+            for t in r.transfers
+            if int(t["index"]) in ways_back_skipped(r.transfers, cell.variant)
+        ]
+        skipped = len(unattempted)
         tries, first_s = first_tries(records) if timed else (0, None)
         figures[cell.key] = Trials(
             attempted=summary["transfers_attempted"] - skipped,
-            succeeded=summary["transfers_succeeded"],
+            succeeded=summary["transfers_succeeded"] - sum(bool(t["succeeded"]) for t in unattempted),
             mean_transfer_s=summary["mean_transfer_time_s"],
             trials=trials,
             errors=summary["errors"],

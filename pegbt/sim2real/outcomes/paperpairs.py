@@ -11,7 +11,11 @@ order, one list per arm; pegbt's trees run each arm's list on its own.
 
 from __future__ import annotations
 
-from pegbt.sim2real.outcomes.transfer_order import arms_at_once, transfers
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+from pegbt.sim2real.outcomes.transfer_order import arms_at_once
+from pegbt.sim2real.outcomes.transfer_order import transfers as transfers_of
 
 
 def action_partner(variant: str, index: int) -> int | None:
@@ -19,8 +23,26 @@ def action_partner(variant: str, index: int) -> int | None:
     arm's at the same place in its own list; None where one block moves at a time."""
     if arms_at_once(variant) == 1:
         return None
-    order = transfers(variant)
+    order = transfers_of(variant)
     arm = order[index][0]
     mine = [i for i, (other, _, _) in enumerate(order) if other == arm]
     theirs = [i for i, (other, _, _) in enumerate(order) if other != arm]
     return theirs[mine.index(index)]
+
+
+def partners_skipped(variant: str, transfers: Sequence[Mapping[str, Any]], skipped: set[int]) -> set[int]:
+    """The transfers of a trial (`index`, `pick`, `place`) whose action partner is among `skipped`: the
+    paper's robot moves both blocks of a pair or neither. A transfer is known by its pegs, which name one
+    transfer of `variant`'s order."""
+    if arms_at_once(variant) == 1 or not skipped:
+        return set()
+    order = [(start, goal) for _, start, goal in transfers_of(variant)]
+    index_of = {(int(t["pick"]), int(t["place"])): int(t["index"]) for t in transfers}
+    pegs_of = {index: pegs for pegs, index in index_of.items()}
+    partners = set()
+    for index in skipped:
+        if index in pegs_of and pegs_of[index] in order:
+            partner = action_partner(variant, order.index(pegs_of[index]))
+            if partner is not None and order[partner] in index_of:
+                partners.add(index_of[order[partner]])
+    return partners - skipped

@@ -59,7 +59,7 @@ def read_tick_logs(folder: Path) -> Outcomes:
             )
         tally = tallies[(variant, condition)]
         outcomes = transfer_outcomes(log)
-        skipped = _skipped(log, outcomes) if log.protocol == "paper" else set()
+        skipped = _skipped(log, outcomes, variant) if log.protocol == "paper" else set()
         for outcome in outcomes:
             if outcome.transfer in skipped:
                 continue
@@ -86,14 +86,15 @@ def read_tick_logs(folder: Path) -> Outcomes:
     )
 
 
-def _skipped(log: TickLog, outcomes: list[TransferOutcome]) -> set[int]:
-    """The transfers of `log` the paper's robot would have skipped (`ways_back_skipped`)."""
+def _skipped(log: TickLog, outcomes: list[TransferOutcome], variant: str) -> set[int]:
+    """The transfers of `log`, a `variant` trial, the paper's robot would have skipped (`ways_back_skipped`)."""
     begun = begun_transfers(log)
     return ways_back_skipped(
         [
             {"index": outcome.transfer, **_pegs(log, begin), "succeeded": outcome.succeeded}
             for begin, outcome in zip(begun, outcomes, strict=True)
-        ]
+        ],
+        variant,
     )
 
 
