@@ -1,31 +1,31 @@
 """Whether a tool standing off a block's axis can still close its jaws on the block's wall.
 
-A jaw is a blade pivoting on the wrist's yaw axis (the hinge, `jaw_length` above the tip along the tool's
-z; workcell.yaml's `tool`: L4 = 9.5 mm), its gripping face a line from the hinge to the tip in the plane
-the jaws close in (the tool's x and z). The wall is the block between the hole and one flat edge
-(workcell.yaml's `block`: the hole's radius 3.6 mm, the flat edge 5.6 mm from the axis, so 2 mm thick;
-14.7 mm high; its ends where the corner cuts begin), the hole's far side the block beyond the hole's other
-side; the hole's face is taken as the plane tangent to it across the wall's normal, as the world's wall is.
+Dimensions (all `skills/workcell.yaml`'s, from shared/reference/peg-transfer-geometry.md): a jaw reaches
+`tool.jaw_length` (L4, 9.5 mm) from the wrist's yaw axis, its hinge, to its tip; the block's wall lies between
+its hole (`block.hole_radius`, 3.6 mm) and a flat edge (`block.edge_distance`, 5.6 mm), 2 mm thick, 14.7 mm
+high (`block.height`), and ends where the corner cuts begin (`BlockModel.edge_half_length`); beyond the hole
+lies the block's far side. The hole's face is taken as the plane at its radius across the wall's normal, as
+the world's wall is everywhere else (`World._grip_problem`'s reach and centring).
 
-The world slides a free block (or the wrist yields) until the wall is centred under the closed tip before
-this is asked (`World._grip_problem`); what is left is the tilt. The plane the jaws close in cuts the
-wall and the far side in two convex polygons. A blade pointing at angle β from the tool's -z towards its
-x touches a polygon where the polygon meets the disc of radius `jaw_length` about the hinge, so the
-polygon's points in that disc span an angle [lo, hi] (its vertices inside the disc and its edges' crossings
-with the circle bound it). The jaws open to ±opened/2 and each closes towards the other, on its own blade
-(the yaw yields to the first blade that touches, as `World._grip_problem` says the wrist does). They grip
-when:
+A jaw is a blade from the hinge to the tip, its gripping face through the hinge, turning in the plane the
+jaws close in (the tool's x and z; the hinge `jaw_length` up the tool's z from the closed tip). By the time
+this is asked the world has centred the wall under the closed tip (a free block slides, the wrist gives);
+what is left is the tilt. That plane cuts the wall, and the far side, in a convex polygon each. A blade at
+angle β from the tool's -z towards its x touches a polygon at a point of it within `jaw_length` of the
+hinge, so the angles at which it does form an interval [lo, hi], bounded by the polygon's vertices inside
+that disc and its edges' crossings with the circle. The jaws open to ±opened/2 and each closes towards the
+other until it meets the wall (the first to touch stops and the other goes on, the yaw taking the difference,
+as the wrist takes a wall off the tip's centre). They grip when:
 
-1. neither blade starts inside [lo, hi] and the wall lies between them (−opened/2 < lo, hi < opened/2):
-   otherwise a blade would have had to come down through the wall;
-2. no blade sweeps through the far side's span on its way from its start to the wall: otherwise its tip
+1. the wall lies between the open blades, −opened/2 < lo <= hi < opened/2: otherwise a blade would have
+   had to come down through the wall to be where it is;
+2. neither blade's sweep, from its start to the wall, crosses the far side's interval: otherwise its tip
    would have had to pass through the hole's far side;
-3. each blade meets the wall's face (or its top edge) between its ends, where the corner cuts begin (the
-   closed tip itself keeps the world's `grasp_edge_margin` inside them), and with its tip, at that angle, at least
-   `min_bite` below the top face and above the bottom one: a blade meeting the wall's top edge with its
-   tip barely under it (a tool leaning across the jaws' plane makes one blade steeper, and the other must
-   still reach past the edge when it gets there) or a blade whose face meets the wall beyond its end (a
-   tool leaning along the wall turns the blades' plane across the wall's face) holds nothing.
+3. each blade meets the wall's face, or its top edge, between the edge's ends (the closed tip itself keeps
+   the world's `grasp_edge_margin` inside them), its tip at that angle at least `min_bite` below the top face
+   and above the bottom one. Leaning in the closing plane makes one blade steeper and the other shallower, so
+   one meets the wall high on its edge with its tip barely under it; leaning along the wall turns the blades'
+   plane across the wall's face, and the contact runs along it towards an end.
 
 Nothing here is fitted: every figure is the work cell's, or the world's grasp tolerances.
 """
