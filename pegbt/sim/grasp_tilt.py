@@ -97,13 +97,7 @@ def _section(planes: _Planes, origin: Matrix, x: Matrix, z: Matrix) -> Matrix:
         coefficients, limit = np.array([g @ x, g @ z]), k - float(g @ origin)
         values = polygon @ coefficients - limit
         clipped = []
-        for i in range(len(polygon)):
-            a, b, va, vb = (
-                polygon[i],
-                polygon[(i + 1) % len(polygon)],
-                values[i],
-                values[(i + 1) % len(polygon)],
-            )
+        for a, b, va, vb in zip(polygon, np.roll(polygon, -1, axis=0), values, np.roll(values, -1)):
             if va <= 0:
                 clipped.append(a)
             if (va <= 0) != (vb <= 0):

@@ -278,11 +278,11 @@ class World:
         they straddle a wall (one tip in the hole, the other beyond the flat edge), the closing axis
         crosses that wall, the tips bite below the top face and, the wall centred under the tip, a tool
         standing off the block's axis still closes both jaws on the wall (`grasp_tilt.tilt_problem`:
-        the jaws' and the wall's geometry, not an angle). The first jaw to touch pushes the block until the wall is centred between the jaws:
-        a free block slides that far, a block on a peg only as far as the hole's clearance lets it; the
-        rest pushes the tip aside, as a peg pressing on a held block does, within the wrist's cable play
-        (`give`, the tool's along its x and y) and then its compliance (`grasp_capture`); beyond both, the
-        peg holds the wall against one jaw and the other closes beside it. A block held by another jaw
+        the jaws' and the wall's geometry, not an angle). The first jaw to touch pushes the block until
+        the wall is centred between the jaws: a free block slides that far, a block on a peg only as far
+        as the hole's clearance lets it; the rest pushes the tip aside, as a peg pressing on a held block
+        does, within the wrist's cable play (`give`, the tool's along its x and y) and then its compliance
+        (`grasp_capture`); beyond both, the peg holds the wall against one jaw and the other closes beside it. A block held by another jaw
         cannot slide; the holders' disagreement is judged as it is carried.
         """
         model, config = self.cell.block, self.config
