@@ -34,6 +34,7 @@ from pegbt.frames import Matrix, invert_rigid, rigid_transform, segment_distance
 from pegbt.sim.blocks import Block
 from pegbt.sim.events import Event, EventLog
 from pegbt.sim.faults import SlipAt, WorldFaults
+from pegbt.sim.grasp_tilt import tilt_problem
 from pegbt.sim.interfaces import WorldSnapshot
 from pegbt.sim.tools import RIGID, Boxes, Give, ToolState
 from pegbt.sim.world_effects import BLOCK_MASS, GRAVITY, WorldEffects
@@ -55,7 +56,6 @@ class WorldConfig:
     jaw_open_above: float = 0.35  # a gripping jaw opening past this angle lets go
     grasp_edge_margin: float = 0.001  # the jaw tip must stay this far inside the ends of the flat edge
     grasp_min_bite: float = 0.001  # the jaw tip must reach this far below the block's top face
-    grasp_max_tilt: float = math.radians(30)  # between the tool's axis and the block's
     grasp_max_misalignment: float = math.radians(30)  # between the jaw-closing axis and the wall's normal
     grasp_search_radius: float = 0.015  # a closing jaw this near a block's centre is a grasp attempt
     handover_pull_apart: float = 0.003  # a block dragged this far through a squeezing jaw pulls out of it
@@ -276,22 +276,20 @@ class World:
 
         The open jaw tips lie `jaw_length`·sin(opened/2) either side of the tool's axis. They grip when
         they straddle a wall (one tip in the hole, the other beyond the flat edge), the closing axis
-        crosses that wall, the tool stands roughly along the block's axis and the tips bite below the
-        top face. The first jaw to touch pushes the block until the wall is centred between the jaws:
-        a free block slides that far, a block on a peg only as far as the hole's clearance lets it; the
-        rest pushes the tip aside, as a peg pressing on a held block does, within the wrist's cable play
-        (`give`, the tool's along its x and y) and then its compliance (`grasp_capture`); beyond both, the
-        peg holds the wall against one jaw and the other closes beside it. A block held by another jaw
+        crosses that wall, the tips bite below the top face and, the wall centred under the tip, a tool
+        standing off the block's axis still closes both jaws on the wall (`grasp_tilt.tilt_problem`:
+        the jaws' and the wall's geometry, not an angle). The first jaw to touch pushes the block until
+        the wall is centred between the jaws: a free block slides that far, a block on a peg only as far
+        as the hole's clearance lets it; the rest pushes the tip aside, as a peg pressing on a held block
+        does, within the wrist's cable play (`give`, the tool's along its x and y) and then its compliance
+        (`grasp_capture`); beyond both, the peg holds the wall against one jaw and the other closes beside it. A block held by another jaw
         cannot slide; the holders' disagreement is judged as it is carried.
         """
         model, config = self.cell.block, self.config
         rotation, tip = local[:3, :3], local[:3, 3]
-        tilt = math.degrees(math.acos(max(-1.0, min(1.0, -rotation[2, 2]))))  # tool z is up, block z down
         alignment = np.abs(model.edge_normals @ rotation[:2, 0])
         edge = int(np.argmax(alignment))
         no_slide = np.zeros(2)
-        if tilt > math.degrees(config.grasp_max_tilt):
-            return f"tool tilted {tilt:.0f}° from the block's axis", edge, no_slide
         if alignment[edge] < math.cos(config.grasp_max_misalignment):
             return "jaws do not close across a wall", edge, no_slide
         normal = model.edge_normals[edge]
@@ -311,6 +309,9 @@ class World:
                 edge,
                 no_slide,
             )
+        tilted = tilt_problem(local, opened, normal, model, self.cell.tool.jaw_length, config.grasp_min_bite)
+        if tilted is not None:
+            return tilted, edge, no_slide
         slide = off_centre * normal
         if block.peg is not None and not block.grips:
             peg_xy = self._pegs_in_block_frame(block)[block.peg]  # where the peg stands in the hole

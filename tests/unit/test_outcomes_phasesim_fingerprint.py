@@ -46,8 +46,8 @@ TRANSFERS = {
     ("unilateral", "uncalibrated", 5, "default", True): (True, None, 6.73),
     ("bilateral", "uncalibrated", 1, "default", True): (True, None, 6.65),
     ("bilateral", "uncalibrated", 5, "default", True): (False, "lift", 3.68),
-    ("handover", "uncalibrated", 1, "default", True): (False, "handover", 6.6),
-    ("handover", "uncalibrated", 5, "default", True): (False, "handover", 6.8),
+    ("handover", "uncalibrated", 1, "default", True): (False, "release", 6.6),
+    ("handover", "uncalibrated", 5, "default", True): (False, "lower", 6.8),
 }
 # a handover trial, uncalibrated, layout 0, its first five transfers in both worlds (alike there)
 TRIAL = [
