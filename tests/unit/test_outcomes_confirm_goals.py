@@ -90,7 +90,6 @@ def test_the_paper_skips_a_way_back_whose_block_was_lost_on_the_way_out() -> Non
     assert ways_back_skipped(found) == set()
 
 
-
 def test_in_bilateral_the_paper_skips_both_transfers_of_a_pair_whose_one_block_was_lost() -> None:
     """`FLSPegTransfer_dual.py` moves an action pair only when it finds both blocks: PSM2's 0 -> 7 lost, the
     way back 7 -> 0 is skipped and so is PSM1's 8 -> 1, its pair, though the trial's PSM1 placed it."""
@@ -106,6 +105,7 @@ def test_in_bilateral_the_paper_skips_both_transfers_of_a_pair_whose_one_block_w
     assert ways_back_skipped(both, "bilateral") == {2, 3}
     kept = [_transfer(0, 0, 7, True), *trial[1:2], _transfer(2, 7, 0, False), trial[3]]
     assert ways_back_skipped(kept, "bilateral") == set()  # both found: the pair moves, 7 -> 0 fails
+
 
 def _mapper(tasks: Sequence[Task]) -> list[list[TransferResult]]:
     """A bending peg raises the uncalibrated lift's success; a calibrated arm always places."""
