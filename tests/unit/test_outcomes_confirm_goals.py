@@ -85,9 +85,9 @@ def test_the_paper_skips_a_way_back_whose_block_was_lost_on_the_way_out() -> Non
         _transfer(2, 6, 0, True),
         _transfer(3, 7, 1, False),  # never attempted by the paper's robot
     ]
-    assert len(ways_back_skipped(trial)) == 1
+    assert ways_back_skipped(trial, "unilateral") == {3}
     found = [*trial[:3], _transfer(3, 7, 1, True)]  # placed after all: its block was there
-    assert ways_back_skipped(found) == set()
+    assert ways_back_skipped(found, "unilateral") == set()
 
 
 def test_in_bilateral_the_paper_skips_both_transfers_of_a_pair_whose_one_block_was_lost() -> None:
