@@ -8,6 +8,7 @@ from __future__ import annotations
 import json
 from collections.abc import Sequence
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -24,8 +25,9 @@ from pegbt.executive.phases import retried
 from pegbt.executive.runner import run
 from pegbt.executive.ticklog import TickLogWriter
 from pegbt.executive.work import WorkPool
+from pegbt.sim2real.outcomes import confirm as confirm_module
 from pegbt.sim2real.outcomes.cells import Cell, Outcomes
-from pegbt.sim2real.outcomes.confirm import first_tries, ways_back_skipped
+from pegbt.sim2real.outcomes.confirm import confirm, first_tries, ways_back_skipped
 from pegbt.sim2real.outcomes.diagnose import Settings, diagnose
 from pegbt.sim2real.outcomes.goals import Trials, judge, verdict_text
 from pegbt.sim2real.outcomes.phasesim import TransferResult
@@ -85,10 +87,9 @@ def test_the_paper_skips_a_way_back_whose_block_was_lost_on_the_way_out() -> Non
         _transfer(2, 6, 0, True),
         _transfer(3, 7, 1, False),  # never attempted by the paper's robot
     ]
-    assert len(ways_back_skipped(trial)) == 1
+    assert ways_back_skipped(trial, "unilateral") == {3}
     found = [*trial[:3], _transfer(3, 7, 1, True)]  # placed after all: its block was there
-    assert ways_back_skipped(found) == set()
-
+    assert ways_back_skipped(found, "unilateral") == set()
 
 
 def test_in_bilateral_the_paper_skips_both_transfers_of_a_pair_whose_one_block_was_lost() -> None:
@@ -106,6 +107,43 @@ def test_in_bilateral_the_paper_skips_both_transfers_of_a_pair_whose_one_block_w
     assert ways_back_skipped(both, "bilateral") == {2, 3}
     kept = [_transfer(0, 0, 7, True), *trial[1:2], _transfer(2, 7, 0, False), trial[3]]
     assert ways_back_skipped(kept, "bilateral") == set()  # both found: the pair moves, 7 -> 0 fails
+
+
+def test_whole_bilateral_trials_count_neither_transfer_of_a_pair_the_paper_skipped(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """`confirm` under the paper's counting: a trial whose PSM2 lost 0 -> 7 attempted 4 transfers and placed
+    2 (1 -> 8, then 8 -> 1, which the paper's robot would have skipped with its pair); counted so, it
+    attempted 2 and placed 1. An errored trial counts nothing."""
+    trial = [
+        _transfer(0, 0, 7, False),
+        _transfer(1, 1, 8, True),
+        _transfer(2, 7, 0, False),
+        _transfer(3, 8, 1, True),
+    ]
+    records = [
+        SimpleNamespace(outcome="ok", transfers=trial),
+        SimpleNamespace(outcome="error", transfers=trial),
+    ]
+
+    def summary(campaign, ran, workers) -> dict[str, object]:
+        kept = [t for r in ran if r.outcome != "error" for t in r.transfers]
+        placed = sum(bool(t["succeeded"]) for t in kept)
+        return {
+            "transfers_attempted": len(kept),
+            "transfers_succeeded": placed,
+            "mean_transfer_time_s": None,
+            "errors": len(ran) - 1,
+        }
+
+    monkeypatch.setattr(confirm_module, "run_trials", lambda specs, workers: records)
+    monkeypatch.setattr(confirm_module, "summarise", summary)
+    cell = Cell("bilateral", "calibrated", 120, 120)
+    world = tmp_path / "world.yaml"
+    world.write_text("effects: []\n")
+    (figures,) = confirm(world, [cell], 2, tmp_path, 1, until_lost=True, protocol="paper").values()
+    assert (figures.attempted, figures.succeeded, figures.skipped, figures.errors) == (2, 1, 2, 1)
+
 
 def _mapper(tasks: Sequence[Task]) -> list[list[TransferResult]]:
     """A bending peg raises the uncalibrated lift's success; a calibrated arm always places."""

@@ -11,8 +11,9 @@ from pegbt.sim2real.outcomes.cells import Cell, Outcomes
 from pegbt.sim2real.outcomes.diagnose import Settings, diagnose
 from pegbt.sim2real.outcomes.fit import FITTED, PHASES_OF, fit
 from pegbt.sim2real.outcomes.intervals import beyond_chance, mixture_pmf, predictive_interval, rate_interval
-from pegbt.sim2real.outcomes.predict import transfers_to_keep
+from pegbt.sim2real.outcomes.predict import predict_null, transfers_to_keep
 from pegbt.sim2real.outcomes.simulate import simulate_cells
+from pegbt.sim2real.outcomes.transfer_result import TransferResult
 from tests.outcomes_helpers import fake_mapper, real_counts
 
 
@@ -147,3 +148,22 @@ def test_with_nothing_named_a_row_placed_in_full_is_simulated_until_it_can_show_
         else:
             assert simulated == (48 if cell.variant == "unilateral" else 24)
         assert d.before[cell.key].attempted == (48 if cell.variant == "unilateral" else 24)
+
+
+def test_the_default_world_s_keep_up_goes_on_past_every_seed_held_skipped_ones_included():
+    """A calibrated row under the paper's counting skips some ways back: each seed is still one transfer,
+    so the keep-up starts at the first seed not yet simulated and stops at `transfers_to_keep()` seeds."""
+    seeds: list[int] = []
+
+    def skipping(tasks):
+        seeds.extend(seed for *_, seed in tasks)
+        return [[TransferResult(True, None, 5.0, skipped=seed % 4 == 3)] for *_, seed in tasks]
+
+    cell = Cell("bilateral", "calibrated", 60, 60)
+    null = simulate_cells(skipping, [WorldEffects()], [cell.key], 40)[0]
+    assert null[cell.key].attempted == 30 and null[cell.key].skipped == 10
+    seeds.clear()
+    kept = predict_null(skipping, null, [cell])[cell.key].at_best
+    assert seeds == list(range(40, transfers_to_keep()))
+    assert kept.attempted + kept.skipped == transfers_to_keep()
+    assert null[cell.key].attempted == 30  # the prediction's own counts are not the kept ones

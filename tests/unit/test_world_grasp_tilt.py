@@ -1,6 +1,7 @@
 """A tool standing off a block's axis grips the block's wall when its jaws' geometry lets it, not below a
 fixed angle: scripted closes on a block resting on its peg, the tip where the planner grips (the wall's
-centre, `grasp_depth` below the top face), the jaws opened as the planner opens them."""
+centre, `grasp_depth` below the top face), the jaws opened as the planner opens them; and the criterion
+itself (`grasp_tilt.tilt_problem`) on cases worked by hand."""
 
 import math
 
@@ -8,8 +9,10 @@ import numpy as np
 
 from pegbt.frames import rigid_transform
 from pegbt.motion.settings import motion_settings
+from pegbt.sim.grasp_tilt import tilt_problem
 from pegbt.sim.tools import ToolState
 from pegbt.sim.world import World
+from pegbt.workcell import load_workcell
 
 BLOCK = 0
 
@@ -71,3 +74,42 @@ def test_a_tool_leaning_27_degrees_across_the_wall_cannot_grip_it():
 
 def test_an_upright_tool_grips_as_it_did():
     assert _close_tilted(0, 0) == ["grasp: edge 0"]
+
+
+def _ask(along_deg: float, along_wall: float, depth: float) -> str | None:
+    """`tilt_problem` for the planner's jaws (50°) closed on edge 0's wall, the tip `along_wall` (m) from
+    the wall's middle and `depth` under the top face, the tool upright across the wall and leaning
+    `along_deg` along it (about the closing axis, its top towards +`along_wall`)."""
+    cell = load_workcell()
+    model = cell.block
+    normal = np.array([*model.edge_normals[0], 0.0])
+    tangent = np.array([-normal[1], normal[0], 0.0])
+    up = np.array([0.0, 0.0, -1.0])
+    rotation = _turn(normal, math.radians(along_deg)) @ np.column_stack([normal, np.cross(up, normal), up])
+    centre = (model.hole_radius + model.edge_distance) / 2
+    tip = centre * normal + along_wall * tangent + [0.0, 0.0, -model.height + depth]
+    opened = motion_settings().transfer.jaw_open
+    return tilt_problem(
+        rigid_transform(rotation, tip), opened, normal[:2], model, cell.tool.jaw_length, 0.001
+    )
+
+
+def test_leaning_along_the_wall_carries_the_contact_towards_the_wall_s_end():
+    # The tip 6 mm from the middle of a wall whose edge runs 7.16 mm either side, 4.5 mm deep, the tool
+    # leaning 20° along the wall: each blade meets the wall's top edge, 4.5 / cos 20° - 9.5 mm down the
+    # tool from the hinge, which stands 9.5 sin 20° mm along the wall from the tip, so the contact lies
+    # 6 + 4.5 tan 20° = 7.64 mm along: beyond the end. Leaning the other way it lies at 4.36 mm and grips.
+    assert _ask(20, 0.006, 0.0045) == (
+        "tool tilted 0° across the wall, 20° along it: a jaw meets the wall beyond its end"
+    )
+    assert _ask(-20, 0.006, 0.0045) is None
+
+
+def test_a_tip_just_under_the_top_face_bites_too_little():
+    # Upright, the tip 0.5 mm under the top face: the hinge stands 9.0 mm over it and 1 mm from either face
+    # of the wall, so each blade meets the wall's top corner at atan(1 / 9.0) = 6.3°, its tip
+    # 9.5 cos 6.3° - 9.0 = 0.44 mm under the top face: less than the world's 1 mm bite. At 4.5 mm it is 4.3 mm.
+    assert _ask(0, 0.0, 0.0005) == (
+        "tool tilted 0° across the wall, 0° along it: a jaw tip meets the wall 0.4 mm below its top"
+    )
+    assert _ask(0, 0.0, 0.0045) is None

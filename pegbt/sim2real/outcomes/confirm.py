@@ -23,7 +23,7 @@ from pegbt.sim2real.outcomes.paperpairs import partners_skipped
 CONFIRM_SEED = 7000  # whole-trial seeds, apart from the phase simulator's
 
 
-def ways_back_skipped(transfers: Sequence[Mapping[str, Any]], variant: str = "unilateral") -> set[int]:
+def ways_back_skipped(transfers: Sequence[Mapping[str, Any]], variant: str) -> set[int]:
     """The transfers (their `index`) of a `variant` trial the paper's robot would not have attempted: their
     pick peg no longer held a block, an earlier transfer of the trial having lost it (`FLSPegTransfer_single.py`,
     BerkeleyAutomation/FLSpegtransferHO, skips an order whose block it does not find), and in bilateral the
@@ -38,6 +38,16 @@ def ways_back_skipped(transfers: Sequence[Mapping[str, Any]], variant: str = "un
         holds[int(transfer["pick"])] = False
         holds[int(transfer["place"])] = bool(transfer["succeeded"])
     return skipped | partners_skipped(variant, transfers, skipped)
+
+
+def _unattempted(records: Sequence[TrialRecord], variant: str) -> list[Mapping[str, Any]]:
+    """The transfers of `records` (errored trials aside) the paper's robot would not have attempted."""
+    out: list[Mapping[str, Any]] = []
+    for record in records:
+        if record.outcome != "error":
+            skipped = ways_back_skipped(record.transfers, variant)
+            out += [t for t in record.transfers if int(t["index"]) in skipped]
+    return out
 
 
 def first_tries(records: Sequence[TrialRecord]) -> tuple[int, float | None]:
@@ -83,13 +93,7 @@ def confirm(
         specs = trial_specs(campaign, out / f"{cell.variant}-{cell.condition}", keep_logs=timed)
         records = run_trials(specs, workers)
         summary = summarise(campaign, records, workers)
-        unattempted = [
-            t
-            for r in records
-            if until_lost and r.outcome != "error"
-            for t in r.transfers
-            if int(t["index"]) in ways_back_skipped(r.transfers, cell.variant)
-        ]
+        unattempted = _unattempted(records, cell.variant) if until_lost else []
         skipped = len(unattempted)
         tries, first_s = first_tries(records) if timed else (0, None)
         figures[cell.key] = Trials(

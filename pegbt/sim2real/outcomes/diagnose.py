@@ -151,7 +151,7 @@ def diagnose(
         predictions, each = predict(counting, list(verdict.tied), cells, settings.transfers)
         predicted_by = {tied.label: alone for tied, alone in zip(verdict.tied, each)}
     else:
-        predictions = predict_null(counting, before, cells, _seeds_located(cells, fit_cells, settings))
+        predictions = predict_null(counting, before, cells)
     alternatives: list[Alternative] = []
     if verdict.tried and not verdict.tied and held_out:
         alternatives = _alternatives(counting, verdict, fit_cells, held_out, settings, informative)
@@ -289,16 +289,6 @@ def _located(
         for key, counts in more.items():
             before[key].merge(counts)
     return before
-
-
-def _seeds_located(cells: Sequence[Cell], fit_cells: Sequence[Cell], settings: Settings) -> dict[Key, int]:
-    """How many seeds `_located` simulated each cell on: `located` for a fit cell (at least `transfers`),
-    `transfers` for the rest."""
-    fit_keys = {c.key for c in fit_cells}
-    return {
-        c.key: max(settings.located, settings.transfers) if c.key in fit_keys else settings.transfers
-        for c in cells
-    }
 
 
 def _null(cells: Sequence[Cell], before: dict[Key, SimCounts], phases: bool) -> np.ndarray:

@@ -113,16 +113,17 @@ def predict_world(
 
 
 def predict_null(
-    mapper: Mapper, null_sims: dict[Key, SimCounts], cells: Sequence[Cell], simulated: dict[Key, int]
+    mapper: Mapper, null_sims: dict[Key, SimCounts], cells: Sequence[Cell]
 ) -> dict[Key, Prediction]:
     """Each of `cells` as the default world predicts it (simulation noise and the binomial draw only).
-    A cell the real robot placed in full is simulated on, past the `simulated[key]` seeds `null_sims`
-    holds, to `transfers_to_keep()` in all, as a fitted world's are (`_keep_up`): with nothing named the
-    calibrated rows must still show they keep `KEEPS`."""
+    A cell the real robot placed in full is simulated on, past the seeds `null_sims` holds (one transfer,
+    attempted or skipped, per seed), to `transfers_to_keep()` in all, as a fitted world's are (`_keep_up`):
+    with nothing named the calibrated rows must still show they keep `KEEPS`."""
     kept = {key: replace(counts, counts=dict(counts.counts)) for key, counts in null_sims.items()}
-    for n in sorted({simulated[c.key] for c in cells if _full(c)}):
-        full = [c.key for c in cells if _full(c) and simulated[c.key] == n]
+    seeds = {c.key: null_sims[c.key].attempted + null_sims[c.key].skipped for c in cells if _full(c)}
+    for n in sorted(set(seeds.values())):
         if transfers_to_keep() > n:
+            full = [key for key, simulated in seeds.items() if simulated == n]
             more = simulate_cells(mapper, [WorldEffects()], full, transfers_to_keep() - n, first_seed=n)[0]
             for key, counts in more.items():
                 kept[key].merge(counts)
