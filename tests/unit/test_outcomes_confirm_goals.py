@@ -114,12 +114,17 @@ def test_whole_bilateral_trials_count_neither_transfer_of_a_pair_the_paper_skipp
 ) -> None:
     """`confirm` under the paper's counting: a trial whose PSM2 lost 0 -> 7 attempted 4 transfers and placed
     2 (1 -> 8, then 8 -> 1, which the paper's robot would have skipped with its pair); counted so, it
-    attempted 2 and placed 1. An errored trial counts nothing."""
+    attempted 2 and placed 1, timed by 1 -> 8 alone (3 s, where the trial's two placed took 4 s a transfer).
+    An errored trial counts nothing."""
+    timed = {0: (0.0, None), 1: (0.0, 3.0), 2: (10.0, None), 3: (10.0, 5.0)}
     trial = [
-        _transfer(0, 0, 7, False),
-        _transfer(1, 1, 8, True),
-        _transfer(2, 7, 0, False),
-        _transfer(3, 8, 1, True),
+        {**t, "started": timed[t["index"]][0], "seconds": timed[t["index"]][1]}
+        for t in (
+            _transfer(0, 0, 7, False),
+            _transfer(1, 1, 8, True),
+            _transfer(2, 7, 0, False),
+            _transfer(3, 8, 1, True),
+        )
     ]
     records = [
         SimpleNamespace(outcome="ok", transfers=trial),
@@ -132,7 +137,7 @@ def test_whole_bilateral_trials_count_neither_transfer_of_a_pair_the_paper_skipp
         return {
             "transfers_attempted": len(kept),
             "transfers_succeeded": placed,
-            "mean_transfer_time_s": None,
+            "mean_transfer_time_s": 4.0,
             "errors": len(ran) - 1,
         }
 
@@ -143,6 +148,7 @@ def test_whole_bilateral_trials_count_neither_transfer_of_a_pair_the_paper_skipp
     world.write_text("effects: []\n")
     (figures,) = confirm(world, [cell], 2, tmp_path, 1, until_lost=True, protocol="paper").values()
     assert (figures.attempted, figures.succeeded, figures.skipped, figures.errors) == (2, 1, 2, 1)
+    assert figures.mean_transfer_s == pytest.approx(3.0)
 
 
 def _mapper(tasks: Sequence[Task]) -> list[list[TransferResult]]:

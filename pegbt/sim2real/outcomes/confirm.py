@@ -5,7 +5,7 @@ paper counted them are confirmed under its protocol (`--protocol paper`), as the
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -50,18 +50,36 @@ def _unattempted(records: Sequence[TrialRecord], variant: str) -> list[Mapping[s
     return out
 
 
+def _attempted(records: Sequence[TrialRecord], variant: str) -> list[list[Mapping[str, Any]]]:
+    """Per trial of `records` (errored trials aside), the transfers the paper's robot would have attempted."""
+    return [
+        [t for t in r.transfers if int(t["index"]) not in ways_back_skipped(r.transfers, variant)]
+        for r in records
+        if r.outcome != "error"
+    ]
+
+
 def first_tries(records: Sequence[TrialRecord]) -> tuple[int, float | None]:
     """The transfers placed without a recovery inside them (`retried`, from each trial's tick log) and
-    their mean time as `pegbt eval` pools it (time transferring over transfers placed)."""
+    their mean time as `pegbt eval` pools it."""
+    return pooled(_first_tries(r) for r in records if r.outcome != "error" and r.log)
+
+
+def _first_tries(record: TrialRecord) -> list[Mapping[str, Any]]:
+    """The transfers of `record` with no recovery inside them, by its tick log."""
+    again = retried(read_tick_log(Path(str(record.log))))
+    return [t for t in record.transfers if int(t["index"]) not in again]
+
+
+def pooled(trials: Iterable[Sequence[Mapping[str, Any]]]) -> tuple[int, float | None]:
+    """Of each trial's `transfers`, those placed, and their mean time as `pegbt eval` pools it: a trial's
+    time transferring (two at once counted once, `busy_seconds`) over transfers placed."""
     busy, placed = 0.0, 0
-    for record in records:
-        if record.outcome == "error" or not record.log:
-            continue
-        again = retried(read_tick_log(Path(record.log)))
+    for transfers in trials:
         intervals = [
             (t["started"], t["started"] + t["seconds"])
-            for t in record.transfers
-            if t["succeeded"] and t["seconds"] is not None and int(t["index"]) not in again
+            for t in transfers
+            if t["succeeded"] and t["seconds"] is not None
         ]
         busy, placed = busy + busy_seconds(intervals), placed + len(intervals)
     return placed, (busy / placed if placed else None)
@@ -99,7 +117,9 @@ def confirm(
         figures[cell.key] = Trials(
             attempted=summary["transfers_attempted"] - skipped,
             succeeded=summary["transfers_succeeded"] - sum(bool(t["succeeded"]) for t in unattempted),
-            mean_transfer_s=summary["mean_transfer_time_s"],
+            mean_transfer_s=pooled(_attempted(records, cell.variant))[1]
+            if until_lost
+            else summary["mean_transfer_time_s"],
             trials=trials,
             errors=summary["errors"],
             skipped=skipped,
