@@ -100,15 +100,15 @@ def receiver_jaw(monkeypatch: pytest.MonkeyPatch) -> list[float]:
 def test_a_receiver_that_misses_takes_the_block_again_up_to_its_takes(
     receiver_jaw: list[float], caplog: pytest.LogCaptureFixture
 ) -> None:
-    """Default world, uncalibrated, layout 0, transfer 3: the receiver's jaw closes beside the block held
+    """Default world, uncalibrated, layout 1, transfer 1: the receiver's jaw closes beside the block held
     out every time."""
     caplog.set_level(logging.ERROR, logger="pegbt")
     closed = motion_settings().transfer.jaw_closed
-    once = simulate_transfer(WorldEffects(), "handover", "uncalibrated", 0, index=3, attempts=1)
+    once = simulate_transfer(WorldEffects(), "handover", "uncalibrated", 1, index=1, attempts=1)
     assert not once.succeeded and once.phase == "handover"
     assert receiver_jaw.count(closed) == 1
     receiver_jaw.clear()
-    recovering = simulate_transfer(WorldEffects(), "handover", "uncalibrated", 0, index=3, attempts=4)
+    recovering = simulate_transfer(WorldEffects(), "handover", "uncalibrated", 1, index=1, attempts=4)
     assert not recovering.succeeded and recovering.phase == "grasp"  # as the tick log names the miss
     assert receiver_jaw.count(closed) == TAKES
     assert recovering.seconds > once.seconds
