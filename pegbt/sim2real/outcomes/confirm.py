@@ -40,23 +40,20 @@ def ways_back_skipped(transfers: Sequence[Mapping[str, Any]], variant: str) -> s
     return skipped | partners_skipped(variant, transfers, skipped)
 
 
-def _unattempted(records: Sequence[TrialRecord], variant: str) -> list[Mapping[str, Any]]:
-    """The transfers of `records` (errored trials aside) the paper's robot would not have attempted."""
-    out: list[Mapping[str, Any]] = []
+def _paper_counted(
+    records: Sequence[TrialRecord], variant: str
+) -> tuple[list[list[Mapping[str, Any]]], list[Mapping[str, Any]]]:
+    """Of `records` (errored trials aside), per trial the transfers the paper's robot would have attempted,
+    and all those it would not have (`ways_back_skipped`)."""
+    attempted: list[list[Mapping[str, Any]]] = []
+    unattempted: list[Mapping[str, Any]] = []
     for record in records:
-        if record.outcome != "error":
-            skipped = ways_back_skipped(record.transfers, variant)
-            out += [t for t in record.transfers if int(t["index"]) in skipped]
-    return out
-
-
-def _attempted(records: Sequence[TrialRecord], variant: str) -> list[list[Mapping[str, Any]]]:
-    """Per trial of `records` (errored trials aside), the transfers the paper's robot would have attempted."""
-    return [
-        [t for t in r.transfers if int(t["index"]) not in ways_back_skipped(r.transfers, variant)]
-        for r in records
-        if r.outcome != "error"
-    ]
+        if record.outcome == "error":
+            continue
+        skipped = ways_back_skipped(record.transfers, variant)
+        attempted.append([t for t in record.transfers if int(t["index"]) not in skipped])
+        unattempted += [t for t in record.transfers if int(t["index"]) in skipped]
+    return attempted, unattempted
 
 
 def first_tries(records: Sequence[TrialRecord]) -> tuple[int, float | None]:
@@ -111,15 +108,13 @@ def confirm(
         specs = trial_specs(campaign, out / f"{cell.variant}-{cell.condition}", keep_logs=timed)
         records = run_trials(specs, workers)
         summary = summarise(campaign, records, workers)
-        unattempted = _unattempted(records, cell.variant) if until_lost else []
+        attempted, unattempted = _paper_counted(records, cell.variant) if until_lost else ([], [])
         skipped = len(unattempted)
         tries, first_s = first_tries(records) if timed else (0, None)
         figures[cell.key] = Trials(
             attempted=summary["transfers_attempted"] - skipped,
             succeeded=summary["transfers_succeeded"] - sum(bool(t["succeeded"]) for t in unattempted),
-            mean_transfer_s=pooled(_attempted(records, cell.variant))[1]
-            if until_lost
-            else summary["mean_transfer_time_s"],
+            mean_transfer_s=pooled(attempted)[1] if until_lost else summary["mean_transfer_time_s"],
             trials=trials,
             errors=summary["errors"],
             skipped=skipped,
