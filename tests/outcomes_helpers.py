@@ -8,6 +8,7 @@ from collections.abc import Callable, Sequence
 import numpy as np
 
 from pegbt.sim.world_effects import WorldEffects
+from pegbt.sim2real.outcomes.cells import Cell
 from pegbt.sim2real.outcomes.phasesim import TransferResult
 
 BASE = {"unilateral": 0.05, "bilateral": 0.10, "handover": 0.02}  # the default world's lift success
@@ -50,6 +51,18 @@ def real_counts(effects: WorldEffects, variant: str, condition: str, attempted: 
     return int(
         np.random.default_rng([seed, 5]).binomial(attempted, lift_success(effects, variant, condition))
     )
+
+
+def failing_at(phase: str, variant: str, condition: str, attempted: int, placed: int) -> Cell:
+    """A cell as tick logs report it, every failure at `phase` (a stand-in mapper's one phase)."""
+    return Cell(variant, condition, attempted, placed, failures={phase: attempted - placed})
+
+
+def logged_cell(effects: WorldEffects, variant: str, condition: str, attempted: int, seed: int) -> Cell:
+    """A cell as a robot in that world would log it: `real_counts` placed, the rest failed at the lift
+    (the phase every failure of `fake_mapper` is at)."""
+    placed = real_counts(effects, variant, condition, attempted, seed)
+    return failing_at("lift", variant, condition, attempted, placed)
 
 
 def chamfer_placed(effects: WorldEffects, variant: str, condition: str) -> float:

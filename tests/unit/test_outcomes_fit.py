@@ -14,7 +14,7 @@ from pegbt.sim2real.outcomes.intervals import beyond_chance, mixture_pmf, predic
 from pegbt.sim2real.outcomes.predict import predict_null, transfers_to_keep
 from pegbt.sim2real.outcomes.simulate import simulate_cells
 from pegbt.sim2real.outcomes.transfer_result import TransferResult
-from tests.outcomes_helpers import fake_mapper, real_counts
+from tests.outcomes_helpers import fake_mapper, logged_cell
 
 
 def test_exact_intervals_match_the_papers_counts():
@@ -39,7 +39,7 @@ def test_benjamini_hochberg_keeps_what_is_beyond_chance():
 
 def _outcomes(world: WorldEffects, seed: int, attempted: int = 80) -> Outcomes:
     cells = [
-        Cell(v, c, attempted, real_counts(world, v, c, attempted, seed + i))
+        logged_cell(world, v, c, attempted, seed + i)
         for i, (v, c) in enumerate(
             [(v, c) for v in ("unilateral", "bilateral", "handover") for c in ("uncalibrated", "calibrated")]
         )

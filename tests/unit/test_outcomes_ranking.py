@@ -10,14 +10,15 @@ from collections.abc import Sequence
 import numpy as np
 
 from pegbt.sim.world_effects import WorldEffects
-from pegbt.sim2real.outcomes.cells import Cell, Outcomes
+from pegbt.sim2real.outcomes.cells import Outcomes
 from pegbt.sim2real.outcomes.diagnose import FRESH_SEED, Settings, diagnose
 from pegbt.sim2real.outcomes.phasesim import TransferResult
 from pegbt.sim2real.outcomes.report import report_dict, report_markdown
 from pegbt.sim2real.outcomes.simulate import Mapper
+from tests.outcomes_helpers import failing_at
 
 CELLS = [(v, c) for v in ("unilateral", "bilateral") for c in ("uncalibrated", "calibrated")]
-SETTINGS = Settings(fit="unilateral", transfers=16, located=48, points=4, phases=False)
+SETTINGS = Settings(fit="unilateral", transfers=16, located=48, points=4)
 
 
 def _placed(world: WorldEffects, condition: str, seed: int, peg: float, offset: float) -> bool:
@@ -46,7 +47,9 @@ def _mapper(peg: float, offset: float) -> Mapper:
     return mapper
 
 
-REAL = Outcomes(tuple(Cell(v, c, 120, 60 if c == "uncalibrated" else 120) for v, c in CELLS), "test")
+REAL = Outcomes(
+    tuple(failing_at("lift", v, c, 120, 60 if c == "uncalibrated" else 120) for v, c in CELLS), "test"
+)
 
 
 def test_an_offset_luckiest_on_the_fits_seeds_is_not_named_where_a_bending_peg_fits_on_fresh_ones():

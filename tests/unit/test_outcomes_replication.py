@@ -11,10 +11,10 @@ from collections.abc import Sequence
 import numpy as np
 
 from pegbt.sim.world_effects import WorldEffects
-from pegbt.sim2real.outcomes.cells import Cell, Outcomes
+from pegbt.sim2real.outcomes.cells import Outcomes
 from pegbt.sim2real.outcomes.diagnose import Settings, diagnose
 from pegbt.sim2real.outcomes.phasesim import TransferResult
-from tests.outcomes_helpers import lift_success, real_counts
+from tests.outcomes_helpers import lift_success, logged_cell
 
 CELLS = [(v, c) for v in ("unilateral", "bilateral", "handover") for c in ("uncalibrated", "calibrated")]
 SETTINGS = Settings(fit="unilateral", transfers=16, located=32, points=4)
@@ -41,7 +41,7 @@ def reshuffling_mapper(
 
 def _outcomes(world: WorldEffects, seed: int) -> Outcomes:
     return Outcomes(
-        tuple(Cell(v, c, 120, real_counts(world, v, c, 120, seed + i)) for i, (v, c) in enumerate(CELLS)),
+        tuple(logged_cell(world, v, c, 120, seed + i) for i, (v, c) in enumerate(CELLS)),
         "test",
     )
 

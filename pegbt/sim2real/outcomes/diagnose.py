@@ -122,7 +122,8 @@ def diagnose(
     settings = settings.for_campaign(max(c.attempted for c in fit_cells))
     before = _located(counting, cells, fit_cells, settings)
     rows = locate(cells, before)
-    opened = gate(fit_cells, before, settings.phases and any(r.phase for r in rows))
+    phases_known = settings.phases and any(r.phase for r in rows)
+    opened = gate(fit_cells, before, phases_known)
     if opened.opens:
         loud = set(opened.loud)
         ordered = [c for c in fit_cells if c.key in loud] + [c for c in fit_cells if c.key not in loud]
@@ -137,6 +138,7 @@ def diagnose(
             len(loud),
             Fresh(RANK_SEED, settings.located),
             settings.located,
+            checkable=len(loud) > 1 or phases_known,
         )
         fit_cells = tuple(ordered)
         informative = len(loud)
@@ -218,7 +220,8 @@ def _replicated(
     those named after it along; of tied effects, the one that alone holds is named. Of two named effects
     the first is kept only if the pair also fits better than the second alone on fresh seeds: the first was
     chosen before the second was in the world, so an effect that only stood in for it (a registration
-    offset beside a bending peg) is dropped, and the second is named at the value it was fitted alone."""
+    offset beside a bending peg) is dropped, and the second is named at the value it was fitted alone.
+    An `unchecked` tie stays unnamed whichever of it holds: fresh seeds are no held-out fit cell."""
     worlds = [WorldEffects(), *(p.world() for p in (*verdict.named, *verdict.tied))]
     if len(worlds) > 1:  # one batch: each transfer's arm simulated once for every world (`bench.Replay`)
         simulate_cells(mapper, worlds, [c.key for c in cells], settings.located, first_seed=FRESH_SEED)
@@ -242,7 +245,7 @@ def _replicated(
     dropped += [t.candidate.name for t in verdict.tied if t not in tied]
     if not dropped:
         return verdict, ()
-    if len(tied) == 1:
+    if len(tied) == 1 and not verdict.unchecked:
         return replace(verdict, named=(tied[0],), tied=()), tuple(dropped)
     return replace(verdict, named=tuple(kept), tied=tuple(tied)), tuple(dropped)
 

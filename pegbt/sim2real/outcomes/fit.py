@@ -19,8 +19,16 @@ them), and the first choice decides every later step.
 
 What is named is decided on the grid; the value named is not limited to it: a grid coarse enough to be
 affordable steps a parameter by half its value, so the estimate and its interval are read from the
-profile log-likelihood between grid values and the inert default (`with_inert`, `between`, `estimate`),
-with no more simulation.
+profile log-likelihood between grid values and the inert default (`with_inert`, `between`, `estimate`).
+A large campaign's profile can peak inside one grid step (a peg bending 0.5 mm where the grid steps by
+1 mm from a rigid peg), where the counts interpolated between two grid values only point at it: each
+profile's maximum between grid values joins its grid and is simulated, at every precision a candidate is
+weighed at (`refined`), so what is named is decided on a simulated value there, whatever the grid's step.
+
+The leave-one-out test needs a fit cell to hold out: where the fit cells hold one informative count (one
+cell disagrees and no phases are known, as in the paper's table), there is none, so an effect that passes
+the χ² test is not named but kept as an explanation the data cannot check (`Verdict.unchecked`): each
+predicts the other cells, and they are mixed.
 """
 
 from __future__ import annotations
@@ -191,6 +199,7 @@ class Verdict:
     tried: tuple[Profile, ...]
     null: np.ndarray  # (cells,) the default world's log-likelihood per fit cell
     passing: tuple[str, ...]  # candidates that passed both tests on their own
+    unchecked: bool = False  # one informative count: the `tied` passed the χ² test with nothing to hold out
 
     def world(self) -> WorldEffects:
         """The fitted world: every named effect at its estimate."""
@@ -262,8 +271,11 @@ def profile(
     first `informative` cells (those that disagree) get `transfers` each; the others, which agree with the
     default world, are simulated (with `quiet_transfers`, a third of `transfers` by default) only for a
     candidate that fits the informative ones beyond chance, and otherwise keep the default world's
-    likelihood, which they agree with. `base` is simulated beside the grid on the same seeds (the
-    profile's `reference`)."""
+    likelihood, which they agree with. A quiet cell so simulated weighs what the candidate changes there
+    against `base` on the same seeds, added to its likelihood in `null`: its own likelihood on a third of
+    the transfers would fall below `null`'s (simulated on more) for the imprecision alone, a penalty on
+    every candidate that a world placing every calibrated transfer as the default does never earned.
+    `base` is simulated beside the grid on the same seeds (the profile's `reference`)."""
     quiet_transfers = max(2, transfers // 3) if quiet_transfers is None else quiet_transfers
     worlds = [candidate.world(v, base) for v in candidate.grid]
     loud, quiet = list(cells[:informative]), list(cells[informative:])
@@ -271,19 +283,20 @@ def profile(
     per_cell = np.array([[log_likelihood(c, sim[c.key], phases) for c in loud] for sim in sims])
     reference = np.array([log_likelihood(c, at_default[c.key], phases) for c in loud])
     rest = np.tile(null[informative:], (len(worlds), 1))
-    quiet_reference = null[informative:]
     if quiet and 2 * (per_cell.sum(axis=1).max() - null[:informative].sum()) >= LR_95:
         *more, quiet_default = simulate_cells(
             mapper, [*worlds, base], [c.key for c in quiet], quiet_transfers
         )
         rest = np.array([[log_likelihood(c, sim[c.key], phases) for c in quiet] for sim in more])
-        quiet_reference = np.array([log_likelihood(c, quiet_default[c.key], phases) for c in quiet])
+        rest += null[informative:] - np.array(
+            [log_likelihood(c, quiet_default[c.key], phases) for c in quiet]
+        )
         sims = [{**a, **b} for a, b in zip(sims, more)]
         at_default = {**at_default, **quiet_default}
     per_cell = np.hstack([per_cell, rest])
     values, with_default = with_inert(candidate, sims, at_default)
     dense = between(values, with_default, cells, per_cell, phases)
-    reference = np.concatenate([reference, quiet_reference])
+    reference = np.concatenate([reference, null[informative:]])
     return Profile(candidate, candidate.grid, sims, per_cell, base, dense=dense, reference=reference)
 
 
@@ -327,9 +340,23 @@ def loo_gain(fitted: Profile, null: np.ndarray) -> float:
     return gain
 
 
-def passes(fitted: Profile, null: np.ndarray) -> bool:
-    """Better than `null` beyond chance on the fit cells, and on each fit cell held out in turn."""
-    return 2 * (fitted.total.max() - null.sum()) >= LR_95 and loo_gain(fitted, null) > 0
+def passes(fitted: Profile, null: np.ndarray, checkable: bool = True) -> bool:
+    """Better than `null` beyond chance on the fit cells, and (if `checkable`: more than one informative
+    count) on each fit cell held out in turn."""
+    beyond = 2 * (fitted.total.max() - null.sum()) >= LR_95
+    return beyond and (not checkable or loo_gain(fitted, null) > 0)
+
+
+def refined(fitted: Profile) -> Candidate:
+    """`fitted`'s candidate with the maximum of its profile between grid values (`Profile.estimate`) on its
+    grid, if that lies off the grid and the inert default: the counts interpolated there point at a peak
+    the grid's step may straddle, and only a simulation there can show it."""
+    candidate = fitted.candidate
+    value = fitted.estimate
+    default = WORLD_EFFECT_KINDS[candidate.kind].parameters[candidate.parameter].default
+    if any(math.isclose(value, v, rel_tol=1e-6, abs_tol=1e-12) for v in (*candidate.grid, default)):
+        return candidate
+    return replace(candidate, grid=tuple(sorted((*candidate.grid, value))))
 
 
 @dataclass(frozen=True)
@@ -351,6 +378,7 @@ def fit(
     informative: int | None = None,
     fresh: Fresh | None = None,
     weighed: int | None = None,
+    checkable: bool = True,
 ) -> Verdict:
     """Profile every candidate (only those that can act in a `disagreeing` phase, when phases are known)
     on the fit `cells` (the first `informative` of them disagree; all, if not given), then add effects one
@@ -362,7 +390,10 @@ def fit(
     the leaders (`leaders_to_weigh`) are profiled again on `weighed` transfers, where they are tested
     against the world before them at the same precision: weighed on fewer simulated transfers than the
     default world, a candidate saw a large campaign's real counts as a tenth of them and the null as a
-    third, and could not beat it. Without `weighed`, every candidate is tested as screened."""
+    third, and could not beat it. Without `weighed`, every candidate is tested as screened.
+
+    Not `checkable` (one informative count): nothing is named; the ends that pass the χ² test are returned
+    as `tied`, `unchecked`."""
     informative = len(cells) if informative is None else informative
     null = np.array([log_likelihood(c, null_sims[c.key], phases) for c in cells])
     loud = [c.key for c in cells[:informative]]
@@ -379,23 +410,33 @@ def fit(
             mapper, candidate, cells, size, before, informative, base, phases, max(2, transfers // 3)
         )
 
+    def weigh_refined(
+        some: list[Candidate], base: WorldEffects, before: np.ndarray, size: int
+    ) -> list[Profile]:
+        """Each of `some` profiled on top of `base` on `size` transfers, its grid `refined` by the maximum
+        of that profile between grid values (each batch one simulation: every transfer's arm once)."""
+        worlds = [candidate.world(value, base) for candidate in some for value in candidate.grid]
+        simulate_cells(mapper, [*worlds, base], loud, size)
+        coarse = [weigh(c, base, before, size) for c in some]
+        sharper = [refined(p) for p in coarse]
+        new = [c.world(v, base) for c, p in zip(sharper, coarse) for v in c.grid if v not in p.candidate.grid]
+        if new:
+            simulate_cells(mapper, [*new, base], loud, size)
+        return [p if c is p.candidate else weigh(c, base, before, size) for c, p in zip(sharper, coarse)]
+
     def step(base: WorldEffects, before: np.ndarray) -> list[Profile]:
         """Every candidate of a kind not yet in `base` profiled on top of it, the best first, that passes
         against `before` (the per-cell log-likelihoods of `base`)."""
         others = [c for c in chosen if c.kind not in {e.kind for e in base}]
-        worlds = [candidate.world(value, base) for candidate in others for value in candidate.grid]
-        simulate_cells(mapper, [*worlds, base], loud, transfers)  # one batch
-        screened = [weigh(c, base, before, transfers) for c in others]
+        screened = weigh_refined(others, base, before, transfers)
         profiles = screened
         if weighed is not None:
             leaders = [p.candidate for p in leaders_to_weigh(screened)]
-            worlds = [candidate.world(value, base) for candidate in leaders for value in candidate.grid]
-            simulate_cells(mapper, [*worlds, base], loud, weighed)  # one batch
-            profiles = [weigh(c, base, before, weighed) for c in leaders]
+            profiles = weigh_refined(leaders, base, before, weighed)
         if not base:
             screened_alone.extend(screened)
             alone.update({p.candidate.name: p for p in profiles})
-        passing = sorted((p for p in profiles if passes(p, before)), key=lambda p: -p.total.max())
+        passing = sorted((p for p in profiles if passes(p, before, checkable)), key=lambda p: -p.total.max())
         return passing if fresh is None else ranked_on_fresh_seeds(mapper, passing, cells, fresh, phases)
 
     def alone_as_weighed(candidate: Candidate) -> Profile:
@@ -417,8 +458,8 @@ def fit(
     names = tuple(p.candidate.name for p in first)
     tried = tuple(alone.get(p.candidate.name, p) for p in screened_alone)
     ends = _distinct([path[-1] for path in done])
-    if len(ends) > 1:
-        return Verdict((), tuple(ends), tried, null, names)
+    if len(ends) > 1 or (ends and not checkable):
+        return Verdict((), tuple(ends), tried, null, names, unchecked=not checkable)
     if not ends:
         return Verdict((), (), tried, null, names)
     path = next(path for path in done if path[-1] is ends[0])

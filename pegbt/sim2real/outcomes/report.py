@@ -109,6 +109,7 @@ def report_dict(diagnosis: Diagnosis, commands: list[str] | None = None) -> dict
             for r in d.rows
         ],
         "named": named,
+        "unchecked": d.verdict.unchecked,
         "indistinguishable": [
             {
                 "effect": t.candidate.kind,
@@ -163,7 +164,7 @@ def fitted_world_name(d: Diagnosis) -> str:
     if d.verdict.named:
         return " + ".join(f.candidate.kind for f in d.verdict.named)
     if d.verdict.tied:
-        return "the tie, mixed"
+        return "the tie, mixed" if len(d.verdict.tied) > 1 else d.verdict.tied[0].label
     return "the default world"
 
 
@@ -253,6 +254,17 @@ def _finding(d: Diagnosis) -> list[str]:
                 f"**Named: {fitted.candidate.kind}**, {fitted.candidate.parameter} = {fitted.estimate:.4g} "
                 f"(95 % interval {low:.4g}–{high:.4g}, read between grid values)."
             )
+    elif d.verdict.unchecked:
+        names = ", ".join(f"{t.label} ({t.candidate.name} ≈ {t.estimate:.4g})" for t in d.verdict.tied)
+        lines.append(
+            f"**Explained, not named:** {names} "
+            + ("fits" if len(d.verdict.tied) == 1 else "fit")
+            + " the fit cells better than the default world beyond chance (χ² at 95 %, and again on fresh "
+            "seeds), but the fit cells hold one informative count, so no fit cell is left to hold out and "
+            "test it on: none is named, and "
+            + ("it predicts" if len(d.verdict.tied) == 1 else "each predicts, mixed equally,")
+            + " the other cells below."
+        )
     elif d.verdict.tied:
         names = ", ".join(f"{t.label} ({t.candidate.name} ≈ {t.estimate:.4g})" for t in d.verdict.tied)
         lines.append(

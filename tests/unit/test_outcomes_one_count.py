@@ -1,0 +1,65 @@
+"""One informative count (the paper's table: one cell disagrees, no phases): an effect that fits it beyond
+chance is kept as an explanation and predicts the other cells, but is not named, since no fit cell is left
+to hold out; and a quiet fit cell, which the candidate leaves as it is, costs it nothing."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from pegbt.sim.world_effects import WorldEffects
+from pegbt.sim2real.outcomes.cells import Cell, Outcomes
+from pegbt.sim2real.outcomes.diagnose import Settings, diagnose
+from pegbt.sim2real.outcomes.fit import Candidate, candidates, profile
+from pegbt.sim2real.outcomes.likelihood import log_likelihood
+from pegbt.sim2real.outcomes.report import report_dict, report_markdown
+from pegbt.sim2real.outcomes.simulate import simulate_cells
+from tests.outcomes_helpers import fake_mapper, logged_cell, real_counts
+
+HIDDEN = WorldEffects.of({"peg_compliance": {"deflection": 0.0018}})
+KEYS = [(v, c) for v in ("unilateral", "bilateral", "handover") for c in ("uncalibrated", "calibrated")]
+SETTINGS = Settings(fit="unilateral", transfers=200, points=5)
+
+
+def _table(world: WorldEffects) -> Outcomes:
+    """Placed counts alone, as the paper's table gives them."""
+    return Outcomes(
+        tuple(Cell(v, c, 80, real_counts(world, v, c, 80, 3 + i)) for i, (v, c) in enumerate(KEYS)), "table"
+    )
+
+
+def test_one_informative_count_explains_but_names_nothing_and_predicts_with_the_explanation() -> None:
+    d = diagnose(_table(HIDDEN), SETTINGS, fake_mapper)
+    assert d.verdict.named == () and d.verdict.unchecked
+    assert [t.candidate.kind for t in d.verdict.tied] == ["peg_compliance"]
+    bilateral = ("bilateral", "uncalibrated")
+    assert d.predictions[bilateral].inside  # the default world places 10 %, the real robot far more
+    assert d.predictions[bilateral].rate > 0.3
+    report = report_dict(d)
+    assert report["named"] == [] and report["unchecked"] is True
+    assert [t["effect"] for t in report["indistinguishable"]] == ["peg_compliance"]
+    assert "Explained, not named" in report_markdown(d)
+
+
+def test_the_same_cells_with_their_failures_per_phase_name_the_effect() -> None:
+    logged = Outcomes(tuple(logged_cell(HIDDEN, v, c, 80, 3 + i) for i, (v, c) in enumerate(KEYS)), "logs")
+    d = diagnose(logged, SETTINGS, fake_mapper)
+    assert [p.candidate.kind for p in d.verdict.named] == ["peg_compliance"] and not d.verdict.unchecked
+
+
+def test_a_quiet_cell_the_candidate_leaves_as_it_is_keeps_the_world_befores_likelihood() -> None:
+    """The calibrated cell is simulated on a third of the fit's transfers; weighed on its own there it
+    would fall below the default world's (simulated on more) for the imprecision alone."""
+    cells = [
+        logged_cell(HIDDEN, "unilateral", "uncalibrated", 400, 1),
+        logged_cell(HIDDEN, "unilateral", "calibrated", 400, 2),
+    ]
+    before = simulate_cells(fake_mapper, [WorldEffects()], [c.key for c in cells], 300)[0]
+    null = np.array([log_likelihood(c, before[c.key], True) for c in cells])
+    peg = next(c for c in candidates(4) if c.kind == "peg_compliance")
+    fitted = profile(fake_mapper, peg, cells, 300, null, informative=1, quiet_transfers=20)
+    assert fitted.per_cell.shape == (len(peg.grid), 2)
+    assert np.allclose(fitted.per_cell[:, 1], null[1])
+    on_its_own = profile(
+        fake_mapper, Candidate(peg.kind, peg.parameter, peg.grid), cells[1:], 20, null[1:], 1
+    )
+    assert on_its_own.per_cell[:, 0].max() < null[1]
