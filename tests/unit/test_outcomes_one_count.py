@@ -4,15 +4,18 @@ to hold out; and a quiet fit cell, which the candidate leaves as it is, costs it
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 
 from pegbt.sim.world_effects import WorldEffects
 from pegbt.sim2real.outcomes.cells import Cell, Outcomes
-from pegbt.sim2real.outcomes.diagnose import Settings, diagnose
+from pegbt.sim2real.outcomes.diagnose import FRESH_SEED, Settings, diagnose
 from pegbt.sim2real.outcomes.fit import Candidate, candidates, profile
 from pegbt.sim2real.outcomes.likelihood import log_likelihood
 from pegbt.sim2real.outcomes.report import report_dict, report_markdown
-from pegbt.sim2real.outcomes.simulate import simulate_cells
+from pegbt.sim2real.outcomes.simulate import Task, simulate_cells
+from pegbt.sim2real.outcomes.transfer_result import TransferResult
 from tests.outcomes_helpers import fake_mapper, logged_cell, real_counts
 
 HIDDEN = WorldEffects.of({"peg_compliance": {"deflection": 0.0018}})
@@ -37,7 +40,9 @@ def test_one_informative_count_explains_but_names_nothing_and_predicts_with_the_
     report = report_dict(d)
     assert report["named"] == [] and report["unchecked"] is True
     assert [t["effect"] for t in report["indistinguishable"]] == ["peg_compliance"]
-    assert "Explained, not named" in report_markdown(d)
+    markdown = report_markdown(d)
+    assert "Explained, not named" in markdown
+    assert d.predicted_by == {} and "Across the tie" not in markdown  # one world: no span to give
 
 
 def test_the_same_cells_with_their_failures_per_phase_name_the_effect() -> None:
@@ -63,3 +68,34 @@ def test_a_quiet_cell_the_candidate_leaves_as_it_is_keeps_the_world_befores_like
         fake_mapper, Candidate(peg.kind, peg.parameter, peg.grid), cells[1:], 20, null[1:], 1
     )
     assert on_its_own.per_cell[:, 0].max() < null[1]
+
+
+def _lucky_on_the_fits_seeds(tasks: Sequence[Task]) -> list[list[TransferResult]]:
+    """`fake_mapper`, where every world is the default one on the replication's fresh seeds: an effect
+    that fitted only by the luck of the fit's own simulations."""
+    return fake_mapper(
+        [
+            (w if seed < FRESH_SEED else tuple(WorldEffects() for _ in w), v, c, seed)
+            for w, v, c, seed in tasks
+        ]
+    )
+
+
+def test_an_explanation_that_does_not_hold_on_fresh_seeds_leaves_nothing_explained() -> None:
+    d = diagnose(_table(HIDDEN), SETTINGS, _lucky_on_the_fits_seeds)
+    assert d.unreplicated == ("peg_compliance.deflection",)
+    assert d.verdict.named == () and d.verdict.tied == () and not d.verdict.unchecked
+    assert report_dict(d)["unchecked"] is False
+    assert "Explained, not named" not in report_markdown(d)
+
+
+def test_phases_of_held_out_cells_alone_leave_the_fit_cells_one_count() -> None:
+    """Failures per phase in the cells the fit never sees tell the fit's candidates nothing apart."""
+    cells = tuple(
+        Cell(v, c, 80, real_counts(HIDDEN, v, c, 80, 3 + i))
+        if v == "unilateral"
+        else logged_cell(HIDDEN, v, c, 80, 3 + i)
+        for i, (v, c) in enumerate(KEYS)
+    )
+    d = diagnose(Outcomes(cells, "mixed"), SETTINGS, fake_mapper)
+    assert d.verdict.named == () and d.verdict.unchecked
