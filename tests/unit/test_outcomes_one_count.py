@@ -1,6 +1,7 @@
 """One informative count (the paper's table: one cell disagrees, no phases): an effect that fits it beyond
 chance is kept as an explanation and predicts the other cells, but is not named, since no fit cell is left
-to hold out; and a quiet fit cell, which the candidate leaves as it is, costs it nothing."""
+to hold out; one that does not hold on fresh seeds explains nothing; and a quiet fit cell, which the
+candidate leaves as it is, costs it nothing."""
 
 from __future__ import annotations
 
