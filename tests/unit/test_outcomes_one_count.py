@@ -100,3 +100,10 @@ def test_phases_of_held_out_cells_alone_leave_the_fit_cells_one_count() -> None:
     )
     d = diagnose(Outcomes(cells, "mixed"), SETTINGS, fake_mapper)
     assert d.verdict.named == () and d.verdict.unchecked
+
+
+def test_placed_counts_alone_name_the_effect_where_several_fit_cells_disagree() -> None:
+    """Fitted on the uncalibrated rows, the table's three counts hold each out in turn."""
+    settings = Settings(fit="uncalibrated", transfers=200, points=5)
+    d = diagnose(_table(HIDDEN), settings, fake_mapper)
+    assert [p.candidate.kind for p in d.verdict.named] == ["peg_compliance"] and not d.verdict.unchecked
