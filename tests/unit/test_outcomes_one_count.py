@@ -12,12 +12,12 @@ import numpy as np
 from pegbt.sim.world_effects import WorldEffects
 from pegbt.sim2real.outcomes.cells import Cell, Outcomes
 from pegbt.sim2real.outcomes.diagnose import FRESH_SEED, Settings, diagnose
-from pegbt.sim2real.outcomes.fit import Candidate, candidates, profile
+from pegbt.sim2real.outcomes.fit import LR_95, Candidate, candidates, profile
 from pegbt.sim2real.outcomes.likelihood import log_likelihood
 from pegbt.sim2real.outcomes.report import report_dict, report_markdown
 from pegbt.sim2real.outcomes.simulate import Task, simulate_cells
 from pegbt.sim2real.outcomes.transfer_result import TransferResult
-from tests.outcomes_helpers import fake_mapper, logged_cell, real_counts
+from tests.outcomes_helpers import fake_mapper, lift_success, logged_cell, rate_mapper, real_counts
 
 HIDDEN = WorldEffects.of({"peg_compliance": {"deflection": 0.0018}})
 KEYS = [(v, c) for v in ("unilateral", "bilateral", "handover") for c in ("uncalibrated", "calibrated")]
@@ -64,11 +64,33 @@ def test_a_quiet_cell_the_candidate_leaves_as_it_is_keeps_the_world_befores_like
     peg = next(c for c in candidates(4) if c.kind == "peg_compliance")
     fitted = profile(fake_mapper, peg, cells, 300, null, informative=1, quiet_transfers=20)
     assert fitted.per_cell.shape == (len(peg.grid), 2)
+    assert all(cells[1].key in sim for sim in fitted.sims)  # the quiet cell was simulated
     assert np.allclose(fitted.per_cell[:, 1], null[1])
     on_its_own = profile(
         fake_mapper, Candidate(peg.kind, peg.parameter, peg.grid), cells[1:], 20, null[1:], 1
     )
     assert on_its_own.per_cell[:, 0].max() < null[1]
+
+
+def _spoiling(world: WorldEffects, variant: str, condition: str) -> float:
+    """`lift_success`, where a bending peg also drops calibrated lifts, half of them at 3 mm."""
+    if condition == "calibrated":
+        return 1.0 - 0.5 * world.values("peg_compliance")["deflection"] / 0.003
+    return lift_success(world, variant, condition)
+
+
+def test_a_quiet_cell_the_candidate_spoils_costs_it_what_it_drops_there() -> None:
+    mapper = rate_mapper(_spoiling, "lift")
+    cells = [
+        logged_cell(HIDDEN, "unilateral", "uncalibrated", 400, 1),
+        logged_cell(HIDDEN, "unilateral", "calibrated", 400, 2),
+    ]
+    before = simulate_cells(mapper, [WorldEffects()], [c.key for c in cells], 300)[0]
+    null = np.array([log_likelihood(c, before[c.key], True) for c in cells])
+    peg = next(c for c in candidates(4) if c.kind == "peg_compliance")
+    fitted = profile(mapper, peg, cells, 300, null, informative=1, quiet_transfers=20)
+    quiet = fitted.per_cell[:, 1] - null[1]
+    assert quiet[-1] < -LR_95 and np.all(np.diff(quiet) <= 0)  # the more it bends, the more it costs
 
 
 def _lucky_on_the_fits_seeds(tasks: Sequence[Task]) -> list[list[TransferResult]]:
