@@ -17,7 +17,14 @@ from pegbt.sim2real.outcomes.likelihood import log_likelihood
 from pegbt.sim2real.outcomes.report import report_dict, report_markdown
 from pegbt.sim2real.outcomes.simulate import Task, simulate_cells
 from pegbt.sim2real.outcomes.transfer_result import TransferResult
-from tests.outcomes_helpers import fake_mapper, lift_success, logged_cell, rate_mapper, real_counts
+from tests.outcomes_helpers import (
+    failing_at,
+    fake_mapper,
+    lift_success,
+    logged_cell,
+    rate_mapper,
+    real_counts,
+)
 
 HIDDEN = WorldEffects.of({"peg_compliance": {"deflection": 0.0018}})
 KEYS = [(v, c) for v in ("unilateral", "bilateral", "handover") for c in ("uncalibrated", "calibrated")]
@@ -121,6 +128,17 @@ def test_phases_of_held_out_cells_alone_leave_the_fit_cells_one_count() -> None:
         for i, (v, c) in enumerate(KEYS)
     )
     d = diagnose(Outcomes(cells, "mixed"), SETTINGS, fake_mapper)
+    assert d.verdict.named == () and d.verdict.unchecked
+
+
+def test_phases_of_a_quiet_fit_cell_leave_the_loud_one_one_count() -> None:
+    cells = (
+        Cell("unilateral", "uncalibrated", 80, real_counts(HIDDEN, "unilateral", "uncalibrated", 80, 3)),
+        failing_at("lift", "unilateral", "calibrated", 80, 78),
+        *(logged_cell(HIDDEN, v, c, 80, 5 + i) for i, (v, c) in enumerate(KEYS[2:])),
+    )
+    d = diagnose(Outcomes(cells, "mixed"), SETTINGS, fake_mapper)
+    assert [r.phase for r in d.rows if r.variant == "unilateral" and r.phase] == ["lift"]  # the quiet cell's
     assert d.verdict.named == () and d.verdict.unchecked
 
 

@@ -122,9 +122,8 @@ def diagnose(
     settings = settings.for_campaign(max(c.attempted for c in fit_cells))
     before = _located(counting, cells, fit_cells, settings)
     rows = locate(cells, before)
-    keys = {c.key for c in fit_cells}
-    phases_known = settings.phases and any(r.phase and (r.variant, r.condition) in keys for r in rows)
-    opened = gate(fit_cells, before, phases_known)
+    phased = {(r.variant, r.condition) for r in rows if r.phase} if settings.phases else set()
+    opened = gate(fit_cells, before, bool(phased & {c.key for c in fit_cells}))
     if opened.opens:
         loud = set(opened.loud)
         ordered = [c for c in fit_cells if c.key in loud] + [c for c in fit_cells if c.key not in loud]
@@ -139,7 +138,7 @@ def diagnose(
             len(loud),
             Fresh(RANK_SEED, settings.located),
             settings.located,
-            checkable=len(loud) > 1 or phases_known,
+            checkable=len(loud) > 1 or bool(phased & loud),  # more than one informative count
         )
         fit_cells = tuple(ordered)
         informative = len(loud)
