@@ -122,8 +122,8 @@ def diagnose(
     settings = settings.for_campaign(max(c.attempted for c in fit_cells))
     before = _located(counting, cells, fit_cells, settings)
     rows = locate(cells, before)
-    phases_known = settings.phases and any(r.phase for r in rows)
-    opened = gate(fit_cells, before, phases_known)
+    phased = {(r.variant, r.condition) for r in rows if r.phase} if settings.phases else set()
+    opened = gate(fit_cells, before, bool(phased & {c.key for c in fit_cells}))
     if opened.opens:
         loud = set(opened.loud)
         ordered = [c for c in fit_cells if c.key in loud] + [c for c in fit_cells if c.key not in loud]
@@ -138,7 +138,7 @@ def diagnose(
             len(loud),
             Fresh(RANK_SEED, settings.located),
             settings.located,
-            checkable=len(loud) > 1 or phases_known,
+            checkable=len(loud) > 1 or bool(phased & loud),  # more than one informative count
         )
         fit_cells = tuple(ordered)
         informative = len(loud)
@@ -151,7 +151,8 @@ def diagnose(
         predictions, _ = predict(counting, [verdict.named[-1]], cells, settings.transfers)
     elif verdict.tied:
         predictions, each = predict(counting, list(verdict.tied), cells, settings.transfers)
-        predicted_by = {tied.label: alone for tied, alone in zip(verdict.tied, each)}
+        if len(verdict.tied) > 1:
+            predicted_by = {tied.label: alone for tied, alone in zip(verdict.tied, each)}
     else:
         predictions = predict_null(counting, before, cells)
     alternatives: list[Alternative] = []
@@ -221,7 +222,8 @@ def _replicated(
     the first is kept only if the pair also fits better than the second alone on fresh seeds: the first was
     chosen before the second was in the world, so an effect that only stood in for it (a registration
     offset beside a bending peg) is dropped, and the second is named at the value it was fitted alone.
-    An `unchecked` tie stays unnamed whichever of it holds: fresh seeds are no held-out fit cell."""
+    An `unchecked` tie stays unnamed whichever of it holds: fresh seeds are no held-out fit cell; and
+    unchecked no more once none of it holds, which leaves nothing explained."""
     worlds = [WorldEffects(), *(p.world() for p in (*verdict.named, *verdict.tied))]
     if len(worlds) > 1:  # one batch: each transfer's arm simulated once for every world (`bench.Replay`)
         simulate_cells(mapper, worlds, [c.key for c in cells], settings.located, first_seed=FRESH_SEED)
@@ -247,7 +249,8 @@ def _replicated(
         return verdict, ()
     if len(tied) == 1 and not verdict.unchecked:
         return replace(verdict, named=(tied[0],), tied=()), tuple(dropped)
-    return replace(verdict, named=tuple(kept), tied=tuple(tied)), tuple(dropped)
+    unchecked = verdict.unchecked and bool(tied)
+    return replace(verdict, named=tuple(kept), tied=tuple(tied), unchecked=unchecked), tuple(dropped)
 
 
 def _without(world: WorldEffects, named: Profile) -> WorldEffects:

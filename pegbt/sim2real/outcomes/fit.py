@@ -198,7 +198,7 @@ class Verdict:
     tied: tuple[Profile, ...]
     tried: tuple[Profile, ...]
     null: np.ndarray  # (cells,) the default world's log-likelihood per fit cell
-    passing: tuple[str, ...]  # candidates that passed both tests on their own
+    passing: tuple[str, ...]  # candidates that passed on their own (the χ² test alone if unchecked)
     unchecked: bool = False  # one informative count: the `tied` passed the χ² test with nothing to hold out
 
     def world(self) -> WorldEffects:
