@@ -50,8 +50,9 @@ from pegbt.sim2real.outcomes.diagnose import Diagnosis, Settings, diagnose
 from pegbt.sim2real.outcomes.fit import Profile
 from pegbt.sim2real.outcomes.simulate import CATEGORIES, LocalMapper, Mapper, category_of, simulate_cells
 
-# Every concealed value lies between the fit's grid values (`SETTINGS.points`; `fit.candidates`), so a
-# parameter error measures the estimate read between them, not a grid that happens to hold the truth.
+# Every concealed value lies between the fit's coarse grid values (`SETTINGS.points`; `fit.candidates`), so a
+# parameter error measures the estimate the refined profile gives (`fit.refined`), not a grid that happens
+# to hold the truth.
 FAMILIES: dict[str, dict[str, dict[str, float]]] = {
     "peg_compliance": {"peg_compliance": {"deflection": 0.0012}},
     "chamfer_capture": {"chamfer_capture": {"capture_radius": 0.0032}},

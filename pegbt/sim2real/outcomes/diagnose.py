@@ -31,8 +31,8 @@ RANK_SEED = 2_000_000  # where the fit ranks the additions that pass: neither th
 class Settings:
     """`fit`: which cells the fit sees (`all`, a variant or a condition); the rest are predicted.
     `transfers`: simulated transfers per cell and world in the fit; `located`: in the default world, which
-    every comparison is against (more, so a disagreement is seen); `points`: grid values per parameter;
-    The counts are sized for fit cells of up to `real` real transfers (`for_campaign`)."""
+    every comparison is against (more, so a disagreement is seen); `points`: grid values per parameter,
+    before each profile's maximum joins them (`fit.refined`). The counts are sized for fit cells of up to `real` real transfers (`for_campaign`)."""
 
     fit: str = "all"
     transfers: int = 16
