@@ -12,10 +12,10 @@ import numpy as np
 from pegbt.sim.world_effects import WorldEffects
 from pegbt.sim2real.outcomes.cells import Cell, Outcomes
 from pegbt.sim2real.outcomes.diagnose import FRESH_SEED, Settings, diagnose
-from pegbt.sim2real.outcomes.fit import LR_95, Candidate, candidates, profile
+from pegbt.sim2real.outcomes.fit import LR_95, Candidate, Profile, candidates, profile
 from pegbt.sim2real.outcomes.likelihood import log_likelihood
 from pegbt.sim2real.outcomes.report import report_dict, report_markdown
-from pegbt.sim2real.outcomes.simulate import Task, simulate_cells
+from pegbt.sim2real.outcomes.simulate import Mapper, Task, simulate_cells
 from pegbt.sim2real.outcomes.transfer_result import TransferResult
 from tests.outcomes_helpers import (
     failing_at,
@@ -59,17 +59,24 @@ def test_the_same_cells_with_their_failures_per_phase_name_the_effect() -> None:
     assert [p.candidate.kind for p in d.verdict.named] == ["peg_compliance"] and not d.verdict.unchecked
 
 
-def test_a_quiet_cell_the_candidate_leaves_as_it_is_keeps_the_world_befores_likelihood() -> None:
-    """The calibrated cell is simulated on a third of the fit's transfers; weighed on its own there it
-    would fall below the default world's (simulated on more) for the imprecision alone."""
+def _peg_with_a_quiet_cell(mapper: Mapper) -> tuple[list[Cell], np.ndarray, Candidate, Profile]:
+    """The bending peg profiled on a loud unilateral cell (300 transfers) and a quiet calibrated one (20),
+    against the default world on 300: the cells, the default world's log-likelihoods, the candidate and its
+    profile."""
     cells = [
         logged_cell(HIDDEN, "unilateral", "uncalibrated", 400, 1),
         logged_cell(HIDDEN, "unilateral", "calibrated", 400, 2),
     ]
-    before = simulate_cells(fake_mapper, [WorldEffects()], [c.key for c in cells], 300)[0]
+    before = simulate_cells(mapper, [WorldEffects()], [c.key for c in cells], 300)[0]
     null = np.array([log_likelihood(c, before[c.key], True) for c in cells])
     peg = next(c for c in candidates(4) if c.kind == "peg_compliance")
-    fitted = profile(fake_mapper, peg, cells, 300, null, informative=1, quiet_transfers=20)
+    return cells, null, peg, profile(mapper, peg, cells, 300, null, informative=1, quiet_transfers=20)
+
+
+def test_a_quiet_cell_the_candidate_leaves_as_it_is_keeps_the_world_befores_likelihood() -> None:
+    """The calibrated cell is simulated on a third of the fit's transfers; weighed on its own there it
+    would fall below the default world's (simulated on more) for the imprecision alone."""
+    cells, null, peg, fitted = _peg_with_a_quiet_cell(fake_mapper)
     assert fitted.per_cell.shape == (len(peg.grid), 2)
     assert all(cells[1].key in sim for sim in fitted.sims)  # the quiet cell was simulated
     assert np.allclose(fitted.per_cell[:, 1], null[1])
@@ -87,15 +94,7 @@ def _spoiling(world: WorldEffects, variant: str, condition: str) -> float:
 
 
 def test_a_quiet_cell_the_candidate_spoils_costs_it_what_it_drops_there() -> None:
-    mapper = rate_mapper(_spoiling, "lift")
-    cells = [
-        logged_cell(HIDDEN, "unilateral", "uncalibrated", 400, 1),
-        logged_cell(HIDDEN, "unilateral", "calibrated", 400, 2),
-    ]
-    before = simulate_cells(mapper, [WorldEffects()], [c.key for c in cells], 300)[0]
-    null = np.array([log_likelihood(c, before[c.key], True) for c in cells])
-    peg = next(c for c in candidates(4) if c.kind == "peg_compliance")
-    fitted = profile(mapper, peg, cells, 300, null, informative=1, quiet_transfers=20)
+    _, null, _, fitted = _peg_with_a_quiet_cell(rate_mapper(_spoiling, "lift"))
     quiet = fitted.per_cell[:, 1] - null[1]
     assert quiet[-1] < -LR_95 and np.all(np.diff(quiet) <= 0)  # the more it bends, the more it costs
 
