@@ -142,6 +142,7 @@ def report_dict(diagnosis: Diagnosis, commands: list[str] | None = None) -> dict
             for a in d.alternatives
         ],
         "unreplicated": list(d.unreplicated),
+        "tie": d.resolved,
         "unexplained": [
             {"variant": r.variant, "condition": r.condition, "phase": r.phase, "p_value": r.p_value}
             for r in d.unexplained
@@ -287,6 +288,8 @@ def _finding(d: Diagnosis) -> list[str]:
             "farthest allowed value it predicts them otherwise than the world without it, so no value is "
             "named and the held-out cells are predicted with each below."
         )
+    if d.resolved:
+        lines.append(d.resolved)
     if d.unreplicated:
         lines.append(
             f"Chosen by the fit but not named: {', '.join(d.unreplicated)}; simulated again on fresh seeds, "
