@@ -57,3 +57,17 @@ def test_worlds_that_place_alike_stay_tied() -> None:
 def test_an_unchecked_tie_decided_keeps_one_explanation_and_names_none() -> None:
     verdict, _ = _resolved(rate_mapper(_rate(0.25), "lift"), _tie(unchecked=True), _cells(), SETTINGS)
     assert verdict.named == () and [p.candidate.kind for p in verdict.tied] == ["peg_compliance"]
+
+
+def test_a_tied_path_decided_is_named_whole() -> None:
+    chamfer = Candidate("chamfer_capture", "capture_radius", (0.0032,))
+    first = Profile(PEG, PEG.grid, [{}], np.zeros((1, 1)))
+    end = Profile(chamfer, chamfer.grid, [{}], np.zeros((1, 1)), base=first.world())
+    grip = Profile(GRIP, GRIP.grid, [{}], np.zeros((1, 1)))
+    tie = Verdict(
+        (), (grip, end), (first, grip), np.zeros(1), (PEG.name, GRIP.name), paths=((grip,), (first, end))
+    )
+    verdict, said = _resolved(rate_mapper(_rate(0.25), "lift"), tie, _cells(), SETTINGS)
+    assert said.startswith("The tie is decided") and verdict.tied == ()
+    assert [p.candidate.kind for p in verdict.named] == ["peg_compliance", "chamfer_capture"]
+    assert {e.kind for e in verdict.world()} == {"peg_compliance", "chamfer_capture"}

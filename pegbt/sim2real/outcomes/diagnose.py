@@ -252,7 +252,7 @@ def _replicated(
     if not dropped:
         return verdict, ()
     if len(tied) == 1 and not verdict.unchecked:
-        return replace(verdict, named=(tied[0],), tied=()), tuple(dropped)
+        return replace(verdict, named=verdict.path_of(tied[0]), tied=()), tuple(dropped)
     unchecked = verdict.unchecked and bool(tied)
     return replace(verdict, named=tuple(kept), tied=tuple(tied), unchecked=unchecked), tuple(dropped)
 
@@ -284,7 +284,7 @@ def _resolved(
         return verdict, f"The tie stands: {said} (within {TIE:g})."
     if verdict.unchecked:
         return replace(verdict, tied=(best,)), f"The tie is decided: {said}."
-    return replace(verdict, named=(best,), tied=()), f"The tie is decided: {said}."
+    return replace(verdict, named=verdict.path_of(best), tied=()), f"The tie is decided: {said}."
 
 
 def _without(world: WorldEffects, named: Profile) -> WorldEffects:

@@ -200,6 +200,12 @@ class Verdict:
     null: np.ndarray  # (cells,) the default world's log-likelihood per fit cell
     passing: tuple[str, ...]  # candidates that passed on their own (the χ² test alone if unchecked)
     unchecked: bool = False  # one informative count: the `tied` passed the χ² test with nothing to hold out
+    paths: tuple[tuple[Profile, ...], ...] = ()  # each tied end's path, its effects in the order added
+
+    def path_of(self, end: Profile) -> tuple[Profile, ...]:
+        """The path that `end` (one of `tied`) ends: what is named when it alone is kept, since `named` is
+        read as a path (`world`, the report, the benchmark's score) and `end` alone holds only its own kind."""
+        return next((path for path in self.paths if path[-1] is end), (end,))
 
     def world(self) -> WorldEffects:
         """The fitted world: every named effect at its estimate."""
@@ -459,7 +465,8 @@ def fit(
     tried = tuple(alone.get(p.candidate.name, p) for p in screened_alone)
     ends = _distinct([path[-1] for path in done])
     if len(ends) > 1 or (ends and not checkable):
-        return Verdict((), tuple(ends), tried, null, names, unchecked=not checkable)
+        whole = tuple(tuple(next(path for path in done if path[-1] is end)) for end in ends)
+        return Verdict((), tuple(ends), tried, null, names, unchecked=not checkable, paths=whole)
     if not ends:
         return Verdict((), (), tried, null, names)
     path = next(path for path in done if path[-1] is ends[0])
