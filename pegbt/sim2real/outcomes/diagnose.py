@@ -33,7 +33,8 @@ class Settings:
     """`fit`: which cells the fit sees (`all`, a variant or a condition); the rest are predicted.
     `transfers`: simulated transfers per cell and world in the fit; `located`: in the default world, which
     every comparison is against (more, so a disagreement is seen); `points`: grid values per parameter,
-    before each profile's maximum joins them (`fit.refined`). The counts are sized for fit cells of up to `real` real transfers (`for_campaign`)."""
+    before each profile's maximum joins them (`fit.refined`). The counts are sized for fit cells of up to
+    `real` real transfers (`for_campaign`)."""
 
     fit: str = "all"
     transfers: int = 16

@@ -464,13 +464,12 @@ def fit(
     names = tuple(p.candidate.name for p in first)
     tried = tuple(alone.get(p.candidate.name, p) for p in screened_alone)
     ends = _distinct([path[-1] for path in done])
+    whole = tuple(next(tuple(path) for path in done if path[-1] is end) for end in ends)
     if len(ends) > 1 or (ends and not checkable):
-        whole = tuple(tuple(next(path for path in done if path[-1] is end)) for end in ends)
         return Verdict((), tuple(ends), tried, null, names, unchecked=not checkable, paths=whole)
     if not ends:
         return Verdict((), (), tried, null, names)
-    path = next(path for path in done if path[-1] is ends[0])
-    return Verdict(tuple(path), (), tried, null, names)
+    return Verdict(whole[0], (), tried, null, names)
 
 
 def ranked_on_fresh_seeds(
