@@ -24,6 +24,9 @@ from pegbt.motion.waypoints import TransferWaypoints
 STOP_Z = -0.120  # m, `height_ready` of all three motion scripts: where the carry stops and the look is taken
 # m, `height_drop` by script: where the tip stops before the jaw opens
 DROP_Z = {"unilateral": -0.130, "bilateral": -0.135, "handover": -0.138}
+# an axis rising less than this per unit of its length is too near horizontal to reach a z along (a 1 cm change
+# of z would move the point over 1 m)
+MIN_AXIS_RISE = 0.01
 
 
 def paper_variant(variant: str) -> str:
@@ -36,8 +39,16 @@ def paper_variant(variant: str) -> str:
 
 
 def along_to_z(point: ArrayLike, z: float, along: ArrayLike) -> NDArray[np.float64]:
-    """`point` (arm frame) moved along `along` until its z in the arm's frame is `z`."""
+    """`point` (arm frame) moved along `along` until its z in the arm's frame is `z`; a `PegbtError` if
+    `along` barely rises (`MIN_AXIS_RISE`), where the move would be huge or infinite."""
     point, along = np.asarray(point, dtype=float), np.asarray(along, dtype=float)
+    length = float(np.linalg.norm(along))
+    if not abs(along[2]) >= MIN_AXIS_RISE * length > 0:
+        raise PegbtError(
+            f"the axis {along.tolist()} rises {along[2]:.3g} per {length:.3g} of its length (at least "
+            f"{MIN_AXIS_RISE:g} needed): it cannot reach z = {z:.4g} m from z = {point[2]:.4g} m",
+            field="axis",
+        )
     return point + (z - point[2]) / along[2] * along
 
 

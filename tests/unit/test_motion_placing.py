@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from pegbt.errors import PegbtError
-from pegbt.motion.placing import paper_heights, straight_down
+from pegbt.motion.placing import MIN_AXIS_RISE, along_to_z, paper_heights, straight_down
 from pegbt.motion.waypoints import placement_waypoints, tool_down_rotation, transfer_waypoints
 
 UP = np.array([0.02, -0.01, 1.0]) / np.linalg.norm([0.02, -0.01, 1.0])  # a board leaning 1.3 degrees
@@ -54,3 +54,19 @@ def test_straight_down_puts_the_tool_along_the_base_s_z_over_the_place_point() -
     assert not np.allclose(carry.poses[3, :3, :3], tool_down_rotation(0.0))  # the pegs' axis leans
     assert paper.place.point == pytest.approx(paper.poses[3, :3, 3], abs=1e-12)
     assert np.array_equal(paper.poses[:2], carry.poses[:2])
+
+
+@pytest.mark.parametrize(
+    "axis", [[1.0, 0.0, 0.0], [1.0, 0.0, 1e-12], [0.0, -2.0, 0.9 * MIN_AXIS_RISE * 2.0], [0.0, 0.0, 0.0]]
+)
+def test_an_axis_that_barely_rises_cannot_reach_a_z(axis: list[float]) -> None:
+    with pytest.raises(PegbtError, match="cannot reach z = -0.12 m") as raised:
+        along_to_z(PICK_TOP, -0.120, axis)
+    assert raised.value.field == "axis"
+
+
+def test_an_axis_that_rises_enough_reaches_the_z_along_itself() -> None:
+    axis = np.array([0.0, -2.0, 1.1 * MIN_AXIS_RISE * 2.0])
+    moved = along_to_z(PICK_TOP, -0.120, axis)
+    assert moved[2] == pytest.approx(-0.120, abs=1e-12)
+    assert np.cross(moved - PICK_TOP, axis) == pytest.approx(np.zeros(3), abs=1e-12)
