@@ -8,8 +8,9 @@ import logging
 
 import pytest
 
+from pegbt.errors import PegbtError
 from pegbt.sim.world_effects import WorldEffects
-from pegbt.sim2real.outcomes.paperpairs import action_partner
+from pegbt.sim2real.outcomes.paperpairs import action_partner, partners_skipped
 from pegbt.sim2real.outcomes.phasesim import simulate_transfer
 from pegbt.sim2real.outcomes.transfer_order import transfers
 
@@ -64,3 +65,22 @@ def test_a_way_back_whose_pair_was_placed_is_attempted() -> None:
     assert paper(CHAMFERS, 0, 1) == (True, False)
     assert paper(CHAMFERS, 0, 4) == (True, False)
     assert not paper(CHAMFERS, 0, 7)[1]
+
+
+def _trial(*pegs: tuple[int, int]) -> list[dict[str, int]]:
+    return [{"index": index, "pick": pick, "place": place} for index, (pick, place) in enumerate(pegs)]
+
+
+def test_a_skipped_transfer_the_trial_or_the_order_does_not_know_is_an_error_naming_it() -> None:
+    """A caller's bug, not a transfer to pass over: its partner would be counted as attempted."""
+    trial = _trial((0, 7), (1, 8), (7, 0), (8, 1))
+    assert partners_skipped("bilateral", trial, {2}) == {3}
+    with pytest.raises(
+        PegbtError, match=r"skipped transfer 5 is not one of the trial's transfers \(\[0, 1, 2, 3\]\)"
+    ):
+        partners_skipped("bilateral", trial, {2, 5})
+    with pytest.raises(
+        PegbtError, match=r"skipped transfer 1 \(1 -> 7\) is not one of bilateral's transfers"
+    ) as raised:
+        partners_skipped("bilateral", _trial((0, 7), (1, 7)), {1})
+    assert raised.value.field == "skipped"

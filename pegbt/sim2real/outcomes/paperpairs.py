@@ -14,6 +14,7 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from typing import Any
 
+from pegbt.errors import PegbtError
 from pegbt.sim2real.outcomes.transfer_order import arms_at_once
 from pegbt.sim2real.outcomes.transfer_order import transfers as transfers_of
 
@@ -33,16 +34,35 @@ def action_partner(variant: str, index: int) -> int | None:
 def partners_skipped(variant: str, transfers: Sequence[Mapping[str, Any]], skipped: set[int]) -> set[int]:
     """The transfers of a trial (`index`, `pick`, `place`) whose action partner is among `skipped`: the
     paper's robot moves both blocks of a pair or neither. A transfer is known by its pegs, which name one
-    transfer of `variant`'s order."""
+    transfer of `variant`'s order; a skipped index that is not one of `transfers`, or whose pegs are not,
+    is a `PegbtError` (a partner left unskipped would be counted as attempted)."""
     if arms_at_once(variant) == 1 or not skipped:
         return set()
     order = [(start, goal) for _, start, goal in transfers_of(variant)]
-    index_of = {(int(t["pick"]), int(t["place"])): int(t["index"]) for t in transfers}
-    pegs_of = {index: pegs for pegs, index in index_of.items()}
+    pegs_of = {int(t["index"]): (int(t["pick"]), int(t["place"])) for t in transfers}
+    index_of = {pegs: index for index, pegs in pegs_of.items()}
     partners = set()
-    for index in skipped:
-        if index in pegs_of and pegs_of[index] in order:
-            partner = action_partner(variant, order.index(pegs_of[index]))
-            if partner is not None and order[partner] in index_of:
-                partners.add(index_of[order[partner]])
+    for index in sorted(skipped):
+        partner = action_partner(variant, _order_index(variant, order, pegs_of, index))
+        if partner is not None and order[partner] in index_of:
+            partners.add(index_of[order[partner]])
     return partners - skipped
+
+
+def _order_index(
+    variant: str, order: list[tuple[int, int]], pegs_of: Mapping[int, tuple[int, int]], index: int
+) -> int:
+    """Where the trial's transfer `index` (its pegs `pegs_of[index]`) is in `variant`'s `order`."""
+    if index not in pegs_of:
+        raise PegbtError(
+            f"skipped transfer {index} is not one of the trial's transfers ({sorted(pegs_of)})",
+            field="skipped",
+        )
+    if pegs_of[index] not in order:
+        pick, place = pegs_of[index]
+        raise PegbtError(
+            f"skipped transfer {index} ({pick} -> {place}) is not one of {variant}'s transfers "
+            "(trees/shared/orders.yaml)",
+            field="skipped",
+        )
+    return order.index(pegs_of[index])
