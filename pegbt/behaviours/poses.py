@@ -9,6 +9,7 @@ height, and it is lifted the same way.
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -76,6 +77,23 @@ def tool_pose(position: ArrayLike, yaw: float, up: NDArray[np.float64]) -> NDArr
     return rigid_transform(tool_down_rotation(yaw, up), position)
 
 
+class Pick(NamedTuple):
+    """Where a transfer takes a block, arm frame: the top of the block's axis, the tip's offset from it and
+    the tool's yaw about the pegs' axis."""
+
+    top: NDArray[np.float64]
+    offset: NDArray[np.float64]
+    yaw: float
+
+
+def pick_of(
+    cell: Workcell, arm: str, board: BoardEstimate | None, block: BlockEstimate, grasp: Grasp
+) -> Pick:
+    """The `Pick` of `block` held at `grasp` by `arm`: what every way of carrying it starts from."""
+    top = to_arm(cell, arm, block_axis_top(cell, board, block))
+    return Pick(top, grasp.position - top, yaw_about(grasp.pose[:3, :3], cell.up_in(arm)))
+
+
 def transfer_for(
     cell: Workcell,
     motion: MotionSettings,
@@ -88,19 +106,16 @@ def transfer_for(
     """The transfer of `block`, held at `grasp`, onto `place_peg`: the block keeps its yaw, so the tool
     keeps its yaw and its offset from the block's axis. Without `place_peg`, only the pick side (grasp,
     approach, lifted) is meaningful: the block would be put back where it is."""
-    up = cell.up_in(arm)
-    pick_top = to_arm(cell, arm, block_axis_top(cell, board, block))
-    offset = grasp.position - pick_top
-    yaw = yaw_about(grasp.pose[:3, :3], up)
-    place_top = pick_top if place_peg is None else to_arm(cell, arm, peg_top_board(cell, board, place_peg))
+    pick = pick_of(cell, arm, board, block, grasp)
+    place_top = pick.top if place_peg is None else to_arm(cell, arm, peg_top_board(cell, board, place_peg))
     return transfer_waypoints(
-        pick_top,
+        pick.top,
         place_top,
-        pick_offset=offset,
-        place_offset=offset,
-        pick_yaw=yaw,
-        place_yaw=yaw,
-        up=up,
+        pick_offset=pick.offset,
+        place_offset=pick.offset,
+        pick_yaw=pick.yaw,
+        place_yaw=pick.yaw,
+        up=cell.up_in(arm),
         heights=motion.transfer,
     )
 

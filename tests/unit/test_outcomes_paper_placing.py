@@ -8,17 +8,22 @@ from __future__ import annotations
 import logging
 import math
 
+import numpy as np
 import pytest
 
-from pegbt.behaviours.poses import yaw_about
+from pegbt.behaviours.poses import pick_of, transfer_for, yaw_about
 from pegbt.behaviours.resources.arm_motion import ArmMotion
 from pegbt.motion.ik import solve_ik
 from pegbt.motion.kinematics import forward_kinematics
 from pegbt.motion.limits import arm_settings
+from pegbt.motion.settings import motion_settings
 from pegbt.motion.trajectory import Trajectory
 from pegbt.motion.waypoints import TransferWaypoints
+from pegbt.perception.blocks import BlockEstimate
+from pegbt.perception.grasp import grasp_options
 from pegbt.sim.world import World
 from pegbt.sim.world_effects import WorldEffects
+from pegbt.sim2real.outcomes.paperplacing import paper_transfer
 from pegbt.sim2real.outcomes.phasesim import simulate_transfer
 from pegbt.sim2real.outcomes.transfer_result import TransferResult
 from pegbt.workcell import load_workcell
@@ -104,3 +109,20 @@ def test_the_paper_places_with_the_recorded_wrist_at_its_heights_in_the_arms_fra
         axis = forward_kinematics(q)[:3, 2]  # the tool's axis (R = I points it straight down)
         assert axis == pytest.approx([0.0, 0.0, 1.0], abs=1e-9)
         assert max(abs(q[3]), abs(q[4] + q[1]), abs(q[5] + q[0])) < 1e-6
+
+
+def test_the_paper_s_carry_and_pegbt_s_take_the_block_from_the_same_pick() -> None:
+    """Both start from `pick_of`: the tip at its grasp, lifted at the grasp's yaw; only the placing differs."""
+    cell, motion = load_workcell(), motion_settings()
+    block = BlockEstimate(
+        np.array([*cell.pegs.positions[2], cell.board.surface_z]), 0.3, 2, 1.0, 0.0, 0, True, ""
+    )
+    for grasp in grasp_options(block.pose, "PSM1", cell)[:3]:
+        pick = pick_of(cell, "PSM1", None, block, grasp)
+        assert pick.top + pick.offset == pytest.approx(grasp.position, abs=1e-12)
+        paper = paper_transfer(cell, motion, "PSM1", block, grasp, 8, "unilateral")
+        ours = transfer_for(cell, motion, "PSM1", None, block, grasp, 8)
+        assert paper.poses[0] == pytest.approx(grasp.pose, abs=1e-12)
+        assert np.array_equal(paper.poses[0], ours.poses[0])
+        assert np.array_equal(paper.poses[1][:3, :3], ours.poses[1][:3, :3])
+        assert not np.allclose(paper.poses[3], ours.poses[3])

@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from pegbt.behaviours.poses import block_axis_top, peg_top_board, to_arm, yaw_about
+from pegbt.behaviours.poses import peg_top_board, pick_of, to_arm, yaw_about
 from pegbt.motion.placing import paper_heights, straight_down
 from pegbt.motion.settings import MotionSettings
 from pegbt.motion.waypoints import (
@@ -55,19 +55,15 @@ def paper_transfer(
     its offset from the block's turned with the tool, at `variant`'s heights (`paper_heights`,
     `straight_down`); `motion`: the rest of the waypoints' settings."""
     up = cell.up_in(arm)
-    pick_top = to_arm(cell, arm, block_axis_top(cell, None, block))
-    offset = grasp.position - pick_top
-    yaw = yaw_about(grasp.pose[:3, :3], up)
-    place, turned = (
-        to_arm(cell, arm, peg_top_board(cell, None, place_peg)),
-        turned_to_placing(offset, yaw, up),
-    )
+    pick = pick_of(cell, arm, None, block, grasp)
+    place = to_arm(cell, arm, peg_top_board(cell, None, place_peg))
+    turned = turned_to_placing(pick.offset, pick.yaw, up)
     waypoints = transfer_waypoints(
-        pick_top,
+        pick.top,
         place,
-        pick_offset=offset,
+        pick_offset=pick.offset,
         place_offset=turned,
-        pick_yaw=yaw,
+        pick_yaw=pick.yaw,
         place_yaw=PLACING_YAW,
         up=up,
         heights=motion.transfer,
