@@ -1,6 +1,7 @@
 """Of two effects named one after the other, the first must still earn its place once the second is in the
 world: a registration offset chosen first (it raises the rate part of the way) and a bending peg added on
-top is, where the peg alone does as well, the peg alone (the concealed campaign's false discovery)."""
+top is, where the peg alone does as well, the peg alone (the concealed campaign's false discovery). So is
+such a path that ended a tie and is named whole, kept alone on fresh seeds or deciding the tie."""
 
 from __future__ import annotations
 
@@ -10,7 +11,7 @@ import numpy as np
 
 from pegbt.sim.world_effects import WorldEffects
 from pegbt.sim2real.outcomes.cells import Cell
-from pegbt.sim2real.outcomes.diagnose import Settings, _replicated
+from pegbt.sim2real.outcomes.diagnose import Settings, _replicated, _resolved
 from pegbt.sim2real.outcomes.fit import Candidate, Profile, Verdict
 from pegbt.sim2real.outcomes.phasesim import TransferResult
 from tests.outcomes_helpers import lift_success
@@ -18,6 +19,7 @@ from tests.outcomes_helpers import lift_success
 PEG = WorldEffects.of({"peg_compliance": {"deflection": 0.0015}})
 OFFSET = Candidate("registration_offset", "x", (0.001,))
 BENDING = Candidate("peg_compliance", "deflection", (0.0015,))
+GRIP = Candidate("grip_compliance", "displacement", (0.0015,))  # changes nothing here
 SETTINGS = Settings(fit="unilateral", transfers=16, located=240, points=4)
 
 
@@ -88,3 +90,25 @@ def test_two_effects_that_both_act_are_both_kept() -> None:
     kept, dropped = _replicated(adding, verdict, cells, SETTINGS, None)
     assert [p.candidate.kind for p in kept.named] == ["registration_offset", "peg_compliance"]
     assert dropped == ()
+
+
+def _tied_path() -> Verdict:
+    """A tie between a yielding grip and the path of an offset then a bending peg on top, whose offset
+    only stands in for the peg; the peg was also fitted alone."""
+    offset, grip = _profile(OFFSET), _profile(GRIP)
+    end = _profile(BENDING, offset.world())
+    tried = (offset, _profile(BENDING), grip)
+    return Verdict((), (grip, end), tried, np.zeros(2), (), paths=((grip,), (offset, end)))
+
+
+def test_a_tied_path_kept_alone_whose_first_effect_only_stood_in_is_named_as_its_second() -> None:
+    kept, dropped = _replicated(stand_in_mapper, _tied_path(), _cells(), SETTINGS, None)
+    assert [p.world() for p in kept.named] == [PEG] and kept.tied == ()
+    assert dropped == ("grip_compliance.displacement", "registration_offset.x")
+
+
+def test_a_tie_decided_for_a_path_whose_first_effect_only_stood_in_names_its_second() -> None:
+    verdict, said, dropped = _resolved(stand_in_mapper, _tied_path(), _cells(), SETTINGS)
+    assert said.startswith("The tie is decided") and verdict.tied == ()
+    assert [p.world() for p in verdict.named] == [PEG]
+    assert dropped == ("registration_offset.x",)

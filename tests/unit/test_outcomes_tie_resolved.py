@@ -39,13 +39,13 @@ def _cells() -> list[Cell]:
 def test_a_tie_the_real_counts_can_decide_is_decided_on_as_many_simulated_transfers() -> None:
     cells = _cells()
     assert 0.3 < cells[0].rate < 0.5
-    verdict, said = _resolved(rate_mapper(_rate(0.25), "lift"), _tie(), cells, SETTINGS)
+    verdict, said, _ = _resolved(rate_mapper(_rate(0.25), "lift"), _tie(), cells, SETTINGS)
     assert [p.candidate.kind for p in verdict.named] == ["peg_compliance"] and verdict.tied == ()
     assert said.startswith("The tie is decided: on 600 fresh simulated transfers a fit cell peg_compliance")
 
 
 def test_worlds_that_place_alike_stay_tied() -> None:
-    verdict, said = _resolved(
+    verdict, said, _ = _resolved(
         rate_mapper(_rate(lift_success(HIDDEN, "unilateral", "uncalibrated")), "lift"),
         _tie(),
         _cells(),
@@ -55,7 +55,7 @@ def test_worlds_that_place_alike_stay_tied() -> None:
 
 
 def test_an_unchecked_tie_decided_keeps_one_explanation_and_names_none() -> None:
-    verdict, _ = _resolved(rate_mapper(_rate(0.25), "lift"), _tie(unchecked=True), _cells(), SETTINGS)
+    verdict, _, _ = _resolved(rate_mapper(_rate(0.25), "lift"), _tie(unchecked=True), _cells(), SETTINGS)
     assert verdict.named == () and [p.candidate.kind for p in verdict.tied] == ["peg_compliance"]
 
 
@@ -67,7 +67,7 @@ def test_a_tied_path_decided_is_named_whole() -> None:
     tie = Verdict(
         (), (grip, end), (first, grip), np.zeros(1), (PEG.name, GRIP.name), paths=((grip,), (first, end))
     )
-    verdict, said = _resolved(rate_mapper(_rate(0.25), "lift"), tie, _cells(), SETTINGS)
-    assert said.startswith("The tie is decided") and verdict.tied == ()
+    verdict, said, dropped = _resolved(rate_mapper(_rate(0.25), "lift"), tie, _cells(), SETTINGS)
+    assert said.startswith("The tie is decided") and verdict.tied == () and dropped == ()
     assert [p.candidate.kind for p in verdict.named] == ["peg_compliance", "chamfer_capture"]
     assert {e.kind for e in verdict.world()} == {"peg_compliance", "chamfer_capture"}

@@ -149,7 +149,8 @@ def diagnose(
         informative = len(fit_cells)
         verdict = Verdict((), (), (), _null(fit_cells, before, settings.phases), ())
     verdict, unreplicated = _replicated(counting, verdict, fit_cells, settings, progress)
-    verdict, resolved = _resolved(counting, verdict, fit_cells, settings)
+    verdict, resolved, stood_in = _resolved(counting, verdict, fit_cells, settings, progress)
+    unreplicated += stood_in
     predicted_by: dict[str, dict[Key, Prediction]] = {}
     if verdict.named:
         predictions, _ = predict(counting, [verdict.named[-1]], cells, settings.transfers)
@@ -223,10 +224,8 @@ def _replicated(
     does). Each is simulated again at its fitted value on fresh seeds beside the world before it (the
     default world, or for a second effect the first), `located` transfers per fit cell each, and kept only
     if it still fits the fit cells better beyond chance (the same χ² test). A named effect that fails takes
-    those named after it along; of tied effects, the one that alone holds is named. Of two named effects
-    the first is kept only if the pair also fits better than the second alone on fresh seeds: the first was
-    chosen before the second was in the world, so an effect that only stood in for it (a registration
-    offset beside a bending peg) is dropped, and the second is named at the value it was fitted alone.
+    those named after it along; of tied effects, the one that alone holds is named with its path. Of two
+    effects named so, one after the other, the first must also earn its place beside the second (`_paired`).
     An `unchecked` tie stays unnamed whichever of it holds: fresh seeds are no held-out fit cell; and
     unchecked no more once none of it holds, which leaves nothing explained."""
     worlds = [WorldEffects(), *(p.world() for p in (*verdict.named, *verdict.tied))]
@@ -241,35 +240,59 @@ def _replicated(
             base = fitted.world()
         else:
             dropped.append(fitted.candidate.name)
-    if len(kept) == 2 and not _holds(
-        mapper, _without(kept[-1].world(), kept[0]), kept[-1], cells, settings, progress
-    ):
-        alone = next((p for p in verdict.tried if p.candidate.name == kept[-1].candidate.name), None)
-        if alone is not None:
-            dropped.append(kept[0].candidate.name)
-            kept = [alone]
+    named, stood_in = _paired(mapper, verdict, kept, cells, settings, progress)
+    dropped += stood_in
     tied = [t for t in verdict.tied if _holds(mapper, WorldEffects(), t, cells, settings, progress)]
     dropped += [t.candidate.name for t in verdict.tied if t not in tied]
     if not dropped:
         return verdict, ()
     if len(tied) == 1 and not verdict.unchecked:
-        return replace(verdict, named=verdict.path_of(tied[0]), tied=()), tuple(dropped)
+        named, stood_in = _paired(mapper, verdict, verdict.path_of(tied[0]), cells, settings, progress)
+        return replace(verdict, named=named, tied=()), (*dropped, *stood_in)
     unchecked = verdict.unchecked and bool(tied)
-    return replace(verdict, named=tuple(kept), tied=tuple(tied), unchecked=unchecked), tuple(dropped)
+    return replace(verdict, named=named, tied=tuple(tied), unchecked=unchecked), tuple(dropped)
+
+
+def _paired(
+    mapper: Mapper,
+    verdict: Verdict,
+    path: Sequence[Profile],
+    cells: Sequence[Cell],
+    settings: Settings,
+    progress: Callable[[str], None] | None,
+) -> tuple[tuple[Profile, ...], tuple[str, ...]]:
+    """What is named of `path` (effects in the order the fit added them), and the effect dropped from it.
+    Of two, the first is kept only if the pair also fits better than the second alone on fresh seeds: the
+    first was chosen before the second was in the world, so an effect that only stood in for it (a
+    registration offset beside a bending peg) is dropped, and the second is named at the value it was
+    fitted alone (`verdict.tried`). Named and tied paths alike: a tie does not make the first earn its place."""
+    if len(path) != 2 or _holds(
+        mapper, _without(path[-1].world(), path[0]), path[-1], cells, settings, progress
+    ):
+        return tuple(path), ()
+    alone = next((p for p in verdict.tried if p.candidate.name == path[-1].candidate.name), None)
+    if alone is None:
+        return tuple(path), ()
+    return (alone,), (path[0].candidate.name,)
 
 
 def _resolved(
-    mapper: Mapper, verdict: Verdict, cells: Sequence[Cell], settings: Settings
-) -> tuple[Verdict, str]:
+    mapper: Mapper,
+    verdict: Verdict,
+    cells: Sequence[Cell],
+    settings: Settings,
+    progress: Callable[[str], None] | None = None,
+) -> tuple[Verdict, str, tuple[str, ...]]:
     """A tie weighed again where only the real counts can leave it: each tied world simulated on fresh seeds,
     as many transfers a fit cell as the largest real fit cell holds (at least `located`). The fit's tie is
     read on a few dozen simulated transfers a world, whose own noise can hide a difference the real counts
     show (the benchmark's yielding grip, tied at 0.6 log units on 46, led a bending peg by 1.7 and 1.9 on two
     sets of 400); with the simulated side as precise as the real one, worlds still within `TIE` are ones
     the data cannot tell apart. One that leads the others by `TIE` or more stands alone: named, or the one
-    explanation if `unchecked`."""
+    explanation if `unchecked`; a named two-effect path is checked as a pair (`_paired`), and what that drops
+    is returned with the verdict and what is said of the tie."""
     if len(verdict.tied) < 2:
-        return verdict, ""
+        return verdict, "", ()
     size = max(settings.located, max(c.attempted for c in cells))
     keys = [c.key for c in cells]
     sims = simulate_cells(mapper, [t.world() for t in verdict.tied], keys, size, first_seed=TIE_SEED)
@@ -282,10 +305,11 @@ def _resolved(
         f"{lead:.1f} log units"
     )
     if lead < TIE:
-        return verdict, f"The tie stands: {said} (within {TIE:g})."
+        return verdict, f"The tie stands: {said} (within {TIE:g}).", ()
     if verdict.unchecked:
-        return replace(verdict, tied=(best,)), f"The tie is decided: {said}."
-    return replace(verdict, named=verdict.path_of(best), tied=()), f"The tie is decided: {said}."
+        return replace(verdict, tied=(best,)), f"The tie is decided: {said}.", ()
+    named, stood_in = _paired(mapper, verdict, verdict.path_of(best), cells, settings, progress)
+    return replace(verdict, named=named, tied=()), f"The tie is decided: {said}.", stood_in
 
 
 def _without(world: WorldEffects, named: Profile) -> WorldEffects:
