@@ -198,6 +198,19 @@ def test_a_paper_protocol_tick_log_whose_transfer_names_no_pick_peg_is_refused_o
     end = path.read_text().splitlines()[1]
     tick = {"type": "tick", "n": 1, "t": 0.0, "changes": [[1, "INVALID", "SUCCESS", ""]]}
     path.write_text(path.read_text().splitlines()[0] + "\n" + json.dumps(tick) + "\n" + end + "\n")
-    with pytest.raises(TickLogError, match="names pick None and place 7, not two pegs") as raised:
+    with pytest.raises(TickLogError, match="names pick None and place 7, not one of unilateral's") as raised:
+        read_tick_logs(tmp_path)
+    assert (raised.value.file, raised.value.field) == (str(path), "nodes[1].params")
+    nodes[1]["params"] = {"pick": 1, "place": 2}  # two pegs, but no transfer of the paper's order
+    path.write_text(
+        "\n".join(
+            [
+                json.dumps({**json.loads(path.read_text().splitlines()[0]), "nodes": nodes}),
+                *path.read_text().splitlines()[1:],
+            ]
+        )
+        + "\n"
+    )
+    with pytest.raises(TickLogError, match="names pick 1 and place 2, not one of unilateral's") as raised:
         read_tick_logs(tmp_path)
     assert (raised.value.file, raised.value.field) == (str(path), "nodes[1].params")

@@ -18,6 +18,7 @@ from pegbt.executive.phases import TransferOutcome, begun_transfers, transfer_ou
 from pegbt.runconditions import CONDITIONS, VARIANTS
 from pegbt.sim2real.outcomes.cells import Cell, Outcomes
 from pegbt.sim2real.outcomes.confirm import ways_back_skipped
+from pegbt.sim2real.outcomes.transfer_order import transfers as transfers_of
 
 TRUTH_SUFFIX = ".truth.jsonl"
 
@@ -91,22 +92,24 @@ def _skipped(log: TickLog, outcomes: list[TransferOutcome], variant: str) -> set
     begun = begun_transfers(log)
     return ways_back_skipped(
         [
-            {"index": outcome.transfer, **_pegs(log, begin), "succeeded": outcome.succeeded}
+            {"index": outcome.transfer, **_pegs(log, begin, variant), "succeeded": outcome.succeeded}
             for begin, outcome in zip(begun, outcomes, strict=True)
         ],
         variant,
     )
 
 
-def _pegs(log: TickLog, begin: dict[str, Any]) -> dict[str, int]:
-    """The pick and place pegs a `begin_transfer` node of `log` names, else a `TickLogError` on the node:
-    the paper's count follows the blocks from peg to peg."""
+def _pegs(log: TickLog, begin: dict[str, Any], variant: str) -> dict[str, int]:
+    """The pick and place pegs a `begin_transfer` node of `log` names, one of `variant`'s transfers, else a
+    `TickLogError` on the node: the paper's count follows the blocks from peg to peg in the paper's order
+    (`trees/shared/orders.yaml`), which also pairs a bilateral trial's transfers."""
     params = begin.get("params")
     pick, place = (params.get(name) if isinstance(params, dict) else None for name in ("pick", "place"))
-    if _peg(pick) and _peg(place):
+    if _peg(pick) and _peg(place) and (pick, place) in {(a, b) for _, a, b in transfers_of(variant)}:
         return {"pick": pick, "place": place}
     raise TickLogError(
-        f"its begin_transfer node {begin.get('id')} names pick {pick!r} and place {place!r}, not two pegs",
+        f"its begin_transfer node {begin.get('id')} names pick {pick!r} and place {place!r}, not one of "
+        f"{variant}'s transfers under the paper's protocol (trees/shared/orders.yaml)",
         file=log.path,
         line=1,
         field=f"nodes[{begin.get('id')}].params",
