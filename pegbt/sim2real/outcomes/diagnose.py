@@ -161,13 +161,13 @@ def diagnose(
     else:
         predictions = predict_null(counting, before, cells)
     alternatives: list[Alternative] = []
-    if verdict.tried and not verdict.tied and held_out:
+    if verdict.tried and len(verdict.tied) <= 1 and held_out:
         alternatives = _alternatives(counting, verdict, fit_cells, held_out, settings, informative)
     if alternatives:
-        fitted = verdict.named[-1].label if verdict.named else "default world"
+        explanation = verdict.explanation
         predicted_by = {
-            fitted: predictions
-            if verdict.named
+            explanation.label if explanation else "default world": predictions
+            if explanation
             else predict_world(counting, WorldEffects(), cells, settings.transfers),
             **{a.label: predict_world(counting, a.world(), cells, settings.transfers) for a in alternatives},
         }
@@ -200,9 +200,9 @@ def _alternatives(
     settings: Settings,
     informative: int,
 ) -> list[Alternative]:
-    """The effects the fit cells leave open on top of the fitted world (the default world if nothing is
-    named) that change a held-out cell's simulated counts."""
-    last = verdict.named[-1] if verdict.named else None
+    """The effects the fit cells leave open on top of the world that explains them (`Verdict.explanation`;
+    the default world if none does) that change a held-out cell's simulated counts."""
+    last = verdict.explanation
     base = last.world() if last is not None else WorldEffects()
     before = last.per_cell[last.best] if last is not None else verdict.null
     allowed = open_effects(

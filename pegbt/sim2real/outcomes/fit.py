@@ -207,6 +207,15 @@ class Verdict:
         read as a path (`world`, the report, the benchmark's score) and `end` alone holds only its own kind."""
         return next((path for path in self.paths if path[-1] is end), (end,))
 
+    @property
+    def explanation(self) -> Profile | None:
+        """The one world that explains the fit cells, if one does: the last named effect's (its path), or
+        the one explanation an `unchecked` fit keeps unnamed. What the fit cells leave open is sought on top
+        of it (`alternatives`): one informative count can leave an effect open that decides a held-out cell."""
+        if self.named:
+            return self.named[-1]
+        return self.tied[0] if len(self.tied) == 1 else None
+
     def world(self) -> WorldEffects:
         """The fitted world: every named effect at its estimate."""
         world = WorldEffects()
