@@ -195,6 +195,6 @@ def as_commands(q_cmd: ArrayLike) -> NDArray[np.float64]:
 
 def require_finite(values: NDArray[np.float64], what: str) -> NDArray[np.float64]:
     """`values` unchanged, or a `PegbtError` if a model produced NaN or inf (never pass those on)."""
-    if not np.all(np.isfinite(values)):
+    if not np.isfinite(values).all():
         raise PegbtError(f"{what} is not finite (NaN or inf): the model is broken or was fed bad input")
     return values

@@ -25,7 +25,7 @@ KINEMATICS_MEMO = (
 )
 Give = tuple[float, float, float, float]  # how far the tip yields along its -x, +x, -y, +y (m)
 RIGID: Give = (0.0, 0.0, 0.0, 0.0)
-Boxes = tuple[Matrix, Matrix, Matrix, Matrix, Matrix, float]  # `ToolState.boxes`
+Boxes = tuple[Matrix, Matrix, Matrix, Matrix, Matrix, float, tuple[float, ...]]  # `ToolState.boxes`
 
 
 @dataclass(frozen=True)
@@ -85,15 +85,17 @@ class ToolState:
         return points[:3], points[1:], np.array([tool.shaft_radius, tool.wrist_radius, tool.jaw_radius])
 
     def boxes(self, tool: ToolGeometry) -> Boxes:
-        """`segments` with each one's bounding box (low, high corners, (3, 3) each) and the boxes' greatest
-        z (the tool's lowest reach, z pointing down), for the world's contact checks; computed once for a
-        state (never to be written to)."""
+        """`segments` with each one's bounding box (low, high corners, (3, 3) each), the boxes' greatest
+        z (the tool's lowest reach, z pointing down) and the box around them all (its low x, y, z, then its
+        high ones), for the world's contact checks; computed once for a state (never to be written to)."""
         if self._boxes and (self._boxes[0][0] is tool or self._boxes[0][0] == tool):
             return self._boxes[0][1]
         starts, ends, radii = self.segments(tool)
         reach = radii[:, None]
         high = np.maximum(starts, ends) + reach
-        found = (starts, ends, radii, np.minimum(starts, ends) - reach, high, float(high[:, 2].max()))
+        low = np.minimum(starts, ends) - reach
+        whole = (*low.min(axis=0).tolist(), *high.max(axis=0).tolist())
+        found = (starts, ends, radii, low, high, whole[5], whole)
         self._boxes[:] = [(tool, found)]
         return found
 

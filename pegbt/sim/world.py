@@ -384,8 +384,10 @@ class World:
         holder = self._holder(block, poses)
         carried = poses[holder]
         for other in holders:
+            if other == holder:
+                continue
             slide = float(np.linalg.norm(poses[other][:3, 3] - carried[:3, 3]))
-            if other == holder or slide <= self.config.grip_give:
+            if slide <= self.config.grip_give:
                 continue
             block.grips[other] = invert_rigid(self.tools[other].tip) @ carried
             if not self._squeezing(other):
@@ -397,7 +399,8 @@ class World:
                 )
                 continue
             self._drags[block.index, other] = (by, dragged + slide)
-        self._end_drags(block)
+        if self._drags:
+            self._end_drags(block)
         block.pose = carried
         self._peg_load.pop(block.index, None)
         self._check_pegs(block)
@@ -411,6 +414,8 @@ class World:
         tip below the block's top, by more than `grip_give`), then the first. The world reads the jaws'
         encoders, not their squeeze: two jaws on the wall at one depth leave it with the first."""
         holders = list(poses)
+        if len(holders) == 1:
+            return holders[0]
         first = poses[holders[0]][:3, 3]
         if all(np.linalg.norm(pose[:3, 3] - first) <= self.config.grip_give for pose in poses.values()):
             return holders[0]
@@ -459,8 +464,10 @@ class World:
 
     def _check_pegs(self, block: Block) -> None:
         """A carried block must keep its hole around the peg it is threaded on, and hit no other peg."""
-        bottom, top = self._hole_axis(block)
         peg_top_z = self.cell.pegs.top_z
+        if block.peg is None and block.pose[2, 3] <= peg_top_z:
+            return  # above every peg
+        bottom, top = self._hole_axis(block)
         if block.peg is not None:
             peg = block.peg
             if bottom[2] < peg_top_z:  # the whole block is above the peg top (z points down)
@@ -490,8 +497,6 @@ class World:
             offset = float(np.linalg.norm(offsets, axis=1).max())
             self._knock_loose(block, peg, f"caught on peg {peg}: hole {offset * 1000:.1f} mm off its axis")
             return
-        if bottom[2] <= peg_top_z:
-            return  # above every peg
         local = self._pegs_in_block_frame(block)
         radial = np.linalg.norm(local, axis=1)
         entering = np.flatnonzero(radial <= self._clearance)
@@ -694,7 +699,7 @@ class World:
     def _pegs_touched(self, boxes: Boxes) -> tuple[int, ...]:
         """The pegs, in increasing order, that a tool's segments (`ToolState.boxes`) touch: a result of the
         tool and the work cell alone."""
-        starts, ends, radii, low, high, _ = boxes
+        starts, ends, radii, low, high, _, _ = boxes
         seg, peg = np.nonzero(boxes_overlap(low[:, None], high[:, None], *self._peg_boxes))
         if not seg.size:
             return ()
@@ -734,6 +739,8 @@ class World:
 
 def _tools_touching(a: Boxes, b: Boxes) -> tuple[bool, bool]:
     """Whether two tools' shafts touch, and whether any other of their segments (`ToolState.boxes`) do."""
+    if any(a[6][axis] > b[6][axis + 3] or b[6][axis] > a[6][axis + 3] for axis in range(3)):
+        return False, False  # the boxes around the whole tools are apart, so are their segments'
     first, second = np.nonzero(boxes_overlap(a[3][:, None], a[4][:, None], b[3][None], b[4][None]))
     if not first.size:
         return False, False

@@ -347,7 +347,47 @@ def test_a_tools_boxes_bound_its_segments_and_are_kept_for_its_geometry():
             boxes = state.boxes(tool)
             assert [b.tobytes() for b in boxes[:5]] == [a.tobytes() for a in (starts, ends, radii, low, high)]
             assert boxes[5] == max(high[:, 2].tolist())
+            assert boxes[6] == (*low.min(axis=0).tolist(), *high.max(axis=0).tolist())
         assert state.boxes(cell.tool) is state.boxes(cell.tool)
+
+
+def _reference_tools_touching(a, b) -> tuple[bool, bool]:
+    """`world._tools_touching` as first written: every pair of segments' boxes, then their distances."""
+    from pegbt.frames import segment_distances
+    from pegbt.sim.world import boxes_overlap
+
+    first, second = np.nonzero(boxes_overlap(a[3][:, None], a[4][:, None], b[3][None], b[4][None]))
+    touching = (
+        segment_distances(a[0][first], a[1][first], b[0][second], b[1][second]) < a[2][first] + b[2][second]
+    )
+    shafts = (first == 0) & (second == 0)
+    return bool((touching & shafts).any()), bool((touching & ~shafts).any())
+
+
+def test_two_tools_apart_as_wholes_touch_as_their_segments_say():
+    from pegbt.sim.tools import tool_pointing_down
+    from pegbt.sim.world import _tools_touching
+
+    rng = np.random.default_rng(13)
+    cell = workcell()
+    centre = {arm: cell.arm_to_board(arm)[:3, 3] for arm in ("PSM1", "PSM2")}
+    found = set()
+    for _ in range(400):
+        spread = float(rng.choice([0.002, 0.01, 0.05]))
+        tools = [
+            tool_pointing_down(
+                np.array([0.02, 0.04, -0.03]) + rng.normal(0.0, spread, 3),
+                float(rng.uniform(0, np.pi)),
+                0.5,
+                centre[arm],
+                cell.tool,
+            ).boxes(cell.tool)
+            for arm in ("PSM1", "PSM2")
+        ]
+        touching = _tools_touching(*tools)
+        assert touching == _reference_tools_touching(*tools)
+        found.add(touching)
+    assert (False, False) in found and any(any(pair) for pair in found)
 
 
 def test_a_tool_from_joints_seen_before_is_the_tool_computed_afresh():

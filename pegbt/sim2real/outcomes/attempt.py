@@ -8,6 +8,7 @@ attempt knows nothing of what went before except the arm it goes on with and the
 
 from __future__ import annotations
 
+import struct
 from collections.abc import Callable
 from functools import partial
 
@@ -109,18 +110,11 @@ def pick_and_carry(
     motion = skills.arm(arm)
     looks = looks_before_lowering(registered, motion)
     same = chose is not None and np.linalg.norm(chose.position[:2] - position[:2]) <= SAME_BLOCK
-    # a giver chooses among the grasps its receiver can take the block from (`select_grasp`'s `handover_to`)
+    avoid = (chose.candidate,) if same and chose else ()
     meet = paper_meeting if looks else plan_meeting
-    acceptable = partial(_handed, meet, skills, arm, seen) if handover else None
-    grasp = skills.selectors[arm].pick(
-        seen, avoid=(chose.candidate,) if same and chose else (), acceptable=acceptable
-    )
-    meeting = None
+    grasp, meeting = chosen_grasp(skills, arm, seen, avoid, meet if handover else None, replay)
     if grasp is None:
         return Bench.failed_before(world, arm, motion, "sense")
-    if handover:
-        meeting = meet(skills, arm, RECEIVER[arm], grasp, seen)
-        assert meeting is not None  # the grasp was chosen among those `_handed` accepts
     if meeting is None and looks:
         waypoints = paper_transfer(world.cell, skills.motion, arm, seen, grasp, goal_peg, variant)
     elif meeting is None:
@@ -178,6 +172,32 @@ def pick_and_carry(
     if not bench.held:
         bench.failed = failed_phase(bench.events, block)
     return bench
+
+
+def chosen_grasp(
+    skills: Skills,
+    arm: str,
+    seen: BlockEstimate,
+    avoid: tuple[int, ...],
+    meet: Meet | None,
+    replay: Replay,
+) -> tuple[Grasp | None, Meeting | None]:
+    """`arm`'s grasp of the block `seen` as `select_grasp` picks it (`avoid`: the candidate that just
+    missed), and, for a handover's giver (`meet`), the meeting it plans from it: a giver chooses among the
+    grasps its receiver can take the block from (`select_grasp`'s `handover_to`). Both depend on what is
+    seen alone, so the worlds of one transfer that see the block alike share them (`Replay.choices`)."""
+    key = (skills.selectors[arm], seen.position.tobytes(), struct.pack("d", seen.yaw), seen.peg, avoid, meet)
+    known = replay.choices.get(key)
+    if known is not None:
+        return known
+    acceptable = None if meet is None else partial(_handed, meet, skills, arm, seen)
+    grasp = skills.selectors[arm].pick(seen, avoid=avoid, acceptable=acceptable)
+    meeting = None
+    if grasp is not None and meet is not None:
+        meeting = meet(skills, arm, RECEIVER[arm], grasp, seen)
+        assert meeting is not None  # the grasp was chosen among those `_handed` accepts
+    known = replay.choices[key] = (grasp, meeting)
+    return known
 
 
 def _handed(meet: Meet, skills: Skills, arm: str, seen: BlockEstimate, option: Grasp) -> bool:

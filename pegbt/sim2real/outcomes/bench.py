@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import hashlib
 from dataclasses import dataclass
+from functools import cache
 
 import numpy as np
 from numpy.typing import NDArray
@@ -21,7 +22,8 @@ from pegbt.behaviours.resources.arm_motion import ArmMotion, Prepared
 from pegbt.calibration.registration import registered_arm_to_board
 from pegbt.motion.settings import motion_settings
 from pegbt.motion.trajectory import Trajectory
-from pegbt.physics import ArmPhysics
+from pegbt.perception.grasp import Grasp
+from pegbt.physics import ArmPhysics, Effect
 from pegbt.sim.arm import DEFAULT_JOINTS, SimArm
 from pegbt.sim.events import Event
 from pegbt.sim.tools import Give, ToolState, wrist_give
@@ -50,7 +52,8 @@ class Chosen:
 
 class Replay:
     """What the arm did, kept across the worlds of one transfer: the physical joints reached after each
-    history of encoder positions, and the compensated commands sent for each plan from each history.
+    history of encoder positions, the compensated commands sent for each plan from each history, and the
+    grasp (and a handover's meeting) chosen for each block as seen (`attempt.chosen_grasp`).
 
     The cable model and the compensator see only the commands, never the world, so a world whose effects
     change no command (the contact physics, a registration offset) replays the arm of the world before it
@@ -60,6 +63,13 @@ class Replay:
     def __init__(self) -> None:
         self.physical: dict[bytes, tuple[NDArray[np.float64], Give]] = {}
         self.prepared: dict[tuple[bytes, bytes], Prepared] = {}
+        self.choices: dict[tuple[object, ...], tuple[Grasp | None, Meeting | None]] = {}
+
+
+@cache
+def _cables(arm: str) -> tuple[Effect, ...]:
+    """`PHYSICS`'s effects on `arm`, read once: each bench builds its arm's cables afresh from them."""
+    return ArmPhysics.load(PHYSICS, arm).effects
 
 
 class Bench:
@@ -78,7 +88,7 @@ class Bench:
         self.arm = SimArm(
             arm,
             motion.settings,
-            ArmPhysics.load(PHYSICS, arm),
+            ArmPhysics(_cables(arm)),
             q0=q0,
             jaw0=motion_settings().transfer.jaw_open,
         )
@@ -130,16 +140,17 @@ class Bench:
     def tick(self, seconds: float) -> None:
         """Advance the arm, and the world with it; an approach holding nothing (`reach`) shows the world
         only where it ends, since no contact on the way decides an outcome."""
-        for _ in range(max(1, round(seconds / self.arm.period))):
+        arm, world, period = self.arm, self.world, self.arm.period
+        for _ in range(max(1, round(seconds / period))):
             self._advance()
-            self.clock = max(self.clock, self.world.time) + self.arm.period
-            if self.segment == "reach" and self.arm.is_busy:
+            self.clock = max(self.clock, world.time) + period
+            if self.segment == "reach" and arm.is_busy:
                 continue
-            tool = ToolState.from_joints(
-                self.arm.physical, float(self.arm.jaw.encoder[0]), self.to_board, self.give
-            )
-            self.events += [(self.segment, e) for e in self.world.update(self.clock, {self.name: tool})]
-            self.arm.jaw.stop_at(self.world.jaw_stop(self.name))
+            tool = ToolState.from_joints(arm.physical, float(arm.jaw.encoder[0]), self.to_board, self.give)
+            events = world.update(self.clock, {self.name: tool})
+            if events:
+                self.events += [(self.segment, e) for e in events]
+            arm.jaw.stop_at(world.jaw_stop(self.name))
 
     def _advance(self) -> None:
         """`SimArm.advance`, with the cable model's answer (the physical joints and the wrist's play) replayed
