@@ -50,6 +50,7 @@ PROBE_TIMEOUT = 2.0  # s to wait for a simulator to answer `sim/clock` at an add
 # s to wait for a lockstep step: a backstop, never what decides a trial on a loaded machine (a camera capture
 # on a loaded 2-core machine took over 2 s); a simulator that died is seen at once, its connection gone
 STEP_TIMEOUT = 30.0
+CAPTURE_TIMEOUT = 2.0  # s a streaming camera may take to send a cloud stamped after a capture's request
 READY_TIMEOUT = 5.0  # s to wait for each arm's first state (a simulator we started: STEP_TIMEOUT, as a step)
 WHAT_ANSWERS = {
     "bridge": "is zenoh-bridge-ros2dds running and listening there?",
@@ -323,7 +324,9 @@ def connect_crtk_robot(
         depth_camera: StreamingCamera | ZividCamera = (
             ZividCamera(wire, clock=clock)
             if camera_kind == "zivid"
-            else StreamingCamera(wire, point_cloud_topic(camera), clock=clock)
+            else StreamingCamera(
+                wire, point_cloud_topic(camera), clock=clock, timeout=max(CAPTURE_TIMEOUT, liveness)
+            )
         )
         robot = Robot(
             arms,
