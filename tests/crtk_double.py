@@ -145,8 +145,10 @@ class CrtkDouble:
         setpoint_lag: float = 0.0,
         old_errors: int = 0,
         ratios: bool = True,
+        camera_period: float = 0.1,
     ) -> None:
         self.session = zenoh.open(session_config(listen))
+        self.camera_period = camera_period
         self.ratios = ratios  # False: a dVRK before 2.3, which has no trajectory_j ratio
         self.home_seconds, self.homes, self.move_seconds = home_seconds, homes, move_seconds
         self.clock_offset = clock_offset
@@ -331,7 +333,7 @@ class CrtkDouble:
                             joint_state(np.array([arm.jaw if valid else 0.0]), stamp)
                         )
             if now >= next_cloud:
-                next_cloud = now + 0.1
+                next_cloud = now + self.camera_period
                 points = rng.normal(size=(200, 3))
                 points[::10] = np.nan  # pixels without depth
                 self._camera.put(cloud(points, self.now()))

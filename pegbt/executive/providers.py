@@ -116,8 +116,9 @@ RUN_OPTIONS: dict[str, RunOption] = {
         ),
         RunOption(
             "liveness",
-            "robot (--interface dvrk): seconds without the robot's measured_js before the run stops "
-            "(None: 1; a simulator sharing a loaded machine may need more)",
+            "robot (--interface dvrk): seconds without the robot's measured_js before the run stops, and "
+            "that a streaming camera may take to answer a capture, at least 2 (None: 1; a simulator sharing "
+            "a loaded machine may need more)",
             type=float,
         ),
         RunOption(

@@ -184,5 +184,6 @@ def clutch_button_topic(arm: str) -> Topic:
 
 
 def point_cloud_topic(name: str = DEFAULT_POINTS_TOPIC) -> Topic:
-    """A depth camera's stream of sensor_msgs/PointCloud2 (best effort, volatile, as realsense2_camera's)."""
-    return Topic(name, codec.POINT_CLOUD2)
+    """A depth camera's stream of sensor_msgs/PointCloud2 (best effort, volatile, as realsense2_camera's); a
+    reader takes the newest cloud."""
+    return Topic(name, codec.POINT_CLOUD2, keep_last=1)

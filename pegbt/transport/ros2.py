@@ -16,6 +16,7 @@ detects late publishers.
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Protocol
@@ -39,7 +40,11 @@ class Topic:
     """A ROS 2 topic: its name (`/PSM1/measured_js`), its type (`sensor_msgs/msg/JointState`), whether
     it is latched (TRANSIENT_LOCAL durability, the last `depth` messages kept for late joiners), whether
     it carries commands, each of which matters (not a stream whose next message replaces the last), and
-    whether, not a command, each message still matters (a camera's cloud taken on request)."""
+    whether, not a command, each message still matters (a camera's cloud taken on request). A subscriber
+    of a `keep_last` topic holds at most that many messages its reader has not taken, dropping the oldest,
+    as rmw_zenoh does for a KEEP_LAST subscription (rmw_zenoh_cpp `rmw_subscription_data.cpp`,
+    `add_new_message`): a reader slower than the stream then reads its newest message, never a backlog that
+    grows for as long as it is slow; 0 delivers every message."""
 
     name: str
     typename: str
@@ -47,6 +52,7 @@ class Topic:
     depth: int = 1
     command: bool = False
     reliable: bool = False
+    keep_last: int = 0
 
 
 class TopicPublisher(Protocol):
@@ -197,4 +203,21 @@ def declare_subscriber(
             deliver,
             history=zenoh.ext.HistoryConfig(detect_late_publishers=True, max_samples=topic.depth),
         )
+    if topic.keep_last:
+        return _newest_first(session, key, topic.keep_last, deliver)
     return session.declare_subscriber(key, deliver)
+
+
+def _newest_first(
+    session: zenoh.Session, key: str, keep: int, deliver: Callable[[zenoh.Sample], None]
+) -> zenoh.Subscriber:
+    """A subscriber whose `keep` newest samples wait in a ring (older ones dropped) for a thread that
+    delivers them; undeclaring it ends the thread."""
+    subscriber = session.declare_subscriber(key, zenoh.handlers.RingChannel(keep))
+
+    def drain() -> None:
+        for sample in subscriber:
+            deliver(sample)
+
+    threading.Thread(target=drain, name=f"{key} (newest {keep})", daemon=True).start()
+    return subscriber

@@ -313,6 +313,23 @@ def test_a_capture_is_the_first_cloud_stamped_after_the_request_without_its_nan_
         double.close()
 
 
+def test_a_streaming_camera_is_given_the_liveness_to_answer_a_capture_and_2_s_at_least(endpoint: str) -> None:
+    """A camera slower than 2 s to send the next cloud (a simulator's on a loaded machine) is given as long as
+    the run's `--liveness` allows the robot to be silent."""
+    double = CrtkDouble(endpoint, camera_period=3.0)
+    patient, default = connect_crtk_robot(endpoint, liveness=5.0), connect_crtk_robot(endpoint)
+    try:
+        assert (patient.camera.timeout, default.camera.timeout) == (5.0, 2.0)
+        patient.camera.capture_async().result(patient.camera.timeout)  # right after one cloud came
+        handle = patient.camera.capture_async()
+        handle.result(patient.camera.timeout)  # the next is 3 s away
+        assert handle.stamp - handle.requested_at > 2.0
+    finally:
+        patient.close()
+        default.close()
+        double.close()
+
+
 def test_the_streaming_cameras_clouds_reach_the_client_only_while_a_capture_waits(endpoint: str) -> None:
     double = CrtkDouble(endpoint)
     robot = connect_crtk_robot(endpoint)

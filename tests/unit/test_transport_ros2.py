@@ -73,3 +73,43 @@ def test_a_command_blocks_under_congestion_and_a_set_point_stream_drops() -> Non
             publisher = declare_publisher(session, topic.name.lstrip("/"), topic)
             assert publisher.congestion_control == congestion, topic.name
             publisher.undeclare()
+
+
+def test_a_slow_reader_of_a_camera_stream_gets_the_newest_cloud_and_a_joint_stream_reader_gets_every_one() -> (
+    None
+):
+    """A reader that takes longer than the stream's period: the point-cloud subscriber keeps the newest
+    message only (KEEP_LAST 1, rmw_zenoh_cpp `rmw_subscription_data.cpp`), so what it reads next is the
+    latest and its lag does not grow; a topic without `keep_last` still delivers every message in order."""
+    from pegbt.transport.dvrk_topics import PsmTopics, point_cloud_topic
+
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    with (
+        open_session(endpoint_settings([endpoint])) as camera,
+        open_session(client_settings([endpoint])) as client,
+    ):
+        camera_wire, client_wire = BridgeWire(camera), BridgeWire(client)
+        clouds, joints = point_cloud_topic(), PsmTopics("PSM1").measured_js
+        cloud_out, joint_out = camera_wire.publisher(clouds), camera_wire.publisher(joints)
+        got_clouds: list[bytes] = []
+        got_joints: list[bytes] = []
+
+        def slow(payload: bytes) -> None:
+            got_clouds.append(payload)
+            time.sleep(0.05)
+
+        client_wire.subscriber(clouds, slow)
+        client_wire.subscriber(joints, got_joints.append)
+        assert _wait_for(lambda: cloud_out.matched and joint_out.matched)
+        sent = [str(i).encode() for i in range(60)]
+        for payload in sent:
+            cloud_out.put(payload)
+            joint_out.put(payload)
+            time.sleep(0.002)
+        assert _wait_for(lambda: got_joints == sent)
+        assert _wait_for(lambda: got_clouds[-1:] == sent[-1:])
+        time.sleep(0.2)
+        assert len(got_clouds) < len(sent) / 2, got_clouds  # the stale ones were dropped, not queued
+        assert got_clouds == sorted(got_clouds, key=int)  # and what came is in order
+        client_wire.close()
+        camera_wire.close()

@@ -50,7 +50,8 @@ PROBE_TIMEOUT = 2.0  # s to wait for a simulator to answer `sim/clock` at an add
 # s to wait for a lockstep step: a backstop, never what decides a trial on a loaded machine (a camera capture
 # on a loaded 2-core machine took over 2 s); a simulator that died is seen at once, its connection gone
 STEP_TIMEOUT = 30.0
-READY_TIMEOUT = 5.0  # s to wait for each arm's first state
+CAPTURE_TIMEOUT = 2.0  # s a streaming camera may take to send a cloud stamped after a capture's request
+READY_TIMEOUT = 5.0  # s to wait for each arm's first state (a simulator we started: STEP_TIMEOUT, as a step)
 WHAT_ANSWERS = {
     "bridge": "is zenoh-bridge-ros2dds running and listening there?",
     "rmw_zenoh": "is the ROS 2 graph's zenoh router (`ros2 run rmw_zenoh_cpp rmw_zenohd`) running there?",
@@ -137,9 +138,9 @@ class Robot:
             raise PegbtError(f"unknown arm {name!r}; known: {', '.join(self.arms)}", field="arm")
         return self.arms[name]
 
-    def wait_until_ready(self) -> None:
+    def wait_until_ready(self, timeout: float = READY_TIMEOUT) -> None:
         for arm in self.arms.values():
-            arm.wait_until_ready(READY_TIMEOUT)
+            arm.wait_until_ready(timeout)
 
     def log_messages(self) -> list[dict[str, Any]]:
         """The robot's error, warning and status messages since the last call (for the tick log), then those
@@ -263,7 +264,7 @@ def connect_robot(
                 endpoint=endpoint,
             )
             try:
-                robot.wait_until_ready()
+                robot.wait_until_ready(STEP_TIMEOUT if simulator is not None else READY_TIMEOUT)
             except EndpointSilent as error:
                 where = simulator.endpoint if simulator else endpoint
                 raise EndpointSilent(
@@ -323,7 +324,9 @@ def connect_crtk_robot(
         depth_camera: StreamingCamera | ZividCamera = (
             ZividCamera(wire, clock=clock)
             if camera_kind == "zivid"
-            else StreamingCamera(wire, point_cloud_topic(camera), clock=clock)
+            else StreamingCamera(
+                wire, point_cloud_topic(camera), clock=clock, timeout=max(CAPTURE_TIMEOUT, liveness)
+            )
         )
         robot = Robot(
             arms,
