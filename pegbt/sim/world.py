@@ -736,8 +736,8 @@ class World:
             for kind, arm, block_index, peg_index in sorted(current - self._contacts):
                 block_or_none = None if block_index < 0 else block_index
                 peg_or_none = None if peg_index < 0 else peg_index
-                touched = parts.get(arm, "") if kind == "tool-tool" else ""
-                self._log("collision", arm, block_or_none, peg_or_none, kind, touched)
+                contact_parts = parts.get(arm, "") if kind == "tool-tool" else ""
+                self._log("collision", arm, block_or_none, peg_or_none, kind, contact_parts)
             self._contacts = current
 
 
