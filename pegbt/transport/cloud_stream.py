@@ -20,6 +20,8 @@ from pegbt.transport import codec
 from pegbt.transport.arm import EndpointSilent
 from pegbt.transport.ros2 import Ros2Wire, Topic, TopicSubscriber
 
+CAPTURE_TIMEOUT = 2.0  # s a streaming camera may take to send a cloud stamped after a capture's request
+
 
 class StreamedCapture:
     """A requested cloud: `ready` once one stamped after `requested_at` came; then `points` ((N, 3) float32)."""
@@ -69,7 +71,7 @@ class StreamingCamera:
     """A streaming depth camera on `wire`'s `topic`, listened to while a capture waits."""
 
     def __init__(
-        self, wire: Ros2Wire, topic: Topic, *, clock: Clock | None = None, timeout: float = 2.0
+        self, wire: Ros2Wire, topic: Topic, *, clock: Clock | None = None, timeout: float = CAPTURE_TIMEOUT
     ) -> None:
         self.topic = topic
         self.clock: Clock = clock or WallClock()

@@ -16,6 +16,7 @@ detects late publishers.
 
 from __future__ import annotations
 
+import logging
 import threading
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -33,6 +34,8 @@ from pegbt.transport.ros2_service import (
     call_on_bridge,
     serve_on_bridge,
 )
+
+LOG = logging.getLogger("pegbt.transport")
 
 
 @dataclass(frozen=True)
@@ -212,12 +215,16 @@ def _newest_first(
     session: zenoh.Session, key: str, keep: int, deliver: Callable[[zenoh.Sample], None]
 ) -> zenoh.Subscriber:
     """A subscriber whose `keep` newest samples wait in a ring (older ones dropped) for a thread that
-    delivers them; undeclaring it ends the thread."""
+    delivers them; undeclaring it ends the thread. A reader that raises is reported and given the next
+    sample, as zenoh does for a callback."""
     subscriber = session.declare_subscriber(key, zenoh.handlers.RingChannel(keep))
 
     def drain() -> None:
         for sample in subscriber:
-            deliver(sample)
+            try:
+                deliver(sample)
+            except Exception:
+                LOG.exception("%s: the reader of a sample failed; it gets the next one", key)
 
     threading.Thread(target=drain, name=f"{key} (newest {keep})", daemon=True).start()
     return subscriber

@@ -3,8 +3,10 @@ latched topic served to a subscriber that joins after it was published (route_pu
 
 from __future__ import annotations
 
+import threading
 import time
 
+import pytest
 import zenoh
 
 from pegbt.sim.process import free_port
@@ -75,9 +77,7 @@ def test_a_command_blocks_under_congestion_and_a_set_point_stream_drops() -> Non
             publisher.undeclare()
 
 
-def test_a_slow_reader_of_a_camera_stream_gets_the_newest_cloud_and_a_joint_stream_reader_gets_every_one() -> (
-    None
-):
+def test_a_slow_reader_gets_a_camera_streams_newest_cloud_and_a_command_topics_every_message() -> None:
     """A reader that takes longer than the stream's period: the point-cloud subscriber keeps the newest
     message only (KEEP_LAST 1, rmw_zenoh_cpp `rmw_subscription_data.cpp`), so what it reads next is the
     latest and its lag does not grow; a topic without `keep_last` still delivers every message in order."""
@@ -89,27 +89,60 @@ def test_a_slow_reader_of_a_camera_stream_gets_the_newest_cloud_and_a_joint_stre
         open_session(client_settings([endpoint])) as client,
     ):
         camera_wire, client_wire = BridgeWire(camera), BridgeWire(client)
-        clouds, joints = point_cloud_topic(), PsmTopics("PSM1").measured_js
-        cloud_out, joint_out = camera_wire.publisher(clouds), camera_wire.publisher(joints)
+        # a command topic's publisher blocks rather than drop: whatever does not arrive is the subscriber's
+        clouds, commands = point_cloud_topic(), PsmTopics("PSM1").move_jp
+        cloud_out, command_out = camera_wire.publisher(clouds), camera_wire.publisher(commands)
         got_clouds: list[bytes] = []
-        got_joints: list[bytes] = []
+        got_commands: list[bytes] = []
 
-        def slow(payload: bytes) -> None:
+        released = threading.Event()
+
+        def slow(payload: bytes) -> None:  # busy with the first cloud until all are sent, however loaded
             got_clouds.append(payload)
-            time.sleep(0.05)
+            released.wait(10.0)
 
         client_wire.subscriber(clouds, slow)
-        client_wire.subscriber(joints, got_joints.append)
-        assert _wait_for(lambda: cloud_out.matched and joint_out.matched)
+        client_wire.subscriber(commands, got_commands.append)
+        assert _wait_for(lambda: cloud_out.matched and command_out.matched)
         sent = [str(i).encode() for i in range(60)]
         for payload in sent:
             cloud_out.put(payload)
-            joint_out.put(payload)
+            command_out.put(payload)
             time.sleep(0.002)
-        assert _wait_for(lambda: got_joints == sent)
+        assert _wait_for(lambda: got_commands == sent)
+        released.set()
         assert _wait_for(lambda: got_clouds[-1:] == sent[-1:])
         time.sleep(0.2)
         assert len(got_clouds) < len(sent) / 2, got_clouds  # the stale ones were dropped, not queued
         assert got_clouds == sorted(got_clouds, key=int)  # and what came is in order
+        client_wire.close()
+        camera_wire.close()
+
+
+def test_a_camera_streams_reader_that_raises_gets_the_next_cloud(caplog: pytest.LogCaptureFixture) -> None:
+    """As zenoh does for a callback: one reading that fails is reported, and the stream goes on."""
+    from pegbt.transport.dvrk_topics import point_cloud_topic
+
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    with (
+        open_session(endpoint_settings([endpoint])) as camera,
+        open_session(client_settings([endpoint])) as client,
+    ):
+        camera_wire, client_wire = BridgeWire(camera), BridgeWire(client)
+        cloud_out = camera_wire.publisher(point_cloud_topic())
+        got: list[bytes] = []
+
+        def fails_once(payload: bytes) -> None:
+            got.append(payload)
+            if len(got) == 1:
+                raise ValueError("an unreadable cloud")
+
+        client_wire.subscriber(point_cloud_topic(), fails_once)
+        assert _wait_for(lambda: cloud_out.matched)
+        cloud_out.put(b"first")
+        assert _wait_for(lambda: got == [b"first"])
+        cloud_out.put(b"second")
+        assert _wait_for(lambda: got == [b"first", b"second"])
+        assert "the reader of a sample failed" in caplog.text
         client_wire.close()
         camera_wire.close()

@@ -32,7 +32,7 @@ from pegbt.sim.process import SimProcess
 from pegbt.sim.truth import ask_truth
 from pegbt.transport import ArmClient, CameraClient, EndpointSilent, Link, SimClock, connect
 from pegbt.transport.arm import LIVENESS_S as CLIENT_LIVENESS_S
-from pegbt.transport.cloud_stream import StreamingCamera
+from pegbt.transport.cloud_stream import CAPTURE_TIMEOUT, StreamingCamera
 from pegbt.transport.crtk_arm import LIVENESS_S, CrtkArm, make_ready
 from pegbt.transport.dvrk_topics import PsmTopics, point_cloud_topic
 from pegbt.transport.endpoints import DEFAULT_POINTS_TOPIC
@@ -50,7 +50,6 @@ PROBE_TIMEOUT = 2.0  # s to wait for a simulator to answer `sim/clock` at an add
 # s to wait for a lockstep step: a backstop, never what decides a trial on a loaded machine (a camera capture
 # on a loaded 2-core machine took over 2 s); a simulator that died is seen at once, its connection gone
 STEP_TIMEOUT = 30.0
-CAPTURE_TIMEOUT = 2.0  # s a streaming camera may take to send a cloud stamped after a capture's request
 READY_TIMEOUT = 5.0  # s to wait for each arm's first state (a simulator we started: STEP_TIMEOUT, as a step)
 WHAT_ANSWERS = {
     "bridge": "is zenoh-bridge-ros2dds running and listening there?",
