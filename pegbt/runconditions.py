@@ -9,7 +9,8 @@ cells): a cell of the paper's Tables II-IV is a variant under a condition.
 And the protocols a trial runs by (`--protocol`): `pegbt`, the trees' own (recovery, pegbt's heights); `paper`,
 the reference paper's (one attempt per block, the arms registered to the camera as the paper's were, and,
 planned as rest-to-rest cubics, the carry stopped at the paper's height over the goal peg, where the held
-block is looked at before it is lowered: `PAPER_POLICIES`).
+block is looked at before it is lowered, and in a handover the block held out looked at before the receiver
+takes it: `protocol_policies`).
 """
 
 from __future__ import annotations
@@ -23,6 +24,8 @@ COMPENSATED = ("calibrated", "optimized")  # their commands correct the cables' 
 OPTIMIZED = ("optimized",)  # their transfers are planned by the optimiser
 PROTOCOLS = ("pegbt", "paper")
 LOOK_POLICY = "/policy/look_before_lowering"  # `trees/shared/place.yaml`: look at the held block, then lower
+# `trees/shared/handover.yaml`: look at the block held out, then take it where it is seen
+HANDOVER_LOOK_POLICY = "/policy/look_at_handover"
 RECOVER_POLICY = "/policy/recover_lost_blocks"  # `trees/shared/recover.yaml`: pick a lost block again
 
 
@@ -35,14 +38,17 @@ def known_condition(condition: object) -> str:
     return str(condition)
 
 
-def protocol_policies(protocol: str, condition: str | None) -> dict[str, bool]:
-    """The blackboard policies `protocol` sets for a run under `condition`: under the paper's, no recovery
-    (`FLSPegTransfer_single.py`, BerkeleyAutomation/FLSpegtransferHO, moves each block once) and, where the
-    transfer is rest-to-rest cubics (its `use_optimization = False`), the look before lowering; none under
-    pegbt's, whose trees declare their own."""
+def protocol_policies(protocol: str, condition: str | None, variant: str) -> dict[str, bool]:
+    """The blackboard policies `protocol` sets for a run of `variant` under `condition`: under the paper's,
+    no recovery (`FLSPegTransfer_single.py`, BerkeleyAutomation/FLSpegtransferHO, moves each block once)
+    and, where the transfer is rest-to-rest cubics (its `use_optimization = False`), the look before
+    lowering and, in a handover, the look at the block held out before the receiver takes it
+    (`FLSPegTransfer_handover.py`); none under pegbt's, whose trees declare their own."""
     if protocol != "paper":
         return {}
-    return {RECOVER_POLICY: False, LOOK_POLICY: condition not in OPTIMIZED}
+    cubic = condition not in OPTIMIZED
+    looks_at_handover = {HANDOVER_LOOK_POLICY: cubic} if variant == "handover" else {}
+    return {RECOVER_POLICY: False, LOOK_POLICY: cubic} | looks_at_handover
 
 
 def known_protocol(protocol: object) -> str:

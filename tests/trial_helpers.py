@@ -36,6 +36,6 @@ def one_handover(tmp_path: Path, regrasps: int = 0, pick: int = 1, place: int = 
         "    - subtree: {use: clear_view}\n"
         "    - parallel:\n        name: one handover\n        children:\n"
         f"          - force_success: {{name: g, child: {{subtree: {{use: give, args: {{giver: PSM2, receiver: PSM1, n: 1, pick: {pick}, place: {place}, regrasps: {regrasps}, strays: [6]}}}}}}}}\n"
-        f"          - force_success: {{name: r, child: {{subtree: {{use: receive, args: {{receiver: PSM1, n: 1, place: {place}, strays: [6]}}}}}}}}\n"
+        f"          - force_success: {{name: r, child: {{subtree: {{use: receive, args: {{receiver: PSM1, giver: PSM2, n: 1, place: {place}, strays: [6]}}}}}}}}\n"
     )
     return tree

@@ -388,6 +388,37 @@ declare(
 )
 
 declare(
+    "find_handed_block",
+    "the paper's look at the block the giver holds out at rest (`find_block_servo_handover`): `/cloud`'s points "
+    "within 10 mm of the axis of the block planned held out at `block_pose` and from 5 mm above its top to "
+    "5 mm below its bottom, less those on both tools, the block model registered to them; the receiver "
+    "`arm`'s grasp of the seen block and the seen pose replace `grasp` and `block_pose`; fails with fewer "
+    "than 100 points, a fit that cannot be the held block's, or no grasp of it",
+    "pegbt.behaviours.actions.handover_look:FindHandedBlock",
+    params=(
+        arm_param(),
+        key_param("giver_grasp", "read", "the giver's grasp of the block (its wall is not the receiver's)"),
+        key_param("grasp", "write", "the receiver's grasp of the block as seen"),
+        key_param("block_pose", "write", "the block's pose at the meeting point: as planned, then as seen"),
+    ),
+    reads=("/cloud", "/board"),
+    resources=RESOURCES,
+)
+
+declare(
+    "over_seen_grasp",
+    "move `arm` (the receiver), rest to rest and jaw open, to 3 mm over the grasp point of its `grasp` (the "
+    "paper's `pick_block` before it descends)",
+    "pegbt.behaviours.actions.handover_look:OverSeenGrasp",
+    params=(
+        arm_param(),
+        key_param("grasp", "read", "the receiver's grasp of the block as seen (`find_handed_block`)"),
+        keep_apart_param(0.0),
+    ),
+    resources=RESOURCES,
+)
+
+declare(
     "servo_over_peg",
     "move `arm`, at rest over peg `place`, by `servo` and lower the block to the drop height (rest-to-rest, "
     "as the paper's `servoing_block`); fails at once if the block slips, and without moving if `servo` is "

@@ -45,7 +45,8 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
         metavar="P",
         help=f"{' or '.join(PROTOCOLS)}: the trees' own (recovery, pegbt's heights; the default) or the reference "
         "paper's (one attempt per block, the arms registered to the camera as its were, with cubic motions a "
-        "look at the held block before lowering it), as `pegbt run --protocol`",
+        "look at the held block before lowering it and at the block held out before taking it), as "
+        "`pegbt run --protocol`",
     )
     faults = parser.add_mutually_exclusive_group()
     faults.add_argument(

@@ -145,7 +145,8 @@ RUN_OPTIONS: dict[str, RunOption] = {
             "protocol",
             "skills and tree: pegbt (the trees' recovery and heights) or paper (the reference paper's: one "
             "attempt per block, the arms registered to the camera as its were, and with cubic motions the "
-            "carry stopped at its height over the goal peg to look at the held block before lowering it)",
+            "carry stopped at its height over the goal peg to look at the held block before lowering it, and "
+            "the block a giver holds out looked at before the receiver takes it where it is seen)",
             "pegbt",
             choices=PROTOCOLS,
         ),

@@ -52,9 +52,9 @@ class RunOptions:
         object.__setattr__(self, "record", None if self.record is None else Path(self.record))
         object.__setattr__(self, "options", run_options(self.options))
         object.__setattr__(self, "callers_keys", frozenset(map(_absolute, self.blackboard)))
+        object.__setattr__(self, "variant", self.variant or self.tree.stem)
         object.__setattr__(self, "blackboard", self.protocol_policies | dict(self.blackboard))
         object.__setattr__(self, "world", dict(self.world))
-        object.__setattr__(self, "variant", self.variant or self.tree.stem)
 
     @property
     def protocol(self) -> str:
@@ -63,8 +63,9 @@ class RunOptions:
 
     @property
     def protocol_policies(self) -> dict[str, bool]:
-        """The blackboard policies the protocol sets under the run's condition (`runconditions`)."""
-        return protocol_policies(self.protocol, self.condition)
+        """The blackboard policies the protocol sets for the run's variant under its condition
+        (`runconditions`)."""
+        return protocol_policies(self.protocol, self.condition, self.variant)
 
     def asked_by(self, key: str) -> str:
         """What asked for blackboard `key`, for the error when the tree declares no such key: the protocol

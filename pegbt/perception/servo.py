@@ -29,8 +29,10 @@ from pegbt.perception.cloud import Points
 from pegbt.workcell import BlockModel, ToolGeometry
 
 MIN_POINTS = 400  # `place_servoing`: fewer seen points leave the block uncorrected
+HANDED_MIN_POINTS = 100  # `find_block_servo_handover`: fewer seen points are no block held out
 BAND = (0.030, 0.060)  # m above the board: `depth_block_servo = [-60, -30]` (mm, pegboard z down)
 HALF_BOX = 0.010  # m either side of the peg in board x and y: `mask_around_peg`
+HELD_MARGIN = 0.005  # m above the top and below the bottom of a block planned held out: `around_block`
 # m beyond the tool's radii: where the robot believes it is (its plan, a registered uncalibrated arm's, a
 # compensated arm's), its tool is within a millimetre or two
 TOOL_MARGIN = 0.002
@@ -66,35 +68,51 @@ def in_servo_box(points: Points, peg_xy: NDArray[np.float64], surface_z: float) 
     )
 
 
+def around_block(points: Points, pose: NDArray[np.float64], block: BlockModel) -> NDArray[np.bool_]:
+    """Which board-frame `points` lie around the block planned held out at `pose` (board frame): within
+    `HALF_BOX` of its axis in board x and y, and from its top to its bottom with `HELD_MARGIN` to spare
+    either way (the cables' error holds it off its plan). `find_block_servo_handover`
+    (`vision/BlockDetection3D.py`) keeps the red points in `depth_block_servo`'s band instead: a cloud
+    without colour needs the box to leave out the blocks and pegs below."""
+    bottom = pose[:3, 3]
+    depth = points[:, 2] - bottom[2]  # board z runs down: the top lies `height` above the bottom
+    return (
+        (np.abs(points[:, 0] - bottom[0]) < HALF_BOX)
+        & (np.abs(points[:, 1] - bottom[1]) < HALF_BOX)
+        & (depth > -block.height - HELD_MARGIN)
+        & (depth < HELD_MARGIN)
+    )
+
+
 def reach(block: BlockModel) -> float:
     """How far (m, in board x and in board y each) from the peg's axis the axis of a block with points in
     the box can lie: the box's half width and the block's corners' distance from its axis."""
     return HALF_BOX + block.corner_distance
 
 
-def plausible(block: BlockModel, pose: NDArray[np.float64], peg_xy: NDArray[np.float64]) -> str:
-    """Why the fit `pose` (board frame) cannot be the held block over the peg at `peg_xy`, or "" if it can:
-    a wild registration must not move the arm."""
-    off = np.abs(pose[:2, 3] - peg_xy)
+def plausible(block: BlockModel, pose: NDArray[np.float64], axis_xy: NDArray[np.float64]) -> str:
+    """Why the fit `pose` (board frame) cannot be the held block whose box is centred on `axis_xy` (a peg's,
+    a planned block's), or "" if it can: a wild registration must not move the arm."""
+    off = np.abs(pose[:2, 3] - axis_xy)
     if off.max() > reach(block):
         return (
-            f"the fit's axis is {1000 * off.max():.1f} mm off the peg's, farther than a block with points "
+            f"the fit's axis is {1000 * off.max():.1f} mm off the box's, farther than a block with points "
             f"in the box can be ({1000 * reach(block):.1f} mm)"
         )
     return ""
 
 
 def held_block(
-    locator: BlockLocator, points: Points, peg_xy: NDArray[np.float64]
+    locator: BlockLocator, seen: Points, axis_xy: NDArray[np.float64], least: int = MIN_POINTS
 ) -> tuple[NDArray[np.float64] | None, int, str]:
-    """The pose (board frame) of the held block registered to the `points` (board frame) in the box over
-    the peg at `peg_xy`, how many there were, and why there is no pose: fewer than `MIN_POINTS` (the
-    paper corrects nothing) or a fit that cannot be the block's (`plausible`). The box crops the block,
+    """The pose (board frame) of the held block registered to the `seen` points (board frame, in a box
+    around where it is held: over a peg, `in_servo_box`; at the meeting point, `around_block`) whose axis
+    should lie at `axis_xy`, how many there were, and why there is no pose: fewer than `least` (over a peg
+    `MIN_POINTS`: the paper corrects nothing) or a fit that cannot be the block's (`plausible`). The box crops the block,
     and ICP from its top face's centre alone settles millimetres off as often as not: it starts from a
     grid around that centre (`STARTS`) at each of the restart yaws, and the best fit is kept."""
-    seen = points[in_servo_box(points, peg_xy, locator.cell.board.surface_z)]
-    if len(seen) < MIN_POINTS:
-        return None, len(seen), f"fewer than {MIN_POINTS}"
+    if len(seen) < least:
+        return None, len(seen), f"fewer than {least}"
     top = seen[seen[:, 2] < seen[:, 2].min() + locator.settings.top_face_depth]  # board z runs down
     centre = top[:, :2].mean(axis=0)
     z = float(np.median(top[:, 2])) + locator.cell.block.height
@@ -106,7 +124,7 @@ def held_block(
         for turn in RESTART_YAWS
     ]
     pose = locator.best_fit(seen, starts)[0]
-    why = plausible(locator.cell.block, pose, peg_xy)
+    why = plausible(locator.cell.block, pose, axis_xy)
     return (None if why else pose), len(seen), why
 
 

@@ -38,9 +38,16 @@ class Event:
     block: int | None = None
     peg: int | None = None
     detail: str = ""
+    parts: str = (
+        ""  # a tool-tool contact's parts, "PSM1 jaw on PSM2 wrist": which way an arm should have gone
+    )
 
     def to_dict(self) -> dict[str, float | int | str | None]:
-        return asdict(self)
+        """The event's fields, `parts` only where it names some."""
+        entry = asdict(self)
+        if not self.parts:
+            del entry["parts"]
+        return entry
 
 
 class EventLog:

@@ -41,9 +41,8 @@ class SimLog:
 
     def record_event(self, event: Event) -> None:
         """A world event, at its own time and with its own kind (grasp, drop, place, collision, ...)."""
-        self.record(
-            event.time, event.kind, arm=event.arm, block=event.block, peg=event.peg, detail=event.detail
-        )
+        details = {name: value for name, value in event.to_dict().items() if name not in ("time", "kind")}
+        self.record(event.time, event.kind, **details)
 
     def close(self) -> None:
         if self._file is not None:

@@ -26,6 +26,8 @@ KINEMATICS_MEMO = (
 Give = tuple[float, float, float, float]  # how far the tip yields along its -x, +x, -y, +y (m)
 RIGID: Give = (0.0, 0.0, 0.0, 0.0)
 Boxes = tuple[Matrix, Matrix, Matrix, Matrix, Matrix, float, tuple[float, ...]]  # `ToolState.boxes`
+TOOL_PARTS = ("shaft", "wrist", "jaw")  # `ToolState.segments`, in order
+Touching = tuple[bool, tuple[tuple[str, str], ...]]  # shafts touch; the other parts that do (`TOOL_PARTS`)
 
 
 @dataclass(frozen=True)
@@ -49,7 +51,7 @@ class ToolState:
     _pegs: list[tuple[object, tuple[int, ...]]] = field(
         default_factory=list, init=False, repr=False, compare=False
     )  # `touched_pegs` of the last owner asked
-    _touching: list[tuple[ToolState, object, tuple[bool, bool]]] = field(
+    _touching: list[tuple[ToolState, object, Touching]] = field(
         default_factory=list, init=False, repr=False, compare=False
     )  # `touching` of the last other state and owner asked
 
@@ -109,10 +111,8 @@ class ToolState:
         self._pegs[:] = [(owner, touched)]
         return touched
 
-    def touching(
-        self, other: ToolState, owner: object, compute: Callable[[], tuple[bool, bool]]
-    ) -> tuple[bool, bool]:
-        """Whether this state's shaft touches `other`'s, and whether any other of their segments touch, as
+    def touching(self, other: ToolState, owner: object, compute: Callable[[], Touching]) -> Touching:
+        """Whether this state's shaft touches `other`'s, and which other pairs of their segments touch, as
         `compute` finds them for `owner` (the world's work cell), kept while the same other state and owner
         ask again."""
         if self._touching and self._touching[0][0] is other and self._touching[0][1] is owner:

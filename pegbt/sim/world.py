@@ -36,7 +36,7 @@ from pegbt.sim.events import Event, EventLog
 from pegbt.sim.faults import SlipAt, WorldFaults
 from pegbt.sim.grasp_tilt import tilt_problem
 from pegbt.sim.interfaces import WorldSnapshot
-from pegbt.sim.tools import RIGID, Boxes, Give, ToolState
+from pegbt.sim.tools import RIGID, TOOL_PARTS, Boxes, Give, ToolState
 from pegbt.sim.world_effects import BLOCK_MASS, GRAVITY, WorldEffects
 from pegbt.workcell import Workcell, workcell
 
@@ -197,8 +197,9 @@ class World:
         block: int | None = None,
         peg: int | None = None,
         detail: str = "",
+        parts: str = "",
     ) -> None:
-        event = Event(self.time, kind, arm, block, peg, detail)
+        event = Event(self.time, kind, arm, block, peg, detail, parts)
         self.events.append(event)
         self._schedule_marked_slips(event)
 
@@ -716,6 +717,7 @@ class World:
                 continue
             for touched in self.tools[arm].touched_pegs(self.cell, partial(self._pegs_touched, boxes)):
                 current.add(("tool-peg", arm, -1, touched))
+        parts: dict[str, str] = {}
         for (arm_a, a), (arm_b, b) in combinations(segments, 2):
             shafts, others = self.tools[arm_a].touching(
                 self.tools[arm_b], self.cell, partial(_tools_touching, a, b)
@@ -725,6 +727,7 @@ class World:
                 current.add(("shaft-shaft", pair, -1, -1))
             if others:
                 current.add(("tool-tool", pair, -1, -1))
+                parts[pair] = ", ".join(f"{arm_a} {one} on {arm_b} {other}" for one, other in others)
         surface = self.cell.board.surface_z + self.config.board_press_tolerance
         for block in self.blocks:
             if block.grips and block.pose[2, 3] > surface:
@@ -733,22 +736,28 @@ class World:
             for kind, arm, block_index, peg_index in sorted(current - self._contacts):
                 block_or_none = None if block_index < 0 else block_index
                 peg_or_none = None if peg_index < 0 else peg_index
-                self._log("collision", arm, block_or_none, peg_or_none, kind)
+                contact_parts = parts.get(arm, "") if kind == "tool-tool" else ""
+                self._log("collision", arm, block_or_none, peg_or_none, kind, contact_parts)
             self._contacts = current
 
 
-def _tools_touching(a: Boxes, b: Boxes) -> tuple[bool, bool]:
-    """Whether two tools' shafts touch, and whether any other of their segments (`ToolState.boxes`) do."""
+def _tools_touching(a: Boxes, b: Boxes) -> tuple[bool, tuple[tuple[str, str], ...]]:
+    """Whether two tools' shafts touch, and which other pairs of their segments (`ToolState.boxes`) do,
+    named by `TOOL_PARTS` (the first tool's part, the second's), in segment order."""
     if any(a[6][axis] > b[6][axis + 3] or b[6][axis] > a[6][axis + 3] for axis in range(3)):
-        return False, False  # the boxes around the whole tools are apart, so are their segments'
+        return False, ()  # the boxes around the whole tools are apart, so are their segments'
     first, second = np.nonzero(boxes_overlap(a[3][:, None], a[4][:, None], b[3][None], b[4][None]))
     if not first.size:
-        return False, False
+        return False, ()
     touching = (
         segment_distances(a[0][first], a[1][first], b[0][second], b[1][second]) < a[2][first] + b[2][second]
     )
     shafts = (first == 0) & (second == 0)
-    return bool((touching & shafts).any()), bool((touching & ~shafts).any())
+    others = tuple(
+        (TOOL_PARTS[one], TOOL_PARTS[other])
+        for one, other in zip(first[touching & ~shafts].tolist(), second[touching & ~shafts].tolist())
+    )
+    return bool((touching & shafts).any()), others
 
 
 def _beyond_play(move: Matrix, axes: Matrix, give: Give) -> float:

@@ -29,7 +29,7 @@ def two_handovers(tmp_path: Path) -> Path:
         "    - subtree: {use: clear_view}\n"
         "    - parallel:\n        name: two handovers\n        children:\n"
         "          - for_each: {name: PSM2 gives, list: two, use: give, args: {giver: PSM2, receiver: PSM1}, on_failure: continue}\n"
-        "          - for_each: {name: PSM1 receives, list: two, use: receive, args: {receiver: PSM1}, on_failure: continue}\n"
+        "          - for_each: {name: PSM1 receives, list: two, use: receive, args: {receiver: PSM1, giver: PSM2}, on_failure: continue}\n"
     )
     return tree
 

@@ -23,6 +23,7 @@ from py_trees.common import Status
 from pegbt.behaviours.actions import handover
 from pegbt.behaviours.actions.grasping import gripping
 from pegbt.behaviours.actions.handover import WayOut, plan_meeting
+from pegbt.behaviours.actions.handover_look import receiver_grasp
 from pegbt.behaviours.base import JAW_AHEAD, LONE_PATIENCE, MOTION_OVERTIME, Outgoing, parts
 from pegbt.behaviours.motion import eased_grip, rise
 from pegbt.behaviours.params import HELD_ABOVE
@@ -1315,6 +1316,84 @@ def test_go_to_handover_waits_open_straight_above_the_receivers_grasp(tmp_path, 
     assert robot.arms[GIVER].sent == []
 
 
+FIND_HANDED = (
+    "{find_handed_block: {arm: PSM1, giver_grasp: /PSM2/grasp, grasp: /handover/receiver_grasp, "
+    "block_pose: /handover/block_pose}}"
+)
+OVER_SEEN = "{over_seen_grasp: {arm: PSM1, grasp: /handover/receiver_grasp}}"
+
+
+def held_out_off_plan(robot: Robot, skills: Skills, seen, shift, camera_seed: int = 1):
+    """The giver holding the block of the pick peg out at the meeting point, block and tool `shift` (board
+    x, y) off where it was planned (the cables' error), the receiver waiting above its planned grasp; the
+    blackboard of the look, the block's true pose and the giver's planned joints."""
+    block, grasp, meeting = giving(skills, seen)
+    cell, world = skills.cell, World(seed=0)
+    q_giver = solve_ik(meeting.tip, skills.settings[GIVER])
+    q_receiver = solve_ik(wait_pose(skills, meeting.receiver_grasp), skills.settings[RECEIVER])
+    at(robot.arms[GIVER], q_giver)
+    at(robot.arms[RECEIVER], q_receiver)
+    off = np.eye(4)
+    off[:2, 3] = shift
+    truth = off @ meeting.block_pose
+    held = next(b for b in world.blocks if b.peg == PICK)
+    held.pose, held.peg = truth, None
+    world.tools[GIVER] = ToolState.from_joints(q_giver, 0.2, off @ cell.arm_to_board(GIVER))
+    world.tools[RECEIVER] = ToolState.from_joints(q_receiver, 0.8, cell.arm_to_board(RECEIVER))
+    values = {
+        "board": seen[0],
+        "cloud": DepthCamera(seed=camera_seed).capture(world),
+        "PSM2/grasp": grasp,
+        "handover/receiver_grasp": meeting.receiver_grasp,
+        "handover/block_pose": meeting.block_pose,
+    }
+    return values, truth, q_giver
+
+
+def test_the_look_at_the_block_held_out_off_its_plan_moves_the_receivers_grasp_with_it(
+    tmp_path, robot, skills, seen, clock
+):
+    """The giver holds the block out 2 mm and -1 mm (board x, y) off where it was planned: the look finds
+    it, and the receiver's grasp and the block's pose written follow the block as it is, within
+    perception's error (0.5 mm), where the planned ones were 2.2 mm off."""
+    shift = np.array([0.002, -0.001])
+    values, truth, q_giver = held_out_off_plan(robot, skills, seen, shift)
+    planned = values["handover/receiver_grasp"]
+    built = build(tmp_path, robot, skills, FIND_HANDED, **values)
+    assert run(built, clock) == Status.SUCCESS
+    seen_pose, taken = read("/handover/block_pose"), read("/handover/receiver_grasp")
+    assert np.linalg.norm(seen_pose[:2, 3] - truth[:2, 3]) < 0.0005
+    true_grasp = receiver_grasp(skills, RECEIVER, GIVER, values["PSM2/grasp"].candidate, truth, q_giver)
+    assert np.linalg.norm(taken.board_position - true_grasp.board_position) < 0.0005
+    assert np.linalg.norm(planned.board_position[:2] - true_grasp.board_position[:2]) > 0.0015
+    assert "mm off where it was planned held out" in feedback(built)
+
+
+def test_the_look_at_the_block_held_out_fails_saying_so_when_no_block_is_there(
+    tmp_path, robot, skills, seen, clock
+):
+    """The giver's jaw is empty (the block 30 mm away from where it was planned held out): the look fails
+    and says it saw no block, leaving the planned grasp on the blackboard."""
+    values, _, _ = held_out_off_plan(robot, skills, seen, np.array([0.030, 0.0]))
+    planned = values["handover/receiver_grasp"]
+    built = build(tmp_path, robot, skills, FIND_HANDED, **values)
+    assert run(built, clock) == Status.FAILURE
+    assert "no block seen" in feedback(built) and read("/handover/receiver_grasp") is planned
+
+
+def test_over_seen_grasp_stops_open_3_mm_over_the_grasp_point_at_rest(tmp_path, robot, skills, seen, clock):
+    """`pick_block`'s first stop: the tip `grasp_depth` + 3 mm straight above the tip at the grasp."""
+    arm, meeting, values = receiver_at(robot, skills, seen, partial(wait_pose, skills))
+    built = build(tmp_path, robot, skills, OVER_SEEN, **values)
+    assert run(built, clock) == Status.SUCCESS
+    (trajectory,) = arm.trajectories
+    above = meeting.receiver_grasp.pose.copy()
+    above[2, 3] += 0.003 + skills.cell.block.grasp_depth
+    assert np.allclose(forward_kinematics(trajectory.q[-1]), above, atol=1e-4)
+    assert np.linalg.norm(trajectory.qd[-1]) < 0.01
+    assert [sent.target for sent in arm.jaw.sent] == [skills.motion.transfer.jaw_open]
+
+
 def test_go_to_handover_from_low_among_the_pegs_rises_before_moving_over(
     tmp_path, robot, skills, seen, clock
 ):
@@ -1924,6 +2003,7 @@ UNIT_TESTED = {
     "collect_calibration": "test_leaves.py",
     "descend_to_grasp": "test_leaves.py",
     "find_blocks": "test_leaves.py",
+    "find_handed_block": "test_leaves.py",
     "find_held_block": "test_leaves.py",
     "finish_transfer": "test_leaves.py",
     "give_up": "test_handover_protocol.py",
@@ -1940,6 +2020,7 @@ UNIT_TESTED = {
     "log": "test_executive_nodes.py",
     "not_given_up": "test_handover_protocol.py",
     "offer": "test_handover_protocol.py",
+    "over_seen_grasp": "test_leaves.py",
     "park": "test_leaves.py",
     "ready_for": "test_handover_protocol.py",
     "receiver_waits": "test_handover_protocol.py",

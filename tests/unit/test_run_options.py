@@ -139,6 +139,20 @@ def test_the_paper_s_protocol_is_recorded_with_the_policies_it_sets(tmp_path):
     assert read_tick_log(_old_header(tmp_path)).protocol == "pegbt"  # a log from before the option
 
 
+def test_the_paper_s_protocol_looks_at_the_block_held_out_in_a_handover_with_cubic_motions(tmp_path):
+    """`/policy/look_at_handover` (trees/shared/handover.yaml): set in a handover under the paper's protocol,
+    true where the motions are rest-to-rest cubics; never in another variant, whose trees do not declare
+    it, nor under pegbt's protocol."""
+    for condition, looks in (("uncalibrated", True), ("calibrated", True), ("optimized", False)):
+        spec = TrialSpec("handover", condition, 1, tmp_path / "t.jsonl", protocol="paper")
+        fields = trial_run_options(spec, run_options(spec, "tcp/127.0.0.1:7447")).record_fields()
+        assert fields["run"]["blackboard"]["/policy/look_at_handover"] is looks
+    for variant, protocol in (("bilateral", "paper"), ("handover", "pegbt")):
+        spec = TrialSpec(variant, "uncalibrated", 1, tmp_path / "t.jsonl", protocol=protocol)
+        fields = trial_run_options(spec, run_options(spec, "tcp/127.0.0.1:7447")).record_fields()
+        assert "/policy/look_at_handover" not in fields["run"]["blackboard"]
+
+
 def test_a_bad_protocol_is_refused_naming_the_option_or_the_tree_file(tmp_path, capsys):
     with pytest.raises(PegbtError, match="'sideways' is not one of pegbt, paper") as raised:
         RunOptions(EXAMPLE, tmp_path / "x.jsonl", {"protocol": "sideways"})

@@ -59,6 +59,31 @@ def test_two_tools_at_one_place_collide():
     assert ("tool-tool", "PSM1+PSM2", None) in collisions(events)
 
 
+def test_a_tool_tool_contact_names_the_parts_that_touch():
+    world = World(seed=0)
+    high, low = np.array([0.06, 0.07, -0.03]), np.array([0.06, 0.07, -0.03 + 0.009])
+    events = world.update(0.01, {"PSM1": _tool(world, "PSM1", high), "PSM2": _tool(world, "PSM2", low)})
+    (hit,) = [event for event in events if event.detail == "tool-tool"]
+    assert "PSM1 jaw on PSM2 wrist" in hit.parts and "PSM1 wrist" not in hit.parts
+    assert hit.to_dict()["parts"] == hit.parts
+    assert "parts" not in events[0].__class__(0.0, "grasp").to_dict()
+
+
+def test_the_simulators_log_keeps_a_contacts_parts(tmp_path):
+    from pegbt.sim.log import SimLog, read_sim_log
+
+    world = World(seed=0)
+    point = np.array([0.06, 0.07, -0.03])
+    log = SimLog(tmp_path / "sim.jsonl")
+    for event in world.update(
+        0.01, {"PSM1": _tool(world, "PSM1", point), "PSM2": _tool(world, "PSM2", point + [0.0, 0.0, 0.009])}
+    ):
+        log.record_event(event)
+    log.close()
+    (entry,) = [entry for entry in read_sim_log(tmp_path / "sim.jsonl") if entry["detail"] == "tool-tool"]
+    assert entry["parts"] == "PSM1 jaw on PSM2 wrist, PSM1 jaw on PSM2 jaw" and entry["arm"] == "PSM1+PSM2"
+
+
 def test_a_block_carried_low_into_another_peg_is_knocked_loose():
     world = World(seed=0)
     driver = Driver(world)

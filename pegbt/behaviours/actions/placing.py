@@ -19,11 +19,28 @@ from pegbt.motion.ik import solve_ik
 from pegbt.motion.kinematics import forward_kinematics
 from pegbt.motion.placing import DROP_Z, along_to_z
 from pegbt.perception.board import BoardEstimate
-from pegbt.perception.cloud import open3d_threads
+from pegbt.perception.cloud import Points, open3d_threads
 from pegbt.perception.organised import OrganisedCloud
-from pegbt.perception.servo import correction, held_block, off_the_tool, reach
+from pegbt.perception.servo import correction, held_block, in_servo_box, off_the_tool, reach
+from pegbt.workcell import Workcell
 
 Look = tuple[NDArray[np.float64], int, str]  # the move (arm frame, m), the points seen, what was seen
+
+
+def board_points(
+    cloud: ArrayLike | OrganisedCloud,
+    board: BoardEstimate,
+    cell: Workcell,
+    tools: dict[str, NDArray[np.float64]],
+) -> Points:
+    """`cloud`'s finite points in the board's frame, less those on the tools of the arms at the joints of
+    `tools` (arm: joints, as planned): a cloud without colour keeps them, where the paper's mask dropped
+    the grey tool's (`off_the_tool`)."""
+    raw = cloud.grid.reshape(-1, 3) if isinstance(cloud, OrganisedCloud) else np.asarray(cloud)
+    points = board.to_board(raw[np.isfinite(raw).all(axis=1)])
+    for arm, joints in tools.items():
+        points = points[off_the_tool(points, joints, cell.arm_to_board(arm), cell.tool)]
+    return points
 
 
 class FindHeldBlock(ComputeLeaf):
@@ -44,13 +61,12 @@ class FindHeldBlock(ComputeLeaf):
         peg: int,
         joints: NDArray[np.float64],
     ) -> Look:
-        raw = cloud.grid.reshape(-1, 3) if isinstance(cloud, OrganisedCloud) else np.asarray(cloud)
-        points = board.to_board(raw[np.isfinite(raw).all(axis=1)])
         cell = self.skills.cell
-        points = points[off_the_tool(points, joints, cell.arm_to_board(arm), cell.tool)]
+        points = board_points(cloud, board, cell, {arm: joints})
         peg_xy = board.peg_tops[:, :2]
+        seen = points[in_servo_box(points, peg_xy[peg], cell.board.surface_z)]
         with open3d_threads(1 if self.context.work.inline else None):
-            pose, count, why = held_block(self.skills.locator, points, peg_xy[peg])
+            pose, count, why = held_block(self.skills.locator, seen, peg_xy[peg])
         if pose is None:
             return np.zeros(3), count, f"{count} points over peg {peg}, {why}: no correction"
         bottom = pose[:3, 3]

@@ -14,6 +14,7 @@ from typing import Protocol
 import numpy as np
 from numpy.typing import NDArray
 
+from pegbt.behaviours.actions.handover_look import over_grasp, receiver_grasp
 from pegbt.behaviours.motion import above_pegs_first
 from pegbt.behaviours.poses import from_handover
 from pegbt.behaviours.resources.skills import Skills
@@ -33,12 +34,7 @@ from pegbt.sim2real.outcomes.attempt import (
     seen_point,
 )
 from pegbt.sim2real.outcomes.bench import START, Bench, Replay
-from pegbt.sim2real.outcomes.paperhandover import (
-    GIVER_RISE,
-    over_grasp,
-    receiver_grasp,
-    seen_held,
-)
+from pegbt.sim2real.outcomes.paperhandover import GIVER_RISE, seen_held
 from pegbt.sim2real.outcomes.paperplacing import paper_from_handover
 from pegbt.sim2real.outcomes.transfer_order import RECEIVER
 from pegbt.sim2real.outcomes.transfer_result import TransferResult
@@ -193,7 +189,7 @@ def _looked_at(
     trying: Giving, taker: Bench, giver: Bench, block: int
 ) -> tuple[Grasp, NDArray[np.float64]] | None:
     """The paper's look at the block `giver` holds out, once both arms are at rest: the receiver's grasp of
-    the block as seen (`paperhandover.receiver_grasp`), and the seen pose; None if it has none."""
+    the block as seen (`handover_look.receiver_grasp`), and the seen pose; None if it has none."""
     world = trying.world
     truth = world.blocks[block].pose
     noise = trying.rng.normal(0.0, PAPER_PERCEPTION_SD, 2)

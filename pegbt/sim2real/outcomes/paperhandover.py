@@ -6,7 +6,8 @@ in one cubic to `height_handover` (10 mm higher, z in its own frame), its tool a
 and the block's hole over the handover point (`find_placing_pose` on `pnt_handover`, the mean of pegs 3, 6
 and 9 moved −10 mm in y; `go_handover_traj`, `dvrkPegTransferMotionHandOver.py` lines 246 and 265). Only then
 does the camera look at the held block (`find_block_servo_handover`) and the receiver's grasp is worked out
-from what it sees (`find_grasping_pose_handover`); the receiver moves to 3 mm over that grasp point, down
+from what it sees (`find_grasping_pose_handover`, `pegbt.behaviours.actions.handover_look`, which the trees
+run too under `/policy/look_at_handover`); the receiver moves to 3 mm over that grasp point, down
 onto it and closes, its tool along its base's z at the grasp's yaw (`pick_block`, lines 157–167); the giver
 opens and rises 10 mm (`offset_handover`), and only then does the receiver carry the block away.
 
@@ -24,7 +25,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from pegbt.behaviours.actions.handover import Meeting, clear_descent, distance_to
+from pegbt.behaviours.actions.handover import Meeting
+from pegbt.behaviours.actions.handover_look import receiver_grasp
 from pegbt.behaviours.poses import (
     block_axis_top,
     to_arm,
@@ -33,7 +35,7 @@ from pegbt.behaviours.poses import (
 )
 from pegbt.behaviours.resources.skills import Skills
 from pegbt.errors import PegbtError
-from pegbt.frames import apply_rigid, invert_rigid, rigid_transform, yaw_rotation
+from pegbt.frames import invert_rigid, rigid_transform, yaw_rotation
 from pegbt.motion.channel import Channel
 from pegbt.motion.handover import handover_meeting_point
 from pegbt.motion.ik import solve_ik
@@ -41,12 +43,11 @@ from pegbt.motion.placing import STOP_Z, paper_heights
 from pegbt.motion.settings import MotionSettings
 from pegbt.motion.waypoints import TransferWaypoints
 from pegbt.perception.blocks import BlockEstimate
-from pegbt.perception.grasp import Grasp, grasp_options
+from pegbt.perception.grasp import Grasp
 from pegbt.sim2real.outcomes.paperplacing import PLACING_YAW, turned_to_placing
 from pegbt.workcell import Workcell
 
 HANDOVER_Z = STOP_Z + 0.010  # m, z in the arm's frame: `height_handover`
-ABOVE_GRASP_POINT = 0.003  # m: `pick_block` stops this far over the seen grasp point (`offset_grasp`)
 GIVER_RISE = 0.010  # m: the giver, opened, rises this far before the receiver leaves (`offset_handover`)
 
 
@@ -94,63 +95,6 @@ def paper_carry(
         Channel(meeting[:3, 3], -up, 0.0, tolerance, floor=False),
         pick.upright,
     )
-
-
-def receiver_grasp(
-    skills: Skills,
-    receiver: str,
-    giver: str,
-    giver_candidate: int,
-    block_pose: NDArray[np.float64],
-    q_giver: NDArray[np.float64],
-) -> Grasp | None:
-    """The receiver's grasp of a block at `block_pose` (board frame, tilted as it hangs) held by `giver`
-    (its joints `q_giver`) by candidate `giver_candidate`: at the candidate's point, the tool upright at
-    its yaw, as `pick_block` goes (`euler_to_quaternion([rot, 0, 0])`); on another wall than the giver's,
-    reachable, its descent from `receiver_wait_above` keeping `grasp_clearance` of the giver's tool; the
-    nearest to the receiver. None if there is none."""
-    cell = skills.cell
-    edges = cell.block.grasp_candidates.edge
-    selector = skills.selectors[receiver]
-    options = [
-        _upright(cell, option, block_pose)
-        for option in grasp_options(block_pose, receiver, cell)
-        if abs(option.yaw) <= selector.yaw_window and edges[option.candidate] != edges[giver_candidate]
-    ]
-    if not options:
-        return None
-    reachable = np.asarray(selector.reachable(np.array([option.pose for option in options])), dtype=bool)
-    return next(
-        (
-            option
-            for option in sorted(
-                (option for option, ok in zip(options, reachable) if ok),
-                key=lambda option: distance_to(cell, receiver, option),
-            )
-            if clear_descent(skills, receiver, option, giver, q_giver)
-        ),
-        None,
-    )
-
-
-def _upright(cell: Workcell, option: Grasp, block_pose: NDArray[np.float64]) -> Grasp:
-    """`option` as `pick_block` takes it: `grasp_depth` down the base's z from the candidate's point on the
-    (tilted) top face (`offset_grasp` is along the robot's z), the tool along the base's z at the option's
-    yaw (`euler_to_quaternion([rot, 0, 0])`)."""
-    local = cell.block.grasp_candidates.positions[option.candidate] - [0.0, 0.0, cell.block.grasp_depth]
-    tip = to_arm(cell, option.arm, apply_rigid(block_pose, local)) - [0.0, 0.0, cell.block.grasp_depth]
-    pose = rigid_transform(yaw_rotation(option.yaw), tip)
-    return Grasp(
-        option.arm, option.candidate, pose, option.yaw, apply_rigid(cell.arm_to_board(option.arm), tip)
-    )
-
-
-def over_grasp(cell: Workcell, grasp: Grasp) -> NDArray[np.float64]:
-    """Where `pick_block` first takes the receiver: `ABOVE_GRASP_POINT` over the grasp point, which lies
-    `grasp_depth` over the tip at the grasp, along the base's z."""
-    pose = grasp.pose.copy()
-    pose[2, 3] += ABOVE_GRASP_POINT + cell.block.grasp_depth
-    return pose
 
 
 def seen_held(
