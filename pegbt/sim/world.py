@@ -266,7 +266,11 @@ class World:
             block.pose = block.pose @ rigid_transform(None, [slide[0], slide[1], 0.0])
         block.grips[arm] = invert_rigid(tool.tip) @ block.pose
         self._bites[block.index, arm] = float(invert_rigid(block.grips[arm])[2, 3]) + self.cell.block.height
-        detail = f"edge {edge}" + (f", handover from {giver}" if giver else "")
+        detail = f"edge {edge}"
+        if giver is not None:  # a held block does not slide: the jaw holds it as far off the wall's centre
+            detail += (
+                f", handover from {giver}, {1000 * float(np.linalg.norm(slide)):.1f} mm off the wall's centre"
+            )
         self._log("grasp", arm, block.index, block.peg, detail)
 
     def _grip_problem(

@@ -276,8 +276,29 @@ def _both_holding_at_the_meeting_point(world):
     meeting = np.append(handover_meeting_point(world.cell)[:2] + tip_from_block, holding.position[2])
     driver.play({"PSM2": [Keyframe(meeting, holding.yaw, holding.jaw)]})
     events = driver.play({"PSM1": grasp_keyframes(world, 1, grasp_candidate_facing(world, 1, "PSM1"))})
-    assert kinds(events) == ["grasp"] and events[0].detail.endswith("handover from PSM2")
+    assert kinds(events) == ["grasp"] and "handover from PSM2, " in events[0].detail
     return driver
+
+
+def test_a_receivers_grasp_says_how_far_off_the_walls_centre_its_jaw_holds_the_held_block():
+    """A held block does not slide into the closing jaw: the receiver holds it where its jaw closed, and the
+    simulator's log says how far that is from the wall's centre (what its carry then puts off the peg)."""
+    found = []
+    for shift in (0.0, 0.001):
+        world = World(seed=0)
+        driver = Driver(world)
+        grasp = grasp_keyframes(world, 1, grasp_candidate_facing(world, 1, "PSM2"))
+        driver.play({"PSM2": [*grasp, lifted(world, grasp[-1])]})
+        keyframes = grasp_keyframes(world, 1, grasp_candidate_facing(world, 1, "PSM1"))
+        across = np.array(
+            [np.cos(keyframes[-1].yaw), np.sin(keyframes[-1].yaw), 0.0]
+        )  # the jaws close along it
+        moved = [Keyframe(k.position + shift * across, k.yaw, k.jaw) for k in keyframes]
+        (event,) = [e for e in driver.play({"PSM1": moved}) if e.kind == "grasp"]
+        found.append(event.detail)
+    off = [float(detail.split(", ")[-1].removesuffix(" mm off the wall's centre")) for detail in found]
+    assert all(", handover from PSM2, " in detail for detail in found)
+    assert off[0] < 0.5 and off[1] - off[0] == pytest.approx(1.0, abs=0.05)
 
 
 def test_a_giver_rising_with_its_jaw_still_squeezing_drags_the_block_through_the_receivers_jaw():
