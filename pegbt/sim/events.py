@@ -38,9 +38,7 @@ class Event:
     block: int | None = None
     peg: int | None = None
     detail: str = ""
-    parts: str = (
-        ""  # a tool-tool contact's parts, "PSM1 jaw on PSM2 wrist": which way an arm should have gone
-    )
+    parts: str = ""  # a tool-tool contact's parts that touched: "PSM1 jaw on PSM2 wrist"
 
     def to_dict(self) -> dict[str, float | int | str | None]:
         """The event's fields, `parts` only where it names some."""

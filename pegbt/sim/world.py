@@ -721,7 +721,7 @@ class World:
                 continue
             for touched in self.tools[arm].touched_pegs(self.cell, partial(self._pegs_touched, boxes)):
                 current.add(("tool-peg", arm, -1, touched))
-        parts: dict[str, str] = {}
+        parts: dict[str, tuple[str, str, tuple[tuple[str, str], ...]]] = {}  # named only as a contact begins
         for (arm_a, a), (arm_b, b) in combinations(segments, 2):
             shafts, others = self.tools[arm_a].touching(
                 self.tools[arm_b], self.cell, partial(_tools_touching, a, b)
@@ -731,7 +731,7 @@ class World:
                 current.add(("shaft-shaft", pair, -1, -1))
             if others:
                 current.add(("tool-tool", pair, -1, -1))
-                parts[pair] = ", ".join(f"{arm_a} {one} on {arm_b} {other}" for one, other in others)
+                parts[pair] = (arm_a, arm_b, others)
         surface = self.cell.board.surface_z + self.config.board_press_tolerance
         for block in self.blocks:
             if block.grips and block.pose[2, 3] > surface:
@@ -740,8 +740,8 @@ class World:
             for kind, arm, block_index, peg_index in sorted(current - self._contacts):
                 block_or_none = None if block_index < 0 else block_index
                 peg_or_none = None if peg_index < 0 else peg_index
-                contact_parts = parts.get(arm, "") if kind == "tool-tool" else ""
-                self._log("collision", arm, block_or_none, peg_or_none, kind, contact_parts)
+                named = _parts_named(*parts[arm]) if kind == "tool-tool" else ""
+                self._log("collision", arm, block_or_none, peg_or_none, kind, named)
             self._contacts = current
 
 
@@ -757,11 +757,17 @@ def _tools_touching(a: Boxes, b: Boxes) -> tuple[bool, tuple[tuple[str, str], ..
         segment_distances(a[0][first], a[1][first], b[0][second], b[1][second]) < a[2][first] + b[2][second]
     )
     shafts = (first == 0) & (second == 0)
-    others = tuple(
+    others = touching & ~shafts
+    named = tuple(
         (TOOL_PARTS[one], TOOL_PARTS[other])
-        for one, other in zip(first[touching & ~shafts].tolist(), second[touching & ~shafts].tolist())
+        for one, other in zip(first[others].tolist(), second[others].tolist())
     )
-    return bool((touching & shafts).any()), others
+    return bool((touching & shafts).any()), named
+
+
+def _parts_named(arm_a: str, arm_b: str, touching: tuple[tuple[str, str], ...]) -> str:
+    """A tool-tool contact's parts as the simulator's log gives them: "PSM1 jaw on PSM2 wrist, ..."."""
+    return ", ".join(f"{arm_a} {one} on {arm_b} {other}" for one, other in touching)
 
 
 def _beyond_play(move: Matrix, axes: Matrix, give: Give) -> float:

@@ -2,6 +2,7 @@
 
 import numpy as np
 
+from pegbt.sim.events import Event
 from pegbt.sim.scripted import Driver, Keyframe, carry_height, grasp_candidate_facing, grasp_keyframes, lifted
 from pegbt.sim.tools import ToolState, tool_pointing_down
 from pegbt.sim.world import World
@@ -66,7 +67,7 @@ def test_a_tool_tool_contact_names_the_parts_that_touch():
     (hit,) = [event for event in events if event.detail == "tool-tool"]
     assert "PSM1 jaw on PSM2 wrist" in hit.parts and "PSM1 wrist" not in hit.parts
     assert hit.to_dict()["parts"] == hit.parts
-    assert "parts" not in events[0].__class__(0.0, "grasp").to_dict()
+    assert "parts" not in Event(0.0, "grasp").to_dict()
 
 
 def test_the_simulators_log_keeps_a_contacts_parts(tmp_path):
