@@ -38,7 +38,7 @@ POINTS_XYZ = Topic(
     "/points/xyz", codec.POINT_CLOUD2, depth=10, reliable=True
 )  # "recommended if you don't need the RGBA values"
 STRIDE = 2  # every 2nd row and column: 0.6 mm between points at the board (see `pegbt bench perception`)
-CLOUD_GRACE_S = 2.0  # after the response, for the cloud published before it to arrive
+CLOUD_GRACE_S = 2.0  # after the response, for the cloud published before it to arrive (a robot's machine)
 
 
 class ZividCloud:
@@ -125,11 +125,11 @@ class ZividCapture:
         now = time.monotonic()
         if self._answered_at is None:
             self._answered_at = now
-        elif not self._arrived.is_set() and now - self._answered_at > CLOUD_GRACE_S:
+        elif not self._arrived.is_set() and now - self._answered_at > self.camera.grace:
             self.refuse(
                 ServiceFailed(
                     f"capture failed: service {service} responded, but no cloud came on {topic} within "
-                    f"{CLOUD_GRACE_S:g} s (the driver publishes only to topics with subscribers: is {topic} "
+                    f"{self.camera.grace:g} s (the driver publishes only to topics with subscribers: is {topic} "
                     "routed here?)",
                     field=topic,
                 )
@@ -158,7 +158,8 @@ class ZividCapture:
 
 class ZividCamera:
     """A Zivid driver's capture `service` and its cloud on `topic` through `wire`, each cloud thinned by
-    `stride`; a capture waits up to `timeout` s."""
+    `stride`; a capture waits up to `timeout` s, its cloud up to `grace` s after the service responded (a run
+    that allows its endpoints to stall, `--liveness`, allows the camera as long)."""
 
     def __init__(
         self,
@@ -169,13 +170,14 @@ class ZividCamera:
         stride: int = STRIDE,
         clock: Clock | None = None,
         timeout: float = 10.0,
+        grace: float = CLOUD_GRACE_S,
     ) -> None:
         if stride < 1:
             raise PegbtError(f"the thinning stride must be at least 1, got {stride}", field="stride")
         self.wire = wire
         self.service, self.topic, self.stride = service, topic, stride
         self.clock: Clock = clock or WallClock()
-        self.timeout = timeout
+        self.timeout, self.grace = timeout, grace
         self.last_error: str | None = None
         self._pending: list[ZividCapture] = []
         self._lock = threading.Lock()

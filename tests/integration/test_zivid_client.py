@@ -23,7 +23,7 @@ from pegbt.transport import codec
 from pegbt.transport.ros2 import BridgeWire
 from pegbt.transport.ros2_service import ServiceFailed, ServiceRequest
 from pegbt.transport.session import client_settings, endpoint_settings, open_session
-from pegbt.transport.zivid_camera import CAPTURE, ZividCamera
+from pegbt.transport.zivid_camera import CAPTURE, CLOUD_GRACE_S, ZividCamera
 
 CAPTURE_WAIT_S = 60.0
 
@@ -88,9 +88,9 @@ class FakeDriver:
         self.session.close()
 
 
-def _client(address: str, timeout: float) -> tuple[zenoh.Session, ZividCamera]:
+def _client(address: str, timeout: float, grace: float = CLOUD_GRACE_S) -> tuple[zenoh.Session, ZividCamera]:
     session = open_session(client_settings([address]))
-    camera = ZividCamera(BridgeWire(session), timeout=timeout)
+    camera = ZividCamera(BridgeWire(session), timeout=timeout, grace=grace)
     time.sleep(0.5)
     return session, camera
 
@@ -156,7 +156,28 @@ def test_a_response_without_a_cloud_is_an_error_naming_the_topic() -> None:
         session.close()
         driver.close()
     assert error.field == "/points/xyz"
-    assert "service /capture responded, but no cloud came on /points/xyz" in error.message
+    assert (
+        f"service /capture responded, but no cloud came on /points/xyz within {CLOUD_GRACE_S:g} s"
+        in error.message
+    )
+
+
+def test_a_cloud_late_after_the_response_is_taken_within_the_runs_allowance() -> None:
+    driver = FakeDriver((True, ""))  # responds at once; its cloud comes 3 s later (a stalled machine)
+    session, camera = _client(driver.address, timeout=10.0, grace=5.0)
+    publisher = BridgeWire(driver.session).publisher(camera.topic)
+    cloud = np.full((2, 2, 3), np.nan, dtype=np.float32)
+    cloud[0, 0] = (0.01, 0.02, 0.5)
+    try:
+        capture = camera.capture_async()
+        time.sleep(3.0)
+        assert capture.sent and not capture.ready  # answered, still waiting: 3 s > 2 s, < 5 s
+        publisher.put(codec.encode_organised_cloud(time.time(), cloud, "zivid_optical_frame"))
+        points = capture.result(5.0).points
+    finally:
+        session.close()
+        driver.close()
+    np.testing.assert_array_equal(points, np.array([[0.01, 0.02, 0.5]], dtype=np.float32))
 
 
 def test_a_capture_waits_for_a_slow_driver() -> None:

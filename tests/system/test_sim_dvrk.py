@@ -240,10 +240,14 @@ def test_a_jump_beyond_the_tracking_tolerance_faults_the_arm_until_it_is_enabled
 
     peer.put("PSM1/state_command", state_command("disable"))
     assert wait_for(lambda: _state(states).state == "DISABLED")
+    status = peer.subscribe("PSM1/status")
+    time.sleep(0.2)
     peer.put("PSM1/state_command", state_command("home"))
-    # ready: the state the homing ends in (ENABLED, homed, idle), whatever came between
+    # ENABLED, homed and idle is also what the arm says once powered, before it homes (Arm.cpp
+    # `EnterEnabled`): ready is the HOMED state reached, and that state published
+    homed = lambda: "PSM1: current state HOMED" in _texts(status)  # noqa: E731
     ready = lambda: (s := _state(states)) and s.state == "ENABLED" and s.is_homed and not s.is_busy  # noqa: E731
-    assert wait_for(ready, timeout=20)
+    assert wait_for(homed, timeout=20) and wait_for(ready)
     start = _last_position(setpoints)[0]
     peer.put("PSM1/servo_jp", joint_state([start + 0.05, 0.0, 0.12, 0.0, 0.0, 0.0]))
     assert wait_for(lambda: _last_position(setpoints)[0] == pytest.approx(start + 0.05))

@@ -41,8 +41,8 @@ from pegbt.transport.ros2 import Ros2Wire, Topic
 from pegbt.transport.session import Session, open_session, reaches_anyone
 from pegbt.transport.streaming import Streamer
 from pegbt.transport.wires import make_wire, wire_session_settings
+from pegbt.transport.zivid_camera import CLOUD_GRACE_S, ZividCamera
 from pegbt.transport.zivid_camera import POINTS_XYZ as ZIVID_POINTS
-from pegbt.transport.zivid_camera import ZividCamera
 
 SIMULATOR_PHYSICS = "dvrk-real"
 SIMULATOR_ARGS = ("--physics", SIMULATOR_PHYSICS)
@@ -321,7 +321,7 @@ def connect_crtk_robot(
             for arm in ARMS
         }
         depth_camera: StreamingCamera | ZividCamera = (
-            ZividCamera(wire, clock=clock)
+            ZividCamera(wire, clock=clock, grace=max(CLOUD_GRACE_S, liveness))
             if camera_kind == "zivid"
             else StreamingCamera(
                 wire, point_cloud_topic(camera), clock=clock, timeout=max(CAPTURE_TIMEOUT, liveness)
