@@ -12,9 +12,9 @@ block with points in the box could be is not acted on (`plausible`), so a wild r
 no farther than a true one could (`reach`); any other fit is moved by, as the paper's was (a fitness
 threshold would turn away fits the paper acted on: one seen at 78 % moved the block 3.9 mm).
 
-The paper's colour mask kept the red block's points and dropped the grey tool's; a cloud without colour
-(the simulated camera's) drops the points on the robot's own tool instead, where the robot believes it
-is (`off_the_tool`).
+The paper's colour mask kept the red block's points and dropped the grey tool's (`pegbt.perception.colour`);
+a cloud without colour drops the points on the robot's own tool instead, where the robot believes it is
+(`off_the_tool`), which keeps the jaw of an arm standing off its plan.
 """
 
 from __future__ import annotations

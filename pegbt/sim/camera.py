@@ -11,6 +11,12 @@ A world's `depth_bias` (`pegbt.sim.world_effects`) acts on what the camera sees,
 lengthens the rays that meet the blocks and the instruments (not the pegboard, which perception registers
 and measures the pegs on).
 
+Each point has the colour of what its ray met (`Exposure.colours`, `capture_coloured`), as a Zivid's cloud
+has: the reference set-up's blocks and pegs are red (FLSpegtransferHO `vision/BlockDetection3D.py` keeps the
+red points, `lower_red`/`upper_red`, to find both), the pegboard light grey, the instruments dark grey. A
+colour is a rgba word as zivid-ros packs it (`PointXYZColorBGRA`: `0xAARRGGBB`, little-endian bytes B, G, R,
+A); a pixel that saw nothing is 0.
+
 A capture is taken whole (`capture`) or in parts (`expose`, then `Exposure.cast` a few rays at a time, then
 `Exposure.points`): the streaming camera of the simulator's dVRK interface renders a frame over several
 control periods, so that a frame never stalls the arms' control loop. Both give the same points.
@@ -20,17 +26,29 @@ from __future__ import annotations
 
 import numpy as np
 import open3d as o3d
+from numpy.typing import NDArray
 
 from pegbt.errors import PegbtError
 from pegbt.frames import Matrix
 from pegbt.sim.events import Event
 from pegbt.sim.faults import CameraFaults, NoiseBurst
 from pegbt.sim.interfaces import SimWorld
-from pegbt.sim.meshes import Mesh, block_mesh, cylinder_mesh, merge, static_scene_mesh, transformed
+from pegbt.sim.meshes import Mesh, block_mesh, box_mesh, cylinder_mesh, merge, static_scene_mesh, transformed
 from pegbt.sim.world import World
 from pegbt.workcell import CameraModel, Workcell, workcell
 
 ROI_MARGIN_PX = 8
+
+
+def rgba_word(red: int, green: int, blue: int) -> int:
+    """An opaque colour as one rgba word, `0xAARRGGBB` (zivid-ros's `rgba` field)."""
+    return 0xFF000000 | red << 16 | green << 8 | blue
+
+
+RED = rgba_word(200, 40, 30)  # the blocks and the pegs: a hue of 4°, inside the paper's mask (0–40°)
+BOARD_GREY = rgba_word(185, 185, 180)
+TOOL_GREY = rgba_word(60, 60, 64)
+NO_HIT = np.iinfo(np.uint32).max  # Open3D's primitive id where a ray met nothing
 
 
 class DepthCamera:
@@ -120,6 +138,15 @@ class DepthCamera:
                 ]
         return merge(meshes)
 
+    def triangle_colours(self, world: World) -> NDArray[np.uint32]:
+        """The rgba word of each triangle of `scene_mesh(world)`: the slab grey, its pegs and the blocks red,
+        the instruments dark grey."""
+        slab = len(box_mesh(np.zeros(3), np.ones(3))[1])  # the static mesh's first part (`static_scene_mesh`)
+        blocks = self.board_triangles + len(world.blocks) * self.block_triangles
+        colours = np.full(blocks, RED, dtype=np.uint32)
+        colours[:slab] = BOARD_GREY
+        return colours
+
     @property
     def board_triangles(self) -> int:
         """How many triangles of a scene mesh are the pegboard's (board and pegs)."""
@@ -134,6 +161,16 @@ class DepthCamera:
         """A point cloud (N, 3) float32 in the camera frame (metres) of the world at `time` (default: now)."""
         points = self.capture_organised(world, time)
         return points[np.isfinite(points[:, 0])]
+
+    def capture_coloured(
+        self, world: SimWorld, time: float | None = None
+    ) -> tuple[np.ndarray, NDArray[np.uint32]]:
+        """`capture`'s points and the rgba word of each (the colour of what its ray met)."""
+        exposure = self.expose(world, time)
+        exposure.cast(self.ray_count)
+        points = exposure.points()
+        seen = np.isfinite(points[:, 0])
+        return points[seen], exposure.colours()[seen]
 
     def capture_organised(self, world: SimWorld, time: float | None = None) -> np.ndarray:
         """Every pixel's point (n, 3) float32, row by row over `image_shape`, NaN where nothing is seen."""
@@ -196,8 +233,8 @@ class Exposure:
             o3d.core.Tensor.from_numpy(triangles.astype(np.uint32)),
         )
         self._depth = np.empty(camera.ray_count, dtype=np.float32)
-        biased = world.effects.values("depth_bias")["bias"] != 0
-        self._biased = np.zeros(camera.ray_count, dtype=bool) if biased else None
+        self._hit = np.empty(camera.ray_count, dtype=np.uint32)  # the triangle each ray met
+        self._triangle_colours = camera.triangle_colours(world)
         self._cast = 0
 
     @property
@@ -211,13 +248,25 @@ class Exposure:
         rays = self._camera._rays[start:stop]
         hits = self._scene.cast_rays(rays)
         self._depth[start:stop] = hits["t_hit"].numpy()
-        if self._biased is not None:  # rays that met a block or an instrument
-            self._biased[start:stop] = hits["primitive_ids"].numpy() >= self._camera.board_triangles
+        self._hit[start:stop] = hits["primitive_ids"].numpy()
         self._cast = stop
 
     def points(self) -> np.ndarray:
         """Every pixel's point (n, 3) float32, camera frame, row by row over `image_shape`; NaN where no
         surface was hit (as a depth camera's organised cloud marks invalid pixels)."""
+        self._check_done()
+        biased = self._hit >= self._camera.board_triangles  # rays that met a block or an instrument
+        return self._camera._develop(self._depth, self._world, self.time, biased)
+
+    def colours(self) -> NDArray[np.uint32]:
+        """Every pixel's rgba word, as `points` orders them: the colour of what its ray met, 0 where none."""
+        self._check_done()
+        colours = np.full(len(self._hit), TOOL_GREY, dtype=np.uint32)
+        scenery = self._hit < len(self._triangle_colours)
+        colours[scenery] = self._triangle_colours[self._hit[scenery]]
+        colours[self._hit == NO_HIT] = 0
+        return colours
+
+    def _check_done(self) -> None:
         if not self.done:
             raise PegbtError("the exposure's rays are not all cast yet", field="camera")
-        return self._camera._develop(self._depth, self._world, self.time, self._biased)

@@ -468,12 +468,11 @@ class SimEndpoint:
     def _capture(self, command_id: str) -> None:
         assert self.camera is not None and self.world is not None
         now = self.now()
-        points = self.camera.capture(self.world, self.elapsed)
+        points, rgba = self.camera.capture_coloured(self.world, self.elapsed)
         assert self._scene is not None
         self._scene.log_events()
-        self._outbox.send(
-            now, self.camera_keys.points, partial(codec.encode_point_cloud, now, points), command_id, "done"
-        )
+        encoded = partial(codec.encode_point_cloud, now, points, rgba=rgba)
+        self._outbox.send(now, self.camera_keys.points, encoded, command_id, "done")
 
     # ------------------------------------------------------------------ shutdown
     def close(self) -> None:

@@ -58,6 +58,12 @@ class SimCamera(Protocol):
         """(N, 3) points in metres, camera frame, as the world is at `time`."""
         ...
 
+    def capture_coloured(
+        self, world: SimWorld, time: float | None = None
+    ) -> tuple[NDArray[np.float32], NDArray[np.uint32]]:
+        """`capture`'s points and each one's colour, a rgba word (`0xAARRGGBB`)."""
+        ...
+
 
 class CameraExposure(Protocol):
     """One capture under way (`pegbt.sim.camera.Exposure`): cast its rays a part at a time, then develop it."""
@@ -73,6 +79,10 @@ class CameraExposure(Protocol):
 
     def points(self) -> NDArray[np.float32]:
         """Every pixel's point (n, 3), row by row over the camera's `image_shape`; NaN where nothing is hit."""
+        ...
+
+    def colours(self) -> NDArray[np.uint32]:
+        """Every pixel's rgba word, as `points` orders them; 0 where nothing is hit."""
         ...
 
 

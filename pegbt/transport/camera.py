@@ -11,22 +11,46 @@ from __future__ import annotations
 
 import threading
 import time
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from pegbt.clock import Clock, WallClock
+from pegbt.errors import PegbtError
 from pegbt.transport import codec
 from pegbt.transport.arm import EndpointSilent
 from pegbt.transport.keys import CameraKeys
 from pegbt.transport.link import Link
 from pegbt.transport.sequencing import Received
 
-Cloud = tuple[float, NDArray[np.float32]]
+Cloud = tuple[float, NDArray[np.float32], NDArray[np.uint32] | None]
+
+
+class ColouredPoints:
+    """A cloud whose points have a colour: `points` (N, 3) float32, metres, camera frame, and `rgba` (N,),
+    one word a point (`0xAARRGGBB`); read as an array, its points."""
+
+    def __init__(self, points: NDArray[np.float32], rgba: NDArray[np.uint32]) -> None:
+        if rgba.shape != (len(points),):
+            raise PegbtError(f"{len(rgba)} colours for {len(points)} points", field="rgba")
+        self.points, self.rgba = points, rgba
+
+    def __array__(self, dtype: Any = None, copy: bool | None = None) -> NDArray[Any]:
+        if dtype is not None and dtype != self.points.dtype:
+            return self.points.astype(dtype)
+        return self.points.copy() if copy else self.points
+
+    def __len__(self) -> int:
+        return len(self.points)
+
+    def __repr__(self) -> str:
+        return f"ColouredPoints({len(self.points)} points)"
 
 
 class CaptureHandle:
-    """A requested point cloud: `ready` in a later tick, then `points` ((N, 3) float32, metres, camera frame).
+    """A requested point cloud: `ready` in a later tick, then `points` ((N, 3) float32, metres, camera frame;
+    a `ColouredPoints` if the camera sent colours).
 
     `sent` says whether the trigger has gone out; until a camera listens it has not, and each poll of
     `ready` tries again."""
@@ -36,10 +60,10 @@ class CaptureHandle:
         self.request_id: str | None = None
         self.requested_at = requested_at
         self.stamp: float | None = None
-        self._points: NDArray[np.float32] | None = None
+        self._points: NDArray[np.float32] | ColouredPoints | None = None
         self._arrived = threading.Event()
 
-    def fulfil(self, stamp: float, points: NDArray[np.float32]) -> None:
+    def fulfil(self, stamp: float, points: NDArray[np.float32] | ColouredPoints) -> None:
         self.stamp, self._points = stamp, points
         self._arrived.set()
 
@@ -54,7 +78,7 @@ class CaptureHandle:
             self.camera.send_trigger(self)
         return self._arrived.is_set()
 
-    def result(self, timeout: float) -> NDArray[np.float32]:
+    def result(self, timeout: float) -> NDArray[np.float32] | ColouredPoints:
         """The cloud, waiting up to `timeout` seconds (a blocking call); `EndpointSilent` if none came."""
         deadline = time.monotonic() + timeout
         while not self.camera.send_trigger(self) and time.monotonic() < deadline:
@@ -72,7 +96,7 @@ class CaptureHandle:
         return self._points
 
     @property
-    def points(self) -> NDArray[np.float32]:
+    def points(self) -> NDArray[np.float32] | ColouredPoints:
         return self.result(0.0)
 
 
@@ -88,10 +112,11 @@ class CameraClient:
         self._pending: dict[str, CaptureHandle] = {}
         self._lock = threading.Lock()
         self._trigger = link.outlet(self.keys.trigger)
-        self._points = link.inlet(self.keys.points, codec.decode_point_cloud, self._on_cloud)
+        self._points = link.inlet(self.keys.points, codec.decode_coloured_cloud, self._on_cloud)
 
     def _on_cloud(self, received: Received[Cloud]) -> None:
-        stamp, points = received.value
+        stamp, xyz, rgba = received.value
+        points = xyz if rgba is None else ColouredPoints(xyz, rgba)
         with self._lock:
             if received.tag is not None and received.tag.cause:
                 answered = (
@@ -119,6 +144,6 @@ class CameraClient:
             self._pending[handle.request_id] = handle
         return True
 
-    def capture(self) -> NDArray[np.float32]:
+    def capture(self) -> NDArray[np.float32] | ColouredPoints:
         """A fresh cloud, blocking until it arrives (at most `timeout` seconds)."""
         return self.capture_async().result(self.timeout)

@@ -262,18 +262,34 @@ _FLOAT32, _UINT32 = 7, 6  # sensor_msgs/PointField datatypes
 _XYZ_FIELDS = (("x", _FLOAT32), ("y", _FLOAT32), ("z", _FLOAT32))
 
 
-def encode_point_cloud(stamp: float, points: ArrayLike, frame_id: str = "camera") -> bytes:
+def encode_point_cloud(
+    stamp: float, points: ArrayLike, frame_id: str = "camera", rgba: ArrayLike | None = None
+) -> bytes:
     """Points in metres as a sensor_msgs/PointCloud2 of float32 x, y, z: (N, 3) unorganised, or (H, W, 3)
-    organised as an image's pixels, row by row, NaN marking the invalid ones (then not dense)."""
+    organised as an image's pixels, row by row, NaN marking the invalid ones (then not dense); given `rgba`
+    (one word a point, `0xAARRGGBB`), a UINT32 rgba field after them, as zivid-ros's points/xyzrgba."""
     points = np.ascontiguousarray(points, dtype="<f4")
     if points.ndim not in (2, 3) or points.shape[-1] != 3:
         raise PegbtError(f"point cloud must be N×3 or H×W×3, got shape {points.shape}", field="points")
     grid = points if points.ndim == 3 else points[None]
-    return _point_cloud2(stamp, frame_id, grid, _XYZ_FIELDS, is_dense=bool(np.isfinite(points).all()))
+    dense = bool(np.isfinite(points).all())
+    if rgba is None:
+        return _point_cloud2(stamp, frame_id, grid, _XYZ_FIELDS, is_dense=dense)
+    words = np.asarray(rgba, dtype="<u4").reshape(grid.shape[:2])
+    packed = np.concatenate([grid, words.view("<f4")[..., None]], axis=-1)
+    return _point_cloud2(stamp, frame_id, packed, (*_XYZ_FIELDS, ("rgba", _UINT32)), is_dense=dense)
 
 
 def decode_point_cloud(data: bytes) -> tuple[float, NDArray[np.float32]]:
     """(stamp, (N, 3) float32 points) from a PointCloud2 with float32 x, y, z fields at any offsets."""
+    stamp, points, _ = decode_coloured_cloud(data)
+    return stamp, points
+
+
+def decode_coloured_cloud(data: bytes) -> tuple[float, NDArray[np.float32], NDArray[np.uint32] | None]:
+    """(stamp, (N, 3) float32 points, (N,) rgba words or None) from a PointCloud2 with float32 x, y, z
+    fields at any offsets and, if it has one, a 4-byte colour: `rgba` (zivid-ros, UINT32 or FLOAT32) or
+    `rgb` (PCL's packed float, realsense-ros), each the word `0xAARRGGBB`."""
     message = deserialize(data, POINT_CLOUD2)
     offsets = {f.name: f.offset for f in message.fields if f.datatype == _FLOAT32 and f.count == 1}
     if not {"x", "y", "z"} <= offsets.keys() or message.is_bigendian:
@@ -282,8 +298,21 @@ def decode_point_cloud(data: bytes) -> tuple[float, NDArray[np.float32]]:
     raw = np.asarray(message.data, dtype=np.uint8)[: count * message.point_step].reshape(
         count, message.point_step
     )
-    columns = [raw[:, offsets[axis] : offsets[axis] + 4].copy().view("<f4").reshape(-1) for axis in "xyz"]
-    return _stamp(message.header), np.column_stack(columns).astype(np.float32)
+
+    def word(offset: int, dtype: str) -> NDArray[Any]:
+        return raw[:, offset : offset + 4].copy().view(dtype).reshape(-1)
+
+    points = np.column_stack([word(offsets[axis], "<f4") for axis in "xyz"]).astype(np.float32)
+    colour = next(
+        (
+            f.offset
+            for name in ("rgba", "rgb")
+            for f in message.fields
+            if f.name == name and f.datatype in (_FLOAT32, _UINT32) and f.count == 1
+        ),
+        None,
+    )
+    return _stamp(message.header), points, None if colour is None else word(colour, "<u4")
 
 
 def encode_organised_cloud(

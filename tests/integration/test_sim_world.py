@@ -12,6 +12,7 @@ from world_helpers import block_points, in_board
 from pegbt.errors import PegbtError
 from pegbt.motion.kinematics import forward_kinematics
 from pegbt.motion.settings import motion_settings
+from pegbt.perception.colour import red
 from pegbt.sim.arm import DEFAULT_JOINTS
 from pegbt.sim.arm_script import MotionPlayer, descending_motions, transfer_motions
 from pegbt.sim.camera import DepthCamera
@@ -114,15 +115,24 @@ def test_the_jaw_stops_at_the_gripped_block_and_measured_js_reports_it(transfer)
     assert all(measured == pytest.approx(wall, abs=1e-9) for measured, _ in holding[10:])
 
 
-def test_a_capture_over_zenoh_shows_the_12_pegs_and_6_blocks_where_the_truth_has_them(transfer):
+def test_a_capture_over_zenoh_shows_the_12_pegs_and_6_blocks_where_the_truth_has_them_in_red(transfer):
     _, _, _, truth, cloud = transfer
     cell = World(SEED).cell
-    assert cloud.dtype == np.float32 and cloud.shape[1] == 3 and len(cloud) > 50_000
-    points = in_board(cell, cloud)
+    xyz = np.asarray(cloud)
+    assert xyz.dtype == np.float32 and xyz.shape[1] == 3 and len(xyz) > 50_000
+    points, seen_red = in_board(cell, xyz), red(cloud.rgba)
     for peg in range(N_PEGS):
-        assert np.sum(np.linalg.norm(points - cell.pegs.top(peg), axis=1) < 0.002) >= 30, peg
+        assert np.sum(np.linalg.norm(points[seen_red] - cell.pegs.top(peg), axis=1) < 0.002) >= 30, peg
+    raised = cell.board.surface_z - points[:, 2] > 0.001  # board z runs down; the noise is 0.2 mm
     for block in truth.blocks:
-        assert len(block_points(cell, points, np.array(block["pose"]))) >= 1000, block["block"]
+        pose = np.array(block["pose"])
+        assert len(block_points(cell, points[seen_red], pose)) >= 1000, block["block"]
+        assert len(block_points(cell, points[~seen_red & raised], pose)) == 0, block["block"]
+    blocks = np.array([block["pose"][i][3] for block in truth.blocks for i in (0, 1)]).reshape(-1, 2)
+    axes, clear = np.vstack([blocks, cell.pegs.positions]), cell.block.corner_distance + 0.001
+    bare = np.all(np.linalg.norm(points[:, None, :2] - axes[None], axis=2) > clear, axis=1)
+    on_board = bare & (np.abs(points[:, 2] - cell.board.surface_z) < 0.001)
+    assert on_board.sum() > 10_000 and not seen_red[on_board].any()
 
 
 def test_a_slip_in_the_fault_plan_happens_at_its_time_and_is_logged(tmp_path):

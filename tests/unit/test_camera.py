@@ -5,7 +5,7 @@ import pytest
 from world_helpers import block_points, in_board
 
 from pegbt.errors import PegbtError
-from pegbt.sim.camera import DepthCamera
+from pegbt.sim.camera import BOARD_GREY, RED, TOOL_GREY, DepthCamera
 from pegbt.sim.faults import CameraFaults, NoiseBurst
 from pegbt.sim.scripted import Driver, grasp_candidate_facing, grasp_keyframes, parked, transfer_keyframes
 from pegbt.sim.world import World
@@ -136,3 +136,32 @@ def test_camera_faults_from_configuration_and_their_errors():
     assert caught.value.field == "bursts[0].duration" and caught.value.file == "sim.yaml"
     with pytest.raises(PegbtError):
         CameraFaults.read(parse_yaml("burst_probability: 1.5", "sim.yaml"))
+
+
+def test_each_point_has_the_colour_of_what_its_ray_met():
+    """A tool gripping a block: the block's points red, the tool's dark grey, the bare board light grey,
+    in the same order as the points; a pixel that saw nothing has no colour."""
+    arms = World(seed=1)
+    candidates = arms.cell.block.grasp_candidates.positions
+    facing_camera = int(np.argmax((candidates[:, :2] @ arms.blocks[2].pose[:2, :2].T)[:, 1]))
+    Driver(arms).play({"PSM2": grasp_keyframes(arms, 2, facing_camera)})
+    camera = DepthCamera(seed=0)
+    points, rgba = camera.capture_coloured(arms)
+    assert np.array_equal(points, DepthCamera(seed=0).capture(arms)) and rgba.shape == (len(points),)
+    board = in_board(arms.cell, points)
+    pose, raised = arms.blocks[2].pose, arms.cell.board.surface_z - board[:, 2] > 0.001  # board z down
+    on_block = len(block_points(arms.cell, board[raised], pose))
+    red_on_block = len(block_points(arms.cell, board[raised & (rgba == RED)], pose))
+    assert on_block > 500 and red_on_block > 0.98 * on_block  # the rest: the jaw, within 0.5 mm of a wall
+    tool = arms.tools["PSM2"]
+    shaft_axis = tool.shaft[1] - tool.shaft[0]
+    along = (board - tool.shaft[0]) @ shaft_axis / (shaft_axis @ shaft_axis)
+    nearest = tool.shaft[0] + np.clip(along, 0, 1)[:, None] * shaft_axis
+    on_shaft = np.linalg.norm(board - nearest, axis=1) < arms.cell.tool.shaft_radius + 0.0005
+    assert on_shaft.sum() > 100 and set(rgba[on_shaft]) == {TOOL_GREY}
+    bare = np.abs(board[:, 2] - arms.cell.board.surface_z) < 0.0005
+    assert set(rgba[bare & (rgba != RED)]) == {BOARD_GREY}
+    exposure = camera.expose(arms)
+    exposure.cast(camera.ray_count)
+    organised = exposure.colours()
+    assert np.array_equal(organised == 0, ~np.isfinite(exposure.points()[:, 0]))

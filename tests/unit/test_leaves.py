@@ -24,6 +24,7 @@ from pegbt.behaviours.actions import handover
 from pegbt.behaviours.actions.grasping import gripping
 from pegbt.behaviours.actions.handover import WayOut, plan_meeting
 from pegbt.behaviours.actions.handover_look import receiver_grasp
+from pegbt.behaviours.actions.placing import board_points
 from pegbt.behaviours.base import JAW_AHEAD, LONE_PATIENCE, MOTION_OVERTIME, Outgoing, parts
 from pegbt.behaviours.motion import eased_grip, rise
 from pegbt.behaviours.params import HELD_ABOVE
@@ -59,12 +60,14 @@ from pegbt.motion.ik import solve_ik
 from pegbt.motion.kinematics import forward_kinematics, tip_position
 from pegbt.perception.blocks import BlockEstimate, block_on_peg
 from pegbt.perception.grasp import grasp_options
+from pegbt.perception.servo import in_servo_box
 from pegbt.physics.recording import MIN_SAMPLES, load_recording
 from pegbt.sim.camera import DepthCamera
 from pegbt.sim.faults import CameraFaults, NoiseBurst
 from pegbt.sim.tools import ToolState
 from pegbt.sim.world import World
 from pegbt.transport import EndpointSilent
+from pegbt.transport.camera import ColouredPoints
 
 DVRK_SHARE = Path(__file__).parents[1] / "data" / "dvrk-share"  # a dVRK's share/ folder
 STEP = 0.05  # s of clock between ticks
@@ -817,6 +820,30 @@ def test_the_look_finds_the_held_block_off_the_peg_and_writes_the_move_that_cent
     move = skills.cell.board_to_arm("PSM1")[:3, :3].T @ np.asarray(read("/PSM1/servo"))
     assert np.linalg.norm(move[:2] + [0.002, -0.001]) < 0.0002
     assert "mm off its axis" in feedback(built)
+
+
+OFF_PLAN = np.array([0.015, -0.015, 0.0, 0.0, 0.0, 0.0])  # rad: the tool 3 mm off the plan's
+
+
+@pytest.mark.parametrize("coloured", [True, False], ids=["colour", "no colour"])
+def test_what_the_look_sees_does_not_depend_on_where_the_robot_believes_its_tool_is(skills, seen, coloured):
+    """The tool that holds the block may stand millimetres off where the robot's plan puts it (an
+    uncalibrated arm's cables): the paper's red mask keeps the block's points and drops the tool's wherever
+    either is, so the look sees the same points whatever the plan; a cloud without colour is cut where the
+    plan puts the tool, and what it sees moves with the plan."""
+    world = World(seed=0)
+    joints = holding_over(world, skills, 0.038, (0.002, -0.001))  # where the tool and its block are
+    points, rgba = DepthCamera(seed=1).capture_coloured(world)
+    cloud = ColouredPoints(points, rgba) if coloured else points
+    cell, board = skills.cell, seen[0]
+    peg = board.peg_tops[PLACE, :2]
+    boxes = []
+    for plan in (joints, joints + OFF_PLAN):
+        kept = board_points(cloud, board, cell, {"PSM1": plan})
+        boxes.append(kept[in_servo_box(kept, peg, cell.board.surface_z)])
+    assert len(boxes[0]) > 1000
+    same = boxes[0].shape == boxes[1].shape and np.array_equal(boxes[0], boxes[1])
+    assert same == coloured
 
 
 def test_the_look_corrects_nothing_when_it_sees_fewer_than_400_points_of_the_block(

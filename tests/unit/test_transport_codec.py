@@ -93,6 +93,48 @@ def test_point_cloud_and_trajectory_round_trip():
     assert codec.encode_trajectory(stamp, trajectory) == direct
 
 
+def test_a_coloured_cloud_round_trips_as_zivid_ros_lays_it_out():
+    points = np.random.default_rng(0).normal(size=(4, 3)).astype(np.float32)
+    rgba = np.array([0xFFC8281E, 0xFFB9B9B4, 0, 0xFF3C3C40], dtype=np.uint32)
+    encoded = codec.encode_point_cloud(1.5, points, "zivid_optical_frame", rgba=rgba)
+    message = REFERENCE.deserialize_cdr(encoded, "sensor_msgs/msg/PointCloud2")
+    # zivid-ros `makePointCloud2Msg`: x, y, z FLOAT32 at 0, 4, 8, rgba UINT32 at 12, 16 bytes a point
+    assert [(f.name, f.offset, f.datatype) for f in message.fields] == [
+        ("x", 0, 7),
+        ("y", 4, 7),
+        ("z", 8, 7),
+        ("rgba", 12, 6),
+    ]
+    assert message.point_step == 16 and bytes(message.data[12:16]) == bytes([0x1E, 0x28, 0xC8, 0xFF])  # BGRA
+    stamp, decoded, colours = codec.decode_coloured_cloud(encoded)
+    assert stamp == 1.5 and np.array_equal(decoded, points) and np.array_equal(colours, rgba)
+
+
+def test_a_cloud_with_pcl_s_packed_float_rgb_decodes_its_colours():
+    """realsense-ros and PCL pack a colour as a FLOAT32 `rgb` field (bytes B, G, R, 0), here after padding."""
+    data = np.zeros((2, 8), dtype="<f4")
+    data[:, :3] = [[0.1, 0.2, 0.5], [0.3, 0.4, 0.6]]
+    data[:, 4] = np.array([0x00C8281E, 0x003C3C40], dtype="<u4").view("<f4")
+    fields = [
+        T["sensor_msgs/msg/PointField"](name=name, offset=offset, datatype=7, count=1)
+        for name, offset in (("x", 0), ("y", 4), ("z", 8), ("rgb", 16))
+    ]
+    message = T["sensor_msgs/msg/PointCloud2"](
+        header=header(3, 0),
+        height=1,
+        width=2,
+        fields=fields,
+        is_bigendian=False,
+        point_step=32,
+        row_step=64,
+        data=data.view(np.uint8).reshape(-1),
+        is_dense=True,
+    )
+    _, points, colours = codec.decode_coloured_cloud(reference_bytes(message))
+    assert np.allclose(points, data[:, :3]) and list(colours) == [0x00C8281E, 0x003C3C40]
+    assert codec.decode_coloured_cloud(codec.encode_point_cloud(0.0, points))[2] is None
+
+
 def test_pose_stamped_round_trip():
     transform = np.eye(4)
     transform[:3, :3] = [[0, -1, 0], [1, 0, 0], [0, 0, 1]]

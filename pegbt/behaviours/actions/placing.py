@@ -20,6 +20,7 @@ from pegbt.motion.kinematics import forward_kinematics
 from pegbt.motion.placing import DROP_Z, along_to_z
 from pegbt.perception.board import BoardEstimate
 from pegbt.perception.cloud import Points, open3d_threads
+from pegbt.perception.colour import colours_of, red
 from pegbt.perception.organised import OrganisedCloud
 from pegbt.perception.servo import correction, held_block, in_servo_box, off_the_tool, reach
 from pegbt.workcell import Workcell
@@ -33,20 +34,25 @@ def board_points(
     cell: Workcell,
     tools: dict[str, NDArray[np.float64]],
 ) -> Points:
-    """`cloud`'s finite points in the board's frame, less those on the tools of the arms at the joints of
-    `tools` (arm: joints, as planned): a cloud without colour keeps them, where the paper's mask dropped
-    the grey tool's (`off_the_tool`)."""
+    """`cloud`'s finite points in the board's frame that the paper's look keeps: the red ones (`red`), or, in
+    a cloud without colour, those off the tools of the arms at the joints of `tools` (arm: joints, as
+    planned: `off_the_tool`, which keeps what a tool off its plan shows)."""
     raw = cloud.grid.reshape(-1, 3) if isinstance(cloud, OrganisedCloud) else np.asarray(cloud)
-    points = board.to_board(raw[np.isfinite(raw).all(axis=1)])
+    keep = np.isfinite(raw).all(axis=1)
+    rgba = colours_of(cloud)
+    if rgba is not None:
+        return board.to_board(raw[keep & red(rgba)])
+    points = board.to_board(raw[keep])
     for arm, joints in tools.items():
         points = points[off_the_tool(points, joints, cell.arm_to_board(arm), cell.tool)]
     return points
 
 
 class FindHeldBlock(ComputeLeaf):
-    """`find_block_servo` and `servoing_block`'s correction on `/cloud`, less the points on `arm`'s own
-    tool where its plan put it (`off_the_tool`; a compensated arm's encoders read the cables' error away
-    from where its tool is, the plan does not): writes the move to `servo`."""
+    """`find_block_servo` and `servoing_block`'s correction on `/cloud`'s red points (in a cloud without
+    colour, less the points on `arm`'s own tool where its plan put it: `off_the_tool`; a compensated arm's
+    encoders read the cables' error away from where its tool is, the plan does not): writes the move to
+    `servo`."""
 
     def inputs(self) -> tuple[object, ...]:
         arm = self.param("arm")
