@@ -156,6 +156,12 @@ class CarryLeaf(MotionLeaf):
         lowered (`stop_above`, as the tree's policy says; a carry without the parameter never does)."""
         return "stop_above" in self.params and bool(self.param("stop_above"))
 
+    def turns_to_placing(self) -> bool:
+        """Whether this carry turns the tool, and the block with it, to the paper's placing angle on its way
+        over the goal peg (`transfer_for`'s `turn_to_placing`): under the paper's protocol, where it stops
+        there to look (`FLSPegTransfer_single.py`, `_dual.py` and `_handover.py` all place at roll 0)."""
+        return self.skills.paper_variant is not None and self.stops_above()
+
     def _stopping_at_place_height(self, waypoints: TransferWaypoints) -> TransferWaypoints:
         """`waypoints` lifted, stopping over the goal peg and lowered at the paper's heights under its
         protocol (`paper_heights`: z in the arm's own frame), as they are under pegbt's."""

@@ -622,7 +622,8 @@ class DescendToGrasp(MotionLeaf):
 
 class CarryFromHandover(CarryLeaf):
     """The receiver's carry to its goal peg lets go as the block lands under the conditions of
-    `let_go_early`, as a transfer's does."""
+    `let_go_early`, as a transfer's does, and turns to the paper's placing angle as a transfer does
+    (`turns_to_placing`)."""
 
     def begin(self) -> None:
         super().begin()
@@ -643,6 +644,7 @@ class CarryFromHandover(CarryLeaf):
             self.get("grasp"),
             self.get("block_pose"),
             int(self.param("place")),
+            turn_to_placing=self.turns_to_placing(),
         )
 
     def inputs(self) -> tuple[object, ...]:

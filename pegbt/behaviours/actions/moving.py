@@ -38,8 +38,8 @@ class Transfer(CarryLeaf):
     opened on the plan's clock may drop the block before its hole is on the peg, and an opening jaw can
     no longer tell that a peg knocked the block out; there the jaw stays closed, watched, until the arm
     is at rest, and `release` opens it. Under the paper's protocol the jaw always stays closed, and a carry
-    that stops above the goal peg to look first (`stop_above`) goes at the paper's heights
-    (`CarryLeaf`)."""
+    that stops above the goal peg to look first (`stop_above`) goes at the paper's heights and turns to its
+    placing angle (`CarryLeaf`)."""
 
     def waypoints(self) -> TransferWaypoints:
         return transfer_for(
@@ -50,6 +50,7 @@ class Transfer(CarryLeaf):
             self.get("block"),
             self.get("grasp"),
             int(self.param("place")),
+            turn_to_placing=self.turns_to_placing(),
         )
 
     def begin(self) -> None:
