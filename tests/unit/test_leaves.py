@@ -31,9 +31,11 @@ from pegbt.behaviours.params import HELD_ABOVE
 from pegbt.behaviours.poses import (
     EXIT_WIDENING,
     HANDOVER_RISE,
+    PLACING_YAW,
     height_above_pegs,
     tool_pose,
     transfer_for,
+    turned_to_placing,
     yaw_about,
 )
 from pegbt.behaviours.resources.arm_motion import EarlyPlan
@@ -773,7 +775,8 @@ def test_under_the_paper_s_policy_the_transfer_stops_at_rest_at_its_height_over_
 ):
     """`stop_above` (the tree's `/policy/look_before_lowering`): the carry ends where the paper's
     `transfer_block_traj` ends, at `height_ready`, z −0.120 m in the arm's own frame, whatever the peg tops'
-    z there, and never opens the jaw, even under a condition `let_go_early` names."""
+    z there, turned to the paper's placing angle (roll 0) with the block, and never opens the jaw, even
+    under a condition `let_go_early` names."""
     skills = paper_skills()
     robot = fake_robot(clock, skills.settings, skills.cell, cloud)
     arm, values = holding_at_the_grasp(robot, skills, seen)
@@ -785,9 +788,15 @@ def test_under_the_paper_s_policy_the_transfer_stops_at_rest_at_its_height_over_
     tip, up = tip_position(trajectory.q[-1]), skills.cell.up_in("PSM1")
     assert tip[2] == pytest.approx(-0.120, abs=1e-4)
     block, grasp = values["PSM1/block"], values["PSM1/grasp"]
-    above = transfer_for(skills.cell, skills.motion, "PSM1", seen[0], block, grasp, PLACE).poses[2, :3, 3]
+    assert abs(math.degrees(yaw_about(grasp.pose[:3, :3], up))) > 20.0  # a turn to make
+    turned = transfer_for(
+        skills.cell, skills.motion, "PSM1", seen[0], block, grasp, PLACE, turn_to_placing=True
+    )
+    above = turned.poses[2, :3, 3]
     off = tip - above - ((tip - above) @ up) * up
-    assert np.linalg.norm(off) < 1e-4  # over the peg, as the grasp holds the block
+    assert np.linalg.norm(off) < 1e-4  # over the peg, the block turned with the tool
+    end = forward_kinematics(trajectory.q[-1])
+    assert abs(math.degrees(yaw_about(end[:3, :3], up) - PLACING_YAW)) < 0.1
     # at rest within a sample of the cubics' stop there (their knots fall between the 10 ms samples)
     assert np.linalg.norm(trajectory.qd[-1]) < 0.01 and arm.jaw.sent == []
 
@@ -1878,7 +1887,7 @@ def test_carry_from_handover_stopping_above_stops_at_the_place_height_over_its_g
 ):
     """The receiver's carry made at pegbt's heights, stopped for the look (`stop_above`): its stop is moved
     along the goal peg's axis to the paper's `height_ready`, z −0.120 m in the arm's frame, as the giver-less
-    carries'."""
+    carries', turned to the paper's placing angle, the block's axis over the peg."""
     skills = Skills("uncalibrated", protocol="paper", variant="handover")
     robot = fake_robot(clock, skills.settings, skills.cell, cloud)
     arm, meeting, values = receiver_holding(robot, skills, seen)
@@ -1896,10 +1905,13 @@ def test_carry_from_handover_stopping_above_stops_at_the_place_height_over_its_g
     assert end[2, 3] == pytest.approx(-0.120, abs=1e-4)
     peg = skills.cell.board_to_arm(RECEIVER) @ np.append(seen[0].peg_tops[PLACE], 1.0)
     axis = skills.cell.board_to_arm(RECEIVER) @ meeting.block_pose[:, 3]
-    grasp = meeting.receiver_grasp.pose
+    grasp, up = meeting.receiver_grasp.pose, skills.cell.up_in(RECEIVER)
+    yaw = yaw_about(grasp[:3, :3], up)
+    assert abs(math.degrees(yaw)) > 20.0  # a turn to make
+    assert abs(math.degrees(yaw_about(end[:3, :3], up) - PLACING_YAW)) < 0.1
     assert np.allclose(
         lateral(skills, RECEIVER, end[:3, 3] - peg[:3]),
-        lateral(skills, RECEIVER, grasp[:3, 3] - axis[:3]),
+        turned_to_placing(lateral(skills, RECEIVER, grasp[:3, 3] - axis[:3]), yaw, up),
         atol=2e-4,
     )
 
