@@ -125,7 +125,7 @@ RUN_OPTIONS: dict[str, RunOption] = {
             "camera",
             "robot (--interface dvrk): the depth camera's ROS 2 driver: stream (a camera that streams "
             "PointCloud2 on --camera-topic, as realsense2_camera does) or zivid (zivid_camera: pegbt calls its "
-            "/capture service for each cloud and thins the full-resolution cloud on /points/xyz)",
+            "/capture service for each cloud and thins the full-resolution cloud on /points/xyzrgba)",
             "stream",
             choices=("stream", "zivid"),
         ),

@@ -3,7 +3,8 @@
 Each frame is exposed (the world frozen as it is) when due and rendered over the control periods that
 follow, a few thousand rays at a time within a budget of wall time per period, so that ray casting never
 delays the arms; a finished frame is an organised cloud (the camera's region of the image, row by row,
-NaN for the pixels that see nothing) stamped with its exposure time. If rendering falls behind, frames
+NaN for the pixels that see nothing), each point with the colour of what its ray met (an rgba field, as
+`pegbt.transport.codec.encode_point_cloud` lays it out), stamped with its exposure time. If rendering falls behind, frames
 are skipped, never queued: the stream's rate drops, its latency does not grow. A frame nobody listens for
 is not exposed: rendering is the simulator's cost, not the camera's, and a subscriber sees the same
 stream (its first frame is exposed when it joins, as a running camera's next one would be).
@@ -60,4 +61,5 @@ class CameraStream:
         self._exposure = None
         rows, columns = self._camera.image_shape
         points = exposure.points().reshape(rows, columns, 3)
-        return codec.encode_point_cloud(self._stamp, points, self._frame_id)
+        rgba = exposure.colours().reshape(rows, columns)
+        return codec.encode_point_cloud(self._stamp, points, self._frame_id, rgba=rgba)

@@ -7,9 +7,9 @@ From zivid/zivid-ros (`README.md`, `zivid_camera/src/zivid_camera.cpp`):
   `runFunctionAndCatchExceptionsForTriggerResponse`);
 - the frame is an organised, full-resolution `sensor_msgs/PointCloud2` in the camera's optical frame
   (`frame_id` parameter, default `zivid_optical_frame`), metres, NaN where a pixel has no depth, never dense,
-  16 bytes a point: `points/xyzrgba` with x, y, z and a UINT32 rgba (`makePointCloud2Msg`), `points/xyz`
-  with x, y, z and 4 bytes of padding (`publishPointCloudXYZ`, `Zivid::PointXYZW`); its stamp is taken after
-  the capture (`makeHeader`);
+  16 bytes a point: `points/xyzrgba` with x, y, z and a UINT32 rgba (`makePointCloud2Msg`; here each pixel
+  the colour of what its ray met, `pegbt.sim.camera`), `points/xyz` with x, y, z and 4 bytes of padding
+  (`publishPointCloudXYZ`, `Zivid::PointXYZW`); its stamp is taken after the capture (`makeHeader`);
 - a topic nobody subscribes to gets nothing (`shouldPublishPointsXYZ`, `get_subscription_count() > 0`); with
   no subscriber at all, the capture still succeeds and nothing is sent (`publishFrame`'s warning);
 - the node's names are relative, so run as `ros2 run zivid_camera zivid_camera` they are `/capture`,
@@ -29,8 +29,6 @@ import dataclasses
 import threading
 import time
 
-import numpy as np
-
 from pegbt.sim.interfaces import CameraExposure, SimWorld, StreamingCamera
 from pegbt.transport import codec
 from pegbt.transport.ros2 import Ros2Wire
@@ -40,7 +38,6 @@ from pegbt.workcell import CameraModel
 
 ZIVID2_WIDTH, ZIVID2_HEIGHT = 1944, 1200  # Zivid 2: 2.3 MP
 ZIVID_FRAME = "zivid_optical_frame"
-GREY = 0xFF808080  # the rgba of every valid point: the simulated scene has no colour
 RAYS_PER_CAST = 8192  # a part of a frame: about a millisecond of ray casting on this machine
 
 
@@ -106,7 +103,7 @@ class ZividDriver:
                 points = exposure.points().reshape(rows, columns, 3)
                 stamp = time.time()  # the driver stamps a frame once captured
                 if self._xyzrgba in targets:
-                    rgba = np.where(np.isfinite(points[..., 2]), np.uint32(GREY), np.uint32(0))
+                    rgba = exposure.colours().reshape(rows, columns)
                     self._xyzrgba.put(codec.encode_organised_cloud(stamp, points, ZIVID_FRAME, rgba))
                 if self._xyz in targets:
                     self._xyz.put(codec.encode_organised_cloud(stamp, points, ZIVID_FRAME))

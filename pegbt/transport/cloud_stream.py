@@ -2,9 +2,11 @@
 RealSense on `/camera/camera/depth/color/points`), with the verbs behaviours use on `CameraClient`.
 
 Nobody triggers it: a capture is the first cloud stamped after the request. Invalid points (NaN, as a
-RealSense sends for pixels without depth) are dropped. The camera's topic is subscribed only while a capture
-waits: a cloud of a few MB ten times a second, received, copied out of zenoh and decoded by a callback
-holding the GIL, would otherwise take time from the tick and the planning threads for nothing.
+RealSense sends for pixels without depth) are dropped; a cloud with colour (an `rgba` or `rgb` field,
+`codec.decode_coloured_cloud`) is a `ColouredPoints`, each valid point's colour kept beside it. The camera's
+topic is subscribed only while a capture waits: a cloud of a few MB ten times a second, received, copied out
+of zenoh and decoded by a callback holding the GIL, would otherwise take time from the tick and the planning
+threads for nothing.
 """
 
 from __future__ import annotations
@@ -18,13 +20,15 @@ from pegbt.clock import Clock, WallClock
 from pegbt.errors import PegbtError
 from pegbt.transport import codec
 from pegbt.transport.arm import EndpointSilent
+from pegbt.transport.camera import ColouredPoints
 from pegbt.transport.ros2 import Ros2Wire, Topic, TopicSubscriber
 
 CAPTURE_TIMEOUT = 2.0  # s a streaming camera may take to send a cloud stamped after a capture's request
 
 
 class StreamedCapture:
-    """A requested cloud: `ready` once one stamped after `requested_at` came; then `points` ((N, 3) float32)."""
+    """A requested cloud: `ready` once one stamped after `requested_at` came; then `points` ((N, 3) float32,
+    a `ColouredPoints` if the camera sent colours)."""
 
     sent = True  # nothing to send: the camera streams
 
@@ -32,11 +36,11 @@ class StreamedCapture:
         self.camera = camera
         self.requested_at = requested_at
         self.stamp: float | None = None
-        self._points: NDArray[np.float32] | None = None
+        self._points: NDArray[np.float32] | ColouredPoints | None = None
         self._arrived = threading.Event()
         self.lags: list[float] = []  # s from stamp to arrival of each cloud that came stamped before it
 
-    def fulfil(self, stamp: float, points: NDArray[np.float32]) -> None:
+    def fulfil(self, stamp: float, points: NDArray[np.float32] | ColouredPoints) -> None:
         self.stamp, self._points = stamp, points
         self._arrived.set()
 
@@ -44,7 +48,7 @@ class StreamedCapture:
     def ready(self) -> bool:
         return self._arrived.is_set()
 
-    def result(self, timeout: float) -> NDArray[np.float32]:
+    def result(self, timeout: float) -> NDArray[np.float32] | ColouredPoints:
         """The cloud, waiting up to `timeout` s; `EndpointSilent` if none came."""
         if not self._arrived.wait(timeout):
             came = (
@@ -63,7 +67,7 @@ class StreamedCapture:
         return self._points
 
     @property
-    def points(self) -> NDArray[np.float32]:
+    def points(self) -> NDArray[np.float32] | ColouredPoints:
         return self.result(0.0)
 
 
@@ -103,7 +107,7 @@ class StreamingCamera:
             if not self._pending:
                 return
         try:
-            stamp, points = codec.decode_point_cloud(payload)
+            stamp, points, rgba = codec.decode_coloured_cloud(payload)
         except PegbtError as error:
             self.last_error = str(error)
             return
@@ -114,7 +118,8 @@ class StreamingCamera:
             for handle in self._pending:
                 handle.lags.append(arrived - stamp)
         if answered:
-            valid = points[np.isfinite(points).all(axis=1)]
+            seen = np.isfinite(points).all(axis=1)
+            valid = points[seen] if rgba is None else ColouredPoints(points[seen], rgba[seen])
             for handle in answered:
                 handle.fulfil(stamp, valid)
 
@@ -128,6 +133,6 @@ class StreamingCamera:
                 self._subscriber = self._wire.subscriber(self.topic, self._on_cloud)
         return handle
 
-    def capture(self) -> NDArray[np.float32]:
+    def capture(self) -> NDArray[np.float32] | ColouredPoints:
         """The next cloud, blocking up to `timeout` s."""
         return self.capture_async().result(self.timeout)

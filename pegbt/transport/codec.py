@@ -303,16 +303,21 @@ def decode_coloured_cloud(data: bytes) -> tuple[float, NDArray[np.float32], NDAr
         return raw[:, offset : offset + 4].copy().view(dtype).reshape(-1)
 
     points = np.column_stack([word(offsets[axis], "<f4") for axis in "xyz"]).astype(np.float32)
-    colour = next(
+    colour = _colour_offset(message.fields)
+    return _stamp(message.header), points, None if colour is None else word(colour, "<u4")
+
+
+def _colour_offset(fields: Sequence[Any]) -> int | None:
+    """The offset of a PointCloud2's 4-byte colour word (`rgba`, else `rgb`; UINT32 or FLOAT32), if any."""
+    return next(
         (
             f.offset
             for name in ("rgba", "rgb")
-            for f in message.fields
+            for f in fields
             if f.name == name and f.datatype in (_FLOAT32, _UINT32) and f.count == 1
         ),
         None,
     )
-    return _stamp(message.header), points, None if colour is None else word(colour, "<u4")
 
 
 def encode_organised_cloud(
@@ -368,9 +373,16 @@ def decode_organised_cloud(data: bytes, stride: int = 1) -> tuple[float, NDArray
 
 
 def organised_grid(data: bytes) -> tuple[float, NDArray[np.float32]]:
-    """(stamp, (H, W, 3) float32) of an organised PointCloud2 with float32 x, y, z: a read-only view of the
-    message's bytes where x, y, z lie side by side (every driver's layout), so that a part of the image is
-    copied out only when taken; a copy otherwise."""
+    """(stamp, (H, W, 3) float32) of an organised PointCloud2 with float32 x, y, z: `organised_views`' grid."""
+    stamp, grid, _ = organised_views(data)
+    return stamp, grid
+
+
+def organised_views(data: bytes) -> tuple[float, NDArray[np.float32], NDArray[np.uint32] | None]:
+    """(stamp, (H, W, 3) float32, (H, W) rgba words or None) of an organised PointCloud2 with float32 x, y, z
+    and maybe a colour word (`rgba` or `rgb`, as `decode_coloured_cloud` reads it): read-only views of the
+    message's bytes, the grid where x, y, z lie side by side (every driver's layout), so that a part of the
+    image is copied out only when taken; the grid a copy otherwise."""
     message = deserialize(memoryview(data), POINT_CLOUD2)  # rosbags slices it: a view, not a 37 MB copy
     offsets = {f.name: f.offset for f in message.fields if f.datatype == _FLOAT32 and f.count == 1}
     if not {"x", "y", "z"} <= offsets.keys() or message.is_bigendian:
@@ -381,17 +393,20 @@ def organised_grid(data: bytes) -> tuple[float, NDArray[np.float32]]:
             f"point cloud holds {len(message.data)} bytes, not {height} rows of {message.row_step}",
             field="data",
         )
-    if step % 4 or message.row_step % 4 or any(offsets[a] % 4 for a in "xyz"):
+    colour = _colour_offset(message.fields)
+    aligned = [offsets[a] for a in "xyz"] + ([] if colour is None else [colour])
+    if step % 4 or message.row_step % 4 or any(offset % 4 for offset in aligned):
         raise PegbtError("an organised cloud's fields must be 4-byte aligned", field="point_step")
     words = np.asarray(message.data, dtype=np.uint8)[: message.row_step * height].view("<f4")
-    grid = np.lib.stride_tricks.as_strided(  # a view of the rows (padded or not) as pixels of 4-byte words
+    pixels = np.lib.stride_tricks.as_strided(  # a view of the rows (padded or not) as pixels of 4-byte words
         words, shape=(height, width, step // 4), strides=(message.row_step, step, 4), writeable=False
     )
+    rgba = None if colour is None else pixels.view("<u4")[..., colour // 4]
     words_xyz = [offsets[a] // 4 for a in "xyz"]
     first = words_xyz[0]
     if words_xyz == [first, first + 1, first + 2]:
-        return _stamp(message.header), grid[..., first : first + 3]
-    return _stamp(message.header), grid[..., words_xyz]
+        return _stamp(message.header), pixels[..., first : first + 3], rgba
+    return _stamp(message.header), pixels[..., words_xyz], rgba
 
 
 def encode_trigger_request() -> bytes:

@@ -8,10 +8,12 @@ camera that captures nothing unasked sends no other), matched by arrival, so a c
 agree with this one's; a response with `success` false, no response, or no cloud soon after a response is an
 error naming the service.
 
-A full-resolution frame is 2.3 M points (Zivid 2), 16 bytes each, of which the board is about 130 k. A capture
-is a `ZividCloud`: the image itself, a view of the message, from which block search takes every pixel near a
-block (`pegbt.perception.organised`), and, read as an array (by the board's registration), the valid points
-of every `stride`-th row and column, copied out of the message when first asked for. Decoding runs on a
+A full-resolution frame is 2.3 M points (Zivid 2), 16 bytes each, of which the board is about 130 k. The client
+reads `/points/xyzrgba`: x, y, z and each pixel's colour, by which the looks keep the red points
+(`pegbt.perception.colour`); `/points/xyz` is as large, its fourth word padding. A capture is a `ZividCloud`:
+the image and its colours, views of the message, from which block search takes every pixel near a block
+(`pegbt.perception.organised`), and, read as an array (by the board's registration), the valid points of
+every `stride`-th row and column, copied out of the message when first asked for. Decoding runs on a
 thread of its own, not on zenoh's, which also carry the arms' states.
 """
 
@@ -33,22 +35,29 @@ from pegbt.transport.ros2_service import Service, ServiceCall, ServiceFailed
 
 CAPTURE = Service("/capture", codec.TRIGGER)
 # rmw_qos_profile_default (the driver's `getQoSLatched(false)`): reliable, volatile, keep last 10
-POINTS_XYZRGBA = Topic("/points/xyzrgba", codec.POINT_CLOUD2, depth=10, reliable=True)
-POINTS_XYZ = Topic(
-    "/points/xyz", codec.POINT_CLOUD2, depth=10, reliable=True
-)  # "recommended if you don't need the RGBA values"
+POINTS_XYZRGBA = Topic("/points/xyzrgba", codec.POINT_CLOUD2, depth=10, reliable=True)  # what pegbt reads
+POINTS_XYZ = Topic("/points/xyz", codec.POINT_CLOUD2, depth=10, reliable=True)  # the same, padded for rgba
 STRIDE = 2  # every 2nd row and column: 0.6 mm between points at the board (see `pegbt bench perception`)
 CLOUD_GRACE_S = 2.0  # after the response, for the cloud published before it to arrive (a robot's machine)
 
 
 class ZividCloud:
-    """A Zivid capture: `grid` (H, W, 3) float32, the whole image (NaN where no depth), a view of the message;
-    `points` (N, 3) float32, the valid points of every `stride`-th row and column, thinned when first read (by
-    the board's registration, say: block search reads the image), and what the cloud is as an array. Its
-    length is the image's (width × height, as the PointCloud2 says), valid or not."""
+    """A Zivid capture: `grid` (H, W, 3) float32, the whole image (NaN where no depth), and `rgba` (H, W), each
+    pixel's colour word (`0xAARRGGBB`; None from a cloud without colour), views of the message; `points`
+    (N, 3) float32, the valid points of every `stride`-th row and column, thinned when first read (by the
+    board's registration, say: block search reads the image), and what the cloud is as an array. Its length is
+    the image's (width × height, as the PointCloud2 says), valid or not."""
 
-    def __init__(self, stamp: float, grid: NDArray[np.float32], stride: int = STRIDE) -> None:
-        self.stamp, self.grid, self.stride = stamp, grid, stride
+    def __init__(
+        self,
+        stamp: float,
+        grid: NDArray[np.float32],
+        stride: int = STRIDE,
+        rgba: NDArray[np.uint32] | None = None,
+    ) -> None:
+        if rgba is not None and rgba.shape != grid.shape[:2]:
+            raise PegbtError(f"{rgba.shape} colours for a {grid.shape[:2]} image", field="rgba")
+        self.stamp, self.grid, self.stride, self.rgba = stamp, grid, stride, rgba
 
     @cached_property
     def points(self) -> NDArray[np.float32]:
@@ -70,8 +79,8 @@ class ZividCloud:
 
 def organised_cloud(payload: bytes, stride: int = STRIDE) -> ZividCloud:
     """An organised PointCloud2 as a `ZividCloud` thinned to every `stride`-th row and column."""
-    stamp, grid = codec.organised_grid(payload)
-    return ZividCloud(stamp, grid, stride)
+    stamp, grid, rgba = codec.organised_views(payload)
+    return ZividCloud(stamp, grid, stride, rgba)
 
 
 class ZividCapture:
@@ -166,7 +175,7 @@ class ZividCamera:
         wire: Ros2Wire,
         *,
         service: Service = CAPTURE,
-        topic: Topic = POINTS_XYZ,
+        topic: Topic = POINTS_XYZRGBA,
         stride: int = STRIDE,
         clock: Clock | None = None,
         timeout: float = 10.0,

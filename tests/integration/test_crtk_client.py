@@ -31,6 +31,7 @@ from pegbt.executive.session import run_tree_file
 from pegbt.motion.limits import arm_settings
 from pegbt.sim.process import free_port
 from pegbt.transport.arm import EndpointSilent
+from pegbt.transport.camera import ColouredPoints
 from pegbt.transport.crtk_arm import CrtkArm, make_ready
 from pegbt.transport.guards import CommandRefused
 from pegbt.transport.ros2 import BridgeWire
@@ -305,9 +306,10 @@ def test_a_capture_is_the_first_cloud_stamped_after_the_request_without_its_nan_
     robot = connect_crtk_robot(endpoint)
     try:
         handle = robot.camera.capture_async()
-        points = handle.result(10.0)
-        assert handle.stamp > handle.requested_at
-        assert points.shape == (180, 3) and np.isfinite(points).all()  # 20 of 200 were NaN
+        cloud = handle.result(10.0)
+        assert handle.stamp > handle.requested_at and isinstance(cloud, ColouredPoints)  # x, y, z and rgb
+        assert cloud.points.shape == (180, 3) and np.isfinite(cloud.points).all()  # 20 of 200 were NaN
+        assert cloud.rgba.shape == (180,)  # the colours of the points kept
     finally:
         robot.close()
         double.close()
@@ -344,7 +346,7 @@ def test_the_streaming_cameras_clouds_reach_the_client_only_while_a_capture_wait
         for _ in range(2):  # and again once unsubscribed
             handle = robot.camera.capture_async()
             assert _until(matching)
-            points = handle.result(10.0)
+            points = np.asarray(handle.result(10.0))
             assert handle.stamp > handle.requested_at and points.shape == (180, 3)
             assert _until(lambda: not matching())
     finally:

@@ -15,7 +15,7 @@ import zenoh
 from dvrk_peer import STORE, Received, wait_for
 from zivid_helpers import CountingWire, ZividSim, call_capture, zivid_camera
 
-from pegbt.sim.camera import DepthCamera
+from pegbt.sim.camera import BOARD_GREY, RED, TOOL_GREY, DepthCamera
 from pegbt.transport.session import client_settings, open_session
 
 POINT_CLOUD = "sensor_msgs/msg/PointCloud2"
@@ -78,6 +78,11 @@ def test_a_call_publishes_one_organised_full_resolution_cloud_with_nans(
     assert 50_000 < valid.sum() < valid.size / 2  # the board and blocks, and around them nothing (NaN)
     assert np.isnan(points[~valid]).all()  # an invalid pixel is NaN in x, y and z
     assert np.all((points[valid][:, 2] > 0.3) & (points[valid][:, 2] < 0.8))  # metres, in front of the camera
+    raw = np.asarray(message.data, dtype=np.uint8).reshape(1200, 1944, 16)
+    rgba = raw[..., 12:].copy().view("<u4")[..., 0]  # a pixel's colour: what its ray met, none if nothing
+    assert (rgba[~valid] == 0).all() and set(np.unique(rgba[valid])) == {RED, BOARD_GREY, TOOL_GREY}
+    assert 15_000 < np.count_nonzero(rgba == RED) < valid.sum() / 2  # the blocks and the pegs
+    assert np.count_nonzero(rgba == TOOL_GREY) > 1_000  # the tools at their start, at the image's edge
 
 
 def test_no_cloud_without_a_call(sim: ZividSim, peer: zenoh.Session) -> None:

@@ -15,8 +15,10 @@ import pytest
 import zenoh
 from zivid_helpers import ZividSim, zivid_camera
 
+from pegbt.behaviours.actions.placing import board_points
 from pegbt.perception.blocks import locate_blocks
 from pegbt.perception.board import PegboardRegistration
+from pegbt.sim.camera import RED
 from pegbt.sim.process import free_port
 from pegbt.sim.world import World
 from pegbt.transport import codec
@@ -58,12 +60,23 @@ def test_a_capture_is_the_called_cloud_thinned_and_perception_registers_the_boar
     points = cloud.points
     assert np.isfinite(points).all() and points.dtype == np.float32
     assert cloud.grid.shape == (1200, 1944, 3) and len(cloud) == 1944 * 1200  # the whole image, as sent
-    full = zivid_camera().capture(World(0))  # every valid pixel of a full-resolution frame
+    assert sim.endpoint.world is not None  # the arms stood still: the world is as the frame saw it
+    full, colours = zivid_camera().capture_coloured(sim.endpoint.world)  # every valid pixel of the frame
     assert 0.2 < len(points) / len(full) < 0.3  # every 2nd row and column: a quarter
+    assert cloud.rgba is not None and cloud.rgba.shape == (1200, 1944) and not cloud.rgba.flags.owndata
+    valid = np.isfinite(cloud.grid).all(axis=-1)
+    np.testing.assert_array_equal(cloud.rgba[valid], colours)  # each pixel the colour of what its ray met
+    assert (cloud.rgba[~valid] == 0).all()
     board = PegboardRegistration(World(0).cell).fit(cloud)  # read as an array: the thinned points
     assert board.ok, board.reason
-    blocks = locate_blocks(cloud, board)  # every pixel near a block, from the image
-    assert sum(block.ok for block in blocks) == 6
+    cell = World(0).cell
+    kept = board_points(cloud, board, cell, {})  # the look's points: the red ones
+    assert len(kept) == np.count_nonzero(colours == RED)
+    blocks = [estimate.position[:2] for estimate in locate_blocks(cloud, board) if estimate.ok]
+    axes = np.vstack([*blocks, cell.pegs.positions])
+    nearest = np.linalg.norm(kept[:, None, :2] - axes[None], axis=2).min(axis=1)
+    assert nearest.max() < cell.block.corner_distance + 0.002  # on a block or a peg, none on the bare board
+    assert len(blocks) == 6  # every pixel near a block, from the image
     second = camera.capture()  # each capture calls again and gets its own cloud
     assert len(second.points) == pytest.approx(len(points), rel=0.05)
 
@@ -155,9 +168,9 @@ def test_a_response_without_a_cloud_is_an_error_naming_the_topic() -> None:
     finally:
         session.close()
         driver.close()
-    assert error.field == "/points/xyz"
+    assert error.field == "/points/xyzrgba"
     assert (
-        f"service /capture responded, but no cloud came on /points/xyz within {CLOUD_GRACE_S:g} s"
+        f"service /capture responded, but no cloud came on /points/xyzrgba within {CLOUD_GRACE_S:g} s"
         in error.message
     )
 

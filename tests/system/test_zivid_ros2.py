@@ -25,7 +25,7 @@ def test_a_ros2_node_calls_capture_and_gets_one_organised_cloud(router: int, mes
     graph = f"tcp/127.0.0.1:{router}"
     with SimProcess(["--camera", "zivid", "--seed", "0"], interface="dvrk", router=graph):
         report = lines(
-            partner(messages_dir, router, "capture", "/capture", "/points/xyz", "20"), timeout=120
+            partner(messages_dir, router, "capture", "/capture", "/points/xyzrgba", "20"), timeout=120
         )[-1]
         session = open_session(ros2_graph_settings([graph]))
         try:

@@ -61,6 +61,7 @@ from pegbt.motion.handover import (
 from pegbt.motion.ik import solve_ik
 from pegbt.motion.kinematics import forward_kinematics, tip_position
 from pegbt.perception.blocks import BlockEstimate, block_on_peg
+from pegbt.perception.colour import red
 from pegbt.perception.grasp import grasp_options
 from pegbt.perception.servo import in_servo_box
 from pegbt.physics.recording import MIN_SAMPLES, load_recording
@@ -70,6 +71,7 @@ from pegbt.sim.tools import ToolState
 from pegbt.sim.world import World
 from pegbt.transport import EndpointSilent
 from pegbt.transport.camera import ColouredPoints
+from pegbt.transport.zivid_camera import ZividCloud
 
 DVRK_SHARE = Path(__file__).parents[1] / "data" / "dvrk-share"  # a dVRK's share/ folder
 STEP = 0.05  # s of clock between ticks
@@ -853,6 +855,29 @@ def test_what_the_look_sees_does_not_depend_on_where_the_robot_believes_its_tool
     assert len(boxes[0]) > 1000
     same = boxes[0].shape == boxes[1].shape and np.array_equal(boxes[0], boxes[1])
     assert same == coloured
+
+
+def test_a_look_on_an_organised_cloud_with_colour_keeps_the_red_pixels_of_its_image(skills, seen):
+    """A Zivid's capture is the camera's image (`grid`) with a colour word per pixel (`rgba`), both as the
+    driver laid them out: the look keeps the red pixels, the same points as from the unorganised capture of the
+    same frame, so the tool (grey) is dropped wherever it stands."""
+    world = World(seed=0)
+    joints = holding_over(world, skills, 0.038, (0.002, -0.001))
+    camera = DepthCamera(seed=1)
+    exposure = camera.expose(world)
+    exposure.cast(camera.ray_count)
+    rows, columns = camera.image_shape
+    image = ZividCloud(
+        0.0, exposure.points().reshape(rows, columns, 3), rgba=exposure.colours().reshape(rows, columns)
+    )
+    points, rgba = DepthCamera(seed=1).capture_coloured(
+        world
+    )  # the same frame, its pixels that saw something
+    kept = board_points(image, seen[0], skills.cell, {"PSM1": joints})
+    assert len(kept) == np.count_nonzero(red(rgba)) and len(kept) < len(points) / 3
+    np.testing.assert_array_equal(kept, board_points(ColouredPoints(points, rgba), seen[0], skills.cell, {}))
+    peg = seen[0].peg_tops[PLACE, :2]
+    assert np.count_nonzero(in_servo_box(kept, peg, skills.cell.board.surface_z)) > 1000
 
 
 def test_the_look_corrects_nothing_when_it_sees_fewer_than_400_points_of_the_block(

@@ -7,11 +7,11 @@ from types import SimpleNamespace
 
 from pegbt.transport import codec
 from pegbt.transport.ros2_service import ServiceCall
-from pegbt.transport.zivid_camera import CAPTURE, POINTS_XYZ, ZividCapture
+from pegbt.transport.zivid_camera import CAPTURE, POINTS_XYZRGBA, ZividCapture
 
 
 def test_a_capture_whose_cloud_came_before_the_response_is_sent_and_ready() -> None:
-    camera = SimpleNamespace(service=CAPTURE, topic=POINTS_XYZ)
+    camera = SimpleNamespace(service=CAPTURE, topic=POINTS_XYZRGBA)
     call = ServiceCall(CAPTURE, timeout=10.0)
     capture = ZividCapture(camera, call)
     assert not capture.sent and not capture.ready

@@ -71,6 +71,22 @@ def test_another_producers_organised_cloud_is_thinned_on_its_grid() -> None:
     assert thinned[0, 0] != -1.0
 
 
+def test_a_clouds_colours_are_a_view_of_the_message_beside_its_image() -> None:
+    """zivid-ros's points/xyzrgba (`makePointCloud2Msg`): a UINT32 rgba at offset 12 of each 16-byte point,
+    read as the (H, W) words of the image's pixels without a copy; a cloud without colour has none."""
+    points = np.arange(4 * 5 * 3, dtype=np.float32).reshape(4, 5, 3)
+    points[1, 2] = np.nan
+    rgba = (0xFF000000 + np.arange(20, dtype=np.uint32) * 0x010203).reshape(4, 5)
+    rgba[1, 2] = 0
+    payload = codec.encode_organised_cloud(1.5, points, "zivid_optical_frame", rgba)
+    cloud = organised_cloud(payload)
+    assert cloud.rgba is not None and cloud.rgba.dtype == np.uint32
+    np.testing.assert_array_equal(cloud.rgba, rgba)
+    np.testing.assert_array_equal(cloud.grid, points)
+    assert np.shares_memory(cloud.rgba, np.frombuffer(payload, dtype=np.uint8))  # not copied out
+    assert organised_cloud(codec.encode_organised_cloud(1.5, points, "zivid_optical_frame")).rgba is None
+
+
 def test_the_trigger_messages_and_the_services_keys() -> None:
     assert codec.encode_trigger_request() == b"\x00\x01\x00\x00\x00"  # CDR header, the placeholder uint8
     response = STORE.types["std_srvs/srv/msg/Trigger_Response"](success=False, message="not connected")

@@ -39,10 +39,10 @@ def board_points(
     planned: `off_the_tool`, which keeps what a tool off its plan shows)."""
     raw = cloud.grid.reshape(-1, 3) if isinstance(cloud, OrganisedCloud) else np.asarray(cloud)
     keep = np.isfinite(raw).all(axis=1)
-    rgba = colours_of(cloud)
+    seen, rgba = raw[keep], colours_of(cloud)
     if rgba is not None:
-        return board.to_board(raw[keep & red(rgba)])
-    points = board.to_board(raw[keep])
+        return board.to_board(seen[red(rgba[keep])])  # the mask on the pixels with depth: a Zivid's are few
+    points = board.to_board(seen)
     for arm, joints in tools.items():
         points = points[off_the_tool(points, joints, cell.arm_to_board(arm), cell.tool)]
     return points

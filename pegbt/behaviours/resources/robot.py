@@ -42,7 +42,7 @@ from pegbt.transport.session import Session, open_session, reaches_anyone
 from pegbt.transport.streaming import Streamer
 from pegbt.transport.wires import make_wire, wire_session_settings
 from pegbt.transport.zivid_camera import CLOUD_GRACE_S, ZividCamera
-from pegbt.transport.zivid_camera import POINTS_XYZ as ZIVID_POINTS
+from pegbt.transport.zivid_camera import POINTS_XYZRGBA as ZIVID_POINTS
 
 SIMULATOR_PHYSICS = "dvrk-real"
 SIMULATOR_ARGS = ("--physics", SIMULATOR_PHYSICS)
