@@ -106,6 +106,21 @@ def turned_to_placing(
     return turned - (turned @ up) * up
 
 
+def placing_point(
+    cell: Workcell,
+    arm: str,
+    board: BoardEstimate | None,
+    place_peg: int,
+    offset: NDArray[np.float64],
+    yaw: float,
+) -> NDArray[np.float64]:
+    """Where the paper's robot puts the tip over `place_peg` (arm frame): the peg's top and the tip's `offset`
+    from the held block's axis (a tool at `yaw`) turned with the tool to `PLACING_YAW` (`turned_to_placing`;
+    FLSpegtransferHO `vision/GraspingPose3D.py` `find_placing_pose`)."""
+    top = to_arm(cell, arm, peg_top_board(cell, board, place_peg))
+    return top + turned_to_placing(offset, yaw, cell.up_in(arm))
+
+
 def transfer_for(
     cell: Workcell,
     motion: MotionSettings,
@@ -281,3 +296,17 @@ def from_handover(
         up=up,
         heights=motion.transfer,
     )
+
+
+def handed_placing_point(
+    cell: Workcell,
+    arm: str,
+    board: BoardEstimate | None,
+    grasp: Grasp,
+    block_pose: NDArray[np.float64],
+    place_peg: int,
+) -> NDArray[np.float64]:
+    """`placing_point` for a receiver holding a block handed to it at `grasp` (the block at `block_pose`,
+    board frame)."""
+    offset = grasp.position - to_arm(cell, arm, block_pose[:3, 3])
+    return placing_point(cell, arm, board, place_peg, offset, yaw_about(grasp.pose[:3, :3], cell.up_in(arm)))

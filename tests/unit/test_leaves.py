@@ -32,10 +32,12 @@ from pegbt.behaviours.poses import (
     EXIT_WIDENING,
     HANDOVER_RISE,
     PLACING_YAW,
+    handed_placing_point,
     height_above_pegs,
+    pick_of,
+    placing_point,
     tool_pose,
     transfer_for,
-    turned_to_placing,
     yaw_about,
 )
 from pegbt.behaviours.resources.arm_motion import EarlyPlan
@@ -49,7 +51,7 @@ from pegbt.executive.loader import load_tree
 from pegbt.executive.registry import REGISTRY
 from pegbt.executive.runner import set_initial_blackboard
 from pegbt.executive.work import WorkPool
-from pegbt.frames import yaw_pose
+from pegbt.frames import yaw_pose, yaw_rotation
 from pegbt.handover_protocol import Giver, Handover, Receiver
 from pegbt.motion.handover import (
     descent_clearance,
@@ -791,14 +793,11 @@ def test_under_the_paper_s_policy_the_transfer_stops_at_rest_at_its_height_over_
     assert tip[2] == pytest.approx(-0.120, abs=1e-4)
     block, grasp = values["PSM1/block"], values["PSM1/grasp"]
     assert abs(math.degrees(yaw_about(grasp.pose[:3, :3], up))) > 20.0  # a turn to make
-    turned = transfer_for(
-        skills.cell, skills.motion, "PSM1", seen[0], block, grasp, PLACE, turn_to_placing=True
-    )
-    above = turned.poses[2, :3, 3]
-    off = tip - above - ((tip - above) @ up) * up
-    assert np.linalg.norm(off) < 1e-4  # over the peg, the block turned with the tool
-    end = forward_kinematics(trajectory.q[-1])
-    assert abs(math.degrees(yaw_about(end[:3, :3], up) - PLACING_YAW)) < 0.1
+    pick = pick_of(skills.cell, "PSM1", seen[0], block, grasp)
+    over = placing_point(skills.cell, "PSM1", seen[0], PLACE, pick.offset, pick.yaw)
+    assert np.linalg.norm(tip[:2] - over[:2]) < 1e-4  # over the peg, the block turned with the tool
+    end = forward_kinematics(trajectory.q[-1])  # the tool along the base's z at roll 0 (`servoing_block`)
+    assert np.allclose(end[:3, :3], yaw_rotation(PLACING_YAW), atol=2e-3)
     # at rest within a sample of the cubics' stop there (their knots fall between the 10 ms samples)
     assert np.linalg.norm(trajectory.qd[-1]) < 0.01 and arm.jaw.sent == []
 
@@ -942,10 +941,9 @@ def test_servo_over_peg_moves_by_the_look_at_rest_then_lowers_to_the_paper_s_dro
     assert run(built, clock) == Status.SUCCESS
     (trajectory,) = arm.trajectories
     tips = tip_position(trajectory.q)
-    lateral = tips - top - ((tips - top) @ up)[:, None] * up
-    moved = np.asarray(move) - (np.asarray(move) @ up) * up
-    assert np.allclose(lateral[-1], moved, atol=1e-4)  # moved by the look, along the board
-    assert tips[-1][2] == pytest.approx(-0.130, abs=1e-4)  # `height_drop`, unilateral: z in the arm's frame
+    # moved by the look, then straight down the base's z (`servoing_block`) to `height_drop`, unilateral
+    assert np.allclose(tips[-1][:2], stop[:2, 3] + move[:2], atol=1e-4)
+    assert tips[-1][2] == pytest.approx(-0.130, abs=1e-4)
     # rest-to-rest: the arm stops at the stop's height, moved, before it lowers
     moved_above = stop[:3, 3] + move
     there = int(np.argmin(np.linalg.norm(tips - moved_above, axis=1)))
@@ -1928,17 +1926,12 @@ def test_carry_from_handover_stopping_above_stops_at_the_place_height_over_its_g
     (trajectory,) = arm.trajectories
     end = forward_kinematics(trajectory.q[-1])
     assert end[2, 3] == pytest.approx(-0.120, abs=1e-4)
-    peg = skills.cell.board_to_arm(RECEIVER) @ np.append(seen[0].peg_tops[PLACE], 1.0)
-    axis = skills.cell.board_to_arm(RECEIVER) @ meeting.block_pose[:, 3]
-    grasp, up = meeting.receiver_grasp.pose, skills.cell.up_in(RECEIVER)
-    yaw = yaw_about(grasp[:3, :3], up)
-    assert abs(math.degrees(yaw)) > 20.0  # a turn to make
-    assert abs(math.degrees(yaw_about(end[:3, :3], up) - PLACING_YAW)) < 0.1
-    assert np.allclose(
-        lateral(skills, RECEIVER, end[:3, 3] - peg[:3]),
-        turned_to_placing(lateral(skills, RECEIVER, grasp[:3, 3] - axis[:3]), yaw, up),
-        atol=2e-4,
-    )
+    grasp, up = meeting.receiver_grasp, skills.cell.up_in(RECEIVER)
+    assert abs(math.degrees(yaw_about(grasp.pose[:3, :3], up))) > 20.0  # a turn to make
+    # the tool along the base's z at roll 0, over the peg as the turned grasp holds the block
+    assert np.allclose(end[:3, :3], yaw_rotation(PLACING_YAW), atol=2e-3)
+    over = handed_placing_point(skills.cell, RECEIVER, seen[0], grasp, meeting.block_pose, PLACE)
+    assert np.linalg.norm(end[:2, 3] - over[:2]) < 2e-4
 
 
 def test_carry_from_handover_fails_at_once_and_stops_the_arm_when_the_block_slips(

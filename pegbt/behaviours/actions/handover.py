@@ -40,6 +40,7 @@ from pegbt.behaviours.motion import (
 )
 from pegbt.behaviours.poses import (
     from_handover,
+    handed_placing_point,
     out_to_wait,
     to_arm,
     to_handover,
@@ -645,6 +646,16 @@ class CarryFromHandover(CarryLeaf):
             self.get("block_pose"),
             int(self.param("place")),
             turn_to_placing=self.turns_to_placing(),
+        )
+
+    def placing_point(self) -> NDArray[np.float64]:
+        return handed_placing_point(
+            self.skills.cell,
+            self.param("arm"),
+            self.read("/board"),
+            self.get("grasp"),
+            self.get("block_pose"),
+            int(self.param("place")),
         )
 
     def inputs(self) -> tuple[object, ...]:

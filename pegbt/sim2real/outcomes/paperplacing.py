@@ -19,12 +19,10 @@ from numpy.typing import NDArray
 from pegbt.behaviours.poses import (
     PLACING_YAW,
     from_handover,
-    peg_top_board,
+    handed_placing_point,
     pick_of,
-    to_arm,
+    placing_point,
     transfer_for,
-    turned_to_placing,
-    yaw_about,
 )
 from pegbt.motion.placing import paper_heights, straight_down
 from pegbt.motion.settings import MotionSettings
@@ -47,12 +45,10 @@ def paper_transfer(
     go: lifted at the grasp's yaw, over the goal peg and down at `PLACING_YAW`, the tip off the peg's axis by
     its offset from the block's turned with the tool, at `variant`'s heights (`paper_heights`,
     `straight_down`); `motion`: the rest of the waypoints' settings."""
-    up = cell.up_in(arm)
     pick = pick_of(cell, arm, None, block, grasp)
-    place = to_arm(cell, arm, peg_top_board(cell, None, place_peg))
+    over = placing_point(cell, arm, None, place_peg, pick.offset, pick.yaw)
     waypoints = transfer_for(cell, motion, arm, None, block, grasp, place_peg, turn_to_placing=True)
-    turned = turned_to_placing(pick.offset, pick.yaw, up)
-    return straight_down(paper_heights(waypoints, variant, up), place + turned, PLACING_YAW)
+    return straight_down(paper_heights(waypoints, variant, cell.up_in(arm)), over, PLACING_YAW)
 
 
 def paper_from_handover(
@@ -67,10 +63,8 @@ def paper_from_handover(
     (board frame) over `place_peg` and down onto it at `PLACING_YAW`, the block turned with the tool, at the
     handover's heights (`paper_heights`, `straight_down`)."""
     up = cell.up_in(receiver)
-    offset = grasp.position - to_arm(cell, receiver, block_pose[:3, 3])
-    place = to_arm(cell, receiver, peg_top_board(cell, None, place_peg))
-    turned = turned_to_placing(offset, yaw_about(grasp.pose[:3, :3], up), up)
+    over = handed_placing_point(cell, receiver, None, grasp, block_pose, place_peg)
     waypoints = from_handover(
         cell, motion, receiver, None, grasp, block_pose, place_peg, turn_to_placing=True
     )
-    return straight_down(paper_heights(waypoints, "handover", up), place + turned, PLACING_YAW)
+    return straight_down(paper_heights(waypoints, "handover", up), over, PLACING_YAW)
