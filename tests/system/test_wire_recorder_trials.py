@@ -72,7 +72,8 @@ def test_a_recorded_unilateral_trial_reads_back_with_every_topic_and_type(tmp_pa
     last_tick = read_tick_log(tmp_path / "trial.jsonl").last_t
     assert max(log_time for _, _, log_time, _ in messages) <= (last_tick + 1.0) * 1e9  # not the wall clock
     clouds = [decoded for topic, _, _, decoded in messages if topic == "/camera/depth/points"]
-    assert all(5_000 < cloud.width < 20_000 and len(cloud.data) == 12 * cloud.width for cloud in clouds)
+    assert all(5_000 < cloud.width < 20_000 and len(cloud.data) == 16 * cloud.width for cloud in clouds)
+    assert all([field.name for field in cloud.fields] == ["x", "y", "z", "rgba"] for cloud in clouds)  # kept
     ticks = [json.loads(decoded.data) for topic, _, _, decoded in messages if topic == "/pegbt/ticks"]
     log = read_tick_log(tmp_path / "trial.jsonl")
     assert sum(len(tick["changes"]) for tick in ticks) == len(log.transitions)
