@@ -17,14 +17,14 @@ from numpy.typing import NDArray
 from py_trees.common import Status
 
 from pegbt.behaviours.base import MotionLeaf, Outgoing, RobotLeaf
-from pegbt.behaviours.poses import approach_for, height_above_pegs, transfer_for
+from pegbt.behaviours.poses import PLACING_YAW, approach_for, height_above_pegs, transfer_for
 from pegbt.behaviours.resources.arm_motion import ArmMotion
 from pegbt.behaviours.resources.skills import Skills
 from pegbt.motion.handover import jaw_on_wall
 from pegbt.motion.ik import solve_ik
 from pegbt.motion.kinematics import forward_kinematics, tip_position
 from pegbt.motion.limits import ArmSettings
-from pegbt.motion.placing import paper_heights, stopped_above
+from pegbt.motion.placing import paper_heights, stopped_above, straight_down
 from pegbt.motion.settings import MotionSettings
 from pegbt.motion.trajectory import Trajectory
 from pegbt.motion.waypoints import TransferWaypoints
@@ -156,13 +156,29 @@ class CarryLeaf(MotionLeaf):
         lowered (`stop_above`, as the tree's policy says; a carry without the parameter never does)."""
         return "stop_above" in self.params and bool(self.param("stop_above"))
 
+    def turns_to_placing(self) -> bool:
+        """Whether this carry turns the tool, and the block with it, to the paper's placing angle on its way
+        over the goal peg (`transfer_for`'s `turn_to_placing`): under the paper's protocol, where it stops
+        there to look (`FLSPegTransfer_single.py`, `_dual.py` and `_handover.py` all place at roll 0)."""
+        return self.skills.paper_variant is not None and self.stops_above()
+
+    def placing_point(self) -> NDArray[np.float64]:
+        """Where the paper's robot puts the tip over the goal peg (arm frame), the block turned with the tool
+        to its placing angle (`pegbt.behaviours.poses.placing_point`): for a carry that turns."""
+        raise NotImplementedError
+
     def _stopping_at_place_height(self, waypoints: TransferWaypoints) -> TransferWaypoints:
         """`waypoints` lifted, stopping over the goal peg and lowered at the paper's heights under its
-        protocol (`paper_heights`: z in the arm's own frame), as they are under pegbt's."""
+        protocol (`paper_heights`: z in the arm's own frame), as they are under pegbt's; turned to the
+        paper's placing angle, stopped and lowered as `servoing_block` goes, over the placing point with the
+        tool along the base's z (`straight_down`)."""
         variant = self.skills.paper_variant
         if variant is None:
             return waypoints
-        return paper_heights(waypoints, variant, self.skills.cell.up_in(self.param("arm")))
+        heights = paper_heights(waypoints, variant, self.skills.cell.up_in(self.param("arm")))
+        if not self.turns_to_placing():
+            return heights
+        return straight_down(heights, self.placing_point(), PLACING_YAW)
 
     def begin(self) -> None:
         arm = self.param("arm")

@@ -34,6 +34,9 @@ APPROACH_CLEAR_ABOVE_PEG_TOP = 0.002  # m: an approaching jaw is on the block's 
 # then on that axis for its last 0.11-0.20 s, when the receiver's jaw may come down onto it (`await_meeting`);
 # arriving from above it came in sideways until its last 0.07-0.12 s, and the receiver landed 0.13-0.24 s late
 HANDOVER_RISE = 0.0005
+# rad: the paper's robot places every block with its tool at roll 0, the block turned with it
+# (BerkeleyAutomation/FLSpegtransferHO, `vision/GraspingPose3D.py` `find_placing_pose`: `placing_pose = [0.0] + ...`)
+PLACING_YAW = 0.0
 MIN_RISE = 0.005  # m: an approach rises at least this much before it moves over
 # m off the axis per m risen, leaving a held block's hole once the jaw's tips are clear of its top (45°)
 EXIT_WIDENING = 1.0
@@ -94,6 +97,30 @@ def pick_of(
     return Pick(top, grasp.position - top, yaw_about(grasp.pose[:3, :3], cell.up_in(arm)))
 
 
+def turned_to_placing(
+    offset: NDArray[np.float64], yaw: float, up: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """A tip's `offset` from the held block's axis (arm frame) once a tool at `yaw` has turned to
+    `PLACING_YAW` about `up`, the block turning with it; its part across the axis."""
+    turned = tool_down_rotation(PLACING_YAW, up) @ tool_down_rotation(yaw, up).T @ offset
+    return turned - (turned @ up) * up
+
+
+def placing_point(
+    cell: Workcell,
+    arm: str,
+    board: BoardEstimate | None,
+    place_peg: int,
+    offset: NDArray[np.float64],
+    yaw: float,
+) -> NDArray[np.float64]:
+    """Where the paper's robot puts the tip over `place_peg` (arm frame): the peg's top and the tip's `offset`
+    from the held block's axis (a tool at `yaw`) turned with the tool to `PLACING_YAW` (`turned_to_placing`;
+    FLSpegtransferHO `vision/GraspingPose3D.py` `find_placing_pose`)."""
+    top = to_arm(cell, arm, peg_top_board(cell, board, place_peg))
+    return top + turned_to_placing(offset, yaw, cell.up_in(arm))
+
+
 def transfer_for(
     cell: Workcell,
     motion: MotionSettings,
@@ -102,20 +129,25 @@ def transfer_for(
     block: BlockEstimate,
     grasp: Grasp,
     place_peg: int | None = None,
+    turn_to_placing: bool = False,
 ) -> TransferWaypoints:
     """The transfer of `block`, held at `grasp`, onto `place_peg`: the block keeps its yaw, so the tool
-    keeps its yaw and its offset from the block's axis. Without `place_peg`, only the pick side (grasp,
-    approach, lifted) is meaningful: the block would be put back where it is."""
+    keeps its yaw and its offset from the block's axis; with `turn_to_placing`, the tool turns to
+    `PLACING_YAW` on the way and the block with it (`turned_to_placing`), as the paper's robot places.
+    Without `place_peg`, only the pick side (grasp, approach, lifted) is meaningful: the block would be put
+    back where it is."""
     pick = pick_of(cell, arm, board, block, grasp)
+    up = cell.up_in(arm)
     place_top = pick.top if place_peg is None else to_arm(cell, arm, peg_top_board(cell, board, place_peg))
+    turned = turned_to_placing(pick.offset, pick.yaw, up) if turn_to_placing else pick.offset
     return transfer_waypoints(
         pick.top,
         place_top,
         pick_offset=pick.offset,
-        place_offset=pick.offset,
+        place_offset=turned,
         pick_yaw=pick.yaw,
-        place_yaw=pick.yaw,
-        up=cell.up_in(arm),
+        place_yaw=PLACING_YAW if turn_to_placing else pick.yaw,
+        up=up,
         heights=motion.transfer,
     )
 
@@ -248,16 +280,33 @@ def from_handover(
     grasp: Grasp,
     block_pose: NDArray[np.float64],
     place_peg: int,
+    turn_to_placing: bool = False,
 ) -> TransferWaypoints:
     """The receiver's placement: from its grasp of the block held in the air (`block_pose`, board frame)
-    over peg `place_peg` and down onto it, the block keeping its yaw."""
+    over peg `place_peg` and down onto it, the block keeping its yaw, or, with `turn_to_placing`, turned
+    with the tool to `PLACING_YAW` (`transfer_for`)."""
     up = cell.up_in(arm)
     offset = grasp.position - to_arm(cell, arm, block_pose[:3, 3])
+    yaw = yaw_about(grasp.pose[:3, :3], up)
     return placement_waypoints(
         grasp.pose,
         to_arm(cell, arm, peg_top_board(cell, board, place_peg)),
-        place_offset=offset,
-        place_yaw=yaw_about(grasp.pose[:3, :3], up),
+        place_offset=turned_to_placing(offset, yaw, up) if turn_to_placing else offset,
+        place_yaw=PLACING_YAW if turn_to_placing else yaw,
         up=up,
         heights=motion.transfer,
     )
+
+
+def handed_placing_point(
+    cell: Workcell,
+    arm: str,
+    board: BoardEstimate | None,
+    grasp: Grasp,
+    block_pose: NDArray[np.float64],
+    place_peg: int,
+) -> NDArray[np.float64]:
+    """`placing_point` for a receiver holding a block handed to it at `grasp` (the block at `block_pose`,
+    board frame)."""
+    offset = grasp.position - to_arm(cell, arm, block_pose[:3, 3])
+    return placing_point(cell, arm, board, place_peg, offset, yaw_about(grasp.pose[:3, :3], cell.up_in(arm)))

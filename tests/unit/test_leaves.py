@@ -31,7 +31,11 @@ from pegbt.behaviours.params import HELD_ABOVE
 from pegbt.behaviours.poses import (
     EXIT_WIDENING,
     HANDOVER_RISE,
+    PLACING_YAW,
+    handed_placing_point,
     height_above_pegs,
+    pick_of,
+    placing_point,
     tool_pose,
     transfer_for,
     yaw_about,
@@ -47,7 +51,7 @@ from pegbt.executive.loader import load_tree
 from pegbt.executive.registry import REGISTRY
 from pegbt.executive.runner import set_initial_blackboard
 from pegbt.executive.work import WorkPool
-from pegbt.frames import yaw_pose
+from pegbt.frames import yaw_pose, yaw_rotation
 from pegbt.handover_protocol import Giver, Handover, Receiver
 from pegbt.motion.handover import (
     descent_clearance,
@@ -775,7 +779,8 @@ def test_under_the_paper_s_policy_the_transfer_stops_at_rest_at_its_height_over_
 ):
     """`stop_above` (the tree's `/policy/look_before_lowering`): the carry ends where the paper's
     `transfer_block_traj` ends, at `height_ready`, z −0.120 m in the arm's own frame, whatever the peg tops'
-    z there, and never opens the jaw, even under a condition `let_go_early` names."""
+    z there, turned to the paper's placing angle (roll 0) with the block, and never opens the jaw, even
+    under a condition `let_go_early` names."""
     skills = paper_skills()
     robot = fake_robot(clock, skills.settings, skills.cell, cloud)
     arm, values = holding_at_the_grasp(robot, skills, seen)
@@ -787,9 +792,12 @@ def test_under_the_paper_s_policy_the_transfer_stops_at_rest_at_its_height_over_
     tip, up = tip_position(trajectory.q[-1]), skills.cell.up_in("PSM1")
     assert tip[2] == pytest.approx(-0.120, abs=1e-4)
     block, grasp = values["PSM1/block"], values["PSM1/grasp"]
-    above = transfer_for(skills.cell, skills.motion, "PSM1", seen[0], block, grasp, PLACE).poses[2, :3, 3]
-    off = tip - above - ((tip - above) @ up) * up
-    assert np.linalg.norm(off) < 1e-4  # over the peg, as the grasp holds the block
+    assert abs(math.degrees(yaw_about(grasp.pose[:3, :3], up))) > 20.0  # a turn to make
+    pick = pick_of(skills.cell, "PSM1", seen[0], block, grasp)
+    over = placing_point(skills.cell, "PSM1", seen[0], PLACE, pick.offset, pick.yaw)
+    assert np.linalg.norm(tip[:2] - over[:2]) < 1e-4  # over the peg, the block turned with the tool
+    end = forward_kinematics(trajectory.q[-1])  # the tool along the base's z at roll 0 (`servoing_block`)
+    assert np.allclose(end[:3, :3], yaw_rotation(PLACING_YAW), atol=2e-3)
     # at rest within a sample of the cubics' stop there (their knots fall between the 10 ms samples)
     assert np.linalg.norm(trajectory.qd[-1]) < 0.01 and arm.jaw.sent == []
 
@@ -933,10 +941,9 @@ def test_servo_over_peg_moves_by_the_look_at_rest_then_lowers_to_the_paper_s_dro
     assert run(built, clock) == Status.SUCCESS
     (trajectory,) = arm.trajectories
     tips = tip_position(trajectory.q)
-    lateral = tips - top - ((tips - top) @ up)[:, None] * up
-    moved = np.asarray(move) - (np.asarray(move) @ up) * up
-    assert np.allclose(lateral[-1], moved, atol=1e-4)  # moved by the look, along the board
-    assert tips[-1][2] == pytest.approx(-0.130, abs=1e-4)  # `height_drop`, unilateral: z in the arm's frame
+    # moved by the look, then straight down the base's z (`servoing_block`) to `height_drop`, unilateral
+    assert np.allclose(tips[-1][:2], stop[:2, 3] + move[:2], atol=1e-4)
+    assert tips[-1][2] == pytest.approx(-0.130, abs=1e-4)
     # rest-to-rest: the arm stops at the stop's height, moved, before it lowers
     moved_above = stop[:3, 3] + move
     there = int(np.argmin(np.linalg.norm(tips - moved_above, axis=1)))
@@ -1903,7 +1910,7 @@ def test_carry_from_handover_stopping_above_stops_at_the_place_height_over_its_g
 ):
     """The receiver's carry made at pegbt's heights, stopped for the look (`stop_above`): its stop is moved
     along the goal peg's axis to the paper's `height_ready`, z −0.120 m in the arm's frame, as the giver-less
-    carries'."""
+    carries', turned to the paper's placing angle, the block's axis over the peg."""
     skills = Skills("uncalibrated", protocol="paper", variant="handover")
     robot = fake_robot(clock, skills.settings, skills.cell, cloud)
     arm, meeting, values = receiver_holding(robot, skills, seen)
@@ -1919,14 +1926,12 @@ def test_carry_from_handover_stopping_above_stops_at_the_place_height_over_its_g
     (trajectory,) = arm.trajectories
     end = forward_kinematics(trajectory.q[-1])
     assert end[2, 3] == pytest.approx(-0.120, abs=1e-4)
-    peg = skills.cell.board_to_arm(RECEIVER) @ np.append(seen[0].peg_tops[PLACE], 1.0)
-    axis = skills.cell.board_to_arm(RECEIVER) @ meeting.block_pose[:, 3]
-    grasp = meeting.receiver_grasp.pose
-    assert np.allclose(
-        lateral(skills, RECEIVER, end[:3, 3] - peg[:3]),
-        lateral(skills, RECEIVER, grasp[:3, 3] - axis[:3]),
-        atol=2e-4,
-    )
+    grasp, up = meeting.receiver_grasp, skills.cell.up_in(RECEIVER)
+    assert abs(math.degrees(yaw_about(grasp.pose[:3, :3], up))) > 20.0  # a turn to make
+    # the tool along the base's z at roll 0, over the peg as the turned grasp holds the block
+    assert np.allclose(end[:3, :3], yaw_rotation(PLACING_YAW), atol=2e-3)
+    over = handed_placing_point(skills.cell, RECEIVER, seen[0], grasp, meeting.block_pose, PLACE)
+    assert np.linalg.norm(end[:2, 3] - over[:2]) < 2e-4
 
 
 def test_carry_from_handover_fails_at_once_and_stops_the_arm_when_the_block_slips(

@@ -40,6 +40,7 @@ from pegbt.behaviours.motion import (
 )
 from pegbt.behaviours.poses import (
     from_handover,
+    handed_placing_point,
     out_to_wait,
     to_arm,
     to_handover,
@@ -622,7 +623,8 @@ class DescendToGrasp(MotionLeaf):
 
 class CarryFromHandover(CarryLeaf):
     """The receiver's carry to its goal peg lets go as the block lands under the conditions of
-    `let_go_early`, as a transfer's does."""
+    `let_go_early`, as a transfer's does, and turns to the paper's placing angle as a transfer does
+    (`turns_to_placing`)."""
 
     def begin(self) -> None:
         super().begin()
@@ -638,6 +640,17 @@ class CarryFromHandover(CarryLeaf):
         return from_handover(
             self.skills.cell,
             self.skills.motion,
+            self.param("arm"),
+            self.read("/board"),
+            self.get("grasp"),
+            self.get("block_pose"),
+            int(self.param("place")),
+            turn_to_placing=self.turns_to_placing(),
+        )
+
+    def placing_point(self) -> NDArray[np.float64]:
+        return handed_placing_point(
+            self.skills.cell,
             self.param("arm"),
             self.read("/board"),
             self.get("grasp"),

@@ -11,13 +11,14 @@ from functools import partial
 
 import numpy as np
 import py_trees
+from numpy.typing import NDArray
 from py_trees.common import Status
 
 from pegbt.behaviours.actions.grasping import choose_and_approach_early
 from pegbt.behaviours.actions.handover import WayOut, next_block, rise_into_approach
 from pegbt.behaviours.base import MotionLeaf
 from pegbt.behaviours.motion import CarryLeaf, above_pegs_first, planned_approach, rise, rise_extent
-from pegbt.behaviours.poses import tool_pose, transfer_for
+from pegbt.behaviours.poses import pick_of, placing_point, tool_pose, transfer_for
 from pegbt.motion.ik import solve_ik
 from pegbt.motion.kinematics import tip_position
 from pegbt.motion.trajectory import Trajectory
@@ -38,8 +39,8 @@ class Transfer(CarryLeaf):
     opened on the plan's clock may drop the block before its hole is on the peg, and an opening jaw can
     no longer tell that a peg knocked the block out; there the jaw stays closed, watched, until the arm
     is at rest, and `release` opens it. Under the paper's protocol the jaw always stays closed, and a carry
-    that stops above the goal peg to look first (`stop_above`) goes at the paper's heights
-    (`CarryLeaf`)."""
+    that stops above the goal peg to look first (`stop_above`) goes at the paper's heights and turns to its
+    placing angle (`CarryLeaf`)."""
 
     def waypoints(self) -> TransferWaypoints:
         return transfer_for(
@@ -50,7 +51,13 @@ class Transfer(CarryLeaf):
             self.get("block"),
             self.get("grasp"),
             int(self.param("place")),
+            turn_to_placing=self.turns_to_placing(),
         )
+
+    def placing_point(self) -> NDArray[np.float64]:
+        cell, arm, board = self.skills.cell, self.param("arm"), self.read("/board")
+        pick = pick_of(cell, arm, board, self.get("block"), self.get("grasp"))
+        return placing_point(cell, arm, board, int(self.param("place")), pick.offset, pick.yaw)
 
     def begin(self) -> None:
         super().begin()

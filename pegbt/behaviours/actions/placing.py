@@ -17,7 +17,7 @@ from pegbt.behaviours.motion import CarryLeaf
 from pegbt.errors import PegbtError
 from pegbt.motion.ik import solve_ik
 from pegbt.motion.kinematics import forward_kinematics
-from pegbt.motion.placing import DROP_Z, along_to_z
+from pegbt.motion.placing import DROP_Z
 from pegbt.perception.board import BoardEstimate
 from pegbt.perception.cloud import Points, open3d_threads
 from pegbt.perception.colour import colours_of, red
@@ -89,8 +89,9 @@ class FindHeldBlock(ComputeLeaf):
 
 class ServoOverPeg(CarryLeaf):
     """From the stop over peg `place`, the arm moves by `servo` (a rest-to-rest move, as the paper's
-    `servoing_block`), then lowers the block to the drop height (the paper's `height_drop` in the arm's
-    frame under its protocol, `pegbt.motion.placing`; else pegbt's above the peg tops); fails at once if
+    `servoing_block`), then lowers the block to the drop height (under the paper's protocol its `height_drop`
+    straight down the base's z, the tool along it, `pegbt.motion.placing`; else pegbt's above the peg tops
+    along their axis); fails at once if
     the block slips, as every carry does, and without moving if `servo` is longer than a look can ask
     (`reach` in board x and y)."""
 
@@ -118,7 +119,7 @@ class ServoOverPeg(CarryLeaf):
             drop = self.skills.motion.transfer.drop_height_above_peg_top
             dropped[:3, 3] -= ((above[:3, 3] - cell.peg_tops_in(arm)[peg]) @ up - drop) * up
         else:
-            dropped[:3, 3] = along_to_z(above[:3, 3], DROP_Z[variant], up)
+            dropped[2, 3] = DROP_Z[variant]  # straight down the base's z, as the turned carry stopped
         self.poses = np.stack([stop, above, above, dropped])
         joints = [solve_ik(pose, motion.settings, what=f"{arm} place") for pose in (above, dropped)]
         self.move(

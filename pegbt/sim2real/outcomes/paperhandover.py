@@ -28,9 +28,11 @@ from numpy.typing import NDArray
 from pegbt.behaviours.actions.handover import Meeting
 from pegbt.behaviours.actions.handover_look import receiver_grasp
 from pegbt.behaviours.poses import (
+    PLACING_YAW,
     block_axis_top,
     to_arm,
     transfer_for,
+    turned_to_placing,
     yaw_about,
 )
 from pegbt.behaviours.resources.skills import Skills
@@ -44,7 +46,6 @@ from pegbt.motion.settings import MotionSettings
 from pegbt.motion.waypoints import TransferWaypoints
 from pegbt.perception.blocks import BlockEstimate
 from pegbt.perception.grasp import Grasp
-from pegbt.sim2real.outcomes.paperplacing import PLACING_YAW, turned_to_placing
 from pegbt.workcell import Workcell
 
 HANDOVER_Z = STOP_Z + 0.010  # m, z in the arm's frame: `height_handover`

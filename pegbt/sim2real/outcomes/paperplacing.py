@@ -16,29 +16,20 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from pegbt.behaviours.poses import peg_top_board, pick_of, to_arm, yaw_about
+from pegbt.behaviours.poses import (
+    PLACING_YAW,
+    from_handover,
+    handed_placing_point,
+    pick_of,
+    placing_point,
+    transfer_for,
+)
 from pegbt.motion.placing import paper_heights, straight_down
 from pegbt.motion.settings import MotionSettings
-from pegbt.motion.waypoints import (
-    TransferWaypoints,
-    placement_waypoints,
-    tool_down_rotation,
-    transfer_waypoints,
-)
+from pegbt.motion.waypoints import TransferWaypoints
 from pegbt.perception.blocks import BlockEstimate
 from pegbt.perception.grasp import Grasp
 from pegbt.workcell import Workcell
-
-PLACING_YAW = 0.0  # rad: `find_placing_pose`'s `placing_pose = [0.0] + ...`
-
-
-def turned_to_placing(
-    offset: NDArray[np.float64], yaw: float, up: NDArray[np.float64]
-) -> NDArray[np.float64]:
-    """A tip's `offset` from the held block's axis (arm frame) once a tool at `yaw` has turned to
-    `PLACING_YAW` about `up`, the block turning with it; its part across the axis."""
-    turned = tool_down_rotation(PLACING_YAW, up) @ tool_down_rotation(yaw, up).T @ offset
-    return turned - (turned @ up) * up
 
 
 def paper_transfer(
@@ -54,21 +45,10 @@ def paper_transfer(
     go: lifted at the grasp's yaw, over the goal peg and down at `PLACING_YAW`, the tip off the peg's axis by
     its offset from the block's turned with the tool, at `variant`'s heights (`paper_heights`,
     `straight_down`); `motion`: the rest of the waypoints' settings."""
-    up = cell.up_in(arm)
     pick = pick_of(cell, arm, None, block, grasp)
-    place = to_arm(cell, arm, peg_top_board(cell, None, place_peg))
-    turned = turned_to_placing(pick.offset, pick.yaw, up)
-    waypoints = transfer_waypoints(
-        pick.top,
-        place,
-        pick_offset=pick.offset,
-        place_offset=turned,
-        pick_yaw=pick.yaw,
-        place_yaw=PLACING_YAW,
-        up=up,
-        heights=motion.transfer,
-    )
-    return straight_down(paper_heights(waypoints, variant, up), place + turned, PLACING_YAW)
+    over = placing_point(cell, arm, None, place_peg, pick.offset, pick.yaw)
+    waypoints = transfer_for(cell, motion, arm, None, block, grasp, place_peg, turn_to_placing=True)
+    return straight_down(paper_heights(waypoints, variant, cell.up_in(arm)), over, PLACING_YAW)
 
 
 def paper_from_handover(
@@ -83,15 +63,8 @@ def paper_from_handover(
     (board frame) over `place_peg` and down onto it at `PLACING_YAW`, the block turned with the tool, at the
     handover's heights (`paper_heights`, `straight_down`)."""
     up = cell.up_in(receiver)
-    offset = grasp.position - to_arm(cell, receiver, block_pose[:3, 3])
-    place = to_arm(cell, receiver, peg_top_board(cell, None, place_peg))
-    turned = turned_to_placing(offset, yaw_about(grasp.pose[:3, :3], up), up)
-    waypoints = placement_waypoints(
-        grasp.pose,
-        place,
-        place_offset=turned,
-        place_yaw=PLACING_YAW,
-        up=up,
-        heights=motion.transfer,
+    over = handed_placing_point(cell, receiver, None, grasp, block_pose, place_peg)
+    waypoints = from_handover(
+        cell, motion, receiver, None, grasp, block_pose, place_peg, turn_to_placing=True
     )
-    return straight_down(paper_heights(waypoints, "handover", up), place + turned, PLACING_YAW)
+    return straight_down(paper_heights(waypoints, "handover", up), over, PLACING_YAW)
