@@ -286,8 +286,7 @@ def from_handover(
     over peg `place_peg` and down onto it, the block keeping its yaw, or, with `turn_to_placing`, turned
     with the tool to `PLACING_YAW` (`transfer_for`)."""
     up = cell.up_in(arm)
-    offset = grasp.position - to_arm(cell, arm, block_pose[:3, 3])
-    yaw = yaw_about(grasp.pose[:3, :3], up)
+    offset, yaw = _handed_hold(cell, arm, grasp, block_pose)
     return placement_waypoints(
         grasp.pose,
         to_arm(cell, arm, peg_top_board(cell, board, place_peg)),
@@ -308,5 +307,12 @@ def handed_placing_point(
 ) -> NDArray[np.float64]:
     """`placing_point` for a receiver holding a block handed to it at `grasp` (the block at `block_pose`,
     board frame)."""
+    return placing_point(cell, arm, board, place_peg, *_handed_hold(cell, arm, grasp, block_pose))
+
+
+def _handed_hold(
+    cell: Workcell, arm: str, grasp: Grasp, block_pose: NDArray[np.float64]
+) -> tuple[NDArray[np.float64], float]:
+    """A receiver's tip offset from the handed block's axis point (arm frame) and its tool's yaw."""
     offset = grasp.position - to_arm(cell, arm, block_pose[:3, 3])
-    return placing_point(cell, arm, board, place_peg, offset, yaw_about(grasp.pose[:3, :3], cell.up_in(arm)))
+    return offset, yaw_about(grasp.pose[:3, :3], cell.up_in(arm))

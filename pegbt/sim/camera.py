@@ -49,6 +49,7 @@ RED = rgba_word(200, 40, 30)  # the blocks and the pegs: a hue of 4°, inside th
 BOARD_GREY = rgba_word(185, 185, 180)
 TOOL_GREY = rgba_word(60, 60, 64)
 NO_HIT = np.iinfo(np.uint32).max  # Open3D's primitive id where a ray met nothing
+SLAB_TRIANGLES = len(box_mesh(np.zeros(3), np.ones(3))[1])  # the static scene mesh's first part, the board
 
 
 class DepthCamera:
@@ -141,10 +142,9 @@ class DepthCamera:
     def triangle_colours(self, world: World) -> NDArray[np.uint32]:
         """The rgba word of each triangle of `scene_mesh(world)`: the slab grey, its pegs and the blocks red,
         the instruments dark grey."""
-        slab = len(box_mesh(np.zeros(3), np.ones(3))[1])  # the static mesh's first part (`static_scene_mesh`)
         blocks = self.board_triangles + len(world.blocks) * self.block_triangles
         colours = np.full(blocks, RED, dtype=np.uint32)
-        colours[:slab] = BOARD_GREY
+        colours[:SLAB_TRIANGLES] = BOARD_GREY
         return colours
 
     @property
@@ -166,17 +166,20 @@ class DepthCamera:
         self, world: SimWorld, time: float | None = None
     ) -> tuple[np.ndarray, NDArray[np.uint32]]:
         """`capture`'s points and the rgba word of each (the colour of what its ray met)."""
-        exposure = self.expose(world, time)
-        exposure.cast(self.ray_count)
+        exposure = self._exposed(world, time)
         points = exposure.points()
         seen = np.isfinite(points[:, 0])
         return points[seen], exposure.colours()[seen]
 
     def capture_organised(self, world: SimWorld, time: float | None = None) -> np.ndarray:
         """Every pixel's point (n, 3) float32, row by row over `image_shape`, NaN where nothing is seen."""
+        return self._exposed(world, time).points()
+
+    def _exposed(self, world: SimWorld, time: float | None) -> Exposure:
+        """A capture of the world at `time`, every ray cast."""
         exposure = self.expose(world, time)
         exposure.cast(self.ray_count)
-        return exposure.points()
+        return exposure
 
     def expose(self, world: SimWorld, time: float | None = None) -> Exposure:
         """A capture of the world as it is now, stamped `time` (default: the world's); no ray cast yet."""
@@ -255,7 +258,9 @@ class Exposure:
         """Every pixel's point (n, 3) float32, camera frame, row by row over `image_shape`; NaN where no
         surface was hit (as a depth camera's organised cloud marks invalid pixels)."""
         self._check_done()
-        biased = self._hit >= self._camera.board_triangles  # rays that met a block or an instrument
+        biased = None
+        if self._world.effects.values("depth_bias")["bias"]:  # rays that met a block or an instrument
+            biased = self._hit >= self._camera.board_triangles
         return self._camera._develop(self._depth, self._world, self.time, biased)
 
     def colours(self) -> NDArray[np.uint32]:

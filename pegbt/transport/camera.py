@@ -27,6 +27,13 @@ from pegbt.transport.sequencing import Received
 Cloud = tuple[float, NDArray[np.float32], NDArray[np.uint32] | None]
 
 
+def points_array(points: NDArray[np.float32], dtype: Any = None, copy: bool | None = None) -> NDArray[Any]:
+    """`points` as numpy's `__array__` protocol asks for them: a cloud object read as its (N, 3) points."""
+    if dtype is not None and dtype != points.dtype:
+        return points.astype(dtype)
+    return points.copy() if copy else points
+
+
 class ColouredPoints:
     """A cloud whose points have a colour: `points` (N, 3) float32, metres, camera frame, and `rgba` (N,),
     one word a point (`0xAARRGGBB`); read as an array, its points."""
@@ -37,9 +44,7 @@ class ColouredPoints:
         self.points, self.rgba = points, rgba
 
     def __array__(self, dtype: Any = None, copy: bool | None = None) -> NDArray[Any]:
-        if dtype is not None and dtype != self.points.dtype:
-            return self.points.astype(dtype)
-        return self.points.copy() if copy else self.points
+        return points_array(self.points, dtype, copy)
 
     def __len__(self) -> int:
         return len(self.points)

@@ -280,12 +280,6 @@ def encode_point_cloud(
     return _point_cloud2(stamp, frame_id, packed, (*_XYZ_FIELDS, ("rgba", _UINT32)), is_dense=dense)
 
 
-def decode_point_cloud(data: bytes) -> tuple[float, NDArray[np.float32]]:
-    """(stamp, (N, 3) float32 points) from a PointCloud2 with float32 x, y, z fields at any offsets."""
-    stamp, points, _ = decode_coloured_cloud(data)
-    return stamp, points
-
-
 def decode_coloured_cloud(data: bytes) -> tuple[float, NDArray[np.float32], NDArray[np.uint32] | None]:
     """(stamp, (N, 3) float32 points, (N,) rgba words or None) from a PointCloud2 with float32 x, y, z
     fields at any offsets and, if it has one, a 4-byte colour: `rgba` (zivid-ros, UINT32 or FLOAT32) or
@@ -368,14 +362,8 @@ def _point_cloud2(
 def decode_organised_cloud(data: bytes, stride: int = 1) -> tuple[float, NDArray[np.float32]]:
     """(stamp, (h, w, 3) float32) from an organised PointCloud2 with float32 x, y, z, every `stride`-th row
     and column of its grid: only those points are copied out of the message."""
-    stamp, grid = organised_grid(data)
-    return stamp, np.ascontiguousarray(grid[::stride, ::stride])
-
-
-def organised_grid(data: bytes) -> tuple[float, NDArray[np.float32]]:
-    """(stamp, (H, W, 3) float32) of an organised PointCloud2 with float32 x, y, z: `organised_views`' grid."""
     stamp, grid, _ = organised_views(data)
-    return stamp, grid
+    return stamp, np.ascontiguousarray(grid[::stride, ::stride])
 
 
 def organised_views(data: bytes) -> tuple[float, NDArray[np.float32], NDArray[np.uint32] | None]:

@@ -30,6 +30,7 @@ from numpy.typing import NDArray
 from pegbt.clock import Clock, WallClock
 from pegbt.errors import PegbtError
 from pegbt.transport import codec
+from pegbt.transport.camera import points_array
 from pegbt.transport.ros2 import Ros2Wire, Topic
 from pegbt.transport.ros2_service import Service, ServiceCall, ServiceFailed
 
@@ -65,9 +66,7 @@ class ZividCloud:
         return points[np.isfinite(points).all(axis=1)]
 
     def __array__(self, dtype: Any = None, copy: bool | None = None) -> NDArray[Any]:
-        if dtype is not None and dtype != self.points.dtype:
-            return self.points.astype(dtype)
-        return self.points.copy() if copy else self.points
+        return points_array(self.points, dtype, copy)
 
     def __len__(self) -> int:
         return self.grid.shape[0] * self.grid.shape[1]

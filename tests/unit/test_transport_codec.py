@@ -65,7 +65,7 @@ def test_operating_state_from_msg_text_matches_rosbags():
 
 def test_point_cloud_and_trajectory_round_trip():
     points = np.random.default_rng(0).normal(size=(50, 3)).astype(np.float32)
-    stamp, decoded = codec.decode_point_cloud(codec.encode_point_cloud(7.25, points))
+    stamp, decoded, _ = codec.decode_coloured_cloud(codec.encode_point_cloud(7.25, points))
     assert stamp == 7.25 and np.array_equal(decoded, points)
 
     t = np.array([0.0, 0.01, 1.5])

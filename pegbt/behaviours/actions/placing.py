@@ -91,9 +91,8 @@ class ServoOverPeg(CarryLeaf):
     """From the stop over peg `place`, the arm moves by `servo` (a rest-to-rest move, as the paper's
     `servoing_block`), then lowers the block to the drop height (under the paper's protocol its `height_drop`
     straight down the base's z, the tool along it, `pegbt.motion.placing`; else pegbt's above the peg tops
-    along their axis); fails at once if
-    the block slips, as every carry does, and without moving if `servo` is longer than a look can ask
-    (`reach` in board x and y)."""
+    along their axis); fails at once if the block slips, as every carry does, and without moving if `servo`
+    is longer than a look can ask (`reach` in board x and y)."""
 
     SEGMENTS = ("carry", "carry", "lower")
 
