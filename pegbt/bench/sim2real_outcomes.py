@@ -66,6 +66,9 @@ FAMILIES: dict[str, dict[str, dict[str, float]]] = {
     "jaw_tip_slide": {"jaw_tip_slide": {"width": 0.0008}},
     # Structured-light depth on translucent plastic: about 1 mm at 0.55 m.
     "depth_bias": {"depth_bias": {"bias": 0.001}},
+    # A cloud's registration error a look: 0.3 mm, the camera's depth noise at one point, what the phase
+    # simulator once took for the paper's robot's perception (its registry source).
+    "perception_noise": {"perception_noise": {"sd": 0.0003}},
     # No source measures the grip's friction; the registry's one figure is the block's 0.020 N weight.
     # 0.2 N, ten times it, is a light grip (`max_load`: the parameter the fit searches). With a rigid peg the
     # grip's only load is that weight as the tip accelerates, so a grip that carries blocks at all is seldom

@@ -9,7 +9,9 @@ injected (scheduled or at random); each is logged in the world's event log.
 
 A world's `depth_bias` (`pegbt.sim.world_effects`) acts on what the camera sees, never on the world: it
 lengthens the rays that meet the blocks and the instruments (not the pegboard, which perception registers
-and measures the pegs on).
+and measures the pegs on). Its `perception_noise` shows each block off where it stands by a draw fixed by
+the camera's seed and the block's pose (`view_error`): all of a block's points move together, as a real
+cloud's registration error moves the block model, and a block that has not moved is seen as before.
 
 Each point has the colour of what its ray met (`Exposure.colours`, `capture_coloured`), as a Zivid's cloud
 has: the reference set-up's blocks and pegs are red (FLSpegtransferHO `vision/BlockDetection3D.py` keeps the
@@ -23,6 +25,8 @@ control periods, so that a frame never stalls the arms' control loop. Both give 
 """
 
 from __future__ import annotations
+
+import hashlib
 
 import numpy as np
 import open3d as o3d
@@ -38,6 +42,14 @@ from pegbt.sim.world import World
 from pegbt.workcell import CameraModel, Workcell, workcell
 
 ROI_MARGIN_PX = 8
+
+
+def view_error(seed: int, pose: NDArray[np.float64], sd: float) -> NDArray[np.float64]:
+    """Where a view of a block standing at `pose` shows it off its place (board x, y, m; z 0): `sd` a
+    coordinate, drawn from the camera's `seed` and the pose, so an unmoved block is shown where it was."""
+    key = np.frombuffer(hashlib.sha256(np.ascontiguousarray(pose).tobytes()).digest()[:16], dtype=np.uint32)
+    draw = np.random.default_rng(np.random.SeedSequence([seed, *map(int, key)])).normal(0.0, sd, 2)
+    return np.array([draw[0], draw[1], 0.0])
 
 
 def rgba_word(red: int, green: int, blue: int) -> int:
@@ -71,6 +83,7 @@ class DepthCamera:
         self.faults = faults
         self.include_arms = include_arms
         self.depth_noise = self.model.depth_noise if depth_noise is None else depth_noise
+        self.seed = seed
         self._rng = np.random.default_rng(np.random.SeedSequence([seed, 0xCA3E7A]))
         self._static = static_scene_mesh(self.cell)
         self._block = block_mesh(self.cell.block)
@@ -157,6 +170,15 @@ class DepthCamera:
         """How many triangles of a scene mesh each block has (the blocks follow the pegboard, in order)."""
         return len(self._block[1])
 
+    def shown_off(self, world: World) -> NDArray[np.float64] | None:
+        """How far (camera frame, m; a row per block) a capture shows each of `world`'s blocks off where it
+        stands (its `perception_noise`), None where the world has none."""
+        sd = world.effects.values("perception_noise")["sd"]
+        if not sd:
+            return None
+        in_board = np.array([view_error(self.seed, block.pose, sd) for block in world.blocks])
+        return in_board @ self.model.board_from_camera[:3, :3]  # each row turned into the camera frame
+
     def capture(self, world: SimWorld, time: float | None = None) -> np.ndarray:
         """A point cloud (N, 3) float32 in the camera frame (metres) of the world at `time` (default: now)."""
         points = self.capture_organised(world, time)
@@ -238,6 +260,7 @@ class Exposure:
         self._depth = np.empty(camera.ray_count, dtype=np.float32)
         self._hit = np.empty(camera.ray_count, dtype=np.uint32)  # the triangle each ray met
         self._triangle_colours = camera.triangle_colours(world)
+        self._shown_off = camera.shown_off(world)
         self._cast = 0
 
     @property
@@ -258,10 +281,16 @@ class Exposure:
         """Every pixel's point (n, 3) float32, camera frame, row by row over `image_shape`; NaN where no
         surface was hit (as a depth camera's organised cloud marks invalid pixels)."""
         self._check_done()
-        biased = None
+        camera, biased = self._camera, None
         if self._world.effects.values("depth_bias")["bias"]:  # rays that met a block or an instrument
-            biased = self._hit >= self._camera.board_triangles
-        return self._camera._develop(self._depth, self._world, self.time, biased)
+            biased = self._hit >= camera.board_triangles
+        points = camera._develop(self._depth, self._world, self.time, biased)
+        if self._shown_off is not None:
+            met = self._hit.astype(np.int64) - camera.board_triangles
+            block = np.where(met >= 0, met // camera.block_triangles, len(self._shown_off))
+            on_block = block < len(self._shown_off)
+            points[on_block] += self._shown_off[block[on_block]].astype(np.float32)
+        return points
 
     def colours(self) -> NDArray[np.uint32]:
         """Every pixel's rgba word, as `points` orders them: the colour of what its ray met, 0 where none."""

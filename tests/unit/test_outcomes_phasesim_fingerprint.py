@@ -42,12 +42,12 @@ TRANSFERS = {
     ("handover", "calibrated", 1, "bending", False): (True, None, 6.61),
     ("handover", "calibrated", 5, "default", False): (True, None, 6.75),
     ("handover", "calibrated", 5, "bending", False): (True, None, 6.75),
-    ("unilateral", "uncalibrated", 1, "default", True): (False, "lift", 3.64),
-    ("unilateral", "uncalibrated", 5, "default", True): (True, None, 6.73),
-    ("bilateral", "uncalibrated", 1, "default", True): (True, None, 6.65),
-    ("bilateral", "uncalibrated", 5, "default", True): (False, "lift", 3.68),
-    ("handover", "uncalibrated", 1, "default", True): (False, "release", 6.6),
-    ("handover", "uncalibrated", 5, "default", True): (False, "lower", 6.8),
+    ("unilateral", "uncalibrated", 1, "default", True): (False, "lift", 3.6),
+    ("unilateral", "uncalibrated", 5, "default", True): (True, None, 6.72),
+    ("bilateral", "uncalibrated", 1, "default", True): (True, None, 6.63),
+    ("bilateral", "uncalibrated", 5, "default", True): (False, "lift", 3.69),
+    ("handover", "uncalibrated", 1, "default", True): (False, "release", 6.63),
+    ("handover", "uncalibrated", 5, "default", True): (False, "lower", 6.79),
 }
 # a handover trial, uncalibrated, layout 0, its first five transfers in both worlds (alike there)
 TRIAL = [

@@ -11,7 +11,7 @@ from pegbt.perception.blocks import locate_blocks
 from pegbt.perception.board import PegboardRegistration
 from pegbt.physics import ArmPhysics
 from pegbt.sim.arm import SimArm
-from pegbt.sim.camera import DepthCamera
+from pegbt.sim.camera import DepthCamera, view_error
 from pegbt.sim.log import SimLog
 from pegbt.sim.scene import Scene
 from pegbt.sim.world import World
@@ -79,3 +79,48 @@ def test_a_dask_worker_that_cannot_see_the_client_s_files_gets_the_world_file_s_
     task = cluster.RemoteTrial(spec, None, cluster.this_checkout(), None, "token", text)
     cluster.run_remote_trial(task)
     assert seen["text"] == text
+
+
+def _capture_of_a_block_on_the_board(effects, at=(0.030, 0.065), seed=3):
+    """A capture (camera frame, every pixel) of world 3 with block 1 lying on the board at `at` (board x, y),
+    and that world."""
+    world = World(3, effects=effects)
+    block = world.blocks[1]
+    block.peg, block.pose[:2, 3] = None, at
+    return DepthCamera(seed=seed, include_arms=False).capture_organised(world), world
+
+
+def test_perception_noise_shows_each_block_off_as_one_piece_and_the_same_while_it_does_not_move():
+    noisy = WorldEffects.of({"perception_noise": {"sd": 0.001}})
+    plain, world = _capture_of_a_block_on_the_board(WorldEffects())
+    shown, _ = _capture_of_a_block_on_the_board(noisy)
+    again, _ = _capture_of_a_block_on_the_board(noisy)
+    moved, _ = _capture_of_a_block_on_the_board(noisy, at=(0.031, 0.065))
+    # the same rays meet the same surfaces, so a point's shift is what the camera added to it
+    shift = (shown - plain)[np.isfinite(plain[:, 0])]
+    in_board = shift @ world.cell.camera.board_from_camera[:3, :3].T
+    offsets = np.unique(np.round(in_board, 6), axis=0)
+    assert 2 <= len(offsets) <= 1 + len(world.blocks)  # the board and pegs stay; each block moves whole
+    assert np.allclose(offsets[:, 2], 0.0)  # in the board's plane
+    assert np.count_nonzero(np.abs(offsets[:, :2]) > 0.0001) > 2  # millimetre draws, x and y
+    assert np.array_equal(shown, again, equal_nan=True)  # an unmoved block is shown where it was
+    assert not np.allclose(moved, shown, equal_nan=True)
+
+
+def test_perception_locates_a_block_where_perception_noise_shows_it_and_the_world_keeps_its_truth():
+    noisy = WorldEffects.of({"perception_noise": {"sd": 0.001}})
+    plain, truth = _located_minus_truth(WorldEffects())
+    off, noisy_truth = _located_minus_truth(noisy)
+    world = World(3, effects=noisy)
+    block = world.blocks[1]
+    block.peg, block.pose[:2, 3] = None, [0.030, 0.065]
+    expected = view_error(3, block.pose, 0.001)
+    assert np.linalg.norm(expected[:2]) > 0.0005  # a draw large enough to see
+    assert np.allclose(off[:2] - plain[:2], expected[:2], atol=0.0002)
+    assert np.array_equal(truth, noisy_truth)
+
+
+def test_a_world_without_perception_noise_is_captured_as_before():
+    plain, _ = _capture_of_a_block_on_the_board(WorldEffects())
+    inert, _ = _capture_of_a_block_on_the_board(WorldEffects.of({"perception_noise": {"sd": 0.0}}))
+    assert np.array_equal(plain, inert, equal_nan=True)

@@ -41,10 +41,9 @@ from pegbt.sim2real.outcomes.transfer_order import RECEIVER
 
 # m per axis: the error of a block's position as pegbt's perception fits it in a whole trial (its fit
 # averages the camera's 0.3 mm depth noise over some 1,200 points): 0.04-0.08 mm rms in the concealed
-# campaign's first looks (docs/guides/sim-to-real.md)
+# campaign's first looks, 0.03-0.05 mm at the looks before lowering (docs/guides/sim-to-real.md); a world's
+# `perception_noise` adds to it (`look_sd`)
 PERCEPTION_SD = 0.00005
-# the paper's robot: its own perception on its Zivid's clouds, never measured here; its depth noise
-PAPER_PERCEPTION_SD = 0.0003
 # the conditions under which the carry opens the jaw as it comes down (`trees/shared/lift.yaml`'s
 # `let_go_early`); under the others it lets go at rest
 LETS_GO_EARLY = ("calibrated", "optimized")
@@ -58,6 +57,12 @@ def seen_point(world: World, point: NDArray[np.float64]) -> NDArray[np.float64]:
     bias = world.effects.values("depth_bias")["bias"]
     ray = point - world.cell.camera.board_from_camera[:3, 3]
     return point + bias * ray / np.linalg.norm(ray)
+
+
+def look_sd(world: World) -> float:
+    """The error (m per board axis) of a look at a block: pegbt's perception's own and the world's
+    `perception_noise`, independent."""
+    return float(np.hypot(PERCEPTION_SD, world.effects.values("perception_noise")["sd"]))
 
 
 def previous_release(
@@ -104,7 +109,7 @@ def pick_and_carry(
     if chose is not None and np.array_equal(chose.truth, truth.pose):
         noise = chose.error  # the block lies as it did at the last look: perception sees it as then
     else:
-        noise = rng.normal(0.0, PAPER_PERCEPTION_SD if registered else PERCEPTION_SD, 2)
+        noise = rng.normal(0.0, look_sd(world), 2)
     position = seen_point(world, truth.pose[:3, 3]) + [noise[0], noise[1], 0.0]
     seen = BlockEstimate(position, yaw_of(truth.pose), truth.peg, 1.0, 0.0, 0, True, "")
     motion = skills.arm(arm)
@@ -227,14 +232,14 @@ def paper_place(
     segments: list[tuple[float, str]],
 ) -> None:
     """The paper's placing (`placelook`): `planned` played up to its stop above `goal_peg` (`segments`
-    name its phases), the held block seen there as perception sees a block (`seen_point`, `PAPER_PERCEPTION_SD`
+    name its phases), the held block seen there as perception sees a block (`seen_point`, `look_sd`
     in board x, y), the arm moved by `servoing_block`'s correction over the peg (a rest-to-rest move of
     the arm as it is, so imperfect too) and down to the drop height, where `_transfer` opens the jaw."""
     bench.play(stopped_above(planned), segments, holding=block)
     world = bench.world
     if world.held_by(bench.name) != block:
         return
-    noise = rng.normal(0.0, PAPER_PERCEPTION_SD, 2)
+    noise = rng.normal(0.0, look_sd(world), 2)
     bottom = seen_point(world, world.blocks[block].pose[:3, 3]) + [noise[0], noise[1], 0.0]
     points = visible_points(world, goal_peg)
     move = correction(

@@ -25,8 +25,8 @@ from pegbt.motion.trajectory import Trajectory
 from pegbt.perception.grasp import Grasp
 from pegbt.sim.world import World
 from pegbt.sim2real.outcomes.attempt import (
-    PAPER_PERCEPTION_SD,
     failed_phase,
+    look_sd,
     looks_before_lowering,
     paper_place,
     planned_park,
@@ -192,7 +192,7 @@ def _looked_at(
     the block as seen (`handover_look.receiver_grasp`), and the seen pose; None if it has none."""
     world = trying.world
     truth = world.blocks[block].pose
-    noise = trying.rng.normal(0.0, PAPER_PERCEPTION_SD, 2)
+    noise = trying.rng.normal(0.0, look_sd(world), 2)
     seen = seen_held(seen_point(world, truth[:3, 3]), truth, noise)
     if giver.chose is None:  # a giver holds a block it chose a grasp of
         return None

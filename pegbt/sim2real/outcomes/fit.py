@@ -57,6 +57,7 @@ FITTED: dict[str, tuple[str, ...]] = {
     "jaw_friction": ("max_load",),
     "registration_offset": ("x", "y"),
     "depth_bias": ("bias",),
+    "perception_noise": ("sd",),
 }
 # The phases each kind can change an outcome in: with failures per phase, a candidate is simulated only if
 # the real and simulated rates disagree in one of its phases (a kind that cannot act there cannot explain it).
@@ -69,6 +70,7 @@ PHASES_OF: dict[str, frozenset[str]] = {
     "jaw_friction": frozenset({"lift", "carry", "handover", "lower"}),
     "registration_offset": frozenset({"grasp", "lift", "handover", "lower", "release"}),
     "depth_bias": frozenset({"grasp", "lift", "handover", "lower", "release"}),
+    "perception_noise": frozenset({"grasp", "lift", "handover", "lower", "release"}),
 }
 # A way back fails at `sense` where its way out lost the block (`likelihood`), so every kind that can lose a
 # block changes it: a disagreement there (with the placed rate, the mirror of it) admits every kind.

@@ -6,9 +6,9 @@ executive's `ArmMotion` would send under the condition (rest-to-rest cubics as p
 by the simulator's calibration models, or the optimised plan), and each control tick the world sees the
 tool where the physical joints put it, as `pegbt.sim.scene.Scene.update` does: descend onto the grasp,
 close, lift off the peg, carry, lower onto the goal peg, open. What perception would have seen is the
-block's pose with its noise (`attempt.PERCEPTION_SD`; the paper's, `PAPER_PERCEPTION_SD`), displaced as
-the camera's world effects displace what it sees (`attempt.seen_point`); the arms stand where the
-world's registration offset puts them (`World.arm_to_board`). The phase of a failure is read from the
+block's pose with its noise (`attempt.look_sd`: pegbt's perception's own, and a world's
+`perception_noise`), displaced as the camera's world effects displace what it sees (`attempt.seen_point`);
+the arms stand where the world's registration offset puts them (`World.arm_to_board`). The phase of a failure is read from the
 world's events here (this is the simulator's side, where the truth is known).
 
 This module is the entry: a transfer of a trial from its world, variant, condition and seed, set up as the
