@@ -515,7 +515,7 @@ class World:
         struck = np.flatnonzero(self._in_footprint(local))
         if len(struck):
             peg = int(struck[0])
-            self._knock_loose(block, peg, f"struck peg {peg}")
+            self._knock_loose(block, peg, f"struck peg {peg}: hole {radial[peg] * 1000:.1f} mm off its axis")
 
     def _peg_push(self, offsets: Matrix) -> Matrix | None:
         """The sideways push (board x, y) with which the peg keeps the hole around it, given the hole

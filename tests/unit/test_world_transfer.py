@@ -193,7 +193,10 @@ def test_a_block_lowered_beyond_the_clearance_strikes_the_peg_and_drops():
     clearance = world.cell.block.hole_radius - world.cell.pegs.radius
     error = np.array([0.0, 1.5 * clearance])
     events = driver.play({"PSM1": place_keyframes(world, 1, 7, driver.at("PSM1"), error=error)})
-    assert kinds(events)[:2] == ["collision", "drop"] and events[0].detail == "block-peg: struck peg 7"
+    assert kinds(events)[:2] == ["collision", "drop"]
+    assert (
+        events[0].detail == "block-peg: struck peg 7: hole 3.0 mm off its axis"
+    )  # 1.5 × the 2.0 mm clearance
     assert world.blocks[1].state == "on_board" and world.held_by("PSM1") is None
 
 
