@@ -5,10 +5,12 @@ An effect the fit cells cannot see (a grasp effect where every fit cell is one a
 hold) has a flat profile there: every value fits as well as the fitted world, so the fit rightly names none
 of them, but the held-out cells may depend on it (the other arm's grasps). Each such effect is profiled on
 top of the fitted world; its values that fit no worse beyond chance (χ² at 95 %, the fit's own criterion)
-are the range the data allow, and the one farthest from its default is the alternative. The simulations
-share their seeds (common random numbers), so an alternative whose held-out cells' simulated counts differ
-from the fitted world's changes the prediction by the effect, not by luck; the report then says the data
-cannot tell the two apart, names neither value, and predicts with each.
+are the range the data allow, and an effect whose farthest allowed value changes a held-out cell's simulated
+counts is left open (the simulations share their seeds, so the change is the effect's, not luck's). The
+report names none of them and predicts the held-out cells with each over its whole range (its posterior: a
+flat prior over the registered range, weighed by the fit cells), and with all of them mixed, each weighed
+by how well it fits the fit cells on average over its range (`shares`): a prediction that carries what the
+fit cells cannot say, where the fitted world alone assumes every open effect absent.
 """
 
 from __future__ import annotations
@@ -27,7 +29,7 @@ from pegbt.sim2real.outcomes.simulate import Mapper, simulate_cells
 @dataclass(frozen=True)
 class Alternative:
     """An effect the fit cells leave open: the values they allow (grid values no worse than the fitted
-    world beyond chance) and the world with the one farthest from the default."""
+    world beyond chance) and the one farthest from the default (the world a campaign can run)."""
 
     profile: Profile
     allowed: tuple[float, ...]
@@ -39,10 +41,23 @@ class Alternative:
 
     @property
     def label(self) -> str:
-        return f"{self.name} = {self.value:.4g}"
+        """The world that predicts with it: the fitted world and this parameter over its registered range."""
+        p = WORLD_EFFECT_KINDS[self.profile.candidate.kind].parameters[self.profile.candidate.parameter]
+        return f"{self.name} over {p.low:.4g}–{p.high:.4g}"
 
     def world(self) -> WorldEffects:
         return self.profile.candidate.world(self.value, self.profile.base)
+
+
+def shares(alternatives: Sequence[Alternative]) -> np.ndarray:
+    """Each alternative's share of the open mixture: its evidence (`Profile.evidence`), normalised. Every
+    alternative holds the fitted world at its default, so the mixture never leaves out the world without
+    them; one whose range the fit cells mostly exclude weighs less."""
+    if not alternatives:
+        return np.zeros(0)
+    evidence = np.array([a.profile.evidence() for a in alternatives])
+    weights = np.exp(evidence - evidence.max())
+    return weights / weights.sum()
 
 
 def allowed_values(fitted: Profile, before: float) -> tuple[float, ...]:

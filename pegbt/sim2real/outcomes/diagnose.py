@@ -12,7 +12,7 @@ import numpy as np
 from pegbt.errors import PegbtError
 from pegbt.runconditions import CONDITIONS, VARIANTS
 from pegbt.sim.world_effects import WorldEffects
-from pegbt.sim2real.outcomes.alternatives import Alternative, changes_held_out, open_effects
+from pegbt.sim2real.outcomes.alternatives import Alternative, changes_held_out, open_effects, shares
 from pegbt.sim2real.outcomes.cache import MemoMapper
 from pegbt.sim2real.outcomes.cells import Cell, Outcomes
 from pegbt.sim2real.outcomes.fit import LR_95, TIE, Fresh, Profile, Verdict, fit
@@ -26,6 +26,8 @@ SIZED_FOR = 120  # real transfers a fit cell the default counts are sized for: 1
 FRESH_SEED = 1_000_000  # the replication's simulated transfers: seeds no other simulation here uses
 RANK_SEED = 2_000_000  # where the fit ranks the additions that pass: neither the fit's nor the replication's
 TIE_SEED = 3_000_000  # where a tie is weighed again (`_resolved`): seeds no other simulation here uses
+OPEN_NODES = 4  # worlds across an open effect's range per prediction: its posterior is as wide as the range
+OPEN_MIXED = "what is open, mixed"  # the held-out cells predicted by every open effect over its range
 
 
 @dataclass(frozen=True)
@@ -165,11 +167,21 @@ def diagnose(
         alternatives = _alternatives(counting, verdict, fit_cells, held_out, settings, informative)
     if alternatives:
         explanation = verdict.explanation
+        mixed, each = predict(
+            counting,
+            [a.profile for a in alternatives],
+            cells,
+            settings.transfers,
+            count=OPEN_NODES,
+            shares=shares(alternatives),
+            keep_up=False,
+        )
         predicted_by = {
             explanation.label if explanation else "default world": predictions
             if explanation
             else predict_world(counting, WorldEffects(), cells, settings.transfers),
-            **{a.label: predict_world(counting, a.world(), cells, settings.transfers) for a in alternatives},
+            **{a.label: alone for a, alone in zip(alternatives, each)},
+            OPEN_MIXED: mixed,
         }
     after = {key: p.at_best for key, p in predictions.items()}
     remaining = locate(fit_cells, after) if verdict.named else []

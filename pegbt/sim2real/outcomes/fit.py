@@ -167,6 +167,13 @@ class Profile:
         values, totals = self.dense or (np.asarray(self.values), self.total)
         return np.asarray(values, dtype=float), np.exp(totals - logsumexp(totals))
 
+    def evidence(self) -> float:
+        """How well the candidate fits the fit cells on average over its range (the log of the mean
+        likelihood over the profile between grid values, a flat prior over the range): what weighs it
+        against another candidate whose value the fit cells cannot pin either."""
+        _, totals = self.dense or (self.values, self.total)
+        return float(logsumexp(totals) - math.log(len(totals)))
+
     @property
     def estimate(self) -> float:
         """The parameter's estimate: the maximum of the profile between grid values (of the grid's, if

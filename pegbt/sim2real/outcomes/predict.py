@@ -66,26 +66,37 @@ def nodes(values: np.ndarray, weights: np.ndarray, count: int = NODES) -> tuple[
 
 
 def predict(
-    mapper: Mapper, profiles: Sequence[Profile], cells: Sequence[Cell], transfers: int
+    mapper: Mapper,
+    profiles: Sequence[Profile],
+    cells: Sequence[Cell],
+    transfers: int,
+    count: int = NODES,
+    shares: Sequence[float] | np.ndarray | None = None,
+    keep_up: bool = True,
 ) -> tuple[dict[Key, Prediction], list[dict[Key, Prediction]]]:
-    """Each of `cells` predicted by `profiles` mixed equally (several: effects the data cannot tell apart),
-    each from its posterior over the fit cells (`nodes` of it, simulated); and the prediction of each
-    profile alone."""
+    """Each of `cells` predicted by `profiles` mixed (equally, or by `shares`: effects the data cannot tell
+    apart), each from its posterior over the fit cells (`count` worlds of it, simulated); and the prediction
+    of each profile alone. `keep_up`: a cell placed in full is simulated on at the best value (`_keep_up`)."""
     keys = [c.key for c in cells]
     pmfs: dict[Key, list[np.ndarray]] = {key: [] for key in keys}
     best: list[dict[Key, SimCounts]] = []
     for fitted in profiles:
-        values, weights = nodes(*fitted.posterior())
+        values, weights = nodes(*fitted.posterior(), count=count)
         worlds = [fitted.candidate.world(float(v), fitted.base) for v in values]
         *sims, at_best = simulate_cells(mapper, [*worlds, fitted.world()], keys, transfers, PREDICT_SEED)
         best.append(at_best)
-        _keep_up(mapper, fitted, cells, transfers, at_best)
+        if keep_up:
+            _keep_up(mapper, fitted, cells, transfers, at_best)
         for cell in cells:
             pmfs[cell.key].append(_mixture(cell, [s[cell.key] for s in sims], weights))
     each = [
         {c.key: _prediction(c, pmfs[c.key][k], best[k][c.key]) for c in cells} for k in range(len(profiles))
     ]
-    mixed = {c.key: _prediction(c, np.mean(pmfs[c.key], axis=0), best[0][c.key]) for c in cells}
+    share = np.full(len(profiles), 1.0 / len(profiles)) if shares is None else np.asarray(shares, dtype=float)
+    mixed = {
+        c.key: _prediction(c, np.tensordot(share, np.array(pmfs[c.key]), axes=1), best[0][c.key])
+        for c in cells
+    }
     return mixed, each
 
 

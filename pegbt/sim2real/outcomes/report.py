@@ -7,6 +7,7 @@ from pathlib import Path
 from typing import Any
 
 from pegbt.sim.world_effects import write_world_file
+from pegbt.sim2real.outcomes.alternatives import shares
 from pegbt.sim2real.outcomes.cells import Cell
 from pegbt.sim2real.outcomes.diagnose import Diagnosis, profile_parameters
 from pegbt.sim2real.outcomes.goals import Trials, judge, percent, placed_in_full, time_agrees, verdict_text
@@ -138,8 +139,9 @@ def report_dict(diagnosis: Diagnosis, commands: list[str] | None = None) -> dict
                 "allowed": [min(a.allowed), max(a.allowed)],
                 "value": a.value,
                 "world": a.label,
+                "share": float(share),
             }
-            for a in d.alternatives
+            for a, share in zip(d.alternatives, shares(d.alternatives))
         ],
         "unreplicated": list(d.unreplicated),
         "tie": d.resolved,
@@ -286,7 +288,12 @@ def _finding(d: Diagnosis) -> list[str]:
         lines.append(
             f"**Not told apart:** the fit cells leave open {opened}. Each changes the held-out cells: at its "
             "farthest allowed value it predicts them otherwise than the world without it, so no value is "
-            "named and the held-out cells are predicted with each below."
+            "named. The held-out cells are predicted below with each over its registered range (a flat "
+            "prior, weighed by the fit cells), and with all of them mixed ("
+            + ", ".join(f"{a.name} {percent(w)}" for a, w in zip(d.alternatives, shares(d.alternatives)))
+            + ", each weighed by how well it fits the fit cells on average over its range): what a "
+            "prediction carries when the fit cells cannot say whether an effect acts, where the world "
+            "without them assumes none does."
         )
     if d.resolved:
         lines.append(d.resolved)
