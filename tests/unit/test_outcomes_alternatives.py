@@ -5,6 +5,7 @@ whole range, and with every open effect mixed."""
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -114,3 +115,8 @@ def test_the_open_mixture_weighs_an_effect_by_how_much_of_its_range_the_fit_cell
     assert opened[1].profile.evidence() == pytest.approx(np.log(3 / 5), abs=1e-9)
     assert shares(opened) == pytest.approx([5 / 8, 3 / 8])
     assert list(shares([])) == []
+    # an effect profiled by two parameters weighs as one effect, not two
+    y = Alternative(
+        replace(opened[0].profile, candidate=Candidate("grasp_capture", "y", ())), (0.003,), 0.003
+    )
+    assert shares([opened[0], y, opened[1]]) == pytest.approx([5 / 16, 5 / 16, 3 / 8])

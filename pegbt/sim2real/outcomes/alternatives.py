@@ -15,6 +15,8 @@ fit cells cannot say, where the fitted world alone assumes every open effect abs
 
 from __future__ import annotations
 
+import math
+from collections import Counter
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -50,12 +52,17 @@ class Alternative:
 
 
 def shares(alternatives: Sequence[Alternative]) -> np.ndarray:
-    """Each alternative's share of the open mixture: its evidence (`Profile.evidence`), normalised. Every
-    alternative holds the fitted world at its default, so the mixture never leaves out the world without
-    them; one whose range the fit cells mostly exclude weighs less."""
+    """Each alternative's share of the open mixture: every open effect the same prior share, split between
+    its parameters the fit profiles one at a time (a registration offset's x and y), each weighed by its
+    evidence (`Profile.evidence`), normalised. Every alternative holds the fitted world at its default, so
+    the mixture never leaves out the world without them; one whose range the fit cells mostly exclude
+    weighs less."""
     if not alternatives:
         return np.zeros(0)
-    evidence = np.array([a.profile.evidence() for a in alternatives])
+    kinds = Counter(a.profile.candidate.kind for a in alternatives)
+    evidence = np.array(
+        [a.profile.evidence() - math.log(kinds[a.profile.candidate.kind]) for a in alternatives]
+    )
     weights = np.exp(evidence - evidence.max())
     return weights / weights.sum()
 
