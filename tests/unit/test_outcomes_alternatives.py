@@ -120,3 +120,40 @@ def test_the_open_mixture_weighs_an_effect_by_how_much_of_its_range_the_fit_cell
         replace(opened[0].profile, candidate=Candidate("grasp_capture", "y", ())), (0.003,), 0.003
     )
     assert shares([opened[0], y, opened[1]]) == pytest.approx([5 / 16, 5 / 16, 3 / 8])
+
+
+def _harmful_mapper() -> Mapper:
+    """As `_mapper(True)`, but a grasp capture wider than 1.5 mm costs the calibrated arm most of its
+    grasps (a yielding wrist that lets a calibrated grasp slip)."""
+
+    def rate(effects: WorldEffects, variant: str, condition: str) -> float:
+        width = effects.values("grasp_capture")["width"]
+        if condition != "uncalibrated":
+            return 0.3 if width > 0.0015 else 1.0
+        return _rate(effects, variant, condition, True)
+
+    def run(tasks: Sequence[Task]) -> list[list[TransferResult]]:
+        out = []
+        for worlds, variant, condition, seed in tasks:
+            u = np.random.default_rng([seed, 11]).random()
+            placed = [bool(u < rate(e, variant, condition)) for e in worlds]
+            out.append([TransferResult(p, None if p else "lift", 4.0) for p in placed])
+        return out
+
+    return run
+
+
+def test_an_open_effects_posterior_excludes_the_values_the_calibrated_fit_cells_exclude() -> None:
+    """The calibrated unilateral cell placed all 80: an open grasp capture above 1.5 mm, which would cost it
+    most of them, keeps no weight in the effect's posterior, though the uncalibrated cell alone (the
+    informative one) cannot see it."""
+    d = diagnose(
+        Outcomes(CELLS, "test"), Settings(fit="unilateral", transfers=120, points=3), _harmful_mapper()
+    )
+    opened = {a.name: a for a in d.alternatives}
+    capture = opened["grasp_capture.width"]
+    assert capture.allowed == (0.001,)
+    values, weights = capture.profile.posterior()
+    assert weights[values > 0.0016].sum() < 0.01
+    calibrated = ("unilateral", "calibrated")
+    assert d.predicted_by["grasp_capture.width over 0–0.003"][calibrated].rate > 0.97

@@ -93,7 +93,9 @@ def open_effects(
     simulate_cells(mapper, worlds, [c.key for c in cells[:informative]], transfers)  # one batch
     out = []
     for candidate in others:
-        fitted = profile(mapper, candidate, cells, transfers, before, informative, base, phases)
+        fitted = profile(
+            mapper, candidate, cells, transfers, before, informative, base, phases, every_cell=True
+        )
         reference = before if fitted.reference is None else fitted.reference
         allowed = allowed_values(fitted, float(reference.sum()))
         if not allowed:

@@ -290,6 +290,7 @@ def profile(
     base: WorldEffects = WorldEffects(),
     phases: bool = True,
     quiet_transfers: int | None = None,
+    every_cell: bool = False,
 ) -> Profile:
     """Simulate the fit `cells` at every grid value of `candidate` (on top of `base`) and weigh each. The
     first `informative` cells (those that disagree) get `transfers` each; the others, which agree with the
@@ -299,6 +300,8 @@ def profile(
     against `base` on the same seeds, added to its likelihood in `null`: its own likelihood on a third of
     the transfers would fall below `null`'s (simulated on more) for the imprecision alone, a penalty on
     every candidate that a world placing every calibrated transfer as the default does never earned.
+    `every_cell`: the quiet cells are simulated whatever the informative ones say (an open effect's
+    posterior, `alternatives`, must see the calibrated rows that exclude part of its range).
     `base` is simulated beside the grid on the same seeds (the profile's `reference`)."""
     quiet_transfers = max(2, transfers // 3) if quiet_transfers is None else quiet_transfers
     worlds = [candidate.world(v, base) for v in candidate.grid]
@@ -307,7 +310,7 @@ def profile(
     per_cell = np.array([[log_likelihood(c, sim[c.key], phases) for c in loud] for sim in sims])
     reference = np.array([log_likelihood(c, at_default[c.key], phases) for c in loud])
     rest = np.tile(null[informative:], (len(worlds), 1))
-    if quiet and 2 * (per_cell.sum(axis=1).max() - null[:informative].sum()) >= LR_95:
+    if quiet and (every_cell or 2 * (per_cell.sum(axis=1).max() - null[:informative].sum()) >= LR_95):
         *more, quiet_default = simulate_cells(
             mapper, [*worlds, base], [c.key for c in quiet], quiet_transfers
         )
