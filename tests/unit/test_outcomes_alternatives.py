@@ -4,7 +4,7 @@ whole range, and with every open effect mixed."""
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable
 from dataclasses import replace
 
 import numpy as np
@@ -17,8 +17,7 @@ from pegbt.sim2real.outcomes.diagnose import Settings, diagnose
 from pegbt.sim2real.outcomes.fit import Candidate, Profile
 from pegbt.sim2real.outcomes.phasesim import TransferResult
 from pegbt.sim2real.outcomes.report import report_dict, report_markdown
-from pegbt.sim2real.outcomes.simulate import Mapper, Task
-from tests.outcomes_helpers import failing_at
+from tests.outcomes_helpers import Tasks, failing_at, rate_mapper
 
 
 def _rate(effects: WorldEffects, variant: str, condition: str, capture_acts: bool) -> float:
@@ -31,16 +30,8 @@ def _rate(effects: WorldEffects, variant: str, condition: str, capture_acts: boo
     return 0.05 + 0.4 * bend + (0.5 * capture if variant == "bilateral" else 0.0)
 
 
-def _mapper(capture_acts: bool) -> Mapper:
-    def run(tasks: Sequence[Task]) -> list[list[TransferResult]]:
-        out = []
-        for worlds, variant, condition, seed in tasks:
-            u = np.random.default_rng([seed, 11]).random()
-            placed = [bool(u < _rate(e, variant, condition, capture_acts)) for e in worlds]
-            out.append([TransferResult(p, None if p else "lift", 4.0) for p in placed])
-        return out
-
-    return run
+def _mapper(capture_acts: bool) -> Callable[[Tasks], list[list[TransferResult]]]:
+    return rate_mapper(lambda e, v, c: _rate(e, v, c, capture_acts), "lift", stream=11)
 
 
 CELLS = (
@@ -122,25 +113,12 @@ def test_the_open_mixture_weighs_an_effect_by_how_much_of_its_range_the_fit_cell
     assert shares([opened[0], y, opened[1]]) == pytest.approx([5 / 16, 5 / 16, 3 / 8])
 
 
-def _harmful_mapper() -> Mapper:
-    """As `_mapper(True)`, but a grasp capture wider than 1.5 mm costs the calibrated arm most of its
-    grasps (a yielding wrist that lets a calibrated grasp slip)."""
-
-    def rate(effects: WorldEffects, variant: str, condition: str) -> float:
-        width = effects.values("grasp_capture")["width"]
-        if condition != "uncalibrated":
-            return 0.3 if width > 0.0015 else 1.0
-        return _rate(effects, variant, condition, True)
-
-    def run(tasks: Sequence[Task]) -> list[list[TransferResult]]:
-        out = []
-        for worlds, variant, condition, seed in tasks:
-            u = np.random.default_rng([seed, 11]).random()
-            placed = [bool(u < rate(e, variant, condition)) for e in worlds]
-            out.append([TransferResult(p, None if p else "lift", 4.0) for p in placed])
-        return out
-
-    return run
+def _harmful_rate(effects: WorldEffects, variant: str, condition: str) -> float:
+    """As `_rate` with the capture acting, but a grasp capture wider than 1.5 mm costs the calibrated arm
+    most of its grasps (a yielding wrist that lets a calibrated grasp slip)."""
+    if condition != "uncalibrated":
+        return 0.3 if effects.values("grasp_capture")["width"] > 0.0015 else 1.0
+    return _rate(effects, variant, condition, True)
 
 
 def test_an_open_effects_posterior_excludes_the_values_the_calibrated_fit_cells_exclude() -> None:
@@ -148,7 +126,9 @@ def test_an_open_effects_posterior_excludes_the_values_the_calibrated_fit_cells_
     most of them, keeps no weight in the effect's posterior, though the uncalibrated cell alone (the
     informative one) cannot see it."""
     d = diagnose(
-        Outcomes(CELLS, "test"), Settings(fit="unilateral", transfers=120, points=3), _harmful_mapper()
+        Outcomes(CELLS, "test"),
+        Settings(fit="unilateral", transfers=120, points=3),
+        rate_mapper(_harmful_rate, "lift", stream=11),
     )
     opened = {a.name: a for a in d.alternatives}
     capture = opened["grasp_capture.width"]
