@@ -9,7 +9,7 @@ from typing import Any
 from pegbt.sim.world_effects import write_world_file
 from pegbt.sim2real.outcomes.alternatives import shares
 from pegbt.sim2real.outcomes.cells import Cell
-from pegbt.sim2real.outcomes.diagnose import Diagnosis, profile_parameters
+from pegbt.sim2real.outcomes.diagnose import OPEN_MIXED, Diagnosis, profile_parameters
 from pegbt.sim2real.outcomes.goals import Trials, judge, percent, placed_in_full, time_agrees, verdict_text
 from pegbt.sim2real.outcomes.intervals import rate_interval
 from pegbt.sim2real.outcomes.predict import KEEPS, Prediction
@@ -171,8 +171,11 @@ def fitted_world_name(d: Diagnosis) -> str:
     return "the default world"
 
 
-def _verdict(cell: Cell, q: Prediction) -> str:
-    if placed_in_full(cell):  # judged by what it keeps (`KEEPS`), not by a rate a few transfers estimate
+def _verdict(cell: Cell, q: Prediction, kept: bool = True) -> str:
+    """A held-out cell's verdict. `kept`: a cell placed in full is judged by what the world's best value
+    keeps (`KEEPS`), not by a rate a few transfers estimate; a prediction over an open effect's range has no
+    best value to keep, so it is judged as the other cells are."""
+    if kept and placed_in_full(cell):
         return f"{q.at_best.succeeded}/{q.at_best.attempted} placed"
     in_real = "in" if rate_in_real_interval(cell, q) else "**not in**"
     return f"{percent(q.rate)} ({percent(q.low)}–{percent(q.high)}): {'inside' if q.inside else '**outside**'}; rate {in_real} real 95 %"
@@ -213,7 +216,8 @@ def _held_out_by_world(d: Diagnosis) -> list[str]:
         "|---|" + "---|" * len(d.held_out),
     ]
     for world in worlds:
-        row = [_verdict(c, d.predicted_by[world][c.key]) for c in d.held_out]
+        kept = world not in {a.label for a in d.alternatives} | {OPEN_MIXED}
+        row = [_verdict(c, d.predicted_by[world][c.key], kept) for c in d.held_out]
         lines.append(f"| {world} | " + " | ".join(row) + " |")
     label = "alternatives" if d.alternatives else "tied worlds"
     lines.append("")
