@@ -174,7 +174,7 @@ def diagnose(
             settings.transfers,
             count=OPEN_NODES,
             shares=shares(alternatives),
-            keep_up=False,
+            best_value=False,
         )
         predicted_by = {
             explanation.label if explanation else "default world": predictions

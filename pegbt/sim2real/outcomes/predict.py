@@ -72,21 +72,26 @@ def predict(
     transfers: int,
     count: int = NODES,
     shares: Sequence[float] | np.ndarray | None = None,
-    keep_up: bool = True,
+    best_value: bool = True,
 ) -> tuple[dict[Key, Prediction], list[dict[Key, Prediction]]]:
     """Each of `cells` predicted by `profiles` mixed (equally, or by `shares`: effects the data cannot tell
     apart), each from its posterior over the fit cells (`count` worlds of it, simulated); and the prediction
-    of each profile alone. `keep_up`: a cell placed in full is simulated on at the best value (`_keep_up`)."""
+    of each profile alone. `best_value`: each cell is also simulated at the profile's best value, a cell
+    placed in full on to `transfers_to_keep()` (`_keep_up`); without (a prediction over a range has no best
+    value to keep), `Prediction.at_best` holds the posterior's worlds' transfers pooled."""
     keys = [c.key for c in cells]
     pmfs: dict[Key, list[np.ndarray]] = {key: [] for key in keys}
     best: list[dict[Key, SimCounts]] = []
     for fitted in profiles:
         values, weights = nodes(*fitted.posterior(), count=count)
         worlds = [fitted.candidate.world(float(v), fitted.base) for v in values]
-        *sims, at_best = simulate_cells(mapper, [*worlds, fitted.world()], keys, transfers, PREDICT_SEED)
-        best.append(at_best)
-        if keep_up:
+        if best_value:
+            *sims, at_best = simulate_cells(mapper, [*worlds, fitted.world()], keys, transfers, PREDICT_SEED)
             _keep_up(mapper, fitted, cells, transfers, at_best)
+        else:
+            sims = simulate_cells(mapper, worlds, keys, transfers, PREDICT_SEED)
+            at_best = {key: _pooled([s[key] for s in sims]) for key in keys}
+        best.append(at_best)
         for cell in cells:
             pmfs[cell.key].append(_mixture(cell, [s[cell.key] for s in sims], weights))
     each = [
@@ -98,6 +103,14 @@ def predict(
         for c in cells
     }
     return mixed, each
+
+
+def _pooled(counts: Sequence[SimCounts]) -> SimCounts:
+    """The transfers of several simulations of one cell as one."""
+    pooled = replace(counts[0], counts=dict(counts[0].counts))
+    for more in counts[1:]:
+        pooled.merge(more)
+    return pooled
 
 
 def _keep_up(

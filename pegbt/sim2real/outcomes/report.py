@@ -215,9 +215,9 @@ def _held_out_by_world(d: Diagnosis) -> list[str]:
         + " |",
         "|---|" + "---|" * len(d.held_out),
     ]
+    ranged = {a.label for a in d.alternatives} | {OPEN_MIXED}
     for world in worlds:
-        kept = world not in {a.label for a in d.alternatives} | {OPEN_MIXED}
-        row = [_verdict(c, d.predicted_by[world][c.key], kept) for c in d.held_out]
+        row = [_verdict(c, d.predicted_by[world][c.key], world not in ranged) for c in d.held_out]
         lines.append(f"| {world} | " + " | ".join(row) + " |")
     label = "alternatives" if d.alternatives else "tied worlds"
     lines.append("")
