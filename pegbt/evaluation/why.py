@@ -7,7 +7,9 @@ transfer key: `pegbt.executive.phases.transfer_scopes`). The first cause of the 
 transfer is its stated cause; its phase (`pegbt.executive.phases.failure_phase`: the leaf, and for a carry
 the segment of its motion that was playing) is compared with the phase the ground truth gives
 (`pegbt.evaluation.truth`: for a block lost from the jaw, whether it was on its start peg, its goal peg or
-between), and its step with the truth's step.
+between), and its step with the truth's step. A transfer the tree thought done whose goal peg the next look
+finds empty has no failed leaf: `why` names the phase that look gives it (`transfer_outcomes`: the block
+lowered or released above the peg), as its transfer list prints it.
 """
 
 from __future__ import annotations
@@ -19,7 +21,7 @@ from typing import Any
 from pegbt.evaluation.truth import Cause, confirms, failure_cause, final_check_cause, setbacks
 from pegbt.executive.causes import FailureStep
 from pegbt.executive.logfile import TickLog
-from pegbt.executive.phases import TransferCauses, failure_phase, transfer_scopes
+from pegbt.executive.phases import TransferCauses, failure_phase, transfer_outcomes, transfer_scopes
 
 # The step, in the ground truth's words, each phase of `pegbt.executive.phases` belongs to.
 STEP_OF_PHASE = {
@@ -61,21 +63,21 @@ def check_why(
     with what the simulator says of the pegs its leaf checked (or saw just before, if it checks none)."""
     causes = TransferCauses(log)
     scopes = transfer_scopes(log)
+    looked = {o.transfer: o.phase for o in transfer_outcomes(log, causes) if not o.succeeded}
     checks = []
     for transfer in (transfer for transfer in transfers if not transfer["succeeded"]):
         named = causes.first_cause(scopes.get(transfer["index"], []))
+        truth = failure_cause(transfer, entries, transfers)
+        by_look = looked.get(transfer["index"])
+        if named is None and by_look is not None:
+            said = f"peg {transfer['place']} seen without the block at the next look: {by_look}"
+            checks.append(WhyCheck(transfer["index"], said, STEP_OF_PHASE[by_look], truth, False, by_look))
+            continue
         phase = failure_phase(named)
         seen = setbacks(transfer, entries, transfers)
         confirmed = named is not None and phase is not None and confirms(phase, named.t, seen)
         checks.append(
-            WhyCheck(
-                transfer["index"],
-                _describe(named),
-                named_step(named),
-                failure_cause(transfer, entries, transfers),
-                confirmed,
-                phase,
-            )
+            WhyCheck(transfer["index"], _describe(named), named_step(named), truth, confirmed, phase)
         )
     run = next((chain for chain in causes.chains if chain.handled == "run"), None)
     if run is not None:

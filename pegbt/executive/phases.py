@@ -55,6 +55,8 @@ PHASE_OF_LEAF = {
     "keep_holding": "handover",  # the giver's block slipped while it held it out
     "go_to_handover": "handover",  # the receiver did not get to the block held out
     "descend_to_grasp": "handover",
+    "find_handed_block": "handover",  # the look at the block held out found no block or no grasp of it
+    "over_seen_grasp": "handover",
     "release": "release",
     "check_placed": "release",  # "sense" when the peg it misses was not empty but unseen
     "select_grasp": "sense",  # no usable block seen where one should be
@@ -171,10 +173,10 @@ def begun_transfers(log: TickLog) -> list[dict[str, Any]]:
     return [log.nodes[change.node] for change in _beginnings(log)]
 
 
-def transfer_outcomes(log: TickLog) -> list[TransferOutcome]:
+def transfer_outcomes(log: TickLog, causes: TransferCauses | None = None) -> list[TransferOutcome]:
     """Each transfer the run began, whether it succeeded and, if not, the phase it failed in (see the module
-    docstring), from the tick log alone."""
-    causes = TransferCauses(log)
+    docstring), from the tick log alone; `causes`: the log's, where the caller has them already."""
+    causes = causes or TransferCauses(log)
     scopes = transfer_scopes(log)
     nodes = log.nodes
     began = [change.seq for change in _beginnings(log)]

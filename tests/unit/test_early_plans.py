@@ -19,7 +19,8 @@ from fake_arm import FakeArm, fake_robot
 from py_trees.common import Status
 
 from pegbt.behaviours import motion as shared_motion
-from pegbt.behaviours.actions.handover import meeting_tip, plan_meeting, way_to_wait
+from pegbt.behaviours.actions.handover import way_to_wait
+from pegbt.behaviours.meeting import meeting_tip, plan_meeting
 from pegbt.behaviours.poses import transfer_for
 from pegbt.behaviours.resources.robot import Robot
 from pegbt.behaviours.resources.skills import Skills

@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from pegbt.behaviours.actions.handover import plan_meeting
+from pegbt.behaviours.meeting import plan_meeting
 from pegbt.behaviours.resources.skills import Skills
 from pegbt.motion.handover import tool_gap
 from pegbt.motion.ik import solve_ik

@@ -22,11 +22,12 @@ from py_trees.common import Status
 
 from pegbt.behaviours.actions import handover
 from pegbt.behaviours.actions.grasping import gripping
-from pegbt.behaviours.actions.handover import WayOut, plan_meeting
-from pegbt.behaviours.actions.handover_look import receiver_grasp
+from pegbt.behaviours.actions.handover import WayOut
 from pegbt.behaviours.actions.placing import board_points
 from pegbt.behaviours.base import JAW_AHEAD, LONE_PATIENCE, MOTION_OVERTIME, Outgoing, parts
+from pegbt.behaviours.meeting import plan_meeting
 from pegbt.behaviours.motion import eased_grip, rise
+from pegbt.behaviours.paper_meeting import receiver_grasp
 from pegbt.behaviours.params import HELD_ABOVE
 from pegbt.behaviours.poses import (
     EXIT_WIDENING,

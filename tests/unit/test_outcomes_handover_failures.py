@@ -130,3 +130,32 @@ def test_after_a_handover_failed_the_next_receiver_comes_from_home(
     receiver = [(at, from_start) for at, arm, from_start in parks if arm == "PSM1"]
     assert (0, True) in receiver and (2, True) in receiver  # the first of the half, and after the failure
     assert all(at != 1 for at, _ in receiver)  # from over peg 6, where it placed the first block
+
+
+@pytest.mark.parametrize(("index", "parks"), [(0, True), (2, False)])
+def test_a_handover_simulated_alone_starts_its_receiver_as_a_trial_does(
+    index: int, parks: bool, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Alone, as the fit simulates the paper's handovers: the receiver of the first handover of a half is
+    parked at home from the start joints first, and a later one's comes from over the goal peg of the handover
+    before (taken as placed), never straight from the start joints: the wrist's play at its grasp depends on
+    that way."""
+    parked: list[bool] = []
+    starts: list[np.ndarray] = []
+    park, start = exchange.planned_park, exchange._receiver_start
+
+    def parking(world: World, skills: Any, arm: str, q0: np.ndarray) -> Any:
+        parked.append(arm == "PSM1" and bool(np.array_equal(q0, START)))
+        return park(world, skills, arm, q0)
+
+    def receiver_start(trying: Any, *args: Any) -> np.ndarray:
+        starts.append(start(trying, *args))
+        return starts[-1]
+
+    monkeypatch.setattr(exchange, "planned_park", parking)
+    monkeypatch.setattr(exchange, "_receiver_start", receiver_start)
+    rng = np.random.default_rng([SEED, 7])
+    carry_out(World(SEED), "handover", "uncalibrated", index, Replay(), 1, True, rng)
+    assert len(starts) == 1
+    assert any(parked) == parks
+    assert np.array_equal(starts[0], START) == parks

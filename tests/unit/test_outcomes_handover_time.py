@@ -50,7 +50,9 @@ def test_the_receivers_placing_overlaps_the_givers_next_pick(monkeypatch: pytest
     let_go = max(t for segment, t in jaws if segment == "handover")
     released = max(t for segment, t in jaws if segment == "release")
     assert released - let_go > 1.0  # the receiver's carry, lowering and opening
-    assert result.seconds < let_go - 1.0  # none of it, nor the receiver's way to the waiting pose
+    # none of it, nor the receiver's way to the waiting pose from over peg 6, where it let go of the handover
+    # before: about 0.7 s
+    assert result.seconds < let_go - 0.5
 
 
 def test_a_placing_longer_than_the_next_pick_adds_what_it_outlasts() -> None:

@@ -10,11 +10,11 @@ import logging
 import numpy as np
 import pytest
 
-from pegbt.behaviours.actions.handover import Meeting
+from pegbt.behaviours.meeting import Meeting
+from pegbt.behaviours.paper_meeting import paper_meeting
 from pegbt.sim.world import World
 from pegbt.sim.world_effects import WorldEffects
 from pegbt.sim2real.outcomes import attempt, exchange
-from pegbt.sim2real.outcomes.paperhandover import paper_meeting
 from pegbt.sim2real.outcomes.phasesim import simulate_transfer
 from pegbt.sim2real.outcomes.transfer_order import RECEIVER, transfers
 

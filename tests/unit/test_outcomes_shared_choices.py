@@ -4,7 +4,7 @@ seen there, and each bench's cables, built from effects read once, are its own."
 
 import numpy as np
 
-from pegbt.behaviours.actions.handover import plan_meeting
+from pegbt.behaviours.meeting import plan_meeting
 from pegbt.perception.blocks import BlockEstimate
 from pegbt.sim.world import World
 from pegbt.sim2real.outcomes import phasesim

@@ -16,10 +16,11 @@ from pegbt.behaviours.poses import transfer_for
 from pegbt.behaviours.resources.skills import Skills
 from pegbt.clock import ManualClock
 from pegbt.executive.analysis import why
+from pegbt.executive.causes import FailureStep
 from pegbt.executive.context import RunContext
 from pegbt.executive.loader import load_tree
 from pegbt.executive.logfile import read_tick_log
-from pegbt.executive.phases import TransferOutcome, transfer_outcomes
+from pegbt.executive.phases import TransferOutcome, failure_phase, transfer_outcomes
 from pegbt.executive.runner import run
 from pegbt.executive.ticklog import TickLogWriter
 from pegbt.executive.work import WorkPool
@@ -210,3 +211,21 @@ def test_a_look_before_the_goal_peg_was_emptied_says_nothing_of_it(tmp_path, sce
     looks = [c.feedback for c in ended if log.nodes[c.node]["type"] == "find_blocks"]
     assert len(looks) == 2 and str(PICK) in looks[0].split("pegs: ")[1].split(", ")
     assert transfer_outcomes(log) == [TransferOutcome(1, True, None), TransferOutcome(2, True, None)]
+
+
+@pytest.mark.parametrize(
+    ("leaf", "said"),
+    [
+        (
+            "find_handed_block",
+            "2705 points: the block 6.0 mm off where it was planned held out, and PSM1 has no grasp of it",
+        ),
+        ("find_handed_block", "12 points where the block is held out, too few: no block seen"),
+        ("over_seen_grasp", "PSM1 over the grasp: no joint solution"),
+    ],
+)
+def test_a_receiver_that_cannot_take_the_block_it_looked_at_fails_the_handover(leaf: str, said: str) -> None:
+    """The paper's look at the block held out (`look_at_handover`) is the handover's, as the phase simulator's
+    paper handover counts it (`exchange.hand_over`): not a look for a block to pick (`sense`), nor nothing."""
+    step = FailureStep("/handover/receive 5/look", "find it", leaf, 23.9, 270, said, "handover.yaml:343", ())
+    assert failure_phase(step) == "handover"

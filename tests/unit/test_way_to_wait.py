@@ -11,7 +11,8 @@ import math
 import numpy as np
 import pytest
 
-from pegbt.behaviours.actions.handover import plan_meeting, way_to_wait
+from pegbt.behaviours.actions.handover import way_to_wait
+from pegbt.behaviours.meeting import plan_meeting
 from pegbt.behaviours.motion import above_pegs_first
 from pegbt.behaviours.poses import EXIT_WIDENING, WAIT_ARRIVAL, tool_pose
 from pegbt.behaviours.resources.skills import Skills

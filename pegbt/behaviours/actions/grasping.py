@@ -15,17 +15,13 @@ from functools import partial
 import numpy as np
 from py_trees.common import Status
 
-from pegbt.behaviours.actions.handover import (
-    handed,
-    meeting_tip,
-    plan_carry_to_meeting,
-    plan_meeting_early,
-)
+from pegbt.behaviours.actions.handover import handed, plan_carry_to_meeting, plan_meeting_early
 from pegbt.behaviours.base import (
     MotionLeaf,
     RobotLeaf,
 )
 from pegbt.behaviours.motion import closing_lead, planned_approach
+from pegbt.behaviours.paper_meeting import giver_tip
 from pegbt.behaviours.poses import transfer_for
 from pegbt.behaviours.resources.skills import Skills
 from pegbt.clock import is_realtime
@@ -263,7 +259,9 @@ class Approach(MotionLeaf):
         if record is None:
             giving = self.robot.trial.giving(arm)
             if giving is not None:
-                plan_carry_to_meeting(self, arm, board, block, grasp, meeting_tip(self.skills, arm))
+                plan_carry_to_meeting(
+                    self, arm, board, block, grasp, giver_tip(self.skills, arm, grasp, block)
+                )
                 plan_meeting_early(self, arm, giving.arms.split("→")[1], grasp, block)
             return
         waypoints = transfer_for(self.skills.cell, self.skills.motion, arm, board, block, grasp, record.place)

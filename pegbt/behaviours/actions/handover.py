@@ -27,6 +27,7 @@ from pegbt.behaviours.base import (
     Outgoing,
     RobotLeaf,
 )
+from pegbt.behaviours.meeting import Meeting
 from pegbt.behaviours.motion import (
     CarryLeaf,
     above_pegs_first,
@@ -38,22 +39,15 @@ from pegbt.behaviours.motion import (
     rise,
     rise_extent,
 )
-from pegbt.behaviours.poses import (
-    from_handover,
-    handed_placing_point,
-    out_to_wait,
-    to_arm,
-    to_handover,
-    tool_pose,
-)
+from pegbt.behaviours.paper_meeting import giver_carry_waypoints, meeting_planner
+from pegbt.behaviours.poses import from_handover, handed_placing_point, out_to_wait
 from pegbt.behaviours.protocol_leaf import read_record
 from pegbt.behaviours.resources.arm_motion import ArmMotion, EarlyResult, SentMotion
 from pegbt.behaviours.resources.skills import Skills
 from pegbt.errors import PegbtError
 from pegbt.executive.work import Job
-from pegbt.frames import invert_rigid
 from pegbt.handover_protocol import Giver
-from pegbt.motion.handover import descent_clearance, handover_meeting_point, jaw_on_wall
+from pegbt.motion.handover import jaw_on_wall
 from pegbt.motion.ik import solve_ik
 from pegbt.motion.kinematics import forward_kinematics, tip_position
 from pegbt.motion.trajectory import Trajectory, concatenate
@@ -61,79 +55,8 @@ from pegbt.motion.waypoints import TransferWaypoints
 from pegbt.perception.blocks import BlockEstimate, block_on_peg
 from pegbt.perception.board import BoardEstimate
 from pegbt.perception.grasp import Grasp
-from pegbt.workcell import Workcell
 
 log = logging.getLogger("pegbt.behaviours")
-
-
-@dataclass(frozen=True)
-class Meeting:
-    """A planned handover: where the giver's tip meets (its arm frame), the block's pose there (board frame)
-    and the receiver's grasp of it."""
-
-    tip: NDArray[np.float64]
-    block_pose: NDArray[np.float64]
-    receiver_grasp: Grasp
-
-
-def plan_meeting(
-    skills: Skills, giver: str, receiver: str, grasp: Grasp, block: BlockEstimate
-) -> Meeting | None:
-    """The handover of `block` held by `giver` at `grasp`, or None if the receiver cannot take it: the
-    receiver's grasp is on another wall than the giver's jaw, keeps its tool `grasp_clearance` clear of the
-    giver's all the way down onto it, and is the nearest such to the receiver. Whether there is one depends
-    on the giver's grasp: a block held on some walls hangs so that every grasp of the receiver strikes the
-    giver's tool (never one held as the paper picks it off its peg; often one picked off the board)."""
-    cell = skills.cell
-    tip = meeting_tip(skills, giver)
-    q_giver = solve_ik(tip, skills.arm(giver).settings, what="the giver at the meeting point")
-    block_pose = (
-        cell.arm_to_board(giver) @ tip @ invert_rigid(cell.arm_to_board(giver) @ grasp.pose) @ block.pose
-    )
-    giver_edge = cell.block.grasp_candidates.edge[grasp.candidate]
-    options = [
-        option
-        for option in skills.selectors[receiver].feasible(block_pose)
-        if cell.block.grasp_candidates.edge[option.candidate] != giver_edge
-    ]
-    taken = next(
-        (
-            option
-            for option in sorted(options, key=lambda option: distance_to(cell, receiver, option))
-            if clear_descent(skills, receiver, option, giver, q_giver)
-        ),
-        None,
-    )
-    return None if taken is None else Meeting(tip, block_pose, taken)
-
-
-def meeting_tip(skills: Skills, giver: str) -> NDArray[np.float64]:
-    """The giver's tip pose at the meeting point (its arm frame): fixed by the cell and the motion settings,
-    so the carry to it can be planned before the meeting itself is."""
-    cell = skills.cell
-    return tool_pose(to_arm(cell, giver, handover_meeting_point(cell, skills.motion)), 0.0, cell.up_in(giver))
-
-
-def distance_to(cell: Workcell, arm: str, option: Grasp) -> float:
-    """How far `option` lies from `arm`'s remote centre on the board: a receiver takes the nearest."""
-    return float(np.linalg.norm(option.board_position[:2] - cell.remote_centre(arm)[:2]))
-
-
-def clear_descent(
-    skills: Skills, receiver: str, option: Grasp, giver: str, q_giver: NDArray[np.float64]
-) -> bool:
-    """Whether the receiver, descending from waiting above `option` onto it, keeps `grasp_clearance` from the giver."""
-    cell, settings = skills.cell, skills.motion.handover
-    wait = option.pose.copy()
-    wait[:3, 3] += settings.receiver_wait_above * cell.up_in(receiver)
-    try:
-        q_wait, q_grasp = (solve_ik(pose, skills.arm(receiver).settings) for pose in (wait, option.pose))
-    except PegbtError:
-        return False
-    clearance = descent_clearance(
-        q_wait, q_grasp, cell.board_to_arm(receiver), q_giver, cell.board_to_arm(giver), cell.tool
-    )
-    return clearance >= settings.grasp_clearance
 
 
 class HandoverPoses(ComputeLeaf):
@@ -167,7 +90,9 @@ class HandoverPoses(ComputeLeaf):
         return self.param("arm"), self.param("receiver"), self.get("grasp"), self.get("block")
 
     def compute(self, giver: str, receiver: str, grasp: Grasp, block: BlockEstimate) -> Meeting | None:
-        return None if giver == receiver else plan_meeting(self.skills, giver, receiver, grasp, block)
+        if giver == receiver:
+            return None
+        return meeting_planner(self.skills)(self.skills, giver, receiver, grasp, block)
 
     def finish(self, meeting: Meeting | None) -> Status:
         giver, receiver = self.param("arm"), self.param("receiver")
@@ -182,10 +107,10 @@ class HandoverPoses(ComputeLeaf):
         self.put("block_pose", meeting.block_pose)
         self.put("receiver_grasp", meeting.receiver_grasp)
         taken = meeting.receiver_grasp
-        point = handover_meeting_point(self.skills.cell, self.skills.motion)
+        tip = meeting.tip[:3, 3]
         self.feedback_message = (
-            f"meeting at {np.round(point * 1000, 1).tolist()} mm (board); {receiver} takes candidate "
-            f"{taken.candidate}, yaw {math.degrees(taken.yaw):.0f}°"
+            f"{giver}'s tip meets at {np.round(tip * 1000, 1).tolist()} mm (its frame); {receiver} takes "
+            f"candidate {taken.candidate}, yaw {math.degrees(taken.yaw):.0f}°"
         )
         plan_carry_to_meeting(
             self, giver, self.read("/board"), self.get("block"), self.get("grasp"), meeting.tip
@@ -208,7 +133,7 @@ def plan_meeting_early(
         return
     if motion.meeting is not None:
         motion.meeting.job.discard()
-    job = pool.submit_ahead(plan_meeting, leaf.skills, giver, receiver, grasp, block)
+    job = pool.submit_ahead(meeting_planner(leaf.skills), leaf.skills, giver, receiver, grasp, block)
     motion.meeting = EarlyResult((giver, grasp, block), job)
     if _waits_empty_handed(leaf, receiver):
         plan_way_to_meeting(leaf, receiver, motion.start_from(leaf.client(receiver)))
@@ -281,7 +206,7 @@ def plan_carry_to_meeting(
     """Start preparing the giver's carry to the meeting `tip` from where its last motion ends (kept if it
     is already being prepared from the same inputs)."""
     motion = leaf.motion(giver)
-    waypoints = to_handover(leaf.skills.cell, leaf.skills.motion, giver, board, block, grasp, tip)
+    waypoints = giver_carry_waypoints(leaf.skills, giver, board, block, grasp, tip)
     motion.plan_early(leaf.context.work, (board, block, grasp, tip), partial(motion.transfer, waypoints))
 
 
@@ -325,7 +250,7 @@ def rise_into_approach(
 
 def handed(skills: Skills, arm: str, receiver: str, block: BlockEstimate, option: Grasp) -> bool:
     """Whether `receiver` can take `block` from `arm` holding it by `option`."""
-    return plan_meeting(skills, arm, receiver, option, block) is not None
+    return meeting_planner(skills)(skills, arm, receiver, option, block) is not None
 
 
 class CarryToHandover(CarryLeaf):
@@ -365,9 +290,8 @@ class CarryToHandover(CarryLeaf):
             self.wake_at = min(self.wake_at, due)
 
     def waypoints(self) -> TransferWaypoints:
-        return to_handover(
-            self.skills.cell,
-            self.skills.motion,
+        return giver_carry_waypoints(
+            self.skills,
             self.param("arm"),
             self.read("/board"),
             self.get("block"),

@@ -6,12 +6,8 @@ BerkeleyAutomation/FLSpegtransferHO, `FLSPegTransfer_handover.py` and
 from what it sees (`find_grasping_pose_handover`); the receiver moves to `ABOVE_GRASP_POINT` over that grasp
 point, down onto it and closes, its tool along its base's z at the grasp's yaw (`pick_block`, lines
 157–167). The trees run it under the paper's protocol (`/policy/look_at_handover`,
-trees/shared/handover.yaml); the phase simulator's paper handover
-(`pegbt.sim2real.outcomes.paperhandover`) works out the receiver's grasp by the same `receiver_grasp`.
-
-Which of the receiver's grasps is taken stays pegbt's (another wall than the giver's, clear of the giver's
-tool, nearest to the receiver): the paper's rule (the window of ±70°, then the point farthest to the
-receiver's side) has the same intent.
+trees/shared/handover.yaml), where the arms also meet as the paper's did
+(`pegbt.behaviours.paper_meeting`, whose `receiver_grasp` the phase simulator's paper handover uses too).
 """
 
 from __future__ import annotations
@@ -22,16 +18,14 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from py_trees.common import Status
 
-from pegbt.behaviours.actions.handover import clear_descent, distance_to, giver_of
+from pegbt.behaviours.actions.handover import giver_of
 from pegbt.behaviours.actions.placing import board_points
 from pegbt.behaviours.base import ComputeLeaf, MotionLeaf
-from pegbt.behaviours.poses import to_arm
-from pegbt.behaviours.resources.skills import Skills
-from pegbt.frames import apply_rigid, rigid_transform, yaw_rotation
+from pegbt.behaviours.paper_meeting import receiver_grasp
 from pegbt.motion.ik import solve_ik
 from pegbt.perception.board import BoardEstimate
 from pegbt.perception.cloud import open3d_threads
-from pegbt.perception.grasp import Grasp, grasp_options
+from pegbt.perception.grasp import Grasp
 from pegbt.perception.organised import OrganisedCloud
 from pegbt.perception.servo import HANDED_MIN_POINTS, around_block, held_block
 from pegbt.workcell import Workcell
@@ -41,55 +35,6 @@ ABOVE_GRASP_POINT = 0.003  # m: `pick_block` stops this far over the seen grasp 
 Seen = tuple[
     Grasp | None, NDArray[np.float64] | None, str
 ]  # the receiver's grasp, the seen pose, what was seen
-
-
-def receiver_grasp(
-    skills: Skills,
-    receiver: str,
-    giver: str,
-    giver_candidate: int,
-    block_pose: NDArray[np.float64],
-    q_giver: NDArray[np.float64],
-) -> Grasp | None:
-    """The receiver's grasp of a block at `block_pose` (board frame, tilted as it hangs) held by `giver`
-    (its joints `q_giver`) by candidate `giver_candidate`: at the candidate's point, the tool upright at
-    its yaw, as `pick_block` goes (`euler_to_quaternion([rot, 0, 0])`); on another wall than the giver's,
-    reachable, its descent from `receiver_wait_above` keeping `grasp_clearance` of the giver's tool; the
-    nearest to the receiver. None if there is none."""
-    cell = skills.cell
-    edges = cell.block.grasp_candidates.edge
-    selector = skills.selectors[receiver]
-    options = [
-        _upright(cell, option, block_pose)
-        for option in grasp_options(block_pose, receiver, cell)
-        if abs(option.yaw) <= selector.yaw_window and edges[option.candidate] != edges[giver_candidate]
-    ]
-    if not options:
-        return None
-    reachable = np.asarray(selector.reachable(np.array([option.pose for option in options])), dtype=bool)
-    return next(
-        (
-            option
-            for option in sorted(
-                (option for option, ok in zip(options, reachable) if ok),
-                key=lambda option: distance_to(cell, receiver, option),
-            )
-            if clear_descent(skills, receiver, option, giver, q_giver)
-        ),
-        None,
-    )
-
-
-def _upright(cell: Workcell, option: Grasp, block_pose: NDArray[np.float64]) -> Grasp:
-    """`option` as `pick_block` takes it: `grasp_depth` down the base's z from the candidate's point on the
-    (tilted) top face (`offset_grasp` is along the robot's z), the tool along the base's z at the option's
-    yaw (`euler_to_quaternion([rot, 0, 0])`)."""
-    local = cell.block.grasp_candidates.positions[option.candidate] - [0.0, 0.0, cell.block.grasp_depth]
-    tip = to_arm(cell, option.arm, apply_rigid(block_pose, local)) - [0.0, 0.0, cell.block.grasp_depth]
-    pose = rigid_transform(yaw_rotation(option.yaw), tip)
-    return Grasp(
-        option.arm, option.candidate, pose, option.yaw, apply_rigid(cell.arm_to_board(option.arm), tip)
-    )
 
 
 def over_grasp(cell: Workcell, grasp: Grasp) -> NDArray[np.float64]:

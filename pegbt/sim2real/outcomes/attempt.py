@@ -9,15 +9,15 @@ attempt knows nothing of what went before except the arm it goes on with and the
 from __future__ import annotations
 
 import struct
-from collections.abc import Callable
 from functools import partial
 
 import numpy as np
 from numpy.typing import NDArray
 
 from pegbt.behaviours.actions.grasping import SAME_BLOCK
-from pegbt.behaviours.actions.handover import Meeting, plan_meeting
+from pegbt.behaviours.meeting import Meet, Meeting, plan_meeting
 from pegbt.behaviours.motion import above_pegs_first, planned_approach
+from pegbt.behaviours.paper_meeting import paper_carry, paper_meeting
 from pegbt.behaviours.poses import to_handover, tool_pose, transfer_for
 from pegbt.behaviours.resources.arm_motion import ArmMotion
 from pegbt.behaviours.resources.skills import Skills
@@ -34,7 +34,6 @@ from pegbt.sim.events import Event
 from pegbt.sim.world import World
 from pegbt.sim2real.outcomes.bench import START, Bench, Chosen, Replay
 from pegbt.sim2real.outcomes.cells import PHASES
-from pegbt.sim2real.outcomes.paperhandover import paper_carry, paper_meeting
 from pegbt.sim2real.outcomes.paperplacing import paper_transfer
 from pegbt.sim2real.outcomes.placelook import visible_points
 from pegbt.sim2real.outcomes.transfer_order import RECEIVER
@@ -47,8 +46,6 @@ PERCEPTION_SD = 0.00005
 # the conditions under which the carry opens the jaw as it comes down (`trees/shared/lift.yaml`'s
 # `let_go_early`); under the others it lets go at rest
 LETS_GO_EARLY = ("calibrated", "optimized")
-# a handover's meeting from the giver's grasp (pegbt's `plan_meeting`, or the paper's `paper_meeting`)
-Meet = Callable[[Skills, str, str, Grasp, BlockEstimate], Meeting | None]
 
 
 def seen_point(world: World, point: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -125,7 +122,7 @@ def pick_and_carry(
     elif meeting is None:
         waypoints = transfer_for(world.cell, skills.motion, arm, None, seen, grasp, goal_peg)
     elif looks:
-        waypoints = paper_carry(world.cell, skills.motion, arm, seen, grasp, meeting.tip)
+        waypoints = paper_carry(world.cell, skills.motion, arm, None, seen, grasp, meeting.tip)
     else:
         waypoints = to_handover(world.cell, skills.motion, arm, None, seen, grasp, meeting.tip)
     if waypoints.approach is None:

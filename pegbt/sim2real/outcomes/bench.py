@@ -17,7 +17,7 @@ from functools import cache
 import numpy as np
 from numpy.typing import NDArray
 
-from pegbt.behaviours.actions.handover import Meeting
+from pegbt.behaviours.meeting import Meeting
 from pegbt.behaviours.resources.arm_motion import ArmMotion, Prepared
 from pegbt.calibration.registration import registered_arm_to_board
 from pegbt.motion.settings import motion_settings

@@ -14,8 +14,9 @@ from typing import Protocol
 import numpy as np
 from numpy.typing import NDArray
 
-from pegbt.behaviours.actions.handover_look import over_grasp, receiver_grasp
+from pegbt.behaviours.actions.handover_look import over_grasp
 from pegbt.behaviours.motion import above_pegs_first
+from pegbt.behaviours.paper_meeting import receiver_grasp
 from pegbt.behaviours.poses import from_handover
 from pegbt.behaviours.resources.skills import Skills
 from pegbt.errors import PegbtError
@@ -217,11 +218,14 @@ def _escape(giver: Bench) -> None:
 def _receiver_start(
     trying: Giving, receiver: str, dropped: NDArray[np.float64], goal_peg: int
 ) -> NDArray[np.float64]:
-    """Where the receiver comes from to the meeting: in a trial played in order, lowered over the goal peg of
-    its last handover (`receiver_from`), where it let go (as `previous_release`, its cables at rest there;
-    `receive` goes to the meeting from where it is), or home, parked from the simulator's start joints,
-    before the first of each half and after a handover that failed (`receive` parks it); alone, from the
-    simulator's start joints."""
+    """Where the receiver comes from to the meeting: lowered over the goal peg of its last handover
+    (`receiver_from`), where it let go (as `previous_release`, its cables at rest there; `receive` goes to
+    the meeting from where it is), or home, parked from the simulator's start joints, before the first of
+    each half and, in a trial played in order, after a handover that failed (`receive` parks it). A
+    transfer simulated alone takes its last handover as placed. The wrist's play at the receiver's grasp
+    depends on that way (`dvrk-real`'s q5 and q6 hysteresis, up to 0.35 rad wide): straight from the start
+    joints, its tip closes some 1.4 mm (board x) and 0.7 mm (height) off where the trees' does on the same
+    command (docs/guides/sim-to-real.md)."""
     if trying.receiver_from is None:
         return START
     start = previous_release(trying.world, receiver, dropped, goal_peg, trying.receiver_from)

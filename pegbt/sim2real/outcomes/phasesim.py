@@ -133,7 +133,6 @@ def carry_out(
     own = next((b.index for b in world.blocks if b.peg == start_peg), None)
     half = len(order) // 2
     mine = [i for i, (other, _, _) in enumerate(order) if other == arm]
-    in_trial = pick is not None and variant == "handover"  # the receiver's history in its trial
     from_home = index in (0, half) or receiver_parked  # else from over its last goal peg
     trying = Trying(
         world,
@@ -150,8 +149,8 @@ def carry_out(
         looks_again=pick is not None,
         fetch=pick or (lambda *_: own),
         strays=strays,
-        receiver_from=None if not in_trial or from_home else order[index - 1][2],
-        receiver_parks=in_trial and from_home,
+        receiver_from=None if from_home else order[index - 1][2],
+        receiver_parks=from_home,
         set_back_to=start_peg if variant == "handover" and attempts > 1 else None,
     )
     taken = any(b.peg == goal_peg and not b.lost for b in world.blocks)
