@@ -17,7 +17,8 @@ from functools import partial
 
 import numpy as np
 
-from pegbt.behaviours.actions.handover import handed, plan_meeting
+from pegbt.behaviours.actions.handover import handed
+from pegbt.behaviours.meeting import plan_meeting
 from pegbt.behaviours.poses import to_handover
 from pegbt.behaviours.resources.skills import Skills
 from pegbt.bench.limit_bound import Bound, through
