@@ -35,6 +35,7 @@ from pegbt.sim.blocks import Block
 from pegbt.sim.events import Event, EventLog
 from pegbt.sim.faults import SlipAt, WorldFaults
 from pegbt.sim.grasp_tilt import tilt_problem
+from pegbt.sim.hole import HoleRoom
 from pegbt.sim.interfaces import WorldSnapshot
 from pegbt.sim.tools import RIGID, TOOL_PARTS, Boxes, Give, ToolState
 from pegbt.sim.world_effects import BLOCK_MASS, GRAVITY, WorldEffects
@@ -108,6 +109,8 @@ class World:
         wall = self.cell.block.edge_distance - self.cell.block.hole_radius
         self._jaw_on_wall = 2.0 * math.asin(min(1.0, wall / 2.0 / self.cell.tool.jaw_length))  # `jaw_stop`
         self._capture = max(self._clearance, effects.values("chamfer_capture")["capture_radius"])
+        self._chamfers = self._capture - self._clearance  # how far beyond the hole's room they catch a peg
+        self._room = _hole_room(self.cell, effects.values("hole_lobes")["lobe_radius"], config.peg_slack)
         self._grasp_capture = effects.values("grasp_capture")["width"]
         self._tip_slide = effects.values("jaw_tip_slide")["width"]
         bending, grip = effects.values("peg_compliance"), effects.values("grip_compliance")
@@ -320,8 +323,8 @@ class World:
         slide = off_centre * normal
         if block.peg is not None and not block.grips:
             peg_xy = self._pegs_in_block_frame(block)[block.peg]  # where the peg stands in the hole
-            if np.linalg.norm(peg_xy - slide) > self._clearance:
-                stopped = self._slide_until_stopped(peg_xy, normal, off_centre)
+            if not self._room.within(peg_xy - slide)[0]:
+                stopped = self._room.slide(peg_xy, normal, off_centre, _GUIDED_INSIDE)
                 beyond_play = _beyond_play(-(off_centre - stopped) * normal, local[:2, :2], give)
                 if beyond_play > self._grasp_capture + 1e-9:  # what the play takes is rounded
                     return (
@@ -331,15 +334,6 @@ class World:
                     )
                 slide = stopped * normal  # the wrist yields the rest (its play, then `grasp_capture`)
         return None, edge, slide
-
-    def _slide_until_stopped(self, peg_xy: Matrix, normal: Matrix, off_centre: float) -> float:
-        """How far (m, signed as `off_centre`) a block on a peg standing at `peg_xy` in its hole slides
-        along `normal` towards `off_centre` before the hole meets the peg."""
-        along = float(peg_xy @ normal)
-        inside = self._clearance - _GUIDED_INSIDE  # stopped just clear of the peg
-        room = math.sqrt(max(0.0, along**2 - float(peg_xy @ peg_xy) + inside**2))
-        stopped = along + math.copysign(room, off_centre)
-        return max(0.0, stopped) if off_centre > 0 else min(0.0, stopped)
 
     def _slip(self, arm: str, block: Block, detail: str) -> None:
         """`arm`'s grip on `block` is lost without its jaw opening."""
@@ -487,14 +481,14 @@ class World:
             high = max(top[2], peg_top_z)
             points = [bottom + (bottom[2] - z) / span * (top - bottom) for z in (low, high)]
             offsets = np.array([p[:2] - self.cell.pegs.positions[peg] for p in points])
-            push = self._peg_push(offsets)
+            push = self._peg_push(block, offsets)
             if push is None:
                 return
             if self._yielding:
                 if self._yield_to_peg(block, offsets, np.array(points), push):
                     return
             elif (
-                np.linalg.norm(offsets + push, axis=1).max() <= self._clearance + 1e-9  # not tipped across it
+                self._beyond_room(block, offsets + push).max() <= 1e-9  # not tipped across it
                 and self._holders_give(block, push)
             ):
                 block.pose[:2, 3] += push  # the peg guides the hole; the holders' wrists yield
@@ -504,27 +498,35 @@ class World:
             return
         local = self._pegs_in_block_frame(block)
         radial = np.linalg.norm(local, axis=1)
-        entering = np.flatnonzero(radial <= self._clearance)
+        beyond = self._room.outside(local)
+        entering = np.flatnonzero(beyond <= 1e-12)
         if len(entering):
             block.peg = int(entering[0])
             return
-        caught = np.flatnonzero(radial <= self._capture)
+        caught = np.flatnonzero(beyond <= self._chamfers + 1e-12)
         if len(caught):
-            self._guide_onto(block, int(caught[np.argmin(radial[caught])]), local)
+            self._guide_onto(block, int(caught[np.argmin(beyond[caught])]), local)
             return
         struck = np.flatnonzero(self._in_footprint(local))
         if len(struck):
             peg = int(struck[0])
             self._knock_loose(block, peg, f"struck peg {peg}: hole {radial[peg] * 1000:.1f} mm off its axis")
 
-    def _peg_push(self, offsets: Matrix) -> Matrix | None:
+    def _beyond_room(self, block: Block, offsets: Matrix) -> Matrix:
+        """How far (m) the peg stands beyond its room in `block`'s hole at each of the hole axis's
+        `offsets` (n, 2, board x, y, from the peg's axis)."""
+        return self._room.outside(-offsets @ _yaw_rotation(block))
+
+    def _peg_push(self, block: Block, offsets: Matrix) -> Matrix | None:
         """The sideways push (board x, y) with which the peg keeps the hole around it, given the hole
         axis's offsets (n, 2) from the peg's axis along their overlap; None when the hole is clear of it."""
-        distances = np.linalg.norm(offsets, axis=1)
-        worst = int(np.argmax(distances))
-        if distances[worst] <= self._clearance:
+        rotation = _yaw_rotation(block)
+        pegs = -offsets @ rotation  # the peg's axis in the hole, block x, y
+        beyond = pegs - self._room.nearest(pegs)
+        worst = int(np.argmax(np.linalg.norm(beyond, axis=1)))
+        if np.linalg.norm(beyond[worst]) <= 1e-12:
             return None
-        return -(distances[worst] - self._clearance) * offsets[worst] / distances[worst]
+        return rotation @ beyond[worst]
 
     def _holders_give(self, block: Block, push: Matrix) -> bool:
         """Whether every jaw holding `block` yields to `push` (board x, y) within its wrist's play."""
@@ -559,13 +561,13 @@ class World:
             taken = taken + float(np.clip((wanted - taken) @ along, -room, room)) * along
             settled = np.allclose(taken, moved, rtol=0.0, atol=1e-12)
             moved = taken
-            rest = self._peg_push(offsets + moved)
+            rest = self._peg_push(block, offsets + moved)
             if rest is None or settled:
                 break
         bend = 0.0 if rest is None else float(np.linalg.norm(rest))
         if bend > self._peg_bend + 1e-12:
             return False
-        if np.linalg.norm(offsets + moved, axis=1).max() > self._clearance + bend + 1e-9:
+        if self._beyond_room(block, offsets + moved).max() > bend + 1e-9:
             return False  # tipped across the peg
         block.pose[:2, 3] += moved
         self._peg_load[block.index] = self._peg_stiffness * bend
@@ -588,9 +590,8 @@ class World:
 
     def _guide_onto(self, block: Block, peg: int, local: Matrix) -> None:
         """The chamfers of hole and peg catch a block lowered within the capture radius: it slides (in
-        the jaws holding it) until the peg is within the clearance, threaded on it."""
-        radial = float(np.linalg.norm(local[peg]))
-        shift = (radial - self._clearance + _GUIDED_INSIDE) * local[peg] / radial  # block x, y
+        the jaws holding it) until the peg stands within the hole's room, threaded on it."""
+        shift = local[peg] - self._room.shrunk(_GUIDED_INSIDE).nearest(local[peg])[0]  # block x, y
         block.pose[:3, 3] += block.pose[:3, :2] @ shift
         for arm in block.grips:
             block.grips[arm] = invert_rigid(self.tools[arm].tip) @ block.pose
@@ -644,8 +645,8 @@ class World:
         yaw = yaw_of(block.pose)
         peg = block.peg
         if peg is None:
-            offsets = np.linalg.norm(self.cell.pegs.positions - block.pose[:2, 3], axis=1)
-            peg = int(np.argmin(offsets)) if offsets.min() <= self._capture else None
+            beyond = self._room.outside(self._pegs_in_block_frame(block))
+            peg = int(np.argmin(beyond)) if beyond.min() <= self._chamfers + 1e-12 else None
         if peg is not None:
             self._rest_on_peg(block, peg, yaw)
             if deliberate:
@@ -768,6 +769,20 @@ def _tools_touching(a: Boxes, b: Boxes) -> tuple[bool, tuple[tuple[str, str], ..
 def _parts_named(arm_a: str, arm_b: str, touching: tuple[tuple[str, str], ...]) -> str:
     """A tool-tool contact's parts as the simulator's log gives them: "PSM1 jaw on PSM2 wrist, ..."."""
     return ", ".join(f"{arm_a} {one} on {arm_b} {other}" for one, other in touching)
+
+
+def _yaw_rotation(block: Block) -> Matrix:
+    """Block x, y to board x, y about the vertical: the hole's room turns with the block's yaw."""
+    yaw = yaw_of(block.pose)
+    return np.array([[math.cos(yaw), -math.sin(yaw)], [math.sin(yaw), math.cos(yaw)]])
+
+
+def _hole_room(cell: Workcell, lobe_radius: float, slack: float) -> HoleRoom:
+    """The room a peg's axis has in a block's hole (`pegbt.sim.hole`), widened by `slack`: round but for
+    the lobes (`hole_lobes`) towards its corners."""
+    block, peg = cell.block, cell.pegs.radius
+    lobe = max(block.hole_radius, lobe_radius)
+    return HoleRoom(lobe - peg + slack, block.hole_radius - peg + slack, block.edge_normals)
 
 
 def _beyond_play(move: Matrix, axes: Matrix, give: Give) -> float:

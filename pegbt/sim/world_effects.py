@@ -37,7 +37,8 @@ GRAVITY = 9.81  # m/s²
 # An FLS block: a truncated triangular prism (flat edges 5.6 mm from the centre, corners cut at 9.0 mm,
 # 14.7 mm high) around a 3.6 mm hole is about 1.6 cm³; printed in PLA (1.24 g/cm³) it weighs about 2 g.
 BLOCK_MASS = 0.002  # kg
-CLEARANCE = 0.0036 - 0.0016  # m: hole radius 3.6 mm less peg radius 1.6 mm (skills/workcell.yaml)
+HOLE_RADIUS = 0.0036  # m: the hole's walls (skills/workcell.yaml)
+CLEARANCE = HOLE_RADIUS - 0.0016  # m: less the peg's radius 1.6 mm (skills/workcell.yaml)
 
 
 class Parameter(NamedTuple):
@@ -113,6 +114,26 @@ class ChamferCapture(WorldEffectKind):
             CLEARANCE,
             "the 2.0 mm clearance (hole radius 3.6 mm less peg radius 1.6 mm, skills/workcell.yaml) plus "
             "the chamfers of hole and peg top, up to 1 mm each",
+        ),
+    }
+
+
+class HoleLobes(WorldEffectKind):
+    name = "hole_lobes"
+    acts_on = "world"
+    summary = (
+        "the block's hole is no circle: between its walls it reaches out to `lobe_radius` towards the "
+        "corners, so a peg off the hole's axis towards a corner stands clear of it further than towards a wall"
+    )
+    parameters = {
+        "lobe_radius": Parameter(
+            "m",
+            HOLE_RADIUS,
+            0.0045,
+            HOLE_RADIUS,
+            "the paper's block model (img/block.pcd, BerkeleyAutomation/FLSpegtransferHO): a 4.5 mm circle (the "
+            "paper's '4.5 mm opening') cut by three flats along the edge normals; the flats stay at the walls "
+            "pegbt grips (3.6 mm, skills/workcell.yaml; the model's are at 3.4 mm)",
         ),
     }
 
@@ -287,6 +308,7 @@ def register_world_effect(kind: WorldEffectKind) -> WorldEffectKind:
 for _kind in (
     PegCompliance(),
     ChamferCapture(),
+    HoleLobes(),
     GripCompliance(),
     GraspCapture(),
     JawTipSlide(),

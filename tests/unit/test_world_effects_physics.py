@@ -1,6 +1,8 @@
 """Each world effect, applied by the world: a scripted lift, carry, grasp or placement that fails in the
 rigid world and succeeds with the effect, and the reverse where the effect can do harm."""
 
+import math
+
 import numpy as np
 import pytest
 from world_effects_helpers import YieldingDriver, grasp_block, lift_block, outward, place_block, shifted
@@ -94,6 +96,28 @@ def test_chamfers_catch_a_block_lowered_past_the_clearance_that_strikes_a_rigid_
 
     narrow = World(1, effects=WorldEffects.of({"chamfer_capture": {"capture_radius": 0.0025}}))
     assert "place" not in kinds(_carry_and_place(narrow, off))
+
+
+def _peg_towards(world: World, degrees: float, distance: float) -> np.ndarray:
+    """The placing error (board x, y) that lowers block 1 onto peg 7 with the peg `distance` off the hole's
+    axis towards `degrees` in the block's frame (edge normals 90, 210, 330; corners between)."""
+    placed = World(1)
+    _carry_and_place(placed)
+    yaw = math.atan2(placed.blocks[1].pose[1, 0], placed.blocks[1].pose[0, 0])
+    towards = yaw + math.radians(degrees)
+    return -distance * np.array([math.cos(towards), math.sin(towards)])  # the hole moves the other way
+
+
+def test_the_hole_s_lobes_take_a_peg_lowered_towards_a_corner_that_strikes_a_round_hole_not_towards_a_wall():
+    lobes = WorldEffects.of({"hole_lobes": {"lobe_radius": 0.0045}})  # the paper's block model
+    corner, wall = _peg_towards(World(1), 30.0, 0.0025), _peg_towards(World(1), 90.0, 0.0025)
+    events = _carry_and_place(World(1), corner)
+    assert "place" not in kinds(events) and any("struck peg 7" in e.detail for e in events)
+    lobed = World(1, effects=lobes)
+    assert kinds(_carry_and_place(lobed, corner)) == ["grasp", "lift", "release", "place"]
+    assert lobed.blocks[1].peg == 7
+    for world in (World(1), World(1, effects=lobes)):
+        assert "place" not in kinds(_carry_and_place(world, wall))  # a wall leaves the peg 2.0 mm
 
 
 def test_jaw_friction_loses_a_block_that_a_rigid_grip_carries_when_the_tip_accelerates_too_hard():

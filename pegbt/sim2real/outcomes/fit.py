@@ -51,6 +51,7 @@ from pegbt.sim2real.outcomes.simulate import Key, Mapper, SimCounts, simulate_ce
 FITTED: dict[str, tuple[str, ...]] = {
     "peg_compliance": ("deflection",),
     "chamfer_capture": ("capture_radius",),
+    "hole_lobes": ("lobe_radius",),
     "grip_compliance": ("displacement", "angle"),
     "grasp_capture": ("width",),
     "jaw_tip_slide": ("width",),
@@ -64,6 +65,7 @@ FITTED: dict[str, tuple[str, ...]] = {
 PHASES_OF: dict[str, frozenset[str]] = {
     "peg_compliance": frozenset({"lift", "lower"}),
     "chamfer_capture": frozenset({"lower", "release"}),
+    "hole_lobes": frozenset({"grasp", "lift", "lower", "release"}),
     "grip_compliance": frozenset({"lift", "carry", "lower"}),
     "grasp_capture": frozenset({"grasp"}),
     "jaw_tip_slide": frozenset({"grasp", "handover"}),
