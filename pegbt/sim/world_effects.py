@@ -104,6 +104,7 @@ class ChamferCapture(WorldEffectKind):
     acts_on = "world"
     summary = (
         "lowered or dropped onto a peg, a block whose hole comes within `capture_radius` of the peg's axis "
+        "(the chamfers widen the peg's room in the hole by what they add to the clearance, lobes and all) "
         "is caught by the chamfers of the hole and the peg and guided onto it (turning in the jaws if held)"
     )
     parameters = {
