@@ -34,9 +34,32 @@ class HoleRoom:
         return np.linalg.norm(points - self.nearest(points), axis=1)
 
     def nearest(self, points: Matrix) -> Matrix:
-        """The room's point nearest each of `points` (n, 2): itself within, else on the room's border."""
+        """The room's point nearest each of `points` (n, 2): itself within, else on the room's border (on
+        the circle, on a flat, or where the two meet; the room is convex, so the nearest of those within)."""
         points = np.atleast_2d(np.asarray(points, dtype=float))
-        return np.array([self._nearest(point) for point in points])
+        norms = np.maximum(np.linalg.norm(points, axis=1), 1e-300)[:, None]
+        on_flats = points[:, None, :] - (points @ self.normals.T - self.flat)[:, :, None] * self.normals[None]
+        candidates = np.concatenate(
+            [
+                (points * self.lobe / norms)[:, None, :],
+                on_flats,
+                np.broadcast_to(self._corners, (len(points), *self._corners.shape)),
+            ],
+            axis=1,
+        )
+        distances = np.linalg.norm(candidates - points[:, None, :], axis=2)
+        distances[~self._inside(candidates, 1e-12)] = np.inf
+        nearest = candidates[np.arange(len(points)), np.argmin(distances, axis=1)]
+        return np.where(self._inside(points)[:, None], points, nearest)
+
+    @property
+    def _corners(self) -> Matrix:
+        """(2k, 2) where the flats meet the circle."""
+        half_chord = math.sqrt(max(self.lobe**2 - self.flat**2, 0.0))
+        along = self.normals @ np.array([[0.0, 1.0], [-1.0, 0.0]])  # each normal turned a quarter
+        return np.concatenate(
+            [self.flat * self.normals + half_chord * along, self.flat * self.normals - half_chord * along]
+        )
 
     def shrunk(self, by: float) -> HoleRoom:
         """The room `by` narrower all round."""
@@ -46,22 +69,10 @@ class HoleRoom:
         """Which of `points` (n, 2) lie within the room widened by `margin` all round."""
         return self.outside(points) <= margin + 1e-12
 
-    def _nearest(self, point: Matrix) -> Matrix:
-        if self._inside(point):
-            return point
-        norm = float(np.linalg.norm(point))
-        candidates = [point * self.lobe / norm] if norm > 0 else []
-        half_chord = math.sqrt(max(self.lobe**2 - self.flat**2, 0.0))
-        for normal in self.normals:
-            candidates.append(point - (point @ normal - self.flat) * normal)
-            along = np.array([-normal[1], normal[0]])
-            candidates += [self.flat * normal + half_chord * along, self.flat * normal - half_chord * along]
-        inside = [c for c in candidates if self._inside(c, 1e-12)]
-        return min(inside, key=lambda c: float(np.linalg.norm(c - point)))
-
-    def _inside(self, point: Matrix, slack: float = 0.0) -> bool:
-        return bool(
-            np.linalg.norm(point) <= self.lobe + slack and (self.normals @ point <= self.flat + slack).all()
+    def _inside(self, points: Matrix, slack: float = 0.0) -> NDArray[np.bool_]:
+        """Which of `points` (..., 2) lie within the room, `slack` wider."""
+        return (np.linalg.norm(points, axis=-1) <= self.lobe + slack) & (
+            (points @ self.normals.T <= self.flat + slack).all(axis=-1)
         )
 
     def slide(self, start: Matrix, direction: Matrix, wanted: float, inside: float) -> float:

@@ -498,7 +498,9 @@ class World:
             return
         local = self._pegs_in_block_frame(block)
         radial = np.linalg.norm(local, axis=1)
-        beyond = self._room.outside(local)
+        beyond = np.full(len(local), np.inf)  # a peg farther than the lobes and chamfers reach is not near
+        near = radial <= self._room.lobe + self._chamfers
+        beyond[near] = self._room.outside(local[near])
         entering = np.flatnonzero(beyond <= 1e-12)
         if len(entering):
             block.peg = int(entering[0])
