@@ -5,6 +5,8 @@ BerkeleyAutomation/FLSpegtransferHO) has no round hole: a 4.5 mm circle (the pap
 cut by three flats 3.4 mm out along the edge normals, where the walls the jaws grip are. A peg of radius r
 stands clear of it while its axis keeps within the circle less r and `flat` less r of each flat: a
 triangle with rounded corners, convex, 1.8 mm from the centre towards a wall and 2.9 mm towards a corner.
+The world keeps its walls at 3.6 mm (2.0 mm towards a wall) and takes the lobes as the world effect
+`hole_lobes`; at its default the room is the round hole's disc.
 """
 
 from __future__ import annotations
