@@ -39,6 +39,9 @@ class HoleRoom:
         """The room's point nearest each of `points` (n, 2): itself within, else on the room's border (on
         the circle, on a flat, or where the two meet; the room is convex, so the nearest of those within)."""
         points = np.atleast_2d(np.asarray(points, dtype=float))
+        inside = self._inside(points)
+        if inside.all():  # a threaded block's peg, tick after tick
+            return points
         norms = np.maximum(np.linalg.norm(points, axis=1), 1e-300)[:, None]
         on_flats = points[:, None, :] - (points @ self.normals.T - self.flat)[:, :, None] * self.normals[None]
         candidates = np.concatenate(
@@ -52,7 +55,7 @@ class HoleRoom:
         distances = np.linalg.norm(candidates - points[:, None, :], axis=2)
         distances[~self._inside(candidates, 1e-12)] = np.inf
         nearest = candidates[np.arange(len(points)), np.argmin(distances, axis=1)]
-        return np.where(self._inside(points)[:, None], points, nearest)
+        return np.where(inside[:, None], points, nearest)
 
     @property
     def _corners(self) -> Matrix:

@@ -30,7 +30,15 @@ from itertools import combinations
 
 import numpy as np
 
-from pegbt.frames import Matrix, invert_rigid, rigid_transform, segment_distances, yaw_of, yaw_pose
+from pegbt.frames import (
+    Matrix,
+    invert_rigid,
+    rigid_transform,
+    segment_distances,
+    yaw_of,
+    yaw_pose,
+    yaw_rotation,
+)
 from pegbt.sim.blocks import Block
 from pegbt.sim.events import Event, EventLog
 from pegbt.sim.faults import SlipAt, WorldFaults
@@ -105,11 +113,11 @@ class World:
         self._peg_high = self._peg_feet + [pegs.radius, pegs.radius, 0.0]
         self._peg_boxes = self._peg_low[None], self._peg_high[None]  # as `boxes_overlap` broadcasts them
         self._peg_top_z = float(self._peg_low[0, 2])
-        self._clearance = self.cell.block.hole_radius - pegs.radius + config.peg_slack
+        clearance = self.cell.block.hole_radius - pegs.radius + config.peg_slack
         wall = self.cell.block.edge_distance - self.cell.block.hole_radius
         self._jaw_on_wall = 2.0 * math.asin(min(1.0, wall / 2.0 / self.cell.tool.jaw_length))  # `jaw_stop`
-        self._capture = max(self._clearance, effects.values("chamfer_capture")["capture_radius"])
-        self._chamfers = self._capture - self._clearance  # how far beyond the hole's room they catch a peg
+        # how far beyond the hole's room the chamfers catch a peg: what their capture radius adds to the clearance
+        self._chamfers = max(0.0, effects.values("chamfer_capture")["capture_radius"] - clearance)
         self._room = _hole_room(self.cell, effects.values("hole_lobes")["lobe_radius"], config.peg_slack)
         self._grasp_capture = effects.values("grasp_capture")["width"]
         self._tip_slide = effects.values("jaw_tip_slide")["width"]
@@ -517,12 +525,12 @@ class World:
     def _beyond_room(self, block: Block, offsets: Matrix) -> Matrix:
         """How far (m) the peg stands beyond its room in `block`'s hole at each of the hole axis's
         `offsets` (n, 2, board x, y, from the peg's axis)."""
-        return self._room.outside(-offsets @ _yaw_rotation(block))
+        return self._room.outside(-offsets @ yaw_rotation(yaw_of(block.pose))[:2, :2])
 
     def _peg_push(self, block: Block, offsets: Matrix) -> Matrix | None:
         """The sideways push (board x, y) with which the peg keeps the hole around it, given the hole
         axis's offsets (n, 2) from the peg's axis along their overlap; None when the hole is clear of it."""
-        rotation = _yaw_rotation(block)
+        rotation = yaw_rotation(yaw_of(block.pose))[:2, :2]
         pegs = -offsets @ rotation  # the peg's axis in the hole, block x, y
         beyond = pegs - self._room.nearest(pegs)
         worst = int(np.argmax(np.linalg.norm(beyond, axis=1)))
@@ -771,12 +779,6 @@ def _tools_touching(a: Boxes, b: Boxes) -> tuple[bool, tuple[tuple[str, str], ..
 def _parts_named(arm_a: str, arm_b: str, touching: tuple[tuple[str, str], ...]) -> str:
     """A tool-tool contact's parts as the simulator's log gives them: "PSM1 jaw on PSM2 wrist, ..."."""
     return ", ".join(f"{arm_a} {one} on {arm_b} {other}" for one, other in touching)
-
-
-def _yaw_rotation(block: Block) -> Matrix:
-    """Block x, y to board x, y about the vertical: the hole's room turns with the block's yaw."""
-    yaw = yaw_of(block.pose)
-    return np.array([[math.cos(yaw), -math.sin(yaw)], [math.sin(yaw), math.cos(yaw)]])
 
 
 def _hole_room(cell: Workcell, lobe_radius: float, slack: float) -> HoleRoom:

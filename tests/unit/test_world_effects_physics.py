@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 from world_effects_helpers import YieldingDriver, grasp_block, lift_block, outward, place_block, shifted
 
+from pegbt.frames import yaw_of
 from pegbt.sim.scripted import Driver, grasp_candidate_facing, transfer_keyframes
 from pegbt.sim.tools import ToolState
 from pegbt.sim.world import World
@@ -103,7 +104,7 @@ def _peg_towards(world: World, degrees: float, distance: float) -> np.ndarray:
     axis towards `degrees` in the block's frame (edge normals 90, 210, 330; corners between)."""
     placed = World(1)
     _carry_and_place(placed)
-    yaw = math.atan2(placed.blocks[1].pose[1, 0], placed.blocks[1].pose[0, 0])
+    yaw = yaw_of(placed.blocks[1].pose)
     towards = yaw + math.radians(degrees)
     return -distance * np.array([math.cos(towards), math.sin(towards)])  # the hole moves the other way
 
