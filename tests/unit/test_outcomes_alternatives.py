@@ -137,3 +137,59 @@ def test_an_open_effects_posterior_excludes_the_values_the_calibrated_fit_cells_
     assert weights[values > 0.0016].sum() < 0.01
     calibrated = ("unilateral", "calibrated")
     assert d.predicted_by["grasp_capture.width over 0–0.003"][calibrated].rate > 0.97
+
+
+def _unexplained_rate(effects: WorldEffects, variant: str, condition: str) -> float:
+    """No registered effect moves unilateral; a grasp capture raises bilateral (the other arm's grasps)."""
+    if condition != "uncalibrated":
+        return 1.0
+    capture = effects.values("grasp_capture")["width"] / 0.003
+    return 0.2 + (0.5 * capture if variant == "bilateral" else 0.0)
+
+
+def test_fit_cells_that_reject_the_default_world_unexplained_are_predicted_with_what_they_leave_open() -> (
+    None
+):
+    """The unilateral cell places 48 of 80 where the default world places a fifth: the gate opens, no
+    effect explains it, and the held-out bilateral cell is predicted with the open grasp capture mixed in,
+    not with the default world the fit cells reject (which is still shown beside it)."""
+    cells = (
+        failing_at("lift", "unilateral", "uncalibrated", 80, 48),
+        failing_at("lift", "unilateral", "calibrated", 80, 80),
+        failing_at("lift", "bilateral", "uncalibrated", 80, 40),
+    )
+    d = diagnose(
+        Outcomes(cells, "test"),
+        Settings(fit="unilateral", transfers=120, points=3),
+        rate_mapper(_unexplained_rate, "lift", stream=11),
+    )
+    assert d.verdict.tried and not d.verdict.named and not d.verdict.tied
+    assert "grasp_capture.width" in {a.name for a in d.alternatives}
+    bilateral = ("bilateral", "uncalibrated")
+    mixed, default = d.predicted_by["what is open, mixed"], d.predicted_by["default world"]
+    assert d.predictions[bilateral] == mixed[bilateral]
+    assert mixed[bilateral].rate > default[bilateral].rate + 0.05
+    assert not default[bilateral].inside
+    report = report_dict(d)
+    cell = next(c for c in report["cells"] if c["variant"] == "bilateral")
+    assert cell["predicted"]["rate"] == mixed[bilateral].rate
+    markdown = report_markdown(d)
+    assert "Predicted with what is open, mixed." in markdown
+    assert "the mixture is the prediction (Prove)" in markdown
+
+
+def test_fit_cells_that_do_not_reject_the_default_world_are_predicted_with_it() -> None:
+    """The same cells with unilateral as the default world places it: no fit, nothing open, and the
+    held-out cell is predicted by the default world."""
+    cells = (
+        failing_at("lift", "unilateral", "uncalibrated", 80, 16),
+        failing_at("lift", "unilateral", "calibrated", 80, 80),
+        failing_at("lift", "bilateral", "uncalibrated", 80, 40),
+    )
+    d = diagnose(
+        Outcomes(cells, "test"),
+        Settings(fit="unilateral", transfers=120, points=3),
+        rate_mapper(_unexplained_rate, "lift", stream=11),
+    )
+    assert not d.verdict.tried and not d.alternatives and not d.predicted_by
+    assert "Predicted with the default world." in report_markdown(d)

@@ -119,7 +119,9 @@ def diagnose(
     outcomes: Outcomes, settings: Settings, mapper: Mapper, progress: Callable[[str], None] | None = None
 ) -> Diagnosis:
     """Locate, name and fit on the fit cells, then predict every cell with the fitted world(s); the
-    simulated side grows with the largest fit cell (`Settings.for_campaign`)."""
+    simulated side grows with the largest fit cell (`Settings.for_campaign`). Fit cells that reject the
+    default world (the gate opened) but that no effect explains are predicted with what they leave open,
+    mixed (`alternatives`): the default world they reject is then a comparison, not the prediction."""
     started = time.monotonic()
     counting = _Counting(mapper, progress)
     cells = outcomes.cells
@@ -183,6 +185,8 @@ def diagnose(
             **{a.label: alone for a, alone in zip(alternatives, each)},
             OPEN_MIXED: mixed,
         }
+        if explanation is None:  # the fit cells reject the default world and nothing named explains them
+            predictions = mixed
     after = {key: p.at_best for key, p in predictions.items()}
     remaining = locate(fit_cells, after) if verdict.named else []
     return Diagnosis(

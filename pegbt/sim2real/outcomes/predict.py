@@ -18,7 +18,7 @@ from pegbt.sim.world_effects import WorldEffects
 from pegbt.sim2real.outcomes.cells import Cell
 from pegbt.sim2real.outcomes.fit import Profile
 from pegbt.sim2real.outcomes.intervals import mixture_pmf, predictive_interval, rate_interval
-from pegbt.sim2real.outcomes.simulate import Key, Mapper, SimCounts, simulate_cells
+from pegbt.sim2real.outcomes.simulate import CATEGORIES, Key, Mapper, SimCounts, simulate_cells
 
 NODES = 8  # worlds simulated per prediction, each standing for an equal share of the parameter's posterior
 KEEPS = 0.98  # the success a world must keep where the real robot placed every transfer
@@ -78,11 +78,14 @@ def predict(
     apart), each from its posterior over the fit cells (`count` worlds of it, simulated); and the prediction
     of each profile alone. `best_value`: each cell is also simulated at the profile's best value, a cell
     placed in full on to `transfers_to_keep()` (`_keep_up`); without (a prediction over a range has no best
-    value to keep), `Prediction.at_best` holds the posterior's worlds' transfers pooled."""
+    value to keep), `Prediction.at_best` holds the worlds' transfers pooled by their weights (the mixture's:
+    every profile's, by `shares`; `weighted_pool`)."""
     keys = [c.key for c in cells]
+    share = np.full(len(profiles), 1.0 / len(profiles)) if shares is None else np.asarray(shares, dtype=float)
     pmfs: dict[Key, list[np.ndarray]] = {key: [] for key in keys}
     best: list[dict[Key, SimCounts]] = []
-    for fitted in profiles:
+    drawn: list[tuple[dict[Key, SimCounts], float]] = []  # every world the mixture draws on, and its weight
+    for fitted, part in zip(profiles, share):
         values, weights = nodes(*fitted.posterior(), count=count)
         worlds = [fitted.candidate.world(float(v), fitted.base) for v in values]
         if best_value:
@@ -90,27 +93,48 @@ def predict(
             _keep_up(mapper, fitted, cells, transfers, at_best)
         else:
             sims = simulate_cells(mapper, worlds, keys, transfers, PREDICT_SEED)
-            at_best = {key: _pooled([s[key] for s in sims]) for key in keys}
+            at_best = {key: weighted_pool([(s[key], w) for s, w in zip(sims, weights)]) for key in keys}
         best.append(at_best)
+        drawn += [(sim, part * weight) for sim, weight in zip(sims, weights)]
         for cell in cells:
             pmfs[cell.key].append(_mixture(cell, [s[cell.key] for s in sims], weights))
     each = [
         {c.key: _prediction(c, pmfs[c.key][k], best[k][c.key]) for c in cells} for k in range(len(profiles))
     ]
-    share = np.full(len(profiles), 1.0 / len(profiles)) if shares is None else np.asarray(shares, dtype=float)
     mixed = {
-        c.key: _prediction(c, np.tensordot(share, np.array(pmfs[c.key]), axes=1), best[0][c.key])
+        c.key: _prediction(
+            c,
+            np.tensordot(share, np.array(pmfs[c.key]), axes=1),
+            best[0][c.key] if best_value else weighted_pool([(sim[c.key], w) for sim, w in drawn]),
+        )
         for c in cells
     }
     return mixed, each
 
 
-def _pooled(counts: Sequence[SimCounts]) -> SimCounts:
-    """The transfers of several simulations of one cell as one."""
-    pooled = replace(counts[0], counts=dict(counts[0].counts))
-    for more in counts[1:]:
-        pooled.merge(more)
-    return pooled
+def weighted_pool(drawn: Sequence[tuple[SimCounts, float]]) -> SimCounts:
+    """The simulated transfers of several worlds as one, each world weighing its share of a mixture (or of a
+    posterior): the category shares averaged by weight and scaled to the pool's effective number of
+    transfers (Kish's, 1 / Σ wₖ² / nₖ, the weights normalised), so a world of no weight adds nothing and a
+    mixture that one world dominates claims no more transfers than that world simulated. Where a prediction
+    has no best value to simulate (it spans open effects' ranges), this is what it simulates after."""
+    kept = [(sim, w) for sim, w in drawn if w > 0 and sim.attempted > 0]
+    if not kept:
+        return SimCounts()
+    w = np.array([weight for _, weight in kept], dtype=float)
+    w /= w.sum()
+    n = np.array([sim.attempted for sim, _ in kept], dtype=float)
+    effective = 1.0 / float((w**2 / n).sum())
+    shares = sum(wk * sim.vector() / nk for wk, (sim, _), nk in zip(w, kept, n))
+    placed = np.array([w_k * sim.succeeded / n_k for w_k, (sim, _), n_k in zip(w, kept, n)])
+    return SimCounts(
+        counts={c: int(round(x * effective)) for c, x in zip(CATEGORIES, shares)},
+        seconds=float(sum(wk * sim.seconds for wk, (sim, _) in zip(w, kept))),
+        placed_seconds=float(placed @ [sim.placed_seconds for sim, _ in kept] / placed.sum())
+        if placed.sum() > 0
+        else 0.0,
+        skipped=int(round(effective * sum(wk * sim.skipped / nk for wk, (sim, _), nk in zip(w, kept, n)))),
+    )
 
 
 def _keep_up(

@@ -168,7 +168,7 @@ def fitted_world_name(d: Diagnosis) -> str:
         return " + ".join(f.candidate.kind for f in d.verdict.named)
     if d.verdict.tied:
         return "the tie, mixed" if len(d.verdict.tied) > 1 else d.verdict.tied[0].label
-    return "the default world"
+    return OPEN_MIXED if d.alternatives else "the default world"
 
 
 def _verdict(cell: Cell, q: Prediction, kept: bool = True) -> str:
@@ -298,6 +298,12 @@ def _finding(d: Diagnosis) -> list[str]:
             + ", each weighed by how well it fits the fit cells on average over its range): what a "
             "prediction carries when the fit cells cannot say whether an effect acts, where the world "
             "without them assumes none does."
+            + (
+                " The fit cells reject the default world and no effect explains them alone, so the mixture "
+                "is the prediction (Prove); the default world is shown beside it."
+                if d.verdict.explanation is None
+                else ""
+            )
         )
     if d.resolved:
         lines.append(d.resolved)
@@ -348,6 +354,8 @@ def report_markdown(d: Diagnosis, commands: list[str] | None = None) -> str:
         lines.append("")
     lines += [
         "## Prove",
+        f"Predicted with {fitted_world_name(d)}.",
+        "",
         "| variant | condition | real | simulated before | after | predicted (95 %) | held out | inside "
         "| s per transfer placed (trial): real / before / after |",
         "|---|---|---|---|---|---|---|---|---|",
