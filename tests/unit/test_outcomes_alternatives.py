@@ -175,7 +175,7 @@ def test_fit_cells_that_reject_the_default_world_unexplained_are_predicted_with_
     assert cell["predicted"]["rate"] == mixed[bilateral].rate
     markdown = report_markdown(d)
     assert "Predicted with what is open, mixed." in markdown
-    assert "the mixture is the prediction (Prove)" in markdown
+    assert "rejects the default world" in markdown and "the mixture is the prediction (Prove)" in markdown
 
 
 def test_fit_cells_that_do_not_reject_the_default_world_are_predicted_with_it() -> None:

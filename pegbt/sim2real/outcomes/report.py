@@ -299,8 +299,9 @@ def _finding(d: Diagnosis) -> list[str]:
             "prediction carries when the fit cells cannot say whether an effect acts, where the world "
             "without them assumes none does."
             + (
-                " The fit cells reject the default world and no effect explains them alone, so the mixture "
-                "is the prediction (Prove); the default world is shown beside it."
+                " The fit's gate (the fit cells' placed rows, a family of their own) rejects the default "
+                "world and no effect explains the fit cells alone, so the mixture is the prediction (Prove); "
+                "the default world is shown beside it."
                 if d.verdict.explanation is None
                 else ""
             )
