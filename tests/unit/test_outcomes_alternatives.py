@@ -13,7 +13,7 @@ import pytest
 from pegbt.sim.world_effects import WorldEffects
 from pegbt.sim2real.outcomes.alternatives import Alternative, shares
 from pegbt.sim2real.outcomes.cells import Cell, Outcomes
-from pegbt.sim2real.outcomes.diagnose import Settings, diagnose
+from pegbt.sim2real.outcomes.diagnose import Diagnosis, Settings, diagnose
 from pegbt.sim2real.outcomes.fit import Candidate, Profile
 from pegbt.sim2real.outcomes.phasesim import TransferResult
 from pegbt.sim2real.outcomes.report import report_dict, report_markdown
@@ -147,22 +147,28 @@ def _unexplained_rate(effects: WorldEffects, variant: str, condition: str) -> fl
     return 0.2 + (0.5 * capture if variant == "bilateral" else 0.0)
 
 
+def _diagnosed_with_unilateral_placing(placed: int) -> Diagnosis:
+    """`placed` of 80 unilateral uncalibrated transfers (the default world places a fifth), fitted on
+    unilateral; bilateral uncalibrated (40 of 80) held out."""
+    cells = (
+        failing_at("lift", "unilateral", "uncalibrated", 80, placed),
+        failing_at("lift", "unilateral", "calibrated", 80, 80),
+        failing_at("lift", "bilateral", "uncalibrated", 80, 40),
+    )
+    return diagnose(
+        Outcomes(cells, "test"),
+        Settings(fit="unilateral", transfers=120, points=3),
+        rate_mapper(_unexplained_rate, "lift", stream=11),
+    )
+
+
 def test_fit_cells_that_reject_the_default_world_unexplained_are_predicted_with_what_they_leave_open() -> (
     None
 ):
     """The unilateral cell places 48 of 80 where the default world places a fifth: the gate opens, no
     effect explains it, and the held-out bilateral cell is predicted with the open grasp capture mixed in,
     not with the default world the fit cells reject (which is still shown beside it)."""
-    cells = (
-        failing_at("lift", "unilateral", "uncalibrated", 80, 48),
-        failing_at("lift", "unilateral", "calibrated", 80, 80),
-        failing_at("lift", "bilateral", "uncalibrated", 80, 40),
-    )
-    d = diagnose(
-        Outcomes(cells, "test"),
-        Settings(fit="unilateral", transfers=120, points=3),
-        rate_mapper(_unexplained_rate, "lift", stream=11),
-    )
+    d = _diagnosed_with_unilateral_placing(48)
     assert d.verdict.tried and not d.verdict.named and not d.verdict.tied
     assert "grasp_capture.width" in {a.name for a in d.alternatives}
     bilateral = ("bilateral", "uncalibrated")
@@ -181,15 +187,6 @@ def test_fit_cells_that_reject_the_default_world_unexplained_are_predicted_with_
 def test_fit_cells_that_do_not_reject_the_default_world_are_predicted_with_it() -> None:
     """The same cells with unilateral as the default world places it: no fit, nothing open, and the
     held-out cell is predicted by the default world."""
-    cells = (
-        failing_at("lift", "unilateral", "uncalibrated", 80, 16),
-        failing_at("lift", "unilateral", "calibrated", 80, 80),
-        failing_at("lift", "bilateral", "uncalibrated", 80, 40),
-    )
-    d = diagnose(
-        Outcomes(cells, "test"),
-        Settings(fit="unilateral", transfers=120, points=3),
-        rate_mapper(_unexplained_rate, "lift", stream=11),
-    )
+    d = _diagnosed_with_unilateral_placing(16)
     assert not d.verdict.tried and not d.alternatives and not d.predicted_by
     assert "Predicted with the default world." in report_markdown(d)
