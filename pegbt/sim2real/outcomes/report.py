@@ -435,7 +435,7 @@ def write_figure(d: Diagnosis, path: Path) -> Path:
         yerr=[[p.rate - p.low for p in predicted], [p.high - p.rate for p in predicted]],
         fmt="s",
         color="tab:blue",
-        label="fitted world (95 % predictive)",
+        label=f"predicted with {fitted_world_name(d)} (95 %)",
     )
     rates.set_xticks(list(x), labels, fontsize=7)
     rates.set_ylabel("transfers placed")
