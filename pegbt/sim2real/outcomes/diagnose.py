@@ -87,6 +87,12 @@ class Diagnosis:
     def world(self) -> WorldEffects:
         return self.verdict.world()
 
+    @property
+    def predicts_open_mixture(self) -> bool:
+        """Whether `predictions` are what the fit cells leave open, mixed: they reject the default world
+        (the gate opened), nothing explains them, and something is left open (`diagnose`)."""
+        return self.verdict.explanation is None and bool(self.alternatives)
+
 
 def split(cells: Sequence[Cell], fit_on: str) -> tuple[tuple[Cell, ...], tuple[Cell, ...]]:
     """The cells the fit sees (`fit_on`: all, a variant or a condition) and the rest."""

@@ -115,25 +115,26 @@ def predict(
 def weighted_pool(drawn: Sequence[tuple[SimCounts, float]]) -> SimCounts:
     """The simulated transfers of several worlds as one, each world weighing its share of a mixture (or of a
     posterior): the category shares averaged by weight and scaled to the pool's effective number of
-    transfers (Kish's, 1 / Σ wₖ² / nₖ, the weights normalised), so a world of no weight adds nothing and a
+    transfers (Kish's, 1 / Σ (wₖ² / nₖ), the weights normalised), so a world of no weight adds nothing and a
     mixture that one world dominates claims no more transfers than that world simulated. Where a prediction
     has no best value to simulate (it spans open effects' ranges), this is what it simulates after."""
     kept = [(sim, w) for sim, w in drawn if w > 0 and sim.attempted > 0]
     if not kept:
         return SimCounts()
+    sims = [sim for sim, _ in kept]
     w = np.array([weight for _, weight in kept], dtype=float)
     w /= w.sum()
-    n = np.array([sim.attempted for sim, _ in kept], dtype=float)
+    n = np.array([sim.attempted for sim in sims], dtype=float)
     effective = 1.0 / float((w**2 / n).sum())
-    shares = sum(wk * sim.vector() / nk for wk, (sim, _), nk in zip(w, kept, n))
-    placed = np.array([w_k * sim.succeeded / n_k for w_k, (sim, _), n_k in zip(w, kept, n)])
+    shares = w @ (np.array([sim.vector() for sim in sims]) / n[:, None])
+    placed = w * np.array([sim.succeeded for sim in sims]) / n  # each world's share of the pool's placed
     return SimCounts(
         counts={c: int(round(x * effective)) for c, x in zip(CATEGORIES, shares)},
-        seconds=float(sum(wk * sim.seconds for wk, (sim, _) in zip(w, kept))),
-        placed_seconds=float(placed @ [sim.placed_seconds for sim, _ in kept] / placed.sum())
+        seconds=float(w @ [sim.seconds for sim in sims]),
+        placed_seconds=float(placed @ [sim.placed_seconds for sim in sims] / placed.sum())
         if placed.sum() > 0
         else 0.0,
-        skipped=int(round(effective * sum(wk * sim.skipped / nk for wk, (sim, _), nk in zip(w, kept, n)))),
+        skipped=int(round(effective * float(w @ (np.array([sim.skipped for sim in sims]) / n)))),
     )
 
 

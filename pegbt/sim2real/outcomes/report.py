@@ -168,7 +168,7 @@ def fitted_world_name(d: Diagnosis) -> str:
         return " + ".join(f.candidate.kind for f in d.verdict.named)
     if d.verdict.tied:
         return "the tie, mixed" if len(d.verdict.tied) > 1 else d.verdict.tied[0].label
-    return OPEN_MIXED if d.alternatives else "the default world"
+    return OPEN_MIXED if d.predicts_open_mixture else "the default world"
 
 
 def _verdict(cell: Cell, q: Prediction, kept: bool = True) -> str:
@@ -302,7 +302,7 @@ def _finding(d: Diagnosis) -> list[str]:
                 " The fit's gate (the fit cells' placed rows, a family of their own) rejects the default "
                 "world and no effect explains the fit cells alone, so the mixture is the prediction (Prove); "
                 "the default world is shown beside it."
-                if d.verdict.explanation is None
+                if d.predicts_open_mixture
                 else ""
             )
         )
