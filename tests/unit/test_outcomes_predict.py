@@ -100,3 +100,13 @@ def test_a_weighted_pool_weighs_each_world_by_its_share_and_claims_its_effective
     alone = weighted_pool([(good, 1.0), (bad, 0.0)])
     assert alone.counts == good.counts
     assert weighted_pool([(good, 0.0)]).attempted == 0
+
+
+def test_tied_profiles_simulate_after_at_their_best_values_pooled() -> None:
+    """Two tied fits, one bending the peg too little to fail a bilateral lowering and one past it: what
+    the tie simulates after is both best values by their shares, not the first tied world alone."""
+    low, high = _profile(0.00075, 0.0002), _profile(0.003, 0.0002)
+    mixed, each = predict(_step, [low, high], CELLS, 12, shares=[0.75, 0.25])
+    key = CELLS[0].key
+    assert each[0][key].at_best.rate == 1.0 and each[1][key].at_best.rate == 0.0
+    assert mixed[key].at_best.rate == pytest.approx(0.75, abs=0.01)

@@ -77,9 +77,10 @@ def predict(
     """Each of `cells` predicted by `profiles` mixed (equally, or by `shares`: effects the data cannot tell
     apart), each from its posterior over the fit cells (`count` worlds of it, simulated); and the prediction
     of each profile alone. `best_value`: each cell is also simulated at the profile's best value, a cell
-    placed in full on to `transfers_to_keep()` (`_keep_up`); without (a prediction over a range has no best
-    value to keep), `Prediction.at_best` holds the worlds' transfers pooled by their weights (the mixture's:
-    every profile's, by `shares`; `weighted_pool`)."""
+    placed in full on to `transfers_to_keep()` (`_keep_up`), and the mixture's `Prediction.at_best` pools the
+    profiles' best values by their shares; without (a prediction over a range has no best value to keep),
+    `Prediction.at_best` holds the worlds' transfers pooled by their weights (the mixture's: every
+    profile's, by `shares`; `weighted_pool`)."""
     keys = [c.key for c in cells]
     share = np.full(len(profiles), 1.0 / len(profiles)) if shares is None else np.asarray(shares, dtype=float)
     pmfs: dict[Key, list[np.ndarray]] = {key: [] for key in keys}
@@ -105,11 +106,21 @@ def predict(
         c.key: _prediction(
             c,
             np.tensordot(share, np.array(pmfs[c.key]), axes=1),
-            best[0][c.key] if best_value else weighted_pool([(sim[c.key], w) for sim, w in drawn]),
+            _pooled_after(c.key, best, share)
+            if best_value
+            else weighted_pool([(s[c.key], w) for s, w in drawn]),
         )
         for c in cells
     }
     return mixed, each
+
+
+def _pooled_after(key: Key, best: Sequence[dict[Key, SimCounts]], share: np.ndarray) -> SimCounts:
+    """What a mixture of profiles simulates after in cell `key`: one profile's best value as simulated; tied
+    profiles' best values pooled by their shares, so no tied world stands for the others."""
+    if len(best) == 1:
+        return best[0][key]
+    return weighted_pool([(b[key], float(w)) for b, w in zip(best, share)])
 
 
 def weighted_pool(drawn: Sequence[tuple[SimCounts, float]]) -> SimCounts:
