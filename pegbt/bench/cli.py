@@ -26,6 +26,13 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
         help="sim2real-outcomes only: seeds per family (default 5, the goal's size; fewer to fit a session)",
     )
     parser.add_argument(
+        "--first-seed",
+        type=int,
+        metavar="K",
+        help="sim2real-outcomes only: run seeds K to K + N - 1 (default 0), to split the full run over "
+        "sessions or machines",
+    )
+    parser.add_argument(
         "--families",
         metavar="A,B",
         help="sim2real-outcomes only: the families to run, comma-separated (default all; names in "
@@ -54,14 +61,17 @@ def _bench(args: argparse.Namespace) -> int:
     options: dict[str, object] = {}
     if args.seeds is not None:
         options["seeds"] = args.seeds
+    if args.first_seed is not None:
+        options["first_seed"] = args.first_seed
     if args.families is not None:
         options["families"] = [f.strip() for f in args.families.split(",") if f.strip()]
     if args.out is not None:
         options["out"] = args.out
     if options and args.names != ["sim2real-outcomes"]:
         raise PegbtError(
-            "--seeds, --families and --out are the sim2real-outcomes benchmark's alone: name only it",
-            field=next(f"--{name}" for name in ("seeds", "families", "out") if name in options),
+            "--seeds, --first-seed, --families and --out are the sim2real-outcomes benchmark's alone: "
+            "name only it",
+            field=next(f"--{name.replace('_', '-')}" for name in options),
         )
     results: dict[str, Figures] = {name: run_benchmark(name, **options) for name in args.names}
     if args.json:

@@ -316,8 +316,9 @@ def measure(
     workers: int = 2,
     simulator: Mapper | None = None,
     records: Records | None = None,
+    first_seed: int = 0,
 ) -> dict[str, float | int | str]:
-    """The figures of `families` over `seeds` seeds each, simulated by `simulator` (by default the phase
+    """The figures of `families` over `seeds` seeds each from `first_seed` on, simulated by `simulator` (by default the phase
     simulator in `workers` local processes). One memo of simulated transfers serves every diagnosis
     (`cache.MemoMapper`): their fits simulate the same worlds on the same seeds. With `records`, the plan,
     each score and each simulated transfer are kept as they come (`StoredMemo`), and those already kept are
@@ -363,7 +364,7 @@ def measure(
                     file=sys.stderr,
                     flush=True,
                 )
-        for seed in range(seeds):
+        for seed in range(first_seed, first_seed + seeds):
             kept = {f: records.scores[(f, seed)] for f in families if records and (f, seed) in records.scores}
             for family, record in kept.items():
                 needed += record["simulated"]
@@ -405,6 +406,7 @@ def measure(
         if not plans[family].applicable:
             figures[f"{family}_named"] = figures[f"{family}_resolved"] = NOT_APPLICABLE
     figures["seeds_per_family"] = seeds
+    figures["seeds"] = f"{first_seed}-{first_seed + seeds - 1}"
     figures["real_transfers_per_cell"] = real_transfers  # held-out cells; fit cells: per family
     figures["simulated_transfers_per_cell"] = settings.transfers  # at 120 real; fit cells: per family
     figures["transfers_the_diagnoses_simulate"] = needed
@@ -445,12 +447,16 @@ def _cpu_seconds() -> float:
 
 
 def run(
-    seeds: int = SEEDS, families: Sequence[str] | None = None, out: str | None = None
+    seeds: int = SEEDS,
+    families: Sequence[str] | None = None,
+    out: str | None = None,
+    first_seed: int = 0,
 ) -> dict[str, float | int | str]:
     """The benchmark at the goal's size by default (every family, `SEEDS` seeds); `seeds` and `families`
     (`pegbt bench sim2real-outcomes --seeds N --families A,B`) run a reduced one, named in its figures.
-    With `out` (`--out DIR`) the run keeps its plan and scores there and resumes from them
-    (`outcomes_records`)."""
+    `first_seed` (`--first-seed K`) runs seeds K to K + N - 1: a run longer than a session split over
+    sessions or machines, each seed's "real" transfers the same wherever it runs. With `out` (`--out DIR`)
+    the run keeps its plan and scores there and resumes from them (`outcomes_records`)."""
     chosen = list(FAMILIES) if families is None else list(families)
     unknown = [f for f in chosen if f not in FAMILIES]
     if unknown or not chosen:
@@ -460,8 +466,10 @@ def run(
         )
     if seeds < 1:
         raise PegbtError(f"expected at least 1 seed, got {seeds}", field="--seeds")
+    if first_seed < 0:
+        raise PegbtError(f"expected a seed of 0 or more, got {first_seed}", field="--first-seed")
     records = None if out is None else Records(Path(out), chosen, code_identity())
-    figures = measure(chosen, seeds, REAL_TRANSFERS, SETTINGS, records=records)
+    figures = measure(chosen, seeds, REAL_TRANSFERS, SETTINGS, records=records, first_seed=first_seed)
     figures["families"] = ",".join(chosen)
     figures["full_size"] = str(seeds >= SEEDS and set(chosen) == set(FAMILIES)).lower()
     return figures

@@ -46,8 +46,12 @@ class Counting:
         return fake_mapper(tasks)
 
 
-def _measure(seeds: int, records: Records | None, simulator: Counting) -> dict[str, float | int | str]:
-    return bench.measure(FAMILIES, seeds, 12, bench.SETTINGS, simulator=simulator, records=records)
+def _measure(
+    seeds: int, records: Records | None, simulator: Counting, first_seed: int = 0
+) -> dict[str, float | int | str]:
+    return bench.measure(
+        FAMILIES, seeds, 12, bench.SETTINGS, simulator=simulator, records=records, first_seed=first_seed
+    )
 
 
 def _same(a: dict[str, float | int | str], b: dict[str, float | int | str]) -> None:
@@ -85,6 +89,23 @@ def test_a_rerun_simulates_only_the_missing_seeds_and_gives_the_uninterrupted_fi
     diagnosed.clear()
     again = _measure(2, Records(tmp_path, FAMILIES, "code"), simulator := Counting())
     assert not diagnosed and simulator.transfers == 0
+    _same(again, straight)
+
+
+def test_a_run_split_by_first_seed_gives_the_figures_of_one_run(tmp_path: Path) -> None:
+    """Seed 1 run alone (`--first-seed 1`) on another machine, its records appended to those of seed 0:
+    the two seeds asked for again simulate nothing and give the figures of one run straight through."""
+    straight = _measure(2, None, Counting())
+    alone = _measure(1, None, Counting(), first_seed=1)
+    assert alone["seeds"] == "1-1" and straight["seeds"] == "0-1"
+    _measure(1, Records(tmp_path / "a", FAMILIES, "code"), Counting())
+    _measure(1, Records(tmp_path / "b", FAMILIES, "code"), Counting(), first_seed=1)
+    name = RECORDS.format("code")
+    seed1 = (tmp_path / "b" / name).read_text().splitlines()[1:]  # its scores, not its plan again
+    with (tmp_path / "a" / name).open("a") as merged:
+        merged.write("".join(line + "\n" for line in seed1))
+    again = _measure(2, Records(tmp_path / "a", FAMILIES, "code"), simulator := Counting())
+    assert simulator.transfers == 0
     _same(again, straight)
 
 

@@ -1,4 +1,4 @@
-"""`pegbt bench sim2real-outcomes --seeds N --families A,B [--out DIR]`: a reduced benchmark the command
+"""`pegbt bench sim2real-outcomes --seeds N [--first-seed K] --families A,B [--out DIR]`: a reduced benchmark the command
 line states, each bad choice one clear line."""
 
 from __future__ import annotations
@@ -17,6 +17,7 @@ from pegbt.cli import main
     [
         (["--families", "peg_compliance,nope"], "--families: unknown families nope"),
         (["--seeds", "0"], "--seeds: expected at least 1 seed"),
+        (["--first-seed", "-1"], "--first-seed: expected a seed of 0 or more"),
     ],
 )
 def test_a_bad_size_is_one_clear_line(
@@ -27,7 +28,7 @@ def test_a_bad_size_is_one_clear_line(
     assert words in err and len(err.splitlines()) == 1
 
 
-@pytest.mark.parametrize("option", [["--seeds", "1"], ["--out", "somewhere"]])
+@pytest.mark.parametrize("option", [["--seeds", "1"], ["--first-seed", "4"], ["--out", "somewhere"]])
 def test_the_size_options_belong_to_sim2real_outcomes_alone(
     option: list[str], capsys: pytest.CaptureFixture[str]
 ) -> None:
@@ -42,6 +43,17 @@ def test_the_reduced_run_measures_the_families_and_seeds_asked_for(monkeypatch: 
     )
     assert main(["bench", "sim2real-outcomes", "--seeds", "2", "--families", "null,peg_compliance"]) == 0
     assert asked == [(["null", "peg_compliance"], 2)]
+    first: list[int] = []
+    monkeypatch.setattr(
+        sim2real_outcomes, "measure", lambda *_, first_seed=0, **__: first.append(first_seed) or {}
+    )
+    assert (
+        main(["bench", "sim2real-outcomes", "--seeds", "1", "--first-seed", "4", "--families", "null"]) == 0
+    )
+    assert first == [4]
+    monkeypatch.setattr(
+        sim2real_outcomes, "measure", lambda families, seeds, *_, **__: asked.append((families, seeds)) or {}
+    )
     figures = sim2real_outcomes.run()
     assert asked[-1] == (list(sim2real_outcomes.FAMILIES), sim2real_outcomes.SEEDS)
     assert figures["full_size"] == "true"
@@ -51,7 +63,9 @@ def test_out_keeps_the_run_in_the_folder_under_this_codes_identity(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     kept: list[Records | None] = []
-    monkeypatch.setattr(sim2real_outcomes, "measure", lambda *_, records=None: kept.append(records) or {})
+    monkeypatch.setattr(
+        sim2real_outcomes, "measure", lambda *_, records=None, **__: kept.append(records) or {}
+    )
     assert (
         main(["bench", "sim2real-outcomes", "--seeds", "1", "--families", "null", "--out", str(tmp_path)])
         == 0
