@@ -33,6 +33,18 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
         "sessions or machines",
     )
     parser.add_argument(
+        "--workers",
+        type=int,
+        metavar="K",
+        help="sim2real-outcomes only: local worker processes (default 2)",
+    )
+    parser.add_argument(
+        "--cluster",
+        metavar="ADDRESS",
+        help="sim2real-outcomes only: simulate on this Dask scheduler instead of local workers "
+        "(`pegbt eval --cluster`'s; a tls:// address takes its certificates from Dask's configuration)",
+    )
+    parser.add_argument(
         "--families",
         metavar="A,B",
         help="sim2real-outcomes only: the families to run, comma-separated (default all; names in "
@@ -63,14 +75,18 @@ def _bench(args: argparse.Namespace) -> int:
         options["seeds"] = args.seeds
     if args.first_seed is not None:
         options["first_seed"] = args.first_seed
+    if args.workers is not None:
+        options["workers"] = args.workers
+    if args.cluster is not None:
+        options["cluster"] = args.cluster
     if args.families is not None:
         options["families"] = [f.strip() for f in args.families.split(",") if f.strip()]
     if args.out is not None:
         options["out"] = args.out
     if options and args.names != ["sim2real-outcomes"]:
         raise PegbtError(
-            "--seeds, --first-seed, --families and --out are the sim2real-outcomes benchmark's alone: "
-            "name only it",
+            "--seeds, --first-seed, --workers, --cluster, --families and --out are the sim2real-outcomes "
+            "benchmark's alone: name only it",
             field=next(f"--{name.replace('_', '-')}" for name in options),
         )
     results: dict[str, Figures] = {name: run_benchmark(name, **options) for name in args.names}

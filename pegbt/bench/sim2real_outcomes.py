@@ -48,7 +48,14 @@ from pegbt.sim2real.outcomes.cache import MemoMapper
 from pegbt.sim2real.outcomes.cells import Cell, Outcomes
 from pegbt.sim2real.outcomes.diagnose import Diagnosis, Settings, diagnose
 from pegbt.sim2real.outcomes.fit import Profile
-from pegbt.sim2real.outcomes.simulate import CATEGORIES, LocalMapper, Mapper, category_of, simulate_cells
+from pegbt.sim2real.outcomes.simulate import (
+    CATEGORIES,
+    ClusterMapper,
+    LocalMapper,
+    Mapper,
+    category_of,
+    simulate_cells,
+)
 
 # Every concealed value lies between the fit's coarse grid values (`SETTINGS.points`; `fit.candidates`), so a
 # parameter error measures the estimate the refined profile gives (`fit.refined`), not a grid that happens
@@ -451,12 +458,15 @@ def run(
     families: Sequence[str] | None = None,
     out: str | None = None,
     first_seed: int = 0,
+    workers: int = 2,
+    cluster: str | None = None,
 ) -> dict[str, float | int | str]:
     """The benchmark at the goal's size by default (every family, `SEEDS` seeds); `seeds` and `families`
     (`pegbt bench sim2real-outcomes --seeds N --families A,B`) run a reduced one, named in its figures.
     `first_seed` (`--first-seed K`) runs seeds K to K + N - 1: a run longer than a session split over
     sessions or machines, each seed's "real" transfers the same wherever it runs. With `out` (`--out DIR`)
-    the run keeps its plan and scores there and resumes from them (`outcomes_records`)."""
+    the run keeps its plan and scores there and resumes from them (`outcomes_records`). It simulates in
+    `workers` local processes (`--workers`), or on the Dask scheduler at `cluster` (`--cluster`)."""
     chosen = list(FAMILIES) if families is None else list(families)
     unknown = [f for f in chosen if f not in FAMILIES]
     if unknown or not chosen:
@@ -468,8 +478,25 @@ def run(
         raise PegbtError(f"expected at least 1 seed, got {seeds}", field="--seeds")
     if first_seed < 0:
         raise PegbtError(f"expected a seed of 0 or more, got {first_seed}", field="--first-seed")
+    if workers < 1:
+        raise PegbtError(f"expected at least 1 worker, got {workers}", field="--workers")
     records = None if out is None else Records(Path(out), chosen, code_identity())
-    figures = measure(chosen, seeds, REAL_TRANSFERS, SETTINGS, records=records, first_seed=first_seed)
+    cluster_mapper = None if cluster is None else ClusterMapper(cluster)
+    try:
+        figures = measure(
+            chosen,
+            seeds,
+            REAL_TRANSFERS,
+            SETTINGS,
+            workers,
+            cluster_mapper,
+            records=records,
+            first_seed=first_seed,
+        )
+    finally:
+        if cluster_mapper is not None:
+            cluster_mapper.close()
+    figures["workers"] = cluster or workers
     figures["families"] = ",".join(chosen)
     figures["full_size"] = str(seeds >= SEEDS and set(chosen) == set(FAMILIES)).lower()
     return figures

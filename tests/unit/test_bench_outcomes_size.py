@@ -18,6 +18,7 @@ from pegbt.cli import main
         (["--families", "peg_compliance,nope"], "--families: unknown families nope"),
         (["--seeds", "0"], "--seeds: expected at least 1 seed"),
         (["--first-seed", "-1"], "--first-seed: expected a seed of 0 or more"),
+        (["--workers", "0"], "--workers: expected at least 1 worker"),
     ],
 )
 def test_a_bad_size_is_one_clear_line(
@@ -28,7 +29,16 @@ def test_a_bad_size_is_one_clear_line(
     assert words in err and len(err.splitlines()) == 1
 
 
-@pytest.mark.parametrize("option", [["--seeds", "1"], ["--first-seed", "4"], ["--out", "somewhere"]])
+@pytest.mark.parametrize(
+    "option",
+    [
+        ["--seeds", "1"],
+        ["--first-seed", "4"],
+        ["--workers", "4"],
+        ["--cluster", "tcp://127.0.0.1:1"],
+        ["--out", "x"],
+    ],
+)
 def test_the_size_options_belong_to_sim2real_outcomes_alone(
     option: list[str], capsys: pytest.CaptureFixture[str]
 ) -> None:
@@ -76,3 +86,35 @@ def test_out_keeps_the_run_in_the_folder_under_this_codes_identity(
         and records.path == tmp_path / RECORDS.format(code_identity()[:16])
         and records.code == code_identity()
     )
+
+
+def test_workers_and_a_cluster_reach_the_simulator(monkeypatch: pytest.MonkeyPatch) -> None:
+    """`--workers K` sizes the local pool; `--cluster ADDRESS` simulates on that scheduler instead, its
+    client closed when the run ends."""
+    asked: list[tuple[int, object]] = []
+    monkeypatch.setattr(
+        sim2real_outcomes,
+        "measure",
+        lambda families, seeds, real, settings, workers, simulator, **_: (
+            asked.append((workers, simulator)) or {}
+        ),
+    )
+    opened: list[FakeCluster] = []
+
+    class FakeCluster:
+        def __init__(self, address: str) -> None:
+            self.address, self.closed = address, False
+            opened.append(self)
+
+        def close(self) -> None:
+            self.closed = True
+
+    monkeypatch.setattr(sim2real_outcomes, "ClusterMapper", FakeCluster)
+    assert main(["bench", "sim2real-outcomes", "--families", "null", "--seeds", "1", "--workers", "4"]) == 0
+    assert asked == [(4, None)]
+    address = "tcp://127.0.0.1:8786"
+    assert (
+        main(["bench", "sim2real-outcomes", "--families", "null", "--seeds", "1", "--cluster", address]) == 0
+    )
+    (cluster,) = opened
+    assert asked[-1] == (2, cluster) and cluster.address == address and cluster.closed
