@@ -35,6 +35,19 @@ def temporary_certificates(folder: Path) -> ClusterTls:
     return files
 
 
+def placeholder_certificates(folder: Path) -> ClusterTls:
+    """Three files that are there and say they are PEM, for checks made before any connection."""
+    files = ClusterTls(folder / "ca.pem", folder / "cert.pem", folder / "key.pem")
+    for path in (files.ca_file, files.cert, files.key):
+        path.write_text("-----BEGIN CERTIFICATE-----\n")
+    return files
+
+
+def tls_options(tls: ClusterTls) -> list[str]:
+    """The command line's `--tls-ca-file`, `--tls-cert` and `--tls-key` for `tls`."""
+    return ["--tls-ca-file", str(tls.ca_file), "--tls-cert", str(tls.cert), "--tls-key", str(tls.key)]
+
+
 class LocalDaskCluster:
     def __init__(self, workers: int, pythonpath: Path = REPO, tls: ClusterTls | None = None) -> None:
         self.port = free_port()

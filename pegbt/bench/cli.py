@@ -8,6 +8,7 @@ import math
 
 from pegbt.bench import Figures, benchmark_names, run_benchmark
 from pegbt.errors import PegbtError
+from pegbt.evaluation.cli import add_tls_options, checked_cluster_tls
 
 
 def add_commands(subparsers: argparse._SubParsersAction) -> None:
@@ -42,8 +43,9 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
         "--cluster",
         metavar="ADDRESS",
         help="sim2real-outcomes only: simulate on this Dask scheduler instead of local workers "
-        "(`pegbt eval --cluster`'s; a tls:// address takes its certificates from Dask's configuration)",
+        "(tls://HOST:PORT with the --tls options, or tcp://HOST:PORT on a trusted network)",
     )
+    add_tls_options(parser)
     parser.add_argument(
         "--families",
         metavar="A,B",
@@ -77,16 +79,17 @@ def _bench(args: argparse.Namespace) -> int:
         options["first_seed"] = args.first_seed
     if args.workers is not None:
         options["workers"] = args.workers
-    if args.cluster is not None:
+    if args.cluster is not None or args.tls_ca_file or args.tls_cert or args.tls_key:
         options["cluster"] = args.cluster
+        options["tls"] = checked_cluster_tls(args)
     if args.families is not None:
         options["families"] = [f.strip() for f in args.families.split(",") if f.strip()]
     if args.out is not None:
         options["out"] = args.out
     if options and args.names != ["sim2real-outcomes"]:
         raise PegbtError(
-            "--seeds, --first-seed, --workers, --cluster, --families and --out are the sim2real-outcomes "
-            "benchmark's alone: name only it",
+            "--seeds, --first-seed, --workers, --cluster (with its --tls options), --families and --out are "
+            "the sim2real-outcomes benchmark's alone: name only it",
             field=next(f"--{name.replace('_', '-')}" for name in options),
         )
     results: dict[str, Figures] = {name: run_benchmark(name, **options) for name in args.names}

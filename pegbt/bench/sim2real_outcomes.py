@@ -38,6 +38,7 @@ import time
 from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from pegbt.bench.outcomes_power import Change, detectability, detectable_at, surely_beyond
 from pegbt.bench.outcomes_records import Records, StoredMemo, code_identity, simulator_identity
@@ -56,6 +57,9 @@ from pegbt.sim2real.outcomes.simulate import (
     category_of,
     simulate_cells,
 )
+
+if TYPE_CHECKING:
+    from pegbt.evaluation.cluster import ClusterTls
 
 # Every concealed value lies between the fit's coarse grid values (`SETTINGS.points`; `fit.candidates`), so a
 # parameter error measures the estimate the refined profile gives (`fit.refined`), not a grid that happens
@@ -460,13 +464,15 @@ def run(
     first_seed: int = 0,
     workers: int = 2,
     cluster: str | None = None,
+    tls: ClusterTls | None = None,
 ) -> dict[str, float | int | str]:
     """The benchmark at the goal's size by default (every family, `SEEDS` seeds); `seeds` and `families`
     (`pegbt bench sim2real-outcomes --seeds N --families A,B`) run a reduced one, named in its figures.
     `first_seed` (`--first-seed K`) runs seeds K to K + N - 1: a run longer than a session split over
     sessions or machines, each seed's "real" transfers the same wherever it runs. With `out` (`--out DIR`)
     the run keeps its plan and scores there and resumes from them (`outcomes_records`). It simulates in
-    `workers` local processes (`--workers`), or on the Dask scheduler at `cluster` (`--cluster`)."""
+    `workers` local processes (`--workers`), or on the Dask scheduler at `cluster` (`--cluster`, with the
+    certificates `tls` for a `tls://` address)."""
     chosen = list(FAMILIES) if families is None else list(families)
     unknown = [f for f in chosen if f not in FAMILIES]
     if unknown or not chosen:
@@ -481,7 +487,7 @@ def run(
     if workers < 1:
         raise PegbtError(f"expected at least 1 worker, got {workers}", field="--workers")
     records = None if out is None else Records(Path(out), chosen, code_identity())
-    cluster_mapper = None if cluster is None else ClusterMapper(cluster)
+    cluster_mapper = None if cluster is None else ClusterMapper(cluster, tls=tls)
     try:
         figures = measure(
             chosen,

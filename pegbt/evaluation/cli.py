@@ -104,15 +104,7 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
         "tcp://HOST:PORT on a trusted network; needs the cluster extra) instead of --workers local "
         "processes; logs come back here unless the workers see --out",
     )
-    parser.add_argument(
-        "--tls-ca-file", type=Path, metavar="PEM", help="--cluster tls://: the CA certificate"
-    )
-    parser.add_argument(
-        "--tls-cert", type=Path, metavar="PEM", help="--cluster tls://: this client's certificate"
-    )
-    parser.add_argument(
-        "--tls-key", type=Path, metavar="PEM", help="--cluster tls://: this client's private key"
-    )
+    add_tls_options(parser)
     parser.add_argument(
         "--keep-logs",
         action="store_true",
@@ -134,13 +126,7 @@ def check_arguments(args: argparse.Namespace) -> None:
             raise PegbtError(f"must be at least 1, got {getattr(args, name)}", field=f"--{name}")
     if args.seed < 0:
         raise PegbtError(f"seeds are non-negative, got {args.seed}", field="--seed")
-    tls_files = (args.tls_ca_file, args.tls_cert, args.tls_key)
-    if any(tls_files) and args.cluster is None:
-        raise PegbtError("the --tls options are for --cluster tls://HOST:PORT", field="--tls-ca-file")
-    if args.cluster is not None:
-        from pegbt.evaluation.cluster import check_address
-
-        check_address(args.cluster, cluster_tls(args))
+    checked_cluster_tls(args)
     if args.faults is not None:
         from pegbt.sim.fault_plan import FaultPlan
 
@@ -151,6 +137,32 @@ def check_arguments(args: argparse.Namespace) -> None:
         read_world_file(args.world_effects)  # refused here, with its location, not in every trial
     check_interface(args.interface, args.realtime)
     refuse_dvrk_only(args)
+
+
+def add_tls_options(parser: argparse.ArgumentParser) -> None:
+    """`--tls-ca-file`, `--tls-cert` and `--tls-key`: the certificates of a `--cluster tls://` scheduler."""
+    parser.add_argument(
+        "--tls-ca-file", type=Path, metavar="PEM", help="--cluster tls://: the CA certificate"
+    )
+    parser.add_argument(
+        "--tls-cert", type=Path, metavar="PEM", help="--cluster tls://: this client's certificate"
+    )
+    parser.add_argument(
+        "--tls-key", type=Path, metavar="PEM", help="--cluster tls://: this client's private key"
+    )
+
+
+def checked_cluster_tls(args: argparse.Namespace) -> ClusterTls | None:
+    """`--cluster`'s address and certificates checked before any connection (`add_tls_options`): the
+    certificates, or None; a `PegbtError` for certificates without `--cluster` or a bad address."""
+    if any((args.tls_ca_file, args.tls_cert, args.tls_key)) and args.cluster is None:
+        raise PegbtError("the --tls options are for --cluster tls://HOST:PORT", field="--tls-ca-file")
+    tls = cluster_tls(args)
+    if args.cluster is not None:
+        from pegbt.evaluation.cluster import check_address
+
+        check_address(args.cluster, tls)
+    return tls
 
 
 def cluster_tls(args: argparse.Namespace) -> ClusterTls | None:

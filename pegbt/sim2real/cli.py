@@ -8,6 +8,7 @@ import sys
 
 from pegbt.bagoptions import add_bag_arguments, bag_options
 from pegbt.errors import PegbtError
+from pegbt.evaluation.cli import add_tls_options, checked_cluster_tls
 from pegbt.numbers import NumberOption
 from pegbt.psm import ARMS
 
@@ -176,7 +177,13 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
         default=2,
         help="local worker processes (0: none)",
     )
-    outcomes.add_argument("--cluster", metavar="ADDRESS", help="simulate on this Dask scheduler instead")
+    outcomes.add_argument(
+        "--cluster",
+        metavar="ADDRESS",
+        help="simulate on this Dask scheduler instead (tls://HOST:PORT with the --tls options, or "
+        "tcp://HOST:PORT on a trusted network)",
+    )
+    add_tls_options(outcomes)
     outcomes.add_argument(
         "--confirm",
         action=NumberOption,
@@ -256,9 +263,10 @@ def _outcomes(args: argparse.Namespace) -> int:
         raise PegbtError(
             "give REAL (a tick-log folder or an outcome table) or --table paper", field="outcomes"
         )
+    tls = checked_cluster_tls(args)  # a bad --cluster is said before any simulation
     from pegbt.sim2real.outcomes.cli import run_outcomes
 
-    return run_outcomes(args)
+    return run_outcomes(args, tls)
 
 
 def _preset(args: argparse.Namespace) -> int:

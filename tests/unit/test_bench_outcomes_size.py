@@ -102,7 +102,7 @@ def test_workers_and_a_cluster_reach_the_simulator(monkeypatch: pytest.MonkeyPat
     opened: list[FakeCluster] = []
 
     class FakeCluster:
-        def __init__(self, address: str) -> None:
+        def __init__(self, address: str, tls: object = None) -> None:
             self.address, self.closed = address, False
             opened.append(self)
 

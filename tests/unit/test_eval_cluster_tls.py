@@ -9,20 +9,14 @@ import pytest
 
 from pegbt.cli import main
 from pegbt.evaluation.cluster import exposure_warning
+from tests.cluster_helpers import placeholder_certificates, tls_options
 
 EVAL = ["eval", "--variant", "bilateral", "--condition", "optimized", "--trials", "1"]
 
 
 @pytest.fixture
 def pem(tmp_path):
-    files = {name: tmp_path / f"{name}.pem" for name in ("ca", "cert", "key")}
-    for path in files.values():
-        path.write_text("-----BEGIN CERTIFICATE-----\n")
-    return files
-
-
-def tls_args(pem) -> list[str]:
-    return ["--tls-ca-file", str(pem["ca"]), "--tls-cert", str(pem["cert"]), "--tls-key", str(pem["key"])]
+    return placeholder_certificates(tmp_path)
 
 
 @pytest.mark.parametrize(
@@ -43,16 +37,16 @@ def test_loopback_and_tls_schedulers_are_not_warned_about(address):
 
 def test_certificates_go_with_a_tls_address_only(tmp_path, pem, capsys):
     out = ["--out", str(tmp_path / "out")]
-    assert main([*EVAL, *out, "--cluster", "tcp://127.0.0.1:8786", *tls_args(pem)]) == 2
+    assert main([*EVAL, *out, "--cluster", "tcp://127.0.0.1:8786", *tls_options(pem)]) == 2
     assert "are for a tls:// scheduler" in capsys.readouterr().err
-    assert main([*EVAL, *out, *tls_args(pem)]) == 2
+    assert main([*EVAL, *out, *tls_options(pem)]) == 2
     assert "the --tls options are for --cluster" in capsys.readouterr().err
-    assert main([*EVAL, *out, "--cluster", "tls://127.0.0.1:8786", *tls_args(pem)[:4]]) == 2
+    assert main([*EVAL, *out, "--cluster", "tls://127.0.0.1:8786", *tls_options(pem)[:4]]) == 2
     assert "--tls-key: give all of --tls-ca-file, --tls-cert, --tls-key, or none" in capsys.readouterr().err
-    pem["key"].unlink()
-    assert main([*EVAL, *out, "--cluster", "tls://127.0.0.1:8786", *tls_args(pem)]) == 2
+    pem.key.unlink()
+    assert main([*EVAL, *out, "--cluster", "tls://127.0.0.1:8786", *tls_options(pem)]) == 2
     err = capsys.readouterr().err
-    assert str(pem["key"]) in err and "--tls-key" in err and err.count("\n") == 1
+    assert str(pem.key) in err and "--tls-key" in err and err.count("\n") == 1
 
 
 def test_a_tls_address_without_certificates_says_which_options_it_needs(tmp_path, capsys):

@@ -8,6 +8,7 @@ import logging
 import shlex
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from pegbt.errors import PegbtError
 from pegbt.sim2real.outcomes.cells import Outcomes
@@ -15,6 +16,9 @@ from pegbt.sim2real.outcomes.diagnose import Settings, diagnose, split
 from pegbt.sim2real.outcomes.report import report_dict, report_markdown, write_report
 from pegbt.sim2real.outcomes.simulate import ClusterMapper, LocalMapper, attempts_for, registered_for
 from pegbt.sim2real.outcomes.table import paper_table, read_table
+
+if TYPE_CHECKING:
+    from pegbt.evaluation.cluster import ClusterTls
 
 
 def read_outcomes(real: str | None, table: str | None) -> Outcomes:
@@ -32,7 +36,9 @@ def read_outcomes(real: str | None, table: str | None) -> Outcomes:
     return read_table(path)
 
 
-def run_outcomes(args: argparse.Namespace) -> int:
+def run_outcomes(args: argparse.Namespace, tls: ClusterTls | None = None) -> int:
+    """`pegbt sim2real outcomes REAL`: the diagnosis, its report and its JSON; `tls`: the certificates of a
+    `--cluster tls://` scheduler, already checked."""
     if args.confirm and not args.out:
         raise PegbtError("--confirm writes its campaigns beside the report: give --out", field="--confirm")
     outcomes = read_outcomes(args.real, args.table)
@@ -41,7 +47,7 @@ def run_outcomes(args: argparse.Namespace) -> int:
     logging.getLogger("pegbt").setLevel(logging.ERROR)  # compensation clamps, once per simulated transfer
     attempts, registered = attempts_for(outcomes), registered_for(outcomes)
     mapper = (
-        ClusterMapper(args.cluster, attempts, registered)
+        ClusterMapper(args.cluster, attempts, registered, tls)
         if args.cluster
         else LocalMapper(args.workers, attempts, registered)
     )

@@ -22,7 +22,7 @@ from collections.abc import Iterable, Sequence
 from concurrent.futures import Executor, ProcessPoolExecutor
 from dataclasses import dataclass, field, replace
 from functools import partial
-from typing import Protocol
+from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 
@@ -31,6 +31,9 @@ from pegbt.sim.world_effects import WorldEffects
 from pegbt.sim2real.outcomes.cells import PHASES, Outcomes
 from pegbt.sim2real.outcomes.phasesim import REGRASPS, Replay, TransferResult, simulate_transfer
 from pegbt.sim2real.outcomes.trialsim import in_order, simulate_trial, trial_of
+
+if TYPE_CHECKING:
+    from pegbt.evaluation.cluster import ClusterTls
 
 CATEGORIES = ("placed", *PHASES)  # a transfer placed, or failed for good in this phase (its first failure)
 Key = tuple[str, str]
@@ -207,13 +210,20 @@ class LocalMapper:
 
 
 class ClusterMapper:
-    """Simulated transfers as tasks on a Dask scheduler (`pegbt eval --cluster`'s `connect`), each with up
-    to `attempts` picks, the arms `registered` as the paper's were or not."""
+    """Simulated transfers as tasks on a Dask scheduler (`pegbt eval --cluster`'s `connect`, with its
+    certificates `tls` for a `tls://` address), each with up to `attempts` picks, the arms `registered` as
+    the paper's were or not."""
 
-    def __init__(self, address: str, attempts: int = WITH_RECOVERY, registered: bool = False) -> None:
+    def __init__(
+        self,
+        address: str,
+        attempts: int = WITH_RECOVERY,
+        registered: bool = False,
+        tls: ClusterTls | None = None,
+    ) -> None:
         from pegbt.evaluation.cluster import connect
 
-        self._client = connect(address)
+        self._client = connect(address, tls)
         self._attempts = attempts
         self._run = partial(_run_job, attempts=attempts, registered=registered)
 
