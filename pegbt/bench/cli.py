@@ -56,7 +56,7 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
         "--out",
         metavar="DIR",
         help="sim2real-outcomes only: keep the pilot's plan and each family's and seed's score in "
-        "DIR/records.jsonl as they complete; rerun with the same DIR (same code, same families) to "
+        "DIR/records-CODE.jsonl as they complete; rerun with the same DIR (same code, same families) to "
         "simulate only what is missing",
     )
     parser.set_defaults(handler=_bench)

@@ -159,7 +159,8 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
         type=int,
         at_least=2,
         default=48,
-        help="simulated transfers per cell in the default world, the comparison every cell is located by (default 48)",
+        help="simulated transfers per fit cell in the default world, which the gate and the fit compare "
+        "against (default 48; held-out cells get --transfers there)",
     )
     outcomes.add_argument(
         "--points",
@@ -167,7 +168,8 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
         type=int,
         at_least=2,
         default=5,
-        help="grid values per fitted parameter (default 5, plus one)",
+        help="grid steps across each fitted parameter's range: POINTS + 1 values, less the inert default; each "
+        "profile's maximum between them joins them (default 5)",
     )
     outcomes.add_argument(
         "--workers",

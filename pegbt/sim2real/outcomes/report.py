@@ -12,6 +12,7 @@ from pegbt.sim2real.outcomes.cells import Cell
 from pegbt.sim2real.outcomes.diagnose import OPEN_MIXED, Diagnosis, profile_parameters
 from pegbt.sim2real.outcomes.goals import Trials, judge, percent, placed_in_full, time_agrees, verdict_text
 from pegbt.sim2real.outcomes.intervals import rate_interval
+from pegbt.sim2real.outcomes.likelihood import has_phases
 from pegbt.sim2real.outcomes.predict import KEEPS, Prediction
 from pegbt.sim2real.outcomes.simulate import CATEGORIES, SimCounts
 from pegbt.sim2real.outcomes.transfer_order import arms_at_once
@@ -239,8 +240,38 @@ def _held_out_by_world(d: Diagnosis) -> list[str]:
     return lines
 
 
+def _unphased(d: Diagnosis) -> list[str]:
+    """Cells whose failures per phase are set aside: some failed in no phase the simulator tells apart (a
+    tick log's `unknown`), or they do not add up to the failures, so the cell is judged on its placed rate."""
+    lines = []
+    for cell in d.outcomes.cells:
+        if cell.failures and not has_phases(cell):
+            failed, phased = cell.attempted - cell.succeeded, sum(cell.failures.values())
+            unknown = {phase: n for phase, n in cell.failures.items() if phase not in CATEGORIES}
+            lines.append(
+                f"{cell.variant} {cell.condition}: its failures per phase are set aside and it is compared on "
+                "its placed rate alone ("
+                + (
+                    ", ".join(f"{n} failed in `{phase}`" for phase, n in sorted(unknown.items()))
+                    + ", no phase the simulator tells apart"
+                    if unknown
+                    else f"{phased} failures per phase for {failed} failed"
+                )
+                + ")."
+            )
+    return ["", *lines] if lines else []
+
+
+def _span_heading(d: Diagnosis) -> str:
+    """What the span of the worlds' rates is: the prediction itself only where a tie predicts."""
+    if len(d.verdict.tied) > 1:
+        return "Across the tie (the prediction is this span of rates, not one effect's):"
+    return f"Across the worlds above (the span of their rates; predicted with {fitted_world_name(d)}):"
+
+
 def tie_span(d: Diagnosis, cell: Cell) -> tuple[float, float]:
-    """The lowest and highest rate the effects the data cannot tell apart predict for `cell`."""
+    """The lowest and highest rate the worlds of `Diagnosis.predicted_by` predict for `cell`: a tie's, or
+    the world that predicts and those left open beside it."""
     rates = [predictions[cell.key].rate for predictions in d.predicted_by.values()]
     return min(rates), max(rates)
 
@@ -299,8 +330,8 @@ def _finding(d: Diagnosis) -> list[str]:
             "prediction carries when the fit cells cannot say whether an effect acts, where the world "
             "without them assumes none does."
             + (
-                " The fit's gate (the fit cells' placed rows, a family of their own) rejects the default "
-                "world and no effect explains the fit cells alone, so the mixture is the prediction (Prove); "
+                " The fit's gate rejects the default world in the fit cells and no effect explains them "
+                "alone, so the mixture is the prediction (Prove); "
                 "the default world is shown beside it."
                 if d.predicts_open_mixture
                 else ""
@@ -328,7 +359,8 @@ def report_markdown(d: Diagnosis, commands: list[str] | None = None) -> str:
         f"Real outcomes: {d.outcomes.source}"
         + (" (attempts end at a block lost for good)" if d.outcomes.attempts_end_at_lost_block else "")
         + f". Simulator: each transfer's phases on the world with the `dvrk-real` arm, {d.settings.located} "
-        f"transfers per cell in the default world and {d.settings.transfers} per cell and fitted world, "
+        f"transfers per fit cell in the default world ({d.settings.transfers} per held-out cell) and "
+        f"{d.settings.transfers} per cell and fitted world, "
         f"{d.simulated} in all, {d.seconds:.0f} s. Fitted on: {d.settings.fit}.",
         "",
         "## Locate",
@@ -341,6 +373,7 @@ def report_markdown(d: Diagnosis, commands: list[str] | None = None) -> str:
             f"{percent(r.real_interval[0])}–{percent(r.real_interval[1])} | {r.simulated[0]}/{r.simulated[1]} | "
             f"{percent(r.simulated_interval[0])}–{percent(r.simulated_interval[1])} | {r.p_value:.3g} | {'yes' if r.disagrees else 'no'} |"
         )
+    lines += _unphased(d)
     lines += ["", "## Name", *_finding(d), ""]
     if d.verdict.tried:
         lines += [
@@ -372,7 +405,7 @@ def report_markdown(d: Diagnosis, commands: list[str] | None = None) -> str:
         )
     lines += _held_out_by_world(d)
     if d.predicted_by and d.held_out:
-        lines += ["", "Across the tie (the prediction is this span of rates, not one effect's):"]
+        lines += ["", _span_heading(d)]
         for cell in d.held_out:
             low, high = tie_span(d, cell)
             real_low, real_high = rate_interval(cell.succeeded, cell.attempted)
