@@ -193,8 +193,9 @@ def add_commands(subparsers: argparse._SubParsersAction) -> None:
         at_least=0,
         default=0,
         metavar="TRIALS",
-        help="then run TRIALS whole trials per cell in each fitted world (pegbt eval --world-effects) and "
-        "report them beside the prediction (default 0: none)",
+        help="then run TRIALS whole trials per cell in each fitted world (pegbt eval --world-effects, in "
+        "--workers local processes, even with --cluster) and report them beside the prediction (default 0: "
+        "none)",
     )
     outcomes.set_defaults(handler=_outcomes)
 
