@@ -6,6 +6,7 @@ With `tls`, over TLS as the README's recipe starts one (certificates from `tempo
 from __future__ import annotations
 
 import os
+import shutil
 import signal
 import socket
 import subprocess
@@ -33,6 +34,18 @@ def temporary_certificates(folder: Path) -> ClusterTls:
     files.cert.write_text(made.tls_client_cert)
     files.key.write_text(made.tls_client_key)
     return files
+
+
+def another_commit(folder: Path) -> Path:
+    """A copy of the `pegbt` package committed to a git repository of its own in `folder`: what a worker
+    started from another checkout runs."""
+    checkout = folder / "checkout"
+    shutil.copytree(REPO / "pegbt", checkout / "pegbt", ignore=shutil.ignore_patterns("__pycache__"))
+    git = ["git", "-C", str(checkout), "-c", "user.name=t", "-c", "user.email=t@example.org"]
+    subprocess.run([*git, "init", "-q"], check=True)
+    subprocess.run([*git, "add", "."], check=True)
+    subprocess.run([*git, "commit", "-q", "-m", "another commit"], check=True)
+    return checkout
 
 
 def placeholder_certificates(folder: Path) -> ClusterTls:

@@ -10,6 +10,10 @@ from pegbt.bench import Figures, benchmark_names, run_benchmark
 from pegbt.errors import PegbtError
 from pegbt.evaluation.cli import add_tls_options, checked_cluster_tls
 
+SIM2REAL_OUTCOMES_ONLY = (
+    "seeds", "first_seed", "workers", "cluster", "tls_ca_file", "tls_cert", "tls_key", "families", "out",
+)  # fmt: skip
+
 
 def add_commands(subparsers: argparse._SubParsersAction) -> None:
     parser = subparsers.add_parser(
@@ -72,6 +76,19 @@ def _bench(args: argparse.Namespace) -> int:
     if not args.names:
         print("\n".join(benchmark_names()) or "no benchmarks registered")
         return 0
+    given = [
+        f"--{name.replace('_', '-')}" for name in SIM2REAL_OUTCOMES_ONLY if getattr(args, name) is not None
+    ]
+    if given and args.names != ["sim2real-outcomes"]:
+        raise PegbtError(
+            "--seeds, --first-seed, --workers, --cluster (with its --tls options), --families and --out are "
+            "the sim2real-outcomes benchmark's alone: name only it",
+            field=given[0],
+        )
+    if args.workers is not None and args.cluster is not None:
+        raise PegbtError(
+            "--workers sizes the local pool, which --cluster replaces: give one", field="--workers"
+        )
     options: dict[str, object] = {}
     if args.seeds is not None:
         options["seeds"] = args.seeds
@@ -86,12 +103,6 @@ def _bench(args: argparse.Namespace) -> int:
         options["families"] = [f.strip() for f in args.families.split(",") if f.strip()]
     if args.out is not None:
         options["out"] = args.out
-    if options and args.names != ["sim2real-outcomes"]:
-        raise PegbtError(
-            "--seeds, --first-seed, --workers, --cluster (with its --tls options), --families and --out are "
-            "the sim2real-outcomes benchmark's alone: name only it",
-            field=next(f"--{name.replace('_', '-')}" for name in options),
-        )
     results: dict[str, Figures] = {name: run_benchmark(name, **options) for name in args.names}
     if args.json:
         payload = results[args.names[0]] if len(args.names) == 1 else results

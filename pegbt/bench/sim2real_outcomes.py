@@ -417,13 +417,13 @@ def measure(
         if not plans[family].applicable:
             figures[f"{family}_named"] = figures[f"{family}_resolved"] = NOT_APPLICABLE
     figures["seeds_per_family"] = seeds
-    figures["seeds"] = f"{first_seed}-{first_seed + seeds - 1}"
+    figures["seed_range"] = f"{first_seed}-{first_seed + seeds - 1}"
     figures["real_transfers_per_cell"] = real_transfers  # held-out cells; fit cells: per family
     figures["simulated_transfers_per_cell"] = settings.transfers  # at 120 real; fit cells: per family
     figures["transfers_the_diagnoses_simulate"] = needed
     figures["transfers_simulated"] = memo.simulated
     figures["wall_s"] = time.monotonic() - started
-    figures["cpu_s"] = _cpu_seconds() - cpu  # workers included: what 2 idle cores would take, times 2
+    figures["cpu_s"] = _cpu_seconds() - cpu  # this process's and its local workers' (ended, so counted)
     return figures
 
 
@@ -486,6 +486,7 @@ def run(
         raise PegbtError(f"expected a seed of 0 or more, got {first_seed}", field="--first-seed")
     if workers < 1:
         raise PegbtError(f"expected at least 1 worker, got {workers}", field="--workers")
+
     records = None if out is None else Records(Path(out), chosen, code_identity())
     cluster_mapper = None if cluster is None else ClusterMapper(cluster, tls=tls)
     try:
@@ -503,6 +504,8 @@ def run(
         if cluster_mapper is not None:
             cluster_mapper.close()
     figures["workers"] = cluster or workers
+    if cluster is not None:
+        figures["cpu_s"] = "n/a"  # the cluster's workers' CPU is not this machine's to count
     figures["families"] = ",".join(chosen)
     figures["full_size"] = str(seeds >= SEEDS and set(chosen) == set(FAMILIES)).lower()
     return figures

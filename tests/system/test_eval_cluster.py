@@ -6,14 +6,13 @@ from __future__ import annotations
 
 import csv
 import json
-import shutil
 import subprocess
 import sys
 import threading
 from pathlib import Path
 
 import pytest
-from cluster_helpers import REPO, LocalDaskCluster, temporary_certificates
+from cluster_helpers import REPO, LocalDaskCluster, another_commit, temporary_certificates
 
 from pegbt.evaluation.campaign import Cell, trial_specs
 from pegbt.evaluation.output import write_cell
@@ -149,12 +148,7 @@ def test_a_worker_killed_mid_trial_costs_a_retry_and_the_logs_come_back(local, t
 
 
 def test_a_worker_from_another_commit_is_refused(tmp_path, pegbt_cli):
-    checkout = tmp_path / "checkout"
-    shutil.copytree(REPO / "pegbt", checkout / "pegbt", ignore=shutil.ignore_patterns("__pycache__"))
-    git = ["git", "-C", str(checkout), "-c", "user.name=t", "-c", "user.email=t@example.org"]
-    subprocess.run([*git, "init", "-q"], check=True)
-    subprocess.run([*git, "add", "."], check=True)
-    subprocess.run([*git, "commit", "-q", "-m", "another commit"], check=True)
+    checkout = another_commit(tmp_path)
     with LocalDaskCluster(workers=1, pythonpath=checkout) as cluster:
         run = pegbt_cli(*eval_args(tmp_path / "out"), "--cluster", cluster.address, timeout=300)
     assert run.returncode == 2 and run.stderr.count("\n") == 1 and "Traceback" not in run.stderr

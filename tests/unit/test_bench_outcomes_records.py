@@ -97,7 +97,7 @@ def test_a_run_split_by_first_seed_gives_the_figures_of_one_run(tmp_path: Path) 
     the two seeds asked for again simulate nothing and give the figures of one run straight through."""
     straight = _measure(2, None, Counting())
     alone = _measure(1, None, Counting(), first_seed=1)
-    assert alone["seeds"] == "1-1" and straight["seeds"] == "0-1"
+    assert alone["seed_range"] == "1-1" and straight["seed_range"] == "0-1"
     _measure(1, Records(tmp_path / "a", FAMILIES, "code"), Counting())
     _measure(1, Records(tmp_path / "b", FAMILIES, "code"), Counting(), first_seed=1)
     name = RECORDS.format("code")

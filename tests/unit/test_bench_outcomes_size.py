@@ -19,6 +19,7 @@ from pegbt.cli import main
         (["--seeds", "0"], "--seeds: expected at least 1 seed"),
         (["--first-seed", "-1"], "--first-seed: expected a seed of 0 or more"),
         (["--workers", "0"], "--workers: expected at least 1 worker"),
+        (["--workers", "3", "--cluster", "tcp://127.0.0.1:1"], "--workers: --workers sizes the local pool"),
     ],
 )
 def test_a_bad_size_is_one_clear_line(
@@ -36,6 +37,8 @@ def test_a_bad_size_is_one_clear_line(
         ["--first-seed", "4"],
         ["--workers", "4"],
         ["--cluster", "tcp://127.0.0.1:1"],
+        ["--cluster", "bad", "--tls-ca-file", "x"],  # named as the benchmark's alone, not checked first
+        ["--tls-key", "x"],
         ["--out", "x"],
     ],
 )

@@ -1,6 +1,6 @@
-"""`pegbt eval --cluster`'s address and TLS options, checked before any connection: certificates only with
-`tls://`, all three or none, each file there; `tls://` without them (and without Dask's TLS
-configuration) named; a plain `tcp://` scheduler off loopback warned about, as Dask's own documentation
+"""`pegbt eval --cluster`'s address and TLS options, checked before any connection (the options themselves,
+shared with `pegbt sim2real outcomes` and the benchmark: `test_outcomes_cluster_tls.py`); `tls://` without
+certificates (and without Dask's TLS configuration) named; a plain `tcp://` scheduler off loopback warned about, as Dask's own documentation
 warns (anyone who reaches it can run code on the workers)."""
 
 from __future__ import annotations
@@ -9,14 +9,8 @@ import pytest
 
 from pegbt.cli import main
 from pegbt.evaluation.cluster import exposure_warning
-from tests.cluster_helpers import placeholder_certificates, tls_options
 
 EVAL = ["eval", "--variant", "bilateral", "--condition", "optimized", "--trials", "1"]
-
-
-@pytest.fixture
-def pem(tmp_path):
-    return placeholder_certificates(tmp_path)
 
 
 @pytest.mark.parametrize(
@@ -33,20 +27,6 @@ def test_a_plain_tcp_scheduler_off_loopback_is_warned_about(address):
 )
 def test_loopback_and_tls_schedulers_are_not_warned_about(address):
     assert exposure_warning(address) is None
-
-
-def test_certificates_go_with_a_tls_address_only(tmp_path, pem, capsys):
-    out = ["--out", str(tmp_path / "out")]
-    assert main([*EVAL, *out, "--cluster", "tcp://127.0.0.1:8786", *tls_options(pem)]) == 2
-    assert "are for a tls:// scheduler" in capsys.readouterr().err
-    assert main([*EVAL, *out, *tls_options(pem)]) == 2
-    assert "the --tls options are for --cluster" in capsys.readouterr().err
-    assert main([*EVAL, *out, "--cluster", "tls://127.0.0.1:8786", *tls_options(pem)[:4]]) == 2
-    assert "--tls-key: give all of --tls-ca-file, --tls-cert, --tls-key, or none" in capsys.readouterr().err
-    pem.key.unlink()
-    assert main([*EVAL, *out, "--cluster", "tls://127.0.0.1:8786", *tls_options(pem)]) == 2
-    err = capsys.readouterr().err
-    assert str(pem.key) in err and "--tls-key" in err and err.count("\n") == 1
 
 
 def test_a_tls_address_without_certificates_says_which_options_it_needs(tmp_path, capsys):

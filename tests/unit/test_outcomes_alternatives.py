@@ -181,6 +181,7 @@ def test_fit_cells_that_reject_the_default_world_unexplained_are_predicted_with_
     report = report_dict(d)
     cell = next(c for c in report["cells"] if c["variant"] == "bilateral")
     assert cell["predicted"]["rate"] == mixed[bilateral].rate
+    assert cell["simulated_after_pooled"] and d.pools_after  # its "after": effective transfers, pooled
     markdown = report_markdown(d)
     assert "Predicted with what is open, mixed." in markdown
     assert "rejects the default world" in markdown and "the mixture is the prediction (Prove)" in markdown
@@ -192,3 +193,4 @@ def test_fit_cells_that_do_not_reject_the_default_world_are_predicted_with_it() 
     d = _diagnosed_with_unilateral_placing(16)
     assert not d.verdict.tried and not d.alternatives and not d.predicted_by
     assert "Predicted with the default world." in report_markdown(d)
+    assert not d.pools_after and "effective transfers" not in report_markdown(d)

@@ -1,7 +1,6 @@
-"""`pegbt sim2real outcomes --cluster` and `pegbt bench sim2real-outcomes --cluster` take `pegbt eval`'s
-TLS options and check them the same way before any connection (certificates only with `tls://`, all three
-or none, each file there), and hand them to the connection: the warning a plain `tcp://` scheduler gets
-points at options these commands accept."""
+"""`pegbt eval --cluster`, `pegbt sim2real outcomes --cluster` and `pegbt bench sim2real-outcomes --cluster`
+take the same TLS options, check them the same way before any connection (certificates only with
+`tls://`, all three or none, each file there) and hand them to the connection."""
 
 from __future__ import annotations
 
@@ -16,6 +15,7 @@ from pegbt.evaluation.cluster import ClusterTls
 from tests.cluster_helpers import placeholder_certificates, tls_options
 
 COMMANDS = {
+    "eval": ["eval", "--variant", "bilateral", "--condition", "optimized", "--trials", "1"],
     "outcomes": ["sim2real", "outcomes", "--table", "paper", "--fit", "unilateral"],
     "bench": ["bench", "sim2real-outcomes", "--families", "null", "--seeds", "1"],
 }
@@ -25,7 +25,7 @@ COMMANDS = {
 def test_certificates_go_with_a_tls_address_only(
     command: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    argv, pem = COMMANDS[command], placeholder_certificates(tmp_path)
+    argv, pem = [*COMMANDS[command], "--out", str(tmp_path / "out")], placeholder_certificates(tmp_path)
     assert main([*argv, "--cluster", "tcp://127.0.0.1:8786", *tls_options(pem)]) == 2
     assert "are for a tls:// scheduler" in capsys.readouterr().err
     assert main([*argv, *tls_options(pem)]) == 2

@@ -35,5 +35,6 @@ def test_a_tie_predicts_each_held_out_cell_as_the_span_of_its_effects_rates():
     assert report_dict(d)["tie"] == d.resolved and d.resolved in report_markdown(d)
     cell = next(c for c in report_dict(d)["cells"] if c["variant"] == "bilateral")
     low, high = cell["predicted_span"]
+    assert d.pools_after and cell["simulated_after_pooled"]  # each tied world's best value, pooled
     assert low < 0.15 and 0.25 < high  # chamfers leave bilateral where it was; the peg raises it
     assert "Across the tie" in report_markdown(d) and "bilateral uncalibrated" in report_markdown(d)

@@ -88,6 +88,12 @@ class Diagnosis:
         return self.verdict.world()
 
     @property
+    def pools_after(self) -> bool:
+        """Whether what the prediction simulates "after" is several worlds pooled (`predict.weighted_pool`),
+        its counts effective transfers rather than simulated ones: a tie's best values, or the open mixture."""
+        return not self.verdict.named and (len(self.verdict.tied) > 1 or self.predicts_open_mixture)
+
+    @property
     def predicts_open_mixture(self) -> bool:
         """Whether `predictions` are what the fit cells leave open, mixed: they reject the default world
         (the gate opened), nothing explains them, and something is left open (`diagnose`)."""

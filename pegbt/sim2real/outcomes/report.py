@@ -53,6 +53,7 @@ def report_dict(diagnosis: Diagnosis, commands: list[str] | None = None) -> dict
             "simulated_after": p.at_best.rate,
             "simulated_after_counts": [p.at_best.succeeded, p.at_best.attempted],
             "simulated_after_wilson_low": p.keeps,
+            "simulated_after_pooled": d.pools_after,  # counts: the pooled worlds' effective transfers
             "predicted": {"rate": p.rate, "low": p.low, "high": p.high},
             "held_out": cell.key in held,
             "inside": p.inside,
@@ -358,7 +359,8 @@ def report_markdown(d: Diagnosis, commands: list[str] | None = None) -> str:
         "",
         f"Real outcomes: {d.outcomes.source}"
         + (" (attempts end at a block lost for good)" if d.outcomes.attempts_end_at_lost_block else "")
-        + f". Simulator: each transfer's phases on the world with the `dvrk-real` arm, {d.settings.located} "
+        + ". Simulator: each transfer's phases on the world with the `dvrk-real` arm, "
+        f"{max(d.settings.located, d.settings.transfers)} "
         f"transfers per fit cell in the default world ({d.settings.transfers} per held-out cell) and "
         f"{d.settings.transfers} per cell and fitted world, "
         f"{d.simulated} in all, {d.seconds:.0f} s. Fitted on: {d.settings.fit}.",
@@ -427,8 +429,9 @@ def report_markdown(d: Diagnosis, commands: list[str] | None = None) -> str:
         for cell in full:
             q = d.predictions[cell.key]
             lines.append(
-                f"- {cell.variant} {cell.condition}: {q.at_best.succeeded}/{q.at_best.attempted} placed, "
-                f"Wilson 95 % lower bound {percent(q.keeps)}: {'kept' if q.keeps >= KEEPS else '**not shown**'}"
+                f"- {cell.variant} {cell.condition}: {q.at_best.succeeded}/{q.at_best.attempted} placed"
+                + (" (the pooled worlds' effective transfers)" if d.pools_after else "")
+                + f", Wilson 95 % lower bound {percent(q.keeps)}: {'kept' if q.keeps >= KEEPS else '**not shown**'}"
             )
     if commands:
         lines += ["", "## Commands", "```bash", *commands, "```"]

@@ -211,8 +211,8 @@ class LocalMapper:
 
 class ClusterMapper:
     """Simulated transfers as tasks on a Dask scheduler (`pegbt eval --cluster`'s `connect`, with its
-    certificates `tls` for a `tls://` address), each with up to `attempts` picks, the arms `registered` as
-    the paper's were or not."""
+    certificates `tls` for a `tls://` address; its workers checked as eval's are: present, and on this
+    commit), each with up to `attempts` picks, the arms `registered` as the paper's were or not."""
 
     def __init__(
         self,
@@ -221,9 +221,14 @@ class ClusterMapper:
         registered: bool = False,
         tls: ClusterTls | None = None,
     ) -> None:
-        from pegbt.evaluation.cluster import connect
+        from pegbt.evaluation.cluster import check_workers, connect
 
         self._client = connect(address, tls)
+        try:  # a worker on other code would simulate another simulator's transfers, kept as this one's
+            check_workers(self._client, one_per_worker=False)
+        except BaseException:
+            self._client.close()
+            raise
         self._attempts = attempts
         self._run = partial(_run_job, attempts=attempts, registered=registered)
 
