@@ -96,9 +96,9 @@ def _bench(args: argparse.Namespace) -> int:
         options["first_seed"] = args.first_seed
     if args.workers is not None:
         options["workers"] = args.workers
-    if args.cluster is not None or args.tls_ca_file or args.tls_cert or args.tls_key:
-        options["cluster"] = args.cluster
-        options["tls"] = checked_cluster_tls(args)
+    tls = checked_cluster_tls(args)
+    if args.cluster is not None:
+        options["cluster"], options["tls"] = args.cluster, tls
     if args.families is not None:
         options["families"] = [f.strip() for f in args.families.split(",") if f.strip()]
     if args.out is not None:

@@ -329,8 +329,8 @@ def measure(
     records: Records | None = None,
     first_seed: int = 0,
 ) -> dict[str, float | int | str]:
-    """The figures of `families` over `seeds` seeds each from `first_seed` on, simulated by `simulator` (by default the phase
-    simulator in `workers` local processes). One memo of simulated transfers serves every diagnosis
+    """The figures of `families` over `seeds` seeds each from `first_seed` on, simulated by `simulator`
+    (by default the phase simulator in `workers` local processes). One memo of simulated transfers serves every diagnosis
     (`cache.MemoMapper`): their fits simulate the same worlds on the same seeds. With `records`, the plan,
     each score and each simulated transfer are kept as they come (`StoredMemo`), and those already kept are
     read back, not simulated again."""
@@ -486,7 +486,6 @@ def run(
         raise PegbtError(f"expected a seed of 0 or more, got {first_seed}", field="--first-seed")
     if workers < 1:
         raise PegbtError(f"expected at least 1 worker, got {workers}", field="--workers")
-
     records = None if out is None else Records(Path(out), chosen, code_identity())
     cluster_mapper = None if cluster is None else ClusterMapper(cluster, tls=tls)
     try:
