@@ -18,6 +18,7 @@ protocol each arm is also registered to the camera as the paper's were, with its
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable, Sequence
 from concurrent.futures import Executor, ProcessPoolExecutor
 from dataclasses import dataclass, field, replace
@@ -139,20 +140,45 @@ def _in_trials(attempts: int, variant: str) -> bool:
     return attempts != ONE_ATTEMPT and in_order(variant)
 
 
-def _jobs(tasks: Sequence[Task], attempts: int) -> list[list[int]]:
-    """The tasks (by index) grouped so that a trial's seeds with the same worlds are one job, simulated
-    once in order; every other task is a job of its own. The longest trials come first, so the workers
-    finish together."""
+SPREAD = 3  # jobs per worker a batch is cut into at least, so the workers finish together
+
+
+@dataclass(frozen=True)
+class Job:
+    """Tasks (by index) simulated together in the worlds `worlds` (a slice of their worlds): a trial's
+    seeds, or one task. `size`: what it costs, transfers played times worlds."""
+
+    tasks: tuple[int, ...]
+    worlds: slice
+    size: int
+
+
+def _jobs(tasks: Sequence[Task], attempts: int, workers: int = 1) -> list[Job]:
+    """The tasks grouped so that a trial's seeds with the same worlds are one job, simulated once in order;
+    every other task is a job of its own. With several `workers`, a job larger than a `SPREAD`-th of a
+    worker's share is cut into consecutive parts of its worlds: one unilateral cell of 16 seeds is a trial
+    of 12 transfers and one of 4, which two workers would share 12 to 4, and 5 seeds of one trial would
+    keep one worker alone. Each part replays the arm's motion in its own worlds only (`bench.Replay`: a
+    few per cent of a world's cost); results do not depend on the cut. The largest jobs come first."""
     groups: dict[object, list[int]] = {}
     for i, (worlds, variant, condition, seed) in enumerate(tasks):
         trial = (worlds, variant, condition, trial_of(variant, seed)[0])
         groups.setdefault(trial if _in_trials(attempts, variant) else i, []).append(i)
 
-    def size(job: list[int]) -> int:
-        worlds, variant, _, _ = tasks[job[0]]
-        return max(trial_of(variant, tasks[i][3])[1] for i in job) * len(worlds)
+    def played(group: list[int]) -> int:
+        variant = tasks[group[0]][1]
+        if not _in_trials(attempts, variant):
+            return 1
+        return max(trial_of(variant, tasks[i][3])[1] for i in group) + 1
 
-    return sorted(groups.values(), key=size, reverse=True)
+    sized = [(group, played(group), len(tasks[group[0]][0])) for group in groups.values()]
+    target = sum(n * w for _, n, w in sized) / (SPREAD * workers) if workers > 1 else math.inf
+    jobs = []
+    for group, n, count in sized:
+        parts = min(count, max(1, math.ceil(n * count / target)))
+        edges = [round(k * count / parts) for k in range(parts + 1)]
+        jobs += [Job(tuple(group), slice(lo, hi), n * (hi - lo)) for lo, hi in zip(edges, edges[1:])]
+    return sorted(jobs, key=lambda job: job.size, reverse=True)
 
 
 def _run_job(tasks: Sequence[Task], attempts: int, registered: bool) -> list[list[TransferResult]]:
@@ -177,15 +203,20 @@ def _run_job(tasks: Sequence[Task], attempts: int, registered: bool) -> list[lis
     return [results]
 
 
+def _job_tasks(tasks: Sequence[Task], job: Job) -> list[Task]:
+    """The tasks of `job`, each with the job's part of its worlds."""
+    return [(tasks[i][0][job.worlds], *tasks[i][1:]) for i in job.tasks]
+
+
 def _gathered(
-    tasks: Sequence[Task], jobs: list[list[int]], done: Iterable[list[list[TransferResult]]]
+    tasks: Sequence[Task], jobs: list[Job], done: Iterable[list[list[TransferResult]]]
 ) -> list[list[TransferResult]]:
-    """The jobs' results back in the order of `tasks`."""
-    results: list[list[TransferResult]] = [[] for _ in tasks]
+    """The jobs' results back in the order of `tasks`, each task's worlds in their order."""
+    parts: list[dict[int, list[TransferResult]]] = [{} for _ in tasks]
     for job, outcome in zip(jobs, done):
-        for i, result in zip(job, outcome):
-            results[i] = result
-    return results
+        for i, result in zip(job.tasks, outcome):
+            parts[i][job.worlds.start] = result
+    return [[r for _, part in sorted(found.items()) for r in part] for found in parts]
 
 
 class LocalMapper:
@@ -194,12 +225,13 @@ class LocalMapper:
 
     def __init__(self, workers: int, attempts: int = WITH_RECOVERY, registered: bool = False) -> None:
         self._pool: Executor | None = ProcessPoolExecutor(workers) if workers > 0 else None
+        self._workers = workers
         self._attempts = attempts
         self._run = partial(_run_job, attempts=attempts, registered=registered)
 
     def __call__(self, tasks: Sequence[Task]) -> list[list[TransferResult]]:
-        jobs = _jobs(tasks, self._attempts)
-        grouped = [[tasks[i] for i in job] for job in jobs]
+        jobs = _jobs(tasks, self._attempts, self._workers)
+        grouped = [_job_tasks(tasks, job) for job in jobs]
         if self._pool is None:
             return _gathered(tasks, jobs, map(self._run, grouped))
         return _gathered(tasks, jobs, self._pool.map(self._run, grouped, chunksize=max(1, len(jobs) // 32)))
@@ -225,7 +257,7 @@ class ClusterMapper:
 
         self._client = connect(address, tls)
         try:  # a worker on other code would simulate another simulator's transfers, kept as this one's
-            check_workers(self._client, one_per_worker=False)
+            self._workers = check_workers(self._client, one_per_worker=False)
         except BaseException:
             self._client.close()
             raise
@@ -233,8 +265,8 @@ class ClusterMapper:
         self._run = partial(_run_job, attempts=attempts, registered=registered)
 
     def __call__(self, tasks: Sequence[Task]) -> list[list[TransferResult]]:
-        jobs = _jobs(tasks, self._attempts)
-        futures = self._client.map(self._run, [[tasks[i] for i in job] for job in jobs], pure=False)
+        jobs = _jobs(tasks, self._attempts, self._workers)
+        futures = self._client.map(self._run, [_job_tasks(tasks, job) for job in jobs], pure=False)
         return _gathered(tasks, jobs, self._client.gather(futures))
 
     def close(self) -> None:
