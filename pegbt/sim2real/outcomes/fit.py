@@ -11,8 +11,9 @@ Where the data cannot tell two additions apart (log-likelihoods within `TIE`) ea
 path; paths that end in different worlds are reported as a tie, none of them named, and each predicts.
 A large campaign's real counts resolve more than the grid's simulated transfers do, so each step screens
 every candidate on `transfers` against the world before it on the same seeds, and profiles again only the
-leaders (`leaders_to_weigh`) on as many transfers as the default world is located with; the χ² test, the
-leave-one-out gain and every later step read those (`fit`'s `weighed`).
+leaders (`leaders_to_weigh`) on as many transfers as the default world is located with, a candidate that
+trails them on the screen probed at its best value there first; the χ² test, the leave-one-out gain and
+every later step read those (`fit`'s `weighed`).
 The additions that pass are ranked on fresh seeds, not on the ones their best value was picked on: the
 pick favours whichever candidate's grid drew the luckiest outcomes (a registration offset reshuffles
 them), and the first choice decides every later step.
@@ -329,17 +330,20 @@ def profile(
     return Profile(candidate, candidate.grid, sims, per_cell, base, dense=dense, reference=reference)
 
 
-def leaders_to_weigh(screened: Sequence[Profile]) -> list[Profile]:
-    """The screened candidates weighed again on more transfers: those whose paired gain over the world
-    before them (`Profile.paired_gain`, the grid and that world on the same seeds and as many transfers) is
-    positive, or within the χ² margin (χ²₁,₀.₉₅ / 2 log units) of the best one's: a candidate the screen
-    cannot tell from the best, or that already fits better than the world before it. On the screen's
-    transfers a small change (a chamfer's 4 points in 12 %) moves a few simulated transfers, so its gain
-    there may be below 0 and still within the margin of the best."""
+def leaders_to_weigh(screened: Sequence[Profile]) -> tuple[list[Profile], list[Profile]]:
+    """The screened candidates weighed again on more transfers, and those probed first. Weighed: those whose
+    paired gain over the world before them (`Profile.paired_gain`, the grid and that world on the same seeds
+    and as many transfers) is within the χ² margin (χ²₁,₀.₉₅ / 2 log units) of the best one's, whatever its
+    sign: a candidate the screen cannot tell from the best (on the screen's transfers a small change, a
+    chamfer's 4 points in 12 %, moves a few simulated transfers, so its gain may be below 0). Probed: the
+    others that already fit better than the world before them; one whose luck on the screen hid a better
+    fit shows it at its best screened value on the weighed transfers (`fit`'s `probe_gains`), and only then
+    is its whole grid weighed, so a clear leader does not cost every chance gain a grid."""
     if not screened:
-        return []
+        return [], []
     best = max(p.paired_gain for p in screened)
-    return [p for p in screened if p.paired_gain > 0 or p.paired_gain >= best - LR_95 / 2]
+    near = [p for p in screened if p.paired_gain >= best - LR_95 / 2]
+    return near, [p for p in screened if p not in near and p.paired_gain > 0]
 
 
 def with_inert(
@@ -416,10 +420,10 @@ def fit(
 
     With `weighed` (the transfers `null_sims` holds in the informative cells), every candidate is first
     screened on `transfers` against the world before it on the same seeds (`Profile.paired_gain`), and only
-    the leaders (`leaders_to_weigh`) are profiled again on `weighed` transfers, where they are tested
-    against the world before them at the same precision: weighed on fewer simulated transfers than the
-    default world, a candidate saw a large campaign's real counts as a tenth of them and the null as a
-    third, and could not beat it. Without `weighed`, every candidate is tested as screened.
+    the leaders (`leaders_to_weigh`, and those probed that rise to them) are profiled again on `weighed`
+    transfers, where they are tested against the world before them at the same precision: weighed on fewer
+    simulated transfers than the default world, a candidate saw a large campaign's real counts as a tenth
+    of them and the null as a third, and could not beat it. Without `weighed`, every candidate is tested as screened.
 
     Not `checkable` (one informative count): nothing is named; the ends that pass the χ² test are returned
     as `tied`, `unchecked`."""
@@ -460,8 +464,12 @@ def fit(
         screened = weigh_refined(others, base, before, transfers)
         profiles = screened
         if weighed is not None:
-            leaders = [p.candidate for p in leaders_to_weigh(screened)]
-            profiles = weigh_refined(leaders, base, before, weighed)
+            near, probed = leaders_to_weigh(screened)
+            profiles = weigh_refined([p.candidate for p in near], base, before, weighed)
+            best = max((p.paired_gain for p in profiles), default=-math.inf)
+            gains = probe_gains(mapper, probed, base, cells[:informative], weighed, phases)
+            risen = [p.candidate for p, gain in zip(probed, gains) if gain >= best - LR_95 / 2]
+            profiles += weigh_refined(risen, base, before, weighed)
         if not base:
             screened_alone.extend(screened)
             alone.update({p.candidate.name: p for p in profiles})
@@ -493,6 +501,24 @@ def fit(
     if not ends:
         return Verdict((), (), tried, null, names)
     return Verdict(whole[0], (), tried, null, names)
+
+
+def probe_gains(
+    mapper: Mapper,
+    probed: Sequence[Profile],
+    base: WorldEffects,
+    loud: Sequence[Cell],
+    transfers: int,
+    phases: bool,
+) -> list[float]:
+    """Each of `probed` at its best screened value against `base`, both on `transfers` transfers of the
+    `loud` cells (the same seeds): its paired gain there (log units), one world a candidate."""
+    if not probed:
+        return []
+    keys = [c.key for c in loud]
+    *sims, at_base = simulate_cells(mapper, [*(p.world() for p in probed), base], keys, transfers)
+    reference = sum(log_likelihood(c, at_base[c.key], phases) for c in loud)
+    return [sum(log_likelihood(c, sim[c.key], phases) for c in loud) - reference for sim in sims]
 
 
 def ranked_on_fresh_seeds(
