@@ -126,9 +126,9 @@ def _harmful_rate(effects: WorldEffects, variant: str, condition: str) -> float:
 def test_an_open_effects_posterior_excludes_the_values_the_calibrated_fit_cells_exclude() -> None:
     """The calibrated unilateral cell placed all 80: an open grasp capture above 1.5 mm, which would cost it
     most of them, keeps no weight in the effect's posterior, though the uncalibrated cell alone (the
-    informative one) cannot see it."""
+    informative one) cannot see it; so it predicts a held-out calibrated cell placing as it does."""
     d = diagnose(
-        Outcomes(CELLS, "test"),
+        Outcomes((*CELLS, failing_at("lift", "bilateral", "calibrated", 80, 80)), "test"),
         Settings(fit="unilateral", transfers=120, points=3),
         rate_mapper(_harmful_rate, "lift", stream=11),
     )
@@ -137,8 +137,9 @@ def test_an_open_effects_posterior_excludes_the_values_the_calibrated_fit_cells_
     assert capture.allowed == (0.001,)
     values, weights = capture.profile.posterior()
     assert weights[values > 0.0016].sum() < 0.01
-    calibrated = ("unilateral", "calibrated")
-    assert d.predicted_by["grasp_capture.width over 0–0.003"][calibrated].rate > 0.97
+    by_capture = d.predicted_by["grasp_capture.width over 0–0.003"]
+    assert by_capture[("bilateral", "calibrated")].rate > 0.97
+    assert ("unilateral", "calibrated") not in by_capture  # a fit cell: the named world predicts it
 
 
 def _unexplained_rate(effects: WorldEffects, variant: str, condition: str) -> float:

@@ -133,7 +133,8 @@ def diagnose(
     """Locate, name and fit on the fit cells, then predict every cell with the fitted world(s); the
     simulated side grows with the largest fit cell (`Settings.for_campaign`). Fit cells that reject the
     default world (the gate opened) but that no effect explains are predicted with what they leave open,
-    mixed (`alternatives`): the default world they reject is then a comparison, not the prediction."""
+    mixed (`alternatives`): the default world they reject is then a comparison, not the prediction. Beside a
+    world that explains the fit cells, what is left open predicts the held-out cells alone."""
     started = time.monotonic()
     counting = _Counting(mapper, progress)
     cells = outcomes.cells
@@ -184,7 +185,7 @@ def diagnose(
         mixed, each = predict(
             counting,
             [a.profile for a in alternatives],
-            cells,
+            held_out if explanation else cells,  # the fit cells are the explanation's to predict
             settings.transfers,
             count=OPEN_NODES,
             shares=shares(alternatives),

@@ -76,6 +76,8 @@ def report_dict(diagnosis: Diagnosis, commands: list[str] | None = None) -> dict
         if d.predicted_by:
             entry["predicted_span"] = list(tie_span(d, cell))
         for name, predictions in d.predicted_by.items():
+            if cell.key not in predictions:  # an open effect beside a world that explains the fit cells
+                continue
             q = predictions[cell.key]
             entry.setdefault("predicted_by", {})[name] = {
                 "rate": q.rate,
@@ -273,7 +275,7 @@ def _span_heading(d: Diagnosis) -> str:
 def tie_span(d: Diagnosis, cell: Cell) -> tuple[float, float]:
     """The lowest and highest rate the worlds of `Diagnosis.predicted_by` predict for `cell`: a tie's, or
     the world that predicts and those left open beside it."""
-    rates = [predictions[cell.key].rate for predictions in d.predicted_by.values()]
+    rates = [predictions[cell.key].rate for predictions in d.predicted_by.values() if cell.key in predictions]
     return min(rates), max(rates)
 
 
