@@ -12,6 +12,7 @@ from pegbt.sim2real.outcomes.cells import Cell, Outcomes
 from pegbt.sim2real.outcomes.diagnose import Settings, diagnose
 from pegbt.sim2real.outcomes.fit import LR_95, Candidate, Profile, fit, leaders_to_weigh
 from pegbt.sim2real.outcomes.phasesim import TransferResult
+from pegbt.sim2real.outcomes.report import report_markdown
 from pegbt.sim2real.outcomes.simulate import simulate_cells
 from tests.outcomes_helpers import chamfer_mapper, chamfer_placed
 
@@ -76,6 +77,9 @@ def test_the_diagnosis_weighs_only_its_leaders_on_the_located_transfers() -> Non
     weighed_on = {p.candidate.name: p.sims[0][UNCALIBRATED].attempted for p in d.verdict.tried}
     assert weighed_on.pop("chamfer_capture.capture_radius") == 442
     assert set(weighed_on.values()) == {111}
+    assert d.verdict.tested == ("chamfer_capture.capture_radius",)  # the others trailed it, never tested
+    rows = [line for line in report_markdown(d, []).splitlines() if line.startswith("| peg_compliance.")]
+    assert rows and rows[0].endswith("| not tested: trailed the leaders |")
 
 
 def _lucky_screen(tasks):

@@ -213,6 +213,7 @@ class Verdict:
     passing: tuple[str, ...]  # candidates that passed on their own (the χ² test alone if unchecked)
     unchecked: bool = False  # one informative count: the `tied` passed the χ² test with nothing to hold out
     paths: tuple[tuple[Profile, ...], ...] = ()  # each tied end's path, its effects in the order added
+    tested: tuple[str, ...] = ()  # candidates of `tried` tested alone; the rest trailed the screen's leaders
 
     def path_of(self, end: Profile) -> tuple[Profile, ...]:
         """The path that `end` (one of `tied`) ends: what is named when it alone is kept, since `named` is
@@ -423,7 +424,8 @@ def fit(
     the leaders (`leaders_to_weigh`, and those probed that rise to them) are profiled again on `weighed`
     transfers, where they are tested against the world before them at the same precision: weighed on fewer
     simulated transfers than the default world, a candidate saw a large campaign's real counts as a tenth
-    of them and the null as a third, and could not beat it. Without `weighed`, every candidate is tested as screened.
+    of them and the null as a third, and could not beat it. Without `weighed`, every candidate is tested as
+    screened.
 
     Not `checkable` (one informative count): nothing is named; the ends that pass the χ² test are returned
     as `tied`, `unchecked`."""
@@ -437,6 +439,7 @@ def fit(
     ]
     screened_alone: list[Profile] = []
     alone: dict[str, Profile] = {}  # each candidate alone, as weighed
+    tested: list[str] = []  # the candidates whose passing alone was tested (`passes`)
 
     def weigh(candidate: Candidate, base: WorldEffects, before: np.ndarray, size: int) -> Profile:
         return profile(
@@ -473,6 +476,7 @@ def fit(
         if not base:
             screened_alone.extend(screened)
             alone.update({p.candidate.name: p for p in profiles})
+            tested.extend(p.candidate.name for p in profiles)
         passing = sorted((p for p in profiles if passes(p, before, checkable)), key=lambda p: -p.total.max())
         return passing if fresh is None else ranked_on_fresh_seeds(mapper, passing, cells, fresh, phases)
 
@@ -497,10 +501,10 @@ def fit(
     ends = _distinct([path[-1] for path in done])
     whole = tuple(next(tuple(path) for path in done if path[-1] is end) for end in ends)
     if len(ends) > 1 or (ends and not checkable):
-        return Verdict((), tuple(ends), tried, null, names, unchecked=not checkable, paths=whole)
+        return Verdict((), tuple(ends), tried, null, names, not checkable, whole, tuple(tested))
     if not ends:
-        return Verdict((), (), tried, null, names)
-    return Verdict(whole[0], (), tried, null, names)
+        return Verdict((), (), tried, null, names, tested=tuple(tested))
+    return Verdict(whole[0], (), tried, null, names, tested=tuple(tested))
 
 
 def probe_gains(

@@ -133,6 +133,7 @@ def report_dict(diagnosis: Diagnosis, commands: list[str] | None = None) -> dict
                 "log_likelihood": float(p.total.max()),
                 "paired_gain": p.paired_gain,
                 "passed": p.candidate.name in d.verdict.passing,
+                "weighed": p.candidate.name in d.verdict.tested,
             }
             for p in d.verdict.tried
         ],
@@ -241,6 +242,14 @@ def _held_out_by_world(d: Diagnosis) -> list[str]:
                 "predicts a rate in the real count's 95 % interval."
             )
     return lines
+
+
+def _passed(d: Diagnosis, name: str) -> str:
+    """Whether a candidate passed alone; one the screen's leaders led beyond the χ² margin, and that did not
+    rise to them when probed, was never tested (`fit.leaders_to_weigh`)."""
+    if name in d.verdict.passing:
+        return "yes"
+    return "no" if name in d.verdict.tested else "not tested: trailed the leaders"
 
 
 def _unphased(d: Diagnosis) -> list[str]:
@@ -387,7 +396,7 @@ def report_markdown(d: Diagnosis, commands: list[str] | None = None) -> str:
         ]
         for p in d.verdict.tried:
             lines.append(
-                f"| {p.candidate.name} | {p.value:.4g} | {p.total.max():.1f} | {p.paired_gain:+.1f} | {'yes' if p.candidate.name in d.verdict.passing else 'no'} |"
+                f"| {p.candidate.name} | {p.value:.4g} | {p.total.max():.1f} | {p.paired_gain:+.1f} | {_passed(d, p.candidate.name)} |"
             )
         lines.append("")
     lines += [
