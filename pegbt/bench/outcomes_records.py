@@ -38,7 +38,6 @@ from pegbt.sim2real.outcomes.transfer_result import TransferResult
 
 RECORDS = "records-{}.jsonl"  # of a code identity's first 16 hex digits
 TRANSFERS = "transfers-{}.jsonl"  # of a simulator identity's first 16 hex digits
-CHUNK = 500  # tasks (a transfer's worlds each) a stored memo passes on at once: a few minutes of 2 cores
 SIMULATOR = "pegbt.sim2real.outcomes.simulate"  # the entry the benchmark's worker processes run
 FIELDS = {
     "plan": ("families", "plans", "pilot_transfers"),
@@ -218,11 +217,9 @@ def append_record(path: Path, record: dict[str, Any], code: str) -> None:
 class StoredMemo(MemoMapper):
     """A `MemoMapper` whose transfers are also kept in `folder`, in the file of simulator identity `code`
     (`simulator_identity`), and read back from it: what an earlier run of the same simulator simulated is
-    known from the start. `mapper` must be the benchmark's (its attempts are in no key). Tasks go to it
-    `CHUNK` at a time, each part kept as it returns, so a run killed in a large batch (the pilot's reach
-    6,000 transfers a cell) loses at most one part's minutes."""
-
-    chunk = CHUNK
+    known from the start. `mapper` must be the benchmark's (its attempts are in no key). Each of its jobs
+    is kept as it is done (`simulate.PartedMapper`), so a run killed in a large batch (the pilot's reach
+    6,000 transfers a cell) loses only the jobs under way, a few minutes each at most (`simulate.LARGEST_JOB`)."""
 
     def __init__(self, mapper: Mapper, folder: Path, code: str) -> None:
         super().__init__(mapper)

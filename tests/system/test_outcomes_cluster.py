@@ -24,10 +24,14 @@ def test_transfers_simulated_on_a_cluster_are_the_local_ones() -> None:
         mapper = ClusterMapper(cluster.address)
         try:
             remote = mapper(TASKS)
+            parts = list(mapper.parts(TASKS))  # each job handed back once, as it is done
         finally:
             mapper.close()
     assert remote == local
     assert len(remote) == len(TASKS) and all(len(row) == len(WORLDS) for row in remote)
+    covered = sorted((i, w) for job, _ in parts for i in job.tasks for w in range(len(WORLDS))[job.worlds])
+    assert covered == [(i, w) for i in range(len(TASKS)) for w in range(len(WORLDS))]
+    assert all(outcome == [local[i][job.worlds] for i in job.tasks] for job, outcome in parts)
 
 
 def test_a_worker_from_another_commit_is_refused_before_any_simulation(tmp_path, pegbt_cli):

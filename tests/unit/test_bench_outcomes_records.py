@@ -24,6 +24,7 @@ from pegbt.bench.outcomes_records import (
 )
 from pegbt.errors import PegbtError
 from pegbt.sim.world_effects import WorldEffects
+from pegbt.sim2real.outcomes import simulate
 from pegbt.sim2real.outcomes.cells import Outcomes
 from pegbt.sim2real.outcomes.diagnose import Diagnosis
 from pegbt.sim2real.outcomes.transfer_result import TransferResult
@@ -275,23 +276,23 @@ def test_the_simulator_identity_leaves_out_the_diagnosis() -> None:
         assert f"pegbt/sim2real/outcomes/{diagnosis}.py" not in imported
 
 
-def test_a_batch_is_kept_a_part_at_a_time_so_a_run_killed_inside_it_keeps_the_parts_done(
-    tmp_path: Path,
+def test_a_batch_is_kept_a_job_at_a_time_so_a_run_killed_inside_it_keeps_the_jobs_done(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    tasks = [((WORLDS[1],), "unilateral", "uncalibrated", seed) for seed in range(10)]
+    tasks = [((WORLDS[1],), "bilateral", "uncalibrated", seed) for seed in range(10)]  # a job each
     calls: list[int] = []
 
-    def killed_on_the_third_part(
-        part: Sequence[tuple[tuple[WorldEffects, ...], str, str, int]],
+    def killed_on_the_third_job(
+        part: Sequence[tuple[tuple[WorldEffects, ...], str, str, int]], attempts: int, registered: bool
     ) -> list[list[TransferResult]]:
         calls.append(len(part))
         if len(calls) == 3:
             raise KeyboardInterrupt
         return fake_mapper(part)
 
-    memo = StoredMemo(killed_on_the_third_part, tmp_path, "aaa")
-    memo.chunk = 4
+    monkeypatch.setattr(simulate, "_run_job", killed_on_the_third_job)
+    memo = StoredMemo(simulate.LocalMapper(0), tmp_path, "aaa")
     with pytest.raises(KeyboardInterrupt):
         memo(tasks)
-    assert calls == [4, 4, 2]
-    assert StoredMemo(_never, tmp_path, "aaa").stored == 8
+    assert calls == [1, 1, 1]
+    assert StoredMemo(_never, tmp_path, "aaa").stored == 2

@@ -41,11 +41,32 @@ def test_results_come_back_in_the_tasks_order_whatever_the_cut() -> None:
     expected = _played(UNILATERAL)
     for workers in (1, 2, 3, 8):
         jobs = simulate._jobs(UNILATERAL, simulate.WITH_RECOVERY, workers)
-        done = [_played(simulate._job_tasks(UNILATERAL, job)) for job in jobs]
-        assert simulate._gathered(UNILATERAL, jobs, done) == expected
+        done = [(job, _played(simulate._job_tasks(UNILATERAL, job))) for job in jobs]
+        assert simulate._gathered(UNILATERAL, done) == expected
+        assert simulate._gathered(UNILATERAL, reversed(done)) == expected  # in the order they were done
 
 
 def test_a_task_alone_keeps_its_worlds_together_on_one_worker() -> None:
     bilateral = [(WORLDS, "bilateral", "uncalibrated", seed) for seed in range(40)]
     jobs = simulate._jobs(bilateral, simulate.WITH_RECOVERY, workers=2)
     assert all(job.worlds == slice(0, len(WORLDS)) for job in jobs)  # 40 jobs share well already
+
+
+def test_a_job_larger_than_two_minutes_of_a_core_is_cut_even_for_one_worker() -> None:
+    worlds = tuple(WorldEffects.of({"peg_compliance": {"deflection": 0.00005 * k}}) for k in range(1, 61))
+    trial = [(worlds, "unilateral", "uncalibrated", seed) for seed in range(12)]  # 12 x 60 = 720
+    jobs = simulate._jobs(trial, simulate.WITH_RECOVERY)
+    assert [job.size for job in jobs] == [360, 360]
+    assert [job.worlds for job in jobs] == [slice(0, 30), slice(30, 60)]
+    assert all(job.tasks == tuple(range(12)) for job in jobs)  # each part plays the whole trial in order
+
+
+def test_the_local_mapper_hands_back_every_job_once_and_its_call_gathers_them(monkeypatch) -> None:
+    monkeypatch.setattr(simulate, "_run_job", lambda tasks, attempts, registered: _played(tasks))
+    mapper = simulate.LocalMapper(0)
+    monkeypatch.setattr(simulate, "LARGEST_JOB", 30)  # the 12-seed trial in 3 parts, the 4-seed one in 1
+    parts = list(mapper.parts(UNILATERAL))
+    assert sorted((job.worlds.start, job.tasks[0]) for job, _ in parts) == [(0, 0), (0, 12), (2, 0), (5, 0)]
+    for job, outcome in parts:
+        assert outcome == _played(simulate._job_tasks(UNILATERAL, job))
+    assert mapper(UNILATERAL) == _played(UNILATERAL)

@@ -10,11 +10,11 @@ all. The key is the simulation's inputs, never its code: a changed simulator sta
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 
 from pegbt.sim.world_effects import WorldEffects
 from pegbt.sim2real.outcomes.phasesim import TransferResult
-from pegbt.sim2real.outcomes.simulate import Mapper, Task
+from pegbt.sim2real.outcomes.simulate import Job, Mapper, Part, PartedMapper, Task
 
 Known = tuple[WorldEffects, str, str, int]  # world, variant, condition, seed
 
@@ -23,8 +23,6 @@ class MemoMapper:
     """`mapper` (whose attempts are fixed, so they need no key) with every transfer it simulated remembered
     per world, variant, condition and seed; `simulated` counts the transfers it passed on. A task's worlds
     already known are left out of what it passes on, so the arm is simulated only for the others."""
-
-    chunk: int | None = None  # tasks passed on at once (None: all a call has); each part kept as it returns
 
     def __init__(self, mapper: Mapper) -> None:
         self.mapper = mapper
@@ -38,13 +36,11 @@ class MemoMapper:
             if unknown:
                 new.append((unknown, variant, condition, seed))
         learnt: list[tuple[Known, TransferResult]] = []
-        step = self.chunk or max(1, len(new))
-        for start in range(0, len(new), step):
-            part = new[start : start + step]
+        for job, outcome in self._parts(new):
             got = [
-                ((w, variant, condition, seed), r)
-                for (worlds, variant, condition, seed), results in zip(part, self.mapper(part))
-                for w, r in zip(worlds, results)
+                ((w, *new[i][1:]), r)
+                for i, results in zip(job.tasks, outcome)
+                for w, r in zip(new[i][0][job.worlds], results)
             ]
             self.keep(got)
             learnt += got
@@ -56,8 +52,15 @@ class MemoMapper:
             for worlds, variant, condition, seed in tasks
         ]
 
+    def _parts(self, tasks: Sequence[Task]) -> Iterable[Part]:
+        """The mapper's jobs as each is done if it hands them back so, else the whole call as one."""
+        if isinstance(self.mapper, PartedMapper):
+            return self.mapper.parts(tasks)
+        whole = Job(tuple(range(len(tasks))), slice(None), sum(len(worlds) for worlds, *_ in tasks))
+        return [(whole, self.mapper(tasks))] if tasks else []
+
     def keep(self, learnt: Sequence[tuple[Known, TransferResult]]) -> None:
-        """Remember the transfers one call simulated (a subclass may also keep them elsewhere)."""
+        """Remember the transfers a job simulated, as it is done (a subclass may also keep them elsewhere)."""
         self.known.update(learnt)
 
     def batch(self, simulated: int) -> None:

@@ -19,11 +19,11 @@ protocol each arm is also registered to the camera as the paper's were, with its
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Sequence
-from concurrent.futures import Executor, ProcessPoolExecutor
+from collections.abc import Iterable, Iterator, Sequence
+from concurrent.futures import Executor, ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field, replace
 from functools import partial
-from typing import TYPE_CHECKING, Protocol
+from typing import TYPE_CHECKING, Protocol, runtime_checkable
 
 import numpy as np
 
@@ -108,6 +108,14 @@ class Mapper(Protocol):
     def __call__(self, tasks: Sequence[Task]) -> list[list[TransferResult]]: ...
 
 
+@runtime_checkable
+class PartedMapper(Mapper, Protocol):
+    """A mapper that also hands back each job of a batch as it is done (`Part`), so a caller keeps what
+    a long batch has simulated so far (`bench.outcomes_records.StoredMemo`)."""
+
+    def parts(self, tasks: Sequence[Task]) -> Iterator[Part]: ...
+
+
 ONE_ATTEMPT = 1  # the paper's robot: `FLSPegTransfer_single.py` (BerkeleyAutomation/FLSpegtransferHO)
 # runs `move_block` once per action order and skips an order whose block it no longer finds on its peg
 WITH_RECOVERY = 1 + REGRASPS  # pegbt's trees (`trees/shared/one_transfer.yaml`)
@@ -141,6 +149,7 @@ def _in_trials(attempts: int, variant: str) -> bool:
 
 
 SPREAD = 3  # jobs per worker a batch is cut into at least, so the workers finish together
+LARGEST_JOB = 600  # transfers played times worlds (about 2 minutes of a core): a killed run loses no more
 
 
 @dataclass(frozen=True)
@@ -153,13 +162,18 @@ class Job:
     size: int
 
 
+Part = tuple[Job, list[list[TransferResult]]]  # a job and its results: per task, per world of its part
+
+
 def _jobs(tasks: Sequence[Task], attempts: int, workers: int = 1) -> list[Job]:
     """The tasks grouped so that a trial's seeds with the same worlds are one job, simulated once in order;
-    every other task is a job of its own. With several `workers`, a job larger than a `SPREAD`-th of a
-    worker's share is cut into consecutive parts of its worlds: one unilateral cell of 16 seeds is a trial
-    of 12 transfers and one of 4, which two workers would share 12 to 4, and 5 seeds of one trial would
-    keep one worker alone. Each part replays the arm's motion in its own worlds only (`bench.Replay`: a
-    few per cent of a world's cost); results do not depend on the cut. The largest jobs come first."""
+    every other task is a job of its own. A job larger than `LARGEST_JOB`, or with several `workers` than a
+    `SPREAD`-th of a worker's share, is cut into consecutive parts of its worlds: one unilateral cell of 16
+    seeds is a trial of 12 transfers and one of 4, which two workers would share 12 to 4, and 5 seeds of one
+    trial would keep one worker alone. Each part replays the arm's motion anew (`bench.Replay`), at about
+    one more world's cost (a 12-transfer unilateral trial: 1.0 s of CPU a part, 1.1 s a world), so a part of
+    `LARGEST_JOB` spends a few per cent on it; results do not depend on the cut. The largest jobs come
+    first."""
     groups: dict[object, list[int]] = {}
     for i, (worlds, variant, condition, seed) in enumerate(tasks):
         trial = (worlds, variant, condition, trial_of(variant, seed)[0])
@@ -172,7 +186,8 @@ def _jobs(tasks: Sequence[Task], attempts: int, workers: int = 1) -> list[Job]:
         return max(trial_of(variant, tasks[i][3])[1] for i in group) + 1
 
     sized = [(group, played(group), len(tasks[group[0]][0])) for group in groups.values()]
-    target = sum(n * w for _, n, w in sized) / (SPREAD * workers) if workers > 1 else math.inf
+    share = sum(n * w for _, n, w in sized) / (SPREAD * workers) if workers > 1 else math.inf
+    target = min(share, LARGEST_JOB)
     jobs = []
     for group, n, count in sized:
         parts = min(count, max(1, math.ceil(n * count / target)))
@@ -208,12 +223,11 @@ def _job_tasks(tasks: Sequence[Task], job: Job) -> list[Task]:
     return [(tasks[i][0][job.worlds], *tasks[i][1:]) for i in job.tasks]
 
 
-def _gathered(
-    tasks: Sequence[Task], jobs: list[Job], done: Iterable[list[list[TransferResult]]]
-) -> list[list[TransferResult]]:
-    """The jobs' results back in the order of `tasks`, each task's worlds in their order."""
+def _gathered(tasks: Sequence[Task], done: Iterable[Part]) -> list[list[TransferResult]]:
+    """The jobs' results, in whatever order they were done, back in the order of `tasks`, each task's
+    worlds in their order."""
     parts: list[dict[int, list[TransferResult]]] = [{} for _ in tasks]
-    for job, outcome in zip(jobs, done):
+    for job, outcome in done:
         for i, result in zip(job.tasks, outcome):
             parts[i][job.worlds.start] = result
     return [[r for _, part in sorted(found.items()) for r in part] for found in parts]
@@ -230,11 +244,22 @@ class LocalMapper:
         self._run = partial(_run_job, attempts=attempts, registered=registered)
 
     def __call__(self, tasks: Sequence[Task]) -> list[list[TransferResult]]:
+        return _gathered(tasks, self.parts(tasks))
+
+    def parts(self, tasks: Sequence[Task]) -> Iterator[Part]:
+        """Each job of `tasks` with its results, as the workers finish them."""
         jobs = _jobs(tasks, self._attempts, self._workers)
-        grouped = [_job_tasks(tasks, job) for job in jobs]
         if self._pool is None:
-            return _gathered(tasks, jobs, map(self._run, grouped))
-        return _gathered(tasks, jobs, self._pool.map(self._run, grouped, chunksize=max(1, len(jobs) // 32)))
+            for job in jobs:
+                yield job, self._run(_job_tasks(tasks, job))
+            return
+        futures = {self._pool.submit(self._run, _job_tasks(tasks, job)): job for job in jobs}
+        try:
+            for future in as_completed(futures):
+                yield futures[future], future.result()
+        finally:
+            for future in futures:
+                future.cancel()
 
     def close(self) -> None:
         if self._pool is not None:
@@ -265,9 +290,21 @@ class ClusterMapper:
         self._run = partial(_run_job, attempts=attempts, registered=registered)
 
     def __call__(self, tasks: Sequence[Task]) -> list[list[TransferResult]]:
+        return _gathered(tasks, self.parts(tasks))
+
+    def parts(self, tasks: Sequence[Task]) -> Iterator[Part]:
+        """Each job of `tasks` with its results, as the cluster's workers finish them; every job is
+        submitted at once, so a batch keeps as many workers busy as it has jobs."""
+        from distributed import as_completed as as_done
+
         jobs = _jobs(tasks, self._attempts, self._workers)
         futures = self._client.map(self._run, [_job_tasks(tasks, job) for job in jobs], pure=False)
-        return _gathered(tasks, jobs, self._client.gather(futures))
+        job_of = {future.key: job for future, job in zip(futures, jobs)}
+        try:
+            for future, outcome in as_done(futures, loop=self._client.loop, with_results=True):
+                yield job_of[future.key], outcome
+        finally:
+            self._client.cancel(futures)
 
     def close(self) -> None:
         self._client.close()
