@@ -24,7 +24,8 @@ from pegbt.sim.world_effects import WorldEffects
 from pegbt.sim2real.outcomes.cache import MemoMapper
 from pegbt.sim2real.outcomes.diagnose import diagnose
 from pegbt.sim2real.outcomes.predict import PREDICT_SEED, nodes
-from pegbt.sim2real.outcomes.simulate import LocalMapper, simulate_cells
+from pegbt.sim2real.outcomes.simulate import simulate_cells
+from pegbt.sim2real.outcomes.workers import LocalMapper
 
 
 def _save(memo: MemoMapper, path: Path | None) -> None:

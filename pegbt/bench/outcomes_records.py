@@ -218,8 +218,8 @@ class StoredMemo(MemoMapper):
     """A `MemoMapper` whose transfers are also kept in `folder`, in the file of simulator identity `code`
     (`simulator_identity`), and read back from it: what an earlier run of the same simulator simulated is
     known from the start. `mapper` must be the benchmark's (its attempts are in no key). Each of its jobs
-    is kept as it is done (`simulate.PartedMapper`), so a run killed in a large batch (the pilot's reach
-    6,000 transfers a cell) loses only the jobs under way, a few minutes each at most (`simulate.LARGEST_JOB`)."""
+    is kept as it is done (`workers.PartedMapper`), so a run killed in a large batch (the pilot's reach
+    6,000 transfers a cell) loses only the jobs under way, a few minutes each at most (`workers.LARGEST_JOB`)."""
 
     def __init__(self, mapper: Mapper, folder: Path, code: str) -> None:
         super().__init__(mapper)

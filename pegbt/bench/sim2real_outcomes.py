@@ -49,14 +49,8 @@ from pegbt.sim2real.outcomes.cache import MemoMapper
 from pegbt.sim2real.outcomes.cells import Cell, Outcomes
 from pegbt.sim2real.outcomes.diagnose import Diagnosis, Settings, diagnose
 from pegbt.sim2real.outcomes.fit import Profile
-from pegbt.sim2real.outcomes.simulate import (
-    CATEGORIES,
-    ClusterMapper,
-    LocalMapper,
-    Mapper,
-    category_of,
-    simulate_cells,
-)
+from pegbt.sim2real.outcomes.simulate import CATEGORIES, Mapper, category_of, simulate_cells
+from pegbt.sim2real.outcomes.workers import ClusterMapper, LocalMapper
 
 if TYPE_CHECKING:
     from pegbt.evaluation.cluster import ClusterTls

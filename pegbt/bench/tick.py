@@ -29,7 +29,7 @@ def _campaign_slice() -> tuple[float, float, int, int]:
     """(CPU s, simulated s summed over worlds, transfers, worlds) of the concealed campaign's first seeds."""
     from pegbt.bench.sim2real_outcomes import CELLS, FAMILIES, REAL_SEED
     from pegbt.sim.world_effects import WorldEffects
-    from pegbt.sim2real.outcomes.simulate import LocalMapper
+    from pegbt.sim2real.outcomes.workers import LocalMapper
 
     worlds = tuple(WorldEffects.of(FAMILIES[family]) for family in FAMILIES)
     tasks = [(worlds, v, c, REAL_SEED + seed) for v, c in CELLS for seed in range(TRANSFERS)]

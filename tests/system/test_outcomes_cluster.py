@@ -8,7 +8,7 @@ import pytest
 from cluster_helpers import LocalDaskCluster, another_commit
 
 from pegbt.sim.world_effects import WorldEffects
-from pegbt.sim2real.outcomes.simulate import ClusterMapper, LocalMapper
+from pegbt.sim2real.outcomes.workers import ClusterMapper, LocalMapper
 
 pytestmark = pytest.mark.slow
 

@@ -24,7 +24,7 @@ from pegbt.bench.outcomes_records import (
 )
 from pegbt.errors import PegbtError
 from pegbt.sim.world_effects import WorldEffects
-from pegbt.sim2real.outcomes import simulate
+from pegbt.sim2real.outcomes import workers
 from pegbt.sim2real.outcomes.cells import Outcomes
 from pegbt.sim2real.outcomes.diagnose import Diagnosis
 from pegbt.sim2real.outcomes.transfer_result import TransferResult
@@ -268,11 +268,11 @@ def test_the_simulator_identity_moves_with_what_a_transfer_imports_or_reads_only
 
 
 def test_the_simulator_identity_leaves_out_the_diagnosis() -> None:
-    """The benchmark's transfers stay valid across changes to the fit, gate and predictions: none of them is
-    among what the phase simulator's entry imports."""
+    """The benchmark's transfers stay valid across changes to the fit, gate and predictions and to how jobs
+    are spread over workers: none of them is among what the phase simulator's entry imports."""
     imported = {p.relative_to(ROOT).as_posix() for p in imported_sources(ROOT, SIMULATOR)}
     assert "pegbt/sim2real/outcomes/phasesim.py" in imported and "pegbt/sim/world.py" in imported
-    for diagnosis in ("diagnose", "fit", "gate", "predict", "likelihood"):
+    for diagnosis in ("diagnose", "fit", "gate", "predict", "likelihood", "workers"):
         assert f"pegbt/sim2real/outcomes/{diagnosis}.py" not in imported
 
 
@@ -290,8 +290,8 @@ def test_a_batch_is_kept_a_job_at_a_time_so_a_run_killed_inside_it_keeps_the_job
             raise KeyboardInterrupt
         return fake_mapper(part)
 
-    monkeypatch.setattr(simulate, "_run_job", killed_on_the_third_job)
-    memo = StoredMemo(simulate.LocalMapper(0), tmp_path, "aaa")
+    monkeypatch.setattr(workers, "run_job", killed_on_the_third_job)
+    memo = StoredMemo(workers.LocalMapper(0), tmp_path, "aaa")
     with pytest.raises(KeyboardInterrupt):
         memo(tasks)
     assert calls == [1, 1, 1]

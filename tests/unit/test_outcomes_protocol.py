@@ -6,8 +6,9 @@ from pathlib import Path
 
 from pegbt.sim.world_effects import WorldEffects
 from pegbt.sim2real.outcomes.phasesim import simulate_transfer
-from pegbt.sim2real.outcomes.simulate import LocalMapper, attempts_for, registered_for
+from pegbt.sim2real.outcomes.simulate import attempts_for, registered_for
 from pegbt.sim2real.outcomes.table import paper_table, read_table
+from pegbt.sim2real.outcomes.workers import LocalMapper
 
 # Transfer 2 of the unilateral order in a world whose pegs bend: the first pick is lost lowering onto the
 # goal peg, the regrasp from where it fell places it.

@@ -12,8 +12,9 @@ from pegbt.frames import invert_rigid
 from pegbt.motion.kinematics import shaft_end_and_tip
 from pegbt.sim.world import World
 from pegbt.sim.world_effects import WorldEffects
-from pegbt.sim2real.outcomes.simulate import LocalMapper, attempts_for, registered_for
+from pegbt.sim2real.outcomes.simulate import attempts_for, registered_for
 from pegbt.sim2real.outcomes.table import paper_table, read_table
+from pegbt.sim2real.outcomes.workers import LocalMapper
 from pegbt.workcell import workcell
 
 

@@ -8,7 +8,7 @@ from __future__ import annotations
 import pytest
 
 from pegbt.sim.world_effects import WorldEffects
-from pegbt.sim2real.outcomes import simulate
+from pegbt.sim2real.outcomes import simulate, workers
 from pegbt.sim2real.outcomes.phasesim import TransferResult
 
 
@@ -55,6 +55,6 @@ def test_a_trials_seeds_are_simulated_once_and_come_back_in_order(monkeypatch):
     monkeypatch.setattr(simulate, "simulate_trial", record)
     seeds = [14, 3, 12, 5, 0]
     tasks = [((WorldEffects(),), "unilateral", "uncalibrated", seed) for seed in seeds]
-    results = simulate.LocalMapper(0)(tasks)
+    results = workers.LocalMapper(0)(tasks)
     assert [r[0].seconds for r in results] == seeds
     assert sorted(asked) == [(0, 6), (1, 3)]

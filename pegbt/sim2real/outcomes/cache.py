@@ -14,7 +14,8 @@ from collections.abc import Iterable, Sequence
 
 from pegbt.sim.world_effects import WorldEffects
 from pegbt.sim2real.outcomes.phasesim import TransferResult
-from pegbt.sim2real.outcomes.simulate import Job, Mapper, Part, PartedMapper, Task
+from pegbt.sim2real.outcomes.simulate import Mapper, Task
+from pegbt.sim2real.outcomes.workers import Job, Part, PartedMapper
 
 Known = tuple[WorldEffects, str, str, int]  # world, variant, condition, seed
 

@@ -14,8 +14,9 @@ from pegbt.errors import PegbtError
 from pegbt.sim2real.outcomes.cells import Outcomes
 from pegbt.sim2real.outcomes.diagnose import Settings, diagnose, split
 from pegbt.sim2real.outcomes.report import report_dict, report_markdown, write_report
-from pegbt.sim2real.outcomes.simulate import ClusterMapper, LocalMapper, attempts_for, registered_for
+from pegbt.sim2real.outcomes.simulate import attempts_for, registered_for
 from pegbt.sim2real.outcomes.table import paper_table, read_table
+from pegbt.sim2real.outcomes.workers import ClusterMapper, LocalMapper
 
 if TYPE_CHECKING:
     from pegbt.evaluation.cluster import ClusterTls

@@ -1,4 +1,5 @@
-"""Many simulated transfers per cell, in local worker processes (or on a Dask cluster), summed into counts.
+"""Many simulated transfers per cell, summed into counts; what a worker runs (`run_job`), wherever it runs
+(`workers`).
 
 Seeds are shared across the worlds compared (common random numbers): the same layouts and the same
 perception noise for every parameter value, so differences between worlds are the effects', not luck's.
@@ -18,12 +19,9 @@ protocol each arm is also registered to the camera as the paper's were, with its
 
 from __future__ import annotations
 
-import math
-from collections.abc import Iterable, Iterator, Sequence
-from concurrent.futures import Executor, ProcessPoolExecutor, as_completed
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field, replace
-from functools import partial
-from typing import TYPE_CHECKING, Protocol, runtime_checkable
+from typing import Protocol
 
 import numpy as np
 
@@ -32,9 +30,6 @@ from pegbt.sim.world_effects import WorldEffects
 from pegbt.sim2real.outcomes.cells import PHASES, Outcomes
 from pegbt.sim2real.outcomes.phasesim import REGRASPS, Replay, TransferResult, simulate_transfer
 from pegbt.sim2real.outcomes.trialsim import in_order, simulate_trial, trial_of
-
-if TYPE_CHECKING:
-    from pegbt.evaluation.cluster import ClusterTls
 
 CATEGORIES = ("placed", *PHASES)  # a transfer placed, or failed for good in this phase (its first failure)
 Key = tuple[str, str]
@@ -108,14 +103,6 @@ class Mapper(Protocol):
     def __call__(self, tasks: Sequence[Task]) -> list[list[TransferResult]]: ...
 
 
-@runtime_checkable
-class PartedMapper(Mapper, Protocol):
-    """A mapper that also hands back each job of a batch as it is done (`Part`), so a caller keeps what
-    a long batch has simulated so far (`bench.outcomes_records.StoredMemo`)."""
-
-    def parts(self, tasks: Sequence[Task]) -> Iterator[Part]: ...
-
-
 ONE_ATTEMPT = 1  # the paper's robot: `FLSPegTransfer_single.py` (BerkeleyAutomation/FLSpegtransferHO)
 # runs `move_block` once per action order and skips an order whose block it no longer finds on its peg
 WITH_RECOVERY = 1 + REGRASPS  # pegbt's trees (`trees/shared/one_transfer.yaml`)
@@ -139,67 +126,19 @@ def _run(task: Task, attempts: int = WITH_RECOVERY, registered: bool = False) ->
     paper's were or not; a motion the planner refuses (a target out of reach in that world) is a transfer
     that failed where it started, never the end of the whole fit. A way back whose block was lost is
     skipped only under the paper's protocol (one attempt); pegbt's trees try it and fail at `sense`."""
-    return _run_job([task], attempts, registered)[0]
+    return run_job([task], attempts, registered)[0]
 
 
-def _in_trials(attempts: int, variant: str) -> bool:
+def in_trials(attempts: int, variant: str) -> bool:
     """Whether a task's transfer is simulated as part of its trial (`trialsim`): under pegbt's trees (the
     paper's robot skipped a lost block and never recovered), for the variants `in_order` names."""
     return attempts != ONE_ATTEMPT and in_order(variant)
 
 
-SPREAD = 3  # jobs per worker a batch is cut into at least, so the workers finish together
-LARGEST_JOB = 600  # transfers played times worlds (about 2 minutes of a core): a killed run loses no more
-
-
-@dataclass(frozen=True)
-class Job:
-    """Tasks (by index) simulated together in the worlds `worlds` (a slice of their worlds): a trial's
-    seeds, or one task. `size`: what it costs, transfers played times worlds."""
-
-    tasks: tuple[int, ...]
-    worlds: slice
-    size: int
-
-
-Part = tuple[Job, list[list[TransferResult]]]  # a job and its results: per task, per world of its part
-
-
-def _jobs(tasks: Sequence[Task], attempts: int, workers: int = 1) -> list[Job]:
-    """The tasks grouped so that a trial's seeds with the same worlds are one job, simulated once in order;
-    every other task is a job of its own. A job larger than `LARGEST_JOB`, or with several `workers` than a
-    `SPREAD`-th of a worker's share, is cut into consecutive parts of its worlds: one unilateral cell of 16
-    seeds is a trial of 12 transfers and one of 4, which two workers would share 12 to 4, and 5 seeds of one
-    trial would keep one worker alone. Each part replays the arm's motion anew (`bench.Replay`), at about
-    one more world's cost (a 12-transfer unilateral trial: 1.0 s of CPU a part, 1.1 s a world), so a part of
-    `LARGEST_JOB` spends a few per cent on it; results do not depend on the cut. The largest jobs come
-    first."""
-    groups: dict[object, list[int]] = {}
-    for i, (worlds, variant, condition, seed) in enumerate(tasks):
-        trial = (worlds, variant, condition, trial_of(variant, seed)[0])
-        groups.setdefault(trial if _in_trials(attempts, variant) else i, []).append(i)
-
-    def played(group: list[int]) -> int:
-        variant = tasks[group[0]][1]
-        if not _in_trials(attempts, variant):
-            return 1
-        return max(trial_of(variant, tasks[i][3])[1] for i in group) + 1
-
-    sized = [(group, played(group), len(tasks[group[0]][0])) for group in groups.values()]
-    share = sum(n * w for _, n, w in sized) / (SPREAD * workers) if workers > 1 else math.inf
-    target = min(share, LARGEST_JOB)
-    jobs = []
-    for group, n, count in sized:
-        parts = min(count, max(1, math.ceil(n * count / target)))
-        edges = [round(k * count / parts) for k in range(parts + 1)]
-        jobs += [Job(tuple(group), slice(lo, hi), n * (hi - lo)) for lo, hi in zip(edges, edges[1:])]
-    return sorted(jobs, key=lambda job: job.size, reverse=True)
-
-
-def _run_job(tasks: Sequence[Task], attempts: int, registered: bool) -> list[list[TransferResult]]:
+def run_job(tasks: Sequence[Task], attempts: int, registered: bool) -> list[list[TransferResult]]:
     """`tasks` (one task, or the seeds of one trial in the same worlds) simulated: per task, per world."""
     worlds, variant, condition, seed = tasks[0]
-    if _in_trials(attempts, variant):
+    if in_trials(attempts, variant):
         layout, _ = trial_of(variant, seed)
         indices = [trial_of(variant, task[3])[1] for task in tasks]
         played = simulate_trial(worlds, variant, condition, layout, max(indices) + 1, attempts, registered)
@@ -216,98 +155,6 @@ def _run_job(tasks: Sequence[Task], attempts: int, registered: bool) -> list[lis
             result = TransferResult(False, "reach", 0.0)
         results.append(result if attempts == ONE_ATTEMPT else replace(result, skipped=False))
     return [results]
-
-
-def _job_tasks(tasks: Sequence[Task], job: Job) -> list[Task]:
-    """The tasks of `job`, each with the job's part of its worlds."""
-    return [(tasks[i][0][job.worlds], *tasks[i][1:]) for i in job.tasks]
-
-
-def _gathered(tasks: Sequence[Task], done: Iterable[Part]) -> list[list[TransferResult]]:
-    """The jobs' results, in whatever order they were done, back in the order of `tasks`, each task's
-    worlds in their order."""
-    parts: list[dict[int, list[TransferResult]]] = [{} for _ in tasks]
-    for job, outcome in done:
-        for i, result in zip(job.tasks, outcome):
-            parts[i][job.worlds.start] = result
-    return [[r for _, part in sorted(found.items()) for r in part] for found in parts]
-
-
-class LocalMapper:
-    """Simulated transfers in `workers` local processes (in this process when `workers` is 0), each with up
-    to `attempts` picks, the arms `registered` as the paper's were or not."""
-
-    def __init__(self, workers: int, attempts: int = WITH_RECOVERY, registered: bool = False) -> None:
-        self._pool: Executor | None = ProcessPoolExecutor(workers) if workers > 0 else None
-        self._workers = workers
-        self._attempts = attempts
-        self._run = partial(_run_job, attempts=attempts, registered=registered)
-
-    def __call__(self, tasks: Sequence[Task]) -> list[list[TransferResult]]:
-        return _gathered(tasks, self.parts(tasks))
-
-    def parts(self, tasks: Sequence[Task]) -> Iterator[Part]:
-        """Each job of `tasks` with its results, as the workers finish them."""
-        jobs = _jobs(tasks, self._attempts, self._workers)
-        if self._pool is None:
-            for job in jobs:
-                yield job, self._run(_job_tasks(tasks, job))
-            return
-        futures = {self._pool.submit(self._run, _job_tasks(tasks, job)): job for job in jobs}
-        try:
-            for future in as_completed(futures):
-                yield futures[future], future.result()
-        finally:
-            for future in futures:
-                future.cancel()
-
-    def close(self) -> None:
-        if self._pool is not None:
-            self._pool.shutdown()
-
-
-class ClusterMapper:
-    """Simulated transfers as tasks on a Dask scheduler (`pegbt eval --cluster`'s `connect`, with its
-    certificates `tls` for a `tls://` address; its workers checked as eval's are: present, and on this
-    commit), each with up to `attempts` picks, the arms `registered` as the paper's were or not."""
-
-    def __init__(
-        self,
-        address: str,
-        attempts: int = WITH_RECOVERY,
-        registered: bool = False,
-        tls: ClusterTls | None = None,
-    ) -> None:
-        from pegbt.evaluation.cluster import check_workers, connect
-
-        self._client = connect(address, tls)
-        try:  # a worker on other code would simulate another simulator's transfers, kept as this one's
-            self._workers = check_workers(self._client, one_per_worker=False)
-        except BaseException:
-            self._client.close()
-            raise
-        self._attempts = attempts
-        self._run = partial(_run_job, attempts=attempts, registered=registered)
-
-    def __call__(self, tasks: Sequence[Task]) -> list[list[TransferResult]]:
-        return _gathered(tasks, self.parts(tasks))
-
-    def parts(self, tasks: Sequence[Task]) -> Iterator[Part]:
-        """Each job of `tasks` with its results, as the cluster's workers finish them; every job is
-        submitted at once, so a batch keeps as many workers busy as it has jobs."""
-        from distributed import as_completed as as_done
-
-        jobs = _jobs(tasks, self._attempts, self._workers)
-        futures = self._client.map(self._run, [_job_tasks(tasks, job) for job in jobs], pure=False)
-        job_of = {future.key: job for future, job in zip(futures, jobs)}
-        try:
-            for future, outcome in as_done(futures, loop=self._client.loop, with_results=True):
-                yield job_of[future.key], outcome
-        finally:
-            self._client.cancel(futures)
-
-    def close(self) -> None:
-        self._client.close()
 
 
 def simulate_cells(
