@@ -288,33 +288,41 @@ def test_the_simulator_process_streams_clouds_and_states_at_the_rates_asked(tmp_
             state_rate = (len(states.all()) - states_before) / seconds
             assert wait_for(lambda: _last_two_one_period_apart(clouds, POINT_CLOUD, 0.2), timeout=20)
             samples = tap.all()
+            # read while the session is open: a sample's payload may lie in the session's buffers
+            assert 0 < cloud_rate <= 1.1 * 5 and 0 < state_rate <= 1.1 * 50, (cloud_rate, state_rate)
+            # never more often than asked
+            assert np.diff(_stamps(clouds.all(), POINT_CLOUD)).min() > 0.2 - 0.005
+            gaps = np.diff(_stamps(states.all(), JOINT_STATE))
+            # every 20 ms of the 10 ms clock
+            assert gaps.min() > 0.02 - 1e-6 and np.any(np.abs(gaps - 0.02) < 1e-6)
+            cloud = STORE.deserialize_cdr(clouds.all()[-1].payload.to_bytes(), POINT_CLOUD)
+            assert [(f.name, f.offset, f.datatype) for f in cloud.fields] == [
+                ("x", 0, 7),
+                ("y", 4, 7),
+                ("z", 8, 7),
+                ("rgba", 12, 6),  # zivid-ros's layout of a colour
+            ]
+            assert (
+                cloud.height,
+                cloud.width,
+            ) == DepthCamera().image_shape  # organised: the camera's pixels, by row
+            words = np.frombuffer(bytes(cloud.data), dtype="<f4").reshape(cloud.height, cloud.width, 4)
+            xyz, rgba = words[..., :3], words[..., 3].view("<u4")
+            seen = np.isfinite(xyz).all(axis=2)
+            assert not cloud.is_dense and 0.5 < seen.mean() < 1.0  # pixels that see nothing are NaN
+            np.testing.assert_array_equal(
+                rgba != 0, seen
+            )  # and have no colour; the others, what their ray met
+            assert np.all(xyz[seen][:, 2] > 0.1)  # in front of the camera, metres
+            allowed = {topic.lstrip("/")} | {
+                t.name.lstrip("/") for arm in ("PSM1", "PSM2") for t in PsmTopics(arm).published()
+            }
+            assert {str(sample.key_expr) for sample in samples} <= allowed
+            assert all(sample.attachment is None for sample in samples)
+            start = json.loads(log.read_text().splitlines()[0])
+            assert (start["kind"], start["interface"], start["camera_period"]) == ("start", "dvrk", 0.2)
         finally:
             client.close()
-    assert 0 < cloud_rate <= 1.1 * 5 and 0 < state_rate <= 1.1 * 50, (cloud_rate, state_rate)
-    assert np.diff(_stamps(clouds.all(), POINT_CLOUD)).min() > 0.2 - 0.005  # never more often than asked
-    gaps = np.diff(_stamps(states.all(), JOINT_STATE))
-    assert gaps.min() > 0.02 - 1e-6 and np.any(np.abs(gaps - 0.02) < 1e-6)  # every 20 ms of the 10 ms clock
-    cloud = STORE.deserialize_cdr(clouds.all()[-1].payload.to_bytes(), POINT_CLOUD)
-    assert [(f.name, f.offset, f.datatype) for f in cloud.fields] == [
-        ("x", 0, 7),
-        ("y", 4, 7),
-        ("z", 8, 7),
-        ("rgba", 12, 6),  # zivid-ros's layout of a colour
-    ]
-    assert (cloud.height, cloud.width) == DepthCamera().image_shape  # organised: the camera's pixels, by row
-    words = np.frombuffer(bytes(cloud.data), dtype="<f4").reshape(cloud.height, cloud.width, 4)
-    xyz, rgba = words[..., :3], words[..., 3].view("<u4")
-    seen = np.isfinite(xyz).all(axis=2)
-    assert not cloud.is_dense and 0.5 < seen.mean() < 1.0  # pixels that see nothing are NaN
-    np.testing.assert_array_equal(rgba != 0, seen)  # and have no colour; the others, what their ray met
-    assert np.all(xyz[seen][:, 2] > 0.1)  # in front of the camera, metres
-    allowed = {topic.lstrip("/")} | {
-        t.name.lstrip("/") for arm in ("PSM1", "PSM2") for t in PsmTopics(arm).published()
-    }
-    assert {str(sample.key_expr) for sample in samples} <= allowed
-    assert all(sample.attachment is None for sample in samples)
-    start = json.loads(log.read_text().splitlines()[0])
-    assert (start["kind"], start["interface"], start["camera_period"]) == ("start", "dvrk", 0.2)
 
 
 class _CountingCamera:
