@@ -302,17 +302,14 @@ def test_the_simulator_process_streams_clouds_and_states_at_the_rates_asked(tmp_
                 ("z", 8, 7),
                 ("rgba", 12, 6),  # zivid-ros's layout of a colour
             ]
-            assert (
-                cloud.height,
-                cloud.width,
-            ) == DepthCamera().image_shape  # organised: the camera's pixels, by row
+            # organised: the camera's pixels, by row
+            assert (cloud.height, cloud.width) == DepthCamera().image_shape
             words = np.frombuffer(bytes(cloud.data), dtype="<f4").reshape(cloud.height, cloud.width, 4)
             xyz, rgba = words[..., :3], words[..., 3].view("<u4")
             seen = np.isfinite(xyz).all(axis=2)
             assert not cloud.is_dense and 0.5 < seen.mean() < 1.0  # pixels that see nothing are NaN
-            np.testing.assert_array_equal(
-                rgba != 0, seen
-            )  # and have no colour; the others, what their ray met
+            # and have no colour; the others, what their ray met
+            np.testing.assert_array_equal(rgba != 0, seen)
             assert np.all(xyz[seen][:, 2] > 0.1)  # in front of the camera, metres
             allowed = {topic.lstrip("/")} | {
                 t.name.lstrip("/") for arm in ("PSM1", "PSM2") for t in PsmTopics(arm).published()

@@ -3,6 +3,8 @@ many worlds is cut by its worlds, and the results come back in the tasks' order 
 
 from __future__ import annotations
 
+import pytest
+
 from pegbt.sim.world_effects import WorldEffects
 from pegbt.sim2real.outcomes import simulate, workers
 from pegbt.sim2real.outcomes.phasesim import TransferResult
@@ -61,7 +63,9 @@ def test_a_job_larger_than_two_minutes_of_a_core_is_cut_even_for_one_worker() ->
     assert all(job.tasks == tuple(range(12)) for job in jobs)  # each part plays the whole trial in order
 
 
-def test_the_local_mapper_hands_back_every_job_once_and_its_call_gathers_them(monkeypatch) -> None:
+def test_the_local_mapper_hands_back_every_job_once_and_its_call_gathers_them(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
     monkeypatch.setattr(workers, "run_job", lambda tasks, attempts, registered: _played(tasks))
     mapper = workers.LocalMapper(0)
     monkeypatch.setattr(workers, "LARGEST_JOB", 30)  # the 12-seed trial in 3 parts, the 4-seed one in 1
