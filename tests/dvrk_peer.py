@@ -7,6 +7,7 @@ from __future__ import annotations
 import threading
 import time
 from collections.abc import Callable
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -37,23 +38,43 @@ def wait_for(condition: Callable[[], Any], timeout: float = 10.0) -> Any:
     return condition()
 
 
+@dataclass(frozen=True)
+class Message:
+    """What a sample carried, copied on arrival: a zenoh sample's payload may lie in buffers its session
+    reuses or frees, so one read after `close()` can hold other bytes."""
+
+    key_expr: str
+    payload: bytes
+    attachment: bytes | None
+
+    @classmethod
+    def of(cls, sample: zenoh.Sample) -> Message:
+        attachment = sample.attachment
+        return cls(
+            str(sample.key_expr),
+            sample.payload.to_bytes(),
+            None if attachment is None else attachment.to_bytes(),
+        )
+
+
 class Received:
-    """Samples of one key expression, kept with their arrival time."""
+    """Messages of one key expression, kept with their arrival time."""
 
     def __init__(self) -> None:
-        self.samples: list[tuple[float, zenoh.Sample]] = []
+        self.samples: list[tuple[float, Message]] = []
         self._lock = threading.Lock()
 
     def __call__(self, sample: zenoh.Sample) -> None:
+        message = Message.of(sample)
         with self._lock:
-            self.samples.append((time.monotonic(), sample))
+            self.samples.append((time.monotonic(), message))
 
-    def all(self) -> list[zenoh.Sample]:
+    def all(self) -> list[Message]:
         with self._lock:
-            return [sample for _, sample in self.samples]
+            return [message for _, message in self.samples]
 
     def decoded(self, typename: str) -> list[Any]:
-        return [STORE.deserialize_cdr(s.payload.to_bytes(), typename) for s in self.all()]
+        return [STORE.deserialize_cdr(m.payload, typename) for m in self.all()]
 
 
 class DvrkPeer:

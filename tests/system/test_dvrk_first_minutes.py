@@ -189,7 +189,7 @@ def test_the_clutch_mid_motion_pauses_it_and_it_completes_after_release_without_
         busy = [
             at
             for at, sample in states.samples
-            if at > pressed and STORE.deserialize_cdr(sample.payload.to_bytes(), OPERATING_STATE).is_busy
+            if at > pressed and STORE.deserialize_cdr(sample.payload, OPERATING_STATE).is_busy
         ]
         assert busy, "the arm never said MANUAL (busy)"
         manual_from = busy[0]
@@ -199,7 +199,7 @@ def test_the_clutch_mid_motion_pauses_it_and_it_completes_after_release_without_
             sent = [(r.at, np.asarray(r.message.position)) for r in robot.double.commands("PSM1/servo_jp")]
         else:  # what the robot's set-point did: it moves with every servo_jp, MANUAL or not
             sent = [
-                (at, np.asarray(STORE.deserialize_cdr(s.payload.to_bytes(), JOINT_STATE).position))
+                (at, np.asarray(STORE.deserialize_cdr(s.payload, JOINT_STATE).position))
                 for at, s in setpoints.samples
             ]
         sent = [(at, q) for at, q in sent if len(q) == 6]
@@ -216,7 +216,7 @@ def test_the_clutch_mid_motion_pauses_it_and_it_completes_after_release_without_
         after = [q for at, q in sent if at > released + 0.1]
         assert np.ptp(np.array(after), axis=0).max() > 0.01  # streaming went on after the release
         decoded = [
-            STORE.deserialize_cdr(s.payload.to_bytes(), JOINT_STATE).position for _, s in measured.samples
+            STORE.deserialize_cdr(s.payload, JOINT_STATE).position for _, s in measured.samples
         ]
         positions = np.array([p for p in decoded if len(p) == 6])
         steps = np.abs(np.diff(positions, axis=0))
