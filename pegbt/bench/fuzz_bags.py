@@ -120,13 +120,21 @@ def _write_mcap(path: Path, messages: list[tuple[str, int, bytes]], rng: random.
     )
 
 
-def write_rosbag2(folder: Path, messages: list[tuple[str, int, bytes]], rng: random.Random) -> Path:
-    """A rosbag2 folder by `rosbags`' writer, in MCAP or sqlite3 storage."""
+def write_rosbag2(
+    folder: Path, messages: list[tuple[str, int, bytes]], rng: random.Random, storage: str | None = None
+) -> Path:
+    """A rosbag2 folder by `rosbags`' writer, in `storage` ("mcap" or "sqlite3"; by default one of them at
+    random, MCAP twice as often)."""
     from rosbags.rosbag2 import StoragePlugin, Writer
 
     store = _store()
-    storage = rng.choice([StoragePlugin.MCAP, StoragePlugin.MCAP, StoragePlugin.SQLITE3])
-    with Writer(folder, version=9, storage_plugin=storage) as writer:
+    plugins = {"mcap": StoragePlugin.MCAP, "sqlite3": StoragePlugin.SQLITE3}
+    plugin = (
+        plugins[storage]
+        if storage
+        else rng.choice([StoragePlugin.MCAP, StoragePlugin.MCAP, StoragePlugin.SQLITE3])
+    )
+    with Writer(folder, version=9, storage_plugin=plugin) as writer:
         connections = {
             topic: writer.add_connection(topic, JOINT_STATE, typestore=store) for topic in (CMD, PHY)
         }

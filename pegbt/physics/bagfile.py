@@ -5,8 +5,9 @@ A bag holds two `sensor_msgs/msg/JointState` streams, the commands (`--cmd`, def
 dVRK the tracker's topic). Each physical sample is paired with the latest command stamped at or before
 it (header stamps; the log time when a stamp is zero), so a bag with one message per set-point on each
 topic gives the samples of the folder layout. `settled` keeps only samples whose command had then held
-for that many seconds. rosbag2 folders are read by `rosbags`' reader; a lone MCAP file by the `mcap`
-library's stream reader, which also reads a file cut short up to the cut. Payloads are CDR, decoded by
+for that many seconds. An MCAP file, alone or a rosbag2 folder's storage, is read by the `mcap` library's
+stream reader, which checks every CRC and also reads a file cut short up to the cut; other rosbag2 storage
+(sqlite3, files compressed whole) by `rosbags`' reader. Payloads are CDR, decoded by
 `rosbags`' typestore.
 """
 
@@ -82,20 +83,22 @@ def _raw_messages(
     """(topic, type, CDR payload, log time ns) of every message of the bag; `topics` learns every topic's
     type, `notes` what was read past (a file cut short). Damage is a `PegbtError` naming the file."""
     if path.is_dir():
-        yield from _rosbag2_messages(path, topics)
+        yield from _rosbag2_messages(path, topics, notes)
     else:
         yield from _mcap_messages(path, topics, notes)
 
 
-def _rosbag2_messages(path: Path, topics: dict[str, str]) -> Iterator[tuple[str, str, bytes, int]]:
-    """A rosbag2 folder through `rosbags`, which checks an MCAP chunk's CRC as it decompresses it."""
-    from rosbags.highlevel import AnyReader, AnyReaderError
-    from rosbags.rosbag2 import ReaderError
-
+def _rosbag2_messages(
+    path: Path, topics: dict[str, str], notes: list[str]
+) -> Iterator[tuple[str, str, bytes, int]]:
+    """A rosbag2 folder: its MCAP storage files one by one as a lone MCAP file is read (`_mcap_messages`),
+    in chunks whose CRCs are checked, never through the summary's indexes, which no CRC covers (a flipped
+    bit in one steers an indexed reader to other messages, read as whole); other storage (sqlite3, files
+    compressed whole) through `rosbags`."""
     try:
-        read_yaml_file(
+        metadata = read_yaml_file(
             path / "metadata.yaml"
-        )  # within bounds of size and depth, which rosbags' parser has not
+        )  # bounded in size and depth, as rosbags' parser is not
     except PegbtError as error:
         raise PegbtError(
             f"not a readable rosbag2 folder: {error.message}",
@@ -103,6 +106,52 @@ def _rosbag2_messages(path: Path, topics: dict[str, str]) -> Iterator[tuple[str,
             line=error.line,
             column=error.column,
         ) from None
+    files = _mcap_storage(path, None if metadata is None else metadata.plain())
+    if files is None:
+        yield from _rosbags_messages(path, topics)
+    for file in files or ():
+        yield from _mcap_messages(file, topics, notes)
+
+
+def _mcap_storage(path: Path, metadata: object) -> list[Path] | None:
+    """The MCAP files a rosbag2 folder's `metadata` lists, when its storage is MCAP not compressed whole;
+    None otherwise. A file outside the folder, or missing, is an error naming the field."""
+    info = metadata.get("rosbag2_bagfile_information") if isinstance(metadata, dict) else None
+    if (
+        not isinstance(info, dict)
+        or info.get("storage_identifier") != "mcap"
+        or info.get("compression_format")
+    ):
+        return None
+    names = info.get("relative_file_paths")
+    if not isinstance(names, list) or not all(isinstance(name, str) for name in names):
+        return None
+    folder = path.resolve()
+    files = []
+    for index, name in enumerate(names):
+        file = (path / name).resolve()
+        field = f"rosbag2_bagfile_information.relative_file_paths[{index}]"
+        if not file.is_relative_to(folder):
+            raise PegbtError(
+                f"not a readable rosbag2 folder: {name} lies outside it",
+                file=path / "metadata.yaml",
+                field=field,
+            )
+        if not file.is_file():
+            raise PegbtError(
+                f"not a readable rosbag2 folder: it has no file {name}",
+                file=path / "metadata.yaml",
+                field=field,
+            )
+        files.append(file)
+    return files
+
+
+def _rosbags_messages(path: Path, topics: dict[str, str]) -> Iterator[tuple[str, str, bytes, int]]:
+    """A rosbag2 folder through `rosbags`' reader."""
+    from rosbags.highlevel import AnyReader, AnyReaderError
+    from rosbags.rosbag2 import ReaderError
+
     count = 0
     try:
         with AnyReader([path]) as reader:

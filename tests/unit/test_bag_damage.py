@@ -6,12 +6,14 @@ from __future__ import annotations
 
 import contextlib
 import io
+import random
 import struct
 from pathlib import Path
 
+import numpy as np
 import pytest
 
-from pegbt.bench.fuzz_bags import CMD, PHY, messages_of, write_mcap
+from pegbt.bench.fuzz_bags import CMD, PHY, messages_of, write_mcap, write_rosbag2
 from pegbt.cli import main
 from pegbt.errors import PegbtError
 from pegbt.physics.recording import load_recording
@@ -116,3 +118,42 @@ def test_a_chunk_whose_opcode_is_zeroed_is_found_missing_by_the_statistics(tmp_p
     with pytest.raises(PegbtError, match=r"its statistics count 600 messages, \d+ could be read") as raised:
         load_recording(path, cmd=CMD, phy=PHY)
     assert raised.value.file == str(path)
+
+
+def test_a_rosbag2_mcap_folder_is_read_by_its_chunks_past_indexes_with_bits_flipped(
+    tmp_path: Path, messages
+) -> None:
+    """The MessageIndex and ChunkIndex records carry no CRC: read through them (as `rosbags`' reader does), a
+    chunk's end time flipped earlier than its messages hides them. The chunks, each CRC-checked, still hold
+    the bag whole."""
+    folder = write_rosbag2(tmp_path / "bag", messages, random.Random(0), storage="mcap")
+    whole = load_recording(folder, cmd=CMD, phy=PHY)
+    (path,) = folder.glob("*.mcap")
+    data = bytearray(path.read_bytes())
+    # bit 38 of each ChunkIndex's message_end_time (275 s earlier or later) and of each MessageIndex's
+    # first message time (after its channel id and its array's length)
+    at_in_body = {0x08: 8 + 4, 0x07: 2 + 4 + 4}
+    indexes = [r for r in _records(bytes(data)) if r[0] in at_in_body]
+    for opcode, at, _ in indexes:
+        data[at + 8 + at_in_body[opcode]] ^= 0x40
+    path.write_bytes(bytes(data))
+    read = load_recording(folder, cmd=CMD, phy=PHY)
+    assert len(indexes) > 4 and whole.n == read.n == 300 and read.notes == ()
+    np.testing.assert_array_equal(read.q_phy, whole.q_phy)
+    np.testing.assert_array_equal(read.q_cmd, whole.q_cmd)
+
+
+def test_a_rosbag2_storage_file_outside_its_folder_is_refused_naming_the_field(
+    tmp_path: Path, messages
+) -> None:
+    folder = write_rosbag2(tmp_path / "bag", messages, random.Random(0), storage="mcap")
+    (path,) = folder.glob("*.mcap")
+    path.rename(tmp_path / path.name)
+    metadata = folder / "metadata.yaml"
+    metadata.write_text(metadata.read_text().replace(f"- {path.name}", f"- ../{path.name}"))
+    with pytest.raises(
+        PegbtError, match=f"not a readable rosbag2 folder: ../{path.name} lies outside it"
+    ) as raised:
+        load_recording(folder, cmd=CMD, phy=PHY)
+    assert raised.value.file == str(metadata)
+    assert raised.value.field == "rosbag2_bagfile_information.relative_file_paths[0]"
