@@ -27,7 +27,7 @@ from pegbt.bagoptions import DEFAULT_CMD, DEFAULT_PHY
 from pegbt.errors import PegbtError
 from pegbt.psm import ARMS, N_JOINTS
 from pegbt.scratch import ROWS, ScratchRows, scratch, scratch_where
-from pegbt.yamlfile import read_yaml_file
+from pegbt.yamlfile import Located, read_yaml_file
 
 JOINT_STATE = "sensor_msgs/msg/JointState"
 _ARM_IN_TOPIC = re.compile(r"(?:^|/)(PSM[12])(?:/|$)")
@@ -95,10 +95,8 @@ def _rosbag2_messages(
     in chunks whose CRCs are checked, never through the summary's indexes, which no CRC covers (a flipped
     bit in one steers an indexed reader to other messages, read as whole); other storage (sqlite3, files
     compressed whole) through `rosbags`."""
-    try:
-        metadata = read_yaml_file(
-            path / "metadata.yaml"
-        )  # bounded in size and depth, as rosbags' parser is not
+    try:  # bounded in size and depth, as rosbags' parser is not
+        metadata = read_yaml_file(path / "metadata.yaml")
     except PegbtError as error:
         raise PegbtError(
             f"not a readable rosbag2 folder: {error.message}",
@@ -106,43 +104,30 @@ def _rosbag2_messages(
             line=error.line,
             column=error.column,
         ) from None
-    files = _mcap_storage(path, None if metadata is None else metadata.plain())
-    if files is None:
+    info = metadata.value.get("rosbag2_bagfile_information") if metadata and metadata.is_map else None
+    files = _storage_files(path, info)
+    plain = info.plain() if info and info.is_map else {}
+    if files is None or plain.get("storage_identifier") != "mcap" or plain.get("compression_format"):
         yield from _rosbags_messages(path, topics)
-    for file in files or ():
+        return
+    for file in files:
         yield from _mcap_messages(file, topics, notes)
 
 
-def _mcap_storage(path: Path, metadata: object) -> list[Path] | None:
-    """The MCAP files a rosbag2 folder's `metadata` lists, when its storage is MCAP not compressed whole;
-    None otherwise. A file outside the folder, or missing, is an error naming the field."""
-    info = metadata.get("rosbag2_bagfile_information") if isinstance(metadata, dict) else None
-    if (
-        not isinstance(info, dict)
-        or info.get("storage_identifier") != "mcap"
-        or info.get("compression_format")
-    ):
-        return None
-    names = info.get("relative_file_paths")
-    if not isinstance(names, list) or not all(isinstance(name, str) for name in names):
+def _storage_files(path: Path, info: Located | None) -> list[Path] | None:
+    """The storage files a rosbag2 folder's metadata (`info`) lists, each checked to lie in the folder and
+    be there (an error at its line otherwise, before any reader opens it); None when it lists none."""
+    names = info.value.get("relative_file_paths") if info and info.is_map else None
+    if names is None or not names.is_list or not all(isinstance(n.value, str) for n in names.value):
         return None
     folder = path.resolve()
     files = []
-    for index, name in enumerate(names):
-        file = (path / name).resolve()
-        field = f"rosbag2_bagfile_information.relative_file_paths[{index}]"
+    for name in names.value:
+        file = (path / name.value).resolve()
         if not file.is_relative_to(folder):
-            raise PegbtError(
-                f"not a readable rosbag2 folder: {name} lies outside it",
-                file=path / "metadata.yaml",
-                field=field,
-            )
+            raise name.error(f"not a readable rosbag2 folder: {name.value} lies outside it")
         if not file.is_file():
-            raise PegbtError(
-                f"not a readable rosbag2 folder: it has no file {name}",
-                file=path / "metadata.yaml",
-                field=field,
-            )
+            raise name.error(f"not a readable rosbag2 folder: it has no file {name.value}")
         files.append(file)
     return files
 

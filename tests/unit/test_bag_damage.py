@@ -143,17 +143,21 @@ def test_a_rosbag2_mcap_folder_is_read_by_its_chunks_past_indexes_with_bits_flip
     np.testing.assert_array_equal(read.q_cmd, whole.q_cmd)
 
 
-def test_a_rosbag2_storage_file_outside_its_folder_is_refused_naming_the_field(
-    tmp_path: Path, messages
+@pytest.mark.parametrize("storage", ["mcap", "sqlite3"])
+def test_a_rosbag2_storage_file_outside_its_folder_is_refused_at_its_line(
+    tmp_path: Path, messages, storage: str
 ) -> None:
-    folder = write_rosbag2(tmp_path / "bag", messages, random.Random(0), storage="mcap")
-    (path,) = folder.glob("*.mcap")
+    folder = write_rosbag2(tmp_path / "bag", messages, random.Random(0), storage=storage)
+    (path,) = (p for p in folder.iterdir() if p.name != "metadata.yaml")
     path.rename(tmp_path / path.name)
     metadata = folder / "metadata.yaml"
-    metadata.write_text(metadata.read_text().replace(f"- {path.name}", f"- ../{path.name}"))
+    text = metadata.read_text()
+    assert f"- {path.name}" in text
+    metadata.write_text(text.replace(f"- {path.name}", f"- ../{path.name}"))
+    line = 1 + text.split(f"- {path.name}")[0].count("\n")
     with pytest.raises(
         PegbtError, match=f"not a readable rosbag2 folder: ../{path.name} lies outside it"
     ) as raised:
         load_recording(folder, cmd=CMD, phy=PHY)
-    assert raised.value.file == str(metadata)
+    assert (raised.value.file, raised.value.line) == (str(metadata), line)
     assert raised.value.field == "rosbag2_bagfile_information.relative_file_paths[0]"
