@@ -215,9 +215,7 @@ def test_the_clutch_mid_motion_pauses_it_and_it_completes_after_release_without_
             assert not [q for at, q in sent if released - HELD_STILL < at < released]
         after = [q for at, q in sent if at > released + 0.1]
         assert np.ptp(np.array(after), axis=0).max() > 0.01  # streaming went on after the release
-        decoded = [
-            STORE.deserialize_cdr(s.payload, JOINT_STATE).position for _, s in measured.samples
-        ]
+        decoded = [STORE.deserialize_cdr(s.payload, JOINT_STATE).position for _, s in measured.samples]
         positions = np.array([p for p in decoded if len(p) == 6])
         steps = np.abs(np.diff(positions, axis=0))
         assert steps[:, :2].max() < 0.1 and steps[:, 2].max() < 0.01  # rad, m between two states: no jump
