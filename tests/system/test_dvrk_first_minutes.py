@@ -148,9 +148,13 @@ def test_the_first_homing_after_start_up_ends_whatever_the_robot_clock(
         client.close()
 
 
-def _clutched_mid_motion(robot: Robots) -> tuple[Robot, Any, float, float]:
+def _clutched_mid_motion(
+    robot: Robots, seen: Callable[[float], bool] = lambda pressed: True
+) -> tuple[Robot, Any, float, float]:
     """A 2.4 s motion of PSM1 streamed, its clutch pressed 0.5 s in and released 1.2 s later (the arm has
-    ~0.25 rad of yaw left then: a motion that did not pause would jump by more than the checks allow); the
+    ~0.25 rad of yaw left then: a motion that did not pause would jump by more than the checks allow), or
+    once the peer has `seen` what the test judges the hold by, when a loaded machine delays it (a motion
+    that did not pause has then ended, which the check that it went on after the release catches); the
     client, the motion and the monotonic times of press and release."""
     client = connect_crtk_robot(robot.address, liveness=5.0)
     arm = client.arm("PSM1")
@@ -164,6 +168,7 @@ def _clutched_mid_motion(robot: Robots) -> tuple[Robot, Any, float, float]:
     pressed = time.monotonic()
     robot.clutch("PSM1", True)
     time.sleep(1.2)
+    assert wait_for(lambda: seen(pressed), 10.0), "the peer saw too little of the hold"
     assert handle.busy, handle.error  # paused, not failed
     released = time.monotonic()
     robot.clutch("PSM1", False)
@@ -184,7 +189,21 @@ def test_the_clutch_mid_motion_pauses_it_and_it_completes_after_release_without_
     setpoints = robot.peer.subscribe("PSM1/setpoint_js")
     states = robot.peer.subscribe_latched("PSM1/operating_state")
     measured = robot.peer.subscribe("PSM1/measured_js")
-    client, _, pressed, released = _clutched_mid_motion(robot)
+
+    def held_still(pressed: float) -> bool:
+        """The simulated robot's set-points: `STILL_SAMPLES` of them after the peer saw MANUAL."""
+        busy = [
+            a
+            for a, s in states.samples
+            if a > pressed and STORE.deserialize_cdr(s.payload, OPERATING_STATE).is_busy
+        ]
+        return (
+            robot.double is not None
+            or bool(busy)
+            and sum(a > busy[0] for a, _ in setpoints.samples) > STILL_SAMPLES
+        )
+
+    client, _, pressed, released = _clutched_mid_motion(robot, held_still)
     try:
         busy = [
             at
