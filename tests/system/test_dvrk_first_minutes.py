@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 import pytest
 from crtk_double import CrtkDouble
-from dvrk_peer import STORE, DvrkPeer, state_command, wait_for
+from dvrk_peer import STORE, DvrkPeer, Received, state_command, wait_for
 from dvrk_sim_helpers import ServedSim
 
 from pegbt.behaviours.resources.arm_motion import ArmMotion
@@ -180,6 +180,18 @@ def _clutched_mid_motion(
     return client, handle, pressed, released
 
 
+def _manual_from(states: Received, pressed: float) -> float | None:
+    """When the peer first saw the arm busy (MANUAL) after `pressed`, if it has."""
+    return next(
+        (
+            at
+            for at, s in states.samples
+            if at > pressed and STORE.deserialize_cdr(s.payload, OPERATING_STATE).is_busy
+        ),
+        None,
+    )
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("kind", ["sim", "double"])
 def test_the_clutch_mid_motion_pauses_it_and_it_completes_after_release_without_a_jump(
@@ -190,28 +202,16 @@ def test_the_clutch_mid_motion_pauses_it_and_it_completes_after_release_without_
     states = robot.peer.subscribe_latched("PSM1/operating_state")
     measured = robot.peer.subscribe("PSM1/measured_js")
 
-    def held_still(pressed: float) -> bool:
-        """The simulated robot's set-points: `STILL_SAMPLES` of them after the peer saw MANUAL."""
-        busy = [
-            a
-            for a, s in states.samples
-            if a > pressed and STORE.deserialize_cdr(s.payload, OPERATING_STATE).is_busy
-        ]
-        return (
-            robot.double is not None
-            or bool(busy)
-            and sum(a > busy[0] for a, _ in setpoints.samples) > STILL_SAMPLES
-        )
+    def held_long_enough(pressed: float) -> bool:
+        """More than `STILL_SAMPLES` of the simulated robot's set-points arrived after the peer saw MANUAL."""
+        manual = _manual_from(states, pressed)
+        return manual is not None and sum(at > manual for at, _ in setpoints.samples) > STILL_SAMPLES
 
-    client, _, pressed, released = _clutched_mid_motion(robot, held_still)
+    seen = held_long_enough if robot.double is None else (lambda pressed: True)
+    client, _, pressed, released = _clutched_mid_motion(robot, seen)
     try:
-        busy = [
-            at
-            for at, sample in states.samples
-            if at > pressed and STORE.deserialize_cdr(sample.payload, OPERATING_STATE).is_busy
-        ]
-        assert busy, "the arm never said MANUAL (busy)"
-        manual_from = busy[0]
+        manual_from = _manual_from(states, pressed)
+        assert manual_from is not None, "the arm never said MANUAL (busy)"
         messages = client.log_messages()
         assert any("MANUAL" in m["text"] for m in messages), [m["text"] for m in messages][-20:]
         if robot.double is not None:  # what the robot received
