@@ -46,6 +46,18 @@ def rate_mapper(rate: Rate, phase: str, stream: int = 99) -> Callable[[Tasks], l
 fake_mapper = rate_mapper(lift_success, "lift")
 
 
+def grip_or_bend(grip_lifts: float) -> Rate:
+    """`lift_success` (a bending peg), where a yielding grip of any size lifts `grip_lifts` of uncalibrated
+    blocks: two kinds that fit the same lift, apart by how many they lift."""
+
+    def rate(world: WorldEffects, variant: str, condition: str) -> float:
+        if condition == "uncalibrated" and world.values("grip_compliance")["displacement"] > 0:
+            return grip_lifts
+        return lift_success(world, variant, condition)
+
+    return rate
+
+
 def real_counts(effects: WorldEffects, variant: str, condition: str, attempted: int, seed: int) -> int:
     """What a robot in that world would place of `attempted` transfers."""
     return int(

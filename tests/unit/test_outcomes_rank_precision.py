@@ -11,24 +11,17 @@ from pegbt.sim.world_effects import WorldEffects
 from pegbt.sim2real.outcomes.cells import Outcomes
 from pegbt.sim2real.outcomes.diagnose import RANK_SEED, TIE_SEED, Settings, diagnose
 from pegbt.sim2real.outcomes.phasesim import TransferResult
-from tests.outcomes_helpers import Tasks, lift_success, logged_cell, rate_mapper
+from tests.outcomes_helpers import Tasks, grip_or_bend, logged_cell, rate_mapper
 
 HIDDEN = WorldEffects.of({"peg_compliance": {"deflection": 0.0018}})
 SETTINGS = Settings(fit="unilateral", transfers=12, located=48, points=4)
 REAL = 600  # real transfers a fit cell: more than `located`
 
 
-def _rate(world: WorldEffects, variant: str, condition: str) -> float:
-    """`lift_success` (a bending peg), where a yielding grip of any size lifts a quarter of uncalibrated
-    blocks: two kinds that both fit a lift that fails less than the default world's."""
-    if condition == "uncalibrated" and world.values("grip_compliance")["displacement"] > 0:
-        return 0.25
-    return lift_success(world, variant, condition)
-
-
 def _ranked_seeds() -> tuple[Callable[[Tasks], list[list[TransferResult]]], dict[WorldEffects, set[int]]]:
-    """`rate_mapper` of `_rate`, and per world the seeds of the ranking's block it was simulated on."""
-    inner = rate_mapper(_rate, "lift")
+    """`rate_mapper` of a bending peg or a yielding grip lifting a quarter, and per world the seeds of the
+    ranking's block it was simulated on."""
+    inner = rate_mapper(grip_or_bend(0.25), "lift")
     seen: dict[WorldEffects, set[int]] = {}
 
     def mapper(tasks: Tasks) -> list[list[TransferResult]]:
