@@ -207,8 +207,10 @@ def test_the_clutch_mid_motion_pauses_it_and_it_completes_after_release_without_
         manual = _manual_from(states, pressed)
         return manual is not None and sum(at > manual for at, _ in setpoints.samples) > STILL_SAMPLES
 
-    seen = held_long_enough if robot.double is None else (lambda pressed: True)
-    client, _, pressed, released, speed = _clutched_mid_motion(robot, seen)
+    clutched = (
+        _clutched_mid_motion(robot, held_long_enough) if robot.double is None else _clutched_mid_motion(robot)
+    )
+    client, _, pressed, released, speed = clutched
     try:
         manual_from = _manual_from(states, pressed)
         assert manual_from is not None, "the arm never said MANUAL (busy)"
