@@ -4,8 +4,9 @@ Per family (each world effect alone, two together, none) and seed, "real" outcom
 simulator in a world with the family's concealed effects, on seeds the fit never uses, with the phase of
 each failure (what tick logs give); `pegbt sim2real outcomes` then fits them on the unilateral cells and
 predicts the bilateral and handover cells. Figures per family: how often every concealed effect is named
-(naming rate), how often something else is (false discoveries), the median relative error of the fitted
-parameters (read from the profile between grid values, `fit.estimate`), and the share of held-out cells
+(naming rate), how often something else is (false discoveries), how often they were held in a tie
+instead (the report naming neither of worlds the data could not tell apart: why a naming rate falls short),
+the median relative error of the fitted parameters (read from the profile between grid values, `fit.estimate`), and the share of held-out cells
 inside their 95 % predictive interval.
 
 The size of each family's "real" campaign is fixed before any diagnosis runs, by the power of the test
@@ -289,11 +290,12 @@ def plan(mapper: Mapper, families: Sequence[str], least: int, settings: Settings
 
 
 def score(d: Diagnosis, hidden: Mapping[str, Mapping[str, float]]) -> dict[str, float]:
-    """Whether every concealed kind was named, whether another was, the estimates' relative errors
-    (median), whether each concealed parameter was resolved as the goal asks (within ± 30 %, or an
-    interval no wider than ± 50 % that holds it), and the share of held-out cells inside their
-    predictive intervals."""
+    """Whether every concealed kind was named, whether another was, whether they were instead one of the
+    tied worlds the report names neither of (`tied`), the estimates' relative errors (median), whether
+    each concealed parameter was resolved as the goal asks (within ± 30 %, or an interval no wider than
+    ± 50 % that holds it), and the share of held-out cells inside their predictive intervals."""
     named = {p.candidate.kind: p for p in d.verdict.named}
+    ties = [{p.candidate.kind for p in d.verdict.path_of(end)} for end in d.verdict.tied]
     errors, resolved = [], []
     for kind, p in named.items():
         truth = hidden.get(kind, {}).get(p.candidate.parameter)
@@ -307,6 +309,7 @@ def score(d: Diagnosis, hidden: Mapping[str, Mapping[str, float]]) -> dict[str, 
     return {
         "named": float(bool(hidden) and set(hidden) <= set(named)),
         "false": float(bool(set(named) - set(hidden))),
+        "tied": float(bool(hidden) and not set(hidden) <= set(named) and any(set(hidden) <= t for t in ties)),
         "error": statistics.median(errors) if errors else float("nan"),
         "resolved": float(set(hidden) <= set(named) and all(resolved)) if hidden else float("nan"),
         "inside": sum(inside) / len(inside) if inside else float("nan"),
@@ -408,6 +411,7 @@ def measure(
         figures[f"{family}_parameter_error_median"] = statistics.median(errors) if errors else "none named"
         if FAMILIES[family]:
             figures[f"{family}_resolved"] = statistics.mean(s["resolved"] for s in scores[family])
+            figures[f"{family}_tied"] = statistics.mean(s["tied"] for s in scores[family])
         if not plans[family].applicable:
             figures[f"{family}_named"] = figures[f"{family}_resolved"] = NOT_APPLICABLE
     figures["seeds_per_family"] = seeds

@@ -53,3 +53,41 @@ def test_an_unnamed_concealed_effect_is_not_resolved() -> None:
     d = _diagnosis("registration_offset", "x", (-0.005, -0.0025, 0.0025, 0.005), [-9.0, -1.0, 0.0, -9.0])
     hidden = {"peg_compliance": {"deflection": 0.0015}}
     assert bench.score(d, hidden)["resolved"] == 0 and bench.score(d, hidden)["false"] == 1
+
+
+def _tied(*ends: tuple[str, str], paths: tuple[tuple[int, ...], ...] = ()) -> Diagnosis:
+    """A diagnosis that names nothing and holds `ends` (kind, parameter) in a tie; `paths`: indices into
+    `ends` of a tied end's path, its end last."""
+    grid = (0.001, 0.002, 0.003)
+    profiles = tuple(
+        Profile(Candidate(kind, parameter, grid), grid, [], np.array([-1.0, 0.0, -1.0])[:, None])
+        for kind, parameter in ends
+    )
+    tied = tuple(profiles[path[-1]] for path in paths) if paths else profiles
+    verdict = Verdict(
+        (), tied, profiles, np.zeros(1), (), paths=tuple(tuple(profiles[i] for i in p) for p in paths)
+    )
+    return Diagnosis(None, Settings(), (), (), {}, [], verdict, {})  # type: ignore[arg-type]
+
+
+def test_a_concealed_effect_held_in_a_tie_is_scored_tied_not_named_nor_false() -> None:
+    """The grip's seed 1: a yielding grip and a registration offset tied, neither named. The naming rate
+    counts it a miss; `tied` says the report held the truth among worlds the data could not tell apart."""
+    d = _tied(("grip_compliance", "displacement"), ("registration_offset", "x"))
+    figures = bench.score(d, {"grip_compliance": {"displacement": 0.0012}})
+    assert (figures["named"], figures["tied"], figures["false"]) == (0, 1, 0)
+    assert bench.score(d, {"peg_compliance": {"deflection": 0.0012}})["tied"] == 0  # the truth not among them
+    assert bench.score(d, {})["tied"] == 0  # the null: nothing concealed to tie
+
+
+def test_a_pair_is_tied_only_when_one_tied_path_holds_both_its_effects() -> None:
+    """Two concealed effects count as tied when a tied end's path (the effects added on the way) holds
+    both, not when each sits in a different tied world."""
+    ends = (
+        ("peg_compliance", "deflection"),
+        ("chamfer_capture", "capture_radius"),
+        ("hole_lobes", "lobe_radius"),
+    )
+    pair = {"peg_compliance": {"deflection": 0.0012}, "chamfer_capture": {"capture_radius": 0.0032}}
+    assert bench.score(_tied(*ends, paths=((0, 1), (2,))), pair)["tied"] == 1
+    assert bench.score(_tied(*ends, paths=((0,), (1,))), pair)["tied"] == 0
