@@ -16,6 +16,7 @@ from pathlib import Path
 
 from playwright.sync_api import sync_playwright
 
+from pegbt.bench.chromium import headless_chromium
 from pegbt.cli import main
 from pegbt.executive.session import run_tree_file
 from pegbt.monitor.history import History
@@ -26,14 +27,6 @@ from pegbt.sim.process import free_port
 
 REPO = Path(__file__).resolve().parents[1]
 DOCS = REPO / "docs"
-FLAGS = [
-    "--no-sandbox",
-    "--disable-gpu",
-    "--disable-background-networking",
-    "--disable-component-update",
-    "--disable-sync",
-    "--no-first-run",
-]
 UNILATERAL = Path("trees/unilateral.yaml")  # relative: the pages show the path as a user types it
 HANDOVER = Path("trees/handover.yaml")
 
@@ -89,7 +82,7 @@ def main_(eval_out: Path) -> None:
     DOCS.mkdir(exist_ok=True)
     with tempfile.TemporaryDirectory() as folder, sync_playwright() as playwright:
         work = Path(folder)
-        browser = playwright.chromium.launch(executable_path="/usr/bin/chromium", headless=True, args=FLAGS)
+        browser = headless_chromium(playwright)
         live_page(browser, work)
         failed = work / "failed.jsonl"  # uncalibrated, and a block that cannot be moved fails the trial
         server = MonitorServer(free_port()).start()

@@ -18,19 +18,11 @@ import time
 from pathlib import Path
 
 from pegbt.bench import Figures
+from pegbt.bench.chromium import headless_chromium
 from pegbt.errors import PegbtError
 
 TREES = Path(__file__).resolve().parents[2] / "trees"
 LOADS = 5
-CHROMIUM = "/usr/bin/chromium"
-CHROMIUM_FLAGS = (
-    "--no-sandbox",
-    "--disable-gpu",
-    "--disable-background-networking",
-    "--disable-component-update",
-    "--disable-sync",
-    "--no-first-run",
-)
 
 
 def wide_tree(branches: int = 50, checks: int = 38) -> str:
@@ -70,7 +62,7 @@ def run() -> Figures:
         }
         loads: dict[str, list[float]] = {name: [] for name in logs}
         with sync_playwright() as playwright:
-            browser = playwright.chromium.launch(executable_path=CHROMIUM, headless=True, args=CHROMIUM_FLAGS)
+            browser = headless_chromium(playwright)
             for _ in range(LOADS):
                 for name, server in servers.items():
                     page = browser.new_page(viewport={"width": 1400, "height": 900})

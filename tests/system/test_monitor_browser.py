@@ -14,6 +14,7 @@ from pathlib import Path
 import pytest
 from playwright.sync_api import Page, sync_playwright
 
+from pegbt.bench.chromium import headless_chromium
 from pegbt.bench.monitor import wide_tree
 from pegbt.cli import main
 from pegbt.monitor.history import History
@@ -23,15 +24,6 @@ from pegbt.sim.process import free_port
 
 REPO = Path(__file__).resolve().parents[2]
 EXAMPLE = REPO / "trees" / "example.yaml"
-CHROMIUM = "/usr/bin/chromium"
-FLAGS = [
-    "--no-sandbox",
-    "--disable-gpu",
-    "--disable-background-networking",
-    "--disable-component-update",
-    "--disable-sync",
-    "--no-first-run",
-]
 MARKS = {"[S]": "SUCCESS", "[F]": "FAILURE", "[R]": "RUNNING", "[ ]": "INVALID"}
 FAILING = """\
 blackboard: {gripper_ok: false}
@@ -52,7 +44,7 @@ tree:
 @pytest.fixture(scope="module")
 def browser():
     with sync_playwright() as playwright:
-        browser = playwright.chromium.launch(executable_path=CHROMIUM, headless=True, args=FLAGS)
+        browser = headless_chromium(playwright)
         yield browser
         browser.close()
 
