@@ -253,10 +253,11 @@ def _replicated(
     does). Each is simulated again at its fitted value on fresh seeds beside the world before it (the
     default world, or for a second effect the first), `located` transfers per fit cell each, and kept only
     if it still fits the fit cells better beyond chance (the same χ² test). A named effect that fails takes
-    those named after it along; of tied effects, the one that alone holds is named with its path. Of two
-    effects named so, one after the other, the first must also earn its place beside the second (`_paired`).
-    An `unchecked` tie stays unnamed whichever of it holds: fresh seeds are no held-out fit cell; and
-    unchecked no more once none of it holds, which leaves nothing explained."""
+    those named after it along. Of two effects named so, one after the other, the first must also earn its
+    place beside the second (`_paired`). A tie of which none holds is dropped, which leaves nothing
+    explained; one of which some hold is kept whole for `_resolved`, which names a world only where it leads
+    the others by `TIE` and itself held: that one passes this test and another just misses it says nothing
+    of which fits better (their gains may differ by a tenth of a log unit)."""
     worlds = [WorldEffects(), *(p.world() for p in (*verdict.named, *verdict.tied))]
     if len(worlds) > 1:  # one batch: each transfer's arm simulated once for every world (`bench.Replay`)
         simulate_cells(mapper, worlds, [c.key for c in cells], settings.located, first_seed=FRESH_SEED)
@@ -271,15 +272,13 @@ def _replicated(
             dropped.append(fitted.candidate.name)
     named, stood_in = _paired(mapper, verdict, kept, cells, settings, progress)
     dropped += stood_in
-    tied = [t for t in verdict.tied if _holds(mapper, WorldEffects(), t, cells, settings, progress)]
-    dropped += [t.candidate.name for t in verdict.tied if t not in tied]
+    held = [t for t in verdict.tied if _holds(mapper, WorldEffects(), t, cells, settings, progress)]
+    tied = verdict.tied if held else ()
+    dropped += [t.candidate.name for t in verdict.tied if not held]
     if not dropped:
         return verdict, ()
-    if len(tied) == 1 and not verdict.unchecked:
-        named, stood_in = _paired(mapper, verdict, verdict.path_of(tied[0]), cells, settings, progress)
-        return replace(verdict, named=named, tied=()), (*dropped, *stood_in)
     unchecked = verdict.unchecked and bool(tied)
-    return replace(verdict, named=named, tied=tuple(tied), unchecked=unchecked), tuple(dropped)
+    return replace(verdict, named=named, tied=tied, unchecked=unchecked), tuple(dropped)
 
 
 def _paired(
@@ -317,7 +316,8 @@ def _resolved(
     read on a few dozen simulated transfers a world, whose own noise can hide a difference the real counts
     show (the benchmark's yielding grip, tied at 0.6 log units on 46, led a bending peg by 1.7 and 1.9 on two
     sets of 400); with the simulated side as precise as the real one, worlds still within `TIE` are ones
-    the data cannot tell apart. One that leads the others by `TIE` or more stands alone: named, or the one
+    the data cannot tell apart. One that leads the others by `TIE` or more, and held on fresh seeds against
+    the default world (`_replicated`, whose simulations it reads again), stands alone: named, or the one
     explanation if `unchecked`; a named two-effect path is checked as a pair (`_paired`), and what that drops
     is returned with the verdict and what is said of the tie."""
     if len(verdict.tied) < 2:
@@ -335,6 +335,8 @@ def _resolved(
     )
     if lead < TIE:
         return verdict, f"The tie stands: {said} (within {TIE:g}).", ()
+    if not _holds(mapper, WorldEffects(), best, cells, settings, None):
+        return verdict, f"The tie stands: {said}, but did not hold on fresh seeds.", ()
     if verdict.unchecked:
         return replace(verdict, tied=(best,)), f"The tie is decided: {said}.", ()
     named, stood_in = _paired(mapper, verdict, verdict.path_of(best), cells, settings, progress)
