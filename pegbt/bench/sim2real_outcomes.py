@@ -48,7 +48,7 @@ from pegbt.runconditions import VARIANTS
 from pegbt.sim.world_effects import WorldEffects
 from pegbt.sim2real.outcomes.cache import MemoMapper
 from pegbt.sim2real.outcomes.cells import Cell, Outcomes
-from pegbt.sim2real.outcomes.diagnose import Diagnosis, Settings, diagnose
+from pegbt.sim2real.outcomes.diagnose import FRESH_SEED, Diagnosis, Settings, diagnose
 from pegbt.sim2real.outcomes.fit import Profile
 from pegbt.sim2real.outcomes.simulate import CATEGORIES, Mapper, category_of, simulate_cells
 from pegbt.sim2real.outcomes.workers import ClusterMapper, LocalMapper
@@ -95,6 +95,9 @@ TRIAL = 12  # transfers in one trial: a fit cell's size is a whole number of the
 SETTINGS = Settings(fit="unilateral", transfers=12, points=4)
 REAL_SEED = 100_000  # the real runs' seeds start here, far from the fit's
 SEED_BLOCK = 10_000  # each seed's real transfers: a block of seeds larger than any family's campaign
+# The last seed whose real transfers stay below the diagnosis's fresh seeds (`FRESH_SEED`, then `RANK_SEED`
+# and `TIE_SEED`): beyond it the replication would simulate the "real" outcomes' own random numbers.
+LAST_SEED = (FRESH_SEED - REAL_SEED) // SEED_BLOCK - 1
 NOT_APPLICABLE = "n/a"  # the naming rate of a family whose world changes no fit cell at any size
 
 
@@ -482,6 +485,12 @@ def run(
         raise PegbtError(f"expected at least 1 seed, got {seeds}", field="--seeds")
     if first_seed < 0:
         raise PegbtError(f"expected a seed of 0 or more, got {first_seed}", field="--first-seed")
+    if first_seed + seeds - 1 > LAST_SEED:
+        raise PegbtError(
+            f"seeds run to {first_seed + seeds - 1}, beyond {LAST_SEED}: a later seed's real transfers would be "
+            "simulated on the seeds the diagnosis replicates its fit on",
+            field="--first-seed",
+        )
     if workers < 1:
         raise PegbtError(f"expected at least 1 worker, got {workers}", field="--workers")
     records = None if out is None else Records(Path(out), chosen, code_identity())

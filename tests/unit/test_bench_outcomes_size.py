@@ -18,6 +18,7 @@ from pegbt.cli import main
         (["--families", "peg_compliance,nope"], "--families: unknown families nope"),
         (["--seeds", "0"], "--seeds: expected at least 1 seed"),
         (["--first-seed", "-1"], "--first-seed: expected a seed of 0 or more"),
+        (["--first-seed", "88", "--seeds", "3"], "--first-seed: seeds run to 90, beyond 89"),
         (["--workers", "0"], "--workers: expected at least 1 worker"),
         (["--workers", "3", "--cluster", "tcp://127.0.0.1:1"], "--workers: --workers sizes the local pool"),
     ],
