@@ -35,7 +35,7 @@ def test_a_tie_the_real_counts_can_decide_is_decided_on_as_many_simulated_transf
     assert 0.3 < cells[0].rate < 0.5
     verdict, said, _ = _resolved(rate_mapper(grip_or_bend(0.25), "lift"), _tie(), cells, SETTINGS)
     assert [p.candidate.kind for p in verdict.named] == ["peg_compliance"] and verdict.tied == ()
-    assert said.startswith("The tie is decided: on 600 fresh simulated transfers a fit cell peg_compliance")
+    assert said.startswith("The tie is decided: on 2400 fresh simulated transfers a fit cell peg_compliance")
 
 
 def test_worlds_that_place_alike_stay_tied() -> None:

@@ -31,7 +31,7 @@ def test_a_tie_predicts_each_held_out_cell_as_the_span_of_its_effects_rates():
     d = diagnose(Outcomes(cells, "test"), Settings(fit="unilateral", transfers=200, points=5), _twin_mapper)
     assert {t.candidate.kind for t in d.verdict.tied} >= {"peg_compliance", "chamfer_capture"}
     assert all(any(path[-1] is t for path in d.verdict.paths) for t in d.verdict.tied)  # what names one
-    assert d.resolved.startswith("The tie stands: on 80 fresh simulated transfers a fit cell")
+    assert d.resolved.startswith("The tie stands: on 320 fresh simulated transfers a fit cell")
     assert report_dict(d)["tie"] == d.resolved and d.resolved in report_markdown(d)
     cell = next(c for c in report_dict(d)["cells"] if c["variant"] == "bilateral")
     low, high = cell["predicted_span"]

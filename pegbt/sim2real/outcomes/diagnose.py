@@ -26,6 +26,11 @@ SIZED_FOR = 120  # real transfers a fit cell the default counts are sized for: 1
 FRESH_SEED = 1_000_000  # the replication's simulated transfers: seeds no other simulation here uses
 RANK_SEED = 2_000_000  # where the fit ranks the additions that pass: neither the fit's nor the replication's
 TIE_SEED = 3_000_000  # where a tie is weighed again (`_resolved`): seeds no other simulation here uses
+# A tie is weighed on this many times as many simulated transfers a fit cell as the real ones (`as_precise`):
+# on as many, the lead's own simulation noise is about 0.8 log units (the grip's seed-1 tie, 456 a cell:
+# two fresh draws put it 1.1 apart) against a margin (`TIE`) of 1, which decides a sixth of true ties by
+# luck; on four times as many it halves.
+TIE_DRAWS = 4
 OPEN_NODES = 4  # worlds across an open effect's range per prediction: its posterior is as wide as the range
 OPEN_MIXED = "what is open, mixed"  # the held-out cells predicted by every open effect over its range
 
@@ -312,17 +317,17 @@ def _resolved(
     progress: Callable[[str], None] | None = None,
 ) -> tuple[Verdict, str, tuple[str, ...]]:
     """A tie weighed again where only the real counts can leave it: each tied world simulated on fresh seeds,
-    as many transfers a fit cell as the largest real fit cell holds (at least `located`). The fit's tie is
+    `TIE_DRAWS` times as many transfers a fit cell as the largest real fit cell holds. The fit's tie is
     read on a few dozen simulated transfers a world, whose own noise can hide a difference the real counts
     show (the benchmark's yielding grip, tied at 0.6 log units on 46, led a bending peg by 1.7 and 1.9 on two
-    sets of 400); with the simulated side as precise as the real one, worlds still within `TIE` are ones
+    sets of 400); with the simulated side more precise than the real one, worlds still within `TIE` are ones
     the data cannot tell apart. One that leads the others by `TIE` or more, and held on fresh seeds against
     the default world (`_replicated`, whose simulations it reads again), stands alone: named, or the one
     explanation if `unchecked`; a named two-effect path is checked as a pair (`_paired`), and what that drops
     is returned with the verdict and what is said of the tie."""
     if len(verdict.tied) < 2:
         return verdict, "", ()
-    size = as_precise(settings, cells)
+    size = TIE_DRAWS * as_precise(settings, cells)
     keys = [c.key for c in cells]
     sims = simulate_cells(mapper, [t.world() for t in verdict.tied], keys, size, first_seed=TIE_SEED)
     scores = [sum(log_likelihood(c, sim[c.key], settings.phases) for c in cells) for sim in sims]
@@ -345,7 +350,8 @@ def _resolved(
 
 def as_precise(settings: Settings, cells: Sequence[Cell]) -> int:
     """Simulated transfers a fit cell where worlds are told apart on fresh seeds (the fit's ranking of
-    the additions that pass, a tie weighed again): as many as the largest real fit cell holds, at least
+    the additions that pass; a tie weighed again, `TIE_DRAWS` times this): as many as the largest real fit
+    cell holds, at least
     `located`. On fewer, the simulated side's own noise decides: the benchmark's yielding grip, ahead of a
     0.18 mm bend by 0.3 log units on the fit's seeds, trailed it by 1.1 on 183 fresh transfers a cell
     beside 456 real ones, and so was never followed as a tie (grip seed 1)."""
