@@ -66,6 +66,18 @@ def test_an_effect_that_only_stood_in_for_the_next_is_dropped() -> None:
     assert dropped == ("registration_offset.x",)
 
 
+def test_the_second_effect_is_named_alone_only_if_it_holds_alone() -> None:
+    """The offset only stood in beside a 1.5 mm bend; but fitted alone the bend came out at a hundredth of
+    a millimetre, which fits no better than the default world on fresh seeds: neither is named."""
+    faint = Candidate("peg_compliance", "deflection", (0.00001,))
+    offset = _profile(OFFSET)
+    verdict = Verdict(
+        (offset, _profile(BENDING, offset.world())), (), (offset, _profile(faint)), np.zeros(2), ()
+    )
+    kept, dropped = _replicated(stand_in_mapper, verdict, _cells(), SETTINGS, None)
+    assert kept.named == () and dropped == ("registration_offset.x", "peg_compliance.deflection")
+
+
 def test_two_effects_that_both_act_are_both_kept() -> None:
     cells = _cells()
     slight = Candidate("peg_compliance", "deflection", (0.0003,))
@@ -116,3 +128,16 @@ def test_a_tie_decided_for_a_path_whose_first_effect_only_stood_in_names_its_sec
     assert said.startswith("The tie is decided") and verdict.tied == ()
     assert [p.world() for p in verdict.named] == [PEG]
     assert dropped == ("registration_offset.x",)
+
+
+def test_a_tie_decided_for_a_path_of_which_nothing_holds_alone_names_nothing() -> None:
+    offset, grip = _profile(OFFSET), _profile(GRIP)
+    end = _profile(BENDING, offset.world())
+    faint = _profile(Candidate("peg_compliance", "deflection", (0.00001,)))
+    tie = Verdict((), (grip, end), (offset, faint, grip), np.zeros(2), (), paths=((grip,), (offset, end)))
+    verdict, said, dropped = _resolved(stand_in_mapper, tie, _cells(), SETTINGS)
+    assert verdict.named == () and verdict.tied == ()
+    assert said.startswith("The tie is decided") and said.endswith(
+        "no effect of its path holds alone on fresh seeds."
+    )
+    assert dropped == ("registration_offset.x", "peg_compliance.deflection")

@@ -298,7 +298,9 @@ def _paired(
     Of two, the first is kept only if the pair also fits better than the second alone on fresh seeds: the
     first was chosen before the second was in the world, so an effect that only stood in for it (a
     registration offset beside a bending peg) is dropped, and the second is named at the value it was
-    fitted alone (`verdict.tried`). Named and tied paths alike: a tie does not make the first earn its place."""
+    fitted alone (`verdict.tried`) if that, too, holds on fresh seeds against the default world: it may
+    never have passed alone, and nothing is named unreplicated (else neither is named). Named and tied
+    paths alike: a tie does not make the first earn its place."""
     if len(path) != 2 or _holds(
         mapper, _without(path[-1].world(), path[0]), path[-1], cells, settings, progress
     ):
@@ -306,6 +308,8 @@ def _paired(
     alone = next((p for p in verdict.tried if p.candidate.name == path[-1].candidate.name), None)
     if alone is None:
         return tuple(path), ()
+    if not _holds(mapper, WorldEffects(), alone, cells, settings, progress):
+        return (), (path[0].candidate.name, alone.candidate.name)
     return (alone,), (path[0].candidate.name,)
 
 
@@ -345,7 +349,8 @@ def _resolved(
     if verdict.unchecked:
         return replace(verdict, tied=(best,)), f"The tie is decided: {said}.", ()
     named, stood_in = _paired(mapper, verdict, verdict.path_of(best), cells, settings, progress)
-    return replace(verdict, named=named, tied=()), f"The tie is decided: {said}.", stood_in
+    held = "" if named else ", but no effect of its path holds alone on fresh seeds"
+    return replace(verdict, named=named, tied=()), f"The tie is decided: {said}{held}.", stood_in
 
 
 def as_precise(settings: Settings, cells: Sequence[Cell]) -> int:
