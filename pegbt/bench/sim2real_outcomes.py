@@ -6,8 +6,8 @@ each failure (what tick logs give); `pegbt sim2real outcomes` then fits them on 
 predicts the bilateral and handover cells. Figures per family: how often every concealed effect is named
 (naming rate), how often something else is (false discoveries), how often they were held in a tie
 instead (the report naming neither of worlds the data could not tell apart: why a naming rate falls short),
-the median relative error of the fitted parameters (read from the profile between grid values, `fit.estimate`), and the share of held-out cells
-inside their 95 % predictive interval.
+the median relative error of the fitted parameters (read from the profile between grid values,
+`fit.estimate`), and the share of held-out cells inside their 95 % predictive interval.
 
 The size of each family's "real" campaign is fixed before any diagnosis runs, by the power of the test
 that could see its world, not by what the tool names. A pilot (`pilot`, `shifts`) simulates, in the fit

@@ -96,8 +96,8 @@ def _seeded_mapper(peg_on_tie_seeds: float) -> Callable[[Tasks], list[list[Trans
 
 
 def test_a_tie_of_which_one_world_alone_holds_on_fresh_seeds_is_weighed_again_not_named() -> None:
-    """Before, the peg that alone held was named: the tie was decided by which side of the χ² bar each
-    world's fresh-seed gain fell, not by how much better one fits."""
+    """The peg alone holds on fresh seeds; the tie is still weighed, and stands: which side of the χ² bar
+    each world's fresh-seed gain fell says nothing of how much better one fits."""
     mapper, cells = _seeded_mapper(0.0), _cells()
     kept, dropped = _replicated(mapper, _tie(), cells, SETTINGS, None)
     assert kept.named == () and len(kept.tied) == 2 and dropped == ()
