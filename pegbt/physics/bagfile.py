@@ -105,6 +105,8 @@ def _rosbag2_messages(
             column=error.column,
         ) from None
     info = metadata.value.get("rosbag2_bagfile_information") if metadata and metadata.is_map else None
+    if info is not None:
+        _whole_counts(info)
     files = _storage_files(path, info)
     plain = info.plain() if info and info.is_map else {}
     if files is None or plain.get("storage_identifier") != "mcap" or plain.get("compression_format"):
@@ -112,6 +114,24 @@ def _rosbag2_messages(
         return
     for file in files:
         yield from _mcap_messages(file, topics, notes)
+
+
+WHOLE_FIELDS = frozenset({"nanoseconds", "nanoseconds_since_epoch", "message_count", "version"})
+
+
+def _whole_counts(info: Located) -> None:
+    """Every count and time of a rosbag2 folder's metadata a whole number, else an error at its line:
+    `rosbags` adds to them unchecked (a flipped byte turning a duration into text raised its TypeError)."""
+    if info.is_list:
+        for item in info.value:
+            _whole_counts(item)
+    if not info.is_map:
+        return
+    for key, item in info.value.items():
+        number = item.value
+        if key in WHOLE_FIELDS and not (isinstance(number, int) and not isinstance(number, bool)):
+            raise item.error(f"not a readable rosbag2 folder: {key} is {number!r}, not a whole number")
+        _whole_counts(item)
 
 
 def _storage_files(path: Path, info: Located | None) -> list[Path] | None:
